@@ -37,7 +37,7 @@ eV, keV, MeV = ENERGY["eV"], ENERGY["keV"], ENERGY["MeV"]
 _QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*\*?\s*([^\s\d].*?)?\s*$")
 
 
-def parse_quantity(value: object, dimension: str, name: str = "value") -> float:
+def parse_quantity(value: object, dimension: str, name: str | None = None) -> float:
     """Return ``value`` in internal units.
 
     ``value`` is a string ``"<number> <unit>"`` (``"5.3 MeV"``, ``"20nm"``, ``"1e-3 mm"``).
@@ -46,22 +46,21 @@ def parse_quantity(value: object, dimension: str, name: str = "value") -> float:
     """
     units = DIMENSIONS[dimension]
     accepted = ", ".join(units)
+    example = next(iter(units)) if dimension != "energy" else "MeV"
+    prefix = f"{name}: " if name else ""
     if isinstance(value, bool) or not isinstance(value, (str, int, float)):
-        raise ConfigError(f"{name}: expected a {dimension} such as '1 {next(iter(units))}', got {value!r}")
-    if isinstance(value, (int, float)):
-        raise ConfigError(
-            f"{name}: {value!r} has no unit; write it as a string with one of: {accepted} "
-            f"(e.g. '{value} {next(iter(units))}')"
-        )
-    match = _QUANTITY.match(value)
-    if not match or match.group(2) is None:
-        raise ConfigError(f"{name}: cannot read {value!r} as a {dimension}; use '<number> <unit>' with unit one of: {accepted}")
+        raise ConfigError(f"{prefix}expected a {dimension} such as '1 {example}', got {value!r}")
+    match = _QUANTITY.match(str(value))
+    if match and match.group(2) is None:
+        raise ConfigError(f"{prefix}{value!r} has no unit; write '<number> <unit>' with unit one of: {accepted}")
+    if not match:
+        raise ConfigError(f"{prefix}cannot read {value!r} as a {dimension}; write '<number> <unit>' with unit one of: {accepted}")
     number, unit = float(match.group(1)), match.group(2)
     if unit not in units:
-        raise ConfigError(f"{name}: unknown {dimension} unit {unit!r} in {value!r}; use one of: {accepted}")
+        raise ConfigError(f"{prefix}unknown {dimension} unit {unit!r} in {value!r}; use one of: {accepted}")
     result = number * units[unit]
     if not math.isfinite(result):
-        raise ConfigError(f"{name}: {value!r} is not a finite {dimension}")
+        raise ConfigError(f"{prefix}{value!r} is not a finite {dimension}")
     return result
 
 

@@ -1,0 +1,1 @@
+"""The ``score4`` command line."""

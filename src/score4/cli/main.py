@@ -1,0 +1,113 @@
+"""``score4``: the command-line entry point.
+
+Input errors (:class:`~score4.errors.Score4Error`) are printed as one line
+``score4: error: <message>`` and end the command with exit status 2.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from importlib.metadata import version
+from pathlib import Path
+
+import click
+
+from .. import __version__
+from ..errors import Score4Error
+from .data import data
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(
+    __version__, prog_name="score4",
+    message=f"%(prog)s %(version)s (geant4_pybind {version('geant4_pybind')})",
+)
+def cli() -> None:
+    """Radioactive contamination on and below rough surfaces, simulated with Geant4."""
+
+
+@cli.command()
+@click.argument("config_file", metavar="CONFIG.yaml", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--events", type=click.IntRange(min=1), help="Number of events (overrides run.events).")
+@click.option("--seed", type=click.IntRange(min=0, max=2**63 - 1), help="Random seed (overrides run.seed).")
+@click.option("--out", type=click.Path(path_type=Path), help="Results file (.h5); default: <config name>.h5 here.")
+@click.option("--overwrite", is_flag=True, help="Replace an existing results file.")
+@click.option("--jobs", "-j", type=click.IntRange(min=1), default=1, show_default=True, help="Worker processes.")
+@click.option("--resume", is_flag=True, help="Continue an interrupted run, keeping its finished chunks.")
+@click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
+def run(config_file: Path, events, seed, out, overwrite, jobs, resume, quiet) -> None:
+    """Simulate the run described in CONFIG.yaml and write an HDF5 results file."""
+    from ..config import load_config
+    from ..output import read_results, summarize
+    from ..sim.engine import run as run_engine
+
+    config = load_config(config_file)
+    overrides = {k: v for k, v in {"events": events, "seed": seed}.items() if v is not None}
+    if overrides:
+        config = config.model_copy(update={"run": config.run.model_copy(update=overrides)})
+    out = out or Path(config_file.stem + ".h5")
+    run_engine(config, out, overwrite=overwrite, jobs=jobs, resume=resume, progress=not quiet,
+               echo=lambda m: click.echo(m, err=True))
+    summary = summarize(read_results(out))
+    click.echo(f"wrote {out}: {summary['n_events']} events, physics {summary['physics_mode']}, seed {summary['seed']}")
+
+
+@cli.command()
+@click.argument("results_file", metavar="FILE.h5", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON.")
+@click.option("--bins", type=click.IntRange(min=1), help="Histogram bins (default: the run's setting, 100).")
+def summary(results_file: Path, as_json: bool, bins) -> None:
+    """Summarise a results file: events, physics, energy deposit per volume."""
+    from ..output import read_results, summarize
+
+    results = read_results(results_file)
+    s = summarize(results, bins=bins)
+    if as_json:
+        click.echo(json.dumps(s, indent=2))
+        return
+    run = results.run
+    click.echo(f"{s['file']}")
+    click.echo(f"  events        {s['n_events']}")
+    click.echo(f"  physics       {s['physics_mode']}" + (f" ({run.get('physics_lacks')})" if run.get("physics_lacks") else ""))
+    click.echo(f"  seed          {s['seed']}")
+    click.echo(f"  versions      score4 {run.get('score4_version')}, Geant4 {run.get('geant4_version')}, "
+               f"geant4_pybind {run.get('geant4_pybind_version')}")
+    click.echo(f"  wall time     {run.get('wall_time_s')} s")
+    emax = max(float(results.primary_energy.max(initial=0.0)), 1e-12)
+    for v in s["volumes"]:
+        e = results.edep[v["name"]]
+        full = int((e > 0.999 * results.primary_energy).sum())
+        click.echo(f"  volume {v['name']}: mean deposit {v['mean_edep_MeV']:.4f} MeV, "
+                   f"{v['n_nonzero']} events with deposit, {full} with (nearly) the full energy "
+                   f"(max primary energy {emax:.4g} MeV)")
+
+
+cli.add_command(data)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI; return the exit status (2 for input errors)."""
+    try:
+        cli.main(args=argv, prog_name="score4", standalone_mode=False)
+    except Score4Error as err:
+        click.echo(f"score4: error: {err}", err=True)
+        return 2
+    except click.exceptions.Exit as err:
+        return err.exit_code
+    except click.ClickException as err:
+        err.show()
+        return 2
+    except click.exceptions.Abort:
+        click.echo("score4: aborted", err=True)
+        return 130
+    return 0
+
+
+def entry_point() -> None:
+    """Console-script entry point."""
+    sys.exit(main())
+
+
+if __name__ == "__main__":
+    entry_point()

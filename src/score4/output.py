@@ -1,0 +1,194 @@
+"""Run results in HDF5: chunk files written atomically, merged into one file per run.
+
+Layout of a results file (lengths in mm, energies in MeV, stated in ``units`` attributes)::
+
+    /                  attrs: format="score4-results", format_version
+    /run               attrs: config (JSON), seed, physics_mode, physics_lacks, versions, ...
+    /events/event_id   (n,) int64
+    /events/primary_energy  (n,) total primary kinetic energy of the event
+    /events/edep/<volume>   (n,) energy deposited in that volume
+    /primaries/{event, particle, energy, xloc, yloc, zloc, dirx, diry, dirz, <extra>...}
+
+Every file is written to ``<name>.partial`` first and renamed into place only when complete,
+so an interrupted writer never leaves a truncated file under the final name and never
+touches a file that already exists.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from .errors import Score4Error
+from .source.primaries import Primaries
+
+FORMAT = "score4-results"
+FORMAT_VERSION = 1
+
+
+@contextlib.contextmanager
+def atomic_h5(path: Path):
+    """Open ``path.partial`` for writing; rename to ``path`` on success, delete on failure."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".partial")
+    try:
+        with h5py.File(tmp, "w") as f:
+            f.attrs["format"] = FORMAT
+            f.attrs["format_version"] = FORMAT_VERSION
+            yield f
+        os.replace(tmp, path)
+    except OSError as err:  # disk full, permissions: h5py raises OSError
+        tmp.unlink(missing_ok=True)
+        raise Score4Error(f"output: cannot write {path}: {err}") from err
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def _write_primaries(group: h5py.Group, p: Primaries, event_offset: int = 0) -> None:
+    group.create_dataset("event", data=p.event + event_offset)
+    group.create_dataset("particle", data=np.char.encode(p.particle.astype(str), "ascii"))
+    group.create_dataset("energy", data=p.energy).attrs["units"] = "MeV"
+    for k, axis in enumerate("xyz"):
+        group.create_dataset(f"{axis}loc", data=p.position[:, k]).attrs["units"] = "mm"
+        group.create_dataset(f"dir{axis}", data=p.direction[:, k])
+    for name, column in p.extra.items():
+        group.create_dataset(name, data=column)
+
+
+def _read_primaries(group: h5py.Group) -> Primaries:
+    fixed = {"event", "particle", "energy", "xloc", "yloc", "zloc", "dirx", "diry", "dirz"}
+    return Primaries(
+        event=group["event"][()],
+        particle=np.char.decode(group["particle"][()], "ascii"),
+        energy=group["energy"][()],
+        position=np.column_stack([group[f"{a}loc"][()] for a in "xyz"]),
+        direction=np.column_stack([group[f"dir{a}"][()] for a in "xyz"]),
+        extra={k: group[k][()] for k in group if k not in fixed},
+    )
+
+
+def write_chunk(path: Path, first_event: int, volumes: list[str], edep: np.ndarray, primaries: Primaries) -> None:
+    """Write one finished chunk (events ``first_event ...``) atomically."""
+    with atomic_h5(path) as f:
+        f.attrs["first_event"] = first_event
+        ev = f.create_group("events")
+        ev.create_dataset("event_id", data=first_event + np.arange(len(edep), dtype=np.int64))
+        total = np.bincount(primaries.event, weights=primaries.energy, minlength=len(edep))
+        ev.create_dataset("primary_energy", data=total).attrs["units"] = "MeV"
+        g = ev.create_group("edep")
+        g.attrs["volumes"] = json.dumps(volumes)
+        for k, name in enumerate(volumes):
+            g.create_dataset(name, data=edep[:, k]).attrs["units"] = "MeV"
+        _write_primaries(f.create_group("primaries"), primaries, first_event)
+
+
+def merge_chunks(chunk_paths: list[Path], out: Path, run_record: dict) -> None:
+    """Concatenate chunk files (in the given order) into the final results file."""
+    parts = [h5py.File(p, "r") for p in chunk_paths]
+    try:
+        volumes = json.loads(parts[0]["events/edep"].attrs["volumes"])
+        with atomic_h5(out) as f:
+            run = f.create_group("run")
+            for key, value in run_record.items():
+                run.attrs[key] = json.dumps(value) if isinstance(value, (dict, list, tuple)) else value
+            ev = f.create_group("events")
+            for name in ("event_id", "primary_energy"):
+                d = ev.create_dataset(name, data=np.concatenate([p["events"][name][()] for p in parts]))
+                if name == "primary_energy":
+                    d.attrs["units"] = "MeV"
+            g = ev.create_group("edep")
+            g.attrs["volumes"] = json.dumps(volumes)
+            for name in volumes:
+                data = np.concatenate([p["events/edep"][name][()] for p in parts])
+                g.create_dataset(name, data=data).attrs["units"] = "MeV"
+            prim = f.create_group("primaries")
+            for key in parts[0]["primaries"]:
+                src = [p["primaries"][key] for p in parts]
+                d = prim.create_dataset(key, data=np.concatenate([s[()] for s in src]))
+                d.attrs.update(dict(src[0].attrs))
+    finally:
+        for p in parts:
+            p.close()
+
+
+@dataclass
+class Results:
+    """A results file in memory."""
+
+    path: Path
+    run: dict
+    event_id: np.ndarray
+    primary_energy: np.ndarray
+    edep: dict[str, np.ndarray]
+    primaries: Primaries
+
+    @property
+    def n_events(self) -> int:
+        return len(self.event_id)
+
+
+def _decode_attr(value):
+    if isinstance(value, bytes):
+        value = value.decode()
+    if isinstance(value, str) and value[:1] in "[{":
+        with contextlib.suppress(json.JSONDecodeError):
+            return json.loads(value)
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def read_results(path: str | Path) -> Results:
+    """Load a results file written by :func:`merge_chunks`."""
+    path = Path(path)
+    if not path.is_file():
+        raise Score4Error(f"results: file {str(path)!r} does not exist")
+    try:
+        f = h5py.File(path, "r")
+    except OSError as err:
+        raise Score4Error(f"results: {path} is not an HDF5 file ({err})") from None
+    with f:
+        if f.attrs.get("format") != FORMAT or "run" not in f:
+            raise Score4Error(f"results: {path} is not a score4 results file")
+        volumes = json.loads(f["events/edep"].attrs["volumes"])
+        return Results(
+            path=path,
+            run={k: _decode_attr(v) for k, v in f["run"].attrs.items()},
+            event_id=f["events/event_id"][()],
+            primary_energy=f["events/primary_energy"][()],
+            edep={name: f["events/edep"][name][()] for name in volumes},
+            primaries=_read_primaries(f["primaries"]),
+        )
+
+
+def summarize(results: Results, bins: int | None = None, emax: float | None = None) -> dict:
+    """The run summary: counts, mean deposits and a histogram per volume (MeV)."""
+    hist_cfg = results.run.get("config", {}).get("output", {}).get("histogram", {})
+    bins = bins or hist_cfg.get("bins") or 100
+    emax = emax or hist_cfg.get("max") or float(results.primary_energy.max(initial=0.0)) or 1.0
+    edges = np.linspace(0.0, emax, bins + 1)
+    volumes = []
+    for name, e in results.edep.items():
+        counts, _ = np.histogram(e, bins=edges)
+        volumes.append(
+            {
+                "name": name,
+                "mean_edep_MeV": float(e.mean()) if len(e) else 0.0,
+                "n_nonzero": int(np.count_nonzero(e)),
+                "histogram": {"edges_MeV": edges.tolist(), "counts": counts.tolist()},
+            }
+        )
+    return {
+        "file": str(results.path),
+        "n_events": results.n_events,
+        "physics_mode": results.run.get("physics_mode"),
+        "seed": results.run.get("seed"),
+        "volumes": volumes,
+    }

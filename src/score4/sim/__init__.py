@@ -1,0 +1,5 @@
+"""Geant4 side of score4: runtime, physics, scoring, workers and the run engine.
+
+Only :mod:`score4.sim` and :mod:`score4.geometry` import geant4_pybind, and only inside
+worker processes: the process that reads the configuration and writes results never does.
+"""
