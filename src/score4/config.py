@@ -62,12 +62,16 @@ class SourceConfig(_Model):
 
     particle: str = "alpha"
     energy: PositiveEnergy
-    direction: Literal["isotropic", "inward", "outward"] = "isotropic"
+    # isotropic (4 pi), inward/outward (isotropic in that half-space), normal (a beam along the inward normal)
+    direction: Literal["isotropic", "inward", "outward", "normal"] = "isotropic"
     surface: FaceRef
 
 
 class PhysicsConfig(_Model):
     mode: Literal["auto", "full", "lite"] = "auto"
+    # Secondary-production threshold as a range. Geant4's default (0.7 mm) suppresses delta rays
+    # and, with them, all range straggling of alphas; micrometre surfaces need a micrometre cut.
+    production_cut: PositiveLength = 1e-3
 
 
 class RunSettings(_Model):
@@ -83,6 +87,7 @@ class HistogramConfig(_Model):
 
 class OutputConfig(_Model):
     histogram: HistogramConfig = HistogramConfig()
+    track_length: bool = False  # also score the summed charged/neutral track length per volume (mm)
 
 
 class RunConfig(_Model):

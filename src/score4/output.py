@@ -7,6 +7,7 @@ Layout of a results file (lengths in mm, energies in MeV, stated in ``units`` at
     /events/event_id   (n,) int64
     /events/primary_energy  (n,) total primary kinetic energy of the event
     /events/edep/<volume>   (n,) energy deposited in that volume
+    /events/track_length/<volume>  (n,) summed track length in that volume (if scored)
     /primaries/{event, particle, energy, xloc, yloc, zloc, dirx, diry, dirz, <extra>...}
 
 Every file is written to ``<name>.partial`` first and renamed into place only when complete,
@@ -30,6 +31,7 @@ from .source.primaries import Primaries
 
 FORMAT = "score4-results"
 FORMAT_VERSION = 1
+QUANTITY_UNITS = {"edep": "MeV", "track_length": "mm"}
 
 
 @contextlib.contextmanager
@@ -74,18 +76,26 @@ def _read_primaries(group: h5py.Group) -> Primaries:
     )
 
 
-def write_chunk(path: Path, first_event: int, volumes: list[str], edep: np.ndarray, primaries: Primaries) -> None:
-    """Write one finished chunk (events ``first_event ...``) atomically."""
+def write_chunk(
+    path: Path, first_event: int, volumes: list[str], scores: dict[str, np.ndarray], primaries: Primaries
+) -> None:
+    """Write one finished chunk (events ``first_event ...``) atomically.
+
+    ``scores`` maps a quantity ("edep", "track_length") to an (n_events, n_volumes) array.
+    """
+    n = primaries.n_events
     with atomic_h5(path) as f:
         f.attrs["first_event"] = first_event
         ev = f.create_group("events")
-        ev.create_dataset("event_id", data=first_event + np.arange(len(edep), dtype=np.int64))
-        total = np.bincount(primaries.event, weights=primaries.energy, minlength=len(edep))
+        ev.attrs["quantities"] = json.dumps(list(scores))
+        ev.create_dataset("event_id", data=first_event + np.arange(n, dtype=np.int64))
+        total = np.bincount(primaries.event, weights=primaries.energy, minlength=n)
         ev.create_dataset("primary_energy", data=total).attrs["units"] = "MeV"
-        g = ev.create_group("edep")
-        g.attrs["volumes"] = json.dumps(volumes)
-        for k, name in enumerate(volumes):
-            g.create_dataset(name, data=edep[:, k]).attrs["units"] = "MeV"
+        for quantity, values in scores.items():
+            g = ev.create_group(quantity)
+            g.attrs["volumes"] = json.dumps(volumes)
+            for k, name in enumerate(volumes):
+                g.create_dataset(name, data=values[:, k]).attrs["units"] = QUANTITY_UNITS[quantity]
         _write_primaries(f.create_group("primaries"), primaries, first_event)
 
 
@@ -94,20 +104,23 @@ def merge_chunks(chunk_paths: list[Path], out: Path, run_record: dict) -> None:
     parts = [h5py.File(p, "r") for p in chunk_paths]
     try:
         volumes = json.loads(parts[0]["events/edep"].attrs["volumes"])
+        quantities = json.loads(parts[0]["events"].attrs["quantities"])
         with atomic_h5(out) as f:
             run = f.create_group("run")
             for key, value in run_record.items():
                 run.attrs[key] = json.dumps(value) if isinstance(value, (dict, list, tuple)) else value
             ev = f.create_group("events")
+            ev.attrs["quantities"] = json.dumps(quantities)
             for name in ("event_id", "primary_energy"):
                 d = ev.create_dataset(name, data=np.concatenate([p["events"][name][()] for p in parts]))
                 if name == "primary_energy":
                     d.attrs["units"] = "MeV"
-            g = ev.create_group("edep")
-            g.attrs["volumes"] = json.dumps(volumes)
-            for name in volumes:
-                data = np.concatenate([p["events/edep"][name][()] for p in parts])
-                g.create_dataset(name, data=data).attrs["units"] = "MeV"
+            for quantity in quantities:
+                g = ev.create_group(quantity)
+                g.attrs["volumes"] = json.dumps(volumes)
+                for name in volumes:
+                    data = np.concatenate([p["events"][quantity][name][()] for p in parts])
+                    g.create_dataset(name, data=data).attrs["units"] = QUANTITY_UNITS[quantity]
             prim = f.create_group("primaries")
             for key in parts[0]["primaries"]:
                 src = [p["primaries"][key] for p in parts]
@@ -126,12 +139,17 @@ class Results:
     run: dict
     event_id: np.ndarray
     primary_energy: np.ndarray
-    edep: dict[str, np.ndarray]
+    scores: dict[str, dict[str, np.ndarray]]  # quantity -> volume -> (n_events,)
     primaries: Primaries
 
     @property
     def n_events(self) -> int:
         return len(self.event_id)
+
+    @property
+    def edep(self) -> dict[str, np.ndarray]:
+        """Energy deposit (MeV) per volume."""
+        return self.scores["edep"]
 
 
 def _decode_attr(value):
@@ -158,12 +176,13 @@ def read_results(path: str | Path) -> Results:
         if f.attrs.get("format") != FORMAT or "run" not in f:
             raise Score4Error(f"results: {path} is not a score4 results file")
         volumes = json.loads(f["events/edep"].attrs["volumes"])
+        quantities = json.loads(f["events"].attrs["quantities"])
         return Results(
             path=path,
             run={k: _decode_attr(v) for k, v in f["run"].attrs.items()},
             event_id=f["events/event_id"][()],
             primary_energy=f["events/primary_energy"][()],
-            edep={name: f["events/edep"][name][()] for name in volumes},
+            scores={q: {name: f["events"][q][name][()] for name in volumes} for q in quantities},
             primaries=_read_primaries(f["primaries"]),
         )
 
@@ -176,13 +195,17 @@ def summarize(results: Results, bins: int | None = None, emax: float | None = No
     edges = np.linspace(0.0, emax, bins + 1)
     volumes = []
     for name, e in results.edep.items():
-        counts, _ = np.histogram(e, bins=edges)
+        # Sums of step deposits can exceed the emitted energy by rounding (1e-15 MeV): such
+        # values belong in the top bin; anything really above the range is counted as overflow.
+        at_top = (e > emax) & (e <= emax * (1 + 1e-9))
+        counts, _ = np.histogram(np.where(at_top, emax, e), bins=edges)
         volumes.append(
             {
                 "name": name,
                 "mean_edep_MeV": float(e.mean()) if len(e) else 0.0,
                 "n_nonzero": int(np.count_nonzero(e)),
-                "histogram": {"edges_MeV": edges.tolist(), "counts": counts.tolist()},
+                "histogram": {"edges_MeV": edges.tolist(), "counts": counts.tolist(),
+                              "overflow": int(np.count_nonzero(e > emax * (1 + 1e-9)))},
             }
         )
     return {

@@ -131,7 +131,14 @@ def run(
     todo = [c for c in chunks if c.index not in done]
     jobs = min(jobs, max(1, len(todo)))
     started = time.time()
-    info = _execute(WorkerSpec(config, choice, seed, parts), todo, jobs, sum(c.n_events for c in chunks), len(done) and sum(c.n_events for c in chunks if c.index in done), progress)
+    total = sum(c.n_events for c in chunks)
+    already = sum(c.n_events for c in chunks if c.index in done)
+    try:
+        info = _execute(WorkerSpec(config, choice, seed, parts), todo, jobs, total, already, progress)
+    except BaseException:
+        if not any(parts.glob("chunk-*.h5")):  # nothing worth resuming: leave no trace
+            shutil.rmtree(parts, ignore_errors=True)
+        raise
     for c in todo:  # stamp what each chunk was made from, for a later resume
         with h5py.File(chunk_path(parts, c.index), "a") as f:
             f.attrs["fingerprint"] = fingerprint
@@ -199,7 +206,7 @@ def _execute(spec: WorkerSpec, todo: list[Chunk], jobs: int, total: int, already
                 remaining.discard(msg[1])
             elif kind == "error":
                 _, index, cls, text = msg
-                if cls in _ERRORS and index is None:
+                if cls in _ERRORS:  # bad input: say it as it is, like any other input error
                     raise _ERRORS[cls](text)
                 where = f"chunk {index}" if index is not None else "worker start-up"
                 failures.append(f"{where} failed: {cls}: {text}")

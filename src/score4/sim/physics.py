@@ -7,8 +7,8 @@ from .runtime import PhysicsChoice
 # Processes that read G4EMLOW data at the first event; lite mode removes them after
 # initialisation (found by trial: everything else in option0 runs without data files).
 LITE_REMOVED_PROCESSES = {"e-": ("eBrem",), "e+": ("eBrem",), "gamma": ("GammaGeneralProc",)}
-# Ions below this kinetic energy get nuclear stopping (option4's own value); the Pb-206 recoil
-# of a Po-210 decay (103 keV) loses most of its energy this way.
+# Ions below this kinetic energy get nuclear stopping where the EM constructor supports it
+# (option4 does; option0, used by lite mode, ignores it: measured, see runtime.LITE_LACKS).
 MAX_NIEL_ENERGY_MEV = 1.0
 
 
@@ -19,9 +19,6 @@ def make_physics_list(g4, choice: PhysicsChoice):
         def __init__(self) -> None:
             super().__init__()
             self.SetVerboseLevel(0)
-            params = g4.G4EmParameters.Instance()
-            params.SetVerbose(0)
-            params.SetMaxNIELEnergy(MAX_NIEL_ENERGY_MEV * g4.MeV)
             if choice.mode == "full":
                 self.RegisterPhysics(g4.G4EmStandardPhysics_option4())
             else:
@@ -29,6 +26,10 @@ def make_physics_list(g4, choice: PhysicsChoice):
             if choice.decay:
                 self.RegisterPhysics(g4.G4DecayPhysics())
                 self.RegisterPhysics(g4.G4RadioactiveDecayPhysics())
+            # After the EM constructor, whose constructor resets the parameters to defaults.
+            params = g4.G4EmParameters.Instance()
+            params.SetVerbose(0)
+            params.SetMaxNIELEnergy(MAX_NIEL_ENERGY_MEV * g4.MeV)
 
     return ModularPhysics()
 
@@ -44,3 +45,12 @@ def strip_data_hungry_processes(g4) -> list[str]:
                 manager.RemoveProcess(process)
                 removed.append(f"{particle}:{process.GetProcessName()}")
     return removed
+
+
+def set_production_cut(g4, cut_mm: float) -> None:
+    """Production threshold (as a range) for all particles. Call before ``Initialize()``.
+
+    (``SetDefaultCutValue`` in the physics-list constructor had no effect through the binding;
+    the UI command does, measured by the range straggling it restores.)
+    """
+    g4.G4UImanager.GetUIpointer().ApplyCommand(f"/run/setCut {cut_mm * 1e3:.9g} um")

@@ -16,9 +16,9 @@ from ..config import RunConfig
 from ..errors import ConfigError
 from ..geometry.world import build_world, check_materials
 from ..source.primaries import Primaries
-from .physics import make_physics_list, strip_data_hungry_processes
+from .physics import make_physics_list, set_production_cut, strip_data_hungry_processes
 from .runtime import PhysicsChoice, import_geant4, redirect_native_output
-from .scoring import EdepScorer
+from .scoring import VolumeScorer
 
 _ION = re.compile(r"^([A-Z][a-z]?)-?(\d{1,3})$")
 
@@ -50,6 +50,7 @@ class Simulation:
         self.config = config
         self.choice = choice
         self.log_path = log_path
+        self.quantities = ("edep", "track_length") if config.output.track_length else ("edep",)
         g4 = self.g4 = import_geant4(choice)
         with redirect_native_output(log_path):
             self._build(g4)
@@ -65,7 +66,7 @@ class Simulation:
         class Detector(g4.G4VUserDetectorConstruction):
             def Construct(self):
                 sim.geometry = build_world(g4, sim.config)
-                sim.scorer = EdepScorer(g4, sim.geometry.scoring)
+                sim.scorer = VolumeScorer(g4, sim.geometry.scoring, sim.quantities)
                 return sim.geometry.world
 
             def ConstructSDandField(self):
@@ -87,6 +88,7 @@ class Simulation:
         self._actions = [Detector(), make_physics_list(g4, self.choice)]
         self.run_manager.SetUserInitialization(self._actions[0])
         self.run_manager.SetUserInitialization(self._actions[1])
+        set_production_cut(g4, self.config.physics.production_cut)
         self._actions += [Generator(), EventAction()]
         self.run_manager.SetUserAction(self._actions[2])
         self.run_manager.SetUserAction(self._actions[3])
@@ -95,6 +97,7 @@ class Simulation:
         self.scorer.resolve_ids()
         self._particles: dict[str, object] = {}
         self.volumes = list(self.scorer.names)
+        self.particle(self.config.source.particle)  # fail at start-up, before any output
 
     def particle(self, name: str):
         if name not in self._particles:
@@ -112,18 +115,18 @@ class Simulation:
             gun.GeneratePrimaryVertex(event)
 
     def _score(self, event) -> None:
-        self.scorer.read(event, self._edep[self._next_event])
+        self.scorer.read(event, self._scores, self._next_event)
         self._next_event += 1
 
-    def run(self, primaries: Primaries, g4_seed: int, progress=None, batch: int | None = None) -> np.ndarray:
-        """Track ``primaries``; return the (n_events, n_volumes) energy deposits in MeV."""
+    def run(self, primaries: Primaries, g4_seed: int, progress=None, batch: int | None = None) -> dict[str, np.ndarray]:
+        """Track ``primaries``; return {quantity: (n_events, n_volumes) array} (MeV, mm)."""
         for name in np.unique(primaries.particle):
             self.particle(str(name))
         n = primaries.n_events
         self._primaries = primaries
         self._defs = [self._particles[str(name)] for name in primaries.particle]
         self._offsets = primaries.event_offsets()
-        self._edep = np.zeros((n, len(self.volumes)))
+        self._scores = {q: np.zeros((n, len(self.volumes))) for q in self.quantities}
         self._next_event = 0
         self.g4.G4Random.setTheSeed(int(g4_seed))
         batch = batch or max(100, n // 20)
@@ -133,4 +136,4 @@ class Simulation:
                 self.run_manager.BeamOn(todo)
                 if progress is not None:
                     progress(todo)
-        return self._edep
+        return self._scores

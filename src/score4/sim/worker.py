@@ -42,9 +42,9 @@ def chunk_path(parts_dir: Path, index: int) -> Path:
 def run_chunk(sim, spec: WorkerSpec, chunk: Chunk, progress=None) -> Path:
     """Sample, track and write one chunk; return the chunk file."""
     primaries = make_primaries(spec.config, chunk_rng(spec.seed, chunk.index), chunk.n_events)
-    edep = sim.run(primaries, chunk_geant4_seed(spec.seed, chunk.index), progress=progress)
+    scores = sim.run(primaries, chunk_geant4_seed(spec.seed, chunk.index), progress=progress)
     path = chunk_path(spec.parts_dir, chunk.index)
-    write_chunk(path, chunk.first_event, sim.volumes, edep, primaries)
+    write_chunk(path, chunk.first_event, sim.volumes, scores, primaries)
     return path
 
 

@@ -25,7 +25,9 @@ def make_primaries(config: RunConfig, rng: np.random.Generator, n_events: int) -
     s, t = rng.uniform(size=(2, n_events))
     position = face.origin + s[:, None] * face.u + t[:, None] * face.v
     direction = isotropic_directions(rng, n_events)
-    if src.direction != "isotropic":
+    if src.direction == "normal":
+        direction = np.tile(-face.normal, (n_events, 1))
+    elif src.direction != "isotropic":
         # Fold into the wanted half-space: "inward" is against the face's outward normal.
         along = direction @ face.normal
         flip = along > 0 if src.direction == "inward" else along < 0
