@@ -104,8 +104,15 @@ class TriangleMesh:
     @cached_property
     def _area_vectors(self) -> np.ndarray:
         # Half the cross product: direction = right-hand normal, length = area.
-        p = self.vertices[self.faces]
-        return _readonly(0.5 * np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]))
+        v, f = self.vertices, self.faces
+        origin = v[f[:, 0]]
+        e1, e2 = v[f[:, 1]] - origin, v[f[:, 2]] - origin
+        out = origin  # reuse the buffer: explicit components avoid np.cross's temporaries
+        out[:, 0] = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
+        out[:, 1] = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
+        out[:, 2] = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+        out *= 0.5
+        return _readonly(out)
 
     @cached_property
     def areas(self) -> np.ndarray:
