@@ -83,10 +83,10 @@ def pyramid_grid_expected(h: float, wx: float, wy: float) -> dict[str, float]:
     }
 
 
-@pytest.mark.parametrize("levelled", [True, False])
-def test_pyramid_grid_mesh_is_exact(levelled):
+@pytest.mark.parametrize("level", [True, False])
+def test_pyramid_grid_mesh_is_exact(level):
     g = SpikeGrid(nx=5, ny=3, width_x=0.004, width_y=0.0025, mean_height=0.003)
-    got = mesh_parameters(g.top_mesh(), levelled=levelled)
+    got = mesh_parameters(g.top_mesh(), level=level)
     expected = pyramid_grid_expected(0.003, 0.004, 0.0025)
     for key, value in expected.items():
         assert got[key] == pytest.approx(value, rel=1e-12), key
@@ -101,7 +101,7 @@ def test_random_height_pyramids_moments():
     c2 = raw[2] - m**2
     c3 = raw[3] - 3 * m * raw[2] + 2 * m**3
     c4 = raw[4] - 4 * m * raw[3] + 6 * m**2 * raw[2] - 3 * m**4
-    got = mesh_parameters(g.top_mesh(), levelled=False)
+    got = mesh_parameters(g.top_mesh(), level=False)
     assert got["Sq"] == pytest.approx(math.sqrt(c2), rel=1e-12)
     assert got["Ssk"] == pytest.approx(c3 / c2**1.5, rel=1e-11)
     assert got["Sku"] == pytest.approx(c4 / c2**2, rel=1e-12)
@@ -114,7 +114,7 @@ def test_many_layer_bump_converges_to_the_smooth_profile():
     # raw moments E[u^k] = 4/(k+2) - 4/(k+4). The layer error falls as 1/n² (Ssk: 1.3e-2,
     # 3.3e-3, 8.3e-4 absolute at 12, 24, 48 layers); at 48 the others are within 1e-3 relative.
     g = SpikeGrid(nx=2, ny=3, width_x=1.0, width_y=1.5, mean_height=1.0, shape="bump", n_layers=48)
-    got = mesh_parameters(g.top_mesh(), levelled=False)
+    got = mesh_parameters(g.top_mesh(), level=False)
     raw = [4 / (k + 2) - 4 / (k + 4) for k in range(5)]
     m = raw[1]
     c2 = raw[2] - m**2
@@ -132,8 +132,8 @@ def test_many_layer_bump_converges_to_the_smooth_profile():
 
 def test_mesh_exact_agrees_with_fine_sampling():
     g = SpikeGrid(nx=4, ny=3, width_x=2.0, width_y=1.0, mean_height=1.0, height_sigma=0.2, seed=3, shape="bump", n_layers=5)
-    exact = mesh_parameters(g.top_mesh(), levelled=False)
-    sampled = areal_parameters(periodic_samples(g, 200), levelled=False)
+    exact = mesh_parameters(g.top_mesh(), level=False)
+    sampled = areal_parameters(periodic_samples(g, 200), level=False)
     # Measured relative differences at 200 samples per cell: heights <= 1e-3, Ssk 9e-3;
     # Sdq/Sdr 3e-2 (cells straddling the ridges average two slopes; converges as 1/n).
     tolerances = {"Sa": 2e-3, "Sq": 2e-3, "Sku": 3e-3, "Ssk": 2e-2, "Sp": 1e-3, "Sv": 1e-3, "Sdq": 5e-2, "Sdr": 5e-2}
@@ -158,16 +158,16 @@ def test_mesh_sa_integrates_facets_that_cross_the_mean_plane():
         z00[..., None, None] + fx * (z11 - z01)[..., None, None] + fy * (z01 - z00)[..., None, None],
     )
     fine = HeightMap(cells.transpose(0, 2, 1, 3).reshape(3 * n, 4 * n), 1.0 / n, 1.0 / n)
-    exact = mesh_parameters(from_heightmap(coarse), levelled=False)
-    sampled = areal_parameters(fine, levelled=False)
+    exact = mesh_parameters(from_heightmap(coarse), level=False)
+    sampled = areal_parameters(fine, level=False)
     for key in ("Sa", "Sq", "Ssk", "Sku"):
         assert sampled[key] == pytest.approx(exact[key], rel=1e-4), key
 
 
 def test_mesh_and_map_share_sdq_and_extremes():
     hm = HeightMap(gaussian_field(40, 50, 4, 2, 1) * 1e-3, 1e-3, 2e-3)
-    from_map = areal_parameters(hm, levelled=False)
-    from_mesh = mesh_parameters(from_heightmap(hm), levelled=False)
+    from_map = areal_parameters(hm, level=False)
+    from_mesh = mesh_parameters(from_heightmap(hm), level=False)
     # Sdq of the map is defined as the exact Sdq of its triangulation.
     assert from_mesh["Sdq"] == pytest.approx(from_map["Sdq"], rel=1e-12)
     # Extremes: same points, different mean (point average vs area integral).
@@ -226,6 +226,14 @@ def test_sal_and_str_of_a_gaussian_correlated_surface():
     got = areal_parameters(hm)
     assert got["Sal"] == pytest.approx(3 * math.sqrt(math.log(5)) * 2e-3, rel=0.08)
     assert got["Str"] == pytest.approx(3 / 8, rel=0.08)
+
+
+def test_spatial_parameters_use_physical_lags_for_rectangular_pixels():
+    # Isotropic in pixels (l = 5) but pitch_x = 2 pitch_y: physically 10 x 5, so Str = 1/2 and
+    # Sal = 5 sqrt(ln 5) (y pitch 1). Seeds 0-3 scatter by ~3 %; tolerance 8 %.
+    got = areal_parameters(HeightMap(gaussian_field(256, 256, 5, 5, 1), 2.0, 1.0))
+    assert got["Sal"] == pytest.approx(5 * math.sqrt(math.log(5)), rel=0.08)
+    assert got["Str"] == pytest.approx(0.5, rel=0.08)
 
 
 def test_str_is_nan_for_grooves_and_acf_is_normalised():
@@ -303,6 +311,6 @@ def test_unlevelled_heights_match_surfalize_without_levelling():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         ref = surfalize.Surface(z, 1.0, 1.0).height_parameters()
-    ours = areal_parameters(HeightMap(z, 1.0, 1.0), levelled=False)
+    ours = areal_parameters(HeightMap(z, 1.0, 1.0), level=False)
     for key in ("Sa", "Sq", "Sp", "Sv", "Sz", "Ssk", "Sku"):
         assert ours[key] == pytest.approx(ref[key], rel=1e-6), key

@@ -236,7 +236,8 @@ def closed_body(top_mesh: TriangleMesh, thickness: float) -> TriangleMesh:
         Top faces first (same order, ``top`` True, ids kept), then walls, then bottom (``top``
         False, ids -1).
     """
-    if isinstance(thickness, bool) or not isinstance(thickness, numbers.Real) or not (np.isfinite(thickness) and thickness > 0):
+    is_number = not isinstance(thickness, bool) and isinstance(thickness, numbers.Real)
+    if not (is_number and np.isfinite(thickness) and thickness > 0):
         raise ConfigError(f"thickness: must be a positive length, got {thickness!r}")
     zmin = float(top_mesh.vertices[:, 2].min())
     if zmin <= -thickness:
@@ -370,6 +371,8 @@ def write_ply(mesh: TriangleMesh, path: str | os.PathLike) -> None:
 
     Vertices are float64 (mm); each face carries its vertex list and a ``top`` flag (uchar).
     """
+    if mesh.n_vertices > np.iinfo(np.int32).max:
+        raise ConfigError(f"mesh: {mesh.n_vertices} vertices exceed the PLY int32 vertex index")
     header = (
         "ply\nformat binary_little_endian 1.0\ncomment score4 mesh, units mm\n"
         f"element vertex {mesh.n_vertices}\nproperty double x\nproperty double y\nproperty double z\n"

@@ -21,8 +21,11 @@ Definitions and discretisation (z is the height above the reference plane):
   row/column forward difference with equal weight; the two differ only by the half weight of
   the border rows/columns, O(1/n) (ISO 25178-2 fixes the integral, not the difference scheme).
 * Sdr (developed interfacial area ratio), in percent: each grid cell's area is the mean of its
-  two triangulations (ISO 25178-2:2021 Annex D, eq. D.15), i.e. a quarter of the sum of the four
-  corner cross products (px, 0, Δx) x (0, py, Δy); Sdr = (area / projected area - 1) * 100.
+  two triangulations, i.e. a quarter of the sum of the four corner cross products
+  (px, 0, Δx) x (0, py, Δy) (the rule surfalize 0.19 attributes to ISO 25178-2:2021 Annex D,
+  eq. D.15; we did not have the standard's text); Sdr = (area / projected area - 1) * 100.
+  The mesh Sdr uses the mesh's own triangles (one diagonal per cell for
+  :func:`~score4.surface.mesh.from_heightmap`), so the two differ at second order.
 * Sal, Str (ISO 25178-2 §4.3, s = 0.2 after ISO 25178-3): from the areal autocorrelation
   function f_ACF of the centred heights, computed by zero-padded FFT as a linear (not circular)
   correlation, each lag divided by its number of overlapping valid points (unbiased), then
@@ -101,9 +104,9 @@ def level(hm: HeightMap) -> HeightMap:
     return HeightMap(hm.heights - mean_plane(hm), hm.pitch_x, hm.pitch_y, hm.origin, meta)
 
 
-def _residual(hm: HeightMap, levelled: bool) -> np.ndarray:
+def _residual(hm: HeightMap, level: bool) -> np.ndarray:
     z = hm.heights
-    return z - mean_plane(hm) if levelled else z - np.nanmean(z)
+    return z - mean_plane(hm) if level else z - np.nanmean(z)
 
 
 def _shape_moments(m3: float, m4: float, sq: float, scale: float) -> tuple[float, float]:
@@ -136,7 +139,7 @@ def _hybrid_parameters(z: np.ndarray, px: float, py: float) -> dict[str, float]:
     return {"Sdq": float(np.sqrt(grad2[ok].mean())), "Sdr": float(sdr)}
 
 
-def autocorrelation(hm: HeightMap, *, levelled: bool = True) -> np.ndarray:
+def autocorrelation(hm: HeightMap, *, level: bool = True) -> np.ndarray:
     """Normalised areal autocorrelation function f_ACF for lags up to half the map size.
 
     Returns
@@ -145,7 +148,7 @@ def autocorrelation(hm: HeightMap, *, levelled: bool = True) -> np.ndarray:
         Shape (2 Ky + 1, 2 Kx + 1) with Kx = nx // 2, Ky = ny // 2; element [Ky + m, Kx + n] is
         the lag (n * pitch_x, m * pitch_y); 1 at the centre; NaN where no pair overlaps.
     """
-    r = _residual(hm, levelled)
+    r = _residual(hm, level)
     ok = np.isfinite(r)
     z0 = np.where(ok, r, 0.0)
     ny, nx = r.shape
@@ -184,8 +187,8 @@ def _decay_lengths(acf: np.ndarray, px: float, py: float, s: float) -> np.ndarra
     return np.where(found, crossing, np.nan)
 
 
-def _spatial_parameters(hm: HeightMap, levelled: bool, s: float) -> dict[str, float]:
-    acf = autocorrelation(hm, levelled=levelled)
+def _spatial_parameters(hm: HeightMap, level: bool, s: float) -> dict[str, float]:
+    acf = autocorrelation(hm, level=level)
     if not np.isfinite(acf[(acf.shape[0] - 1) // 2, (acf.shape[1] - 1) // 2]):
         return {"Sal": float("nan"), "Str": float("nan")}  # flat surface: no correlation to decay
     lengths = _decay_lengths(acf, hm.pitch_x, hm.pitch_y, s)
@@ -195,14 +198,16 @@ def _spatial_parameters(hm: HeightMap, levelled: bool, s: float) -> dict[str, fl
     return {"Sal": sal, "Str": strr}
 
 
-def areal_parameters(hm: HeightMap, *, levelled: bool = True, acf_threshold: float = ACF_THRESHOLD) -> dict[str, float]:
+def areal_parameters(
+    hm: HeightMap, *, level: bool = True, acf_threshold: float = ACF_THRESHOLD
+) -> dict[str, float]:
     """ISO 25178-2 parameters of a height map (see the module docstring for definitions).
 
     Parameters
     ----------
     hm
         The height map (mm).
-    levelled
+    level
         Remove the least-squares mean plane first (ISO practice, F-operation); if False only
         the mean height is removed.
     acf_threshold
@@ -216,12 +221,12 @@ def areal_parameters(hm: HeightMap, *, levelled: bool = True, acf_threshold: flo
     """
     if not 0 < acf_threshold < 1:
         raise ConfigError(f"acf_threshold: must lie strictly between 0 and 1, got {acf_threshold!r}")
-    r = _residual(hm, levelled)
+    r = _residual(hm, level)
     z = hm.heights[np.isfinite(hm.heights)]
     scale = max(hm.size_x, hm.size_y, float(np.ptp(z)))
     out = _height_parameters(r[np.isfinite(r)], scale)
     out.update(_hybrid_parameters(r, hm.pitch_x, hm.pitch_y))
-    out.update(_spatial_parameters(hm, levelled, acf_threshold))
+    out.update(_spatial_parameters(hm, level, acf_threshold))
     return {symbol: out[symbol] for symbol, _, _ in PARAMETERS}
 
 
@@ -290,11 +295,11 @@ def _mesh_tilt(vertices: np.ndarray, faces: np.ndarray, area: np.ndarray) -> tup
     return x0, y0, float(b), float(c)
 
 
-def mesh_parameters(mesh: TriangleMesh, *, levelled: bool = True) -> dict[str, float]:
+def mesh_parameters(mesh: TriangleMesh, *, level: bool = True) -> dict[str, float]:
     """Exact ISO 25178-2 parameters of the top surface of a mesh (a height field).
 
     Averages are integrals over projected area, evaluated in closed form facet by facet.
-    The reference plane is the continuous least-squares plane of the surface (``levelled``)
+    The reference plane is the continuous least-squares plane of the surface (``level``)
     or the horizontal plane at the mean height. Vertical facets (projected area below 1e-12 of
     their area) have measure zero for the height integrals and Sdq, but count in Sdr.
 
@@ -313,13 +318,16 @@ def mesh_parameters(mesh: TriangleMesh, *, levelled: bool = True) -> dict[str, f
         raise ConfigError("mesh: has no top faces to measure")
     vec = mesh._area_vectors[top]
     area_true, proj = mesh.areas[top], vec[:, 2]
-    if (proj < -1e-12 * area_true).any():
-        raise ConfigError(f"mesh: {int((proj < -1e-12 * area_true).sum())} top faces overhang (normal points down); metrology needs a height field")
+    down = proj < -1e-12 * area_true
+    if down.any():
+        raise ConfigError(
+            f"mesh: {int(down.sum())} top faces overhang (normal points down); metrology needs a height field"
+        )
     flat = proj > 1e-12 * area_true
     faces, a = mesh.faces[top[flat]], proj[flat]
     v = mesh.vertices
     z = v[:, 2]
-    if levelled:
+    if level:
         x0, y0, bx, by = _mesh_tilt(v, faces, a)
         z = z - bx * (v[:, 0] - x0) - by * (v[:, 1] - y0)
         # Removing the tilt adds (b, c) A_z to the horizontal part of each area vector.

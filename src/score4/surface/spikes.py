@@ -76,11 +76,13 @@ _CORNER_SX = np.array([-1.0, 1.0, 1.0, -1.0])
 _CORNER_SY = np.array([-1.0, -1.0, 1.0, 1.0])
 
 
-def _length(value: object, name: str) -> float:
-    """A positive finite length in mm, from a number (mm) or a string with a unit."""
+def _length(value: object, name: str, allow_zero: bool = False) -> float:
+    """A positive (or >= 0) finite length in mm, from a number (mm) or a string with a unit."""
     v = parse_quantity(value, "length", name) if isinstance(value, str) else value
-    if isinstance(v, bool) or not isinstance(v, numbers.Real) or not (math.isfinite(v) and v > 0):
-        raise ConfigError(f"{name}: must be a positive length, got {value!r}")
+    ok = not isinstance(v, bool) and isinstance(v, numbers.Real) and math.isfinite(v)
+    if not (ok and (v >= 0 if allow_zero else v > 0)):
+        rule = "a length >= 0" if allow_zero else "a positive length"
+        raise ConfigError(f"{name}: must be {rule}, got {value!r}")
     return float(v)
 
 
@@ -133,7 +135,7 @@ class SpikeGrid:
     truncated_fraction: float = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        set_ = lambda name, value: object.__setattr__(self, name, value)  # noqa: E731 (frozen)
+        set_ = self._set
         set_("nx", _count(self.nx, "nx"))
         set_("ny", _count(self.ny, "ny"))
         for name in ("width_x", "width_y", "mean_height"):
@@ -142,14 +144,15 @@ class SpikeGrid:
             raise ConfigError(f"shape: must be one of {', '.join(SHAPES)}, got {self.shape!r}")
         set_("n_layers", _count(self.n_layers, "n_layers"))
         if self.shape == "pyramid" and self.n_layers != 1:
-            raise ConfigError(f"n_layers: a pyramid is a single layer, got {self.n_layers} (use shape bump or peak)")
+            raise ConfigError(
+                f"n_layers: a pyramid is a single layer, got {self.n_layers} (use shape bump or peak)"
+            )
         set_("seed", _count(self.seed, "seed", minimum=0))
-        sigma = parse_quantity(self.height_sigma, "length", "height_sigma") if isinstance(self.height_sigma, str) else self.height_sigma
-        if isinstance(sigma, bool) or not isinstance(sigma, numbers.Real) or not (math.isfinite(sigma) and sigma >= 0):
-            raise ConfigError(f"height_sigma: must be a length >= 0, got {self.height_sigma!r}")
-        set_("height_sigma", float(sigma))
-        hmin = DEFAULT_MIN_HEIGHT_FRACTION * self.mean_height if self.min_height is None else _length(self.min_height, "min_height")
-        set_("min_height", hmin)
+        set_("height_sigma", _length(self.height_sigma, "height_sigma", allow_zero=True))
+        if self.min_height is None:
+            set_("min_height", DEFAULT_MIN_HEIGHT_FRACTION * self.mean_height)
+        else:
+            set_("min_height", _length(self.min_height, "min_height"))
         self._check_heights()
         heights, fraction = self._draw_heights()
         heights.setflags(write=False)
@@ -158,9 +161,14 @@ class SpikeGrid:
 
     # --- validation and heights ---------------------------------------------------------
 
+    def _set(self, name: str, value: object) -> None:
+        object.__setattr__(self, name, value)  # the dataclass is frozen: normalise once here
+
     def _check_heights(self) -> None:
         if self.min_height >= self.mean_height:
-            raise ConfigError(f"min_height: must be below mean_height={self.mean_height!r} mm, got {self.min_height!r} mm")
+            raise ConfigError(
+                f"min_height: must be below mean_height={self.mean_height!r} mm, got {self.min_height!r} mm"
+            )
         if self.min_height / self.n_layers < MIN_LAYER_HEIGHT:
             raise ConfigError(
                 f"min_height: {self.min_height!r} mm over {self.n_layers} layers gives layers thinner than "
@@ -328,7 +336,10 @@ class SpikeGrid:
         nsx = int(math.floor(self.size_x / px * (1 + 1e-12))) + 1
         nsy = int(math.floor(self.size_y / py * (1 + 1e-12))) + 1
         if min(nsx, nsy) < 2:
-            raise ConfigError(f"pitch: ({px!r}, {py!r}) mm gives fewer than 2 samples across the {self.size_x!r} x {self.size_y!r} mm grid")
+            raise ConfigError(
+                f"pitch: ({px!r}, {py!r}) mm gives fewer than 2 samples across the "
+                f"{self.size_x!r} x {self.size_y!r} mm grid"
+            )
         x = -0.5 * self.size_x + px * np.arange(nsx)
         y = -0.5 * self.size_y + py * np.arange(nsy)
         z = self.height_at(x[None, :], y[:, None])
