@@ -80,9 +80,9 @@ def test_heights_are_seeded_and_shaped_ny_nx():
 def test_truncated_gaussian_statistics():
     # 200 x 200 spikes, mean 1, sigma 1, truncated at 0.01: expected fraction Phi(-0.99) = 0.161.
     g = SpikeGrid(nx=200, ny=200, width_x=1.0, width_y=1.0, mean_height=1.0, height_sigma=1.0, seed=3)
-    alpha = (g.min_height - 1.0) / 1.0
+    alpha = (g.height_floor - 1.0) / 1.0
     p_low = 0.5 * math.erfc(-alpha / math.sqrt(2))
-    assert g.heights.min() >= g.min_height
+    assert g.heights.min() >= g.height_floor
     # Binomial sd of the fraction is sqrt(p(1-p)/n) = 0.0018; tolerance ~5 sd.
     assert g.truncated_fraction == pytest.approx(p_low, abs=0.01)
     # Mean of the truncated normal: mu + sigma phi(alpha) / (1 - Phi(alpha)); sd of the mean 0.004.

@@ -117,8 +117,9 @@ class SpikeGrid:
     seed
         Seed of ``numpy.random.default_rng`` for the heights.
     min_height
-        Lower truncation of the height distribution, mm; default 1 % of ``mean_height``.
-        Must leave every layer at least :data:`MIN_LAYER_HEIGHT` high.
+        Lower truncation of the height distribution, mm; None (default) means 1 % of
+        ``mean_height`` (see :attr:`height_floor`). Must leave every layer at least
+        :data:`MIN_LAYER_HEIGHT` high.
     """
 
     nx: int
@@ -149,9 +150,7 @@ class SpikeGrid:
             )
         set_("seed", _count(self.seed, "seed", minimum=0))
         set_("height_sigma", _length(self.height_sigma, "height_sigma", allow_zero=True))
-        if self.min_height is None:
-            set_("min_height", DEFAULT_MIN_HEIGHT_FRACTION * self.mean_height)
-        else:
+        if self.min_height is not None:
             set_("min_height", _length(self.min_height, "min_height"))
         self._check_heights()
         heights, fraction = self._draw_heights()
@@ -164,22 +163,28 @@ class SpikeGrid:
     def _set(self, name: str, value: object) -> None:
         object.__setattr__(self, name, value)  # the dataclass is frozen: normalise once here
 
+    @property
+    def height_floor(self) -> float:
+        """The truncation height in mm: ``min_height``, or 1 % of ``mean_height`` if unset."""
+        return DEFAULT_MIN_HEIGHT_FRACTION * self.mean_height if self.min_height is None else self.min_height
+
     def _check_heights(self) -> None:
-        if self.min_height >= self.mean_height:
+        floor = self.height_floor
+        if floor >= self.mean_height:
             raise ConfigError(
-                f"min_height: must be below mean_height={self.mean_height!r} mm, got {self.min_height!r} mm"
+                f"min_height: must be below mean_height={self.mean_height!r} mm, got {floor!r} mm"
             )
-        if self.min_height / self.n_layers < MIN_LAYER_HEIGHT:
+        if floor / self.n_layers < MIN_LAYER_HEIGHT:
             raise ConfigError(
-                f"min_height: {self.min_height!r} mm over {self.n_layers} layers gives layers thinner than "
+                f"min_height: {floor!r} mm over {self.n_layers} layers gives layers thinner than "
                 f"{MIN_LAYER_HEIGHT} mm (Geant4's limit); raise min_height or mean_height, or use fewer layers"
             )
         if self.height_sigma > 0:
-            p_low = _normal_cdf((self.min_height - self.mean_height) / self.height_sigma)
+            p_low = _normal_cdf((floor - self.mean_height) / self.height_sigma)
             if p_low > MAX_TRUNCATED_FRACTION:
                 raise ConfigError(
                     f"height_sigma: {self.height_sigma!r} mm puts {100 * p_low:.1f} % of the Gaussian heights "
-                    f"(mean {self.mean_height!r} mm) below min_height={self.min_height!r} mm; at most "
+                    f"(mean {self.mean_height!r} mm) below min_height={floor!r} mm; at most "
                     f"{100 * MAX_TRUNCATED_FRACTION:.0f} % may be truncated, so use a smaller spread"
                 )
 
@@ -189,12 +194,13 @@ class SpikeGrid:
             return np.full(shape, self.mean_height), 0.0
         rng = np.random.default_rng(self.seed)
         h = rng.normal(self.mean_height, self.height_sigma, size=shape)
-        low = h < self.min_height
+        floor = self.height_floor
+        low = h < floor
         fraction = float(low.mean())
         # Rejection rounds, each vectorised; P(low) <= MAX_TRUNCATED_FRACTION so few rounds suffice.
         while low.any():
             h[low] = rng.normal(self.mean_height, self.height_sigma, size=int(low.sum()))
-            low = h < self.min_height
+            low = h < floor
         return h, fraction
 
     # --- geometry helpers -----------------------------------------------------------------
