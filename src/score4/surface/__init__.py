@@ -4,5 +4,17 @@ Nothing in this package imports Geant4.
 """
 
 from .heightmap import HeightMap
+from .mesh import TriangleMesh, closed_body, from_heightmap
+from .metrology import PARAMETERS, areal_parameters, mesh_parameters
+from .spikes import SpikeGrid
 
-__all__ = ["HeightMap"]
+__all__ = [
+    "HeightMap",
+    "TriangleMesh",
+    "closed_body",
+    "from_heightmap",
+    "SpikeGrid",
+    "PARAMETERS",
+    "areal_parameters",
+    "mesh_parameters",
+]
