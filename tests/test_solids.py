@@ -45,3 +45,26 @@ def test_tessellated_multiunion_and_mesh_agree(grid_kwargs):
     assert np.array_equal(tess == 2, expected), f"tessellated disagrees on {np.count_nonzero((tess == 2) != expected)} points"
     assert np.array_equal(union == 2, expected), f"multi-union disagrees on {np.count_nonzero((union == 2) != expected)} points"
     assert 0.1 < expected.mean() < 0.9  # the test samples both sides
+
+
+def _roundtrip(points, grid_kwargs, path):
+    sys.path.insert(0, str(Path(__file__).parent))
+    from _g4_solids import gdml_roundtrip
+
+    return gdml_roundtrip(points, grid_kwargs, THICKNESS, path)
+
+
+def test_gdml_round_trip_keeps_the_solid(tmp_path):
+    grid_kwargs = GRIDS[0]
+    grid = SpikeGrid(**grid_kwargs)
+    rng = np.random.default_rng(1)
+    points = rng.uniform([-grid.size_x / 2, -grid.size_y / 2, -THICKNESS], [grid.size_x / 2, grid.size_y / 2, grid.heights.max()], (2000, 3))
+    path = tmp_path / "rough.gdml"
+    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
+        before, after, kind, material = pool.submit(_roundtrip, points.tolist(), grid_kwargs, str(path)).result()
+    assert kind == "G4TessellatedSolid" and material == "G4_Si"
+    assert before == after
+    from score4.surface.mesh import closed_body
+
+    assert path.read_text().count("<triangular ") == closed_body(grid.top_mesh(), THICKNESS).n_faces
+    assert [p.name for p in tmp_path.iterdir()] == ["rough.gdml"]
