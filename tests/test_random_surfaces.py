@@ -83,11 +83,11 @@ def test_acf_at_one_correlation_length_is_one_over_e(acf, n):
 
 def test_sal_matches_documented_relation():
     metrology = pytest.importorskip("score4.surface.metrology")
-    l = 6.0
-    sal = [metrology.areal_parameters(gaussian_random_surface(256, 256, 1.0, sq=1.0, corr_length_x=l, seed=s))["Sal"]
+    corr = 6.0
+    sal = [metrology.areal_parameters(gaussian_random_surface(256, 256, 1.0, sq=1.0, corr_length_x=corr, seed=s))["Sal"]
            for s in range(3)]
     # Sal = sqrt(ln 5) l = 7.61; a finite levelled map reads a few % short: tolerance 10 %
-    assert np.mean(sal) == pytest.approx(rs.SAL_PER_CORR_LENGTH["gaussian"] * l, rel=0.10)
+    assert np.mean(sal) == pytest.approx(rs.SAL_PER_CORR_LENGTH["gaussian"] * corr, rel=0.10)
 
 
 # ----------------------------------------------------------------------------- periodicity
@@ -127,12 +127,12 @@ def test_target_skewness_and_kurtosis_are_realised(skew, kurt):
 
 def test_non_gaussian_map_keeps_the_correlation_length():
     # the monotone transform changes the ACF a little: at Ssk 0.8 / Sku 4 the 1/e lag moves < 10 %
-    l = 8.0
-    acfs = [circular_acf(gaussian_random_surface(256, 256, 1.0, sq=1.0, corr_length_x=l, skewness=0.8, kurtosis=4.0,
+    corr = 8.0
+    acfs = [circular_acf(gaussian_random_surface(256, 256, 1.0, sq=1.0, corr_length_x=corr, skewness=0.8, kurtosis=4.0,
                                                  periodic=True, seed=s).heights) for s in range(3)]
     row = np.mean(acfs, axis=0)[0, :64]
     lag = np.interp(math.exp(-1), row[::-1], np.arange(64)[::-1])  # first 1/e crossing (row is decreasing)
-    assert lag == pytest.approx(l, rel=0.10)
+    assert lag == pytest.approx(corr, rel=0.10)
 
 
 @pytest.mark.parametrize("skew, kurt", [(0.0, 4.0), (1.0, 4.5), (1.0, 6.0), (-0.5, 2.5), (2.0, 12.0)])

@@ -91,7 +91,7 @@ def test_plu_garbage_is_a_clear_error(tmp_path):
 
 # ----------------------------------------------------------------------------- gwy
 def test_gwy_written_by_gwyfile(tmp_path):
-    gwyfile = pytest.importorskip("gwyfile")
+    pytest.importorskip("gwyfile")
     from gwyfile.objects import GwyContainer, GwyDataField, GwySIUnit
 
     z_m = np.random.default_rng(1).normal(scale=2e-7, size=(30, 40))
@@ -177,7 +177,7 @@ def test_text_grid_errors(tmp_path):
 
 # ----------------------------------------------------------------------------- xyz
 def _xyz_lines(x, y, z):
-    return "".join(f"{a:.9g} {b:.9g} {c:.9g}\n" for a, b, c in zip(x, y, z))
+    return "".join(f"{a:.9g} {b:.9g} {c:.9g}\n" for a, b, c in zip(x, y, z, strict=True))
 
 
 def test_xyz_regular_grid_in_any_order_with_gaps(tmp_path):

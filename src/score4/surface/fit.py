@@ -27,12 +27,14 @@ ACF
     with the smaller residual wins ("auto"). The mean removal biases the ACF down by about
     (l/L)^2 terms: correlation lengths come out a few % short at 20 lengths per side.
 PSD
-    Radially averaged |FFT|^2 (Hann window unless the map is periodic) in log-spaced bins up
-    to the Nyquist wavenumber π/pitch. The model log C = c - (2 + 2H) log max(q, q_L) for
-    q <= q_S is fitted by linear least squares for every (q_L, q_S) on a grid; bins above q_S
-    must lie at least 10x below the extrapolated power law. The pair with the least cost wins.
-    Wavelengths are λ = 2π/q; without a visible roll-off long_cutoff is the map side, without a
-    visible drop short_cutoff is 2 * pitch.
+    Radially averaged |FFT|^2 in log-spaced bins (16 per decade) up to the Nyquist wavenumber
+    π/pitch; non-periodic maps get a Hann window and lose their two lowest wavenumbers. Model:
+    plateau below q_L, power law q^(-2-2H) up to q_S, a constant floor (noise, or nothing)
+    above. Fitted by maximum (Whittle) likelihood over the Fourier modes: H on a 0.01 grid,
+    q_L on a quarter-bin grid, q_S between bins (the bin holding q_S is left out). Wavelengths
+    are λ = 2π/q. Without a visible roll-off long_cutoff is the map side; without a visible drop
+    short_cutoff is 2 * pitch. Resolution: q_S to about one bin (15 %); q_L is set by the few
+    longest-wavelength modes and scatters by 20-50 %.
 """
 
 from __future__ import annotations
@@ -50,7 +52,6 @@ from .heightmap import HeightMap
 
 _ACF_CORE = 0.1  # fit the ACF where it is above this value
 _HURST_GRID = np.linspace(0.01, 1.0, 100)
-_PSD_CAP = math.log(100.0)  # robust cost: a bin further off than a factor 100 counts as that
 
 
 # ----------------------------------------------------------------------------- checks, moments
@@ -220,16 +221,16 @@ def _usable_corr_lengths(fit: dict[str, float], hm: HeightMap) -> dict[str, floa
     """Grid large enough for the generator's rules: n * pitch >= 5 l, pitch <= l / 2 (with warnings)."""
     out = {"nx": hm.shape[1], "ny": hm.shape[0]}
     for axis, pitch in (("x", hm.pitch_x), ("y", hm.pitch_y)):
-        l = max(fit[f"corr_length_{axis}"], pitch / rs.MAX_PITCH_PER_CORR_LENGTH)
-        if l != fit[f"corr_length_{axis}"]:
-            warnings.warn(f"fit_random_surface: corr_length_{axis} raised to 2 * pitch_{axis} = {l:g} mm "
+        corr = max(fit[f"corr_length_{axis}"], pitch / rs.MAX_PITCH_PER_CORR_LENGTH)
+        if corr != fit[f"corr_length_{axis}"]:
+            warnings.warn(f"fit_random_surface: corr_length_{axis} raised to 2 * pitch_{axis} = {corr:g} mm "
                           "(the map does not resolve its correlation)", stacklevel=3)
-        need = math.ceil(rs.MIN_CORR_LENGTHS_PER_SIDE * l / pitch)
+        need = math.ceil(rs.MIN_CORR_LENGTHS_PER_SIDE * corr / pitch)
         if need > out[f"n{axis}"]:
             warnings.warn(f"fit_random_surface: n{axis} raised from {out[f'n{axis}']} to {need} to hold "
                           f"{rs.MIN_CORR_LENGTHS_PER_SIDE:g} correlation lengths", stacklevel=3)
             out[f"n{axis}"] = need
-        out[f"corr_length_{axis}"] = l
+        out[f"corr_length_{axis}"] = corr
     return out
 
 

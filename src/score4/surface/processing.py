@@ -96,7 +96,8 @@ def resample(hm: HeightMap, pitch_x: float | str, pitch_y: float | str | None = 
     nx = int(math.floor(hm.size_x / px * (1 + 1e-12))) + 1
     ny = int(math.floor(hm.size_y / py * (1 + 1e-12))) + 1
     if nx < 2 or ny < 2:
-        raise ConfigError(f"pitch_x, pitch_y: {px:g}, {py:g} mm leave fewer than 2 samples on a {hm.size_x:g} x {hm.size_y:g} mm map")
+        raise ConfigError(f"pitch_x, pitch_y: {px:g}, {py:g} mm leave fewer than 2 samples "
+                          f"on a {hm.size_x:g} x {hm.size_y:g} mm map")
     xs = np.minimum(hm.origin[0] + px * np.arange(nx), hm.x[-1])  # clip round-off past the last sample
     ys = np.minimum(hm.origin[1] + py * np.arange(ny), hm.y[-1])
     interp = interpolate.RegularGridInterpolator((hm.y, hm.x), hm.heights, method=method)

@@ -104,16 +104,16 @@ def _grid(nx: int, ny: int, pitch_x: float | str, pitch_y: float | str | None) -
     return _count(nx, "nx"), _count(ny, "ny"), px, py
 
 
-def _check_corr_length(l: float, n: int, pitch: float, axis: str) -> None:
+def _check_corr_length(corr: float, n: int, pitch: float, axis: str) -> None:
     """ConfigError unless the grid resolves and holds enough correlation lengths along one axis."""
-    if pitch > MAX_PITCH_PER_CORR_LENGTH * l:
+    if pitch > MAX_PITCH_PER_CORR_LENGTH * corr:
         raise ConfigError(
-            f"corr_length_{axis}: {l:g} mm is too short for pitch_{axis} = {pitch:g} mm; "
+            f"corr_length_{axis}: {corr:g} mm is too short for pitch_{axis} = {pitch:g} mm; "
             f"rule: pitch_{axis} <= {MAX_PITCH_PER_CORR_LENGTH:g} * corr_length_{axis}"
         )
-    if n * pitch < MIN_CORR_LENGTHS_PER_SIDE * l:
+    if n * pitch < MIN_CORR_LENGTHS_PER_SIDE * corr:
         raise ConfigError(
-            f"corr_length_{axis}: {l:g} mm is too long for a map side of n{axis} * pitch_{axis} = {n * pitch:g} mm; "
+            f"corr_length_{axis}: {corr:g} mm is too long for a map side of n{axis} * pitch_{axis} = {n * pitch:g} mm; "
             f"rule: n{axis} * pitch_{axis} >= {MIN_CORR_LENGTHS_PER_SIDE:g} * corr_length_{axis}"
         )
 
@@ -150,7 +150,9 @@ def _angular_wavenumbers(shape: tuple[int, int], px: float, py: float) -> np.nda
     return np.hypot(qx, qy)
 
 
-def _self_affine_amplitude(shape: tuple[int, int], px: float, py: float, hurst: float, q_long: float, q_short: float) -> np.ndarray:
+def _self_affine_amplitude(
+    shape: tuple[int, int], px: float, py: float, hurst: float, q_long: float, q_short: float
+) -> np.ndarray:
     """sqrt of C(q) ∝ max(q, q_L)^(-2-2H) for q <= q_S, 0 above and at q = 0."""
     q = _angular_wavenumbers(shape, px, py)
     amp = np.maximum(q, q_long) ** (-1.0 - hurst)
@@ -286,7 +288,9 @@ def _sb_skew_kurt(gamma: float, delta: float) -> tuple[float, float]:
     return float(_GH_W @ d**3 / m2**1.5), float(_GH_W @ d**4 / m2**2)
 
 
-def _solve_family(moments: Callable[[float, float], tuple[float, float]], skew: float, kurt: float, delta_hi: float) -> tuple[float, float]:
+def _solve_family(
+    moments: Callable[[float, float], tuple[float, float]], skew: float, kurt: float, delta_hi: float
+) -> tuple[float, float]:
     """Nested 1-D solves: for each delta the gamma giving ``skew``; then the delta giving ``kurt``.
 
     For fixed delta < delta_hi the skewness runs monotonically from 0 (gamma = 0) towards the
@@ -363,7 +367,9 @@ def johnson_translate(z: np.ndarray, skewness: float, kurtosis: float) -> np.nda
         try:
             y = _fit_johnson(*_clamp_target(*target))(u)
         except (ValueError, ArithmeticError) as exc:  # root bracketing failed at an extreme target
-            raise ConfigError(f"kurtosis: no Johnson curve found for skewness {skewness:g}, kurtosis {kurtosis:g} ({exc})") from exc
+            raise ConfigError(
+                f"kurtosis: no Johnson curve found for skewness {skewness:g}, kurtosis {kurtosis:g} ({exc})"
+            ) from exc
         got = _sample_skew_kurt(y)
         err = (skewness - got[0], kurtosis - got[1])
         if abs(err[0]) < _MOMENT_TOLERANCE and abs(err[1]) < _MOMENT_TOLERANCE * kurtosis:
@@ -499,9 +505,11 @@ def self_affine_surface(
     lam_s = 2 * max(px, py) if short_cutoff is None else _length(short_cutoff, "short_cutoff")
     lam_l = side if long_cutoff is None else _length(long_cutoff, "long_cutoff")
     if lam_s < 2 * max(px, py) * (1 - 1e-9):
-        raise ConfigError(f"short_cutoff: {lam_s:g} mm is below the Nyquist wavelength; rule: short_cutoff >= 2 * pitch = {2 * max(px, py):g} mm")
+        raise ConfigError(f"short_cutoff: {lam_s:g} mm is below the Nyquist wavelength; "
+                          f"rule: short_cutoff >= 2 * pitch = {2 * max(px, py):g} mm")
     if lam_l > side * (1 + 1e-9):
-        raise ConfigError(f"long_cutoff: {lam_l:g} mm exceeds the map; rule: long_cutoff <= min(nx*pitch_x, ny*pitch_y) = {side:g} mm")
+        raise ConfigError(f"long_cutoff: {lam_l:g} mm exceeds the map; "
+                          f"rule: long_cutoff <= min(nx*pitch_x, ny*pitch_y) = {side:g} mm")
     if lam_l <= lam_s:
         raise ConfigError(f"long_cutoff: {lam_l:g} mm must be longer than short_cutoff = {lam_s:g} mm")
     check_moments(skewness, kurtosis)

@@ -105,7 +105,9 @@ def _grid_axis(v: np.ndarray, axis: str, path: Path) -> tuple[np.ndarray, float,
     return idx, pitch, lo
 
 
-def grid_from_points(x: np.ndarray, y: np.ndarray, z: np.ndarray, path: Path | str = "points") -> tuple[np.ndarray, float, float, tuple[float, float]]:
+def grid_from_points(
+    x: np.ndarray, y: np.ndarray, z: np.ndarray, path: Path | str = "points"
+) -> tuple[np.ndarray, float, float, tuple[float, float]]:
     """Detect the regular grid of a point list; return heights (ny, nx), pitch_x, pitch_y, origin.
 
     Grid nodes without a point are NaN. ConfigError for an empty list, points off a regular grid,
