@@ -6,6 +6,10 @@ Nothing in this package imports Geant4.
 from .heightmap import HeightMap
 from .mesh import TriangleMesh, closed_body, from_heightmap
 from .metrology import PARAMETERS, areal_parameters, mesh_parameters
+from .fit import fit_random_surface
+from .processing import crop, fill_missing, level_plane, resample
+from .random import random_surface
+from .readers import read_topography
 from .spikes import SpikeGrid
 
 __all__ = [
@@ -17,4 +21,11 @@ __all__ = [
     "PARAMETERS",
     "areal_parameters",
     "mesh_parameters",
+    "random_surface",
+    "fit_random_surface",
+    "read_topography",
+    "level_plane",
+    "crop",
+    "resample",
+    "fill_missing",
 ]
