@@ -262,6 +262,7 @@ def test_read_table_with_header_comments_and_commas(tmp_path):
         ("# unit: nm\n0 1\n\n0 2\n", None, "line 4: duplicate"),
         ("# unit: nm\n0 0\n1 0\n", None, "all weights are zero"),
         ("# unit: nm\n0 1\n", None, "at least 2 rows"),
+        ("# unit: nm\n# unit: um\n0 1\n1 1\n", None, "line 2: second unit header"),
     ],
 )
 def test_read_table_errors_name_file_line_and_rule(tmp_path, text, unit, match):

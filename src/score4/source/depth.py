@@ -117,12 +117,13 @@ def _positive(value: float, name: str) -> float:
     return value
 
 
-def _check_window(lo: float, hi: float, what: str = "depth") -> tuple[float, float]:
+def _check_window(lo: float, hi: float, names: tuple[str, str] = ("min_depth", "max_depth")) -> tuple[float, float]:
+    """Validate a depth window ``0 <= lo <= hi`` (``hi`` may be infinite)."""
     lo, hi = float(lo), float(hi)
-    if not np.isfinite(lo) or lo < 0 or np.isnan(hi):
-        raise ConfigError(f"min_{what}: got {lo!r} mm; must be a finite length >= 0")
-    if hi < lo:
-        raise ConfigError(f"min_{what} / max_{what}: min {lo!r} mm > max {hi!r} mm; need min <= max")
+    if not np.isfinite(lo) or lo < 0:
+        raise ConfigError(f"{names[0]}: got {lo!r} mm; must be a finite length >= 0")
+    if np.isnan(hi) or hi < lo:
+        raise ConfigError(f"{names[0]} / {names[1]}: {lo!r} mm > {hi!r} mm; need {names[0]} <= {names[1]}")
     return lo, hi
 
 
@@ -283,7 +284,7 @@ class UniformProfile(DepthProfile):
     """Uniform depth between ``min`` and ``max`` (mm)."""
 
     def __init__(self, min: float, max: float) -> None:
-        self.lo, self.hi = _check_window(min, max, "uniform")
+        self.lo, self.hi = _check_window(min, max, ("min", "max"))
         if not (np.isfinite(self.hi) and self.hi > self.lo):
             raise ConfigError(f"uniform max: got {max!r} mm; must be finite and > min {min!r} mm")
 
@@ -307,7 +308,7 @@ class TruncatedGaussianProfile(DepthProfile):
         if not np.isfinite(self.mean) or self.mean < 0:
             raise ConfigError(f"mean: got {mean!r} mm; must be a finite depth >= 0")
         self.sigma = _positive(sigma, "sigma")
-        self.lower, self.upper = _check_window(lower, upper, "gaussian")
+        self.lower, self.upper = _check_window(lower, upper, ("lower", "upper"))
         self._norm = self._phi_mass(self.lower, self.upper)
         if not self._norm > 0:
             raise ConfigError(f"lower / upper: no probability between {lower!r} and {upper!r} mm for this Gaussian")
@@ -325,6 +326,8 @@ class TruncatedGaussianProfile(DepthProfile):
     def cdf(self, d: ArrayLike) -> np.ndarray:
         d = np.clip(np.asarray(d, dtype=float), self.lower, self.upper)
         z0, z = (self.lower - self.mean) / self.sigma, (d - self.mean) / self.sigma
+        if z0 > 0:  # upper tail: differences of survival functions keep the precision
+            return np.clip((ndtr(-z0) - ndtr(-z)) / self._norm, 0.0, 1.0)
         return np.clip((ndtr(z) - ndtr(z0)) / self._norm, 0.0, 1.0)
 
     def sample_between(self, rng: np.random.Generator, n: int, lo: float, hi: float) -> np.ndarray:
@@ -463,17 +466,17 @@ class MeshDistance:
         self._brute_max = brute_max
         self._rmax = float(radius.max())
         self._lo, self._hi = tri.reshape(-1, 3).min(axis=0), tri.reshape(-1, 3).max(axis=0)
-        self._offsets = np.zeros((1, 3))
+        self._images = np.zeros((1, 3))
         if period is not None:
             px, py = period
             shifts = [(i * px, j * py, 0.0) for i in (0, -1, 1) for j in (0, -1, 1)]
-            self._offsets = np.array(shifts)
+            self._images = np.array(shifts)
         self._chunk = chunk
 
     def _pairs(self, points: np.ndarray, radius: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Candidate (point, triangle, image) triples with the triangle possibly within ``radius``."""
         pi, tj, oi = [], [], []
-        for o, off in enumerate(self._offsets):
+        for o, off in enumerate(self._images):
             y = points - off  # distance to (triangle + off) == distance of (point - off) to triangle
             reach = (radius + self._rmax)[:, None]
             sel = np.flatnonzero(((y >= self._lo - reach) & (y <= self._hi + reach)).all(axis=1))
@@ -505,7 +508,7 @@ class MeshDistance:
         """Exact distances of candidate pairs. With ``below`` (per point), pairs whose plane
         distance (a lower bound) is already >= ``below`` are dropped first; returns the kept
         pair rows and their distances."""
-        ap = points[pi] - self._offsets[oi] - self._a[tj]
+        ap = points[pi] - self._images[oi] - self._a[tj]
         rows = np.arange(len(pi))
         if below is not None:
             rows = np.flatnonzero(np.abs(_dot(ap, self._normal[tj])) < below[pi])
@@ -520,9 +523,9 @@ class MeshDistance:
         and size groups): an upper bound of the distance to the mesh."""
         ub, best = np.full(len(points), np.inf), np.zeros(len(points), dtype=np.int64)
         every = np.arange(len(points))
-        for o in range(len(self._offsets)):
+        for o in range(len(self._images)):
             for members, tree, _ in self._groups:
-                tj = members[tree.query(points - self._offsets[o], k=1)[1]]
+                tj = members[tree.query(points - self._images[o], k=1)[1]]
                 dd = self._pair_distance(points, every, tj, np.full(len(points), o))[1]
                 better = dd < ub
                 ub[better], best[better] = dd[better], tj[better]
@@ -577,7 +580,17 @@ def _weld(tri: np.ndarray, period: tuple[float, float] | None) -> tuple[np.ndarr
     keys = np.round(pts / step).astype(np.int64)
     if period is not None:
         keys[:, :2] %= np.round(np.asarray(period) / step[:2]).astype(np.int64)
-    return np.unique(keys, axis=0, return_inverse=True)[1].reshape(-1, 3), step
+    return _group_rows(keys).reshape(-1, 3), step
+
+
+def _group_rows(keys: np.ndarray) -> np.ndarray:
+    """Group ids (0..g-1) of equal rows of an integer array (n, k); faster than unique(axis=0)."""
+    order = np.lexsort(keys.T[::-1])
+    ordered = keys[order]
+    new = np.r_[True, (ordered[1:] != ordered[:-1]).any(axis=1)]
+    ids = np.empty(len(keys), dtype=np.int64)
+    ids[order] = np.cumsum(new) - 1
+    return ids
 
 
 @dataclass
@@ -593,21 +606,24 @@ class _Edges:
     boundary_vertices: np.ndarray  # vertex ids on border edges
 
 
-def _mesh_edges(tri: np.ndarray, ids: np.ndarray, step: np.ndarray) -> _Edges:
+def _mesh_edges(tri: np.ndarray, ids: np.ndarray, step: np.ndarray, periodic: bool) -> _Edges:
     """Group the 3m face edges into mesh edges; reject non-manifold or inconsistent meshes.
 
-    An edge is identified by its end ids and its vector (needed on periodic meshes, where an
-    edge spanning a whole period joins a vertex to itself).
+    An edge is identified by its end ids; on a periodic mesh also by its vector, since two
+    vertices can then be joined by several edges (through different images), and an edge
+    spanning a whole period joins a vertex to itself.
     """
     start, end = ids.ravel(), ids[:, [1, 2, 0]].ravel()
     vec = (tri[:, [1, 2, 0]] - tri).reshape(-1, 3)
-    key_vec = np.round(vec / step).astype(np.int64)
-    # orient every occurrence from its smaller id (or, for loops, along +key_vec)
-    flip = (start > end) | ((start == end) & _negative_first(key_vec))
-    lo, hi = np.where(flip, end, start), np.where(flip, start, end)
-    key = np.c_[lo, hi, np.where(flip[:, None], -key_vec, key_vec)]
-    _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    inverse = inverse.ravel()
+    lo, hi = np.minimum(start, end), np.maximum(start, end)
+    if periodic:
+        key_vec = np.round(vec / step).astype(np.int64)
+        flip = (start > end) | ((start == end) & _negative_first(key_vec))
+        key_vec[flip] *= -1  # the same edge seen from both faces gets the same key
+        inverse = _group_rows(np.c_[lo, hi, key_vec])
+    else:
+        inverse = np.unique(lo * (int(ids.max()) + 1) + hi, return_inverse=True)[1]
+    counts = np.bincount(inverse)
     if (counts > 2).any():
         raise ConfigError(
             f"triangles: {int((counts > 2).sum())} edges are shared by more than two faces; "
@@ -658,11 +674,22 @@ class OffsetSurface:
         self._facets = SurfaceSampler(tri)
         self.area = self._facets.area
         ids, step = _weld(tri, period)
-        edges = _mesh_edges(tri, ids, step)
+        edges = _mesh_edges(tri, ids, step, period is not None)
         self._setup_edges(tri, edges)
         self._setup_cones(tri, ids, edges)
+        self._last_kind = 2 if self._cone_choice is not None else 1 if self._edge_choice is not None else 0
         self._distance = MeshDistance(tri, period)
         self._tol = 1e-12 * max(float(np.abs(tri).max()), float(np.ptp(tri.reshape(-1, 3), axis=0).max()))
+
+    @property
+    def n_valley_edges(self) -> int:
+        """Number of valley edges (each adds a cylinder sector to the level sets)."""
+        return len(self._edge_theta)
+
+    @property
+    def n_vertex_cones(self) -> int:
+        """Number of vertices whose closest-point cone lies in the material."""
+        return len(self._cone_cos)
 
     # -- set-up ------------------------------------------------------------------------------
 
@@ -736,37 +763,54 @@ class OffsetSurface:
         return pseudo
 
     @staticmethod
-    def _cones_of_degree(uniq, begin, degree, vectors, pseudo, deg, chunk=8192):
+    def _cones_of_degree(
+        uniq: np.ndarray,
+        begin: np.ndarray,
+        degree: np.ndarray,
+        vectors: np.ndarray,
+        pseudo: np.ndarray,
+        deg: int,
+        chunk: int = 8192,
+    ) -> tuple[np.ndarray, ...]:
         """Cones {u : u . e <= 0 for all incident edges e} of the vertices with ``deg`` edges.
 
-        Extreme rays are the feasible +-(e_i x e_j); a cone is kept when its rays span 3-D and
-        it lies on the material side (centre . pseudo-normal < 0). Returns vertex ids,
+        Extreme rays are the feasible +-(e_i x e_j): ``+`` is feasible iff every
+        det(e_i, e_j, e_k) <= 0, ``-`` iff every one is >= 0. A cone is kept when its rays span
+        3-D and it lies on the material side (centre . pseudo-normal < 0). Returns vertex ids,
         centres, incident unit edges and the cosine of an enclosing cap.
         """
-        rows = np.flatnonzero(degree == deg)
-        out = ([], [], [], [])
+        out: tuple[list, ...] = ([], [], [], [])
         i, j = np.triu_indices(deg, 1)
+        rows = np.flatnonzero(degree == deg)
         for s in range(0, len(rows), chunk):
             r = rows[s : s + chunk]
             e = vectors[begin[r][:, None] + np.arange(deg)]  # (v, deg, 3)
-            cross = np.cross(e[:, i], e[:, j])
-            norm = np.linalg.norm(cross, axis=2, keepdims=True)
-            rays = np.concatenate([cross, -cross], axis=1) / np.maximum(np.concatenate([norm, norm], axis=1), 1e-300)
-            ok = (np.concatenate([norm, norm], axis=1)[..., 0] > 1e-9) & (
-                np.einsum("vpk,vdk->vpd", rays, e).max(axis=2) <= 1e-9
-            )
-            rays = rays * ok[..., None]
-            total = rays.sum(axis=1)
+            # two opposite edges (a straight line through v) confine the cone to a plane
+            r = r[(np.einsum("vpk,vpk->vp", e[:, i], e[:, j]) > -1 + 1e-12).all(axis=1)]
+            e = vectors[begin[r][:, None] + np.arange(deg)]
+            cross = np.cross(e[:, i], e[:, j])  # (v, pairs, 3)
+            norm = np.linalg.norm(cross, axis=2)
+            det = np.matmul(cross, e.transpose(0, 2, 1))  # (v, pairs, deg)
+            tol = 1e-9 * norm
+            valid = norm > 1e-9
+            plus = valid & (det.max(axis=2) <= tol)
+            minus = valid & (det.min(axis=2) >= -tol)
+            unit = cross / np.maximum(norm, 1e-300)[..., None]
+            sign = plus.astype(float) - minus  # +1, -1, or 0 (both would mean a flat star)
+            total = (unit * sign[..., None]).sum(axis=1)
             size = np.linalg.norm(total, axis=1)
-            scatter = np.einsum("vpk,vpl->vkl", rays, rays)
-            ev = np.linalg.eigvalsh(scatter)
+            weight = (plus | minus).astype(float)
+            ev = np.linalg.eigvalsh(np.einsum("vp,vpk,vpl->vkl", weight, unit, unit))
             solid = (size > 1e-9) & (ev[:, 0] > 1e-12 * np.maximum(ev[:, 2], 1e-300))
             center = total / np.maximum(size, 1e-300)[:, None]
             material = _dot(center, pseudo[uniq[r]]) < 0
             keep = np.flatnonzero(solid & material)
-            cosmax = np.where(ok, np.einsum("vpk,vk->vp", rays, center), 2.0).min(axis=1)
+            along = np.einsum("vpk,vk->vp", unit[keep], center[keep])
+            cos_plus = np.where(plus[keep], along, 2.0).min(axis=1)
+            cos_minus = np.where(minus[keep], -along, 2.0).min(axis=1)
+            cosmax = np.minimum(cos_plus, cos_minus)
             cosmax = np.where(cosmax < 0.05, -1.0, cosmax)  # wide cones: propose the whole sphere
-            for lst, val in zip(out, (uniq[r][keep], center[keep], e[keep], cosmax[keep])):
+            for lst, val in zip(out, (uniq[r][keep], center[keep], e[keep], cosmax)):
                 lst.append(val)
         return tuple(np.concatenate(v) if v else np.zeros((0,)) for v in out)
 
@@ -783,6 +827,7 @@ class OffsetSurface:
         n = len(d)
         r = rng.random(n) * self.weight(d)
         kind = (r >= self.area).astype(np.int8) + (r >= self.area + d * self.edge_weight)
+        kind = np.minimum(kind, self._last_kind)  # r == total by rounding must not pick a missing piece
         x, normal = np.empty((n, 3)), np.empty((n, 3))
         facet, ok = np.empty(n, dtype=np.int64), np.ones(n, dtype=bool)
         rows = np.flatnonzero(kind == 0)
@@ -800,7 +845,8 @@ class OffsetSurface:
         ok[test] = ~self._distance.any_within(x[test], d[test] * (1 - 1e-9) - self._tol)
         return x, normal, self._facet_of[facet], ok
 
-    def _propose_edges(self, rng: np.random.Generator, d: np.ndarray):
+    def _propose_edges(self, rng: np.random.Generator, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Points on the cylinder sectors of valley edges (always on L_d up to the global test)."""
         e = self._edge_choice.sample(rng, len(d))
         t, phi = rng.random((2, len(d)))
         phi *= self._edge_theta[e]
@@ -808,7 +854,10 @@ class OffsetSurface:
         q = self._edge_start[e] + t[:, None] * self._edge_vec[e]
         return q + d[:, None] * u, -u, self._edge_face[e]
 
-    def _propose_cones(self, rng: np.random.Generator, d: np.ndarray):
+    def _propose_cones(
+        self, rng: np.random.Generator, d: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Points on the enclosing caps of vertex cones; the mask says which fell in the cone."""
         v = self._cone_choice.sample(rng, len(d))
         s, phi = rng.random((2, len(d)))
         cos = 1 - s * (1 - self._cone_cos[v])  # uniform on the cap
@@ -920,10 +969,10 @@ class VertexSampler:
         self.max_rounds = int(max_rounds)
         self._tiled = isinstance(surface, TiledSurfaceSampler)
         self._layout = surface if self._tiled else _SingleLayout(surface)
-        self._offsets: list[OffsetSurface] = []
+        self.offset_surfaces: list[OffsetSurface] = []  # one per variant, for 'distance'
         if definition == "distance":
             per = surface.pitch if self._tiled else period
-            self._offsets = [OffsetSurface(v.triangles, v.facet_ids, per) for v in self._layout.variants]
+            self.offset_surfaces = [OffsetSurface(v.triangles, v.facet_ids, per) for v in self._layout.variants]
 
     def sample(self, rng: np.random.Generator, n: int) -> Vertices:
         """``n`` vertices satisfying every constraint."""
@@ -933,10 +982,10 @@ class VertexSampler:
             out.patch, out.variant = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
         pending = np.arange(n)
         failures = {"confinement": 0, "distance": 0}
+        draw = self._draw_normal if self.definition == "normal" else self._draw_distance
         for _ in range(self.max_rounds):
             if len(pending) == 0:
                 return out
-            draw = self._draw_normal if self.definition == "normal" else self._draw_distance
             x, normal, facet, patch, variant, on_level = draw(rng, depth[pending])
             failures["distance"] += int((~on_level).sum())
             confined = self._confined(x, on_level)
@@ -969,21 +1018,23 @@ class VertexSampler:
         mask[rows] = got
         return mask
 
-    def _draw_normal(self, rng: np.random.Generator, d: np.ndarray):
+    def _draw_normal(self, rng: np.random.Generator, d: np.ndarray) -> tuple:
+        """Surface points shifted by ``d`` along the inward facet normal (never rejected)."""
         s = self.surface.sample(rng, len(d))
         x = s.position - d[:, None] * s.normal
         return x, s.normal, s.facet, s.patch, s.variant, np.ones(len(d), dtype=bool)
 
-    def _draw_distance(self, rng: np.random.Generator, d: np.ndarray):
+    def _draw_distance(self, rng: np.random.Generator, d: np.ndarray) -> tuple:
+        """One level-set proposal per depth, over the variants of a tiled face."""
         n, layout = len(d), self._layout
         # variant k with probability n_k W_k(d): W_k is its proposal area at this depth
-        weight = np.stack([c * o.weight(d) for c, o in zip(layout.cell_counts, self._offsets)], axis=1)
+        weight = np.stack([c * o.weight(d) for c, o in zip(layout.cell_counts, self.offset_surfaces)], axis=1)
         cum = np.cumsum(weight, axis=1)
-        variant = np.minimum((cum <= (rng.random(n) * cum[:, -1])[:, None]).sum(axis=1), len(self._offsets) - 1)
+        variant = np.minimum((cum <= (rng.random(n) * cum[:, -1])[:, None]).sum(axis=1), len(self.offset_surfaces) - 1)
         patch = layout.sample_cells(rng, variant)
         local, normal = np.empty((n, 3)), np.empty((n, 3))
         facet, ok = np.empty(n, dtype=np.int64), np.empty(n, dtype=bool)
-        for k, offset in enumerate(self._offsets):
+        for k, offset in enumerate(self.offset_surfaces):
             rows = np.flatnonzero(variant == k)
             if len(rows):
                 local[rows], normal[rows], facet[rows], ok[rows] = offset.propose(rng, d[rows])

@@ -51,6 +51,7 @@ __all__ = [
     "make_primaries",
     "normalise_nuclide",
     "normalise_particle",
+    "recoil_energy",
     "sample_directions",
 ]
 

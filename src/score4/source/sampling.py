@@ -275,6 +275,8 @@ def read_table(
     for number, raw in enumerate(text.splitlines(), start=1):
         line = raw.strip()
         if match := _UNIT_LINE.match(line):
+            if header_unit not in (None, match.group(1)):
+                raise ConfigError(f"{label} line {number}: second unit header {match.group(1)!r} differs from {header_unit!r}")
             header_unit = match.group(1)
             continue
         line = line.split("#", 1)[0].strip()
