@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy import integrate, stats
+from scipy.spatial import cKDTree
 
 from score4.errors import ConfigError
 from score4.source.depth import (
@@ -372,6 +373,57 @@ def test_bad_confinement_callable_is_reported():
         sampler.sample(np.random.default_rng(0), 10)
 
 
+def periodic_height_map(n: int, sq: float, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """A smooth random periodic height field on [0, 1]^2 (n x n cells, 2 triangles each)."""
+    k2 = np.fft.fftfreq(n)[:, None] ** 2 + np.fft.fftfreq(n)[None, :] ** 2
+    z = np.real(np.fft.ifft2(np.fft.fft2(rng.normal(size=(n, n))) * np.exp(-20 * k2)))
+    z = np.pad(z * sq / z.std(), ((0, 1), (0, 1)), mode="wrap")
+    i, j = (g.ravel() for g in np.meshgrid(np.arange(n), np.arange(n), indexing="ij"))
+    corner = lambda a, b: np.c_[a / n, b / n, z[a, b]]  # noqa: E731
+    q00, q10, q11, q01 = corner(i, j), corner(i + 1, j), corner(i + 1, j + 1), corner(i, j + 1)
+    return np.concatenate([np.stack([q00, q10, q11], 1), np.stack([q00, q11, q01], 1)]), z
+
+
+def test_distance_vertices_are_uniform_on_the_level_sets_of_a_rough_height_map():
+    # Independent check of the whole construction (facet, edge and vertex pieces, trimming):
+    # points uniform in the volume, kept when inside the material and in the thin shell
+    # d0 <= dist <= d0 + eps, are uniform on the level sets too (up to the O(eps) change of
+    # |L_t| across the shell). Two-sample KS tests on coordinates and on the distance to the
+    # nearest mesh vertex (sensitive to the edge and vertex pieces), p > 0.001.
+    rng = np.random.default_rng(7)
+    n, d0, eps = 8, 0.06, 0.01
+    tri, z = periodic_height_map(n, 0.12, rng)
+    sampler = VertexSampler(SurfaceSampler(tri), UniformProfile(d0, d0 + eps), definition="distance", period=(1.0, 1.0))
+    assert sampler.offset_surfaces[0].n_vertex_cones > 5
+    v = sampler.sample(rng, 20_000)
+    ours = v.position
+    ours[:, :2] %= 1.0
+    md = MeshDistance(tri, period=(1.0, 1.0))
+    m = 200_000
+    q = np.c_[rng.random((m, 2)), z.min() - d0 - eps + rng.random(m) * (np.ptp(z) + eps)]
+    q = q[md.any_within(q, d0 + eps) & ~md.any_within(q, d0)]
+    u, w = q[:, 0] * n, q[:, 1] * n  # material = below the triangulated height
+    a, b = np.floor(u).astype(int), np.floor(w).astype(int)
+    fu, fw = u - a, w - b
+    z00, z10, z11, z01 = z[a, b], z[a + 1, b], z[a + 1, b + 1], z[a, b + 1]
+    h = np.where(fu >= fw, z00 + fu * (z10 - z00) + fw * (z11 - z10), z00 + fw * (z01 - z00) + fu * (z11 - z01))
+    reference = q[q[:, 2] < h]
+    assert len(reference) > 3000
+    vertices = tri.reshape(-1, 3)
+    images = np.concatenate([vertices + [dx, dy, 0] for dx in (-1, 0, 1) for dy in (-1, 0, 1)])
+    to_vertex = lambda p: cKDTree(images).query(p)[0]  # noqa: E731
+    for stat in (lambda p: p[:, 0], lambda p: p[:, 1], lambda p: p[:, 2], to_vertex):
+        assert stats.ks_2samp(stat(ours[:5000]), stat(reference)).pvalue > P_MIN
+    # share of points whose closest surface point is a mesh vertex (the vertex pieces)
+    at_vertex = [
+        int((np.abs(to_vertex(ours) - v.depth) <= 1e-9).sum()),
+        int((np.abs(to_vertex(reference) - md.distance(reference)[0]) <= 1e-9).sum()),
+    ]
+    table = [at_vertex, [len(ours) - at_vertex[0], len(reference) - at_vertex[1]]]
+    assert min(at_vertex) > 20
+    assert stats.chi2_contingency(table).pvalue > P_MIN
+
+
 # ---------------------------------------------------------------- periodic tiles and tiled faces
 
 
@@ -412,3 +464,11 @@ def test_non_manifold_or_misoriented_meshes_are_refused_for_distance():
     fan = np.array([[[0, 0, 0], [1, 0, 0], [0, 1, z]] for z in (0.0, 0.5, 1.0)], float)
     with pytest.raises(ConfigError, match="more than two faces"):
         OffsetSurface(fan)
+
+
+def test_lengths_may_be_given_with_units():
+    assert ExponentialProfile("20 nm").mean == pytest.approx(20 * nm)
+    assert UniformProfile("10 nm", "0.1 um").hi == pytest.approx(100 * nm)
+    assert MultiExponentialProfile([1, 1], ["5 nm", 0.001]).means == pytest.approx([5 * nm, 1e-3])
+    with pytest.raises(ConfigError, match="mean: .* has no unit"):
+        ExponentialProfile("20")

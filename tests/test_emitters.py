@@ -210,3 +210,9 @@ def test_make_primaries_carries_the_vertex_columns():
     np.testing.assert_array_equal(two.extra["depth"], np.repeat(depth, 2))
     with pytest.raises(ConfigError, match="depth"):
         make_primaries(Po210Emitter(), rng, rng.random((n, 3)), depth=depth[:-1])
+
+
+def test_energy_may_be_given_with_a_unit():
+    assert ParticleEmitter("alpha", "5.3 MeV").energy.energy == pytest.approx(5.3)
+    with pytest.raises(ConfigError, match="energy"):
+        ParticleEmitter("alpha", "5.3 parsec")

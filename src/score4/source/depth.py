@@ -75,6 +75,7 @@ from scipy.spatial import cKDTree
 from scipy.special import ndtr, ndtri
 
 from ..errors import ConfigError
+from ..units import parse_quantity
 from .sampling import (
     DiscreteSampler,
     PiecewiseLinear,
@@ -110,8 +111,18 @@ Confinement = Callable[[np.ndarray], np.ndarray]
 # --------------------------------------------------------------------------------------------
 
 
-def _positive(value: float, name: str) -> float:
-    value = float(value)
+def _length(value: float | str, name: str) -> float:
+    """A length in mm from a float (mm) or a string with a unit (``"20 nm"``)."""
+    if isinstance(value, str):
+        return parse_quantity(value, "length", name)
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{name}: expected a length in mm or a string like '20 nm', got {value!r}") from None
+
+
+def _positive(value: float | str, name: str) -> float:
+    value = _length(value, name)
     if not (np.isfinite(value) and value > 0):
         raise ConfigError(f"{name}: got {value!r} mm; must be a finite length > 0")
     return value
@@ -119,7 +130,7 @@ def _positive(value: float, name: str) -> float:
 
 def _check_window(lo: float, hi: float, names: tuple[str, str] = ("min_depth", "max_depth")) -> tuple[float, float]:
     """Validate a depth window ``0 <= lo <= hi`` (``hi`` may be infinite)."""
-    lo, hi = float(lo), float(hi)
+    lo, hi = _length(lo, names[0]), _length(hi, names[1])
     if not np.isfinite(lo) or lo < 0:
         raise ConfigError(f"{names[0]}: got {lo!r} mm; must be a finite length >= 0")
     if np.isnan(hi) or hi < lo:
@@ -219,9 +230,9 @@ class TableProfile(DepthProfile):
 
 
 class ExponentialProfile(DepthProfile):
-    """Density ``exp(-d / mean) / mean``."""
+    """Density ``exp(-d / mean) / mean``; ``mean`` in mm or as a string with a unit."""
 
-    def __init__(self, mean: float) -> None:
+    def __init__(self, mean: float | str) -> None:
         self.mean = _positive(mean, "mean")
 
     def pdf(self, d: ArrayLike) -> np.ndarray:
@@ -254,7 +265,7 @@ class MultiExponentialProfile(DepthProfile):
 
     def __init__(self, weights: ArrayLike, means: ArrayLike) -> None:
         w = np.asarray(weights, dtype=float).ravel()
-        m = np.asarray(means, dtype=float).ravel()
+        m = np.array([_length(v, f"means[{i}]") for i, v in enumerate(np.atleast_1d(np.asarray(means, dtype=object)).ravel())])
         if len(w) != len(m) or len(w) == 0:
             raise ConfigError(f"weights / means: need the same non-zero number of each, got {len(w)} and {len(m)}")
         for i, mean in enumerate(m):
@@ -281,12 +292,12 @@ class MultiExponentialProfile(DepthProfile):
 
 
 class UniformProfile(DepthProfile):
-    """Uniform depth between ``min`` and ``max`` (mm)."""
+    """Uniform depth between ``min`` and ``max`` (mm, or strings with a unit)."""
 
-    def __init__(self, min: float, max: float) -> None:
+    def __init__(self, min: float | str, max: float | str) -> None:
         self.lo, self.hi = _check_window(min, max, ("min", "max"))
         if not (np.isfinite(self.hi) and self.hi > self.lo):
-            raise ConfigError(f"uniform max: got {max!r} mm; must be finite and > min {min!r} mm")
+            raise ConfigError(f"max: got {max!r}; must be finite and > min {min!r}")
 
     def pdf(self, d: ArrayLike) -> np.ndarray:
         d = np.asarray(d, dtype=float)
@@ -301,10 +312,15 @@ class UniformProfile(DepthProfile):
 
 
 class TruncatedGaussianProfile(DepthProfile):
-    """Gaussian of ``mean`` and ``sigma`` restricted to ``[lower, upper]`` (default ``[0, inf)``)."""
+    """Gaussian of ``mean`` and ``sigma`` restricted to ``[lower, upper]`` (default ``[0, inf)``).
 
-    def __init__(self, mean: float, sigma: float, lower: float = 0.0, upper: float = np.inf) -> None:
-        self.mean = float(mean)
+    Lengths in mm, or strings with a unit.
+    """
+
+    def __init__(
+        self, mean: float | str, sigma: float | str, lower: float | str = 0.0, upper: float | str = np.inf
+    ) -> None:
+        self.mean = _length(mean, "mean")
         if not np.isfinite(self.mean) or self.mean < 0:
             raise ConfigError(f"mean: got {mean!r} mm; must be a finite depth >= 0")
         self.sigma = _positive(sigma, "sigma")

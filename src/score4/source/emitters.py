@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import ConfigError
+from ..units import parse_quantity
 from .primaries import Primaries
 from .sampling import Histogram, PiecewiseLinear, orthonormal_basis, read_table
 
@@ -268,13 +269,18 @@ class ParticleEmitter:
     particle
         Geant4 particle name or ion name (normalised, e.g. ``"Po-210"`` -> ``"Po210"``).
     energy
-        Kinetic energy in MeV, or a :class:`Monoenergetic` / :class:`EnergySpectrum`.
+        Kinetic energy in MeV (or a string such as ``"5.3 MeV"``), or a
+        :class:`Monoenergetic` / :class:`EnergySpectrum`.
     direction
         One of ``isotropic``, ``inward``, ``outward``, ``cosine_inward``, ``cosine_outward``.
     """
 
-    def __init__(self, particle: str, energy: float | Monoenergetic | EnergySpectrum, direction: DirectionKind = "isotropic") -> None:
+    def __init__(
+        self, particle: str, energy: float | str | Monoenergetic | EnergySpectrum, direction: DirectionKind = "isotropic"
+    ) -> None:
         self.particle = normalise_particle(particle)
+        if isinstance(energy, str):
+            energy = parse_quantity(energy, "energy", "energy")
         self.energy = energy if isinstance(energy, (Monoenergetic, EnergySpectrum)) else Monoenergetic(float(energy))
         self.direction = _check_direction(direction)
 
