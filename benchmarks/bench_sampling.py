@@ -11,15 +11,15 @@ import os
 os.environ.setdefault("OMP_NUM_THREADS", "1")  # per-core figures: keep BLAS single-threaded
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import argparse  # noqa: E402
-import time  # noqa: E402
+import argparse
+import time
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from score4.source.depth import ExponentialProfile, MeshDistance, VertexSampler  # noqa: E402
-from score4.source.emitters import Po210Emitter, make_primaries  # noqa: E402
-from score4.source.sampling import SurfaceSampler, TiledSurfaceSampler  # noqa: E402
-from score4.units import nm, um  # noqa: E402
+from score4.source.depth import ExponentialProfile, MeshDistance, VertexSampler
+from score4.source.emitters import Po210Emitter, make_primaries
+from score4.source.sampling import SurfaceSampler, TiledSurfaceSampler
+from score4.units import nm, um
 
 
 def pyramid_grid(n_side: int, pitch: float, rng: np.random.Generator) -> np.ndarray:
@@ -85,7 +85,7 @@ def main() -> None:
     parser.add_argument("--distance-vertices", type=int, default=100_000)
     args = parser.parse_args()
     rng = np.random.default_rng(1)
-    n_side = int(round(np.sqrt(args.facets / 4)))
+    n_side = round(np.sqrt(args.facets / 4))
     tri = pyramid_grid(n_side, 1 * um, rng)
     profile = ExponentialProfile(30 * nm)
     print(f"surface: {len(tri):,} facets ({n_side}x{n_side} pyramids, pitch 1 um, height 1 um +- 20 %)")
@@ -102,7 +102,7 @@ def main() -> None:
     print(f"+ Po-210 primaries (2/event)   {t:8.3f} s   {args.vertices / t / 1e6:6.2f} M events/s")
 
     bench_distance("pyramids", tri, profile, args.distance_vertices, rng)
-    hm = height_map_mesh(int(round(np.sqrt(args.facets / 2))), 0.1 * um, rng)
+    hm = height_map_mesh(round(np.sqrt(args.facets / 2)), 0.1 * um, rng)
     print(f"\nheight map: {len(hm):,} facets, pitch 0.1 um, Sq 50 nm, correlation ~0.3 um")
     bench_distance("height map", hm, profile, args.distance_vertices, rng)
 

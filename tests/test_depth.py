@@ -237,6 +237,9 @@ def test_mesh_distance_equals_brute_force(period, brute_max):
     md = MeshDistance(tri, period=period, chunk=64, brute_max=brute_max)  # small chunks: batching
     dist, index = md.distance(points)
     np.testing.assert_allclose(dist, brute, rtol=1e-12)
+    if period is None:  # the reported triangle is a nearest one
+        q = closest_points_on_triangles(points, tri[index, 0], tri[index, 1], tri[index, 2])
+        np.testing.assert_allclose(np.linalg.norm(points - q, axis=1), dist, rtol=1e-12)
     radius = brute * rng.uniform(0.5, 1.5, len(points))
     np.testing.assert_array_equal(md.any_within(points, radius), brute < radius)
 
@@ -299,9 +302,9 @@ def test_pit_level_sets_have_the_steiner_pieces():
     area = 4 * w * w * np.sqrt(1 + s * s)
     edge = 4 * np.arccos(1 / (1 + s * s)) * w * np.sqrt(2 + s * s)
     omega = 4 * np.arcsin(s * s / (s * s + 2))
-    total = lambda d: area + edge * d + omega * d * d  # noqa: E731
+    total = lambda d: area + edge * d + omega * d * d
     parts = [lambda d: area, lambda d: edge * d, lambda d: omega * d * d]
-    expected = np.array([integrate.quad(lambda d: f(d) / total(d), 0, depth)[0] / depth for f in parts])
+    expected = np.array([integrate.quad(lambda d, f=f: f(d) / total(d), 0, depth)[0] / depth for f in parts])
     v = VertexSampler(SurfaceSampler(tri), UniformProfile(0, depth), definition="distance").sample(np.random.default_rng(33), N)
     p, d = v.position, v.depth
     on_vertex = np.abs(np.linalg.norm(p, axis=1) - d) <= 1e-9 * d + 1e-12
@@ -343,7 +346,7 @@ def test_normal_depth_on_pyramids_overlaps_under_ridges():
 @pytest.mark.parametrize("definition", ["normal", "distance"])
 def test_no_vertex_violates_the_depth_window_or_the_confinement(definition):
     lo, hi = 0.05, 0.3
-    inside = lambda p: (p[:, 0] < 2.5) & (p[:, 1] > 0.7)  # noqa: E731
+    inside = lambda p: (p[:, 0] < 2.5) & (p[:, 1] > 0.7)
     sampler = VertexSampler(
         SurfaceSampler(ROUGH), ExponentialProfile(0.1), definition=definition, min_depth=lo, max_depth=hi, inside=inside
     )
@@ -379,7 +382,7 @@ def periodic_height_map(n: int, sq: float, rng: np.random.Generator) -> tuple[np
     z = np.real(np.fft.ifft2(np.fft.fft2(rng.normal(size=(n, n))) * np.exp(-20 * k2)))
     z = np.pad(z * sq / z.std(), ((0, 1), (0, 1)), mode="wrap")
     i, j = (g.ravel() for g in np.meshgrid(np.arange(n), np.arange(n), indexing="ij"))
-    corner = lambda a, b: np.c_[a / n, b / n, z[a, b]]  # noqa: E731
+    corner = lambda a, b: np.c_[a / n, b / n, z[a, b]]
     q00, q10, q11, q01 = corner(i, j), corner(i + 1, j), corner(i + 1, j + 1), corner(i, j + 1)
     return np.concatenate([np.stack([q00, q10, q11], 1), np.stack([q00, q11, q01], 1)]), z
 
@@ -411,7 +414,7 @@ def test_distance_vertices_are_uniform_on_the_level_sets_of_a_rough_height_map()
     assert len(reference) > 3000
     vertices = tri.reshape(-1, 3)
     images = np.concatenate([vertices + [dx, dy, 0] for dx in (-1, 0, 1) for dy in (-1, 0, 1)])
-    to_vertex = lambda p: cKDTree(images).query(p)[0]  # noqa: E731
+    to_vertex = lambda p: cKDTree(images).query(p)[0]
     for stat in (lambda p: p[:, 0], lambda p: p[:, 1], lambda p: p[:, 2], to_vertex):
         assert stats.ks_2samp(stat(ours[:5000]), stat(reference)).pvalue > P_MIN
     # share of points whose closest surface point is a mesh vertex (the vertex pieces)

@@ -198,14 +198,14 @@ def test_tiled_face_rotation_moves_points_and_normals():
 @pytest.mark.parametrize(
     "kwargs, match",
     [
-        (dict(layout=[[0, 3]]), "layout"),
-        (dict(layout=[[0.5, 1]]), "layout"),
-        (dict(pitch=(0.0, 1.0)), "pitch"),
-        (dict(rotation=np.diag([1.0, 1.0, -1.0])), "rotation"),
+        ({"layout": [[0, 3]]}, "layout"),
+        ({"layout": [[0.5, 1]]}, "layout"),
+        ({"pitch": (0.0, 1.0)}, "pitch"),
+        ({"rotation": np.diag([1.0, 1.0, -1.0])}, "rotation"),
     ],
 )
 def test_tiled_face_rejects_bad_input(kwargs, match):
-    args = dict(variants=[flat_patch(1, 1)], layout=[[0, 0]], pitch=(1.0, 1.0)) | kwargs
+    args = {"variants": [flat_patch(1, 1)], "layout": [[0, 0]], "pitch": (1.0, 1.0)} | kwargs
     with pytest.raises(ConfigError, match=match):
         TiledSurfaceSampler(**args)
 

@@ -63,19 +63,26 @@ DIRECTIONS: tuple[str, ...] = ("isotropic", "inward", "outward", "cosine_inward"
 # Particle and nuclide names
 # --------------------------------------------------------------------------------------------
 
-ELEMENTS: tuple[str, ...] = tuple(
-    "H He Li Be B C N O F Ne Na Mg Al Si P S Cl Ar K Ca Sc Ti V Cr Mn Fe Co Ni Cu Zn Ga Ge As Se "
-    "Br Kr Rb Sr Y Zr Nb Mo Tc Ru Rh Pd Ag Cd In Sn Sb Te I Xe Cs Ba La Ce Pr Nd Pm Sm Eu Gd Tb "
-    "Dy Ho Er Tm Yb Lu Hf Ta W Re Os Ir Pt Au Hg Tl Pb Bi Po At Rn Fr Ra Ac Th Pa U Np Pu Am Cm "
-    "Bk Cf Es Fm Md No Lr Rf Db Sg Bh Hs Mt Ds Rg Cn Nh Fl Mc Lv Ts Og".split()
+ELEMENTS: tuple[str, ...] = (
+    "H", "He", "Li", "Be", "B", "C", "N", "O", "F", "Ne", "Na", "Mg", "Al", "Si", "P", "S",
+    "Cl", "Ar", "K", "Ca", "Sc", "Ti", "V", "Cr", "Mn", "Fe", "Co", "Ni", "Cu", "Zn", "Ga",
+    "Ge", "As", "Se", "Br", "Kr", "Rb", "Sr", "Y", "Zr", "Nb", "Mo", "Tc", "Ru", "Rh", "Pd",
+    "Ag", "Cd", "In", "Sn", "Sb", "Te", "I", "Xe", "Cs", "Ba", "La", "Ce", "Pr", "Nd", "Pm",
+    "Sm", "Eu", "Gd", "Tb", "Dy", "Ho", "Er", "Tm", "Yb", "Lu", "Hf", "Ta", "W", "Re", "Os",
+    "Ir", "Pt", "Au", "Hg", "Tl", "Pb", "Bi", "Po", "At", "Rn", "Fr", "Ra", "Ac", "Th", "Pa",
+    "U", "Np", "Pu", "Am", "Cm", "Bk", "Cf", "Es", "Fm", "Md", "No", "Lr", "Rf", "Db", "Sg",
+    "Bh", "Hs", "Mt", "Ds", "Rg", "Cn", "Nh", "Fl", "Mc", "Lv", "Ts", "Og",
 )
 _Z = {symbol.lower(): z for z, symbol in enumerate(ELEMENTS, start=1)}
 
 # Geant4 particle names accepted as they are (ions are written element + mass number)
 PARTICLES: frozenset[str] = frozenset(
-    "gamma e- e+ mu- mu+ alpha proton neutron deuteron triton He3 geantino chargedgeantino "
-    "opticalphoton pi+ pi- pi0 kaon+ kaon- kaon0L anti_proton anti_neutron nu_e anti_nu_e "
-    "nu_mu anti_nu_mu".split()
+    (
+        "gamma", "e-", "e+", "mu-", "mu+", "alpha", "proton", "neutron", "deuteron", "triton",
+        "He3", "geantino", "chargedgeantino", "opticalphoton", "pi+", "pi-", "pi0", "kaon+",
+        "kaon-", "kaon0L", "anti_proton", "anti_neutron", "nu_e", "anti_nu_e", "nu_mu",
+        "anti_nu_mu",
+    )
 )
 
 _NUCLIDE = re.compile(r"^\s*(?:([A-Za-z]{1,2})-?(\d{1,3})|(\d{1,3})-?([A-Za-z]{1,2}))\s*$")

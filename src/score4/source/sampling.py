@@ -20,9 +20,9 @@ normalised, i.e. faces are wound counter-clockwise seen from outside (from the v
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
