@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy import stats
+from scipy import integrate, stats
 
 from score4.errors import ConfigError
 from score4.source.sampling import (
@@ -219,7 +219,7 @@ def test_piecewise_linear_inverse_is_exact_on_uneven_spacing():
     np.testing.assert_allclose(law.cdf(law.ppf(q)), q, atol=1e-12)
     # the CDF is the integral of the PDF (trapezoid with many points is exact to ~1e-7 here)
     x = np.linspace(0, 3, 300_001)
-    np.testing.assert_allclose(np.trapezoid(law.pdf(x), x), 1.0, rtol=1e-6)
+    np.testing.assert_allclose(integrate.trapezoid(law.pdf(x), x), 1.0, rtol=1e-6)
 
 
 def test_piecewise_linear_truncated_sampling_stays_in_window_and_follows_the_pdf():
