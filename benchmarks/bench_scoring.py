@@ -32,7 +32,7 @@ def measure(method: str, n: int) -> dict:
     from score4.sim import scoring
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
-    from score4.source.build import make_primaries
+    from score4.source.build import config_primaries
 
     config = parse_config(CONFIG)
     if method != "mfd":  # replace the C++ scorer by a Python one
@@ -69,7 +69,7 @@ def measure(method: str, n: int) -> dict:
 
         sim._stepping = Stepping()
         sim.run_manager.SetUserAction(sim._stepping)
-    primaries = make_primaries(config, np.random.default_rng(1), n)
+    primaries = config_primaries(config, np.random.default_rng(1), n)
     sim.run(primaries, 1, batch=n)  # warm-up (physics tables)
     t0 = time.perf_counter()
     scores = sim.run(primaries, 2, batch=n)

@@ -4,6 +4,34 @@ Nothing in this package imports Geant4; the simulation layer turns :class:`Prima
 Geant4 primary vertices.
 """
 
+from .depth import (
+    ExponentialProfile,
+    MultiExponentialProfile,
+    TableProfile,
+    TruncatedGaussianProfile,
+    UniformProfile,
+    VertexSampler,
+    Vertices,
+    ZeroDepth,
+)
+from .emitters import NuclideEmitter, ParticleEmitter, Po210Emitter, make_primaries
 from .primaries import Primaries
+from .sampling import SurfaceSampler, TiledSurfaceSampler
 
-__all__ = ["Primaries"]
+__all__ = [
+    "Primaries",
+    "SurfaceSampler",
+    "TiledSurfaceSampler",
+    "VertexSampler",
+    "Vertices",
+    "ExponentialProfile",
+    "MultiExponentialProfile",
+    "TableProfile",
+    "TruncatedGaussianProfile",
+    "UniformProfile",
+    "ZeroDepth",
+    "ParticleEmitter",
+    "Po210Emitter",
+    "NuclideEmitter",
+    "make_primaries",
+]

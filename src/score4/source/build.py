@@ -5,19 +5,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..config import RunConfig
+from .emitters import isotropic_directions
 from .faces import box_face
 from .primaries import Primaries
 
 
-def isotropic_directions(rng: np.random.Generator, n: int) -> np.ndarray:
-    """Unit vectors uniform on the sphere (uniform cos(theta) and phi)."""
-    cos_t = rng.uniform(-1.0, 1.0, n)
-    phi = rng.uniform(0.0, 2.0 * np.pi, n)
-    sin_t = np.sqrt(1.0 - cos_t**2)
-    return np.column_stack([sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t])
-
-
-def make_primaries(config: RunConfig, rng: np.random.Generator, n_events: int) -> Primaries:
+def config_primaries(config: RunConfig, rng: np.random.Generator, n_events: int) -> Primaries:
     """One primary per event, uniform on the configured box face."""
     src = config.source
     target = config.target(src.surface.volume)
