@@ -121,3 +121,30 @@ def test_results_reader_rejects_other_files(tmp_path: Path):
     (tmp_path / "text.h5").write_text("hello")
     with pytest.raises(Score4Error, match="not an HDF5 file"):
         read_results(tmp_path / "text.h5")
+
+
+def test_resume_reuses_only_chunks_of_the_same_run(tmp_path: Path, make_config):
+    from score4.output import write_chunk
+    from score4.sim.engine import config_fingerprint
+    from score4.sim.worker import chunk_path
+    from score4.source.primaries import Primaries
+
+    config = make_config(run={"events": 30, "seed": 9, "chunk_events": 10})
+    out = tmp_path / "r.h5"
+    parts = tmp_path / "r.h5.parts"
+    parts.mkdir()
+
+    def planted(first_event, fingerprint, marker):
+        p = Primaries(np.arange(10), ["alpha"] * 10, [5.3] * 10, np.zeros((10, 3)), [[0, 0, -1.0]] * 10)
+        edep = {"edep": np.full((10, 1), marker)}
+        write_chunk(chunk_path(parts, first_event // 10), first_event, ["crystal"], edep, p, fingerprint)
+
+    planted(0, config_fingerprint(config, 9), 123.0)  # a finished chunk of this very run: kept
+    planted(10, "another-run", 456.0)  # left over from a different configuration: redone
+    with pytest.raises(ConfigError, match="--resume"):
+        run(config, out, progress=False, echo=lambda m: None)
+    res = read_results(run(config, out, resume=True, progress=False, echo=lambda m: None))
+    edep = res.edep["crystal"]
+    assert (edep[:10] == 123.0).all()
+    assert not (edep[10:] == 456.0).any() and (edep[10:] <= 5.3 + 1e-9).all()
+    assert not parts.exists()

@@ -77,15 +77,18 @@ def _read_primaries(group: h5py.Group) -> Primaries:
 
 
 def write_chunk(
-    path: Path, first_event: int, volumes: list[str], scores: dict[str, np.ndarray], primaries: Primaries
+    path: Path, first_event: int, volumes: list[str], scores: dict[str, np.ndarray], primaries: Primaries,
+    fingerprint: str = "",
 ) -> None:
     """Write one finished chunk (events ``first_event ...``) atomically.
 
-    ``scores`` maps a quantity ("edep", "track_length") to an (n_events, n_volumes) array.
+    ``scores`` maps a quantity ("edep", "track_length") to an (n_events, n_volumes) array;
+    ``fingerprint`` identifies the configuration and seed, so a resume never mixes runs.
     """
     n = primaries.n_events
     with atomic_h5(path) as f:
         f.attrs["first_event"] = first_event
+        f.attrs["fingerprint"] = fingerprint
         ev = f.create_group("events")
         ev.attrs["quantities"] = json.dumps(list(scores))
         ev.create_dataset("event_id", data=first_event + np.arange(n, dtype=np.int64))

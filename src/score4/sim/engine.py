@@ -66,7 +66,7 @@ def _finished_chunks(parts: Path, chunks: list[Chunk], fingerprint: str) -> set[
         path = chunk_path(parts, c.index)
         if path.exists():
             with h5py.File(path, "r") as f:
-                if f.attrs.get("first_event") == c.first_event and f.attrs.get("fingerprint", fingerprint) == fingerprint:
+                if f.attrs.get("first_event") == c.first_event and f.attrs.get("fingerprint") == fingerprint:
                     done.add(c.index)
     return done
 
@@ -134,14 +134,11 @@ def run(
     total = sum(c.n_events for c in chunks)
     already = sum(c.n_events for c in chunks if c.index in done)
     try:
-        info = _execute(WorkerSpec(config, choice, seed, parts), todo, jobs, total, already, progress)
+        info = _execute(WorkerSpec(config, choice, seed, parts, fingerprint), todo, jobs, total, already, progress)
     except BaseException:
         if not any(parts.glob("chunk-*.h5")):  # nothing worth resuming: leave no trace
             shutil.rmtree(parts, ignore_errors=True)
         raise
-    for c in todo:  # stamp what each chunk was made from, for a later resume
-        with h5py.File(chunk_path(parts, c.index), "a") as f:
-            f.attrs["fingerprint"] = fingerprint
     record = {
         "config": config_to_dict(config),
         "seed": seed,

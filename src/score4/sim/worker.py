@@ -33,6 +33,7 @@ class WorkerSpec:
     choice: PhysicsChoice
     seed: int
     parts_dir: Path
+    fingerprint: str
 
 
 def chunk_path(parts_dir: Path, index: int) -> Path:
@@ -44,7 +45,7 @@ def run_chunk(sim, spec: WorkerSpec, chunk: Chunk, progress=None) -> Path:
     primaries = config_primaries(spec.config, chunk_rng(spec.seed, chunk.index), chunk.n_events)
     scores = sim.run(primaries, chunk_geant4_seed(spec.seed, chunk.index), progress=progress)
     path = chunk_path(spec.parts_dir, chunk.index)
-    write_chunk(path, chunk.first_event, sim.volumes, scores, primaries)
+    write_chunk(path, chunk.first_event, sim.volumes, scores, primaries, spec.fingerprint)
     return path
 
 
