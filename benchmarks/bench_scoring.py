@@ -57,7 +57,7 @@ def measure(method: str, n: int) -> dict:
         scoring.VolumeScorer.attach = attach
         scoring.VolumeScorer.resolve_ids = lambda self: None
         scoring.VolumeScorer.read = read
-    sim = Simulation(config, resolve_physics("lite"), log_path=None if method else None)
+    sim = Simulation(config, resolve_physics("lite"), log_path=None)
     if method == "stepping":
         g4 = sim.g4
         crystal = sim.geometry.scoring["crystal"][0]

@@ -88,9 +88,7 @@ def prepare_environment(choice: PhysicsChoice) -> None:
 
     if "geant4_pybind" in sys.modules:
         return
-    for st in datasets.status():
-        if st.path is not None:
-            os.environ[st.envvar] = str(st.path)
+    os.environ.update(datasets.geant4_env(datasets.status()))
     if choice.mode == "lite":
         stub = lite_stub_dir()
         # The ion table reads ENSDFSTATE and de-excitation checks PhotonEvaporation at start-up;
