@@ -5,6 +5,7 @@ from __future__ import annotations
 import copy
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from score4.config import parse_config
@@ -33,3 +34,21 @@ def config_dict(**sections) -> dict:
 @pytest.fixture
 def make_config():
     return lambda **sections: parse_config(config_dict(**sections))
+
+
+def pyramid_triangles(nx: int, ny: int, pitch: float = 1.0, heights=1.0) -> np.ndarray:
+    """(4 nx ny, 3, 3) upward-facing triangles of square pyramids on an nx x ny grid.
+
+    ``heights`` is a scalar or an (nx, ny) array; pyramid (i, j) has its base corner at
+    (i * pitch, j * pitch).
+    """
+    heights = np.broadcast_to(np.asarray(heights, dtype=float), (nx, ny))
+    tris = []
+    for i in range(nx):
+        for j in range(ny):
+            x0, y0 = i * pitch, j * pitch
+            a, b = [x0, y0, 0], [x0 + pitch, y0, 0]
+            c, d = [x0 + pitch, y0 + pitch, 0], [x0, y0 + pitch, 0]
+            top = [x0 + pitch / 2, y0 + pitch / 2, heights[i, j]]
+            tris += [[a, b, top], [b, c, top], [c, d, top], [d, a, top]]
+    return np.array(tris)

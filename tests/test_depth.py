@@ -26,6 +26,8 @@ from score4.source.depth import (
 from score4.source.sampling import SurfaceSampler, TiledSurfaceSampler
 from score4.units import nm
 
+from conftest import pyramid_triangles
+
 N = 200_000
 P_MIN = 1e-3
 
@@ -39,16 +41,7 @@ def flat_face(size: float = 10.0) -> np.ndarray:
 
 
 def pyramids(nx: int, ny: int, heights, pitch: float = 1.0) -> np.ndarray:
-    heights = np.broadcast_to(np.asarray(heights, dtype=float), (nx, ny))
-    tris = []
-    for i in range(nx):
-        for j in range(ny):
-            x0, y0 = i * pitch, j * pitch
-            a, b = [x0, y0, 0], [x0 + pitch, y0, 0]
-            c, d = [x0 + pitch, y0 + pitch, 0], [x0, y0 + pitch, 0]
-            top = [x0 + pitch / 2, y0 + pitch / 2, heights[i, j]]
-            tris += [[a, b, top], [b, c, top], [c, d, top], [d, a, top]]
-    return np.array(tris)
+    return pyramid_triangles(nx, ny, pitch, heights)
 
 
 def v_groove(slope: float, half_width: float, length: float, ridge: bool = False) -> np.ndarray:

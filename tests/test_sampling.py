@@ -21,22 +21,15 @@ from score4.source.sampling import (
     triangle_normals,
 )
 
+from conftest import pyramid_triangles
+
 N = 200_000
 P_MIN = 1e-3
 
 
 def pyramid_patch(nx: int, ny: int, pitch: float = 1.0, heights=None) -> np.ndarray:
-    """Square pyramids on an nx x ny grid, 4 upward-facing triangles each."""
-    heights = np.ones((nx, ny)) if heights is None else np.asarray(heights, dtype=float)
-    tris = []
-    for i in range(nx):
-        for j in range(ny):
-            x0, y0 = i * pitch, j * pitch
-            a, b = [x0, y0, 0], [x0 + pitch, y0, 0]
-            c, d = [x0 + pitch, y0 + pitch, 0], [x0, y0 + pitch, 0]
-            top = [x0 + pitch / 2, y0 + pitch / 2, heights[i, j]]
-            tris += [[a, b, top], [b, c, top], [c, d, top], [d, a, top]]
-    return np.array(tris)
+    """Square pyramids on an nx x ny grid (unit height unless given), 4 triangles each."""
+    return pyramid_triangles(nx, ny, pitch, 1.0 if heights is None else heights)
 
 
 def flat_patch(px: float, py: float) -> np.ndarray:
