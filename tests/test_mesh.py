@@ -7,6 +7,8 @@ import os
 import numpy as np
 import pytest
 
+from score4.errors import Score4Error
+
 from score4.errors import ConfigError
 from score4.surface.heightmap import HeightMap
 from score4.surface.mesh import (
@@ -224,6 +226,6 @@ def test_writer_failure_leaves_no_file(tmp_path, monkeypatch):
         raise OSError("disk full")
 
     monkeypatch.setattr(os, "replace", broken_replace)
-    with pytest.raises(OSError, match="disk full"):
+    with pytest.raises(Score4Error, match="cannot write .*body.ply.*disk full"):
         write_ply(mesh, path)
     assert os.listdir(tmp_path) == []

@@ -1,8 +1,6 @@
 """Lite physics (no Geant4 data sets): alpha transport in silicon against NIST ASTAR."""
 
-from pathlib import Path
 
-import numpy as np
 import pytest
 
 from score4.output import read_results

@@ -6,7 +6,7 @@ import h5py
 import numpy as np
 import pytest
 
-from score4.config import load_config
+from score4.config import load_config, parse_config
 from score4.errors import ConfigError, Score4Error
 from score4.output import read_results, summarize
 from score4.sim.engine import run
@@ -53,7 +53,8 @@ def test_run_record_and_summary(tmp_path: Path, make_config):
     assert rec["seed"] == 3 and rec["n_events"] == 50
     assert rec["physics_mode"] == "lite" and "no radioactive decay" in rec["physics_lacks"]
     assert rec["geant4_version"].startswith("11.") and rec["geant4_pybind_version"]
-    assert rec["config"]["source"]["energy"] == pytest.approx(5.3)
+    assert rec["config"]["source"]["energy"] == "5.3 MeV"  # stored with units: parse_config reads it back
+    assert parse_config(rec["config"]).source.energy == pytest.approx(5.3)
     assert rec["wall_time_s"] > 0
     s = summarize(res)
     (vol,) = s["volumes"]

@@ -9,34 +9,18 @@ that names the file, the key path, the value and the rule.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Literal
 
 import yaml
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import Field, ValidationError, field_validator, model_validator
 
 from .errors import ConfigError
-from .units import parse_quantity
-
-
-def _quantity(dimension: str):
-    return BeforeValidator(lambda v: parse_quantity(v, dimension))
-
-
-Length = Annotated[float, _quantity("length")]
-Energy = Annotated[float, _quantity("energy")]
-PositiveLength = Annotated[float, _quantity("length"), Field(gt=0)]
-PositiveEnergy = Annotated[float, _quantity("energy"), Field(gt=0)]
-Vector3 = tuple[Length, Length, Length]
-Size3 = tuple[PositiveLength, PositiveLength, PositiveLength]
+from .schema import PositiveEnergy, PositiveLength, Size3, StrictModel, Vector3, describe_validation_error
 
 FACES = ("+x", "-x", "+y", "-y", "+z", "-z")
 
 
-class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-class BoxVolume(_Model):
+class BoxVolume(StrictModel):
     """A box-shaped volume: full edge lengths, centre position in the world."""
 
     name: str = Field(min_length=1, pattern=r"^[A-Za-z_][A-Za-z0-9_\-]*$")
@@ -45,19 +29,19 @@ class BoxVolume(_Model):
     position: Vector3 = (0.0, 0.0, 0.0)
 
 
-class WorldConfig(_Model):
+class WorldConfig(StrictModel):
     material: str = "G4_Galactic"
     margin: PositiveLength = 10.0  # space around the targets, mm
 
 
-class FaceRef(_Model):
+class FaceRef(StrictModel):
     """A face of a box volume, e.g. the top face ``+z`` of volume ``crystal``."""
 
     volume: str
     face: Literal["+x", "-x", "+y", "-y", "+z", "-z"] = "+z"
 
 
-class SourceConfig(_Model):
+class SourceConfig(StrictModel):
     """Particles started uniformly on a face (issue 2: flat faces, depth 0)."""
 
     particle: str = "alpha"
@@ -67,30 +51,30 @@ class SourceConfig(_Model):
     surface: FaceRef
 
 
-class PhysicsConfig(_Model):
+class PhysicsConfig(StrictModel):
     mode: Literal["auto", "full", "lite"] = "auto"
     # Secondary-production threshold as a range. Geant4's default (0.7 mm) suppresses delta rays
     # and, with them, all range straggling of alphas; micrometre surfaces need a micrometre cut.
     production_cut: PositiveLength = 1e-3
 
 
-class RunSettings(_Model):
+class RunSettings(StrictModel):
     events: int = Field(1000, gt=0)
     seed: int = Field(1, ge=0, lt=2**63)
     chunk_events: int = Field(10_000, gt=0)
 
 
-class HistogramConfig(_Model):
+class HistogramConfig(StrictModel):
     bins: int = Field(100, gt=0)
     max: PositiveEnergy | None = None  # default: the largest primary energy of the run
 
 
-class OutputConfig(_Model):
+class OutputConfig(StrictModel):
     histogram: HistogramConfig = HistogramConfig()
     track_length: bool = False  # also score the summed charged/neutral track length per volume (mm)
 
 
-class RunConfig(_Model):
+class RunConfig(StrictModel):
     """A complete run description."""
 
     physics: PhysicsConfig = PhysicsConfig()
@@ -121,19 +105,6 @@ class RunConfig(_Model):
         return next(t for t in self.targets if t.name == name)
 
 
-def _format_validation_error(err: ValidationError, origin: str) -> str:
-    first = err.errors()[0]
-    loc = ".".join(str(p) for p in first["loc"])
-    msg = first["msg"].removeprefix("Value error, ")
-    if first["type"] == "extra_forbidden":
-        msg = "unknown key (check the spelling; see the config reference)"
-    value = first.get("input")
-    shown = "" if first["type"] in ("missing",) or isinstance(value, dict) else f" (got {value!r})"
-    more = f" [+{len(err.errors()) - 1} more problem(s)]" if len(err.errors()) > 1 else ""
-    where = f"{origin}: {loc}: " if loc else f"{origin}: "
-    return f"{where}{msg}{shown}{more}"
-
-
 def parse_config(data: object, origin: str = "config") -> RunConfig:
     """Validate a mapping (parsed YAML) into a :class:`RunConfig`."""
     if not isinstance(data, dict):
@@ -141,7 +112,7 @@ def parse_config(data: object, origin: str = "config") -> RunConfig:
     try:
         return RunConfig.model_validate(data)
     except ValidationError as err:
-        raise ConfigError(_format_validation_error(err, origin)) from None
+        raise ConfigError(describe_validation_error(err, origin)) from None
 
 
 def load_config(path: str | Path) -> RunConfig:

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,6 +26,7 @@ import h5py
 import numpy as np
 
 from .errors import Score4Error
+from .files import atomic_output
 from .source.primaries import Primaries
 
 FORMAT = "score4-results"
@@ -36,21 +36,11 @@ QUANTITY_UNITS = {"edep": "MeV", "track_length": "mm"}
 
 @contextlib.contextmanager
 def atomic_h5(path: Path):
-    """Open ``path.partial`` for writing; rename to ``path`` on success, delete on failure."""
-    path = Path(path)
-    tmp = path.with_name(path.name + ".partial")
-    try:
-        with h5py.File(tmp, "w") as f:
-            f.attrs["format"] = FORMAT
-            f.attrs["format_version"] = FORMAT_VERSION
-            yield f
-        os.replace(tmp, path)
-    except OSError as err:  # disk full, permissions: h5py raises OSError
-        tmp.unlink(missing_ok=True)
-        raise Score4Error(f"output: cannot write {path}: {err}") from err
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    """Open a temporary HDF5 file beside ``path``; rename it to ``path`` on success, delete on failure."""
+    with atomic_output(path) as tmp, h5py.File(tmp, "w") as f:
+        f.attrs["format"] = FORMAT
+        f.attrs["format_version"] = FORMAT_VERSION
+        yield f
 
 
 def _write_primaries(group: h5py.Group, p: Primaries, event_offset: int = 0) -> None:

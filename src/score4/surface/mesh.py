@@ -17,14 +17,13 @@ from __future__ import annotations
 
 import numbers
 import os
-import tempfile
 from dataclasses import dataclass
 from functools import cached_property
-from pathlib import Path
 
 import numpy as np
 
 from ..errors import ConfigError
+from ..files import atomic_output
 from .heightmap import HeightMap
 
 #: Default relative tolerance of :func:`degenerate_faces`: a face is degenerate when its area is
@@ -326,16 +325,9 @@ def degenerate_faces(mesh: TriangleMesh, rel_tol: float = DEGENERATE_REL_TOL) ->
 
 def _atomic_write(path: str | os.PathLike, chunks: list[bytes]) -> None:
     """Write bytes to a temporary file beside ``path``, then rename it over ``path``."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            for chunk in chunks:
-                fh.write(chunk)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_output(path) as tmp, open(tmp, "wb") as fh:
+        for chunk in chunks:
+            fh.write(chunk)
 
 
 _STL_RECORD = np.dtype([("normal", "<f4", (3,)), ("vertices", "<f4", (3, 3)), ("attribute", "<u2")])

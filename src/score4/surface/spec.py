@@ -1,0 +1,262 @@
+"""Surface descriptions (YAML) and the :class:`Surface` they build.
+
+A description is one of three kinds, told apart by ``kind``:
+
+* ``spikes``: the paper's spike grid (:class:`~score4.surface.spikes.SpikeGrid`);
+* ``random``: a seeded random rough surface (:mod:`score4.surface.random`);
+* ``measured``: a topography file (:func:`~score4.surface.readers.read_topography`), levelled,
+  cropped, resampled and gap-filled as asked.
+
+Every surface is placed the same way: centred on the origin in x and y, on a base plane z = 0
+with all of its material above it (spikes start at z = 0; height maps are shifted so that their
+lowest point is at z = 0). A Geant4 patch is this top surface on a slab of ``base_thickness``
+below z = 0 (:meth:`Surface.body`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from functools import cached_property
+from pathlib import Path
+from typing import Annotated, Literal, Union
+
+import numpy as np
+import yaml
+from pydantic import Field, TypeAdapter, ValidationError, model_validator
+
+from ..errors import ConfigError
+from ..schema import Length, NonNegativeLength, PositiveLength, StrictModel, describe_validation_error
+from .heightmap import HeightMap
+from .mesh import TriangleMesh, closed_body, from_heightmap
+from .processing import close_periodic, crop, fill_missing, level_plane, resample
+from .random import random_surface
+from .readers import read_topography
+from .spikes import SpikeGrid
+
+#: Height-map samples per spike cell and axis used to picture and measure a spike grid as a map.
+SPIKE_MAP_SAMPLES = 16
+
+
+class SpikeSurfaceSpec(StrictModel):
+    """A grid of ``nx`` x ``ny`` spikes; all lengths are full lengths."""
+
+    kind: Literal["spikes"]
+    nx: int = Field(gt=0)
+    ny: int = Field(gt=0)
+    width: PositiveLength | None = None  # shorthand for width_x = width_y
+    width_x: PositiveLength | None = None
+    width_y: PositiveLength | None = None
+    height: PositiveLength  # mean spike height, base to tip
+    height_sigma: NonNegativeLength = 0.0
+    min_height: PositiveLength | None = None
+    shape: Literal["pyramid", "bump", "peak"] = "pyramid"
+    n_layers: int = Field(1, gt=0)
+    seed: int = Field(0, ge=0)
+
+    @model_validator(mode="after")
+    def _widths(self) -> "SpikeSurfaceSpec":
+        wx = self.width_x if self.width_x is not None else self.width
+        wy = self.width_y if self.width_y is not None else self.width
+        if wx is None or wy is None:
+            raise ValueError("give the spike cell size as width (square) or as width_x and width_y")
+        object.__setattr__(self, "width_x", wx)
+        object.__setattr__(self, "width_y", wy)
+        return self
+
+
+class RandomSurfaceSpec(StrictModel):
+    """A random rough surface on an ``nx`` x ``ny`` grid (see :mod:`score4.surface.random`)."""
+
+    kind: Literal["random"]
+    model: Literal["gaussian", "exponential", "self_affine"] = "gaussian"
+    nx: int = Field(gt=0)
+    ny: int = Field(gt=0)
+    pitch: PositiveLength
+    pitch_y: PositiveLength | None = None
+    sq: PositiveLength | None = None
+    corr_length: PositiveLength | None = None  # gaussian/exponential: along x (and y unless given)
+    corr_length_y: PositiveLength | None = None
+    hurst: float | None = Field(None, gt=0, lt=1)  # self_affine
+    rms_slope: float | None = Field(None, gt=0)
+    long_cutoff: PositiveLength | None = None
+    short_cutoff: PositiveLength | None = None
+    skewness: float = 0.0
+    kurtosis: float = 3.0
+    periodic: bool = True  # tiles join without steps
+    seed: int = Field(0, ge=0)
+
+    @model_validator(mode="after")
+    def _model_parameters(self) -> "RandomSurfaceSpec":
+        if self.model == "self_affine":
+            if self.hurst is None:
+                raise ValueError("model self_affine needs hurst (0 < H < 1)")
+            if (self.sq is None) == (self.rms_slope is None):
+                raise ValueError("model self_affine needs exactly one of sq and rms_slope")
+            if self.corr_length is not None or self.corr_length_y is not None:
+                raise ValueError("corr_length belongs to the gaussian/exponential models; self_affine uses long_cutoff")
+        else:
+            if self.sq is None or self.corr_length is None:
+                raise ValueError(f"model {self.model} needs sq and corr_length")
+            extra = [k for k in ("hurst", "rms_slope", "long_cutoff", "short_cutoff") if getattr(self, k) is not None]
+            if extra:
+                raise ValueError(f"{', '.join(extra)} belong(s) to model self_affine, not {self.model}")
+        return self
+
+
+class MeasuredSurfaceSpec(StrictModel):
+    """A measured topography file and what to do with it before use."""
+
+    kind: Literal["measured"]
+    file: Path
+    format: str | None = None  # default: from the extension
+    xy_unit: str | None = None  # text/xyz files without units in a header
+    z_unit: str | None = None
+    pitch: PositiveLength | None = None  # text grids without a header pitch
+    channel: str | None = None  # Gwyddion: data field title
+    level: bool = True  # subtract the least-squares plane
+    crop_x: tuple[Length, Length] | None = None  # (start, stop) in the file's coordinates
+    crop_y: tuple[Length, Length] | None = None
+    resample_pitch: PositiveLength | None = None
+    fill_missing: bool = False  # fill NaN points (Laplace interpolation) instead of refusing them
+
+
+SurfaceSpec = Annotated[Union[SpikeSurfaceSpec, RandomSurfaceSpec, MeasuredSurfaceSpec], Field(discriminator="kind")]
+_SPEC_ADAPTER: TypeAdapter = TypeAdapter(SurfaceSpec)
+KINDS = ("spikes", "random", "measured")
+
+
+def parse_surface_spec(data: object, origin: str = "surface") -> SpikeSurfaceSpec | RandomSurfaceSpec | MeasuredSurfaceSpec:
+    """Validate a mapping into a surface description; errors are one :class:`ConfigError` line."""
+    if not isinstance(data, dict):
+        raise ConfigError(f"{origin}: a surface description must be a mapping, got {type(data).__name__}")
+    if data.get("kind") not in KINDS:
+        raise ConfigError(f"{origin}: kind: must be one of {', '.join(KINDS)} (got {data.get('kind')!r})")
+    try:
+        return _SPEC_ADAPTER.validate_python(data)
+    except ValidationError as err:
+        message = describe_validation_error(err, origin)
+        # pydantic puts the union tag into the key path ("spikes.nx"); drop it, the kind is known.
+        for tag in (f"{origin}: {data['kind']}.", f"{origin}: {data['kind']}: "):
+            message = message.replace(tag, f"{origin}: ", 1)
+        raise ConfigError(message) from None
+
+
+def load_surface_spec(path: str | Path):
+    """Read a YAML file that holds one surface description."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"surface: file {str(path)!r} does not exist")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as err:
+        raise ConfigError(f"surface: {path}: not valid YAML ({getattr(err, 'problem', err)})") from None
+    spec = parse_surface_spec(data, origin=str(path))
+    if isinstance(spec, MeasuredSurfaceSpec) and not spec.file.is_absolute():
+        spec = spec.model_copy(update={"file": (path.parent / spec.file)})  # relative to the YAML file
+    return spec
+
+
+@dataclass(frozen=True)
+class Surface:
+    """A rough surface ready for geometry, sampling and metrology.
+
+    Exactly one of ``spikes`` and ``heightmap`` is the primary description; for a spike grid
+    :attr:`map` is a sampled picture of it (for plots and the ISO parameters of maps).
+    """
+
+    spec: SpikeSurfaceSpec | RandomSurfaceSpec | MeasuredSurfaceSpec
+    spikes: SpikeGrid | None = None
+    heightmap: HeightMap | None = None
+    metadata: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if (self.spikes is None) == (self.heightmap is None):
+            raise ValueError("Surface needs exactly one of spikes and heightmap")
+
+    @property
+    def size_x(self) -> float:
+        return self.spikes.size_x if self.spikes is not None else self._extent[0]
+
+    @property
+    def size_y(self) -> float:
+        return self.spikes.size_y if self.spikes is not None else self._extent[1]
+
+    @property
+    def _extent(self) -> tuple[float, float]:
+        ny, nx = self.heightmap.shape
+        return (nx - 1) * self.heightmap.pitch_x, (ny - 1) * self.heightmap.pitch_y
+
+    @property
+    def max_height(self) -> float:
+        """Highest point above the base plane z = 0, mm."""
+        return float(self.spikes.heights.max()) if self.spikes is not None else float(self.placed_map.heights.max())
+
+    @cached_property
+    def placed_map(self) -> HeightMap:
+        """The height map centred on the origin with its lowest point at z = 0 (height maps only)."""
+        hm = self.heightmap
+        if hm is None:
+            raise ValueError("placed_map: a spike grid has no primary height map; use .map")
+        z = hm.heights - np.nanmin(hm.heights)
+        return replace(hm, heights=z, origin=(-self._extent[0] / 2, -self._extent[1] / 2))
+
+    @cached_property
+    def map(self) -> HeightMap:
+        """A height map of the surface for pictures and map metrology (spikes: sampled exactly)."""
+        if self.spikes is None:
+            return self.placed_map
+        g = self.spikes
+        return g.to_heightmap((g.width_x / SPIKE_MAP_SAMPLES, g.width_y / SPIKE_MAP_SAMPLES))
+
+    @cached_property
+    def top_mesh(self) -> TriangleMesh:
+        """The exact triangle mesh of the rough top (shared by geometry, sampling and metrology)."""
+        return self.spikes.top_mesh() if self.spikes is not None else from_heightmap(self.placed_map)
+
+    def body(self, base_thickness: float) -> TriangleMesh:
+        """Closed, watertight patch: the rough top on a slab reaching ``base_thickness`` below z = 0."""
+        return closed_body(self.top_mesh, base_thickness)
+
+
+def build_surface(spec) -> Surface:
+    """Build the :class:`Surface` a description asks for (spikes, random field or measured file)."""
+    if isinstance(spec, dict):
+        spec = parse_surface_spec(spec)
+    if isinstance(spec, SpikeSurfaceSpec):
+        grid = SpikeGrid(
+            nx=spec.nx, ny=spec.ny, width_x=spec.width_x, width_y=spec.width_y, mean_height=spec.height,
+            shape=spec.shape, height_sigma=spec.height_sigma, n_layers=spec.n_layers, seed=spec.seed,
+            min_height=spec.min_height,
+        )
+        return Surface(spec, spikes=grid)
+    if isinstance(spec, RandomSurfaceSpec):
+        kwargs = dict(nx=spec.nx, ny=spec.ny, pitch_x=spec.pitch, pitch_y=spec.pitch_y, skewness=spec.skewness,
+                      kurtosis=spec.kurtosis, periodic=spec.periodic, seed=spec.seed)
+        if spec.model == "self_affine":
+            kwargs.update(hurst=spec.hurst, sq=spec.sq, rms_slope=spec.rms_slope,
+                          long_cutoff=spec.long_cutoff, short_cutoff=spec.short_cutoff)
+        else:
+            kwargs.update(sq=spec.sq, corr_length_x=spec.corr_length, corr_length_y=spec.corr_length_y)
+        hm = random_surface(spec.model, **kwargs)
+        # A periodic map holds one period; repeating its first row/column closes it into a tile
+        # whose opposite edges match, so tiled patches join without steps.
+        return Surface(spec, heightmap=close_periodic(hm) if spec.periodic else hm)
+    hm = read_topography(spec.file, spec.format, pitch=spec.pitch, xy_unit=spec.xy_unit, z_unit=spec.z_unit,
+                         channel=spec.channel)
+    if spec.crop_x is not None or spec.crop_y is not None:
+        x = spec.crop_x or (hm.x[0], hm.x[-1])
+        y = spec.crop_y or (hm.y[0], hm.y[-1])
+        hm = crop(hm, x, y)
+    if spec.fill_missing:
+        hm = fill_missing(hm)
+    elif hm.has_missing:
+        n = int(np.isnan(hm.heights).sum())
+        raise ConfigError(
+            f"file: {spec.file} has {n} missing (NaN) points; set fill_missing: true to fill them by "
+            "Laplace interpolation, or crop them away with crop_x/crop_y"
+        )
+    if spec.level:
+        hm = level_plane(hm)
+    if spec.resample_pitch is not None:
+        hm = resample(hm, spec.resample_pitch)
+    return Surface(spec, heightmap=hm)

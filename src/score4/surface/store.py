@@ -1,0 +1,87 @@
+"""The score4 surface file: one HDF5 file with the full description and the height data.
+
+Layout (lengths in mm, ``units`` attributes say so)::
+
+    attrs: format = "score4-surface", format_version, kind, spec (JSON of the description),
+           metadata (JSON: provenance, e.g. the measured file's reader metadata)
+    /heightmap/heights   (ny, nx) primary height map (random and measured surfaces); attrs
+                         pitch_x, pitch_y, origin
+    /spikes/heights      (ny, nx) the drawn spike heights (spike grids)
+
+A spike grid is rebuilt from its description and checked against the stored heights; random
+and measured surfaces are read from the stored map, so a measured surface no longer needs the
+instrument file.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from ..errors import ConfigError
+from ..files import atomic_output
+from .heightmap import HeightMap
+from .spec import Surface, build_surface, parse_surface_spec
+
+FORMAT = "score4-surface"
+FORMAT_VERSION = 1
+SUFFIX = ".s4s.h5"
+
+
+def _jsonable(metadata: dict) -> str:
+    return json.dumps(metadata, default=str, sort_keys=True)
+
+
+def save_surface(surface: Surface, path: str | Path) -> Path:
+    """Write ``surface`` to ``path`` atomically (an existing file is replaced only on success)."""
+    path = Path(path)
+    with atomic_output(path) as tmp, h5py.File(tmp, "w") as f:
+        f.attrs["format"] = FORMAT
+        f.attrs["format_version"] = FORMAT_VERSION
+        f.attrs["kind"] = surface.spec.kind
+        f.attrs["spec"] = surface.spec.model_dump_json()
+        hm = surface.heightmap
+        f.attrs["metadata"] = _jsonable({**(hm.metadata if hm is not None else {}), **surface.metadata})
+        if surface.spikes is not None:
+            f.create_dataset("spikes/heights", data=surface.spikes.heights).attrs["units"] = "mm"
+        else:
+            d = f.create_dataset("heightmap/heights", data=hm.heights, compression="gzip")
+            d.attrs["units"] = "mm"
+            d.attrs["pitch_x"], d.attrs["pitch_y"] = hm.pitch_x, hm.pitch_y
+            d.attrs["origin"] = np.asarray(hm.origin, dtype=float)
+    return path
+
+
+def load_surface(path: str | Path) -> Surface:
+    """Read a surface file written by :func:`save_surface`."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"surface file: {str(path)!r} does not exist")
+    try:
+        f = h5py.File(path, "r")
+    except OSError as err:
+        raise ConfigError(f"surface file: {path} is not an HDF5 file ({err})") from None
+    with f:
+        if f.attrs.get("format") != FORMAT:
+            raise ConfigError(f"surface file: {path} is not a score4 surface file (no format={FORMAT!r} attribute)")
+        version = int(f.attrs["format_version"])
+        if version > FORMAT_VERSION:
+            raise ConfigError(f"surface file: {path} has format version {version}; this score4 reads up to {FORMAT_VERSION}")
+        spec = parse_surface_spec(json.loads(f.attrs["spec"]), origin=f"{path} (stored description)")
+        metadata = json.loads(f.attrs.get("metadata", "{}"))
+        if "spikes" in f:
+            stored = f["spikes/heights"][...]
+            surface = build_surface(spec)
+            if surface.spikes.heights.shape != stored.shape or not np.array_equal(surface.spikes.heights, stored):
+                raise ConfigError(
+                    f"surface file: {path}: the spike heights rebuilt from the stored description differ from the "
+                    "stored heights (file written by an incompatible score4 version?)"
+                )
+            return Surface(spec, spikes=surface.spikes, metadata=metadata)
+        d = f["heightmap/heights"]
+        hm = HeightMap(d[...], float(d.attrs["pitch_x"]), float(d.attrs["pitch_y"]),
+                       origin=tuple(float(v) for v in d.attrs["origin"]), metadata=metadata)
+        return Surface(spec, heightmap=hm, metadata=metadata)
