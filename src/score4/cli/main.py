@@ -16,6 +16,7 @@ import click
 from .. import __version__
 from ..errors import Score4Error
 from .data import data
+from .surface import surface
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -84,6 +85,7 @@ def summary(results_file: Path, as_json: bool, bins) -> None:
 
 
 cli.add_command(data)
+cli.add_command(surface)
 
 
 def main(argv: list[str] | None = None) -> int:
