@@ -1,0 +1,367 @@
+"""Pictures of results: energy-deposit spectra and vertex-depth histograms.
+
+Figures are drawn on a bare :class:`matplotlib.figure.Figure` rendered by the Agg canvas, so
+nothing needs a display and pyplot's global state (and the user's backend) is left alone. The
+output format follows the file suffix (``.png``, ``.pdf``, ``.svg``, ...); files are written
+atomically. Every plotting function returns the arrays it drew, so they can be checked.
+
+Height maps of surfaces are drawn by :mod:`score4.surface.plot`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import h5py
+import numpy as np
+from matplotlib.figure import Figure
+
+from .errors import ConfigError, Score4Error
+from .export import DepositHistogram, check_output_path, deposit_histogram, histogram_edges, select_volumes
+from .files import atomic_output
+from .output import FORMAT as RESULTS_FORMAT
+from .output import Results, read_results
+from .units import LENGTH
+
+SURFACE_FORMAT = "score4-surface"
+VERTEX_FORMAT = "score4-vertices"
+VERTEX_DEPTH_DATASET = "vertices/depth"
+
+
+@dataclass(frozen=True)
+class Spectrum:
+    """One drawn spectrum: ``y`` is counts per keV (per event if ``per_event``) on ``hist.edges`` (MeV).
+
+    ``legend`` is the full legend entry: ``label`` plus the events without deposit (not drawn).
+    """
+
+    label: str
+    legend: str
+    file: Path
+    volume: str
+    hist: DepositHistogram
+    y: np.ndarray
+    per_event: bool
+
+
+@dataclass(frozen=True)
+class DepthHistogram:
+    """One drawn depth histogram: ``counts`` vertices per bin, ``per_nm`` per nm of depth, edges in nm."""
+
+    label: str
+    edges_nm: np.ndarray
+    counts: np.ndarray
+    per_nm: np.ndarray
+
+
+# --- files -----------------------------------------------------------------------------------
+
+
+def file_kind(path: str | Path) -> str:
+    """``"results"``, ``"surface"`` or ``"vertices"`` for a score4 HDF5 file; a clear error otherwise.
+
+    Results and surface files are told by their ``format`` attribute; a vertex file by a
+    dataset ``vertices/depth`` (see :func:`read_vertex_depths`).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise Score4Error(f"file {str(path)!r} does not exist" if not path.exists() else f"{str(path)!r} is not a file")
+    try:
+        f = h5py.File(path, "r")
+    except OSError:
+        raise Score4Error(f"{path} is not an HDF5 file (expected a score4 results, vertex or surface file)") from None
+    with f:
+        fmt = f.attrs.get("format")
+        fmt = fmt.decode() if isinstance(fmt, bytes) else fmt
+        if fmt == RESULTS_FORMAT:
+            return "results"
+        if fmt == SURFACE_FORMAT:
+            return "surface"
+        if isinstance(f.get(VERTEX_DEPTH_DATASET), h5py.Dataset):
+            return "vertices"
+        if fmt == VERTEX_FORMAT:
+            raise Score4Error(f"{path}: vertex file without depths (no dataset {VERTEX_DEPTH_DATASET!r}): nothing to plot")
+    shown = f" (format attribute {fmt!r})" if fmt is not None else " (no format attribute)"
+    raise Score4Error(f"{path} is not a score4 results, vertex or surface file{shown}")
+
+
+def read_vertex_depths(path: str | Path) -> np.ndarray:
+    """Vertex depths (mm) from an HDF5 vertex file.
+
+    Assumed layout (the vertex file format was being settled when this was written; score4's
+    vertex files keep their table under ``/vertices``): a 1-D dataset ``vertices/depth``,
+    optional attribute ``units`` (a length unit such as ``"mm"`` or ``"nm"``; mm when absent).
+    Only this dataset is read.
+    """
+    path = Path(path)
+    if file_kind(path) != "vertices":
+        raise Score4Error(f"{path} is not a vertex file (no dataset {VERTEX_DEPTH_DATASET!r})")
+    with h5py.File(path, "r") as f:
+        d = f[VERTEX_DEPTH_DATASET]
+        unit = d.attrs.get("units", "mm")
+        unit = unit.decode() if isinstance(unit, bytes) else str(unit)
+        if unit not in LENGTH:
+            raise Score4Error(f"{path}: {VERTEX_DEPTH_DATASET} has units {unit!r}; expected one of: {', '.join(LENGTH)}")
+        return np.asarray(d[()], dtype=float).reshape(-1) * LENGTH[unit]
+
+
+# --- labels ----------------------------------------------------------------------------------
+
+
+def _text(value) -> str | None:
+    return str(value) if isinstance(value, (str, int, float)) and not isinstance(value, bool) else None
+
+
+def _emitter_text(source: dict) -> str | None:
+    particle, energy = _text(source.get("particle")), _text(source.get("energy"))
+    if particle:
+        spectrum = source.get("spectrum")
+        if not energy and isinstance(spectrum, dict) and _text(spectrum.get("file")):
+            energy = f"spectrum {Path(str(spectrum['file'])).name}"
+        return " ".join(v for v in (particle, energy) if v)
+    for key in ("decay", "nuclide"):
+        if _text(source.get(key)):
+            return _text(source.get(key))
+    if _text(source.get("vertices")):
+        return f"vertices {Path(str(source['vertices'])).name}"
+    return energy
+
+
+def _surface_text(config: dict, source: dict) -> str | None:
+    ref = source.get("surface")
+    if isinstance(ref, str):
+        return ref
+    if not isinstance(ref, dict) or not _text(ref.get("face")):
+        return None
+    face, volume = _text(ref.get("face")), _text(ref.get("volume"))
+    rough = None
+    targets = config.get("targets")
+    for target in targets if isinstance(targets, list) else []:
+        if isinstance(target, dict) and target.get("name") == volume and isinstance(target.get("rough"), list):
+            rough = next((r for r in target["rough"] if isinstance(r, dict) and r.get("face") == face), None)
+    if rough is None:
+        return f"flat {face}"
+    surfaces = config.get("surfaces") if isinstance(config.get("surfaces"), dict) else {}
+    name = _text(rough.get("surface"))
+    kind = surfaces.get(name, {}).get("kind") if name and isinstance(surfaces.get(name), dict) else None
+    return f"rough {face}" + (f" ({kind})" if _text(kind) else "")
+
+
+def describe_run(results: Results) -> str:
+    """A short description from the stored configuration: emitter, face, depth profile, physics.
+
+    Only keys that are present and of the expected type are used, so records from other score4
+    versions still give a (possibly shorter) description.
+    """
+    config = results.run.get("config")
+    config = config if isinstance(config, dict) else {}
+    source = config.get("source") if isinstance(config.get("source"), dict) else {}
+    depth = source.get("depth") if isinstance(source.get("depth"), dict) else {}
+    profile = _text(depth.get("profile"))
+    parts = [
+        _emitter_text(source),
+        _surface_text(config, source),
+        f"{profile} depth" if profile and profile != "zero" else None,
+        f"{results.run['physics_mode']} physics" if isinstance(results.run.get("physics_mode"), str) else None,
+    ]
+    return ", ".join(p for p in parts if p)
+
+
+def default_label(results: Results) -> str:
+    """File stem plus :func:`describe_run`, e.g. ``"flat: alpha 5.3 MeV, flat +z of crystal, lite physics"``."""
+    stem = results.path.name.removesuffix(".h5").removesuffix(".hdf5")
+    description = describe_run(results)
+    return f"{stem}: {description}" if description else stem
+
+
+# --- drawing ---------------------------------------------------------------------------------
+
+_FORMATS = {"png", "pdf", "svg", "eps", "ps", "jpg", "jpeg", "tif", "tiff", "webp"}
+
+
+def _save(fig: Figure, path: str | Path) -> Path:
+    path = check_output_path(path)
+    fmt = path.suffix.lower().lstrip(".") or "png"
+    if fmt not in _FORMATS:
+        raise ConfigError(f"out: unknown image format {path.suffix!r} in {str(path)!r}; use one of: "
+                          + ", ".join(f".{f}" for f in sorted(_FORMATS)))
+    with atomic_output(path) as tmp:
+        fig.savefig(tmp, format=fmt, dpi=120)
+    return path
+
+
+def _as_results(item: Results | str | Path) -> Results:
+    return item if isinstance(item, Results) else read_results(item)
+
+
+def _labels(labels: Sequence[str] | None, n: int, what: str) -> list[str] | None:
+    if labels is None:
+        return None
+    labels = [labels] if isinstance(labels, str) else list(labels)
+    if len(labels) != n:
+        raise ConfigError(f"labels: {len(labels)} label(s) given for {n} {what}(s); give one per {what} or none")
+    return labels
+
+
+def _log_axis(ax, y_arrays: Iterable[np.ndarray]) -> bool:
+    positive = np.concatenate([np.asarray(y, dtype=float).ravel() for y in y_arrays] or [np.zeros(0)])
+    positive = positive[positive > 0]
+    if len(positive) == 0:
+        return False  # nothing to show on a log scale: stay linear
+    ax.set_yscale("log")
+    ax.set_ylim(positive.min() / 2, positive.max() * 2)
+    return True
+
+
+def plot_spectra(
+    results_list: Results | str | Path | Sequence[Results | str | Path],
+    out_png: str | Path,
+    volume: str | None = None,
+    bins: int | None = None,
+    emin: float | str | None = None,
+    emax: float | str | None = None,
+    labels: Sequence[str] | None = None,
+    logy: bool = True,
+    per_event: bool = False,
+) -> list[Spectrum]:
+    """Draw the energy-deposit spectra of one or several runs, overlaid, and save the figure.
+
+    Parameters
+    ----------
+    results_list : results (loaded or paths), one or several.
+    out_png : image file; the format follows its suffix (png by default).
+    volume : the volume to draw; None draws every volume of every run.
+    bins, emin, emax : common binning for all runs, see :func:`score4.export.histogram_edges`
+        (energies in MeV or strings with a unit). The x axis is in keV when emax < 1 MeV.
+    labels : one legend label per run; default :func:`default_label`. The legend also gives
+        the number of events without deposit, which are not drawn.
+    logy : logarithmic y axis (falls back to linear when nothing is positive).
+    per_event : divide by the number of simulated events of each run, so runs of different
+        sizes compare.
+
+    Returns
+    -------
+    The spectra drawn: ``y`` = counts / bin width in keV (/ events if ``per_event``).
+    """
+    items = [results_list] if isinstance(results_list, (Results, str, Path)) else list(results_list)
+    if not items:
+        raise ConfigError("results: no results files to plot")
+    runs = [_as_results(r) for r in items]
+    given = _labels(labels, len(runs), "run")
+    edges = histogram_edges(runs, bins=bins, emin=emin, emax=emax)
+    spectra = []
+    for k, res in enumerate(runs):
+        names = select_volumes(res, volume)
+        base = given[k] if given else default_label(res)
+        for name in names:
+            hist = deposit_histogram(res.edep[name], edges)
+            y = hist.counts_per_keV / (max(res.n_events, 1) if per_event else 1)
+            label = base if len(names) == 1 else f"{base} [{name}]"
+            legend = f"{label}\n{hist.n_zero} of {hist.n_events} events without deposit (not drawn)"
+            if hist.n_overflow:
+                legend += f", {hist.n_overflow} above range"
+            spectra.append(Spectrum(label, legend, res.path, name, hist, y, per_event))
+
+    in_keV = edges[-1] < 1.0
+    scale = 1e3 if in_keV else 1.0
+    fig = Figure(figsize=(8, 5), layout="constrained")
+    ax = fig.add_subplot()
+    for s in spectra:
+        ax.stairs(s.y, edges * scale, label=s.legend, linewidth=1.3)
+    if logy:
+        _log_axis(ax, [s.y for s in spectra])
+    ax.set_xlim(edges[0] * scale, edges[-1] * scale)
+    ax.set_xlabel(f"energy deposit [{'keV' if in_keV else 'MeV'}]")
+    ax.set_ylabel("counts / keV / event" if per_event else "counts / keV")
+    title = f"energy deposit in {volume}" if volume else "energy deposit"
+    ax.set_title(f"{title} ({edges[1] - edges[0]:.4g} MeV bins)" if not in_keV else f"{title} ({(edges[1] - edges[0]) * 1e3:.4g} keV bins)")
+    ax.legend(fontsize="small")
+    ax.grid(alpha=0.3)
+    _save(fig, out_png)
+    return spectra
+
+
+def plot_depths(
+    vertex_files_or_arrays: np.ndarray | str | Path | Sequence[np.ndarray | str | Path],
+    out_png: str | Path,
+    bins: int | None = None,
+    dmax: float | str | None = None,
+    labels: Sequence[str] | None = None,
+    logy: bool = False,
+) -> list[DepthHistogram]:
+    """Histogram vertex depths below the surface, in nm, and save the figure.
+
+    Parameters
+    ----------
+    vertex_files_or_arrays : one or several 1-D arrays of depths **in mm**, or vertex files
+        (HDF5 with a dataset ``vertices/depth``, see :func:`read_vertex_depths`).
+    out_png : image file; the format follows its suffix.
+    bins : number of bins (default 100), common to all inputs.
+    dmax : upper edge, mm or a string with a unit (``"50 nm"``); default the largest depth.
+    labels : one legend label per input; default the file stem, or ``"depths <k>"``.
+    logy : logarithmic y axis.
+
+    Returns
+    -------
+    The histograms drawn (vertices per bin and per nm; edges in nm; values outside the range
+    are not counted).
+    """
+    if isinstance(vertex_files_or_arrays, (str, Path, np.ndarray)):
+        items = [vertex_files_or_arrays]
+    else:
+        items = list(vertex_files_or_arrays)
+    if not items:
+        raise ConfigError("depths: nothing to plot")
+    if isinstance(vertex_files_or_arrays, np.ndarray) and vertex_files_or_arrays.ndim != 1:
+        raise ConfigError(f"depths: expected a 1-D array of depths in mm, got shape {vertex_files_or_arrays.shape}")
+    given = _labels(labels, len(items), "input")
+    data, names = [], []
+    for k, item in enumerate(items):
+        if isinstance(item, (str, Path)):
+            depths, name = read_vertex_depths(item), Path(item).name.removesuffix(".h5")
+        else:
+            depths, name = np.asarray(item, dtype=float), f"depths {k + 1}"
+            if depths.ndim != 1:
+                raise ConfigError(f"depths: expected a 1-D array of depths in mm, got shape {depths.shape}")
+        if not np.isfinite(depths).all():
+            raise ConfigError(f"depths: {name} holds non-finite values")
+        data.append(depths * 1e6)  # nm
+        names.append(given[k] if given else name)
+    if bins is not None and (isinstance(bins, bool) or not isinstance(bins, (int, np.integer)) or bins < 1):
+        raise ConfigError(f"bins: must be a positive integer, got {bins!r}")
+    if isinstance(dmax, str):
+        from .units import parse_quantity
+
+        dmax = parse_quantity(dmax, "length", "dmax")
+    everything = np.concatenate(data)
+    lo = min(0.0, float(everything.min(initial=0.0)))
+    if dmax is not None:
+        hi = float(dmax) * 1e6
+        if not hi > lo:
+            raise ConfigError(f"dmax: must be larger than the smallest depth ({lo / 1e6!r} mm), got {dmax!r} mm")
+    else:
+        hi = float(everything.max(initial=0.0))
+        if not hi > lo:
+            hi = lo + 1.0  # all depths equal (e.g. all on the surface): a 1 nm range
+    edges = np.linspace(lo, hi, int(bins or 100) + 1)
+    hists = []
+    for name, d in zip(names, data):
+        counts, _ = np.histogram(d, bins=edges)
+        hists.append(DepthHistogram(name, edges, counts, counts / np.diff(edges)))
+
+    fig = Figure(figsize=(8, 5), layout="constrained")
+    ax = fig.add_subplot()
+    for h, d in zip(hists, data):
+        ax.stairs(h.per_nm, edges, label=f"{h.label} ({len(d)} vertices)", linewidth=1.3)
+    if logy:
+        _log_axis(ax, [h.per_nm for h in hists])
+    ax.set_xlim(edges[0], edges[-1])
+    ax.set_xlabel("depth below the surface [nm]")
+    ax.set_ylabel("vertices / nm")
+    ax.set_title("vertex depths")
+    ax.legend(fontsize="small")
+    ax.grid(alpha=0.3)
+    _save(fig, out_png)
+    return hists
