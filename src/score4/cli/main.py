@@ -16,6 +16,7 @@ import click
 from .. import __version__
 from ..errors import Score4Error
 from .data import data
+from .results import plot, export
 from .surface import surface
 
 
@@ -85,6 +86,8 @@ def summary(results_file: Path, as_json: bool, bins) -> None:
 
 
 cli.add_command(data)
+cli.add_command(plot)
+cli.add_command(export)
 cli.add_command(surface)
 
 
