@@ -66,7 +66,10 @@ def load_any(path: str | Path):
         return load_surface(path)
     if kind == "description":
         return build_surface(load_surface_spec(path))
-    return build_surface(parse_surface_spec({"kind": "measured", "file": str(path)}, origin=str(path)))
+    try:
+        return build_surface(parse_surface_spec({"kind": "measured", "file": str(path)}, origin=str(path)))
+    except ConfigError as err:
+        raise ConfigError(f"{err} (in a surface description with kind: measured and file: {path.name})") from None
 
 
 def _in_output_units(values: dict[str, float]) -> dict[str, float | None]:
