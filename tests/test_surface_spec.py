@@ -323,14 +323,9 @@ def test_missing_surface_file(tmp_path):
         load_surface(tmp_path / "none.s4s.h5")
 
 
-# Known defect of store.py (reported): a file that carries the format tag but lacks the other
-# attributes or datasets raises a bare KeyError. Strict: once fixed this test passes and the
-# marker must go.
-@pytest.mark.xfail(strict=True, raises=KeyError,
-                   reason="store.load_surface lets KeyError escape for a score4-tagged file missing its data")
 def test_file_with_format_tag_but_no_data_gives_a_clear_error(tmp_path):
     path = tmp_path / "half.s4s.h5"
     with h5py.File(path, "w") as f:
         f.attrs["format"] = "score4-surface"
-    with pytest.raises(ConfigError, match="half.s4s.h5"):
+    with pytest.raises(ConfigError, match="half.s4s.h5 is damaged or incomplete"):
         load_surface(path)

@@ -28,6 +28,8 @@ import numpy as np
 from .errors import Score4Error
 from .files import atomic_output
 from .source.primaries import Primaries
+from .source.vertex_file import read_primaries_table, write_primaries_table
+from .units import parse_quantity
 
 FORMAT = "score4-results"
 FORMAT_VERSION = 1
@@ -41,29 +43,6 @@ def atomic_h5(path: Path):
         f.attrs["format"] = FORMAT
         f.attrs["format_version"] = FORMAT_VERSION
         yield f
-
-
-def _write_primaries(group: h5py.Group, p: Primaries, event_offset: int = 0) -> None:
-    group.create_dataset("event", data=p.event + event_offset)
-    group.create_dataset("particle", data=np.char.encode(p.particle.astype(str), "ascii"))
-    group.create_dataset("energy", data=p.energy).attrs["units"] = "MeV"
-    for k, axis in enumerate("xyz"):
-        group.create_dataset(f"{axis}loc", data=p.position[:, k]).attrs["units"] = "mm"
-        group.create_dataset(f"dir{axis}", data=p.direction[:, k])
-    for name, column in p.extra.items():
-        group.create_dataset(name, data=column)
-
-
-def _read_primaries(group: h5py.Group) -> Primaries:
-    fixed = {"event", "particle", "energy", "xloc", "yloc", "zloc", "dirx", "diry", "dirz"}
-    return Primaries(
-        event=group["event"][()],
-        particle=np.char.decode(group["particle"][()], "ascii"),
-        energy=group["energy"][()],
-        position=np.column_stack([group[f"{a}loc"][()] for a in "xyz"]),
-        direction=np.column_stack([group[f"dir{a}"][()] for a in "xyz"]),
-        extra={k: group[k][()] for k in group if k not in fixed},
-    )
 
 
 def write_chunk(
@@ -89,7 +68,7 @@ def write_chunk(
             g.attrs["volumes"] = json.dumps(volumes)
             for k, name in enumerate(volumes):
                 g.create_dataset(name, data=values[:, k]).attrs["units"] = QUANTITY_UNITS[quantity]
-        _write_primaries(f.create_group("primaries"), primaries, first_event)
+        write_primaries_table(f.create_group("primaries"), primaries, first_event)
 
 
 def merge_chunks(chunk_paths: list[Path], out: Path, run_record: dict) -> None:
@@ -115,6 +94,7 @@ def merge_chunks(chunk_paths: list[Path], out: Path, run_record: dict) -> None:
                     data = np.concatenate([p["events"][quantity][name][()] for p in parts])
                     g.create_dataset(name, data=data).attrs["units"] = QUANTITY_UNITS[quantity]
             prim = f.create_group("primaries")
+            prim.attrs.update(dict(parts[0]["primaries"].attrs))
             for key in parts[0]["primaries"]:
                 src = [p["primaries"][key] for p in parts]
                 d = prim.create_dataset(key, data=np.concatenate([s[()] for s in src]))
@@ -176,7 +156,7 @@ def read_results(path: str | Path) -> Results:
             event_id=f["events/event_id"][()],
             primary_energy=f["events/primary_energy"][()],
             scores={q: {name: f["events"][q][name][()] for name in volumes} for q in quantities},
-            primaries=_read_primaries(f["primaries"]),
+            primaries=read_primaries_table(f["primaries"]),
         )
 
 
@@ -184,7 +164,9 @@ def summarize(results: Results, bins: int | None = None, emax: float | None = No
     """The run summary: counts, mean deposits and a histogram per volume (MeV)."""
     hist_cfg = results.run.get("config", {}).get("output", {}).get("histogram", {})
     bins = bins or hist_cfg.get("bins") or 100
-    emax = emax or hist_cfg.get("max") or float(results.primary_energy.max(initial=0.0)) or 1.0
+    stored_max = hist_cfg.get("max")  # stored with its unit ("6.0 MeV")
+    stored_max = parse_quantity(stored_max, "energy") if stored_max is not None else None
+    emax = emax or stored_max or float(results.primary_energy.max(initial=0.0)) or 1.0
     edges = np.linspace(0.0, emax, bins + 1)
     volumes = []
     for name, e in results.edep.items():

@@ -14,7 +14,7 @@ from pathlib import Path
 import click
 
 from .. import __version__
-from ..errors import Score4Error
+from ..errors import ConfigError, Score4Error
 from .data import data
 from .results import plot, export
 from .surface import surface
@@ -56,6 +56,44 @@ def run(config_file: Path, events, seed, out, overwrite, jobs, resume, quiet) ->
 
 
 @cli.command()
+@click.argument("config_file", metavar="CONFIG.yaml", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--n", "n_events", type=click.IntRange(min=1), help="Number of events (default: run.events).")
+@click.option("--seed", type=click.IntRange(min=0, max=2**63 - 1), help="Random seed (default: run.seed).")
+@click.option("--out", type=click.Path(path_type=Path), required=True, help="Vertex file to write (.h5).")
+@click.option("--overwrite", is_flag=True, help="Replace an existing file.")
+def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> None:
+    """Draw the source vertices of CONFIG.yaml into an HDF5 vertex file (no Geant4 run).
+
+    Columns: event, particle, energy (MeV), xloc/yloc/zloc (mm), dirx/diry/dirz, depth (mm),
+    facet, patch, with units attributes (LEGEND/remage style). The events are drawn chunk by
+    chunk exactly as 'score4 run' draws them, so running the file (source: {vertices: FILE})
+    with the same seed and chunk size reproduces the direct run event by event.
+    """
+    from ..config import config_to_dict, load_config
+    from ..scene import build_scene
+    from ..sim.engine import check_output_path, plan_chunks
+    from ..sim.seeds import chunk_rng
+    from ..source.build import make_source
+    from ..source.primaries import Primaries
+    from ..source.vertex_file import write_vertex_file
+
+    config = load_config(config_file)
+    if config.source.vertices is not None:
+        raise ConfigError(f"{config_file}: source.vertices: the source already reads a vertex file; nothing to draw")
+    check_output_path(out, overwrite)
+    n = n_events or config.run.events
+    seed = config.run.seed if seed is None else seed
+    source = make_source(config, build_scene(config))
+    parts = [source.primaries(chunk_rng(seed, c.index), c.first_event, c.n_events)
+             for c in plan_chunks(n, config.run.chunk_events)]
+    primaries = Primaries.concatenate(parts)
+    write_vertex_file(out, primaries, config_to_dict(config), seed)
+    depth = primaries.extra["depth"]
+    click.echo(f"wrote {out}: {n} events, {len(primaries.event)} primaries, depth mean {depth.mean() * 1e6:.3g} nm "
+               f"(min {depth.min() * 1e6:.3g}, max {depth.max() * 1e6:.3g} nm)")
+
+
+@cli.command()
 @click.argument("results_file", metavar="FILE.h5", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON.")
 @click.option("--bins", type=click.IntRange(min=1), help="Histogram bins (default: the run's setting, 100).")
@@ -94,7 +132,7 @@ cli.add_command(surface)
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI; return the exit status (2 for input errors)."""
     try:
-        cli.main(args=argv, prog_name="score4", standalone_mode=False)
+        status = cli.main(args=argv, prog_name="score4", standalone_mode=False)
     except Score4Error as err:
         click.echo(f"score4: error: {err}", err=True)
         return 2
@@ -106,7 +144,8 @@ def main(argv: list[str] | None = None) -> int:
     except click.exceptions.Abort:
         click.echo("score4: aborted", err=True)
         return 130
-    return 0
+    # with standalone_mode=False click returns (not raises) the code of a ctx.exit / Exit(n)
+    return status if isinstance(status, int) else 0
 
 
 def entry_point() -> None:

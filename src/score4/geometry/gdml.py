@@ -39,6 +39,9 @@ def read_gdml(g4, path: str | Path):
     """Read a GDML file without schema validation (validation would fetch the schema online).
 
     Returns the parser (keep it alive) and the world physical volume.
+
+    Read one GDML file per process: Geant4 keeps volumes in global stores, and a second file
+    that reuses the first one's volume names was measured to return the first file's world.
     """
     path = Path(path)
     if not path.is_file():
