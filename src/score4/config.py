@@ -9,13 +9,30 @@ that names the file, the key path, the value and the rule.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
 import yaml
-from pydantic import Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    Discriminator,
+    Field,
+    Tag,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from .errors import ConfigError
-from .schema import PositiveEnergy, PositiveLength, Size3, StrictModel, Vector3, describe_validation_error
+from .schema import (
+    ConfigPath,
+    NonNegativeLength,
+    PositiveEnergy,
+    PositiveLength,
+    Size3,
+    StrictModel,
+    Vector3,
+    describe_validation_error,
+)
+from .surface.spec import MeasuredSurfaceSpec, RandomSurfaceSpec, SpikeSurfaceSpec
 
 FACES = ("+x", "-x", "+y", "-y", "+z", "-z")
 
@@ -27,6 +44,7 @@ class BoxVolume(StrictModel):
     material: str = "G4_Si"
     size: Size3
     position: Vector3 = (0.0, 0.0, 0.0)
+    rough: list[RoughFace] = []
 
 
 class WorldConfig(StrictModel):
@@ -34,21 +52,147 @@ class WorldConfig(StrictModel):
     margin: PositiveLength = 10.0  # space around the targets, mm
 
 
+Face = Literal["+x", "-x", "+y", "-y", "+z", "-z"]
+
+
 class FaceRef(StrictModel):
     """A face of a box volume, e.g. the top face ``+z`` of volume ``crystal``."""
 
     volume: str
-    face: Literal["+x", "-x", "+y", "-y", "+z", "-z"] = "+z"
+    face: Face = "+z"
+
+
+class SurfaceFile(StrictModel):
+    """A surface stored in a score4 surface file (``score4 surface generate``)."""
+
+    file: ConfigPath
+
+
+def _surface_tag(value: object) -> str | None:
+    if isinstance(value, dict):
+        return value.get("kind", "surface-file" if "file" in value else None)
+    return getattr(value, "kind", "surface-file")
+
+
+# A surface under ``surfaces``: a description (kind: spikes | random | measured) or a surface file.
+SurfaceDescription = Annotated[
+    Annotated[SpikeSurfaceSpec, Tag("spikes")]
+    | Annotated[RandomSurfaceSpec, Tag("random")]
+    | Annotated[MeasuredSurfaceSpec, Tag("measured")]
+    | Annotated[SurfaceFile, Tag("surface-file")],
+    Discriminator(_surface_tag, custom_error_type="surface_kind",
+                  custom_error_message="a surface needs kind: spikes, random or measured, or file: <name>.s4s.h5"),
+]
+
+
+class PatchVariant(StrictModel):
+    surface: str  # a name under ``surfaces``
+    density: float  # target fraction of the cells (normalised if the densities do not sum to 1)
+
+
+class RoughFace(StrictModel):
+    """A rough face of a target: its surface, tiled over the face from patches.
+
+    Give ``surface`` (one patch, repeated) or ``variants`` (several patches with target
+    densities). The patch size is the surface's size; the face must be a whole number of patches.
+    The rough layer (patch bodies: the rough top on a slab ``base_thickness`` thick) sits on the
+    face, outside the box, in the target's material, and is scored with the target.
+    """
+
+    face: Face = "+z"
+    surface: str | None = None
+    variants: list[PatchVariant] | None = Field(None, min_length=1)
+    fill: Literal["exact", "random"] = "exact"  # how cells get their variant
+    seed: int = Field(0, ge=0)  # of the patch map
+    tiling: Literal["native", "portal"] = "native"
+    solid: Literal["auto", "tessellated", "multiunion"] = "auto"  # auto: multiunion for spike grids
+    base_thickness: PositiveLength = 1e-3
+
+    @model_validator(mode="after")
+    def _one_kind(self) -> RoughFace:
+        if (self.surface is None) == (self.variants is None):
+            raise ValueError("give either surface (one patch) or variants (several, with densities)")
+        return self
+
+    @property
+    def variant_list(self) -> list[PatchVariant]:
+        return self.variants if self.variants is not None else [PatchVariant(surface=self.surface, density=1.0)]
+
+
+class DepthConfig(StrictModel):
+    """How deep below the local surface a vertex sits."""
+
+    profile: Literal["zero", "exponential", "multi_exponential", "uniform", "truncated_gaussian", "table"] = "zero"
+    mean: NonNegativeLength | None = None  # exponential (> 0), truncated_gaussian
+    sigma: PositiveLength | None = None  # truncated_gaussian
+    means: list[PositiveLength] | None = None  # multi_exponential
+    weights: list[float] | None = None  # multi_exponential
+    file: ConfigPath | None = None  # table: "depth weight" rows
+    unit: str | None = None  # table: unit of the depth column unless the file has "# unit: nm"
+    min: NonNegativeLength = 0.0
+    max: PositiveLength | None = None  # uniform: required
+    definition: Literal["normal", "distance"] = "normal"
+
+    @model_validator(mode="after")
+    def _needs(self) -> DepthConfig:
+        need = {"exponential": ("mean",), "multi_exponential": ("means", "weights"), "uniform": ("max",),
+                "truncated_gaussian": ("mean", "sigma"), "table": ("file",), "zero": ()}[self.profile]
+        missing = [k for k in need if getattr(self, k) is None]
+        if missing:
+            raise ValueError(f"profile {self.profile} needs {' and '.join(missing)}")
+        if self.max is not None and self.max <= self.min:
+            raise ValueError(f"max ({self.max:g} mm) must be larger than min ({self.min:g} mm)")
+        return self
+
+
+class SpectrumConfig(StrictModel):
+    file: ConfigPath  # "energy weight" rows
+    unit: str | None = None
+    kind: Literal["linear", "histogram"] = "linear"
 
 
 class SourceConfig(StrictModel):
-    """Particles started uniformly on a face (issue 2: flat faces, depth 0)."""
+    """Where decays start and what they emit.
 
-    particle: str = "alpha"
-    energy: PositiveEnergy
-    # isotropic (4 pi), inward/outward (isotropic in that half-space), normal (a beam along the inward normal)
-    direction: Literal["isotropic", "inward", "outward", "normal"] = "isotropic"
-    surface: FaceRef
+    Emitter: ``particle`` with ``energy`` or ``spectrum``; or ``decay: Po210`` (built in: the
+    5.304 MeV alpha and the 103 keV Pb-206 recoil back to back); or ``nuclide`` (Geant4
+    radioactive decay, needs full physics data). Or ``vertices``: a vertex file written by
+    ``score4 vertices`` whose rows are used as they are.
+    """
+
+    surface: FaceRef | None = None
+    particle: str | None = None
+    energy: PositiveEnergy | None = None
+    spectrum: SpectrumConfig | None = None
+    decay: Literal["Po210"] | None = None
+    nuclide: str | None = None
+    # isotropic (4 pi), inward/outward (isotropic in that half-space), cosine_inward/outward
+    # (Lambert), normal (a beam along the inward surface normal)
+    direction: Literal["isotropic", "inward", "outward", "cosine_inward", "cosine_outward", "normal"] = "isotropic"
+    depth: DepthConfig = DepthConfig()
+    # Keep vertices inside the material of the face's target (a shift along the normal can leave
+    # a thin spike); a material name confines to that material instead; false turns it off.
+    confine: bool | str = True
+    vertices: ConfigPath | None = None
+
+    @model_validator(mode="after")
+    def _emitter(self) -> SourceConfig:
+        if self.vertices is not None:
+            if self.particle or self.energy or self.spectrum or self.decay or self.nuclide or self.surface:
+                raise ValueError("vertices: a vertex file already holds positions and particles; "
+                                 "drop surface/particle/energy/spectrum/decay/nuclide")
+            return self
+        if self.surface is None:
+            raise ValueError("surface: give the face the source sits on, e.g. {volume: crystal, face: '+z'}")
+        kinds = [k for k in ("particle", "decay", "nuclide") if getattr(self, k) is not None]
+        if len(kinds) != 1:
+            raise ValueError("give exactly one emitter: particle (with energy or spectrum), decay: Po210, or nuclide"
+                             + (f" (got {', '.join(kinds)})" if kinds else ""))
+        if self.particle is not None and (self.energy is None) == (self.spectrum is None):
+            raise ValueError(f"particle {self.particle}: give exactly one of energy and spectrum")
+        if self.particle is None and (self.energy is not None or self.spectrum is not None):
+            raise ValueError("energy/spectrum belong to particle; decay and nuclide sources fix their own energies")
+        return self
 
 
 class PhysicsConfig(StrictModel):
@@ -79,6 +223,7 @@ class RunConfig(StrictModel):
 
     physics: PhysicsConfig = PhysicsConfig()
     world: WorldConfig = WorldConfig()
+    surfaces: dict[str, SurfaceDescription] = {}
     targets: list[BoxVolume] = Field(min_length=1)
     source: SourceConfig
     run: RunSettings = RunSettings()
@@ -95,22 +240,36 @@ class RunConfig(StrictModel):
         dupes = sorted({n for n in names if names.count(n) > 1})
         if dupes:
             raise ValueError(f"targets: volume names must be unique, repeated: {', '.join(dupes)}")
-        if self.source.surface.volume not in names:
-            raise ValueError(
-                f"source.surface.volume: {self.source.surface.volume!r} is not a target; targets are: {', '.join(names)}"
-            )
+        src = self.source.surface
+        if src is not None and src.volume not in names:
+            raise ValueError(f"source.surface.volume: {src.volume!r} is not a target; targets are: {', '.join(names)}")
+        for i, t in enumerate(self.targets):
+            faces = [r.face for r in t.rough]
+            if len(set(faces)) != len(faces):
+                raise ValueError(f"targets.{i}.rough: face given twice ({', '.join(faces)})")
+            for j, r in enumerate(t.rough):
+                for v in r.variant_list:
+                    if v.surface not in self.surfaces:
+                        known = ", ".join(self.surfaces) or "none defined"
+                        raise ValueError(f"targets.{i}.rough.{j}: surface {v.surface!r} is not under surfaces ({known})")
         return self
 
     def target(self, name: str) -> BoxVolume:
         return next(t for t in self.targets if t.name == name)
 
+    def rough_face(self, volume: str, face: str) -> RoughFace | None:
+        return next((r for r in self.target(volume).rough if r.face == face), None)
 
-def parse_config(data: object, origin: str = "config") -> RunConfig:
-    """Validate a mapping (parsed YAML) into a :class:`RunConfig`."""
+
+def parse_config(data: object, origin: str = "config", base_dir: str | Path | None = None) -> RunConfig:
+    """Validate a mapping (parsed YAML) into a :class:`RunConfig`.
+
+    Relative file paths in it are taken relative to ``base_dir`` (the config file's folder).
+    """
     if not isinstance(data, dict):
         raise ConfigError(f"{origin}: the top level must be a mapping of keys, got {type(data).__name__}")
     try:
-        return RunConfig.model_validate(data)
+        return RunConfig.model_validate(data, context={'base_dir': Path(base_dir) if base_dir else None})
     except ValidationError as err:
         raise ConfigError(describe_validation_error(err, origin)) from None
 
@@ -126,7 +285,7 @@ def load_config(path: str | Path) -> RunConfig:
         where = getattr(err, "problem_mark", None)
         line = f" line {where.line + 1}" if where is not None else ""
         raise ConfigError(f"config: {path}{line}: not valid YAML ({getattr(err, 'problem', err)})") from None
-    return parse_config(data, origin=str(path))
+    return parse_config(data, origin=str(path), base_dir=path.parent)
 
 
 def config_to_dict(config: RunConfig) -> dict:

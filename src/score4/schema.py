@@ -7,9 +7,10 @@ surface descriptions (:mod:`score4.surface.spec`) build on these.
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Annotated
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, PlainSerializer, ValidationError
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, PlainSerializer, ValidationError, ValidationInfo
 
 from .units import parse_quantity
 
@@ -41,10 +42,14 @@ class StrictModel(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
 
+# Tags of tagged unions that pydantic puts into error locations; they are not keys the user wrote.
+UNION_TAGS = frozenset({"spikes", "random", "measured", "surface-file"})
+
+
 def describe_validation_error(err: ValidationError, origin: str) -> str:
     """The first problem of a pydantic error as one line: origin, key path, rule, value."""
     first = err.errors()[0]
-    loc = ".".join(str(p) for p in first["loc"])
+    loc = ".".join(str(p) for p in first["loc"] if p not in UNION_TAGS)
     msg = first["msg"].removeprefix("Value error, ")
     if first["type"] == "extra_forbidden":
         msg = "unknown key (check the spelling; see the config reference)"
@@ -53,3 +58,12 @@ def describe_validation_error(err: ValidationError, origin: str) -> str:
     more = f" [+{len(err.errors()) - 1} more problem(s)]" if len(err.errors()) > 1 else ""
     where = f"{origin}: {loc}: " if loc else f"{origin}: "
     return f"{where}{msg}{shown}{more}"
+
+
+def _resolve_path(value: Path, info: ValidationInfo) -> Path:
+    base = (info.context or {}).get("base_dir")
+    return value if value.is_absolute() or base is None else Path(base) / value
+
+
+# A file path; relative paths are taken relative to the config file's folder.
+ConfigPath = Annotated[Path, AfterValidator(_resolve_path)]

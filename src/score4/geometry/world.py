@@ -7,7 +7,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..config import RunConfig
+from ..errors import ConfigError
+from ..scene import Scene
 from .materials import find_material
+from .tiling import place_native
 
 
 @dataclass
@@ -24,10 +27,9 @@ class BuiltGeometry:
     keep: list = field(default_factory=list)
 
 
-def world_half_size(config: RunConfig) -> np.ndarray:
-    """Half-lengths of a world box that holds every target plus the margin."""
-    lo = np.min([np.subtract(t.position, np.divide(t.size, 2)) for t in config.targets], axis=0)
-    hi = np.max([np.add(t.position, np.divide(t.size, 2)) for t in config.targets], axis=0)
+def world_half_size(config: RunConfig, scene: Scene) -> np.ndarray:
+    """Half-lengths of a world box centred on the origin that holds every target, rough layer and the margin."""
+    lo, hi = scene.bounds
     return np.maximum(np.abs(lo), np.abs(hi)) + config.world.margin
 
 
@@ -38,11 +40,12 @@ def check_materials(g4, config: RunConfig) -> None:
         find_material(g4, t.material, f"targets.{i}.material")
 
 
-def build_world(g4, config: RunConfig) -> BuiltGeometry:
-    """World box with the configured targets placed inside it."""
-    half = world_half_size(config)
+def build_world(g4, config: RunConfig, scene: Scene) -> BuiltGeometry:
+    """World box with the configured targets and their rough layers placed inside it."""
+    half = world_half_size(config, scene)
     world_solid = g4.G4Box("World", *half)
-    world_lv = g4.G4LogicalVolume(world_solid, find_material(g4, config.world.material), "World")
+    world_material = find_material(g4, config.world.material)
+    world_lv = g4.G4LogicalVolume(world_solid, world_material, "World")
     world_pv = g4.G4PVPlacement(None, g4.G4ThreeVector(), world_lv, "World", None, False, 0, False)
     built = BuiltGeometry(world=world_pv, keep=[world_solid, world_lv, world_pv])
     for i, t in enumerate(config.targets):
@@ -51,4 +54,10 @@ def build_world(g4, config: RunConfig) -> BuiltGeometry:
         pv = g4.G4PVPlacement(None, g4.G4ThreeVector(*t.position), lv, t.name, world_lv, False, 0, False)
         built.keep += [solid, lv, pv]
         built.scoring[t.name] = [lv]
+        for layer in scene.layers_of(t.name):
+            if layer.config.tiling != "native":
+                raise ConfigError(f"{layer.name}: tiling {layer.config.tiling!r} is not available yet; use tiling: native")
+            patch_lvs, keep = place_native(g4, layer, world_lv, world_material, lv.GetMaterial())
+            built.scoring[t.name] += patch_lvs
+            built.keep += keep
     return built

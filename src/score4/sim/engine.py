@@ -24,12 +24,15 @@ from importlib.metadata import version
 from pathlib import Path
 
 import h5py
+import numpy as np
 from tqdm import tqdm
 
 from .. import __version__
 from ..config import RunConfig, config_to_dict
 from ..errors import ConfigError, Score4Error
 from ..output import merge_chunks
+from ..scene import build_scene
+from ..source.build import make_source
 from .runtime import resolve_physics
 from .worker import Chunk, WorkerSpec, chunk_path, worker_main
 
@@ -113,7 +116,10 @@ def run(
     seed = config.run.seed
     if jobs < 1:
         raise ConfigError(f"--jobs: must be at least 1, got {jobs}")
-    choice = resolve_physics(config.physics.mode)
+    choice = resolve_physics(config.physics.mode, needs_decay=config.source.nuclide is not None)
+    # Build the scene and draw one event here: bad surfaces, files and constraints fail now, not in a worker.
+    scene = build_scene(config)
+    make_source(config, scene).primaries(np.random.default_rng(0), 0, 1)
     if choice.warning:
         echo(f"warning: {choice.warning}")
     chunks = plan_chunks(config.run.events, config.run.chunk_events)
@@ -141,6 +147,7 @@ def run(
         raise
     record = {
         "config": config_to_dict(config),
+        "patch_maps": {layer.name: layer.patch_map.to_dict() for layer in scene.layers},
         "seed": seed,
         "physics_mode": choice.mode,
         "physics_requested": choice.requested,

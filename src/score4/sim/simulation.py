@@ -15,6 +15,8 @@ import numpy as np
 from ..config import RunConfig
 from ..errors import ConfigError
 from ..geometry.world import build_world, check_materials
+from ..scene import build_scene
+from ..source.build import make_source
 from ..source.primaries import Primaries
 from .physics import make_physics_list, set_production_cut, strip_data_hungry_processes
 from .runtime import PhysicsChoice, import_geant4, redirect_native_output
@@ -48,6 +50,8 @@ class Simulation:
 
     def __init__(self, config: RunConfig, choice: PhysicsChoice, log_path: Path | None = None) -> None:
         self.config = config
+        self.scene = build_scene(config)
+        self.source = make_source(config, self.scene)
         self.choice = choice
         self.log_path = log_path
         self.quantities = ("edep", "track_length") if config.output.track_length else ("edep",)
@@ -65,7 +69,7 @@ class Simulation:
 
         class Detector(g4.G4VUserDetectorConstruction):
             def Construct(self):
-                sim.geometry = build_world(g4, sim.config)
+                sim.geometry = build_world(g4, sim.config, sim.scene)
                 sim.scorer = VolumeScorer(g4, sim.geometry.scoring, sim.quantities)
                 return sim.geometry.world
 
@@ -97,7 +101,8 @@ class Simulation:
         self.scorer.resolve_ids()
         self._particles: dict[str, object] = {}
         self.volumes = list(self.scorer.names)
-        self.particle(self.config.source.particle)  # fail at start-up, before any output
+        for name in np.unique(self.source.primaries(np.random.default_rng(0), 0, 1).particle):
+            self.particle(str(name))  # fail at start-up, before any output
 
     def particle(self, name: str):
         if name not in self._particles:

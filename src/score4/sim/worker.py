@@ -15,7 +15,6 @@ from pathlib import Path
 from ..config import RunConfig
 from ..errors import Score4Error
 from ..output import write_chunk
-from ..source.build import config_primaries
 from .runtime import PhysicsChoice
 from .seeds import chunk_geant4_seed, chunk_rng
 
@@ -42,7 +41,7 @@ def chunk_path(parts_dir: Path, index: int) -> Path:
 
 def run_chunk(sim, spec: WorkerSpec, chunk: Chunk, progress=None) -> Path:
     """Sample, track and write one chunk; return the chunk file."""
-    primaries = config_primaries(spec.config, chunk_rng(spec.seed, chunk.index), chunk.n_events)
+    primaries = sim.source.primaries(chunk_rng(spec.seed, chunk.index), chunk.first_event, chunk.n_events)
     scores = sim.run(primaries, chunk_geant4_seed(spec.seed, chunk.index), progress=progress)
     path = chunk_path(spec.parts_dir, chunk.index)
     write_chunk(path, chunk.first_event, sim.volumes, scores, primaries, spec.fingerprint)

@@ -1,34 +1,127 @@
-"""Turn a source configuration into :class:`Primaries` for a chunk of events."""
+"""The source section of a run configuration turned into primaries, one chunk of events at a time.
+
+:func:`make_source` builds, once per process, what every chunk needs: the vertex sampler on the
+configured face (its rough layer if it has one, else the flat face), the depth profile, the
+confinement and the emitter; or the rows of a vertex file. ``source.primaries(rng, first, n)``
+then gives the primaries of events ``first .. first + n - 1``.
+"""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from ..config import RunConfig
-from .emitters import isotropic_directions
-from .faces import box_face
+from ..config import DepthConfig, RunConfig, SourceConfig
+from ..errors import ConfigError
+from ..scene import Scene, face_frame
+from .depth import (
+    DepthProfile,
+    ExponentialProfile,
+    MultiExponentialProfile,
+    TableProfile,
+    TruncatedGaussianProfile,
+    UniformProfile,
+    VertexSampler,
+    ZeroDepth,
+)
+from .emitters import (
+    EnergySpectrum,
+    NuclideEmitter,
+    ParticleEmitter,
+    Po210Emitter,
+    make_primaries,
+)
 from .primaries import Primaries
+from .sampling import SurfaceSampler
+from .vertex_file import read_vertex_file
 
 
-def config_primaries(config: RunConfig, rng: np.random.Generator, n_events: int) -> Primaries:
-    """One primary per event, uniform on the configured box face."""
+def depth_profile(cfg: DepthConfig) -> DepthProfile:
+    """The configured depth law (before the min/max window, which the sampler applies)."""
+    if cfg.profile == "zero":
+        return ZeroDepth()
+    if cfg.profile == "exponential":
+        return ExponentialProfile(cfg.mean)
+    if cfg.profile == "multi_exponential":
+        return MultiExponentialProfile(cfg.weights, cfg.means)
+    if cfg.profile == "uniform":
+        return UniformProfile(cfg.min, cfg.max)
+    if cfg.profile == "truncated_gaussian":
+        return TruncatedGaussianProfile(cfg.mean, cfg.sigma)
+    return TableProfile.from_file(cfg.file, unit=cfg.unit)
+
+
+def make_emitter(src: SourceConfig):
+    """ParticleEmitter, Po210Emitter or NuclideEmitter for the configured source."""
+    if src.decay == "Po210":
+        return Po210Emitter(src.direction)
+    if src.nuclide is not None:
+        return NuclideEmitter(src.nuclide)
+    energy = src.energy if src.spectrum is None else EnergySpectrum.from_file(
+        src.spectrum.file, kind=src.spectrum.kind, unit=src.spectrum.unit)
+    return ParticleEmitter(src.particle, energy, src.direction)
+
+
+def flat_face_sampler(config: RunConfig, volume: str, face: str) -> SurfaceSampler:
+    """Two world-coordinate triangles covering a flat box face."""
+    frame = face_frame(config.target(volume), face)
+    lu, lv = frame.size
+    corners = frame.to_world(np.array([[-lu / 2, -lv / 2, 0], [lu / 2, -lv / 2, 0], [lu / 2, lv / 2, 0], [-lu / 2, lv / 2, 0]]))
+    return SurfaceSampler(vertices=corners, faces=[[0, 1, 2], [0, 2, 3]])
+
+
+@dataclass
+class SampledSource:
+    """Vertices drawn on a face below its (rough) surface, each emitting the configured particles."""
+
+    sampler: VertexSampler
+    emitter: object
+
+    def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
+        v = self.sampler.sample(rng, n_events)
+        return make_primaries(self.emitter, rng, v.position, v.normal, depth=v.depth, facet=v.facet,
+                              patch=v.patch if v.patch is not None else np.full(n_events, -1))
+
+
+@dataclass
+class FileSource:
+    """Primaries read from a vertex file, event by event."""
+
+    primaries_all: Primaries
+    path: str
+
+    def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
+        available = self.primaries_all.n_events
+        if first_event + n_events > available:
+            raise ConfigError(f"source.vertices: {self.path} holds {available} events; the run asks for "
+                              f"events up to {first_event + n_events} (set run.events <= {available})")
+        return self.primaries_all.select_events(first_event, first_event + n_events)
+
+
+def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
+    """What :meth:`primaries` needs, built once: checks files, materials and constraints now."""
     src = config.source
-    target = config.target(src.surface.volume)
-    face = box_face(target.position, target.size, src.surface.face)
-    s, t = rng.uniform(size=(2, n_events))
-    position = face.origin + s[:, None] * face.u + t[:, None] * face.v
-    direction = isotropic_directions(rng, n_events)
-    if src.direction == "normal":
-        direction = np.tile(-face.normal, (n_events, 1))
-    elif src.direction != "isotropic":
-        # Fold into the wanted half-space: "inward" is against the face's outward normal.
-        along = direction @ face.normal
-        flip = along > 0 if src.direction == "inward" else along < 0
-        direction[flip] -= 2.0 * along[flip, None] * face.normal
-    return Primaries(
-        event=np.arange(n_events),
-        particle=np.full(n_events, src.particle),
-        energy=np.full(n_events, src.energy),
-        position=position,
-        direction=direction,
-    )
+    if src.vertices is not None:
+        source = FileSource(read_vertex_file(src.vertices), str(src.vertices))
+        if source.primaries_all.n_events < config.run.events:
+            raise ConfigError(f"source.vertices: {src.vertices} holds {source.primaries_all.n_events} events, "
+                              f"fewer than run.events = {config.run.events}")
+        return source
+    volume, face = src.surface.volume, src.surface.face
+    layer = scene.layer(volume, face)
+    surface = layer.sampler() if layer is not None else flat_face_sampler(config, volume, face)
+    inside = None
+    if src.confine is True:
+        inside = lambda p: scene.inside_target(volume, p)  # noqa: E731
+    elif isinstance(src.confine, str):
+        scene.inside_material(src.confine, np.zeros((0, 3)))  # fails now if no target has it
+        inside = lambda p: scene.inside_material(src.confine, p)  # noqa: E731
+    sampler = VertexSampler(surface, depth_profile(src.depth), definition=src.depth.definition,
+                            min_depth=src.depth.min, max_depth=src.depth.max if src.depth.max is not None else np.inf,
+                            inside=inside)
+    try:
+        emitter = make_emitter(src)
+    except ConfigError as err:
+        raise ConfigError(f"source.{err}") from None  # "source.particle: unknown name ..."
+    return SampledSource(sampler, emitter)

@@ -56,8 +56,8 @@ __all__ = [
     "sample_directions",
 ]
 
-DirectionKind = Literal["isotropic", "inward", "outward", "cosine_inward", "cosine_outward"]
-DIRECTIONS: tuple[str, ...] = ("isotropic", "inward", "outward", "cosine_inward", "cosine_outward")
+DirectionKind = Literal["isotropic", "inward", "outward", "cosine_inward", "cosine_outward", "normal"]
+DIRECTIONS: tuple[str, ...] = ("isotropic", "inward", "outward", "cosine_inward", "cosine_outward", "normal")
 
 # --------------------------------------------------------------------------------------------
 # Particle and nuclide names
@@ -170,7 +170,10 @@ def cosine_directions(rng: np.random.Generator, normals: ArrayLike, side: str = 
 def sample_directions(
     rng: np.random.Generator, kind: DirectionKind, n: int, normals: ArrayLike | None = None
 ) -> np.ndarray:
-    """``n`` directions of the given kind; every kind but ``isotropic`` needs ``normals``."""
+    """``n`` directions of the given kind; every kind but ``isotropic`` needs ``normals``.
+
+    ``normal`` is not random: every direction is the inward normal itself.
+    """
     if kind == "isotropic":
         return isotropic_directions(rng, n)
     if kind not in DIRECTIONS:
@@ -180,6 +183,8 @@ def sample_directions(
     normals = np.asarray(normals, dtype=float).reshape(-1, 3)
     if len(normals) != n:
         raise ConfigError(f"normals: got {len(normals)} normals for {n} vertices")
+    if kind == "normal":  # a pencil beam along the inward normal
+        return _axis(normals, "inward")
     if kind.startswith("cosine_"):
         return cosine_directions(rng, normals, kind.removeprefix("cosine_"))
     return hemisphere_directions(rng, normals, kind)

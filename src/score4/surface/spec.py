@@ -25,7 +25,7 @@ import yaml
 from pydantic import Field, TypeAdapter, ValidationError, model_validator
 
 from ..errors import ConfigError
-from ..schema import Length, NonNegativeLength, PositiveLength, StrictModel, describe_validation_error
+from ..schema import ConfigPath, Length, NonNegativeLength, PositiveLength, StrictModel, describe_validation_error
 from .heightmap import HeightMap
 from .mesh import TriangleMesh, closed_body, from_heightmap
 from .processing import close_periodic, crop, fill_missing, level_plane, resample
@@ -107,7 +107,7 @@ class MeasuredSurfaceSpec(StrictModel):
     """A measured topography file and what to do with it before use."""
 
     kind: Literal["measured"]
-    file: Path
+    file: ConfigPath
     format: str | None = None  # default: from the extension
     xy_unit: str | None = None  # text/xyz files without units in a header
     z_unit: str | None = None
@@ -125,20 +125,21 @@ _SPEC_ADAPTER: TypeAdapter = TypeAdapter(SurfaceSpec)
 KINDS = ("spikes", "random", "measured")
 
 
-def parse_surface_spec(data: object, origin: str = "surface") -> SpikeSurfaceSpec | RandomSurfaceSpec | MeasuredSurfaceSpec:
-    """Validate a mapping into a surface description; errors are one :class:`ConfigError` line."""
+def parse_surface_spec(
+    data: object, origin: str = "surface", base_dir: str | Path | None = None
+) -> SpikeSurfaceSpec | RandomSurfaceSpec | MeasuredSurfaceSpec:
+    """Validate a mapping into a surface description; errors are one :class:`ConfigError` line.
+
+    A relative measured-file path is taken relative to ``base_dir``.
+    """
     if not isinstance(data, dict):
         raise ConfigError(f"{origin}: a surface description must be a mapping, got {type(data).__name__}")
     if data.get("kind") not in KINDS:
         raise ConfigError(f"{origin}: kind: must be one of {', '.join(KINDS)} (got {data.get('kind')!r})")
     try:
-        return _SPEC_ADAPTER.validate_python(data)
+        return _SPEC_ADAPTER.validate_python(data, context={"base_dir": base_dir})
     except ValidationError as err:
-        message = describe_validation_error(err, origin)
-        # pydantic puts the union tag into the key path ("spikes.nx"); drop it, the kind is known.
-        for tag in (f"{origin}: {data['kind']}.", f"{origin}: {data['kind']}: "):
-            message = message.replace(tag, f"{origin}: ", 1)
-        raise ConfigError(message) from None
+        raise ConfigError(describe_validation_error(err, origin)) from None
 
 
 def load_surface_spec(path: str | Path):
@@ -150,10 +151,7 @@ def load_surface_spec(path: str | Path):
         data = yaml.safe_load(path.read_text())
     except yaml.YAMLError as err:
         raise ConfigError(f"surface: {path}: not valid YAML ({getattr(err, 'problem', err)})") from None
-    spec = parse_surface_spec(data, origin=str(path))
-    if isinstance(spec, MeasuredSurfaceSpec) and not spec.file.is_absolute():
-        spec = spec.model_copy(update={"file": (path.parent / spec.file)})  # relative to the YAML file
-    return spec
+    return parse_surface_spec(data, origin=str(path), base_dir=path.parent)
 
 
 @dataclass(frozen=True)
@@ -212,6 +210,22 @@ class Surface:
     def top_mesh(self) -> TriangleMesh:
         """The exact triangle mesh of the rough top (shared by geometry, sampling and metrology)."""
         return self.spikes.top_mesh() if self.spikes is not None else from_heightmap(self.placed_map)
+
+    def height_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Exact height of :attr:`top_mesh` above the base plane at (x, y), mm (points clipped to the patch)."""
+        if self.spikes is not None:
+            return self.spikes.height_at(x, y)
+        hm = self.placed_map
+        z = hm.heights
+        ny, nx = z.shape
+        fx = np.clip((np.asarray(x, float) - hm.origin[0]) / hm.pitch_x, 0.0, nx - 1)
+        fy = np.clip((np.asarray(y, float) - hm.origin[1]) / hm.pitch_y, 0.0, ny - 1)
+        i = np.minimum(fx.astype(np.int64), nx - 2)
+        j = np.minimum(fy.astype(np.int64), ny - 2)
+        u, v = fx - i, fy - j
+        za, zb, zc, zd = z[j, i], z[j, i + 1], z[j + 1, i + 1], z[j + 1, i]
+        # from_heightmap splits every cell along (i, j)-(i+1, j+1): linear on each triangle
+        return np.where(u >= v, za + u * (zb - za) + v * (zc - zb), za + v * (zd - za) + u * (zc - zd))
 
     def body(self, base_thickness: float) -> TriangleMesh:
         """Closed, watertight patch: the rough top on a slab reaching ``base_thickness`` below z = 0."""

@@ -1,0 +1,63 @@
+"""Rough layers in Geant4: patch solids and their native tiling over a face.
+
+Native tiling: the layer is an envelope box of the world material on the face (face size x
+layer thickness, outside the target); every cell of the patch map is a ``G4PVPlacement`` of its
+variant's logical volume (one per variant, shared by all its cells), so navigation stays in C++.
+The envelope is rotated into the face frame of :mod:`score4.scene`; inside it the patch bodies
+have their slab bottom on the face.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..scene import RoughLayer
+from .solids import multiunion_solid, tessellated_solid
+
+
+def _rotation(g4, r: np.ndarray):
+    rot = g4.G4RotationMatrix()
+    v = g4.G4ThreeVector
+    rot.rotateAxes(v(*r[:, 0]), v(*r[:, 1]), v(*r[:, 2]))  # columns: images of x, y, z
+    return rot
+
+
+def variant_solid(g4, layer: RoughLayer, k: int, name: str):
+    """(solid, keep) of patch variant ``k``: the closed body, base plane at z = 0, slab below."""
+    surface = layer.variants[k]
+    if layer.solid_kind(k) == "multiunion":
+        return multiunion_solid(g4, surface.spikes, layer.base_thickness, name)
+    solid = tessellated_solid(g4, surface.body(layer.base_thickness), name)
+    return solid, []
+
+
+def place_native(g4, layer: RoughLayer, mother_lv, world_material, material) -> tuple[list, list]:
+    """Place the layer's envelope in ``mother_lv`` and the patches in it.
+
+    Returns ``(patch logical volumes, objects to keep alive)``.
+    """
+    lu, lv = layer.frame.size
+    t = layer.thickness
+    name = layer.name
+    env_solid = g4.G4Box(name, lu / 2, lv / 2, t / 2)
+    env_lv = g4.G4LogicalVolume(env_solid, world_material, name)
+    rot = _rotation(g4, layer.frame.rotation)
+    centre = layer.frame.to_world(np.array([0.0, 0.0, t / 2]))
+    env_pv = g4.G4PVPlacement(g4.G4Transform3D(rot, g4.G4ThreeVector(*centre)), env_lv, name, mother_lv, False, 0, False)
+    keep = [env_solid, env_lv, rot, env_pv]
+    patch_lvs = []
+    for k in range(len(layer.variants)):
+        solid, parts = variant_solid(g4, layer, k, f"{name}_v{k}")
+        lv_k = g4.G4LogicalVolume(solid, material, f"{name}_v{k}")
+        keep += [solid, parts, lv_k]
+        patch_lvs.append(lv_k)
+    centres = layer.cell_centres()
+    z = -t / 2 + layer.base_thickness  # base plane of the patches in envelope coordinates
+    variants = layer.patch_map.variants
+    ny, nx = variants.shape
+    for j in range(ny):
+        for i in range(nx):
+            where = g4.G4ThreeVector(float(centres[j, i, 0]), float(centres[j, i, 1]), z)
+            pv = g4.G4PVPlacement(None, where, patch_lvs[variants[j, i]], f"{name}_cell", env_lv, False, i * ny + j, False)
+            keep.append(pv)
+    return patch_lvs, keep
