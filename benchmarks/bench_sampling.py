@@ -16,7 +16,8 @@ import time
 
 import numpy as np
 
-from score4.source.depth import ExponentialProfile, MeshDistance, VertexSampler
+from score4.source.depth import MeshDistance, VertexSampler
+from score4.source.profiles import ExponentialProfile
 from score4.source.emitters import Po210Emitter, make_primaries
 from score4.source.sampling import SurfaceSampler, TiledSurfaceSampler
 from score4.units import nm, um

@@ -11,17 +11,14 @@ from scipy import integrate, stats
 from scipy.spatial import cKDTree
 
 from score4.errors import ConfigError
-from score4.source.depth import (
+from score4.source.depth import MeshDistance, OffsetSurface, VertexSampler, closest_points_on_triangles
+from score4.source.profiles import (
     ExponentialProfile,
-    MeshDistance,
     MultiExponentialProfile,
-    OffsetSurface,
     TableProfile,
     TruncatedGaussianProfile,
     UniformProfile,
-    VertexSampler,
     ZeroDepth,
-    closest_points_on_triangles,
 )
 from score4.source.sampling import SurfaceSampler, TiledSurfaceSampler
 from score4.units import nm

@@ -9,7 +9,7 @@ from conftest import config_dict
 
 from score4.cli.main import main
 from score4.config import parse_config
-from score4.errors import ConfigError
+from score4.errors import ConfigError, PhysicsUnavailableError
 from score4.output import read_results
 from score4.scene import build_scene, face_frame
 from score4.sim.engine import run
@@ -149,3 +149,32 @@ def test_bad_rough_configs_fail_before_any_worker_starts(tmp_path):
     with pytest.raises(ConfigError, match="no target is made of 'G4_Cu'"):
         run(parse_config(config_dict(source={"confine": "G4_Cu"})), tmp_path / "b.h5", progress=False, echo=lambda m: None)
     assert not list(tmp_path.iterdir())
+
+
+def test_surface_taller_than_the_gap_to_a_facing_target_is_refused():
+    """A second target 8 um above the face: 10 um pyramids (plus the 1 um base) do not fit."""
+    facing = {"name": "lid", "material": "G4_Cu", "size": ["0.4 mm", "0.2 mm", "0.1 mm"], "position": ["0 mm", "0 mm", "0.058 mm"]}
+    data = config_dict(
+        surfaces={"p": {"kind": "spikes", "nx": 20, "ny": 10, "width": "20 um", "height": "10 um"}},
+        targets=[{**TARGET, "rough": [{"face": "+z", "surface": "p"}]}, facing],
+    )
+    with pytest.raises(ConfigError, match=r"runs into target 'lid' \(free gap there: 8 um\)"):
+        build_scene(parse_config(data))
+    facing["position"] = ["0 mm", "0 mm", "0.0611 mm"]  # 11.1 um gap: fits
+    assert build_scene(parse_config(data)).layers[0].thickness < 0.0111
+
+
+def test_nuclide_sources_need_radioactive_decay_data(tmp_path):
+    data = config_dict(source={"particle": None, "energy": None, "nuclide": "Pb210"})
+    with pytest.raises(PhysicsUnavailableError, match="lite mode cannot do decays"):
+        run(parse_config({**data, "physics": "lite"}), tmp_path / "n.h5", progress=False, echo=lambda m: None)
+    assert not list(tmp_path.iterdir())
+
+
+def test_confinement_to_a_material_no_target_at_the_face_has_fails_with_counts(tmp_path):
+    """Vertices drawn at the face of a silicon crystal can never be in the copper block beside it."""
+    copper = {"name": "block", "material": "G4_Cu", "size": ["1 mm", "1 mm", "1 mm"], "position": ["5 mm", "0 mm", "0 mm"]}
+    data = config_dict(targets=[config_dict()["targets"][0], copper],
+                       source={"confine": "G4_Cu", "depth": {"profile": "exponential", "mean": "20 nm"}})
+    with pytest.raises(ConfigError, match="outside the confinement"):
+        run(parse_config(data), tmp_path / "c.h5", progress=False, echo=lambda m: None)

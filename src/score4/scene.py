@@ -187,6 +187,39 @@ class Scene:
         return np.min(lo, axis=0), np.max(hi, axis=0)
 
 
+def _box_of_layer(layer: RoughLayer) -> tuple[np.ndarray, np.ndarray]:
+    """Axis-aligned (lo, hi) of the layer's envelope: the face extruded by the layer thickness."""
+    lu, lv = layer.frame.size
+    corners = np.array([[su * lu / 2, sv * lv / 2, z] for su in (-1, 1) for sv in (-1, 1) for z in (0.0, layer.thickness)])
+    world = layer.frame.to_world(corners)
+    return world.min(axis=0), world.max(axis=0)
+
+
+def _overlap(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> bool:
+    """Boxes share volume (touching faces are fine)."""
+    return bool(np.all(np.minimum(a[1], b[1]) - np.maximum(a[0], b[0]) > BOUNDARY_TOLERANCE))
+
+
+def check_clearance(scene: Scene) -> None:
+    """Refuse rough layers that run into another target or another rough layer."""
+    boxes = {t.name: (np.subtract(t.position, np.divide(t.size, 2)), np.add(t.position, np.divide(t.size, 2)))
+             for t in scene.config.targets}
+    layers = [(layer, _box_of_layer(layer)) for layer in scene.layers]
+    for n, (layer, box) in enumerate(layers):
+        others = [(f"target {name!r}", b) for name, b in boxes.items() if name != layer.target.name]
+        others += [(f"the rough layer {o.name}", ob) for o, ob in layers[n + 1:]]
+        for what, other in others:
+            if _overlap(box, other):
+                axis = int(np.flatnonzero(layer.frame.normal)[0])
+                gap = (other[0][axis] - box[0][axis]) if layer.frame.normal[axis] > 0 else (box[1][axis] - other[1][axis])
+                raise ConfigError(
+                    f"{layer.name}: the rough layer on face {layer.config.face} of {layer.target.name!r} is "
+                    f"{layer.thickness * 1e3:.4g} um thick (base {layer.base_thickness * 1e3:.4g} um + highest tip) and "
+                    f"runs into {what} (free gap there: {max(gap, 0.0) * 1e3:.4g} um); move the volumes apart or "
+                    "use a lower surface"
+                )
+
+
 def _load(name: str, description) -> Surface:
     where = f"surfaces.{name}"
     try:
@@ -223,4 +256,5 @@ def build_scene(config: RunConfig) -> Scene:
             except ConfigError as err:
                 raise ConfigError(f"{where} (face {rough.face} of {target.name}): {err}") from None
             scene.layers.append(RoughLayer(target, rough, frame, names, variants, patch_map))
+    check_clearance(scene)
     return scene

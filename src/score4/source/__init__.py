@@ -4,14 +4,13 @@ Nothing in this package imports Geant4; the simulation layer turns :class:`Prima
 Geant4 primary vertices.
 """
 
-from .depth import (
+from .depth import VertexSampler, Vertices
+from .profiles import (
     ExponentialProfile,
     MultiExponentialProfile,
     TableProfile,
     TruncatedGaussianProfile,
     UniformProfile,
-    VertexSampler,
-    Vertices,
     ZeroDepth,
 )
 from .emitters import NuclideEmitter, ParticleEmitter, Po210Emitter, make_primaries

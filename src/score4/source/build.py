@@ -15,14 +15,14 @@ import numpy as np
 from ..config import DepthConfig, RunConfig, SourceConfig
 from ..errors import ConfigError
 from ..scene import Scene, face_frame
-from .depth import (
+from .depth import VertexSampler
+from .profiles import (
     DepthProfile,
     ExponentialProfile,
     MultiExponentialProfile,
     TableProfile,
     TruncatedGaussianProfile,
     UniformProfile,
-    VertexSampler,
     ZeroDepth,
 )
 from .emitters import (
