@@ -178,3 +178,9 @@ def test_confinement_to_a_material_no_target_at_the_face_has_fails_with_counts(t
                        source={"confine": "G4_Cu", "depth": {"profile": "exponential", "mean": "20 nm"}})
     with pytest.raises(ConfigError, match="outside the confinement"):
         run(parse_config(data), tmp_path / "c.h5", progress=False, echo=lambda m: None)
+
+
+def test_overlapping_targets_are_refused():
+    second = {"name": "other", "material": "G4_Cu", "size": ["1 mm", "1 mm", "1 mm"], "position": ["0.5 mm", "0 mm", "0 mm"]}
+    with pytest.raises(ConfigError, match="'crystal' and 'other' overlap"):
+        build_scene(parse_config(config_dict(targets=[config_dict()["targets"][0], second])))

@@ -201,9 +201,14 @@ def _overlap(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray])
 
 
 def check_clearance(scene: Scene) -> None:
-    """Refuse rough layers that run into another target or another rough layer."""
+    """Refuse targets that overlap, and rough layers that run into another target or rough layer."""
     boxes = {t.name: (np.subtract(t.position, np.divide(t.size, 2)), np.add(t.position, np.divide(t.size, 2)))
              for t in scene.config.targets}
+    names = list(boxes)
+    for a, name in enumerate(names):
+        for other in names[a + 1:]:
+            if _overlap(boxes[name], boxes[other]):
+                raise ConfigError(f"targets: {name!r} and {other!r} overlap; Geant4 needs volumes that do not overlap")
     layers = [(layer, _box_of_layer(layer)) for layer in scene.layers]
     for n, (layer, box) in enumerate(layers):
         others = [(f"target {name!r}", b) for name, b in boxes.items() if name != layer.target.name]

@@ -16,6 +16,7 @@ import click
 from .. import __version__
 from ..errors import ConfigError, Score4Error
 from .data import data
+from .geometry import geometry
 from .results import plot, export
 from .surface import surface
 
@@ -127,6 +128,7 @@ cli.add_command(data)
 cli.add_command(plot)
 cli.add_command(export)
 cli.add_command(surface)
+cli.add_command(geometry)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,0 +1,24 @@
+"""Run in a spawned process: build a config's world, optionally plant an overlapping box, check."""
+
+from __future__ import annotations
+
+
+def check(config_data: dict, plant_overlap: bool) -> tuple[bool, list[str], int, int]:
+    from score4.config import parse_config
+    from score4.geometry.check import check_placements
+    from score4.geometry.world import build_world
+    from score4.scene import build_scene
+    from score4.sim.runtime import import_geant4, redirect_native_output, resolve_physics
+
+    config = parse_config(config_data)
+    g4 = import_geant4(resolve_physics("lite"))
+    with redirect_native_output(None):
+        built = build_world(g4, config, build_scene(config))
+        world_lv = built.world.GetLogicalVolume()
+        if plant_overlap:  # a copper box straddling the top face of the crystal
+            solid = g4.G4Box("intruder", 0.05, 0.05, 0.05)
+            lv = g4.G4LogicalVolume(solid, g4.G4NistManager.Instance().FindOrBuildMaterial("G4_Cu"), "intruder")
+            pv = g4.G4PVPlacement(None, g4.G4ThreeVector(0, 0, 0.0), lv, "intruder", world_lv, False, 0, False)
+            built.keep += [solid, lv, pv]
+        report = check_placements(built.world, points=500, max_placements=20)
+    return report.ok, report.overlaps, report.checked, report.total
