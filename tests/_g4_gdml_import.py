@@ -16,7 +16,7 @@ def inspect_gdml(path: str, solid_points: list, world_points: list) -> dict:
     from score4.sim.runtime import import_geant4, resolve_physics
 
     g4 = import_geant4(resolve_physics("lite"))
-    parser, world = read_gdml(g4, path)
+    _parser, world = read_gdml(g4, path)  # the parser must outlive the volumes it made
     world_lv = world.GetLogicalVolume()
     box = world_lv.GetSolid()
     pv = world_lv.GetDaughter(0)

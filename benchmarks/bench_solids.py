@@ -1,0 +1,322 @@
+"""Cost of one rough-surface solid in Geant4: G4TessellatedSolid vs the paper's G4MultiUnion.
+
+    .venv/bin/python benchmarks/bench_solids.py [--max-spikes 1e5] [--timeout 600] [--events 5000]
+
+Surface: square pyramids 10 um wide and 10 um high (all equal) on a square n x n grid
+(n = round(sqrt(N))), on a base 50 um thick. For each N and each solid, one fresh process:
+  numpy s     score4's numpy description (closed mesh for tessellated, frustum table for union)
+  build s     Geant4 solid from it (AddFacet / AddNode loop, from Python)
+  voxel s     SetSolidClosed(True) (vertex list + voxels) / G4MultiUnion::Voxelize()
+  RSS MB      peak resident size of the process (ru_maxrss), and dRSS = peak minus the peak
+              right after importing Geant4 (nothing built)
+  us/event    geantinos shot straight down (-z) from 1 um above the highest tip at uniform
+              random (x, y) over the patch, serial run manager with transportation only,
+              Python primary generator; after 200 warm-up events, the fastest of --repeats
+              batches of --events (the machine is shared)
+  path err    a check, from 200 further events with a stepping action: largest difference
+              between the geantino's path in the solid and top height + base (numpy)
+`box` is a flat G4Box of the patch footprint and the base thickness (the floor of tracking cost).
+A case that does not finish within --timeout is killed and reported as "> timeout".
+
+Measured 2026-11-21 on the 2-core project machine, geant4_pybind 0.1.3 / Geant4 11.4.1. The
+machine was shared (load 2-4.5): a first run under heavier load gave up to 4x longer voxelising
+times and 1.5-3x longer us/event for some rows, so read the figures to +-30 %, ratios more
+firmly. Command:
+    .venv/bin/python benchmarks/bench_solids.py --max-spikes 3e5
+
+       N solid         numpy s  build s  voxel s  init s   RSS MB  dRSS MB  us/event   path nm
+     100 box              0.00     0.00     0.00    0.00      155        0       5.9     0.000
+     100 multiunion       0.00     0.00     0.00    0.00      155        0       8.1     0.000
+     100 tessellated      0.00     0.00     0.00    0.00      155        0      10.4     0.000
+    1024 box              0.00     0.00     0.00    0.00      155        0       6.0     0.000
+    1024 multiunion       0.00     0.01     0.00    0.00      155        0       9.1     0.000
+    1024 tessellated      0.00     0.04     0.01    0.00      156        1      25.9     0.000
+   10000 box              0.00     0.00     0.00    0.00      155        0       6.2     0.000
+   10000 multiunion       0.00     0.11     0.08    0.00      174       19      13.3     0.000
+   10000 tessellated      0.01     0.42     0.28    0.00      182       28      58.0     0.000
+   99856 box              0.00     0.00     0.00    0.00      154        0       5.9     0.000
+   99856 multiunion       0.03     1.19     4.25    0.00      392      237      39.4     0.000
+   99856 tessellated      0.20     5.01    15.03    0.00      647      493     129.9     0.000
+  300304 box              0.00     0.00     0.00    0.00      155        0       6.1     0.000
+  300304 multiunion       0.03     3.65    59.02    0.00      940      785     105.8     0.000
+  300304 tessellated      0.88    15.40   104.95    0.00     1845     1690     297.5     0.000
+
+Same, tessellated only, with SetMaxVoxels(10000) before closing (--solids tessellated
+--tess-max-voxels 1e4; 100 and 1024 repeated, both settings, under load 4.5):
+     100 tessellated   us/event 22.7 (default voxels, same load: 14.2)
+    1024 tessellated   us/event 53.7 (default: 23.1)
+   10000 tessellated   voxel 0.24 s, dRSS 23 MB,  us/event 44.0
+   99856 tessellated   voxel 10.4 s, dRSS 268 MB, us/event 111.0
+  300304 tessellated   voxel 83.4 s, dRSS 822 MB, us/event 142.8
+1e6 spikes was not run here (DESIGN.md: a 1e6 multi-union does not finish in 10 min).
+
+Conclusion. For spike grids score4 should build the paper's G4MultiUnion by default: at every N
+it tracks faster (1e4: 13 vs 58 us/event; 1e5: 39 vs 130; 3e5: 106 vs 298, or 143 with
+SetMaxVoxels), builds 3-4x faster at 1e5 (5.4 vs 20 s) and takes half the memory (1e5: 237 vs
+493 MB; 3e5: 785 vs 1690 MB). Both grow faster than N (voxelising 1e4 -> 1e5 -> 3e5: union
+0.08 -> 4.3 -> 59 s, tessellated 0.28 -> 15 -> 105 s), so one solid should hold <= ~1e5 spikes
+and larger faces be tiled. The tessellated solid stays the only choice for general meshes
+(random or measured surfaces); there, SetMaxVoxels(1e4) pays from ~1e4 spikes (4e4 facets) on
+(3e5: 2x faster tracking, half the memory) but slows small solids, whose default voxel count
+(about one per facet) is better. Every geantino's path in the solid matched top height + base
+to < 1e-3 nm (path nm column), so both solids describe the same body.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import resource
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+WIDTH = 0.010  # mm, pyramid base side
+HEIGHT = 0.010  # mm, pyramid height
+THICKNESS = 0.050  # mm, material under the base plane
+SOLIDS = ("box", "multiunion", "tessellated")
+WARMUP, CHECK = 200, 200
+
+
+def _rss_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # kB on Linux
+
+
+class _Timed:
+    """Stands in for a Geant4 solid and times one named method (the voxelising step).
+
+    The library builders are used unchanged; this proxy only splits their time in two.
+    """
+
+    def __init__(self, solid, method: str) -> None:
+        self._solid, self._method, self.seconds = solid, method, 0.0
+
+    def __getattr__(self, name):
+        attr = getattr(self._solid, name)
+        if name != self._method:
+            return attr
+
+        def timed(*args):
+            t0 = time.perf_counter()
+            out = attr(*args)
+            self.seconds += time.perf_counter() - t0
+            return out
+
+        return timed
+
+
+class _G4WithTimedSolid:
+    """The geant4_pybind module, except that one solid class returns a :class:`_Timed` proxy."""
+
+    def __init__(self, g4, cls: str, method: str, max_voxels: int | None = None) -> None:
+        self._g4, self._cls, self._method, self._max_voxels = g4, cls, method, max_voxels
+        self.proxy: _Timed | None = None
+
+    def __getattr__(self, name):
+        if name != self._cls:
+            return getattr(self._g4, name)
+
+        def make(*args):
+            solid = getattr(self._g4, name)(*args)
+            if self._max_voxels:
+                solid.SetMaxVoxels(self._max_voxels)
+            self.proxy = _Timed(solid, self._method)
+            return self.proxy
+
+        return make
+
+
+def measure(solid_kind: str, n_side: int, events: int, max_voxels: int | None, repeats: int = 3) -> dict:
+    """Build one solid, place it in a world, track geantinos; runs in its own process."""
+    from score4.geometry.solids import multiunion_solid, tessellated_solid
+    from score4.sim.runtime import import_geant4, resolve_physics
+    from score4.surface.mesh import closed_body
+    from score4.surface.spikes import SpikeGrid
+
+    g4 = import_geant4(resolve_physics("lite"))
+    rss_import = _rss_mb()
+    out = {"solid": solid_kind, "n_spikes": n_side * n_side, "rss_import_mb": rss_import}
+
+    t0 = time.perf_counter()
+    grid = SpikeGrid(nx=n_side, ny=n_side, width_x=WIDTH, width_y=WIDTH, mean_height=HEIGHT)
+    if solid_kind == "tessellated":
+        description = closed_body(grid.top_mesh(), THICKNESS)
+        out["facets"] = description.n_faces
+    elif solid_kind == "multiunion":
+        out["nodes"] = 1 + len(grid.frustums())
+    out["numpy_s"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    if solid_kind == "tessellated":
+        wrapped = _G4WithTimedSolid(g4, "G4TessellatedSolid", "SetSolidClosed", max_voxels)
+        tessellated_solid(wrapped, description, "rough")
+        solid, keep = wrapped.proxy._solid, ()
+    elif solid_kind == "multiunion":
+        wrapped = _G4WithTimedSolid(g4, "G4MultiUnion", "Voxelize")
+        _, keep = multiunion_solid(wrapped, grid, THICKNESS, "rough")
+        solid = wrapped.proxy._solid
+    else:
+        wrapped, keep = None, ()
+        solid = g4.G4Box("rough", grid.size_x / 2, grid.size_y / 2, THICKNESS / 2)
+    total = time.perf_counter() - t0
+    out["voxelise_s"] = wrapped.proxy.seconds if wrapped else 0.0
+    out["build_s"] = total - out["voxelise_s"]
+    out["rss_built_mb"] = _rss_mb()
+
+    out.update(_track(g4, solid, grid, events, repeats))
+    out["rss_peak_mb"] = _rss_mb()
+    out["rss_delta_mb"] = out["rss_peak_mb"] - rss_import
+    _ = keep  # the union's node solids must outlive the run
+    return out
+
+
+def _track(g4, solid, grid, events: int, repeats: int) -> dict:
+    """Geantino tracking time through a world holding ``solid``, plus a path-length check."""
+    rng = np.random.default_rng(12345)
+    n_total = WARMUP + events + CHECK
+    xy = rng.uniform([-grid.size_x / 2, -grid.size_y / 2], [grid.size_x / 2, grid.size_y / 2], (n_total, 2))
+    z_start = float(grid.heights.max()) + 1e-3
+    box_solid = solid.GetEntityType() == "G4Box"
+    # Expected path inside the solid for a vertical line: from the top surface to the bottom.
+    top = np.zeros(n_total) if box_solid else grid.height_at(xy[:, 0], xy[:, 1])
+    expected = top + THICKNESS
+
+    nist = g4.G4NistManager.Instance()
+    margin = 0.1
+    world_solid = g4.G4Box("world", grid.size_x / 2 + margin, grid.size_y / 2 + margin, THICKNESS + z_start + margin)
+    world_lv = g4.G4LogicalVolume(world_solid, nist.FindOrBuildMaterial("G4_Galactic"), "world")
+    world_pv = g4.G4PVPlacement(None, g4.G4ThreeVector(), world_lv, "world", None, False, 0)
+    lv = g4.G4LogicalVolume(solid, nist.FindOrBuildMaterial("G4_Si"), "rough")
+    where = g4.G4ThreeVector(0, 0, -THICKNESS / 2) if box_solid else g4.G4ThreeVector()
+    g4.G4PVPlacement(None, where, lv, "rough", world_lv, False, 0)
+
+    class Detector(g4.G4VUserDetectorConstruction):
+        def Construct(self):
+            return world_pv
+
+    class Transport(g4.G4VModularPhysicsList):
+        # The C++ ConstructProcess adds transportation; a geantino needs nothing else, no data.
+        def ConstructParticle(self):
+            g4.G4Geantino.GeantinoDefinition()
+
+    class Gun(g4.G4VUserPrimaryGeneratorAction):
+        def __init__(self):
+            super().__init__()
+            self.gun = g4.G4ParticleGun(1)
+            self.gun.SetParticleDefinition(g4.G4Geantino.GeantinoDefinition())
+            self.gun.SetParticleEnergy(1.0)
+            self.gun.SetParticleMomentumDirection(g4.G4ThreeVector(0, 0, -1))
+            self.k = 0
+
+        def GeneratePrimaries(self, event):
+            x, y = xy[self.k % len(xy)]
+            self.k += 1
+            self.gun.SetParticlePosition(g4.G4ThreeVector(float(x), float(y), z_start))
+            self.gun.GeneratePrimaryVertex(event)
+
+    paths = np.zeros(n_total)
+
+    class PathInSolid(g4.G4UserSteppingAction):
+        def UserSteppingAction(self, step):
+            if step.GetPreStepPoint().GetTouchable().GetVolume().GetLogicalVolume() == lv:
+                paths[gun.k - 1] += step.GetStepLength()
+
+    run_manager = g4.G4RunManagerFactory.CreateRunManager(g4.G4RunManagerType.Serial)
+    detector, physics = Detector(), Transport()
+    run_manager.SetUserInitialization(detector)
+    run_manager.SetUserInitialization(physics)
+    gun = Gun()  # Geant4 aborts if an action exists before the physics list is registered
+    run_manager.SetUserAction(gun)
+    for cmd in ("/control/verbose 0", "/run/verbose 0", "/event/verbose 0", "/tracking/verbose 0"):
+        g4.G4UImanager.GetUIpointer().ApplyCommand(cmd)
+    t0 = time.perf_counter()
+    run_manager.Initialize()  # closes the geometry: builds the world's navigation voxels
+    init_s = time.perf_counter() - t0
+    run_manager.BeamOn(WARMUP)
+    batches = []
+    for _ in range(repeats):  # the machine is shared: the fastest batch is the least disturbed
+        t0 = time.perf_counter()
+        run_manager.BeamOn(events)
+        batches.append(1e6 * (time.perf_counter() - t0) / events)
+    gun.k = WARMUP + events  # the check events follow; their expected paths are indexed from here
+    stepping = PathInSolid()
+    run_manager.SetUserAction(stepping)
+    run_manager.BeamOn(CHECK)
+    err = float(np.abs(paths[-CHECK:] - expected[-CHECK:]).max())
+    return {"init_s": init_s, "us_per_event": min(batches), "us_batches": batches, "path_err_mm": err, "events": events}
+
+
+def _spikes(text: str) -> int:
+    return int(float(text))
+
+
+def _row(r: dict) -> str:
+    if "error" in r:
+        return f"{r['n_spikes']:>8d} {r['solid']:12s} {r['error']}"
+    return (f"{r['n_spikes']:>8d} {r['solid']:12s} {r['numpy_s']:8.2f} {r['build_s']:8.2f} {r['voxelise_s']:8.2f} "
+            f"{r['init_s']:7.2f} {r['rss_peak_mb']:8.0f} {r['rss_delta_mb']:8.0f} {r['us_per_event']:9.1f} "
+            f"{r['path_err_mm'] * 1e6:9.3f}")
+
+
+HEADER = (f"{'N':>8s} {'solid':12s} {'numpy s':>8s} {'build s':>8s} {'voxel s':>8s} {'init s':>7s} "
+          f"{'RSS MB':>8s} {'dRSS MB':>8s} {'us/event':>9s} {'path nm':>9s}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--max-spikes", type=_spikes, default=100_000,
+                        help="largest N of 1e2, 1e3, 1e4, 1e5, 3e5, 1e6 to run (default 1e5)")
+    parser.add_argument("--timeout", type=float, default=600.0, help="seconds per case before it is killed")
+    parser.add_argument("--events", type=int, default=5000, help="timed geantino events per case (>= 2000)")
+    parser.add_argument("--repeats", type=int, default=3, help="timed batches of --events; the fastest is reported")
+    parser.add_argument("--solids", default=",".join(SOLIDS), help=f"comma-separated subset of {SOLIDS}")
+    parser.add_argument("--tess-max-voxels", type=_spikes, default=None,
+                        help="call G4TessellatedSolid::SetMaxVoxels(K) before closing (default: Geant4's)")
+    parser.add_argument("--case", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.events < 2000:
+        parser.error(f"--events: must be >= 2000 for a stable figure, got {args.events}")
+    if args.case:  # child process: one measurement, JSON on the last line of stdout
+        kind, n_side = args.case.split(":")
+        from score4.sim.runtime import redirect_native_output
+
+        with redirect_native_output(os.devnull):
+            result = measure(kind, int(n_side), args.events, args.tess_max_voxels, args.repeats)
+        print(json.dumps(result))
+        return
+
+    solids = [s for s in args.solids.split(",") if s]
+    for s in solids:
+        if s not in SOLIDS:
+            parser.error(f"--solids: unknown solid {s!r}; use {', '.join(SOLIDS)}")
+    sizes = [n for n in (100, 1000, 10_000, 100_000, 300_000, 1_000_000) if n <= args.max_spikes]
+    extra = f", tessellated SetMaxVoxels({args.tess_max_voxels})" if args.tess_max_voxels else ""
+    print(f"pyramids {WIDTH * 1e3:g} um wide, {HEIGHT * 1e3:g} um high, base {THICKNESS * 1e3:g} um; "
+          f"{args.events} geantinos per case{extra}")
+    print(HEADER, flush=True)
+    for n in sizes:
+        n_side = round(math.sqrt(n))
+        for kind in solids:
+            cmd = [sys.executable, __file__, "--case", f"{kind}:{n_side}", "--events", str(args.events),
+                   "--repeats", str(args.repeats)]
+            if args.tess_max_voxels:
+                cmd += ["--tess-max-voxels", str(args.tess_max_voxels)]
+            try:
+                done = subprocess.run(cmd, check=False, capture_output=True, text=True, timeout=args.timeout)
+            except subprocess.TimeoutExpired:  # subprocess.run kills the child
+                r = {"n_spikes": n_side * n_side, "solid": kind, "error": f"> {args.timeout:g} s (killed)"}
+            else:
+                if done.returncode == 0:
+                    r = json.loads(done.stdout.strip().splitlines()[-1])
+                else:
+                    tail = (done.stderr.strip().splitlines() or ["no output"])[-1]
+                    r = {"n_spikes": n_side * n_side, "solid": kind, "error": f"failed ({done.returncode}): {tail}"}
+            print(_row(r), flush=True)
+
+
+if __name__ == "__main__":
+    main()
