@@ -13,7 +13,7 @@ Surface: square pyramids 10 um wide and 10 um high (all equal) on a square n x n
               random (x, y) over the patch, serial run manager with transportation only,
               Python primary generator; after 200 warm-up events, the fastest of --repeats
               batches of --events (the machine is shared)
-  path err    a check, from 200 further events with a stepping action: largest difference
+  path nm     a check, from 200 further events with a stepping action: largest difference
               between the geantino's path in the solid and top height + base (numpy)
 `box` is a flat G4Box of the patch footprint and the base thickness (the floor of tracking cost).
 A case that does not finish within --timeout is killed and reported as "> timeout".
