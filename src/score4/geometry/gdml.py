@@ -13,7 +13,9 @@ def write_solid_gdml(g4, solid, path: str | Path, material: str = "G4_Si", margi
     """Write ``solid`` (placed in a vacuum world box) as a standalone GDML file, atomically.
 
     The file holds materials, the solid, a logical volume and a world, so any GDML reader
-    (ROOT, pyg4ometry, another Geant4 application) can load it directly.
+    (ROOT, another Geant4 application) can load it directly. pyg4ometry 1.4.6 cannot: it
+    refuses the ``<T>`` element Geant4 writes for NIST materials ("Cannot set temperature for
+    predefined materials"; measured).
     """
     path = Path(path)
     lo, hi = g4.G4ThreeVector(), g4.G4ThreeVector()

@@ -12,9 +12,17 @@ from ..surface.mesh import TriangleMesh
 from ..surface.spikes import SpikeGrid
 
 
+#: Above this many facets a tessellated solid gets at most TESSELLATED_MAX_VOXELS voxels: fewer,
+#: larger voxels halved tracking time and memory at 3e5 spikes (benchmarks/bench_solids.py).
+TESSELLATED_VOXEL_LIMIT_FACETS = 40_000
+TESSELLATED_MAX_VOXELS = 10_000
+
+
 def tessellated_solid(g4, mesh: TriangleMesh, name: str):
     """A closed G4TessellatedSolid with one triangular facet per mesh face (outward normals)."""
     solid = g4.G4TessellatedSolid(name)
+    if mesh.n_faces > TESSELLATED_VOXEL_LIMIT_FACETS:
+        solid.SetMaxVoxels(TESSELLATED_MAX_VOXELS)
     corners = mesh.vertices[mesh.faces]
     vec = g4.G4ThreeVector
     for a, b, c in corners:
