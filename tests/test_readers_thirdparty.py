@@ -9,16 +9,19 @@ blocks, each layer starts with uint32 rows, uint32 columns, then the float32 hei
 
 The reference figures below were obtained by reading that file with SurfaceTopography 1.27.1
 in a scratch venv (``make_synthetic_plu.py --reference``); SurfaceTopography is not a score4
-dependency.
+dependency. score4 reads .plu with its own reader (surfalize 0.19.2 read the heights 8 bytes early,
+shifting the map by 2 columns); damaged copies of the file must be refused with a ConfigError.
 """
 
 from __future__ import annotations
 
+import struct
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from score4.errors import ConfigError
 from score4.surface.readers import read_topography
 
 PLU = Path(__file__).parent / "data" / "topography" / "synthetic_40x30.plu"
@@ -43,10 +46,6 @@ def test_plu_grid_and_pitch_match_surfacetopography():
     assert hm.metadata["format"] == "plu"
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "surfalize 0.19.2 (score4's .plu backend) does not skip the layer's 8-byte rows/columns header: "
-    "heights start 2 samples early (first two are the integers 30 and 40 read as float32, ~4e-44), "
-    "the whole map is shifted by 2 columns and the unmeasured point lands at (7, 13)"))
 def test_plu_heights_match_surfacetopography():
     hm = read_topography(PLU)
     missing = np.argwhere(np.isnan(hm.heights)).tolist()
@@ -55,3 +54,52 @@ def test_plu_heights_match_surfacetopography():
         assert hm.heights[row, col] == pytest.approx(value * UM, rel=1e-6)
     assert np.nanmean(hm.heights) == pytest.approx(REF_MEAN_UM * UM, rel=1e-6)
     assert np.nanstd(hm.heights) == pytest.approx(REF_STD_UM * UM, rel=1e-6)
+
+
+def test_plu_metadata():
+    meta = read_topography(PLU).metadata
+    assert meta["date"] == "Fri Mar 10 16:35:59 2023" and meta["comment"] == "score4 synthetic test file"
+    assert meta["objective"] == 14 and meta["layers"] == 1
+
+
+# Offsets in synthetic_40x30.plu: 500-byte header (grid size in the calibration block at 388, number of
+# layers at byte 489), then the layer's uint32 rows, columns at 500, heights from 508.
+def _damaged(tmp_path: Path, name: str, data: bytes) -> Path:
+    path = tmp_path / name
+    path.write_bytes(data)
+    return path
+
+
+def test_plu_truncated_is_refused(tmp_path):
+    data = PLU.read_bytes()
+    for cut, rule in ((len(data) - 100, "exactly 8916 bytes"), (508 + 4 * 600, "exactly 8916 bytes"),
+                      (300, "at least 508 bytes")):
+        path = _damaged(tmp_path, f"cut{cut}.plu", data[:cut])
+        with pytest.raises(ConfigError, match=rf"cut{cut}\.plu: .*truncated .*{rule}"):
+            read_topography(path)
+
+
+def test_plu_wrong_size_field_is_refused(tmp_path):
+    data = bytearray(PLU.read_bytes())
+    assert struct.unpack_from("<2I", data, 500) == (30, 40)
+    layer = data.copy()
+    struct.pack_into("<2I", layer, 500, 30, 41)  # layer says 41 columns, calibration 40
+    with pytest.raises(ConfigError, match=r"layer\.plu: .*layer size 30 x 41 .* calibration block's 30 x 40"):
+        read_topography(_damaged(tmp_path, "layer.plu", bytes(layer)))
+    both = data.copy()
+    struct.pack_into("<2I", both, 388, 30, 39)  # calibration and layer agree on 39 columns (file has 40):
+    struct.pack_into("<2I", both, 500, 30, 39)  # the heights fit, only the file size gives it away
+    with pytest.raises(ConfigError, match=r"both\.plu: .*too long .*exactly 8706 bytes"):
+        read_topography(_damaged(tmp_path, "both.plu", bytes(both)))
+
+
+def test_plu_unsupported_content_is_refused(tmp_path):
+    data = PLU.read_bytes()
+    profile = bytearray(data)
+    struct.pack_into("<I", profile, 428, 1)  # measurement type 1: a profile
+    with pytest.raises(ConfigError, match=r"profile\.plu: .*type 1 \(profile\) is not supported"):
+        read_topography(_damaged(tmp_path, "profile.plu", bytes(profile)))
+    layers = bytearray(data)
+    layers[489] = 2
+    with pytest.raises(ConfigError, match=r"layers\.plu: .*2 layers"):
+        read_topography(_damaged(tmp_path, "layers.plu", bytes(layers)))

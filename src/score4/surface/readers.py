@@ -7,7 +7,8 @@ format             files                                                      re
 =================  =========================================================  =====================
 ``x3p``            ISO 5436-2 / ISO 25178-72 XML container                    x3pio (metres)
 ``gwy``            Gwyddion native files                                      gwyfile (SI units)
-``plu``, ``plux``  Leica / Sensofar confocal                                  surfalize (µm)
+``plu``            Sensofar PLu confocal / interferometric (one layer)        score4 (µm)
+``plux``           Sensofar PLUx (zip container)                              surfalize (µm)
 ``sur``, ``sdf``   Digital Surf SUR, ISO 25178-71 SDF                         surfalize (µm)
 others             al3d, vk4/6/7, opd, zmg, nms, tmd, os3d, lext, zon          surfalize (µm)
 ``txt``, ``csv``,  a matrix of heights, one row per y, with ``# key = value``  score4
@@ -25,6 +26,16 @@ the heights: m, mm, um, nm, ...). Gwyddion's "ASCII data matrix" export header i
 ``Width`` / ``Height`` (whole extent = n * pitch) and ``Value units``. Keyword arguments override
 the header. Without a pitch or a height unit the file is refused (no silent unit guess).
 
+Sensofar ``.plu`` (binary, little-endian, no magic number; the layout that SurfaceTopography's
+``PLUReader`` and Gwyddion's ``sensofar`` module read): a 500-byte header (128-byte date text,
+uint32 time, 256-byte comment; calibration block with the grid size and µm per pixel in x and y;
+measurement configuration with the measurement type, objective code, number of layers and number
+of RGB images), then the layer: uint32 rows, uint32 columns, rows x columns float32 heights in µm
+(row = y), float32 min and max, then the RGB images (3 bytes per point each). 1000001 marks a
+point that was not measured (NaN). Only topographies (type 3) with one layer are read (a layer
+count of 0, possible in old files, is read as one), and the
+file size must be exactly what the header announces.
+
 xyz lists: three columns x, y, z (more columns are ignored; non-numeric header lines and ``#``
 lines are skipped). ``xy_unit`` and ``z_unit`` are required unless the header gives them. The
 points must lie on a regular grid (coordinates within 1 % of a pitch of grid nodes, one point per
@@ -35,6 +46,7 @@ from __future__ import annotations
 
 import math
 import re
+import struct
 import warnings
 from pathlib import Path
 
@@ -45,8 +57,8 @@ from ..units import LENGTH, parse_quantity
 from .heightmap import HeightMap
 
 TEXT_FORMATS = ("txt", "csv", "asc")
-SURFALIZE_FORMATS = ("plu", "plux", "sur", "sdf", "al3d", "vk4", "vk6", "vk7", "opd", "zmg", "nms", "tmd", "os3d", "lext", "zon")
-FORMATS = ("x3p", "gwy") + SURFALIZE_FORMATS + TEXT_FORMATS + ("xyz",)
+SURFALIZE_FORMATS = ("plux", "sur", "sdf", "al3d", "vk4", "vk6", "vk7", "opd", "zmg", "nms", "tmd", "os3d", "lext", "zon")
+FORMATS = ("x3p", "gwy", "plu") + SURFALIZE_FORMATS + TEXT_FORMATS + ("xyz",)
 _M = LENGTH["m"]  # metres -> mm
 _UM = LENGTH["um"]  # surfalize works in µm
 _GRID_TOLERANCE = 0.01  # coordinates within this fraction of a pitch of a grid node
@@ -276,6 +288,65 @@ def _read_surfalize(path: Path, fmt: str, **_) -> HeightMap:
                       instrument_metadata={k: str(v) for k, v in (raw.metadata or {}).items()})
 
 
+# ----------------------------------------------------------------------------- Sensofar .plu
+_PLU_HEADER = struct.Struct("<128sI256s" "3I7f" "5I" "5IdfII" "8BI")  # 500 bytes, fields below
+_PLU_FIELDS = (
+    "date", "time", "comment",
+    "ny", "nx", "n_tall", "dy_multip", "um_per_pixel_x", "um_per_pixel_y", "x0", "y0", "um_per_pixel_z", "z0",
+    "type", "algorithm", "method", "objective", "area_type",
+    "scan_1", "scan_2", "scan_3", "scan_4", "scan_5", "scan_6", "scan_7", "scan_8", "scan_9",  # FOV or point scan
+    "restore", "layers", "version", "hardware", "images", "reserved_1", "reserved_2", "reserved_3", "factor_delmacio",
+)
+_PLU_LAYER = struct.Struct("<2I")  # rows, columns
+_PLU_TOPOGRAPHY = 3
+_PLU_TYPES = {0: "image", 1: "profile", 2: "multi-profile", 3: "topography", 4: "coordinates", 5: "thickness",
+              6: "custom"}
+_PLU_NOT_MEASURED = 1000001.0
+
+
+def _plu_text(raw: bytes) -> str:
+    return raw.split(b"\0", 1)[0].decode("latin-1").strip()
+
+
+def _read_plu(path: Path, fmt: str, **_) -> HeightMap:
+    """Sensofar .plu topography (one layer) -> HeightMap; ConfigError for anything else."""
+    data = path.read_bytes()
+    start = _PLU_HEADER.size + _PLU_LAYER.size
+    if len(data) < start:
+        raise ConfigError(f"{path}: truncated .plu file ({len(data)} bytes); rule: header and layer size need "
+                          f"at least {start} bytes")
+    h = dict(zip(_PLU_FIELDS, _PLU_HEADER.unpack_from(data)))
+    if h["type"] != _PLU_TOPOGRAPHY:
+        kind = _PLU_TYPES.get(h["type"], "unknown")
+        raise ConfigError(f"{path}: .plu measurement type {h['type']} ({kind}) is not supported; rule: only "
+                          f"topographies (type {_PLU_TOPOGRAPHY}) are read")
+    if h["layers"] > 1:
+        raise ConfigError(f"{path}: .plu file holds {h['layers']} layers; rule: only single-layer files are read")
+    ny, nx = _PLU_LAYER.unpack_from(data, _PLU_HEADER.size)
+    if (ny, nx) != (h["ny"], h["nx"]) or min(ny, nx) < 2:
+        raise ConfigError(f"{path}: .plu layer size {ny} x {nx} (rows x columns) does not match the calibration "
+                          f"block's {h['ny']} x {h['nx']}; rule: equal sizes of at least 2 x 2")
+    expected = start + 4 * ny * nx + 8 + 3 * ny * nx * h["images"]  # heights, min/max, RGB images
+    if len(data) != expected:
+        what = "truncated" if len(data) < expected else "too long"
+        raise ConfigError(f"{path}: .plu file is {what} ({len(data)} bytes); rule: a {ny} x {nx} layer with "
+                          f"{h['images']} RGB image(s) makes a file of exactly {expected} bytes")
+    px, py = h["um_per_pixel_x"], h["um_per_pixel_y"]
+    if not (math.isfinite(px) and px > 0 and math.isfinite(py) and py > 0):
+        raise ConfigError(f"{path}: .plu pixel size {px!r} x {py!r} um; rule: positive finite um/pixel in x and y")
+    z = np.frombuffer(data, dtype="<f4", count=ny * nx, offset=start).reshape(ny, nx).astype(float)
+    z[(z == _PLU_NOT_MEASURED) | ~np.isfinite(z)] = np.nan
+    z_min, z_max = struct.unpack_from("<2f", data, start + 4 * ny * nx)
+    meta = {
+        "date": _plu_text(h["date"]), "time": h["time"], "comment": _plu_text(h["comment"]),
+        "objective": h["objective"],  # Sensofar's objective code (the instrument's own table)
+        "layers": max(h["layers"], 1), "images": h["images"], "algorithm": h["algorithm"], "method": h["method"],
+        "area_type": h["area_type"], "version": h["version"], "hardware": h["hardware"],
+        "offset_um": (h["x0"], h["y0"], h["z0"]), "stored_min_max_um": (z_min, z_max),
+    }
+    return _heightmap(z * _UM, px * _UM, py * _UM, path, fmt, **meta)
+
+
 # ----------------------------------------------------------------------------- entry point
 def _format_of(path: Path, format: str | None) -> str:
     fmt = (format if format is not None else path.suffix).lower().lstrip(".")
@@ -321,7 +392,8 @@ def read_topography(
     fmt = _format_of(path, format)
     if not path.is_file():
         raise ConfigError(f"path: {path} does not exist or is not a file")
-    reader = (_read_x3p if fmt == "x3p" else _read_gwy if fmt == "gwy" else _read_xyz if fmt == "xyz"
+    reader = (_read_x3p if fmt == "x3p" else _read_gwy if fmt == "gwy" else _read_plu if fmt == "plu"
+              else _read_xyz if fmt == "xyz"
               else _read_text_grid if fmt in TEXT_FORMATS else _read_surfalize)
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=".*different pixel size.*")  # surfalize: fine for HeightMap
