@@ -33,8 +33,8 @@ measurement configuration with the measurement type, objective code, number of l
 of RGB images), then the layer: uint32 rows, uint32 columns, rows x columns float32 heights in µm
 (row = y), float32 min and max, then the RGB images (3 bytes per point each). 1000001 marks a
 point that was not measured (NaN). Only topographies (type 3) with one layer are read (a layer
-count of 0, possible in old files, is read as one), and the
-file size must be exactly what the header announces.
+count of 0, possible in old files, is read as one), and the file size must be exactly what the
+header announces.
 
 xyz lists: three columns x, y, z (more columns are ignored; non-numeric header lines and ``#``
 lines are skipped). ``xy_unit`` and ``z_unit`` are required unless the header gives them. The
