@@ -16,6 +16,7 @@ import click
 from .. import __version__
 from ..errors import ConfigError, Score4Error
 from .data import data
+from .macro import import_macro
 from .geometry import geometry
 from .results import plot, export
 from .surface import surface
@@ -128,6 +129,7 @@ cli.add_command(data)
 cli.add_command(plot)
 cli.add_command(export)
 cli.add_command(surface)
+cli.add_command(import_macro)
 cli.add_command(geometry)
 
 
