@@ -105,7 +105,8 @@ class RoughFace(StrictModel):
     fill: Literal["exact", "random"] = "exact"  # how cells get their variant
     seed: int = Field(0, ge=0)  # of the patch map
     tiling: Literal["native", "portal"] = "native"
-    solid: Literal["auto", "tessellated", "multiunion"] = "auto"  # auto: multiunion for spike grids
+    # auto: multi-union for spike grids of equal heights, tessellated otherwise (see RoughLayer.solid_kind)
+    solid: Literal["auto", "tessellated", "multiunion"] = "auto"
     base_thickness: PositiveLength = 1e-3
 
     @model_validator(mode="after")
