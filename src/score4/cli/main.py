@@ -39,8 +39,11 @@ def cli() -> None:
 @click.option("--overwrite", is_flag=True, help="Replace an existing results file.")
 @click.option("--jobs", "-j", type=click.IntRange(min=1), default=1, show_default=True, help="Worker processes.")
 @click.option("--resume", is_flag=True, help="Continue an interrupted run, keeping its finished chunks.")
+@click.option("--cluster", metavar="dask|ADDRESS",
+              help="Run the chunks with Dask: 'dask' for a local Dask cluster of --jobs worker processes, or the "
+                   "address of a running scheduler (tcp://host:8786). Needs: pip install 'score4[cluster]'.")
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
-def run(config_file: Path, events, seed, out, overwrite, jobs, resume, quiet) -> None:
+def run(config_file: Path, events, seed, out, overwrite, jobs, resume, cluster, quiet) -> None:
     """Simulate the run described in CONFIG.yaml and write an HDF5 results file."""
     from ..config import load_config
     from ..output import read_results, summarize
@@ -52,7 +55,7 @@ def run(config_file: Path, events, seed, out, overwrite, jobs, resume, quiet) ->
         config = config.model_copy(update={"run": config.run.model_copy(update=overrides)})
     out = out or Path(config_file.stem + ".h5")
     run_engine(config, out, overwrite=overwrite, jobs=jobs, resume=resume, progress=not quiet,
-               echo=lambda m: click.echo(m, err=True))
+               echo=lambda m: click.echo(m, err=True), cluster=cluster)
     summary = summarize(read_results(out))
     click.echo(f"wrote {out}: {summary['n_events']} events, physics {summary['physics_mode']}, seed {summary['seed']}")
 

@@ -1,26 +1,49 @@
-"""A worker process: builds the Geant4 application once, then runs chunks from a queue.
+"""A worker process: builds the Geant4 application once, then runs the chunks the parent sends.
 
-Messages to the parent (tuples on ``results``):
-``("ready", info)``, ``("start", chunk)``, ``("progress", n_events)``,
-``("done", chunk)``, ``("error", chunk or None, exception class name, message)``.
+Each worker talks to the parent over its own duplex pipe (no shared queue, so a worker that
+dies can never leave a shared lock held):
+
+- parent -> worker: a :class:`Chunk` to run, or ``None`` to finish;
+- worker -> parent: ``("ready", info)``, ``("progress", n_events)``, ``("done", chunk index)``,
+  ``("error", chunk index or None, exception class name, message)``. After an error the worker
+  exits: a Geant4 application that failed half-way through a chunk is not reused.
+
+A worker ignores Ctrl-C (the parent handles it and stops the workers) and exits on its own when
+the parent process dies, so a killed run leaves no orphans.
+
+Test hook (fault tests only): with the environment variable ``SCORE4_TEST_CRASH_CHUNK=<i>[,<j>...]``,
+the process that starts chunk ``i`` dies at once with ``os._exit(70)``, as a segfault or an
+out-of-memory kill would. It works the same in local and Dask workers.
 """
 
 from __future__ import annotations
 
+import multiprocessing as mp
 import os
+import shutil
+import signal
+import threading
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from ..config import RunConfig
 from ..errors import Score4Error
 from ..output import write_chunk
+from ..source.primaries import Primaries
 from .runtime import PhysicsChoice
 from .seeds import chunk_geant4_seed, chunk_rng
+
+CRASH_HOOK = "SCORE4_TEST_CRASH_CHUNK"
+FREE_SPACE_MARGIN = 256 * 1024  # bytes kept free beyond a file's estimated size
 
 
 @dataclass(frozen=True)
 class Chunk:
+    """Events ``first_event .. first_event + n_events - 1`` of a run, simulated as one piece."""
+
     index: int
     first_event: int
     n_events: int
@@ -28,6 +51,8 @@ class Chunk:
 
 @dataclass(frozen=True)
 class WorkerSpec:
+    """Everything a worker needs to build the application and run chunks of one run."""
+
     config: RunConfig
     choice: PhysicsChoice
     seed: int
@@ -36,34 +61,102 @@ class WorkerSpec:
 
 
 def chunk_path(parts_dir: Path, index: int) -> Path:
+    """The file of finished chunk ``index`` in a run's parts folder."""
     return Path(parts_dir) / f"chunk-{index:06d}.h5"
 
 
-def run_chunk(sim, spec: WorkerSpec, chunk: Chunk, progress=None) -> Path:
-    """Sample, track and write one chunk; return the chunk file."""
+def simulate_chunk(sim, spec: WorkerSpec, chunk: Chunk, progress=None) -> tuple[Primaries, dict[str, np.ndarray]]:
+    """Sample and track one chunk; return its primaries and {quantity: (n_events, n_volumes) array}.
+
+    The random streams depend only on the run seed and the chunk index
+    (:mod:`score4.sim.seeds`), so a chunk gives the same result in any process.
+    """
+    if str(chunk.index) in os.environ.get(CRASH_HOOK, "").split(","):
+        os._exit(70)  # test hook, see the module docstring
     primaries = sim.source.primaries(chunk_rng(spec.seed, chunk.index), chunk.first_event, chunk.n_events)
     scores = sim.run(primaries, chunk_geant4_seed(spec.seed, chunk.index), progress=progress)
+    return primaries, scores
+
+
+def run_chunk(sim, spec: WorkerSpec, chunk: Chunk, progress=None) -> Path:
+    """Sample, track and write one chunk (atomically); return the chunk file."""
+    primaries, scores = simulate_chunk(sim, spec, chunk, progress)
     path = chunk_path(spec.parts_dir, chunk.index)
+    check_free_space(path, payload_bytes(primaries, scores))
     write_chunk(path, chunk.first_event, sim.volumes, scores, primaries, spec.fingerprint)
     return path
 
 
-def worker_main(spec: WorkerSpec, tasks, results) -> None:
-    """Entry point of a worker process."""
-    from .simulation import Simulation
+def payload_bytes(primaries: Primaries, scores: dict[str, np.ndarray]) -> int:
+    """Bytes of array data a chunk file holds (HDF5 adds some metadata)."""
+    arrays = [*scores.values(), *(v for v in vars(primaries).values() if isinstance(v, np.ndarray))]
+    arrays += [np.asarray(v) for v in (getattr(primaries, "extra", None) or {}).values()]
+    return sum(a.nbytes for a in arrays) + 16 * primaries.n_events
+
+
+def check_free_space(path: Path, nbytes: int) -> None:
+    """Refuse to start writing a file of about ``nbytes`` to ``path`` when its disk cannot hold it.
+
+    A write that fails on a full disk makes HDF5 crash the process with a segmentation fault
+    when the file is closed, instead of raising an error (measured with h5py 3.16 / HDF5 2.0;
+    h5py issue #914). This check turns the usual case, a disk filling up, into a clear
+    :class:`Score4Error`. Quotas and file-size limits are not seen by it.
+    """
+    free = shutil.disk_usage(Path(path).parent).free
+    need = int(1.25 * nbytes) + FREE_SPACE_MARGIN
+    if free < need:
+        raise Score4Error(
+            f"cannot write {path}: the disk is full ({free / 1e6:.2f} MB free, about {need / 1e6:.2f} MB needed "
+            f"with a safety margin)"
+        )
+
+
+def ready_info(sim) -> dict:
+    """What the run record keeps from a worker's Geant4 application."""
     from .runtime import geant4_version
+
+    return {"geant4_version": geant4_version(sim.g4), "removed_processes": sim.removed_processes}
+
+
+def _exit_with_parent() -> None:
+    """End this process when the parent dies (even by SIGKILL): a killed run leaves no orphans."""
+    parent = mp.parent_process()
+    if parent is None:
+        return
+
+    def watch() -> None:
+        parent.join()
+        os._exit(1)
+
+    threading.Thread(target=watch, name="score4-parent-watch", daemon=True).start()
+
+
+def worker_main(spec: WorkerSpec, conn) -> None:
+    """Entry point of a local worker process; ``conn`` is its end of the pipe to the parent."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _exit_with_parent()
+    from .simulation import Simulation
 
     log = Path(spec.parts_dir) / f"geant4-{os.getpid()}.log"
     chunk = None
     try:
         sim = Simulation(spec.config, spec.choice, log_path=log)
-        results.put(("ready", {"geant4_version": geant4_version(sim.g4), "removed_processes": sim.removed_processes}))
-        while (chunk := tasks.get()) is not None:
-            results.put(("start", chunk.index))
-            run_chunk(sim, spec, chunk, progress=lambda n: results.put(("progress", n)))
-            results.put(("done", chunk.index))
+        conn.send(("ready", ready_info(sim)))
+        while (chunk := conn.recv()) is not None:
+            run_chunk(sim, spec, chunk, progress=lambda n: conn.send(("progress", n)))
+            conn.send(("done", chunk.index))
+            chunk = None
+    except (EOFError, BrokenPipeError):  # the parent has gone: nobody to report to
+        return
     except Score4Error as err:
-        results.put(("error", getattr(chunk, "index", None), type(err).__name__, str(err)))
+        _report(conn, ("error", getattr(chunk, "index", None), type(err).__name__, str(err)))
     except BaseException as err:  # report, then let the parent decide; never hang it
         detail = "".join(traceback.format_exception_only(type(err), err)).strip()
-        results.put(("error", getattr(chunk, "index", None), type(err).__name__, detail))
+        _report(conn, ("error", getattr(chunk, "index", None), type(err).__name__, detail))
+
+
+def _report(conn, message: tuple) -> None:
+    try:
+        conn.send(message)
+    except (OSError, EOFError):
+        pass

@@ -1,0 +1,291 @@
+"""Run chunks on a Dask cluster (``distributed``): a local one, or an existing scheduler.
+
+Used by :func:`score4.sim.engine.run` with ``cluster="dask"`` (a ``LocalCluster`` of ``jobs``
+worker processes, one thread each), ``cluster="tcp://host:port"`` (any scheduler address) or
+``cluster=<distributed.Client>``. Install with ``pip install 'score4[cluster]'``.
+
+How it works (see docs/cluster.md):
+
+- The chunks, their seeds and their files are the same as with local processes, so a run gives
+  identical results on either backend, and ``--resume`` works the same way.
+- Each Dask worker *process* builds the Geant4 application once and keeps it for the next
+  chunks (a module-level cache keyed by the configuration, :func:`setup_key`). Geant4 allows one
+  run manager per process and must be driven from the thread that built it, so all Geant4 work
+  of a process runs on one dedicated thread; a worker with several threads therefore still runs
+  one chunk at a time (start workers with ``--nthreads 1``). Workers that hold another run's
+  set-up are restarted before a run (this needs a nanny, the default of ``dask worker`` and
+  dask-jobqueue); one run at a time per set of workers.
+- A worker returns each chunk's arrays to the client, which writes the chunk file (atomically)
+  into the parts folder. So the parts folder and the results need to be on the client's disk
+  only. The input files that the configuration names (measured surfaces, vertex files, depth
+  tables), the Geant4 data sets (full physics) and score4 itself must be available on every
+  worker, at the same paths.
+- Geant4's console output of a worker process goes to a file in the worker's temporary folder;
+  every chunk brings the new lines back, and the client appends them to
+  ``geant4-dask-<host>-<pid>.log`` in the parts folder.
+- A worker process that dies is restarted by its nanny and Dask retries the chunk on another
+  worker (``distributed.scheduler.allowed-failures`` times); then the chunk fails with
+  ``KilledWorker`` and the run reports it like a local crash.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import logging
+import os
+import re
+import socket
+import tempfile
+import threading
+import uuid
+from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..config import config_to_dict
+from ..errors import ConfigError, Score4Error
+from ..output import write_chunk
+from ..source.primaries import Primaries
+from .worker import (
+    Chunk,
+    WorkerSpec,
+    check_free_space,
+    chunk_path,
+    payload_bytes,
+    ready_info,
+    simulate_chunk,
+)
+
+INSTALL_HINT = "pip install 'score4[cluster]'"
+_ADDRESS = re.compile(r"[a-z][a-z0-9+.-]*://\S+")
+
+
+def require_distributed():
+    """Import and return ``distributed``, or say how to install it."""
+    try:
+        import distributed
+    except ImportError as err:
+        raise Score4Error(
+            f"--cluster: the Dask backend needs the 'distributed' package, which is not installed ({err}); "
+            f"install it with: {INSTALL_HINT}"
+        ) from None
+    return distributed
+
+
+@dataclass
+class ChunkOutput:
+    """What a Dask worker sends back for one chunk."""
+
+    index: int
+    first_event: int
+    volumes: list[str]
+    scores: dict[str, np.ndarray]
+    primaries: Primaries
+    info: dict
+    log: str
+    worker: str
+
+
+class DaskExecutor:
+    """Runs chunks as Dask tasks (the :class:`score4.sim.engine.Executor` interface).
+
+    Parameters
+    ----------
+    cluster
+        ``"dask"`` for a new local cluster of ``jobs`` worker processes (closed after the run),
+        a scheduler address such as ``"tcp://host:8786"``, or a ``distributed.Client``.
+    jobs
+        Worker processes of a local cluster; not used with an existing scheduler.
+    echo
+        Receives one-line notices.
+    """
+
+    def __init__(self, cluster: Any, jobs: int, echo=print) -> None:
+        distributed = require_distributed()
+        self.jobs, self.echo = jobs, echo
+        self.client, self.address = None, None
+        if isinstance(cluster, distributed.Client):
+            self.client = cluster
+            self.description = f"dask {cluster.scheduler.address}"
+        elif cluster == "dask":
+            self.description = f"dask local cluster ({jobs} workers)"
+        elif isinstance(cluster, str) and _ADDRESS.fullmatch(cluster):
+            self.address = cluster
+            self.description = f"dask {cluster}"
+        else:
+            raise ConfigError(
+                f"--cluster: {cluster!r} is neither 'dask' (a local Dask cluster of --jobs workers) "
+                f"nor a Dask scheduler address such as tcp://host:8786"
+            )
+        if self.address and jobs > 1:
+            echo(f"notice: --jobs {jobs} does not apply with --cluster {cluster}: the scheduler's workers run the chunks")
+
+    def execute(self, spec: WorkerSpec, todo: list[Chunk]) -> Iterator[tuple]:
+        from distributed import as_completed
+
+        client, own_client, cluster = self.client, False, None
+        futures = []
+        try:
+            if client is None:
+                client, cluster = self._connect()
+                own_client = True
+            self._free_workers(client, setup_key(spec))
+            run_id = uuid.uuid4().hex[:8]
+            by_key = {}
+            for c in todo:
+                fut = client.submit(run_chunk_task, spec, c, key=f"score4-chunk-{c.index:06d}-{run_id}", priority=-c.index)
+                futures.append(fut)
+                by_key[fut.key] = c
+            announced = False
+            for fut in as_completed(futures):
+                chunk = by_key[fut.key]
+                try:
+                    result: ChunkOutput = fut.result()
+                except Exception as exc:  # the task failed: say which chunk and why
+                    yield ("failed", chunk.index, *_describe(exc))
+                    continue
+                finally:
+                    fut.release()
+                if not announced:
+                    announced = True
+                    yield ("ready", result.info)
+                try:
+                    _store(spec, result)
+                except Score4Error as err:  # e.g. the client's disk is full
+                    yield ("failed", chunk.index, type(err).__name__, str(err))
+                    continue
+                yield ("progress", chunk.n_events)
+                yield ("done", chunk.index)
+        finally:
+            if futures and client is not None:
+                with contextlib.suppress(Exception):
+                    client.cancel(futures, force=True)
+            if own_client:
+                with contextlib.suppress(Exception):
+                    client.close()
+            if cluster is not None:
+                with contextlib.suppress(Exception):
+                    cluster.close()
+
+    def _connect(self):
+        from distributed import Client, LocalCluster
+
+        if self.address is None:
+            cluster = LocalCluster(
+                n_workers=self.jobs, threads_per_worker=1, processes=True,
+                dashboard_address=":0", silence_logs=logging.ERROR,  # any free port
+            )
+            return Client(cluster), cluster
+        try:  # waits up to distributed.comm.timeouts.connect (Dask configuration; 30 s by default)
+            return Client(self.address), None
+        except (OSError, TimeoutError) as err:
+            raise Score4Error(f"--cluster: cannot connect to the Dask scheduler at {self.address}: {err}") from None
+
+    def _free_workers(self, client, key: str) -> None:
+        """Restart the workers whose process holds another run's Geant4 set-up."""
+        held = client.run(held_setup_key)
+        others = [addr for addr, k in held.items() if k not in (None, key)]
+        if others:
+            self.echo(f"notice: restarting {len(others)} Dask worker(s) that hold another run's Geant4 set-up")
+            try:
+                client.restart_workers(others)
+            except Exception as err:
+                raise Score4Error(
+                    f"--cluster: could not restart Dask workers {others} that hold another run's Geant4 set-up "
+                    f"({err}); start the workers with a nanny, or restart them by hand"
+                ) from None
+
+
+def _describe(exc: BaseException) -> tuple[str, str]:
+    """(error class name, message) of a failed chunk task."""
+    name = type(exc).__name__
+    if name == "KilledWorker":
+        return "WorkerDied", f"the Dask worker processes that ran it died ({exc})"
+    return name, str(exc)
+
+
+def _store(spec: WorkerSpec, result: ChunkOutput) -> None:
+    """Write a returned chunk into the parts folder (atomically) and append its Geant4 output."""
+    path = chunk_path(spec.parts_dir, result.index)
+    check_free_space(path, payload_bytes(result.primaries, result.scores))
+    write_chunk(path, result.first_event, result.volumes, result.scores, result.primaries, spec.fingerprint)
+    if result.log:
+        with contextlib.suppress(OSError), open(Path(spec.parts_dir) / f"geant4-dask-{result.worker}.log", "a") as f:
+            f.write(result.log)
+
+
+# ----------------------------------------------------------------- worker side
+
+_held: dict = {}  # the Geant4 set-up of this worker process: key, sim or error, log
+_g4_lock = threading.Lock()
+_g4_executor: ThreadPoolExecutor | None = None
+
+
+def setup_key(spec: WorkerSpec) -> str:
+    """Identifies the Geant4 set-up a chunk needs (configuration and physics; not the seed)."""
+    text = json.dumps({"config": config_to_dict(spec.config), "physics": asdict(spec.choice)}, sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def held_setup_key() -> str | None:
+    """The set-up key this worker process holds (run on the workers through ``Client.run``)."""
+    return _held.get("key")
+
+
+def run_chunk_task(spec: WorkerSpec, chunk: Chunk) -> ChunkOutput:
+    """The Dask task: run one chunk in this worker process, on its Geant4 thread."""
+    global _g4_executor
+    with _g4_lock:
+        if _g4_executor is None:
+            _g4_executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="score4-geant4")
+    return _g4_executor.submit(_run_chunk_here, spec, chunk).result()
+
+
+def _run_chunk_here(spec: WorkerSpec, chunk: Chunk) -> ChunkOutput:
+    sim = _simulation(spec)
+    primaries, scores = simulate_chunk(sim, spec, chunk)
+    return ChunkOutput(
+        chunk.index, chunk.first_event, list(sim.volumes), scores, primaries, ready_info(sim), _new_log_text(),
+        f"{socket.gethostname()}-{os.getpid()}",
+    )
+
+
+def _simulation(spec: WorkerSpec):
+    key = setup_key(spec)
+    if not _held:
+        from .simulation import Simulation
+
+        log = Path(tempfile.gettempdir()) / f"score4-geant4-{os.getpid()}.log"
+        _held.update(key=key, log=log)
+        try:
+            _held["sim"] = Simulation(spec.config, spec.choice, log_path=log)
+        except BaseException as err:
+            _held["error"] = err
+            raise
+    if _held["key"] != key:
+        raise Score4Error(
+            "--cluster: this Dask worker process already holds the Geant4 set-up of another run (Geant4 allows "
+            "one per process); restart the workers (Client.restart()) or give each run its own workers"
+        )
+    if "error" in _held:  # Geant4 may be half set up: never build it twice in one process
+        err = _held["error"]
+        raise type(err)(str(err)) if isinstance(err, Score4Error) else Score4Error(
+            f"this Dask worker process failed to set up Geant4 before: {type(err).__name__}: {err}"
+        )
+    return _held["sim"]
+
+
+def _new_log_text() -> str:
+    """Geant4's console output of this process since the last chunk."""
+    try:
+        data = _held["log"].read_bytes()
+        _held["log"].unlink()  # recreated by the next chunk: no file is left behind in the temporary folder
+        return data.decode(errors="replace")
+    except OSError:
+        return ""

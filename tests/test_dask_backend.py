@@ -1,0 +1,146 @@
+"""The Dask backend (score4 run --cluster): same chunks and seeds as local processes, so identical
+results; resume across backends; existing schedulers and clients; faults; missing package.
+
+Real (small) Geant4 runs on local Dask clusters of 2 worker processes.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+import yaml
+
+from conftest import config_dict
+from score4.cli.main import main
+from score4.config import parse_config
+from score4.errors import ConfigError, Score4Error
+from score4.output import read_results
+from score4.sim.engine import run
+from score4.sim.worker import CRASH_HOOK
+
+distributed = pytest.importorskip("distributed")
+
+RUN = {"events": 600, "seed": 13, "chunk_events": 100}
+
+
+def quiet(msg: str) -> None:
+    pass
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """The configuration and its result with local worker processes."""
+    config = parse_config(config_dict(run=RUN))
+    out = tmp_path_factory.mktemp("ref") / "local.h5"
+    return config, read_results(run(config, out, jobs=2, progress=False, echo=quiet))
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    """A running local Dask cluster of 2 single-thread worker processes (with nannies)."""
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as c:
+        yield c
+
+
+def assert_same_events(a, b) -> None:
+    assert np.array_equal(a.event_id, b.event_id)
+    assert np.array_equal(a.primary_energy, b.primary_energy)
+    for name in a.edep:
+        assert np.array_equal(a.edep[name], b.edep[name])
+    for field in ("event", "particle", "energy", "position", "direction"):
+        assert np.array_equal(getattr(a.primaries, field), getattr(b.primaries, field))
+
+
+def test_cli_cluster_dask_gives_the_local_result(tmp_path, reference, capsys):
+    _, local = reference
+    config_file = tmp_path / "c.yaml"
+    config_file.write_text(yaml.safe_dump(config_dict(run=RUN)))
+    out = tmp_path / "dask.h5"
+    assert main(["run", str(config_file), "--out", str(out), "--cluster", "dask", "--jobs", "2", "--quiet"]) == 0
+    result = read_results(out)
+    assert_same_events(result, local)
+    assert result.run["backend"] == "dask local cluster (2 workers)"
+    assert result.run["geant4_version"].startswith("11.")
+    assert not (tmp_path / "dask.h5.parts").exists()
+    # Geant4's output came back from the Dask workers, one log per worker process
+    log = (tmp_path / "dask.geant4.log").read_text()
+    assert "===== geant4-dask-" in log and "Geant4 version" in log
+
+
+def test_existing_scheduler_address_and_client(tmp_path, reference, cluster):
+    config, local = reference
+    said = []
+    result = read_results(run(config, tmp_path / "a.h5", cluster=cluster.scheduler_address, progress=False,
+                              echo=said.append))
+    assert_same_events(result, local)
+    assert result.run["backend"] == f"dask {cluster.scheduler_address}"
+    # The workers now hold this configuration's Geant4 set-up. Another configuration on the same
+    # workers, through a Client: they are restarted first (one Geant4 set-up per process).
+    other = parse_config(config_dict(run={**RUN, "events": 300}, source={"energy": "4 MeV"}))
+    with distributed.Client(cluster) as client:
+        said.clear()
+        result = read_results(run(other, tmp_path / "b.h5", cluster=client, progress=False, echo=said.append))
+        assert client.status == "running"  # a client given by the caller stays open
+    assert any("restarting 2 Dask worker(s) that hold another run's Geant4 set-up" in m for m in said)
+    expected = read_results(run(other, tmp_path / "c.h5", jobs=2, progress=False, echo=quiet))
+    assert_same_events(result, expected)
+    assert result.primary_energy.max() == pytest.approx(4.0)
+
+
+def test_resume_on_dask_of_a_run_started_locally(tmp_path, reference, monkeypatch):
+    config, local = reference
+    out = tmp_path / "r.h5"
+    monkeypatch.setenv(CRASH_HOOK, "3")
+    with pytest.raises(Score4Error, match=r"chunk 3 failed .* 5 of 6 chunks are finished"):
+        run(config, out, jobs=2, progress=False, echo=quiet)
+    monkeypatch.delenv(CRASH_HOOK)
+    said = []
+    result = read_results(run(config, out, jobs=2, resume=True, cluster="dask", progress=False, echo=said.append))
+    assert "resume: 5 of 6 chunks already finished" in said[0]
+    assert_same_events(result, local)
+    assert "notice: --jobs 2 but only 1 chunk(s) to run" in said[1]
+
+
+def test_a_dying_dask_worker_fails_its_chunk(tmp_path, monkeypatch):
+    import dask
+
+    config = parse_config(config_dict(run={"events": 300, "seed": 2, "chunk_events": 100}))
+    monkeypatch.setenv(CRASH_HOOK, "1")  # inherited by the local cluster's worker processes
+    no_retry = dask.config.set({"distributed.scheduler.allowed-failures": 0})  # no retry on another worker
+    with no_retry, pytest.raises(Score4Error) as info:
+        run(config, tmp_path / "x.h5", jobs=2, cluster="dask", progress=False, echo=quiet)
+    text = str(info.value)
+    assert text.startswith("run: chunk 1 failed (WorkerDied: the Dask worker processes that ran it died")
+    assert "2 of 3 chunks are finished and kept in" in text and "--resume" in text
+    assert sorted(p.name for p in (tmp_path / "x.h5.parts").glob("chunk-*.h5")) == ["chunk-000000.h5", "chunk-000002.h5"]
+
+
+def test_bad_input_found_on_a_dask_worker_is_a_config_error(tmp_path):
+    config = parse_config(config_dict(run={"events": 100, "seed": 2}, source={"particle": "alpah"}))
+    with pytest.raises(ConfigError, match="source.particle: unknown name 'alpah'"):
+        run(config, tmp_path / "p.h5", cluster="dask", progress=False, echo=quiet)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_bad_cluster_values(tmp_path, make_config):
+    with pytest.raises(ConfigError, match=r"--cluster: 'localhost' is neither 'dask' .* nor a Dask scheduler address"):
+        run(make_config(), tmp_path / "x.h5", cluster="localhost", progress=False, echo=quiet)
+    import dask
+
+    short = dask.config.set({"distributed.comm.timeouts.connect": "2s"})
+    with short, pytest.raises(Score4Error, match=r"--cluster: cannot connect to the Dask scheduler at tcp://127.0.0.1:9"):
+        run(make_config(), tmp_path / "x.h5", cluster="tcp://127.0.0.1:9", progress=False, echo=quiet)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_without_distributed_the_error_says_what_to_install(tmp_path, make_config, monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "distributed", None)  # import distributed -> ImportError
+    with pytest.raises(Score4Error, match=r"needs the 'distributed' package.*pip install 'score4\[cluster\]'"):
+        run(make_config(), tmp_path / "x.h5", cluster="dask", progress=False, echo=quiet)
+    config_file = tmp_path / "c.yaml"
+    config_file.write_text(yaml.safe_dump(config_dict()))
+    assert main(["run", str(config_file), "--out", str(tmp_path / "x.h5"), "--cluster", "dask"]) == 2
+    assert "score4[cluster]" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.yaml"]
