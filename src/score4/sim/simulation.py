@@ -97,6 +97,14 @@ class Simulation:
         self.run_manager.SetUserAction(self._actions[2])
         self.run_manager.SetUserAction(self._actions[3])
         self.run_manager.Initialize()
+        self.teleporter = None
+        if self.geometry.portals:  # portal tiling: jumps between portal and subworlds
+            from .portal_action import Teleporter, make_actions
+
+            self.teleporter = Teleporter(g4, self.geometry.portals)
+            stepping, tracking = make_actions(g4, self.teleporter, [p.region for p in self.geometry.portals])
+            self._actions += [stepping, tracking]  # the stepping action is the portal regions' own
+            self.run_manager.SetUserAction(tracking)
         self.removed_processes = strip_data_hungry_processes(g4) if self.choice.mode == "lite" else []
         self.scorer.resolve_ids()
         self._particles: dict[str, object] = {}
@@ -112,10 +120,12 @@ class Simulation:
     def _generate(self, gun, event) -> None:
         k = self._next_event
         g4, p = self.g4, self._primaries
+        if self.teleporter is not None:
+            self.teleporter.begin_event(int(self._offsets[k]))
         for row in range(self._offsets[k], self._offsets[k + 1]):
             gun.SetParticleDefinition(self._defs[row])
             gun.SetParticleEnergy(p.energy[row])
-            gun.SetParticlePosition(g4.G4ThreeVector(*p.position[row]))
+            gun.SetParticlePosition(g4.G4ThreeVector(*self._positions[row]))
             gun.SetParticleMomentumDirection(g4.G4ThreeVector(*p.direction[row]))
             gun.GeneratePrimaryVertex(event)
 
@@ -129,6 +139,8 @@ class Simulation:
             self.particle(str(name))
         n = primaries.n_events
         self._primaries = primaries
+        # Portal tiling: vertices in a portal box start at their subworld point.
+        self._positions = primaries.position if self.teleporter is None else self.teleporter.map_primaries(primaries.position)
         self._defs = [self._particles[str(name)] for name in primaries.particle]
         self._offsets = primaries.event_offsets()
         self._scores = {q: np.zeros((n, len(self.volumes))) for q in self.quantities}
