@@ -25,12 +25,23 @@ def _check(data: dict, plant: bool):
 
 
 def test_generated_rough_layers_do_not_overlap_and_a_planted_overlap_is_found():
-    ok, overlaps, checked, total = _check(ROUGH, False)
-    # 1 crystal + 2 envelopes; +z: 30 x 3 patches, 20 sampled plus the corner cells; -x: all 3 x 2
+    ok, overlaps, checked, exact, total = _check(ROUGH, False)
+    # 1 crystal + 2 envelopes; +z: 30 x 3 patches (> 20: exact containment check); -x: all 3 x 2 by Geant4
     assert ok and overlaps == []
-    assert total == 3 + 90 + 6 and 3 + 20 + 6 <= checked <= 3 + 22 + 6
-    ok, overlaps, _, _ = _check(ROUGH, True)
+    assert total == 3 + 90 + 6 and checked == 3 + 6 and exact == 90
+    ok, overlaps, *_ = _check(ROUGH, True)
     assert not ok and any(o.startswith("intruder") for o in overlaps)
+
+
+def test_exact_cell_check_finds_a_patch_wider_than_its_cell():
+    from score4.config import parse_config
+    from score4.geometry.check import patches_fit_their_cells
+    from score4.scene import build_scene
+
+    layer = build_scene(parse_config(ROUGH)).layers[0]
+    assert patches_fit_their_cells(layer) == []
+    layer.patch_map = type(layer.patch_map)(layer.patch_map.variants, (0.09, 0.1), (1.0,))  # cells narrower than the patch
+    assert patches_fit_their_cells(layer) == [f"{layer.name}: variant 'p' reaches outside its 90 x 100 um cell"]
 
 
 def test_cli_geometry_check(tmp_path, capsys):

@@ -18,7 +18,7 @@ def geometry() -> None:
 @click.option("--points", type=click.IntRange(min=10), default=1000, show_default=True,
               help="Surface points per placement that Geant4 tests.")
 @click.option("--max-placements", type=click.IntRange(min=1), default=500, show_default=True,
-              help="Patch placements checked per rough layer; larger grids are sampled.")
+              help="Rough layers with more patches get the exact cell-containment check instead.")
 @click.option("--tolerance", default="0 nm", show_default=True, help="Overlaps up to this depth are ignored.")
 @click.option("--log", "log_path", type=click.Path(dir_okay=False, path_type=Path), help="Keep Geant4's output here.")
 def check(config_file: Path, points: int, max_placements: int, tolerance: str, log_path) -> None:
@@ -40,8 +40,9 @@ def check(config_file: Path, points: int, max_placements: int, tolerance: str, l
         log = log_path or Path(tmp) / "geant4.log"
         with redirect_native_output(log):
             built = build_world(g4, config, scene)
-            report = check_placements(built.world, points, tol, max_placements)
-        click.echo(f"checked {report.checked} of {report.total} placements with {points} points each")
+            report = check_placements(built.world, points, tol, max_placements, layers=scene.layers)
+        click.echo(f"Geant4 checked {report.checked} of {report.total} placements with {points} points each"
+                   + (f"; {report.exact} patch placements of large layers by exact cell containment" if report.exact else ""))
         if report.ok:
             click.echo("no overlaps")
             return
