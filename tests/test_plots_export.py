@@ -339,3 +339,16 @@ def test_cli_errors_exit_2_with_one_line(runs, tmp_path, capsys):
         assert message in err, (argv, err)
     written = {p.name for p in tmp_path.iterdir()}
     assert written == {"plain.h5", "notes.h5", "v.h5"}  # no output (nor temporary file) left behind
+
+
+def test_vertex_depths_are_counted_once_per_event(tmp_path):
+    """Po-210 events have two primaries (alpha and recoil) at one vertex: one depth per event."""
+    from score4.plots import read_vertex_depths
+    from score4.source.emitters import Po210Emitter, make_primaries
+    from score4.source.vertex_file import write_vertex_file
+
+    rng = np.random.default_rng(0)
+    depth = rng.uniform(0, 1e-4, 50)
+    p = make_primaries(Po210Emitter(), rng, np.zeros((50, 3)), np.tile([0, 0, 1.0], (50, 1)), depth=depth)
+    path = write_vertex_file(tmp_path / "v.h5", p, {}, 0)
+    np.testing.assert_array_equal(read_vertex_depths(path), depth)

@@ -128,6 +128,8 @@ def test_vertex_file_reproduces_the_direct_run(tmp_path):
         assert f["vertices/xloc"].attrs["units"] == "mm" and f["vertices/depth"].attrs["units"] == "mm"
         assert f["vertices"].attrs["datatype"].startswith("table{event,particle,energy,xloc,yloc,zloc")
         assert len(f["vertices/event"]) == 120
+        np.testing.assert_array_equal(f["vtx/pos/zloc"][()], f["vertices/zloc"][()])  # one primary per event here
+        assert f["vtx/pos"].attrs["datatype"] == "table{xloc,yloc,zloc}" and f["vtx/pos/xloc"].attrs["units"] == "mm"
     assert main(["vertices", str(cfg), "--out", str(vfile)]) == 2  # exists: refused, file kept
     direct = read_results(run(parse_config(data), tmp_path / "direct.h5", progress=False, echo=lambda m: None))
     from_file = {**data, "source": {"vertices": str(vfile)}}
@@ -184,3 +186,28 @@ def test_overlapping_targets_are_refused():
     second = {"name": "other", "material": "G4_Cu", "size": ["1 mm", "1 mm", "1 mm"], "position": ["0.5 mm", "0 mm", "0 mm"]}
     with pytest.raises(ConfigError, match="'crystal' and 'other' overlap"):
         build_scene(parse_config(config_dict(targets=[config_dict()["targets"][0], second])))
+
+
+def test_vertex_file_sources_refuse_keys_they_would_ignore(tmp_path):
+    with pytest.raises(ConfigError, match="vertices: a vertex file already holds .*drop depth, direction"):
+        parse_config(config_dict(source={"vertices": "v.h5", "particle": None, "energy": None, "surface": None,
+                                         "direction": "inward", "depth": {"profile": "exponential", "mean": "1 nm"}}) | {})
+
+
+def test_replaying_a_nuclide_vertex_file_needs_decay_data(tmp_path):
+    from score4.source.emitters import NuclideEmitter, make_primaries
+
+    p = make_primaries(NuclideEmitter("Pb210"), np.random.default_rng(0), np.zeros((5, 3)))
+    vfile = write_vertex_file(tmp_path / "n.h5", p, {"source": {"nuclide": "Pb210"}}, 0)
+    data = config_dict(source={"vertices": str(vfile)}, run={"events": 5, "seed": 1})
+    data["source"] = {"vertices": str(vfile)}
+    with pytest.raises(PhysicsUnavailableError, match="lite mode cannot do decays"):
+        run(parse_config(data), tmp_path / "n_out.h5", progress=False, echo=lambda m: None)
+
+
+def test_depth_window_errors_use_the_config_names():
+    data = config_dict(source={"depth": {"profile": "zero", "min": "1 nm"}})
+    with pytest.raises(ConfigError, match=r"^source.depth: min"):
+        from score4.source.build import make_source as _make
+        config = parse_config(data)
+        _make(config, build_scene(config))

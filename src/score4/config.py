@@ -179,9 +179,10 @@ class SourceConfig(StrictModel):
     @model_validator(mode="after")
     def _emitter(self) -> SourceConfig:
         if self.vertices is not None:
-            if self.particle or self.energy or self.spectrum or self.decay or self.nuclide or self.surface:
-                raise ValueError("vertices: a vertex file already holds positions and particles; "
-                                 "drop surface/particle/energy/spectrum/decay/nuclide")
+            extra = sorted(self.model_fields_set - {"vertices"})
+            if extra:
+                raise ValueError(f"vertices: a vertex file already holds positions, directions, depths and particles; "
+                                 f"drop {', '.join(extra)}")
             return self
         if self.surface is None:
             raise ValueError("surface: give the face the source sits on, e.g. {volume: crystal, face: '+z'}")

@@ -88,12 +88,10 @@ def file_kind(path: str | Path) -> str:
 
 
 def read_vertex_depths(path: str | Path) -> np.ndarray:
-    """Vertex depths (mm) from an HDF5 vertex file.
+    """One depth (mm) per event of a vertex file (``score4 vertices``, table ``/vertices``).
 
-    Assumed layout (the vertex file format was being settled when this was written; score4's
-    vertex files keep their table under ``/vertices``): a 1-D dataset ``vertices/depth``,
-    optional attribute ``units`` (a length unit such as ``"mm"`` or ``"nm"``; mm when absent).
-    Only this dataset is read.
+    The table has one row per primary (two per Po-210 decay, which share the vertex), so the
+    depth of the first row of each event is taken. Honours a ``units`` attribute (mm when absent).
     """
     path = Path(path)
     if file_kind(path) != "vertices":
@@ -104,7 +102,13 @@ def read_vertex_depths(path: str | Path) -> np.ndarray:
         unit = unit.decode() if isinstance(unit, bytes) else str(unit)
         if unit not in LENGTH:
             raise Score4Error(f"{path}: {VERTEX_DEPTH_DATASET} has units {unit!r}; expected one of: {', '.join(LENGTH)}")
-        return np.asarray(d[()], dtype=float).reshape(-1) * LENGTH[unit]
+        depth = np.asarray(d[()], dtype=float).reshape(-1) * LENGTH[unit]
+        if "vertices/event" in f:
+            event = np.asarray(f["vertices/event"][()]).reshape(-1)
+            first = np.ones(len(event), dtype=bool)
+            first[1:] = event[1:] != event[:-1]
+            depth = depth[first]
+        return depth
 
 
 # --- labels ----------------------------------------------------------------------------------

@@ -50,7 +50,7 @@ from ..errors import ConfigError, Score4Error
 from ..files import atomic_output
 from ..output import merge_chunks
 from ..scene import build_scene
-from ..source.build import make_source
+from ..source.build import make_source, needs_radioactive_decay
 from .runtime import resolve_physics
 from .worker import Chunk, WorkerSpec, check_free_space, chunk_path, worker_main
 
@@ -172,7 +172,7 @@ def run(
     seed = config.run.seed
     if jobs < 1:
         raise ConfigError(f"--jobs: must be at least 1, got {jobs}")
-    choice = resolve_physics(config.physics.mode, needs_decay=config.source.nuclide is not None)
+    choice = resolve_physics(config.physics.mode, needs_decay=needs_radioactive_decay(config))
     # Build the scene and draw one event here: bad surfaces, files and constraints fail now, not in a worker.
     scene = build_scene(config)
     make_source(config, scene).primaries(np.random.default_rng(0), 0, 1)

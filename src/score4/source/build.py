@@ -34,7 +34,7 @@ from .emitters import (
 )
 from .primaries import Primaries
 from .sampling import SurfaceSampler
-from .vertex_file import read_vertex_file
+from .vertex_file import read_vertex_file, vertex_file_config
 
 
 def depth_profile(cfg: DepthConfig) -> DepthProfile:
@@ -99,6 +99,14 @@ class FileSource:
         return self.primaries_all.select_events(first_event, first_event + n_events)
 
 
+def needs_radioactive_decay(config: RunConfig) -> bool:
+    """True for a nuclide source, also when it is replayed from a vertex file drawn from one."""
+    src = config.source
+    if src.vertices is not None:
+        return bool(vertex_file_config(src.vertices).get("source", {}).get("nuclide"))
+    return src.nuclide is not None
+
+
 def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
     """What :meth:`primaries` needs, built once: checks files, materials and constraints now."""
     src = config.source
@@ -117,9 +125,13 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
     elif isinstance(src.confine, str):
         scene.inside_material(src.confine, np.zeros((0, 3)))  # fails now if no target has it
         inside = lambda p: scene.inside_material(src.confine, p)  # noqa: E731
-    sampler = VertexSampler(surface, depth_profile(src.depth), definition=src.depth.definition,
-                            min_depth=src.depth.min, max_depth=src.depth.max if src.depth.max is not None else np.inf,
-                            inside=inside)
+    try:
+        sampler = VertexSampler(surface, depth_profile(src.depth), definition=src.depth.definition,
+                                min_depth=src.depth.min, max_depth=src.depth.max if src.depth.max is not None else np.inf,
+                                inside=inside)
+    except ConfigError as err:  # the library names min_depth/max_depth; the config calls them min/max
+        message = str(err).replace("min_depth", "min").replace("max_depth", "max")
+        raise ConfigError(message if message.startswith("source.") else f"source.depth: {message}") from None
     try:
         emitter = make_emitter(src)
     except ConfigError as err:

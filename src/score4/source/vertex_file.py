@@ -9,11 +9,12 @@ tiled face, -1 on a flat one).
 
 Every column carries a ``units`` attribute where it has a unit, and LH5-style ``datatype``
 attributes (``table{...}`` on the group, ``array<1>{real}`` on columns), the LEGEND
-convention, so that LEGEND tools (remage vertex input via legend-pydataobj) read the
-``xloc/yloc/zloc`` columns directly.
+convention.
 
 A vertex file holds the table as ``/vertices`` and, as attributes of the root, the format
-name, the configuration (JSON with units) and the seed it was drawn with.
+name, the configuration (JSON with units) and the seed it was drawn with. It also holds
+``/vtx/pos``: one row per event with ``xloc/yloc/zloc`` (mm), the table layout remage's vertex
+input reads from LH5 files (not tested against remage here: it is not installable offline).
 """
 
 from __future__ import annotations
@@ -74,7 +75,22 @@ def write_vertex_file(path: str | Path, primaries: Primaries, config: dict, seed
         f.attrs["seed"] = seed
         f.attrs["n_events"] = primaries.n_events
         write_primaries_table(f.create_group("vertices"), primaries)
+        first = primaries.event_offsets()[:-1]  # the primaries of one event share its vertex
+        pos = f.create_group("vtx/pos")
+        for k, a in enumerate("xyz"):
+            d = pos.create_dataset(f"{a}loc", data=primaries.position[first, k])
+            d.attrs["datatype"], d.attrs["units"] = "array<1>{real}", "mm"
+        pos.attrs["datatype"] = "table{xloc,yloc,zloc}"
     return path
+
+
+def vertex_file_config(path: str | Path) -> dict:
+    """The configuration (JSON with units) a vertex file was drawn with; {} if unknown."""
+    try:
+        with h5py.File(path, "r") as f:
+            return json.loads(f.attrs.get("config", "{}"))
+    except (OSError, ValueError):
+        return {}
 
 
 def read_vertex_file(path: str | Path) -> Primaries:
