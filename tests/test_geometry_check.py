@@ -26,9 +26,9 @@ def _check(data: dict, plant: bool):
 
 def test_generated_rough_layers_do_not_overlap_and_a_planted_overlap_is_found():
     ok, overlaps, checked, exact, total = _check(ROUGH, False)
-    # 1 crystal + 2 envelopes; +z: 30 x 3 patches (> 20: exact containment check); -x: all 3 x 2 by Geant4
+    # 1 crystal + 2 envelopes; +z: 30 x 3 cells (> 20: not by Geant4); -x: 3 x 2 cells by Geant4; all patches exactly
     assert ok and overlaps == []
-    assert total == 3 + 90 + 6 and checked == 3 + 6 and exact == 90
+    assert total == 3 + 90 + 6 and checked == 3 + 6 and exact == 90 + 6
     ok, overlaps, *_ = _check(ROUGH, True)
     assert not ok and any(o.startswith("intruder") for o in overlaps)
 

@@ -175,7 +175,7 @@ def test_nuclide_sources_need_radioactive_decay_data(tmp_path):
 
 def test_confinement_to_a_material_no_target_at_the_face_has_fails_with_counts(tmp_path):
     """Vertices drawn at the face of a silicon crystal can never be in the copper block beside it."""
-    copper = {"name": "block", "material": "G4_Cu", "size": ["1 mm", "1 mm", "1 mm"], "position": ["5 mm", "0 mm", "0 mm"]}
+    copper = {"name": "block", "material": "G4_Cu", "size": ["1 mm", "1 mm", "1 mm"], "position": ["7 mm", "0 mm", "0 mm"]}
     data = config_dict(targets=[config_dict()["targets"][0], copper],
                        source={"confine": "G4_Cu", "depth": {"profile": "exponential", "mean": "20 nm"}})
     with pytest.raises(ConfigError, match="outside the confinement"):

@@ -4,9 +4,9 @@ Every placement directly in the world (targets, rough-layer envelopes) is checke
 rough layer the patch placements are all checked up to ``max_placements`` per layer. Beyond
 that, Geant4's check is too slow to be useful: it tests each point against every sister
 volume, and a 200 x 200 grid has 40 000 sisters (20 placements x 100 points took 5 min).
-Large layers get the exact equivalent instead (:func:`patches_fit_their_cells`): every patch
-body lies inside its own cell column, so no two patches can overlap and none can leave the
-envelope. Geant4 prints the details of each overlap to its log.
+Large layers get the exact equivalent instead (:func:`patches_fit_their_cells`, run on every
+layer, since the patches sit one level down in their cell boxes): every patch body lies inside
+its own cell column, so no two patches can overlap and none can leave the envelope. Geant4 prints the details of each overlap to its log.
 """
 
 from __future__ import annotations
@@ -62,11 +62,10 @@ def check_placements(world_pv, points: int = 1000, tolerance: float = 0.0, max_p
             report.checked += 1
             if d.CheckOverlaps(points, tolerance, False, 1):
                 report.overlaps.append(f"{d.GetName()} (copy {d.GetCopyNo()})")
-        if large:
-            layer = by_name.get(pv.GetName())
-            if layer is None:
-                report.overlaps.append(f"{pv.GetName()}: {len(inner)} placements not checked (more than {max_placements})")
-                continue
+        layer = by_name.get(pv.GetName())
+        if layer is not None:  # the patches inside their cell boxes: exact, whatever the grid size
             report.exact += len(inner)
             report.overlaps += patches_fit_their_cells(layer, tolerance)
+        elif large:
+            report.overlaps.append(f"{pv.GetName()}: {len(inner)} placements not checked (more than {max_placements})")
     return report
