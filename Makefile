@@ -12,10 +12,13 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	touch $(STAMP)
 
+# The paper's application, small: 5.3 MeV alphas on a flat and on a pyramid-covered silicon face.
 demo: $(STAMP)
 	mkdir -p out/demo
-	$(BIN)/score4 run examples/flat_alpha.yaml --out out/demo/flat_alpha.h5 --overwrite
-	$(BIN)/score4 summary out/demo/flat_alpha.h5
+	$(BIN)/score4 run examples/paper_a_flat.yaml --events 5000 --jobs 2 --out out/demo/flat.h5 --overwrite
+	$(BIN)/score4 run examples/paper_a_rough.yaml --events 5000 --jobs 2 --out out/demo/rough.h5 --overwrite
+	$(BIN)/score4 summary out/demo/rough.h5
+	$(BIN)/score4 plot out/demo/flat.h5 out/demo/rough.h5 --label "flat face" --label "10 um pyramids" --out out/demo/spectra.png
 
 test: $(STAMP)
 	$(BIN)/python -m pytest
