@@ -75,13 +75,16 @@ def _rss_mb() -> float:
 
 
 def run_config(tiling: str, face_cm: float = FACE_CM) -> dict:
-    """The benchmark's run configuration; ``tiling`` is native, portal or flat."""
+    """The benchmark's run configuration; ``tiling`` is native, portal, flat, or with one variant
+    (the equal-height pyramids) placements1 / replicas1 (native placements vs G4PVReplica rows)."""
     n = round(PATCH_MM / 0.010)
     surfaces = {f"v{k}": {"kind": "spikes", "nx": n, "ny": n, "width": "10 um", "height": "10 um",
                           "height_sigma": f"{s} um", "seed": k + 1} for k, s in enumerate(SPREADS_UM)}
     target = {"name": "crystal", "material": "G4_Si", "size": [f"{face_cm} cm", f"{face_cm} cm", "1 mm"],
               "position": ["0 cm", "0 cm", "-0.5 mm"]}
-    if tiling != "flat":
+    if tiling in ("placements1", "replicas1"):
+        target["rough"] = [{"face": "+z", "surface": "v0", "native_layout": tiling[:-1]}]
+    elif tiling != "flat":
         target["rough"] = [{"face": "+z", "tiling": tiling, "fill": "exact", "seed": 7,
                             "variants": [{"surface": f"v{k}", "density": d} for k, d in enumerate(DENSITIES)]}]
     return {
@@ -187,6 +190,8 @@ def main() -> None:
     parser.add_argument("--limit", type=float, default=300.0, help="seconds per case before it is killed")
     parser.add_argument("--face-cm", type=float, default=FACE_CM, help="face side (a quick check: 1)")
     parser.add_argument("--skip-patches", action="store_true", help="only the tiling table")
+    parser.add_argument("--cases", default="flat,native,portal,placements1,replicas1",
+                        help="comma-separated tiling cases (placements1/replicas1: one variant)")
     parser.add_argument("--tiling", help=argparse.SUPPRESS)
     parser.add_argument("--patch", nargs=2, help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -197,12 +202,12 @@ def main() -> None:
         print(MARK + json.dumps(measure_patch(float(args.patch[0]), args.patch[1])), flush=True)
         return
 
-    print(f"{'case':8} {'build s':>8} {'init s':>7} {'1st run s':>9} {'RSS MB':>7} {'ev/s wall':>9} "
+    print(f"{'case':11} {'build s':>8} {'init s':>7} {'1st run s':>9} {'RSS MB':>7} {'ev/s wall':>9} "
           f"{'ev/s CPU':>8} {'mean MeV':>8} {'jumps/ev':>8}")
-    for tiling in ("flat", "native", "portal"):
+    for tiling in args.cases.split(","):
         r = in_subprocess(["--tiling", tiling, "--events", str(args.events), "--face-cm", str(args.face_cm)],
                           max(args.limit, 3600))
-        print(f"{tiling:8} {r.get('build_s', 0.0):8.2f} {r['init_s']:7.2f} {r['first_run_s']:9.2f} {r['rss_mb']:7.0f} "
+        print(f"{tiling:11} {r.get('build_s', 0.0):8.2f} {r['init_s']:7.2f} {r['first_run_s']:9.2f} {r['rss_mb']:7.0f} "
               f"{r['ev_per_s_wall']:9.0f} {r['ev_per_s_cpu']:8.0f} {r['mean_edep_mev']:8.3f} "
               f"{r.get('jumps_per_event', float('nan')):8.2f}", flush=True)
     if args.skip_patches:

@@ -21,9 +21,9 @@ RANDOM = {"kind": "random", "nx": 40, "ny": 40, "pitch": "2.5 um", "sq": "1 um",
 TARGET = {"name": "crystal", "material": "G4_Si", "size": ["0.4 mm", "0.2 mm", "0.3 mm"], "position": ["0 mm", "0 mm", "-0.15 mm"]}
 
 
-def geantino_vertex_run(tmp_path, face: str, surface: dict, solid: str, events: int = 300):
+def geantino_vertex_run(tmp_path, face: str, surface: dict, solid: str, events: int = 300, layout: str = "placements"):
     """Vertices sampled below the rough face, then geantinos from them along the inward face normal."""
-    target = {**TARGET, "rough": [{"face": face, "surface": "s", "solid": solid}]}
+    target = {**TARGET, "rough": [{"face": face, "surface": "s", "solid": solid, "native_layout": layout}]}
     data = config_dict(
         surfaces={"s": surface},
         targets=[target],
@@ -42,17 +42,18 @@ def geantino_vertex_run(tmp_path, face: str, surface: dict, solid: str, events: 
     return config, frame, read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
 
 
-@pytest.mark.parametrize(("face", "surface", "solid"), [
-    ("+z", PYRAMIDS, "multiunion"),
-    ("-x", RANDOM, "tessellated"),
-    ("+y", PYRAMIDS, "tessellated"),
+@pytest.mark.parametrize(("face", "surface", "solid", "layout"), [
+    ("+z", PYRAMIDS, "multiunion", "placements"),
+    ("-x", RANDOM, "tessellated", "placements"),
+    ("+y", PYRAMIDS, "tessellated", "placements"),
+    ("-x", PYRAMIDS, "multiunion", "replicas"),
 ])
-def test_geantino_path_through_placed_patches_matches_the_sampled_vertex(tmp_path, face, surface, solid):
+def test_geantino_path_through_placed_patches_matches_the_sampled_vertex(tmp_path, face, surface, solid, layout):
     """A geantino started at a vertex below the rough top and sent along the inward face normal
     stays in material (the surface is a height field) down through the slab and the box: its path
     is exactly the vertex's height above the far face. A misplaced, mis-rotated or missing patch,
     or a vertex outside the material, breaks this."""
-    config, frame, r = geantino_vertex_run(tmp_path, face, surface, solid)
+    config, frame, r = geantino_vertex_run(tmp_path, face, surface, solid, layout=layout)
     height = frame.to_local(r.primaries.position)[:, 2]  # above the box face, along n
     axis = int(np.flatnonzero(frame.normal)[0])
     assert (height > 0).mean() > 0.9  # most vertices are in the rough layer (base slab 1 um + the surface)

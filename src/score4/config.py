@@ -105,6 +105,8 @@ class RoughFace(StrictModel):
     fill: Literal["exact", "random"] = "exact"  # how cells get their variant
     seed: int = Field(0, ge=0)  # of the patch map
     tiling: Literal["native", "portal"] = "native"
+    # native tiling: one G4PVPlacement per cell, or G4PVReplica rows of cells (one variant only)
+    native_layout: Literal["placements", "replicas"] = "placements"
     # auto: multi-union for spike grids of equal heights, tessellated otherwise (see RoughLayer.solid_kind)
     solid: Literal["auto", "tessellated", "multiunion"] = "auto"
     base_thickness: PositiveLength = 1e-3
@@ -113,6 +115,8 @@ class RoughFace(StrictModel):
     def _one_kind(self) -> RoughFace:
         if (self.surface is None) == (self.variants is None):
             raise ValueError("give either surface (one patch) or variants (several, with densities)")
+        if self.native_layout == "replicas" and len(self.variant_list) > 1:
+            raise ValueError("native_layout replicas repeats one patch: it needs a single surface, not variants")
         return self
 
     @property

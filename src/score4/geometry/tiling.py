@@ -61,9 +61,17 @@ def place_native(g4, layer: RoughLayer, mother_lv, world_material, material) -> 
         keep += [solid, parts, lv_k, cell_solid, cell_lv, patch_pv]
         patch_lvs.append(lv_k)
         cell_lvs.append(cell_lv)
-    centres = layer.cell_centres()
     variants = layer.patch_map.variants
     ny, nx = variants.shape
+    if layer.config.native_layout == "replicas":
+        # rows of cells along y in the envelope, cells along x in each row: two replica levels
+        row_solid = g4.G4Box(f"{name}_row", lu / 2, py / 2, t / 2)
+        row_lv = g4.G4LogicalVolume(row_solid, world_material, f"{name}_row")
+        rows = g4.G4PVReplica(f"{name}_row", row_lv, env_lv, g4.EAxis.kYAxis, ny, py, 0.0)
+        cells = g4.G4PVReplica(f"{name}_cell", cell_lvs[0], row_lv, g4.EAxis.kXAxis, nx, px, 0.0)
+        keep += [row_solid, row_lv, rows, cells]
+        return patch_lvs, keep
+    centres = layer.cell_centres()
     for j in range(ny):
         for i in range(nx):
             where = g4.G4ThreeVector(float(centres[j, i, 0]), float(centres[j, i, 1]), 0.0)
