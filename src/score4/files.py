@@ -7,6 +7,8 @@ import os
 import tempfile
 from pathlib import Path
 
+import h5py
+
 from .errors import Score4Error
 
 
@@ -38,3 +40,21 @@ def atomic_output(path: str | os.PathLike):
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+
+
+def open_h5(path: str | os.PathLike, fmt: str, label: str, error: type[Score4Error] = Score4Error) -> h5py.File:
+    """Open a score4 HDF5 file for reading: it must exist, be HDF5 and carry ``format = fmt``.
+
+    Errors are ``error`` instances whose message starts with ``label`` (e.g. "source.vertices").
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise error(f"{label}: {str(path)!r} does not exist")
+    try:
+        f = h5py.File(path, "r")
+    except OSError as err:
+        raise error(f"{label}: {path} is not an HDF5 file ({err})") from None
+    if f.attrs.get("format") != fmt:
+        f.close()
+        raise error(f"{label}: {path} is not a {fmt.replace('-', ' ')} file (no format={fmt!r} attribute)")
+    return f

@@ -26,7 +26,7 @@ import h5py
 import numpy as np
 
 from .errors import Score4Error
-from .files import atomic_output
+from .files import atomic_output, open_h5
 from .source.primaries import Primaries
 from .source.vertex_file import read_primaries_table, write_primaries_table
 from .units import parse_quantity
@@ -139,15 +139,9 @@ def _decode_attr(value):
 def read_results(path: str | Path) -> Results:
     """Load a results file written by :func:`merge_chunks`."""
     path = Path(path)
-    if not path.is_file():
-        raise Score4Error(f"results: file {str(path)!r} does not exist")
-    try:
-        f = h5py.File(path, "r")
-    except OSError as err:
-        raise Score4Error(f"results: {path} is not an HDF5 file ({err})") from None
-    with f:
-        if f.attrs.get("format") != FORMAT or "run" not in f:
-            raise Score4Error(f"results: {path} is not a score4 results file")
+    with open_h5(path, FORMAT, "results") as f:
+        if "run" not in f:
+            raise Score4Error(f"results: {path} is not a finished score4 results file (no run record)")
         volumes = json.loads(f["events/edep"].attrs["volumes"])
         quantities = json.loads(f["events"].attrs["quantities"])
         return Results(

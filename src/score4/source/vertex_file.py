@@ -26,7 +26,7 @@ import h5py
 import numpy as np
 
 from ..errors import ConfigError
-from ..files import atomic_output
+from ..files import atomic_output, open_h5
 from .primaries import Primaries
 
 FORMAT = "score4-vertices"
@@ -96,15 +96,9 @@ def vertex_file_config(path: str | Path) -> dict:
 def read_vertex_file(path: str | Path) -> Primaries:
     """Read the primaries of a vertex file; events must be numbered 0, 1, 2, ... in order."""
     path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"source.vertices: {str(path)!r} does not exist")
-    try:
-        f = h5py.File(path, "r")
-    except OSError as err:
-        raise ConfigError(f"source.vertices: {path} is not an HDF5 file ({err})") from None
-    with f:
-        if f.attrs.get("format") != FORMAT or "vertices" not in f:
-            raise ConfigError(f"source.vertices: {path} is not a score4 vertex file (written by 'score4 vertices')")
+    with open_h5(path, FORMAT, "source.vertices", ConfigError) as f:
+        if "vertices" not in f:
+            raise ConfigError(f"source.vertices: {path} has no /vertices table (write it with 'score4 vertices')")
         try:
             p = read_primaries_table(f["vertices"])
         except KeyError as err:

@@ -22,7 +22,7 @@ import h5py
 import numpy as np
 
 from ..errors import ConfigError
-from ..files import atomic_output
+from ..files import atomic_output, open_h5
 from .heightmap import HeightMap
 from .spec import Surface, build_surface, parse_surface_spec
 
@@ -58,15 +58,7 @@ def save_surface(surface: Surface, path: str | Path) -> Path:
 def load_surface(path: str | Path) -> Surface:
     """Read a surface file written by :func:`save_surface`."""
     path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"surface file: {str(path)!r} does not exist")
-    try:
-        f = h5py.File(path, "r")
-    except OSError as err:
-        raise ConfigError(f"surface file: {path} is not an HDF5 file ({err})") from None
-    with f:
-        if f.attrs.get("format") != FORMAT:
-            raise ConfigError(f"surface file: {path} is not a score4 surface file (no format={FORMAT!r} attribute)")
+    with open_h5(path, FORMAT, "surface file", ConfigError) as f:
         try:
             return _read(f, path)
         except (KeyError, ValueError, TypeError) as err:  # ConfigError is a ValueError: keep its message
