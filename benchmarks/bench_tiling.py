@@ -37,7 +37,24 @@ Measured 2026-11-21 on the 2-core project machine (shared with other jobs, load 
       10.0mm multiunion     1000000     > 300  >= 2455
       10.0mm tessellated    1000000     > 300  >= 2199
 
-Reading. Per event the rough face costs ~70x the flat one (alphas and their delta electrons take
+Re-measured the same day after native tiling put each patch in a vacuum cell box (commit "Native
+tiling: patches sit in one vacuum cell box"), with the one-variant cases added (placements1 /
+replicas1: only the equal-height pyramids, multi-union), load ~2:
+    .venv/bin/python benchmarks/bench_tiling.py --cases native,placements1,replicas1 --skip-patches --events 2000
+
+    case         build s  init s 1st run s  RSS MB ev/s wall ev/s CPU mean MeV jumps/ev
+    native          0.43    0.60      0.54     253        55       55    3.083      nan
+    placements1     0.20    0.37      0.26     229      2208     2209    3.097      nan
+    replicas1       0.02    0.18      0.19     193      2426     2427    3.097      nan
+
+The native start-up cost is gone (first run 0.54 s instead of 55.9 s). The per-event cost is set
+by the solids: two of the three variants have a height spread and are tessellated (55 ev/s);
+with only the equal-height multi-union pyramids native tiling runs 2200 ev/s, 0.62x the flat
+face. Replicas build 10x faster, use 36 MB less and track 10 % faster than placements, for
+faces covered by one variant. Score4's default stays native placements (any patch map); use
+native_layout: replicas for one-variant faces.
+
+Reading of the first table. Per event the rough face costs ~70x the flat one (alphas and their delta electrons take
 hundreds of steps in pyramid solids). Native tiling tracks ~11 % faster than the portal (CPU
 54 vs 48 ev/s: the portal adds ~1.7 jumps per event, each a Python call plus an undone vacuum step,
 and one Python call per track for the cell bookkeeping); the spectra agree (mean 3.086 vs 3.078
