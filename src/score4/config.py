@@ -263,9 +263,6 @@ class RunConfig(StrictModel):
     def target(self, name: str) -> BoxVolume:
         return next(t for t in self.targets if t.name == name)
 
-    def rough_face(self, volume: str, face: str) -> RoughFace | None:
-        return next((r for r in self.target(volume).rough if r.face == face), None)
-
 
 def parse_config(data: object, origin: str = "config", base_dir: str | Path | None = None) -> RunConfig:
     """Validate a mapping (parsed YAML) into a :class:`RunConfig`.

@@ -185,13 +185,14 @@ class Scene:
     @cached_property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi) corners of a box holding every target and rough layer."""
-        lo = [np.subtract(t.position, np.divide(t.size, 2)) for t in self.config.targets]
-        hi = [np.add(t.position, np.divide(t.size, 2)) for t in self.config.targets]
-        for layer in self.layers:
-            n = layer.frame.normal
-            lo.append(np.minimum(layer.frame.centre, layer.frame.centre + n * layer.thickness))
-            hi.append(np.maximum(layer.frame.centre, layer.frame.centre + n * layer.thickness))
-        return np.min(lo, axis=0), np.max(hi, axis=0)
+        boxes = [_box_of_target(t) for t in self.config.targets] + [_box_of_layer(r) for r in self.layers]
+        return np.min([lo for lo, _ in boxes], axis=0), np.max([hi for _, hi in boxes], axis=0)
+
+
+def _box_of_target(target: BoxVolume) -> tuple[np.ndarray, np.ndarray]:
+    """Axis-aligned (lo, hi) of a target box."""
+    half = np.divide(target.size, 2)
+    return np.subtract(target.position, half), np.add(target.position, half)
 
 
 def _box_of_layer(layer: RoughLayer) -> tuple[np.ndarray, np.ndarray]:
@@ -209,8 +210,7 @@ def _overlap(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray])
 
 def check_clearance(scene: Scene) -> None:
     """Refuse targets that overlap, and rough layers that run into another target or rough layer."""
-    boxes = {t.name: (np.subtract(t.position, np.divide(t.size, 2)), np.add(t.position, np.divide(t.size, 2)))
-             for t in scene.config.targets}
+    boxes = {t.name: _box_of_target(t) for t in scene.config.targets}
     names = list(boxes)
     for a, name in enumerate(names):
         for other in names[a + 1:]:
