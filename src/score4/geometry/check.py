@@ -46,7 +46,7 @@ def patches_fit_their_cells(layer, tolerance: float = 0.0) -> list[str]:
 
 
 def check_placements(world_pv, points: int = 1000, tolerance: float = 0.0, max_placements: int = 500,
-                     layers=(), seed: int = 0) -> OverlapReport:
+                     layers=()) -> OverlapReport:
     """``CheckOverlaps(points, tolerance)`` on the world's daughters and their daughters.
 
     A daughter holding more than ``max_placements`` placements (a large rough layer, one of

@@ -131,7 +131,7 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
                                 inside=inside)
     except ConfigError as err:  # the library names min_depth/max_depth; the config calls them min/max
         message = str(err).replace("min_depth", "min").replace("max_depth", "max")
-        raise ConfigError(message if message.startswith("source.") else f"source.depth: {message}") from None
+        raise ConfigError(f"source.depth: {message}") from None
     try:
         emitter = make_emitter(src)
     except ConfigError as err:
