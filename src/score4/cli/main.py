@@ -31,6 +31,17 @@ def cli() -> None:
     """Radioactive contamination on and below rough surfaces, simulated with Geant4."""
 
 
+def _load_with_overrides(config_file: Path, events: int | None, seed: int | None):
+    """The configuration with ``--events``/``--seed`` written into its run section."""
+    from ..config import load_config
+
+    config = load_config(config_file)
+    overrides = {k: v for k, v in {"events": events, "seed": seed}.items() if v is not None}
+    if overrides:
+        config = config.model_copy(update={"run": config.run.model_copy(update=overrides)})
+    return config
+
+
 @cli.command()
 @click.argument("config_file", metavar="CONFIG.yaml", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--events", type=click.IntRange(min=1), help="Number of events (overrides run.events).")
@@ -45,14 +56,10 @@ def cli() -> None:
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
 def run(config_file: Path, events, seed, out, overwrite, jobs, resume, cluster, quiet) -> None:
     """Simulate the run described in CONFIG.yaml and write an HDF5 results file."""
-    from ..config import load_config
     from ..output import read_results, summarize
     from ..sim.engine import run as run_engine
 
-    config = load_config(config_file)
-    overrides = {k: v for k, v in {"events": events, "seed": seed}.items() if v is not None}
-    if overrides:
-        config = config.model_copy(update={"run": config.run.model_copy(update=overrides)})
+    config = _load_with_overrides(config_file, events, seed)
     out = out or Path(config_file.stem + ".h5")
     run_engine(config, out, overwrite=overwrite, jobs=jobs, resume=resume, progress=not quiet,
                echo=lambda m: click.echo(m, err=True), cluster=cluster)
@@ -74,7 +81,7 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
     chunk exactly as 'score4 run' draws them, so running the file (source: {vertices: FILE})
     with the same seed and chunk size reproduces the direct run event by event.
     """
-    from ..config import config_to_dict, load_config
+    from ..config import config_to_dict
     from ..scene import build_scene
     from ..sim.engine import check_output_path, plan_chunks
     from ..sim.seeds import chunk_rng
@@ -82,12 +89,11 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
     from ..source.primaries import Primaries
     from ..source.vertex_file import write_vertex_file
 
-    config = load_config(config_file)
+    config = _load_with_overrides(config_file, n_events, seed)
     if config.source.vertices is not None:
         raise ConfigError(f"{config_file}: source.vertices: the source already reads a vertex file; nothing to draw")
     check_output_path(out, overwrite)
-    n = n_events or config.run.events
-    seed = config.run.seed if seed is None else seed
+    n, seed = config.run.events, config.run.seed
     source = make_source(config, build_scene(config))
     parts = [source.primaries(chunk_rng(seed, c.index), c.first_event, c.n_events)
              for c in plan_chunks(n, config.run.chunk_events)]
