@@ -29,11 +29,18 @@ def pyramid_grid(n_side: int, pitch: float, rng: np.random.Generator) -> np.ndar
     x0, y0 = i * pitch, j * pitch
     zero = np.zeros_like(x0, dtype=float)
     corners = np.stack(
-        [np.c_[x0, y0, zero], np.c_[x0 + pitch, y0, zero], np.c_[x0 + pitch, y0 + pitch, zero], np.c_[x0, y0 + pitch, zero]],
+        [
+            np.c_[x0, y0, zero],
+            np.c_[x0 + pitch, y0, zero],
+            np.c_[x0 + pitch, y0 + pitch, zero],
+            np.c_[x0, y0 + pitch, zero],
+        ],
         axis=1,
     )
     top = np.c_[x0 + pitch / 2, y0 + pitch / 2, rng.normal(1 * um, 0.2 * um, len(x0))]
-    tris = np.stack([np.stack([corners[:, k], corners[:, (k + 1) % 4], top], axis=1) for k in range(4)], axis=1)
+    tris = np.stack(
+        [np.stack([corners[:, k], corners[:, (k + 1) % 4], top], axis=1) for k in range(4)], axis=1
+    )
     return tris.reshape(-1, 3, 3)
 
 
@@ -89,8 +96,12 @@ def main() -> None:
     n_side = round(np.sqrt(args.facets / 4))
     tri = pyramid_grid(n_side, 1 * um, rng)
     profile = ExponentialProfile(30 * nm)
-    print(f"surface: {len(tri):,} facets ({n_side}x{n_side} pyramids, pitch 1 um, height 1 um +- 20 %)")
-    print(f"depth profile: exponential, mean 30 nm; {args.vertices:,} vertices per timing, best of 3\n")
+    print(
+        f"surface: {len(tri):,} facets ({n_side}x{n_side} pyramids, pitch 1 um, height 1 um +- 20 %)"
+    )
+    print(
+        f"depth profile: exponential, mean 30 nm; {args.vertices:,} vertices per timing, best of 3\n"
+    )
 
     t, surface = timed(lambda: SurfaceSampler(tri), 1)
     print(f"SurfaceSampler build           {t:8.3f} s")
@@ -98,8 +109,14 @@ def main() -> None:
     print(f"surface points only            {t:8.3f} s   {args.vertices / t / 1e6:6.2f} M points/s")
     normal = VertexSampler(surface, profile, definition="normal")
     t, v = timed(lambda: normal.sample(rng, args.vertices))
-    print(f"vertices, depth 'normal'       {t:8.3f} s   {args.vertices / t / 1e6:6.2f} M vertices/s")
-    t, _ = timed(lambda: make_primaries(Po210Emitter(), rng, v.position, v.normal, depth=v.depth, facet=v.facet))
+    print(
+        f"vertices, depth 'normal'       {t:8.3f} s   {args.vertices / t / 1e6:6.2f} M vertices/s"
+    )
+    t, _ = timed(
+        lambda: make_primaries(
+            Po210Emitter(), rng, v.position, v.normal, depth=v.depth, facet=v.facet
+        )
+    )
     print(f"+ Po-210 primaries (2/event)   {t:8.3f} s   {args.vertices / t / 1e6:6.2f} M events/s")
 
     bench_distance("pyramids", tri, profile, args.distance_vertices, rng)
@@ -108,10 +125,14 @@ def main() -> None:
     bench_distance("height map", hm, profile, args.distance_vertices, rng)
 
     patch = pyramid_grid(50, 1 * um, rng)  # 10^4 facets per patch, 200 x 200 cells = 10 cm^2 scale
-    face = TiledSurfaceSampler([patch, pyramid_grid(50, 1 * um, rng)], rng.integers(0, 2, (200, 200)), (50 * um, 50 * um))
+    face = TiledSurfaceSampler(
+        [patch, pyramid_grid(50, 1 * um, rng)], rng.integers(0, 2, (200, 200)), (50 * um, 50 * um)
+    )
     tiled = VertexSampler(face, profile)
     t, _ = timed(lambda: tiled.sample(rng, args.vertices))
-    print(f"\ntiled face 200x200 cells x 10^4 facets, 'normal': {t:.3f} s   {args.vertices / t / 1e6:.2f} M vertices/s")
+    print(
+        f"\ntiled face 200x200 cells x 10^4 facets, 'normal': {t:.3f} s   {args.vertices / t / 1e6:.2f} M vertices/s"
+    )
 
 
 if __name__ == "__main__":

@@ -22,8 +22,19 @@ import numpy as np
 
 CONFIG = {
     "physics": "lite",
-    "targets": [{"name": "crystal", "size": ["1 cm", "1 cm", "1 cm"], "position": ["0 cm", "0 cm", "-0.5 cm"]}],
-    "source": {"particle": "alpha", "energy": "5.3 MeV", "direction": "isotropic", "surface": {"volume": "crystal"}},
+    "targets": [
+        {
+            "name": "crystal",
+            "size": ["1 cm", "1 cm", "1 cm"],
+            "position": ["0 cm", "0 cm", "-0.5 cm"],
+        }
+    ],
+    "source": {
+        "particle": "alpha",
+        "energy": "5.3 MeV",
+        "direction": "isotropic",
+        "surface": {"volume": "crystal"},
+    },
 }
 
 
@@ -41,10 +52,12 @@ def measure(method: str, n: int) -> dict:
         def attach(self):
             g4 = self.g4
             if method == "sd":
+
                 class SD(g4.G4VSensitiveDetector):
                     def ProcessHits(self, step, history):
                         sums["crystal"] = sums.get("crystal", 0.0) + step.GetTotalEnergyDeposit()
                         return True
+
                 sd = SD("py_sd")
                 g4.G4SDManager.GetSDMpointer().AddNewDetector(sd)
                 for lv in self.groups["crystal"]:
@@ -74,7 +87,11 @@ def measure(method: str, n: int) -> dict:
     t0 = time.perf_counter()
     scores = sim.run(primaries, 2, batch=n)
     dt = time.perf_counter() - t0
-    return {"method": method, "us_per_event": 1e6 * dt / n, "mean_edep_MeV": float(scores["edep"].mean())}
+    return {
+        "method": method,
+        "us_per_event": 1e6 * dt / n,
+        "mean_edep_MeV": float(scores["edep"].mean()),
+    }
 
 
 def main() -> None:
@@ -85,14 +102,21 @@ def main() -> None:
     if args.method:
         import os
         from score4.sim.runtime import redirect_native_output
+
         with redirect_native_output(os.devnull):
             result = measure(args.method, args.events)
         print(json.dumps(result))
         return
-    print(f"{'method':10s} {'us/event':>10s} {'mean edep [MeV]':>16s}   ({args.events} alpha events, 5.3 MeV, flat Si, lite)")
+    print(
+        f"{'method':10s} {'us/event':>10s} {'mean edep [MeV]':>16s}   ({args.events} alpha events, 5.3 MeV, flat Si, lite)"
+    )
     for method in ("mfd", "stepping", "sd"):
-        out = subprocess.run([sys.executable, __file__, "--method", method, "--events", str(args.events)],
-                             capture_output=True, text=True, check=True)
+        out = subprocess.run(
+            [sys.executable, __file__, "--method", method, "--events", str(args.events)],
+            capture_output=True,
+            text=True,
+            check=True,
+        )
         r = json.loads(out.stdout.strip().splitlines()[-1])
         print(f"{r['method']:10s} {r['us_per_event']:10.1f} {r['mean_edep_MeV']:16.5f}")
 

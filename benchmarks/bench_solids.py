@@ -130,7 +130,9 @@ class _G4WithTimedSolid:
         return make
 
 
-def measure(solid_kind: str, n_side: int, events: int, max_voxels: int | None, repeats: int = 3) -> dict:
+def measure(
+    solid_kind: str, n_side: int, events: int, max_voxels: int | None, repeats: int = 3
+) -> dict:
     """Build one solid, place it in a world, track geantinos; runs in its own process."""
     from score4.geometry.solids import multiunion_solid, tessellated_solid
     from score4.sim.runtime import import_geant4, resolve_physics
@@ -178,7 +180,9 @@ def _track(g4, solid, grid, events: int, repeats: int) -> dict:
     """Geantino tracking time through a world holding ``solid``, plus a path-length check."""
     rng = np.random.default_rng(12345)
     n_total = WARMUP + events + CHECK
-    xy = rng.uniform([-grid.size_x / 2, -grid.size_y / 2], [grid.size_x / 2, grid.size_y / 2], (n_total, 2))
+    xy = rng.uniform(
+        [-grid.size_x / 2, -grid.size_y / 2], [grid.size_x / 2, grid.size_y / 2], (n_total, 2)
+    )
     z_start = float(grid.heights.max()) + 1e-3
     box_solid = solid.GetEntityType() == "G4Box"
     # Expected path inside the solid for a vertical line: from the top surface to the bottom.
@@ -187,7 +191,9 @@ def _track(g4, solid, grid, events: int, repeats: int) -> dict:
 
     nist = g4.G4NistManager.Instance()
     margin = 0.1
-    world_solid = g4.G4Box("world", grid.size_x / 2 + margin, grid.size_y / 2 + margin, THICKNESS + z_start + margin)
+    world_solid = g4.G4Box(
+        "world", grid.size_x / 2 + margin, grid.size_y / 2 + margin, THICKNESS + z_start + margin
+    )
     world_lv = g4.G4LogicalVolume(world_solid, nist.FindOrBuildMaterial("G4_Galactic"), "world")
     world_pv = g4.G4PVPlacement(None, g4.G4ThreeVector(), world_lv, "world", None, False, 0)
     lv = g4.G4LogicalVolume(solid, nist.FindOrBuildMaterial("G4_Si"), "rough")
@@ -247,7 +253,13 @@ def _track(g4, solid, grid, events: int, repeats: int) -> dict:
     run_manager.SetUserAction(stepping)
     run_manager.BeamOn(CHECK)
     err = float(np.abs(paths[-CHECK:] - expected[-CHECK:]).max())
-    return {"init_s": init_s, "us_per_event": min(batches), "us_batches": batches, "path_err_mm": err, "events": events}
+    return {
+        "init_s": init_s,
+        "us_per_event": min(batches),
+        "us_batches": batches,
+        "path_err_mm": err,
+        "events": events,
+    }
 
 
 def _spikes(text: str) -> int:
@@ -257,25 +269,45 @@ def _spikes(text: str) -> int:
 def _row(r: dict) -> str:
     if "error" in r:
         return f"{r['n_spikes']:>8d} {r['solid']:12s} {r['error']}"
-    return (f"{r['n_spikes']:>8d} {r['solid']:12s} {r['numpy_s']:8.2f} {r['build_s']:8.2f} {r['voxelise_s']:8.2f} "
-            f"{r['init_s']:7.2f} {r['rss_peak_mb']:8.0f} {r['rss_delta_mb']:8.0f} {r['us_per_event']:9.1f} "
-            f"{r['path_err_mm'] * 1e6:9.3f}")
+    return (
+        f"{r['n_spikes']:>8d} {r['solid']:12s} {r['numpy_s']:8.2f} {r['build_s']:8.2f} {r['voxelise_s']:8.2f} "
+        f"{r['init_s']:7.2f} {r['rss_peak_mb']:8.0f} {r['rss_delta_mb']:8.0f} {r['us_per_event']:9.1f} "
+        f"{r['path_err_mm'] * 1e6:9.3f}"
+    )
 
 
-HEADER = (f"{'N':>8s} {'solid':12s} {'numpy s':>8s} {'build s':>8s} {'voxel s':>8s} {'init s':>7s} "
-          f"{'RSS MB':>8s} {'dRSS MB':>8s} {'us/event':>9s} {'path nm':>9s}")
+HEADER = (
+    f"{'N':>8s} {'solid':12s} {'numpy s':>8s} {'build s':>8s} {'voxel s':>8s} {'init s':>7s} "
+    f"{'RSS MB':>8s} {'dRSS MB':>8s} {'us/event':>9s} {'path nm':>9s}"
+)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--max-spikes", type=_spikes, default=100_000,
-                        help="largest N of 1e2, 1e3, 1e4, 1e5, 3e5, 1e6 to run (default 1e5)")
-    parser.add_argument("--timeout", type=float, default=600.0, help="seconds per case before it is killed")
-    parser.add_argument("--events", type=int, default=5000, help="timed geantino events per case (>= 2000)")
-    parser.add_argument("--repeats", type=int, default=3, help="timed batches of --events; the fastest is reported")
-    parser.add_argument("--solids", default=",".join(SOLIDS), help=f"comma-separated subset of {SOLIDS}")
-    parser.add_argument("--tess-max-voxels", type=_spikes, default=None,
-                        help="call G4TessellatedSolid::SetMaxVoxels(K) before closing (default: Geant4's)")
+    parser.add_argument(
+        "--max-spikes",
+        type=_spikes,
+        default=100_000,
+        help="largest N of 1e2, 1e3, 1e4, 1e5, 3e5, 1e6 to run (default 1e5)",
+    )
+    parser.add_argument(
+        "--timeout", type=float, default=600.0, help="seconds per case before it is killed"
+    )
+    parser.add_argument(
+        "--events", type=int, default=5000, help="timed geantino events per case (>= 2000)"
+    )
+    parser.add_argument(
+        "--repeats", type=int, default=3, help="timed batches of --events; the fastest is reported"
+    )
+    parser.add_argument(
+        "--solids", default=",".join(SOLIDS), help=f"comma-separated subset of {SOLIDS}"
+    )
+    parser.add_argument(
+        "--tess-max-voxels",
+        type=_spikes,
+        default=None,
+        help="call G4TessellatedSolid::SetMaxVoxels(K) before closing (default: Geant4's)",
+    )
     parser.add_argument("--case", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.events < 2000:
@@ -295,26 +327,46 @@ def main() -> None:
             parser.error(f"--solids: unknown solid {s!r}; use {', '.join(SOLIDS)}")
     sizes = [n for n in (100, 1000, 10_000, 100_000, 300_000, 1_000_000) if n <= args.max_spikes]
     extra = f", tessellated SetMaxVoxels({args.tess_max_voxels})" if args.tess_max_voxels else ""
-    print(f"pyramids {WIDTH * 1e3:g} um wide, {HEIGHT * 1e3:g} um high, base {THICKNESS * 1e3:g} um; "
-          f"{args.events} geantinos per case{extra}")
+    print(
+        f"pyramids {WIDTH * 1e3:g} um wide, {HEIGHT * 1e3:g} um high, base {THICKNESS * 1e3:g} um; "
+        f"{args.events} geantinos per case{extra}"
+    )
     print(HEADER, flush=True)
     for n in sizes:
         n_side = round(math.sqrt(n))
         for kind in solids:
-            cmd = [sys.executable, __file__, "--case", f"{kind}:{n_side}", "--events", str(args.events),
-                   "--repeats", str(args.repeats)]
+            cmd = [
+                sys.executable,
+                __file__,
+                "--case",
+                f"{kind}:{n_side}",
+                "--events",
+                str(args.events),
+                "--repeats",
+                str(args.repeats),
+            ]
             if args.tess_max_voxels:
                 cmd += ["--tess-max-voxels", str(args.tess_max_voxels)]
             try:
-                done = subprocess.run(cmd, check=False, capture_output=True, text=True, timeout=args.timeout)
+                done = subprocess.run(
+                    cmd, check=False, capture_output=True, text=True, timeout=args.timeout
+                )
             except subprocess.TimeoutExpired:  # subprocess.run kills the child
-                r = {"n_spikes": n_side * n_side, "solid": kind, "error": f"> {args.timeout:g} s (killed)"}
+                r = {
+                    "n_spikes": n_side * n_side,
+                    "solid": kind,
+                    "error": f"> {args.timeout:g} s (killed)",
+                }
             else:
                 if done.returncode == 0:
                     r = json.loads(done.stdout.strip().splitlines()[-1])
                 else:
                     tail = (done.stderr.strip().splitlines() or ["no output"])[-1]
-                    r = {"n_spikes": n_side * n_side, "solid": kind, "error": f"failed ({done.returncode}): {tail}"}
+                    r = {
+                        "n_spikes": n_side * n_side,
+                        "solid": kind,
+                        "error": f"failed ({done.returncode}): {tail}",
+                    }
             print(_row(r), flush=True)
 
 

@@ -24,12 +24,24 @@ def _timed(fn, *args):
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--max-exponent", type=int, default=6, help="largest grid has 10^k spikes (default 6)")
+    parser.add_argument(
+        "--max-exponent", type=int, default=6, help="largest grid has 10^k spikes (default 6)"
+    )
     args = parser.parse_args()
-    print(f"{'spikes':>9} {'faces':>9} {'grid s':>7} {'top s':>7} {'body s':>7} {'check s':>8} {'metro s':>8} {'peak RSS MB':>11}")
+    print(
+        f"{'spikes':>9} {'faces':>9} {'grid s':>7} {'top s':>7} {'body s':>7} {'check s':>8} {'metro s':>8} {'peak RSS MB':>11}"
+    )
     for k in range(4, args.max_exponent + 1):
         n = 10 ** (k // 2)
-        kwargs = dict(nx=n, ny=10**k // n, width_x=0.005, width_y=0.005, mean_height=0.005, height_sigma=0.001, seed=1)
+        kwargs = dict(
+            nx=n,
+            ny=10**k // n,
+            width_x=0.005,
+            width_y=0.005,
+            mean_height=0.005,
+            height_sigma=0.001,
+            seed=1,
+        )
         grid, t_grid = _timed(lambda: SpikeGrid(**kwargs))
         top, t_top = _timed(grid.top_mesh)
         body, t_body = _timed(closed_body, top, 0.1)
@@ -37,7 +49,9 @@ def main() -> None:
         assert ok, "closed body is not watertight"
         _, t_metro = _timed(mesh_parameters, top)
         rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-        print(f"{grid.n_spikes:>9} {body.n_faces:>9} {t_grid:7.3f} {t_top:7.3f} {t_body:7.3f} {t_check:8.3f} {t_metro:8.3f} {rss:11.0f}")
+        print(
+            f"{grid.n_spikes:>9} {body.n_faces:>9} {t_grid:7.3f} {t_top:7.3f} {t_body:7.3f} {t_check:8.3f} {t_metro:8.3f} {rss:11.0f}"
+        )
 
 
 if __name__ == "__main__":

@@ -95,21 +95,47 @@ def run_config(tiling: str, face_cm: float = FACE_CM) -> dict:
     """The benchmark's run configuration; ``tiling`` is native, portal, flat, or with one variant
     (the equal-height pyramids) placements1 / replicas1 (native placements vs G4PVReplica rows)."""
     n = round(PATCH_MM / 0.010)
-    surfaces = {f"v{k}": {"kind": "spikes", "nx": n, "ny": n, "width": "10 um", "height": "10 um",
-                          "height_sigma": f"{s} um", "seed": k + 1} for k, s in enumerate(SPREADS_UM)}
-    target = {"name": "crystal", "material": "G4_Si", "size": [f"{face_cm} cm", f"{face_cm} cm", "1 mm"],
-              "position": ["0 cm", "0 cm", "-0.5 mm"]}
+    surfaces = {
+        f"v{k}": {
+            "kind": "spikes",
+            "nx": n,
+            "ny": n,
+            "width": "10 um",
+            "height": "10 um",
+            "height_sigma": f"{s} um",
+            "seed": k + 1,
+        }
+        for k, s in enumerate(SPREADS_UM)
+    }
+    target = {
+        "name": "crystal",
+        "material": "G4_Si",
+        "size": [f"{face_cm} cm", f"{face_cm} cm", "1 mm"],
+        "position": ["0 cm", "0 cm", "-0.5 mm"],
+    }
     if tiling in ("placements1", "replicas1"):
         target["rough"] = [{"face": "+z", "surface": "v0", "native_layout": tiling[:-1]}]
     elif tiling != "flat":
-        target["rough"] = [{"face": "+z", "tiling": tiling, "fill": "exact", "seed": 7,
-                            "variants": [{"surface": f"v{k}", "density": d} for k, d in enumerate(DENSITIES)]}]
+        target["rough"] = [
+            {
+                "face": "+z",
+                "tiling": tiling,
+                "fill": "exact",
+                "seed": 7,
+                "variants": [{"surface": f"v{k}", "density": d} for k, d in enumerate(DENSITIES)],
+            }
+        ]
     return {
         "physics": "lite",
         "surfaces": surfaces if tiling != "flat" else {},
         "targets": [target],
-        "source": {"particle": "alpha", "energy": "5.3 MeV", "direction": "isotropic",
-                   "surface": {"volume": "crystal", "face": "+z"}, "depth": {"profile": "exponential", "mean": "20 nm"}},
+        "source": {
+            "particle": "alpha",
+            "energy": "5.3 MeV",
+            "direction": "isotropic",
+            "surface": {"volume": "crystal", "face": "+z"},
+            "depth": {"profile": "exponential", "mean": "20 nm"},
+        },
         "run": {"events": 1000, "seed": 3},
     }
 
@@ -142,8 +168,13 @@ def measure_tiling(tiling: str, events: int, face_cm: float = FACE_CM) -> dict:
     t0, c0 = time.perf_counter(), time.process_time()
     scores = sim.run(primaries.select_events(WARMUP, WARMUP + events), 2)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-    out.update(events=events, ev_per_s_wall=events / wall, ev_per_s_cpu=events / cpu,
-               mean_edep_mev=float(scores["edep"][:, 0].mean()), rss_mb=_rss_mb())
+    out.update(
+        events=events,
+        ev_per_s_wall=events / wall,
+        ev_per_s_cpu=events / cpu,
+        mean_edep_mev=float(scores["edep"][:, 0].mean()),
+        rss_mb=_rss_mb(),
+    )
     if sim.teleporter:
         out["jumps_per_event"] = (sim.teleporter.jumps - jumps0) / events
     return out
@@ -167,8 +198,14 @@ def measure_patch(size_mm: float, solid: str) -> dict:
         built = tessellated_solid(g4, closed_body(grid.top_mesh(), 1e-3), "patch")
     seconds = time.perf_counter() - t0
     _ = built
-    return {"size_mm": size_mm, "solid": solid, "pyramids": n * n, "build_s": seconds,
-            "rss_mb": _rss_mb(), "rss_delta_mb": _rss_mb() - base}
+    return {
+        "size_mm": size_mm,
+        "solid": solid,
+        "pyramids": n * n,
+        "build_s": seconds,
+        "rss_mb": _rss_mb(),
+        "rss_delta_mb": _rss_mb() - base,
+    }
 
 
 def _peak_rss_mb(pid: int) -> float:
@@ -198,17 +235,24 @@ def in_subprocess(args: list[str], limit: float) -> dict | None:
     lines = [line for line in proc.stdout.read().splitlines() if line.startswith(MARK)]
     if proc.returncode != 0 or not lines:
         raise RuntimeError(f"{' '.join(args)}: failed (exit code {proc.returncode})")
-    return json.loads(lines[-1][len(MARK):])
+    return json.loads(lines[-1][len(MARK) :])
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--events", type=int, default=2000)
-    parser.add_argument("--limit", type=float, default=300.0, help="seconds per case before it is killed")
-    parser.add_argument("--face-cm", type=float, default=FACE_CM, help="face side (a quick check: 1)")
+    parser.add_argument(
+        "--limit", type=float, default=300.0, help="seconds per case before it is killed"
+    )
+    parser.add_argument(
+        "--face-cm", type=float, default=FACE_CM, help="face side (a quick check: 1)"
+    )
     parser.add_argument("--skip-patches", action="store_true", help="only the tiling table")
-    parser.add_argument("--cases", default="flat,native,portal,placements1,replicas1",
-                        help="comma-separated tiling cases (placements1/replicas1: one variant)")
+    parser.add_argument(
+        "--cases",
+        default="flat,native,portal,placements1,replicas1",
+        help="comma-separated tiling cases (placements1/replicas1: one variant)",
+    )
     parser.add_argument("--tiling", help=argparse.SUPPRESS)
     parser.add_argument("--patch", nargs=2, help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -219,14 +263,21 @@ def main() -> None:
         print(MARK + json.dumps(measure_patch(float(args.patch[0]), args.patch[1])), flush=True)
         return
 
-    print(f"{'case':11} {'build s':>8} {'init s':>7} {'1st run s':>9} {'RSS MB':>7} {'ev/s wall':>9} "
-          f"{'ev/s CPU':>8} {'mean MeV':>8} {'jumps/ev':>8}")
+    print(
+        f"{'case':11} {'build s':>8} {'init s':>7} {'1st run s':>9} {'RSS MB':>7} {'ev/s wall':>9} "
+        f"{'ev/s CPU':>8} {'mean MeV':>8} {'jumps/ev':>8}"
+    )
     for tiling in args.cases.split(","):
-        r = in_subprocess(["--tiling", tiling, "--events", str(args.events), "--face-cm", str(args.face_cm)],
-                          max(args.limit, 3600))
-        print(f"{tiling:11} {r.get('build_s', 0.0):8.2f} {r['init_s']:7.2f} {r['first_run_s']:9.2f} {r['rss_mb']:7.0f} "
-              f"{r['ev_per_s_wall']:9.0f} {r['ev_per_s_cpu']:8.0f} {r['mean_edep_mev']:8.3f} "
-              f"{r.get('jumps_per_event', float('nan')):8.2f}", flush=True)
+        r = in_subprocess(
+            ["--tiling", tiling, "--events", str(args.events), "--face-cm", str(args.face_cm)],
+            max(args.limit, 3600),
+        )
+        print(
+            f"{tiling:11} {r.get('build_s', 0.0):8.2f} {r['init_s']:7.2f} {r['first_run_s']:9.2f} {r['rss_mb']:7.0f} "
+            f"{r['ev_per_s_wall']:9.0f} {r['ev_per_s_cpu']:8.0f} {r['mean_edep_mev']:8.3f} "
+            f"{r.get('jumps_per_event', float('nan')):8.2f}",
+            flush=True,
+        )
     if args.skip_patches:
         return
     print()
@@ -236,11 +287,16 @@ def main() -> None:
             r = in_subprocess(["--patch", str(size), solid], args.limit)
             n = round(size / 0.010) ** 2
             if r.get("timeout"):
-                print(f"{size:6.1f}mm {solid:12} {n:9d} {'> ' + format(args.limit, 'g'):>9} "
-                      f"{'>= ' + format(r['peak_rss_mb'], '.0f'):>8} {'':>8}", flush=True)
+                print(
+                    f"{size:6.1f}mm {solid:12} {n:9d} {'> ' + format(args.limit, 'g'):>9} "
+                    f"{'>= ' + format(r['peak_rss_mb'], '.0f'):>8} {'':>8}",
+                    flush=True,
+                )
             else:
-                print(f"{size:6.1f}mm {solid:12} {n:9d} {r['build_s']:9.2f} {r['rss_mb']:8.0f} {r['rss_delta_mb']:8.0f}",
-                      flush=True)
+                print(
+                    f"{size:6.1f}mm {solid:12} {n:9d} {r['build_s']:9.2f} {r['rss_mb']:8.0f} {r['rss_delta_mb']:8.0f}",
+                    flush=True,
+                )
 
 
 if __name__ == "__main__":

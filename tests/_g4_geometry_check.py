@@ -18,8 +18,14 @@ def check(config_data: dict, plant_overlap: bool) -> tuple[bool, list[str], int,
         world_lv = built.world.GetLogicalVolume()
         if plant_overlap:  # a copper box straddling the top face of the crystal
             solid = g4.G4Box("intruder", 0.05, 0.05, 0.05)
-            lv = g4.G4LogicalVolume(solid, g4.G4NistManager.Instance().FindOrBuildMaterial("G4_Cu"), "intruder")
-            pv = g4.G4PVPlacement(None, g4.G4ThreeVector(0, 0, 0.0), lv, "intruder", world_lv, False, 0, False)
+            lv = g4.G4LogicalVolume(
+                solid, g4.G4NistManager.Instance().FindOrBuildMaterial("G4_Cu"), "intruder"
+            )
+            pv = g4.G4PVPlacement(
+                None, g4.G4ThreeVector(0, 0, 0.0), lv, "intruder", world_lv, False, 0, False
+            )
             built.keep += [solid, lv, pv]
-        report = check_placements(built.world, points=500, max_placements=20, layers=built_scene.layers)
+        report = check_placements(
+            built.world, points=500, max_placements=20, layers=built_scene.layers
+        )
     return report.ok, report.overlaps, report.checked, report.exact, report.total

@@ -22,11 +22,21 @@ def run_primaries(config_data: dict, primaries: dict, g4_seed: int = 3) -> dict:
     out["volumes"] = sim.volumes
     t = sim.teleporter
     if t is not None:
-        out.update(jumps=t.jumps, secondary_jumps=t.secondary_jumps, anomalies=t.anomalies, left_lab=t.left_lab)
+        out.update(
+            jumps=t.jumps,
+            secondary_jumps=t.secondary_jumps,
+            anomalies=t.anomalies,
+            left_lab=t.left_lab,
+        )
     return out
 
 
 def as_lists(p) -> dict:
     """Primaries as plain lists, to send to a spawned process."""
-    return {"event": p.event.tolist(), "particle": p.particle.tolist(), "energy": p.energy.tolist(),
-            "position": np.asarray(p.position).tolist(), "direction": np.asarray(p.direction).tolist()}
+    return {
+        "event": p.event.tolist(),
+        "particle": p.particle.tolist(),
+        "energy": p.energy.tolist(),
+        "position": np.asarray(p.position).tolist(),
+        "direction": np.asarray(p.direction).tolist(),
+    }

@@ -32,5 +32,9 @@ def gdml_roundtrip(points, grid_kwargs, thickness, path):
     daughter = world.GetLogicalVolume().GetDaughter(0).GetLogicalVolume()
     back = daughter.GetSolid()
     points = np.asarray(points)
-    return (inside_codes(g4, solid, points).tolist(), inside_codes(g4, back, points).tolist(),
-            back.GetEntityType(), daughter.GetMaterial().GetName())
+    return (
+        inside_codes(g4, solid, points).tolist(),
+        inside_codes(g4, back, points).tolist(),
+        back.GetEntityType(),
+        daughter.GetMaterial().GetName(),
+    )

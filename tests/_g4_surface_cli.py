@@ -28,5 +28,11 @@ def export_and_classify(surface_file, gdml_path, extra_args, points):
     lo, hi = g4.G4ThreeVector(), g4.G4ThreeVector()
     solid.BoundingLimits(lo, hi)
     codes = inside_codes(g4, solid, np.asarray(points, dtype=float)).tolist()
-    return (status, solid.GetEntityType(), daughter.GetMaterial().GetName(),
-            [lo.x, lo.y, lo.z], [hi.x, hi.y, hi.z], codes)
+    return (
+        status,
+        solid.GetEntityType(),
+        daughter.GetMaterial().GetName(),
+        [lo.x, lo.y, lo.z],
+        [hi.x, hi.y, hi.z],
+        codes,
+    )

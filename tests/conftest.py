@@ -14,8 +14,20 @@ ROOT = Path(__file__).resolve().parents[1]
 
 BASE_CONFIG = {
     "physics": "lite",
-    "targets": [{"name": "crystal", "material": "G4_Si", "size": ["1 cm", "1 cm", "1 cm"], "position": ["0 cm", "0 cm", "-0.5 cm"]}],
-    "source": {"particle": "alpha", "energy": "5.3 MeV", "direction": "isotropic", "surface": {"volume": "crystal", "face": "+z"}},
+    "targets": [
+        {
+            "name": "crystal",
+            "material": "G4_Si",
+            "size": ["1 cm", "1 cm", "1 cm"],
+            "position": ["0 cm", "0 cm", "-0.5 cm"],
+        }
+    ],
+    "source": {
+        "particle": "alpha",
+        "energy": "5.3 MeV",
+        "direction": "isotropic",
+        "surface": {"volume": "crystal", "face": "+z"},
+    },
     "run": {"events": 100, "seed": 7},
 }
 

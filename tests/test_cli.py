@@ -13,7 +13,12 @@ from conftest import ROOT
 
 
 def run_cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "score4.cli.main", *map(str, args)], capture_output=True, text=True, cwd=cwd)
+    return subprocess.run(
+        [sys.executable, "-m", "score4.cli.main", *map(str, args)],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+    )
 
 
 def test_version(capsys):
@@ -28,7 +33,10 @@ def test_version(capsys):
         (None, "does not exist"),
         ("targets: [", "not valid YAML"),
         ("targets: []\nsource: {energy: 5 MeV, surface: {volume: x}}\n", "targets"),
-        ("{targets: [{name: c, size: [1 cm, 1 cm, 1 cm]}], source: {energy: '5', surface: {volume: c}}}", "has no unit"),
+        (
+            "{targets: [{name: c, size: [1 cm, 1 cm, 1 cm]}], source: {energy: '5', surface: {volume: c}}}",
+            "has no unit",
+        ),
     ],
 )
 def test_bad_config_exits_2_with_one_line(tmp_path: Path, capsys, content, message):
@@ -42,16 +50,30 @@ def test_bad_config_exits_2_with_one_line(tmp_path: Path, capsys, content, messa
 
 
 def test_output_folder_missing_exits_2(tmp_path: Path, capsys):
-    code = main(["run", str(ROOT / "examples" / "flat_alpha.yaml"), "--out", str(tmp_path / "no" / "o.h5")])
+    code = main(
+        ["run", str(ROOT / "examples" / "flat_alpha.yaml"), "--out", str(tmp_path / "no" / "o.h5")]
+    )
     assert code == 2 and "does not exist" in capsys.readouterr().err
 
 
 def test_run_then_summary_json(tmp_path: Path):
     out = tmp_path / "demo.h5"
-    done = run_cli("run", ROOT / "examples" / "flat_alpha.yaml", "--events", 200, "--seed", 4, "--out", out, "-q")
+    done = run_cli(
+        "run",
+        ROOT / "examples" / "flat_alpha.yaml",
+        "--events",
+        200,
+        "--seed",
+        4,
+        "--out",
+        out,
+        "-q",
+    )
     assert done.returncode == 0, done.stderr
     assert "lite mode" in done.stderr  # the one warning about missing data
-    again = run_cli("run", ROOT / "examples" / "flat_alpha.yaml", "--events", 200, "--out", out, "-q")
+    again = run_cli(
+        "run", ROOT / "examples" / "flat_alpha.yaml", "--events", 200, "--out", out, "-q"
+    )
     assert again.returncode == 2 and "already exists; use --overwrite" in again.stderr
     summary = run_cli("summary", out, "--json")
     assert summary.returncode == 0, summary.stderr

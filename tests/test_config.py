@@ -23,7 +23,10 @@ def test_defaults_fill_a_short_config():
 @pytest.mark.parametrize(
     "sections, message",
     [
-        ({"targets": [{"name": "c", "size": ["0 cm", "1 cm", "1 cm"]}]}, r"targets.0.size.0: .*greater than 0"),
+        (
+            {"targets": [{"name": "c", "size": ["0 cm", "1 cm", "1 cm"]}]},
+            r"targets.0.size.0: .*greater than 0",
+        ),
         ({"targets": [{"name": "c", "size": ["-1 cm", "1 cm", "1 cm"]}]}, r"targets.0.size.0"),
         ({"source": {"energy": "5.3"}}, r"source.energy: '5.3' has no unit"),
         ({"source": {"energy": "-5.3 MeV"}}, r"source.energy: .*greater than 0"),

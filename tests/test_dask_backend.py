@@ -40,7 +40,9 @@ def reference(tmp_path_factory):
 @pytest.fixture(scope="module")
 def cluster():
     """A running local Dask cluster of 2 single-thread worker processes (with nannies)."""
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as c:
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
+    ) as c:
         yield c
 
 
@@ -58,7 +60,22 @@ def test_cli_cluster_dask_gives_the_local_result(tmp_path, reference, capsys):
     config_file = tmp_path / "c.yaml"
     config_file.write_text(yaml.safe_dump(config_dict(run=RUN)))
     out = tmp_path / "dask.h5"
-    assert main(["run", str(config_file), "--out", str(out), "--cluster", "dask", "--jobs", "2", "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                str(config_file),
+                "--out",
+                str(out),
+                "--cluster",
+                "dask",
+                "--jobs",
+                "2",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     result = read_results(out)
     assert_same_events(result, local)
     assert result.run["backend"] == "dask local cluster (2 workers)"
@@ -72,8 +89,15 @@ def test_cli_cluster_dask_gives_the_local_result(tmp_path, reference, capsys):
 def test_existing_scheduler_address_and_client(tmp_path, reference, cluster):
     config, local = reference
     said = []
-    result = read_results(run(config, tmp_path / "a.h5", cluster=cluster.scheduler_address, progress=False,
-                              echo=said.append))
+    result = read_results(
+        run(
+            config,
+            tmp_path / "a.h5",
+            cluster=cluster.scheduler_address,
+            progress=False,
+            echo=said.append,
+        )
+    )
     assert_same_events(result, local)
     assert result.run["backend"] == f"dask {cluster.scheduler_address}"
     # The workers now hold this configuration's Geant4 set-up. Another configuration on the same
@@ -81,9 +105,13 @@ def test_existing_scheduler_address_and_client(tmp_path, reference, cluster):
     other = parse_config(config_dict(run={**RUN, "events": 300}, source={"energy": "4 MeV"}))
     with distributed.Client(cluster) as client:
         said.clear()
-        result = read_results(run(other, tmp_path / "b.h5", cluster=client, progress=False, echo=said.append))
+        result = read_results(
+            run(other, tmp_path / "b.h5", cluster=client, progress=False, echo=said.append)
+        )
         assert client.status == "running"  # a client given by the caller stays open
-    assert any("restarting 2 Dask worker(s) that hold another run's Geant4 set-up" in m for m in said)
+    assert any(
+        "restarting 2 Dask worker(s) that hold another run's Geant4 set-up" in m for m in said
+    )
     expected = read_results(run(other, tmp_path / "c.h5", jobs=2, progress=False, echo=quiet))
     assert_same_events(result, expected)
     assert result.primary_energy.max() == pytest.approx(4.0)
@@ -97,7 +125,9 @@ def test_resume_on_dask_of_a_run_started_locally(tmp_path, reference, monkeypatc
         run(config, out, jobs=2, progress=False, echo=quiet)
     monkeypatch.delenv(CRASH_HOOK)
     said = []
-    result = read_results(run(config, out, jobs=2, resume=True, cluster="dask", progress=False, echo=said.append))
+    result = read_results(
+        run(config, out, jobs=2, resume=True, cluster="dask", progress=False, echo=said.append)
+    )
     assert "resume: 5 of 6 chunks already finished" in said[0]
     assert_same_events(result, local)
     assert "notice: --jobs 2 but only 1 chunk(s) to run" in said[1]
@@ -108,13 +138,20 @@ def test_a_dying_dask_worker_fails_its_chunk(tmp_path, monkeypatch):
 
     config = parse_config(config_dict(run={"events": 300, "seed": 2, "chunk_events": 100}))
     monkeypatch.setenv(CRASH_HOOK, "1")  # inherited by the local cluster's worker processes
-    no_retry = dask.config.set({"distributed.scheduler.allowed-failures": 0})  # no retry on another worker
+    no_retry = dask.config.set(
+        {"distributed.scheduler.allowed-failures": 0}
+    )  # no retry on another worker
     with no_retry, pytest.raises(Score4Error) as info:
         run(config, tmp_path / "x.h5", jobs=2, cluster="dask", progress=False, echo=quiet)
     text = str(info.value)
-    assert text.startswith("run: chunk 1 failed (WorkerDied: the Dask worker processes that ran it died")
+    assert text.startswith(
+        "run: chunk 1 failed (WorkerDied: the Dask worker processes that ran it died"
+    )
     assert "2 of 3 chunks are finished and kept in" in text and "--resume" in text
-    assert sorted(p.name for p in (tmp_path / "x.h5.parts").glob("chunk-*.h5")) == ["chunk-000000.h5", "chunk-000002.h5"]
+    assert sorted(p.name for p in (tmp_path / "x.h5.parts").glob("chunk-*.h5")) == [
+        "chunk-000000.h5",
+        "chunk-000002.h5",
+    ]
 
 
 def test_bad_input_found_on_a_dask_worker_is_a_config_error(tmp_path):
@@ -125,22 +162,43 @@ def test_bad_input_found_on_a_dask_worker_is_a_config_error(tmp_path):
 
 
 def test_bad_cluster_values(tmp_path, make_config):
-    with pytest.raises(ConfigError, match=r"--cluster: 'localhost' is neither 'dask' .* nor a Dask scheduler address"):
+    with pytest.raises(
+        ConfigError,
+        match=r"--cluster: 'localhost' is neither 'dask' .* nor a Dask scheduler address",
+    ):
         run(make_config(), tmp_path / "x.h5", cluster="localhost", progress=False, echo=quiet)
     import dask
 
     short = dask.config.set({"distributed.comm.timeouts.connect": "2s"})
-    with short, pytest.raises(Score4Error, match=r"--cluster: cannot connect to the Dask scheduler at tcp://127.0.0.1:9"):
-        run(make_config(), tmp_path / "x.h5", cluster="tcp://127.0.0.1:9", progress=False, echo=quiet)
+    with (
+        short,
+        pytest.raises(
+            Score4Error,
+            match=r"--cluster: cannot connect to the Dask scheduler at tcp://127.0.0.1:9",
+        ),
+    ):
+        run(
+            make_config(),
+            tmp_path / "x.h5",
+            cluster="tcp://127.0.0.1:9",
+            progress=False,
+            echo=quiet,
+        )
     assert list(tmp_path.iterdir()) == []
 
 
-def test_without_distributed_the_error_says_what_to_install(tmp_path, make_config, monkeypatch, capsys):
+def test_without_distributed_the_error_says_what_to_install(
+    tmp_path, make_config, monkeypatch, capsys
+):
     monkeypatch.setitem(sys.modules, "distributed", None)  # import distributed -> ImportError
-    with pytest.raises(Score4Error, match=r"needs the 'distributed' package.*pip install 'score4\[cluster\]'"):
+    with pytest.raises(
+        Score4Error, match=r"needs the 'distributed' package.*pip install 'score4\[cluster\]'"
+    ):
         run(make_config(), tmp_path / "x.h5", cluster="dask", progress=False, echo=quiet)
     config_file = tmp_path / "c.yaml"
     config_file.write_text(yaml.safe_dump(config_dict()))
-    assert main(["run", str(config_file), "--out", str(tmp_path / "x.h5"), "--cluster", "dask"]) == 2
+    assert (
+        main(["run", str(config_file), "--out", str(tmp_path / "x.h5"), "--cluster", "dask"]) == 2
+    )
     assert "score4[cluster]" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.yaml"]

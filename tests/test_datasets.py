@@ -28,8 +28,18 @@ FAKE_FILES = {
 }
 FAKE_TAR = make_tarball(FAKE_FILES)
 FAKE = DataSet("FAKEDATA", "1.0", "G4FAKEDATA", "G4FAKEDATA", md5(FAKE_TAR))
-ENV_KEYS = ["GEANT4_DATA_DIR", "SCORE4_DATA_DIR", "XDG_DATA_HOME", "SCORE4_DATASET_URL",
-            "http_proxy", "HTTP_PROXY", "https_proxy", "HTTPS_PROXY", "all_proxy", "ALL_PROXY"]
+ENV_KEYS = [
+    "GEANT4_DATA_DIR",
+    "SCORE4_DATA_DIR",
+    "XDG_DATA_HOME",
+    "SCORE4_DATASET_URL",
+    "http_proxy",
+    "HTTP_PROXY",
+    "https_proxy",
+    "HTTPS_PROXY",
+    "all_proxy",
+    "ALL_PROXY",
+]
 
 
 @pytest.fixture
@@ -92,16 +102,26 @@ def test_parsing_does_not_import_geant4_pybind(tmp_path: Path) -> None:
     # A fresh interpreter without GEANT4_DATA_DIR: importing geant4_pybind would prompt/download.
     env = {k: v for k, v in os.environ.items() if k not in ("GEANT4_DATA_DIR", "CI")}
     env["HOME"] = str(tmp_path)
-    code = ("import sys; from score4 import datasets as d; n = len(d.official_datasets()); "
-            "d.status(); print(n, 'geant4_pybind' in sys.modules)")
-    out = subprocess.run([sys.executable, "-c", code], env=env, stdin=subprocess.DEVNULL,
-                         capture_output=True, text=True, check=True, timeout=60)
+    code = (
+        "import sys; from score4 import datasets as d; n = len(d.official_datasets()); "
+        "d.status(); print(n, 'geant4_pybind' in sys.modules)"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        env=env,
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=60,
+    )
     count, imported = out.stdout.split()
     assert int(count) >= 10 and imported == "False"
 
 
-def test_fallback_warns_once_when_extension_unreadable(fresh_cache, tmp_path: Path,
-                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+def test_fallback_warns_once_when_extension_unreadable(
+    fresh_cache, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     junk = tmp_path / "junk.so"
     junk.write_bytes(b"\x00ELF no data-set list here\nDATASETS = not a list\n")
     monkeypatch.setattr(datasets, "_extension_path", lambda: junk)
@@ -129,8 +149,10 @@ def test_default_data_dir_order(tmp_path: Path) -> None:
     xdg = {**home, "XDG_DATA_HOME": "/x"}
     assert datasets.default_data_dir(xdg) == Path("/x/score4/geant4-data")
     assert datasets.default_data_dir({**xdg, "SCORE4_DATA_DIR": "/s"}) == Path("/s")
-    assert datasets.default_data_dir({**home, "XDG_DATA_HOME": ""}) == \
-        tmp_path / ".local/share/score4/geant4-data"
+    assert (
+        datasets.default_data_dir({**home, "XDG_DATA_HOME": ""})
+        == tmp_path / ".local/share/score4/geant4-data"
+    )
 
 
 def test_locate_search_order(tmp_path: Path) -> None:
@@ -158,8 +180,11 @@ def test_empty_files_do_not_count_as_data(tmp_path: Path) -> None:
     stub = fill(tmp_path / "stub" / FAKE.dirname, "ENSDFSTATE.dat", b"")
     (stub / "empty_sub").mkdir()
     real = tmp_path / "home/.geant4_pybind" / FAKE.dirname
-    env = {"HOME": str(tmp_path / "home"), FAKE.envvar: str(stub),
-           "GEANT4_DATA_DIR": str(stub.parent)}
+    env = {
+        "HOME": str(tmp_path / "home"),
+        FAKE.envvar: str(stub),
+        "GEANT4_DATA_DIR": str(stub.parent),
+    }
     assert datasets.locate(FAKE, env) is None
     fill(real / "deep" / "deeper", "z.dat", b"1")  # one non-empty file anywhere below counts
     assert datasets.locate_with_source(FAKE, env) == (real, Source.GEANT4_PYBIND)
@@ -217,8 +242,9 @@ def test_install_success(tmp_path: Path, home: Path, fake_list) -> None:
     assert datasets.export_line(target) == f"export GEANT4_DATA_DIR={target}"
 
 
-def test_install_default_dir_and_url_from_env(tmp_path: Path, home: Path, fake_list,
-                                              monkeypatch: pytest.MonkeyPatch) -> None:
+def test_install_default_dir_and_url_from_env(
+    tmp_path: Path, home: Path, fake_list, monkeypatch: pytest.MonkeyPatch
+) -> None:
     routes = {f"/datasets/{FAKE.tarball}": Route(FAKE_TAR)}
     with serve(routes) as server:
         monkeypatch.setenv("SCORE4_DATASET_URL", server.base_url)
@@ -229,12 +255,14 @@ def test_install_default_dir_and_url_from_env(tmp_path: Path, home: Path, fake_l
     assert datasets.locate_with_source(FAKE) == (paths[0], Source.SCORE4)
 
 
-def test_install_only_skips_sets_already_in_directory(tmp_path: Path, home: Path,
-                                                      fake_list) -> None:
+def test_install_only_skips_sets_already_in_directory(
+    tmp_path: Path, home: Path, fake_list
+) -> None:
     present = fill(tmp_path / "data" / FAKE.dirname)
     with serve({}) as server:
-        assert datasets.install(tmp_path / "data", only=["FAKEDATA"],
-                                base_url=server.base_url, progress=False) == [present]
+        assert datasets.install(
+            tmp_path / "data", only=["FAKEDATA"], base_url=server.base_url, progress=False
+        ) == [present]
         assert server.requests == []
 
 
@@ -296,8 +324,9 @@ def test_install_connection_refused(tmp_path: Path, home: Path, fake_list) -> No
 
 
 def test_install_unknown_name(tmp_path: Path, home: Path, fake_list) -> None:
-    with pytest.raises(DataError, match="only=G4NOPE: unknown data-set name; valid names are "
-                                        "FAKEDATA"):
+    with pytest.raises(
+        DataError, match="only=G4NOPE: unknown data-set name; valid names are FAKEDATA"
+    ):
         datasets.install(tmp_path / "data", only=["G4NOPE"], base_url="http://127.0.0.1:9")
     assert not (tmp_path / "data").exists()
 
@@ -317,8 +346,13 @@ def test_install_rejects_bad_timeout(tmp_path: Path) -> None:
         ({"FAKEDATA1.0": None}, "exactly one non-empty folder"),
     ],
 )
-def test_install_refuses_bad_tarballs(tmp_path: Path, home: Path, monkeypatch: pytest.MonkeyPatch,
-                                      members: dict[str, bytes | None], rule: str) -> None:
+def test_install_refuses_bad_tarballs(
+    tmp_path: Path,
+    home: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    members: dict[str, bytes | None],
+    rule: str,
+) -> None:
     tar = make_tarball(members)
     bad = DataSet("FAKEDATA", "1.0", "G4FAKEDATA", "G4FAKEDATA", md5(tar))
     monkeypatch.setattr(datasets, "official_datasets", lambda: [bad])
@@ -330,8 +364,9 @@ def test_install_refuses_bad_tarballs(tmp_path: Path, home: Path, monkeypatch: p
     assert not (tmp_path / "evil").exists()
 
 
-def test_interrupted_unpack_leaves_nothing(tmp_path: Path, home: Path, fake_list,
-                                           monkeypatch: pytest.MonkeyPatch) -> None:
+def test_interrupted_unpack_leaves_nothing(
+    tmp_path: Path, home: Path, fake_list, monkeypatch: pytest.MonkeyPatch
+) -> None:
     real_extract = datasets._extract_checked
 
     def extract_then_interrupt(*args: object) -> Path:
@@ -379,15 +414,27 @@ def test_cli_status_table(tmp_path: Path, home: Path, monkeypatch: pytest.Monkey
 def test_cli_install_prints_export_line(tmp_path: Path, home: Path, fake_list) -> None:
     target = tmp_path / "data"
     with serve({f"/datasets/{FAKE.tarball}": Route(FAKE_TAR)}) as server:
-        result = CliRunner().invoke(data, ["install", "--dir", str(target), "--only", "FAKEDATA",
-                                           "--url", server.base_url, "--no-progress"])
+        result = CliRunner().invoke(
+            data,
+            [
+                "install",
+                "--dir",
+                str(target),
+                "--only",
+                "FAKEDATA",
+                "--url",
+                server.base_url,
+                "--no-progress",
+            ],
+        )
     assert result.exit_code == 0, result.output
     assert result.stdout.splitlines()[-1] == f"export GEANT4_DATA_DIR={target}"
     assert (target / FAKE.dirname / "README").is_file()
 
 
-def test_cli_install_mode_installs_what_the_mode_lacks(tmp_path: Path, home: Path, fake_list,
-                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+def test_cli_install_mode_installs_what_the_mode_lacks(
+    tmp_path: Path, home: Path, fake_list, monkeypatch: pytest.MonkeyPatch
+) -> None:
     monkeypatch.setitem(datasets.MODES, "full", ("FAKEDATA",))
     target = tmp_path / "data"
     args = ["install", "--dir", str(target), "--mode", "full", "--no-progress"]

@@ -11,7 +11,12 @@ from scipy import integrate, stats
 from scipy.spatial import cKDTree
 
 from score4.errors import ConfigError
-from score4.source.depth import MeshDistance, OffsetSurface, VertexSampler, closest_points_on_triangles
+from score4.source.depth import (
+    MeshDistance,
+    OffsetSurface,
+    VertexSampler,
+    closest_points_on_triangles,
+)
 from score4.source.profiles import (
     ExponentialProfile,
     MultiExponentialProfile,
@@ -70,7 +75,9 @@ def chi2_pvalue(x: np.ndarray, edges: np.ndarray, cdf) -> float:
 # ---------------------------------------------------------------- profiles
 
 
-TABLE = "# Po-210 like table, uneven spacing\n# unit: nm\n0 0\n2 10\n3 30\n10 25\n25 5\n60 1\n120 0\n"
+TABLE = (
+    "# Po-210 like table, uneven spacing\n# unit: nm\n0 0\n2 10\n3 30\n10 25\n25 5\n60 1\n120 0\n"
+)
 
 
 def make_profile(kind: str, tmp_path):
@@ -83,11 +90,20 @@ def make_profile(kind: str, tmp_path):
         "two_exponentials": lambda: MultiExponentialProfile([0.7, 0.3], [5 * nm, 50 * nm]),
         "uniform": lambda: UniformProfile(10 * nm, 110 * nm),
         "gauss_cut_at_zero": lambda: TruncatedGaussianProfile(30 * nm, 20 * nm),
-        "gauss_upper_tail": lambda: TruncatedGaussianProfile(30 * nm, 20 * nm, lower=80 * nm, upper=200 * nm),
+        "gauss_upper_tail": lambda: TruncatedGaussianProfile(
+            30 * nm, 20 * nm, lower=80 * nm, upper=200 * nm
+        ),
     }[kind]()
 
 
-KINDS = ["table_uneven", "exponential", "two_exponentials", "uniform", "gauss_cut_at_zero", "gauss_upper_tail"]
+KINDS = [
+    "table_uneven",
+    "exponential",
+    "two_exponentials",
+    "uniform",
+    "gauss_cut_at_zero",
+    "gauss_upper_tail",
+]
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -104,7 +120,12 @@ def test_depth_histogram_on_a_flat_face_matches_the_profile(kind, window, tmp_pa
     assert depth.min() >= lo and depth.max() <= hi  # the window is exact: zero violations
     edges = np.linspace(max(lo, 0.0), min(hi, 250 * nm), 41)
     mass = profile.mass(lo, hi)
-    assert chi2_pvalue(depth, edges, lambda d: (profile.cdf(np.clip(d, lo, hi)) - profile.cdf(lo)) / mass) > P_MIN
+    assert (
+        chi2_pvalue(
+            depth, edges, lambda d: (profile.cdf(np.clip(d, lo, hi)) - profile.cdf(lo)) / mass
+        )
+        > P_MIN
+    )
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -114,18 +135,24 @@ def test_pdf_is_normalised_and_integrates_to_the_cdf(kind, tmp_path):
     for x in (7 * nm, 33 * nm, 150 * nm):
         got = integrate.quad(profile.pdf, 0, x, points=[b for b in breaks if b < x], limit=200)[0]
         assert got == pytest.approx(float(profile.cdf(x)), abs=1e-9)
-    assert integrate.quad(profile.pdf, 0, 5000 * nm, points=breaks, limit=200)[0] == pytest.approx(1.0, abs=1e-8)
+    assert integrate.quad(profile.pdf, 0, 5000 * nm, points=breaks, limit=200)[0] == pytest.approx(
+        1.0, abs=1e-8
+    )
 
 
 def test_truncated_profile_pdf_is_renormalised(tmp_path):
     profile = make_profile("table_uneven", tmp_path).truncated(5 * nm, 40 * nm)
-    assert integrate.quad(profile.pdf, 0, 200 * nm, points=[5 * nm, 10 * nm, 25 * nm, 40 * nm])[0] == pytest.approx(1.0)
+    assert integrate.quad(profile.pdf, 0, 200 * nm, points=[5 * nm, 10 * nm, 25 * nm, 40 * nm])[
+        0
+    ] == pytest.approx(1.0)
 
 
 def test_zero_depth_puts_every_vertex_on_the_surface():
     tri = pyramids(2, 2, [[1.0, 0.5], [2.0, 0.1]])
     for definition in ("normal", "distance"):
-        v = VertexSampler(SurfaceSampler(tri), ZeroDepth(), definition=definition).sample(np.random.default_rng(0), 5000)
+        v = VertexSampler(SurfaceSampler(tri), ZeroDepth(), definition=definition).sample(
+            np.random.default_rng(0), 5000
+        )
         assert (v.depth == 0).all()
         np.testing.assert_allclose(MeshDistance(tri).distance(v.position)[0], 0.0, atol=1e-12)
     with pytest.raises(ConfigError, match="min_depth"):
@@ -168,10 +195,26 @@ def test_unit_argument_replaces_a_missing_header(tmp_path):
         (lambda: TruncatedGaussianProfile(10 * nm, -1 * nm), "sigma"),
         (lambda: TruncatedGaussianProfile(-10 * nm, 1 * nm), "mean"),
         (lambda: UniformProfile(20 * nm, 10 * nm), "min / max"),
-        (lambda: ExponentialProfile(1 * nm).truncated(30 * nm, 10 * nm), "min_depth / max_depth: .* > "),
+        (
+            lambda: ExponentialProfile(1 * nm).truncated(30 * nm, 10 * nm),
+            "min_depth / max_depth: .* > ",
+        ),
         (lambda: UniformProfile(0, 10 * nm).truncated(20 * nm, 30 * nm), "no probability"),
-        (lambda: VertexSampler(SurfaceSampler(flat_face()), ExponentialProfile(1 * nm), min_depth=2.0, max_depth=1.0), "min"),
-        (lambda: VertexSampler(SurfaceSampler(flat_face()), ExponentialProfile(1 * nm), definition="along"), "definition"),
+        (
+            lambda: VertexSampler(
+                SurfaceSampler(flat_face()),
+                ExponentialProfile(1 * nm),
+                min_depth=2.0,
+                max_depth=1.0,
+            ),
+            "min",
+        ),
+        (
+            lambda: VertexSampler(
+                SurfaceSampler(flat_face()), ExponentialProfile(1 * nm), definition="along"
+            ),
+            "definition",
+        ),
     ],
 )
 def test_bad_profile_parameters(build, match):
@@ -206,7 +249,9 @@ def test_closest_points_match_an_independent_reference():
     p = rng.normal(size=(400, 3)) * 2
     got = closest_points_on_triangles(p, tri[:, 0], tri[:, 1], tri[:, 2])
     ref = np.array([closest_point_reference(p[k], tri[k]) for k in range(len(p))])
-    np.testing.assert_allclose(np.linalg.norm(p - got, axis=1), np.linalg.norm(p - ref, axis=1), rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(
+        np.linalg.norm(p - got, axis=1), np.linalg.norm(p - ref, axis=1), rtol=1e-9, atol=1e-12
+    )
 
 
 @pytest.mark.parametrize("brute_max", [0, 64])
@@ -217,12 +262,18 @@ def test_mesh_distance_equals_brute_force(period, brute_max):
     tri = centres + rng.normal(scale=[0.3, 0.3, 0.1], size=(150, 3, 3))
     tri = np.concatenate([tri, [[[0, 0, 0], [3, 0, 0.2], [0, 2, 0.1]]]])  # one large triangle
     points = rng.random((300, 3)) * [3.0, 2.0, 1.5] - [0, 0, 0.5]
-    images = [(0.0, 0.0)] if period is None else [(i * period[0], j * period[1]) for i in (-1, 0, 1) for j in (-1, 0, 1)]
+    images = (
+        [(0.0, 0.0)]
+        if period is None
+        else [(i * period[0], j * period[1]) for i in (-1, 0, 1) for j in (-1, 0, 1)]
+    )
     brute = np.full(len(points), np.inf)
     for dx, dy in images:
         shifted = tri + [dx, dy, 0]
         for k in range(len(shifted)):
-            q = closest_points_on_triangles(points, *(np.broadcast_to(shifted[k, i], points.shape) for i in range(3)))
+            q = closest_points_on_triangles(
+                points, *(np.broadcast_to(shifted[k, i], points.shape) for i in range(3))
+            )
             brute = np.minimum(brute, np.linalg.norm(points - q, axis=1))
     md = MeshDistance(tri, period=period, chunk=64, brute_max=brute_max)  # small chunks: batching
     dist, index = md.distance(points)
@@ -249,7 +300,9 @@ def test_v_groove_valley_wedge_is_filled_only_by_distance():
     expected = 1 - (a / depth) * np.log1p(depth / a)
     profile = UniformProfile(0.0, depth)
     for definition in ("distance", "normal"):
-        v = VertexSampler(SurfaceSampler(tri), profile, definition=definition).sample(np.random.default_rng(31), N)
+        v = VertexSampler(SurfaceSampler(tri), profile, definition=definition).sample(
+            np.random.default_rng(31), N
+        )
         x, z = v.position[:, 0], v.position[:, 2]
         wedge = np.abs(x) < s * -z
         if definition == "normal":
@@ -259,7 +312,9 @@ def test_v_groove_valley_wedge_is_filled_only_by_distance():
             assert stats.chisquare([k, N - k], [N * expected, N * (1 - expected)]).pvalue > P_MIN
             np.testing.assert_allclose(np.hypot(x[wedge], z[wedge]), v.depth[wedge], rtol=1e-9)
         # no overlap in a valley: every vertex is at its drawn depth with both definitions
-        np.testing.assert_allclose(MeshDistance(tri).distance(v.position)[0], v.depth, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(
+            MeshDistance(tri).distance(v.position)[0], v.depth, rtol=1e-9, atol=1e-12
+        )
 
 
 def test_v_groove_ridge_normal_vertices_come_too_close_distance_ones_do_not():
@@ -271,7 +326,9 @@ def test_v_groove_ridge_normal_vertices_come_too_close_distance_ones_do_not():
     expected = depth * s / (2 * w * np.sqrt(1 + s * s))
     profile = UniformProfile(0.0, depth)
     for definition in ("normal", "distance"):
-        v = VertexSampler(SurfaceSampler(tri), profile, definition=definition).sample(np.random.default_rng(32), N)
+        v = VertexSampler(SurfaceSampler(tri), profile, definition=definition).sample(
+            np.random.default_rng(32), N
+        )
         true = MeshDistance(tri).distance(v.position)[0]
         too_close = true < v.depth * (1 - 1e-9) - 1e-12  # fp: coordinates ~1, depths down to ~1e-6
         if definition == "normal":
@@ -294,8 +351,12 @@ def test_pit_level_sets_have_the_steiner_pieces():
     omega = 4 * np.arcsin(s * s / (s * s + 2))
     total = lambda d: area + edge * d + omega * d * d
     parts = [lambda d: area, lambda d: edge * d, lambda d: omega * d * d]
-    expected = np.array([integrate.quad(lambda d, f=f: f(d) / total(d), 0, depth)[0] / depth for f in parts])
-    v = VertexSampler(SurfaceSampler(tri), UniformProfile(0, depth), definition="distance").sample(np.random.default_rng(33), N)
+    expected = np.array(
+        [integrate.quad(lambda d, f=f: f(d) / total(d), 0, depth)[0] / depth for f in parts]
+    )
+    v = VertexSampler(SurfaceSampler(tri), UniformProfile(0, depth), definition="distance").sample(
+        np.random.default_rng(33), N
+    )
     p, d = v.position, v.depth
     on_vertex = np.abs(np.linalg.norm(p, axis=1) - d) <= 1e-9 * d + 1e-12
     diag = np.array([[w, w, s * w], [-w, w, s * w], [-w, -w, s * w], [w, -w, s * w]])
@@ -319,7 +380,9 @@ def test_distance_depth_histogram_matches_the_profile_on_pyramids(tmp_path):
     f = tmp_path / "depth.txt"
     f.write_text("# unit: um\n0 0\n20 10\n30 30\n100 25\n250 5\n400 0\n")
     profile = TableProfile.from_file(f)
-    v = VertexSampler(SurfaceSampler(ROUGH), profile, definition="distance").sample(np.random.default_rng(41), N)
+    v = VertexSampler(SurfaceSampler(ROUGH), profile, definition="distance").sample(
+        np.random.default_rng(41), N
+    )
     true = MeshDistance(ROUGH).distance(v.position)[0]
     np.testing.assert_allclose(true, v.depth, rtol=1e-9, atol=1e-12)
     assert chi2_pvalue(true, np.linspace(0, 0.4, 41), profile.cdf) > P_MIN
@@ -327,7 +390,9 @@ def test_distance_depth_histogram_matches_the_profile_on_pyramids(tmp_path):
 
 
 def test_normal_depth_on_pyramids_overlaps_under_ridges():
-    v = VertexSampler(SurfaceSampler(ROUGH), UniformProfile(0, 0.3)).sample(np.random.default_rng(42), 20_000)
+    v = VertexSampler(SurfaceSampler(ROUGH), UniformProfile(0, 0.3)).sample(
+        np.random.default_rng(42), 20_000
+    )
     true = MeshDistance(ROUGH).distance(v.position)[0]
     assert (true <= v.depth + 1e-12).all()
     assert (true < 0.99 * v.depth).mean() > 0.01  # the paper's definition: some come closer
@@ -338,7 +403,12 @@ def test_no_vertex_violates_the_depth_window_or_the_confinement(definition):
     lo, hi = 0.05, 0.3
     inside = lambda p: (p[:, 0] < 2.5) & (p[:, 1] > 0.7)
     sampler = VertexSampler(
-        SurfaceSampler(ROUGH), ExponentialProfile(0.1), definition=definition, min_depth=lo, max_depth=hi, inside=inside
+        SurfaceSampler(ROUGH),
+        ExponentialProfile(0.1),
+        definition=definition,
+        min_depth=lo,
+        max_depth=hi,
+        inside=inside,
     )
     v = sampler.sample(np.random.default_rng(43), N)
     assert inside(v.position).all()
@@ -354,19 +424,28 @@ def test_no_vertex_violates_the_depth_window_or_the_confinement(definition):
 
 def test_unsatisfiable_confinement_raises_with_counts():
     sampler = VertexSampler(
-        SurfaceSampler(ROUGH), ExponentialProfile(0.1), inside=lambda p: np.zeros(len(p), bool), max_rounds=3
+        SurfaceSampler(ROUGH),
+        ExponentialProfile(0.1),
+        inside=lambda p: np.zeros(len(p), bool),
+        max_rounds=3,
     )
-    with pytest.raises(ConfigError, match="100 of 100 vertices .* 300 draws were outside the confinement"):
+    with pytest.raises(
+        ConfigError, match="100 of 100 vertices .* 300 draws were outside the confinement"
+    ):
         sampler.sample(np.random.default_rng(0), 100)
 
 
 def test_bad_confinement_callable_is_reported():
-    sampler = VertexSampler(SurfaceSampler(ROUGH), ExponentialProfile(0.1), inside=lambda p: np.ones(3))
+    sampler = VertexSampler(
+        SurfaceSampler(ROUGH), ExponentialProfile(0.1), inside=lambda p: np.ones(3)
+    )
     with pytest.raises(ConfigError, match="inside"):
         sampler.sample(np.random.default_rng(0), 10)
 
 
-def periodic_height_map(n: int, sq: float, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+def periodic_height_map(
+    n: int, sq: float, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
     """A smooth random periodic height field on [0, 1]^2 (n x n cells, 2 triangles each)."""
     k2 = np.fft.fftfreq(n)[:, None] ** 2 + np.fft.fftfreq(n)[None, :] ** 2
     z = np.real(np.fft.ifft2(np.fft.fft2(rng.normal(size=(n, n))) * np.exp(-20 * k2)))
@@ -386,7 +465,9 @@ def test_distance_vertices_are_uniform_on_the_level_sets_of_a_rough_height_map()
     rng = np.random.default_rng(7)
     n, d0, eps = 8, 0.06, 0.01
     tri, z = periodic_height_map(n, 0.12, rng)
-    sampler = VertexSampler(SurfaceSampler(tri), UniformProfile(d0, d0 + eps), definition="distance", period=(1.0, 1.0))
+    sampler = VertexSampler(
+        SurfaceSampler(tri), UniformProfile(d0, d0 + eps), definition="distance", period=(1.0, 1.0)
+    )
     assert sampler.offset_surfaces[0].n_vertex_cones > 5
     v = sampler.sample(rng, 20_000)
     ours = v.position
@@ -399,7 +480,11 @@ def test_distance_vertices_are_uniform_on_the_level_sets_of_a_rough_height_map()
     a, b = np.floor(u).astype(int), np.floor(w).astype(int)
     fu, fw = u - a, w - b
     z00, z10, z11, z01 = z[a, b], z[a + 1, b], z[a + 1, b + 1], z[a, b + 1]
-    h = np.where(fu >= fw, z00 + fu * (z10 - z00) + fw * (z11 - z10), z00 + fw * (z01 - z00) + fu * (z11 - z01))
+    h = np.where(
+        fu >= fw,
+        z00 + fu * (z10 - z00) + fw * (z11 - z10),
+        z00 + fw * (z01 - z00) + fu * (z11 - z01),
+    )
     reference = q[q[:, 2] < h]
     assert len(reference) > 3000
     vertices = tri.reshape(-1, 3)
@@ -423,7 +508,9 @@ def test_distance_vertices_are_uniform_on_the_level_sets_of_a_rough_height_map()
 def tile_copies(tile: np.ndarray, n: int, pitch: float = 1.0) -> np.ndarray:
     """The tile repeated on an n x n grid centred on the original (n odd)."""
     k = n // 2
-    return np.concatenate([tile + [i * pitch, j * pitch, 0] for i in range(-k, k + 1) for j in range(-k, k + 1)])
+    return np.concatenate(
+        [tile + [i * pitch, j * pitch, 0] for i in range(-k, k + 1) for j in range(-k, k + 1)]
+    )
 
 
 def test_periodic_tile_welds_its_border_edges():
@@ -438,14 +525,20 @@ def test_periodic_tile_welds_its_border_edges():
 def test_periodic_tile_and_tiled_face_give_exact_distances():
     tile = pyramids(2, 2, [[0.8, 0.3], [1.4, 0.6]], pitch=0.5)
     profile = UniformProfile(0.0, 0.3)
-    v = VertexSampler(SurfaceSampler(tile), profile, definition="distance", period=(1.0, 1.0)).sample(
-        np.random.default_rng(51), 20_000
+    v = VertexSampler(
+        SurfaceSampler(tile), profile, definition="distance", period=(1.0, 1.0)
+    ).sample(np.random.default_rng(51), 20_000)
+    np.testing.assert_allclose(
+        MeshDistance(tile_copies(tile, 5)).distance(v.position)[0], v.depth, rtol=1e-9, atol=1e-12
     )
-    np.testing.assert_allclose(MeshDistance(tile_copies(tile, 5)).distance(v.position)[0], v.depth, rtol=1e-9, atol=1e-12)
     face = TiledSurfaceSampler([tile], np.zeros((3, 3), int), pitch=(1.0, 1.0))
-    v = VertexSampler(face, profile, definition="distance").sample(np.random.default_rng(52), 20_000)
+    v = VertexSampler(face, profile, definition="distance").sample(
+        np.random.default_rng(52), 20_000
+    )
     big = tile_copies(tile, 7) + [1.0, 1.0, 0]  # the 3 x 3 face and two rings of neighbours
-    np.testing.assert_allclose(MeshDistance(big).distance(v.position)[0], v.depth, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(
+        MeshDistance(big).distance(v.position)[0], v.depth, rtol=1e-9, atol=1e-12
+    )
     assert set(np.unique(v.patch)) == set(range(9))
 
 

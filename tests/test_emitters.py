@@ -45,7 +45,10 @@ def test_isotropic_directions_have_uniform_cos_theta_and_phi():
     u = isotropic_directions(np.random.default_rng(1), N)
     np.testing.assert_allclose(np.linalg.norm(u, axis=1), 1.0)
     assert stats.kstest(u[:, 2], stats.uniform(-1, 2).cdf).pvalue > P_MIN
-    assert stats.kstest(np.arctan2(u[:, 1], u[:, 0]), stats.uniform(-np.pi, 2 * np.pi).cdf).pvalue > P_MIN
+    assert (
+        stats.kstest(np.arctan2(u[:, 1], u[:, 0]), stats.uniform(-np.pi, 2 * np.pi).cdf).pvalue
+        > P_MIN
+    )
     # uniform on the sphere: any other axis too
     assert stats.kstest(u @ np.array([0.6, 0.0, 0.8]), stats.uniform(-1, 2).cdf).pvalue > P_MIN
 
@@ -95,7 +98,9 @@ def test_linear_spectrum_from_file_follows_its_density(tmp_path):
     e = spectrum.sample(np.random.default_rng(4), N)
     assert e.min() >= 0.1 and e.max() <= 1.0
     edges = np.linspace(0.1, 1.0, 31)
-    assert stats.chisquare(np.histogram(e, edges)[0], N * np.diff(spectrum.cdf(edges))).pvalue > P_MIN
+    assert (
+        stats.chisquare(np.histogram(e, edges)[0], N * np.diff(spectrum.cdf(edges))).pvalue > P_MIN
+    )
 
 
 def test_histogram_spectrum_is_flat_inside_bins():
@@ -126,13 +131,28 @@ def test_bad_energies(build, match):
 
 @pytest.mark.parametrize(
     "name, expected",
-    [("Pb210", "Pb210"), ("Po-210", "Po210"), ("po210", "Po210"), ("PB-210", "Pb210"), ("210Po", "Po210"), ("U238", "U238")],
+    [
+        ("Pb210", "Pb210"),
+        ("Po-210", "Po210"),
+        ("po210", "Po210"),
+        ("PB-210", "Pb210"),
+        ("210Po", "Po210"),
+        ("U238", "U238"),
+    ],
 )
 def test_nuclide_names_are_normalised(name, expected):
     assert normalise_nuclide(name) == expected
 
 
-@pytest.mark.parametrize("name, match", [("Xx210", "unknown element"), ("Pb", "cannot read"), ("Pb50", "mass number"), ("Pb210m", "cannot read")])
+@pytest.mark.parametrize(
+    "name, match",
+    [
+        ("Xx210", "unknown element"),
+        ("Pb", "cannot read"),
+        ("Pb50", "mass number"),
+        ("Pb210m", "cannot read"),
+    ],
+)
 def test_bad_nuclide_names(name, match):
     with pytest.raises(ConfigError, match=match):
         NuclideEmitter(name)

@@ -21,7 +21,9 @@ GDML = HERE / "data" / "gdml" / "pyg4ometry_tessellated.gdml"
 
 
 def _load_generator():
-    spec = importlib.util.spec_from_file_location("make_pyg4ometry_gdml", HERE / "data" / "gdml" / "make_pyg4ometry_gdml.py")
+    spec = importlib.util.spec_from_file_location(
+        "make_pyg4ometry_gdml", HERE / "data" / "gdml" / "make_pyg4ometry_gdml.py"
+    )
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -55,18 +57,18 @@ def _inspect(path, solid_points, world_points):
 
 # Points with a known answer (solid frame): 2 inside, 1 on the surface, 0 outside.
 KNOWN = [
-    ((0.0, 0.0, -2.5), 2),                 # middle of the slab
-    ((-10.0, -10.0, 2.99), 2),             # just under the apex of the first pyramid (h = 3)
-    ((-10.0, -10.0, 3.01), 0),             # just above it
-    ((0.0, 10.0, 8.99), 2),                # under the tallest apex (h = 9)
-    ((10.0, 10.0, 1.01), 0),               # above the lowest apex (h = 1)
-    ((5.0, 0.0, 0.5), 0),                  # over the valley between two pyramids
-    ((-10.0, -10.0, 3.0), 1),              # an apex
-    ((5.0, 0.0, 0.0), 1),                  # a valley line between pyramids (z = 0)
-    ((15.0, 0.0, -2.5), 1),                # a wall
-    ((0.0, 0.0, -5.0), 1),                 # the bottom
-    ((0.0, 0.0, -5.01), 0),                # below it
-    ((15.01, 0.0, -2.5), 0),               # beside a wall
+    ((0.0, 0.0, -2.5), 2),  # middle of the slab
+    ((-10.0, -10.0, 2.99), 2),  # just under the apex of the first pyramid (h = 3)
+    ((-10.0, -10.0, 3.01), 0),  # just above it
+    ((0.0, 10.0, 8.99), 2),  # under the tallest apex (h = 9)
+    ((10.0, 10.0, 1.01), 0),  # above the lowest apex (h = 1)
+    ((5.0, 0.0, 0.5), 0),  # over the valley between two pyramids
+    ((-10.0, -10.0, 3.0), 1),  # an apex
+    ((5.0, 0.0, 0.0), 1),  # a valley line between pyramids (z = 0)
+    ((15.0, 0.0, -2.5), 1),  # a wall
+    ((0.0, 0.0, -5.0), 1),  # the bottom
+    ((0.0, 0.0, -5.01), 0),  # below it
+    ((15.01, 0.0, -2.5), 0),  # beside a wall
 ]
 
 
@@ -93,7 +95,9 @@ def test_file_is_pyg4ometry_output_as_documented():
 
 def test_structure_materials_and_placement(report):
     assert report["n_daughters"] == 1 and report["pv_name"] == "rough_pv"
-    assert report["world_half"] == pytest.approx([w / 2 for w in GEN.WORLD])  # GDML box: full lengths
+    assert report["world_half"] == pytest.approx(
+        [w / 2 for w in GEN.WORLD]
+    )  # GDML box: full lengths
     assert report["world_material"] == "G4_Galactic" and report["material"] == "G4_Si"
     assert report["translation"] == pytest.approx(list(GEN.PLACEMENT))
 
@@ -103,20 +107,26 @@ def test_tessellated_solid_matches_the_definition(report):
     assert report["n_facets"] == 57
     assert sorted(report["facet_vertices"]) == [3] * 36 + [4] * 21
     # Exact for a tessellated solid (sum over facets), so a tight tolerance.
-    assert report["volume"] == pytest.approx(HALF * 2 * HALF * 2 * THICK + CELL**2 / 3 * H.sum(), rel=1e-12)
+    assert report["volume"] == pytest.approx(
+        HALF * 2 * HALF * 2 * THICK + CELL**2 / 3 * H.sum(), rel=1e-12
+    )
     lateral = 4 * 0.5 * CELL * np.sqrt(H**2 + (CELL / 2) ** 2)  # four triangles per pyramid
     area = (2 * HALF) ** 2 + 4 * (2 * HALF) * THICK + lateral.sum()
     assert report["area"] == pytest.approx(area, rel=1e-12)
-    np.testing.assert_allclose(report["limits"], [[-HALF, -HALF, -THICK], [HALF, HALF, H.max()]], rtol=1e-12)
+    np.testing.assert_allclose(
+        report["limits"], [[-HALF, -HALF, -THICK], [HALF, HALF, H.max()]], rtol=1e-12
+    )
 
 
 def test_inside_outside_on_known_and_random_points(report):
     codes = np.array(report["inside"])
     assert codes[: len(KNOWN)].tolist() == [c for _, c in KNOWN]
-    random_codes = codes[len(KNOWN):]
+    random_codes = codes[len(KNOWN) :]
     expected = expected_inside(report["random_points"])
     # Random points lie on a facet with probability ~0: require exact agreement.
-    assert np.array_equal(random_codes == 2, expected), f"{np.count_nonzero((random_codes == 2) != expected)} points differ"
+    assert np.array_equal(random_codes == 2, expected), (
+        f"{np.count_nonzero((random_codes == 2) != expected)} points differ"
+    )
     assert 0.2 < expected.mean() < 0.8
 
 

@@ -11,9 +11,28 @@ from conftest import config_dict
 from score4.cli.main import main
 
 ROUGH = config_dict(
-    surfaces={"p": {"kind": "spikes", "nx": 10, "ny": 10, "width": "10 um", "height": "10 um", "height_sigma": "2 um"}},
-    targets=[{"name": "crystal", "material": "G4_Si", "size": ["3 mm", "0.3 mm", "0.2 mm"], "position": ["0 mm", "0 mm", "-0.1 mm"],
-              "rough": [{"face": "+z", "surface": "p"}, {"face": "-x", "surface": "p", "solid": "tessellated"}]}],
+    surfaces={
+        "p": {
+            "kind": "spikes",
+            "nx": 10,
+            "ny": 10,
+            "width": "10 um",
+            "height": "10 um",
+            "height_sigma": "2 um",
+        }
+    },
+    targets=[
+        {
+            "name": "crystal",
+            "material": "G4_Si",
+            "size": ["3 mm", "0.3 mm", "0.2 mm"],
+            "position": ["0 mm", "0 mm", "-0.1 mm"],
+            "rough": [
+                {"face": "+z", "surface": "p"},
+                {"face": "-x", "surface": "p", "solid": "tessellated"},
+            ],
+        }
+    ],
 )
 
 
@@ -40,8 +59,12 @@ def test_exact_cell_check_finds_a_patch_wider_than_its_cell():
 
     layer = build_scene(parse_config(ROUGH)).layers[0]
     assert patches_fit_their_cells(layer) == []
-    layer.patch_map = type(layer.patch_map)(layer.patch_map.variants, (0.09, 0.1), (1.0,))  # cells narrower than the patch
-    assert patches_fit_their_cells(layer) == [f"{layer.name}: variant 'p' reaches outside its 90 x 100 um cell"]
+    layer.patch_map = type(layer.patch_map)(
+        layer.patch_map.variants, (0.09, 0.1), (1.0,)
+    )  # cells narrower than the patch
+    assert patches_fit_their_cells(layer) == [
+        f"{layer.name}: variant 'p' reaches outside its 90 x 100 um cell"
+    ]
 
 
 def test_cli_geometry_check(tmp_path, capsys):

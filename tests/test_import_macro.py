@@ -112,13 +112,18 @@ def test_cli_writes_yaml_that_round_trips(tmp_path, capsys):
     code, stdout, err = run(capsys, "import-macro", PAPER, "--out", out)
     assert code == 0, err
     assert err == ""
-    assert stdout.splitlines()[-1].startswith(f"wrote {out} from {PAPER}: 10 command(s) converted, 5 ignored")
+    assert stdout.splitlines()[-1].startswith(
+        f"wrote {out} from {PAPER}: 10 command(s) converted, 5 ignored"
+    )
     text = out.read_text()
     header = [line for line in text.splitlines() if line.startswith("#")]
     assert f"# source macro: {PAPER.resolve()}" in header
     assert any(line.startswith("# date:         20") for line in header)  # the date
     assert "#   targets.0.size.2" not in text  # defaults are listed by their keys below
-    assert any(line.startswith("#   targets.0 = a G4_Si block named 'target', 1 mm thick") for line in header)
+    assert any(
+        line.startswith("#   targets.0 = a G4_Si block named 'target', 1 mm thick")
+        for line in header
+    )
     i = header.index("# NOT converted (unknown commands or values score4 cannot represent):")
     assert header[i + 1] == "#   (none)"
     loaded = load_config(out)
@@ -141,7 +146,9 @@ def test_portal_macro(tmp_path):
     # portal half-sizes 1 mm x 1.5 mm -> a 2 mm x 3 mm face of 2 x 3 patches (setN[xy]Subworld 2, 3)
     assert target.size[:2] == pytest.approx((2.0, 3.0))
     assert target.rough[0].tiling == "portal"
-    assert rc.world.material == "G4_Galactic"  # the portal's setMaterial: the medium around the patches
+    assert (
+        rc.world.material == "G4_Galactic"
+    )  # the portal's setMaterial: the medium around the patches
     src = rc.source
     assert (src.particle, src.energy, src.direction) == ("alpha", pytest.approx(5.3), "isotropic")
     depth = src.depth
@@ -151,7 +158,10 @@ def test_portal_macro(tmp_path):
     assert src.confine == "G4_Si"
     assert rc.run.events == 500
     assert rc.run.seed == 12345 * 2**32 + 678  # /random/setSeeds 12345 678, folded into one seed
-    assert items(report.unknown) == {"line 42": "/process/em/fluo true", "line 43": "/score4test/madeUp 42"}
+    assert items(report.unknown) == {
+        "line 42": "/process/em/fluo true",
+        "line 43": "/score4test/madeUp 42",
+    }
     assert "line 41" in items(report.ignored)  # /run/initialize
 
     scene = build_scene(rc)
@@ -169,11 +179,16 @@ def test_cli_warns_on_unknown_commands_and_strict_fails(tmp_path, capsys):
     assert code == 2 and stdout == ""
     assert not out.exists()
     lines = err.splitlines()
-    assert lines[-1] == (f"score4: error: {PORTAL}: 2 command(s) not converted (--strict; nothing written): "
-                         "line 42 /process/em/fluo; line 43 /score4test/madeUp")
+    assert lines[-1] == (
+        f"score4: error: {PORTAL}: 2 command(s) not converted (--strict; nothing written): "
+        "line 42 /process/em/fluo; line 43 /score4test/madeUp"
+    )
     code, _, err = run(capsys, "import-macro", PORTAL, "--out", out)
     assert code == 0
-    assert f"score4: warning: {PORTAL} line 43: /score4test/madeUp 42: not converted (unknown command)" in err
+    assert (
+        f"score4: warning: {PORTAL} line 43: /score4test/madeUp 42: not converted (unknown command)"
+        in err
+    )
     header = [line for line in out.read_text().splitlines() if line.startswith("#")]
     assert "#   line 43: /score4test/madeUp 42 -> unknown command" in header
     assert load_config(out).source.depth.file.resolve() == (MACROS / "shift_table.csv").resolve()
@@ -185,12 +200,27 @@ def test_cli_warns_on_unknown_commands_and_strict_fails(tmp_path, capsys):
 @pytest.mark.parametrize(
     ("line", "message"),
     [
-        ("/Surface/RoughnessHelper/r/setSpikeDx abc", "/Surface/RoughnessHelper/r/setSpikeDx: 'abc' is not a length"),
-        ("/Surface/RoughnessHelper/r/setSpikeDx 5", "/Surface/RoughnessHelper/r/setSpikeDx: '5' has no unit"),
-        ("/Surface/RoughnessHelper/r/setSpikeDx 5 MeV", "'5 MeV' is not a length: 'MeV' is an energy unit"),
+        (
+            "/Surface/RoughnessHelper/r/setSpikeDx abc",
+            "/Surface/RoughnessHelper/r/setSpikeDx: 'abc' is not a length",
+        ),
+        (
+            "/Surface/RoughnessHelper/r/setSpikeDx 5",
+            "/Surface/RoughnessHelper/r/setSpikeDx: '5' has no unit",
+        ),
+        (
+            "/Surface/RoughnessHelper/r/setSpikeDx 5 MeV",
+            "'5 MeV' is not a length: 'MeV' is an energy unit",
+        ),
         ("/Surface/RoughnessHelper/r/setSpikeDx -5 um", "'-5 um': the length must be > 0"),
-        ("/Surface/RoughnessHelper/r/setSpikesNx 1.5", "/Surface/RoughnessHelper/r/setSpikesNx: '1.5' is not an integer >= 1"),
-        ("/Surface/RoughnessHelper/r/setSpikeform Cone", "'Cone' is not one of StandardPyramid, UniformPyramid"),
+        (
+            "/Surface/RoughnessHelper/r/setSpikesNx 1.5",
+            "/Surface/RoughnessHelper/r/setSpikesNx: '1.5' is not an integer >= 1",
+        ),
+        (
+            "/Surface/RoughnessHelper/r/setSpikeform Cone",
+            "'Cone' is not one of StandardPyramid, UniformPyramid",
+        ),
         ("/gps/ene/mono fast", "/gps/ene/mono: 'fast' is not an energy"),
         ("/run/beamOn many", "/run/beamOn: 'many' is not an integer >= 0"),
     ],
@@ -210,11 +240,16 @@ def test_bad_values_name_file_and_line(tmp_path, capsys, line, message):
 def test_sizes_the_original_refuses_are_errors(tmp_path):
     # 4 spikes x 5 um (half) = 20 um, but the basis says 25 um: RoughnessHelper::CheckValues exits
     path = macro(tmp_path, HELPER.replace("setBasisDx 20 um", "setBasisDx 25 um"))
-    with pytest.raises(ConfigError, match=r"line 1: .*setBasisDx: basis half-length 25 um must equal setSpikesNx x "
-                                          r"setSpikeDx = 4 x 5 um = 20 um"):
+    with pytest.raises(
+        ConfigError,
+        match=r"line 1: .*setBasisDx: basis half-length 25 um must equal setSpikesNx x "
+        r"setSpikeDx = 4 x 5 um = 20 um",
+    ):
         import_macro(path)
     # a required parameter missing (the original's default 0 builds no spike)
-    path = macro(tmp_path, HELPER.replace("/Surface/RoughnessHelper/r/setSpikeMeanHeight 3 um\n", ""))
+    path = macro(
+        tmp_path, HELPER.replace("/Surface/RoughnessHelper/r/setSpikeMeanHeight 3 um\n", "")
+    )
     with pytest.raises(ConfigError, match="setSpikeMeanHeight is missing"):
         import_macro(path)
     with pytest.raises(ConfigError, match="no rough surface"):
@@ -222,12 +257,20 @@ def test_sizes_the_original_refuses_are_errors(tmp_path):
 
 
 def test_missing_file_and_existing_output(tmp_path, capsys):
-    code, _, err = run(capsys, "import-macro", tmp_path / "nothere.mac", "--out", tmp_path / "c.yaml")
-    assert (code, err) == (2, f"score4: error: FILE.mac: '{tmp_path / 'nothere.mac'}' does not exist\n")
+    code, _, err = run(
+        capsys, "import-macro", tmp_path / "nothere.mac", "--out", tmp_path / "c.yaml"
+    )
+    assert (code, err) == (
+        2,
+        f"score4: error: FILE.mac: '{tmp_path / 'nothere.mac'}' does not exist\n",
+    )
     out = tmp_path / "c.yaml"
     out.write_text("keep me\n")
     code, _, err = run(capsys, "import-macro", PAPER, "--out", out)
-    assert (code, err) == (2, f"score4: error: --out: '{out}' exists; pass --overwrite to replace it\n")
+    assert (code, err) == (
+        2,
+        f"score4: error: --out: '{out}' exists; pass --overwrite to replace it\n",
+    )
     assert out.read_text() == "keep me\n"
     code, _, err = run(capsys, "import-macro", PAPER, "--out", out, "--overwrite")
     assert code == 0, err
@@ -249,7 +292,10 @@ def test_missing_file_and_existing_output(tmp_path, capsys):
     ],
 )
 def test_height_factor_per_spike_form(tmp_path, form, extra, height, sigma, shape, layers):
-    text = HELPER + f"/Surface/RoughnessHelper/r/setSpikeform {form}\n/Surface/RoughnessHelper/r/{extra}\n"
+    text = (
+        HELPER
+        + f"/Surface/RoughnessHelper/r/setSpikeform {form}\n/Surface/RoughnessHelper/r/{extra}\n"
+    )
     config, _ = import_macro(macro(tmp_path, text))
     spec = parse_config(config).surfaces["r"]
     assert spec.height == pytest.approx(height * UM)
@@ -280,12 +326,19 @@ def test_geant4_units_defaults_and_ions(tmp_path):
 
 
 def test_included_macros_repeated_commands_and_after_initialize(tmp_path):
-    macro(tmp_path, "/Surface/RoughnessHelper/r/setSpikeMeanHeight 4 um\n/gps/particle e-\n", "sub.mac")
-    text = HELPER + (
-        "/control/execute sub.mac\n"  # line 9: overrides the mean height of line 8
-        "/run/initialize\n"
-        "/Surface/RoughnessHelper/r/setSpikeMeanHeight 9 um\n"  # line 11: after Construct(): no effect
-        "/gps/energy 2 MeV\n"
+    macro(
+        tmp_path,
+        "/Surface/RoughnessHelper/r/setSpikeMeanHeight 4 um\n/gps/particle e-\n",
+        "sub.mac",
+    )
+    text = (
+        HELPER
+        + (
+            "/control/execute sub.mac\n"  # line 9: overrides the mean height of line 8
+            "/run/initialize\n"
+            "/Surface/RoughnessHelper/r/setSpikeMeanHeight 9 um\n"  # line 11: after Construct(): no effect
+            "/gps/energy 2 MeV\n"
+        )
     )
     path = macro(tmp_path, text)
     config, report = import_macro(path)
@@ -295,7 +348,10 @@ def test_included_macros_repeated_commands_and_after_initialize(tmp_path):
     ignored = {i.where: i.detail for i in report.ignored}
     assert ignored["line 8"] == "overridden by sub.mac line 1"
     assert ignored["line 11"].startswith("after /run/initialize (line 10)")
-    assert items(report.converted)["sub.mac line 1"] == "/Surface/RoughnessHelper/r/setSpikeMeanHeight 4 um"
+    assert (
+        items(report.converted)["sub.mac line 1"]
+        == "/Surface/RoughnessHelper/r/setSpikeMeanHeight 4 um"
+    )
 
 
 def test_two_tables_are_merged_into_a_file_beside_the_config(tmp_path, capsys):
@@ -314,14 +370,17 @@ def test_two_tables_are_merged_into_a_file_beside_the_config(tmp_path, capsys):
     # tables whose depths go back cannot be merged: an error on the second load's line
     (tmp_path / "c.csv").write_text("5,1\n8,1\n")
     path = macro(tmp_path, HELPER + "/shift/loadShiftTable a.csv\n/shift/loadShiftTable c.csv\n")
-    with pytest.raises(ConfigError, match=r"line 10: /shift/loadShiftTable: the tables cannot be merged"):
+    with pytest.raises(
+        ConfigError, match=r"line 10: /shift/loadShiftTable: the tables cannot be merged"
+    ):
         import_macro(path)
 
 
 def test_describer_commands(tmp_path):
     # without a RoughnessHelper the Describer's /geometry/surface values (and defaults) are used
-    config, report = import_macro(macro(tmp_path, "/geometry/surface/setNrSpike_X 3\n"
-                                                  "/geometry/surface/setSpikeform Bump\n"))
+    config, report = import_macro(
+        macro(tmp_path, "/geometry/surface/setNrSpike_X 3\n/geometry/surface/setSpikeform Bump\n")
+    )
     spec = parse_config(config).surfaces["surface"]
     # Describer defaults: half-width 0.005 mm -> 10 um cells; Bump height = MeanHeight 0.005 mm
     assert (spec.nx, spec.ny, spec.shape) == (3, 1, "bump")

@@ -23,7 +23,9 @@ from score4.surface.mesh import (
 )
 
 
-def _plane_map(nx: int = 7, ny: int = 4, px: float = 0.5, py: float = 0.25, a: float = 0.3, b: float = -0.2) -> HeightMap:
+def _plane_map(
+    nx: int = 7, ny: int = 4, px: float = 0.5, py: float = 0.25, a: float = 0.3, b: float = -0.2
+) -> HeightMap:
     x = px * np.arange(nx)
     y = py * np.arange(ny)
     return HeightMap(1.0 + a * x[None, :] + b * y[:, None], px, py, origin=(0.0, 0.0))
@@ -51,7 +53,9 @@ def test_from_heightmap_plane_normals_and_areas():
     hm = _plane_map(a=a, b=b)
     mesh = from_heightmap(hm)
     expected = np.array([-a, -b, 1.0]) / np.sqrt(1 + a * a + b * b)
-    np.testing.assert_allclose(mesh.normals, np.broadcast_to(expected, mesh.normals.shape), atol=1e-12)
+    np.testing.assert_allclose(
+        mesh.normals, np.broadcast_to(expected, mesh.normals.shape), atol=1e-12
+    )
     proj = hm.size_x * hm.size_y
     np.testing.assert_allclose(mesh.projected_areas.sum(), proj, rtol=1e-12)
     np.testing.assert_allclose(mesh.total_area, proj * np.sqrt(1 + a * a + b * b), rtol=1e-12)
@@ -71,7 +75,11 @@ def test_from_heightmap_rejects_nan():
         (np.zeros((3, 2)), [[0, 1, 2]], "vertices: need shape"),
         (np.zeros((3, 3)), [[0, 1, 3]], r"faces: indices must lie in \[0, 2\]"),
         (np.zeros((3, 3)), [[0, 1]], "faces: need shape"),
-        ([[0, 0, 0], [1, 0, 0], [0, np.nan, 0]], [[0, 1, 2]], "vertices: every coordinate must be finite"),
+        (
+            [[0, 0, 0], [1, 0, 0], [0, np.nan, 0]],
+            [[0, 1, 2]],
+            "vertices: every coordinate must be finite",
+        ),
     ],
 )
 def test_mesh_validation(vertices, faces, match):
@@ -106,7 +114,9 @@ def test_closed_body_is_watertight_and_outward():
     # Bottom faces point down; wall normals are horizontal and point away from the centre.
     n, c = body.normals[~body.top], body.vertices[body.faces[~body.top]].mean(axis=1)
     bottom = np.isclose(c[:, 2], -0.5)
-    np.testing.assert_allclose(n[bottom], np.broadcast_to([0, 0, -1.0], n[bottom].shape), atol=1e-12)
+    np.testing.assert_allclose(
+        n[bottom], np.broadcast_to([0, 0, -1.0], n[bottom].shape), atol=1e-12
+    )
     walls = ~bottom
     np.testing.assert_allclose(n[walls, 2], 0.0, atol=1e-12)
     centre = np.array([hm.x.mean(), hm.y.mean()])
@@ -195,7 +205,9 @@ def test_write_ascii_stl(tmp_path):
     write_stl(mesh, path, binary=False)
     lines = path.read_text().splitlines()
     assert lines[0].startswith("solid") and lines[-1].startswith("endsolid")
-    verts = np.array([[float(t) for t in ln.split()[1:]] for ln in lines if ln.strip().startswith("vertex")])
+    verts = np.array(
+        [[float(t) for t in ln.split()[1:]] for ln in lines if ln.strip().startswith("vertex")]
+    )
     np.testing.assert_allclose(verts, mesh.vertices[mesh.faces].reshape(-1, 3), rtol=1e-15)
 
 
@@ -207,10 +219,14 @@ def test_write_ply_round_trip_and_overwrite(tmp_path):
     data = path.read_bytes()
     end = data.index(b"end_header\n") + len(b"end_header\n")
     header = data[:end].decode()
-    assert f"element vertex {mesh.n_vertices}" in header and f"element face {mesh.n_faces}" in header
+    assert (
+        f"element vertex {mesh.n_vertices}" in header and f"element face {mesh.n_faces}" in header
+    )
     nv = mesh.n_vertices
     verts = np.frombuffer(data[end : end + 24 * nv], "<f8").reshape(-1, 3)
-    faces = np.frombuffer(data[end + 24 * nv :], dtype=[("n", "u1"), ("v", "<i4", (3,)), ("top", "u1")])
+    faces = np.frombuffer(
+        data[end + 24 * nv :], dtype=[("n", "u1"), ("v", "<i4", (3,)), ("top", "u1")]
+    )
     np.testing.assert_array_equal(verts, mesh.vertices)
     np.testing.assert_array_equal(faces["v"], mesh.faces)
     np.testing.assert_array_equal(faces["n"], 3)

@@ -131,12 +131,31 @@ def test_many_layer_bump_converges_to_the_smooth_profile():
 
 
 def test_mesh_exact_agrees_with_fine_sampling():
-    g = SpikeGrid(nx=4, ny=3, width_x=2.0, width_y=1.0, mean_height=1.0, height_sigma=0.2, seed=3, shape="bump", n_layers=5)
+    g = SpikeGrid(
+        nx=4,
+        ny=3,
+        width_x=2.0,
+        width_y=1.0,
+        mean_height=1.0,
+        height_sigma=0.2,
+        seed=3,
+        shape="bump",
+        n_layers=5,
+    )
     exact = mesh_parameters(g.top_mesh(), level=False)
     sampled = areal_parameters(periodic_samples(g, 200), level=False)
     # Measured relative differences at 200 samples per cell: heights <= 1e-3, Ssk 9e-3;
     # Sdq/Sdr 3e-2 (cells straddling the ridges average two slopes; converges as 1/n).
-    tolerances = {"Sa": 2e-3, "Sq": 2e-3, "Sku": 3e-3, "Ssk": 2e-2, "Sp": 1e-3, "Sv": 1e-3, "Sdq": 5e-2, "Sdr": 5e-2}
+    tolerances = {
+        "Sa": 2e-3,
+        "Sq": 2e-3,
+        "Sku": 3e-3,
+        "Ssk": 2e-2,
+        "Sp": 1e-3,
+        "Sv": 1e-3,
+        "Sdq": 5e-2,
+        "Sdr": 5e-2,
+    }
     for key, tol in tolerances.items():
         assert sampled[key] == pytest.approx(exact[key], rel=tol), key
 
@@ -154,8 +173,12 @@ def test_mesh_sa_integrates_facets_that_cross_the_mean_plane():
     z00, z10, z11, z01 = z[:-1, :-1], z[:-1, 1:], z[1:, 1:], z[1:, :-1]
     cells = np.where(
         lower,
-        z00[..., None, None] + fx * (z10 - z00)[..., None, None] + fy * (z11 - z10)[..., None, None],
-        z00[..., None, None] + fx * (z11 - z01)[..., None, None] + fy * (z01 - z00)[..., None, None],
+        z00[..., None, None]
+        + fx * (z10 - z00)[..., None, None]
+        + fy * (z11 - z10)[..., None, None],
+        z00[..., None, None]
+        + fx * (z11 - z01)[..., None, None]
+        + fy * (z01 - z00)[..., None, None],
     )
     fine = HeightMap(cells.transpose(0, 2, 1, 3).reshape(3 * n, 4 * n), 1.0 / n, 1.0 / n)
     exact = mesh_parameters(from_heightmap(coarse), level=False)
@@ -261,7 +284,9 @@ def test_flat_map_and_bad_threshold():
     got = areal_parameters(HeightMap(np.ones((8, 8)), 1.0, 1.0))
     assert got["Sq"] == 0.0 and got["Sdr"] == 0.0
     assert all(math.isnan(got[k]) for k in ("Ssk", "Sku", "Sal", "Str"))
-    with pytest.raises(ConfigError, match="acf_threshold: must lie strictly between 0 and 1, got 1.5"):
+    with pytest.raises(
+        ConfigError, match="acf_threshold: must lie strictly between 0 and 1, got 1.5"
+    ):
         areal_parameters(HeightMap(np.ones((8, 8)), 1.0, 1.0), acf_threshold=1.5)
 
 
@@ -273,10 +298,16 @@ def _surfalize_reference(z: np.ndarray, pitch: float) -> dict[str, float]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         surface = surfalize.Surface(z, pitch, pitch).level()  # least-squares plane, like ours
-        return {k: float(getattr(surface, k)()) for k in ("Sa", "Sq", "Sp", "Sv", "Sz", "Ssk", "Sku", "Sdq", "Sdr", "Sal", "Str")}
+        return {
+            k: float(getattr(surface, k)())
+            for k in ("Sa", "Sq", "Sp", "Sv", "Sz", "Ssk", "Sku", "Sdq", "Sdr", "Sal", "Str")
+        }
 
 
-@pytest.mark.parametrize("shape, lengths, seed", [((256, 256), (16, 6), 2), ((200, 300), (10, 25), 3), ((128, 128), (4, 4), 4)])
+@pytest.mark.parametrize(
+    "shape, lengths, seed",
+    [((256, 256), (16, 6), 2), ((200, 300), (10, 25), 3), ((128, 128), (4, 4), 4)],
+)
 def test_against_surfalize_on_random_surfaces(shape, lengths, seed):
     z = gaussian_field(*shape, *lengths, seed) * 1e-3 + 1e-6 * np.arange(shape[1])[None, :]
     ref = _surfalize_reference(z, 1e-3)
@@ -293,7 +324,9 @@ def test_against_surfalize_on_random_surfaces(shape, lengths, seed):
 
 
 def test_against_surfalize_on_a_spike_grid():
-    g = SpikeGrid(nx=6, ny=4, width_x=0.01, width_y=0.01, mean_height=0.005, height_sigma=0.001, seed=3)
+    g = SpikeGrid(
+        nx=6, ny=4, width_x=0.01, width_y=0.01, mean_height=0.005, height_sigma=0.001, seed=3
+    )
     hm = g.to_heightmap(0.0005)
     ref = _surfalize_reference(hm.heights, 0.0005)
     ours = areal_parameters(hm)

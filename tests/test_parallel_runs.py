@@ -45,7 +45,9 @@ def long_run(tmp_path_factory):
     path = folder / "long.yaml"
     path.write_text(yaml.safe_dump(data))
     config = parse_config(data)
-    reference = read_results(run(config, folder / "reference.h5", jobs=2, progress=False, echo=quiet))
+    reference = read_results(
+        run(config, folder / "reference.h5", jobs=2, progress=False, echo=quiet)
+    )
     return path, config, reference
 
 
@@ -66,11 +68,15 @@ def start_cli(tmp_path: Path, *args: str) -> subprocess.Popen:
     with open(tmp_path / "stderr.txt", "w") as err:
         return subprocess.Popen(
             [sys.executable, "-m", "score4.cli.main", "run", *args, "--quiet"],
-            stdout=subprocess.DEVNULL, stderr=err, start_new_session=True,
+            stdout=subprocess.DEVNULL,
+            stderr=err,
+            start_new_session=True,
         )
 
 
-def wait_for_chunks(parts: Path, n: int, proc: subprocess.Popen, timeout: float = 300) -> list[Path]:
+def wait_for_chunks(
+    parts: Path, n: int, proc: subprocess.Popen, timeout: float = 300
+) -> list[Path]:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         found = sorted(parts.glob("chunk-*.h5"))
@@ -118,7 +124,9 @@ def check_chunk_files(parts: Path, config) -> set[int]:
     return done
 
 
-needs_proc = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="process checks read /proc (Linux)")
+needs_proc = pytest.mark.skipif(
+    not Path("/proc/self/stat").exists(), reason="process checks read /proc (Linux)"
+)
 
 
 @pytest.mark.slow
@@ -191,11 +199,16 @@ def test_more_jobs_than_chunks_says_so_and_uses_fewer(tmp_path: Path, make_confi
     said = []
     config = make_config(run={"events": 200, "seed": 4, "chunk_events": 100})
     res = read_results(run(config, tmp_path / "j.h5", jobs=5, progress=False, echo=said.append))
-    assert "notice: --jobs 5 but only 2 chunk(s) to run (run.chunk_events = 100); using 2 worker(s)" in said[0]
+    assert (
+        "notice: --jobs 5 but only 2 chunk(s) to run (run.chunk_events = 100); using 2 worker(s)"
+        in said[0]
+    )
     assert res.run["jobs"] == 2 and res.n_events == 200
 
 
-def test_a_crashing_worker_fails_its_chunk_only_and_resume_retries_it(tmp_path: Path, make_config, monkeypatch, capsys):
+def test_a_crashing_worker_fails_its_chunk_only_and_resume_retries_it(
+    tmp_path: Path, make_config, monkeypatch, capsys
+):
     data = config_dict(run={"events": 500, "seed": 8, "chunk_events": 100})
     config_file = tmp_path / "c.yaml"
     config_file.write_text(yaml.safe_dump(data))
@@ -214,7 +227,10 @@ def test_a_crashing_worker_fails_its_chunk_only_and_resume_retries_it(tmp_path: 
     assert not out.exists()
 
     monkeypatch.delenv(CRASH_HOOK)
-    assert main(["run", str(config_file), "--out", str(out), "--jobs", "2", "--quiet", "--resume"]) == 0
+    assert (
+        main(["run", str(config_file), "--out", str(out), "--jobs", "2", "--quiet", "--resume"])
+        == 0
+    )
     assert "resume: 4 of 5 chunks already finished" in capsys.readouterr().err
     assert_same_events(read_results(out), reference)
 
@@ -225,9 +241,15 @@ def test_repeated_crashes_stop_the_run(tmp_path: Path, make_config, monkeypatch)
     with pytest.raises(Score4Error) as info:
         run(config, tmp_path / "x.h5", jobs=1, progress=False, echo=quiet)
     text = str(info.value)
-    assert text.startswith("run: chunk 0 failed (WorkerDied") and "chunk 1 failed" in text and "chunk 2 failed" in text
+    assert (
+        text.startswith("run: chunk 0 failed (WorkerDied")
+        and "chunk 1 failed" in text
+        and "chunk 2 failed" in text
+    )
     assert "stopped after 3 failed chunks; 2 chunk(s) not run: 3-4" in text
-    assert f"Geant4's output: {tmp_path / 'x.geant4.log'}" in text  # nothing finished: no parts kept, the log is
+    assert (
+        f"Geant4's output: {tmp_path / 'x.geant4.log'}" in text
+    )  # nothing finished: no parts kept, the log is
     assert not (tmp_path / "x.h5.parts").exists() and not (tmp_path / "x.h5").exists()
 
 
@@ -236,8 +258,11 @@ def _can_mount_tmpfs(folder: Path) -> list[str] | None:
     if not shutil.which("unshare"):
         return None
     for cmd in (["unshare", "-m"], ["unshare", "-rm"]):
-        probe = subprocess.run([*cmd, "sh", "-c", f"mount -t tmpfs -o size=64k tmpfs {folder}"], check=False,
-                               capture_output=True)
+        probe = subprocess.run(
+            [*cmd, "sh", "-c", f"mount -t tmpfs -o size=64k tmpfs {folder}"],
+            check=False,
+            capture_output=True,
+        )
         if probe.returncode == 0:
             return cmd
     return None
@@ -263,12 +288,18 @@ def test_full_disk_stops_with_a_clear_error_and_keeps_finished_chunks(tmp_path: 
     subprocess.run([*unshare, "sh", "-c", script], check=True, timeout=600)
     err = (tmp_path / "err.txt").read_text()
     assert (tmp_path / "rc.txt").read_text().strip() == "2", err
-    assert "score4: error: run: chunk" in err and "failed: cannot write" in err and "the disk is full" in err
+    assert (
+        "score4: error: run: chunk" in err
+        and "failed: cannot write" in err
+        and "the disk is full" in err
+    )
     assert "--resume" in err and "Traceback" not in err
     parts = tmp_path / "x.h5.parts"
     done = check_chunk_files(parts, config)
     assert 1 <= len(done) < 12
     # with room again, a resume finishes the run and gives what an uninterrupted run gives
-    resumed = read_results(run(config, tmp_path / "x.h5", jobs=2, resume=True, progress=False, echo=quiet))
+    resumed = read_results(
+        run(config, tmp_path / "x.h5", jobs=2, resume=True, progress=False, echo=quiet)
+    )
     reference = read_results(run(config, tmp_path / "ref.h5", jobs=2, progress=False, echo=quiet))
     assert_same_events(resumed, reference)

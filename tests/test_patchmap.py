@@ -121,8 +121,12 @@ def test_random_method_binomial_within_4_sigma():
         assert abs(m.fractions[k] - d) < 4 * sigma
     # independent draws, not exact counts: over several seeds the counts are not all exact
     exact = [12000, 20000, 8000]
-    others = [make_patch_map((100.0, 100.0), (0.5, 0.5), PAPER_DENSITIES, method="random", seed=s).counts.tolist()
-              for s in range(3)]
+    others = [
+        make_patch_map(
+            (100.0, 100.0), (0.5, 0.5), PAPER_DENSITIES, method="random", seed=s
+        ).counts.tolist()
+        for s in range(3)
+    ]
     assert any(c != exact for c in others)
     again = make_patch_map((100.0, 100.0), (0.5, 0.5), PAPER_DENSITIES, method="random", seed=12345)
     _same(m, again)
@@ -137,7 +141,9 @@ def test_seed_none_draws_a_map():
 
 
 def test_densities_normalised_with_warning():
-    with pytest.warns(UserWarning, match=r"densities: sum is 2\.0, not 1; normalised to \[0\.3, 0\.5, 0\.2\]"):
+    with pytest.warns(
+        UserWarning, match=r"densities: sum is 2\.0, not 1; normalised to \[0\.3, 0\.5, 0\.2\]"
+    ):
         m = make_patch_map((5.0, 2.0), (1.0, 1.0), [0.6, 1.0, 0.4])
     assert m.densities == pytest.approx((0.3, 0.5, 0.2), rel=1e-15)
     assert sum(m.densities) == pytest.approx(1.0, abs=1e-15)
@@ -189,17 +195,28 @@ def test_size_mismatch_lists_nearest_valid_sizes():
     with pytest.raises(ConfigError) as err:
         make_patch_map((10.3, 10.0), (0.5, 0.5), [1.0])
     assert str(err.value) == msg
-    with pytest.raises(ConfigError, match=r"face_size: 10\.3 mm along x .* 10 mm \(20 patches\) or 10\.5 mm \(21"):
+    with pytest.raises(
+        ConfigError, match=r"face_size: 10\.3 mm along x .* 10 mm \(20 patches\) or 10\.5 mm \(21"
+    ):
         make_patch_map(("1.03 cm", "1 cm"), ("500 um", "500 um"), [1.0])
-    with pytest.raises(ConfigError, match=r"face_size: 2\.2 mm along y is not a whole number of 0\.3 mm patches; "
-                                          r"nearest valid sizes 2\.1 mm \(7 patches\) or 2\.4 mm \(8 patches\)"):
+    with pytest.raises(
+        ConfigError,
+        match=r"face_size: 2\.2 mm along y is not a whole number of 0\.3 mm patches; "
+        r"nearest valid sizes 2\.1 mm \(7 patches\) or 2\.4 mm \(8 patches\)",
+    ):
         make_patch_map((3.0, 2.2), (0.5, 0.3), [1.0])
-    with pytest.raises(ConfigError, match=r"nearest valid sizes 10 mm \(20 patches\) or 10\.5 mm \(21 patches\)"):
-        make_patch_map((10.00001, 1.0), (0.5, 0.5), [1.0])  # 1e-6 relative: beyond the 1e-9 tolerance
+    with pytest.raises(
+        ConfigError, match=r"nearest valid sizes 10 mm \(20 patches\) or 10\.5 mm \(21 patches\)"
+    ):
+        make_patch_map(
+            (10.00001, 1.0), (0.5, 0.5), [1.0]
+        )  # 1e-6 relative: beyond the 1e-9 tolerance
 
 
 def test_size_within_tolerance_accepted():
-    m = make_patch_map((10.0 * (1 + 1e-11), 0.3), (0.5, 0.1), [1.0])  # 0.3 / 0.1 = 2.9999999999999996
+    m = make_patch_map(
+        (10.0 * (1 + 1e-11), 0.3), (0.5, 0.1), [1.0]
+    )  # 0.3 / 0.1 = 2.9999999999999996
     assert (m.nx, m.ny) == (20, 3)
     assert m.face_size == pytest.approx((10.0, 0.3), rel=1e-12)
 
@@ -207,7 +224,11 @@ def test_size_within_tolerance_accepted():
 @pytest.mark.parametrize(
     "face, patch, match",
     [
-        ((1.0, 1.0), (2.0, 0.5), r"patch_size: 2 mm along x is larger than the face \(face_size 1 mm\)"),
+        (
+            (1.0, 1.0),
+            (2.0, 0.5),
+            r"patch_size: 2 mm along x is larger than the face \(face_size 1 mm\)",
+        ),
         ((1.0, 1.0), (0.5, 1.5), r"patch_size: 1\.5 mm along y is larger than the face"),
         ((0.0, 1.0), (0.5, 0.5), r"face_size\[0\]: must be a positive length, got 0\.0"),
         ((1.0, -1.0), (0.5, 0.5), r"face_size\[1\]: must be a positive length, got -1\.0"),
@@ -217,7 +238,11 @@ def test_size_within_tolerance_accepted():
         ((1.0, 1.0), ("0.5 parsec", 0.5), r"patch_size\[0\]: unknown length unit"),
         ((1.0, 2.0, 3.0), (0.5, 0.5), r"face_size: must be a length or a pair \(x, y\)"),
         ((1.0, True), (0.5, 0.5), r"face_size\[1\]: must be a positive length, got True"),
-        ((1000.0, 1000.0), (0.01, 0.01), rf"patch_size: 100000 x 100000 = .* exceed the limit of {MAX_CELLS}"),
+        (
+            (1000.0, 1000.0),
+            (0.01, 0.01),
+            rf"patch_size: 100000 x 100000 = .* exceed the limit of {MAX_CELLS}",
+        ),
     ],
 )
 def test_bad_sizes(face, patch, match):
@@ -278,7 +303,11 @@ def test_cell_of_centres_gives_indices_back(rect_map):
     jj, ii = np.indices((8, 6))
     assert np.array_equal(i, ii) and np.array_equal(j, jj)
     flat_i, flat_j = rect_map.cell_of(rect_map.cell_centres().reshape(-1, 2))
-    assert flat_i.shape == (48,) and np.array_equal(flat_i, ii.ravel()) and np.array_equal(flat_j, jj.ravel())
+    assert (
+        flat_i.shape == (48,)
+        and np.array_equal(flat_i, ii.ravel())
+        and np.array_equal(flat_j, jj.ravel())
+    )
 
 
 def test_cell_of_random_points_lie_in_their_cells(rect_map):
@@ -291,21 +320,25 @@ def test_cell_of_random_points_lie_in_their_cells(rect_map):
 
 def test_cell_of_border_and_outside(rect_map):
     up = np.nextafter(1.5, 2.0)
-    pts = np.array([
-        [1.5, 1.0],        # outer corner: border cell
-        [-1.5, -1.0],      # opposite corner
-        [1.5, 0.1],        # right border
-        [0.1, -1.0],       # bottom border
-        [-1.0, -0.5],      # inner boundary: the cell with the larger index
-        [up, 0.0],         # just outside
-        [0.0, -1.0000001],
-        [5.0, 5.0],
-        [np.nan, 0.0],
-    ])
+    pts = np.array(
+        [
+            [1.5, 1.0],  # outer corner: border cell
+            [-1.5, -1.0],  # opposite corner
+            [1.5, 0.1],  # right border
+            [0.1, -1.0],  # bottom border
+            [-1.0, -0.5],  # inner boundary: the cell with the larger index
+            [up, 0.0],  # just outside
+            [0.0, -1.0000001],
+            [5.0, 5.0],
+            [np.nan, 0.0],
+        ]
+    )
     i, j = rect_map.cell_of(pts)
     assert i.tolist() == [5, 0, 5, 3, 1, -1, -1, -1, -1]
     assert j.tolist() == [7, 0, 4, 0, 2, -1, -1, -1, -1]
-    with pytest.raises(ConfigError, match=r"xy: must be an array of \(x, y\) points .* got shape \(4, 3\)"):
+    with pytest.raises(
+        ConfigError, match=r"xy: must be an array of \(x, y\) points .* got shape \(4, 3\)"
+    ):
         rect_map.cell_of(np.zeros((4, 3)))
 
 
@@ -337,9 +370,17 @@ def test_given_patch_map():
 @pytest.mark.parametrize(
     "grid, n, match",
     [
-        ([[0, 1], [3, 0]], 3, r"variants: value 3 at row 1, column 0 is out of range 0\.\.2 \(n_variants=3\)"),
+        (
+            [[0, 1], [3, 0]],
+            3,
+            r"variants: value 3 at row 1, column 0 is out of range 0\.\.2 \(n_variants=3\)",
+        ),
         ([[0, -1]], None, r"variants: value -1 at row 0, column 1 is out of range"),
-        ([[0.0, 1.5]], None, r"variants: must hold integer variant indices, got 1\.5 at row 0, column 1"),
+        (
+            [[0.0, 1.5]],
+            None,
+            r"variants: must hold integer variant indices, got 1\.5 at row 0, column 1",
+        ),
         ([[0.0, np.nan]], None, r"variants: must hold integer variant indices, got nan"),
         ([0, 1, 2], None, r"variants: must be a non-empty 2-D \(ny, nx\) array, got shape \(3,\)"),
         (np.zeros((0, 3)), None, r"variants: must be a non-empty 2-D"),
@@ -363,9 +404,13 @@ def test_map_is_immutable(rect_map):
 
 
 def test_constructor_checks_consistency():
-    with pytest.raises(ConfigError, match=r"densities: must be non-negative finite numbers summing to 1"):
+    with pytest.raises(
+        ConfigError, match=r"densities: must be non-negative finite numbers summing to 1"
+    ):
         PatchMap(np.zeros((2, 2), dtype=int), (1.0, 1.0), (0.5, 0.6))
-    with pytest.raises(ConfigError, match=r"variants: value 2 at row 0, column 1 is out of range 0\.\.1"):
+    with pytest.raises(
+        ConfigError, match=r"variants: value 2 at row 0, column 1 is out of range 0\.\.1"
+    ):
         PatchMap(np.array([[0, 2]]), (1.0, 1.0), (0.5, 0.5))
     with pytest.raises(ConfigError, match=r"method: must be one of exact, random, given, got 'x'"):
         PatchMap(np.zeros((2, 2), dtype=int), (1.0, 1.0), (1.0,), "x")
@@ -408,13 +453,22 @@ def test_from_dict_list_of_rows_and_errors():
     cases = [
         ({**good, "format": "other"}, r"format: expected 'score4-patch-map', got 'other'"),
         ({**good, "format_version": 9}, r"format_version: this score4 reads version 1, got 9"),
-        ({k: v for k, v in good.items() if k != "densities"}, r"patch map: missing key\(s\) densities"),
+        (
+            {k: v for k, v in good.items() if k != "densities"},
+            r"patch map: missing key\(s\) densities",
+        ),
         ({**good, "colour": 1}, r"patch map: unknown key\(s\) colour"),
-        ({**good, "variants": "0,1,1"}, r"variants: the run-length text holds 3 cells, expected 2 \(shape\)"),
+        (
+            {**good, "variants": "0,1,1"},
+            r"variants: the run-length text holds 3 cells, expected 2 \(shape\)",
+        ),
         ({**good, "variants": "0*x,1"}, r"variants: cannot read the run-length text near '0\*x'"),
         ({**good, "variants": "0*0,1*2"}, r"variants: run-length counts must be >= 1, got 0"),
         ({**good, "shape": [1]}, r"shape: must be \[ny, nx\] with positive integers, got \[1\]"),
-        ({**good, "variants": [[0, 1, 1]]}, r"shape: \[1, 2\] does not match the variants grid of shape \[1, 3\]"),
+        (
+            {**good, "variants": [[0, 1, 1]]},
+            r"shape: \[1, 2\] does not match the variants grid of shape \[1, 3\]",
+        ),
         ({**good, "patch_size": [1.0, "1 m"]}, None),  # floats in mm are accepted
         ({**good, "patch_size": ["1", "1 mm"]}, r"patch_size\[0\]: '1' has no unit"),
     ]
@@ -438,13 +492,24 @@ def test_h5_round_trip_exact(tmp_path, seed):
         assert g.attrs["units"] == "mm"
         back = PatchMap.load_h5(g)
     _same(m, back)
-    with h5py.File(path, "r") as f, pytest.raises(ConfigError, match=r"format: group '/' holds no 'score4-patch-map'"):
+    with (
+        h5py.File(path, "r") as f,
+        pytest.raises(ConfigError, match=r"format: group '/' holds no 'score4-patch-map'"),
+    ):
         PatchMap.load_h5(f)
 
 
 def test_describe(paper_map):
     text = paper_map.describe()
     assert "\n" not in text
-    for part in ("200 x 200 patches", "0.5 mm x 0.5 mm", "100 mm x 100 mm", "3 variant(s)", "method 'exact'",
-                 "seed 1", "0: 0.3000 (12000 cells; target 0.3000)", "2: 0.2000 (8000 cells; target 0.2000)"):
+    for part in (
+        "200 x 200 patches",
+        "0.5 mm x 0.5 mm",
+        "100 mm x 100 mm",
+        "3 variant(s)",
+        "method 'exact'",
+        "seed 1",
+        "0: 0.3000 (12000 cells; target 0.3000)",
+        "2: 0.2000 (8000 cells; target 0.2000)",
+    ):
         assert part in text

@@ -1,6 +1,5 @@
 """Lite physics (no Geant4 data sets): alpha transport in silicon against NIST ASTAR."""
 
-
 import pytest
 
 from score4.output import read_results
@@ -19,10 +18,14 @@ def _alphas(tmp_path_factory, name: str, **physics):
     from score4.config import parse_config
     from conftest import config_dict
 
-    config = parse_config(config_dict(
-        physics={"mode": "lite", **physics},
-        source={"direction": "normal"}, run={"events": 200, "seed": 5}, output={"track_length": True},
-    ))
+    config = parse_config(
+        config_dict(
+            physics={"mode": "lite", **physics},
+            source={"direction": "normal"},
+            run={"events": 200, "seed": 5},
+            output={"track_length": True},
+        )
+    )
     out = tmp_path_factory.mktemp("lite") / f"{name}.h5"
     return read_results(run(config, out, progress=False, echo=lambda m: None))
 
@@ -61,4 +64,7 @@ def test_default_micrometre_cut_gives_range_straggling(alphas_into_silicon, alph
 def test_lite_mode_is_recorded(alphas_into_silicon):
     run_record = alphas_into_silicon.run
     assert run_record["physics_mode"] == "lite"
-    assert "e-:eBrem" in run_record["removed_processes"] and "gamma:GammaGeneralProc" in run_record["removed_processes"]
+    assert (
+        "e-:eBrem" in run_record["removed_processes"]
+        and "gamma:GammaGeneralProc" in run_record["removed_processes"]
+    )

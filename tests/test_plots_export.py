@@ -30,15 +30,25 @@ from score4.sim.engine import run
 
 from conftest import BASE_CONFIG, config_dict
 
-ABSORBER = {"name": "absorber", "material": "G4_Si", "size": ["1 cm", "1 cm", "1 mm"], "position": ["0 cm", "0 cm", "0.5 cm"]}
+ABSORBER = {
+    "name": "absorber",
+    "material": "G4_Si",
+    "size": ["1 cm", "1 cm", "1 mm"],
+    "position": ["0 cm", "0 cm", "0.5 cm"],
+}
 
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory) -> dict[str, Path]:
     folder = tmp_path_factory.mktemp("runs")
     a = parse_config(config_dict(run={"events": 200, "seed": 7}))
-    b = parse_config(config_dict(run={"events": 100, "seed": 8}, targets=[*BASE_CONFIG["targets"], ABSORBER],
-                                 output={"histogram": {"bins": 50, "max": "6 MeV"}, "track_length": True}))
+    b = parse_config(
+        config_dict(
+            run={"events": 100, "seed": 8},
+            targets=[*BASE_CONFIG["targets"], ABSORBER],
+            output={"histogram": {"bins": 50, "max": "6 MeV"}, "track_length": True},
+        )
+    )
     quiet = {"progress": False, "echo": lambda m: None}
     return {"a": run(a, folder / "a.h5", **quiet), "b": run(b, folder / "b.h5", **quiet)}
 
@@ -64,7 +74,11 @@ def test_spectrum_of_one_run_is_the_histogram_of_its_deposits(runs, tmp_path):
     assert_png(tmp_path / "a.png")
     # defaults: 100 bins from 0 to the largest primary energy (5.3 MeV)
     edges = s.hist.edges
-    assert len(edges) == 101 and edges[0] == 0 and edges[-1] == res.primary_energy.max() == pytest.approx(5.3)
+    assert (
+        len(edges) == 101
+        and edges[0] == 0
+        and edges[-1] == res.primary_energy.max() == pytest.approx(5.3)
+    )
     # deposits above the top edge by rounding only (<= 1e-9 relative) belong in the top bin
     assert (e <= edges[-1] * (1 + 1e-9)).all()
     expected, _ = np.histogram(np.minimum(nonzero(e), edges[-1]), bins=edges)
@@ -80,12 +94,16 @@ def test_spectrum_of_one_run_is_the_histogram_of_its_deposits(runs, tmp_path):
 
 def test_two_runs_per_event_share_edges_and_compare(runs, tmp_path):
     out = tmp_path / "two.png"
-    spectra = plot_spectra([runs["a"], runs["b"]], out, volume="crystal", per_event=True, labels=["A", "B"])
+    spectra = plot_spectra(
+        [runs["a"], runs["b"]], out, volume="crystal", per_event=True, labels=["A", "B"]
+    )
     assert_png(out)
     sa, sb = spectra
     assert [s.label for s in spectra] == ["A", "B"] and sa.volume == sb.volume == "crystal"
     # common binning: bins of the first run (100), top = larger of the runs' tops (b: 6 MeV)
-    assert np.array_equal(sa.hist.edges, np.linspace(0, 6.0, 101)) and sa.hist.edges is sb.hist.edges
+    assert (
+        np.array_equal(sa.hist.edges, np.linspace(0, 6.0, 101)) and sa.hist.edges is sb.hist.edges
+    )
     for s, key in ((sa, "a"), (sb, "b")):
         res = read_results(runs[key])
         e = res.edep["crystal"]
@@ -110,13 +128,18 @@ def test_all_volumes_and_custom_range(runs, tmp_path):
     assert_png(tmp_path / "low.png")
     e = read_results(runs["a"]).edep["crystal"]
     assert np.array_equal(low.hist.edges, np.linspace(0, 0.5, 11))
-    assert low.hist.n_overflow == np.count_nonzero(e > 0.5) > 50  # full-energy alphas are off this range
+    assert (
+        low.hist.n_overflow == np.count_nonzero(e > 0.5) > 50
+    )  # full-energy alphas are off this range
     assert low.hist.counts.sum() == np.count_nonzero((e > 0) & (e <= 0.5))
     assert f"{low.hist.n_overflow} above range" in low.legend
 
 
 def test_spectrum_errors(runs, tmp_path):
-    with pytest.raises(Score4Error, match=r"volume: 'nope' is not a volume of .*b\.h5; volumes are: crystal, absorber"):
+    with pytest.raises(
+        Score4Error,
+        match=r"volume: 'nope' is not a volume of .*b\.h5; volumes are: crystal, absorber",
+    ):
         plot_spectra(runs["b"], tmp_path / "x.png", volume="nope")
     with pytest.raises(ConfigError, match="1 label"):
         plot_spectra([runs["a"], runs["b"]], tmp_path / "x.png", labels=["only one"])
@@ -129,13 +152,22 @@ def test_spectrum_errors(runs, tmp_path):
 
 def test_description_survives_other_config_versions(runs):
     res = read_results(runs["a"])
-    later = {**res.run["config"], "new_section": {"x": 1},
-             "surfaces": {"pyr": {"kind": "spikes", "nx": 3}},
-             "targets": [{"name": "crystal", "rough": [{"face": "+z", "surface": "pyr"}]}],
-             "source": {"decay": "Po210", "particle": None, "surface": {"volume": "crystal", "face": "+z"},
-                        "depth": {"profile": "exponential", "mean": "2e-05 mm"}}}
-    assert describe_run(dataclasses.replace(res, run={**res.run, "config": later})) == \
-        "Po210, rough +z (spikes), exponential depth, lite physics"
+    later = {
+        **res.run["config"],
+        "new_section": {"x": 1},
+        "surfaces": {"pyr": {"kind": "spikes", "nx": 3}},
+        "targets": [{"name": "crystal", "rough": [{"face": "+z", "surface": "pyr"}]}],
+        "source": {
+            "decay": "Po210",
+            "particle": None,
+            "surface": {"volume": "crystal", "face": "+z"},
+            "depth": {"profile": "exponential", "mean": "2e-05 mm"},
+        },
+    }
+    assert (
+        describe_run(dataclasses.replace(res, run={**res.run, "config": later}))
+        == "Po210, rough +z (spikes), exponential depth, lite physics"
+    )
     odd = dataclasses.replace(res, run={"config": "not a mapping", "physics_mode": 3})
     assert describe_run(odd) == "" and default_label(odd) == "a"
 
@@ -168,7 +200,9 @@ def test_depth_histograms_from_arrays_and_files(tmp_path):
 
 def test_depth_errors(tmp_path):
     with pytest.raises(Score4Error, match="units 'parsec'"):
-        plot_depths(write_vertex_file(tmp_path / "bad.h5", np.ones(3), units="parsec"), tmp_path / "d.png")
+        plot_depths(
+            write_vertex_file(tmp_path / "bad.h5", np.ones(3), units="parsec"), tmp_path / "d.png"
+        )
     with pytest.raises(ConfigError, match="1-D array"):
         plot_depths(np.ones((2, 2)), tmp_path / "d.png")
     with pytest.raises(ConfigError, match="non-finite"):
@@ -191,13 +225,21 @@ def test_histogram_csv_matches_numpy(runs, tmp_path):
     text = out.read_text()
     assert f"# file: {runs['b']}\n# events: 100\n# physics mode: lite\n# seed: 8\n" in text
     table = read_csv(out)
-    assert table.dtype.names == ("volume", "bin_low_MeV", "bin_high_MeV", "counts", "counts_per_keV")
+    assert table.dtype.names == (
+        "volume",
+        "bin_low_MeV",
+        "bin_high_MeV",
+        "counts",
+        "counts_per_keV",
+    )
     edges = np.linspace(0, 6.0, 61)
     for name in ("crystal", "absorber"):
         block = table[table["volume"] == name]
         e = res.edep[name]
         expected, _ = np.histogram(nonzero(e), bins=edges)
-        assert np.array_equal(block["bin_low_MeV"], edges[:-1]) and np.array_equal(block["bin_high_MeV"], edges[1:])
+        assert np.array_equal(block["bin_low_MeV"], edges[:-1]) and np.array_equal(
+            block["bin_high_MeV"], edges[1:]
+        )
         assert np.array_equal(block["counts"], expected)
         assert np.array_equal(block["counts_per_keV"], expected / (np.diff(edges) * 1e3))
         assert block["counts"].sum() == np.count_nonzero((e > 0) & (e <= 6.0))
@@ -213,8 +255,14 @@ def test_histogram_csv_matches_numpy(runs, tmp_path):
 def test_events_csv_round_trip(runs, tmp_path):
     res = read_results(runs["b"])
     out = tmp_path / "ev.csv"
-    assert export_events_csv(res, out) == ["event_id", "primary_energy_MeV", "edep_crystal_MeV", "edep_absorber_MeV",
-                                           "track_length_crystal_mm", "track_length_absorber_mm"]
+    assert export_events_csv(res, out) == [
+        "event_id",
+        "primary_energy_MeV",
+        "edep_crystal_MeV",
+        "edep_absorber_MeV",
+        "track_length_crystal_mm",
+        "track_length_absorber_mm",
+    ]
     table = read_csv(out)
     assert np.array_equal(table["event_id"], res.event_id)
     assert np.array_equal(table["primary_energy_MeV"], res.primary_energy)
@@ -228,11 +276,21 @@ def test_root_round_trip(runs, tmp_path):
     res = read_results(runs["b"])
     out = export_root(res, tmp_path / "b.root", bins=60, emax="6 MeV")
     with uproot.open(out) as f:
-        assert f.classnames() == {"events;1": "TTree", "edep_crystal;1": "TH1D", "edep_absorber;1": "TH1D",
-                                  "run;1": "TObjString"}
+        assert f.classnames() == {
+            "events;1": "TTree",
+            "edep_crystal;1": "TH1D",
+            "edep_absorber;1": "TH1D",
+            "run;1": "TObjString",
+        }
         tree = f["events"].arrays(library="np")
-        assert set(tree) == {"event_id", "primary_energy", "edep_crystal", "edep_absorber",
-                             "track_length_crystal", "track_length_absorber"}
+        assert set(tree) == {
+            "event_id",
+            "primary_energy",
+            "edep_crystal",
+            "edep_absorber",
+            "track_length_crystal",
+            "track_length_absorber",
+        }
         assert np.array_equal(tree["track_length_absorber"], res.scores["track_length"]["absorber"])
         assert tree["event_id"].dtype == np.int64 and np.array_equal(tree["event_id"], res.event_id)
         assert np.array_equal(tree["primary_energy"], res.primary_energy)
@@ -257,13 +315,51 @@ def test_root_round_trip(runs, tmp_path):
 
 def test_cli_plot_and_export(runs, tmp_path, capsys):
     png = tmp_path / "cli.png"
-    assert main(["plot", str(runs["a"]), str(runs["b"]), "--out", str(png), "--volume", "crystal",
-                 "--per-event", "--emax", "6 MeV", "--bins", "30", "--label", "A", "--label", "B"]) == 0
+    assert (
+        main(
+            [
+                "plot",
+                str(runs["a"]),
+                str(runs["b"]),
+                "--out",
+                str(png),
+                "--volume",
+                "crystal",
+                "--per-event",
+                "--emax",
+                "6 MeV",
+                "--bins",
+                "30",
+                "--label",
+                "A",
+                "--label",
+                "B",
+            ]
+        )
+        == 0
+    )
     assert_png(png)
     assert "2 spectra" in capsys.readouterr().out
     csv, root, ev = tmp_path / "cli.csv", tmp_path / "cli.root", tmp_path / "cli_ev.csv"
-    assert main(["export", str(runs["b"]), "--csv", str(csv), "--events-csv", str(ev), "--root", str(root),
-                 "--bins", "60", "--emax", "6 MeV"]) == 0
+    assert (
+        main(
+            [
+                "export",
+                str(runs["b"]),
+                "--csv",
+                str(csv),
+                "--events-csv",
+                str(ev),
+                "--root",
+                str(root),
+                "--bins",
+                "60",
+                "--emax",
+                "6 MeV",
+            ]
+        )
+        == 0
+    )
     ref = tmp_path / "ref.csv"
     export_csv(read_results(runs["b"]), ref, bins=60, emax=6.0)
     assert csv.read_text() == ref.read_text()
@@ -284,23 +380,33 @@ def surface_file(tmp_path) -> Path:
     from score4.surface.spec import build_surface, parse_surface_spec
     from score4.surface.store import save_surface
 
-    spec = parse_surface_spec({"kind": "spikes", "nx": 3, "ny": 2, "width": "10 um", "height": "5 um"})
+    spec = parse_surface_spec(
+        {"kind": "spikes", "nx": 3, "ny": 2, "width": "10 um", "height": "5 um"}
+    )
     return save_surface(build_surface(spec), tmp_path / "pyr.s4s.h5")
 
 
 def test_cli_plot_surface_dispatches_to_surface_plot(surface_file, tmp_path, monkeypatch):
     calls = []
     fake = types.ModuleType("score4.surface.plot")
-    fake.plot_surface = lambda surface, path: calls.append((surface, Path(path))) or Path(path).write_bytes(b"x")
+    fake.plot_surface = lambda surface, path: (
+        calls.append((surface, Path(path))) or Path(path).write_bytes(b"x")
+    )
     monkeypatch.setitem(sys.modules, "score4.surface.plot", fake)
     assert file_kind(surface_file) == "surface"
     assert main(["plot", str(surface_file), "--out", str(tmp_path / "s.png")]) == 0
     ((surface, path),) = calls
-    assert path == tmp_path / "s.png" and surface.spec.kind == "spikes" and surface.spikes.heights.shape == (2, 3)
+    assert (
+        path == tmp_path / "s.png"
+        and surface.spec.kind == "spikes"
+        and surface.spikes.heights.shape == (2, 3)
+    )
 
 
 def test_cli_plot_surface_without_surface_plot_module(surface_file, tmp_path, monkeypatch, capsys):
-    monkeypatch.setitem(sys.modules, "score4.surface.plot", None)  # import fails as if the module did not exist
+    monkeypatch.setitem(
+        sys.modules, "score4.surface.plot", None
+    )  # import fails as if the module did not exist
     assert main(["plot", str(surface_file), "--out", str(tmp_path / "s.png")]) == 2
     assert "needs score4.surface.plot" in capsys.readouterr().err
     assert not (tmp_path / "s.png").exists()
@@ -315,19 +421,40 @@ def _cli_error_cases(runs, tmp):
     vert = write_vertex_file(tmp / "v.h5", np.ones(5) * 1e-6)
     a, b, png = str(runs["a"]), str(runs["b"]), str(tmp / "o.png")
     return [
-        (["plot", str(tmp / "missing.h5"), "--out", png], "file '" + str(tmp / "missing.h5") + "' does not exist"),
-        (["plot", str(plain), "--out", png], "is not a score4 results, vertex or surface file (no format attribute)"),
+        (
+            ["plot", str(tmp / "missing.h5"), "--out", png],
+            "file '" + str(tmp / "missing.h5") + "' does not exist",
+        ),
+        (
+            ["plot", str(plain), "--out", png],
+            "is not a score4 results, vertex or surface file (no format attribute)",
+        ),
         (["plot", str(text), "--out", png], "is not an HDF5 file"),
-        (["plot", b, "--out", png, "--volume", "nope"], "'nope' is not a volume of " + b + "; volumes are: crystal, absorber"),
-        (["plot", a, str(vert), "--out", png], "cannot mix kinds of files in one plot: a.h5 (results), v.h5 (vertices)"),
-        (["plot", str(vert), "--out", png, "--emax", "6 MeV"], "--emax apply to results files only"),
+        (
+            ["plot", b, "--out", png, "--volume", "nope"],
+            "'nope' is not a volume of " + b + "; volumes are: crystal, absorber",
+        ),
+        (
+            ["plot", a, str(vert), "--out", png],
+            "cannot mix kinds of files in one plot: a.h5 (results), v.h5 (vertices)",
+        ),
+        (
+            ["plot", str(vert), "--out", png, "--emax", "6 MeV"],
+            "--emax apply to results files only",
+        ),
         (["plot", a, "--out", png, "--emax", "6"], "--emax: '6' has no unit"),
         (["plot", a, b, "--out", png, "--label", "x"], "labels: 1 label(s) given for 2 run(s)"),
         (["plot", a, "--out", str(tmp / "o.bmpx")], "unknown image format '.bmpx'"),
         (["export", b], "give at least one of --csv"),
         (["export", str(plain), "--csv", str(tmp / "o.csv")], "is not a score4 results file"),
-        (["export", b, "--csv", str(tmp / "o.csv"), "--volume", "foo"], "volumes are: crystal, absorber"),
-        (["export", b, "--csv", str(tmp / "o.csv"), "--root", str(tmp / "no" / "o.root")], "folder"),
+        (
+            ["export", b, "--csv", str(tmp / "o.csv"), "--volume", "foo"],
+            "volumes are: crystal, absorber",
+        ),
+        (
+            ["export", b, "--csv", str(tmp / "o.csv"), "--root", str(tmp / "no" / "o.root")],
+            "folder",
+        ),
     ]
 
 
@@ -349,6 +476,8 @@ def test_vertex_depths_are_counted_once_per_event(tmp_path):
 
     rng = np.random.default_rng(0)
     depth = rng.uniform(0, 1e-4, 50)
-    p = make_primaries(Po210Emitter(), rng, np.zeros((50, 3)), np.tile([0, 0, 1.0], (50, 1)), depth=depth)
+    p = make_primaries(
+        Po210Emitter(), rng, np.zeros((50, 3)), np.tile([0, 0, 1.0], (50, 1)), depth=depth
+    )
     path = write_vertex_file(tmp_path / "v.h5", p, {}, 0)
     np.testing.assert_array_equal(read_vertex_depths(path), depth)

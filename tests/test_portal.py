@@ -29,31 +29,70 @@ from score4.source.vertex_file import write_vertex_file
 
 # Two patch variants, 20 um x 20 um: four 10 um pyramids with a height spread, or sixteen low 5 um ones.
 VARIANTS = {
-    "a": {"kind": "spikes", "nx": 2, "ny": 2, "width": "10 um", "height": "10 um", "height_sigma": "2 um", "seed": 4},
+    "a": {
+        "kind": "spikes",
+        "nx": 2,
+        "ny": 2,
+        "width": "10 um",
+        "height": "10 um",
+        "height_sigma": "2 um",
+        "seed": 4,
+    },
     "b": {"kind": "spikes", "nx": 4, "ny": 4, "width": "5 um", "height": "4 um", "seed": 5},
 }
 # +z face: 10 x 6 cells; -x face (u = -y, v = z): 6 x 5 cells.
-CRYSTAL = {"name": "crystal", "material": "G4_Si", "size": ["0.2 mm", "0.12 mm", "0.1 mm"], "position": ["0 mm", "0 mm", "-0.05 mm"]}
+CRYSTAL = {
+    "name": "crystal",
+    "material": "G4_Si",
+    "size": ["0.2 mm", "0.12 mm", "0.1 mm"],
+    "position": ["0 mm", "0 mm", "-0.05 mm"],
+}
 # Copper plates facing the two rough faces: particles leaving a portal must come out at the right place.
 COVERS = [
-    {"name": "cover", "material": "G4_Cu", "size": ["0.3 mm", "0.2 mm", "0.05 mm"], "position": ["0 mm", "0 mm", "0.075 mm"]},
-    {"name": "side", "material": "G4_Cu", "size": ["0.04 mm", "0.2 mm", "0.14 mm"], "position": ["-0.18 mm", "0 mm", "-0.05 mm"]},
+    {
+        "name": "cover",
+        "material": "G4_Cu",
+        "size": ["0.3 mm", "0.2 mm", "0.05 mm"],
+        "position": ["0 mm", "0 mm", "0.075 mm"],
+    },
+    {
+        "name": "side",
+        "material": "G4_Cu",
+        "size": ["0.04 mm", "0.2 mm", "0.14 mm"],
+        "position": ["-0.18 mm", "0 mm", "-0.05 mm"],
+    },
 ]
 
 
 def rough(tiling: str, faces=("+z", "-x"), base: str = "20 um") -> list[dict]:
     variants = [{"surface": "a", "density": 0.5}, {"surface": "b", "density": 0.5}]
-    return [{"face": f, "variants": variants, "tiling": tiling, "seed": 3, "base_thickness": base} for f in faces]
+    return [
+        {"face": f, "variants": variants, "tiling": tiling, "seed": 3, "base_thickness": base}
+        for f in faces
+    ]
 
 
-def tiled_config(tiling: str, source: dict, faces=("+z", "-x"), base: str = "20 um", covers: bool = True, **sections) -> dict:
+def tiled_config(
+    tiling: str,
+    source: dict,
+    faces=("+z", "-x"),
+    base: str = "20 um",
+    covers: bool = True,
+    **sections,
+) -> dict:
     targets = [{**CRYSTAL, "rough": rough(tiling, faces, base)}] + (COVERS if covers else [])
     return config_dict(surfaces=VARIANTS, targets=targets, source=source, **sections)
 
 
-def face_source(face: str, particle: str = "geantino", energy: str = "1 MeV", mean: str = "0.5 um") -> dict:
-    return {"particle": particle, "energy": energy, "surface": {"volume": "crystal", "face": face},
-            "depth": {"profile": "exponential", "mean": mean}}
+def face_source(
+    face: str, particle: str = "geantino", energy: str = "1 MeV", mean: str = "0.5 um"
+) -> dict:
+    return {
+        "particle": particle,
+        "energy": energy,
+        "surface": {"volume": "crystal", "face": face},
+        "depth": {"profile": "exponential", "mean": mean},
+    }
 
 
 def oblique_directions(rng, frame, n: int, max_normal: float) -> np.ndarray:
@@ -75,18 +114,31 @@ def corner_crossers(config, face: str, lift: float = 0.08) -> Primaries:
     cx, cy = (a.ravel() for a in np.meshgrid(xs, ys))
     signs = np.array([[1, 1], [-1, 1], [1, -1], [-1, -1]])[np.arange(len(cx)) % 4]
     s = 3e-3  # start 3 um before the corner along each axis
-    local = np.column_stack([cx - signs[:, 0] * s, cy - signs[:, 1] * s, np.full(len(cx), layer.base_thickness - 5e-4)])
+    local = np.column_stack(
+        [cx - signs[:, 0] * s, cy - signs[:, 1] * s, np.full(len(cx), layer.base_thickness - 5e-4)]
+    )
     d = np.column_stack([signs, np.full(len(cx), lift)]).astype(float)
     d /= np.linalg.norm(d, axis=1)[:, None]
     n = len(cx)
-    return Primaries(event=np.arange(n), particle=np.full(n, "geantino"), energy=np.ones(n),
-                     position=layer.frame.to_world(local), direction=d @ layer.frame.rotation.T)
+    return Primaries(
+        event=np.arange(n),
+        particle=np.full(n, "geantino"),
+        energy=np.ones(n),
+        position=layer.frame.to_world(local),
+        direction=d @ layer.frame.rotation.T,
+    )
 
 
 def replay(tmp_path, data: dict, vfile, name: str):
     n = int(np.max(read_vertex_events(vfile))) + 1
-    replayed = parse_config({**data, "source": {"vertices": str(vfile)}, "output": {"track_length": True},
-                             "run": {"events": n, "seed": 5}})
+    replayed = parse_config(
+        {
+            **data,
+            "source": {"vertices": str(vfile)},
+            "output": {"track_length": True},
+            "run": {"events": n, "seed": 5},
+        }
+    )
     return read_results(run(replayed, tmp_path / f"{name}.h5", progress=False, echo=lambda m: None))
 
 
@@ -103,7 +155,9 @@ def geantino_vertices(tmp_path, n_face: int = 250):
     parts = []
     for face in ("+z", "-x"):
         config = parse_config(tiled_config("native", face_source(face)))
-        p = make_source(config, build_scene(config)).primaries(np.random.default_rng(len(parts)), 0, n_face)
+        p = make_source(config, build_scene(config)).primaries(
+            np.random.default_rng(len(parts)), 0, n_face
+        )
         frame = face_frame(config.targets[0], face)
         p.direction[: n_face // 2] = oblique_directions(rng, frame, n_face // 2, 0.02)
         parts.append(Primaries(p.event, p.particle, p.energy, p.position, p.direction))
@@ -127,7 +181,9 @@ def test_geantino_paths_per_volume_match_native_tiling(tmp_path):
     # Measured (565 geantinos): 57 go more than 0.1 mm (5 cells) in the crystal group, 97 reach the
     # cover, 47 the side plate; largest difference 2e-13 mm.
     assert (crystal > 0.1).sum() > 40
-    assert (native.scores["track_length"]["cover"] > 0).sum() > 60 and (native.scores["track_length"]["side"] > 0).sum() > 30
+    assert (native.scores["track_length"]["cover"] > 0).sum() > 60 and (
+        native.scores["track_length"]["side"] > 0
+    ).sum() > 30
 
 
 # --- one large patch -------------------------------------------------------------------------------
@@ -141,12 +197,17 @@ def bump_maps() -> list[np.ndarray]:
     t = np.linspace(0, 1, SAMPLES + 1)
     x, y = np.meshgrid(t, t)
     one = 6 * np.sin(np.pi * x) ** 2 * np.sin(np.pi * y) ** 2
-    two = 4 * np.sin(2 * np.pi * x) ** 2 * np.sin(np.pi * y) ** 2 + 1.5 * np.sin(np.pi * x) * np.sin(3 * np.pi * y) ** 2
+    two = (
+        4 * np.sin(2 * np.pi * x) ** 2 * np.sin(np.pi * y) ** 2
+        + 1.5 * np.sin(np.pi * x) * np.sin(3 * np.pi * y) ** 2
+    )
     return [one, two]
 
 
 def write_grid(path, heights_um: np.ndarray) -> str:
-    lines = [f"# pitch = {PITCH * 1e3:g} um", "# z_unit = um"] + [" ".join(f"{v:.12g}" for v in row) for row in heights_um]
+    lines = [f"# pitch = {PITCH * 1e3:g} um", "# z_unit = um"] + [
+        " ".join(f"{v:.12g}" for v in row) for row in heights_um
+    ]
     path.write_text("\n".join(lines) + "\n")
     return str(path)
 
@@ -162,13 +223,23 @@ def test_tiles_match_one_large_patch(tmp_path):
     tolerance), counting a sub-nm stretch of vacuum as silicon. Seed 3: 1 event of 300, 0.87 nm
     more than the single patch; the portal matched the single patch in all 300 (< 1e-12 mm)."""
     maps = bump_maps()
-    surfaces = {f"v{k}": {"kind": "measured", "file": write_grid(tmp_path / f"v{k}.txt", m), "level": False}
-                for k, m in enumerate(maps)}
-    crystal = {**CRYSTAL, "size": ["0.12 mm", "0.08 mm", "0.05 mm"], "position": ["0 mm", "0 mm", "-0.025 mm"]}
+    surfaces = {
+        f"v{k}": {"kind": "measured", "file": write_grid(tmp_path / f"v{k}.txt", m), "level": False}
+        for k, m in enumerate(maps)
+    }
+    crystal = {
+        **CRYSTAL,
+        "size": ["0.12 mm", "0.08 mm", "0.05 mm"],
+        "position": ["0 mm", "0 mm", "-0.025 mm"],
+    }
     variants = [{"surface": "v0", "density": 0.5}, {"surface": "v1", "density": 0.5}]
 
     def config(tiling, rough_face):
-        return config_dict(surfaces=surfaces, targets=[{**crystal, "rough": [rough_face]}], source=face_source("+z"))
+        return config_dict(
+            surfaces=surfaces,
+            targets=[{**crystal, "rough": [rough_face]}],
+            source=face_source("+z"),
+        )
 
     tiled = {"face": "+z", "variants": variants, "seed": 8, "base_thickness": "5 um"}
     native_data = config("native", {**tiled, "tiling": "native"})
@@ -177,18 +248,30 @@ def test_tiles_match_one_large_patch(tmp_path):
     big = np.zeros((ny * SAMPLES + 1, nx * SAMPLES + 1))
     for j in range(ny):
         for i in range(nx):
-            big[j * SAMPLES:(j + 1) * SAMPLES + 1, i * SAMPLES:(i + 1) * SAMPLES + 1] = maps[layer.patch_map.variants[j, i]]
+            big[j * SAMPLES : (j + 1) * SAMPLES + 1, i * SAMPLES : (i + 1) * SAMPLES + 1] = maps[
+                layer.patch_map.variants[j, i]
+            ]
     assert len(set(layer.patch_map.variants.ravel().tolist())) == 2
-    surfaces["big"] = {"kind": "measured", "file": write_grid(tmp_path / "big.txt", big), "level": False}
+    surfaces["big"] = {
+        "kind": "measured",
+        "file": write_grid(tmp_path / "big.txt", big),
+        "level": False,
+    }
     single_data = config("native", {"face": "+z", "surface": "big", "base_thickness": "5 um"})
     assert build_scene(parse_config(single_data)).layers[0].patch_map.n_cells == 1
 
-    p = make_source(parse_config(native_data), build_scene(parse_config(native_data))).primaries(np.random.default_rng(3), 0, 300)
+    p = make_source(parse_config(native_data), build_scene(parse_config(native_data))).primaries(
+        np.random.default_rng(3), 0, 300
+    )
     p.direction[:200] = oblique_directions(np.random.default_rng(4), layer.frame, 200, 0.05)
-    vfile = write_vertex_file(tmp_path / "v.h5", Primaries(p.event, p.particle, p.energy, p.position, p.direction), {}, 1)
+    vfile = write_vertex_file(
+        tmp_path / "v.h5", Primaries(p.event, p.particle, p.energy, p.position, p.direction), {}, 1
+    )
     single = replay(tmp_path, single_data, vfile, "single").scores["track_length"]["crystal"]
     native = replay(tmp_path, native_data, vfile, "native").scores["track_length"]["crystal"]
-    portal = replay(tmp_path, config("portal", {**tiled, "tiling": "portal"}), vfile, "portal").scores["track_length"]["crystal"]
+    portal = replay(
+        tmp_path, config("portal", {**tiled, "tiling": "portal"}), vfile, "portal"
+    ).scores["track_length"]["crystal"]
     np.testing.assert_allclose(portal, single, rtol=0, atol=1e-9)
     same = np.abs(native - single) <= 1e-9
     assert same.mean() >= 0.98 and np.abs(native - single).max() < 1e-5
@@ -197,26 +280,44 @@ def test_tiles_match_one_large_patch(tmp_path):
 
 # --- alphas ------------------------------------------------------------------------------------------
 
+
 def test_alpha_spectra_of_native_and_portal_tiling_agree(tmp_path):
     """5.3 MeV alphas from 20 nm below the rough -x face (isotropic), 3000 events per tiling, the
     same seed: the deposited-energy spectra agree (two-sample Kolmogorov-Smirnov p > 0.01). The
     runs differ event by event once a particle jumps (the vacuum step undone by the jump draws random
     numbers, and the next step starts with another status, see score4.sim.portal_action).
     Measured: KS distance 0.008, p = 0.9999; 26 % of the events agree to 1e-9 MeV."""
-    source = {"particle": "alpha", "energy": "5.3 MeV", "direction": "isotropic", "surface": {"volume": "crystal", "face": "-x"},
-              "depth": {"profile": "exponential", "mean": "20 nm"}}
+    source = {
+        "particle": "alpha",
+        "energy": "5.3 MeV",
+        "direction": "isotropic",
+        "surface": {"volume": "crystal", "face": "-x"},
+        "depth": {"profile": "exponential", "mean": "20 nm"},
+    }
     spectra = {}
     for tiling in ("native", "portal"):
-        data = tiled_config(tiling, source, faces=("-x",), base="1 um", covers=False, run={"events": 3000, "seed": 21})
-        spectra[tiling] = read_results(run(parse_config(data), tmp_path / f"{tiling}.h5", progress=False, echo=lambda m: None))
+        data = tiled_config(
+            tiling,
+            source,
+            faces=("-x",),
+            base="1 um",
+            covers=False,
+            run={"events": 3000, "seed": 21},
+        )
+        spectra[tiling] = read_results(
+            run(parse_config(data), tmp_path / f"{tiling}.h5", progress=False, echo=lambda m: None)
+        )
     a, b = spectra["native"].edep["crystal"], spectra["portal"].edep["crystal"]
-    np.testing.assert_array_equal(spectra["native"].primaries.position, spectra["portal"].primaries.position)
+    np.testing.assert_array_equal(
+        spectra["native"].primaries.position, spectra["portal"].primaries.position
+    )
     assert stats.ks_2samp(a, b).pvalue > 0.01
     # the rough face matters here: many alphas deposit only a part (the figure's shoulder)
     assert ((b > 0.2) & (b < 4.0)).mean() > 0.1
 
 
 # --- deposits at jumps and secondaries ------------------------------------------------------------
+
 
 def _spawned(config_data, primaries):
     with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
@@ -239,10 +340,17 @@ def slab_primaries(config_data, particle: str, energy: float, n: int, seed: int)
 
     layer = build_scene(parse_config(config_data)).layer("crystal", "+z")
     rng = np.random.default_rng(seed)
-    local = np.column_stack([rng.uniform(-0.03, 0.03, n), rng.uniform(-0.02, 0.02, n), np.full(n, 0.03)])
+    local = np.column_stack(
+        [rng.uniform(-0.03, 0.03, n), rng.uniform(-0.02, 0.02, n), np.full(n, 0.03)]
+    )
     d = oblique_directions(rng, layer.frame, n, 0.1)
-    p = Primaries(event=np.arange(n), particle=np.full(n, particle), energy=np.full(n, energy),
-                  position=layer.frame.to_world(local), direction=d)
+    p = Primaries(
+        event=np.arange(n),
+        particle=np.full(n, particle),
+        energy=np.full(n, energy),
+        position=layer.frame.to_world(local),
+        direction=d,
+    )
     return as_lists(p)
 
 
@@ -267,6 +375,7 @@ def test_deposits_of_jumping_steps_and_of_secondaries_are_kept():
 
 # --- geometry and bad input (no Geant4) -------------------------------------------------------------
 
+
 @pytest.mark.parametrize("face", ["+z", "-z", "+x", "-x", "+y", "-y"])
 def test_portal_map_moves_points_to_the_same_place_in_their_cell(face):
     """Every face: a point of cell (i, j) lands in its variant's subworld at the same cell-local
@@ -277,15 +386,27 @@ def test_portal_map_moves_points_to_the_same_place_in_their_cell(face):
     pmap = PortalMap(layer, centres)
     rng = np.random.default_rng(0)
     lu, lv = layer.frame.size
-    local = np.column_stack([rng.uniform(-lu / 2, lu / 2, 500), rng.uniform(-lv / 2, lv / 2, 500), rng.uniform(0, layer.thickness, 500)])
+    local = np.column_stack(
+        [
+            rng.uniform(-lu / 2, lu / 2, 500),
+            rng.uniform(-lv / 2, lv / 2, 500),
+            rng.uniform(0, layer.thickness, 500),
+        ]
+    )
     moved, inside, i, j = pmap.to_subworld(layer.frame.to_world(local))
     assert inside.all()
     k = layer.patch_map.variants[j, i]
-    in_cell = (moved - centres[k]) @ layer.frame.rotation  # face frame, relative to the subworld centre
+    in_cell = (
+        moved - centres[k]
+    ) @ layer.frame.rotation  # face frame, relative to the subworld centre
     c = layer.cell_centres()[j, i]
-    expected = np.column_stack([local[:, 0] - c[:, 0], local[:, 1] - c[:, 1], local[:, 2] - layer.thickness / 2])
+    expected = np.column_stack(
+        [local[:, 0] - c[:, 0], local[:, 1] - c[:, 1], local[:, 2] - layer.thickness / 2]
+    )
     np.testing.assert_allclose(in_cell, expected, atol=1e-12)
-    outside = layer.frame.to_world(np.array([[0.0, 0.0, -1e-3], [0.0, 0.0, layer.thickness + 1e-3]]))
+    outside = layer.frame.to_world(
+        np.array([[0.0, 0.0, -1e-3], [0.0, 0.0, layer.thickness + 1e-3]])
+    )
     moved, inside, i, _ = pmap.to_subworld(outside)
     assert not inside.any() and (i == -1).all() and np.array_equal(moved, outside)
 
@@ -300,11 +421,29 @@ def test_exit_faces_of_a_subworld():
     assert lay.exit_faces((hu, 0.0, 0.0), (1.0, 0.0, 0.0)) == (1, 0, False)
     assert lay.exit_faces((-hu, 0.3 * hv, 0.1 * hz), (-0.6, 0.8, 0.0)) == (-1, 0, False)
     assert lay.exit_faces((0.1 * hu, 0.2 * hv, hz), (0.6, 0.0, 0.8)) == (0, 0, True)
-    assert lay.exit_faces((0.1 * hu, -hv, -hz), (0.0, -0.6, -0.8)) == (0, -1, True)  # bottom edge: leaves the layer
-    assert lay.exit_faces((hu, hv - 1e-12, 0.0), (0.6, 0.8, 0.0)) == (1, 1, False)  # corner: diagonal neighbour
-    assert lay.exit_faces((-hu, -hv, 0.0), (-0.6, 0.8, 0.0)) == (-1, 0, False)  # on an edge, moving back in along v
-    assert lay.exit_faces((hu, hv - 1e-6, 0.0), (0.6, 0.8, 0.0)) == (1, 0, False)  # 1 nm from the corner: one face
-    assert lay.exit_faces((hu, 0.0, 0.0), (-0.6, 0.8, 0.0)) is None  # on the boundary, turned back in
+    assert lay.exit_faces((0.1 * hu, -hv, -hz), (0.0, -0.6, -0.8)) == (
+        0,
+        -1,
+        True,
+    )  # bottom edge: leaves the layer
+    assert lay.exit_faces((hu, hv - 1e-12, 0.0), (0.6, 0.8, 0.0)) == (
+        1,
+        1,
+        False,
+    )  # corner: diagonal neighbour
+    assert lay.exit_faces((-hu, -hv, 0.0), (-0.6, 0.8, 0.0)) == (
+        -1,
+        0,
+        False,
+    )  # on an edge, moving back in along v
+    assert lay.exit_faces((hu, hv - 1e-6, 0.0), (0.6, 0.8, 0.0)) == (
+        1,
+        0,
+        False,
+    )  # 1 nm from the corner: one face
+    assert (
+        lay.exit_faces((hu, 0.0, 0.0), (-0.6, 0.8, 0.0)) is None
+    )  # on the boundary, turned back in
     assert lay.exit_faces((0.5 * hu, 0.0, 0.0), (1.0, 0.0, 0.0)) is None  # not on the boundary
 
 
@@ -320,8 +459,13 @@ def test_subworlds_lie_outside_the_region_particles_reach():
     for lo, hi in boxes:
         assert lo[0] > lab[0] and np.all(hi < half) and np.all(lo > -half)
         check_unreachable(scene.layers[0], origins[scene.layers[0].name], -lab, lab)  # no error
-    assert boxes[0][1][0] < boxes[1][0][0] or boxes[1][1][0] < boxes[0][0][0]  # the layers' subworlds apart
-    with pytest.raises(ConfigError, match=r"crystal_roughpz: subworld_origin \(0.05, 0, 0\) mm puts the subworlds .* where particles can move"):
+    assert (
+        boxes[0][1][0] < boxes[1][0][0] or boxes[1][1][0] < boxes[0][0][0]
+    )  # the layers' subworlds apart
+    with pytest.raises(
+        ConfigError,
+        match=r"crystal_roughpz: subworld_origin \(0.05, 0, 0\) mm puts the subworlds .* where particles can move",
+    ):
         check_unreachable(scene.layers[0], (0.05, 0.0, 0.0), -lab, lab)
     native = parse_config(tiled_config("native", face_source("+z")))
     assert portal_layout(native, build_scene(native))[1] == {}

@@ -121,7 +121,9 @@ def test_fill_at_the_edge_stays_within_the_measured_range():
     z[:3, :5] = np.nan  # a corner gap: mirror boundary at the map edge
     filled = fill_missing(HeightMap(z, 1.0, 1.0))
     assert not filled.has_missing
-    assert np.nanmin(z) <= filled.heights[:3, :5].min() and filled.heights[:3, :5].max() <= np.nanmax(z)
+    assert np.nanmin(z) <= filled.heights[:3, :5].min() and filled.heights[
+        :3, :5
+    ].max() <= np.nanmax(z)
 
 
 def test_too_many_missing_points_are_refused():

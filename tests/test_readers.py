@@ -77,7 +77,11 @@ def test_sur_written_by_surfalize(tmp_path):
         warnings.simplefilter("ignore")
         surfalize.Surface(z_um, 0.5, 0.5).save(path)
     hm = read_topography(path)
-    assert hm.shape == (20, 30) and hm.pitch_x == pytest.approx(0.5 * UM) and hm.pitch_y == pytest.approx(0.5 * UM)
+    assert (
+        hm.shape == (20, 30)
+        and hm.pitch_x == pytest.approx(0.5 * UM)
+        and hm.pitch_y == pytest.approx(0.5 * UM)
+    )
     # SUR stores integers: quantisation error < 1e-5 of the range
     np.testing.assert_allclose(hm.heights, z_um * UM, atol=1e-5 * np.ptp(z_um) * UM)
 
@@ -96,11 +100,22 @@ def test_gwy_written_by_gwyfile(tmp_path):
 
     z_m = np.random.default_rng(1).normal(scale=2e-7, size=(30, 40))
     container = GwyContainer()
-    container["/0/data"] = GwyDataField(z_m, xreal=40 * 2e-6, yreal=30 * 3e-6, xoff=5e-6,
-                                        si_unit_xy=GwySIUnit(unitstr="m"), si_unit_z=GwySIUnit(unitstr="m"))
+    container["/0/data"] = GwyDataField(
+        z_m,
+        xreal=40 * 2e-6,
+        yreal=30 * 3e-6,
+        xoff=5e-6,
+        si_unit_xy=GwySIUnit(unitstr="m"),
+        si_unit_z=GwySIUnit(unitstr="m"),
+    )
     container["/0/data/title"] = "Height"
-    container["/1/data"] = GwyDataField(np.ones((30, 40)), xreal=1.0, yreal=1.0,
-                                        si_unit_xy=GwySIUnit(unitstr="m"), si_unit_z=GwySIUnit(unitstr="V"))
+    container["/1/data"] = GwyDataField(
+        np.ones((30, 40)),
+        xreal=1.0,
+        yreal=1.0,
+        si_unit_xy=GwySIUnit(unitstr="m"),
+        si_unit_z=GwySIUnit(unitstr="V"),
+    )
     container["/1/data/title"] = "Amplitude"
     path = tmp_path / "two_channels.gwy"
     container.tofile(str(path))
@@ -123,7 +138,9 @@ def test_gwy_sample_without_units():
         read_topography(path)
     hm = read_topography(path, xy_unit="um", z_unit="um")
     assert hm.shape == (128, 128) and hm.pitch_x == pytest.approx(1 * UM)  # xreal = 128 units
-    assert hm.heights[0, 0] == pytest.approx(0.00082494 * UM, rel=1e-4)   # value in gwyfile's own test
+    assert hm.heights[0, 0] == pytest.approx(
+        0.00082494 * UM, rel=1e-4
+    )  # value in gwyfile's own test
     assert hm.heights[44, 33] == pytest.approx(0.00085301 * UM, rel=1e-4)
 
 
@@ -133,7 +150,11 @@ def test_text_grid_with_header(tmp_path):
     path = tmp_path / "grid.txt"
     np.savetxt(path, z, header="pitch_x = 0.5 um\npitch_y = 2 um\nz_unit = nm")
     hm = read_topography(path)
-    assert hm.shape == (3, 4) and hm.pitch_x == pytest.approx(0.5 * UM) and hm.pitch_y == pytest.approx(2 * UM)
+    assert (
+        hm.shape == (3, 4)
+        and hm.pitch_x == pytest.approx(0.5 * UM)
+        and hm.pitch_y == pytest.approx(2 * UM)
+    )
     np.testing.assert_allclose(hm.heights, z * 1e-6)
 
 
@@ -153,10 +174,15 @@ def test_csv_grid_with_parameters_and_nan(tmp_path):
 
 def test_gwyddion_ascii_export_header(tmp_path):
     path = tmp_path / "export.txt"
-    path.write_text("# Channel: Height\n# Width: 4.000 µm\n# Height: 2.000 µm\n# Value units: m\n"
-                    "1e-7 2e-7 3e-7 4e-7\n5e-7 6e-7 7e-7 8e-7\n", encoding="utf-8")
+    path.write_text(
+        "# Channel: Height\n# Width: 4.000 µm\n# Height: 2.000 µm\n# Value units: m\n"
+        "1e-7 2e-7 3e-7 4e-7\n5e-7 6e-7 7e-7 8e-7\n",
+        encoding="utf-8",
+    )
     hm = read_topography(path)
-    assert hm.pitch_x == pytest.approx(1 * UM) and hm.pitch_y == pytest.approx(1 * UM)  # width / columns
+    assert hm.pitch_x == pytest.approx(1 * UM) and hm.pitch_y == pytest.approx(
+        1 * UM
+    )  # width / columns
     assert hm.heights[1, 3] == pytest.approx(8e-4)
 
 
@@ -209,7 +235,9 @@ def test_xyz_rejects_non_grid_and_empty_files(tmp_path):
     with pytest.raises(ConfigError, match="duplicate|same grid node"):
         grid_from_points([0, 1, 0, 1, 1], [0, 0, 1, 1, 1], [1, 2, 3, 4, 5])
     with pytest.raises(ConfigError, match="at least 50%"):
-        grid_from_points([0, 1, 10, 0, 1, 10], [0, 0, 0, 1, 1, 1], np.zeros(6))  # 6 points on an 11 x 2 grid
+        grid_from_points(
+            [0, 1, 10, 0, 1, 10], [0, 0, 0, 1, 1, 1], np.zeros(6)
+        )  # 6 points on an 11 x 2 grid
     with pytest.raises(ConfigError, match="one x value"):
         grid_from_points([1, 1, 1], [0, 1, 2], [0, 0, 0])
     with pytest.raises(ConfigError, match="xy_unit"):

@@ -58,7 +58,10 @@ def test_plu_heights_match_surfacetopography():
 
 def test_plu_metadata():
     meta = read_topography(PLU).metadata
-    assert meta["date"] == "Fri Mar 10 16:35:59 2023" and meta["comment"] == "score4 synthetic test file"
+    assert (
+        meta["date"] == "Fri Mar 10 16:35:59 2023"
+        and meta["comment"] == "score4 synthetic test file"
+    )
     assert meta["objective"] == 14 and meta["layers"] == 1
 
 
@@ -72,8 +75,11 @@ def _damaged(tmp_path: Path, name: str, data: bytes) -> Path:
 
 def test_plu_truncated_is_refused(tmp_path):
     data = PLU.read_bytes()
-    for cut, rule in ((len(data) - 100, "exactly 8916 bytes"), (508 + 4 * 600, "exactly 8916 bytes"),
-                      (300, "at least 508 bytes")):
+    for cut, rule in (
+        (len(data) - 100, "exactly 8916 bytes"),
+        (508 + 4 * 600, "exactly 8916 bytes"),
+        (300, "at least 508 bytes"),
+    ):
         path = _damaged(tmp_path, f"cut{cut}.plu", data[:cut])
         with pytest.raises(ConfigError, match=rf"cut{cut}\.plu: .*truncated .*{rule}"):
             read_topography(path)
@@ -84,10 +90,14 @@ def test_plu_wrong_size_field_is_refused(tmp_path):
     assert struct.unpack_from("<2I", data, 500) == (30, 40)
     layer = data.copy()
     struct.pack_into("<2I", layer, 500, 30, 41)  # layer says 41 columns, calibration 40
-    with pytest.raises(ConfigError, match=r"layer\.plu: .*layer size 30 x 41 .* calibration block's 30 x 40"):
+    with pytest.raises(
+        ConfigError, match=r"layer\.plu: .*layer size 30 x 41 .* calibration block's 30 x 40"
+    ):
         read_topography(_damaged(tmp_path, "layer.plu", bytes(layer)))
     both = data.copy()
-    struct.pack_into("<2I", both, 388, 30, 39)  # calibration and layer agree on 39 columns (file has 40):
+    struct.pack_into(
+        "<2I", both, 388, 30, 39
+    )  # calibration and layer agree on 39 columns (file has 40):
     struct.pack_into("<2I", both, 500, 30, 39)  # the heights fit, only the file size gives it away
     with pytest.raises(ConfigError, match=r"both\.plu: .*too long .*exactly 8706 bytes"):
         read_topography(_damaged(tmp_path, "both.plu", bytes(both)))

@@ -16,19 +16,49 @@ from score4.sim.engine import run
 from score4.source.build import make_source
 from score4.source.vertex_file import write_vertex_file
 
-PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "20 um", "height": "10 um", "height_sigma": "2 um", "seed": 4}
-RANDOM = {"kind": "random", "nx": 40, "ny": 40, "pitch": "2.5 um", "sq": "1 um", "corr_length": "8 um", "seed": 2}
-TARGET = {"name": "crystal", "material": "G4_Si", "size": ["0.4 mm", "0.2 mm", "0.3 mm"], "position": ["0 mm", "0 mm", "-0.15 mm"]}
+PYRAMIDS = {
+    "kind": "spikes",
+    "nx": 5,
+    "ny": 5,
+    "width": "20 um",
+    "height": "10 um",
+    "height_sigma": "2 um",
+    "seed": 4,
+}
+RANDOM = {
+    "kind": "random",
+    "nx": 40,
+    "ny": 40,
+    "pitch": "2.5 um",
+    "sq": "1 um",
+    "corr_length": "8 um",
+    "seed": 2,
+}
+TARGET = {
+    "name": "crystal",
+    "material": "G4_Si",
+    "size": ["0.4 mm", "0.2 mm", "0.3 mm"],
+    "position": ["0 mm", "0 mm", "-0.15 mm"],
+}
 
 
-def geantino_vertex_run(tmp_path, face: str, surface: dict, solid: str, events: int = 300, layout: str = "placements"):
+def geantino_vertex_run(
+    tmp_path, face: str, surface: dict, solid: str, events: int = 300, layout: str = "placements"
+):
     """Vertices sampled below the rough face, then geantinos from them along the inward face normal."""
-    target = {**TARGET, "rough": [{"face": face, "surface": "s", "solid": solid, "native_layout": layout}]}
+    target = {
+        **TARGET,
+        "rough": [{"face": face, "surface": "s", "solid": solid, "native_layout": layout}],
+    }
     data = config_dict(
         surfaces={"s": surface},
         targets=[target],
-        source={"particle": "geantino", "energy": "1 MeV", "surface": {"volume": "crystal", "face": face},
-                "depth": {"profile": "exponential", "mean": "0.5 um"}},
+        source={
+            "particle": "geantino",
+            "energy": "1 MeV",
+            "surface": {"volume": "crystal", "face": face},
+            "depth": {"profile": "exponential", "mean": "0.5 um"},
+        },
         output={"track_length": True},
         run={"events": events, "seed": 5},
     )
@@ -39,16 +69,25 @@ def geantino_vertex_run(tmp_path, face: str, surface: dict, solid: str, events: 
     primaries.direction[:] = -frame.normal
     vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
     replay = parse_config({**data, "source": {"vertices": str(vfile)}})
-    return config, frame, read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
+    return (
+        config,
+        frame,
+        read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None)),
+    )
 
 
-@pytest.mark.parametrize(("face", "surface", "solid", "layout"), [
-    ("+z", PYRAMIDS, "multiunion", "placements"),
-    ("-x", RANDOM, "tessellated", "placements"),
-    ("+y", PYRAMIDS, "tessellated", "placements"),
-    ("-x", PYRAMIDS, "multiunion", "replicas"),
-])
-def test_geantino_path_through_placed_patches_matches_the_sampled_vertex(tmp_path, face, surface, solid, layout):
+@pytest.mark.parametrize(
+    ("face", "surface", "solid", "layout"),
+    [
+        ("+z", PYRAMIDS, "multiunion", "placements"),
+        ("-x", RANDOM, "tessellated", "placements"),
+        ("+y", PYRAMIDS, "tessellated", "placements"),
+        ("-x", PYRAMIDS, "multiunion", "replicas"),
+    ],
+)
+def test_geantino_path_through_placed_patches_matches_the_sampled_vertex(
+    tmp_path, face, surface, solid, layout
+):
     """A geantino started at a vertex below the rough top and sent along the inward face normal
     stays in material (the surface is a height field) down through the slab and the box: its path
     is exactly the vertex's height above the far face. A misplaced, mis-rotated or missing patch,
@@ -56,8 +95,15 @@ def test_geantino_path_through_placed_patches_matches_the_sampled_vertex(tmp_pat
     config, frame, r = geantino_vertex_run(tmp_path, face, surface, solid, layout=layout)
     height = frame.to_local(r.primaries.position)[:, 2]  # above the box face, along n
     axis = int(np.flatnonzero(frame.normal)[0])
-    assert (height > 0).mean() > 0.9  # most vertices are in the rough layer (base slab 1 um + the surface)
-    np.testing.assert_allclose(r.scores["track_length"]["crystal"], height + config.targets[0].size[axis], rtol=0, atol=1e-9)
+    assert (
+        height > 0
+    ).mean() > 0.9  # most vertices are in the rough layer (base slab 1 um + the surface)
+    np.testing.assert_allclose(
+        r.scores["track_length"]["crystal"],
+        height + config.targets[0].size[axis],
+        rtol=0,
+        atol=1e-9,
+    )
     assert build_scene(config).inside_target("crystal", r.primaries.position).all()
 
 
@@ -65,14 +111,23 @@ def alpha_config(rough: bool, events: int = 1500):
     # 2 mm x 1 mm: few alphas leave through the side walls (range 27 um)
     wide = {**TARGET, "size": ["2 mm", "1 mm", "0.3 mm"]}
     target = {**wide, "rough": [{"face": "+z", "surface": "p"}]} if rough else wide
-    return parse_config(config_dict(
-        # the paper's pyramids: 10 um wide and high, smaller than the 27 um alpha range
-        surfaces={"p": {"kind": "spikes", "nx": 20, "ny": 10, "width": "10 um", "height": "10 um"}},
-        targets=[target],
-        source={"particle": "alpha", "energy": "5.3 MeV", "direction": "isotropic", "surface": {"volume": "crystal", "face": "+z"},
-                "depth": {"profile": "exponential", "mean": "20 nm"}},
-        run={"events": events, "seed": 11},
-    ))
+    return parse_config(
+        config_dict(
+            # the paper's pyramids: 10 um wide and high, smaller than the 27 um alpha range
+            surfaces={
+                "p": {"kind": "spikes", "nx": 20, "ny": 10, "width": "10 um", "height": "10 um"}
+            },
+            targets=[target],
+            source={
+                "particle": "alpha",
+                "energy": "5.3 MeV",
+                "direction": "isotropic",
+                "surface": {"volume": "crystal", "face": "+z"},
+                "depth": {"profile": "exponential", "mean": "20 nm"},
+            },
+            run={"events": events, "seed": 11},
+        )
+    )
 
 
 def test_rough_surface_moves_alpha_counts_below_full_energy(tmp_path):
@@ -81,8 +136,12 @@ def test_rough_surface_moves_alpha_counts_below_full_energy(tmp_path):
     0.2 MeV only if cos(theta) < 0.02), the inward half deposits all (except near the side walls).
     Rough: many outward alphas deposit between 0.2 and 4 MeV. Measured with 3000 events (seed 11):
     flat 42, rough 655 events in that window."""
-    flat = read_results(run(alpha_config(False), tmp_path / "flat.h5", progress=False, echo=lambda m: None)).edep["crystal"]
-    rough = read_results(run(alpha_config(True), tmp_path / "rough.h5", progress=False, echo=lambda m: None)).edep["crystal"]
+    flat = read_results(
+        run(alpha_config(False), tmp_path / "flat.h5", progress=False, echo=lambda m: None)
+    ).edep["crystal"]
+    rough = read_results(
+        run(alpha_config(True), tmp_path / "rough.h5", progress=False, echo=lambda m: None)
+    ).edep["crystal"]
     mid = lambda e: int(((e > 0.2) & (e < 4.0)).sum())  # noqa: E731
     n = len(flat)
     # 1500 events: flat ~1.4 %, rough ~22 % (binomial sigma ~1 %)
@@ -98,13 +157,24 @@ def test_po210_source_emits_alpha_and_recoil_per_event(tmp_path):
     data = config_dict(
         surfaces={"p": {"kind": "spikes", "nx": 10, "ny": 5, "width": "40 um", "height": "40 um"}},
         targets=[{**TARGET, "rough": [{"face": "+z", "surface": "p"}]}],
-        source={"particle": None, "energy": None, "decay": "Po210", "surface": {"volume": "crystal", "face": "+z"},
-                "depth": {"profile": "uniform", "min": "10 nm", "max": "50 nm"}},
+        source={
+            "particle": None,
+            "energy": None,
+            "decay": "Po210",
+            "surface": {"volume": "crystal", "face": "+z"},
+            "depth": {"profile": "uniform", "min": "10 nm", "max": "50 nm"},
+        },
         run={"events": 100, "seed": 3},
     )
-    r = read_results(run(parse_config(data), tmp_path / "po.h5", progress=False, echo=lambda m: None))
+    r = read_results(
+        run(parse_config(data), tmp_path / "po.h5", progress=False, echo=lambda m: None)
+    )
     p = r.primaries
-    assert len(p.event) == 200 and set(p.particle[0::2]) == {"alpha"} and set(p.particle[1::2]) == {"Pb206"}
+    assert (
+        len(p.event) == 200
+        and set(p.particle[0::2]) == {"alpha"}
+        and set(p.particle[1::2]) == {"Pb206"}
+    )
     np.testing.assert_allclose(p.direction[0::2], -p.direction[1::2], atol=1e-12)
     depth = p.extra["depth"]
     assert depth.min() >= 1e-5 and depth.max() <= 5e-5
@@ -117,24 +187,41 @@ def test_vertex_file_reproduces_the_direct_run(tmp_path):
     data = config_dict(
         surfaces={"p": {"kind": "spikes", "nx": 10, "ny": 5, "width": "40 um", "height": "40 um"}},
         targets=[{**TARGET, "rough": [{"face": "+z", "surface": "p"}]}],
-        source={"surface": {"volume": "crystal", "face": "+z"}, "depth": {"profile": "exponential", "mean": "20 nm"}},
+        source={
+            "surface": {"volume": "crystal", "face": "+z"},
+            "depth": {"profile": "exponential", "mean": "20 nm"},
+        },
         run={"events": 120, "seed": 9, "chunk_events": 50},
     )
     import yaml
+
     cfg = tmp_path / "c.yaml"
     cfg.write_text(yaml.safe_dump(data))
     vfile = tmp_path / "v.h5"
     assert main(["vertices", str(cfg), "--out", str(vfile)]) == 0
     with h5py.File(vfile) as f:
-        assert f["vertices/xloc"].attrs["units"] == "mm" and f["vertices/depth"].attrs["units"] == "mm"
-        assert f["vertices"].attrs["datatype"].startswith("table{event,particle,energy,xloc,yloc,zloc")
+        assert (
+            f["vertices/xloc"].attrs["units"] == "mm" and f["vertices/depth"].attrs["units"] == "mm"
+        )
+        assert (
+            f["vertices"].attrs["datatype"].startswith("table{event,particle,energy,xloc,yloc,zloc")
+        )
         assert len(f["vertices/event"]) == 120
-        np.testing.assert_array_equal(f["vtx/pos/zloc"][()], f["vertices/zloc"][()])  # one primary per event here
-        assert f["vtx/pos"].attrs["datatype"] == "table{xloc,yloc,zloc}" and f["vtx/pos/xloc"].attrs["units"] == "mm"
+        np.testing.assert_array_equal(
+            f["vtx/pos/zloc"][()], f["vertices/zloc"][()]
+        )  # one primary per event here
+        assert (
+            f["vtx/pos"].attrs["datatype"] == "table{xloc,yloc,zloc}"
+            and f["vtx/pos/xloc"].attrs["units"] == "mm"
+        )
     assert main(["vertices", str(cfg), "--out", str(vfile)]) == 2  # exists: refused, file kept
-    direct = read_results(run(parse_config(data), tmp_path / "direct.h5", progress=False, echo=lambda m: None))
+    direct = read_results(
+        run(parse_config(data), tmp_path / "direct.h5", progress=False, echo=lambda m: None)
+    )
     from_file = {**data, "source": {"vertices": str(vfile)}}
-    replay = read_results(run(parse_config(from_file), tmp_path / "replay.h5", progress=False, echo=lambda m: None))
+    replay = read_results(
+        run(parse_config(from_file), tmp_path / "replay.h5", progress=False, echo=lambda m: None)
+    )
     np.testing.assert_array_equal(direct.primaries.position, replay.primaries.position)
     np.testing.assert_array_equal(direct.edep["crystal"], replay.edep["crystal"])
     too_many = {**from_file, "run": {**data["run"], "events": 121}}
@@ -150,13 +237,23 @@ def test_bad_rough_configs_fail_before_any_worker_starts(tmp_path):
     with pytest.raises(ConfigError, match=r"targets.0.rough.0 .*nearest valid"):
         run(parse_config(bad_size), tmp_path / "a.h5", progress=False, echo=lambda m: None)
     with pytest.raises(ConfigError, match="no target is made of 'G4_Cu'"):
-        run(parse_config(config_dict(source={"confine": "G4_Cu"})), tmp_path / "b.h5", progress=False, echo=lambda m: None)
+        run(
+            parse_config(config_dict(source={"confine": "G4_Cu"})),
+            tmp_path / "b.h5",
+            progress=False,
+            echo=lambda m: None,
+        )
     assert not list(tmp_path.iterdir())
 
 
 def test_surface_taller_than_the_gap_to_a_facing_target_is_refused():
     """A second target 8 um above the face: 10 um pyramids (plus the 1 um base) do not fit."""
-    facing = {"name": "lid", "material": "G4_Cu", "size": ["0.4 mm", "0.2 mm", "0.1 mm"], "position": ["0 mm", "0 mm", "0.058 mm"]}
+    facing = {
+        "name": "lid",
+        "material": "G4_Cu",
+        "size": ["0.4 mm", "0.2 mm", "0.1 mm"],
+        "position": ["0 mm", "0 mm", "0.058 mm"],
+    }
     data = config_dict(
         surfaces={"p": {"kind": "spikes", "nx": 20, "ny": 10, "width": "20 um", "height": "10 um"}},
         targets=[{**TARGET, "rough": [{"face": "+z", "surface": "p"}]}, facing],
@@ -170,29 +267,59 @@ def test_surface_taller_than_the_gap_to_a_facing_target_is_refused():
 def test_nuclide_sources_need_radioactive_decay_data(tmp_path):
     data = config_dict(source={"particle": None, "energy": None, "nuclide": "Pb210"})
     with pytest.raises(PhysicsUnavailableError, match="lite mode cannot do decays"):
-        run(parse_config({**data, "physics": "lite"}), tmp_path / "n.h5", progress=False, echo=lambda m: None)
+        run(
+            parse_config({**data, "physics": "lite"}),
+            tmp_path / "n.h5",
+            progress=False,
+            echo=lambda m: None,
+        )
     assert not list(tmp_path.iterdir())
 
 
 def test_confinement_to_a_material_no_target_at_the_face_has_fails_with_counts(tmp_path):
     """Vertices drawn at the face of a silicon crystal can never be in the copper block beside it."""
-    copper = {"name": "block", "material": "G4_Cu", "size": ["1 mm", "1 mm", "1 mm"], "position": ["7 mm", "0 mm", "0 mm"]}
-    data = config_dict(targets=[config_dict()["targets"][0], copper],
-                       source={"confine": "G4_Cu", "depth": {"profile": "exponential", "mean": "20 nm"}})
+    copper = {
+        "name": "block",
+        "material": "G4_Cu",
+        "size": ["1 mm", "1 mm", "1 mm"],
+        "position": ["7 mm", "0 mm", "0 mm"],
+    }
+    data = config_dict(
+        targets=[config_dict()["targets"][0], copper],
+        source={"confine": "G4_Cu", "depth": {"profile": "exponential", "mean": "20 nm"}},
+    )
     with pytest.raises(ConfigError, match="outside the confinement"):
         run(parse_config(data), tmp_path / "c.h5", progress=False, echo=lambda m: None)
 
 
 def test_overlapping_targets_are_refused():
-    second = {"name": "other", "material": "G4_Cu", "size": ["1 mm", "1 mm", "1 mm"], "position": ["0.5 mm", "0 mm", "0 mm"]}
+    second = {
+        "name": "other",
+        "material": "G4_Cu",
+        "size": ["1 mm", "1 mm", "1 mm"],
+        "position": ["0.5 mm", "0 mm", "0 mm"],
+    }
     with pytest.raises(ConfigError, match="'crystal' and 'other' overlap"):
         build_scene(parse_config(config_dict(targets=[config_dict()["targets"][0], second])))
 
 
 def test_vertex_file_sources_refuse_keys_they_would_ignore(tmp_path):
-    with pytest.raises(ConfigError, match="vertices: a vertex file already holds .*drop depth, direction"):
-        parse_config(config_dict(source={"vertices": "v.h5", "particle": None, "energy": None, "surface": None,
-                                         "direction": "inward", "depth": {"profile": "exponential", "mean": "1 nm"}}) | {})
+    with pytest.raises(
+        ConfigError, match="vertices: a vertex file already holds .*drop depth, direction"
+    ):
+        parse_config(
+            config_dict(
+                source={
+                    "vertices": "v.h5",
+                    "particle": None,
+                    "energy": None,
+                    "surface": None,
+                    "direction": "inward",
+                    "depth": {"profile": "exponential", "mean": "1 nm"},
+                }
+            )
+            | {}
+        )
 
 
 def test_replaying_a_nuclide_vertex_file_needs_decay_data(tmp_path):
@@ -210,5 +337,6 @@ def test_depth_window_errors_use_the_config_names():
     data = config_dict(source={"depth": {"profile": "zero", "min": "1 nm"}})
     with pytest.raises(ConfigError, match=r"^source.depth: min"):
         from score4.source.build import make_source as _make
+
         config = parse_config(data)
         _make(config, build_scene(config))

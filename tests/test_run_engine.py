@@ -49,18 +49,29 @@ def test_same_seed_same_output_and_jobs_do_not_matter(tmp_path: Path, make_confi
 
 
 def test_run_record_and_summary(tmp_path: Path, make_config):
-    res = read_results(run(make_config(run={"events": 50, "seed": 3}), tmp_path / "r.h5", progress=False, echo=lambda m: None))
+    res = read_results(
+        run(
+            make_config(run={"events": 50, "seed": 3}),
+            tmp_path / "r.h5",
+            progress=False,
+            echo=lambda m: None,
+        )
+    )
     rec = res.run
     assert rec["seed"] == 3 and rec["n_events"] == 50
     assert rec["physics_mode"] == "lite" and "no radioactive decay" in rec["physics_lacks"]
     assert rec["geant4_version"].startswith("11.") and rec["geant4_pybind_version"]
-    assert rec["config"]["source"]["energy"] == "5.3 MeV"  # stored with units: parse_config reads it back
+    assert (
+        rec["config"]["source"]["energy"] == "5.3 MeV"
+    )  # stored with units: parse_config reads it back
     assert parse_config(rec["config"]).source.energy == pytest.approx(5.3)
     assert rec["wall_time_s"] > 0
     s = summarize(res)
     (vol,) = s["volumes"]
     assert vol["name"] == "crystal" and len(vol["histogram"]["counts"]) == 100
-    assert sum(vol["histogram"]["counts"]) == 50  # the top edge is the largest primary energy: no overflow
+    assert (
+        sum(vol["histogram"]["counts"]) == 50
+    )  # the top edge is the largest primary energy: no overflow
     assert vol["histogram"]["edges_MeV"][-1] == pytest.approx(5.3)
     assert vol["n_nonzero"] == int(np.count_nonzero(res.edep["crystal"]))
 
@@ -79,8 +90,13 @@ def test_output_folder_must_exist(tmp_path: Path, make_config):
 
 
 def test_unknown_material_lists_close_names_and_leaves_nothing(tmp_path: Path, make_config):
-    config = make_config(targets=[{"name": "crystal", "material": "G4_Silicon", "size": ["1 cm"] * 3}])
-    with pytest.raises(ConfigError, match=r"targets.0.material: unknown material 'G4_Silicon'; closest NIST names: .*G4_Si"):
+    config = make_config(
+        targets=[{"name": "crystal", "material": "G4_Silicon", "size": ["1 cm"] * 3}]
+    )
+    with pytest.raises(
+        ConfigError,
+        match=r"targets.0.material: unknown material 'G4_Silicon'; closest NIST names: .*G4_Si",
+    ):
         run(config, tmp_path / "m.h5", progress=False, echo=lambda m: None)
     assert list(tmp_path.iterdir()) == []
 
@@ -105,8 +121,11 @@ def test_ion_primary_pb206_recoil_stops_in_silicon(tmp_path: Path, make_config):
     # energy. Known lite-mode limitation (runtime.LITE_LACKS): option0 has no nuclear stopping,
     # so the path is 283 nm, several times the few tens of nm that nuclear stopping gives
     # (SRIM: 46 nm for Pb-206 in PTFE, FIELD_SURVEY.md); full physics (option4) has it.
-    config = make_config(source={"particle": "Pb206", "energy": "103 keV", "direction": "inward"}, run={"events": 20},
-                         output={"track_length": True})
+    config = make_config(
+        source={"particle": "Pb206", "energy": "103 keV", "direction": "inward"},
+        run={"events": 20},
+        output={"track_length": True},
+    )
     res = read_results(run(config, tmp_path / "pb.h5", progress=False, echo=lambda m: None))
     assert np.allclose(res.edep["crystal"], 0.103, atol=1e-6)
     path = res.scores["track_length"]["crystal"]
@@ -137,9 +156,13 @@ def test_resume_reuses_only_chunks_of_the_same_run(tmp_path: Path, make_config):
     parts.mkdir()
 
     def planted(first_event, fingerprint, marker):
-        p = Primaries(np.arange(10), ["alpha"] * 10, [5.3] * 10, np.zeros((10, 3)), [[0, 0, -1.0]] * 10)
+        p = Primaries(
+            np.arange(10), ["alpha"] * 10, [5.3] * 10, np.zeros((10, 3)), [[0, 0, -1.0]] * 10
+        )
         edep = {"edep": np.full((10, 1), marker)}
-        write_chunk(chunk_path(parts, first_event // 10), first_event, ["crystal"], edep, p, fingerprint)
+        write_chunk(
+            chunk_path(parts, first_event // 10), first_event, ["crystal"], edep, p, fingerprint
+        )
 
     planted(0, config_fingerprint(config, 9), 123.0)  # a finished chunk of this very run: kept
     planted(10, "another-run", 456.0)  # left over from a different configuration: redone

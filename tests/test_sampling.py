@@ -33,7 +33,9 @@ def pyramid_patch(nx: int, ny: int, pitch: float = 1.0, heights=None) -> np.ndar
 
 
 def flat_patch(px: float, py: float) -> np.ndarray:
-    return np.array([[[0, 0, 0], [px, 0, 0], [px, py, 0]], [[0, 0, 0], [px, py, 0], [0, py, 0]]], float)
+    return np.array(
+        [[[0, 0, 0], [px, 0, 0], [px, py, 0]], [[0, 0, 0], [px, py, 0], [0, py, 0]]], float
+    )
 
 
 def in_plane_and_inside(p: np.ndarray, tri: np.ndarray, tol: float = 1e-9) -> bool:
@@ -47,7 +49,12 @@ def in_plane_and_inside(p: np.ndarray, tri: np.ndarray, tol: float = 1e-9) -> bo
     r1, r2 = (d * e1).sum(1), (d * e2).sum(1)
     det = g11 * g22 - g12 * g12
     s, t = (g22 * r1 - g12 * r2) / det, (g11 * r2 - g12 * r1) / det
-    return bool((np.abs(off) < tol).all() and (s > -tol).all() and (t > -tol).all() and (s + t < 1 + tol).all())
+    return bool(
+        (np.abs(off) < tol).all()
+        and (s > -tol).all()
+        and (t > -tol).all()
+        and (s + t < 1 + tol).all()
+    )
 
 
 # ---------------------------------------------------------------- discrete choice
@@ -98,7 +105,9 @@ def test_vertices_plus_faces_equals_triangle_array():
     tri = pyramid_patch(2, 2)
     vertices, faces = np.unique(tri.reshape(-1, 3), axis=0, return_inverse=True)
     a = SurfaceSampler(tri).sample(np.random.default_rng(3), 1000)
-    b = SurfaceSampler(vertices=vertices, faces=faces.reshape(-1, 3)).sample(np.random.default_rng(3), 1000)
+    b = SurfaceSampler(vertices=vertices, faces=faces.reshape(-1, 3)).sample(
+        np.random.default_rng(3), 1000
+    )
     np.testing.assert_allclose(a.position, b.position)
     np.testing.assert_array_equal(a.facet, b.facet)
 
@@ -116,7 +125,9 @@ def test_counts_per_facet_follow_true_area():
         [[[10, 0, 0], [10 + s, 0, 0], [10, s, s]] for s in (0.01, 0.1, 1.0, 3.0)], dtype=float
     )
     tri = np.concatenate([tri, extra])
-    counts = np.bincount(SurfaceSampler(tri).sample(np.random.default_rng(11), N).facet, minlength=len(tri))
+    counts = np.bincount(
+        SurfaceSampler(tri).sample(np.random.default_rng(11), N).facet, minlength=len(tri)
+    )
     areas = triangle_areas(tri)
     expected = N * areas / areas.sum()
     big = expected >= 5  # chi-square needs >= 5 expected counts per cell; merge the rest
@@ -152,9 +163,15 @@ def test_all_degenerate_surface_is_an_error():
 
 
 def tiled_face(rotation=None):
-    variants = [flat_patch(2.0, 1.0), pyramid_patch(2, 1, heights=[[1.0], [3.0]]), pyramid_patch(2, 1, heights=[[0.2], [0.2]])]
+    variants = [
+        flat_patch(2.0, 1.0),
+        pyramid_patch(2, 1, heights=[[1.0], [3.0]]),
+        pyramid_patch(2, 1, heights=[[0.2], [0.2]]),
+    ]
     layout = np.random.default_rng(4).integers(0, 3, size=(5, 4))
-    return TiledSurfaceSampler(variants, layout, pitch=(2.0, 1.0), origin=(10.0, -3.0, 7.0), rotation=rotation)
+    return TiledSurfaceSampler(
+        variants, layout, pitch=(2.0, 1.0), origin=(10.0, -3.0, 7.0), rotation=rotation
+    )
 
 
 def test_tiled_cells_are_chosen_by_the_true_area_of_their_variant():
@@ -180,7 +197,9 @@ def test_tiled_points_are_translated_into_their_cell():
 
 def test_tiled_face_rotation_moves_points_and_normals():
     angle = 0.7
-    rot = np.array([[1, 0, 0], [0, np.cos(angle), -np.sin(angle)], [0, np.sin(angle), np.cos(angle)]])
+    rot = np.array(
+        [[1, 0, 0], [0, np.cos(angle), -np.sin(angle)], [0, np.sin(angle), np.cos(angle)]]
+    )
     a = tiled_face().sample(np.random.default_rng(8), 1000)
     b = tiled_face(rot).sample(np.random.default_rng(8), 1000)
     origin = np.array([10.0, -3.0, 7.0])

@@ -12,8 +12,12 @@ from score4.surface.spikes import SpikeGrid
 
 GRIDS = [
     dict(nx=4, ny=3, width_x=0.01, width_y=0.015, mean_height=0.008, height_sigma=0.002, seed=2),
-    dict(nx=3, ny=3, width_x=0.01, width_y=0.01, mean_height=0.01, shape="bump", n_layers=5, seed=1),
-    dict(nx=2, ny=3, width_x=0.012, width_y=0.01, mean_height=0.01, shape="peak", n_layers=4, seed=3),
+    dict(
+        nx=3, ny=3, width_x=0.01, width_y=0.01, mean_height=0.01, shape="bump", n_layers=5, seed=1
+    ),
+    dict(
+        nx=2, ny=3, width_x=0.012, width_y=0.01, mean_height=0.01, shape="peak", n_layers=4, seed=3
+    ),
 ]
 THICKNESS = 0.005
 
@@ -35,15 +39,25 @@ def test_tessellated_multiunion_and_mesh_agree(grid_kwargs):
     points = lo + rng.uniform(size=(n, 3)) * (hi - lo)
     # Reference from the numpy surface: inside the footprint, above the bottom, below z(x, y).
     in_xy = (np.abs(points[:, 0]) < grid.size_x / 2) & (np.abs(points[:, 1]) < grid.size_y / 2)
-    z_top = np.where(in_xy, grid.height_at(np.clip(points[:, 0], -grid.size_x / 2, grid.size_x / 2),
-                                           np.clip(points[:, 1], -grid.size_y / 2, grid.size_y / 2)), -np.inf)
+    z_top = np.where(
+        in_xy,
+        grid.height_at(
+            np.clip(points[:, 0], -grid.size_x / 2, grid.size_x / 2),
+            np.clip(points[:, 1], -grid.size_y / 2, grid.size_y / 2),
+        ),
+        -np.inf,
+    )
     expected = in_xy & (points[:, 2] > -THICKNESS) & (points[:, 2] < z_top)
     with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
         tess, union = pool.submit(_classify, points.tolist(), grid_kwargs).result()
     tess, union = np.array(tess), np.array(union)
     # Random points land on a surface (within 1e-9 mm) with probability ~0: require exact agreement.
-    assert np.array_equal(tess == 2, expected), f"tessellated disagrees on {np.count_nonzero((tess == 2) != expected)} points"
-    assert np.array_equal(union == 2, expected), f"multi-union disagrees on {np.count_nonzero((union == 2) != expected)} points"
+    assert np.array_equal(tess == 2, expected), (
+        f"tessellated disagrees on {np.count_nonzero((tess == 2) != expected)} points"
+    )
+    assert np.array_equal(union == 2, expected), (
+        f"multi-union disagrees on {np.count_nonzero((union == 2) != expected)} points"
+    )
     assert 0.1 < expected.mean() < 0.9  # the test samples both sides
 
 
@@ -58,10 +72,16 @@ def test_gdml_round_trip_keeps_the_solid(tmp_path):
     grid_kwargs = GRIDS[0]
     grid = SpikeGrid(**grid_kwargs)
     rng = np.random.default_rng(1)
-    points = rng.uniform([-grid.size_x / 2, -grid.size_y / 2, -THICKNESS], [grid.size_x / 2, grid.size_y / 2, grid.heights.max()], (2000, 3))
+    points = rng.uniform(
+        [-grid.size_x / 2, -grid.size_y / 2, -THICKNESS],
+        [grid.size_x / 2, grid.size_y / 2, grid.heights.max()],
+        (2000, 3),
+    )
     path = tmp_path / "rough.gdml"
     with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-        before, after, kind, material = pool.submit(_roundtrip, points.tolist(), grid_kwargs, str(path)).result()
+        before, after, kind, material = pool.submit(
+            _roundtrip, points.tolist(), grid_kwargs, str(path)
+        ).result()
     assert kind == "G4TessellatedSolid" and material == "G4_Si"
     assert before == after
     from score4.surface.mesh import closed_body

@@ -9,13 +9,20 @@ import pytest
 
 from score4.errors import ConfigError
 from score4.surface.mesh import closed_body, degenerate_faces, is_watertight, signed_volume
-from score4.surface.spikes import MAX_TRUNCATED_FRACTION, MIN_LAYER_HEIGHT, PEAK_STEEPNESS, SpikeGrid
+from score4.surface.spikes import (
+    MAX_TRUNCATED_FRACTION,
+    MIN_LAYER_HEIGHT,
+    PEAK_STEEPNESS,
+    SpikeGrid,
+)
 
 SHAPES = [("pyramid", 1), ("bump", 1), ("bump", 5), ("peak", 4)]
 
 
 def _grid(**kw) -> SpikeGrid:
-    base = dict(nx=5, ny=3, width_x=0.004, width_y=0.0025, mean_height=0.003, height_sigma=0.0008, seed=7)
+    base = dict(
+        nx=5, ny=3, width_x=0.004, width_y=0.0025, mean_height=0.003, height_sigma=0.0008, seed=7
+    )
     return SpikeGrid(**{**base, **kw})
 
 
@@ -55,8 +62,12 @@ def test_spread_that_truncates_too_much_is_refused():
 
 
 def test_lengths_accept_unit_strings():
-    g = SpikeGrid(nx=2, ny=2, width_x="5 um", width_y="4 um", mean_height="3 um", height_sigma="0.5 um")
-    assert (g.width_x, g.width_y, g.mean_height, g.height_sigma) == pytest.approx((5e-3, 4e-3, 3e-3, 5e-4))
+    g = SpikeGrid(
+        nx=2, ny=2, width_x="5 um", width_y="4 um", mean_height="3 um", height_sigma="0.5 um"
+    )
+    assert (g.width_x, g.width_y, g.mean_height, g.height_sigma) == pytest.approx(
+        (5e-3, 4e-3, 3e-3, 5e-4)
+    )
 
 
 # --- heights ------------------------------------------------------------------------------
@@ -79,7 +90,9 @@ def test_heights_are_seeded_and_shaped_ny_nx():
 
 def test_truncated_gaussian_statistics():
     # 200 x 200 spikes, mean 1, sigma 1, truncated at 0.01: expected fraction Phi(-0.99) = 0.161.
-    g = SpikeGrid(nx=200, ny=200, width_x=1.0, width_y=1.0, mean_height=1.0, height_sigma=1.0, seed=3)
+    g = SpikeGrid(
+        nx=200, ny=200, width_x=1.0, width_y=1.0, mean_height=1.0, height_sigma=1.0, seed=3
+    )
     alpha = (g.height_floor - 1.0) / 1.0
     p_low = 0.5 * math.erfc(-alpha / math.sqrt(2))
     assert g.heights.min() >= g.height_floor
@@ -132,7 +145,9 @@ def test_closed_body_of_spikes(shape, n_layers):
     # The body volume is the slab under the base plus the spikes' frustums (the Geant4 solids).
     f = g.frustums()
     x1, x2, y1, y2 = f["width_x_bottom"], f["width_x_top"], f["width_y_bottom"], f["width_y_top"]
-    frustum_volume = f["height"] * (x1 * y1 + (x1 * (y2 - y1) + y1 * (x2 - x1)) / 2 + (x2 - x1) * (y2 - y1) / 3)
+    frustum_volume = f["height"] * (
+        x1 * y1 + (x1 * (y2 - y1) + y1 * (x2 - x1)) / 2 + (x2 - x1) * (y2 - y1) / 3
+    )
     expected = g.size_x * g.size_y * 0.01 + frustum_volume.sum()
     assert signed_volume(body) == pytest.approx(expected, rel=1e-12)
 
@@ -140,7 +155,10 @@ def test_closed_body_of_spikes(shape, n_layers):
 # --- frustums -----------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("shape, profile", [("bump", lambda u: 1 - u**2), ("peak", lambda u: 1 / (1 + PEAK_STEEPNESS * u))])
+@pytest.mark.parametrize(
+    "shape, profile",
+    [("bump", lambda u: 1 - u**2), ("peak", lambda u: 1 / (1 + PEAK_STEEPNESS * u))],
+)
 def test_frustum_layers_follow_the_profile(shape, profile):
     n = 6
     g = _grid(shape=shape, n_layers=n)
@@ -203,7 +221,9 @@ def test_to_heightmap_grid_and_values():
     assert (hm.pitch_x, hm.pitch_y) == (0.0005, 0.00025)
     # A cell spans 8 samples each way: samples 4, 12, ... hit the apexes, 0, 8, 16 the borders.
     np.testing.assert_allclose(hm.heights[4::8, 4::8], g.heights, rtol=1e-12)
-    np.testing.assert_allclose(hm.heights[::8, :], 0.0, atol=1e-15)  # cell borders y = -0.002, 0, 0.002
+    np.testing.assert_allclose(
+        hm.heights[::8, :], 0.0, atol=1e-15
+    )  # cell borders y = -0.002, 0, 0.002
     with pytest.raises(ConfigError, match="pitch: .* fewer than 2 samples"):
         g.to_heightmap(0.1)
     with pytest.raises(ConfigError, match="pitch: must be a positive length"):

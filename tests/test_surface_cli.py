@@ -24,13 +24,37 @@ UM = 1e-3  # mm
 SYMBOLS = [symbol for symbol, _, _ in PARAMETERS]
 
 # 25.6 correlation lengths per side at 10 samples per correlation length: a fair grid for Sq.
-RANDOM = {"kind": "random", "nx": 256, "ny": 256, "pitch": "1 um", "sq": "1 um", "corr_length": "10 um", "seed": 7}
+RANDOM = {
+    "kind": "random",
+    "nx": 256,
+    "ny": 256,
+    "pitch": "1 um",
+    "sq": "1 um",
+    "corr_length": "10 um",
+    "seed": 7,
+}
 # Equal pyramids 10 um wide and 4 um high: slope 0.8 on every facet.
 PYRAMIDS = {"kind": "spikes", "nx": 6, "ny": 5, "width": "10 um", "height": "4 um"}
 # Unequal pyramids of unequal cell sides for geometry checks.
-SPIKES = {"kind": "spikes", "nx": 4, "ny": 3, "width_x": "10 um", "width_y": "15 um", "height": "8 um",
-          "height_sigma": "2 um", "seed": 2}
-SMALL_RANDOM = {"kind": "random", "nx": 16, "ny": 12, "pitch": "1 um", "sq": "0.5 um", "corr_length": "2 um", "seed": 1}
+SPIKES = {
+    "kind": "spikes",
+    "nx": 4,
+    "ny": 3,
+    "width_x": "10 um",
+    "width_y": "15 um",
+    "height": "8 um",
+    "height_sigma": "2 um",
+    "seed": 2,
+}
+SMALL_RANDOM = {
+    "kind": "random",
+    "nx": 16,
+    "ny": 12,
+    "pitch": "1 um",
+    "sq": "0.5 um",
+    "corr_length": "2 um",
+    "seed": 1,
+}
 
 
 def write_yaml(folder: Path, name: str, data: dict) -> Path:
@@ -47,7 +71,9 @@ def run(capsys, *args) -> tuple[int, str, str]:
 
 def generate(tmp_path: Path, capsys, name: str, data: dict) -> Path:
     out = tmp_path / f"{name}.s4s.h5"
-    code, stdout, err = run(capsys, "surface", "generate", write_yaml(tmp_path, name, data), "--out", out)
+    code, stdout, err = run(
+        capsys, "surface", "generate", write_yaml(tmp_path, name, data), "--out", out
+    )
     assert code == 0, err
     assert stdout.startswith(f"wrote {out}: {data['kind']}, ")
     return out
@@ -58,15 +84,21 @@ def generate(tmp_path: Path, capsys, name: str, data: dict) -> Path:
 
 def test_generate_then_stats_json_random(tmp_path, capsys):
     out = tmp_path / "rough.s4s.h5"
-    code, stdout, err = run(capsys, "surface", "generate", write_yaml(tmp_path, "rough", RANDOM), "--out", out)
+    code, stdout, err = run(
+        capsys, "surface", "generate", write_yaml(tmp_path, "rough", RANDOM), "--out", out
+    )
     assert code == 0, err
-    assert stdout.startswith(f"wrote {out}: random, 256 x 256 um, {2 * 256 * 256} top mesh facets, Sq ")
+    assert stdout.startswith(
+        f"wrote {out}: random, 256 x 256 um, {2 * 256 * 256} top mesh facets, Sq "
+    )
     code, stdout, err = run(capsys, "surface", "stats", out, "--json")
     assert code == 0, err
     doc = json.loads(stdout)
     assert set(SYMBOLS) <= set(doc) and "mesh" not in doc
-    assert doc["units"] == {s: ("um" if kind == "length" else "%" if kind == "percent" else "dimensionless")
-                            for s, kind, _ in PARAMETERS}
+    assert doc["units"] == {
+        s: ("um" if kind == "length" else "%" if kind == "percent" else "dimensionless")
+        for s, kind, _ in PARAMETERS
+    }
     assert doc["surface"]["kind"] == "random" and doc["surface"]["map_points"] == [257, 257]
     assert doc["surface"]["size_x_um"] == pytest.approx(256.0)
     # Fixed seed 7; the generator makes Sq exact on the periodic map, levelling and the closing
@@ -143,7 +175,9 @@ def test_generate_refuses_to_overwrite(tmp_path, capsys):
 
 
 def test_nice_length():
-    assert [nice_length(v) for v in (0.73, 1.0, 3.0, 9.99, 125.0, 2e-4)] == pytest.approx([0.5, 1, 2, 5, 100, 2e-4])
+    assert [nice_length(v) for v in (0.73, 1.0, 3.0, 9.99, 125.0, 2e-4)] == pytest.approx(
+        [0.5, 1, 2, 5, 100, 2e-4]
+    )
 
 
 @pytest.mark.parametrize("data", [PYRAMIDS, SMALL_RANDOM], ids=["spikes", "random"])
@@ -161,7 +195,9 @@ def test_show_writes_a_png(tmp_path, capsys, data):
     pixels = matplotlib.image.imread(png)
     assert pixels.shape[:2] == (230, 550)
     assert pixels[..., :3].std() > 0.1  # a picture, not a blank canvas
-    assert sorted(p.name for p in tmp_path.iterdir() if p.suffix == ".png" or "partial" in p.name) == ["pic.png"]
+    assert sorted(
+        p.name for p in tmp_path.iterdir() if p.suffix == ".png" or "partial" in p.name
+    ) == ["pic.png"]
 
 
 # --- export ---------------------------------------------------------------------------------
@@ -170,10 +206,14 @@ def test_show_writes_a_png(tmp_path, capsys, data):
 def read_binary_stl(path: Path) -> TriangleMesh:
     raw = path.read_bytes()
     n = int(np.frombuffer(raw, "<u4", 1, 80)[0])
-    rec = np.frombuffer(raw, np.dtype([("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")]), n, 84)
+    rec = np.frombuffer(
+        raw, np.dtype([("normal", "<f4", (3,)), ("v", "<f4", (3, 3)), ("attr", "<u2")]), n, 84
+    )
     assert len(raw) == 84 + 50 * n
     corners = rec["v"].reshape(-1, 3).astype(float)
-    vertices, index = np.unique(corners, axis=0, return_inverse=True)  # shared corners are bit-identical
+    vertices, index = np.unique(
+        corners, axis=0, return_inverse=True
+    )  # shared corners are bit-identical
     return TriangleMesh(vertices, index.reshape(-1, 3))
 
 
@@ -184,7 +224,9 @@ def read_binary_ply(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     nv = int(next(line for line in header if line.startswith("element vertex")).split()[-1])
     nf = int(next(line for line in header if line.startswith("element face")).split()[-1])
     vertices = np.frombuffer(raw, "<f8", nv * 3, end).reshape(nv, 3)
-    faces = np.frombuffer(raw, np.dtype([("n", "u1"), ("v", "<i4", (3,)), ("top", "u1")]), nf, end + nv * 24)
+    faces = np.frombuffer(
+        raw, np.dtype([("n", "u1"), ("v", "<i4", (3,)), ("top", "u1")]), nf, end + nv * 24
+    )
     assert len(raw) == end + nv * 24 + nf * 14
     assert (faces["n"] == 3).all()
     return vertices, faces["v"], faces["top"].astype(bool)
@@ -198,7 +240,9 @@ def spike_volume(surface) -> float:
 def test_export_stl_is_a_watertight_body(tmp_path, capsys):
     out = generate(tmp_path, capsys, "spikes", SPIKES)
     stl = tmp_path / "body.stl"
-    code, _stdout, err = run(capsys, "surface", "export", out, "--stl", stl, "--base-thickness", "3 um")
+    code, _stdout, err = run(
+        capsys, "surface", "export", out, "--stl", stl, "--base-thickness", "3 um"
+    )
     assert code == 0, err
     mesh = read_binary_stl(stl)
     surface = load_surface(out)
@@ -212,7 +256,9 @@ def test_export_stl_is_a_watertight_body(tmp_path, capsys):
 def test_export_ply_keeps_the_exact_body(tmp_path, capsys):
     out = generate(tmp_path, capsys, "rough", SMALL_RANDOM)
     ply = tmp_path / "body.ply"
-    code, _, err = run(capsys, "surface", "export", out, "--ply", ply)  # default base thickness 1 um
+    code, _, err = run(
+        capsys, "surface", "export", out, "--ply", ply
+    )  # default base thickness 1 um
     assert code == 0, err
     vertices, faces, top = read_binary_ply(ply)
     body = load_surface(out).body(1 * UM)
@@ -241,27 +287,44 @@ def test_export_gdml_tessellated_and_multiunion(tmp_path, capsys):
     points = lo + rng.uniform(size=(1500, 3)) * (hi - lo)
     # Reference from numpy: inside the footprint, above the slab bottom, below the exact top.
     in_xy = (np.abs(points[:, 0]) < grid.size_x / 2) & (np.abs(points[:, 1]) < grid.size_y / 2)
-    top = grid.height_at(np.clip(points[:, 0], -grid.size_x / 2, grid.size_x / 2),
-                         np.clip(points[:, 1], -grid.size_y / 2, grid.size_y / 2))
+    top = grid.height_at(
+        np.clip(points[:, 0], -grid.size_x / 2, grid.size_x / 2),
+        np.clip(points[:, 1], -grid.size_y / 2, grid.size_y / 2),
+    )
     expected = in_xy & (points[:, 2] > -t) & (points[:, 2] < top)
     assert 0.1 < expected.mean() < 0.9  # both sides are sampled
     jobs = {
-        "tess": (spikes_file, tmp_path / "tess.gdml", ["--base-thickness", "2 um"], points.tolist()),
-        "union": (spikes_file, tmp_path / "union.gdml", ["--base-thickness", "2 um", "--solid", "multiunion",
-                                                         "--material", "G4_Cu"], points.tolist()),
+        "tess": (
+            spikes_file,
+            tmp_path / "tess.gdml",
+            ["--base-thickness", "2 um"],
+            points.tolist(),
+        ),
+        "union": (
+            spikes_file,
+            tmp_path / "union.gdml",
+            ["--base-thickness", "2 um", "--solid", "multiunion", "--material", "G4_Cu"],
+            points.tolist(),
+        ),
         "random": (random_file, tmp_path / "random.gdml", [], [[0.0, 0.0, -0.5 * UM]]),
     }
     # One fresh process per file: Geant4 keeps volumes in global stores, and reading a second
     # GDML file with the same volume names in one process returned the first file's world.
     with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn"), max_tasks_per_child=1) as pool:
-        results = {k: pool.submit(_export_gdml, *(str(a) if isinstance(a, Path) else a for a in job)).result()
-                   for k, job in jobs.items()}
+        results = {
+            k: pool.submit(
+                _export_gdml, *(str(a) if isinstance(a, Path) else a for a in job)
+            ).result()
+            for k, job in jobs.items()
+        }
     for name in ("tess", "union"):
         status, kind, _material, blo, bhi, codes = results[name]
         assert status == 0
         inside = np.array(codes) == 2
         # Random points lie on a facet (within 1e-9 mm) with probability ~0: exact agreement.
-        assert np.array_equal(inside, expected), f"{name}: {np.count_nonzero(inside != expected)} points disagree"
+        assert np.array_equal(inside, expected), (
+            f"{name}: {np.count_nonzero(inside != expected)} points disagree"
+        )
     assert results["tess"][1:3] == ("G4TessellatedSolid", "G4_Si")
     assert results["union"][1:3] == ("G4MultiUnion", "G4_Cu")
     assert (tmp_path / "tess.gdml").read_text().count("<triangular ") == surface.body(t).n_faces
@@ -289,13 +352,31 @@ def test_export_gdml_tessellated_and_multiunion(tmp_path, capsys):
         (["generate", "{tmp}/none.yaml", "--out", "{tmp}/x.s4s.h5"], "does not exist"),
         (["generate", "{tmp}/typo.yaml", "--out", "{tmp}/x.s4s.h5"], "heigth: unknown key"),
         (["generate", "{tmp}/good.yaml", "--out", "{tmp}/x.stl"], "--out: "),
-        (["export", "{tmp}/good.yaml", "--stl", "{tmp}/a.stl", "--ply", "{tmp}/b.ply"], "exactly one of --stl, --ply and --gdml"),
+        (
+            ["export", "{tmp}/good.yaml", "--stl", "{tmp}/a.stl", "--ply", "{tmp}/b.ply"],
+            "exactly one of --stl, --ply and --gdml",
+        ),
         (["export", "{tmp}/good.yaml"], "exactly one of --stl, --ply and --gdml (got none)"),
-        (["export", "{tmp}/good.yaml", "--stl", "{tmp}/a.stl", "--base-thickness", "5"], "--base-thickness: '5' has no unit"),
-        (["export", "{tmp}/good.yaml", "--stl", "{tmp}/a.stl", "--base-thickness", "0 um"], "--base-thickness: must be positive"),
-        (["export", "{tmp}/good.yaml", "--stl", "{tmp}/a.stl", "--solid", "multiunion"], "applies to --gdml only"),
-        (["export", "{tmp}/rough.yaml", "--gdml", "{tmp}/a.gdml", "--solid", "multiunion"], "needs a spike grid"),
-        (["export", "{tmp}/good.yaml", "--stl", "{tmp}/exists.stl"], "already exists; pass --overwrite"),
+        (
+            ["export", "{tmp}/good.yaml", "--stl", "{tmp}/a.stl", "--base-thickness", "5"],
+            "--base-thickness: '5' has no unit",
+        ),
+        (
+            ["export", "{tmp}/good.yaml", "--stl", "{tmp}/a.stl", "--base-thickness", "0 um"],
+            "--base-thickness: must be positive",
+        ),
+        (
+            ["export", "{tmp}/good.yaml", "--stl", "{tmp}/a.stl", "--solid", "multiunion"],
+            "applies to --gdml only",
+        ),
+        (
+            ["export", "{tmp}/rough.yaml", "--gdml", "{tmp}/a.gdml", "--solid", "multiunion"],
+            "needs a spike grid",
+        ),
+        (
+            ["export", "{tmp}/good.yaml", "--stl", "{tmp}/exists.stl"],
+            "already exists; pass --overwrite",
+        ),
         (["show", "{tmp}/gap.txt", "--png", "{tmp}/x.png"], "missing (NaN) points"),
     ],
 )

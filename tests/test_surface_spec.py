@@ -23,10 +23,36 @@ from score4.surface.store import load_surface, save_surface
 
 UM = 1e-3  # mm
 
-SPIKES = {"kind": "spikes", "nx": 4, "ny": 3, "width_x": "10 um", "width_y": "15 um", "height": "8 um", "height_sigma": "2 um", "seed": 5}
-RANDOM = {"kind": "random", "nx": 64, "ny": 48, "pitch": "1 um", "sq": "1 um", "corr_length": "5 um", "seed": 3}
-SELF_AFFINE = {"kind": "random", "model": "self_affine", "nx": 64, "ny": 64, "pitch": "0.5 um", "sq": "0.3 um", "hurst": 0.7,
-                   "long_cutoff": "10 um", "seed": 4}
+SPIKES = {
+    "kind": "spikes",
+    "nx": 4,
+    "ny": 3,
+    "width_x": "10 um",
+    "width_y": "15 um",
+    "height": "8 um",
+    "height_sigma": "2 um",
+    "seed": 5,
+}
+RANDOM = {
+    "kind": "random",
+    "nx": 64,
+    "ny": 48,
+    "pitch": "1 um",
+    "sq": "1 um",
+    "corr_length": "5 um",
+    "seed": 3,
+}
+SELF_AFFINE = {
+    "kind": "random",
+    "model": "self_affine",
+    "nx": 64,
+    "ny": 64,
+    "pitch": "0.5 um",
+    "sq": "0.3 um",
+    "hurst": 0.7,
+    "long_cutoff": "10 um",
+    "seed": 4,
+}
 
 # A small text grid whose heights are known: z = 10 nm * (i + 2 j) + a bump, pitch 0.5 um.
 GRID_NX, GRID_NY = 12, 9
@@ -53,32 +79,163 @@ def measured_dict(path: Path, **extra) -> dict:
 @pytest.mark.parametrize(
     "data, message",
     [
-        ({"kind": "spikes", "nx": 2, "ny": 2, "height": "1 um"}, "give the spike cell size as width"),
-        ({"kind": "spikes", "nx": 2, "ny": 2, "width_x": "1 um", "height": "1 um"}, "give the spike cell size as width"),
-        ({"kind": "spikes", "nx": 0, "ny": 2, "width": "1 um", "height": "1 um"}, "nx: Input should be greater than 0"),
-        ({"kind": "spikes", "nx": 2, "ny": 2, "width": "1 um", "height": "-1 um"}, "height: Input should be greater than 0"),
-        ({"kind": "spikes", "nx": 2, "ny": 2, "width": "1 um", "height": "1 um", "shape": "cone"}, "shape: Input should be"),
-        ({"kind": "spikes", "nx": 2, "ny": 2, "width": "1 um", "height": "1 um", "heigth": "2 um"}, "heigth: unknown key"),
-        ({"kind": "spikes", "nx": 2, "ny": 2, "width": "1 um", "height": 1}, "height: 1 has no unit"),
-        ({"kind": "spikes", "nx": 2, "ny": 2, "width": "1 um", "height": "1 parsec"}, "unknown length unit 'parsec'"),
+        (
+            {"kind": "spikes", "nx": 2, "ny": 2, "height": "1 um"},
+            "give the spike cell size as width",
+        ),
+        (
+            {"kind": "spikes", "nx": 2, "ny": 2, "width_x": "1 um", "height": "1 um"},
+            "give the spike cell size as width",
+        ),
+        (
+            {"kind": "spikes", "nx": 0, "ny": 2, "width": "1 um", "height": "1 um"},
+            "nx: Input should be greater than 0",
+        ),
+        (
+            {"kind": "spikes", "nx": 2, "ny": 2, "width": "1 um", "height": "-1 um"},
+            "height: Input should be greater than 0",
+        ),
+        (
+            {
+                "kind": "spikes",
+                "nx": 2,
+                "ny": 2,
+                "width": "1 um",
+                "height": "1 um",
+                "shape": "cone",
+            },
+            "shape: Input should be",
+        ),
+        (
+            {
+                "kind": "spikes",
+                "nx": 2,
+                "ny": 2,
+                "width": "1 um",
+                "height": "1 um",
+                "heigth": "2 um",
+            },
+            "heigth: unknown key",
+        ),
+        (
+            {"kind": "spikes", "nx": 2, "ny": 2, "width": "1 um", "height": 1},
+            "height: 1 has no unit",
+        ),
+        (
+            {"kind": "spikes", "nx": 2, "ny": 2, "width": "1 um", "height": "1 parsec"},
+            "unknown length unit 'parsec'",
+        ),
         ({"kind": "blobs", "nx": 2}, "kind: must be one of spikes, random, measured (got 'blobs')"),
         ({"nx": 2}, "kind: must be one of spikes, random, measured (got None)"),
-        ({"kind": "random", "nx": 64, "ny": 64, "pitch": "1 um", "sq": "1 um"}, "model gaussian needs sq and corr_length"),
-        ({"kind": "random", "model": "exponential", "nx": 64, "ny": 64, "pitch": "1 um", "corr_length": "5 um"},
-         "model exponential needs sq and corr_length"),
-        ({"kind": "random", "nx": 64, "ny": 64, "pitch": "1 um", "sq": "1 um", "corr_length": "5 um", "hurst": 0.5},
-         "hurst belong(s) to model self_affine, not gaussian"),
-        ({"kind": "random", "model": "self_affine", "nx": 64, "ny": 64, "pitch": "1 um", "sq": "1 um"}, "model self_affine needs hurst"),
-        ({"kind": "random", "model": "self_affine", "nx": 64, "ny": 64, "pitch": "1 um", "hurst": 0.7},
-         "needs exactly one of sq and rms_slope"),
-        ({"kind": "random", "model": "self_affine", "nx": 64, "ny": 64, "pitch": "1 um", "sq": "1 um", "hurst": 0.7, "rms_slope": 0.1},
-         "needs exactly one of sq and rms_slope"),
-        ({"kind": "random", "model": "self_affine", "nx": 64, "ny": 64, "pitch": "1 um", "sq": "1 um", "hurst": 0.7, "corr_length": "3 um"},
-         "corr_length belongs to the gaussian/exponential models"),
-        ({"kind": "random", "model": "self_affine", "nx": 64, "ny": 64, "pitch": "1 um", "sq": "1 um", "hurst": 1.5},
-         "hurst: Input should be less than 1"),
-        ({"kind": "random", "model": "fractal", "nx": 64, "ny": 64, "pitch": "1 um", "sq": "1 um"}, "model: Input should be"),
-        ({"kind": "random", "nx": 64, "ny": 64, "pitch": "1 um", "sq": "1 um", "corr_length": "5"}, "corr_length: '5' has no unit"),
+        (
+            {"kind": "random", "nx": 64, "ny": 64, "pitch": "1 um", "sq": "1 um"},
+            "model gaussian needs sq and corr_length",
+        ),
+        (
+            {
+                "kind": "random",
+                "model": "exponential",
+                "nx": 64,
+                "ny": 64,
+                "pitch": "1 um",
+                "corr_length": "5 um",
+            },
+            "model exponential needs sq and corr_length",
+        ),
+        (
+            {
+                "kind": "random",
+                "nx": 64,
+                "ny": 64,
+                "pitch": "1 um",
+                "sq": "1 um",
+                "corr_length": "5 um",
+                "hurst": 0.5,
+            },
+            "hurst belong(s) to model self_affine, not gaussian",
+        ),
+        (
+            {
+                "kind": "random",
+                "model": "self_affine",
+                "nx": 64,
+                "ny": 64,
+                "pitch": "1 um",
+                "sq": "1 um",
+            },
+            "model self_affine needs hurst",
+        ),
+        (
+            {
+                "kind": "random",
+                "model": "self_affine",
+                "nx": 64,
+                "ny": 64,
+                "pitch": "1 um",
+                "hurst": 0.7,
+            },
+            "needs exactly one of sq and rms_slope",
+        ),
+        (
+            {
+                "kind": "random",
+                "model": "self_affine",
+                "nx": 64,
+                "ny": 64,
+                "pitch": "1 um",
+                "sq": "1 um",
+                "hurst": 0.7,
+                "rms_slope": 0.1,
+            },
+            "needs exactly one of sq and rms_slope",
+        ),
+        (
+            {
+                "kind": "random",
+                "model": "self_affine",
+                "nx": 64,
+                "ny": 64,
+                "pitch": "1 um",
+                "sq": "1 um",
+                "hurst": 0.7,
+                "corr_length": "3 um",
+            },
+            "corr_length belongs to the gaussian/exponential models",
+        ),
+        (
+            {
+                "kind": "random",
+                "model": "self_affine",
+                "nx": 64,
+                "ny": 64,
+                "pitch": "1 um",
+                "sq": "1 um",
+                "hurst": 1.5,
+            },
+            "hurst: Input should be less than 1",
+        ),
+        (
+            {
+                "kind": "random",
+                "model": "fractal",
+                "nx": 64,
+                "ny": 64,
+                "pitch": "1 um",
+                "sq": "1 um",
+            },
+            "model: Input should be",
+        ),
+        (
+            {
+                "kind": "random",
+                "nx": 64,
+                "ny": 64,
+                "pitch": "1 um",
+                "sq": "1 um",
+                "corr_length": "5",
+            },
+            "corr_length: '5' has no unit",
+        ),
         ({"kind": "measured"}, "file: Field required"),
         ([1, 2], "a surface description must be a mapping, got list"),
     ],
@@ -93,15 +250,22 @@ def test_invalid_descriptions_give_one_line_naming_the_key(data, message):
 
 
 def test_values_are_stored_in_mm_and_widths_filled_in():
-    spec = parse_surface_spec({"kind": "spikes", "nx": 3, "ny": 2, "width": "20 um", "height": "0.01 mm"})
+    spec = parse_surface_spec(
+        {"kind": "spikes", "nx": 3, "ny": 2, "width": "20 um", "height": "0.01 mm"}
+    )
     assert isinstance(spec, SpikeSurfaceSpec)
     assert spec.width_x == spec.width_y == pytest.approx(0.02)
     assert spec.height == pytest.approx(0.01)
     assert (spec.shape, spec.height_sigma, spec.n_layers, spec.seed) == ("pyramid", 0.0, 1, 0)
     r = parse_surface_spec(RANDOM)
     assert isinstance(r, RandomSurfaceSpec)
-    assert (r.pitch, r.sq, r.corr_length, r.model, r.periodic) == (pytest.approx(1e-3), pytest.approx(1e-3),
-                                                                  pytest.approx(5e-3), "gaussian", True)
+    assert (r.pitch, r.sq, r.corr_length, r.model, r.periodic) == (
+        pytest.approx(1e-3),
+        pytest.approx(1e-3),
+        pytest.approx(5e-3),
+        "gaussian",
+        True,
+    )
 
 
 # --- building -------------------------------------------------------------------------------
@@ -157,14 +321,18 @@ def test_measured_build_levels_and_crops(tmp_path):
     path = write_grid(tmp_path / "grid.txt")
     raw = build_surface(parse_surface_spec(measured_dict(path, level=False)))
     assert raw.heightmap.shape == (GRID_NY, GRID_NX)
-    assert raw.size_x == pytest.approx((GRID_NX - 1) * 0.5 * UM) and raw.size_y == pytest.approx((GRID_NY - 1) * 0.5 * UM)
+    assert raw.size_x == pytest.approx((GRID_NX - 1) * 0.5 * UM) and raw.size_y == pytest.approx(
+        (GRID_NY - 1) * 0.5 * UM
+    )
     z_nm = grid_heights_nm()
     assert np.allclose(raw.heightmap.heights, z_nm * 1e-6, rtol=0, atol=1e-12)
     assert raw.max_height == pytest.approx(np.ptp(z_nm) * 1e-6)
     # Levelling removes the tilt 10 nm per sample in x and 20 nm in y: only the bump is left.
     levelled = build_surface(parse_surface_spec(measured_dict(path)))
     assert levelled.max_height < 0.5 * raw.max_height
-    cropped = build_surface(parse_surface_spec(measured_dict(path, crop_x=["1 um", "4 um"], level=False)))
+    cropped = build_surface(
+        parse_surface_spec(measured_dict(path, crop_x=["1 um", "4 um"], level=False))
+    )
     assert cropped.heightmap.shape == (GRID_NY, 7)
     assert cropped.size_x == pytest.approx(3 * UM)
 
@@ -220,9 +388,17 @@ def test_shipped_examples_are_valid(name):
     spec = load_surface_spec(ROOT / "examples" / "surfaces" / f"{name}.yaml")
     assert spec.kind == {"pyramids": "spikes", "measured": "measured"}.get(name, "random")
     if name == "pyramids":  # the paper's surface
-        assert (spec.nx, spec.ny, spec.width_x, spec.height) == (50, 50, pytest.approx(0.01), pytest.approx(0.01))
+        assert (spec.nx, spec.ny, spec.width_x, spec.height) == (
+            50,
+            50,
+            pytest.approx(0.01),
+            pytest.approx(0.01),
+        )
     if name == "measured":
-        assert build_surface(spec).heightmap.shape == (60, 77)  # 80 x 60 points, cropped to 1..39 um
+        assert build_surface(spec).heightmap.shape == (
+            60,
+            77,
+        )  # 80 x 60 points, cropped to 1..39 um
 
 
 # --- the surface file -----------------------------------------------------------------------
@@ -242,20 +418,29 @@ def test_store_round_trip_spikes(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["s.s4s.h5"]  # no temporary file left
 
 
-@pytest.mark.parametrize("data", [RANDOM, SELF_AFFINE, {**RANDOM, "periodic": False}], ids=["gaussian", "self_affine", "open"])
+@pytest.mark.parametrize(
+    "data",
+    [RANDOM, SELF_AFFINE, {**RANDOM, "periodic": False}],
+    ids=["gaussian", "self_affine", "open"],
+)
 def test_store_round_trip_random_bit_for_bit(tmp_path, data):
     s = build_surface(parse_surface_spec(data))
     back = load_surface(save_surface(s, tmp_path / "r.s4s.h5"))
     assert back.spec == s.spec and back.spikes is None
     assert np.array_equal(back.heightmap.heights, s.heightmap.heights)
-    assert (back.heightmap.pitch_x, back.heightmap.pitch_y) == (s.heightmap.pitch_x, s.heightmap.pitch_y)
+    assert (back.heightmap.pitch_x, back.heightmap.pitch_y) == (
+        s.heightmap.pitch_x,
+        s.heightmap.pitch_y,
+    )
     assert back.heightmap.origin == s.heightmap.origin
     assert np.array_equal(back.placed_map.heights, s.placed_map.heights)
 
 
 def test_store_round_trip_measured_no_longer_needs_the_file(tmp_path):
     path = write_grid(tmp_path / "grid.txt")
-    s = build_surface(parse_surface_spec(measured_dict(path, crop_y=["0.5 um", "3 um"], resample_pitch="0.25 um")))
+    s = build_surface(
+        parse_surface_spec(measured_dict(path, crop_y=["0.5 um", "3 um"], resample_pitch="0.25 um"))
+    )
     out = save_surface(s, tmp_path / "m.s4s.h5")
     path.unlink()
     back = load_surface(out)

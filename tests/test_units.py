@@ -46,4 +46,6 @@ def test_error_names_parameter():
 
 
 def test_format_roundtrip():
-    assert parse_quantity(format_quantity(0.0123, "length", "um"), "length") == pytest.approx(0.0123)
+    assert parse_quantity(format_quantity(0.0123, "length", "um"), "length") == pytest.approx(
+        0.0123
+    )

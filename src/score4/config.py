@@ -80,8 +80,11 @@ SurfaceDescription = Annotated[
     | Annotated[RandomSurfaceSpec, Tag("random")]
     | Annotated[MeasuredSurfaceSpec, Tag("measured")]
     | Annotated[SurfaceFile, Tag("surface-file")],
-    Discriminator(_surface_tag, custom_error_type="surface_kind",
-                  custom_error_message="a surface needs kind: spikes, random or measured, or file: <name>.s4s.h5"),
+    Discriminator(
+        _surface_tag,
+        custom_error_type="surface_kind",
+        custom_error_message="a surface needs kind: spikes, random or measured, or file: <name>.s4s.h5",
+    ),
 ]
 
 
@@ -114,20 +117,30 @@ class RoughFace(StrictModel):
     @model_validator(mode="after")
     def _one_kind(self) -> RoughFace:
         if (self.surface is None) == (self.variants is None):
-            raise ValueError("give either surface (one patch) or variants (several, with densities)")
+            raise ValueError(
+                "give either surface (one patch) or variants (several, with densities)"
+            )
         if self.native_layout == "replicas" and len(self.variant_list) > 1:
-            raise ValueError("native_layout replicas repeats one patch: it needs a single surface, not variants")
+            raise ValueError(
+                "native_layout replicas repeats one patch: it needs a single surface, not variants"
+            )
         return self
 
     @property
     def variant_list(self) -> list[PatchVariant]:
-        return self.variants if self.variants is not None else [PatchVariant(surface=self.surface, density=1.0)]
+        return (
+            self.variants
+            if self.variants is not None
+            else [PatchVariant(surface=self.surface, density=1.0)]
+        )
 
 
 class DepthConfig(StrictModel):
     """How deep below the local surface a vertex sits."""
 
-    profile: Literal["zero", "exponential", "multi_exponential", "uniform", "truncated_gaussian", "table"] = "zero"
+    profile: Literal[
+        "zero", "exponential", "multi_exponential", "uniform", "truncated_gaussian", "table"
+    ] = "zero"
     mean: NonNegativeLength | None = None  # exponential (> 0), truncated_gaussian
     sigma: PositiveLength | None = None  # truncated_gaussian
     means: list[PositiveLength] | None = None  # multi_exponential
@@ -140,8 +153,14 @@ class DepthConfig(StrictModel):
 
     @model_validator(mode="after")
     def _needs(self) -> DepthConfig:
-        need = {"exponential": ("mean",), "multi_exponential": ("means", "weights"), "uniform": ("max",),
-                "truncated_gaussian": ("mean", "sigma"), "table": ("file",), "zero": ()}[self.profile]
+        need = {
+            "exponential": ("mean",),
+            "multi_exponential": ("means", "weights"),
+            "uniform": ("max",),
+            "truncated_gaussian": ("mean", "sigma"),
+            "table": ("file",),
+            "zero": (),
+        }[self.profile]
         missing = [k for k in need if getattr(self, k) is None]
         if missing:
             raise ValueError(f"profile {self.profile} needs {' and '.join(missing)}")
@@ -173,7 +192,9 @@ class SourceConfig(StrictModel):
     nuclide: str | None = None
     # isotropic (4 pi), inward/outward (isotropic in that half-space), cosine_inward/outward
     # (Lambert), normal (a beam along the inward surface normal)
-    direction: Literal["isotropic", "inward", "outward", "cosine_inward", "cosine_outward", "normal"] = "isotropic"
+    direction: Literal[
+        "isotropic", "inward", "outward", "cosine_inward", "cosine_outward", "normal"
+    ] = "isotropic"
     depth: DepthConfig = DepthConfig()
     # Keep vertices inside the material of the face's target (a shift along the normal can leave
     # a thin spike); a material name confines to that material instead; false turns it off.
@@ -185,19 +206,27 @@ class SourceConfig(StrictModel):
         if self.vertices is not None:
             extra = sorted(self.model_fields_set - {"vertices"})
             if extra:
-                raise ValueError(f"vertices: a vertex file already holds positions, directions, depths and particles; "
-                                 f"drop {', '.join(extra)}")
+                raise ValueError(
+                    f"vertices: a vertex file already holds positions, directions, depths and particles; "
+                    f"drop {', '.join(extra)}"
+                )
             return self
         if self.surface is None:
-            raise ValueError("surface: give the face the source sits on, e.g. {volume: crystal, face: '+z'}")
+            raise ValueError(
+                "surface: give the face the source sits on, e.g. {volume: crystal, face: '+z'}"
+            )
         kinds = [k for k in ("particle", "decay", "nuclide") if getattr(self, k) is not None]
         if len(kinds) != 1:
-            raise ValueError("give exactly one emitter: particle (with energy or spectrum), decay: Po210, or nuclide"
-                             + (f" (got {', '.join(kinds)})" if kinds else ""))
+            raise ValueError(
+                "give exactly one emitter: particle (with energy or spectrum), decay: Po210, or nuclide"
+                + (f" (got {', '.join(kinds)})" if kinds else "")
+            )
         if self.particle is not None and (self.energy is None) == (self.spectrum is None):
             raise ValueError(f"particle {self.particle}: give exactly one of energy and spectrum")
         if self.particle is None and (self.energy is not None or self.spectrum is not None):
-            raise ValueError("energy/spectrum belong to particle; decay and nuclide sources fix their own energies")
+            raise ValueError(
+                "energy/spectrum belong to particle; decay and nuclide sources fix their own energies"
+            )
         return self
 
 
@@ -248,7 +277,9 @@ class RunConfig(StrictModel):
             raise ValueError(f"targets: volume names must be unique, repeated: {', '.join(dupes)}")
         src = self.source.surface
         if src is not None and src.volume not in names:
-            raise ValueError(f"source.surface.volume: {src.volume!r} is not a target; targets are: {', '.join(names)}")
+            raise ValueError(
+                f"source.surface.volume: {src.volume!r} is not a target; targets are: {', '.join(names)}"
+            )
         for i, t in enumerate(self.targets):
             faces = [r.face for r in t.rough]
             if len(set(faces)) != len(faces):
@@ -257,22 +288,30 @@ class RunConfig(StrictModel):
                 for v in r.variant_list:
                     if v.surface not in self.surfaces:
                         known = ", ".join(self.surfaces) or "none defined"
-                        raise ValueError(f"targets.{i}.rough.{j}: surface {v.surface!r} is not under surfaces ({known})")
+                        raise ValueError(
+                            f"targets.{i}.rough.{j}: surface {v.surface!r} is not under surfaces ({known})"
+                        )
         return self
 
     def target(self, name: str) -> BoxVolume:
         return next(t for t in self.targets if t.name == name)
 
 
-def parse_config(data: object, origin: str = "config", base_dir: str | Path | None = None) -> RunConfig:
+def parse_config(
+    data: object, origin: str = "config", base_dir: str | Path | None = None
+) -> RunConfig:
     """Validate a mapping (parsed YAML) into a :class:`RunConfig`.
 
     Relative file paths in it are taken relative to ``base_dir`` (the config file's folder).
     """
     if not isinstance(data, dict):
-        raise ConfigError(f"{origin}: the top level must be a mapping of keys, got {type(data).__name__}")
+        raise ConfigError(
+            f"{origin}: the top level must be a mapping of keys, got {type(data).__name__}"
+        )
     try:
-        return RunConfig.model_validate(data, context={'base_dir': Path(base_dir) if base_dir else None})
+        return RunConfig.model_validate(
+            data, context={"base_dir": Path(base_dir) if base_dir else None}
+        )
     except ValidationError as err:
         raise ConfigError(describe_validation_error(err, origin)) from None
 
@@ -287,7 +326,9 @@ def load_config(path: str | Path) -> RunConfig:
     except (yaml.YAMLError, UnicodeDecodeError) as err:
         where = getattr(err, "problem_mark", None)
         line = f" line {where.line + 1}" if where is not None else ""
-        raise ConfigError(f"config: {path}{line}: not valid YAML ({getattr(err, 'problem', err)})") from None
+        raise ConfigError(
+            f"config: {path}{line}: not valid YAML ({getattr(err, 'problem', err)})"
+        ) from None
     return parse_config(data, origin=str(path), base_dir=path.parent)
 
 

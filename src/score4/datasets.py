@@ -110,22 +110,52 @@ class DataSet:
 _FALLBACK_0_1_3: tuple[DataSet, ...] = (
     DataSet("G4NDL", "4.7.1", "G4NDL", "G4NEUTRONHPDATA", "54f0ed3995856f02433d42ec96d70bc6"),
     DataSet("G4EMLOW", "8.8", "G4EMLOW", "G4LEDATA", "328330009df633f7e9b3a9f445745298"),
-    DataSet("PhotonEvaporation", "6.1.2", "G4PhotonEvaporation", "G4LEVELGAMMADATA",
-            "d80ba9bdefcf9e23487a26adfa273304"),
-    DataSet("RadioactiveDecay", "6.1.2", "G4RadioactiveDecay", "G4RADIOACTIVEDATA",
-            "20d494f73d4bddabd7fab5c06a58895c"),
-    DataSet("G4PARTICLEXS", "4.2", "G4PARTICLEXS", "G4PARTICLEXSDATA",
-            "b63341cc97a472b04ff607b094493174"),
+    DataSet(
+        "PhotonEvaporation",
+        "6.1.2",
+        "G4PhotonEvaporation",
+        "G4LEVELGAMMADATA",
+        "d80ba9bdefcf9e23487a26adfa273304",
+    ),
+    DataSet(
+        "RadioactiveDecay",
+        "6.1.2",
+        "G4RadioactiveDecay",
+        "G4RADIOACTIVEDATA",
+        "20d494f73d4bddabd7fab5c06a58895c",
+    ),
+    DataSet(
+        "G4PARTICLEXS",
+        "4.2",
+        "G4PARTICLEXS",
+        "G4PARTICLEXSDATA",
+        "b63341cc97a472b04ff607b094493174",
+    ),
     DataSet("G4PII", "1.3", "G4PII", "G4PIIDATA", "05f2471dbcdf1a2b17cbff84e8e83b37"),
-    DataSet("RealSurface", "2.2", "G4RealSurface", "G4REALSURFACEDATA",
-            "ea8f1cfa8d8aafd64b71fb30b3e8a6d9"),
+    DataSet(
+        "RealSurface",
+        "2.2",
+        "G4RealSurface",
+        "G4REALSURFACEDATA",
+        "ea8f1cfa8d8aafd64b71fb30b3e8a6d9",
+    ),
     DataSet("G4SAIDDATA", "2.0", "G4SAIDDATA", "G4SAIDXSDATA", "d5d4e9541120c274aeed038c621d39da"),
     DataSet("G4ABLA", "3.3", "G4ABLA", "G4ABLADATA", "b25d093339e1e4532e31038653580ca6"),
     DataSet("G4INCL", "1.3", "G4INCL", "G4INCLDATA", "72c3ff5f7f1e6f727f2ebf3b11ce784f"),
-    DataSet("G4ENSDFSTATE", "3.0", "G4ENSDFSTATE", "G4ENSDFSTATEDATA",
-            "c500728534ce3e9fb2fefa0112eb3a74"),
-    DataSet("G4CHANNELING", "2.0", "G4CHANNELING", "G4CHANNELINGDATA",
-            "e853fbcba1e8640f7c3a437253955482"),
+    DataSet(
+        "G4ENSDFSTATE",
+        "3.0",
+        "G4ENSDFSTATE",
+        "G4ENSDFSTATEDATA",
+        "c500728534ce3e9fb2fefa0112eb3a74",
+    ),
+    DataSet(
+        "G4CHANNELING",
+        "2.0",
+        "G4CHANNELING",
+        "G4CHANNELINGDATA",
+        "e853fbcba1e8640f7c3a437253955482",
+    ),
 )
 
 # The list ends at a "]" alone on its line; entries never contain one.
@@ -478,20 +508,34 @@ def _content_length(response: http.client.HTTPResponse) -> int | None:
 
 def _network_error(url: str, exc: BaseException, directory: Path) -> DataError:
     """One-line DataError for a network failure while reading ``url``."""
-    return DataError(f"download of {url} failed: {exc or type(exc).__name__}; "
-                     f"{_offline_hint(directory)}")
+    return DataError(
+        f"download of {url} failed: {exc or type(exc).__name__}; {_offline_hint(directory)}"
+    )
 
 
-def _stream(response: http.client.HTTPResponse, out: IO[bytes], url: str, label: str,
-            directory: Path, progress: bool) -> tuple[int, int | None, str]:
+def _stream(
+    response: http.client.HTTPResponse,
+    out: IO[bytes],
+    url: str,
+    label: str,
+    directory: Path,
+    progress: bool,
+) -> tuple[int, int | None, str]:
     """Copy the body to ``out``; return bytes read, announced length and md5 hex digest."""
     from tqdm import tqdm  # imported here: only downloads need it
 
     total = _content_length(response)
     digest = hashlib.md5()  # noqa: S324 (md5 is what geant4_pybind publishes; not for security)
     done = 0
-    with tqdm(total=total, unit="B", unit_scale=True, unit_divisor=1024, desc=label,
-              file=sys.stderr, disable=not progress) as bar:
+    with tqdm(
+        total=total,
+        unit="B",
+        unit_scale=True,
+        unit_divisor=1024,
+        desc=label,
+        file=sys.stderr,
+        disable=not progress,
+    ) as bar:
         while True:
             try:
                 chunk = response.read(_CHUNK)
@@ -506,8 +550,9 @@ def _stream(response: http.client.HTTPResponse, out: IO[bytes], url: str, label:
     return done, total, digest.hexdigest()
 
 
-def _download(ds: DataSet, url: str, tarball: Path, directory: Path, timeout: float,
-              progress: bool) -> None:
+def _download(
+    ds: DataSet, url: str, tarball: Path, directory: Path, timeout: float, progress: bool
+) -> None:
     """Download ``url`` into ``tarball`` and check its length and md5.
 
     ``directory`` is the install target, named in the error messages.
@@ -587,8 +632,9 @@ def _remove(path: Path) -> None:
         path.unlink(missing_ok=True)
 
 
-def _install_one(ds: DataSet, directory: Path, base_url: str, timeout: float,
-                 progress: bool) -> Path:
+def _install_one(
+    ds: DataSet, directory: Path, base_url: str, timeout: float, progress: bool
+) -> Path:
     """Download, verify and atomically unpack one data set into ``directory``."""
     url = f"{base_url.rstrip('/')}/{ds.tarball}"
     try:
@@ -670,8 +716,8 @@ def install(
     except OSError as exc:
         raise DataError(f"directory={str(target_dir)!r}: cannot create it: {exc}") from exc
     return [
-        target_dir / ds.dirname if _has_data(target_dir / ds.dirname)
+        target_dir / ds.dirname
+        if _has_data(target_dir / ds.dirname)
         else _install_one(ds, target_dir, url, timeout, progress)
         for ds in wanted
     ]
-

@@ -70,8 +70,14 @@ def energy_value(value: float | str | None, name: str) -> float | None:
         return None
     if isinstance(value, str):
         return parse_quantity(value, "energy", name)
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.number)) or not np.isfinite(value):
-        raise ConfigError(f"{name}: expected an energy in MeV or a string such as '6 MeV', got {value!r}")
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float, np.number))
+        or not np.isfinite(value)
+    ):
+        raise ConfigError(
+            f"{name}: expected an energy in MeV or a string such as '6 MeV', got {value!r}"
+        )
     return float(value)
 
 
@@ -93,7 +99,9 @@ def _run_histogram_setting(results: Results) -> tuple[int | None, float | None]:
 
 
 def histogram_edges(
-    results: Results | Iterable[Results], bins: int | None = None, emin: float | str | None = None,
+    results: Results | Iterable[Results],
+    bins: int | None = None,
+    emin: float | str | None = None,
     emax: float | str | None = None,
 ) -> np.ndarray:
     """Common bin edges (MeV) for one or several runs.
@@ -104,7 +112,9 @@ def histogram_edges(
     runs = [results] if isinstance(results, Results) else list(results)
     if not runs:
         raise ConfigError("results: no results given")
-    if bins is not None and (isinstance(bins, bool) or not isinstance(bins, (int, np.integer)) or bins < 1):
+    if bins is not None and (
+        isinstance(bins, bool) or not isinstance(bins, (int, np.integer)) or bins < 1
+    ):
         raise ConfigError(f"bins: must be a positive integer, got {bins!r}")
     lo = energy_value(emin, "emin")
     hi = energy_value(emax, "emax")
@@ -112,7 +122,10 @@ def histogram_edges(
     bins = int(bins or settings[0][0] or DEFAULT_BINS)
     lo = 0.0 if lo is None else lo
     if hi is None:
-        hi = max(s[1] or float(r.primary_energy.max(initial=0.0)) for s, r in zip(settings, runs)) or 1.0
+        hi = (
+            max(s[1] or float(r.primary_energy.max(initial=0.0)) for s, r in zip(settings, runs))
+            or 1.0
+        )
     if lo < 0:
         raise ConfigError(f"emin: must be >= 0 MeV, got {lo!r} MeV")
     if not hi > lo:
@@ -149,7 +162,9 @@ def select_volumes(results: Results, volume: str | None) -> list[str]:
     if volume is None:
         return names
     if volume not in names:
-        raise ConfigError(f"volume: {volume!r} is not a volume of {results.path}; volumes are: {', '.join(names)}")
+        raise ConfigError(
+            f"volume: {volume!r} is not a volume of {results.path}; volumes are: {', '.join(names)}"
+        )
     return [volume]
 
 
@@ -181,8 +196,12 @@ def _num(x) -> str:
 
 
 def export_csv(
-    results: Results, path: str | Path, volume: str | None = None, bins: int | None = None,
-    emax: float | str | None = None, emin: float | str | None = None,
+    results: Results,
+    path: str | Path,
+    volume: str | None = None,
+    bins: int | None = None,
+    emax: float | str | None = None,
+    emin: float | str | None = None,
 ) -> list[DepositHistogram]:
     """Write the energy-deposit histogram(s) as CSV, one block of rows per volume.
 
@@ -209,20 +228,27 @@ def export_csv(
     hists = [deposit_histogram(results.edep[name], edges) for name in names]
     lines = _header(results, "score4 energy-deposit histogram (events with a non-zero deposit)")
     for name, h in zip(names, hists):
-        lines.append(f"# volume {name}: {h.n_zero} events without deposit, {h.n_underflow} below "
-                     f"{_num(edges[0])} MeV, {h.n_overflow} above {_num(edges[-1])} MeV (not counted)")
+        lines.append(
+            f"# volume {name}: {h.n_zero} events without deposit, {h.n_underflow} below "
+            f"{_num(edges[0])} MeV, {h.n_overflow} above {_num(edges[-1])} MeV (not counted)"
+        )
     lines.append("volume,bin_low_MeV,bin_high_MeV,counts,counts_per_keV")
     for name, h in zip(names, hists):
         per_keV = h.counts_per_keV
         for k in range(len(h.counts)):
-            lines.append(f"{name},{_num(edges[k])},{_num(edges[k + 1])},{int(h.counts[k])},{_num(per_keV[k])}")
+            lines.append(
+                f"{name},{_num(edges[k])},{_num(edges[k + 1])},{int(h.counts[k])},{_num(per_keV[k])}"
+            )
     with atomic_output(path) as tmp:
         tmp.write_text("\n".join(lines) + "\n")
     return hists
 
 
 def _event_columns(results: Results) -> dict[str, np.ndarray]:
-    columns: dict[str, np.ndarray] = {"event_id": results.event_id, "primary_energy_MeV": results.primary_energy}
+    columns: dict[str, np.ndarray] = {
+        "event_id": results.event_id,
+        "primary_energy_MeV": results.primary_energy,
+    }
     for quantity, per_volume in results.scores.items():
         unit = QUANTITY_UNITS.get(quantity, "")
         for name, values in per_volume.items():
@@ -242,7 +268,9 @@ def export_events_csv(results: Results, path: str | Path) -> list[str]:
     lists = [np.asarray(c).tolist() for c in columns.values()]
     lines = _header(results, "score4 events: total primary energy and scores per volume")
     lines.append(",".join(columns))
-    formats = [str if np.issubdtype(np.asarray(c).dtype, np.integer) else repr for c in columns.values()]
+    formats = [
+        str if np.issubdtype(np.asarray(c).dtype, np.integer) else repr for c in columns.values()
+    ]
     for row in zip(*lists):
         lines.append(",".join(f(v) for f, v in zip(formats, row)))
     with atomic_output(path) as tmp:
@@ -255,18 +283,32 @@ def _th1d(name: str, title: str, edep: np.ndarray, edges: np.ndarray):
 
     h = deposit_histogram(edep, edges)
     values = _nonzero_folded(edep, edges[-1])
-    inside = values[(values >= edges[0]) & (values <= edges[-1])]  # ROOT's statistics skip under/overflow
+    inside = values[
+        (values >= edges[0]) & (values <= edges[-1])
+    ]  # ROOT's statistics skip under/overflow
     data = np.concatenate([[h.n_underflow], h.counts, [h.n_overflow]]).astype(np.float64)
-    axis = to_TAxis("xaxis", "energy deposit [MeV]", len(h.counts), float(edges[0]), float(edges[-1]))
+    axis = to_TAxis(
+        "xaxis", "energy deposit [MeV]", len(h.counts), float(edges[0]), float(edges[-1])
+    )
     return to_TH1x(
-        name, title, data,
-        fEntries=float(data.sum()), fTsumw=float(len(inside)), fTsumw2=float(len(inside)),
-        fTsumwx=float(inside.sum()), fTsumwx2=float((inside**2).sum()), fSumw2=data.copy(), fXaxis=axis,
+        name,
+        title,
+        data,
+        fEntries=float(data.sum()),
+        fTsumw=float(len(inside)),
+        fTsumw2=float(len(inside)),
+        fTsumwx=float(inside.sum()),
+        fTsumwx2=float((inside**2).sum()),
+        fSumw2=data.copy(),
+        fXaxis=axis,
     )
 
 
 def export_root(
-    results: Results, path: str | Path, bins: int | None = None, emax: float | str | None = None,
+    results: Results,
+    path: str | Path,
+    bins: int | None = None,
+    emax: float | str | None = None,
     emin: float | str | None = None,
 ) -> Path:
     """Write a ROOT file (uproot): TTree ``events``, TH1D ``edep_<volume>``, TObjString ``run``.
@@ -280,19 +322,25 @@ def export_root(
 
     path = check_output_path(path)
     edges = histogram_edges(results, bins=bins, emin=emin, emax=emax)
-    branches: dict[str, np.ndarray] = {"event_id": np.asarray(results.event_id, dtype=np.int64),
-                                       "primary_energy": np.asarray(results.primary_energy, dtype=np.float64)}
+    branches: dict[str, np.ndarray] = {
+        "event_id": np.asarray(results.event_id, dtype=np.int64),
+        "primary_energy": np.asarray(results.primary_energy, dtype=np.float64),
+    }
     for quantity, per_volume in results.scores.items():
         for name, values in per_volume.items():
             branches[f"{quantity}_{name}"] = np.asarray(values, dtype=np.float64)
     run_json = json.dumps(results.run, default=str, sort_keys=True)
     with atomic_output(path) as tmp, uproot.recreate(tmp) as f:
-        tree = f.mktree("events", {k: v.dtype for k, v in branches.items()},
-                        title=f"score4 events of {results.path.name} (energies MeV, lengths mm)")
+        tree = f.mktree(
+            "events",
+            {k: v.dtype for k, v in branches.items()},
+            title=f"score4 events of {results.path.name} (energies MeV, lengths mm)",
+        )
         if results.n_events:
             tree.extend(branches)
         for name, values in results.edep.items():
-            f[f"edep_{name}"] = _th1d(f"edep_{name}", f"energy deposit in {name}, events with edep > 0",
-                                      values, edges)
+            f[f"edep_{name}"] = _th1d(
+                f"edep_{name}", f"energy deposit in {name}, events with edep > 0", values, edges
+            )
         f["run"] = run_json
     return path

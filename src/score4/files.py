@@ -42,7 +42,9 @@ def atomic_output(path: str | os.PathLike):
         raise
 
 
-def open_h5(path: str | os.PathLike, fmt: str, label: str, error: type[Score4Error] = Score4Error) -> h5py.File:
+def open_h5(
+    path: str | os.PathLike, fmt: str, label: str, error: type[Score4Error] = Score4Error
+) -> h5py.File:
     """Open a score4 HDF5 file for reading: it must exist, be HDF5 and carry ``format = fmt``.
 
     Errors are ``error`` instances whose message starts with ``label`` (e.g. "source.vertices").
@@ -56,5 +58,7 @@ def open_h5(path: str | os.PathLike, fmt: str, label: str, error: type[Score4Err
         raise error(f"{label}: {path} is not an HDF5 file ({err})") from None
     if f.attrs.get("format") != fmt:
         f.close()
-        raise error(f"{label}: {path} is not a {fmt.replace('-', ' ')} file (no format={fmt!r} attribute)")
+        raise error(
+            f"{label}: {path} is not a {fmt.replace('-', ' ')} file (no format={fmt!r} attribute)"
+        )
     return f

@@ -50,22 +50,51 @@ __all__ = ["ImportReport", "ReportItem", "import_macro", "render_yaml", "write_c
 # --------------------------------------------------------------------------------------------
 
 _G4_LENGTH = {  # symbol -> mm; names map to symbols below
-    "pc": 3.0856775807e19, "km": 1e6, "m": 1e3, "cm": 10.0, "mm": 1.0, "um": 1e-3, "nm": 1e-6,
-    "Ang": 1e-7, "fm": 1e-12,
+    "pc": 3.0856775807e19,
+    "km": 1e6,
+    "m": 1e3,
+    "cm": 10.0,
+    "mm": 1.0,
+    "um": 1e-3,
+    "nm": 1e-6,
+    "Ang": 1e-7,
+    "fm": 1e-12,
 }
 _G4_LENGTH_NAMES = {
-    "parsec": "pc", "kilometer": "km", "meter": "m", "centimeter": "cm", "millimeter": "mm",
-    "micrometer": "um", "nanometer": "nm", "angstrom": "Ang", "fermi": "fm",
+    "parsec": "pc",
+    "kilometer": "km",
+    "meter": "m",
+    "centimeter": "cm",
+    "millimeter": "mm",
+    "micrometer": "um",
+    "nanometer": "nm",
+    "angstrom": "Ang",
+    "fermi": "fm",
 }
 _G4_ENERGY = {  # symbol -> MeV
-    "meV": 1e-9, "eV": 1e-6, "keV": 1e-3, "MeV": 1.0, "GeV": 1e3, "TeV": 1e6, "PeV": 1e9, "J": 6.241509074e12,
+    "meV": 1e-9,
+    "eV": 1e-6,
+    "keV": 1e-3,
+    "MeV": 1.0,
+    "GeV": 1e3,
+    "TeV": 1e6,
+    "PeV": 1e9,
+    "J": 6.241509074e12,
 }
 _G4_ENERGY_NAMES = {
-    "millielectronVolt": "meV", "electronvolt": "eV", "kiloelectronvolt": "keV", "megaelectronvolt": "MeV",
-    "gigaelectronvolt": "GeV", "teraelectronvolt": "TeV", "petaelectronvolt": "PeV", "joule": "J",
+    "millielectronVolt": "meV",
+    "electronvolt": "eV",
+    "kiloelectronvolt": "keV",
+    "megaelectronvolt": "MeV",
+    "gigaelectronvolt": "GeV",
+    "teraelectronvolt": "TeV",
+    "petaelectronvolt": "PeV",
+    "joule": "J",
 }
-_UNITS = {"length": (_G4_LENGTH, _G4_LENGTH_NAMES, SCORE4_LENGTH, "mm"),
-          "energy": (_G4_ENERGY, _G4_ENERGY_NAMES, SCORE4_ENERGY, "MeV")}
+_UNITS = {
+    "length": (_G4_LENGTH, _G4_LENGTH_NAMES, SCORE4_LENGTH, "mm"),
+    "energy": (_G4_ENERGY, _G4_ENERGY_NAMES, SCORE4_ENERGY, "MeV"),
+}
 
 _NUMBER = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?$")
 _INTEGER = re.compile(r"^[+-]?\d+$")
@@ -174,7 +203,9 @@ def _read(path: Path, commands: list[_Command], stack: tuple[Path, ...]) -> None
         else:
             commands.append(cmd)
     if pending:
-        raise ConfigError(f"{path} line {first}: the last command ends with a continuation mark '_'")
+        raise ConfigError(
+            f"{path} line {first}: the last command ends with a continuation mark '_'"
+        )
 
 
 def _include(cmd: _Command, commands: list[_Command], stack: tuple[Path, ...]) -> None:
@@ -185,7 +216,9 @@ def _include(cmd: _Command, commands: list[_Command], stack: tuple[Path, ...]) -
     candidates = [name] if name.is_absolute() else [cmd.file.parent / name, Path.cwd() / name]
     found = next((c for c in candidates if c.is_file()), None)
     if found is None:
-        raise cmd.fail(f"macro {cmd.args[0]!r} not found (looked in {', '.join(str(c.parent) for c in candidates)})")
+        raise cmd.fail(
+            f"macro {cmd.args[0]!r} not found (looked in {', '.join(str(c.parent) for c in candidates)})"
+        )
     if found.resolve() in {p.resolve() for p in stack}:
         raise cmd.fail(f"macro {cmd.args[0]!r} executes itself (a loop)")
     commands.append(cmd)  # reported as converted: its commands follow
@@ -197,8 +230,13 @@ def _include(cmd: _Command, commands: list[_Command], stack: tuple[Path, ...]) -
 # --------------------------------------------------------------------------------------------
 
 
-def _quantity(cmd: _Command, dimension: str, default_unit: str | None = None, index: int = 0,
-              minimum: str = "positive") -> _Quantity:
+def _quantity(
+    cmd: _Command,
+    dimension: str,
+    default_unit: str | None = None,
+    index: int = 0,
+    minimum: str = "positive",
+) -> _Quantity:
     """``<number> [unit]`` at ``args[index:]``; the unit is required unless the command has a default."""
     symbols, names, _, _ = _UNITS[dimension]
     accepted = ", ".join(symbols)
@@ -206,17 +244,27 @@ def _quantity(cmd: _Command, dimension: str, default_unit: str | None = None, in
     args = cmd.args[index:]
     shown = " ".join(args)
     if not args or len(args) > 2:
-        raise cmd.fail(f"{shown!r} is not {a} {dimension}; write '<number> <unit>' (unit one of: {accepted})")
+        raise cmd.fail(
+            f"{shown!r} is not {a} {dimension}; write '<number> <unit>' (unit one of: {accepted})"
+        )
     if not _NUMBER.match(args[0]):
-        raise cmd.fail(f"{shown!r} is not {a} {dimension}; write '<number> <unit>' (unit one of: {accepted})")
+        raise cmd.fail(
+            f"{shown!r} is not {a} {dimension}; write '<number> <unit>' (unit one of: {accepted})"
+        )
     unit = args[1] if len(args) == 2 else default_unit
     if unit is None:
         raise cmd.fail(f"{shown!r} has no unit; this command needs one of: {accepted}")
     unit = names.get(unit, unit)
     if unit not in symbols:
         other = "energy" if dimension == "length" else "length"
-        kind = f"an {other} unit" if unit in _UNITS[other][0] or unit in _UNITS[other][1] else "not a Geant4 unit"
-        raise cmd.fail(f"{shown!r} is not {a} {dimension}: {unit!r} is {kind} (use one of: {accepted})")
+        kind = (
+            f"an {other} unit"
+            if unit in _UNITS[other][0] or unit in _UNITS[other][1]
+            else "not a Geant4 unit"
+        )
+        raise cmd.fail(
+            f"{shown!r} is not {a} {dimension}: {unit!r} is {kind} (use one of: {accepted})"
+        )
     number = float(args[0])
     value = number * symbols[unit]
     if not math.isfinite(value) or (minimum == "positive" and value <= 0) or value < 0:
@@ -237,7 +285,9 @@ def _word(cmd: _Command, choices: tuple[str, ...] | None = None) -> str:
         raise cmd.fail(f"expected one word, got {' '.join(cmd.args)!r}")
     value = cmd.args[0]
     if choices is not None and value not in choices:
-        raise cmd.fail(f"{value!r} is not one of {', '.join(choices)} (the original exits on any other value)")
+        raise cmd.fail(
+            f"{value!r} is not one of {', '.join(choices)} (the original exits on any other value)"
+        )
     return value
 
 
@@ -279,7 +329,9 @@ class ImportReport:
     def lines(self) -> list[str]:
         """The report as text lines (the YAML header uses the same lines)."""
         out = ["Converted:"]
-        out += [f"  {item}" for item in sorted(self.converted, key=lambda i: i.order)] or ["  (nothing)"]
+        out += [f"  {item}" for item in sorted(self.converted, key=lambda i: i.order)] or [
+            "  (nothing)"
+        ]
         out.append("Defaults filled in (not in the macro):")
         out += [f"  {key} = {why}" for key, why in self.defaults] or ["  (none)"]
         out.append("Ignored on purpose:")
@@ -297,37 +349,77 @@ class ImportReport:
 # --------------------------------------------------------------------------------------------
 
 _VERBOSE = "output verbosity only"
-_VOXEL = ("voxel boundary cap of the original's patched G4Voxelizer; score4 builds its solids "
-          "without it (DESIGN.md: solids of <= 1e5 spikes, large faces tiled)")
-_STEP = ("G4UserLimits max step on the patch; score4 sets no per-volume step limit (its physics sets "
-         "step functions and physics.production_cut)")
+_VOXEL = (
+    "voxel boundary cap of the original's patched G4Voxelizer; score4 builds its solids "
+    "without it (DESIGN.md: solids of <= 1e5 spikes, large faces tiled)"
+)
+_STEP = (
+    "G4UserLimits max step on the patch; score4 sets no per-volume step limit (its physics sets "
+    "step functions and physics.production_cut)"
+)
 
 # param, value kind; kinds: length (> 0), length0 (>= 0), count, word, spikeform
 _ROUGHNESS = {
-    "setBasisDx": ("basis_dx", "length"), "setBasisDy": ("basis_dy", "length"), "setBasisDz": ("basis_dz", "length"),
-    "setSpikeDx": ("dx", "length"), "setSpikeDy": ("dy", "length"), "setSpikeMeanHeight": ("mean", "length"),
-    "setSpikeDevHeight": ("dev", "length0"), "setSpikeform": ("form", "spikeform"), "setNLayer": ("nlayer", "count"),
-    "setSpikesNx": ("nx", "count"), "setSpikesNy": ("ny", "count"), "setMaterial": ("material", "word"),
+    "setBasisDx": ("basis_dx", "length"),
+    "setBasisDy": ("basis_dy", "length"),
+    "setBasisDz": ("basis_dz", "length"),
+    "setSpikeDx": ("dx", "length"),
+    "setSpikeDy": ("dy", "length"),
+    "setSpikeMeanHeight": ("mean", "length"),
+    "setSpikeDevHeight": ("dev", "length0"),
+    "setSpikeform": ("form", "spikeform"),
+    "setNLayer": ("nlayer", "count"),
+    "setSpikesNx": ("nx", "count"),
+    "setSpikesNy": ("ny", "count"),
+    "setMaterial": ("material", "word"),
 }
-_ROUGHNESS_IGNORED = {"setVerbose": _VERBOSE, "setBoundaryNx": _VOXEL, "setBoundaryNy": _VOXEL,
-                      "setBoundaryNz": _VOXEL, "setStepLimit": _STEP}
+_ROUGHNESS_IGNORED = {
+    "setVerbose": _VERBOSE,
+    "setBoundaryNx": _VOXEL,
+    "setBoundaryNy": _VOXEL,
+    "setBoundaryNz": _VOXEL,
+    "setStepLimit": _STEP,
+}
 _PORTAL = {
-    "setDxPortal": ("dx", "length"), "setDyPortal": ("dy", "length"), "setDzPortal": ("dz", "length"),
-    "setDxSubworld": ("sub_dx", "length"), "setDySubworld": ("sub_dy", "length"),
-    "setDzSubworld": ("sub_dz", "length"), "setNxSubworld": ("nx", "count"), "setNySubworld": ("ny", "count"),
+    "setDxPortal": ("dx", "length"),
+    "setDyPortal": ("dy", "length"),
+    "setDzPortal": ("dz", "length"),
+    "setDxSubworld": ("sub_dx", "length"),
+    "setDySubworld": ("sub_dy", "length"),
+    "setDzSubworld": ("sub_dz", "length"),
+    "setNxSubworld": ("nx", "count"),
+    "setNySubworld": ("ny", "count"),
     "setMaterial": ("material", "word"),
 }
 _PORTAL_IGNORED = {"setVerbose": _VERBOSE}
 _DESCRIBER = {
-    "setSpikeWidth_X": ("dx", "length"), "setSpikeWidth_Y": ("dy", "length"), "setNrSpike_X": ("nx", "count"),
-    "setNrSpike_Y": ("ny", "count"), "setMeanHeight": ("mean", "length"), "setHeightDeviation": ("dev", "length0"),
-    "setSpikeform": ("form", "describer_form"), "setNLayer": ("nlayer", "count"),
+    "setSpikeWidth_X": ("dx", "length"),
+    "setSpikeWidth_Y": ("dy", "length"),
+    "setNrSpike_X": ("nx", "count"),
+    "setNrSpike_Y": ("ny", "count"),
+    "setMeanHeight": ("mean", "length"),
+    "setHeightDeviation": ("dev", "length0"),
+    "setSpikeform": ("form", "describer_form"),
+    "setNLayer": ("nlayer", "count"),
 }
 # DescriberParameters defaults (notes §1.1 and §1.8); lengths are half-lengths in mm.
-_DESCRIBER_DEFAULTS = {"dx": "0.005 mm", "dy": "0.005 mm", "nx": 1, "ny": 1, "mean": "0.005 mm",
-                       "dev": "1 mm", "form": "StandardPyramid", "nlayer": 1}
+_DESCRIBER_DEFAULTS = {
+    "dx": "0.005 mm",
+    "dy": "0.005 mm",
+    "nx": 1,
+    "ny": 1,
+    "mean": "0.005 mm",
+    "dev": "1 mm",
+    "form": "StandardPyramid",
+    "nlayer": 1,
+}
 _DEFAULT_DESCRIBER_WIDTH = _Quantity(0.005, "mm", 0.005, "length")
-_SPIKEFORMS = {"StandardPyramid": "pyramid", "UniformPyramid": "pyramid", "Bump": "bump", "Peak": "peak"}
+_SPIKEFORMS = {
+    "StandardPyramid": "pyramid",
+    "UniformPyramid": "pyramid",
+    "Bump": "bump",
+    "Peak": "peak",
+}
 
 _IGNORED_EXACT = {
     "/run/initialize": "score4 initialises Geant4 itself",
@@ -348,11 +440,23 @@ _IGNORED_PREFIX = {
     "/analysis/": "histogram/ntuple files of the original example; score4 writes its own results file",
     "/control/cout/": "output redirection only",
     "/gps/pos/": "the original's sampler overwrites the GPS position with a point on the rough surface; "
-                 "score4 samples on the rough face itself",
+    "score4 samples on the rough face itself",
     "/gps/ang/rot": "only turns the frame of the angular distribution; the converted one (iso) has no frame",
 }
-_GPS_POSITION = {"/gps/position", "/gps/centre", "/gps/type", "/gps/shape", "/gps/halfx", "/gps/halfy",
-                 "/gps/halfz", "/gps/radius", "/gps/radius0", "/gps/posrot1", "/gps/posrot2", "/gps/confine"}
+_GPS_POSITION = {
+    "/gps/position",
+    "/gps/centre",
+    "/gps/type",
+    "/gps/shape",
+    "/gps/halfx",
+    "/gps/halfy",
+    "/gps/halfz",
+    "/gps/radius",
+    "/gps/radius0",
+    "/gps/posrot1",
+    "/gps/posrot2",
+    "/gps/confine",
+}
 
 
 # --------------------------------------------------------------------------------------------
@@ -390,7 +494,9 @@ class _State:
     rough: dict[str, _Helper] = field(default_factory=dict)
     portals: dict[str, _Helper] = field(default_factory=dict)
     describer: _Helper = field(default_factory=lambda: _Helper("surface"))
-    settings: dict[str, tuple[Any, _Command]] = field(default_factory=dict)  # source/run/physics values
+    settings: dict[str, tuple[Any, _Command]] = field(
+        default_factory=dict
+    )  # source/run/physics values
     tables: list[tuple[Path, _Command]] = field(default_factory=list)
     beam_on: list[tuple[int, _Command]] = field(default_factory=list)
     initialized: _Command | None = None
@@ -437,12 +543,17 @@ def _helper_value(cmd: _Command, kind: str) -> Any:
 def _helper_command(state: _State, cmd: _Command, parts: list[str]) -> None:
     """``/Surface/<Helper>/<name>/<cmd>`` or the paper's short form ``/Surface/<Helper>/<cmd>``."""
     kind = parts[1]
-    table, ignored, store = ((_ROUGHNESS, _ROUGHNESS_IGNORED, state.rough) if kind == "RoughnessHelper"
-                             else (_PORTAL, _PORTAL_IGNORED, state.portals))
+    table, ignored, store = (
+        (_ROUGHNESS, _ROUGHNESS_IGNORED, state.rough)
+        if kind == "RoughnessHelper"
+        else (_PORTAL, _PORTAL_IGNORED, state.portals)
+    )
     if len(parts) == 3:
         name, sub = UNNAMED_HELPER, parts[2]
-        note = (f"/Surface/{kind}/<command> has no helper name (the paper's Listing 4 form; the library's path is "
-                f"/Surface/{kind}/<name>/<command>): read as helper {UNNAMED_HELPER!r}")
+        note = (
+            f"/Surface/{kind}/<command> has no helper name (the paper's Listing 4 form; the library's path is "
+            f"/Surface/{kind}/<name>/<command>): read as helper {UNNAMED_HELPER!r}"
+        )
         if note not in state.report.notes:
             state.report.notes.append(note)
     elif len(parts) == 4:
@@ -457,8 +568,11 @@ def _helper_command(state: _State, cmd: _Command, parts: list[str]) -> None:
         state.unknown(cmd, f"unknown {kind} command")
         return
     if state.initialized is not None:
-        state.ignored(cmd, f"after /run/initialize ({state.where(state.initialized)}): the original reads helper "
-                           "parameters only in Construct(), which has run, so this had no effect")
+        state.ignored(
+            cmd,
+            f"after /run/initialize ({state.where(state.initialized)}): the original reads helper "
+            "parameters only in Construct(), which has run, so this had no effect",
+        )
         return
     param, value_kind = table[sub]
     store.setdefault(name, _Helper(name)).set(param, _helper_value(cmd, value_kind), cmd)
@@ -469,13 +583,18 @@ def _describer_command(state: _State, cmd: _Command, sub: str) -> None:
         state.unknown(cmd, "unknown /geometry/surface command")
         return
     if state.initialized is not None:
-        state.ignored(cmd, f"after /run/initialize ({state.where(state.initialized)}): no effect in the original")
+        state.ignored(
+            cmd,
+            f"after /run/initialize ({state.where(state.initialized)}): no effect in the original",
+        )
         return
     param, kind = _DESCRIBER[sub]
     if kind == "describer_form":
         value = _word(cmd)
         if value not in _SPIKEFORMS:
-            state.ignored(cmd, f"the original's Describer silently ignores the spike form {value!r}")
+            state.ignored(
+                cmd, f"the original's Describer silently ignores the spike form {value!r}"
+            )
             return
     else:
         value = _helper_value(cmd, kind)
@@ -505,24 +624,36 @@ def _gps_command(state: _State, cmd: _Command) -> None:
         if not _NUMBER.match(excitation):
             raise cmd.fail(f"excitation energy {excitation!r} is not a number (keV)")
         if float(excitation) != 0.0:
-            state.unknown(cmd, "excited ion states are not converted (score4 starts ions in the ground state)")
+            state.unknown(
+                cmd, "excited ion states are not converted (score4 starts ions in the ground state)"
+            )
             return
         state.set("ion", (z, a), cmd)
     elif p in ("/gps/ene/mono", "/gps/energy"):
         # Geant4's default units: keV for /gps/ene/mono, GeV for /gps/energy
-        state.set("energy", _quantity(cmd, "energy", "keV" if p == "/gps/ene/mono" else "GeV", minimum="zero"), cmd)
+        state.set(
+            "energy",
+            _quantity(cmd, "energy", "keV" if p == "/gps/ene/mono" else "GeV", minimum="zero"),
+            cmd,
+        )
     elif p == "/gps/ene/type":
         if _word(cmd) == "Mono":
             state.converted(cmd, "source.energy is mono-energetic (score4's particle + energy)")
         else:
-            state.unknown(cmd, f"energy distribution {cmd.args[0]!r} is not converted (only Mono; score4 reads "
-                               "other spectra from a table: source.spectrum)")
+            state.unknown(
+                cmd,
+                f"energy distribution {cmd.args[0]!r} is not converted (only Mono; score4 reads "
+                "other spectra from a table: source.spectrum)",
+            )
     elif p == "/gps/ang/type":
         if _word(cmd) == "iso":
             state.set("direction", "isotropic", cmd)
         else:
-            state.unknown(cmd, f"angular distribution {cmd.args[0]!r} is not converted (only iso; see source.direction "
-                               "for inward/outward/cosine/normal relative to the surface)")
+            state.unknown(
+                cmd,
+                f"angular distribution {cmd.args[0]!r} is not converted (only iso; see source.direction "
+                "for inward/outward/cosine/normal relative to the surface)",
+            )
     elif p == "/gps/number":
         if _count(cmd) == 1:
             state.converted(cmd, "one primary per vertex (as score4)")
@@ -548,8 +679,10 @@ def _shift_command(state: _State, cmd: _Command) -> None:
         candidates = [name] if name.is_absolute() else [cmd.file.parent / name, Path.cwd() / name]
         found = next((c for c in candidates if c.is_file()), None)
         if found is None:
-            raise cmd.fail(f"shift table {cmd.args[0]!r} not found (looked in "
-                           f"{', '.join(str(c.parent) for c in candidates)})")
+            raise cmd.fail(
+                f"shift table {cmd.args[0]!r} not found (looked in "
+                f"{', '.join(str(c.parent) for c in candidates)})"
+            )
         state.tables.append((found, cmd))
     elif sub in ("setMinShift", "setMaxShift"):
         q = _quantity(cmd, "length", "mm", minimum="zero" if sub == "setMinShift" else "positive")
@@ -592,9 +725,15 @@ def _collect(state: _State, commands: list[_Command]) -> None:
     for cmd in commands:
         parts = cmd.path.strip("/").split("/")
         p = cmd.path
-        if any("{" in a for a in (p, *cmd.args)) or p.startswith(("/control/alias", "/control/getEnv")):
+        if any("{" in a for a in (p, *cmd.args)) or p.startswith(
+            ("/control/alias", "/control/getEnv")
+        ):
             state.unknown(cmd, "aliases are not supported; expand them before importing")
-        elif parts[0] == "Surface" and len(parts) >= 3 and parts[1] in ("RoughnessHelper", "MultiportalHelper"):
+        elif (
+            parts[0] == "Surface"
+            and len(parts) >= 3
+            and parts[1] in ("RoughnessHelper", "MultiportalHelper")
+        ):
             _helper_command(state, cmd, parts)
         elif p.startswith("/geometry/surface/") and len(parts) == 3:
             _describer_command(state, cmd, parts[2])
@@ -632,10 +771,17 @@ def _spike_surface(state: _State, helper: _Helper, label: str, defaults: dict | 
             return values[param][0]
         if defaults is not None:
             return defaults[param]
-        what = {"dx": "setSpikeDx", "dy": "setSpikeDy", "mean": "setSpikeMeanHeight", "nx": "setSpikesNx",
-                "ny": "setSpikesNy"}[param]
-        raise ConfigError(f"{state.macro}: {label}/{what} is missing; the original's default 0 builds no spike, "
-                          "so score4 cannot guess it")
+        what = {
+            "dx": "setSpikeDx",
+            "dy": "setSpikeDy",
+            "mean": "setSpikeMeanHeight",
+            "nx": "setSpikesNx",
+            "ny": "setSpikesNy",
+        }[param]
+        raise ConfigError(
+            f"{state.macro}: {label}/{what} is missing; the original's default 0 builds no spike, "
+            "so score4 cannot guess it"
+        )
 
     def q(param: str) -> _Quantity:
         v = value(param)
@@ -655,15 +801,24 @@ def _spike_surface(state: _State, helper: _Helper, label: str, defaults: dict | 
     factor = 2.0 if pyramid else 1.0
     dx, dy, mean = q("dx"), q("dy"), q("mean")
     nx, ny = value("nx"), value("ny")
-    spec: dict[str, Any] = {"kind": "spikes", "nx": nx, "ny": ny, "width_x": dx.text(2), "width_y": dy.text(2),
-                            "height": mean.text(factor), "shape": shape}
+    spec: dict[str, Any] = {
+        "kind": "spikes",
+        "nx": nx,
+        "ny": ny,
+        "width_x": dx.text(2),
+        "width_y": dy.text(2),
+        "height": mean.text(factor),
+        "shape": shape,
+    }
     detail = {
         "dx": f"{key}.width_x = {dx.text(2)} (2 x half-width)",
         "dy": f"{key}.width_y = {dy.text(2)} (2 x half-width)",
         "mean": f"{key}.height = {mean.text(factor)} ({'2 x' if pyramid else '1 x'} setSpikeMeanHeight: {form} "
-                + ("is a G4Trd of half-height MeanHeight)" if pyramid else "layers add up to MeanHeight)"),
-        "nx": f"{key}.nx = {nx}", "ny": f"{key}.ny = {ny}",
-        "form": f"{key}.shape = {shape}" + (" (Gaussian heights: height_sigma)" if form == "UniformPyramid" else ""),
+        + ("is a G4Trd of half-height MeanHeight)" if pyramid else "layers add up to MeanHeight)"),
+        "nx": f"{key}.nx = {nx}",
+        "ny": f"{key}.ny = {ny}",
+        "form": f"{key}.shape = {shape}"
+        + (" (Gaussian heights: height_sigma)" if form == "UniformPyramid" else ""),
         "material": f"targets.0.material = {helper.get('material')} (the rough layer is in its target's material)",
     }
     reasons: dict[str, str] = {}
@@ -672,15 +827,21 @@ def _spike_surface(state: _State, helper: _Helper, label: str, defaults: dict | 
         if dev is not None and dev.value > 0:
             spec["height_sigma"] = dev.text(factor)
             spec["seed"] = 0
-            state.default(f"{key}.seed", "0 (the original draws the spike heights from Geant4's "
-                                          "engine; score4 draws them with numpy from this seed)")
+            state.default(
+                f"{key}.seed",
+                "0 (the original draws the spike heights from Geant4's "
+                "engine; score4 draws them with numpy from this seed)",
+            )
             state.report.notes.append(
                 f"{key}: the original clamps Gaussian heights <= 0 to 1e-9 mm (and then aborts in G4Trd); score4 "
-                "redraws heights below min_height (default 1 % of the mean), a truncated Gaussian")
+                "redraws heights below min_height (default 1 % of the mean), a truncated Gaussian"
+            )
         if dev is not None:
             detail["dev"] = f"{key}.height_sigma = {dev.text(factor)} (2 x, like the height)"
     else:
-        reasons["dev"] = f"the original uses the deviation only for UniformPyramid; {form} spikes all have the mean height"
+        reasons["dev"] = (
+            f"the original uses the deviation only for UniformPyramid; {form} spikes all have the mean height"
+        )
     if pyramid:
         reasons["nlayer"] = "the original builds pyramids from one G4Trd whatever setNLayer says"
     else:
@@ -689,7 +850,8 @@ def _spike_surface(state: _State, helper: _Helper, label: str, defaults: dict | 
     if not (_close(dx.value, dy.value)):
         state.report.notes.append(
             f"{key}: spike half-widths differ in x and y ({dx.text()} and {dy.text()}); the original's "
-            "RectangleDivider breaks such grids (notes §3.1-1), score4 builds them as written")
+            "RectangleDivider breaks such grids (notes §3.1-1), score4 builds them as written"
+        )
     for param, (_, cmd) in values.items():
         if param in reasons:
             state.ignored(cmd, reasons[param])
@@ -701,7 +863,9 @@ def _spike_surface(state: _State, helper: _Helper, label: str, defaults: dict | 
     return spec
 
 
-def _patch_basis(state: _State, helper: _Helper, one_patch: bool) -> tuple[_Quantity, _Quantity, _Quantity | None]:
+def _patch_basis(
+    state: _State, helper: _Helper, one_patch: bool
+) -> tuple[_Quantity, _Quantity, _Quantity | None]:
     """Check a helper's basis against its spikes (RoughnessHelper::CheckValues).
 
     Returns the patch half-sizes along x and y and the basis half-height (None if not given).
@@ -714,23 +878,32 @@ def _patch_basis(state: _State, helper: _Helper, one_patch: bool) -> tuple[_Quan
         want = _Quantity(spike.number * n, spike.unit, spike.value * n, "length")
         basis_cmd = helper.cmd(f"basis_d{axis}")
         if basis_cmd is None:
-            state.default(f"{key}: patch size along {axis}", f"{want.text(2)} = setSpikesN{axis} x 2 x "
-                          f"setSpikeD{axis} (no setBasisD{axis}; the only value the original accepts)")
+            state.default(
+                f"{key}: patch size along {axis}",
+                f"{want.text(2)} = setSpikesN{axis} x 2 x "
+                f"setSpikeD{axis} (no setBasisD{axis}; the only value the original accepts)",
+            )
             halves.append(want)
             continue
         basis = helper.get(f"basis_d{axis}")
         if not _close(basis.value, want.value):
             raise basis_cmd.fail(
                 f"basis half-length {basis.text()} must equal setSpikesN{axis} x setSpikeD{axis} = {n} x {spike.text()} "
-                f"= {want.text()} (the original exits on this: RoughnessHelper::CheckValues)")
-        where = f"targets.0.size.{i} = {basis.text(2)}" if one_patch else f"patch size {basis.text(2)} along {axis}"
+                f"= {want.text()} (the original exits on this: RoughnessHelper::CheckValues)"
+            )
+        where = (
+            f"targets.0.size.{i} = {basis.text(2)}"
+            if one_patch
+            else f"patch size {basis.text(2)} along {axis}"
+        )
         state.converted(basis_cmd, f"{where} (2 x half-length; = {key}.n{axis} x width_{axis})")
         halves.append(basis)
     return halves[0], halves[1], helper.get("basis_dz")
 
 
-def _portal_face(state: _State, portal: _Helper, patch: tuple[_Quantity, _Quantity], config: dict,
-                 rough: dict) -> tuple[str, str]:
+def _portal_face(
+    state: _State, portal: _Helper, patch: tuple[_Quantity, _Quantity], config: dict, rough: dict
+) -> tuple[str, str]:
     """Face size from the portal (checked as MultiportalHelper::CheckValues does); the converted keys."""
     sizes = []
     for axis, half_patch in zip(("x", "y"), patch):
@@ -739,41 +912,63 @@ def _portal_face(state: _State, portal: _Helper, patch: tuple[_Quantity, _Quanti
             if not _close(sub.value, half_patch.value):
                 raise sub_cmd.fail(
                     f"subworld half-size {sub.text()} differs from the roughness patch half-size {half_patch.text()}; "
-                    "score4 tiles patches edge to edge and cannot leave gaps or overlaps between them")
-            state.converted(sub_cmd, f"patch size {sub.text(2)} along {axis} (2 x half-length, = the roughness patch)")
+                    "score4 tiles patches edge to edge and cannot leave gaps or overlaps between them"
+                )
+            state.converted(
+                sub_cmd,
+                f"patch size {sub.text(2)} along {axis} (2 x half-length, = the roughness patch)",
+            )
         n, n_cmd = portal.get(f"n{axis}"), portal.cmd(f"n{axis}")
         full, full_cmd = portal.get(f"d{axis}"), portal.cmd(f"d{axis}")
         if full is None:
             if n is None:
-                raise ConfigError(f"{state.macro}: MultiportalHelper {portal.name!r}: give setD{axis}Portal or "
-                                  f"setN{axis}Subworld: the face size along {axis} is unknown")
+                raise ConfigError(
+                    f"{state.macro}: MultiportalHelper {portal.name!r}: give setD{axis}Portal or "
+                    f"setN{axis}Subworld: the face size along {axis} is unknown"
+                )
             full = _Quantity(half_patch.number * n, half_patch.unit, half_patch.value * n, "length")
-            state.default(f"face size along {axis}", f"{full.text(2)} = setN{axis}Subworld x patch "
-                                          f"size (no setD{axis}Portal)")
+            state.default(
+                f"face size along {axis}",
+                f"{full.text(2)} = setN{axis}Subworld x patch size (no setD{axis}Portal)",
+            )
         else:
             ratio = full.value / half_patch.value
             if not _close(ratio, round(ratio)) or round(ratio) < 1:
-                raise full_cmd.fail(f"portal half-size {full.text()} is not a whole number of patch half-sizes "
-                                    f"({half_patch.text()}): {ratio:.6g}")
+                raise full_cmd.fail(
+                    f"portal half-size {full.text()} is not a whole number of patch half-sizes "
+                    f"({half_patch.text()}): {ratio:.6g}"
+                )
             if n is not None and n != round(ratio):
-                raise n_cmd.fail(f"{n} subworlds x {half_patch.text()} != portal half-size {full.text()} (the original "
-                                 "exits on this: MultiportalHelper::CheckValues)")
-            state.converted(full_cmd, f"targets.0.size.{'xy'.index(axis)} = {full.text(2)} (2 x half-length: the face)")
+                raise n_cmd.fail(
+                    f"{n} subworlds x {half_patch.text()} != portal half-size {full.text()} (the original "
+                    "exits on this: MultiportalHelper::CheckValues)"
+                )
+            state.converted(
+                full_cmd,
+                f"targets.0.size.{'xy'.index(axis)} = {full.text(2)} (2 x half-length: the face)",
+            )
         if n_cmd is not None:
             state.converted(n_cmd, f"{n} patches along {axis} (= face size / patch size)")
         sizes.append(full.text(2))
     dz, dz_cmd = portal.get("dz"), portal.cmd("dz")
     sub_dz, sub_dz_cmd = portal.get("sub_dz"), portal.cmd("sub_dz")
     if dz is not None and sub_dz is not None and not _close(dz.value, sub_dz.value):
-        raise sub_dz_cmd.fail(f"subworld half-height {sub_dz.text()} != portal half-height {dz.text()} (the original "
-                              "exits on this: MultiportalHelper::CheckValues)")
+        raise sub_dz_cmd.fail(
+            f"subworld half-height {sub_dz.text()} != portal half-height {dz.text()} (the original "
+            "exits on this: MultiportalHelper::CheckValues)"
+        )
     for c in (dz_cmd, sub_dz_cmd):
         if c is not None:
-            state.ignored(c, "score4 sizes the rough layer's envelope itself (base_thickness + tallest spike)")
+            state.ignored(
+                c, "score4 sizes the rough layer's envelope itself (base_thickness + tallest spike)"
+            )
     if portal.cmd("material") is not None:
         config.setdefault("world", {})["material"] = portal.get("material")
-        state.converted(portal.cmd("material"), f"world.material = {portal.get('material')} (the medium around "
-                                                "the patches: score4's layer envelope is of the world material)")
+        state.converted(
+            portal.cmd("material"),
+            f"world.material = {portal.get('material')} (the medium around "
+            "the patches: score4's layer envelope is of the world material)",
+        )
     for param, _, cmd in portal.commands:
         if portal.values[param][1] is not cmd:
             state.ignored(cmd, f"overridden by {state.where(portal.values[param][1])}")
@@ -799,7 +994,10 @@ def _depth(state: _State, out_dir: Path, stem: str) -> dict | None:
     if not state.tables:
         for entry in (mn, mx):
             if entry is not None:
-                state.ignored(entry[1], "no /shift/loadShiftTable: the original does not shift without a table")
+                state.ignored(
+                    entry[1],
+                    "no /shift/loadShiftTable: the original does not shift without a table",
+                )
         return None
     depth: dict[str, Any] = {"profile": "table"}
     if len(state.tables) == 1:
@@ -807,7 +1005,9 @@ def _depth(state: _State, out_dir: Path, stem: str) -> dict | None:
         try:
             depths, _ = read_table(table, "length", unit="nm", what="shift table", xname="depth")
         except ConfigError as err:
-            raise cmd.fail(f"{err} (score4 reads the original's 'depth,weight' rows in nm)") from None
+            raise cmd.fail(
+                f"{err} (score4 reads the original's 'depth,weight' rows in nm)"
+            ) from None
         depth["file"] = _relative(table, out_dir)
         depth["unit"] = "nm"
         state.converted(cmd, f"source.depth: profile table, file {depth['file']}, unit nm")
@@ -816,34 +1016,46 @@ def _depth(state: _State, out_dir: Path, stem: str) -> dict | None:
         rows = []
         for table, cmd in state.tables:
             try:
-                rows.append(f"# from {table} ({state.where(cmd)})\n" + table.read_text().rstrip("\n") + "\n")
+                rows.append(
+                    f"# from {table} ({state.where(cmd)})\n" + table.read_text().rstrip("\n") + "\n"
+                )
             except (OSError, UnicodeDecodeError) as err:
                 raise cmd.fail(f"cannot read {str(table)!r} ({err})") from None
         name = f"{stem}.depth.txt"
-        text = (f"# depth table merged by score4 import-macro from {len(rows)} /shift/loadShiftTable files,\n"
-                "# in the order the original appends them; columns: depth, weight\n# unit: nm\n" + "".join(rows))
+        text = (
+            f"# depth table merged by score4 import-macro from {len(rows)} /shift/loadShiftTable files,\n"
+            "# in the order the original appends them; columns: depth, weight\n# unit: nm\n"
+            + "".join(rows)
+        )
         with tempfile.TemporaryDirectory() as folder:
             check = Path(folder) / name
             check.write_text(text)
             try:
                 depths, _ = read_table(check, "length", what="merged shift table", xname="depth")
             except ConfigError as err:
-                raise state.tables[1][1].fail(f"the tables cannot be merged as the original appends them: "
-                                              f"{str(err).replace(str(check), name)}") from None
+                raise state.tables[1][1].fail(
+                    f"the tables cannot be merged as the original appends them: "
+                    f"{str(err).replace(str(check), name)}"
+                ) from None
         state.report.files[name] = text
         depth["file"] = name
         for _, cmd in state.tables:
             state.converted(cmd, f"source.depth: profile table, merged into {name}")
-        state.report.notes.append(f"the original appends every loaded table to the previous ones; {name} holds them "
-                                  "merged in that order")
+        state.report.notes.append(
+            f"the original appends every loaded table to the previous ones; {name} holds them "
+            "merged in that order"
+        )
     steps = np.diff(depths)
     if len(steps) and not all(_close(s, steps[0]) for s in steps):
         state.report.notes.append(
             "the shift table's depths are not equally spaced: the original weights its bins without their widths "
-            "(notes §3.1-16), score4 samples the true piecewise-linear density through the points, so the two differ")
+            "(notes §3.1-16), score4 samples the true piecewise-linear density through the points, so the two differ"
+        )
     if mn is not None and mx is not None and mx[0].value <= mn[0].value:
-        raise mx[1].fail(f"the maximum shift {mx[0].text()} must be larger than the minimum {mn[0].text()} "
-                         f"({state.where(mn[1])})")
+        raise mx[1].fail(
+            f"the maximum shift {mx[0].text()} must be larger than the minimum {mn[0].text()} "
+            f"({state.where(mn[1])})"
+        )
     for key, entry in (("min", mn), ("max", mx)):
         if entry is not None:
             depth[key] = entry[0].text()
@@ -851,15 +1063,21 @@ def _depth(state: _State, out_dir: Path, stem: str) -> dict | None:
     depth["definition"] = "normal"
     state.report.notes.append(
         "the original applies /shift/ settings only when its C++ builds the sampler with a shift file (notes "
-        "§3.1-17); score4 applies them")
+        "§3.1-17); score4 applies them"
+    )
     return depth
 
 
-def _source(state: _State, config: dict, target: str, material: str, out_dir: Path, stem: str) -> None:
+def _source(
+    state: _State, config: dict, target: str, material: str, out_dir: Path, stem: str
+) -> None:
     s = state.settings
     source: dict[str, Any] = {"surface": {"volume": target, "face": "+z"}}
-    state.default("source.surface", f"{{volume: {target}, face: +z}} (the original samples the "
-                                  "rough surface; score4 names the face it covers)")
+    state.default(
+        "source.surface",
+        f"{{volume: {target}, face: +z}} (the original samples the "
+        "rough surface; score4 names the face it covers)",
+    )
     particle = s.get("particle")
     energy = s.get("energy")
     if particle is None:
@@ -877,8 +1095,11 @@ def _source(state: _State, config: dict, target: str, material: str, out_dir: Pa
         nuclide = f"{ELEMENTS[z - 1]}{a}"
         if energy is not None and energy[0].value == 0:
             source["nuclide"] = nuclide
-            state.converted(particle[1], f"source.nuclide = {nuclide} (with /gps/ion; an ion at rest decays: "
-                                         "Geant4 radioactive decay, needs full physics)")
+            state.converted(
+                particle[1],
+                f"source.nuclide = {nuclide} (with /gps/ion; an ion at rest decays: "
+                "Geant4 radioactive decay, needs full physics)",
+            )
             state.converted(ion[1], f"source.nuclide = {nuclide}")
             state.converted(energy[1], "energy 0: the ion is at rest (source.nuclide)")
             energy = None
@@ -903,8 +1124,10 @@ def _source(state: _State, config: dict, target: str, material: str, out_dir: Pa
     direction = s.get("direction")
     source["direction"] = "isotropic"
     if direction is None:
-        state.default("source.direction", "isotropic (the macro has no /gps/ang/type; GPS's own "
-                                      "default is one fixed direction)")
+        state.default(
+            "source.direction",
+            "isotropic (the macro has no /gps/ang/type; GPS's own default is one fixed direction)",
+        )
     else:
         state.converted(direction[1], "source.direction = isotropic")
     depth = _depth(state, out_dir, stem)
@@ -912,11 +1135,16 @@ def _source(state: _State, config: dict, target: str, material: str, out_dir: Pa
         source["depth"] = depth
         confine = s.get("confine")
         if confine is None:
-            state.default("source.confine", "true (score4 keeps shifted vertices in the target's "
-                                          "material; the original confines only with /shift/confineToMaterial)")
+            state.default(
+                "source.confine",
+                "true (score4 keeps shifted vertices in the target's "
+                "material; the original confines only with /shift/confineToMaterial)",
+            )
         else:
             if confine[0] != material:
-                raise confine[1].fail(f"no converted volume is made of {confine[0]!r}: the target is {material}")
+                raise confine[1].fail(
+                    f"no converted volume is made of {confine[0]!r}: the target is {material}"
+                )
             source["confine"] = confine[0]
             state.converted(confine[1], f"source.confine = {confine[0]}")
     elif s.get("confine") is not None:
@@ -929,10 +1157,15 @@ def _run(state: _State, config: dict) -> None:
     if state.beam_on:
         run["events"] = sum(n for n, _ in state.beam_on)
         for n, cmd in state.beam_on:
-            state.converted(cmd, f"run.events = {run['events']}" + (f" (sum of {len(state.beam_on)} runs)"
-                                                                    if len(state.beam_on) > 1 else ""))
+            state.converted(
+                cmd,
+                f"run.events = {run['events']}"
+                + (f" (sum of {len(state.beam_on)} runs)" if len(state.beam_on) > 1 else ""),
+            )
         if len(state.beam_on) > 1:
-            state.report.notes.append(f"{len(state.beam_on)} /run/beamOn commands: one score4 run of all their events")
+            state.report.notes.append(
+                f"{len(state.beam_on)} /run/beamOn commands: one score4 run of all their events"
+            )
         if run["events"] < 1:
             raise state.beam_on[-1][1].fail("no events: score4 needs run.events >= 1")
     else:
@@ -948,7 +1181,11 @@ def _run(state: _State, config: dict) -> None:
         for v in values:  # one seed as it is; several folded into one 63-bit number
             seed = (seed * 2**32 + v) % 2**63
         run["seed"] = seed
-        how = "" if len(values) == 1 else f" (= {' x 2^32 + '.join(map(str, values))}, folded: score4 takes one seed)"
+        how = (
+            ""
+            if len(values) == 1
+            else f" (= {' x 2^32 + '.join(map(str, values))}, folded: score4 takes one seed)"
+        )
         state.converted(cmd, f"run.seed = {seed}{how}")
     config["run"] = run
     cut = state.settings.get("cut")
@@ -961,15 +1198,23 @@ def _surfaces(state: _State) -> list[_Helper]:
     """The helpers that describe surfaces: the RoughnessHelpers, else the Describer (/geometry/surface)."""
     if state.rough:
         for _, _, cmd in state.describer.commands:
-            state.ignored(cmd, "overridden: RoughnessHelper copies its own parameters into the Describer "
-                               "(RoughnessHelper::BuildSurface)")
+            state.ignored(
+                cmd,
+                "overridden: RoughnessHelper copies its own parameters into the Describer "
+                "(RoughnessHelper::BuildSurface)",
+            )
         return list(state.rough.values())
     if state.describer.commands:
-        state.default("surfaces.surface", "unset /geometry/surface values take the Describer's "
-                                      "defaults (half-width 0.005 mm, 1 x 1 spikes, mean height 0.005 mm, sigma 1 mm)")
+        state.default(
+            "surfaces.surface",
+            "unset /geometry/surface values take the Describer's "
+            "defaults (half-width 0.005 mm, 1 x 1 spikes, mean height 0.005 mm, sigma 1 mm)",
+        )
         return [state.describer]
-    raise ConfigError(f"{state.macro}: no rough surface: the macro has no /Surface/RoughnessHelper/... or "
-                      "/geometry/surface/... commands, so there is nothing to convert")
+    raise ConfigError(
+        f"{state.macro}: no rough surface: the macro has no /Surface/RoughnessHelper/... or "
+        "/geometry/surface/... commands, so there is nothing to convert"
+    )
 
 
 def _face(state: _State, helpers: list[_Helper], config: dict) -> tuple[dict, str, str]:
@@ -995,41 +1240,65 @@ def _face(state: _State, helpers: list[_Helper], config: dict) -> tuple[dict, st
                 if not _close(a.value, b.value):
                     raise h.cmd(f"d{axis}").fail(
                         f"the patch of {h.name!r} is {2 * b.value:g} mm along {axis}, that of {first.name!r} "
-                        f"{2 * a.value:g} mm; the patches of one face must have one size")
-            if (base is None) != (other_base is None) or (base and not _close(base.value, other_base.value)):
+                        f"{2 * a.value:g} mm; the patches of one face must have one size"
+                    )
+            if (base is None) != (other_base is None) or (
+                base and not _close(base.value, other_base.value)
+            ):
                 c = h.cmd("basis_dz") or first.cmd("basis_dz")
-                raise c.fail(f"{h.name!r} and {first.name!r} have different basis heights; a score4 rough face "
-                             "has one base_thickness")
+                raise c.fail(
+                    f"{h.name!r} and {first.name!r} have different basis heights; a score4 rough face "
+                    "has one base_thickness"
+                )
     if base is not None:
         rough["base_thickness"] = base.text(2)
         for h in helpers:
             if h.cmd("basis_dz") is not None:
-                state.converted(h.cmd("basis_dz"), f"targets.0.rough.0.base_thickness = {base.text(2)} "
-                                                   "(2 x half-height)")
+                state.converted(
+                    h.cmd("basis_dz"),
+                    f"targets.0.rough.0.base_thickness = {base.text(2)} (2 x half-height)",
+                )
     else:
-        state.default("targets.0.rough.0.base_thickness", "1 um (score4's default; the macro "
-                                      "gives no basis height)")
+        state.default(
+            "targets.0.rough.0.base_thickness",
+            "1 um (score4's default; the macro gives no basis height)",
+        )
     for extra in portals[1:]:
         for _, _, cmd in extra.commands:
-            state.unknown(cmd, f"a second MultiportalHelper ({extra.name!r}): score4 converts one portal per macro")
+            state.unknown(
+                cmd,
+                f"a second MultiportalHelper ({extra.name!r}): score4 converts one portal per macro",
+            )
     if portals:
         size_x, size_y = _portal_face(state, portals[0], (patch[0], patch[1]), config, rough)
     else:
         size_x, size_y = patch[0].text(2), patch[1].text(2)
-        state.report.notes.append("no MultiportalHelper: the face is one patch (targets.0.size = the patch size)")
+        state.report.notes.append(
+            "no MultiportalHelper: the face is one patch (targets.0.size = the patch size)"
+        )
     if len(placed) > 1:
-        rough["variants"] = [{"surface": h.name, "density": round(1 / len(placed), 12)} for h in placed]
+        rough["variants"] = [
+            {"surface": h.name, "density": round(1 / len(placed), 12)} for h in placed
+        ]
         rough["fill"] = "exact"
-        state.default("targets.0.rough.0.variants", f"{len(placed)} patches with equal densities "
-                                      "(the original sets them in C++, AddSubworldDensity; edit them here)")
-        state.default("targets.0.rough.0.fill", "exact (the realised fractions equal the densities; "
-                                      "the original draws each cell independently, like fill: random)")
+        state.default(
+            "targets.0.rough.0.variants",
+            f"{len(placed)} patches with equal densities "
+            "(the original sets them in C++, AddSubworldDensity; edit them here)",
+        )
+        state.default(
+            "targets.0.rough.0.fill",
+            "exact (the realised fractions equal the densities; "
+            "the original draws each cell independently, like fill: random)",
+        )
     else:
         rough["surface"] = first.name
     if len(helpers) > len(placed):
-        state.report.notes.append(f"several RoughnessHelpers and no portal: only {first.name!r} is placed; "
-                                  f"{', '.join(h.name for h in helpers[1:])} are defined under surfaces (the "
-                                  "original places them in C++)")
+        state.report.notes.append(
+            f"several RoughnessHelpers and no portal: only {first.name!r} is placed; "
+            f"{', '.join(h.name for h in helpers[1:])} are defined under surfaces (the "
+            "original places them in C++)"
+        )
     order = ("face", "surface", "variants", "fill", "tiling", "base_thickness")
     return {k: rough[k] for k in order if k in rough}, size_x, size_y
 
@@ -1039,8 +1308,10 @@ def _material(state: _State, placed: list[_Helper]) -> str:
     given = {h.name: h.get("material") for h in placed if h.get("material") is not None}
     if len(set(given.values())) > 1:
         names = ", ".join(f"{n}: {m}" for n, m in given.items())
-        raise ConfigError(f"{state.macro}: the patches have different materials ({names}); a score4 rough face "
-                          "is in its target's one material")
+        raise ConfigError(
+            f"{state.macro}: the patches have different materials ({names}); a score4 rough face "
+            "is in its target's one material"
+        )
     if not given:
         state.default("targets.0.material", f"{DEFAULT_MATERIAL} (no setMaterial)")
         return DEFAULT_MATERIAL
@@ -1052,18 +1323,32 @@ def _build(state: _State, out_dir: Path, stem: str) -> dict:
     helpers = _surfaces(state)
     config["surfaces"] = {}
     for h in helpers:
-        label = f"/Surface/RoughnessHelper/{h.name}" if h is not state.describer else "/geometry/surface"
-        config["surfaces"][h.name] = _spike_surface(state, h, label, _DESCRIBER_DEFAULTS if h is state.describer
-                                                    else None)
+        label = (
+            f"/Surface/RoughnessHelper/{h.name}"
+            if h is not state.describer
+            else "/geometry/surface"
+        )
+        config["surfaces"][h.name] = _spike_surface(
+            state, h, label, _DESCRIBER_DEFAULTS if h is state.describer else None
+        )
     rough, size_x, size_y = _face(state, helpers, config)
     material = _material(state, helpers if state.portals else helpers[:1])
     thickness = parse_quantity(DEFAULT_TARGET_THICKNESS, "length")
-    config["targets"] = [{"name": DEFAULT_TARGET, "material": material,
-                          "size": [size_x, size_y, DEFAULT_TARGET_THICKNESS],
-                          "position": ["0 mm", "0 mm", f"{_g(-thickness / 2)} mm"], "rough": [rough]}]
-    state.default("targets.0", f"a {material} block named {DEFAULT_TARGET!r}, "
-                                  f"{DEFAULT_TARGET_THICKNESS} thick, under the rough face, with the face at z = 0 "
-                                  "(the original builds the volume under the surface in C++)")
+    config["targets"] = [
+        {
+            "name": DEFAULT_TARGET,
+            "material": material,
+            "size": [size_x, size_y, DEFAULT_TARGET_THICKNESS],
+            "position": ["0 mm", "0 mm", f"{_g(-thickness / 2)} mm"],
+            "rough": [rough],
+        }
+    ]
+    state.default(
+        "targets.0",
+        f"a {material} block named {DEFAULT_TARGET!r}, "
+        f"{DEFAULT_TARGET_THICKNESS} thick, under the rough face, with the face at z = 0 "
+        "(the original builds the volume under the surface in C++)",
+    )
     _source(state, config, DEFAULT_TARGET, material, out_dir, stem)
     _run(state, config)
     order = ("physics", "world", "surfaces", "targets", "source", "run")
@@ -1075,7 +1360,9 @@ def _build(state: _State, out_dir: Path, stem: str) -> dict:
 # --------------------------------------------------------------------------------------------
 
 
-def import_macro(path: str | os.PathLike, out: str | os.PathLike | None = None) -> tuple[dict, ImportReport]:
+def import_macro(
+    path: str | os.PathLike, out: str | os.PathLike | None = None
+) -> tuple[dict, ImportReport]:
     """Convert an original SCoRe4 macro into a score4 run configuration.
 
     Parameters
@@ -1101,8 +1388,11 @@ def import_macro(path: str | os.PathLike, out: str | os.PathLike | None = None) 
     """
     path = Path(path)
     if not path.is_file():
-        raise ConfigError(f"FILE.mac: {str(path)!r} does not exist" if not path.exists()
-                          else f"FILE.mac: {str(path)!r} is not a file")
+        raise ConfigError(
+            f"FILE.mac: {str(path)!r} does not exist"
+            if not path.exists()
+            else f"FILE.mac: {str(path)!r} is not a file"
+        )
     out_path = Path(out) if out is not None else path.with_suffix(".yaml")
     out_dir = out_path.parent
     commands: list[_Command] = []
@@ -1119,8 +1409,12 @@ class _Dumper(yaml.SafeDumper):
     """Block-style mappings; lists of plain values (sizes, positions) on one line."""
 
 
-_Dumper.add_representer(list, lambda d, v: d.represent_sequence(
-    "tag:yaml.org,2002:seq", v, flow_style=not any(isinstance(x, (dict, list)) for x in v)))
+_Dumper.add_representer(
+    list,
+    lambda d, v: d.represent_sequence(
+        "tag:yaml.org,2002:seq", v, flow_style=not any(isinstance(x, (dict, list)) for x in v)
+    ),
+)
 
 
 def render_yaml(config: dict, report: ImportReport) -> str:
@@ -1139,11 +1433,20 @@ def render_yaml(config: dict, report: ImportReport) -> str:
         "",
         *report.lines(),
     ]
-    body = yaml.dump(config, Dumper=_Dumper, sort_keys=False, default_flow_style=False, width=110, allow_unicode=True)
+    body = yaml.dump(
+        config,
+        Dumper=_Dumper,
+        sort_keys=False,
+        default_flow_style=False,
+        width=110,
+        allow_unicode=True,
+    )
     return "".join(f"# {line}".rstrip() + "\n" for line in header) + "\n" + body
 
 
-def write_config(config: dict, report: ImportReport, out: str | os.PathLike, overwrite: bool = False) -> list[Path]:
+def write_config(
+    config: dict, report: ImportReport, out: str | os.PathLike, overwrite: bool = False
+) -> list[Path]:
     """Write the configuration (and any table in ``report.files``) beside each other; return the paths.
 
     Raises

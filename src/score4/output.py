@@ -46,7 +46,11 @@ def atomic_h5(path: Path):
 
 
 def write_chunk(
-    path: Path, first_event: int, volumes: list[str], scores: dict[str, np.ndarray], primaries: Primaries,
+    path: Path,
+    first_event: int,
+    volumes: list[str],
+    scores: dict[str, np.ndarray],
+    primaries: Primaries,
     fingerprint: str = "",
 ) -> None:
     """Write one finished chunk (events ``first_event ...``) atomically.
@@ -80,11 +84,15 @@ def merge_chunks(chunk_paths: list[Path], out: Path, run_record: dict) -> None:
         with atomic_h5(out) as f:
             run = f.create_group("run")
             for key, value in run_record.items():
-                run.attrs[key] = json.dumps(value) if isinstance(value, (dict, list, tuple)) else value
+                run.attrs[key] = (
+                    json.dumps(value) if isinstance(value, (dict, list, tuple)) else value
+                )
             ev = f.create_group("events")
             ev.attrs["quantities"] = json.dumps(quantities)
             for name in ("event_id", "primary_energy"):
-                d = ev.create_dataset(name, data=np.concatenate([p["events"][name][()] for p in parts]))
+                d = ev.create_dataset(
+                    name, data=np.concatenate([p["events"][name][()] for p in parts])
+                )
                 if name == "primary_energy":
                     d.attrs["units"] = "MeV"
             for quantity in quantities:
@@ -141,7 +149,9 @@ def read_results(path: str | Path) -> Results:
     path = Path(path)
     with open_h5(path, FORMAT, "results") as f:
         if "run" not in f:
-            raise Score4Error(f"results: {path} is not a finished score4 results file (no run record)")
+            raise Score4Error(
+                f"results: {path} is not a finished score4 results file (no run record)"
+            )
         volumes = json.loads(f["events/edep"].attrs["volumes"])
         quantities = json.loads(f["events"].attrs["quantities"])
         return Results(
@@ -173,8 +183,11 @@ def summarize(results: Results, bins: int | None = None, emax: float | None = No
                 "name": name,
                 "mean_edep_MeV": float(e.mean()) if len(e) else 0.0,
                 "n_nonzero": int(np.count_nonzero(e)),
-                "histogram": {"edges_MeV": edges.tolist(), "counts": counts.tolist(),
-                              "overflow": int(np.count_nonzero(e > emax * (1 + 1e-9)))},
+                "histogram": {
+                    "edges_MeV": edges.tolist(),
+                    "counts": counts.tolist(),
+                    "overflow": int(np.count_nonzero(e > emax * (1 + 1e-9))),
+                },
             }
         )
     return {

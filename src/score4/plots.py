@@ -19,7 +19,13 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from .errors import ConfigError, Score4Error
-from .export import DepositHistogram, check_output_path, deposit_histogram, histogram_edges, select_volumes
+from .export import (
+    DepositHistogram,
+    check_output_path,
+    deposit_histogram,
+    histogram_edges,
+    select_volumes,
+)
 from .files import atomic_output
 from .output import FORMAT as RESULTS_FORMAT
 from .output import Results, read_results
@@ -67,11 +73,17 @@ def file_kind(path: str | Path) -> str:
     """
     path = Path(path)
     if not path.is_file():
-        raise Score4Error(f"file {str(path)!r} does not exist" if not path.exists() else f"{str(path)!r} is not a file")
+        raise Score4Error(
+            f"file {str(path)!r} does not exist"
+            if not path.exists()
+            else f"{str(path)!r} is not a file"
+        )
     try:
         f = h5py.File(path, "r")
     except OSError:
-        raise Score4Error(f"{path} is not an HDF5 file (expected a score4 results, vertex or surface file)") from None
+        raise Score4Error(
+            f"{path} is not an HDF5 file (expected a score4 results, vertex or surface file)"
+        ) from None
     with f:
         fmt = f.attrs.get("format")
         fmt = fmt.decode() if isinstance(fmt, bytes) else fmt
@@ -82,7 +94,9 @@ def file_kind(path: str | Path) -> str:
         if isinstance(f.get(VERTEX_DEPTH_DATASET), h5py.Dataset):
             return "vertices"
         if fmt == VERTEX_FORMAT:
-            raise Score4Error(f"{path}: vertex file without depths (no dataset {VERTEX_DEPTH_DATASET!r}): nothing to plot")
+            raise Score4Error(
+                f"{path}: vertex file without depths (no dataset {VERTEX_DEPTH_DATASET!r}): nothing to plot"
+            )
     shown = f" (format attribute {fmt!r})" if fmt is not None else " (no format attribute)"
     raise Score4Error(f"{path} is not a score4 results, vertex or surface file{shown}")
 
@@ -101,7 +115,9 @@ def read_vertex_depths(path: str | Path) -> np.ndarray:
         unit = d.attrs.get("units", "mm")
         unit = unit.decode() if isinstance(unit, bytes) else str(unit)
         if unit not in LENGTH:
-            raise Score4Error(f"{path}: {VERTEX_DEPTH_DATASET} has units {unit!r}; expected one of: {', '.join(LENGTH)}")
+            raise Score4Error(
+                f"{path}: {VERTEX_DEPTH_DATASET} has units {unit!r}; expected one of: {', '.join(LENGTH)}"
+            )
         depth = np.asarray(d[()], dtype=float).reshape(-1) * LENGTH[unit]
         if "vertices/event" in f:
             event = np.asarray(f["vertices/event"][()]).reshape(-1)
@@ -115,7 +131,9 @@ def read_vertex_depths(path: str | Path) -> np.ndarray:
 
 
 def _text(value) -> str | None:
-    return str(value) if isinstance(value, (str, int, float)) and not isinstance(value, bool) else None
+    return (
+        str(value) if isinstance(value, (str, int, float)) and not isinstance(value, bool) else None
+    )
 
 
 def _emitter_text(source: dict) -> str | None:
@@ -143,13 +161,23 @@ def _surface_text(config: dict, source: dict) -> str | None:
     rough = None
     targets = config.get("targets")
     for target in targets if isinstance(targets, list) else []:
-        if isinstance(target, dict) and target.get("name") == volume and isinstance(target.get("rough"), list):
-            rough = next((r for r in target["rough"] if isinstance(r, dict) and r.get("face") == face), None)
+        if (
+            isinstance(target, dict)
+            and target.get("name") == volume
+            and isinstance(target.get("rough"), list)
+        ):
+            rough = next(
+                (r for r in target["rough"] if isinstance(r, dict) and r.get("face") == face), None
+            )
     if rough is None:
         return f"flat {face}"
     surfaces = config.get("surfaces") if isinstance(config.get("surfaces"), dict) else {}
     name = _text(rough.get("surface"))
-    kind = surfaces.get(name, {}).get("kind") if name and isinstance(surfaces.get(name), dict) else None
+    kind = (
+        surfaces.get(name, {}).get("kind")
+        if name and isinstance(surfaces.get(name), dict)
+        else None
+    )
     return f"rough {face}" + (f" ({kind})" if _text(kind) else "")
 
 
@@ -168,7 +196,9 @@ def describe_run(results: Results) -> str:
         _emitter_text(source),
         _surface_text(config, source),
         f"{profile} depth" if profile and profile != "zero" else None,
-        f"{results.run['physics_mode']} physics" if isinstance(results.run.get("physics_mode"), str) else None,
+        f"{results.run['physics_mode']} physics"
+        if isinstance(results.run.get("physics_mode"), str)
+        else None,
     ]
     return ", ".join(p for p in parts if p)
 
@@ -189,8 +219,10 @@ def _save(fig: Figure, path: str | Path) -> Path:
     path = check_output_path(path)
     fmt = path.suffix.lower().lstrip(".") or "png"
     if fmt not in _FORMATS:
-        raise ConfigError(f"out: unknown image format {path.suffix!r} in {str(path)!r}; use one of: "
-                          + ", ".join(f".{f}" for f in sorted(_FORMATS)))
+        raise ConfigError(
+            f"out: unknown image format {path.suffix!r} in {str(path)!r}; use one of: "
+            + ", ".join(f".{f}" for f in sorted(_FORMATS))
+        )
     with atomic_output(path) as tmp:
         fig.savefig(tmp, format=fmt, dpi=120)
     return path
@@ -205,12 +237,16 @@ def _labels(labels: Sequence[str] | None, n: int, what: str) -> list[str] | None
         return None
     labels = [labels] if isinstance(labels, str) else list(labels)
     if len(labels) != n:
-        raise ConfigError(f"labels: {len(labels)} label(s) given for {n} {what}(s); give one per {what} or none")
+        raise ConfigError(
+            f"labels: {len(labels)} label(s) given for {n} {what}(s); give one per {what} or none"
+        )
     return labels
 
 
 def _log_axis(ax, y_arrays: Iterable[np.ndarray]) -> bool:
-    positive = np.concatenate([np.asarray(y, dtype=float).ravel() for y in y_arrays] or [np.zeros(0)])
+    positive = np.concatenate(
+        [np.asarray(y, dtype=float).ravel() for y in y_arrays] or [np.zeros(0)]
+    )
     positive = positive[positive > 0]
     if len(positive) == 0:
         return False  # nothing to show on a log scale: stay linear
@@ -280,7 +316,11 @@ def plot_spectra(
     ax.set_xlabel(f"energy deposit [{'keV' if in_keV else 'MeV'}]")
     ax.set_ylabel("counts / keV / event" if per_event else "counts / keV")
     title = f"energy deposit in {volume}" if volume else "energy deposit"
-    ax.set_title(f"{title} ({edges[1] - edges[0]:.4g} MeV bins)" if not in_keV else f"{title} ({(edges[1] - edges[0]) * 1e3:.4g} keV bins)")
+    ax.set_title(
+        f"{title} ({edges[1] - edges[0]:.4g} MeV bins)"
+        if not in_keV
+        else f"{title} ({(edges[1] - edges[0]) * 1e3:.4g} keV bins)"
+    )
     ax.legend(fontsize="small")
     ax.grid(alpha=0.3)
     _save(fig, out_png)
@@ -319,7 +359,9 @@ def plot_depths(
     if not items:
         raise ConfigError("depths: nothing to plot")
     if isinstance(vertex_files_or_arrays, np.ndarray) and vertex_files_or_arrays.ndim != 1:
-        raise ConfigError(f"depths: expected a 1-D array of depths in mm, got shape {vertex_files_or_arrays.shape}")
+        raise ConfigError(
+            f"depths: expected a 1-D array of depths in mm, got shape {vertex_files_or_arrays.shape}"
+        )
     given = _labels(labels, len(items), "input")
     data, names = [], []
     for k, item in enumerate(items):
@@ -328,12 +370,16 @@ def plot_depths(
         else:
             depths, name = np.asarray(item, dtype=float), f"depths {k + 1}"
             if depths.ndim != 1:
-                raise ConfigError(f"depths: expected a 1-D array of depths in mm, got shape {depths.shape}")
+                raise ConfigError(
+                    f"depths: expected a 1-D array of depths in mm, got shape {depths.shape}"
+                )
         if not np.isfinite(depths).all():
             raise ConfigError(f"depths: {name} holds non-finite values")
         data.append(depths * 1e6)  # nm
         names.append(given[k] if given else name)
-    if bins is not None and (isinstance(bins, bool) or not isinstance(bins, (int, np.integer)) or bins < 1):
+    if bins is not None and (
+        isinstance(bins, bool) or not isinstance(bins, (int, np.integer)) or bins < 1
+    ):
         raise ConfigError(f"bins: must be a positive integer, got {bins!r}")
     if isinstance(dmax, str):
         from .units import parse_quantity
@@ -344,7 +390,9 @@ def plot_depths(
     if dmax is not None:
         hi = float(dmax) * 1e6
         if not hi > lo:
-            raise ConfigError(f"dmax: must be larger than the smallest depth ({lo / 1e6!r} mm), got {dmax!r} mm")
+            raise ConfigError(
+                f"dmax: must be larger than the smallest depth ({lo / 1e6!r} mm), got {dmax!r} mm"
+            )
     else:
         hi = float(everything.max(initial=0.0))
         if not hi > lo:

@@ -26,9 +26,12 @@ from .surface.store import load_surface
 
 # Face -> (u, v) axes as (axis index, sign); n = u x v is the outward normal.
 _FACE_AXES = {
-    "+z": ((0, 1), (1, 1)), "-z": ((0, 1), (1, -1)),
-    "+x": ((1, 1), (2, 1)), "-x": ((1, -1), (2, 1)),
-    "+y": ((2, 1), (0, 1)), "-y": ((0, 1), (2, 1)),
+    "+z": ((0, 1), (1, 1)),
+    "-z": ((0, 1), (1, -1)),
+    "+x": ((1, 1), (2, 1)),
+    "-x": ((1, -1), (2, 1)),
+    "+y": ((2, 1), (0, 1)),
+    "-y": ((0, 1), (2, 1)),
 }
 
 #: Points this close (mm) outside a volume's boundary still count as inside (vertices at depth 0
@@ -67,7 +70,9 @@ def face_frame(target: BoxVolume, face: str) -> FaceFrame:
     axis = int(np.flatnonzero(n)[0])
     centre = np.array(target.position, float)
     centre[axis] += n[axis] * target.size[axis] / 2
-    return FaceFrame(centre, np.column_stack([u, v, n]), (float(target.size[a]), float(target.size[b])))
+    return FaceFrame(
+        centre, np.column_stack([u, v, n]), (float(target.size[a]), float(target.size[b]))
+    )
 
 
 @dataclass
@@ -109,7 +114,9 @@ class RoughLayer:
         choice = self.config.solid
         grid = self.variants[k].spikes
         if choice == "multiunion" and grid is None:
-            raise ConfigError(f"{self.name}: solid multiunion needs a spike-grid surface; {self.names[k]!r} is a height map")
+            raise ConfigError(
+                f"{self.name}: solid multiunion needs a spike-grid surface; {self.names[k]!r} is a height map"
+            )
         if choice == "auto":
             return "multiunion" if grid is not None and grid.height_sigma == 0 else "tessellated"
         return choice
@@ -124,10 +131,15 @@ class RoughLayer:
 
         px, py = self.patch_size
         shift = np.array([px / 2, py / 2, 0.0])  # the sampler's patches span [0, px] x [0, py]
-        variants = [SurfaceSampler(vertices=s.top_mesh.vertices + shift, faces=s.top_mesh.faces) for s in self.variants]
+        variants = [
+            SurfaceSampler(vertices=s.top_mesh.vertices + shift, faces=s.top_mesh.faces)
+            for s in self.variants
+        ]
         lu, lv = self.frame.size
         origin = self.frame.to_world(np.array([-lu / 2, -lv / 2, self.base_thickness]))
-        return TiledSurfaceSampler(variants, self.patch_map.variants.T, (px, py), origin, self.frame.rotation)
+        return TiledSurfaceSampler(
+            variants, self.patch_map.variants.T, (px, py), origin, self.frame.rotation
+        )
 
     def contains(self, points: np.ndarray) -> np.ndarray:
         """True for world points inside a patch body (on its boundary within the tolerance)."""
@@ -159,7 +171,9 @@ class Scene:
     layers: list[RoughLayer] = field(default_factory=list)
 
     def layer(self, volume: str, face: str) -> RoughLayer | None:
-        return next((r for r in self.layers if r.target.name == volume and r.config.face == face), None)
+        return next(
+            (r for r in self.layers if r.target.name == volume and r.config.face == face), None
+        )
 
     def layers_of(self, volume: str) -> list[RoughLayer]:
         return [r for r in self.layers if r.target.name == volume]
@@ -176,7 +190,9 @@ class Scene:
         names = [t.name for t in self.config.targets if t.material == material]
         if not names:
             known = sorted({t.material for t in self.config.targets})
-            raise ConfigError(f"source.confine: no target is made of {material!r}; target materials: {', '.join(known)}")
+            raise ConfigError(
+                f"source.confine: no target is made of {material!r}; target materials: {', '.join(known)}"
+            )
         inside = np.zeros(len(points), dtype=bool)
         for name in names:
             inside |= self.inside_target(name, points)
@@ -185,7 +201,9 @@ class Scene:
     @cached_property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi) corners of a box holding every target and rough layer."""
-        boxes = [_box_of_target(t) for t in self.config.targets] + [_box_of_layer(r) for r in self.layers]
+        boxes = [_box_of_target(t) for t in self.config.targets] + [
+            _box_of_layer(r) for r in self.layers
+        ]
         return np.min([lo for lo, _ in boxes], axis=0), np.max([hi for _, hi in boxes], axis=0)
 
 
@@ -198,7 +216,14 @@ def _box_of_target(target: BoxVolume) -> tuple[np.ndarray, np.ndarray]:
 def _box_of_layer(layer: RoughLayer) -> tuple[np.ndarray, np.ndarray]:
     """Axis-aligned (lo, hi) of the layer's envelope: the face extruded by the layer thickness."""
     lu, lv = layer.frame.size
-    corners = np.array([[su * lu / 2, sv * lv / 2, z] for su in (-1, 1) for sv in (-1, 1) for z in (0.0, layer.thickness)])
+    corners = np.array(
+        [
+            [su * lu / 2, sv * lv / 2, z]
+            for su in (-1, 1)
+            for sv in (-1, 1)
+            for z in (0.0, layer.thickness)
+        ]
+    )
     world = layer.frame.to_world(corners)
     return world.min(axis=0), world.max(axis=0)
 
@@ -213,17 +238,23 @@ def check_clearance(scene: Scene) -> None:
     boxes = {t.name: _box_of_target(t) for t in scene.config.targets}
     names = list(boxes)
     for a, name in enumerate(names):
-        for other in names[a + 1:]:
+        for other in names[a + 1 :]:
             if _overlap(boxes[name], boxes[other]):
-                raise ConfigError(f"targets: {name!r} and {other!r} overlap; Geant4 needs volumes that do not overlap")
+                raise ConfigError(
+                    f"targets: {name!r} and {other!r} overlap; Geant4 needs volumes that do not overlap"
+                )
     layers = [(layer, _box_of_layer(layer)) for layer in scene.layers]
     for n, (layer, box) in enumerate(layers):
         others = [(f"target {name!r}", b) for name, b in boxes.items() if name != layer.target.name]
-        others += [(f"the rough layer {o.name}", ob) for o, ob in layers[n + 1:]]
+        others += [(f"the rough layer {o.name}", ob) for o, ob in layers[n + 1 :]]
         for what, other in others:
             if _overlap(box, other):
                 axis = int(np.flatnonzero(layer.frame.normal)[0])
-                gap = (other[0][axis] - box[0][axis]) if layer.frame.normal[axis] > 0 else (box[1][axis] - other[1][axis])
+                gap = (
+                    (other[0][axis] - box[0][axis])
+                    if layer.frame.normal[axis] > 0
+                    else (box[1][axis] - other[1][axis])
+                )
                 raise ConfigError(
                     f"{layer.name}: the rough layer on face {layer.config.face} of {layer.target.name!r} is "
                     f"{layer.thickness * 1e3:.4g} um thick (base {layer.base_thickness * 1e3:.4g} um + highest tip) and "
@@ -235,7 +266,11 @@ def check_clearance(scene: Scene) -> None:
 def _load(name: str, description) -> Surface:
     where = f"surfaces.{name}"
     try:
-        return load_surface(description.file) if isinstance(description, SurfaceFile) else build_surface(description)
+        return (
+            load_surface(description.file)
+            if isinstance(description, SurfaceFile)
+            else build_surface(description)
+        )
     except ConfigError as err:
         raise ConfigError(f"{where}: {err}") from None
 
@@ -247,7 +282,9 @@ def _same_size(a: float, b: float) -> bool:
 def build_scene(config: RunConfig) -> Scene:
     """Build every surface the targets use and the patch map of every rough face."""
     used = {v.surface for t in config.targets for r in t.rough for v in r.variant_list}
-    surfaces = {name: _load(name, config.surfaces[name]) for name in config.surfaces if name in used}
+    surfaces = {
+        name: _load(name, config.surfaces[name]) for name in config.surfaces if name in used
+    }
     scene = Scene(config, surfaces)
     for i, target in enumerate(config.targets):
         for j, rough in enumerate(target.rough):
@@ -263,8 +300,13 @@ def build_scene(config: RunConfig) -> Scene:
                     )
             frame = face_frame(target, rough.face)
             try:
-                patch_map = make_patch_map(frame.size, size, [v.density for v in rough.variant_list],
-                                           method=rough.fill, seed=rough.seed)
+                patch_map = make_patch_map(
+                    frame.size,
+                    size,
+                    [v.density for v in rough.variant_list],
+                    method=rough.fill,
+                    seed=rough.seed,
+                )
             except ConfigError as err:
                 raise ConfigError(f"{where} (face {rough.face} of {target.name}): {err}") from None
             scene.layers.append(RoughLayer(target, rough, frame, names, variants, patch_map))

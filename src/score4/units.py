@@ -14,8 +14,16 @@ from .errors import ConfigError
 
 # Factors to internal units, per dimension.
 LENGTH = {
-    "pm": 1e-9, "nm": 1e-6, "um": 1e-3, "µm": 1e-3, "μm": 1e-3, "micron": 1e-3,
-    "mm": 1.0, "cm": 10.0, "m": 1000.0, "km": 1e6,
+    "pm": 1e-9,
+    "nm": 1e-6,
+    "um": 1e-3,
+    "µm": 1e-3,
+    "μm": 1e-3,
+    "micron": 1e-3,
+    "mm": 1.0,
+    "cm": 10.0,
+    "m": 1000.0,
+    "km": 1e6,
 }
 ENERGY = {"eV": 1e-6, "keV": 1e-3, "MeV": 1.0, "GeV": 1e3, "TeV": 1e6}
 TIME = {"ps": 1e-3, "ns": 1.0, "us": 1e3, "µs": 1e3, "ms": 1e6, "s": 1e9}
@@ -52,12 +60,18 @@ def parse_quantity(value: object, dimension: str, name: str | None = None) -> fl
         raise ConfigError(f"{prefix}expected a {dimension} such as '1 {example}', got {value!r}")
     match = _QUANTITY.match(str(value))
     if match and match.group(2) is None:
-        raise ConfigError(f"{prefix}{value!r} has no unit; write '<number> <unit>' with unit one of: {accepted}")
+        raise ConfigError(
+            f"{prefix}{value!r} has no unit; write '<number> <unit>' with unit one of: {accepted}"
+        )
     if not match:
-        raise ConfigError(f"{prefix}cannot read {value!r} as a {dimension}; write '<number> <unit>' with unit one of: {accepted}")
+        raise ConfigError(
+            f"{prefix}cannot read {value!r} as a {dimension}; write '<number> <unit>' with unit one of: {accepted}"
+        )
     number, unit = float(match.group(1)), match.group(2)
     if unit not in units:
-        raise ConfigError(f"{prefix}unknown {dimension} unit {unit!r} in {value!r}; use one of: {accepted}")
+        raise ConfigError(
+            f"{prefix}unknown {dimension} unit {unit!r} in {value!r}; use one of: {accepted}"
+        )
     result = number * units[unit]
     if not math.isfinite(result):
         raise ConfigError(f"{prefix}{value!r} is not a finite {dimension}")

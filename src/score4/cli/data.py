@@ -73,8 +73,7 @@ def _source_text(s: datasets.DataSetStatus) -> str:
 def _print_status(statuses: Sequence[datasets.DataSetStatus]) -> None:
     rows = [("NAME", "VERSION", "FOUND AT", "SOURCE")]
     rows += [
-        (s.name, s.version, str(s.path) if s.path else "MISSING", _source_text(s))
-        for s in statuses
+        (s.name, s.version, str(s.path) if s.path else "MISSING", _source_text(s)) for s in statuses
     ]
     for line in _table(rows):
         click.echo(line)
@@ -85,8 +84,10 @@ def _print_status(statuses: Sequence[datasets.DataSetStatus]) -> None:
         if ok:
             click.echo(f"  {mode:<6} available")
         else:
-            click.echo(f"  {mode:<6} missing {', '.join(missing)}  "
-                       f"(install with: score4 data install --mode {mode})")
+            click.echo(
+                f"  {mode:<6} missing {', '.join(missing)}  "
+                f"(install with: score4 data install --mode {mode})"
+            )
 
 
 @click.group("data")
@@ -110,25 +111,48 @@ def _elsewhere(directory: Path) -> list[datasets.DataSetStatus]:
     """Sets found outside ``directory`` that GEANT4_DATA_DIR alone would not reach."""
     reach = (datasets.Source.ENVVAR,)
     return [
-        s for s in datasets.status()
+        s
+        for s in datasets.status()
         if s.path is not None and s.source not in reach and s.path.parent != directory
     ]
 
 
 @data.command("install")
-@click.option("--dir", "directory", type=click.Path(file_okay=False, path_type=Path),
-              default=None, help="Target folder (default: $SCORE4_DATA_DIR or "
-              "$XDG_DATA_HOME/score4/geant4-data).")
-@click.option("--only", "only", multiple=True, metavar="NAME",
-              help="Install only this data set (repeatable). Default: all missing ones.")
-@click.option("--mode", type=click.Choice(["full", "decay"]), default=None,
-              help="Install what this physics mode still needs.")
-@click.option("--url", default=None, metavar="URL",
-              help="Server folder holding the tarballs (default: $SCORE4_DATASET_URL or CERN).")
+@click.option(
+    "--dir",
+    "directory",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=None,
+    help="Target folder (default: $SCORE4_DATA_DIR or $XDG_DATA_HOME/score4/geant4-data).",
+)
+@click.option(
+    "--only",
+    "only",
+    multiple=True,
+    metavar="NAME",
+    help="Install only this data set (repeatable). Default: all missing ones.",
+)
+@click.option(
+    "--mode",
+    type=click.Choice(["full", "decay"]),
+    default=None,
+    help="Install what this physics mode still needs.",
+)
+@click.option(
+    "--url",
+    default=None,
+    metavar="URL",
+    help="Server folder holding the tarballs (default: $SCORE4_DATASET_URL or CERN).",
+)
 @click.option("--no-progress", is_flag=True, help="Do not show progress bars.")
 @_reports_errors
-def install_cmd(directory: Path | None, only: tuple[str, ...], mode: str | None,
-                url: str | None, no_progress: bool) -> None:
+def install_cmd(
+    directory: Path | None,
+    only: tuple[str, ...],
+    mode: str | None,
+    url: str | None,
+    no_progress: bool,
+) -> None:
     """Download, verify (md5) and unpack official Geant4 data sets."""
     target = (directory or datasets.default_data_dir()).expanduser().absolute()
     names = list(only)
@@ -137,8 +161,7 @@ def install_cmd(directory: Path | None, only: tuple[str, ...], mode: str | None,
         if not names:
             click.echo(f"everything physics mode {mode!r} needs is installed")
             return
-    paths = datasets.install(target, only=names or None, base_url=url,
-                             progress=not no_progress)
+    paths = datasets.install(target, only=names or None, base_url=url, progress=not no_progress)
     for path in paths:
         click.echo(f"ready: {path}")
     if not paths:

@@ -14,13 +14,32 @@ def geometry() -> None:
 
 
 @geometry.command()
-@click.argument("config_file", metavar="CONFIG.yaml", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--points", type=click.IntRange(min=10), default=1000, show_default=True,
-              help="Surface points per placement that Geant4 tests.")
-@click.option("--max-placements", type=click.IntRange(min=1), default=500, show_default=True,
-              help="Rough layers with more patches get the exact cell-containment check instead.")
-@click.option("--tolerance", default="0 nm", show_default=True, help="Overlaps up to this depth are ignored.")
-@click.option("--log", "log_path", type=click.Path(dir_okay=False, path_type=Path), help="Keep Geant4's output here.")
+@click.argument(
+    "config_file", metavar="CONFIG.yaml", type=click.Path(dir_okay=False, path_type=Path)
+)
+@click.option(
+    "--points",
+    type=click.IntRange(min=10),
+    default=1000,
+    show_default=True,
+    help="Surface points per placement that Geant4 tests.",
+)
+@click.option(
+    "--max-placements",
+    type=click.IntRange(min=1),
+    default=500,
+    show_default=True,
+    help="Rough layers with more patches get the exact cell-containment check instead.",
+)
+@click.option(
+    "--tolerance", default="0 nm", show_default=True, help="Overlaps up to this depth are ignored."
+)
+@click.option(
+    "--log",
+    "log_path",
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Keep Geant4's output here.",
+)
 def check(config_file: Path, points: int, max_placements: int, tolerance: str, log_path) -> None:
     """Check CONFIG.yaml's volumes for overlaps (Geant4 CheckOverlaps). Exit status 1 if any overlap."""
     from ..config import load_config
@@ -41,14 +60,25 @@ def check(config_file: Path, points: int, max_placements: int, tolerance: str, l
         with redirect_native_output(log):
             built = build_world(g4, config, scene)
             report = check_placements(built.world, points, tol, max_placements, layers=scene.layers)
-        click.echo(f"Geant4 checked {report.checked} of {report.total} placements with {points} points each"
-                   + (f"; {report.exact} patch placements of large layers by exact cell containment" if report.exact else ""))
+        click.echo(
+            f"Geant4 checked {report.checked} of {report.total} placements with {points} points each"
+            + (
+                f"; {report.exact} patch placements of large layers by exact cell containment"
+                if report.exact
+                else ""
+            )
+        )
         if report.ok:
             click.echo("no overlaps")
             return
-        click.echo(f"{len(report.overlaps)} placement(s) overlap: {', '.join(report.overlaps[:10])}"
-                   + (" ..." if len(report.overlaps) > 10 else ""), err=True)
-        details = [line for line in log.read_text(errors="replace").splitlines() if "verlap" in line]
+        click.echo(
+            f"{len(report.overlaps)} placement(s) overlap: {', '.join(report.overlaps[:10])}"
+            + (" ..." if len(report.overlaps) > 10 else ""),
+            err=True,
+        )
+        details = [
+            line for line in log.read_text(errors="replace").splitlines() if "verlap" in line
+        ]
         for line in details[:20]:
             click.echo(f"  {line.strip()}", err=True)
     raise click.exceptions.Exit(1)

@@ -17,10 +17,16 @@ __all__ = ["import_macro"]
 
 @click.command("import-macro")
 @click.argument("macro", metavar="FILE.mac", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--out", required=True, type=click.Path(dir_okay=False, path_type=Path),
-              help="Run configuration to write (CONFIG.yaml).")
+@click.option(
+    "--out",
+    required=True,
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Run configuration to write (CONFIG.yaml).",
+)
 @click.option("--overwrite", is_flag=True, help="Replace an existing output file.")
-@click.option("--strict", is_flag=True, help="Fail (exit 2, nothing written) if any command is not converted.")
+@click.option(
+    "--strict", is_flag=True, help="Fail (exit 2, nothing written) if any command is not converted."
+)
 def import_macro(macro: Path, out: Path, overwrite: bool, strict: bool) -> None:
     """Convert an original SCoRe4 macro (FILE.mac) into a score4 run configuration.
 
@@ -37,14 +43,24 @@ def import_macro(macro: Path, out: Path, overwrite: bool, strict: bool) -> None:
         raise ConfigError(f"--out: {str(out)!r} exists; pass --overwrite to replace it")
     config, report = convert(macro, out=out)
     for item in sorted(report.unknown, key=lambda i: i.order):
-        click.echo(f"score4: warning: {macro} {item.where}: {item.command}: not converted ({item.detail})", err=True)
+        click.echo(
+            f"score4: warning: {macro} {item.where}: {item.command}: not converted ({item.detail})",
+            err=True,
+        )
     if strict and report.unknown:
-        listed = "; ".join(f"{i.where} {i.command.split()[0]}" for i in sorted(report.unknown, key=lambda i: i.order))
-        raise ConfigError(f"{macro}: {len(report.unknown)} command(s) not converted (--strict; nothing written): {listed}")
+        listed = "; ".join(
+            f"{i.where} {i.command.split()[0]}"
+            for i in sorted(report.unknown, key=lambda i: i.order)
+        )
+        raise ConfigError(
+            f"{macro}: {len(report.unknown)} command(s) not converted (--strict; nothing written): {listed}"
+        )
     written = write_config(config, report, out, overwrite=overwrite)
     for line in report.lines():
         click.echo(line)
     extra = f" and {', '.join(str(p) for p in written[1:])}" if len(written) > 1 else ""
-    click.echo(f"wrote {out}{extra} from {macro}: {len(report.converted)} command(s) converted, "
-               f"{len(report.ignored)} ignored, {len(report.defaults)} default(s) filled in, "
-               f"{len(report.unknown)} not converted")
+    click.echo(
+        f"wrote {out}{extra} from {macro}: {len(report.converted)} command(s) converted, "
+        f"{len(report.ignored)} ignored, {len(report.defaults)} default(s) filled in, "
+        f"{len(report.unknown)} not converted"
+    )

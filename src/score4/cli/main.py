@@ -24,7 +24,8 @@ from .surface import surface
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(
-    __version__, prog_name="score4",
+    __version__,
+    prog_name="score4",
     message=f"%(prog)s %(version)s (geant4_pybind {version('geant4_pybind')})",
 )
 def cli() -> None:
@@ -43,16 +44,38 @@ def _load_with_overrides(config_file: Path, events: int | None, seed: int | None
 
 
 @cli.command()
-@click.argument("config_file", metavar="CONFIG.yaml", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--events", type=click.IntRange(min=1), help="Number of events (overrides run.events).")
-@click.option("--seed", type=click.IntRange(min=0, max=2**63 - 1), help="Random seed (overrides run.seed).")
-@click.option("--out", type=click.Path(path_type=Path), help="Results file (.h5); default: <config name>.h5 here.")
+@click.argument(
+    "config_file", metavar="CONFIG.yaml", type=click.Path(dir_okay=False, path_type=Path)
+)
+@click.option(
+    "--events", type=click.IntRange(min=1), help="Number of events (overrides run.events)."
+)
+@click.option(
+    "--seed", type=click.IntRange(min=0, max=2**63 - 1), help="Random seed (overrides run.seed)."
+)
+@click.option(
+    "--out",
+    type=click.Path(path_type=Path),
+    help="Results file (.h5); default: <config name>.h5 here.",
+)
 @click.option("--overwrite", is_flag=True, help="Replace an existing results file.")
-@click.option("--jobs", "-j", type=click.IntRange(min=1), default=1, show_default=True, help="Worker processes.")
-@click.option("--resume", is_flag=True, help="Continue an interrupted run, keeping its finished chunks.")
-@click.option("--cluster", metavar="dask|ADDRESS",
-              help="Run the chunks with Dask: 'dask' for a local Dask cluster of --jobs worker processes, or the "
-                   "address of a running scheduler (tcp://host:8786). Needs: pip install 'score4[cluster]'.")
+@click.option(
+    "--jobs",
+    "-j",
+    type=click.IntRange(min=1),
+    default=1,
+    show_default=True,
+    help="Worker processes.",
+)
+@click.option(
+    "--resume", is_flag=True, help="Continue an interrupted run, keeping its finished chunks."
+)
+@click.option(
+    "--cluster",
+    metavar="dask|ADDRESS",
+    help="Run the chunks with Dask: 'dask' for a local Dask cluster of --jobs worker processes, or the "
+    "address of a running scheduler (tcp://host:8786). Needs: pip install 'score4[cluster]'.",
+)
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
 def run(config_file: Path, events, seed, out, overwrite, jobs, resume, cluster, quiet) -> None:
     """Simulate the run described in CONFIG.yaml and write an HDF5 results file."""
@@ -61,17 +84,35 @@ def run(config_file: Path, events, seed, out, overwrite, jobs, resume, cluster, 
 
     config = _load_with_overrides(config_file, events, seed)
     out = out or Path(config_file.stem + ".h5")
-    run_engine(config, out, overwrite=overwrite, jobs=jobs, resume=resume, progress=not quiet,
-               echo=lambda m: click.echo(m, err=True), cluster=cluster)
+    run_engine(
+        config,
+        out,
+        overwrite=overwrite,
+        jobs=jobs,
+        resume=resume,
+        progress=not quiet,
+        echo=lambda m: click.echo(m, err=True),
+        cluster=cluster,
+    )
     summary = summarize(read_results(out))
-    click.echo(f"wrote {out}: {summary['n_events']} events, physics {summary['physics_mode']}, seed {summary['seed']}")
+    click.echo(
+        f"wrote {out}: {summary['n_events']} events, physics {summary['physics_mode']}, seed {summary['seed']}"
+    )
 
 
 @cli.command()
-@click.argument("config_file", metavar="CONFIG.yaml", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--n", "n_events", type=click.IntRange(min=1), help="Number of events (default: run.events).")
-@click.option("--seed", type=click.IntRange(min=0, max=2**63 - 1), help="Random seed (default: run.seed).")
-@click.option("--out", type=click.Path(path_type=Path), required=True, help="Vertex file to write (.h5).")
+@click.argument(
+    "config_file", metavar="CONFIG.yaml", type=click.Path(dir_okay=False, path_type=Path)
+)
+@click.option(
+    "--n", "n_events", type=click.IntRange(min=1), help="Number of events (default: run.events)."
+)
+@click.option(
+    "--seed", type=click.IntRange(min=0, max=2**63 - 1), help="Random seed (default: run.seed)."
+)
+@click.option(
+    "--out", type=click.Path(path_type=Path), required=True, help="Vertex file to write (.h5)."
+)
 @click.option("--overwrite", is_flag=True, help="Replace an existing file.")
 def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> None:
     """Draw the source vertices of CONFIG.yaml into an HDF5 vertex file (no Geant4 run).
@@ -91,23 +132,31 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
 
     config = _load_with_overrides(config_file, n_events, seed)
     if config.source.vertices is not None:
-        raise ConfigError(f"{config_file}: source.vertices: the source already reads a vertex file; nothing to draw")
+        raise ConfigError(
+            f"{config_file}: source.vertices: the source already reads a vertex file; nothing to draw"
+        )
     check_output_path(out, overwrite)
     n, seed = config.run.events, config.run.seed
     source = make_source(config, build_scene(config))
-    parts = [source.primaries(chunk_rng(seed, c.index), c.first_event, c.n_events)
-             for c in plan_chunks(n, config.run.chunk_events)]
+    parts = [
+        source.primaries(chunk_rng(seed, c.index), c.first_event, c.n_events)
+        for c in plan_chunks(n, config.run.chunk_events)
+    ]
     primaries = Primaries.concatenate(parts)
     write_vertex_file(out, primaries, config_to_dict(config), seed)
     depth = primaries.extra["depth"]
-    click.echo(f"wrote {out}: {n} events, {len(primaries.event)} primaries, depth mean {depth.mean() * 1e6:.3g} nm "
-               f"(min {depth.min() * 1e6:.3g}, max {depth.max() * 1e6:.3g} nm)")
+    click.echo(
+        f"wrote {out}: {n} events, {len(primaries.event)} primaries, depth mean {depth.mean() * 1e6:.3g} nm "
+        f"(min {depth.min() * 1e6:.3g}, max {depth.max() * 1e6:.3g} nm)"
+    )
 
 
 @cli.command()
 @click.argument("results_file", metavar="FILE.h5", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON.")
-@click.option("--bins", type=click.IntRange(min=1), help="Histogram bins (default: the run's setting, 100).")
+@click.option(
+    "--bins", type=click.IntRange(min=1), help="Histogram bins (default: the run's setting, 100)."
+)
 def summary(results_file: Path, as_json: bool, bins) -> None:
     """Summarise a results file: events, physics, energy deposit per volume."""
     from ..output import read_results, summarize
@@ -120,18 +169,25 @@ def summary(results_file: Path, as_json: bool, bins) -> None:
     run = results.run
     click.echo(f"{s['file']}")
     click.echo(f"  events        {s['n_events']}")
-    click.echo(f"  physics       {s['physics_mode']}" + (f" ({run.get('physics_lacks')})" if run.get("physics_lacks") else ""))
+    click.echo(
+        f"  physics       {s['physics_mode']}"
+        + (f" ({run.get('physics_lacks')})" if run.get("physics_lacks") else "")
+    )
     click.echo(f"  seed          {s['seed']}")
-    click.echo(f"  versions      score4 {run.get('score4_version')}, Geant4 {run.get('geant4_version')}, "
-               f"geant4_pybind {run.get('geant4_pybind_version')}")
+    click.echo(
+        f"  versions      score4 {run.get('score4_version')}, Geant4 {run.get('geant4_version')}, "
+        f"geant4_pybind {run.get('geant4_pybind_version')}"
+    )
     click.echo(f"  wall time     {run.get('wall_time_s')} s")
     emax = max(float(results.primary_energy.max(initial=0.0)), 1e-12)
     for v in s["volumes"]:
         e = results.edep[v["name"]]
         full = int((e > 0.999 * results.primary_energy).sum())
-        click.echo(f"  volume {v['name']}: mean deposit {v['mean_edep_MeV']:.4f} MeV, "
-                   f"{v['n_nonzero']} events with deposit, {full} with (nearly) the full energy "
-                   f"(max primary energy {emax:.4g} MeV)")
+        click.echo(
+            f"  volume {v['name']}: mean deposit {v['mean_edep_MeV']:.4f} MeV, "
+            f"{v['n_nonzero']} events with deposit, {full} with (nearly) the full energy "
+            f"(max primary energy {emax:.4g} MeV)"
+        )
 
 
 cli.add_command(data)

@@ -28,7 +28,9 @@ def _plot_surface(path: Path, out: Path) -> None:
     except ModuleNotFoundError as err:
         if err.name not in ("score4.surface.plot",):
             raise
-        raise Score4Error(f"{path}: plotting surface files needs score4.surface.plot, which this score4 does not have") from None
+        raise Score4Error(
+            f"{path}: plotting surface files needs score4.surface.plot, which this score4 does not have"
+        ) from None
     from ..surface.store import load_surface
 
     plot_surface(load_surface(path), out)
@@ -38,10 +40,19 @@ def _plot_surface(path: Path, out: Path) -> None:
 @click.argument("files", metavar="FILE...", nargs=-1, required=True, type=_FILE)
 @click.option("--out", "-o", required=True, type=_FILE, help="Image file (.png, .pdf, .svg, ...).")
 @click.option("--volume", help="Volume to draw (default: all volumes).")
-@click.option("--bins", type=click.IntRange(min=1), help="Number of bins (default: the run's setting, 100).")
+@click.option(
+    "--bins", type=click.IntRange(min=1), help="Number of bins (default: the run's setting, 100)."
+)
 @click.option("--emin", help='Lower energy edge, e.g. "100 keV" (default 0).')
-@click.option("--emax", help='Upper energy edge, e.g. "6 MeV" (default: the run\'s setting or largest primary energy).')
-@click.option("--per-event", is_flag=True, help="Counts per keV per simulated event (compare runs of different sizes).")
+@click.option(
+    "--emax",
+    help='Upper energy edge, e.g. "6 MeV" (default: the run\'s setting or largest primary energy).',
+)
+@click.option(
+    "--per-event",
+    is_flag=True,
+    help="Counts per keV per simulated event (compare runs of different sizes).",
+)
 @click.option("--linear", is_flag=True, help="Linear y axis (spectra are logarithmic by default).")
 @click.option("--label", "labels", multiple=True, help="Legend label, once per FILE in order.")
 def plot(files, out, volume, bins, emin, emax, per_event, linear, labels) -> None:
@@ -58,11 +69,21 @@ def plot(files, out, volume, bins, emin, emax, per_event, linear, labels) -> Non
     if kind != "results":
         wrong = [f"--{k.replace('_', '-')}" for k in _SPECTRUM_ONLY if given[k] is not None]
         if wrong:
-            raise ConfigError(f"plot: {', '.join(wrong)} apply to results files only, not to {kind} files")
+            raise ConfigError(
+                f"plot: {', '.join(wrong)} apply to results files only, not to {kind} files"
+            )
     if kind == "results":
-        spectra = plot_spectra(list(files), out, volume=volume, bins=bins, emin=_energy(emin, "--emin"),
-                               emax=_energy(emax, "--emax"), labels=list(labels) or None, logy=not linear,
-                               per_event=per_event)
+        spectra = plot_spectra(
+            list(files),
+            out,
+            volume=volume,
+            bins=bins,
+            emin=_energy(emin, "--emin"),
+            emax=_energy(emax, "--emax"),
+            labels=list(labels) or None,
+            logy=not linear,
+            per_event=per_event,
+        )
         click.echo(f"wrote {out}: {len(spectra)} spectra")
     elif kind == "vertices":
         hists = plot_depths(list(files), out, bins=bins, labels=list(labels) or None)
@@ -79,18 +100,41 @@ def plot(files, out, volume, bins, emin, emax, per_event, linear, labels) -> Non
 @click.command()
 @click.argument("results_file", metavar="FILE", type=_FILE)
 @click.option("--csv", "csv_out", type=_FILE, help="Energy-deposit histogram(s) as CSV.")
-@click.option("--events-csv", "events_out", type=_FILE, help="One CSV row per event: primary energy and deposits.")
-@click.option("--root", "root_out", type=_FILE, help="ROOT file: TTree 'events', TH1D 'edep_<volume>', run record.")
+@click.option(
+    "--events-csv",
+    "events_out",
+    type=_FILE,
+    help="One CSV row per event: primary energy and deposits.",
+)
+@click.option(
+    "--root",
+    "root_out",
+    type=_FILE,
+    help="ROOT file: TTree 'events', TH1D 'edep_<volume>', run record.",
+)
 @click.option("--volume", help="Volume for --csv (default: all volumes).")
-@click.option("--bins", type=click.IntRange(min=1), help="Histogram bins (default: the run's setting, 100).")
-@click.option("--emax", help='Histogram upper edge, e.g. "6 MeV" (default: the run\'s setting or largest primary energy).')
+@click.option(
+    "--bins", type=click.IntRange(min=1), help="Histogram bins (default: the run's setting, 100)."
+)
+@click.option(
+    "--emax",
+    help='Histogram upper edge, e.g. "6 MeV" (default: the run\'s setting or largest primary energy).',
+)
 def export(results_file, csv_out, events_out, root_out, volume, bins, emax) -> None:
     """Export a results FILE to CSV (histograms or events) and/or ROOT."""
-    from ..export import check_output_path, export_csv, export_events_csv, export_root, select_volumes
+    from ..export import (
+        check_output_path,
+        export_csv,
+        export_events_csv,
+        export_root,
+        select_volumes,
+    )
     from ..output import read_results
 
     if not (csv_out or events_out or root_out):
-        raise ConfigError("export: give at least one of --csv OUT.csv, --events-csv OUT.csv, --root OUT.root")
+        raise ConfigError(
+            "export: give at least one of --csv OUT.csv, --events-csv OUT.csv, --root OUT.root"
+        )
     if volume is not None and not csv_out:
         raise ConfigError("export: --volume applies to --csv only")
     results = read_results(results_file)

@@ -67,9 +67,13 @@ def load_any(path: str | Path):
     if kind == "description":
         return build_surface(load_surface_spec(path))
     try:
-        return build_surface(parse_surface_spec({"kind": "measured", "file": str(path)}, origin=str(path)))
+        return build_surface(
+            parse_surface_spec({"kind": "measured", "file": str(path)}, origin=str(path))
+        )
     except ConfigError as err:
-        raise ConfigError(f"{err} (in a surface description with kind: measured and file: {path.name})") from None
+        raise ConfigError(
+            f"{err} (in a surface description with kind: measured and file: {path.name})"
+        ) from None
 
 
 def _in_output_units(values: dict[str, float]) -> dict[str, float | None]:
@@ -107,8 +111,12 @@ def stats_document(path: str | Path) -> dict[str, Any]:
     doc: dict[str, Any] = _in_output_units(areal_parameters(hm))
     doc["units"] = {symbol: OUTPUT_UNITS[unit] for symbol, unit, _ in PARAMETERS}
     doc["surface"] = {
-        "file": str(path), "kind": kind, "size_x_um": hm.size_x / um, "size_y_um": hm.size_y / um,
-        "map_points": list(hm.shape), "map_pitch_um": [hm.pitch_x / um, hm.pitch_y / um],
+        "file": str(path),
+        "kind": kind,
+        "size_x_um": hm.size_x / um,
+        "size_y_um": hm.size_y / um,
+        "map_points": list(hm.shape),
+        "map_pitch_um": [hm.pitch_x / um, hm.pitch_y / um],
     }
     if spikes is not None:
         doc["mesh"] = _in_output_units(mesh_parameters(surface.top_mesh))
@@ -126,9 +134,14 @@ def surface() -> None:
 
 
 @surface.command("generate")
-@click.argument("description", metavar="DESCRIPTION.yaml", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--out", type=click.Path(dir_okay=False, path_type=Path),
-              help="Surface file to write (.s4s.h5); default: <description name>.s4s.h5 here.")
+@click.argument(
+    "description", metavar="DESCRIPTION.yaml", type=click.Path(dir_okay=False, path_type=Path)
+)
+@click.option(
+    "--out",
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Surface file to write (.s4s.h5); default: <description name>.s4s.h5 here.",
+)
 @click.option("--overwrite", is_flag=True, help="Replace an existing surface file.")
 def generate_cmd(description: Path, out: Path | None, overwrite: bool) -> None:
     """Build the surface DESCRIPTION.yaml asks for and save it as a score4 surface file."""
@@ -138,20 +151,28 @@ def generate_cmd(description: Path, out: Path | None, overwrite: bool) -> None:
 
     out = out or Path(description.name.rsplit(".", 1)[0] + SUFFIX)
     if not out.name.lower().endswith(SURFACE_FILE_SUFFIXES):
-        raise ConfigError(f"--out: {str(out)!r} must end with {SUFFIX} (an HDF5 score4 surface file)")
+        raise ConfigError(
+            f"--out: {str(out)!r} must end with {SUFFIX} (an HDF5 score4 surface file)"
+        )
     if out.exists() and not overwrite:
         raise ConfigError(f"--out: {str(out)!r} already exists; pass --overwrite to replace it")
     built = build_surface(load_surface_spec(description))
     save_surface(built, out)
     sq, how = headline_sq(built)
-    click.echo(f"wrote {out}: {built.spec.kind}, {built.size_x / um:.6g} x {built.size_y / um:.6g} um, "
-               f"{built.top_mesh.n_faces} top mesh facets, Sq {sq / um:.4g} um ({how})")
+    click.echo(
+        f"wrote {out}: {built.spec.kind}, {built.size_x / um:.6g} x {built.size_y / um:.6g} um, "
+        f"{built.top_mesh.n_faces} top mesh facets, Sq {sq / um:.4g} um ({how})"
+    )
 
 
 @surface.command("stats")
 @click.argument("file", metavar="FILE", type=click.Path(path_type=Path))
-@click.option("--json", "as_json", is_flag=True,
-              help="Machine-readable JSON: ISO symbols as keys, a 'units' mapping, 'mesh' for spike grids.")
+@click.option(
+    "--json",
+    "as_json",
+    is_flag=True,
+    help="Machine-readable JSON: ISO symbols as keys, a 'units' mapping, 'mesh' for spike grids.",
+)
 def stats_cmd(file: Path, as_json: bool) -> None:
     """Print the ISO 25178-2 areal parameters of FILE.
 
@@ -169,11 +190,17 @@ def stats_cmd(file: Path, as_json: bool) -> None:
         return
     info = doc["surface"]
     ny, nx = info["map_points"]
-    click.echo(f"{info['file']}: {info['kind']}, {info['size_x_um']:.6g} x {info['size_y_um']:.6g} um, "
-               f"map {nx} x {ny} points")
+    click.echo(
+        f"{info['file']}: {info['kind']}, {info['size_x_um']:.6g} x {info['size_y_um']:.6g} um, "
+        f"map {nx} x {ny} points"
+    )
     mesh = doc.get("mesh")
     show = lambda v: "nan" if v is None else f"{v:.6g}"
-    header = f"  {'param':<6}{'map':>12}" + (f"{'mesh (exact)':>14}" if mesh else "") + f"  {'unit':<14}description"
+    header = (
+        f"  {'param':<6}{'map':>12}"
+        + (f"{'mesh (exact)':>14}" if mesh else "")
+        + f"  {'unit':<14}description"
+    )
     click.echo(header)
     for symbol, _, text in PARAMETERS:
         exact = f"{show(mesh[symbol]) if symbol in mesh else '-':>14}" if mesh else ""
@@ -183,10 +210,20 @@ def stats_cmd(file: Path, as_json: bool) -> None:
 
 @surface.command("show")
 @click.argument("file", metavar="FILE", type=click.Path(path_type=Path))
-@click.option("--png", "png", required=True, type=click.Path(dir_okay=False, path_type=Path),
-              help="PNG file to write.")
-@click.option("--dpi", type=click.IntRange(min=20, max=1200), default=150, show_default=True,
-              help="Resolution of the PNG.")
+@click.option(
+    "--png",
+    "png",
+    required=True,
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="PNG file to write.",
+)
+@click.option(
+    "--dpi",
+    type=click.IntRange(min=20, max=1200),
+    default=150,
+    show_default=True,
+    help="Resolution of the PNG.",
+)
 def show_cmd(file: Path, png: Path, dpi: int) -> None:
     """Draw FILE: height-map image (with colour bar and scale bar) and a 3D view, as a PNG."""
     from ..surface.plot import plot_surface
@@ -214,24 +251,55 @@ def _write_gdml(built, body, out: Path, solid_kind: str, thickness: float, mater
                 write_solid_gdml(g4, solid, out, material=material)
                 del parts  # the node solids must outlive the write
         except Score4Error as err:
-            tail = " | ".join(log.read_text(errors="replace").strip().splitlines()[-3:]) if log.exists() else ""
+            tail = (
+                " | ".join(log.read_text(errors="replace").strip().splitlines()[-3:])
+                if log.exists()
+                else ""
+            )
             raise Score4Error(f"{err}{'; Geant4 said: ' + tail if tail else ''}") from err
 
 
 @surface.command("export")
 @click.argument("file", metavar="FILE", type=click.Path(path_type=Path))
-@click.option("--stl", type=click.Path(dir_okay=False, path_type=Path), help="Write a binary STL (mm).")
-@click.option("--ply", type=click.Path(dir_okay=False, path_type=Path), help="Write a binary PLY (mm, float64).")
-@click.option("--gdml", type=click.Path(dir_okay=False, path_type=Path), help="Write a standalone GDML file.")
-@click.option("--base-thickness", default="1 um", show_default=True,
-              help="Slab under the base plane z = 0 that closes the body (a length with unit).")
-@click.option("--solid", "solid_kind", type=click.Choice(["tessellated", "multiunion"]), default="tessellated",
-              show_default=True,
-              help="GDML solid: G4TessellatedSolid of the body, or (spike grids) the paper's G4MultiUnion.")
-@click.option("--material", default="G4_Si", show_default=True, help="GDML: NIST material of the solid.")
+@click.option(
+    "--stl", type=click.Path(dir_okay=False, path_type=Path), help="Write a binary STL (mm)."
+)
+@click.option(
+    "--ply",
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Write a binary PLY (mm, float64).",
+)
+@click.option(
+    "--gdml", type=click.Path(dir_okay=False, path_type=Path), help="Write a standalone GDML file."
+)
+@click.option(
+    "--base-thickness",
+    default="1 um",
+    show_default=True,
+    help="Slab under the base plane z = 0 that closes the body (a length with unit).",
+)
+@click.option(
+    "--solid",
+    "solid_kind",
+    type=click.Choice(["tessellated", "multiunion"]),
+    default="tessellated",
+    show_default=True,
+    help="GDML solid: G4TessellatedSolid of the body, or (spike grids) the paper's G4MultiUnion.",
+)
+@click.option(
+    "--material", default="G4_Si", show_default=True, help="GDML: NIST material of the solid."
+)
 @click.option("--overwrite", is_flag=True, help="Replace an existing output file.")
-def export_cmd(file: Path, stl: Path | None, ply: Path | None, gdml: Path | None, base_thickness: str,
-               solid_kind: str, material: str, overwrite: bool) -> None:
+def export_cmd(
+    file: Path,
+    stl: Path | None,
+    ply: Path | None,
+    gdml: Path | None,
+    base_thickness: str,
+    solid_kind: str,
+    material: str,
+    overwrite: bool,
+) -> None:
     """Export the closed body of FILE (rough top on a base slab) as STL, PLY or GDML.
 
     Give exactly one of --stl, --ply and --gdml. The body is centred on the origin in x and y,
@@ -239,7 +307,9 @@ def export_cmd(file: Path, stl: Path | None, ply: Path | None, gdml: Path | None
     """
     from ..surface.mesh import write_ply, write_stl
 
-    chosen = [(name, p) for name, p in (("stl", stl), ("ply", ply), ("gdml", gdml)) if p is not None]
+    chosen = [
+        (name, p) for name, p in (("stl", stl), ("ply", ply), ("gdml", gdml)) if p is not None
+    ]
     if len(chosen) != 1:
         given = ", ".join(f"--{n}" for n, _ in chosen) or "none"
         raise ConfigError(f"export: give exactly one of --stl, --ply and --gdml (got {given})")
@@ -248,12 +318,16 @@ def export_cmd(file: Path, stl: Path | None, ply: Path | None, gdml: Path | None
     if not thickness > 0:
         raise ConfigError(f"--base-thickness: must be positive, got {base_thickness!r}")
     if solid_kind == "multiunion" and fmt != "gdml":
-        raise ConfigError(f"--solid: 'multiunion' is a Geant4 solid and applies to --gdml only, not --{fmt}")
+        raise ConfigError(
+            f"--solid: 'multiunion' is a Geant4 solid and applies to --gdml only, not --{fmt}"
+        )
     if out.exists() and not overwrite:
         raise ConfigError(f"--{fmt}: {str(out)!r} already exists; pass --overwrite to replace it")
     built = load_any(file)
     if solid_kind == "multiunion" and built.spikes is None:
-        raise ConfigError(f"--solid: 'multiunion' needs a spike grid; {str(file)!r} is a {built.spec.kind} surface")
+        raise ConfigError(
+            f"--solid: 'multiunion' needs a spike grid; {str(file)!r} is a {built.spec.kind} surface"
+        )
     body = built.body(thickness) if solid_kind == "tessellated" else None
     if fmt == "stl":
         write_stl(body, out)
@@ -261,5 +335,11 @@ def export_cmd(file: Path, stl: Path | None, ply: Path | None, gdml: Path | None
         write_ply(body, out)
     else:
         _write_gdml(built, body, out, solid_kind, thickness, material)
-    facets = f"{body.n_faces} facets" if body is not None else f"{len(built.spikes.frustums()) + 1} G4MultiUnion nodes"
-    click.echo(f"wrote {out}: {built.spec.kind} body, {facets}, base thickness {thickness / um:.6g} um")
+    facets = (
+        f"{body.n_faces} facets"
+        if body is not None
+        else f"{len(built.spikes.frustums()) + 1} G4MultiUnion nodes"
+    )
+    click.echo(
+        f"wrote {out}: {built.spec.kind} body, {facets}, base thickness {thickness / um:.6g} um"
+    )

@@ -41,12 +41,15 @@ def patches_fit_their_cells(layer, tolerance: float = 0.0) -> list[str]:
     for name, surface in zip(layer.names, layer.variants):
         v = surface.top_mesh.vertices  # the body adds only walls and a bottom inside the same box
         if (v < lo).any() or (v > hi).any():
-            bad.append(f"{layer.name}: variant {name!r} reaches outside its {px * 1e3:g} x {py * 1e3:g} um cell")
+            bad.append(
+                f"{layer.name}: variant {name!r} reaches outside its {px * 1e3:g} x {py * 1e3:g} um cell"
+            )
     return bad
 
 
-def check_placements(world_pv, points: int = 1000, tolerance: float = 0.0, max_placements: int = 500,
-                     layers=()) -> OverlapReport:
+def check_placements(
+    world_pv, points: int = 1000, tolerance: float = 0.0, max_placements: int = 500, layers=()
+) -> OverlapReport:
     """``CheckOverlaps(points, tolerance)`` on the world's daughters and their daughters.
 
     A daughter holding more than ``max_placements`` placements (a large rough layer, one of
@@ -67,5 +70,7 @@ def check_placements(world_pv, points: int = 1000, tolerance: float = 0.0, max_p
             report.exact += len(inner)
             report.overlaps += patches_fit_their_cells(layer, tolerance)
         elif large:
-            report.overlaps.append(f"{pv.GetName()}: {len(inner)} placements not checked (more than {max_placements})")
+            report.overlaps.append(
+                f"{pv.GetName()}: {len(inner)} placements not checked (more than {max_placements})"
+            )
     return report

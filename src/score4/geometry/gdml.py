@@ -9,7 +9,9 @@ from ..errors import Score4Error
 from .materials import find_material
 
 
-def write_solid_gdml(g4, solid, path: str | Path, material: str = "G4_Si", margin: float = 1.0) -> None:
+def write_solid_gdml(
+    g4, solid, path: str | Path, material: str = "G4_Si", margin: float = 1.0
+) -> None:
     """Write ``solid`` (placed in a vacuum world box) as a standalone GDML file, atomically.
 
     The file holds materials, the solid, a logical volume and a world, so any GDML reader
@@ -25,7 +27,9 @@ def write_solid_gdml(g4, solid, path: str | Path, material: str = "G4_Si", margi
     world_lv = g4.G4LogicalVolume(world_solid, find_material(g4, "G4_Galactic"), "World")
     lv = g4.G4LogicalVolume(solid, find_material(g4, material), solid.GetName() + "_lv")
     pv_world = g4.G4PVPlacement(None, g4.G4ThreeVector(), world_lv, "World", None, False, 0, False)
-    pv = g4.G4PVPlacement(None, g4.G4ThreeVector(), lv, solid.GetName() + "_pv", world_lv, False, 0, False)
+    pv = g4.G4PVPlacement(
+        None, g4.G4ThreeVector(), lv, solid.GetName() + "_pv", world_lv, False, 0, False
+    )
     tmp = path.with_name(path.name + ".partial.gdml")
     tmp.unlink(missing_ok=True)  # G4GDMLParser refuses to overwrite
     parser = g4.G4GDMLParser()

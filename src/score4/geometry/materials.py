@@ -15,6 +15,10 @@ def find_material(g4, name: str, parameter: str = "material"):
         close = difflib.get_close_matches(name, known, n=5, cutoff=0.5)
         if not close and not name.startswith("G4_"):
             close = difflib.get_close_matches("G4_" + name, known, n=5, cutoff=0.5)
-        hint = f"; closest NIST names: {', '.join(close)}" if close else "; NIST names look like G4_Si, G4_Cu, G4_Galactic"
+        hint = (
+            f"; closest NIST names: {', '.join(close)}"
+            if close
+            else "; NIST names look like G4_Si, G4_Cu, G4_Galactic"
+        )
         raise ConfigError(f"{parameter}: unknown material {name!r}{hint}")
     return nist.FindOrBuildMaterial(name)

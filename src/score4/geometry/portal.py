@@ -87,9 +87,16 @@ class PortalMap:
         """True for world points in the closed portal box."""
         q = self.layer.frame.to_local(np.asarray(points, float).reshape(-1, 3))
         lu, lv = self.layer.frame.size
-        return (np.abs(q[:, 0]) <= lu / 2) & (np.abs(q[:, 1]) <= lv / 2) & (q[:, 2] >= 0) & (q[:, 2] <= self.layer.thickness)
+        return (
+            (np.abs(q[:, 0]) <= lu / 2)
+            & (np.abs(q[:, 1]) <= lv / 2)
+            & (q[:, 2] >= 0)
+            & (q[:, 2] <= self.layer.thickness)
+        )
 
-    def to_subworld(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def to_subworld(
+        self, points: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Map world points in the portal box to their subworld points.
 
         Returns ``(mapped, inside, i, j)``: ``mapped`` equals ``points`` outside the portal box;
@@ -179,8 +186,17 @@ class PortalGeometry:
         return self.map.layer.patch_size
 
 
-def place_portal(g4, layer: RoughLayer, mother_lv, world_material, material, subworld_origin, *,
-                 subworld_mother_lv=None, reachable: tuple | None = None) -> PortalGeometry:
+def place_portal(
+    g4,
+    layer: RoughLayer,
+    mother_lv,
+    world_material,
+    material,
+    subworld_origin,
+    *,
+    subworld_mother_lv=None,
+    reachable: tuple | None = None,
+) -> PortalGeometry:
     """Place the empty portal box in ``mother_lv`` and one trigger + subworld per variant.
 
     The portal and trigger boxes are vacuum (G4_Galactic) whatever the world material: a particle
@@ -219,8 +235,15 @@ def place_portal(g4, layer: RoughLayer, mother_lv, world_material, material, sub
     quiet = g4.G4Region(f"{name}_subworlds")
     portal_solid = g4.G4Box(f"{name}_portal", lu / 2, lv / 2, t / 2)
     portal_lv = g4.G4LogicalVolume(portal_solid, vacuum, f"{name}_portal")
-    portal_pv = g4.G4PVPlacement(g4.G4Transform3D(rot, vec(*pmap.portal_centre)), portal_lv, f"{name}_portal",
-                                 mother_lv, False, 0, False)
+    portal_pv = g4.G4PVPlacement(
+        g4.G4Transform3D(rot, vec(*pmap.portal_centre)),
+        portal_lv,
+        f"{name}_portal",
+        mother_lv,
+        False,
+        0,
+        False,
+    )
     region.AddRootLogicalVolume(portal_lv)
     keep = [region, quiet, rot, portal_solid, portal_lv, portal_pv]
     half = pmap.half
@@ -234,14 +257,27 @@ def place_portal(g4, layer: RoughLayer, mother_lv, world_material, material, sub
         patch_lv = g4.G4LogicalVolume(solid, material, f"{name}_v{k}")
         sub_lv = g4.G4LogicalVolume(sub_solid, world_material, f"{name}_subworld{k}")
         trig_lv = g4.G4LogicalVolume(trig_solid, vacuum, f"{name}_trigger{k}")
-        trig_pv = g4.G4PVPlacement(g4.G4Transform3D(rot, vec(*pmap.subworld_centres[k])), trig_lv,
-                                   f"{name}_trigger{k}", subworld_mother_lv or mother_lv, False, k, False)
-        sub_pv = g4.G4PVPlacement(None, vec(), sub_lv, f"{name}_subworld{k}", trig_lv, False, k, False)
-        patch_pv = g4.G4PVPlacement(None, vec(0.0, 0.0, z), patch_lv, f"{name}_cell", sub_lv, False, k, False)
+        trig_pv = g4.G4PVPlacement(
+            g4.G4Transform3D(rot, vec(*pmap.subworld_centres[k])),
+            trig_lv,
+            f"{name}_trigger{k}",
+            subworld_mother_lv or mother_lv,
+            False,
+            k,
+            False,
+        )
+        sub_pv = g4.G4PVPlacement(
+            None, vec(), sub_lv, f"{name}_subworld{k}", trig_lv, False, k, False
+        )
+        patch_pv = g4.G4PVPlacement(
+            None, vec(0.0, 0.0, z), patch_lv, f"{name}_cell", sub_lv, False, k, False
+        )
         region.AddRootLogicalVolume(trig_lv)
         quiet.AddRootLogicalVolume(sub_lv)
         keep += [solid, parts, patch_lv, sub_lv, trig_lv, trig_pv, sub_pv, patch_pv]
         patch_lvs.append(patch_lv)
         subworld_pvs.append(sub_pv)
         trigger_pvs.append(trig_pv)
-    return PortalGeometry(pmap, portal_pv, subworld_pvs, trigger_pvs, patch_lvs, region, quiet, keep)
+    return PortalGeometry(
+        pmap, portal_pv, subworld_pvs, trigger_pvs, patch_lvs, region, quiet, keep
+    )

@@ -39,14 +39,18 @@ def multiunion_solid(g4, grid: SpikeGrid, thickness: float, name: str):
     union = g4.G4MultiUnion(name)
     parts = []
     base = g4.G4Box(f"{name}_base", grid.size_x / 2, grid.size_y / 2, thickness / 2)
-    union.AddNode(base, g4.G4Transform3D(g4.G4RotationMatrix(), g4.G4ThreeVector(0, 0, -thickness / 2)))
+    union.AddNode(
+        base, g4.G4Transform3D(g4.G4RotationMatrix(), g4.G4ThreeVector(0, 0, -thickness / 2))
+    )
     parts.append(base)
     f = grid.frustums()
     for k in range(len(f)):
         trd = g4.G4Trd(
             f"{name}_{k}",
-            f["width_x_bottom"][k] / 2, f["width_x_top"][k] / 2,
-            f["width_y_bottom"][k] / 2, f["width_y_top"][k] / 2,
+            f["width_x_bottom"][k] / 2,
+            f["width_x_top"][k] / 2,
+            f["width_y_bottom"][k] / 2,
+            f["width_y_top"][k] / 2,
             f["height"][k] / 2,
         )
         where = g4.G4ThreeVector(float(f["x"][k]), float(f["y"][k]), float(f["z"][k]))

@@ -44,7 +44,9 @@ def place_native(g4, layer: RoughLayer, mother_lv, world_material, material) -> 
     env_lv = g4.G4LogicalVolume(env_solid, world_material, name)
     rot = _rotation(g4, layer.frame.rotation)
     centre = layer.frame.to_world(np.array([0.0, 0.0, t / 2]))
-    env_pv = g4.G4PVPlacement(g4.G4Transform3D(rot, g4.G4ThreeVector(*centre)), env_lv, name, mother_lv, False, 0, False)
+    env_pv = g4.G4PVPlacement(
+        g4.G4Transform3D(rot, g4.G4ThreeVector(*centre)), env_lv, name, mother_lv, False, 0, False
+    )
     keep = [env_solid, env_lv, rot, env_pv]
     # Each variant's patch sits in a vacuum cell box; the cell boxes are what the envelope holds.
     # Geant4 sizes every daughter when it voxelises the envelope: 40 000 multi-union patches
@@ -57,7 +59,9 @@ def place_native(g4, layer: RoughLayer, mother_lv, world_material, material) -> 
         lv_k = g4.G4LogicalVolume(solid, material, f"{name}_v{k}")
         cell_solid = g4.G4Box(f"{name}_cell{k}", px / 2, py / 2, t / 2)
         cell_lv = g4.G4LogicalVolume(cell_solid, world_material, f"{name}_cell{k}")
-        patch_pv = g4.G4PVPlacement(None, g4.G4ThreeVector(0, 0, z), lv_k, f"{name}_v{k}", cell_lv, False, 0, False)
+        patch_pv = g4.G4PVPlacement(
+            None, g4.G4ThreeVector(0, 0, z), lv_k, f"{name}_v{k}", cell_lv, False, 0, False
+        )
         keep += [solid, parts, lv_k, cell_solid, cell_lv, patch_pv]
         patch_lvs.append(lv_k)
         cell_lvs.append(cell_lv)
@@ -75,6 +79,15 @@ def place_native(g4, layer: RoughLayer, mother_lv, world_material, material) -> 
     for j in range(ny):
         for i in range(nx):
             where = g4.G4ThreeVector(float(centres[j, i, 0]), float(centres[j, i, 1]), 0.0)
-            pv = g4.G4PVPlacement(None, where, cell_lvs[variants[j, i]], f"{name}_cell", env_lv, False, i * ny + j, False)
+            pv = g4.G4PVPlacement(
+                None,
+                where,
+                cell_lvs[variants[j, i]],
+                f"{name}_cell",
+                env_lv,
+                False,
+                i * ny + j,
+                False,
+            )
             keep.append(pv)
     return patch_lvs, keep

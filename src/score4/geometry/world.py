@@ -84,23 +84,39 @@ def build_world(g4, config: RunConfig, scene: Scene) -> BuiltGeometry:
         lab = world_half_size(config, scene)
         lab_solid = g4.G4Box("Lab", *lab)
         mother_lv = g4.G4LogicalVolume(lab_solid, world_material, "Lab")
-        lab_pv = g4.G4PVPlacement(None, g4.G4ThreeVector(), mother_lv, "Lab", world_lv, False, 0, False)
+        lab_pv = g4.G4PVPlacement(
+            None, g4.G4ThreeVector(), mother_lv, "Lab", world_lv, False, 0, False
+        )
         built.keep += [lab_solid, mother_lv, lab_pv]
         reachable = (-lab, lab)
     for i, t in enumerate(config.targets):
         solid = g4.G4Box(t.name, *(np.asarray(t.size) / 2))
-        lv = g4.G4LogicalVolume(solid, find_material(g4, t.material, f"targets.{i}.material"), t.name)
-        pv = g4.G4PVPlacement(None, g4.G4ThreeVector(*t.position), lv, t.name, mother_lv, False, 0, False)
+        lv = g4.G4LogicalVolume(
+            solid, find_material(g4, t.material, f"targets.{i}.material"), t.name
+        )
+        pv = g4.G4PVPlacement(
+            None, g4.G4ThreeVector(*t.position), lv, t.name, mother_lv, False, 0, False
+        )
         built.keep += [solid, lv, pv]
         built.scoring[t.name] = [lv]
         for layer in scene.layers_of(t.name):
             if layer.config.tiling == "portal":
-                portal = place_portal(g4, layer, mother_lv, world_material, lv.GetMaterial(), origins[layer.name],
-                                      subworld_mother_lv=world_lv, reachable=reachable)
+                portal = place_portal(
+                    g4,
+                    layer,
+                    mother_lv,
+                    world_material,
+                    lv.GetMaterial(),
+                    origins[layer.name],
+                    subworld_mother_lv=world_lv,
+                    reachable=reachable,
+                )
                 built.portals.append(portal)
                 patch_lvs, keep = portal.patch_lvs, portal.keep
             else:
-                patch_lvs, keep = place_native(g4, layer, mother_lv, world_material, lv.GetMaterial())
+                patch_lvs, keep = place_native(
+                    g4, layer, mother_lv, world_material, lv.GetMaterial()
+                )
             built.scoring[t.name] += patch_lvs
             built.keep += keep
     return built

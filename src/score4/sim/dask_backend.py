@@ -124,7 +124,9 @@ class DaskExecutor:
                 f"nor a Dask scheduler address such as tcp://host:8786"
             )
         if self.address and jobs > 1:
-            echo(f"notice: --jobs {jobs} does not apply with --cluster {cluster}: the scheduler's workers run the chunks")
+            echo(
+                f"notice: --jobs {jobs} does not apply with --cluster {cluster}: the scheduler's workers run the chunks"
+            )
 
     def execute(self, spec: WorkerSpec, todo: list[Chunk]) -> Iterator[tuple]:
         from distributed import as_completed
@@ -139,7 +141,13 @@ class DaskExecutor:
             run_id = uuid.uuid4().hex[:8]
             by_key = {}
             for c in todo:
-                fut = client.submit(run_chunk_task, spec, c, key=f"score4-chunk-{c.index:06d}-{run_id}", priority=-c.index)
+                fut = client.submit(
+                    run_chunk_task,
+                    spec,
+                    c,
+                    key=f"score4-chunk-{c.index:06d}-{run_id}",
+                    priority=-c.index,
+                )
                 futures.append(fut)
                 by_key[fut.key] = c
             announced = False
@@ -178,21 +186,28 @@ class DaskExecutor:
 
         if self.address is None:
             cluster = LocalCluster(
-                n_workers=self.jobs, threads_per_worker=1, processes=True,
-                dashboard_address=":0", silence_logs=logging.ERROR,  # any free port
+                n_workers=self.jobs,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=":0",
+                silence_logs=logging.ERROR,  # any free port
             )
             return Client(cluster), cluster
         try:  # waits up to distributed.comm.timeouts.connect (Dask configuration; 30 s by default)
             return Client(self.address), None
         except (OSError, TimeoutError) as err:
-            raise Score4Error(f"--cluster: cannot connect to the Dask scheduler at {self.address}: {err}") from None
+            raise Score4Error(
+                f"--cluster: cannot connect to the Dask scheduler at {self.address}: {err}"
+            ) from None
 
     def _free_workers(self, client, key: str) -> None:
         """Restart the workers whose process holds another run's Geant4 set-up."""
         held = client.run(held_setup_key)
         others = [addr for addr, k in held.items() if k not in (None, key)]
         if others:
-            self.echo(f"notice: restarting {len(others)} Dask worker(s) that hold another run's Geant4 set-up")
+            self.echo(
+                f"notice: restarting {len(others)} Dask worker(s) that hold another run's Geant4 set-up"
+            )
             try:
                 client.restart_workers(others)
             except Exception as err:
@@ -214,9 +229,14 @@ def _store(spec: WorkerSpec, result: ChunkOutput) -> None:
     """Write a returned chunk into the parts folder (atomically) and append its Geant4 output."""
     path = chunk_path(spec.parts_dir, result.index)
     check_free_space(path, payload_bytes(result.primaries, result.scores))
-    write_chunk(path, result.first_event, result.volumes, result.scores, result.primaries, spec.fingerprint)
+    write_chunk(
+        path, result.first_event, result.volumes, result.scores, result.primaries, spec.fingerprint
+    )
     if result.log:
-        with contextlib.suppress(OSError), open(Path(spec.parts_dir) / f"geant4-dask-{result.worker}.log", "a") as f:
+        with (
+            contextlib.suppress(OSError),
+            open(Path(spec.parts_dir) / f"geant4-dask-{result.worker}.log", "a") as f,
+        ):
             f.write(result.log)
 
 
@@ -229,7 +249,9 @@ _g4_executor: ThreadPoolExecutor | None = None
 
 def setup_key(spec: WorkerSpec) -> str:
     """Identifies the Geant4 set-up a chunk needs (configuration and physics; not the seed)."""
-    text = json.dumps({"config": config_to_dict(spec.config), "physics": asdict(spec.choice)}, sort_keys=True)
+    text = json.dumps(
+        {"config": config_to_dict(spec.config), "physics": asdict(spec.choice)}, sort_keys=True
+    )
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -251,7 +273,13 @@ def _run_chunk_here(spec: WorkerSpec, chunk: Chunk) -> ChunkOutput:
     sim = _simulation(spec)
     primaries, scores = simulate_chunk(sim, spec, chunk)
     return ChunkOutput(
-        chunk.index, chunk.first_event, list(sim.volumes), scores, primaries, ready_info(sim), _new_log_text(),
+        chunk.index,
+        chunk.first_event,
+        list(sim.volumes),
+        scores,
+        primaries,
+        ready_info(sim),
+        _new_log_text(),
         f"{socket.gethostname()}-{os.getpid()}",
     )
 
@@ -275,8 +303,12 @@ def _simulation(spec: WorkerSpec):
         )
     if "error" in _held:  # Geant4 may be half set up: never build it twice in one process
         err = _held["error"]
-        raise type(err)(str(err)) if isinstance(err, Score4Error) else Score4Error(
-            f"this Dask worker process failed to set up Geant4 before: {type(err).__name__}: {err}"
+        raise (
+            type(err)(str(err))
+            if isinstance(err, Score4Error)
+            else Score4Error(
+                f"this Dask worker process failed to set up Geant4 before: {type(err).__name__}: {err}"
+            )
         )
     return _held["sim"]
 
@@ -285,7 +317,9 @@ def _new_log_text() -> str:
     """Geant4's console output of this process since the last chunk."""
     try:
         data = _held["log"].read_bytes()
-        _held["log"].unlink()  # recreated by the next chunk: no file is left behind in the temporary folder
+        _held[
+            "log"
+        ].unlink()  # recreated by the next chunk: no file is left behind in the temporary folder
         return data.decode(errors="replace")
     except OSError:
         return ""

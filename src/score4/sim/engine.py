@@ -56,7 +56,9 @@ from .worker import Chunk, WorkerSpec, check_free_space, chunk_path, worker_main
 
 # Errors that workers report by class name and that the engine raises again as they are.
 _ERRORS = {
-    cls.__name__: cls for cls in vars(errors).values() if isinstance(cls, type) and issubclass(cls, Score4Error)
+    cls.__name__: cls
+    for cls in vars(errors).values()
+    if isinstance(cls, type) and issubclass(cls, Score4Error)
 }
 MAX_FAILED_CHUNKS = 3
 _INFO_FILE = "worker-info.json"
@@ -186,17 +188,23 @@ def run(
             f"--out: unfinished run parts found in {str(parts)!r}; continue that run with --resume, "
             f"or delete the folder to start again"
         )
-    done = _finished_chunks(parts, chunks, fingerprint, echo) if resume and parts.exists() else set()
+    done = (
+        _finished_chunks(parts, chunks, fingerprint, echo) if resume and parts.exists() else set()
+    )
     todo = [c for c in chunks if c.index not in done]
     if done:
-        echo(f"resume: {len(done)} of {len(chunks)} chunks already finished in {parts}; running the other {len(todo)}")
+        echo(
+            f"resume: {len(done)} of {len(chunks)} chunks already finished in {parts}; running the other {len(todo)}"
+        )
     workers = min(jobs, max(1, len(todo)))
     if todo and jobs > len(todo):
         echo(
             f"notice: --jobs {jobs} but only {len(todo)} chunk(s) to run (run.chunk_events = "
             f"{config.run.chunk_events}); using {workers} worker(s). Lower run.chunk_events to use more."
         )
-    executor = make_executor(cluster, workers, echo)  # before creating anything: a bad --cluster leaves no trace
+    executor = make_executor(
+        cluster, workers, echo
+    )  # before creating anything: a bad --cluster leaves no trace
     parts.mkdir(exist_ok=True)
     for stale in parts.glob("*.partial"):  # temporary files of writers that were killed
         stale.unlink()
@@ -205,19 +213,25 @@ def run(
     total = sum(c.n_events for c in chunks)
     try:
         with _sigterm_as_interrupt():
-            info = _run_chunks(executor, spec, todo, total, total - sum(c.n_events for c in todo), progress)
+            info = _run_chunks(
+                executor, spec, todo, total, total - sum(c.n_events for c in todo), progress
+            )
     except KeyboardInterrupt:
         kept = _count_chunk_files(parts, chunks)
         if kept:
-            echo(f"run interrupted: {kept} of {len(chunks)} chunks are finished and kept in {parts}; "
-                 f"run the same command again with --resume to finish the run")
+            echo(
+                f"run interrupted: {kept} of {len(chunks)} chunks are finished and kept in {parts}; "
+                f"run the same command again with --resume to finish the run"
+            )
         else:
             shutil.rmtree(parts, ignore_errors=True)
             echo("run interrupted before any chunk finished; nothing kept")
         raise
     except Score4Error as err:
         kept = _count_chunk_files(parts, chunks)
-        if not kept:  # nothing worth resuming: leave no trace, but keep Geant4's output of a real fault
+        if (
+            not kept
+        ):  # nothing worth resuming: leave no trace, but keep Geant4's output of a real fault
             if not isinstance(err, ConfigError) and any(parts.glob("geant4-*.log")):
                 err = type(err)(f"{err} (Geant4's output: {_collect_logs(parts, out)})")
             shutil.rmtree(parts, ignore_errors=True)
@@ -270,14 +284,23 @@ def run(
     return out
 
 
-def _run_chunks(executor: Executor, spec: WorkerSpec, todo: list[Chunk], total: int, already: int, show: bool) -> dict:
+def _run_chunks(
+    executor: Executor, spec: WorkerSpec, todo: list[Chunk], total: int, already: int, show: bool
+) -> dict:
     """Run ``todo`` on ``executor``; return a worker's ready info; raise on failed chunks."""
     if not todo:
         return {}
     info: dict = {}
     finished: set[int] = set()
     failures: dict[int, str] = {}
-    bar = tqdm(total=total, initial=already, unit="ev", disable=not show or None, mininterval=0.5, file=sys.stderr)
+    bar = tqdm(
+        total=total,
+        initial=already,
+        unit="ev",
+        disable=not show or None,
+        mininterval=0.5,
+        file=sys.stderr,
+    )
     try:
         with contextlib.closing(executor.execute(spec, todo)) as events:
             for event in events:
@@ -292,7 +315,11 @@ def _run_chunks(executor: Executor, spec: WorkerSpec, todo: list[Chunk], total: 
                 elif kind == "failed":
                     _, index, cls, text = event
                     if cls in _ERRORS:  # bad input or a fault of the environment: stop now
-                        where = "" if index is None or cls == "ConfigError" else f"run: chunk {index} failed: "
+                        where = (
+                            ""
+                            if index is None or cls == "ConfigError"
+                            else f"run: chunk {index} failed: "
+                        )
                         raise _ERRORS[cls](where + text)
                     if index is None:
                         raise Score4Error(f"run: a worker process failed to start: {cls}: {text}")
@@ -338,7 +365,9 @@ class LocalProcesses:
                         continue
                     yield from w.handle_exit(pending)  # also returns an unstarted chunk to pending
                     workers.remove(w)
-                    if pending and w.ready and replacements > 0:  # a working worker died: replace it
+                    if (
+                        pending and w.ready and replacements > 0
+                    ):  # a working worker died: replace it
                         replacements -= 1
                         workers.append(_LocalWorker(ctx, spec))
         finally:
@@ -394,9 +423,19 @@ class _LocalWorker:
         self.join()
         pid, code = self.process.pid, self.process.exitcode
         if self.chunk is not None:
-            yield ("failed", self.chunk.index, "WorkerDied", f"worker process {pid} died, {_exit_text(code)}")
+            yield (
+                "failed",
+                self.chunk.index,
+                "WorkerDied",
+                f"worker process {pid} died, {_exit_text(code)}",
+            )
         elif not self.ready and not self.reported:
-            yield ("failed", None, "WorkerDied", f"worker process {pid} died during start-up, {_exit_text(code)}")
+            yield (
+                "failed",
+                None,
+                "WorkerDied",
+                f"worker process {pid} died during start-up, {_exit_text(code)}",
+            )
 
     def terminate(self) -> None:
         if self.process.is_alive():
@@ -456,7 +495,10 @@ def _finished_chunks(parts: Path, chunks: list[Chunk], fingerprint: str, echo) -
             continue
         try:
             with h5py.File(path, "r") as f:
-                same = f.attrs.get("fingerprint") == fingerprint and f.attrs.get("first_event") == c.first_event
+                same = (
+                    f.attrs.get("fingerprint") == fingerprint
+                    and f.attrs.get("first_event") == c.first_event
+                )
                 ids = f["events/event_id"][()]
         except (OSError, KeyError):
             damaged.append(c.index)
@@ -468,10 +510,14 @@ def _finished_chunks(parts: Path, chunks: list[Chunk], fingerprint: str, echo) -
         else:
             done.add(c.index)
     if foreign:
-        echo(f"resume: chunk files {_ranges(foreign)} in {parts} come from another configuration or seed; "
-             f"they are run again")
+        echo(
+            f"resume: chunk files {_ranges(foreign)} in {parts} come from another configuration or seed; "
+            f"they are run again"
+        )
     if damaged:
-        echo(f"resume: chunk files {_ranges(damaged)} in {parts} are damaged or incomplete; they are run again")
+        echo(
+            f"resume: chunk files {_ranges(damaged)} in {parts} are damaged or incomplete; they are run again"
+        )
     return done
 
 

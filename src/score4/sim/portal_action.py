@@ -81,14 +81,20 @@ class _Layer:
         """Face-frame components of the world point (x, y, z) relative to ``c``: R^T (p - c)."""
         r = self.r
         dx, dy, dz = x - c[0], y - c[1], z - c[2]
-        return (r[0][0] * dx + r[1][0] * dy + r[2][0] * dz,
-                r[0][1] * dx + r[1][1] * dy + r[2][1] * dz,
-                r[0][2] * dx + r[1][2] * dy + r[2][2] * dz)
+        return (
+            r[0][0] * dx + r[1][0] * dy + r[2][0] * dz,
+            r[0][1] * dx + r[1][1] * dy + r[2][1] * dz,
+            r[0][2] * dx + r[1][2] * dy + r[2][2] * dz,
+        )
 
     def jump(self, i: int, j: int) -> tuple[float, float, float]:
         """T[i, j]: portal point + T = subworld point (same expression as PortalMap.translations)."""
         a, eu, ev = self.a[self.variants[j][i]], self.eu, self.ev
-        return (a[0] - i * eu[0] - j * ev[0], a[1] - i * eu[1] - j * ev[1], a[2] - i * eu[2] - j * ev[2])
+        return (
+            a[0] - i * eu[0] - j * ev[0],
+            a[1] - i * eu[1] - j * ev[1],
+            a[2] - i * eu[2] - j * ev[2],
+        )
 
     def cell(self, qu: float, qv: float) -> tuple[int, int]:
         """Cell of a face point, clamped to the grid (entry points lie on the portal boundary)."""
@@ -113,7 +119,10 @@ class _Layer:
 def outward_faces(pos, d, half) -> list[int]:
     """Per axis: +1 or -1 where ``pos`` lies on that face of the box of half-lengths ``half``
     (within EDGE_TOLERANCE) and ``d`` points out through it, else 0."""
-    return [(1 if c > 0 else -1) if (h - abs(c) <= EDGE_TOLERANCE and c * u > 0) else 0 for c, h, u in zip(pos, half, d)]
+    return [
+        (1 if c > 0 else -1) if (h - abs(c) <= EDGE_TOLERANCE and c * u > 0) else 0
+        for c, h, u in zip(pos, half, d)
+    ]
 
 
 def enters(pos, d, half) -> bool:
@@ -143,7 +152,9 @@ class Teleporter:
             self.roles[p.portal_pv] = (_PORTAL, n, -1)
             for k, pv in enumerate(p.trigger_pvs):
                 self.roles[pv] = (_TRIGGER, n, k)
-        self.navigator = g4.G4TransportationManager.GetTransportationManager().GetNavigatorForTracking()
+        self.navigator = (
+            g4.G4TransportationManager.GetTransportationManager().GetNavigatorForTracking()
+        )
         self.stop_and_kill = g4.G4TrackStatus.fStopAndKill
         self.vector = g4.G4ThreeVector
         self.history: dict[int, tuple[list[float], list]] = {}
@@ -182,7 +193,9 @@ class Teleporter:
     def start_track(self, track) -> None:
         """Give a new track its cell: a primary from its row, a secondary from its parent."""
         parent = track.GetParentID()
-        if parent == 0:  # Geant4 numbers an event's primaries 1, 2, ... in the order they were given
+        if (
+            parent == 0
+        ):  # Geant4 numbers an event's primaries 1, 2, ... in the order they were given
             row = self.first_row + track.GetTrackID() - 1
             cell = self.primary_cells[row] if row < len(self.primary_cells) else None
         else:

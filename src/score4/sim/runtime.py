@@ -75,7 +75,11 @@ def resolve_physics(requested: str, needs_decay: bool = False) -> PhysicsChoice:
 
 def lite_stub_dir() -> Path:
     """A folder with the empty stand-ins that let Geant4 start without data (see DESIGN.md)."""
-    base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "score4" / "geant4-lite-stub"
+    base = (
+        Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache"))
+        / "score4"
+        / "geant4-lite-stub"
+    )
     (base / "G4ENSDFSTATE3.0").mkdir(parents=True, exist_ok=True)
     (base / "G4ENSDFSTATE3.0" / "ENSDFSTATE.dat").touch()
     (base / "PhotonEvaporation6.1.2").mkdir(parents=True, exist_ok=True)
@@ -141,6 +145,6 @@ def redirect_native_output(log_path: Path | None):
 
 
 def geant4_version(g4) -> str:
-    """"11.4.1"-style version of the Geant4 inside geant4_pybind."""
+    """ "11.4.1"-style version of the Geant4 inside geant4_pybind."""
     number = int(g4.G4VERSION_NUMBER)
     return f"{number // 100}.{(number // 10) % 10}.{number % 10}"

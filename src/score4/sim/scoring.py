@@ -18,7 +18,9 @@ PRIMITIVES = {"edep": "G4PSEnergyDeposit", "track_length": "G4PSTrackLength"}
 class VolumeScorer:
     """Attach with :meth:`attach` in ConstructSDandField; read with :meth:`read` per event."""
 
-    def __init__(self, g4, groups: dict[str, list], quantities: tuple[str, ...] = ("edep",)) -> None:
+    def __init__(
+        self, g4, groups: dict[str, list], quantities: tuple[str, ...] = ("edep",)
+    ) -> None:
         self.g4 = g4
         self.names = list(groups)
         self.groups = groups
@@ -42,7 +44,9 @@ class VolumeScorer:
     def resolve_ids(self) -> None:
         """Collection ids exist only after the run manager is initialised."""
         sdm = self.g4.G4SDManager.GetSDMpointer()
-        self.collection_ids = [[sdm.GetCollectionID(f"score4_{n}/{q}") for n in self.names] for q in self.quantities]
+        self.collection_ids = [
+            [sdm.GetCollectionID(f"score4_{n}/{q}") for n in self.names] for q in self.quantities
+        ]
 
     def read(self, event, out: dict[str, np.ndarray], row: int) -> None:
         """Write this event's sums per volume into ``out[quantity][row]`` (MeV, mm)."""

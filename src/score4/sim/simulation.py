@@ -48,7 +48,9 @@ def resolve_particle(g4, name: str, parameter: str = "source.particle"):
 class Simulation:
     """Geant4 set up for one run configuration, in this process."""
 
-    def __init__(self, config: RunConfig, choice: PhysicsChoice, log_path: Path | None = None) -> None:
+    def __init__(
+        self, config: RunConfig, choice: PhysicsChoice, log_path: Path | None = None
+    ) -> None:
         self.config = config
         self.scene = build_scene(config)
         self.source = make_source(config, self.scene)
@@ -63,7 +65,12 @@ class Simulation:
         check_materials(g4, self.config)
         self.run_manager = g4.G4RunManagerFactory.CreateRunManager(g4.G4RunManagerType.Serial)
         ui = g4.G4UImanager.GetUIpointer()
-        for cmd in ("/control/verbose 0", "/run/verbose 0", "/event/verbose 0", "/tracking/verbose 0"):
+        for cmd in (
+            "/control/verbose 0",
+            "/run/verbose 0",
+            "/event/verbose 0",
+            "/tracking/verbose 0",
+        ):
             ui.ApplyCommand(cmd)
         sim = self
 
@@ -102,10 +109,14 @@ class Simulation:
             from .portal_action import Teleporter, make_actions
 
             self.teleporter = Teleporter(g4, self.geometry.portals)
-            stepping, tracking = make_actions(g4, self.teleporter, [p.region for p in self.geometry.portals])
+            stepping, tracking = make_actions(
+                g4, self.teleporter, [p.region for p in self.geometry.portals]
+            )
             self._actions += [stepping, tracking]  # the stepping action is the portal regions' own
             self.run_manager.SetUserAction(tracking)
-        self.removed_processes = strip_data_hungry_processes(g4) if self.choice.mode == "lite" else []
+        self.removed_processes = (
+            strip_data_hungry_processes(g4) if self.choice.mode == "lite" else []
+        )
         self.scorer.resolve_ids()
         self._particles: dict[str, object] = {}
         self.volumes = list(self.scorer.names)
@@ -133,14 +144,20 @@ class Simulation:
         self.scorer.read(event, self._scores, self._next_event)
         self._next_event += 1
 
-    def run(self, primaries: Primaries, g4_seed: int, progress=None, batch: int | None = None) -> dict[str, np.ndarray]:
+    def run(
+        self, primaries: Primaries, g4_seed: int, progress=None, batch: int | None = None
+    ) -> dict[str, np.ndarray]:
         """Track ``primaries``; return {quantity: (n_events, n_volumes) array} (MeV, mm)."""
         for name in np.unique(primaries.particle):
             self.particle(str(name))
         n = primaries.n_events
         self._primaries = primaries
         # Portal tiling: vertices in a portal box start at their subworld point.
-        self._positions = primaries.position if self.teleporter is None else self.teleporter.map_primaries(primaries.position)
+        self._positions = (
+            primaries.position
+            if self.teleporter is None
+            else self.teleporter.map_primaries(primaries.position)
+        )
         self._defs = [self._particles[str(name)] for name in primaries.particle]
         self._offsets = primaries.event_offsets()
         self._scores = {q: np.zeros((n, len(self.volumes))) for q in self.quantities}

@@ -65,7 +65,9 @@ def chunk_path(parts_dir: Path, index: int) -> Path:
     return Path(parts_dir) / f"chunk-{index:06d}.h5"
 
 
-def simulate_chunk(sim, spec: WorkerSpec, chunk: Chunk, progress=None) -> tuple[Primaries, dict[str, np.ndarray]]:
+def simulate_chunk(
+    sim, spec: WorkerSpec, chunk: Chunk, progress=None
+) -> tuple[Primaries, dict[str, np.ndarray]]:
     """Sample and track one chunk; return its primaries and {quantity: (n_events, n_volumes) array}.
 
     The random streams depend only on the run seed and the chunk index
@@ -73,7 +75,9 @@ def simulate_chunk(sim, spec: WorkerSpec, chunk: Chunk, progress=None) -> tuple[
     """
     if str(chunk.index) in os.environ.get(CRASH_HOOK, "").split(","):
         os._exit(70)  # test hook, see the module docstring
-    primaries = sim.source.primaries(chunk_rng(spec.seed, chunk.index), chunk.first_event, chunk.n_events)
+    primaries = sim.source.primaries(
+        chunk_rng(spec.seed, chunk.index), chunk.first_event, chunk.n_events
+    )
     scores = sim.run(primaries, chunk_geant4_seed(spec.seed, chunk.index), progress=progress)
     return primaries, scores
 

@@ -58,8 +58,13 @@ def make_emitter(src: SourceConfig):
         return Po210Emitter(src.direction)
     if src.nuclide is not None:
         return NuclideEmitter(src.nuclide)
-    energy = src.energy if src.spectrum is None else EnergySpectrum.from_file(
-        src.spectrum.file, kind=src.spectrum.kind, unit=src.spectrum.unit)
+    energy = (
+        src.energy
+        if src.spectrum is None
+        else EnergySpectrum.from_file(
+            src.spectrum.file, kind=src.spectrum.kind, unit=src.spectrum.unit
+        )
+    )
     return ParticleEmitter(src.particle, energy, src.direction)
 
 
@@ -67,7 +72,11 @@ def flat_face_sampler(config: RunConfig, volume: str, face: str) -> SurfaceSampl
     """Two world-coordinate triangles covering a flat box face."""
     frame = face_frame(config.target(volume), face)
     lu, lv = frame.size
-    corners = frame.to_world(np.array([[-lu / 2, -lv / 2, 0], [lu / 2, -lv / 2, 0], [lu / 2, lv / 2, 0], [-lu / 2, lv / 2, 0]]))
+    corners = frame.to_world(
+        np.array(
+            [[-lu / 2, -lv / 2, 0], [lu / 2, -lv / 2, 0], [lu / 2, lv / 2, 0], [-lu / 2, lv / 2, 0]]
+        )
+    )
     return SurfaceSampler(vertices=corners, faces=[[0, 1, 2], [0, 2, 3]])
 
 
@@ -80,8 +89,15 @@ class SampledSource:
 
     def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
         v = self.sampler.sample(rng, n_events)
-        return make_primaries(self.emitter, rng, v.position, v.normal, depth=v.depth, facet=v.facet,
-                              patch=v.patch if v.patch is not None else np.full(n_events, -1))
+        return make_primaries(
+            self.emitter,
+            rng,
+            v.position,
+            v.normal,
+            depth=v.depth,
+            facet=v.facet,
+            patch=v.patch if v.patch is not None else np.full(n_events, -1),
+        )
 
 
 @dataclass
@@ -94,8 +110,10 @@ class FileSource:
     def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
         available = self.primaries_all.n_events
         if first_event + n_events > available:
-            raise ConfigError(f"source.vertices: {self.path} holds {available} events; the run asks for "
-                              f"events up to {first_event + n_events} (set run.events <= {available})")
+            raise ConfigError(
+                f"source.vertices: {self.path} holds {available} events; the run asks for "
+                f"events up to {first_event + n_events} (set run.events <= {available})"
+            )
         return self.primaries_all.select_events(first_event, first_event + n_events)
 
 
@@ -113,8 +131,10 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
     if src.vertices is not None:
         source = FileSource(read_vertex_file(src.vertices), str(src.vertices))
         if source.primaries_all.n_events < config.run.events:
-            raise ConfigError(f"source.vertices: {src.vertices} holds {source.primaries_all.n_events} events, "
-                              f"fewer than run.events = {config.run.events}")
+            raise ConfigError(
+                f"source.vertices: {src.vertices} holds {source.primaries_all.n_events} events, "
+                f"fewer than run.events = {config.run.events}"
+            )
         return source
     volume, face = src.surface.volume, src.surface.face
     layer = scene.layer(volume, face)
@@ -126,10 +146,17 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
         scene.inside_material(src.confine, np.zeros((0, 3)))  # fails now if no target has it
         inside = lambda p: scene.inside_material(src.confine, p)  # noqa: E731
     try:
-        sampler = VertexSampler(surface, depth_profile(src.depth), definition=src.depth.definition,
-                                min_depth=src.depth.min, max_depth=src.depth.max if src.depth.max is not None else np.inf,
-                                inside=inside)
-    except ConfigError as err:  # the library names min_depth/max_depth; the config calls them min/max
+        sampler = VertexSampler(
+            surface,
+            depth_profile(src.depth),
+            definition=src.depth.definition,
+            min_depth=src.depth.min,
+            max_depth=src.depth.max if src.depth.max is not None else np.inf,
+            inside=inside,
+        )
+    except (
+        ConfigError
+    ) as err:  # the library names min_depth/max_depth; the config calls them min/max
         message = str(err).replace("min_depth", "min").replace("max_depth", "max")
         raise ConfigError(f"source.depth: {message}") from None
     try:

@@ -127,7 +127,9 @@ def _closest_st(
     return s, t
 
 
-def closest_points_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+def closest_points_on_triangles(
+    p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray
+) -> np.ndarray:
     """Closest point of triangle ``(a[i], b[i], c[i])`` to ``p[i]``, all arrays (k, 3).
 
     Exact and vectorised; triangles must not be degenerate.
@@ -140,7 +142,9 @@ def closest_points_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: 
 def _flatten_lists(lists: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Lengths and concatenation of the index lists returned by ``query_ball_point``."""
     lengths = np.fromiter(map(len, lists), dtype=np.intp, count=len(lists))
-    flat = np.fromiter(itertools.chain.from_iterable(lists), dtype=np.intp, count=int(lengths.sum()))
+    flat = np.fromiter(
+        itertools.chain.from_iterable(lists), dtype=np.intp, count=int(lengths.sum())
+    )
     return lengths, flat
 
 
@@ -172,13 +176,19 @@ class MeshDistance:
     """
 
     def __init__(
-        self, triangles: np.ndarray, period: tuple[float, float] | None = None, chunk: int = 16384, brute_max: int = 64
+        self,
+        triangles: np.ndarray,
+        period: tuple[float, float] | None = None,
+        chunk: int = 16384,
+        brute_max: int = 64,
     ) -> None:
         tri = np.asarray(triangles, dtype=float)
         self._a = np.ascontiguousarray(tri[:, 0])
         self._ab = np.ascontiguousarray(tri[:, 1] - tri[:, 0])
         self._ac = np.ascontiguousarray(tri[:, 2] - tri[:, 0])
-        self._gram = np.stack([_dot(self._ab, self._ab), _dot(self._ac, self._ac), _dot(self._ab, self._ac)], axis=1)
+        self._gram = np.stack(
+            [_dot(self._ab, self._ab), _dot(self._ac, self._ac), _dot(self._ab, self._ac)], axis=1
+        )
         self._normal = triangle_normals(tri)
         centroid = tri.mean(axis=1)
         radius = np.linalg.norm(tri - centroid[:, None], axis=2).max(axis=1)
@@ -198,11 +208,15 @@ class MeshDistance:
             self._images = np.array(shifts)
         self._chunk = chunk
 
-    def _pairs(self, points: np.ndarray, radius: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _pairs(
+        self, points: np.ndarray, radius: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Candidate (point, triangle, image) triples with the triangle possibly within ``radius``."""
         pi, tj, oi = [], [], []
         for o, off in enumerate(self._images):
-            y = points - off  # distance to (triangle + off) == distance of (point - off) to triangle
+            y = (
+                points - off
+            )  # distance to (triangle + off) == distance of (point - off) to triangle
             reach = (radius + self._rmax)[:, None]
             sel = np.flatnonzero(((y >= self._lo - reach) & (y <= self._hi + reach)).all(axis=1))
             if len(sel) == 0:
@@ -221,14 +235,21 @@ class MeshDistance:
             return (np.zeros(0, np.intp),) * 3
         return np.concatenate(pi), np.concatenate(tj), np.concatenate(oi)
 
-    def _all_pairs(self, y: np.ndarray, reach: np.ndarray, members: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _all_pairs(
+        self, y: np.ndarray, reach: np.ndarray, members: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Pairs (point row, triangle) with the centroid within ``reach`` (dense test)."""
         gap = y[:, None, :] - self._centroid[members][None, :, :]
         p, k = np.nonzero(np.einsum("ijk,ijk->ij", gap, gap) <= (reach * reach)[:, None])
         return p, members[k]
 
     def _pair_distance(
-        self, points: np.ndarray, pi: np.ndarray, tj: np.ndarray, oi: np.ndarray, below: np.ndarray | None = None
+        self,
+        points: np.ndarray,
+        pi: np.ndarray,
+        tj: np.ndarray,
+        oi: np.ndarray,
+        below: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Exact distances of candidate pairs. With ``below`` (per point), pairs whose plane
         distance (a lower bound) is already >= ``below`` are dropped first; returns the kept
@@ -360,9 +381,13 @@ def _mesh_edges(tri: np.ndarray, ids: np.ndarray, step: np.ndarray, periodic: bo
     second = np.where(counts == 2, order[np.minimum(first_pos + 1, len(order) - 1)], -1)
     pair = second >= 0
     if (_dot(vec[first[pair]], vec[second[pair]]) > 0).any():
-        raise ConfigError("triangles: neighbouring faces are wound in opposite senses; normals must all point outward")
+        raise ConfigError(
+            "triangles: neighbouring faces are wound in opposite senses; normals must all point outward"
+        )
     border = first[~pair]
-    return _Edges(start, end, vec, first, second, np.unique(np.concatenate([start[border], end[border]])))
+    return _Edges(
+        start, end, vec, first, second, np.unique(np.concatenate([start[border], end[border]]))
+    )
 
 
 def _negative_first(v: np.ndarray) -> np.ndarray:
@@ -389,7 +414,10 @@ class OffsetSurface:
     """
 
     def __init__(
-        self, triangles: np.ndarray, facet_ids: np.ndarray | None = None, period: tuple[float, float] | None = None
+        self,
+        triangles: np.ndarray,
+        facet_ids: np.ndarray | None = None,
+        period: tuple[float, float] | None = None,
     ) -> None:
         tri = np.asarray(triangles, dtype=float)
         areas = triangle_areas(tri)
@@ -402,9 +430,13 @@ class OffsetSurface:
         edges = _mesh_edges(tri, ids, step, period is not None)
         self._setup_edges(tri, edges)
         self._setup_cones(tri, ids, edges)
-        self._last_kind = 2 if self._cone_choice is not None else 1 if self._edge_choice is not None else 0
+        self._last_kind = (
+            2 if self._cone_choice is not None else 1 if self._edge_choice is not None else 0
+        )
         self._distance = MeshDistance(tri, period)
-        self._tol = 1e-12 * max(float(np.abs(tri).max()), float(np.ptp(tri.reshape(-1, 3), axis=0).max()))
+        self._tol = 1e-12 * max(
+            float(np.abs(tri).max()), float(np.ptp(tri.reshape(-1, 3), axis=0).max())
+        )
 
     @property
     def n_valley_edges(self) -> int:
@@ -439,7 +471,9 @@ class OffsetSurface:
         self._edge_face = f1[valley]
         weight = theta * np.linalg.norm(self._edge_vec, axis=1)
         self.edge_weight = float(weight.sum())  # area of the edge pieces per unit depth
-        self._edge_choice = DiscreteSampler(weight, "edge weights") if self.edge_weight > 0 else None
+        self._edge_choice = (
+            DiscreteSampler(weight, "edge weights") if self.edge_weight > 0 else None
+        )
 
     def _setup_cones(self, tri: np.ndarray, ids: np.ndarray, edges: _Edges) -> None:
         """Vertices whose cone of closest-point directions has volume and lies in the material."""
@@ -455,13 +489,18 @@ class OffsetSurface:
         order = np.argsort(vertex, kind="stable")
         vertex, vectors = vertex[order], vectors[order]
         uniq, begin, degree = np.unique(vertex, return_index=True, return_counts=True)
-        found = [self._cones_of_degree(uniq, begin, degree, vectors, pseudo, deg) for deg in np.unique(degree)]
+        found = [
+            self._cones_of_degree(uniq, begin, degree, vectors, pseudo, deg)
+            for deg in np.unique(degree)
+        ]
         found = [f for f in found if len(f[0])]
         dmax = max((f[2].shape[1] for f in found), default=1)
         vid = np.concatenate([f[0] for f in found]) if found else np.zeros(0, np.int64)
         self._cone_center = np.concatenate([f[1] for f in found]) if found else np.zeros((0, 3))
         self._cone_edges = (
-            np.concatenate([np.pad(f[2], ((0, 0), (0, dmax - f[2].shape[1]), (0, 0))) for f in found])
+            np.concatenate(
+                [np.pad(f[2], ((0, 0), (0, dmax - f[2].shape[1]), (0, 0))) for f in found]
+            )
             if found
             else np.zeros((0, 1, 3))
         )
@@ -484,7 +523,9 @@ class OffsetSurface:
             v = tri[:, (k + 2) % 3] - tri[:, k]
             angle = np.arctan2(np.linalg.norm(np.cross(u, v), axis=1), _dot(u, v))
             for axis in range(3):
-                pseudo[:, axis] += np.bincount(ids[:, k], angle * normals[:, axis], minlength=len(pseudo))
+                pseudo[:, axis] += np.bincount(
+                    ids[:, k], angle * normals[:, axis], minlength=len(pseudo)
+                )
         return pseudo
 
     @staticmethod
@@ -546,13 +587,17 @@ class OffsetSurface:
         d = np.asarray(d, dtype=float)
         return self.area + d * self.edge_weight + d * d * self.vertex_weight
 
-    def propose(self, rng: np.random.Generator, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def propose(
+        self, rng: np.random.Generator, d: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """One proposal per depth; returns points, outward normals at the closest surface point,
         facet ids and the acceptance mask (point on the level set ``L_d``)."""
         n = len(d)
         r = rng.random(n) * self.weight(d)
         kind = (r >= self.area).astype(np.int8) + (r >= self.area + d * self.edge_weight)
-        kind = np.minimum(kind, self._last_kind)  # r == total by rounding must not pick a missing piece
+        kind = np.minimum(
+            kind, self._last_kind
+        )  # r == total by rounding must not pick a missing piece
         x, normal = np.empty((n, 3)), np.empty((n, 3))
         facet, ok = np.empty(n, dtype=np.int64), np.ones(n, dtype=bool)
         rows = np.flatnonzero(kind == 0)
@@ -570,7 +615,9 @@ class OffsetSurface:
         ok[test] = ~self._distance.any_within(x[test], d[test] * (1 - 1e-9) - self._tol)
         return x, normal, self._facet_of[facet], ok
 
-    def _propose_edges(self, rng: np.random.Generator, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _propose_edges(
+        self, rng: np.random.Generator, d: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Points on the cylinder sectors of valley edges (always on L_d up to the global test)."""
         e = self._edge_choice.sample(rng, len(d))
         t, phi = rng.random((2, len(d)))
@@ -697,7 +744,9 @@ class VertexSampler:
         self.offset_surfaces: list[OffsetSurface] = []  # one per variant, for 'distance'
         if definition == "distance":
             per = surface.pitch if self._tiled else period
-            self.offset_surfaces = [OffsetSurface(v.triangles, v.facet_ids, per) for v in self._layout.variants]
+            self.offset_surfaces = [
+                OffsetSurface(v.triangles, v.facet_ids, per) for v in self._layout.variants
+            ]
 
     def sample(self, rng: np.random.Generator, n: int) -> Vertices:
         """``n`` vertices satisfying every constraint."""
@@ -717,7 +766,11 @@ class VertexSampler:
             failures["confinement"] += int((on_level & ~confined).sum())
             good = on_level & confined
             rows = pending[good]
-            out.position[rows], out.normal[rows], out.facet[rows] = x[good], normal[good], facet[good]
+            out.position[rows], out.normal[rows], out.facet[rows] = (
+                x[good],
+                normal[good],
+                facet[good],
+            )
             if self._tiled:
                 out.patch[rows], out.variant[rows] = patch[good], variant[good]
             redraw = pending[on_level & ~confined]  # confinement failures get a new depth too
@@ -739,7 +792,9 @@ class VertexSampler:
         rows = np.flatnonzero(on_level)
         got = np.asarray(self.inside(x[rows]))
         if got.shape != (len(rows),) or got.dtype != bool:
-            raise ConfigError(f"inside: must return a ({len(rows)},) bool array, got {got.dtype} {got.shape}")
+            raise ConfigError(
+                f"inside: must return a ({len(rows)},) bool array, got {got.dtype} {got.shape}"
+            )
         mask[rows] = got
         return mask
 
@@ -753,9 +808,14 @@ class VertexSampler:
         """One level-set proposal per depth, over the variants of a tiled face."""
         n, layout = len(d), self._layout
         # variant k with probability n_k W_k(d): W_k is its proposal area at this depth
-        weight = np.stack([c * o.weight(d) for c, o in zip(layout.cell_counts, self.offset_surfaces)], axis=1)
+        weight = np.stack(
+            [c * o.weight(d) for c, o in zip(layout.cell_counts, self.offset_surfaces)], axis=1
+        )
         cum = np.cumsum(weight, axis=1)
-        variant = np.minimum((cum <= (rng.random(n) * cum[:, -1])[:, None]).sum(axis=1), len(self.offset_surfaces) - 1)
+        variant = np.minimum(
+            (cum <= (rng.random(n) * cum[:, -1])[:, None]).sum(axis=1),
+            len(self.offset_surfaces) - 1,
+        )
         patch = layout.sample_cells(rng, variant)
         local, normal = np.empty((n, 3)), np.empty((n, 3))
         facet, ok = np.empty(n, dtype=np.int64), np.empty(n, dtype=bool)

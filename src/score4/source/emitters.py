@@ -56,31 +56,172 @@ __all__ = [
     "sample_directions",
 ]
 
-DirectionKind = Literal["isotropic", "inward", "outward", "cosine_inward", "cosine_outward", "normal"]
-DIRECTIONS: tuple[str, ...] = ("isotropic", "inward", "outward", "cosine_inward", "cosine_outward", "normal")
+DirectionKind = Literal[
+    "isotropic", "inward", "outward", "cosine_inward", "cosine_outward", "normal"
+]
+DIRECTIONS: tuple[str, ...] = (
+    "isotropic",
+    "inward",
+    "outward",
+    "cosine_inward",
+    "cosine_outward",
+    "normal",
+)
 
 # --------------------------------------------------------------------------------------------
 # Particle and nuclide names
 # --------------------------------------------------------------------------------------------
 
 ELEMENTS: tuple[str, ...] = (
-    "H", "He", "Li", "Be", "B", "C", "N", "O", "F", "Ne", "Na", "Mg", "Al", "Si", "P", "S",
-    "Cl", "Ar", "K", "Ca", "Sc", "Ti", "V", "Cr", "Mn", "Fe", "Co", "Ni", "Cu", "Zn", "Ga",
-    "Ge", "As", "Se", "Br", "Kr", "Rb", "Sr", "Y", "Zr", "Nb", "Mo", "Tc", "Ru", "Rh", "Pd",
-    "Ag", "Cd", "In", "Sn", "Sb", "Te", "I", "Xe", "Cs", "Ba", "La", "Ce", "Pr", "Nd", "Pm",
-    "Sm", "Eu", "Gd", "Tb", "Dy", "Ho", "Er", "Tm", "Yb", "Lu", "Hf", "Ta", "W", "Re", "Os",
-    "Ir", "Pt", "Au", "Hg", "Tl", "Pb", "Bi", "Po", "At", "Rn", "Fr", "Ra", "Ac", "Th", "Pa",
-    "U", "Np", "Pu", "Am", "Cm", "Bk", "Cf", "Es", "Fm", "Md", "No", "Lr", "Rf", "Db", "Sg",
-    "Bh", "Hs", "Mt", "Ds", "Rg", "Cn", "Nh", "Fl", "Mc", "Lv", "Ts", "Og",
+    "H",
+    "He",
+    "Li",
+    "Be",
+    "B",
+    "C",
+    "N",
+    "O",
+    "F",
+    "Ne",
+    "Na",
+    "Mg",
+    "Al",
+    "Si",
+    "P",
+    "S",
+    "Cl",
+    "Ar",
+    "K",
+    "Ca",
+    "Sc",
+    "Ti",
+    "V",
+    "Cr",
+    "Mn",
+    "Fe",
+    "Co",
+    "Ni",
+    "Cu",
+    "Zn",
+    "Ga",
+    "Ge",
+    "As",
+    "Se",
+    "Br",
+    "Kr",
+    "Rb",
+    "Sr",
+    "Y",
+    "Zr",
+    "Nb",
+    "Mo",
+    "Tc",
+    "Ru",
+    "Rh",
+    "Pd",
+    "Ag",
+    "Cd",
+    "In",
+    "Sn",
+    "Sb",
+    "Te",
+    "I",
+    "Xe",
+    "Cs",
+    "Ba",
+    "La",
+    "Ce",
+    "Pr",
+    "Nd",
+    "Pm",
+    "Sm",
+    "Eu",
+    "Gd",
+    "Tb",
+    "Dy",
+    "Ho",
+    "Er",
+    "Tm",
+    "Yb",
+    "Lu",
+    "Hf",
+    "Ta",
+    "W",
+    "Re",
+    "Os",
+    "Ir",
+    "Pt",
+    "Au",
+    "Hg",
+    "Tl",
+    "Pb",
+    "Bi",
+    "Po",
+    "At",
+    "Rn",
+    "Fr",
+    "Ra",
+    "Ac",
+    "Th",
+    "Pa",
+    "U",
+    "Np",
+    "Pu",
+    "Am",
+    "Cm",
+    "Bk",
+    "Cf",
+    "Es",
+    "Fm",
+    "Md",
+    "No",
+    "Lr",
+    "Rf",
+    "Db",
+    "Sg",
+    "Bh",
+    "Hs",
+    "Mt",
+    "Ds",
+    "Rg",
+    "Cn",
+    "Nh",
+    "Fl",
+    "Mc",
+    "Lv",
+    "Ts",
+    "Og",
 )
 _Z = {symbol.lower(): z for z, symbol in enumerate(ELEMENTS, start=1)}
 
 # Geant4 particle names accepted as they are (ions are written element + mass number)
 PARTICLES: frozenset[str] = frozenset(
     (
-        "gamma", "e-", "e+", "mu-", "mu+", "alpha", "proton", "neutron", "deuteron", "triton",
-        "He3", "geantino", "chargedgeantino", "opticalphoton", "pi+", "pi-", "pi0", "kaon+",
-        "kaon-", "kaon0L", "anti_proton", "anti_neutron", "nu_e", "anti_nu_e", "nu_mu",
+        "gamma",
+        "e-",
+        "e+",
+        "mu-",
+        "mu+",
+        "alpha",
+        "proton",
+        "neutron",
+        "deuteron",
+        "triton",
+        "He3",
+        "geantino",
+        "chargedgeantino",
+        "opticalphoton",
+        "pi+",
+        "pi-",
+        "pi0",
+        "kaon+",
+        "kaon-",
+        "kaon0L",
+        "anti_proton",
+        "anti_neutron",
+        "nu_e",
+        "anti_nu_e",
+        "nu_mu",
         "anti_nu_mu",
     )
 )
@@ -98,14 +239,20 @@ def normalise_nuclide(name: str) -> str:
     """
     match = _NUCLIDE.match(str(name))
     if not match:
-        raise ConfigError(f"nuclide: cannot read {name!r}; write element symbol + mass number, e.g. 'Pb210' or 'Po-210'")
-    symbol, mass = (match.group(1), match.group(2)) if match.group(1) else (match.group(4), match.group(3))
+        raise ConfigError(
+            f"nuclide: cannot read {name!r}; write element symbol + mass number, e.g. 'Pb210' or 'Po-210'"
+        )
+    symbol, mass = (
+        (match.group(1), match.group(2)) if match.group(1) else (match.group(4), match.group(3))
+    )
     z = _Z.get(symbol.lower())
     if z is None:
         raise ConfigError(f"nuclide: {name!r} has unknown element symbol {symbol!r}")
     a = int(mass)
     if not z <= a <= 300:
-        raise ConfigError(f"nuclide: {name!r} has mass number {a}; it must be between Z = {z} and 300")
+        raise ConfigError(
+            f"nuclide: {name!r} has mass number {a}; it must be between Z = {z} and 300"
+        )
     return f"{ELEMENTS[z - 1]}{a}"
 
 
@@ -154,13 +301,17 @@ def _axis(normals: ArrayLike, side: str) -> np.ndarray:
     return (n / norm) * (-1.0 if side == "inward" else 1.0)
 
 
-def hemisphere_directions(rng: np.random.Generator, normals: ArrayLike, side: str = "inward") -> np.ndarray:
+def hemisphere_directions(
+    rng: np.random.Generator, normals: ArrayLike, side: str = "inward"
+) -> np.ndarray:
     """Uniform directions in the half-space ``inward`` (against the outward normal) or ``outward``."""
     axis = _axis(normals, side)
     return _about_axis(rng, axis, rng.random(len(axis)))
 
 
-def cosine_directions(rng: np.random.Generator, normals: ArrayLike, side: str = "inward") -> np.ndarray:
+def cosine_directions(
+    rng: np.random.Generator, normals: ArrayLike, side: str = "inward"
+) -> np.ndarray:
     """Lambert (cosine-weighted) directions about the inward or outward normal: the cosine to
     the axis has density ``2 c`` on [0, 1]."""
     axis = _axis(normals, side)
@@ -225,12 +376,19 @@ class EnergySpectrum:
         weight must be 0.
     """
 
-    def __init__(self, energies: ArrayLike, weights: ArrayLike, kind: Literal["linear", "histogram"] = "linear") -> None:
+    def __init__(
+        self,
+        energies: ArrayLike,
+        weights: ArrayLike,
+        kind: Literal["linear", "histogram"] = "linear",
+    ) -> None:
         e = np.asarray(energies, dtype=float).ravel()
         w = np.asarray(weights, dtype=float).ravel()
         self.kind = kind
         if kind == "linear":
-            self._law: PiecewiseLinear | Histogram = PiecewiseLinear(e, w, what="energy spectrum", xname="energy")
+            self._law: PiecewiseLinear | Histogram = PiecewiseLinear(
+                e, w, what="energy spectrum", xname="energy"
+            )
         elif kind == "histogram":
             if len(w) and w[-1] != 0:
                 raise ConfigError(
@@ -241,9 +399,16 @@ class EnergySpectrum:
             raise ConfigError(f"kind: got {kind!r}; use 'linear' or 'histogram'")
 
     @classmethod
-    def from_file(cls, path: str | Path, kind: Literal["linear", "histogram"] = "linear", unit: str | None = None) -> EnergySpectrum:
+    def from_file(
+        cls,
+        path: str | Path,
+        kind: Literal["linear", "histogram"] = "linear",
+        unit: str | None = None,
+    ) -> EnergySpectrum:
         """Read ``energy weight`` rows; the unit comes from a ``# unit: keV`` header or ``unit``."""
-        energies, weights = read_table(path, "energy", unit=unit, what="energy spectrum", xname="energy")
+        energies, weights = read_table(
+            path, "energy", unit=unit, what="energy spectrum", xname="energy"
+        )
         return cls(energies, weights, kind)
 
     def pdf(self, e: ArrayLike) -> np.ndarray:
@@ -264,7 +429,9 @@ class EnergySpectrum:
 class Emitter(Protocol):
     """What starts at a vertex: ``emit`` returns one (particle, energy, direction) per primary."""
 
-    def emit(self, rng: np.random.Generator, n: int, normals: np.ndarray | None) -> list[tuple[str, np.ndarray, np.ndarray]]: ...
+    def emit(
+        self, rng: np.random.Generator, n: int, normals: np.ndarray | None
+    ) -> list[tuple[str, np.ndarray, np.ndarray]]: ...
 
 
 def _check_direction(direction: str) -> str:
@@ -288,15 +455,24 @@ class ParticleEmitter:
     """
 
     def __init__(
-        self, particle: str, energy: float | str | Monoenergetic | EnergySpectrum, direction: DirectionKind = "isotropic"
+        self,
+        particle: str,
+        energy: float | str | Monoenergetic | EnergySpectrum,
+        direction: DirectionKind = "isotropic",
     ) -> None:
         self.particle = normalise_particle(particle)
         if isinstance(energy, str):
             energy = parse_quantity(energy, "energy", "energy")
-        self.energy = energy if isinstance(energy, (Monoenergetic, EnergySpectrum)) else Monoenergetic(float(energy))
+        self.energy = (
+            energy
+            if isinstance(energy, (Monoenergetic, EnergySpectrum))
+            else Monoenergetic(float(energy))
+        )
         self.direction = _check_direction(direction)
 
-    def emit(self, rng: np.random.Generator, n: int, normals: np.ndarray | None) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    def emit(
+        self, rng: np.random.Generator, n: int, normals: np.ndarray | None
+    ) -> list[tuple[str, np.ndarray, np.ndarray]]:
         direction = sample_directions(rng, self.direction, n, normals)
         return [(self.particle, self.energy.sample(rng, n), direction)]
 
@@ -308,7 +484,9 @@ PB206_MASS = 205.9744651 * _U - 82 * _ME + _PB_BINDING  # MeV, bare Pb-206 nucle
 PO210_ALPHA_ENERGY = 5.30433  # MeV
 
 
-def recoil_energy(alpha_energy: float, alpha_mass: float = ALPHA_MASS, recoil_mass: float = PB206_MASS) -> float:
+def recoil_energy(
+    alpha_energy: float, alpha_mass: float = ALPHA_MASS, recoil_mass: float = PB206_MASS
+) -> float:
     """Kinetic energy (MeV) of the recoil balancing the momentum of an alpha of ``alpha_energy``."""
     p2 = alpha_energy * (alpha_energy + 2.0 * alpha_mass)
     return p2 / (np.sqrt(p2 + recoil_mass**2) + recoil_mass)
@@ -329,7 +507,9 @@ class Po210Emitter:
     def __init__(self, direction: DirectionKind = "isotropic") -> None:
         self.direction = _check_direction(direction)
 
-    def emit(self, rng: np.random.Generator, n: int, normals: np.ndarray | None) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    def emit(
+        self, rng: np.random.Generator, n: int, normals: np.ndarray | None
+    ) -> list[tuple[str, np.ndarray, np.ndarray]]:
         alpha = sample_directions(rng, self.direction, n, normals)
         return [
             ("alpha", np.full(n, PO210_ALPHA_ENERGY), alpha),
@@ -347,7 +527,9 @@ class NuclideEmitter:
     def __init__(self, nuclide: str) -> None:
         self.nuclide = normalise_nuclide(nuclide)
 
-    def emit(self, rng: np.random.Generator, n: int, normals: np.ndarray | None) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    def emit(
+        self, rng: np.random.Generator, n: int, normals: np.ndarray | None
+    ) -> list[tuple[str, np.ndarray, np.ndarray]]:
         return [(self.nuclide, np.zeros(n), np.tile([0.0, 0.0, 1.0], (n, 1)))]
 
 
@@ -378,14 +560,18 @@ def make_primaries(
     """
     pos = np.asarray(positions, dtype=float).reshape(-1, 3)
     n = len(pos)
-    parts = emitter.emit(rng, n, None if normals is None else np.asarray(normals, dtype=float).reshape(-1, 3))
+    parts = emitter.emit(
+        rng, n, None if normals is None else np.asarray(normals, dtype=float).reshape(-1, 3)
+    )
     k = len(parts)  # rows per event, event-major: row = event * k + j
     extra = {}
     for name, col in (("depth", depth), ("facet", facet), ("patch", patch)):
         if col is not None:
             col = np.asarray(col)
             if col.shape != (n,):
-                raise ConfigError(f"{name}: need one value per vertex ({n},), got shape {col.shape}")
+                raise ConfigError(
+                    f"{name}: need one value per vertex ({n},), got shape {col.shape}"
+                )
             extra[name] = np.repeat(col, k)
     return Primaries(
         event=np.repeat(np.arange(n), k),

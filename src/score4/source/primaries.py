@@ -49,14 +49,18 @@ class Primaries:
         n = len(self.event)
         for name in ("particle", "energy", "position", "direction"):
             if len(getattr(self, name)) != n:
-                raise ConfigError(f"primaries.{name}: has {len(getattr(self, name))} rows, event has {n}")
+                raise ConfigError(
+                    f"primaries.{name}: has {len(getattr(self, name))} rows, event has {n}"
+                )
         for name, col in self.extra.items():
             if len(col) != n:
                 raise ConfigError(f"primaries.extra[{name!r}]: has {len(col)} rows, event has {n}")
         if n:
             steps = np.diff(self.event)
             if self.event[0] != 0 or (steps < 0).any() or (steps > 1).any():
-                raise ConfigError("primaries.event: must start at 0 and increase by 0 or 1 from row to row")
+                raise ConfigError(
+                    "primaries.event: must start at 0 and increase by 0 or 1 from row to row"
+                )
         if (self.energy < 0).any() or not np.isfinite(self.energy).all():
             raise ConfigError("primaries.energy: kinetic energies must be finite and >= 0")
         norms = np.linalg.norm(self.direction, axis=1)

@@ -33,8 +33,6 @@ __all__ = [
 ]
 
 
-
-
 def _length(value: float | str, name: str) -> float:
     """A length in mm from a float (mm) or a string with a unit (``"20 nm"``)."""
     if isinstance(value, str):
@@ -42,7 +40,9 @@ def _length(value: float | str, name: str) -> float:
     try:
         return float(value)
     except (TypeError, ValueError):
-        raise ConfigError(f"{name}: expected a length in mm or a string like '20 nm', got {value!r}") from None
+        raise ConfigError(
+            f"{name}: expected a length in mm or a string like '20 nm', got {value!r}"
+        ) from None
 
 
 def _positive(value: float | str, name: str) -> float:
@@ -52,13 +52,17 @@ def _positive(value: float | str, name: str) -> float:
     return value
 
 
-def check_window(lo: float, hi: float, names: tuple[str, str] = ("min_depth", "max_depth")) -> tuple[float, float]:
+def check_window(
+    lo: float, hi: float, names: tuple[str, str] = ("min_depth", "max_depth")
+) -> tuple[float, float]:
     """Validate a depth window ``0 <= lo <= hi`` (``hi`` may be infinite)."""
     lo, hi = _length(lo, names[0]), _length(hi, names[1])
     if not np.isfinite(lo) or lo < 0:
         raise ConfigError(f"{names[0]}: got {lo!r} mm; must be a finite length >= 0")
     if np.isnan(hi) or hi < lo:
-        raise ConfigError(f"{names[0]} / {names[1]}: {lo!r} mm > {hi!r} mm; need {names[0]} <= {names[1]}")
+        raise ConfigError(
+            f"{names[0]} / {names[1]}: {lo!r} mm > {hi!r} mm; need {names[0]} <= {names[1]}"
+        )
     return lo, hi
 
 
@@ -189,9 +193,16 @@ class MultiExponentialProfile(DepthProfile):
 
     def __init__(self, weights: ArrayLike, means: ArrayLike) -> None:
         w = np.asarray(weights, dtype=float).ravel()
-        m = np.array([_length(v, f"means[{i}]") for i, v in enumerate(np.atleast_1d(np.asarray(means, dtype=object)).ravel())])
+        m = np.array(
+            [
+                _length(v, f"means[{i}]")
+                for i, v in enumerate(np.atleast_1d(np.asarray(means, dtype=object)).ravel())
+            ]
+        )
         if len(w) != len(m) or len(w) == 0:
-            raise ConfigError(f"weights / means: need the same non-zero number of each, got {len(w)} and {len(m)}")
+            raise ConfigError(
+                f"weights / means: need the same non-zero number of each, got {len(w)} and {len(m)}"
+            )
         for i, mean in enumerate(m):
             _positive(mean, f"means[{i}]")
         if not np.isfinite(w).all() or (w < 0).any() or not (w > 0).any():
@@ -242,7 +253,11 @@ class TruncatedGaussianProfile(DepthProfile):
     """
 
     def __init__(
-        self, mean: float | str, sigma: float | str, lower: float | str = 0.0, upper: float | str = np.inf
+        self,
+        mean: float | str,
+        sigma: float | str,
+        lower: float | str = 0.0,
+        upper: float | str = np.inf,
     ) -> None:
         self.mean = _length(mean, "mean")
         if not np.isfinite(self.mean) or self.mean < 0:
@@ -251,7 +266,9 @@ class TruncatedGaussianProfile(DepthProfile):
         self.lower, self.upper = check_window(lower, upper, ("lower", "upper"))
         self._norm = self._phi_mass(self.lower, self.upper)
         if not self._norm > 0:
-            raise ConfigError(f"lower / upper: no probability between {lower!r} and {upper!r} mm for this Gaussian")
+            raise ConfigError(
+                f"lower / upper: no probability between {lower!r} and {upper!r} mm for this Gaussian"
+            )
 
     def _phi_mass(self, lo: float, hi: float) -> float:
         a, b = (lo - self.mean) / self.sigma, (hi - self.mean) / self.sigma
@@ -296,7 +313,9 @@ class ZeroDepth(DepthProfile):
     def truncated(self, lo: float = 0.0, hi: float = np.inf) -> DepthProfile:
         lo, hi = check_window(lo, hi)
         if lo > 0:
-            raise ConfigError(f"min_depth: got {lo!r} mm but the depth profile is zero depth; use min_depth 0")
+            raise ConfigError(
+                f"min_depth: got {lo!r} mm but the depth profile is zero depth; use min_depth 0"
+            )
         return self
 
     def sample_between(self, rng: np.random.Generator, n: int, lo: float, hi: float) -> np.ndarray:

@@ -73,7 +73,9 @@ class DiscreteSampler:
             raise ConfigError(f"{name}: weights must be finite and >= 0")
         self._index = np.flatnonzero(w > 0)  # only positive entries take part
         if len(self._index) == 0:
-            raise ConfigError(f"{name}: all {len(w)} weights are zero; at least one must be positive")
+            raise ConfigError(
+                f"{name}: all {len(w)} weights are zero; at least one must be positive"
+            )
         self.n = len(w)
         self._cum = np.concatenate([[0.0], np.cumsum(w[self._index])])
         self.total = float(self._cum[-1])
@@ -110,13 +112,17 @@ class DiscreteSampler:
 # --------------------------------------------------------------------------------------------
 
 
-def _check_table(x: np.ndarray, w: np.ndarray, labels: Sequence[str], what: str, xname: str) -> None:
+def _check_table(
+    x: np.ndarray, w: np.ndarray, labels: Sequence[str], what: str, xname: str
+) -> None:
     """Validate a (x, weight) table; ``labels[i]`` says where row i came from (file line or index)."""
     if len(x) < 2:
         raise ConfigError(f"{what}: needs at least 2 rows '{xname} weight', got {len(x)}")
     for i in range(len(x)):
         if not (np.isfinite(x[i]) and np.isfinite(w[i])):
-            raise ConfigError(f"{what} {labels[i]}: values must be finite, got {xname} {x[i]!r}, weight {w[i]!r}")
+            raise ConfigError(
+                f"{what} {labels[i]}: values must be finite, got {xname} {x[i]!r}, weight {w[i]!r}"
+            )
     bad = np.flatnonzero(x < 0)
     if len(bad):
         i = bad[0]
@@ -199,7 +205,9 @@ class PiecewiseLinear:
             t = np.where(den > 0, 2.0 * r / den, 0.0)  # root of b t + slope t^2 / 2 = r
         return self.x[k] + np.clip(t, 0.0, self._h[k])
 
-    def sample(self, rng: np.random.Generator, n: int, lo: float = -np.inf, hi: float = np.inf) -> np.ndarray:
+    def sample(
+        self, rng: np.random.Generator, n: int, lo: float = -np.inf, hi: float = np.inf
+    ) -> np.ndarray:
         """``n`` exact draws, truncated to ``[lo, hi]`` (which must hold probability)."""
         qlo, qhi = (float(c) for c in self.cdf(np.array([lo, hi])))
         return self.ppf(qlo + rng.random(n) * (qhi - qlo))
@@ -216,12 +224,18 @@ class Histogram:
         (k,) non-negative bin contents (counts or probabilities, not densities).
     """
 
-    def __init__(self, edges: ArrayLike, contents: ArrayLike, what: str = "histogram", xname: str = "x") -> None:
+    def __init__(
+        self, edges: ArrayLike, contents: ArrayLike, what: str = "histogram", xname: str = "x"
+    ) -> None:
         edges = np.asarray(edges, dtype=float).ravel()
         contents = np.asarray(contents, dtype=float).ravel()
         if len(edges) != len(contents) + 1:
-            raise ConfigError(f"{what}: need len(edges) == len(contents) + 1, got {len(edges)} and {len(contents)}")
-        _check_table(edges, np.append(contents, 0.0), [f"row {i}" for i in range(len(edges))], what, xname)
+            raise ConfigError(
+                f"{what}: need len(edges) == len(contents) + 1, got {len(edges)} and {len(contents)}"
+            )
+        _check_table(
+            edges, np.append(contents, 0.0), [f"row {i}" for i in range(len(edges))], what, xname
+        )
         self.edges = edges
         self.p = contents / contents.sum()
         self._cum = np.concatenate([[0.0], np.cumsum(self.p)])
@@ -276,7 +290,9 @@ def read_table(
         line = raw.strip()
         if match := _UNIT_LINE.match(line):
             if header_unit not in (None, match.group(1)):
-                raise ConfigError(f"{label} line {number}: second unit header {match.group(1)!r} differs from {header_unit!r}")
+                raise ConfigError(
+                    f"{label} line {number}: second unit header {match.group(1)!r} differs from {header_unit!r}"
+                )
             header_unit = match.group(1)
             continue
         line = line.split("#", 1)[0].strip()
@@ -288,10 +304,14 @@ def read_table(
                 raise ValueError
             rows.append((float(fields[0]), float(fields[1])))
         except ValueError:
-            raise ConfigError(f"{label} line {number}: cannot read {raw.strip()!r} as two numbers '{xname} weight'") from None
+            raise ConfigError(
+                f"{label} line {number}: cannot read {raw.strip()!r} as two numbers '{xname} weight'"
+            ) from None
         lines.append(f"line {number}")
     if header_unit and unit and header_unit != unit:
-        raise ConfigError(f"{label}: header says unit {header_unit!r} but {unit!r} was given; they must agree")
+        raise ConfigError(
+            f"{label}: header says unit {header_unit!r} but {unit!r} was given; they must agree"
+        )
     chosen = header_unit or unit
     if chosen is None:
         raise ConfigError(
@@ -299,7 +319,9 @@ def read_table(
             f"or pass the unit (one of: {', '.join(units)})"
         )
     if chosen not in units:
-        raise ConfigError(f"{label}: unknown {dimension} unit {chosen!r}; use one of: {', '.join(units)}")
+        raise ConfigError(
+            f"{label}: unknown {dimension} unit {chosen!r}; use one of: {', '.join(units)}"
+        )
     data = np.array(rows, dtype=float).reshape(-1, 2)
     x, w = data[:, 0] * units[chosen], data[:, 1]
     _check_table(x / units[chosen], w, lines, label, xname)
@@ -312,7 +334,10 @@ def read_table(
 
 
 def as_triangles(
-    triangles: ArrayLike | None = None, *, vertices: ArrayLike | None = None, faces: ArrayLike | None = None
+    triangles: ArrayLike | None = None,
+    *,
+    vertices: ArrayLike | None = None,
+    faces: ArrayLike | None = None,
 ) -> np.ndarray:
     """Return an ``(m, 3, 3)`` float array from either a triangle array or vertices + faces."""
     if triangles is not None:
@@ -321,12 +346,20 @@ def as_triangles(
         tri = np.asarray(triangles, dtype=float)
     else:
         if vertices is None or faces is None:
-            raise ConfigError("triangles: give triangles (m, 3, 3) or both vertices (n, 3) and faces (m, 3)")
+            raise ConfigError(
+                "triangles: give triangles (m, 3, 3) or both vertices (n, 3) and faces (m, 3)"
+            )
         v = np.asarray(vertices, dtype=float)
         f = np.asarray(faces)
         if v.ndim != 2 or v.shape[1] != 3 or f.ndim != 2 or f.shape[1] != 3:
-            raise ConfigError(f"triangles: need vertices (n, 3) and faces (m, 3), got {v.shape} and {f.shape}")
-        if not np.issubdtype(f.dtype, np.integer) or f.min(initial=0) < 0 or f.max(initial=0) >= len(v):
+            raise ConfigError(
+                f"triangles: need vertices (n, 3) and faces (m, 3), got {v.shape} and {f.shape}"
+            )
+        if (
+            not np.issubdtype(f.dtype, np.integer)
+            or f.min(initial=0) < 0
+            or f.max(initial=0) >= len(v)
+        ):
             raise ConfigError(f"faces: must be integer indices in [0, {len(v) - 1}]")
         tri = v[f]
     if tri.ndim != 3 or tri.shape[1:] != (3, 3) or len(tri) == 0:
@@ -413,7 +446,9 @@ class SurfaceSampler:
         if facet_ids is not None:
             ids = np.asarray(facet_ids)
             if ids.shape != (len(tri),) or not np.issubdtype(ids.dtype, np.integer):
-                raise ConfigError(f"facet_ids: need ({len(tri)},) integers, got {ids.dtype} {ids.shape}")
+                raise ConfigError(
+                    f"facet_ids: need ({len(tri)},) integers, got {ids.dtype} {ids.shape}"
+                )
             self.facet_ids = ids.astype(np.int64)
         # contiguous per-triangle arrays make the per-draw gathers cheap
         self._a = np.ascontiguousarray(tri[:, 0])
@@ -510,12 +545,18 @@ class TiledSurfaceSampler:
         origin: ArrayLike = (0.0, 0.0, 0.0),
         rotation: ArrayLike | None = None,
     ) -> None:
-        self.variants = [v if isinstance(v, SurfaceSampler) else SurfaceSampler(v) for v in variants]
+        self.variants = [
+            v if isinstance(v, SurfaceSampler) else SurfaceSampler(v) for v in variants
+        ]
         grid = np.asarray(layout)
         if grid.ndim != 2 or grid.size == 0 or not np.issubdtype(grid.dtype, np.integer):
-            raise ConfigError(f"layout: need a non-empty 2-D integer array of variant indices, got {grid.dtype} {grid.shape}")
+            raise ConfigError(
+                f"layout: need a non-empty 2-D integer array of variant indices, got {grid.dtype} {grid.shape}"
+            )
         if grid.min() < 0 or grid.max() >= len(self.variants):
-            raise ConfigError(f"layout: variant indices must be in [0, {len(self.variants) - 1}], got {grid.min()}..{grid.max()}")
+            raise ConfigError(
+                f"layout: variant indices must be in [0, {len(self.variants) - 1}], got {grid.min()}..{grid.max()}"
+            )
         self.pitch = tuple(float(p) for p in pitch)
         if len(self.pitch) != 2 or not all(np.isfinite(p) and p > 0 for p in self.pitch):
             raise ConfigError(f"pitch: need two positive cell sizes (px, py) in mm, got {pitch!r}")

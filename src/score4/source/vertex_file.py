@@ -98,11 +98,15 @@ def read_vertex_file(path: str | Path) -> Primaries:
     path = Path(path)
     with open_h5(path, FORMAT, "source.vertices", ConfigError) as f:
         if "vertices" not in f:
-            raise ConfigError(f"source.vertices: {path} has no /vertices table (write it with 'score4 vertices')")
+            raise ConfigError(
+                f"source.vertices: {path} has no /vertices table (write it with 'score4 vertices')"
+            )
         try:
             p = read_primaries_table(f["vertices"])
         except KeyError as err:
             raise ConfigError(f"source.vertices: {path}: column {err} is missing") from None
-    if len(p.event) and (p.event[0] != 0 or np.any(np.diff(p.event) < 0) or np.any(np.diff(p.event) > 1)):
+    if len(p.event) and (
+        p.event[0] != 0 or np.any(np.diff(p.event) < 0) or np.any(np.diff(p.event) > 1)
+    ):
         raise ConfigError(f"source.vertices: {path}: events must be numbered 0, 1, 2, ... in order")
     return p

@@ -70,7 +70,11 @@ def _valid_heights(hm: HeightMap) -> np.ndarray:
 def height_moments(z: np.ndarray) -> dict[str, float]:
     """Sq, Ssk and Sku (ISO: 3 for a Gaussian) of already centred heights."""
     sq = float(np.sqrt(np.mean(z**2)))
-    return {"sq": sq, "skewness": float(np.mean(z**3) / sq**3), "kurtosis": float(np.mean(z**4) / sq**4)}
+    return {
+        "sq": sq,
+        "skewness": float(np.mean(z**3) / sq**3),
+        "kurtosis": float(np.mean(z**4) / sq**4),
+    }
 
 
 # ----------------------------------------------------------------------------- ACF
@@ -91,8 +95,8 @@ def autocorrelation(hm: HeightMap) -> np.ndarray:
     ones = scipy.fft.rfft2(np.ones_like(z), s=shape)
     acf = scipy.fft.irfft2(spec * spec.conj(), s=shape)
     counts = np.rint(scipy.fft.irfft2(ones * ones.conj(), s=shape))
-    keep_y = np.r_[0:ny, shape[0] - ny + 1:shape[0]]  # drop lags that no pair of points has
-    keep_x = np.r_[0:nx, shape[1] - nx + 1:shape[1]]
+    keep_y = np.r_[0:ny, shape[0] - ny + 1 : shape[0]]  # drop lags that no pair of points has
+    keep_x = np.r_[0:nx, shape[1] - nx + 1 : shape[1]]
     acf = acf[np.ix_(keep_y, keep_x)] / np.maximum(counts[np.ix_(keep_y, keep_x)], 1)
     return acf / acf[0, 0]
 
@@ -117,14 +121,27 @@ def fit_acf(hm: HeightMap) -> dict[str, dict[str, float]]:
     half_x, half_y = (nx + 1) // 2, (ny + 1) // 2
     ix = _axis_crossing(acf[0, :half_x], _ACF_CORE)
     iy = _axis_crossing(acf[:half_y, 0], _ACF_CORE)
-    window = (np.abs(dx) <= 2 * ix * hm.pitch_x) & (np.abs(dy) <= 2 * iy * hm.pitch_y) & (acf >= _ACF_CORE)
-    rho, ddx, ddy = acf[window], np.broadcast_to(dx, acf.shape)[window], np.broadcast_to(dy, acf.shape)[window]
-    start = np.log([max(_axis_crossing(acf[0, :half_x], math.exp(-1)), 1) * hm.pitch_x,
-                    max(_axis_crossing(acf[:half_y, 0], math.exp(-1)), 1) * hm.pitch_y])
+    window = (
+        (np.abs(dx) <= 2 * ix * hm.pitch_x)
+        & (np.abs(dy) <= 2 * iy * hm.pitch_y)
+        & (acf >= _ACF_CORE)
+    )
+    rho, ddx, ddy = (
+        acf[window],
+        np.broadcast_to(dx, acf.shape)[window],
+        np.broadcast_to(dy, acf.shape)[window],
+    )
+    start = np.log(
+        [
+            max(_axis_crossing(acf[0, :half_x], math.exp(-1)), 1) * hm.pitch_x,
+            max(_axis_crossing(acf[:half_y, 0], math.exp(-1)), 1) * hm.pitch_y,
+        ]
+    )
     out = {}
     for model in rs.ACF_MODELS:
         res = optimize.least_squares(
-            lambda p, m=model: rs.acf_model(m, ddx, ddy, math.exp(p[0]), math.exp(p[1])) - rho, start
+            lambda p, m=model: rs.acf_model(m, ddx, ddy, math.exp(p[0]), math.exp(p[1])) - rho,
+            start,
         )
         out[model] = {
             "corr_length_x": float(math.exp(res.x[0])),
@@ -135,7 +152,9 @@ def fit_acf(hm: HeightMap) -> dict[str, dict[str, float]]:
 
 
 # ----------------------------------------------------------------------------- PSD
-def radial_psd(hm: HeightMap, bins_per_decade: int = 16) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def radial_psd(
+    hm: HeightMap, bins_per_decade: int = 16
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Radially averaged power spectrum in log-spaced bins of angular wavenumber q (1/mm).
 
     Returns the mean q, the mean power and the number of Fourier modes of each non-empty bin,
@@ -163,7 +182,9 @@ def radial_psd(hm: HeightMap, bins_per_decade: int = 16) -> tuple[np.ndarray, np
     return q_sum[full] / counts[full], p_sum[full] / counts[full], counts[full]
 
 
-def _whittle_law(logq: np.ndarray, p: np.ndarray, n: np.ndarray, log_q0: float) -> tuple[np.ndarray, np.ndarray]:
+def _whittle_law(
+    logq: np.ndarray, p: np.ndarray, n: np.ndarray, log_q0: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Negative log-likelihood of a plateau + power law on these bins, for every H of _HURST_GRID.
 
     Whittle likelihood: each Fourier mode's power is exponential with mean C(q); the amplitude A
@@ -183,25 +204,44 @@ def fit_psd(hm: HeightMap) -> dict[str, float]:
     """
     q, c, n = radial_psd(hm)
     if q.size < 6:
-        raise ConfigError(f"heights: map of shape {hm.shape} is too small for a PSD fit; rule: at least 6 wavenumber bins")
+        raise ConfigError(
+            f"heights: map of shape {hm.shape} is too small for a PSD fit; rule: at least 6 wavenumber bins"
+        )
     logq = np.log(q)
-    c = np.maximum(c, c.max() * 1e-10)  # a noise floor: exact zeros above a cut-off would make the likelihood unbounded
+    c = np.maximum(
+        c, c.max() * 1e-10
+    )  # a noise floor: exact zeros above a cut-off would make the likelihood unbounded
     best = (np.inf, 0.0, 0.0, 0.0)
-    for b in range(3, q.size):  # bins 0..b follow the law, bin b+1 holds q_S (left out: mixed), then the floor
+    for b in range(
+        3, q.size
+    ):  # bins 0..b follow the law, bin b+1 holds q_S (left out: mixed), then the floor
         above = slice(b + 2, None)
-        floor_nll = n[above].sum() * (np.log((n[above] * c[above]).sum() / n[above].sum()) + 1) if b + 2 < q.size else 0.0
+        floor_nll = (
+            n[above].sum() * (np.log((n[above] * c[above]).sum() / n[above].sum()) + 1)
+            if b + 2 < q.size
+            else 0.0
+        )
         for log_q0 in np.linspace(logq[0], logq[b - 2], 4 * (b - 1)):
             nll, _ = _whittle_law(logq[: b + 1], c[: b + 1], n[: b + 1], log_q0)
             k = int(np.argmin(nll))
             if nll[k] + floor_nll < best[0]:
                 log_qs = logq[b + 1] if b + 1 < q.size else np.inf
-                best = (float(nll[k] + floor_nll), float(_HURST_GRID[k]), float(log_q0), float(log_qs))
+                best = (
+                    float(nll[k] + floor_nll),
+                    float(_HURST_GRID[k]),
+                    float(log_q0),
+                    float(log_qs),
+                )
     _, hurst, log_q0, log_qs = best
     side = min(hm.shape[1] * hm.pitch_x, hm.shape[0] * hm.pitch_y)
     nyquist = 2 * max(hm.pitch_x, hm.pitch_y)
     short = max(2 * np.pi / math.exp(log_qs), nyquist) if np.isfinite(log_qs) else nyquist
     long = min(2 * np.pi / math.exp(log_q0), side) if log_q0 > logq[0] else side
-    return {"hurst": hurst, "long_cutoff": float(max(long, 1.05 * short)), "short_cutoff": float(short)}
+    return {
+        "hurst": hurst,
+        "long_cutoff": float(max(long, 1.05 * short)),
+        "short_cutoff": float(short),
+    }
 
 
 # ----------------------------------------------------------------------------- public fit
@@ -212,8 +252,11 @@ def _usable_moments(m: dict[str, float]) -> tuple[float, float]:
     floor = s2**2 * (1 + rs.MARGIN_PER_SKEW2) + 1 + rs.MIN_KURTOSIS_MARGIN
     k2 = float(np.clip(k, floor, rs.MAX_KURTOSIS))
     if (s2, k2) != (s, k):
-        warnings.warn(f"fit_random_surface: skewness {s:.3g}, kurtosis {k:.3g} moved to {s2:.3g}, {k2:.3g}, "
-                      "the edge of the generator's supported region", stacklevel=3)
+        warnings.warn(
+            f"fit_random_surface: skewness {s:.3g}, kurtosis {k:.3g} moved to {s2:.3g}, {k2:.3g}, "
+            "the edge of the generator's supported region",
+            stacklevel=3,
+        )
     return s2, k2
 
 
@@ -223,12 +266,18 @@ def _usable_corr_lengths(fit: dict[str, float], hm: HeightMap) -> dict[str, floa
     for axis, pitch in (("x", hm.pitch_x), ("y", hm.pitch_y)):
         corr = max(fit[f"corr_length_{axis}"], pitch / rs.MAX_PITCH_PER_CORR_LENGTH)
         if corr != fit[f"corr_length_{axis}"]:
-            warnings.warn(f"fit_random_surface: corr_length_{axis} raised to 2 * pitch_{axis} = {corr:g} mm "
-                          "(the map does not resolve its correlation)", stacklevel=3)
+            warnings.warn(
+                f"fit_random_surface: corr_length_{axis} raised to 2 * pitch_{axis} = {corr:g} mm "
+                "(the map does not resolve its correlation)",
+                stacklevel=3,
+            )
         need = math.ceil(rs.MIN_CORR_LENGTHS_PER_SIDE * corr / pitch)
         if need > out[f"n{axis}"]:
-            warnings.warn(f"fit_random_surface: n{axis} raised from {out[f'n{axis}']} to {need} to hold "
-                          f"{rs.MIN_CORR_LENGTHS_PER_SIDE:g} correlation lengths", stacklevel=3)
+            warnings.warn(
+                f"fit_random_surface: n{axis} raised from {out[f'n{axis}']} to {need} to hold "
+                f"{rs.MIN_CORR_LENGTHS_PER_SIDE:g} correlation lengths",
+                stacklevel=3,
+            )
             out[f"n{axis}"] = need
         out[f"corr_length_{axis}"] = corr
     return out
@@ -257,8 +306,15 @@ def fit_random_surface(hm: HeightMap, model: str = "auto") -> dict:
         raise ConfigError(f"model: unknown model {model!r}; use one of: {', '.join(choices)}")
     moments = height_moments(_valid_heights(hm))
     s, k = _usable_moments(moments)
-    base = {"nx": hm.shape[1], "ny": hm.shape[0], "pitch_x": hm.pitch_x, "pitch_y": hm.pitch_y,
-            "sq": moments["sq"], "skewness": s, "kurtosis": k}
+    base = {
+        "nx": hm.shape[1],
+        "ny": hm.shape[0],
+        "pitch_x": hm.pitch_x,
+        "pitch_y": hm.pitch_y,
+        "sq": moments["sq"],
+        "skewness": s,
+        "kurtosis": k,
+    }
     if model == "self_affine":
         return {"model": model, **base, **fit_psd(hm)}
     fits = fit_acf(hm)

@@ -35,7 +35,9 @@ class HeightMap:
     def __post_init__(self) -> None:
         z = np.asarray(self.heights, dtype=float)
         if z.ndim != 2 or min(z.shape) < 2:
-            raise ConfigError(f"heights: need a 2-D grid of at least 2 x 2 points, got shape {z.shape}")
+            raise ConfigError(
+                f"heights: need a 2-D grid of at least 2 x 2 points, got shape {z.shape}"
+            )
         for name in ("pitch_x", "pitch_y"):
             p = getattr(self, name)
             if not (np.isfinite(p) and p > 0):

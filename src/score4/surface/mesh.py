@@ -42,7 +42,9 @@ def _optional_ids(ids: np.ndarray | None, n_faces: int, name: str) -> np.ndarray
         return None
     ids = np.array(ids, dtype=np.int64)
     if ids.shape != (n_faces,):
-        raise ConfigError(f"{name}: need one id per face, shape ({n_faces},), got shape {ids.shape}")
+        raise ConfigError(
+            f"{name}: need one id per face, shape ({n_faces},), got shape {ids.shape}"
+        )
     return _readonly(ids)
 
 
@@ -82,10 +84,14 @@ class TriangleMesh:
         if not np.isfinite(v).all():
             raise ConfigError("vertices: every coordinate must be finite (found NaN or inf)")
         if f.size and (f.min() < 0 or f.max() >= len(v)):
-            raise ConfigError(f"faces: indices must lie in [0, {len(v) - 1}], got [{f.min()}, {f.max()}]")
+            raise ConfigError(
+                f"faces: indices must lie in [0, {len(v) - 1}], got [{f.min()}, {f.max()}]"
+            )
         top = np.ones(len(f), dtype=bool) if self.top is None else np.array(self.top, dtype=bool)
         if top.shape != (len(f),):
-            raise ConfigError(f"top: need one flag per face, shape ({len(f)},), got shape {top.shape}")
+            raise ConfigError(
+                f"top: need one flag per face, shape ({len(f)},), got shape {top.shape}"
+            )
         object.__setattr__(self, "vertices", _readonly(v))
         object.__setattr__(self, "faces", _readonly(f))
         object.__setattr__(self, "top", _readonly(top))
@@ -173,7 +179,9 @@ def from_heightmap(hm: HeightMap) -> TriangleMesh:
     a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()  # (i, j), (i+1, j)
     c, d = idx[1:, 1:].ravel(), idx[1:, :-1].ravel()  # (i+1, j+1), (i, j+1)
     # Counter-clockwise seen from +z, so normals point up (out of the material below).
-    faces = np.stack([np.column_stack([a, b, c]), np.column_stack([a, c, d])], axis=1).reshape(-1, 3)
+    faces = np.stack([np.column_stack([a, b, c]), np.column_stack([a, c, d])], axis=1).reshape(
+        -1, 3
+    )
     cell = np.repeat(np.arange(len(a)), 2)
     return TriangleMesh(vertices, faces, facet=cell)
 

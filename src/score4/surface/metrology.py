@@ -90,11 +90,11 @@ def mean_plane(hm: HeightMap) -> np.ndarray:
     # Normal equations from row/column sums, without an (n, 3) design matrix.
     wx, wy = w.sum(axis=0), w.sum(axis=1)
     sxy = y @ w @ x
-    gram = np.array(
-        [[w.sum(), wx @ x, wy @ y], [wx @ x, wx @ x**2, sxy], [wy @ y, sxy, wy @ y**2]]
-    )
+    gram = np.array([[w.sum(), wx @ x, wy @ y], [wx @ x, wx @ x**2, sxy], [wy @ y, sxy, wy @ y**2]])
     rhs = np.array([z.sum(), z.sum(axis=0) @ x, z.sum(axis=1) @ y])
-    a, b, c = np.linalg.lstsq(gram, rhs, rcond=None)[0]  # lstsq: a single row/column is rank-deficient
+    a, b, c = np.linalg.lstsq(gram, rhs, rcond=None)[
+        0
+    ]  # lstsq: a single row/column is rank-deficient
     return a + b * x[None, :] + c * y[:, None]
 
 
@@ -122,7 +122,15 @@ def _height_parameters(r: np.ndarray, scale: float) -> dict[str, float]:
     sq = float(np.sqrt(np.mean(d**2)))
     ssk, sku = _shape_moments(float(np.mean(d**3)), float(np.mean(d**4)), sq, scale)
     sp, sv = float(d.max()), float(-d.min())
-    return {"Sa": float(np.mean(np.abs(d))), "Sq": sq, "Sp": sp, "Sv": sv, "Sz": sp + sv, "Ssk": ssk, "Sku": sku}
+    return {
+        "Sa": float(np.mean(np.abs(d))),
+        "Sq": sq,
+        "Sp": sp,
+        "Sv": sv,
+        "Sz": sp + sv,
+        "Ssk": ssk,
+        "Sku": sku,
+    }
 
 
 def _hybrid_parameters(z: np.ndarray, px: float, py: float) -> dict[str, float]:
@@ -154,7 +162,10 @@ def autocorrelation(hm: HeightMap, *, level: bool = True) -> np.ndarray:
     ny, nx = r.shape
     ky, kx = ny // 2, nx // 2
     # Padding to n + K keeps lags up to K free of wrap-around (linear correlation).
-    shape = (scipy.fft.next_fast_len(ny + ky, real=True), scipy.fft.next_fast_len(nx + kx, real=True))
+    shape = (
+        scipy.fft.next_fast_len(ny + ky, real=True),
+        scipy.fft.next_fast_len(nx + kx, real=True),
+    )
     corr = lambda a: scipy.fft.irfft2(np.abs(scipy.fft.rfft2(a, shape)) ** 2, shape)  # noqa: E731
     iy = np.arange(-ky, ky + 1) % shape[0]
     ix = np.arange(-kx, kx + 1) % shape[1]
@@ -176,7 +187,9 @@ def _decay_lengths(acf: np.ndarray, px: float, py: float, s: float) -> np.ndarra
     r = np.arange(0.0, rmax.max() + step, step)
     rows = ky + np.outer(sn, r) / py
     cols = kx + np.outer(c, r) / px
-    vals = ndimage.map_coordinates(np.nan_to_num(acf, nan=1.0), [rows, cols], order=1, mode="nearest")
+    vals = ndimage.map_coordinates(
+        np.nan_to_num(acf, nan=1.0), [rows, cols], order=1, mode="nearest"
+    )
     below = (vals < s) & (r[None, :] <= rmax[:, None] * (1 + 1e-9))
     found = below.any(axis=1)
     i = np.maximum(np.argmax(below, axis=1), 1)
@@ -220,7 +233,9 @@ def areal_parameters(
         Ssk and Sku are NaN for a flat map; Sal/Str may be NaN (see the module docstring).
     """
     if not 0 < acf_threshold < 1:
-        raise ConfigError(f"acf_threshold: must lie strictly between 0 and 1, got {acf_threshold!r}")
+        raise ConfigError(
+            f"acf_threshold: must lie strictly between 0 and 1, got {acf_threshold!r}"
+        )
     r = _residual(hm, level)
     z = hm.heights[np.isfinite(hm.heights)]
     scale = max(hm.size_x, hm.size_y, float(np.ptp(z)))
@@ -274,7 +289,9 @@ def _facet_abs_integral(d: np.ndarray, area: np.ndarray) -> float:
     return float(out.sum())
 
 
-def _mesh_tilt(vertices: np.ndarray, faces: np.ndarray, area: np.ndarray) -> tuple[float, float, float, float]:
+def _mesh_tilt(
+    vertices: np.ndarray, faces: np.ndarray, area: np.ndarray
+) -> tuple[float, float, float, float]:
     """Slopes of the continuous least-squares plane over the facets.
 
     Returns (x0, y0, b, c): plane z = a + b (x - x0) + c (y - y0) around the area centroid

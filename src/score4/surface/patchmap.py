@@ -56,7 +56,16 @@ MAX_CELLS = 10**8
 
 _AXES = ("x", "y")
 _VARIANT_DTYPE = np.int32
-_DICT_KEYS = ("format", "format_version", "shape", "patch_size", "densities", "method", "seed", "variants")
+_DICT_KEYS = (
+    "format",
+    "format_version",
+    "shape",
+    "patch_size",
+    "densities",
+    "method",
+    "seed",
+    "variants",
+)
 
 
 # --- input helpers ---------------------------------------------------------------------------
@@ -124,7 +133,9 @@ def _densities(densities: object) -> np.ndarray:
     if isinstance(densities, (str, bytes)) or not isinstance(densities, (Sequence, np.ndarray)):
         raise ConfigError(f"densities: must be a sequence of positive numbers, got {densities!r}")
     if isinstance(densities, np.ndarray) and densities.ndim != 1:
-        raise ConfigError(f"densities: must be a 1-D sequence of positive numbers, got shape {densities.shape}")
+        raise ConfigError(
+            f"densities: must be a 1-D sequence of positive numbers, got shape {densities.shape}"
+        )
     values = list(densities)
     if not values:
         raise ConfigError("densities: must hold at least one value, got an empty sequence")
@@ -140,7 +151,9 @@ def _densities(densities: object) -> np.ndarray:
     if abs(total - 1.0) > DENSITY_SUM_TOL:
         normalised = ", ".join(_fmt(x) for x in d / total)
         warnings.warn(
-            f"densities: sum is {total!r}, not 1; normalised to [{normalised}]", UserWarning, stacklevel=3
+            f"densities: sum is {total!r}, not 1; normalised to [{normalised}]",
+            UserWarning,
+            stacklevel=3,
         )
     return d / total
 
@@ -166,7 +179,9 @@ def largest_remainder(n: int, weights: Sequence[float] | np.ndarray) -> np.ndarr
     """
     w = np.asarray(weights, dtype=float)
     if w.ndim != 1 or w.size == 0 or not np.all(np.isfinite(w)) or np.any(w < 0) or w.sum() <= 0:
-        raise ConfigError(f"weights: must be non-negative finite numbers with a positive sum, got {weights!r}")
+        raise ConfigError(
+            f"weights: must be non-negative finite numbers with a positive sum, got {weights!r}"
+        )
     if isinstance(n, bool) or not isinstance(n, numbers.Integral) or n < 0:
         raise ConfigError(f"n: must be an integer >= 0, got {n!r}")
     quota = n * (w / w.sum())
@@ -193,7 +208,10 @@ def _rle_encode(flat: np.ndarray) -> str:
     starts = np.concatenate(([0], starts))
     lengths = np.diff(np.concatenate((starts, [flat.size])))
     values = flat[starts]
-    return ",".join(f"{v}" if c == 1 else f"{v}*{c}" for v, c in zip(values.tolist(), lengths.tolist(), strict=True))
+    return ",".join(
+        f"{v}" if c == 1 else f"{v}*{c}"
+        for v, c in zip(values.tolist(), lengths.tolist(), strict=True)
+    )
 
 
 def _rle_decode(text: str, size: int) -> np.ndarray:
@@ -212,19 +230,25 @@ def _rle_decode(text: str, size: int) -> np.ndarray:
     if min(lengths) < 1:
         raise ConfigError(f"variants: run-length counts must be >= 1, got {min(lengths)}")
     if sum(lengths) != size:
-        raise ConfigError(f"variants: the run-length text holds {sum(lengths)} cells, expected {size} (shape)")
+        raise ConfigError(
+            f"variants: the run-length text holds {sum(lengths)} cells, expected {size} (shape)"
+        )
     return np.repeat(np.array(values, dtype=np.int64), lengths)
 
 
 # --- the map ---------------------------------------------------------------------------------
 
 
-def _check_variants(variants: object, n_variants: int | None, name: str = "variants") -> tuple[np.ndarray, int]:
+def _check_variants(
+    variants: object, n_variants: int | None, name: str = "variants"
+) -> tuple[np.ndarray, int]:
     """An (ny, nx) integer grid of indices in 0..K-1 (integral floats accepted) and K."""
     a = np.asarray(variants)
     if a.ndim != 2 or a.size == 0:
         raise ConfigError(f"{name}: must be a non-empty 2-D (ny, nx) array, got shape {a.shape}")
-    if a.dtype == bool or not (np.issubdtype(a.dtype, np.integer) or np.issubdtype(a.dtype, np.floating)):
+    if a.dtype == bool or not (
+        np.issubdtype(a.dtype, np.integer) or np.issubdtype(a.dtype, np.floating)
+    ):
         raise ConfigError(f"{name}: must hold integer variant indices, got dtype {a.dtype}")
     if np.issubdtype(a.dtype, np.floating):
         bad = ~np.isfinite(a) | (a != np.round(a))
@@ -237,7 +261,11 @@ def _check_variants(variants: object, n_variants: int | None, name: str = "varia
     if n_variants is None:
         k = hi + 1
     else:
-        if isinstance(n_variants, bool) or not isinstance(n_variants, numbers.Integral) or n_variants < 1:
+        if (
+            isinstance(n_variants, bool)
+            or not isinstance(n_variants, numbers.Integral)
+            or n_variants < 1
+        ):
             raise ConfigError(f"n_variants: must be an integer >= 1, got {n_variants!r}")
         k = int(n_variants)
     if lo < 0 or hi >= k:
@@ -287,8 +315,15 @@ class PatchMap:
         if isinstance(d, (str, bytes)) or not isinstance(d, (Sequence, np.ndarray)) or len(d) == 0:
             raise ConfigError(f"densities: must be a non-empty sequence, got {d!r}")
         d = np.asarray(d, dtype=float)
-        if d.ndim != 1 or not np.all(np.isfinite(d)) or np.any(d < 0) or abs(d.sum() - 1) > DENSITY_SUM_TOL:
-            raise ConfigError(f"densities: must be non-negative finite numbers summing to 1, got {self.densities!r}")
+        if (
+            d.ndim != 1
+            or not np.all(np.isfinite(d))
+            or np.any(d < 0)
+            or abs(d.sum() - 1) > DENSITY_SUM_TOL
+        ):
+            raise ConfigError(
+                f"densities: must be non-negative finite numbers summing to 1, got {self.densities!r}"
+            )
         variants, _ = _check_variants(self.variants, len(d))
         self._set("variants", variants)
         self._set("densities", tuple(float(x) for x in d))
@@ -373,7 +408,9 @@ class PatchMap:
         """
         p = np.asarray(xy, dtype=float)
         if p.ndim < 1 or p.shape[-1] != 2:
-            raise ConfigError(f"xy: must be an array of (x, y) points with shape (n, 2), got shape {p.shape}")
+            raise ConfigError(
+                f"xy: must be an array of (x, y) points with shape (n, 2), got shape {p.shape}"
+            )
         (px, py), (lx, ly) = self.patch_size, self.face_size
         x, y = p[..., 0], p[..., 1]
         with np.errstate(invalid="ignore"):
@@ -415,7 +452,9 @@ class PatchMap:
             raise ConfigError(f"format: expected {FORMAT!r}, got {d.get('format')!r}")
         version = d.get("format_version", FORMAT_VERSION)
         if version != FORMAT_VERSION:
-            raise ConfigError(f"format_version: this score4 reads version {FORMAT_VERSION}, got {version!r}")
+            raise ConfigError(
+                f"format_version: this score4 reads version {FORMAT_VERSION}, got {version!r}"
+            )
         missing = [k for k in ("patch_size", "densities", "variants") if k not in d]
         if missing:
             raise ConfigError(f"patch map: missing key(s) {', '.join(missing)}")
@@ -425,11 +464,16 @@ class PatchMap:
         variants = d["variants"]
         if isinstance(variants, str):
             shape = d.get("shape")
-            if not (isinstance(shape, (list, tuple)) and len(shape) == 2
-                    and all(isinstance(s, int) and not isinstance(s, bool) and s >= 1 for s in shape)):
+            if not (
+                isinstance(shape, (list, tuple))
+                and len(shape) == 2
+                and all(isinstance(s, int) and not isinstance(s, bool) and s >= 1 for s in shape)
+            ):
                 raise ConfigError(f"shape: must be [ny, nx] with positive integers, got {shape!r}")
             if shape[0] * shape[1] > MAX_CELLS:
-                raise ConfigError(f"shape: {shape[0] * shape[1]} cells exceed the limit of {MAX_CELLS}")
+                raise ConfigError(
+                    f"shape: {shape[0] * shape[1]} cells exceed the limit of {MAX_CELLS}"
+                )
             variants = _rle_decode(variants, shape[0] * shape[1]).reshape(shape)
         else:
             variants = np.asarray(variants)
@@ -437,7 +481,9 @@ class PatchMap:
                 raise ConfigError(
                     f"shape: {d['shape']!r} does not match the variants grid of shape {list(variants.shape)}"
                 )
-        return cls(variants, d["patch_size"], d["densities"], d.get("method", "given"), d.get("seed"))
+        return cls(
+            variants, d["patch_size"], d["densities"], d.get("method", "given"), d.get("seed")
+        )
 
     def save_h5(self, group: Any) -> None:
         """Write the map into an open ``h5py`` group: dataset ``variants`` plus group attributes.
@@ -464,22 +510,30 @@ class PatchMap:
         if isinstance(fmt, bytes):
             fmt = fmt.decode()
         if fmt != FORMAT:
-            raise ConfigError(f"format: group {group.name!r} holds no {FORMAT!r} (format attribute {fmt!r})")
+            raise ConfigError(
+                f"format: group {group.name!r} holds no {FORMAT!r} (format attribute {fmt!r})"
+            )
         version = int(attrs["format_version"])
         if version != FORMAT_VERSION:
-            raise ConfigError(f"format_version: this score4 reads version {FORMAT_VERSION}, got {version}")
+            raise ConfigError(
+                f"format_version: this score4 reads version {FORMAT_VERSION}, got {version}"
+            )
         method = attrs["method"]
         method = method.decode() if isinstance(method, bytes) else str(method)
         seed = int(attrs["seed"]) if "seed" in attrs else None
         patch = tuple(float(v) for v in attrs["patch_size"])
-        return cls(group["variants"][...], patch, tuple(float(v) for v in attrs["densities"]), method, seed)
+        return cls(
+            group["variants"][...], patch, tuple(float(v) for v in attrs["densities"]), method, seed
+        )
 
     # --- text -------------------------------------------------------------------------------
 
     def describe(self) -> str:
         """A one-paragraph summary: grid, patch and face size, method, realised vs target fractions."""
         (px, py), (lx, ly) = self.patch_size, self.face_size
-        how = {"exact": "exact counts", "random": "independent draws", "given": "given grid"}[self.method]
+        how = {"exact": "exact counts", "random": "independent draws", "given": "given grid"}[
+            self.method
+        ]
         seed = f", seed {self.seed}" if self.seed is not None else ""
         parts = ", ".join(
             f"{k}: {self.fractions[k]:.4f} ({self.counts[k]} cells; target {self.densities[k]:.4f})"

@@ -59,7 +59,12 @@ def _view_3d(surface: Surface, cap: int) -> tuple[np.ndarray, np.ndarray, np.nda
     if surface.spikes is None:
         sy, sx = _stride(ny - 1, cap), _stride(nx - 1, cap)
         step = max(sx, sy)
-        return hm.x[::sx], hm.y[::sy], hm.heights[::sy, ::sx], f"1 sample in {step} per axis" if step > 1 else ""
+        return (
+            hm.x[::sx],
+            hm.y[::sy],
+            hm.heights[::sy, ::sx],
+            f"1 sample in {step} per axis" if step > 1 else "",
+        )
     per_cell = SPIKE_MAP_SAMPLES
     step = 1
     while step < per_cell // 2 and MAX_3D_CELLS * per_cell / step > cap:
@@ -124,8 +129,10 @@ def plot_surface(surface: Surface, path: str | Path, dpi: int = 150) -> Path:
     hm = surface.map
     sq, how = headline_sq(surface)
     fig = Figure(figsize=(11, 4.6), layout="constrained")
-    fig.suptitle(f"{_describe(surface)}, {surface.size_x / um:.4g} x {surface.size_y / um:.4g} um, "
-                 f"Sq = {sq / um:.4g} um ({how})")
+    fig.suptitle(
+        f"{_describe(surface)}, {surface.size_x / um:.4g} x {surface.size_y / um:.4g} um, "
+        f"Sq = {sq / um:.4g} um ({how})"
+    )
 
     # Height-map image: samples are cell centres, so the extent reaches half a pitch beyond them.
     ax = fig.add_subplot(1, 2, 1)
@@ -133,7 +140,12 @@ def plot_surface(surface: Surface, path: str | Path, dpi: int = 150) -> Path:
     z_um = hm.heights[::sy, ::sx] / um
     px, py = hm.pitch_x * sx / um, hm.pitch_y * sy / um
     x0, y0 = hm.x[0] / um, hm.y[0] / um
-    extent = (x0 - px / 2, x0 + px * (z_um.shape[1] - 0.5), y0 - py / 2, y0 + py * (z_um.shape[0] - 0.5))
+    extent = (
+        x0 - px / 2,
+        x0 + px * (z_um.shape[1] - 0.5),
+        y0 - py / 2,
+        y0 + py * (z_um.shape[0] - 0.5),
+    )
     image = ax.imshow(z_um, origin="lower", extent=extent, cmap=_CMAP, interpolation="antialiased")
     ax.set_xlabel("x (um)")
     ax.set_ylabel("y (um)")
@@ -141,8 +153,18 @@ def plot_surface(surface: Surface, path: str | Path, dpi: int = 150) -> Path:
     fig.colorbar(image, ax=ax, label="height (um)", shrink=0.9)
     width = extent[1] - extent[0]
     bar = nice_length(width / 4)
-    ax.add_artist(AnchoredSizeBar(ax.transData, bar, f"{bar:g} um", "lower right", pad=0.4, color="white",
-                                  frameon=True, size_vertical=(extent[3] - extent[2]) / 100))
+    ax.add_artist(
+        AnchoredSizeBar(
+            ax.transData,
+            bar,
+            f"{bar:g} um",
+            "lower right",
+            pad=0.4,
+            color="white",
+            frameon=True,
+            size_vertical=(extent[3] - extent[2]) / 100,
+        )
+    )
     ax.artists[-1].patch.set(facecolor="black", alpha=0.5, edgecolor="none")
 
     # 3D view of the (decimated) top; a nearly flat surface gets its heights stretched so that
@@ -150,13 +172,17 @@ def plot_surface(surface: Surface, path: str | Path, dpi: int = 150) -> Path:
     ax3 = fig.add_subplot(1, 2, 2, projection="3d")
     x, y, z, shown = _view_3d(surface, MAX_3D_SAMPLES)
     xx, yy = np.meshgrid(x / um, y / um)
-    ax3.plot_surface(xx, yy, z / um, cmap=_CMAP, linewidth=0, antialiased=False, rcount=len(y), ccount=len(x))
+    ax3.plot_surface(
+        xx, yy, z / um, cmap=_CMAP, linewidth=0, antialiased=False, rcount=len(y), ccount=len(x)
+    )
     lateral = max(np.ptp(xx), np.ptp(yy))
     relief = float(np.nanmax(z) - np.nanmin(z)) / um
     z_box = min(max(relief / lateral, _MIN_Z_ASPECT), 1.0)
     ax3.set_box_aspect((np.ptp(xx) / lateral, np.ptp(yy) / lateral, z_box))
     scale = z_box * lateral / relief if relief > 0 else 1.0
-    notes = ([shown] if shown else []) + ([f"heights x{scale:.3g}"] if abs(scale - 1) > 0.05 else [])
+    notes = ([shown] if shown else []) + (
+        [f"heights x{scale:.3g}"] if abs(scale - 1) > 0.05 else []
+    )
     ax3.set_title("3D view" + (f" ({'; '.join(notes)})" if notes else ""))
     ax3.set_xlabel("x (um)")
     ax3.set_ylabel("y (um)")

@@ -26,7 +26,9 @@ def _with(hm: HeightMap, z: np.ndarray, step: str, **changes) -> HeightMap:
     meta = dict(hm.metadata)
     meta["processing"] = [*hm.metadata.get("processing", []), step]
     fields = {"pitch_x": hm.pitch_x, "pitch_y": hm.pitch_y, "origin": hm.origin, **changes}
-    return HeightMap(z, fields["pitch_x"], fields["pitch_y"], origin=fields["origin"], metadata=meta)
+    return HeightMap(
+        z, fields["pitch_x"], fields["pitch_y"], origin=fields["origin"], metadata=meta
+    )
 
 
 def _length(value: float | str, name: str) -> float:
@@ -57,16 +59,28 @@ def crop_samples(hm: HeightMap, columns: tuple[int, int], rows: tuple[int, int])
     c0, c1, _ = slice(*columns).indices(nx)
     r0, r1, _ = slice(*rows).indices(ny)
     if c1 - c0 < 2 or r1 - r0 < 2:
-        raise ConfigError(f"columns, rows: {columns}, {rows} leave {max(c1 - c0, 0)} x {max(r1 - r0, 0)} samples of a "
-                          f"{nx} x {ny} map; rule: at least 2 x 2")
+        raise ConfigError(
+            f"columns, rows: {columns}, {rows} leave {max(c1 - c0, 0)} x {max(r1 - r0, 0)} samples of a "
+            f"{nx} x {ny} map; rule: at least 2 x 2"
+        )
     origin = (hm.origin[0] + c0 * hm.pitch_x, hm.origin[1] + r0 * hm.pitch_y)
-    return _with(hm, hm.heights[r0:r1, c0:c1], f"crop_samples(columns=({c0}, {c1}), rows=({r0}, {r1}))", origin=origin)
+    return _with(
+        hm,
+        hm.heights[r0:r1, c0:c1],
+        f"crop_samples(columns=({c0}, {c1}), rows=({r0}, {r1}))",
+        origin=origin,
+    )
 
 
-def crop(hm: HeightMap, x: tuple[float | str, float | str], y: tuple[float | str, float | str]) -> HeightMap:
+def crop(
+    hm: HeightMap, x: tuple[float | str, float | str], y: tuple[float | str, float | str]
+) -> HeightMap:
     """Keep the samples with x0 <= x <= x1 and y0 <= y <= y1 (coordinates in mm or strings with unit)."""
     (x0, x1), (y0, y1) = ((_length(a, n), _length(b, n)) for (a, b), n in ((x, "x"), (y, "y")))
-    eps_x, eps_y = 1e-9 * hm.pitch_x, 1e-9 * hm.pitch_y  # coordinates that are multiples of the pitch count as inside
+    eps_x, eps_y = (
+        1e-9 * hm.pitch_x,
+        1e-9 * hm.pitch_y,
+    )  # coordinates that are multiples of the pitch count as inside
     c0 = math.ceil((x0 - hm.origin[0]) / hm.pitch_x - 1e-9)
     c1 = math.floor((x1 - hm.origin[0] + eps_x) / hm.pitch_x) + 1
     r0 = math.ceil((y0 - hm.origin[1]) / hm.pitch_y - 1e-9)
@@ -76,7 +90,9 @@ def crop(hm: HeightMap, x: tuple[float | str, float | str], y: tuple[float | str
 
 
 # ----------------------------------------------------------------------------- resampling
-def resample(hm: HeightMap, pitch_x: float | str, pitch_y: float | str | None = None, method: str = "linear") -> HeightMap:
+def resample(
+    hm: HeightMap, pitch_x: float | str, pitch_y: float | str | None = None, method: str = "linear"
+) -> HeightMap:
     """Interpolate onto a new pitch over the same area, starting at the same origin.
 
     ``method`` ``"linear"``: bilinear; a new sample next to a missing one is NaN.
@@ -85,25 +101,39 @@ def resample(hm: HeightMap, pitch_x: float | str, pitch_y: float | str | None = 
     The new grid has floor(size / pitch) + 1 samples per axis, so it never extends past the data.
     """
     if method not in RESAMPLE_METHODS:
-        raise ConfigError(f"method: unknown resampling method {method!r}; use one of: {', '.join(RESAMPLE_METHODS)}")
+        raise ConfigError(
+            f"method: unknown resampling method {method!r}; use one of: {', '.join(RESAMPLE_METHODS)}"
+        )
     px = _length(pitch_x, "pitch_x")
     py = px if pitch_y is None else _length(pitch_y, "pitch_y")
     for name, p in (("pitch_x", px), ("pitch_y", py)):
         if not (math.isfinite(p) and p > 0):
             raise ConfigError(f"{name}: must be a positive length, got {p!r}")
     if method == "cubic" and hm.has_missing:
-        raise ConfigError("method: 'cubic' resampling needs a map without missing points; fill_missing first or use 'linear'")
+        raise ConfigError(
+            "method: 'cubic' resampling needs a map without missing points; fill_missing first or use 'linear'"
+        )
     nx = int(math.floor(hm.size_x / px * (1 + 1e-12))) + 1
     ny = int(math.floor(hm.size_y / py * (1 + 1e-12))) + 1
     if nx < 2 or ny < 2:
-        raise ConfigError(f"pitch_x, pitch_y: {px:g}, {py:g} mm leave fewer than 2 samples "
-                          f"on a {hm.size_x:g} x {hm.size_y:g} mm map")
-    xs = np.minimum(hm.origin[0] + px * np.arange(nx), hm.x[-1])  # clip round-off past the last sample
+        raise ConfigError(
+            f"pitch_x, pitch_y: {px:g}, {py:g} mm leave fewer than 2 samples "
+            f"on a {hm.size_x:g} x {hm.size_y:g} mm map"
+        )
+    xs = np.minimum(
+        hm.origin[0] + px * np.arange(nx), hm.x[-1]
+    )  # clip round-off past the last sample
     ys = np.minimum(hm.origin[1] + py * np.arange(ny), hm.y[-1])
     interp = interpolate.RegularGridInterpolator((hm.y, hm.x), hm.heights, method=method)
     yy, xx = np.meshgrid(ys, xs, indexing="ij")
     z = interp(np.stack([yy.ravel(), xx.ravel()], axis=-1)).reshape(ny, nx)
-    return _with(hm, z, f"resample(pitch_x={px:g}, pitch_y={py:g}, method={method!r})", pitch_x=px, pitch_y=py)
+    return _with(
+        hm,
+        z,
+        f"resample(pitch_x={px:g}, pitch_y={py:g}, method={method!r})",
+        pitch_x=px,
+        pitch_y=py,
+    )
 
 
 # ----------------------------------------------------------------------------- missing points
@@ -125,11 +155,15 @@ def fill_missing(hm: HeightMap, max_fraction: float = MAX_MISSING_FRACTION) -> H
         raise ConfigError("heights: every point is missing (NaN); nothing to fill from")
     frac = float(missing.mean())
     if frac > max_fraction:
-        raise ConfigError(f"heights: {frac:.1%} of the points are missing; rule: at most max_fraction = {max_fraction:.1%} "
-                          "can be filled (crop the map or raise max_fraction)")
+        raise ConfigError(
+            f"heights: {frac:.1%} of the points are missing; rule: at most max_fraction = {max_fraction:.1%} "
+            "can be filled (crop the map or raise max_fraction)"
+        )
     if frac == 0:
         return _with(hm, z.copy(), "fill_missing(none missing)")
-    return _with(hm, _laplace_fill(z, missing), f"fill_missing(laplace, {int(missing.sum())} points)")
+    return _with(
+        hm, _laplace_fill(z, missing), f"fill_missing(laplace, {int(missing.sum())} points)"
+    )
 
 
 def _laplace_fill(z: np.ndarray, missing: np.ndarray) -> np.ndarray:
@@ -149,10 +183,16 @@ def _laplace_fill(z: np.ndarray, missing: np.ndarray) -> np.ndarray:
         nj_in, ni_in, p_in = nj[inside], ni[inside], p[inside]
         q = unknown[nj_in, ni_in]
         is_unknown = q >= 0
-        rows.append(p_in[is_unknown]), cols.append(q[is_unknown]), vals.append(-np.ones(is_unknown.sum()))
+        (
+            rows.append(p_in[is_unknown]),
+            cols.append(q[is_unknown]),
+            vals.append(-np.ones(is_unknown.sum())),
+        )
         np.add.at(rhs, p_in[~is_unknown], z[nj_in[~is_unknown], ni_in[~is_unknown]])
     rows.append(p), cols.append(p), vals.append(degree)
-    a = scipy.sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(p.size, p.size))
+    a = scipy.sparse.csr_matrix(
+        (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(p.size, p.size)
+    )
     out = z.copy()
     out[jj, ii] = scipy.sparse.linalg.spsolve(a.tocsc(), rhs)
     return out

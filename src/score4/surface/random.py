@@ -86,7 +86,9 @@ def _length(value: float | str, name: str) -> float:
     """A positive finite length in mm from a float (mm) or a string with a unit."""
     x = parse_quantity(value, "length", name) if isinstance(value, str) else value
     if isinstance(x, bool) or not isinstance(x, (int, float, np.floating, np.integer)):
-        raise ConfigError(f"{name}: expected a length (float in mm or string such as '5 um'), got {value!r}")
+        raise ConfigError(
+            f"{name}: expected a length (float in mm or string such as '5 um'), got {value!r}"
+        )
     if not (math.isfinite(x) and x > 0):
         raise ConfigError(f"{name}: must be a positive finite length, got {value!r}")
     return float(x)
@@ -98,7 +100,9 @@ def _count(value: int, name: str) -> int:
     return int(value)
 
 
-def _grid(nx: int, ny: int, pitch_x: float | str, pitch_y: float | str | None) -> tuple[int, int, float, float]:
+def _grid(
+    nx: int, ny: int, pitch_x: float | str, pitch_y: float | str | None
+) -> tuple[int, int, float, float]:
     px = _length(pitch_x, "pitch_x")
     py = px if pitch_y is None else _length(pitch_y, "pitch_y")
     return _count(nx, "nx"), _count(ny, "ny"), px, py
@@ -135,7 +139,9 @@ def acf_model(acf: str, dx: np.ndarray, dy: np.ndarray, lx: float, ly: float) ->
     return np.exp(-r2) if acf == "gaussian" else np.exp(-np.sqrt(r2))
 
 
-def _acf_amplitude(shape: tuple[int, int], px: float, py: float, acf: str, lx: float, ly: float) -> np.ndarray:
+def _acf_amplitude(
+    shape: tuple[int, int], px: float, py: float, acf: str, lx: float, ly: float
+) -> np.ndarray:
     """sqrt of the power spectrum (rfft2 layout) of the wrapped ACF: circulant embedding."""
     dy = _wrapped_lags(shape[0], py)[:, None]
     dx = _wrapped_lags(shape[1], px)[None, :]
@@ -160,13 +166,17 @@ def _self_affine_amplitude(
     return amp
 
 
-def _colour_noise(amplitude: np.ndarray, shape: tuple[int, int], rng: np.random.Generator) -> np.ndarray:
+def _colour_noise(
+    amplitude: np.ndarray, shape: tuple[int, int], rng: np.random.Generator
+) -> np.ndarray:
     """Real field whose spectrum is |amplitude|^2 times white noise."""
     white = rng.standard_normal(shape)
     return scipy.fft.irfft2(scipy.fft.rfft2(white) * amplitude, s=shape)
 
 
-def _generation_shape(nx: int, ny: int, pad_x: float, pad_y: float, px: float, py: float, periodic: bool) -> tuple[int, int]:
+def _generation_shape(
+    nx: int, ny: int, pad_x: float, pad_y: float, px: float, py: float, periodic: bool
+) -> tuple[int, int]:
     if periodic:
         return ny, nx
     gy = scipy.fft.next_fast_len(ny + math.ceil(pad_y / py), real=True)
@@ -192,7 +202,9 @@ def _standardise(z: np.ndarray) -> np.ndarray:
     z = z - z.mean()
     sd = z.std()
     if not sd > 0:
-        raise ConfigError("heights: the generated field is flat; increase the grid or the roughness parameters")
+        raise ConfigError(
+            "heights: the generated field is flat; increase the grid or the roughness parameters"
+        )
     return z / sd
 
 
@@ -213,7 +225,10 @@ class JohnsonCurve:
     def __call__(self, u: np.ndarray) -> np.ndarray:
         t = (np.asarray(u, dtype=float) - self.gamma) / self.delta
         f: Callable[[np.ndarray], np.ndarray] = {
-            "SU": np.sinh, "SB": special.expit, "SL": np.exp, "normal": lambda v: v,
+            "SU": np.sinh,
+            "SB": special.expit,
+            "SL": np.exp,
+            "normal": lambda v: v,
         }[self.family]
         return self.sign * f(t)
 
@@ -227,7 +242,11 @@ def check_moments(skewness: float, kurtosis: float) -> None:
     parameters; very heavy tails need more points than a map has.
     """
     for name, v in (("skewness", skewness), ("kurtosis", kurtosis)):
-        if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) or not math.isfinite(v):
+        if (
+            isinstance(v, bool)
+            or not isinstance(v, (int, float, np.floating, np.integer))
+            or not math.isfinite(v)
+        ):
             raise ConfigError(f"{name}: must be a finite number, got {v!r}")
     bound = skewness**2 + 1
     if kurtosis <= bound:
@@ -236,7 +255,9 @@ def check_moments(skewness: float, kurtosis: float) -> None:
             "(ISO Sku, 3 for a Gaussian)"
         )
     if abs(skewness) > MAX_ABS_SKEWNESS:
-        raise ConfigError(f"skewness: {skewness:g} is outside the supported range; rule: |skewness| <= {MAX_ABS_SKEWNESS:g}")
+        raise ConfigError(
+            f"skewness: {skewness:g} is outside the supported range; rule: |skewness| <= {MAX_ABS_SKEWNESS:g}"
+        )
     floor = bound + MIN_KURTOSIS_MARGIN + MARGIN_PER_SKEW2 * skewness**2
     if kurtosis < floor:
         raise ConfigError(
@@ -244,14 +265,18 @@ def check_moments(skewness: float, kurtosis: float) -> None:
             f"rule: kurtosis >= {1 + MARGIN_PER_SKEW2:g} * skewness^2 + {1 + MIN_KURTOSIS_MARGIN:g} = {floor:g}"
         )
     if kurtosis > MAX_KURTOSIS:
-        raise ConfigError(f"kurtosis: {kurtosis:g} is outside the supported range; rule: kurtosis <= {MAX_KURTOSIS:g}")
+        raise ConfigError(
+            f"kurtosis: {kurtosis:g} is outside the supported range; rule: kurtosis <= {MAX_KURTOSIS:g}"
+        )
 
 
 def _lognormal_w(skew: float) -> float:
     """w = exp(sigma^2) of the lognormal with skewness ``skew`` >= 0: (w - 1)(w + 2)^2 = skew^2."""
     if skew == 0:
         return 1.0
-    return optimize.brentq(lambda w: (w - 1) * (w + 2) ** 2 - skew**2, 1.0, 1.0 + skew**2 + 1.0, xtol=1e-15)
+    return optimize.brentq(
+        lambda w: (w - 1) * (w + 2) ** 2 - skew**2, 1.0, 1.0 + skew**2 + 1.0, xtol=1e-15
+    )
 
 
 def _lognormal_kurtosis(w: float) -> float:
@@ -264,8 +289,14 @@ def _su_skew_kurt(gamma: float, delta: float) -> tuple[float, float]:
     om = gamma / delta
     var = 0.5 * (w - 1) * (w * math.cosh(2 * om) + 1)
     m3 = -0.25 * math.sqrt(w) * (w - 1) ** 2 * (w * (w + 2) * math.sinh(3 * om) + 3 * math.sinh(om))
-    m4 = 0.125 * (w - 1) ** 2 * (
-        w**2 * (w**4 + 2 * w**3 + 3 * w**2 - 3) * math.cosh(4 * om) + 4 * w**2 * (w + 2) * math.cosh(2 * om) + 3 * (2 * w + 1)
+    m4 = (
+        0.125
+        * (w - 1) ** 2
+        * (
+            w**2 * (w**4 + 2 * w**3 + 3 * w**2 - 3) * math.cosh(4 * om)
+            + 4 * w**2 * (w + 2) * math.cosh(2 * om)
+            + 3 * (2 * w + 1)
+        )
     )
     return m3 / var**1.5, m4 / var**2
 
@@ -289,7 +320,10 @@ def _sb_skew_kurt(gamma: float, delta: float) -> tuple[float, float]:
 
 
 def _solve_family(
-    moments: Callable[[float, float], tuple[float, float]], skew: float, kurt: float, delta_hi: float
+    moments: Callable[[float, float], tuple[float, float]],
+    skew: float,
+    kurt: float,
+    delta_hi: float,
 ) -> tuple[float, float]:
     """Nested 1-D solves: for each delta the gamma giving ``skew``; then the delta giving ``kurt``.
 
@@ -302,11 +336,17 @@ def _solve_family(
         if skew == 0:
             return 0.0
         g = lambda gm: moments(gm, delta)[0] - skew  # noqa: E731
-        side = -1.0 if g(-1e-3 * delta) > g(1e-3 * delta) else 1.0  # the sign of gamma that raises skew
+        side = (
+            -1.0 if g(-1e-3 * delta) > g(1e-3 * delta) else 1.0
+        )  # the sign of gamma that raises skew
         far = side * delta
         while g(far) < 0 and abs(far) < 60 * delta:
             far *= 2
-        return optimize.brentq(g, far, 0.0, xtol=1e-12) if side < 0 else optimize.brentq(g, 0.0, far, xtol=1e-12)
+        return (
+            optimize.brentq(g, far, 0.0, xtol=1e-12)
+            if side < 0
+            else optimize.brentq(g, 0.0, far, xtol=1e-12)
+        )
 
     def kurt_gap(delta: float) -> float:
         try:
@@ -316,7 +356,9 @@ def _solve_family(
 
     k_ln = _lognormal_kurtosis(_lognormal_w(skew))
 
-    delta = optimize.brentq(kurt_gap, 0.05 if moments is _sb_skew_kurt else 0.25, delta_hi, xtol=1e-10)
+    delta = optimize.brentq(
+        kurt_gap, 0.05 if moments is _sb_skew_kurt else 0.25, delta_hi, xtol=1e-10
+    )
     return gamma_for(delta), delta
 
 
@@ -374,7 +416,10 @@ def johnson_translate(z: np.ndarray, skewness: float, kurtosis: float) -> np.nda
         err = (skewness - got[0], kurtosis - got[1])
         if abs(err[0]) < _MOMENT_TOLERANCE and abs(err[1]) < _MOMENT_TOLERANCE * kurtosis:
             break
-        target = (target[0] + err[0], target[1] + err[1])  # fixed-point correction for the finite sample
+        target = (
+            target[0] + err[0],
+            target[1] + err[1],
+        )  # fixed-point correction for the finite sample
     else:
         raise ConfigError(
             f"kurtosis: cannot reach skewness {skewness:g}, kurtosis {kurtosis:g} on a map of {n} points "
@@ -386,8 +431,16 @@ def johnson_translate(z: np.ndarray, skewness: float, kurtosis: float) -> np.nda
 
 
 # ----------------------------------------------------------------------------- generators
-def _finish(z: np.ndarray, px: float, py: float, scale: float, skewness: float, kurtosis: float,
-            metadata: dict, by_slope: bool = False) -> HeightMap:
+def _finish(
+    z: np.ndarray,
+    px: float,
+    py: float,
+    scale: float,
+    skewness: float,
+    kurtosis: float,
+    metadata: dict,
+    by_slope: bool = False,
+) -> HeightMap:
     """Apply the height distribution and the scale (Sq or rms slope) to a coloured Gaussian field."""
     z = johnson_translate(z, skewness, kurtosis)
     z = z * (scale / (rms_slope(z, px, py) if by_slope else 1.0))
@@ -450,8 +503,14 @@ def gaussian_random_surface(
     shape = _generation_shape(nx, ny, pad * lx, pad * ly, px, py, periodic)
     field = _colour_noise(_acf_amplitude(shape, px, py, acf, lx, ly), shape, _rng(seed))[:ny, :nx]
     meta = {
-        "generator": "gaussian_random_surface", "model": acf, "sq": sq_, "corr_length_x": lx, "corr_length_y": ly,
-        "skewness": skewness, "kurtosis": kurtosis, "periodic": periodic,
+        "generator": "gaussian_random_surface",
+        "model": acf,
+        "sq": sq_,
+        "corr_length_x": lx,
+        "corr_length_y": ly,
+        "skewness": skewness,
+        "kurtosis": kurtosis,
+        "periodic": periodic,
         "seed": seed if not isinstance(seed, np.random.Generator) else "Generator",
     }
     return _finish(field, px, py, sq_, skewness, kurtosis, meta)
@@ -495,32 +554,53 @@ def self_affine_surface(
         Heights in mm with mean 0.
     """
     nx, ny, px, py = _grid(nx, ny, pitch_x, pitch_y)
-    if isinstance(hurst, bool) or not isinstance(hurst, (int, float, np.floating, np.integer)) or not (0 < hurst <= 1):
+    if (
+        isinstance(hurst, bool)
+        or not isinstance(hurst, (int, float, np.floating, np.integer))
+        or not (0 < hurst <= 1)
+    ):
         raise ConfigError(f"hurst: {hurst!r} is outside the allowed range; rule: 0 < hurst <= 1")
     if (sq is None) == (rms_slope is None):
         raise ConfigError("sq, rms_slope: give exactly one of them to set the height scale")
-    if rms_slope is not None and not (isinstance(rms_slope, (int, float)) and math.isfinite(rms_slope) and rms_slope > 0):
-        raise ConfigError(f"rms_slope: must be a positive number (dimensionless), got {rms_slope!r}")
+    if rms_slope is not None and not (
+        isinstance(rms_slope, (int, float)) and math.isfinite(rms_slope) and rms_slope > 0
+    ):
+        raise ConfigError(
+            f"rms_slope: must be a positive number (dimensionless), got {rms_slope!r}"
+        )
     side = min(nx * px, ny * py)
     lam_s = 2 * max(px, py) if short_cutoff is None else _length(short_cutoff, "short_cutoff")
     lam_l = side if long_cutoff is None else _length(long_cutoff, "long_cutoff")
     if lam_s < 2 * max(px, py) * (1 - 1e-9):
-        raise ConfigError(f"short_cutoff: {lam_s:g} mm is below the Nyquist wavelength; "
-                          f"rule: short_cutoff >= 2 * pitch = {2 * max(px, py):g} mm")
+        raise ConfigError(
+            f"short_cutoff: {lam_s:g} mm is below the Nyquist wavelength; "
+            f"rule: short_cutoff >= 2 * pitch = {2 * max(px, py):g} mm"
+        )
     if lam_l > side * (1 + 1e-9):
-        raise ConfigError(f"long_cutoff: {lam_l:g} mm exceeds the map; "
-                          f"rule: long_cutoff <= min(nx*pitch_x, ny*pitch_y) = {side:g} mm")
+        raise ConfigError(
+            f"long_cutoff: {lam_l:g} mm exceeds the map; "
+            f"rule: long_cutoff <= min(nx*pitch_x, ny*pitch_y) = {side:g} mm"
+        )
     if lam_l <= lam_s:
-        raise ConfigError(f"long_cutoff: {lam_l:g} mm must be longer than short_cutoff = {lam_s:g} mm")
+        raise ConfigError(
+            f"long_cutoff: {lam_l:g} mm must be longer than short_cutoff = {lam_s:g} mm"
+        )
     check_moments(skewness, kurtosis)
     shape = _generation_shape(nx, ny, lam_l, lam_l, px, py, periodic)
     amp = _self_affine_amplitude(shape, px, py, float(hurst), 2 * np.pi / lam_l, 2 * np.pi / lam_s)
     field = _colour_noise(amp, shape, _rng(seed))[:ny, :nx]
     scale = _length(sq, "sq") if sq is not None else float(rms_slope)
     meta = {
-        "generator": "self_affine_surface", "model": "self_affine", "hurst": float(hurst), "long_cutoff": lam_l,
-        "short_cutoff": lam_s, "sq": scale if sq is not None else None, "rms_slope": rms_slope,
-        "skewness": skewness, "kurtosis": kurtosis, "periodic": periodic,
+        "generator": "self_affine_surface",
+        "model": "self_affine",
+        "hurst": float(hurst),
+        "long_cutoff": lam_l,
+        "short_cutoff": lam_s,
+        "sq": scale if sq is not None else None,
+        "rms_slope": rms_slope,
+        "skewness": skewness,
+        "kurtosis": kurtosis,
+        "periodic": periodic,
         "seed": seed if not isinstance(seed, np.random.Generator) else "Generator",
     }
     return _finish(field, px, py, scale, skewness, kurtosis, meta, by_slope=sq is None)
@@ -536,4 +616,6 @@ def random_surface(model: str, **kwargs) -> HeightMap:
         return gaussian_random_surface(acf=model, **kwargs)
     if model == "self_affine":
         return self_affine_surface(**kwargs)
-    raise ConfigError(f"model: unknown random-surface model {model!r}; use one of: {', '.join(MODELS)}")
+    raise ConfigError(
+        f"model: unknown random-surface model {model!r}; use one of: {', '.join(MODELS)}"
+    )

@@ -57,7 +57,22 @@ from ..units import LENGTH, parse_quantity
 from .heightmap import HeightMap
 
 TEXT_FORMATS = ("txt", "csv", "asc")
-SURFALIZE_FORMATS = ("plux", "sur", "sdf", "al3d", "vk4", "vk6", "vk7", "opd", "zmg", "nms", "tmd", "os3d", "lext", "zon")
+SURFALIZE_FORMATS = (
+    "plux",
+    "sur",
+    "sdf",
+    "al3d",
+    "vk4",
+    "vk6",
+    "vk7",
+    "opd",
+    "zmg",
+    "nms",
+    "tmd",
+    "os3d",
+    "lext",
+    "zon",
+)
 FORMATS = ("x3p", "gwy", "plu") + SURFALIZE_FORMATS + TEXT_FORMATS + ("xyz",)
 _M = LENGTH["m"]  # metres -> mm
 _UM = LENGTH["um"]  # surfalize works in µm
@@ -70,7 +85,9 @@ def _unit_factor(unit: str, name: str, where: Path) -> float:
     """mm per ``unit`` (a length unit name)."""
     u = unit.strip()
     if u not in LENGTH:
-        raise ConfigError(f"{name}: unknown length unit {unit!r} for {where}; use one of: {', '.join(LENGTH)}")
+        raise ConfigError(
+            f"{name}: unknown length unit {unit!r} for {where}; use one of: {', '.join(LENGTH)}"
+        )
     return LENGTH[u]
 
 
@@ -85,18 +102,29 @@ def _import(module: str, fmt: str):
     try:
         return __import__(module, fromlist=["_"])
     except ImportError as exc:
-        raise ConfigError(f"format: reading .{fmt} files needs the Python package {module.split('.')[0]!r} "
-                          f"(pip install {module.split('.')[0]})") from exc
+        raise ConfigError(
+            f"format: reading .{fmt} files needs the Python package {module.split('.')[0]!r} "
+            f"(pip install {module.split('.')[0]})"
+        ) from exc
 
 
-def _heightmap(z: np.ndarray, px: float, py: float, path: Path, fmt: str, origin=(0.0, 0.0), **meta) -> HeightMap:
+def _heightmap(
+    z: np.ndarray, px: float, py: float, path: Path, fmt: str, origin=(0.0, 0.0), **meta
+) -> HeightMap:
     z = np.asarray(z, dtype=float)
     if z.ndim != 2 or min(z.shape) < 2:
-        raise ConfigError(f"{path}: holds a {z.shape} array, not a surface; rule: at least 2 x 2 points")
+        raise ConfigError(
+            f"{path}: holds a {z.shape} array, not a surface; rule: at least 2 x 2 points"
+        )
     if np.isnan(z).all():
         raise ConfigError(f"{path}: every point is missing (NaN); no valid measurement")
-    return HeightMap(z, px, py, origin=(float(origin[0]), float(origin[1])),
-                     metadata={"source": str(path), "format": fmt, **meta})
+    return HeightMap(
+        z,
+        px,
+        py,
+        origin=(float(origin[0]), float(origin[1])),
+        metadata={"source": str(path), "format": fmt, **meta},
+    )
 
 
 # ----------------------------------------------------------------------------- regular grids from points
@@ -104,7 +132,9 @@ def _grid_axis(v: np.ndarray, axis: str, path: Path) -> tuple[np.ndarray, float,
     """Indices of coordinates on a regular axis, its pitch and start; ConfigError if not regular."""
     lo, span = float(v.min()), float(v.max() - v.min())
     if span == 0:
-        raise ConfigError(f"{path}: all points share one {axis} value; rule: a grid needs at least 2 {axis} positions")
+        raise ConfigError(
+            f"{path}: all points share one {axis} value; rule: a grid needs at least 2 {axis} positions"
+        )
     gaps = np.diff(np.unique(v))
     gaps = gaps[gaps > 1e-9 * span]  # merge round-off duplicates
     pitch = float(gaps.min())  # gaps of a gappy grid are multiples of the pitch
@@ -112,8 +142,10 @@ def _grid_axis(v: np.ndarray, axis: str, path: Path) -> tuple[np.ndarray, float,
     k = (v - lo) / pitch
     idx = np.rint(k).astype(np.int64)
     if np.max(np.abs(k - idx)) > _GRID_TOLERANCE:
-        raise ConfigError(f"{path}: the {axis} coordinates are not on a regular grid; rule: every {axis} within "
-                          f"{_GRID_TOLERANCE:g} pitch of x0 + i * pitch (pitch {pitch:g})")
+        raise ConfigError(
+            f"{path}: the {axis} coordinates are not on a regular grid; rule: every {axis} within "
+            f"{_GRID_TOLERANCE:g} pitch of x0 + i * pitch (pitch {pitch:g})"
+        )
     return idx, pitch, lo
 
 
@@ -130,16 +162,22 @@ def grid_from_points(
     keep = np.isfinite(x) & np.isfinite(y)
     x, y, z = x[keep], y[keep], z[keep]
     if x.size == 0:
-        raise ConfigError(f"{path}: contains no data points; rule: an x y z list needs at least 2 x 2 grid points")
+        raise ConfigError(
+            f"{path}: contains no data points; rule: an x y z list needs at least 2 x 2 grid points"
+        )
     i, px, x0 = _grid_axis(x, "x", path)
     j, py, y0 = _grid_axis(y, "y", path)
     nx, ny = int(i.max()) + 1, int(j.max()) + 1
     if x.size < _MIN_GRID_FILL * nx * ny:
-        raise ConfigError(f"{path}: {x.size} points on a {nx} x {ny} grid; rule: at least {_MIN_GRID_FILL:.0%} of the "
-                          "grid nodes must hold a point (is it a scattered point cloud?)")
+        raise ConfigError(
+            f"{path}: {x.size} points on a {nx} x {ny} grid; rule: at least {_MIN_GRID_FILL:.0%} of the "
+            "grid nodes must hold a point (is it a scattered point cloud?)"
+        )
     flat = j * nx + i
     if np.unique(flat).size != flat.size:
-        raise ConfigError(f"{path}: two or more points fall on the same grid node; rule: one point per (x, y) node")
+        raise ConfigError(
+            f"{path}: two or more points fall on the same grid node; rule: one point per (x, y) node"
+        )
     heights = np.full(ny * nx, np.nan)
     heights[flat] = z
     return heights.reshape(ny, nx), px, py, (x0, y0)
@@ -175,18 +213,24 @@ def _parse_rows(lines: list[str], path: Path) -> np.ndarray:
     rows = [ln.replace(sep, " ").split() if sep else ln.split() for ln in lines]
     widths = {len(r) for r in rows}
     if len(widths) != 1:
-        raise ConfigError(f"{path}: rows have different numbers of values {sorted(widths)}; rule: a rectangular table")
+        raise ConfigError(
+            f"{path}: rows have different numbers of values {sorted(widths)}; rule: a rectangular table"
+        )
     try:
         return np.array(rows, dtype=float)
     except ValueError as exc:
         raise ConfigError(f"{path}: non-numeric value in the data ({exc})") from exc
 
 
-def _header_unit(header: dict[str, str], keys: tuple[str, ...], given: str | None, name: str, path: Path) -> float:
+def _header_unit(
+    header: dict[str, str], keys: tuple[str, ...], given: str | None, name: str, path: Path
+) -> float:
     unit = given if given is not None else next((header[k] for k in keys if k in header), None)
     if unit is None:
-        raise ConfigError(f"{name}: {path} does not say the unit of its values; give {name}= (e.g. 'um') "
-                          f"or a header line '# {name} = um'")
+        raise ConfigError(
+            f"{name}: {path} does not say the unit of its values; give {name}= (e.g. 'um') "
+            f"or a header line '# {name} = um'"
+        )
     return _unit_factor(unit, name, path)
 
 
@@ -201,13 +245,19 @@ def _read_text_grid(path: Path, fmt: str, pitch, pitch_y, z_unit, **_) -> Height
     px = _pitch_value(header["pitch"], "pitch") if "pitch" in header else px
     py = _pitch_value(header["pitch"], "pitch") if "pitch" in header else py
     px = _pitch_value(header["pitch_x"], "pitch_x") if "pitch_x" in header else px
-    py = _pitch_value(header["pitch_y"], "pitch_y") if "pitch_y" in header else (py if py is not None else px)
+    py = (
+        _pitch_value(header["pitch_y"], "pitch_y")
+        if "pitch_y" in header
+        else (py if py is not None else px)
+    )
     if pitch is not None:
         px = py = _pitch_value(pitch, "pitch")
     if pitch_y is not None:
         py = _pitch_value(pitch_y, "pitch_y")
     if px is None:
-        raise ConfigError(f"pitch: {path} does not give the sample spacing; pass pitch='0.5 um' or add '# pitch = 0.5 um'")
+        raise ConfigError(
+            f"pitch: {path} does not give the sample spacing; pass pitch='0.5 um' or add '# pitch = 0.5 um'"
+        )
     factor = _header_unit(header, ("z_unit", "value units", "unit_z"), z_unit, "z_unit", path)
     return _heightmap(z * factor, px, py, path, fmt, header=header)
 
@@ -215,13 +265,19 @@ def _read_text_grid(path: Path, fmt: str, pitch, pitch_y, z_unit, **_) -> Height
 def _read_xyz(path: Path, fmt: str, xy_unit, z_unit, **_) -> HeightMap:
     header, lines = _split_text(path)
     if not lines:
-        raise ConfigError(f"{path}: contains no data points; rule: an x y z list needs at least 2 x 2 grid points")
+        raise ConfigError(
+            f"{path}: contains no data points; rule: an x y z list needs at least 2 x 2 grid points"
+        )
     table = _parse_rows(lines, path)
     if table.shape[1] < 3:
-        raise ConfigError(f"{path}: has {table.shape[1]} columns; rule: an xyz list needs columns x, y, z")
+        raise ConfigError(
+            f"{path}: has {table.shape[1]} columns; rule: an xyz list needs columns x, y, z"
+        )
     fxy = _header_unit(header, ("xy_unit", "unit_xy"), xy_unit, "xy_unit", path)
     fz = _header_unit(header, ("z_unit", "unit_z"), z_unit, "z_unit", path)
-    z, px, py, origin = grid_from_points(table[:, 0] * fxy, table[:, 1] * fxy, table[:, 2] * fz, path)
+    z, px, py, origin = grid_from_points(
+        table[:, 0] * fxy, table[:, 1] * fxy, table[:, 2] * fz, path
+    )
     return _heightmap(z, px, py, path, fmt, origin=origin, header=header)
 
 
@@ -234,22 +290,32 @@ def _read_x3p(path: Path, fmt: str, **_) -> HeightMap:
         raise ConfigError(f"{path}: cannot be read as x3p ({exc})") from exc
     kind = str(data.feature_type).split(".")[-1]
     if "PRF" in kind:
-        raise ConfigError(f"{path}: holds a profile (FeatureType PRF), not a surface; rule: SUR or a gridded PCL")
+        raise ConfigError(
+            f"{path}: holds a profile (FeatureType PRF), not a surface; rule: SUR or a gridded PCL"
+        )
     layer = data.layers[0]
     meta = {"layers": len(data.layers), "feature_type": kind}
     if layer.is_regular_grid and "SUR" in kind:
-        sx, sy = layer.spacing if isinstance(layer.spacing, tuple) else (layer.spacing, layer.spacing)
+        sx, sy = (
+            layer.spacing if isinstance(layer.spacing, tuple) else (layer.spacing, layer.spacing)
+        )
         return _heightmap(np.asarray(layer.z) * _M, sx * _M, sy * _M, path, fmt, **meta)
-    pts = np.asarray(layer.points()).reshape(-1, 3) * _M  # absolute axes or point cloud: find the grid
+    pts = (
+        np.asarray(layer.points()).reshape(-1, 3) * _M
+    )  # absolute axes or point cloud: find the grid
     ok = np.isfinite(pts[:, 2])
     z, px, py, origin = grid_from_points(pts[ok, 0], pts[ok, 1], pts[ok, 2], path)
     return _heightmap(z, px, py, path, fmt, origin=origin, **meta)
 
 
 def _si_factor(unit_obj, given: str | None, name: str, path: Path) -> float:
-    unit = given if given is not None else (unit_obj.get("unitstr") if unit_obj is not None else None)
+    unit = (
+        given if given is not None else (unit_obj.get("unitstr") if unit_obj is not None else None)
+    )
     if not unit:
-        raise ConfigError(f"{name}: {path} has no {name.split('_')[0]} unit in the data field; pass {name}= (e.g. 'um')")
+        raise ConfigError(
+            f"{name}: {path} has no {name.split('_')[0]} unit in the data field; pass {name}= (e.g. 'um')"
+        )
     return _unit_factor(unit, name, path)
 
 
@@ -264,7 +330,9 @@ def _read_gwy(path: Path, fmt: str, xy_unit, z_unit, channel, **_) -> HeightMap:
     if channel is None and len(fields) > 1:
         heights = [k for k, f in fields.items() if (f.get("si_unit_z") or {}).get("unitstr") == "m"]
         if len(heights) != 1:
-            raise ConfigError(f"channel: {path} has channels {list(fields)}; choose one with channel=")
+            raise ConfigError(
+                f"channel: {path} has channels {list(fields)}; choose one with channel="
+            )
         channel = heights[0]
     title = channel if channel is not None else next(iter(fields))
     if title not in fields:
@@ -273,7 +341,10 @@ def _read_gwy(path: Path, fmt: str, xy_unit, z_unit, channel, **_) -> HeightMap:
     fxy = _si_factor(f.get("si_unit_xy"), xy_unit, "xy_unit", path)
     fz = _si_factor(f.get("si_unit_z"), z_unit, "z_unit", path)
     z = np.asarray(f.data, dtype=float)
-    px, py = f["xreal"] * fxy / z.shape[1], f["yreal"] * fxy / z.shape[0]  # Gwyddion: real = res * pixel
+    px, py = (
+        f["xreal"] * fxy / z.shape[1],
+        f["yreal"] * fxy / z.shape[0],
+    )  # Gwyddion: real = res * pixel
     origin = (f.get("xoff", 0.0) * fxy, f.get("yoff", 0.0) * fxy)
     return _heightmap(z * fz, px, py, path, fmt, origin=origin, channel=title)
 
@@ -283,24 +354,70 @@ def _read_surfalize(path: Path, fmt: str, **_) -> HeightMap:
     try:
         raw = common.FileHandler(path, format_=f".{fmt}").read()
     except Exception as exc:  # noqa: BLE001
-        raise ConfigError(f"{path}: cannot be read as .{fmt} ({type(exc).__name__}: {exc})") from exc
-    return _heightmap(np.asarray(raw.data, dtype=float) * _UM, raw.step_x * _UM, raw.step_y * _UM, path, fmt,
-                      instrument_metadata={k: str(v) for k, v in (raw.metadata or {}).items()})
+        raise ConfigError(
+            f"{path}: cannot be read as .{fmt} ({type(exc).__name__}: {exc})"
+        ) from exc
+    return _heightmap(
+        np.asarray(raw.data, dtype=float) * _UM,
+        raw.step_x * _UM,
+        raw.step_y * _UM,
+        path,
+        fmt,
+        instrument_metadata={k: str(v) for k, v in (raw.metadata or {}).items()},
+    )
 
 
 # ----------------------------------------------------------------------------- Sensofar .plu
-_PLU_HEADER = struct.Struct("<128sI256s" "3I7f" "5I" "5IdfII" "8BI")  # 500 bytes, fields below
+_PLU_HEADER = struct.Struct("<128sI256s3I7f5I5IdfII8BI")  # 500 bytes, fields below
 _PLU_FIELDS = (
-    "date", "time", "comment",
-    "ny", "nx", "n_tall", "dy_multip", "um_per_pixel_x", "um_per_pixel_y", "x0", "y0", "um_per_pixel_z", "z0",
-    "type", "algorithm", "method", "objective", "area_type",
-    "scan_1", "scan_2", "scan_3", "scan_4", "scan_5", "scan_6", "scan_7", "scan_8", "scan_9",  # FOV or point scan
-    "restore", "layers", "version", "hardware", "images", "reserved_1", "reserved_2", "reserved_3", "factor_delmacio",
+    "date",
+    "time",
+    "comment",
+    "ny",
+    "nx",
+    "n_tall",
+    "dy_multip",
+    "um_per_pixel_x",
+    "um_per_pixel_y",
+    "x0",
+    "y0",
+    "um_per_pixel_z",
+    "z0",
+    "type",
+    "algorithm",
+    "method",
+    "objective",
+    "area_type",
+    "scan_1",
+    "scan_2",
+    "scan_3",
+    "scan_4",
+    "scan_5",
+    "scan_6",
+    "scan_7",
+    "scan_8",
+    "scan_9",  # FOV or point scan
+    "restore",
+    "layers",
+    "version",
+    "hardware",
+    "images",
+    "reserved_1",
+    "reserved_2",
+    "reserved_3",
+    "factor_delmacio",
 )
 _PLU_LAYER = struct.Struct("<2I")  # rows, columns
 _PLU_TOPOGRAPHY = 3
-_PLU_TYPES = {0: "image", 1: "profile", 2: "multi-profile", 3: "topography", 4: "coordinates", 5: "thickness",
-              6: "custom"}
+_PLU_TYPES = {
+    0: "image",
+    1: "profile",
+    2: "multi-profile",
+    3: "topography",
+    4: "coordinates",
+    5: "thickness",
+    6: "custom",
+}
 _PLU_NOT_MEASURED = 1000001.0
 
 
@@ -313,36 +430,56 @@ def _read_plu(path: Path, fmt: str, **_) -> HeightMap:
     data = path.read_bytes()
     start = _PLU_HEADER.size + _PLU_LAYER.size
     if len(data) < start:
-        raise ConfigError(f"{path}: truncated .plu file ({len(data)} bytes); rule: header and layer size need "
-                          f"at least {start} bytes")
+        raise ConfigError(
+            f"{path}: truncated .plu file ({len(data)} bytes); rule: header and layer size need "
+            f"at least {start} bytes"
+        )
     h = dict(zip(_PLU_FIELDS, _PLU_HEADER.unpack_from(data)))
     if h["type"] != _PLU_TOPOGRAPHY:
         kind = _PLU_TYPES.get(h["type"], "unknown")
-        raise ConfigError(f"{path}: .plu measurement type {h['type']} ({kind}) is not supported; rule: only "
-                          f"topographies (type {_PLU_TOPOGRAPHY}) are read")
+        raise ConfigError(
+            f"{path}: .plu measurement type {h['type']} ({kind}) is not supported; rule: only "
+            f"topographies (type {_PLU_TOPOGRAPHY}) are read"
+        )
     if h["layers"] > 1:
-        raise ConfigError(f"{path}: .plu file holds {h['layers']} layers; rule: only single-layer files are read")
+        raise ConfigError(
+            f"{path}: .plu file holds {h['layers']} layers; rule: only single-layer files are read"
+        )
     ny, nx = _PLU_LAYER.unpack_from(data, _PLU_HEADER.size)
     if (ny, nx) != (h["ny"], h["nx"]) or min(ny, nx) < 2:
-        raise ConfigError(f"{path}: .plu layer size {ny} x {nx} (rows x columns) does not match the calibration "
-                          f"block's {h['ny']} x {h['nx']}; rule: equal sizes of at least 2 x 2")
+        raise ConfigError(
+            f"{path}: .plu layer size {ny} x {nx} (rows x columns) does not match the calibration "
+            f"block's {h['ny']} x {h['nx']}; rule: equal sizes of at least 2 x 2"
+        )
     expected = start + 4 * ny * nx + 8 + 3 * ny * nx * h["images"]  # heights, min/max, RGB images
     if len(data) != expected:
         what = "truncated" if len(data) < expected else "too long"
-        raise ConfigError(f"{path}: .plu file is {what} ({len(data)} bytes); rule: a {ny} x {nx} layer with "
-                          f"{h['images']} RGB image(s) makes a file of exactly {expected} bytes")
+        raise ConfigError(
+            f"{path}: .plu file is {what} ({len(data)} bytes); rule: a {ny} x {nx} layer with "
+            f"{h['images']} RGB image(s) makes a file of exactly {expected} bytes"
+        )
     px, py = h["um_per_pixel_x"], h["um_per_pixel_y"]
     if not (math.isfinite(px) and px > 0 and math.isfinite(py) and py > 0):
-        raise ConfigError(f"{path}: .plu pixel size {px!r} x {py!r} um; rule: positive finite um/pixel in x and y")
+        raise ConfigError(
+            f"{path}: .plu pixel size {px!r} x {py!r} um; rule: positive finite um/pixel in x and y"
+        )
     z = np.frombuffer(data, dtype="<f4", count=ny * nx, offset=start).reshape(ny, nx).astype(float)
     z[(z == _PLU_NOT_MEASURED) | ~np.isfinite(z)] = np.nan
     z_min, z_max = struct.unpack_from("<2f", data, start + 4 * ny * nx)
     meta = {
-        "date": _plu_text(h["date"]), "time": h["time"], "comment": _plu_text(h["comment"]),
+        "date": _plu_text(h["date"]),
+        "time": h["time"],
+        "comment": _plu_text(h["comment"]),
         "objective": h["objective"],  # Sensofar's objective code (the instrument's own table)
-        "layers": max(h["layers"], 1), "images": h["images"], "algorithm": h["algorithm"], "method": h["method"],
-        "area_type": h["area_type"], "version": h["version"], "hardware": h["hardware"],
-        "offset_um": (h["x0"], h["y0"], h["z0"]), "stored_min_max_um": (z_min, z_max),
+        "layers": max(h["layers"], 1),
+        "images": h["images"],
+        "algorithm": h["algorithm"],
+        "method": h["method"],
+        "area_type": h["area_type"],
+        "version": h["version"],
+        "hardware": h["hardware"],
+        "offset_um": (h["x0"], h["y0"], h["z0"]),
+        "stored_min_max_um": (z_min, z_max),
     }
     return _heightmap(z * _UM, px * _UM, py * _UM, path, fmt, **meta)
 
@@ -351,7 +488,9 @@ def _read_plu(path: Path, fmt: str, **_) -> HeightMap:
 def _format_of(path: Path, format: str | None) -> str:
     fmt = (format if format is not None else path.suffix).lower().lstrip(".")
     if fmt not in FORMATS:
-        what = f"format {format!r}" if format is not None else f"extension {path.suffix!r} of {path}"
+        what = (
+            f"format {format!r}" if format is not None else f"extension {path.suffix!r} of {path}"
+        )
         raise ConfigError(f"format: unknown {what}; known formats: {', '.join(FORMATS)}")
     return fmt
 
@@ -392,9 +531,23 @@ def read_topography(
     fmt = _format_of(path, format)
     if not path.is_file():
         raise ConfigError(f"path: {path} does not exist or is not a file")
-    reader = (_read_x3p if fmt == "x3p" else _read_gwy if fmt == "gwy" else _read_plu if fmt == "plu"
-              else _read_xyz if fmt == "xyz"
-              else _read_text_grid if fmt in TEXT_FORMATS else _read_surfalize)
+    reader = (
+        _read_x3p
+        if fmt == "x3p"
+        else _read_gwy
+        if fmt == "gwy"
+        else _read_plu
+        if fmt == "plu"
+        else _read_xyz
+        if fmt == "xyz"
+        else _read_text_grid
+        if fmt in TEXT_FORMATS
+        else _read_surfalize
+    )
     with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message=".*different pixel size.*")  # surfalize: fine for HeightMap
-        return reader(path, fmt, pitch=pitch, pitch_y=pitch_y, xy_unit=xy_unit, z_unit=z_unit, channel=channel)
+        warnings.filterwarnings(
+            "ignore", message=".*different pixel size.*"
+        )  # surfalize: fine for HeightMap
+        return reader(
+            path, fmt, pitch=pitch, pitch_y=pitch_y, xy_unit=xy_unit, z_unit=z_unit, channel=channel
+        )

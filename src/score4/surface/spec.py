@@ -25,7 +25,14 @@ import yaml
 from pydantic import Field, TypeAdapter, ValidationError, model_validator
 
 from ..errors import ConfigError
-from ..schema import ConfigPath, Length, NonNegativeLength, PositiveLength, StrictModel, describe_validation_error
+from ..schema import (
+    ConfigPath,
+    Length,
+    NonNegativeLength,
+    PositiveLength,
+    StrictModel,
+    describe_validation_error,
+)
 from .heightmap import HeightMap
 from .mesh import TriangleMesh, closed_body, from_heightmap
 from .processing import close_periodic, crop, fill_missing, level_plane, resample
@@ -93,13 +100,21 @@ class RandomSurfaceSpec(StrictModel):
             if (self.sq is None) == (self.rms_slope is None):
                 raise ValueError("model self_affine needs exactly one of sq and rms_slope")
             if self.corr_length is not None or self.corr_length_y is not None:
-                raise ValueError("corr_length belongs to the gaussian/exponential models; self_affine uses long_cutoff")
+                raise ValueError(
+                    "corr_length belongs to the gaussian/exponential models; self_affine uses long_cutoff"
+                )
         else:
             if self.sq is None or self.corr_length is None:
                 raise ValueError(f"model {self.model} needs sq and corr_length")
-            extra = [k for k in ("hurst", "rms_slope", "long_cutoff", "short_cutoff") if getattr(self, k) is not None]
+            extra = [
+                k
+                for k in ("hurst", "rms_slope", "long_cutoff", "short_cutoff")
+                if getattr(self, k) is not None
+            ]
             if extra:
-                raise ValueError(f"{', '.join(extra)} belong(s) to model self_affine, not {self.model}")
+                raise ValueError(
+                    f"{', '.join(extra)} belong(s) to model self_affine, not {self.model}"
+                )
         return self
 
 
@@ -120,7 +135,9 @@ class MeasuredSurfaceSpec(StrictModel):
     fill_missing: bool = False  # fill NaN points (Laplace interpolation) instead of refusing them
 
 
-SurfaceSpec = Annotated[Union[SpikeSurfaceSpec, RandomSurfaceSpec, MeasuredSurfaceSpec], Field(discriminator="kind")]
+SurfaceSpec = Annotated[
+    Union[SpikeSurfaceSpec, RandomSurfaceSpec, MeasuredSurfaceSpec], Field(discriminator="kind")
+]
 _SPEC_ADAPTER: TypeAdapter = TypeAdapter(SurfaceSpec)
 KINDS = ("spikes", "random", "measured")
 
@@ -133,9 +150,13 @@ def parse_surface_spec(
     A relative measured-file path is taken relative to ``base_dir``.
     """
     if not isinstance(data, dict):
-        raise ConfigError(f"{origin}: a surface description must be a mapping, got {type(data).__name__}")
+        raise ConfigError(
+            f"{origin}: a surface description must be a mapping, got {type(data).__name__}"
+        )
     if data.get("kind") not in KINDS:
-        raise ConfigError(f"{origin}: kind: must be one of {', '.join(KINDS)} (got {data.get('kind')!r})")
+        raise ConfigError(
+            f"{origin}: kind: must be one of {', '.join(KINDS)} (got {data.get('kind')!r})"
+        )
     try:
         return _SPEC_ADAPTER.validate_python(data, context={"base_dir": base_dir})
     except ValidationError as err:
@@ -150,7 +171,9 @@ def load_surface_spec(path: str | Path):
     try:
         data = yaml.safe_load(path.read_text())
     except yaml.YAMLError as err:
-        raise ConfigError(f"surface: {path}: not valid YAML ({getattr(err, 'problem', err)})") from None
+        raise ConfigError(
+            f"surface: {path}: not valid YAML ({getattr(err, 'problem', err)})"
+        ) from None
     return parse_surface_spec(data, origin=str(path), base_dir=path.parent)
 
 
@@ -187,7 +210,11 @@ class Surface:
     @property
     def max_height(self) -> float:
         """Highest point above the base plane z = 0, mm."""
-        return float(self.spikes.heights.max()) if self.spikes is not None else float(self.placed_map.heights.max())
+        return (
+            float(self.spikes.heights.max())
+            if self.spikes is not None
+            else float(self.placed_map.heights.max())
+        )
 
     @cached_property
     def placed_map(self) -> HeightMap:
@@ -209,7 +236,9 @@ class Surface:
     @cached_property
     def top_mesh(self) -> TriangleMesh:
         """The exact triangle mesh of the rough top (shared by geometry, sampling and metrology)."""
-        return self.spikes.top_mesh() if self.spikes is not None else from_heightmap(self.placed_map)
+        return (
+            self.spikes.top_mesh() if self.spikes is not None else from_heightmap(self.placed_map)
+        )
 
     def height_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Exact height of :attr:`top_mesh` above the base plane at (x, y), mm (points clipped to the patch)."""
@@ -225,7 +254,9 @@ class Surface:
         u, v = fx - i, fy - j
         za, zb, zc, zd = z[j, i], z[j, i + 1], z[j + 1, i + 1], z[j + 1, i]
         # from_heightmap splits every cell along (i, j)-(i+1, j+1): linear on each triangle
-        return np.where(u >= v, za + u * (zb - za) + v * (zc - zb), za + v * (zd - za) + u * (zc - zd))
+        return np.where(
+            u >= v, za + u * (zb - za) + v * (zc - zb), za + v * (zd - za) + u * (zc - zd)
+        )
 
     def body(self, base_thickness: float) -> TriangleMesh:
         """Closed, watertight patch: the rough top on a slab reaching ``base_thickness`` below z = 0."""
@@ -238,25 +269,53 @@ def build_surface(spec) -> Surface:
         spec = parse_surface_spec(spec)
     if isinstance(spec, SpikeSurfaceSpec):
         grid = SpikeGrid(
-            nx=spec.nx, ny=spec.ny, width_x=spec.width_x, width_y=spec.width_y, mean_height=spec.height,
-            shape=spec.shape, height_sigma=spec.height_sigma, n_layers=spec.n_layers, seed=spec.seed,
+            nx=spec.nx,
+            ny=spec.ny,
+            width_x=spec.width_x,
+            width_y=spec.width_y,
+            mean_height=spec.height,
+            shape=spec.shape,
+            height_sigma=spec.height_sigma,
+            n_layers=spec.n_layers,
+            seed=spec.seed,
             min_height=spec.min_height,
         )
         return Surface(spec, spikes=grid)
     if isinstance(spec, RandomSurfaceSpec):
-        kwargs = dict(nx=spec.nx, ny=spec.ny, pitch_x=spec.pitch, pitch_y=spec.pitch_y, skewness=spec.skewness,
-                      kurtosis=spec.kurtosis, periodic=spec.periodic, seed=spec.seed)
+        kwargs = dict(
+            nx=spec.nx,
+            ny=spec.ny,
+            pitch_x=spec.pitch,
+            pitch_y=spec.pitch_y,
+            skewness=spec.skewness,
+            kurtosis=spec.kurtosis,
+            periodic=spec.periodic,
+            seed=spec.seed,
+        )
         if spec.model == "self_affine":
-            kwargs.update(hurst=spec.hurst, sq=spec.sq, rms_slope=spec.rms_slope,
-                          long_cutoff=spec.long_cutoff, short_cutoff=spec.short_cutoff)
+            kwargs.update(
+                hurst=spec.hurst,
+                sq=spec.sq,
+                rms_slope=spec.rms_slope,
+                long_cutoff=spec.long_cutoff,
+                short_cutoff=spec.short_cutoff,
+            )
         else:
-            kwargs.update(sq=spec.sq, corr_length_x=spec.corr_length, corr_length_y=spec.corr_length_y)
+            kwargs.update(
+                sq=spec.sq, corr_length_x=spec.corr_length, corr_length_y=spec.corr_length_y
+            )
         hm = random_surface(spec.model, **kwargs)
         # A periodic map holds one period; repeating its first row/column closes it into a tile
         # whose opposite edges match, so tiled patches join without steps.
         return Surface(spec, heightmap=close_periodic(hm) if spec.periodic else hm)
-    hm = read_topography(spec.file, spec.format, pitch=spec.pitch, xy_unit=spec.xy_unit, z_unit=spec.z_unit,
-                         channel=spec.channel)
+    hm = read_topography(
+        spec.file,
+        spec.format,
+        pitch=spec.pitch,
+        xy_unit=spec.xy_unit,
+        z_unit=spec.z_unit,
+        channel=spec.channel,
+    )
     if spec.crop_x is not None or spec.crop_y is not None:
         x = spec.crop_x or (hm.x[0], hm.x[-1])
         y = spec.crop_y or (hm.y[0], hm.y[-1])

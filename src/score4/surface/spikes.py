@@ -166,7 +166,11 @@ class SpikeGrid:
     @property
     def height_floor(self) -> float:
         """The truncation height in mm: ``min_height``, or 1 % of ``mean_height`` if unset."""
-        return DEFAULT_MIN_HEIGHT_FRACTION * self.mean_height if self.min_height is None else self.min_height
+        return (
+            DEFAULT_MIN_HEIGHT_FRACTION * self.mean_height
+            if self.min_height is None
+            else self.min_height
+        )
 
     def _check_heights(self) -> None:
         floor = self.height_floor
@@ -320,8 +324,12 @@ class SpikeGrid:
         base, i.e. 0.
         """
         x, y = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float))
-        i = np.clip(np.floor((x + 0.5 * self.size_x) / self.width_x).astype(np.int64), 0, self.nx - 1)
-        j = np.clip(np.floor((y + 0.5 * self.size_y) / self.width_y).astype(np.int64), 0, self.ny - 1)
+        i = np.clip(
+            np.floor((x + 0.5 * self.size_x) / self.width_x).astype(np.int64), 0, self.nx - 1
+        )
+        j = np.clip(
+            np.floor((y + 0.5 * self.size_y) / self.width_y).astype(np.int64), 0, self.ny - 1
+        )
         u = np.abs(x - self.x_centres[i]) / (0.5 * self.width_x)
         v = np.abs(y - self.y_centres[j]) / (0.5 * self.width_y)
         # The surface point lies on the ring contour whose relative half-width equals max(u, v).

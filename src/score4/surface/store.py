@@ -44,7 +44,9 @@ def save_surface(surface: Surface, path: str | Path) -> Path:
         f.attrs["kind"] = surface.spec.kind
         f.attrs["spec"] = surface.spec.model_dump_json()
         hm = surface.heightmap
-        f.attrs["metadata"] = _jsonable({**(hm.metadata if hm is not None else {}), **surface.metadata})
+        f.attrs["metadata"] = _jsonable(
+            {**(hm.metadata if hm is not None else {}), **surface.metadata}
+        )
         if surface.spikes is not None:
             f.create_dataset("spikes/heights", data=surface.spikes.heights).attrs["units"] = "mm"
         else:
@@ -61,28 +63,43 @@ def load_surface(path: str | Path) -> Surface:
     with open_h5(path, FORMAT, "surface file", ConfigError) as f:
         try:
             return _read(f, path)
-        except (KeyError, ValueError, TypeError) as err:  # ConfigError is a ValueError: keep its message
+        except (
+            KeyError,
+            ValueError,
+            TypeError,
+        ) as err:  # ConfigError is a ValueError: keep its message
             if isinstance(err, ConfigError):
                 raise
-            raise ConfigError(f"surface file: {path} is damaged or incomplete ({type(err).__name__}: {err})") from None
+            raise ConfigError(
+                f"surface file: {path} is damaged or incomplete ({type(err).__name__}: {err})"
+            ) from None
 
 
 def _read(f: h5py.File, path: Path) -> Surface:
     version = int(f.attrs["format_version"])
     if version > FORMAT_VERSION:
-        raise ConfigError(f"surface file: {path} has format version {version}; this score4 reads up to {FORMAT_VERSION}")
+        raise ConfigError(
+            f"surface file: {path} has format version {version}; this score4 reads up to {FORMAT_VERSION}"
+        )
     spec = parse_surface_spec(json.loads(f.attrs["spec"]), origin=f"{path} (stored description)")
     metadata = json.loads(f.attrs.get("metadata", "{}"))
     if "spikes" in f:
         stored = f["spikes/heights"][...]
         surface = build_surface(spec)
-        if surface.spikes.heights.shape != stored.shape or not np.array_equal(surface.spikes.heights, stored):
+        if surface.spikes.heights.shape != stored.shape or not np.array_equal(
+            surface.spikes.heights, stored
+        ):
             raise ConfigError(
                 f"surface file: {path}: the spike heights rebuilt from the stored description differ from the "
                 "stored heights (file written by an incompatible score4 version?)"
             )
         return Surface(spec, spikes=surface.spikes, metadata=metadata)
     d = f["heightmap/heights"]
-    hm = HeightMap(d[...], float(d.attrs["pitch_x"]), float(d.attrs["pitch_y"]),
-                   origin=tuple(float(v) for v in d.attrs["origin"]), metadata=metadata)
+    hm = HeightMap(
+        d[...],
+        float(d.attrs["pitch_x"]),
+        float(d.attrs["pitch_y"]),
+        origin=tuple(float(v) for v in d.attrs["origin"]),
+        metadata=metadata,
+    )
     return Surface(spec, heightmap=hm, metadata=metadata)

@@ -42,15 +42,24 @@ def rough_body() -> tuple[np.ndarray, list[list[int]]]:
         vertices.append(tuple(float(c) for c in p))
         return len(vertices) - 1
 
-    top = {(i, j): vid((edges[i], edges[j], 0.0)) for j in range(4) for i in range(4)}  # grid at z=0
+    top = {
+        (i, j): vid((edges[i], edges[j], 0.0)) for j in range(4) for i in range(4)
+    }  # grid at z=0
     low = {(i, j): vid((edges[i], edges[j], -THICKNESS)) for j in range(4) for i in range(4)}
     facets: list[list[int]] = []
     for j in range(3):
         for i in range(3):
             apex = vid((edges[i] + CELL / 2, edges[j] + CELL / 2, HEIGHTS[j, i]))
-            a, b, c, d = top[i, j], top[i + 1, j], top[i + 1, j + 1], top[i, j + 1]  # anticlockwise from +z
+            a, b, c, d = (
+                top[i, j],
+                top[i + 1, j],
+                top[i + 1, j + 1],
+                top[i, j + 1],
+            )  # anticlockwise from +z
             facets += [[a, b, apex], [b, c, apex], [c, d, apex], [d, a, apex]]
-            facets.append([low[i, j], low[i, j + 1], low[i + 1, j + 1], low[i + 1, j]])  # bottom, seen from -z
+            facets.append(
+                [low[i, j], low[i, j + 1], low[i + 1, j + 1], low[i + 1, j]]
+            )  # bottom, seen from -z
     for k in range(3):  # walls, one quad per cell edge: the four sides of the square outline
         facets.append([top[k, 0], low[k, 0], low[k + 1, 0], top[k + 1, 0]])  # y = -15, normal -y
         facets.append([top[3, k], low[3, k], low[3, k + 1], top[3, k + 1]])  # x = +15, normal +x
@@ -94,7 +103,9 @@ def main() -> None:
     writer.addDetector(reg)
     out = Path(__file__).with_name("pyg4ometry_tessellated.gdml")
     writer.write(str(out))
-    print(f"wrote {out}: {len(facets)} facets, {len(vertices)} vertices, pyg4ometry {version('pyg4ometry')}")
+    print(
+        f"wrote {out}: {len(facets)} facets, {len(vertices)} vertices, pyg4ometry {version('pyg4ometry')}"
+    )
 
 
 if __name__ == "__main__":

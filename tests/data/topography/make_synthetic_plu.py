@@ -43,7 +43,11 @@ OUT = Path(__file__).with_name("synthetic_40x30.plu")
 def heights_um() -> np.ndarray:
     """The stored float32 heights (um): a tilt along y, a wave along x, seeded noise."""
     rows, cols = np.mgrid[0:NY, 0:NX]
-    z = 0.05 * rows + 0.8 * np.sin(2 * np.pi * cols / 16) + np.random.default_rng(4).normal(0, 0.1, (NY, NX))
+    z = (
+        0.05 * rows
+        + 0.8 * np.sin(2 * np.pi * cols / 16)
+        + np.random.default_rng(4).normal(0, 0.1, (NY, NX))
+    )
     z = z.astype("<f4")
     z[MISSING] = NOT_MEASURED
     return z
@@ -52,11 +56,15 @@ def heights_um() -> np.ndarray:
 def plu_bytes(z: np.ndarray) -> bytes:
     ny, nx = z.shape
     valid = z[z != NOT_MEASURED]
-    out = struct.pack("<128sI256s", b"Fri Mar 10 16:35:59 2023", 1678466159, b"score4 synthetic test file")
+    out = struct.pack(
+        "<128sI256s", b"Fri Mar 10 16:35:59 2023", 1678466159, b"score4 synthetic test file"
+    )
     out += struct.pack("<3I7f", ny, nx, nx, 1.0, PITCH_X, PITCH_Y, 0.0, 0.0, 1.0, 0.0)
     out += struct.pack("<5I", 3, 0, 0, 14, 3)  # topography, confocal, objective 14 (10X), FOV area
     out += struct.pack("<5IdfII", nx, ny, nx, ny, 1, 0.1, 10.0, 100, 0)
-    out += struct.pack("<8BI", 0, 1, 0xFB, 6, 1, 0, 0, 0, 1)  # 1 layer, version 2012, PLu neox, 1 image
+    out += struct.pack(
+        "<8BI", 0, 1, 0xFB, 6, 1, 0, 0, 0, 1
+    )  # 1 layer, version 2012, PLu neox, 1 image
     out += struct.pack("<2I", ny, nx) + z.astype("<f4").tobytes()
     out += struct.pack("<2f", valid.min(), valid.max())
     out += bytes([0x80]) * (3 * nx * ny)  # one grey RGB image after the layer
@@ -69,14 +77,30 @@ def reference(path: Path) -> None:
 
     t = read_topography(str(path))
     h = t.heights()  # (nx, ny), masked where not measured
-    print("SurfaceTopography nb_grid_pts", t.nb_grid_pts, "physical_sizes", t.physical_sizes, "unit", t.unit)
-    print("masked points", int(np.ma.count_masked(h)), "at", np.argwhere(np.ma.getmaskarray(h)).tolist())
-    print(f"mean {h.mean():.9g} std {h.std():.9g} [0,0] {h[0, 0]:.9g} [39,29] {h[-1, -1]:.9g} [5,3] {h[5, 3]:.9g}")
+    print(
+        "SurfaceTopography nb_grid_pts",
+        t.nb_grid_pts,
+        "physical_sizes",
+        t.physical_sizes,
+        "unit",
+        t.unit,
+    )
+    print(
+        "masked points",
+        int(np.ma.count_masked(h)),
+        "at",
+        np.argwhere(np.ma.getmaskarray(h)).tolist(),
+    )
+    print(
+        f"mean {h.mean():.9g} std {h.std():.9g} [0,0] {h[0, 0]:.9g} [39,29] {h[-1, -1]:.9g} [5,3] {h[5, 3]:.9g}"
+    )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--reference", action="store_true", help="print SurfaceTopography's reading")
+    parser.add_argument(
+        "--reference", action="store_true", help="print SurfaceTopography's reading"
+    )
     args = parser.parse_args()
     if args.reference:
         reference(OUT)
