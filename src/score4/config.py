@@ -235,6 +235,12 @@ class PhysicsConfig(StrictModel):
     # Secondary-production threshold as a range. Geant4's default (0.7 mm) suppresses delta rays
     # and, with them, all range straggling of alphas; micrometre surfaces need a micrometre cut.
     production_cut: PositiveLength = 1e-3
+    # Ions heavier than helium up to trim_max_energy (e.g. the 103 keV Pb-206 recoil of Po-210)
+    # follow TRIM trajectories (lunasrim) replayed in the geometry; Geant4 ranges them ~6x too
+    # short with no straggling (docs/physics.md). 'geant4' leaves them to Geant4, for comparison.
+    heavy_ions: Literal["trim", "geant4"] = "trim"
+    trim_max_energy: PositiveEnergy = 1.0
+    trim_histories: int = Field(1000, ge=10, le=100_000)
 
 
 class RunSettings(StrictModel):

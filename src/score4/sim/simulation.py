@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..config import RunConfig
-from ..errors import ConfigError
+from ..errors import ConfigError, Score4Error
 from ..geometry.world import build_world, check_materials
 from ..scene import build_scene
 from ..source.build import make_source
@@ -118,6 +118,17 @@ class Simulation:
             strip_data_hungry_processes(g4) if self.choice.mode == "lite" else []
         )
         self.scorer.resolve_ids()
+        self.heavy_ions = None
+        if self.config.physics.heavy_ions == "trim":
+            from .heavy_ions import HeavyIonTransport
+
+            self.heavy_ions = HeavyIonTransport(
+                g4,
+                self.geometry.world,
+                self.geometry.scoring,
+                histories=self.config.physics.trim_histories,
+            )
+        self._endpoint_action = None
         self._particles: dict[str, object] = {}
         self.volumes = list(self.scorer.names)
         for name in np.unique(self.source.primaries(np.random.default_rng(0), 0, 1).particle):
@@ -128,12 +139,27 @@ class Simulation:
             self._particles[name] = resolve_particle(self.g4, name)
         return self._particles[name]
 
+    def trim_rows(self, primaries: Primaries) -> np.ndarray:
+        """Rows of ``primaries`` that follow TRIM trajectories instead of Geant4 (heavy ions)."""
+        mask = np.zeros(len(primaries), dtype=bool)
+        if self.heavy_ions is None:
+            return mask
+        from .heavy_ions import heavy_ion_z
+
+        limit = self.config.physics.trim_max_energy
+        for name in np.unique(primaries.particle):
+            if heavy_ion_z(self.g4, str(name)):
+                mask |= (primaries.particle == name) & (primaries.energy <= limit)
+        return mask
+
     def _generate(self, gun, event) -> None:
         k = self._next_event
         g4, p = self.g4, self._primaries
         if self.teleporter is not None:
             self.teleporter.begin_event(int(self._offsets[k]))
         for row in range(self._offsets[k], self._offsets[k + 1]):
+            if self._trim[row]:
+                continue
             gun.SetParticleDefinition(self._defs[row])
             gun.SetParticleEnergy(p.energy[row])
             gun.SetParticlePosition(g4.G4ThreeVector(*self._positions[row]))
@@ -145,9 +171,20 @@ class Simulation:
         self._next_event += 1
 
     def run(
-        self, primaries: Primaries, g4_seed: int, progress=None, batch: int | None = None
+        self,
+        primaries: Primaries,
+        g4_seed: int,
+        progress=None,
+        batch: int | None = None,
+        endpoints: bool = False,
     ) -> dict[str, np.ndarray]:
-        """Track ``primaries``; return {quantity: (n_events, n_volumes) array} (MeV, mm)."""
+        """Track ``primaries``; return {quantity: (n_events, n_volumes) array} (MeV, mm).
+
+        Heavy ions (:meth:`trim_rows`) are moved along TRIM trajectories after Geant4 has
+        tracked the rest (:mod:`score4.sim.heavy_ions`); their deposits join their events'.
+        With ``endpoints=True``, ``self.endpoints`` is then an (n_rows, 4) array: where each
+        primary ended (x, y, z mm) and its kinetic energy there (MeV; > 0 if it left the world).
+        """
         for name in np.unique(primaries.particle):
             self.particle(str(name))
         n = primaries.n_events
@@ -160,7 +197,10 @@ class Simulation:
         )
         self._defs = [self._particles[str(name)] for name in primaries.particle]
         self._offsets = primaries.event_offsets()
+        self._trim = self.trim_rows(primaries)
         self._scores = {q: np.zeros((n, len(self.volumes))) for q in self.quantities}
+        self.endpoints = np.full((len(primaries), 4), np.nan) if endpoints else None
+        self._track_endpoints(endpoints)
         self._next_event = 0
         self.g4.G4Random.setTheSeed(int(g4_seed))
         batch = batch or max(100, n // 20)
@@ -170,4 +210,63 @@ class Simulation:
                 self.run_manager.BeamOn(todo)
                 if progress is not None:
                     progress(todo)
+        if self._trim.any():
+            self._replay_heavy_ions(primaries, g4_seed)
         return self._scores
+
+    def _replay_heavy_ions(self, primaries: Primaries, g4_seed: int) -> None:
+        rng = np.random.default_rng([int(g4_seed), 0x5C0E4])  # own stream, fixed by the chunk
+        rows = np.flatnonzero(self._trim)
+        for row in rows:  # announce energies first: one library per ion and material
+            self.heavy_ions.need(str(primaries.particle[row]), float(primaries.energy[row]))
+        edep = self._scores["edep"]
+        length = self._scores.get("track_length")
+        for row in rows:
+            name = str(primaries.particle[row])
+            fate = self.heavy_ions.transport(
+                self._particles[name],
+                name,
+                float(primaries.energy[row]),
+                self._positions[row],  # portal tiling: the subworld point
+                primaries.direction[row],
+                rng,
+            )
+            event = primaries.event[row]
+            for k, value in fate.deposits.items():
+                edep[event, k] += value
+            if length is not None:
+                for k, value in fate.lengths.items():
+                    length[event, k] += value
+            if self.endpoints is not None:
+                self.endpoints[row] = (*fate.position, fate.escaped_energy)
+
+    def _track_endpoints(self, on: bool) -> None:
+        """Record where Geant4's primaries end (a Python tracking action, only when asked)."""
+        if not on:
+            if self._endpoint_action is not None:
+                self.run_manager.SetUserAction(self._null_tracking())
+                self._endpoint_action = None
+            return
+        if self.teleporter is not None:
+            raise Score4Error("primary end points are not available with portal tiling")
+        g4, sim = self.g4, self
+
+        class Endpoints(g4.G4UserTrackingAction):
+            def PostUserTrackingAction(self, track):
+                if track.GetParentID() != 0:
+                    return
+                rows = sim._g4_rows_of_event(sim._next_event)
+                row = rows[track.GetTrackID() - 1]
+                p = track.GetPosition()
+                sim.endpoints[row] = (p.x, p.y, p.z, track.GetKineticEnergy())
+
+        self._endpoint_action = Endpoints()
+        self.run_manager.SetUserAction(self._endpoint_action)
+
+    def _null_tracking(self):
+        self._null_action = self.g4.G4UserTrackingAction()
+        return self._null_action
+
+    def _g4_rows_of_event(self, k: int) -> np.ndarray:
+        rows = np.arange(self._offsets[k], self._offsets[k + 1])
+        return rows[~self._trim[rows]]
