@@ -28,6 +28,8 @@ import numpy as np
 from ..errors import Score4Error
 from .composition import Composition
 
+_CROSSING_TOLERANCE = 0.01
+_MIN_CHOICE = 20
 # Bump when the stored arrays change meaning.
 FORMAT_VERSION = 1
 ANGSTROM_MM = 1e-7
@@ -59,6 +61,26 @@ class TrajectoryLibrary:
     def size(self) -> int:
         return len(self.offsets) - 1
 
+    def _crossing(self, energy: float, rng: np.random.Generator) -> tuple[int, int]:
+        """A history and its first point at or below ``energy``, no more than 1 % below it.
+
+        The collision that takes a history below ``energy`` overshoots it, by a large part of
+        the energy for a heavy ion's nuclear collisions (in CaWO4 the mean range of a 103 keV
+        Pb ion continued from a 200 keV history came out 13 % short). An ion's future depends
+        only on its energy and direction, so choosing among the histories whose first point
+        below ``energy`` lies within 1 % of it is unbiased to that 1 %. Fewer than
+        ``_MIN_CHOICE`` such histories: the ``_MIN_CHOICE`` closest.
+        """
+        above = np.add.reduceat((self.energies > energy).astype(np.int64), self.offsets[:-1])
+        index = self.offsets[:-1] + above
+        valid = index < self.offsets[1:]
+        start = np.where(valid, self.energies[np.minimum(index, len(self.energies) - 1)], -1.0)
+        close = np.flatnonzero(start >= energy * (1 - _CROSSING_TOLERANCE))
+        if len(close) < _MIN_CHOICE:
+            close = np.argsort(-start)[:_MIN_CHOICE]
+        k = int(close[rng.integers(len(close))])
+        return k, int(index[k])
+
     def continuation(
         self, energy: float, rng: np.random.Generator
     ) -> tuple[np.ndarray, np.ndarray, bool]:
@@ -75,11 +97,12 @@ class TrajectoryLibrary:
                 f"TRIM trajectory library in {self.material.name} (internal error: libraries are "
                 f"built for the largest energy a run needs)"
             )
-        k = int(rng.integers(self.size))
-        lo, hi = int(self.offsets[k]), int(self.offsets[k + 1])
-        e = self.energies[lo:hi]
-        # first point whose energy has fallen to `energy` (histories' energies never increase)
-        i = lo + int(np.searchsorted(-e, -energy, side="left"))
+        if energy >= self.energy * (1 - 1e-12):  # from the start: any history, exact
+            k = int(rng.integers(self.size))
+            i, hi = int(self.offsets[k]), int(self.offsets[k + 1])
+        else:
+            k, i = self._crossing(energy, rng)
+            hi = int(self.offsets[k + 1])
         if i >= hi - 1:
             return np.zeros((1, 3)), np.array([energy]), False
         pts = self.points[i:hi] - self.points[i]

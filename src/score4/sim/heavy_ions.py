@@ -75,31 +75,39 @@ class HeavyIonTransport:
         self.index = {str(lv.GetName()): k for k, lvs in enumerate(scoring.values()) for lv in lvs}
         self.histories = histories
         self.library_seed = library_seed
-        self._libraries: dict[tuple[str, str], TrajectoryLibrary] = {}
-        self._energy_needed: dict[str, float] = {}
+        self._libraries: dict[tuple[str, str, float], TrajectoryLibrary] = {}
+        self._energies: dict[str, set[float]] = {}
         self._compositions: dict[str, Composition] = {}
 
     # -- libraries -------------------------------------------------------------------------------
 
     def need(self, ion: str, energy: float) -> None:
-        """Announce the largest energy (MeV) an ion will have, so libraries are built for it."""
-        self._energy_needed[ion] = max(self._energy_needed.get(ion, 0.0), energy)
+        """Announce an energy (MeV) an ion starts with: it gets a library of exactly that energy.
 
-    def library(self, particle, ion: str, material) -> TrajectoryLibrary:
+        A history continued from its start is exact; one continued from inside (re-entry into
+        matter, a new material) starts after a collision that took the ion to or below the
+        wanted energy, a little lower on average (``tests/test_heavy_ions.py`` measures it).
+        """
+        energies = self._energies.setdefault(ion, set())
+        energies.add(round(float(energy), 12))
+
+    def library(self, particle, ion: str, material, energy: float) -> TrajectoryLibrary:
+        """The library of the smallest announced energy >= ``energy`` in ``material``."""
         name = str(material.GetName())
-        energy = self._energy_needed.get(ion, 0.0)
-        key = (ion, name)
+        candidates = sorted(e for e in self._energies.get(ion, ()) if e >= energy * (1 - 1e-12))
+        target = candidates[0] if candidates else float(energy)
+        key = (ion, name, target)
         lib = self._libraries.get(key)
-        if lib is None or lib.energy < energy:
+        if lib is None:
             comp = self._compositions.get(name)
             if comp is None:
                 comp = self._compositions[name] = Composition.from_g4_material(material)
             mass_amu = float(particle.GetPDGMass()) / float(self.g4.amu_c2)
             lib = trim_library(
                 ion,
-                int(round(particle.GetPDGCharge())),
+                round(particle.GetPDGCharge()),
                 mass_amu,
-                energy,
+                target,
                 comp,
                 n=self.histories,
                 seed=self.library_seed,
@@ -116,6 +124,9 @@ class HeavyIonTransport:
         return self.nav.LocateGlobalPointAndSetup(
             self._vec(point), self._vec(direction), relative, False
         )
+
+    def _is_vacuum(self, material) -> bool:
+        return float(material.GetDensity()) < VACUUM_DENSITY * self.g4.g / self.g4.cm3
 
     def transport(
         self,
@@ -142,9 +153,8 @@ class HeavyIonTransport:
             if pv is None:  # left the world
                 fate.escaped_energy = e
                 break
-            lv = pv.GetLogicalVolume()
-            material = lv.GetMaterial()
-            if float(material.GetDensity()) < VACUUM_DENSITY * self.g4.g / self.g4.cm3:
+            material = pv.GetLogicalVolume().GetMaterial()
+            if self._is_vacuum(material):
                 step = self.nav.ComputeStep(self._vec(pos), self._vec(d), _FAR, 0.0)
                 if step >= _FAR:
                     fate.escaped_energy = e
@@ -154,17 +164,14 @@ class HeavyIonTransport:
                 pv = self._locate(pos, d, relative=True)
                 fate.crossings += 1
                 continue
-            volume = self.index.get(str(lv.GetName()))
-            lib = self.library(particle, ion, material)
+            lib = self.library(particle, ion, material, e)
             rel, energies, left = lib.continuation(e, rng)
             points = pos + rel @ rotation_from_x(d).T
-            end = self._walk(points, energies, volume, fate)
-            if end is None:  # the history ended inside this volume
+            end = self._walk(points, energies, pv, fate)
+            if end is None:  # the history ended inside matter of this material
                 pos = points[-1]
                 e = float(energies[-1])
                 if not left:
-                    if e > 0:
-                        _add(fate.deposits, volume, e)
                     e = 0.0
                     break
                 # TRIM's layer ended (rare): go on from its last point in the same direction
@@ -172,64 +179,71 @@ class HeavyIonTransport:
                 d /= np.linalg.norm(d)
                 pv = self._locate(pos, d, relative=False)
                 continue
-            pos, e, d = end
-            self.nav.SetGeometricallyLimitedStep()
-            pv = self._locate(pos, d, relative=True)
-            fate.crossings += 1
+            pos, e, d, pv = end
         fate.position = pos
         return fate
 
-    def _walk(
-        self, points: np.ndarray, energies: np.ndarray, volume: int | None, fate: IonFate
-    ) -> tuple[np.ndarray, float, np.ndarray] | None:
-        """Deposit along ``points`` while they stay in the located volume.
+    def _walk(self, points: np.ndarray, energies: np.ndarray, pv, fate: IonFate):
+        """Deposit along ``points`` while they stay in matter of ``pv``'s material.
 
-        Returns ``(exit point, energy there, direction)`` at the first boundary, or None when the
-        polyline ends inside.
+        Crossing into another volume of the same material (a neighbouring patch, the target
+        under a rough layer) keeps the history. Returns ``(point, energy, direction, volume)``
+        where it enters other matter or vacuum, or None when the polyline ends.
         """
         g4 = self.g4
         nav = self.nav
+        material = str(pv.GetLogicalVolume().GetMaterial().GetName())
+        volume = self.index.get(str(pv.GetLogicalVolume().GetName()))
         m = len(points)
-        i = 0
-        centre = points[0]
-        safety = nav.ComputeSafety(self._vec(centre), _FAR, True)
+        i = 0  # the ion is on piece i, from `cur` to points[i + 1]
+        cur, e_cur = points[0], float(energies[0])
+        centre = cur
+        safety = nav.ComputeSafety(self._vec(cur), _FAR, True)
         while i < m - 1:
-            # pieces whose ends lie in the safety sphere about `centre` are inside the volume
+            # whole pieces whose ends lie in the safety sphere about `centre` are in the volume
             dist = np.linalg.norm(points[i + 1 :] - centre, axis=1)
             outside = np.flatnonzero(dist >= safety)
             j = i + (int(outside[0]) if len(outside) else m - 1 - i)
             if j > i:
-                _add(fate.deposits, volume, float(energies[i] - energies[j]))
+                _add(fate.deposits, volume, e_cur - float(energies[j]))
+                path = np.vstack([cur, points[i + 1 : j + 1]])
                 _add(
-                    fate.lengths,
-                    volume,
-                    float(np.linalg.norm(np.diff(points[i : j + 1], axis=0), axis=1).sum()),
+                    fate.lengths, volume, float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
                 )
-                i = j
+                i, cur, e_cur = j, points[j], float(energies[j])
                 if i >= m - 1:
-                    return None
-            a, b = points[i], points[i + 1]
-            length = float(np.linalg.norm(b - a))
+                    break
+            b = points[i + 1]
+            length = float(np.linalg.norm(b - cur))
             if length == 0.0:
                 i += 1
                 continue
-            u = (b - a) / length
-            pa = g4.G4ThreeVector(*a)
+            u = (b - cur) / length
+            pa = g4.G4ThreeVector(*cur)
             nav.LocateGlobalPointWithinVolume(pa)
             step = nav.ComputeStep(pa, g4.G4ThreeVector(*u), length, 0.0)
             if step >= length:
-                _add(fate.deposits, volume, float(energies[i] - energies[i + 1]))
+                _add(fate.deposits, volume, e_cur - float(energies[i + 1]))
                 _add(fate.lengths, volume, length)
-                i += 1
-                centre = b
-                nav.LocateGlobalPointWithinVolume(g4.G4ThreeVector(*b))
-                safety = nav.ComputeSafety(g4.G4ThreeVector(*b), _FAR, True)
+                i, cur, e_cur = i + 1, b, float(energies[i + 1])
+                centre = cur
+                nav.LocateGlobalPointWithinVolume(g4.G4ThreeVector(*cur))
+                safety = nav.ComputeSafety(g4.G4ThreeVector(*cur), _FAR, True)
                 continue
-            lost = float(energies[i] - energies[i + 1]) * step / length
+            lost = (e_cur - float(energies[i + 1])) * step / length
             _add(fate.deposits, volume, lost)
             _add(fate.lengths, volume, step)
-            return a + step * u, float(energies[i]) - lost, u
-        return None
+            cur, e_cur = cur + step * u, e_cur - lost
+            fate.crossings += 1
+            nav.SetGeometricallyLimitedStep()
+            nxt = self._locate(cur, u, relative=True)
+            if nxt is None or str(nxt.GetLogicalVolume().GetMaterial().GetName()) != material:
+                return cur, e_cur, u, nxt
+            volume = self.index.get(str(nxt.GetLogicalVolume().GetName()))
+            centre, safety = cur, 0.0
+        return (
+            None  # a stopped history's last energy is 0 (TRIM's <= 1 eV rest is in its last piece)
+        )
 
 
 def _add(table: dict[int, float], key: int | None, value: float) -> None:
