@@ -97,7 +97,7 @@ class TrajectoryLibrary:
                 f"TRIM trajectory library in {self.material.name} (internal error: libraries are "
                 f"built for the largest energy a run needs)"
             )
-        if energy >= self.energy * (1 - 1e-12):  # from the start: any history, exact
+        if energy >= self.energy * (1 - 1e-9):  # from the start: any history, exact
             k = int(rng.integers(self.size))
             i, hi = int(self.offsets[k]), int(self.offsets[k + 1])
         else:
@@ -115,17 +115,20 @@ class TrajectoryLibrary:
 
 def _rotation_to_x(u: np.ndarray, azimuth: float) -> np.ndarray:
     """A rotation taking unit vector ``u`` to +x, followed by a turn ``azimuth`` about +x."""
-    x = np.array([1.0, 0.0, 0.0])
-    v = np.cross(u, x)
-    s, c = np.linalg.norm(v), float(u @ x)
-    if s < 1e-12:
-        base = np.eye(3) if c > 0 else np.diag([-1.0, -1.0, 1.0])
-    else:
-        k = v / s
-        kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-        base = np.eye(3) + s * kx + (1 - c) * (kx @ kx)
+    ux, uy, uz = float(u[0]), float(u[1]), float(u[2])
     ca, sa = np.cos(azimuth), np.sin(azimuth)
     spin = np.array([[1.0, 0.0, 0.0], [0.0, ca, -sa], [0.0, sa, ca]])
+    if ux < -1 + 1e-12:  # u = -x: half a turn about z
+        return spin @ np.diag([-1.0, -1.0, 1.0])
+    # Rodrigues' formula for the axis u x (+x) = (0, uz, -uy) and cos = ux, in closed form
+    f = 1.0 / (1.0 + ux)
+    base = np.array(
+        [
+            [ux, uy, uz],
+            [-uy, 1.0 - f * uy * uy, -f * uy * uz],
+            [-uz, -f * uy * uz, 1.0 - f * uz * uz],
+        ]
+    )
     return spin @ base
 
 

@@ -192,48 +192,51 @@ class HeavyIonTransport:
         """
         g4 = self.g4
         nav = self.nav
+        vec = g4.G4ThreeVector
         material = str(pv.GetLogicalVolume().GetMaterial().GetName())
         volume = self.index.get(str(pv.GetLogicalVolume().GetName()))
         m = len(points)
+        pieces = points[1:] - points[:-1]
+        piece_length = np.sqrt(np.einsum("ij,ij->i", pieces, pieces))
+        walked = np.concatenate([[0.0], np.cumsum(piece_length)])  # path length to each point
         i = 0  # the ion is on piece i, from `cur` to points[i + 1]
-        cur, e_cur = points[0], float(energies[0])
+        cur, e_cur, s_cur = points[0], float(energies[0]), 0.0
         centre = cur
-        safety = nav.ComputeSafety(self._vec(cur), _FAR, True)
+        safety = nav.ComputeSafety(vec(*cur), _FAR, True)
         while i < m - 1:
             # whole pieces whose ends lie in the safety sphere about `centre` are in the volume
-            dist = np.linalg.norm(points[i + 1 :] - centre, axis=1)
-            outside = np.flatnonzero(dist >= safety)
-            j = i + (int(outside[0]) if len(outside) else m - 1 - i)
-            if j > i:
-                _add(fate.deposits, volume, e_cur - float(energies[j]))
-                path = np.vstack([cur, points[i + 1 : j + 1]])
-                _add(
-                    fate.lengths, volume, float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
-                )
-                i, cur, e_cur = j, points[j], float(energies[j])
-                if i >= m - 1:
-                    break
+            if safety > 0:
+                rest = points[i + 1 :] - centre
+                outside = np.einsum("ij,ij->i", rest, rest) >= safety * safety
+                j = i + (int(np.argmax(outside)) if outside.any() else m - 1 - i)
+                if j > i:
+                    _add(fate.deposits, volume, e_cur - float(energies[j]))
+                    _add(fate.lengths, volume, float(walked[j]) - s_cur)
+                    i, cur, e_cur, s_cur = j, points[j], float(energies[j]), float(walked[j])
+                    if i >= m - 1:
+                        break
             b = points[i + 1]
-            length = float(np.linalg.norm(b - cur))
-            if length == 0.0:
+            length = float(walked[i + 1]) - s_cur
+            if length <= 0.0:
                 i += 1
                 continue
             u = (b - cur) / length
-            pa = g4.G4ThreeVector(*cur)
+            pa = vec(*cur)
             nav.LocateGlobalPointWithinVolume(pa)
-            step = nav.ComputeStep(pa, g4.G4ThreeVector(*u), length, 0.0)
+            step = nav.ComputeStep(pa, vec(*u), length, 0.0)
             if step >= length:
                 _add(fate.deposits, volume, e_cur - float(energies[i + 1]))
                 _add(fate.lengths, volume, length)
-                i, cur, e_cur = i + 1, b, float(energies[i + 1])
+                i, cur, e_cur, s_cur = i + 1, b, float(energies[i + 1]), float(walked[i + 1])
                 centre = cur
-                nav.LocateGlobalPointWithinVolume(g4.G4ThreeVector(*cur))
-                safety = nav.ComputeSafety(g4.G4ThreeVector(*cur), _FAR, True)
+                pb = vec(*cur)
+                nav.LocateGlobalPointWithinVolume(pb)
+                safety = nav.ComputeSafety(pb, _FAR, True)
                 continue
             lost = (e_cur - float(energies[i + 1])) * step / length
             _add(fate.deposits, volume, lost)
             _add(fate.lengths, volume, step)
-            cur, e_cur = cur + step * u, e_cur - lost
+            cur, e_cur, s_cur = cur + step * u, e_cur - lost, s_cur + step
             fate.crossings += 1
             nav.SetGeometricallyLimitedStep()
             nxt = self._locate(cur, u, relative=True)
