@@ -41,3 +41,62 @@ def run_config(data: dict, seed: int):
         "edep": scores["edep"],
         "volumes": sim.volumes,
     }
+
+
+def two_layers(gap_nm: float, events: int):
+    """103 keV Pb-206 along -z into a 20 nm Si layer on a Si block, ``gap_nm`` apart."""
+    data = {
+        "physics": {"mode": "lite", "trim_histories": 300},
+        "targets": [
+            {
+                "name": "block",
+                "material": "G4_Si",
+                "size": ["1 mm", "1 mm", "1 mm"],
+                "position": ["0 mm", "0 mm", "-0.5 mm"],
+            },
+            {
+                "name": "layer",
+                "material": "G4_Si",
+                "size": ["1 mm", "1 mm", "20 nm"],
+                "position": ["0 mm", "0 mm", f"{gap_nm + 10} nm"],
+            },
+        ],
+        "source": {
+            "particle": "Pb206",
+            "energy": "103.144 keV",
+            "direction": "normal",
+            "surface": {"volume": "layer", "face": "+z"},
+        },
+        "run": {"events": events, "seed": 3},
+    }
+    return run_config(data, 3)
+
+
+def po210(rough: bool, events: int):
+    """Po-210 (alpha + Pb-206 recoil) 20 nm (mean, exponential) under a Si face."""
+    data = {
+        "physics": {"mode": "lite"},
+        "targets": [
+            {
+                "name": "crystal",
+                "material": "G4_Si",
+                "size": ["2 mm", "2 mm", "1 mm"],
+                "position": ["0 mm", "0 mm", "-0.5 mm"],
+            }
+        ],
+        "source": {
+            "decay": "Po210",
+            "direction": "isotropic",
+            "surface": {"volume": "crystal", "face": "+z"},
+            "depth": {"profile": "exponential", "mean": "20 nm"},
+        },
+        "run": {"events": events, "seed": 5},
+    }
+    if rough:
+        data["surfaces"] = {
+            "pyramids": {"kind": "spikes", "nx": 20, "ny": 20, "width": "10 um", "height": "10 um"}
+        }
+        data["targets"][0]["rough"] = [
+            {"face": "+z", "surface": "pyramids", "base_thickness": "1 um"}
+        ]
+    return run_config(data, 5)

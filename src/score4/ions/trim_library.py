@@ -31,7 +31,7 @@ from .composition import Composition
 _CROSSING_TOLERANCE = 0.01
 _MIN_CHOICE = 20
 # Bump when the stored arrays change meaning.
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 ANGSTROM_MM = 1e-7
 # TRIM's target: one layer of this many expected ranges, so (almost) no ion crosses it; a history
 # that does cross (or leaves through the entry face) ends there and is continued by the walker.
@@ -42,10 +42,12 @@ _DEPTH_IN_RANGES = 20.0
 class TrajectoryLibrary:
     """TRIM histories of one ion at one energy in one material (see the module docstring).
 
-    ``points`` (N, 3) mm and ``energies`` (N,) MeV of all histories one after another; history
-    ``k`` is rows ``offsets[k]:offsets[k+1]``. ``left[k]`` is True when history ``k`` ended by
-    leaving the TRIM layer (backscattered or transmitted) rather than by stopping; its last
-    point is then where it left, with the energy it had there.
+    ``points`` (N, 3) mm of all histories one after another; history ``k`` is rows
+    ``offsets[k]:offsets[k+1]``. At each point ``arrivals`` (N,) MeV is the ion's energy when it
+    gets there and ``energies`` (N,) after its collision there: between two points it loses
+    energy continuously (electronic stopping), at a point at once (the nuclear collision).
+    ``left[k]`` is True when history ``k`` ended by leaving the TRIM layer (backscattered or
+    transmitted) rather than by stopping; its last point is then where it left.
     """
 
     ion: str
@@ -55,6 +57,7 @@ class TrajectoryLibrary:
     offsets: np.ndarray
     points: np.ndarray
     energies: np.ndarray
+    arrivals: np.ndarray
     left: np.ndarray
 
     @property
@@ -83,13 +86,14 @@ class TrajectoryLibrary:
 
     def continuation(
         self, energy: float, rng: np.random.Generator
-    ) -> tuple[np.ndarray, np.ndarray, bool]:
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
         """A random history continued from kinetic energy ``energy`` (MeV).
 
-        Returns ``(points, energies, left)``: points relative to the start, (m, 3) mm with the
-        first row zero and the first piece along +x, the energies there (the first equal to
-        ``energy``), and whether the history ends by leaving TRIM's layer (not by stopping).
-        With ``m == 1`` the ion is at rest already (``energy`` below every history's end).
+        Returns ``(points, energies, arrivals, left)``: points relative to the start, (m, 3) mm
+        with the first row zero and the first piece along +x; the energies after each point's
+        collision (the first equal to ``energy``) and on arrival at each point (the first
+        equal to ``energy`` too); whether the history ends by leaving TRIM's layer. With
+        ``m == 1`` the ion is at rest already (``energy`` below every history's end).
         """
         if energy > self.energy * (1 + 1e-9):
             raise Score4Error(
@@ -104,13 +108,14 @@ class TrajectoryLibrary:
             k, i = self._crossing(energy, rng)
             hi = int(self.offsets[k + 1])
         if i >= hi - 1:
-            return np.zeros((1, 3)), np.array([energy]), False
+            return np.zeros((1, 3)), np.array([energy]), np.array([energy]), False
         pts = self.points[i:hi] - self.points[i]
         u = pts[1] / np.linalg.norm(pts[1])
         rotated = pts @ _rotation_to_x(u, rng.uniform(0.0, 2 * np.pi)).T
         energies = self.energies[i:hi].copy()
-        energies[0] = energy
-        return rotated, energies, bool(self.left[k])
+        arrivals = self.arrivals[i:hi].copy()
+        energies[0] = arrivals[0] = energy
+        return rotated, energies, arrivals, bool(self.left[k])
 
 
 def _rotation_to_x(u: np.ndarray, azimuth: float) -> np.ndarray:
@@ -207,6 +212,7 @@ def trim_library(
                     data["offsets"],
                     data["points"],
                     data["energies"],
+                    data["arrivals"],
                     data["left"],
                 )
         except (OSError, ValueError, KeyError):
@@ -220,6 +226,7 @@ def trim_library(
             offsets=library.offsets,
             points=library.points,
             energies=library.energies,
+            arrivals=library.arrivals,
             left=library.left,
         )
         os.replace(tmp, path)
@@ -273,24 +280,27 @@ def _compute(
     )
 
     class Recorder(TrimEngine):
-        """Keeps the position and energy after every collision (TRIM's results are unchanged)."""
+        """Keeps the position and the energies before and after every collision.
+
+        (TRIM's own results are unchanged: this only reads the ion's state.)
+        """
 
         def tally_ion_path(self, st, xold, de, tt, atom):
-            self.rows.append((st.x, st.y, st.z, st.e))
+            self.rows.append((st.x, st.y, st.z, st.e, st.e + tt))
             return super().tally_ion_path(st, xold, de, tt, atom)
 
     engine = Recorder(calc.trim_input())
     offsets = [0]
-    rows: list[tuple[float, float, float, float]] = []
+    rows: list[tuple[float, float, float, float, float]] = []
     left = np.zeros(n, dtype=bool)
     for k in range(n):
-        engine.rows = [(0.0, 0.0, 0.0, engine.e0)]
+        engine.rows = [(0.0, 0.0, 0.0, engine.e0, engine.e0)]
         state = engine.run_ion()
         if engine.fate in ("B", "T"):  # left the layer: the exit point ends the history
-            engine.rows.append((state.x, state.y, state.z, state.e))
+            engine.rows.append((state.x, state.y, state.z, state.e, state.e))
             left[k] = True
         else:  # stopped: TRIM's last energy (<= 1 eV) is deposited where it stops
-            engine.rows[-1] = (*engine.rows[-1][:3], 0.0)
+            engine.rows[-1] = (*engine.rows[-1][:3], 0.0, engine.rows[-1][4])
         rows.extend(engine.rows)
         offsets.append(len(rows))
     data = np.asarray(rows, dtype=float)
@@ -302,5 +312,6 @@ def _compute(
         np.asarray(offsets, dtype=np.int64),
         data[:, :3] * ANGSTROM_MM,
         data[:, 3] * 1e-6,  # eV -> MeV
+        data[:, 4] * 1e-6,
         left,
     )

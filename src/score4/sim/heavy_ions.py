@@ -165,9 +165,9 @@ class HeavyIonTransport:
                 fate.crossings += 1
                 continue
             lib = self.library(particle, ion, material, e)
-            rel, energies, left = lib.continuation(e, rng)
+            rel, energies, arrivals, left = lib.continuation(e, rng)
             points = pos + rel @ rotation_from_x(d).T
-            end = self._walk(points, energies, pv, fate)
+            end = self._walk(points, energies, arrivals, pv, fate)
             if end is None:  # the history ended inside matter of this material
                 pos = points[-1]
                 e = float(energies[-1])
@@ -183,8 +183,14 @@ class HeavyIonTransport:
         fate.position = pos
         return fate
 
-    def _walk(self, points: np.ndarray, energies: np.ndarray, pv, fate: IonFate):
+    def _walk(
+        self, points: np.ndarray, energies: np.ndarray, arrivals: np.ndarray, pv, fate: IonFate
+    ):
         """Deposit along ``points`` while they stay in matter of ``pv``'s material.
+
+        A whole piece deposits what the ion loses from one point to the next, collision at the
+        end included; a piece cut by a boundary deposits its share of the electronic loss only
+        (the collision at its end does not happen).
 
         Crossing into another volume of the same material (a neighbouring patch, the target
         under a rough layer) keeps the history. Returns ``(point, energy, direction, volume)``
@@ -233,7 +239,7 @@ class HeavyIonTransport:
                 nav.LocateGlobalPointWithinVolume(pb)
                 safety = nav.ComputeSafety(pb, _FAR, True)
                 continue
-            lost = (e_cur - float(energies[i + 1])) * step / length
+            lost = (e_cur - float(arrivals[i + 1])) * step / length
             _add(fate.deposits, volume, lost)
             _add(fate.lengths, volume, step)
             cur, e_cur, s_cur = cur + step * u, e_cur - lost, s_cur + step
