@@ -19,7 +19,6 @@ from ..errors import PhysicsUnavailableError
 # What lite physics cannot do, said once to the user and stored with every run.
 LITE_LACKS = (
     "standard EM (option0) instead of option4; "
-    "no nuclear stopping, so heavy recoils (e.g. 103 keV Pb-206) go several times too far; "
     "no bremsstrahlung, and gammas cross matter without interacting; "
     "no fluorescence/Auger; no radioactive decay"
 )
