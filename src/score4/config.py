@@ -112,6 +112,20 @@ class MaterialSpec(StrictModel):
         return Composition(name, tuple(atoms.items()), self.density)
 
 
+def check_material_name(name: str) -> None:
+    """Raise ValueError unless ``name`` may name a ``materials:`` entry."""
+    if name.startswith("G4_"):
+        raise ValueError(
+            f"{name!r}: names starting with G4_ belong to Geant4's NIST database; "
+            f"use a NIST name directly or give this material another name"
+        )
+    if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_\-+.]*", name):
+        raise ValueError(
+            f"{name!r}: a material name starts with a letter or _ and holds letters, "
+            f"digits and _ - + ."
+        )
+
+
 class WorldConfig(StrictModel):
     material: str = "G4_Galactic"
     margin: PositiveLength = 10.0  # space around the targets, mm
@@ -339,16 +353,7 @@ class RunConfig(StrictModel):
     @classmethod
     def _material_names(cls, v: dict[str, MaterialSpec]) -> dict[str, MaterialSpec]:
         for name in v:
-            if name.startswith("G4_"):
-                raise ValueError(
-                    f"{name!r}: names starting with G4_ belong to Geant4's NIST database; "
-                    f"use a NIST name directly or give this material another name"
-                )
-            if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_\-+.]*", name):
-                raise ValueError(
-                    f"{name!r}: a material name starts with a letter or _ and holds letters, "
-                    f"digits and _ - + ."
-                )
+            check_material_name(name)
         return v
 
     @model_validator(mode="after")

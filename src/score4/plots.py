@@ -417,3 +417,54 @@ def plot_depths(
     ax.grid(alpha=0.3)
     _save(fig, out_png)
     return hists
+
+
+@dataclass(frozen=True)
+class RangeDepths:
+    """Drawn depth histograms of stopped ions: ``density`` per nm (each integrates to 1) on ``edges_nm``."""
+
+    labels: list[str]
+    edges_nm: np.ndarray
+    density: list[np.ndarray]
+    stopped: list[int]
+
+
+def plot_range_depths(
+    samples: dict, path: str | Path, title: str, bins: int | None = None
+) -> RangeDepths:
+    """Depth distributions of the stopped ions of several :class:`~score4.ions.srim_reference.RangeSample`.
+
+    ``samples`` maps a legend label (``"score4"``, ``"TRIM"``) to a sample; all share the same
+    bins and each is normalised to unit area over depth (nm), so shapes compare directly.
+    """
+    depths = {k: s.final_position[s.stopped, 2] * 1e6 for k, s in samples.items()}
+    every = np.concatenate([d for d in depths.values()] + [np.zeros(0)])
+    if bins is None:  # about sqrt(n) bins for the smallest sample, 20 to 60
+        smallest = min((len(d) for d in depths.values() if len(d)), default=400)
+        bins = int(np.clip(np.sqrt(smallest), 20, 60))
+    hi = float(every.max()) if len(every) else 1.0
+    lo = min(0.0, float(every.min())) if len(every) else 0.0
+    edges = np.linspace(lo, hi * 1.02 if hi > 0 else 1.0, bins + 1)
+    fig = Figure(figsize=(7, 4.5))
+    ax = fig.add_subplot()
+    drawn = []
+    for (label, d), style in zip(depths.items(), ("-", "--", ":", "-.")):
+        density = np.histogram(d, edges, density=True)[0] if len(d) else np.zeros(bins)
+        drawn.append(density)
+        n_all = samples[label].events
+        ax.stairs(
+            density,
+            edges,
+            linestyle=style,
+            linewidth=1.6,
+            label=f"{label} ({len(d)} of {n_all} ions stopped)",
+        )
+    ax.set_xlabel("depth below the entrance face z (nm)")
+    ax.set_ylabel("stopped ions per nm (normalised to 1)")
+    ax.set_title(title)
+    ax.legend()
+    ax.set_xlim(edges[0], edges[-1])
+    ax.set_ylim(bottom=0)
+    fig.tight_layout()
+    _save(fig, path)
+    return RangeDepths(list(depths), edges, drawn, [len(d) for d in depths.values()])

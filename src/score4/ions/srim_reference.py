@@ -101,6 +101,8 @@ def summarize(sample: RangeSample) -> dict:
       here they are pooled: ``sqrt(<(x^2 + y^2) / 2>)``, the radial rms over sqrt(2), which is
       also what SRIM's range table calls lateral straggling. (At oblique incidence TRIM takes
       the axis in the plane of the tilt, whose mean is not zero; this definition is not that.)
+      ``straggling_err_nm`` and ``lateral_err_nm`` are the standard errors of a normal
+      distribution's standard deviation (sigma / sqrt(2 (n - 1))) and rms (over 2n values).
     * ``backscattered_fraction``, ``transmitted_fraction`` with binomial errors ``*_err``.
     * ``mean_exit_energy_keV``: mean kinetic energy of the transmitted ions (``*_err_keV``).
     * ``mean_deposited_keV``: mean energy deposited per ion (nan if the sample does not know).
@@ -113,13 +115,17 @@ def summarize(sample: RangeSample) -> dict:
     exit_kev = sample.exit_energy[sample.transmitted] * 1e3
     deposited = sample.deposited * 1e3
     nan = math.nan
+    straggling = float(z.std()) if len(z) > 1 else nan
+    lateral = float(np.sqrt((xy**2).sum(axis=1).mean() / 2)) if len(z) else nan
     return {
         "events": sample.events,
         "stopped": int(sample.stopped.sum()),
         "projected_range_nm": float(z.mean()) if len(z) else nan,
         "projected_range_err_nm": _sem(z),
-        "straggling_nm": float(z.std()) if len(z) > 1 else nan,
-        "lateral_nm": float(np.sqrt((xy**2).sum(axis=1).mean() / 2)) if len(z) else nan,
+        "straggling_nm": straggling,
+        "straggling_err_nm": straggling / math.sqrt(2 * (len(z) - 1)) if len(z) > 1 else nan,
+        "lateral_nm": lateral,
+        "lateral_err_nm": lateral / math.sqrt(4 * len(z)) if len(z) else nan,
         "backscattered_fraction": back,
         "backscattered_fraction_err": back_err,
         "transmitted_fraction": trans,
