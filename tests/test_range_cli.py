@@ -182,7 +182,12 @@ def test_materials_from_config(fake, capfd, tmp_path):
         ),
         (["Pb206", "103 keV", "G4_Si", "--events", "0"], "--events: must be >= 1"),
         (["Pb206", "103 keV", "G4_Si", "--events", "many"], "--events: expected an integer"),
-        (["Pb206", "103 keV", "G4_Si", "--angle", "90"], "--angle: .* within \\+-89.99 degrees"),
+        (["Pb206", "103 keV", "G4_Si", "--angle", "90"], "--angle: .* <= 89.99 degrees"),
+        (["Pb206", "103 keV", "G4_Si", "--angle", "-10"], "--angle: .* >= 0"),
+        (
+            ["Pb206", "2 MeV", "G4_Si"],
+            r"above the validity of score4's heavy-ion model for Pb-206: .* up to 1 MeV",
+        ),
         (["Pb206", "103 keV", "G4_Si", "--thickness", "0 nm"], "--thickness: must be > 0"),
         (["Pb206", "103 keV", "G4_Si", "--thickness", "20"], "--thickness: '20' has no unit"),
         (

@@ -28,6 +28,9 @@ ROWS = (
     ("mean_exit_energy_keV", "mean exit energy (transmitted)", "energy"),
     ("mean_deposited_keV", "mean deposited energy", "energy"),
 )
+# Heavy ions (Z > 2) follow TRIM trajectories up to this energy unless the run configuration
+# schema says otherwise (physics.trim_max_energy).
+HEAVY_ION_MAX_MEV = 1.0
 ERRORS = {
     "projected_range_nm": "projected_range_err_nm",
     "straggling_nm": "straggling_err_nm",
@@ -293,11 +296,12 @@ def range_command(
         angle_deg = float(str(angle).removesuffix("deg").strip())
     except ValueError:
         raise ConfigError(f"--angle: expected degrees such as 60, got {angle!r}") from None
-    if not -89.99 <= angle_deg <= 89.99:
+    if not 0 <= angle_deg <= 89.99:
         raise ConfigError(
-            f"--angle: the incidence angle from the normal must be within +-89.99 degrees, "
+            f"--angle: the incidence angle from the normal must be >= 0 and <= 89.99 degrees, "
             f"got {angle!r}"
         )
+    check_model_energy(species, energy_mev)
     if compare_srim:
         _check_lunasrim()
         from ..ions.srim_reference import SRIM_MAX_Z, check_srim_energy
@@ -350,6 +354,27 @@ def range_command(
         click.echo(json.dumps(_finite(result), indent=2))
     else:
         click.echo(format_table(result))
+
+
+def heavy_ion_limit_mev() -> float:
+    """Energy up to which ions with Z > 2 follow TRIM trajectories in score4 (MeV)."""
+    from ..config import PhysicsConfig
+
+    field = PhysicsConfig.model_fields.get("trim_max_energy")
+    return float(field.default) if field is not None else HEAVY_ION_MAX_MEV
+
+
+def check_model_energy(species, energy_mev: float) -> None:
+    """Refuse energies outside score4's validated ion transport (heavy ions: TRIM replay)."""
+    if species.z > 2:
+        limit = heavy_ion_limit_mev()
+        if energy_mev > limit:
+            raise ConfigError(
+                f"ENERGY: {energy_mev:g} MeV is above the validity of score4's heavy-ion model for "
+                f"{species.label}: ions with Z > 2 follow TRIM trajectories up to {limit:g} MeV "
+                f"(physics.trim_max_energy); above it Geant4's ion transport, which ranges slow "
+                f"heavy ions wrongly, would be used"
+            )
 
 
 def _int(text, option: str) -> int:
