@@ -252,3 +252,22 @@ def test_unknown_material_with_real_geant4_names(tmp_path):
     assert proc.returncode == 2, proc.stderr
     assert "MATERIAL: unknown material 'CaWO4'" in proc.stderr
     assert "chemical formula with --density" in proc.stderr
+
+
+def test_depth_plot_shares_bins_and_normalises(tmp_path):
+    from score4.plots import plot_range_depths
+
+    rng = np.random.default_rng(4)
+
+    def sample(mean_nm, n):
+        pos = np.column_stack([np.zeros(n), np.zeros(n), rng.normal(mean_nm, 5, n) * 1e-6])
+        none = np.zeros(n, bool)
+        return RangeSample(pos, ~none, none, none, np.zeros(n), np.full(n, 0.1))
+
+    drawn = plot_range_depths(
+        {"score4": sample(40, 300), "TRIM": sample(45, 500)}, tmp_path / "d.png", "test"
+    )
+    widths = np.diff(drawn.edges_nm)
+    assert [float((d * widths).sum()) for d in drawn.density] == pytest.approx([1.0, 1.0])
+    assert drawn.stopped == [300, 500] and drawn.edges_nm[0] >= 0
+    assert (tmp_path / "d.png").stat().st_size > 10_000

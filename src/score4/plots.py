@@ -435,16 +435,18 @@ def plot_range_depths(
     """Depth distributions of the stopped ions of several :class:`~score4.ions.srim_reference.RangeSample`.
 
     ``samples`` maps a legend label (``"score4"``, ``"TRIM"``) to a sample; all share the same
-    bins and each is normalised to unit area over depth (nm), so shapes compare directly.
+    bins, which span the stopped ions' depths (5 % margins), and each is normalised to unit
+    area over depth, so shapes compare directly. Depths are drawn in nm, or in um beyond 10 um.
     """
     depths = {k: s.final_position[s.stopped, 2] * 1e6 for k, s in samples.items()}
     every = np.concatenate([d for d in depths.values()] + [np.zeros(0)])
     if bins is None:  # about sqrt(n) bins for the smallest sample, 20 to 60
         smallest = min((len(d) for d in depths.values() if len(d)), default=400)
         bins = int(np.clip(np.sqrt(smallest), 20, 60))
-    hi = float(every.max()) if len(every) else 1.0
-    lo = min(0.0, float(every.min())) if len(every) else 0.0
-    edges = np.linspace(lo, hi * 1.02 if hi > 0 else 1.0, bins + 1)
+    lo, hi = (float(every.min()), float(every.max())) if len(every) else (0.0, 1.0)
+    margin = 0.05 * (hi - lo) if hi > lo else max(abs(hi), 1.0) * 0.05
+    edges = np.linspace(max(0.0, lo - margin), hi + margin, bins + 1)
+    scale, unit = (1e-3, "um") if edges[-1] > 1e4 else (1.0, "nm")
     fig = Figure(figsize=(7, 4.5))
     ax = fig.add_subplot()
     drawn = []
@@ -453,17 +455,18 @@ def plot_range_depths(
         drawn.append(density)
         n_all = samples[label].events
         ax.stairs(
-            density,
-            edges,
+            density / scale,
+            edges * scale,
             linestyle=style,
             linewidth=1.6,
             label=f"{label} ({len(d)} of {n_all} ions stopped)",
         )
-    ax.set_xlabel("depth below the entrance face z (nm)")
-    ax.set_ylabel("stopped ions per nm (normalised to 1)")
+    ax.set_xlabel(f"depth below the entrance face z ({unit})")
+    ax.set_ylabel(f"stopped ions per {unit} (normalised to 1)")
     ax.set_title(title)
-    ax.set_xlim(edges[0], edges[-1])
-    ax.set_ylim(0, 1.3 * max((float(d.max()) for d in drawn if len(d)), default=1.0) or 1.0)
+    ax.set_xlim(edges[0] * scale, edges[-1] * scale)
+    top = max((float(d.max()) for d in drawn if len(d)), default=0.0) / scale
+    ax.set_ylim(0, 1.3 * top if top > 0 else 1.0)
     ax.legend(loc="upper right", fontsize="small")
     fig.tight_layout()
     _save(fig, path)
