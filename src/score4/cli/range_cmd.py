@@ -275,45 +275,9 @@ def range_command(
 
         score4 range Pb206 "103 keV" G4_Si --compare-srim
     """
-    from ..ions.species import parse_ion
-    from ..units import parse_quantity
-
-    species = parse_ion(ion, "ION")
-    energy_mev = parse_quantity(energy, "energy", "ENERGY")
-    if not energy_mev > 0:
-        raise ConfigError(f"ENERGY: must be > 0, got {energy!r}")
-    n_events = _positive_int(events, "--events")
-    n_srim = _positive_int(srim_events, "--srim-events") if srim_events is not None else n_events
-    seed_value = _int(seed, "--seed")
-    if not 0 <= seed_value < 2147483563:
-        raise ConfigError(f"--seed: must be in [0, 2147483562], got {seed!r}")
-    thickness_mm = None
-    if thickness is not None:
-        thickness_mm = parse_quantity(thickness, "length", "--thickness")
-        if not thickness_mm > 0:
-            raise ConfigError(f"--thickness: must be > 0, got {thickness!r}")
-    try:
-        angle_deg = float(str(angle).removesuffix("deg").strip())
-    except ValueError:
-        raise ConfigError(f"--angle: expected degrees such as 60, got {angle!r}") from None
-    if not 0 <= angle_deg <= 89.99:
-        raise ConfigError(
-            f"--angle: the incidence angle from the normal must be >= 0 and <= 89.99 degrees, "
-            f"got {angle!r}"
-        )
-    check_model_energy(species, energy_mev)
-    if compare_srim:
-        _check_lunasrim()
-        from ..ions.srim_reference import SRIM_MAX_Z, check_srim_energy
-
-        if species.z > SRIM_MAX_Z:
-            raise ConfigError(
-                f"ION: {species.label} has Z = {species.z}; SRIM/TRIM knows ions up to Z = 92"
-            )
-        try:
-            check_srim_energy(species, energy_mev)
-        except ConfigError as err:
-            raise ConfigError(f"ENERGY: {str(err).removeprefix('energy: ')}") from None
+    species, energy_mev, n_events, n_srim, seed_value, thickness_mm, angle_deg = parse_case(
+        ion, energy, events, srim_events, seed, thickness, angle, compare_srim
+    )
     if png is not None:
         from ..export import check_output_path
 
@@ -354,6 +318,54 @@ def range_command(
         click.echo(json.dumps(_finite(result), indent=2))
     else:
         click.echo(format_table(result))
+
+
+def parse_case(ion, energy, events, srim_events, seed, thickness, angle, compare_srim):
+    """Check the command's arguments; return (species, MeV, events, TRIM ions, seed, mm, deg).
+
+    Raises :class:`ConfigError` (one line naming the argument) for anything out of range,
+    before any simulation starts.
+    """
+    from ..ions.species import parse_ion
+    from ..units import parse_quantity
+
+    species = parse_ion(ion, "ION")
+    energy_mev = parse_quantity(energy, "energy", "ENERGY")
+    if not energy_mev > 0:
+        raise ConfigError(f"ENERGY: must be > 0, got {energy!r}")
+    n_events = _positive_int(events, "--events")
+    n_srim = _positive_int(srim_events, "--srim-events") if srim_events is not None else n_events
+    seed_value = _int(seed, "--seed")
+    if not 0 <= seed_value < 2147483563:
+        raise ConfigError(f"--seed: must be in [0, 2147483562], got {seed!r}")
+    thickness_mm = None
+    if thickness is not None:
+        thickness_mm = parse_quantity(thickness, "length", "--thickness")
+        if not thickness_mm > 0:
+            raise ConfigError(f"--thickness: must be > 0, got {thickness!r}")
+    try:
+        angle_deg = float(str(angle).removesuffix("deg").strip())
+    except ValueError:
+        raise ConfigError(f"--angle: expected degrees such as 60, got {angle!r}") from None
+    if not 0 <= angle_deg <= 89.99:
+        raise ConfigError(
+            f"--angle: the incidence angle from the normal must be >= 0 and <= 89.99 degrees, "
+            f"got {angle!r}"
+        )
+    check_model_energy(species, energy_mev)
+    if compare_srim:
+        _check_lunasrim()
+        from ..ions.srim_reference import SRIM_MAX_Z, check_srim_energy
+
+        if species.z > SRIM_MAX_Z:
+            raise ConfigError(
+                f"ION: {species.label} has Z = {species.z}; SRIM/TRIM knows ions up to Z = 92"
+            )
+        try:
+            check_srim_energy(species, energy_mev)
+        except ConfigError as err:
+            raise ConfigError(f"ENERGY: {str(err).removeprefix('energy: ')}") from None
+    return species, energy_mev, n_events, n_srim, seed_value, thickness_mm, angle_deg
 
 
 def heavy_ion_limit_mev() -> float:
