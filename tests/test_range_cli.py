@@ -24,10 +24,11 @@ from score4.ions.srim_reference import RangeSample
 NIST = ["G4_Si", "G4_Ge", "G4_Cu", "G4_CALCIUM_TUNGSTATE", "G4_SODIUM_IODIDE", "G4_Galactic"]
 
 
-@pytest.fixture(scope="session", autouse=True)
+@pytest.fixture(scope="module", autouse=True)
 def _srim_cache(tmp_path_factory):
+    """The session's TRIM cache (shared with test_srim_reference), outside the user's cache."""
     old = os.environ.get("XDG_CACHE_HOME")
-    os.environ["XDG_CACHE_HOME"] = str(tmp_path_factory.mktemp("xdg-cache"))
+    os.environ["XDG_CACHE_HOME"] = str(tmp_path_factory.getbasetemp() / "xdg-cache")
     yield
     if old is None:
         os.environ.pop("XDG_CACHE_HOME", None)

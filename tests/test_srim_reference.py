@@ -25,13 +25,13 @@ SI = Composition.from_formula("G4_Si", "Si", 2.33)
 PB_MEV = 0.103144
 
 
-@pytest.fixture(scope="session", autouse=True)
+@pytest.fixture(scope="module", autouse=True)
 def _srim_cache(tmp_path_factory):
-    """One TRIM cache for the whole test session, outside the user's cache."""
+    """One TRIM cache for the session (shared with test_range_cli), outside the user's cache."""
     import os
 
     old = os.environ.get("XDG_CACHE_HOME")
-    os.environ["XDG_CACHE_HOME"] = str(tmp_path_factory.mktemp("xdg-cache"))
+    os.environ["XDG_CACHE_HOME"] = str(tmp_path_factory.getbasetemp() / "xdg-cache")
     yield
     if old is None:
         os.environ.pop("XDG_CACHE_HOME", None)
