@@ -18,6 +18,8 @@ from score4.units import format_quantity, parse_quantity
         ("10 um", "length", 0.01),
         ("10 µm", "length", 0.01),
         ("90 deg", "angle", math.pi / 2),
+        ("6.02 g/cm3", "density", 6.02),
+        ("3070 kg/m3", "density", 3.07),
     ],
 )
 def test_parse_quantity(text, dimension, expected):

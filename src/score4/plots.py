@@ -417,3 +417,57 @@ def plot_depths(
     ax.grid(alpha=0.3)
     _save(fig, out_png)
     return hists
+
+
+@dataclass(frozen=True)
+class RangeDepths:
+    """Drawn depth histograms of stopped ions: ``density`` per nm (each integrates to 1) on ``edges_nm``."""
+
+    labels: list[str]
+    edges_nm: np.ndarray
+    density: list[np.ndarray]
+    stopped: list[int]
+
+
+def plot_range_depths(
+    samples: dict, path: str | Path, title: str, bins: int | None = None
+) -> RangeDepths:
+    """Depth distributions of the stopped ions of several :class:`~score4.ions.srim_reference.RangeSample`.
+
+    ``samples`` maps a legend label (``"score4"``, ``"TRIM"``) to a sample; all share the same
+    bins, which span the stopped ions' depths (5 % margins), and each is normalised to unit
+    area over depth, so shapes compare directly. Depths are drawn in nm, or in um beyond 10 um.
+    """
+    depths = {k: s.final_position[s.stopped, 2] * 1e6 for k, s in samples.items()}
+    every = np.concatenate([d for d in depths.values()] + [np.zeros(0)])
+    if bins is None:  # about sqrt(n) bins for the smallest sample, 20 to 60
+        smallest = min((len(d) for d in depths.values() if len(d)), default=400)
+        bins = int(np.clip(np.sqrt(smallest), 20, 60))
+    lo, hi = (float(every.min()), float(every.max())) if len(every) else (0.0, 1.0)
+    margin = 0.05 * (hi - lo) if hi > lo else max(abs(hi), 1.0) * 0.05
+    edges = np.linspace(max(0.0, lo - margin), hi + margin, bins + 1)
+    scale, unit = (1e-3, "um") if edges[-1] > 1e4 else (1.0, "nm")
+    fig = Figure(figsize=(7, 4.5))
+    ax = fig.add_subplot()
+    drawn = []
+    for (label, d), style in zip(depths.items(), ("-", "--", ":", "-.")):
+        density = np.histogram(d, edges, density=True)[0] if len(d) else np.zeros(bins)
+        drawn.append(density)
+        n_all = samples[label].events
+        ax.stairs(
+            density / scale,
+            edges * scale,
+            linestyle=style,
+            linewidth=1.6,
+            label=f"{label} ({len(d)} of {n_all} ions stopped)",
+        )
+    ax.set_xlabel(f"depth below the entrance face z ({unit})")
+    ax.set_ylabel(f"stopped ions per {unit} (normalised to 1)")
+    ax.set_title(title)
+    ax.set_xlim(edges[0] * scale, edges[-1] * scale)
+    top = max((float(d.max()) for d in drawn if len(d)), default=0.0) / scale
+    ax.set_ylim(0, 1.3 * top if top > 0 else 1.0)
+    ax.legend(loc="upper right", fontsize="small")
+    fig.tight_layout()
+    _save(fig, path)
+    return RangeDepths(list(depths), edges, drawn, [len(d) for d in depths.values()])

@@ -23,7 +23,7 @@ from pydantic import (
 
 from .units import parse_quantity
 
-_INTERNAL_UNIT = {"length": "mm", "energy": "MeV"}
+_INTERNAL_UNIT = {"length": "mm", "energy": "MeV", "density": "g/cm3"}
 
 
 def _quantity(dimension: str):
@@ -41,6 +41,8 @@ Energy = Annotated[float, _quantity("energy"), _with_unit("energy")]
 PositiveLength = Annotated[float, _quantity("length"), Field(gt=0), _with_unit("length")]
 NonNegativeLength = Annotated[float, _quantity("length"), Field(ge=0), _with_unit("length")]
 PositiveEnergy = Annotated[float, _quantity("energy"), Field(gt=0), _with_unit("energy")]
+# densities are kept in g/cm3 (see score4.units.DENSITY)
+PositiveDensity = Annotated[float, _quantity("density"), Field(gt=0), _with_unit("density")]
 Vector3 = tuple[Length, Length, Length]
 Size3 = tuple[PositiveLength, PositiveLength, PositiveLength]
 

@@ -29,6 +29,9 @@ ENERGY = {"eV": 1e-6, "keV": 1e-3, "MeV": 1.0, "GeV": 1e3, "TeV": 1e6}
 TIME = {"ps": 1e-3, "ns": 1.0, "us": 1e3, "µs": 1e3, "ms": 1e6, "s": 1e9}
 ANGLE = {"rad": 1.0, "mrad": 1e-3, "deg": math.pi / 180.0}
 AREA = {"nm2": 1e-12, "um2": 1e-6, "mm2": 1.0, "cm2": 100.0, "m2": 1e6}
+# Densities are kept in g/cm3 (not Geant4's internal mass unit), the unit of NIST tables,
+# Geant4's printouts and SRIM; multiply by Geant4's ``g / cm3`` when building a G4Material.
+DENSITY = {"g/cm3": 1.0, "mg/cm3": 1e-3, "kg/m3": 1e-3, "g/m3": 1e-6}
 
 DIMENSIONS: dict[str, dict[str, float]] = {
     "length": LENGTH,
@@ -36,6 +39,7 @@ DIMENSIONS: dict[str, dict[str, float]] = {
     "time": TIME,
     "angle": ANGLE,
     "area": AREA,
+    "density": DENSITY,
 }
 
 # Convenience constants in internal units, like Geant4's CLHEP units.

@@ -16,9 +16,10 @@ import click
 from .. import __version__
 from ..errors import ConfigError, Score4Error
 from .data import data
-from .macro import import_macro
 from .geometry import geometry
-from .results import plot, export
+from .macro import import_macro
+from .range_cmd import range_command
+from .results import export, plot
 from .surface import surface
 
 
@@ -196,6 +197,7 @@ cli.add_command(export)
 cli.add_command(surface)
 cli.add_command(import_macro)
 cli.add_command(geometry)
+cli.add_command(range_command)
 
 
 def main(argv: list[str] | None = None) -> int:

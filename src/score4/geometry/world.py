@@ -59,9 +59,11 @@ def portal_layout(config: RunConfig, scene: Scene) -> tuple[np.ndarray, dict[str
 
 def check_materials(g4, config: RunConfig) -> None:
     """Resolve every material now, so a typo fails before any output is written."""
-    find_material(g4, config.world.material, "world.material")
+    for name in config.materials:
+        find_material(g4, name, f"materials.{name}", config.materials)
+    find_material(g4, config.world.material, "world.material", config.materials)
     for i, t in enumerate(config.targets):
-        find_material(g4, t.material, f"targets.{i}.material")
+        find_material(g4, t.material, f"targets.{i}.material", config.materials)
 
 
 def build_world(g4, config: RunConfig, scene: Scene) -> BuiltGeometry:
@@ -74,7 +76,7 @@ def build_world(g4, config: RunConfig, scene: Scene) -> BuiltGeometry:
     """
     half, origins = portal_layout(config, scene)
     world_solid = g4.G4Box("World", *half)
-    world_material = find_material(g4, config.world.material)
+    world_material = find_material(g4, config.world.material, "world.material", config.materials)
     outer = find_material(g4, "G4_Galactic") if origins else world_material
     world_lv = g4.G4LogicalVolume(world_solid, outer, "World")
     world_pv = g4.G4PVPlacement(None, g4.G4ThreeVector(), world_lv, "World", None, False, 0, False)
@@ -92,7 +94,7 @@ def build_world(g4, config: RunConfig, scene: Scene) -> BuiltGeometry:
     for i, t in enumerate(config.targets):
         solid = g4.G4Box(t.name, *(np.asarray(t.size) / 2))
         lv = g4.G4LogicalVolume(
-            solid, find_material(g4, t.material, f"targets.{i}.material"), t.name
+            solid, find_material(g4, t.material, f"targets.{i}.material", config.materials), t.name
         )
         pv = g4.G4PVPlacement(
             None, g4.G4ThreeVector(*t.position), lv, t.name, mother_lv, False, 0, False
