@@ -19,15 +19,17 @@ lunasrim = pytest.importorskip("lunasrim")
 
 PB206_AMU = 205.9744651
 PO210_RECOIL_MEV = 0.103144
-# Geant4 NIST materials of the field and their compositions (atom fractions) and densities, as
-# Geant4 11.4 defines them (G4NistMaterialBuilder).
+# The materials of the field (Si, Ge, Cu, CaWO4, NaI, TeO2) with their compositions (atom
+# fractions) and densities as Geant4 11.4 defines them (G4NistMaterialBuilder), TeO2 ours.
 NIST = {
     "G4_Si": ({"Si": 1}, 2.33),
     "G4_Ge": ({"Ge": 1}, 5.323),
     "G4_Cu": ({"Cu": 1}, 8.96),
     "G4_CALCIUM_TUNGSTATE": ({"Ca": 1, "W": 1, "O": 4}, 6.062),
     "G4_SODIUM_IODIDE": ({"Na": 1, "I": 1}, 3.667),
+    "TeO2": ({"Te": 1, "O": 2}, 6.02),  # not a NIST name: defined under materials:
 }
+MATERIALS = {"TeO2": {"formula": "TeO2", "density": "6.02 g/cm3"}}
 
 
 def _spawned(function, *args):
@@ -70,7 +72,7 @@ def trim_reference(tmp, ion, mass, material, energy_kev, ions, seed, thickness_n
 @pytest.fixture(scope="module")
 def pb_ranges():
     cases = [("Pb206", PO210_RECOIL_MEV, m) for m in NIST]
-    return dict(zip(NIST, _spawned("ranges", cases, 300, 11, 300)))
+    return dict(zip(NIST, _spawned("ranges", cases, 300, 11, 300, MATERIALS)))
 
 
 @pytest.mark.parametrize("material", list(NIST))
