@@ -72,7 +72,7 @@ def trim_reference(tmp, ion, mass, material, energy_kev, ions, seed, thickness_n
 @pytest.fixture(scope="module")
 def pb_ranges():
     cases = [("Pb206", PO210_RECOIL_MEV, m) for m in NIST]
-    return dict(zip(NIST, _spawned("ranges", cases, 300, 11, 300, MATERIALS)))
+    return dict(zip(NIST, _spawned("ranges", cases, 300, 11, 300, MATERIALS), strict=False))
 
 
 @pytest.mark.parametrize("material", list(NIST))

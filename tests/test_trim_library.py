@@ -25,19 +25,23 @@ def test_histories_start_at_the_origin_along_x_and_lose_energy():
     for k in range(lib.size):
         rows = slice(lib.offsets[k], lib.offsets[k + 1])
         pts, e = lib.points[rows], lib.energies[rows]
-        assert np.allclose(pts[0], 0) and e[0] == pytest.approx(0.103144)
-        assert pts[1, 0] > 0 and np.allclose(pts[1, 1:], 0)  # first flight along +x
+        assert np.allclose(pts[0], 0)
+        assert e[0] == pytest.approx(0.103144)
+        assert pts[1, 0] > 0
+        assert np.allclose(pts[1, 1:], 0)
         arrival = lib.arrivals[rows]
         assert (np.diff(e) <= 0).all()
-        assert (arrival >= e).all() and (arrival[1:] <= e[:-1] + 1e-15).all()
+        assert (arrival >= e).all()
+        assert (arrival[1:] <= e[:-1] + 1e-15).all()
         assert e[-1] == 0.0 or lib.left[k]
 
 
 def test_continuation_from_the_start_energy_is_a_whole_history_turned():
     lib = trim_library(*PB, 0.103144, SILICON, n=50, seed=2)
     rng = np.random.default_rng(1)
-    pts, e, arrival, _ = lib.continuation(0.103144, rng)
-    assert np.allclose(pts[0], 0) and e[0] == 0.103144
+    pts, e, _arrival, _ = lib.continuation(0.103144, rng)
+    assert np.allclose(pts[0], 0)
+    assert e[0] == 0.103144
     first = pts[1] / np.linalg.norm(pts[1])
     assert np.allclose(first, [1, 0, 0])
     # a turned history keeps its piece lengths
@@ -58,9 +62,9 @@ def test_continuation_from_the_start_energy_is_a_whole_history_turned():
 def test_continuation_from_inside_is_unbiased():
     # An ion continued at 30 keV from 100 keV histories must range like a 30 keV history.
     # Before the within-1 % choice of histories, continuations in CaWO4 (where a Pb ion can give
-    # a W atom almost all its energy) came out 13-16 % short. Tolerance 5 %, about 2 standard errors of the difference:
-    # ~200 of the 1000 histories qualify (2.5 %), 1000 direct histories (1.3 %). Measured 0.981
-    # (0.859 without the choice).
+    # a W atom almost all its energy) came out 13-16 % short. Tolerance 5 %, about 2 standard
+    # errors of the difference: ~200 of the 1000 histories qualify (2.5 %), 1000 direct
+    # histories (1.3 %). Measured 0.981 (0.859 without the choice).
     big = trim_library(*PB, 0.1, CAWO4, n=1000, seed=5)
     direct = trim_library(*PB, 0.03, CAWO4, n=1000, seed=11)
     rng = np.random.default_rng(1)
@@ -100,7 +104,9 @@ def test_rotations():
         u /= np.linalg.norm(u)
         r = _rotation_to_x(u, rng.uniform(0, 2 * np.pi))
         assert np.allclose(r @ u, [1, 0, 0])
-        assert np.allclose(r @ r.T, np.eye(3)) and np.linalg.det(r) == pytest.approx(1)
+        assert np.allclose(r @ r.T, np.eye(3))
+        assert np.linalg.det(r) == pytest.approx(1)
         assert np.allclose(rotation_from_x(u) @ [1, 0, 0], u)
     r = _rotation_to_x(np.array([-1.0, 0, 0]), 0.3)
-    assert np.allclose(r @ [-1, 0, 0], [1, 0, 0]) and np.linalg.det(r) == pytest.approx(1)
+    assert np.allclose(r @ [-1, 0, 0], [1, 0, 0])
+    assert np.linalg.det(r) == pytest.approx(1)

@@ -97,9 +97,9 @@ class TrajectoryLibrary:
         """
         if energy > self.energy * (1 + 1e-9):
             raise Score4Error(
-                f"{self.ion} of {energy * 1e3:.6g} keV: above the {self.energy * 1e3:.6g} keV of its "
-                f"TRIM trajectory library in {self.material.name} (internal error: libraries are "
-                f"built for the largest energy a run needs)"
+                f"{self.ion} of {energy * 1e3:.6g} keV: above the {self.energy * 1e3:.6g} keV "
+                f"of its TRIM trajectory library in {self.material.name} (internal error: a "
+                f"history can only be continued from an energy it passes through)"
             )
         if energy >= self.energy * (1 - 1e-9):  # from the start: any history, exact
             k = int(rng.integers(self.size))
