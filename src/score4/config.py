@@ -44,7 +44,7 @@ class BoxVolume(StrictModel):
     material: str = "G4_Si"
     size: Size3
     position: Vector3 = (0.0, 0.0, 0.0)
-    rough: list[RoughFace] = []
+    rough: list[RoughFace] = []  # noqa: RUF012 pydantic copies field defaults per instance
 
 
 class WorldConfig(StrictModel):
@@ -258,7 +258,7 @@ class RunConfig(StrictModel):
 
     physics: PhysicsConfig = PhysicsConfig()
     world: WorldConfig = WorldConfig()
-    surfaces: dict[str, SurfaceDescription] = {}
+    surfaces: dict[str, SurfaceDescription] = {}  # noqa: RUF012 pydantic copies defaults
     targets: list[BoxVolume] = Field(min_length=1)
     source: SourceConfig
     run: RunSettings = RunSettings()
@@ -270,7 +270,7 @@ class RunConfig(StrictModel):
         return {"mode": v} if isinstance(v, str) else v
 
     @model_validator(mode="after")
-    def _check_references(self) -> "RunConfig":
+    def _check_references(self) -> RunConfig:
         names = [t.name for t in self.targets]
         dupes = sorted({n for n in names if names.count(n) > 1})
         if dupes:

@@ -65,7 +65,8 @@ class DepositHistogram:
 
 
 def energy_value(value: float | str | None, name: str) -> float | None:
-    """An energy in MeV from a float (MeV) or a string with a unit (``"6 MeV"``); None stays None."""
+    """An energy in MeV from a float (MeV) or a string with a unit (``"6 MeV"``); None stays
+    None."""
     if value is None:
         return None
     if isinstance(value, str):
@@ -123,7 +124,10 @@ def histogram_edges(
     lo = 0.0 if lo is None else lo
     if hi is None:
         hi = (
-            max(s[1] or float(r.primary_energy.max(initial=0.0)) for s, r in zip(settings, runs))
+            max(
+                s[1] or float(r.primary_energy.max(initial=0.0))
+                for s, r in zip(settings, runs, strict=True)
+            )
             or 1.0
         )
     if lo < 0:
@@ -157,7 +161,8 @@ def deposit_histogram(edep: np.ndarray, edges: np.ndarray) -> DepositHistogram:
 
 
 def select_volumes(results: Results, volume: str | None) -> list[str]:
-    """``[volume]`` if it exists in ``results`` (else an error listing the volumes); all volumes for None."""
+    """``[volume]`` if it exists in ``results`` (else an error listing the volumes); all volumes for
+    None."""
     names = list(results.edep)
     if volume is None:
         return names
@@ -227,17 +232,18 @@ def export_csv(
     edges = histogram_edges(results, bins=bins, emin=emin, emax=emax)
     hists = [deposit_histogram(results.edep[name], edges) for name in names]
     lines = _header(results, "score4 energy-deposit histogram (events with a non-zero deposit)")
-    for name, h in zip(names, hists):
+    for name, h in zip(names, hists, strict=True):
         lines.append(
             f"# volume {name}: {h.n_zero} events without deposit, {h.n_underflow} below "
             f"{_num(edges[0])} MeV, {h.n_overflow} above {_num(edges[-1])} MeV (not counted)"
         )
     lines.append("volume,bin_low_MeV,bin_high_MeV,counts,counts_per_keV")
-    for name, h in zip(names, hists):
+    for name, h in zip(names, hists, strict=True):
         per_keV = h.counts_per_keV
         for k in range(len(h.counts)):
             lines.append(
-                f"{name},{_num(edges[k])},{_num(edges[k + 1])},{int(h.counts[k])},{_num(per_keV[k])}"
+                f"{name},{_num(edges[k])},{_num(edges[k + 1])},"
+                f"{int(h.counts[k])},{_num(per_keV[k])}"
             )
     with atomic_output(path) as tmp:
         tmp.write_text("\n".join(lines) + "\n")
@@ -271,8 +277,8 @@ def export_events_csv(results: Results, path: str | Path) -> list[str]:
     formats = [
         str if np.issubdtype(np.asarray(c).dtype, np.integer) else repr for c in columns.values()
     ]
-    for row in zip(*lists):
-        lines.append(",".join(f(v) for f, v in zip(formats, row)))
+    for row in zip(*lists, strict=True):
+        lines.append(",".join(f(v) for f, v in zip(formats, row, strict=True)))
     with atomic_output(path) as tmp:
         tmp.write_text("\n".join(lines) + "\n")
     return list(columns)

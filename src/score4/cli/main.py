@@ -16,9 +16,9 @@ import click
 from .. import __version__
 from ..errors import ConfigError, Score4Error
 from .data import data
-from .macro import import_macro
 from .geometry import geometry
-from .results import plot, export
+from .macro import import_macro
+from .results import export, plot
 from .surface import surface
 
 

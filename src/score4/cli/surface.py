@@ -195,7 +195,10 @@ def stats_cmd(file: Path, as_json: bool) -> None:
         f"map {nx} x {ny} points"
     )
     mesh = doc.get("mesh")
-    show = lambda v: "nan" if v is None else f"{v:.6g}"
+
+    def show(v: float | None) -> str:
+        return "nan" if v is None else f"{v:.6g}"
+
     header = (
         f"  {'param':<6}{'map':>12}"
         + (f"{'mesh (exact)':>14}" if mesh else "")

@@ -18,6 +18,7 @@ out-of-memory kill would. It works the same in local and Dask workers.
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing as mp
 import os
 import shutil
@@ -160,7 +161,5 @@ def worker_main(spec: WorkerSpec, conn) -> None:
 
 
 def _report(conn, message: tuple) -> None:
-    try:
+    with contextlib.suppress(OSError, EOFError):  # the parent is gone: nobody left to tell
         conn.send(message)
-    except (OSError, EOFError):
-        pass

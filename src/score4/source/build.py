@@ -16,6 +16,14 @@ from ..config import DepthConfig, RunConfig, SourceConfig
 from ..errors import ConfigError
 from ..scene import Scene, face_frame
 from .depth import VertexSampler
+from .emitters import (
+    EnergySpectrum,
+    NuclideEmitter,
+    ParticleEmitter,
+    Po210Emitter,
+    make_primaries,
+)
+from .primaries import Primaries
 from .profiles import (
     DepthProfile,
     ExponentialProfile,
@@ -25,14 +33,6 @@ from .profiles import (
     UniformProfile,
     ZeroDepth,
 )
-from .emitters import (
-    EnergySpectrum,
-    NuclideEmitter,
-    ParticleEmitter,
-    Po210Emitter,
-    make_primaries,
-)
-from .primaries import Primaries
 from .sampling import SurfaceSampler
 from .vertex_file import read_vertex_file, vertex_file_config
 
@@ -82,7 +82,8 @@ def flat_face_sampler(config: RunConfig, volume: str, face: str) -> SurfaceSampl
 
 @dataclass
 class SampledSource:
-    """Vertices drawn on a face below its (rough) surface, each emitting the configured particles."""
+    """Vertices drawn on a face below its (rough) surface, each emitting the configured
+    particles."""
 
     sampler: VertexSampler
     emitter: object

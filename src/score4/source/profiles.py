@@ -267,7 +267,8 @@ class TruncatedGaussianProfile(DepthProfile):
         self._norm = self._phi_mass(self.lower, self.upper)
         if not self._norm > 0:
             raise ConfigError(
-                f"lower / upper: no probability between {lower!r} and {upper!r} mm for this Gaussian"
+                f"lower / upper: no probability between {lower!r} and {upper!r} mm for this "
+                "Gaussian"
             )
 
     def _phi_mass(self, lo: float, hi: float) -> float:

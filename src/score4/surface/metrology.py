@@ -338,7 +338,8 @@ def mesh_parameters(mesh: TriangleMesh, *, level: bool = True) -> dict[str, floa
     down = proj < -1e-12 * area_true
     if down.any():
         raise ConfigError(
-            f"mesh: {int(down.sum())} top faces overhang (normal points down); metrology needs a height field"
+            f"mesh: {int(down.sum())} top faces overhang (normal points down); metrology needs a "
+            "height field"
         )
     flat = proj > 1e-12 * area_true
     faces, a = mesh.faces[top[flat]], proj[flat]

@@ -122,8 +122,9 @@ def _cells_along(face: float, patch: float, axis: str) -> int:
         lo = max(1, math.floor(face / patch))
         hi = max(lo + 1, math.ceil(face / patch))
         raise ConfigError(
-            f"face_size: {_fmt(face)} mm along {axis} is not a whole number of {_fmt(patch)} mm patches; "
-            f"nearest valid sizes {_fmt(lo * patch)} mm ({lo} patches) or {_fmt(hi * patch)} mm ({hi} patches)"
+            f"face_size: {_fmt(face)} mm along {axis} is not a whole number of {_fmt(patch)} mm "
+            f"patches; nearest valid sizes {_fmt(lo * patch)} mm ({lo} patches) or "
+            f"{_fmt(hi * patch)} mm ({hi} patches)"
         )
     return n
 
@@ -159,7 +160,8 @@ def _densities(densities: object) -> np.ndarray:
 
 
 def largest_remainder(n: int, weights: Sequence[float] | np.ndarray) -> np.ndarray:
-    """Split ``n`` items among ``K`` classes in proportion to ``weights`` (largest-remainder method).
+    """Split ``n`` items among ``K`` classes in proportion to ``weights`` (largest-remainder
+    method).
 
     Each class first gets ``floor(n w_k)`` (weights normalised to sum 1); the items left over
     go, one each, to the classes with the largest fractional parts ``n w_k - floor(n w_k)``,
@@ -224,8 +226,8 @@ def _rle_decode(text: str, size: int) -> np.ndarray:
             lengths.append(int(c) if star else 1)
     except ValueError:
         raise ConfigError(
-            f"variants: cannot read the run-length text near {token[:30]!r}; expected 'v' or 'v*count' items "
-            "separated by commas"
+            f"variants: cannot read the run-length text near {token[:30]!r}; expected 'v' or "
+            "'v*count' items separated by commas"
         ) from None
     if min(lengths) < 1:
         raise ConfigError(f"variants: run-length counts must be >= 1, got {min(lengths)}")
@@ -255,7 +257,8 @@ def _check_variants(
         if bad.any():
             j, i = np.argwhere(bad)[0]
             raise ConfigError(
-                f"{name}: must hold integer variant indices, got {a[j, i].item()!r} at row {j}, column {i}"
+                f"{name}: must hold integer variant indices, got {a[j, i].item()!r} at row {j}, "
+                f"column {i}"
             )
     lo, hi = int(a.min()), int(a.max())
     if n_variants is None:
@@ -322,7 +325,8 @@ class PatchMap:
             or abs(d.sum() - 1) > DENSITY_SUM_TOL
         ):
             raise ConfigError(
-                f"densities: must be non-negative finite numbers summing to 1, got {self.densities!r}"
+                "densities: must be non-negative finite numbers summing to 1, got "
+                f"{self.densities!r}"
             )
         variants, _ = _check_variants(self.variants, len(d))
         self._set("variants", variants)
@@ -479,7 +483,8 @@ class PatchMap:
             variants = np.asarray(variants)
             if "shape" in d and list(variants.shape) != list(d["shape"]):
                 raise ConfigError(
-                    f"shape: {d['shape']!r} does not match the variants grid of shape {list(variants.shape)}"
+                    f"shape: {d['shape']!r} does not match the variants grid of shape "
+                    f"{list(variants.shape)}"
                 )
         return cls(
             variants, d["patch_size"], d["densities"], d.get("method", "given"), d.get("seed")
@@ -529,7 +534,8 @@ class PatchMap:
     # --- text -------------------------------------------------------------------------------
 
     def describe(self) -> str:
-        """A one-paragraph summary: grid, patch and face size, method, realised vs target fractions."""
+        """A one-paragraph summary: grid, patch and face size, method, realised vs target
+        fractions."""
         (px, py), (lx, ly) = self.patch_size, self.face_size
         how = {"exact": "exact counts", "random": "independent draws", "given": "given grid"}[
             self.method
@@ -556,7 +562,8 @@ def _grid(face_size: object, patch_size: object) -> tuple[int, int, tuple[float,
     ny = _cells_along(face[1], patch[1], "y")
     if nx * ny > MAX_CELLS:
         raise ConfigError(
-            f"patch_size: {nx} x {ny} = {nx * ny} patches exceed the limit of {MAX_CELLS}; use larger patches"
+            f"patch_size: {nx} x {ny} = {nx * ny} patches exceed the limit of {MAX_CELLS}; use "
+            "larger patches"
         )
     return nx, ny, patch
 

@@ -146,7 +146,8 @@ class SpikeGrid:
         set_("n_layers", _count(self.n_layers, "n_layers"))
         if self.shape == "pyramid" and self.n_layers != 1:
             raise ConfigError(
-                f"n_layers: a pyramid is a single layer, got {self.n_layers} (use shape bump or peak)"
+                f"n_layers: a pyramid is a single layer, got {self.n_layers} (use shape bump or "
+                "peak)"
             )
         set_("seed", _count(self.seed, "seed", minimum=0))
         set_("height_sigma", _length(self.height_sigma, "height_sigma", allow_zero=True))
@@ -181,15 +182,17 @@ class SpikeGrid:
         if floor / self.n_layers < MIN_LAYER_HEIGHT:
             raise ConfigError(
                 f"min_height: {floor!r} mm over {self.n_layers} layers gives layers thinner than "
-                f"{MIN_LAYER_HEIGHT} mm (Geant4's limit); raise min_height or mean_height, or use fewer layers"
+                f"{MIN_LAYER_HEIGHT} mm (Geant4's limit); raise min_height or mean_height, or use "
+                "fewer layers"
             )
         if self.height_sigma > 0:
             p_low = _normal_cdf((floor - self.mean_height) / self.height_sigma)
             if p_low > MAX_TRUNCATED_FRACTION:
                 raise ConfigError(
-                    f"height_sigma: {self.height_sigma!r} mm puts {100 * p_low:.1f} % of the Gaussian heights "
-                    f"(mean {self.mean_height!r} mm) below min_height={floor!r} mm; at most "
-                    f"{100 * MAX_TRUNCATED_FRACTION:.0f} % may be truncated, so use a smaller spread"
+                    f"height_sigma: {self.height_sigma!r} mm puts {100 * p_low:.1f} % of the "
+                    f"Gaussian heights (mean {self.mean_height!r} mm) below min_height={floor!r} "
+                    f"mm; at most {100 * MAX_TRUNCATED_FRACTION:.0f} % may be truncated, so use a "
+                    "smaller spread"
                 )
 
     def _draw_heights(self) -> tuple[np.ndarray, float]:
@@ -309,7 +312,8 @@ class SpikeGrid:
         n = self.n_layers
         lo, hi = idx[:, :, :-1], idx[:, :, 1:]  # bottom / top ring of each layer
         lo_next, hi_next = np.roll(lo, -1, axis=-1), np.roll(hi, -1, axis=-1)
-        # Outward (away from the axis, upward) orientation: (b_s, b_s+1, t_s+1) and (b_s, t_s+1, t_s).
+        # Outward (away from the axis, upward) orientation: (b_s, b_s+1, t_s+1) and (b_s, t_s+1,
+        # t_s).
         first = np.stack([lo, lo_next, hi_next], axis=-1)  # (ny, nx, n, 4, 3)
         second = np.stack([lo, hi_next, hi], axis=-1)[:, :, : n - 1]  # none in the apex layer
         per_spike = [first[:, :, : n - 1], second, first[:, :, n - 1 :]]
@@ -347,8 +351,8 @@ class SpikeGrid:
         """
         px, py = (pitch, pitch) if np.isscalar(pitch) or isinstance(pitch, str) else pitch
         px, py = _length(px, "pitch"), _length(py, "pitch")
-        nsx = int(math.floor(self.size_x / px * (1 + 1e-12))) + 1
-        nsy = int(math.floor(self.size_y / py * (1 + 1e-12))) + 1
+        nsx = math.floor(self.size_x / px * (1 + 1e-12)) + 1
+        nsy = math.floor(self.size_y / py * (1 + 1e-12)) + 1
         if min(nsx, nsy) < 2:
             raise ConfigError(
                 f"pitch: ({px!r}, {py!r}) mm gives fewer than 2 samples across the "

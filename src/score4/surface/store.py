@@ -79,7 +79,8 @@ def _read(f: h5py.File, path: Path) -> Surface:
     version = int(f.attrs["format_version"])
     if version > FORMAT_VERSION:
         raise ConfigError(
-            f"surface file: {path} has format version {version}; this score4 reads up to {FORMAT_VERSION}"
+            f"surface file: {path} has format version {version}; this score4 reads up to "
+            f"{FORMAT_VERSION}"
         )
     spec = parse_surface_spec(json.loads(f.attrs["spec"]), origin=f"{path} (stored description)")
     metadata = json.loads(f.attrs.get("metadata", "{}"))
@@ -90,8 +91,8 @@ def _read(f: h5py.File, path: Path) -> Surface:
             surface.spikes.heights, stored
         ):
             raise ConfigError(
-                f"surface file: {path}: the spike heights rebuilt from the stored description differ from the "
-                "stored heights (file written by an incompatible score4 version?)"
+                f"surface file: {path}: the spike heights rebuilt from the stored description "
+                "differ from the stored heights (file written by an incompatible score4 version?)"
             )
         return Surface(spec, spikes=surface.spikes, metadata=metadata)
     d = f["heightmap/heights"]
