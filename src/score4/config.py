@@ -128,6 +128,7 @@ class RoughFace(StrictModel):
 
     @property
     def variant_list(self) -> list[PatchVariant]:
+        assert self.variants is not None or self.surface is not None  # the validator's rule
         return (
             self.variants
             if self.variants is not None

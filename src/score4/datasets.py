@@ -509,7 +509,7 @@ def _content_length(response: http.client.HTTPResponse) -> int | None:
 def _network_error(url: str, exc: BaseException, directory: Path) -> DataError:
     """One-line DataError for a network failure while reading ``url``."""
     return DataError(
-        f"download of {url} failed: {exc or type(exc).__name__}; {_offline_hint(directory)}"
+        f"download of {url} failed: {str(exc) or type(exc).__name__}; {_offline_hint(directory)}"
     )
 
 

@@ -71,15 +71,24 @@ def energy_value(value: float | str | None, name: str) -> float | None:
         return None
     if isinstance(value, str):
         return parse_quantity(value, "energy", name)
+    given: object = value  # checked at run time: callers may pass anything
     if (
-        isinstance(value, bool)
-        or not isinstance(value, (int, float, np.number))
-        or not np.isfinite(value)
+        isinstance(given, bool)
+        or not isinstance(given, (int, float, np.number))
+        or not np.isfinite(given)
     ):
         raise ConfigError(
             f"{name}: expected an energy in MeV or a string such as '6 MeV', got {value!r}"
         )
     return float(value)
+
+
+def check_bins(bins: object) -> None:
+    """Raise ConfigError unless ``bins`` is None or a positive integer."""
+    if bins is not None and (
+        isinstance(bins, bool) or not isinstance(bins, (int, np.integer)) or bins < 1
+    ):
+        raise ConfigError(f"bins: must be a positive integer, got {bins!r}")
 
 
 def _run_histogram_setting(results: Results) -> tuple[int | None, float | None]:
@@ -88,7 +97,8 @@ def _run_histogram_setting(results: Results) -> tuple[int | None, float | None]:
     hist = config.get("output", {}).get("histogram", {}) if isinstance(config, dict) else {}
     if not isinstance(hist, dict):
         return None, None
-    bins = hist.get("bins") if isinstance(hist.get("bins"), int) and hist.get("bins") > 0 else None
+    stored = hist.get("bins")
+    bins = stored if isinstance(stored, int) and stored > 0 else None
     emax = None
     raw = hist.get("max")
     if raw is not None:
@@ -113,10 +123,7 @@ def histogram_edges(
     runs = [results] if isinstance(results, Results) else list(results)
     if not runs:
         raise ConfigError("results: no results given")
-    if bins is not None and (
-        isinstance(bins, bool) or not isinstance(bins, (int, np.integer)) or bins < 1
-    ):
-        raise ConfigError(f"bins: must be a positive integer, got {bins!r}")
+    check_bins(bins)
     lo = energy_value(emin, "emin")
     hi = energy_value(emax, "emax")
     settings = [_run_histogram_setting(r) for r in runs]

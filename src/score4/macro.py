@@ -158,7 +158,9 @@ class _Command:
 
 def _tokens(line: str) -> list[str]:
     """Split on blanks; double quotes group (Geant4's G4UIbatch tokenizer)."""
-    out, cur, quoted, started = [], [], False, False
+    out: list[str] = []
+    cur: list[str] = []
+    quoted = started = False
     for ch in line:
         if ch == '"':
             quoted, started = not quoted, True
@@ -486,6 +488,13 @@ class _Helper:
     def get(self, param: str, default: Any = None) -> Any:
         v = self.values.get(param)
         return default if v is None else v[0]
+
+    def set_cmd(self, param: str) -> _Command:
+        """The command that set ``param``; only for parameters :meth:`get` found."""
+        c = self.cmd(param)
+        if c is None:
+            raise KeyError(f"{self.name}: {param} was never set")
+        return c
 
     def cmd(self, param: str) -> _Command | None:
         v = self.values.get(param)
@@ -921,8 +930,9 @@ def _portal_face(
     keys."""
     sizes = []
     for axis, half_patch in zip(("x", "y"), patch, strict=True):
-        sub, sub_cmd = portal.get(f"sub_d{axis}"), portal.cmd(f"sub_d{axis}")
+        sub = portal.get(f"sub_d{axis}")
         if sub is not None:
+            sub_cmd = portal.set_cmd(f"sub_d{axis}")
             if not _close(sub.value, half_patch.value):
                 raise sub_cmd.fail(
                     f"subworld half-size {sub.text()} differs from the roughness patch half-size "
@@ -934,7 +944,7 @@ def _portal_face(
                 f"patch size {sub.text(2)} along {axis} (2 x half-length, = the roughness patch)",
             )
         n, n_cmd = portal.get(f"n{axis}"), portal.cmd(f"n{axis}")
-        full, full_cmd = portal.get(f"d{axis}"), portal.cmd(f"d{axis}")
+        full = portal.get(f"d{axis}")
         if full is None:
             if n is None:
                 raise ConfigError(
@@ -947,6 +957,7 @@ def _portal_face(
                 f"{full.text(2)} = setN{axis}Subworld x patch size (no setD{axis}Portal)",
             )
         else:
+            full_cmd = portal.set_cmd(f"d{axis}")
             ratio = full.value / half_patch.value
             if not _close(ratio, round(ratio)) or round(ratio) < 1:
                 raise full_cmd.fail(
@@ -954,7 +965,7 @@ def _portal_face(
                     f"({half_patch.text()}): {ratio:.6g}"
                 )
             if n is not None and n != round(ratio):
-                raise n_cmd.fail(
+                raise portal.set_cmd(f"n{axis}").fail(
                     f"{n} subworlds x {half_patch.text()} != portal half-size {full.text()} (the "
                     "original exits on this: MultiportalHelper::CheckValues)"
                 )
@@ -968,7 +979,7 @@ def _portal_face(
     dz, dz_cmd = portal.get("dz"), portal.cmd("dz")
     sub_dz, sub_dz_cmd = portal.get("sub_dz"), portal.cmd("sub_dz")
     if dz is not None and sub_dz is not None and not _close(dz.value, sub_dz.value):
-        raise sub_dz_cmd.fail(
+        raise portal.set_cmd("sub_dz").fail(
             f"subworld half-height {sub_dz.text()} != portal half-height {dz.text()} (the original "
             "exits on this: MultiportalHelper::CheckValues)"
         )
@@ -977,10 +988,11 @@ def _portal_face(
             state.ignored(
                 c, "score4 sizes the rough layer's envelope itself (base_thickness + tallest spike)"
             )
-    if portal.cmd("material") is not None:
+    material_cmd = portal.cmd("material")
+    if material_cmd is not None:
         config.setdefault("world", {})["material"] = portal.get("material")
         state.converted(
-            portal.cmd("material"),
+            material_cmd,
             f"world.material = {portal.get('material')} (the medium around "
             "the patches: score4's layer envelope is of the world material)",
         )
@@ -1256,15 +1268,18 @@ def _face(state: _State, helpers: list[_Helper], config: dict) -> tuple[dict, st
             *other, other_base = bases[h.name]
             for axis, a, b in zip(("x", "y"), patch, other, strict=True):
                 if not _close(a.value, b.value):
-                    raise h.cmd(f"d{axis}").fail(
+                    raise h.set_cmd(f"d{axis}").fail(
                         f"the patch of {h.name!r} is {2 * b.value:g} mm along {axis}, that of "
                         f"{first.name!r} {2 * a.value:g} mm; the patches of one face must have one "
                         "size"
                     )
-            if (base is None) != (other_base is None) or (
-                base and not _close(base.value, other_base.value)
-            ):
-                c = h.cmd("basis_dz") or first.cmd("basis_dz")
+            mismatch = (
+                (base is None) != (other_base is None)
+                if base is None or other_base is None
+                else not _close(base.value, other_base.value)
+            )
+            if mismatch:
+                c = h.cmd("basis_dz") or first.set_cmd("basis_dz")
                 raise c.fail(
                     f"{h.name!r} and {first.name!r} have different basis heights; a score4 rough "
                     "face has one base_thickness"
@@ -1272,9 +1287,10 @@ def _face(state: _State, helpers: list[_Helper], config: dict) -> tuple[dict, st
     if base is not None:
         rough["base_thickness"] = base.text(2)
         for h in helpers:
-            if h.cmd("basis_dz") is not None:
+            basis_cmd = h.cmd("basis_dz")
+            if basis_cmd is not None:
                 state.converted(
-                    h.cmd("basis_dz"),
+                    basis_cmd,
                     f"targets.0.rough.0.base_thickness = {base.text(2)} (2 x half-height)",
                 )
     else:

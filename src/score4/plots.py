@@ -21,6 +21,7 @@ from matplotlib.figure import Figure
 from .errors import ConfigError, Score4Error
 from .export import (
     DepositHistogram,
+    check_bins,
     check_output_path,
     deposit_histogram,
     histogram_edges,
@@ -135,6 +136,11 @@ def read_vertex_depths(path: str | Path) -> np.ndarray:
 # --- labels ----------------------------------------------------------------------------------
 
 
+def _dict(value: object) -> dict:
+    """``value`` if it is a dict, else an empty one (stored configs may come from anywhere)."""
+    return value if isinstance(value, dict) else {}
+
+
 def _text(value) -> str | None:
     return (
         str(value) if isinstance(value, (str, int, float)) and not isinstance(value, bool) else None
@@ -176,13 +182,9 @@ def _surface_text(config: dict, source: dict) -> str | None:
             )
     if rough is None:
         return f"flat {face}"
-    surfaces = config.get("surfaces") if isinstance(config.get("surfaces"), dict) else {}
+    surfaces = _dict(config.get("surfaces"))
     name = _text(rough.get("surface"))
-    kind = (
-        surfaces.get(name, {}).get("kind")
-        if name and isinstance(surfaces.get(name), dict)
-        else None
-    )
+    kind = _dict(surfaces.get(name)).get("kind") if name else None
     return f"rough {face}" + (f" ({kind})" if _text(kind) else "")
 
 
@@ -194,8 +196,8 @@ def describe_run(results: Results) -> str:
     """
     config = results.run.get("config")
     config = config if isinstance(config, dict) else {}
-    source = config.get("source") if isinstance(config.get("source"), dict) else {}
-    depth = source.get("depth") if isinstance(source.get("depth"), dict) else {}
+    source = _dict(config.get("source"))
+    depth = _dict(source.get("depth"))
     profile = _text(depth.get("profile"))
     parts = [
         _emitter_text(source),
@@ -384,10 +386,7 @@ def plot_depths(
             raise ConfigError(f"depths: {name} holds non-finite values")
         data.append(depths * 1e6)  # nm
         names.append(given[k] if given else name)
-    if bins is not None and (
-        isinstance(bins, bool) or not isinstance(bins, (int, np.integer)) or bins < 1
-    ):
-        raise ConfigError(f"bins: must be a positive integer, got {bins!r}")
+    check_bins(bins)
     if isinstance(dmax, str):
         from .units import parse_quantity
 

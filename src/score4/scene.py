@@ -251,13 +251,13 @@ def check_clearance(scene: Scene) -> None:
     for n, (layer, box) in enumerate(layers):
         others = [(f"target {name!r}", b) for name, b in boxes.items() if name != layer.target.name]
         others += [(f"the rough layer {o.name}", ob) for o, ob in layers[n + 1 :]]
-        for what, other in others:
-            if _overlap(box, other):
+        for what, other_box in others:
+            if _overlap(box, other_box):
                 axis = int(np.flatnonzero(layer.frame.normal)[0])
                 gap = (
-                    (other[0][axis] - box[0][axis])
+                    (other_box[0][axis] - box[0][axis])
                     if layer.frame.normal[axis] > 0
-                    else (box[1][axis] - other[1][axis])
+                    else (box[1][axis] - other_box[1][axis])
                 )
                 raise ConfigError(
                     f"{layer.name}: the rough layer on face {layer.config.face} of "

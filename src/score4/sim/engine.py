@@ -33,7 +33,7 @@ import sys
 import threading
 import time
 from collections import Counter, deque
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from datetime import UTC, datetime
 from importlib.metadata import version
 from multiprocessing.connection import wait
@@ -85,7 +85,7 @@ class Executor(Protocol):
 
     description: str
 
-    def execute(self, spec: WorkerSpec, todo: list[Chunk]) -> Iterator[Event]: ...
+    def execute(self, spec: WorkerSpec, todo: list[Chunk]) -> Generator[Event, None, None]: ...
 
 
 def check_output_path(out: Path, overwrite: bool) -> None:
@@ -351,7 +351,7 @@ class LocalProcesses:
         self.jobs = jobs
         self.description = f"local processes ({jobs})"
 
-    def execute(self, spec: WorkerSpec, todo: list[Chunk]) -> Iterator[Event]:
+    def execute(self, spec: WorkerSpec, todo: list[Chunk]) -> Generator[Event, None, None]:
         ctx = mp.get_context("spawn")
         pending = deque(todo)
         workers = [_LocalWorker(ctx, spec) for _ in range(min(self.jobs, len(todo)))]

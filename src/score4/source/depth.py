@@ -621,6 +621,7 @@ class OffsetSurface:
         self, rng: np.random.Generator, d: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Points on the cylinder sectors of valley edges (always on L_d up to the global test)."""
+        assert self._edge_choice is not None  # proposals come only from existing edges
         e = self._edge_choice.sample(rng, len(d))
         t, phi = rng.random((2, len(d)))
         phi *= self._edge_theta[e]
@@ -632,6 +633,7 @@ class OffsetSurface:
         self, rng: np.random.Generator, d: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Points on the enclosing caps of vertex cones; the mask says which fell in the cone."""
+        assert self._cone_choice is not None  # proposals come only from existing cones
         v = self._cone_choice.sample(rng, len(d))
         s, phi = rng.random((2, len(d)))
         cos = 1 - s * (1 - self._cone_cos[v])  # uniform on the cap
@@ -742,10 +744,12 @@ class VertexSampler:
         self.profile = profile.truncated(self.min_depth, self.max_depth)
         self.max_rounds = int(max_rounds)
         self._tiled = isinstance(surface, TiledSurfaceSampler)
-        self._layout = surface if self._tiled else _SingleLayout(surface)
+        self._layout: TiledSurfaceSampler | _SingleLayout = (
+            surface if isinstance(surface, TiledSurfaceSampler) else _SingleLayout(surface)
+        )
         self.offset_surfaces: list[OffsetSurface] = []  # one per variant, for 'distance'
         if definition == "distance":
-            per = surface.pitch if self._tiled else period
+            per = surface.pitch if isinstance(surface, TiledSurfaceSampler) else period
             self.offset_surfaces = [
                 OffsetSurface(v.triangles, v.facet_ids, per) for v in self._layout.variants
             ]
@@ -773,7 +777,7 @@ class VertexSampler:
                 normal[good],
                 facet[good],
             )
-            if self._tiled:
+            if out.patch is not None and out.variant is not None:  # tiled faces
                 out.patch[rows], out.variant[rows] = patch[good], variant[good]
             redraw = pending[on_level & ~confined]  # confinement failures get a new depth too
             depth[redraw] = self.profile.sample(rng, len(redraw))

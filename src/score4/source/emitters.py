@@ -26,7 +26,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal, Protocol
+from typing import Literal, Protocol, cast, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -59,14 +59,7 @@ __all__ = [
 DirectionKind = Literal[
     "isotropic", "inward", "outward", "cosine_inward", "cosine_outward", "normal"
 ]
-DIRECTIONS: tuple[str, ...] = (
-    "isotropic",
-    "inward",
-    "outward",
-    "cosine_inward",
-    "cosine_outward",
-    "normal",
-)
+DIRECTIONS: tuple[str, ...] = get_args(DirectionKind)
 
 # --------------------------------------------------------------------------------------------
 # Particle and nuclide names
@@ -329,10 +322,10 @@ class Emitter(Protocol):
     ) -> list[tuple[str, np.ndarray, np.ndarray]]: ...
 
 
-def _check_direction(direction: str) -> str:
+def _check_direction(direction: str) -> DirectionKind:
     if direction not in DIRECTIONS:
         raise ConfigError(f"direction: got {direction!r}; use one of: {', '.join(DIRECTIONS)}")
-    return direction
+    return cast(DirectionKind, direction)
 
 
 class ParticleEmitter:

@@ -563,9 +563,10 @@ class TiledSurfaceSampler:
                 f"layout: variant indices must be in [0, {len(self.variants) - 1}], got "
                 f"{grid.min()}..{grid.max()}"
             )
-        self.pitch = tuple(float(p) for p in pitch)
-        if len(self.pitch) != 2 or not all(np.isfinite(p) and p > 0 for p in self.pitch):
+        sizes = tuple(float(p) for p in pitch)
+        if len(sizes) != 2 or not all(np.isfinite(p) and p > 0 for p in sizes):
             raise ConfigError(f"pitch: need two positive cell sizes (px, py) in mm, got {pitch!r}")
+        self.pitch = (sizes[0], sizes[1])
         self.origin = np.asarray(origin, dtype=float).reshape(3)
         self.rotation = _rotation(rotation)
         self.layout = grid.astype(np.int64)

@@ -266,7 +266,7 @@ def _usable_moments(m: dict[str, float]) -> tuple[float, float]:
 def _usable_corr_lengths(fit: dict[str, float], hm: HeightMap) -> dict[str, float]:
     """Grid large enough for the generator's rules: n * pitch >= 5 l, pitch <= l / 2 (with
     warnings)."""
-    out = {"nx": hm.shape[1], "ny": hm.shape[0]}
+    out: dict[str, float] = {"nx": hm.shape[1], "ny": hm.shape[0]}
     for axis, pitch in (("x", hm.pitch_x), ("y", hm.pitch_y)):
         corr = max(fit[f"corr_length_{axis}"], pitch / rs.MAX_PITCH_PER_CORR_LENGTH)
         if corr != fit[f"corr_length_{axis}"]:

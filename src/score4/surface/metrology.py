@@ -270,7 +270,7 @@ def _facet_power_integrals(d: np.ndarray, area: np.ndarray, kmax: int = 4) -> li
         power.append(_sum3(dk))
     h = [power[0]]
     for k in range(1, kmax + 1):
-        h.append(sum(power[i] * h[k - i] for i in range(1, k + 1)) / k)
+        h.append(np.asarray(sum(power[i] * h[k - i] for i in range(1, k + 1))) / k)
     return [float(area @ h[k]) * 2.0 / ((k + 1) * (k + 2)) for k in range(1, kmax + 1)]
 
 
@@ -330,6 +330,7 @@ def mesh_parameters(mesh: TriangleMesh, *, level: bool = True) -> dict[str, floa
     ConfigError
         If the mesh has no top faces, or top faces overhang (normal pointing down).
     """
+    assert mesh.top is not None  # TriangleMesh.__post_init__ fills it in
     top = np.flatnonzero(mesh.top)
     if len(top) == 0:
         raise ConfigError("mesh: has no top faces to measure")

@@ -78,8 +78,11 @@ def _fmt(v: float) -> str:
 def _length(value: object, name: str) -> float:
     """A positive finite length in mm, from a number (mm) or a string with a unit."""
     v = parse_quantity(value, "length", name) if isinstance(value, str) else value
-    ok = not isinstance(v, bool) and isinstance(v, numbers.Real) and math.isfinite(v)
-    if not (ok and v > 0):
+    if (
+        isinstance(v, bool)
+        or not isinstance(v, numbers.Real)
+        or not (math.isfinite(v) and float(v) > 0)
+    ):
         raise ConfigError(f"{name}: must be a positive length, got {value!r}")
     return float(v)
 
@@ -184,7 +187,8 @@ def largest_remainder(n: int, weights: Sequence[float] | np.ndarray) -> np.ndarr
         raise ConfigError(
             f"weights: must be non-negative finite numbers with a positive sum, got {weights!r}"
         )
-    if isinstance(n, bool) or not isinstance(n, numbers.Integral) or n < 0:
+    given: object = n  # checked at run time: callers may pass anything
+    if isinstance(given, bool) or not isinstance(given, numbers.Integral) or given < 0:
         raise ConfigError(f"n: must be an integer >= 0, got {n!r}")
     quota = n * (w / w.sum())
     # Quotas within rounding noise of an integer are that integer (n * 0.3 for n = 40000 is
@@ -264,11 +268,8 @@ def _check_variants(
     if n_variants is None:
         k = hi + 1
     else:
-        if (
-            isinstance(n_variants, bool)
-            or not isinstance(n_variants, numbers.Integral)
-            or n_variants < 1
-        ):
+        given: object = n_variants  # checked at run time: callers may pass anything
+        if isinstance(given, bool) or not isinstance(given, numbers.Integral) or given < 1:
             raise ConfigError(f"n_variants: must be an integer >= 1, got {n_variants!r}")
         k = int(n_variants)
     if lo < 0 or hi >= k:
@@ -314,10 +315,14 @@ class PatchMap:
     _counts: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        d = self.densities
-        if isinstance(d, (str, bytes)) or not isinstance(d, (Sequence, np.ndarray)) or len(d) == 0:
-            raise ConfigError(f"densities: must be a non-empty sequence, got {d!r}")
-        d = np.asarray(d, dtype=float)
+        given: object = self.densities  # checked at run time: callers may pass anything
+        if (
+            isinstance(given, (str, bytes))
+            or not isinstance(given, (Sequence, np.ndarray))
+            or len(given) == 0
+        ):
+            raise ConfigError(f"densities: must be a non-empty sequence, got {given!r}")
+        d = np.asarray(given, dtype=float)
         if (
             d.ndim != 1
             or not np.all(np.isfinite(d))
@@ -526,9 +531,13 @@ class PatchMap:
         method = attrs["method"]
         method = method.decode() if isinstance(method, bytes) else str(method)
         seed = int(attrs["seed"]) if "seed" in attrs else None
-        patch = tuple(float(v) for v in attrs["patch_size"])
+        px, py = (float(v) for v in attrs["patch_size"])
         return cls(
-            group["variants"][...], patch, tuple(float(v) for v in attrs["densities"]), method, seed
+            group["variants"][...],
+            (px, py),
+            tuple(float(v) for v in attrs["densities"]),
+            method,
+            seed,
         )
 
     # --- text -------------------------------------------------------------------------------

@@ -190,13 +190,13 @@ def _laplace_fill(z: np.ndarray, missing: np.ndarray) -> np.ndarray:
         nj_in, ni_in, p_in = nj[inside], ni[inside], p[inside]
         q = unknown[nj_in, ni_in]
         is_unknown = q >= 0
-        (
-            rows.append(p_in[is_unknown]),
-            cols.append(q[is_unknown]),
-            vals.append(-np.ones(is_unknown.sum())),
-        )
+        rows.append(p_in[is_unknown])
+        cols.append(q[is_unknown])
+        vals.append(-np.ones(is_unknown.sum()))
         np.add.at(rhs, p_in[~is_unknown], z[nj_in[~is_unknown], ni_in[~is_unknown]])
-    rows.append(p), cols.append(p), vals.append(degree)
+    rows.append(p)
+    cols.append(p)
+    vals.append(degree)
     a = scipy.sparse.csr_matrix(
         (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(p.size, p.size)
     )

@@ -94,7 +94,15 @@ def _length(value: float | str, name: str) -> float:
     return float(x)
 
 
-def _count(value: int, name: str) -> int:
+def _finite_real(value: object) -> float | None:
+    """``value`` as a float if it is a finite real number (bool excluded), else None."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        return None
+    x = float(value)
+    return x if math.isfinite(x) else None
+
+
+def _count(value: object, name: str) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 4:
         raise ConfigError(f"{name}: must be an integer number of samples >= 4, got {value!r}")
     return int(value)
@@ -242,7 +250,8 @@ def check_moments(skewness: float, kurtosis: float) -> None:
     1.05 Ssk^2 + 1.2 <= Sku <= MAX_KURTOSIS (20). Near the bound the S_B fit needs extreme
     parameters; very heavy tails need more points than a map has.
     """
-    for name, v in (("skewness", skewness), ("kurtosis", kurtosis)):
+    given: tuple[tuple[str, object], ...] = (("skewness", skewness), ("kurtosis", kurtosis))
+    for name, v in given:  # checked at run time: callers may pass anything
         if (
             isinstance(v, bool)
             or not isinstance(v, (int, float, np.floating, np.integer))
@@ -560,17 +569,13 @@ def self_affine_surface(
         Heights in mm with mean 0.
     """
     nx, ny, px, py = _grid(nx, ny, pitch_x, pitch_y)
-    if (
-        isinstance(hurst, bool)
-        or not isinstance(hurst, (int, float, np.floating, np.integer))
-        or not (0 < hurst <= 1)
-    ):
+    h = _finite_real(hurst)
+    if h is None or not (0 < h <= 1):
         raise ConfigError(f"hurst: {hurst!r} is outside the allowed range; rule: 0 < hurst <= 1")
     if (sq is None) == (rms_slope is None):
         raise ConfigError("sq, rms_slope: give exactly one of them to set the height scale")
-    if rms_slope is not None and not (
-        isinstance(rms_slope, (int, float)) and math.isfinite(rms_slope) and rms_slope > 0
-    ):
+    slope = None if rms_slope is None else _finite_real(rms_slope)
+    if rms_slope is not None and (slope is None or slope <= 0):
         raise ConfigError(
             f"rms_slope: must be a positive number (dimensionless), got {rms_slope!r}"
         )
@@ -593,9 +598,13 @@ def self_affine_surface(
         )
     check_moments(skewness, kurtosis)
     shape = _generation_shape(nx, ny, lam_l, lam_l, px, py, periodic)
-    amp = _self_affine_amplitude(shape, px, py, float(hurst), 2 * np.pi / lam_l, 2 * np.pi / lam_s)
+    amp = _self_affine_amplitude(shape, px, py, h, 2 * np.pi / lam_l, 2 * np.pi / lam_s)
     field = _colour_noise(amp, shape, _rng(seed))[:ny, :nx]
-    scale = _length(sq, "sq") if sq is not None else float(rms_slope)
+    if sq is not None:
+        scale = _length(sq, "sq")
+    else:
+        assert slope is not None  # exactly one of sq, rms_slope is given (checked above)
+        scale = slope
     meta = {
         "generator": "self_affine_surface",
         "model": "self_affine",

@@ -257,7 +257,7 @@ def _read_text_grid(path: Path, fmt: str, pitch, pitch_y, z_unit, **_) -> Height
         px = py = _pitch_value(pitch, "pitch")
     if pitch_y is not None:
         py = _pitch_value(pitch_y, "pitch_y")
-    if px is None:
+    if px is None or py is None:
         raise ConfigError(
             f"pitch: {path} does not give the sample spacing; pass pitch='0.5 um' or add '# pitch "
             "= 0.5 um'"

@@ -205,8 +205,10 @@ class Surface:
 
     @property
     def _extent(self) -> tuple[float, float]:
-        ny, nx = self.heightmap.shape
-        return (nx - 1) * self.heightmap.pitch_x, (ny - 1) * self.heightmap.pitch_y
+        hm = self.heightmap
+        assert hm is not None  # a surface holds spikes or a height map
+        ny, nx = hm.shape
+        return (nx - 1) * hm.pitch_x, (ny - 1) * hm.pitch_y
 
     @property
     def max_height(self) -> float:
@@ -262,8 +264,7 @@ class Surface:
         )
 
     def body(self, base_thickness: float) -> TriangleMesh:
-        """Closed, watertight patch: the rough top on a slab reaching ``base_thickness`` below z =
-        0."""
+        """Closed, watertight patch: the rough top on a slab ``base_thickness`` below z = 0."""
         return closed_body(self.top_mesh, base_thickness)
 
 
@@ -272,6 +273,9 @@ def build_surface(spec) -> Surface:
     if isinstance(spec, dict):
         spec = parse_surface_spec(spec)
     if isinstance(spec, SpikeSurfaceSpec):
+        # the spec's validator fills width_x and width_y in from width
+        assert spec.width_x is not None
+        assert spec.width_y is not None
         grid = SpikeGrid(
             nx=spec.nx,
             ny=spec.ny,

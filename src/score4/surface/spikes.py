@@ -79,8 +79,12 @@ _CORNER_SY = np.array([-1.0, -1.0, 1.0, 1.0])
 def _length(value: object, name: str, allow_zero: bool = False) -> float:
     """A positive (or >= 0) finite length in mm, from a number (mm) or a string with a unit."""
     v = parse_quantity(value, "length", name) if isinstance(value, str) else value
-    ok = not isinstance(v, bool) and isinstance(v, numbers.Real) and math.isfinite(v)
-    if not (ok and (v >= 0 if allow_zero else v > 0)):
+    if (
+        isinstance(v, bool)
+        or not isinstance(v, numbers.Real)
+        or not math.isfinite(v)
+        or not (float(v) >= 0 if allow_zero else float(v) > 0)
+    ):
         rule = "a length >= 0" if allow_zero else "a positive length"
         raise ConfigError(f"{name}: must be {rule}, got {value!r}")
     return float(v)
@@ -349,8 +353,8 @@ class SpikeGrid:
         Samples are at ``-size/2 + k * pitch`` for k = 0 .. floor(size / pitch) along each axis
         (the last sample reaches the far edge only when the pitch divides the size).
         """
-        px, py = (pitch, pitch) if np.isscalar(pitch) or isinstance(pitch, str) else pitch
-        px, py = _length(px, "pitch"), _length(py, "pitch")
+        pair = pitch if isinstance(pitch, (tuple, list, np.ndarray)) else (pitch, pitch)
+        px, py = _length(pair[0], "pitch"), _length(pair[1], "pitch")
         nsx = math.floor(self.size_x / px * (1 + 1e-12)) + 1
         nsy = math.floor(self.size_y / py * (1 + 1e-12)) + 1
         if min(nsx, nsy) < 2:
