@@ -111,8 +111,7 @@ def wait_no_processes(sid: int, timeout: float = 20) -> None:
 
 
 def check_chunk_files(parts: Path, config) -> set[int]:
-    """Every file named like a finished chunk is complete and belongs to this run; return their
-    indices."""
+    """Indices of the finished chunk files, each checked complete and belonging to this run."""
     fingerprint = config_fingerprint(config, config.run.seed)
     size = config.run.chunk_events
     done = set()

@@ -100,8 +100,7 @@ def face_source(
 
 
 def oblique_directions(rng, frame, n: int, max_normal: float) -> np.ndarray:
-    """Directions with a normal component below ``max_normal`` (either sign): they cross many
-    cells."""
+    """Directions with a normal component below ``max_normal`` (either sign): many cells crossed."""
     phi = rng.uniform(0, 2 * np.pi, n)
     cz = rng.uniform(-max_normal, max_normal, n)
     s = np.sqrt(1 - cz**2)
@@ -155,8 +154,7 @@ def read_vertex_events(vfile):
 
 
 def geantino_vertices(tmp_path, n_face: int = 250):
-    """Vertices below both rough faces (sampled in the patches), oblique or isotropic, plus corner
-    crossers."""
+    """Vertices below both rough faces (sampled in the patches), oblique, isotropic, corners."""
     rng = np.random.default_rng(11)
     parts = []
     for face in ("+z", "-x"):

@@ -47,8 +47,7 @@ TARGET = {
 def geantino_vertex_run(
     tmp_path, face: str, surface: dict, solid: str, events: int = 300, layout: str = "placements"
 ):
-    """Vertices sampled below the rough face, then geantinos from them along the inward face
-    normal."""
+    """Vertices sampled below the rough face, then geantinos from them along the inward normal."""
     target = {
         **TARGET,
         "rough": [{"face": face, "surface": "s", "solid": solid, "native_layout": layout}],
@@ -187,8 +186,7 @@ def test_po210_source_emits_alpha_and_recoil_per_event(tmp_path):
 
 
 def test_vertex_file_reproduces_the_direct_run(tmp_path):
-    """score4 vertices draws chunk by chunk like score4 run; running the file gives the same
-    events."""
+    """score4 vertices draws chunks like score4 run: running the file gives the same events."""
     data = config_dict(
         surfaces={"p": {"kind": "spikes", "nx": 10, "ny": 5, "width": "40 um", "height": "40 um"}},
         targets=[{**TARGET, "rough": [{"face": "+z", "surface": "p"}]}],
@@ -279,8 +277,7 @@ def test_nuclide_sources_need_radioactive_decay_data(tmp_path):
 
 
 def test_confinement_to_a_material_no_target_at_the_face_has_fails_with_counts(tmp_path):
-    """Vertices drawn at the face of a silicon crystal can never be in the copper block beside
-    it."""
+    """Vertices drawn at a silicon crystal's face are never in the copper block beside it."""
     copper = {
         "name": "block",
         "material": "G4_Cu",

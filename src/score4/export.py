@@ -65,8 +65,7 @@ class DepositHistogram:
 
 
 def energy_value(value: float | str | None, name: str) -> float | None:
-    """An energy in MeV from a float (MeV) or a string with a unit (``"6 MeV"``); None stays
-    None."""
+    """Energy in MeV from a float (MeV) or a string with a unit (``"6 MeV"``); None stays None."""
     if value is None:
         return None
     if isinstance(value, str):
@@ -168,8 +167,7 @@ def deposit_histogram(edep: np.ndarray, edges: np.ndarray) -> DepositHistogram:
 
 
 def select_volumes(results: Results, volume: str | None) -> list[str]:
-    """``[volume]`` if it exists in ``results`` (else an error listing the volumes); all volumes for
-    None."""
+    """``[volume]`` if ``results`` has it (else an error naming the volumes); all for None."""
     names = list(results.edep)
     if volume is None:
         return names

@@ -211,8 +211,7 @@ def _read(path: Path, commands: list[_Command], stack: tuple[Path, ...]) -> None
 
 
 def _include(cmd: _Command, commands: list[_Command], stack: tuple[Path, ...]) -> None:
-    """Expand ``/control/execute FILE`` in place (the file is looked for beside the macro, then
-    here)."""
+    """Expand ``/control/execute FILE`` in place (FILE looked for beside the macro, then here)."""
     if len(cmd.args) != 1:
         raise cmd.fail(f"expected one macro file name, got {' '.join(cmd.args)!r}")
     name = Path(cmd.args[0])
@@ -241,8 +240,7 @@ def _quantity(
     index: int = 0,
     minimum: str = "positive",
 ) -> _Quantity:
-    """``<number> [unit]`` at ``args[index:]``; the unit is required unless the command has a
-    default."""
+    """``<number> [unit]`` at ``args[index:]``; a unit is needed unless there is a default."""
     symbols, names, _, _ = _UNITS[dimension]
     accepted = ", ".join(symbols)
     a = "an" if dimension[0] in "aeiou" else "a"
@@ -926,8 +924,7 @@ def _patch_basis(
 def _portal_face(
     state: _State, portal: _Helper, patch: tuple[_Quantity, _Quantity], config: dict, rough: dict
 ) -> tuple[str, str]:
-    """Face size from the portal (checked as MultiportalHelper::CheckValues does); the converted
-    keys."""
+    """Face size from the portal (checked like MultiportalHelper::CheckValues), converted keys."""
     sizes = []
     for axis, half_patch in zip(("x", "y"), patch, strict=True):
         sub = portal.get(f"sub_d{axis}")

@@ -56,8 +56,7 @@ class Spectrum:
 
 @dataclass(frozen=True)
 class DepthHistogram:
-    """One drawn depth histogram: ``counts`` vertices per bin, ``per_nm`` per nm of depth, edges in
-    nm."""
+    """One drawn depth histogram: ``counts`` per bin, ``per_nm`` per nm of depth, edges in nm."""
 
     label: str
     edges_nm: np.ndarray
@@ -211,8 +210,7 @@ def describe_run(results: Results) -> str:
 
 
 def default_label(results: Results) -> str:
-    """File stem plus :func:`describe_run`, e.g. ``"flat: alpha 5.3 MeV, flat +z of crystal, lite
-    physics"``."""
+    """File stem plus :func:`describe_run`, e.g. ``"flat: alpha 5.3 MeV, flat +z of crystal"``."""
     stem = results.path.name.removesuffix(".h5").removesuffix(".hdf5")
     description = describe_run(results)
     return f"{stem}: {description}" if description else stem

@@ -127,8 +127,7 @@ class RoughLayer:
         return self.patch_map.cell_centres()
 
     def sampler(self):
-        """A :class:`~score4.source.sampling.TiledSurfaceSampler` on the rough tops, world
-        coordinates."""
+        """A :class:`~score4.source.sampling.TiledSurfaceSampler` on the rough tops."""
         from .source.sampling import SurfaceSampler, TiledSurfaceSampler
 
         px, py = self.patch_size

@@ -46,8 +46,7 @@ Size3 = tuple[PositiveLength, PositiveLength, PositiveLength]
 
 
 class StrictModel(BaseModel):
-    """Unknown keys are errors (a typo never silently falls back to a default); values are
-    frozen."""
+    """Unknown keys are errors (a typo never falls back to a default); values are frozen."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 

@@ -99,8 +99,7 @@ def flat_face_sampler(config: RunConfig, volume: str, face: str) -> SurfaceSampl
 
 @dataclass
 class SampledSource:
-    """Vertices drawn on a face below its (rough) surface, each emitting the configured
-    particles."""
+    """Vertices drawn below a (rough) face, each emitting the configured particles."""
 
     sampler: VertexSampler
     emitter: Emitter

@@ -211,8 +211,7 @@ class MeshDistance:
     def _pairs(
         self, points: np.ndarray, radius: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Candidate (point, triangle, image) triples with the triangle possibly within
-        ``radius``."""
+        """Candidate (point, triangle, image) triples, the triangle possibly within ``radius``."""
         pi, tj, oi = [], [], []
         for o, off in enumerate(self._images):
             y = (

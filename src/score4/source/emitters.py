@@ -190,8 +190,7 @@ def _axis(normals: ArrayLike, side: str) -> np.ndarray:
 def hemisphere_directions(
     rng: np.random.Generator, normals: ArrayLike, side: str = "inward"
 ) -> np.ndarray:
-    """Uniform directions in the half-space ``inward`` (against the outward normal) or
-    ``outward``."""
+    """Uniform directions in the half-space ``inward`` (against the normal) or ``outward``."""
     axis = _axis(normals, side)
     return _about_axis(rng, axis, rng.random(len(axis)))
 

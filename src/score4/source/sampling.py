@@ -115,8 +115,7 @@ class DiscreteSampler:
 def _check_table(
     x: np.ndarray, w: np.ndarray, labels: Sequence[str], what: str, xname: str
 ) -> None:
-    """Validate a (x, weight) table; ``labels[i]`` says where row i came from (file line or
-    index)."""
+    """Validate a (x, weight) table; ``labels[i]`` is where row i came from (line or index)."""
     if len(x) < 2:
         raise ConfigError(f"{what}: needs at least 2 rows '{xname} weight', got {len(x)}")
     for i in range(len(x)):

@@ -103,8 +103,7 @@ def autocorrelation(hm: HeightMap) -> np.ndarray:
 
 
 def _lags(n: int, pitch: float) -> np.ndarray:
-    """Signed lags matching the FFT order of an axis of length n (n odd: 2m-1 lags, or periodic
-    n)."""
+    """Signed lags in the FFT order of an axis of length n (n odd: 2m-1 lags, or periodic n)."""
     return scipy.fft.fftfreq(n, 1.0 / n) * pitch
 
 
@@ -264,8 +263,7 @@ def _usable_moments(m: dict[str, float]) -> tuple[float, float]:
 
 
 def _usable_corr_lengths(fit: dict[str, float], hm: HeightMap) -> dict[str, float]:
-    """Grid large enough for the generator's rules: n * pitch >= 5 l, pitch <= l / 2 (with
-    warnings)."""
+    """Grid large enough for the generator: n * pitch >= 5 l, pitch <= l / 2 (with warnings)."""
     out: dict[str, float] = {"nx": hm.shape[1], "ny": hm.shape[0]}
     for axis, pitch in (("x", hm.pitch_x), ("y", hm.pitch_y)):
         corr = max(fit[f"corr_length_{axis}"], pitch / rs.MAX_PITCH_PER_CORR_LENGTH)

@@ -206,8 +206,7 @@ def _boundary_half_edges(mesh: TriangleMesh) -> np.ndarray:
 
 
 def _check_star_shaped(edges_xy: np.ndarray, centre: np.ndarray) -> None:
-    """The bottom fan is valid only if the boundary winds once counter-clockwise around
-    ``centre``."""
+    """The bottom fan is valid only if the boundary winds once anticlockwise round ``centre``."""
     a, b = edges_xy[:, 0] - centre, edges_xy[:, 1] - centre
     cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
     dot = (a * b).sum(axis=1)

@@ -543,8 +543,7 @@ class PatchMap:
     # --- text -------------------------------------------------------------------------------
 
     def describe(self) -> str:
-        """A one-paragraph summary: grid, patch and face size, method, realised vs target
-        fractions."""
+        """One-paragraph summary: grid, patch and face size, method, realised/target fractions."""
         (px, py), (lx, ly) = self.patch_size, self.face_size
         how = {"exact": "exact counts", "random": "independent draws", "given": "given grid"}[
             self.method

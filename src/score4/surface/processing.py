@@ -38,8 +38,7 @@ def _length(value: float | str, name: str) -> float:
 
 # ----------------------------------------------------------------------------- levelling
 def plane_fit(hm: HeightMap) -> tuple[float, float, float]:
-    """Least-squares plane z = a + b x + c y through the valid points; returns (a, b, c) in mm,
-    mm/mm."""
+    """Least-squares plane z = a + b x + c y through the valid points: (a, b, c) in mm, mm/mm."""
     yy, xx = np.meshgrid(hm.y, hm.x, indexing="ij")
     ok = ~np.isnan(hm.heights)
     design = np.column_stack([np.ones(ok.sum()), xx[ok], yy[ok]])
@@ -48,8 +47,7 @@ def plane_fit(hm: HeightMap) -> tuple[float, float, float]:
 
 
 def level_plane(hm: HeightMap) -> HeightMap:
-    """Subtract the least-squares plane (missing points stay NaN); the result has mean 0 and no
-    tilt."""
+    """Subtract the least-squares plane (missing points stay NaN): mean 0 and no tilt."""
     a, b, c = plane_fit(hm)
     z = hm.heights - (a + b * hm.x[None, :] + c * hm.y[:, None])
     return _with(hm, z, f"level_plane(a={a:.6g}, b={b:.6g}, c={c:.6g})")
@@ -57,8 +55,7 @@ def level_plane(hm: HeightMap) -> HeightMap:
 
 # ----------------------------------------------------------------------------- cropping
 def crop_samples(hm: HeightMap, columns: tuple[int, int], rows: tuple[int, int]) -> HeightMap:
-    """Keep columns ``[c0, c1)`` and rows ``[r0, r1)`` (Python slice rules for the bounds, no
-    steps)."""
+    """Keep columns ``[c0, c1)`` and rows ``[r0, r1)`` (slice rules for the bounds, no steps)."""
     ny, nx = hm.shape
     c0, c1, _ = slice(*columns).indices(nx)
     r0, r1, _ = slice(*rows).indices(ny)
@@ -79,8 +76,7 @@ def crop_samples(hm: HeightMap, columns: tuple[int, int], rows: tuple[int, int])
 def crop(
     hm: HeightMap, x: tuple[float | str, float | str], y: tuple[float | str, float | str]
 ) -> HeightMap:
-    """Keep the samples with x0 <= x <= x1 and y0 <= y <= y1 (coordinates in mm or strings with
-    unit)."""
+    """Keep the samples with x0 <= x <= x1 and y0 <= y <= y1 (mm, or strings with a unit)."""
     (x0, x1), (y0, y1) = ((_length(a, n), _length(b, n)) for (a, b), n in ((x, "x"), (y, "y")))
     eps_x, eps_y = (
         1e-9 * hm.pitch_x,

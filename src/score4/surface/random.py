@@ -455,8 +455,7 @@ def _finish(
     metadata: dict,
     by_slope: bool = False,
 ) -> HeightMap:
-    """Apply the height distribution and the scale (Sq or rms slope) to a coloured Gaussian
-    field."""
+    """Apply the height distribution and scale (Sq or rms slope) to a coloured Gaussian field."""
     z = johnson_translate(z, skewness, kurtosis)
     z = z * (scale / (rms_slope(z, px, py) if by_slope else 1.0))
     return HeightMap(z, px, py, metadata=metadata)

@@ -221,8 +221,7 @@ class Surface:
 
     @cached_property
     def placed_map(self) -> HeightMap:
-        """The height map centred on the origin with its lowest point at z = 0 (height maps
-        only)."""
+        """The height map centred on the origin, lowest point at z = 0 (height maps only)."""
         hm = self.heightmap
         if hm is None:
             raise ValueError("placed_map: a spike grid has no primary height map; use .map")
