@@ -167,7 +167,8 @@ def test_moments_outside_the_generator_region_are_moved_with_a_warning():
     z = np.zeros((64, 64))
     z[::16, ::16] = 1.0  # a few spikes: kurtosis ~ 250
     z += np.random.default_rng(0).normal(scale=1e-3, size=z.shape)
-    with pytest.warns(UserWarning, match="kurtosis") as record:
+    # all three adjustments warn: kurtosis, and both correlation lengths (raised to 2 pitches)
+    with pytest.warns(UserWarning, match=r"kurtosis|corr_length_[xy] raised") as record:
         fit = fit_random_surface(HeightMap(z, 1.0, 1.0))
     assert any("kurtosis" in str(w.message) for w in record)
     assert fit["kurtosis"] == 20.0
