@@ -155,7 +155,7 @@ class DaskExecutor:
                 chunk = by_key[fut.key]
                 try:
                     result: ChunkOutput = fut.result()
-                except Exception as exc:  # the task failed: say which chunk and why
+                except Exception as exc:  # noqa: BLE001 any task failure: report its chunk and why
                     yield ("failed", chunk.index, *_describe(exc))
                     continue
                 finally:
@@ -210,7 +210,7 @@ class DaskExecutor:
             )
             try:
                 client.restart_workers(others)
-            except Exception as err:
+            except Exception as err:  # noqa: BLE001 whatever stops the restart ends the run here
                 raise Score4Error(
                     f"--cluster: could not restart Dask workers {others} that hold another run's Geant4 set-up "
                     f"({err}); start the workers with a nanny, or restart them by hand"

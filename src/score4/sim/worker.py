@@ -155,7 +155,7 @@ def worker_main(spec: WorkerSpec, conn) -> None:
         return
     except Score4Error as err:
         _report(conn, ("error", getattr(chunk, "index", None), type(err).__name__, str(err)))
-    except BaseException as err:  # report, then let the parent decide; never hang it
+    except BaseException as err:  # noqa: BLE001 report, then let the parent decide; never hang it
         detail = "".join(traceback.format_exception_only(type(err), err)).strip()
         _report(conn, ("error", getattr(chunk, "index", None), type(err).__name__, detail))
 
