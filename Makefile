@@ -1,15 +1,18 @@
-# Two entry points for newcomers: `make demo` and `make test`.
+# Entry points: `make demo` and `make test` for newcomers; `make lint` for contributors.
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.score4-installed
+PYTEST_ARGS ?=
 
-.PHONY: demo test clean
+.PHONY: demo test lint clean
 
+# score4 (editable) with the test extra, plus the pinned linters of the `lint` dependency group
+# (pip >= 25.1 reads dependency groups; the step upgrades pip first).
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+	$(BIN)/python -m pip install --quiet -e '.[test]' --group lint
 	touch $(STAMP)
 
 # The paper's application, small: 5.3 MeV alphas on a flat and on a pyramid-covered silicon face.
@@ -21,7 +24,13 @@ demo: $(STAMP)
 	$(BIN)/score4 plot out/demo/flat.h5 out/demo/rough.h5 --label "flat face" --label "10 um pyramids" --out out/demo/spectra.png
 
 test: $(STAMP)
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest $(PYTEST_ARGS)
+
+# Lint and types: the same checks as the pre-commit hooks' ruff and mypy.
+lint: $(STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
+	$(BIN)/mypy
 
 clean:
 	rm -rf $(VENV) out build src/*.egg-info

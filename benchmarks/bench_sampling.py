@@ -17,8 +17,8 @@ import time
 import numpy as np
 
 from score4.source.depth import MeshDistance, VertexSampler
-from score4.source.profiles import ExponentialProfile
 from score4.source.emitters import Po210Emitter, make_primaries
+from score4.source.profiles import ExponentialProfile
 from score4.source.sampling import SurfaceSampler, TiledSurfaceSampler
 from score4.units import nm, um
 
@@ -97,10 +97,12 @@ def main() -> None:
     tri = pyramid_grid(n_side, 1 * um, rng)
     profile = ExponentialProfile(30 * nm)
     print(
-        f"surface: {len(tri):,} facets ({n_side}x{n_side} pyramids, pitch 1 um, height 1 um +- 20 %)"
+        f"surface: {len(tri):,} facets ({n_side}x{n_side} pyramids, pitch 1 um, height 1 um +- 20 "
+        "%)"
     )
     print(
-        f"depth profile: exponential, mean 30 nm; {args.vertices:,} vertices per timing, best of 3\n"
+        f"depth profile: exponential, mean 30 nm; {args.vertices:,} vertices per timing, best of "
+        "3\n"
     )
 
     t, surface = timed(lambda: SurfaceSampler(tri), 1)
@@ -131,7 +133,8 @@ def main() -> None:
     tiled = VertexSampler(face, profile)
     t, _ = timed(lambda: tiled.sample(rng, args.vertices))
     print(
-        f"\ntiled face 200x200 cells x 10^4 facets, 'normal': {t:.3f} s   {args.vertices / t / 1e6:.2f} M vertices/s"
+        f"\ntiled face 200x200 cells x 10^4 facets, 'normal': {t:.3f} s   "
+        f"{args.vertices / t / 1e6:.2f} M vertices/s"
     )
 
 

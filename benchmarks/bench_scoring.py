@@ -101,6 +101,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.method:
         import os
+
         from score4.sim.runtime import redirect_native_output
 
         with redirect_native_output(os.devnull):
@@ -108,7 +109,8 @@ def main() -> None:
         print(json.dumps(result))
         return
     print(
-        f"{'method':10s} {'us/event':>10s} {'mean edep [MeV]':>16s}   ({args.events} alpha events, 5.3 MeV, flat Si, lite)"
+        f"{'method':10s} {'us/event':>10s} {'mean edep [MeV]':>16s}   ({args.events} alpha events, "
+        "5.3 MeV, flat Si, lite)"
     )
     for method in ("mfd", "stepping", "sd"):
         out = subprocess.run(

@@ -270,9 +270,9 @@ def _row(r: dict) -> str:
     if "error" in r:
         return f"{r['n_spikes']:>8d} {r['solid']:12s} {r['error']}"
     return (
-        f"{r['n_spikes']:>8d} {r['solid']:12s} {r['numpy_s']:8.2f} {r['build_s']:8.2f} {r['voxelise_s']:8.2f} "
-        f"{r['init_s']:7.2f} {r['rss_peak_mb']:8.0f} {r['rss_delta_mb']:8.0f} {r['us_per_event']:9.1f} "
-        f"{r['path_err_mm'] * 1e6:9.3f}"
+        f"{r['n_spikes']:>8d} {r['solid']:12s} {r['numpy_s']:8.2f} {r['build_s']:8.2f} "
+        f"{r['voxelise_s']:8.2f} {r['init_s']:7.2f} {r['rss_peak_mb']:8.0f} "
+        f"{r['rss_delta_mb']:8.0f} {r['us_per_event']:9.1f} {r['path_err_mm'] * 1e6:9.3f}"
     )
 
 

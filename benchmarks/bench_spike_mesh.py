@@ -8,6 +8,7 @@ body, the watertight check and the exact mesh metrology, and the peak resident m
 from __future__ import annotations
 
 import argparse
+import functools
 import resource
 import time
 
@@ -29,7 +30,8 @@ def main() -> None:
     )
     args = parser.parse_args()
     print(
-        f"{'spikes':>9} {'faces':>9} {'grid s':>7} {'top s':>7} {'body s':>7} {'check s':>8} {'metro s':>8} {'peak RSS MB':>11}"
+        f"{'spikes':>9} {'faces':>9} {'grid s':>7} {'top s':>7} {'body s':>7} {'check s':>8} "
+        f"{'metro s':>8} {'peak RSS MB':>11}"
     )
     for k in range(4, args.max_exponent + 1):
         n = 10 ** (k // 2)
@@ -42,7 +44,7 @@ def main() -> None:
             height_sigma=0.001,
             seed=1,
         )
-        grid, t_grid = _timed(lambda: SpikeGrid(**kwargs))
+        grid, t_grid = _timed(functools.partial(SpikeGrid, **kwargs))
         top, t_top = _timed(grid.top_mesh)
         body, t_body = _timed(closed_body, top, 0.1)
         ok, t_check = _timed(is_watertight, body)
@@ -50,7 +52,8 @@ def main() -> None:
         _, t_metro = _timed(mesh_parameters, top)
         rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
         print(
-            f"{grid.n_spikes:>9} {body.n_faces:>9} {t_grid:7.3f} {t_top:7.3f} {t_body:7.3f} {t_check:8.3f} {t_metro:8.3f} {rss:11.0f}"
+            f"{grid.n_spikes:>9} {body.n_faces:>9} {t_grid:7.3f} {t_top:7.3f} {t_body:7.3f} "
+            f"{t_check:8.3f} {t_metro:8.3f} {rss:11.0f}"
         )
 
 

@@ -40,7 +40,8 @@ Measured 2026-11-21 on the 2-core project machine (shared with other jobs, load 
 Re-measured the same day after native tiling put each patch in a vacuum cell box (commit "Native
 tiling: patches sit in one vacuum cell box"), with the one-variant cases added (placements1 /
 replicas1: only the equal-height pyramids, multi-union), load ~2:
-    .venv/bin/python benchmarks/bench_tiling.py --cases native,placements1,replicas1 --skip-patches --events 2000
+    .venv/bin/python benchmarks/bench_tiling.py --cases native,placements1,replicas1 \\
+        --skip-patches --events 2000
 
     case         build s  init s 1st run s  RSS MB ev/s wall ev/s CPU mean MeV jumps/ev
     native          0.43    0.60      0.54     253        55       55    3.083      nan
@@ -54,16 +55,16 @@ face. Replicas build 10x faster, use 36 MB less and track 10 % faster than place
 faces covered by one variant. Score4's default stays native placements (any patch map); use
 native_layout: replicas for one-variant faces.
 
-Reading of the first table. Per event the rough face costs ~70x the flat one (alphas and their delta electrons take
-hundreds of steps in pyramid solids). Native tiling tracks ~11 % faster than the portal (CPU
-54 vs 48 ev/s: the portal adds ~1.7 jumps per event, each a Python call plus an undone vacuum step,
-and one Python call per track for the cell bookkeeping); the spectra agree (mean 3.086 vs 3.078
-MeV, and tests/test_portal.py). But native pays its start-up in the first run: ~56 s in which
-Geant4 closes the geometry (smart voxels of the envelope's 40 000 daughters; CloseGeometry alone
-took 36 s on this geometry in a separate measurement) and needs 38 MB more. Per worker process
-the portal is ahead up to ~20 000 events (56 s / (1/38 - 1/42) s per event), native beyond. One
-1 cm patch as a single solid did not build within 300 s and had passed 2.2-2.5 GB by then, so
-large faces must be tiled (either way) from patches of ~10^4-10^5 spikes.
+Reading of the first table. Per event the rough face costs ~70x the flat one (alphas and their delta
+electrons take hundreds of steps in pyramid solids). Native tiling tracks ~11 % faster than the
+portal (CPU 54 vs 48 ev/s: the portal adds ~1.7 jumps per event, each a Python call plus an undone
+vacuum step, and one Python call per track for the cell bookkeeping); the spectra agree (mean 3.086
+vs 3.078 MeV, and tests/test_portal.py). But native pays its start-up in the first run: ~56 s in
+which Geant4 closes the geometry (smart voxels of the envelope's 40 000 daughters; CloseGeometry
+alone took 36 s on this geometry in a separate measurement) and needs 38 MB more. Per worker process
+the portal is ahead up to ~20 000 events (56 s / (1/38 - 1/42) s per event), native beyond. One 1 cm
+patch as a single solid did not build within 300 s and had passed 2.2-2.5 GB by then, so large faces
+must be tiled (either way) from patches of ~10^4-10^5 spikes.
 """
 
 from __future__ import annotations
@@ -273,9 +274,9 @@ def main() -> None:
             max(args.limit, 3600),
         )
         print(
-            f"{tiling:11} {r.get('build_s', 0.0):8.2f} {r['init_s']:7.2f} {r['first_run_s']:9.2f} {r['rss_mb']:7.0f} "
-            f"{r['ev_per_s_wall']:9.0f} {r['ev_per_s_cpu']:8.0f} {r['mean_edep_mev']:8.3f} "
-            f"{r.get('jumps_per_event', float('nan')):8.2f}",
+            f"{tiling:11} {r.get('build_s', 0.0):8.2f} {r['init_s']:7.2f} {r['first_run_s']:9.2f} "
+            f"{r['rss_mb']:7.0f} {r['ev_per_s_wall']:9.0f} {r['ev_per_s_cpu']:8.0f} "
+            f"{r['mean_edep_mev']:8.3f} {r.get('jumps_per_event', float('nan')):8.2f}",
             flush=True,
         )
     if args.skip_patches:
@@ -294,7 +295,8 @@ def main() -> None:
                 )
             else:
                 print(
-                    f"{size:6.1f}mm {solid:12} {n:9d} {r['build_s']:9.2f} {r['rss_mb']:8.0f} {r['rss_delta_mb']:8.0f}",
+                    f"{size:6.1f}mm {solid:12} {n:9d} {r['build_s']:9.2f} {r['rss_mb']:8.0f} "
+                    f"{r['rss_delta_mb']:8.0f}",
                     flush=True,
                 )
 

@@ -1,4 +1,5 @@
-"""Run in a spawned process by test_portal: a Simulation with given primaries, plus the portal's counters."""
+"""Run in a spawned process by test_portal: a Simulation with given primaries, plus the portal's
+counters."""
 
 from __future__ import annotations
 

@@ -24,17 +24,21 @@ def run_cli(*args, cwd=None):
 def test_version(capsys):
     assert main(["--version"]) == 0
     out = capsys.readouterr().out
-    assert out.startswith("score4 ") and "geant4_pybind 0.1" in out
+    assert out.startswith("score4 ")
+    assert "geant4_pybind 0.1" in out
 
 
 @pytest.mark.parametrize(
-    "content, message",
+    ("content", "message"),
     [
         (None, "does not exist"),
         ("targets: [", "not valid YAML"),
         ("targets: []\nsource: {energy: 5 MeV, surface: {volume: x}}\n", "targets"),
         (
-            "{targets: [{name: c, size: [1 cm, 1 cm, 1 cm]}], source: {energy: '5', surface: {volume: c}}}",
+            (
+                "{targets: [{name: c, size: [1 cm, 1 cm, 1 cm]}], source: {energy: '5', surface: "
+                "{volume: c}}}"
+            ),
             "has no unit",
         ),
     ],
@@ -45,7 +49,9 @@ def test_bad_config_exits_2_with_one_line(tmp_path: Path, capsys, content, messa
         path.write_text(content)
     assert main(["run", str(path), "--out", str(tmp_path / "o.h5")]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith("score4: error: ") and message in err and "\n" not in err
+    assert err.startswith("score4: error: ")
+    assert message in err
+    assert "\n" not in err
     assert not (tmp_path / "o.h5").exists()
 
 
@@ -53,7 +59,8 @@ def test_output_folder_missing_exits_2(tmp_path: Path, capsys):
     code = main(
         ["run", str(ROOT / "examples" / "flat_alpha.yaml"), "--out", str(tmp_path / "no" / "o.h5")]
     )
-    assert code == 2 and "does not exist" in capsys.readouterr().err
+    assert code == 2
+    assert "does not exist" in capsys.readouterr().err
 
 
 def test_run_then_summary_json(tmp_path: Path):
@@ -74,14 +81,18 @@ def test_run_then_summary_json(tmp_path: Path):
     again = run_cli(
         "run", ROOT / "examples" / "flat_alpha.yaml", "--events", 200, "--out", out, "-q"
     )
-    assert again.returncode == 2 and "already exists; use --overwrite" in again.stderr
+    assert again.returncode == 2
+    assert "already exists; use --overwrite" in again.stderr
     summary = run_cli("summary", out, "--json")
     assert summary.returncode == 0, summary.stderr
     s = json.loads(summary.stdout)
-    assert s["n_events"] == 200 and s["seed"] == 4 and s["physics_mode"] == "lite"
+    assert s["n_events"] == 200
+    assert s["seed"] == 4
+    assert s["physics_mode"] == "lite"
     (vol,) = s["volumes"]
     assert set(vol) == {"name", "mean_edep_MeV", "n_nonzero", "histogram"}
-    assert len(vol["histogram"]["edges_MeV"]) == 101 and len(vol["histogram"]["counts"]) == 100
+    assert len(vol["histogram"]["edges_MeV"]) == 101
+    assert len(vol["histogram"]["counts"]) == 100
     assert sum(vol["histogram"]["counts"]) == 200
 
 

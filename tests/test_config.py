@@ -17,11 +17,12 @@ def test_example_config_loads():
 
 def test_defaults_fill_a_short_config():
     config = parse_config(config_dict(run={}))
-    assert config.run.chunk_events > 0 and config.output.histogram.bins == 100
+    assert config.run.chunk_events > 0
+    assert config.output.histogram.bins == 100
 
 
 @pytest.mark.parametrize(
-    "sections, message",
+    ("sections", "message"),
     [
         (
             {"targets": [{"name": "c", "size": ["0 cm", "1 cm", "1 cm"]}]},

@@ -12,13 +12,14 @@ import numpy as np
 import pytest
 import yaml
 
-from conftest import config_dict
 from score4.cli.main import main
 from score4.config import parse_config
 from score4.errors import ConfigError, Score4Error
 from score4.output import read_results
 from score4.sim.engine import run
 from score4.sim.worker import CRASH_HOOK
+
+from conftest import config_dict
 
 distributed = pytest.importorskip("distributed")
 
@@ -83,7 +84,8 @@ def test_cli_cluster_dask_gives_the_local_result(tmp_path, reference, capsys):
     assert not (tmp_path / "dask.h5.parts").exists()
     # Geant4's output came back from the Dask workers, one log per worker process
     log = (tmp_path / "dask.geant4.log").read_text()
-    assert "===== geant4-dask-" in log and "Geant4 version" in log
+    assert "===== geant4-dask-" in log
+    assert "Geant4 version" in log
 
 
 def test_existing_scheduler_address_and_client(tmp_path, reference, cluster):
@@ -147,7 +149,8 @@ def test_a_dying_dask_worker_fails_its_chunk(tmp_path, monkeypatch):
     assert text.startswith(
         "run: chunk 1 failed (WorkerDied: the Dask worker processes that ran it died"
     )
-    assert "2 of 3 chunks are finished and kept in" in text and "--resume" in text
+    assert "2 of 3 chunks are finished and kept in" in text
+    assert "--resume" in text
     assert sorted(p.name for p in (tmp_path / "x.h5.parts").glob("chunk-*.h5")) == [
         "chunk-000000.h5",
         "chunk-000002.h5",
@@ -156,7 +159,7 @@ def test_a_dying_dask_worker_fails_its_chunk(tmp_path, monkeypatch):
 
 def test_bad_input_found_on_a_dask_worker_is_a_config_error(tmp_path):
     config = parse_config(config_dict(run={"events": 100, "seed": 2}, source={"particle": "alpah"}))
-    with pytest.raises(ConfigError, match="source.particle: unknown name 'alpah'"):
+    with pytest.raises(ConfigError, match=r"source\.particle: unknown name 'alpah'"):
         run(config, tmp_path / "p.h5", cluster="dask", progress=False, echo=quiet)
     assert list(tmp_path.iterdir()) == []
 

@@ -12,13 +12,14 @@ from importlib.metadata import version
 from pathlib import Path
 
 import pytest
-from _datasets_server import Route, closed_port, make_tarball, md5, serve
 from click.testing import CliRunner
 
 from score4 import datasets
 from score4.cli.data import data
 from score4.datasets import DataSet, Source
 from score4.errors import ConfigError, DataError
+
+from _datasets_server import Route, closed_port, make_tarball, md5, serve
 
 FAKE_FILES = {
     "FAKEDATA1.0": None,
@@ -116,7 +117,8 @@ def test_parsing_does_not_import_geant4_pybind(tmp_path: Path) -> None:
         timeout=60,
     )
     count, imported = out.stdout.split()
-    assert int(count) >= 10 and imported == "False"
+    assert int(count) >= 10
+    assert imported == "False"
 
 
 def test_fallback_warns_once_when_extension_unreadable(
@@ -210,8 +212,10 @@ def test_status_modes_and_missing(tmp_path: Path, home: Path) -> None:
     statuses = datasets.status(env)
     by_name = {s.name: s for s in statuses}
     assert [s.name for s in statuses] == [ds.name for ds in datasets.official_datasets()]
-    assert by_name["G4EMLOW"].source is Source.GEANT4_DATA_DIR and by_name["G4EMLOW"].found
-    assert by_name["RadioactiveDecay"].path is None and by_name["RadioactiveDecay"].source is None
+    assert by_name["G4EMLOW"].source is Source.GEANT4_DATA_DIR
+    assert by_name["G4EMLOW"].found
+    assert by_name["RadioactiveDecay"].path is None
+    assert by_name["RadioactiveDecay"].source is None
     assert datasets.available_modes(statuses) == {"lite": True, "full": True, "decay": False}
     assert datasets.missing_for("decay", statuses) == ["PhotonEvaporation", "RadioactiveDecay"]
     assert datasets.missing_for("full", statuses) == []
@@ -219,7 +223,7 @@ def test_status_modes_and_missing(tmp_path: Path, home: Path) -> None:
     env_vars = datasets.geant4_env(statuses)
     assert env_vars["G4LEDATA"] == str(by_name["G4EMLOW"].path)
     assert "G4RADIOACTIVEDATA" not in env_vars
-    with pytest.raises(ConfigError, match="mode='heavy'.*lite, full, decay"):
+    with pytest.raises(ConfigError, match=r"mode='heavy'.*lite, full, decay"):
         datasets.missing_for("heavy", statuses)
 
 
@@ -278,37 +282,46 @@ def test_install_replaces_lite_stub(tmp_path: Path, home: Path, fake_list) -> No
 def test_install_md5_mismatch_leaves_nothing(tmp_path: Path, home: Path, fake_list) -> None:
     other = make_tarball({"FAKEDATA1.0/README": b"tampered\n"})
     target = tmp_path / "data"
-    with serve({f"/datasets/{FAKE.tarball}": Route(other)}) as server:
-        with pytest.raises(DataError) as err:
-            datasets.install(target, base_url=server.base_url, progress=False)
+    with (
+        serve({f"/datasets/{FAKE.tarball}": Route(other)}) as server,
+        pytest.raises(DataError) as err,
+    ):
+        datasets.install(target, base_url=server.base_url, progress=False)
     msg = str(err.value)
-    assert FAKE.tarball in msg and FAKE.md5 in msg and md5(other) in msg
+    assert FAKE.tarball in msg
+    assert FAKE.md5 in msg
+    assert md5(other) in msg
     assert os.listdir(target) == []
 
 
 def test_install_server_dies_mid_download(tmp_path: Path, home: Path, fake_list) -> None:
     target = tmp_path / "data"
-    with serve({f"/datasets/{FAKE.tarball}": Route(FAKE_TAR, truncate=True)}) as server:
-        with pytest.raises(DataError, match=r"ended after \d+ of \d+ bytes"):
-            datasets.install(target, base_url=server.base_url, progress=False)
+    with (
+        serve({f"/datasets/{FAKE.tarball}": Route(FAKE_TAR, truncate=True)}) as server,
+        pytest.raises(DataError, match=r"ended after \d+ of \d+ bytes"),
+    ):
+        datasets.install(target, base_url=server.base_url, progress=False)
     assert os.listdir(target) == []
 
 
 def test_install_server_stalls_mid_download(tmp_path: Path, home: Path, fake_list) -> None:
     target = tmp_path / "data"
-    with serve({f"/datasets/{FAKE.tarball}": Route(FAKE_TAR, stall=1.0)}) as server:
-        with pytest.raises(DataError, match=r"download of .* failed: timed out; fetch the data"):
-            datasets.install(target, base_url=server.base_url, progress=False, timeout=0.3)
+    with (
+        serve({f"/datasets/{FAKE.tarball}": Route(FAKE_TAR, stall=1.0)}) as server,
+        pytest.raises(DataError, match=r"download of .* failed: timed out; fetch the data"),
+    ):
+        datasets.install(target, base_url=server.base_url, progress=False, timeout=0.3)
     assert os.listdir(target) == []
 
 
 def test_install_http_error(tmp_path: Path, home: Path, fake_list) -> None:
-    with serve({}) as server:
-        with pytest.raises(DataError) as err:
-            datasets.install(tmp_path / "data", base_url=server.base_url, progress=False)
+    with serve({}) as server, pytest.raises(DataError) as err:
+        datasets.install(tmp_path / "data", base_url=server.base_url, progress=False)
     msg = str(err.value)
-    assert f"{server.base_url}/{FAKE.tarball}" in msg and "HTTP 404" in msg
-    assert "machine with internet" in msg and "\n" not in msg
+    assert f"{server.base_url}/{FAKE.tarball}" in msg
+    assert "HTTP 404" in msg
+    assert "machine with internet" in msg
+    assert "\n" not in msg
 
 
 def test_install_connection_refused(tmp_path: Path, home: Path, fake_list) -> None:
@@ -319,7 +332,8 @@ def test_install_connection_refused(tmp_path: Path, home: Path, fake_list) -> No
     msg = str(err.value)
     assert msg.startswith(f"cannot download {url}/{FAKE.tarball}: ")
     assert "refused" in msg.lower()
-    assert f"copy them here as {target}/<name><version>/" in msg and "\n" not in msg
+    assert f"copy them here as {target}/<name><version>/" in msg
+    assert "\n" not in msg
     assert os.listdir(target) == []
 
 
@@ -357,9 +371,11 @@ def test_install_refuses_bad_tarballs(
     bad = DataSet("FAKEDATA", "1.0", "G4FAKEDATA", "G4FAKEDATA", md5(tar))
     monkeypatch.setattr(datasets, "official_datasets", lambda: [bad])
     target = tmp_path / "data"
-    with serve({f"/datasets/{bad.tarball}": Route(tar)}) as server:
-        with pytest.raises(DataError, match=rule):
-            datasets.install(target, base_url=server.base_url, progress=False)
+    with (
+        serve({f"/datasets/{bad.tarball}": Route(tar)}) as server,
+        pytest.raises(DataError, match=rule),
+    ):
+        datasets.install(target, base_url=server.base_url, progress=False)
     assert os.listdir(target) == []
     assert not (tmp_path / "evil").exists()
 
@@ -375,9 +391,11 @@ def test_interrupted_unpack_leaves_nothing(
 
     monkeypatch.setattr(datasets, "_extract_checked", extract_then_interrupt)
     target = tmp_path / "data"
-    with serve({f"/datasets/{FAKE.tarball}": Route(FAKE_TAR)}) as server:
-        with pytest.raises(KeyboardInterrupt):
-            datasets.install(target, base_url=server.base_url, progress=False)
+    with (
+        serve({f"/datasets/{FAKE.tarball}": Route(FAKE_TAR)}) as server,
+        pytest.raises(KeyboardInterrupt),
+    ):
+        datasets.install(target, base_url=server.base_url, progress=False)
     assert os.listdir(target) == []
 
 
@@ -390,7 +408,8 @@ def test_cli_status_json(home: Path) -> None:
     doc = json.loads(result.stdout)
     assert set(doc) == {"datasets", "modes", "default_dir"}
     names = [d["name"] for d in doc["datasets"]]
-    assert "G4EMLOW" in names and "G4ENSDFSTATE" in names
+    assert "G4EMLOW" in names
+    assert "G4ENSDFSTATE" in names
     assert all(set(d) == {"name", "version", "envvar", "path", "source"} for d in doc["datasets"])
     assert all(d["path"] is None and d["source"] is None for d in doc["datasets"])
     assert doc["modes"]["lite"] == {"available": True, "missing": []}
@@ -405,7 +424,8 @@ def test_cli_status_table(tmp_path: Path, home: Path, monkeypatch: pytest.Monkey
     result = CliRunner().invoke(data, ["status"])
     assert result.exit_code == 0, result.output
     line = next(line for line in result.stdout.splitlines() if line.startswith("G4EMLOW "))
-    assert str(folder) in line and f"${emlow.envvar}" in line
+    assert str(folder) in line
+    assert f"${emlow.envvar}" in line
     assert re.search(r"^G4ENSDFSTATE\s+\S+\s+MISSING", result.stdout, re.MULTILINE)
     assert re.search(r"^  full\s+missing G4ENSDFSTATE\b", result.stdout, re.MULTILINE)
     assert re.search(r"^  lite\s+available", result.stdout, re.MULTILINE)
@@ -443,12 +463,15 @@ def test_cli_install_mode_installs_what_the_mode_lacks(
         monkeypatch.setenv("GEANT4_DATA_DIR", str(target))
         second = CliRunner().invoke(data, [*args, "--url", server.base_url])
         assert server.requests == [f"/datasets/{FAKE.tarball}"]
-    assert first.exit_code == 0 and f"ready: {target / FAKE.dirname}" in first.stdout
-    assert second.exit_code == 0 and "everything physics mode 'full' needs" in second.stdout
+    assert first.exit_code == 0
+    assert f"ready: {target / FAKE.dirname}" in first.stdout
+    assert second.exit_code == 0
+    assert "everything physics mode 'full' needs" in second.stdout
 
 
 def test_cli_error_is_one_line_exit_2(tmp_path: Path, home: Path, fake_list) -> None:
     result = CliRunner().invoke(data, ["install", "--dir", str(tmp_path), "--only", "NOPE"])
     assert result.exit_code == 2
     assert result.stderr.startswith("score4: error: only=NOPE: unknown data-set name")
-    assert result.stderr.count("\n") == 1 and result.stdout == ""
+    assert result.stderr.count("\n") == 1
+    assert result.stdout == ""

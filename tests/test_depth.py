@@ -117,7 +117,8 @@ def test_depth_histogram_on_a_flat_face_matches_the_profile(kind, window, tmp_pa
     v = sampler.sample(np.random.default_rng(21), N)
     depth = -v.position[:, 2]
     np.testing.assert_allclose(depth, v.depth, atol=1e-15)
-    assert depth.min() >= lo and depth.max() <= hi  # the window is exact: zero violations
+    assert depth.min() >= lo
+    assert depth.max() <= hi
     edges = np.linspace(max(lo, 0.0), min(hi, 250 * nm), 41)
     mass = profile.mass(lo, hi)
     assert (
@@ -160,7 +161,7 @@ def test_zero_depth_puts_every_vertex_on_the_surface():
 
 
 @pytest.mark.parametrize(
-    "text, match",
+    ("text", "match"),
     [
         ("# unit: nm\n-1 1\n5 1\n", "line 2: negative depth"),
         ("# unit: nm\n0 1\n5 -1\n", "line 3: negative weight"),
@@ -186,7 +187,7 @@ def test_unit_argument_replaces_a_missing_header(tmp_path):
 
 
 @pytest.mark.parametrize(
-    "build, match",
+    ("build", "match"),
     [
         (lambda: ExponentialProfile(-1 * nm), "mean"),
         (lambda: ExponentialProfile(0.0), "mean"),
@@ -269,7 +270,7 @@ def test_mesh_distance_equals_brute_force(period, brute_max):
     )
     brute = np.full(len(points), np.inf)
     for dx, dy in images:
-        shifted = tri + [dx, dy, 0]
+        shifted = tri + np.array([dx, dy, 0])
         for k in range(len(shifted)):
             q = closest_points_on_triangles(
                 points, *(np.broadcast_to(shifted[k, i], points.shape) for i in range(3))
@@ -349,7 +350,10 @@ def test_pit_level_sets_have_the_steiner_pieces():
     area = 4 * w * w * np.sqrt(1 + s * s)
     edge = 4 * np.arccos(1 / (1 + s * s)) * w * np.sqrt(2 + s * s)
     omega = 4 * np.arcsin(s * s / (s * s + 2))
-    total = lambda d: area + edge * d + omega * d * d
+
+    def total(d):
+        return area + edge * d + omega * d * d
+
     parts = [lambda d: area, lambda d: edge * d, lambda d: omega * d * d]
     expected = np.array(
         [integrate.quad(lambda d, f=f: f(d) / total(d), 0, depth)[0] / depth for f in parts]
@@ -401,7 +405,10 @@ def test_normal_depth_on_pyramids_overlaps_under_ridges():
 @pytest.mark.parametrize("definition", ["normal", "distance"])
 def test_no_vertex_violates_the_depth_window_or_the_confinement(definition):
     lo, hi = 0.05, 0.3
-    inside = lambda p: (p[:, 0] < 2.5) & (p[:, 1] > 0.7)
+
+    def inside(p):
+        return (p[:, 0] < 2.5) & (p[:, 1] > 0.7)
+
     sampler = VertexSampler(
         SurfaceSampler(ROUGH),
         ExponentialProfile(0.1),
@@ -412,10 +419,12 @@ def test_no_vertex_violates_the_depth_window_or_the_confinement(definition):
     )
     v = sampler.sample(np.random.default_rng(43), N)
     assert inside(v.position).all()
-    assert v.depth.min() >= lo and v.depth.max() <= hi
+    assert v.depth.min() >= lo
+    assert v.depth.max() <= hi
     if definition == "distance":
         true = MeshDistance(ROUGH).distance(v.position)[0]
-        assert true.min() >= lo * (1 - 1e-9) and true.max() <= hi + 1e-12
+        assert true.min() >= lo * (1 - 1e-9)
+        assert true.max() <= hi + 1e-12
     else:  # the vertex moved back by its depth along the normal lies on its facet's plane
         corner = ROUGH[v.facet, 0]
         back = v.position + v.depth[:, None] * v.normal
@@ -430,7 +439,7 @@ def test_unsatisfiable_confinement_raises_with_counts():
         max_rounds=3,
     )
     with pytest.raises(
-        ConfigError, match="100 of 100 vertices .* 300 draws were outside the confinement"
+        ConfigError, match=r"100 of 100 vertices .* 300 draws were outside the confinement"
     ):
         sampler.sample(np.random.default_rng(0), 100)
 
@@ -451,7 +460,10 @@ def periodic_height_map(
     z = np.real(np.fft.ifft2(np.fft.fft2(rng.normal(size=(n, n))) * np.exp(-20 * k2)))
     z = np.pad(z * sq / z.std(), ((0, 1), (0, 1)), mode="wrap")
     i, j = (g.ravel() for g in np.meshgrid(np.arange(n), np.arange(n), indexing="ij"))
-    corner = lambda a, b: np.c_[a / n, b / n, z[a, b]]
+
+    def corner(a, b):
+        return np.c_[a / n, b / n, z[a, b]]
+
     q00, q10, q11, q01 = corner(i, j), corner(i + 1, j), corner(i + 1, j + 1), corner(i, j + 1)
     return np.concatenate([np.stack([q00, q10, q11], 1), np.stack([q00, q11, q01], 1)]), z
 
@@ -488,8 +500,13 @@ def test_distance_vertices_are_uniform_on_the_level_sets_of_a_rough_height_map()
     reference = q[q[:, 2] < h]
     assert len(reference) > 3000
     vertices = tri.reshape(-1, 3)
-    images = np.concatenate([vertices + [dx, dy, 0] for dx in (-1, 0, 1) for dy in (-1, 0, 1)])
-    to_vertex = lambda p: cKDTree(images).query(p)[0]
+    images = np.concatenate(
+        [vertices + np.array([dx, dy, 0]) for dx in (-1, 0, 1) for dy in (-1, 0, 1)]
+    )
+
+    def to_vertex(p):
+        return cKDTree(images).query(p)[0]
+
     for stat in (lambda p: p[:, 0], lambda p: p[:, 1], lambda p: p[:, 2], to_vertex):
         assert stats.ks_2samp(stat(ours[:5000]), stat(reference)).pvalue > P_MIN
     # share of points whose closest surface point is a mesh vertex (the vertex pieces)
@@ -509,7 +526,11 @@ def tile_copies(tile: np.ndarray, n: int, pitch: float = 1.0) -> np.ndarray:
     """The tile repeated on an n x n grid centred on the original (n odd)."""
     k = n // 2
     return np.concatenate(
-        [tile + [i * pitch, j * pitch, 0] for i in range(-k, k + 1) for j in range(-k, k + 1)]
+        [
+            tile + np.array([i * pitch, j * pitch, 0])
+            for i in range(-k, k + 1)
+            for j in range(-k, k + 1)
+        ]
     )
 
 
@@ -535,7 +556,9 @@ def test_periodic_tile_and_tiled_face_give_exact_distances():
     v = VertexSampler(face, profile, definition="distance").sample(
         np.random.default_rng(52), 20_000
     )
-    big = tile_copies(tile, 7) + [1.0, 1.0, 0]  # the 3 x 3 face and two rings of neighbours
+    big = tile_copies(tile, 7) + np.array(
+        [1.0, 1.0, 0]
+    )  # the 3 x 3 face and two rings of neighbours
     np.testing.assert_allclose(
         MeshDistance(big).distance(v.position)[0], v.depth, rtol=1e-9, atol=1e-12
     )
@@ -556,5 +579,5 @@ def test_lengths_may_be_given_with_units():
     assert ExponentialProfile("20 nm").mean == pytest.approx(20 * nm)
     assert UniformProfile("10 nm", "0.1 um").hi == pytest.approx(100 * nm)
     assert MultiExponentialProfile([1, 1], ["5 nm", 0.001]).means == pytest.approx([5 * nm, 1e-3])
-    with pytest.raises(ConfigError, match="mean: .* has no unit"):
+    with pytest.raises(ConfigError, match=r"mean: .* has no unit"):
         ExponentialProfile("20")

@@ -53,7 +53,7 @@ def test_isotropic_directions_have_uniform_cos_theta_and_phi():
     assert stats.kstest(u @ np.array([0.6, 0.0, 0.8]), stats.uniform(-1, 2).cdf).pvalue > P_MIN
 
 
-@pytest.mark.parametrize("side, sign", [("inward", -1.0), ("outward", 1.0)])
+@pytest.mark.parametrize(("side", "sign"), [("inward", -1.0), ("outward", 1.0)])
 def test_hemisphere_directions_are_uniform_on_the_chosen_side(side, sign):
     rng = np.random.default_rng(2)
     normals = random_normals(rng, N)
@@ -63,7 +63,7 @@ def test_hemisphere_directions_are_uniform_on_the_chosen_side(side, sign):
     assert stats.kstest(c, stats.uniform(0, 1).cdf).pvalue > P_MIN
 
 
-@pytest.mark.parametrize("side, sign", [("inward", -1.0), ("outward", 1.0)])
+@pytest.mark.parametrize(("side", "sign"), [("inward", -1.0), ("outward", 1.0)])
 def test_cosine_directions_have_density_two_cos(side, sign):
     rng = np.random.default_rng(3)
     normals = random_normals(rng, N)
@@ -96,7 +96,8 @@ def test_linear_spectrum_from_file_follows_its_density(tmp_path):
     f.write_text("# unit: keV\n100 0\n150 4\n400 1\n1000 0\n")
     spectrum = EnergySpectrum.from_file(f)
     e = spectrum.sample(np.random.default_rng(4), N)
-    assert e.min() >= 0.1 and e.max() <= 1.0
+    assert e.min() >= 0.1
+    assert e.max() <= 1.0
     edges = np.linspace(0.1, 1.0, 31)
     assert (
         stats.chisquare(np.histogram(e, edges)[0], N * np.diff(spectrum.cdf(edges))).pvalue > P_MIN
@@ -112,7 +113,7 @@ def test_histogram_spectrum_is_flat_inside_bins():
 
 
 @pytest.mark.parametrize(
-    "build, match",
+    ("build", "match"),
     [
         (lambda: EnergySpectrum([1.0, 2.0], [1.0, 1.0], kind="histogram"), "last row"),
         (lambda: EnergySpectrum([1.0, 2.0], [1.0, 1.0], kind="steps"), "kind"),
@@ -130,7 +131,7 @@ def test_bad_energies(build, match):
 
 
 @pytest.mark.parametrize(
-    "name, expected",
+    ("name", "expected"),
     [
         ("Pb210", "Pb210"),
         ("Po-210", "Po210"),
@@ -145,7 +146,7 @@ def test_nuclide_names_are_normalised(name, expected):
 
 
 @pytest.mark.parametrize(
-    "name, match",
+    ("name", "match"),
     [
         ("Xx210", "unknown element"),
         ("Pb", "cannot read"),
@@ -178,14 +179,15 @@ def test_po210_alpha_and_recoil_are_back_to_back_with_zero_total_momentum():
     n = 20_000
     positions = rng.random((n, 3))
     prim = make_primaries(Po210Emitter(), rng, positions)
-    assert prim.n_events == n and len(prim) == 2 * n
+    assert prim.n_events == n
+    assert len(prim) == 2 * n
     np.testing.assert_array_equal(prim.particle[0::2], "alpha")
     np.testing.assert_array_equal(prim.particle[1::2], "Pb206")
     np.testing.assert_array_equal(prim.event[0::2], prim.event[1::2])
     np.testing.assert_array_equal(prim.position[0::2], positions)
     np.testing.assert_array_equal(prim.position[1::2], positions)
     assert prim.energy[0] == PO210_ALPHA_ENERGY == 5.30433
-    assert PO210_RECOIL_ENERGY == pytest.approx(0.1031, abs=2e-4)  # the textbook ~103 keV
+    assert pytest.approx(0.1031, abs=2e-4) == PO210_RECOIL_ENERGY  # the textbook ~103 keV
     p_alpha = momentum(prim.energy[0::2], ALPHA_MASS)[:, None] * prim.direction[0::2]
     p_recoil = momentum(prim.energy[1::2], PB206_MASS)[:, None] * prim.direction[1::2]
     total = np.linalg.norm(p_alpha + p_recoil, axis=1)

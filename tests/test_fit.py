@@ -1,4 +1,5 @@
-"""fit_random_surface: generate -> fit -> parameters recovered; real measured file -> sane values."""
+"""fit_random_surface: generate -> fit -> parameters recovered; real measured file -> sane
+values."""
 
 from __future__ import annotations
 
@@ -12,8 +13,8 @@ from score4.errors import ConfigError
 from score4.surface.fit import autocorrelation, fit_acf, fit_psd, fit_random_surface
 from score4.surface.heightmap import HeightMap
 from score4.surface.processing import fill_missing, level_plane
-from score4.surface.readers import read_topography
 from score4.surface.random import gaussian_random_surface, random_surface, self_affine_surface
+from score4.surface.readers import read_topography
 
 DATA = Path(__file__).parent / "data" / "topography"
 ACF_KEYS = {
@@ -43,7 +44,7 @@ SA_KEYS = {
 }
 
 
-@pytest.mark.parametrize("acf, n", [("gaussian", 256), ("exponential", 512)])
+@pytest.mark.parametrize(("acf", "n"), [("gaussian", 256), ("exponential", 512)])
 def test_correlation_lengths_and_acf_type_recovered(acf, n):
     # mean of 4 seeds; one map scatters by ~3 % (Gaussian, 256^2) / ~5 % (exponential, 512^2)
     # around the truth (seeds 0-9 measured). Tolerance 10 %.
@@ -76,11 +77,11 @@ def test_fit_is_directly_usable_by_the_generator():
     )
     fit = fit_random_surface(hm)
     assert set(fit) == ACF_KEYS
-    assert fit["skewness"] == pytest.approx(0.6, abs=1e-3) and fit["kurtosis"] == pytest.approx(
-        3.8, rel=1e-3
-    )
+    assert fit["skewness"] == pytest.approx(0.6, abs=1e-3)
+    assert fit["kurtosis"] == pytest.approx(3.8, rel=1e-3)
     twin = random_surface(**fit, seed=12)
-    assert twin.shape == hm.shape and (twin.pitch_x, twin.pitch_y) == (hm.pitch_x, hm.pitch_y)
+    assert twin.shape == hm.shape
+    assert (twin.pitch_x, twin.pitch_y) == (hm.pitch_x, hm.pitch_y)
     assert np.std(twin.heights) == pytest.approx(np.std(hm.heights), rel=1e-9)
     refit = fit_random_surface(twin)
     assert refit["corr_length_x"] == pytest.approx(
@@ -88,7 +89,7 @@ def test_fit_is_directly_usable_by_the_generator():
     )  # two maps: ~2x one-map scatter
 
 
-@pytest.mark.parametrize("hurst, lam_l, lam_s", [(0.8, 0.064, 0.008), (0.3, 0.032, 0.006)])
+@pytest.mark.parametrize(("hurst", "lam_l", "lam_s"), [(0.8, 0.064, 0.008), (0.3, 0.032, 0.006)])
 def test_self_affine_parameters_recovered(hurst, lam_l, lam_s):
     # periodic 256^2 maps, 4 seeds measured: H within 0.06, short cut-off within 5 %,
     # long cut-off within 20 %. Tolerances: 0.1, 15 %, 30 %.
@@ -146,14 +147,10 @@ def test_fit_on_a_real_measured_file_gives_sane_values():
         assert 0.3e-3 < fit["sq"] < 1e-3  # the file's Sq is 0.54 um
         assert fit["kurtosis"] > fit["skewness"] ** 2 + 1
     assert acf_fit["model"] in ("gaussian", "exponential")
-    assert (
-        0.002 <= acf_fit["corr_length_x"] < 48 * 0.002
-        and 0.003 <= acf_fit["corr_length_y"] < 32 * 0.003
-    )
-    assert (
-        0 < sa_fit["hurst"] <= 1
-        and sa_fit["short_cutoff"] < sa_fit["long_cutoff"] <= 32 * 0.003 + 1e-12
-    )
+    assert 0.002 <= acf_fit["corr_length_x"] < 48 * 0.002
+    assert 0.003 <= acf_fit["corr_length_y"] < 32 * 0.003
+    assert 0 < sa_fit["hurst"] <= 1
+    assert sa_fit["short_cutoff"] < sa_fit["long_cutoff"] <= 32 * 0.003 + 1e-12
     random_surface(**acf_fit, seed=0)
     random_surface(**sa_fit, seed=0)
 
@@ -170,7 +167,8 @@ def test_moments_outside_the_generator_region_are_moved_with_a_warning():
     z = np.zeros((64, 64))
     z[::16, ::16] = 1.0  # a few spikes: kurtosis ~ 250
     z += np.random.default_rng(0).normal(scale=1e-3, size=z.shape)
-    with pytest.warns(UserWarning) as record:
+    # all three adjustments warn: kurtosis, and both correlation lengths (raised to 2 pitches)
+    with pytest.warns(UserWarning, match=r"kurtosis|corr_length_[xy] raised") as record:
         fit = fit_random_surface(HeightMap(z, 1.0, 1.0))
     assert any("kurtosis" in str(w.message) for w in record)
     assert fit["kurtosis"] == 20.0

@@ -88,17 +88,20 @@ def test_file_is_pyg4ometry_output_as_documented():
     root = ET.parse(GDML).getroot()
     tess = root.find("solids/tessellated")
     assert tess.get("name") == "rough"
-    assert len(tess.findall("triangular")) == 36 and len(tess.findall("quadrangular")) == 21
+    assert len(tess.findall("triangular")) == 36
+    assert len(tess.findall("quadrangular")) == 21
     vertices, facets = GEN.rough_body()
     assert GEN.check(vertices, facets) == pytest.approx(6000.0)
 
 
 def test_structure_materials_and_placement(report):
-    assert report["n_daughters"] == 1 and report["pv_name"] == "rough_pv"
+    assert report["n_daughters"] == 1
+    assert report["pv_name"] == "rough_pv"
     assert report["world_half"] == pytest.approx(
         [w / 2 for w in GEN.WORLD]
     )  # GDML box: full lengths
-    assert report["world_material"] == "G4_Galactic" and report["material"] == "G4_Si"
+    assert report["world_material"] == "G4_Galactic"
+    assert report["material"] == "G4_Si"
     assert report["translation"] == pytest.approx(list(GEN.PLACEMENT))
 
 

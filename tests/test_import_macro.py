@@ -11,13 +11,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from conftest import ROOT
 
 from score4.cli.main import main
 from score4.config import load_config, parse_config
 from score4.errors import ConfigError
 from score4.macro import import_macro
 from score4.scene import build_scene
+
+from conftest import ROOT
 
 MACROS = ROOT / "tests" / "data" / "macros"
 PAPER = MACROS / "paper_example.mac"  # the paper's Listing lst:surface_macro, verbatim
@@ -64,14 +65,16 @@ def test_paper_macro_converts_to_full_lengths(tmp_path):
     rc = parse_config(config, base_dir=tmp_path)
     spikes = rc.surfaces["rough"]  # the paper's short paths have no helper name
     # setSpikeDx/Dy 5 um are half-widths: a spike cell is 2 x 5 = 10 um wide
-    assert spikes.width_x == pytest.approx(10 * UM) and spikes.width_y == pytest.approx(10 * UM)
+    assert spikes.width_x == pytest.approx(10 * UM)
+    assert spikes.width_y == pytest.approx(10 * UM)
     # StandardPyramid with setSpikeMeanHeight 5 um: one G4Trd of half-height 5 um -> 10 um high
     assert spikes.height == pytest.approx(10 * UM)
     # setSpikeDevHeight 1 mm is ignored by StandardPyramid: all spikes equal
     assert spikes.height_sigma == 0.0
     assert (spikes.nx, spikes.ny, spikes.shape) == (100, 100, "pyramid")
     target = rc.targets[0]
-    # setBasisDx/Dy 0.5 mm half -> a 1 mm x 1 mm face (= 100 x 10 um); the 1 mm thickness is the default
+    # setBasisDx/Dy 0.5 mm half -> a 1 mm x 1 mm face (= 100 x 10 um); the 1 mm thickness is the
+    # default
     assert target.size == pytest.approx((1.0, 1.0, 1.0))
     assert target.position == pytest.approx((0.0, 0.0, -0.5))  # face at z = 0
     assert target.material == "G4_Si"  # setMaterial G4_Si
@@ -140,7 +143,8 @@ def test_portal_macro(tmp_path):
     rc = parse_config(config, base_dir=tmp_path)
     spikes = rc.surfaces["RoughnessHelper"]
     # UniformPyramid, mean 10 um, sigma 1 um: heights 2 x N(10, 1) um -> mean 20 um, sigma 2 um
-    assert spikes.height == pytest.approx(20 * UM) and spikes.height_sigma == pytest.approx(2 * UM)
+    assert spikes.height == pytest.approx(20 * UM)
+    assert spikes.height_sigma == pytest.approx(2 * UM)
     assert spikes.width_x == pytest.approx(50 * UM)  # 2 x 25 um; 20 x 50 um = the 1 mm patch
     target = rc.targets[0]
     # portal half-sizes 1 mm x 1.5 mm -> a 2 mm x 3 mm face of 2 x 3 patches (setN[xy]Subworld 2, 3)
@@ -152,7 +156,9 @@ def test_portal_macro(tmp_path):
     src = rc.source
     assert (src.particle, src.energy, src.direction) == ("alpha", pytest.approx(5.3), "isotropic")
     depth = src.depth
-    assert depth.profile == "table" and depth.unit == "nm" and depth.definition == "normal"
+    assert depth.profile == "table"
+    assert depth.unit == "nm"
+    assert depth.definition == "normal"
     assert depth.file.resolve() == (MACROS / "shift_table.csv").resolve()  # found beside the macro
     assert (depth.min, depth.max) == (pytest.approx(10 * NM), pytest.approx(110 * NM))
     assert src.confine == "G4_Si"
@@ -170,13 +176,15 @@ def test_portal_macro(tmp_path):
 
     primaries = make_source(rc, scene).primaries(np.random.default_rng(3), 0, 500)
     d = primaries.extra["depth"]
-    assert d.min() >= 10 * NM and d.max() <= 110 * NM  # /shift/setMinShift, setMaxShift
+    assert d.min() >= 10 * NM
+    assert d.max() <= 110 * NM
 
 
 def test_cli_warns_on_unknown_commands_and_strict_fails(tmp_path, capsys):
     out = tmp_path / "portal.yaml"
     code, stdout, err = run(capsys, "import-macro", PORTAL, "--out", out, "--strict")
-    assert code == 2 and stdout == ""
+    assert code == 2
+    assert stdout == ""
     assert not out.exists()
     lines = err.splitlines()
     assert lines[-1] == (
@@ -232,7 +240,8 @@ def test_bad_values_name_file_and_line(tmp_path, capsys, line, message):
     assert str(err.value).startswith(f"{path} line 11: ")
     assert message in str(err.value)
     code, stdout, stderr = run(capsys, "import-macro", path, "--out", tmp_path / "c.yaml")
-    assert code == 2 and stdout == ""
+    assert code == 2
+    assert stdout == ""
     assert stderr == f"score4: error: {err.value}\n"  # one line
     assert not (tmp_path / "c.yaml").exists()
 
@@ -283,7 +292,8 @@ def test_missing_file_and_existing_output(tmp_path, capsys):
 @pytest.mark.parametrize(
     ("form", "extra", "height", "sigma", "shape", "layers"),
     [
-        # pyramids: one G4Trd of half-height MeanHeight -> 2 x 3 um; the deviation only for UniformPyramid
+        # pyramids: one G4Trd of half-height MeanHeight -> 2 x 3 um; the deviation only for
+        # UniformPyramid
         ("StandardPyramid", "setSpikeDevHeight 0.5 um", 6.0, 0.0, "pyramid", 1),
         ("UniformPyramid", "setSpikeDevHeight 0.5 um", 6.0, 1.0, "pyramid", 1),
         # bump and peak: layers add up to MeanHeight -> 1 x 3 um, setNLayer layers
@@ -314,7 +324,8 @@ def test_geant4_units_defaults_and_ions(tmp_path):
     config, report = import_macro(macro(tmp_path, text))
     rc = parse_config(config, base_dir=tmp_path)
     assert rc.surfaces["r"].width_x == pytest.approx(10 * UM)  # 2 x 5000 nm
-    assert rc.source.nuclide == "Po210" and rc.source.particle is None
+    assert rc.source.nuclide == "Po210"
+    assert rc.source.particle is None
     assert rc.source.depth.max == pytest.approx(100 * NM)
     assert rc.physics.production_cut == pytest.approx(1 * NM)
     assert rc.run.events == 1
@@ -331,14 +342,12 @@ def test_included_macros_repeated_commands_and_after_initialize(tmp_path):
         "/Surface/RoughnessHelper/r/setSpikeMeanHeight 4 um\n/gps/particle e-\n",
         "sub.mac",
     )
-    text = (
-        HELPER
-        + (
-            "/control/execute sub.mac\n"  # line 9: overrides the mean height of line 8
-            "/run/initialize\n"
-            "/Surface/RoughnessHelper/r/setSpikeMeanHeight 9 um\n"  # line 11: after Construct(): no effect
-            "/gps/energy 2 MeV\n"
-        )
+    text = HELPER + (
+        "/control/execute sub.mac\n"  # line 9: overrides the mean height of line 8
+        "/run/initialize\n"
+        # line 11: after Construct(), so it has no effect
+        "/Surface/RoughnessHelper/r/setSpikeMeanHeight 9 um\n"
+        "/gps/energy 2 MeV\n"
     )
     path = macro(tmp_path, text)
     config, report = import_macro(path)
@@ -366,7 +375,8 @@ def test_two_tables_are_merged_into_a_file_beside_the_config(tmp_path, capsys):
     rows = [line for line in table.read_text().splitlines() if line and not line.startswith("#")]
     assert rows == ["0,1", "10,2", "20,3", "30,2", "40,1", "50,0"]  # appended, as the original does
     rc = load_config(out)
-    assert rc.source.depth.file == table and rc.source.depth.unit is None  # '# unit: nm' header
+    assert rc.source.depth.file == table
+    assert rc.source.depth.unit is None
     # tables whose depths go back cannot be merged: an error on the second load's line
     (tmp_path / "c.csv").write_text("5,1\n8,1\n")
     path = macro(tmp_path, HELPER + "/shift/loadShiftTable a.csv\n/shift/loadShiftTable c.csv\n")
@@ -384,7 +394,8 @@ def test_describer_commands(tmp_path):
     spec = parse_config(config).surfaces["surface"]
     # Describer defaults: half-width 0.005 mm -> 10 um cells; Bump height = MeanHeight 0.005 mm
     assert (spec.nx, spec.ny, spec.shape) == (3, 1, "bump")
-    assert spec.width_y == pytest.approx(10 * UM) and spec.height == pytest.approx(5 * UM)
+    assert spec.width_y == pytest.approx(10 * UM)
+    assert spec.height == pytest.approx(5 * UM)
     # with a RoughnessHelper they are overridden (RoughnessHelper::BuildSurface)
     _, report = import_macro(macro(tmp_path, "/geometry/surface/setNrSpike_X 3\n" + HELPER))
     assert items(report.ignored) == {"line 1": "/geometry/surface/setNrSpike_X 3"}

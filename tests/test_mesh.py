@@ -7,9 +7,7 @@ import os
 import numpy as np
 import pytest
 
-from score4.errors import Score4Error
-
-from score4.errors import ConfigError
+from score4.errors import ConfigError, Score4Error
 from score4.surface.heightmap import HeightMap
 from score4.surface.mesh import (
     TriangleMesh,
@@ -70,7 +68,7 @@ def test_from_heightmap_rejects_nan():
 
 
 @pytest.mark.parametrize(
-    "vertices, faces, match",
+    ("vertices", "faces", "match"),
     [
         (np.zeros((3, 2)), [[0, 1, 2]], "vertices: need shape"),
         (np.zeros((3, 3)), [[0, 1, 3]], r"faces: indices must lie in \[0, 2\]"),
@@ -92,7 +90,7 @@ def test_mesh_arrays_are_read_only_copies():
     mesh = TriangleMesh(v, [[0, 1, 2]])
     v[0, 0] = 5.0
     assert mesh.vertices[0, 0] == 0.0
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="read-only"):
         mesh.vertices[0, 0] = 1.0
 
 
@@ -204,7 +202,8 @@ def test_write_ascii_stl(tmp_path):
     path = tmp_path / "body.stl"
     write_stl(mesh, path, binary=False)
     lines = path.read_text().splitlines()
-    assert lines[0].startswith("solid") and lines[-1].startswith("endsolid")
+    assert lines[0].startswith("solid")
+    assert lines[-1].startswith("endsolid")
     verts = np.array(
         [[float(t) for t in ln.split()[1:]] for ln in lines if ln.strip().startswith("vertex")]
     )
@@ -219,9 +218,8 @@ def test_write_ply_round_trip_and_overwrite(tmp_path):
     data = path.read_bytes()
     end = data.index(b"end_header\n") + len(b"end_header\n")
     header = data[:end].decode()
-    assert (
-        f"element vertex {mesh.n_vertices}" in header and f"element face {mesh.n_faces}" in header
-    )
+    assert f"element vertex {mesh.n_vertices}" in header
+    assert f"element face {mesh.n_faces}" in header
     nv = mesh.n_vertices
     verts = np.frombuffer(data[end : end + 24 * nv], "<f8").reshape(-1, 3)
     faces = np.frombuffer(
@@ -242,6 +240,6 @@ def test_writer_failure_leaves_no_file(tmp_path, monkeypatch):
         raise OSError("disk full")
 
     monkeypatch.setattr(os, "replace", broken_replace)
-    with pytest.raises(Score4Error, match="cannot write .*body.ply.*disk full"):
+    with pytest.raises(Score4Error, match=r"cannot write .*body\.ply.*disk full"):
         write_ply(mesh, path)
     assert os.listdir(tmp_path) == []

@@ -1,4 +1,5 @@
-"""ISO 25178-2 metrology: analytic spike grids, mesh-exact vs sampled, and surfalize as a reference."""
+"""ISO 25178-2 metrology: analytic spike grids, mesh-exact vs sampled, and surfalize as a
+reference."""
 
 from __future__ import annotations
 
@@ -218,7 +219,8 @@ def test_mesh_levelled_tilted_plane_is_flat():
     got = mesh_parameters(from_heightmap(hm))
     for key in ("Sa", "Sq", "Sz", "Sdq", "Sdr"):
         assert got[key] == pytest.approx(0.0, abs=1e-12), key
-    assert math.isnan(got["Ssk"]) and math.isnan(got["Sku"])
+    assert math.isnan(got["Ssk"])
+    assert math.isnan(got["Sku"])
 
 
 def test_mesh_parameters_refuse_overhangs_and_missing_top():
@@ -233,7 +235,8 @@ def test_mesh_parameters_refuse_overhangs_and_missing_top():
 
 
 def test_gaussian_surface_has_iso_kurtosis_three():
-    # White Gaussian noise, 256 x 256 points: sd of Ssk ~ sqrt(6/n) = 0.01, of Sku ~ sqrt(24/n) = 0.02.
+    # White Gaussian noise, 256 x 256 points: sd of Ssk ~ sqrt(6/n) = 0.01, of Sku ~ sqrt(24/n) =
+    # 0.02.
     z = np.random.default_rng(4).normal(size=(256, 256))
     got = areal_parameters(HeightMap(z, 1.0, 1.0))
     assert got["Sku"] == pytest.approx(3.0, abs=0.08)
@@ -282,10 +285,11 @@ def test_missing_points_are_left_out():
 
 def test_flat_map_and_bad_threshold():
     got = areal_parameters(HeightMap(np.ones((8, 8)), 1.0, 1.0))
-    assert got["Sq"] == 0.0 and got["Sdr"] == 0.0
+    assert got["Sq"] == 0.0
+    assert got["Sdr"] == 0.0
     assert all(math.isnan(got[k]) for k in ("Ssk", "Sku", "Sal", "Str"))
     with pytest.raises(
-        ConfigError, match="acf_threshold: must lie strictly between 0 and 1, got 1.5"
+        ConfigError, match=r"acf_threshold: must lie strictly between 0 and 1, got 1\.5"
     ):
         areal_parameters(HeightMap(np.ones((8, 8)), 1.0, 1.0), acf_threshold=1.5)
 
@@ -305,7 +309,7 @@ def _surfalize_reference(z: np.ndarray, pitch: float) -> dict[str, float]:
 
 
 @pytest.mark.parametrize(
-    "shape, lengths, seed",
+    ("shape", "lengths", "seed"),
     [((256, 256), (16, 6), 2), ((200, 300), (10, 25), 3), ((128, 128), (4, 4), 4)],
 )
 def test_against_surfalize_on_random_surfaces(shape, lengths, seed):

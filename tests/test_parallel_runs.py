@@ -21,13 +21,14 @@ import numpy as np
 import pytest
 import yaml
 
-from conftest import config_dict
 from score4.cli.main import main
 from score4.config import parse_config
 from score4.errors import Score4Error
 from score4.output import read_results
 from score4.sim.engine import config_fingerprint, run
 from score4.sim.worker import CRASH_HOOK
+
+from conftest import config_dict
 
 # 40 chunks of 100 events: a few seconds on 2 cores, so a run can be stopped in the middle.
 LONG = {"events": 4000, "seed": 21, "chunk_events": 100}
@@ -110,14 +111,15 @@ def wait_no_processes(sid: int, timeout: float = 20) -> None:
 
 
 def check_chunk_files(parts: Path, config) -> set[int]:
-    """Every file named like a finished chunk is complete and belongs to this run; return their indices."""
+    """Indices of the finished chunk files, each checked complete and belonging to this run."""
     fingerprint = config_fingerprint(config, config.run.seed)
     size = config.run.chunk_events
     done = set()
     for path in parts.glob("chunk-*.h5"):
         index = int(path.stem.split("-")[1])
         with h5py.File(path, "r") as f:
-            assert f.attrs["fingerprint"] == fingerprint and f.attrs["first_event"] == index * size
+            assert f.attrs["fingerprint"] == fingerprint
+            assert f.attrs["first_event"] == index * size
             assert np.array_equal(f["events/event_id"][()], index * size + np.arange(size))
             assert len(f["events/edep/crystal"]) == size
         done.add(index)
@@ -176,7 +178,8 @@ def test_ctrl_c_stops_workers_keeps_chunks_and_says_how_to_resume(tmp_path: Path
     done = check_chunk_files(parts, config)
     assert 1 <= len(done) < 40
     assert f"run interrupted: {len(done)} of 40 chunks are finished and kept in {parts}" in said
-    assert "--resume" in said and "Traceback" not in said
+    assert "--resume" in said
+    assert "Traceback" not in said
     result = read_results(run(config, out, jobs=2, resume=True, progress=False, echo=quiet))
     assert_same_events(result, reference)
 
@@ -203,7 +206,8 @@ def test_more_jobs_than_chunks_says_so_and_uses_fewer(tmp_path: Path, make_confi
         "notice: --jobs 5 but only 2 chunk(s) to run (run.chunk_events = 100); using 2 worker(s)"
         in said[0]
     )
-    assert res.run["jobs"] == 2 and res.n_events == 200
+    assert res.run["jobs"] == 2
+    assert res.n_events == 200
 
 
 def test_a_crashing_worker_fails_its_chunk_only_and_resume_retries_it(
@@ -220,7 +224,8 @@ def test_a_crashing_worker_fails_its_chunk_only_and_resume_retries_it(
     status = main(["run", str(config_file), "--out", str(out), "--jobs", "2", "--quiet"])
     err = capsys.readouterr().err
     assert status == 2
-    assert "chunk 2 failed (WorkerDied: worker process" in err and "died, exit code 70)" in err
+    assert "chunk 2 failed (WorkerDied: worker process" in err
+    assert "died, exit code 70)" in err
     assert f"4 of 5 chunks are finished and kept in {parts}" in err
     assert "--resume to retry the failed and missing chunks" in err
     assert check_chunk_files(parts, config) == {0, 1, 3, 4}  # a new worker ran the chunks after it
@@ -241,16 +246,15 @@ def test_repeated_crashes_stop_the_run(tmp_path: Path, make_config, monkeypatch)
     with pytest.raises(Score4Error) as info:
         run(config, tmp_path / "x.h5", jobs=1, progress=False, echo=quiet)
     text = str(info.value)
-    assert (
-        text.startswith("run: chunk 0 failed (WorkerDied")
-        and "chunk 1 failed" in text
-        and "chunk 2 failed" in text
-    )
+    assert text.startswith("run: chunk 0 failed (WorkerDied")
+    assert "chunk 1 failed" in text
+    assert "chunk 2 failed" in text
     assert "stopped after 3 failed chunks; 2 chunk(s) not run: 3-4" in text
     assert (
         f"Geant4's output: {tmp_path / 'x.geant4.log'}" in text
     )  # nothing finished: no parts kept, the log is
-    assert not (tmp_path / "x.h5.parts").exists() and not (tmp_path / "x.h5").exists()
+    assert not (tmp_path / "x.h5.parts").exists()
+    assert not (tmp_path / "x.h5").exists()
 
 
 def _can_mount_tmpfs(folder: Path) -> list[str] | None:
@@ -281,19 +285,19 @@ def test_full_disk_stops_with_a_clear_error_and_keeps_finished_chunks(tmp_path: 
     config_file.write_text(yaml.safe_dump(data))
     config = parse_config(data)
     script = (
-        f"mount -t tmpfs -o size=640k tmpfs {mnt} || exit 99; "
-        f"{sys.executable} -m score4.cli.main run {config_file} --out {mnt}/x.h5 --jobs 2 --quiet 2> {tmp_path}/err.txt; "
-        f"echo $? > {tmp_path}/rc.txt; df -k {mnt} > {tmp_path}/df.txt; cp -a {mnt}/x.h5.parts {tmp_path}/x.h5.parts"
+        f"mount -t tmpfs -o size=640k tmpfs {mnt} || exit 99; {sys.executable} -m score4.cli.main "
+        f"run {config_file} --out {mnt}/x.h5 --jobs 2 --quiet 2> {tmp_path}/err.txt; echo $? > "
+        f"{tmp_path}/rc.txt; df -k {mnt} > {tmp_path}/df.txt; cp -a {mnt}/x.h5.parts "
+        f"{tmp_path}/x.h5.parts"
     )
     subprocess.run([*unshare, "sh", "-c", script], check=True, timeout=600)
     err = (tmp_path / "err.txt").read_text()
     assert (tmp_path / "rc.txt").read_text().strip() == "2", err
-    assert (
-        "score4: error: run: chunk" in err
-        and "failed: cannot write" in err
-        and "the disk is full" in err
-    )
-    assert "--resume" in err and "Traceback" not in err
+    assert "score4: error: run: chunk" in err
+    assert "failed: cannot write" in err
+    assert "the disk is full" in err
+    assert "--resume" in err
+    assert "Traceback" not in err
     parts = tmp_path / "x.h5.parts"
     done = check_chunk_files(parts, config)
     assert 1 <= len(done) < 12

@@ -1,4 +1,5 @@
-"""Patch map of a large face: grid sizes, largest-remainder counts, random draws, geometry, storage."""
+"""Patch map of a large face: grid sizes, largest-remainder counts, random draws, geometry,
+storage."""
 
 from __future__ import annotations
 
@@ -46,13 +47,15 @@ def test_paper_example_exact_counts(paper_map):
     assert m.face_size == pytest.approx((100.0, 100.0), rel=1e-12)
     assert m.counts.tolist() == [12000, 20000, 8000]
     assert m.fractions == pytest.approx([0.3, 0.5, 0.2], abs=1e-15)
-    assert m.method == "exact" and m.seed == 1
+    assert m.method == "exact"
+    assert m.seed == 1
     assert m.densities == pytest.approx(PAPER_DENSITIES, rel=1e-15)
 
 
 def test_exact_positions_are_shuffled(paper_map):
     # A shuffled grid has about 30 % variant 0 in the lower half of the rows (hypergeometric,
-    # sigma = sqrt(N p q (1 - n/N) / n) ~ 0.0016); a blocked or sorted grid would not. Tolerance 5 sigma.
+    # sigma = sqrt(N p q (1 - n/N) / n) ~ 0.0016); a blocked or sorted grid would not. Tolerance 5
+    # sigma.
     half = paper_map.variants[:100]
     sigma = math.sqrt(0.3 * 0.7 * 0.5 / half.size)
     for k, d in enumerate(PAPER_DENSITIES):
@@ -114,7 +117,8 @@ def test_seed_reproducible_and_changes_arrangement_not_counts():
 def test_random_method_binomial_within_4_sigma():
     m = make_patch_map((100.0, 100.0), (0.5, 0.5), PAPER_DENSITIES, method="random", seed=12345)
     n = m.nx * m.ny
-    assert n == 40000 and m.method == "random"
+    assert n == 40000
+    assert m.method == "random"
     assert m.counts.sum() == n
     for k, d in enumerate(PAPER_DENSITIES):
         sigma = math.sqrt(d * (1 - d) / n)  # binomial standard deviation of a fraction
@@ -134,7 +138,8 @@ def test_random_method_binomial_within_4_sigma():
 
 def test_seed_none_draws_a_map():
     m = make_patch_map((2.0, 2.0), (0.5, 0.5), (0.5, 0.5), seed=None)
-    assert m.seed is None and m.counts.tolist() == [8, 8]
+    assert m.seed is None
+    assert m.counts.tolist() == [8, 8]
 
 
 # --- densities -------------------------------------------------------------------------------
@@ -158,7 +163,7 @@ def test_densities_within_tolerance_do_not_warn():
 
 
 @pytest.mark.parametrize(
-    "densities, match",
+    ("densities", "match"),
     [
         ([0.3, 0.8, -0.1], r"densities\[2\]: must be positive, got -0\.1"),
         ([0.5, 0.0, 0.5], r"densities\[1\]: must be positive, got 0\.0"),
@@ -222,7 +227,7 @@ def test_size_within_tolerance_accepted():
 
 
 @pytest.mark.parametrize(
-    "face, patch, match",
+    ("face", "patch", "match"),
     [
         (
             (1.0, 1.0),
@@ -251,7 +256,7 @@ def test_bad_sizes(face, patch, match):
 
 
 @pytest.mark.parametrize(
-    "kw, match",
+    ("kw", "match"),
     [
         ({"method": "blocks"}, r"method: must be one of exact, random, got 'blocks'"),
         ({"method": "given"}, r"method: must be one of exact, random, got 'given'"),
@@ -301,13 +306,12 @@ def test_cell_centres(rect_map):
 def test_cell_of_centres_gives_indices_back(rect_map):
     i, j = rect_map.cell_of(rect_map.cell_centres())
     jj, ii = np.indices((8, 6))
-    assert np.array_equal(i, ii) and np.array_equal(j, jj)
+    assert np.array_equal(i, ii)
+    assert np.array_equal(j, jj)
     flat_i, flat_j = rect_map.cell_of(rect_map.cell_centres().reshape(-1, 2))
-    assert (
-        flat_i.shape == (48,)
-        and np.array_equal(flat_i, ii.ravel())
-        and np.array_equal(flat_j, jj.ravel())
-    )
+    assert flat_i.shape == (48,)
+    assert np.array_equal(flat_i, ii.ravel())
+    assert np.array_equal(flat_j, jj.ravel())
 
 
 def test_cell_of_random_points_lie_in_their_cells(rect_map):
@@ -315,7 +319,8 @@ def test_cell_of_random_points_lie_in_their_cells(rect_map):
     p = rng.uniform([-1.5, -1.0], [1.5, 1.0], size=(2000, 2))
     i, j = rect_map.cell_of(p)
     c = rect_map.cell_centres()[j, i]
-    assert np.all(np.abs(p[:, 0] - c[:, 0]) <= 0.25) and np.all(np.abs(p[:, 1] - c[:, 1]) <= 0.125)
+    assert np.all(np.abs(p[:, 0] - c[:, 0]) <= 0.25)
+    assert np.all(np.abs(p[:, 1] - c[:, 1]) <= 0.125)
 
 
 def test_cell_of_border_and_outside(rect_map):
@@ -348,27 +353,31 @@ def test_cell_of_border_and_outside(rect_map):
 def test_uniform_patch_map():
     m = uniform_patch_map(("4 mm", "3 mm"), ("1 mm", "0.5 mm"))
     assert (m.nx, m.ny, m.n_variants) == (4, 6, 1)
-    assert np.all(m.variants == 0) and m.counts.tolist() == [24] and m.fractions.tolist() == [1.0]
-    with pytest.raises(ConfigError, match="face_size: 4.1 mm along x"):
+    assert np.all(m.variants == 0)
+    assert m.counts.tolist() == [24]
+    assert m.fractions.tolist() == [1.0]
+    with pytest.raises(ConfigError, match=r"face_size: 4\.1 mm along x"):
         uniform_patch_map((4.1, 3.0), (1.0, 0.5))
 
 
 def test_given_patch_map():
     grid = [[0, 1, 2], [2, 2, 0]]
     m = given_patch_map(grid, (0.5, 1.0))
-    assert m.method == "given" and m.seed is None
+    assert m.method == "given"
+    assert m.seed is None
     assert (m.nx, m.ny, m.n_variants) == (3, 2, 3)
     assert m.variants.tolist() == grid
     assert m.counts.tolist() == [2, 1, 3]
     assert m.densities == pytest.approx((2 / 6, 1 / 6, 3 / 6), rel=1e-15)
     assert m.face_size == (1.5, 2.0)
     m5 = given_patch_map(np.array(grid, dtype=float), "0.5 mm", n_variants=5)
-    assert m5.n_variants == 5 and m5.counts.tolist() == [2, 1, 3, 0, 0]
+    assert m5.n_variants == 5
+    assert m5.counts.tolist() == [2, 1, 3, 0, 0]
     assert m5.variants.dtype.kind == "i"
 
 
 @pytest.mark.parametrize(
-    "grid, n, match",
+    ("grid", "n", "match"),
     [
         (
             [[0, 1], [3, 0]],
@@ -395,11 +404,11 @@ def test_bad_given_grid(grid, n, match):
 
 
 def test_map_is_immutable(rect_map):
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="read-only"):
         rect_map.variants[0, 0] = 1
     with pytest.raises(AttributeError):
         rect_map.seed = 4  # type: ignore[misc]
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="read-only"):
         rect_map.counts[0] = 0
 
 
@@ -423,7 +432,8 @@ def test_constructor_checks_consistency():
 def test_dict_round_trip_exact_through_json(method):
     m = make_patch_map((3.0, 2.0), (0.1, 0.1), (0.2, 0.3, 0.5), method=method, seed=11)
     d = json.loads(json.dumps(m.to_dict()))
-    assert d["format"] == "score4-patch-map" and d["shape"] == [20, 30]
+    assert d["format"] == "score4-patch-map"
+    assert d["shape"] == [20, 30]
     assert d["patch_size"] == ["0.1 mm", "0.1 mm"]
     back = PatchMap.from_dict(d)
     _same(m, back)
@@ -448,7 +458,9 @@ def test_run_length_text_is_compact_for_uniform_maps():
 def test_from_dict_list_of_rows_and_errors():
     d = {"patch_size": ["1 mm", "2 mm"], "densities": [0.5, 0.5], "variants": [[0, 1], [1, 0]]}
     m = PatchMap.from_dict(d)
-    assert m.method == "given" and m.face_size == (2.0, 4.0) and m.counts.tolist() == [2, 2]
+    assert m.method == "given"
+    assert m.face_size == (2.0, 4.0)
+    assert m.counts.tolist() == [2, 2]
     good = make_patch_map((2.0, 1.0), (1.0, 1.0), (0.5, 0.5)).to_dict()
     cases = [
         ({**good, "format": "other"}, r"format: expected 'score4-patch-map', got 'other'"),

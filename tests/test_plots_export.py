@@ -1,4 +1,5 @@
-"""Spectra and depth plots, CSV and ROOT exports, and the ``score4 plot`` / ``score4 export`` commands.
+"""Spectra and depth plots, CSV and ROOT exports, and the ``score4 plot`` / ``score4 export``
+commands.
 
 Two small real lite runs (5.3 MeV alphas from the flat top face of the crystal) feed every test:
 ``a`` (200 events, one volume, default histogram settings) and ``b`` (100 events, a second
@@ -57,7 +58,8 @@ def assert_png(path: Path) -> None:
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert path.stat().st_size > 10_000  # axes, ticks, legend and curves, not an empty canvas
     with Image.open(path) as im:
-        assert im.size[0] >= 600 and im.size[1] >= 400
+        assert im.size[0] >= 600
+        assert im.size[1] >= 400
 
 
 def nonzero(e: np.ndarray) -> np.ndarray:
@@ -74,19 +76,19 @@ def test_spectrum_of_one_run_is_the_histogram_of_its_deposits(runs, tmp_path):
     assert_png(tmp_path / "a.png")
     # defaults: 100 bins from 0 to the largest primary energy (5.3 MeV)
     edges = s.hist.edges
-    assert (
-        len(edges) == 101
-        and edges[0] == 0
-        and edges[-1] == res.primary_energy.max() == pytest.approx(5.3)
-    )
+    assert len(edges) == 101
+    assert edges[0] == 0
+    assert edges[-1] == res.primary_energy.max() == pytest.approx(5.3)
     # deposits above the top edge by rounding only (<= 1e-9 relative) belong in the top bin
     assert (e <= edges[-1] * (1 + 1e-9)).all()
     expected, _ = np.histogram(np.minimum(nonzero(e), edges[-1]), bins=edges)
     assert np.array_equal(s.hist.counts, expected)
     assert np.allclose(s.y, expected / (np.diff(edges) * 1e3), rtol=1e-12)
-    # about half the alphas fly away: present in the data, absent from the curve, stated in the legend
+    # about half the alphas fly away: present in the data, absent from the curve, stated in the
+    # legend
     n_zero = int(np.count_nonzero(e == 0))
-    assert 60 < n_zero < 140 and s.hist.n_zero == n_zero
+    assert 60 < n_zero < 140
+    assert s.hist.n_zero == n_zero
     assert s.hist.counts.sum() == len(e) - n_zero
     assert f"{n_zero} of 200 events without deposit" in s.legend
     assert s.label == "a: alpha 5.3 MeV, flat +z, lite physics"
@@ -99,11 +101,11 @@ def test_two_runs_per_event_share_edges_and_compare(runs, tmp_path):
     )
     assert_png(out)
     sa, sb = spectra
-    assert [s.label for s in spectra] == ["A", "B"] and sa.volume == sb.volume == "crystal"
+    assert [s.label for s in spectra] == ["A", "B"]
+    assert sa.volume == sb.volume == "crystal"
     # common binning: bins of the first run (100), top = larger of the runs' tops (b: 6 MeV)
-    assert (
-        np.array_equal(sa.hist.edges, np.linspace(0, 6.0, 101)) and sa.hist.edges is sb.hist.edges
-    )
+    assert np.array_equal(sa.hist.edges, np.linspace(0, 6.0, 101))
+    assert sa.hist.edges is sb.hist.edges
     for s, key in ((sa, "a"), (sb, "b")):
         res = read_results(runs[key])
         e = res.edep["crystal"]
@@ -145,7 +147,7 @@ def test_spectrum_errors(runs, tmp_path):
         plot_spectra([runs["a"], runs["b"]], tmp_path / "x.png", labels=["only one"])
     with pytest.raises(ConfigError, match="emax: must be larger than emin"):
         plot_spectra(runs["a"], tmp_path / "x.png", emin="2 MeV", emax="1 MeV")
-    with pytest.raises(Score4Error, match="folder .* does not exist"):
+    with pytest.raises(Score4Error, match=r"folder .* does not exist"):
         plot_spectra(runs["a"], tmp_path / "missing" / "x.png")
     assert not (tmp_path / "x.png").exists()
 
@@ -169,7 +171,8 @@ def test_description_survives_other_config_versions(runs):
         == "Po210, rough +z (spikes), exponential depth, lite physics"
     )
     odd = dataclasses.replace(res, run={"config": "not a mapping", "physics_mode": 3})
-    assert describe_run(odd) == "" and default_label(odd) == "a"
+    assert describe_run(odd) == ""
+    assert default_label(odd) == "a"
 
 
 # --- depths ----------------------------------------------------------------------------------
@@ -192,7 +195,8 @@ def test_depth_histograms_from_arrays_and_files(tmp_path):
     assert_png(tmp_path / "d.png")
     expected, edges = np.histogram(depth_mm * 1e6, bins=np.linspace(0, 100, 41))
     for h in hists:
-        assert np.allclose(h.edges_nm, edges) and np.array_equal(h.counts, expected)
+        assert np.allclose(h.edges_nm, edges)
+        assert np.array_equal(h.counts, expected)
         assert np.allclose(h.per_nm, expected / 2.5)
     assert [h.label for h in hists] == ["depths 1", "v"]
     assert file_kind(v) == "vertices"
@@ -237,9 +241,8 @@ def test_histogram_csv_matches_numpy(runs, tmp_path):
         block = table[table["volume"] == name]
         e = res.edep[name]
         expected, _ = np.histogram(nonzero(e), bins=edges)
-        assert np.array_equal(block["bin_low_MeV"], edges[:-1]) and np.array_equal(
-            block["bin_high_MeV"], edges[1:]
-        )
+        assert np.array_equal(block["bin_low_MeV"], edges[:-1])
+        assert np.array_equal(block["bin_high_MeV"], edges[1:])
         assert np.array_equal(block["counts"], expected)
         assert np.array_equal(block["counts_per_keV"], expected / (np.diff(edges) * 1e3))
         assert block["counts"].sum() == np.count_nonzero((e > 0) & (e <= 6.0))
@@ -292,7 +295,8 @@ def test_root_round_trip(runs, tmp_path):
             "track_length_absorber",
         }
         assert np.array_equal(tree["track_length_absorber"], res.scores["track_length"]["absorber"])
-        assert tree["event_id"].dtype == np.int64 and np.array_equal(tree["event_id"], res.event_id)
+        assert tree["event_id"].dtype == np.int64
+        assert np.array_equal(tree["event_id"], res.event_id)
         assert np.array_equal(tree["primary_energy"], res.primary_energy)
         edges = np.linspace(0, 6.0, 61)
         for name in ("crystal", "absorber"):
@@ -301,12 +305,14 @@ def test_root_round_trip(runs, tmp_path):
             expected, _ = np.histogram(nonzero(res.edep[name]), bins=edges)
             assert np.allclose(h.axis().edges(), edges, rtol=0, atol=1e-12)
             assert np.array_equal(h.values(), expected)
-            assert h.values(flow=True)[0] == 0 and h.values(flow=True)[-1] == 0
+            assert h.values(flow=True)[0] == 0
+            assert h.values(flow=True)[-1] == 0
             assert h.member("fEntries") == expected.sum()
             inside = nonzero(res.edep[name])
             assert h.member("fTsumwx") == pytest.approx(inside.sum())
         record = json.loads(str(f["run"]))
-        assert record["seed"] == 8 and record["physics_mode"] == "lite"
+        assert record["seed"] == 8
+        assert record["physics_mode"] == "lite"
         assert record["config"]["source"]["energy"] == "5.3 MeV"
 
 
@@ -396,11 +402,9 @@ def test_cli_plot_surface_dispatches_to_surface_plot(surface_file, tmp_path, mon
     assert file_kind(surface_file) == "surface"
     assert main(["plot", str(surface_file), "--out", str(tmp_path / "s.png")]) == 0
     ((surface, path),) = calls
-    assert (
-        path == tmp_path / "s.png"
-        and surface.spec.kind == "spikes"
-        and surface.spikes.heights.shape == (2, 3)
-    )
+    assert path == tmp_path / "s.png"
+    assert surface.spec.kind == "spikes"
+    assert surface.spikes.heights.shape == (2, 3)
 
 
 def test_cli_plot_surface_without_surface_plot_module(surface_file, tmp_path, monkeypatch, capsys):
@@ -462,7 +466,8 @@ def test_cli_errors_exit_2_with_one_line(runs, tmp_path, capsys):
     for argv, message in _cli_error_cases(runs, tmp_path):
         assert main(argv) == 2, argv
         err = capsys.readouterr().err.strip()
-        assert err.startswith("score4: error: ") and "\n" not in err, (argv, err)
+        assert err.startswith("score4: error: "), (argv, err)
+        assert "\n" not in err, (argv, err)
         assert message in err, (argv, err)
     written = {p.name for p in tmp_path.iterdir()}
     assert written == {"plain.h5", "notes.h5", "v.h5"}  # no output (nor temporary file) left behind

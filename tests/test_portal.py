@@ -1,4 +1,5 @@
-"""Portal tiling: same paths and spectra as native tiling (and as one large patch), per-track cells, bad input."""
+"""Portal tiling: same paths and spectra as native tiling (and as one large patch), per-track cells,
+bad input."""
 
 from __future__ import annotations
 
@@ -7,7 +8,6 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 import pytest
-from conftest import config_dict
 from scipy import stats
 
 from score4.config import parse_config
@@ -27,7 +27,10 @@ from score4.source.build import make_source
 from score4.source.primaries import Primaries
 from score4.source.vertex_file import write_vertex_file
 
-# Two patch variants, 20 um x 20 um: four 10 um pyramids with a height spread, or sixteen low 5 um ones.
+from conftest import config_dict
+
+# Two patch variants, 20 um x 20 um: four 10 um pyramids with a height spread, or sixteen low 5 um
+# ones.
 VARIANTS = {
     "a": {
         "kind": "spikes",
@@ -47,7 +50,8 @@ CRYSTAL = {
     "size": ["0.2 mm", "0.12 mm", "0.1 mm"],
     "position": ["0 mm", "0 mm", "-0.05 mm"],
 }
-# Copper plates facing the two rough faces: particles leaving a portal must come out at the right place.
+# Copper plates facing the two rough faces: particles leaving a portal must come out at the right
+# place.
 COVERS = [
     {
         "name": "cover",
@@ -96,7 +100,7 @@ def face_source(
 
 
 def oblique_directions(rng, frame, n: int, max_normal: float) -> np.ndarray:
-    """Directions with a normal component below ``max_normal`` (either sign): they cross many cells."""
+    """Directions with a normal component below ``max_normal`` (either sign): many cells crossed."""
     phi = rng.uniform(0, 2 * np.pi, n)
     cz = rng.uniform(-max_normal, max_normal, n)
     s = np.sqrt(1 - cz**2)
@@ -150,7 +154,7 @@ def read_vertex_events(vfile):
 
 
 def geantino_vertices(tmp_path, n_face: int = 250):
-    """Vertices below both rough faces (sampled in the patches), oblique or isotropic, plus corner crossers."""
+    """Vertices below both rough faces (sampled in the patches), oblique, isotropic, corners."""
     rng = np.random.default_rng(11)
     parts = []
     for face in ("+z", "-x"):
@@ -168,8 +172,9 @@ def geantino_vertices(tmp_path, n_face: int = 250):
 def test_geantino_paths_per_volume_match_native_tiling(tmp_path):
     """The same geantinos (from the same vertex file) through native tiling and through the portal:
     identical path lengths in the crystal with its patches and in both copper covers, on a rotated
-    face (-x) and on +z, for oblique geantinos crossing up to the whole face in the slab or the spike
-    tips, for geantinos through every inner cell corner (diagonal jumps), and for those leaving one
+    face (-x) and on +z, for oblique geantinos crossing up to the whole face in the slab or the
+    spike tips, for geantinos through every inner cell corner (diagonal jumps), and for those
+    leaving one
     portal into the other (both faces are portals). Tolerance 1e-9 mm."""
     vfile = geantino_vertices(tmp_path)
     native = replay(tmp_path, tiled_config("native", face_source("+z")), vfile, "native")
@@ -181,12 +186,12 @@ def test_geantino_paths_per_volume_match_native_tiling(tmp_path):
     # Measured (565 geantinos): 57 go more than 0.1 mm (5 cells) in the crystal group, 97 reach the
     # cover, 47 the side plate; largest difference 2e-13 mm.
     assert (crystal > 0.1).sum() > 40
-    assert (native.scores["track_length"]["cover"] > 0).sum() > 60 and (
-        native.scores["track_length"]["side"] > 0
-    ).sum() > 30
+    assert (native.scores["track_length"]["cover"] > 0).sum() > 60
+    assert (native.scores["track_length"]["side"] > 0).sum() > 30
 
 
-# --- one large patch -------------------------------------------------------------------------------
+# --- one large patch
+# -------------------------------------------------------------------------------
 
 PITCH = 2e-3  # mm
 SAMPLES = 10  # map cells per patch side: patches of 20 um
@@ -274,18 +279,20 @@ def test_tiles_match_one_large_patch(tmp_path):
     ).scores["track_length"]["crystal"]
     np.testing.assert_allclose(portal, single, rtol=0, atol=1e-9)
     same = np.abs(native - single) <= 1e-9
-    assert same.mean() >= 0.98 and np.abs(native - single).max() < 1e-5
+    assert same.mean() >= 0.98
+    assert np.abs(native - single).max() < 1e-5
     assert (single > 0.06).sum() > 20  # oblique paths through several patches
 
 
-# --- alphas ------------------------------------------------------------------------------------------
+# --- alphas
+# ------------------------------------------------------------------------------------------
 
 
 def test_alpha_spectra_of_native_and_portal_tiling_agree(tmp_path):
     """5.3 MeV alphas from 20 nm below the rough -x face (isotropic), 3000 events per tiling, the
     same seed: the deposited-energy spectra agree (two-sample Kolmogorov-Smirnov p > 0.01). The
-    runs differ event by event once a particle jumps (the vacuum step undone by the jump draws random
-    numbers, and the next step starts with another status, see score4.sim.portal_action).
+    runs differ event by event once a particle jumps (the vacuum step undone by the jump draws
+    random numbers, and the next step starts with another status, see score4.sim.portal_action).
     Measured: KS distance 0.008, p = 0.9999; 26 % of the events agree to 1e-9 MeV."""
     source = {
         "particle": "alpha",
@@ -365,15 +372,20 @@ def test_deposits_of_jumping_steps_and_of_secondaries_are_kept():
     data = tiled_config("portal", face_source("+z"), faces=("+z",), base="60 um", covers=False)
     alpha = _spawned(data, slab_primaries(data, "alpha", 5.3, 200, 1))
     edep = np.array(alpha["edep"])[:, 0]
-    assert alpha["anomalies"] == 0 and alpha["jumps"] > 200
-    assert edep.min() > 5.3 * (1 - 1e-6) and edep.max() < 5.3 + 2e-3
+    assert alpha["anomalies"] == 0
+    assert alpha["jumps"] > 200
+    assert edep.min() > 5.3 * (1 - 1e-6)
+    assert edep.max() < 5.3 + 2e-3
     electron = _spawned(data, slab_primaries(data, "e-", 0.05, 300, 2))
     edep = np.array(electron["edep"])[:, 0]
-    assert electron["anomalies"] == 0 and electron["secondary_jumps"] > 0
-    assert edep.min() > 0.05 * (1 - 1e-6) and edep.max() < 0.05 + 2e-3
+    assert electron["anomalies"] == 0
+    assert electron["secondary_jumps"] > 0
+    assert edep.min() > 0.05 * (1 - 1e-6)
+    assert edep.max() < 0.05 + 2e-3
 
 
-# --- geometry and bad input (no Geant4) -------------------------------------------------------------
+# --- geometry and bad input (no Geant4)
+# -------------------------------------------------------------
 
 
 @pytest.mark.parametrize("face", ["+z", "-z", "+x", "-x", "+y", "-y"])
@@ -408,7 +420,9 @@ def test_portal_map_moves_points_to_the_same_place_in_their_cell(face):
         np.array([[0.0, 0.0, -1e-3], [0.0, 0.0, layer.thickness + 1e-3]])
     )
     moved, inside, i, _ = pmap.to_subworld(outside)
-    assert not inside.any() and (i == -1).all() and np.array_equal(moved, outside)
+    assert not inside.any()
+    assert (i == -1).all()
+    assert np.array_equal(moved, outside)
 
 
 def test_exit_faces_of_a_subworld():
@@ -457,14 +471,19 @@ def test_subworlds_lie_outside_the_region_particles_reach():
     assert set(origins) == {layer.name for layer in scene.layers}
     boxes = [subworld_bounds(layer, origins[layer.name]) for layer in scene.layers]
     for lo, hi in boxes:
-        assert lo[0] > lab[0] and np.all(hi < half) and np.all(lo > -half)
+        assert lo[0] > lab[0]
+        assert np.all(hi < half)
+        assert np.all(lo > -half)
         check_unreachable(scene.layers[0], origins[scene.layers[0].name], -lab, lab)  # no error
     assert (
         boxes[0][1][0] < boxes[1][0][0] or boxes[1][1][0] < boxes[0][0][0]
     )  # the layers' subworlds apart
     with pytest.raises(
         ConfigError,
-        match=r"crystal_roughpz: subworld_origin \(0.05, 0, 0\) mm puts the subworlds .* where particles can move",
+        match=(
+            r"crystal_roughpz: subworld_origin \(0.05, 0, 0\) mm puts the subworlds .* "
+            r"where particles can move"
+        ),
     ):
         check_unreachable(scene.layers[0], (0.05, 0.0, 0.0), -lab, lab)
     native = parse_config(tiled_config("native", face_source("+z")))

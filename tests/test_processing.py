@@ -1,4 +1,5 @@
-"""Height-map processing: levelling, cropping, resampling, filling missing points, periodic closing."""
+"""Height-map processing: levelling, cropping, resampling, filling missing points, periodic
+closing."""
 
 from __future__ import annotations
 
@@ -29,12 +30,13 @@ def _map(f, nx=21, ny=11, px=0.5, py=0.25, origin=(1.0, -2.0)) -> HeightMap:
 def test_level_plane_recovers_and_removes_the_plane():
     noise = np.random.default_rng(0).normal(scale=1e-3, size=(11, 21))
     hm = _map(lambda x, y: 0.3 + 0.02 * x - 0.05 * y + noise)
-    a, b, c = plane_fit(hm)
+    _a, b, c = plane_fit(hm)
     assert (b, c) == pytest.approx((0.02, -0.05), abs=2e-4)  # noise 1e-3 over a 10 x 2.5 mm map
     flat = level_plane(hm)
     assert abs(flat.heights.mean()) < 1e-12
     _, b2, c2 = plane_fit(flat)
-    assert abs(b2) < 1e-12 and abs(c2) < 1e-12
+    assert abs(b2) < 1e-12
+    assert abs(c2) < 1e-12
     assert flat.metadata["processing"][0].startswith("level_plane")
 
 
@@ -121,15 +123,14 @@ def test_fill_at_the_edge_stays_within_the_measured_range():
     z[:3, :5] = np.nan  # a corner gap: mirror boundary at the map edge
     filled = fill_missing(HeightMap(z, 1.0, 1.0))
     assert not filled.has_missing
-    assert np.nanmin(z) <= filled.heights[:3, :5].min() and filled.heights[
-        :3, :5
-    ].max() <= np.nanmax(z)
+    assert np.nanmin(z) <= filled.heights[:3, :5].min()
+    assert filled.heights[:3, :5].max() <= np.nanmax(z)
 
 
 def test_too_many_missing_points_are_refused():
     z = np.random.default_rng(0).normal(size=(10, 10))
     z[:5] = np.nan
-    with pytest.raises(ConfigError, match="50.0% of the points are missing.*max_fraction"):
+    with pytest.raises(ConfigError, match=r"50\.0% of the points are missing.*max_fraction"):
         fill_missing(HeightMap(z, 1.0, 1.0), max_fraction=0.3)
     assert not fill_missing(HeightMap(z, 1.0, 1.0), max_fraction=0.6).has_missing
     with pytest.raises(ConfigError, match="max_fraction"):

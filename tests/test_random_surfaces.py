@@ -35,7 +35,8 @@ def circular_acf(z: np.ndarray) -> np.ndarray:
     return acf / acf[0, 0]
 
 
-# ----------------------------------------------------------------------------- Gaussian random fields
+# ----------------------------------------------------------------------------- Gaussian random
+# fields
 @pytest.mark.parametrize("acf", ["gaussian", "exponential"])
 def test_sq_is_exact_and_mean_zero(acf):
     hm = gaussian_random_surface(
@@ -45,11 +46,13 @@ def test_sq_is_exact_and_mean_zero(acf):
     assert hm.pitch_x == hm.pitch_y == pytest.approx(UM)
     assert np.std(hm.heights) == pytest.approx(0.3 * UM, rel=1e-9)  # rescaled to the target exactly
     assert abs(hm.heights.mean()) < 1e-12
-    assert hm.metadata["generator"] == "gaussian_random_surface" and hm.metadata["seed"] == 1
+    assert hm.metadata["generator"] == "gaussian_random_surface"
+    assert hm.metadata["seed"] == 1
 
 
 def test_gaussian_heights_have_gaussian_moments():
-    # 256^2 points, l = 4 pitch: ~ (256/4)^2 = 4096 independent patches; scatter of Ssk ~0.03, Sku ~0.06
+    # 256^2 points, l = 4 pitch: ~ (256/4)^2 = 4096 independent patches; scatter of Ssk ~0.03, Sku
+    # ~0.06
     hm = gaussian_random_surface(256, 256, 1.0, sq=1.0, corr_length_x=4.0, seed=3)
     z = hm.heights.ravel()
     assert abs(stats.skew(z)) < 0.1
@@ -70,7 +73,7 @@ def test_same_seed_same_map_different_seed_different_map():
     )
 
 
-@pytest.mark.parametrize("acf, n", [("gaussian", 256), ("exponential", 512)])
+@pytest.mark.parametrize(("acf", "n"), [("gaussian", 256), ("exponential", 512)])
 def test_acf_at_one_correlation_length_is_one_over_e(acf, n):
     # circular ACF of periodic maps, mean over 3 seeds; definition: ACF(l) = exp(-1) = 0.368.
     # Measured scatter of one map: 0.01-0.03. Tolerance 0.05.
@@ -147,7 +150,7 @@ def test_periodic_tiles_join_without_step(maker):
 
 # ----------------------------------------------------------------------------- non-Gaussian heights
 @pytest.mark.parametrize(
-    "skew, kurt", [(0.0, 5.0), (0.5, 2.8), (-0.8, 4.0), (1.5, 8.0), (0.0, 2.0), (2.0, 6.0)]
+    ("skew", "kurt"), [(0.0, 5.0), (0.5, 2.8), (-0.8, 4.0), (1.5, 8.0), (0.0, 2.0), (2.0, 6.0)]
 )
 def test_target_skewness_and_kurtosis_are_realised(skew, kurt):
     hm = gaussian_random_surface(
@@ -187,7 +190,7 @@ def test_non_gaussian_map_keeps_the_correlation_length():
 
 
 @pytest.mark.parametrize(
-    "skew, kurt", [(0.0, 4.0), (1.0, 4.5), (1.0, 6.0), (-0.5, 2.5), (2.0, 12.0)]
+    ("skew", "kurt"), [(0.0, 4.0), (1.0, 4.5), (1.0, 6.0), (-0.5, 2.5), (2.0, 12.0)]
 )
 def test_johnson_fit_matches_scipy_distribution(skew, kurt):
     from scipy.stats import johnsonsb, johnsonsu
@@ -206,7 +209,7 @@ def test_johnson_translate_keeps_ranks():
 
 
 @pytest.mark.parametrize(
-    "skew, kurt, words",
+    ("skew", "kurt", "words"),
     [
         (1.0, 2.0, "impossible"),  # below the bound Sku > Ssk^2 + 1
         (0.0, 1.0, "impossible"),
@@ -266,7 +269,7 @@ def test_self_affine_spectrum_slope_and_cutoffs():
 
 # ----------------------------------------------------------------------------- validation
 @pytest.mark.parametrize(
-    "kwargs, words",
+    ("kwargs", "words"),
     [
         (dict(corr_length_x=20.0), "corr_length_x.*nx \\* pitch_x >= 5"),  # 64 samples < 5 l
         (dict(corr_length_x=4.0, corr_length_y=30.0), "corr_length_y"),
@@ -288,7 +291,7 @@ def test_gaussian_surface_validation(kwargs, words):
 
 
 @pytest.mark.parametrize(
-    "kwargs, words",
+    ("kwargs", "words"),
     [
         (dict(hurst=0.0, sq=1.0), "hurst"),
         (dict(hurst=1.2, sq=1.0), "hurst"),
@@ -322,4 +325,5 @@ def test_grid_validation_and_dispatch():
         corr_length_y=3.0,
         seed=0,
     )
-    assert hm.shape == (32, 64) and hm.metadata["model"] == "exponential"
+    assert hm.shape == (32, 64)
+    assert hm.metadata["model"] == "exponential"

@@ -31,14 +31,16 @@ def test_x3p_matches_x3pio_and_surfalize():
     path = DATA / "x3pio_surface_binary.x3p"
     hm = read_topography(path)
     assert hm.shape == (150, 200)
-    assert hm.pitch_x == pytest.approx(1 * UM) and hm.pitch_y == pytest.approx(1 * UM)
+    assert hm.pitch_x == pytest.approx(1 * UM)
+    assert hm.pitch_y == pytest.approx(1 * UM)
     assert int(np.isnan(hm.heights).sum()) == 180
     ref = x3pio.read(path).layers[0].z  # metres
     np.testing.assert_allclose(hm.heights, np.asarray(ref) * 1e3, equal_nan=True)
     raw = _surfalize_raw(path)  # a second, independent implementation, in um
     np.testing.assert_allclose(hm.heights, raw.data * UM, rtol=1e-9, atol=1e-15, equal_nan=True)
     assert raw.step_x * UM == pytest.approx(hm.pitch_x)
-    assert hm.metadata["format"] == "x3p" and hm.metadata["source"] == str(path)
+    assert hm.metadata["format"] == "x3p"
+    assert hm.metadata["source"] == str(path)
 
 
 def test_x3p_opengps_sample():
@@ -46,7 +48,8 @@ def test_x3p_opengps_sample():
     path = DATA / "opengps_ISO5436-sample1_bin.x3p"
     hm = read_topography(path)
     raw = _surfalize_raw(path)
-    assert hm.shape == (4, 4) and int(np.isnan(hm.heights).sum()) == 1
+    assert hm.shape == (4, 4)
+    assert int(np.isnan(hm.heights).sum()) == 1
     assert hm.pitch_x == pytest.approx(raw.step_x * UM)
     np.testing.assert_allclose(hm.heights, raw.data * UM, rtol=1e-9, equal_nan=True)
 
@@ -62,13 +65,15 @@ def test_sdf_sample_has_documented_dimensions():
     # columns 20-29 missing
     hm = read_topography(DATA / "sdfio_iso1_surface_binary.sdf")
     assert hm.shape == (32, 48)
-    assert hm.pitch_x == pytest.approx(2 * UM) and hm.pitch_y == pytest.approx(3 * UM)
+    assert hm.pitch_x == pytest.approx(2 * UM)
+    assert hm.pitch_y == pytest.approx(3 * UM)
     rows, cols = np.nonzero(np.isnan(hm.heights))
     assert (rows.min(), rows.max(), cols.min(), cols.max()) == (10, 13, 20, 29)
     assert 0.3 * UM < np.nanstd(hm.heights) < 1 * UM  # heights in mm, not um or m
 
 
-# ----------------------------------------------------------------------------- sur (written by surfalize)
+# ----------------------------------------------------------------------------- sur (written by
+# surfalize)
 def test_sur_written_by_surfalize(tmp_path):
     surfalize = pytest.importorskip("surfalize")
     z_um = np.random.default_rng(0).normal(scale=0.3, size=(20, 30))
@@ -77,11 +82,9 @@ def test_sur_written_by_surfalize(tmp_path):
         warnings.simplefilter("ignore")
         surfalize.Surface(z_um, 0.5, 0.5).save(path)
     hm = read_topography(path)
-    assert (
-        hm.shape == (20, 30)
-        and hm.pitch_x == pytest.approx(0.5 * UM)
-        and hm.pitch_y == pytest.approx(0.5 * UM)
-    )
+    assert hm.shape == (20, 30)
+    assert hm.pitch_x == pytest.approx(0.5 * UM)
+    assert hm.pitch_y == pytest.approx(0.5 * UM)
     # SUR stores integers: quantisation error < 1e-5 of the range
     np.testing.assert_allclose(hm.heights, z_um * UM, atol=1e-5 * np.ptp(z_um) * UM)
 
@@ -89,7 +92,7 @@ def test_sur_written_by_surfalize(tmp_path):
 def test_plu_garbage_is_a_clear_error(tmp_path):
     path = tmp_path / "broken.plu"
     path.write_bytes(b"not a confocal file" * 10)
-    with pytest.raises(ConfigError, match="broken.plu"):
+    with pytest.raises(ConfigError, match=r"broken\.plu"):
         read_topography(path)
 
 
@@ -122,7 +125,8 @@ def test_gwy_written_by_gwyfile(tmp_path):
     hm = read_topography(path)  # picks the only channel with heights in metres
     assert hm.metadata["channel"] == "Height"
     assert hm.shape == (30, 40)
-    assert hm.pitch_x == pytest.approx(2 * UM) and hm.pitch_y == pytest.approx(3 * UM)
+    assert hm.pitch_x == pytest.approx(2 * UM)
+    assert hm.pitch_y == pytest.approx(3 * UM)
     assert hm.origin[0] == pytest.approx(5 * UM)
     np.testing.assert_allclose(hm.heights, z_m * 1e3)
     raw = _surfalize_raw(path)  # independent reader agrees (um)
@@ -137,7 +141,8 @@ def test_gwy_sample_without_units():
     with pytest.raises(ConfigError, match="xy_unit"):
         read_topography(path)
     hm = read_topography(path, xy_unit="um", z_unit="um")
-    assert hm.shape == (128, 128) and hm.pitch_x == pytest.approx(1 * UM)  # xreal = 128 units
+    assert hm.shape == (128, 128)
+    assert hm.pitch_x == pytest.approx(1 * UM)
     assert hm.heights[0, 0] == pytest.approx(
         0.00082494 * UM, rel=1e-4
     )  # value in gwyfile's own test
@@ -150,11 +155,9 @@ def test_text_grid_with_header(tmp_path):
     path = tmp_path / "grid.txt"
     np.savetxt(path, z, header="pitch_x = 0.5 um\npitch_y = 2 um\nz_unit = nm")
     hm = read_topography(path)
-    assert (
-        hm.shape == (3, 4)
-        and hm.pitch_x == pytest.approx(0.5 * UM)
-        and hm.pitch_y == pytest.approx(2 * UM)
-    )
+    assert hm.shape == (3, 4)
+    assert hm.pitch_x == pytest.approx(0.5 * UM)
+    assert hm.pitch_y == pytest.approx(2 * UM)
     np.testing.assert_allclose(hm.heights, z * 1e-6)
 
 
@@ -169,7 +172,8 @@ def test_csv_grid_with_parameters_and_nan(tmp_path):
         read_topography(path, pitch="1 um")
     hm = read_topography(path, pitch="1 um", z_unit="um")
     assert hm.pitch_x == hm.pitch_y == pytest.approx(UM)
-    assert np.isnan(hm.heights[1, 2]) and hm.heights[3, 4] == pytest.approx(19 * UM)
+    assert np.isnan(hm.heights[1, 2])
+    assert hm.heights[3, 4] == pytest.approx(19 * UM)
 
 
 def test_gwyddion_ascii_export_header(tmp_path):
@@ -180,9 +184,8 @@ def test_gwyddion_ascii_export_header(tmp_path):
         encoding="utf-8",
     )
     hm = read_topography(path)
-    assert hm.pitch_x == pytest.approx(1 * UM) and hm.pitch_y == pytest.approx(
-        1 * UM
-    )  # width / columns
+    assert hm.pitch_x == pytest.approx(1 * UM)
+    assert hm.pitch_y == pytest.approx(1 * UM)
     assert hm.heights[1, 3] == pytest.approx(8e-4)
 
 
@@ -193,7 +196,7 @@ def test_text_grid_errors(tmp_path):
         read_topography(ragged, pitch="1 um", z_unit="um")
     empty = tmp_path / "empty.asc"
     empty.write_text("# pitch = 1 um\n")
-    with pytest.raises(ConfigError, match="empty.asc.*no data"):
+    with pytest.raises(ConfigError, match=r"empty\.asc.*no data"):
         read_topography(empty, z_unit="um")
     nan_only = tmp_path / "nan.txt"
     nan_only.write_text("nan nan\nnan nan\n")
@@ -215,7 +218,8 @@ def test_xyz_regular_grid_in_any_order_with_gaps(tmp_path):
     path.write_text("X Y Z\n" + _xyz_lines(xx.ravel()[keep], yy.ravel()[keep], zz.ravel()[keep]))
     hm = read_topography(path, xy_unit="um", z_unit="nm")
     assert hm.shape == (5, 7)
-    assert hm.pitch_x == pytest.approx(2 * UM) and hm.pitch_y == pytest.approx(3 * UM)
+    assert hm.pitch_x == pytest.approx(2 * UM)
+    assert hm.pitch_y == pytest.approx(3 * UM)
     assert hm.origin == pytest.approx((-2 * UM, 10 * UM))
     assert int(np.isnan(hm.heights).sum()) == 2
     ok = ~np.isnan(hm.heights)
@@ -226,13 +230,13 @@ def test_xyz_rejects_non_grid_and_empty_files(tmp_path):
     rng = np.random.default_rng(1)
     scattered = tmp_path / "cloud.xyz"
     scattered.write_text(_xyz_lines(*rng.uniform(size=(3, 200))))
-    with pytest.raises(ConfigError, match="cloud.xyz.*regular grid"):
+    with pytest.raises(ConfigError, match=r"cloud\.xyz.*regular grid"):
         read_topography(scattered, xy_unit="um", z_unit="um")
     empty = tmp_path / "empty.xyz"
     empty.write_text("")
-    with pytest.raises(ConfigError, match="empty.xyz.*no data points"):
+    with pytest.raises(ConfigError, match=r"empty\.xyz.*no data points"):
         read_topography(empty, xy_unit="um", z_unit="um")
-    with pytest.raises(ConfigError, match="duplicate|same grid node"):
+    with pytest.raises(ConfigError, match=r"duplicate|same grid node"):
         grid_from_points([0, 1, 0, 1, 1], [0, 0, 1, 1, 1], [1, 2, 3, 4, 5])
     with pytest.raises(ConfigError, match="at least 50%"):
         grid_from_points(
@@ -248,7 +252,7 @@ def test_xyz_rejects_non_grid_and_empty_files(tmp_path):
 def test_unknown_format_lists_known_formats(tmp_path):
     path = tmp_path / "surface.bmp"
     path.write_bytes(b"BM")
-    with pytest.raises(ConfigError, match="x3p.*gwy.*plu.*sur.*xyz"):
+    with pytest.raises(ConfigError, match=r"x3p.*gwy.*plu.*sur.*xyz"):
         read_topography(path)
     with pytest.raises(ConfigError, match="format 'tiff'"):
         read_topography(DATA / "x3pio_surface_binary.x3p", format="tiff")

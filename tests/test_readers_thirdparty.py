@@ -27,10 +27,10 @@ from score4.surface.readers import read_topography
 PLU = Path(__file__).parent / "data" / "topography" / "synthetic_40x30.plu"
 UM = 1e-3  # mm
 
-# SurfaceTopography 1.27.1 PLUReader on synthetic_40x30.plu (its arrays are (x, y); here (row=y, col=x)):
-# nb_grid_pts (40, 30), physical_sizes (33.19999933, 37.5) um, one masked point at x=11, y=7,
-# mean 0.825505599 um, std 0.711734515 um, h[0, 0] = -0.065179117, h[39, 29] = 1.59465361,
-# h[5, 3] = 0.900684297 um.
+# SurfaceTopography 1.27.1 PLUReader on synthetic_40x30.plu (its arrays are (x, y); here (row=y,
+# col=x)): nb_grid_pts (40, 30), physical_sizes (33.19999933, 37.5) um, one masked point at x=11,
+# y=7, mean 0.825505599 um, std 0.711734515 um, h[0, 0] = -0.065179117, h[39, 29] = 1.59465361, h[5,
+# 3] = 0.900684297 um.
 REF_SHAPE = (30, 40)
 REF_PITCH_UM = (33.19999933242798 / 40, 37.5 / 30)
 REF_MISSING = (7, 11)
@@ -58,15 +58,14 @@ def test_plu_heights_match_surfacetopography():
 
 def test_plu_metadata():
     meta = read_topography(PLU).metadata
-    assert (
-        meta["date"] == "Fri Mar 10 16:35:59 2023"
-        and meta["comment"] == "score4 synthetic test file"
-    )
-    assert meta["objective"] == 14 and meta["layers"] == 1
+    assert meta["date"] == "Fri Mar 10 16:35:59 2023"
+    assert meta["comment"] == "score4 synthetic test file"
+    assert meta["objective"] == 14
+    assert meta["layers"] == 1
 
 
-# Offsets in synthetic_40x30.plu: 500-byte header (grid size in the calibration block at 388, number of
-# layers at byte 489), then the layer's uint32 rows, columns at 500, heights from 508.
+# Offsets in synthetic_40x30.plu: 500-byte header (grid size in the calibration block at 388, number
+# of layers at byte 489), then the layer's uint32 rows, columns at 500, heights from 508.
 def _damaged(tmp_path: Path, name: str, data: bytes) -> Path:
     path = tmp_path / name
     path.write_bytes(data)

@@ -1,11 +1,11 @@
-"""Rough faces end to end: patches placed by Geant4 where the sampler puts vertices, spectra, vertex files."""
+"""Rough faces end to end: patches placed by Geant4 where the sampler puts vertices, spectra, vertex
+files."""
 
 from __future__ import annotations
 
 import h5py
 import numpy as np
 import pytest
-from conftest import config_dict
 
 from score4.cli.main import main
 from score4.config import parse_config
@@ -15,6 +15,8 @@ from score4.scene import build_scene, face_frame
 from score4.sim.engine import run
 from score4.source.build import make_source
 from score4.source.vertex_file import write_vertex_file
+
+from conftest import config_dict
 
 PYRAMIDS = {
     "kind": "spikes",
@@ -45,7 +47,7 @@ TARGET = {
 def geantino_vertex_run(
     tmp_path, face: str, surface: dict, solid: str, events: int = 300, layout: str = "placements"
 ):
-    """Vertices sampled below the rough face, then geantinos from them along the inward face normal."""
+    """Vertices sampled below the rough face, then geantinos from them along the inward normal."""
     target = {
         **TARGET,
         "rough": [{"face": face, "surface": "s", "solid": solid, "native_layout": layout}],
@@ -131,7 +133,8 @@ def alpha_config(rough: bool, events: int = 1500):
 
 
 def test_rough_surface_moves_alpha_counts_below_full_energy(tmp_path):
-    """Paper figure, small: alphas leaving a steep pyramid face re-enter the neighbours and deposit a
+    """Paper figure, small: alphas leaving a steep pyramid face re-enter the neighbours and deposit
+    a
     part of their energy. Flat face: the outward half escapes after 20 nm / cos(theta) (above
     0.2 MeV only if cos(theta) < 0.02), the inward half deposits all (except near the side walls).
     Rough: many outward alphas deposit between 0.2 and 4 MeV. Measured with 3000 events (seed 11):
@@ -148,12 +151,13 @@ def test_rough_surface_moves_alpha_counts_below_full_energy(tmp_path):
     assert mid(flat) < 0.03 * n
     assert mid(rough) > 0.15 * n
     assert mid(rough) - mid(flat) > 5 * np.sqrt(mid(rough) + mid(flat))
-    # Geant4 overshoots the emitted energy by ~1 keV in about 1 event of 3000 (measured, flat and rough)
+    # Geant4 overshoots the emitted energy by ~1 keV in about 1 event of 3000 (measured, flat and
+    # rough)
     assert rough.max() <= 5.3 * 1.001
 
 
 def test_po210_source_emits_alpha_and_recoil_per_event(tmp_path):
-    config = alpha_config(True, events=100).model_copy()
+    alpha_config(True, events=100).model_copy()
     data = config_dict(
         surfaces={"p": {"kind": "spikes", "nx": 10, "ny": 5, "width": "40 um", "height": "40 um"}},
         targets=[{**TARGET, "rough": [{"face": "+z", "surface": "p"}]}],
@@ -170,20 +174,19 @@ def test_po210_source_emits_alpha_and_recoil_per_event(tmp_path):
         run(parse_config(data), tmp_path / "po.h5", progress=False, echo=lambda m: None)
     )
     p = r.primaries
-    assert (
-        len(p.event) == 200
-        and set(p.particle[0::2]) == {"alpha"}
-        and set(p.particle[1::2]) == {"Pb206"}
-    )
+    assert len(p.event) == 200
+    assert set(p.particle[0::2]) == {"alpha"}
+    assert set(p.particle[1::2]) == {"Pb206"}
     np.testing.assert_allclose(p.direction[0::2], -p.direction[1::2], atol=1e-12)
     depth = p.extra["depth"]
-    assert depth.min() >= 1e-5 and depth.max() <= 5e-5
+    assert depth.min() >= 1e-5
+    assert depth.max() <= 5e-5
     # alpha + recoil energy can be deposited at most
     assert r.edep["crystal"].max() <= 5.30433 + 0.1032 + 1e-6
 
 
 def test_vertex_file_reproduces_the_direct_run(tmp_path):
-    """score4 vertices draws chunk by chunk like score4 run; running the file gives the same events."""
+    """score4 vertices draws chunks like score4 run: running the file gives the same events."""
     data = config_dict(
         surfaces={"p": {"kind": "spikes", "nx": 10, "ny": 5, "width": "40 um", "height": "40 um"}},
         targets=[{**TARGET, "rough": [{"face": "+z", "surface": "p"}]}],
@@ -200,9 +203,8 @@ def test_vertex_file_reproduces_the_direct_run(tmp_path):
     vfile = tmp_path / "v.h5"
     assert main(["vertices", str(cfg), "--out", str(vfile)]) == 0
     with h5py.File(vfile) as f:
-        assert (
-            f["vertices/xloc"].attrs["units"] == "mm" and f["vertices/depth"].attrs["units"] == "mm"
-        )
+        assert f["vertices/xloc"].attrs["units"] == "mm"
+        assert f["vertices/depth"].attrs["units"] == "mm"
         assert (
             f["vertices"].attrs["datatype"].startswith("table{event,particle,energy,xloc,yloc,zloc")
         )
@@ -210,10 +212,8 @@ def test_vertex_file_reproduces_the_direct_run(tmp_path):
         np.testing.assert_array_equal(
             f["vtx/pos/zloc"][()], f["vertices/zloc"][()]
         )  # one primary per event here
-        assert (
-            f["vtx/pos"].attrs["datatype"] == "table{xloc,yloc,zloc}"
-            and f["vtx/pos/xloc"].attrs["units"] == "mm"
-        )
+        assert f["vtx/pos"].attrs["datatype"] == "table{xloc,yloc,zloc}"
+        assert f["vtx/pos/xloc"].attrs["units"] == "mm"
     assert main(["vertices", str(cfg), "--out", str(vfile)]) == 2  # exists: refused, file kept
     direct = read_results(
         run(parse_config(data), tmp_path / "direct.h5", progress=False, echo=lambda m: None)
@@ -277,7 +277,7 @@ def test_nuclide_sources_need_radioactive_decay_data(tmp_path):
 
 
 def test_confinement_to_a_material_no_target_at_the_face_has_fails_with_counts(tmp_path):
-    """Vertices drawn at the face of a silicon crystal can never be in the copper block beside it."""
+    """Vertices drawn at a silicon crystal's face are never in the copper block beside it."""
     copper = {
         "name": "block",
         "material": "G4_Cu",
@@ -305,7 +305,7 @@ def test_overlapping_targets_are_refused():
 
 def test_vertex_file_sources_refuse_keys_they_would_ignore(tmp_path):
     with pytest.raises(
-        ConfigError, match="vertices: a vertex file already holds .*drop depth, direction"
+        ConfigError, match=r"vertices: a vertex file already holds .*drop depth, direction"
     ):
         parse_config(
             config_dict(
@@ -335,8 +335,9 @@ def test_replaying_a_nuclide_vertex_file_needs_decay_data(tmp_path):
 
 def test_depth_window_errors_use_the_config_names():
     data = config_dict(source={"depth": {"profile": "zero", "min": "1 nm"}})
-    with pytest.raises(ConfigError, match=r"^source.depth: min"):
-        from score4.source.build import make_source as _make
+    from score4.source.build import make_source
 
-        config = parse_config(data)
-        _make(config, build_scene(config))
+    config = parse_config(data)
+    scene = build_scene(config)
+    with pytest.raises(ConfigError, match=r"^source\.depth: min"):
+        make_source(config, scene)

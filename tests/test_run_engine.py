@@ -58,9 +58,12 @@ def test_run_record_and_summary(tmp_path: Path, make_config):
         )
     )
     rec = res.run
-    assert rec["seed"] == 3 and rec["n_events"] == 50
-    assert rec["physics_mode"] == "lite" and "no radioactive decay" in rec["physics_lacks"]
-    assert rec["geant4_version"].startswith("11.") and rec["geant4_pybind_version"]
+    assert rec["seed"] == 3
+    assert rec["n_events"] == 50
+    assert rec["physics_mode"] == "lite"
+    assert "no radioactive decay" in rec["physics_lacks"]
+    assert rec["geant4_version"].startswith("11.")
+    assert rec["geant4_pybind_version"]
     assert (
         rec["config"]["source"]["energy"] == "5.3 MeV"
     )  # stored with units: parse_config reads it back
@@ -68,7 +71,8 @@ def test_run_record_and_summary(tmp_path: Path, make_config):
     assert rec["wall_time_s"] > 0
     s = summarize(res)
     (vol,) = s["volumes"]
-    assert vol["name"] == "crystal" and len(vol["histogram"]["counts"]) == 100
+    assert vol["name"] == "crystal"
+    assert len(vol["histogram"]["counts"]) == 100
     assert (
         sum(vol["histogram"]["counts"]) == 50
     )  # the top edge is the largest primary energy: no overflow
@@ -103,7 +107,7 @@ def test_unknown_material_lists_close_names_and_leaves_nothing(tmp_path: Path, m
 
 def test_unknown_particle(tmp_path: Path, make_config):
     config = make_config(source={"particle": "alpah"})
-    with pytest.raises(ConfigError, match="source.particle: unknown name 'alpah'"):
+    with pytest.raises(ConfigError, match=r"source\.particle: unknown name 'alpah'"):
         run(config, tmp_path / "p.h5", progress=False, echo=lambda m: None)
     assert list(tmp_path.iterdir()) == []
 
@@ -113,7 +117,8 @@ def test_overwrite_replaces_only_when_complete(tmp_path: Path, make_config):
     run(make_config(run={"events": 20}), out, progress=False, echo=lambda m: None)
     run(make_config(run={"events": 30}), out, overwrite=True, progress=False, echo=lambda m: None)
     assert read_results(out).n_events == 30
-    assert not list(tmp_path.glob("*.partial")) and not list(tmp_path.glob("*.parts"))
+    assert not list(tmp_path.glob("*.partial"))
+    assert not list(tmp_path.glob("*.parts"))
 
 
 def test_ion_primary_pb206_recoil_stops_in_silicon(tmp_path: Path, make_config):
@@ -128,7 +133,8 @@ def test_ion_primary_pb206_recoil_stops_in_silicon(tmp_path: Path, make_config):
     res = read_results(run(config, tmp_path / "pb.h5", progress=False, echo=lambda m: None))
     assert np.allclose(res.edep["crystal"], 0.103, atol=1e-6)
     path = res.scores["track_length"]["crystal"]
-    assert (path > 10e-6).all() and (path < 200e-6).all()  # 10 nm < path < 200 nm
+    assert (path > 10e-6).all()  # 10 nm < path < 200 nm
+    assert (path < 200e-6).all()
     assert res.run["physics_mode"] == "lite"
 
 
@@ -170,5 +176,6 @@ def test_resume_reuses_only_chunks_of_the_same_run(tmp_path: Path, make_config):
     res = read_results(run(config, out, resume=True, progress=False, echo=lambda m: None))
     edep = res.edep["crystal"]
     assert (edep[:10] == 123.0).all()
-    assert not (edep[10:] == 456.0).any() and (edep[10:] <= 5.3 + 1e-9).all()
+    assert not (edep[10:] == 456.0).any()
+    assert (edep[10:] <= 5.3 + 1e-9).all()
     assert not parts.exists()

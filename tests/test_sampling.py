@@ -208,7 +208,7 @@ def test_tiled_face_rotation_moves_points_and_normals():
 
 
 @pytest.mark.parametrize(
-    "kwargs, match",
+    ("kwargs", "match"),
     [
         ({"layout": [[0, 3]]}, "layout"),
         ({"layout": [[0.5, 1]]}, "layout"),
@@ -237,7 +237,8 @@ def test_piecewise_linear_inverse_is_exact_on_uneven_spacing():
 def test_piecewise_linear_truncated_sampling_stays_in_window_and_follows_the_pdf():
     law = PiecewiseLinear([0.0, 1.0, 4.0], [1.0, 3.0, 0.0])
     x = law.sample(np.random.default_rng(3), N, lo=0.5, hi=2.0)
-    assert x.min() >= 0.5 and x.max() <= 2.0
+    assert x.min() >= 0.5
+    assert x.max() <= 2.0
     edges = np.linspace(0.5, 2.0, 31)
     p = np.diff(law.cdf(edges)) / (law.cdf(2.0) - law.cdf(0.5))
     assert stats.chisquare(np.histogram(x, edges)[0], N * p).pvalue > P_MIN
@@ -261,7 +262,7 @@ def test_read_table_with_header_comments_and_commas(tmp_path):
 
 
 @pytest.mark.parametrize(
-    "text, unit, match",
+    ("text", "unit", "match"),
     [
         ("0 1\n1 2\n", None, "no unit"),
         ("# unit: nm\n0 1\n1 2\n", "um", "must agree"),

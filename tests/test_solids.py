@@ -82,7 +82,8 @@ def test_gdml_round_trip_keeps_the_solid(tmp_path):
         before, after, kind, material = pool.submit(
             _roundtrip, points.tolist(), grid_kwargs, str(path)
         ).result()
-    assert kind == "G4TessellatedSolid" and material == "G4_Si"
+    assert kind == "G4TessellatedSolid"
+    assert material == "G4_Si"
     assert before == after
     from score4.surface.mesh import closed_body
 

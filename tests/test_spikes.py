@@ -30,7 +30,7 @@ def _grid(**kw) -> SpikeGrid:
 
 
 @pytest.mark.parametrize(
-    "kw, match",
+    ("kw", "match"),
     [
         (dict(nx=0), "nx: must be an integer >= 1, got 0"),
         (dict(ny=-2), "ny: must be an integer >= 1"),
@@ -107,7 +107,7 @@ def test_truncated_gaussian_statistics():
 # --- top mesh -----------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("shape, n_layers", SHAPES)
+@pytest.mark.parametrize(("shape", "n_layers"), SHAPES)
 def test_top_mesh_is_an_exact_clean_height_field(shape, n_layers):
     g = _grid(shape=shape, n_layers=n_layers)
     m = g.top_mesh()
@@ -136,7 +136,7 @@ def test_pyramid_apexes_at_cell_centres_non_square_cells():
     np.testing.assert_array_equal(apex[..., 2], g.heights)
 
 
-@pytest.mark.parametrize("shape, n_layers", SHAPES)
+@pytest.mark.parametrize(("shape", "n_layers"), SHAPES)
 def test_closed_body_of_spikes(shape, n_layers):
     g = _grid(shape=shape, n_layers=n_layers)
     body = closed_body(g.top_mesh(), thickness=0.01)
@@ -156,7 +156,7 @@ def test_closed_body_of_spikes(shape, n_layers):
 
 
 @pytest.mark.parametrize(
-    "shape, profile",
+    ("shape", "profile"),
     [("bump", lambda u: 1 - u**2), ("peak", lambda u: 1 / (1 + PEAK_STEEPNESS * u))],
 )
 def test_frustum_layers_follow_the_profile(shape, profile):
@@ -167,7 +167,8 @@ def test_frustum_layers_follow_the_profile(shape, profile):
     np.testing.assert_allclose(f["width_x_bottom"][0], g.width_x * profile(k / n))
     np.testing.assert_allclose(f["width_y_bottom"][0], g.width_y * profile(k / n))
     np.testing.assert_allclose(f["width_x_top"][0, :-1], f["width_x_bottom"][0, 1:])
-    assert f["width_x_top"][0, -1] == 0.0 and f["width_y_top"][0, -1] == 0.0  # ends in a point
+    assert f["width_x_top"][0, -1] == 0.0
+    assert f["width_y_top"][0, -1] == 0.0
     # Layers stack without gaps from z = 0 to the spike height.
     bottom, top = f["z"] - f["height"] / 2, f["z"] + f["height"] / 2
     np.testing.assert_allclose(bottom[:, 0], 0.0, atol=1e-18)
@@ -197,7 +198,7 @@ def test_height_at_pyramid_matches_formula():
     np.testing.assert_allclose(g.height_at(x, y), expected, atol=1e-15)
 
 
-@pytest.mark.parametrize("shape, n_layers", SHAPES)
+@pytest.mark.parametrize(("shape", "n_layers"), SHAPES)
 def test_height_at_reproduces_mesh_vertices(shape, n_layers):
     g = _grid(shape=shape, n_layers=n_layers)
     v = g.top_mesh().vertices
@@ -224,7 +225,7 @@ def test_to_heightmap_grid_and_values():
     np.testing.assert_allclose(
         hm.heights[::8, :], 0.0, atol=1e-15
     )  # cell borders y = -0.002, 0, 0.002
-    with pytest.raises(ConfigError, match="pitch: .* fewer than 2 samples"):
+    with pytest.raises(ConfigError, match=r"pitch: .* fewer than 2 samples"):
         g.to_heightmap(0.1)
     with pytest.raises(ConfigError, match="pitch: must be a positive length"):
         g.to_heightmap(0.0)

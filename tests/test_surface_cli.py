@@ -12,13 +12,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from conftest import ROOT
 
 from score4.cli.main import main
 from score4.surface.mesh import TriangleMesh, is_watertight, signed_volume
 from score4.surface.metrology import PARAMETERS
 from score4.surface.plot import nice_length
 from score4.surface.store import load_surface
+
+from conftest import ROOT
 
 UM = 1e-3  # mm
 SYMBOLS = [symbol for symbol, _, _ in PARAMETERS]
@@ -94,12 +95,14 @@ def test_generate_then_stats_json_random(tmp_path, capsys):
     code, stdout, err = run(capsys, "surface", "stats", out, "--json")
     assert code == 0, err
     doc = json.loads(stdout)
-    assert set(SYMBOLS) <= set(doc) and "mesh" not in doc
+    assert set(SYMBOLS) <= set(doc)
+    assert "mesh" not in doc
     assert doc["units"] == {
         s: ("um" if kind == "length" else "%" if kind == "percent" else "dimensionless")
         for s, kind, _ in PARAMETERS
     }
-    assert doc["surface"]["kind"] == "random" and doc["surface"]["map_points"] == [257, 257]
+    assert doc["surface"]["kind"] == "random"
+    assert doc["surface"]["map_points"] == [257, 257]
     assert doc["surface"]["size_x_um"] == pytest.approx(256.0)
     # Fixed seed 7; the generator makes Sq exact on the periodic map, levelling and the closing
     # row/column move it by well under the stated 2 %.
@@ -141,14 +144,17 @@ def test_stats_text_and_all_file_kinds(tmp_path, capsys):
     assert "mesh (exact)" in stdout
     lines = {line.split()[0]: line for line in stdout.splitlines()[2:]}
     assert list(lines) == SYMBOLS
-    assert "um" in lines["Sq"].split() and "%" in lines["Sdr"].split()
+    assert "um" in lines["Sq"].split()
+    assert "%" in lines["Sdr"].split()
     # A measured file is read directly; its missing points are left out, not refused.
     sdf = ROOT / "tests" / "data" / "topography" / "sdfio_iso1_surface_binary.sdf"
     code, stdout, err = run(capsys, "surface", "stats", sdf, "--json")
     assert code == 0, err
     doc = json.loads(stdout)
-    assert doc["surface"]["kind"] == "topography (sdf)" and doc["surface"]["map_points"] == [32, 48]
-    assert doc["Sq"] > 0 and math.isfinite(doc["Sq"])
+    assert doc["surface"]["kind"] == "topography (sdf)"
+    assert doc["surface"]["map_points"] == [32, 48]
+    assert doc["Sq"] > 0
+    assert math.isfinite(doc["Sq"])
 
 
 def test_stats_of_the_shipped_measured_example_matches_its_surface_file(tmp_path, capsys):
@@ -165,7 +171,8 @@ def test_generate_refuses_to_overwrite(tmp_path, capsys):
     before = out.read_bytes()
     other = write_yaml(tmp_path, "other", SPIKES)
     code, _, err = run(capsys, "surface", "generate", other, "--out", out)
-    assert code == 2 and "already exists; pass --overwrite" in err
+    assert code == 2
+    assert "already exists; pass --overwrite" in err
     assert out.read_bytes() == before
     assert run(capsys, "surface", "generate", other, "--out", out, "--overwrite")[0] == 0
     assert load_surface(out).spec.nx == 4
@@ -187,7 +194,8 @@ def test_show_writes_a_png(tmp_path, capsys, data):
     code, _stdout, err = run(capsys, "surface", "show", out, "--png", png, "--dpi", 50)
     assert code == 0, err
     raw = png.read_bytes()
-    assert raw[:8] == b"\x89PNG\r\n\x1a\n" and raw[12:16] == b"IHDR"
+    assert raw[:8] == b"\x89PNG\r\n\x1a\n"
+    assert raw[12:16] == b"IHDR"
     width, height = int.from_bytes(raw[16:20], "big"), int.from_bytes(raw[20:24], "big")
     assert (width, height) == (550, 230)  # 11 x 4.6 inches at 50 dpi
     import matplotlib.image
@@ -262,10 +270,12 @@ def test_export_ply_keeps_the_exact_body(tmp_path, capsys):
     assert code == 0, err
     vertices, faces, top = read_binary_ply(ply)
     body = load_surface(out).body(1 * UM)
-    assert np.array_equal(vertices, body.vertices) and np.array_equal(faces, body.faces)
+    assert np.array_equal(vertices, body.vertices)
+    assert np.array_equal(faces, body.faces)
     assert np.array_equal(top, body.top)
     mesh = TriangleMesh(vertices, faces)
-    assert is_watertight(mesh) and signed_volume(mesh) > 0
+    assert is_watertight(mesh)
+    assert signed_volume(mesh) > 0
     assert vertices[:, 2].min() == pytest.approx(-1 * UM)
 
 
@@ -331,7 +341,9 @@ def test_export_gdml_tessellated_and_multiunion(tmp_path, capsys):
     # A random surface: a tessellated body whose extent is the surface's, slab 1 um (default).
     status, kind, _, blo, bhi, codes = results["random"]
     rough = load_surface(random_file)
-    assert status == 0 and kind == "G4TessellatedSolid" and codes == [2]
+    assert status == 0
+    assert kind == "G4TessellatedSolid"
+    assert codes == [2]
     assert blo == pytest.approx([-rough.size_x / 2, -rough.size_y / 2, -1 * UM], abs=1e-9)
     assert bhi == pytest.approx([rough.size_x / 2, rough.size_y / 2, rough.max_height], abs=1e-9)
     assert not [p for p in tmp_path.iterdir() if "partial" in p.name]
@@ -341,7 +353,7 @@ def test_export_gdml_tessellated_and_multiunion(tmp_path, capsys):
 
 
 @pytest.mark.parametrize(
-    "args, message",
+    ("args", "message"),
     [
         (["stats", "{tmp}/none.s4s.h5"], "does not exist"),
         (["stats", "{tmp}/pic.jpg"], "cannot tell what"),
@@ -395,15 +407,19 @@ def test_errors_are_one_line_with_exit_status_2(tmp_path, capsys, args, message)
     code, _stdout, err = run(capsys, "surface", *(a.format(tmp=tmp_path) for a in args))
     assert code == 2
     err = err.strip()
-    assert err.startswith("score4: error: ") and message in err and "\n" not in err
+    assert err.startswith("score4: error: ")
+    assert message in err
+    assert "\n" not in err
     assert (tmp_path / "exists.stl").read_bytes() == b"keep"
-    assert not (tmp_path / "x.s4s.h5").exists() and not (tmp_path / "a.stl").exists()
+    assert not (tmp_path / "x.s4s.h5").exists()
+    assert not (tmp_path / "a.stl").exists()
 
 
 def test_help_documents_units(capsys):
     assert main(["surface", "stats", "--help"]) == 0
     text = " ".join(capsys.readouterr().out.split())
-    assert "Sa Sq Sp Sv Sz Sal in um" in text and "Sdr in %" in text
+    assert "Sa Sq Sp Sv Sz Sal in um" in text
+    assert "Sdr in %" in text
     assert main(["surface", "--help"]) == 0
     out = capsys.readouterr().out
     assert all(cmd in out for cmd in ("generate", "stats", "show", "export"))

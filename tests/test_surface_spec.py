@@ -8,7 +8,6 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from conftest import ROOT
 
 from score4.errors import ConfigError
 from score4.surface.spec import (
@@ -20,6 +19,8 @@ from score4.surface.spec import (
     parse_surface_spec,
 )
 from score4.surface.store import load_surface, save_surface
+
+from conftest import ROOT
 
 UM = 1e-3  # mm
 
@@ -77,7 +78,7 @@ def measured_dict(path: Path, **extra) -> dict:
 
 
 @pytest.mark.parametrize(
-    "data, message",
+    ("data", "message"),
     [
         (
             {"kind": "spikes", "nx": 2, "ny": 2, "height": "1 um"},
@@ -245,8 +246,10 @@ def test_invalid_descriptions_give_one_line_naming_the_key(data, message):
         parse_surface_spec(data, origin="t.yaml")
     text = str(info.value)
     assert message in text
-    assert text.startswith("t.yaml: ") and "\n" not in text
-    assert "spikes." not in text and "random." not in text  # no pydantic union tags in key paths
+    assert text.startswith("t.yaml: ")
+    assert "\n" not in text
+    assert "spikes." not in text
+    assert "random." not in text
 
 
 def test_values_are_stored_in_mm_and_widths_filled_in():
@@ -273,8 +276,10 @@ def test_values_are_stored_in_mm_and_widths_filled_in():
 
 def test_spike_grid_build():
     s = build_surface(parse_surface_spec(SPIKES))
-    assert s.heightmap is None and s.spikes.heights.shape == (3, 4)
-    assert s.size_x == pytest.approx(40 * UM) and s.size_y == pytest.approx(45 * UM)
+    assert s.heightmap is None
+    assert s.spikes.heights.shape == (3, 4)
+    assert s.size_x == pytest.approx(40 * UM)
+    assert s.size_y == pytest.approx(45 * UM)
     assert s.max_height == pytest.approx(s.spikes.heights.max())
     # 12 heights drawn with mean 8 um, sigma 2 um (seed 5): the sample std of 12 Gaussian values
     # lies within a factor 2 of sigma with probability > 0.99, the mean within 4 sigma/sqrt(12).
@@ -285,7 +290,8 @@ def test_spike_grid_build():
     flat = build_surface({"kind": "spikes", "nx": 3, "ny": 3, "width": "10 um", "height": "7 um"})
     assert flat.max_height == pytest.approx(7 * UM)
     hm = flat.map
-    assert hm.x[0] == pytest.approx(-15 * UM) and hm.x[-1] == pytest.approx(15 * UM)
+    assert hm.x[0] == pytest.approx(-15 * UM)
+    assert hm.x[-1] == pytest.approx(15 * UM)
     assert np.nanmin(hm.heights) == pytest.approx(0.0, abs=1e-15)
     assert np.nanmax(hm.heights) == pytest.approx(7 * UM)
 
@@ -298,8 +304,10 @@ def test_random_build_sizes_and_periodic_tile(data):
     pitch = float(data["pitch"].split()[0]) * UM
     # One period plus the repeated first row/column: a closed tile of nx * pitch.
     assert z.shape == (ny + 1, nx + 1)
-    assert s.size_x == pytest.approx(nx * pitch) and s.size_y == pytest.approx(ny * pitch)
-    assert np.array_equal(z[0], z[-1]) and np.array_equal(z[:, 0], z[:, -1])
+    assert s.size_x == pytest.approx(nx * pitch)
+    assert s.size_y == pytest.approx(ny * pitch)
+    assert np.array_equal(z[0], z[-1])
+    assert np.array_equal(z[:, 0], z[:, -1])
     assert s.max_height == pytest.approx(np.ptp(z))
     placed = s.placed_map
     assert placed.origin == pytest.approx((-s.size_x / 2, -s.size_y / 2))
@@ -321,9 +329,8 @@ def test_measured_build_levels_and_crops(tmp_path):
     path = write_grid(tmp_path / "grid.txt")
     raw = build_surface(parse_surface_spec(measured_dict(path, level=False)))
     assert raw.heightmap.shape == (GRID_NY, GRID_NX)
-    assert raw.size_x == pytest.approx((GRID_NX - 1) * 0.5 * UM) and raw.size_y == pytest.approx(
-        (GRID_NY - 1) * 0.5 * UM
-    )
+    assert raw.size_x == pytest.approx((GRID_NX - 1) * 0.5 * UM)
+    assert raw.size_y == pytest.approx((GRID_NY - 1) * 0.5 * UM)
     z_nm = grid_heights_nm()
     assert np.allclose(raw.heightmap.heights, z_nm * 1e-6, rtol=0, atol=1e-12)
     assert raw.max_height == pytest.approx(np.ptp(z_nm) * 1e-6)
@@ -344,7 +351,7 @@ def test_measured_file_with_missing_points_is_refused_unless_filled(tmp_path):
     text[4] = " ".join(row)
     path = tmp_path / "gap.txt"
     path.write_text("\n".join(text) + "\n")
-    with pytest.raises(ConfigError, match="1 missing .NaN. points; set fill_missing: true"):
+    with pytest.raises(ConfigError, match=r"1 missing \(NaN\) points; set fill_missing: true"):
         build_surface(parse_surface_spec(measured_dict(path)))
     filled = build_surface(parse_surface_spec(measured_dict(path, fill_missing=True, level=False)))
     assert np.isfinite(filled.heightmap.heights).all()
@@ -413,7 +420,8 @@ def test_store_round_trip_spikes(tmp_path):
     assert np.array_equal(back.spikes.heights, s.spikes.heights)
     assert np.array_equal(back.top_mesh.vertices, s.top_mesh.vertices)
     with h5py.File(path) as f:
-        assert f.attrs["format"] == "score4-surface" and f.attrs["kind"] == "spikes"
+        assert f.attrs["format"] == "score4-surface"
+        assert f.attrs["kind"] == "spikes"
         assert f["spikes/heights"].attrs["units"] == "mm"
     assert [p.name for p in tmp_path.iterdir()] == ["s.s4s.h5"]  # no temporary file left
 
@@ -426,7 +434,8 @@ def test_store_round_trip_spikes(tmp_path):
 def test_store_round_trip_random_bit_for_bit(tmp_path, data):
     s = build_surface(parse_surface_spec(data))
     back = load_surface(save_surface(s, tmp_path / "r.s4s.h5"))
-    assert back.spec == s.spec and back.spikes is None
+    assert back.spec == s.spec
+    assert back.spikes is None
     assert np.array_equal(back.heightmap.heights, s.heightmap.heights)
     assert (back.heightmap.pitch_x, back.heightmap.pitch_y) == (
         s.heightmap.pitch_x,
@@ -484,7 +493,7 @@ def _tampered(path: Path, source: Path) -> None:
 
 
 @pytest.mark.parametrize(
-    "damage, message",
+    ("damage", "message"),
     [
         (_junk, "is not an HDF5 file"),
         (_foreign, "is not a score4 surface file"),
@@ -500,7 +509,8 @@ def test_damaged_or_foreign_files_give_a_clear_error(tmp_path, damage, message):
     damage(bad, source)
     with pytest.raises(ConfigError, match=message) as info:
         load_surface(bad)
-    assert str(bad) in str(info.value) and "\n" not in str(info.value)
+    assert str(bad) in str(info.value)
+    assert "\n" not in str(info.value)
 
 
 def test_missing_surface_file(tmp_path):
@@ -512,5 +522,5 @@ def test_file_with_format_tag_but_no_data_gives_a_clear_error(tmp_path):
     path = tmp_path / "half.s4s.h5"
     with h5py.File(path, "w") as f:
         f.attrs["format"] = "score4-surface"
-    with pytest.raises(ConfigError, match="half.s4s.h5 is damaged or incomplete"):
+    with pytest.raises(ConfigError, match=r"half\.s4s\.h5 is damaged or incomplete"):
         load_surface(path)

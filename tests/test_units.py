@@ -7,7 +7,7 @@ from score4.units import format_quantity, parse_quantity
 
 
 @pytest.mark.parametrize(
-    "text, dimension, expected",
+    ("text", "dimension", "expected"),
     [
         ("5.3 MeV", "energy", 5.3),
         ("103 keV", "energy", 0.103),
@@ -27,7 +27,7 @@ def test_parse_quantity(text, dimension, expected):
 
 
 @pytest.mark.parametrize(
-    "value, message",
+    ("value", "message"),
     [
         (5.3, "has no unit"),
         ("5.3", "has no unit"),

@@ -47,7 +47,7 @@ class BoxVolume(StrictModel):
     material: str = "G4_Si"
     size: Size3
     position: Vector3 = (0.0, 0.0, 0.0)
-    rough: list[RoughFace] = []
+    rough: list[RoughFace] = []  # noqa: RUF012 pydantic copies field defaults per instance
 
 
 class MaterialSpec(StrictModel):
@@ -207,6 +207,7 @@ class RoughFace(StrictModel):
 
     @property
     def variant_list(self) -> list[PatchVariant]:
+        assert self.variants is not None or self.surface is not None  # the validator's rule
         return (
             self.variants
             if self.variants is not None
@@ -344,7 +345,7 @@ class RunConfig(StrictModel):
     physics: PhysicsConfig = PhysicsConfig()
     materials: dict[str, MaterialSpec] = {}
     world: WorldConfig = WorldConfig()
-    surfaces: dict[str, SurfaceDescription] = {}
+    surfaces: dict[str, SurfaceDescription] = {}  # noqa: RUF012 pydantic copies defaults
     targets: list[BoxVolume] = Field(min_length=1)
     source: SourceConfig
     run: RunSettings = RunSettings()
@@ -363,7 +364,7 @@ class RunConfig(StrictModel):
         return v
 
     @model_validator(mode="after")
-    def _check_references(self) -> "RunConfig":
+    def _check_references(self) -> RunConfig:
         names = [t.name for t in self.targets]
         dupes = sorted({n for n in names if names.count(n) > 1})
         if dupes:

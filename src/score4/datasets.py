@@ -429,7 +429,7 @@ def status(env: Mapping[str, str] | None = None) -> list[DataSetStatus]:
     result = []
     for ds in official_datasets():
         hit = locate_with_source(ds, env)
-        path, source = hit if hit else (None, None)
+        path, source = hit or (None, None)
         result.append(DataSetStatus(ds.name, ds.version, ds.envvar, path, source))
     return result
 
@@ -490,7 +490,7 @@ def _offline_hint(directory: Path) -> str:
 def _open_url(url: str, timeout: float, directory: Path) -> http.client.HTTPResponse:
     """Open ``url``; every network failure becomes a one-line DataError."""
     try:
-        response = urllib.request.urlopen(url, timeout=timeout)  # noqa: S310 (ours or the user's)
+        response = urllib.request.urlopen(url, timeout=timeout)  # the official or the user's URL
         return cast(http.client.HTTPResponse, response)
     except urllib.error.HTTPError as exc:
         reason = f"HTTP {exc.code} {exc.reason}"
@@ -509,7 +509,7 @@ def _content_length(response: http.client.HTTPResponse) -> int | None:
 def _network_error(url: str, exc: BaseException, directory: Path) -> DataError:
     """One-line DataError for a network failure while reading ``url``."""
     return DataError(
-        f"download of {url} failed: {exc or type(exc).__name__}; {_offline_hint(directory)}"
+        f"download of {url} failed: {str(exc) or type(exc).__name__}; {_offline_hint(directory)}"
     )
 
 
@@ -525,7 +525,7 @@ def _stream(
     from tqdm import tqdm  # imported here: only downloads need it
 
     total = _content_length(response)
-    digest = hashlib.md5()  # noqa: S324 (md5 is what geant4_pybind publishes; not for security)
+    digest = hashlib.md5()  # what geant4_pybind publishes; not for security
     done = 0
     with tqdm(
         total=total,

@@ -65,20 +65,29 @@ class DepositHistogram:
 
 
 def energy_value(value: float | str | None, name: str) -> float | None:
-    """An energy in MeV from a float (MeV) or a string with a unit (``"6 MeV"``); None stays None."""
+    """Energy in MeV from a float (MeV) or a string with a unit (``"6 MeV"``); None stays None."""
     if value is None:
         return None
     if isinstance(value, str):
         return parse_quantity(value, "energy", name)
+    given: object = value  # checked at run time: callers may pass anything
     if (
-        isinstance(value, bool)
-        or not isinstance(value, (int, float, np.number))
-        or not np.isfinite(value)
+        isinstance(given, bool)
+        or not isinstance(given, (int, float, np.number))
+        or not np.isfinite(given)
     ):
         raise ConfigError(
             f"{name}: expected an energy in MeV or a string such as '6 MeV', got {value!r}"
         )
     return float(value)
+
+
+def check_bins(bins: object) -> None:
+    """Raise ConfigError unless ``bins`` is None or a positive integer."""
+    if bins is not None and (
+        isinstance(bins, bool) or not isinstance(bins, (int, np.integer)) or bins < 1
+    ):
+        raise ConfigError(f"bins: must be a positive integer, got {bins!r}")
 
 
 def _run_histogram_setting(results: Results) -> tuple[int | None, float | None]:
@@ -87,7 +96,8 @@ def _run_histogram_setting(results: Results) -> tuple[int | None, float | None]:
     hist = config.get("output", {}).get("histogram", {}) if isinstance(config, dict) else {}
     if not isinstance(hist, dict):
         return None, None
-    bins = hist.get("bins") if isinstance(hist.get("bins"), int) and hist.get("bins") > 0 else None
+    stored = hist.get("bins")
+    bins = stored if isinstance(stored, int) and stored > 0 else None
     emax = None
     raw = hist.get("max")
     if raw is not None:
@@ -112,10 +122,7 @@ def histogram_edges(
     runs = [results] if isinstance(results, Results) else list(results)
     if not runs:
         raise ConfigError("results: no results given")
-    if bins is not None and (
-        isinstance(bins, bool) or not isinstance(bins, (int, np.integer)) or bins < 1
-    ):
-        raise ConfigError(f"bins: must be a positive integer, got {bins!r}")
+    check_bins(bins)
     lo = energy_value(emin, "emin")
     hi = energy_value(emax, "emax")
     settings = [_run_histogram_setting(r) for r in runs]
@@ -123,7 +130,10 @@ def histogram_edges(
     lo = 0.0 if lo is None else lo
     if hi is None:
         hi = (
-            max(s[1] or float(r.primary_energy.max(initial=0.0)) for s, r in zip(settings, runs))
+            max(
+                s[1] or float(r.primary_energy.max(initial=0.0))
+                for s, r in zip(settings, runs, strict=True)
+            )
             or 1.0
         )
     if lo < 0:
@@ -157,7 +167,7 @@ def deposit_histogram(edep: np.ndarray, edges: np.ndarray) -> DepositHistogram:
 
 
 def select_volumes(results: Results, volume: str | None) -> list[str]:
-    """``[volume]`` if it exists in ``results`` (else an error listing the volumes); all volumes for None."""
+    """``[volume]`` if ``results`` has it (else an error naming the volumes); all for None."""
     names = list(results.edep)
     if volume is None:
         return names
@@ -227,17 +237,18 @@ def export_csv(
     edges = histogram_edges(results, bins=bins, emin=emin, emax=emax)
     hists = [deposit_histogram(results.edep[name], edges) for name in names]
     lines = _header(results, "score4 energy-deposit histogram (events with a non-zero deposit)")
-    for name, h in zip(names, hists):
+    for name, h in zip(names, hists, strict=True):
         lines.append(
             f"# volume {name}: {h.n_zero} events without deposit, {h.n_underflow} below "
             f"{_num(edges[0])} MeV, {h.n_overflow} above {_num(edges[-1])} MeV (not counted)"
         )
     lines.append("volume,bin_low_MeV,bin_high_MeV,counts,counts_per_keV")
-    for name, h in zip(names, hists):
+    for name, h in zip(names, hists, strict=True):
         per_keV = h.counts_per_keV
         for k in range(len(h.counts)):
             lines.append(
-                f"{name},{_num(edges[k])},{_num(edges[k + 1])},{int(h.counts[k])},{_num(per_keV[k])}"
+                f"{name},{_num(edges[k])},{_num(edges[k + 1])},"
+                f"{int(h.counts[k])},{_num(per_keV[k])}"
             )
     with atomic_output(path) as tmp:
         tmp.write_text("\n".join(lines) + "\n")
@@ -271,8 +282,8 @@ def export_events_csv(results: Results, path: str | Path) -> list[str]:
     formats = [
         str if np.issubdtype(np.asarray(c).dtype, np.integer) else repr for c in columns.values()
     ]
-    for row in zip(*lists):
-        lines.append(",".join(f(v) for f, v in zip(formats, row)))
+    for row in zip(*lists, strict=True):
+        lines.append(",".join(f(v) for f, v in zip(formats, row, strict=True)))
     with atomic_output(path) as tmp:
         tmp.write_text("\n".join(lines) + "\n")
     return list(columns)

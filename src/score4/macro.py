@@ -25,7 +25,7 @@ YAML header.
 
 from __future__ import annotations
 
-import datetime as _dt
+import datetime as dt
 import math
 import os
 import re
@@ -158,7 +158,9 @@ class _Command:
 
 def _tokens(line: str) -> list[str]:
     """Split on blanks; double quotes group (Geant4's G4UIbatch tokenizer)."""
-    out, cur, quoted, started = [], [], False, False
+    out: list[str] = []
+    cur: list[str] = []
+    quoted = started = False
     for ch in line:
         if ch == '"':
             quoted, started = not quoted, True
@@ -209,7 +211,7 @@ def _read(path: Path, commands: list[_Command], stack: tuple[Path, ...]) -> None
 
 
 def _include(cmd: _Command, commands: list[_Command], stack: tuple[Path, ...]) -> None:
-    """Expand ``/control/execute FILE`` in place (the file is looked for beside the macro, then here)."""
+    """Expand ``/control/execute FILE`` in place (FILE looked for beside the macro, then here)."""
     if len(cmd.args) != 1:
         raise cmd.fail(f"expected one macro file name, got {' '.join(cmd.args)!r}")
     name = Path(cmd.args[0])
@@ -217,7 +219,8 @@ def _include(cmd: _Command, commands: list[_Command], stack: tuple[Path, ...]) -
     found = next((c for c in candidates if c.is_file()), None)
     if found is None:
         raise cmd.fail(
-            f"macro {cmd.args[0]!r} not found (looked in {', '.join(str(c.parent) for c in candidates)})"
+            f"macro {cmd.args[0]!r} not found (looked in "
+            f"{', '.join(str(c.parent) for c in candidates)})"
         )
     if found.resolve() in {p.resolve() for p in stack}:
         raise cmd.fail(f"macro {cmd.args[0]!r} executes itself (a loop)")
@@ -237,7 +240,7 @@ def _quantity(
     index: int = 0,
     minimum: str = "positive",
 ) -> _Quantity:
-    """``<number> [unit]`` at ``args[index:]``; the unit is required unless the command has a default."""
+    """``<number> [unit]`` at ``args[index:]``; a unit is needed unless there is a default."""
     symbols, names, _, _ = _UNITS[dimension]
     accepted = ", ".join(symbols)
     a = "an" if dimension[0] in "aeiou" else "a"
@@ -437,11 +440,13 @@ _IGNORED_EXACT = {
 }
 _IGNORED_PREFIX = {
     "/vis/": "visualisation",
-    "/analysis/": "histogram/ntuple files of the original example; score4 writes its own results file",
+    "/analysis/": "histogram/ntuple files of the original example; score4 writes its own results "
+    "file",
     "/control/cout/": "output redirection only",
-    "/gps/pos/": "the original's sampler overwrites the GPS position with a point on the rough surface; "
-    "score4 samples on the rough face itself",
-    "/gps/ang/rot": "only turns the frame of the angular distribution; the converted one (iso) has no frame",
+    "/gps/pos/": "the original's sampler overwrites the GPS position with a point on the rough "
+    "surface; score4 samples on the rough face itself",
+    "/gps/ang/rot": "only turns the frame of the angular distribution; the converted one (iso) has "
+    "no frame",
 }
 _GPS_POSITION = {
     "/gps/position",
@@ -481,6 +486,13 @@ class _Helper:
     def get(self, param: str, default: Any = None) -> Any:
         v = self.values.get(param)
         return default if v is None else v[0]
+
+    def set_cmd(self, param: str) -> _Command:
+        """The command that set ``param``; only for parameters :meth:`get` found."""
+        c = self.cmd(param)
+        if c is None:
+            raise KeyError(f"{self.name}: {param} was never set")
+        return c
 
     def cmd(self, param: str) -> _Command | None:
         v = self.values.get(param)
@@ -551,8 +563,9 @@ def _helper_command(state: _State, cmd: _Command, parts: list[str]) -> None:
     if len(parts) == 3:
         name, sub = UNNAMED_HELPER, parts[2]
         note = (
-            f"/Surface/{kind}/<command> has no helper name (the paper's Listing 4 form; the library's path is "
-            f"/Surface/{kind}/<name>/<command>): read as helper {UNNAMED_HELPER!r}"
+            f"/Surface/{kind}/<command> has no helper name (the paper's Listing 4 form; the "
+            f"library's path is /Surface/{kind}/<name>/<command>): read as helper "
+            f"{UNNAMED_HELPER!r}"
         )
         if note not in state.report.notes:
             state.report.notes.append(note)
@@ -651,8 +664,8 @@ def _gps_command(state: _State, cmd: _Command) -> None:
         else:
             state.unknown(
                 cmd,
-                f"angular distribution {cmd.args[0]!r} is not converted (only iso; see source.direction "
-                "for inward/outward/cosine/normal relative to the surface)",
+                f"angular distribution {cmd.args[0]!r} is not converted (only iso; see "
+                "source.direction for inward/outward/cosine/normal relative to the surface)",
             )
     elif p == "/gps/number":
         if _count(cmd) == 1:
@@ -675,7 +688,8 @@ def _shift_command(state: _State, cmd: _Command) -> None:
         if len(cmd.args) != 1:
             raise cmd.fail(f"expected one file name, got {' '.join(cmd.args)!r}")
         name = Path(cmd.args[0])
-        # The original opens it relative to the program's working folder; try beside the macro first.
+        # The original opens it relative to the program's working folder; try beside the macro
+        # first.
         candidates = [name] if name.is_absolute() else [cmd.file.parent / name, Path.cwd() / name]
         found = next((c for c in candidates if c.is_file()), None)
         if found is None:
@@ -813,13 +827,15 @@ def _spike_surface(state: _State, helper: _Helper, label: str, defaults: dict | 
     detail = {
         "dx": f"{key}.width_x = {dx.text(2)} (2 x half-width)",
         "dy": f"{key}.width_y = {dy.text(2)} (2 x half-width)",
-        "mean": f"{key}.height = {mean.text(factor)} ({'2 x' if pyramid else '1 x'} setSpikeMeanHeight: {form} "
+        "mean": f"{key}.height = {mean.text(factor)} ({'2 x' if pyramid else '1 x'} "
+        f"setSpikeMeanHeight: {form} "
         + ("is a G4Trd of half-height MeanHeight)" if pyramid else "layers add up to MeanHeight)"),
         "nx": f"{key}.nx = {nx}",
         "ny": f"{key}.ny = {ny}",
         "form": f"{key}.shape = {shape}"
         + (" (Gaussian heights: height_sigma)" if form == "UniformPyramid" else ""),
-        "material": f"targets.0.material = {helper.get('material')} (the rough layer is in its target's material)",
+        "material": f"targets.0.material = {helper.get('material')} (the rough layer is in its "
+        "target's material)",
     }
     reasons: dict[str, str] = {}
     if form == "UniformPyramid":
@@ -833,14 +849,16 @@ def _spike_surface(state: _State, helper: _Helper, label: str, defaults: dict | 
                 "engine; score4 draws them with numpy from this seed)",
             )
             state.report.notes.append(
-                f"{key}: the original clamps Gaussian heights <= 0 to 1e-9 mm (and then aborts in G4Trd); score4 "
-                "redraws heights below min_height (default 1 % of the mean), a truncated Gaussian"
+                f"{key}: the original clamps Gaussian heights <= 0 to 1e-9 mm (and then aborts in "
+                "G4Trd); score4 redraws heights below min_height (default 1 % of the mean), a "
+                "truncated Gaussian"
             )
         if dev is not None:
             detail["dev"] = f"{key}.height_sigma = {dev.text(factor)} (2 x, like the height)"
     else:
         reasons["dev"] = (
-            f"the original uses the deviation only for UniformPyramid; {form} spikes all have the mean height"
+            f"the original uses the deviation only for UniformPyramid; {form} spikes all have the "
+            "mean height"
         )
     if pyramid:
         reasons["nlayer"] = "the original builds pyramids from one G4Trd whatever setNLayer says"
@@ -849,8 +867,9 @@ def _spike_surface(state: _State, helper: _Helper, label: str, defaults: dict | 
         detail["nlayer"] = f"{key}.n_layers = {spec['n_layers']}"
     if not (_close(dx.value, dy.value)):
         state.report.notes.append(
-            f"{key}: spike half-widths differ in x and y ({dx.text()} and {dy.text()}); the original's "
-            "RectangleDivider breaks such grids (notes §3.1-1), score4 builds them as written"
+            f"{key}: spike half-widths differ in x and y ({dx.text()} and {dy.text()}); the "
+            "original's RectangleDivider breaks such grids (notes §3.1-1), score4 builds them as "
+            "written"
         )
     for param, (_, cmd) in values.items():
         if param in reasons:
@@ -888,8 +907,9 @@ def _patch_basis(
         basis = helper.get(f"basis_d{axis}")
         if not _close(basis.value, want.value):
             raise basis_cmd.fail(
-                f"basis half-length {basis.text()} must equal setSpikesN{axis} x setSpikeD{axis} = {n} x {spike.text()} "
-                f"= {want.text()} (the original exits on this: RoughnessHelper::CheckValues)"
+                f"basis half-length {basis.text()} must equal setSpikesN{axis} x setSpikeD{axis} = "
+                f"{n} x {spike.text()} = {want.text()} (the original exits on this: "
+                "RoughnessHelper::CheckValues)"
             )
         where = (
             f"targets.0.size.{i} = {basis.text(2)}"
@@ -904,22 +924,24 @@ def _patch_basis(
 def _portal_face(
     state: _State, portal: _Helper, patch: tuple[_Quantity, _Quantity], config: dict, rough: dict
 ) -> tuple[str, str]:
-    """Face size from the portal (checked as MultiportalHelper::CheckValues does); the converted keys."""
+    """Face size from the portal (checked like MultiportalHelper::CheckValues), converted keys."""
     sizes = []
-    for axis, half_patch in zip(("x", "y"), patch):
-        sub, sub_cmd = portal.get(f"sub_d{axis}"), portal.cmd(f"sub_d{axis}")
+    for axis, half_patch in zip(("x", "y"), patch, strict=True):
+        sub = portal.get(f"sub_d{axis}")
         if sub is not None:
+            sub_cmd = portal.set_cmd(f"sub_d{axis}")
             if not _close(sub.value, half_patch.value):
                 raise sub_cmd.fail(
-                    f"subworld half-size {sub.text()} differs from the roughness patch half-size {half_patch.text()}; "
-                    "score4 tiles patches edge to edge and cannot leave gaps or overlaps between them"
+                    f"subworld half-size {sub.text()} differs from the roughness patch half-size "
+                    f"{half_patch.text()}; score4 tiles patches edge to edge and cannot leave gaps "
+                    "or overlaps between them"
                 )
             state.converted(
                 sub_cmd,
                 f"patch size {sub.text(2)} along {axis} (2 x half-length, = the roughness patch)",
             )
         n, n_cmd = portal.get(f"n{axis}"), portal.cmd(f"n{axis}")
-        full, full_cmd = portal.get(f"d{axis}"), portal.cmd(f"d{axis}")
+        full = portal.get(f"d{axis}")
         if full is None:
             if n is None:
                 raise ConfigError(
@@ -932,6 +954,7 @@ def _portal_face(
                 f"{full.text(2)} = setN{axis}Subworld x patch size (no setD{axis}Portal)",
             )
         else:
+            full_cmd = portal.set_cmd(f"d{axis}")
             ratio = full.value / half_patch.value
             if not _close(ratio, round(ratio)) or round(ratio) < 1:
                 raise full_cmd.fail(
@@ -939,9 +962,9 @@ def _portal_face(
                     f"({half_patch.text()}): {ratio:.6g}"
                 )
             if n is not None and n != round(ratio):
-                raise n_cmd.fail(
-                    f"{n} subworlds x {half_patch.text()} != portal half-size {full.text()} (the original "
-                    "exits on this: MultiportalHelper::CheckValues)"
+                raise portal.set_cmd(f"n{axis}").fail(
+                    f"{n} subworlds x {half_patch.text()} != portal half-size {full.text()} (the "
+                    "original exits on this: MultiportalHelper::CheckValues)"
                 )
             state.converted(
                 full_cmd,
@@ -953,7 +976,7 @@ def _portal_face(
     dz, dz_cmd = portal.get("dz"), portal.cmd("dz")
     sub_dz, sub_dz_cmd = portal.get("sub_dz"), portal.cmd("sub_dz")
     if dz is not None and sub_dz is not None and not _close(dz.value, sub_dz.value):
-        raise sub_dz_cmd.fail(
+        raise portal.set_cmd("sub_dz").fail(
             f"subworld half-height {sub_dz.text()} != portal half-height {dz.text()} (the original "
             "exits on this: MultiportalHelper::CheckValues)"
         )
@@ -962,10 +985,11 @@ def _portal_face(
             state.ignored(
                 c, "score4 sizes the rough layer's envelope itself (base_thickness + tallest spike)"
             )
-    if portal.cmd("material") is not None:
+    material_cmd = portal.cmd("material")
+    if material_cmd is not None:
         config.setdefault("world", {})["material"] = portal.get("material")
         state.converted(
-            portal.cmd("material"),
+            material_cmd,
             f"world.material = {portal.get('material')} (the medium around "
             "the patches: score4's layer envelope is of the world material)",
         )
@@ -977,7 +1001,8 @@ def _portal_face(
 
 
 def _relative(path: Path, folder: Path) -> str:
-    """``path`` relative to ``folder`` (how score4 resolves config paths), or absolute if they share only the root."""
+    """``path`` relative to ``folder`` (how score4 resolves config paths), or absolute if they share
+    only the root."""
     path, folder = path.resolve(), folder.resolve()
     try:
         common = Path(os.path.commonpath([path, folder]))
@@ -1023,9 +1048,9 @@ def _depth(state: _State, out_dir: Path, stem: str) -> dict | None:
                 raise cmd.fail(f"cannot read {str(table)!r} ({err})") from None
         name = f"{stem}.depth.txt"
         text = (
-            f"# depth table merged by score4 import-macro from {len(rows)} /shift/loadShiftTable files,\n"
-            "# in the order the original appends them; columns: depth, weight\n# unit: nm\n"
-            + "".join(rows)
+            f"# depth table merged by score4 import-macro from {len(rows)} /shift/loadShiftTable "
+            "files,\n# in the order the original appends them; columns: depth, weight\n# unit: "
+            "nm\n" + "".join(rows)
         )
         with tempfile.TemporaryDirectory() as folder:
             check = Path(folder) / name
@@ -1048,8 +1073,9 @@ def _depth(state: _State, out_dir: Path, stem: str) -> dict | None:
     steps = np.diff(depths)
     if len(steps) and not all(_close(s, steps[0]) for s in steps):
         state.report.notes.append(
-            "the shift table's depths are not equally spaced: the original weights its bins without their widths "
-            "(notes §3.1-16), score4 samples the true piecewise-linear density through the points, so the two differ"
+            "the shift table's depths are not equally spaced: the original weights its bins "
+            "without their widths (notes §3.1-16), score4 samples the true piecewise-linear "
+            "density through the points, so the two differ"
         )
     if mn is not None and mx is not None and mx[0].value <= mn[0].value:
         raise mx[1].fail(
@@ -1062,8 +1088,8 @@ def _depth(state: _State, out_dir: Path, stem: str) -> dict | None:
             state.converted(entry[1], f"source.depth.{key} = {entry[0].text()}")
     depth["definition"] = "normal"
     state.report.notes.append(
-        "the original applies /shift/ settings only when its C++ builds the sampler with a shift file (notes "
-        "§3.1-17); score4 applies them"
+        "the original applies /shift/ settings only when its C++ builds the sampler with a shift "
+        "file (notes §3.1-17); score4 applies them"
     )
     return depth
 
@@ -1156,7 +1182,7 @@ def _run(state: _State, config: dict) -> None:
     run: dict[str, Any] = {}
     if state.beam_on:
         run["events"] = sum(n for n, _ in state.beam_on)
-        for n, cmd in state.beam_on:
+        for _, cmd in state.beam_on:
             state.converted(
                 cmd,
                 f"run.events = {run['events']}"
@@ -1195,7 +1221,8 @@ def _run(state: _State, config: dict) -> None:
 
 
 def _surfaces(state: _State) -> list[_Helper]:
-    """The helpers that describe surfaces: the RoughnessHelpers, else the Describer (/geometry/surface)."""
+    """The helpers that describe surfaces: the RoughnessHelpers, else the Describer
+    (/geometry/surface)."""
     if state.rough:
         for _, _, cmd in state.describer.commands:
             state.ignored(
@@ -1236,26 +1263,31 @@ def _face(state: _State, helpers: list[_Helper], config: dict) -> tuple[dict, st
         *patch, base = bases[first.name]
         for h in placed[1:]:  # variants of one face: one patch size, one base thickness
             *other, other_base = bases[h.name]
-            for axis, a, b in zip(("x", "y"), patch, other):
+            for axis, a, b in zip(("x", "y"), patch, other, strict=True):
                 if not _close(a.value, b.value):
-                    raise h.cmd(f"d{axis}").fail(
-                        f"the patch of {h.name!r} is {2 * b.value:g} mm along {axis}, that of {first.name!r} "
-                        f"{2 * a.value:g} mm; the patches of one face must have one size"
+                    raise h.set_cmd(f"d{axis}").fail(
+                        f"the patch of {h.name!r} is {2 * b.value:g} mm along {axis}, that of "
+                        f"{first.name!r} {2 * a.value:g} mm; the patches of one face must have one "
+                        "size"
                     )
-            if (base is None) != (other_base is None) or (
-                base and not _close(base.value, other_base.value)
-            ):
-                c = h.cmd("basis_dz") or first.cmd("basis_dz")
+            mismatch = (
+                (base is None) != (other_base is None)
+                if base is None or other_base is None
+                else not _close(base.value, other_base.value)
+            )
+            if mismatch:
+                c = h.cmd("basis_dz") or first.set_cmd("basis_dz")
                 raise c.fail(
-                    f"{h.name!r} and {first.name!r} have different basis heights; a score4 rough face "
-                    "has one base_thickness"
+                    f"{h.name!r} and {first.name!r} have different basis heights; a score4 rough "
+                    "face has one base_thickness"
                 )
     if base is not None:
         rough["base_thickness"] = base.text(2)
         for h in helpers:
-            if h.cmd("basis_dz") is not None:
+            basis_cmd = h.cmd("basis_dz")
+            if basis_cmd is not None:
                 state.converted(
-                    h.cmd("basis_dz"),
+                    basis_cmd,
                     f"targets.0.rough.0.base_thickness = {base.text(2)} (2 x half-height)",
                 )
     else:
@@ -1267,7 +1299,8 @@ def _face(state: _State, helpers: list[_Helper], config: dict) -> tuple[dict, st
         for _, _, cmd in extra.commands:
             state.unknown(
                 cmd,
-                f"a second MultiportalHelper ({extra.name!r}): score4 converts one portal per macro",
+                f"a second MultiportalHelper ({extra.name!r}): score4 converts one portal per "
+                "macro",
             )
     if portals:
         size_x, size_y = _portal_face(state, portals[0], (patch[0], patch[1]), config, rough)
@@ -1421,15 +1454,16 @@ def render_yaml(config: dict, report: ImportReport) -> str:
     """The configuration as YAML under a comment header: source macro, date, the report."""
     from . import __version__
 
-    now = _dt.datetime.now().astimezone().isoformat(timespec="seconds")
+    now = dt.datetime.now().astimezone().isoformat(timespec="seconds")
     header = [
         "score4 run configuration converted from an original SCoRe4 macro by 'score4 import-macro'",
         f"source macro: {report.macro.resolve()}",
         f"date:         {now} (score4 {__version__})",
         "",
-        "Lengths: the original's setters take HALF-lengths; score4 uses FULL lengths everywhere, so every",
-        "length below is twice the macro's, and a pyramid is 2 x setSpikeMeanHeight high (a G4Trd of that",
-        "half-height); Bump/Peak heights are 1 x setSpikeMeanHeight. See docs/import-macro.md.",
+        "Lengths: the original's setters take HALF-lengths; score4 uses FULL lengths everywhere,",
+        "so every length below is twice the macro's, and a pyramid is 2 x setSpikeMeanHeight high",
+        "(a G4Trd of that half-height); Bump/Peak heights are 1 x setSpikeMeanHeight.",
+        "See docs/import-macro.md.",
         "",
         *report.lines(),
     ]
@@ -1447,7 +1481,8 @@ def render_yaml(config: dict, report: ImportReport) -> str:
 def write_config(
     config: dict, report: ImportReport, out: str | os.PathLike, overwrite: bool = False
 ) -> list[Path]:
-    """Write the configuration (and any table in ``report.files``) beside each other; return the paths.
+    """Write the configuration (and any table in ``report.files``) beside each other; return the
+    paths.
 
     Raises
     ------
@@ -1464,8 +1499,10 @@ def write_config(
         for t in targets:
             if t.exists():
                 raise ConfigError(f"--out: {str(t)!r} exists; pass --overwrite to replace it")
-    texts = [render_yaml(config, report)] + list(report.files.values())
-    for target, text in zip(targets[1:], texts[1:]):  # tables first: the config refers to them
+    texts = [render_yaml(config, report), *report.files.values()]
+    for target, text in zip(
+        targets[1:], texts[1:], strict=True
+    ):  # tables first: the config refers to them
         with atomic_output(target) as tmp:
             tmp.write_text(text)
     with atomic_output(out) as tmp:

@@ -38,7 +38,7 @@ QUANTITY_UNITS = {"edep": "MeV", "track_length": "mm"}
 
 @contextlib.contextmanager
 def atomic_h5(path: Path):
-    """Open a temporary HDF5 file beside ``path``; rename it to ``path`` on success, delete on failure."""
+    """A temporary HDF5 file beside ``path``, renamed to ``path`` on success, deleted on failure."""
     with atomic_output(path) as tmp, h5py.File(tmp, "w") as f:
         f.attrs["format"] = FORMAT
         f.attrs["format_version"] = FORMAT_VERSION

@@ -21,6 +21,7 @@ from matplotlib.figure import Figure
 from .errors import ConfigError, Score4Error
 from .export import (
     DepositHistogram,
+    check_bins,
     check_output_path,
     deposit_histogram,
     histogram_edges,
@@ -38,7 +39,8 @@ VERTEX_DEPTH_DATASET = "vertices/depth"
 
 @dataclass(frozen=True)
 class Spectrum:
-    """One drawn spectrum: ``y`` is counts per keV (per event if ``per_event``) on ``hist.edges`` (MeV).
+    """One drawn spectrum: ``y`` is counts per keV (per event if ``per_event``) on ``hist.edges``
+    (MeV).
 
     ``legend`` is the full legend entry: ``label`` plus the events without deposit (not drawn).
     """
@@ -54,7 +56,7 @@ class Spectrum:
 
 @dataclass(frozen=True)
 class DepthHistogram:
-    """One drawn depth histogram: ``counts`` vertices per bin, ``per_nm`` per nm of depth, edges in nm."""
+    """One drawn depth histogram: ``counts`` per bin, ``per_nm`` per nm of depth, edges in nm."""
 
     label: str
     edges_nm: np.ndarray
@@ -66,7 +68,8 @@ class DepthHistogram:
 
 
 def file_kind(path: str | Path) -> str:
-    """``"results"``, ``"surface"`` or ``"vertices"`` for a score4 HDF5 file; a clear error otherwise.
+    """``"results"``, ``"surface"`` or ``"vertices"`` for a score4 HDF5 file; a clear error
+    otherwise.
 
     Results and surface files are told by their ``format`` attribute; a vertex file by a
     dataset ``vertices/depth`` (see :func:`read_vertex_depths`).
@@ -95,7 +98,8 @@ def file_kind(path: str | Path) -> str:
             return "vertices"
         if fmt == VERTEX_FORMAT:
             raise Score4Error(
-                f"{path}: vertex file without depths (no dataset {VERTEX_DEPTH_DATASET!r}): nothing to plot"
+                f"{path}: vertex file without depths (no dataset {VERTEX_DEPTH_DATASET!r}): "
+                "nothing to plot"
             )
     shown = f" (format attribute {fmt!r})" if fmt is not None else " (no format attribute)"
     raise Score4Error(f"{path} is not a score4 results, vertex or surface file{shown}")
@@ -116,7 +120,8 @@ def read_vertex_depths(path: str | Path) -> np.ndarray:
         unit = unit.decode() if isinstance(unit, bytes) else str(unit)
         if unit not in LENGTH:
             raise Score4Error(
-                f"{path}: {VERTEX_DEPTH_DATASET} has units {unit!r}; expected one of: {', '.join(LENGTH)}"
+                f"{path}: {VERTEX_DEPTH_DATASET} has units {unit!r}; expected one of: "
+                f"{', '.join(LENGTH)}"
             )
         depth = np.asarray(d[()], dtype=float).reshape(-1) * LENGTH[unit]
         if "vertices/event" in f:
@@ -128,6 +133,11 @@ def read_vertex_depths(path: str | Path) -> np.ndarray:
 
 
 # --- labels ----------------------------------------------------------------------------------
+
+
+def _dict(value: object) -> dict:
+    """``value`` if it is a dict, else an empty one (stored configs may come from anywhere)."""
+    return value if isinstance(value, dict) else {}
 
 
 def _text(value) -> str | None:
@@ -171,13 +181,9 @@ def _surface_text(config: dict, source: dict) -> str | None:
             )
     if rough is None:
         return f"flat {face}"
-    surfaces = config.get("surfaces") if isinstance(config.get("surfaces"), dict) else {}
+    surfaces = _dict(config.get("surfaces"))
     name = _text(rough.get("surface"))
-    kind = (
-        surfaces.get(name, {}).get("kind")
-        if name and isinstance(surfaces.get(name), dict)
-        else None
-    )
+    kind = _dict(surfaces.get(name)).get("kind") if name else None
     return f"rough {face}" + (f" ({kind})" if _text(kind) else "")
 
 
@@ -189,8 +195,8 @@ def describe_run(results: Results) -> str:
     """
     config = results.run.get("config")
     config = config if isinstance(config, dict) else {}
-    source = config.get("source") if isinstance(config.get("source"), dict) else {}
-    depth = source.get("depth") if isinstance(source.get("depth"), dict) else {}
+    source = _dict(config.get("source"))
+    depth = _dict(source.get("depth"))
     profile = _text(depth.get("profile"))
     parts = [
         _emitter_text(source),
@@ -204,7 +210,7 @@ def describe_run(results: Results) -> str:
 
 
 def default_label(results: Results) -> str:
-    """File stem plus :func:`describe_run`, e.g. ``"flat: alpha 5.3 MeV, flat +z of crystal, lite physics"``."""
+    """File stem plus :func:`describe_run`, e.g. ``"flat: alpha 5.3 MeV, flat +z of crystal"``."""
     stem = results.path.name.removesuffix(".h5").removesuffix(".hdf5")
     description = describe_run(results)
     return f"{stem}: {description}" if description else stem
@@ -360,7 +366,8 @@ def plot_depths(
         raise ConfigError("depths: nothing to plot")
     if isinstance(vertex_files_or_arrays, np.ndarray) and vertex_files_or_arrays.ndim != 1:
         raise ConfigError(
-            f"depths: expected a 1-D array of depths in mm, got shape {vertex_files_or_arrays.shape}"
+            "depths: expected a 1-D array of depths in mm, got shape "
+            f"{vertex_files_or_arrays.shape}"
         )
     given = _labels(labels, len(items), "input")
     data, names = [], []
@@ -377,10 +384,7 @@ def plot_depths(
             raise ConfigError(f"depths: {name} holds non-finite values")
         data.append(depths * 1e6)  # nm
         names.append(given[k] if given else name)
-    if bins is not None and (
-        isinstance(bins, bool) or not isinstance(bins, (int, np.integer)) or bins < 1
-    ):
-        raise ConfigError(f"bins: must be a positive integer, got {bins!r}")
+    check_bins(bins)
     if isinstance(dmax, str):
         from .units import parse_quantity
 
@@ -399,13 +403,13 @@ def plot_depths(
             hi = lo + 1.0  # all depths equal (e.g. all on the surface): a 1 nm range
     edges = np.linspace(lo, hi, int(bins or 100) + 1)
     hists = []
-    for name, d in zip(names, data):
+    for name, d in zip(names, data, strict=True):
         counts, _ = np.histogram(d, bins=edges)
         hists.append(DepthHistogram(name, edges, counts, counts / np.diff(edges)))
 
     fig = Figure(figsize=(8, 5), layout="constrained")
     ax = fig.add_subplot()
-    for h, d in zip(hists, data):
+    for h, d in zip(hists, data, strict=True):
         ax.stairs(h.per_nm, edges, label=f"{h.label} ({len(d)} vertices)", linewidth=1.3)
     if logy:
         _log_axis(ax, [h.per_nm for h in hists])

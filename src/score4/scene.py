@@ -115,7 +115,8 @@ class RoughLayer:
         grid = self.variants[k].spikes
         if choice == "multiunion" and grid is None:
             raise ConfigError(
-                f"{self.name}: solid multiunion needs a spike-grid surface; {self.names[k]!r} is a height map"
+                f"{self.name}: solid multiunion needs a spike-grid surface; {self.names[k]!r} is a "
+                "height map"
             )
         if choice == "auto":
             return "multiunion" if grid is not None and grid.height_sigma == 0 else "tessellated"
@@ -126,7 +127,7 @@ class RoughLayer:
         return self.patch_map.cell_centres()
 
     def sampler(self):
-        """A :class:`~score4.source.sampling.TiledSurfaceSampler` on the rough tops, world coordinates."""
+        """A :class:`~score4.source.sampling.TiledSurfaceSampler` on the rough tops."""
         from .source.sampling import SurfaceSampler, TiledSurfaceSampler
 
         px, py = self.patch_size
@@ -191,7 +192,8 @@ class Scene:
         if not names:
             known = sorted({t.material for t in self.config.targets})
             raise ConfigError(
-                f"source.confine: no target is made of {material!r}; target materials: {', '.join(known)}"
+                f"source.confine: no target is made of {material!r}; target materials: "
+                f"{', '.join(known)}"
             )
         inside = np.zeros(len(points), dtype=bool)
         for name in names:
@@ -241,24 +243,26 @@ def check_clearance(scene: Scene) -> None:
         for other in names[a + 1 :]:
             if _overlap(boxes[name], boxes[other]):
                 raise ConfigError(
-                    f"targets: {name!r} and {other!r} overlap; Geant4 needs volumes that do not overlap"
+                    f"targets: {name!r} and {other!r} overlap; Geant4 needs volumes that do not "
+                    "overlap"
                 )
     layers = [(layer, _box_of_layer(layer)) for layer in scene.layers]
     for n, (layer, box) in enumerate(layers):
         others = [(f"target {name!r}", b) for name, b in boxes.items() if name != layer.target.name]
         others += [(f"the rough layer {o.name}", ob) for o, ob in layers[n + 1 :]]
-        for what, other in others:
-            if _overlap(box, other):
+        for what, other_box in others:
+            if _overlap(box, other_box):
                 axis = int(np.flatnonzero(layer.frame.normal)[0])
                 gap = (
-                    (other[0][axis] - box[0][axis])
+                    (other_box[0][axis] - box[0][axis])
                     if layer.frame.normal[axis] > 0
-                    else (box[1][axis] - other[1][axis])
+                    else (box[1][axis] - other_box[1][axis])
                 )
                 raise ConfigError(
-                    f"{layer.name}: the rough layer on face {layer.config.face} of {layer.target.name!r} is "
-                    f"{layer.thickness * 1e3:.4g} um thick (base {layer.base_thickness * 1e3:.4g} um + highest tip) and "
-                    f"runs into {what} (free gap there: {max(gap, 0.0) * 1e3:.4g} um); move the volumes apart or "
+                    f"{layer.name}: the rough layer on face {layer.config.face} of "
+                    f"{layer.target.name!r} is {layer.thickness * 1e3:.4g} um thick (base "
+                    f"{layer.base_thickness * 1e3:.4g} um + highest tip) and runs into {what} "
+                    f"(free gap there: {max(gap, 0.0) * 1e3:.4g} um); move the volumes apart or "
                     "use a lower surface"
                 )
 
@@ -292,11 +296,12 @@ def build_scene(config: RunConfig) -> Scene:
             names = [v.surface for v in rough.variant_list]
             variants = [surfaces[n] for n in names]
             size = (variants[0].size_x, variants[0].size_y)
-            for n, s in zip(names, variants):
+            for n, s in zip(names, variants, strict=True):
                 if not (_same_size(s.size_x, size[0]) and _same_size(s.size_y, size[1])):
                     raise ConfigError(
                         f"{where}: all variants must have the same patch size; {names[0]!r} is "
-                        f"{size[0] * 1e3:g} x {size[1] * 1e3:g} um, {n!r} is {s.size_x * 1e3:g} x {s.size_y * 1e3:g} um"
+                        f"{size[0] * 1e3:g} x {size[1] * 1e3:g} um, {n!r} is {s.size_x * 1e3:g} x "
+                        f"{s.size_y * 1e3:g} um"
                     )
             frame = face_frame(target, rough.face)
             try:

@@ -48,7 +48,7 @@ Size3 = tuple[PositiveLength, PositiveLength, PositiveLength]
 
 
 class StrictModel(BaseModel):
-    """Unknown keys are errors (a typo never silently falls back to a default); values are frozen."""
+    """Unknown keys are errors (a typo never falls back to a default); values are frozen."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
@@ -65,7 +65,7 @@ def describe_validation_error(err: ValidationError, origin: str) -> str:
     if first["type"] == "extra_forbidden":
         msg = "unknown key (check the spelling; see the config reference)"
     value = first.get("input")
-    shown = "" if first["type"] in ("missing",) or isinstance(value, dict) else f" (got {value!r})"
+    shown = "" if first["type"] == "missing" or isinstance(value, dict) else f" (got {value!r})"
     more = f" [+{len(err.errors()) - 1} more problem(s)]" if len(err.errors()) > 1 else ""
     where = f"{origin}: {loc}: " if loc else f"{origin}: "
     return f"{where}{msg}{shown}{more}"

@@ -69,7 +69,8 @@ def parse_quantity(value: object, dimension: str, name: str | None = None) -> fl
         )
     if not match:
         raise ConfigError(
-            f"{prefix}cannot read {value!r} as a {dimension}; write '<number> <unit>' with unit one of: {accepted}"
+            f"{prefix}cannot read {value!r} as a {dimension}; write '<number> <unit>' with unit "
+            f"one of: {accepted}"
         )
     number, unit = float(match.group(1)), match.group(2)
     if unit not in units:
@@ -83,5 +84,6 @@ def parse_quantity(value: object, dimension: str, name: str | None = None) -> fl
 
 
 def format_quantity(value: float, dimension: str, unit: str) -> str:
-    """Format an internal-unit value as ``"<number> <unit>"`` (the inverse of :func:`parse_quantity`)."""
+    """Format an internal-unit value as ``"<number> <unit>"`` (the inverse of
+    :func:`parse_quantity`)."""
     return f"{value / DIMENSIONS[dimension][unit]:.12g} {unit}"

@@ -26,7 +26,7 @@ def _plot_surface(path: Path, out: Path) -> None:
     try:
         from ..surface.plot import plot_surface
     except ModuleNotFoundError as err:
-        if err.name not in ("score4.surface.plot",):
+        if err.name != "score4.surface.plot":
             raise
         raise Score4Error(
             f"{path}: plotting surface files needs score4.surface.plot, which this score4 does not have"
@@ -62,7 +62,7 @@ def plot(files, out, volume, bins, emin, emax, per_event, linear, labels) -> Non
 
     kinds = [file_kind(f) for f in files]
     if len(set(kinds)) > 1:
-        listing = ", ".join(f"{f.name} ({k})" for f, k in zip(files, kinds))
+        listing = ", ".join(f"{f.name} ({k})" for f, k in zip(files, kinds, strict=True))
         raise Score4Error(f"plot: cannot mix kinds of files in one plot: {listing}")
     kind = kinds[0]
     given = {"volume": volume, "emin": emin, "emax": emax, "per_event": per_event or None}

@@ -195,7 +195,10 @@ def stats_cmd(file: Path, as_json: bool) -> None:
         f"map {nx} x {ny} points"
     )
     mesh = doc.get("mesh")
-    show = lambda v: "nan" if v is None else f"{v:.6g}"
+
+    def show(v: float | None) -> str:
+        return "nan" if v is None else f"{v:.6g}"
+
     header = (
         f"  {'param':<6}{'map':>12}"
         + (f"{'mesh (exact)':>14}" if mesh else "")
@@ -329,10 +332,9 @@ def export_cmd(
             f"--solid: 'multiunion' needs a spike grid; {str(file)!r} is a {built.spec.kind} surface"
         )
     body = built.body(thickness) if solid_kind == "tessellated" else None
-    if fmt == "stl":
-        write_stl(body, out)
-    elif fmt == "ply":
-        write_ply(body, out)
+    if fmt in ("stl", "ply"):
+        assert body is not None  # multiunion applies to --gdml only (checked above)
+        (write_stl if fmt == "stl" else write_ply)(body, out)
     else:
         _write_gdml(built, body, out, solid_kind, thickness, material)
     facets = (

@@ -38,7 +38,7 @@ def patches_fit_their_cells(layer, tolerance: float = 0.0) -> list[str]:
     lo = np.array([-px / 2, -py / 2, -layer.base_thickness]) - tolerance
     hi = np.array([px / 2, py / 2, layer.thickness - layer.base_thickness]) + tolerance
     bad = []
-    for name, surface in zip(layer.names, layer.variants):
+    for name, surface in zip(layer.names, layer.variants, strict=True):
         v = surface.top_mesh.vertices  # the body adds only walls and a bottom inside the same box
         if (v < lo).any() or (v > hi).any():
             bad.append(

@@ -38,7 +38,7 @@ def write_solid_gdml(
     if not tmp.is_file():
         raise Score4Error(f"gdml: Geant4 did not write {path} (see Geant4's output)")
     os.replace(tmp, path)
-    _keep = (world_solid, world_lv, lv, pv, pv_world)  # noqa: F841  (alive until written)
+    _keep = (world_solid, world_lv, lv, pv, pv_world)  # alive until written
 
 
 def read_gdml(g4, path: str | Path):

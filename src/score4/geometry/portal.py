@@ -143,7 +143,10 @@ def check_unreachable(layer: RoughLayer, origin, reach_lo, reach_hi) -> None:
     """
     lo, hi = subworld_bounds(layer, origin)
     if np.all(lo < np.asarray(reach_hi)) and np.all(hi > np.asarray(reach_lo)):
-        fmt = lambda v: "(" + ", ".join(f"{x:g}" for x in v) + ") mm"
+
+        def fmt(v: np.ndarray) -> str:
+            return "(" + ", ".join(f"{x:g}" for x in v) + ") mm"
+
         raise ConfigError(
             f"{layer.name}: subworld_origin {fmt(np.asarray(origin, float))} puts the subworlds (box {fmt(lo)} to "
             f"{fmt(hi)}) where particles can move (box {fmt(reach_lo)} to {fmt(reach_hi)}); subworlds must lie "

@@ -11,7 +11,6 @@ import numpy as np
 from ..surface.mesh import TriangleMesh
 from ..surface.spikes import SpikeGrid
 
-
 #: Above this many facets a tessellated solid gets at most TESSELLATED_MAX_VOXELS voxels: fewer,
 #: larger voxels halved tracking time and memory at 3e5 spikes (benchmarks/bench_solids.py).
 TESSELLATED_VOXEL_LIMIT_FACETS = 40_000

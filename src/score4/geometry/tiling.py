@@ -27,6 +27,7 @@ def variant_solid(g4, layer: RoughLayer, k: int, name: str):
     """(solid, keep) of patch variant ``k``: the closed body, base plane at z = 0, slab below."""
     surface = layer.variants[k]
     if layer.solid_kind(k) == "multiunion":
+        assert surface.spikes is not None  # only spike grids are made multi-unions
         return multiunion_solid(g4, surface.spikes, layer.base_thickness, name)
     solid = tessellated_solid(g4, surface.body(layer.base_thickness), name)
     return solid, []

@@ -40,7 +40,7 @@ import socket
 import tempfile
 import threading
 import uuid
-from collections.abc import Iterator
+from collections.abc import Generator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -128,7 +128,7 @@ class DaskExecutor:
                 f"notice: --jobs {jobs} does not apply with --cluster {cluster}: the scheduler's workers run the chunks"
             )
 
-    def execute(self, spec: WorkerSpec, todo: list[Chunk]) -> Iterator[tuple]:
+    def execute(self, spec: WorkerSpec, todo: list[Chunk]) -> Generator[tuple, None, None]:
         from distributed import as_completed
 
         client, own_client, cluster = self.client, False, None
@@ -155,7 +155,7 @@ class DaskExecutor:
                 chunk = by_key[fut.key]
                 try:
                     result: ChunkOutput = fut.result()
-                except Exception as exc:  # the task failed: say which chunk and why
+                except Exception as exc:  # noqa: BLE001 any task failure: report its chunk and why
                     yield ("failed", chunk.index, *_describe(exc))
                     continue
                 finally:
@@ -174,7 +174,7 @@ class DaskExecutor:
             if futures and client is not None:
                 with contextlib.suppress(Exception):
                     client.cancel(futures, force=True)
-            if own_client:
+            if own_client and client is not None:
                 with contextlib.suppress(Exception):
                     client.close()
             if cluster is not None:
@@ -210,7 +210,7 @@ class DaskExecutor:
             )
             try:
                 client.restart_workers(others)
-            except Exception as err:
+            except Exception as err:  # noqa: BLE001 whatever stops the restart ends the run here
                 raise Score4Error(
                     f"--cluster: could not restart Dask workers {others} that hold another run's Geant4 set-up "
                     f"({err}); start the workers with a nanny, or restart them by hand"
@@ -302,12 +302,12 @@ def _simulation(spec: WorkerSpec):
             "one per process); restart the workers (Client.restart()) or give each run its own workers"
         )
     if "error" in _held:  # Geant4 may be half set up: never build it twice in one process
-        err = _held["error"]
+        prior = _held["error"]
         raise (
-            type(err)(str(err))
-            if isinstance(err, Score4Error)
+            type(prior)(str(prior))
+            if isinstance(prior, Score4Error)
             else Score4Error(
-                f"this Dask worker process failed to set up Geant4 before: {type(err).__name__}: {err}"
+                f"this Dask worker process failed to set up Geant4 before: {type(prior).__name__}: {prior}"
             )
         )
     return _held["sim"]

@@ -33,8 +33,8 @@ import sys
 import threading
 import time
 from collections import Counter, deque
-from collections.abc import Iterator
-from datetime import datetime, timezone
+from collections.abc import Generator, Iterator
+from datetime import UTC, datetime
 from importlib.metadata import version
 from multiprocessing.connection import wait
 from pathlib import Path
@@ -85,7 +85,7 @@ class Executor(Protocol):
 
     description: str
 
-    def execute(self, spec: WorkerSpec, todo: list[Chunk]) -> Iterator[Event]: ...
+    def execute(self, spec: WorkerSpec, todo: list[Chunk]) -> Generator[Event, None, None]: ...
 
 
 def check_output_path(out: Path, overwrite: bool) -> None:
@@ -265,7 +265,7 @@ def run(
         "backend": executor.description,
         "resumed_chunks": len(done),
         "wall_time_s": round(time.time() - started, 3),
-        "created_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
         "host": platform.node(),
         "geant4_warnings": _geant4_warnings(parts),
     }
@@ -351,7 +351,7 @@ class LocalProcesses:
         self.jobs = jobs
         self.description = f"local processes ({jobs})"
 
-    def execute(self, spec: WorkerSpec, todo: list[Chunk]) -> Iterator[Event]:
+    def execute(self, spec: WorkerSpec, todo: list[Chunk]) -> Generator[Event, None, None]:
         ctx = mp.get_context("spawn")
         pending = deque(todo)
         workers = [_LocalWorker(ctx, spec) for _ in range(min(self.jobs, len(todo)))]
@@ -555,6 +555,8 @@ def _geant4_warnings(parts: Path) -> list[str]:
 def _collect_logs(parts: Path, out: Path) -> Path:
     log = out.with_name(out.stem + ".geant4.log")
     with open(log, "w") as dst:
-        for src in sorted(parts.glob("geant4-*.log")):
-            dst.write(f"===== {src.name} =====\n{src.read_text(errors='replace')}")
+        dst.writelines(
+            f"===== {src.name} =====\n{src.read_text(errors='replace')}"
+            for src in sorted(parts.glob("geant4-*.log"))
+        )
     return log

@@ -121,15 +121,17 @@ def outward_faces(pos, d, half) -> list[int]:
     (within EDGE_TOLERANCE) and ``d`` points out through it, else 0."""
     return [
         (1 if c > 0 else -1) if (h - abs(c) <= EDGE_TOLERANCE and c * u > 0) else 0
-        for c, h, u in zip(pos, half, d)
+        for c, h, u in zip(pos, half, d, strict=True)
     ]
 
 
 def enters(pos, d, half) -> bool:
     """True if ``pos`` lies inside the box, or on a face of it with ``d`` pointing in through that face."""
-    if max(abs(c) - h for c, h in zip(pos, half)) < -EDGE_TOLERANCE:
+    if max(abs(c) - h for c, h in zip(pos, half, strict=True)) < -EDGE_TOLERANCE:
         return True
-    return any(h - abs(c) <= EDGE_TOLERANCE and c * u < 0 for c, h, u in zip(pos, half, d))
+    return any(
+        h - abs(c) <= EDGE_TOLERANCE and c * u < 0 for c, h, u in zip(pos, half, d, strict=True)
+    )
 
 
 class Teleporter:
@@ -263,7 +265,7 @@ class Teleporter:
             self._record(tid, time, (n, i, j))
             return
         local = lay.local(x, y, z, lay.sub[k])
-        if max(abs(c) - h_ for c, h_ in zip(local, lay.half)) > EDGE_TOLERANCE:
+        if max(abs(c) - h_ for c, h_ in zip(local, lay.half, strict=True)) > EDGE_TOLERANCE:
             self._kill(track)  # came into the trigger from the world beyond Lab
             self.left_lab += 1
             return

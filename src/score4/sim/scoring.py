@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 
-
 # Quantity name -> Geant4 primitive scorer class name.
 PRIMITIVES = {"edep": "G4PSEnergyDeposit", "track_length": "G4PSTrackLength"}
 
@@ -53,7 +52,7 @@ class VolumeScorer:
         hce = event.GetHCofThisEvent()
         if hce is None:
             return
-        for q, ids in zip(self.quantities, self.collection_ids):
+        for q, ids in zip(self.quantities, self.collection_ids, strict=True):
             target = out[q][row]
             for k, cid in enumerate(ids):
                 target[k] = sum(value for _, value in hce.GetHC(cid))

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..config import RunConfig
 from ..errors import ConfigError, Score4Error
-from ..geometry.world import build_world, check_materials
+from ..geometry.world import BuiltGeometry, build_world, check_materials
 from ..scene import build_scene
 from ..source.build import make_source
 from ..source.primaries import Primaries
@@ -47,6 +47,10 @@ def resolve_particle(g4, name: str, parameter: str = "source.particle"):
 
 class Simulation:
     """Geant4 set up for one run configuration, in this process."""
+
+    # set by the detector construction, during the run manager's Initialize()
+    geometry: BuiltGeometry
+    scorer: VolumeScorer
 
     def __init__(
         self, config: RunConfig, choice: PhysicsChoice, log_path: Path | None = None

@@ -18,6 +18,7 @@ out-of-memory kill would. It works the same in local and Dask workers.
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing as mp
 import os
 import shutil
@@ -154,13 +155,11 @@ def worker_main(spec: WorkerSpec, conn) -> None:
         return
     except Score4Error as err:
         _report(conn, ("error", getattr(chunk, "index", None), type(err).__name__, str(err)))
-    except BaseException as err:  # report, then let the parent decide; never hang it
+    except BaseException as err:  # noqa: BLE001 report, then let the parent decide; never hang it
         detail = "".join(traceback.format_exception_only(type(err), err)).strip()
         _report(conn, ("error", getattr(chunk, "index", None), type(err).__name__, detail))
 
 
 def _report(conn, message: tuple) -> None:
-    try:
+    with contextlib.suppress(OSError, EOFError):  # the parent is gone: nobody left to tell
         conn.send(message)
-    except (OSError, EOFError):
-        pass

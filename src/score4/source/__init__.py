@@ -5,6 +5,8 @@ Geant4 primary vertices.
 """
 
 from .depth import VertexSampler, Vertices
+from .emitters import NuclideEmitter, ParticleEmitter, Po210Emitter, make_primaries
+from .primaries import Primaries
 from .profiles import (
     ExponentialProfile,
     MultiExponentialProfile,
@@ -13,24 +15,22 @@ from .profiles import (
     UniformProfile,
     ZeroDepth,
 )
-from .emitters import NuclideEmitter, ParticleEmitter, Po210Emitter, make_primaries
-from .primaries import Primaries
 from .sampling import SurfaceSampler, TiledSurfaceSampler
 
 __all__ = [
-    "Primaries",
-    "SurfaceSampler",
-    "TiledSurfaceSampler",
-    "VertexSampler",
-    "Vertices",
     "ExponentialProfile",
     "MultiExponentialProfile",
-    "TableProfile",
-    "TruncatedGaussianProfile",
-    "UniformProfile",
-    "ZeroDepth",
+    "NuclideEmitter",
     "ParticleEmitter",
     "Po210Emitter",
-    "NuclideEmitter",
+    "Primaries",
+    "SurfaceSampler",
+    "TableProfile",
+    "TiledSurfaceSampler",
+    "TruncatedGaussianProfile",
+    "UniformProfile",
+    "VertexSampler",
+    "Vertices",
+    "ZeroDepth",
     "make_primaries",
 ]

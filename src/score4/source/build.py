@@ -9,6 +9,7 @@ then gives the primaries of events ``first .. first + n - 1``.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 
@@ -16,6 +17,15 @@ from ..config import DepthConfig, RunConfig, SourceConfig
 from ..errors import ConfigError
 from ..scene import Scene, face_frame
 from .depth import VertexSampler
+from .emitters import (
+    Emitter,
+    EnergySpectrum,
+    NuclideEmitter,
+    ParticleEmitter,
+    Po210Emitter,
+    make_primaries,
+)
+from .primaries import Primaries
 from .profiles import (
     DepthProfile,
     ExponentialProfile,
@@ -25,16 +35,17 @@ from .profiles import (
     UniformProfile,
     ZeroDepth,
 )
-from .emitters import (
-    EnergySpectrum,
-    NuclideEmitter,
-    ParticleEmitter,
-    Po210Emitter,
-    make_primaries,
-)
-from .primaries import Primaries
 from .sampling import SurfaceSampler
 from .vertex_file import read_vertex_file, vertex_file_config
+
+_T = TypeVar("_T")
+
+
+def _given(value: _T | None, key: str) -> _T:
+    """A config value the config model requires for the choice made (never None after parsing)."""
+    if value is None:
+        raise ConfigError(f"{key}: missing")
+    return value
 
 
 def depth_profile(cfg: DepthConfig) -> DepthProfile:
@@ -42,30 +53,36 @@ def depth_profile(cfg: DepthConfig) -> DepthProfile:
     if cfg.profile == "zero":
         return ZeroDepth()
     if cfg.profile == "exponential":
-        return ExponentialProfile(cfg.mean)
+        return ExponentialProfile(_given(cfg.mean, "source.depth.mean"))
     if cfg.profile == "multi_exponential":
-        return MultiExponentialProfile(cfg.weights, cfg.means)
+        return MultiExponentialProfile(
+            _given(cfg.weights, "source.depth.weights"), _given(cfg.means, "source.depth.means")
+        )
     if cfg.profile == "uniform":
-        return UniformProfile(cfg.min, cfg.max)
+        return UniformProfile(cfg.min, _given(cfg.max, "source.depth.max"))
     if cfg.profile == "truncated_gaussian":
-        return TruncatedGaussianProfile(cfg.mean, cfg.sigma)
-    return TableProfile.from_file(cfg.file, unit=cfg.unit)
+        return TruncatedGaussianProfile(
+            _given(cfg.mean, "source.depth.mean"), _given(cfg.sigma, "source.depth.sigma")
+        )
+    return TableProfile.from_file(_given(cfg.file, "source.depth.file"), unit=cfg.unit)
 
 
-def make_emitter(src: SourceConfig):
+def make_emitter(src: SourceConfig) -> Emitter:
     """ParticleEmitter, Po210Emitter or NuclideEmitter for the configured source."""
     if src.decay == "Po210":
         return Po210Emitter(src.direction)
     if src.nuclide is not None:
         return NuclideEmitter(src.nuclide)
-    energy = (
+    energy: float | EnergySpectrum | None = (
         src.energy
         if src.spectrum is None
         else EnergySpectrum.from_file(
             src.spectrum.file, kind=src.spectrum.kind, unit=src.spectrum.unit
         )
     )
-    return ParticleEmitter(src.particle, energy, src.direction)
+    if energy is None:  # the config model requires energy or spectrum for a particle
+        raise ConfigError("source.energy: missing")
+    return ParticleEmitter(_given(src.particle, "source.particle"), energy, src.direction)
 
 
 def flat_face_sampler(config: RunConfig, volume: str, face: str) -> SurfaceSampler:
@@ -82,10 +99,10 @@ def flat_face_sampler(config: RunConfig, volume: str, face: str) -> SurfaceSampl
 
 @dataclass
 class SampledSource:
-    """Vertices drawn on a face below its (rough) surface, each emitting the configured particles."""
+    """Vertices drawn below a (rough) face, each emitting the configured particles."""
 
     sampler: VertexSampler
-    emitter: object
+    emitter: Emitter
 
     def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
         v = self.sampler.sample(rng, n_events)
@@ -136,7 +153,8 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
                 f"fewer than run.events = {config.run.events}"
             )
         return source
-    volume, face = src.surface.volume, src.surface.face
+    surface_ref = _given(src.surface, "source.surface")
+    volume, face = surface_ref.volume, surface_ref.face
     layer = scene.layer(volume, face)
     surface = layer.sampler() if layer is not None else flat_face_sampler(config, volume, face)
     inside = None

@@ -211,7 +211,7 @@ class MeshDistance:
     def _pairs(
         self, points: np.ndarray, radius: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Candidate (point, triangle, image) triples with the triangle possibly within ``radius``."""
+        """Candidate (point, triangle, image) triples, the triangle possibly within ``radius``."""
         pi, tj, oi = [], [], []
         for o, off in enumerate(self._images):
             y = (
@@ -382,7 +382,8 @@ def _mesh_edges(tri: np.ndarray, ids: np.ndarray, step: np.ndarray, periodic: bo
     pair = second >= 0
     if (_dot(vec[first[pair]], vec[second[pair]]) > 0).any():
         raise ConfigError(
-            "triangles: neighbouring faces are wound in opposite senses; normals must all point outward"
+            "triangles: neighbouring faces are wound in opposite senses; normals must all point "
+            "outward"
         )
     border = first[~pair]
     return _Edges(
@@ -576,7 +577,7 @@ class OffsetSurface:
             cos_minus = np.where(minus[keep], -along, 2.0).min(axis=1)
             cosmax = np.minimum(cos_plus, cos_minus)
             cosmax = np.where(cosmax < 0.05, -1.0, cosmax)  # wide cones: propose the whole sphere
-            for lst, val in zip(out, (uniq[r][keep], center[keep], e[keep], cosmax)):
+            for lst, val in zip(out, (uniq[r][keep], center[keep], e[keep], cosmax), strict=True):
                 lst.append(val)
         return tuple(np.concatenate(v) if v else np.zeros((0,)) for v in out)
 
@@ -619,6 +620,7 @@ class OffsetSurface:
         self, rng: np.random.Generator, d: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Points on the cylinder sectors of valley edges (always on L_d up to the global test)."""
+        assert self._edge_choice is not None  # proposals come only from existing edges
         e = self._edge_choice.sample(rng, len(d))
         t, phi = rng.random((2, len(d)))
         phi *= self._edge_theta[e]
@@ -630,6 +632,7 @@ class OffsetSurface:
         self, rng: np.random.Generator, d: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Points on the enclosing caps of vertex cones; the mask says which fell in the cone."""
+        assert self._cone_choice is not None  # proposals come only from existing cones
         v = self._cone_choice.sample(rng, len(d))
         s, phi = rng.random((2, len(d)))
         cos = 1 - s * (1 - self._cone_cos[v])  # uniform on the cap
@@ -740,10 +743,12 @@ class VertexSampler:
         self.profile = profile.truncated(self.min_depth, self.max_depth)
         self.max_rounds = int(max_rounds)
         self._tiled = isinstance(surface, TiledSurfaceSampler)
-        self._layout = surface if self._tiled else _SingleLayout(surface)
+        self._layout: TiledSurfaceSampler | _SingleLayout = (
+            surface if isinstance(surface, TiledSurfaceSampler) else _SingleLayout(surface)
+        )
         self.offset_surfaces: list[OffsetSurface] = []  # one per variant, for 'distance'
         if definition == "distance":
-            per = surface.pitch if self._tiled else period
+            per = surface.pitch if isinstance(surface, TiledSurfaceSampler) else period
             self.offset_surfaces = [
                 OffsetSurface(v.triangles, v.facet_ids, per) for v in self._layout.variants
             ]
@@ -771,7 +776,7 @@ class VertexSampler:
                 normal[good],
                 facet[good],
             )
-            if self._tiled:
+            if out.patch is not None and out.variant is not None:  # tiled faces
                 out.patch[rows], out.variant[rows] = patch[good], variant[good]
             redraw = pending[on_level & ~confined]  # confinement failures get a new depth too
             depth[redraw] = self.profile.sample(rng, len(redraw))
@@ -779,10 +784,11 @@ class VertexSampler:
         if len(pending) == 0:
             return out
         raise ConfigError(
-            f"vertices: {len(pending)} of {n} vertices could not be placed within max_rounds={self.max_rounds}: "
-            f"{failures['confinement']} draws were outside the confinement, {failures['distance']} "
-            f"'distance' proposals were closer than the drawn depth to another part of the surface "
-            f"(depth window [{self.min_depth:g}, {self.max_depth:g}] mm is sampled exactly and never fails)"
+            f"vertices: {len(pending)} of {n} vertices could not be placed within "
+            f"max_rounds={self.max_rounds}: {failures['confinement']} draws were outside the "
+            f"confinement, {failures['distance']} 'distance' proposals were closer than the drawn "
+            f"depth to another part of the surface (depth window [{self.min_depth:g}, "
+            f"{self.max_depth:g}] mm is sampled exactly and never fails)"
         )
 
     def _confined(self, x: np.ndarray, on_level: np.ndarray) -> np.ndarray:
@@ -809,7 +815,11 @@ class VertexSampler:
         n, layout = len(d), self._layout
         # variant k with probability n_k W_k(d): W_k is its proposal area at this depth
         weight = np.stack(
-            [c * o.weight(d) for c, o in zip(layout.cell_counts, self.offset_surfaces)], axis=1
+            [
+                c * o.weight(d)
+                for c, o in zip(layout.cell_counts, self.offset_surfaces, strict=True)
+            ],
+            axis=1,
         )
         cum = np.cumsum(weight, axis=1)
         variant = np.minimum(

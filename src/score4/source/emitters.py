@@ -26,7 +26,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal, Protocol
+from typing import Literal, Protocol, cast, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -59,139 +59,24 @@ __all__ = [
 DirectionKind = Literal[
     "isotropic", "inward", "outward", "cosine_inward", "cosine_outward", "normal"
 ]
-DIRECTIONS: tuple[str, ...] = (
-    "isotropic",
-    "inward",
-    "outward",
-    "cosine_inward",
-    "cosine_outward",
-    "normal",
-)
+DIRECTIONS: tuple[str, ...] = get_args(DirectionKind)
 
 # --------------------------------------------------------------------------------------------
 # Particle and nuclide names
 # --------------------------------------------------------------------------------------------
 
-ELEMENTS: tuple[str, ...] = (
-    "H",
-    "He",
-    "Li",
-    "Be",
-    "B",
-    "C",
-    "N",
-    "O",
-    "F",
-    "Ne",
-    "Na",
-    "Mg",
-    "Al",
-    "Si",
-    "P",
-    "S",
-    "Cl",
-    "Ar",
-    "K",
-    "Ca",
-    "Sc",
-    "Ti",
-    "V",
-    "Cr",
-    "Mn",
-    "Fe",
-    "Co",
-    "Ni",
-    "Cu",
-    "Zn",
-    "Ga",
-    "Ge",
-    "As",
-    "Se",
-    "Br",
-    "Kr",
-    "Rb",
-    "Sr",
-    "Y",
-    "Zr",
-    "Nb",
-    "Mo",
-    "Tc",
-    "Ru",
-    "Rh",
-    "Pd",
-    "Ag",
-    "Cd",
-    "In",
-    "Sn",
-    "Sb",
-    "Te",
-    "I",
-    "Xe",
-    "Cs",
-    "Ba",
-    "La",
-    "Ce",
-    "Pr",
-    "Nd",
-    "Pm",
-    "Sm",
-    "Eu",
-    "Gd",
-    "Tb",
-    "Dy",
-    "Ho",
-    "Er",
-    "Tm",
-    "Yb",
-    "Lu",
-    "Hf",
-    "Ta",
-    "W",
-    "Re",
-    "Os",
-    "Ir",
-    "Pt",
-    "Au",
-    "Hg",
-    "Tl",
-    "Pb",
-    "Bi",
-    "Po",
-    "At",
-    "Rn",
-    "Fr",
-    "Ra",
-    "Ac",
-    "Th",
-    "Pa",
-    "U",
-    "Np",
-    "Pu",
-    "Am",
-    "Cm",
-    "Bk",
-    "Cf",
-    "Es",
-    "Fm",
-    "Md",
-    "No",
-    "Lr",
-    "Rf",
-    "Db",
-    "Sg",
-    "Bh",
-    "Hs",
-    "Mt",
-    "Ds",
-    "Rg",
-    "Cn",
-    "Nh",
-    "Fl",
-    "Mc",
-    "Lv",
-    "Ts",
-    "Og",
-)
+# Element symbols by atomic number, one line per period of the periodic table.
+_ELEMENT_TABLE = """
+    H He
+    Li Be B C N O F Ne
+    Na Mg Al Si P S Cl Ar
+    K Ca Sc Ti V Cr Mn Fe Co Ni Cu Zn Ga Ge As Se Br Kr
+    Rb Sr Y Zr Nb Mo Tc Ru Rh Pd Ag Cd In Sn Sb Te I Xe
+    Cs Ba La Ce Pr Nd Pm Sm Eu Gd Tb Dy Ho Er Tm Yb Lu Hf Ta W Re Os Ir Pt Au Hg Tl Pb Bi Po At Rn
+    Fr Ra Ac Th Pa U Np Pu Am Cm Bk Cf Es Fm Md No Lr Rf Db Sg Bh Hs Mt Ds Rg Cn Nh Fl Mc Lv Ts Og
+    """
+#: Element symbols by atomic number: ``ELEMENTS[Z - 1]``.
+ELEMENTS: tuple[str, ...] = tuple(_ELEMENT_TABLE.split())
 _Z = {symbol.lower(): z for z, symbol in enumerate(ELEMENTS, start=1)}
 
 # Geant4 particle names accepted as they are (ions are written element + mass number)
@@ -240,7 +125,8 @@ def normalise_nuclide(name: str) -> str:
     match = _NUCLIDE.match(str(name))
     if not match:
         raise ConfigError(
-            f"nuclide: cannot read {name!r}; write element symbol + mass number, e.g. 'Pb210' or 'Po-210'"
+            f"nuclide: cannot read {name!r}; write element symbol + mass number, e.g. 'Pb210' or "
+            "'Po-210'"
         )
     symbol, mass = (
         (match.group(1), match.group(2)) if match.group(1) else (match.group(4), match.group(3))
@@ -304,7 +190,7 @@ def _axis(normals: ArrayLike, side: str) -> np.ndarray:
 def hemisphere_directions(
     rng: np.random.Generator, normals: ArrayLike, side: str = "inward"
 ) -> np.ndarray:
-    """Uniform directions in the half-space ``inward`` (against the outward normal) or ``outward``."""
+    """Uniform directions in the half-space ``inward`` (against the normal) or ``outward``."""
     axis = _axis(normals, side)
     return _about_axis(rng, axis, rng.random(len(axis)))
 
@@ -392,7 +278,8 @@ class EnergySpectrum:
         elif kind == "histogram":
             if len(w) and w[-1] != 0:
                 raise ConfigError(
-                    f"energy spectrum: the last row ({e[-1]:g} MeV) closes the last histogram bin; its weight must be 0, got {w[-1]:g}"
+                    f"energy spectrum: the last row ({e[-1]:g} MeV) closes the last histogram bin; "
+                    f"its weight must be 0, got {w[-1]:g}"
                 )
             self._law = Histogram(e, w[:-1], what="energy spectrum", xname="energy")
         else:
@@ -434,10 +321,10 @@ class Emitter(Protocol):
     ) -> list[tuple[str, np.ndarray, np.ndarray]]: ...
 
 
-def _check_direction(direction: str) -> str:
+def _check_direction(direction: str) -> DirectionKind:
     if direction not in DIRECTIONS:
         raise ConfigError(f"direction: got {direction!r}; use one of: {', '.join(DIRECTIONS)}")
-    return direction
+    return cast(DirectionKind, direction)
 
 
 class ParticleEmitter:

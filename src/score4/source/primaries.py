@@ -78,7 +78,7 @@ class Primaries:
         """(n_events + 1,) row offsets: rows of event k are ``offsets[k]:offsets[k+1]``."""
         return np.searchsorted(self.event, np.arange(self.n_events + 1), side="left")
 
-    def select_events(self, start: int, stop: int) -> "Primaries":
+    def select_events(self, start: int, stop: int) -> Primaries:
         """The events ``start <= k < stop``, renumbered from 0."""
         off = self.event_offsets()
         rows = slice(off[start], off[min(stop, self.n_events)])
@@ -92,7 +92,7 @@ class Primaries:
         )
 
     @classmethod
-    def concatenate(cls, parts: list["Primaries"]) -> "Primaries":
+    def concatenate(cls, parts: list[Primaries]) -> Primaries:
         """Join batches, renumbering events so they follow each other."""
         shift, events = 0, []
         for p in parts:

@@ -53,10 +53,10 @@ def _positive(value: float | str, name: str) -> float:
 
 
 def check_window(
-    lo: float, hi: float, names: tuple[str, str] = ("min_depth", "max_depth")
+    min_: float | str, max_: float | str, names: tuple[str, str] = ("min_depth", "max_depth")
 ) -> tuple[float, float]:
     """Validate a depth window ``0 <= lo <= hi`` (``hi`` may be infinite)."""
-    lo, hi = _length(lo, names[0]), _length(hi, names[1])
+    lo, hi = _length(min_, names[0]), _length(max_, names[1])
     if not np.isfinite(lo) or lo < 0:
         raise ConfigError(f"{names[0]}: got {lo!r} mm; must be a finite length >= 0")
     if np.isnan(hi) or hi < lo:
@@ -215,8 +215,8 @@ class MultiExponentialProfile(DepthProfile):
         return np.where(d[..., 0] >= 0, dens, 0.0)
 
     def cdf(self, d: ArrayLike) -> np.ndarray:
-        d = np.maximum(np.asarray(d, dtype=float), 0.0)[..., None]
-        return (self.weights * -np.expm1(-d / self.means)).sum(axis=-1)
+        x = np.maximum(np.asarray(d, dtype=float), 0.0)[..., None]
+        return (self.weights * -np.expm1(-x / self.means)).sum(axis=-1)
 
     def sample_between(self, rng: np.random.Generator, n: int, lo: float, hi: float) -> np.ndarray:
         lo = max(lo, 0.0)
@@ -267,7 +267,8 @@ class TruncatedGaussianProfile(DepthProfile):
         self._norm = self._phi_mass(self.lower, self.upper)
         if not self._norm > 0:
             raise ConfigError(
-                f"lower / upper: no probability between {lower!r} and {upper!r} mm for this Gaussian"
+                f"lower / upper: no probability between {lower!r} and {upper!r} mm for this "
+                "Gaussian"
             )
 
     def _phi_mass(self, lo: float, hi: float) -> float:
@@ -281,8 +282,8 @@ class TruncatedGaussianProfile(DepthProfile):
         return np.where((d >= self.lower) & (d <= self.upper), dens, 0.0)
 
     def cdf(self, d: ArrayLike) -> np.ndarray:
-        d = np.clip(np.asarray(d, dtype=float), self.lower, self.upper)
-        z0, z = (self.lower - self.mean) / self.sigma, (d - self.mean) / self.sigma
+        x = np.clip(np.asarray(d, dtype=float), self.lower, self.upper)
+        z0, z = (self.lower - self.mean) / self.sigma, (x - self.mean) / self.sigma
         if z0 > 0:  # upper tail: differences of survival functions keep the precision
             return np.clip((ndtr(-z0) - ndtr(-z)) / self._norm, 0.0, 1.0)
         return np.clip((ndtr(z) - ndtr(z0)) / self._norm, 0.0, 1.0)

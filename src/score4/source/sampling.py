@@ -115,7 +115,7 @@ class DiscreteSampler:
 def _check_table(
     x: np.ndarray, w: np.ndarray, labels: Sequence[str], what: str, xname: str
 ) -> None:
-    """Validate a (x, weight) table; ``labels[i]`` says where row i came from (file line or index)."""
+    """Validate a (x, weight) table; ``labels[i]`` is where row i came from (line or index)."""
     if len(x) < 2:
         raise ConfigError(f"{what}: needs at least 2 rows '{xname} weight', got {len(x)}")
     for i in range(len(x)):
@@ -231,7 +231,8 @@ class Histogram:
         contents = np.asarray(contents, dtype=float).ravel()
         if len(edges) != len(contents) + 1:
             raise ConfigError(
-                f"{what}: need len(edges) == len(contents) + 1, got {len(edges)} and {len(contents)}"
+                f"{what}: need len(edges) == len(contents) + 1, got {len(edges)} and "
+                f"{len(contents)}"
             )
         _check_table(
             edges, np.append(contents, 0.0), [f"row {i}" for i in range(len(edges))], what, xname
@@ -291,7 +292,8 @@ def read_table(
         if match := _UNIT_LINE.match(line):
             if header_unit not in (None, match.group(1)):
                 raise ConfigError(
-                    f"{label} line {number}: second unit header {match.group(1)!r} differs from {header_unit!r}"
+                    f"{label} line {number}: second unit header {match.group(1)!r} differs from "
+                    f"{header_unit!r}"
                 )
             header_unit = match.group(1)
             continue
@@ -305,7 +307,8 @@ def read_table(
             rows.append((float(fields[0]), float(fields[1])))
         except ValueError:
             raise ConfigError(
-                f"{label} line {number}: cannot read {raw.strip()!r} as two numbers '{xname} weight'"
+                f"{label} line {number}: cannot read {raw.strip()!r} as two numbers '{xname} "
+                "weight'"
             ) from None
         lines.append(f"line {number}")
     if header_unit and unit and header_unit != unit:
@@ -315,8 +318,8 @@ def read_table(
     chosen = header_unit or unit
     if chosen is None:
         raise ConfigError(
-            f"{label}: no unit for the {xname} column; add a header line '# unit: {next(iter(units))}' "
-            f"or pass the unit (one of: {', '.join(units)})"
+            f"{label}: no unit for the {xname} column; add a header line '# unit: "
+            f"{next(iter(units))}' or pass the unit (one of: {', '.join(units)})"
         )
     if chosen not in units:
         raise ConfigError(
@@ -551,15 +554,18 @@ class TiledSurfaceSampler:
         grid = np.asarray(layout)
         if grid.ndim != 2 or grid.size == 0 or not np.issubdtype(grid.dtype, np.integer):
             raise ConfigError(
-                f"layout: need a non-empty 2-D integer array of variant indices, got {grid.dtype} {grid.shape}"
+                f"layout: need a non-empty 2-D integer array of variant indices, got {grid.dtype} "
+                f"{grid.shape}"
             )
         if grid.min() < 0 or grid.max() >= len(self.variants):
             raise ConfigError(
-                f"layout: variant indices must be in [0, {len(self.variants) - 1}], got {grid.min()}..{grid.max()}"
+                f"layout: variant indices must be in [0, {len(self.variants) - 1}], got "
+                f"{grid.min()}..{grid.max()}"
             )
-        self.pitch = tuple(float(p) for p in pitch)
-        if len(self.pitch) != 2 or not all(np.isfinite(p) and p > 0 for p in self.pitch):
+        sizes = tuple(float(p) for p in pitch)
+        if len(sizes) != 2 or not all(np.isfinite(p) and p > 0 for p in sizes):
             raise ConfigError(f"pitch: need two positive cell sizes (px, py) in mm, got {pitch!r}")
+        self.pitch = (sizes[0], sizes[1])
         self.origin = np.asarray(origin, dtype=float).reshape(3)
         self.rotation = _rotation(rotation)
         self.layout = grid.astype(np.int64)

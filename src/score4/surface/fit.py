@@ -79,7 +79,8 @@ def height_moments(z: np.ndarray) -> dict[str, float]:
 
 # ----------------------------------------------------------------------------- ACF
 def autocorrelation(hm: HeightMap) -> np.ndarray:
-    """Normalised areal ACF of the centred heights, lags in FFT order (index [j, i] = lag (i px, j py)).
+    """Normalised areal ACF of the centred heights, lags in FFT order (index [j, i] = lag (i px, j
+    py)).
 
     Circular for maps with ``metadata["periodic"]``, else linear and unbiased; negative lags are
     at the end of each axis.
@@ -102,7 +103,7 @@ def autocorrelation(hm: HeightMap) -> np.ndarray:
 
 
 def _lags(n: int, pitch: float) -> np.ndarray:
-    """Signed lags matching the FFT order of an axis of length n (n odd: 2m-1 lags, or periodic n)."""
+    """Signed lags in the FFT order of an axis of length n (n odd: 2m-1 lags, or periodic n)."""
     return scipy.fft.fftfreq(n, 1.0 / n) * pitch
 
 
@@ -171,7 +172,7 @@ def radial_psd(
     q = rs._angular_wavenumbers(z.shape, hm.pitch_x, hm.pitch_y)
     q_min = 2 * np.pi / max(nx * hm.pitch_x, ny * hm.pitch_y) * (1 if periodic else 2.5)
     q_max = np.pi / max(hm.pitch_x, hm.pitch_y)
-    n_bins = max(int(math.ceil(bins_per_decade * math.log10(q_max / q_min))), 4)
+    n_bins = max(math.ceil(bins_per_decade * math.log10(q_max / q_min)), 4)
     edges = np.geomspace(q_min * (1 - 1e-9), q_max * (1 + 1e-9), n_bins + 1)
     idx = np.digitize(q.ravel(), edges) - 1
     ok = (idx >= 0) & (idx < n_bins)
@@ -205,7 +206,8 @@ def fit_psd(hm: HeightMap) -> dict[str, float]:
     q, c, n = radial_psd(hm)
     if q.size < 6:
         raise ConfigError(
-            f"heights: map of shape {hm.shape} is too small for a PSD fit; rule: at least 6 wavenumber bins"
+            f"heights: map of shape {hm.shape} is too small for a PSD fit; rule: at least 6 "
+            "wavenumber bins"
         )
     logq = np.log(q)
     c = np.maximum(
@@ -261,8 +263,8 @@ def _usable_moments(m: dict[str, float]) -> tuple[float, float]:
 
 
 def _usable_corr_lengths(fit: dict[str, float], hm: HeightMap) -> dict[str, float]:
-    """Grid large enough for the generator's rules: n * pitch >= 5 l, pitch <= l / 2 (with warnings)."""
-    out = {"nx": hm.shape[1], "ny": hm.shape[0]}
+    """Grid large enough for the generator: n * pitch >= 5 l, pitch <= l / 2 (with warnings)."""
+    out: dict[str, float] = {"nx": hm.shape[1], "ny": hm.shape[0]}
     for axis, pitch in (("x", hm.pitch_x), ("y", hm.pitch_y)):
         corr = max(fit[f"corr_length_{axis}"], pitch / rs.MAX_PITCH_PER_CORR_LENGTH)
         if corr != fit[f"corr_length_{axis}"]:
@@ -301,7 +303,7 @@ def fit_random_surface(hm: HeightMap, model: str = "auto") -> dict:
         docstring for the keys). ``skewness``/``kurtosis`` outside the generator's supported
         region, or correlation lengths the grid cannot hold, are adjusted with a warning.
     """
-    choices = ("auto",) + rs.MODELS
+    choices = ("auto", *rs.MODELS)
     if model not in choices:
         raise ConfigError(f"model: unknown model {model!r}; use one of: {', '.join(choices)}")
     moments = height_moments(_valid_heights(hm))

@@ -158,7 +158,7 @@ class TriangleMesh:
 def from_heightmap(hm: HeightMap) -> TriangleMesh:
     """Triangulate a height map: one vertex per sample, two triangles per grid cell.
 
-    Every cell (i, j)–(i+1, j+1) is split along the diagonal from (i, j) to (i+1, j+1). All
+    Every cell from (i, j) to (i+1, j+1) is split along the diagonal from (i, j) to (i+1, j+1). All
     faces are ``top``; ``facet`` is the cell index ``j * (nx - 1) + i``.
 
     Raises
@@ -206,7 +206,7 @@ def _boundary_half_edges(mesh: TriangleMesh) -> np.ndarray:
 
 
 def _check_star_shaped(edges_xy: np.ndarray, centre: np.ndarray) -> None:
-    """The bottom fan is valid only if the boundary winds once counter-clockwise around ``centre``."""
+    """The bottom fan is valid only if the boundary winds once anticlockwise round ``centre``."""
     a, b = edges_xy[:, 0] - centre, edges_xy[:, 1] - centre
     cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
     dot = (a * b).sum(axis=1)
@@ -215,7 +215,8 @@ def _check_star_shaped(edges_xy: np.ndarray, centre: np.ndarray) -> None:
     if (cross <= DEGENERATE_REL_TOL * scale).any() or abs(turns - 1.0) > 1e-6:
         raise ConfigError(
             "top_mesh: its boundary must be one counter-clockwise loop around the centre of its "
-            "bounding box (e.g. a rectangle); holes, several pieces or concave outlines are not supported"
+            "bounding box (e.g. a rectangle); holes, several pieces or concave outlines are not "
+            "supported"
         )
 
 
@@ -249,8 +250,8 @@ def closed_body(top_mesh: TriangleMesh, thickness: float) -> TriangleMesh:
     zmin = float(top_mesh.vertices[:, 2].min())
     if zmin <= -thickness:
         raise ConfigError(
-            f"thickness: the bottom plane z = -{thickness!r} mm must lie below the lowest top vertex "
-            f"(z = {zmin!r} mm); use thickness > {-zmin!r}"
+            f"thickness: the bottom plane z = -{thickness!r} mm must lie below the lowest top "
+            f"vertex (z = {zmin!r} mm); use thickness > {-zmin!r}"
         )
     boundary = _boundary_half_edges(top_mesh)
     if len(boundary) < 3:
@@ -334,8 +335,7 @@ def degenerate_faces(mesh: TriangleMesh, rel_tol: float = DEGENERATE_REL_TOL) ->
 def _atomic_write(path: str | os.PathLike, chunks: list[bytes]) -> None:
     """Write bytes to a temporary file beside ``path``, then rename it over ``path``."""
     with atomic_output(path) as tmp, open(tmp, "wb") as fh:
-        for chunk in chunks:
-            fh.write(chunk)
+        fh.writelines(chunks)
 
 
 _STL_RECORD = np.dtype([("normal", "<f4", (3,)), ("vertices", "<f4", (3, 3)), ("attribute", "<u2")])
@@ -374,10 +374,9 @@ def write_ply(mesh: TriangleMesh, path: str | os.PathLike) -> None:
     if mesh.n_vertices > np.iinfo(np.int32).max:
         raise ConfigError(f"mesh: {mesh.n_vertices} vertices exceed the PLY int32 vertex index")
     header = (
-        "ply\nformat binary_little_endian 1.0\ncomment score4 mesh, units mm\n"
-        f"element vertex {mesh.n_vertices}\nproperty double x\nproperty double y\nproperty double z\n"
-        f"element face {mesh.n_faces}\nproperty list uchar int vertex_indices\nproperty uchar top\n"
-        "end_header\n"
+        "ply\nformat binary_little_endian 1.0\ncomment score4 mesh, units mm\nelement vertex "
+        f"{mesh.n_vertices}\nproperty double x\nproperty double y\nproperty double z\nelement face "
+        f"{mesh.n_faces}\nproperty list uchar int vertex_indices\nproperty uchar top\nend_header\n"
     )
     rec = np.zeros(mesh.n_faces, dtype=[("n", "u1"), ("v", "<i4", (3,)), ("top", "u1")])
     rec["n"] = 3

@@ -270,7 +270,7 @@ def _facet_power_integrals(d: np.ndarray, area: np.ndarray, kmax: int = 4) -> li
         power.append(_sum3(dk))
     h = [power[0]]
     for k in range(1, kmax + 1):
-        h.append(sum(power[i] * h[k - i] for i in range(1, k + 1)) / k)
+        h.append(np.asarray(sum(power[i] * h[k - i] for i in range(1, k + 1))) / k)
     return [float(area @ h[k]) * 2.0 / ((k + 1) * (k + 2)) for k in range(1, kmax + 1)]
 
 
@@ -330,6 +330,7 @@ def mesh_parameters(mesh: TriangleMesh, *, level: bool = True) -> dict[str, floa
     ConfigError
         If the mesh has no top faces, or top faces overhang (normal pointing down).
     """
+    assert mesh.top is not None  # TriangleMesh.__post_init__ fills it in
     top = np.flatnonzero(mesh.top)
     if len(top) == 0:
         raise ConfigError("mesh: has no top faces to measure")
@@ -338,7 +339,8 @@ def mesh_parameters(mesh: TriangleMesh, *, level: bool = True) -> dict[str, floa
     down = proj < -1e-12 * area_true
     if down.any():
         raise ConfigError(
-            f"mesh: {int(down.sum())} top faces overhang (normal points down); metrology needs a height field"
+            f"mesh: {int(down.sum())} top faces overhang (normal points down); metrology needs a "
+            "height field"
         )
     flat = proj > 1e-12 * area_true
     faces, a = mesh.faces[top[flat]], proj[flat]

@@ -78,8 +78,11 @@ def _fmt(v: float) -> str:
 def _length(value: object, name: str) -> float:
     """A positive finite length in mm, from a number (mm) or a string with a unit."""
     v = parse_quantity(value, "length", name) if isinstance(value, str) else value
-    ok = not isinstance(v, bool) and isinstance(v, numbers.Real) and math.isfinite(v)
-    if not (ok and v > 0):
+    if (
+        isinstance(v, bool)
+        or not isinstance(v, numbers.Real)
+        or not (math.isfinite(v) and float(v) > 0)
+    ):
         raise ConfigError(f"{name}: must be a positive length, got {value!r}")
     return float(v)
 
@@ -122,8 +125,9 @@ def _cells_along(face: float, patch: float, axis: str) -> int:
         lo = max(1, math.floor(face / patch))
         hi = max(lo + 1, math.ceil(face / patch))
         raise ConfigError(
-            f"face_size: {_fmt(face)} mm along {axis} is not a whole number of {_fmt(patch)} mm patches; "
-            f"nearest valid sizes {_fmt(lo * patch)} mm ({lo} patches) or {_fmt(hi * patch)} mm ({hi} patches)"
+            f"face_size: {_fmt(face)} mm along {axis} is not a whole number of {_fmt(patch)} mm "
+            f"patches; nearest valid sizes {_fmt(lo * patch)} mm ({lo} patches) or "
+            f"{_fmt(hi * patch)} mm ({hi} patches)"
         )
     return n
 
@@ -159,7 +163,8 @@ def _densities(densities: object) -> np.ndarray:
 
 
 def largest_remainder(n: int, weights: Sequence[float] | np.ndarray) -> np.ndarray:
-    """Split ``n`` items among ``K`` classes in proportion to ``weights`` (largest-remainder method).
+    """Split ``n`` items among ``K`` classes in proportion to ``weights`` (largest-remainder
+    method).
 
     Each class first gets ``floor(n w_k)`` (weights normalised to sum 1); the items left over
     go, one each, to the classes with the largest fractional parts ``n w_k - floor(n w_k)``,
@@ -182,7 +187,8 @@ def largest_remainder(n: int, weights: Sequence[float] | np.ndarray) -> np.ndarr
         raise ConfigError(
             f"weights: must be non-negative finite numbers with a positive sum, got {weights!r}"
         )
-    if isinstance(n, bool) or not isinstance(n, numbers.Integral) or n < 0:
+    given: object = n  # checked at run time: callers may pass anything
+    if isinstance(given, bool) or not isinstance(given, numbers.Integral) or given < 0:
         raise ConfigError(f"n: must be an integer >= 0, got {n!r}")
     quota = n * (w / w.sum())
     # Quotas within rounding noise of an integer are that integer (n * 0.3 for n = 40000 is
@@ -224,8 +230,8 @@ def _rle_decode(text: str, size: int) -> np.ndarray:
             lengths.append(int(c) if star else 1)
     except ValueError:
         raise ConfigError(
-            f"variants: cannot read the run-length text near {token[:30]!r}; expected 'v' or 'v*count' items "
-            "separated by commas"
+            f"variants: cannot read the run-length text near {token[:30]!r}; expected 'v' or "
+            "'v*count' items separated by commas"
         ) from None
     if min(lengths) < 1:
         raise ConfigError(f"variants: run-length counts must be >= 1, got {min(lengths)}")
@@ -255,17 +261,15 @@ def _check_variants(
         if bad.any():
             j, i = np.argwhere(bad)[0]
             raise ConfigError(
-                f"{name}: must hold integer variant indices, got {a[j, i].item()!r} at row {j}, column {i}"
+                f"{name}: must hold integer variant indices, got {a[j, i].item()!r} at row {j}, "
+                f"column {i}"
             )
     lo, hi = int(a.min()), int(a.max())
     if n_variants is None:
         k = hi + 1
     else:
-        if (
-            isinstance(n_variants, bool)
-            or not isinstance(n_variants, numbers.Integral)
-            or n_variants < 1
-        ):
+        given: object = n_variants  # checked at run time: callers may pass anything
+        if isinstance(given, bool) or not isinstance(given, numbers.Integral) or given < 1:
             raise ConfigError(f"n_variants: must be an integer >= 1, got {n_variants!r}")
         k = int(n_variants)
     if lo < 0 or hi >= k:
@@ -311,10 +315,14 @@ class PatchMap:
     _counts: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        d = self.densities
-        if isinstance(d, (str, bytes)) or not isinstance(d, (Sequence, np.ndarray)) or len(d) == 0:
-            raise ConfigError(f"densities: must be a non-empty sequence, got {d!r}")
-        d = np.asarray(d, dtype=float)
+        given: object = self.densities  # checked at run time: callers may pass anything
+        if (
+            isinstance(given, (str, bytes))
+            or not isinstance(given, (Sequence, np.ndarray))
+            or len(given) == 0
+        ):
+            raise ConfigError(f"densities: must be a non-empty sequence, got {given!r}")
+        d = np.asarray(given, dtype=float)
         if (
             d.ndim != 1
             or not np.all(np.isfinite(d))
@@ -322,7 +330,8 @@ class PatchMap:
             or abs(d.sum() - 1) > DENSITY_SUM_TOL
         ):
             raise ConfigError(
-                f"densities: must be non-negative finite numbers summing to 1, got {self.densities!r}"
+                "densities: must be non-negative finite numbers summing to 1, got "
+                f"{self.densities!r}"
             )
         variants, _ = _check_variants(self.variants, len(d))
         self._set("variants", variants)
@@ -479,7 +488,8 @@ class PatchMap:
             variants = np.asarray(variants)
             if "shape" in d and list(variants.shape) != list(d["shape"]):
                 raise ConfigError(
-                    f"shape: {d['shape']!r} does not match the variants grid of shape {list(variants.shape)}"
+                    f"shape: {d['shape']!r} does not match the variants grid of shape "
+                    f"{list(variants.shape)}"
                 )
         return cls(
             variants, d["patch_size"], d["densities"], d.get("method", "given"), d.get("seed")
@@ -521,15 +531,19 @@ class PatchMap:
         method = attrs["method"]
         method = method.decode() if isinstance(method, bytes) else str(method)
         seed = int(attrs["seed"]) if "seed" in attrs else None
-        patch = tuple(float(v) for v in attrs["patch_size"])
+        px, py = (float(v) for v in attrs["patch_size"])
         return cls(
-            group["variants"][...], patch, tuple(float(v) for v in attrs["densities"]), method, seed
+            group["variants"][...],
+            (px, py),
+            tuple(float(v) for v in attrs["densities"]),
+            method,
+            seed,
         )
 
     # --- text -------------------------------------------------------------------------------
 
     def describe(self) -> str:
-        """A one-paragraph summary: grid, patch and face size, method, realised vs target fractions."""
+        """One-paragraph summary: grid, patch and face size, method, realised/target fractions."""
         (px, py), (lx, ly) = self.patch_size, self.face_size
         how = {"exact": "exact counts", "random": "independent draws", "given": "given grid"}[
             self.method
@@ -556,7 +570,8 @@ def _grid(face_size: object, patch_size: object) -> tuple[int, int, tuple[float,
     ny = _cells_along(face[1], patch[1], "y")
     if nx * ny > MAX_CELLS:
         raise ConfigError(
-            f"patch_size: {nx} x {ny} = {nx * ny} patches exceed the limit of {MAX_CELLS}; use larger patches"
+            f"patch_size: {nx} x {ny} = {nx * ny} patches exceed the limit of {MAX_CELLS}; use "
+            "larger patches"
         )
     return nx, ny, patch
 

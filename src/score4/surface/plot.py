@@ -69,13 +69,13 @@ def _view_3d(surface: Surface, cap: int) -> tuple[np.ndarray, np.ndarray, np.nda
     step = 1
     while step < per_cell // 2 and MAX_3D_CELLS * per_cell / step > cap:
         step *= 2
-    window = []
+    window: list[slice] = []
     for n, spikes in ((nx, surface.spikes.nx), (ny, surface.spikes.ny)):
         cells = min(spikes, MAX_3D_CELLS)
         first = (spikes - cells) // 2 * per_cell
         window.append(slice(first, min(n, first + cells * per_cell + 1), step))
-    sx, sy = window
-    x, y, z = hm.x[sx], hm.y[sy], hm.heights[sy, sx]
+    wx, wy = window
+    x, y, z = hm.x[wx], hm.y[wy], hm.heights[wy, wx]
     note = []
     if surface.spikes.nx > MAX_3D_CELLS or surface.spikes.ny > MAX_3D_CELLS:
         note.append(f"central {np.ptp(x) / um:.4g} x {np.ptp(y) / um:.4g} um")
@@ -153,19 +153,18 @@ def plot_surface(surface: Surface, path: str | Path, dpi: int = 150) -> Path:
     fig.colorbar(image, ax=ax, label="height (um)", shrink=0.9)
     width = extent[1] - extent[0]
     bar = nice_length(width / 4)
-    ax.add_artist(
-        AnchoredSizeBar(
-            ax.transData,
-            bar,
-            f"{bar:g} um",
-            "lower right",
-            pad=0.4,
-            color="white",
-            frameon=True,
-            size_vertical=(extent[3] - extent[2]) / 100,
-        )
+    scale_bar = AnchoredSizeBar(
+        ax.transData,
+        bar,
+        f"{bar:g} um",
+        "lower right",
+        pad=0.4,
+        color="white",
+        frameon=True,
+        size_vertical=(extent[3] - extent[2]) / 100,
     )
-    ax.artists[-1].patch.set(facecolor="black", alpha=0.5, edgecolor="none")
+    ax.add_artist(scale_bar)
+    scale_bar.patch.set(facecolor="black", alpha=0.5, edgecolor="none")
 
     # 3D view of the (decimated) top; a nearly flat surface gets its heights stretched so that
     # the relief shows, and the title says by how much.

@@ -1,4 +1,5 @@
-"""Height-map processing: plane levelling, cropping, resampling, filling missing points, periodic closing.
+"""Height-map processing: plane levelling, cropping, resampling, filling missing points, periodic
+closing.
 
 Every function returns a new :class:`~score4.surface.heightmap.HeightMap` (mm) and keeps the
 input's metadata, adding a ``processing`` list that records each step.
@@ -37,7 +38,7 @@ def _length(value: float | str, name: str) -> float:
 
 # ----------------------------------------------------------------------------- levelling
 def plane_fit(hm: HeightMap) -> tuple[float, float, float]:
-    """Least-squares plane z = a + b x + c y through the valid points; returns (a, b, c) in mm, mm/mm."""
+    """Least-squares plane z = a + b x + c y through the valid points: (a, b, c) in mm, mm/mm."""
     yy, xx = np.meshgrid(hm.y, hm.x, indexing="ij")
     ok = ~np.isnan(hm.heights)
     design = np.column_stack([np.ones(ok.sum()), xx[ok], yy[ok]])
@@ -46,7 +47,7 @@ def plane_fit(hm: HeightMap) -> tuple[float, float, float]:
 
 
 def level_plane(hm: HeightMap) -> HeightMap:
-    """Subtract the least-squares plane (missing points stay NaN); the result has mean 0 and no tilt."""
+    """Subtract the least-squares plane (missing points stay NaN): mean 0 and no tilt."""
     a, b, c = plane_fit(hm)
     z = hm.heights - (a + b * hm.x[None, :] + c * hm.y[:, None])
     return _with(hm, z, f"level_plane(a={a:.6g}, b={b:.6g}, c={c:.6g})")
@@ -54,14 +55,14 @@ def level_plane(hm: HeightMap) -> HeightMap:
 
 # ----------------------------------------------------------------------------- cropping
 def crop_samples(hm: HeightMap, columns: tuple[int, int], rows: tuple[int, int]) -> HeightMap:
-    """Keep columns ``[c0, c1)`` and rows ``[r0, r1)`` (Python slice rules for the bounds, no steps)."""
+    """Keep columns ``[c0, c1)`` and rows ``[r0, r1)`` (slice rules for the bounds, no steps)."""
     ny, nx = hm.shape
     c0, c1, _ = slice(*columns).indices(nx)
     r0, r1, _ = slice(*rows).indices(ny)
     if c1 - c0 < 2 or r1 - r0 < 2:
         raise ConfigError(
-            f"columns, rows: {columns}, {rows} leave {max(c1 - c0, 0)} x {max(r1 - r0, 0)} samples of a "
-            f"{nx} x {ny} map; rule: at least 2 x 2"
+            f"columns, rows: {columns}, {rows} leave {max(c1 - c0, 0)} x {max(r1 - r0, 0)} samples "
+            f"of a {nx} x {ny} map; rule: at least 2 x 2"
         )
     origin = (hm.origin[0] + c0 * hm.pitch_x, hm.origin[1] + r0 * hm.pitch_y)
     return _with(
@@ -75,7 +76,7 @@ def crop_samples(hm: HeightMap, columns: tuple[int, int], rows: tuple[int, int])
 def crop(
     hm: HeightMap, x: tuple[float | str, float | str], y: tuple[float | str, float | str]
 ) -> HeightMap:
-    """Keep the samples with x0 <= x <= x1 and y0 <= y <= y1 (coordinates in mm or strings with unit)."""
+    """Keep the samples with x0 <= x <= x1 and y0 <= y <= y1 (mm, or strings with a unit)."""
     (x0, x1), (y0, y1) = ((_length(a, n), _length(b, n)) for (a, b), n in ((x, "x"), (y, "y")))
     eps_x, eps_y = (
         1e-9 * hm.pitch_x,
@@ -102,7 +103,8 @@ def resample(
     """
     if method not in RESAMPLE_METHODS:
         raise ConfigError(
-            f"method: unknown resampling method {method!r}; use one of: {', '.join(RESAMPLE_METHODS)}"
+            f"method: unknown resampling method {method!r}; use one of: "
+            f"{', '.join(RESAMPLE_METHODS)}"
         )
     px = _length(pitch_x, "pitch_x")
     py = px if pitch_y is None else _length(pitch_y, "pitch_y")
@@ -111,10 +113,11 @@ def resample(
             raise ConfigError(f"{name}: must be a positive length, got {p!r}")
     if method == "cubic" and hm.has_missing:
         raise ConfigError(
-            "method: 'cubic' resampling needs a map without missing points; fill_missing first or use 'linear'"
+            "method: 'cubic' resampling needs a map without missing points; fill_missing first or "
+            "use 'linear'"
         )
-    nx = int(math.floor(hm.size_x / px * (1 + 1e-12))) + 1
-    ny = int(math.floor(hm.size_y / py * (1 + 1e-12))) + 1
+    nx = math.floor(hm.size_x / px * (1 + 1e-12)) + 1
+    ny = math.floor(hm.size_y / py * (1 + 1e-12)) + 1
     if nx < 2 or ny < 2:
         raise ConfigError(
             f"pitch_x, pitch_y: {px:g}, {py:g} mm leave fewer than 2 samples "
@@ -156,8 +159,8 @@ def fill_missing(hm: HeightMap, max_fraction: float = MAX_MISSING_FRACTION) -> H
     frac = float(missing.mean())
     if frac > max_fraction:
         raise ConfigError(
-            f"heights: {frac:.1%} of the points are missing; rule: at most max_fraction = {max_fraction:.1%} "
-            "can be filled (crop the map or raise max_fraction)"
+            f"heights: {frac:.1%} of the points are missing; rule: at most max_fraction = "
+            f"{max_fraction:.1%} can be filled (crop the map or raise max_fraction)"
         )
     if frac == 0:
         return _with(hm, z.copy(), "fill_missing(none missing)")
@@ -183,13 +186,13 @@ def _laplace_fill(z: np.ndarray, missing: np.ndarray) -> np.ndarray:
         nj_in, ni_in, p_in = nj[inside], ni[inside], p[inside]
         q = unknown[nj_in, ni_in]
         is_unknown = q >= 0
-        (
-            rows.append(p_in[is_unknown]),
-            cols.append(q[is_unknown]),
-            vals.append(-np.ones(is_unknown.sum())),
-        )
+        rows.append(p_in[is_unknown])
+        cols.append(q[is_unknown])
+        vals.append(-np.ones(is_unknown.sum()))
         np.add.at(rhs, p_in[~is_unknown], z[nj_in[~is_unknown], ni_in[~is_unknown]])
-    rows.append(p), cols.append(p), vals.append(degree)
+    rows.append(p)
+    cols.append(p)
+    vals.append(degree)
     a = scipy.sparse.csr_matrix(
         (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(p.size, p.size)
     )

@@ -50,8 +50,8 @@ Self-affine fractals
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 import scipy.fft
@@ -62,7 +62,7 @@ from ..units import parse_quantity
 from .heightmap import HeightMap
 
 ACF_MODELS = ("gaussian", "exponential")
-MODELS = ACF_MODELS + ("self_affine",)
+MODELS = (*ACF_MODELS, "self_affine")
 #: Sal (ISO 25178-2, s = 0.2) divided by the correlation length, per ACF model.
 SAL_PER_CORR_LENGTH = {"gaussian": math.sqrt(math.log(5.0)), "exponential": math.log(5.0)}
 #: The map side must hold at least this many correlation lengths.
@@ -94,7 +94,15 @@ def _length(value: float | str, name: str) -> float:
     return float(x)
 
 
-def _count(value: int, name: str) -> int:
+def _finite_real(value: object) -> float | None:
+    """``value`` as a float if it is a finite real number (bool excluded), else None."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        return None
+    x = float(value)
+    return x if math.isfinite(x) else None
+
+
+def _count(value: object, name: str) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 4:
         raise ConfigError(f"{name}: must be an integer number of samples >= 4, got {value!r}")
     return int(value)
@@ -117,8 +125,9 @@ def _check_corr_length(corr: float, n: int, pitch: float, axis: str) -> None:
         )
     if n * pitch < MIN_CORR_LENGTHS_PER_SIDE * corr:
         raise ConfigError(
-            f"corr_length_{axis}: {corr:g} mm is too long for a map side of n{axis} * pitch_{axis} = {n * pitch:g} mm; "
-            f"rule: n{axis} * pitch_{axis} >= {MIN_CORR_LENGTHS_PER_SIDE:g} * corr_length_{axis}"
+            f"corr_length_{axis}: {corr:g} mm is too long for a map side of n{axis} * pitch_{axis} "
+            f"= {n * pitch:g} mm; rule: n{axis} * pitch_{axis} >= {MIN_CORR_LENGTHS_PER_SIDE:g} * "
+            f"corr_length_{axis}"
         )
 
 
@@ -241,7 +250,8 @@ def check_moments(skewness: float, kurtosis: float) -> None:
     1.05 Ssk^2 + 1.2 <= Sku <= MAX_KURTOSIS (20). Near the bound the S_B fit needs extreme
     parameters; very heavy tails need more points than a map has.
     """
-    for name, v in (("skewness", skewness), ("kurtosis", kurtosis)):
+    given: tuple[tuple[str, object], ...] = (("skewness", skewness), ("kurtosis", kurtosis))
+    for name, v in given:  # checked at run time: callers may pass anything
         if (
             isinstance(v, bool)
             or not isinstance(v, (int, float, np.floating, np.integer))
@@ -251,22 +261,25 @@ def check_moments(skewness: float, kurtosis: float) -> None:
     bound = skewness**2 + 1
     if kurtosis <= bound:
         raise ConfigError(
-            f"kurtosis: {kurtosis:g} is impossible with skewness {skewness:g}; rule: kurtosis > skewness^2 + 1 = {bound:g} "
-            "(ISO Sku, 3 for a Gaussian)"
+            f"kurtosis: {kurtosis:g} is impossible with skewness {skewness:g}; rule: kurtosis > "
+            f"skewness^2 + 1 = {bound:g} (ISO Sku, 3 for a Gaussian)"
         )
     if abs(skewness) > MAX_ABS_SKEWNESS:
         raise ConfigError(
-            f"skewness: {skewness:g} is outside the supported range; rule: |skewness| <= {MAX_ABS_SKEWNESS:g}"
+            f"skewness: {skewness:g} is outside the supported range; rule: |skewness| <= "
+            f"{MAX_ABS_SKEWNESS:g}"
         )
     floor = bound + MIN_KURTOSIS_MARGIN + MARGIN_PER_SKEW2 * skewness**2
     if kurtosis < floor:
         raise ConfigError(
-            f"kurtosis: {kurtosis:g} is too close to the bound skewness^2 + 1 = {bound:g} for the Johnson system; "
-            f"rule: kurtosis >= {1 + MARGIN_PER_SKEW2:g} * skewness^2 + {1 + MIN_KURTOSIS_MARGIN:g} = {floor:g}"
+            f"kurtosis: {kurtosis:g} is too close to the bound skewness^2 + 1 = {bound:g} for the "
+            f"Johnson system; rule: kurtosis >= {1 + MARGIN_PER_SKEW2:g} * skewness^2 + "
+            f"{1 + MIN_KURTOSIS_MARGIN:g} = {floor:g}"
         )
     if kurtosis > MAX_KURTOSIS:
         raise ConfigError(
-            f"kurtosis: {kurtosis:g} is outside the supported range; rule: kurtosis <= {MAX_KURTOSIS:g}"
+            f"kurtosis: {kurtosis:g} is outside the supported range; rule: kurtosis <= "
+            f"{MAX_KURTOSIS:g}"
         )
 
 
@@ -410,7 +423,8 @@ def johnson_translate(z: np.ndarray, skewness: float, kurtosis: float) -> np.nda
             y = _fit_johnson(*_clamp_target(*target))(u)
         except (ValueError, ArithmeticError) as exc:  # root bracketing failed at an extreme target
             raise ConfigError(
-                f"kurtosis: no Johnson curve found for skewness {skewness:g}, kurtosis {kurtosis:g} ({exc})"
+                f"kurtosis: no Johnson curve found for skewness {skewness:g}, kurtosis "
+                f"{kurtosis:g} ({exc})"
             ) from exc
         got = _sample_skew_kurt(y)
         err = (skewness - got[0], kurtosis - got[1])
@@ -422,8 +436,8 @@ def johnson_translate(z: np.ndarray, skewness: float, kurtosis: float) -> np.nda
         )  # fixed-point correction for the finite sample
     else:
         raise ConfigError(
-            f"kurtosis: cannot reach skewness {skewness:g}, kurtosis {kurtosis:g} on a map of {n} points "
-            f"(got {got[0]:.3g}, {got[1]:.3g}); use a larger map or milder moments"
+            f"kurtosis: cannot reach skewness {skewness:g}, kurtosis {kurtosis:g} on a map of {n} "
+            f"points (got {got[0]:.3g}, {got[1]:.3g}); use a larger map or milder moments"
         )
     out = np.empty(n)
     out[np.argsort(flat, kind="stable")] = _standardise(y)
@@ -441,7 +455,7 @@ def _finish(
     metadata: dict,
     by_slope: bool = False,
 ) -> HeightMap:
-    """Apply the height distribution and the scale (Sq or rms slope) to a coloured Gaussian field."""
+    """Apply the height distribution and scale (Sq or rms slope) to a coloured Gaussian field."""
     z = johnson_translate(z, skewness, kurtosis)
     z = z * (scale / (rms_slope(z, px, py) if by_slope else 1.0))
     return HeightMap(z, px, py, metadata=metadata)
@@ -554,17 +568,13 @@ def self_affine_surface(
         Heights in mm with mean 0.
     """
     nx, ny, px, py = _grid(nx, ny, pitch_x, pitch_y)
-    if (
-        isinstance(hurst, bool)
-        or not isinstance(hurst, (int, float, np.floating, np.integer))
-        or not (0 < hurst <= 1)
-    ):
+    h = _finite_real(hurst)
+    if h is None or not (0 < h <= 1):
         raise ConfigError(f"hurst: {hurst!r} is outside the allowed range; rule: 0 < hurst <= 1")
     if (sq is None) == (rms_slope is None):
         raise ConfigError("sq, rms_slope: give exactly one of them to set the height scale")
-    if rms_slope is not None and not (
-        isinstance(rms_slope, (int, float)) and math.isfinite(rms_slope) and rms_slope > 0
-    ):
+    slope = None if rms_slope is None else _finite_real(rms_slope)
+    if rms_slope is not None and (slope is None or slope <= 0):
         raise ConfigError(
             f"rms_slope: must be a positive number (dimensionless), got {rms_slope!r}"
         )
@@ -587,9 +597,13 @@ def self_affine_surface(
         )
     check_moments(skewness, kurtosis)
     shape = _generation_shape(nx, ny, lam_l, lam_l, px, py, periodic)
-    amp = _self_affine_amplitude(shape, px, py, float(hurst), 2 * np.pi / lam_l, 2 * np.pi / lam_s)
+    amp = _self_affine_amplitude(shape, px, py, h, 2 * np.pi / lam_l, 2 * np.pi / lam_s)
     field = _colour_noise(amp, shape, _rng(seed))[:ny, :nx]
-    scale = _length(sq, "sq") if sq is not None else float(rms_slope)
+    if sq is not None:
+        scale = _length(sq, "sq")
+    else:
+        assert slope is not None  # exactly one of sq, rms_slope is given (checked above)
+        scale = slope
     meta = {
         "generator": "self_affine_surface",
         "model": "self_affine",

@@ -73,7 +73,7 @@ SURFALIZE_FORMATS = (
     "lext",
     "zon",
 )
-FORMATS = ("x3p", "gwy", "plu") + SURFALIZE_FORMATS + TEXT_FORMATS + ("xyz",)
+FORMATS = ("x3p", "gwy", "plu", *SURFALIZE_FORMATS, *TEXT_FORMATS, "xyz")
 _M = LENGTH["m"]  # metres -> mm
 _UM = LENGTH["um"]  # surfalize works in µm
 _GRID_TOLERANCE = 0.01  # coordinates within this fraction of a pitch of a grid node
@@ -127,13 +127,14 @@ def _heightmap(
     )
 
 
-# ----------------------------------------------------------------------------- regular grids from points
+# ------------------------------------------------------------------------ regular grids from points
 def _grid_axis(v: np.ndarray, axis: str, path: Path) -> tuple[np.ndarray, float, float]:
     """Indices of coordinates on a regular axis, its pitch and start; ConfigError if not regular."""
     lo, span = float(v.min()), float(v.max() - v.min())
     if span == 0:
         raise ConfigError(
-            f"{path}: all points share one {axis} value; rule: a grid needs at least 2 {axis} positions"
+            f"{path}: all points share one {axis} value; rule: a grid needs at least 2 {axis} "
+            "positions"
         )
     gaps = np.diff(np.unique(v))
     gaps = gaps[gaps > 1e-9 * span]  # merge round-off duplicates
@@ -170,13 +171,14 @@ def grid_from_points(
     nx, ny = int(i.max()) + 1, int(j.max()) + 1
     if x.size < _MIN_GRID_FILL * nx * ny:
         raise ConfigError(
-            f"{path}: {x.size} points on a {nx} x {ny} grid; rule: at least {_MIN_GRID_FILL:.0%} of the "
-            "grid nodes must hold a point (is it a scattered point cloud?)"
+            f"{path}: {x.size} points on a {nx} x {ny} grid; rule: at least {_MIN_GRID_FILL:.0%} "
+            "of the grid nodes must hold a point (is it a scattered point cloud?)"
         )
     flat = j * nx + i
     if np.unique(flat).size != flat.size:
         raise ConfigError(
-            f"{path}: two or more points fall on the same grid node; rule: one point per (x, y) node"
+            f"{path}: two or more points fall on the same grid node; rule: one point per (x, y) "
+            "node"
         )
     heights = np.full(ny * nx, np.nan)
     heights[flat] = z
@@ -214,7 +216,8 @@ def _parse_rows(lines: list[str], path: Path) -> np.ndarray:
     widths = {len(r) for r in rows}
     if len(widths) != 1:
         raise ConfigError(
-            f"{path}: rows have different numbers of values {sorted(widths)}; rule: a rectangular table"
+            f"{path}: rows have different numbers of values {sorted(widths)}; rule: a rectangular "
+            "table"
         )
     try:
         return np.array(rows, dtype=float)
@@ -254,9 +257,10 @@ def _read_text_grid(path: Path, fmt: str, pitch, pitch_y, z_unit, **_) -> Height
         px = py = _pitch_value(pitch, "pitch")
     if pitch_y is not None:
         py = _pitch_value(pitch_y, "pitch_y")
-    if px is None:
+    if px is None or py is None:
         raise ConfigError(
-            f"pitch: {path} does not give the sample spacing; pass pitch='0.5 um' or add '# pitch = 0.5 um'"
+            f"pitch: {path} does not give the sample spacing; pass pitch='0.5 um' or add '# pitch "
+            "= 0.5 um'"
         )
     factor = _header_unit(header, ("z_unit", "value units", "unit_z"), z_unit, "z_unit", path)
     return _heightmap(z * factor, px, py, path, fmt, header=header)
@@ -281,12 +285,12 @@ def _read_xyz(path: Path, fmt: str, xy_unit, z_unit, **_) -> HeightMap:
     return _heightmap(z, px, py, path, fmt, origin=origin, header=header)
 
 
-# ----------------------------------------------------------------------------- library-backed formats
+# --------------------------------------------------------------------------- library-backed formats
 def _read_x3p(path: Path, fmt: str, **_) -> HeightMap:
     x3pio = _import("x3pio", fmt)
     try:
         data = x3pio.read(path)
-    except Exception as exc:  # noqa: BLE001 - any failure of the reader is a bad file for the user
+    except Exception as exc:  # any failure of the reader is a bad file for the user
         raise ConfigError(f"{path}: cannot be read as x3p ({exc})") from exc
     kind = str(data.feature_type).split(".")[-1]
     if "PRF" in kind:
@@ -314,7 +318,8 @@ def _si_factor(unit_obj, given: str | None, name: str, path: Path) -> float:
     )
     if not unit:
         raise ConfigError(
-            f"{name}: {path} has no {name.split('_')[0]} unit in the data field; pass {name}= (e.g. 'um')"
+            f"{name}: {path} has no {name.split('_')[0]} unit in the data field; pass {name}= "
+            "(e.g. 'um')"
         )
     return _unit_factor(unit, name, path)
 
@@ -323,7 +328,7 @@ def _read_gwy(path: Path, fmt: str, xy_unit, z_unit, channel, **_) -> HeightMap:
     gwyfile = _import("gwyfile", fmt)
     try:
         fields = gwyfile.util.get_datafields(gwyfile.load(str(path)))
-    except Exception as exc:  # noqa: BLE001
+    except Exception as exc:
         raise ConfigError(f"{path}: cannot be read as a Gwyddion file ({exc})") from exc
     if not fields:
         raise ConfigError(f"{path}: contains no data field (channel)")
@@ -353,7 +358,7 @@ def _read_surfalize(path: Path, fmt: str, **_) -> HeightMap:
     common = _import("surfalize.file.common", fmt)
     try:
         raw = common.FileHandler(path, format_=f".{fmt}").read()
-    except Exception as exc:  # noqa: BLE001
+    except Exception as exc:
         raise ConfigError(
             f"{path}: cannot be read as .{fmt} ({type(exc).__name__}: {exc})"
         ) from exc
@@ -434,7 +439,7 @@ def _read_plu(path: Path, fmt: str, **_) -> HeightMap:
             f"{path}: truncated .plu file ({len(data)} bytes); rule: header and layer size need "
             f"at least {start} bytes"
         )
-    h = dict(zip(_PLU_FIELDS, _PLU_HEADER.unpack_from(data)))
+    h = dict(zip(_PLU_FIELDS, _PLU_HEADER.unpack_from(data), strict=True))
     if h["type"] != _PLU_TOPOGRAPHY:
         kind = _PLU_TYPES.get(h["type"], "unknown")
         raise ConfigError(

@@ -18,7 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
-from typing import Annotated, Literal, Union
+from typing import Annotated, Literal
 
 import numpy as np
 import yaml
@@ -61,7 +61,7 @@ class SpikeSurfaceSpec(StrictModel):
     seed: int = Field(0, ge=0)
 
     @model_validator(mode="after")
-    def _widths(self) -> "SpikeSurfaceSpec":
+    def _widths(self) -> SpikeSurfaceSpec:
         wx = self.width_x if self.width_x is not None else self.width
         wy = self.width_y if self.width_y is not None else self.width
         if wx is None or wy is None:
@@ -93,7 +93,7 @@ class RandomSurfaceSpec(StrictModel):
     seed: int = Field(0, ge=0)
 
     @model_validator(mode="after")
-    def _model_parameters(self) -> "RandomSurfaceSpec":
+    def _model_parameters(self) -> RandomSurfaceSpec:
         if self.model == "self_affine":
             if self.hurst is None:
                 raise ValueError("model self_affine needs hurst (0 < H < 1)")
@@ -101,7 +101,8 @@ class RandomSurfaceSpec(StrictModel):
                 raise ValueError("model self_affine needs exactly one of sq and rms_slope")
             if self.corr_length is not None or self.corr_length_y is not None:
                 raise ValueError(
-                    "corr_length belongs to the gaussian/exponential models; self_affine uses long_cutoff"
+                    "corr_length belongs to the gaussian/exponential models; self_affine uses "
+                    "long_cutoff"
                 )
         else:
             if self.sq is None or self.corr_length is None:
@@ -136,7 +137,7 @@ class MeasuredSurfaceSpec(StrictModel):
 
 
 SurfaceSpec = Annotated[
-    Union[SpikeSurfaceSpec, RandomSurfaceSpec, MeasuredSurfaceSpec], Field(discriminator="kind")
+    SpikeSurfaceSpec | RandomSurfaceSpec | MeasuredSurfaceSpec, Field(discriminator="kind")
 ]
 _SPEC_ADAPTER: TypeAdapter = TypeAdapter(SurfaceSpec)
 KINDS = ("spikes", "random", "measured")
@@ -204,8 +205,10 @@ class Surface:
 
     @property
     def _extent(self) -> tuple[float, float]:
-        ny, nx = self.heightmap.shape
-        return (nx - 1) * self.heightmap.pitch_x, (ny - 1) * self.heightmap.pitch_y
+        hm = self.heightmap
+        assert hm is not None  # a surface holds spikes or a height map
+        ny, nx = hm.shape
+        return (nx - 1) * hm.pitch_x, (ny - 1) * hm.pitch_y
 
     @property
     def max_height(self) -> float:
@@ -218,7 +221,7 @@ class Surface:
 
     @cached_property
     def placed_map(self) -> HeightMap:
-        """The height map centred on the origin with its lowest point at z = 0 (height maps only)."""
+        """The height map centred on the origin, lowest point at z = 0 (height maps only)."""
         hm = self.heightmap
         if hm is None:
             raise ValueError("placed_map: a spike grid has no primary height map; use .map")
@@ -241,7 +244,8 @@ class Surface:
         )
 
     def height_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Exact height of :attr:`top_mesh` above the base plane at (x, y), mm (points clipped to the patch)."""
+        """Exact height of :attr:`top_mesh` above the base plane at (x, y), mm (points clipped to
+        the patch)."""
         if self.spikes is not None:
             return self.spikes.height_at(x, y)
         hm = self.placed_map
@@ -259,7 +263,7 @@ class Surface:
         )
 
     def body(self, base_thickness: float) -> TriangleMesh:
-        """Closed, watertight patch: the rough top on a slab reaching ``base_thickness`` below z = 0."""
+        """Closed, watertight patch: the rough top on a slab ``base_thickness`` below z = 0."""
         return closed_body(self.top_mesh, base_thickness)
 
 
@@ -268,6 +272,9 @@ def build_surface(spec) -> Surface:
     if isinstance(spec, dict):
         spec = parse_surface_spec(spec)
     if isinstance(spec, SpikeSurfaceSpec):
+        # the spec's validator fills width_x and width_y in from width
+        assert spec.width_x is not None
+        assert spec.width_y is not None
         grid = SpikeGrid(
             nx=spec.nx,
             ny=spec.ny,
@@ -325,8 +332,8 @@ def build_surface(spec) -> Surface:
     elif hm.has_missing:
         n = int(np.isnan(hm.heights).sum())
         raise ConfigError(
-            f"file: {spec.file} has {n} missing (NaN) points; set fill_missing: true to fill them by "
-            "Laplace interpolation, or crop them away with crop_x/crop_y"
+            f"file: {spec.file} has {n} missing (NaN) points; set fill_missing: true to fill them "
+            "by Laplace interpolation, or crop them away with crop_x/crop_y"
         )
     if spec.level:
         hm = level_plane(hm)

@@ -79,8 +79,12 @@ _CORNER_SY = np.array([-1.0, -1.0, 1.0, 1.0])
 def _length(value: object, name: str, allow_zero: bool = False) -> float:
     """A positive (or >= 0) finite length in mm, from a number (mm) or a string with a unit."""
     v = parse_quantity(value, "length", name) if isinstance(value, str) else value
-    ok = not isinstance(v, bool) and isinstance(v, numbers.Real) and math.isfinite(v)
-    if not (ok and (v >= 0 if allow_zero else v > 0)):
+    if (
+        isinstance(v, bool)
+        or not isinstance(v, numbers.Real)
+        or not math.isfinite(v)
+        or not (float(v) >= 0 if allow_zero else float(v) > 0)
+    ):
         rule = "a length >= 0" if allow_zero else "a positive length"
         raise ConfigError(f"{name}: must be {rule}, got {value!r}")
     return float(v)
@@ -146,7 +150,8 @@ class SpikeGrid:
         set_("n_layers", _count(self.n_layers, "n_layers"))
         if self.shape == "pyramid" and self.n_layers != 1:
             raise ConfigError(
-                f"n_layers: a pyramid is a single layer, got {self.n_layers} (use shape bump or peak)"
+                f"n_layers: a pyramid is a single layer, got {self.n_layers} (use shape bump or "
+                "peak)"
             )
         set_("seed", _count(self.seed, "seed", minimum=0))
         set_("height_sigma", _length(self.height_sigma, "height_sigma", allow_zero=True))
@@ -181,15 +186,17 @@ class SpikeGrid:
         if floor / self.n_layers < MIN_LAYER_HEIGHT:
             raise ConfigError(
                 f"min_height: {floor!r} mm over {self.n_layers} layers gives layers thinner than "
-                f"{MIN_LAYER_HEIGHT} mm (Geant4's limit); raise min_height or mean_height, or use fewer layers"
+                f"{MIN_LAYER_HEIGHT} mm (Geant4's limit); raise min_height or mean_height, or use "
+                "fewer layers"
             )
         if self.height_sigma > 0:
             p_low = _normal_cdf((floor - self.mean_height) / self.height_sigma)
             if p_low > MAX_TRUNCATED_FRACTION:
                 raise ConfigError(
-                    f"height_sigma: {self.height_sigma!r} mm puts {100 * p_low:.1f} % of the Gaussian heights "
-                    f"(mean {self.mean_height!r} mm) below min_height={floor!r} mm; at most "
-                    f"{100 * MAX_TRUNCATED_FRACTION:.0f} % may be truncated, so use a smaller spread"
+                    f"height_sigma: {self.height_sigma!r} mm puts {100 * p_low:.1f} % of the "
+                    f"Gaussian heights (mean {self.mean_height!r} mm) below min_height={floor!r} "
+                    f"mm; at most {100 * MAX_TRUNCATED_FRACTION:.0f} % may be truncated, so use a "
+                    "smaller spread"
                 )
 
     def _draw_heights(self) -> tuple[np.ndarray, float]:
@@ -309,7 +316,8 @@ class SpikeGrid:
         n = self.n_layers
         lo, hi = idx[:, :, :-1], idx[:, :, 1:]  # bottom / top ring of each layer
         lo_next, hi_next = np.roll(lo, -1, axis=-1), np.roll(hi, -1, axis=-1)
-        # Outward (away from the axis, upward) orientation: (b_s, b_s+1, t_s+1) and (b_s, t_s+1, t_s).
+        # Outward (away from the axis, upward) orientation: (b_s, b_s+1, t_s+1) and (b_s, t_s+1,
+        # t_s).
         first = np.stack([lo, lo_next, hi_next], axis=-1)  # (ny, nx, n, 4, 3)
         second = np.stack([lo, hi_next, hi], axis=-1)[:, :, : n - 1]  # none in the apex layer
         per_spike = [first[:, :, : n - 1], second, first[:, :, n - 1 :]]
@@ -345,10 +353,10 @@ class SpikeGrid:
         Samples are at ``-size/2 + k * pitch`` for k = 0 .. floor(size / pitch) along each axis
         (the last sample reaches the far edge only when the pitch divides the size).
         """
-        px, py = (pitch, pitch) if np.isscalar(pitch) or isinstance(pitch, str) else pitch
-        px, py = _length(px, "pitch"), _length(py, "pitch")
-        nsx = int(math.floor(self.size_x / px * (1 + 1e-12))) + 1
-        nsy = int(math.floor(self.size_y / py * (1 + 1e-12))) + 1
+        pair = pitch if isinstance(pitch, (tuple, list, np.ndarray)) else (pitch, pitch)
+        px, py = _length(pair[0], "pitch"), _length(pair[1], "pitch")
+        nsx = math.floor(self.size_x / px * (1 + 1e-12)) + 1
+        nsy = math.floor(self.size_y / py * (1 + 1e-12)) + 1
         if min(nsx, nsy) < 2:
             raise ConfigError(
                 f"pitch: ({px!r}, {py!r}) mm gives fewer than 2 samples across the "

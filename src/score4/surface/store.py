@@ -50,6 +50,7 @@ def save_surface(surface: Surface, path: str | Path) -> Path:
         if surface.spikes is not None:
             f.create_dataset("spikes/heights", data=surface.spikes.heights).attrs["units"] = "mm"
         else:
+            assert hm is not None  # a surface holds spikes or a height map
             d = f.create_dataset("heightmap/heights", data=hm.heights, compression="gzip")
             d.attrs["units"] = "mm"
             d.attrs["pitch_x"], d.attrs["pitch_y"] = hm.pitch_x, hm.pitch_y
@@ -79,27 +80,30 @@ def _read(f: h5py.File, path: Path) -> Surface:
     version = int(f.attrs["format_version"])
     if version > FORMAT_VERSION:
         raise ConfigError(
-            f"surface file: {path} has format version {version}; this score4 reads up to {FORMAT_VERSION}"
+            f"surface file: {path} has format version {version}; this score4 reads up to "
+            f"{FORMAT_VERSION}"
         )
     spec = parse_surface_spec(json.loads(f.attrs["spec"]), origin=f"{path} (stored description)")
     metadata = json.loads(f.attrs.get("metadata", "{}"))
     if "spikes" in f:
         stored = f["spikes/heights"][...]
-        surface = build_surface(spec)
-        if surface.spikes.heights.shape != stored.shape or not np.array_equal(
-            surface.spikes.heights, stored
+        spikes = build_surface(spec).spikes
+        if (
+            spikes is None
+            or spikes.heights.shape != stored.shape
+            or not np.array_equal(spikes.heights, stored)
         ):
             raise ConfigError(
-                f"surface file: {path}: the spike heights rebuilt from the stored description differ from the "
-                "stored heights (file written by an incompatible score4 version?)"
+                f"surface file: {path}: the spike heights rebuilt from the stored description "
+                "differ from the stored heights (file written by an incompatible score4 version?)"
             )
-        return Surface(spec, spikes=surface.spikes, metadata=metadata)
+        return Surface(spec, spikes=spikes, metadata=metadata)
     d = f["heightmap/heights"]
     hm = HeightMap(
         d[...],
         float(d.attrs["pitch_x"]),
         float(d.attrs["pitch_y"]),
-        origin=tuple(float(v) for v in d.attrs["origin"]),
+        origin=(float(d.attrs["origin"][0]), float(d.attrs["origin"][1])),
         metadata=metadata,
     )
     return Surface(spec, heightmap=hm, metadata=metadata)

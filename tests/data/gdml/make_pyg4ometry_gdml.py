@@ -104,7 +104,8 @@ def main() -> None:
     out = Path(__file__).with_name("pyg4ometry_tessellated.gdml")
     writer.write(str(out))
     print(
-        f"wrote {out}: {len(facets)} facets, {len(vertices)} vertices, pyg4ometry {version('pyg4ometry')}"
+        f"wrote {out}: {len(facets)} facets, {len(vertices)} vertices, pyg4ometry "
+        f"{version('pyg4ometry')}"
     )
 
 

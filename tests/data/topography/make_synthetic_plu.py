@@ -92,7 +92,8 @@ def reference(path: Path) -> None:
         np.argwhere(np.ma.getmaskarray(h)).tolist(),
     )
     print(
-        f"mean {h.mean():.9g} std {h.std():.9g} [0,0] {h[0, 0]:.9g} [39,29] {h[-1, -1]:.9g} [5,3] {h[5, 3]:.9g}"
+        f"mean {h.mean():.9g} std {h.std():.9g} [0,0] {h[0, 0]:.9g} [39,29] {h[-1, -1]:.9g} [5,3] "
+        f"{h[5, 3]:.9g}"
     )
 
 
