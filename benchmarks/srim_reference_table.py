@@ -1,4 +1,4 @@
-"""SRIM/TRIM reference ranges for the ions and detector materials of the field (issue 10, items 1, 5).
+"""SRIM/TRIM reference ranges of the ions and detector materials of the field (issue 10, 1 and 5).
 
 Run: ``.venv/bin/python benchmarks/srim_reference_table.py [--pb-ions 1000] [--alpha-ions 500]``.
 
@@ -150,9 +150,9 @@ def write_csv(path: Path, rows: list[dict], comment: str) -> None:
 
 def print_table(rows: list[dict], columns: list[str]) -> None:
     widths = [max(len(c), *(len(str(r[c])) for r in rows)) for c in columns]
-    print("  ".join(c.rjust(w) for c, w in zip(columns, widths)))
+    print("  ".join(c.rjust(w) for c, w in zip(columns, widths, strict=True)))
     for r in rows:
-        print("  ".join(str(r[c]).rjust(w) for c, w in zip(columns, widths)))
+        print("  ".join(str(r[c]).rjust(w) for c, w in zip(columns, widths, strict=True)))
 
 
 def main() -> None:
@@ -198,8 +198,10 @@ def main() -> None:
         f"written by benchmarks/srim_reference_table.py with {version}; TRIM ions through a "
         f"layer at angle_deg from the normal; energies in keV",
     )
-    print(f"\nwrote {args.out / 'srim_reference.csv'} and {args.out / 'srim_thin_layers.csv'} "
-          f"in {time.perf_counter() - t0:.0f} s (shared machine: times are indicative)")  # fmt: skip
+    print(
+        f"\nwrote {args.out / 'srim_reference.csv'} and {args.out / 'srim_thin_layers.csv'} "
+        f"in {time.perf_counter() - t0:.0f} s (shared machine: times are indicative)"
+    )
 
 
 if __name__ == "__main__":

@@ -9,12 +9,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import config_dict
 
 from score4.config import parse_config
 from score4.errors import ConfigError
 from score4.output import read_results
 from score4.sim.engine import run
+
+from conftest import config_dict
 
 MATERIALS = {
     "TeO2": {"formula": "TeO2", "density": "6.02 g/cm3"},
@@ -44,7 +45,7 @@ def test_materials_parse_and_compose():
 
 
 @pytest.mark.parametrize(
-    "materials, match",
+    ("materials", "match"),
     [
         (
             {"X": {"formula": "TeXx2", "density": "6 g/cm3"}},
@@ -102,7 +103,8 @@ def test_geant4_builds_the_materials():
     sys.path.insert(0, str(Path(__file__).parent))
     out = _in_process(_geant4_materials, MATERIALS, ["TeO2", "my_alloy", "TeO2", "Te02", "G4_Si"])
     te = out["TeO2"]
-    assert te["name"] == "TeO2" and te["density"] == pytest.approx(6.02)
+    assert te["name"] == "TeO2"
+    assert te["density"] == pytest.approx(6.02)
     assert te["atoms"] == pytest.approx({"Te": 1 / 3, "O": 2 / 3}, rel=1e-9)
     alloy = out["my_alloy"]["atoms"]
     # Geant4's atomic masses: Sn 118.71, Cu 63.546 g/mole

@@ -1,4 +1,6 @@
-"""``score4 range``: validation, SRIM side, printing and plots, with a stand-in for score4's transport.
+"""``score4 range``: validation, SRIM side, printing and plots.
+
+With a stand-in for score4's transport.
 
 score4's own ion transport (``score4.sim.range_run.simulate_range``) is replaced here by a fake
 that returns a fixed Gaussian depth distribution, so these tests check the command itself; the
@@ -97,10 +99,14 @@ def test_table_with_srim(fake, capfd):
     ):
         assert label in out
     assert "Geant4 chatter" not in out
-    assert "TRIM (lunasrim): 200 ions" in err and "TRIM 200/200 ions" in err
+    assert "TRIM (lunasrim): 200 ions" in err
+    assert "TRIM 200/200 ions" in err
     (call,) = fake
-    assert call["ion"] == "Pb206" and call["energy_mev"] == pytest.approx(0.103144)
-    assert call["material"] == "G4_Si" and call["thickness_mm"] is None and call["seed"] == 1
+    assert call["ion"] == "Pb206"
+    assert call["energy_mev"] == pytest.approx(0.103144)
+    assert call["material"] == "G4_Si"
+    assert call["thickness_mm"] is None
+    assert call["seed"] == 1
 
 
 def test_json_keys_and_srim_values(fake, capfd):
@@ -111,14 +117,17 @@ def test_json_keys_and_srim_values(fake, capfd):
     assert err == ""  # --quiet
     data = json.loads(out)  # nothing but JSON on stdout, NaN written as null
     keys = ["projected_range_nm", "straggling_nm", "lateral_nm", "backscattered_fraction"]
-    for key in keys + ["transmitted_fraction", "mean_deposited_keV"]:
-        assert key in data and key in data["srim"]
+    for key in [*keys, "transmitted_fraction", "mean_deposited_keV"]:
+        assert key in data
+        assert key in data["srim"]
     assert data["projected_range_nm"] == pytest.approx(46, abs=2.5)  # the fake's 46 nm
     # TRIM, 200 ions, seed 1 (as in test_srim_reference): 46.1 nm, SRIM's table 44.8 nm
     assert data["srim"]["projected_range_nm"] == pytest.approx(46.1, abs=0.1)
     assert data["srim"]["table"]["projected_range_nm"] == pytest.approx(44.84, rel=1e-3)
-    assert data["srim"]["events"] == 200 and data["mean_exit_energy_keV"] is None
-    assert data["density_g_cm3"] == 2.33 and data["composition"] == {"Si": 1.0}
+    assert data["srim"]["events"] == 200
+    assert data["mean_exit_energy_keV"] is None
+    assert data["density_g_cm3"] == 2.33
+    assert data["composition"] == {"Si": 1.0}
 
 
 def test_thin_layer_png_and_formula_with_density(fake, capfd, tmp_path):
@@ -143,13 +152,17 @@ def test_thin_layer_png_and_formula_with_density(fake, capfd, tmp_path):
         str(png),
     )
     assert status == 0, err
-    assert "layer of 40 nm, 60 deg from the normal" in out and "(TeO2, 6.02 g/cm3)" in out
-    assert png.stat().st_size > 10_000 and f"wrote {png}" in err
+    assert "layer of 40 nm, 60 deg from the normal" in out
+    assert "(TeO2, 6.02 g/cm3)" in out
+    assert png.stat().st_size > 10_000
+    assert f"wrote {png}" in err
     (call,) = fake
-    assert call["thickness_mm"] == pytest.approx(40e-6) and call["angle_deg"] == 60.0
+    assert call["thickness_mm"] == pytest.approx(40e-6)
+    assert call["angle_deg"] == 60.0
     assert call["materials"]["TeO2"].density == 6.02
     rows = {line[:34].strip(): line for line in out.splitlines()}
-    assert "0." in rows["transmitted fraction"] and "keV" in rows["mean exit energy (transmitted)"]
+    assert "0." in rows["transmitted fraction"]
+    assert "keV" in rows["mean exit energy (transmitted)"]
 
 
 def test_materials_from_config(fake, capfd, tmp_path):
@@ -165,7 +178,7 @@ def test_materials_from_config(fake, capfd, tmp_path):
 
 
 @pytest.mark.parametrize(
-    "args, message",
+    ("args", "message"),
     [
         (["Xx206", "103 keV", "G4_Si"], "ION: unknown ion 'Xx206'"),
         (["alpah", "5 MeV", "G4_Si"], "closest: alpha"),
@@ -211,8 +224,10 @@ def test_bad_input_one_line_exit_2(fake, capfd, args, message):
     import re
 
     status, out, err = _run(capfd, *args)
-    assert status == 2 and out == ""
-    assert len(err.strip().splitlines()) == 1 and err.startswith("score4: error: ")
+    assert status == 2
+    assert out == ""
+    assert len(err.strip().splitlines()) == 1
+    assert err.startswith("score4: error: ")
     assert re.search(message, err), err
     assert fake == []  # refused before any simulation
 
@@ -221,21 +236,25 @@ def test_bad_materials_in_config(fake, capfd, tmp_path):
     config = tmp_path / "m.yaml"
     config.write_text("materials:\n  TeO2: {formula: TeO2, density: 6.02}\n")
     status, _, err = _run(capfd, "Pb206", "103 keV", "TeO2", "--config", str(config))
-    assert status == 2 and "materials.TeO2.density: 6.02 has no unit" in err
+    assert status == 2
+    assert "materials.TeO2.density: 6.02 has no unit" in err
 
 
 def test_lunasrim_missing(fake, capfd, monkeypatch):
     monkeypatch.setitem(sys.modules, "lunasrim", None)
     status, _, err = _run(capfd, "Pb206", "103 keV", "G4_Si", "--compare-srim")
-    assert status == 2 and err.strip().endswith("pip install lunasrim")
-    assert len(err.strip().splitlines()) == 1 and fake == []
+    assert status == 2
+    assert err.strip().endswith("pip install lunasrim")
+    assert len(err.strip().splitlines()) == 1
+    assert fake == []
 
 
 def test_transport_module_missing(capfd, monkeypatch):
     monkeypatch.setitem(sys.modules, "score4.sim.range_run", None)
     monkeypatch.setattr("score4.cli.range_cmd.nist_names", lambda: list(NIST))
     status, _, err = _run(capfd, "Pb206", "103 keV", "G4_Si")
-    assert status == 2 and "score4.sim.range_run" in err
+    assert status == 2
+    assert "score4.sim.range_run" in err
 
 
 def test_unknown_material_with_real_geant4_names(tmp_path):
@@ -270,5 +289,6 @@ def test_depth_plot_shares_bins_and_normalises(tmp_path):
     )
     widths = np.diff(drawn.edges_nm)
     assert [float((d * widths).sum()) for d in drawn.density] == pytest.approx([1.0, 1.0])
-    assert drawn.stopped == [300, 500] and drawn.edges_nm[0] >= 0
+    assert drawn.stopped == [300, 500]
+    assert drawn.edges_nm[0] >= 0
     assert (tmp_path / "d.png").stat().st_size > 10_000

@@ -40,7 +40,7 @@ def _srim_cache(tmp_path_factory):
 
 
 @pytest.mark.parametrize(
-    "name, z, a, canonical",
+    ("name", "z", "a", "canonical"),
     [
         ("Pb206", 82, 206, "Pb206"),
         ("Pb-206", 82, 206, "Pb206"),
@@ -88,11 +88,13 @@ def test_summarize_by_hand():
         deposited=[0.1, 0.1, 0.09, 0.07],
     )
     s = summarize(sample)
-    assert s["events"] == 4 and s["stopped"] == 2
+    assert s["events"] == 4
+    assert s["stopped"] == 2
     assert s["projected_range_nm"] == pytest.approx(15.0)
     assert s["straggling_nm"] == pytest.approx(5.0)  # population standard deviation, as TRIM
     assert s["lateral_nm"] == pytest.approx(math.sqrt((25 + 0) / 2 / 2))
-    assert s["backscattered_fraction"] == 0.25 and s["transmitted_fraction"] == 0.25
+    assert s["backscattered_fraction"] == 0.25
+    assert s["transmitted_fraction"] == 0.25
     assert s["mean_exit_energy_keV"] == pytest.approx(30.0)
     assert s["mean_deposited_keV"] == pytest.approx(90.0)
     unknown = RangeSample(pos, [True] * 4, [False] * 4, [False] * 4, [0] * 4, [np.nan] * 4)
@@ -110,14 +112,16 @@ def test_stopping_table_reference_pb_in_si():
 def test_trim_semi_infinite_pb_in_si():
     sample = srim_range_sample("Pb206", PB_MEV, SI, ions=200, seed=1)
     s = summarize(sample)
-    assert sample.stopped.all() and s["transmitted_fraction"] == 0
+    assert sample.stopped.all()
+    assert s["transmitted_fraction"] == 0
     # TRIM's Monte Carlo mean range and SRIM's table agree to a few %; 200 ions give a standard
     # error of ~0.7 nm, so 10 % (4.5 nm) cannot fail by chance but catches unit or axis mix-ups.
     ref = stopping_table_reference("Pb206", PB_MEV, SI)
     assert s["projected_range_nm"] == pytest.approx(ref["projected_range_nm"], rel=0.10)
     assert s["straggling_nm"] == pytest.approx(ref["straggling_nm"], rel=0.25)
     assert s["lateral_nm"] == pytest.approx(ref["lateral_nm"], rel=0.25)
-    assert np.all(sample.deposited == PB_MEV) and np.all(sample.exit_energy == 0)
+    assert np.all(sample.deposited == PB_MEV)
+    assert np.all(sample.exit_energy == 0)
 
 
 def test_trim_thin_layer_and_angle_convention():
@@ -166,7 +170,7 @@ def test_trim_cache_reused(monkeypatch):
 
 
 @pytest.mark.parametrize(
-    "kwargs, match",
+    ("kwargs", "match"),
     [
         ({"energy_mev": 0.0}, "energy: must be > 0"),
         ({"energy_mev": 1e6}, "above SRIM's validity"),

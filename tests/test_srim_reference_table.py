@@ -39,12 +39,14 @@ def test_reference_table_complete():
         ("alpha", "1000"), ("alpha", "3000"), ("alpha", "5300"),
     }  # fmt: skip
     g4 = {r["material"]: (r["geant4_material"], r["density_g_cm3"]) for r in rows}
-    assert g4["Si"] == ("G4_Si", "2.33") and g4["CaWO4"] == ("G4_CALCIUM_TUNGSTATE", "6.062")
-    assert g4["TeO2"] == ("materials: TeO2", "6.02") and g4["NaI"][0] == "G4_SODIUM_IODIDE"
+    assert g4["Si"] == ("G4_Si", "2.33")
+    assert g4["CaWO4"] == ("G4_CALCIUM_TUNGSTATE", "6.062")
+    assert g4["TeO2"] == ("materials: TeO2", "6.02")
+    assert g4["NaI"][0] == "G4_SODIUM_IODIDE"
 
 
 @pytest.mark.parametrize(
-    "ion, energy_kev, material",
+    ("ion", "energy_kev", "material"),
     [
         ("Pb-206", "103.144", "Si"),
         ("Pb-206", "50", "CaWO4"),

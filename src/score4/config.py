@@ -79,10 +79,11 @@ class MaterialSpec(StrictModel):
             composition = Composition.from_formula(self.formula, self.formula, self.density)
             symbols = [s for s, _ in composition.atoms]
         else:
-            symbols = list(self.elements)
+            elements = self.elements or {}
+            symbols = list(elements)
             if not symbols:
                 raise ValueError("elements: give at least one element")
-            bad = {s: f for s, f in self.elements.items() if not f > 0}
+            bad = {s: f for s, f in elements.items() if not f > 0}
             if bad:
                 raise ValueError(f"elements: fractions must be > 0, got {bad}")
         for symbol in symbols:
@@ -102,7 +103,7 @@ class MaterialSpec(StrictModel):
 
         if self.formula is not None:
             return Composition.from_formula(name, self.formula, self.density)
-        atoms = dict(self.elements)
+        atoms = dict(self.elements or {})
         if self.fractions == "mass":
             from lunasrim import data_files
 
@@ -343,7 +344,7 @@ class RunConfig(StrictModel):
     """A complete run description."""
 
     physics: PhysicsConfig = PhysicsConfig()
-    materials: dict[str, MaterialSpec] = {}
+    materials: dict[str, MaterialSpec] = {}  # noqa: RUF012 pydantic copies defaults
     world: WorldConfig = WorldConfig()
     surfaces: dict[str, SurfaceDescription] = {}  # noqa: RUF012 pydantic copies defaults
     targets: list[BoxVolume] = Field(min_length=1)

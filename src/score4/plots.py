@@ -425,7 +425,7 @@ def plot_depths(
 
 @dataclass(frozen=True)
 class RangeDepths:
-    """Drawn depth histograms of stopped ions: ``density`` per nm (each integrates to 1) on ``edges_nm``."""
+    """Drawn depth histograms of stopped ions: ``density`` per nm (integral 1) on ``edges_nm``."""
 
     labels: list[str]
     edges_nm: np.ndarray
@@ -436,14 +436,14 @@ class RangeDepths:
 def plot_range_depths(
     samples: dict, path: str | Path, title: str, bins: int | None = None
 ) -> RangeDepths:
-    """Depth distributions of the stopped ions of several :class:`~score4.ions.srim_reference.RangeSample`.
+    """Depth distributions of the stopped ions of several range samples (``RangeSample``).
 
     ``samples`` maps a legend label (``"score4"``, ``"TRIM"``) to a sample; all share the same
     bins, which span the stopped ions' depths (5 % margins), and each is normalised to unit
     area over depth, so shapes compare directly. Depths are drawn in nm, or in um beyond 10 um.
     """
     depths = {k: s.final_position[s.stopped, 2] * 1e6 for k, s in samples.items()}
-    every = np.concatenate([d for d in depths.values()] + [np.zeros(0)])
+    every = np.concatenate([*depths.values(), np.zeros(0)])
     if bins is None:  # about sqrt(n) bins for the smallest sample, 20 to 60
         smallest = min((len(d) for d in depths.values() if len(d)), default=400)
         bins = int(np.clip(np.sqrt(smallest), 20, 60))
@@ -454,7 +454,7 @@ def plot_range_depths(
     fig = Figure(figsize=(7, 4.5))
     ax = fig.add_subplot()
     drawn = []
-    for (label, d), style in zip(depths.items(), ("-", "--", ":", "-.")):
+    for (label, d), style in zip(depths.items(), ("-", "--", ":", "-."), strict=False):
         density = np.histogram(d, edges, density=True)[0] if len(d) else np.zeros(bins)
         drawn.append(density)
         n_all = samples[label].events

@@ -137,7 +137,7 @@ def _finite(value):
     return value
 
 
-def _fmt(value: float, err: float | None, kind: str, um: bool) -> str:
+def _fmt(value: float | None, err: float | None, kind: str, um: bool) -> str:
     if value is None or not math.isfinite(value):
         return "-"
     if kind == "fraction":

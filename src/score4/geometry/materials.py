@@ -68,10 +68,7 @@ def build_material(g4, name: str, spec):
         if element is None:
             raise ConfigError(f"materials.{name}: Geant4 has no element {symbol!r}")
         elements[symbol] = element
-    if by_mass:
-        weights = dict(parts)
-    else:
-        weights = {s: f * elements[s].GetA() for s, f in parts.items()}
+    weights = dict(parts) if by_mass else {s: f * elements[s].GetA() for s, f in parts.items()}
     total = sum(weights.values())
     material = g4.G4Material(name, spec.density * g4.g / g4.cm3, len(elements))
     for symbol, element in elements.items():

@@ -287,7 +287,7 @@ def srim_range_sample(
     if isinstance(seed, bool) or int(seed) != seed or not 0 <= seed < 2147483563:
         raise ConfigError(f"seed: TRIM's seed must be an integer in [0, 2147483562], got {seed!r}")
     semi_infinite = thickness_mm is None
-    if semi_infinite:
+    if thickness_mm is None:
         thickness_mm = semi_infinite_thickness_mm(species, energy_mev, composition)
     elif not (thickness_mm > 0 and math.isfinite(thickness_mm)):
         raise ConfigError(f"thickness: must be > 0, got {thickness_mm!r} mm")

@@ -143,10 +143,12 @@ def simulate_ranges(
         log_path = Path(tempfile.mkdtemp(prefix="score4-range-")) / "geant4.log"
     sim = Simulation(config, choice, log_path=log_path)
     scores = sim.run(beams(cases, events), int(seed), endpoints=True)
+    endpoints = sim.endpoints
+    assert endpoints is not None  # asked for above
     out = []
     for k, case in enumerate(cases):
         rows = slice(k * events, (k + 1) * events)
-        ends = sim.endpoints[rows]
+        ends = endpoints[rows]
         position = ends[:, :3] - np.array([k * PITCH, 0.0, 0.0])
         left = ends[:, 3] > 0
         sample = RangeSample(

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -21,6 +22,9 @@ from ..source.primaries import Primaries
 from .physics import make_physics_list, set_production_cut, strip_data_hungry_processes
 from .runtime import PhysicsChoice, import_geant4, redirect_native_output
 from .scoring import VolumeScorer
+
+if TYPE_CHECKING:
+    from .heavy_ions import HeavyIonTransport
 
 _ION = re.compile(r"^([A-Z][a-z]?)-?(\d{1,3})$")
 
@@ -122,7 +126,7 @@ class Simulation:
             strip_data_hungry_processes(g4) if self.choice.mode == "lite" else []
         )
         self.scorer.resolve_ids()
-        self.heavy_ions = None
+        self.heavy_ions: HeavyIonTransport | None = None
         if self.config.physics.heavy_ions == "trim":
             from .heavy_ions import HeavyIonTransport
 
@@ -132,7 +136,8 @@ class Simulation:
                 self.geometry.scoring,
                 histories=self.config.physics.trim_histories,
             )
-        self._endpoint_action = None
+        self._endpoint_action: Any = None
+        self.endpoints: np.ndarray | None = None
         self._particles: dict[str, object] = {}
         self.volumes = list(self.scorer.names)
         for name in np.unique(self.source.primaries(np.random.default_rng(0), 0, 1).particle):
@@ -219,15 +224,17 @@ class Simulation:
         return self._scores
 
     def _replay_heavy_ions(self, primaries: Primaries, g4_seed: int) -> None:
+        transport = self.heavy_ions
+        assert transport is not None  # rows are only marked for TRIM when it exists
         rng = np.random.default_rng([int(g4_seed), 0x5C0E4])  # own stream, fixed by the chunk
         rows = np.flatnonzero(self._trim)
         for row in rows:  # announce energies first: one library per ion and material
-            self.heavy_ions.need(str(primaries.particle[row]), float(primaries.energy[row]))
+            transport.need(str(primaries.particle[row]), float(primaries.energy[row]))
         edep = self._scores["edep"]
         length = self._scores.get("track_length")
         for row in rows:
             name = str(primaries.particle[row])
-            fate = self.heavy_ions.transport(
+            fate = transport.transport(
                 self._particles[name],
                 name,
                 float(primaries.energy[row]),
@@ -253,11 +260,12 @@ class Simulation:
             return
         if self.teleporter is not None:
             raise Score4Error("primary end points are not available with portal tiling")
-        g4, sim = self.g4, self
+        g4: Any = self.g4
+        sim = self
 
         class Endpoints(g4.G4UserTrackingAction):
             def PostUserTrackingAction(self, track):
-                if track.GetParentID() != 0:
+                if track.GetParentID() != 0 or sim.endpoints is None:
                     return
                 rows = sim._g4_rows_of_event(sim._next_event)
                 row = rows[track.GetTrackID() - 1]
