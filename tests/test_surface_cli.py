@@ -94,7 +94,7 @@ def test_generate_then_stats_json_random(tmp_path, capsys):
     code, stdout, err = run(capsys, "surface", "stats", out, "--json")
     assert code == 0, err
     doc = json.loads(stdout)
-    assert set(SYMBOLS) <= set(doc) and "mesh" not in doc
+    assert set(SYMBOLS) <= set(doc) and "map" not in doc and doc["exact"] == []
     assert doc["units"] == {
         s: ("um" if kind == "length" else "%" if kind == "percent" else "dimensionless")
         for s, kind, _ in PARAMETERS
@@ -116,7 +116,8 @@ def test_stats_json_spikes_mesh_values_are_exact(tmp_path, capsys):
     code, stdout, err = run(capsys, "surface", "stats", out, "--json")
     assert code == 0, err
     doc = json.loads(stdout)
-    mesh = doc["mesh"]
+    mesh, sampled = doc, doc["map"]  # top level: exact mesh values; "map": the sampled map
+    assert doc["exact"] == ["Sa", "Sq", "Sp", "Sv", "Sz", "Ssk", "Sku", "Sdq", "Sdr"]
     h, slope = 4.0, 0.8  # um, height / half width
     # Equal square pyramids: the area fraction above z is (1 - z/h)^2, so u = 1 - z/h has density
     # 2u on [0, 1]: Sq = h / sqrt(18), Ssk = 0.5657 (= 2 sqrt(2) / 5), Sku = 2.4; every facet has
@@ -127,10 +128,12 @@ def test_stats_json_spikes_mesh_values_are_exact(tmp_path, capsys):
     assert mesh["Sdq"] == pytest.approx(slope, rel=1e-9)
     assert mesh["Sdr"] == pytest.approx((math.sqrt(1 + slope**2) - 1) * 100, rel=1e-9)
     assert mesh["Sz"] == pytest.approx(h, rel=1e-9)
-    assert "Sal" not in mesh  # mesh metrology has no ACF parameters
+    # mesh metrology has no ACF parameters: Sal and Str are the map's
+    assert "Sal" not in doc["exact"] and doc["Sal"] == sampled["Sal"] is not None
     # The map (16 samples per cell) agrees with the exact values to the sampling error.
-    assert doc["Sq"] == pytest.approx(mesh["Sq"], rel=0.05)
-    assert doc["Sdq"] == pytest.approx(slope, rel=0.01)
+    assert sampled["Sq"] == pytest.approx(mesh["Sq"], rel=0.05)
+    assert sampled["Sq"] != mesh["Sq"]
+    assert sampled["Sdq"] == pytest.approx(slope, rel=0.01)
     assert doc["surface"]["n_spikes"] == 30
 
 
@@ -138,7 +141,7 @@ def test_stats_text_and_all_file_kinds(tmp_path, capsys):
     desc = write_yaml(tmp_path, "pyr", PYRAMIDS)
     code, stdout, err = run(capsys, "surface", "stats", desc)  # a description is built on the fly
     assert code == 0, err
-    assert "mesh (exact)" in stdout
+    assert "(exact, mesh)" in stdout and "(map)" in stdout
     lines = {line.split()[0]: line for line in stdout.splitlines()[2:]}
     assert list(lines) == SYMBOLS
     assert "um" in lines["Sq"].split() and "%" in lines["Sdr"].split()
