@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.score4-installed
 
-.PHONY: demo test clean
+.PHONY: demo test docs-check clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -22,6 +22,12 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest
+
+# Re-run the commands behind every transcript and number quoted in README.md and docs/*.md
+# (docs/checks.yaml); fails on any difference. After a change that moves the numbers:
+#   .venv/bin/python tools/docs_check.py --update   (then read the diff)
+docs-check: $(STAMP)
+	$(BIN)/python tools/docs_check.py
 
 clean:
 	rm -rf $(VENV) out build src/*.egg-info
