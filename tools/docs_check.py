@@ -84,7 +84,9 @@ def load_checks() -> dict[str, Check]:
 
 def doc_block(doc: str, lang: str, n: int) -> str:
     """The n-th (from 1) fenced block of language ``lang`` in the document ``doc``."""
-    blocks = re.findall(rf"^```{re.escape(lang)}\n(.*?)^```", (ROOT / doc).read_text(), re.M | re.S)
+    blocks = re.findall(
+        rf"^```{re.escape(lang)}\n(.*?)^```", (ROOT / doc).read_text(), re.MULTILINE | re.DOTALL
+    )
     if not 1 <= n <= len(blocks):
         raise CheckError(f"{doc} has {len(blocks)} ```{lang} blocks, not {n}")
     return blocks[n - 1]
