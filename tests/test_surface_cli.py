@@ -203,6 +203,36 @@ def test_show_writes_a_png(tmp_path, capsys, data):
     ) == ["pic.png"]
 
 
+def test_show_keeps_labels_inside_and_pyramids_at_true_aspect(tmp_path, monkeypatch):
+    """Nothing drawn touches the figure's border; 1:1 pyramids are not stretched in 3D."""
+    import matplotlib.image
+
+    from score4.surface import plot as surface_plot
+
+    titles = []
+    original = surface_plot.Figure.savefig
+
+    def spy(fig, *args, **kwargs):
+        titles.extend(ax.get_title() for ax in fig.axes)
+        return original(fig, *args, **kwargs)
+
+    monkeypatch.setattr(surface_plot.Figure, "savefig", spy)
+    measured = ROOT / "examples" / "surfaces" / "measured.yaml"
+    pyramids = ROOT / "examples" / "surfaces" / "pyramids.yaml"
+    for source in (measured, pyramids):
+        png = tmp_path / f"{source.stem}.png"
+        assert main(["surface", "show", str(source), "--png", str(png), "--dpi", "80"]) == 0
+        grey = matplotlib.image.imread(png)[..., :3].mean(axis=2)
+        border = np.concatenate(
+            [grey[:2].ravel(), grey[-2:].ravel(), grey[:, :2].ravel(), grey[:, -2:].ravel()]
+        )
+        assert (border > 0.8).all(), f"{source.name}: something is drawn on the figure's border"
+    # the measured map is nearly flat: its heights are stretched and the title says so;
+    # the paper's pyramids (10 um wide, 10 um high) are drawn at their true aspect
+    assert any("heights x" in t for t in titles[: len(titles) // 2])
+    assert any("true aspect" in t for t in titles[len(titles) // 2 :])
+
+
 # --- export ---------------------------------------------------------------------------------
 
 
