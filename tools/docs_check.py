@@ -15,8 +15,8 @@ of the check's commands, from that command's output on) by their *shape* (the li
   paired but not compared.
 * Commands may use two helpers that take code from the documents themselves, so a quoted
   configuration or script cannot drift from what runs: ``write-block DOC LANG N FILE`` writes
-  the N-th (from 1) fenced block of language LANG in DOC to FILE; ``python-block DOC N`` runs
-  the N-th ``python`` block of DOC.
+  the N-th (from 1) fenced block of language LANG (``-``: no language) in DOC to FILE;
+  ``python-block DOC N [ARGS]`` runs the N-th ``python`` block of DOC.
 * a value in the text: ``<!-- value: NAME.KEY -->4248<!-- /value -->``, where ``KEY`` is a
   value of the check: ``values: {KEY: REGEX}`` in checks.yaml, the first group of the first
   output line the regex matches.
@@ -96,12 +96,13 @@ def _expand(command: str, tmp: Path) -> str:
     """Expand the write-block / python-block helpers into plain shell commands."""
     words = command.split()
     if words[0] == "write-block" and len(words) == 5:
-        (tmp / words[4]).write_text(doc_block(words[1], words[2], int(words[3])))
+        lang = "" if words[2] == "-" else words[2]
+        (tmp / words[4]).write_text(doc_block(words[1], lang, int(words[3])))
         return "true"
-    if words[0] == "python-block" and len(words) == 3:
+    if words[0] == "python-block" and len(words) >= 3:
         script = tmp / f"_block_{Path(words[1]).stem}_{words[2]}.py"
         script.write_text(doc_block(words[1], "python", int(words[2])))
-        return f"python {script.name}"
+        return " ".join(["python", script.name, *words[3:]])
     return command
 
 
