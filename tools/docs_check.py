@@ -113,7 +113,7 @@ def run_check(check: Check) -> list[str]:
     env = dict(os.environ)
     env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"
     env["PYTHONPATH"] = f"{ROOT / 'src'}{os.pathsep}{env.get('PYTHONPATH', '')}"
-    env["COLUMNS"] = "100"
+    env["COLUMNS"] = "80"  # click wraps --help to the terminal width
     start = time.perf_counter()
     lines: list[str] = []
     with tempfile.TemporaryDirectory(prefix=f"docs-check-{check.name}-") as tmp:
