@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.score4-installed
 PYTEST_ARGS ?=
 
-.PHONY: demo test lint clean
+.PHONY: demo test lint docs-check clean
 
 # score4 (editable) with the test extra, plus the pinned linters of the `lint` dependency group
 # (pip >= 25.1 reads dependency groups; the step upgrades pip first).
@@ -31,6 +31,12 @@ lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy
+
+# Re-run the commands behind every transcript and number quoted in README.md and docs/*.md
+# (docs/checks.yaml); fails on any difference. After a change that moves the numbers:
+#   .venv/bin/python tools/docs_check.py --update   (then read the diff)
+docs-check: $(STAMP)
+	$(BIN)/python tools/docs_check.py
 
 clean:
 	rm -rf $(VENV) out build src/*.egg-info

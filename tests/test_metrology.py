@@ -351,3 +351,25 @@ def test_unlevelled_heights_match_surfalize_without_levelling():
     ours = areal_parameters(HeightMap(z, 1.0, 1.0), level=False)
     for key in ("Sa", "Sq", "Sp", "Sv", "Sz", "Ssk", "Sku"):
         assert ours[key] == pytest.approx(ref[key], rel=1e-6), key
+
+
+# --- periodic maps: one period --------------------------------------------------------------
+def test_closed_periodic_map_is_measured_over_one_period():
+    """A closed periodic tile gives the statistics of its period, not of the duplicated edge."""
+    from score4.surface.processing import close_periodic, one_period
+    from score4.surface.random import gaussian_random_surface
+
+    period = gaussian_random_surface(
+        24, 20, 1e-3, sq=1e-3, corr_length_x=3e-3, seed=5, periodic=True
+    )
+    closed = close_periodic(period)
+    assert closed.shape == (21, 25) and one_period(closed).shape == (20, 24)
+    got, want = areal_parameters(closed), areal_parameters(period)
+    for symbol, value in want.items():
+        assert got[symbol] == pytest.approx(value, rel=1e-12, nan_ok=True), symbol
+    # Without the reduction the duplicated edge changes the values (the test can fail):
+    # the edge points count twice and weigh in the levelling plane.
+    raw = areal_parameters(HeightMap(closed.heights, closed.pitch_x, closed.pitch_y))
+    assert abs(raw["Sq"] / want["Sq"] - 1) > 1e-4
+    # A map that is not a closed tile is left as it is.
+    assert one_period(period) is period

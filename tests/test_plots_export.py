@@ -66,6 +66,16 @@ def nonzero(e: np.ndarray) -> np.ndarray:
     return e[e != 0]
 
 
+def assert_centred(edges, lo, hi, bins, line):
+    """Bins of width (hi - lo) / bins covering [lo, hi + width / 2] with ``line`` mid-bin."""
+    width = (hi - lo) / bins
+    assert np.allclose(np.diff(edges), width, rtol=1e-9, atol=0)
+    assert edges[0] <= lo < edges[0] + width and edges[-1] >= hi + width / 2 - 1e-12
+    k = np.searchsorted(edges, line) - 1
+    assert (line - edges[k]) == pytest.approx(width / 2, rel=1e-9)
+    assert (edges[k + 1] - line) == pytest.approx(width / 2, rel=1e-9)
+
+
 # --- spectra ---------------------------------------------------------------------------------
 
 
@@ -74,14 +84,13 @@ def test_spectrum_of_one_run_is_the_histogram_of_its_deposits(runs, tmp_path):
     e = res.edep["crystal"]
     (s,) = plot_spectra(runs["a"], tmp_path / "a.png")
     assert_png(tmp_path / "a.png")
-    # defaults: 100 bins from 0 to the largest primary energy (5.3 MeV)
+    # defaults: bins of 5.3 MeV / 100 from 0 to the largest primary energy (5.3 MeV), shifted
+    # by half a bin so the full-energy line sits in the middle of the last bin
     edges = s.hist.edges
-    assert len(edges) == 101
-    assert edges[0] == 0
-    assert edges[-1] == res.primary_energy.max() == pytest.approx(5.3)
-    # deposits above the top edge by rounding only (<= 1e-9 relative) belong in the top bin
-    assert (e <= edges[-1] * (1 + 1e-9)).all()
-    expected, _ = np.histogram(np.minimum(nonzero(e), edges[-1]), bins=edges)
+    assert_centred(edges, 0.0, 5.3, 100, line=5.3)
+    assert edges[-1] == pytest.approx(5.3 + 0.053 / 2, rel=1e-12)
+    assert (e <= edges[-1]).all()
+    expected, _ = np.histogram(nonzero(e), bins=edges)
     assert np.array_equal(s.hist.counts, expected)
     assert np.allclose(s.y, expected / (np.diff(edges) * 1e3), rtol=1e-12)
     # about half the alphas fly away: present in the data, absent from the curve, stated in the
@@ -101,10 +110,10 @@ def test_two_runs_per_event_share_edges_and_compare(runs, tmp_path):
     )
     assert_png(out)
     sa, sb = spectra
-    assert [s.label for s in spectra] == ["A", "B"]
-    assert sa.volume == sb.volume == "crystal"
-    # common binning: bins of the first run (100), top = larger of the runs' tops (b: 6 MeV)
-    assert np.array_equal(sa.hist.edges, np.linspace(0, 6.0, 101))
+    assert [s.label for s in spectra] == ["A", "B"] and sa.volume == sb.volume == "crystal"
+    # common binning: bins of the first run (100), top = larger of the runs' tops (b: 6 MeV),
+    # centred on the full-energy line (5.3 MeV)
+    assert_centred(sa.hist.edges, 0.0, 6.0, 100, line=5.3)
     assert sa.hist.edges is sb.hist.edges
     for s, key in ((sa, "a"), (sb, "b")):
         res = read_results(runs[key])
@@ -117,6 +126,21 @@ def test_two_runs_per_event_share_edges_and_compare(runs, tmp_path):
         assert np.sum(s.y * widths_keV) == pytest.approx(np.count_nonzero(e) / res.n_events)
 
 
+def test_full_energy_peak_falls_in_one_bin_with_errors(runs, tmp_path):
+    """--emin 4 MeV --emax 6 MeV --bins 40: 5.3 MeV is a grid point; the peak must not split."""
+    e = read_results(runs["a"]).edep["crystal"]
+    full = np.count_nonzero(e > 5.3 * (1 - 1e-6))
+    assert full > 50
+    (s,) = plot_spectra(runs["a"], tmp_path / "peak.png", emin=4.0, emax=6.0, bins=40, errors=True)
+    assert_png(tmp_path / "peak.png")
+    assert_centred(s.hist.edges, 4.0, 6.0, 40, line=5.3)
+    k = np.searchsorted(s.hist.edges, 5.3) - 1
+    assert s.hist.counts[k] >= full and s.hist.counts[k + 1] == 0
+    # the frame is past the peak: the x axis ends half a bin above emax
+    assert s.hist.edges[-1] == pytest.approx(6.025)
+    assert main(["plot", str(runs["a"]), "--out", str(tmp_path / "cli.png"), "--errors"]) == 0
+
+
 def test_all_volumes_and_custom_range(runs, tmp_path):
     spectra = plot_spectra(runs["b"], tmp_path / "b.png", logy=False)
     assert [s.volume for s in spectra] == ["crystal", "absorber"]
@@ -125,15 +149,18 @@ def test_all_volumes_and_custom_range(runs, tmp_path):
     # the absorber above the face catches alphas flying up
     assert spectra[1].hist.counts.sum() == np.count_nonzero(res.edep["absorber"]) > 0
     # the run's own histogram settings: 50 bins up to 6 MeV
-    assert np.array_equal(spectra[0].hist.edges, np.linspace(0, 6.0, 51))
+    assert_centred(spectra[0].hist.edges, 0.0, 6.0, 50, line=5.3)
     (low,) = plot_spectra(runs["a"], tmp_path / "low.png", emax="500 keV", bins=10)  # x axis in keV
     assert_png(tmp_path / "low.png")
     e = read_results(runs["a"]).edep["crystal"]
-    assert np.array_equal(low.hist.edges, np.linspace(0, 0.5, 11))
+    # no line inside the range: bin centres on the round grid 0, 50, ..., 500 keV
+    assert_centred(low.hist.edges, 0.0, 0.5, 10, line=0.25)
+    top = low.hist.edges[-1]
+    assert top == pytest.approx(0.525)
     assert (
-        low.hist.n_overflow == np.count_nonzero(e > 0.5) > 50
+        low.hist.n_overflow == np.count_nonzero(e > top) > 50
     )  # full-energy alphas are off this range
-    assert low.hist.counts.sum() == np.count_nonzero((e > 0) & (e <= 0.5))
+    assert low.hist.counts.sum() == np.count_nonzero((e > 0) & (e <= top))
     assert f"{low.hist.n_overflow} above range" in low.legend
 
 

@@ -95,8 +95,7 @@ def test_generate_then_stats_json_random(tmp_path, capsys):
     code, stdout, err = run(capsys, "surface", "stats", out, "--json")
     assert code == 0, err
     doc = json.loads(stdout)
-    assert set(SYMBOLS) <= set(doc)
-    assert "mesh" not in doc
+    assert set(SYMBOLS) <= set(doc) and "map" not in doc and doc["exact"] == []
     assert doc["units"] == {
         s: ("um" if kind == "length" else "%" if kind == "percent" else "dimensionless")
         for s, kind, _ in PARAMETERS
@@ -119,7 +118,8 @@ def test_stats_json_spikes_mesh_values_are_exact(tmp_path, capsys):
     code, stdout, err = run(capsys, "surface", "stats", out, "--json")
     assert code == 0, err
     doc = json.loads(stdout)
-    mesh = doc["mesh"]
+    mesh, sampled = doc, doc["map"]  # top level: exact mesh values; "map": the sampled map
+    assert doc["exact"] == ["Sa", "Sq", "Sp", "Sv", "Sz", "Ssk", "Sku", "Sdq", "Sdr"]
     h, slope = 4.0, 0.8  # um, height / half width
     # Equal square pyramids: the area fraction above z is (1 - z/h)^2, so u = 1 - z/h has density
     # 2u on [0, 1]: Sq = h / sqrt(18), Ssk = 0.5657 (= 2 sqrt(2) / 5), Sku = 2.4; every facet has
@@ -130,10 +130,12 @@ def test_stats_json_spikes_mesh_values_are_exact(tmp_path, capsys):
     assert mesh["Sdq"] == pytest.approx(slope, rel=1e-9)
     assert mesh["Sdr"] == pytest.approx((math.sqrt(1 + slope**2) - 1) * 100, rel=1e-9)
     assert mesh["Sz"] == pytest.approx(h, rel=1e-9)
-    assert "Sal" not in mesh  # mesh metrology has no ACF parameters
+    # mesh metrology has no ACF parameters: Sal and Str are the map's
+    assert "Sal" not in doc["exact"] and doc["Sal"] == sampled["Sal"] is not None
     # The map (16 samples per cell) agrees with the exact values to the sampling error.
-    assert doc["Sq"] == pytest.approx(mesh["Sq"], rel=0.05)
-    assert doc["Sdq"] == pytest.approx(slope, rel=0.01)
+    assert sampled["Sq"] == pytest.approx(mesh["Sq"], rel=0.05)
+    assert sampled["Sq"] != mesh["Sq"]
+    assert sampled["Sdq"] == pytest.approx(slope, rel=0.01)
     assert doc["surface"]["n_spikes"] == 30
 
 
@@ -141,7 +143,7 @@ def test_stats_text_and_all_file_kinds(tmp_path, capsys):
     desc = write_yaml(tmp_path, "pyr", PYRAMIDS)
     code, stdout, err = run(capsys, "surface", "stats", desc)  # a description is built on the fly
     assert code == 0, err
-    assert "mesh (exact)" in stdout
+    assert "(exact, mesh)" in stdout and "(map)" in stdout
     lines = {line.split()[0]: line for line in stdout.splitlines()[2:]}
     assert list(lines) == SYMBOLS
     assert "um" in lines["Sq"].split()
@@ -206,6 +208,36 @@ def test_show_writes_a_png(tmp_path, capsys, data):
     assert sorted(
         p.name for p in tmp_path.iterdir() if p.suffix == ".png" or "partial" in p.name
     ) == ["pic.png"]
+
+
+def test_show_keeps_labels_inside_and_pyramids_at_true_aspect(tmp_path, monkeypatch):
+    """Nothing drawn touches the figure's border; 1:1 pyramids are not stretched in 3D."""
+    import matplotlib.image
+
+    from score4.surface import plot as surface_plot
+
+    titles = []
+    original = surface_plot.Figure.savefig
+
+    def spy(fig, *args, **kwargs):
+        titles.extend(ax.get_title() for ax in fig.axes)
+        return original(fig, *args, **kwargs)
+
+    monkeypatch.setattr(surface_plot.Figure, "savefig", spy)
+    measured = ROOT / "examples" / "surfaces" / "measured.yaml"
+    pyramids = ROOT / "examples" / "surfaces" / "pyramids.yaml"
+    for source in (measured, pyramids):
+        png = tmp_path / f"{source.stem}.png"
+        assert main(["surface", "show", str(source), "--png", str(png), "--dpi", "80"]) == 0
+        grey = matplotlib.image.imread(png)[..., :3].mean(axis=2)
+        border = np.concatenate(
+            [grey[:2].ravel(), grey[-2:].ravel(), grey[:, :2].ravel(), grey[:, -2:].ravel()]
+        )
+        assert (border > 0.8).all(), f"{source.name}: something is drawn on the figure's border"
+    # the measured map is nearly flat: its heights are stretched and the title says so;
+    # the paper's pyramids (10 um wide, 10 um high) are drawn at their true aspect
+    assert any("heights x" in t for t in titles[: len(titles) // 2])
+    assert any("true aspect" in t for t in titles[len(titles) // 2 :])
 
 
 # --- export ---------------------------------------------------------------------------------

@@ -10,6 +10,10 @@ Layout of a results file (lengths in mm, energies in MeV, stated in ``units`` at
     /events/track_length/<volume>  (n,) summed track length in that volume (if scored)
     /primaries/{event, particle, energy, xloc, yloc, zloc, dirx, diry, dirz, <extra>...}
 
+``/events`` (with its ``edep``/``track_length`` groups) and ``/primaries`` carry LH5 ``datatype``
+attributes (``table{...}``, ``array<1>{real}``), so legend-lh5io reads them
+(``lh5.read("events", file)``, ``lh5.read("primaries", file)``).
+
 Every file is written to ``<name>.partial`` first and renamed into place only when complete,
 so an interrupted writer never leaves a truncated file under the final name and never
 touches a file that already exists.
@@ -72,7 +76,21 @@ def write_chunk(
             g.attrs["volumes"] = json.dumps(volumes)
             for k, name in enumerate(volumes):
                 g.create_dataset(name, data=values[:, k]).attrs["units"] = QUANTITY_UNITS[quantity]
+        _label_lh5(ev, volumes, list(scores))
         write_primaries_table(f.create_group("primaries"), primaries, first_event)
+
+
+def _label_lh5(events: h5py.Group, volumes: list[str], quantities: list[str]) -> None:
+    """Give ``/events`` and its per-quantity groups the LH5 ``datatype`` attributes."""
+    for name in ("event_id", "primary_energy"):
+        events[name].attrs["datatype"] = "array<1>{real}"
+    for quantity in quantities:
+        for name in volumes:
+            events[quantity][name].attrs["datatype"] = "array<1>{real}"
+        events[quantity].attrs["datatype"] = "table{" + ",".join(volumes) + "}"
+    events.attrs["datatype"] = (
+        "table{" + ",".join(["event_id", "primary_energy", *quantities]) + "}"
+    )
 
 
 def merge_chunks(chunk_paths: list[Path], out: Path, run_record: dict) -> None:
@@ -101,6 +119,7 @@ def merge_chunks(chunk_paths: list[Path], out: Path, run_record: dict) -> None:
                 for name in volumes:
                     data = np.concatenate([p["events"][quantity][name][()] for p in parts])
                     g.create_dataset(name, data=data).attrs["units"] = QUANTITY_UNITS[quantity]
+            _label_lh5(ev, volumes, quantities)
             prim = f.create_group("primaries")
             prim.attrs.update(dict(parts[0]["primaries"].attrs))
             for key in parts[0]["primaries"]:

@@ -261,6 +261,23 @@ def _log_axis(ax, y_arrays: Iterable[np.ndarray]) -> bool:
     return True
 
 
+def line_centred_edges(edges: np.ndarray, line: float | None) -> np.ndarray:
+    """Bin edges of the width of ``edges`` that put ``line`` (MeV) at a bin centre.
+
+    The bins cover ``edges[0]`` to ``edges[-1]`` and reach at least half a bin past the top, so
+    a full-energy peak at the top of the range sits inside the last bin, not on the frame.
+    Without a line inside the range the grid is anchored on ``edges[0]`` instead (bin centres
+    at ``edges[0] + k * width``). Edges are computed from the line, so the line sits exactly in
+    the middle of its bin (no rounding splits a mono-energetic peak over two bins).
+    """
+    lo, hi = float(edges[0]), float(edges[-1])
+    width = (hi - lo) / (len(edges) - 1)
+    anchor = line if line is not None and lo <= line <= hi else lo
+    below = int(np.ceil((anchor - lo) / width - 0.5 - 1e-9))  # bins under the anchor's bin
+    above = int(np.ceil((hi - anchor) / width - 1e-9))  # bin centres above the anchor, to hi
+    return anchor + width * (np.arange(-below, above + 2) - 0.5)
+
+
 def plot_spectra(
     results_list: Results | str | Path | Sequence[Results | str | Path],
     out_png: str | Path,
@@ -271,6 +288,7 @@ def plot_spectra(
     labels: Sequence[str] | None = None,
     logy: bool = True,
     per_event: bool = False,
+    errors: bool = False,
 ) -> list[Spectrum]:
     """Draw the energy-deposit spectra of one or several runs, overlaid, and save the figure.
 
@@ -280,12 +298,16 @@ def plot_spectra(
     out_png : image file; the format follows its suffix (png by default).
     volume : the volume to draw; None draws every volume of every run.
     bins, emin, emax : common binning for all runs, see :func:`score4.export.histogram_edges`
-        (energies in MeV or strings with a unit). The x axis is in keV when emax < 1 MeV.
+        (energies in MeV or strings with a unit). The bins keep that width but are shifted so
+        the full-energy line (the largest total primary energy of an event) sits at a bin
+        centre (:func:`line_centred_edges`); the x axis reaches a little past the last bin.
+        The x axis is in keV when emax < 1 MeV.
     labels : one legend label per run; default :func:`default_label`. The legend also gives
         the number of events without deposit, which are not drawn.
     logy : logarithmic y axis (falls back to linear when nothing is positive).
     per_event : divide by the number of simulated events of each run, so runs of different
         sizes compare.
+    errors : draw Poisson error bars (square root of the counts of each bin) at bin centres.
 
     Returns
     -------
@@ -296,7 +318,10 @@ def plot_spectra(
         raise ConfigError("results: no results files to plot")
     runs = [_as_results(r) for r in items]
     given = _labels(labels, len(runs), "run")
-    edges = histogram_edges(runs, bins=bins, emin=emin, emax=emax)
+    full = max(float(r.primary_energy.max(initial=0.0)) for r in runs)
+    edges = line_centred_edges(
+        histogram_edges(runs, bins=bins, emin=emin, emax=emax), full if full > 0 else None
+    )
     spectra = []
     for k, res in enumerate(runs):
         names = select_volumes(res, volume)
@@ -314,11 +339,27 @@ def plot_spectra(
     scale = 1e3 if in_keV else 1.0
     fig = Figure(figsize=(8, 5), layout="constrained")
     ax = fig.add_subplot()
+    centres = (edges[:-1] + edges[1:]) / 2 * scale
     for s in spectra:
-        ax.stairs(s.y, edges * scale, label=s.legend, linewidth=1.3)
+        line = ax.stairs(s.y, edges * scale, label=s.legend, linewidth=1.3)
+        if errors:
+            per_count = np.divide(
+                s.y, s.hist.counts, out=np.zeros_like(s.y), where=s.hist.counts > 0
+            )
+            shown = s.hist.counts > 0
+            ax.errorbar(
+                centres[shown],
+                s.y[shown],
+                yerr=np.sqrt(s.hist.counts[shown]) * per_count[shown],
+                fmt="none",
+                ecolor=line.get_edgecolor(),
+                elinewidth=0.9,
+                capsize=1.5,
+            )
     if logy:
         _log_axis(ax, [s.y for s in spectra])
-    ax.set_xlim(edges[0] * scale, edges[-1] * scale)
+    left = max(edges[0], 0.0)
+    ax.set_xlim(left * scale, (edges[-1] + 0.02 * (edges[-1] - left)) * scale)  # room past the top
     ax.set_xlabel(f"energy deposit [{'keV' if in_keV else 'MeV'}]")
     ax.set_ylabel("counts / keV / event" if per_event else "counts / keV")
     title = f"energy deposit in {volume}" if volume else "energy deposit"

@@ -13,7 +13,7 @@ import click
 from ..errors import ConfigError, Score4Error
 
 _FILE = click.Path(dir_okay=False, path_type=Path)
-_SPECTRUM_ONLY = ("volume", "emin", "emax", "per_event")
+_SPECTRUM_ONLY = ("volume", "emin", "emax", "per_event", "errors")
 
 
 def _energy(value: str | None, option: str) -> float | None:
@@ -54,8 +54,9 @@ def _plot_surface(path: Path, out: Path) -> None:
     help="Counts per keV per simulated event (compare runs of different sizes).",
 )
 @click.option("--linear", is_flag=True, help="Linear y axis (spectra are logarithmic by default).")
+@click.option("--errors", is_flag=True, help="Poisson error bars (square root of the counts).")
 @click.option("--label", "labels", multiple=True, help="Legend label, once per FILE in order.")
-def plot(files, out, volume, bins, emin, emax, per_event, linear, labels) -> None:
+def plot(files, out, volume, bins, emin, emax, per_event, linear, errors, labels) -> None:
     """Plot results files (energy-deposit spectra, overlaid), a vertex file (depth histogram)
     or a surface file (.s4s.h5, height map)."""
     from ..plots import file_kind, plot_depths, plot_spectra
@@ -65,7 +66,13 @@ def plot(files, out, volume, bins, emin, emax, per_event, linear, labels) -> Non
         listing = ", ".join(f"{f.name} ({k})" for f, k in zip(files, kinds, strict=True))
         raise Score4Error(f"plot: cannot mix kinds of files in one plot: {listing}")
     kind = kinds[0]
-    given = {"volume": volume, "emin": emin, "emax": emax, "per_event": per_event or None}
+    given = {
+        "volume": volume,
+        "emin": emin,
+        "emax": emax,
+        "per_event": per_event or None,
+        "errors": errors or None,
+    }
     if kind != "results":
         wrong = [f"--{k.replace('_', '-')}" for k in _SPECTRUM_ONLY if given[k] is not None]
         if wrong:
@@ -83,6 +90,7 @@ def plot(files, out, volume, bins, emin, emax, per_event, linear, labels) -> Non
             labels=list(labels) or None,
             logy=not linear,
             per_event=per_event,
+            errors=errors,
         )
         click.echo(f"wrote {out}: {len(spectra)} spectra")
     elif kind == "vertices":

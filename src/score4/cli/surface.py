@@ -91,10 +91,14 @@ def _in_output_units(values: dict[str, float]) -> dict[str, float | None]:
 def stats_document(path: str | Path) -> dict[str, Any]:
     """The ``score4 surface stats --json`` document of a surface, description or topography file.
 
-    Keys: every ISO symbol of :data:`~score4.surface.metrology.PARAMETERS` (map values: lengths
-    in um, Sdr in %, others dimensionless; None where undefined), ``units`` (symbol -> unit),
-    ``surface`` (file, kind, size and map shape) and, for spike grids, ``mesh`` (the exact mesh
-    values of :data:`~score4.surface.metrology.MESH_PARAMETERS`, same units).
+    Keys: every ISO symbol of :data:`~score4.surface.metrology.PARAMETERS` (lengths in um, Sdr
+    in %, others dimensionless; None where undefined), ``units`` (symbol -> unit), ``surface``
+    (file, kind, size and map shape) and ``exact`` (the symbols whose top-level value is exact).
+    For spike grids the top-level values of :data:`~score4.surface.metrology.MESH_PARAMETERS`
+    are the exact values on the triangle mesh (Sal and Str, which need the autocorrelation, come
+    from the map), and ``map`` holds every parameter of the sampled height map. For height maps
+    (random, measured) the map is the surface: all values are map values, ``exact`` is empty.
+    Periodic maps count one period (their duplicated closing edge is left out).
     """
     from ..surface.metrology import PARAMETERS, areal_parameters, mesh_parameters
     from ..surface.readers import read_topography
@@ -108,7 +112,10 @@ def stats_document(path: str | Path) -> dict[str, Any]:
     else:
         surface = load_any(path)
         hm, kind, spikes = surface.map, surface.spec.kind, surface.spikes
-    doc: dict[str, Any] = _in_output_units(areal_parameters(hm))
+    map_values = _in_output_units(areal_parameters(hm))
+    exact = _in_output_units(mesh_parameters(surface.top_mesh)) if spikes is not None else {}
+    doc: dict[str, Any] = {**map_values, **exact}
+    doc["exact"] = list(exact)
     doc["units"] = {symbol: OUTPUT_UNITS[unit] for symbol, unit, _ in PARAMETERS}
     doc["surface"] = {
         "file": str(path),
@@ -119,7 +126,7 @@ def stats_document(path: str | Path) -> dict[str, Any]:
         "map_pitch_um": [hm.pitch_x / um, hm.pitch_y / um],
     }
     if spikes is not None:
-        doc["mesh"] = _in_output_units(mesh_parameters(surface.top_mesh))
+        doc["map"] = map_values
         doc["surface"]["n_spikes"] = int(spikes.n_spikes)
     return doc
 
@@ -171,16 +178,18 @@ def generate_cmd(description: Path, out: Path | None, overwrite: bool) -> None:
     "--json",
     "as_json",
     is_flag=True,
-    help="Machine-readable JSON: ISO symbols as keys, a 'units' mapping, 'mesh' for spike grids.",
+    help="Machine-readable JSON: ISO symbols as keys (exact mesh values for spike grids), "
+    "'units', 'exact', and 'map' (sampled-map values) for spike grids.",
 )
 def stats_cmd(file: Path, as_json: bool) -> None:
     """Print the ISO 25178-2 areal parameters of FILE.
 
-    The parameters are computed on the surface's height map (spike grids: sampled exactly at
-    1/16 of a cell); for spike grids the exact values on the triangle mesh are shown beside
-    them. Units: Sa Sq Sp Sv Sz Sal in um; Sdr in %; Ssk, Sku (3 for a Gaussian surface), Sdq
-    and Str dimensionless. Undefined values (e.g. Sal when the autocorrelation never decays
-    below 0.2) are shown as nan (null in JSON).
+    Spike grids: the exact values on the triangle mesh (Sal and Str from the height map,
+    sampled exactly at 1/16 of a cell), with the sampled map's values beside them. Height maps
+    (random, measured): the map's values; periodic maps count one period. Units: Sa Sq Sp Sv Sz
+    Sal in um; Sdr in %; Ssk, Sku (3 for a Gaussian surface), Sdq and Str dimensionless.
+    Undefined values (e.g. Sal when the autocorrelation never decays below 0.2) are shown as
+    nan (null in JSON).
     """
     from ..surface.metrology import PARAMETERS
 
@@ -194,21 +203,15 @@ def stats_cmd(file: Path, as_json: bool) -> None:
         f"{info['file']}: {info['kind']}, {info['size_x_um']:.6g} x {info['size_y_um']:.6g} um, "
         f"map {nx} x {ny} points"
     )
-    mesh = doc.get("mesh")
-
-    def show(v: float | None) -> str:
-        return "nan" if v is None else f"{v:.6g}"
-
-    header = (
-        f"  {'param':<6}{'map':>12}"
-        + (f"{'mesh (exact)':>14}" if mesh else "")
-        + f"  {'unit':<14}description"
-    )
-    click.echo(header)
+    sampled = doc.get("map")
+    show = lambda v: "nan" if v is None else f"{v:.6g}"  # noqa: E731
+    header = f"  {'param':<6}{'value':>12}" + (f"{'map':>12}" if sampled else "")
+    click.echo(header + f"  {'unit':<14}description")
     for symbol, _, text in PARAMETERS:
-        exact = f"{show(mesh[symbol]) if symbol in mesh else '-':>14}" if mesh else ""
+        beside = f"{show(sampled[symbol]):>12}" if sampled else ""
+        how = " (exact, mesh)" if symbol in doc["exact"] else (" (map)" if sampled else "")
         unit = doc["units"][symbol]
-        click.echo(f"  {symbol:<6}{show(doc[symbol]):>12}{exact}  {unit:<14}{text}")
+        click.echo(f"  {symbol:<6}{show(doc[symbol]):>12}{beside}  {unit:<14}{text}{how}")
 
 
 @surface.command("show")

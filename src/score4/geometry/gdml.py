@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 
 from ..errors import Score4Error
@@ -15,9 +16,10 @@ def write_solid_gdml(
     """Write ``solid`` (placed in a vacuum world box) as a standalone GDML file, atomically.
 
     The file holds materials, the solid, a logical volume and a world, so any GDML reader
-    (ROOT, another Geant4 application) can load it directly. pyg4ometry 1.4.6 cannot: it
-    refuses the ``<T>`` element Geant4 writes for NIST materials ("Cannot set temperature for
-    predefined materials"; measured).
+    (ROOT, another Geant4 application, pyg4ometry) can load it directly. Geant4 writes ``<T>``
+    and ``<P>`` on every material; pyg4ometry 1.4.6 refuses them on NIST (``G4_``) materials
+    ("Cannot set temperature for predefined or arbitrary materials"), so they are removed from
+    those materials (see :func:`drop_nist_state`).
     """
     path = Path(path)
     lo, hi = g4.G4ThreeVector(), g4.G4ThreeVector()
@@ -37,8 +39,25 @@ def write_solid_gdml(
     parser.Write(str(tmp), pv_world, False)
     if not tmp.is_file():
         raise Score4Error(f"gdml: Geant4 did not write {path} (see Geant4's output)")
+    tmp.write_text(drop_nist_state(tmp.read_text()))
     os.replace(tmp, path)
     _keep = (world_solid, world_lv, lv, pv, pv_world)  # alive until written
+
+
+_NIST_MATERIAL = re.compile(r'<material name="G4_[^"]*"[^>]*>.*?</material>', re.S)
+_STATE = re.compile(r'[ \t]*<[TP] unit="[^"]*" value="[^"]*"/>\n?')
+
+
+def drop_nist_state(text: str) -> str:
+    """Remove the ``<T>``/``<P>`` elements of NIST (``G4_``) materials from GDML text.
+
+    A NIST material is defined by its name: readers that know the NIST table (pyg4ometry)
+    refuse to override its temperature and pressure, and Geant4 builds it from the density,
+    state and composition the file still states. Only the gas G4_Galactic differs from the
+    default temperature and pressure (2.73 K, 3e-18 Pa); neither enters the stopping of
+    charged particles at fixed density.
+    """
+    return _NIST_MATERIAL.sub(lambda m: _STATE.sub("", m.group(0)), text)
 
 
 def read_gdml(g4, path: str | Path):

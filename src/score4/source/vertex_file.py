@@ -7,14 +7,18 @@ One row per primary particle; the columns of a table group are
 ``facet`` (triangle index in its patch variant), ``patch`` (flat cell index ``i * ny + j`` on a
 tiled face, -1 on a flat one).
 
-Every column carries a ``units`` attribute where it has a unit, and LH5-style ``datatype``
-attributes (``table{...}`` on the group, ``array<1>{real}`` on columns), the LEGEND
-convention.
+Every column carries a ``units`` attribute where it has a unit, and LH5 ``datatype``
+attributes (``table{...}`` on the group, ``array<1>{real}`` on columns, ``array<1>{string}`` on
+``particle``), the LEGEND convention, so legend-lh5io reads the tables (``lh5.read("vertices",
+file)``; tested). The column order is fixed: the columns above, then the extras sorted by name.
+LH5 strings are fixed-width byte strings: ``lh5`` 0.3.0 returns them as ``bytes`` (as it does
+for files it writes itself); :func:`read_primaries_table` decodes them to ``str``.
 
 A vertex file holds the table as ``/vertices`` and, as attributes of the root, the format
 name, the configuration (JSON with units) and the seed it was drawn with. It also holds
-``/vtx/pos``: one row per event with ``xloc/yloc/zloc`` (mm), the table layout remage's vertex
-input reads from LH5 files (not tested against remage here: it is not installable offline).
+``/vtx`` (``struct{pos}``) with ``/vtx/pos`` (``table{xloc,yloc,zloc}``): one row per event with
+``xloc/yloc/zloc`` (float64, mm), the layout revertex writes and remage's ``FromFile`` vertex
+confinement reads (``lh5.read("vtx", file)`` is tested; remage itself is not installable here).
 """
 
 from __future__ import annotations
@@ -43,7 +47,7 @@ def write_primaries_table(group: h5py.Group, p: Primaries, event_offset: int = 0
         "energy": p.energy,
         **{f"{a}loc": p.position[:, k] for k, a in enumerate("xyz")},
         **{f"dir{a}": p.direction[:, k] for k, a in enumerate("xyz")},
-        **p.extra,
+        **{k: p.extra[k] for k in sorted(p.extra)},
     }
     for name, data in columns.items():
         d = group.create_dataset(name, data=data)
@@ -81,6 +85,7 @@ def write_vertex_file(path: str | Path, primaries: Primaries, config: dict, seed
             d = pos.create_dataset(f"{a}loc", data=primaries.position[first, k])
             d.attrs["datatype"], d.attrs["units"] = "array<1>{real}", "mm"
         pos.attrs["datatype"] = "table{xloc,yloc,zloc}"
+        f["vtx"].attrs["datatype"] = "struct{pos}"
     return path
 
 

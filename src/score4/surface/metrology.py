@@ -36,6 +36,11 @@ Definitions and discretisation (z is the height above the reference plane):
   fewer than half the points overlap and estimator noise can fake a crossing): Sal is NaN if no
   direction decays within that range, Str is NaN if some direction does not.
 
+A periodic map closed into a tile (:func:`~score4.surface.processing.close_periodic`, the last
+processing step) is reduced to one period before levelling and every parameter: its duplicated
+last row and column would otherwise count twice (Sdq and Sdr then use the cells inside the
+period, leaving out the one row and column of cells across the period's edge).
+
 Missing (NaN) points of a height map are left out: of the plane fit and height parameters
 (points), of Sdq/Sdr (cells with a missing corner) and of the ACF (pairs with a missing point).
 """
@@ -49,6 +54,7 @@ from scipy import ndimage
 from ..errors import ConfigError
 from .heightmap import HeightMap
 from .mesh import TriangleMesh
+from .processing import one_period
 
 #: (ISO symbol, unit kind, description). Unit kinds: "length" (mm internally),
 #: "ratio" (dimensionless), "percent".
@@ -236,6 +242,7 @@ def areal_parameters(
         raise ConfigError(
             f"acf_threshold: must lie strictly between 0 and 1, got {acf_threshold!r}"
         )
+    hm = one_period(hm)
     r = _residual(hm, level)
     z = hm.heights[np.isfinite(hm.heights)]
     scale = max(hm.size_x, hm.size_y, float(np.ptp(z)))

@@ -25,8 +25,11 @@ MAX_3D_SAMPLES = 200
 MAX_3D_CELLS = 12
 #: Largest number of samples per axis drawn in the image (beyond the pixels of any figure).
 MAX_IMAGE_SAMPLES = 2048
-#: Height of the 3D box relative to its longer lateral side when the surface is nearly flat.
-_MIN_Z_ASPECT = 0.3
+#: Smallest number of spike cells per axis drawn in the 3D view.
+MIN_3D_CELLS = 4
+#: Height of the 3D box relative to its longer lateral side when the surface is nearly flat
+#: (below it the heights are stretched, and the title says by how much).
+_MIN_Z_ASPECT = 0.25
 _CMAP = "viridis"
 
 
@@ -53,6 +56,8 @@ def _view_3d(surface: Surface, cap: int) -> tuple[np.ndarray, np.ndarray, np.nda
     3D anyway: the view shows a central window of at most :data:`MAX_3D_CELLS` cells per axis
     at the map's full resolution (decimated by a power of two only if that still exceeds
     ``cap``; the map has :data:`~score4.surface.spec.SPIKE_MAP_SAMPLES` samples per cell).
+    The window is as small as needed (down to :data:`MIN_3D_CELLS` cells) for the spikes to
+    be drawn at their true aspect ratio.
     """
     hm = surface.map
     ny, nx = hm.shape
@@ -69,15 +74,20 @@ def _view_3d(surface: Surface, cap: int) -> tuple[np.ndarray, np.ndarray, np.nda
     step = 1
     while step < per_cell // 2 and MAX_3D_CELLS * per_cell / step > cap:
         step *= 2
-    window: list[slice] = []
-    for n, spikes in ((nx, surface.spikes.nx), (ny, surface.spikes.ny)):
-        cells = min(spikes, MAX_3D_CELLS)
+    grid = surface.spikes
+    relief = float(np.nanmax(hm.heights) - np.nanmin(hm.heights))
+    cell = max(grid.width_x, grid.width_y)
+    true_aspect = math.floor(relief / (_MIN_Z_ASPECT * cell) + 1e-9) if cell > 0 else MAX_3D_CELLS
+    most = min(MAX_3D_CELLS, max(MIN_3D_CELLS, true_aspect))
+    window = []
+    for n, spikes in ((nx, grid.nx), (ny, grid.ny)):
+        cells = min(spikes, most)
         first = (spikes - cells) // 2 * per_cell
         window.append(slice(first, min(n, first + cells * per_cell + 1), step))
     wx, wy = window
     x, y, z = hm.x[wx], hm.y[wy], hm.heights[wy, wx]
     note = []
-    if surface.spikes.nx > MAX_3D_CELLS or surface.spikes.ny > MAX_3D_CELLS:
+    if grid.nx > most or grid.ny > most:
         note.append(f"central {np.ptp(x) / um:.4g} x {np.ptp(y) / um:.4g} um")
     if step > 1:
         note.append(f"1 sample in {step} per axis")
@@ -128,7 +138,9 @@ def plot_surface(surface: Surface, path: str | Path, dpi: int = 150) -> Path:
     path = Path(path)
     hm = surface.map
     sq, how = headline_sq(surface)
-    fig = Figure(figsize=(11, 4.6), layout="constrained")
+    # "compressed": constrained layout that also accounts for the image's fixed aspect; plain
+    # "constrained" pushed the image's x label below the figure's edge (measured surface)
+    fig = Figure(figsize=(11, 4.6), layout="compressed")
     fig.suptitle(
         f"{_describe(surface)}, {surface.size_x / um:.4g} x {surface.size_y / um:.4g} um, "
         f"Sq = {sq / um:.4g} um ({how})"
@@ -177,16 +189,19 @@ def plot_surface(surface: Surface, path: str | Path, dpi: int = 150) -> Path:
     lateral = max(np.ptp(xx), np.ptp(yy))
     relief = float(np.nanmax(z) - np.nanmin(z)) / um
     z_box = min(max(relief / lateral, _MIN_Z_ASPECT), 1.0)
-    ax3.set_box_aspect((np.ptp(xx) / lateral, np.ptp(yy) / lateral, z_box))
+    # zoom < 1 leaves room inside the axes for the tick and axis labels (the z label was cut off)
+    ax3.set_box_aspect((np.ptp(xx) / lateral, np.ptp(yy) / lateral, z_box), zoom=0.82)
     scale = z_box * lateral / relief if relief > 0 else 1.0
     notes = ([shown] if shown else []) + (
-        [f"heights x{scale:.3g}"] if abs(scale - 1) > 0.05 else []
+        [f"heights x{scale:.3g}"] if abs(scale - 1) > 0.05 else ["true aspect"]
     )
     ax3.set_title("3D view" + (f" ({'; '.join(notes)})" if notes else ""))
     ax3.set_xlabel("x (um)")
     ax3.set_ylabel("y (um)")
     ax3.set_zlabel("height (um)")
-    ax3.zaxis.set_major_locator(MaxNLocator(4))  # the short z axis crowds its labels otherwise
+    ax3.zaxis.set_major_locator(MaxNLocator(3))  # the short z axis crowds its labels otherwise
+    ax3.xaxis.set_major_locator(MaxNLocator(5))
+    ax3.yaxis.set_major_locator(MaxNLocator(5))
 
     with atomic_output(path) as tmp:
         fig.savefig(tmp, format="png", dpi=dpi)

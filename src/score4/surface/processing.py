@@ -211,3 +211,20 @@ def close_periodic(hm: HeightMap) -> HeightMap:
     z = np.vstack([hm.heights, hm.heights[:1]])
     z = np.hstack([z, z[:, :1]])
     return _with(hm, z, "close_periodic()")
+
+
+def is_closed_periodic(hm: HeightMap) -> bool:
+    """True if ``hm`` is a periodic map closed by :func:`close_periodic` (last step)."""
+    steps = hm.metadata.get("processing", [])
+    return bool(hm.metadata.get("periodic")) and bool(steps) and steps[-1] == "close_periodic()"
+
+
+def one_period(hm: HeightMap) -> HeightMap:
+    """``hm`` without the duplicated last row and column of a closed periodic map (else as is).
+
+    Statistics of a periodic surface are over one period: the duplicated edge of a closed tile
+    would count its points twice and weigh them in the levelling plane.
+    """
+    if not is_closed_periodic(hm) or min(hm.shape) < 3:
+        return hm
+    return _with(hm, hm.heights[:-1, :-1], "one_period()")

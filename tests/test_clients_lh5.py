@@ -1,0 +1,116 @@
+"""legend-lh5io (``import lh5``, the LEGEND reader) reads score4's vertex and results files.
+
+These are files of score4 read by a library nobody here wrote: a failure means a LEGEND user
+cannot open our output. lh5 0.3.0 needs a ``datatype`` attribute on every group it reads
+(``table{...}``, ``struct{...}``) and column; it returns LH5 string arrays as bytes (also for the
+files it writes itself), so ``particle`` is compared after decoding.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from score4.cli.main import main
+from score4.output import merge_chunks, write_chunk
+from score4.source.primaries import Primaries
+from score4.source.vertex_file import read_vertex_file
+
+lh5 = pytest.importorskip("lh5")
+
+CONFIG = """\
+surfaces:
+  pyramids: {kind: spikes, nx: 20, ny: 20, width: 10 um, height: 10 um}
+targets:
+  - name: crystal
+    material: G4_Si
+    size: [0.4 mm, 0.4 mm, 0.1 mm]
+    rough: [{face: "+z", surface: pyramids}]
+source:
+  decay: Po210
+  surface: {volume: crystal, face: "+z"}
+  depth: {profile: uniform, max: 50 nm}
+run: {events: 30, seed: 4}
+"""
+
+
+@pytest.fixture
+def vertex_file(tmp_path):
+    cfg = tmp_path / "cfg.yaml"
+    cfg.write_text(CONFIG)
+    out = tmp_path / "v.h5"
+    assert main(["vertices", str(cfg), "--out", str(out)]) == 0
+    return out
+
+
+def test_lh5_reads_vertices_table_with_units_and_particles(vertex_file):
+    ours = read_vertex_file(vertex_file)
+    table = lh5.read("vertices", vertex_file)
+    assert list(table.keys()) == [
+        "event",
+        "particle",
+        "energy",
+        "xloc",
+        "yloc",
+        "zloc",
+        "dirx",
+        "diry",
+        "dirz",
+        *sorted(ours.extra),
+    ]
+    assert table["energy"].attrs["units"] == "MeV"
+    assert table["zloc"].attrs["units"] == "mm"
+    assert table["depth"].attrs["units"] == "mm"
+    particles = [p.decode() for p in table["particle"].nda]
+    assert particles == list(ours.particle)
+    assert set(particles) == {"alpha", "Pb206"}
+    assert np.array_equal(table["xloc"].nda, ours.position[:, 0])
+    frame = table.view_as("pd")
+    assert len(frame) == 60  # Po210: alpha + recoil per event
+
+
+def test_lh5_reads_vtx_pos_as_remage_expects(vertex_file):
+    ours = read_vertex_file(vertex_file)
+    vtx = lh5.read("vtx", vertex_file)
+    pos = vtx["pos"]
+    assert list(pos.keys()) == ["xloc", "yloc", "zloc"]
+    first = ours.event_offsets()[:-1]
+    for k, name in enumerate(("xloc", "yloc", "zloc")):
+        assert pos[name].attrs["units"] == "mm"
+        assert pos[name].nda.dtype == np.float64  # remage does not convert float types
+        assert np.array_equal(pos[name].nda, ours.position[first, k])
+    assert np.array_equal(lh5.read("vtx/pos", vertex_file)["zloc"].nda, pos["zloc"].nda)
+
+
+def _primaries(n: int, extra_order: tuple[str, ...]) -> Primaries:
+    rng = np.random.default_rng(1)
+    extras = {"depth": rng.random(n), "facet": np.arange(n), "patch": -np.ones(n, int)}
+    return Primaries(
+        event=np.arange(n),
+        particle=np.array(["alpha"] * n),
+        energy=np.full(n, 5.3),
+        position=rng.random((n, 3)),
+        direction=np.tile([0.0, 0.0, 1.0], (n, 1)),
+        extra={k: extras[k] for k in extra_order},
+    )
+
+
+def test_lh5_reads_results_events_and_primaries_in_one_column_order(tmp_path):
+    """Chunks whose sources built their extras in different orders give one column order."""
+    chunks = []
+    for i, order in enumerate((("patch", "depth", "facet"), ("depth", "facet", "patch"))):
+        path = tmp_path / f"c{i}.h5"
+        scores = {"edep": np.full((4, 2), 1.5 + i), "track_length": np.ones((4, 2))}
+        write_chunk(path, 4 * i, ["target", "world"], scores, _primaries(4, order))
+        chunks.append(path)
+        assert list(lh5.read("primaries", path).keys())[-3:] == ["depth", "facet", "patch"]
+    out = tmp_path / "r.h5"
+    merge_chunks(chunks, out, {"seed": 1})
+    events = lh5.read("events", out)
+    assert list(events.keys()) == ["event_id", "primary_energy", "edep", "track_length"]
+    assert list(events["edep"].keys()) == ["target", "world"]
+    assert events["edep"]["target"].attrs["units"] == "MeV"
+    assert np.array_equal(events["edep"]["world"].nda, [1.5] * 4 + [2.5] * 4)
+    assert np.array_equal(events["event_id"].nda, np.arange(8))
+    prim = lh5.read("primaries", out)
+    assert len(prim) == 8 and prim["particle"].nda[0].decode() == "alpha"

@@ -1,0 +1,106 @@
+"""tools/docs_check.py: quoted transcripts and values are compared with what commands print.
+
+Runs the checker on a scratch document and a scratch checks.yaml whose commands are ``echo``,
+so it is fast and needs no Geant4; ``make docs-check`` runs the real checks.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+
+import pytest
+from conftest import ROOT
+
+spec = importlib.util.spec_from_file_location("docs_check", ROOT / "tools" / "docs_check.py")
+docs_check = importlib.util.module_from_spec(spec)
+sys.modules["docs_check"] = docs_check
+spec.loader.exec_module(docs_check)
+
+CHECKS = """\
+checks:
+  counts:
+    commands:
+      - "echo 'wrote a.h5: 5000 events, seed 1'"
+      - "echo 'wall time     3.21 s'"
+      - "echo 'rough 1021 of 5000'"
+      - write-block DOC.md yaml 1 copy.yaml
+      - cat copy.yaml
+    ignore: ["wall time"]
+    values:
+      rough: "^rough (\\\\d+) of"
+"""
+
+DOC = """\
+# A page
+
+```yaml
+answer: 42
+```
+
+<!-- check: counts -->
+```
+$ score4 run x.yaml
+wrote a.h5: {events} events, seed 1
+wall time     9.99 s
+...
+answer: 42
+```
+
+The rough face has <!-- value: counts.rough -->{rough}<!-- /value --> events.
+"""
+
+
+@pytest.fixture
+def page(tmp_path, monkeypatch):
+    (tmp_path / "checks.yaml").write_text(CHECKS.replace("DOC.md", str(tmp_path / "DOC.md")))
+    monkeypatch.setattr(docs_check, "CHECKS", tmp_path / "checks.yaml")
+    monkeypatch.setattr(docs_check, "ROOT", tmp_path)
+    monkeypatch.setattr(docs_check, "LINKED", ())
+
+    def write(events: str, rough: str):
+        doc = tmp_path / "DOC.md"
+        doc.write_text(DOC.format(events=events, rough=rough))
+        return doc
+
+    return write
+
+
+def test_matching_page_passes(page):
+    doc = page("5000", "1021")
+    assert docs_check.check_document(doc, docs_check.load_checks(), None, update=False) == 0
+
+
+def test_stale_numbers_are_found_and_updated(page, capsys):
+    doc = page("4999", "4233")
+    checks = docs_check.load_checks()
+    assert docs_check.check_document(doc, checks, None, update=False) == 2
+    out = capsys.readouterr().out
+    assert "quoted: wrote a.h5: 4999 events, seed 1" in out
+    assert "actual: wrote a.h5: 5000 events, seed 1" in out
+    assert "quoted '4233', actual '1021'" in out
+    assert docs_check.check_document(doc, checks, None, update=True) == 2
+    text = doc.read_text()
+    assert "wrote a.h5: 5000 events" in text and "-->1021<!--" in text
+    assert "wall time     9.99 s" in text  # ignored lines are paired, not compared
+    assert docs_check.check_document(doc, checks, None, update=False) == 0
+
+
+def test_a_line_the_program_no_longer_prints_is_an_error(page, tmp_path):
+    doc = page("5000", "1021")
+    doc.write_text(doc.read_text().replace("seed 1", "physics full"))
+    with pytest.raises(docs_check.CheckError, match="no output line has the shape"):
+        docs_check.check_document(doc, docs_check.load_checks(), None, update=False)
+
+
+def test_every_check_of_the_repository_is_quoted_and_every_marker_known():
+    """The real docs/checks.yaml and documents agree on names (no command is run)."""
+    checks = docs_check.load_checks()
+    used = set()
+    for path in docs_check.DOCS:
+        text = path.read_text()
+        used |= {
+            m.group(1) for line in text.splitlines() if (m := docs_check.BLOCK_MARK.match(line))
+        }
+        used |= {m.group(1) for m in docs_check.VALUE_MARK.finditer(text)}
+    assert used == set(checks)
