@@ -44,7 +44,8 @@ def main() -> None:
     for seed, r in enumerate(rows):
         print(f"  seed {seed}:             {r[0]:10.3f} {r[1]:13.3f} {r[2]:13.3f}")
     mean, sem = rows.mean(axis=0), rows.std(axis=0, ddof=1) / np.sqrt(len(rows))
-    print("  mean +- s.e.:     " + "  ".join(f"{m:6.3f} +- {e:.3f}" for m, e in zip(mean, sem)))
+    cells = "  ".join(f"{m:6.3f} +- {e:.3f}" for m, e in zip(mean, sem, strict=True))
+    print("  mean +- s.e.:     " + cells)
 
 
 if __name__ == "__main__":

@@ -113,4 +113,5 @@ def test_lh5_reads_results_events_and_primaries_in_one_column_order(tmp_path):
     assert np.array_equal(events["edep"]["world"].nda, [1.5] * 4 + [2.5] * 4)
     assert np.array_equal(events["event_id"].nda, np.arange(8))
     prim = lh5.read("primaries", out)
-    assert len(prim) == 8 and prim["particle"].nda[0].decode() == "alpha"
+    assert len(prim) == 8
+    assert prim["particle"].nda[0].decode() == "alpha"

@@ -10,6 +10,7 @@ import importlib.util
 import sys
 
 import pytest
+
 from conftest import ROOT
 
 spec = importlib.util.spec_from_file_location("docs_check", ROOT / "tools" / "docs_check.py")
@@ -81,7 +82,8 @@ def test_stale_numbers_are_found_and_updated(page, capsys):
     assert "quoted '4233', actual '1021'" in out
     assert docs_check.check_document(doc, checks, None, update=True) == 2
     text = doc.read_text()
-    assert "wrote a.h5: 5000 events" in text and "-->1021<!--" in text
+    assert "wrote a.h5: 5000 events" in text
+    assert "-->1021<!--" in text
     assert "wall time     9.99 s" in text  # ignored lines are paired, not compared
     assert docs_check.check_document(doc, checks, None, update=False) == 0
 

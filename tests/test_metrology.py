@@ -363,7 +363,8 @@ def test_closed_periodic_map_is_measured_over_one_period():
         24, 20, 1e-3, sq=1e-3, corr_length_x=3e-3, seed=5, periodic=True
     )
     closed = close_periodic(period)
-    assert closed.shape == (21, 25) and one_period(closed).shape == (20, 24)
+    assert closed.shape == (21, 25)
+    assert one_period(closed).shape == (20, 24)
     got, want = areal_parameters(closed), areal_parameters(period)
     for symbol, value in want.items():
         assert got[symbol] == pytest.approx(value, rel=1e-12, nan_ok=True), symbol

@@ -70,7 +70,8 @@ def assert_centred(edges, lo, hi, bins, line):
     """Bins of width (hi - lo) / bins covering [lo, hi + width / 2] with ``line`` mid-bin."""
     width = (hi - lo) / bins
     assert np.allclose(np.diff(edges), width, rtol=1e-9, atol=0)
-    assert edges[0] <= lo < edges[0] + width and edges[-1] >= hi + width / 2 - 1e-12
+    assert edges[0] <= lo < edges[0] + width
+    assert edges[-1] >= hi + width / 2 - 1e-12
     k = np.searchsorted(edges, line) - 1
     assert (line - edges[k]) == pytest.approx(width / 2, rel=1e-9)
     assert (edges[k + 1] - line) == pytest.approx(width / 2, rel=1e-9)
@@ -110,7 +111,8 @@ def test_two_runs_per_event_share_edges_and_compare(runs, tmp_path):
     )
     assert_png(out)
     sa, sb = spectra
-    assert [s.label for s in spectra] == ["A", "B"] and sa.volume == sb.volume == "crystal"
+    assert [s.label for s in spectra] == ["A", "B"]
+    assert sa.volume == sb.volume == "crystal"
     # common binning: bins of the first run (100), top = larger of the runs' tops (b: 6 MeV),
     # centred on the full-energy line (5.3 MeV)
     assert_centred(sa.hist.edges, 0.0, 6.0, 100, line=5.3)
@@ -135,7 +137,8 @@ def test_full_energy_peak_falls_in_one_bin_with_errors(runs, tmp_path):
     assert_png(tmp_path / "peak.png")
     assert_centred(s.hist.edges, 4.0, 6.0, 40, line=5.3)
     k = np.searchsorted(s.hist.edges, 5.3) - 1
-    assert s.hist.counts[k] >= full and s.hist.counts[k + 1] == 0
+    assert s.hist.counts[k] >= full
+    assert s.hist.counts[k + 1] == 0
     # the frame is past the peak: the x axis ends half a bin above emax
     assert s.hist.edges[-1] == pytest.approx(6.025)
     assert main(["plot", str(runs["a"]), "--out", str(tmp_path / "cli.png"), "--errors"]) == 0

@@ -95,7 +95,9 @@ def test_generate_then_stats_json_random(tmp_path, capsys):
     code, stdout, err = run(capsys, "surface", "stats", out, "--json")
     assert code == 0, err
     doc = json.loads(stdout)
-    assert set(SYMBOLS) <= set(doc) and "map" not in doc and doc["exact"] == []
+    assert set(SYMBOLS) <= set(doc)
+    assert "map" not in doc
+    assert doc["exact"] == []
     assert doc["units"] == {
         s: ("um" if kind == "length" else "%" if kind == "percent" else "dimensionless")
         for s, kind, _ in PARAMETERS
@@ -131,7 +133,8 @@ def test_stats_json_spikes_mesh_values_are_exact(tmp_path, capsys):
     assert mesh["Sdr"] == pytest.approx((math.sqrt(1 + slope**2) - 1) * 100, rel=1e-9)
     assert mesh["Sz"] == pytest.approx(h, rel=1e-9)
     # mesh metrology has no ACF parameters: Sal and Str are the map's
-    assert "Sal" not in doc["exact"] and doc["Sal"] == sampled["Sal"] is not None
+    assert "Sal" not in doc["exact"]
+    assert doc["Sal"] == sampled["Sal"] is not None
     # The map (16 samples per cell) agrees with the exact values to the sampling error.
     assert sampled["Sq"] == pytest.approx(mesh["Sq"], rel=0.05)
     assert sampled["Sq"] != mesh["Sq"]
@@ -143,7 +146,8 @@ def test_stats_text_and_all_file_kinds(tmp_path, capsys):
     desc = write_yaml(tmp_path, "pyr", PYRAMIDS)
     code, stdout, err = run(capsys, "surface", "stats", desc)  # a description is built on the fly
     assert code == 0, err
-    assert "(exact, mesh)" in stdout and "(map)" in stdout
+    assert "(exact, mesh)" in stdout
+    assert "(map)" in stdout
     lines = {line.split()[0]: line for line in stdout.splitlines()[2:]}
     assert list(lines) == SYMBOLS
     assert "um" in lines["Sq"].split()

@@ -224,18 +224,18 @@ def check_document(path: Path, checks: dict[str, Check], only: str | None, updat
             i = end + 1
             continue
 
-        def replace(match: re.Match) -> str:
+        def replace(match: re.Match, line: int = i + 1) -> str:
             nonlocal differences
             name, key, quoted = match.groups()
             if name not in checks:
-                raise CheckError(f"{rel}:{i + 1}: unknown check {name!r}")
+                raise CheckError(f"{rel}:{line}: unknown check {name!r}")
             if only not in (None, name):
                 return match.group(0)
             actual = value_of(checks[name], key)
             if actual == quoted:
                 return match.group(0)
             differences += 1
-            print(f"{rel}:{i + 1}: [{name}.{key}] quoted {quoted!r}, actual {actual!r}")
+            print(f"{rel}:{line}: [{name}.{key}] quoted {quoted!r}, actual {actual!r}")
             return f"<!-- value: {name}.{key} -->{actual}<!-- /value -->"
 
         lines[i] = VALUE_MARK.sub(replace, lines[i])

@@ -44,7 +44,7 @@ def write_solid_gdml(
     _keep = (world_solid, world_lv, lv, pv, pv_world)  # alive until written
 
 
-_NIST_MATERIAL = re.compile(r'<material name="G4_[^"]*"[^>]*>.*?</material>', re.S)
+_NIST_MATERIAL = re.compile(r'<material name="G4_[^"]*"[^>]*>.*?</material>', re.DOTALL)
 _STATE = re.compile(r'[ \t]*<[TP] unit="[^"]*" value="[^"]*"/>\n?')
 
 
