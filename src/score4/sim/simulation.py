@@ -1,8 +1,8 @@
 """One Geant4 application in one process: geometry, physics, primaries, scoring.
 
 A :class:`Simulation` is built once per worker process and then runs chunks of events;
-each chunk reseeds Geant4, so a chunk's result does not depend on which worker ran it or
-what ran before it.
+every event reseeds Geant4 with its own seed (:mod:`score4.sim.seeds`), so an event's result
+does not depend on which worker ran it, what ran before it or how the run was chunked.
 """
 
 from __future__ import annotations
@@ -131,6 +131,8 @@ class Simulation:
     def _generate(self, gun, event) -> None:
         k = self._next_event
         g4, p = self.g4, self._primaries
+        if self._event_seeds is not None:
+            g4.G4Random.setTheSeed(int(self._event_seeds[k]))
         if self.teleporter is not None:
             self.teleporter.begin_event(int(self._offsets[k]))
         for row in range(self._offsets[k], self._offsets[k + 1]):
@@ -145,9 +147,18 @@ class Simulation:
         self._next_event += 1
 
     def run(
-        self, primaries: Primaries, g4_seed: int, progress=None, batch: int | None = None
+        self,
+        primaries: Primaries,
+        g4_seed: int | np.ndarray,
+        progress=None,
+        batch: int | None = None,
     ) -> dict[str, np.ndarray]:
-        """Track ``primaries``; return {quantity: (n_events, n_volumes) array} (MeV, mm)."""
+        """Track ``primaries``; return {quantity: (n_events, n_volumes) array} (MeV, mm).
+
+        ``g4_seed`` is one seed for the whole batch, or one seed per event (``(n_events,)``
+        integers, see :func:`score4.sim.seeds.event_geant4_seeds`): each event then starts
+        from its own seed and its result does not depend on the events run before it.
+        """
         for name in np.unique(primaries.particle):
             self.particle(str(name))
         n = primaries.n_events
@@ -162,7 +173,13 @@ class Simulation:
         self._offsets = primaries.event_offsets()
         self._scores = {q: np.zeros((n, len(self.volumes))) for q in self.quantities}
         self._next_event = 0
-        self.g4.G4Random.setTheSeed(int(g4_seed))
+        if np.ndim(g4_seed) == 0:
+            self._event_seeds = None
+            self.g4.G4Random.setTheSeed(int(g4_seed))
+        else:
+            if len(g4_seed) != n:
+                raise ValueError(f"g4_seed: need one seed per event ({n}), got {len(g4_seed)}")
+            self._event_seeds = g4_seed
         batch = batch or max(100, n // 20)
         with redirect_native_output(self.log_path):
             while self._next_event < n:
