@@ -152,6 +152,23 @@ def test_merge_keys_may_still_be_overridden(tmp_path: Path):
             "",  # fine: 100 nm < 200 nm
         ),
         (
+            {
+                "surfaces": {
+                    "s": {"kind": "spikes", "nx": 2, "ny": 2, "width": "5 um", "height": "2 um"}
+                },
+                "targets": [
+                    {
+                        "name": "crystal",
+                        "size": ["10 um", "10 um", "1 cm"],
+                        "rough": [
+                            {"surface": "s", "tiling": "portal", "native_layout": "replicas"}
+                        ],
+                    }
+                ],
+            },
+            "cfg.yaml: targets.0.rough.0: native_layout replicas applies to tiling native, not portal",
+        ),
+        (
             {"source": {"depth": {"profile": "exponential", "mean": "5 nm", "sigma": "2 nm"}}},
             "cfg.yaml: source.depth: sigma: not used by profile exponential (it uses mean",
         ),

@@ -121,6 +121,10 @@ class RoughFace(StrictModel):
             raise ValueError(
                 "give either surface (one patch) or variants (several, with densities)"
             )
+        if self.native_layout == "replicas" and self.tiling != "native":
+            raise ValueError(
+                f"native_layout replicas applies to tiling native, not {self.tiling}; remove one"
+            )
         if self.native_layout == "replicas" and len(self.variant_list) > 1:
             raise ValueError(
                 "native_layout replicas repeats one patch: it needs a single surface, not variants"
