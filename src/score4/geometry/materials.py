@@ -38,7 +38,7 @@ _ELEMENTS = (
     "thallium Tl lead Pb bismuth Bi polonium Po astatine At radon Rn francium Fr radium Ra "
     "actinium Ac thorium Th protactinium Pa uranium U neptunium Np plutonium Pu americium Am "
     "curium Cm berkelium Bk californium Cf"
-).split()
+).split()  # noqa: SIM905 (pairs read better as text)
 ELEMENT_SYMBOLS = dict(zip(_ELEMENTS[::2], _ELEMENTS[1::2]))
 
 # Anions of NIST compound names, as formulas: G4_CALCIUM_TUNGSTATE reads as CaWO4.
