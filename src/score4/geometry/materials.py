@@ -23,7 +23,7 @@ def find_material(g4, name: str, parameter: str = "material"):
 
 
 # Element names (English, as NIST material names spell them) and their symbols, Z = 1 to 98.
-_ELEMENTS = (
+_ELEMENT_TEXT = (
     "hydrogen H helium He lithium Li beryllium Be boron B carbon C nitrogen N oxygen O "
     "fluorine F neon Ne sodium Na magnesium Mg aluminum Al aluminium Al silicon Si phosphorus P "
     "sulfur S sulphur S chlorine Cl argon Ar potassium K calcium Ca scandium Sc titanium Ti "
@@ -38,7 +38,8 @@ _ELEMENTS = (
     "thallium Tl lead Pb bismuth Bi polonium Po astatine At radon Rn francium Fr radium Ra "
     "actinium Ac thorium Th protactinium Pa uranium U neptunium Np plutonium Pu americium Am "
     "curium Cm berkelium Bk californium Cf"
-).split()  # noqa: SIM905 (pairs read better as text)
+)
+_ELEMENTS = _ELEMENT_TEXT.split()
 ELEMENT_SYMBOLS = dict(zip(_ELEMENTS[::2], _ELEMENTS[1::2]))
 
 # Anions of NIST compound names, as formulas: G4_CALCIUM_TUNGSTATE reads as CaWO4.
