@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 import pytest
+import yaml
 
 from score4.cli.main import main
 
@@ -77,7 +78,7 @@ def test_run_then_summary_json(tmp_path: Path):
         "-q",
     )
     assert done.returncode == 0, done.stderr
-    assert "lite mode" in done.stderr  # the one warning about missing data
+    assert done.stderr == ""  # -q: errors only, not even the lite-mode warning
     again = run_cli(
         "run", ROOT / "examples" / "flat_alpha.yaml", "--events", 200, "--out", out, "-q"
     )
@@ -99,3 +100,56 @@ def test_run_then_summary_json(tmp_path: Path):
 def test_summary_of_missing_file_exits_2(tmp_path: Path, capsys):
     assert main(["summary", str(tmp_path / "none.h5")]) == 2
     assert "does not exist" in capsys.readouterr().err
+
+
+def test_warnings_are_one_line_each_once_and_quiet_silences_them(tmp_path: Path):
+    # lite physics (run by the engine) and density normalisation (a rough face's patch map)
+    data = yaml.safe_load((ROOT / "examples" / "flat_alpha.yaml").read_text())
+    data["surfaces"] = {
+        "s": {"kind": "spikes", "nx": 2, "ny": 2, "width": "5 um", "height": "2 um"}
+    }
+    data["targets"][0]["rough"] = [
+        {
+            "variants": [{"surface": "s", "density": 1}, {"surface": "s", "density": 1}],
+            "fill": "random",
+        }
+    ]
+    data["targets"][0]["size"] = ["10 um", "10 um", "1 cm"]
+    config = tmp_path / "w.yaml"
+    config.write_text(yaml.safe_dump(data))
+    loud = run_cli("run", config, "--events", 5, "--out", tmp_path / "a.h5")
+    assert loud.returncode == 0, loud.stderr
+    warned = [line for line in loud.stderr.splitlines() if "warning:" in line]
+    assert len(warned) == 2, loud.stderr
+    assert all(line.startswith("score4: warning: ") for line in warned)
+    assert sum("lite mode" in line for line in warned) == 1
+    assert (
+        sum("densities: sum is 2, not 1; normalised to [0.5, 0.5]" in line for line in warned) == 1
+    )
+    assert ".py" not in loud.stderr and "UserWarning" not in loud.stderr
+    quiet = run_cli("run", config, "--events", 5, "--out", tmp_path / "b.h5", "-q")
+    assert quiet.returncode == 0 and quiet.stderr == "", quiet.stderr
+
+
+def test_errors_found_after_validation_name_the_config_file(tmp_path: Path, capsys):
+    data = yaml.safe_load((ROOT / "examples" / "flat_alpha.yaml").read_text())
+    data["targets"][0]["material"] = "G4_SILICON"
+    config = tmp_path / "m.yaml"
+    config.write_text(yaml.safe_dump(data))
+    assert main(["run", str(config), "--events", "5", "--out", str(tmp_path / "m.h5"), "-q"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(
+        f"score4: error: {config}: targets.0.material: unknown material 'G4_SILICON'; "
+        "closest NIST names: G4_Si, "
+    ), err
+    assert "\n" not in err and not list(tmp_path.glob("m.h5*"))
+
+
+def test_events_take_whole_numbers_also_in_exponent_form(tmp_path: Path, capsys):
+    flat = str(ROOT / "examples" / "flat_alpha.yaml")
+    assert main(["run", flat, "--events", "2.5", "--out", str(tmp_path / "x.h5")]) == 2
+    assert "'2.5' is not a whole number of events" in capsys.readouterr().err
+    assert main(["run", flat, "--events", "0", "--out", str(tmp_path / "x.h5")]) == 2
+    assert "need at least 1 event" in capsys.readouterr().err
+    assert main(["vertices", flat, "--n", "2e3", "--out", str(tmp_path / "v.h5")]) == 0
+    assert "2000 events" in capsys.readouterr().out

@@ -1,6 +1,7 @@
 from pathlib import Path
 
 import pytest
+import yaml
 
 from score4.config import load_config, parse_config
 from score4.errors import ConfigError
@@ -66,3 +67,197 @@ def test_top_level_not_mapping(tmp_path: Path):
     bad.write_text("- 1\n- 2\n")
     with pytest.raises(ConfigError, match="top level must be a mapping"):
         load_config(bad)
+
+
+# --- strict input: issue 11 ---------------------------------------------------------------------
+
+
+def write_yaml(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "c.yaml"
+    path.write_text(text)
+    return path
+
+
+def test_a_key_given_twice_names_the_key_both_lines_and_the_file(tmp_path: Path):
+    path = write_yaml(
+        tmp_path,
+        "targets: [{name: c, size: [1 cm, 1 cm, 1 cm]}]\n"
+        "source:\n"
+        "  particle: alpha\n"
+        "  energy: 5.3 MeV\n"
+        "  surface: {volume: c}\n"
+        "  energy: 1 keV\n",
+    )
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert str(err.value) == (
+        f"{path}: source.energy: key given twice (lines 4 and 6); keep one of them"
+    )
+
+
+def test_merge_keys_may_still_be_overridden(tmp_path: Path):
+    from score4.yamlfile import load_yaml
+
+    path = write_yaml(
+        tmp_path,
+        "defaults: &box {name: c, material: G4_Cu}\ntargets: [{<<: *box, material: G4_Si}]\n",
+    )
+    assert load_yaml(path)["targets"] == [{"name": "c", "material": "G4_Si"}]
+
+
+@pytest.mark.parametrize(
+    "sections, message",
+    [
+        ({"run": {"seed": True}}, "cfg.yaml: run.seed: takes a whole number, not true"),
+        ({"run": {"events": False}}, "cfg.yaml: run.events: takes a whole number, not false"),
+        (
+            {"physics": {"production_cut": True}},
+            "cfg.yaml: physics.production_cut: takes a length such as '5 um', not true",
+        ),
+        (
+            {
+                "source": {
+                    "depth": {
+                        "profile": "multi_exponential",
+                        "means": ["1 nm", "2 nm"],
+                        "weights": [True, 0.5],
+                    }
+                }
+            },
+            "cfg.yaml: source.depth.weights.0: takes a number, not true",
+        ),
+        (
+            {"source": {"energy": "1e30 TeV"}},
+            "cfg.yaml: source.energy: '1e30 TeV' is above 100 TeV, the top of Geant4's "
+            "electromagnetic physics tables",
+        ),
+        (
+            {"targets": [{"name": "crystal", "size": ["10 km", "1 cm", "1 cm"]}]},
+            "cfg.yaml: targets.0.size.0: '10 km' is longer than 100 m",
+        ),
+        (
+            {"targets": [{"name": "crystal", "size": ["1e-6 nm", "1 cm", "1 cm"]}]},
+            "cfg.yaml: targets.0.size.0: '1e-6 nm' is shorter than 1 pm",
+        ),
+        (
+            {"source": {"energi": "5 MeV"}},
+            "cfg.yaml: source.energi: unknown key; did you mean 'energy'?",
+        ),
+        (
+            {"source": {"depth": {"profile": "uniform", "min": "50 nm", "max": "10 nm"}}},
+            "cfg.yaml: source.depth: max (10 nm) must be larger than min (50 nm)",
+        ),
+        (
+            {"source": {"depth": {"profile": "uniform", "min": "0.1 um", "max": "0.0002 mm"}}},
+            "",  # fine: 100 nm < 200 nm
+        ),
+        (
+            {
+                "surfaces": {
+                    "s": {"kind": "spikes", "nx": 2, "ny": 2, "width": "5 um", "height": "2 um"}
+                },
+                "targets": [
+                    {
+                        "name": "crystal",
+                        "size": ["10 um", "10 um", "1 cm"],
+                        "rough": [
+                            {"surface": "s", "tiling": "portal", "native_layout": "replicas"}
+                        ],
+                    }
+                ],
+            },
+            "cfg.yaml: targets.0.rough.0: native_layout replicas applies to tiling native, not portal",
+        ),
+        (
+            {"source": {"depth": {"profile": "exponential", "mean": "5 nm", "sigma": "2 nm"}}},
+            "cfg.yaml: source.depth: sigma: not used by profile exponential (it uses mean",
+        ),
+    ],
+)
+def test_strict_values_and_plain_messages(sections, message):
+    if not message:
+        parse_config(config_dict(**sections), origin="cfg.yaml")
+        return
+    with pytest.raises(ConfigError) as err:
+        parse_config(config_dict(**sections), origin="cfg.yaml")
+    text = str(err.value)
+    assert text.startswith(message), text
+    assert "\n" not in text and "np.float64" not in text and "more problem" not in text
+
+
+SPIKES = {"kind": "spikes", "nx": 2, "ny": 2, "width": "1 um", "height": "1 um"}
+
+
+def test_a_typo_is_named_first_with_the_closest_key():
+    pyr = {k: v for k, v in SPIKES.items() if k != "height"} | {"hieght": "1 um"}
+    with pytest.raises(ConfigError) as err:
+        parse_config(config_dict(surfaces={"pyr": pyr}), origin="cfg.yaml")
+    assert str(err.value) == "cfg.yaml: surfaces.pyr.hieght: unknown key; did you mean 'height'?"
+
+
+def test_width_with_width_x_is_refused_unless_equal():
+    both = SPIKES | {"width_x": "2 um"}
+    with pytest.raises(ConfigError, match=r"surfaces.pyr.width_x: give width or width_x, not both"):
+        parse_config(config_dict(surfaces={"pyr": both}))
+    same = parse_config(config_dict(surfaces={"pyr": SPIKES | {"width_x": "1 um"}}))
+    assert same.surfaces["pyr"].width_x == pytest.approx(1e-3)
+
+
+def test_readable_quantities():
+    from score4.units import format_readable
+
+    assert format_readable(1e-05, "length") == "10 nm"
+    assert format_readable(0.00019999999999999998, "length") == "200 nm"
+    assert format_readable(30.0, "length") == "30 mm"
+    assert format_readable(0.103, "energy") == "103 keV"
+
+
+def test_material_suggestions_read_element_names_and_formulas():
+    from score4.geometry.materials import suggest_materials
+
+    known = [
+        "G4_S",
+        "G4_Sc",
+        "G4_Si",
+        "G4_Sn",
+        "G4_I",
+        "G4_Cu",
+        "G4_Ge",
+        "G4_WATER",
+        "G4_SILICON_DIOXIDE",
+        "G4_CALCIUM_TUNGSTATE",
+        "G4_CADMIUM_TUNGSTATE",
+        "G4_TEFLON",
+    ]
+    for name in ("G4_SILICON", "G4_Silicon", "silicon", "G4_Sl", "G4_SI", "Si"):
+        assert suggest_materials(name, known)[0] == "G4_Si", name
+    assert suggest_materials("G4_COPER", known)[0] == "G4_Cu"
+    assert suggest_materials("germanium", known)[0] == "G4_Ge"
+    assert suggest_materials("CaWO4", known)[0] == "G4_CALCIUM_TUNGSTATE"
+    assert suggest_materials("SiO2", known)[0] == "G4_SILICON_DIOXIDE"
+    assert suggest_materials("PTFE", known)[0] == "G4_TEFLON"
+
+
+def test_depth_table_errors_name_the_table_line_and_the_config(tmp_path: Path, capsys):
+    from score4.cli.main import main
+
+    table = tmp_path / "depth.txt"
+    table.write_text("# unit: nm\n0 1\n10 x\n")
+    data = config_dict(source={"depth": {"profile": "table", "file": "depth.txt"}})
+    config = tmp_path / "c.yaml"
+    config.write_text(yaml.safe_dump(data))
+    assert main(["vertices", str(config), "--out", str(tmp_path / "v.h5")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"score4: error: {config}: source.depth: ") and "\n" not in err
+    assert f"depth table {table} line 3: cannot read '10 x'" in err
+    # a depth window outside the table: the table is named, not a class
+    table.write_text("# unit: nm\n0 1\n10 1\n")
+    data["source"]["depth"] |= {"min": "20 nm", "max": "30 nm"}
+    config.write_text(yaml.safe_dump(data))
+    assert main(["vertices", str(config), "--out", str(tmp_path / "v.h5")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert (
+        f"the depth table {table} (depths 0 mm to 10 nm) has no probability between 20 nm and 30 nm"
+        in err
+    )
+    assert "Profile" not in err

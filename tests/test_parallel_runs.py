@@ -65,10 +65,13 @@ def assert_same_events(a, b) -> None:
 
 
 def start_cli(tmp_path: Path, *args: str) -> subprocess.Popen:
-    """``score4 run ...`` in a new session; its stderr goes to tmp_path/stderr.txt."""
+    """``score4 run ...`` in a new session; its stderr goes to tmp_path/stderr.txt.
+
+    No progress bar (stderr is a file), so the notices and warnings stay readable.
+    """
     with open(tmp_path / "stderr.txt", "w") as err:
         return subprocess.Popen(
-            [sys.executable, "-m", "score4.cli.main", "run", *args, "--quiet"],
+            [sys.executable, "-m", "score4.cli.main", "run", *args],
             stdout=subprocess.DEVNULL,
             stderr=err,
             start_new_session=True,
@@ -184,6 +187,29 @@ def test_ctrl_c_stops_workers_keeps_chunks_and_says_how_to_resume(tmp_path: Path
     assert_same_events(result, reference)
 
 
+@needs_proc
+def test_ctrl_c_stops_a_huge_run_at_once(tmp_path: Path):
+    # 10^11 events: nothing may be built per event or per chunk in the main process (a list of
+    # 10^7 chunks took > 40 s and 2 GB before, and the Ctrl-C handler looked at every chunk's file).
+    config_file = tmp_path / "huge.yaml"
+    config_file.write_text(yaml.safe_dump(config_dict()))
+    parts = tmp_path / "huge.h5.parts"
+    proc = start_cli(
+        tmp_path, str(config_file), "--out", str(tmp_path / "huge.h5"), "--events", "1e11"
+    )
+    deadline = time.monotonic() + 60
+    while not parts.exists() and time.monotonic() < deadline:  # the workers are being started
+        assert proc.poll() is None, (tmp_path / "stderr.txt").read_text()
+        time.sleep(0.05)
+    assert parts.exists()
+    os.kill(proc.pid, signal.SIGINT)
+    assert proc.wait(timeout=20) == 130  # generous bound for a loaded machine; measured < 1 s
+    wait_no_processes(proc.pid)
+    said = (tmp_path / "stderr.txt").read_text()
+    assert "run interrupted before any chunk finished; nothing kept" in said, said
+    assert not parts.exists() and not (tmp_path / "huge.h5").exists()
+
+
 @pytest.mark.slow
 @needs_proc
 def test_sigterm_stops_like_ctrl_c(tmp_path: Path, long_run):
@@ -200,14 +226,24 @@ def test_sigterm_stops_like_ctrl_c(tmp_path: Path, long_run):
 
 def test_more_jobs_than_chunks_says_so_and_uses_fewer(tmp_path: Path, make_config):
     said = []
-    config = make_config(run={"events": 200, "seed": 4, "chunk_events": 100})
+    config = make_config(run={"events": 3, "seed": 4})
     res = read_results(run(config, tmp_path / "j.h5", jobs=5, progress=False, echo=said.append))
-    assert (
-        "notice: --jobs 5 but only 2 chunk(s) to run (run.chunk_events = 100); using 2 worker(s)"
-        in said[0]
+    assert said[0] == (
+        "notice: --jobs 5 but only 3 chunk(s) to run (the run has 3 event(s)); using 3 worker(s)"
     )
-    assert res.run["jobs"] == 2
-    assert res.n_events == 200
+    assert res.run["jobs"] == 3 and res.n_events == 3 and res.run["n_chunks"] == 3
+
+
+def test_small_runs_use_every_requested_worker_and_say_nothing(tmp_path: Path, make_config):
+    # make demo: 5000 events on 2 processes are 2 chunks (3000 + 2000 events), one per worker
+    said = []
+    config = make_config(
+        source={"particle": "alpha", "energy": "1 MeV"}, run={"events": 5000, "seed": 4}
+    )
+    res = read_results(run(config, tmp_path / "d.h5", jobs=2, progress=False, echo=said.append))
+    assert res.run["jobs"] == 2 and res.run["n_chunks"] == 2 and res.run["chunk_events"] == 3000
+    assert not [m for m in said if m.startswith("notice")], said
+    # (that the chunking does not change the events: test_run_engine, first events of a longer run)
 
 
 def test_a_crashing_worker_fails_its_chunk_only_and_resume_retries_it(
@@ -232,10 +268,7 @@ def test_a_crashing_worker_fails_its_chunk_only_and_resume_retries_it(
     assert not out.exists()
 
     monkeypatch.delenv(CRASH_HOOK)
-    assert (
-        main(["run", str(config_file), "--out", str(out), "--jobs", "2", "--quiet", "--resume"])
-        == 0
-    )
+    assert main(["run", str(config_file), "--out", str(out), "--jobs", "2", "--resume"]) == 0
     assert "resume: 4 of 5 chunks already finished" in capsys.readouterr().err
     assert_same_events(read_results(out), reference)
 

@@ -11,7 +11,7 @@ import h5py
 import numpy as np
 import pytest
 
-from score4.errors import ConfigError
+from score4.errors import ConfigError, Score4Warning
 from score4.surface.patchmap import (
     MAX_CELLS,
     PatchMap,
@@ -147,7 +147,7 @@ def test_seed_none_draws_a_map():
 
 def test_densities_normalised_with_warning():
     with pytest.warns(
-        UserWarning, match=r"densities: sum is 2\.0, not 1; normalised to \[0\.3, 0\.5, 0\.2\]"
+        Score4Warning, match=r"densities: sum is 2, not 1; normalised to \[0\.3, 0\.5, 0\.2\]"
     ):
         m = make_patch_map((5.0, 2.0), (1.0, 1.0), [0.6, 1.0, 0.4])
     assert m.densities == pytest.approx((0.3, 0.5, 0.2), rel=1e-15)

@@ -179,3 +179,48 @@ def test_resume_reuses_only_chunks_of_the_same_run(tmp_path: Path, make_config):
     assert not (edep[10:] == 456.0).any()
     assert (edep[10:] <= 5.3 + 1e-9).all()
     assert not parts.exists()
+
+
+def test_first_events_of_a_longer_run_are_the_same_events(tmp_path: Path, make_config):
+    # Prefix-stable sampling (source/blocks.py) and one Geant4 seed per event (sim/seeds.py):
+    # the 3000 events of a one-chunk run are the first 3000 of a 5000-event run cut into
+    # 700-event chunks (not on the 1000-event block boundaries) on 2 workers. Exact equality.
+    fast = {"particle": "alpha", "energy": "1 MeV"}  # ~4 um range: a few steps per event
+    short = make_config(source=fast, run={"events": 3000, "seed": 5})
+    long = make_config(source=fast, run={"events": 5000, "seed": 5, "chunk_events": 700})
+    a = read_results(run(short, tmp_path / "a.h5", progress=False, echo=lambda m: None))
+    b = read_results(run(long, tmp_path / "b.h5", jobs=2, progress=False, echo=lambda m: None))
+    assert a.run["n_chunks"] == 1 and b.run["n_chunks"] == 8
+    first = b.primaries.select_events(0, 3000)
+    for field in ("event", "particle", "energy", "position", "direction"):
+        assert np.array_equal(getattr(a.primaries, field), getattr(first, field)), field
+    assert np.count_nonzero(a.edep["crystal"]) > 1000  # about half the alphas enter the crystal
+    assert np.array_equal(a.edep["crystal"], b.edep["crystal"][:3000])
+
+
+def test_resume_keeps_the_chunks_of_the_interrupted_run_whatever_jobs_is_now(
+    tmp_path: Path, make_config
+):
+    from score4.output import write_chunk
+    from score4.sim.engine import config_fingerprint, plan_chunks
+    from score4.sim.worker import chunk_path
+    from score4.source.primaries import Primaries
+
+    config = make_config(run={"events": 30, "seed": 9})
+    assert plan_chunks(30, 10_000, 3).size == 10 and plan_chunks(30, 10_000, 1).size == 30
+    parts = tmp_path / "r.h5.parts"
+    parts.mkdir()
+    (parts / "plan.json").write_text('{"n_events": 30, "chunk_size": 10}')  # run with --jobs 3
+    extra = {"depth": np.zeros(10), "facet": np.zeros(10, np.int64), "patch": np.full(10, -1)}
+    p = Primaries(
+        np.arange(10), ["alpha"] * 10, [5.3] * 10, np.zeros((10, 3)), [[0, 0, -1.0]] * 10, extra
+    )
+    edep = {"edep": np.full((10, 1), 123.0)}
+    write_chunk(chunk_path(parts, 1), 10, ["crystal"], edep, p, config_fingerprint(config, 9))
+    said = []
+    res = read_results(
+        run(config, tmp_path / "r.h5", resume=True, progress=False, echo=said.append)
+    )
+    assert "resume: 1 of 3 chunks already finished" in said[0]
+    assert res.run["n_chunks"] == 3 and res.run["resumed_chunks"] == 1
+    assert (res.edep["crystal"][10:20] == 123.0).all()

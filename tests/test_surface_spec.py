@@ -94,7 +94,7 @@ def measured_dict(path: Path, **extra) -> dict:
         ),
         (
             {"kind": "spikes", "nx": 2, "ny": 2, "width": "1 um", "height": "-1 um"},
-            "height: Input should be greater than 0",
+            "height: must be greater than 0, got '-1 um'",
         ),
         (
             {

@@ -13,7 +13,6 @@ import re
 from pathlib import Path
 from typing import Annotated, Literal
 
-import yaml
 from pydantic import (
     Discriminator,
     Field,
@@ -36,6 +35,8 @@ from .schema import (
     describe_validation_error,
 )
 from .surface.spec import MeasuredSurfaceSpec, RandomSurfaceSpec, SpikeSurfaceSpec
+from .units import length_text
+from .yamlfile import load_yaml
 
 FACES = ("+x", "-x", "+y", "-y", "+z", "-z")
 
@@ -200,6 +201,10 @@ class RoughFace(StrictModel):
             raise ValueError(
                 "give either surface (one patch) or variants (several, with densities)"
             )
+        if self.native_layout == "replicas" and self.tiling != "native":
+            raise ValueError(
+                f"native_layout replicas applies to tiling native, not {self.tiling}; remove one"
+            )
         if self.native_layout == "replicas" and len(self.variant_list) > 1:
             raise ValueError(
                 "native_layout replicas repeats one patch: it needs a single surface, not variants"
@@ -245,8 +250,21 @@ class DepthConfig(StrictModel):
         missing = [k for k in need if getattr(self, k) is None]
         if missing:
             raise ValueError(f"profile {self.profile} needs {' and '.join(missing)}")
+        # keys of other profiles would be ignored silently: refuse them
+        own = set(need) | {"profile", "min", "max", "definition"}
+        if self.profile == "table":
+            own.add("unit")
+        foreign = sorted(k for k in self.model_fields_set - own if getattr(self, k) is not None)
+        if foreign:
+            uses = ", ".join(k for k in need) or "no parameters"
+            raise ValueError(
+                f"{', '.join(foreign)}: not used by profile {self.profile} (it uses {uses}, "
+                f"and min/max to cut it); remove {'it' if len(foreign) == 1 else 'them'}"
+            )
         if self.max is not None and self.max <= self.min:
-            raise ValueError(f"max ({self.max:g} mm) must be larger than min ({self.min:g} mm)")
+            raise ValueError(
+                f"max ({length_text(self.max)}) must be larger than min ({length_text(self.min)})"
+            )
         return self
 
 
@@ -414,16 +432,7 @@ def parse_config(
 def load_config(path: str | Path) -> RunConfig:
     """Read and validate a YAML run configuration file."""
     path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"config: file {str(path)!r} does not exist")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except (yaml.YAMLError, UnicodeDecodeError) as err:
-        where = getattr(err, "problem_mark", None)
-        line = f" line {where.line + 1}" if where is not None else ""
-        raise ConfigError(
-            f"config: {path}{line}: not valid YAML ({getattr(err, 'problem', err)})"
-        ) from None
+    data = load_yaml(path, "config")
     return parse_config(data, origin=str(path), base_dir=path.parent)
 
 

@@ -4,6 +4,11 @@ Every error a user can cause by bad input is a :class:`Score4Error`; its message
 parameter, the value and the rule, in one line, so the CLI can print it as it is.
 """
 
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Iterator
+
 
 class Score4Error(Exception):
     """Base class for errors caused by input (configuration, files, data sets)."""
@@ -19,3 +24,34 @@ class DataError(Score4Error):
 
 class PhysicsUnavailableError(Score4Error):
     """The requested physics needs data sets that are not installed."""
+
+
+class Score4Warning(UserWarning):
+    """Something score4 did on its own that the user should know (input normalised, lite physics).
+
+    The command line prints each as one line ``score4: warning: <message>``, once, and not at
+    all with ``--quiet``.
+    """
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """A run stopped by Ctrl-C or SIGTERM; the message says what was kept and how to resume."""
+
+
+@contextlib.contextmanager
+def naming_file(path: object) -> Iterator[None]:
+    """Prefix ``<path>: `` to configuration errors raised inside that do not name a file yet.
+
+    Errors found after validation (materials, depth tables, surfaces, geometry, particles) come
+    from code that sees the validated objects, not the file they came from; the command line
+    wraps its work in this so that every such error names the configuration file. Errors about
+    command-line options (``--out: ...``) and errors that already start with the path are left
+    as they are.
+    """
+    try:
+        yield
+    except ConfigError as err:
+        text, name = str(err), str(path)
+        if text.startswith((name, "--")):
+            raise
+        raise type(err)(f"{name}: {text}") from None

@@ -87,3 +87,42 @@ def format_quantity(value: float, dimension: str, unit: str) -> str:
     """Format an internal-unit value as ``"<number> <unit>"`` (the inverse of
     :func:`parse_quantity`)."""
     return f"{value / DIMENSIONS[dimension][unit]:.12g} {unit}"
+
+
+# Units a readable value is shown in, smallest first (a number between 1 and 1000 in one of them).
+_READABLE = {
+    "length": ("pm", "nm", "um", "mm", "m", "km"),
+    "energy": ("eV", "keV", "MeV", "GeV", "TeV"),
+    "time": ("ps", "ns", "us", "ms", "s"),
+    "angle": ("deg",),
+    "area": ("nm2", "um2", "mm2", "cm2", "m2"),
+    "density": ("g/cm3",),
+}
+
+
+def format_readable(value: float, dimension: str, digits: int = 6) -> str:
+    """An internal-unit value for people: ``1e-05`` mm is ``"10 nm"``, ``0.00019999999999999998``
+    mm is ``"200 nm"`` (``digits`` significant digits, the unit that gives a number from 1 to 1000).
+    """
+    value = float(value)
+    units = DIMENSIONS[dimension]
+    names = _READABLE[dimension]
+    if not math.isfinite(value) or value == 0:
+        unit = "mm" if dimension == "length" else ("MeV" if dimension == "energy" else names[0])
+        return f"{value:g} {unit}"
+    chosen = names[0]
+    for name in names:
+        if abs(value) / units[name] >= 1 - 1e-12:
+            chosen = name
+    number = float(f"{value / units[chosen]:.{digits}g}")
+    return f"{number:g} {chosen}" if abs(number) < 1e6 else f"{number:.{digits}g} {chosen}"
+
+
+def length_text(value_mm: float) -> str:
+    """A length in mm as readable text (:func:`format_readable`)."""
+    return format_readable(value_mm, "length")
+
+
+def energy_text(value_mev: float) -> str:
+    """An energy in MeV as readable text (:func:`format_readable`)."""
+    return format_readable(value_mev, "energy")

@@ -43,6 +43,7 @@ def geometry() -> None:
 def check(config_file: Path, points: int, max_placements: int, tolerance: str, log_path) -> None:
     """Check CONFIG.yaml's volumes for overlaps (Geant4 CheckOverlaps). Exit status 1 if any overlap."""
     from ..config import load_config
+    from ..errors import naming_file
     from ..geometry.check import check_placements
     from ..geometry.world import build_world
     from ..scene import build_scene
@@ -53,11 +54,12 @@ def check(config_file: Path, points: int, max_placements: int, tolerance: str, l
     tol = parse_quantity(tolerance, "length", "--tolerance")
     if tol < 0:
         raise click.BadParameter(f"must be >= 0, got {tolerance!r}", param_hint="--tolerance")
-    scene = build_scene(config)
+    with naming_file(config_file):
+        scene = build_scene(config)
     g4 = import_geant4(resolve_physics("lite"))  # geometry needs no physics data
     with tempfile.TemporaryDirectory() as tmp:
         log = log_path or Path(tmp) / "geant4.log"
-        with redirect_native_output(log):
+        with redirect_native_output(log), naming_file(config_file):
             built = build_world(g4, config, scene)
             report = check_placements(built.world, points, tol, max_placements, layers=scene.layers)
         click.echo(

@@ -7,20 +7,50 @@ Input errors (:class:`~score4.errors.Score4Error`) are printed as one line
 from __future__ import annotations
 
 import json
+import os
 import sys
+import warnings
 from importlib.metadata import version
 from pathlib import Path
 
 import click
 
 from .. import __version__
-from ..errors import ConfigError, Score4Error
+from ..errors import ConfigError, RunInterrupted, Score4Error, Score4Warning, naming_file
 from .data import data
 from .geometry import geometry
 from .macro import import_macro
 from .range_cmd import range_command
 from .results import export, plot
 from .surface import surface
+
+
+class EventCount(click.ParamType):
+    """A positive whole number of events, also written like 1e6 or 2.5e5."""
+
+    name = "integer"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, int) and not isinstance(value, bool):
+            number = value
+        else:
+            text = str(value).strip()
+            try:
+                number = int(text)
+            except ValueError:
+                try:
+                    as_float = float(text)
+                except ValueError:
+                    self.fail(f"{value!r} is not a number of events", param, ctx)
+                if not as_float.is_integer():
+                    self.fail(f"{value!r} is not a whole number of events", param, ctx)
+                number = int(as_float)
+        if number < 1:
+            self.fail(f"{value!r}: need at least 1 event", param, ctx)
+        return number
+
+
+EVENTS = EventCount()
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -49,7 +79,7 @@ def _load_with_overrides(config_file: Path, events: int | None, seed: int | None
     "config_file", metavar="CONFIG.yaml", type=click.Path(dir_okay=False, path_type=Path)
 )
 @click.option(
-    "--events", type=click.IntRange(min=1), help="Number of events (overrides run.events)."
+    "--events", type=EVENTS, help="Number of events, e.g. 5000 or 1e6 (overrides run.events)."
 )
 @click.option(
     "--seed", type=click.IntRange(min=0, max=2**63 - 1), help="Random seed (overrides run.seed)."
@@ -77,24 +107,33 @@ def _load_with_overrides(config_file: Path, events: int | None, seed: int | None
     help="Run the chunks with Dask: 'dask' for a local Dask cluster of --jobs worker processes, or the "
     "address of a running scheduler (tcp://host:8786). Needs: pip install 'score4[cluster]'.",
 )
-@click.option("--quiet", "-q", is_flag=True, help="No progress bar.")
+@click.option(
+    "--quiet",
+    "-q",
+    is_flag=True,
+    help="No progress bar, notices or warnings on stderr: errors only.",
+)
 def run(config_file: Path, events, seed, out, overwrite, jobs, resume, cluster, quiet) -> None:
     """Simulate the run described in CONFIG.yaml and write an HDF5 results file."""
     from ..output import read_results, summarize
     from ..sim.engine import run as run_engine
 
+    if quiet:
+        warnings.simplefilter("ignore", Score4Warning)
+
     config = _load_with_overrides(config_file, events, seed)
     out = out or Path(config_file.stem + ".h5")
-    run_engine(
-        config,
-        out,
-        overwrite=overwrite,
-        jobs=jobs,
-        resume=resume,
-        progress=not quiet,
-        echo=lambda m: click.echo(m, err=True),
-        cluster=cluster,
-    )
+    with naming_file(config_file):
+        run_engine(
+            config,
+            out,
+            overwrite=overwrite,
+            jobs=jobs,
+            resume=resume,
+            progress=not quiet,
+            echo=(lambda m: None) if quiet else (lambda m: click.echo(m, err=True)),
+            cluster=cluster,
+        )
     summary = summarize(read_results(out))
     click.echo(
         f"wrote {out}: {summary['n_events']} events, physics {summary['physics_mode']}, seed {summary['seed']}"
@@ -105,9 +144,7 @@ def run(config_file: Path, events, seed, out, overwrite, jobs, resume, cluster, 
 @click.argument(
     "config_file", metavar="CONFIG.yaml", type=click.Path(dir_okay=False, path_type=Path)
 )
-@click.option(
-    "--n", "n_events", type=click.IntRange(min=1), help="Number of events (default: run.events)."
-)
+@click.option("--n", "n_events", type=EVENTS, help="Number of events (default: run.events).")
 @click.option(
     "--seed", type=click.IntRange(min=0, max=2**63 - 1), help="Random seed (default: run.seed)."
 )
@@ -119,16 +156,15 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
     """Draw the source vertices of CONFIG.yaml into an HDF5 vertex file (no Geant4 run).
 
     Columns: event, particle, energy (MeV), xloc/yloc/zloc (mm), dirx/diry/dirz, depth (mm),
-    facet, patch, with units attributes (LEGEND/remage style). The events are drawn chunk by
-    chunk exactly as 'score4 run' draws them, so running the file (source: {vertices: FILE})
-    with the same seed and chunk size reproduces the direct run event by event.
+    facet, patch, with units attributes (LEGEND/remage style). The events are drawn exactly as
+    'score4 run' draws them (in blocks of 1000 with their own random streams), so running the
+    file (source: {vertices: FILE}) with the same seed reproduces the direct run event by event,
+    and the first N rows are the vertices of a run of N events.
     """
     from ..config import config_to_dict
     from ..scene import build_scene
-    from ..sim.engine import check_output_path, plan_chunks
-    from ..sim.seeds import chunk_rng
+    from ..sim.engine import check_output_path
     from ..source.build import make_source
-    from ..source.primaries import Primaries
     from ..source.vertex_file import write_vertex_file
 
     config = _load_with_overrides(config_file, n_events, seed)
@@ -138,12 +174,9 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
         )
     check_output_path(out, overwrite)
     n, seed = config.run.events, config.run.seed
-    source = make_source(config, build_scene(config))
-    parts = [
-        source.primaries(chunk_rng(seed, c.index), c.first_event, c.n_events)
-        for c in plan_chunks(n, config.run.chunk_events)
-    ]
-    primaries = Primaries.concatenate(parts)
+    with naming_file(config_file):
+        source = make_source(config, build_scene(config))
+        primaries = source.events(seed, 0, n)
     write_vertex_file(out, primaries, config_to_dict(config), seed)
     depth = primaries.extra["depth"]
     click.echo(
@@ -200,8 +233,31 @@ cli.add_command(geometry)
 cli.add_command(range_command)
 
 
+_SHOWN: set[str] = set()  # score4 warnings said in this command
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """score4 warnings as one line, once, without the source location Python adds."""
+    if not issubclass(category, Score4Warning):
+        _PYTHON_SHOWWARNING(message, category, filename, lineno, file, line)
+    elif str(message) not in _SHOWN:
+        _SHOWN.add(str(message))
+        click.echo(f"score4: warning: {message}", err=True)
+
+
+_PYTHON_SHOWWARNING = warnings.showwarning
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI; return the exit status (2 for input errors)."""
+    _SHOWN.clear()
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", Score4Warning)  # _show_warning says each text once
+        warnings.showwarning = _show_warning
+        return _main(argv)
+
+
+def _main(argv: list[str] | None) -> int:
     try:
         status = cli.main(args=argv, prog_name="score4", standalone_mode=False)
     except Score4Error as err:
@@ -212,8 +268,13 @@ def main(argv: list[str] | None = None) -> int:
     except click.ClickException as err:
         err.show()
         return 2
-    except click.exceptions.Abort:
-        click.echo("score4: aborted", err=True)
+    except click.exceptions.Abort as err:
+        cause = err.__cause__ or err.__context__
+        said = str(cause) if isinstance(cause, RunInterrupted) and str(cause) else "aborted"
+        click.echo(f"score4: {said}", err=True)
+        return 130
+    except RunInterrupted as err:  # not turned into Abort (raised outside click's own call)
+        click.echo(f"score4: {err or 'aborted'}", err=True)
         return 130
     # with standalone_mode=False click returns (not raises) the code of a ctx.exit / Exit(n)
     return status if isinstance(status, int) else 0
@@ -221,7 +282,15 @@ def main(argv: list[str] | None = None) -> int:
 
 def entry_point() -> None:
     """Console-script entry point."""
-    sys.exit(main())
+    status = main()
+    if status == 130:
+        # Interrupted: everything is closed and cleaned up already. Skip the interpreter's
+        # teardown of numpy/scipy/h5py/pydantic, which takes ~0.5-1.5 s on a loaded machine,
+        # so that Ctrl-C ends the command at once.
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(status)
+    sys.exit(status)
 
 
 if __name__ == "__main__":

@@ -40,7 +40,8 @@ import socket
 import tempfile
 import threading
 import uuid
-from collections.abc import Generator
+import warnings
+from collections.abc import Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -49,7 +50,7 @@ from typing import Any
 import numpy as np
 
 from ..config import config_to_dict
-from ..errors import ConfigError, Score4Error
+from ..errors import ConfigError, Score4Error, Score4Warning
 from ..output import write_chunk
 from ..source.primaries import Primaries
 from .worker import (
@@ -63,6 +64,7 @@ from .worker import (
 )
 
 INSTALL_HINT = "pip install 'score4[cluster]'"
+SUBMIT_WINDOW = 256  # chunks submitted ahead of the finished ones
 _ADDRESS = re.compile(r"[a-z][a-z0-9+.-]*://\S+")
 
 
@@ -128,11 +130,11 @@ class DaskExecutor:
                 f"notice: --jobs {jobs} does not apply with --cluster {cluster}: the scheduler's workers run the chunks"
             )
 
-    def execute(self, spec: WorkerSpec, todo: list[Chunk]) -> Generator[tuple, None, None]:
+    def execute(self, spec: WorkerSpec, todo: Iterable[Chunk]) -> Iterator[tuple]:
         from distributed import as_completed
 
         client, own_client, cluster = self.client, False, None
-        futures = []
+        futures: set = set()  # submitted and not yet finished
         try:
             if client is None:
                 client, cluster = self._connect()
@@ -140,7 +142,14 @@ class DaskExecutor:
             self._free_workers(client, setup_key(spec))
             run_id = uuid.uuid4().hex[:8]
             by_key = {}
-            for c in todo:
+            waiting = iter(
+                todo
+            )  # submitted a window at a time: a huge run lists no chunks up front
+
+            def submit_next() -> None:
+                c = next(waiting, None)
+                if c is None:
+                    return
                 fut = client.submit(
                     run_chunk_task,
                     spec,
@@ -148,11 +157,18 @@ class DaskExecutor:
                     key=f"score4-chunk-{c.index:06d}-{run_id}",
                     priority=-c.index,
                 )
-                futures.append(fut)
+                futures.add(fut)
                 by_key[fut.key] = c
+                running.add(fut)
+
+            running = as_completed()
+            for _ in range(SUBMIT_WINDOW):
+                submit_next()
             announced = False
-            for fut in as_completed(futures):
-                chunk = by_key[fut.key]
+            for fut in running:
+                submit_next()
+                chunk = by_key.pop(fut.key)
+                futures.discard(fut)
                 try:
                     result: ChunkOutput = fut.result()
                 except Exception as exc:  # noqa: BLE001 any task failure: report its chunk and why
@@ -173,8 +189,8 @@ class DaskExecutor:
         finally:
             if futures and client is not None:
                 with contextlib.suppress(Exception):
-                    client.cancel(futures, force=True)
-            if own_client and client is not None:
+                    client.cancel(list(futures), force=True)
+            if own_client:
                 with contextlib.suppress(Exception):
                     client.close()
             if cluster is not None:
@@ -292,7 +308,9 @@ def _simulation(spec: WorkerSpec):
         log = Path(tempfile.gettempdir()) / f"score4-geant4-{os.getpid()}.log"
         _held.update(key=key, log=log)
         try:
-            _held["sim"] = Simulation(spec.config, spec.choice, log_path=log)
+            with warnings.catch_warnings():  # the client has shown them already
+                warnings.simplefilter("ignore", Score4Warning)
+                _held["sim"] = Simulation(spec.config, spec.choice, log_path=log)
         except BaseException as err:
             _held["error"] = err
             raise

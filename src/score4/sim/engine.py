@@ -32,9 +32,10 @@ import signal
 import sys
 import threading
 import time
+import warnings
 from collections import Counter, deque
-from collections.abc import Generator, Iterator
-from datetime import UTC, datetime
+from collections.abc import Iterable, Iterator, Sequence, Sized
+from datetime import datetime
 from importlib.metadata import version
 from multiprocessing.connection import wait
 from pathlib import Path
@@ -52,6 +53,7 @@ from ..output import merge_chunks
 from ..scene import build_scene
 from ..source.build import make_source, needs_radioactive_decay
 from .runtime import resolve_physics
+from .seeds import BLOCK_EVENTS
 from .worker import Chunk, WorkerSpec, check_free_space, chunk_path, worker_main
 
 # Errors that workers report by class name and that the engine raises again as they are.
@@ -62,6 +64,7 @@ _ERRORS = {
 }
 MAX_FAILED_CHUNKS = 3
 _INFO_FILE = "worker-info.json"
+_PLAN_FILE = "plan.json"  # the chunk size of the run the parts folder belongs to
 
 # An executor event: ("ready", info) | ("progress", n_events) | ("done", index)
 # | ("failed", index or None, error class name, message)
@@ -85,7 +88,7 @@ class Executor(Protocol):
 
     description: str
 
-    def execute(self, spec: WorkerSpec, todo: list[Chunk]) -> Generator[Event, None, None]: ...
+    def execute(self, spec: WorkerSpec, todo: Iterable[Chunk]) -> Iterator[Event]: ...
 
 
 def check_output_path(out: Path, overwrite: bool) -> None:
@@ -101,10 +104,68 @@ def check_output_path(out: Path, overwrite: bool) -> None:
         raise ConfigError(f"--out: {str(out)!r} is a folder, not a file name")
 
 
-def plan_chunks(n_events: int, chunk_events: int) -> list[Chunk]:
-    """Split ``n_events`` into chunks of ``chunk_events`` (the last one may be shorter)."""
-    starts = range(0, n_events, chunk_events)
-    return [Chunk(i, s, min(chunk_events, n_events - s)) for i, s in enumerate(starts)]
+class ChunkPlan(Sequence[Chunk]):
+    """The chunks of a run of ``n_events`` events, ``size`` events each (the last may be shorter).
+
+    Lazy: chunk ``i`` is computed when asked for, so planning 10^11 events costs nothing.
+    """
+
+    def __init__(self, n_events: int, size: int) -> None:
+        if n_events < 1 or size < 1:
+            raise ValueError(f"ChunkPlan: need n_events >= 1 and size >= 1, got {n_events}, {size}")
+        self.n_events, self.size = int(n_events), int(size)
+
+    def __len__(self) -> int:
+        return -(-self.n_events // self.size)
+
+    def __getitem__(self, index):  # int only; a slice of a plan is not needed
+        if isinstance(index, slice):
+            raise TypeError("ChunkPlan: slicing is not supported")
+        n = len(self)
+        index = index + n if index < 0 else index
+        if not 0 <= index < n:
+            raise IndexError(f"chunk {index} of {n}")
+        first = index * self.size
+        return Chunk(index, first, min(self.size, self.n_events - first))
+
+    def __iter__(self) -> Iterator[Chunk]:
+        return (self[i] for i in range(len(self)))
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, ChunkPlan) and (self.n_events, self.size) == (
+            other.n_events,
+            other.size,
+        )
+
+    def __repr__(self) -> str:
+        return f"ChunkPlan(n_events={self.n_events}, size={self.size})"
+
+    def remaining(self, done: set[int]) -> Iterator[Chunk]:
+        """The chunks whose index is not in ``done``, in order, one at a time."""
+        return (self[i] for i in range(len(self)) if i not in done)
+
+
+def chunk_size(n_events: int, chunk_events: int, jobs: int = 1) -> int:
+    """Events per chunk: enough chunks for ``jobs`` workers, at most ``chunk_events`` each.
+
+    ``ceil(n_events / jobs)`` events, rounded up to whole sampling blocks
+    (:data:`~score4.sim.seeds.BLOCK_EVENTS`) when that still makes at least ``jobs`` chunks,
+    and capped by ``chunk_events`` (``run.chunk_events``). So 5000 events on 2 workers are 2
+    chunks (3000 + 2000 events) and each worker gets one; there are fewer chunks than workers
+    only in runs of fewer than ``jobs * (jobs - 1)`` events. The result of a run does not depend on the
+    chunk size (:mod:`score4.sim.seeds`).
+    """
+    jobs = max(1, jobs)
+    size = -(-n_events // jobs)
+    whole_blocks = -(-size // BLOCK_EVENTS) * BLOCK_EVENTS
+    if size > BLOCK_EVENTS and -(-n_events // whole_blocks) >= jobs:
+        size = whole_blocks
+    return max(1, min(chunk_events, size))
+
+
+def plan_chunks(n_events: int, chunk_events: int, jobs: int = 1) -> ChunkPlan:
+    """The chunks of a run of ``n_events`` events (see :func:`chunk_size`)."""
+    return ChunkPlan(n_events, chunk_size(n_events, chunk_events, jobs))
 
 
 def config_fingerprint(config: RunConfig, seed: int) -> str:
@@ -152,8 +213,9 @@ def run(
     progress
         Show a progress bar on stderr.
     echo
-        ``echo(str)`` receives one-line notices (physics warning, reduced jobs, how to resume,
-        where Geant4's log is); default: print to stderr.
+        ``echo(str)`` receives one-line notices (reduced jobs, resumed chunks, where Geant4's
+        log is); default: print to stderr. Warnings (lite physics) are
+        :class:`~score4.errors.Score4Warning` warnings.
     cluster
         ``None``: local processes. ``"dask"``: a local Dask cluster of ``jobs`` worker
         processes. ``"tcp://host:port"`` (any Dask address): an existing Dask scheduler. A
@@ -165,8 +227,9 @@ def run(
         Bad input, found before or during the run.
     Score4Error
         The run failed (failed chunks, full disk, ...); finished chunks are kept for ``resume``.
-    KeyboardInterrupt
-        Ctrl-C or SIGTERM; finished chunks are kept for ``resume`` and ``echo`` says so.
+    RunInterrupted
+        Ctrl-C or SIGTERM (a ``KeyboardInterrupt``); finished chunks are kept for ``resume``
+        and the message says so.
     """
     out = Path(out)
     echo = echo or (lambda msg: print(msg, file=sys.stderr))
@@ -179,8 +242,7 @@ def run(
     scene = build_scene(config)
     make_source(config, scene).primaries(np.random.default_rng(0), 0, 1)
     if choice.warning:
-        echo(f"warning: {choice.warning}")
-    chunks = plan_chunks(config.run.events, config.run.chunk_events)
+        warnings.warn(choice.warning, errors.Score4Warning, stacklevel=2)
     fingerprint = config_fingerprint(config, seed)
     parts = out.with_name(out.name + ".parts")
     if parts.exists() and not resume:
@@ -188,45 +250,46 @@ def run(
             f"--out: unfinished run parts found in {str(parts)!r}; continue that run with --resume, "
             f"or delete the folder to start again"
         )
-    done = (
-        _finished_chunks(parts, chunks, fingerprint, echo) if resume and parts.exists() else set()
+    resuming = resume and parts.exists()
+    # A resumed run keeps the chunks of the run it continues, whatever --jobs is now.
+    chunks = (resuming and _recall_plan(parts, config.run.events)) or plan_chunks(
+        config.run.events, config.run.chunk_events, jobs
     )
-    todo = [c for c in chunks if c.index not in done]
+    done = _finished_chunks(parts, chunks, fingerprint, echo) if resuming else set()
+    n_todo = len(chunks) - len(done)
     if done:
         echo(
-            f"resume: {len(done)} of {len(chunks)} chunks already finished in {parts}; running the other {len(todo)}"
+            f"resume: {len(done)} of {len(chunks)} chunks already finished in {parts}; running the other {n_todo}"
         )
-    workers = min(jobs, max(1, len(todo)))
-    if todo and jobs > len(todo):
+    workers = min(jobs, max(1, n_todo))
+    if n_todo and jobs > n_todo:
         echo(
-            f"notice: --jobs {jobs} but only {len(todo)} chunk(s) to run (run.chunk_events = "
-            f"{config.run.chunk_events}); using {workers} worker(s). Lower run.chunk_events to use more."
+            f"notice: --jobs {jobs} but only {n_todo} chunk(s) to run ({_chunks_text(chunks, done)}); "
+            f"using {workers} worker(s)"
         )
     executor = make_executor(
         cluster, workers, echo
     )  # before creating anything: a bad --cluster leaves no trace
     parts.mkdir(exist_ok=True)
+    _remember_plan(parts, chunks)
     for stale in parts.glob("*.partial"):  # temporary files of writers that were killed
         stale.unlink()
     started = time.time()
     spec = WorkerSpec(config, choice, seed, parts, fingerprint)
-    total = sum(c.n_events for c in chunks)
     try:
         with _sigterm_as_interrupt():
-            info = _run_chunks(
-                executor, spec, todo, total, total - sum(c.n_events for c in todo), progress
-            )
+            info = _run_chunks(executor, spec, chunks, done, progress)
     except KeyboardInterrupt:
         kept = _count_chunk_files(parts, chunks)
         if kept:
-            echo(
+            said = (
                 f"run interrupted: {kept} of {len(chunks)} chunks are finished and kept in {parts}; "
                 f"run the same command again with --resume to finish the run"
             )
         else:
             shutil.rmtree(parts, ignore_errors=True)
-            echo("run interrupted before any chunk finished; nothing kept")
-        raise
+            said = "run interrupted before any chunk finished; nothing kept"
+        raise errors.RunInterrupted(said) from None
     except Score4Error as err:
         kept = _count_chunk_files(parts, chunks)
         if (
@@ -260,7 +323,7 @@ def run(
         "geant4_version": info.get("geant4_version", ""),
         "n_events": config.run.events,
         "n_chunks": len(chunks),
-        "chunk_events": config.run.chunk_events,
+        "chunk_events": chunks.size,
         "jobs": workers,
         "backend": executor.description,
         "resumed_chunks": len(done),
@@ -285,24 +348,25 @@ def run(
 
 
 def _run_chunks(
-    executor: Executor, spec: WorkerSpec, todo: list[Chunk], total: int, already: int, show: bool
+    executor: Executor, spec: WorkerSpec, chunks: ChunkPlan, done: set[int], show: bool
 ) -> dict:
-    """Run ``todo`` on ``executor``; return a worker's ready info; raise on failed chunks."""
-    if not todo:
+    """Run the chunks not in ``done`` on ``executor``; return a worker's ready info; raise on failed chunks."""
+    n_todo = len(chunks) - len(done)
+    if not n_todo:
         return {}
     info: dict = {}
     finished: set[int] = set()
     failures: dict[int, str] = {}
     bar = tqdm(
-        total=total,
-        initial=already,
+        total=chunks.n_events,
+        initial=sum(chunks[i].n_events for i in done),
         unit="ev",
         disable=not show or None,
         mininterval=0.5,
         file=sys.stderr,
     )
     try:
-        with contextlib.closing(executor.execute(spec, todo)) as events:
+        with contextlib.closing(executor.execute(spec, chunks.remaining(done))) as events:
             for event in events:
                 kind = event[0]
                 if kind == "ready" and not info:
@@ -328,13 +392,16 @@ def _run_chunks(
                         break
     finally:
         bar.close()
-    missing = [c.index for c in todo if c.index not in finished and c.index not in failures]
+    ran = finished | set(failures)
+    missing = n_todo - len(ran)
     if failures or missing:
         said = list(failures.values())
         if len(failures) >= MAX_FAILED_CHUNKS and missing:
             said.append(f"stopped after {len(failures)} failed chunks")
         if missing:
-            said.append(f"{len(missing)} chunk(s) not run: {_ranges(missing)}")
+            said.append(
+                f"{missing} chunk(s) not run: {_complement_ranges(len(chunks), done | ran)}"
+            )
         raise Score4Error("run: " + "; ".join(said))
     return info
 
@@ -351,11 +418,16 @@ class LocalProcesses:
         self.jobs = jobs
         self.description = f"local processes ({jobs})"
 
-    def execute(self, spec: WorkerSpec, todo: list[Chunk]) -> Generator[Event, None, None]:
+    def execute(self, spec: WorkerSpec, todo: Iterable[Chunk]) -> Iterator[Event]:
         ctx = mp.get_context("spawn")
-        pending = deque(todo)
-        workers = [_LocalWorker(ctx, spec) for _ in range(min(self.jobs, len(todo)))]
-        replacements = len(todo)
+        pending = _Pending(todo)
+        if not pending:
+            return
+        n = len(todo) if isinstance(todo, Sized) else self.jobs
+        workers = [_LocalWorker(ctx, spec) for _ in range(min(self.jobs, n))]
+        # a worker that dies with a chunk is replaced while chunks wait (the engine stops the run
+        # after MAX_FAILED_CHUNKS failures; one that dies starting up stops it at once)
+        replacements = len(todo) if isinstance(todo, Sized) else float("inf")
         try:
             while workers:
                 wait([w.conn for w in workers] + [w.process.sentinel for w in workers], timeout=1.0)
@@ -377,6 +449,30 @@ class LocalProcesses:
                 w.join()
 
 
+class _Pending:
+    """Chunks waiting for a worker, taken lazily from an iterable (never listed in full)."""
+
+    def __init__(self, chunks: Iterable[Chunk]) -> None:
+        self._rest = iter(chunks)
+        self._front: deque[Chunk] = deque()  # chunks given back, or looked at
+
+    def __bool__(self) -> bool:
+        if not self._front:
+            nxt = next(self._rest, None)
+            if nxt is None:
+                return False
+            self._front.append(nxt)
+        return True
+
+    def popleft(self) -> Chunk:
+        if not self:
+            raise IndexError("no chunk waiting")
+        return self._front.popleft()
+
+    def appendleft(self, chunk: Chunk) -> None:
+        self._front.appendleft(chunk)
+
+
 class _LocalWorker:
     """The parent's side of one local worker process."""
 
@@ -389,7 +485,7 @@ class _LocalWorker:
         self.ready = False  # has built the application
         self.reported = False  # has reported an error (and exits)
 
-    def handle_messages(self, pending: deque) -> Iterator[Event]:
+    def handle_messages(self, pending: _Pending) -> Iterator[Event]:
         try:
             while not self.conn.closed and self.conn.poll():
                 msg = self.conn.recv()
@@ -410,7 +506,7 @@ class _LocalWorker:
         except (EOFError, OSError):  # the worker is gone; handle_exit says how
             pass
 
-    def _send_next(self, pending: deque) -> None:
+    def _send_next(self, pending: _Pending) -> None:
         self.chunk = pending.popleft() if pending else None
         try:
             self.conn.send(self.chunk)
@@ -419,7 +515,7 @@ class _LocalWorker:
                 pending.appendleft(self.chunk)
             self.chunk = None
 
-    def handle_exit(self, pending: deque) -> Iterator[Event]:
+    def handle_exit(self, pending: _Pending) -> Iterator[Event]:
         self.join()
         pid, code = self.process.pid, self.process.exitcode
         if self.chunk is not None:
@@ -469,6 +565,23 @@ def _ranges(indices: list[int]) -> str:
     return ", ".join(out)
 
 
+def _complement_ranges(n: int, excluded: set[int]) -> str:
+    """:func:`_ranges` of the indices ``0 .. n-1`` not in ``excluded`` (a small set), without listing them."""
+    out, start = [], 0
+    for k in sorted(i for i in excluded if 0 <= i < n) + [n]:
+        if k > start:
+            out.append(str(start) if k == start + 1 else f"{start}-{k - 1}")
+        start = k + 1
+    return ", ".join(out)
+
+
+def _chunks_text(chunks: ChunkPlan, done: set[int]) -> str:
+    """Why there are fewer chunks to run than workers."""
+    if done:
+        return f"{len(done)} of {len(chunks)} chunks are already finished"
+    return f"the run has {chunks.n_events} event(s)"
+
+
 @contextlib.contextmanager
 def _sigterm_as_interrupt():
     """During the run, SIGTERM (a batch system's time limit, ``kill``) stops it like Ctrl-C."""
@@ -486,13 +599,21 @@ def _sigterm_as_interrupt():
         signal.signal(signal.SIGTERM, previous)
 
 
-def _finished_chunks(parts: Path, chunks: list[Chunk], fingerprint: str, echo) -> set[int]:
+def _chunk_files(parts: Path, chunks: ChunkPlan) -> dict[int, Path]:
+    """{index: file} of the files in ``parts`` named like finished chunks of ``chunks``."""
+    found = {}
+    for path in parts.glob("chunk-*.h5"):
+        m = re.fullmatch(r"chunk-(\d+)\.h5", path.name)
+        if m and int(m.group(1)) < len(chunks):
+            found[int(m.group(1))] = path
+    return found
+
+
+def _finished_chunks(parts: Path, chunks: ChunkPlan, fingerprint: str, echo) -> set[int]:
     """Indices of chunks whose files in ``parts`` are complete and come from this very run."""
     done, foreign, damaged = set(), [], []
-    for c in chunks:
-        path = chunk_path(parts, c.index)
-        if not path.exists():
-            continue
+    for index, path in sorted(_chunk_files(parts, chunks).items()):
+        c = chunks[index]
         try:
             with h5py.File(path, "r") as f:
                 same = (
@@ -521,8 +642,25 @@ def _finished_chunks(parts: Path, chunks: list[Chunk], fingerprint: str, echo) -
     return done
 
 
-def _count_chunk_files(parts: Path, chunks: list[Chunk]) -> int:
-    return sum(chunk_path(parts, c.index).exists() for c in chunks)
+def _count_chunk_files(parts: Path, chunks: ChunkPlan) -> int:
+    return len(_chunk_files(parts, chunks))
+
+
+def _remember_plan(parts: Path, chunks: ChunkPlan) -> None:
+    """Keep the chunk size in the parts folder: a resume with another --jobs keeps the same chunks."""
+    with contextlib.suppress(Score4Error), atomic_output(parts / _PLAN_FILE) as tmp:
+        tmp.write_text(json.dumps({"n_events": chunks.n_events, "chunk_size": chunks.size}))
+
+
+def _recall_plan(parts: Path, n_events: int) -> ChunkPlan | None:
+    """The chunk plan stored in ``parts`` for a run of ``n_events`` events, or None."""
+    try:
+        plan = json.loads((parts / _PLAN_FILE).read_text())
+        if int(plan["n_events"]) == n_events:
+            return ChunkPlan(n_events, int(plan["chunk_size"]))
+    except (OSError, ValueError, KeyError, TypeError):
+        pass
+    return None
 
 
 def _remember_info(parts: Path, info: dict) -> None:

@@ -39,8 +39,9 @@ class PhysicsChoice:
         if self.mode == "lite" and self.requested == "auto":
             missing = ", ".join(self.missing_data) or "none"
             return (
-                f"physics: using lite mode because Geant4 data sets are missing ({missing}); {self.lacks}. "
-                "Install them with 'score4 data install' for full physics."
+                f"physics: lite mode (Geant4 data sets missing: {missing}): alpha and ion "
+                "transport only, no radioactive decay; 'score4 summary' of the results lists what "
+                "else it lacks; 'score4 data install' gives full physics"
             )
         return None
 

@@ -1,8 +1,8 @@
 """One Geant4 application in one process: geometry, physics, primaries, scoring.
 
 A :class:`Simulation` is built once per worker process and then runs chunks of events;
-each chunk reseeds Geant4, so a chunk's result does not depend on which worker ran it or
-what ran before it.
+every event reseeds Geant4 with its own seed (:mod:`score4.sim.seeds`), so an event's result
+does not depend on which worker ran it, what ran before it or how the run was chunked.
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ from .scoring import VolumeScorer
 if TYPE_CHECKING:
     from .heavy_ions import HeavyIonTransport
 
+_REPLAY_STREAM = 0x5C0E4  # mixed into the seeds of the heavy-ion replay's random streams
 _ION = re.compile(r"^([A-Z][a-z]?)-?(\d{1,3})$")
 
 
@@ -164,6 +165,8 @@ class Simulation:
     def _generate(self, gun, event) -> None:
         k = self._next_event
         g4, p = self.g4, self._primaries
+        if self._event_seeds is not None:
+            g4.G4Random.setTheSeed(int(self._event_seeds[k]))
         if self.teleporter is not None:
             self.teleporter.begin_event(int(self._offsets[k]))
         for row in range(self._offsets[k], self._offsets[k + 1]):
@@ -182,13 +185,16 @@ class Simulation:
     def run(
         self,
         primaries: Primaries,
-        g4_seed: int,
+        g4_seed: int | np.ndarray,
         progress=None,
         batch: int | None = None,
         endpoints: bool = False,
     ) -> dict[str, np.ndarray]:
         """Track ``primaries``; return {quantity: (n_events, n_volumes) array} (MeV, mm).
 
+        ``g4_seed`` is one seed for the whole batch, or one seed per event (``(n_events,)``
+        integers, see :func:`score4.sim.seeds.event_geant4_seeds`): each event then starts
+        from its own seed and its result does not depend on the events run before it.
         Heavy ions (:meth:`trim_rows`) are moved along TRIM trajectories after Geant4 has
         tracked the rest (:mod:`score4.sim.heavy_ions`); their deposits join their events'.
         With ``endpoints=True``, ``self.endpoints`` is then an (n_rows, 4) array: where each
@@ -211,7 +217,13 @@ class Simulation:
         self.endpoints = np.full((len(primaries), 4), np.nan) if endpoints else None
         self._track_endpoints(endpoints)
         self._next_event = 0
-        self.g4.G4Random.setTheSeed(int(g4_seed))
+        if np.ndim(g4_seed) == 0:
+            self._event_seeds = None
+            self.g4.G4Random.setTheSeed(int(g4_seed))
+        else:
+            if len(g4_seed) != n:
+                raise ValueError(f"g4_seed: need one seed per event ({n}), got {len(g4_seed)}")
+            self._event_seeds = g4_seed
         batch = batch or max(100, n // 20)
         with redirect_native_output(self.log_path):
             while self._next_event < n:
@@ -223,10 +235,13 @@ class Simulation:
             self._replay_heavy_ions(primaries, g4_seed)
         return self._scores
 
-    def _replay_heavy_ions(self, primaries: Primaries, g4_seed: int) -> None:
+    def _replay_heavy_ions(self, primaries: Primaries, g4_seed: int | np.ndarray) -> None:
         transport = self.heavy_ions
         assert transport is not None  # rows are only marked for TRIM when it exists
-        rng = np.random.default_rng([int(g4_seed), 0x5C0E4])  # own stream, fixed by the chunk
+        # Own streams: one per event with per-event Geant4 seeds (so the first N events of a run
+        # are the same in a longer run), else one for the batch.
+        per_event = np.ndim(g4_seed) > 0
+        rng = None if per_event else np.random.default_rng([int(g4_seed), _REPLAY_STREAM])
         rows = np.flatnonzero(self._trim)
         for row in rows:  # announce energies first: one library per ion and material
             transport.need(str(primaries.particle[row]), float(primaries.energy[row]))
@@ -234,6 +249,11 @@ class Simulation:
         length = self._scores.get("track_length")
         for row in rows:
             name = str(primaries.particle[row])
+            event = primaries.event[row]
+            if per_event:
+                within = int(row - self._offsets[event])  # the primary's place in its event
+                rng = np.random.default_rng([int(g4_seed[event]), _REPLAY_STREAM, within])
+            assert rng is not None
             fate = transport.transport(
                 self._particles[name],
                 name,
@@ -242,7 +262,6 @@ class Simulation:
                 primaries.direction[row],
                 rng,
             )
-            event = primaries.event[row]
             for k, value in fate.deposits.items():
                 edep[event, k] += value
             if length is not None:

@@ -25,17 +25,18 @@ import shutil
 import signal
 import threading
 import traceback
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..config import RunConfig
-from ..errors import Score4Error
+from ..errors import Score4Error, Score4Warning
 from ..output import write_chunk
 from ..source.primaries import Primaries
 from .runtime import PhysicsChoice
-from .seeds import chunk_geant4_seed, chunk_rng
+from .seeds import event_geant4_seeds
 
 CRASH_HOOK = "SCORE4_TEST_CRASH_CHUNK"
 FREE_SPACE_MARGIN = 256 * 1024  # bytes kept free beyond a file's estimated size
@@ -71,15 +72,15 @@ def simulate_chunk(
 ) -> tuple[Primaries, dict[str, np.ndarray]]:
     """Sample and track one chunk; return its primaries and {quantity: (n_events, n_volumes) array}.
 
-    The random streams depend only on the run seed and the chunk index
-    (:mod:`score4.sim.seeds`), so a chunk gives the same result in any process.
+    The random streams depend only on the run seed and the event indices
+    (:mod:`score4.sim.seeds`), so a chunk gives the same result in any process, and an event
+    the same result in any chunking.
     """
     if str(chunk.index) in os.environ.get(CRASH_HOOK, "").split(","):
         os._exit(70)  # test hook, see the module docstring
-    primaries = sim.source.primaries(
-        chunk_rng(spec.seed, chunk.index), chunk.first_event, chunk.n_events
-    )
-    scores = sim.run(primaries, chunk_geant4_seed(spec.seed, chunk.index), progress=progress)
+    primaries = sim.source.events(spec.seed, chunk.first_event, chunk.n_events)
+    g4_seeds = event_geant4_seeds(spec.seed, chunk.first_event, chunk.n_events)
+    scores = sim.run(primaries, g4_seeds, progress=progress)
     return primaries, scores
 
 
@@ -139,6 +140,7 @@ def _exit_with_parent() -> None:
 def worker_main(spec: WorkerSpec, conn) -> None:
     """Entry point of a local worker process; ``conn`` is its end of the pipe to the parent."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    warnings.simplefilter("ignore", Score4Warning)  # the parent has shown them already
     _exit_with_parent()
     from .simulation import Simulation
 

@@ -2,8 +2,10 @@
 
 :func:`make_source` builds, once per process, what every chunk needs: the vertex sampler on the
 configured face (its rough layer if it has one, else the flat face), the depth profile, the
-confinement and the emitter; or the rows of a vertex file. ``source.primaries(rng, first, n)``
-then gives the primaries of events ``first .. first + n - 1``.
+confinement and the emitter; or the rows of a vertex file. ``source.events(seed, first, n)``
+then gives the primaries of events ``first .. first + n - 1`` of the run with that seed, drawn in
+prefix-stable blocks (:mod:`score4.source.blocks`); ``source.primaries(rng, first, n)`` draws
+``n`` events from one given stream.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import numpy as np
 from ..config import DepthConfig, RunConfig, SourceConfig
 from ..errors import ConfigError
 from ..scene import Scene, face_frame
+from .blocks import draw_events
 from .depth import VertexSampler
 from .emitters import (
     Emitter,
@@ -116,6 +119,10 @@ class SampledSource:
             patch=v.patch if v.patch is not None else np.full(n_events, -1),
         )
 
+    def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
+        """Events ``first_event ..`` of the run with ``seed``, the same in any chunking."""
+        return draw_events(self, seed, first_event, n_events)
+
 
 @dataclass
 class FileSource:
@@ -132,6 +139,10 @@ class FileSource:
                 f"events up to {first_event + n_events} (set run.events <= {available})"
             )
         return self.primaries_all.select_events(first_event, first_event + n_events)
+
+    def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
+        """Rows of events ``first_event ..`` of the file (``seed`` plays no part)."""
+        return self.primaries(None, first_event, n_events)
 
 
 def needs_radioactive_decay(config: RunConfig) -> bool:

@@ -240,7 +240,9 @@ class Monoenergetic:
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.energy) and self.energy > 0):
-            raise ConfigError(f"energy: got {self.energy!r} MeV; must be a finite energy > 0")
+            raise ConfigError(
+                f"energy: got {float(self.energy):g} MeV; must be a finite energy > 0"
+            )
 
     def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
         return np.full(n, float(self.energy))

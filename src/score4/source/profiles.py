@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike
 from scipy.special import ndtr, ndtri
 
 from ..errors import ConfigError
-from ..units import parse_quantity
+from ..units import length_text, parse_quantity
 from .sampling import DiscreteSampler, PiecewiseLinear, read_table
 
 __all__ = [
@@ -48,7 +48,7 @@ def _length(value: float | str, name: str) -> float:
 def _positive(value: float | str, name: str) -> float:
     value = _length(value, name)
     if not (np.isfinite(value) and value > 0):
-        raise ConfigError(f"{name}: got {value!r} mm; must be a finite length > 0")
+        raise ConfigError(f"{name}: got {length_text(value)}; must be a finite length > 0")
     return value
 
 
@@ -58,16 +58,19 @@ def check_window(
     """Validate a depth window ``0 <= lo <= hi`` (``hi`` may be infinite)."""
     lo, hi = _length(min_, names[0]), _length(max_, names[1])
     if not np.isfinite(lo) or lo < 0:
-        raise ConfigError(f"{names[0]}: got {lo!r} mm; must be a finite length >= 0")
+        raise ConfigError(f"{names[0]}: got {length_text(lo)}; must be a finite length >= 0")
     if np.isnan(hi) or hi < lo:
         raise ConfigError(
-            f"{names[0]} / {names[1]}: {lo!r} mm > {hi!r} mm; need {names[0]} <= {names[1]}"
+            f"{names[0]} / {names[1]}: {length_text(lo)} > {length_text(hi)}; need {names[0]} <= {names[1]}"
         )
     return lo, hi
 
 
 class DepthProfile(ABC):
     """A law of the depth below the surface, in mm, with exact truncated sampling."""
+
+    #: How messages name the profile ("exponential profile", "depth table t.txt").
+    description = "depth profile"
 
     @abstractmethod
     def pdf(self, d: ArrayLike) -> np.ndarray:
@@ -96,8 +99,8 @@ class DepthProfile(ABC):
             return self
         if not self.mass(lo, hi) > 0:
             raise ConfigError(
-                f"min_depth / max_depth: the {type(self).__name__} has no probability between "
-                f"{lo!r} mm and {hi!r} mm; widen the window"
+                f"min_depth / max_depth: the {self.description} has no probability between "
+                f"{length_text(lo)} and {length_text(hi)}; widen the window"
             )
         return TruncatedProfile(self, lo, hi)
 
@@ -139,6 +142,9 @@ class TableProfile(DepthProfile):
 
     def __init__(self, depths: ArrayLike, weights: ArrayLike, what: str = "depth table") -> None:
         self._law = PiecewiseLinear(depths, weights, what=what, xname="depth")
+        self.description = (
+            f"{what} (depths {length_text(self._law.x[0])} to {length_text(self._law.x[-1])})"
+        )
         self.depths, self.weights = self._law.x, self._law.w
 
     @classmethod
@@ -159,6 +165,8 @@ class TableProfile(DepthProfile):
 
 class ExponentialProfile(DepthProfile):
     """Density ``exp(-d / mean) / mean``; ``mean`` in mm or as a string with a unit."""
+
+    description = "exponential profile"
 
     def __init__(self, mean: float | str) -> None:
         self.mean = _positive(mean, "mean")
@@ -190,6 +198,8 @@ class MultiExponentialProfile(DepthProfile):
     means
         (k,) mean depths in mm, > 0.
     """
+
+    description = "multi-exponential profile"
 
     def __init__(self, weights: ArrayLike, means: ArrayLike) -> None:
         w = np.asarray(weights, dtype=float).ravel()
@@ -229,6 +239,8 @@ class MultiExponentialProfile(DepthProfile):
 class UniformProfile(DepthProfile):
     """Uniform depth between ``min`` and ``max`` (mm, or strings with a unit)."""
 
+    description = "uniform profile"
+
     def __init__(self, min: float | str, max: float | str) -> None:
         self.lo, self.hi = check_window(min, max, ("min", "max"))
         if not (np.isfinite(self.hi) and self.hi > self.lo):
@@ -252,6 +264,8 @@ class TruncatedGaussianProfile(DepthProfile):
     Lengths in mm, or strings with a unit.
     """
 
+    description = "truncated Gaussian profile"
+
     def __init__(
         self,
         mean: float | str,
@@ -261,14 +275,14 @@ class TruncatedGaussianProfile(DepthProfile):
     ) -> None:
         self.mean = _length(mean, "mean")
         if not np.isfinite(self.mean) or self.mean < 0:
-            raise ConfigError(f"mean: got {mean!r} mm; must be a finite depth >= 0")
+            raise ConfigError(f"mean: got {length_text(self.mean)}; must be a finite depth >= 0")
         self.sigma = _positive(sigma, "sigma")
         self.lower, self.upper = check_window(lower, upper, ("lower", "upper"))
         self._norm = self._phi_mass(self.lower, self.upper)
         if not self._norm > 0:
             raise ConfigError(
-                f"lower / upper: no probability between {lower!r} and {upper!r} mm for this "
-                "Gaussian"
+                f"lower / upper: no probability between {length_text(self.lower)} and "
+                f"{length_text(self.upper)} for this Gaussian"
             )
 
     def _phi_mass(self, lo: float, hi: float) -> float:
@@ -302,6 +316,8 @@ class TruncatedGaussianProfile(DepthProfile):
 class ZeroDepth(DepthProfile):
     """All vertices exactly on the surface (a point mass at depth 0; ``pdf`` is 0 elsewhere)."""
 
+    description = "zero-depth profile"
+
     def pdf(self, d: ArrayLike) -> np.ndarray:
         return np.zeros_like(np.asarray(d, dtype=float))
 
@@ -315,7 +331,7 @@ class ZeroDepth(DepthProfile):
         lo, hi = check_window(lo, hi)
         if lo > 0:
             raise ConfigError(
-                f"min_depth: got {lo!r} mm but the depth profile is zero depth; use min_depth 0"
+                f"min_depth: got {length_text(lo)} but the depth profile is zero depth; use min_depth 0"
             )
         return self
 

@@ -46,7 +46,7 @@ import numpy as np
 import scipy.fft
 from scipy import optimize, signal
 
-from ..errors import ConfigError
+from ..errors import ConfigError, Score4Warning
 from . import random as rs
 from .heightmap import HeightMap
 
@@ -257,6 +257,7 @@ def _usable_moments(m: dict[str, float]) -> tuple[float, float]:
         warnings.warn(
             f"fit_random_surface: skewness {s:.3g}, kurtosis {k:.3g} moved to {s2:.3g}, {k2:.3g}, "
             "the edge of the generator's supported region",
+            Score4Warning,
             stacklevel=3,
         )
     return s2, k2
@@ -271,6 +272,7 @@ def _usable_corr_lengths(fit: dict[str, float], hm: HeightMap) -> dict[str, floa
             warnings.warn(
                 f"fit_random_surface: corr_length_{axis} raised to 2 * pitch_{axis} = {corr:g} mm "
                 "(the map does not resolve its correlation)",
+                Score4Warning,
                 stacklevel=3,
             )
         need = math.ceil(rs.MIN_CORR_LENGTHS_PER_SIDE * corr / pitch)
@@ -278,6 +280,7 @@ def _usable_corr_lengths(fit: dict[str, float], hm: HeightMap) -> dict[str, floa
             warnings.warn(
                 f"fit_random_surface: n{axis} raised from {out[f'n{axis}']} to {need} to hold "
                 f"{rs.MIN_CORR_LENGTHS_PER_SIDE:g} correlation lengths",
+                Score4Warning,
                 stacklevel=3,
             )
             out[f"n{axis}"] = need

@@ -24,6 +24,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..files import atomic_output
+from ..units import length_text
 from .heightmap import HeightMap
 
 #: Default relative tolerance of :func:`degenerate_faces`: a face is degenerate when its area is
@@ -250,8 +251,8 @@ def closed_body(top_mesh: TriangleMesh, thickness: float) -> TriangleMesh:
     zmin = float(top_mesh.vertices[:, 2].min())
     if zmin <= -thickness:
         raise ConfigError(
-            f"thickness: the bottom plane z = -{thickness!r} mm must lie below the lowest top "
-            f"vertex (z = {zmin!r} mm); use thickness > {-zmin!r}"
+            f"thickness: the bottom plane z = -{length_text(thickness)} must lie below the lowest top vertex "
+            f"(z = {length_text(zmin)}); use thickness > {length_text(-zmin)}"
         )
     boundary = _boundary_half_edges(top_mesh)
     if len(boundary) < 3:

@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, Score4Warning
 from ..units import parse_quantity
 
 METHODS = ("exact", "random", "given")
@@ -155,8 +155,8 @@ def _densities(densities: object) -> np.ndarray:
     if abs(total - 1.0) > DENSITY_SUM_TOL:
         normalised = ", ".join(_fmt(x) for x in d / total)
         warnings.warn(
-            f"densities: sum is {total!r}, not 1; normalised to [{normalised}]",
-            UserWarning,
+            f"densities: sum is {_fmt(total)}, not 1; normalised to [{normalised}]",
+            Score4Warning,
             stacklevel=3,
         )
     return d / total
@@ -592,7 +592,7 @@ def make_patch_map(
         means a square. The face must be a whole number of patches along each axis (relative
         tolerance :data:`SIZE_RTOL`).
     densities
-        ``K`` positive target densities, one per variant; normalised with a ``UserWarning`` if
+        ``K`` positive target densities, one per variant; normalised with a ``Score4Warning`` if
         their sum differs from 1 by more than :data:`DENSITY_SUM_TOL`.
     method
         ``"exact"`` (largest-remainder counts, random positions) or ``"random"`` (an independent

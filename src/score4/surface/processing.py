@@ -15,7 +15,7 @@ import scipy.sparse.linalg
 from scipy import interpolate
 
 from ..errors import ConfigError
-from ..units import parse_quantity
+from ..units import length_text, parse_quantity
 from .heightmap import HeightMap
 
 RESAMPLE_METHODS = ("linear", "cubic")
@@ -120,8 +120,8 @@ def resample(
     ny = math.floor(hm.size_y / py * (1 + 1e-12)) + 1
     if nx < 2 or ny < 2:
         raise ConfigError(
-            f"pitch_x, pitch_y: {px:g}, {py:g} mm leave fewer than 2 samples "
-            f"on a {hm.size_x:g} x {hm.size_y:g} mm map"
+            f"pitch_x, pitch_y: {length_text(px)}, {length_text(py)} leave fewer than 2 samples "
+            f"on a {length_text(hm.size_x)} x {length_text(hm.size_y)} map"
         )
     xs = np.minimum(
         hm.origin[0] + px * np.arange(nx), hm.x[-1]

@@ -58,7 +58,7 @@ import scipy.fft
 from scipy import optimize, special
 
 from ..errors import ConfigError
-from ..units import parse_quantity
+from ..units import length_text, parse_quantity
 from .heightmap import HeightMap
 
 ACF_MODELS = ("gaussian", "exponential")
@@ -120,14 +120,13 @@ def _check_corr_length(corr: float, n: int, pitch: float, axis: str) -> None:
     """ConfigError unless the grid resolves and holds enough correlation lengths along one axis."""
     if pitch > MAX_PITCH_PER_CORR_LENGTH * corr:
         raise ConfigError(
-            f"corr_length_{axis}: {corr:g} mm is too short for pitch_{axis} = {pitch:g} mm; "
+            f"corr_length_{axis}: {length_text(corr)} is too short for pitch_{axis} = {length_text(pitch)}; "
             f"rule: pitch_{axis} <= {MAX_PITCH_PER_CORR_LENGTH:g} * corr_length_{axis}"
         )
     if n * pitch < MIN_CORR_LENGTHS_PER_SIDE * corr:
         raise ConfigError(
-            f"corr_length_{axis}: {corr:g} mm is too long for a map side of n{axis} * pitch_{axis} "
-            f"= {n * pitch:g} mm; rule: n{axis} * pitch_{axis} >= {MIN_CORR_LENGTHS_PER_SIDE:g} * "
-            f"corr_length_{axis}"
+            f"corr_length_{axis}: {length_text(corr)} is too long for a map side of n{axis} * pitch_{axis} = {length_text(n * pitch)}; "
+            f"rule: n{axis} * pitch_{axis} >= {MIN_CORR_LENGTHS_PER_SIDE:g} * corr_length_{axis}"
         )
 
 
@@ -583,17 +582,17 @@ def self_affine_surface(
     lam_l = side if long_cutoff is None else _length(long_cutoff, "long_cutoff")
     if lam_s < 2 * max(px, py) * (1 - 1e-9):
         raise ConfigError(
-            f"short_cutoff: {lam_s:g} mm is below the Nyquist wavelength; "
-            f"rule: short_cutoff >= 2 * pitch = {2 * max(px, py):g} mm"
+            f"short_cutoff: {length_text(lam_s)} is below the Nyquist wavelength; "
+            f"rule: short_cutoff >= 2 * pitch = {length_text(2 * max(px, py))}"
         )
     if lam_l > side * (1 + 1e-9):
         raise ConfigError(
-            f"long_cutoff: {lam_l:g} mm exceeds the map; "
-            f"rule: long_cutoff <= min(nx*pitch_x, ny*pitch_y) = {side:g} mm"
+            f"long_cutoff: {length_text(lam_l)} exceeds the map; "
+            f"rule: long_cutoff <= min(nx*pitch_x, ny*pitch_y) = {length_text(side)}"
         )
     if lam_l <= lam_s:
         raise ConfigError(
-            f"long_cutoff: {lam_l:g} mm must be longer than short_cutoff = {lam_s:g} mm"
+            f"long_cutoff: {length_text(lam_l)} must be longer than short_cutoff = {length_text(lam_s)}"
         )
     check_moments(skewness, kurtosis)
     shape = _generation_shape(nx, ny, lam_l, lam_l, px, py, periodic)

@@ -21,7 +21,6 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 import numpy as np
-import yaml
 from pydantic import Field, TypeAdapter, ValidationError, model_validator
 
 from ..errors import ConfigError
@@ -33,6 +32,7 @@ from ..schema import (
     StrictModel,
     describe_validation_error,
 )
+from ..yamlfile import load_yaml
 from .heightmap import HeightMap
 from .mesh import TriangleMesh, closed_body, from_heightmap
 from .processing import close_periodic, crop, fill_missing, level_plane, resample
@@ -46,6 +46,8 @@ SPIKE_MAP_SAMPLES = 16
 
 class SpikeSurfaceSpec(StrictModel):
     """A grid of ``nx`` x ``ny`` spikes; all lengths are full lengths."""
+
+    exclusive_keys = (("width", "width_x"), ("width", "width_y"))
 
     kind: Literal["spikes"]
     nx: int = Field(gt=0)
@@ -167,14 +169,7 @@ def parse_surface_spec(
 def load_surface_spec(path: str | Path):
     """Read a YAML file that holds one surface description."""
     path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"surface: file {str(path)!r} does not exist")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as err:
-        raise ConfigError(
-            f"surface: {path}: not valid YAML ({getattr(err, 'problem', err)})"
-        ) from None
+    data = load_yaml(path, "surface")
     return parse_surface_spec(data, origin=str(path), base_dir=path.parent)
 
 

@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ConfigError
-from ..units import parse_quantity
+from ..units import length_text, parse_quantity
 from .heightmap import HeightMap
 from .mesh import TriangleMesh
 
@@ -181,22 +181,20 @@ class SpikeGrid:
         floor = self.height_floor
         if floor >= self.mean_height:
             raise ConfigError(
-                f"min_height: must be below mean_height={self.mean_height!r} mm, got {floor!r} mm"
+                f"min_height: must be below mean_height={length_text(self.mean_height)}, got {length_text(floor)}"
             )
         if floor / self.n_layers < MIN_LAYER_HEIGHT:
             raise ConfigError(
-                f"min_height: {floor!r} mm over {self.n_layers} layers gives layers thinner than "
-                f"{MIN_LAYER_HEIGHT} mm (Geant4's limit); raise min_height or mean_height, or use "
-                "fewer layers"
+                f"min_height: {length_text(floor)} over {self.n_layers} layers gives layers thinner than "
+                f"{length_text(MIN_LAYER_HEIGHT)} (Geant4's limit); raise min_height or mean_height, or use fewer layers"
             )
         if self.height_sigma > 0:
             p_low = _normal_cdf((floor - self.mean_height) / self.height_sigma)
             if p_low > MAX_TRUNCATED_FRACTION:
                 raise ConfigError(
-                    f"height_sigma: {self.height_sigma!r} mm puts {100 * p_low:.1f} % of the "
-                    f"Gaussian heights (mean {self.mean_height!r} mm) below min_height={floor!r} "
-                    f"mm; at most {100 * MAX_TRUNCATED_FRACTION:.0f} % may be truncated, so use a "
-                    "smaller spread"
+                    f"height_sigma: {length_text(self.height_sigma)} puts {100 * p_low:.1f} % of the Gaussian heights "
+                    f"(mean {length_text(self.mean_height)}) below min_height={length_text(floor)}; at most "
+                    f"{100 * MAX_TRUNCATED_FRACTION:.0f} % may be truncated, so use a smaller spread"
                 )
 
     def _draw_heights(self) -> tuple[np.ndarray, float]:
@@ -359,8 +357,8 @@ class SpikeGrid:
         nsy = math.floor(self.size_y / py * (1 + 1e-12)) + 1
         if min(nsx, nsy) < 2:
             raise ConfigError(
-                f"pitch: ({px!r}, {py!r}) mm gives fewer than 2 samples across the "
-                f"{self.size_x!r} x {self.size_y!r} mm grid"
+                f"pitch: ({length_text(px)}, {length_text(py)}) gives fewer than 2 samples across "
+                f"the {length_text(self.size_x)} x {length_text(self.size_y)} grid"
             )
         x = -0.5 * self.size_x + px * np.arange(nsx)
         y = -0.5 * self.size_y + py * np.arange(nsy)
