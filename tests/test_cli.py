@@ -126,9 +126,11 @@ def test_warnings_are_one_line_each_once_and_quiet_silences_them(tmp_path: Path)
     assert (
         sum("densities: sum is 2, not 1; normalised to [0.5, 0.5]" in line for line in warned) == 1
     )
-    assert ".py" not in loud.stderr and "UserWarning" not in loud.stderr
+    assert ".py" not in loud.stderr
+    assert "UserWarning" not in loud.stderr
     quiet = run_cli("run", config, "--events", 5, "--out", tmp_path / "b.h5", "-q")
-    assert quiet.returncode == 0 and quiet.stderr == "", quiet.stderr
+    assert quiet.returncode == 0, quiet.stderr
+    assert quiet.stderr == ""
 
 
 def test_errors_found_after_validation_name_the_config_file(tmp_path: Path, capsys):
@@ -142,7 +144,8 @@ def test_errors_found_after_validation_name_the_config_file(tmp_path: Path, caps
         f"score4: error: {config}: targets.0.material: unknown material 'G4_SILICON'; "
         "closest NIST names: G4_Si, "
     ), err
-    assert "\n" not in err and not list(tmp_path.glob("m.h5*"))
+    assert "\n" not in err
+    assert not list(tmp_path.glob("m.h5*"))
 
 
 def test_events_take_whole_numbers_also_in_exponent_form(tmp_path: Path, capsys):

@@ -106,7 +106,7 @@ def test_merge_keys_may_still_be_overridden(tmp_path: Path):
 
 
 @pytest.mark.parametrize(
-    "sections, message",
+    ("sections", "message"),
     [
         ({"run": {"seed": True}}, "cfg.yaml: run.seed: takes a whole number, not true"),
         ({"run": {"events": False}}, "cfg.yaml: run.events: takes a whole number, not false"),
@@ -128,8 +128,10 @@ def test_merge_keys_may_still_be_overridden(tmp_path: Path):
         ),
         (
             {"source": {"energy": "1e30 TeV"}},
-            "cfg.yaml: source.energy: '1e30 TeV' is above 100 TeV, the top of Geant4's "
-            "electromagnetic physics tables",
+            (
+                "cfg.yaml: source.energy: '1e30 TeV' is above 100 TeV, the top of Geant4's "
+                "electromagnetic physics tables"
+            ),
         ),
         (
             {"targets": [{"name": "crystal", "size": ["10 km", "1 cm", "1 cm"]}]},
@@ -166,7 +168,10 @@ def test_merge_keys_may_still_be_overridden(tmp_path: Path):
                     }
                 ],
             },
-            "cfg.yaml: targets.0.rough.0: native_layout replicas applies to tiling native, not portal",
+            (
+                "cfg.yaml: targets.0.rough.0: native_layout replicas applies to tiling native, "
+                "not portal"
+            ),
         ),
         (
             {"source": {"depth": {"profile": "exponential", "mean": "5 nm", "sigma": "2 nm"}}},
@@ -182,7 +187,9 @@ def test_strict_values_and_plain_messages(sections, message):
         parse_config(config_dict(**sections), origin="cfg.yaml")
     text = str(err.value)
     assert text.startswith(message), text
-    assert "\n" not in text and "np.float64" not in text and "more problem" not in text
+    assert "\n" not in text
+    assert "np.float64" not in text
+    assert "more problem" not in text
 
 
 SPIKES = {"kind": "spikes", "nx": 2, "ny": 2, "width": "1 um", "height": "1 um"}
@@ -248,7 +255,8 @@ def test_depth_table_errors_name_the_table_line_and_the_config(tmp_path: Path, c
     config.write_text(yaml.safe_dump(data))
     assert main(["vertices", str(config), "--out", str(tmp_path / "v.h5")]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith(f"score4: error: {config}: source.depth: ") and "\n" not in err
+    assert err.startswith(f"score4: error: {config}: source.depth: ")
+    assert "\n" not in err
     assert f"depth table {table} line 3: cannot read '10 x'" in err
     # a depth window outside the table: the table is named, not a class
     table.write_text("# unit: nm\n0 1\n10 1\n")

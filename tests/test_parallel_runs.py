@@ -207,7 +207,8 @@ def test_ctrl_c_stops_a_huge_run_at_once(tmp_path: Path):
     wait_no_processes(proc.pid)
     said = (tmp_path / "stderr.txt").read_text()
     assert "run interrupted before any chunk finished; nothing kept" in said, said
-    assert not parts.exists() and not (tmp_path / "huge.h5").exists()
+    assert not parts.exists()
+    assert not (tmp_path / "huge.h5").exists()
 
 
 @pytest.mark.slow
@@ -231,7 +232,9 @@ def test_more_jobs_than_chunks_says_so_and_uses_fewer(tmp_path: Path, make_confi
     assert said[0] == (
         "notice: --jobs 5 but only 3 chunk(s) to run (the run has 3 event(s)); using 3 worker(s)"
     )
-    assert res.run["jobs"] == 3 and res.n_events == 3 and res.run["n_chunks"] == 3
+    assert res.run["jobs"] == 3
+    assert res.n_events == 3
+    assert res.run["n_chunks"] == 3
 
 
 def test_small_runs_use_every_requested_worker_and_say_nothing(tmp_path: Path, make_config):
@@ -241,7 +244,9 @@ def test_small_runs_use_every_requested_worker_and_say_nothing(tmp_path: Path, m
         source={"particle": "alpha", "energy": "1 MeV"}, run={"events": 5000, "seed": 4}
     )
     res = read_results(run(config, tmp_path / "d.h5", jobs=2, progress=False, echo=said.append))
-    assert res.run["jobs"] == 2 and res.run["n_chunks"] == 2 and res.run["chunk_events"] == 3000
+    assert res.run["jobs"] == 2
+    assert res.run["n_chunks"] == 2
+    assert res.run["chunk_events"] == 3000
     assert not [m for m in said if m.startswith("notice")], said
     # (that the chunking does not change the events: test_run_engine, first events of a longer run)
 

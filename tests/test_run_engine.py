@@ -190,7 +190,8 @@ def test_first_events_of_a_longer_run_are_the_same_events(tmp_path: Path, make_c
     long = make_config(source=fast, run={"events": 5000, "seed": 5, "chunk_events": 700})
     a = read_results(run(short, tmp_path / "a.h5", progress=False, echo=lambda m: None))
     b = read_results(run(long, tmp_path / "b.h5", jobs=2, progress=False, echo=lambda m: None))
-    assert a.run["n_chunks"] == 1 and b.run["n_chunks"] == 8
+    assert a.run["n_chunks"] == 1
+    assert b.run["n_chunks"] == 8
     first = b.primaries.select_events(0, 3000)
     for field in ("event", "particle", "energy", "position", "direction"):
         assert np.array_equal(getattr(a.primaries, field), getattr(first, field)), field
@@ -207,7 +208,8 @@ def test_resume_keeps_the_chunks_of_the_interrupted_run_whatever_jobs_is_now(
     from score4.source.primaries import Primaries
 
     config = make_config(run={"events": 30, "seed": 9})
-    assert plan_chunks(30, 10_000, 3).size == 10 and plan_chunks(30, 10_000, 1).size == 30
+    assert plan_chunks(30, 10_000, 3).size == 10
+    assert plan_chunks(30, 10_000, 1).size == 30
     parts = tmp_path / "r.h5.parts"
     parts.mkdir()
     (parts / "plan.json").write_text('{"n_events": 30, "chunk_size": 10}')  # run with --jobs 3
@@ -222,5 +224,6 @@ def test_resume_keeps_the_chunks_of_the_interrupted_run_whatever_jobs_is_now(
         run(config, tmp_path / "r.h5", resume=True, progress=False, echo=said.append)
     )
     assert "resume: 1 of 3 chunks already finished" in said[0]
-    assert res.run["n_chunks"] == 3 and res.run["resumed_chunks"] == 1
+    assert res.run["n_chunks"] == 3
+    assert res.run["resumed_chunks"] == 1
     assert (res.edep["crystal"][10:20] == 123.0).all()

@@ -7,6 +7,7 @@ surface descriptions (:mod:`score4.surface.spec`) build on these.
 
 from __future__ import annotations
 
+import contextlib
 import difflib
 import math
 import types
@@ -42,7 +43,7 @@ MAX_ENERGY = 100e6
 
 
 def _quantity(dimension: str, positive: bool = False, non_negative: bool = False):
-    """Parse "<number> <unit>" and check it against the physical range, naming the value as written."""
+    """Parse "<number> <unit>", check it against the physical range; name the value as written."""
 
     def parse(value: object) -> float:
         v = parse_quantity(value, dimension)
@@ -66,7 +67,7 @@ def _quantity(dimension: str, positive: bool = False, non_negative: bool = False
             )
         return v
 
-    parse.dimension = dimension  # read by _quantity_kind
+    parse.dimension = dimension  # type: ignore[attr-defined]  # read by _quantity_kind
     return BeforeValidator(parse)
 
 
@@ -221,10 +222,8 @@ def _shown(value: object) -> str:
     if isinstance(value, bool):
         return _bool_text(value)
     if hasattr(value, "item") and not isinstance(value, (str, bytes)):  # numpy scalars
-        try:
+        with contextlib.suppress(TypeError, ValueError):
             value = value.item()
-        except (TypeError, ValueError):
-            pass
     if isinstance(value, float):
         return f"{value:.6g}" if math.isfinite(value) else str(value)
     return repr(value)

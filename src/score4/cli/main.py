@@ -274,7 +274,7 @@ def _main(argv: list[str] | None) -> int:
         click.echo(f"score4: {said}", err=True)
         return 130
     except RunInterrupted as err:  # not turned into Abort (raised outside click's own call)
-        click.echo(f"score4: {err or 'aborted'}", err=True)
+        click.echo(f"score4: {str(err) or 'aborted'}", err=True)
         return 130
     # with standalone_mode=False click returns (not raises) the code of a ctx.exit / Exit(n)
     return status if isinstance(status, int) else 0

@@ -106,7 +106,7 @@ _ELEMENT_TEXT = (
     "curium Cm berkelium Bk californium Cf"
 )
 _ELEMENTS = _ELEMENT_TEXT.split()
-ELEMENT_SYMBOLS = dict(zip(_ELEMENTS[::2], _ELEMENTS[1::2]))
+ELEMENT_SYMBOLS = dict(zip(_ELEMENTS[::2], _ELEMENTS[1::2], strict=True))
 
 # Anions of NIST compound names, as formulas: G4_CALCIUM_TUNGSTATE reads as CaWO4.
 _ANIONS = {

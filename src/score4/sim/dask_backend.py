@@ -41,7 +41,7 @@ import tempfile
 import threading
 import uuid
 import warnings
-from collections.abc import Iterable, Iterator
+from collections.abc import Generator, Iterable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -130,7 +130,7 @@ class DaskExecutor:
                 f"notice: --jobs {jobs} does not apply with --cluster {cluster}: the scheduler's workers run the chunks"
             )
 
-    def execute(self, spec: WorkerSpec, todo: Iterable[Chunk]) -> Iterator[tuple]:
+    def execute(self, spec: WorkerSpec, todo: Iterable[Chunk]) -> Generator[tuple, None, None]:
         from distributed import as_completed
 
         client, own_client, cluster = self.client, False, None
@@ -190,7 +190,7 @@ class DaskExecutor:
             if futures and client is not None:
                 with contextlib.suppress(Exception):
                     client.cancel(list(futures), force=True)
-            if own_client:
+            if own_client and client is not None:
                 with contextlib.suppress(Exception):
                     client.close()
             if cluster is not None:

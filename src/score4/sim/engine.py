@@ -34,8 +34,8 @@ import threading
 import time
 import warnings
 from collections import Counter, deque
-from collections.abc import Iterable, Iterator, Sequence, Sized
-from datetime import datetime
+from collections.abc import Generator, Iterable, Iterator, Sequence, Sized
+from datetime import UTC, datetime
 from importlib.metadata import version
 from multiprocessing.connection import wait
 from pathlib import Path
@@ -88,7 +88,7 @@ class Executor(Protocol):
 
     description: str
 
-    def execute(self, spec: WorkerSpec, todo: Iterable[Chunk]) -> Iterator[Event]: ...
+    def execute(self, spec: WorkerSpec, todo: Iterable[Chunk]) -> Generator[Event, None, None]: ...
 
 
 def check_output_path(out: Path, overwrite: bool) -> None:
@@ -418,7 +418,7 @@ class LocalProcesses:
         self.jobs = jobs
         self.description = f"local processes ({jobs})"
 
-    def execute(self, spec: WorkerSpec, todo: Iterable[Chunk]) -> Iterator[Event]:
+    def execute(self, spec: WorkerSpec, todo: Iterable[Chunk]) -> Generator[Event, None, None]:
         ctx = mp.get_context("spawn")
         pending = _Pending(todo)
         if not pending:
@@ -568,7 +568,7 @@ def _ranges(indices: list[int]) -> str:
 def _complement_ranges(n: int, excluded: set[int]) -> str:
     """:func:`_ranges` of the indices ``0 .. n-1`` not in ``excluded`` (a small set), without listing them."""
     out, start = [], 0
-    for k in sorted(i for i in excluded if 0 <= i < n) + [n]:
+    for k in [*sorted(i for i in excluded if 0 <= i < n), n]:
         if k > start:
             out.append(str(start) if k == start + 1 else f"{start}-{k - 1}")
         start = k + 1

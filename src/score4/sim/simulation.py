@@ -217,13 +217,14 @@ class Simulation:
         self.endpoints = np.full((len(primaries), 4), np.nan) if endpoints else None
         self._track_endpoints(endpoints)
         self._next_event = 0
+        self._event_seeds: np.ndarray | None = None
         if np.ndim(g4_seed) == 0:
-            self._event_seeds = None
             self.g4.G4Random.setTheSeed(int(g4_seed))
         else:
-            if len(g4_seed) != n:
-                raise ValueError(f"g4_seed: need one seed per event ({n}), got {len(g4_seed)}")
-            self._event_seeds = g4_seed
+            seeds = np.asarray(g4_seed)
+            if len(seeds) != n:
+                raise ValueError(f"g4_seed: need one seed per event ({n}), got {len(seeds)}")
+            self._event_seeds = seeds
         batch = batch or max(100, n // 20)
         with redirect_native_output(self.log_path):
             while self._next_event < n:
@@ -240,8 +241,9 @@ class Simulation:
         assert transport is not None  # rows are only marked for TRIM when it exists
         # Own streams: one per event with per-event Geant4 seeds (so the first N events of a run
         # are the same in a longer run), else one for the batch.
-        per_event = np.ndim(g4_seed) > 0
-        rng = None if per_event else np.random.default_rng([int(g4_seed), _REPLAY_STREAM])
+        seeds = np.asarray(g4_seed)
+        per_event = seeds.ndim > 0
+        rng = None if per_event else np.random.default_rng([int(seeds), _REPLAY_STREAM])
         rows = np.flatnonzero(self._trim)
         for row in rows:  # announce energies first: one library per ion and material
             transport.need(str(primaries.particle[row]), float(primaries.energy[row]))
@@ -252,7 +254,7 @@ class Simulation:
             event = primaries.event[row]
             if per_event:
                 within = int(row - self._offsets[event])  # the primary's place in its event
-                rng = np.random.default_rng([int(g4_seed[event]), _REPLAY_STREAM, within])
+                rng = np.random.default_rng([int(seeds[event]), _REPLAY_STREAM, within])
             assert rng is not None
             fate = transport.transport(
                 self._particles[name],

@@ -142,7 +142,7 @@ class FileSource:
 
     def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
         """Rows of events ``first_event ..`` of the file (``seed`` plays no part)."""
-        return self.primaries(None, first_event, n_events)
+        return self.primaries(np.random.default_rng(0), first_event, n_events)  # rng unused
 
 
 def needs_radioactive_decay(config: RunConfig) -> bool:

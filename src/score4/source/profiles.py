@@ -61,7 +61,8 @@ def check_window(
         raise ConfigError(f"{names[0]}: got {length_text(lo)}; must be a finite length >= 0")
     if np.isnan(hi) or hi < lo:
         raise ConfigError(
-            f"{names[0]} / {names[1]}: {length_text(lo)} > {length_text(hi)}; need {names[0]} <= {names[1]}"
+            f"{names[0]} / {names[1]}: {length_text(lo)} > {length_text(hi)}; need {names[0]} <= "
+            f"{names[1]}"
         )
     return lo, hi
 
@@ -331,7 +332,8 @@ class ZeroDepth(DepthProfile):
         lo, hi = check_window(lo, hi)
         if lo > 0:
             raise ConfigError(
-                f"min_depth: got {length_text(lo)} but the depth profile is zero depth; use min_depth 0"
+                f"min_depth: got {length_text(lo)} but the depth profile is zero depth; use "
+                "min_depth 0"
             )
         return self
 

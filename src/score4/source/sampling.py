@@ -121,7 +121,8 @@ def _check_table(
     for i in range(len(x)):
         if not (np.isfinite(x[i]) and np.isfinite(w[i])):
             raise ConfigError(
-                f"{what} {labels[i]}: values must be finite, got {xname} {float(x[i]):g}, weight {float(w[i]):g}"
+                f"{what} {labels[i]}: values must be finite, got {xname} {float(x[i]):g}, weight "
+                f"{float(w[i]):g}"
             )
     bad = np.flatnonzero(x < 0)
     if len(bad):

@@ -251,7 +251,8 @@ def closed_body(top_mesh: TriangleMesh, thickness: float) -> TriangleMesh:
     zmin = float(top_mesh.vertices[:, 2].min())
     if zmin <= -thickness:
         raise ConfigError(
-            f"thickness: the bottom plane z = -{length_text(thickness)} must lie below the lowest top vertex "
+            f"thickness: the bottom plane z = -{length_text(thickness)} must lie below the lowest "
+            "top vertex "
             f"(z = {length_text(zmin)}); use thickness > {length_text(-zmin)}"
         )
     boundary = _boundary_half_edges(top_mesh)

@@ -120,12 +120,14 @@ def _check_corr_length(corr: float, n: int, pitch: float, axis: str) -> None:
     """ConfigError unless the grid resolves and holds enough correlation lengths along one axis."""
     if pitch > MAX_PITCH_PER_CORR_LENGTH * corr:
         raise ConfigError(
-            f"corr_length_{axis}: {length_text(corr)} is too short for pitch_{axis} = {length_text(pitch)}; "
+            f"corr_length_{axis}: {length_text(corr)} is too short for pitch_{axis} = "
+            f"{length_text(pitch)}; "
             f"rule: pitch_{axis} <= {MAX_PITCH_PER_CORR_LENGTH:g} * corr_length_{axis}"
         )
     if n * pitch < MIN_CORR_LENGTHS_PER_SIDE * corr:
         raise ConfigError(
-            f"corr_length_{axis}: {length_text(corr)} is too long for a map side of n{axis} * pitch_{axis} = {length_text(n * pitch)}; "
+            f"corr_length_{axis}: {length_text(corr)} is too long for a map side of n{axis} * "
+            f"pitch_{axis} = {length_text(n * pitch)}; "
             f"rule: n{axis} * pitch_{axis} >= {MIN_CORR_LENGTHS_PER_SIDE:g} * corr_length_{axis}"
         )
 
@@ -592,7 +594,8 @@ def self_affine_surface(
         )
     if lam_l <= lam_s:
         raise ConfigError(
-            f"long_cutoff: {length_text(lam_l)} must be longer than short_cutoff = {length_text(lam_s)}"
+            f"long_cutoff: {length_text(lam_l)} must be longer than short_cutoff = "
+            f"{length_text(lam_s)}"
         )
     check_moments(skewness, kurtosis)
     shape = _generation_shape(nx, ny, lam_l, lam_l, px, py, periodic)

@@ -181,20 +181,26 @@ class SpikeGrid:
         floor = self.height_floor
         if floor >= self.mean_height:
             raise ConfigError(
-                f"min_height: must be below mean_height={length_text(self.mean_height)}, got {length_text(floor)}"
+                f"min_height: must be below mean_height={length_text(self.mean_height)}, got "
+                f"{length_text(floor)}"
             )
         if floor / self.n_layers < MIN_LAYER_HEIGHT:
             raise ConfigError(
-                f"min_height: {length_text(floor)} over {self.n_layers} layers gives layers thinner than "
-                f"{length_text(MIN_LAYER_HEIGHT)} (Geant4's limit); raise min_height or mean_height, or use fewer layers"
+                f"min_height: {length_text(floor)} over {self.n_layers} layers gives layers "
+                "thinner than "
+                f"{length_text(MIN_LAYER_HEIGHT)} (Geant4's limit); raise min_height or "
+                "mean_height, or use fewer layers"
             )
         if self.height_sigma > 0:
             p_low = _normal_cdf((floor - self.mean_height) / self.height_sigma)
             if p_low > MAX_TRUNCATED_FRACTION:
                 raise ConfigError(
-                    f"height_sigma: {length_text(self.height_sigma)} puts {100 * p_low:.1f} % of the Gaussian heights "
-                    f"(mean {length_text(self.mean_height)}) below min_height={length_text(floor)}; at most "
-                    f"{100 * MAX_TRUNCATED_FRACTION:.0f} % may be truncated, so use a smaller spread"
+                    f"height_sigma: {length_text(self.height_sigma)} puts {100 * p_low:.1f} % of "
+                    "the Gaussian heights "
+                    f"(mean {length_text(self.mean_height)}) below "
+                    f"min_height={length_text(floor)}; at most "
+                    f"{100 * MAX_TRUNCATED_FRACTION:.0f} % may be truncated, so use a smaller "
+                    "spread"
                 )
 
     def _draw_heights(self) -> tuple[np.ndarray, float]:
