@@ -112,7 +112,10 @@ class Simulation:
             stepping, tracking = make_actions(
                 g4, self.teleporter, [p.region for p in self.geometry.portals]
             )
-            self._actions += [stepping, tracking]  # the stepping action is the portal regions' own
+            self._actions += [
+                stepping,
+                tracking,
+            ]  # stepping: the portal regions' own; tracking: idle
             self.run_manager.SetUserAction(tracking)
         self.removed_processes = (
             strip_data_hungry_processes(g4) if self.choice.mode == "lite" else []
@@ -132,7 +135,7 @@ class Simulation:
         k = self._next_event
         g4, p = self.g4, self._primaries
         if self.teleporter is not None:
-            self.teleporter.begin_event(int(self._offsets[k]))
+            self.teleporter.begin_event(int(self._offsets[k]), int(self._offsets[k + 1]))
         for row in range(self._offsets[k], self._offsets[k + 1]):
             gun.SetParticleDefinition(self._defs[row])
             gun.SetParticleEnergy(p.energy[row])
