@@ -64,10 +64,17 @@ COVERS = [
 ]
 
 
-def rough(tiling: str, faces=("+z", "-x"), base: str = "20 um") -> list[dict]:
+def rough(tiling: str, faces=("+z", "-x"), base: str = "20 um", layout: str = "auto") -> list[dict]:
     variants = [{"surface": "a", "density": 0.5}, {"surface": "b", "density": 0.5}]
     return [
-        {"face": f, "variants": variants, "tiling": tiling, "seed": 3, "base_thickness": base}
+        {
+            "face": f,
+            "variants": variants,
+            "tiling": tiling,
+            "seed": 3,
+            "base_thickness": base,
+            "native_layout": layout,
+        }
         for f in faces
     ]
 
@@ -78,9 +85,12 @@ def tiled_config(
     faces=("+z", "-x"),
     base: str = "20 um",
     covers: bool = True,
+    layout: str = "auto",
     **sections,
 ) -> dict:
-    targets = [{**CRYSTAL, "rough": rough(tiling, faces, base)}] + (COVERS if covers else [])
+    targets = [{**CRYSTAL, "rough": rough(tiling, faces, base, layout)}] + (
+        COVERS if covers else []
+    )
     return config_dict(surfaces=VARIANTS, targets=targets, source=source, **sections)
 
 
@@ -170,13 +180,22 @@ def test_geantino_paths_per_volume_match_native_tiling(tmp_path):
     identical path lengths in the crystal with its patches and in both copper covers, on a rotated
     face (-x) and on +z, for oblique geantinos crossing up to the whole face in the slab or the spike
     tips, for geantinos through every inner cell corner (diagonal jumps), and for those leaving one
-    portal into the other (both faces are portals). Tolerance 1e-9 mm."""
+    portal into the other (both faces are portals). The same for native tiling in nested 2 x 2
+    groups of cells (grids of 10 x 6 and 6 x 5 cells: three levels, odd edges) against one
+    placement per cell. Tolerance 1e-9 mm."""
     vfile = geantino_vertices(tmp_path)
-    native = replay(tmp_path, tiled_config("native", face_source("+z")), vfile, "native")
+    native = replay(
+        tmp_path, tiled_config("native", face_source("+z"), layout="placements"), vfile, "native"
+    )
     portal = replay(tmp_path, tiled_config("portal", face_source("+z")), vfile, "portal")
+    nested = replay(
+        tmp_path, tiled_config("native", face_source("+z"), layout="nested"), vfile, "nested"
+    )
     for volume in ("crystal", "cover", "side"):
         a, b = native.scores["track_length"][volume], portal.scores["track_length"][volume]
         np.testing.assert_allclose(b, a, rtol=0, atol=1e-9, err_msg=volume)
+        c = nested.scores["track_length"][volume]
+        np.testing.assert_allclose(c, a, rtol=0, atol=1e-9, err_msg=f"nested {volume}")
     crystal = native.scores["track_length"]["crystal"]
     # Measured (565 geantinos): 57 go more than 0.1 mm (5 cells) in the crystal group, 97 reach the
     # cover, 47 the side plate; largest difference 2e-13 mm.

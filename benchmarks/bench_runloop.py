@@ -1,0 +1,310 @@
+"""The run loop's fixed and per-event costs: start-up, per-BeamOn, per-event, large faces, jobs.
+
+    .venv/bin/python benchmarks/bench_runloop.py [--events 2000] [--parts startup,faces,portal,jobs]
+
+Parts (each case runs in its own process, so its RSS and start-up are its own):
+
+``startup``
+    CPU seconds and peak RSS of ``python -c "from score4.sim import engine"`` (what the parent and
+    every spawned worker import), and of a whole ``score4 run examples/paper_a_rough.yaml
+    --events 1 --jobs 1`` (parent + one worker, children included: the start-up before the first
+    event of a small run).
+``faces``
+    The paper's pyramid face (10 um pyramids, 0.5 mm patches of 50 x 50, one variant, multi-union)
+    on a 10 cm and a 1 m square face (200 x 200 and 2000 x 2000 cells), in the default layout
+    (``auto``: nested 2 x 2 groups above 2500 cells) and flat (one placement per cell, the old
+    default; the 1 m flat case only with ``--flat-1m``: 20 s and 2.6 GB). Two more 1 m cases with
+    two variants (10 um and 5 um pyramids, ``fill: random`` and ``fill: exact`` 50 %): nothing is
+    shared between their groups above the lowest levels. Columns:
+
+      build s     score4.geometry.world.build_world
+      init s      the whole Simulation set-up (scene, source, Geant4 initialisation)
+      1st s       the first run (20 events: geometry voxels, physics tables)
+      BeamOn ms   fixed cost of one more BeamOn (10 runs of one event, minus the per-event cost)
+      ms/ev       CPU per event, 5.3 MeV alphas from 20 nm below the face (isotropic, lite)
+      RSS MB      peak resident size of the process
+``portal``
+    Po-210 events (alpha + Pb-206 recoil) on the 10 cm pyramid face: native (auto) against portal
+    tiling, CPU per event in one process each, and the share of portal events that needed the
+    tracking action (see score4.sim.portal_action).
+``jobs``
+    ``score4 run examples/paper_a_rough.yaml --events 20000`` with ``--jobs 1`` and ``--jobs 2``,
+    wall seconds, and the ratio. The machine is shared: read the ratio with the load printed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+MARK = "BENCH_RESULT "
+ROOT = Path(__file__).resolve().parent.parent
+WARMUP = 20
+PYRAMIDS = {"kind": "spikes", "nx": 50, "ny": 50, "width": "10 um", "height": "10 um"}
+LOW = {"kind": "spikes", "nx": 50, "ny": 50, "width": "10 um", "height": "5 um"}
+
+
+def _rss_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # kB on Linux
+
+
+def face_config(
+    side_cm: float, layout: str = "auto", tiling: str = "native", variants: str = "one"
+) -> dict:
+    """Pyramid face of ``side_cm``; ``variants``: one, random (two, fill random), exact (two, 50 %)."""
+    rough: dict = {"face": "+z", "tiling": tiling, "native_layout": layout}
+    if variants == "one":
+        rough["surface"] = "p"
+    else:
+        rough.update(
+            variants=[{"surface": "p", "density": 0.5}, {"surface": "low", "density": 0.5}],
+            fill=variants,
+            seed=7,
+        )
+    return {
+        "physics": "lite",
+        "surfaces": {"p": PYRAMIDS, "low": LOW},
+        "targets": [
+            {
+                "name": "crystal",
+                "material": "G4_Si",
+                "size": [f"{side_cm} cm", f"{side_cm} cm", "1 mm"],
+                "position": ["0 cm", "0 cm", "-0.5 mm"],
+                "rough": [rough],
+            }
+        ],
+        "source": {
+            "particle": "alpha",
+            "energy": "5.3 MeV",
+            "direction": "isotropic",
+            "surface": {"volume": "crystal", "face": "+z"},
+            "depth": {"profile": "exponential", "mean": "20 nm"},
+        },
+        "run": {"events": 1000, "seed": 3},
+    }
+
+
+def _simulation(data: dict):
+    from score4.config import parse_config
+    from score4.sim import simulation
+    from score4.sim.runtime import resolve_physics
+
+    timed = {}
+    build_world = simulation.build_world
+
+    def timed_build(*args):
+        t0 = time.perf_counter()
+        out = build_world(*args)
+        timed["build_s"] = time.perf_counter() - t0
+        return out
+
+    simulation.build_world = timed_build
+    t0 = time.perf_counter()
+    sim = simulation.Simulation(parse_config(data), resolve_physics("lite"))
+    return sim, {"init_s": time.perf_counter() - t0, **timed}
+
+
+def measure_face(side_cm: float, layout: str, variants: str, events: int) -> dict:
+    sim, out = _simulation(face_config(side_cm, layout, variants=variants))
+    primaries = sim.source.primaries(np.random.default_rng(5), 0, WARMUP + 10 + events)
+    t0 = time.perf_counter()
+    sim.run(primaries.select_events(0, WARMUP), 1)
+    out["first_run_s"] = time.perf_counter() - t0
+    c0 = time.process_time()
+    for k in range(10):  # ten BeamOns of one event each
+        sim.run(primaries.select_events(WARMUP + k, WARMUP + k + 1), 10 + k)
+    ten = time.process_time() - c0
+    c0 = time.process_time()
+    scores = sim.run(primaries.select_events(WARMUP + 10, WARMUP + 10 + events), 2)
+    per_event = (time.process_time() - c0) / events
+    out.update(
+        per_event_ms=per_event * 1e3,
+        beamon_ms=(ten / 10 - per_event) * 1e3,
+        mean_edep_mev=float(scores["edep"][:, 0].mean()),
+        rss_mb=_rss_mb(),
+    )
+    return out
+
+
+def measure_portal(tiling: str, events: int) -> dict:
+    data = face_config(10.0, tiling=tiling)
+    data["source"] = {
+        "decay": "Po210",
+        "direction": "isotropic",
+        "surface": {"volume": "crystal", "face": "+z"},
+        "depth": {"profile": "exponential", "mean": "20 nm"},
+    }
+    sim, out = _simulation(data)
+    primaries = sim.source.primaries(np.random.default_rng(5), 0, WARMUP + events)
+    sim.run(primaries.select_events(0, WARMUP), 1)
+    t = sim.teleporter
+    tracked0 = t.tracked_events if t else 0
+    c0 = time.process_time()
+    scores = sim.run(primaries.select_events(WARMUP, WARMUP + events), 2)
+    out.update(
+        per_event_ms=(time.process_time() - c0) / events * 1e3,
+        mean_edep_mev=float(scores["edep"][:, 0].mean()),
+        tracked_share=(t.tracked_events - tracked0) / events if t else float("nan"),
+        jumps_per_event=t.jumps / (WARMUP + events) if t else float("nan"),
+    )
+    return out
+
+
+def in_subprocess(args: list[str]) -> dict:
+    cmd = [sys.executable, os.path.abspath(__file__), *args]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    lines = [line for line in proc.stdout.splitlines() if line.startswith(MARK)]
+    if proc.returncode != 0 or not lines:
+        raise RuntimeError(f"{' '.join(args)}: failed ({proc.returncode}): {proc.stderr[-2000:]}")
+    return json.loads(lines[-1][len(MARK) :])
+
+
+def timed_command(cmd: list[str], cwd: str | None = None) -> tuple[float, float, float]:
+    """(wall s, CPU s of the command and its children, peak RSS MB of the largest child)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    subprocess.run(cmd, check=True, capture_output=True, cwd=cwd)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu, after.ru_maxrss / 1024.0
+
+
+def score4_cmd() -> list[str]:
+    return [sys.executable, "-m", "score4.cli.main"]
+
+
+def part_startup() -> None:
+    print("start-up (CPU s including children; RSS of the largest process)")
+    for label, cmd in [
+        ("import score4.sim.engine", [sys.executable, "-c", "from score4.sim import engine"]),
+        ("python -c pass", [sys.executable, "-c", "pass"]),
+    ]:
+        runs = [timed_command(cmd) for _ in range(3)]
+        cpu = min(r[1] for r in runs)
+        print(f"  {label:42} CPU {cpu:5.2f} s  RSS {runs[0][2]:5.0f} MB")
+    with tempfile.TemporaryDirectory() as tmp:
+        cmd = score4_cmd() + [
+            "run",
+            str(ROOT / "examples" / "paper_a_rough.yaml"),
+            "--events",
+            "1",
+            "--jobs",
+            "1",
+            "--out",
+            "a.h5",
+            "--overwrite",
+            "--quiet",
+        ]
+        runs = [timed_command(cmd, cwd=tmp) for _ in range(3)]
+        print(
+            f"  {'score4 run paper_a_rough --events 1':42} CPU {min(r[1] for r in runs):5.2f} s  "
+            f"wall {min(r[0] for r in runs):5.2f} s  (parent + 1 worker)"
+        )
+
+
+def part_faces(events: int, flat_1m: bool) -> None:
+    print(
+        f"{'face':6} {'variants':8} {'layout':10} {'build s':>7} {'init s':>6} {'1st s':>6} "
+        f"{'BeamOn ms':>9} {'ms/ev':>6} {'RSS MB':>6} {'mean MeV':>8}"
+    )
+    cases = [
+        (10.0, "auto", "one"),
+        (10.0, "placements", "one"),
+        (100.0, "auto", "one"),
+        (100.0, "auto", "random"),
+        (100.0, "auto", "exact"),
+    ]
+    if flat_1m:
+        cases.append((100.0, "placements", "one"))
+    for side, layout, variants in cases:
+        r = in_subprocess(
+            ["--face", str(side), layout, variants, "--events", str(events)],
+        )
+        print(
+            f"{side / 100:4g} m {variants:8} {layout:10} {r['build_s']:7.2f} {r['init_s']:6.2f} "
+            f"{r['first_run_s']:6.2f} {r['beamon_ms']:9.1f} {r['per_event_ms']:6.3f} "
+            f"{r['rss_mb']:6.0f} {r['mean_edep_mev']:8.3f}",
+            flush=True,
+        )
+
+
+def part_portal(events: int) -> None:
+    print(f"{'tiling':7} {'ms/ev':>6} {'mean MeV':>8} {'jumps/ev':>8} {'tracked':>7}")
+    res = {}
+    for tiling in ("native", "portal"):
+        r = res[tiling] = in_subprocess(["--portal", tiling, "--events", str(events)])
+        print(
+            f"{tiling:7} {r['per_event_ms']:6.3f} {r['mean_edep_mev']:8.3f} "
+            f"{r['jumps_per_event']:8.2f} {r['tracked_share']:7.3f}",
+            flush=True,
+        )
+    print(
+        f"portal / native per event: {res['portal']['per_event_ms'] / res['native']['per_event_ms']:.2f}"
+    )
+
+
+def part_jobs(events: int) -> None:
+    walls = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for jobs in (1, 2):
+            cmd = score4_cmd() + [
+                "run",
+                str(ROOT / "examples" / "paper_a_rough.yaml"),
+                "--events",
+                str(events),
+                "--jobs",
+                str(jobs),
+                "--out",
+                f"j{jobs}.h5",
+                "--overwrite",
+                "--quiet",
+            ]
+            load = os.getloadavg()[0]
+            wall, cpu, _ = timed_command(cmd, cwd=tmp)
+            walls[jobs] = wall
+            print(
+                f"  --jobs {jobs}: wall {wall:6.2f} s, CPU {cpu:6.2f} s (load before: {load:.1f})"
+            )
+    print(f"  speed-up jobs 2 / jobs 1: {walls[1] / walls[2]:.2f}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--events", type=int, default=2000, help="alpha / Po-210 events per case")
+    parser.add_argument("--jobs-events", type=int, default=20000)
+    parser.add_argument("--parts", default="startup,faces,portal,jobs")
+    parser.add_argument("--flat-1m", action="store_true", help="also the 1 m face, flat placements")
+    parser.add_argument("--face", nargs=3, help=argparse.SUPPRESS)
+    parser.add_argument("--portal", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.face:
+        side, layout, variants = args.face
+        print(MARK + json.dumps(measure_face(float(side), layout, variants, args.events)))
+        return
+    if args.portal:
+        print(MARK + json.dumps(measure_portal(args.portal, args.events)))
+        return
+    parts = args.parts.split(",")
+    print(f"load average at start: {os.getloadavg()}")
+    if "startup" in parts:
+        part_startup()
+    if "faces" in parts:
+        part_faces(args.events, args.flat_1m)
+    if "portal" in parts:
+        part_portal(args.events)
+    if "jobs" in parts:
+        part_jobs(args.jobs_events)
+
+
+if __name__ == "__main__":
+    main()
