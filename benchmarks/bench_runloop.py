@@ -20,8 +20,11 @@ Parts (each case runs in its own process, so its RSS and start-up are its own):
       build s     score4.geometry.world.build_world
       init s      the whole Simulation set-up (scene, source, Geant4 initialisation)
       1st s       the first run (20 events: geometry voxels, physics tables)
-      BeamOn ms   fixed cost of one more BeamOn (10 runs of one event, minus the per-event cost)
-      ms/ev       CPU per event, 5.3 MeV alphas from 20 nm below the face (isotropic, lite)
+      BeamOn ms   fixed CPU cost of a BeamOn, B, and
+      ms/ev       CPU per event, e, of 5.3 MeV alphas from 20 nm below the face (isotropic, lite):
+                  a BeamOn of n events costs B + n e; measured with ten BeamOns of one event
+                  and one of --events events
+      run ms/ev   CPU per event of that one BeamOn, B included (what a chunk of that size costs)
       RSS MB      peak resident size of the process
 ``portal``
     Po-210 events (alpha + Pb-206 recoil) on the 10 cm pyramid face: native (auto) against portal
@@ -125,10 +128,13 @@ def measure_face(side_cm: float, layout: str, variants: str, events: int) -> dic
     ten = time.process_time() - c0
     c0 = time.process_time()
     scores = sim.run(primaries.select_events(WARMUP + 10, WARMUP + 10 + events), 2)
-    per_event = (time.process_time() - c0) / events
+    whole = time.process_time() - c0
+    # one BeamOn of n events costs B + n e: from n = 1 (ten times) and n = events
+    per_event = (whole - ten / 10) / (events - 1)
     out.update(
         per_event_ms=per_event * 1e3,
         beamon_ms=(ten / 10 - per_event) * 1e3,
+        run_ms_per_event=whole / events * 1e3,
         mean_edep_mev=float(scores["edep"][:, 0].mean()),
         rss_mb=_rss_mb(),
     )
@@ -215,7 +221,7 @@ def part_startup() -> None:
 def part_faces(events: int, flat_1m: bool) -> None:
     print(
         f"{'face':6} {'variants':8} {'layout':10} {'build s':>7} {'init s':>6} {'1st s':>6} "
-        f"{'BeamOn ms':>9} {'ms/ev':>6} {'RSS MB':>6} {'mean MeV':>8}"
+        f"{'BeamOn ms':>9} {'ms/ev':>6} {'run ms/ev':>9} {'RSS MB':>6} {'mean MeV':>8}"
     )
     cases = [
         (10.0, "auto", "one"),
@@ -233,6 +239,7 @@ def part_faces(events: int, flat_1m: bool) -> None:
         print(
             f"{side / 100:4g} m {variants:8} {layout:10} {r['build_s']:7.2f} {r['init_s']:6.2f} "
             f"{r['first_run_s']:6.2f} {r['beamon_ms']:9.1f} {r['per_event_ms']:6.3f} "
+            f"{r['run_ms_per_event']:9.3f} "
             f"{r['rss_mb']:6.0f} {r['mean_edep_mev']:8.3f}",
             flush=True,
         )

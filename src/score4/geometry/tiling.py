@@ -7,13 +7,16 @@ navigation stays in C++. Layouts (``native_layout``):
 
 * ``placements``: one ``G4PVPlacement`` per cell, all in the envelope (the reference layout);
 * ``replicas``: two levels of ``G4PVReplica`` (rows of cells; one variant only);
-* ``auto`` (the default): a grid of more than :data:`MAX_DAUGHTERS` cells is grouped 2 x 2
-  into group boxes, level after level, until the envelope holds at most :data:`MAX_DAUGHTERS`
-  boxes (:func:`place_nested`); ``nested`` groups until it holds at most 4, at any grid size. Groups with the same content share one
-  logical volume, so a face of one variant needs a few dozen placements at any size, and a
-  random map of several variants about a third of its cell count. No mother holds millions of
-  daughters (a flat list of 4 million placements took 2.6 GB and 20 s to build). A grid of at most
-  :data:`MAX_DAUGHTERS` cells is placed exactly as ``placements`` does.
+* ``auto`` (the default): up to :data:`MAX_DAUGHTERS` cells as ``placements``; a larger grid
+  in nested groups of cells (:func:`place_nested`): one level of ``g`` x ``g`` groups when that
+  needs at most :data:`PLACEMENT_BUDGET` placements (always for a face of one variant), else
+  2 x 2 groups first, level by level (:func:`grouping_plan`). Groups with the same content share
+  one logical volume, so a face of one variant needs a few thousand placements at any size, and
+  no mother holds more than :data:`MAX_DAUGHTERS` daughters (a flat list of 4 million
+  placements took 2.6 GB and 20 s to build; a Python object per placement is not kept);
+* ``nested``: the same at any grid size, down to at most 4 boxes in the envelope (deep trees:
+  for tests and comparisons).
+
 The envelope is rotated into the face frame of :mod:`score4.scene`; inside it the patch bodies
 have their slab bottom on the face.
 """
@@ -27,6 +30,8 @@ from .solids import multiunion_solid, tessellated_solid
 
 #: Nested layout: most boxes one mother (the envelope) holds directly (50 x 50).
 MAX_DAUGHTERS = 2500
+#: Nested layout: most placements one level of large groups may take (see grouping_plan).
+PLACEMENT_BUDGET = 300_000
 
 
 def _rotation(g4, r: np.ndarray):
@@ -90,7 +95,8 @@ def place_native(g4, layer: RoughLayer, mother_lv, world_material, material) -> 
         return patch_lvs, keep
     layout = layer.config.native_layout
     if layout == "nested" or (layout == "auto" and variants.size > MAX_DAUGHTERS):
-        most = MAX_DAUGHTERS if layout == "auto" else 4  # nested: group all the way (tests)
+        # nested at any size: at most 4 boxes in the envelope (deep trees, for tests)
+        most = MAX_DAUGHTERS if layout == "auto" else 4
         keep += place_nested(
             g4, variants, cell_lvs, (px, py, t), env_lv, world_material, name, most
         )
@@ -113,21 +119,67 @@ def place_native(g4, layer: RoughLayer, mother_lv, world_material, material) -> 
     return patch_lvs, keep
 
 
-def group_grid(ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Group a grid of box ids 2 x 2: ``(patterns, grid)``.
+def _unique_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(index of the first occurrence of each distinct row, row -> distinct id) of an int matrix.
+
+    Columns are merged pairwise through integer keys (fast for millions of short rows).
+    """
+    cols = [rows[:, c] + 1 for c in range(rows.shape[1])]  # ids >= -1 -> >= 0
+    while len(cols) > 1:
+        merged = []
+        for a, b in zip(cols[0::2], cols[1::2]):
+            _, key = np.unique(a * (int(b.max()) + 1) + b, return_inverse=True)
+            merged.append(key.ravel())
+        if len(cols) % 2:
+            merged.append(cols[-1])
+        cols = merged
+    _, first, inverse = np.unique(cols[0], return_index=True, return_inverse=True)
+    return first, inverse.ravel()
+
+
+def group_grid(ids: np.ndarray, g: int) -> tuple[np.ndarray, np.ndarray]:
+    """Group a grid of box ids ``g`` x ``g``: ``(patterns, grid)``.
 
     ``ids[j, i]`` (row ``j`` along y) holds non-negative box ids. ``patterns[m]`` is the
-    ``(2, 2)`` block of child ids of group ``m`` (``[dj, di]``; -1 where a group on the far edge
-    of an odd-sized grid has no child), one row per distinct block; ``grid[J, I]`` is the
-    pattern of the group holding cells ``[2J:2J+2, 2I:2I+2]``.
+    ``(g, g)`` block of child ids of group ``m`` (``[dj, di]``; -1 where a group on the far edge
+    of the grid has no child), one per distinct block; ``grid[J, I]`` is the pattern of the
+    group holding boxes ``[gJ:gJ+g, gI:gI+g]``.
     """
     ny, nx = ids.shape
-    padded = np.full((ny + ny % 2, nx + nx % 2), -1, dtype=np.int64)
+    gy, gx = -(-ny // g), -(-nx // g)
+    padded = np.full((gy * g, gx * g), -1, dtype=np.int64)
     padded[:ny, :nx] = ids
-    gy, gx = padded.shape[0] // 2, padded.shape[1] // 2
-    blocks = padded.reshape(gy, 2, gx, 2).transpose(0, 2, 1, 3).reshape(gy * gx, 4)
-    _, first, inverse = np.unique(blocks, axis=0, return_index=True, return_inverse=True)
-    return blocks[first].reshape(-1, 2, 2), inverse.reshape(gy, gx)
+    blocks = padded.reshape(gy, g, gx, g).transpose(0, 2, 1, 3).reshape(gy * gx, g * g)
+    first, inverse = _unique_rows(blocks)
+    return blocks[first].reshape(-1, g, g), inverse.reshape(gy, gx)
+
+
+def grouping_plan(
+    variants: np.ndarray, max_daughters: int = MAX_DAUGHTERS, budget: int = PLACEMENT_BUDGET
+) -> list[tuple]:
+    """The levels of groups :func:`place_nested` places for ``variants``: ``(g, patterns, grid)``
+    per level, as :func:`group_grid` returns them for that level's factor ``g``.
+
+    At each level: if one grouping of ``g`` x ``g`` boxes (the smallest ``g`` that leaves at most
+    ``max_daughters`` groups for the envelope) needs at most ``budget``
+    placements (distinct groups x ``g``^2; groups with the same content share one logical
+    volume), it is the last level. Otherwise the level groups 2 x 2 (sharing most where the
+    patterns repeat) and the next level decides again. Few levels keep navigation fast; a face
+    of one variant always gets a single level.
+    """
+    ids = np.asarray(variants, dtype=np.int64)
+    plan: list[tuple] = []
+    while ids.size > max_daughters:
+        g = 2
+        while -(-ids.shape[0] // g) * -(-ids.shape[1] // g) > max_daughters:
+            g += 1
+        patterns, grid = group_grid(ids, g)
+        if g > 2 and len(patterns) * g * g > budget:
+            g = 2
+            patterns, grid = group_grid(ids, g)
+        plan.append((g, patterns, grid))
+        ids = grid
+    return plan
 
 
 def place_nested(
@@ -139,15 +191,15 @@ def place_nested(
     world_material,
     name: str,
     max_daughters: int = MAX_DAUGHTERS,
+    budget: int = PLACEMENT_BUDGET,
 ) -> list:
-    """Place the cells of ``variants`` in ``env_lv`` as nested 2 x 2 groups (see the module doc).
+    """Place the cells of ``variants`` in ``env_lv`` as nested groups (see the module doc).
 
-    ``cell`` is ``(px, py, t)``, the cell box size. While the grid has more than
-    ``max_daughters`` boxes, the next level groups the boxes of the level below
-    2 x 2 (edge groups of an odd grid are 1 x 2, 2 x 1 or 1 x 1), one logical volume per distinct
-    group; the envelope holds the last level. Returns the Geant4 solids and logical volumes to
-    keep alive; the placements themselves belong to Geant4 (their mothers) and no Python object
-    is kept per placement.
+    ``cell`` is ``(px, py, t)``, the cell box size. The levels come from :func:`grouping_plan`
+    (``max_daughters``, ``budget``); a group on the far edge of a grid that is not a multiple of the factor
+    holds fewer boxes. One logical volume per distinct group; the envelope holds the last level.
+    Returns the Geant4 solids and logical volumes to keep alive; the placements themselves belong
+    to Geant4 (their mothers) and no Python object is kept per placement.
     """
     px, py, t = cell
     vec = g4.G4ThreeVector
@@ -156,37 +208,45 @@ def place_nested(
     span_y = [1] * len(lvs)
     ids = np.asarray(variants, dtype=np.int64)
     keep: list = []
-    level = 0
-    while ids.size > max_daughters:
-        level += 1
-        patterns, grid = group_grid(ids)
+    size = 1  # cells per box side at the current level (full boxes)
+    below = 0  # id of the first box of the level below (the plan numbers each level from 0)
+    for level, (g, patterns, grid) in enumerate(grouping_plan(ids, max_daughters, budget), start=1):
         first_id = len(lvs)
-        for m, block in enumerate(patterns.tolist()):
+        for m, block in enumerate((patterns + below * (patterns >= 0)).tolist()):
             # block[dj][di]; the columns' widths and the rows' heights, in cells
-            widths = [span_x[block[0][di]] if block[0][di] >= 0 else 0 for di in (0, 1)]
-            heights = [span_y[block[dj][0]] if block[dj][0] >= 0 else 0 for dj in (0, 1)]
+            widths = [span_x[b] for b in block[0] if b >= 0]
+            heights = [span_y[row[0]] for row in block if row[0] >= 0]
             w, h = sum(widths), sum(heights)
+            x0 = np.concatenate([[0], np.cumsum(widths)])
+            y0 = np.concatenate([[0], np.cumsum(heights)])
             tag = f"{name}_g{level}_{m}"
             solid = g4.G4Box(tag, w * px / 2, h * py / 2, t / 2)
             lv = g4.G4LogicalVolume(solid, world_material, tag)
-            for dj in (0, 1):
-                for di in (0, 1):
-                    child = block[dj][di]
+            for dj, row in enumerate(block):
+                for di, child in enumerate(row):
                     if child < 0:
                         continue
-                    x = (-w / 2 + di * widths[0] + widths[di] / 2) * px
-                    y = (-h / 2 + dj * heights[0] + heights[dj] / 2) * py
+                    x = (-w / 2 + x0[di] + widths[di] / 2) * px
+                    y = (-h / 2 + y0[dj] + heights[dj] / 2) * py
                     g4.G4PVPlacement(
-                        None, vec(x, y, 0.0), lvs[child], tag, lv, False, 2 * dj + di, False
+                        None,
+                        vec(float(x), float(y), 0.0),
+                        lvs[child],
+                        tag,
+                        lv,
+                        False,
+                        dj * g + di,
+                        False,
                     )
             keep += [solid, lv]
             lvs.append(lv)
             span_x.append(w)
             span_y.append(h)
         ids = grid + first_id
-    # the envelope holds the last level: box (I, J) starts at cell (I * 2**level, J * 2**level)
+        below = first_id
+        size *= g
+    # the envelope holds the last level: box (I, J) starts at cell (I * size, J * size)
     ny, nx = ids.shape
-    size = 2**level
     lu, lv_ = sum(span_x[k] for k in ids[0]) * px, sum(span_y[k] for k in ids[:, 0]) * py
     for j in range(ny):
         for i in range(nx):
@@ -194,6 +254,6 @@ def place_nested(
             x = -lu / 2 + (i * size + span_x[k] / 2) * px
             y = -lv_ / 2 + (j * size + span_y[k] / 2) * py
             g4.G4PVPlacement(
-                None, vec(x, y, 0.0), lvs[k], f"{name}_g{level}", env_lv, False, j * nx + i, False
+                None, vec(x, y, 0.0), lvs[k], f"{name}_top", env_lv, False, j * nx + i, False
             )
     return keep
