@@ -27,9 +27,10 @@ Parts (each case runs in its own process, so its RSS and start-up are its own):
       run ms/ev   CPU per event of that one BeamOn, B included (what a chunk of that size costs)
       RSS MB      peak resident size of the process
 ``portal``
-    Po-210 events (alpha + Pb-206 recoil) on the 10 cm pyramid face: native (auto) against portal
-    tiling, CPU per event in one process each, and the share of portal events that needed the
-    tracking action (see score4.sim.portal_action).
+    Po-210 events (alpha + Pb-206 recoil) on the 10 cm pyramid face: native (default layout)
+    against portal tiling, CPU per event in one process each, and the share of portal events that
+    needed the tracking action (see score4.sim.portal_action). Runs on older score4 versions too
+    (PYTHONPATH=old/src), for a before/after comparison.
 ``jobs``
     ``score4 run examples/paper_a_rough.yaml --events 20000`` with ``--jobs 1`` and ``--jobs 2``,
     wall seconds, and the ratio. The machine is shared: read the ratio with the load printed.
@@ -64,7 +65,9 @@ def face_config(
     side_cm: float, layout: str = "auto", tiling: str = "native", variants: str = "one"
 ) -> dict:
     """Pyramid face of ``side_cm``; ``variants``: one, random (two, fill random), exact (two, 50 %)."""
-    rough: dict = {"face": "+z", "tiling": tiling, "native_layout": layout}
+    rough: dict = {"face": "+z", "tiling": tiling}
+    if layout != "default":  # "default": leave native_layout out (also runs on older score4)
+        rough["native_layout"] = layout
     if variants == "one":
         rough["surface"] = "p"
     else:
@@ -142,7 +145,7 @@ def measure_face(side_cm: float, layout: str, variants: str, events: int) -> dic
 
 
 def measure_portal(tiling: str, events: int) -> dict:
-    data = face_config(10.0, tiling=tiling)
+    data = face_config(10.0, layout="default", tiling=tiling)
     data["source"] = {
         "decay": "Po210",
         "direction": "isotropic",
@@ -153,13 +156,13 @@ def measure_portal(tiling: str, events: int) -> dict:
     primaries = sim.source.primaries(np.random.default_rng(5), 0, WARMUP + events)
     sim.run(primaries.select_events(0, WARMUP), 1)
     t = sim.teleporter
-    tracked0 = t.tracked_events if t else 0
+    tracked0 = getattr(t, "tracked_events", 0)
     c0 = time.process_time()
     scores = sim.run(primaries.select_events(WARMUP, WARMUP + events), 2)
     out.update(
         per_event_ms=(time.process_time() - c0) / events * 1e3,
         mean_edep_mev=float(scores["edep"][:, 0].mean()),
-        tracked_share=(t.tracked_events - tracked0) / events if t else float("nan"),
+        tracked_share=(getattr(t, "tracked_events", np.nan) - tracked0) / events,
         jumps_per_event=t.jumps / (WARMUP + events) if t else float("nan"),
     )
     return out

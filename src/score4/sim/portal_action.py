@@ -349,9 +349,9 @@ def make_actions(g4, teleporter: Teleporter, regions: list) -> tuple:
     """(stepping action, tracking action) driving ``teleporter``.
 
     The stepping action is installed here as the regional action of ``regions`` (the portal
-    regions); register the returned tracking action with the run manager. It is the idle one
-    (no Python per track); the teleporter swaps in the one that gives every new track its cell
-    only for the rest of an event whose cells became ambiguous (see the module docstring).
+    regions); register the returned tracking action with the run manager. It is Geant4's own
+    no-op (no Python per track); the teleporter swaps in the one that gives every new track its
+    cell only for the rest of an event whose cells became ambiguous (see the module docstring).
     """
     on_step = teleporter.on_step
     start_track = teleporter.start_track
@@ -364,18 +364,22 @@ def make_actions(g4, teleporter: Teleporter, regions: list) -> tuple:
         def PreUserTrackingAction(self, track):
             start_track(track)
 
-    class IdleTracking(g4.G4UserTrackingAction):
-        """Overrides nothing: Geant4 calls the C++ no-op (pybind11 caches the missing override).
-
-        A Python subclass, not the bound class itself: the binding can hand a Python-derived
-        action to Geant4 again and again, a plain C++ one only once."""
-
     stepping = PortalStepping()
     for region in regions:
         region.SetRegionalSteppingAction(stepping)
-    tracking, idle = PortalTracking(), IdleTracking()
+    tracking = PortalTracking()
     events = g4.G4EventManager.GetEventManager()
-    teleporter.set_tracking = lambda on: events.SetUserAction(tracking if on else idle)
+
+    def set_tracking(on: bool) -> None:
+        # Off: Geant4's own no-op action, a new one each time (a few bytes that Geant4 never
+        # frees: the binding hands a plain C++ object to Geant4 once only). A Python subclass
+        # that overrides nothing costs a GIL round trip and an override lookup per track and
+        # call: measured, portal/native CPU per Po-210 event (~200 tracks) 1.49 with it, 1.34
+        # with the plain C++ action (benchmarks/bench_runloop.py, shared machine).
+        events.SetUserAction(tracking if on else g4.G4UserTrackingAction())
+
+    teleporter.set_tracking = set_tracking
     teleporter.tracking = False
-    teleporter._keep_actions = (tracking, idle)
+    teleporter._keep_actions = tracking
+    idle = g4.G4UserTrackingAction()
     return stepping, idle
