@@ -5,10 +5,9 @@
 Parts (each case runs in its own process, so its RSS and start-up are its own):
 
 ``startup``
-    CPU seconds and peak RSS of ``python -c "from score4.sim import engine"`` (what the parent and
-    every spawned worker import), and of a whole ``score4 run examples/paper_a_rough.yaml
-    --events 1 --jobs 1`` (parent + one worker, children included: the start-up before the first
-    event of a small run).
+    A one-event run of examples/paper_a_rough.yaml with one worker: CPU seconds of importing
+    ``score4.sim.engine`` (what the parent and every spawned worker import) and its RSS, of the
+    parent process and of the worker (everything before the first event, plus one event).
 ``faces``
     The paper's pyramid face (10 um pyramids, 0.5 mm patches of 50 x 50, one variant, multi-union)
     on a 10 cm and a 1 m square face (200 x 200 and 2000 x 2000 cells), in the default layout
@@ -170,7 +169,7 @@ def measure_portal(tiling: str, events: int) -> dict:
 
 def in_subprocess(args: list[str]) -> dict:
     cmd = [sys.executable, os.path.abspath(__file__), *args]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
     lines = [line for line in proc.stdout.splitlines() if line.startswith(MARK)]
     if proc.returncode != 0 or not lines:
         raise RuntimeError(f"{' '.join(args)}: failed ({proc.returncode}): {proc.stderr[-2000:]}")
@@ -192,33 +191,47 @@ def score4_cmd() -> list[str]:
     return [sys.executable, "-m", "score4.cli.main"]
 
 
+_STARTUP_PROBE = """
+import resource, sys, time
+c0 = time.process_time()
+from score4.sim import engine
+from score4.config import load_config
+imported = time.process_time() - c0
+rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+config = load_config(sys.argv[1])
+config = config.model_copy(update={"run": config.run.model_copy(update={"events": 1})})
+engine.run(config, sys.argv[2], overwrite=True, jobs=1, progress=False, echo=lambda m: None)
+me = resource.getrusage(resource.RUSAGE_SELF)
+kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+print(imported, rss, me.ru_utime + me.ru_stime, kids.ru_utime + kids.ru_stime, kids.ru_maxrss / 1024)
+"""
+
+
 def part_startup() -> None:
-    print("start-up (CPU s including children; RSS of the largest process)")
-    for label, cmd in [
-        ("import score4.sim.engine", [sys.executable, "-c", "from score4.sim import engine"]),
-        ("python -c pass", [sys.executable, "-c", "pass"]),
-    ]:
-        runs = [timed_command(cmd) for _ in range(3)]
-        cpu = min(r[1] for r in runs)
-        print(f"  {label:42} CPU {cpu:5.2f} s  RSS {runs[0][2]:5.0f} MB")
+    """CPU of a one-event run of paper_a_rough: the parent (import, scene, merge) and its worker."""
+    print("start-up: one-event run of examples/paper_a_rough.yaml, --jobs 1 (best of 3)")
+    rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        cmd = score4_cmd() + [
-            "run",
-            str(ROOT / "examples" / "paper_a_rough.yaml"),
-            "--events",
-            "1",
-            "--jobs",
-            "1",
-            "--out",
-            "a.h5",
-            "--overwrite",
-            "--quiet",
-        ]
-        runs = [timed_command(cmd, cwd=tmp) for _ in range(3)]
-        print(
-            f"  {'score4 run paper_a_rough --events 1':42} CPU {min(r[1] for r in runs):5.2f} s  "
-            f"wall {min(r[0] for r in runs):5.2f} s  (parent + 1 worker)"
-        )
+        for _ in range(3):
+            out = subprocess.run(
+                [
+                    sys.executable,
+                    "-c",
+                    _STARTUP_PROBE,
+                    str(ROOT / "examples" / "paper_a_rough.yaml"),
+                    str(Path(tmp) / "a.h5"),
+                ],
+                check=True,
+                capture_output=True,
+                text=True,
+            ).stdout.split()
+            rows.append([float(x) for x in out[-5:]])
+    imported, rss, parent, worker, worker_rss = min(rows, key=lambda r: r[2] + r[3])
+    print(f"  import score4.sim.engine: CPU {imported:5.2f} s, RSS {rss:4.0f} MB")
+    print(f"  parent process (import, scene, 1 event drawn, merge): CPU {parent:5.2f} s")
+    print(
+        f"  worker process (import, Geant4 set-up, 1 event): CPU {worker:5.2f} s, RSS {worker_rss:4.0f} MB"
+    )
 
 
 def part_faces(events: int, flat_1m: bool) -> None:
