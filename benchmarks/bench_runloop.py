@@ -31,8 +31,9 @@ Parts (each case runs in its own process, so its RSS and start-up are its own):
     needed the tracking action (see score4.sim.portal_action). Runs on older score4 versions too
     (PYTHONPATH=old/src), for a before/after comparison.
 ``jobs``
-    ``score4 run examples/paper_a_rough.yaml --events 20000`` with ``--jobs 1`` and ``--jobs 2``,
-    wall seconds, and the ratio. The machine is shared: read the ratio with the load printed.
+    examples/paper_a_rough.yaml, 20000 events (two chunks) with 1 and 2 worker processes: wall
+    seconds and their ratio, and the speed-up estimated from the CPU of the parent and the
+    workers (see part_jobs). The machine is shared: read the wall ratio with the load printed.
 """
 
 from __future__ import annotations
@@ -276,29 +277,58 @@ def part_portal(events: int) -> None:
     )
 
 
+_JOBS_PROBE = """
+import resource, sys, time
+from score4.sim import engine
+from score4.config import load_config
+config = load_config(sys.argv[1])
+config = config.model_copy(update={"run": config.run.model_copy(update={"events": int(sys.argv[3])})})
+t0 = time.perf_counter()
+engine.run(config, sys.argv[2], overwrite=True, jobs=int(sys.argv[4]), progress=False,
+           echo=lambda m: None)
+wall = time.perf_counter() - t0
+me = resource.getrusage(resource.RUSAGE_SELF)
+kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+print(wall, me.ru_utime + me.ru_stime, kids.ru_utime + kids.ru_stime)
+"""
+
+
 def part_jobs(events: int) -> None:
-    walls = {}
+    """paper_a_rough with 1 and 2 workers: wall time, and CPU of the parent and the workers.
+
+    On a shared machine the wall-time ratio says little; the CPU figures give the speed-up an
+    idle 2-core machine would show if the two workers (one chunk each) ran side by side:
+    (parent + workers at --jobs 1) / (parent + workers / 2 at --jobs 2).
+    """
+    res = {}
     with tempfile.TemporaryDirectory() as tmp:
         for jobs in (1, 2):
-            cmd = score4_cmd() + [
-                "run",
-                str(ROOT / "examples" / "paper_a_rough.yaml"),
-                "--events",
-                str(events),
-                "--jobs",
-                str(jobs),
-                "--out",
-                f"j{jobs}.h5",
-                "--overwrite",
-                "--quiet",
-            ]
             load = os.getloadavg()[0]
-            wall, cpu, _ = timed_command(cmd, cwd=tmp)
-            walls[jobs] = wall
+            out = subprocess.run(
+                [
+                    sys.executable,
+                    "-c",
+                    _JOBS_PROBE,
+                    str(ROOT / "examples" / "paper_a_rough.yaml"),
+                    str(Path(tmp) / f"j{jobs}.h5"),
+                    str(events),
+                    str(jobs),
+                ],
+                check=True,
+                capture_output=True,
+                text=True,
+            ).stdout.split()
+            wall, parent, workers = (float(x) for x in out[-3:])
+            res[jobs] = (wall, parent, workers)
             print(
-                f"  --jobs {jobs}: wall {wall:6.2f} s, CPU {cpu:6.2f} s (load before: {load:.1f})"
+                f"  --jobs {jobs}: wall {wall:6.2f} s, CPU parent {parent:5.2f} s, workers "
+                f"{workers:6.2f} s (load before: {load:.1f})"
             )
-    print(f"  speed-up jobs 2 / jobs 1: {walls[1] / walls[2]:.2f}")
+    (w1, p1, c1), (w2, p2, c2) = res[1], res[2]
+    print(f"  speed-up jobs 2 / jobs 1, wall: {w1 / w2:.2f}")
+    print(
+        f"  speed-up an idle 2-core machine would give (from CPU): {(p1 + c1) / (p2 + c2 / 2):.2f}"
+    )
 
 
 def main() -> None:

@@ -196,8 +196,9 @@ def place_nested(
     """Place the cells of ``variants`` in ``env_lv`` as nested groups (see the module doc).
 
     ``cell`` is ``(px, py, t)``, the cell box size. The levels come from :func:`grouping_plan`
-    (``max_daughters``, ``budget``); a group on the far edge of a grid that is not a multiple of the factor
-    holds fewer boxes. One logical volume per distinct group; the envelope holds the last level.
+    (``max_daughters``, ``budget``); a group on the far edge of a grid that is not a multiple
+    of the level's factor holds fewer boxes. One logical volume per distinct group; the
+    envelope holds the last level.
     Returns the Geant4 solids and logical volumes to keep alive; the placements themselves belong
     to Geant4 (their mothers) and no Python object is kept per placement.
     """
