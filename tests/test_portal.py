@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import multiprocessing as mp
 from concurrent.futures import ProcessPoolExecutor
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -488,3 +489,75 @@ def test_subworlds_lie_outside_the_region_particles_reach():
         check_unreachable(scene.layers[0], (0.05, 0.0, 0.0), -lab, lab)
     native = parse_config(tiled_config("native", face_source("+z")))
     assert portal_layout(native, build_scene(native))[1] == {}
+
+
+# --- per-track cells without a tracking action (no Geant4) --------------------------------------
+
+
+class _Track:
+    def __init__(self, tid, parent, where, time=0.0):
+        self.tid, self.parent, self.where, self.time = tid, parent, where, time
+
+    def GetTrackID(self):
+        return self.tid
+
+    def GetParentID(self):
+        return self.parent
+
+    def GetPosition(self):
+        x, y, z = self.where
+        return SimpleNamespace(x=x, y=y, z=z)
+
+    def GetGlobalTime(self):
+        return self.time
+
+
+def test_tracking_action_runs_only_while_an_events_cells_are_ambiguous():
+    """The teleporter switches its tracking action on when an event enters a second cell of one
+    variant (by its primaries or by a jump), off when the next event begins; a track with no
+    history is in its variant's first cell, a secondary of a parent with no history gets the
+    first cell of the subworld it is born in (none in Lab)."""
+    from score4.sim.portal_action import Teleporter
+
+    config = parse_config(tiled_config("portal", face_source("+z"), faces=("+z",), covers=False))
+    layer = build_scene(config).layers[0]
+    centres = subworld_centres(layer, (1.0, 0.0, 0.0))
+    g4 = SimpleNamespace(
+        G4TransportationManager=SimpleNamespace(
+            GetTransportationManager=lambda: SimpleNamespace(GetNavigatorForTracking=lambda: None)
+        ),
+        G4TrackStatus=SimpleNamespace(fStopAndKill=2),
+        G4ThreeVector=lambda *v: v,
+    )
+    portal = SimpleNamespace(map=PortalMap(layer, centres), portal_pv="portal", trigger_pvs=[])
+    t = Teleporter(g4, [portal])
+    switched = []
+    t.set_tracking, t.tracking = switched.append, False
+    v = layer.patch_map.variants
+    (j1, i1), (j2, i2) = np.argwhere(v == 0)[:2]  # two cells of variant 0
+    (j3, i3) = np.argwhere(v == 1)[0]
+    c = layer.cell_centres()
+    z = layer.thickness / 2
+
+    def point(i, j):
+        return layer.frame.to_world(np.array([c[j, i, 0], c[j, i, 1], z]))
+
+    positions = [point(i1, j1), point(i3, j3), point(i1, j1), point(i2, j2), point(i1, j1)]
+    t.map_primaries(np.array(positions))
+    t.begin_event(0, 2)  # two primaries, two variants: unambiguous
+    assert switched == [] and t.first_cell == {(0, 0): (0, i1, j1), (0, 1): (0, i3, j3)}
+    t.begin_event(2, 4)  # two cells of variant 0
+    assert switched == [True] and t.tracking
+    t.begin_event(4, 5)
+    assert switched == [True, False] and t.first_cell == {(0, 0): (0, i1, j1)}
+    t._record(7, 1.0, (0, i3, j3), (0, i1, j1))  # a jump into another variant: still fine
+    assert switched == [True, False]
+    t._record(7, 2.0, (0, i2, j2), (0, i3, j3))  # back into variant 0, another cell
+    assert switched == [True, False, True]
+    sub0 = centres[0]
+    t.start_track(_Track(9, 8, sub0))  # parent 8 has no history: born in subworld 0
+    assert t.history[9][1] == [(0, i1, j1)]
+    t.start_track(_Track(10, 7, sub0, time=1.5))  # parent 7 was in (i3, j3) at t = 1.5
+    assert t.history[10][1] == [(0, i3, j3)]
+    t.start_track(_Track(11, 8, (0.0, 0.0, 0.0)))  # born in Lab: no cell
+    assert 11 not in t.history
