@@ -32,6 +32,8 @@ from .solids import multiunion_solid, tessellated_solid
 MAX_DAUGHTERS = 2500
 #: Nested layout: most placements one level of large groups may take (see grouping_plan).
 PLACEMENT_BUDGET = 300_000
+#: Nested layout: a level with at most this many distinct volumes gets its own region.
+MAX_REGION_ROOTS = 5000
 
 
 def _rotation(g4, r: np.ndarray):
@@ -209,6 +211,7 @@ def place_nested(
     span_y = [1] * len(lvs)
     ids = np.asarray(variants, dtype=np.int64)
     keep: list = []
+    levels = [list(cell_lvs)]  # the distinct volumes of each level, cells first
     size = 1  # cells per box side at the current level (full boxes)
     below = 0  # id of the first box of the level below (the plan numbers each level from 0)
     for level, (g, patterns, grid) in enumerate(grouping_plan(ids, max_daughters, budget), start=1):
@@ -243,6 +246,7 @@ def place_nested(
             lvs.append(lv)
             span_x.append(w)
             span_y.append(h)
+        levels.append(lvs[first_id:])
         ids = grid + first_id
         below = first_id
         size *= g
@@ -257,4 +261,28 @@ def place_nested(
             g4.G4PVPlacement(
                 None, vec(x, y, 0.0), lvs[k], f"{name}_top", env_lv, False, j * nx + i, False
             )
+    keep += level_regions(g4, levels, name)
     return keep
+
+
+def level_regions(g4, levels: list[list], name: str) -> list:
+    """One Geant4 region per level of distinct volumes (cells first), as their root volumes.
+
+    Before every ``BeamOn`` Geant4 sets the material-cuts couple of each logical volume by a walk
+    down the volume tree from each region's root volumes, once per material, that stops only at
+    volumes of another region (``G4ProductionCutsTable::ScanAndSetCouple``): through shared
+    groups it visits every cell of the face, 4 million times per material on a 1 m face. With
+    each level its own region, each walk stops one level down. The regions get the default
+    production cuts (Geant4 gives a region without cuts the world's), so the physics is the
+    same. A level with more than :data:`MAX_REGION_ROOTS` volumes is left in the region above
+    (Geant4 keeps a region's roots in a list it searches on each addition).
+    """
+    regions = []
+    for n, lvs in enumerate(levels):  # bottom-up: a new root's walk stops at the roots below
+        if not lvs or len(lvs) > MAX_REGION_ROOTS:
+            continue
+        region = g4.G4Region(f"{name}_level{n}")
+        for lv in lvs:
+            region.AddRootLogicalVolume(lv)
+        regions.append(region)
+    return regions
