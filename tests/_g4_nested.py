@@ -51,5 +51,6 @@ def nested_cells(variants: list, cell: tuple, max_daughters: int, budget: int) -
         "cells": found,
         "most_daughters": most,
         "levels": [g for g, _, _ in grouping_plan(ids, max_daughters, budget)],
-        "logical_volumes": len(keep) // 2,
+        "logical_volumes": sum(type(k).__name__ == "G4LogicalVolume" for k in keep),
+        "regions": sum(type(k).__name__ == "G4Region" for k in keep),
     }

@@ -81,3 +81,4 @@ def test_nested_cells_are_where_one_placement_per_cell_puts_them(
         assert out["levels"] == [2] * 5
     if n_variants == 1:
         assert out["logical_volumes"] == len(out["levels"]) == 1
+    assert out["regions"] == len(out["levels"]) + 1  # one per level of groups, one for the cells

@@ -32,8 +32,6 @@ from .solids import multiunion_solid, tessellated_solid
 MAX_DAUGHTERS = 2500
 #: Nested layout: most placements one level of large groups may take (see grouping_plan).
 PLACEMENT_BUDGET = 300_000
-#: Nested layout: a level with at most this many distinct volumes gets its own region.
-MAX_REGION_ROOTS = 5000
 
 
 def _rotation(g4, r: np.ndarray):
@@ -274,15 +272,12 @@ def level_regions(g4, levels: list[list], name: str) -> list:
     groups it visits every cell of the face, 4 million times per material on a 1 m face. With
     each level its own region, each walk stops one level down. The regions get the default
     production cuts (Geant4 gives a region without cuts the world's), so the physics is the
-    same. A level with more than :data:`MAX_REGION_ROOTS` volumes is left in the region above
-    (Geant4 keeps a region's roots in a list it searches on each addition).
+    same.
     """
     regions = []
     for n, lvs in enumerate(levels):  # bottom-up: a new root's walk stops at the roots below
-        if not lvs or len(lvs) > MAX_REGION_ROOTS:
-            continue
         region = g4.G4Region(f"{name}_level{n}")
-        for lv in lvs:
-            region.AddRootLogicalVolume(lv)
+        for lv in lvs:  # distinct volumes: skip Geant4's search of the root list (quadratic)
+            region.AddRootLogicalVolume(lv, False)
         regions.append(region)
     return regions
