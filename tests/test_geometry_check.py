@@ -58,6 +58,21 @@ def test_generated_rough_layers_do_not_overlap_and_a_planted_overlap_is_found():
     assert any(o.startswith("intruder") for o in overlaps)
 
 
+def test_nested_layout_is_checked_group_by_group_and_cell_by_cell():
+    """+z in nested groups (30 x 3 cells: 4 groups of 8 x 3, the last 6 x 3): Geant4 checks the
+    4 groups, the exact check all 90 cells."""
+    import copy
+
+    nested = copy.deepcopy(ROUGH)
+    nested["targets"][0]["rough"][0]["native_layout"] = "nested"
+    ok, overlaps, checked, exact, total = _check(nested, False)
+    assert ok
+    assert overlaps == []
+    assert total == 3 + 90 + 6
+    assert checked == 3 + 4 + 6
+    assert exact == 90 + 6
+
+
 def test_exact_cell_check_finds_a_patch_wider_than_its_cell():
     from score4.config import parse_config
     from score4.geometry.check import patches_fit_their_cells

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import multiprocessing as mp
 from concurrent.futures import ProcessPoolExecutor
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -68,10 +69,17 @@ COVERS = [
 ]
 
 
-def rough(tiling: str, faces=("+z", "-x"), base: str = "20 um") -> list[dict]:
+def rough(tiling: str, faces=("+z", "-x"), base: str = "20 um", layout: str = "auto") -> list[dict]:
     variants = [{"surface": "a", "density": 0.5}, {"surface": "b", "density": 0.5}]
     return [
-        {"face": f, "variants": variants, "tiling": tiling, "seed": 3, "base_thickness": base}
+        {
+            "face": f,
+            "variants": variants,
+            "tiling": tiling,
+            "seed": 3,
+            "base_thickness": base,
+            "native_layout": layout,
+        }
         for f in faces
     ]
 
@@ -82,9 +90,12 @@ def tiled_config(
     faces=("+z", "-x"),
     base: str = "20 um",
     covers: bool = True,
+    layout: str = "auto",
     **sections,
 ) -> dict:
-    targets = [{**CRYSTAL, "rough": rough(tiling, faces, base)}] + (COVERS if covers else [])
+    targets = [{**CRYSTAL, "rough": rough(tiling, faces, base, layout)}] + (
+        COVERS if covers else []
+    )
     return config_dict(surfaces=VARIANTS, targets=targets, source=source, **sections)
 
 
@@ -174,14 +185,22 @@ def test_geantino_paths_per_volume_match_native_tiling(tmp_path):
     identical path lengths in the crystal with its patches and in both copper covers, on a rotated
     face (-x) and on +z, for oblique geantinos crossing up to the whole face in the slab or the
     spike tips, for geantinos through every inner cell corner (diagonal jumps), and for those
-    leaving one
-    portal into the other (both faces are portals). Tolerance 1e-9 mm."""
+    leaving one portal into the other (both faces are portals). The same for native tiling in
+    nested 2 x 2 groups of cells (grids of 10 x 6 and 6 x 5 cells: three levels, odd edges)
+    against one placement per cell. Tolerance 1e-9 mm."""
     vfile = geantino_vertices(tmp_path)
-    native = replay(tmp_path, tiled_config("native", face_source("+z")), vfile, "native")
+    native = replay(
+        tmp_path, tiled_config("native", face_source("+z"), layout="placements"), vfile, "native"
+    )
     portal = replay(tmp_path, tiled_config("portal", face_source("+z")), vfile, "portal")
+    nested = replay(
+        tmp_path, tiled_config("native", face_source("+z"), layout="nested"), vfile, "nested"
+    )
     for volume in ("crystal", "cover", "side"):
         a, b = native.scores["track_length"][volume], portal.scores["track_length"][volume]
         np.testing.assert_allclose(b, a, rtol=0, atol=1e-9, err_msg=volume)
+        c = nested.scores["track_length"][volume]
+        np.testing.assert_allclose(c, a, rtol=0, atol=1e-9, err_msg=f"nested {volume}")
     crystal = native.scores["track_length"]["crystal"]
     # Measured (565 geantinos): 57 go more than 0.1 mm (5 cells) in the crystal group, 97 reach the
     # cover, 47 the side plate; largest difference 2e-13 mm.
@@ -488,3 +507,78 @@ def test_subworlds_lie_outside_the_region_particles_reach():
         check_unreachable(scene.layers[0], (0.05, 0.0, 0.0), -lab, lab)
     native = parse_config(tiled_config("native", face_source("+z")))
     assert portal_layout(native, build_scene(native))[1] == {}
+
+
+# --- per-track cells without a tracking action (no Geant4) --------------------------------------
+
+
+class _Track:
+    def __init__(self, tid, parent, where, time=0.0):
+        self.tid, self.parent, self.where, self.time = tid, parent, where, time
+
+    def GetTrackID(self):
+        return self.tid
+
+    def GetParentID(self):
+        return self.parent
+
+    def GetPosition(self):
+        x, y, z = self.where
+        return SimpleNamespace(x=x, y=y, z=z)
+
+    def GetGlobalTime(self):
+        return self.time
+
+
+def test_tracking_action_runs_only_while_an_events_cells_are_ambiguous():
+    """The teleporter switches its tracking action on when an event enters a second cell of one
+    variant (by its primaries or by a jump), off when the next event begins; a track with no
+    history is in its variant's first cell, a secondary of a parent with no history gets the
+    first cell of the subworld it is born in (none in Lab)."""
+    from score4.sim.portal_action import Teleporter
+
+    config = parse_config(tiled_config("portal", face_source("+z"), faces=("+z",), covers=False))
+    layer = build_scene(config).layers[0]
+    centres = subworld_centres(layer, (1.0, 0.0, 0.0))
+    g4 = SimpleNamespace(
+        G4TransportationManager=SimpleNamespace(
+            GetTransportationManager=lambda: SimpleNamespace(GetNavigatorForTracking=lambda: None)
+        ),
+        G4TrackStatus=SimpleNamespace(fStopAndKill=2),
+        G4ThreeVector=lambda *v: v,
+    )
+    portal = SimpleNamespace(map=PortalMap(layer, centres), portal_pv="portal", trigger_pvs=[])
+    t = Teleporter(g4, [portal])
+    switched = []
+    t.set_tracking, t.tracking = switched.append, False
+    v = layer.patch_map.variants
+    (j1, i1), (j2, i2) = np.argwhere(v == 0)[:2]  # two cells of variant 0
+    (j3, i3) = np.argwhere(v == 1)[0]
+    c = layer.cell_centres()
+    z = layer.thickness / 2
+
+    def point(i, j):
+        return layer.frame.to_world(np.array([c[j, i, 0], c[j, i, 1], z]))
+
+    positions = [point(i1, j1), point(i3, j3), point(i1, j1), point(i2, j2), point(i1, j1)]
+    t.map_primaries(np.array(positions))
+    t.begin_event(0, 2)  # two primaries, two variants: unambiguous
+    assert switched == []
+    assert t.first_cell == {(0, 0): (0, i1, j1), (0, 1): (0, i3, j3)}
+    t.begin_event(2, 4)  # two cells of variant 0
+    assert switched == [True]
+    assert t.tracking
+    t.begin_event(4, 5)
+    assert switched == [True, False]
+    assert t.first_cell == {(0, 0): (0, i1, j1)}
+    t._record(7, 1.0, (0, i3, j3), (0, i1, j1))  # a jump into another variant: still fine
+    assert switched == [True, False]
+    t._record(7, 2.0, (0, i2, j2), (0, i3, j3))  # back into variant 0, another cell
+    assert switched == [True, False, True]
+    sub0 = centres[0]
+    t.start_track(_Track(9, 8, sub0))  # parent 8 has no history: born in subworld 0
+    assert t.history[9][1] == [(0, i1, j1)]
+    t.start_track(_Track(10, 7, sub0, time=1.5))  # parent 7 was in (i3, j3) at t = 1.5
+    assert t.history[10][1] == [(0, i3, j3)]
+    t.start_track(_Track(11, 8, (0.0, 0.0, 0.0)))  # born in Lab: no cell
+    assert 11 not in t.history

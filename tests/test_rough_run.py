@@ -85,6 +85,7 @@ def geantino_vertex_run(
         ("-x", RANDOM, "tessellated", "placements"),
         ("+y", PYRAMIDS, "tessellated", "placements"),
         ("-x", PYRAMIDS, "multiunion", "replicas"),
+        ("+z", RANDOM, "tessellated", "nested"),
     ],
 )
 def test_geantino_path_through_placed_patches_matches_the_sampled_vertex(

@@ -189,8 +189,9 @@ class RoughFace(StrictModel):
     fill: Literal["exact", "random"] = "exact"  # how cells get their variant
     seed: int = Field(0, ge=0)  # of the patch map
     tiling: Literal["native", "portal"] = "native"
-    # native tiling: one G4PVPlacement per cell, or G4PVReplica rows of cells (one variant only)
-    native_layout: Literal["placements", "replicas"] = "placements"
+    # native tiling: auto = nested (2 x 2 groups of cells above 2500 cells, shared per content),
+    # one G4PVPlacement per cell in the envelope, or G4PVReplica rows of cells (one variant only)
+    native_layout: Literal["auto", "nested", "placements", "replicas"] = "auto"
     # auto: multi-union for spike grids of equal heights, tessellated otherwise (see RoughLayer.solid_kind)
     solid: Literal["auto", "tessellated", "multiunion"] = "auto"
     base_thickness: PositiveLength = 1e-3

@@ -36,15 +36,28 @@ Grid position per track. The cell belongs to the track: ``history[track id]`` li
 ``(time, cell)`` from each jump (cell ``(layer, i, j)`` or None outside the grid). Primaries
 that start in a portal box are started at their subworld point by the generator
 (:meth:`Teleporter.map_primaries`) with their cell known; a secondary takes its parent's cell at
-its creation time (looked up when it starts, in a tracking action; a parent is always tracked to
-its end before its secondaries). A track that leaves a subworld with no known cell (impossible
-by construction) is killed and counted in :attr:`Teleporter.anomalies`.
+its creation time (a parent is always tracked to its end before its secondaries).
+
+Python runs only where a particle crosses a portal: no user action runs for the tracks of an
+event (~190 delta electrons per Po-210 event) as long as its cells are unambiguous. Per event and
+per (layer, variant) the teleporter keeps the first cell entered (by a primary's start or a jump):
+while every variant has been entered in at most one cell, a track with no history that leaves a
+subworld of variant k can only be in that variant's one cell, whatever its ancestry. When a jump
+(or the primaries of one event) enters a second cell of some variant, a Python tracking action is
+switched on for the rest of the event (off again when the next event begins): from then on every
+new track gets its cell from its parent as above, and a parent with no history can only have
+started before the switch, in its variant's first cell. The cells are the same as with a tracking
+action for every track (tests/test_portal.py compares with native tiling). A track that leaves a
+subworld with no known cell (impossible by construction) is killed and counted in
+:attr:`Teleporter.anomalies`.
 """
 
 from __future__ import annotations
 
 import math
 from bisect import bisect_left
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -162,6 +175,12 @@ class Teleporter:
         self.history: dict[int, tuple[list[float], list]] = {}
         self.primary_cells: list = []
         self.first_row = 0
+        self.first_cell: dict[tuple[int, int], tuple] = {}  # (layer, variant) -> first cell entered
+        self.tracking = True  # is the tracking action on (see the module docstring)
+        # set by make_actions: switches the tracking action on or off
+        self.set_tracking: Callable[[bool], None] | None = None
+        self._keep_actions: Any = None  # keeps the tracking action alive while it is off
+        self.tracked_events = 0  # events that needed the tracking action (for benchmarks)
         self.jumps = 0  # counters, for tests and benchmarks
         self.secondary_jumps = 0
         self.left_lab = 0
@@ -185,15 +204,46 @@ class Teleporter:
         self.primary_cells = cells
         return mapped
 
-    def begin_event(self, first_row: int) -> None:
-        """A new event whose primaries are rows ``first_row, first_row + 1, ...``."""
+    def begin_event(self, first_row: int, end_row: int) -> None:
+        """A new event whose primaries are rows ``first_row .. end_row - 1``."""
         self.history.clear()
+        self.first_cell.clear()
         self.first_row = first_row
+        cells = self.primary_cells[first_row:end_row]
+        ambiguous = False
+        for cell in cells:
+            if cell is not None:
+                ambiguous = self._enter(cell) or ambiguous
+        self._track(ambiguous)
+
+    def _enter(self, cell) -> bool:
+        """Note that ``cell`` was entered; True if its variant had been entered in another cell."""
+        n, i, j = cell
+        return self.first_cell.setdefault((n, self.layers[n].variants[j][i]), cell) != cell
+
+    def _track(self, on: bool) -> None:
+        """Switch the tracking action on or off (no-op if it already is)."""
+        if on != self.tracking and self.set_tracking is not None:
+            self.set_tracking(on)
+            self.tracking = on
+            self.tracked_events += on
+
+    def _subworld(self, x: float, y: float, z: float) -> tuple[int, int] | None:
+        """(layer, variant) of the subworld holding the world point (x, y, z), or None."""
+        for n, lay in enumerate(self.layers):
+            for k, centre in enumerate(lay.sub):
+                local = lay.local(x, y, z, centre)
+                if max(abs(c) - h for c, h in zip(local, lay.half, strict=False)) <= EDGE_TOLERANCE:
+                    return n, k
+        return None
 
     # --- tracks ---------------------------------------------------------------------------
 
     def start_track(self, track) -> None:
-        """Give a new track its cell: a primary from its row, a secondary from its parent."""
+        """Give a new track its cell: a primary from its row, a secondary from its parent.
+
+        Called only while the tracking action is on (see the module docstring).
+        """
         parent = track.GetParentID()
         if (
             parent == 0
@@ -203,20 +253,28 @@ class Teleporter:
         else:
             h = self.history.get(parent)
             if h is None:
-                return
-            times, cells = h
-            # Born at the time of a jump = born in the step that triggered it: the old cell.
-            cell = cells[bisect_left(times, track.GetGlobalTime()) - 1]
+                # The parent started before the tracking action was switched on and never
+                # jumped: it stayed in the first cell of its subworld's variant, or in Lab.
+                p = track.GetPosition()
+                where = self._subworld(p.x, p.y, p.z)
+                cell = None if where is None else self.first_cell.get(where)
+            else:
+                times, cells = h
+                # Born at the time of a jump = born in the step that triggered it: the old cell.
+                cell = cells[bisect_left(times, track.GetGlobalTime()) - 1]
         if cell is not None:
             self.history[track.GetTrackID()] = ([-math.inf], [cell])
 
-    def _record(self, track_id: int, time: float, cell) -> None:
+    def _record(self, track_id: int, time: float, cell, before) -> None:
+        """Track ``track_id`` jumped at ``time`` from cell ``before`` into ``cell``."""
         h = self.history.get(track_id)
         if h is None:
-            self.history[track_id] = ([-math.inf, time], [None, cell])
+            self.history[track_id] = ([-math.inf, time], [before, cell])
         else:
             h[0].append(time)
             h[1].append(cell)
+        if cell is not None and self._enter(cell) and not self.tracking:
+            self._track(True)
 
     # --- steps ----------------------------------------------------------------------------
 
@@ -262,7 +320,7 @@ class Teleporter:
             i, j = lay.cell(q[0], q[1])
             t = lay.jump(i, j)
             self._move(step, track, pre, x + t[0], y + t[1], z + t[2])
-            self._record(tid, time, (n, i, j))
+            self._record(tid, time, (n, i, j), None)
             return
         local = lay.local(x, y, z, lay.sub[k])
         if max(abs(c) - h_ for c, h_ in zip(local, lay.half, strict=True)) > EDGE_TOLERANCE:
@@ -273,7 +331,8 @@ class Teleporter:
         if crossing is None:
             return  # touched the subworld's boundary and turned back: Geant4 steps back in
         h = self.history.get(tid)
-        cell = h[1][-1] if h is not None else None
+        # no history: the track never jumped and started in its variant's first cell
+        cell = h[1][-1] if h is not None else self.first_cell.get((n, k))
         if cell is None or cell[0] != n or lay.variants[cell[2]][cell[1]] != k:
             self._kill(track)
             self.anomalies += 1
@@ -285,18 +344,20 @@ class Teleporter:
         i, j = i + di, j + dj
         if through_z or not (0 <= i < lay.nx and 0 <= j < lay.ny):
             self._move(step, track, pre, x, y, z)
-            self._record(tid, time, None)
+            self._record(tid, time, None, cell)
         else:
             t = lay.jump(i, j)
             self._move(step, track, pre, x + t[0], y + t[1], z + t[2])
-            self._record(tid, time, (n, i, j))
+            self._record(tid, time, (n, i, j), cell)
 
 
 def make_actions(g4, teleporter: Teleporter, regions: list) -> tuple:
     """(stepping action, tracking action) driving ``teleporter``.
 
     The stepping action is installed here as the regional action of ``regions`` (the portal
-    regions); register the tracking action with the run manager.
+    regions); register the returned tracking action with the run manager. It is Geant4's own
+    no-op (no Python per track); the teleporter swaps in the one that gives every new track its
+    cell only for the rest of an event whose cells became ambiguous (see the module docstring).
     """
     on_step = teleporter.on_step
     start_track = teleporter.start_track
@@ -312,4 +373,19 @@ def make_actions(g4, teleporter: Teleporter, regions: list) -> tuple:
     stepping = PortalStepping()
     for region in regions:
         region.SetRegionalSteppingAction(stepping)
-    return stepping, PortalTracking()
+    tracking = PortalTracking()
+    events = g4.G4EventManager.GetEventManager()
+
+    def set_tracking(on: bool) -> None:
+        # Off: Geant4's own no-op action, a new one each time (a few bytes that Geant4 never
+        # frees: the binding hands a plain C++ object to Geant4 once only). A Python subclass
+        # that overrides nothing costs a GIL round trip and an override lookup per track and
+        # call: measured, portal/native CPU per Po-210 event (~200 tracks) 1.49 with it, 1.34
+        # with the plain C++ action (benchmarks/bench_runloop.py, shared machine).
+        events.SetUserAction(tracking if on else g4.G4UserTrackingAction())
+
+    teleporter.set_tracking = set_tracking
+    teleporter.tracking = False
+    teleporter._keep_actions = tracking
+    idle = g4.G4UserTrackingAction()
+    return stepping, idle

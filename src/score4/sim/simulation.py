@@ -8,6 +8,7 @@ does not depend on which worker ran it, what ran before it or how the run was ch
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -66,6 +67,8 @@ class Simulation:
         self.choice = choice
         self.log_path = log_path
         self.quantities = ("edep", "track_length") if config.output.track_length else ("edep",)
+        self._progress: Callable[[int], None] | None = None  # see run()
+        self._reported, self._report_every = 0, 1
         g4 = self.g4 = import_geant4(choice)
         with redirect_native_output(log_path):
             self._build(g4)
@@ -103,6 +106,7 @@ class Simulation:
         class EventAction(g4.G4UserEventAction):
             def EndOfEventAction(self, event):
                 sim._score(event)
+                sim._report_progress()
 
         # Geant4 requires this order: detector and physics registered before any user action exists.
         self._actions = [Detector(), make_physics_list(g4, self.choice)]
@@ -121,7 +125,10 @@ class Simulation:
             stepping, tracking = make_actions(
                 g4, self.teleporter, [p.region for p in self.geometry.portals]
             )
-            self._actions += [stepping, tracking]  # the stepping action is the portal regions' own
+            self._actions += [
+                stepping,
+                tracking,
+            ]  # stepping: the portal regions' own; tracking: idle
             self.run_manager.SetUserAction(tracking)
         self.removed_processes = (
             strip_data_hungry_processes(g4) if self.choice.mode == "lite" else []
@@ -138,6 +145,7 @@ class Simulation:
                 histories=self.config.physics.trim_histories,
             )
         self._endpoint_action: Any = None
+        self._replay_rows: np.ndarray | None = None
         self.endpoints: np.ndarray | None = None
         self._particles: dict[str, object] = {}
         self.volumes = list(self.scorer.names)
@@ -168,7 +176,7 @@ class Simulation:
         if self._event_seeds is not None:
             g4.G4Random.setTheSeed(int(self._event_seeds[k]))
         if self.teleporter is not None:
-            self.teleporter.begin_event(int(self._offsets[k]))
+            self.teleporter.begin_event(int(self._offsets[k]), int(self._offsets[k + 1]))
         for row in range(self._offsets[k], self._offsets[k + 1]):
             if self._trim[row]:
                 continue
@@ -179,7 +187,10 @@ class Simulation:
             gun.GeneratePrimaryVertex(event)
 
     def _score(self, event) -> None:
-        self.scorer.read(event, self._scores, self._next_event)
+        k = self._next_event
+        self.scorer.read(event, self._scores, k)
+        if self._replay_rows is not None:
+            self._replay_event(k)
         self._next_event += 1
 
     def run(
@@ -195,6 +206,10 @@ class Simulation:
         ``g4_seed`` is one seed for the whole batch, or one seed per event (``(n_events,)``
         integers, see :func:`score4.sim.seeds.event_geant4_seeds`): each event then starts
         from its own seed and its result does not depend on the events run before it.
+        All events go into one ``BeamOn``: each ``BeamOn`` has a fixed cost that grows with the
+        geometry (Geant4 walks the volume tree to update regions and cuts: 0.8 s with 4 million
+        flat placements, see docs/tiling.md). ``progress(n)`` is called from the event action
+        every ``batch`` events (default: a twentieth of the events) and once at the end.
         Heavy ions (:meth:`trim_rows`) are moved along TRIM trajectories after Geant4 has
         tracked the rest (:mod:`score4.sim.heavy_ions`); their deposits join their events'.
         With ``endpoints=True``, ``self.endpoints`` is then an (n_rows, 4) array: where each
@@ -216,6 +231,7 @@ class Simulation:
         self._scores = {q: np.zeros((n, len(self.volumes))) for q in self.quantities}
         self.endpoints = np.full((len(primaries), 4), np.nan) if endpoints else None
         self._track_endpoints(endpoints)
+        self._prepare_replay(primaries, g4_seed)
         self._next_event = 0
         self._event_seeds: np.ndarray | None = None
         if np.ndim(g4_seed) == 0:
@@ -225,50 +241,60 @@ class Simulation:
             if len(seeds) != n:
                 raise ValueError(f"g4_seed: need one seed per event ({n}), got {len(seeds)}")
             self._event_seeds = seeds
-        batch = batch or max(100, n // 20)
-        with redirect_native_output(self.log_path):
-            while self._next_event < n:
-                todo = min(batch, n - self._next_event)
-                self.run_manager.BeamOn(todo)
-                if progress is not None:
-                    progress(todo)
-        if self._trim.any():
-            self._replay_heavy_ions(primaries, g4_seed)
+        self._progress, self._reported = progress, 0
+        self._report_every = batch or max(1, n // 20)
+        if n > 0:  # BeamOn(0) would still initialise a run
+            with redirect_native_output(self.log_path):
+                self.run_manager.BeamOn(n)
+        self._report_progress(final=True)
         return self._scores
 
-    def _replay_heavy_ions(self, primaries: Primaries, g4_seed: int | np.ndarray) -> None:
+    def _prepare_replay(self, primaries: Primaries, g4_seed: int | np.ndarray) -> None:
+        """Heavy ions of this batch: libraries announced, random streams chosen."""
+        self._replay_rows = None
+        if not self._trim.any():
+            return
         transport = self.heavy_ions
         assert transport is not None  # rows are only marked for TRIM when it exists
-        # Own streams: one per event with per-event Geant4 seeds (so the first N events of a run
-        # are the same in a longer run), else one for the batch.
-        seeds = np.asarray(g4_seed)
-        per_event = seeds.ndim > 0
-        rng = None if per_event else np.random.default_rng([int(seeds), _REPLAY_STREAM])
-        rows = np.flatnonzero(self._trim)
-        for row in rows:  # announce energies first: one library per ion and material
+        for row in np.flatnonzero(self._trim):  # one library per ion, start energy and material
             transport.need(str(primaries.particle[row]), float(primaries.energy[row]))
-        edep = self._scores["edep"]
-        length = self._scores.get("track_length")
-        for row in rows:
-            name = str(primaries.particle[row])
-            event = primaries.event[row]
-            if per_event:
-                within = int(row - self._offsets[event])  # the primary's place in its event
-                rng = np.random.default_rng([int(seeds[event]), _REPLAY_STREAM, within])
-            assert rng is not None
+        # Own streams: one per primary with per-event Geant4 seeds (so the first N events of a
+        # run are the same in a longer run), else one for the batch.
+        self._replay_seeds = np.asarray(g4_seed)
+        self._replay_rng = (
+            np.random.default_rng([int(self._replay_seeds), _REPLAY_STREAM])
+            if self._replay_seeds.ndim == 0
+            else None
+        )
+        self._replay_rows = self._trim
+
+    def _replay_event(self, k: int) -> None:
+        """Move event ``k``'s heavy ions along TRIM trajectories; add their deposits (per event,
+        after Geant4 has tracked the event's other primaries)."""
+        transport, p = self.heavy_ions, self._primaries
+        assert transport is not None
+        first = int(self._offsets[k])
+        for row in range(first, int(self._offsets[k + 1])):
+            if not self._trim[row]:
+                continue
+            rng = self._replay_rng
+            if rng is None:
+                seed = int(self._replay_seeds[k])
+                rng = np.random.default_rng([seed, _REPLAY_STREAM, row - first])
+            name = str(p.particle[row])
             fate = transport.transport(
                 self._particles[name],
                 name,
-                float(primaries.energy[row]),
+                float(p.energy[row]),
                 self._positions[row],  # portal tiling: the subworld point
-                primaries.direction[row],
+                p.direction[row],
                 rng,
             )
-            for k, value in fate.deposits.items():
-                edep[event, k] += value
-            if length is not None:
-                for k, value in fate.lengths.items():
-                    length[event, k] += value
+            for volume, value in fate.deposits.items():
+                self._scores["edep"][k, volume] += value
+            if "track_length" in self._scores:
+                for volume, value in fate.lengths.items():
+                    self._scores["track_length"][k, volume] += value
             if self.endpoints is not None:
                 self.endpoints[row] = (*fate.position, fate.escaped_energy)
 
@@ -303,3 +329,10 @@ class Simulation:
     def _g4_rows_of_event(self, k: int) -> np.ndarray:
         rows = np.arange(self._offsets[k], self._offsets[k + 1])
         return rows[~self._trim[rows]]
+
+    def _report_progress(self, final: bool = False) -> None:
+        """Call the progress callback with the events done since the last call (see :meth:`run`)."""
+        done = self._next_event - self._reported
+        if self._progress is not None and done > 0 and (final or done >= self._report_every):
+            self._reported = self._next_event
+            self._progress(done)

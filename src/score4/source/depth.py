@@ -63,7 +63,6 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.spatial import cKDTree
 
 from ..errors import ConfigError
 from .profiles import DepthProfile, check_window
@@ -182,6 +181,8 @@ class MeshDistance:
         chunk: int = 16384,
         brute_max: int = 64,
     ) -> None:
+        from scipy.spatial import cKDTree
+
         tri = np.asarray(triangles, dtype=float)
         self._a = np.ascontiguousarray(tri[:, 0])
         self._ab = np.ascontiguousarray(tri[:, 1] - tri[:, 0])

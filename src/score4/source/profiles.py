@@ -15,7 +15,6 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.special import ndtr, ndtri
 
 from ..errors import ConfigError
 from ..units import length_text, parse_quantity
@@ -287,6 +286,8 @@ class TruncatedGaussianProfile(DepthProfile):
             )
 
     def _phi_mass(self, lo: float, hi: float) -> float:
+        from scipy.special import ndtr
+
         a, b = (lo - self.mean) / self.sigma, (hi - self.mean) / self.sigma
         return float(ndtr(-a) - ndtr(-b)) if a > 0 else float(ndtr(b) - ndtr(a))
 
@@ -297,6 +298,8 @@ class TruncatedGaussianProfile(DepthProfile):
         return np.where((d >= self.lower) & (d <= self.upper), dens, 0.0)
 
     def cdf(self, d: ArrayLike) -> np.ndarray:
+        from scipy.special import ndtr
+
         x = np.clip(np.asarray(d, dtype=float), self.lower, self.upper)
         z0, z = (self.lower - self.mean) / self.sigma, (x - self.mean) / self.sigma
         if z0 > 0:  # upper tail: differences of survival functions keep the precision
@@ -304,6 +307,8 @@ class TruncatedGaussianProfile(DepthProfile):
         return np.clip((ndtr(z) - ndtr(z0)) / self._norm, 0.0, 1.0)
 
     def sample_between(self, rng: np.random.Generator, n: int, lo: float, hi: float) -> np.ndarray:
+        from scipy.special import ndtr, ndtri
+
         lo, hi = max(lo, self.lower), min(hi, self.upper)
         a, b = (lo - self.mean) / self.sigma, (hi - self.mean) / self.sigma
         u = rng.random(n)

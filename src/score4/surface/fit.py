@@ -43,8 +43,6 @@ import math
 import warnings
 
 import numpy as np
-import scipy.fft
-from scipy import optimize, signal
 
 from ..errors import ConfigError, Score4Warning
 from . import random as rs
@@ -85,6 +83,8 @@ def autocorrelation(hm: HeightMap) -> np.ndarray:
     Circular for maps with ``metadata["periodic"]``, else linear and unbiased; negative lags are
     at the end of each axis.
     """
+    import scipy.fft
+
     z = _valid_heights(hm)
     ny, nx = z.shape
     if hm.metadata.get("periodic"):
@@ -104,6 +104,8 @@ def autocorrelation(hm: HeightMap) -> np.ndarray:
 
 def _lags(n: int, pitch: float) -> np.ndarray:
     """Signed lags in the FFT order of an axis of length n (n odd: 2m-1 lags, or periodic n)."""
+    import scipy.fft
+
     return scipy.fft.fftfreq(n, 1.0 / n) * pitch
 
 
@@ -115,6 +117,8 @@ def _axis_crossing(profile: np.ndarray, level: float) -> int:
 
 def fit_acf(hm: HeightMap) -> dict[str, dict[str, float]]:
     """Least-squares fit of both ACF models; returns per model corr_length_x/_y and rms residual."""
+    from scipy import optimize
+
     acf = autocorrelation(hm)
     ny, nx = acf.shape
     dy = _lags(ny, hm.pitch_y)[:, None]
@@ -163,6 +167,9 @@ def radial_psd(
     shape is used). Non-periodic maps get a Hann window, whose main lobe smears the two
     lowest wavenumbers: those are left out.
     """
+    import scipy.fft
+    from scipy import signal
+
     z = _valid_heights(hm)
     ny, nx = z.shape
     periodic = bool(hm.metadata.get("periodic"))

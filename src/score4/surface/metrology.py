@@ -48,8 +48,6 @@ Missing (NaN) points of a height map are left out: of the plane fit and height p
 from __future__ import annotations
 
 import numpy as np
-import scipy.fft
-from scipy import ndimage
 
 from ..errors import ConfigError
 from .heightmap import HeightMap
@@ -162,6 +160,8 @@ def autocorrelation(hm: HeightMap, *, level: bool = True) -> np.ndarray:
         Shape (2 Ky + 1, 2 Kx + 1) with Kx = nx // 2, Ky = ny // 2; element [Ky + m, Kx + n] is
         the lag (n * pitch_x, m * pitch_y); 1 at the centre; NaN where no pair overlaps.
     """
+    import scipy.fft
+
     r = _residual(hm, level)
     ok = np.isfinite(r)
     z0 = np.where(ok, r, 0.0)
@@ -184,6 +184,8 @@ def autocorrelation(hm: HeightMap, *, level: bool = True) -> np.ndarray:
 
 def _decay_lengths(acf: np.ndarray, px: float, py: float, s: float) -> np.ndarray:
     """First radius (mm) where ``acf`` falls below ``s`` along each direction; NaN if none."""
+    from scipy import ndimage
+
     ky, kx = (np.array(acf.shape) - 1) // 2
     theta = np.arange(_N_DIRECTIONS) * np.pi / _N_DIRECTIONS
     c, sn = np.cos(theta), np.sin(theta)

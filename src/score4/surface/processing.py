@@ -10,9 +10,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import scipy.sparse
-import scipy.sparse.linalg
-from scipy import interpolate
 
 from ..errors import ConfigError
 from ..units import length_text, parse_quantity
@@ -101,6 +98,8 @@ def resample(
     without missing points (fill them first) and at least 4 x 4 samples.
     The new grid has floor(size / pitch) + 1 samples per axis, so it never extends past the data.
     """
+    from scipy import interpolate
+
     if method not in RESAMPLE_METHODS:
         raise ConfigError(
             f"method: unknown resampling method {method!r}; use one of: "
@@ -171,6 +170,9 @@ def fill_missing(hm: HeightMap, max_fraction: float = MAX_MISSING_FRACTION) -> H
 
 def _laplace_fill(z: np.ndarray, missing: np.ndarray) -> np.ndarray:
     """Solve sum over in-map neighbours (z_n - z_p) = 0 for the missing points p."""
+    import scipy.sparse
+    import scipy.sparse.linalg
+
     ny, nx = z.shape
     unknown = -np.ones(z.shape, dtype=np.int64)
     unknown[missing] = np.arange(int(missing.sum()))

@@ -54,8 +54,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.fft
-from scipy import optimize, special
 
 from ..errors import ConfigError
 from ..units import length_text, parse_quantity
@@ -153,6 +151,8 @@ def _acf_amplitude(
     shape: tuple[int, int], px: float, py: float, acf: str, lx: float, ly: float
 ) -> np.ndarray:
     """sqrt of the power spectrum (rfft2 layout) of the wrapped ACF: circulant embedding."""
+    import scipy.fft
+
     dy = _wrapped_lags(shape[0], py)[:, None]
     dx = _wrapped_lags(shape[1], px)[None, :]
     psd = scipy.fft.rfft2(acf_model(acf, dx, dy, lx, ly)).real
@@ -161,6 +161,8 @@ def _acf_amplitude(
 
 def _angular_wavenumbers(shape: tuple[int, int], px: float, py: float) -> np.ndarray:
     """|q| = 2π |f| on the rfft2 grid, in 1/mm."""
+    import scipy.fft
+
     qy = 2 * np.pi * scipy.fft.fftfreq(shape[0], py)[:, None]
     qx = 2 * np.pi * scipy.fft.rfftfreq(shape[1], px)[None, :]
     return np.hypot(qx, qy)
@@ -180,6 +182,8 @@ def _colour_noise(
     amplitude: np.ndarray, shape: tuple[int, int], rng: np.random.Generator
 ) -> np.ndarray:
     """Real field whose spectrum is |amplitude|^2 times white noise."""
+    import scipy.fft
+
     white = rng.standard_normal(shape)
     return scipy.fft.irfft2(scipy.fft.rfft2(white) * amplitude, s=shape)
 
@@ -187,6 +191,8 @@ def _colour_noise(
 def _generation_shape(
     nx: int, ny: int, pad_x: float, pad_y: float, px: float, py: float, periodic: bool
 ) -> tuple[int, int]:
+    import scipy.fft
+
     if periodic:
         return ny, nx
     gy = scipy.fft.next_fast_len(ny + math.ceil(pad_y / py), real=True)
@@ -233,6 +239,8 @@ class JohnsonCurve:
     sign: float = 1.0
 
     def __call__(self, u: np.ndarray) -> np.ndarray:
+        from scipy import special
+
         t = (np.asarray(u, dtype=float) - self.gamma) / self.delta
         f: Callable[[np.ndarray], np.ndarray] = {
             "SU": np.sinh,
@@ -286,6 +294,8 @@ def check_moments(skewness: float, kurtosis: float) -> None:
 
 def _lognormal_w(skew: float) -> float:
     """w = exp(sigma^2) of the lognormal with skewness ``skew`` >= 0: (w - 1)(w + 2)^2 = skew^2."""
+    from scipy import optimize
+
     if skew == 0:
         return 1.0
     return optimize.brentq(
@@ -327,6 +337,8 @@ def _sample_skew_kurt(y: np.ndarray) -> tuple[float, float]:
 
 def _sb_skew_kurt(gamma: float, delta: float) -> tuple[float, float]:
     """Skewness and kurtosis of y = logistic((u - gamma)/delta) by Gauss-Hermite quadrature."""
+    from scipy import special
+
     y = special.expit((_GH_U - gamma) / delta)
     d = y - _GH_W @ y
     m2 = _GH_W @ d**2
@@ -345,6 +357,7 @@ def _solve_family(
     lognormal value as gamma -> -inf, and along the curve of constant skewness the kurtosis runs
     monotonically between the bound and the lognormal line (Johnson 1949).
     """
+    from scipy import optimize
 
     def gamma_for(delta: float) -> float:
         if skew == 0:
@@ -412,6 +425,8 @@ def johnson_translate(z: np.ndarray, skewness: float, kurtosis: float) -> np.nda
     The ranks of ``z`` are kept; the output has mean 0, standard deviation 1, and its own sample
     Ssk and Sku equal the targets within 1e-3 (ConfigError if the map is too small for that).
     """
+    from scipy import special
+
     check_moments(skewness, kurtosis)
     flat = np.asarray(z, dtype=float).ravel()
     if skewness == 0 and kurtosis == 3:

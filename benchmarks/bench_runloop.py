@@ -1,0 +1,367 @@
+"""The run loop's fixed and per-event costs: start-up, per-BeamOn, per-event, large faces, jobs.
+
+    .venv/bin/python benchmarks/bench_runloop.py [--events 2000] [--parts startup,faces,portal,jobs]
+
+Parts (each case runs in its own process, so its RSS and start-up are its own):
+
+``startup``
+    A one-event run of examples/paper_a_rough.yaml with one worker: CPU seconds of importing
+    ``score4.sim.engine`` (what the parent and every spawned worker import) and its RSS, of the
+    parent process and of the worker (everything before the first event, plus one event).
+``faces``
+    The paper's pyramid face (10 um pyramids, 0.5 mm patches of 50 x 50, one variant, multi-union)
+    on a 10 cm and a 1 m square face (200 x 200 and 2000 x 2000 cells), in the default layout
+    (``auto``: nested 2 x 2 groups above 2500 cells) and flat (one placement per cell, the old
+    default; the 1 m flat case only with ``--flat-1m``: 20 s and 2.6 GB). Two more 1 m cases with
+    two variants (10 um and 5 um pyramids, ``fill: random`` and ``fill: exact`` 50 %): nothing is
+    shared between their groups above the lowest levels. Columns:
+
+      build s     score4.geometry.world.build_world
+      init s      the whole Simulation set-up (scene, source, Geant4 initialisation)
+      1st s       the first run (20 events: geometry voxels, physics tables)
+      BeamOn ms   fixed CPU cost of a BeamOn, B, and
+      ms/ev       CPU per event, e, of 5.3 MeV alphas from 20 nm below the face (isotropic, lite):
+                  a BeamOn of n events costs B + n e; measured with ten BeamOns of one event
+                  and one of --events events
+      run ms/ev   CPU per event of that one BeamOn, B included (what a chunk of that size costs)
+      RSS MB      peak resident size of the process
+``portal``
+    Po-210 events (alpha + Pb-206 recoil) on the 10 cm pyramid face: native (default layout)
+    against portal tiling, CPU per event in one process each, and the share of portal events that
+    needed the tracking action (see score4.sim.portal_action). Runs on older score4 versions too
+    (PYTHONPATH=old/src), for a before/after comparison.
+``jobs``
+    examples/paper_a_rough.yaml, 20000 events (two chunks) with 1 and 2 worker processes: wall
+    seconds and their ratio, and the speed-up estimated from the CPU of the parent and the
+    workers (see part_jobs). The machine is shared: read the wall ratio with the load printed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+MARK = "BENCH_RESULT "
+ROOT = Path(__file__).resolve().parent.parent
+WARMUP = 20
+PYRAMIDS = {"kind": "spikes", "nx": 50, "ny": 50, "width": "10 um", "height": "10 um"}
+LOW = {"kind": "spikes", "nx": 50, "ny": 50, "width": "10 um", "height": "5 um"}
+
+
+def _rss_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # kB on Linux
+
+
+def face_config(
+    side_cm: float, layout: str = "auto", tiling: str = "native", variants: str = "one"
+) -> dict:
+    """Pyramid face of ``side_cm``; ``variants``: one, random (two, fill random), exact (two)."""
+    rough: dict = {"face": "+z", "tiling": tiling}
+    if layout != "default":  # "default": leave native_layout out (also runs on older score4)
+        rough["native_layout"] = layout
+    if variants == "one":
+        rough["surface"] = "p"
+    else:
+        rough.update(
+            variants=[{"surface": "p", "density": 0.5}, {"surface": "low", "density": 0.5}],
+            fill=variants,
+            seed=7,
+        )
+    return {
+        "physics": "lite",
+        "surfaces": {"p": PYRAMIDS, "low": LOW},
+        "targets": [
+            {
+                "name": "crystal",
+                "material": "G4_Si",
+                "size": [f"{side_cm} cm", f"{side_cm} cm", "1 mm"],
+                "position": ["0 cm", "0 cm", "-0.5 mm"],
+                "rough": [rough],
+            }
+        ],
+        "source": {
+            "particle": "alpha",
+            "energy": "5.3 MeV",
+            "direction": "isotropic",
+            "surface": {"volume": "crystal", "face": "+z"},
+            "depth": {"profile": "exponential", "mean": "20 nm"},
+        },
+        "run": {"events": 1000, "seed": 3},
+    }
+
+
+def _simulation(data: dict):
+    from score4.config import parse_config
+    from score4.sim import simulation
+    from score4.sim.runtime import resolve_physics
+
+    timed = {}
+    build_world = simulation.build_world
+
+    def timed_build(*args):
+        t0 = time.perf_counter()
+        out = build_world(*args)
+        timed["build_s"] = time.perf_counter() - t0
+        return out
+
+    simulation.build_world = timed_build
+    t0 = time.perf_counter()
+    sim = simulation.Simulation(parse_config(data), resolve_physics("lite"))
+    return sim, {"init_s": time.perf_counter() - t0, **timed}
+
+
+def measure_face(side_cm: float, layout: str, variants: str, events: int) -> dict:
+    sim, out = _simulation(face_config(side_cm, layout, variants=variants))
+    primaries = sim.source.primaries(np.random.default_rng(5), 0, WARMUP + 10 + events)
+    t0 = time.perf_counter()
+    sim.run(primaries.select_events(0, WARMUP), 1)
+    out["first_run_s"] = time.perf_counter() - t0
+    c0 = time.process_time()
+    for k in range(10):  # ten BeamOns of one event each
+        sim.run(primaries.select_events(WARMUP + k, WARMUP + k + 1), 10 + k)
+    ten = time.process_time() - c0
+    c0 = time.process_time()
+    scores = sim.run(primaries.select_events(WARMUP + 10, WARMUP + 10 + events), 2)
+    whole = time.process_time() - c0
+    # one BeamOn of n events costs B + n e: from n = 1 (ten times) and n = events
+    per_event = (whole - ten / 10) / (events - 1)
+    out.update(
+        per_event_ms=per_event * 1e3,
+        beamon_ms=(ten / 10 - per_event) * 1e3,
+        run_ms_per_event=whole / events * 1e3,
+        mean_edep_mev=float(scores["edep"][:, 0].mean()),
+        rss_mb=_rss_mb(),
+    )
+    return out
+
+
+def measure_portal(tiling: str, events: int) -> dict:
+    data = face_config(10.0, layout="default", tiling=tiling)
+    data["source"] = {
+        "decay": "Po210",
+        "direction": "isotropic",
+        "surface": {"volume": "crystal", "face": "+z"},
+        "depth": {"profile": "exponential", "mean": "20 nm"},
+    }
+    sim, out = _simulation(data)
+    primaries = sim.source.primaries(np.random.default_rng(5), 0, WARMUP + events)
+    sim.run(primaries.select_events(0, WARMUP), 1)
+    t = sim.teleporter
+    tracked0 = getattr(t, "tracked_events", 0)
+    c0 = time.process_time()
+    scores = sim.run(primaries.select_events(WARMUP, WARMUP + events), 2)
+    out.update(
+        per_event_ms=(time.process_time() - c0) / events * 1e3,
+        mean_edep_mev=float(scores["edep"][:, 0].mean()),
+        tracked_share=(getattr(t, "tracked_events", np.nan) - tracked0) / events,
+        jumps_per_event=t.jumps / (WARMUP + events) if t else float("nan"),
+    )
+    return out
+
+
+def in_subprocess(args: list[str]) -> dict:
+    cmd = [sys.executable, os.path.abspath(__file__), *args]
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    lines = [line for line in proc.stdout.splitlines() if line.startswith(MARK)]
+    if proc.returncode != 0 or not lines:
+        raise RuntimeError(f"{' '.join(args)}: failed ({proc.returncode}): {proc.stderr[-2000:]}")
+    return json.loads(lines[-1][len(MARK) :])
+
+
+def timed_command(cmd: list[str], cwd: str | None = None) -> tuple[float, float, float]:
+    """(wall s, CPU s of the command and its children, peak RSS MB of the largest child)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    subprocess.run(cmd, check=True, capture_output=True, cwd=cwd)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu, after.ru_maxrss / 1024.0
+
+
+def score4_cmd() -> list[str]:
+    return [sys.executable, "-m", "score4.cli.main"]
+
+
+_STARTUP_PROBE = """
+import resource, sys, time
+c0 = time.process_time()
+from score4.sim import engine
+from score4.config import load_config
+imported = time.process_time() - c0
+rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+config = load_config(sys.argv[1])
+config = config.model_copy(update={"run": config.run.model_copy(update={"events": 1})})
+engine.run(config, sys.argv[2], overwrite=True, jobs=1, progress=False, echo=lambda m: None)
+me = resource.getrusage(resource.RUSAGE_SELF)
+kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+cpu_self, cpu_kids = me.ru_utime + me.ru_stime, kids.ru_utime + kids.ru_stime
+print(imported, rss, cpu_self, cpu_kids, kids.ru_maxrss / 1024)
+"""
+
+
+def part_startup() -> None:
+    """CPU of a one-event run of paper_a_rough: the parent (import, scene, merge) and its worker."""
+    print("start-up: one-event run of examples/paper_a_rough.yaml, --jobs 1 (best of 3)")
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for _ in range(3):
+            out = subprocess.run(
+                [
+                    sys.executable,
+                    "-c",
+                    _STARTUP_PROBE,
+                    str(ROOT / "examples" / "paper_a_rough.yaml"),
+                    str(Path(tmp) / "a.h5"),
+                ],
+                check=True,
+                capture_output=True,
+                text=True,
+            ).stdout.split()
+            rows.append([float(x) for x in out[-5:]])
+    imported, rss, parent, worker, worker_rss = min(rows, key=lambda r: r[2] + r[3])
+    print(f"  import score4.sim.engine: CPU {imported:5.2f} s, RSS {rss:4.0f} MB")
+    print(f"  parent process (import, scene, 1 event drawn, merge): CPU {parent:5.2f} s")
+    print(
+        f"  worker process (import, Geant4 set-up, 1 event): CPU {worker:5.2f} s, "
+        f"RSS {worker_rss:4.0f} MB"
+    )
+
+
+def part_faces(events: int, flat_1m: bool) -> None:
+    print(
+        f"{'face':6} {'variants':8} {'layout':10} {'build s':>7} {'init s':>6} {'1st s':>6} "
+        f"{'BeamOn ms':>9} {'ms/ev':>6} {'run ms/ev':>9} {'RSS MB':>6} {'mean MeV':>8}"
+    )
+    cases = [
+        (10.0, "auto", "one"),
+        (10.0, "placements", "one"),
+        (100.0, "auto", "one"),
+        (100.0, "auto", "random"),
+        (100.0, "auto", "exact"),
+    ]
+    if flat_1m:
+        cases.append((100.0, "placements", "one"))
+    for side, layout, variants in cases:
+        r = in_subprocess(
+            ["--face", str(side), layout, variants, "--events", str(events)],
+        )
+        print(
+            f"{side / 100:4g} m {variants:8} {layout:10} {r['build_s']:7.2f} {r['init_s']:6.2f} "
+            f"{r['first_run_s']:6.2f} {r['beamon_ms']:9.1f} {r['per_event_ms']:6.3f} "
+            f"{r['run_ms_per_event']:9.3f} "
+            f"{r['rss_mb']:6.0f} {r['mean_edep_mev']:8.3f}",
+            flush=True,
+        )
+
+
+def part_portal(events: int) -> None:
+    print(f"{'tiling':7} {'ms/ev':>6} {'mean MeV':>8} {'jumps/ev':>8} {'tracked':>7}")
+    res = {}
+    for tiling in ("native", "portal"):
+        r = res[tiling] = in_subprocess(["--portal", tiling, "--events", str(events)])
+        print(
+            f"{tiling:7} {r['per_event_ms']:6.3f} {r['mean_edep_mev']:8.3f} "
+            f"{r['jumps_per_event']:8.2f} {r['tracked_share']:7.3f}",
+            flush=True,
+        )
+    print(
+        f"portal / native per event: "
+        f"{res['portal']['per_event_ms'] / res['native']['per_event_ms']:.2f}"
+    )
+
+
+_JOBS_PROBE = """
+import resource, sys, time
+from score4.sim import engine
+from score4.config import load_config
+config = load_config(sys.argv[1])
+events = int(sys.argv[3])
+config = config.model_copy(update={"run": config.run.model_copy(update={"events": events})})
+t0 = time.perf_counter()
+engine.run(config, sys.argv[2], overwrite=True, jobs=int(sys.argv[4]), progress=False,
+           echo=lambda m: None)
+wall = time.perf_counter() - t0
+me = resource.getrusage(resource.RUSAGE_SELF)
+kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+print(wall, me.ru_utime + me.ru_stime, kids.ru_utime + kids.ru_stime)
+"""
+
+
+def part_jobs(events: int) -> None:
+    """paper_a_rough with 1 and 2 workers: wall time, and CPU of the parent and the workers.
+
+    On a shared machine the wall-time ratio says little; the CPU figures give the speed-up an
+    idle 2-core machine would show if the two workers (one chunk each) ran side by side:
+    (parent + workers at --jobs 1) / (parent + workers / 2 at --jobs 2).
+    """
+    res = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for jobs in (1, 2):
+            load = os.getloadavg()[0]
+            out = subprocess.run(
+                [
+                    sys.executable,
+                    "-c",
+                    _JOBS_PROBE,
+                    str(ROOT / "examples" / "paper_a_rough.yaml"),
+                    str(Path(tmp) / f"j{jobs}.h5"),
+                    str(events),
+                    str(jobs),
+                ],
+                check=True,
+                capture_output=True,
+                text=True,
+            ).stdout.split()
+            wall, parent, workers = (float(x) for x in out[-3:])
+            res[jobs] = (wall, parent, workers)
+            print(
+                f"  --jobs {jobs}: wall {wall:6.2f} s, CPU parent {parent:5.2f} s, workers "
+                f"{workers:6.2f} s (load before: {load:.1f})"
+            )
+    (w1, p1, c1), (w2, p2, c2) = res[1], res[2]
+    print(f"  speed-up jobs 2 / jobs 1, wall: {w1 / w2:.2f}")
+    print(
+        f"  speed-up an idle 2-core machine would give (from CPU): {(p1 + c1) / (p2 + c2 / 2):.2f}"
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--events", type=int, default=2000, help="alpha / Po-210 events per case")
+    parser.add_argument("--jobs-events", type=int, default=20000)
+    parser.add_argument("--parts", default="startup,faces,portal,jobs")
+    parser.add_argument("--flat-1m", action="store_true", help="also the 1 m face, flat placements")
+    parser.add_argument("--face", nargs=3, help=argparse.SUPPRESS)
+    parser.add_argument("--portal", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.face:
+        side, layout, variants = args.face
+        print(MARK + json.dumps(measure_face(float(side), layout, variants, args.events)))
+        return
+    if args.portal:
+        print(MARK + json.dumps(measure_portal(args.portal, args.events)))
+        return
+    parts = args.parts.split(",")
+    print(f"load average at start: {os.getloadavg()}")
+    if "startup" in parts:
+        part_startup()
+    if "faces" in parts:
+        part_faces(args.events, args.flat_1m)
+    if "portal" in parts:
+        part_portal(args.events)
+    if "jobs" in parts:
+        part_jobs(args.jobs_events)
+
+
+if __name__ == "__main__":
+    main()
