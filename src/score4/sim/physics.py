@@ -7,9 +7,16 @@ from .runtime import PhysicsChoice
 # Processes that read G4EMLOW data at the first event; lite mode removes them after
 # initialisation (found by trial: everything else in option0 runs without data files).
 LITE_REMOVED_PROCESSES = {"e-": ("eBrem",), "e+": ("eBrem",), "gamma": ("GammaGeneralProc",)}
-# Ions below this kinetic energy get nuclear stopping where the EM constructor supports it
-# (option4 does; option0, used by lite mode, ignores it: measured, see runtime.LITE_LACKS).
-MAX_NIEL_ENERGY_MEV = 1.0
+# Nuclear stopping (G4NuclearStopping) is registered for alphas and ions below this kinetic
+# energy; 0 registers none. It is off because it breaks energy conservation (measured with
+# Geant4 11.4.1, option0; benchmarks/bench_energy_conservation.py): it caps its loss at the
+# pre-step energy instead of the energy ionisation left, and G4ParticleChangeForLoss sets a
+# negative final energy to 0 without taking the difference back from the deposit, so a long step
+# of a slow ion deposits more than the ion had (1 MeV limit: 5.3 MeV alphas on pyramids 10 of
+# 20000 events above 5.3 MeV; Po-210 on a flat face 38 of 2000; 0 of each with 0). Without it
+# the 5.3 MeV alpha range in Si stays within 1 % of TRIM; heavy recoils are wrong either way
+# (benchmarks/bench_ion_setups.py).
+MAX_NIEL_ENERGY_MEV = 0.0
 
 
 def make_physics_list(g4, choice: PhysicsChoice):
@@ -26,7 +33,8 @@ def make_physics_list(g4, choice: PhysicsChoice):
             if choice.decay:
                 self.RegisterPhysics(g4.G4DecayPhysics())
                 self.RegisterPhysics(g4.G4RadioactiveDecayPhysics())
-            # After the EM constructor, whose constructor resets the parameters to defaults.
+            # After the EM constructor, whose constructor resets the parameters to defaults
+            # (option3/option4 turn nuclear stopping on: this turns it off again).
             params = g4.G4EmParameters.Instance()
             params.SetVerbose(0)
             params.SetMaxNIELEnergy(MAX_NIEL_ENERGY_MEV * g4.MeV)
