@@ -67,7 +67,12 @@ TOLERANCE = {"Pb206": (0.10, 0.30), "alpha": (0.03, None)}  # depth, straggling 
 #   on the target + G4StepLimiterPhysics; fluo_off: SetFluo(False) (option3/4, Livermore...).
 SETUPS: dict[str, dict] = {
     "lite_before": {"niel": 1.0, "note": "score4 lite until 2026-11: option0, NIEL 1 MeV, 1 um"},
-    "lite": {"niel": 0.0, "note": "score4 lite now: option0, no nuclear stopping, 1 um cut"},
+    "lite": {
+        "niel": 0.0,
+        "params": [("SetStepFunctionLightIons", (0.05, 1e-4))],
+        "note": "score4 lite now: option0, no nuclear stopping, light-ion step function, 1 um cut",
+    },
+    "lite_niel0": {"niel": 0.0, "note": "option0, no nuclear stopping, 1 um cut"},
     "cut_0.7mm": {"niel": 1.0, "cut_um": 700.0},
     "msc_off": {"niel": 1.0, "msc_off": True},
     "msc_off_niel0": {"niel": 0.0, "msc_off": True},
@@ -87,6 +92,11 @@ SETUPS: dict[str, dict] = {
         "params": [("SetStepFunctionIons", (0.01, 1e-6)), ("SetMscMuHadRangeFactor", (0.001,))],
     },
     "stepfn_light_0.01_1nm": {"niel": 1.0, "params": [("SetStepFunctionLightIons", (0.01, 1e-6))]},
+    "stepfn_light_0.1_1um": {"niel": 0.0, "params": [("SetStepFunctionLightIons", (0.1, 1e-3))]},
+    "stepfn_light_0.05_0.1um": {
+        "niel": 0.0,
+        "params": [("SetStepFunctionLightIons", (0.05, 1e-4))],
+    },
     "ui_stepfn_ions": {"niel": 1.0, "pre": ["/process/eLoss/StepFunctionIons 0.01 1 nm"]},
     "lowest_muhad_10eV": {"niel": 1.0, "params": [("SetLowestMuHadEnergy", (1e-5,))]},
     "ui_lowest_muhad_10eV": {"niel": 1.0, "pre": ["/process/em/lowestMuHadEnergy 10 eV"]},
@@ -116,6 +126,7 @@ SETUPS: dict[str, dict] = {
 }
 MATRIX_SETUPS = (
     "lite",
+    "lite_niel0",
     "lite_before",
     "msc_off",
     "stepfn_ions_0.01_1nm_msc_off",
@@ -459,7 +470,7 @@ def main(argv: list[str] | None = None) -> None:
         if name not in SETUPS:
             ap.error(f"--setups: unknown set-up {name!r}; known: {', '.join(SETUPS)}")
     if args.matrix:
-        names = [n for n in MATRIX_SETUPS if args.setups == "all" or n in names]
+        names = list(MATRIX_SETUPS) if args.setups == "all" else names
         cases = [(args.ion, e, m) for m in MATERIALS for e in ION_ENERGIES_KEV[args.ion]]
     else:
         energy = args.energy or (5300.0 if args.ion == "alpha" else 103.144)
@@ -483,8 +494,35 @@ def main(argv: list[str] | None = None) -> None:
         everything.append(
             {"ion": ion, "energy_kev": energy, "material": material, "trim": ref, "geant4": rows}
         )
+    if len(everything) > 1:
+        print_ratios(everything)
     if args.json:
         Path(args.json).write_text(json.dumps(everything, indent=1))
+
+
+def print_ratios(cases: list[dict]) -> None:
+    """One line per case: Geant4 / TRIM ratios of depth and straggling for every set-up."""
+    names = list(cases[0]["geant4"])
+    print("\nGeant4 / TRIM: depth ratio / straggling ratio; TRIM depth +- straggling in nm")
+    print(
+        f"{'material':22s} {'E keV':>7s} {'TRIM':>15s}  "
+        + " ".join(f"{n[:15]:>15s}" for n in names)
+    )
+    for case in cases:
+        t = case["trim"]
+        cells = []
+        for name in names:
+            g = case["geant4"][name]
+            if "error" in g:
+                cells.append(f"{'does not run':>15s}")
+                continue
+            rd = g["depth_nm"] / t["depth_nm"]
+            rs = g["straggling_nm"] / t["straggling_nm"]
+            cells.append(f"{rd:7.3f}/{rs:<7.2f}")
+        print(
+            f"{case['material']:22s} {case['energy_kev']:7.5g} {t['depth_nm']:7.1f}+-{t['straggling_nm']:<6.1f} "
+            + " ".join(cells)
+        )
 
 
 if __name__ == "__main__":
