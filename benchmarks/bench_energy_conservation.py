@@ -1,7 +1,7 @@
 """Why Geant4 deposited more energy than an event had, step by step (issue 10, item 9).
 
-A stand-alone Geant4 application (score4's lite set-up: G4EmStandardPhysics, 1 um cut, eBrem and
-GammaGeneralProc removed; serial; no data sets): a 1 mm silicon block in vacuum, its top face at
+A stand-alone Geant4 application (score4's lite set-up before issue 10: G4EmStandardPhysics,
+1 um cut, default step functions, eBrem and GammaGeneralProc removed; serial; no data sets): a 1 mm silicon block in vacuum, its top face at
 z = 0; ions start at an exponential depth (mean 20 nm) below it, going outward (upper hemisphere,
 uniform in cos(theta); ``--isotropic``: all directions). A Python stepping action records every step; the script counts
 events whose deposit in the block exceeds the primary's energy + 1 eV, and prints the steps of
@@ -50,7 +50,9 @@ So a step whose nuclear loss exceeds ``T2`` deposits ``(T1 - T2) + min(nloss, T1
 step's ionisation loss ``T1 - T2`` more than the ``T1`` the ion had. Such steps are long steps of slow ions whose step limit ignores nuclear
 stopping (msc or geometry limited: ions re-entering the face, grazing alphas in pyramids at the
 end of their range). Setting ``G4EmParameters::SetMaxNIELEnergy(0)`` does not register
-``G4NuclearStopping`` at all, and every case above conserves energy; score4 does that.
+``G4NuclearStopping`` at all, and every case above conserves energy; score4 does that. With score4's final set-up (also the
+light-ion step function, ``score4.sim.physics``) the score4 runs above, ``examples/flat_alpha``,
+``paper_a_flat``, ``paper_a_rough`` and ``paper_b_po210_tiled`` all give 0 violating events.
 """
 
 from __future__ import annotations

@@ -13,15 +13,16 @@ LITE_REMOVED_PROCESSES = {"e-": ("eBrem",), "e+": ("eBrem",), "gamma": ("GammaGe
 # pre-step energy instead of the energy ionisation left, and G4ParticleChangeForLoss sets a
 # negative final energy to 0 without taking the difference back from the deposit, so a long step
 # of a slow ion deposits more than the ion had (1 MeV limit: 5.3 MeV alphas on pyramids 10 of
-# 20000 events above 5.3 MeV; Po-210 on a flat face 38 of 2000; 0 of each with 0). Without it
-# the 5.3 MeV alpha range in Si stays within 1 % of TRIM; heavy recoils are wrong either way
-# (benchmarks/bench_ion_setups.py).
+# 20000 events above 5.3 MeV; Po-210 on a flat face 38 of 2000; 0 of each with 0). It changes
+# alpha depths by < 0.5 %, and Pb-206 recoils are far from TRIM either way
+# (benchmarks/bench_ion_setups.py). The same G4NuclearStopping would serve option4 (full mode).
 MAX_NIEL_ENERGY_MEV = 0.0
 # Step function of alphas and He-3 (dRoverRange, finalRange in mm): Geant4's default lets an alpha
 # below ~1-5 MeV cross its whole remaining range in one or two steps, straight, so it ends
-# 10-25 % deeper than TRIM (1 MeV in Si: 4.12 vs 3.49 um). (0.05, 0.1 um) gives alpha depths
-# within 3 % of TRIM at 1, 3 and 5.3 MeV in Si, Ge and Cu for a few % more CPU
-# (benchmarks/bench_ion_setups.py; NaI, CaWO4 and TeO2 keep 3-7 % stopping-power differences).
+# 10-29 % deeper than TRIM at 1 MeV (Si: 4.12 vs 3.49 um). (0.05, 0.1 um) gives alpha depths
+# within 3 % of TRIM at 1, 3 and 5.3 MeV in Si, Ge and Cu (Si 5.3 MeV: 0.983) at about the same
+# CPU (benchmarks/bench_ion_setups.py); CaWO4, NaI and TeO2 keep up to 6 % off where Geant4's
+# alpha stopping powers differ from SRIM's by 4-8 %.
 LIGHT_ION_STEP_FUNCTION = (0.05, 1e-4)
 
 
