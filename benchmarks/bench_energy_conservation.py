@@ -52,7 +52,8 @@ stopping (msc or geometry limited: ions re-entering the face, grazing alphas in 
 end of their range). Setting ``G4EmParameters::SetMaxNIELEnergy(0)`` does not register
 ``G4NuclearStopping`` at all, and every case above conserves energy; score4 does that. With score4's final set-up (also the
 light-ion step function, ``score4.sim.physics``) the score4 runs above, ``examples/flat_alpha``,
-``paper_a_flat``, ``paper_a_rough`` and ``paper_b_po210_tiled`` all give 0 violating events.
+``paper_a_flat``, ``paper_a_rough``, ``paper_b_po210_tiled`` and ``paper_c_measured`` all give 0
+violating events.
 """
 
 from __future__ import annotations
