@@ -95,6 +95,8 @@ def test_run_then_summary_json(tmp_path: Path):
     assert len(vol["histogram"]["edges_MeV"]) == 101
     assert len(vol["histogram"]["counts"]) == 100
     assert sum(vol["histogram"]["counts"]) == 200
+    text = run_cli("summary", out)
+    assert "energy check  0 events deposit more than" in text.stdout
 
 
 def test_summary_of_missing_file_exits_2(tmp_path: Path, capsys):

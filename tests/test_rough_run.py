@@ -152,9 +152,8 @@ def test_rough_surface_moves_alpha_counts_below_full_energy(tmp_path):
     assert mid(flat) < 0.03 * n
     assert mid(rough) > 0.15 * n
     assert mid(rough) - mid(flat) > 5 * np.sqrt(mid(rough) + mid(flat))
-    # Geant4 overshoots the emitted energy by ~1 keV in about 1 event of 3000 (measured, flat and
-    # rough)
-    assert rough.max() <= 5.3 * 1.001
+    # never more than emitted (nuclear stopping, which overshot it, is off: sim.physics)
+    assert rough.max() <= 5.3 + 1e-6
 
 
 def test_po210_source_emits_alpha_and_recoil_per_event(tmp_path):

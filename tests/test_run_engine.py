@@ -27,8 +27,8 @@ def test_flat_example_half_the_alphas_deposit_everything(tmp_path: Path):
     # Binomial: |f - 0.5| < 3 sigma, sigma = sqrt(0.25/n).
     full = np.count_nonzero(emitted - edep < 0.010)
     assert abs(full / n - 0.5) < 3 * np.sqrt(0.25 / n)
-    # Geant4 overshoots the emitted energy by ~1 keV in about 1 event of 3000 (measured), never more
-    assert (edep <= emitted * 1.001).all()
+    # never more than emitted (nuclear stopping, which overshot it, is off: sim.physics)
+    assert (edep <= emitted + 1e-6).all()
     # zero deposit exactly for the alphas emitted away from the crystal (dz > 0)
     into = res.primaries.direction[:, 2] < 0
     assert np.array_equal(into, edep > 0)

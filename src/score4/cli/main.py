@@ -213,6 +213,12 @@ def summary(results_file: Path, as_json: bool, bins) -> None:
         f"geant4_pybind {run.get('geant4_pybind_version')}"
     )
     click.echo(f"  wall time     {run.get('wall_time_s')} s")
+    if "energy_violations" in run:
+        excess = float(run.get("energy_max_excess_MeV", 0.0)) * 1e3
+        click.echo(
+            f"  energy check  {run['energy_violations']} events deposit more than their primaries' "
+            f"energy + 1 eV" + (f" (largest excess {excess:.4g} keV)" if excess > 0 else "")
+        )
     emax = max(float(results.primary_energy.max(initial=0.0)), 1e-12)
     for v in s["volumes"]:
         e = results.edep[v["name"]]

@@ -52,6 +52,7 @@ from ..files import atomic_output
 from ..output import merge_chunks
 from ..scene import build_scene
 from ..source.build import make_source, needs_radioactive_decay
+from .conservation import check_chunk_files
 from .runtime import resolve_physics
 from .seeds import BLOCK_EVENTS
 from .worker import Chunk, WorkerSpec, check_free_space, chunk_path, worker_main
@@ -309,6 +310,8 @@ def run(
             shutil.rmtree(parts, ignore_errors=True)
         raise
     info = info or _recall_info(parts)
+    files = [chunk_path(parts, c.index) for c in chunks]
+    balance = _energy_balance(files, choice.decay)
     record = {
         "config": config_to_dict(config),
         "patch_maps": {layer.name: layer.patch_map.to_dict() for layer in scene.layers},
@@ -331,8 +334,8 @@ def run(
         "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
         "host": platform.node(),
         "geant4_warnings": _geant4_warnings(parts),
+        **balance,
     }
-    files = [chunk_path(parts, c.index) for c in chunks]
     try:
         check_free_space(out, sum(f.stat().st_size for f in files))
         merge_chunks(files, out, record)
@@ -640,6 +643,20 @@ def _finished_chunks(parts: Path, chunks: ChunkPlan, fingerprint: str, echo) -> 
             f"resume: chunk files {_ranges(damaged)} in {parts} are damaged or incomplete; they are run again"
         )
     return done
+
+
+def _energy_balance(files: list[Path], decay: bool) -> dict:
+    """Run-record entries of the energy-conservation check (:mod:`score4.sim.conservation`)."""
+    if decay:  # radioactive decay releases energy that no primary carried
+        return {"energy_check": "skipped: radioactive decay adds energy to the primaries'"}
+    balance = check_chunk_files(files)
+    if balance.warning:
+        warnings.warn(balance.warning, errors.Score4Warning, stacklevel=3)
+    return {
+        "energy_check": "event deposit (all volumes) <= primaries' kinetic energy + 1 eV",
+        "energy_violations": balance.violations,
+        "energy_max_excess_MeV": balance.max_excess_mev,
+    }
 
 
 def _count_chunk_files(parts: Path, chunks: ChunkPlan) -> int:

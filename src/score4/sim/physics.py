@@ -7,9 +7,23 @@ from .runtime import PhysicsChoice
 # Processes that read G4EMLOW data at the first event; lite mode removes them after
 # initialisation (found by trial: everything else in option0 runs without data files).
 LITE_REMOVED_PROCESSES = {"e-": ("eBrem",), "e+": ("eBrem",), "gamma": ("GammaGeneralProc",)}
-# Ions below this kinetic energy get nuclear stopping where the EM constructor supports it
-# (option4 does; option0, used by lite mode, ignores it: measured, see runtime.LITE_LACKS).
-MAX_NIEL_ENERGY_MEV = 1.0
+# Nuclear stopping (G4NuclearStopping) is registered for alphas and ions below this kinetic
+# energy; 0 registers none. It is off because it breaks energy conservation (measured with
+# Geant4 11.4.1, option0; benchmarks/bench_energy_conservation.py): it caps its loss at the
+# pre-step energy instead of the energy ionisation left, and G4ParticleChangeForLoss sets a
+# negative final energy to 0 without taking the difference back from the deposit, so a long step
+# of a slow ion deposits more than the ion had (1 MeV limit: 5.3 MeV alphas on pyramids 10 of
+# 20000 events above 5.3 MeV; Po-210 on a flat face 38 of 2000; 0 of each with 0). It changes
+# alpha depths by < 0.5 %, and Pb-206 recoils are far from TRIM either way
+# (benchmarks/bench_ion_setups.py). The same G4NuclearStopping would serve option4 (full mode).
+MAX_NIEL_ENERGY_MEV = 0.0
+# Step function of alphas and He-3 (dRoverRange, finalRange in mm): Geant4's default lets an alpha
+# below ~1-5 MeV cross its whole remaining range in one or two steps, straight, so it ends
+# 10-29 % deeper than TRIM at 1 MeV (Si: 4.12 vs 3.49 um). (0.05, 0.1 um) gives alpha depths
+# within 3 % of TRIM at 1, 3 and 5.3 MeV in Si, Ge and Cu (Si 5.3 MeV: 0.983) at about the same
+# CPU (benchmarks/bench_ion_setups.py); CaWO4, NaI and TeO2 keep up to 6 % off where Geant4's
+# alpha stopping powers differ from SRIM's by 4-8 %.
+LIGHT_ION_STEP_FUNCTION = (0.05, 1e-4)
 
 
 def make_physics_list(g4, choice: PhysicsChoice):
@@ -26,10 +40,12 @@ def make_physics_list(g4, choice: PhysicsChoice):
             if choice.decay:
                 self.RegisterPhysics(g4.G4DecayPhysics())
                 self.RegisterPhysics(g4.G4RadioactiveDecayPhysics())
-            # After the EM constructor, whose constructor resets the parameters to defaults.
+            # After the EM constructor, whose constructor resets the parameters to defaults
+            # (option3/option4 turn nuclear stopping on: this turns it off again).
             params = g4.G4EmParameters.Instance()
             params.SetVerbose(0)
             params.SetMaxNIELEnergy(MAX_NIEL_ENERGY_MEV * g4.MeV)
+            params.SetStepFunctionLightIons(*LIGHT_ION_STEP_FUNCTION)
 
     return ModularPhysics()
 
