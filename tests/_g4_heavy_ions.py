@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 
-def ranges(cases, events, seed, histories, materials=None):
+def ranges(cases, events, seed, histories, materials=None, alphas="geant4"):
     """simulate_ranges for ``cases`` (tuples of RangeCase arguments); plain arrays per case."""
     from score4.sim.range_run import RangeCase, simulate_ranges
 
@@ -16,6 +16,7 @@ def ranges(cases, events, seed, histories, materials=None):
         materials=materials,
         physics="lite",
         histories=histories,
+        alphas=alphas,
     )
     return [(vars(sample), composition) for sample, composition in results]
 

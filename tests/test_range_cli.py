@@ -44,7 +44,15 @@ def fake(monkeypatch):
     calls = []
 
     def simulate_range(
-        ion, energy_mev, material, events, seed, thickness_mm=None, angle_deg=0.0, materials=None
+        ion,
+        energy_mev,
+        material,
+        events,
+        seed,
+        thickness_mm=None,
+        angle_deg=0.0,
+        materials=None,
+        alphas="geant4",
     ):
         calls.append(dict(locals()))
         os.write(1, b"Geant4 chatter on the C++ side\n")  # must not reach stdout (--json)

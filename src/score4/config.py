@@ -341,6 +341,9 @@ class PhysicsConfig(StrictModel):
     heavy_ions: Literal["trim", "geant4"] = "trim"
     trim_max_energy: PositiveEnergy = 1.0
     trim_histories: int = Field(1000, ge=10, le=100_000)
+    # Alphas: Geant4 (ASTAR-based stopping; within 3 % of TRIM's ranges in Si, Ge, Cu, 4-6 % off
+    # in NaI, CaWO4 and TeO2 at some energies) or TRIM trajectories like heavy ions (SRIM stopping).
+    alphas: Literal["geant4", "trim"] = "geant4"
 
 
 class RunSettings(StrictModel):

@@ -251,6 +251,13 @@ def format_table(result: dict) -> str:
     type=click.Path(dir_okay=False, path_type=Path),
     help="Draw the depth distributions (score4 and, with --compare-srim, TRIM) into this image.",
 )
+@click.option(
+    "--alphas",
+    type=click.Choice(["geant4", "trim"]),
+    default="geant4",
+    show_default=True,
+    help="How score4 moves alphas (physics.alphas): Geant4, or TRIM trajectories.",
+)
 @click.option("--quiet", "-q", is_flag=True, help="No progress messages on stderr.")
 def range_command(
     ion,
@@ -266,6 +273,7 @@ def range_command(
     compare_srim,
     srim_events,
     png,
+    alphas,
     quiet,
 ) -> None:
     """Send ION of ENERGY ('103 keV') into MATERIAL and report how far it goes.
@@ -300,6 +308,7 @@ def range_command(
         materials,
         n_srim if compare_srim else None,
         echo,
+        alphas,
     )
     if png is not None:
         from ..plots import plot_range_depths
@@ -427,6 +436,7 @@ def run_range(
     materials: dict,
     srim_events: int | None,
     echo,
+    alphas: str = "geant4",
 ) -> dict:
     """Run score4 (and TRIM if ``srim_events``); the result dict of ``--json``.
 
@@ -460,6 +470,7 @@ def run_range(
                 thickness_mm=thickness_mm,
                 angle_deg=angle_deg,
                 materials=materials or None,
+                alphas=alphas,
             )
     s4 = summarize(sample)
     result = {

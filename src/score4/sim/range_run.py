@@ -72,9 +72,10 @@ def range_config(
     physics: str = "auto",
     materials: dict | None = None,
     histories: int | None = None,
+    alphas: str = "geant4",
 ) -> RunConfig:
     """One run configuration holding a block per case; block ``k``'s entry point is (k PITCH, 0, 0)."""
-    phys: dict = {"mode": physics}
+    phys: dict = {"mode": physics, "alphas": alphas}
     if histories is not None:
         phys["trim_histories"] = histories
     first = cases[0]
@@ -129,6 +130,7 @@ def simulate_ranges(
     physics: str = "auto",
     histories: int | None = None,
     log_path: Path | None = None,
+    alphas: str = "geant4",
 ) -> list[tuple[RangeSample, Composition]]:
     """Run ``events`` ions per case; return per case where they ended and the block's matter."""
     from .simulation import Simulation
@@ -137,7 +139,7 @@ def simulate_ranges(
         raise ConfigError("range: no case to run")
     if int(events) < 1:
         raise ConfigError(f"events: must be >= 1, got {events}")
-    config = range_config(cases, physics, materials, histories)
+    config = range_config(cases, physics, materials, histories, alphas)
     choice = resolve_physics(config.physics.mode)
     if log_path is None:
         log_path = Path(tempfile.mkdtemp(prefix="score4-range-")) / "geant4.log"
@@ -175,7 +177,8 @@ def simulate_range(
     materials: dict | None = None,
     physics: str = "auto",
     histories: int | None = None,
+    alphas: str = "geant4",
 ) -> tuple[RangeSample, Composition]:
     """One case of :func:`simulate_ranges`."""
     case = RangeCase(ion, float(energy_mev), material, thickness_mm, float(angle_deg))
-    return simulate_ranges([case], events, seed, materials, physics, histories)[0]
+    return simulate_ranges([case], events, seed, materials, physics, histories, alphas=alphas)[0]

@@ -135,7 +135,7 @@ class Simulation:
         )
         self.scorer.resolve_ids()
         self.heavy_ions: HeavyIonTransport | None = None
-        if self.config.physics.heavy_ions == "trim":
+        if "trim" in (self.config.physics.heavy_ions, self.config.physics.alphas):
             from .heavy_ions import HeavyIonTransport
 
             self.heavy_ions = HeavyIonTransport(
@@ -158,16 +158,23 @@ class Simulation:
         return self._particles[name]
 
     def trim_rows(self, primaries: Primaries) -> np.ndarray:
-        """Rows of ``primaries`` that follow TRIM trajectories instead of Geant4 (heavy ions)."""
+        """Rows of ``primaries`` that follow TRIM trajectories instead of Geant4.
+
+        Ions heavier than helium up to ``physics.trim_max_energy`` (``heavy_ions: trim``), and
+        alphas of any energy with ``alphas: trim``.
+        """
         mask = np.zeros(len(primaries), dtype=bool)
         if self.heavy_ions is None:
             return mask
         from .heavy_ions import heavy_ion_z
 
-        limit = self.config.physics.trim_max_energy
+        physics = self.config.physics
         for name in np.unique(primaries.particle):
-            if heavy_ion_z(self.g4, str(name)):
-                mask |= (primaries.particle == name) & (primaries.energy <= limit)
+            rows = primaries.particle == name
+            if name == "alpha" and physics.alphas == "trim":
+                mask |= rows
+            elif physics.heavy_ions == "trim" and heavy_ion_z(self.g4, str(name)):
+                mask |= rows & (primaries.energy <= physics.trim_max_energy)
         return mask
 
     def _generate(self, gun, event) -> None:
