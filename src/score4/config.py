@@ -110,8 +110,10 @@ class RoughFace(StrictModel):
     tiling: Literal["native", "portal"] = "native"
     # native tiling: one G4PVPlacement per cell, or G4PVReplica rows of cells (one variant only)
     native_layout: Literal["placements", "replicas"] = "placements"
-    # auto: multi-union for spike grids of equal heights, tessellated otherwise (see RoughLayer.solid_kind)
-    solid: Literal["auto", "tessellated", "multiunion"] = "auto"
+    # auto: multi-union for spike grids of equal heights, blocks otherwise (see RoughLayer.solid_kind)
+    solid: Literal["auto", "tessellated", "multiunion", "blocks"] = "auto"
+    # blocks: cells (height-map pixels or spikes) per block side; None: ~8, any map size
+    block_cells: int | None = Field(None, ge=1)
     base_thickness: PositiveLength = 1e-3
 
     @model_validator(mode="after")

@@ -1,0 +1,121 @@
+"""A rough patch cut into blocks of cells: the numpy half of ``solid: blocks``.
+
+One large ``G4TessellatedSolid`` per patch is slow to track charged particles through: every
+step of an alpha inside it asks the solid for a safety distance and a distance to its boundary,
+and with 10^4-10^6 facets those queries walk many voxels and candidate facets. Here the patch
+body is cut along the surface's cell grid into blocks of ``block_cells x block_cells`` cells
+(pixels of a height map, spikes of a spike grid). Each block is a closed tessellated solid: its
+share of the exact top mesh, vertical walls under its edges and a flat bottom at the patch's
+bottom plane. The blocks are placed side by side in the patch's mother volume, so Geant4's
+voxelised navigation hands each step to one small solid.
+
+Exactness. The blocks are made from the faces of the one triangle mesh (:attr:`Surface.top_mesh`)
+without moving a vertex: the top of the blocks is that mesh face for face, and neighbouring
+blocks share their walls exactly (the same boundary vertices, so the same planes): there is no
+gap and no overlap between them. Their union is the old closed body (:meth:`Surface.body`).
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+from ..errors import ConfigError
+from .mesh import TriangleMesh, closed_body
+from .spec import Surface
+
+#: Cells per block side that ``block_cells: auto`` aims at: 8 x 8 cells are 128 top facets for a
+#: height map and 256-768 for spikes; small enough that each tracking query is cheap, large
+#: enough that the patch has few daughters (bench_surfaces.py compares sizes).
+AUTO_BLOCK_CELLS = 8
+
+#: Top facets of one patch variant above which building is refused (a 1024 x 1024 map has 2.1e6).
+MAX_PATCH_FACETS = 4_000_000
+#: Rough Geant4 memory per facet, bytes (used in the message only; bench_surfaces.py measures it).
+FACET_BYTES = 1000
+
+
+def cell_shape(surface: Surface) -> tuple[int, int]:
+    """(ny, nx) cells of the surface: spikes of a spike grid, pixels (sample gaps) of a height map."""
+    if surface.spikes is not None:
+        return surface.spikes.ny, surface.spikes.nx
+    ny, nx = surface.placed_map.heights.shape
+    return ny - 1, nx - 1
+
+
+def block_edges(n_cells: int, block_cells: int | None, axis: str) -> np.ndarray:
+    """Cell indices where blocks start along one axis, with ``n_cells`` appended.
+
+    ``block_cells=None`` (auto) splits into ``ceil(n_cells / AUTO_BLOCK_CELLS)`` nearly equal
+    blocks, so any size works; an explicit size must divide the number of cells.
+    """
+    if block_cells is None:
+        n_blocks = max(1, -(-n_cells // AUTO_BLOCK_CELLS))
+        return np.linspace(0, n_cells, n_blocks + 1).round().astype(np.int64)
+    ok = isinstance(block_cells, numbers.Integral) and not isinstance(block_cells, bool)
+    if not ok or block_cells < 1:
+        raise ConfigError(f"block_cells: must be a positive whole number, got {block_cells!r}")
+    if n_cells % block_cells:
+        divisors = [d for d in range(1, n_cells + 1) if n_cells % d == 0]
+        raise ConfigError(
+            f"block_cells: {block_cells} does not divide the {n_cells} cells of the surface along "
+            f"{axis}; use a divisor ({', '.join(map(str, divisors[:12]))}"
+            f"{', ...' if len(divisors) > 12 else ''}) or leave it out (auto splits any size)"
+        )
+    return np.arange(0, n_cells + 1, block_cells, dtype=np.int64)
+
+
+def check_patch(surface: Surface, kind: str, block_cells: int | None) -> None:
+    """Refuse, before any Geant4 work, a patch too large to build or blocks that do not fit.
+
+    ``kind`` is the solid the patch becomes (``tessellated``, ``multiunion``, ``blocks``).
+    """
+    if kind == "multiunion":
+        return
+    mesh = surface.top_mesh
+    if mesh.n_faces > MAX_PATCH_FACETS:
+        ny, nx = cell_shape(surface)
+        raise ConfigError(
+            f"surface: {nx} x {ny} cells give {mesh.n_faces} facets, above the limit of "
+            f"{MAX_PATCH_FACETS} facets per patch (~{MAX_PATCH_FACETS * FACET_BYTES / 1e9:.0f} GB "
+            "of Geant4 memory); crop the map (crop_x, crop_y) or resample it on a coarser grid "
+            "(resample_pitch)"
+        )
+    if kind == "blocks":
+        ny, nx = cell_shape(surface)
+        block_edges(nx, block_cells, "x")
+        block_edges(ny, block_cells, "y")
+
+
+def split_top(surface: Surface, block_cells: int | None = None) -> list[TriangleMesh]:
+    """The surface's top mesh cut into blocks of cells, row by row (y outer, x inner).
+
+    Every face of :attr:`Surface.top_mesh` lands in exactly one block (faces never cross a cell
+    edge); vertices are copied, not moved.
+    """
+    check_patch(surface, "blocks", block_cells)
+    mesh = surface.top_mesh
+    ny, nx = cell_shape(surface)
+    ex, ey = block_edges(nx, block_cells, "x"), block_edges(ny, block_cells, "y")
+    cell = mesh.facet
+    ci, cj = cell % nx, cell // nx
+    bi = np.searchsorted(ex, ci, side="right") - 1
+    bj = np.searchsorted(ey, cj, side="right") - 1
+    block = bj * (len(ex) - 1) + bi
+    order = np.argsort(block, kind="stable")
+    starts = np.searchsorted(block[order], np.arange((len(ex) - 1) * (len(ey) - 1) + 1))
+    out = []
+    for b in range(len(starts) - 1):
+        rows = order[starts[b] : starts[b + 1]]
+        faces = mesh.faces[rows]
+        used, local = np.unique(faces, return_inverse=True)
+        out.append(TriangleMesh(mesh.vertices[used], local.reshape(-1, 3), facet=mesh.facet[rows]))
+    return out
+
+
+def block_bodies(
+    surface: Surface, base_thickness: float, block_cells: int | None = None
+) -> list[TriangleMesh]:
+    """Closed bodies of the blocks: each block's top on walls down to ``z = -base_thickness``."""
+    return [closed_body(top, base_thickness) for top in split_top(surface, block_cells)]
