@@ -83,6 +83,8 @@ def geantino_vertex_run(
         ("-x", RANDOM, "tessellated", "placements"),
         ("+y", PYRAMIDS, "tessellated", "placements"),
         ("-x", PYRAMIDS, "multiunion", "replicas"),
+        ("+y", RANDOM, "blocks", "placements"),
+        ("-z", PYRAMIDS, "blocks", "replicas"),
     ],
 )
 def test_geantino_path_through_placed_patches_matches_the_sampled_vertex(
