@@ -88,8 +88,10 @@ def test_blocks_are_the_body_cut_along_cell_edges(spec, cells):
 
 
 def test_auto_block_size_splits_any_map():
-    edges = blk.block_edges(61, None, "x")
-    assert edges[0] == 0 and edges[-1] == 61 and np.diff(edges).max() <= blk.AUTO_BLOCK_CELLS
+    edges = blk.block_edges(61, None, "x", 4)
+    assert edges[0] == 0 and edges[-1] == 61 and set(np.diff(edges)) <= {3, 4}
+    assert blk.auto_block_cells(build_surface(RANDOM)) == 2  # 2 facets per pixel: 2 x 2 pixels
+    assert blk.auto_block_cells(build_surface(SPREAD)) == 1  # 20 facets per bump: one per block
 
 
 def test_block_size_that_does_not_divide_the_map_is_refused():
@@ -164,7 +166,11 @@ def rays(config, block_cells: int | None, n: int = 400) -> Primaries:
     # block corners and walls of the patch at the face centre region: the surface's cell edges
     surface = layer.variants[0]
     ny, nx = blk.cell_shape(surface)
-    ex, ey = blk.block_edges(nx, block_cells, "x"), blk.block_edges(ny, block_cells, "y")
+    auto = blk.auto_block_cells(surface)
+    ex, ey = (
+        blk.block_edges(nx, block_cells, "x", auto),
+        blk.block_edges(ny, block_cells, "y", auto),
+    )
     px, py = surface.size_x / nx, surface.size_y / ny
     c = layer.cell_centres()[0, 0]
     bx = c[0] - surface.size_x / 2 + ex * px
@@ -280,7 +286,8 @@ def test_geantino_paths_through_blocks_match_one_tessellated_solid(tmp_path, sur
 
 
 def test_alpha_spectra_of_blocks_and_one_solid_agree(tmp_path):
-    """3000 alphas (5.3 MeV, 20 nm below the random surface, isotropic) with independent seeds on
+    """3000 alphas (5.3 MeV, 20 nm below a random surface of 25 x 25 cells of 4 um, isotropic:
+    a coarse map keeps the tessellated run short) with independent seeds on
     the tessellated patch and on blocks: two-sample KS p > 0.01. A geometry error that moves ~5 %
     of the events (e.g. a vacuum gap between blocks) fails it (KS distance ~0.05 > 0.042)."""
     source = {
@@ -292,7 +299,9 @@ def test_alpha_spectra_of_blocks_and_one_solid_agree(tmp_path):
     }
     out = {}
     for solid, seed in (("tessellated", 1), ("blocks", 2)):
-        data = _data(RANDOM, solid, source)
+        data = _data(
+            {**RANDOM, "nx": 25, "ny": 25, "pitch": "4 um", "corr_length": "10 um"}, solid, source
+        )
         data["run"] = {"events": 3000, "seed": seed}
         r = run(parse_config(data), tmp_path / f"{solid}.h5", progress=False, echo=lambda m: None)
         out[solid] = read_results(r).edep["crystal"]

@@ -25,10 +25,15 @@ from ..errors import ConfigError
 from .mesh import TriangleMesh, closed_body
 from .spec import Surface
 
-#: Cells per block side that ``block_cells: auto`` aims at: 8 x 8 cells are 128 top facets for a
-#: height map and 256-768 for spikes; small enough that each tracking query is cheap, large
-#: enough that the patch has few daughters (bench_surfaces.py compares sizes).
-AUTO_BLOCK_CELLS = 8
+#: Top facets per block that ``block_cells: auto`` aims at. Measured (bench_surfaces.py, alphas,
+#: ratio to the equal-height pyramid multi-union, shared machine): measured map 2 x 2 pixels
+#: (8 facets) 1.27, 5 x 5 1.54, 10 x 10 2.60, 1 x 1 4.9 (too many daughters and boundaries);
+#: pyramids with a spread 1 spike (4 facets) 1.11, 2 x 2 1.39, 5 x 5 1.83; bumps (28 facets per
+#: spike) 1 spike 1.82, 2 x 2 2.15.
+AUTO_BLOCK_FACETS = 8
+#: ... but at most this many blocks per patch (each is a solid, a logical and a physical volume
+#: of ~1-3 KB): a 1024 x 1024 map gets 8 x 8 pixel blocks instead of 262 144 blocks of 2 x 2.
+AUTO_MAX_BLOCKS = 16_384
 
 #: Top facets of one patch variant above which building is refused (a 1024 x 1024 map has 2.1e6).
 MAX_PATCH_FACETS = 4_000_000
@@ -44,14 +49,25 @@ def cell_shape(surface: Surface) -> tuple[int, int]:
     return ny - 1, nx - 1
 
 
-def block_edges(n_cells: int, block_cells: int | None, axis: str) -> np.ndarray:
+def auto_block_cells(surface: Surface) -> int:
+    """Cells per block side for ``block_cells: auto``: ~AUTO_BLOCK_FACETS top facets a block, at
+    most ~AUTO_MAX_BLOCKS blocks."""
+    ny, nx = cell_shape(surface)
+    per_cell = surface.top_mesh.n_faces / (nx * ny)
+    cells = max(1, round(float(np.sqrt(AUTO_BLOCK_FACETS / per_cell))))
+    return max(cells, int(np.ceil(np.sqrt(nx * ny / AUTO_MAX_BLOCKS))))
+
+
+def block_edges(
+    n_cells: int, block_cells: int | None, axis: str, auto_cells: int = 2
+) -> np.ndarray:
     """Cell indices where blocks start along one axis, with ``n_cells`` appended.
 
-    ``block_cells=None`` (auto) splits into ``ceil(n_cells / AUTO_BLOCK_CELLS)`` nearly equal
-    blocks, so any size works; an explicit size must divide the number of cells.
+    ``block_cells=None`` (auto) splits into ``ceil(n_cells / auto_cells)`` nearly equal blocks,
+    so any number of cells works; an explicit size must divide the number of cells.
     """
     if block_cells is None:
-        n_blocks = max(1, -(-n_cells // AUTO_BLOCK_CELLS))
+        n_blocks = max(1, -(-n_cells // auto_cells))
         return np.linspace(0, n_cells, n_blocks + 1).round().astype(np.int64)
     ok = isinstance(block_cells, numbers.Integral) and not isinstance(block_cells, bool)
     if not ok or block_cells < 1:
@@ -97,7 +113,8 @@ def split_top(surface: Surface, block_cells: int | None = None) -> list[Triangle
     check_patch(surface, "blocks", block_cells)
     mesh = surface.top_mesh
     ny, nx = cell_shape(surface)
-    ex, ey = block_edges(nx, block_cells, "x"), block_edges(ny, block_cells, "y")
+    auto = auto_block_cells(surface)
+    ex, ey = block_edges(nx, block_cells, "x", auto), block_edges(ny, block_cells, "y", auto)
     cell = mesh.facet
     ci, cj = cell % nx, cell // nx
     bi = np.searchsorted(ex, ci, side="right") - 1
