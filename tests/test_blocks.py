@@ -92,6 +92,8 @@ def test_auto_block_size_splits_any_map():
     assert edges[0] == 0 and edges[-1] == 61 and set(np.diff(edges)) <= {3, 4}
     assert blk.auto_block_cells(build_surface(RANDOM)) == 2  # 2 facets per pixel: 2 x 2 pixels
     assert blk.auto_block_cells(build_surface(SPREAD)) == 1  # 20 facets per bump: one per block
+    # placed 40 000 times (a 10 cm face of 0.5 mm cells): at most 50 blocks of 40 x 40 cells
+    assert blk.auto_block_cells(build_surface(RANDOM), 40_000) == 6
 
 
 def test_block_size_that_does_not_divide_the_map_is_refused():

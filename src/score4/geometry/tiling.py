@@ -25,12 +25,21 @@ def _rotation(g4, r: np.ndarray):
 
 
 def place_variant(
-    g4, layer: RoughLayer, k: int, mother_lv, z: float, material, name: str, copy_no: int = 0
+    g4,
+    layer: RoughLayer,
+    k: int,
+    mother_lv,
+    z: float,
+    material,
+    name: str,
+    copy_no: int = 0,
+    copies: int = 1,
 ) -> tuple[list, list]:
     """Place patch variant ``k`` in ``mother_lv`` with its base plane at height ``z``.
 
     The patch is one solid (``tessellated`` / ``multiunion``: the closed body, slab below the
     base plane) or a grid of closed blocks (``blocks``, :mod:`.blocks`).
+    ``copies`` is how many times ``mother_lv`` is placed (blocks: bounds the placed blocks).
     Returns ``(logical volumes of the patch's material, objects to keep alive)``.
     """
     surface = layer.variants[k]
@@ -45,6 +54,7 @@ def place_variant(
             mother_lv,
             z,
             name,
+            copies,
         )
     if kind == "multiunion":
         solid, parts = multiunion_solid(g4, surface.spikes, layer.base_thickness, name)
@@ -82,7 +92,10 @@ def place_native(g4, layer: RoughLayer, mother_lv, world_material, material) -> 
     for k in range(len(layer.variants)):
         cell_solid = g4.G4Box(f"{name}_cell{k}", px / 2, py / 2, t / 2)
         cell_lv = g4.G4LogicalVolume(cell_solid, world_material, f"{name}_cell{k}")
-        lvs_k, keep_k = place_variant(g4, layer, k, cell_lv, z, material, f"{name}_v{k}")
+        copies = int((layer.patch_map.variants == k).sum())
+        lvs_k, keep_k = place_variant(
+            g4, layer, k, cell_lv, z, material, f"{name}_v{k}", copies=copies
+        )
         keep += [cell_solid, cell_lv, keep_k]
         patch_lvs += lvs_k
         cell_lvs.append(cell_lv)

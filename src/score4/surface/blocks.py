@@ -34,6 +34,11 @@ AUTO_BLOCK_FACETS = 8
 #: ... but at most this many blocks per patch (each is a solid, a logical and a physical volume
 #: of ~1-3 KB): a 1024 x 1024 map gets 8 x 8 pixel blocks instead of 262 144 blocks of 2 x 2.
 AUTO_MAX_BLOCKS = 16_384
+#: ... and at most this many blocks over all placed copies of the patch. Geant4 walks the whole
+#: volume tree (every placed block of every cell) at the start of every BeamOn
+#: (G4Region::ScanVolumeTree, G4ProductionCutsTable::ScanAndSetCouple): with 175 million placed
+#: blocks (paper_b's 40 000 cells of 2 x 2-pixel blocks) that took ~20 s per BeamOn.
+AUTO_MAX_PLACED_BLOCKS = 2_000_000
 
 #: Top facets of one patch variant above which building is refused (a 1024 x 1024 map has 2.1e6).
 MAX_PATCH_FACETS = 4_000_000
@@ -49,13 +54,14 @@ def cell_shape(surface: Surface) -> tuple[int, int]:
     return ny - 1, nx - 1
 
 
-def auto_block_cells(surface: Surface) -> int:
+def auto_block_cells(surface: Surface, copies: int = 1) -> int:
     """Cells per block side for ``block_cells: auto``: ~AUTO_BLOCK_FACETS top facets a block, at
-    most ~AUTO_MAX_BLOCKS blocks."""
+    most ~AUTO_MAX_BLOCKS blocks a patch and ~AUTO_MAX_PLACED_BLOCKS over its ``copies`` placements."""
     ny, nx = cell_shape(surface)
     per_cell = surface.top_mesh.n_faces / (nx * ny)
     cells = max(1, round(float(np.sqrt(AUTO_BLOCK_FACETS / per_cell))))
-    return max(cells, int(np.ceil(np.sqrt(nx * ny / AUTO_MAX_BLOCKS))))
+    max_blocks = max(1, min(AUTO_MAX_BLOCKS, AUTO_MAX_PLACED_BLOCKS // max(1, copies)))
+    return max(cells, int(np.ceil(np.sqrt(nx * ny / max_blocks))))
 
 
 def block_edges(
@@ -104,7 +110,9 @@ def check_patch(surface: Surface, kind: str, block_cells: int | None) -> None:
         block_edges(ny, block_cells, "y")
 
 
-def split_top(surface: Surface, block_cells: int | None = None) -> list[TriangleMesh]:
+def split_top(
+    surface: Surface, block_cells: int | None = None, copies: int = 1
+) -> list[TriangleMesh]:
     """The surface's top mesh cut into blocks of cells, row by row (y outer, x inner).
 
     Every face of :attr:`Surface.top_mesh` lands in exactly one block (faces never cross a cell
@@ -113,7 +121,7 @@ def split_top(surface: Surface, block_cells: int | None = None) -> list[Triangle
     check_patch(surface, "blocks", block_cells)
     mesh = surface.top_mesh
     ny, nx = cell_shape(surface)
-    auto = auto_block_cells(surface)
+    auto = auto_block_cells(surface, copies)
     ex, ey = block_edges(nx, block_cells, "x", auto), block_edges(ny, block_cells, "y", auto)
     cell = mesh.facet
     ci, cj = cell % nx, cell // nx
@@ -132,7 +140,7 @@ def split_top(surface: Surface, block_cells: int | None = None) -> list[Triangle
 
 
 def block_bodies(
-    surface: Surface, base_thickness: float, block_cells: int | None = None
+    surface: Surface, base_thickness: float, block_cells: int | None = None, copies: int = 1
 ) -> list[TriangleMesh]:
     """Closed bodies of the blocks: each block's top on walls down to ``z = -base_thickness``."""
-    return [closed_body(top, base_thickness) for top in split_top(surface, block_cells)]
+    return [closed_body(top, base_thickness) for top in split_top(surface, block_cells, copies)]
