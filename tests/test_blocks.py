@@ -64,7 +64,7 @@ def test_blocks_are_the_body_cut_along_cell_edges(spec, cells):
     top = surface.top_mesh
     tops = np.concatenate([b.vertices[b.faces[b.top]] for b in bodies])
     ref = top.vertices[top.faces]
-    key = lambda t: t[np.lexsort(t.reshape(len(t), -1).T[::-1])]  # noqa: E731
+    key = lambda t: t[np.lexsort(t.reshape(len(t), -1).T[::-1])]
     np.testing.assert_array_equal(key(tops), key(ref))  # exact: no vertex moved
     assert all(is_watertight(b) for b in bodies)
     total = sum(signed_volume(b) for b in bodies)
