@@ -20,6 +20,43 @@ that only imported Geant4.
 
 The machine is shared with other jobs: absolute figures vary by +-30 %; ratios from one
 invocation are firmer.
+
+Measured 2026-11-25 on the shared 2-core machine (other engineers' jobs running, load 2-12),
+geant4_pybind 0.1.3 / Geant4 11.4.1. Run 1, all cases 3000 events (auto blocks then aimed at
+8 facets without the placed-blocks bound, so the measured map had 2 x 2-pixel blocks):
+    .venv/bin/python benchmarks/bench_surfaces.py --events 3000 --slow-events 3000
+
+    case                ms/event  ratio
+    flat                   0.393   0.77
+    pyramids               0.509   1.00
+    pyramids_tess          7.376  14.49
+    pyramids_blocks        0.678   1.33
+    spread_tess           38.514  75.66
+    spread_blocks          0.696   1.37
+    bumps_union            0.858   1.69
+    bumps_blocks           1.118   2.20
+    measured_tess         22.951  45.08
+    measured_blocks        1.177   2.31
+
+     pixels blocks   facets numpy s   G4 s RSS MB dRSS MB
+        256  16384   524288    1.86   2.15    554     451
+        512  16384  1310720    2.14   6.64    990     886
+       1024  16384  3670016    2.97  20.16   2331    2228
+       2048 refused: 8388608 top facets, above the limit of 4000000
+
+Run 2 (current code), load ~2:
+    .venv/bin/python benchmarks/bench_surfaces.py --events 5000 --slow-events 300 \
+        --cases pyramids,flat,gauss_blocks,selfaff_blocks,measured_blocks,spread_blocks,gauss_tess,selfaff_tess --sizes ""
+
+    case                ms/event  ratio
+    pyramids               0.563   1.00
+    flat                   0.281   0.50
+    gauss_blocks           0.694   1.23
+    selfaff_blocks         1.200   2.13
+    measured_blocks        0.720   1.28
+    spread_blocks          0.752   1.34
+    gauss_tess          1284.164 2280.00
+    selfaff_tess        1229.124 2182.28
 """
 
 from __future__ import annotations
