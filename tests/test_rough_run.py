@@ -86,6 +86,8 @@ def geantino_vertex_run(
         ("+y", PYRAMIDS, "tessellated", "placements"),
         ("-x", PYRAMIDS, "multiunion", "replicas"),
         ("+z", RANDOM, "tessellated", "nested"),
+        ("+y", RANDOM, "blocks", "placements"),
+        ("-z", PYRAMIDS, "blocks", "replicas"),
     ],
 )
 def test_geantino_path_through_placed_patches_matches_the_sampled_vertex(

@@ -20,6 +20,7 @@ import numpy as np
 
 from .config import BoxVolume, RoughFace, RunConfig, SurfaceFile
 from .errors import ConfigError
+from .surface.blocks import check_patch
 from .surface.patchmap import PatchMap, make_patch_map
 from .surface.spec import Surface, build_surface
 from .surface.store import load_surface
@@ -104,12 +105,14 @@ class RoughLayer:
         return self.base_thickness + max(s.max_height for s in self.variants) + ENVELOPE_CLEARANCE
 
     def solid_kind(self, k: int) -> str:
-        """``tessellated`` or ``multiunion`` for variant ``k``.
+        """``tessellated``, ``multiunion`` or ``blocks`` for variant ``k``.
 
-        ``auto`` takes the multi-union for spike grids of equal heights (faster to track and to
-        build, bench_solids.py) and the tessellated solid otherwise: with a height spread every
-        spike adds its own z boundaries to the multi-union's voxels, and 50 x 50 pyramids with
-        a 3 um spread took 42 s and 1.7 GB to voxelise, against 0.6 s and 10 MB tessellated.
+        ``auto`` takes the multi-union for spike grids of equal heights (fastest to track and to
+        build, bench_solids.py) and ``blocks`` otherwise (the closed body cut into small
+        tessellated blocks, :mod:`score4.geometry.blocks`): one tessellated solid per patch
+        tracked alphas 10-40x slower (benchmarks/bench_surfaces.py), and a multi-union with a
+        height spread explodes in voxelisation (50 x 50 pyramids with a 3 um spread: 42 s and
+        1.7 GB, against 0.6 s and 10 MB tessellated).
         """
         choice = self.config.solid
         grid = self.variants[k].spikes
@@ -119,7 +122,7 @@ class RoughLayer:
                 "height map"
             )
         if choice == "auto":
-            return "multiunion" if grid is not None and grid.height_sigma == 0 else "tessellated"
+            return "multiunion" if grid is not None and grid.height_sigma == 0 else "blocks"
         return choice
 
     def cell_centres(self) -> np.ndarray:
@@ -314,6 +317,12 @@ def build_scene(config: RunConfig) -> Scene:
                 )
             except ConfigError as err:
                 raise ConfigError(f"{where} (face {rough.face} of {target.name}): {err}") from None
-            scene.layers.append(RoughLayer(target, rough, frame, names, variants, patch_map))
+            layer = RoughLayer(target, rough, frame, names, variants, patch_map)
+            for k, n in enumerate(names):
+                try:
+                    check_patch(variants[k], layer.solid_kind(k), rough.block_cells)
+                except ConfigError as err:
+                    raise ConfigError(f"{where} (surface {n!r}): {err}") from None
+            scene.layers.append(layer)
     check_clearance(scene)
     return scene

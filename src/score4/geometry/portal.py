@@ -28,7 +28,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..scene import RoughLayer
-from .tiling import _rotation, variant_solid
+from .tiling import _rotation, place_variant
 
 #: Trigger box half-lengths as a multiple of the subworld's ("slightly larger").
 TRIGGER_SCALE = 1.1
@@ -256,8 +256,6 @@ def place_portal(
     z = -t / 2 + layer.base_thickness  # base plane of the patch, as in a native cell
     patch_lvs, subworld_pvs, trigger_pvs = [], [], []
     for k in range(len(layer.variants)):
-        solid, parts = variant_solid(g4, layer, k, f"{name}_v{k}")
-        patch_lv = g4.G4LogicalVolume(solid, material, f"{name}_v{k}")
         sub_lv = g4.G4LogicalVolume(sub_solid, world_material, f"{name}_subworld{k}")
         trig_lv = g4.G4LogicalVolume(trig_solid, vacuum, f"{name}_trigger{k}")
         trig_pv = g4.G4PVPlacement(
@@ -272,13 +270,11 @@ def place_portal(
         sub_pv = g4.G4PVPlacement(
             None, vec(), sub_lv, f"{name}_subworld{k}", trig_lv, False, k, False
         )
-        patch_pv = g4.G4PVPlacement(
-            None, vec(0.0, 0.0, z), patch_lv, f"{name}_cell", sub_lv, False, k, False
-        )
+        lvs_k, keep_k = place_variant(g4, layer, k, sub_lv, z, material, f"{name}_v{k}", k)
         region.AddRootLogicalVolume(trig_lv)
         quiet.AddRootLogicalVolume(sub_lv)
-        keep += [solid, parts, patch_lv, sub_lv, trig_lv, trig_pv, sub_pv, patch_pv]
-        patch_lvs.append(patch_lv)
+        keep += [sub_lv, trig_lv, trig_pv, sub_pv, keep_k]
+        patch_lvs += lvs_k
         subworld_pvs.append(sub_pv)
         trigger_pvs.append(trig_pv)
     return PortalGeometry(

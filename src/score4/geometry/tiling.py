@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..scene import RoughLayer
+from .blocks import place_blocks
 from .solids import multiunion_solid, tessellated_solid
 
 #: Nested layout: most boxes one mother (the envelope) holds directly (50 x 50).
@@ -41,14 +42,48 @@ def _rotation(g4, r: np.ndarray):
     return rot
 
 
-def variant_solid(g4, layer: RoughLayer, k: int, name: str):
-    """(solid, keep) of patch variant ``k``: the closed body, base plane at z = 0, slab below."""
+def place_variant(
+    g4,
+    layer: RoughLayer,
+    k: int,
+    mother_lv,
+    z: float,
+    material,
+    name: str,
+    copy_no: int = 0,
+    copies: int = 1,
+) -> tuple[list, list]:
+    """Place patch variant ``k`` in ``mother_lv`` with its base plane at height ``z``.
+
+    The patch is one solid (``tessellated`` / ``multiunion``: the closed body, slab below the
+    base plane) or a grid of closed blocks (``blocks``, :mod:`.blocks`).
+    ``copies`` is how many times ``mother_lv`` is placed (blocks: bounds the placed blocks).
+    Returns ``(logical volumes of the patch's material, objects to keep alive)``.
+    """
     surface = layer.variants[k]
-    if layer.solid_kind(k) == "multiunion":
+    kind = layer.solid_kind(k)
+    if kind == "blocks":
+        return place_blocks(
+            g4,
+            surface,
+            layer.base_thickness,
+            layer.config.block_cells,
+            material,
+            mother_lv,
+            z,
+            name,
+            copies,
+        )
+    if kind == "multiunion":
         assert surface.spikes is not None  # only spike grids are made multi-unions
-        return multiunion_solid(g4, surface.spikes, layer.base_thickness, name)
-    solid = tessellated_solid(g4, surface.body(layer.base_thickness), name)
-    return solid, []
+        solid, parts = multiunion_solid(g4, surface.spikes, layer.base_thickness, name)
+    else:
+        solid, parts = tessellated_solid(g4, surface.body(layer.base_thickness), name), []
+    lv = g4.G4LogicalVolume(solid, material, name)
+    pv = g4.G4PVPlacement(
+        None, g4.G4ThreeVector(0, 0, z), lv, name, mother_lv, False, copy_no, False
+    )
+    return [lv], [solid, parts, lv, pv]
 
 
 def place_native(g4, layer: RoughLayer, mother_lv, world_material, material) -> tuple[list, list]:
@@ -74,15 +109,14 @@ def place_native(g4, layer: RoughLayer, mother_lv, world_material, material) -> 
     z = -t / 2 + layer.base_thickness  # base plane of the patches in cell-box coordinates
     patch_lvs, cell_lvs = [], []
     for k in range(len(layer.variants)):
-        solid, parts = variant_solid(g4, layer, k, f"{name}_v{k}")
-        lv_k = g4.G4LogicalVolume(solid, material, f"{name}_v{k}")
         cell_solid = g4.G4Box(f"{name}_cell{k}", px / 2, py / 2, t / 2)
         cell_lv = g4.G4LogicalVolume(cell_solid, world_material, f"{name}_cell{k}")
-        patch_pv = g4.G4PVPlacement(
-            None, g4.G4ThreeVector(0, 0, z), lv_k, f"{name}_v{k}", cell_lv, False, 0, False
+        copies = int((layer.patch_map.variants == k).sum())
+        lvs_k, keep_k = place_variant(
+            g4, layer, k, cell_lv, z, material, f"{name}_v{k}", copies=copies
         )
-        keep += [solid, parts, lv_k, cell_solid, cell_lv, patch_pv]
-        patch_lvs.append(lv_k)
+        keep += [cell_solid, cell_lv, keep_k]
+        patch_lvs += lvs_k
         cell_lvs.append(cell_lv)
     variants = layer.patch_map.variants
     ny, nx = variants.shape

@@ -1,0 +1,249 @@
+"""CPU per alpha event on rough faces, one tessellated solid per patch vs blocks, and build cost.
+
+    .venv/bin/python benchmarks/bench_surfaces.py [--events 10000] [--slow-events 2000]
+        [--cases a,b] [--sizes 256,512]
+
+First table: each case is a whole ``score4 run`` in its own process (``--jobs 1``, lite physics,
+5.3 MeV alphas, isotropic, exponential depth 20 nm below the local surface, the +z face of a
+silicon box about 1.5 mm x 1.5 mm, a whole number of patches). Each case runs twice, with
+``--events`` (``--slow-events`` for the one-tessellated-solid cases ``*_tess``) and with a
+tenth of that; the CPU per event is the difference of the two
+processes' CPU times (children's user + system) over the difference of events, so start-up and
+geometry building cancel. ``ratio`` is that figure over the equal-height pyramid face's (the
+multi-union, score4's fastest rough face) from the same invocation; ``mean MeV`` is the mean
+deposit as a check.
+
+Second table (``--sizes``): build cost of one patch of a Gaussian random map of n x n pixels
+(0.5 um pitch) as ``solid: blocks`` in a fresh process: numpy (cutting the mesh into closed
+blocks), Geant4 (solids and placements), peak RSS of the process and its growth over a process
+that only imported Geant4.
+
+The machine is shared with other jobs: absolute figures vary by +-30 %; ratios from one
+invocation are firmer.
+
+Measured 2026-11-25 on the shared 2-core machine (other engineers' jobs running, load 2-12),
+geant4_pybind 0.1.3 / Geant4 11.4.1. Run 1, all cases 3000 events (auto blocks then aimed at
+8 facets without the placed-blocks bound, so the measured map had 2 x 2-pixel blocks):
+    .venv/bin/python benchmarks/bench_surfaces.py --events 3000 --slow-events 3000
+
+    case                ms/event  ratio
+    flat                   0.393   0.77
+    pyramids               0.509   1.00
+    pyramids_tess          7.376  14.49
+    pyramids_blocks        0.678   1.33
+    spread_tess           38.514  75.66
+    spread_blocks          0.696   1.37
+    bumps_union            0.858   1.69
+    bumps_blocks           1.118   2.20
+    measured_tess         22.951  45.08
+    measured_blocks        1.177   2.31
+
+     pixels blocks   facets numpy s   G4 s RSS MB dRSS MB
+        256  16384   524288    1.86   2.15    554     451
+        512  16384  1310720    2.14   6.64    990     886
+       1024  16384  3670016    2.97  20.16   2331    2228
+       2048 refused: 8388608 top facets, above the limit of 4000000
+
+Run 2 (current code), load ~2:
+    .venv/bin/python benchmarks/bench_surfaces.py --events 5000 --slow-events 300 \
+        --cases pyramids,flat,gauss_blocks,selfaff_blocks,measured_blocks,spread_blocks,gauss_tess,selfaff_tess --sizes ""
+
+    case                ms/event  ratio
+    pyramids               0.563   1.00
+    flat                   0.281   0.50
+    gauss_blocks           0.694   1.23
+    selfaff_blocks         1.200   2.13
+    measured_blocks        0.720   1.28
+    spread_blocks          0.752   1.34
+    gauss_tess          1284.164 2280.00
+    selfaff_tess        1229.124 2182.28
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+SURF = ROOT / "examples" / "surfaces"
+PYRAMIDS = {"kind": "spikes", "nx": 50, "ny": 50, "width": "10 um", "height": "10 um"}
+MEASURED = {
+    "kind": "measured",
+    "file": str(SURF / "turned_grid.txt"),
+    "level": True,
+    "crop_x": ["0 um", "30 um"],
+    "crop_y": ["0 um", "25 um"],
+}
+
+
+def _yaml(name: str) -> dict:
+    return yaml.safe_load((SURF / name).read_text())
+
+
+#: case -> (surface spec or None for flat, patch size in mm, solid)
+CASES = {
+    "flat": (None, 0.5, None),
+    "pyramids": (PYRAMIDS, 0.5, "multiunion"),
+    "pyramids_tess": (PYRAMIDS, 0.5, "tessellated"),
+    "pyramids_blocks": (PYRAMIDS, 0.5, "blocks"),
+    "spread_tess": ({**PYRAMIDS, "height_sigma": "2 um", "seed": 3}, 0.5, "tessellated"),
+    "spread_blocks": ({**PYRAMIDS, "height_sigma": "2 um", "seed": 3}, 0.5, "blocks"),
+    "bumps_union": ({**PYRAMIDS, "shape": "bump", "n_layers": 4}, 0.5, "multiunion"),
+    "bumps_blocks": ({**PYRAMIDS, "shape": "bump", "n_layers": 4}, 0.5, "blocks"),
+    "gauss_tess": (_yaml("random_gaussian.yaml"), 0.256, "tessellated"),
+    "gauss_blocks": (_yaml("random_gaussian.yaml"), 0.256, "blocks"),
+    "selfaff_tess": (_yaml("self_affine.yaml"), 0.128, "tessellated"),
+    "selfaff_blocks": (_yaml("self_affine.yaml"), 0.128, "blocks"),
+    "measured_tess": (MEASURED, 0.03, "tessellated"),
+    "measured_blocks": (MEASURED, 0.03, "blocks"),
+}
+
+
+def config(case: str, events: int) -> dict:
+    """Run configuration of ``case``; ``<case>_b<N>`` is ``<case>`` with ``block_cells: N``."""
+    base, _, cells = case.rpartition("_b")
+    block_cells = int(cells) if base in CASES and cells.isdigit() else None
+    surface, patch, solid = CASES[base if block_cells else case]
+    n = max(1, round(1.5 / patch))
+    size_x = size_y = n * patch
+    if case.startswith("measured"):
+        size_x, size_y = 50 * 0.030, 60 * 0.025
+    target = {
+        "name": "crystal",
+        "material": "G4_Si",
+        "size": [f"{size_x} mm", f"{size_y} mm", "0.3 mm"],
+        "position": ["0 mm", "0 mm", "-0.15 mm"],
+    }
+    data = {"physics": "lite"}
+    if surface is not None:
+        data["surfaces"] = {"s": surface}
+        rough = {"face": "+z", "surface": "s", "solid": solid, "base_thickness": "1 um"}
+        if block_cells:
+            rough["block_cells"] = block_cells
+        target["rough"] = [rough]
+    data.update(
+        targets=[target],
+        source={
+            "particle": "alpha",
+            "energy": "5.3 MeV",
+            "direction": "isotropic",
+            "surface": {"volume": "crystal", "face": "+z"},
+            "depth": {"profile": "exponential", "mean": "20 nm"},
+        },
+        run={"events": events, "seed": 1},
+        output={"histogram": {"bins": 106, "max": "5.3 MeV"}},
+    )
+    return data
+
+
+def run_case(case: str, events: int, tmp: Path) -> tuple[float, float]:
+    """(CPU seconds of the whole run process, mean deposit MeV)."""
+    cfg = tmp / f"{case}_{events}.yaml"
+    cfg.write_text(yaml.safe_dump(config(case, events)))
+    out = tmp / f"{case}_{events}.h5"
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cmd = [sys.executable, "-m", "score4.cli.main", "run", str(cfg), "--out", str(out), "-q"]
+    subprocess.run(cmd, check=True, env={**os.environ, "PYTHONPATH": str(ROOT / "src")})
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
+    from score4.output import read_results
+
+    return cpu, float(read_results(out).scores["edep"]["crystal"].mean())
+
+
+def build_case(n: int) -> None:
+    """Child process: build one n x n pixel patch as blocks, print numpy s, Geant4 s, RSS."""
+    import numpy as np
+
+    from score4.sim.runtime import import_geant4, resolve_physics
+
+    g4 = import_geant4(resolve_physics("lite"))
+    rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    from score4.geometry.blocks import fast_tessellated
+    from score4.surface.blocks import block_bodies
+    from score4.surface.spec import build_surface
+
+    spec = {"kind": "random", "nx": n + 1, "ny": n + 1, "pitch": "0.5 um", "sq": "0.3 um"}
+    surface = build_surface({**spec, "corr_length": "3 um", "periodic": False, "seed": 1})
+    t0 = time.process_time()
+    bodies = block_bodies(surface, 1e-3)
+    t1 = time.process_time()
+    mat = g4.G4NistManager.Instance().FindOrBuildMaterial("G4_Si")
+    box = g4.G4Box("m", 1.0, 1.0, 1.0)
+    mother = g4.G4LogicalVolume(box, mat, "m")
+    keep = []
+    where = g4.G4ThreeVector()
+    for b, body in enumerate(bodies):
+        solid = fast_tessellated(g4, body, f"b{b}")
+        lv = g4.G4LogicalVolume(solid, mat, f"b{b}")
+        keep += [solid, lv, g4.G4PVPlacement(None, where, lv, f"b{b}", mother, False, b, False)]
+    t2 = time.process_time()
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    facets = int(np.sum([b.n_faces for b in bodies]))
+    print(f"{n} {len(bodies)} {facets} {t1 - t0:.2f} {t2 - t1:.2f} {rss:.0f} {rss - rss0:.0f}")
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--events", type=int, default=10000)
+    p.add_argument(
+        "--slow-events", type=int, default=2000, help="events of the *_tess cases (10-70x slower)"
+    )
+    p.add_argument("--cases", default=",".join(CASES))
+    p.add_argument("--sizes", default="256,512,1024,2048")
+    p.add_argument("--build-child", type=int, help=argparse.SUPPRESS)
+    a = p.parse_args()
+    if a.build_child:
+        build_case(a.build_child)
+        return
+    cases = [c for c in a.cases.split(",") if c]
+    rows = {}
+    with tempfile.TemporaryDirectory() as d:
+        for case in cases:
+            events = a.slow_events if case.endswith("_tess") else a.events
+            try:
+                big, mean = run_case(case, events, Path(d))
+                small, _ = run_case(case, events // 10, Path(d))
+            except subprocess.CalledProcessError:
+                print(f"{case}: the run failed (see its error above)")
+                continue
+            per = (big - small) / (events - events // 10)
+            rows[case] = (per, big, small, mean)
+    ref = rows.get("pyramids", (float("nan"),))[0]
+    print(
+        f"{'case':18s} {'ms/event':>9s} {'ratio':>6s} {'CPU big s':>9s} {'CPU small s':>11s} {'mean MeV':>8s}"
+    )
+    for case, (per, big, small, mean) in rows.items():
+        print(f"{case:18s} {per * 1e3:9.3f} {per / ref:6.2f} {big:9.2f} {small:11.2f} {mean:8.3f}")
+    sizes = [int(s) for s in a.sizes.split(",") if s]
+    if sizes:
+        print(
+            f"\n{'pixels':>7s} {'blocks':>6s} {'facets':>8s} {'numpy s':>7s} {'G4 s':>6s} {'RSS MB':>6s} {'dRSS MB':>7s}"
+        )
+    for n in sizes:
+        r = subprocess.run(
+            [sys.executable, __file__, "--build-child", str(n)],
+            check=False,
+            capture_output=True,
+            text=True,
+            env={**os.environ, "PYTHONPATH": str(ROOT / "src")},
+        )
+        if r.returncode:
+            print(f"{n:7d} failed: {r.stderr.strip().splitlines()[-1:]}")
+            continue
+        f = r.stdout.split()[-7:]
+        print(
+            f"{int(f[0]):7d} {int(f[1]):6d} {int(f[2]):8d} {f[3]:>7s} {f[4]:>6s} {f[5]:>6s} {f[6]:>7s}"
+        )
+
+
+if __name__ == "__main__":
+    main()
