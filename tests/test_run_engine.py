@@ -169,14 +169,16 @@ def test_resume_reuses_only_chunks_of_the_same_run(tmp_path: Path, make_config):
             chunk_path(parts, first_event // 10), first_event, ["crystal"], edep, p, fingerprint
         )
 
-    planted(0, config_fingerprint(config, 9), 123.0)  # a finished chunk of this very run: kept
-    planted(10, "another-run", 456.0)  # left over from a different configuration: redone
+    planted(
+        0, config_fingerprint(config, 9), 1.2345
+    )  # a finished chunk of this run: kept (markers below 5.3 MeV: no energy-check warning)
+    planted(10, "another-run", 4.5678)  # left over from a different configuration: redone
     with pytest.raises(ConfigError, match="--resume"):
         run(config, out, progress=False, echo=lambda m: None)
     res = read_results(run(config, out, resume=True, progress=False, echo=lambda m: None))
     edep = res.edep["crystal"]
-    assert (edep[:10] == 123.0).all()
-    assert not (edep[10:] == 456.0).any()
+    assert (edep[:10] == 1.2345).all()
+    assert not (edep[10:] == 4.5678).any()
     assert (edep[10:] <= 5.3 + 1e-9).all()
     assert not parts.exists()
 
@@ -217,7 +219,7 @@ def test_resume_keeps_the_chunks_of_the_interrupted_run_whatever_jobs_is_now(
     p = Primaries(
         np.arange(10), ["alpha"] * 10, [5.3] * 10, np.zeros((10, 3)), [[0, 0, -1.0]] * 10, extra
     )
-    edep = {"edep": np.full((10, 1), 123.0)}
+    edep = {"edep": np.full((10, 1), 1.2345)}
     write_chunk(chunk_path(parts, 1), 10, ["crystal"], edep, p, config_fingerprint(config, 9))
     said = []
     res = read_results(
@@ -226,4 +228,4 @@ def test_resume_keeps_the_chunks_of_the_interrupted_run_whatever_jobs_is_now(
     assert "resume: 1 of 3 chunks already finished" in said[0]
     assert res.run["n_chunks"] == 3
     assert res.run["resumed_chunks"] == 1
-    assert (res.edep["crystal"][10:20] == 123.0).all()
+    assert (res.edep["crystal"][10:20] == 1.2345).all()
