@@ -145,7 +145,7 @@ class Simulation:
                 histories=self.config.physics.trim_histories,
             )
         self._endpoint_action: Any = None
-        self._replay_rows: np.ndarray | None = None
+        self._replaying = False  # this batch has heavy ions to replay
         self.endpoints: np.ndarray | None = None
         self._particles: dict[str, object] = {}
         self.volumes = list(self.scorer.names)
@@ -196,7 +196,7 @@ class Simulation:
     def _score(self, event) -> None:
         k = self._next_event
         self.scorer.read(event, self._scores, k)
-        if self._replay_rows is not None:
+        if self._replaying:
             self._replay_event(k)
         self._next_event += 1
 
@@ -258,8 +258,8 @@ class Simulation:
 
     def _prepare_replay(self, primaries: Primaries, g4_seed: int | np.ndarray) -> None:
         """Heavy ions of this batch: libraries announced, random streams chosen."""
-        self._replay_rows = None
-        if not self._trim.any():
+        self._replaying = bool(self._trim.any())
+        if not self._replaying:
             return
         transport = self.heavy_ions
         assert transport is not None  # rows are only marked for TRIM when it exists
@@ -273,7 +273,6 @@ class Simulation:
             if self._replay_seeds.ndim == 0
             else None
         )
-        self._replay_rows = self._trim
 
     def _replay_event(self, k: int) -> None:
         """Move event ``k``'s heavy ions along TRIM trajectories; add their deposits (per event,
