@@ -12,6 +12,12 @@ import h5py
 from .errors import Score4Error
 
 
+def cache_dir(*parts: str) -> Path:
+    """score4's folder under the user cache, ``$XDG_CACHE_HOME/score4/...`` (``~/.cache``)."""
+    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    return base.joinpath("score4", *parts)
+
+
 @contextlib.contextmanager
 def atomic_output(path: str | os.PathLike):
     """Yield a temporary path beside ``path``; rename it over ``path`` only if the block succeeds.

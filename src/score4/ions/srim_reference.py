@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import files
 from ..errors import ConfigError, Score4Error
 from .composition import Composition
 from .species import IonSpecies, parse_ion
@@ -225,8 +226,7 @@ def semi_infinite_thickness_mm(
 # ------------------------------------------------------------------------ TRIM runs
 def cache_dir() -> Path:
     """Where TRIM results are kept: ``$XDG_CACHE_HOME/score4/srim`` (``~/.cache/score4/srim``)."""
-    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
-    return base / "score4" / "srim"
+    return files.cache_dir("srim")
 
 
 def _cache_key(inputs: dict) -> str:

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import files
 from ..errors import Score4Error
 from .composition import Composition
 
@@ -158,8 +159,8 @@ def _import_lunasrim():
 
 
 def cache_dir() -> Path:
-    base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache"))
-    return base / "score4" / "trim-trajectories"
+    """Where trajectory libraries are kept: ``$XDG_CACHE_HOME/score4/trim-trajectories``."""
+    return files.cache_dir("trim-trajectories")
 
 
 def library_key(

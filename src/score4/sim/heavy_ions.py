@@ -22,7 +22,6 @@ safety sphere are summed in numpy without asking the navigator.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -31,20 +30,16 @@ from ..errors import Score4Error
 from ..ions.composition import Composition
 from ..ions.trim_library import TrajectoryLibrary, rotation_from_x, trim_library
 
-_ION = re.compile(r"^([A-Z][a-z]?)-?(\d{1,3})$")
 #: Materials thinner than this (g/cm3) are vacuum for a heavy ion: it crosses them in a line.
 VACUUM_DENSITY = 1e-5
 _MAX_CROSSINGS = 10_000
 _FAR = 1e90
 
 
-def heavy_ion_z(g4, name: str) -> int:
-    """Z of an ion name such as ``Pb206`` if it is an ion heavier than helium, else 0."""
-    match = _ION.match(name)
-    if not match:
-        return 0
-    z = int(g4.G4NistManager.Instance().GetZ(match.group(1)))
-    return z if z > 2 else 0
+def heavy_ion_z(particle) -> int:
+    """Z of a Geant4 particle definition if it is a nucleus heavier than helium, else 0."""
+    z = int(particle.GetAtomicNumber())
+    return z if particle.GetParticleType() == "nucleus" and z > 2 else 0
 
 
 @dataclass
@@ -105,7 +100,7 @@ class HeavyIonTransport:
             mass_amu = float(particle.GetPDGMass()) / float(self.g4.amu_c2)
             lib = trim_library(
                 ion,
-                round(particle.GetPDGCharge()),
+                int(particle.GetAtomicNumber()),
                 mass_amu,
                 target,
                 comp,

@@ -75,11 +75,9 @@ def resolve_physics(requested: str, needs_decay: bool = False) -> PhysicsChoice:
 
 def lite_stub_dir() -> Path:
     """A folder with the empty stand-ins that let Geant4 start without data (see DESIGN.md)."""
-    base = (
-        Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache"))
-        / "score4"
-        / "geant4-lite-stub"
-    )
+    from ..files import cache_dir
+
+    base = cache_dir("geant4-lite-stub")
     (base / "G4ENSDFSTATE3.0").mkdir(parents=True, exist_ok=True)
     (base / "G4ENSDFSTATE3.0" / "ENSDFSTATE.dat").touch()
     (base / "PhotonEvaporation6.1.2").mkdir(parents=True, exist_ok=True)

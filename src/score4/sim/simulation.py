@@ -173,7 +173,7 @@ class Simulation:
             rows = primaries.particle == name
             if name == "alpha" and physics.alphas == "trim":
                 mask |= rows
-            elif physics.heavy_ions == "trim" and heavy_ion_z(self.g4, str(name)):
+            elif physics.heavy_ions == "trim" and heavy_ion_z(self.particle(str(name))):
                 mask |= rows & (primaries.energy <= physics.trim_max_energy)
         return mask
 
@@ -263,8 +263,10 @@ class Simulation:
             return
         transport = self.heavy_ions
         assert transport is not None  # rows are only marked for TRIM when it exists
-        for row in np.flatnonzero(self._trim):  # one library per ion, start energy and material
-            transport.need(str(primaries.particle[row]), float(primaries.energy[row]))
+        # one library per ion, start energy and material
+        rows = self._trim
+        for name, energy in set(zip(primaries.particle[rows], primaries.energy[rows], strict=True)):
+            transport.need(str(name), float(energy))
         # Own streams: one per primary with per-event Geant4 seeds (so the first N events of a
         # run are the same in a longer run), else one for the batch.
         self._replay_seeds = np.asarray(g4_seed)
