@@ -110,9 +110,9 @@ def resolve_material(name: str, density: str | None, materials: dict, names=None
     known = (names or nist_names)()
     if name in known:
         return materials
-    from ..geometry.materials import closest_material_names
+    from ..geometry.materials import suggest_materials
 
-    close = closest_material_names(name, list(materials) + known)
+    close = suggest_materials(name, list(materials) + known)
     hint = f"; closest: {', '.join(close)}" if close else ""
     raise ConfigError(
         f"MATERIAL: unknown material {name!r}{hint}; give a Geant4 NIST name (G4_Si), a name "

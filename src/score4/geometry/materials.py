@@ -13,11 +13,6 @@ def nist_material_names(g4) -> list[str]:
     return list(g4.G4NistManager.Instance().GetNistMaterialNames())
 
 
-def closest_material_names(name: str, known: list[str], n: int = 5) -> list[str]:
-    """Up to ``n`` names of ``known`` that look like ``name`` (:func:`suggest_materials`)."""
-    return suggest_materials(name, known, n)
-
-
 def _as_spec(spec):
     from ..config import MaterialSpec
 
