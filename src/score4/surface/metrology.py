@@ -35,6 +35,12 @@ Definitions and discretisation (z is the height above the reference plane):
   Str = shortest / longest. Lags are searched up to half the map size in each axis (beyond it
   fewer than half the points overlap and estimator noise can fake a crossing): Sal is NaN if no
   direction decays within that range, Str is NaN if some direction does not.
+  On the exact Gaussian ACF every direction gives sqrt(ln 5) l to 0.5 %. On one realisation of
+  an isotropic random field Sal reads low: the sample ACF scatters from direction to direction
+  and Sal is the *shortest* length, a minimum of noisy values. Measured on periodic Gaussian maps
+  with l = 6 pitches (``benchmarks/bench_sal_periodic.py``, 8 seeds): Sal / (sqrt(ln 5) l) =
+  0.94 at 128 x 128 and 0.97 at 256 x 256, while the mean over directions is 1.00 +- 0.02.
+  This is the ISO definition applied to a finite map, not an error of the estimator.
 
 A periodic map closed into a tile (:func:`~score4.surface.processing.close_periodic`, the last
 processing step) is reduced to one period before levelling and every parameter: its duplicated
