@@ -399,3 +399,29 @@ def test_describer_commands(tmp_path):
     # with a RoughnessHelper they are overridden (RoughnessHelper::BuildSurface)
     _, report = import_macro(macro(tmp_path, "/geometry/surface/setNrSpike_X 3\n" + HELPER))
     assert items(report.ignored) == {"line 1": "/geometry/surface/setNrSpike_X 3"}
+
+
+def test_deviations_from_the_original_are_reported(tmp_path):
+    """The original's RoughnessHelper limits steps in its roughness volume to 1 % of the smaller
+    spike half-width (5 um -> 50 nm) unless setStepLimit is given, and its MultiportalHelper
+    material fills only the portal, subworlds and triggers; score4 does neither, and says so."""
+    _, report = import_macro(macro(tmp_path, HELPER), out=tmp_path / "a.yaml")
+    step = [n for n in report.notes if "limits steps" in n]
+    assert len(step) == 1
+    assert "deviation" in step[0]
+    assert "50 nm" in step[0]
+    assert "'r'" in step[0]
+    limited = macro(tmp_path, HELPER + "/Surface/RoughnessHelper/r/setStepLimit 1 nm\n", "b.mac")
+    _, report = import_macro(limited, out=tmp_path / "b.yaml")
+    assert not [n for n in report.notes if "limits steps" in n]
+    assert "deviation" in items_detail(report.ignored)["line 9"]
+    _, report = import_macro(PORTAL, out=tmp_path / "portal.yaml")
+    material = [n for n in report.notes if "portal, its subworlds and triggers" in n]
+    assert len(material) == 1
+    assert "G4_Galactic" in material[0]
+    assert "deviation" in material[0]
+
+
+def items_detail(report_list) -> dict[str, str]:
+    """{"line N": what became of it} of a report list."""
+    return {i.where: i.detail for i in report_list}

@@ -357,9 +357,13 @@ _VOXEL = (
     "without it (DESIGN.md: solids of <= 1e5 spikes, large faces tiled)"
 )
 _STEP = (
-    "G4UserLimits max step on the patch; score4 sets no per-volume step limit (its physics sets "
-    "step functions and physics.production_cut)"
+    "deviation: G4UserLimits max step on the patch; score4 sets no per-volume step limit (its "
+    "physics sets step functions and physics.production_cut; see the report's notes)"
 )
+#: RoughnessHelper::CheckValues: without setStepLimit the roughness volume gets G4UserLimits of
+#: this fraction of the smaller spike half-width (acting on the ions, alpha, He3, d and t that
+#: the original's physics lists give a G4StepLimiter).
+_DEFAULT_STEP_FRACTION = 0.01
 
 # param, value kind; kinds: length (> 0), length0 (>= 0), count, word, spikeform
 _ROUGHNESS = {
@@ -512,6 +516,7 @@ class _State:
     tables: list[tuple[Path, _Command]] = field(default_factory=list)
     beam_on: list[tuple[int, _Command]] = field(default_factory=list)
     initialized: _Command | None = None
+    step_limited: set[str] = field(default_factory=set)  # RoughnessHelpers given setStepLimit
 
     def where(self, cmd: _Command) -> str:
         return f"line {cmd.line}" if cmd.file == self.macro else f"{cmd.file.name} line {cmd.line}"
@@ -576,6 +581,8 @@ def _helper_command(state: _State, cmd: _Command, parts: list[str]) -> None:
         return
     if sub in ignored:
         state.ignored(cmd, ignored[sub])
+        if sub == "setStepLimit":
+            state.step_limited.add(name)
         return
     if sub not in table:
         state.unknown(cmd, f"unknown {kind} command")
@@ -993,6 +1000,12 @@ def _portal_face(
             f"world.material = {portal.get('material')} (the medium around "
             "the patches: score4's layer envelope is of the world material)",
         )
+        state.report.notes.append(
+            f"deviation: the original gives {portal.get('material')} ({state.where(material_cmd)}) "
+            "to the portal, its subworlds and triggers only; score4 has no separate portal "
+            "volume and sets the whole world's material, so the medium outside the portal "
+            "changes too"
+        )
     for param, _, cmd in portal.commands:
         if portal.values[param][1] is not cmd:
             state.ignored(cmd, f"overridden by {state.where(portal.values[param][1])}")
@@ -1364,6 +1377,17 @@ def _build(state: _State, out_dir: Path, stem: str) -> dict:
         config["surfaces"][h.name] = _spike_surface(
             state, h, label, _DESCRIBER_DEFAULTS if h is state.describer else None
         )
+    for h in helpers:
+        if h is not state.describer and h.name not in state.step_limited:
+            half = min(h.values[k][0].value for k in ("dx", "dy"))
+            state.report.notes.append(
+                f"deviation: the original limits steps of ions, alpha, He3, d and t in "
+                f"RoughnessHelper {h.name!r} to {_g(_DEFAULT_STEP_FRACTION * half * 1e6)} nm "
+                "(G4UserLimits of 1 % of the smaller spike half-width, its default without "
+                "setStepLimit); score4 sets no per-volume step limit: alphas follow its "
+                "light-ion step function (final range 0.1 um) and heavy ions TRIM trajectories "
+                "(docs/physics.md)"
+            )
     rough, size_x, size_y = _face(state, helpers, config)
     material = _material(state, helpers if state.portals else helpers[:1])
     thickness = parse_quantity(DEFAULT_TARGET_THICKNESS, "length")
