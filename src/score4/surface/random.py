@@ -49,6 +49,7 @@ Self-affine fractals
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -325,8 +326,14 @@ def _su_skew_kurt(gamma: float, delta: float) -> tuple[float, float]:
     return m3 / var**1.5, m4 / var**2
 
 
-_GH_U, _GH_W = np.polynomial.hermite_e.hermegauss(160)  # E[g(u)] = sum(w g(u)) / sqrt(2 pi)
-_GH_W = _GH_W / _GH_W.sum()
+@functools.cache
+def _gauss_hermite() -> tuple[np.ndarray, np.ndarray]:
+    """160-point nodes and normalised weights: E[g(u)] = sum(w g(u)) for u ~ N(0, 1).
+
+    Computed on first use, not at import: every run imports this module via the config.
+    """
+    u, w = np.polynomial.hermite_e.hermegauss(160)
+    return u, w / w.sum()
 
 
 def _sample_skew_kurt(y: np.ndarray) -> tuple[float, float]:
@@ -339,10 +346,11 @@ def _sb_skew_kurt(gamma: float, delta: float) -> tuple[float, float]:
     """Skewness and kurtosis of y = logistic((u - gamma)/delta) by Gauss-Hermite quadrature."""
     from scipy import special
 
-    y = special.expit((_GH_U - gamma) / delta)
-    d = y - _GH_W @ y
-    m2 = _GH_W @ d**2
-    return float(_GH_W @ d**3 / m2**1.5), float(_GH_W @ d**4 / m2**2)
+    u, w = _gauss_hermite()
+    y = special.expit((u - gamma) / delta)
+    d = y - w @ y
+    m2 = w @ d**2
+    return float(w @ d**3 / m2**1.5), float(w @ d**4 / m2**2)
 
 
 def _solve_family(
