@@ -70,6 +70,7 @@ sys.path.insert(0, str(ROOT / "src"))
 
 def run(args, niel: float) -> None:
     """One configuration in this process (Geant4 state is global: call once per process)."""
+    from score4.sim.physics import strip_data_hungry_processes
     from score4.sim.runtime import PhysicsChoice, prepare_environment
 
     prepare_environment(PhysicsChoice("lite", "lite", False, "", ()))
@@ -157,16 +158,8 @@ def run(args, niel: float) -> None:
     for a in actions[2:]:
         rm.SetUserAction(a)
     rm.Initialize()
+    strip_data_hungry_processes(g4)  # lite mode, as score4 runs here
     table = g4.G4ParticleTable.GetParticleTable()
-    for particle, names in {
-        "e-": ("eBrem",),
-        "e+": ("eBrem",),
-        "gamma": ("GammaGeneralProc",),
-    }.items():
-        manager = table.FindParticle(particle).GetProcessManager()
-        for process in list(manager.GetProcessList()):
-            if process.GetProcessName() in names:
-                manager.RemoveProcess(process)
     ion = args.ion
     definition = (
         table.FindParticle("alpha")

@@ -253,6 +253,7 @@ MATRIX_SETUPS = (
 
 def run_setup(spec: dict) -> dict:
     """Track ``spec['events']`` ions with set-up ``spec`` in this process; return the figures."""
+    from score4.sim.physics import strip_data_hungry_processes
     from score4.sim.runtime import PhysicsChoice, prepare_environment
 
     prepare_environment(PhysicsChoice("lite", "lite", False, "", ()))
@@ -340,16 +341,8 @@ def run_setup(spec: dict) -> dict:
     rm.SetUserAction(gen)
     rm.SetUserAction(tracking)
     rm.Initialize()
+    strip_data_hungry_processes(g4)  # lite mode, as score4 runs here
     table = g4.G4ParticleTable.GetParticleTable()
-    for particle, names in {
-        "e-": ("eBrem",),
-        "e+": ("eBrem",),
-        "gamma": ("GammaGeneralProc",),
-    }.items():
-        manager = table.FindParticle(particle).GetProcessManager()
-        for process in list(manager.GetProcessList()):
-            if process.GetProcessName() in names:
-                manager.RemoveProcess(process)
     carrier = "GenericIon" if spec["ion"] != "alpha" else "alpha"
     processes = [
         str(p.GetProcessName())
