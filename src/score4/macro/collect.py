@@ -250,17 +250,9 @@ def _shift_command(state: State, cmd: Command) -> None:
     if sub == "loadShiftTable":
         if len(cmd.args) != 1:
             raise cmd.fail(f"expected one file name, got {' '.join(cmd.args)!r}")
-        name = Path(cmd.args[0])
         # The original opens it relative to the program's working folder; try beside the macro
         # first.
-        candidates = [name] if name.is_absolute() else [cmd.file.parent / name, Path.cwd() / name]
-        found = next((c for c in candidates if c.is_file()), None)
-        if found is None:
-            raise cmd.fail(
-                f"shift table {cmd.args[0]!r} not found (looked in "
-                f"{', '.join(str(c.parent) for c in candidates)})"
-            )
-        state.tables.append((found, cmd))
+        state.tables.append((cmd.find_file("shift table"), cmd))
     elif sub in ("setMinShift", "setMaxShift"):
         q = quantity(cmd, "length", "mm", minimum="zero" if sub == "setMinShift" else "positive")
         state.set("depth_min" if sub == "setMinShift" else "depth_max", q, cmd)

@@ -116,6 +116,19 @@ class Command:
     def fail(self, message: str) -> ConfigError:
         return ConfigError(f"{self.where}: {self.path}: {message}")
 
+    def find_file(self, what: str) -> Path:
+        """The file named by the first argument: as given if absolute, else beside the macro,
+        then in the working folder (``what`` names it in the error)."""
+        name = Path(self.args[0])
+        candidates = [name] if name.is_absolute() else [self.file.parent / name, Path.cwd() / name]
+        found = next((c for c in candidates if c.is_file()), None)
+        if found is None:
+            raise self.fail(
+                f"{what} {self.args[0]!r} not found (looked in "
+                f"{', '.join(str(c.parent) for c in candidates)})"
+            )
+        return found
+
 
 def _tokens(line: str) -> list[str]:
     """Split on blanks; double quotes group (Geant4's G4UIbatch tokenizer)."""
@@ -182,14 +195,7 @@ def _include(cmd: Command, commands: list[Command], stack: tuple[Path, ...]) -> 
     """Expand ``/control/execute FILE`` in place (FILE looked for beside the macro, then here)."""
     if len(cmd.args) != 1:
         raise cmd.fail(f"expected one macro file name, got {' '.join(cmd.args)!r}")
-    name = Path(cmd.args[0])
-    candidates = [name] if name.is_absolute() else [cmd.file.parent / name, Path.cwd() / name]
-    found = next((c for c in candidates if c.is_file()), None)
-    if found is None:
-        raise cmd.fail(
-            f"macro {cmd.args[0]!r} not found (looked in "
-            f"{', '.join(str(c.parent) for c in candidates)})"
-        )
+    found = cmd.find_file("macro")
     if found.resolve() in {p.resolve() for p in stack}:
         raise cmd.fail(f"macro {cmd.args[0]!r} executes itself (a loop)")
     commands.append(cmd)  # reported as converted: its commands follow
