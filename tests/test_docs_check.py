@@ -123,7 +123,7 @@ checks:
 
 TABLE_DOC = """\
 <!-- check: table -->
-| face | share | CPU s |
+| face | share 50-110 keV | CPU s |
 | --- | --- | --- |
 | flat | {flat} % | 9.9 |
 | rough | 14.70 % | 0.1 |

@@ -2,9 +2,9 @@
 """Re-run the commands behind the numbers quoted in README.md and docs/*.md; fail on any difference.
 
 What is checked is declared in ``docs/checks.yaml``: each check is a list of shell commands
-(run in a scratch folder that links the repository's ``examples``, ``docs`` and ``tests``
-folders, with the ``score4`` of the running Python first on PATH) whose combined output
-(stdout and stderr) the documents quote. A document refers to a check in two ways:
+(run in a scratch folder that links the repository's ``examples``, ``docs``, ``tests`` and
+``benchmarks`` folders, with the ``score4`` of the running Python first on PATH) whose combined
+output (stdout and stderr) the documents quote. A document refers to a check in these ways:
 
 * a transcript: the line ``<!-- check: NAME -->`` directly above a fenced code block. Each
   line of the block that is not a command (``$ ...``), an elision (``...``) or empty must be
@@ -18,8 +18,8 @@ of the check's commands, from that command's output on) by their *shape* (the li
   the N-th (from 1) fenced block of language LANG (``-``: no language) in DOC to FILE;
   ``python-block DOC N [ARGS]`` runs the N-th ``python`` block of DOC.
 * a table: the same marker directly above a Markdown table. Its rows that hold a number are
-  paired and compared like the lines of a transcript (the header and the ``| --- |`` line are
-  not), so the check prints the rows exactly as the page shows them.
+  paired and compared like the lines of a transcript (not the header, not the ``| --- |`` line),
+  so the check prints the rows exactly as the page shows them.
 * a value in the text: ``<!-- value: NAME.KEY -->4248<!-- /value -->``, where ``KEY`` is a
   value of the check: ``values: {KEY: REGEX}`` in checks.yaml, the first group of the first
   output line the regex matches.
@@ -57,11 +57,12 @@ import yaml
 ROOT = Path(__file__).resolve().parent.parent
 CHECKS = ROOT / "docs" / "checks.yaml"
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
-LINKED = ("examples", "docs", "tests")
+LINKED = ("examples", "docs", "tests", "benchmarks")
 
 NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 BLOCK_MARK = re.compile(r"^<!-- check: ([\w.-]+) -->\s*$")
 TABLE_ROW = re.compile(r"^\s*\|")
+TABLE_RULE = re.compile(r"^\s*\|[\s:|-]+\|\s*$")
 VALUE_MARK = re.compile(r"<!-- value: ([\w.-]+)\.(\w+) -->(.*?)<!-- /value -->")
 
 
@@ -160,10 +161,11 @@ def shape(line: str) -> str:
     return re.sub(r"\s+", " ", NUMBER.sub("#", line.strip()))
 
 
-def _quoted(line: str) -> bool:
-    text = line.strip()
-    if text.startswith("|"):  # a table row: only rows with numbers (not the header, not ---)
-        return bool(re.search(r"\d", text))
+def _quoted(block: list[str], i: int) -> bool:
+    text = block[i].strip()
+    if text.startswith("|"):  # a table row with a number; not the header above the | --- | line
+        header = i + 1 < len(block) and TABLE_RULE.match(block[i + 1])
+        return bool(re.search(r"\d", text)) and not header
     return bool(text) and not text.startswith("$ ") and text != "..."
 
 
@@ -185,7 +187,7 @@ def compare_block(check: Check, block: list[str]) -> list[tuple[int, str, str]]:
             command = text[2:].removeprefix(".venv/bin/")
             if command in check.starts:
                 pos = check.starts[command]
-        if not _quoted(line):
+        if not _quoted(block, i):
             continue
         parts = line.rstrip().split("...")  # an elision "..." stands for any text
         pattern = re.compile(".*".join(re.escape(shape(p)) for p in parts))
