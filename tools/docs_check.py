@@ -49,6 +49,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -296,6 +297,25 @@ def check_document(
     return differences
 
 
+def quoted_names() -> list[str]:
+    """The names of the checks that the documents quote, in order of first mention."""
+    names: dict[str, None] = {}
+    for path in DOCS:
+        for line in path.read_text().splitlines():
+            if m := BLOCK_MARK.match(line):
+                names[m.group(1)] = None
+            names.update((m.group(1), None) for m in VALUE_MARK.finditer(line))
+    return list(names)
+
+
+def run_ahead(checks: list[Check], only: str | None, run_all: bool) -> None:
+    """Run the checks side by side, one per core (each check's commands are processes)."""
+    todo = [c for c in checks if runs(c, only, run_all)]
+    with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
+        for future in [pool.submit(run_check, c) for c in todo]:
+            future.result()
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--update", action="store_true", help="rewrite the quoted numbers")
@@ -309,6 +329,7 @@ def main(argv: list[str] | None = None) -> int:
         checks = load_checks()
         if args.only and args.only not in checks:
             raise CheckError(f"--only: unknown check {args.only!r}")
+        run_ahead([checks[n] for n in quoted_names() if n in checks], args.only, args.all)
         differences = sum(check_document(p, checks, args.only, args.update, args.all) for p in DOCS)
         unused = [
             c.name
