@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.score4-installed
 PYTEST_ARGS ?=
 
-.PHONY: demo test lint docs-check clean
+.PHONY: demo test lint docs-check docs-check-all clean
 
 # score4 (editable) with the test extra, plus the pinned linters of the `lint` dependency group
 # (pip >= 25.1 reads dependency groups; the step upgrades pip first).
@@ -37,6 +37,10 @@ lint: $(STAMP)
 #   .venv/bin/python tools/docs_check.py --update   (then read the diff)
 docs-check: $(STAMP)
 	$(BIN)/python tools/docs_check.py
+
+# The same plus the slow checks (benchmarks of minutes; timings compared by shape only).
+docs-check-all: $(STAMP)
+	$(BIN)/python tools/docs_check.py --all
 
 clean:
 	rm -rf $(VENV) out build src/*.egg-info

@@ -106,3 +106,63 @@ def test_every_check_of_the_repository_is_quoted_and_every_marker_known():
         }
         used |= {m.group(1) for m in docs_check.VALUE_MARK.finditer(text)}
     assert used == set(checks)
+
+
+SLOW_CHECKS = """\
+checks:
+  table:
+    commands:
+      - "echo '| flat | 31.65 % | 2.8 |'"
+      - "echo '| rough | 14.70 % | 3.5 |'"
+    mask: ["\\\\| [\\\\d.]+ \\\\|$"]
+  bench:
+    slow: true
+    commands:
+      - "echo 'build 12 s'"
+"""
+
+TABLE_DOC = """\
+<!-- check: table -->
+| face | share 50-110 keV | CPU s |
+| --- | --- | --- |
+| flat | {flat} % | 9.9 |
+| rough | 14.70 % | 0.1 |
+
+<!-- check: bench -->
+```
+build 99 s
+```
+"""
+
+
+@pytest.fixture
+def table_page(tmp_path, monkeypatch):
+    (tmp_path / "checks.yaml").write_text(SLOW_CHECKS)
+    monkeypatch.setattr(docs_check, "CHECKS", tmp_path / "checks.yaml")
+    monkeypatch.setattr(docs_check, "ROOT", tmp_path)
+    monkeypatch.setattr(docs_check, "LINKED", ())
+
+    def write(flat: str):
+        doc = tmp_path / "DOC.md"
+        doc.write_text(TABLE_DOC.format(flat=flat))
+        return doc
+
+    return write
+
+
+def test_table_rows_are_compared_and_masked_cells_only_by_shape(table_page, capsys):
+    doc = table_page("31.65")
+    checks = docs_check.load_checks()
+    # the CPU cells differ (masked); the slow check is not run by default
+    assert docs_check.check_document(doc, checks, None, update=False) == 0
+    assert checks["bench"].output is None
+    doc = table_page("31.64")
+    assert docs_check.check_document(doc, checks, None, update=False) == 1
+    assert "actual: | flat | 31.65 % | 2.8 |" in capsys.readouterr().out
+
+
+def test_slow_checks_run_with_all(table_page, capsys):
+    doc = table_page("31.65")
+    checks = docs_check.load_checks()
+    assert docs_check.check_document(doc, checks, None, update=False, run_all=True) == 1
+    assert "actual: build 12 s" in capsys.readouterr().out
