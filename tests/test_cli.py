@@ -158,3 +158,52 @@ def test_events_take_whole_numbers_also_in_exponent_form(tmp_path: Path, capsys)
     assert "need at least 1 event" in capsys.readouterr().err
     assert main(["vertices", flat, "--n", "2e3", "--out", str(tmp_path / "v.h5")]) == 0
     assert "2000 events" in capsys.readouterr().out
+
+
+FLAT = ROOT / "examples" / "flat_alpha.yaml"
+PYRAMIDS = ROOT / "examples" / "surfaces" / "pyramids.yaml"
+MACRO = ROOT / "tests" / "data" / "macros" / "paper_example.mac"
+
+
+@pytest.fixture(scope="module")
+def small_results(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("results") / "r.h5"
+    assert main(["run", str(FLAT), "--events", "5", "--out", str(out), "-q"]) == 0
+    return out
+
+
+# Every command that writes a file: arguments ({out}: the output), the option naming it, file name
+WRITERS = [
+    (["run", FLAT, "--events", "5", "-q", "--out", "{out}"], "--out", "r.h5"),
+    (["vertices", FLAT, "--n", "5", "--out", "{out}"], "--out", "v.h5"),
+    (["plot", "{results}", "--out", "{out}"], "--out", "spectra.png"),
+    (["export", "{results}", "--csv", "{out}"], "--csv", "h.csv"),
+    (["export", "{results}", "--events-csv", "{out}"], "--events-csv", "e.csv"),
+    (["export", "{results}", "--root", "{out}"], "--root", "r.root"),
+    (["surface", "generate", PYRAMIDS, "--out", "{out}"], "--out", "p.s4s.h5"),
+    (["surface", "show", PYRAMIDS, "--png", "{out}"], "--png", "p.png"),
+    (["surface", "export", PYRAMIDS, "--stl", "{out}"], "--stl", "p.stl"),
+    (["range", "alpha", "5 MeV", "G4_Si", "-n", "5", "-q", "--png", "{out}"], "--png", "d.png"),
+    (["import-macro", MACRO, "--out", "{out}"], "--out", "c.yaml"),
+]
+
+
+@pytest.mark.parametrize(
+    ("args", "option", "name"),
+    WRITERS,
+    ids=[" ".join(a for a in w[0][:2] if isinstance(a, str) and "{" not in a) for w in WRITERS],
+)
+def test_commands_replace_existing_files_only_with_overwrite(
+    tmp_path: Path, capsys, small_results, args, option, name
+):
+    out = tmp_path / name
+    out.write_bytes(b"keep me")
+    argv = [str(a).format(out=out, results=small_results) for a in args]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    said = f"score4: error: {option}: '{out}' already exists; use --overwrite to replace it\n"
+    assert err == said
+    assert out.read_bytes() == b"keep me"
+    assert [p.name for p in tmp_path.iterdir()] == [name]  # nothing else written
+    assert main([*argv, "--overwrite"]) == 0, capsys.readouterr().err
+    assert out.read_bytes()[:7] != b"keep me"

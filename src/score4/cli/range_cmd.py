@@ -251,6 +251,7 @@ def format_table(result: dict) -> str:
     type=click.Path(dir_okay=False, path_type=Path),
     help="Draw the depth distributions (score4 and, with --compare-srim, TRIM) into this image.",
 )
+@click.option("--overwrite", is_flag=True, help="Replace an existing --png file.")
 @click.option(
     "--alphas",
     type=click.Choice(["geant4", "trim"]),
@@ -273,6 +274,7 @@ def range_command(
     compare_srim,
     srim_events,
     png,
+    overwrite,
     alphas,
     quiet,
 ) -> None:
@@ -287,9 +289,9 @@ def range_command(
         ion, energy, events, srim_events, seed, thickness, angle, compare_srim
     )
     if png is not None:
-        from ..export import check_output_path
+        from ..files import check_output_file
 
-        check_output_path(png)
+        check_output_file(png, overwrite, "--png")
     materials = load_materials(config_file) if config_file is not None else {}
     materials = resolve_material(material, density, materials)
 
