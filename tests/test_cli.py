@@ -1,6 +1,7 @@
 """The score4 command line: exit codes, one-line errors, JSON summary."""
 
 import json
+import shlex
 import subprocess
 import sys
 from pathlib import Path
@@ -205,5 +206,127 @@ def test_commands_replace_existing_files_only_with_overwrite(
     assert err == said
     assert out.read_bytes() == b"keep me"
     assert [p.name for p in tmp_path.iterdir()] == [name]  # nothing else written
-    assert main([*argv, "--overwrite"]) == 0, capsys.readouterr().err
+    if args[0] == "range":  # Geant4 runs in this process: a fresh one (pytest never imports it)
+        done = run_cli(*argv, "--overwrite")
+        assert done.returncode == 0, done.stderr
+    else:
+        assert main([*argv, "--overwrite"]) == 0, capsys.readouterr().err
     assert out.read_bytes()[:7] != b"keep me"
+
+
+def test_make_demo_runs_twice_in_a_row(tmp_path: Path, monkeypatch, capsys):
+    # The recipe of `make demo`, with 20 events instead of 5000, run twice in one folder.
+    recipe = (ROOT / "Makefile").read_text().split("\ndemo:", 1)[1].split("\n\n", 1)[0]
+    lines = [line.strip() for line in recipe.splitlines()[1:] if line.startswith("\t")]
+    assert any(" plot " in line for line in lines)
+    (tmp_path / "examples").symlink_to(ROOT / "examples")
+    monkeypatch.chdir(tmp_path)
+    for _ in range(2):
+        for line in lines:
+            words = shlex.split(line.replace("$(BIN)/", ""))
+            if words[0] == "mkdir":
+                Path(words[-1]).mkdir(parents=True, exist_ok=True)
+                continue
+            assert words[0] == "score4", line
+            args = ["20" if w == "5000" else w for w in words[1:]]
+            assert main(["-q", *args]) == 0, capsys.readouterr().err
+    assert Path("out/demo/spectra.png").stat().st_size > 0
+
+
+def _density_warning_config(tmp_path: Path) -> Path:
+    """flat_alpha.yaml with a rough face whose variant densities are normalised (a warning)."""
+    data = yaml.safe_load(FLAT.read_text())
+    spikes = {"kind": "spikes", "nx": 2, "ny": 2, "width": "5 um", "height": "2 um"}
+    data["surfaces"] = {"s": spikes}
+    data["targets"][0]["rough"] = [
+        {"variants": [{"surface": "s", "density": 1}, {"surface": "s", "density": 1}]}
+    ]
+    data["targets"][0]["size"] = ["10 um", "10 um", "1 cm"]
+    config = tmp_path / "w.yaml"
+    config.write_text(yaml.safe_dump(data))
+    return config
+
+
+def test_group_quiet_silences_progress_and_warnings_of_every_command(tmp_path: Path, capsys):
+    config = _density_warning_config(tmp_path)
+    portal = ROOT / "tests" / "data" / "macros" / "portal_example.mac"
+    commands = {
+        "vertices": (["vertices", config, "--n", "5", "--out", "{tmp}/v{i}.h5"], "normalised"),
+        "import-macro": (["import-macro", portal, "--out", "{tmp}/c{i}.yaml"], "not converted"),
+        "run": (["run", config, "--events", "5", "--out", "{tmp}/r{i}.h5"], "lite mode"),
+    }
+    for name, (args, said) in commands.items():
+        for i, quiet in enumerate(([], ["-q"])):
+            argv = [*quiet, *(str(a).format(tmp=tmp_path, i=i) for a in args)]
+            assert main(argv) == 0, (name, capsys.readouterr().err)
+            captured = capsys.readouterr()
+            if quiet:
+                assert captured.err == "", (name, captured.err)
+            else:
+                assert said in captured.err, (name, captured.err)
+            assert "wrote " in captured.out, name  # results still print
+    assert main(["-q", "run", str(FLAT), "--events", "0"]) == 2  # errors still print
+    assert capsys.readouterr().err.startswith("score4: error: run: --events: ")
+    # range runs Geant4 in its own process: in a fresh one (pytest never imports Geant4)
+    args = ["range", "alpha", "5 MeV", "G4_Si", "-n", "5"]
+    loud, quiet = run_cli(*args, cwd=tmp_path), run_cli("-q", *args, cwd=tmp_path)
+    assert (loud.returncode, quiet.returncode) == (0, 0), loud.stderr + quiet.stderr
+    assert loud.stderr.startswith("score4: 5 alpha ions of 5000 keV into G4_Si ...")
+    assert quiet.stderr == ""
+    assert quiet.stdout == loud.stdout
+
+
+@pytest.mark.parametrize(
+    ("argv", "line"),
+    [
+        (
+            ["run", "--evnts", "3", "x.yaml"],
+            "run: no such option --evnts (did you mean --events?); try 'score4 run --help'",
+        ),
+        (["run"], "run: missing argument CONFIG.yaml; try 'score4 run --help'"),
+        (["plt"], "no such command 'plt' (did you mean plot?); try 'score4 --help'"),
+        (
+            ["surface", "shw"],
+            "surface: no such command 'shw' (did you mean show?); try 'score4 surface --help'",
+        ),
+        (
+            ["run", "x.yaml", "--jobs", "0"],
+            "run: --jobs: must be >= 1, got 0; try 'score4 run --help'",
+        ),
+        (["plot", "a.h5", "--out"], "plot: --out: needs a value; try 'score4 plot --help'"),
+        (["-q", "plot", "a.h5", "--out"], "plot: --out: needs a value; try 'score4 plot --help'"),
+        (
+            ["surface", "show", "f.yaml", "--png", "f.png", "--dpi", "5"],
+            "surface show: --dpi: must be in [20, 1200], got 5; try 'score4 surface show --help'",
+        ),
+        (
+            ["data", "install", "--mode", "xx"],
+            (
+                "data install: --mode: must be one of 'full', 'decay', got 'xx'; "
+                "try 'score4 data install --help'"
+            ),
+        ),
+        (
+            ["run", "x.yaml", "y.yaml"],
+            "run: unexpected extra argument(s): y.yaml; try 'score4 run --help'",
+        ),
+        (
+            ["run", "x.yaml", "--events", "2.5"],
+            "run: --events: '2.5' is not a whole number of events; try 'score4 run --help'",
+        ),
+    ],
+)
+def test_usage_errors_are_one_line(argv, line, capsys):
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    assert captured.err == f"score4: error: {line}\n"
+    assert captured.out == ""
+
+
+def test_help_still_shows_usage(capsys):
+    assert main(["run", "--help"]) == 0
+    assert capsys.readouterr().out.startswith("Usage: score4 run [OPTIONS] CONFIG.yaml")
+    assert main(["-h"]) == 0
+    assert "-q, --quiet" in capsys.readouterr().out
+    assert main(["surface"]) == 2  # a group alone shows its help, as click does
+    assert "Commands:" in capsys.readouterr().err

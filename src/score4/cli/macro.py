@@ -11,6 +11,7 @@ from pathlib import Path
 import click
 
 from ..errors import ConfigError
+from .quiet import notice
 
 __all__ = ["import_macro"]
 
@@ -43,9 +44,8 @@ def import_macro(macro: Path, out: Path, overwrite: bool, strict: bool) -> None:
     check_output_file(out, overwrite, "--out")
     config, report = convert(macro, out=out)
     for item in sorted(report.unknown, key=lambda i: i.order):
-        click.echo(
-            f"score4: warning: {macro} {item.where}: {item.command}: not converted ({item.detail})",
-            err=True,
+        notice(
+            f"score4: warning: {macro} {item.where}: {item.command}: not converted ({item.detail})"
         )
     if strict and report.unknown:
         listed = "; ".join(

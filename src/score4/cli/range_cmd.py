@@ -17,6 +17,7 @@ from pathlib import Path
 import click
 
 from ..errors import ConfigError, Score4Error
+from .quiet import notice, set_quiet
 
 # Rows of the comparison table: key, label, kind ("length" in nm, "fraction", "energy" in keV).
 ROWS = (
@@ -259,7 +260,9 @@ def format_table(result: dict) -> str:
     show_default=True,
     help="How score4 moves alphas (physics.alphas): Geant4, or TRIM trajectories.",
 )
-@click.option("--quiet", "-q", is_flag=True, help="No progress messages on stderr.")
+@click.option(
+    "--quiet", "-q", is_flag=True, help="No progress messages on stderr (as score4 -q range)."
+)
 def range_command(
     ion,
     energy,
@@ -295,9 +298,9 @@ def range_command(
     materials = load_materials(config_file) if config_file is not None else {}
     materials = resolve_material(material, density, materials)
 
-    def echo(message: str) -> None:
-        if not quiet:
-            click.echo(message, err=True)
+    if quiet:
+        set_quiet(click.get_current_context())
+    echo = notice
 
     result = run_range(
         species,
