@@ -1,6 +1,7 @@
 """The score4 command line: exit codes, one-line errors, JSON summary."""
 
 import json
+import os
 import shlex
 import subprocess
 import sys
@@ -330,3 +331,12 @@ def test_help_still_shows_usage(capsys):
     assert "-q, --quiet" in capsys.readouterr().out
     assert main(["surface"]) == 2  # a group alone shows its help, as click does
     assert "Commands:" in capsys.readouterr().err
+
+
+def test_python_dash_m_score4_is_the_command():
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    done = subprocess.run(
+        [sys.executable, "-m", "score4", "--version"], capture_output=True, text=True, env=env
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith("score4 ")
