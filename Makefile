@@ -21,7 +21,7 @@ demo: $(STAMP)
 	$(BIN)/score4 run examples/paper_a_flat.yaml --events 5000 --jobs 2 --out out/demo/flat.h5 --overwrite
 	$(BIN)/score4 run examples/paper_a_rough.yaml --events 5000 --jobs 2 --out out/demo/rough.h5 --overwrite
 	$(BIN)/score4 summary out/demo/rough.h5
-	$(BIN)/score4 plot out/demo/flat.h5 out/demo/rough.h5 --label "flat face" --label "10 um pyramids" --out out/demo/spectra.png
+	$(BIN)/score4 plot out/demo/flat.h5 out/demo/rough.h5 --label "flat face" --label "10 um pyramids" --out out/demo/spectra.png --overwrite
 
 test: $(STAMP)
 	$(BIN)/python -m pytest $(PYTEST_ARGS)

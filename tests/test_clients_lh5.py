@@ -115,3 +115,46 @@ def test_lh5_reads_results_events_and_primaries_in_one_column_order(tmp_path):
     prim = lh5.read("primaries", out)
     assert len(prim) == 8
     assert prim["particle"].nda[0].decode() == "alpha"
+
+
+def test_particle_column_is_stored_as_lh5_writes_strings(vertex_file, tmp_path):
+    """lh5 0.3.0 has no string layout that it reads back as str: it writes strings as
+    fixed-width bytes with ``array<1>{string}`` (numpy str arrays it cannot write at all) and
+    reads fixed-width and variable-length strings alike as bytes. Our column is stored as
+    lh5 stores a string Array, so lh5 users meet it as they meet LEGEND's own files."""
+    import h5py
+    import lgdo
+
+    theirs = tmp_path / "theirs.lh5"
+    lh5.write(lgdo.Array(np.array([b"alpha", b"Pb206"])), "particle", str(theirs))
+    with h5py.File(vertex_file) as ours, h5py.File(theirs) as legend:
+        mine, their = ours["vertices/particle"], legend["particle"]
+        assert mine.dtype.kind == their.dtype.kind == "S"
+        assert mine.attrs["datatype"] == their.attrs["datatype"] == "array<1>{string}"
+    assert isinstance(lh5.read("particle", theirs).nda[0], bytes)
+    assert isinstance(lh5.read("vertices/particle", vertex_file).nda[0], bytes)
+
+
+def test_vtx_group_follows_remage_vertex_reader(vertex_file):
+    """What remage's LH5 input conversion (RMGConvertLH5::ConvertTableToNTuple) and
+    RMGVertexFromFile require: every child of /vtx a group whose ``datatype`` is table{...},
+    only 1-D datasets of one length below it; ``pos`` with float64 (HDF5 "double")
+    xloc/yloc/zloc carrying one string ``units`` of nm, um, mm, cm or m."""
+    import h5py
+
+    with h5py.File(vertex_file) as f:
+        vtx = f["vtx"]
+        assert list(vtx) == ["pos"]
+        pos = vtx["pos"]
+        assert isinstance(pos, h5py.Group)
+        assert pos.attrs["datatype"] == "table{xloc,yloc,zloc}"
+        assert sorted(pos) == ["xloc", "yloc", "zloc"]
+        lengths = {pos[c].shape for c in pos}
+        assert lengths == {(f.attrs["n_events"],)}
+        units = set()
+        for column in pos.values():
+            assert column.dtype == np.float64
+            kind = column.attrs.get_id("units").get_type()
+            assert kind.get_class() == h5py.h5t.STRING
+            units.add(column.attrs["units"])
+        assert units == {"mm"}

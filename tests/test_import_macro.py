@@ -278,7 +278,7 @@ def test_missing_file_and_existing_output(tmp_path, capsys):
     code, _, err = run(capsys, "import-macro", PAPER, "--out", out)
     assert (code, err) == (
         2,
-        f"score4: error: --out: '{out}' exists; pass --overwrite to replace it\n",
+        f"score4: error: --out: '{out}' already exists; use --overwrite to replace it\n",
     )
     assert out.read_text() == "keep me\n"
     code, _, err = run(capsys, "import-macro", PAPER, "--out", out, "--overwrite")

@@ -404,6 +404,26 @@ def test_cli_plot_and_export(runs, tmp_path, capsys):
     assert read_csv(ev)["event_id"].tolist() == list(range(100))
 
 
+def test_cli_plot_and_export_replace_files_only_with_overwrite(runs, tmp_path, capsys):
+    png, csv, ev, root = (tmp_path / n for n in ("s.png", "h.csv", "e.csv", "r.root"))
+    for path in (png, csv, ev, root):
+        path.write_text("old")
+    assert main(["plot", str(runs["a"]), "--out", str(png)]) == 2
+    assert main(["export", str(runs["b"]), "--csv", str(csv), "--root", str(root)]) == 2
+    assert all(p.read_text() == "old" for p in (png, csv, ev, root))
+    capsys.readouterr()
+    assert main(["plot", str(runs["a"]), "--out", str(png), "--overwrite"]) == 0
+    assert_png(png)
+    argv = ["export", str(runs["b"]), "--csv", str(csv), "--events-csv", str(ev), "--root"]
+    assert main([*argv, str(root), "--overwrite"]) == 0
+    ref = tmp_path / "ref.csv"
+    export_csv(read_results(runs["b"]), ref)
+    assert csv.read_text() == ref.read_text()
+    assert read_csv(ev)["event_id"].tolist() == list(range(100))
+    with uproot.open(root) as f:
+        assert f["events"].num_entries == 100
+
+
 def test_cli_plot_vertex_file(tmp_path, capsys):
     v = write_vertex_file(tmp_path / "v.h5", np.linspace(0, 50e-6, 101))
     assert main(["plot", str(v), "--out", str(tmp_path / "d.png")]) == 0

@@ -178,7 +178,7 @@ def test_generate_refuses_to_overwrite(tmp_path, capsys):
     other = write_yaml(tmp_path, "other", SPIKES)
     code, _, err = run(capsys, "surface", "generate", other, "--out", out)
     assert code == 2
-    assert "already exists; pass --overwrite" in err
+    assert "already exists; use --overwrite" in err
     assert out.read_bytes() == before
     assert run(capsys, "surface", "generate", other, "--out", out, "--overwrite")[0] == 0
     assert load_surface(out).spec.nx == 4
@@ -423,7 +423,7 @@ def test_export_gdml_tessellated_and_multiunion(tmp_path, capsys):
         ),
         (
             ["export", "{tmp}/good.yaml", "--stl", "{tmp}/exists.stl"],
-            "already exists; pass --overwrite",
+            "already exists; use --overwrite",
         ),
         (["show", "{tmp}/gap.txt", "--png", "{tmp}/x.png"], "missing (NaN) points"),
     ],

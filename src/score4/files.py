@@ -9,13 +9,33 @@ from pathlib import Path
 
 import h5py
 
-from .errors import Score4Error
+from .errors import ConfigError, Score4Error
 
 
 def cache_dir(*parts: str) -> Path:
     """score4's folder under the user cache, ``$XDG_CACHE_HOME/score4/...`` (``~/.cache``)."""
     base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
     return base.joinpath("score4", *parts)
+
+
+def check_output_file(path: str | os.PathLike, overwrite: bool, option: str = "--out") -> Path:
+    """``path`` as a Path, after the checks every command makes before writing a file.
+
+    Its folder must exist and be writable, it must not be a folder, and an existing file is
+    replaced only with ``overwrite`` (the command's ``--overwrite``). Errors are
+    :class:`ConfigError` naming ``option`` (the command-line option that gave the path).
+    """
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise ConfigError(f"{option}: folder {str(folder)!r} does not exist (create it first)")
+    if not os.access(folder, os.W_OK):
+        raise ConfigError(f"{option}: folder {str(folder)!r} is not writable")
+    if path.is_dir():
+        raise ConfigError(f"{option}: {str(path)!r} is a folder, not a file name")
+    if path.exists() and not overwrite:
+        raise ConfigError(f"{option}: {str(path)!r} already exists; use --overwrite to replace it")
+    return path
 
 
 @contextlib.contextmanager

@@ -19,6 +19,8 @@ import click
 from score4 import datasets
 from score4.errors import Score4Error
 
+from .quiet import is_quiet
+
 __all__ = ["data"]
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -161,7 +163,8 @@ def install_cmd(
         if not names:
             click.echo(f"everything physics mode {mode!r} needs is installed")
             return
-    paths = datasets.install(target, only=names or None, base_url=url, progress=not no_progress)
+    progress = not (no_progress or is_quiet())
+    paths = datasets.install(target, only=names or None, base_url=url, progress=progress)
     for path in paths:
         click.echo(f"ready: {path}")
     if not paths:

@@ -38,7 +38,7 @@ def geometry() -> None:
     "--log",
     "log_path",
     type=click.Path(dir_okay=False, path_type=Path),
-    help="Keep Geant4's output here.",
+    help="Keep Geant4's output here (appended to an existing file).",
 )
 def check(config_file: Path, points: int, max_placements: int, tolerance: str, log_path) -> None:
     """Check CONFIG.yaml's volumes for overlaps (Geant4 CheckOverlaps). Exit status 1 if any overlap."""

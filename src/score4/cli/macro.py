@@ -11,6 +11,7 @@ from pathlib import Path
 import click
 
 from ..errors import ConfigError
+from .quiet import notice
 
 __all__ = ["import_macro"]
 
@@ -36,16 +37,15 @@ def import_macro(macro: Path, out: Path, overwrite: bool, strict: bool) -> None:
     say is filled with defaults; the written YAML lists them, line by line, in its header.
     Commands that are not converted are printed as warnings (errors with --strict).
     """
+    from ..files import check_output_file
     from ..macro import import_macro as convert
     from ..macro import write_config
 
-    if out.exists() and not overwrite:
-        raise ConfigError(f"--out: {str(out)!r} exists; pass --overwrite to replace it")
+    check_output_file(out, overwrite, "--out")
     config, report = convert(macro, out=out)
     for item in sorted(report.unknown, key=lambda i: i.order):
-        click.echo(
-            f"score4: warning: {macro} {item.where}: {item.command}: not converted ({item.detail})",
-            err=True,
+        notice(
+            f"score4: warning: {macro} {item.where}: {item.command}: not converted ({item.detail})"
         )
     if strict and report.unknown:
         listed = "; ".join(

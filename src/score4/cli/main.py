@@ -1,7 +1,8 @@
 """``score4``: the command-line entry point.
 
-Input errors (:class:`~score4.errors.Score4Error`) are printed as one line
-``score4: error: <message>`` and end the command with exit status 2.
+Input errors (:class:`~score4.errors.Score4Error`) and click's usage errors (unknown option,
+missing argument, bad value) are printed as one line ``score4: error: <message>`` and end the
+command with exit status 2. ``score4 -q COMMAND`` keeps stderr to errors only.
 """
 
 from __future__ import annotations
@@ -20,9 +21,11 @@ from ..errors import ConfigError, RunInterrupted, Score4Error, Score4Warning, na
 from .data import data
 from .geometry import geometry
 from .macro import import_macro
+from .quiet import is_quiet, set_quiet
 from .range_cmd import range_command
 from .results import export, plot
 from .surface import surface
+from .usage import command_path, usage_error_line
 
 
 class EventCount(click.ParamType):
@@ -59,8 +62,17 @@ EVENTS = EventCount()
     prog_name="score4",
     message=f"%(prog)s %(version)s (geant4_pybind {version('geant4_pybind')})",
 )
-def cli() -> None:
+@click.option(
+    "--quiet",
+    "-q",
+    is_flag=True,
+    help="Any command: no progress, notices or warnings on stderr (errors still print).",
+)
+@click.pass_context
+def cli(ctx: click.Context, quiet: bool) -> None:
     """Radioactive contamination on and below rough surfaces, simulated with Geant4."""
+    if quiet:
+        set_quiet(ctx)
 
 
 def _load_with_overrides(config_file: Path, events: int | None, seed: int | None):
@@ -111,15 +123,28 @@ def _load_with_overrides(config_file: Path, events: int | None, seed: int | None
     "--quiet",
     "-q",
     is_flag=True,
-    help="No progress bar, notices or warnings on stderr: errors only.",
+    help="No progress bar, notices or warnings on stderr: errors only (as score4 -q run).",
 )
-def run(config_file: Path, events, seed, out, overwrite, jobs, resume, cluster, quiet) -> None:
+@click.pass_context
+def run(
+    ctx: click.Context,
+    config_file: Path,
+    events,
+    seed,
+    out,
+    overwrite,
+    jobs,
+    resume,
+    cluster,
+    quiet,
+) -> None:
     """Simulate the run described in CONFIG.yaml and write an HDF5 results file."""
     from ..output import read_results, summarize
     from ..sim.engine import run as run_engine
 
     if quiet:
-        warnings.simplefilter("ignore", Score4Warning)
+        set_quiet(ctx)
+    quiet = is_quiet()
 
     config = _load_with_overrides(config_file, events, seed)
     out = out or Path(config_file.stem + ".h5")
@@ -252,6 +277,8 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 
 
 _PYTHON_SHOWWARNING = warnings.showwarning
+# click >= 8.2 raises this (a UsageError) for a group called without a command
+_NO_ARGS_IS_HELP = getattr(click.exceptions, "NoArgsIsHelpError", ())
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -271,8 +298,15 @@ def _main(argv: list[str] | None) -> int:
         return 2
     except click.exceptions.Exit as err:
         return err.exit_code
-    except click.ClickException as err:
+    except _NO_ARGS_IS_HELP as err:  # a command group alone: its help, as click shows it
         err.show()
+        return 2
+    except click.UsageError as err:
+        path = command_path(cli, sys.argv[1:] if argv is None else list(argv))
+        click.echo(f"score4: error: {usage_error_line(err, path)}", err=True)
+        return 2
+    except click.ClickException as err:
+        click.echo(f"score4: error: {err.format_message()}", err=True)
         return 2
     except click.exceptions.Abort as err:
         cause = err.__cause__ or err.__context__

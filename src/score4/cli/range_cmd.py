@@ -17,6 +17,7 @@ from pathlib import Path
 import click
 
 from ..errors import ConfigError, Score4Error
+from .quiet import notice, set_quiet
 
 # Rows of the comparison table: key, label, kind ("length" in nm, "fraction", "energy" in keV).
 ROWS = (
@@ -251,6 +252,7 @@ def format_table(result: dict) -> str:
     type=click.Path(dir_okay=False, path_type=Path),
     help="Draw the depth distributions (score4 and, with --compare-srim, TRIM) into this image.",
 )
+@click.option("--overwrite", is_flag=True, help="Replace an existing --png file.")
 @click.option(
     "--alphas",
     type=click.Choice(["geant4", "trim"]),
@@ -258,7 +260,9 @@ def format_table(result: dict) -> str:
     show_default=True,
     help="How score4 moves alphas (physics.alphas): Geant4, or TRIM trajectories.",
 )
-@click.option("--quiet", "-q", is_flag=True, help="No progress messages on stderr.")
+@click.option(
+    "--quiet", "-q", is_flag=True, help="No progress messages on stderr (as score4 -q range)."
+)
 def range_command(
     ion,
     energy,
@@ -273,6 +277,7 @@ def range_command(
     compare_srim,
     srim_events,
     png,
+    overwrite,
     alphas,
     quiet,
 ) -> None:
@@ -287,15 +292,15 @@ def range_command(
         ion, energy, events, srim_events, seed, thickness, angle, compare_srim
     )
     if png is not None:
-        from ..export import check_output_path
+        from ..files import check_output_file
 
-        check_output_path(png)
+        check_output_file(png, overwrite, "--png")
     materials = load_materials(config_file) if config_file is not None else {}
     materials = resolve_material(material, density, materials)
 
-    def echo(message: str) -> None:
-        if not quiet:
-            click.echo(message, err=True)
+    if quiet:
+        set_quiet(click.get_current_context())
+    echo = notice
 
     result = run_range(
         species,

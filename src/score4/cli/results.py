@@ -56,11 +56,16 @@ def _plot_surface(path: Path, out: Path) -> None:
 @click.option("--linear", is_flag=True, help="Linear y axis (spectra are logarithmic by default).")
 @click.option("--errors", is_flag=True, help="Poisson error bars (square root of the counts).")
 @click.option("--label", "labels", multiple=True, help="Legend label, once per FILE in order.")
-def plot(files, out, volume, bins, emin, emax, per_event, linear, errors, labels) -> None:
+@click.option("--overwrite", is_flag=True, help="Replace an existing image file.")
+def plot(
+    files, out, volume, bins, emin, emax, per_event, linear, errors, labels, overwrite
+) -> None:
     """Plot results files (energy-deposit spectra, overlaid), a vertex file (depth histogram)
     or a surface file (.s4s.h5, height map)."""
+    from ..files import check_output_file
     from ..plots import file_kind, plot_depths, plot_spectra
 
+    check_output_file(out, overwrite, "--out")
     kinds = [file_kind(f) for f in files]
     if len(set(kinds)) > 1:
         listing = ", ".join(f"{f.name} ({k})" for f, k in zip(files, kinds, strict=True))
@@ -128,15 +133,11 @@ def plot(files, out, volume, bins, emin, emax, per_event, linear, errors, labels
     "--emax",
     help='Histogram upper edge, e.g. "6 MeV" (default: the run\'s setting or largest primary energy).',
 )
-def export(results_file, csv_out, events_out, root_out, volume, bins, emax) -> None:
+@click.option("--overwrite", is_flag=True, help="Replace existing output files.")
+def export(results_file, csv_out, events_out, root_out, volume, bins, emax, overwrite) -> None:
     """Export a results FILE to CSV (histograms or events) and/or ROOT."""
-    from ..export import (
-        check_output_path,
-        export_csv,
-        export_events_csv,
-        export_root,
-        select_volumes,
-    )
+    from ..export import export_csv, export_events_csv, export_root, select_volumes
+    from ..files import check_output_file
     from ..output import read_results
 
     if not (csv_out or events_out or root_out):
@@ -148,9 +149,9 @@ def export(results_file, csv_out, events_out, root_out, volume, bins, emax) -> N
     results = read_results(results_file)
     emax_mev = _energy(emax, "--emax")
     select_volumes(results, volume)  # every check before the first file is written
-    for out in (csv_out, events_out, root_out):
+    for option, out in (("--csv", csv_out), ("--events-csv", events_out), ("--root", root_out)):
         if out is not None:
-            check_output_path(out)
+            check_output_file(out, overwrite, option)
     if csv_out:
         export_csv(results, csv_out, volume=volume, bins=bins, emax=emax_mev)
         click.echo(f"wrote {csv_out}")

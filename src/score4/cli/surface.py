@@ -20,6 +20,7 @@ from typing import Any
 import click
 
 from ..errors import ConfigError, Score4Error
+from ..files import check_output_file
 from ..units import parse_quantity, um
 
 __all__ = ["load_any", "stats_document", "surface"]
@@ -161,8 +162,7 @@ def generate_cmd(description: Path, out: Path | None, overwrite: bool) -> None:
         raise ConfigError(
             f"--out: {str(out)!r} must end with {SUFFIX} (an HDF5 score4 surface file)"
         )
-    if out.exists() and not overwrite:
-        raise ConfigError(f"--out: {str(out)!r} already exists; pass --overwrite to replace it")
+    check_output_file(out, overwrite, "--out")
     built = build_surface(load_surface_spec(description))
     save_surface(built, out)
     sq, how = headline_sq(built)
@@ -230,10 +230,12 @@ def stats_cmd(file: Path, as_json: bool) -> None:
     show_default=True,
     help="Resolution of the PNG.",
 )
-def show_cmd(file: Path, png: Path, dpi: int) -> None:
+@click.option("--overwrite", is_flag=True, help="Replace an existing PNG file.")
+def show_cmd(file: Path, png: Path, dpi: int, overwrite: bool) -> None:
     """Draw FILE: height-map image (with colour bar and scale bar) and a 3D view, as a PNG."""
     from ..surface.plot import plot_surface
 
+    check_output_file(png, overwrite, "--png")
     plot_surface(load_any(file), png, dpi=dpi)
     click.echo(f"wrote {png}")
 
@@ -327,8 +329,7 @@ def export_cmd(
         raise ConfigError(
             f"--solid: 'multiunion' is a Geant4 solid and applies to --gdml only, not --{fmt}"
         )
-    if out.exists() and not overwrite:
-        raise ConfigError(f"--{fmt}: {str(out)!r} already exists; pass --overwrite to replace it")
+    check_output_file(out, overwrite, f"--{fmt}")
     built = load_any(file)
     if solid_kind == "multiunion" and built.spikes is None:
         raise ConfigError(

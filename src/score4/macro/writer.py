@@ -10,7 +10,6 @@ from pathlib import Path
 
 import yaml
 
-from ..errors import ConfigError
 from .report import ImportReport
 
 
@@ -65,16 +64,12 @@ def write_config(
     ConfigError
         An output file exists and ``overwrite`` is false, or its folder does not exist.
     """
-    from ..files import atomic_output
+    from ..files import atomic_output, check_output_file
 
     out = Path(out)
-    if not out.parent.is_dir():
-        raise ConfigError(f"--out: folder {str(out.parent)!r} does not exist")
     targets = [out] + [out.parent / name for name in report.files]
-    if not overwrite:
-        for t in targets:
-            if t.exists():
-                raise ConfigError(f"--out: {str(t)!r} exists; pass --overwrite to replace it")
+    for t in targets:
+        check_output_file(t, overwrite, "--out")
     texts = [render_yaml(config, report), *report.files.values()]
     for target, text in zip(
         targets[1:], texts[1:], strict=True

@@ -24,7 +24,6 @@ import contextlib
 import hashlib
 import json
 import multiprocessing as mp
-import os
 import platform
 import re
 import shutil
@@ -48,7 +47,7 @@ from tqdm import tqdm
 from .. import __version__, errors
 from ..config import RunConfig, config_to_dict
 from ..errors import ConfigError, Score4Error
-from ..files import atomic_output
+from ..files import atomic_output, check_output_file
 from ..output import merge_chunks
 from ..scene import build_scene
 from ..source.build import make_source, needs_radioactive_decay
@@ -94,15 +93,7 @@ class Executor(Protocol):
 
 def check_output_path(out: Path, overwrite: bool) -> None:
     """Refuse outputs that cannot be written, or that would replace a file unasked."""
-    folder = out.parent if str(out.parent) else Path(".")
-    if not folder.is_dir():
-        raise ConfigError(f"--out: folder {str(folder)!r} does not exist (create it first)")
-    if not os.access(folder, os.W_OK):
-        raise ConfigError(f"--out: folder {str(folder)!r} is not writable")
-    if out.exists() and not overwrite:
-        raise ConfigError(f"--out: {str(out)!r} already exists; use --overwrite to replace it")
-    if out.is_dir():
-        raise ConfigError(f"--out: {str(out)!r} is a folder, not a file name")
+    check_output_file(out, overwrite, "--out")
 
 
 class ChunkPlan(Sequence[Chunk]):
