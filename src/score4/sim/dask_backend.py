@@ -56,9 +56,7 @@ from ..source.primaries import Primaries
 from .worker import (
     Chunk,
     WorkerSpec,
-    check_free_space,
     chunk_path,
-    payload_bytes,
     ready_info,
     simulate_chunk,
 )
@@ -243,10 +241,13 @@ def _describe(exc: BaseException) -> tuple[str, str]:
 
 def _store(spec: WorkerSpec, result: ChunkOutput) -> None:
     """Write a returned chunk into the parts folder (atomically) and append its Geant4 output."""
-    path = chunk_path(spec.parts_dir, result.index)
-    check_free_space(path, payload_bytes(result.primaries, result.scores))
     write_chunk(
-        path, result.first_event, result.volumes, result.scores, result.primaries, spec.fingerprint
+        chunk_path(spec.parts_dir, result.index),
+        result.first_event,
+        result.volumes,
+        result.scores,
+        result.primaries,
+        spec.fingerprint,
     )
     if result.log:
         with (
