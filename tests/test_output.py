@@ -112,7 +112,7 @@ def _tmpfs_command(folder: Path) -> list[str] | None:
 
 def test_score4_vertices_on_a_full_disk_exits_with_an_error_and_keeps_the_old_file(tmp_path):
     # A real full disk: a 512 kB tmpfs in a private mount namespace. The old vertex file
-    # (100 events) fits; the new one (20 000 events, ~2.5 MB) does not.
+    # (100 events) fits; the new one (20 000 events) does not.
     mnt = tmp_path / "small_disk"
     mnt.mkdir()
     unshare = _tmpfs_command(mnt)
@@ -138,3 +138,43 @@ def test_score4_vertices_on_a_full_disk_exits_with_an_error_and_keeps_the_old_fi
     assert (tmp_path / "after.h5").read_bytes() == (tmp_path / "before.h5").read_bytes()
     assert read_vertex_file(tmp_path / "after.h5").n_events == 100
     assert (tmp_path / "ls.txt").read_text().split() == [".", "..", "v.h5"]
+
+
+_FILL = textwrap.dedent(
+    """
+    import sys
+    import numpy as np
+    import score4.files as files
+    from score4.errors import Score4Error
+
+    files.check_free_space = lambda path, nbytes: None  # let the write itself meet the full disk
+    try:
+        with files.atomic_h5(sys.argv[1]) as f:
+            f["x"] = np.random.default_rng(0).random(100_000)  # 800 kB
+    except Score4Error as err:
+        print(err)
+        sys.exit(3)
+    """
+)
+
+
+def test_a_write_that_meets_a_full_disk_is_an_error_and_keeps_the_old_file(tmp_path):
+    # Past the free-space check (a race, a quota): the write fails on a real full disk, a 256 kB
+    # tmpfs in a private mount namespace, with ENOSPC.
+    mnt = tmp_path / "small_disk"
+    mnt.mkdir()
+    unshare = _tmpfs_command(mnt)
+    if unshare is None:
+        pytest.skip("cannot mount a tmpfs in a private mount namespace here (unshare -m / -rm)")
+    script = (
+        f"mount -t tmpfs -o size=256k tmpfs {mnt} || exit 99; echo old > {mnt}/x.h5; "
+        f"{sys.executable} -c '{_FILL}' {mnt}/x.h5 > {tmp_path}/out.txt 2>&1; "
+        f"echo $? > {tmp_path}/rc.txt; ls -a {mnt} > {tmp_path}/ls.txt; cp {mnt}/x.h5 {tmp_path}"
+    )
+    env = {**os.environ, "PYTHONPATH": SRC}
+    subprocess.run([*unshare, "sh", "-c", script], check=True, timeout=120, env=env)
+    said = (tmp_path / "out.txt").read_text()
+    assert (tmp_path / "rc.txt").read_text().strip() == "3", said  # not 139 (SIGSEGV)
+    assert said == f"cannot write {mnt}/x.h5: [Errno 28] No space left on device\n"
+    assert (tmp_path / "x.h5").read_text() == "old\n"
+    assert (tmp_path / "ls.txt").read_text().split() == [".", "..", "x.h5"]
