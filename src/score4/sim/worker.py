@@ -66,19 +66,20 @@ def chunk_path(parts_dir: Path, index: int) -> Path:
 
 
 def simulate_chunk(
-    sim, spec: WorkerSpec, chunk: Chunk, progress=None
+    sim, spec: WorkerSpec, chunk: Chunk, progress=None, stop: threading.Event | None = None
 ) -> tuple[Primaries, dict[str, np.ndarray]]:
     """Sample and track one chunk; return its primaries and {quantity: (n_events, n_volumes) array}.
 
     The random streams depend only on the run seed and the event indices
     (:mod:`score4.sim.seeds`), so a chunk gives the same result in any process, and an event
-    the same result in any chunking.
+    the same result in any chunking. Setting ``stop`` (another thread) ends the chunk after
+    its current event with :class:`score4.errors.RunCancelled`.
     """
     if str(chunk.index) in os.environ.get(CRASH_HOOK, "").split(","):
         os._exit(70)  # test hook, see the module docstring
     primaries = sim.source.events(spec.seed, chunk.first_event, chunk.n_events)
     g4_seeds = event_geant4_seeds(spec.seed, chunk.first_event, chunk.n_events)
-    scores = sim.run(primaries, g4_seeds, progress=progress)
+    scores = sim.run(primaries, g4_seeds, progress=progress, stop=stop)
     return primaries, scores
 
 
