@@ -4,7 +4,6 @@ crash (h5py 3.16 / HDF5 2.0 segfault when a write to disk fails, h5py issue #914
 from __future__ import annotations
 
 import os
-import shutil
 import subprocess
 import sys
 import textwrap
@@ -19,7 +18,7 @@ import score4
 from score4.files import atomic_h5
 from score4.source.vertex_file import read_vertex_file
 
-from conftest import config_dict
+from conftest import config_dict, tmpfs_mount_command
 
 SRC = str(Path(score4.__file__).resolve().parents[1])  # this score4, also in subprocesses
 
@@ -95,27 +94,12 @@ def test_a_write_past_a_file_size_limit_is_an_error_and_keeps_the_old_file(tmp_p
     assert sorted(p.name for p in tmp_path.iterdir()) == ["x.h5"]  # no .partial left
 
 
-def _tmpfs_command(folder: Path) -> list[str] | None:
-    """The unshare command that lets this user mount a tmpfs privately, or None."""
-    if not shutil.which("unshare"):
-        return None
-    for cmd in (["unshare", "-m"], ["unshare", "-rm"]):
-        probe = subprocess.run(
-            [*cmd, "sh", "-c", f"mount -t tmpfs -o size=64k tmpfs {folder}"],
-            check=False,
-            capture_output=True,
-        )
-        if probe.returncode == 0:
-            return cmd
-    return None
-
-
 def test_score4_vertices_on_a_full_disk_exits_with_an_error_and_keeps_the_old_file(tmp_path):
     # A real full disk: a 512 kB tmpfs in a private mount namespace. The old vertex file
     # (100 events) fits; the new one (20 000 events) does not.
     mnt = tmp_path / "small_disk"
     mnt.mkdir()
-    unshare = _tmpfs_command(mnt)
+    unshare = tmpfs_mount_command(mnt)
     if unshare is None:
         pytest.skip("cannot mount a tmpfs in a private mount namespace here (unshare -m / -rm)")
     config = tmp_path / "c.yaml"
@@ -163,7 +147,7 @@ def test_a_write_that_meets_a_full_disk_is_an_error_and_keeps_the_old_file(tmp_p
     # tmpfs in a private mount namespace, with ENOSPC.
     mnt = tmp_path / "small_disk"
     mnt.mkdir()
-    unshare = _tmpfs_command(mnt)
+    unshare = tmpfs_mount_command(mnt)
     if unshare is None:
         pytest.skip("cannot mount a tmpfs in a private mount namespace here (unshare -m / -rm)")
     script = (
