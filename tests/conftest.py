@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import copy
+import shutil
+import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -41,6 +43,24 @@ def config_dict(**sections) -> dict:
         else:
             data[key] = value
     return data
+
+
+def tmpfs_mount_command(folder: Path) -> list[str] | None:
+    """The unshare command that lets this user mount a tmpfs on ``folder`` privately, or None.
+
+    Full-disk tests mount a small tmpfs in a private mount namespace: a real full disk.
+    """
+    if not shutil.which("unshare"):
+        return None
+    for cmd in (["unshare", "-m"], ["unshare", "-rm"]):
+        probe = subprocess.run(
+            [*cmd, "sh", "-c", f"mount -t tmpfs -o size=64k tmpfs {folder}"],
+            check=False,
+            capture_output=True,
+        )
+        if probe.returncode == 0:
+            return cmd
+    return None
 
 
 @pytest.fixture

@@ -6,8 +6,11 @@ Real (small) Geant4 runs on local Dask clusters of 2 worker processes.
 
 from __future__ import annotations
 
+import os
 import sys
+import time
 
+import h5py
 import numpy as np
 import pytest
 import yaml
@@ -17,7 +20,8 @@ from score4.config import parse_config
 from score4.errors import ConfigError, Score4Error
 from score4.output import read_results
 from score4.sim.engine import run
-from score4.sim.worker import CRASH_HOOK
+from score4.sim.runtime import resolve_physics
+from score4.sim.worker import CRASH_HOOK, Chunk, WorkerSpec, chunk_path
 
 from conftest import config_dict
 
@@ -155,6 +159,58 @@ def test_a_dying_dask_worker_fails_its_chunk(tmp_path, monkeypatch):
         "chunk-000000.h5",
         "chunk-000002.h5",
     ]
+
+
+def _executing(client) -> int:
+    """Tasks the workers are executing now (a cancelled task runs on until its function returns)."""
+    counts = client.run(lambda dask_worker: dask_worker.state.executing_count)
+    return sum(counts.values())
+
+
+def _wait_for(condition, timeout: float) -> float | None:
+    """Seconds until ``condition()`` held (polled every 0.05 s), or None after ``timeout``."""
+    start = time.monotonic()
+    while time.monotonic() - start < timeout:
+        if condition():
+            return time.monotonic() - start
+        time.sleep(0.05)
+    return None
+
+
+def test_a_cancelled_chunk_stops_on_its_worker_and_the_worker_runs_on(tmp_path):
+    """Dask does not interrupt a running task: the chunk task must stop its Geant4 run itself."""
+    from score4.sim.dask_backend import DaskExecutor
+
+    config = parse_config(config_dict(run={"events": 100, "seed": 3}))
+    spec = WorkerSpec(config, resolve_physics("lite"), 3, tmp_path, "fp")
+    # chunk 1 would run for minutes (~1 ms per event); one worker runs chunk 0 first
+    todo = [Chunk(0, 0, 100), Chunk(1, 100, 1_000_000)]
+    with (
+        distributed.LocalCluster(
+            n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0"
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        pid = client.run(os.getpid)
+        events = DaskExecutor(client, 1, echo=quiet).execute(spec, todo)
+        for event in events:  # up to the end of chunk 0
+            assert event[0] != "failed", event
+            if event == ("done", 0):
+                break
+        assert _wait_for(lambda: _executing(client) == 1, 30) is not None  # chunk 1 runs
+        time.sleep(0.5)
+        events.close()  # what Ctrl-C or a failure does: the executor cancels the rest
+        stopped_after = _wait_for(lambda: _executing(client) == 0, 5.0)
+        assert stopped_after is not None, "the cancelled chunk still runs on its worker"
+        assert client.run(os.getpid) == pid  # stopped, not killed: the same worker process
+        # the worker's Geant4 application gives the same events as before the cancelled run
+        again = list(DaskExecutor(client, 1, echo=quiet).execute(spec, [Chunk(2, 0, 100)]))
+        assert ("done", 2) in again
+    written = sorted(p.name for p in tmp_path.glob("chunk-*"))
+    assert written == ["chunk-000000.h5", "chunk-000002.h5"]  # nothing of chunk 1, no .partial
+    with h5py.File(chunk_path(tmp_path, 0), "r") as a, h5py.File(chunk_path(tmp_path, 2)) as b:
+        assert np.array_equal(a["events/edep/crystal"][()], b["events/edep/crystal"][()])
+        assert np.count_nonzero(a["events/edep/crystal"][()]) > 0
 
 
 def test_bad_input_found_on_a_dask_worker_is_a_config_error(tmp_path):

@@ -9,7 +9,6 @@ process of the run survives it.
 from __future__ import annotations
 
 import os
-import shutil
 import signal
 import subprocess
 import sys
@@ -28,7 +27,7 @@ from score4.output import read_results
 from score4.sim.engine import config_fingerprint, run
 from score4.sim.worker import CRASH_HOOK
 
-from conftest import config_dict
+from conftest import config_dict, tmpfs_mount_command
 
 # 40 chunks of 100 events: a few seconds on 2 cores, so a run can be stopped in the middle.
 LONG = {"events": 4000, "seed": 21, "chunk_events": 100}
@@ -295,27 +294,12 @@ def test_repeated_crashes_stop_the_run(tmp_path: Path, make_config, monkeypatch)
     assert not (tmp_path / "x.h5").exists()
 
 
-def _can_mount_tmpfs(folder: Path) -> list[str] | None:
-    """The unshare command that lets this user mount a tmpfs privately, or None."""
-    if not shutil.which("unshare"):
-        return None
-    for cmd in (["unshare", "-m"], ["unshare", "-rm"]):
-        probe = subprocess.run(
-            [*cmd, "sh", "-c", f"mount -t tmpfs -o size=64k tmpfs {folder}"],
-            check=False,
-            capture_output=True,
-        )
-        if probe.returncode == 0:
-            return cmd
-    return None
-
-
 @pytest.mark.slow
 def test_full_disk_stops_with_a_clear_error_and_keeps_finished_chunks(tmp_path: Path):
     # A real full disk: the run writes into a 640 kB tmpfs mounted in a private mount namespace.
     mnt = tmp_path / "small_disk"
     mnt.mkdir()
-    unshare = _can_mount_tmpfs(mnt)
+    unshare = tmpfs_mount_command(mnt)
     if unshare is None:
         pytest.skip("cannot mount a tmpfs in a private mount namespace here (unshare -m / -rm)")
     data = config_dict(run={"events": 3600, "seed": 5, "chunk_events": 300})

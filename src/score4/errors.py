@@ -26,6 +26,10 @@ class PhysicsUnavailableError(Score4Error):
     """The requested physics needs data sets that are not installed."""
 
 
+class RunCancelled(Score4Error):
+    """A Geant4 run stopped half-way because its caller asked (a cancelled Dask chunk)."""
+
+
 class Score4Warning(UserWarning):
     """Something score4 did on its own that the user should know (input normalised, lite physics).
 

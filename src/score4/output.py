@@ -14,9 +14,10 @@ Layout of a results file (lengths in mm, energies in MeV, stated in ``units`` at
 attributes (``table{...}``, ``array<1>{real}``), so legend-lh5io reads them
 (``lh5.read("events", file)``, ``lh5.read("primaries", file)``).
 
-Every file is written to ``<name>.partial`` first and renamed into place only when complete,
-so an interrupted writer never leaves a truncated file under the final name and never
-touches a file that already exists.
+Every file is built in memory, written to ``<name>.partial`` and renamed into place only when
+complete (:func:`score4.files.atomic_h5`), so an interrupted writer or a full disk never leaves
+a truncated file under the final name, never touches a file that already exists, and never
+crashes the process.
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ import h5py
 import numpy as np
 
 from .errors import Score4Error
-from .files import atomic_output, open_h5
+from .files import atomic_h5, open_h5
 from .source.primaries import Primaries
 from .source.vertex_file import read_primaries_table, write_primaries_table
 from .units import parse_quantity
@@ -41,9 +42,9 @@ QUANTITY_UNITS = {"edep": "MeV", "track_length": "mm"}
 
 
 @contextlib.contextmanager
-def atomic_h5(path: Path):
-    """A temporary HDF5 file beside ``path``, renamed to ``path`` on success, deleted on failure."""
-    with atomic_output(path) as tmp, h5py.File(tmp, "w") as f:
+def results_h5(path: Path):
+    """A new results file (format attributes set), written by :func:`score4.files.atomic_h5`."""
+    with atomic_h5(path) as f:
         f.attrs["format"] = FORMAT
         f.attrs["format_version"] = FORMAT_VERSION
         yield f
@@ -63,7 +64,7 @@ def write_chunk(
     ``fingerprint`` identifies the configuration and seed, so a resume never mixes runs.
     """
     n = primaries.n_events
-    with atomic_h5(path) as f:
+    with results_h5(path) as f:
         f.attrs["first_event"] = first_event
         f.attrs["fingerprint"] = fingerprint
         ev = f.create_group("events")
@@ -99,7 +100,7 @@ def merge_chunks(chunk_paths: list[Path], out: Path, run_record: dict) -> None:
     try:
         volumes = json.loads(parts[0]["events/edep"].attrs["volumes"])
         quantities = json.loads(parts[0]["events"].attrs["quantities"])
-        with atomic_h5(out) as f:
+        with results_h5(out) as f:
             run = f.create_group("run")
             for key, value in run_record.items():
                 run.attrs[key] = (

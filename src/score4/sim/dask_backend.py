@@ -23,6 +23,11 @@ How it works (see docs/cluster.md):
 - Geant4's console output of a worker process goes to a file in the worker's temporary folder;
   every chunk brings the new lines back, and the client appends them to
   ``geant4-dask-<host>-<pid>.log`` in the parts folder.
+- A cancelled chunk (Ctrl-C, a failure, the client gone) stops on its worker within about
+  :data:`CANCEL_POLL_S` plus one event: Dask cannot interrupt a running task, so the task
+  watches its own state on the worker and, once the scheduler has cancelled it, asks the
+  Geant4 thread to end the run after the current event (:meth:`Simulation.run`'s ``stop``).
+  The worker keeps its Geant4 set-up for the next chunks.
 - A worker process that dies is restarted by its nanny and Dask retries the chunk on another
   worker (``distributed.scheduler.allowed-failures`` times); then the chunk fails with
   ``KilledWorker`` and the run reports it like a local crash.
@@ -43,6 +48,7 @@ import uuid
 import warnings
 from collections.abc import Generator, Iterable
 from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import TimeoutError as FutureTimeout
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -56,15 +62,14 @@ from ..source.primaries import Primaries
 from .worker import (
     Chunk,
     WorkerSpec,
-    check_free_space,
     chunk_path,
-    payload_bytes,
     ready_info,
     simulate_chunk,
 )
 
 INSTALL_HINT = "pip install 'score4[cluster]'"
 SUBMIT_WINDOW = 256  # chunks submitted ahead of the finished ones
+CANCEL_POLL_S = 0.1  # how often a running chunk task looks whether it was cancelled
 _ADDRESS = re.compile(r"[a-z][a-z0-9+.-]*://\S+")
 
 
@@ -243,10 +248,13 @@ def _describe(exc: BaseException) -> tuple[str, str]:
 
 def _store(spec: WorkerSpec, result: ChunkOutput) -> None:
     """Write a returned chunk into the parts folder (atomically) and append its Geant4 output."""
-    path = chunk_path(spec.parts_dir, result.index)
-    check_free_space(path, payload_bytes(result.primaries, result.scores))
     write_chunk(
-        path, result.first_event, result.volumes, result.scores, result.primaries, spec.fingerprint
+        chunk_path(spec.parts_dir, result.index),
+        result.first_event,
+        result.volumes,
+        result.scores,
+        result.primaries,
+        spec.fingerprint,
     )
     if result.log:
         with (
@@ -277,17 +285,46 @@ def held_setup_key() -> str | None:
 
 
 def run_chunk_task(spec: WorkerSpec, chunk: Chunk) -> ChunkOutput:
-    """The Dask task: run one chunk in this worker process, on its Geant4 thread."""
+    """The Dask task: run one chunk in this worker process, on its Geant4 thread.
+
+    While the chunk runs, this (Dask's) thread looks every :data:`CANCEL_POLL_S` whether the
+    scheduler has cancelled the task, and then stops the Geant4 run after its current event.
+    """
     global _g4_executor
     with _g4_lock:
         if _g4_executor is None:
             _g4_executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="score4-geant4")
-    return _g4_executor.submit(_run_chunk_here, spec, chunk).result()
+    stop = threading.Event()
+    cancelled = _cancel_watch()
+    running = _g4_executor.submit(_run_chunk_here, spec, chunk, stop)
+    while True:
+        try:
+            return running.result(timeout=CANCEL_POLL_S)
+        except FutureTimeout:
+            if not stop.is_set() and cancelled():
+                stop.set()  # the run raises RunCancelled after its current event
 
 
-def _run_chunk_here(spec: WorkerSpec, chunk: Chunk) -> ChunkOutput:
+def _cancel_watch():
+    """A cheap test (a dict look-up) of whether the task running in this thread was cancelled."""
+    try:
+        from distributed import get_worker
+
+        worker = get_worker()
+        key = worker.get_current_task()
+    except (ImportError, ValueError, KeyError):  # not in a Dask task (called directly)
+        return lambda: False
+
+    def cancelled() -> bool:
+        task = worker.state.tasks.get(key)
+        return task is None or task.state in ("cancelled", "released", "forgotten")
+
+    return cancelled
+
+
+def _run_chunk_here(spec: WorkerSpec, chunk: Chunk, stop: threading.Event) -> ChunkOutput:
     sim = _simulation(spec)
-    primaries, scores = simulate_chunk(sim, spec, chunk)
+    primaries, scores = simulate_chunk(sim, spec, chunk, stop=stop)
     return ChunkOutput(
         chunk.index,
         chunk.first_event,

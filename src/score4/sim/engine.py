@@ -47,14 +47,14 @@ from tqdm import tqdm
 from .. import __version__, errors
 from ..config import RunConfig, config_to_dict
 from ..errors import ConfigError, Score4Error
-from ..files import atomic_output, check_output_file
+from ..files import atomic_output, check_free_space, check_output_file
 from ..output import merge_chunks
 from ..scene import build_scene
 from ..source.build import make_source, needs_radioactive_decay
 from .conservation import check_chunk_files
 from .runtime import resolve_physics
 from .seeds import BLOCK_EVENTS
-from .worker import Chunk, WorkerSpec, check_free_space, chunk_path, worker_main
+from .worker import Chunk, WorkerSpec, chunk_path, worker_main
 
 # Errors that workers report by class name and that the engine raises again as they are.
 _ERRORS = {

@@ -8,6 +8,7 @@ does not depend on which worker ran it, what ran before it or how the run was ch
 from __future__ import annotations
 
 import re
+import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -15,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..config import RunConfig
-from ..errors import ConfigError, Score4Error
+from ..errors import ConfigError, RunCancelled, Score4Error
 from ..geometry.world import BuiltGeometry, build_world, check_materials
 from ..scene import build_scene
 from ..source.build import make_source
@@ -69,6 +70,8 @@ class Simulation:
         self.quantities = ("edep", "track_length") if config.output.track_length else ("edep",)
         self._progress: Callable[[int], None] | None = None  # see run()
         self._reported, self._report_every = 0, 1
+        self._stop: threading.Event | None = None  # see run()
+        self._stopped = False
         g4 = self.g4 = import_geant4(choice)
         with redirect_native_output(log_path):
             self._build(g4)
@@ -107,6 +110,7 @@ class Simulation:
             def EndOfEventAction(self, event):
                 sim._score(event)
                 sim._report_progress()
+                sim._check_stop()
 
         # Geant4 requires this order: detector and physics registered before any user action exists.
         self._actions = [Detector(), make_physics_list(g4, self.choice)]
@@ -207,6 +211,7 @@ class Simulation:
         progress=None,
         batch: int | None = None,
         endpoints: bool = False,
+        stop: threading.Event | None = None,
     ) -> dict[str, np.ndarray]:
         """Track ``primaries``; return {quantity: (n_events, n_volumes) array} (MeV, mm).
 
@@ -221,6 +226,8 @@ class Simulation:
         tracked the rest (:mod:`score4.sim.heavy_ions`); their deposits join their events'.
         With ``endpoints=True``, ``self.endpoints`` is then an (n_rows, 4) array: where each
         primary ended (x, y, z mm) and its kinetic energy there (MeV; > 0 if it left the world).
+        ``stop``, set from another thread, ends the run after the event being tracked
+        (:meth:`_check_stop`) and raises :class:`RunCancelled`; the application stays usable.
         """
         for name in np.unique(primaries.particle):
             self.particle(str(name))
@@ -250,9 +257,13 @@ class Simulation:
             self._event_seeds = seeds
         self._progress, self._reported = progress, 0
         self._report_every = batch or max(1, n // 20)
-        if n > 0:  # BeamOn(0) would still initialise a run
+        self._stop, self._stopped = stop, False
+        if n > 0 and not (stop is not None and stop.is_set()):  # BeamOn(0) still starts a run
             with redirect_native_output(self.log_path):
                 self.run_manager.BeamOn(n)
+        self._stop = None
+        if self._stopped or (stop is not None and stop.is_set()):
+            raise RunCancelled(f"run cancelled after {self._next_event} of {n} events")
         self._report_progress(final=True)
         return self._scores
 
@@ -337,6 +348,12 @@ class Simulation:
     def _g4_rows_of_event(self, k: int) -> np.ndarray:
         rows = np.arange(self._offsets[k], self._offsets[k + 1])
         return rows[~self._trim[rows]]
+
+    def _check_stop(self) -> None:
+        """End the run after this event when asked to (one attribute test per event)."""
+        if self._stop is not None and not self._stopped and self._stop.is_set():
+            self._stopped = True
+            self.run_manager.AbortRun(True)  # soft: the current event is complete, no new one
 
     def _report_progress(self, final: bool = False) -> None:
         """Call the progress callback with the events done since the last call (see :meth:`run`)."""

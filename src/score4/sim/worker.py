@@ -21,7 +21,6 @@ from __future__ import annotations
 import contextlib
 import multiprocessing as mp
 import os
-import shutil
 import signal
 import threading
 import traceback
@@ -39,7 +38,6 @@ from .runtime import PhysicsChoice
 from .seeds import event_geant4_seeds
 
 CRASH_HOOK = "SCORE4_TEST_CRASH_CHUNK"
-FREE_SPACE_MARGIN = 256 * 1024  # bytes kept free beyond a file's estimated size
 
 
 @dataclass(frozen=True)
@@ -68,19 +66,20 @@ def chunk_path(parts_dir: Path, index: int) -> Path:
 
 
 def simulate_chunk(
-    sim, spec: WorkerSpec, chunk: Chunk, progress=None
+    sim, spec: WorkerSpec, chunk: Chunk, progress=None, stop: threading.Event | None = None
 ) -> tuple[Primaries, dict[str, np.ndarray]]:
     """Sample and track one chunk; return its primaries and {quantity: (n_events, n_volumes) array}.
 
     The random streams depend only on the run seed and the event indices
     (:mod:`score4.sim.seeds`), so a chunk gives the same result in any process, and an event
-    the same result in any chunking.
+    the same result in any chunking. Setting ``stop`` (another thread) ends the chunk after
+    its current event with :class:`score4.errors.RunCancelled`.
     """
     if str(chunk.index) in os.environ.get(CRASH_HOOK, "").split(","):
         os._exit(70)  # test hook, see the module docstring
     primaries = sim.source.events(spec.seed, chunk.first_event, chunk.n_events)
     g4_seeds = event_geant4_seeds(spec.seed, chunk.first_event, chunk.n_events)
-    scores = sim.run(primaries, g4_seeds, progress=progress)
+    scores = sim.run(primaries, g4_seeds, progress=progress, stop=stop)
     return primaries, scores
 
 
@@ -88,33 +87,8 @@ def run_chunk(sim, spec: WorkerSpec, chunk: Chunk, progress=None) -> Path:
     """Sample, track and write one chunk (atomically); return the chunk file."""
     primaries, scores = simulate_chunk(sim, spec, chunk, progress)
     path = chunk_path(spec.parts_dir, chunk.index)
-    check_free_space(path, payload_bytes(primaries, scores))
     write_chunk(path, chunk.first_event, sim.volumes, scores, primaries, spec.fingerprint)
     return path
-
-
-def payload_bytes(primaries: Primaries, scores: dict[str, np.ndarray]) -> int:
-    """Bytes of array data a chunk file holds (HDF5 adds some metadata)."""
-    arrays = [*scores.values(), *(v for v in vars(primaries).values() if isinstance(v, np.ndarray))]
-    arrays += [np.asarray(v) for v in (getattr(primaries, "extra", None) or {}).values()]
-    return sum(a.nbytes for a in arrays) + 16 * primaries.n_events
-
-
-def check_free_space(path: Path, nbytes: int) -> None:
-    """Refuse to start writing a file of about ``nbytes`` to ``path`` when its disk cannot hold it.
-
-    A write that fails on a full disk makes HDF5 crash the process with a segmentation fault
-    when the file is closed, instead of raising an error (measured with h5py 3.16 / HDF5 2.0;
-    h5py issue #914). This check turns the usual case, a disk filling up, into a clear
-    :class:`Score4Error`. Quotas and file-size limits are not seen by it.
-    """
-    free = shutil.disk_usage(Path(path).parent).free
-    need = int(1.25 * nbytes) + FREE_SPACE_MARGIN
-    if free < need:
-        raise Score4Error(
-            f"cannot write {path}: the disk is full ({free / 1e6:.2f} MB free, about {need / 1e6:.2f} MB needed "
-            f"with a safety margin)"
-        )
 
 
 def ready_info(sim) -> dict:

@@ -30,7 +30,7 @@ import h5py
 import numpy as np
 
 from ..errors import ConfigError
-from ..files import atomic_output, open_h5
+from ..files import atomic_h5, open_h5
 from .primaries import Primaries
 
 FORMAT = "score4-vertices"
@@ -72,7 +72,7 @@ def read_primaries_table(group: h5py.Group) -> Primaries:
 def write_vertex_file(path: str | Path, primaries: Primaries, config: dict, seed: int) -> Path:
     """Write a vertex file atomically."""
     path = Path(path)
-    with atomic_output(path) as tmp, h5py.File(tmp, "w") as f:
+    with atomic_h5(path) as f:
         f.attrs["format"] = FORMAT
         f.attrs["format_version"] = FORMAT_VERSION
         f.attrs["config"] = json.dumps(config)

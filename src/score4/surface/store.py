@@ -22,7 +22,7 @@ import h5py
 import numpy as np
 
 from ..errors import ConfigError
-from ..files import atomic_output, open_h5
+from ..files import atomic_h5, open_h5
 from .heightmap import HeightMap
 from .spec import Surface, build_surface, parse_surface_spec
 
@@ -38,7 +38,7 @@ def _jsonable(metadata: dict) -> str:
 def save_surface(surface: Surface, path: str | Path) -> Path:
     """Write ``surface`` to ``path`` atomically (an existing file is replaced only on success)."""
     path = Path(path)
-    with atomic_output(path) as tmp, h5py.File(tmp, "w") as f:
+    with atomic_h5(path) as f:
         f.attrs["format"] = FORMAT
         f.attrs["format_version"] = FORMAT_VERSION
         f.attrs["kind"] = surface.spec.kind
