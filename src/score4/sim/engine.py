@@ -334,6 +334,7 @@ def run(
         "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
         "host": platform.node(),
         "geant4_warnings": _geant4_warnings(parts),
+        **_stuck_tracks(parts),
         **balance,
     }
     try:
@@ -705,6 +706,35 @@ def _geant4_warnings(parts: Path) -> list[str]:
                 message = lines[i + 2].strip() if i + 2 < len(lines) else ""
                 found[f"{m.group(1)} ({issuer}): {message}"] += 1
     return [f"{text} [x{n}]" for text, n in found.most_common()]
+
+
+#: Geant4's navigator codes for a track that makes no progress: after 10 zero-length steps it
+#: pushes the track 1e-7 mm (GeomNav1002, a warning); after 25 it kills the track and aborts the
+#: whole event (GeomNav0003). Rays lying exactly in the shared walls of neighbouring volumes
+#: (block cut planes and corners, patch cell walls) do this: docs/tiling.md#rays-on-block-walls.
+STUCK_PUSHED, STUCK_ABORTED = "GeomNav1002", "GeomNav0003"
+
+
+def _stuck_tracks(parts: Path) -> dict:
+    """Run-record counts of stuck tracks Geant4 pushed or killed; warns when events were aborted."""
+    counts: Counter[str] = Counter()
+    for log in sorted(parts.glob("geant4-*.log")):
+        for m in re.finditer(
+            r"G4Exception : (GeomNav1002|GeomNav0003)", log.read_text(errors="replace")
+        ):
+            counts[m.group(1)] += 1
+    aborted = counts[STUCK_ABORTED]
+    if aborted:
+        warnings.warn(
+            f"Geant4 killed {aborted} stuck track(s) and aborted their events ({STUCK_ABORTED}: no "
+            "progress for 25 steps on a volume boundary, e.g. a ray exactly along the walls or "
+            "corners of rough-surface blocks or patch cells); those events lack deposits. Offset "
+            "such beams from the cell grid (docs/tiling.md#rays-on-block-walls); the count is the "
+            "run record's stuck_events_aborted",
+            errors.Score4Warning,
+            stacklevel=3,
+        )
+    return {"stuck_tracks_pushed": counts[STUCK_PUSHED], "stuck_events_aborted": aborted}
 
 
 def _collect_logs(parts: Path, out: Path) -> Path:
