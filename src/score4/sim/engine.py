@@ -49,9 +49,11 @@ from .. import __version__, errors
 from ..config import RunConfig, config_to_dict
 from ..errors import ConfigError, Score4Error
 from ..files import atomic_output
+from ..geometry.walls import warn_rays_in_walls
 from ..output import merge_chunks
 from ..scene import build_scene
 from ..source.build import make_source, needs_radioactive_decay
+from ..source.vertex_file import read_vertex_file
 from .conservation import check_chunk_files
 from .runtime import resolve_physics
 from .seeds import BLOCK_EVENTS
@@ -242,6 +244,11 @@ def run(
     # Build the scene and draw one event here: bad surfaces, files and constraints fail now, not in a worker.
     scene = build_scene(config)
     make_source(config, scene).primaries(np.random.default_rng(0), 0, 1)
+    if config.source.vertices is not None and scene.layers:  # hand-made rays: beams on walls?
+        rays = read_vertex_file(config.source.vertices)
+        text = warn_rays_in_walls(scene, rays.position, rays.direction)
+        if text:
+            warnings.warn(text, errors.Score4Warning, stacklevel=2)
     if choice.warning:
         warnings.warn(choice.warning, errors.Score4Warning, stacklevel=2)
     fingerprint = config_fingerprint(config, seed)
