@@ -53,15 +53,17 @@ def wall_planes(layer: RoughLayer) -> tuple[np.ndarray, np.ndarray]:
 
 def rays_in_walls(layer: RoughLayer, positions: np.ndarray, directions: np.ndarray) -> np.ndarray:
     """True for each ray (world position and direction) lying in a wall plane of ``layer``."""
-    q = layer.frame.to_local(np.asarray(positions, float))
     d = np.asarray(directions, float) @ layer.frame.rotation
-    planes_u, planes_v = wall_planes(layer)
-    hit = np.zeros(len(q), dtype=bool)
-    for axis, planes in ((0, planes_u), (1, planes_v)):
-        parallel = np.abs(d[:, axis]) <= WALL_TOLERANCE * np.linalg.norm(d, axis=1)
+    hit = np.zeros(len(d), dtype=bool)
+    parallel = np.abs(d[:, :2]) <= WALL_TOLERANCE * np.linalg.norm(d, axis=1)[:, None]
+    rows = np.flatnonzero(parallel.any(axis=1))  # only these can lie in a wall (few, if any)
+    if not len(rows):
+        return hit
+    q = layer.frame.to_local(np.asarray(positions, float)[rows])
+    for axis, planes in enumerate(wall_planes(layer)):
         i = np.clip(np.searchsorted(planes, q[:, axis]), 1, len(planes) - 1)
         near = np.minimum(np.abs(q[:, axis] - planes[i - 1]), np.abs(q[:, axis] - planes[i]))
-        hit |= parallel & (near <= WALL_TOLERANCE)
+        hit[rows] |= parallel[rows, axis] & (near <= WALL_TOLERANCE)
     return hit
 
 
