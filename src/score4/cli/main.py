@@ -244,6 +244,11 @@ def summary(results_file: Path, as_json: bool, bins) -> None:
             f"  energy check  {run['energy_violations']} events deposit more than their primaries' "
             f"energy + 1 eV" + (f" (largest excess {excess:.4g} keV)" if excess > 0 else "")
         )
+    if int(run.get("stuck_events_aborted", 0)):
+        click.echo(
+            f"  stuck tracks  {run['stuck_events_aborted']} events aborted by Geant4 (a track stuck "
+            "on a volume boundary was killed: their deposits are incomplete)"
+        )
     emax = max(float(results.primary_energy.max(initial=0.0)), 1e-12)
     for v in s["volumes"]:
         e = results.edep[v["name"]]

@@ -48,9 +48,11 @@ from .. import __version__, errors
 from ..config import RunConfig, config_to_dict
 from ..errors import ConfigError, Score4Error
 from ..files import atomic_output, check_free_space, check_output_file
+from ..geometry.walls import warn_rays_in_walls
 from ..output import merge_chunks
 from ..scene import build_scene
 from ..source.build import make_source, needs_radioactive_decay
+from ..source.vertex_file import read_vertex_file
 from .conservation import check_chunk_files
 from .runtime import resolve_physics
 from .seeds import BLOCK_EVENTS
@@ -233,6 +235,11 @@ def run(
     # Build the scene and draw one event here: bad surfaces, files and constraints fail now, not in a worker.
     scene = build_scene(config)
     make_source(config, scene).primaries(np.random.default_rng(0), 0, 1)
+    if config.source.vertices is not None and scene.layers:  # hand-made rays: beams on walls?
+        rays = read_vertex_file(config.source.vertices)
+        text = warn_rays_in_walls(scene, rays.position, rays.direction)
+        if text:
+            warnings.warn(text, errors.Score4Warning, stacklevel=2)
     if choice.warning:
         warnings.warn(choice.warning, errors.Score4Warning, stacklevel=2)
     fingerprint = config_fingerprint(config, seed)
@@ -325,6 +332,7 @@ def run(
         "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
         "host": platform.node(),
         "geant4_warnings": _geant4_warnings(parts),
+        **_stuck_tracks(parts),
         **balance,
     }
     try:
@@ -696,6 +704,35 @@ def _geant4_warnings(parts: Path) -> list[str]:
                 message = lines[i + 2].strip() if i + 2 < len(lines) else ""
                 found[f"{m.group(1)} ({issuer}): {message}"] += 1
     return [f"{text} [x{n}]" for text, n in found.most_common()]
+
+
+#: Geant4's navigator codes for a track that makes no progress: after 10 zero-length steps it
+#: pushes the track 1e-7 mm (GeomNav1002, a warning); after 25 it kills the track and aborts the
+#: whole event (GeomNav0003). Rays lying exactly in the shared walls of neighbouring volumes
+#: (block cut planes and corners, patch cell walls) do this: docs/tiling.md#rays-on-block-walls.
+STUCK_PUSHED, STUCK_ABORTED = "GeomNav1002", "GeomNav0003"
+
+
+def _stuck_tracks(parts: Path) -> dict:
+    """Run-record counts of stuck tracks Geant4 pushed or killed; warns when events were aborted."""
+    counts: Counter[str] = Counter()
+    for log in sorted(parts.glob("geant4-*.log")):
+        for m in re.finditer(
+            r"G4Exception : (GeomNav1002|GeomNav0003)", log.read_text(errors="replace")
+        ):
+            counts[m.group(1)] += 1
+    aborted = counts[STUCK_ABORTED]
+    if aborted:
+        warnings.warn(
+            f"Geant4 killed {aborted} stuck track(s) and aborted their events ({STUCK_ABORTED}: no "
+            "progress for 25 steps on a volume boundary, e.g. a ray exactly along the walls or "
+            "corners of rough-surface blocks or patch cells); those events lack deposits. Offset "
+            "such beams from the cell grid (docs/tiling.md#rays-on-block-walls); the count is the "
+            "run record's stuck_events_aborted",
+            errors.Score4Warning,
+            stacklevel=3,
+        )
+    return {"stuck_tracks_pushed": counts[STUCK_PUSHED], "stuck_events_aborted": aborted}
 
 
 def _collect_logs(parts: Path, out: Path) -> Path:
