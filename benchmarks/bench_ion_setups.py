@@ -15,6 +15,7 @@ Usage::
     python benchmarks/bench_ion_setups.py --ion alpha --energy 5300 --events 200
     python benchmarks/bench_ion_setups.py --material TeO2 --setups lite,msc_off,ss
     python benchmarks/bench_ion_setups.py --matrix             # key set-ups x 6 materials x 3 energies
+    python benchmarks/bench_ion_setups.py --matrix --energy 103.144 --setups lite_before  # one energy
 
 Columns: mean projected depth of the ions that stop in the target, longitudinal straggling (sigma
 of that depth), lateral straggling (rms of one transverse coordinate), backscattered fraction,
@@ -540,6 +541,12 @@ def print_table(ion: str, energy: float, material: str, rows: dict, ref: dict) -
             g["stopping_kev_per_nm"], ref["stopping_kev_per_nm"], strict=False
         ):
             print(f"  {e:9.4g} | {se:8.4f} {sn:8.4f} | {re_:8.4f} {rn:8.4f}")
+        # the ratios docs/physics.md quotes, at the ion's own energy (the first row)
+        (_, se, sn), (_, re_, rn) = g["stopping_kev_per_nm"][0], ref["stopping_kev_per_nm"][0]
+        print(
+            f"Geant4 / SRIM stopping of {ion} {energy:g} keV in {material}: "
+            f"electronic {se / re_:.2f}, nuclear {sn / rn:.2f}"
+        )
     for name, g in rows.items():
         if "error" in g:
             print(f"{name:30s} does not run: {g['error']}")
@@ -578,7 +585,8 @@ def main(argv: list[str] | None = None) -> None:
             ap.error(f"--setups: unknown set-up {name!r}; known: {', '.join(SETUPS)}")
     if args.matrix:
         names = list(MATRIX_SETUPS) if args.setups == "all" else names
-        cases = [(args.ion, e, m) for m in MATERIALS for e in ION_ENERGIES_KEV[args.ion]]
+        energies = [args.energy] if args.energy else ION_ENERGIES_KEV[args.ion]
+        cases = [(args.ion, e, m) for m in MATERIALS for e in energies]
     else:
         energy = args.energy or (5300.0 if args.ion == "alpha" else 103.144)
         if energy <= 0:
@@ -629,6 +637,32 @@ def print_ratios(cases: list[dict]) -> None:
         print(
             f"{case['material']:22s} {case['energy_kev']:7.5g} {t['depth_nm']:7.1f}+-{t['straggling_nm']:<6.1f} "
             + " ".join(cells)
+        )
+    # the spans docs/physics.md quotes: depth ratios over all cases, per set-up, and the stopping
+    # powers at each case's own energy (set-ups with nuclear stopping only)
+    for name in names:
+        ratios = [
+            c["geant4"][name]["depth_nm"] / c["trim"]["depth_nm"]
+            for c in cases
+            if "error" not in c["geant4"][name]
+        ]
+        if ratios:
+            print(f"{name}: depth / TRIM depth {min(ratios):.3f}-{max(ratios):.3f}")
+    electronic, nuclear = [], []
+    for case in cases:
+        for g in case["geant4"].values():
+            if "error" not in g and g["stopping_kev_per_nm"][0][2]:
+                (_, se, sn), (_, re_, rn) = (
+                    g["stopping_kev_per_nm"][0],
+                    case["trim"]["stopping_kev_per_nm"][0],
+                )
+                electronic.append(se / re_)
+                nuclear.append(sn / rn)
+                break
+    if electronic:
+        print(
+            f"Geant4 / SRIM stopping at each case's energy: electronic "
+            f"{min(electronic):.2f}-{max(electronic):.2f}, nuclear {min(nuclear):.2f}-{max(nuclear):.2f}"
         )
 
 

@@ -30,6 +30,10 @@ Parts (each case runs in its own process, so its RSS and start-up are its own):
     against portal tiling, CPU per event in one process each, and the share of portal events that
     needed the tracking action (see score4.sim.portal_action). Runs on older score4 versions too
     (PYTHONPATH=old/src), for a before/after comparison.
+``plans``
+    No Geant4, no timing (seconds): the nested layout's plan for the faces of ``faces``, the
+    group sizes per level, how many distinct groups each has and the placements they need
+    (distinct groups x cells per group, per level, then the envelope's daughters).
 ``jobs``
     examples/paper_a_rough.yaml, 20000 events (two chunks) with 1 and 2 worker processes: wall
     seconds and their ratio, and the speed-up estimated from the CPU of the parent and the
@@ -264,6 +268,30 @@ def part_faces(events: int, flat_1m: bool) -> None:
         )
 
 
+def _spaced(n: int) -> str:
+    """5 or more digits in groups of three (as the docs write them): 2500, 250 000."""
+    return f"{n:,}".replace(",", " ") if n >= 10_000 else str(n)
+
+
+def part_plans() -> None:
+    """The nested layout's levels for the faces of ``part_faces`` (numpy only: exact counts)."""
+    from score4.config import parse_config
+    from score4.geometry.tiling import grouping_plan
+    from score4.scene import build_scene
+
+    for side, variants in [(10.0, "one"), (100.0, "one"), (100.0, "random"), (100.0, "exact")]:
+        layer = build_scene(parse_config(face_config(side, variants=variants))).layers[0]
+        cells = layer.patch_map.variants
+        plan = grouping_plan(cells)
+        placed = [len(p) * g * g for g, p, _ in plan] + [plan[-1][2].size]
+        levels = " then ".join(f"{g} x {g} ({_spaced(len(p))} distinct)" for g, p, _ in plan)
+        print(
+            f"{side / 100:g} m {variants}: {cells.shape[1]} x {cells.shape[0]} cells; groups "
+            f"{levels}; placements {' + '.join(_spaced(n) for n in placed)} = "
+            f"{_spaced(sum(placed))}"
+        )
+
+
 def part_portal(events: int) -> None:
     print(f"{'tiling':7} {'ms/ev':>6} {'mean MeV':>8} {'jumps/ev':>8} {'tracked':>7}")
     res = {}
@@ -353,6 +381,8 @@ def main() -> None:
         return
     parts = args.parts.split(",")
     print(f"load average at start: {os.getloadavg()}")
+    if "plans" in parts:
+        part_plans()
     if "startup" in parts:
         part_startup()
     if "faces" in parts:

@@ -1,6 +1,7 @@
 """Native tiling vs portal vs a flat face on a 10 cm x 10 cm face, and one patch vs one 1 cm patch.
 
     .venv/bin/python benchmarks/bench_tiling.py [--events 2000] [--limit 300]
+    .venv/bin/python benchmarks/bench_tiling.py --markdown   # docs/tiling.md's table, no patches
 
 Face: the +z face of a 10 cm x 10 cm x 1 mm silicon box, covered with 10 um pyramids (10 um wide
 and high) in 0.5 mm patches: a 200 x 200 grid, 50 x 50 pyramids per patch, three variants with
@@ -239,6 +240,16 @@ def in_subprocess(args: list[str], limit: float) -> dict | None:
     return json.loads(lines[-1][len(MARK) :])
 
 
+# the rows of docs/tiling.md's table (--markdown)
+MARKDOWN_LABELS = {
+    "flat": "flat face",
+    "native": "native, 3 variants (2 with a height spread, as blocks)",
+    "portal": "portal, same 3 variants",
+    "placements1": "native placements, 1 equal-height variant (multi-union)",
+    "replicas1": "native replicas (`native_layout: replicas`), same variant",
+}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--events", type=int, default=2000)
@@ -254,6 +265,9 @@ def main() -> None:
         default="flat,native,portal,placements1,replicas1",
         help="comma-separated tiling cases (placements1/replicas1: one variant)",
     )
+    parser.add_argument(
+        "--markdown", action="store_true", help="the tiling table as docs/tiling.md's rows"
+    )
     parser.add_argument("--tiling", help=argparse.SUPPRESS)
     parser.add_argument("--patch", nargs=2, help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -264,22 +278,33 @@ def main() -> None:
         print(MARK + json.dumps(measure_patch(float(args.patch[0]), args.patch[1])), flush=True)
         return
 
-    print(
-        f"{'case':11} {'build s':>8} {'init s':>7} {'1st run s':>9} {'RSS MB':>7} {'ev/s wall':>9} "
-        f"{'ev/s CPU':>8} {'mean MeV':>8} {'jumps/ev':>8}"
-    )
+    if args.markdown:
+        print("| case | build s | RSS MB | events/s |")
+        print("|---|---|---|---|")
+    else:
+        print(
+            f"{'case':11} {'build s':>8} {'init s':>7} {'1st run s':>9} {'RSS MB':>7} "
+            f"{'ev/s wall':>9} {'ev/s CPU':>8} {'mean MeV':>8} {'jumps/ev':>8}"
+        )
     for tiling in args.cases.split(","):
         r = in_subprocess(
             ["--tiling", tiling, "--events", str(args.events), "--face-cm", str(args.face_cm)],
             max(args.limit, 3600),
         )
+        if args.markdown:  # events per second of CPU: the steadier figure on a shared machine
+            print(
+                f"| {MARKDOWN_LABELS[tiling]} | {r.get('build_s', 0.0):.2f} | {r['rss_mb']:.0f} "
+                f"| {r['ev_per_s_cpu']:.0f} |",
+                flush=True,
+            )
+            continue
         print(
             f"{tiling:11} {r.get('build_s', 0.0):8.2f} {r['init_s']:7.2f} {r['first_run_s']:9.2f} "
             f"{r['rss_mb']:7.0f} {r['ev_per_s_wall']:9.0f} {r['ev_per_s_cpu']:8.0f} "
             f"{r['mean_edep_mev']:8.3f} {r.get('jumps_per_event', float('nan')):8.2f}",
             flush=True,
         )
-    if args.skip_patches:
+    if args.skip_patches or args.markdown:
         return
     print()
     print(f"{'patch':>8} {'solid':12} {'pyramids':>9} {'build s':>9} {'RSS MB':>8} {'dRSS MB':>8}")

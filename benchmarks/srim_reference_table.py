@@ -12,6 +12,9 @@ Prints and writes two tables (lunasrim 1.0.0 = SRIM-2013):
   Pb-206 (103.144 keV) through 10, 20, 40 nm and of 5.3 MeV alphas through 5, 10, 20 um, at 0
   and 60 degrees from the normal, in the same six materials.
 
+``--markdown`` reads the two CSV files instead (no TRIM run) and prints the excerpt tables of
+docs/physics.md and the figures its text quotes about them (``make docs-check`` compares them).
+
 Each material is the Geant4 one (G4NistManager; TeO2 has no NIST name and is a ``materials:``
 entry, formula TeO2, 6.02 g/cm3), and TRIM gets its atoms and **its density**, so depths in nm
 compare directly with Geant4 runs in that material. TRIM results are cached
@@ -24,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import math
 import time
 from pathlib import Path
 
@@ -155,15 +159,89 @@ def print_table(rows: list[dict], columns: list[str]) -> None:
         print("  ".join(str(r[c]).rjust(w) for c, w in zip(columns, widths, strict=True)))
 
 
-def main() -> None:
-    import lunasrim
+def _read_csv(path: Path) -> list[dict]:
+    with open(path) as fh:
+        return list(csv.DictReader(line for line in fh if not line.startswith("#")))
 
+
+def _sig4(x: float) -> str:
+    """Four significant digits, but never a digit of a length above 1000 nm dropped (26437)."""
+    return f"{x:.{max(0, 3 - math.floor(math.log10(abs(x))))}f}" if x else "0"
+
+
+def markdown(folder: Path) -> None:
+    """Print docs/physics.md's excerpts of the two CSV files, and the ratios its text quotes."""
+    rows = _read_csv(folder / "srim_reference.csv")
+    excerpt = [r for r in rows if r["energy_keV"] in ("103.144", "5300")]
+
+    def length(r: dict, key: str) -> str:  # Pb-206 in nm to 0.1 nm, alphas to 4 digits
+        return f"{float(r[key]):.1f}" if r["ion"] == "Pb-206" else _sig4(float(r[key]))
+
+    header = ["ion", "energy", "material (Geant4)", "density g/cm3", "table range nm",
+              "table straggling nm", "table lateral nm", "TRIM range nm", "TRIM straggling nm",
+              "TRIM lateral nm"]  # fmt: skip
+    print("| " + " | ".join(header) + " |")
+    print("| --- " * 10 + "|")
+    for r in excerpt:
+        cells = [
+            r["ion"],
+            f"{r['energy_keV']} keV",
+            f"{r['material']} ({r['geant4_material']})",
+            r["density_g_cm3"],
+            *(length(r, k) for k in ("table_range_nm", "table_straggling_nm", "table_lateral_nm")),
+            f"{length(r, 'trim_range_nm')} ± {float(r['trim_range_err_nm']):.2g}",
+            length(r, "trim_straggling_nm"),
+            length(r, "trim_lateral_nm"),
+        ]
+        print("| " + " | ".join(cells) + " |")
+
+    # the text under the table: TRIM's Monte Carlo against SRIM's analytic table, all 36 rows
+    def spread(key: str, ion: str | None = None) -> list[float]:
+        return [
+            float(r[f"trim_{key}"]) / float(r[f"table_{key}"])
+            for r in rows
+            if ion is None or r["ion"] == ion
+        ]
+
+    worst = max(abs(x - 1) for x in spread("range_nm"))
+    print(f"\nTRIM range / table range: within {100 * worst:.1f} % (all rows)")
+    worst = max(abs(x - 1) for x in spread("lateral_nm"))
+    print(f"TRIM lateral / table lateral: within {100 * worst:.1f} % (all rows)")
+    worst = max(abs(x - 1) for x in spread("straggling_nm", "Pb-206"))
+    print(f"TRIM straggling / table straggling, Pb-206: within {100 * worst:.1f} %")
+    alpha = [1 / x for x in spread("straggling_nm", "alpha")]
+    print(f"table straggling / TRIM straggling, alphas: {min(alpha):.2f}-{max(alpha):.2f}")
+
+    thin = _read_csv(folder / "srim_thin_layers.csv")
+    print("\n| ion | material | layer | angle | transmitted fraction | mean exit energy keV |")
+    print("| --- " * 6 + "|")
+    for r in thin:
+        if r["material"] not in ("Si", "CaWO4"):
+            continue
+        nm = float(r["thickness_nm"])
+        layer = f"{nm:g} nm" if r["ion"] == "Pb-206" else f"{nm / 1e3:g} um"
+        exit_kev = "-" if r["mean_exit_energy_keV"] == "nan" else r["mean_exit_energy_keV"]
+        fraction = f"{float(r['transmitted_fraction']):.3f} ± "
+        fraction += f"{float(r['transmitted_fraction_err']):.3f}"
+        cells = [r["ion"], r["material"], layer, f"{r['angle_deg']}°", fraction, exit_kev]
+        print("| " + " | ".join(cells) + " |")
+
+
+def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--pb-ions", type=int, default=1000, help="TRIM ions per Pb-206 case")
     parser.add_argument("--alpha-ions", type=int, default=500, help="TRIM ions per alpha case")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "data")
+    parser.add_argument(
+        "--markdown", action="store_true", help="print the docs' tables from the CSV files in --out"
+    )
     args = parser.parse_args()
+    if args.markdown:
+        markdown(args.out)
+        return
+    import lunasrim
+
     t0 = time.perf_counter()
     comps = compositions()
     print("materials (Geant4 compositions and densities used for TRIM):")
