@@ -1,6 +1,7 @@
 """The run loop's fixed and per-event costs: start-up, per-BeamOn, per-event, large faces, jobs.
 
-    .venv/bin/python benchmarks/bench_runloop.py [--events 2000] [--parts startup,faces,portal,jobs]
+    .venv/bin/python benchmarks/bench_runloop.py [--events 2000]
+        [--parts startup,faces,spread,portal,jobs]
 
 Parts (each case runs in its own process, so its RSS and start-up are its own):
 
@@ -25,6 +26,10 @@ Parts (each case runs in its own process, so its RSS and start-up are its own):
                   and one of --events events
       run ms/ev   CPU per event of that one BeamOn, B included (what a chunk of that size costs)
       RSS MB      peak resident size of the process
+``spread``
+    Pyramids with a 2 um height spread (seed 3) on a 2.5 cm face of 50 x 50 cells (one
+    placement per cell), as ``solid: frustums`` (auto) and as ``solid: blocks``: the same
+    columns; the BeamOn cost shows the walk of the volume tree (~2500 volumes per patch).
 ``portal``
     Po-210 events (alpha + Pb-206 recoil) on the 10 cm pyramid face: native (default layout)
     against portal tiling, CPU per event in one process each, and the share of portal events that
@@ -55,6 +60,7 @@ ROOT = Path(__file__).resolve().parent.parent
 WARMUP = 20
 PYRAMIDS = {"kind": "spikes", "nx": 50, "ny": 50, "width": "10 um", "height": "10 um"}
 LOW = {"kind": "spikes", "nx": 50, "ny": 50, "width": "10 um", "height": "5 um"}
+SPREAD = {**PYRAMIDS, "height_sigma": "2 um", "seed": 3}
 
 
 def _rss_mb() -> float:
@@ -64,12 +70,15 @@ def _rss_mb() -> float:
 def face_config(
     side_cm: float, layout: str = "auto", tiling: str = "native", variants: str = "one"
 ) -> dict:
-    """Pyramid face of ``side_cm``; ``variants``: one, random (two, fill random), exact (two)."""
+    """Pyramid face of ``side_cm``; ``variants``: one, random (two, fill random), exact (two);
+    spread-<solid>: one variant of pyramids with a 2 um height spread as that solid."""
     rough: dict = {"face": "+z", "tiling": tiling}
     if layout != "default":  # "default": leave native_layout out (also runs on older score4)
         rough["native_layout"] = layout
     if variants == "one":
         rough["surface"] = "p"
+    elif variants.startswith("spread-"):
+        rough.update(surface="spread", solid=variants.split("-", 1)[1])
     else:
         rough.update(
             variants=[{"surface": "p", "density": 0.5}, {"surface": "low", "density": 0.5}],
@@ -78,7 +87,7 @@ def face_config(
         )
     return {
         "physics": "lite",
-        "surfaces": {"p": PYRAMIDS, "low": LOW},
+        "surfaces": {"p": PYRAMIDS, "low": LOW, "spread": SPREAD},
         "targets": [
             {
                 "name": "crystal",
@@ -238,25 +247,35 @@ def part_startup() -> None:
 
 
 def part_faces(events: int, flat_1m: bool) -> None:
+    cases = FACE_CASES
+    if flat_1m:
+        cases = [*cases, (100.0, "placements", "one")]
+    _face_table(cases, events)
+
+
+#: The faces part: (side cm, layout, variants).
+FACE_CASES = [
+    (10.0, "auto", "one"),
+    (10.0, "placements", "one"),
+    (100.0, "auto", "one"),
+    (100.0, "auto", "random"),
+    (100.0, "auto", "exact"),
+]
+#: The spread part: a 2.5 cm face of 50 x 50 cells (flat placements) of spread pyramids.
+SPREAD_CASES = [(2.5, "auto", "spread-frustums"), (2.5, "auto", "spread-blocks")]
+
+
+def _face_table(cases: list, events: int) -> None:
     print(
-        f"{'face':6} {'variants':8} {'layout':10} {'build s':>7} {'init s':>6} {'1st s':>6} "
+        f"{'face':6} {'variants':15} {'layout':10} {'build s':>7} {'init s':>6} {'1st s':>6} "
         f"{'BeamOn ms':>9} {'ms/ev':>6} {'run ms/ev':>9} {'RSS MB':>6} {'mean MeV':>8}"
     )
-    cases = [
-        (10.0, "auto", "one"),
-        (10.0, "placements", "one"),
-        (100.0, "auto", "one"),
-        (100.0, "auto", "random"),
-        (100.0, "auto", "exact"),
-    ]
-    if flat_1m:
-        cases.append((100.0, "placements", "one"))
     for side, layout, variants in cases:
         r = in_subprocess(
             ["--face", str(side), layout, variants, "--events", str(events)],
         )
         print(
-            f"{side / 100:4g} m {variants:8} {layout:10} {r['build_s']:7.2f} {r['init_s']:6.2f} "
+            f"{side / 100:4g} m {variants:15} {layout:10} {r['build_s']:7.2f} {r['init_s']:6.2f} "
             f"{r['first_run_s']:6.2f} {r['beamon_ms']:9.1f} {r['per_event_ms']:6.3f} "
             f"{r['run_ms_per_event']:9.3f} "
             f"{r['rss_mb']:6.0f} {r['mean_edep_mev']:8.3f}",
@@ -339,7 +358,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--events", type=int, default=2000, help="alpha / Po-210 events per case")
     parser.add_argument("--jobs-events", type=int, default=20000)
-    parser.add_argument("--parts", default="startup,faces,portal,jobs")
+    parser.add_argument("--parts", default="startup,faces,spread,portal,jobs")
     parser.add_argument("--flat-1m", action="store_true", help="also the 1 m face, flat placements")
     parser.add_argument("--face", nargs=3, help=argparse.SUPPRESS)
     parser.add_argument("--portal", help=argparse.SUPPRESS)
@@ -357,6 +376,8 @@ def main() -> None:
         part_startup()
     if "faces" in parts:
         part_faces(args.events, args.flat_1m)
+    if "spread" in parts:
+        _face_table(SPREAD_CASES, args.events)
     if "portal" in parts:
         part_portal(args.events)
     if "jobs" in parts:

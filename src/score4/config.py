@@ -192,8 +192,9 @@ class RoughFace(StrictModel):
     # native tiling: auto = nested (2 x 2 groups of cells above 2500 cells, shared per content),
     # one G4PVPlacement per cell in the envelope, or G4PVReplica rows of cells (one variant only)
     native_layout: Literal["auto", "nested", "placements", "replicas"] = "auto"
-    # auto: multi-union for spike grids of equal heights, blocks otherwise (see RoughLayer.solid_kind)
-    solid: Literal["auto", "tessellated", "multiunion", "blocks"] = "auto"
+    # auto: multi-union for spike grids of equal heights, frustums for spike grids with a height
+    # spread, blocks otherwise (see RoughLayer.solid_kind)
+    solid: Literal["auto", "tessellated", "multiunion", "blocks", "frustums"] = "auto"
     # blocks: cells (height-map pixels or spikes) per block side; None: ~8, any map size
     block_cells: int | None = Field(None, ge=1)
     base_thickness: PositiveLength = 1e-3

@@ -95,9 +95,10 @@ def block_edges(
 def check_patch(surface: Surface, kind: str, block_cells: int | None) -> None:
     """Refuse, before any Geant4 work, a patch too large to build or blocks that do not fit.
 
-    ``kind`` is the solid the patch becomes (``tessellated``, ``multiunion``, ``blocks``).
+    ``kind`` is the solid the patch becomes (``tessellated``, ``multiunion``, ``frustums``,
+    ``blocks``).
     """
-    if kind == "multiunion":
+    if kind in ("multiunion", "frustums"):
         return
     mesh = surface.top_mesh
     if mesh.n_faces > MAX_PATCH_FACETS:
