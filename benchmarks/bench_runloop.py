@@ -15,7 +15,8 @@ Parts (each case runs in its own process, so its RSS and start-up are its own):
     (``auto``: nested 2 x 2 groups above 2500 cells) and flat (one placement per cell, the old
     default; the 1 m flat case only with ``--flat-1m``: 20 s and 2.6 GB). Two more 1 m cases with
     two variants (10 um and 5 um pyramids, ``fill: random`` and ``fill: exact`` 50 %): nothing is
-    shared between their groups above the lowest levels. Columns:
+    shared between their groups above the lowest levels. A last 1 m case with ``fill: tiles``
+    (the map made of 64 random tiles of 40 x 40 cells, each a shared group). Columns:
 
       build s     score4.geometry.world.build_world
       init s      the whole Simulation set-up (scene, source, Geant4 initialisation)
@@ -70,7 +71,8 @@ def _rss_mb() -> float:
 def face_config(
     side_cm: float, layout: str = "auto", tiling: str = "native", variants: str = "one"
 ) -> dict:
-    """Pyramid face of ``side_cm``; ``variants``: one, random (two, fill random), exact (two);
+    """Pyramid face of ``side_cm``; ``variants``: one, random (two, fill random), exact (two),
+    tiles (two, fill tiles: 64 random tiles of the first group size);
     spread-<solid>: one variant of pyramids with a 2 um height spread as that solid."""
     rough: dict = {"face": "+z", "tiling": tiling}
     if layout != "default":  # "default": leave native_layout out (also runs on older score4)
@@ -260,6 +262,7 @@ FACE_CASES = [
     (100.0, "auto", "one"),
     (100.0, "auto", "random"),
     (100.0, "auto", "exact"),
+    (100.0, "auto", "tiles"),
 ]
 #: The spread part: a 2.5 cm face of 50 x 50 cells (flat placements) of spread pyramids.
 SPREAD_CASES = [(2.5, "auto", "spread-frustums"), (2.5, "auto", "spread-blocks")]

@@ -318,6 +318,7 @@ def build_scene(config: RunConfig) -> Scene:
                     [v.density for v in rough.variant_list],
                     method=rough.fill,
                     seed=rough.seed,
+                    n_tiles=rough.n_tiles,
                 )
             except ConfigError as err:
                 raise ConfigError(f"{where} (face {rough.face} of {target.name}): {err}") from None

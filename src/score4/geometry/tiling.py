@@ -26,12 +26,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..scene import RoughLayer
+from ..surface.patchmap import MAX_TOP_BOXES
 from .blocks import place_blocks
 from .frustums import place_frustums
 from .solids import multiunion_solid, tessellated_solid
 
-#: Nested layout: most boxes one mother (the envelope) holds directly (50 x 50).
-MAX_DAUGHTERS = 2500
+#: Nested layout: most boxes one mother (the envelope) holds directly (50 x 50); fill: tiles
+#: makes its tiles of the group size this implies (score4.surface.patchmap.tile_cells).
+MAX_DAUGHTERS = MAX_TOP_BOXES
 #: Nested layout: most placements one level of large groups may take (see grouping_plan).
 PLACEMENT_BUDGET = 300_000
 
