@@ -19,7 +19,8 @@ blocks), Geant4 (solids and placements), peak RSS of the process and its growth 
 that only imported Geant4.
 
 The machine is shared with other jobs: absolute figures vary by +-30 %; ratios from one
-invocation are firmer.
+invocation are firmer, and firmer still with ``--repeat N`` (N rounds over all cases, each row
+the round with the median CPU per event of its case).
 
 Measured 2026-11-25 on the shared 2-core machine (other engineers' jobs running, load 2-12),
 geant4_pybind 0.1.3 / Geant4 11.4.1. Run 1, all cases 3000 events (auto blocks then aimed at
@@ -202,30 +203,47 @@ def main() -> None:
     )
     p.add_argument("--cases", default=",".join(CASES))
     p.add_argument("--sizes", default="256,512,1024,2048")
+    p.add_argument(
+        "--repeat", type=int, default=1, help="rounds over the cases; each row is the median"
+    )
     p.add_argument("--build-child", type=int, help=argparse.SUPPRESS)
     a = p.parse_args()
     if a.build_child:
         build_case(a.build_child)
         return
     cases = [c for c in a.cases.split(",") if c]
-    rows = {}
+    runs: dict[str, list] = {}
+    failed: set[str] = set()
+    print(f"load average at start: {os.getloadavg()}")
     with tempfile.TemporaryDirectory() as d:
-        for case in cases:
-            events = a.slow_events if case.endswith("_tess") else a.events
-            try:
-                big, mean = run_case(case, events, Path(d))
-                small, _ = run_case(case, events // 10, Path(d))
-            except subprocess.CalledProcessError:
-                print(f"{case}: the run failed (see its error above)")
-                continue
-            per = (big - small) / (events - events // 10)
-            rows[case] = (per, big, small, mean)
+        for _ in range(a.repeat):  # rounds over all cases, so a load change hits them alike
+            for case in cases:
+                if case in failed:
+                    continue
+                events = a.slow_events if case.endswith("_tess") else a.events
+                try:
+                    big, mean = run_case(case, events, Path(d))
+                    small, _ = run_case(case, events // 10, Path(d))
+                except subprocess.CalledProcessError:
+                    print(f"{case}: the run failed (see its error above)")
+                    failed.add(case)
+                    continue
+                per = (big - small) / (events - events // 10)
+                runs.setdefault(case, []).append((per, big, small, mean))
+    print(f"load average at end: {os.getloadavg()}")
+    # the round with the median CPU per event, per case
+    rows = {c: sorted(r)[(len(r) - 1) // 2] for c, r in runs.items()}
     ref = rows.get("pyramids", (float("nan"),))[0]
     print(
         f"{'case':18s} {'ms/event':>9s} {'ratio':>6s} {'CPU big s':>9s} {'CPU small s':>11s} {'mean MeV':>8s}"
+        f"  all rounds ms/event"
     )
     for case, (per, big, small, mean) in rows.items():
-        print(f"{case:18s} {per * 1e3:9.3f} {per / ref:6.2f} {big:9.2f} {small:11.2f} {mean:8.3f}")
+        every = " ".join(f"{r[0] * 1e3:.3f}" for r in runs[case])
+        print(
+            f"{case:18s} {per * 1e3:9.3f} {per / ref:6.2f} {big:9.2f} {small:11.2f} {mean:8.3f}"
+            f"  {every}"
+        )
     sizes = [int(s) for s in a.sizes.split(",") if s]
     if sizes:
         print(
