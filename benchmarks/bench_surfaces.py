@@ -58,6 +58,23 @@ Run 2 (current code), load ~2:
     spread_blocks          0.752   1.34
     gauss_tess          1284.164 2280.00
     selfaff_tess        1229.124 2182.28
+
+Run 3 (solid: frustums for spike grids with a spread; median of 3 rounds), load 3.7-4.2:
+    .venv/bin/python benchmarks/bench_surfaces.py --events 5000 --slow-events 300 --repeat 3 \
+        --cases pyramids,flat,spread_blocks,spread_frustums,selfaff_blocks,gauss_blocks,measured_blocks,pyramids_frustums --sizes ""
+
+    case                ms/event  ratio  all rounds ms/event
+    pyramids               0.553   1.00  0.569 0.527 0.553
+    flat                   0.331   0.60  0.351 0.331 0.270
+    spread_blocks          0.636   1.15  0.615 0.687 0.636
+    spread_frustums        0.481   0.87  0.504 0.438 0.481
+    selfaff_blocks         0.737   1.33  0.564 0.737 0.797
+    gauss_blocks           0.918   1.66  0.918 0.908 1.155
+    measured_blocks        0.712   1.29  0.712 0.650 0.845
+    pyramids_frustums      0.429   0.78  0.391 0.429 0.565
+
+The height maps' figures scatter by up to +-25 % between rounds: their short runs include
+seconds of building (CPU small s 5-8 s), whose own scatter enters the difference.
 """
 
 from __future__ import annotations
@@ -71,6 +88,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
 import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -154,7 +172,17 @@ def run_case(case: str, events: int, tmp: Path) -> tuple[float, float]:
     cfg.write_text(yaml.safe_dump(config(case, events)))
     out = tmp / f"{case}_{events}.h5"
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cmd = [sys.executable, "-m", "score4.cli.main", "run", str(cfg), "--out", str(out), "-q"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "score4.cli.main",
+        "run",
+        str(cfg),
+        "--out",
+        str(out),
+        "-q",
+        "--overwrite",
+    ]
     subprocess.run(cmd, check=True, env={**os.environ, "PYTHONPATH": str(ROOT / "src")})
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
@@ -163,9 +191,52 @@ def run_case(case: str, events: int, tmp: Path) -> tuple[float, float]:
     return cpu, float(read_results(out).scores["edep"]["crystal"].mean())
 
 
+def warm_case(case: str, events: int) -> None:
+    """Child process: build ``case`` once, run 200 warm-up events, then time ``events`` events
+    (CPU of this process) in one BeamOn; print ms per event and the mean deposit."""
+
+    from score4.config import parse_config
+    from score4.sim.runtime import resolve_physics
+    from score4.sim.simulation import Simulation
+
+    sim = Simulation(parse_config(config(case, events)), resolve_physics("lite"))
+    primaries = sim.source.primaries(np.random.default_rng(5), 0, 200 + events)
+    sim.run(primaries.select_events(0, 200), 1)
+    c0 = time.process_time()
+    scores = sim.run(primaries.select_events(200, 200 + events), 2)
+    per = (time.process_time() - c0) / events
+    print(f"WARM {per * 1e3:.4f} {float(scores['edep'][:, 0].mean()):.4f}")
+
+
+def warm_table(cases: list[str], events: int, repeat: int) -> None:
+    """CPU per event with building and start-up left out: one process per case and round."""
+    print(f"load average at start: {os.getloadavg()}")
+    runs: dict[str, list[float]] = {}
+    for _ in range(repeat):
+        for case in cases:
+            r = subprocess.run(
+                [sys.executable, __file__, "--warm-child", case, "--events", str(events)],
+                check=False,
+                capture_output=True,
+                text=True,
+                env={**os.environ, "PYTHONPATH": str(ROOT / "src")},
+            )
+            lines = [x for x in r.stdout.splitlines() if x.startswith("WARM ")]
+            if r.returncode or not lines:
+                print(f"{case}: failed: {r.stderr.strip().splitlines()[-1:]}")
+                continue
+            runs.setdefault(case, []).append(float(lines[-1].split()[1]))
+    print(f"load average at end: {os.getloadavg()}")
+    ref = float(np.median(runs["pyramids"])) if "pyramids" in runs else float("nan")
+    print(f"{'case':18s} {'ms/event':>9s} {'ratio':>6s}  all rounds ms/event")
+    for case, per in runs.items():
+        med = float(np.median(per))
+        every = " ".join(f"{x:.3f}" for x in per)
+        print(f"{case:18s} {med:9.3f} {med / ref:6.2f}  {every}")
+
+
 def build_case(n: int) -> None:
     """Child process: build one n x n pixel patch as blocks, print numpy s, Geant4 s, RSS."""
-    import numpy as np
 
     from score4.sim.runtime import import_geant4, resolve_physics
 
@@ -206,10 +277,22 @@ def main() -> None:
     p.add_argument(
         "--repeat", type=int, default=1, help="rounds over the cases; each row is the median"
     )
+    p.add_argument(
+        "--warm",
+        action="store_true",
+        help="instead: one process per case, 200 warm-up events, then --events timed",
+    )
     p.add_argument("--build-child", type=int, help=argparse.SUPPRESS)
+    p.add_argument("--warm-child", help=argparse.SUPPRESS)
     a = p.parse_args()
     if a.build_child:
         build_case(a.build_child)
+        return
+    if a.warm_child:
+        warm_case(a.warm_child, a.events)
+        return
+    if a.warm:
+        warm_table([c for c in a.cases.split(",") if c], a.events, a.repeat)
         return
     cases = [c for c in a.cases.split(",") if c]
     runs: dict[str, list] = {}
