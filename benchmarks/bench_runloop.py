@@ -34,8 +34,11 @@ Parts (each case runs in its own process, so its RSS and start-up are its own):
 ``portal``
     Po-210 events (alpha + Pb-206 recoil) on the 10 cm pyramid face: native (default layout)
     against portal tiling, CPU per event in one process each, and the share of portal events that
-    needed the tracking action (see score4.sim.portal_action). Runs on older score4 versions too
-    (PYTHONPATH=old/src), for a before/after comparison.
+    needed the tracking action (see score4.sim.portal_action); then a third run with CPU timers
+    on the portal's Python (``Teleporter.on_step`` per portal/trigger step, ``start_track`` per
+    track while the tracking action is on, ``_move`` per jump inside ``on_step``). The first
+    two runs work on older score4 versions too (PYTHONPATH=old/src), for a before/after
+    comparison.
 ``jobs``
     examples/paper_a_rough.yaml, 20000 events (two chunks) with 1 and 2 worker processes: wall
     seconds and their ratio, and the speed-up estimated from the CPU of the parent and the
@@ -155,7 +158,30 @@ def measure_face(side_cm: float, layout: str, variants: str, events: int) -> dic
     return out
 
 
+def _time_python_actions() -> dict:
+    """Wrap the teleporter's per-step and per-track Python methods with CPU timers (class level,
+    before the actions bind them); returns {name: [calls, CPU s]}, filled as they run."""
+    from score4.sim import portal_action
+
+    spent: dict = {}
+    for name in ("on_step", "start_track", "_move"):
+        inner = getattr(portal_action.Teleporter, name)
+
+        def timed(*args, _inner=inner, _name=name):
+            c0 = time.process_time()
+            _inner(*args)
+            row = spent.setdefault(_name, [0, 0.0])
+            row[0] += 1
+            row[1] += time.process_time() - c0
+
+        setattr(portal_action.Teleporter, name, timed)
+    return spent
+
+
 def measure_portal(tiling: str, events: int) -> dict:
+    timed_actions = tiling == "portal-timed"
+    spent = _time_python_actions() if timed_actions else {}
+    tiling = "portal" if timed_actions else tiling
     data = face_config(10.0, layout="default", tiling=tiling)
     data["source"] = {
         "decay": "Po210",
@@ -176,6 +202,9 @@ def measure_portal(tiling: str, events: int) -> dict:
         tracked_share=(getattr(t, "tracked_events", np.nan) - tracked0) / events,
         jumps_per_event=t.jumps / (WARMUP + events) if t else float("nan"),
     )
+    for name, (calls, cpu) in spent.items():  # warm-up included: per call figures
+        out[f"{name}_per_event"] = calls / (WARMUP + events)
+        out[f"{name}_us_per_call"] = cpu / calls * 1e6
     return out
 
 
@@ -299,6 +328,18 @@ def part_portal(events: int) -> None:
     print(
         f"portal / native per event: "
         f"{res['portal']['per_event_ms'] / res['native']['per_event_ms']:.2f}"
+    )
+    # where the difference goes: the portal's Python, timed in a third run (timers add cost)
+    r = in_subprocess(["--portal", "portal-timed", "--events", str(events)])
+    python_ms = 0.0
+    for name in ("on_step", "start_track", "_move"):
+        n, us = r[f"{name}_per_event"], r[f"{name}_us_per_call"]
+        print(f"  {name:12s} {n:5.2f} calls per event, {us:6.1f} us CPU per call")
+        if name != "_move":  # _move runs inside on_step
+            python_ms += n * us / 1e3
+    print(
+        f"  portal Python per event: {python_ms:.3f} ms of the "
+        f"{res['portal']['per_event_ms'] - res['native']['per_event_ms']:.3f} ms difference"
     )
 
 
