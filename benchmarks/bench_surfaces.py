@@ -75,6 +75,21 @@ Run 3 (solid: frustums for spike grids with a spread; median of 3 rounds), load 
 
 The height maps' figures scatter by up to +-25 % between rounds: their short runs include
 seconds of building (CPU small s 5-8 s), whose own scatter enters the difference.
+
+--warm (one process per case and round, building left out), load 0.4-1.0, the code before
+(commit aa389a2, this script) and after frustums and the blocks with fewer facets:
+    .venv/bin/python benchmarks/bench_surfaces.py --warm --repeat 3 --events 4000 \
+        --cases pyramids,flat,spread_blocks,spread_frustums,pyramids_frustums,selfaff_blocks,gauss_blocks,measured_blocks
+
+    case                before ms ratio   after ms ratio  (after: all rounds ms/event)
+    pyramids               0.521   1.00      0.491   1.00  0.486 0.491 0.508
+    flat                   0.331   0.64      0.315   0.64  0.315 0.327 0.313
+    spread_blocks          0.659   1.26      0.615   1.25  0.615 0.595 0.615
+    spread_frustums            -      -      0.427   0.87  0.428 0.422 0.427
+    pyramids_frustums          -      -      0.423   0.86  0.419 0.431 0.423
+    selfaff_blocks         0.867   1.66      0.799   1.63  0.784 0.799 0.818
+    gauss_blocks           0.840   1.61      0.759   1.55  0.759 0.784 0.754
+    measured_blocks        0.653   1.25      0.655   1.34  0.668 0.621 0.655
 """
 
 from __future__ import annotations
