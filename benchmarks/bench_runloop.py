@@ -1,6 +1,7 @@
 """The run loop's fixed and per-event costs: start-up, per-BeamOn, per-event, large faces, jobs.
 
-    .venv/bin/python benchmarks/bench_runloop.py [--events 2000] [--parts startup,faces,portal,jobs]
+    .venv/bin/python benchmarks/bench_runloop.py [--events 2000]
+        [--parts startup,faces,spread,portal,jobs] (also: plans)
 
 Parts (each case runs in its own process, so its RSS and start-up are its own):
 
@@ -14,7 +15,8 @@ Parts (each case runs in its own process, so its RSS and start-up are its own):
     (``auto``: nested 2 x 2 groups above 2500 cells) and flat (one placement per cell, the old
     default; the 1 m flat case only with ``--flat-1m``: 20 s and 2.6 GB). Two more 1 m cases with
     two variants (10 um and 5 um pyramids, ``fill: random`` and ``fill: exact`` 50 %): nothing is
-    shared between their groups above the lowest levels. Columns:
+    shared between their groups above the lowest levels. A last 1 m case with ``fill: tiles``
+    (the map made of 64 random tiles of 40 x 40 cells, each a shared group). Columns:
 
       build s     score4.geometry.world.build_world
       init s      the whole Simulation set-up (scene, source, Geant4 initialisation)
@@ -25,11 +27,18 @@ Parts (each case runs in its own process, so its RSS and start-up are its own):
                   and one of --events events
       run ms/ev   CPU per event of that one BeamOn, B included (what a chunk of that size costs)
       RSS MB      peak resident size of the process
+``spread``
+    Pyramids with a 2 um height spread (seed 3) on a 2.5 cm face of 50 x 50 cells (one
+    placement per cell), as ``solid: frustums`` (auto) and as ``solid: blocks``: the same
+    columns; the BeamOn cost shows the walk of the volume tree (~2500 volumes per patch).
 ``portal``
     Po-210 events (alpha + Pb-206 recoil) on the 10 cm pyramid face: native (default layout)
     against portal tiling, CPU per event in one process each, and the share of portal events that
-    needed the tracking action (see score4.sim.portal_action). Runs on older score4 versions too
-    (PYTHONPATH=old/src), for a before/after comparison.
+    needed the tracking action (see score4.sim.portal_action); then a third run with CPU timers
+    on the portal's Python (``Teleporter.on_step`` per portal/trigger step, ``start_track`` per
+    track while the tracking action is on, ``_move`` per jump inside ``on_step``). The first
+    two runs work on older score4 versions too (PYTHONPATH=old/src), for a before/after
+    comparison.
 ``plans``
     No Geant4, no timing (seconds): the nested layout's plan for the faces of ``faces``, the
     group sizes per level, how many distinct groups each has and the placements they need
@@ -59,6 +68,7 @@ ROOT = Path(__file__).resolve().parent.parent
 WARMUP = 20
 PYRAMIDS = {"kind": "spikes", "nx": 50, "ny": 50, "width": "10 um", "height": "10 um"}
 LOW = {"kind": "spikes", "nx": 50, "ny": 50, "width": "10 um", "height": "5 um"}
+SPREAD = {**PYRAMIDS, "height_sigma": "2 um", "seed": 3}
 
 
 def _rss_mb() -> float:
@@ -68,12 +78,16 @@ def _rss_mb() -> float:
 def face_config(
     side_cm: float, layout: str = "auto", tiling: str = "native", variants: str = "one"
 ) -> dict:
-    """Pyramid face of ``side_cm``; ``variants``: one, random (two, fill random), exact (two)."""
+    """Pyramid face of ``side_cm``; ``variants``: one, random (two, fill random), exact (two),
+    tiles (two, fill tiles: 64 random tiles of the first group size);
+    spread-<solid>: one variant of pyramids with a 2 um height spread as that solid."""
     rough: dict = {"face": "+z", "tiling": tiling}
     if layout != "default":  # "default": leave native_layout out (also runs on older score4)
         rough["native_layout"] = layout
     if variants == "one":
         rough["surface"] = "p"
+    elif variants.startswith("spread-"):
+        rough.update(surface="spread", solid=variants.split("-", 1)[1])
     else:
         rough.update(
             variants=[{"surface": "p", "density": 0.5}, {"surface": "low", "density": 0.5}],
@@ -82,7 +96,7 @@ def face_config(
         )
     return {
         "physics": "lite",
-        "surfaces": {"p": PYRAMIDS, "low": LOW},
+        "surfaces": {"p": PYRAMIDS, "low": LOW, "spread": SPREAD},
         "targets": [
             {
                 "name": "crystal",
@@ -148,7 +162,30 @@ def measure_face(side_cm: float, layout: str, variants: str, events: int) -> dic
     return out
 
 
+def _time_python_actions() -> dict:
+    """Wrap the teleporter's per-step and per-track Python methods with CPU timers (class level,
+    before the actions bind them); returns {name: [calls, CPU s]}, filled as they run."""
+    from score4.sim import portal_action
+
+    spent: dict = {}
+    for name in ("on_step", "start_track", "_move"):
+        inner = getattr(portal_action.Teleporter, name)
+
+        def timed(*args, _inner=inner, _name=name):
+            c0 = time.process_time()
+            _inner(*args)
+            row = spent.setdefault(_name, [0, 0.0])
+            row[0] += 1
+            row[1] += time.process_time() - c0
+
+        setattr(portal_action.Teleporter, name, timed)
+    return spent
+
+
 def measure_portal(tiling: str, events: int) -> dict:
+    timed_actions = tiling == "portal-timed"
+    spent = _time_python_actions() if timed_actions else {}
+    tiling = "portal" if timed_actions else tiling
     data = face_config(10.0, layout="default", tiling=tiling)
     data["source"] = {
         "decay": "Po210",
@@ -169,6 +206,9 @@ def measure_portal(tiling: str, events: int) -> dict:
         tracked_share=(getattr(t, "tracked_events", np.nan) - tracked0) / events,
         jumps_per_event=t.jumps / (WARMUP + events) if t else float("nan"),
     )
+    for name, (calls, cpu) in spent.items():  # warm-up included: per call figures
+        out[f"{name}_per_event"] = calls / (WARMUP + events)
+        out[f"{name}_us_per_call"] = cpu / calls * 1e6
     return out
 
 
@@ -242,25 +282,36 @@ def part_startup() -> None:
 
 
 def part_faces(events: int, flat_1m: bool) -> None:
+    cases = FACE_CASES
+    if flat_1m:
+        cases = [*cases, (100.0, "placements", "one")]
+    _face_table(cases, events)
+
+
+#: The faces part: (side cm, layout, variants).
+FACE_CASES = [
+    (10.0, "auto", "one"),
+    (10.0, "placements", "one"),
+    (100.0, "auto", "one"),
+    (100.0, "auto", "random"),
+    (100.0, "auto", "exact"),
+    (100.0, "auto", "tiles"),
+]
+#: The spread part: a 2.5 cm face of 50 x 50 cells (flat placements) of spread pyramids.
+SPREAD_CASES = [(2.5, "auto", "spread-frustums"), (2.5, "auto", "spread-blocks")]
+
+
+def _face_table(cases: list, events: int) -> None:
     print(
-        f"{'face':6} {'variants':8} {'layout':10} {'build s':>7} {'init s':>6} {'1st s':>6} "
+        f"{'face':6} {'variants':15} {'layout':10} {'build s':>7} {'init s':>6} {'1st s':>6} "
         f"{'BeamOn ms':>9} {'ms/ev':>6} {'run ms/ev':>9} {'RSS MB':>6} {'mean MeV':>8}"
     )
-    cases = [
-        (10.0, "auto", "one"),
-        (10.0, "placements", "one"),
-        (100.0, "auto", "one"),
-        (100.0, "auto", "random"),
-        (100.0, "auto", "exact"),
-    ]
-    if flat_1m:
-        cases.append((100.0, "placements", "one"))
     for side, layout, variants in cases:
         r = in_subprocess(
             ["--face", str(side), layout, variants, "--events", str(events)],
         )
         print(
-            f"{side / 100:4g} m {variants:8} {layout:10} {r['build_s']:7.2f} {r['init_s']:6.2f} "
+            f"{side / 100:4g} m {variants:15} {layout:10} {r['build_s']:7.2f} {r['init_s']:6.2f} "
             f"{r['first_run_s']:6.2f} {r['beamon_ms']:9.1f} {r['per_event_ms']:6.3f} "
             f"{r['run_ms_per_event']:9.3f} "
             f"{r['rss_mb']:6.0f} {r['mean_edep_mev']:8.3f}",
@@ -305,6 +356,18 @@ def part_portal(events: int) -> None:
     print(
         f"portal / native per event: "
         f"{res['portal']['per_event_ms'] / res['native']['per_event_ms']:.2f}"
+    )
+    # where the difference goes: the portal's Python, timed in a third run (timers add cost)
+    r = in_subprocess(["--portal", "portal-timed", "--events", str(events)])
+    python_ms = 0.0
+    for name in ("on_step", "start_track", "_move"):
+        n, us = r[f"{name}_per_event"], r[f"{name}_us_per_call"]
+        print(f"  {name:12s} {n:5.2f} calls per event, {us:6.1f} us CPU per call")
+        if name != "_move":  # _move runs inside on_step
+            python_ms += n * us / 1e3
+    print(
+        f"  portal Python per event: {python_ms:.3f} ms of the "
+        f"{res['portal']['per_event_ms'] - res['native']['per_event_ms']:.3f} ms difference"
     )
 
 
@@ -367,7 +430,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--events", type=int, default=2000, help="alpha / Po-210 events per case")
     parser.add_argument("--jobs-events", type=int, default=20000)
-    parser.add_argument("--parts", default="startup,faces,portal,jobs")
+    parser.add_argument("--parts", default="startup,faces,spread,portal,jobs")
     parser.add_argument("--flat-1m", action="store_true", help="also the 1 m face, flat placements")
     parser.add_argument("--face", nargs=3, help=argparse.SUPPRESS)
     parser.add_argument("--portal", help=argparse.SUPPRESS)
@@ -387,6 +450,8 @@ def main() -> None:
         part_startup()
     if "faces" in parts:
         part_faces(args.events, args.flat_1m)
+    if "spread" in parts:
+        _face_table(SPREAD_CASES, args.events)
     if "portal" in parts:
         part_portal(args.events)
     if "jobs" in parts:

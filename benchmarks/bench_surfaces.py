@@ -19,7 +19,8 @@ blocks), Geant4 (solids and placements), peak RSS of the process and its growth 
 that only imported Geant4.
 
 The machine is shared with other jobs: absolute figures vary by +-30 %; ratios from one
-invocation are firmer.
+invocation are firmer, and firmer still with ``--repeat N`` (N rounds over all cases, each row
+the round with the median CPU per event of its case).
 
 Measured 2026-11-25 on the shared 2-core machine (other engineers' jobs running, load 2-12),
 geant4_pybind 0.1.3 / Geant4 11.4.1. Run 1, all cases 3000 events (auto blocks then aimed at
@@ -57,6 +58,38 @@ Run 2 (current code), load ~2:
     spread_blocks          0.752   1.34
     gauss_tess          1284.164 2280.00
     selfaff_tess        1229.124 2182.28
+
+Run 3 (solid: frustums for spike grids with a spread; median of 3 rounds), load 3.7-4.2:
+    .venv/bin/python benchmarks/bench_surfaces.py --events 5000 --slow-events 300 --repeat 3 \
+        --cases pyramids,flat,spread_blocks,spread_frustums,selfaff_blocks,gauss_blocks,measured_blocks,pyramids_frustums --sizes ""
+
+    case                ms/event  ratio  all rounds ms/event
+    pyramids               0.553   1.00  0.569 0.527 0.553
+    flat                   0.331   0.60  0.351 0.331 0.270
+    spread_blocks          0.636   1.15  0.615 0.687 0.636
+    spread_frustums        0.481   0.87  0.504 0.438 0.481
+    selfaff_blocks         0.737   1.33  0.564 0.737 0.797
+    gauss_blocks           0.918   1.66  0.918 0.908 1.155
+    measured_blocks        0.712   1.29  0.712 0.650 0.845
+    pyramids_frustums      0.429   0.78  0.391 0.429 0.565
+
+The height maps' figures scatter by up to +-25 % between rounds: their short runs include
+seconds of building (CPU small s 5-8 s), whose own scatter enters the difference.
+
+--warm (one process per case and round, building left out), load 0.4-1.0, the code before
+(commit aa389a2, this script) and after frustums and the blocks with fewer facets:
+    .venv/bin/python benchmarks/bench_surfaces.py --warm --repeat 3 --events 4000 \
+        --cases pyramids,flat,spread_blocks,spread_frustums,pyramids_frustums,selfaff_blocks,gauss_blocks,measured_blocks
+
+    case                before ms ratio   after ms ratio  (after: all rounds ms/event)
+    pyramids               0.521   1.00      0.491   1.00  0.486 0.491 0.508
+    flat                   0.331   0.64      0.315   0.64  0.315 0.327 0.313
+    spread_blocks          0.659   1.26      0.615   1.25  0.615 0.595 0.615
+    spread_frustums            -      -      0.427   0.87  0.428 0.422 0.427
+    pyramids_frustums          -      -      0.423   0.86  0.419 0.431 0.423
+    selfaff_blocks         0.867   1.66      0.799   1.63  0.784 0.799 0.818
+    gauss_blocks           0.840   1.61      0.759   1.55  0.759 0.784 0.754
+    measured_blocks        0.653   1.25      0.655   1.34  0.668 0.621 0.655
 """
 
 from __future__ import annotations
@@ -70,6 +103,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
 import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -94,10 +128,13 @@ CASES = {
     "pyramids": (PYRAMIDS, 0.5, "multiunion"),
     "pyramids_tess": (PYRAMIDS, 0.5, "tessellated"),
     "pyramids_blocks": (PYRAMIDS, 0.5, "blocks"),
+    "pyramids_frustums": (PYRAMIDS, 0.5, "frustums"),
     "spread_tess": ({**PYRAMIDS, "height_sigma": "2 um", "seed": 3}, 0.5, "tessellated"),
     "spread_blocks": ({**PYRAMIDS, "height_sigma": "2 um", "seed": 3}, 0.5, "blocks"),
+    "spread_frustums": ({**PYRAMIDS, "height_sigma": "2 um", "seed": 3}, 0.5, "frustums"),
     "bumps_union": ({**PYRAMIDS, "shape": "bump", "n_layers": 4}, 0.5, "multiunion"),
     "bumps_blocks": ({**PYRAMIDS, "shape": "bump", "n_layers": 4}, 0.5, "blocks"),
+    "bumps_frustums": ({**PYRAMIDS, "shape": "bump", "n_layers": 4}, 0.5, "frustums"),
     "gauss_tess": (_yaml("random_gaussian.yaml"), 0.256, "tessellated"),
     "gauss_blocks": (_yaml("random_gaussian.yaml"), 0.256, "blocks"),
     "selfaff_tess": (_yaml("self_affine.yaml"), 0.128, "tessellated"),
@@ -150,7 +187,17 @@ def run_case(case: str, events: int, tmp: Path) -> tuple[float, float]:
     cfg.write_text(yaml.safe_dump(config(case, events)))
     out = tmp / f"{case}_{events}.h5"
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cmd = [sys.executable, "-m", "score4.cli.main", "run", str(cfg), "--out", str(out), "-q"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "score4.cli.main",
+        "run",
+        str(cfg),
+        "--out",
+        str(out),
+        "-q",
+        "--overwrite",
+    ]
     subprocess.run(cmd, check=True, env={**os.environ, "PYTHONPATH": str(ROOT / "src")})
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
@@ -159,9 +206,52 @@ def run_case(case: str, events: int, tmp: Path) -> tuple[float, float]:
     return cpu, float(read_results(out).scores["edep"]["crystal"].mean())
 
 
+def warm_case(case: str, events: int) -> None:
+    """Child process: build ``case`` once, run 200 warm-up events, then time ``events`` events
+    (CPU of this process) in one BeamOn; print ms per event and the mean deposit."""
+
+    from score4.config import parse_config
+    from score4.sim.runtime import resolve_physics
+    from score4.sim.simulation import Simulation
+
+    sim = Simulation(parse_config(config(case, events)), resolve_physics("lite"))
+    primaries = sim.source.primaries(np.random.default_rng(5), 0, 200 + events)
+    sim.run(primaries.select_events(0, 200), 1)
+    c0 = time.process_time()
+    scores = sim.run(primaries.select_events(200, 200 + events), 2)
+    per = (time.process_time() - c0) / events
+    print(f"WARM {per * 1e3:.4f} {float(scores['edep'][:, 0].mean()):.4f}")
+
+
+def warm_table(cases: list[str], events: int, repeat: int) -> None:
+    """CPU per event with building and start-up left out: one process per case and round."""
+    print(f"load average at start: {os.getloadavg()}")
+    runs: dict[str, list[float]] = {}
+    for _ in range(repeat):
+        for case in cases:
+            r = subprocess.run(
+                [sys.executable, __file__, "--warm-child", case, "--events", str(events)],
+                check=False,
+                capture_output=True,
+                text=True,
+                env={**os.environ, "PYTHONPATH": str(ROOT / "src")},
+            )
+            lines = [x for x in r.stdout.splitlines() if x.startswith("WARM ")]
+            if r.returncode or not lines:
+                print(f"{case}: failed: {r.stderr.strip().splitlines()[-1:]}")
+                continue
+            runs.setdefault(case, []).append(float(lines[-1].split()[1]))
+    print(f"load average at end: {os.getloadavg()}")
+    ref = float(np.median(runs["pyramids"])) if "pyramids" in runs else float("nan")
+    print(f"{'case':18s} {'ms/event':>9s} {'ratio':>6s}  all rounds ms/event")
+    for case, per in runs.items():
+        med = float(np.median(per))
+        every = " ".join(f"{x:.3f}" for x in per)
+        print(f"{case:18s} {med:9.3f} {med / ref:6.2f}  {every}")
+
+
 def build_case(n: int) -> None:
     """Child process: build one n x n pixel patch as blocks, print numpy s, Geant4 s, RSS."""
-    import numpy as np
 
     from score4.sim.runtime import import_geant4, resolve_physics
 
@@ -199,30 +289,59 @@ def main() -> None:
     )
     p.add_argument("--cases", default=",".join(CASES))
     p.add_argument("--sizes", default="256,512,1024,2048")
+    p.add_argument(
+        "--repeat", type=int, default=1, help="rounds over the cases; each row is the median"
+    )
+    p.add_argument(
+        "--warm",
+        action="store_true",
+        help="instead: one process per case, 200 warm-up events, then --events timed",
+    )
     p.add_argument("--build-child", type=int, help=argparse.SUPPRESS)
+    p.add_argument("--warm-child", help=argparse.SUPPRESS)
     a = p.parse_args()
     if a.build_child:
         build_case(a.build_child)
         return
+    if a.warm_child:
+        warm_case(a.warm_child, a.events)
+        return
+    if a.warm:
+        warm_table([c for c in a.cases.split(",") if c], a.events, a.repeat)
+        return
     cases = [c for c in a.cases.split(",") if c]
-    rows = {}
+    runs: dict[str, list] = {}
+    failed: set[str] = set()
+    print(f"load average at start: {os.getloadavg()}")
     with tempfile.TemporaryDirectory() as d:
-        for case in cases:
-            events = a.slow_events if case.endswith("_tess") else a.events
-            try:
-                big, mean = run_case(case, events, Path(d))
-                small, _ = run_case(case, events // 10, Path(d))
-            except subprocess.CalledProcessError:
-                print(f"{case}: the run failed (see its error above)")
-                continue
-            per = (big - small) / (events - events // 10)
-            rows[case] = (per, big, small, mean)
+        for _ in range(a.repeat):  # rounds over all cases, so a load change hits them alike
+            for case in cases:
+                if case in failed:
+                    continue
+                events = a.slow_events if case.endswith("_tess") else a.events
+                try:
+                    big, mean = run_case(case, events, Path(d))
+                    small, _ = run_case(case, events // 10, Path(d))
+                except subprocess.CalledProcessError:
+                    print(f"{case}: the run failed (see its error above)")
+                    failed.add(case)
+                    continue
+                per = (big - small) / (events - events // 10)
+                runs.setdefault(case, []).append((per, big, small, mean))
+    print(f"load average at end: {os.getloadavg()}")
+    # the round with the median CPU per event, per case
+    rows = {c: sorted(r)[(len(r) - 1) // 2] for c, r in runs.items()}
     ref = rows.get("pyramids", (float("nan"),))[0]
     print(
         f"{'case':18s} {'ms/event':>9s} {'ratio':>6s} {'CPU big s':>9s} {'CPU small s':>11s} {'mean MeV':>8s}"
+        f"  all rounds ms/event"
     )
     for case, (per, big, small, mean) in rows.items():
-        print(f"{case:18s} {per * 1e3:9.3f} {per / ref:6.2f} {big:9.2f} {small:11.2f} {mean:8.3f}")
+        every = " ".join(f"{r[0] * 1e3:.3f}" for r in runs[case])
+        print(
+            f"{case:18s} {per * 1e3:9.3f} {per / ref:6.2f} {big:9.2f} {small:11.2f} {mean:8.3f}"
+            f"  {every}"
+        )
     sizes = [int(s) for s in a.sizes.split(",") if s]
     if sizes:
         print(

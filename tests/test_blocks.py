@@ -140,7 +140,7 @@ def test_auto_picks_blocks_except_for_equal_spikes():
         data["targets"][0]["rough"][0]["surface"] = name
         layer = build_scene(parse_config(data)).layers[0]
         kinds[name] = layer.solid_kind(0)
-    assert kinds == {"r": "blocks", "s": "blocks", "p": "multiunion"}
+    assert kinds == {"r": "blocks", "s": "frustums", "p": "multiunion"}
 
 
 # --- Geant4: same paths, same spectra -------------------------------------------------------------

@@ -258,8 +258,8 @@ def test_bad_sizes(face, patch, match):
 @pytest.mark.parametrize(
     ("kw", "match"),
     [
-        ({"method": "blocks"}, r"method: must be one of exact, random, got 'blocks'"),
-        ({"method": "given"}, r"method: must be one of exact, random, got 'given'"),
+        ({"method": "blocks"}, r"method: must be one of exact, random, tiles, got 'blocks'"),
+        ({"method": "given"}, r"method: must be one of exact, random, tiles, got 'given'"),
         ({"seed": -1}, r"seed: must be an integer >= 0 or None, got -1"),
         ({"seed": 1.5}, r"seed: must be an integer >= 0 or None, got 1\.5"),
     ],
@@ -421,7 +421,9 @@ def test_constructor_checks_consistency():
         ConfigError, match=r"variants: value 2 at row 0, column 1 is out of range 0\.\.1"
     ):
         PatchMap(np.array([[0, 2]]), (1.0, 1.0), (0.5, 0.5))
-    with pytest.raises(ConfigError, match=r"method: must be one of exact, random, given, got 'x'"):
+    with pytest.raises(
+        ConfigError, match=r"method: must be one of exact, random, tiles, given, got 'x'"
+    ):
         PatchMap(np.zeros((2, 2), dtype=int), (1.0, 1.0), (1.0,), "x")
 
 

@@ -34,6 +34,7 @@ from .schema import (
     Vector3,
     describe_validation_error,
 )
+from .surface.patchmap import DEFAULT_TILES
 from .surface.spec import MeasuredSurfaceSpec, RandomSurfaceSpec, SpikeSurfaceSpec
 from .units import length_text
 from .yamlfile import load_yaml
@@ -186,14 +187,16 @@ class RoughFace(StrictModel):
     face: Face = "+z"
     surface: str | None = None
     variants: list[PatchVariant] | None = Field(None, min_length=1)
-    fill: Literal["exact", "random"] = "exact"  # how cells get their variant
+    fill: Literal["exact", "random", "tiles"] = "exact"  # how cells get their variant
+    n_tiles: int = Field(DEFAULT_TILES, ge=1)  # fill: tiles: random tiles in the library
     seed: int = Field(0, ge=0)  # of the patch map
     tiling: Literal["native", "portal"] = "native"
     # native tiling: auto = nested (2 x 2 groups of cells above 2500 cells, shared per content),
     # one G4PVPlacement per cell in the envelope, or G4PVReplica rows of cells (one variant only)
     native_layout: Literal["auto", "nested", "placements", "replicas"] = "auto"
-    # auto: multi-union for spike grids of equal heights, blocks otherwise (see RoughLayer.solid_kind)
-    solid: Literal["auto", "tessellated", "multiunion", "blocks"] = "auto"
+    # auto: multi-union for spike grids of equal heights, frustums for spike grids with a height
+    # spread, blocks otherwise (see RoughLayer.solid_kind)
+    solid: Literal["auto", "tessellated", "multiunion", "blocks", "frustums"] = "auto"
     # blocks: cells (height-map pixels or spikes) per block side; None: ~8, any map size
     block_cells: int | None = Field(None, ge=1)
     base_thickness: PositiveLength = 1e-3

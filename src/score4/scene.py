@@ -105,10 +105,12 @@ class RoughLayer:
         return self.base_thickness + max(s.max_height for s in self.variants) + ENVELOPE_CLEARANCE
 
     def solid_kind(self, k: int) -> str:
-        """``tessellated``, ``multiunion`` or ``blocks`` for variant ``k``.
+        """``tessellated``, ``multiunion``, ``frustums`` or ``blocks`` for variant ``k``.
 
         ``auto`` takes the multi-union for spike grids of equal heights (fastest to track and to
-        build, bench_solids.py) and ``blocks`` otherwise (the closed body cut into small
+        build, bench_solids.py), ``frustums`` (the multi-union's nodes placed side by side, see
+        :mod:`score4.geometry.frustums`) for spike grids with a height spread, and ``blocks``
+        otherwise (the closed body cut into small
         tessellated blocks, :mod:`score4.geometry.blocks`): one tessellated solid per patch
         tracked alphas 10-40x slower (benchmarks/bench_surfaces.py), and a multi-union with a
         height spread explodes in voxelisation (50 x 50 pyramids with a 3 um spread: 42 s and
@@ -116,13 +118,15 @@ class RoughLayer:
         """
         choice = self.config.solid
         grid = self.variants[k].spikes
-        if choice == "multiunion" and grid is None:
+        if choice in ("multiunion", "frustums") and grid is None:
             raise ConfigError(
-                f"{self.name}: solid multiunion needs a spike-grid surface; {self.names[k]!r} is a "
+                f"{self.name}: solid {choice} needs a spike-grid surface; {self.names[k]!r} is a "
                 "height map"
             )
         if choice == "auto":
-            return "multiunion" if grid is not None and grid.height_sigma == 0 else "blocks"
+            if grid is None:
+                return "blocks"
+            return "multiunion" if grid.height_sigma == 0 else "frustums"
         return choice
 
     def cell_centres(self) -> np.ndarray:
@@ -314,6 +318,7 @@ def build_scene(config: RunConfig) -> Scene:
                     [v.density for v in rough.variant_list],
                     method=rough.fill,
                     seed=rough.seed,
+                    n_tiles=rough.n_tiles,
                 )
             except ConfigError as err:
                 raise ConfigError(f"{where} (face {rough.face} of {target.name}): {err}") from None

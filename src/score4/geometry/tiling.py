@@ -26,11 +26,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..scene import RoughLayer
+from ..surface.patchmap import MAX_TOP_BOXES
 from .blocks import place_blocks
+from .frustums import place_frustums
 from .solids import multiunion_solid, tessellated_solid
 
-#: Nested layout: most boxes one mother (the envelope) holds directly (50 x 50).
-MAX_DAUGHTERS = 2500
+#: Nested layout: most boxes one mother (the envelope) holds directly (50 x 50); fill: tiles
+#: makes its tiles of the group size this implies (score4.surface.patchmap.tile_cells).
+MAX_DAUGHTERS = MAX_TOP_BOXES
 #: Nested layout: most placements one level of large groups may take (see grouping_plan).
 PLACEMENT_BUDGET = 300_000
 
@@ -56,7 +59,8 @@ def place_variant(
     """Place patch variant ``k`` in ``mother_lv`` with its base plane at height ``z``.
 
     The patch is one solid (``tessellated`` / ``multiunion``: the closed body, slab below the
-    base plane) or a grid of closed blocks (``blocks``, :mod:`.blocks`).
+    base plane), a grid of closed blocks (``blocks``, :mod:`.blocks`) or a spike grid's base box
+    and frustums placed side by side (``frustums``, :mod:`.frustums`).
     ``copies`` is how many times ``mother_lv`` is placed (blocks: bounds the placed blocks).
     Returns ``(logical volumes of the patch's material, objects to keep alive)``.
     """
@@ -73,6 +77,11 @@ def place_variant(
             z,
             name,
             copies,
+        )
+    if kind == "frustums":
+        assert surface.spikes is not None  # only spike grids are made of frustums
+        return place_frustums(
+            g4, surface.spikes, layer.base_thickness, material, mother_lv, z, name
         )
     if kind == "multiunion":
         assert surface.spikes is not None  # only spike grids are made multi-unions
@@ -151,6 +160,9 @@ def place_native(g4, layer: RoughLayer, mother_lv, world_material, material) -> 
                 False,
             )
             keep.append(pv)
+    # The cell boxes a region of their own: the walk before each BeamOn then visits each
+    # variant's patch once, not once per cell (patches of placed frustums hold ~2500 volumes).
+    keep += level_regions(g4, [cell_lvs], name)
     return patch_lvs, keep
 
 

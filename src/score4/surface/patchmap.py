@@ -18,6 +18,12 @@ Conventions:
   are a uniformly random permutation drawn with ``numpy.random.default_rng(seed)``;
   method ``"random"``: every cell is drawn independently with probabilities ``d_k``, as in the
   original SCoRe4 (realised fractions then scatter binomially around the targets);
+  method ``"tiles"``: the map is made of a small library of ``n_tiles`` random tiles of
+  ``T`` x ``T`` cells (filled like ``"exact"`` over the whole library: largest-remainder counts
+  over its ``n_tiles T^2`` cells, random positions), laid on the face in random order, each
+  tile used equally often (to within one use)
+  (:func:`tile_cells` gives ``T``: the size of the groups that native tiling places, so Geant4
+  holds each library tile once instead of one placement per cell);
   method ``"given"``: a grid supplied by the user (:func:`given_patch_map`).
 
 The map is stored with a run so that the same geometry can be rebuilt: :meth:`PatchMap.to_dict`
@@ -39,7 +45,7 @@ import numpy as np
 from ..errors import ConfigError, Score4Warning
 from ..units import parse_quantity
 
-METHODS = ("exact", "random", "given")
+METHODS = ("exact", "random", "tiles", "given")
 
 #: Format name and version written by :meth:`PatchMap.to_dict` and :meth:`PatchMap.save_h5`.
 FORMAT = "score4-patch-map"
@@ -53,6 +59,12 @@ DENSITY_SUM_TOL = 1e-9
 
 #: Largest number of cells a map may hold (10^8 cells are 400 MB of variant indices).
 MAX_CELLS = 10**8
+
+#: Most boxes the envelope of a native face holds directly (50 x 50); above, cells are grouped
+#: (score4.geometry.tiling). ``fill: tiles`` uses tiles of that group size.
+MAX_TOP_BOXES = 2500
+#: Tiles in the library of ``fill: tiles`` unless given.
+DEFAULT_TILES = 64
 
 _AXES = ("x", "y")
 _VARIANT_DTYPE = np.int32
@@ -545,9 +557,12 @@ class PatchMap:
     def describe(self) -> str:
         """One-paragraph summary: grid, patch and face size, method, realised/target fractions."""
         (px, py), (lx, ly) = self.patch_size, self.face_size
-        how = {"exact": "exact counts", "random": "independent draws", "given": "given grid"}[
-            self.method
-        ]
+        how = {
+            "exact": "exact counts",
+            "random": "independent draws",
+            "tiles": "random tiles from a library",
+            "given": "given grid",
+        }[self.method]
         seed = f", seed {self.seed}" if self.seed is not None else ""
         parts = ", ".join(
             f"{k}: {self.fractions[k]:.4f} ({self.counts[k]} cells; target {self.densities[k]:.4f})"
@@ -582,6 +597,7 @@ def make_patch_map(
     densities: Sequence[float],
     method: str = "exact",
     seed: int | None = 0,
+    n_tiles: int = DEFAULT_TILES,
 ) -> PatchMap:
     """Cover a face with a grid of patches, each showing one of ``K`` variants.
 
@@ -595,8 +611,9 @@ def make_patch_map(
         ``K`` positive target densities, one per variant; normalised with a ``Score4Warning`` if
         their sum differs from 1 by more than :data:`DENSITY_SUM_TOL`.
     method
-        ``"exact"`` (largest-remainder counts, random positions) or ``"random"`` (an independent
-        draw per cell, as in the original SCoRe4).
+        ``"exact"`` (largest-remainder counts, random positions), ``"random"`` (an independent
+        draw per cell, as in the original SCoRe4) or ``"tiles"`` (tiles of :func:`tile_cells`
+        cells drawn from a library of ``n_tiles`` exact-filled tiles).
     seed
         Seed of ``numpy.random.default_rng``; None draws a fresh, unrepeatable map.
 
@@ -611,17 +628,50 @@ def make_patch_map(
         of patches (the message gives the two nearest valid sizes), bad densities or method.
     """
     nx, ny, patch = _grid(face_size, patch_size)
-    method = _method(method, ("exact", "random"))
+    method = _method(method, ("exact", "random", "tiles"))
     seed = _seed(seed)
     d = _densities(densities)
     n = nx * ny
     rng = np.random.default_rng(seed)
+    if method == "tiles":
+        grid = _tiled(nx, ny, d, n_tiles, rng)
+        return PatchMap(grid, patch, tuple(d.tolist()), method, seed)
     if method == "exact":
         counts = largest_remainder(n, d)
         flat = rng.permutation(np.repeat(np.arange(d.size, dtype=_VARIANT_DTYPE), counts))
     else:
         flat = rng.choice(d.size, size=n, p=d).astype(_VARIANT_DTYPE)
     return PatchMap(flat.reshape(ny, nx), patch, tuple(d.tolist()), method, seed)
+
+
+def tile_cells(nx: int, ny: int, max_boxes: int = MAX_TOP_BOXES) -> int:
+    """Side ``T`` of the tiles of ``fill: tiles``: the smallest that leaves at most ``max_boxes``
+    tiles on an ``nx`` x ``ny`` grid (1 if the grid needs no grouping). Native tiling groups a
+    grid above ``max_boxes`` cells first by this factor (score4.geometry.tiling.grouping_plan),
+    so each library tile becomes one shared group volume."""
+    t = 1
+    while -(-nx // t) * -(-ny // t) > max_boxes:
+        t += 1
+    return t
+
+
+def _tiled(
+    nx: int, ny: int, d: np.ndarray, n_tiles: object, rng, max_boxes: int = MAX_TOP_BOXES
+) -> np.ndarray:
+    """An (ny, nx) grid of tiles drawn uniformly from ``n_tiles`` random tiles (see the module
+    doc); tiles on the far edges are cut to the grid."""
+    if isinstance(n_tiles, bool) or not isinstance(n_tiles, numbers.Integral) or n_tiles < 1:
+        raise ConfigError(f"n_tiles: must be a whole number >= 1, got {n_tiles!r}")
+    t, k = tile_cells(nx, ny, max_boxes), int(n_tiles)
+    # The library as a whole has exact counts (largest remainder over its k t^2 cells; one tile
+    # alone would round each density to 1 / t^2), and every tile is used equally often.
+    counts = largest_remainder(k * t * t, d)
+    cells = np.repeat(np.arange(d.size, dtype=_VARIANT_DTYPE), counts)
+    library = rng.permutation(cells).reshape(k, t, t)
+    gy, gx = -(-ny // t), -(-nx // t)
+    pick = rng.permutation(np.arange(gy * gx) % k).reshape(gy, gx)
+    grid = library[pick].transpose(0, 2, 1, 3).reshape(gy * t, gx * t)
+    return np.ascontiguousarray(grid[:ny, :nx])
 
 
 def uniform_patch_map(
