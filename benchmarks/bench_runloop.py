@@ -78,7 +78,8 @@ def _rss_mb() -> float:
 def face_config(
     side_cm: float, layout: str = "auto", tiling: str = "native", variants: str = "one"
 ) -> dict:
-    """Pyramid face of ``side_cm``; ``variants``: one, random (two, fill random), exact (two),
+    """Pyramid face of ``side_cm``; ``variants``: one, one-<solid> (one as that solid), random
+    (two, fill random), exact (two),
     tiles (two, fill tiles: 64 random tiles of the first group size);
     spread-<solid>: one variant of pyramids with a 2 um height spread as that solid."""
     rough: dict = {"face": "+z", "tiling": tiling}
@@ -86,6 +87,8 @@ def face_config(
         rough["native_layout"] = layout
     if variants == "one":
         rough["surface"] = "p"
+    elif variants.startswith("one-"):
+        rough.update(surface="p", solid=variants.split("-", 1)[1])
     elif variants.startswith("spread-"):
         rough.update(surface="spread", solid=variants.split("-", 1)[1])
     else:
