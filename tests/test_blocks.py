@@ -143,27 +143,6 @@ def test_auto_picks_blocks_except_for_equal_spikes():
     assert kinds == {"r": "blocks", "s": "frustums", "p": "multiunion"}
 
 
-def test_auto_takes_blocks_for_spread_spikes_on_faces_too_large_for_frustums():
-    """Frustums put every spike into the volume tree Geant4 walks before each BeamOn; auto keeps
-    them to FRUSTUMS_MAX_PLACED_VOLUMES placed volumes (a 10 cm face of 50 x 50-spike patches,
-    0.44 s per BeamOn) and takes blocks above (a 1 m face: ~40 s per BeamOn as frustums)."""
-    from score4.scene import FRUSTUMS_MAX_PLACED_VOLUMES
-
-    spread = {**SPREAD, "nx": 50, "ny": 50, "shape": "pyramid", "n_layers": 1}
-    kinds = {}
-    for side in ("10 cm", "20 cm"):  # 0.5 mm patches: 200 x 200 and 400 x 400 cells
-        target = {**TARGET, "size": [side, side, "1 mm"], "position": ["0 mm", "0 mm", "-0.5 mm"]}
-        data = config_dict(
-            surfaces={"s": spread},
-            targets=[{**target, "rough": [{"face": "+z", "surface": "s"}]}],
-        )
-        layer = build_scene(parse_config(data)).layers[0]
-        cells = layer.patch_map.variants.size
-        assert (cells * 2501 <= FRUSTUMS_MAX_PLACED_VOLUMES) == (side == "10 cm")
-        kinds[side] = layer.solid_kind(0)
-    assert kinds == {"10 cm": "frustums", "20 cm": "blocks"}
-
-
 # --- Geant4: same paths, same spectra -------------------------------------------------------------
 
 

@@ -138,3 +138,52 @@ def test_geantino_paths_through_frustums_match_the_multiunion(tmp_path, surface)
     exact += layer.base_thickness + config.targets[0].size[2]
     np.testing.assert_allclose(out["frustums"][down], exact, rtol=0, atol=1e-9)
     assert (out["frustums"] > 0).mean() > 0.6  # most rays cross material
+
+
+def _spawned(function, *args):
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
+        return pool.submit(_call, function, *args).result()
+
+
+def _call(function, *args):
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    import _g4_regions
+
+    return getattr(_g4_regions, function)(*args)
+
+
+def test_the_unused_parallel_world_region_is_dropped_and_results_do_not_change():
+    """Geant4 walks every placed volume (every frustum) before each BeamOn for a region that is
+    not in the world; score4 removes the only such region, DefaultRegionForParallelWorld (a
+    10 cm frustum face: 0.27 s -> 0.3 ms per BeamOn, bench_runloop.py). The region store no
+    longer holds it, and 300 alpha events deposit exactly what they deposit with it."""
+    data = config_dict(
+        surfaces={"s": PYRAMIDS},
+        targets=[
+            {
+                "name": "crystal",
+                "material": "G4_Si",
+                "size": ["0.1 mm", "0.08 mm", "0.1 mm"],  # 2 x 2 patches of 50 x 40 um
+                "position": ["0 mm", "0 mm", "-0.05 mm"],
+                "rough": [{"face": "+z", "surface": "s", "solid": "frustums"}],
+            }
+        ],
+        source={
+            "particle": "alpha",
+            "energy": "5.3 MeV",
+            "surface": {"volume": "crystal", "face": "+z"},
+            "depth": {"profile": "exponential", "mean": "20 nm"},
+        },
+    )
+    data["run"] = {"events": 300, "seed": 3}
+    dropped, edep = _spawned("region_and_deposits", data, 3, False)
+    kept, edep_kept = _spawned("region_and_deposits", data, 3, True)
+    assert (dropped, kept) == (False, True)
+    assert edep.shape == (300, 1)
+    np.testing.assert_array_equal(edep, edep_kept)

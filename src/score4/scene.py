@@ -76,18 +76,6 @@ def face_frame(target: BoxVolume, face: str) -> FaceFrame:
     )
 
 
-#: ``solid: auto`` places a spread spike grid as frustums only while (cells placed with the
-#: variant) x (frustums + base of a patch) stays below this; above it, blocks. Before every
-#: BeamOn Geant4 walks the whole placed volume tree twice for each region absent from the world
-#: (G4RunManagerKernel::CheckRegions and G4Region::SetWorld call G4Region::BelongsTo, which
-#: recurses through every placement; the DefaultRegionForParallelWorld is always absent), and
-#: frustums put every spike in that tree. Measured (bench_runloop.py --face 10 auto
-#: spread-frustums, 2026-11-25): a 10 cm face of 50 x 50-pyramid patches (1.0e8 volumes) costs
-#: 0.44 s per BeamOn (blocks: 7 ms) but 0.43 ms per alpha event (blocks: 1.30 ms); the same
-#: pyramids of equal heights as frustums cost 0.24 s per BeamOn at 10 cm and 24.6 s at 1 m.
-FRUSTUMS_MAX_PLACED_VOLUMES = 120_000_000
-
-
 @dataclass
 class RoughLayer:
     """A rough face: patch variants tiled over a face of a target."""
@@ -126,8 +114,7 @@ class RoughLayer:
         tessellated blocks, :mod:`score4.geometry.blocks`): one tessellated solid per patch
         tracked alphas 10-40x slower (benchmarks/bench_surfaces.py), and a multi-union with a
         height spread explodes in voxelisation (50 x 50 pyramids with a 3 um spread: 42 s and
-        1.7 GB, against 0.6 s and 10 MB tessellated). Frustums only up to
-        :data:`FRUSTUMS_MAX_PLACED_VOLUMES` placed volumes, blocks above (see there).
+        1.7 GB, against 0.6 s and 10 MB tessellated).
         """
         choice = self.config.solid
         grid = self.variants[k].spikes
@@ -139,13 +126,7 @@ class RoughLayer:
         if choice == "auto":
             if grid is None:
                 return "blocks"
-            if grid.height_sigma == 0:
-                return "multiunion"
-            placed = (
-                1 if self.config.tiling == "portal" else int((self.patch_map.variants == k).sum())
-            )
-            volumes = placed * (grid.nx * grid.ny * grid.n_layers + 1)
-            return "frustums" if volumes <= FRUSTUMS_MAX_PLACED_VOLUMES else "blocks"
+            return "multiunion" if grid.height_sigma == 0 else "frustums"
         return choice
 
     def cell_centres(self) -> np.ndarray:

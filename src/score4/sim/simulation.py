@@ -21,7 +21,12 @@ from ..geometry.world import BuiltGeometry, build_world, check_materials
 from ..scene import build_scene
 from ..source.build import make_source
 from ..source.primaries import Primaries
-from .physics import make_physics_list, set_production_cut, strip_data_hungry_processes
+from .physics import (
+    drop_unused_parallel_world_region,
+    make_physics_list,
+    set_production_cut,
+    strip_data_hungry_processes,
+)
 from .runtime import PhysicsChoice, import_geant4, redirect_native_output
 from .scoring import VolumeScorer
 
@@ -120,6 +125,7 @@ class Simulation:
         self._actions += [Generator(), EventAction()]
         self.run_manager.SetUserAction(self._actions[2])
         self.run_manager.SetUserAction(self._actions[3])
+        drop_unused_parallel_world_region(g4)
         self.run_manager.Initialize()
         self.teleporter = None
         if self.geometry.portals:  # portal tiling: jumps between portal and subworlds
