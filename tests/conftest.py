@@ -84,3 +84,20 @@ def pyramid_triangles(nx: int, ny: int, pitch: float = 1.0, heights=1.0) -> np.n
             top = [x0 + pitch / 2, y0 + pitch / 2, heights[i, j]]
             tris += [[a, b, top], [b, c, top], [c, d, top], [d, a, top]]
     return np.array(tris)
+
+
+def replay_vertices(tmp_path: Path, data: dict, vfile: Path, n: int, name: str):
+    """Run config dict ``data`` on the ``n`` events of vertex file ``vfile`` with track lengths
+    scored (seed 5); the results read back from ``tmp_path / name.h5``."""
+    from score4.output import read_results
+    from score4.sim.engine import run
+
+    replayed = parse_config(
+        {
+            **data,
+            "source": {"vertices": str(vfile)},
+            "output": {"track_length": True},
+            "run": {"events": n, "seed": 5},
+        }
+    )
+    return read_results(run(replayed, tmp_path / f"{name}.h5", progress=False, echo=lambda m: None))

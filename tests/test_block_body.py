@@ -9,13 +9,13 @@ import pytest
 from test_frustums import _data, _rays
 
 from score4.config import parse_config
-from score4.output import read_results
 from score4.scene import build_scene
-from score4.sim.engine import run
 from score4.source.vertex_file import write_vertex_file
 from score4.surface import blocks as blk
 from score4.surface.mesh import TriangleMesh, is_watertight, signed_volume
 from score4.surface.spec import build_surface
+
+from conftest import replay_vertices
 
 RANDOM = {
     "kind": "random",
@@ -123,18 +123,12 @@ def test_geantino_paths_through_three_cell_blocks_match_one_tessellated_solid(tm
     config = parse_config(data["tessellated"])
     primaries = _rays(config)
     vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
-    out = {}
-    for solid, d in data.items():
-        replayed = parse_config(
-            {
-                **d,
-                "source": {"vertices": str(vfile)},
-                "output": {"track_length": True},
-                "run": {"events": primaries.n_events, "seed": 5},
-            }
-        )
-        r = run(replayed, tmp_path / f"{solid}.h5", progress=False, echo=lambda m: None)
-        out[solid] = read_results(r).scores["track_length"]["crystal"]
+    out = {
+        solid: replay_vertices(tmp_path, d, vfile, primaries.n_events, solid).scores[
+            "track_length"
+        ]["crystal"]
+        for solid, d in data.items()
+    }
     layer = build_scene(config).layers[0]
     down = (primaries.direction == [0.0, 0.0, -1.0]).all(axis=1)
     i, j = layer.patch_map.cell_of(primaries.position[down, :2])

@@ -21,7 +21,7 @@ from score4.surface import blocks as blk
 from score4.surface.mesh import is_watertight, signed_volume
 from score4.surface.spec import build_surface
 
-from conftest import config_dict
+from conftest import config_dict, replay_vertices
 
 RANDOM = {
     "kind": "random",
@@ -232,18 +232,6 @@ def _data(surface: dict, solid: str, source: dict | None = None, **rough) -> dic
     return config_dict(surfaces={"s": surface}, targets=[target], source=source)
 
 
-def _replay(tmp_path, data: dict, vfile, n: int, name: str):
-    replayed = parse_config(
-        {
-            **data,
-            "source": {"vertices": str(vfile)},
-            "output": {"track_length": True},
-            "run": {"events": n, "seed": 5},
-        }
-    )
-    return read_results(run(replayed, tmp_path / f"{name}.h5", progress=False, echo=lambda m: None))
-
-
 @pytest.mark.parametrize(("surface", "cells"), [(RANDOM, None), (SPREAD, 1)])
 def test_geantino_paths_through_blocks_match_one_tessellated_solid(tmp_path, surface, cells):
     """The same ~2000 geantinos through the patches as one G4TessellatedSolid each and as blocks
@@ -284,8 +272,8 @@ def test_geantino_paths_through_blocks_match_one_tessellated_solid(tmp_path, sur
     primaries = rays(config, cells)
     vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
     n = primaries.n_events
-    old = _replay(tmp_path, data_old, vfile, n, "old").scores["track_length"]["crystal"]
-    new = _replay(tmp_path, data_new, vfile, n, "new").scores["track_length"]["crystal"]
+    old = replay_vertices(tmp_path, data_old, vfile, n, "old").scores["track_length"]["crystal"]
+    new = replay_vertices(tmp_path, data_new, vfile, n, "new").scores["track_length"]["crystal"]
     layer = build_scene(config).layers[0]
     down = (primaries.direction == [0.0, 0.0, -1.0]).all(axis=1)
     centres = layer.cell_centres()
@@ -368,7 +356,7 @@ def test_tracks_killed_on_block_corners_are_counted_and_warned(tmp_path):
     )
     vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
     with pytest.warns(Score4Warning) as caught:
-        res = _replay(tmp_path, data, vfile, n, "corners")
+        res = replay_vertices(tmp_path, data, vfile, n, "corners")
     texts = [str(w.message) for w in caught]
     assert any(t.startswith(f"{n} on crystal_roughpz of the {n} source rays lie") for t in texts)
     assert any(re.search(r"killed \d+ stuck track\(s\) and aborted", t) for t in texts)
@@ -420,4 +408,4 @@ def test_rays_lying_in_shared_walls_are_found_and_warned_before_the_run(tmp_path
     with pytest.warns(
         Score4Warning, match=r"1 on crystal_roughpz of the 1 source rays lie exactly"
     ):
-        _replay(tmp_path, data, vfile, 1, "beam")
+        replay_vertices(tmp_path, data, vfile, 1, "beam")

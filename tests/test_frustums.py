@@ -8,14 +8,12 @@ import pytest
 
 from score4.config import parse_config
 from score4.errors import ConfigError
-from score4.output import read_results
 from score4.scene import build_scene
-from score4.sim.engine import run
 from score4.source.build import make_source
 from score4.source.primaries import Primaries
 from score4.source.vertex_file import write_vertex_file
 
-from conftest import config_dict
+from conftest import config_dict, replay_vertices
 
 SPREAD = {
     "kind": "spikes",
@@ -116,18 +114,12 @@ def test_geantino_paths_through_frustums_match_the_multiunion(tmp_path, surface)
     config = parse_config(data["multiunion"])
     primaries = _rays(config)
     vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
-    out = {}
-    for solid, d in data.items():
-        replayed = parse_config(
-            {
-                **d,
-                "source": {"vertices": str(vfile)},
-                "output": {"track_length": True},
-                "run": {"events": primaries.n_events, "seed": 5},
-            }
-        )
-        r = run(replayed, tmp_path / f"{solid}.h5", progress=False, echo=lambda m: None)
-        out[solid] = read_results(r).scores["track_length"]["crystal"]
+    out = {
+        solid: replay_vertices(tmp_path, d, vfile, primaries.n_events, solid).scores[
+            "track_length"
+        ]["crystal"]
+        for solid, d in data.items()
+    }
     np.testing.assert_allclose(out["frustums"], out["multiunion"], rtol=0, atol=1e-9)
     layer = build_scene(config).layers[0]
     down = (primaries.direction == [0.0, 0.0, -1.0]).all(axis=1)
