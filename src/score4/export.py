@@ -25,8 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ConfigError, Score4Error
-from .files import atomic_output
+from .errors import ConfigError
+from .files import atomic_output, check_output_file
 from .output import QUANTITY_UNITS, Results
 from .units import parse_quantity
 
@@ -178,17 +178,6 @@ def select_volumes(results: Results, volume: str | None) -> list[str]:
     return [volume]
 
 
-def check_output_path(path: str | Path) -> Path:
-    """``path`` as a Path, after checking that its folder exists and it is not a folder."""
-    path = Path(path)
-    parent = path.parent if str(path.parent) else Path(".")
-    if not parent.is_dir():
-        raise Score4Error(f"output: folder {str(parent)!r} of {str(path)!r} does not exist")
-    if path.is_dir():
-        raise Score4Error(f"output: {str(path)!r} is a folder, expected a file name")
-    return path
-
-
 def _header(results: Results, title: str) -> list[str]:
     run = results.run
     return [
@@ -232,7 +221,7 @@ def export_csv(
     -------
     The histograms written, in volume order.
     """
-    path = check_output_path(path)
+    path = check_output_file(path, True, "output")  # the commands check --overwrite
     names = select_volumes(results, volume)
     edges = histogram_edges(results, bins=bins, emin=emin, emax=emax)
     hists = [deposit_histogram(results.edep[name], edges) for name in names]
@@ -274,7 +263,7 @@ def export_events_csv(results: Results, path: str | Path) -> list[str]:
     written as the shortest text that reads back exactly. Comment lines (``#``) come first,
     as in :func:`export_csv`. Returns the column names.
     """
-    path = check_output_path(path)
+    path = check_output_file(path, True, "output")  # the commands check --overwrite
     columns = _event_columns(results)
     lists = [np.asarray(c).tolist() for c in columns.values()]
     lines = _header(results, "score4 events: total primary energy and scores per volume")
@@ -331,7 +320,7 @@ def export_root(
     """
     import uproot
 
-    path = check_output_path(path)
+    path = check_output_file(path, True, "output")  # the commands check --overwrite
     edges = histogram_edges(results, bins=bins, emin=emin, emax=emax)
     branches: dict[str, np.ndarray] = {
         "event_id": np.asarray(results.event_id, dtype=np.int64),

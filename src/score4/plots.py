@@ -22,12 +22,11 @@ from .errors import ConfigError, Score4Error
 from .export import (
     DepositHistogram,
     check_bins,
-    check_output_path,
     deposit_histogram,
     histogram_edges,
     select_volumes,
 )
-from .files import atomic_output
+from .files import atomic_output, check_output_file
 from .output import FORMAT as RESULTS_FORMAT
 from .output import Results, read_results
 from .units import LENGTH
@@ -222,7 +221,7 @@ _FORMATS = {"png", "pdf", "svg", "eps", "ps", "jpg", "jpeg", "tif", "tiff", "web
 
 
 def _save(fig: Figure, path: str | Path) -> Path:
-    path = check_output_path(path)
+    path = check_output_file(path, True, "output")  # the commands check --overwrite
     fmt = path.suffix.lower().lstrip(".") or "png"
     if fmt not in _FORMATS:
         raise ConfigError(

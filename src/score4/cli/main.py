@@ -187,8 +187,8 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
     and the first N rows are the vertices of a run of N events.
     """
     from ..config import config_to_dict
+    from ..files import check_output_file
     from ..scene import build_scene
-    from ..sim.engine import check_output_path
     from ..source.build import make_source
     from ..source.vertex_file import write_vertex_file
 
@@ -197,7 +197,7 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
         raise ConfigError(
             f"{config_file}: source.vertices: the source already reads a vertex file; nothing to draw"
         )
-    check_output_path(out, overwrite)
+    check_output_file(out, overwrite, "--out")
     n, seed = config.run.events, config.run.seed
     with naming_file(config_file):
         source = make_source(config, build_scene(config))

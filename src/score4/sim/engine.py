@@ -93,11 +93,6 @@ class Executor(Protocol):
     def execute(self, spec: WorkerSpec, todo: Iterable[Chunk]) -> Generator[Event, None, None]: ...
 
 
-def check_output_path(out: Path, overwrite: bool) -> None:
-    """Refuse outputs that cannot be written, or that would replace a file unasked."""
-    check_output_file(out, overwrite, "--out")
-
-
 class ChunkPlan(Sequence[Chunk]):
     """The chunks of a run of ``n_events`` events, ``size`` events each (the last may be shorter).
 
@@ -227,7 +222,7 @@ def run(
     """
     out = Path(out)
     echo = echo or (lambda msg: print(msg, file=sys.stderr))
-    check_output_path(out, overwrite)
+    check_output_file(out, overwrite, "--out")
     seed = config.run.seed
     if jobs < 1:
         raise ConfigError(f"--jobs: must be at least 1, got {jobs}")
