@@ -101,3 +101,51 @@ def replay_vertices(tmp_path: Path, data: dict, vfile: Path, n: int, name: str):
         }
     )
     return read_results(run(replayed, tmp_path / f"{name}.h5", progress=False, echo=lambda m: None))
+
+
+# A spike grid with a height spread (bumps of 3 layers) and the small target the solid tests
+# (test_blocks, test_frustums, test_block_body) put it on.
+SPREAD = {
+    "kind": "spikes",
+    "nx": 5,
+    "ny": 4,
+    "width": "10 um",
+    "height": "8 um",
+    "height_sigma": "2 um",
+    "shape": "bump",
+    "n_layers": 3,
+    "seed": 4,
+}
+TARGET = {
+    "name": "crystal",
+    "material": "G4_Si",
+    "size": ["0.2 mm", "0.2 mm", "0.1 mm"],
+    "position": ["0 mm", "0 mm", "-0.05 mm"],
+}
+
+
+def crystal_track_lengths(tmp_path: Path, configs: dict, primaries) -> dict:
+    """Replay the same ``primaries`` through each config dict of ``configs`` (name -> data);
+    the track length in the crystal group per event, by name."""
+    from score4.source.vertex_file import write_vertex_file
+
+    vfile = write_vertex_file(tmp_path / "rays.h5", primaries, {}, 1)
+    n = primaries.n_events
+    return {
+        name: replay_vertices(tmp_path, data, vfile, n, name).scores["track_length"]["crystal"]
+        for name, data in configs.items()
+    }
+
+
+def straight_down_paths(config, primaries) -> tuple[np.ndarray, np.ndarray]:
+    """(mask of the rays straight down, their exact path in the crystal group): mesh height at
+    the ray + slab + the target's depth (first layer of ``config``)."""
+    from score4.scene import build_scene
+
+    layer = build_scene(config).layers[0]
+    down = (primaries.direction == [0.0, 0.0, -1.0]).all(axis=1)
+    i, j = layer.patch_map.cell_of(primaries.position[down, :2])
+    c = layer.cell_centres()[j, i]
+    p = primaries.position[down]
+    exact = layer.variants[0].height_at(p[:, 0] - c[:, 0], p[:, 1] - c[:, 1])
+    return down, exact + layer.base_thickness + config.targets[0].size[2]

@@ -9,13 +9,11 @@ import pytest
 from test_frustums import _data, _rays
 
 from score4.config import parse_config
-from score4.scene import build_scene
-from score4.source.vertex_file import write_vertex_file
 from score4.surface import blocks as blk
 from score4.surface.mesh import TriangleMesh, is_watertight, signed_volume
 from score4.surface.spec import build_surface
 
-from conftest import replay_vertices
+from conftest import crystal_track_lengths, straight_down_paths
 
 RANDOM = {
     "kind": "random",
@@ -122,20 +120,8 @@ def test_geantino_paths_through_three_cell_blocks_match_one_tessellated_solid(tm
         d["targets"][0]["size"] = ["0.18 mm", "0.18 mm", "0.1 mm"]
     config = parse_config(data["tessellated"])
     primaries = _rays(config)
-    vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
-    out = {
-        solid: replay_vertices(tmp_path, d, vfile, primaries.n_events, solid).scores[
-            "track_length"
-        ]["crystal"]
-        for solid, d in data.items()
-    }
-    layer = build_scene(config).layers[0]
-    down = (primaries.direction == [0.0, 0.0, -1.0]).all(axis=1)
-    i, j = layer.patch_map.cell_of(primaries.position[down, :2])
-    c = layer.cell_centres()[j, i]
-    p = primaries.position[down]
-    exact = layer.variants[0].height_at(p[:, 0] - c[:, 0], p[:, 1] - c[:, 1])
-    exact += layer.base_thickness + config.targets[0].size[2]
+    out = crystal_track_lengths(tmp_path, data, primaries)
+    down, exact = straight_down_paths(config, primaries)
     np.testing.assert_allclose(out["blocks"][down], exact, rtol=0, atol=1e-9)
     assert (np.abs(out["blocks"] - out["tessellated"]) > 1e-9).mean() < 0.01
     assert (out["blocks"] > 0).mean() > 0.6

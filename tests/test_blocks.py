@@ -21,7 +21,14 @@ from score4.surface import blocks as blk
 from score4.surface.mesh import is_watertight, signed_volume
 from score4.surface.spec import build_surface
 
-from conftest import config_dict, replay_vertices
+from conftest import (
+    SPREAD,
+    TARGET,
+    config_dict,
+    crystal_track_lengths,
+    replay_vertices,
+    straight_down_paths,
+)
 
 RANDOM = {
     "kind": "random",
@@ -31,23 +38,6 @@ RANDOM = {
     "sq": "1 um",
     "corr_length": "8 um",
     "seed": 2,
-}
-SPREAD = {
-    "kind": "spikes",
-    "nx": 5,
-    "ny": 4,
-    "width": "10 um",
-    "height": "8 um",
-    "height_sigma": "2 um",
-    "shape": "bump",
-    "n_layers": 3,
-    "seed": 4,
-}
-TARGET = {
-    "name": "crystal",
-    "material": "G4_Si",
-    "size": ["0.2 mm", "0.2 mm", "0.1 mm"],
-    "position": ["0 mm", "0 mm", "-0.05 mm"],
 }
 TARGET_DEPTH = 0.1  # mm, TARGET's size along z
 
@@ -270,18 +260,10 @@ def test_geantino_paths_through_blocks_match_one_tessellated_solid(tmp_path, sur
     data_new = _data(surface, "blocks", **({"block_cells": cells} if cells else {}))
     config = parse_config(data_old)
     primaries = rays(config, cells)
-    vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
     n = primaries.n_events
-    old = replay_vertices(tmp_path, data_old, vfile, n, "old").scores["track_length"]["crystal"]
-    new = replay_vertices(tmp_path, data_new, vfile, n, "new").scores["track_length"]["crystal"]
-    layer = build_scene(config).layers[0]
-    down = (primaries.direction == [0.0, 0.0, -1.0]).all(axis=1)
-    centres = layer.cell_centres()
-    i, j = layer.patch_map.cell_of(primaries.position[down, :2])
-    c = centres[j, i]
-    p = primaries.position[down]
-    exact = layer.variants[0].height_at(p[:, 0] - c[:, 0], p[:, 1] - c[:, 1])
-    exact = exact + layer.base_thickness + config.targets[0].size[2]
+    paths = crystal_track_lengths(tmp_path, {"old": data_old, "new": data_new}, primaries)
+    old, new = paths["old"], paths["new"]
+    down, exact = straight_down_paths(config, primaries)
     err_old, err_new = np.abs(old[down] - exact), np.abs(new[down] - exact)
     same = np.abs(new[down] - old[down]) <= 1e-9
     # where the two differ, blocks are the closer to the mesh

@@ -11,21 +11,9 @@ from score4.errors import ConfigError
 from score4.scene import build_scene
 from score4.source.build import make_source
 from score4.source.primaries import Primaries
-from score4.source.vertex_file import write_vertex_file
 
-from conftest import config_dict, replay_vertices
+from conftest import SPREAD, TARGET, config_dict, crystal_track_lengths, straight_down_paths
 
-SPREAD = {
-    "kind": "spikes",
-    "nx": 5,
-    "ny": 4,
-    "width": "10 um",
-    "height": "8 um",
-    "height_sigma": "2 um",
-    "shape": "bump",
-    "n_layers": 3,
-    "seed": 4,
-}
 PYRAMIDS = {**SPREAD, "shape": "pyramid", "n_layers": 1, "seed": 7}
 RANDOM = {
     "kind": "random",
@@ -35,12 +23,6 @@ RANDOM = {
     "sq": "1 um",
     "corr_length": "8 um",
     "seed": 2,
-}
-TARGET = {
-    "name": "crystal",
-    "material": "G4_Si",
-    "size": ["0.2 mm", "0.2 mm", "0.1 mm"],
-    "position": ["0 mm", "0 mm", "-0.05 mm"],
 }
 
 
@@ -113,21 +95,9 @@ def test_geantino_paths_through_frustums_match_the_multiunion(tmp_path, surface)
     data = {m: _data(surface, m) for m in ("multiunion", "frustums")}
     config = parse_config(data["multiunion"])
     primaries = _rays(config)
-    vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
-    out = {
-        solid: replay_vertices(tmp_path, d, vfile, primaries.n_events, solid).scores[
-            "track_length"
-        ]["crystal"]
-        for solid, d in data.items()
-    }
+    out = crystal_track_lengths(tmp_path, data, primaries)
     np.testing.assert_allclose(out["frustums"], out["multiunion"], rtol=0, atol=1e-9)
-    layer = build_scene(config).layers[0]
-    down = (primaries.direction == [0.0, 0.0, -1.0]).all(axis=1)
-    i, j = layer.patch_map.cell_of(primaries.position[down, :2])
-    c = layer.cell_centres()[j, i]
-    p = primaries.position[down]
-    exact = layer.variants[0].height_at(p[:, 0] - c[:, 0], p[:, 1] - c[:, 1])
-    exact += layer.base_thickness + config.targets[0].size[2]
+    down, exact = straight_down_paths(config, primaries)
     np.testing.assert_allclose(out["frustums"][down], exact, rtol=0, atol=1e-9)
     assert (out["frustums"] > 0).mean() > 0.6  # most rays cross material
 
