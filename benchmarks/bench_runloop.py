@@ -62,6 +62,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from bench_tiling import timed_simulation  # this folder is on sys.path when run as a script
 
 MARK = "BENCH_RESULT "
 ROOT = Path(__file__).resolve().parent.parent
@@ -120,28 +121,8 @@ def face_config(
     }
 
 
-def _simulation(data: dict):
-    from score4.config import parse_config
-    from score4.sim import simulation
-    from score4.sim.runtime import resolve_physics
-
-    timed = {}
-    build_world = simulation.build_world
-
-    def timed_build(*args):
-        t0 = time.perf_counter()
-        out = build_world(*args)
-        timed["build_s"] = time.perf_counter() - t0
-        return out
-
-    simulation.build_world = timed_build
-    t0 = time.perf_counter()
-    sim = simulation.Simulation(parse_config(data), resolve_physics("lite"))
-    return sim, {"init_s": time.perf_counter() - t0, **timed}
-
-
 def measure_face(side_cm: float, layout: str, variants: str, events: int) -> dict:
-    sim, out = _simulation(face_config(side_cm, layout, variants=variants))
+    sim, out = timed_simulation(face_config(side_cm, layout, variants=variants))
     primaries = sim.source.primaries(np.random.default_rng(5), 0, WARMUP + 10 + events)
     t0 = time.perf_counter()
     sim.run(primaries.select_events(0, WARMUP), 1)
@@ -196,7 +177,7 @@ def measure_portal(tiling: str, events: int) -> dict:
         "surface": {"volume": "crystal", "face": "+z"},
         "depth": {"profile": "exponential", "mean": "20 nm"},
     }
-    sim, out = _simulation(data)
+    sim, out = timed_simulation(data)
     primaries = sim.source.primaries(np.random.default_rng(5), 0, WARMUP + events)
     sim.run(primaries.select_events(0, WARMUP), 1)
     t = sim.teleporter

@@ -142,8 +142,9 @@ def run_config(tiling: str, face_cm: float = FACE_CM) -> dict:
     }
 
 
-def measure_tiling(tiling: str, events: int, face_cm: float = FACE_CM) -> dict:
-    """One case, in this process: build, warm up, time ``events`` alphas."""
+def timed_simulation(data: dict):
+    """A lite :class:`Simulation` of config dict ``data`` and ``{"init_s", "build_s"}``: wall
+    seconds of its whole set-up and of ``build_world`` within it (the config parsed before)."""
     from score4.config import parse_config
     from score4.sim import simulation
     from score4.sim.runtime import resolve_physics
@@ -158,10 +159,16 @@ def measure_tiling(tiling: str, events: int, face_cm: float = FACE_CM) -> dict:
         return out
 
     simulation.build_world = timed_build
-    config = parse_config(run_config(tiling, face_cm))
+    config = parse_config(data)
     t0 = time.perf_counter()
     sim = simulation.Simulation(config, resolve_physics("lite"))
-    out = {"case": tiling, "init_s": time.perf_counter() - t0, **timed}
+    return sim, {"init_s": time.perf_counter() - t0, **timed}
+
+
+def measure_tiling(tiling: str, events: int, face_cm: float = FACE_CM) -> dict:
+    """One case, in this process: build, warm up, time ``events`` alphas."""
+    sim, timed = timed_simulation(run_config(tiling, face_cm))
+    out = {"case": tiling, **timed}
     primaries = sim.source.primaries(np.random.default_rng(5), 0, WARMUP + events)
     t0 = time.perf_counter()
     sim.run(primaries.select_events(0, WARMUP), 1)
