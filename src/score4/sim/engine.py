@@ -305,6 +305,7 @@ def run(
     info = info or _recall_info(parts)
     files = [chunk_path(parts, c.index) for c in chunks]
     balance = _energy_balance(files, choice.decay)
+    exceptions = _geant4_exceptions(parts)
     record = {
         "config": config_to_dict(config),
         "patch_maps": {layer.name: layer.patch_map.to_dict() for layer in scene.layers},
@@ -326,8 +327,8 @@ def run(
         "wall_time_s": round(time.time() - started, 3),
         "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
         "host": platform.node(),
-        "geant4_warnings": _geant4_warnings(parts),
-        **_stuck_tracks(parts),
+        "geant4_warnings": _geant4_warnings(exceptions),
+        **_stuck_tracks(exceptions),
         **balance,
     }
     try:
@@ -687,9 +688,9 @@ def _recall_info(parts: Path) -> dict:
         return {}
 
 
-def _geant4_warnings(parts: Path) -> list[str]:
-    """Distinct G4Exception warnings in the workers' logs, with counts."""
-    found: Counter[str] = Counter()
+def _geant4_exceptions(parts: Path) -> list[tuple[str, str, str]]:
+    """(code, issuer, message) of every G4Exception in the workers' logs, in log order."""
+    found = []
     for log in sorted(parts.glob("geant4-*.log")):
         lines = log.read_text(errors="replace").splitlines()
         for i, line in enumerate(lines):
@@ -697,7 +698,13 @@ def _geant4_warnings(parts: Path) -> list[str]:
             if m:
                 issuer = lines[i + 1].split(":", 1)[-1].strip() if i + 1 < len(lines) else ""
                 message = lines[i + 2].strip() if i + 2 < len(lines) else ""
-                found[f"{m.group(1)} ({issuer}): {message}"] += 1
+                found.append((m.group(1), issuer, message))
+    return found
+
+
+def _geant4_warnings(exceptions: list[tuple[str, str, str]]) -> list[str]:
+    """Distinct G4Exceptions with counts, most frequent first."""
+    found = Counter(f"{code} ({issuer}): {message}" for code, issuer, message in exceptions)
     return [f"{text} [x{n}]" for text, n in found.most_common()]
 
 
@@ -708,14 +715,9 @@ def _geant4_warnings(parts: Path) -> list[str]:
 STUCK_PUSHED, STUCK_ABORTED = "GeomNav1002", "GeomNav0003"
 
 
-def _stuck_tracks(parts: Path) -> dict:
+def _stuck_tracks(exceptions: list[tuple[str, str, str]]) -> dict:
     """Run-record counts of stuck tracks Geant4 pushed or killed; warns when events were aborted."""
-    counts: Counter[str] = Counter()
-    for log in sorted(parts.glob("geant4-*.log")):
-        for m in re.finditer(
-            r"G4Exception : (GeomNav1002|GeomNav0003)", log.read_text(errors="replace")
-        ):
-            counts[m.group(1)] += 1
+    counts = Counter(code for code, _, _ in exceptions)
     aborted = counts[STUCK_ABORTED]
     if aborted:
         warnings.warn(
