@@ -21,7 +21,7 @@ from ..errors import ConfigError, RunInterrupted, Score4Error, Score4Warning, na
 from .data import data
 from .geometry import geometry
 from .macro import import_macro
-from .quiet import is_quiet, set_quiet
+from .quiet import is_quiet, notice, set_quiet
 from .range_cmd import range_command
 from .results import export, plot
 from .surface import surface
@@ -156,7 +156,7 @@ def run(
             jobs=jobs,
             resume=resume,
             progress=not quiet,
-            echo=(lambda m: None) if quiet else (lambda m: click.echo(m, err=True)),
+            echo=notice,
             cluster=cluster,
         )
     summary = summarize(read_results(out))
