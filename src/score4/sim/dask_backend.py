@@ -147,9 +147,8 @@ class DaskExecutor:
             self._free_workers(client, setup_key(spec))
             run_id = uuid.uuid4().hex[:8]
             by_key = {}
-            waiting = iter(
-                todo
-            )  # submitted a window at a time: a huge run lists no chunks up front
+            # submitted a window at a time: a huge run lists no chunks up front
+            waiting = iter(todo)
 
             def submit_next() -> None:
                 c = next(waiting, None)
