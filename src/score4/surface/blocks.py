@@ -22,7 +22,7 @@ import numbers
 import numpy as np
 
 from ..errors import ConfigError
-from .mesh import TriangleMesh, _boundary_half_edges, closed_body
+from .mesh import TriangleMesh, boundary_half_edges, closed_body
 from .spec import Surface
 
 #: Top facets per block that ``block_cells: auto`` aims at. Measured (bench_surfaces.py, alphas,
@@ -187,7 +187,7 @@ def block_body(top: TriangleMesh, thickness: float) -> TriangleMesh:
     """
     v = top.vertices
     lo, hi = v[:, :2].min(axis=0), v[:, :2].max(axis=0)
-    edges = _boundary_half_edges(top)
+    edges = boundary_half_edges(top)
     nxt = dict(zip(edges[:, 0].tolist(), edges[:, 1].tolist(), strict=True))
     xy = v[:, :2]
     corner = [a for a in nxt if all(xy[a, k] in (lo[k], hi[k]) for k in (0, 1))]

@@ -194,7 +194,7 @@ def _undirected_edges(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, n
     return he, key
 
 
-def _boundary_half_edges(mesh: TriangleMesh) -> np.ndarray:
+def boundary_half_edges(mesh: TriangleMesh) -> np.ndarray:
     """(k, 2) directed half-edges of the faces that no other face shares."""
     he, key = _undirected_edges(mesh.faces, mesh.n_vertices)
     order = np.argsort(key)
@@ -255,7 +255,7 @@ def closed_body(top_mesh: TriangleMesh, thickness: float) -> TriangleMesh:
             "top vertex "
             f"(z = {length_text(zmin)}); use thickness > {length_text(-zmin)}"
         )
-    boundary = _boundary_half_edges(top_mesh)
+    boundary = boundary_half_edges(top_mesh)
     if len(boundary) < 3:
         raise ConfigError("top_mesh: has no boundary (already closed?)")
     v = top_mesh.vertices
