@@ -84,7 +84,7 @@ def face_config(
     tiles (two, fill tiles: 64 random tiles of the first group size);
     spread-<solid>: one variant of pyramids with a 2 um height spread as that solid."""
     rough: dict = {"face": "+z", "tiling": tiling}
-    if layout != "default":  # "default": leave native_layout out (also runs on older score4)
+    if layout != "default" and tiling == "native":  # native_layout is a native-tiling key
         rough["native_layout"] = layout
     if variants == "one":
         rough["surface"] = "p"

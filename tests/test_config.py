@@ -169,8 +169,8 @@ def test_merge_keys_may_still_be_overridden(tmp_path: Path):
                 ],
             },
             (
-                "cfg.yaml: targets.0.rough.0: native_layout replicas applies to tiling native, "
-                "not portal"
+                "cfg.yaml: targets.0.rough.0.native_layout: used only with tiling: native (here "
+                "tiling is portal); remove native_layout or change tiling"
             ),
         ),
         (
@@ -269,3 +269,54 @@ def test_depth_table_errors_name_the_table_line_and_the_config(tmp_path: Path, c
         in err
     )
     assert "Profile" not in err
+
+
+def _rough_target(**rough) -> list[dict]:
+    return [{"name": "crystal", "size": ["1 mm"] * 3, "rough": [{"surface": "s", **rough}]}]
+
+
+_SURFACES = {
+    "s": {
+        "kind": "spikes",
+        "shape": "pyramid",
+        "width": "10 um",
+        "height": "5 um",
+        "nx": 2,
+        "ny": 2,
+    }
+}
+
+
+@pytest.mark.parametrize(
+    ("sections", "message"),
+    [
+        (
+            {"surfaces": _SURFACES, "targets": _rough_target(n_tiles=8)},
+            (
+                "targets.0.rough.0.n_tiles: used only with fill: tiles (here fill is exact); "
+                "remove n_tiles or change fill"
+            ),
+        ),
+        (
+            {"physics": {"heavy_ions": "geant4", "trim_max_energy": "2 MeV"}},
+            (
+                "physics.trim_max_energy: used only with heavy_ions: trim (here heavy_ions is "
+                "geant4); remove trim_max_energy or change heavy_ions"
+            ),
+        ),
+    ],
+)
+def test_a_key_the_chosen_option_ignores_is_refused(sections, message):
+    """schema.StrictModel.used_only_with: one generic rule for option-dependent keys."""
+    with pytest.raises(ConfigError) as err:
+        parse_config(config_dict(**sections))
+    assert message in str(err.value)
+
+
+def test_a_key_under_the_option_that_uses_it_is_accepted():
+    config = parse_config(
+        config_dict(surfaces=_SURFACES, targets=_rough_target(fill="tiles", n_tiles=8))
+    )
+    assert config.targets[0].rough[0].n_tiles == 8
+    physics = parse_config(config_dict(physics={"trim_max_energy": "2 MeV"})).physics
+    assert physics.trim_max_energy == pytest.approx(2.0)

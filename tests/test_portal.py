@@ -71,15 +71,11 @@ COVERS = [
 
 def rough(tiling: str, faces=("+z", "-x"), base: str = "20 um", layout: str = "auto") -> list[dict]:
     variants = [{"surface": "a", "density": 0.5}, {"surface": "b", "density": 0.5}]
+    # native_layout is a key of native tiling only (schema: used_only_with)
+    layout_key = {"native_layout": layout} if tiling == "native" else {}
     return [
-        {
-            "face": f,
-            "variants": variants,
-            "tiling": tiling,
-            "seed": 3,
-            "base_thickness": base,
-            "native_layout": layout,
-        }
+        {"face": f, "variants": variants, "tiling": tiling, "seed": 3, "base_thickness": base}
+        | layout_key
         for f in faces
     ]
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import difflib
 import re
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated, ClassVar, Literal
 
 from pydantic import (
     Discriminator,
@@ -184,6 +184,11 @@ class RoughFace(StrictModel):
     face, outside the box, in the target's material, and is scored with the target.
     """
 
+    used_only_with: ClassVar[dict[str, tuple[str, tuple[object, ...]]]] = {
+        "n_tiles": ("fill", ("tiles",)),
+        "native_layout": ("tiling", ("native",)),
+    }
+
     face: Face = "+z"
     surface: str | None = None
     variants: list[PatchVariant] | None = Field(None, min_length=1)
@@ -206,10 +211,6 @@ class RoughFace(StrictModel):
         if (self.surface is None) == (self.variants is None):
             raise ValueError(
                 "give either surface (one patch) or variants (several, with densities)"
-            )
-        if self.native_layout == "replicas" and self.tiling != "native":
-            raise ValueError(
-                f"native_layout replicas applies to tiling native, not {self.tiling}; remove one"
             )
         if self.native_layout == "replicas" and len(self.variant_list) > 1:
             raise ValueError(
@@ -336,6 +337,10 @@ class SourceConfig(StrictModel):
 
 
 class PhysicsConfig(StrictModel):
+    used_only_with: ClassVar[dict[str, tuple[str, tuple[object, ...]]]] = {
+        "trim_max_energy": ("heavy_ions", ("trim",)),
+    }
+
     mode: Literal["auto", "full", "lite"] = "auto"
     # Secondary-production threshold as a range. Geant4's default (0.7 mm) suppresses delta rays
     # and, with them, all range straggling of alphas; micrometre surfaces need a micrometre cut.

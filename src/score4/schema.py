@@ -148,7 +148,8 @@ class StrictModel(BaseModel):
     """Unknown keys are errors (a typo never silently falls back to a default); values are frozen.
 
     Before any field is read: an unknown key is named with the closest valid key; keys listed
-    together in :attr:`exclusive_keys` are refused together; a boolean (``true``/``false``) is
+    together in :attr:`exclusive_keys` are refused together; a key of :attr:`used_only_with`
+    given under a choice that ignores it is refused; a boolean (``true``/``false``) is
     refused where the field takes no boolean (YAML's ``seed: true`` would otherwise become 1).
     """
 
@@ -157,6 +158,12 @@ class StrictModel(BaseModel):
     #: Pairs of keys that say the same thing in two ways; giving both (with different values)
     #: is an error.
     exclusive_keys: ClassVar[tuple[tuple[str, str], ...]] = ()
+
+    #: Keys that mean something only under some choices of another key of the same model:
+    #: ``{key: (other_key, (value, ...))}``. A key given (not null) while ``other_key`` (as
+    #: written, else its default) holds another value would be ignored silently: it is an error.
+    #: Declare every new option-dependent key here; the rule needs no code of its own.
+    used_only_with: ClassVar[dict[str, tuple[str, tuple[object, ...]]]] = {}
 
     @model_validator(mode="before")
     @classmethod
@@ -178,6 +185,21 @@ class StrictModel(BaseModel):
                     {
                         "key": b,
                         "message": f"give {a} or {b}, not both ({a} is short for both axes)",
+                    },
+                )
+        for key, (other, choices) in cls.used_only_with.items():
+            if data.get(key) is None:
+                continue
+            chosen = data[other] if other in data else fields[other].default
+            if chosen not in choices:
+                wanted = " or ".join(_shown_choice(c) for c in choices)
+                raise PydanticCustomError(
+                    "unused_key",
+                    "{message}",
+                    {
+                        "key": key,
+                        "message": f"used only with {other}: {wanted} (here {other} is "
+                        f"{_shown_choice(chosen)}); remove {key} or change {other}",
                     },
                 )
         for name, field in fields.items():
@@ -204,6 +226,13 @@ class StrictModel(BaseModel):
         return data
 
 
+def _shown_choice(value: object) -> str:
+    """A choice as written in YAML (true/false, null, plain names)."""
+    if isinstance(value, bool):
+        return _bool_text(value)
+    return "null" if value is None else str(value)
+
+
 def _unknown(key: object, fields: dict) -> str:
     close = difflib.get_close_matches(str(key), list(fields), n=1, cutoff=0.6)
     if close:
@@ -214,7 +243,7 @@ def _unknown(key: object, fields: dict) -> str:
 # Tags of tagged unions that pydantic puts into error locations; they are not keys the user wrote.
 UNION_TAGS = frozenset({"spikes", "random", "measured", "surface-file"})
 # Errors about the keys themselves come first: a typo is the cause of a "Field required" next to it.
-_KEY_ERRORS = ("unknown_key", "exclusive_keys", "extra_forbidden")
+_KEY_ERRORS = ("unknown_key", "exclusive_keys", "unused_key", "extra_forbidden")
 
 
 def _shown(value: object) -> str:
