@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.score4-installed
 PYTEST_ARGS ?=
 
-.PHONY: demo test lint docs-check docs-check-all clean
+.PHONY: demo test test-deep lint docs-check docs-check-all clean
 
 # score4 (editable) with the test extra, plus the pinned linters of the `lint` dependency group
 # (pip >= 25.1 reads dependency groups; the step upgrades pip first).
@@ -25,6 +25,10 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest $(PYTEST_ARGS)
+
+# The long validations and fuzz runs that `make test` leaves out (pytest marker `deep`).
+test-deep: $(STAMP)
+	$(BIN)/python -m pytest -m deep $(PYTEST_ARGS)
 
 # Lint and types: the same checks as the pre-commit hooks' ruff and mypy.
 lint: $(STAMP)
