@@ -346,7 +346,7 @@ def _simulation(spec: WorkerSpec):
         try:
             with warnings.catch_warnings():  # the client has shown them already
                 warnings.simplefilter("ignore", Score4Warning)
-                _held["sim"] = Simulation(spec.config, spec.choice, log_path=log)
+                _held["sim"] = Simulation(spec.config, spec.choice, log_path=log, seed=spec.seed)
         except BaseException as err:
             _held["error"] = err
             raise

@@ -79,7 +79,7 @@ class Executor(Protocol):
     ``execute(spec, todo)`` is a generator that runs the chunks ``todo`` and yields events:
 
     - ``("ready", info)``: a worker has built the Geant4 application (``info`` goes into the run
-      record: ``geant4_version``, ``removed_processes``);
+      record: ``geant4_version``, ``removed_processes``, ``trim_library_seed``);
     - ``("progress", n_events)``: more events are done (for the progress bar);
     - ``("done", index)``: the file of chunk ``index`` is complete in ``spec.parts_dir``;
     - ``("failed", index, error_class_name, message)``: chunk ``index`` failed (``index`` is
@@ -315,6 +315,7 @@ def run(
         "physics_lacks": choice.lacks,
         "missing_data_sets": list(choice.missing_data),
         "removed_processes": info.get("removed_processes", []),
+        **{k: info[k] for k in ("trim_library_seed",) if k in info},  # runs with a TRIM replay
         "score4_version": __version__,
         "geant4_pybind_version": version("geant4_pybind"),
         "geant4_version": info.get("geant4_version", ""),

@@ -95,7 +95,10 @@ def ready_info(sim) -> dict:
     """What the run record keeps from a worker's Geant4 application."""
     from .runtime import geant4_version
 
-    return {"geant4_version": geant4_version(sim.g4), "removed_processes": sim.removed_processes}
+    info = {"geant4_version": geant4_version(sim.g4), "removed_processes": sim.removed_processes}
+    if sim.heavy_ions is not None:
+        info["trim_library_seed"] = sim.heavy_ions.library_seed
+    return info
 
 
 def _exit_with_parent() -> None:
@@ -121,7 +124,7 @@ def worker_main(spec: WorkerSpec, conn) -> None:
     log = Path(spec.parts_dir) / f"geant4-{os.getpid()}.log"
     chunk = None
     try:
-        sim = Simulation(spec.config, spec.choice, log_path=log)
+        sim = Simulation(spec.config, spec.choice, log_path=log, seed=spec.seed)
         conn.send(("ready", ready_info(sim)))
         while (chunk := conn.recv()) is not None:
             run_chunk(sim, spec, chunk, progress=lambda n: conn.send(("progress", n)))
