@@ -331,6 +331,7 @@ def run(
         "geant4_warnings": _geant4_warnings(exceptions),
         **_stuck_tracks(exceptions),
         **balance,
+        **_untracked_photons(files),
     }
     try:
         check_free_space(out, sum(f.stat().st_size for f in files))
@@ -653,6 +654,24 @@ def _energy_balance(files: list[Path], decay: bool) -> dict:
         "energy_violations": balance.violations,
         "energy_max_excess_MeV": balance.max_excess_mev,
     }
+
+
+def _untracked_photons(files: list[Path]) -> dict:
+    """Run-record sums of the photon energy lite physics did not track (empty in full mode)."""
+    import h5py
+
+    total, events, found = 0.0, 0, False
+    for path in files:
+        with h5py.File(path, "r") as f:
+            if "untracked_gamma_energy" not in f["events"]:
+                continue
+            found = True
+            values = f["events/untracked_gamma_energy"][()]
+            total += float(values.sum())
+            events += int((values > 0).sum())
+    if not found:
+        return {}
+    return {"untracked_gamma_energy_MeV": total, "untracked_gamma_events": events}
 
 
 def _count_chunk_files(parts: Path, chunks: ChunkPlan) -> int:

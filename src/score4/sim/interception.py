@@ -83,13 +83,16 @@ class InterceptedIon:
     reinjected: bool
 
 
-def make_stacking_action(g4, transport: HeavyIonTransport, state):
-    """A G4UserStackingAction that intercepts heavy-ion secondaries (see the module docstring).
+def make_stacking_action(g4, transport: HeavyIonTransport | None, state):
+    """A G4UserStackingAction that intercepts heavy-ion secondaries (see the module docstring)
+    when its ``heavy`` is set, and kills and counts new photons when its ``gammas`` is set
+    (lite physics: Geant4 has no data-free photoelectric model).
 
     ``state`` is the object that knows the event being tracked: it must have
     ``current_event() -> (index, seed)``, ``max_energy`` (MeV), ``decay`` (bool),
-    ``book(event, fate)`` (adds the fate's deposits to that event) and a list
-    ``intercepted`` (receives :class:`InterceptedIon` records).
+    ``book(event, fate)`` (adds the fate's deposits to that event), ``untrack(event,
+    energy)`` (counts a dropped photon) and a list ``intercepted`` (receives
+    :class:`InterceptedIon` records).
     """
     urgent = g4.G4ClassificationOfNewTrack.fUrgent
     kill = g4.G4ClassificationOfNewTrack.fKill
@@ -98,9 +101,11 @@ def make_stacking_action(g4, transport: HeavyIonTransport, state):
     class Interceptor(g4.G4UserStackingAction):
         def __init__(self) -> None:
             super().__init__()
-            self.kinds: dict[int, tuple[object, int]] = {}  # id(definition) -> (definition, Z)
+            # id(definition) -> (definition, Z of a heavy ion or 0, is a photon)
+            self.kinds: dict[int, tuple[object, int, bool]] = {}
             self.counter = 0
-            self.event = -1
+            self.heavy = False  # intercept heavy ions
+            self.gammas = False  # kill and count photons
             self.reinject_stable = False  # test hook: send stable ions back to Geant4 too
 
         def PrepareNewEvent(self) -> None:
@@ -111,8 +116,13 @@ def make_stacking_action(g4, transport: HeavyIonTransport, state):
             definition = track.GetDefinition()
             kind = self.kinds.get(id(definition))
             if kind is None:  # keep the definition alive: its id stays its own
-                kind = self.kinds[id(definition)] = (definition, heavy_ion_z(definition))
-            if not kind[1]:
+                photon = str(definition.GetParticleName()) == "gamma"
+                kind = (definition, heavy_ion_z(definition), photon)
+                self.kinds[id(definition)] = kind
+            if kind[2] and self.gammas:
+                state.untrack(state.current_event()[0], track.GetKineticEnergy())
+                return kill
+            if not (kind[1] and self.heavy):
                 return urgent
             energy = track.GetKineticEnergy()
             if not MIN_ENERGY <= energy <= state.max_energy:
@@ -127,6 +137,7 @@ def make_stacking_action(g4, transport: HeavyIonTransport, state):
             rng = ReplayStream(seed, _STREAM, self.counter)
             self.counter += 1
             name = ion_name(definition)
+            assert transport is not None  # `heavy` is only set with a transport
             transport.need(name, max(grid_energy(energy), energy))
             fate = transport.transport(
                 definition, name, energy, position, direction, rng, announce=False

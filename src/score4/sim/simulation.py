@@ -206,6 +206,27 @@ class Simulation:
                 mask |= rows & (energy <= physics.trim_max_energy) & (energy > 0)
         return mask
 
+    def untracked_rows(self, primaries: Primaries) -> np.ndarray:
+        """Rows of ``primaries`` that are photons lite physics cannot track (no data-free
+        photoelectric model in Geant4 11.4: docs/physics.md#gammas-and-x-rays-in-lite-mode).
+        Their energies are counted per event (:meth:`event_columns`), not given to Geant4."""
+        if self.choice.mode != "lite":
+            return np.zeros(len(primaries), dtype=bool)
+        return np.asarray(primaries.particle == "gamma")
+
+    def event_columns(self) -> dict[str, np.ndarray]:
+        """More per-event columns of the last :meth:`run` for the results file.
+
+        Lite physics: ``untracked_gamma_energy`` (MeV), the energy of the event's photons
+        (gamma and X-ray primaries, annihilation photons) that were not tracked."""
+        if self.choice.mode != "lite":
+            return {}
+        return {"untracked_gamma_energy": self.untracked_gamma}
+
+    def untrack(self, k: int, energy: float) -> None:
+        """Count a photon of ``energy`` MeV that event ``k`` created and lite physics drops."""
+        self.untracked_gamma[k] += energy
+
     def _generate(self, gun, event) -> None:
         k = self._next_event
         g4, p = self.g4, self._primaries
@@ -214,7 +235,7 @@ class Simulation:
         if self.teleporter is not None:
             self.teleporter.begin_event(int(self._offsets[k]), int(self._offsets[k + 1]))
         for row in range(self._offsets[k], self._offsets[k + 1]):
-            if self._trim[row]:
+            if self._skip[row]:  # replayed on TRIM, or a gamma lite physics cannot track
                 continue
             gun.SetParticleDefinition(self._defs[row])
             gun.SetParticleEnergy(p.energy[row])
@@ -273,6 +294,13 @@ class Simulation:
         self._offsets = primaries.event_offsets()
         self._trim = self.trim_rows(primaries)
         self._scores = {q: np.zeros((n, len(self.volumes))) for q in self.quantities}
+        self._untracked_rows = self.untracked_rows(primaries)
+        self._skip = self._trim | self._untracked_rows
+        self.untracked_gamma = np.bincount(
+            primaries.event[self._untracked_rows],
+            weights=primaries.energy[self._untracked_rows],
+            minlength=n,
+        ).astype(float)
         self.endpoints = np.full((len(primaries), 4), np.nan) if endpoints else None
         self._track_endpoints(endpoints)
         self._prepare_replay(primaries, g4_seed)
@@ -351,13 +379,8 @@ class Simulation:
                 self._scores["track_length"][k, volume] += value
 
     def _intercept(self, primaries: Primaries) -> None:
-        """Install the stacking action when this batch can create heavy-ion secondaries."""
-        if (
-            self._interceptor is not None
-            or self.heavy_ions is None
-            or self.config.physics.heavy_ions != "trim"
-        ):
-            return
+        """Install the stacking action when this batch can create heavy-ion secondaries, or
+        photons lite physics must count (positrons annihilate into two)."""
         names = [str(n) for n in np.unique(primaries.particle)]
         from .heavy_ions import heavy_ion_z
 
@@ -365,9 +388,19 @@ class Simulation:
             p = self.particle(name)
             return bool(heavy_ion_z(p)) or str(p.GetParticleType()) == "nucleus"
 
-        if needs_interception(names, is_ion, self.decay):
+        heavy = (
+            self.heavy_ions is not None
+            and self.config.physics.heavy_ions == "trim"
+            and needs_interception(names, is_ion, self.decay)
+        )
+        gammas = self.choice.mode == "lite" and "e+" in names
+        if not (heavy or gammas):
+            return
+        if self._interceptor is None:
             self._interceptor = make_stacking_action(self.g4, self.heavy_ions, self)
             self.run_manager.SetUserAction(self._interceptor)
+        self._interceptor.heavy |= heavy
+        self._interceptor.gammas |= gammas
 
     def _replay_event(self, k: int) -> None:
         """Move event ``k``'s heavy ions along TRIM trajectories; add their deposits (per event,
@@ -426,7 +459,7 @@ class Simulation:
 
     def _g4_rows_of_event(self, k: int) -> np.ndarray:
         rows = np.arange(self._offsets[k], self._offsets[k + 1])
-        return rows[~self._trim[rows]]
+        return rows[~self._skip[rows]]
 
     def _check_stop(self) -> None:
         """End the run after this event when asked to (one attribute test per event)."""

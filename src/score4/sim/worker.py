@@ -87,7 +87,15 @@ def run_chunk(sim, spec: WorkerSpec, chunk: Chunk, progress=None) -> Path:
     """Sample, track and write one chunk (atomically); return the chunk file."""
     primaries, scores = simulate_chunk(sim, spec, chunk, progress)
     path = chunk_path(spec.parts_dir, chunk.index)
-    write_chunk(path, chunk.first_event, sim.volumes, scores, primaries, spec.fingerprint)
+    write_chunk(
+        path,
+        chunk.first_event,
+        sim.volumes,
+        scores,
+        primaries,
+        spec.fingerprint,
+        columns=sim.event_columns(),
+    )
     return path
 
 
