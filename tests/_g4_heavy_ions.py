@@ -41,6 +41,7 @@ def run_config(data: dict, seed: int):
         "endpoints": sim.endpoints,
         "edep": scores["edep"],
         "volumes": sim.volumes,
+        "library_seed": sim.heavy_ions.library_seed if sim.heavy_ions else None,
     }
 
 
@@ -222,3 +223,29 @@ def nuclide_recoils(nuclide: str, events: int):
     primaries = sim.source.primaries(np.random.default_rng(5), 0, events)
     sim.run(primaries, 5)
     return [(x.event, x.ion, x.energy, x.reinjected) for x in sim.intercepted]
+
+
+def range_with_reference(seed: int, events: int):
+    """``score4 range Pb206 "103.144 keV" G4_Si --compare-srim`` as the command runs it: the
+    stopped depths (nm) of score4 and of its TRIM reference, and the reference's TRIM seed."""
+    from score4.cli.range_cmd import run_range
+    from score4.ions.species import parse_ion
+
+    result = run_range(
+        parse_ion("Pb206", "ION"),
+        0.103144,
+        "G4_Si",
+        events,
+        seed,
+        None,
+        0.0,
+        {},
+        events,
+        lambda message: None,
+    )
+    ours, ref = result["_score4_sample"], result["_srim_sample"]
+    return (
+        ours.final_position[ours.stopped, 2] * 1e6,
+        ref.final_position[ref.stopped, 2] * 1e6,
+        result["srim"]["trim_seed"],
+    )
