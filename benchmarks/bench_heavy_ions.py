@@ -9,6 +9,9 @@ and the events that deposit more than was emitted.
     python benchmarks/bench_heavy_ions.py [--events 3000] [--jobs 1] [--markdown]
 
 ``--markdown`` prints the rows of the table in docs/physics.md (checked by ``make docs-check``).
+``--per-event`` prints instead the whole-process CPU per event of each case: a run of
+``--events`` minus a run of a tenth of them, over the difference in events (start-up and library
+building cancel), and the ratio ``trim`` / ``geant4`` per face.
 
 Measured 2026-11-25 (lite physics, --events 2000 --jobs 1, machine shared with other jobs:
 compare the rows, not the seconds; CPU includes the ~1 s start-up of each run):
@@ -109,7 +112,11 @@ def main() -> None:
     parser.add_argument("--events", type=int, default=3000)
     parser.add_argument("--jobs", type=int, default=1)
     parser.add_argument("--markdown", action="store_true", help="rows of docs/physics.md's table")
+    parser.add_argument("--per-event", action="store_true", help="CPU ms per event, see above")
     args = parser.parse_args()
+    if args.per_event:
+        per_event(args.events, args.jobs)
+        return
     if not args.markdown:
         print(
             f"{'face':9s} {'ions':6s} {'CPU s':>6s}  {'recoil only 50-110 keV':>22s}  "
@@ -129,6 +136,21 @@ def main() -> None:
                     f"{r['partial']:>22s}  {r['whole']:>22s}  {r['over']}",
                     flush=True,
                 )
+
+
+def per_event(events: int, jobs: int) -> None:
+    """CPU ms per event, (CPU(events) - CPU(events / 10)) / (0.9 events), per face and mode."""
+    few = max(1, events // 10)
+    with tempfile.TemporaryDirectory() as tmp:
+        for face in ROUGH:
+            ms = {}
+            for ions in ("trim", "geant4"):
+                run_case(face, ions, few, jobs, Path(tmp))  # libraries built, caches warm
+                short = run_case(face, ions, few, jobs, Path(tmp))["cpu"]
+                full = run_case(face, ions, events, jobs, Path(tmp))["cpu"]
+                ms[ions] = 1e3 * (full - short) / (events - few)
+                print(f"{face:9s} {ions:6s} {ms[ions]:.3f} ms per event", flush=True)
+            print(f"{face:9s} trim / geant4 {ms['trim'] / ms['geant4']:.2f}", flush=True)
 
 
 if __name__ == "__main__":

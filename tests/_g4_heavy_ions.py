@@ -249,3 +249,14 @@ def range_with_reference(seed: int, events: int):
         ref.final_position[ref.stopped, 2] * 1e6,
         result["srim"]["trim_seed"],
     )
+
+
+def alpha_depths(spec: dict):
+    """benchmarks/bench_alpha_straggling.py's measurement of one Geant4 set-up (see there)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from bench_alpha_straggling import measure
+
+    return measure(spec)
