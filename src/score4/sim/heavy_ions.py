@@ -62,6 +62,16 @@ class IonFate:
         return self.escaped_energy == 0.0 and bool(self.volume)
 
 
+@dataclass(frozen=True)
+class _Volume:
+    pv: object  # the physical volume's wrapper, kept alive (see HeavyIonTransport._volume)
+    logical: str  # logical volume name
+    material: object
+    material_name: str
+    vacuum: bool
+    index: int | None  # scoring column, None if not scored
+
+
 class ReplayStream:
     """A small random stream for one replayed ion: SplitMix64 on Python integers.
 
@@ -123,6 +133,7 @@ class HeavyIonTransport:
         self._energies: dict[str, list[float]] = {}  # announced start energies, sorted
         self._compositions: dict[str, Composition] = {}
         self._vacuum = VACUUM_DENSITY * g4.g / g4.cm3
+        self._volumes: dict[int, _Volume] = {}
 
     # -- libraries -------------------------------------------------------------------------------
 
@@ -177,6 +188,28 @@ class HeavyIonTransport:
     def _is_vacuum(self, material) -> bool:
         return float(material.GetDensity()) < self._vacuum
 
+    def _volume(self, pv) -> _Volume:
+        """What the replay needs of a physical volume, asked of Geant4 once per volume.
+
+        Keyed by the wrapper's id: the cache holds the wrapper, so pybind11 hands out the same
+        one for the same volume and the id cannot be reused.
+        """
+        hit = self._volumes.get(id(pv))
+        if hit is None:
+            logical = pv.GetLogicalVolume()
+            material = logical.GetMaterial()
+            name = str(logical.GetName())
+            hit = _Volume(
+                pv,
+                name,
+                material,
+                str(material.GetName()),
+                self._is_vacuum(material),
+                self.index.get(name),
+            )
+            self._volumes[id(pv)] = hit
+        return hit
+
     def transport(
         self,
         particle,
@@ -211,8 +244,8 @@ class HeavyIonTransport:
             if pv is None:  # left the world
                 fate.escaped_energy = e
                 break
-            material = pv.GetLogicalVolume().GetMaterial()
-            if self._is_vacuum(material):
+            here = self._volume(pv)
+            if here.vacuum:
                 step = self.nav.ComputeStep(self._vec(pos), self._vec(d), _FAR, 0.0)
                 if step >= _FAR:
                     fate.escaped_energy = e
@@ -222,7 +255,7 @@ class HeavyIonTransport:
                 pv = self._locate(pos, d, relative=True)
                 fate.crossings += 1
                 continue
-            lib = self.library(particle, ion, material, e)
+            lib = self.library(particle, ion, here.material, e)
             k, i, end, azimuth = lib.pick(e, rng)
             if i >= end - 1:  # at rest already
                 e = 0.0
@@ -245,9 +278,8 @@ class HeavyIonTransport:
             pos, e, d, pv = out
         fate.position = pos
         if e == 0.0 and pv is not None:
-            logical = pv.GetLogicalVolume()
-            fate.volume = str(logical.GetName())
-            fate.material = str(logical.GetMaterial().GetName())
+            here = self._volume(pv)
+            fate.volume, fate.material = here.logical, here.material_name
         return fate
 
     def _walk(
@@ -280,9 +312,8 @@ class HeavyIonTransport:
         """
         nav = self.nav
         vec = self.g4.G4ThreeVector
-        logical = pv.GetLogicalVolume()
-        material = str(logical.GetMaterial().GetName())
-        volume = self.index.get(str(logical.GetName()))
+        here = self._volume(pv)
+        material, volume = here.material_name, here.index
         xs, ys, zs = points.T.tolist()
         es, ars, ws = energies.tolist(), arrivals.tolist(), walked.tolist()
         es[0] = ars[0] = energy
@@ -340,10 +371,10 @@ class HeavyIonTransport:
             nxt = self._locate(cur, u, relative=True)
             if nxt is None:
                 return cur, e_cur, u, nxt
-            logical = nxt.GetLogicalVolume()
-            if str(logical.GetMaterial().GetName()) != material:
+            there = self._volume(nxt)
+            if there.material_name != material:
                 return cur, e_cur, u, nxt
-            volume = self.index.get(str(logical.GetName()))
+            volume = there.index
             safety = 0.0
         _book(fate, volume, dep, length_in)
         # a stopped history's last energy is 0 (TRIM's <= 1 eV rest is in its last piece)
