@@ -148,3 +148,20 @@ def test_cache_is_pruned_least_recently_used_first(tmp_path, monkeypatch):
     size = files[0].stat().st_size
     assert prune_cache(max_bytes=sum(p.stat().st_size for p in files) - size) == 1
     assert [p.exists() for p in files] == [False, True, True]
+
+
+def test_replay_streams_are_reproducible_and_uniform():
+    from score4.sim.heavy_ions import ReplayStream
+
+    a = [ReplayStream(7, 1, k).random() for k in range(3)]
+    assert a == [ReplayStream(7, 1, k).random() for k in range(3)]
+    assert len(set(a)) == 3  # other rows, other streams
+    r = ReplayStream(123, 5, 0)
+    u = np.array([r.random() for _ in range(20000)])
+    # mean and variance of U(0, 1) within 4 standard errors; neighbours uncorrelated
+    assert abs(u.mean() - 0.5) < 4 * np.sqrt(1 / 12 / len(u))
+    assert abs(u.var() - 1 / 12) < 4 * np.sqrt(1 / 180 / len(u))
+    assert abs(np.corrcoef(u[:-1], u[1:])[0, 1]) < 4 / np.sqrt(len(u))
+    counts = np.bincount([r.integers(7) for _ in range(14000)], minlength=7)
+    assert len(counts) == 7
+    assert (abs(counts - 2000) < 4 * np.sqrt(2000)).all()

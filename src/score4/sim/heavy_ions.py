@@ -83,11 +83,10 @@ class ReplayStream:
     __slots__ = ("_state",)
     _MASK = (1 << 64) - 1
 
-    def __init__(self, *words: int) -> None:
-        state = 0x5C0E4F00D
-        for w in words:  # mix every word in: streams of different (seed, stream, row) differ
-            state = self._mix((state ^ (int(w) & self._MASK)) + 0x9E3779B97F4A7C15)
-        self._state = state
+    def __init__(self, seed: int, stream: int = 0, index: int = 0) -> None:
+        # distinct (seed, stream, index) give distinct, decorrelated starting states
+        mixed = self._mix(int(seed) ^ (int(stream) << 40) ^ 0x5C0E4F00D)
+        self._state = self._mix(mixed + int(index) * 0x9E3779B97F4A7C15)
 
     @classmethod
     def _mix(cls, z: int) -> int:
@@ -150,9 +149,12 @@ class HeavyIonTransport:
         if k == len(energies) or energies[k] != energy:
             energies.insert(k, energy)
 
-    def library(self, particle, ion: str, material, energy: float) -> TrajectoryLibrary:
-        """The library of the smallest announced energy >= ``energy`` in ``material``."""
-        name = str(material.GetName())
+    def library(
+        self, particle, ion: str, material, energy: float, name: str | None = None
+    ) -> TrajectoryLibrary:
+        """The library of the smallest announced energy >= ``energy`` in ``material``
+        (``name``: the material's name, if known)."""
+        name = str(material.GetName()) if name is None else name
         energies = self._energies.get(ion, [])
         k = bisect.bisect_left(energies, energy * (1 - 1e-12))
         target = energies[k] if k < len(energies) else float(energy)
@@ -255,7 +257,7 @@ class HeavyIonTransport:
                 pv = self._locate(pos, d, relative=True)
                 fate.crossings += 1
                 continue
-            lib = self.library(particle, ion, here.material, e)
+            lib = self.library(particle, ion, here.material, e, here.material_name)
             k, i, end, azimuth = lib.pick(e, rng)
             if i >= end - 1:  # at rest already
                 e = 0.0
