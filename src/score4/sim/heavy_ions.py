@@ -324,7 +324,8 @@ class HeavyIonTransport:
         cx, cy, cz = xs[0], ys[0], zs[0]
         e_cur, s_cur = energy, ws[0]
         dep = length_in = 0.0  # in `volume`, not yet booked
-        safety = nav.ComputeSafety(vec(cx, cy, cz), _FAR, True)
+        located = vec(cx, cy, cz)  # where the navigator stands (the caller located it there)
+        safety = nav.ComputeSafety(located, _FAR, True)
         bisect_left = bisect.bisect_left
         while i < last:
             # points inside the safety sphere about the current point are in the volume
@@ -340,6 +341,7 @@ class HeavyIonTransport:
                     dep += e_cur - es[j]
                     length_in += ws[j] - s_cur
                     i, cx, cy, cz, e_cur, s_cur = j, xs[j], ys[j], zs[j], es[j], ws[j]
+                    located = None
                     if i >= last:
                         break
             length = ws[i + 1] - s_cur
@@ -348,17 +350,18 @@ class HeavyIonTransport:
                 continue
             inv = 1.0 / length
             ux, uy, uz = (xs[i + 1] - cx) * inv, (ys[i + 1] - cy) * inv, (zs[i + 1] - cz) * inv
-            pa = vec(cx, cy, cz)
-            nav.LocateGlobalPointWithinVolume(pa)
-            step = nav.ComputeStep(pa, vec(ux, uy, uz), length, 0.0)
+            if located is None:
+                located = vec(cx, cy, cz)
+                nav.LocateGlobalPointWithinVolume(located)
+            step = nav.ComputeStep(located, vec(ux, uy, uz), length, 0.0)
             if step >= length:
                 i += 1
                 dep += e_cur - es[i]
                 length_in += length
                 cx, cy, cz, e_cur, s_cur = xs[i], ys[i], zs[i], es[i], ws[i]
-                pb = vec(cx, cy, cz)
-                nav.LocateGlobalPointWithinVolume(pb)
-                safety = nav.ComputeSafety(pb, _FAR, True)
+                located = vec(cx, cy, cz)
+                nav.LocateGlobalPointWithinVolume(located)
+                safety = nav.ComputeSafety(located, _FAR, True)
                 continue
             lost = (e_cur - ars[i + 1]) * step * inv
             dep += lost
@@ -377,6 +380,7 @@ class HeavyIonTransport:
             if there.material_name != material:
                 return cur, e_cur, u, nxt
             volume = there.index
+            located = vec(cx, cy, cz)  # _locate put the navigator here
             safety = 0.0
         _book(fate, volume, dep, length_in)
         # a stopped history's last energy is 0 (TRIM's <= 1 eV rest is in its last piece)
