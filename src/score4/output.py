@@ -117,7 +117,9 @@ def merge_chunks(chunk_paths: list[Path], out: Path, run_record: dict) -> None:
                 )
             ev = f.create_group("events")
             ev.attrs["quantities"] = json.dumps(quantities)
-            for name in _event_columns(parts[0]["events"]):
+            # columns every chunk has (a chunk of an older version may lack a newer column)
+            shared = set.intersection(*(set(_event_columns(p["events"])) for p in parts))
+            for name in [c for c in _event_columns(parts[0]["events"]) if c in shared]:
                 d = ev.create_dataset(
                     name, data=np.concatenate([p["events"][name][()] for p in parts])
                 )

@@ -660,17 +660,14 @@ def _untracked_photons(files: list[Path]) -> dict:
     """Run-record sums of the photon energy lite physics did not track (empty in full mode)."""
     import h5py
 
-    total, events, found = 0.0, 0, False
+    total, events = 0.0, 0
     for path in files:
         with h5py.File(path, "r") as f:
             if "untracked_gamma_energy" not in f["events"]:
-                continue
-            found = True
+                return {}  # full physics (or a chunk written without the count)
             values = f["events/untracked_gamma_energy"][()]
             total += float(values.sum())
             events += int((values > 0).sum())
-    if not found:
-        return {}
     return {"untracked_gamma_energy_MeV": total, "untracked_gamma_events": events}
 
 
