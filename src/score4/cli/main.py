@@ -244,7 +244,7 @@ def summary(results_file: Path, as_json: bool, bins) -> None:
             f"  energy check  {run['energy_violations']} events deposit more than their primaries' "
             f"energy + 1 eV" + (f" (largest excess {excess:.4g} keV)" if excess > 0 else "")
         )
-    if "untracked_gamma_energy_MeV" in run:
+    if float(run.get("untracked_gamma_energy_MeV", 0.0)) > 0:
         click.echo(
             f"  photons       {float(run['untracked_gamma_energy_MeV']):.6g} MeV in "
             f"{run.get('untracked_gamma_events', 0)} events not tracked (lite physics: gamma and "
