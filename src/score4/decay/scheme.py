@@ -355,6 +355,25 @@ class DecayScheme:
         lines = [Line(k, e, p) for (k, e), p in acc.items()] + betas
         return sorted(lines, key=lambda ln: (KINDS.index(ln.kind), ln.energy))
 
+    def product_fractions(self) -> dict[str, float]:
+        """Fraction of the decays that leave each product nuclide (exact, through the cascade)."""
+        flux = np.zeros(len(self.level_energy))
+        np.add.at(flux, self.entries.level, self.entries.prob)
+        out = dict.fromkeys(self.products, 0.0)
+        starts = np.searchsorted(self.trans_from, np.arange(len(flux)), side="left")
+        stops = np.searchsorted(self.trans_from, np.arange(len(flux)), side="right")
+        for lev in range(len(flux) - 1, -1, -1):
+            if flux[lev] == 0:
+                continue
+            if self.level_product[lev] >= 0:
+                out[self.products[self.level_product[lev]]] += flux[lev]
+                continue
+            lo = float(lev)
+            for t in range(starts[lev], stops[lev]):
+                flux[self.trans_to[t]] += flux[lev] * (self.trans_key[t] - lo)
+                lo = self.trans_key[t]
+        return out
+
     def _beta_line(self, kind: str, row: int, p: float) -> Line:
         info = self.spectrum_info[row]
         return Line(
