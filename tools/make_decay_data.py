@@ -149,6 +149,48 @@ def _ec_feeds(d: dict) -> list[dict]:
     return feeds
 
 
+def _balance_feeds(
+    d: dict, feeds: list[dict], levels: list[float], transitions: list[list[float]]
+) -> tuple[list[dict], bool]:
+    """Feedings from the gamma intensity balance when ENSDF's own do not add up.
+
+    ENSDF gives feedings (per 100 decays: I x NB x BR) and gamma intensities (RI x NR x BR).
+    When the feedings of a data set sum to more than 2 % away from 100 x BR (Ac-228: 95.1 %,
+    Pa-234, Th-231, Tl-210), each excited level's feeding is taken as its transition intensity
+    out minus in, ``sum RI NR (1 + alpha)``, clipped at 0; the ground state gets the rest. The
+    branch properties (endpoint, shape, mean) stay those of ENSDF's record where one exists.
+    """
+    rec = d["decaySchemeNormalization"][0]["normalizationRecord"][0]
+    br = float(rec["multiplerBranchingRatio"] or 1.0) if rec["recordExistsBR"] else 1.0
+    nb = float(rec["multiplerLeptonIntensity"] or 1.0) if rec["recordExistsNB"] else 1.0
+    nr = float(rec["multiplerPhotonIntensity"] or 1.0) if rec["recordExistsNR"] else 1.0
+    total = sum(f["intensity"] for f in feeds) * nb * br
+    if not feeds or abs(total - 100.0 * br) <= 2.0 * br or not transitions:
+        return feeds, False
+    net = [0.0] * len(levels)
+    for t in transitions:
+        ti = t[3] * nr * br * (1.0 + t[4])
+        net[int(t[0])] += ti
+        net[int(t[1])] -= ti
+    by_level = {f["level"]: f for f in feeds}
+    template = {k: None for k in feeds[0]}
+    out = []
+    for i in range(1, len(levels)):
+        if net[i] > 0:
+            f = dict(by_level.get(i, {**template, "level": i}))
+            f["intensity"] = net[i] / (nb * br)
+            out.append(f)
+    rest = 100.0 * br - sum(f["intensity"] for f in out) * nb * br
+    if rest > 0:
+        f = dict(by_level.get(0, {**template, "level": 0}))
+        f["intensity"] = rest / (nb * br)
+        out.append(f)
+    for f in out:
+        if "pk" in f and f["pk"] is None:
+            f.update(pk=1.0, pl=0.0, ec=f["intensity"], beta_plus=0.0)
+    return sorted(out, key=lambda f: f["level"]), True
+
+
 def _name(symbol_id: str, level: float) -> str:
     return symbol_id + ("m" if level > 0 else "")
 
@@ -214,6 +256,7 @@ def build(root: Path) -> dict:
             iso = isomer_levels.get(daughter, set())
             levels, transitions, stops, _ = _levels(d, iso)
             feeds = {"A": _alpha_feeds, "B-": _beta_feeds, "EC": _ec_feeds}[mode](d)
+            feeds, balanced = _balance_feeds(d, feeds, levels, transitions)
             q = float(d["parentDecay"][0]["valueQ"])  # each mode has its own Q
             record["modes"].append(
                 {
@@ -228,6 +271,7 @@ def build(root: Path) -> dict:
                     "stop_levels": {str(s): _name(daughter, levels[s]) for s in stops},
                     "transitions": transitions,
                     "feeds": feeds,
+                    "feeds_from_gamma_balance": balanced,
                 }
             )
             products = {(daughter, levels[s]) for s in stops if _reachable(s, feeds, transitions)}

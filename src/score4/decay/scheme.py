@@ -460,7 +460,7 @@ def _compile(key: str, rec: dict) -> DecayScheme:  # noqa: C901, PLR0915 (one pa
         atom = index(atom_names, symbol)
         binding = decay_data()["atoms"][symbol]["binding_keV"]
         base = len(lev_e)
-        levels = m["levels_keV"]
+        levels = m["levels_keV"] or [0.0]  # no level scheme given: the ground state
         stops = {int(k): v for k, v in m["stop_levels"].items()}
         for i, energy in enumerate(levels):
             lev_e.append(energy)
@@ -504,6 +504,8 @@ def _compile(key: str, rec: dict) -> DecayScheme:  # noqa: C901, PLR0915 (one pa
                      np.maximum(ce, 0.0))
                 )
         feeds = m["feeds"]
+        if not feeds:  # ENSDF gives no feeding (Po-218 and At-219 beta-): the ground state
+            feeds = [{"level": 0, "intensity": 1.0, "pk": 1.0, "pl": 0.0, "ec": 1.0}]
         weight_sum = sum(f["intensity"] for f in feeds)
         for f in feeds:
             p = br * f["intensity"] / weight_sum

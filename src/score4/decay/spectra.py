@@ -57,18 +57,7 @@ MEASURED_SHAPES: dict[str, tuple[float, ...]] = {
 
 def fermi_function(z: float, w: np.ndarray, radius: float) -> np.ndarray:
     """Point-charge Fermi function at radius ``radius`` (units of hbar / me c); ``z`` < 0 for e+."""
-    w = np.asarray(w, dtype=float)
-    p = np.sqrt(np.maximum(w * w - 1.0, 1e-300))
-    g = np.sqrt(1.0 - (ALPHA * z) ** 2)
-    y = ALPHA * z * w / p
-    log_f = (
-        np.log(2.0 * (1.0 + g))
-        + (2.0 * g - 2.0) * np.log(2.0 * p * radius)
-        + np.pi * y
-        + 2.0 * np.real(loggamma(g + 1j * y))
-        - 2.0 * np.real(loggamma(2.0 * g + 1.0))
-    )
-    return np.exp(log_f)
+    return np.exp(log_generalised_fermi(1, z, np.asarray(w, dtype=float), radius))
 
 
 def finite_size(z: float, w: np.ndarray, radius: float) -> np.ndarray:
@@ -88,13 +77,14 @@ def screening(z: float, w: np.ndarray, radius: float) -> np.ndarray:
     v0 = 1.13 * ALPHA**2 * abs(z) ** (4.0 / 3.0)
     shifted = np.maximum(w - np.sign(z) * v0, 1.0 + 1e-9)
     p, ps = np.sqrt(np.maximum(w * w - 1, 1e-300)), np.sqrt(shifted * shifted - 1)
-    return (ps * shifted * fermi_function(z, shifted, radius)) / (
-        p * w * fermi_function(z, w, radius)
+    log_ratio = log_generalised_fermi(1, z, shifted, radius) - log_generalised_fermi(
+        1, z, w, radius
     )
+    return ps * shifted / (p * w) * np.exp(log_ratio)
 
 
-def generalised_fermi(k: int, z: float, w: np.ndarray, radius: float) -> np.ndarray:
-    """``F_(k-1)`` of the point charge at radius ``radius`` (``k = 1`` gives ``F0``)::
+def log_generalised_fermi(k: int, z: float, w: np.ndarray, radius: float) -> np.ndarray:
+    """``log F_(k-1)`` of the point charge at radius ``radius`` (``k = 1`` gives ``F0``)::
 
         F_(k-1) = [k (2k-1)!!]^2 4^k (2 p R)^(2 (g_k - k)) exp(pi y) |Gamma(g_k + i y)|^2
                   / Gamma(2 g_k + 1)^2 (k + g_k) / (2 k),     g_k = sqrt(k^2 - (alpha Z)^2)
@@ -112,7 +102,7 @@ def generalised_fermi(k: int, z: float, w: np.ndarray, radius: float) -> np.ndar
         - 2.0 * np.real(loggamma(2.0 * g + 1.0))
         + np.log((k + g) / (2.0 * k))
     )
-    return np.exp(log_f)
+    return log_f
 
 
 def unique_shape(n: int, z: float, w: np.ndarray, w0: float, radius: float) -> np.ndarray:
@@ -123,10 +113,10 @@ def unique_shape(n: int, z: float, w: np.ndarray, w0: float, radius: float) -> n
     """
     p = np.sqrt(np.maximum(w * w - 1.0, 0.0))
     q = np.maximum(w0 - w, 0.0)
-    f0 = generalised_fermi(1, z, w, radius)
+    log_f0 = log_generalised_fermi(1, z, w, radius)
     total = np.zeros_like(w)
     for k in range(1, n + 2):
-        lam = generalised_fermi(k, z, w, radius) / f0 if k > 1 else 1.0
+        lam = np.exp(log_generalised_fermi(k, z, w, radius) - log_f0) if k > 1 else 1.0
         total = total + lam * p ** (2 * (k - 1)) * q ** (2 * (n - k + 1)) / (
             factorial(2 * k - 1) * factorial(2 * (n - k + 1) + 1)
         )
@@ -171,7 +161,13 @@ def beta_density(
     out = np.zeros_like(t)
     wk, pk, qk = w[ok], p[ok], q[ok]
     dens = pk * wk * qk * qk
-    dens *= fermi_function(z, wk, radius) * finite_size(z, wk, radius) * screening(z, wk, radius)
+    # F0(W) S(W) = p' W' F0(W') / (p W): the screened Fermi function in one step (no 0/0 for
+    # slow positrons, whose F0 underflows)
+    v0 = 1.13 * ALPHA**2 * abs(z) ** (4.0 / 3.0)
+    shifted = np.maximum(wk - np.sign(z) * v0, 1.0 + 1e-9)
+    ps = np.sqrt(shifted * shifted - 1.0)
+    dens *= ps * shifted / (pk * wk) * fermi_function(z, shifted, radius)
+    dens *= finite_size(z, wk, radius)
     if parent in MEASURED_SHAPES:
         coeffs = MEASURED_SHAPES[parent]
         dens *= sum(c * wk**k for k, c in enumerate(coeffs))
