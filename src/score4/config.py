@@ -314,6 +314,17 @@ class DecayChainConfig(StrictModel):
         return self
 
 
+def _decay_tag(value: object) -> str:
+    return "chain" if isinstance(value, (dict, DecayChainConfig)) else "nuclide"
+
+
+# ``decay:`` a nuclide name, or a chain (a mapping with chain: ...)
+DecaySpec = Annotated[
+    Annotated[str, Tag("nuclide")] | Annotated[DecayChainConfig, Tag("chain")],
+    Discriminator(_decay_tag),
+]
+
+
 class SourceConfig(StrictModel):
     """Where decays start and what they emit.
 
@@ -329,7 +340,7 @@ class SourceConfig(StrictModel):
     energy: PositiveEnergy | None = None
     spectrum: SpectrumConfig | None = None
     # a nuclide with evaluated decay data ("Pb210", "Pb-210", "210Pb"), or a chain
-    decay: str | DecayChainConfig | None = None
+    decay: DecaySpec | None = None
     nuclide: str | None = None
     # isotropic (4 pi), inward/outward (isotropic in that half-space), cosine_inward/outward
     # (Lambert), normal (a beam along the inward surface normal)

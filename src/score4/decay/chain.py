@@ -104,14 +104,15 @@ def build_chain(
                 f"(it reaches {', '.join(_order(members, nuclides))} and "
                 f"{', '.join(_stable_ends(members))})"
             )
-    members = _order(members, nuclides)
-    if isinstance(head, list):
+    if not isinstance(head, list):  # a listed chain keeps its order (checked below)
+        members = _order(members, nuclides)
+    else:
         fed = {members[0]}
         for name in members:
             if name not in fed:
                 raise ConfigError(
                     f"{what}.chain: {name} is not a daughter of an earlier member "
-                    f"({', '.join(m for m in members if m in fed)}); list the chain in decay order"
+                    f"({', '.join(members[: members.index(name)])}); list the chain in decay order"
                 )
             fed.update(decay_scheme(name).products)
     lam = np.array([LN2 / decay_scheme(m).half_life_s for m in members])
