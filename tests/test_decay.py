@@ -141,21 +141,10 @@ def _modes(name):
 @pytest.mark.parametrize("name", ["Pb210", "Bi214", "Ac228", "Th234"])
 def test_sampled_intensities_match_the_table(name):
     """Chi-square of sampled line counts against the tabulated intensities (p > 1e-4)."""
-    from scipy.stats import chi2
-
     n = 200_000
+    _chi2_lines(name, n)
     scheme = decay_scheme(name)
     em = scheme.sample(np.random.default_rng(7), n)
-    expected, observed = [], []
-    for ln in scheme.lines():
-        if ln.kind in ("beta-", "beta+") or n * ln.intensity < 30:
-            continue
-        rows = (em.kind == KINDS.index(ln.kind)) & np.isclose(em.energy * 1e3, ln.energy, atol=5e-4)
-        expected.append(n * ln.intensity)
-        observed.append(int(rows.sum()))
-    expected, observed = np.array(expected), np.array(observed)
-    stat = float(np.sum((observed - expected) ** 2 / expected))
-    assert chi2.sf(stat, len(expected)) > 1e-4, (stat, len(expected))
     betas = em.kind == KINDS.index("beta-")
     if betas.any():
         lines = [ln for ln in scheme.lines() if ln.kind == "beta-"]
@@ -174,7 +163,7 @@ def _rd_chain(rd, head: str):
     members, todo = [], [head]
     while todo:
         n = todo.pop(0)
-        if n in members or rd.Nuclide(n).half_life("s") == float("inf"):
+        if n in members or n == "SF" or rd.Nuclide(n).half_life("s") == float("inf"):
             continue
         members.append(n)
         todo.extend(rd.Nuclide(n).progeny())
@@ -274,3 +263,49 @@ def test_chain_events_share_the_activities():
 def test_bad_chains(args, message):
     with pytest.raises(ConfigError, match=message):
         build_chain(*args)
+
+
+@pytest.mark.deep
+@pytest.mark.parametrize("head", ["U-238", "U-235", "Th-232"])
+def test_bateman_whole_chains_against_radioactivedecay(head):
+    """Stiff chains (half-lives from 0.3 us to 1e10 y) from 1 d to 1e5 y."""
+    rd = pytest.importorskip("radioactivedecay")
+    members, lam, b = _rd_chain(rd, head)
+    for d in (1, 365, 3650, 1e5 * 365):
+        ours = lam * bateman(lam, b, d * 86400.0)
+        theirs = rd.Inventory({head: 1.0}, "num").decay(d, "d").activities("Bq")
+        for m, a in zip(members, ours, strict=True):
+            if theirs[m] > 1e-12 * ours[0]:
+                assert a == pytest.approx(theirs[m], rel=1e-3), (m, d)
+
+
+@pytest.mark.deep
+def test_energy_at_most_q_over_a_million_decays_of_every_nuclide():
+    rng = np.random.default_rng(1818)
+    for name in known_nuclides():
+        scheme = decay_scheme(name)
+        em = scheme.sample(rng, 1_000_000)
+        assert em.total_per_event(1_000_000).max() * 1e3 <= scheme.q_max_kev * (1 + 1e-12)
+
+
+@pytest.mark.deep
+@pytest.mark.parametrize("name", known_nuclides())
+def test_sampled_intensities_of_every_nuclide(name):
+    _chi2_lines(name, 1_000_000)
+
+
+def _chi2_lines(name: str, n: int) -> None:
+    from scipy.stats import chi2
+
+    scheme = decay_scheme(name)
+    em = scheme.sample(np.random.default_rng(11), n)
+    expected, observed = [], []
+    for ln in scheme.lines():
+        if ln.kind in ("beta-", "beta+") or n * ln.intensity < 30:
+            continue
+        rows = (em.kind == KINDS.index(ln.kind)) & np.isclose(em.energy * 1e3, ln.energy, atol=5e-4)
+        expected.append(n * ln.intensity)
+        observed.append(int(rows.sum()))
+    if expected:
+        e, o = np.array(expected), np.array(observed)
+        assert chi2.sf(float(np.sum((o - e) ** 2 / e)), len(e)) > 1e-4, name

@@ -237,6 +237,7 @@ class ChainEvents:
         cdf = np.cumsum(self.share / self.share.sum())
         first = np.minimum(np.searchsorted(cdf, rng.random(n), side="right"), len(cdf) - 1)
         parts: list[dict[str, np.ndarray]] = []
+        names: dict[str, int] = {}  # particle names of all members, coded as int16
         queue = []
         for m in range(len(members)):
             events = np.nonzero(first == m)[0]
@@ -247,12 +248,13 @@ class ChainEvents:
                 continue
             scheme = decay_scheme(members[m])
             em = scheme.sample(rng, len(events))
+            codes = np.array([names.setdefault(x, len(names)) for x in em.names], np.int16)
             parts.append(
                 {
                     "event": events[em.event],
                     "kind": em.kind,
                     "energy": em.energy,
-                    "particle": np.asarray(em.names)[em.particle],
+                    "particle": codes[em.particle],
                     "nuclide": np.full(len(em.event), ZAI(members[m]), np.int64),
                     "time": t0[em.event],
                 }
@@ -269,7 +271,7 @@ class ChainEvents:
                 keep = t < self.window_s
                 queue.append((d, events[sel[keep]], t[keep]))
         zai = np.array([ZAI(m) for m in members], np.int64)[first]
-        return fill_empty_events(parts, n, zai)
+        return fill_empty_events(parts, n, zai, list(names))
 
     def table(self) -> list[tuple[str, float, float]]:
         """(member, activity relative to the head, share of the events) per member."""
@@ -281,10 +283,13 @@ class ChainEvents:
 
 
 
-def fill_empty_events(parts: list[dict[str, np.ndarray]], n: int, zai: np.ndarray) -> dict:
-    """Join row parts event-major; a decay that emitted nothing (capture in the M shell, the IT
-    of Pa-234m) keeps its event with one ``geantino`` of energy 0, so that events and decays
-    stay one to one."""
+def fill_empty_events(
+    parts: list[dict[str, np.ndarray]], n: int, zai: np.ndarray, names: list[str]
+) -> dict:
+    """Join row parts event-major (``particle`` coded as indices into ``names``, returned as
+    names); a decay that emitted nothing (capture in the M shell, the IT of Pa-234m) keeps its
+    event with one ``geantino`` of energy 0, so that events and decays stay one to one."""
+    names = [*names, "geantino"]
     rows = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]} if parts else {}
     seen = np.zeros(n, bool)
     if rows:
@@ -295,10 +300,12 @@ def fill_empty_events(parts: list[dict[str, np.ndarray]], n: int, zai: np.ndarra
             "event": empty,
             "kind": np.full(len(empty), -1, np.int8),
             "energy": np.zeros(len(empty)),
-            "particle": np.full(len(empty), "geantino"),
+            "particle": np.full(len(empty), len(names) - 1, np.int16),
             "nuclide": zai[empty],
             "time": np.zeros(len(empty)),
         }
         rows = filler if not rows else {k: np.concatenate([rows[k], filler[k]]) for k in rows}
-    order = np.argsort(rows["event"], kind="stable")
-    return {k: v[order] for k, v in rows.items()}
+    order = np.argsort(rows["event"].astype(np.int32), kind="stable")
+    out = {k: v[order] for k, v in rows.items()}
+    out["particle"] = np.asarray(names)[out["particle"]]
+    return out

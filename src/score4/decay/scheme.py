@@ -278,30 +278,18 @@ class DecayScheme:
         if not parts:
             z = np.zeros(0, np.int64)
             return Emissions(z, z.astype(np.int8), np.zeros(0), z.astype(np.int16), self.names, product, self.products)
-        # rows event-major without sorting everything: a row's place is its event's offset plus
-        # the number of that event's rows placed before it (a part may hold an event twice:
-        # two vacancies of one cascade)
-        counts = np.zeros(n, np.int64)
-        for p in parts:
-            counts += np.bincount(p[0], minlength=n)
-        start = np.concatenate([[0], np.cumsum(counts)[:-1]])
-        rows = int(counts.sum())
-        ev = np.empty(rows, np.int64)
-        kind = np.empty(rows, np.int8)
-        energy = np.empty(rows)
-        particle = np.empty(rows, np.int16)
-        for p in parts:
-            order = np.argsort(p[0], kind="stable")  # parts are mostly sorted already: O(n)
-            e = p[0][order]
-            new = np.r_[True, e[1:] != e[:-1]]
-            run_start = np.flatnonzero(new)
-            rank = np.arange(len(e)) - np.repeat(run_start, np.diff(np.r_[run_start, len(e)]))
-            at = start[e] + rank
-            ev[at] = e
-            kind[at] = p[1]
-            energy[at] = p[2][order]
-            particle[at] = p[3] if np.ndim(p[3]) == 0 else np.asarray(p[3])[order]
-            start += np.bincount(e, minlength=n)
+        ev = np.concatenate([p[0] for p in parts])
+        # a stable sort keeps each decay's rows in the order they were made (alpha, recoil,
+        # then the cascade); the parts are sorted runs, which the merge sort takes fast
+        order = np.argsort(ev.astype(np.int32), kind="stable")
+        ev = ev[order]
+        kind = np.concatenate(
+            [np.full(len(p[0]), p[1], np.int8) for p in parts]
+        )[order]
+        energy = np.concatenate([p[2] for p in parts])[order]
+        particle = np.concatenate(
+            [np.broadcast_to(np.asarray(p[3], np.int16), len(p[0])) for p in parts]
+        )[order]
         return Emissions(ev, kind, energy, particle, self.names, product, self.products)
 
     # ---------------------------------------------------------------------------------------

@@ -95,14 +95,15 @@ class DecayEmitter:
                 "event": em.event,
                 "kind": em.kind,
                 "energy": em.energy,
-                "particle": np.asarray(em.names)[em.particle],
+                "particle": em.particle,
                 "nuclide": np.full(len(em.event), ZAI(self.scheme.nuclide), np.int64),
                 "time": np.zeros(len(em.event)),
             }
             if np.bincount(em.event, minlength=n).all():  # usual: every decay emitted something
-                rows = part
+                rows = {**part, "particle": np.asarray(em.names)[em.particle]}
             else:
-                rows = fill_empty_events([part], n, np.full(n, ZAI(self.scheme.nuclide)))
+                zai = np.full(n, ZAI(self.scheme.nuclide))
+                rows = fill_empty_events([part], n, zai, list(em.names))
         else:
             assert self.chain is not None
             rows = self.chain.sample(rng, n)
