@@ -49,7 +49,9 @@ def main() -> None:
     cases = {
         "Pb-210 (DecayScheme.sample)": lambda n: len(pb210.sample(rng, n).event),
         "Bi-214 (DecayScheme.sample)": lambda n: len(bi214.sample(rng, n).event),
-        "Rn-222..Po-214 secular (ChainEvents.sample)": lambda n: len(segment.sample(rng, n)["event"]),
+        "Rn-222..Po-214 secular (ChainEvents.sample)": lambda n: len(
+            segment.sample(rng, n)["event"]
+        ),
         "Pb-210 primaries (make_primaries)": primaries,
     }
     print(f"load average before: {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores)")

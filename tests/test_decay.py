@@ -120,15 +120,15 @@ def test_energy_per_decay_at_most_q_and_alpha_shares_q_minus_level():
             two_body = em.total_per_event(n, ("alpha", "recoil"))[em.event[alpha]] * 1e3
             record = scheme.entries
             allowed = np.unique(
-                np.round(
-                    (record.t_alpha + record.t_recoil)[record.kind == 0] * 1e3, 6
-                )
+                np.round((record.t_alpha + record.t_recoil)[record.kind == 0] * 1e3, 6)
             )
             assert np.isin(np.round(two_body, 6), allowed).all(), name
             # and those are Q minus the fed level energies
             q = max(m["q_keV"] for m in _modes(name) if m["mode"] == "A")
             fed = scheme.level_energy[record.level[record.kind == 0]]
-            assert np.allclose(np.sort(allowed), np.sort(np.unique(np.round(q - fed, 6))), atol=1e-6)
+            assert np.allclose(
+                np.sort(allowed), np.sort(np.unique(np.round(q - fed, 6))), atol=1e-6
+            )
 
 
 def _modes(name):
@@ -150,7 +150,9 @@ def test_sampled_intensities_match_the_table(name):
         lines = [ln for ln in scheme.lines() if ln.kind == "beta-"]
         mean = sum(ln.mean * ln.intensity for ln in lines) / sum(ln.intensity for ln in lines)
         sampled = em.energy[betas] * 1e3
-        assert sampled.mean() == pytest.approx(mean, abs=4 * sampled.std() / math.sqrt(len(sampled)))
+        assert sampled.mean() == pytest.approx(
+            mean, abs=4 * sampled.std() / math.sqrt(len(sampled))
+        )
 
 
 # ------------------------------------------------------------------------------------------

@@ -140,15 +140,18 @@ def test_lite_run_of_pb210_from_the_cli(tmp_path):
 def test_decay_command_table_json_and_png(tmp_path):
     done = run_cli("decay", "Pb-210")
     assert done.returncode == 0, done.stderr
-    assert "46.539" in done.stdout and "Pb210  half-life 22.2 y" in done.stdout
+    assert "46.539" in done.stdout
+    assert "Pb210  half-life 22.2 y" in done.stdout
     done = run_cli("decay", "Rn222", "--chain", "--until", "Pb210", "--json")
     table = json.loads(done.stdout)
     assert [e["nuclide"] for e in table["nuclides"]][:3] == ["Rn222", "Po218", "Pb214"]
     png = tmp_path / "bi212.png"
     done = run_cli("decay", "Bi212", "--png", png)
-    assert done.returncode == 0 and png.stat().st_size > 10_000
+    assert done.returncode == 0
+    assert png.stat().st_size > 10_000
     done = run_cli("decay", "Bi212", "--png", png)
-    assert done.returncode == 2 and "--overwrite" in done.stderr
+    assert done.returncode == 2
+    assert "--overwrite" in done.stderr
 
 
 @pytest.mark.parametrize(
@@ -164,4 +167,5 @@ def test_decay_command_table_json_and_png(tmp_path):
 def test_decay_command_bad_input(args, message):
     done = run_cli("decay", *args)
     assert done.returncode == 2
-    assert done.stderr.count("\n") == 1 and message in done.stderr
+    assert done.stderr.count("\n") == 1
+    assert message in done.stderr

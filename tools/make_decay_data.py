@@ -91,31 +91,27 @@ def _energy(value: object) -> float:
 
 
 def _alpha_feeds(d: dict) -> list[dict]:
-    feeds = []
-    for i, lv in enumerate(d["levelScheme"]):
-        for a in lv.get("alphaDecay") or []:
-            if a.get("alphaIntensity"):
-                feeds.append(
-                    {"level": i, "intensity": a["alphaIntensity"], "alpha_keV": a["alphaEnergy"]}
-                )
-    return feeds
+    return [
+        {"level": i, "intensity": a["alphaIntensity"], "alpha_keV": a["alphaEnergy"]}
+        for i, lv in enumerate(d["levelScheme"])
+        for a in lv.get("alphaDecay") or []
+        if a.get("alphaIntensity")
+    ]
 
 
 def _beta_feeds(d: dict) -> list[dict]:
-    feeds = []
-    for i, lv in enumerate(d["levelScheme"]):
-        for b in lv.get("betaMinusDecay") or []:
-            if b.get("betaMinusIntensity"):
-                feeds.append(
-                    {
-                        "level": i,
-                        "intensity": b["betaMinusIntensity"],
-                        "endpoint_keV": b["endPointBetaMinusEnergy"],
-                        "mean_keV": b["averageBetaMinusEnergy"],
-                        "forbiddenness": b["forbiddennessDegree"],
-                    }
-                )
-    return feeds
+    return [
+        {
+            "level": i,
+            "intensity": b["betaMinusIntensity"],
+            "endpoint_keV": b["endPointBetaMinusEnergy"],
+            "mean_keV": b["averageBetaMinusEnergy"],
+            "forbiddenness": b["forbiddennessDegree"],
+        }
+        for i, lv in enumerate(d["levelScheme"])
+        for b in lv.get("betaMinusDecay") or []
+        if b.get("betaMinusIntensity")
+    ]
 
 
 def _ec_feeds(d: dict) -> list[dict]:
@@ -173,7 +169,7 @@ def _balance_feeds(
         net[int(t[0])] += ti
         net[int(t[1])] -= ti
     by_level = {f["level"]: f for f in feeds}
-    template = {k: None for k in feeds[0]}
+    template = dict.fromkeys(feeds[0])
     out = []
     for i in range(1, len(levels)):
         if net[i] > 0:
@@ -201,7 +197,9 @@ def _atom(symbol: str) -> dict:
     edges = xraydb.xray_edges(symbol)
     kev = {k: v.energy / 1e3 for k, v in edges.items()}
     out: dict = {
-        "binding_keV": {s: kev.get(s, 0.0) for s in ("K", "L1", "L2", "L3", "M1", "M4", "M5", "N1", "O1")},
+        "binding_keV": {
+            s: kev.get(s, 0.0) for s in ("K", "L1", "L2", "L3", "M1", "M4", "M5", "N1", "O1")
+        },
         "omega_K": edges["K"].fyield if "K" in edges else 0.0,
         "omega_L3": edges["L3"].fyield if "L3" in edges else 0.0,
     }
@@ -291,9 +289,12 @@ def build(root: Path) -> dict:
         "format": "score4-decay-data",
         "format_version": 1,
         "provenance": {
-            "decay": f"ENSDF decay data sets (archive of September 2023) as JSON, paceENSDF {version('paceENSDF')}",
-            "atoms": f"xraydb {version('xraydb')} (Elam, Ravel, Sieber, Radiat. Phys. Chem. 63 (2002) 121)",
-            "masses": f"AME2020 atomic masses as distributed with radioactivedecay {version('radioactivedecay')}",
+            "decay": "ENSDF decay data sets (archive of September 2023) as JSON, "
+            f"paceENSDF {version('paceENSDF')}",
+            "atoms": f"xraydb {version('xraydb')} "
+            "(Elam, Ravel, Sieber, Radiat. Phys. Chem. 63 (2002) 121)",
+            "masses": "AME2020 atomic masses as distributed with "
+            f"radioactivedecay {version('radioactivedecay')}",
             "min_branch": MIN_BRANCH,
         },
         "nuclides": dict(sorted(nuclides.items())),
@@ -322,7 +323,9 @@ def main() -> None:
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(data, separators=(",", ":")) + "\n")
     for name, rec in data["nuclides"].items():
-        modes = ", ".join(f"{m['mode']} {m['branching']:.4g} -> {m['daughter']}" for m in rec["modes"])
+        modes = ", ".join(
+            f"{m['mode']} {m['branching']:.4g} -> {m['daughter']}" for m in rec["modes"]
+        )
         print(f"{name:8s} {rec['half_life']:>16s}  {modes}")
     print(f"{len(data['nuclides'])} nuclides, {args.out.stat().st_size / 1e3:.0f} kB -> {args.out}")
 

@@ -152,9 +152,7 @@ def _stable_ends(members: list[str]) -> list[str]:
 
 def _order(members: list[str], nuclides: dict) -> list[str]:
     """Decay order: a parent before its daughters (Kahn's topological sort), head first."""
-    fed_by = {
-        m: {p for p in members if m in decay_scheme(p).products and p != m} for m in members
-    }
+    fed_by = {m: {p for p in members if m in decay_scheme(p).products and p != m} for m in members}
     ordered: list[str] = []
     remaining = list(members)
     while remaining:
@@ -282,7 +280,6 @@ class ChainEvents:
         ]
 
 
-
 def fill_empty_events(
     parts: list[dict[str, np.ndarray]], n: int, zai: np.ndarray, names: list[str]
 ) -> dict:
@@ -296,7 +293,7 @@ def fill_empty_events(
         seen[rows["event"]] = True
     empty = np.nonzero(~seen)[0]
     if len(empty) or not rows:
-        filler = {
+        filler: dict[str, np.ndarray] = {
             "event": empty,
             "kind": np.full(len(empty), -1, np.int8),
             "energy": np.zeros(len(empty)),

@@ -64,7 +64,9 @@ def nuclide_name(name: str, what: str = "decay") -> str:
         raise ConfigError(f"{what}: {name!r} has unknown element symbol {symbol!r}")
     a = int(mass)
     if not z <= a <= 300:
-        raise ConfigError(f"{what}: {name!r} has mass number {a}; it must be between Z = {z} and 300")
+        raise ConfigError(
+            f"{what}: {name!r} has mass number {a}; it must be between Z = {z} and 300"
+        )
     return f"{ELEMENTS[z - 1]}{a}" + ("m" if meta else "")
 
 
@@ -94,7 +96,7 @@ def nuclide_record(name: str, what: str = "decay") -> tuple[str, dict[str, Any]]
     return key, record
 
 
-def ZAI(name: str) -> int:  # noqa: N802 (the field's name for this code)
+def ZAI(name: str) -> int:
     """Nuclide code ``10000 Z + 10 A + I`` (I = 1 for a metastable state): Pb210 -> 822100."""
     key = nuclide_name(name)
     m = re.match(r"([A-Z][a-z]?)(\d+)(m?)$", key)

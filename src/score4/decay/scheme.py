@@ -270,22 +270,33 @@ class DecayScheme:
                 out.append((ev[xray], K[f"X-{shell}"], info["line_energy"][line] / 1e3, 3))
             if (~xray).any():
                 out.append(
-                    (ev[~xray], K[f"Auger-{shell}"], np.full(int((~xray).sum()), info["auger"] / 1e3), 1)
+                    (
+                        ev[~xray],
+                        K[f"Auger-{shell}"],
+                        np.full(int((~xray).sum()), info["auger"] / 1e3),
+                        1,
+                    )
                 )
 
     def _assemble(self, out, n: int, product: np.ndarray) -> Emissions:
         parts = [p for p in out if len(p[0])]
         if not parts:
             z = np.zeros(0, np.int64)
-            return Emissions(z, z.astype(np.int8), np.zeros(0), z.astype(np.int16), self.names, product, self.products)
+            return Emissions(
+                z,
+                z.astype(np.int8),
+                np.zeros(0),
+                z.astype(np.int16),
+                self.names,
+                product,
+                self.products,
+            )
         ev = np.concatenate([p[0] for p in parts])
         # a stable sort keeps each decay's rows in the order they were made (alpha, recoil,
         # then the cascade); the parts are sorted runs, which the merge sort takes fast
         order = np.argsort(ev.astype(np.int32), kind="stable")
         ev = ev[order]
-        kind = np.concatenate(
-            [np.full(len(p[0]), p[1], np.int8) for p in parts]
-        )[order]
+        kind = np.concatenate([np.full(len(p[0]), p[1], np.int8) for p in parts])[order]
         energy = np.concatenate([p[2] for p in parts])[order]
         particle = np.concatenate(
             [np.broadcast_to(np.asarray(p[3], np.int16), len(p[0])) for p in parts]
@@ -374,8 +385,12 @@ class DecayScheme:
     def _beta_line(self, kind: str, row: int, p: float) -> Line:
         info = self.spectrum_info[row]
         return Line(
-            kind, info["endpoint"], p, self.spectra[row].mean_kev,
-            float(info["mean_ensdf"]) if info["mean_ensdf"] else float("nan"), info["shape"],
+            kind,
+            info["endpoint"],
+            p,
+            self.spectra[row].mean_kev,
+            float(info["mean_ensdf"]) if info["mean_ensdf"] else float("nan"),
+            info["shape"],
         )
 
 
@@ -417,7 +432,7 @@ def decay_scheme(name: str) -> DecayScheme:
     return _compile(key, rec)
 
 
-def _compile(key: str, rec: dict) -> DecayScheme:  # noqa: C901, PLR0915 (one pass over the data)
+def _compile(key: str, rec: dict) -> DecayScheme:
     modes = rec["modes"]
     total = sum(m["branching"] for m in modes)
     scale = 1.0 / total
@@ -497,8 +512,14 @@ def _compile(key: str, rec: dict) -> DecayScheme:  # noqa: C901, PLR0915 (one pa
                         shells[s] = 0.0
                 p = np.concatenate([[1.0], shells]) / (1.0 + shells.sum())
                 trans.append(
-                    (base + i, base + int(t[1]), energy, base + i + c, np.cumsum(p)[:3],
-                     np.maximum(ce, 0.0))
+                    (
+                        base + i,
+                        base + int(t[1]),
+                        energy,
+                        base + i + c,
+                        np.cumsum(p)[:3],
+                        np.maximum(ce, 0.0),
+                    )
                 )
         feeds = m["feeds"]
         if not feeds:  # ENSDF gives no feeding (Po-218 and At-219 beta-): the ground state
@@ -512,13 +533,22 @@ def _compile(key: str, rec: dict) -> DecayScheme:  # noqa: C901, PLR0915 (one pa
                 m_alpha = ALPHA_MASS_MEV
                 m_d = m["daughter_mass_u"] * U_MEV - m["daughter_z"] * ME_MEV
                 ta, tr = two_body_kinetic(kinetic / 1e3, m_alpha, m_d)
-                _add_entry(ent, p, 0, lev, t_alpha=ta, t_recoil=tr, ion=index(names, daughter), atom=atom)
+                _add_entry(
+                    ent, p, 0, lev, t_alpha=ta, t_recoil=tr, ion=index(names, daughter), atom=atom
+                )
             elif m["mode"] == "B-":
                 if kinetic <= 0:
                     continue
                 row = _add_spectrum(
-                    spectra, spectrum_info, kinetic, m["daughter_z"], rec["a"], False,
-                    f.get("forbiddenness"), key, f.get("mean_keV"),
+                    spectra,
+                    spectrum_info,
+                    kinetic,
+                    m["daughter_z"],
+                    rec["a"],
+                    False,
+                    f.get("forbiddenness"),
+                    key,
+                    f.get("mean_keV"),
                 )
                 _add_entry(ent, p, 1, lev, spectrum=row, atom=atom)
             else:
@@ -528,11 +558,25 @@ def _compile(key: str, rec: dict) -> DecayScheme:  # noqa: C901, PLR0915 (one pa
                 row = -1
                 if p_plus > 0:
                     row = _add_spectrum(
-                        spectra, spectrum_info, plus_end, m["daughter_z"], rec["a"], True,
-                        f.get("forbiddenness"), key, f.get("mean_keV"),
+                        spectra,
+                        spectrum_info,
+                        plus_end,
+                        m["daughter_z"],
+                        rec["a"],
+                        True,
+                        f.get("forbiddenness"),
+                        key,
+                        f.get("mean_keV"),
                     )
                 _add_entry(
-                    ent, p, 2, lev, p_plus=p_plus, plus_spectrum=row, pk=f["pk"], pl=f["pl"],
+                    ent,
+                    p,
+                    2,
+                    lev,
+                    p_plus=p_plus,
+                    plus_spectrum=row,
+                    pk=f["pk"],
+                    pl=f["pl"],
                     atom=atom,
                 )
     trans.sort(key=lambda t: (t[0], t[3]))
@@ -570,8 +614,15 @@ def _compile(key: str, rec: dict) -> DecayScheme:  # noqa: C901, PLR0915 (one pa
 
 def _add_entry(ent: dict, prob: float, kind: int, level: int, **kw) -> None:
     defaults = dict(
-        t_alpha=0.0, t_recoil=0.0, ion=0, spectrum=-1, p_plus=0.0, plus_spectrum=-1, pk=0.0,
-        pl=0.0, atom=0,
+        t_alpha=0.0,
+        t_recoil=0.0,
+        ion=0,
+        spectrum=-1,
+        p_plus=0.0,
+        plus_spectrum=-1,
+        pk=0.0,
+        pl=0.0,
+        atom=0,
     )
     defaults.update(kw)
     ent["prob"].append(prob)
@@ -584,7 +635,12 @@ def _add_entry(ent: dict, prob: float, kind: int, level: int, **kw) -> None:
 def _add_spectrum(spectra, info, endpoint, z, a, positron, forbiddenness, parent, mean) -> int:
     spectra.append(
         BetaSpectrum.build(
-            endpoint, z, a, positron=positron, forbiddenness=forbiddenness, parent=parent,
+            endpoint,
+            z,
+            a,
+            positron=positron,
+            forbiddenness=forbiddenness,
+            parent=parent,
             points=GRID,
         )
     )

@@ -30,7 +30,6 @@ mean energies by well below 1 %.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 from math import factorial
 
@@ -86,14 +85,14 @@ def screening(z: float, w: np.ndarray, radius: float) -> np.ndarray:
 def log_generalised_fermi(k: int, z: float, w: np.ndarray, radius: float) -> np.ndarray:
     """``log F_(k-1)`` of the point charge at radius ``radius`` (``k = 1`` gives ``F0``)::
 
-        F_(k-1) = [k (2k-1)!!]^2 4^k (2 p R)^(2 (g_k - k)) exp(pi y) |Gamma(g_k + i y)|^2
-                  / Gamma(2 g_k + 1)^2 (k + g_k) / (2 k),     g_k = sqrt(k^2 - (alpha Z)^2)
+    F_(k-1) = [k (2k-1)!!]^2 4^k (2 p R)^(2 (g_k - k)) exp(pi y) |Gamma(g_k + i y)|^2
+              / Gamma(2 g_k + 1)^2 (k + g_k) / (2 k),     g_k = sqrt(k^2 - (alpha Z)^2)
     """
     p = np.sqrt(np.maximum(w * w - 1.0, 1e-300))
     g = np.sqrt(k * k - (ALPHA * z) ** 2)
     y = ALPHA * z * w / p
     double_fact = float(np.prod(np.arange(2 * k - 1, 0, -2)))
-    log_f = (
+    return (
         2.0 * np.log(k * double_fact)
         + k * np.log(4.0)
         + 2.0 * (g - k) * np.log(2.0 * p * radius)
@@ -102,7 +101,6 @@ def log_generalised_fermi(k: int, z: float, w: np.ndarray, radius: float) -> np.
         - 2.0 * np.real(loggamma(2.0 * g + 1.0))
         + np.log((k + g) / (2.0 * k))
     )
-    return log_f
 
 
 def unique_shape(n: int, z: float, w: np.ndarray, w0: float, radius: float) -> np.ndarray:
@@ -129,7 +127,7 @@ def shape_factor(forbiddenness: str | None, parent: str = "") -> str:
         return "measured C(W) (Alekseev et al. 2020)"
     n = _unique_order(forbiddenness)
     if n:
-        return f"unique {n}{'st' if n == 1 else 'nd' if n == 2 else 'rd' if n == 3 else 'th'} forbidden"
+        return f"unique {n}{ {1: 'st', 2: 'nd', 3: 'rd'}.get(n, 'th') } forbidden"
     return "allowed" if not forbiddenness else f"allowed shape ({forbiddenness}, xi approximation)"
 
 
@@ -201,7 +199,12 @@ class BetaSpectrum:
         x = 0.5 - 0.5 * np.cos(np.linspace(0.0, np.pi, points))
         e = endpoint_kev * x
         dens = beta_density(
-            e, endpoint_kev, z_daughter, a, positron=positron, forbiddenness=forbiddenness,
+            e,
+            endpoint_kev,
+            z_daughter,
+            a,
+            positron=positron,
+            forbiddenness=forbiddenness,
             parent=parent,
         )
         steps = 0.5 * (dens[1:] + dens[:-1]) * np.diff(e)

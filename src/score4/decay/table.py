@@ -11,7 +11,7 @@ from .chain import ChainEvents, build_chain
 from .data import decay_data
 from .scheme import KINDS, Line, decay_scheme
 
-__all__ = ["radiation_table", "table_text", "plot_spectra"]
+__all__ = ["plot_spectra", "radiation_table", "table_text"]
 
 _LABEL = {
     "alpha": "alpha",
@@ -113,7 +113,9 @@ def table_text(table: dict) -> str:
         if "chain" in table:
             head += f"  ({entry['decays_per_head_decay']:.4g} decays per head decay)"
         out.append(head)
-        out.append(f"  {'type':<11}{'energy (keV)':>14}{'intensity (%)':>15}{'mean (keV)':>12}  note")
+        out.append(
+            f"  {'type':<11}{'energy (keV)':>14}{'intensity (%)':>15}{'mean (keV)':>12}  note"
+        )
         for r in entry["radiations"]:
             mean, note = "", ""
             if "mean_keV" in r:
@@ -123,9 +125,8 @@ def table_text(table: dict) -> str:
                 label = f"{_LABEL[r['type']]} (end)"
             else:
                 label = _LABEL[r["type"]]
-            out.append(
-                f"  {label:<11}{r['energy_keV']:>14.3f}{r['intensity_percent']:>15.4g}{mean:>12}  {note}".rstrip()
-            )
+            cells = f"{r['energy_keV']:>14.3f}{r['intensity_percent']:>15.4g}{mean:>12}"
+            out.append(f"  {label:<11}{cells}  {note}".rstrip())
         out.append("")
     return "\n".join(out).rstrip() + "\n"
 
@@ -140,9 +141,9 @@ def plot_spectra(
     seed: int = 1,
 ) -> Path:
     """Draw the emitted energy spectra (sampled ``decays``) by radiation type into ``path``."""
-    import matplotlib
+    import matplotlib as mpl
 
-    matplotlib.use("Agg")
+    mpl.use("Agg")
     import matplotlib.pyplot as plt
 
     from ..files import atomic_output

@@ -19,6 +19,7 @@ from ..config import DecayChainConfig, DepthConfig, RunConfig, SourceConfig
 from ..errors import ConfigError
 from ..scene import Scene, face_frame
 from .blocks import draw_events
+from .decay_source import DecayEmitter
 from .depth import VertexSampler
 from .emitters import (
     Emitter,
@@ -27,7 +28,6 @@ from .emitters import (
     ParticleEmitter,
     make_primaries,
 )
-from .decay_source import DecayEmitter
 from .primaries import Primaries
 from .profiles import (
     DepthProfile,

@@ -88,7 +88,7 @@ class DecayEmitter:
         return 1.0 if self.chain is None else self.chain.head_decays_per_event
 
     def emit_rows(self, rng: np.random.Generator, n: int, normals: np.ndarray | None) -> DecayRows:
-        """The primaries of ``n`` decay events; ``normals`` (n, 3) per event if the law needs them."""
+        """The primaries of ``n`` decay events (``normals``: (n, 3), if the law needs them)."""
         if self.scheme is not None:
             em = self.scheme.sample(rng, n)
             part = {
