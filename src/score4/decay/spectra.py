@@ -128,7 +128,9 @@ def shape_factor(forbiddenness: str | None, parent: str = "") -> str:
     n = _unique_order(forbiddenness)
     if n:
         return f"unique {n}{ {1: 'st', 2: 'nd', 3: 'rd'}.get(n, 'th') } forbidden"
-    return "allowed" if not forbiddenness else f"allowed shape ({forbiddenness}, xi approximation)"
+    if not forbiddenness or forbiddenness.endswith("A"):  # ENSDF's 0A/1A: allowed
+        return "allowed"
+    return f"allowed shape ({forbiddenness}, xi approximation)"
 
 
 def _unique_order(forbiddenness: str | None) -> int:
