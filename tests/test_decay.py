@@ -311,3 +311,38 @@ def _chi2_lines(name: str, n: int) -> None:
     if expected:
         e, o = np.array(expected), np.array(observed)
         assert chi2.sf(float(np.sum((o - e) ** 2 / e)), len(e)) > 1e-4, name
+
+
+def test_atom_histories_decay_as_bateman_says():
+    """Per-atom histories (the unit for recoil implantation along a chain): decays per deposited
+    atom match the cumulative branching (whole history) and the integrated Bateman activities
+    (histories cut at 180 d)."""
+    from score4.decay.chain import decays_until
+
+    n = 20_000
+    ce = ChainEvents(build_chain("Pb210"), None, 1e-5)
+    counts = {}
+    for label, until in (("all", None), ("180 d", 180 * 86400.0)):
+        rows = ce.histories(np.random.default_rng(9), n, until)
+        first = np.r_[True, np.diff(rows["event"]) > 0]
+        counts[label] = np.array(
+            [np.sum(rows["nuclide"][first] == z) for z in (822100, 832100, 842100)]
+        )
+        # an atom's events come in time order
+        atom, t = rows["atom"][first], rows["decay_time"][first]
+        same = atom[1:] == atom[:-1]
+        assert (np.diff(atom) >= 0).all()
+        assert (t[1:][same] >= t[:-1][same]).all()
+    assert (counts["all"] == n).all()
+    expected = n * decays_until(ce.chain.decay_constant, ce.chain.branching, 180 * 86400.0)
+    assert np.all(np.abs(counts["180 d"] - expected) < 5 * np.sqrt(expected))
+
+
+def test_atom_histories_merge_fast_daughters():
+    ce = ChainEvents(build_chain("Th232"), None, 1e-5)
+    rows = ce.histories(np.random.default_rng(4), 5000)
+    po212 = rows["nuclide"] == 842120
+    # every Po-212 decay (0.3 us) rides in its Bi-212 event, also 1e17 s after deposition
+    assert (rows["time"][po212] > 0).all()
+    events = np.unique(rows["event"])
+    assert len(events) == pytest.approx(5000 * ce.share.sum(), rel=0.01)

@@ -42,6 +42,8 @@ __all__ = [
     "Chain",
     "ChainEvents",
     "bateman",
+    "bateman_coefficients",
+    "decays_until",
     "build_chain",
     "fill_empty_events",
     "secular_activities",
@@ -171,13 +173,13 @@ def secular_activities(chain: Chain) -> np.ndarray:
     return a
 
 
-def bateman(decay_constant: np.ndarray, branching: np.ndarray, t: float) -> np.ndarray:
-    """Atoms ``N(t)`` of each member per atom of the first one at ``t = 0`` (none of the others).
+def bateman_coefficients(decay_constant: np.ndarray, branching: np.ndarray) -> np.ndarray:
+    """``c`` with ``N_j(t) = sum_k c_jk exp(-lambda_k t)`` for one atom of the first member at 0.
 
     ``dN_j/dt = -lambda_j N_j + sum_i b_ij lambda_i N_i`` with members in decay order
-    (``b`` strictly upper triangular). The solution is ``N(t) = sum_k c_jk exp(-lambda_k t)``
-    with ``c_kk`` fixed by the initial condition and ``c_jk = sum_i b_ij lambda_i c_ik /
-    (lambda_j - lambda_k)`` for ``j > k`` (all decay constants distinct).
+    (``b`` strictly upper triangular): ``c_jk = sum_i b_ij lambda_i c_ik / (lambda_j -
+    lambda_k)`` for ``j > k``, ``c_kk`` fixed by the initial condition (all decay constants
+    distinct).
     """
     lam = np.asarray(decay_constant, float)
     b = np.asarray(branching, float)
@@ -187,7 +189,22 @@ def bateman(decay_constant: np.ndarray, branching: np.ndarray, t: float) -> np.n
         c[k, k] = (1.0 if k == 0 else 0.0) - float(c[k, :k].sum())
         for j in range(k + 1, n):
             c[j, k] = float(np.sum(b[:j, j] * lam[:j] * c[:j, k])) / (lam[j] - lam[k])
-    return c @ np.exp(-lam * t)
+    return c
+
+
+def bateman(decay_constant: np.ndarray, branching: np.ndarray, t: float) -> np.ndarray:
+    """Atoms ``N(t)`` of each member per atom of the first one at ``t = 0`` (none of the others),
+    the exact solution of the Bateman equations (:func:`bateman_coefficients`)."""
+    c = bateman_coefficients(decay_constant, branching)
+    return c @ np.exp(-np.asarray(decay_constant, float) * t)
+
+
+def decays_until(decay_constant: np.ndarray, branching: np.ndarray, t: float) -> np.ndarray:
+    """Decays of each member in ``[0, t]`` per atom of the first one deposited at 0:
+    ``lambda_j integral N_j = lambda_j sum_k c_jk (1 - exp(-lambda_k t)) / lambda_k``."""
+    lam = np.asarray(decay_constant, float)
+    c = bateman_coefficients(lam, branching)
+    return lam * (c @ (-np.expm1(-lam * t) / lam))
 
 
 def chain_activities(chain: Chain, since_deposition: float | None) -> np.ndarray:
@@ -271,6 +288,107 @@ class ChainEvents:
         zai = np.array([ZAI(m) for m in members], np.int64)[first]
         return fill_empty_events(parts, n, zai, list(names))
 
+    def histories(
+        self, rng: np.random.Generator, n_atoms: int, until_s: float | None = None
+    ) -> dict[str, np.ndarray]:
+        """Per-atom histories: every decay of ``n_atoms`` deposited head atoms, in order.
+
+        Each atom decays down the chain (branches by their fractions, lifetimes drawn) until a
+        stable nuclide, a nuclide outside the chain, or ``until_s`` seconds after deposition.
+        Events are numbered atom by atom, in time order; a decay within the window of its
+        event's first decay joins that event (as in :meth:`sample`). Rows as :meth:`sample`,
+        plus ``atom`` (the deposited atom) and ``decay_time`` (s since deposition). Whoever
+        moves a decay's vertex (recoil implantation) finds the atom's previous event by
+        ``atom``; a recoil ion row in it is where the atom went.
+        """
+        members = self.chain.members
+        lam = self.chain.decay_constant
+        atom = np.arange(n_atoms)
+        member = np.zeros(n_atoms, np.int64)
+        t = np.zeros(n_atoms)
+        # (atoms, member, times, delays): the delays since the atom's previous decay are kept
+        # apart, because a time since deposition of 1e17 s (Th-232) cannot resolve microseconds
+        decays: list[tuple[np.ndarray, int, np.ndarray, np.ndarray]] = []
+        while len(atom):
+            delay = rng.exponential(1.0, len(atom)) / lam[member]
+            t = t + delay
+            keep = t <= until_s if until_s is not None else np.ones(len(atom), bool)
+            atom, member, t, delay = atom[keep], member[keep], t[keep], delay[keep]
+            nxt = np.full(len(atom), -1, np.int64)
+            for m in np.unique(member):
+                sel = np.nonzero(member == m)[0]
+                decays.append((atom[sel], int(m), t[sel], delay[sel]))
+                fractions = decay_scheme(members[m]).product_fractions()
+                names = list(fractions)
+                cdf = np.cumsum([fractions[x] for x in names])
+                pick = np.searchsorted(cdf / cdf[-1], rng.random(len(sel)), side="right")
+                to = np.array([members.index(x) if x in members else -1 for x in names])
+                nxt[sel] = to[np.minimum(pick, len(names) - 1)]
+            alive = nxt >= 0
+            atom, member, t = atom[alive], nxt[alive], t[alive]
+        return self._history_rows(rng, decays, n_atoms)
+
+    def _history_rows(self, rng, decays, n_atoms: int) -> dict[str, np.ndarray]:
+        members = self.chain.members
+        d_atom = np.concatenate([d[0] for d in decays]) if decays else np.zeros(0, np.int64)
+        d_member = np.concatenate([np.full(len(d[0]), d[1]) for d in decays]) if decays else d_atom
+        d_time = np.concatenate([d[2] for d in decays]) if decays else np.zeros(0)
+        d_delay = np.concatenate([d[3] for d in decays]) if decays else np.zeros(0)
+        step = (
+            np.concatenate([np.full(len(d[0]), i) for i, d in enumerate(decays)])
+            if decays
+            else d_atom
+        )
+        order = np.lexsort((step, d_atom))  # an atom's decays in the order they happened
+        d_atom, d_member, d_time, d_delay = (
+            d_atom[order],
+            d_member[order],
+            d_time[order],
+            d_delay[order],
+        )
+        # events: a decay opens a new event unless it falls within the window of the open one
+        event = np.zeros(len(d_atom), np.int64)
+        since = np.zeros(len(d_atom))  # s after the event's first decay
+        current, elapsed, prev_atom = -1, 0.0, -1
+        for i in range(len(d_atom)):  # one pass over the decays (a few per atom)
+            if d_atom[i] != prev_atom or elapsed + d_delay[i] >= self.window_s:
+                current += 1
+                elapsed = 0.0
+            else:
+                elapsed += d_delay[i]
+            event[i], since[i], prev_atom = current, elapsed, d_atom[i]
+        parts: list[dict[str, np.ndarray]] = []
+        names: dict[str, int] = {}
+        for m in np.unique(d_member):
+            sel = np.nonzero(d_member == m)[0]
+            em = decay_scheme(members[m]).sample(rng, len(sel))
+            codes = np.array([names.setdefault(x, len(names)) for x in em.names], np.int16)
+            rows_of = sel[em.event]
+            parts.append(
+                {
+                    "event": event[rows_of],
+                    "decay": rows_of,
+                    "kind": em.kind,
+                    "energy": em.energy,
+                    "particle": codes[em.particle],
+                    "nuclide": np.full(len(em.event), ZAI(members[m]), np.int64),
+                    "time": since[rows_of],
+                    "decay_time": d_time[rows_of],
+                    "atom": d_atom[rows_of],
+                }
+            )
+        n_events = int(event[-1]) + 1 if len(event) else 0
+        first = np.r_[True, event[1:] != event[:-1]] if len(event) else np.zeros(0, bool)
+        zai = np.array([ZAI(m) for m in members], np.int64)[d_member[first]]
+        per_event = {
+            "decay": np.flatnonzero(first),
+            "decay_time": d_time[first],
+            "atom": d_atom[first],
+        }
+        rows = fill_empty_events(parts, n_events, zai, list(names), per_event)
+        order = np.lexsort((rows["decay"], rows["event"]))  # stable: by decay, then as made
+        return {k: v[order] for k, v in rows.items() if k != "decay"}
+
     def table(self) -> list[tuple[str, float, float]]:
         """(member, activity relative to the head, share of the events) per member."""
         share = self.share / self.share.sum()
@@ -281,7 +399,11 @@ class ChainEvents:
 
 
 def fill_empty_events(
-    parts: list[dict[str, np.ndarray]], n: int, zai: np.ndarray, names: list[str]
+    parts: list[dict[str, np.ndarray]],
+    n: int,
+    zai: np.ndarray,
+    names: list[str],
+    per_event: dict[str, np.ndarray] | None = None,
 ) -> dict:
     """Join row parts event-major (``particle`` coded as indices into ``names``, returned as
     names); a decay that emitted nothing (capture in the M shell, the IT of Pa-234m) keeps its
@@ -300,6 +422,7 @@ def fill_empty_events(
             "particle": np.full(len(empty), len(names) - 1, np.int16),
             "nuclide": zai[empty],
             "time": np.zeros(len(empty)),
+            **{k: v[empty] for k, v in (per_event or {}).items()},
         }
         rows = filler if not rows else {k: np.concatenate([rows[k], filler[k]]) for k in rows}
     order = np.argsort(rows["event"].astype(np.int32), kind="stable")
