@@ -43,8 +43,8 @@ __all__ = [
     "ChainEvents",
     "bateman",
     "bateman_coefficients",
-    "decays_until",
     "build_chain",
+    "decays_until",
     "fill_empty_events",
     "secular_activities",
 ]
