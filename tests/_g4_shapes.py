@@ -97,3 +97,33 @@ def measure(gdml_path: str, gdml_names: list[str], requests: dict) -> dict:
         res["normals"] = [[n.x, n.y, n.z] for n in normals]
         out[name] = res
     return out
+
+
+def placement_check(local_points: list) -> list:
+    """A box placed rotated and moved in a world: Transform.from_g4 of the placement maps
+    local points to world points; returns Geant4's local coordinates of those world points."""
+    from score4.shapes import Transform
+    from score4.sim.runtime import import_geant4, resolve_physics
+
+    g4 = import_geant4(resolve_physics("lite"))
+    nist = g4.G4NistManager.Instance()
+    world_s = g4.G4Box("w", 100, 100, 100)
+    world_lv = g4.G4LogicalVolume(world_s, nist.FindOrBuildMaterial("G4_Galactic"), "w")
+    world = g4.G4PVPlacement(None, g4.G4ThreeVector(), world_lv, "w", None, False, 0, False)
+    box_s = g4.G4Box("b", 10, 20, 30)
+    box_lv = g4.G4LogicalVolume(box_s, nist.FindOrBuildMaterial("G4_Si"), "b")
+    rot = g4.G4RotationMatrix()
+    rot.rotateX(0.4)
+    rot.rotateY(-0.7)
+    pv = g4.G4PVPlacement(rot, g4.G4ThreeVector(5, -6, 7), box_lv, "b", world_lv, False, 0, False)
+    t = Transform.from_g4(pv.GetObjectRotationValue(), pv.GetTranslation())
+    nav = g4.G4Navigator()
+    nav.SetWorldVolume(world)
+    out = []
+    for q in t.apply(np.asarray(local_points, float)):
+        p = g4.G4ThreeVector(*q)
+        found = nav.LocateGlobalPointAndSetup(p)
+        loc = nav.GetGlobalToLocalTransform().TransformPoint(p)
+        out.append([found.GetName(), loc.x, loc.y, loc.z])
+    _keep = (world_s, world_lv, box_s, box_lv, rot, pv)
+    return out

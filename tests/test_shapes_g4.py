@@ -263,3 +263,22 @@ def test_hpge_faces(measured):
         TWO_PI * 5 * 50 + TWO_PI * 10 * 2,
         rel=1e-12,  # borehole wall + the groove wall at r = 10
     )
+
+
+def _placement(points):
+    sys.path.insert(0, str(Path(__file__).parent))
+    from _g4_shapes import placement_check
+
+    return placement_check(points)
+
+
+def test_transform_from_a_geant4_placement():
+    """Transform.from_g4(pv.GetObjectRotationValue(), pv.GetTranslation()) is the placement's
+    local -> mother map: Geant4's navigator takes the mapped points back to the same local
+    coordinates, inside the placed box."""
+    rng = np.random.default_rng(12)
+    local = G4Box(10, 20, 30).sample_volume(rng, 200)
+    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
+        got = pool.submit(_placement, local.tolist()).result()
+    assert {g[0] for g in got} == {"b"}
+    np.testing.assert_allclose(np.array([g[1:] for g in got]), local, atol=1e-9)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -30,6 +31,24 @@ class Transform:
             raise ConfigError("transform: reflections are not supported (det(rotation) < 0)")
         object.__setattr__(self, "rotation", r)
         object.__setattr__(self, "translation", np.array(self.translation, float).reshape(3))
+
+    @classmethod
+    def from_g4(cls, rotation: Any, translation: Any) -> Transform:
+        """From a G4RotationMatrix (object rotation, ``pv.GetObjectRotationValue()``; None for
+        none) and a G4ThreeVector (``pv.GetTranslation()``), duck-typed."""
+        r = (
+            np.eye(3)
+            if rotation is None
+            else np.array(
+                [
+                    [rotation.xx, rotation.xy, rotation.xz],
+                    [rotation.yx, rotation.yy, rotation.yz],
+                    [rotation.zx, rotation.zy, rotation.zz],
+                ],
+                float,
+            )
+        )
+        return cls(r, np.array([translation.x, translation.y, translation.z], float))
 
     def apply(self, points: ArrayLike) -> np.ndarray:
         return np.asarray(points, float) @ self.rotation.T + self.translation
