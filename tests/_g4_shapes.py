@@ -73,8 +73,8 @@ def measure(gdml_path: str, gdml_names: list[str], requests: dict) -> dict:
         solids[name] = store.GetSolid(name)
     out = {}
     for name, req in requests.items():
-        solid = solids[name]
-        shape = shape_from_g4_solid(solid)
+        solid = solids[req.get("solid", name)]
+        shape = LiveSolidShape(solid) if req.get("live") else shape_from_g4_solid(solid)
         res: dict = {
             "type": solid.GetEntityType(),
             "g4_area": solid.GetSurfaceArea(),

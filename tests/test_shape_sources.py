@@ -22,7 +22,8 @@ from score4.source.profiles import (
     TruncatedGaussianProfile,
     UniformProfile,
 )
-from score4.source.shapes import BulkSampler, ShapeSurfaceSampler
+from score4.source.sampling import SurfaceSampler, TiledSurfaceSampler
+from score4.source.shapes import BulkSampler, CombinedSurfaceSampler, ShapeSurfaceSampler
 
 FACES = ("+x", "-x", "+y", "-y", "+z", "-z")
 
@@ -223,3 +224,25 @@ def test_bulk_source_from_the_config():
 def test_bad_source_input(source, message):
     with pytest.raises(ConfigError, match=message):
         parse_config(_config(source, rough=False))
+
+
+def test_a_partly_rough_face():
+    """The +z disk of a tube (R = 2): a rough square of cells in the middle (true area 2x its
+    flat 2 x 2 mm) and the flat rest of the disk, as one combined sampler for the face."""
+    tube = G4Tubs(0, 2, 1)
+    flat_tri = np.array([[[0, 0, 1.0], [2, 0, 1], [0, 2, 1]]])  # a stand-in flat remainder
+    flat = SurfaceSampler(flat_tri)
+    tent = np.array([[[0, 0, 0], [1, 0, 1.0], [0, 1, 0]], [[1, 0, 1.0], [1, 1, 0], [0, 1, 0]]])
+    rough = TiledSurfaceSampler(
+        [SurfaceSampler(tent)], np.zeros((2, 2), int), (1.0, 1.0), origin=(-1, -1, 1)
+    )
+    face = CombinedSurfaceSampler([rough, flat])
+    assert face.area == pytest.approx(rough.area + 2.0)
+    sampler = ShapeSurfaceSampler(tube, ["+z", "outer"], rough={"+z": face})
+    assert sampler.area == pytest.approx(face.area + tube.face_areas["outer"])
+    s = sampler.sample(np.random.default_rng(7), 100_000)
+    top = s.face == tube.faces.index("+z")
+    share = face.area / sampler.area
+    assert abs(top.mean() - share) < 4 * math.sqrt(share * (1 - share) / len(top))
+    in_rough = top & (s.patch >= 0)
+    assert abs(in_rough.sum() / top.sum() - rough.area / face.area) < 0.01

@@ -37,7 +37,7 @@ from ..errors import ConfigError
 from ..shapes import OUTSIDE, FaceSampler, Shape, Transform
 from .sampling import SurfaceSample, SurfaceSampler, TiledSurfaceSampler
 
-__all__ = ["BulkSampler", "ShapeSurfaceSampler"]
+__all__ = ["BulkSampler", "CombinedSurfaceSampler", "ShapeSurfaceSampler"]
 
 
 class ShapeSurfaceSampler:
@@ -169,6 +169,43 @@ class ShapeSurfaceSampler:
             ok,
             s2.face,
         )
+
+
+class CombinedSurfaceSampler:
+    """Several surface samplers as one, each chosen by its (true) area: e.g. a face that is
+    partly rough (the rough cells' :class:`TiledSurfaceSampler`) and partly flat (a
+    :class:`SurfaceSampler` on the rest), to pass as one entry of ``rough=`` of
+    :class:`ShapeSurfaceSampler`. Samples carry the part's facet, patch and variant (-1 where a
+    part has none)."""
+
+    def __init__(self, parts: Sequence[Any]) -> None:
+        if not parts:
+            raise ConfigError("CombinedSurfaceSampler: give at least one part")
+        self.parts = list(parts)
+        self._cum = np.cumsum([p.area for p in self.parts])
+        self.area = float(self._cum[-1])
+
+    def sample(self, rng: np.random.Generator, n: int) -> SurfaceSample:
+        which = np.minimum(
+            np.searchsorted(self._cum, rng.random(n) * self.area, side="right"),
+            len(self.parts) - 1,
+        )
+        out = SurfaceSample(
+            np.empty((n, 3)),
+            np.empty((n, 3)),
+            np.full(n, -1, np.int64),
+            np.full(n, -1, np.int64),
+            np.full(n, -1, np.int64),
+        )
+        for k, part in enumerate(self.parts):
+            rows = np.flatnonzero(which == k)
+            if len(rows) == 0:
+                continue
+            s = part.sample(rng, len(rows))
+            out.position[rows], out.normal[rows], out.facet[rows] = s.position, s.normal, s.facet
+            if s.patch is not None and s.variant is not None:
+                out.patch[rows], out.variant[rows] = s.patch, s.variant  # type: ignore[index]
+        return out
 
 
 class BulkSampler:
