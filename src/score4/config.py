@@ -286,6 +286,8 @@ class SpectrumConfig(StrictModel):
 class SourceConfig(StrictModel):
     """Where decays start and what they emit.
 
+    Where: ``surface`` (one face, or ``face: all``: every face of the volume per true area) with
+    a ``depth`` below it, or ``volume`` (bulk: uniform in the volume's own material).
     Emitter: ``particle`` with ``energy`` or ``spectrum``; or ``decay: Po210`` (built in: the
     5.304 MeV alpha and the 103 keV Pb-206 recoil back to back); or ``nuclide`` (Geant4
     radioactive decay, needs full physics data). Or ``vertices``: a vertex file written by
