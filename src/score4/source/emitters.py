@@ -437,6 +437,7 @@ def make_primaries(
     depth: ArrayLike | None = None,
     facet: ArrayLike | None = None,
     patch: ArrayLike | None = None,
+    face: ArrayLike | None = None,
 ) -> Primaries:
     """One event per vertex: the emitter's primaries, all starting at that vertex.
 
@@ -451,20 +452,22 @@ def make_primaries(
         (n, 3) vertex positions in mm.
     normals
         (n, 3) outward surface normals (needed by every direction law but ``isotropic``).
-    depth, facet, patch
+    depth, facet, patch, face
         Optional (n,) per-vertex columns, copied to every primary of the event as extra
-        columns ``depth`` (mm), ``facet`` and ``patch``.
+        columns ``depth`` (mm), ``facet``, ``patch`` and ``face`` (index of the volume's face).
     """
     pos = np.asarray(positions, dtype=float).reshape(-1, 3)
     n = len(pos)
     if hasattr(emitter, "emit_rows"):  # a variable number of primaries per event (decays)
-        return _variable_rows(emitter, rng, pos, normals, depth=depth, facet=facet, patch=patch)
+        return _variable_rows(
+            emitter, rng, pos, normals, depth=depth, facet=facet, patch=patch, face=face
+        )
     parts = emitter.emit(
         rng, n, None if normals is None else np.asarray(normals, dtype=float).reshape(-1, 3)
     )
     k = len(parts)  # rows per event, event-major: row = event * k + j
     extra = {}
-    for name, col in (("depth", depth), ("facet", facet), ("patch", patch)):
+    for name, col in (("depth", depth), ("facet", facet), ("patch", patch), ("face", face)):
         if col is not None:
             col = np.asarray(col)
             if col.shape != (n,):
