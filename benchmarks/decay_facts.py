@@ -1,6 +1,6 @@
 """Figures that docs/decay.md quotes from score4's decay data and sampler (one per line).
 
-    python benchmarks/decay_facts.py
+python benchmarks/decay_facts.py
 """
 
 from __future__ import annotations
