@@ -256,13 +256,14 @@ def test_compare_srim_reference_is_independent_of_the_library():
     # At normal incidence a history replayed from its start keeps its depth exactly (its turn
     # is about the beam axis), so depths shared to 1e-3 nm mean shared TRIM histories. With
     # the library built with TRIM seed 1 and the reference run with seed 1, every score4 depth
-    # matched a TRIM one (to 0.0005 nm). Now the reference has its own TRIM seed: by chance
-    # about 200 * 200 * 2e-3 nm / (46 nm * 2.5) ~ 0.7 pairs lie that close.
+    # matched a TRIM one (to 0.0005 nm: TRIM writes depths to 0.01 Angstrom). Now the
+    # reference has its own TRIM seed: by chance about 200 * 200 * 2e-3 nm * 0.04 / nm (the
+    # depth density at its peak) ~ 3 pairs lie that close (4 measured, seed 1); 200 before.
     from score4.sim.seeds import library_trim_seed, reference_trim_seed
 
     ours, ref, trim_seed = _spawned("range_with_reference", 1, 200)
     assert trim_seed == reference_trim_seed(1) != library_trim_seed(1)
-    assert _shared(ours, ref) <= 3
+    assert _shared(ours, ref) < 20
     # still the same physics: the means agree (TRIM straggling 10 nm, 200 ions: 0.7 nm errors)
     assert ours.mean() == pytest.approx(ref.mean(), abs=3.0)
 
