@@ -88,9 +88,15 @@ def make_emitter(src: SourceConfig) -> Emitter:
     return ParticleEmitter(_given(src.particle, "source.particle"), energy, src.direction)
 
 
-def flat_face_sampler(config: RunConfig, volume: str, face: str) -> SurfaceSampler:
+def flat_face_sampler(scene: Scene, volume: str, face: str) -> SurfaceSampler:
     """Two world-coordinate triangles covering a flat box face."""
-    frame = face_frame(config.target(volume), face)
+    target = scene.target(volume)
+    if target.solid != "G4Box":
+        raise ConfigError(
+            f"source.surface: {volume!r} is a {target.solid}; a source on a face needs a G4Box "
+            "(or a rough face of a G4Tubs)"
+        )
+    frame = face_frame(target, face)
     lu, lv = frame.size
     corners = frame.to_world(
         np.array(
@@ -165,9 +171,16 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
             )
         return source
     surface_ref = _given(src.surface, "source.surface")
-    volume, face = surface_ref.volume, surface_ref.face
+    face = surface_ref.face
+    targets = scene.targets_named(surface_ref.volume, "source.surface.volume")
+    if len(targets) != 1:
+        raise ConfigError(
+            f"source.surface.volume: {surface_ref.volume!r} stands for {len(targets)} volumes "
+            f"({', '.join(t.name for t in targets)}); give one, e.g. {targets[0].column}"
+        )
+    volume = targets[0].name
     layer = scene.layer(volume, face)
-    surface = layer.sampler() if layer is not None else flat_face_sampler(config, volume, face)
+    surface = layer.sampler() if layer is not None else flat_face_sampler(scene, volume, face)
     inside = None
     if src.confine is True:
         inside = lambda p: scene.inside_target(volume, p)  # noqa: E731
