@@ -562,6 +562,26 @@ def check_gdml_clearance(scene: Scene) -> None:
     """
     model = scene.model
     assert model is not None
+    for t in scene.targets:
+        if t.instance is not None:
+            continue
+        assert t.mother is not None
+        box = _target_obb(t)
+        for inst in model.children.get(t.mother.index, []):
+            body = _instance_body(model, model.instances[inst])
+            if body.meets(box):
+                raise ConfigError(
+                    f"targets.{t.entry}: box {t.name!r} overlaps {body.label} in "
+                    f"{model.label(t.mother)!r}; Geant4 needs volumes that do not overlap"
+                )
+        mother_body = _instance_body(model, t.mother)
+        pts = box.corners() if mother_body.solid == "G4Box" else box.grid()
+        q = t.mother.to_local(pts)
+        if not solid_contains(mother_body.solid, mother_body.params, mother_body.lo, mother_body.hi, q).all():
+            raise ConfigError(
+                f"targets.{t.entry}: box {t.name!r} sticks out of its mother "
+                f"{model.label(t.mother)!r}; position is in the mother's frame"
+            )
     layers = [(layer, layer.envelope_box()) for layer in scene.layers]
     for n, (layer, box) in enumerate(layers):
         mother = layer.target.mother
