@@ -329,3 +329,53 @@ def test_layer_meeting_a_sister_names_it_and_the_gap(worlds, tmp_path):
     cfg = _config(tmp_path, worlds["pyg4ometry"], targets)
     with pytest.raises(ConfigError, match=r"runs into target 'lid' \(free gap there: 5 um\)"):
         build_scene(parse_config(yaml.safe_load(cfg.read_text()), base_dir=tmp_path))
+
+
+def _ray_hits_box(origin, direction, inst, half) -> np.ndarray:
+    """Slab test: rays (world) against the box ``half`` of instance ``inst``."""
+    o = inst.to_local(origin)
+    d = direction @ inst.rotation
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1, t2 = (-half - o) / d, (half - o) / d
+    near = np.nanmax(np.minimum(t1, t2), axis=1)
+    far = np.nanmin(np.maximum(t1, t2), axis=1)
+    return (far >= np.maximum(near, 0)) & (far > 0)
+
+
+def test_po210_on_a_crystal_hits_its_neighbour_multiplicity_2(worlds, tmp_path, capsys):
+    """Po-210 on crystal_0's +x face: alpha and recoil fly back to back; whichever goes inward
+    stays in crystal_0, and crystal_1 (rotated) is hit exactly when the other one's ray meets
+    its box: multiplicity 2."""
+    cfg = _config(
+        tmp_path,
+        worlds["pyg4ometry"],
+        [{"volume": "crystal_0"}, {"volume": "crystal_1"}],
+        source={"surface": {"volume": "crystal_0", "face": "+x"}, "decay": "Po210"},
+        physics={"mode": "lite", "heavy_ions": "geant4"},
+    )
+    data = yaml.safe_load(cfg.read_text())
+    data["run"]["events"] = 400
+    cfg.write_text(yaml.safe_dump(data))
+    out = tmp_path / "m.h5"
+    assert main(["run", str(cfg), "--out", str(out)]) == 0
+    from score4.output import read_results
+
+    res = read_results(out)
+    p = res.primaries
+    model = load_geometry_model(worlds["pyg4ometry"])
+    c1 = model.resolve("crystal_1", "t")[0]
+    rays = _ray_hits_box(p.position, p.direction, c1, np.array(W.CRYSTAL) / 2)
+    expect = np.zeros(res.n_events, dtype=bool)  # the alpha or the recoil flies into crystal_1
+    np.logical_or.at(expect, p.event - p.event.min(), rays)
+    hit = res.edep["crystal_1"] > 0.01
+    # a ray grazing an edge of crystal_1 may leave less than the 10 keV threshold: at most 1 %
+    assert not (hit & ~expect).any()
+    assert (expect & ~hit).sum() <= 0.01 * res.n_events
+    assert 5 < hit.sum() < 200
+    capsys.readouterr()
+    assert main(["summary", str(out), "--json", "--threshold", "10 keV"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    two = int(hit.sum())
+    assert s["multiplicity"]["events"] == {"0": 0, "1": 400 - two, "2": two}
+    masses = {v["name"]: v["mass_kg"] for v in s["volumes"]}
+    assert masses["crystal_1"] == pytest.approx(np.prod(W.CRYSTAL) * 6.062e-6, rel=1e-9)

@@ -315,6 +315,9 @@ def run(
         "physics_lacks": choice.lacks,
         "missing_data_sets": list(choice.missing_data),
         "removed_processes": info.get("removed_processes", []),
+        # one entry per scoring column (contract 1: name, material, density, volume, mass)
+        "volumes": info.get("volumes", []),
+        "rough_shares": {layer.name: layer.rough_share for layer in scene.layers},
         "score4_version": __version__,
         "geant4_pybind_version": version("geant4_pybind"),
         "geant4_version": info.get("geant4_version", ""),
