@@ -72,3 +72,50 @@ def composition(path: str, volume: str, histories: int) -> dict:
         ],
         "mean_depth_mm": sum(depths) / len(depths),
     }
+
+
+def _trace(g4, nav, origin, direction, far: float = 1e7, max_steps: int = 5000) -> list:
+    """Boundary crossings of a straight ray (what a geantino does): (volume entered, point)."""
+    import numpy as np
+
+    vec = g4.G4ThreeVector
+    p = np.asarray(origin, float)
+    d = np.asarray(direction, float) / np.linalg.norm(direction)
+    pv = nav.LocateGlobalPointAndSetup(vec(*p), vec(*d), False, False)
+    out = [(None if pv is None else str(pv.GetName()), p.tolist())]
+    while pv is not None and len(out) < max_steps:
+        step = nav.ComputeStep(vec(*p), vec(*d), far, 0.0)
+        if step >= far:
+            break
+        p = p + step * d
+        nav.SetGeometricallyLimitedStep()
+        pv = nav.LocateGlobalPointAndSetup(vec(*p), vec(*d), True, False)
+        out.append((None if pv is None else str(pv.GetName()), p.tolist()))
+    return out
+
+
+def trace_built(config_path: str, rays: list) -> list:
+    """Ray paths through the world score4 builds for a run."""
+    from score4.config import load_config
+    from score4.geometry.world import build_world
+    from score4.scene import build_scene
+    from score4.sim.runtime import import_geant4, resolve_physics
+
+    config = load_config(config_path)
+    g4 = import_geant4(resolve_physics("lite"))
+    built = build_world(g4, config, build_scene(config))
+    nav = g4.G4Navigator()
+    nav.SetWorldVolume(built.world)
+    return [_trace(g4, nav, o, d) for o, d in rays]
+
+
+def trace_gdml(path: str, rays: list) -> list:
+    """Ray paths through a GDML world read back by Geant4's parser."""
+    from score4.geometry.gdml import read_gdml
+    from score4.sim.runtime import import_geant4, resolve_physics
+
+    g4 = import_geant4(resolve_physics("lite"))
+    _parser, world = read_gdml(g4, path)
+    nav = g4.G4Navigator()
+    nav.SetWorldVolume(world)
+    return [_trace(g4, nav, o, d) for o, d in rays]

@@ -379,3 +379,60 @@ def test_po210_on_a_crystal_hits_its_neighbour_multiplicity_2(worlds, tmp_path, 
     assert s["multiplicity"]["events"] == {"0": 0, "1": 400 - two, "2": two}
     masses = {v["name"]: v["mass_kg"] for v in s["volumes"]}
     assert masses["crystal_1"] == pytest.approx(np.prod(W.CRYSTAL) * 6.062e-6, rel=1e-9)
+
+
+def test_exported_world_gives_the_same_paths_and_reads_in_pyg4ometry(worlds, tmp_path, monkeypatch):
+    """The whole world with its rough layers, written to GDML: Geant4's reader gives the same
+    ray (geantino) paths to 1e-9 mm, pyg4ometry reads it, and score4's vertices lie in the
+    exported world's rough layer (the same frame)."""
+    cfg = _config(
+        tmp_path,
+        worlds["pyg4ometry"],
+        [
+            {"volume": "crystal_1", "rough": [{"face": "+z", "surface": "pyr", "solid": "blocks"}]},
+            {"volume": "disk", "rough": [{"face": "-z", "surface": "pyr", "into": True}]},
+        ],
+        source={
+            "surface": {"volume": "crystal_1", "face": "+z"},
+            "particle": "alpha",
+            "energy": "5 MeV",
+            "depth": {"profile": "uniform", "min": "100 nm", "max": "1 um"},
+        },
+    )
+    out = tmp_path / "world.gdml"
+    assert main(["geometry", "export", str(cfg), "--gdml", str(out)]) == 0
+    assert out.stat().st_size < 20e6
+    scene = build_scene(parse_config(yaml.safe_load(cfg.read_text()), base_dir=tmp_path))
+    rng = np.random.default_rng(5)
+    rays = []
+    for name, face in (("crystal_1", "+z"), ("disk", "-z")):
+        frame = scene.layer(name, face).frame
+        for _ in range(6):
+            uv = rng.uniform(-4, 4, 2)
+            start = frame.to_world([uv[0], uv[1], 0.5])
+            tilt = frame.rotation @ np.array([*rng.uniform(-0.3, 0.3, 2), -1.0])
+            rays.append((start.tolist(), tilt.tolist()))
+    ours = spawned("trace_built", str(cfg), rays)
+    back = spawned("trace_gdml", str(out), rays)
+    for a, b in zip(ours, back, strict=True):
+        assert [v for v, _ in a] == [v for v, _ in b]
+        np.testing.assert_allclose([p for _, p in a], [p for _, p in b], atol=1e-9, rtol=0)
+    assert max(len(a) for a in ours) > 6  # the rays cross patch cells and spikes
+    # pyg4ometry reads it (without meshing, which it cannot do for every rough solid)
+    import pyg4ometry
+
+    monkeypatch.setattr(pyg4ometry.config, "doMeshing", False)
+    reg = pyg4ometry.gdml.Reader(str(out)).getRegistry()
+    lvs = [n.split("0x")[0] for n in reg.logicalVolumeDict]
+    assert {"crystal_1_roughpz", "disk_roughmz", "B00000T", "CrystalLV_u1"} <= set(lvs)
+    # vertices drawn by score4 lie in the exported world's crystal_1 material
+    vtx = tmp_path / "v.h5"
+    assert main(["vertices", str(cfg), "--n", "20", "--out", str(vtx)]) == 0
+    from score4.source.vertex_file import read_vertex_file
+
+    pos = read_vertex_file(vtx).position
+    names = spawned("locate", str(out), pos.tolist())
+    assert set(names) <= {"crystal_1", "crystal_1_roughpz_v0"} | {
+        n for n in names if n and n.startswith("crystal_1_roughpz")
+    }
+    assert all(n is not None and n.startswith("crystal_1") for n in names)

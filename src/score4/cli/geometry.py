@@ -112,3 +112,31 @@ def list_volumes(config_file: Path, as_json: bool) -> None:
         click.echo(json.dumps(rows, indent=1))
         return
     click.echo(geometry_text(scene, rows))
+
+
+@geometry.command(name="export")
+@click.argument(
+    "config_file", metavar="CONFIG.yaml", type=click.Path(dir_okay=False, path_type=Path)
+)
+@click.option(
+    "--gdml", "out", type=click.Path(dir_okay=False, path_type=Path), required=True,
+    help="GDML file to write: the whole world with its rough layers.",
+)
+@click.option("--overwrite", is_flag=True, help="Replace an existing file.")
+def export_gdml(config_file: Path, out: Path, overwrite: bool) -> None:
+    """Write CONFIG.yaml's world with its rough layers as GDML (for remage, your own Geant4
+    application, pyg4ometry). Vertices from 'score4 vertices' are in this world's frame."""
+    from ..config import load_config
+    from ..errors import naming_file
+    from ..files import check_output_file
+    from ..geometry.export_world import export_world
+    from ..scene import build_scene
+
+    config = load_config(config_file)
+    check_output_file(out, overwrite, "--gdml")
+    with naming_file(config_file):
+        build_scene(config)  # bad input fails here, before any Geant4 process
+        info = export_world(config, out)
+    click.echo(
+        f"wrote {out}: {info['size'] / 1e6:.3g} MB, rough layers: {', '.join(info['layers']) or 'none'}"
+    )
