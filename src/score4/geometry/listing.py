@@ -69,7 +69,7 @@ def geometry_text(scene: Scene, rows: dict) -> str:
         )
         for r in rows["volumes"]:
             name = "  " * r["depth"] + r["label"]
-            pos = ", ".join(f"{x:.4g}" for x in np.round(r["position_mm"], 9))
+            pos = ", ".join(f"{round(x, 9) + 0.0:.4g}" for x in r["position_mm"])
             flags = (" reflected" if r["reflected"] else "") + (
                 " (in a replica)" if r["replicated"] else ""
             )

@@ -310,8 +310,12 @@ class GeometryModel:
 
     def rows(self) -> Iterator[dict]:
         """One row per instance, as ``score4 geometry list --json`` prints them."""
+        own: dict[int, tuple[float, float]] = {}  # per logical volume: (volume, mass)
         for inst in self.instances:
             lv = self.logicals[inst.logical]
+            if inst.logical not in own:
+                own[inst.logical] = (self.own_volume(inst.logical), self.own_mass(inst.logical))
+            volume, mass = own[inst.logical]
             yield {
                 "name": inst.name,
                 "index": inst.occurrence,
@@ -325,8 +329,8 @@ class GeometryModel:
                 "parameters": lv.solid.get("params", {}),
                 "material": lv.material,
                 "density_g_cm3": self.density(lv.material),
-                "volume_mm3": self.own_volume(inst.logical),
-                "mass_kg": self.own_mass(inst.logical),
+                "volume_mm3": volume,
+                "mass_kg": mass,
                 "area_mm2": float(lv.solid["area_mm2"]),
                 "position_mm": inst.translation.tolist(),
                 "rotation": inst.rotation.tolist(),
