@@ -29,7 +29,14 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-SURFACE = {"kind": "spikes", "shape": "pyramid", "nx": 50, "ny": 50, "width": "10 um", "height": "10 um"}
+SURFACE = {
+    "kind": "spikes",
+    "shape": "pyramid",
+    "nx": 50,
+    "ny": 50,
+    "width": "10 um",
+    "height": "10 um",
+}
 
 
 def write_gdml(folder: Path) -> Path:

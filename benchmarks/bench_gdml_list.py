@@ -44,10 +44,18 @@ def write_world(path: str, modules: int, per_module: int) -> None:
     for m in range(modules):
         module = g4.G4LogicalVolume(g4.G4Box(f"Module{m}", 25, 25, 5), cu, f"Module{m}")
         x, y = (m % side - side / 2) * 60, (m // side - side / 2) * 60
-        keep += [module, g4.G4PVPlacement(None, vec(x, y, 0), module, f"module{m}", world, False, m)]
+        keep += [
+            module,
+            g4.G4PVPlacement(None, vec(x, y, 0), module, f"module{m}", world, False, m),
+        ]
         for k in range(per_module):
-            cx, cy = (k % per_side - per_side / 2) * 5 + 2.5, (k // per_side - per_side / 2) * 5 + 2.5
-            keep.append(g4.G4PVPlacement(None, vec(cx, cy, 0), crystal, "crystal", module, False, k))
+            cx, cy = (
+                (k % per_side - per_side / 2) * 5 + 2.5,
+                (k // per_side - per_side / 2) * 5 + 2.5,
+            )
+            keep.append(
+                g4.G4PVPlacement(None, vec(cx, cy, 0), crystal, "crystal", module, False, k)
+            )
     parser = g4.G4GDMLParser()
     parser.Write(path, world_pv, True)
 
@@ -65,11 +73,14 @@ def main() -> None:
         cfg = Path(tmp) / "list.yaml"
         cfg.write_text(
             f"world: {{gdml: {gdml}}}\ntargets: [{{volume: 'crystal[0]'}}]\n"
-            "source: {surface: {volume: 'crystal[0]', face: '+z'}, particle: alpha, energy: 5 MeV}\n"
+            "source: {surface: {volume: 'crystal[0]', face: '+z'}, particle: alpha, "
+            "energy: 5 MeV}\n"
         )
         env = {**os.environ, "XDG_CACHE_HOME": str(Path(tmp) / "cache")}
-        print(f"GDML: {gdml.stat().st_size / 1e6:.1f} MB, "
-              f"{1 + args.modules * (1 + args.per_module)} physical volumes")
+        print(
+            f"GDML: {gdml.stat().st_size / 1e6:.1f} MB, "
+            f"{1 + args.modules * (1 + args.per_module)} physical volumes"
+        )
         print(f"load: {subprocess.run(['uptime'], capture_output=True, text=True).stdout.strip()}")
         for label in ("cold", "warm", "warm"):
             t0 = time.perf_counter()

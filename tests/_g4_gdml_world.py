@@ -4,7 +4,8 @@ from __future__ import annotations
 
 
 def locate(path: str, points: list) -> list:
-    """Names of the physical volumes Geant4's navigator finds at world ``points`` of a GDML world."""
+    """Names of the physical volumes Geant4's navigator finds at world ``points`` of a GDML
+    world."""
     from score4.geometry.gdml import read_gdml
     from score4.sim.runtime import import_geant4, resolve_physics
 
@@ -28,9 +29,7 @@ def built_world_locate(config_path: str, points: list) -> dict:
     scene = build_scene(config)
     g4 = import_geant4(resolve_physics("lite"))
     built = build_world(g4, config, scene)
-    column = {
-        id(lv): name for name, lvs in built.scoring.items() for lv in lvs
-    }
+    column = {id(lv): name for name, lvs in built.scoring.items() for lv in lvs}
     keep = list(built.scoring.values())
     nav = g4.G4Navigator()
     nav.SetWorldVolume(built.world)

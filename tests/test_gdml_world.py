@@ -66,7 +66,8 @@ def test_model_lists_every_volume_of_both_writers(worlds):
         assert name in names
     assert len(model.resolve("CrystalLV", "t")) == 3  # a logical volume name: all placements
     rows = {r["label"]: r for r in model.rows()}
-    assert rows["disk"]["solid"] == "G4Tubs" and rows["bege"]["solid"] == "G4GenericPolycone"
+    assert rows["disk"]["solid"] == "G4Tubs"
+    assert rows["bege"]["solid"] == "G4GenericPolycone"
     assert rows["boolpart"]["solid"] == "G4SubtractionSolid"
     # masses: own material only (a box of CaWO4 6.062 g/cm3, NIST)
     crystal_cm3 = np.prod(W.CRYSTAL) / 1e3
@@ -242,22 +243,31 @@ def test_run_scores_copies_in_columns(worlds, tmp_path):
     res = read_results(out)
     assert list(res.edep) == ["CrystalLV_0", "CrystalLV_1", "CrystalLV_2"]
     assert (res.edep["CrystalLV_1"] > 0).all()
-    assert not res.edep["CrystalLV_0"].any() and not res.edep["CrystalLV_2"].any()
+    assert not res.edep["CrystalLV_0"].any()
+    assert not res.edep["CrystalLV_2"].any()
     # inward alphas (range ~17 um in CaWO4) on pyramids: most stop in the crystal or its layer
     assert np.mean(res.edep["CrystalLV_1"] > 4.99) > 0.8
 
 
 def test_geometry_list_json_and_text(worlds, tmp_path, capsys):
-    cfg = _config(tmp_path, worlds["geant4"], [{"volume": "crystal"}],
-                  source={"surface": {"volume": "crystal[0]", "face": "+x"},
-                          "particle": "alpha", "energy": "5 MeV"})
+    cfg = _config(
+        tmp_path,
+        worlds["geant4"],
+        [{"volume": "crystal"}],
+        source={
+            "surface": {"volume": "crystal[0]", "face": "+x"},
+            "particle": "alpha",
+            "energy": "5 MeV",
+        },
+    )
     assert main(["geometry", "list", str(cfg), "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
     assert [t["target"] for t in data["targets"]] == ["crystal_0", "crystal_1"]
     assert [v["label"] for v in data["volumes"]][-3:] == ["crystal[0]", "crystal[1]", "unionpart"]
     assert main(["geometry", "list", str(cfg)]) == 0
     text = capsys.readouterr().out
-    assert "crystal[1]" in text and "G4UnionSolid" in text and "G4_Ge" in text
+    for word in ("crystal[1]", "G4UnionSolid", "G4_Ge"):
+        assert word in text
 
 
 @pytest.mark.parametrize(
@@ -265,7 +275,10 @@ def test_geometry_list_json_and_text(worlds, tmp_path, capsys):
     [
         ("missing", r"world.gdml: GDML file .* does not exist"),
         ("broken_xml", r"line \d+, column \d+: not well-formed XML \(mismatched tag\)"),
-        ("bad_reference", r"Referenced volume 'NoSuchLV[^']*' was not found! \(ReadError in G4GDML"),
+        (
+            "bad_reference",
+            r"Referenced volume 'NoSuchLV[^']*' was not found! \(ReadError in G4GDML",
+        ),
         ("unknown", r"targets.0.volume: no volume named 'crystl' .*closest: crystal_\d"),
         ("copy_range", r"'disk\[2\]': 'disk' has 1 copy"),
         ("curved", r"no rough face on a G4GenericPolycone; rough faces are the six faces"),
@@ -298,15 +311,22 @@ def test_bad_input_is_one_line_and_exit_2(worlds, tmp_path, capsys, case, messag
         gdml = worlds["reflected"]
         targets = [{"volume": "mirrored"}]
     elif case == "portal":
-        targets = [{"volume": "crystal_1", "rough": [{"face": "+z", "surface": "pyr", "tiling": "portal"}]}]
-    source = {"surface": {"volume": targets[0]["volume"], "face": "+z"}, "particle": "alpha", "energy": "5 MeV"}
+        targets = [
+            {"volume": "crystal_1", "rough": [{"face": "+z", "surface": "pyr", "tiling": "portal"}]}
+        ]
+    source = {
+        "surface": {"volume": targets[0]["volume"], "face": "+z"},
+        "particle": "alpha",
+        "energy": "5 MeV",
+    }
     cfg = _config(tmp_path, gdml, targets, source=source)
     out = tmp_path / "out.h5"
     assert main(["run", str(cfg), "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1, err
     assert __import__("re").search(message, err[0]), err[0]
-    assert not out.exists() and not (tmp_path / "out.h5.parts").exists()
+    assert not out.exists()
+    assert not (tmp_path / "out.h5.parts").exists()
 
 
 def test_layer_meeting_a_sister_names_it_and_the_gap(worlds, tmp_path):

@@ -27,8 +27,12 @@ def main(out: str = "two_crystals.gdml") -> None:
     crystal = pg.geant4.LogicalVolume(
         pg.geant4.solid.Box("crystal_s", 20, 20, 40, reg), "G4_CALCIUM_TUNGSTATE", "Crystal", reg
     )
-    pg.geant4.PhysicalVolume([0, 0, 0], [-15, 0, 0], crystal, "crystal_a", cavity, reg, copyNumber=0)
-    pg.geant4.PhysicalVolume([0, 0, 0.5], [15, 0, 0], crystal, "crystal_b", cavity, reg, copyNumber=1)
+    pg.geant4.PhysicalVolume(
+        [0, 0, 0], [-15, 0, 0], crystal, "crystal_a", cavity, reg, copyNumber=0
+    )
+    pg.geant4.PhysicalVolume(
+        [0, 0, 0.5], [15, 0, 0], crystal, "crystal_b", cavity, reg, copyNumber=1
+    )
     disk = pg.geant4.LogicalVolume(
         pg.geant4.solid.Tubs("disk_s", 0, 15, 4, 0, 2 * math.pi, reg), "G4_Cu", "Disk", reg
     )

@@ -151,8 +151,8 @@ def solid_contains(
         if params["dphi"] < 2 * np.pi - 1e-12:
             phi = np.mod(np.arctan2(q[:, 1], q[:, 0]) - params["sphi"], 2 * np.pi)
             inside &= phi <= params["dphi"] + 1e-12
-        return inside
-    return ((q >= np.asarray(lo) - tol) & (q <= np.asarray(hi) + tol)).all(axis=1)
+        return np.asarray(inside)
+    return np.asarray(((q >= np.asarray(lo) - tol) & (q <= np.asarray(hi) + tol)).all(axis=1))
 
 
 def face_frame(target: TargetVolume | BoxVolume, face: str) -> FaceFrame:
@@ -181,8 +181,10 @@ def face_frame(target: TargetVolume | BoxVolume, face: str) -> FaceFrame:
         centre[2] = n[2] * p["dz"]
         size = (2 * float(p["rmax"]), 2 * float(p["rmax"]))
     else:
-        what = f"face {face} of a G4Tubs (its curved side)" if target.solid == "G4Tubs" else (
-            f"a {target.solid}"
+        what = (
+            f"face {face} of a G4Tubs (its curved side)"
+            if target.solid == "G4Tubs"
+            else (f"a {target.solid}")
         )
         raise ConfigError(
             f"{target.column}: no rough face on {what}; rough faces are {SUPPORTED_FACES}"
@@ -199,8 +201,18 @@ def box_target(box: BoxVolume, entry: int, mother: Instance | None = None) -> Ta
         translation = mother.to_world(translation)
     params = {"x": float(half[0]), "y": float(half[1]), "z": float(half[2])}
     return TargetVolume(
-        box.name, entry, box, box.material, "G4Box", params, rotation, translation, -half, half,
-        None, mother,
+        box.name,
+        entry,
+        box,
+        box.material,
+        "G4Box",
+        params,
+        rotation,
+        translation,
+        -half,
+        half,
+        None,
+        mother,
     )
 
 
@@ -512,7 +524,8 @@ def _meets(layer: RoughLayer, what: str, gap: float) -> str:
         f"{layer.target.name!r} is {layer.thickness * 1e3:.4g} um thick (base "
         f"{layer.base_thickness * 1e3:.4g} um + highest tip) and runs into {what} "
         f"(free gap there: {max(gap, 0.0) * 1e3:.4g} um); move the volumes apart, use a lower "
-        "surface" + (" or into: true (the layer inside the volume)" if not layer.config.into else "")
+        "surface"
+        + (" or into: true (the layer inside the volume)" if not layer.config.into else "")
     )
 
 
@@ -543,8 +556,13 @@ def _instance_body(model: GeometryModel, inst: Instance, label: str | None = Non
     lo, hi = np.asarray(lv.solid["lo"], float), np.asarray(lv.solid["hi"], float)
     obb = _Obb(inst.to_world((lo + hi) / 2), inst.rotation, (hi - lo) / 2)
     return _Body(
-        label or f"volume {model.label(inst)!r}", obb, lv.solid_type, lv.solid.get("params", {}),
-        inst.to_local, lo, hi,
+        label or f"volume {model.label(inst)!r}",
+        obb,
+        lv.solid_type,
+        lv.solid.get("params", {}),
+        inst.to_local,
+        lo,
+        hi,
     )
 
 
@@ -577,7 +595,9 @@ def check_gdml_clearance(scene: Scene) -> None:
         mother_body = _instance_body(model, t.mother)
         pts = box.corners() if mother_body.solid == "G4Box" else box.grid()
         q = t.mother.to_local(pts)
-        if not solid_contains(mother_body.solid, mother_body.params, mother_body.lo, mother_body.hi, q).all():
+        if not solid_contains(
+            mother_body.solid, mother_body.params, mother_body.lo, mother_body.hi, q
+        ).all():
             raise ConfigError(
                 f"targets.{t.entry}: box {t.name!r} sticks out of its mother "
                 f"{model.label(t.mother)!r}; position is in the mother's frame"
@@ -611,7 +631,9 @@ def _gap(layer: RoughLayer, body: _Body) -> float:
     return float(q[:, 2].min())
 
 
-def _check_inside_mother(model: GeometryModel, mother: Instance, layer: RoughLayer, box: _Obb) -> None:
+def _check_inside_mother(
+    model: GeometryModel, mother: Instance, layer: RoughLayer, box: _Obb
+) -> None:
     lv = model.logicals[mother.logical]
     body = _instance_body(model, mother)
     pts = box.corners() if body.solid == "G4Box" else box.grid()
@@ -663,13 +685,13 @@ def resolve_targets(config: RunConfig, model: GeometryModel | None) -> list[Targ
         for k, inst in enumerate(instances):
             out.append(_gdml_target(model, t, i, inst, k if len(instances) > 1 else None))
     claimed: dict[int, int] = {}
-    for t in out:
-        if t.instance is None:
+    for tv in out:
+        if tv.instance is None:
             continue
-        first = claimed.setdefault(t.instance.index, t.entry)
-        if first != t.entry:
+        first = claimed.setdefault(tv.instance.index, tv.entry)
+        if first != tv.entry:
             raise ConfigError(
-                f"targets.{t.entry}.volume: {t.config.label!r} includes {t.column!r}, already a "
+                f"targets.{tv.entry}.volume: {tv.config.label!r} includes {tv.column!r}, already a "
                 f"target through targets.{first}; score each volume once"
             )
     columns = [t.column for t in out]
@@ -706,9 +728,18 @@ def _gdml_target(
     assert inst.mother is not None  # only the world has none
     mother = model.instances[inst.mother]
     return TargetVolume(
-        column, entry, t, lv.material, lv.solid_type, dict(lv.solid.get("params", {})),
-        inst.rotation, inst.translation, np.asarray(lv.solid["lo"], float),
-        np.asarray(lv.solid["hi"], float), inst, mother,
+        column,
+        entry,
+        t,
+        lv.material,
+        lv.solid_type,
+        dict(lv.solid.get("params", {})),
+        inst.rotation,
+        inst.translation,
+        np.asarray(lv.solid["lo"], float),
+        np.asarray(lv.solid["hi"], float),
+        inst,
+        mother,
     )
 
 
@@ -743,8 +774,8 @@ def _layer(
         raise ConfigError(f"{where}: {err}") from None
     round_face = target.solid == "G4Tubs"
     if round_face:  # the whole cells of the bounding square, centred
-        n = [max(int(np.floor(frame.size[a] / size[a] * (1 + 1e-9))), 1) for a in (0, 1)]
-        frame = FaceFrame(frame.centre, frame.rotation, (n[0] * size[0], n[1] * size[1]))
+        cells = [max(int(np.floor(frame.size[a] / size[a] * (1 + 1e-9))), 1) for a in (0, 1)]
+        frame = FaceFrame(frame.centre, frame.rotation, (cells[0] * size[0], cells[1] * size[1]))
     if rough.tiling == "portal" and target.instance is not None:
         raise ConfigError(
             f"{where}: tiling portal works on boxes of the configuration in a generated world; "

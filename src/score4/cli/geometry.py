@@ -119,7 +119,10 @@ def list_volumes(config_file: Path, as_json: bool) -> None:
     "config_file", metavar="CONFIG.yaml", type=click.Path(dir_okay=False, path_type=Path)
 )
 @click.option(
-    "--gdml", "out", type=click.Path(dir_okay=False, path_type=Path), required=True,
+    "--gdml",
+    "out",
+    type=click.Path(dir_okay=False, path_type=Path),
+    required=True,
     help="GDML file to write: the whole world with its rough layers.",
 )
 @click.option("--overwrite", is_flag=True, help="Replace an existing file.")

@@ -105,7 +105,9 @@ def solid_record(g4, solid) -> dict:
     CSG solids, Monte Carlo estimates for booleans and a few others (Geant4 caches them).
     """
     kind = str(solid.GetEntityType())
-    params = {key: float(getattr(solid, getter)()) for key, getter in _SOLID_PARAMETERS.get(kind, ())}
+    params = {
+        key: float(getattr(solid, getter)()) for key, getter in _SOLID_PARAMETERS.get(kind, ())
+    }
     lo, hi = g4.G4ThreeVector(), g4.G4ThreeVector()
     solid.BoundingLimits(lo, hi)
     return {
@@ -138,7 +140,7 @@ def material_record(g4, material) -> dict:
             {
                 "name": str(el.GetName()),
                 "symbol": str(el.GetSymbol()),
-                "Z": int(round(el.GetZ())),
+                "Z": round(el.GetZ()),
                 "A_g_mole": float(el.GetA()) / amu,
                 "mass_fraction": float(fractions[i]),
                 "atoms_per_mm3": float(per_volume[i]),

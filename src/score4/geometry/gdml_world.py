@@ -17,6 +17,7 @@ Geometry and navigation are unchanged.
 from __future__ import annotations
 
 from collections import Counter
+from typing import Any
 
 import numpy as np
 
@@ -41,7 +42,7 @@ class _Unsharer:
         self.keep: list = []
         self.serial: Counter[str] = Counter()
 
-    def path(self, inst: Instance) -> tuple[object, object]:
+    def path(self, inst: Instance) -> tuple[Any, Any]:
         """``(physical volume, logical volume)`` of ``inst``, unique to it (cloned if shared)."""
         pv = self.world_pv
         lv = pv.GetLogicalVolume()
@@ -62,9 +63,7 @@ class _Unsharer:
         g4 = self.g4
         name = str(lv.GetName())
         self.serial[name] += 1
-        clone = g4.G4LogicalVolume(
-            lv.GetSolid(), lv.GetMaterial(), f"{name}_u{self.serial[name]}"
-        )
+        clone = g4.G4LogicalVolume(lv.GetSolid(), lv.GetMaterial(), f"{name}_u{self.serial[name]}")
         for i in range(lv.GetNoDaughters()):
             d = lv.GetDaughter(i)
             if d.IsReplicated() or d.IsParameterised():
@@ -98,13 +97,14 @@ def build_gdml_world(g4, config: RunConfig, scene: Scene):
     from .world import BuiltGeometry, cut_for_layers
 
     model = scene.model
-    assert model is not None and config.world.gdml is not None
+    assert model is not None
+    assert config.world.gdml is not None
     parser, world_pv = read_gdml(g4, config.world.gdml)
     if world_pv is None:
         raise ConfigError(f"world.gdml: {config.world.gdml}: the file has no world volume")
     built = BuiltGeometry(world=world_pv, keep=[parser])
     unshare = _Unsharer(g4, model, world_pv)
-    mothers: dict[int, object] = {0: world_pv.GetLogicalVolume()}
+    mothers: dict[int, Any] = {0: world_pv.GetLogicalVolume()}
 
     def mother_lv(inst: Instance):
         if inst.index not in mothers:

@@ -15,9 +15,9 @@ def _target_rows(scene: Scene) -> list[dict]:
             {
                 "target": t.name,
                 "volume": t.config.label,
-                "gdml_volume": None if t.instance is None else scene.model.label(t.instance)  # type: ignore[union-attr]
-                if scene.model is not None
-                else None,
+                "gdml_volume": None
+                if t.instance is None or scene.model is None
+                else scene.model.label(t.instance),
                 "solid": t.solid,
                 "material": t.material,
                 "position_mm": t.translation.tolist(),
@@ -86,10 +86,10 @@ def geometry_text(scene: Scene, rows: dict) -> str:
         where = f" = {t['gdml_volume']}" if t["gdml_volume"] else ""
         pos = ", ".join(f"{x:.4g}" for x in np.round(t["position_mm"], 9))
         out.append(f"  {t['target']}{where}: {t['solid']}, {t['material']}, at ({pos}) mm")
-        for f in t["rough_faces"]:
-            out.append(
-                f"    rough face {f['face']}: {f['cells']} patches, {100 * f['rough_share']:.4g} % "
-                f"of the face rough, layer {f['thickness_um']:.4g} um"
-                + (" inside the volume (into)" if f["into"] else " on the face")
-            )
+        out.extend(
+            f"    rough face {f['face']}: {f['cells']} patches, {100 * f['rough_share']:.4g} % "
+            f"of the face rough, layer {f['thickness_um']:.4g} um"
+            + (" inside the volume (into)" if f["into"] else " on the face")
+            for f in t["rough_faces"]
+        )
     return "\n".join(out)

@@ -70,9 +70,7 @@ def check_materials(g4, config: RunConfig) -> None:
 
 
 def _target_material(g4, config: RunConfig, target: TargetVolume):
-    return find_material(
-        g4, target.material, f"targets.{target.entry}.material", config.materials
-    )
+    return find_material(g4, target.material, f"targets.{target.entry}.material", config.materials)
 
 
 def cut_for_layers(g4, scene: Scene, target: TargetVolume, solid, name: str):
@@ -86,7 +84,6 @@ def cut_for_layers(g4, scene: Scene, target: TargetVolume, solid, name: str):
     layers = [r for r in scene.layers_of(target.name) if r.config.into]
     if not layers:
         return solid, np.zeros(3), []
-    keep: list = []
     shift = np.zeros(3)
     if target.solid == "G4Box":
         lo, hi = -target.half, target.half.copy()

@@ -71,7 +71,7 @@ class Composition:
         elements = material.GetElementVector()
         per_volume = np.asarray(material.GetVecNbOfAtomsPerVolume(), dtype=float)
         parts = [
-            (int(round(elements[i].GetZ())), float(per_volume[i]), float(elements[i].GetA()))
+            (round(elements[i].GetZ()), float(per_volume[i]), float(elements[i].GetA()))
             for i in range(len(elements))
         ]
         density = round(float(material.GetDensity()) / _G4_G_PER_CM3, 9)

@@ -93,9 +93,8 @@ def run_chunk(sim, spec: WorkerSpec, chunk: Chunk, progress=None) -> Path:
 
 def ready_info(sim) -> dict:
     """What the run record keeps from a worker's Geant4 application."""
-    from .runtime import geant4_version
-
     from ..geometry.masses import volume_records
+    from .runtime import geant4_version
 
     return {
         "geant4_version": geant4_version(sim.g4),
