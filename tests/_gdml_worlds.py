@@ -206,3 +206,23 @@ def geant4_world(folder: Path) -> Path:
     with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
         pool.submit(_write_geant4_world, str(path)).result()
     return path
+
+
+def touching_world(folder: Path) -> Path:
+    """Two 10 mm silicon cubes side by side along x, touching at x = 0 (pyg4ometry)."""
+    import pyg4ometry as pg
+
+    folder.mkdir(parents=True, exist_ok=True)
+    reg = pg.geant4.Registry()
+    ws = pg.geant4.solid.Box("world_s", 100, 100, 100, reg)
+    wl = pg.geant4.LogicalVolume(ws, "G4_Galactic", "World", reg)
+    a = pg.geant4.LogicalVolume(pg.geant4.solid.Box("a_s", 10, 10, 10, reg), "G4_Si", "ALV", reg)
+    b = pg.geant4.LogicalVolume(pg.geant4.solid.Box("b_s", 10, 10, 10, reg), "G4_Cu", "BLV", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], [-5, 0, 0], a, "left", wl, reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], [5, 0, 0], b, "right", wl, reg)
+    reg.setWorld(wl.name)
+    path = folder / "touching.gdml"
+    writer = pg.gdml.Writer()
+    writer.addDetector(reg)
+    writer.write(str(path))
+    return path

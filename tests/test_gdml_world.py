@@ -456,3 +456,22 @@ def test_exported_world_gives_the_same_paths_and_reads_in_pyg4ometry(worlds, tmp
         n for n in names if n and n.startswith("crystal_1_roughpz")
     }
     assert all(n is not None and n.startswith("crystal_1") for n in names)
+
+
+def test_layer_meeting_a_gdml_sister_and_into(worlds, tmp_path):
+    """Two GDML cubes touch: a layer on the touching face meets the sister (gap 0); with
+    into: true it fits, and the cube keeps its outer faces."""
+    gdml = W.touching_world(tmp_path / "touch")
+    rough = {"face": "+x", "surface": "pyr"}
+    source = {"surface": {"volume": "left", "face": "+x"}, "particle": "alpha", "energy": "5 MeV"}
+    cfg = _config(tmp_path, gdml, [{"volume": "left", "rough": [rough]}], source=source)
+    with pytest.raises(
+        ConfigError, match=r"runs into sister volume 'right' \(free gap there: 0 um\)"
+    ):
+        build_scene(parse_config(yaml.safe_load(cfg.read_text()), base_dir=tmp_path))
+    cfg = _config(
+        tmp_path, gdml, [{"volume": "left", "rough": [{**rough, "into": True}]}], source=source
+    )
+    scene = build_scene(parse_config(yaml.safe_load(cfg.read_text()), base_dir=tmp_path))
+    layer = scene.layer("left", "+x")
+    assert layer.frame.centre[0] + layer.thickness == pytest.approx(0.0, abs=1e-12)
