@@ -139,6 +139,15 @@ def _config(tmp_path: Path, gdml: Path, targets: list, source: dict | None = Non
         "physics": "lite",
         "world": {"gdml": str(gdml)},
         "surfaces": {
+            # 1 mm patches of 10 x 10 pyramids: few cells, for the export test
+            "coarse": {
+                "kind": "spikes",
+                "shape": "pyramid",
+                "nx": 10,
+                "ny": 10,
+                "width": "100 um",
+                "height": "20 um",
+            },
             "pyr": {
                 "kind": "spikes",
                 "shape": "pyramid",
@@ -146,7 +155,7 @@ def _config(tmp_path: Path, gdml: Path, targets: list, source: dict | None = Non
                 "ny": 10,
                 "width": "50 um",
                 "height": "20 um",
-            }
+            },
         },
         "targets": targets,
         "source": source
@@ -409,8 +418,11 @@ def test_exported_world_gives_the_same_paths_and_reads_in_pyg4ometry(worlds, tmp
         tmp_path,
         worlds["pyg4ometry"],
         [
-            {"volume": "crystal_1", "rough": [{"face": "+z", "surface": "pyr", "solid": "blocks"}]},
-            {"volume": "disk", "rough": [{"face": "-z", "surface": "pyr", "into": True}]},
+            {
+                "volume": "crystal_1",
+                "rough": [{"face": "+z", "surface": "coarse", "solid": "blocks"}],
+            },
+            {"volume": "disk", "rough": [{"face": "-z", "surface": "coarse", "into": True}]},
         ],
         source={
             "surface": {"volume": "crystal_1", "face": "+z"},
