@@ -487,3 +487,32 @@ def test_layer_meeting_a_gdml_sister_and_into(worlds, tmp_path):
     scene = build_scene(parse_config(yaml.safe_load(cfg.read_text()), base_dir=tmp_path))
     layer = scene.layer("left", "+x")
     assert layer.frame.centre[0] + layer.thickness == pytest.approx(0.0, abs=1e-12)
+
+
+def test_into_on_a_box_of_a_generated_world(tmp_path):
+    data = {
+        "physics": "lite",
+        "surfaces": {
+            "pyr": {"kind": "spikes", "nx": 10, "ny": 10, "width": "50 um", "height": "20 um"}
+        },
+        "targets": [
+            {
+                "name": "c",
+                "size": ["1 mm", "1 mm", "1 mm"],
+                "rough": [{"face": "+z", "surface": "pyr", "into": True}],
+            }
+        ],
+        "source": {
+            "surface": {"volume": "c", "face": "+z"},
+            "particle": "alpha",
+            "energy": "5 MeV",
+        },
+    }
+    cfg = tmp_path / "box.yaml"
+    cfg.write_text(yaml.safe_dump(data))
+    # the top face stays at z = 0.5 mm: the layer (21 um) fills 0.479 .. 0.5 mm
+    pts = [[0.01, 0.01, 0.5 + 1e-4], [0.01, 0.01, 0.5 - 0.0205], [0.01, 0.01, 0.45]]
+    got = spawned("built_world_locate", str(cfg), pts)
+    assert got["names"][0] == "World"
+    assert got["columns"][1:] == ["c", "c"]
+    assert got["names"][2] == "c"

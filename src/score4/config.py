@@ -235,6 +235,7 @@ class RoughFace(StrictModel):
     used_only_with: ClassVar[dict[str, tuple[str, tuple[object, ...]]]] = {
         "n_tiles": ("fill", ("tiles",)),
         "native_layout": ("tiling", ("native",)),
+        "into": ("tiling", ("native",)),
     }
 
     face: Face = "+z"

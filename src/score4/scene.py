@@ -580,8 +580,6 @@ def _layer(
             f"{where}: tiling portal works on boxes of the configuration in a generated world; "
             "a GDML volume takes tiling: native (the default)"
         )
-    if rough.into and rough.tiling == "portal":
-        raise ConfigError(f"{where}: into: true works with tiling: native only")
     try:
         patch_map = make_patch_map(
             frame.size,
