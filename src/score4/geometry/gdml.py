@@ -103,6 +103,7 @@ def solid_record(g4, solid) -> dict:
 
     Volume and area are Geant4's own (``GetCubicVolume``, ``GetSurfaceArea``): exact for the
     CSG solids, Monte Carlo estimates for booleans and a few others (Geant4 caches them).
+    ``shape`` is the :mod:`score4.shapes` description (``to_dict``), for sources on any volume.
     """
     kind = str(solid.GetEntityType())
     params = {
@@ -114,11 +115,23 @@ def solid_record(g4, solid) -> dict:
         "type": kind,
         "name": str(solid.GetName()),
         "params": params,
+        "shape": _shape_dict(solid),
         "lo": [lo.x, lo.y, lo.z],
         "hi": [hi.x, hi.y, hi.z],
         "volume_mm3": float(solid.GetCubicVolume()),
         "area_mm2": float(solid.GetSurfaceArea()),
     }
+
+
+def _shape_dict(solid) -> dict | None:
+    """The solid as :mod:`score4.shapes` plain data (None: a type it does not describe)."""
+    from ..errors import ConfigError
+    from ..shapes import shape_from_g4_solid
+
+    try:
+        return shape_from_g4_solid(solid, live_fallback=False).to_dict()
+    except ConfigError:
+        return None
 
 
 def material_record(g4, material) -> dict:

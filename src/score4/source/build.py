@@ -1,23 +1,27 @@
 """The source section of a run configuration turned into primaries, one chunk of events at a time.
 
 :func:`make_source` builds, once per process, what every chunk needs: the vertex sampler on the
-configured face (its rough layer if it has one, else the flat face), the depth profile, the
+configured face (its rough layer if it has one, else the flat face), on several faces of a
+volume (``face: all``: :class:`~score4.source.shapes.ShapeSurfaceSampler`) or in a volume
+(``volume:``, bulk: :class:`~score4.source.shapes.BulkSampler`), the depth profile, the
 confinement and the emitter; or the rows of a vertex file. ``source.events(seed, first, n)``
 then gives the primaries of events ``first .. first + n - 1`` of the run with that seed, drawn in
 prefix-stable blocks (:mod:`score4.source.blocks`); ``source.primaries(rng, first, n)`` draws
-``n`` events from one given stream.
+``n`` events from one given stream. :func:`source_geometry` gives what the run record states
+about the source (kind, true and projected area, volume).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import numpy as np
 
-from ..config import DepthConfig, RunConfig, SourceConfig
+from ..config import FACES, DepthConfig, RunConfig, SourceConfig
 from ..errors import ConfigError
-from ..scene import Scene, face_frame
+from ..scene import RoughLayer, Scene, TargetVolume, face_frame
+from ..shapes import G4Box, G4Tubs, PlacedShape, Shape, Transform, shape_from_dict
 from .blocks import draw_events
 from .depth import VertexSampler
 from .emitters import (
@@ -38,7 +42,8 @@ from .profiles import (
     UniformProfile,
     ZeroDepth,
 )
-from .sampling import SurfaceSampler
+from .sampling import SurfaceSample, SurfaceSampler
+from .shapes import BulkSampler, CombinedSurfaceSampler, ShapeSurfaceSampler
 from .vertex_file import read_vertex_file, vertex_file_config
 
 _T = TypeVar("_T")
@@ -106,6 +111,108 @@ def flat_face_sampler(scene: Scene, volume: str, face: str) -> SurfaceSampler:
     return SurfaceSampler(vertices=corners, faces=[[0, 1, 2], [0, 2, 3]])
 
 
+def source_target(scene: Scene, ref: str, parameter: str) -> TargetVolume:
+    """The one target a source names (a box, a GDML volume or one copy ``name[k]``)."""
+    targets = scene.targets_named(ref, parameter)
+    if len(targets) != 1:
+        raise ConfigError(
+            f"{parameter}: {ref!r} stands for {len(targets)} volumes "
+            f"({', '.join(t.name for t in targets)}); give one, e.g. {targets[0].column}"
+        )
+    return targets[0]
+
+
+def target_shape(scene: Scene, volume: str) -> tuple[Shape, Transform]:
+    """The shape of a target (a box, or a GDML volume's solid) and its local -> world transform."""
+    target = source_target(scene, volume, "source")
+    transform = Transform(rotation=target.rotation, translation=target.translation)
+    if target.solid == "G4Box":
+        return G4Box(*target.half), transform
+    if target.solid == "G4Tubs":
+        return G4Tubs(**target.params), transform
+    shape = _model_shape(scene, target)
+    if shape is None:
+        raise ConfigError(
+            f"source: {target.name!r} is a {target.solid}, which score4.shapes does not "
+            "describe; a source needs a solid it can sample"
+        )
+    return shape, transform
+
+
+def _model_shape(scene: Scene, target: TargetVolume) -> Shape | None:
+    """The shape the GDML model stored for a target's solid (None: none)."""
+    if scene.model is None or target.instance is None:
+        return None
+    data = scene.model.logicals[target.instance.logical].solid.get("shape")
+    return shape_from_dict(data) if data else None
+
+
+def shape_face_sampler(scene: Scene, volume: str, face: str):
+    """Area-uniform sampler on faces of a target, each rough face on its mesh (a round face
+    partly rough: its rough cells and the flat rest, :class:`FlatRemainderSampler`)."""
+    shape, transform = target_shape(scene, volume)
+    rough: dict[str, Any] = {}
+    for layer in scene.layers_of(volume):
+        if layer.mask is None:
+            rough[layer.config.face] = layer.sampler()
+        else:
+            parts = [layer.sampler(), FlatRemainderSampler(layer)]
+            rough[layer.config.face] = CombinedSurfaceSampler([p for p in parts if p.area > 0])
+    return ShapeSurfaceSampler(shape, face, transform, rough)
+
+
+class FlatRemainderSampler:
+    """Uniform points on the flat part of a round (G4Tubs end) face that holds no patch: the
+    annulus less the rough cells, in the plane of the layer's base (the cut face with
+    ``into``). Drawn in the annulus, points in a rough cell rejected."""
+
+    def __init__(self, layer: RoughLayer) -> None:
+        self.layer = layer
+        p = layer.target.params
+        self.rmin, self.rmax = float(p["rmin"]), float(p["rmax"])
+        px, py = layer.patch_size
+        rough_cells = int((layer.cell_variants >= 0).sum())
+        self.area = float(np.pi * (self.rmax**2 - self.rmin**2) - rough_cells * px * py)
+
+    def sample(self, rng: np.random.Generator, n: int) -> SurfaceSample:
+        points = np.empty((0, 2))
+        while len(points) < n:
+            m = 2 * (n - len(points)) + 16
+            r = np.sqrt(rng.uniform(self.rmin**2, self.rmax**2, m))
+            phi = rng.uniform(0, 2 * np.pi, m)
+            xy = np.column_stack([r * np.cos(phi), r * np.sin(phi)])
+            i, j = self.layer.patch_map.cell_of(xy)
+            keep = i < 0
+            keep[~keep] = self.layer.cell_variants[j[~keep], i[~keep]] < 0
+            points = np.concatenate([points, xy[keep]])
+        xy = points[:n]
+        frame = self.layer.frame
+        position = frame.to_world(np.column_stack([xy, np.zeros(n)]))
+        normal = np.tile(frame.normal, (n, 1))
+        none = np.full(n, -1, np.int64)
+        return SurfaceSample(position, normal, none.copy(), none.copy(), none.copy())
+
+
+def bulk_sampler(scene: Scene, volume: str) -> BulkSampler:
+    """Uniform points in a target, outside its daughters (a GDML volume's, placed in the world;
+    a box target has none, and its rough layers are separate volumes outside it)."""
+    target = source_target(scene, volume, "source.volume")
+    shape, transform = target_shape(scene, target.name)
+    exclude: list[Shape] = []
+    if scene.model is not None and target.instance is not None:
+        for d in scene.model.daughters(target.instance):
+            logical = scene.model.logicals[d.logical]
+            data = logical.solid.get("shape")
+            if data is None:
+                raise ConfigError(
+                    f"source.volume: {target.name!r} holds {d.name!r}, a {logical.solid_type} "
+                    "score4.shapes does not describe, so its material cannot be sampled"
+                )
+            placed = Transform(rotation=d.rotation, translation=d.translation)
+            exclude.append(PlacedShape(shape_from_dict(data), placed))
+    return BulkSampler(shape, transform, exclude, name=target.name)
+
+
 @dataclass
 class SampledSource:
     """Vertices drawn below a (rough) face, each emitting the configured particles."""
@@ -123,7 +230,23 @@ class SampledSource:
             depth=v.depth,
             facet=v.facet,
             patch=v.patch if v.patch is not None else np.full(n_events, -1),
+            face=v.face,
         )
+
+    def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
+        """Events ``first_event ..`` of the run with ``seed``, the same in any chunking."""
+        return draw_events(self, seed, first_event, n_events)
+
+
+@dataclass
+class BulkSource:
+    """Vertices uniform in a volume's own material, emitting isotropically."""
+
+    sampler: BulkSampler
+    emitter: Emitter
+
+    def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
+        return make_primaries(self.emitter, rng, self.sampler.sample(rng, n_events))
 
     def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
         """Events ``first_event ..`` of the run with ``seed``, the same in any chunking."""
@@ -159,7 +282,7 @@ def needs_radioactive_decay(config: RunConfig) -> bool:
     return src.nuclide is not None
 
 
-def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
+def make_source(config: RunConfig, scene: Scene) -> SampledSource | BulkSource | FileSource:
     """What :meth:`primaries` needs, built once: checks files, materials and constraints now."""
     src = config.source
     if src.vertices is not None:
@@ -170,17 +293,17 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
                 f"fewer than run.events = {config.run.events}"
             )
         return source
+    if src.volume is not None:
+        return BulkSource(bulk_sampler(scene, src.volume), _emitter(src))
     surface_ref = _given(src.surface, "source.surface")
-    face = surface_ref.face
-    targets = scene.targets_named(surface_ref.volume, "source.surface.volume")
-    if len(targets) != 1:
-        raise ConfigError(
-            f"source.surface.volume: {surface_ref.volume!r} stands for {len(targets)} volumes "
-            f"({', '.join(t.name for t in targets)}); give one, e.g. {targets[0].column}"
-        )
-    volume = targets[0].name
-    layer = scene.layer(volume, face)
-    surface = layer.sampler() if layer is not None else flat_face_sampler(scene, volume, face)
+    target = source_target(scene, surface_ref.volume, "source.surface.volume")
+    volume, face = target.name, surface_ref.face
+    surface: SurfaceSampler | ShapeSurfaceSampler | object
+    if face in FACES and target.solid == "G4Box":  # a box face: its rough layer or 2 triangles
+        layer = scene.layer(volume, face)
+        surface = layer.sampler() if layer is not None else flat_face_sampler(scene, volume, face)
+    else:
+        surface = shape_face_sampler(scene, volume, face)
     inside = None
     if src.confine is True:
         inside = lambda p: scene.inside_target(volume, p)  # noqa: E731
@@ -189,7 +312,7 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
         inside = lambda p: scene.inside_material(src.confine, p)  # noqa: E731
     try:
         sampler = VertexSampler(
-            surface,
+            surface,  # type: ignore[arg-type]  # a ShapeSurfaceSampler plugs in by its hook
             depth_profile(src.depth),
             definition=src.depth.definition,
             min_depth=src.depth.min,
@@ -201,8 +324,49 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
     ) as err:  # the library names min_depth/max_depth; the config calls them min/max
         message = str(err).replace("min_depth", "min").replace("max_depth", "max")
         raise ConfigError(f"source.depth: {message}") from None
+    return SampledSource(sampler, _emitter(src))
+
+
+def _emitter(src: SourceConfig) -> Emitter:
     try:
-        emitter = make_emitter(src)
+        return make_emitter(src)
     except ConfigError as err:
         raise ConfigError(f"source.{err}") from None  # "source.particle: unknown name ..."
-    return SampledSource(sampler, emitter)
+
+
+def source_geometry(config: RunConfig, scene: Scene) -> dict:
+    """What the run record states about where the source is (contract 1, ``source`` entry).
+
+    ``kind`` (surface | bulk | vertices), ``volume``, ``face``, ``area_mm2`` (true sampled area:
+    rough faces with their mesh area), ``projected_area_mm2`` (the faces counted flat),
+    ``faces`` (face names; the ``face`` column of the primaries indexes it), ``volume_mm3``
+    (bulk: the volume's own material), and ``mass_kg`` when the material's density is known
+    without Geant4 (a ``materials:`` entry; NIST densities come from Geant4, left None here).
+    """
+    src = config.source
+    if src.vertices is not None:
+        return {"kind": "vertices", "file": str(src.vertices)}
+    if src.volume is not None:
+        bulk = bulk_sampler(scene, src.volume)
+        material = source_target(scene, src.volume, "source.volume").material
+        spec = config.materials.get(material)
+        mass = None if spec is None else bulk.volume * spec.density * 1e-6  # g/cm3 * mm3 -> kg
+        return {
+            "kind": "bulk",
+            "volume": src.volume,
+            "volume_mm3": bulk.volume,
+            "mass_kg": mass,
+        }
+    ref = _given(src.surface, "source.surface")
+    target = source_target(scene, ref.volume, "source.surface.volume")
+    out = {"kind": "surface", "volume": target.name, "face": ref.face}
+    if ref.face in FACES and target.solid == "G4Box":
+        frame = face_frame(target, ref.face)
+        layer = scene.layer(target.name, ref.face)
+        projected = frame.size[0] * frame.size[1]
+        area = layer.sampler().area if layer is not None else projected
+        names = [ref.face]
+    else:
+        sampler = shape_face_sampler(scene, target.name, ref.face)
+        area, projected, names = sampler.area, sampler.projected_area, list(sampler.face_names)
+    return {**out, "area_mm2": float(area), "projected_area_mm2": float(projected), "faces": names}
