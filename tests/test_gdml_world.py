@@ -516,3 +516,47 @@ def test_into_on_a_box_of_a_generated_world(tmp_path):
     assert got["names"][0] == "World"
     assert got["columns"][1:] == ["c", "c"]
     assert got["names"][2] == "c"
+
+
+def test_sources_on_gdml_volumes_by_their_shapes(worlds, tmp_path):
+    """Through score4.shapes: a bulk source in the holder (its daughter chip excluded), a source
+    on every face of the BEGe (G4GenericPolycone) below the surface, and a partly rough disk face
+    sampled per true area (pyramid faces against the flat rest); Geant4 locates the vertices."""
+    from score4.source.vertex_file import read_vertex_file
+
+    def draw(name: str, targets: list, source: dict, n: int) -> np.ndarray:
+        cfg = _config(tmp_path, worlds["pyg4ometry"], targets, source=source)
+        cfg = cfg.rename(tmp_path / f"{name}.yaml")
+        out = tmp_path / f"{name}.h5"
+        assert main(["vertices", str(cfg), "--n", str(n), "--out", str(out)]) == 0
+        return read_vertex_file(out)
+
+    alpha = {"particle": "alpha", "energy": "5 MeV"}
+    below = {"profile": "uniform", "min": "100 nm", "max": "1 um"}
+    bulk = draw("bulk", [{"volume": "holder"}], {"volume": "holder", **alpha}, 300)
+    bege = draw(
+        "bege",
+        [{"volume": "bege"}],
+        {"surface": {"volume": "bege", "face": "all"}, "depth": below, **alpha},
+        300,
+    )
+    names = spawned(
+        "locate", str(worlds["pyg4ometry"]), bulk.position.tolist() + bege.position.tolist()
+    )
+    assert set(names[:300]) == {"holder"}  # never in the chip inside it
+    assert set(names[300:]) == {"bege"}
+    disk = draw(
+        "disk",
+        [{"volume": "disk", "rough": [{"face": "-z", "surface": "pyr"}]}],
+        {"surface": {"volume": "disk", "face": "-z"}, **alpha},
+        4000,
+    )
+    on_patch = np.mean(disk.extra["patch"] >= 0)
+    c = (np.arange(60) - 29.5) * 0.5
+    x, y = np.meshgrid(c, c)
+    cells = int((np.hypot(np.abs(x) + 0.25, np.abs(y) + 0.25) <= 15).sum())
+    slant = math.hypot(0.025, 0.020)  # pyramid 50 um wide, 20 um high: 4 triangles each
+    rough_area = cells * 100 * 4 * 0.5 * 0.05 * slant
+    flat_area = math.pi * 15**2 - cells * 0.25
+    expect = rough_area / (rough_area + flat_area)
+    assert on_patch == pytest.approx(expect, abs=4 * math.sqrt(expect * (1 - expect) / 4000))
