@@ -53,7 +53,7 @@ import tempfile
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import yaml
@@ -68,7 +68,7 @@ INPUT_LANGUAGES = {"yaml", "yml", "python", "py", "bash", "sh", "shell", "toml",
 
 NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 FENCE = re.compile(r"^(\s*)(```+)\s*([\w+-]*)")
-CHECK_MARK = re.compile(r"^\s*<!-- check: ([\w.-]+) -->\s*$")
+CHECK_MARK = re.compile(r"^\s*<!-- check: ([\w.-]+)(?:: (.+?))? -->\s*$")
 NOT_OUTPUT_MARK = re.compile(r"^\s*<!-- not-output(?:: *(.*?))? *-->\s*$")
 TABLE_ROW = re.compile(r"^\s*\|")
 TABLE_RULE = re.compile(r"^\s*\|[\s:|-]+\|\s*$")
@@ -79,10 +79,10 @@ OMITTED_ROW = re.compile(r"^\s*\|(\s*(\.\.\.)?\s*\|)+\s*$")
 
 # a figure in the text: a number with a unit of time or memory, a percentage, a factor
 # (3x, 1.8 times), "N of M", or a number of four or more significant digits
-_NUM = r"[~≈]?\d[\d.,]*(?:\s?[-–]\s?\d[\d.,]*)?"
+_NUM = r"[~\u2248]?\d[\d.,]*(?:\s?[-\u2013]\s?\d[\d.,]*)?"  # ~ and approx; - and en dash
 _UNIT = (
     r"(?:\s?(?:ns|us|µs|μs|ms|s|min|minutes?|h|hours?|seconds?|days?|B|bytes|kB|KB|MB|GB|TB"
-    r"|KiB|MiB|GiB|TiB|%)|[x×]|\s(?:times))(?![\w])"
+    r"|KiB|MiB|GiB|TiB|%)|[x\u00d7]|\s(?:times))(?![\w])"  # x and the multiplication sign
 )
 FIGURE = re.compile(
     rf"(?<![\w.^/:-])(?:{_NUM}{_UNIT}|\d+ of \d+(?![\w.])|(?<!ISO )\d[\d.]*(?![\w.]))"
@@ -255,7 +255,7 @@ def align(items: list[Item], output: list[str]) -> list[tuple[int, int]] | None:
     patterns = [None if it.omit or it.rule else _pattern(it.text) for it in items]
     shapes = [shape(line) for line in output]
 
-    @lru_cache(maxsize=None)
+    @cache
     def go(i: int, j: int) -> tuple[tuple[int, int], ...] | None:
         if i == len(items):
             return () if j == len(output) else None
@@ -321,9 +321,24 @@ def compare_items(
     return found, True
 
 
-def _segments(check: Check, block: list[str], first: int) -> list[tuple[list[Item], list[str]]]:
+def _output_of(check: Check, command: str) -> list[str]:
+    """The output of one of the check's commands, named as in checks.yaml or after ``$``."""
+    assert check.outputs is not None
+    for i, c in enumerate(check.commands):
+        if command in (c, display(c)):
+            return check.outputs[i]
+    raise CheckError(f"{command!r} is not a command of check {check.name}")
+
+
+def _segments(
+    check: Check, block: list[str], first: int, command: str | None = None
+) -> list[tuple[list[Item], list[str]]]:
     """Split a transcript at its ``$ COMMAND`` lines: (items, output of that command)."""
     commands = [line for line in block if line.strip().startswith("$ ")]
+    if command is not None:
+        if commands:
+            raise CheckError(f"line {first + 1}: a marker that names a command, and $ lines")
+        return [(_items(block, first), _output_of(check, command))]
     if not commands:
         return [(_items(block, first), check.output or [])]
     if block[0].strip() and not block[0].strip().startswith("$ "):
@@ -365,7 +380,7 @@ def _tables(output: list[str]) -> list[list[str]]:
 
 
 def compare_block(
-    check: Check, block: list[str], first: int, table: bool = False
+    check: Check, block: list[str], first: int, table: bool = False, command: str | None = None
 ) -> list[tuple[list[Difference], list[Item], list[str] | None]]:
     """Compare a quoted block with the check's output.
 
@@ -375,14 +390,15 @@ def compare_block(
     run_check(check)
     if table:
         items = _items(block, first, table=True)
-        for candidate in _tables(check.output or []):
+        output = check.output if command is None else _output_of(check, command)
+        for candidate in _tables(output or []):
             found, paired = compare_items(check, items, candidate)
             if paired:
                 return [(found, items, None)]
-        same_header = [t for t in _tables(check.output or []) if t[0].strip() == block[0].strip()]
+        same_header = [t for t in _tables(output or []) if t[0].strip() == block[0].strip()]
         return [([], items, same_header[0] if same_header else [])]
     results = []
-    for items, output in _segments(check, block, first):
+    for items, output in _segments(check, block, first, command):
         found, paired = compare_items(check, items, output)
         results.append((found, items, None if paired else output))
     return results
@@ -422,6 +438,7 @@ class Part:
     after: int  # the line after the part
     lang: str = ""
     check: str | None = None
+    command: str | None = None  # the block is this command's output (<!-- check: NAME: CMD -->)
     not_output: str | None = None
 
 
@@ -455,7 +472,7 @@ def parts(lines: list[str], rel: str) -> list[Part]:
             i += 1
             continue
         if m := CHECK_MARK.match(above):
-            part.check = m.group(1)
+            part.check, part.command = m.group(1), m.group(2)
         elif m := NOT_OUTPUT_MARK.match(above):
             if not m.group(1):
                 raise CheckError(f"{rel}:{i}: <!-- not-output: ... --> must say what it marks")
@@ -532,7 +549,8 @@ def coverage(path: Path, lines: list[str] | None = None) -> list[str]:
     for n, line in enumerate(lines):
         if n in covered:
             continue
-        problems += [f"{rel}:{n + 1}: figure '{f}' is not covered by a check" for f in figures(line)]
+        uncovered = figures(line)
+        problems.extend(f"{rel}:{n + 1}: figure '{f}' is not covered by a check" for f in uncovered)
     return problems
 
 
@@ -569,13 +587,14 @@ def check_document(
             continue
         block = lines[part.first : part.end]
         try:
-            results = compare_block(check, block, part.first, table=part.kind == "table")
+            results = compare_block(check, block, part.first, part.kind == "table", part.command)
         except CheckError as err:
             raise CheckError(f"{rel}:{err}") from None
         for found, items, unpaired in results:
             for d in found:
                 differences += 1
-                print(f"{rel}:{d.line + 1}: [{check.name}]\n  quoted: {d.quoted}\n  actual: {d.actual}")
+                print(f"{rel}:{d.line + 1}: [{check.name}]")
+                print(f"  quoted: {d.quoted}\n  actual: {d.actual}")
                 edits.append((d.line, d.line + 1, [d.actual]))
             if unpaired is None:
                 continue
@@ -583,12 +602,15 @@ def check_document(
             start = items[0].index if items else part.first
             end = items[-1].index + 1 if items else start
             quoted = lines[start:end]
-            diff = difflib.unified_diff(quoted, unpaired, "quoted", "actual", lineterm="", n=1)
+            diff = list(difflib.unified_diff(quoted, unpaired, "quoted", "actual", "", "", n=1))
+            if len(diff) > 40:
+                diff = [*diff[:40], f"[{len(diff) - 40} more lines of the diff]"]
             can = not any(it.omit for it in items) and unpaired
             print(
                 f"{rel}:{start + 1}: [{check.name}] the quoted lines do not pair with the "
-                f"output line for line{'' if can else ' (edit them: --update cannot)'}:\n  "
-                + "\n  ".join(diff)
+                f"output line for line{'' if can else ' (edit them: --update cannot)'}; "
+                "mark omitted lines with ... or [N lines omitted]:\n  "
+                + "\n  ".join(d.rstrip("\n") for d in diff)
             )
             if can:
                 edits.append((start, end, list(unpaired)))
