@@ -286,6 +286,9 @@ def main() -> None:
         return
 
     if args.markdown:
+        from stamp import stamp  # this folder is on sys.path when run as a script
+
+        print(stamp())
         print("| case | build s | RSS MB | events/s |")
         print("|---|---|---|---|")
     else:

@@ -32,12 +32,14 @@ are written for authors at the top of ``docs/checks.yaml``; in short:
   digits) must be a value or sit in ``<!-- not-output: WHY -->...<!-- /not-output -->``.
 
 ``--update`` rewrites the quoted lines, counts and values from the new output instead of
-failing (then read the diff). ``--only NAME`` runs one check; ``--all`` adds the slow checks;
-``--coverage`` checks coverage only, running nothing (a second). Exit status 0: everything
-matches and is covered; 1: some lines or values differ, or are not covered (each printed as
-file:line); 2: a check or marker is broken.
+failing (then read the diff); with ``--remeasure`` it also takes the masked figures (timings,
+and the date and load of a measurement) from the new run, which ``--update`` alone keeps.
+``--only NAME`` runs one check; ``--all`` adds the slow checks; ``--coverage`` checks coverage
+only, running nothing (a second). Exit status 0: everything matches and is covered; 1: some
+lines or values differ, or are not covered (each printed as file:line); 2: a check or marker is
+broken.
 
-Usage: python tools/docs_check.py [--update] [--all] [--only NAME] [--coverage]
+Usage: python tools/docs_check.py [--update [--remeasure]] [--all] [--only NAME] [--coverage]
 """
 
 from __future__ import annotations
@@ -62,6 +64,9 @@ ROOT = Path(__file__).resolve().parent.parent
 CHECKS = ROOT / "docs" / "checks.yaml"
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 LINKED = ("examples", "docs", "tests", "benchmarks")
+
+# --remeasure: take masked figures (timings) and values from the new output too
+REMEASURE = False
 
 # code a reader types, not output: a block in one of these languages needs no marker
 INPUT_LANGUAGES = {"yaml", "yml", "python", "py", "bash", "sh", "shell", "toml", "ini", "cpp"}
@@ -204,6 +209,8 @@ def shape(line: str) -> str:
 
 def masked(check: Check, line: str) -> str:
     """The line with every part a ``mask`` pattern matches reduced to its shape."""
+    if REMEASURE:
+        return line
     for pattern in check.mask:
         line = pattern.sub(lambda m: NUMBER.sub("#", m.group(0)), line)
     return line
@@ -494,6 +501,13 @@ def prose(text: str) -> str:
     return re.sub(r"\b\d+\.\d+\.\d+\b", " ", text)
 
 
+def outside_code(line: str, fn) -> str:
+    """Apply ``fn`` to the parts of a line outside inline code (``...``): a marker written in
+    backticks is an example, not a marker."""
+    parts = re.split(r"(`[^`]*`)", line)
+    return "".join(p if k % 2 else fn(p) for k, p in enumerate(parts))
+
+
 def _significant(number: str) -> int:
     number = number.replace(",", "")
     if "." in number:
@@ -623,14 +637,14 @@ def check_document(
         if not runs(checks[name], only, run_all):
             return match.group(0)
         actual, by_shape = value_of(checks[name], key)
-        if actual == quoted or (by_shape and shape(actual) == shape(quoted)):
+        if actual == quoted or (by_shape and not REMEASURE and shape(actual) == shape(quoted)):
             return match.group(0)
         differences += 1
         print(f"{rel}:{line}: [{name}.{key}] quoted {quoted!r}, actual {actual!r}")
         return f"<!-- value: {name}.{key} -->{actual}<!-- /value -->"
 
     for n, line in enumerate(lines):
-        new = VALUE_MARK.sub(lambda m, n=n: replace(m, n + 1), line)
+        new = outside_code(line, lambda t, n=n: VALUE_MARK.sub(lambda m: replace(m, n + 1), t))
         if new != line:
             edits.append((n, n + 1, [new]))
     if update and edits:
@@ -647,7 +661,8 @@ def quoted_names() -> list[str]:
         for line in path.read_text().splitlines():
             if m := CHECK_MARK.match(line):
                 names[m.group(1)] = None
-            names.update((m.group(1), None) for m in VALUE_MARK.finditer(line))
+            text = re.sub(r"`[^`]*`", " ", line)  # a marker in inline code is an example
+            names.update((m.group(1), None) for m in VALUE_MARK.finditer(text))
     return list(names)
 
 
@@ -668,7 +683,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", metavar="NAME", help="run one check (also a slow one)")
     parser.add_argument("--all", action="store_true", help="also run the slow checks")
     parser.add_argument("--coverage", action="store_true", help="check coverage only, run nothing")
+    parser.add_argument(
+        "--remeasure",
+        action="store_true",
+        help="with --update: also take the masked figures (timings, dates, loads) from the run",
+    )
     args = parser.parse_args(argv)
+    global REMEASURE
+    REMEASURE = args.remeasure
     try:
         uncovered = [p for path in DOCS for p in coverage(path)]
     except CheckError as err:
