@@ -143,6 +143,18 @@ def test_a_dollar_line_must_be_a_command_of_the_check(page):
         check(doc)
 
 
+def test_a_wrapped_command_is_shown_as_the_check_says(tmp_path, monkeypatch):
+    (tmp_path / "checks.yaml").write_text(
+        "checks:\n  wrapped:\n    commands:\n"
+        "      - {run: \"sh -c 'echo hello'\", shown: echo hello}\n"
+    )
+    monkeypatch.setattr(docs_check, "CHECKS", tmp_path / "checks.yaml")
+    monkeypatch.setattr(docs_check, "LINKED", ())
+    doc = tmp_path / "DOC.md"
+    doc.write_text("<!-- check: wrapped -->\n```text\n$ echo hello\nhello\n```\n")
+    assert check(doc) == 0
+
+
 SLOW_CHECKS = """\
 checks:
   table:

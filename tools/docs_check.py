@@ -12,8 +12,10 @@ are written for authors at the top of ``docs/checks.yaml``; in short:
   (``-``: none) in DOC to FILE; ``python-block DOC N [ARGS]`` runs the N-th ``python`` block.
 * A **transcript** is a fenced block with ``<!-- check: NAME -->`` on the line above it. Every
   line is compared. ``$ COMMAND`` (one of the check's commands, shown without a trailing
-  ``|| true`` / ``; test $? -eq N`` and without leading ``env`` settings) starts that command's
-  output; a block without ``$`` lines is the whole output of the check. Lines are paired in
+  ``|| true`` / ``; test $? -eq N`` and without leading ``env`` settings, or as the check's
+  ``{run: ..., shown: ...}`` entry says) starts that command's output; a block without ``$``
+  lines is the whole output of the check, or of the command the marker names
+  (``<!-- check: NAME: COMMAND -->``). Lines are paired in
   order by their *shape* (numbers as ``#``), then compared exactly. Omitted lines must be
   marked: a line ``...`` stands for one or more lines, ``[N lines omitted]`` for exactly N (the
   count is checked). ``...`` inside a line stands for any text. Lines matching one of the
@@ -115,6 +117,7 @@ class CheckError(Exception):
 class Check:
     name: str
     commands: list[str]
+    shown: dict[str, str] = field(default_factory=dict)  # command -> how pages show it
     ignore: list[re.Pattern] = field(default_factory=list)
     mask: list[re.Pattern] = field(default_factory=list)
     slow: bool = False
@@ -134,9 +137,12 @@ def load_checks() -> dict[str, Check]:
     raw = yaml.safe_load(CHECKS.read_text())
     checks = {}
     for name, spec in raw["checks"].items():
+        commands = [c if isinstance(c, str) else c["run"] for c in spec["commands"]]
+        shown = {c["run"]: c["shown"] for c in spec["commands"] if not isinstance(c, str)}
         checks[name] = Check(
             name=name,
-            commands=list(spec["commands"]),
+            commands=commands,
+            shown=shown,
             ignore=[re.compile(p) for p in spec.get("ignore", [])],
             mask=[re.compile(p) for p in spec.get("mask", [])],
             slow=bool(spec.get("slow", False)),
@@ -332,7 +338,7 @@ def _output_of(check: Check, command: str) -> list[str]:
     """The output of one of the check's commands, named as in checks.yaml or after ``$``."""
     assert check.outputs is not None
     for i, c in enumerate(check.commands):
-        if command in (c, display(c)):
+        if command in (c, check.shown.get(c, display(c))):
             return check.outputs[i]
     raise CheckError(f"{command!r} is not a command of check {check.name}")
 
@@ -350,7 +356,7 @@ def _segments(
         return [(_items(block, first), check.output or [])]
     if block[0].strip() and not block[0].strip().startswith("$ "):
         raise CheckError(f"line {first + 1}: a transcript with $ lines must start with one")
-    shown = [display(c) for c in check.commands]
+    shown = [check.shown.get(c, display(c)) for c in check.commands]
     segments = []
     after = 0
     for k, line in enumerate(block):
