@@ -268,6 +268,7 @@ def problems(tmp_path, text: str) -> list[str]:
         "<!-- not-output: the layout of a file -->\n```text\n/run  attrs\n```\n",
         "Built in <!-- value: x.seconds -->12<!-- /value --> s.\n",
         "At most <!-- not-output: a rule -->25 %<!-- /not-output --> may lie below.\n",
+        "<!-- not-output: a rule -->25 %<!-- /not-output --> may lie below.\n",
         "A 50 x 50 grid of 10 um pyramids, 5000 events, seed 1, `--events 2000`, 2026-11-25.\n",
         "| key | default |\n| --- | --- |\n| `events` | `1000` |\n",
         "<!-- not-output: the options -->\n| option | meaning |\n| --- | --- |\n| x | 89.99 |\n",

@@ -75,8 +75,8 @@ INPUT_LANGUAGES = {"yaml", "yml", "python", "py", "bash", "sh", "shell", "toml",
 
 NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 FENCE = re.compile(r"^(\s*)(```+)\s*([\w+-]*)")
-CHECK_MARK = re.compile(r"^\s*<!-- check: ([\w.-]+)(?:: (.+?))? -->\s*$")
-NOT_OUTPUT_MARK = re.compile(r"^\s*<!-- not-output(?:: *(.*?))? *-->\s*$")
+CHECK_MARK = re.compile(r"^\s*<!-- check: ([\w.-]+)(?:: ((?:(?!-->).)+?))? -->\s*$")
+NOT_OUTPUT_MARK = re.compile(r"^\s*<!-- not-output(?:: *((?:(?!-->).)*?))? *-->\s*$")
 TABLE_ROW = re.compile(r"^\s*\|")
 TABLE_RULE = re.compile(r"^\s*\|[\s:|-]+\|\s*$")
 VALUE_MARK = re.compile(r"<!-- value: ([\w.-]+)\.(\w+) -->(.*?)<!-- /value -->")
