@@ -300,6 +300,12 @@ def test_uncovered_transcripts_and_figures_are_found(tmp_path, text, message):
     assert found[0].startswith(str(tmp_path / "page.md"))
 
 
+def test_a_span_must_close_on_its_line(tmp_path):
+    found = problems(tmp_path, "shares <!-- not-output: areas -->0.05,\n0.10<!-- /not-output -->\n")
+    assert found
+    assert all("must close on its line" in p for p in found)
+
+
 def test_a_marker_must_stand_above_a_block_or_table(tmp_path):
     with pytest.raises(docs_check.CheckError, match="directly above"):
         problems(tmp_path, "<!-- check: x -->\n\n```text\nout\n```\n")

@@ -567,8 +567,11 @@ def coverage(path: Path, lines: list[str] | None = None) -> list[str]:
                     "or <!-- not-output: what it is --> on the line above it"
                 )
     for n, line in enumerate(lines):
-        if n in covered:
+        if n in covered or CHECK_MARK.match(line) or NOT_OUTPUT_MARK.match(line):
             continue
+        rest = NOT_OUTPUT_SPAN.sub(" ", VALUE_MARK.sub(" ", re.sub(r"`[^`]*`", " ", line)))
+        if re.search(r"<!-- (value:|/value|not-output|/not-output)", rest):
+            problems.append(f"{rel}:{n + 1}: a value or not-output marker must close on its line")
         uncovered = figures(line)
         problems.extend(f"{rel}:{n + 1}: figure '{f}' is not covered by a check" for f in uncovered)
     return problems
