@@ -270,6 +270,8 @@ def problems(tmp_path, text: str) -> list[str]:
         "At most <!-- not-output: a rule -->25 %<!-- /not-output --> may lie below.\n",
         "<!-- not-output: a rule -->25 %<!-- /not-output --> may lie below.\n",
         "A 50 x 50 grid of 10 um pyramids, 5000 events, seed 1, `--events 2000`, 2026-11-25.\n",
+        "ENSDF archive of September 2023 ![1 m face, 2.2 GB](img/x.png)\n",
+        "<!-- not-output: ENSDF -->\n* Po-210 5304.33 keV, Bi-214 45.49 %\n  and 2614.511\n",
         "| key | default |\n| --- | --- |\n| `events` | `1000` |\n",
         "<!-- not-output: the options -->\n| option | meaning |\n| --- | --- |\n| x | 89.99 |\n",
     ],
@@ -291,6 +293,7 @@ def test_covered_or_not_a_figure(tmp_path, text):
         ("A mean deposit of 2.6976 MeV.\n", "figure '2.6976'"),
         ("with 789 of 2000 full-energy events\n", "figure '789 of 2000'"),
         ("| case | s |\n| --- | --- |\n| flat | 12 s |\n", "a table with figures (12 s)"),
+        ("<!-- not-output: ENSDF -->\n* Po-210 5304.33 keV\n* took 12 s\n", "figure '12 s'"),
     ],
 )
 def test_uncovered_transcripts_and_figures_are_found(tmp_path, text, message):

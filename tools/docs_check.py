@@ -31,7 +31,8 @@ are written for authors at the top of ``docs/checks.yaml``; in short:
   ``<!-- not-output: WHAT IT IS -->`` above it; every table holding a figure needs a check
   marker or ``<!-- not-output: ... -->``; every figure in the text (a time, a memory size, a
   percentage, a factor such as ``3x``, ``N of M``, a number of four or more significant
-  digits) must be a value or sit in ``<!-- not-output: WHY -->...<!-- /not-output -->``.
+  digits) must be a value or sit in ``<!-- not-output: WHY -->...<!-- /not-output -->`` (one
+  line), or in a paragraph or list item with ``<!-- not-output: WHY -->`` on the line above it.
 
 ``--update`` rewrites the quoted lines, counts and values from the new output instead of
 failing (then read the diff); with ``--remeasure`` it also takes the masked figures (timings,
@@ -81,6 +82,7 @@ TABLE_ROW = re.compile(r"^\s*\|")
 TABLE_RULE = re.compile(r"^\s*\|[\s:|-]+\|\s*$")
 VALUE_MARK = re.compile(r"<!-- value: ([\w.-]+)\.(\w+) -->(.*?)<!-- /value -->")
 NOT_OUTPUT_SPAN = re.compile(r"<!-- not-output(?::[^>]*)? -->.*?<!-- /not-output -->")
+LIST_ITEM = re.compile(r"^\s*(?:[*+-]|\d+\.) ")
 OMITTED = re.compile(r"^\s*\[(\d+) lines? omitted\]\s*$")
 OMITTED_ROW = re.compile(r"^\s*\|(\s*(\.\.\.)?\s*\|)+\s*$")
 
@@ -104,8 +106,9 @@ How to cover a figure or transcript (conventions: top of docs/checks.yaml):
   * a timing or memory figure: a `slow: true` check or a `mask:` pattern (compared by shape),
     and say in the page when, with which command and on what machine it was measured;
   * not output of a program (an input file, a file layout, a rule, a default, a tolerance,
-    a literature value): <!-- not-output: what it is --> on the line above the block or
-    table, or <!-- not-output -->1 %<!-- /not-output --> around the figure;
+    a literature value): <!-- not-output: what it is --> on the line above the block, table,
+    paragraph or list item, or <!-- not-output: why -->1 %<!-- /not-output --> around the
+    figure (on one line);
   * code the reader types: give the block its language (```yaml, ```python, ```bash)."""
 
 
@@ -445,7 +448,7 @@ def runs(check: Check, only: str | None, run_all: bool) -> bool:
 class Part:
     """A fenced block or a table: its lines [first, end) and the marker above it."""
 
-    kind: str  # "block" or "table"
+    kind: str  # "block", "table" or "paragraph" (under a not-output marker)
     first: int  # first quoted line (after the fence)
     end: int
     after: int  # the line after the part
@@ -453,6 +456,18 @@ class Part:
     check: str | None = None
     command: str | None = None  # the block is this command's output (<!-- check: NAME: CMD -->)
     not_output: str | None = None
+
+
+def _paragraph(lines: list[str], i: int, reason: str | None, rel: str) -> Part:
+    """The paragraph or list item below a not-output marker on line i: up to a blank line, the
+    next list item, marker, code block or table."""
+    if not reason:
+        raise CheckError(f"{rel}:{i + 1}: <!-- not-output: ... --> must say what it marks")
+    end = i + 2
+    stop = (LIST_ITEM, NOT_OUTPUT_MARK, CHECK_MARK, FENCE, TABLE_ROW)
+    while end < len(lines) and lines[end].strip() and not any(p.match(lines[end]) for p in stop):
+        end += 1
+    return Part("paragraph", i + 1, end, end, not_output=reason)
 
 
 def parts(lines: list[str], rel: str) -> list[Part]:
@@ -475,13 +490,18 @@ def parts(lines: list[str], rel: str) -> list[Part]:
                 end += 1
             part = Part("table", i, end, end)
         else:
-            if CHECK_MARK.match(lines[i]) or NOT_OUTPUT_MARK.match(lines[i]):
-                nxt = lines[i + 1] if i + 1 < len(lines) else ""
-                if not (FENCE.match(nxt) or TABLE_ROW.match(nxt)):
-                    raise CheckError(
-                        f"{rel}:{i + 1}: a check or not-output marker must be on the line "
-                        "directly above a ``` block or a table"
-                    )
+            nxt = lines[i + 1] if i + 1 < len(lines) else ""
+            below = bool(FENCE.match(nxt) or TABLE_ROW.match(nxt))
+            marker = NOT_OUTPUT_MARK.match(lines[i])
+            if marker and nxt.strip() and not below:
+                found.append(_paragraph(lines, i, marker.group(1), rel))
+                i = found[-1].after
+                continue
+            if (CHECK_MARK.match(lines[i]) or marker) and not below:
+                raise CheckError(
+                    f"{rel}:{i + 1}: a check marker must be on the line directly above a "
+                    "``` block or a table (a not-output marker: also above a paragraph)"
+                )
             i += 1
             continue
         if m := CHECK_MARK.match(above):
@@ -497,10 +517,11 @@ def parts(lines: list[str], rel: str) -> list[Part]:
 
 def prose(text: str) -> str:
     """A line of text without what is covered or not a figure: values, not-output spans,
-    inline code, link targets, comments, dates and version numbers."""
+    inline code, link targets, comments, images, dates, years and version numbers."""
     text = VALUE_MARK.sub(" ", text)
     text = NOT_OUTPUT_SPAN.sub(" ", text)
     text = re.sub(r"`[^`]*`", " ", text)
+    text = re.sub(r"!\[[^\]]*\]", " ", text)  # an image's alt text
     text = re.sub(r"\]\([^)]*\)|<https?://[^>]*>|https?://\S+", " ", text)
     text = re.sub(r"<!--.*?-->", " ", text)
     text = re.sub(r"\b\d{4}-\d\d-\d\d\b", " ", text)
@@ -528,6 +549,8 @@ def figures(text: str) -> list[str]:
         number = m.group(0)
         if re.fullmatch(r"\d[\d.]*", number) and _significant(number) < 4:
             continue
+        if re.fullmatch(r"(?:19|20)\d\d", number):  # a year
+            continue
         found.append(number.strip())
     return found
 
@@ -540,6 +563,8 @@ def coverage(path: Path, lines: list[str] | None = None) -> list[str]:
     covered = set()
     for part in parts(lines, rel):
         covered.update(range(part.first - (part.kind == "block"), part.after))
+        if part.kind == "paragraph":
+            continue
         if part.check or part.not_output:
             continue
         body = lines[part.first : part.end]
