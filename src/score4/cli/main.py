@@ -19,6 +19,7 @@ import click
 from .. import __version__
 from ..errors import ConfigError, RunInterrupted, Score4Error, Score4Warning, naming_file
 from .data import data
+from .decay_cmd import decay_command
 from .geometry import geometry
 from .macro import import_macro
 from .quiet import is_quiet, notice, set_quiet
@@ -300,6 +301,7 @@ cli.add_command(surface)
 cli.add_command(import_macro)
 cli.add_command(geometry)
 cli.add_command(range_command)
+cli.add_command(decay_command)
 
 
 _SHOWN: set[str] = set()  # score4 warnings said in this command
