@@ -18,7 +18,7 @@ The issue's bound: the GDML case costs at most 1.2x the config case, per event a
 Measured 2026-11-25 on the shared 2-core machine, load 6-9 (docs/geometry.md#speed):
     .venv/bin/python benchmarks/bench_gdml_face.py --events 1000 --repeat 4
     config 0.62 s build, 1172 ev/s CPU; gdml 0.56 s, 1169 ev/s: build 0.90x, per event 1.00x
-(single runs scatter by +-30 %: two repeats gave 0.74x and, in another run, 1.22x for the build)
+(single runs scatter: two repeats gave 0.74x and, in another run, 1.22x for the build)
 """
 
 from __future__ import annotations
