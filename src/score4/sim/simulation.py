@@ -280,8 +280,9 @@ class Simulation:
         ``stop``, set from another thread, ends the run after the event being tracked
         (:meth:`_check_stop`) and raises :class:`RunCancelled`; the application stays usable.
         """
-        for name in np.unique(primaries.particle):
-            self.particle(str(name))
+        names = [str(name) for name in np.unique(primaries.particle)]
+        for name in names:
+            self.particle(name)
         n = primaries.n_events
         self._primaries = primaries
         # Portal tiling: vertices in a portal box start at their subworld point.
@@ -294,7 +295,11 @@ class Simulation:
         self._offsets = primaries.event_offsets()
         self._trim = self.trim_rows(primaries)
         self._scores = {q: np.zeros((n, len(self.volumes))) for q in self.quantities}
-        self._untracked_rows = self.untracked_rows(primaries)
+        self._untracked_rows = (
+            self.untracked_rows(primaries)
+            if "gamma" in names
+            else np.zeros(len(primaries), dtype=bool)
+        )
         self._skip = self._trim | self._untracked_rows
         self.untracked_gamma = np.bincount(
             primaries.event[self._untracked_rows],
@@ -307,7 +312,7 @@ class Simulation:
         self.intercepted, self.ion_fates = [], {}
         self._pending: list[IonFate] = []
         self._scored = False
-        self._intercept(primaries)
+        self._intercept(names)
         self._next_event = 0
         self._event_seeds: np.ndarray | None = None
         if np.ndim(g4_seed) == 0:
@@ -378,10 +383,10 @@ class Simulation:
             for volume, value in fate.lengths.items():
                 self._scores["track_length"][k, volume] += value
 
-    def _intercept(self, primaries: Primaries) -> None:
-        """Install the stacking action when this batch can create heavy-ion secondaries, or
-        photons lite physics must count (positrons annihilate into two)."""
-        names = [str(n) for n in np.unique(primaries.particle)]
+    def _intercept(self, names: list[str]) -> None:
+        """Install the stacking action when this batch (its primaries' particle ``names``) can
+        create heavy-ion secondaries, or photons lite physics must count (positrons
+        annihilate into two)."""
         from .heavy_ions import heavy_ion_z
 
         def is_ion(name: str) -> bool:
