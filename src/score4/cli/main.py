@@ -263,6 +263,12 @@ def summary(results_file: Path, as_json: bool, bins, threshold: str) -> None:
             f"  energy check  {run['energy_violations']} events deposit more than their primaries' "
             f"energy + 1 eV" + (f" (largest excess {excess:.4g} keV)" if excess > 0 else "")
         )
+    if float(run.get("untracked_gamma_energy_MeV", 0.0)) > 0:
+        click.echo(
+            f"  photons       {float(run['untracked_gamma_energy_MeV']):.6g} MeV in "
+            f"{run.get('untracked_gamma_events', 0)} events not tracked (lite physics: gamma and "
+            f"X-ray primaries, annihilation photons; per event: events/untracked_gamma_energy)"
+        )
     if int(run.get("stuck_events_aborted", 0)):
         click.echo(
             f"  stuck tracks  {run['stuck_events_aborted']} events aborted by Geant4 (a track stuck "

@@ -216,7 +216,11 @@ def format_table(result: dict) -> str:
     "--events", "-n", default="1000", metavar="N", show_default=True, help="Ions to simulate."
 )
 @click.option(
-    "--seed", default="1", metavar="S", show_default=True, help="Random seed (score4 and TRIM)."
+    "--seed",
+    default="1",
+    metavar="S",
+    show_default=True,
+    help="Random seed; score4's TRIM libraries and the TRIM reference draw their own seeds from it.",
 )
 @click.option(
     "--thickness",
@@ -494,19 +498,23 @@ def run_range(
     }
     if srim_events is not None:
         from ..ions.srim_reference import srim_range_sample, stopping_table_reference
+        from ..sim.seeds import reference_trim_seed
 
-        echo(f"TRIM (lunasrim): {srim_events} ions ...")
+        # never the seed of score4's own trajectory libraries: an independent TRIM run
+        trim_seed = reference_trim_seed(seed)
+        echo(f"TRIM (lunasrim): {srim_events} ions, TRIM seed {trim_seed} ...")
         srim_sample = srim_range_sample(
             species,
             energy_mev,
             composition,
             srim_events,
-            seed,
+            trim_seed,
             thickness_mm=thickness_mm,
             angle_deg=angle_deg,
             progress=_quarters(echo),
         )
         srim = summarize(srim_sample)
+        srim["trim_seed"] = trim_seed
         if thickness_mm is None and angle_deg == 0:
             srim["table"] = stopping_table_reference(species, energy_mev, composition)
         result["srim"] = srim

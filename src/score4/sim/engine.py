@@ -79,7 +79,7 @@ class Executor(Protocol):
     ``execute(spec, todo)`` is a generator that runs the chunks ``todo`` and yields events:
 
     - ``("ready", info)``: a worker has built the Geant4 application (``info`` goes into the run
-      record: ``geant4_version``, ``removed_processes``);
+      record: ``geant4_version``, ``removed_processes``, ``trim_library_seed``);
     - ``("progress", n_events)``: more events are done (for the progress bar);
     - ``("done", index)``: the file of chunk ``index`` is complete in ``spec.parts_dir``;
     - ``("failed", index, error_class_name, message)``: chunk ``index`` failed (``index`` is
@@ -321,6 +321,7 @@ def run(
         "physics_lacks": choice.lacks,
         "missing_data_sets": list(choice.missing_data),
         "removed_processes": info.get("removed_processes", []),
+        **{k: info[k] for k in ("trim_library_seed",) if k in info},  # runs with a TRIM replay
         # one entry per scoring column (contract 1: name, material, density, volume, mass)
         "volumes": info.get("volumes", []),
         "rough_shares": {layer.name: layer.rough_share for layer in scene.layers},
@@ -340,6 +341,7 @@ def run(
         "geant4_warnings": _geant4_warnings(exceptions),
         **_stuck_tracks(exceptions),
         **balance,
+        **_untracked_photons(files),
         # contract 1: the decays the events stand for (score4.normalisation will own this)
         **decay_normalisation(config),
     }
@@ -664,6 +666,21 @@ def _energy_balance(files: list[Path], decay: bool) -> dict:
         "energy_violations": balance.violations,
         "energy_max_excess_MeV": balance.max_excess_mev,
     }
+
+
+def _untracked_photons(files: list[Path]) -> dict:
+    """Run-record sums of the photon energy lite physics did not track (empty in full mode)."""
+    import h5py
+
+    total, events = 0.0, 0
+    for path in files:
+        with h5py.File(path, "r") as f:
+            if "untracked_gamma_energy" not in f["events"]:
+                return {}  # full physics (or a chunk written without the count)
+            values = f["events/untracked_gamma_energy"][()]
+            total += float(values.sum())
+            events += int((values > 0).sum())
+    return {"untracked_gamma_energy_MeV": total, "untracked_gamma_events": events}
 
 
 def _count_chunk_files(parts: Path, chunks: ChunkPlan) -> int:

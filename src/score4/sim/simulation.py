@@ -21,6 +21,8 @@ from ..geometry.world import BuiltGeometry, build_world, check_materials
 from ..scene import build_scene
 from ..source.build import make_source
 from ..source.primaries import Primaries
+from .heavy_ions import IonFate, ReplayStream
+from .interception import InterceptedIon, make_stacking_action, needs_interception
 from .physics import (
     drop_unused_parallel_world_region,
     make_physics_list,
@@ -29,6 +31,7 @@ from .physics import (
 )
 from .runtime import PhysicsChoice, import_geant4, redirect_native_output
 from .scoring import VolumeScorer
+from .seeds import library_trim_seed
 
 if TYPE_CHECKING:
     from .heavy_ions import HeavyIonTransport
@@ -65,9 +68,16 @@ class Simulation:
     scorer: VolumeScorer
 
     def __init__(
-        self, config: RunConfig, choice: PhysicsChoice, log_path: Path | None = None
+        self,
+        config: RunConfig,
+        choice: PhysicsChoice,
+        log_path: Path | None = None,
+        seed: int | None = None,
     ) -> None:
+        """``seed``: the run seed (default ``config.run.seed``); it fixes the TRIM seed of the
+        trajectory libraries (:func:`score4.sim.seeds.library_trim_seed`)."""
         self.config = config
+        self.run_seed = config.run.seed if seed is None else int(seed)
         self.scene = build_scene(config)
         self.source = make_source(config, self.scene)
         self.choice = choice
@@ -153,9 +163,16 @@ class Simulation:
                 self.geometry.world,
                 self.geometry.scoring,
                 histories=self.config.physics.trim_histories,
+                library_seed=library_trim_seed(self.run_seed),
             )
         self._endpoint_action: Any = None
+        self._next_event = 0  # index in the batch of the event being tracked
         self._replaying = False  # this batch has heavy ions to replay
+        self._interceptor: Any = None  # stacking action for heavy-ion secondaries, once needed
+        #: heavy-ion secondaries taken from Geant4 in the last :meth:`run` (``interception``)
+        self.intercepted: list[InterceptedIon] = []
+        #: how each replayed primary ended in the last :meth:`run`: {row of primaries: fate}
+        self.ion_fates: dict[int, IonFate] = {}
         self.endpoints: np.ndarray | None = None
         self._particles: dict[str, object] = {}
         self.volumes = list(self.scorer.names)
@@ -170,8 +187,8 @@ class Simulation:
     def trim_rows(self, primaries: Primaries) -> np.ndarray:
         """Rows of ``primaries`` that follow TRIM trajectories instead of Geant4.
 
-        Ions heavier than helium up to ``physics.trim_max_energy`` (``heavy_ions: trim``), and
-        alphas of any energy with ``alphas: trim``.
+        Ions heavier than helium of kinetic energy in (0, ``physics.trim_max_energy``]
+        (``heavy_ions: trim``), and alphas of any energy with ``alphas: trim``.
         """
         mask = np.zeros(len(primaries), dtype=bool)
         if self.heavy_ions is None:
@@ -184,8 +201,31 @@ class Simulation:
             if name == "alpha" and physics.alphas == "trim":
                 mask |= rows
             elif physics.heavy_ions == "trim" and heavy_ion_z(self.particle(str(name))):
-                mask |= rows & (primaries.energy <= physics.trim_max_energy)
+                # at rest (a nuclide source): Geant4's radioactive decay takes it
+                energy = primaries.energy
+                mask |= rows & (energy <= physics.trim_max_energy) & (energy > 0)
         return mask
+
+    def untracked_rows(self, primaries: Primaries) -> np.ndarray:
+        """Rows of ``primaries`` that are photons lite physics cannot track (no data-free
+        photoelectric model in Geant4 11.4: docs/physics.md#gammas-and-x-rays-in-lite-mode).
+        Their energies are counted per event (:meth:`event_columns`), not given to Geant4."""
+        if self.choice.mode != "lite":
+            return np.zeros(len(primaries), dtype=bool)
+        return np.asarray(primaries.particle == "gamma")
+
+    def event_columns(self) -> dict[str, np.ndarray]:
+        """More per-event columns of the last :meth:`run` for the results file.
+
+        Lite physics: ``untracked_gamma_energy`` (MeV), the energy of the event's photons
+        (gamma and X-ray primaries, annihilation photons) that were not tracked."""
+        if self.choice.mode != "lite":
+            return {}
+        return {"untracked_gamma_energy": self.untracked_gamma}
+
+    def untrack(self, k: int, energy: float) -> None:
+        """Count a photon of ``energy`` MeV that event ``k`` created and lite physics drops."""
+        self.untracked_gamma[k] += energy
 
     def _generate(self, gun, event) -> None:
         k = self._next_event
@@ -195,7 +235,7 @@ class Simulation:
         if self.teleporter is not None:
             self.teleporter.begin_event(int(self._offsets[k]), int(self._offsets[k + 1]))
         for row in range(self._offsets[k], self._offsets[k + 1]):
-            if self._trim[row]:
+            if self._skip[row]:  # replayed on TRIM, or a gamma lite physics cannot track
                 continue
             gun.SetParticleDefinition(self._defs[row])
             gun.SetParticleEnergy(p.energy[row])
@@ -206,9 +246,14 @@ class Simulation:
     def _score(self, event) -> None:
         k = self._next_event
         self.scorer.read(event, self._scores, k)
+        self._scored = True
+        for fate in self._pending:  # heavy-ion secondaries replayed during the event
+            self.book(k, fate)
+        self._pending.clear()
         if self._replaying:
             self._replay_event(k)
         self._next_event += 1
+        self._scored = False
 
     def run(
         self,
@@ -235,8 +280,9 @@ class Simulation:
         ``stop``, set from another thread, ends the run after the event being tracked
         (:meth:`_check_stop`) and raises :class:`RunCancelled`; the application stays usable.
         """
-        for name in np.unique(primaries.particle):
-            self.particle(str(name))
+        names = [str(name) for name in np.unique(primaries.particle)]
+        for name in names:
+            self.particle(name)
         n = primaries.n_events
         self._primaries = primaries
         # Portal tiling: vertices in a portal box start at their subworld point.
@@ -249,9 +295,24 @@ class Simulation:
         self._offsets = primaries.event_offsets()
         self._trim = self.trim_rows(primaries)
         self._scores = {q: np.zeros((n, len(self.volumes))) for q in self.quantities}
+        self._untracked_rows = (
+            self.untracked_rows(primaries)
+            if "gamma" in names
+            else np.zeros(len(primaries), dtype=bool)
+        )
+        self._skip = self._trim | self._untracked_rows
+        self.untracked_gamma = np.bincount(
+            primaries.event[self._untracked_rows],
+            weights=primaries.energy[self._untracked_rows],
+            minlength=n,
+        ).astype(float)
         self.endpoints = np.full((len(primaries), 4), np.nan) if endpoints else None
         self._track_endpoints(endpoints)
         self._prepare_replay(primaries, g4_seed)
+        self.intercepted, self.ion_fates = [], {}
+        self._pending: list[IonFate] = []
+        self._scored = False
+        self._intercept(names)
         self._next_event = 0
         self._event_seeds: np.ndarray | None = None
         if np.ndim(g4_seed) == 0:
@@ -276,6 +337,7 @@ class Simulation:
     def _prepare_replay(self, primaries: Primaries, g4_seed: int | np.ndarray) -> None:
         """Heavy ions of this batch: libraries announced, random streams chosen."""
         self._replaying = bool(self._trim.any())
+        self._replay_seeds = np.asarray(g4_seed)
         if not self._replaying:
             return
         transport = self.heavy_ions
@@ -286,12 +348,64 @@ class Simulation:
             transport.need(str(name), float(energy))
         # Own streams: one per primary with per-event Geant4 seeds (so the first N events of a
         # run are the same in a longer run), else one for the batch.
-        self._replay_seeds = np.asarray(g4_seed)
         self._replay_rng = (
-            np.random.default_rng([int(self._replay_seeds), _REPLAY_STREAM])
+            ReplayStream(int(self._replay_seeds), _REPLAY_STREAM)
             if self._replay_seeds.ndim == 0
             else None
         )
+
+    # -- heavy-ion secondaries (score4.sim.interception) -------------------------------------
+
+    @property
+    def max_energy(self) -> float:
+        return float(self.config.physics.trim_max_energy)
+
+    @property
+    def decay(self) -> bool:
+        return bool(self.choice.decay)
+
+    def current_event(self) -> tuple[int, int]:
+        """(index in the batch, seed) of the event Geant4 is tracking."""
+        k = self._next_event
+        seeds = self._replay_seeds
+        return k, int(seeds) * 1_000_003 + k if seeds.ndim == 0 else int(seeds[k])
+
+    def book(self, k: int, fate: IonFate) -> None:
+        """Add a replayed ion's deposits (and track lengths) to event ``k``.
+
+        While Geant4 tracks event ``k`` they wait: its scores are read at its end."""
+        if k == self._next_event and not self._scored:
+            self._pending.append(fate)
+            return
+        for volume, value in fate.deposits.items():
+            self._scores["edep"][k, volume] += value
+        if "track_length" in self._scores:
+            for volume, value in fate.lengths.items():
+                self._scores["track_length"][k, volume] += value
+
+    def _intercept(self, names: list[str]) -> None:
+        """Install the stacking action when this batch (its primaries' particle ``names``) can
+        create heavy-ion secondaries, or photons lite physics must count (positrons
+        annihilate into two)."""
+        from .heavy_ions import heavy_ion_z
+
+        def is_ion(name: str) -> bool:
+            p = self.particle(name)
+            return bool(heavy_ion_z(p)) or str(p.GetParticleType()) == "nucleus"
+
+        heavy = (
+            self.heavy_ions is not None
+            and self.config.physics.heavy_ions == "trim"
+            and needs_interception(names, is_ion, self.decay)
+        )
+        gammas = self.choice.mode == "lite" and "e+" in names
+        if not (heavy or gammas):
+            return
+        if self._interceptor is None:
+            self._interceptor = make_stacking_action(self.g4, self.heavy_ions, self)
+            self.run_manager.SetUserAction(self._interceptor)
+        self._interceptor.heavy |= heavy
+        self._interceptor.gammas |= gammas
 
     def _replay_event(self, k: int) -> None:
         """Move event ``k``'s heavy ions along TRIM trajectories; add their deposits (per event,
@@ -305,7 +419,7 @@ class Simulation:
             rng = self._replay_rng
             if rng is None:
                 seed = int(self._replay_seeds[k])
-                rng = np.random.default_rng([seed, _REPLAY_STREAM, row - first])
+                rng = ReplayStream(seed, _REPLAY_STREAM, row - first)
             name = str(p.particle[row])
             fate = transport.transport(
                 self._particles[name],
@@ -315,11 +429,8 @@ class Simulation:
                 p.direction[row],
                 rng,
             )
-            for volume, value in fate.deposits.items():
-                self._scores["edep"][k, volume] += value
-            if "track_length" in self._scores:
-                for volume, value in fate.lengths.items():
-                    self._scores["track_length"][k, volume] += value
+            self.book(k, fate)
+            self.ion_fates[row] = fate
             if self.endpoints is not None:
                 self.endpoints[row] = (*fate.position, fate.escaped_energy)
 
@@ -353,7 +464,7 @@ class Simulation:
 
     def _g4_rows_of_event(self, k: int) -> np.ndarray:
         rows = np.arange(self._offsets[k], self._offsets[k + 1])
-        return rows[~self._trim[rows]]
+        return rows[~self._skip[rows]]
 
     def _check_stop(self) -> None:
         """End the run after this event when asked to (one attribute test per event)."""

@@ -87,7 +87,15 @@ def run_chunk(sim, spec: WorkerSpec, chunk: Chunk, progress=None) -> Path:
     """Sample, track and write one chunk (atomically); return the chunk file."""
     primaries, scores = simulate_chunk(sim, spec, chunk, progress)
     path = chunk_path(spec.parts_dir, chunk.index)
-    write_chunk(path, chunk.first_event, sim.volumes, scores, primaries, spec.fingerprint)
+    write_chunk(
+        path,
+        chunk.first_event,
+        sim.volumes,
+        scores,
+        primaries,
+        spec.fingerprint,
+        columns=sim.event_columns(),
+    )
     return path
 
 
@@ -96,11 +104,14 @@ def ready_info(sim) -> dict:
     from ..geometry.masses import volume_records
     from .runtime import geant4_version
 
-    return {
+    info = {
         "geant4_version": geant4_version(sim.g4),
         "removed_processes": sim.removed_processes,
         "volumes": volume_records(sim.g4, sim.scene, sim.geometry.scoring),
     }
+    if sim.heavy_ions is not None:
+        info["trim_library_seed"] = sim.heavy_ions.library_seed
+    return info
 
 
 def _exit_with_parent() -> None:
@@ -126,7 +137,7 @@ def worker_main(spec: WorkerSpec, conn) -> None:
     log = Path(spec.parts_dir) / f"geant4-{os.getpid()}.log"
     chunk = None
     try:
-        sim = Simulation(spec.config, spec.choice, log_path=log)
+        sim = Simulation(spec.config, spec.choice, log_path=log, seed=spec.seed)
         conn.send(("ready", ready_info(sim)))
         while (chunk := conn.recv()) is not None:
             run_chunk(sim, spec, chunk, progress=lambda n: conn.send(("progress", n)))
