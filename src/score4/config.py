@@ -24,6 +24,7 @@ from pydantic import (
 
 from .errors import ConfigError
 from .schema import (
+    GIVEN,
     ConfigPath,
     NonNegativeLength,
     PositiveDensity,
@@ -32,6 +33,7 @@ from .schema import (
     Size3,
     StrictModel,
     Vector3,
+    check_option_keys,
     describe_validation_error,
 )
 from .surface.patchmap import DEFAULT_TILES
@@ -60,6 +62,8 @@ class MaterialSpec(StrictModel):
     ("6.02 g/cm3", "3070 kg/m3"; stored in g/cm3). Geant4 builds it from its NIST elements
     (natural isotopic composition); TRIM comparisons use the same atoms and density.
     """
+
+    used_only_with: ClassVar[dict[str, object]] = {"fractions": ("elements", GIVEN)}
 
     formula: str | None = None
     elements: dict[str, float] | None = None
@@ -184,9 +188,12 @@ class RoughFace(StrictModel):
     face, outside the box, in the target's material, and is scored with the target.
     """
 
-    used_only_with: ClassVar[dict[str, tuple[str, tuple[object, ...]]]] = {
+    used_only_with: ClassVar[dict[str, object]] = {
         "n_tiles": ("fill", ("tiles",)),
         "native_layout": ("tiling", ("native",)),
+        "block_cells": ("solid", ("blocks",)),  # solid: auto resolves per surface (option_values)
+        "fill": ("variants", GIVEN),  # one surface: every cell shows it, there is nothing to fill
+        "seed": ("variants", GIVEN),
     }
 
     face: Face = "+z"
@@ -218,6 +225,16 @@ class RoughFace(StrictModel):
             )
         return self
 
+    def option_values(self, key: str, root) -> tuple[object, ...] | None:
+        """``solid: auto`` stands for the solids its surfaces resolve to (see
+        :meth:`score4.scene.RoughLayer.solid_kind`), known once the run's surfaces are."""
+        if key != "solid" or self.solid != "auto":
+            return super().option_values(key, root)
+        if root is None:
+            return None
+        kinds = [auto_solid(root.surfaces.get(v.surface)) for v in self.variant_list]
+        return None if None in kinds else tuple(dict.fromkeys(kinds))
+
     @property
     def variant_list(self) -> list[PatchVariant]:
         assert self.variants is not None or self.surface is not None  # the validator's rule
@@ -228,8 +245,35 @@ class RoughFace(StrictModel):
         )
 
 
+def auto_solid(description) -> str | None:
+    """The solid ``solid: auto`` makes of a surface description; None when it cannot be told
+    without building the surface (an unreadable surface file).
+
+    Spike grids of equal heights become a multi-union, with a height spread frustums, height
+    maps blocks (the choice explained at :meth:`score4.scene.RoughLayer.solid_kind`).
+    """
+    if isinstance(description, SurfaceFile):
+        from .surface.store import stored_spec
+
+        description = stored_spec(description.file)
+    if isinstance(description, SpikeSurfaceSpec):
+        return "multiunion" if description.height_sigma == 0 else "frustums"
+    if isinstance(description, (RandomSurfaceSpec, MeasuredSurfaceSpec)):
+        return "blocks"
+    return None
+
+
 class DepthConfig(StrictModel):
     """How deep below the local surface a vertex sits."""
+
+    used_only_with: ClassVar[dict[str, object]] = {
+        "mean": ("profile", ("exponential", "truncated_gaussian")),
+        "sigma": ("profile", ("truncated_gaussian",)),
+        "means": ("profile", ("multi_exponential",)),
+        "weights": ("profile", ("multi_exponential",)),
+        "file": ("profile", ("table",)),
+        "unit": ("profile", ("table",)),
+    }
 
     profile: Literal[
         "zero", "exponential", "multi_exponential", "uniform", "truncated_gaussian", "table"
@@ -257,17 +301,6 @@ class DepthConfig(StrictModel):
         missing = [k for k in need if getattr(self, k) is None]
         if missing:
             raise ValueError(f"profile {self.profile} needs {' and '.join(missing)}")
-        # keys of other profiles would be ignored silently: refuse them
-        own = set(need) | {"profile", "min", "max", "definition"}
-        if self.profile == "table":
-            own.add("unit")
-        foreign = sorted(k for k in self.model_fields_set - own if getattr(self, k) is not None)
-        if foreign:
-            uses = ", ".join(k for k in need) or "no parameters"
-            raise ValueError(
-                f"{', '.join(foreign)}: not used by profile {self.profile} (it uses {uses}, "
-                f"and min/max to cut it); remove {'it' if len(foreign) == 1 else 'them'}"
-            )
         if self.max is not None and self.max <= self.min:
             raise ValueError(
                 f"max ({length_text(self.max)}) must be larger than min ({length_text(self.min)})"
@@ -289,6 +322,11 @@ class SourceConfig(StrictModel):
     radioactive decay, needs full physics data). Or ``vertices``: a vertex file written by
     ``score4 vertices`` whose rows are used as they are.
     """
+
+    used_only_with: ClassVar[dict[str, object]] = {
+        "energy": ("particle", GIVEN),
+        "spectrum": ("particle", GIVEN),
+    }
 
     surface: FaceRef | None = None
     particle: str | None = None
@@ -337,8 +375,9 @@ class SourceConfig(StrictModel):
 
 
 class PhysicsConfig(StrictModel):
-    used_only_with: ClassVar[dict[str, tuple[str, tuple[object, ...]]]] = {
+    used_only_with: ClassVar[dict[str, object]] = {
         "trim_max_energy": ("heavy_ions", ("trim",)),
+        "trim_histories": (("heavy_ions", ("trim",)), ("alphas", ("trim",))),
     }
 
     mode: Literal["auto", "full", "lite"] = "auto"
@@ -418,6 +457,7 @@ class RunConfig(StrictModel):
                         raise ValueError(
                             f"targets.{i}.rough.{j}: surface {v.surface!r} is not under surfaces ({known})"
                         )
+        check_option_keys(self)  # options that resolve across sections (solid: auto)
         return self
 
     def target(self, name: str) -> BoxVolume:

@@ -52,18 +52,13 @@ def nist_names() -> list[str]:
 
 def load_materials(path: Path) -> dict:
     """The ``materials:`` section of a YAML file (other sections are not read)."""
-    import yaml
     from pydantic import TypeAdapter, ValidationError
 
     from ..config import MaterialSpec
     from ..schema import describe_validation_error
+    from ..yamlfile import load_yaml
 
-    if not path.is_file():
-        raise ConfigError(f"--config: file {str(path)!r} does not exist")
-    try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except (yaml.YAMLError, UnicodeDecodeError) as err:
-        raise ConfigError(f"--config: {path}: not valid YAML ({err})") from None
+    data = load_yaml(path, "--config") or {}
     section = data.get("materials", {}) if isinstance(data, dict) else None
     if not isinstance(section, dict):
         raise ConfigError(f"--config: {path}: materials must be a mapping of names to materials")

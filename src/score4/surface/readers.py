@@ -490,7 +490,8 @@ def _read_plu(path: Path, fmt: str, **_) -> HeightMap:
 
 
 # ----------------------------------------------------------------------------- entry point
-def _format_of(path: Path, format: str | None) -> str:
+def format_of(path: Path, format: str | None) -> str:
+    """The reader's name for ``format``, or the one ``path``'s extension names; else ConfigError."""
     fmt = (format if format is not None else path.suffix).lower().lstrip(".")
     if fmt not in FORMATS:
         what = (
@@ -533,7 +534,7 @@ def read_topography(
         ``metadata`` holds ``source`` (the path), ``format`` and what the reader found.
     """
     path = Path(path)
-    fmt = _format_of(path, format)
+    fmt = format_of(path, format)
     if not path.is_file():
         raise ConfigError(f"path: {path} does not exist or is not a file")
     reader = (
