@@ -22,6 +22,7 @@ from pydantic import (
     model_validator,
 )
 
+from . import limits
 from .errors import ConfigError
 from .schema import (
     GIVEN,
@@ -399,6 +400,14 @@ class RunSettings(StrictModel):
     events: int = Field(1000, gt=0)
     seed: int = Field(1, ge=0, lt=2**63)
     chunk_events: int = Field(10_000, gt=0)
+
+    @field_validator("events", "chunk_events")
+    @classmethod
+    def _not_absurd(cls, n: int) -> int:
+        problem = limits.too_many_events(n)
+        if problem:
+            raise ValueError(problem)
+        return n
 
 
 class HistogramConfig(StrictModel):

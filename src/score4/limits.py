@@ -73,6 +73,17 @@ CELL_BYTES = 24
 PRIMARY_BYTES = 120
 
 
+def too_many_events(n: int) -> str | None:
+    """Why ``n`` events are more than a run can hold, or None."""
+    if n <= MAX_EVENTS:
+        return None
+    return (
+        f"{n:.3g} events are more than score4's limit of 1e12: the results file keeps every "
+        "event (~150 bytes each, 150 TB for 1e12), and at ~20 us an event they take centuries "
+        "of CPU"
+    )
+
+
 def _gib(nbytes: float) -> str:
     return f"{nbytes / 2**30:.3g} GiB" if nbytes >= 2**30 else f"{nbytes / 2**20:.3g} MiB"
 

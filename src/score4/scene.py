@@ -18,6 +18,7 @@ from functools import cached_property
 
 import numpy as np
 
+from . import limits
 from .config import BoxVolume, RoughFace, RunConfig, SurfaceFile
 from .errors import ConfigError
 from .surface.blocks import check_patch
@@ -215,6 +216,13 @@ class Scene:
         ]
         return np.min([lo for lo, _ in boxes], axis=0), np.max([hi for _, hi in boxes], axis=0)
 
+    @cached_property
+    def world_half(self) -> np.ndarray:
+        """Half-lengths of the world box, centred on the origin, that holds every target, rough
+        layer and ``world.margin`` (where particles move; a portal adds subworlds beyond it)."""
+        lo, hi = self.bounds
+        return np.maximum(np.abs(lo), np.abs(hi)) + self.config.world.margin
+
 
 def _box_of_target(target: BoxVolume) -> tuple[np.ndarray, np.ndarray]:
     """Axis-aligned (lo, hi) of a target box."""
@@ -243,7 +251,14 @@ def _overlap(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray])
 
 
 def check_clearance(scene: Scene) -> None:
-    """Refuse targets that overlap, and rough layers that run into another target or rough layer."""
+    """Refuse targets that overlap, rough layers that run into another target or rough layer,
+    and a world beyond :data:`score4.limits.MAX_WORLD_EXTENT`."""
+    far = float(np.max(scene.world_half))
+    if far > limits.MAX_WORLD_EXTENT:
+        raise ConfigError(
+            f"targets: the world reaches {far / 1e3:.4g} m from the origin (targets, rough layers "
+            "and world.margin); score4's limit is 1 km (move the targets towards the origin)"
+        )
     boxes = {t.name: _box_of_target(t) for t in scene.config.targets}
     names = list(boxes)
     for a, name in enumerate(names):

@@ -17,7 +17,7 @@ from pathlib import Path
 import click
 
 from .. import __version__
-from ..errors import ConfigError, RunInterrupted, Score4Error, Score4Warning, naming_file
+from ..errors import ConfigError, RunInterrupted, Score4Error, Score4Warning, brief, naming_file
 from .data import data
 from .geometry import geometry
 from .macro import import_macro
@@ -34,22 +34,18 @@ class EventCount(click.ParamType):
     name = "integer"
 
     def convert(self, value, param, ctx):
-        if isinstance(value, int) and not isinstance(value, bool):
-            number = value
-        else:
-            text = str(value).strip()
-            try:
-                number = int(text)
-            except ValueError:
-                try:
-                    as_float = float(text)
-                except ValueError:
-                    self.fail(f"{value!r} is not a number of events", param, ctx)
-                if not as_float.is_integer():
-                    self.fail(f"{value!r} is not a whole number of events", param, ctx)
-                number = int(as_float)
+        from ..limits import too_many_events
+        from ..units import parse_count
+
+        try:
+            number = parse_count(value)
+        except ConfigError:
+            self.fail(f"{brief(value)} is not a whole number of events", param, ctx)
         if number < 1:
-            self.fail(f"{value!r}: need at least 1 event", param, ctx)
+            self.fail(f"{brief(value)}: need at least 1 event", param, ctx)
+        problem = too_many_events(number)
+        if problem:
+            self.fail(problem, param, ctx)
         return number
 
 
@@ -286,6 +282,16 @@ _PYTHON_SHOWWARNING = warnings.showwarning
 _NO_ARGS_IS_HELP = getattr(click.exceptions, "NoArgsIsHelpError", ())
 
 
+#: Longest error line the CLI prints; longer messages (which quote other programs' output) are cut.
+MAX_ERROR_CHARS = 2000
+
+
+def one_line(text: str) -> str:
+    """An error message as one line of at most MAX_ERROR_CHARS characters."""
+    text = " ".join(part.strip() for part in text.splitlines() if part.strip())
+    return text if len(text) <= MAX_ERROR_CHARS else text[: MAX_ERROR_CHARS - 5] + " [...]"
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI; return the exit status (2 for input errors)."""
     _SHOWN.clear()
@@ -299,7 +305,7 @@ def _main(argv: list[str] | None) -> int:
     try:
         status = cli.main(args=argv, prog_name="score4", standalone_mode=False)
     except Score4Error as err:
-        click.echo(f"score4: error: {err}", err=True)
+        click.echo(f"score4: error: {one_line(str(err))}", err=True)
         return 2
     except click.exceptions.Exit as err:
         return err.exit_code
@@ -308,10 +314,10 @@ def _main(argv: list[str] | None) -> int:
         return 2
     except click.UsageError as err:
         path = command_path(cli, sys.argv[1:] if argv is None else list(argv))
-        click.echo(f"score4: error: {usage_error_line(err, path)}", err=True)
+        click.echo(f"score4: error: {one_line(usage_error_line(err, path))}", err=True)
         return 2
     except click.ClickException as err:
-        click.echo(f"score4: error: {err.format_message()}", err=True)
+        click.echo(f"score4: error: {one_line(err.format_message())}", err=True)
         return 2
     except click.exceptions.Abort as err:
         cause = err.__cause__ or err.__context__

@@ -44,7 +44,7 @@ import h5py
 import numpy as np
 from tqdm import tqdm
 
-from .. import __version__, errors
+from .. import __version__, errors, limits
 from ..config import RunConfig, config_to_dict
 from ..errors import ConfigError, Score4Error
 from ..files import atomic_output, check_free_space, check_output_file
@@ -227,9 +227,11 @@ def run(
     if jobs < 1:
         raise ConfigError(f"--jobs: must be at least 1, got {jobs}")
     choice = resolve_physics(config.physics.mode, needs_decay=needs_radioactive_decay(config))
-    # Build the scene and draw one event here: bad surfaces, files and constraints fail now, not in a worker.
+    # Build the scene and draw the first events here: bad surfaces, files, constraints and
+    # vertices outside the world fail now, not in a worker (which checks every event again).
     scene = build_scene(config)
-    make_source(config, scene).primaries(np.random.default_rng(0), 0, 1)
+    sample = make_source(config, scene).events(seed, 0, min(config.run.events, BLOCK_EVENTS))
+    check_run_memory(config, len(sample) / sample.n_events)
     if config.source.vertices is not None and scene.layers:  # hand-made rays: beams on walls?
         rays = read_vertex_file(config.source.vertices)
         text = warn_rays_in_walls(scene, rays.position, rays.direction)
@@ -345,6 +347,18 @@ def run(
     return out
 
 
+def check_run_memory(config: RunConfig, primaries_per_event: float) -> None:
+    """Refuse a run whose results this machine cannot merge (the merge holds them in memory)."""
+    n = config.run.events
+    columns = 2 + len(config.targets) * (3 if config.output.track_length else 1)
+    limits.check_memory(
+        limits.results_bytes(n, columns, primaries_per_event),
+        f"merging the results of {n} events",
+        "run.events",
+        "split it into runs of fewer events with different --seed values",
+    )
+
+
 def _run_chunks(
     executor: Executor, spec: WorkerSpec, chunks: ChunkPlan, done: set[int], show: bool
 ) -> dict:
@@ -376,6 +390,8 @@ def _run_chunks(
                     finished.add(event[1])
                 elif kind == "failed":
                     _, index, cls, text = event
+                    if cls == "WorkerDied":
+                        text += _last_exception_text(spec.parts_dir, text)
                     if cls in _ERRORS:  # bad input or a fault of the environment: stop now
                         where = (
                             ""
@@ -692,13 +708,35 @@ def _geant4_exceptions(parts: Path) -> list[tuple[str, str, str]]:
     """(code, issuer, message) of every G4Exception in the workers' logs, in log order."""
     found = []
     for log in sorted(parts.glob("geant4-*.log")):
-        lines = log.read_text(errors="replace").splitlines()
-        for i, line in enumerate(lines):
-            m = re.search(r"G4Exception : (\S+)", line)
-            if m:
-                issuer = lines[i + 1].split(":", 1)[-1].strip() if i + 1 < len(lines) else ""
-                message = lines[i + 2].strip() if i + 2 < len(lines) else ""
-                found.append((m.group(1), issuer, message))
+        found += _exceptions_in(log.read_text(errors="replace"))
+    return found
+
+
+def _last_exception_text(parts: Path, text: str) -> str:
+    """"; Geant4 said: ..." with the last G4Exception in the log of the worker ``text`` names
+    (``worker process <pid> died``), or "" when there is none."""
+    m = re.search(r"worker process (\d+)", text)
+    logs = [parts / f"geant4-{m.group(1)}.log"] if m else sorted(parts.glob("geant4-*.log"))
+    found = []
+    for log in logs:
+        with contextlib.suppress(OSError):
+            found += _exceptions_in(log.read_text(errors="replace"))
+    if not found:
+        return ""
+    code, issuer, message = found[-1]
+    return f"; Geant4's last exception: {code} ({issuer}): {message}"
+
+
+def _exceptions_in(text: str) -> list[tuple[str, str, str]]:
+    """(code, issuer, message) of every G4Exception in one log text, in order."""
+    found = []
+    lines = text.splitlines()
+    for i, line in enumerate(lines):
+        m = re.search(r"G4Exception : (\S+)", line)
+        if m:
+            issuer = lines[i + 1].split(":", 1)[-1].strip() if i + 1 < len(lines) else ""
+            message = lines[i + 2].strip() if i + 2 < len(lines) else ""
+            found.append((m.group(1), issuer, message))
     return found
 
 

@@ -10,11 +10,12 @@ prefix-stable blocks (:mod:`score4.source.blocks`); ``source.primaries(rng, firs
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TypeVar
 
 import numpy as np
 
+from .. import limits
 from ..config import DepthConfig, RunConfig, SourceConfig
 from ..errors import ConfigError
 from ..scene import Scene, face_frame
@@ -102,10 +103,16 @@ def flat_face_sampler(config: RunConfig, volume: str, face: str) -> SurfaceSampl
 
 @dataclass
 class SampledSource:
-    """Vertices drawn below a (rough) face, each emitting the configured particles."""
+    """Vertices drawn below a (rough) face, each emitting the configured particles.
+
+    Every vertex drawn is checked inside the world box ``|x_i| < world_half_i`` (Geant4 crashes
+    or loses a primary outside its world): a depth profile reaching out of the target with
+    ``confine: false`` is refused with the event it would have started.
+    """
 
     sampler: VertexSampler
     emitter: Emitter
+    world_half: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
 
     def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
         v = self.sampler.sample(rng, n_events)
@@ -121,15 +128,23 @@ class SampledSource:
 
     def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
         """Events ``first_event ..`` of the run with ``seed``, the same in any chunking."""
-        return draw_events(self, seed, first_event, n_events)
+        p = draw_events(self, seed, first_event, n_events)
+        limits.check_vertices(p.position, self.world_half, "source", p.event + first_event)
+        return p
 
 
 @dataclass
 class FileSource:
-    """Primaries read from a vertex file, event by event."""
+    """Primaries read from a vertex file, event by event (all checked inside the world)."""
 
     primaries_all: Primaries
     path: str
+    world_half: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
+
+    def __post_init__(self) -> None:
+        p = self.primaries_all
+        label = f"source.vertices: {self.path}"
+        limits.check_vertices(p.position, self.world_half, label, p.event)
 
     def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
         available = self.primaries_all.n_events
@@ -157,7 +172,7 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
     """What :meth:`primaries` needs, built once: checks files, materials and constraints now."""
     src = config.source
     if src.vertices is not None:
-        source = FileSource(read_vertex_file(src.vertices), str(src.vertices))
+        source = FileSource(read_vertex_file(src.vertices), str(src.vertices), scene.world_half)
         if source.primaries_all.n_events < config.run.events:
             raise ConfigError(
                 f"source.vertices: {src.vertices} holds {source.primaries_all.n_events} events, "
@@ -192,4 +207,4 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
         emitter = make_emitter(src)
     except ConfigError as err:
         raise ConfigError(f"source.{err}") from None  # "source.particle: unknown name ..."
-    return SampledSource(sampler, emitter)
+    return SampledSource(sampler, emitter, scene.world_half)

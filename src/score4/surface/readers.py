@@ -118,13 +118,16 @@ def _heightmap(
         )
     if np.isnan(z).all():
         raise ConfigError(f"{path}: every point is missing (NaN); no valid measurement")
-    return HeightMap(
-        z,
-        px,
-        py,
-        origin=(float(origin[0]), float(origin[1])),
-        metadata={"source": str(path), "format": fmt, **meta},
-    )
+    try:
+        return HeightMap(
+            z,
+            px,
+            py,
+            origin=(float(origin[0]), float(origin[1])),
+            metadata={"source": str(path), "format": fmt, **meta},
+        )
+    except ConfigError as err:
+        raise ConfigError(f"{path}: {err}") from None
 
 
 # ------------------------------------------------------------------------ regular grids from points
