@@ -467,7 +467,17 @@ class RunConfig(StrictModel):
                             f"targets.{i}.rough.{j}: surface {v.surface!r} is not under surfaces ({known})"
                         )
         check_option_keys(self)  # options that resolve across sections (solid: auto)
+        self._check_materials()
         return self
+
+    def _check_materials(self) -> None:
+        """Every material a NIST name or a ``materials:`` entry: checked here, without Geant4,
+        so that ``score4 vertices`` refuses a typo as ``score4 run`` does."""
+        from .geometry.materials import check_material
+
+        check_material(self.world.material, "world.material", self.materials)
+        for i, t in enumerate(self.targets):
+            check_material(t.material, f"targets.{i}.material", self.materials)
 
     def target(self, name: str) -> BoxVolume:
         return next(t for t in self.targets if t.name == name)
