@@ -201,7 +201,7 @@ def measured_dict(path: Path, **extra) -> dict:
                 "hurst": 0.7,
                 "corr_length": "3 um",
             },
-            "corr_length: used only with model: gaussian or exponential (here model is self_affine)",
+            "corr_length: used only with model: gaussian or exponential (here model is self_affine",
         ),
         (
             {

@@ -11,7 +11,7 @@ from collections.abc import Iterator
 
 
 def brief(value: object, limit: int = 60) -> str:
-    """``repr(value)`` cut to about ``limit`` characters: error messages never repeat unbounded input.
+    """``repr(value)`` cut to about ``limit`` characters: messages never repeat unbounded input.
 
     Containers are not expanded beyond what the cut keeps (a YAML alias bomb expands to 10^9
     items; its repr would never finish).

@@ -74,6 +74,18 @@ def _quantity(dimension: str, positive: bool = False, non_negative: bool = False
     return BeforeValidator(parse)
 
 
+def quantity(
+    value: object, dimension: str, label: str, positive: bool = False, non_negative: bool = False
+) -> float:
+    """A command-line quantity ("2 nm") in internal units, under the limits of the schema's
+    quantity types (a ConfigError starting with ``label``, e.g. "--thickness")."""
+    parse = _quantity(dimension, positive, non_negative).func
+    try:
+        return float(parse(value))
+    except ValueError as err:
+        raise ConfigError(f"{label}: {err}") from None
+
+
 _EXAMPLE = {"length": "5 um", "energy": "5.3 MeV", "density": "6.02 g/cm3"}
 
 
@@ -352,6 +364,18 @@ def _models(value: object, path: str):
     elif isinstance(value, dict):
         for k, item in value.items():
             yield from _models(item, f"{path}{k}.")
+
+
+def input_paths(root: BaseModel) -> dict[str, Path]:
+    """``{"the file of <key path>": path}`` for every file a validated description reads (every
+    :data:`ConfigPath` value), so that no output of a command replaces one of them."""
+    found = {}
+    for path, model in _models(root, ""):
+        for name in type(model).model_fields:
+            value = getattr(model, name)
+            if isinstance(value, Path):
+                found[f"the file of {path}{name}"] = value
+    return found
 
 
 def _is_count(tp: Any) -> bool:

@@ -62,7 +62,7 @@ def _check_depth(text: str) -> None:
             if isinstance(event, yaml.CollectionStartEvent):
                 depth += 1
                 if depth > MAX_YAML_DEPTH:
-                    line = event.start_mark.line + 1
+                    line = event.start_mark.line + 1 if event.start_mark else 0
                     raise _Refused(
                         f"line {line}: nested deeper than {MAX_YAML_DEPTH} levels (a run "
                         "description needs fewer than 10)"
@@ -84,7 +84,7 @@ def _check_expansion(root) -> None:
     """
     size: dict[int, int] = {}
     active: set[int] = set()
-    stack: list[tuple[object, bool]] = [(root, False)]
+    stack: list[tuple[yaml.Node, bool]] = [(root, False)]
     while stack:
         node, done = stack.pop()
         key = id(node)
@@ -135,7 +135,7 @@ def load_yaml(path: str | Path, what: str = "config") -> object:
         finally:
             loader.dispose()
     except _Refused as err:
-        raise ConfigError(f"{what}: {path}: {err}") from None
+        raise ConfigError(f"{path}: {err}") from None
     except (ValueError, OSError) as err:
         if isinstance(err, (yaml.YAMLError, UnicodeDecodeError)):
             raise _invalid(err, what, path) from None
@@ -144,7 +144,8 @@ def load_yaml(path: str | Path, what: str = "config") -> object:
         raise _invalid(err, what, path) from None
     key, first, second = repeated
     raise ConfigError(
-        f"{path}: {key if len(key) <= 200 else brief(key)}: key given twice (lines {first} and {second}); keep one of them"
+        f"{path}: {key if len(key) <= 200 else brief(key)}: key given twice (lines {first} and "
+        f"{second}); keep one of them"
     )
 
 

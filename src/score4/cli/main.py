@@ -135,6 +135,7 @@ def run(
     quiet,
 ) -> None:
     """Simulate the run described in CONFIG.yaml and write an HDF5 results file."""
+    from ..files import check_output_file
     from ..output import read_results, summarize
     from ..sim.engine import run as run_engine
 
@@ -144,6 +145,7 @@ def run(
 
     config = _load_with_overrides(config_file, events, seed)
     out = out or Path(config_file.stem + ".h5")
+    check_output_file(out, True, "--out", {"the configuration": config_file})
     with naming_file(config_file):
         run_engine(
             config,
@@ -185,6 +187,7 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
     from ..config import config_to_dict
     from ..files import check_output_file
     from ..scene import build_scene
+    from ..schema import input_paths
     from ..source.build import make_source
     from ..source.vertex_file import write_vertex_file
 
@@ -193,7 +196,9 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
         raise ConfigError(
             f"{config_file}: source.vertices: the source already reads a vertex file; nothing to draw"
         )
-    check_output_file(out, overwrite, "--out")
+    check_output_file(
+        out, overwrite, "--out", {"the configuration": config_file, **input_paths(config)}
+    )
     n, seed = config.run.events, config.run.seed
     with naming_file(config_file):
         source = make_source(config, build_scene(config))

@@ -289,7 +289,7 @@ def range_command(
     if png is not None:
         from ..files import check_output_file
 
-        check_output_file(png, overwrite, "--png")
+        check_output_file(png, overwrite, "--png", {"the --config file": config_file})
     materials = load_materials(config_file) if config_file is not None else {}
     materials = resolve_material(material, density, materials)
 
@@ -336,12 +336,10 @@ def parse_case(ion, energy, events, srim_events, seed, thickness, angle, compare
     before any simulation starts.
     """
     from ..ions.species import parse_ion
-    from ..units import parse_quantity
+    from ..schema import quantity
 
     species = parse_ion(ion, "ION")
-    energy_mev = parse_quantity(energy, "energy", "ENERGY")
-    if not energy_mev > 0:
-        raise ConfigError(f"ENERGY: must be > 0, got {energy!r}")
+    energy_mev = quantity(energy, "energy", "ENERGY", positive=True)
     n_events = _positive_int(events, "--events")
     n_srim = _positive_int(srim_events, "--srim-events") if srim_events is not None else n_events
     seed_value = _int(seed, "--seed")
@@ -349,9 +347,7 @@ def parse_case(ion, energy, events, srim_events, seed, thickness, angle, compare
         raise ConfigError(f"--seed: must be in [0, 2147483562], got {seed!r}")
     thickness_mm = None
     if thickness is not None:
-        thickness_mm = parse_quantity(thickness, "length", "--thickness")
-        if not thickness_mm > 0:
-            raise ConfigError(f"--thickness: must be > 0, got {thickness!r}")
+        thickness_mm = quantity(thickness, "length", "--thickness", positive=True)
     try:
         angle_deg = float(str(angle).removesuffix("deg").strip())
     except ValueError:

@@ -51,6 +51,7 @@ from ..files import atomic_output, check_free_space, check_output_file
 from ..geometry.walls import warn_rays_in_walls
 from ..output import merge_chunks
 from ..scene import build_scene
+from ..schema import input_paths
 from ..source.build import make_source, needs_radioactive_decay
 from ..source.vertex_file import read_vertex_file
 from .conservation import check_chunk_files
@@ -222,7 +223,7 @@ def run(
     """
     out = Path(out)
     echo = echo or (lambda msg: print(msg, file=sys.stderr))
-    check_output_file(out, overwrite, "--out")
+    check_output_file(out, overwrite, "--out", input_paths(config))
     seed = config.run.seed
     if jobs < 1:
         raise ConfigError(f"--jobs: must be at least 1, got {jobs}")
@@ -713,7 +714,7 @@ def _geant4_exceptions(parts: Path) -> list[tuple[str, str, str]]:
 
 
 def _last_exception_text(parts: Path, text: str) -> str:
-    """"; Geant4 said: ..." with the last G4Exception in the log of the worker ``text`` names
+    """ "; Geant4 said: ..." with the last G4Exception in the log of the worker ``text`` names
     (``worker process <pid> died``), or "" when there is none."""
     m = re.search(r"worker process (\d+)", text)
     logs = [parts / f"geant4-{m.group(1)}.log"] if m else sorted(parts.glob("geant4-*.log"))

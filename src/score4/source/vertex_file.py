@@ -100,7 +100,8 @@ def read_primaries_table(group: h5py.Group, label: str = "primaries") -> Primari
     if uneven:
         k, n = next(iter(uneven.items()))
         raise ConfigError(
-            f"{label}: column {k} has {n} rows but event has {rows}; all columns must be equally long"
+            f"{label}: column {k} has {n} rows but event has {rows}; all columns must be "
+            "equally long"
         )
     try:
         return Primaries(

@@ -639,7 +639,9 @@ def make_patch_map(
         return PatchMap(grid, patch, tuple(d.tolist()), method, seed)
     if method == "exact":
         counts = largest_remainder(n, d)
-        _every_variant(counts, d, f"the face has {n} cell(s)", "use smaller patches or fewer variants")
+        _every_variant(
+            counts, d, f"the face has {n} cell(s)", "use smaller patches or fewer variants"
+        )
         flat = rng.permutation(np.repeat(np.arange(d.size, dtype=_VARIANT_DTYPE), counts))
     else:
         flat = rng.choice(d.size, size=n, p=d).astype(_VARIANT_DTYPE)
@@ -671,7 +673,7 @@ def _tiled(
     # The library as a whole has exact counts (largest remainder over its k t^2 cells; one tile
     # alone would round each density to 1 / t^2), and every tile is used equally often.
     counts = largest_remainder(k * t * t, d)
-    need = int(math.ceil(1 / (float(d[d > 0].min()) * t * t)))
+    need = math.ceil(1 / (float(d[d > 0].min()) * t * t))
     _every_variant(
         counts,
         d,

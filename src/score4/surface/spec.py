@@ -23,8 +23,8 @@ from typing import Annotated, ClassVar, Literal
 import numpy as np
 from pydantic import Field, TypeAdapter, ValidationError, model_validator
 
-from ..errors import ConfigError
 from .. import limits
+from ..errors import ConfigError
 from ..schema import (
     ABOVE_ZERO,
     ConfigPath,
@@ -265,6 +265,11 @@ class Surface:
         if self.spikes is None:
             return self.placed_map
         g = self.spikes
+        limits.check_memory(
+            g.nx * g.ny * limits.SPIKE_PICTURE_BYTES,
+            f"the picture of {g.nx} x {g.ny} spikes ({SPIKE_MAP_SAMPLES}^2 samples a spike)",
+            "nx, ny",
+        )
         return g.to_heightmap((g.width_x / SPIKE_MAP_SAMPLES, g.width_y / SPIKE_MAP_SAMPLES))
 
     @cached_property
