@@ -20,6 +20,8 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,6 +29,7 @@ import numpy as np
 
 from .. import files
 from ..errors import Score4Error
+from ..progress import duration_text
 from .composition import Composition
 
 _CROSSING_TOLERANCE = 0.01
@@ -183,6 +186,27 @@ def library_key(
     return hashlib.sha256(text.encode()).hexdigest()[:24]
 
 
+#: Told when a library is computed (not read from the cache): ``listener(phase, what, text)``
+#: with phase "start" (after the first histories, with an estimate of the time) and "done",
+#: ``what`` naming the library and ``text`` the line to show.
+_listener: Callable[[str, str, str], None] | None = None
+#: Fraction of the histories timed before the time of the whole library is estimated (the
+#: first 20 histories of 1000 103 keV Pb-206 in Si took twice the mean time a history).
+_ESTIMATE_AFTER = 0.1
+
+
+def set_build_listener(listener: Callable[[str, str, str], None] | None) -> None:
+    """Have ``listener(phase, what, text)`` told when a library is built (a worker sends it
+    on to the parent, which shows it)."""
+    global _listener
+    _listener = listener
+
+
+def _tell(phase: str, what: str, text: str) -> None:
+    if _listener is not None:
+        _listener(phase, what, text)
+
+
 def trim_library(
     ion: str,
     ion_z: int,
@@ -218,7 +242,23 @@ def trim_library(
                 )
         except (OSError, ValueError, KeyError):
             path.unlink(missing_ok=True)  # damaged cache entry: compute again
-    library = _compute(ion, ion_z, mass_amu, energy, material, n, seed)
+    what = (
+        f"TRIM trajectory library of {n} {ion} histories at {energy * 1e3:.4g} keV in "
+        f"{material.name}"
+    )
+    started = time.monotonic()
+
+    def estimate(done: int) -> None:
+        per = (time.monotonic() - started) / done
+        _tell(
+            "start",
+            what,
+            f"building the {what}: about {duration_text(per * n)} (once; then read from "
+            f"{cache_dir()}; not counted in the time left)",
+        )
+
+    library = _compute(ion, ion_z, mass_amu, energy, material, n, seed, estimate)
+    _tell("done", what, f"built the {what} in {duration_text(time.monotonic() - started)}")
     if cache:
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
@@ -242,6 +282,7 @@ def _compute(
     material: Composition,
     n: int,
     seed: int,
+    estimate: Callable[[int], None] | None = None,
 ) -> TrajectoryLibrary:
     lunasrim = _import_lunasrim()
     from lunasrim import api, data_files
@@ -304,6 +345,8 @@ def _compute(
             engine.rows[-1] = (*engine.rows[-1][:3], 0.0, engine.rows[-1][4])
         rows.extend(engine.rows)
         offsets.append(len(rows))
+        if estimate is not None and k + 1 == max(1, round(n * _ESTIMATE_AFTER)):
+            estimate(k + 1)
     data = np.asarray(rows, dtype=float)
     return TrajectoryLibrary(
         ion,

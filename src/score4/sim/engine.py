@@ -42,7 +42,6 @@ from typing import Any, Protocol
 
 import h5py
 import numpy as np
-from tqdm import tqdm
 
 from .. import __version__, errors, limits
 from ..config import RunConfig, config_to_dict
@@ -50,6 +49,7 @@ from ..errors import ConfigError, Score4Error
 from ..files import atomic_output, check_free_space, check_output_file
 from ..geometry.walls import warn_rays_in_walls
 from ..output import merge_chunks
+from ..progress import progress_bar
 from ..scene import build_scene
 from ..schema import input_paths
 from ..source.build import make_source, needs_radioactive_decay
@@ -82,6 +82,8 @@ class Executor(Protocol):
     - ``("ready", info)``: a worker has built the Geant4 application (``info`` goes into the run
       record: ``geant4_version``, ``removed_processes``);
     - ``("progress", n_events)``: more events are done (for the progress bar);
+    - ``("library", "start" | "done", what, text)``: a worker starts or ends building the TRIM
+      library ``what`` (the text says about how long; the time is left out of the events' rate);
     - ``("done", index)``: the file of chunk ``index`` is complete in ``spec.parts_dir``;
     - ``("failed", index, error_class_name, message)``: chunk ``index`` failed (``index`` is
       ``None`` when a worker could not start).
@@ -370,14 +372,10 @@ def _run_chunks(
     info: dict = {}
     finished: set[int] = set()
     failures: dict[int, str] = {}
-    bar = tqdm(
-        total=chunks.n_events,
-        initial=sum(chunks[i].n_events for i in done),
-        unit="ev",
-        disable=not show or None,
-        mininterval=0.5,
-        file=sys.stderr,
+    bar = progress_bar(
+        chunks.n_events, sum(chunks[i].n_events for i in done), "events", "run", show
     )
+    told: set[tuple[str, str]] = set()
     try:
         with contextlib.closing(executor.execute(spec, chunks.remaining(done))) as events:
             for event in events:
@@ -387,6 +385,13 @@ def _run_chunks(
                     _remember_info(spec.parts_dir, info)
                 elif kind == "progress":
                     bar.update(event[1])
+                elif kind == "library":  # a worker builds a TRIM library (see trim_library)
+                    _, phase, what, text = event
+                    if (phase, what) not in told and show:  # workers may build the same one
+                        told.add((phase, what))
+                        bar.write(f"run: {text}")
+                    if phase == "done":
+                        bar.unpause()  # the time it took is not part of the events' rate
                 elif kind == "done":
                     finished.add(event[1])
                 elif kind == "failed":
@@ -509,7 +514,7 @@ class _LocalWorker:
                     self.ready = True
                     yield msg
                     self._send_next(pending)
-                elif kind == "progress":
+                elif kind in ("progress", "library"):
                     yield msg
                 elif kind == "done":
                     self.chunk = None
