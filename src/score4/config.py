@@ -499,7 +499,7 @@ def parse_config(
             data, context={"base_dir": Path(base_dir) if base_dir else None}
         )
     except ValidationError as err:
-        raise ConfigError(describe_validation_error(err, origin)) from None
+        raise ConfigError(describe_validation_error(err, origin, data)) from None
 
 
 def load_config(path: str | Path) -> RunConfig:

@@ -48,12 +48,11 @@ MAX_WORLD_EXTENT = 1e6
 MAX_ENERGY = 100e6
 #: Densities, g/cm3. Osmium, the densest element, is 22.59 g/cm3: above 30 is a unit slip
 #: (kg/m3 read as g/cm3). Below 1e-12 g/cm3 (air at ~1e-6 mbar) a material is vacuum: use
-#: G4_Galactic; much lower densities also stall Geant4's stepping (1e30 or 1e-30 g/cm3 were
-#: accepted before and built absurd matter).
+#: G4_Galactic.
 MIN_DENSITY, MAX_DENSITY = 1e-12, 30.0
 #: Most events of one run: score4 keeps every event in one results file (~150 bytes an event,
-#: see :func:`results_bytes`), so 10^12 events would be ~150 TB; at the fastest event rate
-#: measured here (~20 us an event) they are also ~600 core-years.
+#: see :func:`results_bytes`), so 10^12 events would be ~150 TB. (Whether this machine can merge
+#: a run's results is checked at its start: :func:`results_bytes`.)
 MAX_EVENTS = 10**12
 #: YAML documents: deepest nesting and most values after aliases are expanded. A run
 #: description is ~6 levels deep and holds a few hundred values; the limits stop "billion
@@ -80,8 +79,7 @@ def too_many_events(n: int) -> str | None:
         return None
     return (
         f"{n:.3g} events are more than score4's limit of 1e12: the results file keeps every "
-        "event (~150 bytes each, 150 TB for 1e12), and at ~20 us an event they take centuries "
-        "of CPU"
+        "event (~150 bytes each: 150 TB for 1e12 events)"
     )
 
 

@@ -433,11 +433,36 @@ def _key_text(key: object) -> str:
     return brief(key)
 
 
-def describe_validation_error(err: ValidationError, origin: str) -> str:
-    """The first problem of a pydantic error as one line: origin, key path, rule, value."""
+def _written_path(loc: tuple, data: object) -> list:
+    """The keys of ``loc`` the user wrote: following ``data`` along ``loc``, an element that is
+    not a key (or index) of the value reached is a union tag pydantic added (a surface named
+    ``random`` keeps its name; the tag ``random`` after it goes)."""
+    path, node = [], data
+    for p in loc:
+        if isinstance(node, dict) and p in node:
+            path.append(p)
+            node = node[p]
+        elif isinstance(node, (list, tuple)) and isinstance(p, int) and -len(node) <= p < len(node):
+            path.append(p)
+            node = node[p]
+        elif p not in UNION_TAGS:
+            path.append(p)
+            node = None
+    return path
+
+
+def describe_validation_error(err: ValidationError, origin: str, data: object = None) -> str:
+    """The first problem of a pydantic error as one line: origin, key path, rule, value.
+
+    ``data``: the validated input, to tell the keys the user wrote from union tags.
+    """
     errors = err.errors()
     first = next((e for e in errors if e["type"] in _KEY_ERRORS), errors[0])
-    path = [_key_text(p) for p in first["loc"] if p not in UNION_TAGS]
+    loc = tuple(first["loc"])
+    written = (
+        _written_path(loc, data) if data is not None else [p for p in loc if p not in UNION_TAGS]
+    )
+    path = [_key_text(p) for p in written]
     ctx = first.get("ctx") or {}
     if "key" in ctx:
         path.append(_key_text(ctx["key"]))

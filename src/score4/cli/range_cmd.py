@@ -16,7 +16,7 @@ from pathlib import Path
 
 import click
 
-from ..errors import ConfigError, Score4Error
+from ..errors import ConfigError, Score4Error, brief
 from .quiet import notice, set_quiet
 
 # Rows of the comparison table: key, label, kind ("length" in nm, "fraction", "energy" in keV).
@@ -395,16 +395,25 @@ def check_model_energy(species, energy_mev: float) -> None:
 
 
 def _int(text, option: str) -> int:
+    from ..units import parse_count
+
     try:
-        return int(str(text))
-    except ValueError:
-        raise ConfigError(f"{option}: expected an integer, got {text!r}") from None
+        return parse_count(text)
+    except ConfigError:
+        raise ConfigError(f"{option}: expected an integer, got {brief(text)}") from None
 
 
 def _positive_int(text, option: str) -> int:
+    from .. import limits
+
     value = _int(text, option)
     if value <= 0:
-        raise ConfigError(f"{option}: must be >= 1, got {text!r}")
+        raise ConfigError(f"{option}: must be >= 1, got {brief(text)}")
+    problem = limits.too_many_events(value)
+    if problem:
+        raise ConfigError(f"{option}: {problem}")
+    # every event keeps its end point and deposits in memory (~200 bytes)
+    limits.check_memory(200 * value, f"{value} events", option)
     return value
 
 

@@ -248,12 +248,14 @@ def trim_library(
     )
     started = time.monotonic()
 
-    def estimate(done: int) -> None:
-        per = (time.monotonic() - started) / done
+    def estimate(done: int, first: float) -> None:
+        """Told after ``done`` histories, the first of which started at ``first``."""
+        now = time.monotonic()
+        total = (first - started) + (now - first) / done * n
         _tell(
             "start",
             what,
-            f"building the {what}: about {duration_text(per * n)} (once; then read from "
+            f"building the {what}: about {duration_text(total)} (once; then read from "
             f"{cache_dir()}; not counted in the time left)",
         )
 
@@ -282,7 +284,7 @@ def _compute(
     material: Composition,
     n: int,
     seed: int,
-    estimate: Callable[[int], None] | None = None,
+    estimate: Callable[[int, float], None] | None = None,
 ) -> TrajectoryLibrary:
     lunasrim = _import_lunasrim()
     from lunasrim import api, data_files
@@ -335,6 +337,7 @@ def _compute(
     offsets = [0]
     rows: list[tuple[float, float, float, float, float]] = []
     left = np.zeros(n, dtype=bool)
+    first = time.monotonic()
     for k in range(n):
         engine.rows = [(0.0, 0.0, 0.0, engine.e0, engine.e0)]
         state = engine.run_ion()
@@ -346,7 +349,7 @@ def _compute(
         rows.extend(engine.rows)
         offsets.append(len(rows))
         if estimate is not None and k + 1 == max(1, round(n * _ESTIMATE_AFTER)):
-            estimate(k + 1)
+            estimate(k + 1, first)
     data = np.asarray(rows, dtype=float)
     return TrajectoryLibrary(
         ion,

@@ -199,7 +199,7 @@ def parse_surface_spec(
     try:
         return _SPEC_ADAPTER.validate_python(data, context={"base_dir": base_dir, "stored": stored})
     except ValidationError as err:
-        raise ConfigError(describe_validation_error(err, origin)) from None
+        raise ConfigError(describe_validation_error(err, origin, data)) from None
 
 
 def load_surface_spec(path: str | Path):
