@@ -54,6 +54,9 @@ MIN_DENSITY, MAX_DENSITY = 1e-12, 30.0
 #: see :func:`results_bytes`), so 10^12 events would be ~150 TB. (Whether this machine can merge
 #: a run's results is checked at its start: :func:`results_bytes`.)
 MAX_EVENTS = 10**12
+#: Longest name (a material, a volume, a particle, a key of a mapping) and longest file name in
+#: a description: error messages quote names, and none needs more.
+MAX_NAME, MAX_PATH = 256, 4096
 #: YAML documents: deepest nesting and most values after aliases are expanded. A run
 #: description is ~6 levels deep and holds a few hundred values; the limits stop "billion
 #: laughs" alias bombs and the recursion of 5000-deep nesting.

@@ -255,6 +255,7 @@ class StrictModel(BaseModel):
         counts = {}
         for name, field in fields.items():
             value = data.get(name)
+            _check_text(name, value, _admits_path(field.annotation))
             if isinstance(value, bool) and not _admits_bool(field.annotation):
                 kind = _quantity_kind(field.metadata) or _kind(field.annotation)
                 raise PydanticCustomError(
@@ -292,6 +293,34 @@ class StrictModel(BaseModel):
             key, message = problem
             raise PydanticCustomError("unused_key", "{message}", {"key": key, "message": message})
         return self
+
+
+def _check_text(name: str, value: object, path: bool) -> None:
+    """Refuse names (and mapping keys) longer than MAX_NAME, file names longer than MAX_PATH."""
+    longest = limits.MAX_PATH if path else limits.MAX_NAME
+    texts = [value] if isinstance(value, str) else []
+    if isinstance(value, dict):
+        texts += [k for k in value if isinstance(k, str)]
+    for text in texts:
+        if len(text) > longest:
+            raise PydanticCustomError(
+                "too_long",
+                "{message}",
+                {
+                    "key": name,
+                    "message": f"takes at most {longest} characters, got {len(text)} "
+                    f"({brief(text, 40)})",
+                },
+            )
+
+
+def _admits_path(tp: Any) -> bool:
+    origin = get_origin(tp)
+    if origin is Annotated:
+        return _admits_path(get_args(tp)[0])
+    if origin in (Union, types.UnionType):
+        return any(_admits_path(a) for a in get_args(tp))
+    return tp is Path
 
 
 def unused_key(model: StrictModel, root: BaseModel | None) -> tuple[str, str] | None:
@@ -409,7 +438,7 @@ UNION_TAGS = frozenset({"spikes", "random", "measured", "surface-file"})
 # Errors about the keys themselves come first: a typo is the cause of a "Field required" next to it.
 _KEY_ERRORS = ("unknown_key", "exclusive_keys", "extra_forbidden")
 # Errors whose message says all; the value (often the whole mapping) is not repeated.
-_NO_VALUE = ("missing", *_KEY_ERRORS, "unused_key", "bool_not_allowed", "count")
+_NO_VALUE = ("missing", *_KEY_ERRORS, "unused_key", "bool_not_allowed", "count", "too_long")
 
 
 def _shown(value: object) -> str:
