@@ -15,6 +15,7 @@ commands of ``score4``, so a key or an option another branch adds is fuzzed with
 from __future__ import annotations
 
 import copy
+import itertools
 import types
 from pathlib import Path
 from typing import Annotated, Any, Literal, Union, get_args, get_origin
@@ -95,7 +96,7 @@ _HOSTILE = st.one_of(
 
 
 def _quantity(dimension: str) -> st.SearchStrategy:
-    units = list(DIMENSIONS[dimension]) + ["furlong", "", "mm2"]
+    units = [*DIMENSIONS[dimension], "furlong", "", "mm2"]
     number = st.one_of(
         st.sampled_from(_REALS),
         st.sampled_from(_REALS),
@@ -142,7 +143,7 @@ def _typed(tp: Any, depth: int) -> st.SearchStrategy:
             return st.one_of(exact, st.lists(values(items[0], depth=depth + 1), max_size=4))
         return st.lists(values(items[0], depth=depth + 1), max_size=3 if depth < 3 else 1)
     if origin is dict:
-        key_type, value_type = args
+        value_type = args[1]
         return st.dictionaries(
             st.sampled_from(NAMES), values(value_type, depth=depth + 1), max_size=2
         )
@@ -219,7 +220,7 @@ PATHS = schema_paths(RunConfig)
 def _set(doc: dict, path: tuple, value: object) -> dict:
     """``doc`` with ``value`` at ``path`` (intermediate mappings and lists made as needed)."""
     node: Any = doc
-    for key, nxt in zip(path[:-1], path[1:], strict=True):
+    for key, nxt in itertools.pairwise(path):
         if isinstance(node, list):
             while len(node) <= key:
                 node.append({})

@@ -29,6 +29,10 @@ from score4.sim.worker import CRASH_HOOK
 
 from conftest import config_dict, tmpfs_mount_command
 
+# Each test starts several worker processes: under `make test` (pytest-xdist, -n 2) these run one
+# after another on one xdist worker, not side by side with each other (Makefile: test).
+pytestmark = pytest.mark.xdist_group("worker-processes")
+
 # 40 chunks of 100 events: a few seconds on 2 cores, so a run can be stopped in the middle.
 LONG = {"events": 4000, "seed": 21, "chunk_events": 100}
 

@@ -210,7 +210,10 @@ def test_materials_from_config(fake, capfd, tmp_path):
             ["Pb206", "2 MeV", "G4_Si"],
             r"above the validity of score4's heavy-ion model for Pb-206: .* up to 1 MeV",
         ),
-        (["Pb206", "103 keV", "G4_Si", "--thickness", "0 nm"], "--thickness: must be greater than 0"),
+        (
+            ["Pb206", "103 keV", "G4_Si", "--thickness", "0 nm"],
+            "--thickness: must be greater than 0",
+        ),
         (["Pb206", "103 keV", "G4_Si", "--thickness", "20"], "--thickness: '20' has no unit"),
         (
             ["Pb206", "103 keV", "G4_Si", "--density", "2 g/cm3"],

@@ -468,12 +468,13 @@ def _written_path(loc: tuple, data: object) -> list:
     ``random`` keeps its name; the tag ``random`` after it goes)."""
     path, node = [], data
     for p in loc:
-        if isinstance(node, dict) and p in node:
+        is_key = isinstance(node, dict) and p in node
+        is_index = (
+            isinstance(node, (list, tuple)) and isinstance(p, int) and -len(node) <= p < len(node)
+        )
+        if is_key or is_index:
             path.append(p)
-            node = node[p]
-        elif isinstance(node, (list, tuple)) and isinstance(p, int) and -len(node) <= p < len(node):
-            path.append(p)
-            node = node[p]
+            node = node[p]  # type: ignore[index]
         elif p not in UNION_TAGS:
             path.append(p)
             node = None
@@ -487,9 +488,9 @@ def describe_validation_error(err: ValidationError, origin: str, data: object = 
     """
     errors = err.errors()
     first = next((e for e in errors if e["type"] in _KEY_ERRORS), errors[0])
-    loc = tuple(first["loc"])
+    raw = tuple(first["loc"])
     written = (
-        _written_path(loc, data) if data is not None else [p for p in loc if p not in UNION_TAGS]
+        _written_path(raw, data) if data is not None else [p for p in raw if p not in UNION_TAGS]
     )
     path = [_key_text(p) for p in written]
     ctx = first.get("ctx") or {}
