@@ -184,10 +184,12 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
     file (source: {vertices: FILE}) with the same seed reproduces the direct run event by event,
     and the first N rows are the vertices of a run of N events.
     """
+    from .. import limits
     from ..config import config_to_dict
     from ..files import check_output_file
     from ..scene import build_scene
     from ..schema import input_paths
+    from ..source.blocks import BLOCK_EVENTS
     from ..source.build import make_source
     from ..source.vertex_file import write_vertex_file
 
@@ -202,6 +204,13 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
     n, seed = config.run.events, config.run.seed
     with naming_file(config_file):
         source = make_source(config, build_scene(config))
+        sample = source.events(seed, 0, min(n, BLOCK_EVENTS))
+        limits.check_memory(
+            2 * n * limits.PRIMARY_BYTES * len(sample) / sample.n_events,
+            f"writing the vertices of {n} events",
+            "--n",
+            "write several files with different --seed values",
+        )
         primaries = source.events(seed, 0, n)
     write_vertex_file(out, primaries, config_to_dict(config), seed)
     depth = primaries.extra["depth"]

@@ -255,6 +255,12 @@ def run(
         config.run.events, config.run.chunk_events, jobs
     )
     done = _finished_chunks(parts, chunks, fingerprint, echo) if resuming else set()
+    limits.check_memory(  # every worker holds one chunk's primaries and scores
+        jobs * chunks.size * (limits.PRIMARY_BYTES * len(sample) / sample.n_events + 64),
+        f"{jobs} worker(s) holding chunks of {chunks.size} events",
+        "run.chunk_events",
+        "use a smaller run.chunk_events",
+    )
     n_todo = len(chunks) - len(done)
     if done:
         echo(
