@@ -221,22 +221,27 @@ def _set(doc: dict, path: tuple, value: object) -> dict:
     """``doc`` with ``value`` at ``path`` (intermediate mappings and lists made as needed)."""
     node: Any = doc
     for key, nxt in itertools.pairwise(path):
-        if isinstance(node, list):
-            while len(node) <= key:
-                node.append({})
-            if not isinstance(node[key], (dict, list)):
-                node[key] = [] if isinstance(nxt, int) else {}
-            node = node[key]
-        else:
-            if not isinstance(node.get(key), (dict, list)):
-                node[key] = [] if isinstance(nxt, int) else {}
-            node = node[key]
+        node = _child(node, key, [] if isinstance(nxt, int) else {})
     last = path[-1]
-    if isinstance(node, list):
+    if isinstance(node, list) and isinstance(last, int):
         while len(node) <= last:
             node.append({})
-    node[last] = value
+        node[last] = value
+    elif isinstance(node, dict):
+        node[last] = value
     return doc
+
+
+def _child(node: Any, key: object, empty: Any) -> Any:
+    """``node[key]`` as a container of ``empty``'s kind (made or replaced if it is not one)."""
+    if isinstance(node, list) and isinstance(key, int):
+        while len(node) <= key:
+            node.append({})
+    elif not isinstance(node, dict):
+        return empty  # an earlier mutation put a scalar here: the rest goes nowhere
+    if not isinstance(node[key] if key in node or isinstance(node, list) else None, type(empty)):
+        node[key] = empty
+    return node[key]
 
 
 @st.composite

@@ -725,30 +725,38 @@ def _geant4_exceptions(parts: Path) -> list[tuple[str, str, str]]:
 
 
 def _last_exception_text(parts: Path, text: str) -> str:
-    """ "; Geant4 said: ..." with the last G4Exception in the log of the worker ``text`` names
+    """ "; Geant4's fatal exception: ..." with the last fatal G4Exception (one that aborts the
+    process; warnings are not the cause) in the log of the worker ``text`` names
     (``worker process <pid> died``), or "" when there is none."""
     m = re.search(r"worker process (\d+)", text)
     logs = [parts / f"geant4-{m.group(1)}.log"] if m else sorted(parts.glob("geant4-*.log"))
     found = []
     for log in logs:
         with contextlib.suppress(OSError):
-            found += _exceptions_in(log.read_text(errors="replace"))
+            found += _exceptions_in(log.read_text(errors="replace"), fatal_only=True)
     if not found:
         return ""
     code, issuer, message = found[-1]
-    return f"; Geant4's last exception: {code} ({issuer}): {message}"
+    return f"; Geant4's fatal exception: {code} ({issuer}): {message}"
 
 
-def _exceptions_in(text: str) -> list[tuple[str, str, str]]:
-    """(code, issuer, message) of every G4Exception in one log text, in order."""
+def _exceptions_in(text: str, fatal_only: bool = False) -> list[tuple[str, str, str]]:
+    """(code, issuer, message) of every G4Exception in one log text, in order; with
+    ``fatal_only``, those Geant4 marks fatal (an ``EEEE`` start line, not ``WWWW``)."""
     found = []
     lines = text.splitlines()
     for i, line in enumerate(lines):
         m = re.search(r"G4Exception : (\S+)", line)
-        if m:
-            issuer = lines[i + 1].split(":", 1)[-1].strip() if i + 1 < len(lines) else ""
-            message = lines[i + 2].strip() if i + 2 < len(lines) else ""
-            found.append((m.group(1), issuer, message))
+        if not m:
+            continue
+        start = next(
+            (lines[j] for j in range(i - 1, max(i - 4, -1), -1) if "-START" in lines[j]), ""
+        )
+        if fatal_only and "EEEE" not in start:
+            continue
+        issuer = lines[i + 1].split(":", 1)[-1].strip() if i + 1 < len(lines) else ""
+        message = lines[i + 2].strip() if i + 2 < len(lines) else ""
+        found.append((m.group(1), issuer, message))
     return found
 
 
