@@ -28,6 +28,7 @@ from .schema import (
     GIVEN,
     ConfigPath,
     NonNegativeLength,
+    NonNegativeTime,
     PositiveDensity,
     PositiveEnergy,
     PositiveLength,
@@ -143,10 +144,12 @@ Face = Literal["+x", "-x", "+y", "-y", "+z", "-z"]
 
 
 class FaceRef(StrictModel):
-    """A face of a box volume, e.g. the top face ``+z`` of volume ``crystal``."""
+    """Faces of a volume: ``face: "+z"`` (one face), ``all`` (every face, area-uniform), or a
+    face or group name of the volume's solid (:mod:`score4.shapes`; box targets have the six
+    faces ``+x`` ... ``-z``)."""
 
     volume: str
-    face: Face = "+z"
+    face: str = Field("+z", min_length=1)
 
 
 class SurfaceFile(StrictModel):
@@ -315,25 +318,78 @@ class SpectrumConfig(StrictModel):
     kind: Literal["linear", "histogram"] = "linear"
 
 
+class DecayChainConfig(StrictModel):
+    """A decay chain as a source: its members' decays in the ratio of their activities.
+
+    ``chain``: the head nuclide (every nuclide its decays lead to, down to a stable one or to
+    ``until``, which is excluded) or a list of members in decay order. Activities: secular
+    equilibrium (the default), or ``since_deposition``: pure head atoms deposited that long ago.
+    A daughter decaying within ``coincidence_window`` of its event's first decay joins that
+    event (docs/decay.md).
+    """
+
+    chain: str | list[str]
+    until: str | None = None
+    equilibrium: Literal["secular"] | None = None
+    since_deposition: NonNegativeTime | None = None
+    coincidence_window: NonNegativeTime = 1e4  # ns: 10 us
+
+    @model_validator(mode="after")
+    def _check(self) -> DecayChainConfig:
+        if self.equilibrium is not None and self.since_deposition is not None:
+            raise ValueError(
+                "give equilibrium: secular or since_deposition (the time since a pure head was "
+                "deposited), not both"
+            )
+        from .decay.chain import build_chain
+
+        try:
+            build_chain(self.chain, self.until, what="decay")
+        except ConfigError as err:
+            raise ValueError(str(err).removeprefix("decay.").removeprefix("decay: ")) from None
+        return self
+
+
+def _decay_tag(value: object) -> str:
+    return "chain" if isinstance(value, (dict, DecayChainConfig)) else "nuclide"
+
+
+# ``decay:`` a nuclide name, or a chain (a mapping with chain: ...)
+DecaySpec = Annotated[
+    Annotated[str, Tag("nuclide")] | Annotated[DecayChainConfig, Tag("chain")],
+    Discriminator(_decay_tag),
+]
+
+
 class SourceConfig(StrictModel):
     """Where decays start and what they emit.
 
-    Emitter: ``particle`` with ``energy`` or ``spectrum``; or ``decay: Po210`` (built in: the
-    5.304 MeV alpha and the 103 keV Pb-206 recoil back to back); or ``nuclide`` (Geant4
-    radioactive decay, needs full physics data). Or ``vertices``: a vertex file written by
+    Where: ``surface`` (one face, or ``face: all``: every face of the volume per true area) with
+    a ``depth`` below it, or ``volume`` (bulk: uniform in the volume's own material).
+    Emitter: ``particle`` with ``energy`` or ``spectrum``; or ``decay``: a nuclide (``Po210``,
+    ``Pb210``, any member of the U/Th chains, K40, Co60, Cs137) or a chain
+    (:class:`DecayChainConfig`), sampled from evaluated decay data with no Geant4 data needed
+    (docs/decay.md); or ``nuclide`` (Geant4 radioactive decay, needs full physics data). Or
+    ``vertices``: a vertex file written by
     ``score4 vertices`` whose rows are used as they are.
     """
 
     used_only_with: ClassVar[dict[str, object]] = {
         "energy": ("particle", GIVEN),
         "spectrum": ("particle", GIVEN),
+        # a bulk source (volume: NAME) has no surface: no depth below it, no confinement
+        "depth": ("volume", (None,)),
+        "confine": ("volume", (None,)),
     }
 
     surface: FaceRef | None = None
+    # bulk: vertices uniform in this volume's own material (its daughters excluded)
+    volume: str | None = Field(None, min_length=1)
     particle: str | None = None
     energy: PositiveEnergy | None = None
     spectrum: SpectrumConfig | None = None
-    decay: Literal["Po210"] | None = None
+    # a nuclide with evaluated decay data ("Pb210", "Pb-210", "210Pb"), or a chain
+    decay: DecaySpec | None = None
     nuclide: str | None = None
     # isotropic (4 pi), inward/outward (isotropic in that half-space), cosine_inward/outward
     # (Lambert), normal (a beam along the inward surface normal)
@@ -346,6 +402,18 @@ class SourceConfig(StrictModel):
     confine: bool | str = True
     vertices: ConfigPath | None = None
 
+    @field_validator("decay")
+    @classmethod
+    def _decay_nuclide(cls, v: str | DecayChainConfig | None) -> str | DecayChainConfig | None:
+        if isinstance(v, str):
+            from .decay.data import nuclide_record
+
+            try:
+                return nuclide_record(v, "decay")[0]
+            except ConfigError as err:
+                raise ValueError(str(err).removeprefix("decay: ")) from None
+        return v
+
     @model_validator(mode="after")
     def _emitter(self) -> SourceConfig:
         if self.vertices is not None:
@@ -356,14 +424,21 @@ class SourceConfig(StrictModel):
                     f"drop {', '.join(extra)}"
                 )
             return self
-        if self.surface is None:
+        if (self.surface is None) == (self.volume is None):
             raise ValueError(
-                "surface: give the face the source sits on, e.g. {volume: crystal, face: '+z'}"
+                "give surface (the faces the source sits on, e.g. {volume: crystal, face: '+z'} "
+                "or face: all) or volume (bulk: uniform in a volume), not "
+                + ("both" if self.surface is not None else "neither")
+            )
+        if self.volume is not None and self.direction != "isotropic":
+            raise ValueError(
+                f"direction: a bulk source (volume) emits isotropically; {self.direction} needs a "
+                "surface normal"
             )
         kinds = [k for k in ("particle", "decay", "nuclide") if getattr(self, k) is not None]
         if len(kinds) != 1:
             raise ValueError(
-                "give exactly one emitter: particle (with energy or spectrum), decay: Po210, or nuclide"
+                "give exactly one emitter: particle (with energy or spectrum), decay (a nuclide such as Pb210, or a chain), or nuclide"
                 + (f" (got {', '.join(kinds)})" if kinds else "")
             )
         if self.particle is not None and (self.energy is None) == (self.spectrum is None):
@@ -454,6 +529,15 @@ class RunConfig(StrictModel):
         if src is not None and src.volume not in names:
             raise ValueError(
                 f"source.surface.volume: {src.volume!r} is not a target; targets are: {', '.join(names)}"
+            )
+        if src is not None and src.face not in (*FACES, "all"):
+            raise ValueError(
+                f"source.surface.face: a box target has the faces {', '.join(FACES)} (or all), "
+                f"not {src.face!r}"
+            )
+        if self.source.volume is not None and self.source.volume not in names:
+            raise ValueError(
+                f"source.volume: {self.source.volume!r} is not a target; targets are: {', '.join(names)}"
             )
         for i, t in enumerate(self.targets):
             faces = [r.face for r in t.rough]

@@ -104,7 +104,9 @@ def merge_chunks(chunk_paths: list[Path], out: Path, run_record: dict) -> None:
             run = f.create_group("run")
             for key, value in run_record.items():
                 run.attrs[key] = (
-                    json.dumps(value) if isinstance(value, (dict, list, tuple)) else value
+                    json.dumps(value)
+                    if isinstance(value, (dict, list, tuple)) or value is None
+                    else value
                 )
             ev = f.create_group("events")
             ev.attrs["quantities"] = json.dumps(quantities)
@@ -156,6 +158,8 @@ class Results:
 def _decode_attr(value):
     if isinstance(value, bytes):
         value = value.decode()
+    if isinstance(value, str) and value == "null":  # None, stored as JSON
+        return None
     if isinstance(value, str) and value[:1] in "[{":
         with contextlib.suppress(json.JSONDecodeError):
             return json.loads(value)

@@ -32,7 +32,7 @@ from . import limits
 from .errors import ConfigError, brief
 from .units import format_readable, parse_count, parse_quantity
 
-_INTERNAL_UNIT = {"length": "mm", "energy": "MeV", "density": "g/cm3"}
+_INTERNAL_UNIT = {"length": "mm", "energy": "MeV", "density": "g/cm3", "time": "ns"}
 
 # The limits themselves, with their reasons, live in score4.limits (one place for all of them).
 MAX_LENGTH, MIN_LENGTH, MAX_ENERGY = limits.MAX_LENGTH, limits.MIN_LENGTH, limits.MAX_ENERGY
@@ -86,7 +86,7 @@ def quantity(
         raise ConfigError(f"{label}: {err}") from None
 
 
-_EXAMPLE = {"length": "5 um", "energy": "5.3 MeV", "density": "6.02 g/cm3"}
+_EXAMPLE = {"length": "5 um", "energy": "5.3 MeV", "density": "6.02 g/cm3", "time": "180 d"}
 
 
 def _quantity_kind(metadata) -> str | None:
@@ -109,6 +109,8 @@ Energy = Annotated[float, _quantity("energy"), _with_unit("energy")]
 PositiveLength = Annotated[float, _quantity("length", positive=True), _with_unit("length")]
 NonNegativeLength = Annotated[float, _quantity("length", non_negative=True), _with_unit("length")]
 PositiveEnergy = Annotated[float, _quantity("energy", positive=True), _with_unit("energy")]
+# times are kept in ns (Geant4's internal unit; see score4.units.TIME)
+NonNegativeTime = Annotated[float, _quantity("time", non_negative=True), _with_unit("time")]
 # densities are kept in g/cm3 (see score4.units.DENSITY)
 PositiveDensity = Annotated[float, _quantity("density", positive=True), _with_unit("density")]
 Vector3 = tuple[Length, Length, Length]

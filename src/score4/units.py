@@ -26,7 +26,19 @@ LENGTH = {
     "km": 1e6,
 }
 ENERGY = {"eV": 1e-6, "keV": 1e-3, "MeV": 1.0, "GeV": 1e3, "TeV": 1e6}
-TIME = {"ps": 1e-3, "ns": 1.0, "us": 1e3, "µs": 1e3, "ms": 1e6, "s": 1e9}
+# decay times since deposition reach years: min, h, d and the Julian year y (365.25 d)
+TIME = {
+    "ps": 1e-3,
+    "ns": 1.0,
+    "us": 1e3,
+    "µs": 1e3,
+    "ms": 1e6,
+    "s": 1e9,
+    "min": 60e9,
+    "h": 3600e9,
+    "d": 86400e9,
+    "y": 365.25 * 86400e9,
+}
 ANGLE = {"rad": 1.0, "mrad": 1e-3, "deg": math.pi / 180.0}
 AREA = {"nm2": 1e-12, "um2": 1e-6, "mm2": 1.0, "cm2": 100.0, "m2": 1e6}
 # Densities are kept in g/cm3 (not Geant4's internal mass unit), the unit of NIST tables,

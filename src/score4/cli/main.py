@@ -19,6 +19,7 @@ import click
 from .. import __version__
 from ..errors import ConfigError, RunInterrupted, Score4Error, Score4Warning, brief, naming_file
 from .data import data
+from .decay_cmd import decay_command
 from .geometry import geometry
 from .macro import import_macro
 from .quiet import is_quiet, notice, set_quiet
@@ -190,7 +191,7 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
     from ..scene import build_scene
     from ..schema import input_paths
     from ..source.blocks import BLOCK_EVENTS
-    from ..source.build import make_source
+    from ..source.build import make_source, source_geometry
     from ..source.vertex_file import write_vertex_file
 
     config = _load_with_overrides(config_file, n_events, seed)
@@ -203,7 +204,8 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
     )
     n, seed = config.run.events, config.run.seed
     with naming_file(config_file):
-        source = make_source(config, build_scene(config))
+        scene = build_scene(config)
+        source = make_source(config, scene)
         sample = source.events(seed, 0, min(n, BLOCK_EVENTS))
         limits.check_memory(
             2 * n * limits.PRIMARY_BYTES * len(sample) / sample.n_events,
@@ -212,12 +214,18 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
             "write several files with different --seed values",
         )
         primaries = source.events(seed, 0, n)
-    write_vertex_file(out, primaries, config_to_dict(config), seed)
-    depth = primaries.extra["depth"]
-    click.echo(
-        f"wrote {out}: {n} events, {len(primaries.event)} primaries, depth mean {depth.mean() * 1e6:.3g} nm "
-        f"(min {depth.min() * 1e6:.3g}, max {depth.max() * 1e6:.3g} nm)"
-    )
+        where = source_geometry(config, scene)
+    write_vertex_file(out, primaries, config_to_dict(config), seed, where)
+    text = f"wrote {out}: {n} events, {len(primaries.event)} primaries"
+    if "depth" in primaries.extra:
+        depth = primaries.extra["depth"]
+        text += (
+            f", depth mean {depth.mean() * 1e6:.3g} nm (min {depth.min() * 1e6:.3g}, max "
+            f"{depth.max() * 1e6:.3g} nm)"
+        )
+    else:
+        text += f", uniform in {where['volume']} ({where['volume_mm3']:.6g} mm3)"
+    click.echo(text)
 
 
 @cli.command()
@@ -277,6 +285,7 @@ cli.add_command(surface)
 cli.add_command(import_macro)
 cli.add_command(geometry)
 cli.add_command(range_command)
+cli.add_command(decay_command)
 
 
 _SHOWN: set[str] = set()  # score4 warnings said in this command

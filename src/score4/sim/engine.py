@@ -52,7 +52,7 @@ from ..output import merge_chunks
 from ..progress import progress_bar
 from ..scene import build_scene
 from ..schema import input_paths
-from ..source.build import make_source, needs_radioactive_decay
+from ..source.build import decay_normalisation, make_source, needs_radioactive_decay
 from ..source.vertex_file import read_vertex_file
 from .conservation import check_chunk_files
 from .runtime import resolve_physics
@@ -341,6 +341,8 @@ def run(
         "geant4_warnings": _geant4_warnings(exceptions),
         **_stuck_tracks(exceptions),
         **balance,
+        # contract 1: the decays the events stand for (score4.normalisation will own this)
+        **decay_normalisation(config),
     }
     try:
         check_free_space(out, sum(f.stat().st_size for f in files))

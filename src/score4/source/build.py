@@ -1,32 +1,36 @@
 """The source section of a run configuration turned into primaries, one chunk of events at a time.
 
 :func:`make_source` builds, once per process, what every chunk needs: the vertex sampler on the
-configured face (its rough layer if it has one, else the flat face), the depth profile, the
+configured face (its rough layer if it has one, else the flat face), on several faces of a
+volume (``face: all``: :class:`~score4.source.shapes.ShapeSurfaceSampler`) or in a volume
+(``volume:``, bulk: :class:`~score4.source.shapes.BulkSampler`), the depth profile, the
 confinement and the emitter; or the rows of a vertex file. ``source.events(seed, first, n)``
 then gives the primaries of events ``first .. first + n - 1`` of the run with that seed, drawn in
 prefix-stable blocks (:mod:`score4.source.blocks`); ``source.primaries(rng, first, n)`` draws
-``n`` events from one given stream.
+``n`` events from one given stream. :func:`source_geometry` gives what the run record states
+about the source (kind, true and projected area, volume).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import numpy as np
 
 from .. import limits
-from ..config import DepthConfig, RunConfig, SourceConfig
+from ..config import FACES, DecayChainConfig, DepthConfig, RunConfig, SourceConfig
 from ..errors import ConfigError
 from ..scene import Scene, face_frame
+from ..shapes import G4Box, Shape, Transform
 from .blocks import draw_events
+from .decay_source import DecayEmitter
 from .depth import VertexSampler
 from .emitters import (
     Emitter,
     EnergySpectrum,
     NuclideEmitter,
     ParticleEmitter,
-    Po210Emitter,
     make_primaries,
 )
 from .primaries import Primaries
@@ -40,6 +44,7 @@ from .profiles import (
     ZeroDepth,
 )
 from .sampling import SurfaceSampler
+from .shapes import BulkSampler, ShapeSurfaceSampler
 from .vertex_file import read_vertex_file, vertex_file_config
 
 _T = TypeVar("_T")
@@ -71,10 +76,10 @@ def depth_profile(cfg: DepthConfig) -> DepthProfile:
     return TableProfile.from_file(_given(cfg.file, "source.depth.file"), unit=cfg.unit)
 
 
-def make_emitter(src: SourceConfig) -> Emitter:
-    """ParticleEmitter, Po210Emitter or NuclideEmitter for the configured source."""
-    if src.decay == "Po210":
-        return Po210Emitter(src.direction)
+def make_emitter(src: SourceConfig) -> Emitter | DecayEmitter:
+    """ParticleEmitter, DecayEmitter or NuclideEmitter for the configured source."""
+    if src.decay is not None:
+        return decay_emitter(src)
     if src.nuclide is not None:
         return NuclideEmitter(src.nuclide)
     energy: float | EnergySpectrum | None = (
@@ -89,6 +94,52 @@ def make_emitter(src: SourceConfig) -> Emitter:
     return ParticleEmitter(_given(src.particle, "source.particle"), energy, src.direction)
 
 
+def decay_emitter(src: SourceConfig) -> DecayEmitter:
+    """The :class:`DecayEmitter` of ``source.decay`` (a nuclide or a chain)."""
+    decay = src.decay
+    if isinstance(decay, DecayChainConfig):
+        return DecayEmitter.for_chain(
+            decay.chain,
+            decay.until,
+            None if decay.since_deposition is None else decay.since_deposition * 1e-9,
+            decay.coincidence_window * 1e-9,
+            src.direction,
+        )
+    return DecayEmitter(_given(decay, "source.decay"), direction=src.direction)
+
+
+def decay_normalisation(config: RunConfig) -> dict:
+    """``simulated_decays`` and ``activity_nuclide`` of a run (contract 1 of the run record).
+
+    A ``decay`` source: the decays of its nuclide, or of its chain's head, that the run's events
+    stand for (one per event for a nuclide; ``decay_chain`` says how a chain's events share
+    them). A ``nuclide`` source (Geant4 decay): one decay per event. Other sources: one
+    "decay" per event and no nuclide.
+    """
+    src = config.source
+    n = config.run.events
+    if src.decay is not None:
+        emitter = decay_emitter(src)
+        out: dict = {
+            "simulated_decays": n * emitter.decays_per_event,
+            "activity_nuclide": emitter.activity_nuclide,
+        }
+        if emitter.chain is not None:
+            ce = emitter.chain
+            out["decay_chain"] = {
+                "members": list(ce.chain.members),
+                "relative_activity": [float(a) for a in ce.activity],
+                "event_share": [float(x) for x in ce.share / ce.share.sum()],
+                "head_decays_per_event": ce.head_decays_per_event,
+                "coincidence_window_s": ce.window_s,
+                "since_deposition_s": ce.since_deposition_s,
+            }
+        return out
+    if src.nuclide is not None:
+        return {"simulated_decays": float(n), "activity_nuclide": src.nuclide}
+    return {"simulated_decays": float(n), "activity_nuclide": None}
+
+
 def flat_face_sampler(config: RunConfig, volume: str, face: str) -> SurfaceSampler:
     """Two world-coordinate triangles covering a flat box face."""
     frame = face_frame(config.target(volume), face)
@@ -101,6 +152,29 @@ def flat_face_sampler(config: RunConfig, volume: str, face: str) -> SurfaceSampl
     return SurfaceSampler(vertices=corners, faces=[[0, 1, 2], [0, 2, 3]])
 
 
+def target_shape(config: RunConfig, volume: str) -> tuple[Shape, Transform]:
+    """The shape of a box target and its local -> world transform."""
+    target = config.target(volume)
+    half = [s / 2 for s in target.size]
+    return G4Box(*half), Transform(translation=np.array(target.position, float))
+
+
+def shape_face_sampler(config: RunConfig, scene: Scene, volume: str, face: str):
+    """Area-uniform sampler on faces of a target, each rough face on its mesh."""
+    shape, transform = target_shape(config, volume)
+    rough: dict[str, Any] = {
+        layer.config.face: layer.sampler() for layer in scene.layers_of(volume)
+    }
+    return ShapeSurfaceSampler(shape, face, transform, rough)
+
+
+def bulk_sampler(config: RunConfig, volume: str) -> BulkSampler:
+    """Uniform points in a target box (a box target has no daughters; its rough layers are
+    separate volumes outside it)."""
+    shape, transform = target_shape(config, volume)
+    return BulkSampler(shape, transform, (), name=volume)
+
+
 @dataclass
 class SampledSource:
     """Vertices drawn below a (rough) face, each emitting the configured particles.
@@ -111,7 +185,7 @@ class SampledSource:
     """
 
     sampler: VertexSampler
-    emitter: Emitter
+    emitter: Emitter | DecayEmitter
     world_half: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
 
     def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
@@ -124,7 +198,27 @@ class SampledSource:
             depth=v.depth,
             facet=v.facet,
             patch=v.patch if v.patch is not None else np.full(n_events, -1),
+            face=v.face,
         )
+
+    def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
+        """Events ``first_event ..`` of the run with ``seed``, the same in any chunking."""
+        p = draw_events(self, seed, first_event, n_events)
+        limits.check_vertices(p.position, self.world_half, "source", p.event + first_event)
+        return p
+
+
+@dataclass
+class BulkSource:
+    """Vertices uniform in a volume's own material, emitting isotropically (checked inside the
+    world like :class:`SampledSource`'s)."""
+
+    sampler: BulkSampler
+    emitter: Emitter | DecayEmitter
+    world_half: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
+
+    def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
+        return make_primaries(self.emitter, rng, self.sampler.sample(rng, n_events))
 
     def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
         """Events ``first_event ..`` of the run with ``seed``, the same in any chunking."""
@@ -168,7 +262,7 @@ def needs_radioactive_decay(config: RunConfig) -> bool:
     return src.nuclide is not None
 
 
-def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
+def make_source(config: RunConfig, scene: Scene) -> SampledSource | BulkSource | FileSource:
     """What :meth:`primaries` needs, built once: checks files, materials and constraints now."""
     src = config.source
     if src.vertices is not None:
@@ -179,10 +273,16 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
                 f"fewer than run.events = {config.run.events}"
             )
         return source
+    if src.volume is not None:
+        return BulkSource(bulk_sampler(config, src.volume), _emitter(src), scene.world_half)
     surface_ref = _given(src.surface, "source.surface")
     volume, face = surface_ref.volume, surface_ref.face
-    layer = scene.layer(volume, face)
-    surface = layer.sampler() if layer is not None else flat_face_sampler(config, volume, face)
+    surface: SurfaceSampler | ShapeSurfaceSampler | object
+    if face in FACES:  # one face of a box: its rough layer or two flat triangles
+        layer = scene.layer(volume, face)
+        surface = layer.sampler() if layer is not None else flat_face_sampler(config, volume, face)
+    else:
+        surface = shape_face_sampler(config, scene, volume, face)
     inside = None
     if src.confine is True:
         inside = lambda p: scene.inside_target(volume, p)  # noqa: E731
@@ -191,7 +291,7 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
         inside = lambda p: scene.inside_material(src.confine, p)  # noqa: E731
     try:
         sampler = VertexSampler(
-            surface,
+            surface,  # type: ignore[arg-type]  # a ShapeSurfaceSampler plugs in by its hook
             depth_profile(src.depth),
             definition=src.depth.definition,
             min_depth=src.depth.min,
@@ -203,8 +303,48 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
     ) as err:  # the library names min_depth/max_depth; the config calls them min/max
         message = str(err).replace("min_depth", "min").replace("max_depth", "max")
         raise ConfigError(f"source.depth: {message}") from None
+    return SampledSource(sampler, _emitter(src), scene.world_half)
+
+
+def _emitter(src: SourceConfig) -> Emitter | DecayEmitter:
     try:
-        emitter = make_emitter(src)
+        return make_emitter(src)
     except ConfigError as err:
         raise ConfigError(f"source.{err}") from None  # "source.particle: unknown name ..."
-    return SampledSource(sampler, emitter, scene.world_half)
+
+
+def source_geometry(config: RunConfig, scene: Scene) -> dict:
+    """What the run record states about where the source is (contract 1, ``source`` entry).
+
+    ``kind`` (surface | bulk | vertices), ``volume``, ``face``, ``area_mm2`` (true sampled area:
+    rough faces with their mesh area), ``projected_area_mm2`` (the faces counted flat),
+    ``faces`` (face names; the ``face`` column of the primaries indexes it), ``volume_mm3``
+    (bulk: the volume's own material), and ``mass_kg`` when the material's density is known
+    without Geant4 (a ``materials:`` entry; NIST densities come from Geant4, left None here).
+    """
+    src = config.source
+    if src.vertices is not None:
+        return {"kind": "vertices", "file": str(src.vertices)}
+    if src.volume is not None:
+        bulk = bulk_sampler(config, src.volume)
+        material = config.target(src.volume).material
+        spec = config.materials.get(material)
+        mass = None if spec is None else bulk.volume * spec.density * 1e-6  # g/cm3 * mm3 -> kg
+        return {
+            "kind": "bulk",
+            "volume": src.volume,
+            "volume_mm3": bulk.volume,
+            "mass_kg": mass,
+        }
+    ref = _given(src.surface, "source.surface")
+    out = {"kind": "surface", "volume": ref.volume, "face": ref.face}
+    if ref.face in FACES:
+        frame = face_frame(config.target(ref.volume), ref.face)
+        layer = scene.layer(ref.volume, ref.face)
+        projected = frame.size[0] * frame.size[1]
+        area = layer.sampler().area if layer is not None else projected
+        names = [ref.face]
+    else:
+        sampler = shape_face_sampler(config, scene, ref.volume, ref.face)
+        area, projected, names = sampler.area, sampler.projected_area, list(sampler.face_names)
+    return {**out, "area_mm2": float(area), "projected_area_mm2": float(projected), "faces": names}
