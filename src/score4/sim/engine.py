@@ -161,8 +161,14 @@ def plan_chunks(n_events: int, chunk_events: int, jobs: int = 1) -> ChunkPlan:
 
 
 def config_fingerprint(config: RunConfig, seed: int) -> str:
-    """Identifies what a chunk file was made from, so resume never mixes runs."""
-    text = json.dumps({"config": config_to_dict(config), "seed": seed}, sort_keys=True)
+    """Identifies what a chunk file was made from, so resume never mixes runs (a GDML world by
+    the content of its files, not only their names)."""
+    data: dict[str, Any] = {"config": config_to_dict(config), "seed": seed}
+    if config.world.gdml is not None:
+        from ..geometry.gdml_files import gdml_files, model_key
+
+        data["gdml"] = model_key(gdml_files(config.world.gdml))
+    text = json.dumps(data, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -326,6 +332,10 @@ def run(
         "physics_lacks": choice.lacks,
         "missing_data_sets": list(choice.missing_data),
         "removed_processes": info.get("removed_processes", []),
+        # one entry per scoring column (contract 1: name, material, density, volume, mass)
+        "volumes": info.get("volumes", []),
+        "rough_shares": {layer.name: layer.rough_share for layer in scene.layers},
+        "gdml_files": scene.model.files if scene.model is not None else [],
         "score4_version": __version__,
         "geant4_pybind_version": version("geant4_pybind"),
         "geant4_version": info.get("geant4_version", ""),
