@@ -23,12 +23,14 @@ demo: $(STAMP)
 	$(BIN)/score4 summary out/demo/rough.h5
 	$(BIN)/score4 plot out/demo/flat.h5 out/demo/rough.h5 --label "flat face" --label "10 um pyramids" --out out/demo/spectra.png --overwrite
 
+# On both cores (pytest-xdist): two tests at a time. Tests that start several worker
+# processes share one xdist group (pytest.mark.xdist_group), so they never run side by side.
 test: $(STAMP)
-	$(BIN)/python -m pytest $(PYTEST_ARGS)
+	$(BIN)/python -m pytest -n 2 --dist loadgroup $(PYTEST_ARGS)
 
 # The long validations and fuzz runs that `make test` leaves out (pytest marker `deep`).
 test-deep: $(STAMP)
-	$(BIN)/python -m pytest -m deep $(PYTEST_ARGS)
+	$(BIN)/python -m pytest -n 2 --dist loadgroup -m deep $(PYTEST_ARGS)
 
 # Lint and types: the same checks as the pre-commit hooks' ruff and mypy.
 lint: $(STAMP)
