@@ -293,21 +293,33 @@ def summary(results_file: Path, as_json: bool, bins, threshold: str) -> None:
             f"{v['n_nonzero']} events with deposit, {full} with (nearly) the full energy "
             f"(max primary energy {emax:.4g} MeV)"
         )
-    click.echo(f"  above {limit * 1e3:g} keV (rate = events above / simulated events):")
-    for v in s["volumes"]:
+    _echo_rates(s, limit)
+
+
+def _echo_rates(s: dict, limit: float) -> None:
+    """Per-volume rates above the threshold; the multiplicity only when there is more than one
+    volume (with one it says nothing the rate does not)."""
+    volumes = s["volumes"]
+    keV = f"{limit * 1e3:g} keV"
+    for v in volumes:
         mass = v.get("mass_kg")
         per_kg = (
             f", {v['rate_per_event_per_kg']:.4g} per kg ({mass * 1e3:.4g} g {v.get('material')})"
             if mass
             else ""
         )
+        alone = f"; alone (multiplicity 1) {v['alone_above_threshold']}" if len(volumes) > 1 else ""
+        head = f"    {v['name']}:" if len(volumes) > 1 else f"  above {keV}:"
+        if len(volumes) > 1 and v is volumes[0]:
+            click.echo(f"  above {keV} (rate = events above / simulated events):")
         click.echo(
-            f"    {v['name']}: {v['above_threshold']} events, rate {v['rate_per_event']:.4g}"
-            f"{per_kg}; alone (multiplicity 1) {v['alone_above_threshold']}"
+            f"{head} {v['above_threshold']} events, rate {v['rate_per_event']:.4g} per event"
+            f"{per_kg}{alone}"
         )
-    counts = s["multiplicity"]["events"]
-    shown = ", ".join(f"{m}: {c}" for m, c in counts.items() if c or m <= 2)
-    click.echo(f"  multiplicity (volumes above {limit * 1e3:g} keV: events) {shown}")
+    if len(volumes) > 1:
+        counts = s["multiplicity"]["events"]
+        shown = ", ".join(f"{m}: {c}" for m, c in counts.items() if c or m <= 2)
+        click.echo(f"  multiplicity (volumes above {keV}: events) {shown}")
 
 
 cli.add_command(data)
