@@ -103,8 +103,11 @@ def merge_chunks(chunk_paths: list[Path], out: Path, run_record: dict) -> None:
         with results_h5(out) as f:
             run = f.create_group("run")
             for key, value in run_record.items():
+                # containers and None (HDF5 attributes hold neither) as JSON
                 run.attrs[key] = (
-                    json.dumps(value) if isinstance(value, (dict, list, tuple)) else value
+                    json.dumps(value)
+                    if value is None or isinstance(value, (dict, list, tuple))
+                    else value
                 )
             ev = f.create_group("events")
             ev.attrs["quantities"] = json.dumps(quantities)
@@ -156,6 +159,8 @@ class Results:
 def _decode_attr(value):
     if isinstance(value, bytes):
         value = value.decode()
+    if value == "null":
+        return None
     if isinstance(value, str) and value[:1] in "[{":
         with contextlib.suppress(json.JSONDecodeError):
             return json.loads(value)

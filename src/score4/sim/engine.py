@@ -48,6 +48,7 @@ from .. import __version__, errors
 from ..config import RunConfig, config_to_dict
 from ..errors import ConfigError, Score4Error
 from ..files import atomic_output, check_free_space, check_output_file
+from ..normalisation import run_normalisation
 from ..geometry.walls import warn_rays_in_walls
 from ..output import merge_chunks
 from ..scene import build_scene
@@ -230,6 +231,7 @@ def run(
     # Build the scene and draw one event here: bad surfaces, files and constraints fail now, not in a worker.
     scene = build_scene(config)
     make_source(config, scene).primaries(np.random.default_rng(0), 0, 1)
+    normalisation = run_normalisation(config, scene)  # masses, sampled area: known before the run
     if config.source.vertices is not None and scene.layers:  # hand-made rays: beams on walls?
         rays = read_vertex_file(config.source.vertices)
         text = warn_rays_in_walls(scene, rays.position, rays.direction)
@@ -330,6 +332,8 @@ def run(
         "geant4_warnings": _geant4_warnings(exceptions),
         **_stuck_tracks(exceptions),
         **balance,
+        # what the events stand for: masses, the sampled area, decays (score4.normalisation)
+        **normalisation,
     }
     try:
         check_free_space(out, sum(f.stat().st_size for f in files))

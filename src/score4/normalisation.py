@@ -1,0 +1,212 @@
+"""What a run's events stand for: masses of the scored volumes, the source's area or mass, decays.
+
+A template (counts per keV per kg per day for a unit contamination, :mod:`score4.templates`)
+needs, besides the deposits, numbers that only the run knows: how many decays its events stand
+for, how large the contaminated area (or mass) really was, and the mass of every detector.
+:func:`run_normalisation` computes them from the configuration in numpy (the process that reads
+a configuration never imports Geant4) and the engine stores them in the run record of every
+results file (``/run`` attributes, JSON):
+
+``volumes``
+    one entry per scored column, in ``events/edep`` order: ``name``, ``material``,
+    ``density_g_cm3``, ``volume_mm3`` (a box target plus the solid volume of its rough layers,
+    computed from the same meshes Geant4 builds: the layers are scored with their target) and
+    ``mass_kg``.
+``source``
+    ``kind`` (``surface``, ``bulk`` or ``vertices``), ``volume``, ``face``, ``area_mm2`` (the true
+    rough area the vertices were drawn on: decays are uniform per true area, so an activity per
+    area multiplies this area), ``projected_area_mm2`` (the flat face), ``volume_mm3`` and
+    ``mass_kg`` (bulk sources), and for ``vertices`` the ``file`` (its area is known when the
+    file was drawn by ``score4 vertices``, whose configuration it stores).
+``simulated_decays``
+    how many decays of ``activity_nuclide`` the events stand for: every source here draws one
+    decay (one vertex) per event, so it is the number of events.
+``activity_nuclide``
+    the nuclide a quoted activity refers to (``Po210`` for ``decay: Po210``, the ``nuclide``
+    of a Geant4 radioactive-decay source), None for a plain particle source (an activity then
+    counts emitted particles).
+
+Densities: a ``materials:`` entry's own; a Geant4 NIST material's from
+``score4/data/nist_densities.json``, a table that ``tools/nist_densities.py`` writes from
+Geant4's ``G4NistManager`` (shipped, so no Geant4 import is needed here; a test compares it
+with the installed Geant4).
+"""
+
+from __future__ import annotations
+
+import json
+from functools import cache
+from importlib.resources import files
+from typing import Any
+
+import numpy as np
+
+from .config import BoxVolume, RunConfig, parse_config
+from .errors import ConfigError
+from .scene import RoughLayer, Scene, build_scene, face_frame
+
+#: Version of the normalisation entries; a results file without ``simulated_decays`` predates them.
+NORMALISATION_VERSION = 1
+
+
+@cache
+def nist_density_table() -> dict[str, float]:
+    """{Geant4 NIST material name: density in g/cm3} (tools/nist_densities.py wrote it)."""
+    text = files("score4").joinpath("data/nist_densities.json").read_text()
+    return dict(json.loads(text)["densities"])
+
+
+def material_density(config: RunConfig, material: str) -> float | None:
+    """Density (g/cm3) of a target material: a ``materials:`` entry or a NIST material; None if
+    neither knows it (the geometry refuses such a material before any event)."""
+    if material in config.materials:
+        return float(config.materials[material].density)
+    return nist_density_table().get(material)
+
+
+def layer_volume(layer: RoughLayer) -> float:
+    """Solid volume (mm3) of a rough layer: every cell's patch body (slab + rough top).
+
+    The volume under a height-field top mesh is the sum over its triangles of the projected
+    (xy) area times the mean height of the three corners, exact for the piecewise-linear mesh.
+    """
+    counts = np.bincount(
+        np.asarray(layer.patch_map.variants).ravel(), minlength=len(layer.variants)
+    )
+    px, py = layer.patch_size
+    total = 0.0
+    for count, surface in zip(counts, layer.variants, strict=True):
+        mesh = surface.top_mesh
+        heights = mesh.vertices[mesh.faces][:, :, 2].mean(axis=1)
+        under_top = float(np.dot(mesh.projected_areas, heights))
+        total += int(count) * (px * py * layer.base_thickness + under_top)
+    return total
+
+
+def target_volume(scene: Scene, target: BoxVolume) -> float:
+    """Volume (mm3) scored as ``target``: its box plus its rough layers."""
+    return float(np.prod(target.size)) + sum(layer_volume(r) for r in scene.layers_of(target.name))
+
+
+def _mass_kg(density: float | None, volume_mm3: float) -> float | None:
+    # g/cm3 * mm3 = 1e-3 g = 1e-6 kg
+    return None if density is None else density * volume_mm3 * 1e-6
+
+
+def volume_entries(config: RunConfig, scene: Scene) -> list[dict[str, Any]]:
+    """One entry per scored column (targets in configuration order, as the geometry scores them)."""
+    entries = []
+    for t in config.targets:
+        density = material_density(config, t.material)
+        volume = target_volume(scene, t)
+        entries.append(
+            {
+                "name": t.name,
+                "material": t.material,
+                "density_g_cm3": density,
+                "volume_mm3": volume,
+                "mass_kg": _mass_kg(density, volume),
+            }
+        )
+    return entries
+
+
+def _surface_source(config: RunConfig, scene: Scene) -> dict[str, Any]:
+    ref = config.source.surface
+    assert ref is not None  # the config model requires a surface for a sampled source
+    layer = scene.layer(ref.volume, ref.face)
+    lu, lv = face_frame(config.target(ref.volume), ref.face).size
+    area = layer.sampler().area if layer is not None else lu * lv
+    return {
+        "kind": "surface",
+        "volume": ref.volume,
+        "face": ref.face,
+        "rough": layer is not None,
+        "area_mm2": float(area),
+        "projected_area_mm2": float(lu * lv),
+        "volume_mm3": None,
+        "mass_kg": None,
+    }
+
+
+def _bulk_source(config: RunConfig, scene: Scene, name: str) -> dict[str, Any]:
+    """A source filling a volume (the ``source.volume`` of bulk sources)."""
+    entry = next((v for v in volume_entries(config, scene) if v["name"] == name), None)
+    return {
+        "kind": "bulk",
+        "volume": name,
+        "face": None,
+        "area_mm2": None,
+        "projected_area_mm2": None,
+        "volume_mm3": entry["volume_mm3"] if entry else None,
+        "mass_kg": entry["mass_kg"] if entry else None,
+    }
+
+
+def _vertices_source(config: RunConfig) -> dict[str, Any]:
+    """A vertex file: its area or mass is known when it stores the configuration it was drawn from."""
+    from .source.vertex_file import vertex_file_config
+
+    path = config.source.vertices
+    entry: dict[str, Any] = {
+        "kind": "vertices",
+        "file": str(path),
+        "volume": None,
+        "face": None,
+        "area_mm2": None,
+        "projected_area_mm2": None,
+        "volume_mm3": None,
+        "mass_kg": None,
+    }
+    stored = vertex_file_config(path) if path is not None else {}
+    if not stored:
+        entry["drawn_from"] = None  # hand-made vertices: only a total activity applies
+        return entry
+    try:
+        drawn = parse_config(stored, origin=f"{path} (stored configuration)")
+        inner = source_entry(drawn, build_scene(drawn))
+    except ConfigError as err:  # e.g. a surface file it names has moved: say so, do not guess
+        entry["drawn_from"] = None
+        entry["note"] = f"the vertex file's stored configuration does not rebuild: {err}"
+        return entry
+    entry.update({k: v for k, v in inner.items() if k != "kind"})
+    entry["drawn_from"] = inner["kind"]
+    return entry
+
+
+def source_entry(config: RunConfig, scene: Scene) -> dict[str, Any]:
+    """The ``source`` entry of the run record (see the module notes)."""
+    src = config.source
+    if src.vertices is not None:
+        return _vertices_source(config)
+    bulk = getattr(src, "volume", None)  # bulk sources (source.volume), where the config has them
+    if bulk is not None:
+        return _bulk_source(config, scene, str(getattr(bulk, "volume", bulk)))
+    return _surface_source(config, scene)
+
+
+def activity_nuclide(config: RunConfig) -> str | None:
+    """The nuclide an activity of this run's source refers to (None for a particle source)."""
+    src = config.source
+    if src.vertices is not None:
+        from .source.vertex_file import vertex_file_config
+
+        stored = vertex_file_config(src.vertices).get("source", {})
+        return stored.get("decay") or stored.get("nuclide")
+    return src.decay or src.nuclide
+
+
+def run_normalisation(config: RunConfig, scene: Scene) -> dict[str, Any]:
+    """The run record's normalisation entries (``volumes``, ``source``, ``simulated_decays``,
+    ``activity_nuclide``, ``normalisation_version``) for ``config`` built into ``scene``.
+
+    Pure numpy: masses from the shipped NIST density table or the ``materials:`` entries,
+    volumes and areas from the same meshes the geometry and the sampler use.
+    """
+    return {
+        "volumes": volume_entries(config, scene),
+        "source": source_entry(config, scene),
+        "simulated_decays": int(config.run.events),
+        "activity_nuclide": activity_nuclide(config),
+        "normalisation_version": NORMALISATION_VERSION,
+    }
