@@ -94,6 +94,7 @@ Energy = Annotated[float, _quantity("energy"), _with_unit("energy")]
 PositiveLength = Annotated[float, _quantity("length", positive=True), _with_unit("length")]
 NonNegativeLength = Annotated[float, _quantity("length", non_negative=True), _with_unit("length")]
 PositiveEnergy = Annotated[float, _quantity("energy", positive=True), _with_unit("energy")]
+NonNegativeEnergy = Annotated[float, _quantity("energy", non_negative=True), _with_unit("energy")]
 # densities are kept in g/cm3 (see score4.units.DENSITY)
 PositiveDensity = Annotated[float, _quantity("density", positive=True), _with_unit("density")]
 Vector3 = tuple[Length, Length, Length]

@@ -25,6 +25,7 @@ from .quiet import is_quiet, notice, set_quiet
 from .range_cmd import range_command
 from .results import export, plot
 from .surface import surface
+from .templates import template
 from .usage import command_path, usage_error_line
 
 
@@ -267,6 +268,7 @@ cli.add_command(surface)
 cli.add_command(import_macro)
 cli.add_command(geometry)
 cli.add_command(range_command)
+cli.add_command(template)
 
 
 _SHOWN: set[str] = set()  # score4 warnings said in this command

@@ -28,7 +28,7 @@ from .physics import (
     strip_data_hungry_processes,
 )
 from .runtime import PhysicsChoice, import_geant4, redirect_native_output
-from .scoring import VolumeScorer
+from .scoring import SPLIT_QUANTITIES, VolumeScorer, ion_deposits
 
 if TYPE_CHECKING:
     from .heavy_ions import HeavyIonTransport
@@ -72,7 +72,11 @@ class Simulation:
         self.source = make_source(config, self.scene)
         self.choice = choice
         self.log_path = log_path
-        self.quantities = ("edep", "track_length") if config.output.track_length else ("edep",)
+        self.quantities: tuple[str, ...] = ("edep",)
+        if config.output.track_length:
+            self.quantities += ("track_length",)
+        if config.output.split_by_particle:  # alpha and electron classes; ions are the rest
+            self.quantities += SPLIT_QUANTITIES
         self._progress: Callable[[int], None] | None = None  # see run()
         self._reported, self._report_every = 0, 1
         self._stop: threading.Event | None = None  # see run()
@@ -271,6 +275,8 @@ class Simulation:
         if self._stopped or (stop is not None and stop.is_set()):
             raise RunCancelled(f"run cancelled after {self._next_event} of {n} events")
         self._report_progress(final=True)
+        if "edep_alpha" in self._scores:
+            self._scores["edep_ion"] = ion_deposits(self._scores)
         return self._scores
 
     def _prepare_replay(self, primaries: Primaries, g4_seed: int | np.ndarray) -> None:
@@ -317,6 +323,8 @@ class Simulation:
             )
             for volume, value in fate.deposits.items():
                 self._scores["edep"][k, volume] += value
+                if name == "alpha" and "edep_alpha" in self._scores:  # alphas: trim
+                    self._scores["edep_alpha"][k, volume] += value
             if "track_length" in self._scores:
                 for volume, value in fate.lengths.items():
                     self._scores["track_length"][k, volume] += value
