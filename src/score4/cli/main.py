@@ -25,7 +25,7 @@ from .quiet import is_quiet, notice, set_quiet
 from .range_cmd import range_command
 from .results import export, plot
 from .surface import surface
-from .templates import template
+from .templates import model, template
 from .usage import command_path, usage_error_line
 
 
@@ -269,6 +269,7 @@ cli.add_command(import_macro)
 cli.add_command(geometry)
 cli.add_command(range_command)
 cli.add_command(template)
+cli.add_command(model)
 
 
 _SHOWN: set[str] = set()  # score4 warnings said in this command

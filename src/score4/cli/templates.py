@@ -93,4 +93,110 @@ def _print_template_summary(ts, written: list[str]) -> None:
         click.echo(line)
 
 
-__all__ = ["ConfigError", "template"]
+@click.command("model")
+@click.argument("model_file", metavar="MODEL.yaml", type=_FILE)
+@click.option("--data", "data_file", type=_FILE,
+              help="Measured spectrum to fit (CSV bin_low_keV,bin_high_keV,counts or a ROOT file "
+              "with --histogram); default: the model's data: entry.")
+@click.option("--histogram", help="The TH1 in a ROOT --data file.")
+@click.option("--plot", "plot_out", type=_FILE, help="Stacked predicted spectrum (log axis, ROI shaded).")
+@click.option("--fit-plot", "fit_plot_out", type=_FILE, help="Data over the fitted model, with residuals.")
+@click.option("--pseudo-data", "pseudo_out", type=_FILE,
+              help="Write Poisson pseudo-data drawn from the model (CSV) and stop.")
+@click.option("--seed", type=click.IntRange(min=0), default=1, show_default=True,
+              help="Seed of --pseudo-data.")
+@click.option("--json", "as_json", is_flag=True, help="Print the prediction and the fit as JSON.")
+@click.option("--overwrite", is_flag=True, help="Replace existing output files.")
+def model(model_file, data_file, histogram, plot_out, fit_plot_out, pseudo_out, seed, as_json,
+          overwrite) -> None:  # fmt: skip
+    """Sum templates times activities into a predicted spectrum; fit the activities to data."""
+    from ..files import check_output_file
+    from ..model import DataConfig, build_model, load_model, model_summary
+
+    for option, path in (("--plot", plot_out), ("--fit-plot", fit_plot_out), ("--pseudo-data", pseudo_out)):
+        if path is not None:
+            check_output_file(path, overwrite, option)
+    config = load_model(model_file)
+    m = build_model(config)
+    if data_file is not None:
+        data_cfg = DataConfig.model_validate({"file": data_file, "histogram": histogram})
+    elif histogram is not None:
+        raise ConfigError("--histogram: goes with --data FILE.root")
+    else:
+        data_cfg = config.data
+    if fit_plot_out is not None and data_cfg is None:
+        raise ConfigError("--fit-plot: needs data to fit (--data FILE or data: in the model)")
+    summary = model_summary(m)
+    if pseudo_out is not None:
+        _write_pseudo(m, seed, pseudo_out, model_file)
+        return
+    fit = None
+    if data_cfg is not None:
+        from ..model import fit_model, read_spectrum
+
+        fit = fit_model(m, read_spectrum(data_cfg))
+    written = _model_plots(m, fit, plot_out, fit_plot_out)
+    if as_json:
+        click.echo(json.dumps({"model": summary, "fit": fit.to_dict() if fit else None}, indent=2))
+        return
+    _print_model(summary, fit, written)
+
+
+def _write_pseudo(m, seed: int, out: Path, model_file: Path) -> None:
+    from ..model import pseudo_data, write_csv_spectrum
+
+    spectrum = pseudo_data(m, seed)
+    activities = ", ".join(f"{c.name} {c.activity:.6g} {c.unit}" for c in m.components)
+    write_csv_spectrum(
+        spectrum, out, f"pseudo-data of {model_file} (seed {seed}): Poisson counts at {activities}"
+    )
+    click.echo(f"wrote {out}: {len(spectrum.counts)} bins, {int(spectrum.counts.sum())} counts (seed {seed})")
+
+
+def _model_plots(m, fit, plot_out, fit_plot_out) -> list[str]:
+    written = []
+    roi = None if m.config.roi is None else (m.config.roi[0] * 1e3, m.config.roi[1] * 1e3)
+    if plot_out is not None:
+        from ..plots import StackComponent, plot_stacked
+
+        layers = [StackComponent(f"{c.name} ({c.activity:.3g} {c.unit})", m.edges_kev, r)
+                  for c, r in zip(m.components, m.rates(), strict=True)]  # fmt: skip
+        plot_stacked({m.components[0].template.detector: layers}, plot_out, roi_kev=roi,
+                     title=f"model ({m.config.kind}):")  # fmt: skip
+        written.append(str(plot_out))
+    if fit_plot_out is not None and fit is not None:
+        from ..plots import StackComponent, plot_fit
+
+        layers = [StackComponent(f"{n} ({fit.activity[n]:.3g}" + (f" +- {fit.error[n]:.2g}" if n in fit.error else "")
+                                 + f" {fit.units[n]})", fit.edges_kev, fit.components[k])
+                  for k, n in enumerate(fit.names)]  # fmt: skip
+        plot_fit(fit.edges_kev, fit.data, layers, fit_plot_out, roi_kev=roi,
+                 title=f"fit to data, {m.components[0].template.detector} ({m.config.kind})")  # fmt: skip
+        written.append(str(fit_plot_out))
+    return written
+
+
+def _print_model(summary: dict, fit, written: list[str]) -> None:
+    if written:
+        click.echo(f"wrote {', '.join(written)}")
+    click.echo(f"model: detector {summary['detector']} ({summary['kind']}), {summary['mass_kg']:.6g} kg, "
+               f"live time {summary['livetime_days']:.6g} d: {summary['expected_counts']:.6g} counts expected")  # fmt: skip
+    for name, c in summary["components"].items():
+        line = f"  {name}: {c['activity']:.6g} {c['unit']} -> {c['expected_counts']:.6g} counts"
+        if "roi_counts_per_keV_kg_day" in c:
+            line += f", ROI {c['roi_counts_per_keV_kg_day']:.4g} counts/(keV kg day)"
+        click.echo(line)
+    if fit is None:
+        return
+    click.echo(f"fit: {'valid' if fit.valid else 'NOT valid'}, deviance {fit.deviance:.4g} for "
+               f"{fit.n_bins - len(fit.fitted)} degrees of freedom ({fit.n_bins} bins)")  # fmt: skip
+    for n in fit.names:
+        err = f" +- {fit.error[n]:.3g}" if n in fit.error else " (fixed)"
+        click.echo(f"  {n}: {fit.activity[n]:.6g}{err} {fit.units[n]}")
+    if len(fit.fitted) > 1:
+        for i, a in enumerate(fit.fitted):
+            for j in range(i + 1, len(fit.fitted)):
+                click.echo(f"  correlation {a} / {fit.fitted[j]}: {fit.correlation[i, j]:+.3f}")
+
+
+__all__ = ["model", "template"]
