@@ -12,8 +12,9 @@ event and per detector to the deposits of a results file (:func:`visible_energy`
 2. **Resolution**: ``E_vis`` is smeared once per event with a Gaussian of standard deviation
    ``sigma(E_vis)``: ``sigma(E)^2 = a^2 + b E + (c E)^2`` (``a``: noise, an energy; ``b``: the
    Fano-like term, an energy, e.g. F w = 0.11 x 2.96 eV for germanium; ``c``: the constant
-   relative term, a number), or linear interpolation in a table of ``E sigma`` rows. The random
-   stream is ``numpy.random.default_rng(seed)``: the same seed gives the same smeared events.
+   relative term, a number), or linear interpolation in a table of ``E sigma`` rows. Each detector
+   has its own random stream (``numpy.random.default_rng([seed, crc32(name)])``): the same seed
+   gives the same smeared events, whichever other detectors are chosen.
 3. **Threshold**: a detector sees an event when its smeared energy is above ``threshold``.
 
 The response is given as ``response:`` in the run configuration, or as a YAML file holding the
@@ -23,6 +24,7 @@ same keys (``score4 template --response FILE``).
 from __future__ import annotations
 
 import re
+import zlib
 from pathlib import Path
 from typing import ClassVar, Literal
 
@@ -152,14 +154,15 @@ def apply_response(
 ) -> dict[str, np.ndarray]:
     """{volume: measured energy per event (MeV)}: quenched, smeared; events the detector does not
     see (nothing deposited, or at or below the threshold) are exactly 0."""
-    rng = np.random.default_rng(response.seed)
     sigma = sigma_function(response.resolution) if response.resolution is not None else None
     out = {}
     for volume in volumes:
         e = visible_energy(scores, volume, response)
         hit = e > 0
         if sigma is not None:
-            noise = rng.standard_normal(len(e))  # one draw per event and detector, seen or not
+            # one stream per detector name: its smearing does not depend on the other detectors
+            rng = np.random.default_rng([response.seed, zlib.crc32(volume.encode())])
+            noise = rng.standard_normal(len(e))  # one draw per event, seen or not
             e = np.where(hit, e + sigma(e) * noise, 0.0)
         out[volume] = np.where(hit & (e > response.threshold), e, 0.0)
     return out
