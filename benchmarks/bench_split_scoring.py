@@ -71,18 +71,34 @@ def main() -> None:
     rows = {}
     for mode in ("plain", "split"):
         out = subprocess.run(
-            [sys.executable, __file__, "--volumes", str(args.volumes), "--child", mode,
-             str(args.events)],
-            capture_output=True, text=True, check=True,
+            [
+                sys.executable,
+                __file__,
+                "--volumes",
+                str(args.volumes),
+                "--child",
+                mode,
+                str(args.events),
+            ],
+            capture_output=True,
+            text=True,
+            check=True,
         )
         rows[mode] = json.loads(out.stdout.strip().splitlines()[-1])
     plain, split = rows["plain"]["us_per_event"], rows["split"]["us_per_event"]
     print(f"load average: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     print(f"Po-210 on Si, {args.volumes} volume(s), {args.events} events, best of 3:")
-    print(f"  plain  {plain:8.1f} us/event  (mean edep det_0 {rows['plain']['mean_edep_MeV']:.4f} MeV)")
-    print(f"  split  {split:8.1f} us/event  (mean edep det_0 {rows['split']['mean_edep_MeV']:.4f} MeV)")
-    print(f"  cost   {split - plain:8.1f} us/event = {(split - plain) / args.volumes:.1f} us per volume per event "
-          f"({(split / plain - 1) * 100:+.1f} %)")
+    for mode in ("plain", "split"):
+        row = rows[mode]
+        print(
+            f"  {mode:5s}  {row['us_per_event']:8.1f} us/event  "
+            f"(mean edep det_0 {row['mean_edep_MeV']:.4f} MeV)"
+        )
+    per_volume = (split - plain) / args.volumes
+    print(
+        f"  cost   {split - plain:8.1f} us/event = {per_volume:.1f} us per volume per event "
+        f"({(split / plain - 1) * 100:+.1f} %)"
+    )
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Analytic anchor: a thick bulk alpha emitter sends A rho R / 4 alphas per area and time out of a face.
+"""Analytic anchor: a thick bulk alpha emitter sends A rho R / 4 alphas per area and time out.
 
 A silicon slab (100 um thick, much thicker than the 27 um range of a 5.304 MeV alpha) holds
 vertices drawn uniformly in its volume with isotropic alphas (a vertex file written here with
@@ -37,7 +37,9 @@ def srim_csda_range_mm() -> float:
     """CSDA range of the alpha in silicon from SRIM's stopping (electronic + nuclear)."""
     lunasrim = pytest.importorskip("lunasrim")
     rows = np.array(
-        lunasrim.stopping_table("He", {"Si": 1.0}, emin=1.0, emax=ENERGY * 1e3, units="MeV/(mg/cm2)")
+        lunasrim.stopping_table(
+            "He", {"Si": 1.0}, emin=1.0, emax=ENERGY * 1e3, units="MeV/(mg/cm2)"
+        )
     )
     e_mev, s = rows[:, 0] * 1e-3, rows[:, 1] + rows[:, 2]
     mass_range = np.trapezoid(1.0 / s, e_mev) + e_mev[0] / s[0]  # mg/cm2 (below 1 keV: ~0.1 %)
@@ -47,7 +49,11 @@ def srim_csda_range_mm() -> float:
 def run_slab(tmp_path, n: int, seed: int) -> tuple[int, dict]:
     rng = np.random.default_rng(seed)
     pos = np.column_stack(
-        [rng.uniform(-SIDE / 2, SIDE / 2, n), rng.uniform(-SIDE / 2, SIDE / 2, n), rng.uniform(-THICK, 0, n)]
+        [
+            rng.uniform(-SIDE / 2, SIDE / 2, n),
+            rng.uniform(-SIDE / 2, SIDE / 2, n),
+            rng.uniform(-THICK, 0, n),
+        ]
     )
     cos = rng.uniform(-1, 1, n)
     phi = rng.uniform(0, 2 * np.pi, n)
@@ -57,17 +63,29 @@ def run_slab(tmp_path, n: int, seed: int) -> tuple[int, dict]:
     vertices = tmp_path / "bulk.h5"
     write_vertex_file(vertices, p, {}, seed)  # no configuration: nothing says what volume it fills
     cfg = tmp_path / "slab.yaml"
-    cfg.write_text(yaml.safe_dump({
-        "physics": {"mode": "lite", "production_cut": "10 um"},
-        "targets": [
-            {"name": "slab", "material": "G4_Si", "size": [f"{SIDE} mm", f"{SIDE} mm", f"{THICK} mm"],
-             "position": ["0 mm", "0 mm", f"{-THICK / 2} mm"]},
-            {"name": "detector", "material": "G4_Si", "size": [f"{SIDE} mm", f"{SIDE} mm", f"{DET} mm"],
-             "position": ["0 mm", "0 mm", f"{DET / 2} mm"]},
-        ],
-        "source": {"vertices": str(vertices)},
-        "run": {"events": n, "seed": seed},
-    }))  # fmt: skip
+    cfg.write_text(
+        yaml.safe_dump(
+            {
+                "physics": {"mode": "lite", "production_cut": "10 um"},
+                "targets": [
+                    {
+                        "name": "slab",
+                        "material": "G4_Si",
+                        "size": [f"{SIDE} mm", f"{SIDE} mm", f"{THICK} mm"],
+                        "position": ["0 mm", "0 mm", f"{-THICK / 2} mm"],
+                    },
+                    {
+                        "name": "detector",
+                        "material": "G4_Si",
+                        "size": [f"{SIDE} mm", f"{SIDE} mm", f"{DET} mm"],
+                        "position": ["0 mm", "0 mm", f"{DET / 2} mm"],
+                    },
+                ],
+                "source": {"vertices": str(vertices)},
+                "run": {"events": n, "seed": seed},
+            }
+        )
+    )
     out = tmp_path / "slab.h5"
     assert main(["-q", "run", str(cfg), "--out", str(out), "--jobs", "2"]) == 0
     return out
@@ -79,11 +97,30 @@ def check_escape_rate(tmp_path, capsys, n: int) -> None:
     m_slab = RHO * SIDE * SIDE * THICK * 1e-6  # kg
     m_det = RHO * SIDE * SIDE * DET * 1e-6
     # hand-made vertices: only a total activity means something
-    assert main(["template", str(results), "--activity", "1 Bq/kg", "--out", str(tmp_path / "x.h5")]) == 2
+    assert (
+        main(["template", str(results), "--activity", "1 Bq/kg", "--out", str(tmp_path / "x.h5")])
+        == 2
+    )
     assert "total activity" in capsys.readouterr().err
     out = tmp_path / "t.h5"
-    assert main(["template", str(results), "--activity", f"{specific * m_slab!r} Bq", "--detector",
-                 "detector", "--emax", "6 MeV", "--out", str(out), "--json"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "template",
+                str(results),
+                "--activity",
+                f"{specific * m_slab!r} Bq",
+                "--detector",
+                "detector",
+                "--emax",
+                "6 MeV",
+                "--out",
+                str(out),
+                "--json",
+            ]
+        )
+        == 0
+    )
     det = json.loads(capsys.readouterr().out)["detectors"]["detector"]
     r_mm = srim_csda_range_mm()
     # A rho R / 4 per area and second, in kg/mm3 and mm: alphas per mm2 per s
@@ -91,13 +128,14 @@ def check_escape_rate(tmp_path, capsys, n: int) -> None:
     expected = per_area * SIDE * SIDE * 86400 / m_det  # counts/(kg day)
     n_escaped = det["simulated_counts"]
     sigma = expected / np.sqrt(n * r_mm / (4 * THICK))  # Poisson error of the expected count
-    print(f"escaped {n_escaped} of {n}; rate {det['counts_per_kg_day']:.6g} vs A rho R/4: {expected:.6g} "
-          f"counts/(kg day), ratio {det['counts_per_kg_day'] / expected:.4f} +- {sigma / expected:.4f} "
-          f"(R = {r_mm * 1e3:.3f} um)")  # fmt: skip
-    assert abs(det["counts_per_kg_day"] - expected) < 3 * sigma + 0.04 * expected, (
-        f"{n_escaped} of {n} escaped: {det['counts_per_kg_day']:.5g} vs {expected:.5g} counts/(kg day) "
+    rate = det["counts_per_kg_day"]
+    said = (
+        f"escaped {n_escaped} of {n}; rate {rate:.6g} vs A rho R/4: {expected:.6g} "
+        f"counts/(kg day), ratio {rate / expected:.4f} +- {sigma / expected:.4f} "
         f"(R = {r_mm * 1e3:.3f} um)"
     )
+    print(said)
+    assert abs(rate - expected) < 3 * sigma + 0.04 * expected, said
 
 
 def test_bulk_alpha_emitter_escape_rate_is_a_rho_r_over_4(tmp_path, capsys):

@@ -17,24 +17,57 @@ from score4.cli.main import main
 from score4.model import build_model, fit_model, load_model, pseudo_data
 
 TARGETS = [
-    {"name": "top", "material": "G4_Si", "size": ["2 mm", "2 mm", "0.5 mm"],
-     "position": ["0 mm", "0 mm", "0.3 mm"]},
-    {"name": "bottom", "material": "G4_Si", "size": ["2 mm", "2 mm", "0.5 mm"],
-     "position": ["0 mm", "0 mm", "-0.25 mm"]},
-]  # fmt: skip
+    {
+        "name": "top",
+        "material": "G4_Si",
+        "size": ["2 mm", "2 mm", "0.5 mm"],
+        "position": ["0 mm", "0 mm", "0.3 mm"],
+    },
+    {
+        "name": "bottom",
+        "material": "G4_Si",
+        "size": ["2 mm", "2 mm", "0.5 mm"],
+        "position": ["0 mm", "0 mm", "-0.25 mm"],
+    },
+]
 
 
 def _template(folder, name: str, face: dict, seed: int) -> str:
     cfg = folder / f"{name}.yaml"
-    cfg.write_text(yaml.safe_dump({
-        "physics": "lite", "targets": TARGETS,
-        "source": {"decay": "Po210", "surface": face, "depth": {"profile": "exponential", "mean": "0.5 um"}},
-        "run": {"events": 800, "seed": seed},
-    }))  # fmt: skip
+    cfg.write_text(
+        yaml.safe_dump(
+            {
+                "physics": "lite",
+                "targets": TARGETS,
+                "source": {
+                    "decay": "Po210",
+                    "surface": face,
+                    "depth": {"profile": "exponential", "mean": "0.5 um"},
+                },
+                "run": {"events": 800, "seed": seed},
+            }
+        )
+    )
     run, out = folder / f"{name}.h5", folder / f"{name}.tpl.h5"
     assert main(["-q", "run", str(cfg), "--out", str(run)]) == 0
-    assert main(["-q", "template", str(run), "--activity", "1 mBq/cm2", "--emax", "6 MeV",
-                 "--bins", "60", "--out", str(out)]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "-q",
+                "template",
+                str(run),
+                "--activity",
+                "1 mBq/cm2",
+                "--emax",
+                "6 MeV",
+                "--bins",
+                "60",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     return out.name
 
 
@@ -70,7 +103,9 @@ def _pulls(folder, n: int) -> np.ndarray:
     for seed in range(n):
         fit = fit_model(model, pseudo_data(model, seed))
         assert fit.valid
-        pulls.append([(fit.activity[c] - t) / fit.error[c] for c, t in zip(fit.names, truth, strict=True)])
+        pulls.append(
+            [(fit.activity[c] - t) / fit.error[c] for c, t in zip(fit.names, truth, strict=True)]
+        )
     return np.array(pulls)
 
 
@@ -96,18 +131,36 @@ def test_cli_pseudo_data_fit_plots_and_json(folder, capsys):
     assert main(["model", model, "--pseudo-data", str(data), "--seed", "4", "--overwrite"]) == 0
     capsys.readouterr()
     plot, fit_plot = folder / "m.png", folder / "f.png"
-    assert main(["model", model, "--data", str(data), "--plot", str(plot), "--fit-plot", str(fit_plot),
-                 "--json", "--overwrite"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "model",
+                model,
+                "--data",
+                str(data),
+                "--plot",
+                str(plot),
+                "--fit-plot",
+                str(fit_plot),
+                "--json",
+                "--overwrite",
+            ]
+        )
+        == 0
+    )
     report = json.loads(capsys.readouterr().out)
     fit = report["fit"]
-    assert fit["valid"] and fit["correlation"]["order"] == ["top face", "bottom face"]
+    assert fit["valid"]
+    assert fit["correlation"]["order"] == ["top face", "bottom face"]
     for name, truth in (("top face", 3.0), ("bottom face", 1.0)):
         a = fit["activities"][name]
-        assert a["unit"] == "mBq/cm2" and abs(a["value"] - truth) < 4 * a["error"]
+        assert a["unit"] == "mBq/cm2"
+        assert abs(a["value"] - truth) < 4 * a["error"]
     assert report["model"]["expected_counts"] == pytest.approx(
         sum(c["expected_counts"] for c in report["model"]["components"].values())
     )
-    assert plot.stat().st_size > 10_000 and fit_plot.stat().st_size > 10_000
+    assert plot.stat().st_size > 10_000
+    assert fit_plot.stat().st_size > 10_000
 
 
 def test_coarser_data_bins_and_a_root_histogram_fit(folder, capsys):
@@ -119,24 +172,39 @@ def test_coarser_data_bins_and_a_root_histogram_fit(folder, capsys):
     path = folder / "coarse.root"
     with uproot.recreate(path) as f:
         f["spectrum"] = (coarse_counts, coarse_edges)
-    assert main(["model", write_model(folder), "--data", str(path), "--histogram", "spectrum", "--json"]) == 0
+    assert (
+        main(
+            ["model", write_model(folder), "--data", str(path), "--histogram", "spectrum", "--json"]
+        )
+        == 0
+    )
     fit = json.loads(capsys.readouterr().out)["fit"]
-    assert fit["bins"] == 27 and fit["valid"]  # the 200 keV bins inside the fit range 0.5 - 6 MeV
+    assert fit["bins"] == 27
+    assert fit["valid"]
 
 
 def test_binning_mismatch_and_bad_models_exit_2(folder, capsys):
     bad = folder / "shifted.csv"
-    bad.write_text("bin_low_keV,bin_high_keV,counts\n" + "".join(f"{25 + 50 * k},{75 + 50 * k},3\n" for k in range(100)))
+    bad.write_text(
+        "bin_low_keV,bin_high_keV,counts\n"
+        + "".join(f"{25 + 50 * k},{75 + 50 * k},3\n" for k in range(100))
+    )
     out = folder / "mismatch.png"
     assert main(["model", write_model(folder), "--data", str(bad), "--fit-plot", str(out)]) == 2
     err = capsys.readouterr().err
-    assert "cannot be matched" in err and err.count("\n") == 1 and not out.exists()
+    assert "cannot be matched" in err
+    assert err.count("\n") == 1
+    assert not out.exists()
     for extra, message in (
         ({"livetime": "200"}, "has no unit"),
-        ({"components": [{"name": "x", "template": "topface.tpl.h5", "activity": "1 mBq/kg"}]}, "per mass"),
+        (
+            {"components": [{"name": "x", "template": "topface.tpl.h5", "activity": "1 mBq/kg"}]},
+            "per mass",
+        ),
         ({"kind": "m3"}, "kind"),
         ({"colour": "red"}, "unknown key"),
     ):
         assert main(["model", write_model(folder, "bad.yaml", **extra)]) == 2
         err = capsys.readouterr().err
-        assert message in err and err.count("\n") == 1, err
+        assert message in err, err
+        assert err.count("\n") == 1, err

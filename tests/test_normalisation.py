@@ -14,12 +14,13 @@ import sys
 
 import h5py
 import pytest
-from conftest import ROOT, config_dict
 
 from score4.cli.main import main
 from score4.config import parse_config
 from score4.normalisation import nist_density_table, run_normalisation
 from score4.scene import build_scene
+
+from conftest import ROOT, config_dict
 
 PYRAMIDS = {"pyr": {"kind": "spikes", "nx": 10, "ny": 10, "width": "10 um", "height": "10 um"}}
 
@@ -35,12 +36,16 @@ def rough_config(**extra):
                     "size": ["0.2 mm", "0.3 mm", "0.1 mm"],
                     "rough": [{"face": "+z", "surface": "pyr", "base_thickness": "2 um"}],
                 },
-                {"name": "holder", "material": "G4_Cu", "size": ["1 mm", "1 mm", "0.5 mm"],
-                 "position": ["0 mm", "0 mm", "-1 mm"]},
+                {
+                    "name": "holder",
+                    "material": "G4_Cu",
+                    "size": ["1 mm", "1 mm", "0.5 mm"],
+                    "position": ["0 mm", "0 mm", "-1 mm"],
+                },
             ],
             **extra,
         )
-    )  # fmt: skip
+    )
 
 
 def test_rough_target_volume_and_sampled_area_match_pyramid_formulas():
@@ -60,7 +65,8 @@ def test_rough_target_volume_and_sampled_area_match_pyramid_formulas():
     # a square pyramid's four faces: 4 * (w / 2) * sqrt(h^2 + (w / 2)^2)
     face = 4 * (w / 2) * math.sqrt(h**2 + (w / 2) ** 2)
     src = n["source"]
-    assert src["kind"] == "surface" and src["rough"] is True
+    assert src["kind"] == "surface"
+    assert src["rough"] is True
     assert src["area_mm2"] == pytest.approx(pyramids * face, rel=1e-12)
     assert src["projected_area_mm2"] == pytest.approx(0.2 * 0.3, rel=1e-12)
     assert n["simulated_decays"] == config.run.events
@@ -78,7 +84,8 @@ def test_custom_material_density_and_nuclide():
     n = run_normalisation(config, build_scene(config))
     assert n["volumes"][0]["mass_kg"] == pytest.approx(0.7525, rel=1e-12)  # 125 cm3 * 6.02 g/cm3
     assert n["source"]["area_mm2"] == n["source"]["projected_area_mm2"] == pytest.approx(2500)
-    assert n["activity_nuclide"] == "Po210" and n["simulated_decays"] == 1234
+    assert n["activity_nuclide"] == "Po210"
+    assert n["simulated_decays"] == 1234
 
 
 def test_shipped_nist_densities_equal_the_installed_geant4():
@@ -109,7 +116,8 @@ def test_run_record_holds_the_normalisation(tmp_path):
     with h5py.File(out, "r") as f:
         run = {k: f["run"].attrs[k] for k in f["run"].attrs}
     volumes = json.loads(run["volumes"])
-    assert volumes[0]["name"] == "crystal" and volumes[0]["mass_kg"] == pytest.approx(2.33e-3)
+    assert volumes[0]["name"] == "crystal"
+    assert volumes[0]["mass_kg"] == pytest.approx(2.33e-3)
     assert json.loads(run["source"])["area_mm2"] == pytest.approx(100.0)
     assert int(run["simulated_decays"]) == 20
     assert run["activity_nuclide"] == "null"  # JSON null: no nuclide for a particle source

@@ -13,26 +13,38 @@ import h5py
 import numpy as np
 import pytest
 import yaml
-from conftest import config_dict
 
 from score4.cli.main import main
 from score4.output import read_results
 from score4.response import ResponseConfig
 from score4.templates import build_templates
 
+from conftest import config_dict
+
 PAIR = {
     "physics": "lite",
     "targets": [
-        {"name": "top", "material": "G4_Si", "size": ["2 mm", "2 mm", "0.5 mm"],
-         "position": ["0 mm", "0 mm", "0.3 mm"]},
-        {"name": "bottom", "material": "G4_Si", "size": ["2 mm", "2 mm", "0.5 mm"],
-         "position": ["0 mm", "0 mm", "-0.25 mm"]},
+        {
+            "name": "top",
+            "material": "G4_Si",
+            "size": ["2 mm", "2 mm", "0.5 mm"],
+            "position": ["0 mm", "0 mm", "0.3 mm"],
+        },
+        {
+            "name": "bottom",
+            "material": "G4_Si",
+            "size": ["2 mm", "2 mm", "0.5 mm"],
+            "position": ["0 mm", "0 mm", "-0.25 mm"],
+        },
     ],
-    "source": {"decay": "Po210", "surface": {"volume": "bottom", "face": "+z"},
-               "depth": {"profile": "uniform", "max": "100 nm"}},
+    "source": {
+        "decay": "Po210",
+        "surface": {"volume": "bottom", "face": "+z"},
+        "depth": {"profile": "uniform", "max": "100 nm"},
+    },
     "run": {"events": 1500, "seed": 5},
     "output": {"split_by_particle": True},
-}  # fmt: skip
+}
 Q_PO210 = 5.40745  # MeV: alpha 5.30433 + recoil 0.10312 (ENSDF)
 
 
@@ -55,12 +67,32 @@ def pair_run(tmp_path_factory):
     return _run(tmp_path_factory, "pair", PAIR)
 
 
-def test_surface_template_integral_is_activity_area_time_over_mass_times_share(alpha_run, tmp_path, capsys):
+def test_surface_template_integral_is_activity_area_time_over_mass_times_share(
+    alpha_run, tmp_path, capsys
+):
     """Analytic: a flat-face surface emitter of a Bq/mm2 on A mm2 gives, in a detector of mass m
     over a live time T, a * A * T * share counts; isotropic alphas from a flat face: share 1/2."""
     out = tmp_path / "t.h5"
-    assert main(["template", str(alpha_run), "--activity", "1 mBq/cm2", "--livetime", "30 d",
-                 "--emax", "6 MeV", "--bins", "60", "--out", str(out), "--json"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "template",
+                str(alpha_run),
+                "--activity",
+                "1 mBq/cm2",
+                "--livetime",
+                "30 d",
+                "--emax",
+                "6 MeV",
+                "--bins",
+                "60",
+                "--out",
+                str(out),
+                "--json",
+            ]
+        )
+        == 0
+    )
     report = json.loads(capsys.readouterr().out)
     results = read_results(alpha_run)
     n = results.n_events
@@ -73,7 +105,9 @@ def test_surface_template_integral_is_activity_area_time_over_mass_times_share(a
     assert report["activity"]["total_Bq"] == pytest.approx(1e-5 * area, rel=1e-12)
     assert det["mass_kg"] == pytest.approx(mass, rel=1e-12)
     assert det["counts_per_kg_day"] == pytest.approx(per_kg_day, rel=1e-12)
-    assert det["counts_per_kg_day_error"] == pytest.approx(per_kg_day / np.sqrt(share * n), rel=1e-12)
+    assert det["counts_per_kg_day_error"] == pytest.approx(
+        per_kg_day / np.sqrt(share * n), rel=1e-12
+    )
     with h5py.File(out, "r") as f:
         g = f["deposit/detectors/crystal"]
         edges = g["all/binning/axis_0/binedges"][()]
@@ -98,7 +132,9 @@ def test_multiplicity_templates_add_up_and_match_the_events(pair_run):
         assert kinds["all"].counts.sum() == seen[:, k].sum()
         assert kinds["m1"].counts.sum() == (seen[:, k] & ~both).sum()
         assert kinds["m2"].counts.sum() == both.sum()
-        np.testing.assert_allclose(kinds["m1"].rate + kinds["m2"].rate, kinds["all"].rate, rtol=1e-12)
+        np.testing.assert_allclose(
+            kinds["m1"].rate + kinds["m2"].rate, kinds["all"].rate, rtol=1e-12
+        )
     pair = stage.pairs[("top", "bottom")]
     assert pair.counts.sum() == both.sum() == stage.m2_sum.counts.sum()
     np.testing.assert_array_equal(pair.counts.sum(axis=1), stage.detectors["top"]["m2"].counts)
@@ -113,14 +149,35 @@ def test_files_read_back_with_lh5_hist_and_uproot(pair_run, tmp_path):
     lh5 = pytest.importorskip("lh5")
     uproot = pytest.importorskip("uproot")
     out, root = tmp_path / "t.h5", tmp_path / "t.root"
-    assert main(["-q", "template", str(pair_run), "--activity", "2 mBq/cm2", "--livetime", "1 yr",
-                 "--emax", "6 MeV", "--bins", "60", "--out", str(out), "--root", str(root)]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "-q",
+                "template",
+                str(pair_run),
+                "--activity",
+                "2 mBq/cm2",
+                "--livetime",
+                "1 yr",
+                "--emax",
+                "6 MeV",
+                "--bins",
+                "60",
+                "--out",
+                str(out),
+                "--root",
+                str(root),
+            ]
+        )
+        == 0
+    )
     ts = build_templates(read_results(pair_run), "2 mBq/cm2", emax="6 MeV", bins=60)
     ours = ts.stages["deposit"].detectors["top"]["all"]
     h = lh5.read("deposit/detectors/top/all", out)
     np.testing.assert_allclose(h.binning[0].edges, ours.edges[0])
     np.testing.assert_allclose(h.weights.nda, ours.rate, rtol=1e-12)
-    assert h.isdensity and h.attrs["units"] == "counts/(keV kg day)"
+    assert h.isdensity
+    assert h.attrs["units"] == "counts/(keV kg day)"
     counts = lh5.read("deposit/detectors/top/all_counts", out).view_as("hist")  # a hist.Hist
     np.testing.assert_array_equal(counts.values(), ours.counts)
     assert list(counts.axes[0].edges) == pytest.approx(list(ours.edges[0]))
@@ -128,14 +185,17 @@ def test_files_read_back_with_lh5_hist_and_uproot(pair_run, tmp_path):
     assert pair.values().sum() == ts.stages["deposit"].pairs[("top", "bottom")].counts.sum()
     norm = lh5.read("normalisation", out)
     assert norm["simulated_decays"].value == 1500
-    assert norm["area"].value == pytest.approx(4.0) and norm["area"].attrs["units"] == "mm2"
+    assert norm["area"].value == pytest.approx(4.0)
+    assert norm["area"].attrs["units"] == "mm2"
     with uproot.open(root) as f:
         th1 = f["deposit_top_all"]
         np.testing.assert_allclose(th1.values(), ours.rate, rtol=1e-12)
         np.testing.assert_allclose(th1.errors(), ours.error, rtol=1e-12)
         assert th1.member("fXaxis").member("fTitle") == "energy [keV]"
         th2 = f["deposit_pair_top__bottom"]
-        np.testing.assert_allclose(th2.values(), ts.stages["deposit"].pairs[("top", "bottom")].rate, rtol=1e-12)
+        np.testing.assert_allclose(
+            th2.values(), ts.stages["deposit"].pairs[("top", "bottom")].rate, rtol=1e-12
+        )
         assert json.loads(str(f["normalisation"]))["simulated_decays"] == 1500
 
 
@@ -153,9 +213,13 @@ def test_particle_classes_and_response(pair_run):
     assert np.count_nonzero(s["edep_ion"]["bottom"]) > 0.4 * results.n_events
     assert s["edep_alpha"]["top"].max() <= alpha * (1 + 1e-9)
     response = ResponseConfig.model_validate(
-        {"quenching": {"alpha": 0.25, "ion": 0.05}, "resolution": {"a": "20 keV"},
-         "threshold": "50 keV", "seed": 3}
-    )  # fmt: skip
+        {
+            "quenching": {"alpha": 0.25, "ion": 0.05},
+            "resolution": {"a": "20 keV"},
+            "threshold": "50 keV",
+            "seed": 3,
+        }
+    )
     ts = build_templates(results, "1 mBq/cm2", emax="6 MeV", bins=120, response=response)
     from score4.response import apply_response, visible_energy
 
@@ -164,7 +228,8 @@ def test_particle_classes_and_response(pair_run):
     shown = seen > 0
     assert (seen[shown] > 0.05).all()  # the threshold
     pull = (seen[shown] - quenched[shown]) / 0.02
-    assert abs(pull.mean()) < 4 / np.sqrt(shown.sum()) and abs(pull.std() - 1) < 0.1
+    assert abs(pull.mean()) < 4 / np.sqrt(shown.sum())
+    assert abs(pull.std() - 1) < 0.1
     assert ts.stages["visible"].detectors["bottom"]["all"].counts.sum() == shown.sum()
     # quenched alphas (and their recoils) sit near a quarter of 5.3 MeV, below 2 MeV
     assert np.median(quenched[quenched > 1.0]) < 2.0
@@ -184,7 +249,9 @@ def test_bad_input_is_one_line_and_writes_nothing(alpha_run, tmp_path, capsys, a
     out = tmp_path / "t.h5"
     assert main(["template", str(alpha_run), *args, "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.count("\n") == 0 and err.startswith("score4: error:") and message in err
+    assert err.count("\n") == 0
+    assert err.startswith("score4: error:")
+    assert message in err
     assert not out.exists()
 
 
@@ -192,11 +259,39 @@ def test_response_problems_exit_2(alpha_run, tmp_path, capsys):
     out = tmp_path / "t.h5"
     bad = tmp_path / "r.yaml"
     bad.write_text("quenching: {alpha: 5}\n")
-    assert main(["template", str(alpha_run), "--activity", "1 mBq/cm2", "--response", str(bad), "--out", str(out)]) == 2
+    assert (
+        main(
+            [
+                "template",
+                str(alpha_run),
+                "--activity",
+                "1 mBq/cm2",
+                "--response",
+                str(bad),
+                "--out",
+                str(out),
+            ]
+        )
+        == 2
+    )
     assert "quenching.alpha" in capsys.readouterr().err
     needs_split = tmp_path / "q.yaml"
     needs_split.write_text("quenching: {alpha: 0.2}\nresolution: {a: 5 keV}\n")
-    assert main(["template", str(alpha_run), "--activity", "1 mBq/cm2", "--response", str(needs_split), "--out", str(out)]) == 2
+    assert (
+        main(
+            [
+                "template",
+                str(alpha_run),
+                "--activity",
+                "1 mBq/cm2",
+                "--response",
+                str(needs_split),
+                "--out",
+                str(out),
+            ]
+        )
+        == 2
+    )
     assert "split_by_particle" in capsys.readouterr().err
     assert not out.exists()
 
@@ -210,5 +305,7 @@ def test_results_without_normalisation_are_refused(alpha_run, tmp_path, capsys):
     out = tmp_path / "t.h5"
     assert main(["template", str(old), "--activity", "1 mBq/cm2", "--out", str(out)]) == 2
     err = capsys.readouterr().err
-    assert "no normalisation data" in err and "score4 run" in err and err.count("\n") == 1
+    assert "no normalisation data" in err
+    assert "score4 run" in err
+    assert err.count("\n") == 1
     assert not out.exists()

@@ -64,7 +64,9 @@ class DataConfig(StrictModel):
 
     file: ConfigPath
     histogram: str | None = None  # ROOT files: the histogram's name
-    unit: str | None = None  # ROOT files: energy unit of the axis (default: from its title, else keV)
+    unit: str | None = (
+        None  # ROOT files: energy unit of the axis (default: from its title, else keV)
+    )
 
     @model_validator(mode="after")
     def _root_keys(self) -> DataConfig:
@@ -72,7 +74,9 @@ class DataConfig(StrictModel):
         if is_root and self.histogram is None:
             raise ValueError("a ROOT file needs histogram: <name of a TH1 in it>")
         if not is_root and (self.histogram is not None or self.unit is not None):
-            raise ValueError("histogram and unit apply to ROOT files only (a CSV names its unit in its header)")
+            raise ValueError(
+                "histogram and unit apply to ROOT files only (a CSV names its unit in its header)"
+            )
         if self.unit is not None and self.unit not in ENERGY:
             raise ValueError(f"unit: {self.unit!r} is not an energy unit ({', '.join(ENERGY)})")
         return self
@@ -103,7 +107,9 @@ class ModelConfig(StrictModel):
         if value is None:
             return None
         if not isinstance(value, (list, tuple)) or len(value) != 2:
-            raise ValueError(f"give two energies [low, high], e.g. ['4 MeV', '6 MeV'], got {value!r}")
+            raise ValueError(
+                f"give two energies [low, high], e.g. ['4 MeV', '6 MeV'], got {value!r}"
+            )
         lo, hi = (parse_quantity(v, "energy") for v in value)
         if not 0 <= lo < hi:
             raise ValueError(f"need 0 <= low < high, got {list(value)}")
@@ -196,8 +202,12 @@ def _component(cfg: ComponentConfig, model: ModelConfig) -> Component:
             f"{cfg.template} was made for an activity per {ref_kind} ({t.activity['text']})"
         )
     unit = cfg.activity.split(None, 1)[1] if " " in cfg.activity.strip() else ""
-    dimension = {"area": "surface activity", "mass": "specific activity",
-                 "volume": "activity density", "total": "activity"}[kind]  # fmt: skip
+    dimension = {
+        "area": "surface activity",
+        "mass": "specific activity",
+        "volume": "activity density",
+        "total": "activity",
+    }[kind]
     from .units import _tidy_unit
 
     unit = _tidy_unit(unit.strip()) or next(iter(DIMENSIONS[dimension]))
@@ -222,14 +232,15 @@ def build_model(config: ModelConfig) -> Model:
             t.edges_kev, first.edges_kev, rtol=0, atol=EDGE_TOLERANCE
         ):
             raise ConfigError(
-                f"components.{c.name}: the template {t.file} has other bins ({_bins_text(t.edges_kev)}) "
-                f"than {first.file} ({_bins_text(first.edges_kev)}); make all templates with the "
-                "same --bins, --emin, --emax"
+                f"components.{c.name}: the template {t.file} has other bins "
+                f"({_bins_text(t.edges_kev)}) than {first.file} ({_bins_text(first.edges_kev)}); "
+                "make all templates with the same --bins, --emin, --emax"
             )
         if not np.isclose(t.mass_kg, first.mass_kg, rtol=1e-9):
             raise ConfigError(
-                f"components.{c.name}: the detector {t.detector} of {t.file} weighs {t.mass_kg:.6g} kg, "
-                f"but {first.mass_kg:.6g} kg in {first.file}: the templates are not of the same detector"
+                f"components.{c.name}: the detector {t.detector} of {t.file} weighs "
+                f"{t.mass_kg:.6g} kg, but {first.mass_kg:.6g} kg in {first.file}: the templates "
+                "are not of the same detector"
             )
     return Model(config, components, first.edges_kev, first.mass_kg, config.livetime_days)
 
@@ -254,12 +265,18 @@ def read_csv_spectrum(path: str | Path) -> Spectrum:
     """Rows ``bin_low_<unit>,bin_high_<unit>,counts`` (unit keV or MeV); ``#`` lines skipped."""
     path = Path(path)
     try:
-        lines = [ln for ln in path.read_text().splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+        lines = [
+            ln
+            for ln in path.read_text().splitlines()
+            if ln.strip() and not ln.lstrip().startswith("#")
+        ]
     except (OSError, UnicodeDecodeError) as err:
         raise ConfigError(f"data: cannot read {path} ({err})") from None
     rows = list(csv.DictReader(io.StringIO("\n".join(lines))))
     header = list(rows[0]) if rows else []
-    unit = next((u for u in ("keV", "MeV") if f"bin_low_{u}" in header and f"bin_high_{u}" in header), None)
+    unit = next(
+        (u for u in ("keV", "MeV") if f"bin_low_{u}" in header and f"bin_high_{u}" in header), None
+    )
     if unit is None or "counts" not in header:
         raise ConfigError(
             f"data: {path} needs the columns bin_low_keV, bin_high_keV, counts (or bin_low_MeV, "
@@ -272,8 +289,12 @@ def read_csv_spectrum(path: str | Path) -> Spectrum:
     except (TypeError, ValueError) as err:
         raise ConfigError(f"data: {path}: a row is not numbers ({err})") from None
     scale = ENERGY[unit] / ENERGY["keV"]
-    if len(lo) > 1 and not np.allclose(hi[:-1], lo[1:], rtol=0, atol=1e-9 * max(1.0, abs(hi).max())):
-        raise ConfigError(f"data: {path}: bins must be contiguous (each bin_low equal to the previous bin_high)")
+    if len(lo) > 1 and not np.allclose(
+        hi[:-1], lo[1:], rtol=0, atol=1e-9 * max(1.0, abs(hi).max())
+    ):
+        raise ConfigError(
+            f"data: {path}: bins must be contiguous (each bin_low equal to the previous bin_high)"
+        )
     return _spectrum(np.append(lo, hi[-1]) * scale, counts, str(path))
 
 
@@ -288,14 +309,17 @@ def _spectrum(edges: np.ndarray, counts: np.ndarray, source: str) -> Spectrum:
 
 
 def read_root_spectrum(path: str | Path, histogram: str, unit: str | None = None) -> Spectrum:
-    """A ROOT TH1 (uproot); the energy unit from ``unit``, else the axis title (``[MeV]``), else keV."""
+    """A ROOT TH1 (uproot); energy unit: ``unit``, else the axis title's (``[MeV]``), else keV."""
     import uproot
 
     try:
         with uproot.open(path) as f:
             if histogram not in f:
-                names = ", ".join(k.split(";")[0] for k in f.keys() if f[k].classname.startswith("TH1"))
-                raise ConfigError(f"data: {path} has no histogram {histogram!r}; TH1 histograms: {names or 'none'}")
+                names = ", ".join(k.split(";")[0] for k in f if f[k].classname.startswith("TH1"))
+                raise ConfigError(
+                    f"data: {path} has no histogram {histogram!r}; TH1 histograms: "
+                    f"{names or 'none'}"
+                )
             h = f[histogram]
             counts, edges = h.to_numpy()
             title = str(h.member("fXaxis").member("fTitle"))
@@ -303,7 +327,11 @@ def read_root_spectrum(path: str | Path, histogram: str, unit: str | None = None
         raise ConfigError(f"data: cannot read {path} as a ROOT file ({err})") from None
     if unit is None:
         unit = next((u for u in ("MeV", "keV") if f"[{u}]" in title), "keV")
-    return _spectrum(np.asarray(edges, float) * ENERGY[unit] / ENERGY["keV"], np.asarray(counts, float), f"{path}:{histogram}")
+    return _spectrum(
+        np.asarray(edges, float) * ENERGY[unit] / ENERGY["keV"],
+        np.asarray(counts, float),
+        f"{path}:{histogram}",
+    )
 
 
 def read_spectrum(cfg: DataConfig) -> Spectrum:
@@ -326,10 +354,10 @@ def match_bins(model_edges: np.ndarray, data: Spectrum) -> np.ndarray:
     if bad.any():
         first = float(data.edges_kev[np.argmax(bad)])
         raise ConfigError(
-            f"data: the bins of {data.source} ({_bins_text(data.edges_kev)}) cannot be matched with "
-            f"the templates' ({_bins_text(model_edges)}): its edge {first:g} keV is not a template "
-            "edge; make the templates with --bins/--emin/--emax so that every data edge is a "
-            "template edge"
+            f"data: the bins of {data.source} ({_bins_text(data.edges_kev)}) cannot be matched "
+            f"with the templates' ({_bins_text(model_edges)}): its edge {first:g} keV is not a "
+            "template edge; make the templates with --bins/--emin/--emax so that every data edge "
+            "is a template edge"
         )
     which = np.full(len(model_edges) - 1, -1)
     data_index = np.searchsorted(data.edges_kev, (model_edges[:-1] + model_edges[1:]) / 2) - 1
@@ -364,8 +392,12 @@ class FitResult:
         return {
             "valid": self.valid,
             "activities": {
-                n: {"value": self.activity[n], "error": self.error.get(n), "unit": self.units[n],
-                    "fitted": n in self.fitted}  # fmt: skip
+                n: {
+                    "value": self.activity[n],
+                    "error": self.error.get(n),
+                    "unit": self.units[n],
+                    "fitted": n in self.fitted,
+                }
                 for n in self.names
             },
             "correlation": {"order": self.fitted, "matrix": self.correlation.tolist()},
@@ -387,9 +419,15 @@ def data_bins(model: Model, data: Spectrum) -> tuple[np.ndarray, np.ndarray, np.
     keep = covered
     if model.config.range is not None:
         lo, hi = (v * 1e3 for v in model.config.range)  # MeV -> keV
-        keep = keep & (data.edges_kev[:-1] >= lo - EDGE_TOLERANCE) & (data.edges_kev[1:] <= hi + EDGE_TOLERANCE)
+        keep = (
+            keep
+            & (data.edges_kev[:-1] >= lo - EDGE_TOLERANCE)
+            & (data.edges_kev[1:] <= hi + EDGE_TOLERANCE)
+        )
     if not keep.any():
-        raise ConfigError(f"data: no bin of {data.source} lies inside the templates' range and the fit range")
+        raise ConfigError(
+            f"data: no bin of {data.source} lies inside the templates' range and the fit range"
+        )
     edges = data.edges_kev
     # keep contiguous runs only for the plot: edges of kept bins
     kept_edges = np.append(edges[:-1][keep], edges[1:][keep][-1])
@@ -454,7 +492,9 @@ def fit_model(model: Model, data: Spectrum) -> FitResult:
 def pseudo_data(model: Model, seed: int) -> Spectrum:
     """Poisson counts drawn from the model at its activities (seeded), on the template bins."""
     rng = np.random.default_rng(seed)
-    return Spectrum(model.edges_kev, rng.poisson(model.expected()).astype(float), f"pseudo-data seed {seed}")
+    return Spectrum(
+        model.edges_kev, rng.poisson(model.expected()).astype(float), f"pseudo-data seed {seed}"
+    )
 
 
 def write_csv_spectrum(spectrum: Spectrum, path: str | Path, header: str = "") -> Path:
@@ -464,8 +504,10 @@ def write_csv_spectrum(spectrum: Spectrum, path: str | Path, header: str = "") -
     lines = [f"# {line}" for line in header.splitlines() if line]
     lines.append("bin_low_keV,bin_high_keV,counts")
     e = [float(x) for x in spectrum.edges_kev]
-    lines += [f"{e[k]!r},{e[k + 1]!r},{int(c) if float(c).is_integer() else c!r}"
-              for k, c in enumerate(spectrum.counts.tolist())]  # fmt: skip
+    lines += [
+        f"{e[k]!r},{e[k + 1]!r},{int(c) if float(c).is_integer() else c!r}"
+        for k, c in enumerate(spectrum.counts.tolist())
+    ]
     with atomic_output(Path(path)) as tmp:
         tmp.write_text("\n".join(lines) + "\n")
     return Path(path)
@@ -491,13 +533,21 @@ def model_summary(model: Model) -> dict[str, Any]:
         counts = float((rate * width).sum() * model.mass_kg * model.livetime_days)
         total_counts += counts
         entry: dict[str, Any] = {
-            "activity": c.activity, "unit": c.unit, "template": str(c.template.file),
-            "counts_per_kg_day": float((rate * width).sum()), "expected_counts": counts,
-        }  # fmt: skip
+            "activity": c.activity,
+            "unit": c.unit,
+            "template": str(c.template.file),
+            "counts_per_kg_day": float((rate * width).sum()),
+            "expected_counts": counts,
+        }
         if in_roi is not None:
-            entry["roi_counts_per_keV_kg_day"] = float((rate * width)[in_roi].sum() / width[in_roi].sum())
+            entry["roi_counts_per_keV_kg_day"] = float(
+                (rate * width)[in_roi].sum() / width[in_roi].sum()
+            )
         out["components"][c.name] = entry
     out["expected_counts"] = total_counts
     if in_roi is not None:
-        out["roi_keV"] = [float(model.edges_kev[:-1][in_roi][0]), float(model.edges_kev[1:][in_roi][-1])]
+        out["roi_keV"] = [
+            float(model.edges_kev[:-1][in_roi][0]),
+            float(model.edges_kev[1:][in_roi][-1]),
+        ]
     return out

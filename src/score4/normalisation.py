@@ -144,7 +144,7 @@ def _bulk_source(config: RunConfig, scene: Scene, name: str) -> dict[str, Any]:
 
 
 def _vertices_source(config: RunConfig) -> dict[str, Any]:
-    """A vertex file: its area or mass is known when it stores the configuration it was drawn from."""
+    """A vertex file: its area or mass is known if it stores the configuration it was drawn from."""
     from .source.vertex_file import vertex_file_config
 
     path = config.source.vertices

@@ -531,7 +531,9 @@ class StackComponent:
 
 def _mark_roi(ax, roi_kev: tuple[float, float] | None, scale: float) -> None:
     if roi_kev is not None:
-        ax.axvspan(roi_kev[0] * scale, roi_kev[1] * scale, color="0.6", alpha=0.25, lw=0, label="ROI")
+        ax.axvspan(
+            roi_kev[0] * scale, roi_kev[1] * scale, color="0.6", alpha=0.25, lw=0, label="ROI"
+        )
 
 
 def _energy_scale(edges_kev: np.ndarray) -> tuple[float, str]:
@@ -583,7 +585,7 @@ def plot_stacked(
 def plot_templates(ts, out: str | Path) -> dict[str, np.ndarray]:
     """A templates set (:class:`score4.templates.TemplateSet`): per detector, its M1 and M2
     templates stacked (their sum is the ``all`` template, with M3+ on top), on a log axis."""
-    panels = {}
+    panels: dict[str, Sequence[StackComponent]] = {}
     for d in ts.detectors:
         kinds = ts.final.detectors[d]
         rest = kinds["all"].rate - kinds["m1"].rate - kinds["m2"].rate
@@ -612,8 +614,16 @@ def plot_fit(
     scale, _ = _energy_scale(edges_kev)
     centres = (edges_kev[:-1] + edges_kev[1:]) / 2 * scale
     shown = data > 0
-    top.errorbar(centres[shown], data[shown], yerr=np.sqrt(data[shown]), fmt="o", ms=2.5,
-                 color="k", elinewidth=0.8, label="data")  # fmt: skip
+    top.errorbar(
+        centres[shown],
+        data[shown],
+        yerr=np.sqrt(data[shown]),
+        fmt="o",
+        ms=2.5,
+        color="k",
+        elinewidth=0.8,
+        label="data",
+    )
     _log_axis(top, [total, data])
     top.set_ylabel("counts per bin")
     top.set_xlabel("")

@@ -97,7 +97,9 @@ def load_response(path: str | Path) -> ResponseConfig:
     path = Path(path)
     data = load_yaml(path, "response")
     if not isinstance(data, dict):
-        raise ConfigError(f"{path}: a response file is a mapping of keys (quenching, resolution, ...)")
+        raise ConfigError(
+            f"{path}: a response file is a mapping of keys (quenching, resolution, ...)"
+        )
     try:
         return ResponseConfig.model_validate(data, context={"base_dir": path.parent})
     except ValidationError as err:
@@ -112,7 +114,9 @@ def _sigma_table(cfg: ResolutionConfig) -> tuple[np.ndarray, np.ndarray]:
     from .source.sampling import read_table
 
     assert cfg.file is not None  # the model requires it for kind table
-    energy, sigma = read_table(cfg.file, "energy", cfg.unit, what="resolution table", xname="energy")
+    energy, sigma = read_table(
+        cfg.file, "energy", cfg.unit, what="resolution table", xname="energy"
+    )
     unit = cfg.unit
     for line in Path(cfg.file).read_text().splitlines():
         if match := _UNIT_LINE.match(line.strip()):

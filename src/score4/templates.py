@@ -136,11 +136,14 @@ def source_activity(run: dict, text: str) -> SourceActivity:
             )
         area = float(source["area_mm2"])
         return SourceActivity(
-            text, kind, value, area,
+            text,
+            kind,
+            value,
+            area,
             f"true sampled area {format_readable(area, 'area')} (projected "
             f"{format_readable(float(source['projected_area_mm2']), 'area')})",
             value * area,
-        )  # fmt: skip
+        )
     if source_kind == "bulk":
         if kind == "mass" and source.get("mass_kg") is not None:
             mass = float(source["mass_kg"])
@@ -224,9 +227,13 @@ def _fold_top(values: np.ndarray, top: float) -> np.ndarray:
 
 
 def _histogram(
-    name: str, title: str, values: list[np.ndarray], edges_mev: np.ndarray, weight: float,
+    name: str,
+    title: str,
+    values: list[np.ndarray],
+    edges_mev: np.ndarray,
+    weight: float,
     mass: float,
-) -> Template:  # fmt: skip
+) -> Template:
     """Rate histogram of events (``values``: one array per axis, MeV); ``weight`` = f per event."""
     sample = [_fold_top(v, edges_mev[-1]) for v in values]
     counts, _ = np.histogramdd(np.column_stack(sample), bins=[edges_mev] * len(sample))
@@ -273,26 +280,37 @@ def build_stage(
     detectors, totals = {}, {}
     for k, d in enumerate(names):
         f = per_event / masses[d]
-        masks = {"all": seen[:, k], "m1": seen[:, k] & (multiplicity == 1),
-                 "m2": seen[:, k] & (multiplicity == 2)}  # fmt: skip
+        masks = {
+            "all": seen[:, k],
+            "m1": seen[:, k] & (multiplicity == 1),
+            "m2": seen[:, k] & (multiplicity == 2),
+        }
         detectors[d] = {
-            kind: _histogram(f"{d}/{kind}", f"{name} {kind} {d}", [e[mask, k]], edges_mev, f, masses[d])
+            kind: _histogram(
+                f"{d}/{kind}", f"{name} {kind} {d}", [e[mask, k]], edges_mev, f, masses[d]
+            )
             for kind, mask in masks.items()
-        }  # fmt: skip
+        }
         totals[d] = _totals(e[:, k], masks, f, roi)
     total_mass = float(sum(masses[d] for d in names))
     m2 = multiplicity == 2
     f_all = per_event / total_mass
-    m2_sum = _histogram("m2_sum", f"{name} M2 sum energy", [e[m2].sum(axis=1)], edges_mev, f_all, total_mass)
+    m2_sum = _histogram(
+        "m2_sum", f"{name} M2 sum energy", [e[m2].sum(axis=1)], edges_mev, f_all, total_mass
+    )
     pairs = {}
     for i, j in itertools.combinations(range(len(names)), 2):
         both = m2 & seen[:, i] & seen[:, j]
         if both.any():
             a, b = names[i], names[j]
             pairs[(a, b)] = _histogram(
-                f"pairs/{a}__{b}", f"{name} M2 {a} vs {b}", [e[both, i], e[both, j]], edges_mev,
-                f_all, total_mass,
-            )  # fmt: skip
+                f"pairs/{a}__{b}",
+                f"{name} M2 {a} vs {b}",
+                [e[both, i], e[both, j]],
+                edges_mev,
+                f_all,
+                total_mass,
+            )
     return Stage(name, detectors, m2_sum, pairs, totals)
 
 
@@ -351,7 +369,9 @@ class TemplateSet:
             "source": self.source,
             "area_used": (
                 "the true (rough) area the vertices were sampled on: decays are uniform per true "
-                "area" if self.activity.kind == "area" else None
+                "area"
+                if self.activity.kind == "area"
+                else None
             ),
             "detector_masses_kg": self.masses,
             "livetime_s": self.livetime_s,
@@ -476,9 +496,14 @@ def _struct(group: h5py.Group) -> None:
 
 
 def _write_histogram(
-    parent: h5py.Group, name: str, edges: list[np.ndarray], weights: np.ndarray, unit: str,
-    density: bool, attrs: dict[str, Any],
-) -> None:  # fmt: skip
+    parent: h5py.Group,
+    name: str,
+    edges: list[np.ndarray],
+    weights: np.ndarray,
+    unit: str,
+    density: bool,
+    attrs: dict[str, Any],
+) -> None:
     """One LH5 ``Histogram`` (legend-pydataobj layout) with variable bin edges in keV."""
     g = parent.create_group(name)
     binning = g.create_group("binning")
@@ -541,7 +566,9 @@ def write_templates_h5(ts: TemplateSet, path: str | Path) -> Path:
                 for kind, t in kinds.items():
                     _write_template(dg, kind, t, ts.livetime_s)
                 _scalar(dg, "rate", stage.totals[d]["counts_per_kg_day"], "counts/(kg day)")
-                _scalar(dg, "rate_error", stage.totals[d]["counts_per_kg_day_error"], "counts/(kg day)")
+                _scalar(
+                    dg, "rate_error", stage.totals[d]["counts_per_kg_day_error"], "counts/(kg day)"
+                )
                 _struct(dg)
             _struct(dets)
             _write_template(g, "m2_sum", stage.m2_sum, ts.livetime_s)
@@ -558,13 +585,28 @@ def _th1d(name: str, t: Template):
     from uproot.writing.identify import to_TAxis, to_TH1x
 
     edges = t.edges[0]
-    axis = to_TAxis("xaxis", "energy [keV]", len(edges) - 1, float(edges[0]), float(edges[-1]),
-                    fXbins=edges.astype(np.float64))  # fmt: skip
+    axis = to_TAxis(
+        "xaxis",
+        "energy [keV]",
+        len(edges) - 1,
+        float(edges[0]),
+        float(edges[-1]),
+        fXbins=edges.astype(np.float64),
+    )
     data = np.concatenate([[0.0], t.rate, [0.0]])
     var = np.concatenate([[0.0], t.error**2, [0.0]])
-    return to_TH1x(name, f"{t.title} [{t.unit}]", data, fEntries=float(t.counts.sum()),
-                   fTsumw=float(t.rate.sum()), fTsumw2=float(var.sum()), fTsumwx=0.0,
-                   fTsumwx2=0.0, fSumw2=var, fXaxis=axis)  # fmt: skip
+    return to_TH1x(
+        name,
+        f"{t.title} [{t.unit}]",
+        data,
+        fEntries=float(t.counts.sum()),
+        fTsumw=float(t.rate.sum()),
+        fTsumw2=float(var.sum()),
+        fTsumwx=0.0,
+        fTsumwx2=0.0,
+        fSumw2=var,
+        fXaxis=axis,
+    )
 
 
 def _th2d(name: str, t: Template):
@@ -578,10 +620,22 @@ def _th2d(name: str, t: Template):
     var = np.zeros_like(data)
     data[1:-1, 1:-1] = t.rate.T
     var[1:-1, 1:-1] = (t.error**2).T
-    return to_TH2x(name, f"{t.title} [{t.unit}]", data.ravel(), fEntries=float(t.counts.sum()),
-                   fTsumw=float(t.rate.sum()), fTsumw2=float(var.sum()), fTsumwx=0.0,
-                   fTsumwx2=0.0, fTsumwy=0.0, fTsumwy2=0.0, fTsumwxy=0.0, fSumw2=var.ravel(),
-                   fXaxis=ax, fYaxis=ay)  # fmt: skip
+    return to_TH2x(
+        name,
+        f"{t.title} [{t.unit}]",
+        data.ravel(),
+        fEntries=float(t.counts.sum()),
+        fTsumw=float(t.rate.sum()),
+        fTsumw2=float(var.sum()),
+        fTsumwx=0.0,
+        fTsumwx2=0.0,
+        fTsumwy=0.0,
+        fTsumwy2=0.0,
+        fTsumwxy=0.0,
+        fSumw2=var.ravel(),
+        fXaxis=ax,
+        fYaxis=ay,
+    )
 
 
 def root_names(ts: TemplateSet) -> dict[str, Template]:
@@ -643,7 +697,8 @@ def read_template(
         norm = json.loads(f["normalisation"].attrs["json"])
         stage = stage or ("visible" if "visible" in f else "deposit")
         if stage not in f:
-            raise ConfigError(f"{path}: has no {stage} templates (stages: {', '.join(s for s in ('deposit', 'visible') if s in f)})")
+            stages = ", ".join(s for s in ("deposit", "visible") if s in f)
+            raise ConfigError(f"{path}: has no {stage} templates (stages: {stages})")
         dets = list(f[stage]["detectors"])
         if kind == "m2_sum":
             g = f[stage]["m2_sum"]
@@ -651,13 +706,19 @@ def read_template(
             detector = "all"
         else:
             if kind not in KINDS:
-                raise ConfigError(f"template kind: {kind!r} is not one of {', '.join((*KINDS, 'm2_sum'))}")
+                raise ConfigError(
+                    f"template kind: {kind!r} is not one of {', '.join((*KINDS, 'm2_sum'))}"
+                )
             if detector is None:
                 if len(dets) != 1:
-                    raise ConfigError(f"{path}: holds detectors {', '.join(dets)}; name one (detector:)")
+                    raise ConfigError(
+                        f"{path}: holds detectors {', '.join(dets)}; name one (detector:)"
+                    )
                 detector = dets[0]
             if detector not in dets:
-                raise ConfigError(f"{path}: has no detector {detector!r}; detectors: {', '.join(dets)}")
+                raise ConfigError(
+                    f"{path}: has no detector {detector!r}; detectors: {', '.join(dets)}"
+                )
             g = f[stage]["detectors"][detector][kind]
             error = f[stage]["detectors"][detector][f"{kind}_error"]["weights"][()]
         return StoredTemplate(

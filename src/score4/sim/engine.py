@@ -48,8 +48,8 @@ from .. import __version__, errors
 from ..config import RunConfig, config_to_dict
 from ..errors import ConfigError, Score4Error
 from ..files import atomic_output, check_free_space, check_output_file
-from ..normalisation import run_normalisation
 from ..geometry.walls import warn_rays_in_walls
+from ..normalisation import run_normalisation
 from ..output import merge_chunks
 from ..scene import build_scene
 from ..source.build import make_source, needs_radioactive_decay
