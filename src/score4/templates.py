@@ -127,7 +127,7 @@ def source_activity(run: dict, text: str) -> SourceActivity:
         raise ConfigError(f"--activity: must be greater than 0, got {text!r}")
     source = run["source"]
     source_kind = _source_kind(source)
-    where = f"source on {source.get('volume')} {source.get('face') or ''}".rstrip()
+    where = f"{source.get('volume')} {source.get('face') or ''}".rstrip()
     if source_kind == "surface":
         if kind != "area":
             raise ConfigError(
