@@ -208,3 +208,44 @@ def test_binning_mismatch_and_bad_models_exit_2(folder, capsys):
         err = capsys.readouterr().err
         assert message in err, err
         assert err.count("\n") == 1, err
+
+
+def test_runs_of_one_source_merge_weighted_by_decays(folder):
+    """Two templates files of one source (here: one run, quoted at 1 and at 4 mBq/cm2) merge into
+    the template of the first one's activity."""
+    run = folder / "topface.h5"
+    assert (
+        main(
+            [
+                "-q",
+                "template",
+                str(run),
+                "--activity",
+                "4 mBq/cm2",
+                "--emax",
+                "6 MeV",
+                "--bins",
+                "60",
+                "--out",
+                str(folder / "topface4.tpl.h5"),
+                "--overwrite",
+            ]
+        )
+        == 0
+    )
+    single = build_model(load_model(write_model(folder)))
+    merged_file = write_model(
+        folder,
+        "merged.yaml",
+        components=[
+            {
+                "name": "top face",
+                "template": ["topface.tpl.h5", "topface4.tpl.h5"],
+                "activity": "3 mBq/cm2",
+            },
+            {"name": "bottom face", "template": "bottomface.tpl.h5", "activity": "1 mBq/cm2"},
+        ],
+    )
+    merged = build_model(load_model(merged_file))
+    np.testing.assert_allclose(merged.expected(), single.expected(), rtol=1e-12)
+    assert merged.components[0].template.normalisation["simulated_decays"] == 1600

@@ -121,3 +121,39 @@ def test_run_record_holds_the_normalisation(tmp_path):
     assert json.loads(run["source"])["area_mm2"] == pytest.approx(100.0)
     assert int(run["simulated_decays"]) == 20
     assert run["activity_nuclide"] == "null"  # JSON null: no nuclide for a particle source
+
+
+def test_vertex_file_drawn_by_score4_keeps_its_sampled_area(tmp_path):
+    cfg = tmp_path / "rough.yaml"
+    data = config_dict(
+        surfaces=PYRAMIDS,
+        targets=[
+            {
+                "name": "crystal",
+                "size": ["0.2 mm", "0.2 mm", "0.1 mm"],
+                "rough": [{"face": "+z", "surface": "pyr"}],
+            }
+        ],
+        run={"events": 50},
+    )
+    data["source"] = {"decay": "Po210", "surface": {"volume": "crystal", "face": "+z"}}
+    import yaml
+
+    cfg.write_text(yaml.safe_dump(data))
+    vertices = tmp_path / "v.h5"
+    assert main(["vertices", str(cfg), "--out", str(vertices)]) == 0
+    drawn = parse_config(data, base_dir=tmp_path)
+    replay = parse_config(
+        {
+            "targets": data["targets"],
+            "surfaces": PYRAMIDS,
+            "source": {"vertices": str(vertices)},
+            "run": {"events": 50},
+        }
+    )
+    src = run_normalisation(replay, build_scene(replay))["source"]
+    direct = run_normalisation(drawn, build_scene(drawn))["source"]
+    assert src["kind"] == "vertices"
+    assert src["drawn_from"] == "surface"
+    assert src["area_mm2"] == pytest.approx(direct["area_mm2"], rel=1e-12)
+    assert run_normalisation(replay, build_scene(replay))["activity_nuclide"] == "Po210"

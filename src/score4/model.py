@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import csv
 import io
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -38,7 +38,14 @@ from pydantic import Field, ValidationError, field_validator, model_validator
 from .errors import ConfigError
 from .schema import ConfigPath, StrictModel, describe_validation_error
 from .templates import SECONDS_PER_DAY, StoredTemplate, read_template
-from .units import DIMENSIONS, ENERGY, parse_activity, parse_quantity
+from .units import (
+    ACTIVITY_KINDS,
+    DIMENSIONS,
+    ENERGY,
+    parse_activity,
+    parse_quantity,
+    split_quantity,
+)
 from .yamlfile import load_yaml
 
 #: Bin edges of data and templates closer than this (keV) are the same edge.
@@ -51,8 +58,11 @@ def _activity_text(value: object) -> str:
 
 
 class ComponentConfig(StrictModel):
+    """A source of the model: its templates file (several files: runs of the same source, merged
+    weighted by their simulated decays) and its activity."""
+
     name: str = Field(min_length=1)
-    template: ConfigPath
+    template: ConfigPath | list[ConfigPath]
     activity: str  # "2 mBq/cm2": the model's value, the fit's starting value
     fit: bool = True
 
@@ -192,25 +202,51 @@ class Model:
         return [c.scale * c.template.rate for c in self.components]
 
 
+def merge_runs(templates: list[StoredTemplate], where: str) -> StoredTemplate:
+    """Templates of several runs of one source as one: each scaled to the first one's activity,
+    averaged with weights proportional to their simulated decays (errors combined likewise)."""
+    first = templates[0]
+    for t in templates[1:]:
+        same_bins = len(t.edges_kev) == len(first.edges_kev) and np.allclose(
+            t.edges_kev, first.edges_kev, rtol=0, atol=EDGE_TOLERANCE
+        )
+        if not same_bins or t.activity["kind"] != first.activity["kind"]:
+            raise ConfigError(
+                f"{where}: {t.file} and {first.file} cannot be merged: they need the same bins "
+                "and activities of the same kind"
+            )
+        if not np.isclose(t.mass_kg, first.mass_kg, rtol=1e-9):
+            raise ConfigError(f"{where}: {t.file} and {first.file} are not of the same detector")
+    decays = np.array([float(t.normalisation["simulated_decays"]) for t in templates])
+    weights = decays / decays.sum()
+    ratio = [float(first.activity["value"]) / float(t.activity["value"]) for t in templates]
+    rate = sum(w * r * t.rate for w, r, t in zip(weights, ratio, templates, strict=True))
+    error = np.sqrt(
+        sum((w * r * t.error) ** 2 for w, r, t in zip(weights, ratio, templates, strict=True))
+    )
+    norm = dict(first.normalisation, simulated_decays=int(decays.sum()))
+    return replace(first, rate=np.asarray(rate), error=np.asarray(error), normalisation=norm)
+
+
 def _component(cfg: ComponentConfig, model: ModelConfig) -> Component:
-    t = read_template(cfg.template, model.detector, model.kind, model.stage)
+    files = cfg.template if isinstance(cfg.template, list) else [cfg.template]
+    if not files:
+        raise ConfigError(f"components.{cfg.name}.template: give at least one templates file")
+    where = f"components.{cfg.name}.template"
+    t = merge_runs(
+        [read_template(f, model.detector, model.kind, model.stage) for f in files], where
+    )
     kind, value = parse_activity(cfg.activity, f"components.{cfg.name}.activity")
     ref_kind = t.activity["kind"]
     if kind != ref_kind:
         raise ConfigError(
             f"components.{cfg.name}.activity: {cfg.activity!r} is per {kind}, but the template "
-            f"{cfg.template} was made for an activity per {ref_kind} ({t.activity['text']})"
+            f"{t.file} was made for an activity per {ref_kind} ({t.activity['text']})"
         )
-    unit = cfg.activity.split(None, 1)[1] if " " in cfg.activity.strip() else ""
-    dimension = {
-        "area": "surface activity",
-        "mass": "specific activity",
-        "volume": "activity density",
-        "total": "activity",
-    }[kind]
-    from .units import _tidy_unit
-
-    unit = _tidy_unit(unit.strip()) or next(iter(DIMENSIONS[dimension]))
+    dimension = ACTIVITY_KINDS[kind]
+    written = split_quantity(cfg.activity)
+    assert written is not None  # parse_activity accepted it
+    unit = written[1]
     return Component(
         name=cfg.name,
         template=t,

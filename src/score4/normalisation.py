@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from .config import BoxVolume, RunConfig, parse_config
+from .config import BoxVolume, RunConfig
 from .errors import ConfigError
 from .scene import RoughLayer, Scene, build_scene, face_frame
 
@@ -143,6 +143,18 @@ def _bulk_source(config: RunConfig, scene: Scene, name: str) -> dict[str, Any]:
     }
 
 
+def parse_stored_config(data: dict, origin: str) -> RunConfig:
+    """A configuration stored with a file (``config_to_dict``: every key filled in), validated."""
+    from pydantic import ValidationError
+
+    from .schema import describe_validation_error
+
+    try:
+        return RunConfig.model_validate(data, context={"base_dir": None, "stored": True})
+    except ValidationError as err:
+        raise ConfigError(describe_validation_error(err, origin)) from None
+
+
 def _vertices_source(config: RunConfig) -> dict[str, Any]:
     """A vertex file: its area or mass is known if it stores the configuration it was drawn from."""
     from .source.vertex_file import vertex_file_config
@@ -163,7 +175,7 @@ def _vertices_source(config: RunConfig) -> dict[str, Any]:
         entry["drawn_from"] = None  # hand-made vertices: only a total activity applies
         return entry
     try:
-        drawn = parse_config(stored, origin=f"{path} (stored configuration)")
+        drawn = parse_stored_config(stored, f"{path} (stored configuration)")
         inner = source_entry(drawn, build_scene(drawn))
     except ConfigError as err:  # e.g. a surface file it names has moved: say so, do not guess
         entry["drawn_from"] = None

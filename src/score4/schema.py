@@ -168,9 +168,12 @@ class StrictModel(BaseModel):
 
     @model_validator(mode="before")
     @classmethod
-    def _strict_keys(cls, data: Any) -> Any:
+    def _strict_keys(cls, data: Any, info: ValidationInfo) -> Any:
         if not isinstance(data, dict):
             return data
+        # a stored description (model_dump of a validated one: every key filled in, also those
+        # its options ignore) was checked when it was written: the used_only_with rule is skipped
+        stored = bool((info.context or {}).get("stored"))
         fields = cls.model_fields
         for key in data:
             if key not in fields:
@@ -189,7 +192,7 @@ class StrictModel(BaseModel):
                     },
                 )
         for key, (other, choices) in cls.used_only_with.items():
-            if data.get(key) is None:
+            if data.get(key) is None or stored:
                 continue
             chosen = data[other] if other in data else fields[other].default
             if chosen not in choices:

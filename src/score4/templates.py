@@ -175,6 +175,8 @@ def detector_masses(run: dict, detectors: list[str]) -> dict[str, float]:
     known = {v["name"]: v for v in run["volumes"]}
     out = {}
     for name in detectors:
+        if name not in known:
+            raise ConfigError(f"{name}: the run record's volumes have no entry for this column")
         mass = known[name].get("mass_kg")
         if mass is None or not mass > 0:
             raise ConfigError(

@@ -116,6 +116,15 @@ def parse_quantity(value: object, dimension: str, name: str | None = None) -> fl
     return result
 
 
+def split_quantity(value: object) -> tuple[float, str] | None:
+    """``(number, unit)`` of ``"<number> <unit>"`` as written (unit tidied as parsing does), or
+    None when ``value`` is not of that form."""
+    match = _QUANTITY.match(str(value))
+    if not match or match.group(2) is None:
+        return None
+    return float(match.group(1)), _tidy_unit(match.group(2))
+
+
 def _tidy_unit(unit: str) -> str:
     """``"mBq / cm^2"`` reads as ``"mBq/cm2"``: spaces around a slash and powers' carets go."""
     return re.sub(r"\s*/\s*", "/", unit).replace("^", "")

@@ -22,7 +22,9 @@ def _response(results, response_file: Path | None):
     if response_file is not None:
         return load_response(response_file)
     stored = results.run.get("config", {}).get("response")
-    return None if stored is None else ResponseConfig.model_validate(stored)
+    if stored is None:
+        return None
+    return ResponseConfig.model_validate(stored, context={"base_dir": None, "stored": True})
 
 
 @click.command("template")
