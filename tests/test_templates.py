@@ -309,3 +309,47 @@ def test_results_without_normalisation_are_refused(alpha_run, tmp_path, capsys):
     assert "score4 run" in err
     assert err.count("\n") == 1
     assert not out.exists()
+
+
+def test_resolution_formula_and_table(tmp_path):
+    from score4.response import sigma_function
+
+    formula = ResponseConfig.model_validate(
+        {"resolution": {"a": "1 keV", "b": "0.3 eV", "c": 0.002}}
+    ).resolution
+    e = np.array([0.0, 1.0, 2.6])  # MeV
+    expected = np.sqrt(1e-3**2 + 0.3e-6 * e + (0.002 * e) ** 2)
+    np.testing.assert_allclose(sigma_function(formula)(e), expected, rtol=1e-12)
+    table = tmp_path / "sigma.txt"
+    table.write_text("# unit: keV\n0 1\n1000 3\n")
+    tab = ResponseConfig.model_validate(
+        {"resolution": {"kind": "table", "file": str(table)}}
+    ).resolution
+    np.testing.assert_allclose(sigma_function(tab)(np.array([0.5, 2.0])), [2e-3, 3e-3])
+
+
+def test_the_run_configurations_response_applies_without_response_file(pair_run, tmp_path, capsys):
+    run = tmp_path / "with_response.h5"
+    run.write_bytes(pair_run.read_bytes())
+    with h5py.File(run, "r+") as f:  # as if the run's YAML had a response: section
+        config = json.loads(f["run"].attrs["config"])
+        config["response"] = {"threshold": "6 MeV"}
+        f["run"].attrs["config"] = json.dumps(config)
+    assert (
+        main(
+            [
+                "template",
+                str(run),
+                "--activity",
+                "1 mBq/cm2",
+                "--out",
+                str(tmp_path / "t.h5"),
+                "--json",
+            ]
+        )
+        == 0
+    )
+    report = json.loads(capsys.readouterr().out)
+    assert report["stage"] == "visible"
+    assert report["detectors"]["bottom"]["counts_per_kg_day"] == 0  # nothing above 6 MeV
+    assert report["detectors"]["bottom"]["before_response"]["simulated_counts"] > 0
