@@ -353,3 +353,20 @@ def test_the_run_configurations_response_applies_without_response_file(pair_run,
     assert report["stage"] == "visible"
     assert report["detectors"]["bottom"]["counts_per_kg_day"] == 0  # nothing above 6 MeV
     assert report["detectors"]["bottom"]["before_response"]["simulated_counts"] > 0
+
+
+def test_templates_as_hist_objects_with_errors(pair_run, tmp_path):
+    from score4.templates import read_hist, write_templates_h5
+
+    ts = build_templates(read_results(pair_run), "1 mBq/cm2", emax="6 MeV", bins=60)
+    out = write_templates_h5(ts, tmp_path / "t.h5")
+    ours = ts.stages["deposit"].detectors["bottom"]["m1"]
+    h = read_hist(out, "deposit/detectors/bottom/m1")
+    np.testing.assert_allclose(h.values(), ours.rate, rtol=1e-12)
+    np.testing.assert_allclose(np.sqrt(h.variances()), ours.error, rtol=1e-12)
+    np.testing.assert_allclose(h.axes[0].edges, ours.edges[0])
+    pair = read_hist(out, "deposit/pairs/top__bottom")
+    assert pair.ndim == 2
+    assert pair.sum().value == pytest.approx(
+        ts.stages["deposit"].pairs[("top", "bottom")].rate.sum()
+    )

@@ -222,6 +222,11 @@ class Template:
     def unit(self) -> str:
         return RATE_UNIT if len(self.edges) == 1 else "counts/(keV^2 kg day)"
 
+    def to_hist(self):
+        """The template as a :class:`hist.Hist` (variable energy axes in keV, ``Weight`` storage:
+        value = rate, variance = error squared)."""
+        return template_hist(self.edges, self.rate, self.error, self.unit)
+
 
 def _fold_top(values: np.ndarray, top: float) -> np.ndarray:
     at_top = (values > top) & (values <= top * (1 + TOP_TOLERANCE))
@@ -733,6 +738,37 @@ def read_template(
             error=error,
             mass_kg=float(g.attrs["mass_kg"]),
             normalisation=norm,
+        )
+
+
+def template_hist(edges: list[np.ndarray], rate: np.ndarray, error: np.ndarray, unit: str):
+    """A :class:`hist.Hist` of a template: energy axes in keV, ``Weight`` storage (value = rate,
+    variance = error squared), ``label`` the rate's unit."""
+    import hist
+
+    axes = [
+        hist.axis.Variable(e, name=f"energy{k if len(edges) > 1 else ''}", label="energy [keV]")
+        for k, e in enumerate(edges)
+    ]
+    h = hist.Hist(*axes, storage=hist.storage.Weight(), label=unit)
+    view = h.view()
+    view.value = rate
+    view.variance = np.asarray(error) ** 2
+    return h
+
+
+def read_hist(path: str | Path, name: str):
+    """A template of a templates file as a :class:`hist.Hist` with its errors: ``name`` is the
+    histogram's path (``deposit/detectors/crystal/all``, ``visible/m2_sum``, ...)."""
+    path = Path(path)
+    with open_h5(path, FORMAT, "templates", ConfigError) as f:
+        if name not in f or f"{name}_error" not in f:
+            raise ConfigError(f"{path}: has no template {name!r}")
+        g = f[name]
+        axes = g["binning"]
+        edges = [axes[f"axis_{k}"]["binedges"][()] for k in range(len(axes))]
+        return template_hist(
+            edges, g["weights"][()], f[f"{name}_error"]["weights"][()], str(g.attrs["units"])
         )
 
 
