@@ -139,10 +139,12 @@ Face = Literal["+x", "-x", "+y", "-y", "+z", "-z"]
 
 
 class FaceRef(StrictModel):
-    """A face of a box volume, e.g. the top face ``+z`` of volume ``crystal``."""
+    """Faces of a volume: ``face: "+z"`` (one face), ``all`` (every face, area-uniform), or a
+    face or group name of the volume's solid (:mod:`score4.shapes`; box targets have the six
+    faces ``+x`` ... ``-z``)."""
 
     volume: str
-    face: Face = "+z"
+    face: str = Field("+z", min_length=1)
 
 
 class SurfaceFile(StrictModel):
@@ -285,13 +287,23 @@ class SpectrumConfig(StrictModel):
 class SourceConfig(StrictModel):
     """Where decays start and what they emit.
 
+    Where: ``surface`` (one face, or ``face: all``: every face of the volume per true area) with
+    a ``depth`` below it, or ``volume`` (bulk: uniform in the volume's own material).
     Emitter: ``particle`` with ``energy`` or ``spectrum``; or ``decay: Po210`` (built in: the
     5.304 MeV alpha and the 103 keV Pb-206 recoil back to back); or ``nuclide`` (Geant4
     radioactive decay, needs full physics data). Or ``vertices``: a vertex file written by
     ``score4 vertices`` whose rows are used as they are.
     """
 
+    used_only_with: ClassVar[dict[str, tuple[str, tuple[object, ...]]]] = {
+        # a bulk source (volume: NAME) has no surface: no depth below it, no confinement
+        "depth": ("volume", (None,)),
+        "confine": ("volume", (None,)),
+    }
+
     surface: FaceRef | None = None
+    # bulk: vertices uniform in this volume's own material (its daughters excluded)
+    volume: str | None = Field(None, min_length=1)
     particle: str | None = None
     energy: PositiveEnergy | None = None
     spectrum: SpectrumConfig | None = None
@@ -318,9 +330,16 @@ class SourceConfig(StrictModel):
                     f"drop {', '.join(extra)}"
                 )
             return self
-        if self.surface is None:
+        if (self.surface is None) == (self.volume is None):
             raise ValueError(
-                "surface: give the face the source sits on, e.g. {volume: crystal, face: '+z'}"
+                "give surface (the faces the source sits on, e.g. {volume: crystal, face: '+z'} "
+                "or face: all) or volume (bulk: uniform in a volume), not "
+                + ("both" if self.surface is not None else "neither")
+            )
+        if self.volume is not None and self.direction != "isotropic":
+            raise ValueError(
+                f"direction: a bulk source (volume) emits isotropically; {self.direction} needs a "
+                "surface normal"
             )
         kinds = [k for k in ("particle", "decay", "nuclide") if getattr(self, k) is not None]
         if len(kinds) != 1:
@@ -413,6 +432,15 @@ class RunConfig(StrictModel):
         if src is not None and src.volume not in names:
             raise ValueError(
                 f"source.surface.volume: {src.volume!r} is not a target; targets are: {', '.join(names)}"
+            )
+        if src is not None and src.face not in (*FACES, "all"):
+            raise ValueError(
+                f"source.surface.face: a box target has the faces {', '.join(FACES)} (or all), "
+                f"not {src.face!r}"
+            )
+        if self.source.volume is not None and self.source.volume not in names:
+            raise ValueError(
+                f"source.volume: {self.source.volume!r} is not a target; targets are: {', '.join(names)}"
             )
         for i, t in enumerate(self.targets):
             faces = [r.face for r in t.rough]

@@ -190,7 +190,7 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
     from ..config import config_to_dict
     from ..files import check_output_file
     from ..scene import build_scene
-    from ..source.build import make_source
+    from ..source.build import make_source, source_geometry
     from ..source.vertex_file import write_vertex_file
 
     config = _load_with_overrides(config_file, n_events, seed)
@@ -201,14 +201,21 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
     check_output_file(out, overwrite, "--out")
     n, seed = config.run.events, config.run.seed
     with naming_file(config_file):
-        source = make_source(config, build_scene(config))
+        scene = build_scene(config)
+        source = make_source(config, scene)
         primaries = source.events(seed, 0, n)
-    write_vertex_file(out, primaries, config_to_dict(config), seed)
-    depth = primaries.extra["depth"]
-    click.echo(
-        f"wrote {out}: {n} events, {len(primaries.event)} primaries, depth mean {depth.mean() * 1e6:.3g} nm "
-        f"(min {depth.min() * 1e6:.3g}, max {depth.max() * 1e6:.3g} nm)"
-    )
+        where = source_geometry(config, scene)
+    write_vertex_file(out, primaries, config_to_dict(config), seed, where)
+    text = f"wrote {out}: {n} events, {len(primaries.event)} primaries"
+    if "depth" in primaries.extra:
+        depth = primaries.extra["depth"]
+        text += (
+            f", depth mean {depth.mean() * 1e6:.3g} nm (min {depth.min() * 1e6:.3g}, max "
+            f"{depth.max() * 1e6:.3g} nm)"
+        )
+    else:
+        text += f", uniform in {where['volume']} ({where['volume_mm3']:.6g} mm3)"
+    click.echo(text)
 
 
 @cli.command()

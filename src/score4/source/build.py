@@ -1,23 +1,27 @@
 """The source section of a run configuration turned into primaries, one chunk of events at a time.
 
 :func:`make_source` builds, once per process, what every chunk needs: the vertex sampler on the
-configured face (its rough layer if it has one, else the flat face), the depth profile, the
+configured face (its rough layer if it has one, else the flat face), on several faces of a
+volume (``face: all``: :class:`~score4.source.shapes.ShapeSurfaceSampler`) or in a volume
+(``volume:``, bulk: :class:`~score4.source.shapes.BulkSampler`), the depth profile, the
 confinement and the emitter; or the rows of a vertex file. ``source.events(seed, first, n)``
 then gives the primaries of events ``first .. first + n - 1`` of the run with that seed, drawn in
 prefix-stable blocks (:mod:`score4.source.blocks`); ``source.primaries(rng, first, n)`` draws
-``n`` events from one given stream.
+``n`` events from one given stream. :func:`source_geometry` gives what the run record states
+about the source (kind, true and projected area, volume).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import numpy as np
 
-from ..config import DepthConfig, RunConfig, SourceConfig
+from ..config import FACES, DepthConfig, RunConfig, SourceConfig
 from ..errors import ConfigError
 from ..scene import Scene, face_frame
+from ..shapes import G4Box, Shape, Transform
 from .blocks import draw_events
 from .depth import VertexSampler
 from .emitters import (
@@ -39,6 +43,7 @@ from .profiles import (
     ZeroDepth,
 )
 from .sampling import SurfaceSampler
+from .shapes import BulkSampler, ShapeSurfaceSampler
 from .vertex_file import read_vertex_file, vertex_file_config
 
 _T = TypeVar("_T")
@@ -100,6 +105,29 @@ def flat_face_sampler(config: RunConfig, volume: str, face: str) -> SurfaceSampl
     return SurfaceSampler(vertices=corners, faces=[[0, 1, 2], [0, 2, 3]])
 
 
+def target_shape(config: RunConfig, volume: str) -> tuple[Shape, Transform]:
+    """The shape of a box target and its local -> world transform."""
+    target = config.target(volume)
+    half = [s / 2 for s in target.size]
+    return G4Box(*half), Transform(translation=np.array(target.position, float))
+
+
+def shape_face_sampler(config: RunConfig, scene: Scene, volume: str, face: str):
+    """Area-uniform sampler on faces of a target, each rough face on its mesh."""
+    shape, transform = target_shape(config, volume)
+    rough: dict[str, Any] = {
+        layer.config.face: layer.sampler() for layer in scene.layers_of(volume)
+    }
+    return ShapeSurfaceSampler(shape, face, transform, rough)
+
+
+def bulk_sampler(config: RunConfig, volume: str) -> BulkSampler:
+    """Uniform points in a target box (a box target has no daughters; its rough layers are
+    separate volumes outside it)."""
+    shape, transform = target_shape(config, volume)
+    return BulkSampler(shape, transform, (), name=volume)
+
+
 @dataclass
 class SampledSource:
     """Vertices drawn below a (rough) face, each emitting the configured particles."""
@@ -117,7 +145,23 @@ class SampledSource:
             depth=v.depth,
             facet=v.facet,
             patch=v.patch if v.patch is not None else np.full(n_events, -1),
+            face=v.face,
         )
+
+    def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
+        """Events ``first_event ..`` of the run with ``seed``, the same in any chunking."""
+        return draw_events(self, seed, first_event, n_events)
+
+
+@dataclass
+class BulkSource:
+    """Vertices uniform in a volume's own material, emitting isotropically."""
+
+    sampler: BulkSampler
+    emitter: Emitter
+
+    def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
+        return make_primaries(self.emitter, rng, self.sampler.sample(rng, n_events))
 
     def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
         """Events ``first_event ..`` of the run with ``seed``, the same in any chunking."""
@@ -153,7 +197,7 @@ def needs_radioactive_decay(config: RunConfig) -> bool:
     return src.nuclide is not None
 
 
-def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
+def make_source(config: RunConfig, scene: Scene) -> SampledSource | BulkSource | FileSource:
     """What :meth:`primaries` needs, built once: checks files, materials and constraints now."""
     src = config.source
     if src.vertices is not None:
@@ -164,10 +208,16 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
                 f"fewer than run.events = {config.run.events}"
             )
         return source
+    if src.volume is not None:
+        return BulkSource(bulk_sampler(config, src.volume), _emitter(src))
     surface_ref = _given(src.surface, "source.surface")
     volume, face = surface_ref.volume, surface_ref.face
-    layer = scene.layer(volume, face)
-    surface = layer.sampler() if layer is not None else flat_face_sampler(config, volume, face)
+    surface: SurfaceSampler | ShapeSurfaceSampler | object
+    if face in FACES:  # one face of a box: its rough layer or two flat triangles
+        layer = scene.layer(volume, face)
+        surface = layer.sampler() if layer is not None else flat_face_sampler(config, volume, face)
+    else:
+        surface = shape_face_sampler(config, scene, volume, face)
     inside = None
     if src.confine is True:
         inside = lambda p: scene.inside_target(volume, p)  # noqa: E731
@@ -176,7 +226,7 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
         inside = lambda p: scene.inside_material(src.confine, p)  # noqa: E731
     try:
         sampler = VertexSampler(
-            surface,
+            surface,  # type: ignore[arg-type]  # a ShapeSurfaceSampler plugs in by its hook
             depth_profile(src.depth),
             definition=src.depth.definition,
             min_depth=src.depth.min,
@@ -188,8 +238,48 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | FileSource:
     ) as err:  # the library names min_depth/max_depth; the config calls them min/max
         message = str(err).replace("min_depth", "min").replace("max_depth", "max")
         raise ConfigError(f"source.depth: {message}") from None
+    return SampledSource(sampler, _emitter(src))
+
+
+def _emitter(src: SourceConfig) -> Emitter:
     try:
-        emitter = make_emitter(src)
+        return make_emitter(src)
     except ConfigError as err:
         raise ConfigError(f"source.{err}") from None  # "source.particle: unknown name ..."
-    return SampledSource(sampler, emitter)
+
+
+def source_geometry(config: RunConfig, scene: Scene) -> dict:
+    """What the run record states about where the source is (contract 1, ``source`` entry).
+
+    ``kind`` (surface | bulk | vertices), ``volume``, ``face``, ``area_mm2`` (true sampled area:
+    rough faces with their mesh area), ``projected_area_mm2`` (the faces counted flat),
+    ``faces`` (face names; the ``face`` column of the primaries indexes it), ``volume_mm3``
+    (bulk: the volume's own material), and ``mass_kg`` when the material's density is known
+    without Geant4 (a ``materials:`` entry; NIST densities come from Geant4, left None here).
+    """
+    src = config.source
+    if src.vertices is not None:
+        return {"kind": "vertices", "file": str(src.vertices)}
+    if src.volume is not None:
+        bulk = bulk_sampler(config, src.volume)
+        material = config.target(src.volume).material
+        spec = config.materials.get(material)
+        mass = None if spec is None else bulk.volume * spec.density * 1e-6  # g/cm3 * mm3 -> kg
+        return {
+            "kind": "bulk",
+            "volume": src.volume,
+            "volume_mm3": bulk.volume,
+            "mass_kg": mass,
+        }
+    ref = _given(src.surface, "source.surface")
+    out = {"kind": "surface", "volume": ref.volume, "face": ref.face}
+    if ref.face in FACES:
+        frame = face_frame(config.target(ref.volume), ref.face)
+        layer = scene.layer(ref.volume, ref.face)
+        projected = frame.size[0] * frame.size[1]
+        area = layer.sampler().area if layer is not None else projected
+        names = [ref.face]
+    else:
+        sampler = shape_face_sampler(config, scene, ref.volume, ref.face)
+        area, projected, names = sampler.area, sampler.projected_area, list(sampler.face_names)
+    return {**out, "area_mm2": float(area), "projected_area_mm2": float(projected), "faces": names}

@@ -674,6 +674,9 @@ class Vertices:
         (n,) triangle index or id of that surface point (an incident facet on edges/vertices).
     patch, variant
         (n,) cell index and variant on a tiled face, else None.
+    face
+        (n,) face index of the surface point on a sampler over several faces of a volume
+        (:class:`~score4.source.shapes.ShapeSurfaceSampler`), else None.
     """
 
     position: np.ndarray
@@ -682,6 +685,7 @@ class Vertices:
     facet: np.ndarray
     patch: np.ndarray | None = None
     variant: np.ndarray | None = None
+    face: np.ndarray | None = None
 
 
 class _SingleLayout:
@@ -705,7 +709,9 @@ class VertexSampler:
     Parameters
     ----------
     surface
-        A :class:`SurfaceSampler` (one triangle set) or a :class:`TiledSurfaceSampler`.
+        A :class:`SurfaceSampler` (one triangle set), a :class:`TiledSurfaceSampler`, or a
+        sampler with its own ``draw_vertices(rng, depths, definition)`` hook such as
+        :class:`~score4.source.shapes.ShapeSurfaceSampler` (faces of any volume).
     profile
         The depth profile.
     definition
@@ -743,11 +749,16 @@ class VertexSampler:
         self.min_depth, self.max_depth = check_window(min_depth, max_depth)
         self.profile = profile.truncated(self.min_depth, self.max_depth)
         self.max_rounds = int(max_rounds)
+        self.offset_surfaces: list[OffsetSurface] = []  # one per variant, for 'distance'
+        self._hook = getattr(surface, "draw_vertices", None)  # faces of a volume
+        if self._hook is not None:
+            surface.check_definition(definition)  # type: ignore[union-attr]
+            self._tiled = bool(getattr(surface, "has_patches", False))
+            return
         self._tiled = isinstance(surface, TiledSurfaceSampler)
         self._layout: TiledSurfaceSampler | _SingleLayout = (
             surface if isinstance(surface, TiledSurfaceSampler) else _SingleLayout(surface)
         )
-        self.offset_surfaces: list[OffsetSurface] = []  # one per variant, for 'distance'
         if definition == "distance":
             per = surface.pitch if isinstance(surface, TiledSurfaceSampler) else period
             self.offset_surfaces = [
@@ -760,13 +771,21 @@ class VertexSampler:
         out = Vertices(np.empty((n, 3)), np.empty((n, 3)), depth, np.empty(n, dtype=np.int64))
         if self._tiled:
             out.patch, out.variant = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+        if self._hook is not None:
+            out.face = np.empty(n, dtype=np.int64)
         pending = np.arange(n)
         failures = {"confinement": 0, "distance": 0}
         draw = self._draw_normal if self.definition == "normal" else self._draw_distance
+        face = None
         for _ in range(self.max_rounds):
             if len(pending) == 0:
                 return out
-            x, normal, facet, patch, variant, on_level = draw(rng, depth[pending])
+            if self._hook is not None:
+                x, normal, facet, patch, variant, on_level, face = self._hook(
+                    rng, depth[pending], self.definition
+                )
+            else:
+                x, normal, facet, patch, variant, on_level = draw(rng, depth[pending])
             failures["distance"] += int((~on_level).sum())
             confined = self._confined(x, on_level)
             failures["confinement"] += int((on_level & ~confined).sum())
@@ -779,6 +798,8 @@ class VertexSampler:
             )
             if out.patch is not None and out.variant is not None:  # tiled faces
                 out.patch[rows], out.variant[rows] = patch[good], variant[good]
+            if out.face is not None and face is not None:
+                out.face[rows] = face[good]
             redraw = pending[on_level & ~confined]  # confinement failures get a new depth too
             depth[redraw] = self.profile.sample(rng, len(redraw))
             pending = pending[~good]

@@ -431,6 +431,7 @@ def make_primaries(
     depth: ArrayLike | None = None,
     facet: ArrayLike | None = None,
     patch: ArrayLike | None = None,
+    face: ArrayLike | None = None,
 ) -> Primaries:
     """One event per vertex: the emitter's primaries, all starting at that vertex.
 
@@ -443,9 +444,9 @@ def make_primaries(
         (n, 3) vertex positions in mm.
     normals
         (n, 3) outward surface normals (needed by every direction law but ``isotropic``).
-    depth, facet, patch
+    depth, facet, patch, face
         Optional (n,) per-vertex columns, copied to every primary of the event as extra
-        columns ``depth`` (mm), ``facet`` and ``patch``.
+        columns ``depth`` (mm), ``facet``, ``patch`` and ``face`` (index of the volume's face).
     """
     pos = np.asarray(positions, dtype=float).reshape(-1, 3)
     n = len(pos)
@@ -454,7 +455,7 @@ def make_primaries(
     )
     k = len(parts)  # rows per event, event-major: row = event * k + j
     extra = {}
-    for name, col in (("depth", depth), ("facet", facet), ("patch", patch)):
+    for name, col in (("depth", depth), ("facet", facet), ("patch", patch), ("face", face)):
         if col is not None:
             col = np.asarray(col)
             if col.shape != (n,):

@@ -405,6 +405,9 @@ class SurfaceSample:
         (n,) flat cell index on a tiled face (``i * ny + j``), else None.
     variant
         (n,) patch variant of that cell on a tiled face, else None.
+    face
+        (n,) index of the volume's face the point lies on (samplers on several faces of a
+        shape, :mod:`score4.source.shapes`), else None.
     """
 
     position: np.ndarray
@@ -412,6 +415,7 @@ class SurfaceSample:
     facet: np.ndarray
     patch: np.ndarray | None = None
     variant: np.ndarray | None = None
+    face: np.ndarray | None = None
 
 
 class SurfaceSampler:

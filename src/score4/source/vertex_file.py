@@ -5,7 +5,8 @@ One row per primary particle; the columns of a table group are
 ``event`` (int), ``particle`` (ASCII), ``energy`` (MeV), ``xloc``/``yloc``/``zloc`` (mm),
 ``dirx``/``diry``/``dirz`` (unit vector), and the extras the source adds: ``depth`` (mm),
 ``facet`` (triangle index in its patch variant), ``patch`` (flat cell index ``i * ny + j`` on a
-tiled face, -1 on a flat one).
+tiled face, -1 on a flat one), ``face`` (sources on several faces of a volume: index into the
+``faces`` list of the file's ``source`` attribute). A bulk source has none of these extras.
 
 Every column carries a ``units`` attribute where it has a unit, and LH5 ``datatype``
 attributes (``table{...}`` on the group, ``array<1>{real}`` on columns, ``array<1>{string}`` on
@@ -69,13 +70,19 @@ def read_primaries_table(group: h5py.Group) -> Primaries:
     )
 
 
-def write_vertex_file(path: str | Path, primaries: Primaries, config: dict, seed: int) -> Path:
-    """Write a vertex file atomically."""
+def write_vertex_file(
+    path: str | Path, primaries: Primaries, config: dict, seed: int, source: dict | None = None
+) -> Path:
+    """Write a vertex file atomically; ``source`` (JSON attribute ``source``) says where the
+    vertices are: :func:`score4.source.build.source_geometry`, whose ``faces`` list names the
+    values of the ``face`` column."""
     path = Path(path)
     with atomic_h5(path) as f:
         f.attrs["format"] = FORMAT
         f.attrs["format_version"] = FORMAT_VERSION
         f.attrs["config"] = json.dumps(config)
+        if source is not None:
+            f.attrs["source"] = json.dumps(source)
         f.attrs["seed"] = seed
         f.attrs["n_events"] = primaries.n_events
         write_primaries_table(f.create_group("vertices"), primaries)

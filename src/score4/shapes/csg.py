@@ -1,0 +1,447 @@
+"""Geant4's CSG solids as parameter dataclasses: G4Box, G4Trd, G4Tubs, G4Cons, G4Orb, G4Sphere.
+
+Parameters are Geant4's own (half-lengths, mm; angles in rad), in the order of the Geant4
+constructors. Phi ranges are normalised as Geant4 does (a range of 2 pi or more is the full
+circle with start 0; a start below 0 or above 2 pi is brought into [0, 2 pi)).
+
+Face names
+----------
+G4Box, G4Trd
+    ``+x``, ``-x``, ``+y``, ``-y``, ``+z``, ``-z`` (the face whose outward normal points most
+    along that axis; a G4Trd's ``-z`` face is the ``dx1 x dy1`` one).
+G4Tubs, G4Cons
+    ``-z``, ``+z`` (end caps: disks, annuli or their sectors), ``outer``, ``inner`` (only with
+    an inner radius), ``phi_start``, ``phi_end`` (only for a phi segment). A face of zero area
+    (a G4Cons closing to a point) is left out.
+G4Orb
+    ``outer``.
+G4Sphere
+    ``outer``, ``inner`` (rmin > 0), ``phi_start``, ``phi_end`` (phi segment), ``theta_start``
+    (cone at the start polar angle, when > 0), ``theta_end`` (when the end angle is < pi).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..errors import ConfigError
+from .base import Patch, PlaneTriangles, Shape, SphereSector, SphereZone, as_points
+from .revolved import RevolvedShape, _wedge_distance
+
+TWO_PI = 2 * math.pi
+ANGLE_TOLERANCE = 1e-9  # Geant4's kAngTolerance, rad
+
+
+def normalise_phi(sphi: float, dphi: float, what: str) -> tuple[float, float]:
+    """Geant4's rule for phi ranges (G4Tubs::CheckPhiAngles and friends)."""
+    if not dphi > 0:
+        raise ConfigError(f"{what}: the phi range must be > 0, got {dphi:g} rad")
+    if dphi >= TWO_PI - 0.5 * ANGLE_TOLERANCE:
+        return 0.0, TWO_PI
+    sphi = TWO_PI - math.fmod(abs(sphi), TWO_PI) if sphi < 0 else math.fmod(sphi, TWO_PI)
+    if sphi + dphi > TWO_PI:
+        sphi -= TWO_PI
+    return sphi, float(dphi)
+
+
+def _positive(what: str, **values: float) -> None:
+    for name, v in values.items():
+        if not (math.isfinite(v) and v > 0):
+            raise ConfigError(f"{what}: {name} must be > 0, got {v!r}")
+
+
+# --------------------------------------------------------------------------------------------
+# Flat-faced convex solids
+# --------------------------------------------------------------------------------------------
+
+# the six faces of a hexahedron with corners indexed by bits (x: 1, y: 2, z: 4), as quads
+# wound counter-clockwise seen from outside
+_QUADS = {
+    "+x": (1, 3, 7, 5),
+    "-x": (0, 4, 6, 2),
+    "+y": (2, 6, 7, 3),
+    "-y": (0, 1, 5, 4),
+    "+z": (4, 5, 7, 6),
+    "-z": (0, 2, 3, 1),
+}
+
+
+class _Hexahedron(Shape):
+    """A convex solid with six quadrilateral faces (G4Box, G4Trd)."""
+
+    def corners(self) -> np.ndarray:
+        raise NotImplementedError
+
+    def _build(self):
+        c = self.corners()
+        patches: list[Patch] = []
+        names = tuple(_QUADS)
+        for k, quad in enumerate(_QUADS.values()):
+            q = c[list(quad)]
+            tris = np.array([[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+            n = np.cross(q[2] - q[0], q[3] - q[1])
+            n /= max(float(np.linalg.norm(n)), 1e-300)  # a face shrunk to a line has none
+            patches.append(PlaneTriangles(k, tris, n))
+        return names, {}, patches
+
+    def _planes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Unit outward normals (6, 3) and offsets (6,) of the face planes: n . x <= h inside."""
+        c = self.corners()
+        normals, offsets = [], []
+        for quad in _QUADS.values():
+            q = c[list(quad)]
+            n = np.cross(q[2] - q[0], q[3] - q[1])
+            n /= np.linalg.norm(n)
+            normals.append(n)
+            offsets.append(float(n @ q.mean(axis=0)))
+        return np.array(normals), np.array(offsets)
+
+    def signed_distance(self, points: ArrayLike) -> np.ndarray:
+        p = as_points(points)
+        n, h = self._planes()
+        return (p @ n.T - h).max(axis=1)
+
+    def bounding_box(self) -> tuple[np.ndarray, np.ndarray]:
+        c = self.corners()
+        return c.min(axis=0), c.max(axis=0)
+
+    @property
+    def volume(self) -> float:  # divergence theorem over the (exact) triangles
+        return float(
+            sum(
+                np.einsum(
+                    "ij,ij->", p.triangles[:, 0], np.cross(p.triangles[:, 1], p.triangles[:, 2])
+                )
+                for p in self.patches
+                if isinstance(p, PlaneTriangles)
+            )
+            / 6.0
+        )
+
+
+@dataclass(frozen=True)
+class G4Box(_Hexahedron):
+    """``G4Box(name, pX, pY, pZ)``: half-lengths along x, y, z (mm)."""
+
+    dx: float
+    dy: float
+    dz: float
+    kind = "G4Box"
+
+    def __post_init__(self) -> None:
+        _positive("G4Box", dx=self.dx, dy=self.dy, dz=self.dz)
+
+    def corners(self) -> np.ndarray:
+        bits = np.arange(8)
+        return np.column_stack(
+            [
+                np.where(bits & 1, self.dx, -self.dx),
+                np.where(bits & 2, self.dy, -self.dy),
+                np.where(bits & 4, self.dz, -self.dz),
+            ]
+        ).astype(float)
+
+    def signed_distance(self, points: ArrayLike) -> np.ndarray:
+        p = as_points(points)
+        return (np.abs(p) - np.array([self.dx, self.dy, self.dz])).max(axis=1)
+
+    @property
+    def volume(self) -> float:
+        return 8.0 * self.dx * self.dy * self.dz
+
+    def sample_volume(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        half = np.array([self.dx, self.dy, self.dz])
+        return (2 * rng.random((n, 3)) - 1) * half
+
+
+@dataclass(frozen=True)
+class G4Trd(_Hexahedron):
+    """``G4Trd(name, dx1, dx2, dy1, dy2, dz)``: half-lengths at -dz (1) and +dz (2), mm."""
+
+    dx1: float
+    dx2: float
+    dy1: float
+    dy2: float
+    dz: float
+    kind = "G4Trd"
+
+    def __post_init__(self) -> None:
+        _positive("G4Trd", dz=self.dz)
+        for name in ("dx1", "dx2", "dy1", "dy2"):
+            if not getattr(self, name) >= 0:
+                raise ConfigError(f"G4Trd: {name} must be >= 0, got {getattr(self, name)!r}")
+        if max(self.dx1, self.dx2) <= 0 or max(self.dy1, self.dy2) <= 0:
+            raise ConfigError("G4Trd: dx1/dx2 and dy1/dy2 may not both be 0")
+
+    def corners(self) -> np.ndarray:
+        bits = np.arange(8)
+        top = (bits & 4) > 0
+        dx = np.where(top, self.dx2, self.dx1)
+        dy = np.where(top, self.dy2, self.dy1)
+        return np.column_stack(
+            [
+                np.where(bits & 1, dx, -dx),
+                np.where(bits & 2, dy, -dy),
+                np.where(top, self.dz, -self.dz),
+            ]
+        ).astype(float)
+
+    def _build(self):
+        names, groups, patches = super()._build()
+        # a face shrunk to a line (dx2 = 0, ...) has no area and no normal: leave it out
+        return names, groups, [p for p in patches if p.area > 0]
+
+    def _planes(self) -> tuple[np.ndarray, np.ndarray]:
+        dz = self.dz
+        nx = np.array([2 * dz, 0.0, self.dx1 - self.dx2])
+        ny = np.array([0.0, 2 * dz, self.dy1 - self.dy2])
+        nx, ny = nx / np.linalg.norm(nx), ny / np.linalg.norm(ny)
+        hx = nx[0] * 0.5 * (self.dx1 + self.dx2)
+        hy = ny[1] * 0.5 * (self.dy1 + self.dy2)
+        normals = np.array([nx, nx * [-1, 1, 1], ny, ny * [1, -1, 1], [0, 0, 1.0], [0, 0, -1.0]])
+        return normals, np.array([hx, hx, hy, hy, dz, dz])
+
+    @property
+    def volume(self) -> float:
+        a1, a2 = 4 * self.dx1 * self.dy1, 4 * self.dx2 * self.dy2
+        am = 4 * 0.5 * (self.dx1 + self.dx2) * 0.5 * (self.dy1 + self.dy2)
+        return 2 * self.dz * (a1 + 4 * am + a2) / 6.0  # Simpson: exact for a quadratic section
+
+
+# --------------------------------------------------------------------------------------------
+# Tubes and cones
+# --------------------------------------------------------------------------------------------
+
+
+def _cone_contour(
+    rmin1: float, rmax1: float, rmin2: float, rmax2: float, dz: float
+) -> tuple[np.ndarray, list[str]]:
+    """Counter-clockwise (r, z) contour and edge names of a G4Cons section."""
+    poly = np.array([[rmin1, -dz], [rmax1, -dz], [rmax2, dz], [rmin2, dz]], float)
+    names = ["-z", "outer", "+z", "inner"]
+    keep = [i for i in range(4) if np.hypot(*(poly[(i + 1) % 4] - poly[i])) > 0]
+    return poly[keep] if len(keep) < 4 else poly, [names[i] for i in keep]
+
+
+@dataclass(frozen=True)
+class G4Tubs(RevolvedShape):
+    """``G4Tubs(name, pRMin, pRMax, pDz, pSPhi, pDPhi)``: radii, half-length in z, phi range."""
+
+    rmin: float
+    rmax: float
+    dz: float
+    sphi: float = 0.0
+    dphi: float = TWO_PI
+    kind = "G4Tubs"
+
+    def __post_init__(self) -> None:
+        _positive("G4Tubs", rmax=self.rmax, dz=self.dz)
+        if not 0 <= self.rmin < self.rmax:
+            raise ConfigError(f"G4Tubs: need 0 <= rmin < rmax, got {self.rmin!r}, {self.rmax!r}")
+        s, d = normalise_phi(self.sphi, self.dphi, "G4Tubs")
+        object.__setattr__(self, "sphi", s)
+        object.__setattr__(self, "dphi", d)
+
+    def contour(self) -> tuple[np.ndarray, list[str]]:
+        return _cone_contour(self.rmin, self.rmax, self.rmin, self.rmax, self.dz)
+
+
+@dataclass(frozen=True)
+class G4Cons(RevolvedShape):
+    """``G4Cons(name, pRmin1, pRmax1, pRmin2, pRmax2, pDz, pSPhi, pDPhi)``: radii at -dz (1)
+    and +dz (2), half-length, phi range."""
+
+    rmin1: float
+    rmax1: float
+    rmin2: float
+    rmax2: float
+    dz: float
+    sphi: float = 0.0
+    dphi: float = TWO_PI
+    kind = "G4Cons"
+
+    def __post_init__(self) -> None:
+        _positive("G4Cons", dz=self.dz)
+        if not (0 <= self.rmin1 <= self.rmax1 and 0 <= self.rmin2 <= self.rmax2):
+            raise ConfigError("G4Cons: need 0 <= rmin <= rmax at both ends")
+        if max(self.rmax1, self.rmax2) <= 0:
+            raise ConfigError("G4Cons: rmax1 and rmax2 may not both be 0")
+        s, d = normalise_phi(self.sphi, self.dphi, "G4Cons")
+        object.__setattr__(self, "sphi", s)
+        object.__setattr__(self, "dphi", d)
+
+    def contour(self) -> tuple[np.ndarray, list[str]]:
+        return _cone_contour(self.rmin1, self.rmax1, self.rmin2, self.rmax2, self.dz)
+
+
+# --------------------------------------------------------------------------------------------
+# Spheres
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class G4Sphere(Shape):
+    """``G4Sphere(name, pRmin, pRmax, pSPhi, pDPhi, pSTheta, pDTheta)``."""
+
+    rmin: float
+    rmax: float
+    sphi: float = 0.0
+    dphi: float = TWO_PI
+    stheta: float = 0.0
+    dtheta: float = math.pi
+    kind = "G4Sphere"
+
+    def __post_init__(self) -> None:
+        _positive("G4Sphere", rmax=self.rmax)
+        if not 0 <= self.rmin < self.rmax:
+            raise ConfigError(f"G4Sphere: need 0 <= rmin < rmax, got {self.rmin!r}, {self.rmax!r}")
+        s, d = normalise_phi(self.sphi, self.dphi, "G4Sphere")
+        object.__setattr__(self, "sphi", s)
+        object.__setattr__(self, "dphi", d)
+        if not (0 <= self.stheta < math.pi and self.dtheta > 0):
+            raise ConfigError("G4Sphere: need 0 <= stheta < pi and dtheta > 0")
+        if self.stheta + self.dtheta >= math.pi:
+            object.__setattr__(self, "dtheta", math.pi - self.stheta)
+
+    @property
+    def _theta(self) -> tuple[float, float]:
+        return self.stheta, self.stheta + self.dtheta
+
+    @property
+    def _full_phi(self) -> bool:
+        return self.dphi >= TWO_PI
+
+    def _build(self):
+        t1, t2 = self._theta
+        names: list[str] = []
+        patches: list[Patch] = []
+
+        def add(name: str, patch_of) -> None:
+            names.append(name)
+            patches.append(patch_of(len(names) - 1))
+
+        add("outer", lambda k: SphereZone(k, self.rmax, (t1, t2), self.sphi, self.dphi, +1))
+        if self.rmin > 0:
+            add("inner", lambda k: SphereZone(k, self.rmin, (t1, t2), self.sphi, self.dphi, -1))
+        if not self._full_phi:
+            for name, phi, sign in (
+                ("phi_start", self.sphi, 1),
+                ("phi_end", self.sphi + self.dphi, -1),
+            ):
+                normal = sign * np.array([math.sin(phi), -math.cos(phi), 0.0])
+                add(
+                    name,
+                    lambda k, phi=phi, normal=normal: SphereSector(
+                        k, (self.rmin, self.rmax), (t1, t2), phi, normal
+                    ),
+                )
+        from .base import Revolved
+
+        if t1 > 0:
+            s, c = math.sin(t1), math.cos(t1)
+            add(
+                "theta_start",
+                lambda k: Revolved(
+                    k,
+                    (self.rmin * s, self.rmin * c),
+                    (self.rmax * s, self.rmax * c),
+                    self.sphi,
+                    self.dphi,
+                    (-c, s),
+                ),
+            )
+        if t2 < math.pi:
+            s, c = math.sin(t2), math.cos(t2)
+            add(
+                "theta_end",
+                lambda k: Revolved(
+                    k,
+                    (self.rmin * s, self.rmin * c),
+                    (self.rmax * s, self.rmax * c),
+                    self.sphi,
+                    self.dphi,
+                    (c, -s),
+                ),
+            )
+        return tuple(names), {}, patches
+
+    def signed_distance(self, points: ArrayLike) -> np.ndarray:
+        p = as_points(points)
+        r = np.linalg.norm(p, axis=1)
+        s = r - self.rmax
+        if self.rmin > 0:
+            s = np.maximum(s, self.rmin - r)
+        t1, t2 = self._theta
+        if t1 > 0 or t2 < math.pi:
+            theta = np.arccos(np.clip(p[:, 2] / np.maximum(r, 1e-300), -1, 1))
+            angle = np.maximum(t1 - theta, theta - t2)  # > 0 outside the polar range
+            a = np.abs(angle)
+            dist = np.where(a < 0.5 * math.pi, r * np.sin(np.minimum(a, 0.5 * math.pi)), r)
+            s = np.maximum(s, np.where(angle > 0, dist, -dist))
+        if not self._full_phi:
+            s = np.maximum(s, _wedge_distance(p, self.sphi, self.dphi))
+        return s
+
+    @property
+    def volume(self) -> float:
+        t1, t2 = self._theta
+        return self.dphi * (math.cos(t1) - math.cos(t2)) * (self.rmax**3 - self.rmin**3) / 3.0
+
+    def bounding_box(self) -> tuple[np.ndarray, np.ndarray]:
+        # the box of a few thousand surface points plus the exact extremes, widened a little
+        rng = np.random.default_rng(0)
+        pts = self.sample_surface(rng, 4000).position
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        r = self.rmax
+        for axis_point in (
+            np.array([[r, 0, 0]]),
+            np.array([[-r, 0, 0]]),
+            np.array([[0, r, 0]]),
+            np.array([[0, -r, 0]]),
+            np.array([[0, 0, r]]),
+            np.array([[0, 0, -r]]),
+        ):
+            if self.inside(axis_point)[0] > 0:
+                lo, hi = np.minimum(lo, axis_point[0]), np.maximum(hi, axis_point[0])
+        pad = 0.01 * r
+        return np.maximum(lo - pad, -r), np.minimum(hi + pad, r)
+
+    def sample_volume(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        u, v, w = rng.random((3, n))
+        r = np.cbrt(self.rmin**3 + u * (self.rmax**3 - self.rmin**3))
+        t1, t2 = self._theta
+        cos = math.cos(t2) + v * (math.cos(t1) - math.cos(t2))
+        sin = np.sqrt(np.maximum(1 - cos * cos, 0.0))
+        phi = self.sphi + w * self.dphi
+        return r[:, None] * np.column_stack([sin * np.cos(phi), sin * np.sin(phi), cos])
+
+
+@dataclass(frozen=True)
+class G4Orb(Shape):
+    """``G4Orb(name, pRmax)``: a full sphere of radius ``r`` (mm)."""
+
+    r: float
+    kind = "G4Orb"
+
+    def __post_init__(self) -> None:
+        _positive("G4Orb", r=self.r)
+
+    def _build(self):
+        return ("outer",), {}, [SphereZone(0, self.r, (0.0, math.pi), 0.0, TWO_PI, +1)]
+
+    def signed_distance(self, points: ArrayLike) -> np.ndarray:
+        return np.linalg.norm(as_points(points), axis=1) - self.r
+
+    @property
+    def volume(self) -> float:
+        return 4.0 / 3.0 * math.pi * self.r**3
+
+    def bounding_box(self) -> tuple[np.ndarray, np.ndarray]:
+        return np.full(3, -self.r), np.full(3, self.r)
+
+    def sample_volume(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        return G4Sphere(0.0, self.r).sample_volume(rng, n)

@@ -1,0 +1,137 @@
+"""A closed triangle mesh as a shape (G4TessellatedSolid, G4ExtrudedSolid, or any triangulation).
+
+For a tessellated solid the mesh *is* the solid's surface, so areas, volume and sampling are
+exact. The whole mesh is one face, ``mesh``; facets may be grouped into named faces with
+``facet_faces``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..errors import ConfigError
+from .base import Patch, PlaneTriangles, Shape, as_points
+
+
+def _tri_distance(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """(n, m) exact distances of points (n, 3) to triangles (m, 3, 3)."""
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    n = np.cross(b - a, c - a)
+    n2 = np.maximum(np.einsum("ij,ij->i", n, n), 1e-300)
+    w = p[:, None, :] - a[None]
+    h = np.einsum("nmk,mk->nm", w, n) / np.sqrt(n2)
+    # barycentric test of the projection
+    q = p[:, None, :] - h[..., None] * (n / np.sqrt(n2)[:, None])[None]
+    inside = np.ones(h.shape, dtype=bool)
+    for u, v in ((a, b), (b, c), (c, a)):
+        inside &= np.einsum("nmk,mk->nm", np.cross(v - u, q - u[None]), n) >= 0
+    best = np.where(inside, np.abs(h), np.inf)
+    for u, v in ((a, b), (b, c), (c, a)):
+        d = v - u
+        t = np.clip(
+            np.einsum("nmk,mk->nm", p[:, None, :] - u[None], d)
+            / np.maximum(np.einsum("ij,ij->i", d, d), 1e-300),
+            0,
+            1,
+        )
+        e = p[:, None, :] - (u[None] + t[..., None] * d[None])
+        best = np.minimum(best, np.sqrt(np.einsum("nmk,nmk->nm", e, e)))
+    return best
+
+
+def _winding(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """Generalised winding number of a closed, outward-oriented mesh around points (n,)."""
+    a = tri[None, :, 0] - p[:, None]
+    b = tri[None, :, 1] - p[:, None]
+    c = tri[None, :, 2] - p[:, None]
+    la, lb, lc = (np.linalg.norm(v, axis=2) for v in (a, b, c))
+    num = np.einsum("nmk,nmk->nm", a, np.cross(b, c))
+    den = (
+        la * lb * lc
+        + np.einsum("nmk,nmk->nm", a, b) * lc
+        + np.einsum("nmk,nmk->nm", b, c) * la
+        + np.einsum("nmk,nmk->nm", c, a) * lb
+    )
+    return np.arctan2(num, den).sum(axis=1) / (2 * np.pi)
+
+
+@dataclass(frozen=True, eq=False)
+class MeshShape(Shape):
+    """A closed triangle mesh, facets wound counter-clockwise seen from outside.
+
+    Parameters
+    ----------
+    triangles
+        (m, 3, 3) facet corners, mm.
+    facet_faces
+        Optional (m,) face index per facet into ``face_names``.
+    face_names
+        Names of the faces (default: one face, ``mesh``).
+    """
+
+    triangles: np.ndarray
+    facet_faces: np.ndarray | None = None
+    face_names: tuple[str, ...] = ("mesh",)
+    kind = "MeshShape"
+    _chunk: int = field(default=4_000_000, repr=False)
+
+    def __post_init__(self) -> None:
+        tri = np.asarray(self.triangles, float)
+        if tri.ndim != 3 or tri.shape[1:] != (3, 3) or len(tri) < 4:
+            raise ConfigError(f"MeshShape: need (m >= 4, 3, 3) triangles, got {tri.shape}")
+        object.__setattr__(self, "triangles", tri)
+        ff = (
+            np.zeros(len(tri), np.int64)
+            if self.facet_faces is None
+            else np.asarray(self.facet_faces, np.int64)
+        )
+        if ff.shape != (len(tri),) or ff.min() < 0 or ff.max() >= len(self.face_names):
+            raise ConfigError("MeshShape: facet_faces must index face_names, one per facet")
+        object.__setattr__(self, "facet_faces", ff)
+        object.__setattr__(self, "face_names", tuple(self.face_names))
+
+    def _build(self):
+        tri = self.triangles
+        normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        norm = np.linalg.norm(normal, axis=1, keepdims=True)
+        normal = np.divide(normal, norm, out=np.zeros_like(normal), where=norm > 0)
+        patches: list[Patch] = []
+        assert self.facet_faces is not None
+        for k in range(len(self.face_names)):
+            rows = np.flatnonzero(self.facet_faces == k)
+            if len(rows):
+                patches.append(PlaneTriangles(k, tri[rows], normal[rows]))
+        return self.face_names, {}, patches
+
+    def signed_distance(self, points: ArrayLike) -> np.ndarray:
+        p = as_points(points)
+        out = np.empty(len(p))
+        step = max(1, self._chunk // len(self.triangles))
+        for s in range(0, len(p), step):
+            q = p[s : s + step]
+            dist = _tri_distance(q, self.triangles).min(axis=1)
+            inside = np.abs(_winding(q, self.triangles)) > 0.5
+            out[s : s + step] = np.where(inside, -dist, dist)
+        return out
+
+    @property
+    def volume(self) -> float:
+        t = self.triangles
+        return float(np.einsum("ij,ij->", t[:, 0], np.cross(t[:, 1], t[:, 2])) / 6.0)
+
+    def bounding_box(self) -> tuple[np.ndarray, np.ndarray]:
+        flat = self.triangles.reshape(-1, 3)
+        return flat.min(axis=0), flat.max(axis=0)
+
+    def to_dict(self) -> dict[str, Any]:
+        assert self.facet_faces is not None
+        return {
+            "type": self.kind,
+            "triangles": self.triangles.tolist(),
+            "facet_faces": self.facet_faces.tolist(),
+            "face_names": list(self.face_names),
+        }
