@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from .config import BoxVolume, RunConfig
+from .config import FACES, BoxVolume, RunConfig
 from .errors import ConfigError
 from .scene import RoughLayer, Scene, build_scene, face_frame
 
@@ -112,34 +112,46 @@ def volume_entries(config: RunConfig, scene: Scene) -> list[dict[str, Any]]:
 
 
 def _surface_source(config: RunConfig, scene: Scene) -> dict[str, Any]:
+    """Areas of the faces the source sits on, from the sampler the run draws with."""
     ref = config.source.surface
     assert ref is not None  # the config model requires a surface for a sampled source
-    layer = scene.layer(ref.volume, ref.face)
-    lu, lv = face_frame(config.target(ref.volume), ref.face).size
-    area = layer.sampler().area if layer is not None else lu * lv
+    if ref.face in FACES:  # one face of a box: its rough layer or the flat face
+        layer = scene.layer(ref.volume, ref.face)
+        lu, lv = face_frame(config.target(ref.volume), ref.face).size
+        area, projected = (layer.sampler().area if layer is not None else lu * lv), lu * lv
+        rough = layer is not None
+    else:  # face: all, or a named face or group of the volume's solid
+        from .source.build import shape_face_sampler
+
+        sampler = shape_face_sampler(config, scene, ref.volume, ref.face)
+        area, projected, rough = sampler.area, sampler.projected_area, bool(sampler.rough)
     return {
         "kind": "surface",
         "volume": ref.volume,
         "face": ref.face,
-        "rough": layer is not None,
+        "rough": rough,
         "area_mm2": float(area),
-        "projected_area_mm2": float(lu * lv),
+        "projected_area_mm2": float(projected),
         "volume_mm3": None,
         "mass_kg": None,
     }
 
 
-def _bulk_source(config: RunConfig, scene: Scene, name: str) -> dict[str, Any]:
-    """A source filling a volume (the ``source.volume`` of bulk sources)."""
-    entry = next((v for v in volume_entries(config, scene) if v["name"] == name), None)
+def _bulk_source(config: RunConfig, name: str) -> dict[str, Any]:
+    """A source filling a volume (``source.volume``): the volume its vertices are drawn in (a
+    box target's own material; its rough layers are separate volumes) and that volume's mass."""
+    from .source.build import bulk_sampler
+
+    volume = bulk_sampler(config, name).volume
+    density = material_density(config, config.target(name).material)
     return {
         "kind": "bulk",
         "volume": name,
         "face": None,
         "area_mm2": None,
         "projected_area_mm2": None,
-        "volume_mm3": entry["volume_mm3"] if entry else None,
-        "mass_kg": entry["mass_kg"] if entry else None,
+        "volume_mm3": volume,
+        "mass_kg": _mass_kg(density, volume),
     }
 
 
@@ -191,9 +203,8 @@ def source_entry(config: RunConfig, scene: Scene) -> dict[str, Any]:
     src = config.source
     if src.vertices is not None:
         return _vertices_source(config)
-    bulk = getattr(src, "volume", None)  # bulk sources (source.volume), where the config has them
-    if bulk is not None:
-        return _bulk_source(config, scene, str(getattr(bulk, "volume", bulk)))
+    if src.volume is not None:
+        return _bulk_source(config, src.volume)
     return _surface_source(config, scene)
 
 
