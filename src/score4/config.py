@@ -27,6 +27,7 @@ from .response import ResponseConfig
 from .schema import (
     ConfigPath,
     NonNegativeLength,
+    NonNegativeTime,
     PositiveDensity,
     PositiveEnergy,
     PositiveLength,
@@ -284,14 +285,59 @@ class SpectrumConfig(StrictModel):
     kind: Literal["linear", "histogram"] = "linear"
 
 
+class DecayChainConfig(StrictModel):
+    """A decay chain as a source: its members' decays in the ratio of their activities.
+
+    ``chain``: the head nuclide (every nuclide its decays lead to, down to a stable one or to
+    ``until``, which is excluded) or a list of members in decay order. Activities: secular
+    equilibrium (the default), or ``since_deposition``: pure head atoms deposited that long ago.
+    A daughter decaying within ``coincidence_window`` of its event's first decay joins that
+    event (docs/decay.md).
+    """
+
+    chain: str | list[str]
+    until: str | None = None
+    equilibrium: Literal["secular"] | None = None
+    since_deposition: NonNegativeTime | None = None
+    coincidence_window: NonNegativeTime = 1e4  # ns: 10 us
+
+    @model_validator(mode="after")
+    def _check(self) -> DecayChainConfig:
+        if self.equilibrium is not None and self.since_deposition is not None:
+            raise ValueError(
+                "give equilibrium: secular or since_deposition (the time since a pure head was "
+                "deposited), not both"
+            )
+        from .decay.chain import build_chain
+
+        try:
+            build_chain(self.chain, self.until, what="decay")
+        except ConfigError as err:
+            raise ValueError(str(err).removeprefix("decay.").removeprefix("decay: ")) from None
+        return self
+
+
+def _decay_tag(value: object) -> str:
+    return "chain" if isinstance(value, (dict, DecayChainConfig)) else "nuclide"
+
+
+# ``decay:`` a nuclide name, or a chain (a mapping with chain: ...)
+DecaySpec = Annotated[
+    Annotated[str, Tag("nuclide")] | Annotated[DecayChainConfig, Tag("chain")],
+    Discriminator(_decay_tag),
+]
+
+
 class SourceConfig(StrictModel):
     """Where decays start and what they emit.
 
     Where: ``surface`` (one face, or ``face: all``: every face of the volume per true area) with
     a ``depth`` below it, or ``volume`` (bulk: uniform in the volume's own material).
-    Emitter: ``particle`` with ``energy`` or ``spectrum``; or ``decay: Po210`` (built in: the
-    5.304 MeV alpha and the 103 keV Pb-206 recoil back to back); or ``nuclide`` (Geant4
-    radioactive decay, needs full physics data). Or ``vertices``: a vertex file written by
+    Emitter: ``particle`` with ``energy`` or ``spectrum``; or ``decay``: a nuclide (``Po210``,
+    ``Pb210``, any member of the U/Th chains, K40, Co60, Cs137) or a chain
+    (:class:`DecayChainConfig`), sampled from evaluated decay data with no Geant4 data needed
+    (docs/decay.md); or ``nuclide`` (Geant4 radioactive decay, needs full physics data). Or
+    ``vertices``: a vertex file written by
     ``score4 vertices`` whose rows are used as they are.
     """
 
@@ -307,7 +353,8 @@ class SourceConfig(StrictModel):
     particle: str | None = None
     energy: PositiveEnergy | None = None
     spectrum: SpectrumConfig | None = None
-    decay: Literal["Po210"] | None = None
+    # a nuclide with evaluated decay data ("Pb210", "Pb-210", "210Pb"), or a chain
+    decay: DecaySpec | None = None
     nuclide: str | None = None
     # isotropic (4 pi), inward/outward (isotropic in that half-space), cosine_inward/outward
     # (Lambert), normal (a beam along the inward surface normal)
@@ -319,6 +366,18 @@ class SourceConfig(StrictModel):
     # a thin spike); a material name confines to that material instead; false turns it off.
     confine: bool | str = True
     vertices: ConfigPath | None = None
+
+    @field_validator("decay")
+    @classmethod
+    def _decay_nuclide(cls, v: str | DecayChainConfig | None) -> str | DecayChainConfig | None:
+        if isinstance(v, str):
+            from .decay.data import nuclide_record
+
+            try:
+                return nuclide_record(v, "decay")[0]
+            except ConfigError as err:
+                raise ValueError(str(err).removeprefix("decay: ")) from None
+        return v
 
     @model_validator(mode="after")
     def _emitter(self) -> SourceConfig:
@@ -344,7 +403,7 @@ class SourceConfig(StrictModel):
         kinds = [k for k in ("particle", "decay", "nuclide") if getattr(self, k) is not None]
         if len(kinds) != 1:
             raise ValueError(
-                "give exactly one emitter: particle (with energy or spectrum), decay: Po210, or nuclide"
+                "give exactly one emitter: particle (with energy or spectrum), decay (a nuclide such as Pb210, or a chain), or nuclide"
                 + (f" (got {', '.join(kinds)})" if kinds else "")
             )
         if self.particle is not None and (self.energy is None) == (self.spectrum is None):

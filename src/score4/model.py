@@ -224,7 +224,7 @@ def merge_runs(templates: list[StoredTemplate], where: str) -> StoredTemplate:
     error = np.sqrt(
         sum((w * r * t.error) ** 2 for w, r, t in zip(weights, ratio, templates, strict=True))
     )
-    norm = dict(first.normalisation, simulated_decays=int(decays.sum()))
+    norm = dict(first.normalisation, simulated_decays=float(decays.sum()))
     return replace(first, rate=np.asarray(rate), error=np.asarray(error), normalisation=norm)
 
 

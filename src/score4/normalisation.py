@@ -19,10 +19,11 @@ results file (``/run`` attributes, JSON):
     ``mass_kg`` (bulk sources), and for ``vertices`` the ``file`` (its area is known when the
     file was drawn by ``score4 vertices``, whose configuration it stores).
 ``simulated_decays``
-    how many decays of ``activity_nuclide`` the events stand for: every source here draws one
-    decay (one vertex) per event, so it is the number of events.
+    how many decays of ``activity_nuclide`` the events stand for (a float): one per event for a
+    nuclide or particle source; for a decay chain, the decays of its head that the events stand
+    for (:func:`score4.source.build.decay_normalisation`, with ``decay_chain``).
 ``activity_nuclide``
-    the nuclide a quoted activity refers to (``Po210`` for ``decay: Po210``, the ``nuclide``
+    the nuclide a quoted activity refers to (the ``decay`` nuclide or chain head, the ``nuclide``
     of a Geant4 radioactive-decay source), None for a plain particle source (an activity then
     counts emitted particles).
 
@@ -167,34 +168,44 @@ def parse_stored_config(data: dict, origin: str) -> RunConfig:
         raise ConfigError(describe_validation_error(err, origin)) from None
 
 
-def _vertices_source(config: RunConfig) -> dict[str, Any]:
-    """A vertex file: its area or mass is known if it stores the configuration it was drawn from."""
+def _drawn_config(config: RunConfig) -> tuple[RunConfig | None, str | None]:
+    """The configuration a vertex file was drawn from (with this run's number of events), or
+    None and why not (a hand-made file stores none; a stored one may no longer rebuild)."""
     from .source.vertex_file import vertex_file_config
 
     path = config.source.vertices
+    stored = vertex_file_config(path) if path is not None else {}
+    if not stored:
+        return None, None
+    try:
+        drawn = parse_stored_config(stored, f"{path} (stored configuration)")
+        build_scene(drawn)  # its surfaces must still load
+    except ConfigError as err:  # e.g. a surface file it names has moved: say so, do not guess
+        return None, f"the vertex file's stored configuration does not rebuild: {err}"
+    run = drawn.run.model_copy(update={"events": config.run.events})
+    return drawn.model_copy(update={"run": run}), None
+
+
+def _vertices_source(config: RunConfig) -> dict[str, Any]:
+    """A vertex file: its area or mass is known if it stores the configuration it was drawn from."""
     entry: dict[str, Any] = {
         "kind": "vertices",
-        "file": str(path),
+        "file": str(config.source.vertices),
         "volume": None,
         "face": None,
         "area_mm2": None,
         "projected_area_mm2": None,
         "volume_mm3": None,
         "mass_kg": None,
+        "drawn_from": None,  # hand-made vertices: only a total activity applies
     }
-    stored = vertex_file_config(path) if path is not None else {}
-    if not stored:
-        entry["drawn_from"] = None  # hand-made vertices: only a total activity applies
-        return entry
-    try:
-        drawn = parse_stored_config(stored, f"{path} (stored configuration)")
+    drawn, note = _drawn_config(config)
+    if note:
+        entry["note"] = note
+    if drawn is not None:
         inner = source_entry(drawn, build_scene(drawn))
-    except ConfigError as err:  # e.g. a surface file it names has moved: say so, do not guess
-        entry["drawn_from"] = None
-        entry["note"] = f"the vertex file's stored configuration does not rebuild: {err}"
-        return entry
-    entry.update({k: v for k, v in inner.items() if k != "kind"})
-    entry["drawn_from"] = inner["kind"]
+        entry.update({k: v for k, v in inner.items() if k != "kind"})
+        entry["drawn_from"] = inner["kind"]
     return entry
 
 
@@ -208,28 +219,31 @@ def source_entry(config: RunConfig, scene: Scene) -> dict[str, Any]:
     return _surface_source(config, scene)
 
 
-def activity_nuclide(config: RunConfig) -> str | None:
-    """The nuclide an activity of this run's source refers to (None for a particle source)."""
-    src = config.source
-    if src.vertices is not None:
-        from .source.vertex_file import vertex_file_config
+def decays(config: RunConfig) -> dict[str, Any]:
+    """``simulated_decays``, ``activity_nuclide`` (and ``decay_chain`` for a chain) of a run,
+    from the source's emitter (:func:`score4.source.build.decay_normalisation`); a vertex file
+    drawn by ``score4 vertices`` stands for what its configuration's events stood for."""
+    from .source.build import decay_normalisation
 
-        stored = vertex_file_config(src.vertices).get("source", {})
-        return stored.get("decay") or stored.get("nuclide")
-    return src.decay or src.nuclide
+    if config.source.vertices is not None:
+        drawn, _ = _drawn_config(config)
+        if drawn is None:  # hand-made: one "decay" per event, no nuclide
+            return {"simulated_decays": float(config.run.events), "activity_nuclide": None}
+        return decay_normalisation(drawn)
+    return decay_normalisation(config)
 
 
 def run_normalisation(config: RunConfig, scene: Scene) -> dict[str, Any]:
     """The run record's normalisation entries (``volumes``, ``source``, ``simulated_decays``,
-    ``activity_nuclide``, ``normalisation_version``) for ``config`` built into ``scene``.
+    ``activity_nuclide``, ``decay_chain`` for a chain, ``normalisation_version``) for ``config``
+    built into ``scene``.
 
     Pure numpy: masses from the shipped NIST density table or the ``materials:`` entries,
-    volumes and areas from the same meshes the geometry and the sampler use.
+    volumes and areas from the same meshes and shapes the geometry and the sampler use.
     """
     return {
         "volumes": volume_entries(config, scene),
         "source": source_entry(config, scene),
-        "simulated_decays": int(config.run.events),
-        "activity_nuclide": activity_nuclide(config),
+        **decays(config),
         "normalisation_version": NORMALISATION_VERSION,
     }

@@ -115,7 +115,7 @@ def merge_chunks(chunk_paths: list[Path], out: Path, run_record: dict) -> None:
                 # containers and None (HDF5 attributes hold neither) as JSON
                 run.attrs[key] = (
                     json.dumps(value)
-                    if value is None or isinstance(value, (dict, list, tuple))
+                    if isinstance(value, (dict, list, tuple)) or value is None
                     else value
                 )
             ev = f.create_group("events")
@@ -168,7 +168,7 @@ class Results:
 def _decode_attr(value):
     if isinstance(value, bytes):
         value = value.decode()
-    if value == "null":
+    if isinstance(value, str) and value == "null":  # None, stored as JSON
         return None
     if isinstance(value, str) and value[:1] in "[{":
         with contextlib.suppress(json.JSONDecodeError):

@@ -28,7 +28,7 @@ from pydantic_core import PydanticCustomError
 
 from .units import format_readable, parse_quantity
 
-_INTERNAL_UNIT = {"length": "mm", "energy": "MeV", "density": "g/cm3"}
+_INTERNAL_UNIT = {"length": "mm", "energy": "MeV", "density": "g/cm3", "time": "ns"}
 
 #: Largest length (mm) anywhere in a description: 100 m. The largest rare-event detectors and
 #: their shields are ~10 m; a larger value is a unit slip ("10 km" for "10 mm"). Geant4's
@@ -71,7 +71,7 @@ def _quantity(dimension: str, positive: bool = False, non_negative: bool = False
     return BeforeValidator(parse)
 
 
-_EXAMPLE = {"length": "5 um", "energy": "5.3 MeV", "density": "6.02 g/cm3"}
+_EXAMPLE = {"length": "5 um", "energy": "5.3 MeV", "density": "6.02 g/cm3", "time": "180 d"}
 
 
 def _quantity_kind(metadata) -> str | None:
@@ -95,6 +95,8 @@ PositiveLength = Annotated[float, _quantity("length", positive=True), _with_unit
 NonNegativeLength = Annotated[float, _quantity("length", non_negative=True), _with_unit("length")]
 PositiveEnergy = Annotated[float, _quantity("energy", positive=True), _with_unit("energy")]
 NonNegativeEnergy = Annotated[float, _quantity("energy", non_negative=True), _with_unit("energy")]
+# times are kept in ns (Geant4's internal unit; see score4.units.TIME)
+NonNegativeTime = Annotated[float, _quantity("time", non_negative=True), _with_unit("time")]
 # densities are kept in g/cm3 (see score4.units.DENSITY)
 PositiveDensity = Annotated[float, _quantity("density", positive=True), _with_unit("density")]
 Vector3 = tuple[Length, Length, Length]

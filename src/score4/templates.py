@@ -352,7 +352,7 @@ class TemplateSet:
     detectors: list[str]
     masses: dict[str, float]
     activity: SourceActivity
-    simulated_decays: int
+    simulated_decays: float  # decays of activity_nuclide (a chain: of its head)
     activity_nuclide: str | None
     source: dict
     livetime_s: float | None
@@ -449,7 +449,7 @@ def build_templates(
             f"which {results.path} lacks; run again with output: {{split_by_particle: true}}"
         )
     edges = histogram_edges(results, bins=bins, emin=emin, emax=emax)
-    n = int(results.run["simulated_decays"])
+    n = float(results.run["simulated_decays"])
     per_event = act.total_bq / n * SECONDS_PER_DAY
     stages = {
         "deposit": build_stage(

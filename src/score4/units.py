@@ -26,6 +26,7 @@ LENGTH = {
     "km": 1e6,
 }
 ENERGY = {"eV": 1e-6, "keV": 1e-3, "MeV": 1.0, "GeV": 1e3, "TeV": 1e6}
+# decay times since deposition reach years: min, h, d and the Julian year y (365.25 d)
 TIME = {
     "ps": 1e-3,
     "ns": 1.0,
@@ -37,7 +38,8 @@ TIME = {
     "h": 3600e9,
     "d": 86400e9,
     "day": 86400e9,
-    # the Julian year (365.25 d), the year of the IAU and of live times in the field's papers
+    # the Julian year (365.25 d): "y" and "yr" (the year of live times in the field's papers)
+    "y": 365.25 * 86400e9,
     "yr": 365.25 * 86400e9,
 }
 ANGLE = {"rad": 1.0, "mrad": 1e-3, "deg": math.pi / 180.0}
@@ -174,7 +176,7 @@ def format_quantity(value: float, dimension: str, unit: str) -> str:
 _READABLE = {
     "length": ("pm", "nm", "um", "mm", "m", "km"),
     "energy": ("eV", "keV", "MeV", "GeV", "TeV"),
-    "time": ("ps", "ns", "us", "ms", "s", "min", "h", "d", "yr"),
+    "time": ("ps", "ns", "us", "ms", "s"),
     "angle": ("deg",),
     "area": ("nm2", "um2", "mm2", "cm2", "m2"),
     "density": ("g/cm3",),

@@ -19,6 +19,7 @@ import click
 from .. import __version__
 from ..errors import ConfigError, RunInterrupted, Score4Error, Score4Warning, naming_file
 from .data import data
+from .decay_cmd import decay_command
 from .geometry import geometry
 from .macro import import_macro
 from .quiet import is_quiet, notice, set_quiet
@@ -277,6 +278,7 @@ cli.add_command(geometry)
 cli.add_command(range_command)
 cli.add_command(template)
 cli.add_command(model)
+cli.add_command(decay_command)
 
 
 _SHOWN: set[str] = set()  # score4 warnings said in this command

@@ -125,7 +125,7 @@ def _print_template_summary(ts, written: list[str]) -> None:
     act = ts.activity
     click.echo(f"wrote {', '.join(written)}")
     click.echo(f"  activity      {act.text} x {act.size_text} = {act.total_bq:.6g} Bq")
-    click.echo(f"  decays        {ts.simulated_decays} simulated")
+    click.echo(f"  decays        {ts.simulated_decays:.10g} simulated")
     click.echo(
         f"  stage         {ts.final.name}" + (" (after the response)" if ts.response else "")
     )

@@ -60,7 +60,8 @@ def resolve_physics(requested: str, needs_decay: bool = False) -> PhysicsChoice:
                 f"physics: this source needs Geant4 radioactive decay, which needs the data sets "
                 f"G4EMLOW, G4ENSDFSTATE, PhotonEvaporation and RadioactiveDecay (missing: {missing}); "
                 f"lite mode cannot do decays. Run 'score4 data install' on a machine with internet, "
-                f"or use a built-in emitter such as 'Po210' that needs no data"
+                f"or use source.decay instead of source.nuclide (score4's own decay sampling, "
+                f"e.g. decay: Pb210), which needs no data"
             )
         return PhysicsChoice("full", requested, True, "", ())
     if requested == "full" and full_missing:

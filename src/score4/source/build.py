@@ -18,18 +18,18 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from ..config import FACES, DepthConfig, RunConfig, SourceConfig
+from ..config import FACES, DecayChainConfig, DepthConfig, RunConfig, SourceConfig
 from ..errors import ConfigError
 from ..scene import Scene, face_frame
 from ..shapes import G4Box, Shape, Transform
 from .blocks import draw_events
+from .decay_source import DecayEmitter
 from .depth import VertexSampler
 from .emitters import (
     Emitter,
     EnergySpectrum,
     NuclideEmitter,
     ParticleEmitter,
-    Po210Emitter,
     make_primaries,
 )
 from .primaries import Primaries
@@ -75,10 +75,10 @@ def depth_profile(cfg: DepthConfig) -> DepthProfile:
     return TableProfile.from_file(_given(cfg.file, "source.depth.file"), unit=cfg.unit)
 
 
-def make_emitter(src: SourceConfig) -> Emitter:
-    """ParticleEmitter, Po210Emitter or NuclideEmitter for the configured source."""
-    if src.decay == "Po210":
-        return Po210Emitter(src.direction)
+def make_emitter(src: SourceConfig) -> Emitter | DecayEmitter:
+    """ParticleEmitter, DecayEmitter or NuclideEmitter for the configured source."""
+    if src.decay is not None:
+        return decay_emitter(src)
     if src.nuclide is not None:
         return NuclideEmitter(src.nuclide)
     energy: float | EnergySpectrum | None = (
@@ -91,6 +91,52 @@ def make_emitter(src: SourceConfig) -> Emitter:
     if energy is None:  # the config model requires energy or spectrum for a particle
         raise ConfigError("source.energy: missing")
     return ParticleEmitter(_given(src.particle, "source.particle"), energy, src.direction)
+
+
+def decay_emitter(src: SourceConfig) -> DecayEmitter:
+    """The :class:`DecayEmitter` of ``source.decay`` (a nuclide or a chain)."""
+    decay = src.decay
+    if isinstance(decay, DecayChainConfig):
+        return DecayEmitter.for_chain(
+            decay.chain,
+            decay.until,
+            None if decay.since_deposition is None else decay.since_deposition * 1e-9,
+            decay.coincidence_window * 1e-9,
+            src.direction,
+        )
+    return DecayEmitter(_given(decay, "source.decay"), direction=src.direction)
+
+
+def decay_normalisation(config: RunConfig) -> dict:
+    """``simulated_decays`` and ``activity_nuclide`` of a run (contract 1 of the run record).
+
+    A ``decay`` source: the decays of its nuclide, or of its chain's head, that the run's events
+    stand for (one per event for a nuclide; ``decay_chain`` says how a chain's events share
+    them). A ``nuclide`` source (Geant4 decay): one decay per event. Other sources: one
+    "decay" per event and no nuclide.
+    """
+    src = config.source
+    n = config.run.events
+    if src.decay is not None:
+        emitter = decay_emitter(src)
+        out: dict = {
+            "simulated_decays": n * emitter.decays_per_event,
+            "activity_nuclide": emitter.activity_nuclide,
+        }
+        if emitter.chain is not None:
+            ce = emitter.chain
+            out["decay_chain"] = {
+                "members": list(ce.chain.members),
+                "relative_activity": [float(a) for a in ce.activity],
+                "event_share": [float(x) for x in ce.share / ce.share.sum()],
+                "head_decays_per_event": ce.head_decays_per_event,
+                "coincidence_window_s": ce.window_s,
+                "since_deposition_s": ce.since_deposition_s,
+            }
+        return out
+    if src.nuclide is not None:
+        return {"simulated_decays": float(n), "activity_nuclide": src.nuclide}
+    return {"simulated_decays": float(n), "activity_nuclide": None}
 
 
 def flat_face_sampler(config: RunConfig, volume: str, face: str) -> SurfaceSampler:
@@ -133,7 +179,7 @@ class SampledSource:
     """Vertices drawn below a (rough) face, each emitting the configured particles."""
 
     sampler: VertexSampler
-    emitter: Emitter
+    emitter: Emitter | DecayEmitter
 
     def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
         v = self.sampler.sample(rng, n_events)
@@ -158,7 +204,7 @@ class BulkSource:
     """Vertices uniform in a volume's own material, emitting isotropically."""
 
     sampler: BulkSampler
-    emitter: Emitter
+    emitter: Emitter | DecayEmitter
 
     def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
         return make_primaries(self.emitter, rng, self.sampler.sample(rng, n_events))
@@ -241,7 +287,7 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | BulkSource |
     return SampledSource(sampler, _emitter(src))
 
 
-def _emitter(src: SourceConfig) -> Emitter:
+def _emitter(src: SourceConfig) -> Emitter | DecayEmitter:
     try:
         return make_emitter(src)
     except ConfigError as err:

@@ -26,7 +26,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal, Protocol, cast, get_args
+from typing import Any, Literal, Protocol, cast, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -323,6 +323,12 @@ class Emitter(Protocol):
     ) -> list[tuple[str, np.ndarray, np.ndarray]]: ...
 
 
+class VariableEmitter(Protocol):
+    """An emitter with a variable number of primaries per event (see ``make_primaries``)."""
+
+    def emit_rows(self, rng: np.random.Generator, n: int, normals: np.ndarray | None) -> Any: ...
+
+
 def _check_direction(direction: str) -> DirectionKind:
     if direction not in DIRECTIONS:
         raise ConfigError(f"direction: got {direction!r}; use one of: {', '.join(DIRECTIONS)}")
@@ -423,7 +429,7 @@ class NuclideEmitter:
 
 
 def make_primaries(
-    emitter: Emitter,
+    emitter: Emitter | VariableEmitter,
     rng: np.random.Generator,
     positions: ArrayLike,
     normals: ArrayLike | None = None,
@@ -439,7 +445,9 @@ def make_primaries(
     ----------
     emitter
         :class:`ParticleEmitter`, :class:`Po210Emitter`, :class:`NuclideEmitter` or any
-        object with the same ``emit`` method.
+        object with the same ``emit`` method; or an emitter with ``emit_rows`` (a variable
+        number of primaries per event, :class:`score4.source.decay_source.DecayEmitter`),
+        whose extra columns (``nuclide``, ``time``) are kept too.
     positions
         (n, 3) vertex positions in mm.
     normals
@@ -450,6 +458,10 @@ def make_primaries(
     """
     pos = np.asarray(positions, dtype=float).reshape(-1, 3)
     n = len(pos)
+    if hasattr(emitter, "emit_rows"):  # a variable number of primaries per event (decays)
+        return _variable_rows(
+            emitter, rng, pos, normals, depth=depth, facet=facet, patch=patch, face=face
+        )
     parts = emitter.emit(
         rng, n, None if normals is None else np.asarray(normals, dtype=float).reshape(-1, 3)
     )
@@ -470,4 +482,33 @@ def make_primaries(
         position=np.repeat(pos, k, axis=0),
         direction=np.stack([p[2] for p in parts], axis=1).reshape(-1, 3),
         extra=extra,
+    )
+
+
+def _event_columns(n: int, **columns: ArrayLike | None) -> dict[str, np.ndarray]:
+    out = {}
+    for name, col in columns.items():
+        if col is not None:
+            col = np.asarray(col)
+            if col.shape != (n,):
+                raise ConfigError(
+                    f"{name}: need one value per vertex ({n},), got shape {col.shape}"
+                )
+            out[name] = col
+    return out
+
+
+def _variable_rows(emitter, rng, pos, normals, **columns) -> Primaries:
+    n = len(pos)
+    per_event = _event_columns(n, **columns)
+    rows = emitter.emit_rows(
+        rng, n, None if normals is None else np.asarray(normals, dtype=float).reshape(-1, 3)
+    )
+    return Primaries(
+        event=rows.event,
+        particle=rows.particle,
+        energy=rows.energy,
+        position=pos[rows.event],
+        direction=rows.direction,
+        extra={**{k: v[rows.event] for k, v in per_event.items()}, **rows.extra},
     )

@@ -36,7 +36,7 @@ from .primaries import Primaries
 
 FORMAT = "score4-vertices"
 FORMAT_VERSION = 1
-UNITS = {"energy": "MeV", "xloc": "mm", "yloc": "mm", "zloc": "mm", "depth": "mm"}
+UNITS = {"energy": "MeV", "xloc": "mm", "yloc": "mm", "zloc": "mm", "depth": "mm", "time": "s"}
 _FIXED = ("event", "particle", "energy", "xloc", "yloc", "zloc", "dirx", "diry", "dirz")
 
 
