@@ -227,9 +227,12 @@ def test_particle_classes_and_response(pair_run):
     quenched = visible_energy(results.scores, "bottom", response)
     shown = seen > 0
     assert (seen[shown] > 0.05).all()  # the threshold
-    pull = (seen[shown] - quenched[shown]) / 0.02
-    assert abs(pull.mean()) < 4 / np.sqrt(shown.sum())
-    assert abs(pull.std() - 1) < 0.1
+    # pulls of the smearing, away from the threshold (near it only upward fluctuations pass)
+    far = shown & (quenched > 0.05 + 5 * 0.02)
+    pull = (seen[far] - quenched[far]) / 0.02
+    assert far.sum() > 300
+    assert abs(pull.mean()) < 4 / np.sqrt(far.sum())
+    assert abs(pull.std() - 1) < 4 / np.sqrt(2 * far.sum())
     assert ts.stages["visible"].detectors["bottom"]["all"].counts.sum() == shown.sum()
     # quenched alphas (and their recoils) sit near a quarter of 5.3 MeV, below 2 MeV
     assert np.median(quenched[quenched > 1.0]) < 2.0
