@@ -36,13 +36,15 @@ lint: $(STAMP)
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy
 
-# Re-run the commands behind every transcript and number quoted in README.md and docs/*.md
-# (docs/checks.yaml); fails on any difference. After a change that moves the numbers:
+# Re-run the commands behind every transcript and figure in README.md and docs/*.md
+# (docs/checks.yaml); fails on any difference and on a transcript or figure no check covers
+# (conventions at the top of docs/checks.yaml). After a change that moves the numbers:
 #   .venv/bin/python tools/docs_check.py --update   (then read the diff)
 docs-check: $(STAMP)
 	$(BIN)/python tools/docs_check.py
 
-# The same plus the slow checks (benchmarks of minutes; timings compared by shape only).
+# The same plus the slow checks (benchmarks of minutes; timings compared by shape only;
+# `tools/docs_check.py --all --update --remeasure` on a quiet machine takes new figures).
 docs-check-all: $(STAMP)
 	$(BIN)/python tools/docs_check.py --all
 

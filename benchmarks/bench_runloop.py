@@ -1,7 +1,9 @@
 """The run loop's fixed and per-event costs: start-up, per-BeamOn, per-event, large faces, jobs.
 
     .venv/bin/python benchmarks/bench_runloop.py [--events 2000]
-        [--parts startup,faces,spread,portal,jobs] (also: plans)
+        [--parts startup,faces,spread,portal,jobs] (also: plans) [--markdown]
+
+``--markdown`` prints the faces part as docs/tiling.md's table (``make docs-check-all``).
 
 Parts (each case runs in its own process, so its RSS and start-up are its own):
 
@@ -285,6 +287,37 @@ FACE_CASES = [
 SPREAD_CASES = [(2.5, "auto", "spread-frustums"), (2.5, "auto", "spread-blocks")]
 
 
+#: docs/tiling.md's labels of the faces part
+FACE_LABELS = {
+    (10.0, "auto", "one"): ("10 cm (200 x 200 cells)", "one", "auto (nested groups)"),
+    (10.0, "placements", "one"): ("10 cm", "one", "placements"),
+    (100.0, "auto", "one"): ("1 m (2000 x 2000 cells)", "one", "auto (nested groups)"),
+    (100.0, "auto", "random"): ("1 m", "two, `fill: random`", "auto"),
+    (100.0, "auto", "exact"): ("1 m", "two, `fill: exact`", "auto"),
+    (100.0, "auto", "tiles"): ("1 m", "two, `fill: tiles`", "auto"),
+    (100.0, "placements", "one"): ("1 m", "one", "placements"),
+}
+
+
+def _markdown_faces(cases: list, events: int) -> None:
+    from stamp import stamp  # this folder is on sys.path when run as a script
+
+    print(stamp())
+    print(
+        "| face | variants | layout | build s | initialisation s | ms per BeamOn "
+        "| ms per event | RSS MB |"
+    )
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    for case in cases:
+        side, layout, variants = case
+        r = in_subprocess(["--face", str(side), layout, variants, "--events", str(events)])
+        print(
+            f"| {' | '.join(FACE_LABELS[case])} | {r['build_s']:.2f} | {r['init_s']:.2f} "
+            f"| {r['beamon_ms']:.1f} | {r['per_event_ms']:.3f} | {r['rss_mb']:.0f} |",
+            flush=True,
+        )
+
+
 def _face_table(cases: list, events: int) -> None:
     print(
         f"{'face':6} {'variants':15} {'layout':10} {'build s':>7} {'init s':>6} {'1st s':>6} "
@@ -379,6 +412,9 @@ def part_jobs(events: int) -> None:
     idle 2-core machine would show if the two workers (one chunk each) ran side by side:
     (parent + workers at --jobs 1) / (parent + workers / 2 at --jobs 2).
     """
+    from stamp import stamp  # this folder is on sys.path when run as a script
+
+    print(f"  {stamp()}")
     res = {}
     with tempfile.TemporaryDirectory() as tmp:
         for jobs in (1, 2):
@@ -416,6 +452,7 @@ def main() -> None:
     parser.add_argument("--jobs-events", type=int, default=20000)
     parser.add_argument("--parts", default="startup,faces,spread,portal,jobs")
     parser.add_argument("--flat-1m", action="store_true", help="also the 1 m face, flat placements")
+    parser.add_argument("--markdown", action="store_true", help="the faces as docs' table")
     parser.add_argument("--face", nargs=3, help=argparse.SUPPRESS)
     parser.add_argument("--portal", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -427,6 +464,9 @@ def main() -> None:
         print(MARK + json.dumps(measure_portal(args.portal, args.events)))
         return
     parts = args.parts.split(",")
+    if args.markdown:
+        _markdown_faces(FACE_CASES, args.events)
+        return
     print(f"load average at start: {os.getloadavg()}")
     if "plans" in parts:
         part_plans()

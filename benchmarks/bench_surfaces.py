@@ -1,7 +1,10 @@
 """CPU per alpha event on rough faces, one tessellated solid per patch vs blocks, and build cost.
 
     .venv/bin/python benchmarks/bench_surfaces.py [--events 10000] [--slow-events 2000]
-        [--cases a,b] [--sizes 256,512]
+        [--cases a,b] [--sizes 256,512] [--warm] [--markdown]
+
+``--markdown`` prints the tables of docs/tiling.md (with ``--warm``: the CPU per event; with
+``--cases ""``: the build cost), checked by ``make docs-check-all``.
 
 First table: each case is a whole ``score4 run`` in its own process (``--jobs 1``, lite physics,
 5.3 MeV alphas, isotropic, exponential depth 20 nm below the local surface, the +z face of a
@@ -223,14 +226,41 @@ def warm_case(case: str, events: int) -> None:
     print(f"WARM {per * 1e3:.4f} {float(scores['edep'][:, 0].mean()):.4f}")
 
 
-def warm_table(cases: list[str], events: int, repeat: int) -> None:
+#: docs/tiling.md's labels of the cases: (surface, solid)
+LABELS = {
+    "flat": ("flat face (no rough layer)", "-"),
+    "pyramids": ("pyramids 10 um, equal heights", "multiunion (auto)"),
+    "spread": ("pyramids 10 um, 2 um height spread", "frustums (auto)"),
+    "bumps": ("bumps, 4 layers, equal heights", "multiunion (auto)"),
+    "gauss": ("Gaussian random field, 0.5 um pixels", "blocks (auto)"),
+    "selfaff": ("self-affine random field, 0.5 um pixels", "blocks (auto)"),
+    "measured": ("measured map, 60 x 50 pixels", "blocks (auto)"),
+}
+
+
+def label(case: str) -> tuple[str, str]:
+    """(surface, solid) of a case as docs/tiling.md names them."""
+    surface, auto = LABELS[case.split("_")[0]]
+    solid = CASES[case][2] or "-"
+    return surface, auto if auto.startswith(solid) else solid
+
+
+def warm_table(
+    cases: list[str], events: int, repeat: int, slow_events: int, markdown: bool = False
+) -> None:
     """CPU per event with building and start-up left out: one process per case and round."""
-    print(f"load average at start: {os.getloadavg()}")
+    if markdown:
+        from stamp import stamp  # this folder is on sys.path when run as a script
+
+        print(stamp())
+    else:
+        print(f"load average at start: {os.getloadavg()}")
     runs: dict[str, list[float]] = {}
     for _ in range(repeat):
         for case in cases:
+            n = slow_events if case.endswith("_tess") else events
             r = subprocess.run(
-                [sys.executable, __file__, "--warm-child", case, "--events", str(events)],
+                [sys.executable, __file__, "--warm-child", case, "--events", str(n)],
                 check=False,
                 capture_output=True,
                 text=True,
@@ -241,8 +271,15 @@ def warm_table(cases: list[str], events: int, repeat: int) -> None:
                 print(f"{case}: failed: {r.stderr.strip().splitlines()[-1:]}")
                 continue
             runs.setdefault(case, []).append(float(lines[-1].split()[1]))
-    print(f"load average at end: {os.getloadavg()}")
     ref = float(np.median(runs["pyramids"])) if "pyramids" in runs else float("nan")
+    if markdown:
+        print("| surface | solid | ms CPU per alpha event | ratio to equal pyramids |")
+        print("| --- | --- | --- | --- |")
+        for case, per in runs.items():
+            med = float(np.median(per))
+            print(f"| {' | '.join(label(case))} | {med:.3f} | {med / ref:.2f} |")
+        return
+    print(f"load average at end: {os.getloadavg()}")
     print(f"{'case':18s} {'ms/event':>9s} {'ratio':>6s}  all rounds ms/event")
     for case, per in runs.items():
         med = float(np.median(per))
@@ -281,6 +318,26 @@ def build_case(n: int) -> None:
     print(f"{n} {len(bodies)} {facets} {t1 - t0:.2f} {t2 - t1:.2f} {rss:.0f} {rss - rss0:.0f}")
 
 
+def build_table(sizes: list[int]) -> None:
+    """docs/tiling.md's build-cost table: one patch of an n x n pixel map as blocks."""
+    from stamp import stamp  # this folder is on sys.path when run as a script
+
+    print(stamp())
+    print("| map | blocks | facets | numpy s | Geant4 s | peak RSS MB |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for n in sizes:
+        r = subprocess.run(
+            [sys.executable, __file__, "--build-child", str(n)],
+            check=True,
+            capture_output=True,
+            text=True,
+            env={**os.environ, "PYTHONPATH": str(ROOT / "src")},
+        )
+        f = r.stdout.split()[-7:]
+        facets = f"{int(f[2]):,}".replace(",", " ")
+        print(f"| {n} x {n} pixels | {f[1]} | {facets} | {f[3]} | {f[4]} | {f[5]} |")
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--events", type=int, default=10000)
@@ -297,6 +354,7 @@ def main() -> None:
         action="store_true",
         help="instead: one process per case, 200 warm-up events, then --events timed",
     )
+    p.add_argument("--markdown", action="store_true", help="docs/tiling.md's tables")
     p.add_argument("--build-child", type=int, help=argparse.SUPPRESS)
     p.add_argument("--warm-child", help=argparse.SUPPRESS)
     a = p.parse_args()
@@ -307,9 +365,13 @@ def main() -> None:
         warm_case(a.warm_child, a.events)
         return
     if a.warm:
-        warm_table([c for c in a.cases.split(",") if c], a.events, a.repeat)
+        cases = [c for c in a.cases.split(",") if c]
+        warm_table(cases, a.events, a.repeat, a.slow_events, a.markdown)
         return
     cases = [c for c in a.cases.split(",") if c]
+    if a.markdown and not cases:
+        build_table([int(s) for s in a.sizes.split(",") if s])
+        return
     runs: dict[str, list] = {}
     failed: set[str] = set()
     print(f"load average at start: {os.getloadavg()}")

@@ -250,7 +250,7 @@ def in_subprocess(args: list[str], limit: float) -> dict | None:
 # the rows of docs/tiling.md's table (--markdown)
 MARKDOWN_LABELS = {
     "flat": "flat face",
-    "native": "native, 3 variants (2 with a height spread, as blocks)",
+    "native": "native, 3 variants (2 with a height spread; solid auto)",
     "portal": "portal, same 3 variants",
     "placements1": "native placements, 1 equal-height variant (multi-union)",
     "replicas1": "native replicas (`native_layout: replicas`), same variant",
@@ -286,6 +286,9 @@ def main() -> None:
         return
 
     if args.markdown:
+        from stamp import stamp  # this folder is on sys.path when run as a script
+
+        print(stamp())
         print("| case | build s | RSS MB | events/s |")
         print("|---|---|---|---|")
     else:

@@ -93,7 +93,21 @@ def test_run_then_summary_json(tmp_path: Path):
     assert s["seed"] == 4
     assert s["physics_mode"] == "lite"
     (vol,) = s["volumes"]
-    assert set(vol) == {"name", "mean_edep_MeV", "n_nonzero", "histogram"}
+    assert set(vol) == {
+        "name",
+        "mean_edep_MeV",
+        "n_nonzero",
+        "histogram",
+        "material",
+        "mass_kg",
+        "above_threshold",
+        "alone_above_threshold",
+        "rate_per_event",
+        "rate_per_event_per_kg",
+    }
+    assert vol["material"] == "G4_Si"
+    assert vol["mass_kg"] == pytest.approx(9 * 2.33e-3, rel=1e-3)  # 9 cm3 of silicon (NIST)
+    assert s["multiplicity"]["events"]["1"] == vol["above_threshold"]
     assert len(vol["histogram"]["edges_MeV"]) == 101
     assert len(vol["histogram"]["counts"]) == 100
     assert sum(vol["histogram"]["counts"]) == 200

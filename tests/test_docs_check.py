@@ -1,7 +1,9 @@
-"""tools/docs_check.py: quoted transcripts and values are compared with what commands print.
+"""tools/docs_check.py: quoted transcripts and values are compared with what commands print, and
+every transcript and figure of the documents is covered by a check.
 
-Runs the checker on a scratch document and a scratch checks.yaml whose commands are ``echo``,
-so it is fast and needs no Geant4; ``make docs-check`` runs the real checks.
+Runs the checker on scratch documents and a scratch checks.yaml whose commands are ``echo``,
+so it is fast and needs no Geant4; ``make docs-check`` runs the real checks. The last tests
+apply the coverage rule and the marker names to the repository's own pages (no command run).
 """
 
 from __future__ import annotations
@@ -22,11 +24,11 @@ CHECKS = """\
 checks:
   counts:
     commands:
-      - "echo 'wrote a.h5: 5000 events, seed 1'"
-      - "echo 'wall time     3.21 s'"
+      - "printf 'wrote a.h5: 5000 events, seed 1\\\\nwall time     3.21 s\\\\ndone\\\\n'"
       - "echo 'rough 1021 of 5000'"
       - write-block DOC.md yaml 1 copy.yaml
       - cat copy.yaml
+      - "printf 'a 1\\\\nb 2\\\\nc 3\\\\n'; false || true"
     ignore: ["wall time"]
     values:
       rough: "^rough (\\\\d+) of"
@@ -40,16 +42,30 @@ answer: 42
 ```
 
 <!-- check: counts -->
-```
-$ score4 run x.yaml
+```text
+$ printf 'wrote a.h5: 5000 events, seed 1\\nwall time     3.21 s\\ndone\\n'
 wrote a.h5: {events} events, seed 1
 wall time     9.99 s
-...
+done
+$ cat copy.yaml
 answer: 42
 ```
 
+<!-- check: counts: echo 'rough 1021 of 5000' -->
+```text
+rough {rough} of 5000
+```
+
+{abc}
+
 The rough face has <!-- value: counts.rough -->{rough}<!-- /value --> events.
 """
+
+ABC = """<!-- check: counts -->
+```text
+$ printf 'a 1\\nb 2\\nc 3\\n'; false
+{lines}
+```"""
 
 
 @pytest.fixture
@@ -59,61 +75,92 @@ def page(tmp_path, monkeypatch):
     monkeypatch.setattr(docs_check, "ROOT", tmp_path)
     monkeypatch.setattr(docs_check, "LINKED", ())
 
-    def write(events: str, rough: str):
+    def write(events: str = "5000", rough: str = "1021", abc: str = "a 1\nb 2\nc 3"):
         doc = tmp_path / "DOC.md"
-        doc.write_text(DOC.format(events=events, rough=rough))
+        doc.write_text(DOC.format(events=events, rough=rough, abc=ABC.format(lines=abc)))
         return doc
 
     return write
 
 
+def check(doc, update: bool = False) -> int:
+    return docs_check.check_document(doc, docs_check.load_checks(), None, update=update)
+
+
 def test_matching_page_passes(page):
-    doc = page("5000", "1021")
-    assert docs_check.check_document(doc, docs_check.load_checks(), None, update=False) == 0
+    assert check(page()) == 0
 
 
 def test_stale_numbers_are_found_and_updated(page, capsys):
-    doc = page("4999", "4233")
-    checks = docs_check.load_checks()
-    assert docs_check.check_document(doc, checks, None, update=False) == 2
+    doc = page(events="4999", rough="4233")
+    assert check(doc) == 3
     out = capsys.readouterr().out
     assert "quoted: wrote a.h5: 4999 events, seed 1" in out
     assert "actual: wrote a.h5: 5000 events, seed 1" in out
     assert "quoted '4233', actual '1021'" in out
-    assert docs_check.check_document(doc, checks, None, update=True) == 2
+    assert check(doc, update=True) == 3
     text = doc.read_text()
     assert "wrote a.h5: 5000 events" in text
+    assert "rough 1021 of 5000" in text
     assert "-->1021<!--" in text
     assert "wall time     9.99 s" in text  # ignored lines are paired, not compared
-    assert docs_check.check_document(doc, checks, None, update=False) == 0
+    assert check(doc) == 0
 
 
-def test_a_line_the_program_no_longer_prints_is_an_error(page, tmp_path):
-    doc = page("5000", "1021")
-    doc.write_text(doc.read_text().replace("seed 1", "physics full"))
-    with pytest.raises(docs_check.CheckError, match="no output line has the shape"):
-        docs_check.check_document(doc, docs_check.load_checks(), None, update=False)
+def test_a_line_left_out_silently_is_a_difference(page, capsys):
+    doc = page(abc="a 1\nc 3")
+    assert check(doc) == 1
+    assert "do not pair with the output line for line" in capsys.readouterr().out
+    assert check(doc, update=True) == 1  # no omission marked: the block is rewritten
+    assert "a 1\nb 2\nc 3\n```" in doc.read_text()
+    assert check(doc) == 0
 
 
-def test_every_check_of_the_repository_is_quoted_and_every_marker_known():
-    """The real docs/checks.yaml and documents agree on names (no command is run)."""
-    checks = docs_check.load_checks()
-    used = set()
-    for path in docs_check.DOCS:
-        text = path.read_text()
-        used |= {
-            m.group(1) for line in text.splitlines() if (m := docs_check.BLOCK_MARK.match(line))
-        }
-        used |= {m.group(1) for m in docs_check.VALUE_MARK.finditer(text)}
-    assert used == set(checks)
+@pytest.mark.parametrize("lines", ["a 1\n...", "...\nc 3", "a 1\n[1 line omitted]\nc 3", "..."])
+def test_marked_omissions_pass(page, lines):
+    assert check(page(abc=lines)) == 0
+
+
+def test_a_wrong_omission_count_is_a_difference_and_updated(page, capsys):
+    doc = page(abc="[1 lines omitted]\nc 3")
+    assert check(doc) == 1
+    assert "actual: [2 lines omitted]" in capsys.readouterr().out
+    check(doc, update=True)
+    assert check(doc) == 0
+
+
+def test_a_line_the_program_no_longer_prints_is_a_difference(page, capsys):
+    doc = page(abc="a 1\nb 2\nc 3\nd 4\n...")
+    assert check(doc) == 1
+    assert check(doc, update=True) == 1
+    assert "(edit them: --update cannot)" in capsys.readouterr().out  # omissions: by hand
+
+
+def test_a_dollar_line_must_be_a_command_of_the_check(page):
+    doc = page()
+    doc.write_text(doc.read_text().replace("$ cat copy.yaml", "$ cat other.yaml"))
+    with pytest.raises(docs_check.CheckError, match="is not a command of check counts"):
+        check(doc)
+
+
+def test_a_wrapped_command_is_shown_as_the_check_says(tmp_path, monkeypatch):
+    (tmp_path / "checks.yaml").write_text(
+        "checks:\n  wrapped:\n    commands:\n"
+        "      - {run: \"sh -c 'echo hello'\", shown: echo hello}\n"
+    )
+    monkeypatch.setattr(docs_check, "CHECKS", tmp_path / "checks.yaml")
+    monkeypatch.setattr(docs_check, "LINKED", ())
+    doc = tmp_path / "DOC.md"
+    doc.write_text("<!-- check: wrapped -->\n```text\n$ echo hello\nhello\n```\n")
+    assert check(doc) == 0
 
 
 SLOW_CHECKS = """\
 checks:
   table:
     commands:
-      - "echo '| flat | 31.65 % | 2.8 |'"
-      - "echo '| rough | 14.70 % | 3.5 |'"
+      - "echo 'some text'; echo '| face | share | CPU s |'; echo '| --- | --- | --- |'"
+      - "echo '| flat | 31.65 % | 2.8 |'; echo '| rough | 14.70 % | 3.5 |'; echo 'end'"
     mask: ["\\\\| [\\\\d.]+ \\\\|$"]
   bench:
     slow: true
@@ -128,14 +175,15 @@ checks:
 
 TABLE_DOC = """\
 <!-- check: table -->
-| face | share 50-110 keV | CPU s |
-| --- | --- | --- |
+| face | share | CPU s |
+|---|---|---|
 | flat | {flat} % | 9.9 |
 | rough | 14.70 % | 0.1 |
 
 <!-- check: bench -->
-```
+```text
 build 99 s
+...
 ```
 
 About <!-- value: bench.ms -->{ms}<!-- /value --> ms per ion,
@@ -169,6 +217,13 @@ def test_table_rows_are_compared_and_masked_cells_only_by_shape(table_page, caps
     assert "actual: | flat | 31.65 % | 2.8 |" in capsys.readouterr().out
 
 
+def test_a_table_must_be_printed_whole(table_page, capsys):
+    doc = table_page("31.65")
+    doc.write_text(doc.read_text().replace("| rough | 14.70 % | 0.1 |\n", ""))
+    assert docs_check.check_document(doc, docs_check.load_checks(), None, update=False) == 1
+    assert "+| rough | 14.70 % | 3.5 |" in capsys.readouterr().out
+
+
 def test_slow_checks_run_with_all(table_page, capsys):
     doc = table_page("31.65")
     checks = docs_check.load_checks()
@@ -176,7 +231,9 @@ def test_slow_checks_run_with_all(table_page, capsys):
     assert "actual: build 12 s" in capsys.readouterr().out
 
 
-def test_a_masked_value_is_compared_by_shape_only(table_page, capsys):
+def test_a_masked_value_is_compared_by_shape_only_unless_remeasured(
+    table_page, capsys, monkeypatch
+):
     checks = docs_check.load_checks()
     # a timing in the text (inside the mask): another figure passes
     doc = table_page("31.65", ms="7")
@@ -186,3 +243,85 @@ def test_a_masked_value_is_compared_by_shape_only(table_page, capsys):
     doc = table_page("31.65", ions="999")
     assert docs_check.check_document(doc, checks, "bench", update=False) == 2
     assert "[bench.ions] quoted '999', actual '1000'" in capsys.readouterr().out
+    # --remeasure: masked figures are taken from the new run too
+    monkeypatch.setattr(docs_check, "REMEASURE", True)
+    doc = table_page("31.65", ms="7")
+    assert docs_check.check_document(doc, checks, None, update=True, run_all=True) == 4
+    assert "-->4<!--" in doc.read_text()
+    assert "| flat | 31.65 % | 2.8 |" in doc.read_text()
+
+
+# --- the coverage rule ---------------------------------------------------------------------
+
+
+def problems(tmp_path, text: str) -> list[str]:
+    doc = tmp_path / "page.md"
+    doc.write_text(text)
+    return docs_check.coverage(doc)
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "```yaml\nrun: {events: 10}\n```\n",
+        "```bash\nscore4 run x.yaml\n```\n",
+        "<!-- not-output: the layout of a file -->\n```text\n/run  attrs\n```\n",
+        "Built in <!-- value: x.seconds -->12<!-- /value --> s.\n",
+        "At most <!-- not-output: a rule -->25 %<!-- /not-output --> may lie below.\n",
+        "<!-- not-output: a rule -->25 %<!-- /not-output --> may lie below.\n",
+        "A 50 x 50 grid of 10 um pyramids, 5000 events, seed 1, `--events 2000`, 2026-11-25.\n",
+        "ENSDF archive of September 2023 ![1 m face, 2.2 GB](img/x.png)\n",
+        "<!-- not-output: ENSDF -->\n* Po-210 5304.33 keV, Bi-214 45.49 %\n  and 2614.511\n",
+        "| key | default |\n| --- | --- |\n| `events` | `1000` |\n",
+        "<!-- not-output: the options -->\n| option | meaning |\n| --- | --- |\n| x | 89.99 |\n",
+    ],
+)
+def test_covered_or_not_a_figure(tmp_path, text):
+    assert problems(tmp_path, text) == []
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("```\nwrote x.h5: 10 events\n```\n", "a ``` block with no check"),
+        ("```text\nwrote x.h5\n```\n", "a ```text block with no check"),
+        ("```bash\n$ score4 run x.yaml\nwrote x.h5\n```\n", "is a transcript"),
+        ("The run took 90 s.\n", "figure '90 s'"),
+        ("It peaks at ~2.2 GB.\n", "figure '~2.2 GB'"),
+        ("Blocks are 10-20x faster.\n", "figure '10-20x'"),
+        ("31 % of the vertices.\n", "figure '31 %'"),
+        ("A mean deposit of 2.6976 MeV.\n", "figure '2.6976'"),
+        ("with 789 of 2000 full-energy events\n", "figure '789 of 2000'"),
+        ("| case | s |\n| --- | --- |\n| flat | 12 s |\n", "a table with figures (12 s)"),
+        ("<!-- not-output: ENSDF -->\n* Po-210 5304.33 keV\n* took 12 s\n", "figure '12 s'"),
+    ],
+)
+def test_uncovered_transcripts_and_figures_are_found(tmp_path, text, message):
+    found = problems(tmp_path, text)
+    assert len(found) == 1
+    assert message in found[0]
+    assert found[0].startswith(str(tmp_path / "page.md"))
+
+
+def test_a_span_must_close_on_its_line(tmp_path):
+    found = problems(tmp_path, "shares <!-- not-output: areas -->0.05,\n0.10<!-- /not-output -->\n")
+    assert found
+    assert all("must close on its line" in p for p in found)
+
+
+def test_a_marker_must_stand_above_a_block_or_table(tmp_path):
+    with pytest.raises(docs_check.CheckError, match="directly above"):
+        problems(tmp_path, "<!-- check: x -->\n\n```text\nout\n```\n")
+    with pytest.raises(docs_check.CheckError, match="must say what it marks"):
+        problems(tmp_path, "<!-- not-output -->\n```text\nout\n```\n")
+
+
+def test_every_transcript_and_figure_of_the_repository_is_covered():
+    """The coverage rule on README.md and docs/*.md: nothing is run, so this is quick."""
+    found = [p for path in docs_check.DOCS for p in docs_check.coverage(path)]
+    assert found == [], "\n".join([*found, docs_check.HOW_TO_COVER])
+
+
+def test_every_check_of_the_repository_is_quoted_and_every_marker_known():
+    """The real docs/checks.yaml and documents agree on names (no command is run)."""
+    assert set(docs_check.quoted_names()) == set(docs_check.load_checks())

@@ -45,13 +45,51 @@ FACES = ("+x", "-x", "+y", "-y", "+z", "-z")
 
 
 class BoxVolume(StrictModel):
-    """A box-shaped volume: full edge lengths, centre position in the world."""
+    """A box-shaped volume: full edge lengths, centre position in the world.
+
+    In a GDML world, ``mother`` names the GDML volume the box goes into (one instance); its
+    ``position`` is then in that volume's frame.
+    """
 
     name: str = Field(min_length=1, pattern=r"^[A-Za-z_][A-Za-z0-9_\-]*$")
     material: str = "G4_Si"
     size: Size3
     position: Vector3 = (0.0, 0.0, 0.0)
+    mother: str | None = None  # a volume of the GDML world (default: the world volume)
     rough: list[RoughFace] = []  # noqa: RUF012 pydantic copies field defaults per instance
+
+    @property
+    def label(self) -> str:
+        return self.name
+
+
+class GdmlVolume(StrictModel):
+    """A physical volume of the GDML world, scored (and roughened where ``rough`` says so).
+
+    ``volume`` is a physical volume name (all its copies), ``name[k]`` (the k-th copy in the
+    order of ``score4 geometry list``), or a logical volume name (all its placements). Each
+    copy is one scoring column (``name_0``, ``name_1``, ... when there are several).
+    """
+
+    volume: str = Field(min_length=1)
+    rough: list[RoughFace] = []  # noqa: RUF012 pydantic copies field defaults per instance
+
+    @property
+    def label(self) -> str:
+        return self.volume
+
+
+def _target_tag(value: object) -> str:
+    if isinstance(value, dict):
+        return "gdml-target" if "volume" in value else "box-target"
+    return "gdml-target" if isinstance(value, GdmlVolume) else "box-target"
+
+
+# A target: a box described here (name, size, ...) or a volume of the GDML world (volume: NAME).
+Target = Annotated[
+    Annotated[BoxVolume, Tag("box-target")] | Annotated[GdmlVolume, Tag("gdml-target")],
+    Discriminator(_target_tag),
+]
 
 
 class MaterialSpec(StrictModel):
@@ -132,6 +170,15 @@ def check_material_name(name: str) -> None:
 
 
 class WorldConfig(StrictModel):
+    """The world: a box of ``material`` around the targets (``margin`` beyond them), or the world
+    of a GDML file (``gdml``, relative to the configuration), read with Geant4's parser."""
+
+    used_only_with: ClassVar[dict[str, tuple[str, tuple[object, ...]]]] = {
+        "material": ("gdml", (None,)),
+        "margin": ("gdml", (None,)),
+    }
+
+    gdml: ConfigPath | None = None
     material: str = "G4_Galactic"
     margin: PositiveLength = 10.0  # space around the targets, mm
 
@@ -142,7 +189,8 @@ Face = Literal["+x", "-x", "+y", "-y", "+z", "-z"]
 class FaceRef(StrictModel):
     """Faces of a volume: ``face: "+z"`` (one face), ``all`` (every face, area-uniform), or a
     face or group name of the volume's solid (:mod:`score4.shapes`; box targets have the six
-    faces ``+x`` ... ``-z``)."""
+    faces ``+x`` ... ``-z``). ``volume`` is a box target's name or, in a GDML world, the
+    ``volume`` of a GDML target (or one of its copies, ``name[k]``)."""
 
     volume: str
     face: str = Field("+z", min_length=1)
@@ -191,6 +239,7 @@ class RoughFace(StrictModel):
     used_only_with: ClassVar[dict[str, tuple[str, tuple[object, ...]]]] = {
         "n_tiles": ("fill", ("tiles",)),
         "native_layout": ("tiling", ("native",)),
+        "into": ("tiling", ("native",)),
     }
 
     face: Face = "+z"
@@ -209,6 +258,9 @@ class RoughFace(StrictModel):
     # blocks: cells (height-map pixels or spikes) per block side; None: ~8, any map size
     block_cells: int | None = Field(None, ge=1)
     base_thickness: PositiveLength = 1e-3
+    # true: the layer takes the place of the outermost layer-thickness of the volume (which is
+    # cut by it), so the outer dimensions stay; false: the layer sits on the face, outside
+    into: bool = False
 
     @model_validator(mode="after")
     def _one_kind(self) -> RoughFace:
@@ -462,7 +514,7 @@ class RunConfig(StrictModel):
     materials: dict[str, MaterialSpec] = {}  # noqa: RUF012 pydantic copies defaults
     world: WorldConfig = WorldConfig()
     surfaces: dict[str, SurfaceDescription] = {}  # noqa: RUF012 pydantic copies defaults
-    targets: list[BoxVolume] = Field(min_length=1)
+    targets: list[Target] = Field(min_length=1)
     source: SourceConfig
     run: RunSettings = RunSettings()
     output: OutputConfig = OutputConfig()
@@ -483,12 +535,24 @@ class RunConfig(StrictModel):
 
     @model_validator(mode="after")
     def _check_references(self) -> RunConfig:
-        names = [t.name for t in self.targets]
+        names = [t.label for t in self.targets]
         dupes = sorted({n for n in names if names.count(n) > 1})
         if dupes:
             raise ValueError(f"targets: volume names must be unique, repeated: {', '.join(dupes)}")
+        if self.world.gdml is None:
+            for i, t in enumerate(self.targets):
+                if isinstance(t, GdmlVolume):
+                    raise ValueError(
+                        f"targets.{i}.volume: {t.volume!r}: volumes by name need a GDML world "
+                        "(world: {gdml: FILE}); a box target has name, size and position"
+                    )
+                if t.mother is not None:
+                    raise ValueError(
+                        f"targets.{i}.mother: {t.mother!r}: a mother volume needs a GDML world "
+                        "(world: {gdml: FILE})"
+                    )
         src = self.source.surface
-        if src is not None and src.volume not in names:
+        if src is not None and self.world.gdml is None and src.volume not in names:
             raise ValueError(
                 f"source.surface.volume: {src.volume!r} is not a target; targets are: {', '.join(names)}"
             )
@@ -514,8 +578,8 @@ class RunConfig(StrictModel):
                         )
         return self
 
-    def target(self, name: str) -> BoxVolume:
-        return next(t for t in self.targets if t.name == name)
+    def target(self, name: str) -> BoxVolume | GdmlVolume:
+        return next(t for t in self.targets if t.label == name)
 
 
 def parse_config(

@@ -42,9 +42,9 @@ from typing import Any
 
 import numpy as np
 
-from .config import FACES, BoxVolume, RunConfig
+from .config import RunConfig
 from .errors import ConfigError
-from .scene import RoughLayer, Scene, build_scene, face_frame
+from .scene import RoughLayer, Scene, build_scene
 
 #: Version of the normalisation entries; a results file without ``simulated_decays`` predates them.
 NORMALISATION_VERSION = 1
@@ -71,9 +71,7 @@ def layer_volume(layer: RoughLayer) -> float:
     The volume under a height-field top mesh is the sum over its triangles of the projected
     (xy) area times the mean height of the three corners, exact for the piecewise-linear mesh.
     """
-    counts = np.bincount(
-        np.asarray(layer.patch_map.variants).ravel(), minlength=len(layer.variants)
-    )
+    counts = np.bincount(np.asarray(layer.cell_variants).ravel(), minlength=len(layer.variants))
     px, py = layer.patch_size
     total = 0.0
     for count, surface in zip(counts, layer.variants, strict=True):
@@ -84,22 +82,27 @@ def layer_volume(layer: RoughLayer) -> float:
     return total
 
 
-def target_volume(scene: Scene, target: BoxVolume) -> float:
-    """Volume (mm3) scored as ``target``: its box plus its rough layers."""
-    return float(np.prod(target.size)) + sum(layer_volume(r) for r in scene.layers_of(target.name))
-
-
-def _mass_kg(density: float | None, volume_mm3: float) -> float | None:
+def _mass_kg(density: float | None, volume_mm3: float | None) -> float | None:
     # g/cm3 * mm3 = 1e-3 g = 1e-6 kg
-    return None if density is None else density * volume_mm3 * 1e-6
+    return None if density is None or volume_mm3 is None else density * volume_mm3 * 1e-6
 
 
 def volume_entries(config: RunConfig, scene: Scene) -> list[dict[str, Any]]:
-    """One entry per scored column (targets in configuration order, as the geometry scores them)."""
+    """One entry per scored column, computed in numpy: the target's own material (its shape less
+    its daughters) plus its rough layers, times the density of a ``materials:`` entry or a NIST
+    material. A run's record holds the worker's entries instead (Geant4's solids and materials,
+    :func:`score4.geometry.masses.volume_records`), which also know GDML materials."""
+    from .source.build import bulk_sampler
+
     entries = []
-    for t in config.targets:
+    for t in scene.targets:
         density = material_density(config, t.material)
-        volume = target_volume(scene, t)
+        try:
+            own: float | None = bulk_sampler(scene, t.name).volume
+        except ConfigError:  # no material of its own left
+            own = None
+        layers = sum(layer_volume(r) for r in scene.layers_of(t.name))
+        volume = None if own is None else own + layers
         entries.append(
             {
                 "name": t.name,
@@ -112,48 +115,26 @@ def volume_entries(config: RunConfig, scene: Scene) -> list[dict[str, Any]]:
     return entries
 
 
-def _surface_source(config: RunConfig, scene: Scene) -> dict[str, Any]:
-    """Areas of the faces the source sits on, from the sampler the run draws with."""
-    ref = config.source.surface
-    assert ref is not None  # the config model requires a surface for a sampled source
-    if ref.face in FACES:  # one face of a box: its rough layer or the flat face
-        layer = scene.layer(ref.volume, ref.face)
-        lu, lv = face_frame(config.target(ref.volume), ref.face).size
-        area, projected = (layer.sampler().area if layer is not None else lu * lv), lu * lv
-        rough = layer is not None
-    else:  # face: all, or a named face or group of the volume's solid
-        from .source.build import shape_face_sampler
+def _base_source(config: RunConfig, scene: Scene, volumes: list[dict]) -> dict[str, Any]:
+    """The source entry of a surface or bulk source (:func:`score4.source.build.source_geometry`),
+    every contract key present; a bulk source's mass from its volume's density."""
+    from .source.build import source_geometry
 
-        sampler = shape_face_sampler(config, scene, ref.volume, ref.face)
-        area, projected, rough = sampler.area, sampler.projected_area, bool(sampler.rough)
-    return {
-        "kind": "surface",
-        "volume": ref.volume,
-        "face": ref.face,
-        "rough": rough,
-        "area_mm2": float(area),
-        "projected_area_mm2": float(projected),
-        "volume_mm3": None,
-        "mass_kg": None,
-    }
-
-
-def _bulk_source(config: RunConfig, name: str) -> dict[str, Any]:
-    """A source filling a volume (``source.volume``): the volume its vertices are drawn in (a
-    box target's own material; its rough layers are separate volumes) and that volume's mass."""
-    from .source.build import bulk_sampler
-
-    volume = bulk_sampler(config, name).volume
-    density = material_density(config, config.target(name).material)
-    return {
-        "kind": "bulk",
-        "volume": name,
+    entry: dict[str, Any] = {
+        "kind": None,
+        "volume": None,
         "face": None,
         "area_mm2": None,
         "projected_area_mm2": None,
-        "volume_mm3": volume,
-        "mass_kg": _mass_kg(density, volume),
+        "volume_mm3": None,
+        "mass_kg": None,
+        **source_geometry(config, scene),
     }
+    if entry["kind"] == "bulk" and entry["mass_kg"] is None:
+        record = next((v for v in volumes if v["name"] == entry["volume"]), None)
+        density = None if record is None else record.get("density_g_cm3")
+        entry["mass_kg"] = _mass_kg(density, entry["volume_mm3"])
+    return entry
 
 
 def parse_stored_config(data: dict, origin: str) -> RunConfig:
@@ -186,7 +167,7 @@ def _drawn_config(config: RunConfig) -> tuple[RunConfig | None, str | None]:
     return drawn.model_copy(update={"run": run}), None
 
 
-def _vertices_source(config: RunConfig) -> dict[str, Any]:
+def _vertices_source(config: RunConfig, volumes: list[dict]) -> dict[str, Any]:
     """A vertex file: its area or mass is known if it stores the configuration it was drawn from."""
     entry: dict[str, Any] = {
         "kind": "vertices",
@@ -203,20 +184,21 @@ def _vertices_source(config: RunConfig) -> dict[str, Any]:
     if note:
         entry["note"] = note
     if drawn is not None:
-        inner = source_entry(drawn, build_scene(drawn))
+        inner = _base_source(drawn, build_scene(drawn), volumes)
         entry.update({k: v for k, v in inner.items() if k != "kind"})
         entry["drawn_from"] = inner["kind"]
     return entry
 
 
-def source_entry(config: RunConfig, scene: Scene) -> dict[str, Any]:
-    """The ``source`` entry of the run record (see the module notes)."""
-    src = config.source
-    if src.vertices is not None:
-        return _vertices_source(config)
-    if src.volume is not None:
-        return _bulk_source(config, src.volume)
-    return _surface_source(config, scene)
+def source_entry(
+    config: RunConfig, scene: Scene, volumes: list[dict] | None = None
+) -> dict[str, Any]:
+    """The ``source`` entry of the run record (see the module notes); ``volumes`` (default:
+    :func:`volume_entries`) give a bulk source's density."""
+    volumes = volume_entries(config, scene) if volumes is None else volumes
+    if config.source.vertices is not None:
+        return _vertices_source(config, volumes)
+    return _base_source(config, scene, volumes)
 
 
 def decays(config: RunConfig) -> dict[str, Any]:
@@ -233,17 +215,21 @@ def decays(config: RunConfig) -> dict[str, Any]:
     return decay_normalisation(config)
 
 
-def run_normalisation(config: RunConfig, scene: Scene) -> dict[str, Any]:
+def run_normalisation(
+    config: RunConfig, scene: Scene, volumes: list[dict] | None = None
+) -> dict[str, Any]:
     """The run record's normalisation entries (``volumes``, ``source``, ``simulated_decays``,
     ``activity_nuclide``, ``decay_chain`` for a chain, ``normalisation_version``) for ``config``
     built into ``scene``.
 
-    Pure numpy: masses from the shipped NIST density table or the ``materials:`` entries,
-    volumes and areas from the same meshes and shapes the geometry and the sampler use.
+    ``volumes``: the worker's entries (Geant4's solids and densities, GDML materials included);
+    default: :func:`volume_entries` (numpy; NIST and ``materials:`` densities). The rest is
+    numpy: areas and volumes from the same meshes and shapes the geometry and the sampler use.
     """
+    volumes = volume_entries(config, scene) if volumes is None else volumes
     return {
-        "volumes": volume_entries(config, scene),
-        "source": source_entry(config, scene),
+        "volumes": volumes,
+        "source": source_entry(config, scene, volumes),
         **decays(config),
         "normalisation_version": NORMALISATION_VERSION,
     }

@@ -198,8 +198,34 @@ def read_results(path: str | Path) -> Results:
         )
 
 
-def summarize(results: Results, bins: int | None = None, emax: float | None = None) -> dict:
-    """The run summary: counts, mean deposits and a histogram per volume (MeV)."""
+def multiplicity(results: Results, threshold: float) -> dict:
+    """Events by how many volumes have a deposit above ``threshold`` (MeV), and per volume the
+    events above it (alone and in all)."""
+    names = list(results.edep)
+    if not names:
+        return {"threshold_MeV": threshold, "counts": {}, "volumes": {}}
+    hits = np.column_stack([results.edep[n] > threshold for n in names])
+    m = hits.sum(axis=1)
+    counts = np.bincount(m, minlength=len(names) + 1)
+    return {
+        "threshold_MeV": threshold,
+        "counts": {int(k): int(c) for k, c in enumerate(counts)},
+        "volumes": {
+            n: {"above": int(hits[:, k].sum()), "alone": int((hits[:, k] & (m == 1)).sum())}
+            for k, n in enumerate(names)
+        },
+    }
+
+
+def summarize(
+    results: Results,
+    bins: int | None = None,
+    emax: float | None = None,
+    threshold: float | None = None,
+) -> dict:
+    """The run summary: counts, mean deposits and a histogram per volume (MeV); with
+    ``threshold`` (MeV) also the multiplicity (:func:`multiplicity`) and, per volume, events
+    above it per simulated event and per kg (mass from the run record's ``volumes``)."""
     hist_cfg = results.run.get("config", {}).get("output", {}).get("histogram", {})
     bins = bins or hist_cfg.get("bins") or 100
     stored_max = hist_cfg.get("max")  # stored with its unit ("6.0 MeV")
@@ -224,10 +250,28 @@ def summarize(results: Results, bins: int | None = None, emax: float | None = No
                 },
             }
         )
-    return {
+    records = {v.get("name"): v for v in results.run.get("volumes") or []}
+    for v in volumes:
+        record = records.get(v["name"])
+        if record:
+            v["material"] = record.get("material")
+            v["mass_kg"] = record.get("mass_kg")
+    summary = {
         "file": str(results.path),
         "n_events": results.n_events,
         "physics_mode": results.run.get("physics_mode"),
         "seed": results.run.get("seed"),
         "volumes": volumes,
     }
+    if threshold is not None:
+        multi = multiplicity(results, threshold)
+        n = max(results.n_events, 1)
+        for v in volumes:
+            above = multi["volumes"][v["name"]]
+            v["above_threshold"] = above["above"]
+            v["alone_above_threshold"] = above["alone"]
+            v["rate_per_event"] = above["above"] / n
+            mass = v.get("mass_kg")
+            v["rate_per_event_per_kg"] = above["above"] / n / mass if mass else None
+        summary["multiplicity"] = {"threshold_MeV": threshold, "events": multi["counts"]}
+    return summary

@@ -247,7 +247,9 @@ def _unknown(key: object, fields: dict) -> str:
 
 
 # Tags of tagged unions that pydantic puts into error locations; they are not keys the user wrote.
-UNION_TAGS = frozenset({"spikes", "random", "measured", "surface-file"})
+UNION_TAGS = frozenset(
+    {"spikes", "random", "measured", "surface-file", "box-target", "gdml-target"}
+)
 # Errors about the keys themselves come first: a typo is the cause of a "Field required" next to it.
 _KEY_ERRORS = ("unknown_key", "exclusive_keys", "unused_key", "extra_forbidden")
 

@@ -84,3 +84,62 @@ def check(config_file: Path, points: int, max_placements: int, tolerance: str, l
         for line in details[:20]:
             click.echo(f"  {line.strip()}", err=True)
     raise click.exceptions.Exit(1)
+
+
+@geometry.command(name="list")
+@click.argument(
+    "config_file", metavar="CONFIG.yaml", type=click.Path(dir_okay=False, path_type=Path)
+)
+@click.option("--json", "as_json", is_flag=True, help="One JSON object per volume, as a list.")
+def list_volumes(config_file: Path, as_json: bool) -> None:
+    """List the volumes of CONFIG.yaml's world: name[copy], solid, material, mass, area, position.
+
+    For a GDML world (world: {gdml: FILE}) every physical volume of the file, indented by depth,
+    then the run's targets with their rough faces; for a generated world the targets.
+    """
+    import json
+
+    from ..config import load_config
+    from ..errors import naming_file
+    from ..geometry.listing import geometry_rows, geometry_text
+    from ..scene import build_scene
+
+    config = load_config(config_file)
+    with naming_file(config_file):
+        scene = build_scene(config)
+    rows = geometry_rows(scene)
+    if as_json:
+        click.echo(json.dumps(rows, indent=1))
+        return
+    click.echo(geometry_text(scene, rows))
+
+
+@geometry.command(name="export")
+@click.argument(
+    "config_file", metavar="CONFIG.yaml", type=click.Path(dir_okay=False, path_type=Path)
+)
+@click.option(
+    "--gdml",
+    "out",
+    type=click.Path(dir_okay=False, path_type=Path),
+    required=True,
+    help="GDML file to write: the whole world with its rough layers.",
+)
+@click.option("--overwrite", is_flag=True, help="Replace an existing file.")
+def export_gdml(config_file: Path, out: Path, overwrite: bool) -> None:
+    """Write CONFIG.yaml's world with its rough layers as GDML (for remage, your own Geant4
+    application, pyg4ometry). Vertices from 'score4 vertices' are in this world's frame."""
+    from ..config import load_config
+    from ..errors import naming_file
+    from ..files import check_output_file
+    from ..geometry.export_world import export_world
+    from ..scene import build_scene
+
+    config = load_config(config_file)
+    check_output_file(out, overwrite, "--gdml")
+    with naming_file(config_file):
+        build_scene(config)  # bad input fails here, before any Geant4 process
+        info = export_world(config, out)
+    click.echo(
+        f"wrote {out}: {info['size'] / 1e6:.3g} MB, rough layers: {', '.join(info['layers']) or 'none'}"
+    )

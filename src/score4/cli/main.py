@@ -225,12 +225,23 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
 @click.option(
     "--bins", type=click.IntRange(min=1), help="Histogram bins (default: the run's setting, 100)."
 )
-def summary(results_file: Path, as_json: bool, bins) -> None:
-    """Summarise a results file: events, physics, energy deposit per volume."""
+@click.option(
+    "--threshold",
+    default="10 keV",
+    show_default=True,
+    help="Energy a volume must exceed to count as hit (rates and multiplicity).",
+)
+def summary(results_file: Path, as_json: bool, bins, threshold: str) -> None:
+    """Summarise a results file: events, physics, energy deposit per volume, per-volume rates
+    above --threshold and the multiplicity (events with 1, 2, ... volumes above it)."""
     from ..output import read_results, summarize
+    from ..units import parse_quantity
 
+    limit = parse_quantity(threshold, "energy", "--threshold")
+    if limit < 0:
+        raise ConfigError(f"--threshold: must be >= 0, got {threshold!r}")
     results = read_results(results_file)
-    s = summarize(results, bins=bins)
+    s = summarize(results, bins=bins, threshold=limit)
     if as_json:
         click.echo(json.dumps(s, indent=2))
         return
@@ -267,6 +278,21 @@ def summary(results_file: Path, as_json: bool, bins) -> None:
             f"{v['n_nonzero']} events with deposit, {full} with (nearly) the full energy "
             f"(max primary energy {emax:.4g} MeV)"
         )
+    click.echo(f"  above {limit * 1e3:g} keV (rate = events above / simulated events):")
+    for v in s["volumes"]:
+        mass = v.get("mass_kg")
+        per_kg = (
+            f", {v['rate_per_event_per_kg']:.4g} per kg ({mass * 1e3:.4g} g {v.get('material')})"
+            if mass
+            else ""
+        )
+        click.echo(
+            f"    {v['name']}: {v['above_threshold']} events, rate {v['rate_per_event']:.4g}"
+            f"{per_kg}; alone (multiplicity 1) {v['alone_above_threshold']}"
+        )
+    counts = s["multiplicity"]["events"]
+    shown = ", ".join(f"{m}: {c}" for m, c in counts.items() if c or m <= 2)
+    click.echo(f"  multiplicity (volumes above {limit * 1e3:g} keV: events) {shown}")
 
 
 cli.add_command(data)

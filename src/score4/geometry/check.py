@@ -1,7 +1,7 @@
 """Overlap check of a built geometry with Geant4's own ``CheckOverlaps``.
 
-Every placement directly in the world (targets, rough-layer envelopes) is checked; inside a
-rough layer the patch placements are all checked up to ``max_placements`` per layer. Beyond
+Every placement of the world's tree (targets, rough-layer envelopes, the volumes of a GDML
+world at any depth, each logical volume's daughters once) is checked; inside a rough layer the patch placements are all checked up to ``max_placements`` per layer. Beyond
 that, Geant4's check is too slow to be useful: it tests each point against every sister
 volume, and a 200 x 200 grid has 40 000 sisters (20 placements x 100 points took 5 min).
 Large layers get the exact equivalent instead (:func:`patches_fit_their_cells`, run on every
@@ -54,28 +54,44 @@ def patches_fit_their_cells(layer, tolerance: float = 0.0) -> list[str]:
 def check_placements(
     world_pv, points: int = 1000, tolerance: float = 0.0, max_placements: int = 500, layers=()
 ) -> OverlapReport:
-    """``CheckOverlaps(points, tolerance)`` on the world's daughters and their daughters.
+    """``CheckOverlaps(points, tolerance)`` on every placement of the world's tree.
 
     A daughter holding more than ``max_placements`` placements (a large rough layer, one of
     ``layers`` by name) has its patches checked with :func:`patches_fit_their_cells` instead.
     """
     report = OverlapReport()
     by_name = {layer.name: layer for layer in layers}
-    for pv in _daughters(world_pv.GetLogicalVolume()):
-        inner = _daughters(pv.GetLogicalVolume())
-        report.total += 1 + len(inner)
-        large = len(inner) > max_placements
-        for d in [pv] if large else [pv, *inner]:
-            report.checked += 1
-            if d.CheckOverlaps(points, tolerance, False, 1):
-                report.overlaps.append(f"{d.GetName()} (copy {d.GetCopyNo()})")
-        layer = by_name.get(pv.GetName())
-        if layer is not None:  # the patches inside their cell boxes: exact, whatever the grid size
-            report.exact += layer.patch_map.n_cells
-            report.total += layer.patch_map.n_cells - len(inner)  # nested: groups hold the cells
-            report.overlaps += patches_fit_their_cells(layer, tolerance)
-        elif large:
-            report.overlaps.append(
-                f"{pv.GetName()}: {len(inner)} placements not checked (more than {max_placements})"
-            )
+    seen: dict[int, object] = {}  # logical volumes visited (a shared one once)
+
+    def check(pv) -> None:
+        report.checked += 1
+        if pv.CheckOverlaps(points, tolerance, False, 1):
+            report.overlaps.append(f"{pv.GetName()} (copy {pv.GetCopyNo()})")
+
+    def visit(lv) -> None:
+        for pv in _daughters(lv):
+            report.total += 1
+            check(pv)
+            child = pv.GetLogicalVolume()
+            inner = _daughters(child)
+            layer = by_name.get(str(pv.GetName()))
+            if layer is not None:  # the patches inside their cell boxes: exact, any grid size
+                report.total += len(inner)
+                if len(inner) <= max_placements:
+                    for d in inner:
+                        check(d)
+                report.exact += layer.patch_map.n_cells
+                report.total += layer.patch_map.n_cells - len(inner)  # nested: groups hold cells
+                report.overlaps += patches_fit_their_cells(layer, tolerance)
+            elif len(inner) > max_placements:
+                report.total += len(inner)
+                report.overlaps.append(
+                    f"{pv.GetName()}: {len(inner)} placements not checked (more than "
+                    f"{max_placements})"
+                )
+            elif id(child) not in seen:  # a GDML world: volumes at any depth
+                seen[id(child)] = child
+                visit(child)
+
+    visit(world_pv.GetLogicalVolume())
     return report

@@ -67,10 +67,176 @@ def read_gdml(g4, path: str | Path):
 
     Read one GDML file per process: Geant4 keeps volumes in global stores, and a second file
     that reuses the first one's volume names was measured to return the first file's world.
+    Files the GDML pulls in with ``<file name=...>`` are found relative to its folder (Geant4
+    takes them relative to the working directory, which is changed for the read).
     """
-    path = Path(path)
+    path = Path(path).resolve()
     if not path.is_file():
         raise Score4Error(f"gdml: file {str(path)!r} does not exist")
     parser = g4.G4GDMLParser()
-    parser.Read(str(path), False)
+    here = os.getcwd()
+    os.chdir(path.parent)
+    try:
+        parser.Read(str(path), False)
+    finally:
+        os.chdir(here)
     return parser, parser.GetWorldVolume()
+
+
+# -- the volume model of a GDML world ---------------------------------------------------------
+
+#: Solid parameters read from live solids (Geant4's conventions: mm, rad, half-lengths).
+_SOLID_PARAMETERS = {
+    "G4Box": (("x", "GetXHalfLength"), ("y", "GetYHalfLength"), ("z", "GetZHalfLength")),
+    "G4Tubs": (
+        ("rmin", "GetInnerRadius"),
+        ("rmax", "GetOuterRadius"),
+        ("dz", "GetZHalfLength"),
+        ("sphi", "GetStartPhiAngle"),
+        ("dphi", "GetDeltaPhiAngle"),
+    ),
+}
+
+
+def solid_record(g4, solid) -> dict:
+    """Type, name, parameters (G4Box, G4Tubs), bounding limits, volume and area of a solid.
+
+    Volume and area are Geant4's own (``GetCubicVolume``, ``GetSurfaceArea``): exact for the
+    CSG solids, Monte Carlo estimates for booleans and a few others (Geant4 caches them).
+    ``shape`` is the :mod:`score4.shapes` description (``to_dict``), for sources on any volume.
+    """
+    kind = str(solid.GetEntityType())
+    params = {
+        key: float(getattr(solid, getter)()) for key, getter in _SOLID_PARAMETERS.get(kind, ())
+    }
+    lo, hi = g4.G4ThreeVector(), g4.G4ThreeVector()
+    solid.BoundingLimits(lo, hi)
+    return {
+        "type": kind,
+        "name": str(solid.GetName()),
+        "params": params,
+        "shape": _shape_dict(solid),
+        "lo": [lo.x, lo.y, lo.z],
+        "hi": [hi.x, hi.y, hi.z],
+        "volume_mm3": float(solid.GetCubicVolume()),
+        "area_mm2": float(solid.GetSurfaceArea()),
+    }
+
+
+def _shape_dict(solid) -> dict | None:
+    """The solid as :mod:`score4.shapes` plain data (None: a type it does not describe)."""
+    from ..errors import ConfigError
+    from ..shapes import shape_from_g4_solid
+
+    try:
+        return shape_from_g4_solid(solid, live_fallback=False).to_dict()
+    except ConfigError:
+        return None
+
+
+def material_record(g4, material) -> dict:
+    """Density, state and elements of a G4Material.
+
+    Each element: name, symbol, Z, molar mass (the isotopes' abundance-weighted mean, so an
+    enriched element made of isotopes keeps its own), mass fraction, atoms per mm3 and its
+    isotopes (name, Z, N, molar mass; the binding does not give their abundances).
+    """
+    elements = material.GetElementVector()
+    fractions = list(material.GetFractionVector())
+    per_volume = list(material.GetVecNbOfAtomsPerVolume())
+    amu = float(g4.g / g4.mole)
+    out = []
+    for i in range(len(elements)):
+        el = elements[i]
+        isotopes = el.GetIsotopeVector()
+        out.append(
+            {
+                "name": str(el.GetName()),
+                "symbol": str(el.GetSymbol()),
+                "Z": round(el.GetZ()),
+                "A_g_mole": float(el.GetA()) / amu,
+                "mass_fraction": float(fractions[i]),
+                "atoms_per_mm3": float(per_volume[i]),
+                "isotopes": [
+                    {
+                        "name": str(isotopes[j].GetName()),
+                        "Z": int(isotopes[j].GetZ()),
+                        "N": int(isotopes[j].GetN()),
+                        "A_g_mole": float(isotopes[j].GetA()) / amu,
+                    }
+                    for j in range(len(isotopes))
+                ],
+            }
+        )
+    return {
+        "density_g_cm3": float(material.GetDensity()) / float(g4.g / g4.cm3),
+        "state": str(material.GetState()).rsplit(".", 1)[-1],
+        "elements": out,
+    }
+
+
+def extract_model(g4, world_pv, source: str, files: list[str]) -> dict:
+    """The plain-data model (:class:`score4.geometry.volumes.GeometryModel`) of a live world."""
+    from .volumes import MODEL_FORMAT
+
+    index: dict[int, int] = {}  # id of a logical volume's Python object -> model index
+    alive: list = []  # keeps those objects (and so their ids) alive
+    logicals: list[dict] = []
+    materials: dict[str, dict] = {}
+    todo: list = []
+
+    def number(lv) -> int:
+        key = id(lv)
+        if key not in index:
+            index[key] = len(alive)
+            alive.append(lv)
+            logicals.append({})
+            todo.append(lv)
+        return index[key]
+
+    number(world_pv.GetLogicalVolume())
+    while todo:
+        lv = todo.pop()
+        k = index[id(lv)]
+        material = lv.GetMaterial()
+        mname = str(material.GetName())
+        if mname not in materials:
+            materials[mname] = material_record(g4, material)
+        daughters = []
+        for i in range(lv.GetNoDaughters()):
+            pv = lv.GetDaughter(i)
+            r = pv.GetObjectRotationValue()
+            t = pv.GetTranslation()
+            kind = (
+                "parameterised"
+                if pv.IsParameterised()
+                else "replica"
+                if pv.IsReplicated()
+                else "placement"
+            )
+            daughters.append(
+                {
+                    "name": str(pv.GetName()),
+                    "copy": int(pv.GetCopyNo()),
+                    "logical": number(pv.GetLogicalVolume()),
+                    "rotation": [r.xx, r.xy, r.xz, r.yx, r.yy, r.yz, r.zx, r.zy, r.zz],
+                    "translation": [t.x, t.y, t.z],
+                    "kind": kind,
+                    "multiplicity": int(pv.GetMultiplicity()),
+                }
+            )
+        logicals[k] = {
+            "name": str(lv.GetName()),
+            "solid": solid_record(g4, lv.GetSolid()),
+            "material": mname,
+            "daughters": daughters,
+        }
+    return {
+        "format": MODEL_FORMAT,
+        "source": source,
+        "world": 0,
+        "world_name": str(world_pv.GetName()),
+        "files": files,
+        "materials": materials,
+        "logicals": logicals,
+    }

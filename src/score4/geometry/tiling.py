@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..scene import RoughLayer
+from ..scene import FaceFrame, RoughLayer
 from ..surface.patchmap import MAX_TOP_BOXES
 from .blocks import place_blocks
 from .frustums import place_frustums
@@ -95,18 +95,23 @@ def place_variant(
     return [lv], [solid, parts, lv, pv]
 
 
-def place_native(g4, layer: RoughLayer, mother_lv, world_material, material) -> tuple[list, list]:
+def place_native(
+    g4, layer: RoughLayer, mother_lv, world_material, material, frame: FaceFrame | None = None
+) -> tuple[list, list]:
     """Place the layer's envelope in ``mother_lv`` and the patches in it.
 
-    Returns ``(patch logical volumes, objects to keep alive)``.
+    ``world_material`` is the material around the patches (the mother's); ``frame`` is the
+    face frame in the mother's coordinates (default: ``layer.frame``, the world's). Cells without
+    patch (``layer.mask``) stay empty. Returns ``(patch logical volumes, objects to keep alive)``.
     """
-    lu, lv = layer.frame.size
+    frame = frame or layer.frame
+    lu, lv = frame.size
     t = layer.thickness
     name = layer.name
     env_solid = g4.G4Box(name, lu / 2, lv / 2, t / 2)
     env_lv = g4.G4LogicalVolume(env_solid, world_material, name)
-    rot = _rotation(g4, layer.frame.rotation)
-    centre = layer.frame.to_world(np.array([0.0, 0.0, t / 2]))
+    rot = _rotation(g4, frame.rotation)
+    centre = frame.to_world(np.array([0.0, 0.0, t / 2]))
     env_pv = g4.G4PVPlacement(
         g4.G4Transform3D(rot, g4.G4ThreeVector(*centre)), env_lv, name, mother_lv, False, 0, False
     )
@@ -127,8 +132,16 @@ def place_native(g4, layer: RoughLayer, mother_lv, world_material, material) -> 
         keep += [cell_solid, cell_lv, keep_k]
         patch_lvs += lvs_k
         cell_lvs.append(cell_lv)
-    variants = layer.patch_map.variants
+    variants = layer.cell_variants
     ny, nx = variants.shape
+    empty = -1
+    if (variants < 0).any():  # cells without patch: an empty cell box (keeps the grid regular)
+        empty_solid = g4.G4Box(f"{name}_empty", px / 2, py / 2, t / 2)
+        empty_lv = g4.G4LogicalVolume(empty_solid, world_material, f"{name}_empty")
+        keep += [empty_solid, empty_lv]
+        cell_lvs.append(empty_lv)
+        empty = len(cell_lvs) - 1
+        variants = np.where(variants < 0, empty, variants)
     if layer.config.native_layout == "replicas":
         # rows of cells along y in the envelope, cells along x in each row: two replica levels
         row_solid = g4.G4Box(f"{name}_row", lu / 2, py / 2, t / 2)
@@ -148,6 +161,8 @@ def place_native(g4, layer: RoughLayer, mother_lv, world_material, material) -> 
     centres = layer.cell_centres()
     for j in range(ny):
         for i in range(nx):
+            if variants[j, i] == empty:  # placements: an empty cell is simply left out
+                continue
             where = g4.G4ThreeVector(float(centres[j, i, 0]), float(centres[j, i, 1]), 0.0)
             pv = g4.G4PVPlacement(
                 None,

@@ -6,8 +6,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..config import RunConfig
-from ..scene import Scene
+from ..config import BoxVolume, RunConfig
+from ..errors import ConfigError
+from ..scene import Scene, TargetVolume
 from .materials import find_material
 from .portal import PortalGeometry, place_portal, subworld_bounds, trigger_extent
 from .tiling import place_native
@@ -61,9 +62,52 @@ def check_materials(g4, config: RunConfig) -> None:
     """Resolve every material now, so a typo fails before any output is written."""
     for name in config.materials:
         find_material(g4, name, f"materials.{name}", config.materials)
-    find_material(g4, config.world.material, "world.material", config.materials)
+    if config.world.gdml is None:
+        find_material(g4, config.world.material, "world.material", config.materials)
     for i, t in enumerate(config.targets):
-        find_material(g4, t.material, f"targets.{i}.material", config.materials)
+        if isinstance(t, BoxVolume):
+            find_material(g4, t.material, f"targets.{i}.material", config.materials)
+
+
+def _target_material(g4, config: RunConfig, target: TargetVolume):
+    return find_material(g4, target.material, f"targets.{target.entry}.material", config.materials)
+
+
+def cut_for_layers(g4, scene: Scene, target: TargetVolume, solid, name: str):
+    """The solid of ``target`` less the slabs its ``into: true`` layers take, and the shift (in
+    the volume's own frame) of its placement.
+
+    A box or tube without daughters is made shorter along the face normal and moved back by
+    half the cut, so its outer faces stay; other cases keep the frame and subtract the slab
+    (a ``G4SubtractionSolid``). Returns ``(solid, shift, objects to keep alive)``.
+    """
+    layers = [r for r in scene.layers_of(target.name) if r.config.into]
+    if not layers:
+        return solid, np.zeros(3), []
+    shift = np.zeros(3)
+    if target.solid == "G4Box":
+        lo, hi = -target.half, target.half.copy()
+        for layer in layers:
+            n = target.rotation.T @ layer.frame.normal  # the face's normal in the box frame
+            axis = int(np.argmax(np.abs(n)))
+            if n[axis] > 0:
+                hi[axis] -= layer.thickness
+            else:
+                lo[axis] += layer.thickness
+        cut = g4.G4Box(name, *((hi - lo) / 2))
+        return cut, (hi + lo) / 2, [cut]
+    if target.solid == "G4Tubs":
+        p = target.params
+        lo_z, hi_z = -p["dz"], p["dz"]
+        for layer in layers:
+            if (target.rotation.T @ layer.frame.normal)[2] > 0:
+                hi_z -= layer.thickness
+            else:
+                lo_z += layer.thickness
+        cut = g4.G4Tubs(name, p["rmin"], p["rmax"], (hi_z - lo_z) / 2, p["sphi"], p["dphi"])
+        shift[2] = (hi_z + lo_z) / 2
+        return cut, shift, [cut]
+    raise ConfigError(f"{target.name}: into: true needs a G4Box or G4Tubs, not a {target.solid}")
 
 
 def build_world(g4, config: RunConfig, scene: Scene) -> BuiltGeometry:
@@ -72,8 +116,13 @@ def build_world(g4, config: RunConfig, scene: Scene) -> BuiltGeometry:
     With a portal layer the targets go into a box ``Lab`` of the native world's size (world
     material) and the subworlds beside it, in a larger world of vacuum: a particle leaving
     ``Lab`` flies straight out of the world or into a trigger, where the portal's stepping
-    action kills it, so nothing it does after the native world's end counts.
+    action kills it, so nothing it does after the native world's end counts. A GDML world is
+    built by :func:`score4.geometry.gdml_world.build_gdml_world`.
     """
+    if scene.model is not None:
+        from .gdml_world import build_gdml_world
+
+        return build_gdml_world(g4, config, scene)
     half, origins = portal_layout(config, scene)
     world_solid = g4.G4Box("World", *half)
     world_material = find_material(g4, config.world.material, "world.material", config.materials)
@@ -91,15 +140,14 @@ def build_world(g4, config: RunConfig, scene: Scene) -> BuiltGeometry:
         )
         built.keep += [lab_solid, mother_lv, lab_pv]
         reachable = (-lab, lab)
-    for i, t in enumerate(config.targets):
-        solid = g4.G4Box(t.name, *(np.asarray(t.size) / 2))
-        lv = g4.G4LogicalVolume(
-            solid, find_material(g4, t.material, f"targets.{i}.material", config.materials), t.name
-        )
+    for t in scene.targets:
+        solid = g4.G4Box(t.name, *t.half)
+        solid, shift, keep_cut = cut_for_layers(g4, scene, t, solid, t.name)
+        lv = g4.G4LogicalVolume(solid, _target_material(g4, config, t), t.name)
         pv = g4.G4PVPlacement(
-            None, g4.G4ThreeVector(*t.position), lv, t.name, mother_lv, False, 0, False
+            None, g4.G4ThreeVector(*(t.translation + shift)), lv, t.name, mother_lv, False, 0, False
         )
-        built.keep += [solid, lv, pv]
+        built.keep += [solid, lv, pv, keep_cut]
         built.scoring[t.name] = [lv]
         for layer in scene.layers_of(t.name):
             if layer.config.tiling == "portal":

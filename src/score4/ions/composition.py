@@ -18,11 +18,17 @@ _TOKEN = re.compile(r"([A-Z][a-z]?)(\d*\.?\d*)")
 
 @dataclass(frozen=True)
 class Composition:
-    """Elements (symbol, atom fraction; fractions sum to 1) and density in g/cm3."""
+    """Elements (symbol, atom fraction; fractions sum to 1) and density in g/cm3.
+
+    ``masses`` holds molar masses (g/mol) of elements whose isotopic composition is not the
+    natural one (enriched germanium of LEGEND's GDML: Z = 32, 75.6 g/mol); TRIM uses them
+    instead of its natural atomic weights.
+    """
 
     name: str
     atoms: tuple[tuple[str, float], ...]
     density: float
+    masses: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self) -> None:
         if not self.atoms:
@@ -53,16 +59,52 @@ class Composition:
 
     @classmethod
     def from_g4_material(cls, material) -> Composition:
-        """The composition of a Geant4 ``G4Material`` (atoms per volume of each element)."""
+        """The composition of a Geant4 ``G4Material`` (atoms per volume of each element).
+
+        Elements are taken by their atomic number, not their name or symbol: GDML files define
+        elements of their own (``EnrGe0.750``, made of Ge-74 and Ge-76). An element whose molar
+        mass differs from TRIM's natural one by more than 0.5 % keeps its own in ``masses``;
+        several elements of one Z are merged (atom-weighted mean mass).
+        """
         import numpy as np
 
         elements = material.GetElementVector()
         per_volume = np.asarray(material.GetVecNbOfAtomsPerVolume(), dtype=float)
-        atoms = tuple(
-            (str(elements[i].GetSymbol()), float(per_volume[i])) for i in range(len(elements))
-        )
+        parts = [
+            (round(elements[i].GetZ()), float(per_volume[i]), float(elements[i].GetA()))
+            for i in range(len(elements))
+        ]
         density = round(float(material.GetDensity()) / _G4_G_PER_CM3, 9)
-        return cls(str(material.GetName()), atoms, density)
+        return cls.from_parts(
+            str(material.GetName()), [(z, n, a / _G4_G_PER_MOLE) for z, n, a in parts], density
+        )
+
+    @classmethod
+    def from_parts(
+        cls, name: str, parts: list[tuple[int, float, float]], density: float
+    ) -> Composition:
+        """From ``(Z, atoms, molar mass g/mol)`` per element (see :meth:`from_g4_material`)."""
+        from .species import SYMBOLS
+
+        atoms: dict[int, float] = {}
+        mass: dict[int, float] = {}
+        for z, n, a in parts:
+            if not 1 <= z <= len(SYMBOLS):
+                raise ConfigError(f"material {name!r}: element with Z = {z} is not known to TRIM")
+            atoms[z] = atoms.get(z, 0.0) + n
+            mass[z] = mass.get(z, 0.0) + n * a
+        masses = []
+        for z, n in atoms.items():
+            a = mass[z] / n if n > 0 else 0.0
+            if n > 0 and abs(a - natural_weight(z)) > 5e-3 * natural_weight(z):
+                masses.append((SYMBOLS[z - 1], round(a, 6)))
+        return cls(
+            name, tuple((SYMBOLS[z - 1], n) for z, n in atoms.items()), density, tuple(masses)
+        )
+
+    def mass_of(self, symbol: str) -> float | None:
+        """The molar mass (g/mol) this composition gives ``symbol``, None for the natural one."""
+        return dict(self.masses).get(symbol)
 
     @property
     def formula(self) -> str:
@@ -81,3 +123,12 @@ class Composition:
 
 # Geant4's internal density unit is g/cm3 = 6.241509074460763e+18 (MeV ns^2/mm^5 mass units).
 _G4_G_PER_CM3 = 6.241509074460763e18
+# g/mole in Geant4's internal units (MeV ns^2/mm^2 per mole).
+_G4_G_PER_MOLE = 6.241509074460763e21
+
+
+def natural_weight(z: int) -> float:
+    """The natural atomic weight (g/mol) of element ``z`` as SRIM/TRIM takes it (lunasrim)."""
+    from lunasrim import data_files
+
+    return float(data_files.atomdata(z).natural_weight)

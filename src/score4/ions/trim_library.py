@@ -176,6 +176,7 @@ def library_key(
             round(energy * 1e3, 9),
             [(s, round(f, 12)) for s, f in material.atoms],
             round(material.density, 9),
+            *([list(material.masses)] if material.masses else []),
             n,
             seed,
         ]
@@ -255,8 +256,10 @@ def _compute(
     )
     range_a, straggle_a = table[0][3], table[0][4]
     width = max(_DEPTH_IN_RANGES * (range_a + 3 * straggle_a), 1000.0)
+    from .species import SYMBOLS
+
     elements = {
-        Element(z, m): {
+        Element(z, material.mass_of(SYMBOLS[z - 1]) or m): {
             "stoich": stoich,
             "E_d": api._DISPLACEMENT.get(z, 25),
             "lattice": api._LATTICE,

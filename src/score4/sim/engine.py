@@ -159,8 +159,14 @@ def plan_chunks(n_events: int, chunk_events: int, jobs: int = 1) -> ChunkPlan:
 
 
 def config_fingerprint(config: RunConfig, seed: int) -> str:
-    """Identifies what a chunk file was made from, so resume never mixes runs."""
-    text = json.dumps({"config": config_to_dict(config), "seed": seed}, sort_keys=True)
+    """Identifies what a chunk file was made from, so resume never mixes runs (a GDML world by
+    the content of its files, not only their names)."""
+    data: dict[str, Any] = {"config": config_to_dict(config), "seed": seed}
+    if config.world.gdml is not None:
+        from ..geometry.gdml_files import gdml_files, model_key
+
+        data["gdml"] = model_key(gdml_files(config.world.gdml))
+    text = json.dumps(data, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -231,7 +237,7 @@ def run(
     # Build the scene and draw one event here: bad surfaces, files and constraints fail now, not in a worker.
     scene = build_scene(config)
     make_source(config, scene).primaries(np.random.default_rng(0), 0, 1)
-    normalisation = run_normalisation(config, scene)  # masses, sampled area: known before the run
+    run_normalisation(config, scene)  # the source's area or mass: any problem shows now
     if config.source.vertices is not None and scene.layers:  # hand-made rays: beams on walls?
         rays = read_vertex_file(config.source.vertices)
         text = warn_rays_in_walls(scene, rays.position, rays.direction)
@@ -317,6 +323,8 @@ def run(
         "physics_lacks": choice.lacks,
         "missing_data_sets": list(choice.missing_data),
         "removed_processes": info.get("removed_processes", []),
+        "rough_shares": {layer.name: layer.rough_share for layer in scene.layers},
+        "gdml_files": scene.model.files if scene.model is not None else [],
         "score4_version": __version__,
         "geant4_pybind_version": version("geant4_pybind"),
         "geant4_version": info.get("geant4_version", ""),
@@ -332,8 +340,10 @@ def run(
         "geant4_warnings": _geant4_warnings(exceptions),
         **_stuck_tracks(exceptions),
         **balance,
-        # what the events stand for: masses, the sampled area, decays (score4.normalisation)
-        **normalisation,
+        # contract 1, what the events stand for: volumes (one per scoring column: name, material,
+        # density, volume, mass; from the worker's Geant4 world), the sampled area or mass, the
+        # decays (score4.normalisation)
+        **run_normalisation(config, scene, volumes=info.get("volumes") or None),
     }
     try:
         check_free_space(out, sum(f.stat().st_size for f in files))

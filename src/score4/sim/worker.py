@@ -93,9 +93,14 @@ def run_chunk(sim, spec: WorkerSpec, chunk: Chunk, progress=None) -> Path:
 
 def ready_info(sim) -> dict:
     """What the run record keeps from a worker's Geant4 application."""
+    from ..geometry.masses import volume_records
     from .runtime import geant4_version
 
-    return {"geant4_version": geant4_version(sim.g4), "removed_processes": sim.removed_processes}
+    return {
+        "geant4_version": geant4_version(sim.g4),
+        "removed_processes": sim.removed_processes,
+        "volumes": volume_records(sim.g4, sim.scene, sim.geometry.scoring),
+    }
 
 
 def _exit_with_parent() -> None:

@@ -20,8 +20,8 @@ import numpy as np
 
 from ..config import FACES, DecayChainConfig, DepthConfig, RunConfig, SourceConfig
 from ..errors import ConfigError
-from ..scene import Scene, face_frame
-from ..shapes import G4Box, Shape, Transform
+from ..scene import RoughLayer, Scene, TargetVolume, face_frame
+from ..shapes import G4Box, G4Tubs, PlacedShape, Shape, Transform, shape_from_dict
 from .blocks import draw_events
 from .decay_source import DecayEmitter
 from .depth import VertexSampler
@@ -42,8 +42,8 @@ from .profiles import (
     UniformProfile,
     ZeroDepth,
 )
-from .sampling import SurfaceSampler
-from .shapes import BulkSampler, ShapeSurfaceSampler
+from .sampling import SurfaceSample, SurfaceSampler
+from .shapes import BulkSampler, CombinedSurfaceSampler, ShapeSurfaceSampler
 from .vertex_file import read_vertex_file, vertex_file_config
 
 _T = TypeVar("_T")
@@ -139,9 +139,15 @@ def decay_normalisation(config: RunConfig) -> dict:
     return {"simulated_decays": float(n), "activity_nuclide": None}
 
 
-def flat_face_sampler(config: RunConfig, volume: str, face: str) -> SurfaceSampler:
+def flat_face_sampler(scene: Scene, volume: str, face: str) -> SurfaceSampler:
     """Two world-coordinate triangles covering a flat box face."""
-    frame = face_frame(config.target(volume), face)
+    target = scene.target(volume)
+    if target.solid != "G4Box":
+        raise ConfigError(
+            f"source.surface: {volume!r} is a {target.solid}; a source on a face needs a G4Box "
+            "(or a rough face of a G4Tubs)"
+        )
+    frame = face_frame(target, face)
     lu, lv = frame.size
     corners = frame.to_world(
         np.array(
@@ -151,27 +157,106 @@ def flat_face_sampler(config: RunConfig, volume: str, face: str) -> SurfaceSampl
     return SurfaceSampler(vertices=corners, faces=[[0, 1, 2], [0, 2, 3]])
 
 
-def target_shape(config: RunConfig, volume: str) -> tuple[Shape, Transform]:
-    """The shape of a box target and its local -> world transform."""
-    target = config.target(volume)
-    half = [s / 2 for s in target.size]
-    return G4Box(*half), Transform(translation=np.array(target.position, float))
+def source_target(scene: Scene, ref: str, parameter: str) -> TargetVolume:
+    """The one target a source names (a box, a GDML volume or one copy ``name[k]``)."""
+    targets = scene.targets_named(ref, parameter)
+    if len(targets) != 1:
+        raise ConfigError(
+            f"{parameter}: {ref!r} stands for {len(targets)} volumes "
+            f"({', '.join(t.name for t in targets)}); give one, e.g. {targets[0].column}"
+        )
+    return targets[0]
 
 
-def shape_face_sampler(config: RunConfig, scene: Scene, volume: str, face: str):
-    """Area-uniform sampler on faces of a target, each rough face on its mesh."""
-    shape, transform = target_shape(config, volume)
-    rough: dict[str, Any] = {
-        layer.config.face: layer.sampler() for layer in scene.layers_of(volume)
-    }
+def target_shape(scene: Scene, volume: str) -> tuple[Shape, Transform]:
+    """The shape of a target (a box, or a GDML volume's solid) and its local -> world transform."""
+    target = source_target(scene, volume, "source")
+    transform = Transform(rotation=target.rotation, translation=target.translation)
+    if target.solid == "G4Box":
+        return G4Box(*target.half), transform
+    if target.solid == "G4Tubs":
+        return G4Tubs(**target.params), transform
+    shape = _model_shape(scene, target)
+    if shape is None:
+        raise ConfigError(
+            f"source: {target.name!r} is a {target.solid}, which score4.shapes does not "
+            "describe; a source needs a solid it can sample"
+        )
+    return shape, transform
+
+
+def _model_shape(scene: Scene, target: TargetVolume) -> Shape | None:
+    """The shape the GDML model stored for a target's solid (None: none)."""
+    if scene.model is None or target.instance is None:
+        return None
+    data = scene.model.logicals[target.instance.logical].solid.get("shape")
+    return shape_from_dict(data) if data else None
+
+
+def shape_face_sampler(scene: Scene, volume: str, face: str):
+    """Area-uniform sampler on faces of a target, each rough face on its mesh (a round face
+    partly rough: its rough cells and the flat rest, :class:`FlatRemainderSampler`)."""
+    shape, transform = target_shape(scene, volume)
+    rough: dict[str, Any] = {}
+    for layer in scene.layers_of(volume):
+        if layer.mask is None:
+            rough[layer.config.face] = layer.sampler()
+        else:
+            parts = [layer.sampler(), FlatRemainderSampler(layer)]
+            rough[layer.config.face] = CombinedSurfaceSampler([p for p in parts if p.area > 0])
     return ShapeSurfaceSampler(shape, face, transform, rough)
 
 
-def bulk_sampler(config: RunConfig, volume: str) -> BulkSampler:
-    """Uniform points in a target box (a box target has no daughters; its rough layers are
-    separate volumes outside it)."""
-    shape, transform = target_shape(config, volume)
-    return BulkSampler(shape, transform, (), name=volume)
+class FlatRemainderSampler:
+    """Uniform points on the flat part of a round (G4Tubs end) face that holds no patch: the
+    annulus less the rough cells, in the plane of the layer's base (the cut face with
+    ``into``). Drawn in the annulus, points in a rough cell rejected."""
+
+    def __init__(self, layer: RoughLayer) -> None:
+        self.layer = layer
+        p = layer.target.params
+        self.rmin, self.rmax = float(p["rmin"]), float(p["rmax"])
+        px, py = layer.patch_size
+        rough_cells = int((layer.cell_variants >= 0).sum())
+        self.area = float(np.pi * (self.rmax**2 - self.rmin**2) - rough_cells * px * py)
+
+    def sample(self, rng: np.random.Generator, n: int) -> SurfaceSample:
+        points = np.empty((0, 2))
+        while len(points) < n:
+            m = 2 * (n - len(points)) + 16
+            r = np.sqrt(rng.uniform(self.rmin**2, self.rmax**2, m))
+            phi = rng.uniform(0, 2 * np.pi, m)
+            xy = np.column_stack([r * np.cos(phi), r * np.sin(phi)])
+            i, j = self.layer.patch_map.cell_of(xy)
+            keep = i < 0
+            keep[~keep] = self.layer.cell_variants[j[~keep], i[~keep]] < 0
+            points = np.concatenate([points, xy[keep]])
+        xy = points[:n]
+        frame = self.layer.frame
+        position = frame.to_world(np.column_stack([xy, np.zeros(n)]))
+        normal = np.tile(frame.normal, (n, 1))
+        none = np.full(n, -1, np.int64)
+        return SurfaceSample(position, normal, none.copy(), none.copy(), none.copy())
+
+
+def bulk_sampler(scene: Scene, volume: str) -> BulkSampler:
+    """Uniform points in a target, outside its daughters (a GDML volume's, placed in the world;
+    a box target has none, and its rough layers are separate volumes outside it)."""
+    target = source_target(scene, volume, "source.volume")
+    shape, transform = target_shape(scene, target.name)
+    exclude: list[Shape] = []
+    if scene.model is not None and target.instance is not None:
+        for d in scene.model.daughters(target.instance):
+            logical = scene.model.logicals[d.logical]
+            data = logical.solid.get("shape")
+            if data is None:
+                raise ConfigError(
+                    f"source.volume: {target.name!r} holds {d.name!r}, a {logical.solid_type} "
+                    "score4.shapes does not describe, so its material cannot be sampled"
+                )
+            placed = Transform(rotation=d.rotation, translation=d.translation)
+            exclude.append(PlacedShape(shape_from_dict(data), placed))
+    return BulkSampler(shape, transform, exclude, name=target.name)
 
 
 @dataclass
@@ -255,15 +340,16 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | BulkSource |
             )
         return source
     if src.volume is not None:
-        return BulkSource(bulk_sampler(config, src.volume), _emitter(src))
+        return BulkSource(bulk_sampler(scene, src.volume), _emitter(src))
     surface_ref = _given(src.surface, "source.surface")
-    volume, face = surface_ref.volume, surface_ref.face
+    target = source_target(scene, surface_ref.volume, "source.surface.volume")
+    volume, face = target.name, surface_ref.face
     surface: SurfaceSampler | ShapeSurfaceSampler | object
-    if face in FACES:  # one face of a box: its rough layer or two flat triangles
+    if face in FACES and target.solid == "G4Box":  # a box face: its rough layer or 2 triangles
         layer = scene.layer(volume, face)
-        surface = layer.sampler() if layer is not None else flat_face_sampler(config, volume, face)
+        surface = layer.sampler() if layer is not None else flat_face_sampler(scene, volume, face)
     else:
-        surface = shape_face_sampler(config, scene, volume, face)
+        surface = shape_face_sampler(scene, volume, face)
     inside = None
     if src.confine is True:
         inside = lambda p: scene.inside_target(volume, p)  # noqa: E731
@@ -307,8 +393,8 @@ def source_geometry(config: RunConfig, scene: Scene) -> dict:
     if src.vertices is not None:
         return {"kind": "vertices", "file": str(src.vertices)}
     if src.volume is not None:
-        bulk = bulk_sampler(config, src.volume)
-        material = config.target(src.volume).material
+        bulk = bulk_sampler(scene, src.volume)
+        material = source_target(scene, src.volume, "source.volume").material
         spec = config.materials.get(material)
         mass = None if spec is None else bulk.volume * spec.density * 1e-6  # g/cm3 * mm3 -> kg
         return {
@@ -318,14 +404,15 @@ def source_geometry(config: RunConfig, scene: Scene) -> dict:
             "mass_kg": mass,
         }
     ref = _given(src.surface, "source.surface")
-    out = {"kind": "surface", "volume": ref.volume, "face": ref.face}
-    if ref.face in FACES:
-        frame = face_frame(config.target(ref.volume), ref.face)
-        layer = scene.layer(ref.volume, ref.face)
+    target = source_target(scene, ref.volume, "source.surface.volume")
+    out = {"kind": "surface", "volume": target.name, "face": ref.face}
+    if ref.face in FACES and target.solid == "G4Box":
+        frame = face_frame(target, ref.face)
+        layer = scene.layer(target.name, ref.face)
         projected = frame.size[0] * frame.size[1]
         area = layer.sampler().area if layer is not None else projected
         names = [ref.face]
     else:
-        sampler = shape_face_sampler(config, scene, ref.volume, ref.face)
+        sampler = shape_face_sampler(scene, target.name, ref.face)
         area, projected, names = sampler.area, sampler.projected_area, list(sampler.face_names)
     return {**out, "area_mm2": float(area), "projected_area_mm2": float(projected), "faces": names}

@@ -529,7 +529,8 @@ class TiledSurfaceSampler:
     variants
         One :class:`SurfaceSampler` (or ``(m, 3, 3)`` triangle array) per variant.
     layout
-        (nx, ny) integer array of variant indices.
+        (nx, ny) integer array of variant indices; -1 marks a cell without patch (the cells
+        of a round face that are not wholly inside it).
     pitch
         (px, py) cell size in mm.
     origin
@@ -562,10 +563,10 @@ class TiledSurfaceSampler:
                 f"layout: need a non-empty 2-D integer array of variant indices, got {grid.dtype} "
                 f"{grid.shape}"
             )
-        if grid.min() < 0 or grid.max() >= len(self.variants):
+        if grid.min() < -1 or grid.max() >= len(self.variants) or grid.max() < 0:
             raise ConfigError(
-                f"layout: variant indices must be in [0, {len(self.variants) - 1}], got "
-                f"{grid.min()}..{grid.max()}"
+                f"layout: variant indices must be in [0, {len(self.variants) - 1}] (-1: a cell "
+                f"without patch, not all), got {grid.min()}..{grid.max()}"
             )
         sizes = tuple(float(p) for p in pitch)
         if len(sizes) != 2 or not all(np.isfinite(p) and p > 0 for p in sizes):
@@ -577,7 +578,8 @@ class TiledSurfaceSampler:
         self.shape = grid.shape
         flat = self.layout.ravel()
         order = np.argsort(flat, kind="stable")
-        self.cell_counts = np.bincount(flat, minlength=len(self.variants))
+        order = order[flat[order] >= 0]  # cells of -1 hold no patch (outside a round face)
+        self.cell_counts = np.bincount(flat[flat >= 0], minlength=len(self.variants))
         self._cells_of = np.split(order, np.cumsum(self.cell_counts)[:-1])
         variant_area = np.array([v.area for v in self.variants])
         self.area = float((self.cell_counts * variant_area).sum())

@@ -1,0 +1,69 @@
+"""``score4 geometry export``: the run's whole world, rough layers included, as one GDML file.
+
+The world is built exactly as the workers build it (:func:`score4.geometry.world.build_world`)
+in a spawned process (the calling process never imports Geant4) and written with Geant4's own
+writer. Names keep Geant4's pointer suffixes (``crystal0x55d1...``): score4's patch volumes and
+the copies of unshared GDML volumes would otherwise share names, and GDML readers (Geant4's,
+pyg4ometry's) look volumes and solids up by name; Geant4's reader strips the suffixes again.
+The nested tiling's shared logical volumes are written once, so a 10 cm face of a few thousand
+placements stays at megabytes. ``<T>``/``<P>`` are removed from NIST materials, which
+pyg4ometry refuses on them (:func:`score4.geometry.gdml.drop_nist_state`).
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+import tempfile
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+from ..config import RunConfig
+from ..errors import ConfigError, Score4Error
+
+
+def _write(config: RunConfig, out: str) -> dict:
+    from ..scene import build_scene
+    from ..sim.runtime import import_geant4, redirect_native_output, resolve_physics
+    from .gdml import drop_nist_state
+    from .world import build_world
+
+    g4 = import_geant4(resolve_physics("lite"))  # geometry and NIST materials need no data
+    scene = build_scene(config)
+    path = Path(out)
+    tmp = path.with_name(path.name + ".partial.gdml")
+    tmp.unlink(missing_ok=True)  # Geant4's writer refuses to overwrite
+    with tempfile.TemporaryDirectory(prefix="score4-export-") as folder:
+        log = Path(folder) / "geant4.log"
+        with redirect_native_output(log):
+            built = build_world(g4, config, scene)
+            parser = g4.G4GDMLParser()
+            parser.SetAddPointerToName(True)
+            parser.Write(str(tmp), built.world, True)
+        if not tmp.is_file():
+            tail = " | ".join(log.read_text(errors="replace").strip().splitlines()[-3:])
+            raise Score4Error(f"--gdml: Geant4 did not write {path} ({tail})")
+    tmp.write_text(drop_nist_state(tmp.read_text()))
+    os.replace(tmp, path)
+    return {"size": path.stat().st_size, "layers": [layer.name for layer in scene.layers]}
+
+
+def export_world(config: RunConfig, out: Path) -> dict:
+    """Write the world of ``config`` (GDML world or generated box, with rough layers) to ``out``.
+
+    Returns ``{"size": bytes, "layers": [layer names]}``. Portal layers (their subworlds sit
+    outside the world particles move in) are refused: export native tiling.
+    """
+    portal = [
+        f"targets.{i}.rough.{j}"
+        for i, t in enumerate(config.targets)
+        for j, r in enumerate(t.rough)
+        if r.tiling == "portal"
+    ]
+    if portal:
+        raise ConfigError(
+            f"{portal[0]}: tiling portal teleports particles and cannot be written to GDML; "
+            "export tiling: native (the same surface in other tools)"
+        )
+    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
+        return pool.submit(_write, config, str(out)).result()
