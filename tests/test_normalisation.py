@@ -66,7 +66,6 @@ def test_rough_target_volume_and_sampled_area_match_pyramid_formulas():
     face = 4 * (w / 2) * math.sqrt(h**2 + (w / 2) ** 2)
     src = n["source"]
     assert src["kind"] == "surface"
-    assert src["rough"] is True
     assert src["area_mm2"] == pytest.approx(pyramids * face, rel=1e-12)
     assert src["projected_area_mm2"] == pytest.approx(0.2 * 0.3, rel=1e-12)
     assert n["simulated_decays"] == config.run.events
