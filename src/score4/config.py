@@ -24,6 +24,7 @@ from pydantic import (
 
 from . import limits
 from .errors import ConfigError
+from .response import ResponseConfig
 from .schema import (
     GIVEN,
     ConfigPath,
@@ -545,6 +546,10 @@ class HistogramConfig(StrictModel):
 class OutputConfig(StrictModel):
     histogram: HistogramConfig = HistogramConfig()
     track_length: bool = False  # also score the summed charged/neutral track length per volume (mm)
+    # also score each volume's deposit split by the class of the particle that made it: alpha,
+    # electron (e-, e+, gamma) and ion (the rest: nuclear recoils); the detector response's
+    # quenching needs it (score4 template, docs/templates.md). Costs ~15 us per volume per event.
+    split_by_particle: bool = False
 
 
 class RunConfig(StrictModel):
@@ -558,6 +563,8 @@ class RunConfig(StrictModel):
     source: SourceConfig
     run: RunSettings = RunSettings()
     output: OutputConfig = OutputConfig()
+    # the detector response 'score4 template' applies (not used by the run itself)
+    response: ResponseConfig | None = None
 
     @field_validator("physics", mode="before")
     @classmethod

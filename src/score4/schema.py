@@ -109,6 +109,7 @@ Energy = Annotated[float, _quantity("energy"), _with_unit("energy")]
 PositiveLength = Annotated[float, _quantity("length", positive=True), _with_unit("length")]
 NonNegativeLength = Annotated[float, _quantity("length", non_negative=True), _with_unit("length")]
 PositiveEnergy = Annotated[float, _quantity("energy", positive=True), _with_unit("energy")]
+NonNegativeEnergy = Annotated[float, _quantity("energy", non_negative=True), _with_unit("energy")]
 # times are kept in ns (Geant4's internal unit; see score4.units.TIME)
 NonNegativeTime = Annotated[float, _quantity("time", non_negative=True), _with_unit("time")]
 # densities are kept in g/cm3 (see score4.units.DENSITY)

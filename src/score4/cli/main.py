@@ -26,6 +26,7 @@ from .quiet import is_quiet, notice, set_quiet
 from .range_cmd import range_command
 from .results import export, plot
 from .surface import surface
+from .templates import model, template
 from .usage import command_path, usage_error_line
 
 
@@ -329,6 +330,8 @@ cli.add_command(surface)
 cli.add_command(import_macro)
 cli.add_command(geometry)
 cli.add_command(range_command)
+cli.add_command(template)
+cli.add_command(model)
 cli.add_command(decay_command)
 
 

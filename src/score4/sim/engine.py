@@ -48,11 +48,12 @@ from ..config import RunConfig, config_to_dict
 from ..errors import ConfigError, Score4Error
 from ..files import atomic_output, check_free_space, check_output_file
 from ..geometry.walls import warn_rays_in_walls
+from ..normalisation import run_normalisation
 from ..output import merge_chunks
 from ..progress import progress_bar
 from ..scene import build_scene
 from ..schema import input_paths
-from ..source.build import decay_normalisation, make_source, needs_radioactive_decay
+from ..source.build import make_source, needs_radioactive_decay
 from ..source.vertex_file import read_vertex_file
 from .conservation import check_chunk_files
 from .runtime import resolve_physics
@@ -241,6 +242,7 @@ def run(
     scene = build_scene(config)
     sample = make_source(config, scene).events(seed, 0, min(config.run.events, BLOCK_EVENTS))
     check_run_memory(config, len(sample) / sample.n_events)
+    run_normalisation(config, scene)  # the source's area or mass: any problem shows now
     if config.source.vertices is not None and scene.layers:  # hand-made rays: beams on walls?
         rays = read_vertex_file(config.source.vertices)
         text = warn_rays_in_walls(scene, rays.position, rays.direction)
@@ -333,8 +335,6 @@ def run(
         "missing_data_sets": list(choice.missing_data),
         "removed_processes": info.get("removed_processes", []),
         **{k: info[k] for k in ("trim_library_seed",) if k in info},  # runs with a TRIM replay
-        # one entry per scoring column (contract 1: name, material, density, volume, mass)
-        "volumes": info.get("volumes", []),
         "rough_shares": {layer.name: layer.rough_share for layer in scene.layers},
         "gdml_files": scene.model.files if scene.model is not None else [],
         "score4_version": __version__,
@@ -353,8 +353,10 @@ def run(
         **_stuck_tracks(exceptions),
         **balance,
         **_untracked_photons(files),
-        # contract 1: the decays the events stand for (score4.normalisation will own this)
-        **decay_normalisation(config),
+        # contract 1, what the events stand for: volumes (one per scoring column: name, material,
+        # density, volume, mass; from the worker's Geant4 world), the sampled area or mass, the
+        # decays (score4.normalisation)
+        **run_normalisation(config, scene, volumes=info.get("volumes") or None),
     }
     try:
         check_free_space(out, sum(f.stat().st_size for f in files))

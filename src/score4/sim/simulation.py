@@ -30,7 +30,7 @@ from .physics import (
     strip_data_hungry_processes,
 )
 from .runtime import PhysicsChoice, import_geant4, redirect_native_output
-from .scoring import VolumeScorer
+from .scoring import SPLIT_QUANTITIES, VolumeScorer, ion_deposits
 from .seeds import library_trim_seed
 
 if TYPE_CHECKING:
@@ -82,7 +82,11 @@ class Simulation:
         self.source = make_source(config, self.scene)
         self.choice = choice
         self.log_path = log_path
-        self.quantities = ("edep", "track_length") if config.output.track_length else ("edep",)
+        self.quantities: tuple[str, ...] = ("edep",)
+        if config.output.track_length:
+            self.quantities += ("track_length",)
+        if config.output.split_by_particle:  # alpha and electron classes; ions are the rest
+            self.quantities += SPLIT_QUANTITIES
         self._progress: Callable[[int], None] | None = None  # see run()
         self._reported, self._report_every = 0, 1
         self._stop: threading.Event | None = None  # see run()
@@ -247,8 +251,8 @@ class Simulation:
         k = self._next_event
         self.scorer.read(event, self._scores, k)
         self._scored = True
-        for fate in self._pending:  # heavy-ion secondaries replayed during the event
-            self.book(k, fate)
+        for fate, alpha in self._pending:  # heavy-ion secondaries replayed during the event
+            self.book(k, fate, alpha)
         self._pending.clear()
         if self._replaying:
             self._replay_event(k)
@@ -310,7 +314,7 @@ class Simulation:
         self._track_endpoints(endpoints)
         self._prepare_replay(primaries, g4_seed)
         self.intercepted, self.ion_fates = [], {}
-        self._pending: list[IonFate] = []
+        self._pending: list[tuple[IonFate, bool]] = []
         self._scored = False
         self._intercept(names)
         self._next_event = 0
@@ -332,6 +336,8 @@ class Simulation:
         if self._stopped or (stop is not None and stop.is_set()):
             raise RunCancelled(f"run cancelled after {self._next_event} of {n} events")
         self._report_progress(final=True)
+        if "edep_alpha" in self._scores:
+            self._scores["edep_ion"] = ion_deposits(self._scores)
         return self._scores
 
     def _prepare_replay(self, primaries: Primaries, g4_seed: int | np.ndarray) -> None:
@@ -370,15 +376,18 @@ class Simulation:
         seeds = self._replay_seeds
         return k, int(seeds) * 1_000_003 + k if seeds.ndim == 0 else int(seeds[k])
 
-    def book(self, k: int, fate: IonFate) -> None:
-        """Add a replayed ion's deposits (and track lengths) to event ``k``.
+    def book(self, k: int, fate: IonFate, alpha: bool = False) -> None:
+        """Add a replayed ion's deposits (and track lengths) to event ``k``; ``alpha``: an alpha
+        on TRIM (``alphas: trim``), whose deposits also count in the alpha class when split.
 
         While Geant4 tracks event ``k`` they wait: its scores are read at its end."""
         if k == self._next_event and not self._scored:
-            self._pending.append(fate)
+            self._pending.append((fate, alpha))
             return
         for volume, value in fate.deposits.items():
             self._scores["edep"][k, volume] += value
+            if alpha and "edep_alpha" in self._scores:
+                self._scores["edep_alpha"][k, volume] += value
         if "track_length" in self._scores:
             for volume, value in fate.lengths.items():
                 self._scores["track_length"][k, volume] += value
@@ -429,7 +438,7 @@ class Simulation:
                 p.direction[row],
                 rng,
             )
-            self.book(k, fate)
+            self.book(k, fate, alpha=name == "alpha")
             self.ion_fates[row] = fate
             if self.endpoints is not None:
                 self.endpoints[row] = (*fate.position, fate.escaped_energy)
