@@ -18,6 +18,7 @@ from pydantic import (
     Field,
     Tag,
     ValidationError,
+    ValidationInfo,
     field_validator,
     model_validator,
 )
@@ -579,7 +580,7 @@ class RunConfig(StrictModel):
         return v
 
     @model_validator(mode="after")
-    def _check_references(self) -> RunConfig:
+    def _check_references(self, info: ValidationInfo) -> RunConfig:
         names = [t.label for t in self.targets]
         dupes = sorted({n for n in names if names.count(n) > 1})
         if dupes:
@@ -621,7 +622,8 @@ class RunConfig(StrictModel):
                         raise ValueError(
                             f"targets.{i}.rough.{j}: surface {v.surface!r} is not under surfaces ({known})"
                         )
-        check_option_keys(self)  # options that resolve across sections (solid: auto)
+        if not (info.context or {}).get("stored"):  # a stored description has every key filled in
+            check_option_keys(self)  # options that resolve across sections (solid: auto)
         self._check_materials()
         return self
 
