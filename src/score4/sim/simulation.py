@@ -21,6 +21,7 @@ from ..geometry.world import BuiltGeometry, build_world, check_materials
 from ..scene import build_scene
 from ..source.build import make_source
 from ..source.primaries import Primaries
+from .feed import EventFeed, replay_row
 from .physics import (
     drop_unused_parallel_world_region,
     make_physics_list,
@@ -33,7 +34,6 @@ from .scoring import VolumeScorer
 if TYPE_CHECKING:
     from .heavy_ions import HeavyIonTransport
 
-_REPLAY_STREAM = 0x5C0E4  # mixed into the seeds of the heavy-ion replay's random streams
 _ION = re.compile(r"^([A-Z][a-z]?)-?(\d{1,3})$")
 
 
@@ -168,40 +168,23 @@ class Simulation:
         return self._particles[name]
 
     def trim_rows(self, primaries: Primaries) -> np.ndarray:
-        """Rows of ``primaries`` that follow TRIM trajectories instead of Geant4.
-
-        Ions heavier than helium up to ``physics.trim_max_energy`` (``heavy_ions: trim``), and
-        alphas of any energy with ``alphas: trim``.
-        """
-        mask = np.zeros(len(primaries), dtype=bool)
+        """Rows of ``primaries`` that follow TRIM trajectories instead of Geant4
+        (:func:`score4.sim.heavy_ions.trim_mask` with the run's physics settings)."""
         if self.heavy_ions is None:
-            return mask
-        from .heavy_ions import heavy_ion_z
+            return np.zeros(len(primaries), dtype=bool)
+        from .heavy_ions import trim_mask
 
         physics = self.config.physics
-        for name in np.unique(primaries.particle):
-            rows = primaries.particle == name
-            if name == "alpha" and physics.alphas == "trim":
-                mask |= rows
-            elif physics.heavy_ions == "trim" and heavy_ion_z(self.particle(str(name))):
-                mask |= rows & (primaries.energy <= physics.trim_max_energy)
-        return mask
+        return trim_mask(
+            primaries, self.particle, physics.heavy_ions, physics.alphas, physics.trim_max_energy
+        )
 
     def _generate(self, gun, event) -> None:
         k = self._next_event
-        g4, p = self.g4, self._primaries
-        if self._event_seeds is not None:
-            g4.G4Random.setTheSeed(int(self._event_seeds[k]))
+        feed = self._feed
         if self.teleporter is not None:
-            self.teleporter.begin_event(int(self._offsets[k]), int(self._offsets[k + 1]))
-        for row in range(self._offsets[k], self._offsets[k + 1]):
-            if self._trim[row]:
-                continue
-            gun.SetParticleDefinition(self._defs[row])
-            gun.SetParticleEnergy(p.energy[row])
-            gun.SetParticlePosition(g4.G4ThreeVector(*self._positions[row]))
-            gun.SetParticleMomentumDirection(g4.G4ThreeVector(*p.direction[row]))
-            gun.GeneratePrimaryVertex(event)
+            self.teleporter.begin_event(int(feed.offsets[k]), int(feed.offsets[k + 1]))
+        feed.fill(gun, event, k)
 
     def _score(self, event) -> None:
         k = self._next_event
@@ -240,27 +223,21 @@ class Simulation:
         n = primaries.n_events
         self._primaries = primaries
         # Portal tiling: vertices in a portal box start at their subworld point.
-        self._positions = (
+        positions = (
             primaries.position
             if self.teleporter is None
             else self.teleporter.map_primaries(primaries.position)
         )
-        self._defs = [self._particles[str(name)] for name in primaries.particle]
-        self._offsets = primaries.event_offsets()
+        definitions = [self._particles[str(name)] for name in primaries.particle]
         self._trim = self.trim_rows(primaries)
+        self._feed = EventFeed(self.g4, primaries, definitions, g4_seed, self._trim, positions)
         self._scores = {q: np.zeros((n, len(self.volumes))) for q in self.quantities}
         self.endpoints = np.full((len(primaries), 4), np.nan) if endpoints else None
         self._track_endpoints(endpoints)
-        self._prepare_replay(primaries, g4_seed)
+        self._prepare_replay(primaries)
         self._next_event = 0
-        self._event_seeds: np.ndarray | None = None
         if np.ndim(g4_seed) == 0:
             self.g4.G4Random.setTheSeed(int(g4_seed))
-        else:
-            seeds = np.asarray(g4_seed)
-            if len(seeds) != n:
-                raise ValueError(f"g4_seed: need one seed per event ({n}), got {len(seeds)}")
-            self._event_seeds = seeds
         self._progress, self._reported = progress, 0
         self._report_every = batch or max(1, n // 20)
         self._stop, self._stopped = stop, False
@@ -273,48 +250,24 @@ class Simulation:
         self._report_progress(final=True)
         return self._scores
 
-    def _prepare_replay(self, primaries: Primaries, g4_seed: int | np.ndarray) -> None:
-        """Heavy ions of this batch: libraries announced, random streams chosen."""
+    def _prepare_replay(self, primaries: Primaries) -> None:
+        """Heavy ions of this batch: one library per ion, start energy and material announced."""
         self._replaying = bool(self._trim.any())
         if not self._replaying:
             return
         transport = self.heavy_ions
         assert transport is not None  # rows are only marked for TRIM when it exists
-        # one library per ion, start energy and material
         rows = self._trim
         for name, energy in set(zip(primaries.particle[rows], primaries.energy[rows], strict=True)):
             transport.need(str(name), float(energy))
-        # Own streams: one per primary with per-event Geant4 seeds (so the first N events of a
-        # run are the same in a longer run), else one for the batch.
-        self._replay_seeds = np.asarray(g4_seed)
-        self._replay_rng = (
-            np.random.default_rng([int(self._replay_seeds), _REPLAY_STREAM])
-            if self._replay_seeds.ndim == 0
-            else None
-        )
 
     def _replay_event(self, k: int) -> None:
         """Move event ``k``'s heavy ions along TRIM trajectories; add their deposits (per event,
         after Geant4 has tracked the event's other primaries)."""
-        transport, p = self.heavy_ions, self._primaries
+        transport, feed = self.heavy_ions, self._feed
         assert transport is not None
-        first = int(self._offsets[k])
-        for row in range(first, int(self._offsets[k + 1])):
-            if not self._trim[row]:
-                continue
-            rng = self._replay_rng
-            if rng is None:
-                seed = int(self._replay_seeds[k])
-                rng = np.random.default_rng([seed, _REPLAY_STREAM, row - first])
-            name = str(p.particle[row])
-            fate = transport.transport(
-                self._particles[name],
-                name,
-                float(p.energy[row]),
-                self._positions[row],  # portal tiling: the subworld point
-                p.direction[row],
-                rng,
-            )
+        for row in feed.held_rows(k):
+            fate = replay_row(transport, feed, k, int(row))
             for volume, value in fate.deposits.items():
                 self._scores["edep"][k, volume] += value
             if "track_length" in self._scores:
@@ -352,8 +305,7 @@ class Simulation:
         return self._null_action
 
     def _g4_rows_of_event(self, k: int) -> np.ndarray:
-        rows = np.arange(self._offsets[k], self._offsets[k + 1])
-        return rows[~self._trim[rows]]
+        return self._feed.geant4_rows(k)
 
     def _check_stop(self) -> None:
         """End the run after this event when asked to (one attribute test per event)."""

@@ -21,7 +21,7 @@ import numpy as np
 from ..config import FACES, DecayChainConfig, DepthConfig, RunConfig, SourceConfig
 from ..errors import ConfigError
 from ..scene import RoughLayer, Scene, TargetVolume, face_frame
-from ..shapes import G4Box, G4Tubs, PlacedShape, Shape, Transform, shape_from_dict
+from ..shapes import G4Box, G4Tubs, Shape, Transform, shape_from_dict
 from .blocks import draw_events
 from .decay_source import DecayEmitter
 from .depth import VertexSampler
@@ -244,19 +244,12 @@ def bulk_sampler(scene: Scene, volume: str) -> BulkSampler:
     a box target has none, and its rough layers are separate volumes outside it)."""
     target = source_target(scene, volume, "source.volume")
     shape, transform = target_shape(scene, target.name)
-    exclude: list[Shape] = []
-    if scene.model is not None and target.instance is not None:
-        for d in scene.model.daughters(target.instance):
-            logical = scene.model.logicals[d.logical]
-            data = logical.solid.get("shape")
-            if data is None:
-                raise ConfigError(
-                    f"source.volume: {target.name!r} holds {d.name!r}, a {logical.solid_type} "
-                    "score4.shapes does not describe, so its material cannot be sampled"
-                )
-            placed = Transform(rotation=d.rotation, translation=d.translation)
-            exclude.append(PlacedShape(shape_from_dict(data), placed))
-    return BulkSampler(shape, transform, exclude, name=target.name)
+    if target.unknown_daughters:
+        raise ConfigError(
+            f"source.volume: {target.name!r} holds {', '.join(target.unknown_daughters)}, of a "
+            "solid type score4.shapes does not describe, so its material cannot be sampled"
+        )
+    return BulkSampler(shape, transform, list(target.exclude), name=target.name)
 
 
 @dataclass
@@ -339,6 +332,15 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | BulkSource |
                 f"fewer than run.events = {config.run.events}"
             )
         return source
+    return source_from_config(src, scene)
+
+
+def source_from_config(src: SourceConfig, scene: Scene) -> SampledSource | BulkSource:
+    """The sampled source (surface or bulk; not a vertex file) that ``src`` describes on the
+    targets of ``scene``: a run configuration's ``source`` section, or the keys a user gives
+    :meth:`score4.api.World.source`. Files, materials and constraints are checked now."""
+    if src.vertices is not None:
+        raise ConfigError("source.vertices: a vertex file is read by make_source")
     if src.volume is not None:
         return BulkSource(bulk_sampler(scene, src.volume), _emitter(src))
     surface_ref = _given(src.surface, "source.surface")
@@ -349,7 +351,13 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | BulkSource |
         layer = scene.layer(volume, face)
         surface = layer.sampler() if layer is not None else flat_face_sampler(scene, volume, face)
     else:
-        surface = shape_face_sampler(scene, volume, face)
+        try:
+            surface = shape_face_sampler(scene, volume, face)
+        except ConfigError as err:  # "face: G4Box has no face 'top'; its faces: ..."
+            text = str(err)
+            raise ConfigError(
+                f"source.surface.{text}" if text.startswith("face:") else text
+            ) from None
     inside = None
     if src.confine is True:
         inside = lambda p: scene.inside_target(volume, p)  # noqa: E731
