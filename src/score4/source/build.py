@@ -260,6 +260,8 @@ class SampledSource:
     emitter: Emitter | DecayEmitter
 
     def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
+        """``n_events`` events drawn from the stream ``rng`` (``first_event`` is not used:
+        :meth:`events` gives the prefix-stable events of a run)."""
         v = self.sampler.sample(rng, n_events)
         return make_primaries(
             self.emitter,
@@ -285,6 +287,8 @@ class BulkSource:
     emitter: Emitter | DecayEmitter
 
     def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
+        """``n_events`` events drawn from the stream ``rng`` (``first_event`` is not used:
+        :meth:`events` gives the prefix-stable events of a run)."""
         return make_primaries(self.emitter, rng, self.sampler.sample(rng, n_events))
 
     def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
