@@ -126,14 +126,16 @@ def test_own_application_equals_score4_run(gdml, tmp_path):
 def test_api_errors_are_one_line(gdml):
     messages = spawned("api_errors", str(gdml))
     expected = [
-        "roughen('cristal', '-z'): no volume named 'cristal' in world WorldLV_PV; closest: "
-        "crystal, CrystalLV; World.model.rows() lists the volumes",
+        (
+            "roughen('cristal', '-z'): no volume named 'cristal' in world WorldLV_PV; closest: "
+            "crystal, CrystalLV; World.model.rows() lists the volumes"
+        ),
         "roughen('crystal', '-z'): surface: height: '10' has no unit",
         "roughen('crystal', '-z'): base_thicknes: unknown key; did you mean 'base_thickness'?",
         "runs into sister volume 'crystal' (free gap there: 500 um)",
         "source.surface.face: G4Box has no face '+q'; its faces: +x, -x, +y, -y, +z, -z, all",
         "source: energy: '5' has no unit",
-        "roughen(x, '-z'): give a G4VPhysicalVolume, a G4LogicalVolume or a volume name, not a G4Box",
+        "roughen(x, '-z'): give a G4VPhysicalVolume, a G4LogicalVolume or a volume name, not a G4",
         "roughen(lonely, '-z'): lonely is not in this world",
     ]
     assert len(messages) == len(expected)

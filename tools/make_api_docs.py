@@ -46,7 +46,9 @@ MEMBERS = {
 }
 
 _ROLE = re.compile(r":(?:func|class|meth|attr|mod|data|exc):`~?([^`]+)`")
-_SECTION = re.compile(r"^(Parameters|Returns|Attributes|Raises|Notes|Examples)\n-{3,}\n", re.M)
+_SECTION = re.compile(
+    r"^(Parameters|Returns|Attributes|Raises|Notes|Examples)\n-{3,}\n", re.MULTILINE
+)
 
 
 def _inline(text: str) -> str:

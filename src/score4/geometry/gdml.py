@@ -175,9 +175,7 @@ def material_record(g4, material) -> dict:
     }
 
 
-def extract_model(
-    g4, world_pv, source: str, files: list[str], live: list | None = None
-) -> dict:
+def extract_model(g4, world_pv, source: str, files: list[str], live: list | None = None) -> dict:
     """The plain-data model (:class:`score4.geometry.volumes.GeometryModel`) of a live world.
 
     ``live``, if given, receives the live logical volumes in the order of the model's
