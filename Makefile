@@ -34,12 +34,14 @@ detector-module: $(STAMP)
 	$(BIN)/score4 summary $(MODULE)/po210_1um.h5 --threshold "50 keV"
 	$(BIN)/score4 plot $(MODULE)/po210_20nm.h5 $(MODULE)/po210_1um.h5 --volume crystal --label "Po-210 20 nm deep" --label "Po-210 1 um deep" --out $(MODULE)/crystal.png --overwrite
 
+# On both cores (pytest-xdist): two tests at a time. Tests that start several worker
+# processes share one xdist group (pytest.mark.xdist_group), so they never run side by side.
 test: $(STAMP)
-	$(BIN)/python -m pytest $(PYTEST_ARGS)
+	$(BIN)/python -m pytest -n 2 --dist loadgroup $(PYTEST_ARGS)
 
 # The long validations and fuzz runs that `make test` leaves out (pytest marker `deep`).
 test-deep: $(STAMP)
-	$(BIN)/python -m pytest -m deep $(PYTEST_ARGS)
+	$(BIN)/python -m pytest -n 2 --dist loadgroup -m deep $(PYTEST_ARGS)
 
 # Lint and types: the same checks as the pre-commit hooks' ruff and mypy.
 lint: $(STAMP)

@@ -9,6 +9,10 @@ and the events that deposit more than was emitted.
     python benchmarks/bench_heavy_ions.py [--events 3000] [--jobs 1] [--markdown]
 
 ``--markdown`` prints the rows of the table in docs/physics.md (checked by ``make docs-check``).
+``--per-event`` prints instead the whole-process CPU per event of each case: a run of
+``--events`` minus a run of a tenth of them, over the difference in events (start-up and library
+building cancel), and the ratio ``trim`` / ``geant4`` per face: medians of ``--repeat`` (3)
+alternating measurements.
 
 Measured 2026-11-25 (lite physics, --events 2000 --jobs 1, machine shared with other jobs:
 compare the rows, not the seconds; CPU includes the ~1 s start-up of each run):
@@ -110,7 +114,12 @@ def main() -> None:
     parser.add_argument("--events", type=int, default=3000)
     parser.add_argument("--jobs", type=int, default=1)
     parser.add_argument("--markdown", action="store_true", help="rows of docs/physics.md's table")
+    parser.add_argument("--per-event", action="store_true", help="CPU ms per event, see above")
+    parser.add_argument("--repeat", type=int, default=3, help="with --per-event: repetitions")
     args = parser.parse_args()
+    if args.per_event:
+        per_event(args.events, args.jobs, args.repeat)
+        return
     if args.markdown:
         print(
             "| face | heavy ions | recoil only, 50-110 keV | alpha + part of the recoil "
@@ -136,6 +145,28 @@ def main() -> None:
                     f"{r['partial']:>22s}  {r['whole']:>22s}  {r['over']}",
                     flush=True,
                 )
+
+
+def per_event(events: int, jobs: int, repeat: int) -> None:
+    """CPU ms per event, (CPU(events) - CPU(events / 10)) / (0.9 events), per face and mode.
+
+    The two modes alternate ``repeat`` times; medians are printed (a shared machine's load
+    moves single measurements by tens of per cent)."""
+    few = max(1, events // 10)
+    with tempfile.TemporaryDirectory() as tmp:
+        for face in ROUGH:
+            ms: dict[str, list[float]] = {"trim": [], "geant4": []}
+            for ions in ms:
+                run_case(face, ions, few, jobs, Path(tmp))  # libraries built, caches warm
+            for _ in range(repeat):
+                for ions in ms:
+                    short = run_case(face, ions, few, jobs, Path(tmp))["cpu"]
+                    full = run_case(face, ions, events, jobs, Path(tmp))["cpu"]
+                    ms[ions].append(1e3 * (full - short) / (events - few))
+            for ions, values in ms.items():
+                print(f"{face:9s} {ions:6s} {np.median(values):.3f} ms per event", flush=True)
+            ratios = np.array(ms["trim"]) / np.array(ms["geant4"])
+            print(f"{face:9s} trim / geant4 {np.median(ratios):.2f}", flush=True)
 
 
 if __name__ == "__main__":

@@ -81,7 +81,7 @@ def main() -> None:
         "holder": [pv["holder"].GetLogicalVolume()],
         "clamp": [pv["clamp"].GetLogicalVolume()],
     }
-    replay = api.HeavyIonReplay(g4, world_pv, volumes, histories=500)
+    replay = api.HeavyIonReplay(g4, world_pv, volumes, seed=args.seed, histories=500)
     generator = api.PrimaryGenerator(g4, source, seed=args.seed, replay=replay)
 
     deposits = np.zeros((args.events, len(volumes)))  # MeV per event and volume

@@ -32,7 +32,7 @@ def own_run(gdml: str, events: int, seed: int, histories: int) -> dict:
         decay="Po210",
         depth={"profile": "exponential", "mean": "20 nm"},
     )
-    replay = api.HeavyIonReplay(g4, world_pv, world.scoring, histories=histories)
+    replay = api.HeavyIonReplay(g4, world_pv, world.scoring, seed=seed, histories=histories)
     generator = api.PrimaryGenerator(g4, source, seed=seed, replay=replay)
     names = list(world.scoring)
     edep = np.zeros((events, len(names)))
@@ -129,3 +129,105 @@ def api_errors(gdml: str) -> list[str]:
         else:
             out.append("no error")
     return out
+
+
+def own_secondaries(gdml: str, events: int) -> dict:
+    """5 MeV protons straight into the holder of ``gdml``; at each proton's third step a
+    103.144 keV Pb-206 is pushed onto Geant4's stack as a secondary (a heavy-ion secondary made
+    without data sets). The replay's stacking action must take it: the same events with and
+    without the push, the deposits and the intercepted ions."""
+    import ctypes
+
+    from score4 import api
+
+    g4 = api.import_geant4("lite")
+    run_manager = g4.G4RunManagerFactory.CreateRunManager(g4.G4RunManagerType.Serial)
+    for command in ("/control/verbose 0", "/run/verbose 0", "/event/verbose 0"):
+        g4.G4UImanager.GetUIpointer().ApplyCommand(command)
+    parser = g4.G4GDMLParser()
+    parser.Read(gdml, False)
+    world_pv = parser.GetWorldVolume()
+    world = api.World(g4, world_pv)
+    source = world.source(
+        surface=("holder", "+z"), particle="proton", energy="5 MeV", direction="normal"
+    )
+    replay = api.HeavyIonReplay(g4, world_pv, world.scoring, seed=4, histories=100)
+    generator = api.PrimaryGenerator(g4, source, seed=4, replay=replay)
+    names = list(world.scoring)
+    edep = np.zeros((events, len(names)))
+    booked: list[float] = []
+    push = [False]
+    lead: list = []
+
+    class Detector(g4.G4VUserDetectorConstruction):
+        def Construct(self):
+            return world_pv
+
+        def ConstructSDandField(self):
+            sdm = g4.G4SDManager.GetSDMpointer()
+            sdm.SetVerboseLevel(0)
+            mfd = g4.G4MultiFunctionalDetector("api_holder")
+            mfd.RegisterPrimitive(g4.G4PSEnergyDeposit("edep"))
+            sdm.AddNewDetector(mfd)
+            for lv in world.scoring["holder"]:
+                lv.SetSensitiveDetector(mfd)
+
+    class Push(g4.G4UserSteppingAction):
+        def UserSteppingAction(self, step):
+            track = step.GetTrack()
+            if push[0] and track.GetTrackID() == 1 and track.GetCurrentStepNumber() == 3:
+                p = step.GetPostStepPoint().GetPosition()
+                particle = g4.G4DynamicParticle(
+                    lead[0], g4.G4ThreeVector(0.0, 0.6, -0.8), 0.103144, 0.0
+                )
+                ion = g4.G4Track(particle, 0.0, g4.G4ThreeVector(p.x, p.y, p.z))
+                ion.SetParentID(1)
+                for obj in (particle, ion):  # Geant4 deletes them: Python must never do so
+                    ctypes.pythonapi.Py_IncRef(ctypes.py_object(obj))
+                g4.G4EventManager.GetEventManager().GetStackManager().PushOneTrack(ion)
+
+    class Events(g4.G4UserEventAction):
+        def EndOfEventAction(self, event):
+            k = event.GetEventID()
+            hce = event.GetHCofThisEvent()
+            edep[k, names.index("holder")] = sum(v for _, v in hce.GetHC(ids["holder"]))
+            extra = generator.end_of_event()
+            booked.append(sum(extra.values()))
+            for name, value in extra.items():
+                edep[k, names.index(name)] += value
+
+    keep = [Detector(), api.physics_list(g4, "lite")]
+    run_manager.SetUserInitialization(keep[0])
+    run_manager.SetUserInitialization(keep[1])
+    keep += [generator.action(), Events(), Push(), replay.stacking_action()]
+    for action in keep[2:]:
+        run_manager.SetUserAction(action)
+    run_manager.Initialize()
+    api.after_initialize(g4, "lite")
+    lead.append(replay.definition("Pb206"))
+    ids = {"holder": g4.G4SDManager.GetSDMpointer().GetCollectionID("api_holder/edep")}
+    run_manager.BeamOn(events)
+    plain = edep.copy()
+    intercepted_plain = len(replay.intercepted)
+    push[0] = True
+    generator.next_event = 0
+    edep[:] = 0
+    booked.clear()
+    counts = []
+
+    class Count(g4.G4UserEventAction):
+        def EndOfEventAction(self, event):
+            counts.append(len(replay.intercepted))
+            keep[3].EndOfEventAction(event)
+
+    keep.append(Count())
+    run_manager.SetUserAction(keep[-1])
+    run_manager.BeamOn(events)
+    return {
+        "names": names,
+        "plain": plain,
+        "pushed": edep.copy(),
+        "booked": list(booked),
+        "counts": counts,
+        "intercepted_plain": intercepted_plain,
+    }

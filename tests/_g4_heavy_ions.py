@@ -41,6 +41,7 @@ def run_config(data: dict, seed: int):
         "endpoints": sim.endpoints,
         "edep": scores["edep"],
         "volumes": sim.volumes,
+        "library_seed": sim.heavy_ions.library_seed if sim.heavy_ions else None,
     }
 
 
@@ -101,3 +102,161 @@ def po210(rough: bool, events: int):
             {"face": "+z", "surface": "pyramids", "base_thickness": "1 um"}
         ]
     return run_config(data, 5)
+
+
+def pushed_recoils(events: int):
+    """Protons (5 MeV, normal) into Si; a 103.144 keV Pb-206 is pushed onto Geant4's stack as a
+    secondary at the proton's third step of every event (a heavy-ion secondary made without
+    data sets). Runs the same events without the push, with it, and with it and the stable
+    ions sent back to Geant4 where they stopped (the re-injection that lets unstable ions
+    decay); returns deposits, the intercepted ions and where Geant4 then starts Pb-206 tracks."""
+    import ctypes
+
+    from score4.config import parse_config
+    from score4.sim.runtime import resolve_physics
+    from score4.sim.simulation import Simulation
+
+    data = {
+        "physics": {"mode": "lite", "trim_histories": 200},
+        "targets": [
+            {
+                "name": "crystal",
+                "material": "G4_Si",
+                "size": ["2 mm", "2 mm", "1 mm"],
+                "position": ["0 mm", "0 mm", "-0.5 mm"],
+            }
+        ],
+        "source": {
+            "particle": "proton",
+            "energy": "5 MeV",
+            "direction": "normal",
+            "surface": {"volume": "crystal", "face": "+z"},
+        },
+        "run": {"events": events, "seed": 4},
+    }
+    sim = Simulation(parse_config(data), resolve_physics("lite"))
+    g4 = sim.g4
+    lead = sim.particle("Pb206")
+    push = [False]
+
+    class Push(g4.G4UserSteppingAction):
+        def UserSteppingAction(self, step):
+            track = step.GetTrack()
+            if push[0] and track.GetTrackID() == 1 and track.GetCurrentStepNumber() == 3:
+                p = step.GetPostStepPoint().GetPosition()
+                particle = g4.G4DynamicParticle(
+                    lead, g4.G4ThreeVector(0.0, 0.6, 0.8), 0.103144, 0.0
+                )
+                ion = g4.G4Track(particle, 0.0, g4.G4ThreeVector(p.x, p.y, p.z))
+                ion.SetParentID(1)
+                for obj in (particle, ion):  # Geant4 deletes them: Python must never do so
+                    ctypes.pythonapi.Py_IncRef(ctypes.py_object(obj))
+                g4.G4EventManager.GetEventManager().GetStackManager().PushOneTrack(ion)
+
+    starts = []
+
+    class Starts(g4.G4UserTrackingAction):
+        def PreUserTrackingAction(self, track):
+            if track.GetDefinition().GetParticleName() == "Pb206":
+                q = track.GetPosition()
+                starts.append((q.x, q.y, q.z, track.GetKineticEnergy()))
+
+    actions = [Push(), Starts()]
+    for action in actions:
+        sim.run_manager.SetUserAction(action)
+    primaries = sim.source.primaries(np.random.default_rng(4), 0, events)
+    plain = sim.run(primaries, 4)["edep"][:, 0].copy()
+    push[0] = True
+    pushed = sim.run(primaries, 4)["edep"][:, 0].copy()
+    first = [
+        (
+            x.event,
+            x.ion,
+            x.energy,
+            x.fate.position,
+            x.fate.volume,
+            x.fate.material,
+            sum(x.fate.deposits.values()),
+            x.fate.escaped_energy,
+            x.reinjected,
+        )
+        for x in sim.intercepted
+    ]
+    sim._interceptor.reinject_stable = True
+    again = sim.run(primaries, 4)["edep"][:, 0].copy()
+    second = [(x.fate.position, x.reinjected) for x in sim.intercepted]
+    return {
+        "plain": plain,
+        "pushed": pushed,
+        "again": again,
+        "first": first,
+        "second": second,
+        "starts": np.array(starts).reshape(-1, 4),
+    }
+
+
+def nuclide_recoils(nuclide: str, events: int):
+    """``nuclide`` at rest 20 nm under a Si face, full physics with radioactive decay (needs the
+    Geant4 data sets); (event, ion, energy MeV, reinjected) of every intercepted ion."""
+    from score4.config import parse_config
+    from score4.sim.runtime import resolve_physics
+    from score4.sim.simulation import Simulation
+
+    data = {
+        "physics": {"mode": "full"},
+        "targets": [
+            {
+                "name": "crystal",
+                "material": "G4_Si",
+                "size": ["2 mm", "2 mm", "1 mm"],
+                "position": ["0 mm", "0 mm", "-0.5 mm"],
+            }
+        ],
+        "source": {
+            "nuclide": nuclide,
+            "surface": {"volume": "crystal", "face": "+z"},
+            "depth": {"profile": "uniform", "max": "20 nm"},
+        },
+        "run": {"events": events, "seed": 5},
+    }
+    sim = Simulation(parse_config(data), resolve_physics("full", needs_decay=True))
+    primaries = sim.source.primaries(np.random.default_rng(5), 0, events)
+    sim.run(primaries, 5)
+    return [(x.event, x.ion, x.energy, x.reinjected) for x in sim.intercepted]
+
+
+def range_with_reference(seed: int, events: int):
+    """``score4 range Pb206 "103.144 keV" G4_Si --compare-srim`` as the command runs it: the
+    stopped depths (nm) of score4 and of its TRIM reference, and the reference's TRIM seed."""
+    from score4.cli.range_cmd import run_range
+    from score4.ions.species import parse_ion
+
+    result = run_range(
+        parse_ion("Pb206", "ION"),
+        0.103144,
+        "G4_Si",
+        events,
+        seed,
+        None,
+        0.0,
+        {},
+        events,
+        lambda message: None,
+    )
+    ours, ref = result["_score4_sample"], result["_srim_sample"]
+    return (
+        ours.final_position[ours.stopped, 2] * 1e6,
+        ref.final_position[ref.stopped, 2] * 1e6,
+        result["srim"]["trim_seed"],
+    )
+
+
+def alpha_depths(spec: dict):
+    """benchmarks/bench_alpha_straggling.py's measurement of one Geant4 set-up (see there)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from bench_alpha_straggling import measure
+
+    return measure(spec)

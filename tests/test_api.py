@@ -123,6 +123,19 @@ def test_own_application_equals_score4_run(gdml, tmp_path):
     assert (crystal + holder).max() <= 5.4075 + 1e-3  # Po-210's Q value
 
 
+def test_stacking_action_replays_heavy_ion_secondaries(gdml):
+    """A Pb-206 pushed onto Geant4's stack in every event of a proton run is taken by the
+    replay's stacking action and replayed; the event gains its energy in the holder (the ion
+    flies into the copper), the protons' own deposits stay the same."""
+    out = spawned("own_secondaries", str(gdml), 20)
+    assert out["intercepted_plain"] == 0  # 5 MeV protons make no heavy-ion secondary here
+    assert out["counts"] == [1] * 20  # one intercepted ion per event
+    holder = out["names"].index("holder")
+    gained = out["pushed"][:, holder] - out["plain"][:, holder]
+    np.testing.assert_allclose(gained, out["booked"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(gained, 0.103144, rtol=0, atol=1e-9)  # it stops in the copper
+
+
 def test_api_errors_are_one_line(gdml):
     messages = spawned("api_errors", str(gdml))
     expected = [

@@ -128,11 +128,17 @@ def test_lite_run_of_pb210_from_the_cli(tmp_path):
     run = read_results(tmp_path / "r.h5").run
     assert run["activity_nuclide"] == "Pb210"
     assert run["simulated_decays"] == 200
-    assert "gammas cross matter without interacting" in run["physics_lacks"]
+    assert "gammas and X-rays are not tracked" in run["physics_lacks"]
     with h5py.File(tmp_path / "r.h5") as f:
-        particles = set(np.char.decode(f["primaries/particle"][()]))
+        particle = np.char.decode(f["primaries/particle"][()])
+        event = f["primaries/event"][()] - f["events/event_id"][0]
+        energy = f["primaries/energy"][()]
         edep = f["events/edep/crystal"][()]
-    assert {"e-", "gamma"} <= particles
+        untracked = f["events/untracked_gamma_energy"][()]
+    assert {"e-", "gamma"} <= set(particle)
+    # lite mode counts the photons (46.5 keV gamma, X-rays) it cannot track, per event
+    photons = particle == "gamma"
+    assert np.allclose(untracked, np.bincount(event[photons], energy[photons], minlength=200))
     assert len(edep) == 200
     assert edep.max() <= 0.0635 + 1e-9  # nothing above Q = 63.5 keV
 

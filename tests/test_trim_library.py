@@ -110,3 +110,58 @@ def test_rotations():
     r = _rotation_to_x(np.array([-1.0, 0, 0]), 0.3)
     assert np.allclose(r @ [-1, 0, 0], [1, 0, 0])
     assert np.linalg.det(r) == pytest.approx(1)
+
+
+def test_run_seeds_give_other_histories():
+    # the libraries of a run are built with the TRIM seed of its run seed
+    from score4.sim.seeds import library_trim_seed, reference_trim_seed
+
+    seeds = [library_trim_seed(s) for s in range(200)]
+    assert len(set(seeds)) == 200
+    assert all(1 <= s <= 2147483562 for s in seeds)
+    assert all(reference_trim_seed(s) != library_trim_seed(s) for s in range(200))
+    one = trim_library(*PB, 0.03, SILICON, n=20, seed=library_trim_seed(1))
+    two = trim_library(*PB, 0.03, SILICON, n=20, seed=library_trim_seed(2))
+    ends = [lib.points[lib.offsets[1:] - 1, 0] for lib in (one, two)]
+    assert not np.isin(np.round(ends[0], 15), np.round(ends[1], 15)).any()
+
+
+def test_walked_is_the_path_length_within_each_history():
+    lib = trim_library(*PB, 0.03, SILICON, n=20, seed=4)
+    for k in range(lib.size):
+        rows = slice(lib.offsets[k], lib.offsets[k + 1])
+        steps = np.linalg.norm(np.diff(lib.points[rows], axis=0), axis=1)
+        assert np.allclose(lib.walked[rows], np.concatenate([[0.0], np.cumsum(steps)]))
+
+
+def test_cache_is_pruned_least_recently_used_first(tmp_path, monkeypatch):
+    import os
+
+    from score4.ions.trim_library import cache_dir, prune_cache
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    for seed in (1, 2, 3):
+        trim_library(*PB, 0.01, SILICON, n=10, seed=seed)
+    files = sorted(cache_dir().glob("*.npz"), key=lambda p: p.stat().st_mtime)
+    for age, path in enumerate(files):  # oldest first
+        os.utime(path, (1000 + age, 1000 + age))
+    size = files[0].stat().st_size
+    assert prune_cache(max_bytes=sum(p.stat().st_size for p in files) - size) == 1
+    assert [p.exists() for p in files] == [False, True, True]
+
+
+def test_replay_streams_are_reproducible_and_uniform():
+    from score4.sim.heavy_ions import ReplayStream
+
+    a = [ReplayStream(7, 1, k).random() for k in range(3)]
+    assert a == [ReplayStream(7, 1, k).random() for k in range(3)]
+    assert len(set(a)) == 3  # other rows, other streams
+    r = ReplayStream(123, 5, 0)
+    u = np.array([r.random() for _ in range(20000)])
+    # mean and variance of U(0, 1) within 4 standard errors; neighbours uncorrelated
+    assert abs(u.mean() - 0.5) < 4 * np.sqrt(1 / 12 / len(u))
+    assert abs(u.var() - 1 / 12) < 4 * np.sqrt(1 / 180 / len(u))
+    assert abs(np.corrcoef(u[:-1], u[1:])[0, 1]) < 4 / np.sqrt(len(u))
+    counts = np.bincount([r.integers(7) for _ in range(14000)], minlength=7)
+    assert len(counts) == 7
+    assert (abs(counts - 2000) < 4 * np.sqrt(2000)).all()

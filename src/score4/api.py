@@ -482,15 +482,18 @@ class HeavyIonReplay:
     loop.
 
     Geant4 stops a 103 keV Pb-206 ion (the recoil of Po-210) at a sixth of TRIM's depth, with
-    no straggling (docs/physics.md). The replay keeps such primaries away from Geant4 and moves
-    each along a TRIM history (lunasrim's SRIM-2013, computed once per ion, energy and
-    material, then cached), through your volumes with a Geant4 navigator of its own, crossing
-    boundaries into other materials and vacuum gaps. Energy lost in a volume of ``volumes``
-    counts for it.
+    no straggling (docs/physics.md). The replay keeps such ions away from Geant4 and moves each
+    along a TRIM history (lunasrim's SRIM-2013, computed once per ion, energy and material,
+    then cached), through your volumes with a Geant4 navigator of its own, crossing boundaries
+    into other materials and vacuum gaps. Energy lost in a volume of ``volumes`` counts for it.
 
-    With a :class:`PrimaryGenerator` (``replay=``), ions are held back as events are generated
-    and :meth:`PrimaryGenerator.end_of_event` replays them. Without one, call :meth:`takes` and
-    :meth:`transport` yourself.
+    * Primaries: with a :class:`PrimaryGenerator` (``replay=``) the ions among the primaries are
+      held back as events are generated, and :meth:`PrimaryGenerator.end_of_event` replays
+      them. Without one, :meth:`takes` and :meth:`transport` do it by hand.
+    * Secondaries: :meth:`stacking_action` takes the heavy ions Geant4 creates during an event
+      (the recoiling daughter of an alpha decay in Geant4's radioactive decay; a nucleus knocked
+      on by a proton) as they are made, replays them, and books their deposits for
+      :meth:`end_of_event` (which :meth:`PrimaryGenerator.end_of_event` includes).
 
     Parameters
     ----------
@@ -501,10 +504,13 @@ class HeavyIonReplay:
     volumes
         Name -> logical volumes whose deposits count under that name (e.g.
         :attr:`World.scoring`). Volumes are matched by their logical volume's name.
+    seed
+        The run seed: the TRIM libraries' histories are drawn from it, as ``score4 run`` does.
     heavy_ions
-        ``trim`` (ions heavier than helium up to ``max_energy`` are replayed) or ``geant4``.
+        ``trim`` (ions heavier than helium of kinetic energy up to ``max_energy`` are replayed)
+        or ``geant4``.
     alphas
-        ``geant4`` or ``trim`` (alphas of any energy are replayed too).
+        ``geant4`` or ``trim`` (alpha primaries of any energy are replayed too).
     max_energy
         Heavy ions above it stay with Geant4.
     histories
@@ -517,6 +523,7 @@ class HeavyIonReplay:
         world,
         volumes: Mapping[str, Sequence | Any],
         *,
+        seed: int = 1,
         heavy_ions: str = "trim",
         alphas: str = "geant4",
         max_energy: str = "1 MeV",
@@ -533,8 +540,11 @@ class HeavyIonReplay:
             )
         except ValidationError as err:
             raise ConfigError(describe_validation_error(err, "HeavyIonReplay")) from None
+        if not 0 <= int(seed) < 2**63:
+            raise ConfigError(f"HeavyIonReplay: seed: must be 0 <= seed < 2**63, got {seed}")
         self.g4 = g4
         self.world = world
+        self.seed = int(seed)
         self.volumes = {
             name: list(lvs) if isinstance(lvs, (list, tuple)) else [lvs]
             for name, lvs in volumes.items()
@@ -542,6 +552,13 @@ class HeavyIonReplay:
         self.names = list(self.volumes)
         self._transport: Any = None
         self._definitions: dict[str, Any] = {}
+        self._event: tuple[int, int] | None = None  # (index, seed) set by a PrimaryGenerator
+        self._booked: dict[str, float] = {}
+        self._stacking: Any = None
+        self.decay = False  # radioactive decay in your physics (see stacking_action)
+        #: heavy-ion secondaries taken from Geant4 and replayed in the current event
+        #: (:class:`score4.sim.interception.InterceptedIon`)
+        self.intercepted: list = []
 
     @property
     def transport_engine(self):
@@ -549,9 +566,14 @@ class HeavyIonReplay:
         must have closed the geometry, i.e. a run must have started)."""
         if self._transport is None:
             from .sim.heavy_ions import HeavyIonTransport
+            from .sim.seeds import library_trim_seed
 
             self._transport = HeavyIonTransport(
-                self.g4, self.world, self.volumes, histories=self.settings.trim_histories
+                self.g4,
+                self.world,
+                self.volumes,
+                histories=self.settings.trim_histories,
+                library_seed=library_trim_seed(self.seed),
             )
         return self._transport
 
@@ -593,6 +615,58 @@ class HeavyIonReplay:
             float(fate.escaped_energy),
         )
 
+    # -- secondaries -----------------------------------------------------------------------------
+
+    def stacking_action(self, radioactive_decay: bool = False):
+        """A ``G4UserStackingAction`` for ``run_manager.SetUserAction``: every heavy ion (Z > 2)
+        Geant4 creates with a kinetic energy from 1 keV to ``max_energy`` is replayed as it is
+        made, its deposits booked for :meth:`end_of_event`. An unstable ion that stopped goes
+        back to Geant4, at rest where TRIM stopped it, when ``radioactive_decay`` (your physics
+        has radioactive decay), so the chain goes on from there; other ions are killed.
+
+        Without a :class:`PrimaryGenerator`, each event's replays draw from a stream of the
+        run seed and Geant4's event number."""
+        from .sim.interception import make_stacking_action
+
+        self.decay = bool(radioactive_decay)
+        if self._stacking is None:
+            self._stacking = make_stacking_action(self.g4, self.transport_engine, self)
+            self._stacking.heavy = self.settings.heavy_ions == "trim"
+        return self._stacking
+
+    @property
+    def max_energy(self) -> float:
+        return float(self.settings.trim_max_energy)
+
+    def begin_event(self, index: int, seed: int) -> None:
+        """Called by :class:`PrimaryGenerator` as it generates an event: its number and seed."""
+        self._event = (int(index), int(seed))
+        self.intercepted = []
+
+    def current_event(self) -> tuple[int, int]:
+        """(number, seed) of the event being tracked (the stacking action's random streams)."""
+        if self._event is not None:
+            return self._event
+        event = self.g4.G4RunManager.GetRunManager().GetCurrentEvent()
+        k = int(event.GetEventID()) if event is not None else 0
+        return k, self.seed * 1_000_003 + k
+
+    def book(self, event: int, fate) -> None:
+        """Book a replayed secondary's deposits for :meth:`end_of_event`."""
+        for name, value in self._named(fate).deposits.items():
+            self._booked[name] = self._booked.get(name, 0.0) + value
+
+    def untrack(self, event: int, energy: float) -> None:
+        """(Photons are left to your physics: nothing to count.)"""
+
+    def end_of_event(self) -> dict[str, float]:
+        """Deposits (MeV per volume name) of the heavy-ion secondaries replayed during the event
+        (:meth:`stacking_action`); call it once per event, from your ``EndOfEventAction``
+        (:meth:`PrimaryGenerator.end_of_event` does, with a generator)."""
+        booked, self._booked = self._booked, {}
+        self._event = None
+        return booked
+
 
 # -- events ------------------------------------------------------------------------------------
 
@@ -620,8 +694,8 @@ class PrimaryGenerator:
     first_event
         Number of the first event to generate (e.g. for the second half of a run).
     replay
-        A :class:`HeavyIonReplay`: the rows it takes are held back from Geant4 and replayed by
-        :meth:`end_of_event`.
+        A :class:`HeavyIonReplay`: the primaries it takes are held back from Geant4 and
+        replayed by :meth:`end_of_event`.
     reseed_geant4
         Reseed Geant4's engine with each event's seed (False: leave Geant4's random engine
         alone).
@@ -649,6 +723,7 @@ class PrimaryGenerator:
         self.reseed_geant4 = reseed_geant4
         self._gun = g4.G4ParticleGun(1)
         self._feed: Any = None
+        self._held: np.ndarray = np.zeros(0, dtype=bool)
         self._first = 0
         self._pending: tuple[Any, int] | None = None
         self._definitions: dict[str, Any] = {}
@@ -665,6 +740,8 @@ class PrimaryGenerator:
             n = BLOCK_EVENTS - self.next_event % BLOCK_EVENTS
             self._load(self.next_event, n)
             k = 0
+        if self.replay is not None:
+            self.replay.begin_event(k, int(self._feed.seeds[k]))
         self._feed.fill(self._gun, event, k)
         self._pending = (self._feed, k)
         self.next_event += 1
@@ -676,17 +753,20 @@ class PrimaryGenerator:
 
         primaries = self.source.events(self.seed, first, n)
         definitions = [self._definition(str(name)) for name in primaries.particle]
-        held = self.replay.takes(primaries) if self.replay is not None else None
-        if self.replay is not None and held is not None and held.any():
-            engine = self.replay.transport_engine
-            for name, energy in set(
-                zip(primaries.particle[held], primaries.energy[held], strict=True)
-            ):
-                engine.need(str(name), float(energy))
+        held = np.zeros(len(primaries), dtype=bool)
+        if self.replay is not None:
+            held = self.replay.takes(primaries)
+            if held.any():
+                engine = self.replay.transport_engine
+                for name, energy in set(
+                    zip(primaries.particle[held], primaries.energy[held], strict=True)
+                ):
+                    engine.need(str(name), float(energy))
         seeds = event_geant4_seeds(self.seed, first, n)
         self._feed = EventFeed(
             self.g4, primaries, definitions, seeds, held, reseed=self.reseed_geant4
         )
+        self._held = held
         self._first = first
 
     def _definition(self, name: str):
@@ -698,14 +778,16 @@ class PrimaryGenerator:
 
     def end_of_event(self) -> dict[str, float]:
         """Replay the heavy ions held back from the last generated event (call it once per
-        event, after Geant4 has tracked it: from your ``EndOfEventAction``).
+        event, after Geant4 has tracked it: from your ``EndOfEventAction``), and collect the
+        deposits of heavy-ion secondaries the replay's :meth:`HeavyIonReplay.stacking_action`
+        replayed during the event.
 
         Returns
         -------
         dict
             Volume name (of the replay's ``volumes``) -> energy the ions deposited there, MeV
-            (empty without a replay or when the event had no heavy ion). The ions' fates are in
-            :attr:`replayed`.
+            (empty without a replay or when the event had no heavy ion). The held-back ions'
+            fates are in :attr:`replayed`.
         """
         self.replayed = []
         if self.replay is None or self._pending is None:
@@ -714,8 +796,8 @@ class PrimaryGenerator:
 
         feed, k = self._pending
         self._pending = None
-        total: dict[str, float] = {}
-        for row in feed.held_rows(k):
+        total = self.replay.end_of_event()
+        for row in feed.rows_of(k, self._held):
             ion = self.replay._named(replay_row(self.replay.transport_engine, feed, k, int(row)))
             self.replayed.append(ion)
             for name, value in ion.deposits.items():

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import contextlib
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import h5py
@@ -57,11 +57,14 @@ def write_chunk(
     scores: dict[str, np.ndarray],
     primaries: Primaries,
     fingerprint: str = "",
+    columns: dict[str, np.ndarray] | None = None,
 ) -> None:
     """Write one finished chunk (events ``first_event ...``) atomically.
 
     ``scores`` maps a quantity ("edep", "track_length") to an (n_events, n_volumes) array;
-    ``fingerprint`` identifies the configuration and seed, so a resume never mixes runs.
+    ``fingerprint`` identifies the configuration and seed, so a resume never mixes runs;
+    ``columns``: more per-event energies (MeV), ``/events/<name>`` (e.g.
+    ``untracked_gamma_energy`` in lite physics).
     """
     n = primaries.n_events
     with results_h5(path) as f:
@@ -72,6 +75,8 @@ def write_chunk(
         ev.create_dataset("event_id", data=first_event + np.arange(n, dtype=np.int64))
         total = np.bincount(primaries.event, weights=primaries.energy, minlength=n)
         ev.create_dataset("primary_energy", data=total).attrs["units"] = "MeV"
+        for name, values in (columns or {}).items():
+            ev.create_dataset(name, data=np.asarray(values, dtype=float)).attrs["units"] = "MeV"
         for quantity, values in scores.items():
             g = ev.create_group(quantity)
             g.attrs["volumes"] = json.dumps(volumes)
@@ -81,17 +86,21 @@ def write_chunk(
         write_primaries_table(f.create_group("primaries"), primaries, first_event)
 
 
+def _event_columns(events: h5py.Group) -> list[str]:
+    """The per-event arrays of ``/events`` (``event_id``, ``primary_energy`` and any more)."""
+    return [k for k in events if isinstance(events[k], h5py.Dataset)]
+
+
 def _label_lh5(events: h5py.Group, volumes: list[str], quantities: list[str]) -> None:
     """Give ``/events`` and its per-quantity groups the LH5 ``datatype`` attributes."""
-    for name in ("event_id", "primary_energy"):
+    columns = _event_columns(events)
+    for name in columns:
         events[name].attrs["datatype"] = "array<1>{real}"
     for quantity in quantities:
         for name in volumes:
             events[quantity][name].attrs["datatype"] = "array<1>{real}"
         events[quantity].attrs["datatype"] = "table{" + ",".join(volumes) + "}"
-    events.attrs["datatype"] = (
-        "table{" + ",".join(["event_id", "primary_energy", *quantities]) + "}"
-    )
+    events.attrs["datatype"] = "table{" + ",".join([*columns, *quantities]) + "}"
 
 
 def merge_chunks(chunk_paths: list[Path], out: Path, run_record: dict) -> None:
@@ -110,12 +119,14 @@ def merge_chunks(chunk_paths: list[Path], out: Path, run_record: dict) -> None:
                 )
             ev = f.create_group("events")
             ev.attrs["quantities"] = json.dumps(quantities)
-            for name in ("event_id", "primary_energy"):
+            # columns every chunk has (a chunk of an older version may lack a newer column)
+            shared = set.intersection(*(set(_event_columns(p["events"])) for p in parts))
+            for name in [c for c in _event_columns(parts[0]["events"]) if c in shared]:
                 d = ev.create_dataset(
                     name, data=np.concatenate([p["events"][name][()] for p in parts])
                 )
-                if name == "primary_energy":
-                    d.attrs["units"] = "MeV"
+                if "units" in parts[0]["events"][name].attrs:
+                    d.attrs["units"] = parts[0]["events"][name].attrs["units"]
             for quantity in quantities:
                 g = ev.create_group(quantity)
                 g.attrs["volumes"] = json.dumps(volumes)
@@ -144,6 +155,8 @@ class Results:
     primary_energy: np.ndarray
     scores: dict[str, dict[str, np.ndarray]]  # quantity -> volume -> (n_events,)
     primaries: Primaries
+    # more per-event columns of /events, e.g. untracked_gamma_energy (MeV) in lite physics
+    columns: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def n_events(self) -> int:
@@ -185,6 +198,11 @@ def read_results(path: str | Path) -> Results:
             primary_energy=f["events/primary_energy"][()],
             scores={q: {name: f["events"][q][name][()] for name in volumes} for q in quantities},
             primaries=read_primaries_table(f["primaries"]),
+            columns={
+                k: f["events"][k][()]
+                for k in _event_columns(f["events"])
+                if k not in ("event_id", "primary_energy")
+            },
         )
 
 

@@ -26,6 +26,7 @@ from functools import cached_property
 
 import numpy as np
 
+from . import limits
 from .config import BoxVolume, GdmlVolume, RoughFace, RunConfig, SurfaceFile
 from .errors import ConfigError
 from .geometry.volumes import GeometryModel, Instance
@@ -456,6 +457,15 @@ class Scene:
         boxes = [target_aabb(t) for t in self.targets] + [layer_aabb(r) for r in self.layers]
         return np.min([lo for lo, _ in boxes], axis=0), np.max([hi for _, hi in boxes], axis=0)
 
+    @cached_property
+    def world_half(self) -> np.ndarray:
+        """Half-lengths of the world box, centred on the origin, that holds every target, rough
+        layer and ``world.margin`` (where particles move; a portal adds subworlds beyond it)."""
+        if self.config is None or self.config.world.gdml is not None:
+            return np.full(3, np.inf)  # a GDML or user's world: its own extent (not read here)
+        lo, hi = self.bounds
+        return np.maximum(np.abs(lo), np.abs(hi)) + self.config.world.margin
+
 
 def target_aabb(target: TargetVolume) -> tuple[np.ndarray, np.ndarray]:
     """Axis-aligned (lo, hi) of a target's bounding box in the world."""
@@ -737,4 +747,10 @@ def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
     from .clearance import check_clearance
 
     check_clearance(scene)
+    far = float(np.max(scene.world_half))
+    if np.isfinite(far) and far > limits.MAX_WORLD_EXTENT:
+        raise ConfigError(
+            f"targets: the world reaches {far / 1e3:.4g} m from the origin (targets, rough layers "
+            "and world.margin); score4's limit is 1 km (move the targets towards the origin)"
+        )
     return scene

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import re
 
-from .errors import ConfigError
+from .errors import ConfigError, brief
 
 # Factors to internal units, per dimension.
 LENGTH = {
@@ -72,27 +72,64 @@ def parse_quantity(value: object, dimension: str, name: str | None = None) -> fl
     accepted = ", ".join(units)
     example = next(iter(units)) if dimension != "energy" else "MeV"
     prefix = f"{name}: " if name else ""
+    shown = brief(value)
     if isinstance(value, bool) or not isinstance(value, (str, int, float)):
-        raise ConfigError(f"{prefix}expected a {dimension} such as '1 {example}', got {value!r}")
+        raise ConfigError(f"{prefix}expected a {dimension} such as '1 {example}', got {shown}")
     match = _QUANTITY.match(str(value))
     if match and match.group(2) is None:
         raise ConfigError(
-            f"{prefix}{value!r} has no unit; write '<number> <unit>' with unit one of: {accepted}"
+            f"{prefix}{shown} has no unit; write '<number> <unit>' with unit one of: {accepted}"
         )
     if not match:
         raise ConfigError(
-            f"{prefix}cannot read {value!r} as a {dimension}; write '<number> <unit>' with unit "
+            f"{prefix}cannot read {shown} as a {dimension}; write '<number> <unit>' with unit "
             f"one of: {accepted}"
         )
     number, unit = float(match.group(1)), match.group(2)
     if unit not in units:
         raise ConfigError(
-            f"{prefix}unknown {dimension} unit {unit!r} in {value!r}; use one of: {accepted}"
+            f"{prefix}unknown {dimension} unit {brief(unit)} in {shown}; use one of: {accepted}"
         )
     result = number * units[unit]
     if not math.isfinite(result):
-        raise ConfigError(f"{prefix}{value!r} is not a finite {dimension}")
+        raise ConfigError(f"{prefix}{shown} is not a finite {dimension}")
     return result
+
+
+_COUNT = re.compile(r"^\s*([-+]?)(\d+(?:_\d+)*)?(?:\.(\d*))?(?:[eE]([-+]?\d+))?\s*$")
+
+
+def parse_count(value: object, name: str | None = None) -> int:
+    """A whole number written as ``1000``, ``1e6``, ``2.5e5`` or ``1_000_000`` (YAML or CLI).
+
+    YAML reads ``1e6`` as a string (its floats need a dot), and a count like ``events: 1e6``
+    should mean what ``--events 1e6`` means. Floats must be whole numbers; anything else is a
+    :class:`ConfigError` naming ``name`` and the value.
+    """
+    prefix = f"{name}: " if name else ""
+    if isinstance(value, bool):
+        raise ConfigError(f"{prefix}takes a whole number, not {str(value).lower()}")
+    if isinstance(value, int):
+        return value
+    if isinstance(value, float):
+        if not math.isfinite(value) or not value.is_integer():
+            raise ConfigError(f"{prefix}takes a whole number, got {brief(value)}")
+        return int(value)
+    text = str(value) if isinstance(value, str) else None
+    match = _COUNT.match(text) if text is not None and len(text) < 40 else None
+    if match is None or not (match.group(2) or match.group(3)):
+        raise ConfigError(f"{prefix}takes a whole number such as 1000 or 1e6, got {brief(value)}")
+    sign = -1 if match.group(1) == "-" else 1
+    whole, frac, exp = match.group(2) or "0", match.group(3) or "", int(match.group(4) or 0)
+    if abs(exp) > 30:
+        raise ConfigError(f"{prefix}{brief(value)} is not a sensible count")
+    digits, exp = int((whole + frac).replace("_", "")), exp - len(frac)
+    if exp >= 0:
+        return sign * digits * 10**exp
+    number, rest = divmod(digits, 10**-exp)
+    if rest:
+        raise ConfigError(f"{prefix}takes a whole number, got {brief(value)}")
+    return sign * number
 
 
 def format_quantity(value: float, dimension: str, unit: str) -> str:

@@ -17,7 +17,7 @@ from pathlib import Path
 import click
 
 from .. import __version__
-from ..errors import ConfigError, RunInterrupted, Score4Error, Score4Warning, naming_file
+from ..errors import ConfigError, RunInterrupted, Score4Error, Score4Warning, brief, naming_file
 from .data import data
 from .decay_cmd import decay_command
 from .geometry import geometry
@@ -35,22 +35,18 @@ class EventCount(click.ParamType):
     name = "integer"
 
     def convert(self, value, param, ctx):
-        if isinstance(value, int) and not isinstance(value, bool):
-            number = value
-        else:
-            text = str(value).strip()
-            try:
-                number = int(text)
-            except ValueError:
-                try:
-                    as_float = float(text)
-                except ValueError:
-                    self.fail(f"{value!r} is not a number of events", param, ctx)
-                if not as_float.is_integer():
-                    self.fail(f"{value!r} is not a whole number of events", param, ctx)
-                number = int(as_float)
+        from ..limits import too_many_events
+        from ..units import parse_count
+
+        try:
+            number = parse_count(value)
+        except ConfigError:
+            self.fail(f"{brief(value)} is not a whole number of events", param, ctx)
         if number < 1:
-            self.fail(f"{value!r}: need at least 1 event", param, ctx)
+            self.fail(f"{brief(value)}: need at least 1 event", param, ctx)
+        problem = too_many_events(number)
+        if problem:
+            self.fail(problem, param, ctx)
         return number
 
 
@@ -140,6 +136,7 @@ def run(
     quiet,
 ) -> None:
     """Simulate the run described in CONFIG.yaml and write an HDF5 results file."""
+    from ..files import check_output_file
     from ..output import read_results, summarize
     from ..sim.engine import run as run_engine
 
@@ -149,6 +146,7 @@ def run(
 
     config = _load_with_overrides(config_file, events, seed)
     out = out or Path(config_file.stem + ".h5")
+    check_output_file(out, True, "--out", {"the configuration": config_file})
     with naming_file(config_file):
         run_engine(
             config,
@@ -187,9 +185,12 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
     file (source: {vertices: FILE}) with the same seed reproduces the direct run event by event,
     and the first N rows are the vertices of a run of N events.
     """
+    from .. import limits
     from ..config import config_to_dict
     from ..files import check_output_file
     from ..scene import build_scene
+    from ..schema import input_paths
+    from ..source.blocks import BLOCK_EVENTS
     from ..source.build import make_source, source_geometry
     from ..source.vertex_file import write_vertex_file
 
@@ -198,11 +199,20 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
         raise ConfigError(
             f"{config_file}: source.vertices: the source already reads a vertex file; nothing to draw"
         )
-    check_output_file(out, overwrite, "--out")
+    check_output_file(
+        out, overwrite, "--out", {"the configuration": config_file, **input_paths(config)}
+    )
     n, seed = config.run.events, config.run.seed
     with naming_file(config_file):
         scene = build_scene(config)
         source = make_source(config, scene)
+        sample = source.events(seed, 0, min(n, BLOCK_EVENTS))
+        limits.check_memory(
+            2 * n * limits.PRIMARY_BYTES * len(sample) / sample.n_events,
+            f"writing the vertices of {n} events",
+            "--n",
+            "write several files with different --seed values",
+        )
         primaries = source.events(seed, 0, n)
         where = source_geometry(config, scene)
     write_vertex_file(out, primaries, config_to_dict(config), seed, where)
@@ -263,6 +273,12 @@ def summary(results_file: Path, as_json: bool, bins, threshold: str) -> None:
             f"  energy check  {run['energy_violations']} events deposit more than their primaries' "
             f"energy + 1 eV" + (f" (largest excess {excess:.4g} keV)" if excess > 0 else "")
         )
+    if float(run.get("untracked_gamma_energy_MeV", 0.0)) > 0:
+        click.echo(
+            f"  photons       {float(run['untracked_gamma_energy_MeV']):.6g} MeV in "
+            f"{run.get('untracked_gamma_events', 0)} events not tracked (lite physics: gamma and "
+            f"X-ray primaries, annihilation photons; per event: events/untracked_gamma_energy)"
+        )
     if int(run.get("stuck_events_aborted", 0)):
         click.echo(
             f"  stuck tracks  {run['stuck_events_aborted']} events aborted by Geant4 (a track stuck "
@@ -321,6 +337,16 @@ _PYTHON_SHOWWARNING = warnings.showwarning
 _NO_ARGS_IS_HELP = getattr(click.exceptions, "NoArgsIsHelpError", ())
 
 
+#: Longest error line the CLI prints; longer messages (which quote other programs' output) are cut.
+MAX_ERROR_CHARS = 2000
+
+
+def one_line(text: str) -> str:
+    """An error message as one line of at most MAX_ERROR_CHARS characters."""
+    text = " ".join(part.strip() for part in text.splitlines() if part.strip())
+    return text if len(text) <= MAX_ERROR_CHARS else text[: MAX_ERROR_CHARS - 5] + " [...]"
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI; return the exit status (2 for input errors)."""
     _SHOWN.clear()
@@ -334,7 +360,7 @@ def _main(argv: list[str] | None) -> int:
     try:
         status = cli.main(args=argv, prog_name="score4", standalone_mode=False)
     except Score4Error as err:
-        click.echo(f"score4: error: {err}", err=True)
+        click.echo(f"score4: error: {one_line(str(err))}", err=True)
         return 2
     except click.exceptions.Exit as err:
         return err.exit_code
@@ -343,10 +369,10 @@ def _main(argv: list[str] | None) -> int:
         return 2
     except click.UsageError as err:
         path = command_path(cli, sys.argv[1:] if argv is None else list(argv))
-        click.echo(f"score4: error: {usage_error_line(err, path)}", err=True)
+        click.echo(f"score4: error: {one_line(usage_error_line(err, path))}", err=True)
         return 2
     except click.ClickException as err:
-        click.echo(f"score4: error: {err.format_message()}", err=True)
+        click.echo(f"score4: error: {one_line(err.format_message())}", err=True)
         return 2
     except click.exceptions.Abort as err:
         cause = err.__cause__ or err.__context__

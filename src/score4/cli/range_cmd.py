@@ -16,7 +16,7 @@ from pathlib import Path
 
 import click
 
-from ..errors import ConfigError, Score4Error
+from ..errors import ConfigError, Score4Error, brief
 from .quiet import notice, set_quiet
 
 # Rows of the comparison table: key, label, kind ("length" in nm, "fraction", "energy" in keV).
@@ -52,18 +52,13 @@ def nist_names() -> list[str]:
 
 def load_materials(path: Path) -> dict:
     """The ``materials:`` section of a YAML file (other sections are not read)."""
-    import yaml
     from pydantic import TypeAdapter, ValidationError
 
     from ..config import MaterialSpec
     from ..schema import describe_validation_error
+    from ..yamlfile import load_yaml
 
-    if not path.is_file():
-        raise ConfigError(f"--config: file {str(path)!r} does not exist")
-    try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except (yaml.YAMLError, UnicodeDecodeError) as err:
-        raise ConfigError(f"--config: {path}: not valid YAML ({err})") from None
+    data = load_yaml(path, "--config") or {}
     section = data.get("materials", {}) if isinstance(data, dict) else None
     if not isinstance(section, dict):
         raise ConfigError(f"--config: {path}: materials must be a mapping of names to materials")
@@ -216,7 +211,11 @@ def format_table(result: dict) -> str:
     "--events", "-n", default="1000", metavar="N", show_default=True, help="Ions to simulate."
 )
 @click.option(
-    "--seed", default="1", metavar="S", show_default=True, help="Random seed (score4 and TRIM)."
+    "--seed",
+    default="1",
+    metavar="S",
+    show_default=True,
+    help="Random seed; score4's TRIM libraries and the TRIM reference draw their own seeds from it.",
 )
 @click.option(
     "--thickness",
@@ -294,7 +293,7 @@ def range_command(
     if png is not None:
         from ..files import check_output_file
 
-        check_output_file(png, overwrite, "--png")
+        check_output_file(png, overwrite, "--png", {"the --config file": config_file})
     materials = load_materials(config_file) if config_file is not None else {}
     materials = resolve_material(material, density, materials)
 
@@ -341,12 +340,10 @@ def parse_case(ion, energy, events, srim_events, seed, thickness, angle, compare
     before any simulation starts.
     """
     from ..ions.species import parse_ion
-    from ..units import parse_quantity
+    from ..schema import quantity
 
     species = parse_ion(ion, "ION")
-    energy_mev = parse_quantity(energy, "energy", "ENERGY")
-    if not energy_mev > 0:
-        raise ConfigError(f"ENERGY: must be > 0, got {energy!r}")
+    energy_mev = quantity(energy, "energy", "ENERGY", positive=True)
     n_events = _positive_int(events, "--events")
     n_srim = _positive_int(srim_events, "--srim-events") if srim_events is not None else n_events
     seed_value = _int(seed, "--seed")
@@ -354,9 +351,7 @@ def parse_case(ion, energy, events, srim_events, seed, thickness, angle, compare
         raise ConfigError(f"--seed: must be in [0, 2147483562], got {seed!r}")
     thickness_mm = None
     if thickness is not None:
-        thickness_mm = parse_quantity(thickness, "length", "--thickness")
-        if not thickness_mm > 0:
-            raise ConfigError(f"--thickness: must be > 0, got {thickness!r}")
+        thickness_mm = quantity(thickness, "length", "--thickness", positive=True)
     try:
         angle_deg = float(str(angle).removesuffix("deg").strip())
     except ValueError:
@@ -404,16 +399,25 @@ def check_model_energy(species, energy_mev: float) -> None:
 
 
 def _int(text, option: str) -> int:
+    from ..units import parse_count
+
     try:
-        return int(str(text))
-    except ValueError:
-        raise ConfigError(f"{option}: expected an integer, got {text!r}") from None
+        return parse_count(text)
+    except ConfigError:
+        raise ConfigError(f"{option}: expected an integer, got {brief(text)}") from None
 
 
 def _positive_int(text, option: str) -> int:
+    from .. import limits
+
     value = _int(text, option)
     if value <= 0:
-        raise ConfigError(f"{option}: must be >= 1, got {text!r}")
+        raise ConfigError(f"{option}: must be >= 1, got {brief(text)}")
+    problem = limits.too_many_events(value)
+    if problem:
+        raise ConfigError(f"{option}: {problem}")
+    # every event keeps its end point and deposits in memory (~200 bytes)
+    limits.check_memory(200 * value, f"{value} events", option)
     return value
 
 
@@ -494,19 +498,23 @@ def run_range(
     }
     if srim_events is not None:
         from ..ions.srim_reference import srim_range_sample, stopping_table_reference
+        from ..sim.seeds import reference_trim_seed
 
-        echo(f"TRIM (lunasrim): {srim_events} ions ...")
+        # never the seed of score4's own trajectory libraries: an independent TRIM run
+        trim_seed = reference_trim_seed(seed)
+        echo(f"TRIM (lunasrim): {srim_events} ions, TRIM seed {trim_seed} ...")
         srim_sample = srim_range_sample(
             species,
             energy_mev,
             composition,
             srim_events,
-            seed,
+            trim_seed,
             thickness_mm=thickness_mm,
             angle_deg=angle_deg,
             progress=_quarters(echo),
         )
         srim = summarize(srim_sample)
+        srim["trim_seed"] = trim_seed
         if thickness_mm is None and angle_deg == 0:
             srim["table"] = stopping_table_reference(species, energy_mev, composition)
         result["srim"] = srim

@@ -49,7 +49,7 @@ import warnings
 from collections.abc import Generator, Iterable
 from concurrent.futures import ThreadPoolExecutor
 from concurrent.futures import TimeoutError as FutureTimeout
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -97,6 +97,7 @@ class ChunkOutput:
     info: dict
     log: str
     worker: str
+    columns: dict[str, np.ndarray] = field(default_factory=dict)  # more per-event columns
 
 
 class DaskExecutor:
@@ -254,6 +255,7 @@ def _store(spec: WorkerSpec, result: ChunkOutput) -> None:
         result.scores,
         result.primaries,
         spec.fingerprint,
+        columns=result.columns,
     )
     if result.log:
         with (
@@ -333,6 +335,7 @@ def _run_chunk_here(spec: WorkerSpec, chunk: Chunk, stop: threading.Event) -> Ch
         ready_info(sim),
         _new_log_text(),
         f"{socket.gethostname()}-{os.getpid()}",
+        sim.event_columns(),
     )
 
 
@@ -346,7 +349,7 @@ def _simulation(spec: WorkerSpec):
         try:
             with warnings.catch_warnings():  # the client has shown them already
                 warnings.simplefilter("ignore", Score4Warning)
-                _held["sim"] = Simulation(spec.config, spec.choice, log_path=log)
+                _held["sim"] = Simulation(spec.config, spec.choice, log_path=log, seed=spec.seed)
         except BaseException as err:
             _held["error"] = err
             raise

@@ -1,4 +1,4 @@
-"""Primaries handed to Geant4 event by event, heavy ions held back for the TRIM replay.
+"""Primaries handed to Geant4 event by event, some rows kept back (TRIM replay, untracked photons).
 
 Shared by score4's own application (:class:`score4.sim.simulation.Simulation`) and the primary
 generator of the library (:class:`score4.api.PrimaryGenerator`), so that a user's geant4_pybind
@@ -7,9 +7,11 @@ program and ``score4 run`` fill their events the same way:
 * every event may start from its own Geant4 seed (:func:`score4.sim.seeds.event_geant4_seeds`),
   set when the event's primaries are generated, so its result does not depend on the events
   tracked before it;
-* the rows :func:`score4.sim.heavy_ions.trim_mask` marks are not given to Geant4; after Geant4
-  has tracked the event, each follows a TRIM trajectory, drawn from a random stream of its own
-  (:meth:`EventFeed.replay_rng`), so the replay too is the same in any chunking.
+* rows can be kept from Geant4 (``skip``): the heavy ions
+  :func:`score4.sim.heavy_ions.trim_mask` marks, which after Geant4 has tracked the event follow
+  TRIM trajectories (:func:`replay_row`), each from a random stream of its own
+  (:meth:`EventFeed.replay_rng`), so the replay too is the same in any chunking; and photons
+  lite physics cannot track.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..source.primaries import Primaries
+from .heavy_ions import ReplayStream
 
 #: Mixed into the seeds of the heavy-ion replay's random streams.
 REPLAY_STREAM = 0x5C0E4
@@ -38,8 +41,9 @@ class EventFeed:
     g4_seed
         One Geant4 seed for the whole batch (set once by the caller), or one per event
         (``(n_events,)`` integers), set as each event is generated.
-    held
-        Rows not given to Geant4 (heavy ions for the TRIM replay); None: none.
+    skip
+        Rows not given to Geant4 (heavy ions for the TRIM replay, photons lite physics cannot
+        track); None: none.
     positions
         Where each row starts in Geant4 (default: the primaries' positions; portal tiling maps
         vertices in a portal box to their subworld point).
@@ -54,7 +58,7 @@ class EventFeed:
         primaries: Primaries,
         definitions: Sequence,
         g4_seed: int | np.ndarray,
-        held: np.ndarray | None = None,
+        skip: np.ndarray | None = None,
         positions: np.ndarray | None = None,
         reseed: bool = True,
     ) -> None:
@@ -63,7 +67,7 @@ class EventFeed:
         self.primaries = primaries
         self.definitions = list(definitions)
         self.offsets = primaries.event_offsets()
-        self.held = np.zeros(len(primaries), dtype=bool) if held is None else np.asarray(held)
+        self.skip = np.zeros(len(primaries), dtype=bool) if skip is None else np.asarray(skip)
         self.positions = primaries.position if positions is None else positions
         self.seeds = np.asarray(g4_seed)
         if self.seeds.ndim and len(self.seeds) != primaries.n_events:
@@ -71,31 +75,24 @@ class EventFeed:
                 f"g4_seed: need one seed per event ({primaries.n_events}), got {len(self.seeds)}"
             )
         self._batch_rng = (
-            np.random.default_rng([int(self.seeds), REPLAY_STREAM])
-            if self.seeds.ndim == 0
-            else None
+            ReplayStream(int(self.seeds), REPLAY_STREAM) if self.seeds.ndim == 0 else None
         )
 
     @property
     def n_events(self) -> int:
         return self.primaries.n_events
 
-    def rows(self, k: int) -> range:
-        """The rows of event ``k``."""
-        return range(int(self.offsets[k]), int(self.offsets[k + 1]))
+    def rows_of(self, k: int, mask: np.ndarray) -> np.ndarray:
+        """The rows of event ``k`` that ``mask`` (one entry per row) marks."""
+        first = int(self.offsets[k])
+        return first + np.flatnonzero(mask[first : int(self.offsets[k + 1])])
 
     def geant4_rows(self, k: int) -> np.ndarray:
         """The rows of event ``k`` given to Geant4, in the order of their primary tracks."""
-        rows = np.arange(self.offsets[k], self.offsets[k + 1])
-        return rows[~self.held[rows]]
-
-    def held_rows(self, k: int) -> np.ndarray:
-        """The rows of event ``k`` held back for the TRIM replay."""
-        rows = np.arange(self.offsets[k], self.offsets[k + 1])
-        return rows[self.held[rows]]
+        return self.rows_of(k, ~self.skip)
 
     def fill(self, gun, event, k: int) -> None:
-        """Put event ``k``'s primaries (all but the held rows) into the G4Event ``event``
+        """Put event ``k``'s primaries (all but the skipped rows) into the G4Event ``event``
         through the G4ParticleGun ``gun``; set the event's Geant4 seed first if it has one."""
         g4, p = self.g4, self.primaries
         if self.seeds.ndim and self.reseed:
@@ -107,18 +104,17 @@ class EventFeed:
             gun.SetParticleMomentumDirection(g4.G4ThreeVector(*p.direction[row]))
             gun.GeneratePrimaryVertex(event)
 
-    def replay_rng(self, k: int, row: int) -> np.random.Generator:
-        """The random stream of held row ``row`` of event ``k``: its own with per-event seeds
-        (so the first N events of a run replay the same in a longer run), else the batch's."""
+    def replay_rng(self, k: int, row: int) -> ReplayStream:
+        """The random stream of the replay of row ``row`` of event ``k``: its own with per-event
+        seeds (so the first N events of a run replay the same in a longer run), else the
+        batch's."""
         if self._batch_rng is not None:
             return self._batch_rng
-        return np.random.default_rng(
-            [int(self.seeds[k]), REPLAY_STREAM, row - int(self.offsets[k])]
-        )
+        return ReplayStream(int(self.seeds[k]), REPLAY_STREAM, row - int(self.offsets[k]))
 
 
 def replay_row(transport, feed: EventFeed, k: int, row: int):
-    """Move held row ``row`` of event ``k`` along a TRIM trajectory with
+    """Move row ``row`` (kept from Geant4) of event ``k`` along a TRIM trajectory with
     :class:`score4.sim.heavy_ions.HeavyIonTransport` ``transport``; returns its
     :class:`~score4.sim.heavy_ions.IonFate` (deposits by scoring index)."""
     p = feed.primaries

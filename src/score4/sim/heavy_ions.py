@@ -22,6 +22,8 @@ safety sphere are summed in numpy without asking the navigator.
 
 from __future__ import annotations
 
+import bisect
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -30,7 +32,7 @@ import numpy as np
 
 from ..errors import Score4Error
 from ..ions.composition import Composition
-from ..ions.trim_library import TrajectoryLibrary, rotation_from_x, trim_library
+from ..ions.trim_library import TrajectoryLibrary, trim_library
 from ..source.primaries import Primaries
 
 #: Materials thinner than this (g/cm3) are vacuum for a heavy ion: it crosses them in a line.
@@ -54,18 +56,20 @@ def trim_mask(
 ) -> np.ndarray:
     """Rows of ``primaries`` that follow TRIM trajectories instead of Geant4.
 
-    Ions heavier than helium up to ``max_energy`` (MeV) with ``heavy_ions="trim"``, and alphas
-    of any energy with ``alphas="trim"`` (the settings ``physics.heavy_ions``,
+    Ions heavier than helium of kinetic energy in (0, ``max_energy``] (MeV) with
+    ``heavy_ions="trim"`` (an ion at rest, a nuclide source, is Geant4's radioactive decay's),
+    and alphas of any energy with ``alphas="trim"`` (the settings ``physics.heavy_ions``,
     ``physics.alphas`` and ``physics.trim_max_energy`` of a run configuration).
     ``definition(name)`` gives the G4ParticleDefinition of a particle name.
     """
     mask = np.zeros(len(primaries), dtype=bool)
+    energy = primaries.energy
     for name in np.unique(primaries.particle):
         rows = primaries.particle == name
         if name == "alpha" and alphas == "trim":
             mask |= rows
         elif heavy_ions == "trim" and heavy_ion_z(definition(str(name))):
-            mask |= rows & (primaries.energy <= max_energy)
+            mask |= rows & (energy <= max_energy) & (energy > 0)
     return mask
 
 
@@ -78,6 +82,62 @@ class IonFate:
     deposits: dict[int, float] = field(default_factory=dict)  # scoring index -> MeV
     lengths: dict[int, float] = field(default_factory=dict)  # scoring index -> mm in matter
     crossings: int = 0  # boundaries crossed
+    volume: str = ""  # logical volume where it stopped ("" when it left the world)
+    material: str = ""  # material there ("" when it left the world)
+
+    @property
+    def stopped(self) -> bool:
+        """True when the ion came to rest inside the world."""
+        return self.escaped_energy == 0.0 and bool(self.volume)
+
+
+@dataclass(frozen=True)
+class _Volume:
+    pv: object  # the physical volume's wrapper, kept alive (see HeavyIonTransport._volume)
+    logical: str  # logical volume name
+    material: object
+    material_name: str
+    vacuum: bool
+    index: int | None  # scoring column, None if not scored
+
+
+class ReplayStream:
+    """A small random stream for one replayed ion: SplitMix64 on Python integers.
+
+    Creating a numpy Generator from a seed sequence costs ~15-60 us, more than the rest of a
+    short replay; this stream costs nothing to create and ~0.3 us per draw. It offers the two
+    draws the replay uses, ``integers(n)`` and ``uniform(a, b)``.
+    """
+
+    __slots__ = ("_state",)
+    _MASK = (1 << 64) - 1
+
+    def __init__(self, seed: int, stream: int = 0, index: int = 0) -> None:
+        # distinct (seed, stream, index) give distinct, decorrelated starting states
+        mixed = self._mix(int(seed) ^ (int(stream) << 40) ^ 0x5C0E4F00D)
+        self._state = self._mix(mixed + int(index) * 0x9E3779B97F4A7C15)
+
+    @classmethod
+    def _mix(cls, z: int) -> int:
+        z &= cls._MASK
+        z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & cls._MASK
+        z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & cls._MASK
+        return z ^ (z >> 31)
+
+    def _next(self) -> int:
+        self._state = (self._state + 0x9E3779B97F4A7C15) & self._MASK
+        return self._mix(self._state)
+
+    def random(self) -> float:
+        """Uniform in [0, 1) (53 bits)."""
+        return (self._next() >> 11) * (1.0 / 9007199254740992.0)
+
+    def uniform(self, low: float, high: float) -> float:
+        return low + (high - low) * self.random()
+
+    def integers(self, n: int) -> int:
+        """Uniform in 0 .. n - 1 (n < 2**32; the bias of the multiply-shift is < n / 2**64)."""
+        return (self._next() * int(n)) >> 64
 
 
 class HeavyIonTransport:
@@ -98,8 +158,10 @@ class HeavyIonTransport:
         self.histories = histories
         self.library_seed = library_seed
         self._libraries: dict[tuple[str, str, float], TrajectoryLibrary] = {}
-        self._energies: dict[str, set[float]] = {}
+        self._energies: dict[str, list[float]] = {}  # announced start energies, sorted
         self._compositions: dict[str, Composition] = {}
+        self._vacuum = VACUUM_DENSITY * g4.g / g4.cm3
+        self._volumes: dict[int, _Volume] = {}
 
     # -- libraries -------------------------------------------------------------------------------
 
@@ -110,14 +172,21 @@ class HeavyIonTransport:
         matter, a new material) starts after a collision that took the ion to or below the
         wanted energy, a little lower on average (``tests/test_heavy_ions.py`` measures it).
         """
-        energies = self._energies.setdefault(ion, set())
-        energies.add(round(float(energy), 12))
+        energies = self._energies.setdefault(ion, [])
+        energy = round(float(energy), 12)
+        k = bisect.bisect_left(energies, energy)
+        if k == len(energies) or energies[k] != energy:
+            energies.insert(k, energy)
 
-    def library(self, particle, ion: str, material, energy: float) -> TrajectoryLibrary:
-        """The library of the smallest announced energy >= ``energy`` in ``material``."""
-        name = str(material.GetName())
-        candidates = sorted(e for e in self._energies.get(ion, ()) if e >= energy * (1 - 1e-12))
-        target = candidates[0] if candidates else float(energy)
+    def library(
+        self, particle, ion: str, material, energy: float, name: str | None = None
+    ) -> TrajectoryLibrary:
+        """The library of the smallest announced energy >= ``energy`` in ``material``
+        (``name``: the material's name, if known)."""
+        name = str(material.GetName()) if name is None else name
+        energies = self._energies.get(ion, [])
+        k = bisect.bisect_left(energies, energy * (1 - 1e-12))
+        target = energies[k] if k < len(energies) else float(energy)
         key = (ion, name, target)
         lib = self._libraries.get(key)
         if lib is None:
@@ -148,7 +217,29 @@ class HeavyIonTransport:
         )
 
     def _is_vacuum(self, material) -> bool:
-        return float(material.GetDensity()) < VACUUM_DENSITY * self.g4.g / self.g4.cm3
+        return float(material.GetDensity()) < self._vacuum
+
+    def _volume(self, pv) -> _Volume:
+        """What the replay needs of a physical volume, asked of Geant4 once per volume.
+
+        Keyed by the wrapper's id: the cache holds the wrapper, so pybind11 hands out the same
+        one for the same volume and the id cannot be reused.
+        """
+        hit = self._volumes.get(id(pv))
+        if hit is None:
+            logical = pv.GetLogicalVolume()
+            material = logical.GetMaterial()
+            name = str(logical.GetName())
+            hit = _Volume(
+                pv,
+                name,
+                material,
+                str(material.GetName()),
+                self._is_vacuum(material),
+                self.index.get(name),
+            )
+            self._volumes[id(pv)] = hit
+        return hit
 
     def transport(
         self,
@@ -157,12 +248,21 @@ class HeavyIonTransport:
         energy: float,
         position,
         direction,
-        rng: np.random.Generator,
+        rng,
+        announce: bool = True,
     ) -> IonFate:
-        """Move one ion (``energy`` MeV from ``position`` mm along unit ``direction``)."""
-        self.need(ion, energy)
-        pos = np.asarray(position, dtype=float).copy()
-        d = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
+        """Move one ion (``energy`` MeV from ``position`` mm along unit ``direction``).
+
+        ``rng``: a :class:`ReplayStream` or a numpy Generator (``integers``, ``uniform``).
+        ``announce``: give this ion a library of exactly its energy (:meth:`need`); with
+        False it continues a library of an energy announced before, from inside.
+        """
+        if announce:
+            self.need(ion, energy)
+        pos = np.array(position, dtype=float)
+        dx, dy, dz = (float(c) for c in direction)
+        norm = math.sqrt(dx * dx + dy * dy + dz * dz)
+        d = np.array([dx / norm, dy / norm, dz / norm])
         fate = IonFate(pos, 0.0)
         pv = self._locate(pos, d, relative=False)
         e = float(energy)
@@ -175,8 +275,8 @@ class HeavyIonTransport:
             if pv is None:  # left the world
                 fate.escaped_energy = e
                 break
-            material = pv.GetLogicalVolume().GetMaterial()
-            if self._is_vacuum(material):
+            here = self._volume(pv)
+            if here.vacuum:
                 step = self.nav.ComputeStep(self._vec(pos), self._vec(d), _FAR, 0.0)
                 if step >= _FAR:
                     fate.escaped_energy = e
@@ -186,97 +286,139 @@ class HeavyIonTransport:
                 pv = self._locate(pos, d, relative=True)
                 fate.crossings += 1
                 continue
-            lib = self.library(particle, ion, material, e)
-            rel, energies, arrivals, left = lib.continuation(e, rng)
-            points = pos + rel @ rotation_from_x(d).T
-            end = self._walk(points, energies, arrivals, pv, fate)
-            if end is None:  # the history ended inside matter of this material
+            lib = self.library(particle, ion, here.material, e, here.material_name)
+            k, i, end, azimuth = lib.pick(e, rng)
+            if i >= end - 1:  # at rest already
+                e = 0.0
+                break
+            points = pos + (lib.points[i:end] - lib.points[i]) @ lib.turn(i, azimuth, d).T
+            out = self._walk(
+                points, e, lib.energies[i:end], lib.arrivals[i:end], lib.walked[i:end], pv, fate
+            )
+            if out is None:  # the history ended inside matter of this material
                 pos = points[-1]
-                e = float(energies[-1])
-                if not left:
+                e = float(lib.energies[end - 1])
+                if not lib.left[k]:
                     e = 0.0
                     break
                 # TRIM's layer ended (rare): go on from its last point in the same direction
                 d = points[-1] - points[-2]
-                d /= np.linalg.norm(d)
+                d /= math.sqrt(float(d @ d))
                 pv = self._locate(pos, d, relative=False)
                 continue
-            pos, e, d, pv = end
+            pos, e, d, pv = out
         fate.position = pos
+        if e == 0.0 and pv is not None:
+            here = self._volume(pv)
+            fate.volume, fate.material = here.logical, here.material_name
         return fate
 
     def _walk(
-        self, points: np.ndarray, energies: np.ndarray, arrivals: np.ndarray, pv, fate: IonFate
+        self,
+        points: np.ndarray,
+        energy: float,
+        energies: np.ndarray,
+        arrivals: np.ndarray,
+        walked: np.ndarray,
+        pv,
+        fate: IonFate,
     ):
         """Deposit along ``points`` while they stay in matter of ``pv``'s material.
 
         A whole piece deposits what the ion loses from one point to the next, collision at the
         end included; a piece cut by a boundary deposits its share of the electronic loss only
-        (the collision at its end does not happen).
+        (the collision at its end does not happen). ``energies``/``arrivals``: the ion's energy
+        after/before each point's collision (at the first point it has ``energy``);
+        ``walked``: path length to each point (from any origin).
 
         Crossing into another volume of the same material (a neighbouring patch, the target
         under a rough layer) keeps the history. Returns ``(point, energy, direction, volume)``
         where it enters other matter or vacuum, or None when the polyline ends.
+
+        Points within the safety distance of the last point the navigator was asked about are
+        inside the volume and passed in one go: the path length from that point bounds their
+        distance (a bisection), and the next few are tested one by one; only the piece that
+        leaves the sphere is asked about (``ComputeStep``). Plain floats: per-piece numpy calls
+        cost more than the arithmetic.
         """
-        g4 = self.g4
         nav = self.nav
-        vec = g4.G4ThreeVector
-        material = str(pv.GetLogicalVolume().GetMaterial().GetName())
-        volume = self.index.get(str(pv.GetLogicalVolume().GetName()))
-        m = len(points)
-        pieces = points[1:] - points[:-1]
-        piece_length = np.sqrt(np.einsum("ij,ij->i", pieces, pieces))
-        walked = np.concatenate([[0.0], np.cumsum(piece_length)])  # path length to each point
-        i = 0  # the ion is on piece i, from `cur` to points[i + 1]
-        cur, e_cur, s_cur = points[0], float(energies[0]), 0.0
-        centre = cur
-        safety = nav.ComputeSafety(vec(*cur), _FAR, True)
-        while i < m - 1:
-            # whole pieces whose ends lie in the safety sphere about `centre` are in the volume
-            if safety > 0:
-                rest = points[i + 1 :] - centre
-                outside = np.einsum("ij,ij->i", rest, rest) >= safety * safety
-                j = i + (int(np.argmax(outside)) if outside.any() else m - 1 - i)
-                if j > i:
-                    _add(fate.deposits, volume, e_cur - float(energies[j]))
-                    _add(fate.lengths, volume, float(walked[j]) - s_cur)
-                    i, cur, e_cur, s_cur = j, points[j], float(energies[j]), float(walked[j])
-                    if i >= m - 1:
+        vec = self.g4.G4ThreeVector
+        here = self._volume(pv)
+        material, volume = here.material_name, here.index
+        xs, ys, zs = points.T.tolist()
+        es, ars, ws = energies.tolist(), arrivals.tolist(), walked.tolist()
+        es[0] = ars[0] = energy
+        last = len(xs) - 1
+        i = 0  # the ion is on piece i, from (cx, cy, cz) to point i + 1
+        cx, cy, cz = xs[0], ys[0], zs[0]
+        e_cur, s_cur = energy, ws[0]
+        dep = length_in = 0.0  # in `volume`, not yet booked
+        located = vec(cx, cy, cz)  # where the navigator stands (the caller located it there)
+        safety = nav.ComputeSafety(located, _FAR, True)
+        bisect_left = bisect.bisect_left
+        while i < last:
+            # points inside the safety sphere about the current point are in the volume
+            if safety > 0.0:
+                j = bisect_left(ws, s_cur + safety, i + 1) - 1  # path-length bound
+                s2 = safety * safety
+                while j < last:
+                    dx, dy, dz = xs[j + 1] - cx, ys[j + 1] - cy, zs[j + 1] - cz
+                    if dx * dx + dy * dy + dz * dz >= s2:
                         break
-            b = points[i + 1]
-            length = float(walked[i + 1]) - s_cur
+                    j += 1
+                if j > i:
+                    dep += e_cur - es[j]
+                    length_in += ws[j] - s_cur
+                    i, cx, cy, cz, e_cur, s_cur = j, xs[j], ys[j], zs[j], es[j], ws[j]
+                    located = None
+                    if i >= last:
+                        break
+            length = ws[i + 1] - s_cur
             if length <= 0.0:
                 i += 1
                 continue
-            u = (b - cur) / length
-            pa = vec(*cur)
-            nav.LocateGlobalPointWithinVolume(pa)
-            step = nav.ComputeStep(pa, vec(*u), length, 0.0)
+            inv = 1.0 / length
+            ux, uy, uz = (xs[i + 1] - cx) * inv, (ys[i + 1] - cy) * inv, (zs[i + 1] - cz) * inv
+            if located is None:
+                located = vec(cx, cy, cz)
+                nav.LocateGlobalPointWithinVolume(located)
+            step = nav.ComputeStep(located, vec(ux, uy, uz), length, 0.0)
             if step >= length:
-                _add(fate.deposits, volume, e_cur - float(energies[i + 1]))
-                _add(fate.lengths, volume, length)
-                i, cur, e_cur, s_cur = i + 1, b, float(energies[i + 1]), float(walked[i + 1])
-                centre = cur
-                pb = vec(*cur)
-                nav.LocateGlobalPointWithinVolume(pb)
-                safety = nav.ComputeSafety(pb, _FAR, True)
+                i += 1
+                dep += e_cur - es[i]
+                length_in += length
+                cx, cy, cz, e_cur, s_cur = xs[i], ys[i], zs[i], es[i], ws[i]
+                located = vec(cx, cy, cz)
+                nav.LocateGlobalPointWithinVolume(located)
+                safety = nav.ComputeSafety(located, _FAR, True)
                 continue
-            lost = (e_cur - float(arrivals[i + 1])) * step / length
-            _add(fate.deposits, volume, lost)
-            _add(fate.lengths, volume, step)
-            cur, e_cur, s_cur = cur + step * u, e_cur - lost, s_cur + step
+            lost = (e_cur - ars[i + 1]) * step * inv
+            dep += lost
+            length_in += step
+            cx, cy, cz = cx + step * ux, cy + step * uy, cz + step * uz
+            e_cur, s_cur = e_cur - lost, s_cur + step
             fate.crossings += 1
+            _book(fate, volume, dep, length_in)
+            dep = length_in = 0.0
+            cur, u = np.array([cx, cy, cz]), np.array([ux, uy, uz])
             nav.SetGeometricallyLimitedStep()
             nxt = self._locate(cur, u, relative=True)
-            if nxt is None or str(nxt.GetLogicalVolume().GetMaterial().GetName()) != material:
+            if nxt is None:
                 return cur, e_cur, u, nxt
-            volume = self.index.get(str(nxt.GetLogicalVolume().GetName()))
-            centre, safety = cur, 0.0
-        return (
-            None  # a stopped history's last energy is 0 (TRIM's <= 1 eV rest is in its last piece)
-        )
+            there = self._volume(nxt)
+            if there.material_name != material:
+                return cur, e_cur, u, nxt
+            volume = there.index
+            located = vec(cx, cy, cz)  # _locate put the navigator here
+            safety = 0.0
+        _book(fate, volume, dep, length_in)
+        # a stopped history's last energy is 0 (TRIM's <= 1 eV rest is in its last piece)
+        return None
 
 
-def _add(table: dict[int, float], key: int | None, value: float) -> None:
-    if key is not None and value:
-        table[key] = table.get(key, 0.0) + value
+def _book(fate: IonFate, volume: int | None, deposit: float, length: float) -> None:
+    if volume is not None:
+        if deposit:
+            fate.deposits[volume] = fate.deposits.get(volume, 0.0) + deposit
+        if length:
+            fate.lengths[volume] = fate.lengths.get(volume, 0.0) + length

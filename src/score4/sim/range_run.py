@@ -143,7 +143,7 @@ def simulate_ranges(
     choice = resolve_physics(config.physics.mode)
     if log_path is None:
         log_path = Path(tempfile.mkdtemp(prefix="score4-range-")) / "geant4.log"
-    sim = Simulation(config, choice, log_path=log_path)
+    sim = Simulation(config, choice, log_path=log_path, seed=int(seed))
     scores = sim.run(beams(cases, events), int(seed), endpoints=True)
     endpoints = sim.endpoints
     assert endpoints is not None  # asked for above

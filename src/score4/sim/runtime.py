@@ -18,9 +18,10 @@ from ..errors import PhysicsUnavailableError
 
 # What lite physics cannot do, said once to the user and stored with every run.
 LITE_LACKS = (
-    "standard EM (option0) instead of option4; "
-    "no bremsstrahlung, and gammas cross matter without interacting; "
-    "no fluorescence/Auger; no radioactive decay"
+    "standard EM (option0) instead of option4; electrons and positrons are tracked "
+    "(ionisation, multiple scattering) without bremsstrahlung; gammas and X-rays are not "
+    "tracked (Geant4 has no data-free photoelectric model), their energy is counted "
+    "(events/untracked_gamma_energy); no fluorescence/Auger; no radioactive decay"
 )
 
 
@@ -39,9 +40,9 @@ class PhysicsChoice:
         if self.mode == "lite" and self.requested == "auto":
             missing = ", ".join(self.missing_data) or "none"
             return (
-                f"physics: lite mode (Geant4 data sets missing: {missing}): alpha and ion "
-                "transport only, no radioactive decay; 'score4 summary' of the results lists what "
-                "else it lacks; 'score4 data install' gives full physics"
+                f"physics: lite mode (Geant4 data sets missing: {missing}): alpha, ion and "
+                "electron transport, gammas not tracked, no radioactive decay; 'score4 summary' "
+                "of the results lists what else it lacks; 'score4 data install' gives full physics"
             )
         return None
 

@@ -9,6 +9,11 @@
 So event ``k`` is the same event, with the same energy deposits, whatever the number of events,
 the chunk size, the number of workers or the executor; and the first N events of a run are a
 run of N events.
+
+- TRIM: the trajectory libraries of a run (:mod:`score4.ions.trim_library`) are built with the
+  TRIM seed :func:`library_trim_seed` of the run seed, so runs with other seeds replay other
+  histories; ``score4 range --compare-srim`` runs its TRIM reference with
+  :func:`reference_trim_seed`, never equal to the library seed of the same run.
 """
 
 from __future__ import annotations
@@ -17,7 +22,18 @@ import numpy as np
 
 from ..source.blocks import BLOCK_EVENTS, block_rng
 
-__all__ = ["BLOCK_EVENTS", "block_rng", "event_geant4_seeds"]
+__all__ = [
+    "BLOCK_EVENTS",
+    "block_rng",
+    "event_geant4_seeds",
+    "library_trim_seed",
+    "reference_trim_seed",
+]
+
+#: TRIM's seeds are integers in [1, TRIM_SEED_MAX] (lunasrim; 0 means TRIM's own default).
+TRIM_SEED_MAX = 2147483562
+_LIBRARY_STREAM = 2
+_REFERENCE_STREAM = 3
 
 
 def event_geant4_seeds(seed: int, first_event: int, n_events: int) -> np.ndarray:
@@ -37,3 +53,25 @@ def event_geant4_seeds(seed: int, first_event: int, n_events: int) -> np.ndarray
             words[max(first_event, start) - start : min(stop, start + BLOCK_EVENTS) - start]
         )
     return np.concatenate(parts) if parts else np.zeros(0, np.uint64)
+
+
+def _trim_seed(seed: int, stream: int) -> int:
+    word = np.random.SeedSequence(int(seed), spawn_key=(stream,)).generate_state(1, np.uint64)[0]
+    return 1 + int(word % np.uint64(TRIM_SEED_MAX))
+
+
+def library_trim_seed(seed: int) -> int:
+    """TRIM seed of the trajectory libraries of a run with seed ``seed`` (1 .. TRIM_SEED_MAX)."""
+    return _trim_seed(seed, _LIBRARY_STREAM)
+
+
+def reference_trim_seed(seed: int) -> int:
+    """TRIM seed of an independent reference for a run with seed ``seed`` (``--compare-srim``).
+
+    Drawn from its own stream and never equal to :func:`library_trim_seed` of the same seed,
+    so a comparison never replays the histories it is compared with.
+    """
+    value = _trim_seed(seed, _REFERENCE_STREAM)
+    if value == library_trim_seed(seed):
+        value = value % TRIM_SEED_MAX + 1
+    return value

@@ -22,6 +22,8 @@ from ..scene import build_scene
 from ..source.build import make_source
 from ..source.primaries import Primaries
 from .feed import EventFeed, replay_row
+from .heavy_ions import IonFate
+from .interception import InterceptedIon, make_stacking_action, needs_interception
 from .physics import (
     drop_unused_parallel_world_region,
     make_physics_list,
@@ -30,6 +32,7 @@ from .physics import (
 )
 from .runtime import PhysicsChoice, import_geant4, redirect_native_output
 from .scoring import VolumeScorer
+from .seeds import library_trim_seed
 
 if TYPE_CHECKING:
     from .heavy_ions import HeavyIonTransport
@@ -65,9 +68,16 @@ class Simulation:
     scorer: VolumeScorer
 
     def __init__(
-        self, config: RunConfig, choice: PhysicsChoice, log_path: Path | None = None
+        self,
+        config: RunConfig,
+        choice: PhysicsChoice,
+        log_path: Path | None = None,
+        seed: int | None = None,
     ) -> None:
+        """``seed``: the run seed (default ``config.run.seed``); it fixes the TRIM seed of the
+        trajectory libraries (:func:`score4.sim.seeds.library_trim_seed`)."""
         self.config = config
+        self.run_seed = config.run.seed if seed is None else int(seed)
         self.scene = build_scene(config)
         self.source = make_source(config, self.scene)
         self.choice = choice
@@ -153,9 +163,16 @@ class Simulation:
                 self.geometry.world,
                 self.geometry.scoring,
                 histories=self.config.physics.trim_histories,
+                library_seed=library_trim_seed(self.run_seed),
             )
         self._endpoint_action: Any = None
+        self._next_event = 0  # index in the batch of the event being tracked
         self._replaying = False  # this batch has heavy ions to replay
+        self._interceptor: Any = None  # stacking action for heavy-ion secondaries, once needed
+        #: heavy-ion secondaries taken from Geant4 in the last :meth:`run` (``interception``)
+        self.intercepted: list[InterceptedIon] = []
+        #: how each replayed primary ended in the last :meth:`run`: {row of primaries: fate}
+        self.ion_fates: dict[int, IonFate] = {}
         self.endpoints: np.ndarray | None = None
         self._particles: dict[str, object] = {}
         self.volumes = list(self.scorer.names)
@@ -179,19 +196,45 @@ class Simulation:
             primaries, self.particle, physics.heavy_ions, physics.alphas, physics.trim_max_energy
         )
 
+    def untracked_rows(self, primaries: Primaries) -> np.ndarray:
+        """Rows of ``primaries`` that are photons lite physics cannot track (no data-free
+        photoelectric model in Geant4 11.4: docs/physics.md#gammas-and-x-rays-in-lite-mode).
+        Their energies are counted per event (:meth:`event_columns`), not given to Geant4."""
+        if self.choice.mode != "lite":
+            return np.zeros(len(primaries), dtype=bool)
+        return np.asarray(primaries.particle == "gamma")
+
+    def event_columns(self) -> dict[str, np.ndarray]:
+        """More per-event columns of the last :meth:`run` for the results file.
+
+        Lite physics: ``untracked_gamma_energy`` (MeV), the energy of the event's photons
+        (gamma and X-ray primaries, annihilation photons) that were not tracked."""
+        if self.choice.mode != "lite":
+            return {}
+        return {"untracked_gamma_energy": self.untracked_gamma}
+
+    def untrack(self, k: int, energy: float) -> None:
+        """Count a photon of ``energy`` MeV that event ``k`` created and lite physics drops."""
+        self.untracked_gamma[k] += energy
+
     def _generate(self, gun, event) -> None:
         k = self._next_event
         feed = self._feed
         if self.teleporter is not None:
             self.teleporter.begin_event(int(feed.offsets[k]), int(feed.offsets[k + 1]))
-        feed.fill(gun, event, k)
+        feed.fill(gun, event, k)  # not the rows replayed on TRIM or gammas lite cannot track
 
     def _score(self, event) -> None:
         k = self._next_event
         self.scorer.read(event, self._scores, k)
+        self._scored = True
+        for fate in self._pending:  # heavy-ion secondaries replayed during the event
+            self.book(k, fate)
+        self._pending.clear()
         if self._replaying:
             self._replay_event(k)
         self._next_event += 1
+        self._scored = False
 
     def run(
         self,
@@ -218,8 +261,9 @@ class Simulation:
         ``stop``, set from another thread, ends the run after the event being tracked
         (:meth:`_check_stop`) and raises :class:`RunCancelled`; the application stays usable.
         """
-        for name in np.unique(primaries.particle):
-            self.particle(str(name))
+        names = [str(name) for name in np.unique(primaries.particle)]
+        for name in names:
+            self.particle(name)
         n = primaries.n_events
         self._primaries = primaries
         # Portal tiling: vertices in a portal box start at their subworld point.
@@ -230,11 +274,26 @@ class Simulation:
         )
         definitions = [self._particles[str(name)] for name in primaries.particle]
         self._trim = self.trim_rows(primaries)
-        self._feed = EventFeed(self.g4, primaries, definitions, g4_seed, self._trim, positions)
         self._scores = {q: np.zeros((n, len(self.volumes))) for q in self.quantities}
+        self._untracked_rows = (
+            self.untracked_rows(primaries)
+            if "gamma" in names
+            else np.zeros(len(primaries), dtype=bool)
+        )
+        self._skip = self._trim | self._untracked_rows
+        self._feed = EventFeed(self.g4, primaries, definitions, g4_seed, self._skip, positions)
+        self.untracked_gamma = np.bincount(
+            primaries.event[self._untracked_rows],
+            weights=primaries.energy[self._untracked_rows],
+            minlength=n,
+        ).astype(float)
         self.endpoints = np.full((len(primaries), 4), np.nan) if endpoints else None
         self._track_endpoints(endpoints)
-        self._prepare_replay(primaries)
+        self._prepare_replay(primaries, g4_seed)
+        self.intercepted, self.ion_fates = [], {}
+        self._pending: list[IonFate] = []
+        self._scored = False
+        self._intercept(names)
         self._next_event = 0
         if np.ndim(g4_seed) == 0:
             self.g4.G4Random.setTheSeed(int(g4_seed))
@@ -250,29 +309,81 @@ class Simulation:
         self._report_progress(final=True)
         return self._scores
 
-    def _prepare_replay(self, primaries: Primaries) -> None:
+    def _prepare_replay(self, primaries: Primaries, g4_seed: int | np.ndarray) -> None:
         """Heavy ions of this batch: one library per ion, start energy and material announced."""
         self._replaying = bool(self._trim.any())
+        self._replay_seeds = np.asarray(g4_seed)
         if not self._replaying:
             return
         transport = self.heavy_ions
         assert transport is not None  # rows are only marked for TRIM when it exists
+        # one library per ion, start energy and material
         rows = self._trim
         for name, energy in set(zip(primaries.particle[rows], primaries.energy[rows], strict=True)):
             transport.need(str(name), float(energy))
+
+    # -- heavy-ion secondaries (score4.sim.interception) -------------------------------------
+
+    @property
+    def max_energy(self) -> float:
+        return float(self.config.physics.trim_max_energy)
+
+    @property
+    def decay(self) -> bool:
+        return bool(self.choice.decay)
+
+    def current_event(self) -> tuple[int, int]:
+        """(index in the batch, seed) of the event Geant4 is tracking."""
+        k = self._next_event
+        seeds = self._replay_seeds
+        return k, int(seeds) * 1_000_003 + k if seeds.ndim == 0 else int(seeds[k])
+
+    def book(self, k: int, fate: IonFate) -> None:
+        """Add a replayed ion's deposits (and track lengths) to event ``k``.
+
+        While Geant4 tracks event ``k`` they wait: its scores are read at its end."""
+        if k == self._next_event and not self._scored:
+            self._pending.append(fate)
+            return
+        for volume, value in fate.deposits.items():
+            self._scores["edep"][k, volume] += value
+        if "track_length" in self._scores:
+            for volume, value in fate.lengths.items():
+                self._scores["track_length"][k, volume] += value
+
+    def _intercept(self, names: list[str]) -> None:
+        """Install the stacking action when this batch (its primaries' particle ``names``) can
+        create heavy-ion secondaries, or photons lite physics must count (positrons
+        annihilate into two)."""
+        from .heavy_ions import heavy_ion_z
+
+        def is_ion(name: str) -> bool:
+            p = self.particle(name)
+            return bool(heavy_ion_z(p)) or str(p.GetParticleType()) == "nucleus"
+
+        heavy = (
+            self.heavy_ions is not None
+            and self.config.physics.heavy_ions == "trim"
+            and needs_interception(names, is_ion, self.decay)
+        )
+        gammas = self.choice.mode == "lite" and "e+" in names
+        if not (heavy or gammas):
+            return
+        if self._interceptor is None:
+            self._interceptor = make_stacking_action(self.g4, self.heavy_ions, self)
+            self.run_manager.SetUserAction(self._interceptor)
+        self._interceptor.heavy |= heavy
+        self._interceptor.gammas |= gammas
 
     def _replay_event(self, k: int) -> None:
         """Move event ``k``'s heavy ions along TRIM trajectories; add their deposits (per event,
         after Geant4 has tracked the event's other primaries)."""
         transport, feed = self.heavy_ions, self._feed
         assert transport is not None
-        for row in feed.held_rows(k):
+        for row in feed.rows_of(k, self._trim):
             fate = replay_row(transport, feed, k, int(row))
-            for volume, value in fate.deposits.items():
-                self._scores["edep"][k, volume] += value
-            if "track_length" in self._scores:
-                for volume, value in fate.lengths.items():
-                    self._scores["track_length"][k, volume] += value
+            self.book(k, fate)
+            self.ion_fates[int(row)] = fate
             if self.endpoints is not None:
                 self.endpoints[row] = (*fate.position, fate.escaped_energy)
 

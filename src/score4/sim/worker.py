@@ -5,6 +5,7 @@ dies can never leave a shared lock held):
 
 - parent -> worker: a :class:`Chunk` to run, or ``None`` to finish;
 - worker -> parent: ``("ready", info)``, ``("progress", n_events)``, ``("done", chunk index)``,
+  ``("library", "start" | "done", what, text)`` (a TRIM library being built),
   ``("error", chunk index or None, exception class name, message)``. After an error the worker
   exits: a Geant4 application that failed half-way through a chunk is not reused.
 
@@ -32,6 +33,7 @@ import numpy as np
 
 from ..config import RunConfig
 from ..errors import Score4Error, Score4Warning
+from ..ions.trim_library import set_build_listener
 from ..output import write_chunk
 from ..source.primaries import Primaries
 from .runtime import PhysicsChoice
@@ -87,7 +89,15 @@ def run_chunk(sim, spec: WorkerSpec, chunk: Chunk, progress=None) -> Path:
     """Sample, track and write one chunk (atomically); return the chunk file."""
     primaries, scores = simulate_chunk(sim, spec, chunk, progress)
     path = chunk_path(spec.parts_dir, chunk.index)
-    write_chunk(path, chunk.first_event, sim.volumes, scores, primaries, spec.fingerprint)
+    write_chunk(
+        path,
+        chunk.first_event,
+        sim.volumes,
+        scores,
+        primaries,
+        spec.fingerprint,
+        columns=sim.event_columns(),
+    )
     return path
 
 
@@ -96,11 +106,14 @@ def ready_info(sim) -> dict:
     from ..geometry.masses import volume_records
     from .runtime import geant4_version
 
-    return {
+    info = {
         "geant4_version": geant4_version(sim.g4),
         "removed_processes": sim.removed_processes,
         "volumes": volume_records(sim.g4, sim.scene, sim.geometry.scoring),
     }
+    if sim.heavy_ions is not None:
+        info["trim_library_seed"] = sim.heavy_ions.library_seed
+    return info
 
 
 def _exit_with_parent() -> None:
@@ -125,8 +138,9 @@ def worker_main(spec: WorkerSpec, conn) -> None:
 
     log = Path(spec.parts_dir) / f"geant4-{os.getpid()}.log"
     chunk = None
+    set_build_listener(lambda phase, what, text: _report(conn, ("library", phase, what, text)))
     try:
-        sim = Simulation(spec.config, spec.choice, log_path=log)
+        sim = Simulation(spec.config, spec.choice, log_path=log, seed=spec.seed)
         conn.send(("ready", ready_info(sim)))
         while (chunk := conn.recv()) is not None:
             run_chunk(sim, spec, chunk, progress=lambda n: conn.send(("progress", n)))

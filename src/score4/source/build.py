@@ -13,11 +13,12 @@ about the source (kind, true and projected area, volume).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
 import numpy as np
 
+from .. import limits
 from ..config import FACES, DecayChainConfig, DepthConfig, RunConfig, SourceConfig
 from ..errors import ConfigError
 from ..scene import RoughLayer, Scene, TargetVolume, face_frame
@@ -254,10 +255,16 @@ def bulk_sampler(scene: Scene, volume: str) -> BulkSampler:
 
 @dataclass
 class SampledSource:
-    """Vertices drawn below a (rough) face, each emitting the configured particles."""
+    """Vertices drawn below a (rough) face, each emitting the configured particles.
+
+    Every vertex drawn is checked inside the world box ``|x_i| < world_half_i`` (Geant4 crashes
+    or loses a primary outside its world): a depth profile reaching out of the target with
+    ``confine: false`` is refused with the event it would have started.
+    """
 
     sampler: VertexSampler
     emitter: Emitter | DecayEmitter
+    world_half: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
 
     def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
         """``n_events`` events drawn from the stream ``rng`` (``first_event`` is not used:
@@ -276,15 +283,19 @@ class SampledSource:
 
     def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
         """Events ``first_event ..`` of the run with ``seed``, the same in any chunking."""
-        return draw_events(self, seed, first_event, n_events)
+        p = draw_events(self, seed, first_event, n_events)
+        limits.check_vertices(p.position, self.world_half, "source", p.event + first_event)
+        return p
 
 
 @dataclass
 class BulkSource:
-    """Vertices uniform in a volume's own material, emitting isotropically."""
+    """Vertices uniform in a volume's own material, emitting isotropically (checked inside the
+    world like :class:`SampledSource`'s)."""
 
     sampler: BulkSampler
     emitter: Emitter | DecayEmitter
+    world_half: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
 
     def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
         """``n_events`` events drawn from the stream ``rng`` (``first_event`` is not used:
@@ -293,15 +304,23 @@ class BulkSource:
 
     def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
         """Events ``first_event ..`` of the run with ``seed``, the same in any chunking."""
-        return draw_events(self, seed, first_event, n_events)
+        p = draw_events(self, seed, first_event, n_events)
+        limits.check_vertices(p.position, self.world_half, "source", p.event + first_event)
+        return p
 
 
 @dataclass
 class FileSource:
-    """Primaries read from a vertex file, event by event."""
+    """Primaries read from a vertex file, event by event (all checked inside the world)."""
 
     primaries_all: Primaries
     path: str
+    world_half: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
+
+    def __post_init__(self) -> None:
+        p = self.primaries_all
+        label = f"source.vertices: {self.path}"
+        limits.check_vertices(p.position, self.world_half, label, p.event)
 
     def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
         available = self.primaries_all.n_events
@@ -329,7 +348,7 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | BulkSource |
     """What :meth:`primaries` needs, built once: checks files, materials and constraints now."""
     src = config.source
     if src.vertices is not None:
-        source = FileSource(read_vertex_file(src.vertices), str(src.vertices))
+        source = FileSource(read_vertex_file(src.vertices), str(src.vertices), scene.world_half)
         if source.primaries_all.n_events < config.run.events:
             raise ConfigError(
                 f"source.vertices: {src.vertices} holds {source.primaries_all.n_events} events, "
@@ -346,7 +365,7 @@ def source_from_config(src: SourceConfig, scene: Scene) -> SampledSource | BulkS
     if src.vertices is not None:
         raise ConfigError("source.vertices: a vertex file is read by make_source")
     if src.volume is not None:
-        return BulkSource(bulk_sampler(scene, src.volume), _emitter(src))
+        return BulkSource(bulk_sampler(scene, src.volume), _emitter(src), scene.world_half)
     surface_ref = _given(src.surface, "source.surface")
     target = source_target(scene, surface_ref.volume, "source.surface.volume")
     volume, face = target.name, surface_ref.face
@@ -382,7 +401,7 @@ def source_from_config(src: SourceConfig, scene: Scene) -> SampledSource | BulkS
     ) as err:  # the library names min_depth/max_depth; the config calls them min/max
         message = str(err).replace("min_depth", "min").replace("max_depth", "max")
         raise ConfigError(f"source.depth: {message}") from None
-    return SampledSource(sampler, _emitter(src))
+    return SampledSource(sampler, _emitter(src), scene.world_half)
 
 
 def _emitter(src: SourceConfig) -> Emitter | DecayEmitter:

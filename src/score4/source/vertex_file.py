@@ -38,8 +38,10 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from ..errors import ConfigError
+from .. import limits
+from ..errors import ConfigError, brief
 from ..files import atomic_h5, open_h5
+from ..units import DIMENSIONS
 from .primaries import Primaries
 
 FORMAT = "score4-vertices"
@@ -66,16 +68,63 @@ def write_primaries_table(group: h5py.Group, p: Primaries, event_offset: int = 0
     group.attrs["datatype"] = "table{" + ",".join(columns) + "}"
 
 
-def read_primaries_table(group: h5py.Group) -> Primaries:
-    """Read a table written by :func:`write_primaries_table`."""
-    return Primaries(
-        event=group["event"][()],
-        particle=np.char.decode(group["particle"][()], "ascii"),
-        energy=group["energy"][()],
-        position=np.column_stack([group[f"{a}loc"][()] for a in "xyz"]),
-        direction=np.column_stack([group[f"dir{a}"][()] for a in "xyz"]),
-        extra={k: group[k][()] for k in group if k not in _FIXED},
-    )
+_DIMENSION = {"energy": "energy", "xloc": "length", "yloc": "length", "zloc": "length"}
+_DIMENSION["depth"] = "length"
+
+
+def _column(group: h5py.Group, name: str, label: str) -> np.ndarray:
+    """A column in internal units (its ``units`` attribute honoured), checked finite."""
+    d = group[name]
+    values = d[()]
+    unit = d.attrs.get("units")
+    if isinstance(unit, bytes):
+        unit = unit.decode("ascii", "replace")
+    dimension = _DIMENSION.get(name)
+    if dimension is not None and unit is not None:
+        factors = DIMENSIONS[dimension]
+        if unit not in factors:
+            raise ConfigError(
+                f"{label}: column {name} has units {brief(unit)}; score4 reads {dimension}s in "
+                f"{', '.join(factors)}"
+            )
+        values = values * factors[unit] if factors[unit] != 1.0 else values
+    if values.dtype.kind in "fc":
+        limits.check_finite(values, f"{label}: column {name}")
+    return values
+
+
+def read_primaries_table(group: h5py.Group, label: str = "primaries") -> Primaries:
+    """Read a table written by :func:`write_primaries_table` (or by another program in its layout).
+
+    Lengths and energies are converted from the unit their ``units`` attribute names (mm, m, um,
+    keV, ...; an unknown unit is refused); every number must be finite, every column as long as
+    ``event``. ``label`` starts the error messages.
+    """
+    columns = {k: _column(group, k, label) for k in group if isinstance(group[k], h5py.Dataset)}
+    for name in _FIXED:
+        if name not in columns:
+            raise KeyError(name)
+    rows = len(columns["event"])
+    uneven = {k: len(v) for k, v in columns.items() if len(v) != rows}
+    if uneven:
+        k, n = next(iter(uneven.items()))
+        raise ConfigError(
+            f"{label}: column {k} has {n} rows but event has {rows}; all columns must be "
+            "equally long"
+        )
+    try:
+        return Primaries(
+            event=columns["event"],
+            particle=np.char.decode(columns["particle"], "ascii"),
+            energy=columns["energy"],
+            position=np.column_stack([columns[f"{a}loc"] for a in "xyz"]),
+            direction=np.column_stack([columns[f"dir{a}"] for a in "xyz"]),
+            extra={k: v for k, v in columns.items() if k not in _FIXED},
+        )
+    except (ValueError, TypeError, UnicodeDecodeError) as err:
+        if isinstance(err, ConfigError):
+            raise
+        raise ConfigError(f"{label}: the table cannot be read ({brief(str(err), 120)})") from None
 
 
 #: PDG codes of the Geant4 particle names score4's sources use (ions: :func:`pdg_codes`).
@@ -194,11 +243,32 @@ def read_vertex_file(path: str | Path) -> Primaries:
                 f"source.vertices: {path} has no /vertices table (write it with 'score4 vertices')"
             )
         try:
-            p = read_primaries_table(f["vertices"])
+            p = read_primaries_table(f["vertices"], f"source.vertices: {path}")
         except KeyError as err:
             raise ConfigError(f"source.vertices: {path}: column {err} is missing") from None
     if len(p.event) and (
         p.event[0] != 0 or np.any(np.diff(p.event) < 0) or np.any(np.diff(p.event) > 1)
     ):
         raise ConfigError(f"source.vertices: {path}: events must be numbered 0, 1, 2, ... in order")
+    _check_rows(p, f"source.vertices: {path}")
     return p
+
+
+def _check_rows(p: Primaries, label: str) -> None:
+    """Energies >= 0 (a nuclide decays at rest), directions of non-zero length, known particles."""
+    from .emitters import normalise_particle
+
+    bad = np.flatnonzero(~(p.energy >= 0))
+    if len(bad):
+        raise ConfigError(
+            f"{label}: row {bad[0]} has energy {p.energy[bad[0]]:g} MeV; must be >= 0"
+        )
+    norm = np.linalg.norm(p.direction, axis=1)
+    bad = np.flatnonzero(~(norm > 1e-12))
+    if len(bad):
+        raise ConfigError(f"{label}: row {bad[0]} has direction (0, 0, 0); give a direction")
+    for name in np.unique(p.particle):
+        try:
+            normalise_particle(str(name))
+        except ConfigError as err:
+            raise ConfigError(f"{label}: {err}") from None

@@ -1,0 +1,110 @@
+"""CPU per Po-210 event with the TRIM replay against Geant4's own ion transport, side by side.
+
+The case of ``bench_heavy_ions.py`` (Po-210, depth exponential with 20 nm mean, under a flat
+silicon face and under 10 um pyramids, lite physics): for each face a ``heavy_ions: trim`` and
+a ``heavy_ions: geant4`` process run *at the same time* (so both see the same machine load),
+each builds its application, warms up (libraries built, caches filled) and then times
+``--batches`` batches of ``--events`` events with its own process CPU clock. Printed: the
+per-batch CPU per event of both, their medians and the ratio of the medians.
+
+    python benchmarks/bench_replay_speed.py [--events 1000] [--batches 5]
+
+On a machine shared with other jobs single timings move by tens of per cent; running the two
+modes together and taking medians keeps their ratio steadier than timing them one after the
+other.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import time
+
+
+def config(face: str, ions: str, events: int) -> dict:
+    data: dict = {
+        "physics": {"mode": "lite", "heavy_ions": ions},
+        "targets": [
+            {
+                "name": "crystal",
+                "material": "G4_Si",
+                "size": ["5 mm", "5 mm", "1 mm"],
+                "position": ["0 mm", "0 mm", "-0.5 mm"],
+            }
+        ],
+        "source": {
+            "decay": "Po210",
+            "direction": "isotropic",
+            "surface": {"volume": "crystal", "face": "+z"},
+            "depth": {"profile": "exponential", "mean": "20 nm"},
+        },
+        "run": {"events": events, "seed": 1},
+    }
+    if face == "pyramids":
+        data["surfaces"] = {
+            "pyramids": {"kind": "spikes", "nx": 50, "ny": 50, "width": "10 um", "height": "10 um"}
+        }
+        data["targets"][0]["rough"] = [
+            {"face": "+z", "surface": "pyramids", "base_thickness": "1 um"}
+        ]
+    return data
+
+
+def batches(face: str, ions: str, events: int, count: int) -> list[float]:
+    """CPU ms per event of ``count`` batches (run in a process of its own: ``--one``)."""
+    from score4.config import parse_config
+    from score4.sim.runtime import resolve_physics
+    from score4.sim.seeds import event_geant4_seeds
+    from score4.sim.simulation import Simulation
+
+    sim = Simulation(parse_config(config(face, ions, events)), resolve_physics("lite"))
+    sim.run(sim.source.events(1, 0, 200), event_geant4_seeds(1, 0, 200))  # warm up
+    out = []
+    for b in range(count):
+        first = 1000 + b * events
+        primaries = sim.source.events(1, first, events)
+        seeds = event_geant4_seeds(1, first, events)
+        t = time.process_time()
+        sim.run(primaries, seeds)
+        out.append(1e3 * (time.process_time() - t) / events)
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--events", type=int, default=1000)
+    parser.add_argument("--batches", type=int, default=5)
+    parser.add_argument("--one", nargs=2, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.one:
+        print("RESULT " + json.dumps(batches(*args.one, args.events, args.batches)))
+        return
+    for face in ("flat", "pyramids"):
+        runs = {
+            ions: subprocess.Popen(
+                [
+                    *(sys.executable, __file__, "--one", face, ions),
+                    *("--events", str(args.events), "--batches", str(args.batches)),
+                ],
+                stdout=subprocess.PIPE,
+                stderr=subprocess.DEVNULL,
+                text=True,
+            )
+            for ions in ("trim", "geant4")
+        }
+        medians = {}
+        for ions, run in runs.items():
+            out, _ = run.communicate()
+            line = next(x for x in out.splitlines() if x.startswith("RESULT "))
+            values = json.loads(line.removeprefix("RESULT "))
+            medians[ions] = statistics.median(values)
+            shown = ", ".join(f"{v:.3f}" for v in values)
+            print(f"{face:9s} {ions:6s} {shown} ms per event, median {medians[ions]:.3f}")
+        print(f"{face:9s} trim / geant4 {medians['trim'] / medians['geant4']:.2f}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
