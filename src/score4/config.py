@@ -602,7 +602,7 @@ class RunConfig(StrictModel):
             raise ValueError(
                 f"source.surface.volume: {src.volume!r} is not a target; targets are: {', '.join(names)}"
             )
-        if src is not None and src.face not in (*FACES, "all"):
+        if src is not None and self.world.gdml is None and src.face not in (*FACES, "all"):
             raise ValueError(
                 f"source.surface.face: a box target has the faces {', '.join(FACES)} (or all), "
                 f"not {src.face!r}"

@@ -21,7 +21,8 @@ from ..geometry.world import BuiltGeometry, build_world, check_materials
 from ..scene import build_scene
 from ..source.build import make_source
 from ..source.primaries import Primaries
-from .heavy_ions import IonFate, ReplayStream
+from .feed import EventFeed, replay_row
+from .heavy_ions import IonFate
 from .interception import InterceptedIon, make_stacking_action, needs_interception
 from .physics import (
     drop_unused_parallel_world_region,
@@ -36,7 +37,6 @@ from .seeds import library_trim_seed
 if TYPE_CHECKING:
     from .heavy_ions import HeavyIonTransport
 
-_REPLAY_STREAM = 0x5C0E4  # mixed into the seeds of the heavy-ion replay's random streams
 _ION = re.compile(r"^([A-Z][a-z]?)-?(\d{1,3})$")
 
 
@@ -189,26 +189,16 @@ class Simulation:
         return self._particles[name]
 
     def trim_rows(self, primaries: Primaries) -> np.ndarray:
-        """Rows of ``primaries`` that follow TRIM trajectories instead of Geant4.
-
-        Ions heavier than helium of kinetic energy in (0, ``physics.trim_max_energy``]
-        (``heavy_ions: trim``), and alphas of any energy with ``alphas: trim``.
-        """
-        mask = np.zeros(len(primaries), dtype=bool)
+        """Rows of ``primaries`` that follow TRIM trajectories instead of Geant4
+        (:func:`score4.sim.heavy_ions.trim_mask` with the run's physics settings)."""
         if self.heavy_ions is None:
-            return mask
-        from .heavy_ions import heavy_ion_z
+            return np.zeros(len(primaries), dtype=bool)
+        from .heavy_ions import trim_mask
 
         physics = self.config.physics
-        for name in np.unique(primaries.particle):
-            rows = primaries.particle == name
-            if name == "alpha" and physics.alphas == "trim":
-                mask |= rows
-            elif physics.heavy_ions == "trim" and heavy_ion_z(self.particle(str(name))):
-                # at rest (a nuclide source): Geant4's radioactive decay takes it
-                energy = primaries.energy
-                mask |= rows & (energy <= physics.trim_max_energy) & (energy > 0)
-        return mask
+        return trim_mask(
+            primaries, self.particle, physics.heavy_ions, physics.alphas, physics.trim_max_energy
+        )
 
     def untracked_rows(self, primaries: Primaries) -> np.ndarray:
         """Rows of ``primaries`` that are photons lite physics cannot track (no data-free
@@ -233,19 +223,10 @@ class Simulation:
 
     def _generate(self, gun, event) -> None:
         k = self._next_event
-        g4, p = self.g4, self._primaries
-        if self._event_seeds is not None:
-            g4.G4Random.setTheSeed(int(self._event_seeds[k]))
+        feed = self._feed
         if self.teleporter is not None:
-            self.teleporter.begin_event(int(self._offsets[k]), int(self._offsets[k + 1]))
-        for row in range(self._offsets[k], self._offsets[k + 1]):
-            if self._skip[row]:  # replayed on TRIM, or a gamma lite physics cannot track
-                continue
-            gun.SetParticleDefinition(self._defs[row])
-            gun.SetParticleEnergy(p.energy[row])
-            gun.SetParticlePosition(g4.G4ThreeVector(*self._positions[row]))
-            gun.SetParticleMomentumDirection(g4.G4ThreeVector(*p.direction[row]))
-            gun.GeneratePrimaryVertex(event)
+            self.teleporter.begin_event(int(feed.offsets[k]), int(feed.offsets[k + 1]))
+        feed.fill(gun, event, k)  # not the rows replayed on TRIM or gammas lite cannot track
 
     def _score(self, event) -> None:
         k = self._next_event
@@ -290,13 +271,12 @@ class Simulation:
         n = primaries.n_events
         self._primaries = primaries
         # Portal tiling: vertices in a portal box start at their subworld point.
-        self._positions = (
+        positions = (
             primaries.position
             if self.teleporter is None
             else self.teleporter.map_primaries(primaries.position)
         )
-        self._defs = [self._particles[str(name)] for name in primaries.particle]
-        self._offsets = primaries.event_offsets()
+        definitions = [self._particles[str(name)] for name in primaries.particle]
         self._trim = self.trim_rows(primaries)
         self._scores = {q: np.zeros((n, len(self.volumes))) for q in self.quantities}
         self._untracked_rows = (
@@ -305,6 +285,7 @@ class Simulation:
             else np.zeros(len(primaries), dtype=bool)
         )
         self._skip = self._trim | self._untracked_rows
+        self._feed = EventFeed(self.g4, primaries, definitions, g4_seed, self._skip, positions)
         self.untracked_gamma = np.bincount(
             primaries.event[self._untracked_rows],
             weights=primaries.energy[self._untracked_rows],
@@ -318,14 +299,8 @@ class Simulation:
         self._scored = False
         self._intercept(names)
         self._next_event = 0
-        self._event_seeds: np.ndarray | None = None
         if np.ndim(g4_seed) == 0:
             self.g4.G4Random.setTheSeed(int(g4_seed))
-        else:
-            seeds = np.asarray(g4_seed)
-            if len(seeds) != n:
-                raise ValueError(f"g4_seed: need one seed per event ({n}), got {len(seeds)}")
-            self._event_seeds = seeds
         self._progress, self._reported = progress, 0
         self._report_every = batch or max(1, n // 20)
         self._stop, self._stopped = stop, False
@@ -341,7 +316,7 @@ class Simulation:
         return self._scores
 
     def _prepare_replay(self, primaries: Primaries, g4_seed: int | np.ndarray) -> None:
-        """Heavy ions of this batch: libraries announced, random streams chosen."""
+        """Heavy ions of this batch: one library per ion, start energy and material announced."""
         self._replaying = bool(self._trim.any())
         self._replay_seeds = np.asarray(g4_seed)
         if not self._replaying:
@@ -352,13 +327,6 @@ class Simulation:
         rows = self._trim
         for name, energy in set(zip(primaries.particle[rows], primaries.energy[rows], strict=True)):
             transport.need(str(name), float(energy))
-        # Own streams: one per primary with per-event Geant4 seeds (so the first N events of a
-        # run are the same in a longer run), else one for the batch.
-        self._replay_rng = (
-            ReplayStream(int(self._replay_seeds), _REPLAY_STREAM)
-            if self._replay_seeds.ndim == 0
-            else None
-        )
 
     # -- heavy-ion secondaries (score4.sim.interception) -------------------------------------
 
@@ -419,27 +387,12 @@ class Simulation:
     def _replay_event(self, k: int) -> None:
         """Move event ``k``'s heavy ions along TRIM trajectories; add their deposits (per event,
         after Geant4 has tracked the event's other primaries)."""
-        transport, p = self.heavy_ions, self._primaries
+        transport, feed = self.heavy_ions, self._feed
         assert transport is not None
-        first = int(self._offsets[k])
-        for row in range(first, int(self._offsets[k + 1])):
-            if not self._trim[row]:
-                continue
-            rng = self._replay_rng
-            if rng is None:
-                seed = int(self._replay_seeds[k])
-                rng = ReplayStream(seed, _REPLAY_STREAM, row - first)
-            name = str(p.particle[row])
-            fate = transport.transport(
-                self._particles[name],
-                name,
-                float(p.energy[row]),
-                self._positions[row],  # portal tiling: the subworld point
-                p.direction[row],
-                rng,
-            )
-            self.book(k, fate, alpha=name == "alpha")
-            self.ion_fates[row] = fate
+        for row in feed.rows_of(k, self._trim):
+            fate = replay_row(transport, feed, k, int(row))
+            self.book(k, fate, alpha=str(feed.primaries.particle[row]) == "alpha")
+            self.ion_fates[int(row)] = fate
             if self.endpoints is not None:
                 self.endpoints[row] = (*fate.position, fate.escaped_energy)
 
@@ -472,8 +425,7 @@ class Simulation:
         return self._null_action
 
     def _g4_rows_of_event(self, k: int) -> np.ndarray:
-        rows = np.arange(self._offsets[k], self._offsets[k + 1])
-        return rows[~self._skip[rows]]
+        return self._feed.geant4_rows(k)
 
     def _check_stop(self) -> None:
         """End the run after this event when asked to (one attribute test per event)."""

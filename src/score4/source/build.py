@@ -22,7 +22,7 @@ from .. import limits
 from ..config import FACES, DecayChainConfig, DepthConfig, RunConfig, SourceConfig
 from ..errors import ConfigError
 from ..scene import RoughLayer, Scene, TargetVolume, face_frame
-from ..shapes import G4Box, G4Tubs, PlacedShape, Shape, Transform, shape_from_dict
+from ..shapes import G4Box, G4Tubs, Shape, Transform, shape_from_dict
 from .blocks import draw_events
 from .decay_source import DecayEmitter
 from .depth import VertexSampler
@@ -245,19 +245,12 @@ def bulk_sampler(scene: Scene, volume: str) -> BulkSampler:
     a box target has none, and its rough layers are separate volumes outside it)."""
     target = source_target(scene, volume, "source.volume")
     shape, transform = target_shape(scene, target.name)
-    exclude: list[Shape] = []
-    if scene.model is not None and target.instance is not None:
-        for d in scene.model.daughters(target.instance):
-            logical = scene.model.logicals[d.logical]
-            data = logical.solid.get("shape")
-            if data is None:
-                raise ConfigError(
-                    f"source.volume: {target.name!r} holds {d.name!r}, a {logical.solid_type} "
-                    "score4.shapes does not describe, so its material cannot be sampled"
-                )
-            placed = Transform(rotation=d.rotation, translation=d.translation)
-            exclude.append(PlacedShape(shape_from_dict(data), placed))
-    return BulkSampler(shape, transform, exclude, name=target.name)
+    if target.unknown_daughters:
+        raise ConfigError(
+            f"source.volume: {target.name!r} holds {', '.join(target.unknown_daughters)}, of a "
+            "solid type score4.shapes does not describe, so its material cannot be sampled"
+        )
+    return BulkSampler(shape, transform, list(target.exclude), name=target.name)
 
 
 @dataclass
@@ -274,6 +267,8 @@ class SampledSource:
     world_half: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
 
     def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
+        """``n_events`` events drawn from the stream ``rng`` (``first_event`` is not used:
+        :meth:`events` gives the prefix-stable events of a run)."""
         v = self.sampler.sample(rng, n_events)
         return make_primaries(
             self.emitter,
@@ -303,6 +298,8 @@ class BulkSource:
     world_half: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
 
     def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
+        """``n_events`` events drawn from the stream ``rng`` (``first_event`` is not used:
+        :meth:`events` gives the prefix-stable events of a run)."""
         return make_primaries(self.emitter, rng, self.sampler.sample(rng, n_events))
 
     def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
@@ -358,6 +355,15 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | BulkSource |
                 f"fewer than run.events = {config.run.events}"
             )
         return source
+    return source_from_config(src, scene)
+
+
+def source_from_config(src: SourceConfig, scene: Scene) -> SampledSource | BulkSource:
+    """The sampled source (surface or bulk; not a vertex file) that ``src`` describes on the
+    targets of ``scene``: a run configuration's ``source`` section, or the keys a user gives
+    :meth:`score4.api.World.source`. Files, materials and constraints are checked now."""
+    if src.vertices is not None:
+        raise ConfigError("source.vertices: a vertex file is read by make_source")
     if src.volume is not None:
         return BulkSource(bulk_sampler(scene, src.volume), _emitter(src), scene.world_half)
     surface_ref = _given(src.surface, "source.surface")
@@ -368,7 +374,13 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | BulkSource |
         layer = scene.layer(volume, face)
         surface = layer.sampler() if layer is not None else flat_face_sampler(scene, volume, face)
     else:
-        surface = shape_face_sampler(scene, volume, face)
+        try:
+            surface = shape_face_sampler(scene, volume, face)
+        except ConfigError as err:  # "face: G4Box has no face 'top'; its faces: ..."
+            text = str(err)
+            raise ConfigError(
+                f"source.surface.{text}" if text.startswith("face:") else text
+            ) from None
     inside = None
     if src.confine is True:
         inside = lambda p: scene.inside_target(volume, p)  # noqa: E731

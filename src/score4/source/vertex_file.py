@@ -17,14 +17,22 @@ for files it writes itself); :func:`read_primaries_table` decodes them to ``str`
 
 A vertex file holds the table as ``/vertices`` and, as attributes of the root, the format
 name, the configuration (JSON with units) and the seed it was drawn with. It also holds
-``/vtx`` (``struct{pos}``) with ``/vtx/pos`` (``table{xloc,yloc,zloc}``): one row per event with
-``xloc/yloc/zloc`` (float64, mm), the layout revertex writes and remage's ``FromFile`` vertex
-confinement reads (``lh5.read("vtx", file)`` is tested; remage itself is not installable here).
+``/vtx`` (``struct{pos,kin}``), the two tables of remage's ``FromFile`` inputs (``lh5.read("vtx",
+file)`` is tested; remage itself is not installable here):
+
+* ``/vtx/pos`` (``table{xloc,yloc,zloc}``): one row per event with ``xloc/yloc/zloc`` (float64,
+  mm), the layout revertex writes and remage's ``FromFile`` vertex confinement reads;
+* ``/vtx/kin`` (``table{ekin,g4_pid,px,py,pz,time,n_part}``): one row per primary, the layout
+  remage's ``FromFile`` generator reads: ``ekin`` (float64, MeV), ``g4_pid`` (int32, the PDG
+  code; ions ``100ZZZAAA0``), ``px/py/pz`` (float64, the unit direction), ``time`` (float64, ns
+  after the event's first decay), ``n_part`` (int32: the event's number of rows on its first row,
+  0 on the others). Written when every particle has a PDG code (:func:`pdg_codes`).
 """
 
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import h5py
@@ -119,6 +127,77 @@ def read_primaries_table(group: h5py.Group, label: str = "primaries") -> Primari
         raise ConfigError(f"{label}: the table cannot be read ({brief(str(err), 120)})") from None
 
 
+#: PDG codes of the Geant4 particle names score4's sources use (ions: :func:`pdg_codes`).
+PDG = {
+    "e-": 11,
+    "e+": -11,
+    "nu_e": 12,
+    "anti_nu_e": -12,
+    "mu-": 13,
+    "mu+": -13,
+    "gamma": 22,
+    "pi+": 211,
+    "pi-": -211,
+    "neutron": 2112,
+    "proton": 2212,
+    "deuteron": 1000010020,
+    "triton": 1000010030,
+    "He3": 1000020030,
+    "alpha": 1000020040,
+}
+_ION_NAME = re.compile(r"^([A-Z][a-z]?)-?(\d{1,3})$")
+
+
+def pdg_codes(names: np.ndarray) -> np.ndarray | None:
+    """PDG codes of Geant4 particle names (ions such as ``Pb206``: ``1000000000 + 10000 Z + 10 A``,
+    ground state); None if a name has none (``geantino``: Geant4 gives it code 0, which no
+    reader can look up)."""
+    from ..ions.species import Z_OF
+
+    names = np.asarray(names).astype(str)
+    unique, inverse = np.unique(names, return_inverse=True)
+    codes = np.zeros(len(unique), np.int64)
+    for k, name in enumerate(unique):
+        if name in PDG:
+            codes[k] = PDG[name]
+            continue
+        match = _ION_NAME.match(name)
+        if match is None or match.group(1) not in Z_OF:
+            return None
+        z, a = Z_OF[match.group(1)], int(match.group(2))
+        codes[k] = 1_000_000_000 + 10_000 * z + 10 * a
+    return codes[inverse.ravel()]
+
+
+def write_kin_table(group: h5py.Group, primaries: Primaries) -> bool:
+    """Write remage's ``kin`` table of ``primaries`` into ``group`` (see the module docstring);
+    False (nothing written) when a particle has no PDG code."""
+    codes = pdg_codes(primaries.particle)
+    if codes is None:
+        return False
+    offsets = primaries.event_offsets()
+    n_part = np.zeros(len(primaries), np.int32)
+    n_part[offsets[:-1]] = np.diff(offsets)
+    time = primaries.extra.get("time")
+    columns = {
+        "ekin": (primaries.energy, "MeV"),
+        "g4_pid": (codes.astype(np.int32), None),
+        "px": (primaries.direction[:, 0], None),
+        "py": (primaries.direction[:, 1], None),
+        "pz": (primaries.direction[:, 2], None),
+        "time": (np.zeros(len(primaries)) if time is None else np.asarray(time) * 1e9, "ns"),
+        "n_part": (n_part, None),
+    }
+    kin = group.create_group("kin")
+    for name, (data, unit) in columns.items():
+        d = kin.create_dataset(name, data=data)
+        d.attrs["datatype"] = "array<1>{real}"
+        if unit is not None:
+            d.attrs["units"] = unit
+    kin.attrs["datatype"] = "table{" + ",".join(columns) + "}"
+    return True
+
+
 def write_vertex_file(
     path: str | Path, primaries: Primaries, config: dict, seed: int, source: dict | None = None
 ) -> Path:
@@ -141,7 +220,8 @@ def write_vertex_file(
             d = pos.create_dataset(f"{a}loc", data=primaries.position[first, k])
             d.attrs["datatype"], d.attrs["units"] = "array<1>{real}", "mm"
         pos.attrs["datatype"] = "table{xloc,yloc,zloc}"
-        f["vtx"].attrs["datatype"] = "struct{pos}"
+        kin = write_kin_table(f["vtx"], primaries)
+        f["vtx"].attrs["datatype"] = "struct{pos,kin}" if kin else "struct{pos}"
     return path
 
 

@@ -228,10 +228,12 @@ class Surface:
 
     @property
     def size_x(self) -> float:
+        """Patch size along x, mm (the tile of a rough face)."""
         return self.spikes.size_x if self.spikes is not None else self._extent[0]
 
     @property
     def size_y(self) -> float:
+        """Patch size along y, mm."""
         return self.spikes.size_y if self.spikes is not None else self._extent[1]
 
     @property
