@@ -70,8 +70,10 @@ def main() -> None:
         score4 = Path(sys.executable).with_name("score4")
         t0 = time.perf_counter()
         subprocess.run(
-            [str(score4), "run", str(config), "--events", str(args.events), "--jobs", "2"]
-            + ["--out", str(folder / "run.h5"), "-q"],
+            [
+                *(str(score4), "run", str(config), "--events", str(args.events), "--jobs", "2"),
+                *("--out", str(folder / "run.h5"), "-q"),
+            ],
             check=True,
             capture_output=True,
         )
