@@ -19,6 +19,9 @@ from score4.output import read_results
 from score4.scene import build_scene
 from score4.source.build import make_source, source_geometry
 
+# Its module fixture runs once, on one pytest-xdist worker (not once per worker).
+pytestmark = pytest.mark.xdist_group("detector-module")
+
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "detector_module"
 pytest.importorskip("pyg4ometry")
 

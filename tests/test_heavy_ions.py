@@ -17,6 +17,9 @@ import pytest
 
 lunasrim = pytest.importorskip("lunasrim")
 
+# Its module fixtures (Geant4 and TRIM runs) run once, on one pytest-xdist worker.
+pytestmark = pytest.mark.xdist_group("heavy-ions")
+
 PB206_AMU = 205.9744651
 PO210_RECOIL_MEV = 0.103144
 # The materials of the field (Si, Ge, Cu, CaWO4, NaI, TeO2) with their compositions (atom
@@ -99,7 +102,9 @@ def pb_layers():
     return _spawned("ranges", cases, 1000, 12, 1000)
 
 
-@pytest.mark.parametrize("k", range(len(LAYERS)))
+@pytest.mark.parametrize(
+    "k", [k if k in (0, 2, 5) else pytest.param(k, marks=pytest.mark.deep) for k in range(6)]
+)
 def test_pb206_transmission_through_thin_silicon_like_trim(pb_layers, k, tmp_path):
     # 1000 ions each side: the mean exit energy of the ~20 % that cross 40 nm has a standard
     # error of ~4 % each (300 ions gave 11.6 vs 13.7 keV once).
@@ -183,17 +188,20 @@ def test_recoil_escape_fraction_matches_trim_layers(po210_flat, tmp_path):
     assert escaped.mean() == pytest.approx(expected, abs=0.05)
 
 
-ALPHA_CASES = [
-    ("alpha", e, m) for m in ("G4_SODIUM_IODIDE", "G4_CALCIUM_TUNGSTATE") for e in (1, 5.3)
+TRIM_ALPHA_MATERIALS = [
+    "G4_CALCIUM_TUNGSTATE",
+    pytest.param("G4_SODIUM_IODIDE", marks=pytest.mark.deep),
 ]
 
 
-def test_alphas_on_trim_trajectories_range_like_trim(tmp_path):
+@pytest.mark.parametrize("material", TRIM_ALPHA_MATERIALS)
+def test_alphas_on_trim_trajectories_range_like_trim(tmp_path, material):
     # physics.alphas: trim, for the materials where Geant4's alpha stopping differs from SRIM's
     # (NaI: Geant4 ranges 5 % long at 3-5.3 MeV; CaWO4: 6 % short at 1 MeV,
     # benchmarks/bench_ion_setups.py). Projected range within 3 % of independent TRIM runs.
-    results = _spawned("ranges", ALPHA_CASES, 300, 21, 300, None, "trim")
-    for (_, energy, material), (sample, _) in zip(ALPHA_CASES, results, strict=True):
+    cases = [("alpha", e, material) for e in (1, 5.3)]
+    results = _spawned("ranges", cases, 300, 21, 300, None, "trim")
+    for (_, energy, _), (sample, _) in zip(cases, results, strict=True):
         depth = sample["final_position"][sample["stopped"], 2] * 1e6
         ref, _, _ = trim_reference(
             tmp_path / f"{material}{energy}", "He", 4.0026, material, energy * 1e3, 300, 5, 1e6
@@ -202,15 +210,16 @@ def test_alphas_on_trim_trajectories_range_like_trim(tmp_path):
         assert np.allclose(sample["deposited"] + sample["exit_energy"], energy, atol=1e-9)
 
 
-GEANT4_ALPHAS = [("alpha", e, m) for m in ("G4_Si", "G4_Ge", "G4_Cu") for e in (1.0, 3.0, 5.3)]
-
-
-def test_geant4_alphas_range_like_trim_in_si_ge_cu(tmp_path):
+@pytest.mark.parametrize(
+    "material", ["G4_Si", *(pytest.param(m, marks=pytest.mark.deep) for m in ("G4_Ge", "G4_Cu"))]
+)
+def test_geant4_alphas_range_like_trim_in_si_ge_cu(tmp_path, material):
     # Alphas stay with Geant4 by default; with score4's light-ion step function their projected
     # range is within 3 % of TRIM's in Si, Ge and Cu at 1, 3 and 5.3 MeV (in NaI, CaWO4 and TeO2
     # Geant4's stopping differs from SRIM's by 4-8 %: docs/physics.md#alphas).
-    results = _spawned("ranges", GEANT4_ALPHAS, 200, 31, 300)
-    for (_, energy, material), (sample, _) in zip(GEANT4_ALPHAS, results, strict=True):
+    cases = [("alpha", e, material) for e in (1.0, 3.0, 5.3)]
+    results = _spawned("ranges", cases, 200, 31, 300)
+    for (_, energy, _), (sample, _) in zip(cases, results, strict=True):
         depth = sample["final_position"][sample["stopped"], 2] * 1e6
         ref, _, _ = trim_reference(
             tmp_path / f"{material}{energy}", "He", 4.0026, material, energy * 1e3, 200, 9, 1e6
@@ -218,15 +227,14 @@ def test_geant4_alphas_range_like_trim_in_si_ge_cu(tmp_path):
         assert depth.mean() == pytest.approx(ref.mean(), rel=0.03), (material, energy)
 
 
-ALPHA_LAYERS = [(t, a) for t in (5e-3, 10e-3, 20e-3) for a in (0.0, 60.0)]
-
-
-def test_alpha_transmission_through_silicon_layers_like_trim(tmp_path):
+@pytest.mark.parametrize("angle", [0.0, pytest.param(60.0, marks=pytest.mark.deep)])
+def test_alpha_transmission_through_silicon_layers_like_trim(tmp_path, angle):
     # 5.3 MeV alphas (Geant4) through 5, 10, 20 um of Si at 0 and 60 degrees: transmitted
     # fraction within 0.05 and mean exit energy within 10 % of TRIM's transmitted ions.
-    cases = [("alpha", 5.3, "G4_Si", t, a) for t, a in ALPHA_LAYERS]
+    layers = [(t, angle) for t in (5e-3, 10e-3, 20e-3)]
+    cases = [("alpha", 5.3, "G4_Si", t, a) for t, a in layers]
     results = _spawned("ranges", cases, 200, 32, 300)
-    for (thickness, angle), (sample, _) in zip(ALPHA_LAYERS, results, strict=True):
+    for (thickness, angle), (sample, _) in zip(layers, results, strict=True):
         _, ref_fraction, ref_exit = trim_reference(
             tmp_path / f"{thickness}_{angle}",
             "He",

@@ -16,6 +16,9 @@ import yaml
 from score4.cli.main import main
 from score4.model import build_model, fit_model, load_model, pseudo_data
 
+# Its module fixture runs once, on one pytest-xdist worker (not once per worker).
+pytestmark = pytest.mark.xdist_group("model")
+
 TARGETS = [
     {
         "name": "top",

@@ -31,6 +31,9 @@ from score4.sim.engine import run
 
 from conftest import BASE_CONFIG, config_dict
 
+# Its module fixture runs once, on one pytest-xdist worker (not once per worker).
+pytestmark = pytest.mark.xdist_group("plots-export")
+
 ABSORBER = {
     "name": "absorber",
     "material": "G4_Si",

@@ -30,6 +30,9 @@ from score4.shapes import (
     shape_from_dict,
 )
 
+# Its module fixture runs once, on one pytest-xdist worker (not once per worker).
+pytestmark = pytest.mark.xdist_group("shapes-g4")
+
 TWO_PI = 2 * math.pi
 
 # A LEGEND inverted-coaxial detector (metadata in the legend-metadata layout; invented numbers)

@@ -21,6 +21,9 @@ from score4.templates import build_templates
 
 from conftest import config_dict
 
+# Its module fixture runs once, on one pytest-xdist worker (not once per worker).
+pytestmark = pytest.mark.xdist_group("templates")
+
 PAIR = {
     "physics": "lite",
     "targets": [
