@@ -149,3 +149,20 @@ def straight_down_paths(config, primaries) -> tuple[np.ndarray, np.ndarray]:
     p = primaries.position[down]
     exact = layer.variants[0].height_at(p[:, 0] - c[:, 0], p[:, 1] - c[:, 1])
     return down, exact + layer.base_thickness + config.targets[0].size[2]
+
+
+def pytest_configure(config) -> None:
+    """``--dist loadgroup`` needs pytest < 9.2 with pytest-xdist 3.8: pytest 9.2 ignores the
+    ``@group`` suffix xdist puts on test ids, so xdist_group marks would do nothing and tests that
+    must not run side by side (several worker processes each) would. Stop with the reason."""
+    from importlib.metadata import version
+
+    if getattr(config.option, "dist", None) != "loadgroup" or hasattr(config, "workerinput"):
+        return
+    pytest_version = tuple(int(x) for x in pytest.__version__.split(".")[:2])
+    xdist_version = tuple(int(x) for x in version("pytest-xdist").split(".")[:2])
+    if pytest_version >= (9, 2) and xdist_version <= (3, 8):
+        raise pytest.UsageError(
+            f"pytest {pytest.__version__} ignores pytest-xdist {version('pytest-xdist')}'s test "
+            "groups (xdist_group marks): install pytest<9.2 (pip install -e '.[test]')"
+        )
