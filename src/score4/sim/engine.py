@@ -49,7 +49,7 @@ from ..config import RunConfig, config_to_dict
 from ..errors import ConfigError, Score4Error
 from ..files import atomic_output, check_free_space, check_output_file
 from ..geometry.walls import warn_rays_in_walls
-from ..output import merge_chunks
+from ..output import chunk_counts, merge_chunks
 from ..scene import build_scene
 from ..source.build import decay_normalisation, make_source, needs_radioactive_decay
 from ..source.vertex_file import read_vertex_file
@@ -329,7 +329,7 @@ def run(
         "score4_version": __version__,
         "geant4_pybind_version": version("geant4_pybind"),
         "geant4_version": info.get("geant4_version", ""),
-        "n_events": config.run.events,
+        **_run_size(config, files),
         "n_chunks": len(chunks),
         "chunk_events": chunks.size,
         "jobs": workers,
@@ -342,6 +342,7 @@ def run(
         **_stuck_tracks(exceptions),
         **balance,
         **_untracked_photons(files),
+        **_counts(files, config),
         # contract 1: the decays the events stand for (score4.normalisation will own this)
         **decay_normalisation(config),
     }
@@ -633,11 +634,18 @@ def _finished_chunks(parts: Path, chunks: ChunkPlan, fingerprint: str, echo) -> 
                     and f.attrs.get("first_event") == c.first_event
                 )
                 ids = f["events/event_id"][()]
+                atoms = f.attrs.get("unit") == "atom"
+                units = int(f.attrs.get("n_units", -1))
         except (OSError, KeyError):
             damaged.append(c.index)
             continue
         if not same:
             foreign.append(c.index)
+        elif atoms:  # per-atom histories: all the chunk's atoms, events numbered from 0
+            if units != c.n_events or not np.array_equal(ids, np.arange(len(ids))):
+                damaged.append(c.index)
+            else:
+                done.add(c.index)
         elif not np.array_equal(ids, c.first_event + np.arange(c.n_events)):
             damaged.append(c.index)
         else:
@@ -681,6 +689,31 @@ def _untracked_photons(files: list[Path]) -> dict:
             total += float(values.sum())
             events += int((values > 0).sum())
     return {"untracked_gamma_energy_MeV": total, "untracked_gamma_events": events}
+
+
+def _run_size(config: RunConfig, files: list[Path]) -> dict:
+    """``n_events``; with per-atom histories (a chain with implantation) ``run.events`` counts
+    atoms (``n_atoms``) and ``n_events`` is the events their decays made."""
+    decay = config.source.decay
+    if not getattr(decay, "implantation", False):
+        return {"n_events": config.run.events}
+    events = 0
+    for path in files:
+        with h5py.File(path, "r") as f:
+            events += len(f["events/event_id"])
+    return {"n_atoms": config.run.events, "n_events": events}
+
+
+def _counts(files: list[Path], config: RunConfig) -> dict:
+    """Run-record counts added up over the chunks: ``intercepted_ions`` and
+    ``reinjected_ions`` (runs with the TRIM replay), ``implantation`` (chains with it)."""
+    counts = chunk_counts(files)
+    out = {}
+    if config.physics.heavy_ions == "trim":
+        out = {k: int(counts.get(k, 0)) for k in ("intercepted_ions", "reinjected_ions")}
+    if getattr(config.source.decay, "implantation", False):
+        out["implantation"] = counts.get("implantation", {})
+    return out
 
 
 def _count_chunk_files(parts: Path, chunks: ChunkPlan) -> int:

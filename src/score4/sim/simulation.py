@@ -22,6 +22,7 @@ from ..scene import build_scene
 from ..source.build import make_source
 from ..source.primaries import Primaries
 from .heavy_ions import IonFate, ReplayStream
+from .implantation import AtomTracker, drop_lost, is_history
 from .interception import InterceptedIon, make_stacking_action, needs_interception
 from .physics import (
     drop_unused_parallel_world_region,
@@ -173,6 +174,9 @@ class Simulation:
         self.intercepted: list[InterceptedIon] = []
         #: how each replayed primary ended in the last :meth:`run`: {row of primaries: fate}
         self.ion_fates: dict[int, IonFate] = {}
+        #: the atoms of the last :meth:`run` of per-atom histories (None for other batches)
+        self.atoms: AtomTracker | None = None
+        self._units_after: np.ndarray | None = None
         self.endpoints: np.ndarray | None = None
         self._particles: dict[str, object] = {}
         self.volumes = list(self.scorer.names)
@@ -232,6 +236,8 @@ class Simulation:
         g4, p = self.g4, self._primaries
         if self._event_seeds is not None:
             g4.G4Random.setTheSeed(int(self._event_seeds[k]))
+        if self._replaying:  # heavy ions first: an implanted daughter starts where one stopped
+            self._replay_event(k)
         if self.teleporter is not None:
             self.teleporter.begin_event(int(self._offsets[k]), int(self._offsets[k + 1]))
         for row in range(self._offsets[k], self._offsets[k + 1]):
@@ -250,8 +256,9 @@ class Simulation:
         for fate in self._pending:  # heavy-ion secondaries replayed during the event
             self.book(k, fate)
         self._pending.clear()
-        if self._replaying:
-            self._replay_event(k)
+        for fate in self._replayed:  # its heavy-ion primaries, replayed before it
+            self.book(k, fate)
+        self._replayed.clear()
         self._next_event += 1
         self._scored = False
 
@@ -309,8 +316,10 @@ class Simulation:
         self.endpoints = np.full((len(primaries), 4), np.nan) if endpoints else None
         self._track_endpoints(endpoints)
         self._prepare_replay(primaries, g4_seed)
+        self._prepare_atoms(primaries)
         self.intercepted, self.ion_fates = [], {}
         self._pending: list[IonFate] = []
+        self._replayed: list[IonFate] = []
         self._scored = False
         self._intercept(names)
         self._next_event = 0
@@ -323,7 +332,8 @@ class Simulation:
                 raise ValueError(f"g4_seed: need one seed per event ({n}), got {len(seeds)}")
             self._event_seeds = seeds
         self._progress, self._reported = progress, 0
-        self._report_every = batch or max(1, n // 20)
+        units = n if self._units_after is None else int(self._units_after[-1])
+        self._report_every = batch or max(1, units // 20)
         self._stop, self._stopped = stop, False
         if n > 0 and not (stop is not None and stop.is_set()):  # BeamOn(0) still starts a run
             with redirect_native_output(self.log_path):
@@ -333,6 +343,55 @@ class Simulation:
             raise RunCancelled(f"run cancelled after {self._next_event} of {n} events")
         self._report_progress(final=True)
         return self._scores
+
+    def _prepare_atoms(self, primaries: Primaries) -> None:
+        """Per-atom histories (a chain with implantation): follow the atoms
+        (:class:`score4.sim.implantation.AtomTracker`); progress counts atoms."""
+        self.atoms, self._units_after = None, None
+        if not is_history(primaries):
+            return
+        if self.heavy_ions is None or self.config.physics.heavy_ions != "trim":
+            raise ConfigError(
+                "source.decay.implantation: needs physics.heavy_ions: trim (per-atom histories "
+                "move each daughter to where the TRIM replay stopped its alpha recoil)"
+            )
+        if self.teleporter is not None:
+            raise ConfigError(
+                "source.decay.implantation: needs native tiling (a recoil in a portal subworld "
+                "stops at no place of the world)"
+            )
+        self.atoms = AtomTracker(primaries, self._positions, self.heavy_ions)
+        self._replaying = True  # the tracker places every decay, also without heavy ions
+        # atoms whose events are all done after k events (the progress unit)
+        atom_of_event = primaries.extra["atom"][self._offsets[:-1]]
+        last = np.r_[atom_of_event[1:] != atom_of_event[:-1], True]
+        self._units_after = np.r_[0, np.cumsum(last)]
+
+    def run_counts(self) -> dict:
+        """Counts of the last :meth:`run` for the run record: ``intercepted_ions`` (heavy-ion
+        secondaries taken from Geant4 and replayed) and ``reinjected_ions`` (of them, sent back
+        to Geant4 to decay); ``implantation`` (per-atom histories:
+        :meth:`score4.sim.implantation.AtomTracker.summary`)."""
+        out: dict = {
+            "intercepted_ions": len(self.intercepted),
+            "reinjected_ions": sum(1 for ion in self.intercepted if ion.reinjected),
+        }
+        if self.atoms is not None:
+            out["implantation"] = self.atoms.summary()
+        return out
+
+    def drop_lost(
+        self, primaries: Primaries, scores: dict[str, np.ndarray]
+    ) -> tuple[Primaries, dict[str, np.ndarray]]:
+        """The last :meth:`run`'s ``primaries`` and ``scores`` without the decays lost with
+        their atoms (:func:`score4.sim.implantation.drop_lost`); :meth:`event_columns` then
+        describes the events that remain."""
+        primaries, scores, columns, dropped = drop_lost(primaries, scores, self.event_columns())
+        if dropped and self.atoms is not None:
+            self.atoms.counts["lost_events"] += dropped
+            if "untracked_gamma_energy" in columns:
+                self.untracked_gamma = columns["untracked_gamma_energy"]
+        return primaries, scores
 
     def _prepare_replay(self, primaries: Primaries, g4_seed: int | np.ndarray) -> None:
         """Heavy ions of this batch: libraries announced, random streams chosen."""
@@ -408,31 +467,66 @@ class Simulation:
         self._interceptor.gammas |= gammas
 
     def _replay_event(self, k: int) -> None:
-        """Move event ``k``'s heavy ions along TRIM trajectories; add their deposits (per event,
-        after Geant4 has tracked the event's other primaries)."""
+        """Move event ``k``'s heavy ions along TRIM trajectories before Geant4 tracks the event
+        (their deposits join the event's at its end); with per-atom histories, put each decay
+        where its atom is first (:class:`~score4.sim.implantation.AtomTracker`)."""
+        first, end = int(self._offsets[k]), int(self._offsets[k + 1])
+        atoms = self.atoms
+        if atoms is None:
+            for row in range(first, end):
+                if self._trim[row]:
+                    self._replay_row(k, row, first)
+            return
+        decay = atoms.decay_index
+        a = first
+        while a < end:  # one decay (rows a .. b - 1) at a time, in decay order
+            b = a + 1
+            while b < end and decay[b] == decay[a]:
+                b += 1
+            if not atoms.place(a, b):
+                self._lose(k, a, b)
+            else:
+                for row in range(a, b):
+                    if self._trim[row]:
+                        fate = self._replay_row(k, row, first)
+                        if atoms.recoil[row]:
+                            atoms.moved(row, fate)
+                    elif atoms.recoil[row]:
+                        atoms.not_replayed(row)
+            a = b
+
+    def _lose(self, k: int, a: int, b: int) -> None:
+        """Rows ``a .. b - 1`` of event ``k`` are not emitted: their atom left the world."""
+        self._skip[a:b] = True
+        untracked = self._untracked_rows[a:b]
+        if untracked.any():
+            self._untracked_rows[a:b] = False
+            rows = slice(int(self._offsets[k]), int(self._offsets[k + 1]))
+            kept = self._untracked_rows[rows]
+            self.untracked_gamma[k] = float(self._primaries.energy[rows][kept].sum())
+
+    def _replay_row(self, k: int, row: int, first: int) -> IonFate:
+        """Replay the heavy ion of ``row`` (event ``k``, whose first row is ``first``)."""
         transport, p = self.heavy_ions, self._primaries
         assert transport is not None
-        first = int(self._offsets[k])
-        for row in range(first, int(self._offsets[k + 1])):
-            if not self._trim[row]:
-                continue
-            rng = self._replay_rng
-            if rng is None:
-                seed = int(self._replay_seeds[k])
-                rng = ReplayStream(seed, _REPLAY_STREAM, row - first)
-            name = str(p.particle[row])
-            fate = transport.transport(
-                self._particles[name],
-                name,
-                float(p.energy[row]),
-                self._positions[row],  # portal tiling: the subworld point
-                p.direction[row],
-                rng,
-            )
-            self.book(k, fate)
-            self.ion_fates[row] = fate
-            if self.endpoints is not None:
-                self.endpoints[row] = (*fate.position, fate.escaped_energy)
+        rng = self._replay_rng
+        if rng is None:
+            seed = int(self._replay_seeds[k])
+            rng = ReplayStream(seed, _REPLAY_STREAM, row - first)
+        name = str(p.particle[row])
+        fate = transport.transport(
+            self._particles[name],
+            name,
+            float(p.energy[row]),
+            self._positions[row],  # portal tiling: the subworld point
+            p.direction[row],
+            rng,
+        )
+        self._replayed.append(fate)
+        self.ion_fates[row] = fate
+        if self.endpoints is not None:
+            self.endpoints[row] = (*fate.position, fate.escaped_energy)
+        return fate
 
     def _track_endpoints(self, on: bool) -> None:
         """Record where Geant4's primaries end (a Python tracking action, only when asked)."""
@@ -473,8 +567,11 @@ class Simulation:
             self.run_manager.AbortRun(True)  # soft: the current event is complete, no new one
 
     def _report_progress(self, final: bool = False) -> None:
-        """Call the progress callback with the events done since the last call (see :meth:`run`)."""
-        done = self._next_event - self._reported
+        """Call the progress callback with the events (atoms, for per-atom histories) done
+        since the last call (see :meth:`run`)."""
+        k = self._next_event
+        now = k if self._units_after is None else int(self._units_after[k])
+        done = now - self._reported
         if self._progress is not None and done > 0 and (final or done >= self._report_every):
-            self._reported = self._next_event
+            self._reported = now
             self._progress(done)
