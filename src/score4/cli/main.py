@@ -198,6 +198,12 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
         raise ConfigError(
             f"{config_file}: source.vertices: the source already reads a vertex file; nothing to draw"
         )
+    if getattr(config.source.decay, "implantation", False):
+        raise ConfigError(
+            f"{config_file}: source.decay.implantation: the daughters' vertices are where the "
+            "run's TRIM replay stops the alpha recoils, so they cannot be drawn beforehand; "
+            "run the configuration with 'score4 run'"
+        )
     check_output_file(out, overwrite, "--out")
     n, seed = config.run.events, config.run.seed
     with naming_file(config_file):

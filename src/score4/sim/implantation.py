@@ -29,6 +29,7 @@ Python runs per decay and per recoil (with the replay it already runs), never pe
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Callable
 
 import numpy as np
 
@@ -58,11 +59,18 @@ class AtomTracker:
     """Follows the atoms of one batch of per-atom histories (see the module docstring).
 
     ``positions``: the array the primary generator reads (moved vertices are written there and
-    into ``primaries``); ``transport``: the heavy-ion replay, whose navigator locates volumes.
+    into ``primaries``); ``transport``: the heavy-ion replay, whose navigator locates volumes;
+    ``depth_of(points, rows)``: depths below the source's surface of points that lie in the
+    volume of the deposits of rows ``rows`` (:meth:`score4.source.depth.VertexSampler.depth_of`),
+    or None (no depth column).
     """
 
     def __init__(
-        self, primaries: Primaries, positions: np.ndarray, transport: HeavyIonTransport
+        self,
+        primaries: Primaries,
+        positions: np.ndarray,
+        transport: HeavyIonTransport,
+        depth_of: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
     ) -> None:
         ex = primaries.extra
         self.primaries = primaries
@@ -70,12 +78,14 @@ class AtomTracker:
         self.transport = transport
         self.atom = np.asarray(ex["atom"])
         self.decay_index = np.asarray(ex["decay_index"])
-        self.depth = ex.get("depth")
+        self.depth = ex.get("depth") if depth_of is not None else None
+        self.depth_of = depth_of
         self.normal = (
             np.column_stack([ex[f"normal_{a}"] for a in "xyz"]) if "normal_x" in ex else None
         )
         self.vertex = np.zeros(len(primaries), np.int8)
         ex["vertex"] = self.vertex
+        self.deposit_row = np.arange(len(primaries))  # the first row of each row's atom
         self.recoil = ~np.isin(primaries.particle, _NOT_RECOILS)
         # does the atom decay again after this row's decay? (its daughter is a chain member)
         self.has_next = np.zeros(len(self.atom), bool)
@@ -86,14 +96,14 @@ class AtomTracker:
             self.has_next = self.decay_index < last[local]
         self.counts: Counter[str] = Counter()
         self.stopped_in: Counter[str] = Counter()
+        # recoils that stayed in their volume: (deposit row, from, to; from the deposit?)
+        self._moves: list[tuple[int, np.ndarray, np.ndarray, bool]] = []
         self._atom = -1  # the atom being followed
         self._deposit = 0  # its first row
         self._volume: object = None  # volume key of the deposit
         self._at: object = None  # volume key where the atom is now
         self._pos = np.zeros(3)
-        self._depth = np.nan
         self._code = DEPOSIT
-        self._index = -1  # decay index of the last decay placed
 
     # -- volumes ---------------------------------------------------------------------------
 
@@ -105,8 +115,7 @@ class AtomTracker:
     def _label(self, key: tuple[str, object]) -> str:
         kind, value = key
         if kind == "column":
-            names = list(self.transport.column_names)
-            return str(names[value]) if value < len(names) else f"column {value}"
+            return str(self.transport.column_names[int(value)])  # type: ignore[call-overload]
         return f"{value} (not scored)"
 
     def _deposit_volume(self, row: int) -> tuple[str, object]:
@@ -124,11 +133,10 @@ class AtomTracker:
         if atom != self._atom:  # a new atom: at its deposit
             self._atom, self._deposit = atom, a
             self._pos = self.positions[a].copy()
-            self._depth = float(self.depth[a]) if self.depth is not None else np.nan
             self._volume = self._at = self._deposit_volume(a)
             self._code = DEPOSIT
-        self._index = int(self.decay_index[a])
         self.vertex[a:b] = self._code
+        self.deposit_row[a:b] = self._deposit
         if self._code == LOST:
             self.counts["lost_decays"] += 1
             return False
@@ -136,8 +144,6 @@ class AtomTracker:
             self.positions[a:b] = self._pos
             if self.positions is not self.primaries.position:
                 self.primaries.position[a:b] = self._pos
-            if self.depth is not None:
-                self.depth[a:b] = self._depth
         return True
 
     def moved(self, row: int, fate: IonFate) -> None:
@@ -151,28 +157,45 @@ class AtomTracker:
             return
         key = self._key(fate.volume)
         self.stopped_in[self._label(key)] += 1
-        before, depth_before = self._at, self._depth
+        before, start = self._at, self._pos
         self._pos, self._at = np.asarray(fate.position, float), key
+        from_deposit = self._code == DEPOSIT
         self._code = IMPLANTED if key == self._volume else MOVED
-        self._depth = np.nan
-        if self._code == IMPLANTED and self.normal is not None and self.depth is not None:
-            k = self._deposit
-            x0, n0 = self.positions[k], self.normal[k]
-            self._depth = float(self.depth[k] - (self._pos - x0) @ n0)
         if key != before:
             self.counts["other_volume"] += 1
             if key[0] == "logical":
                 self.counts["unscored_volume"] += 1
-        elif np.isnan(self._depth) or np.isnan(depth_before):
-            self.counts["same_volume"] += 1
+        elif self._code == IMPLANTED and self.depth is not None:
+            self._moves.append((self._deposit, start, self._pos, from_deposit))
         else:
-            self.counts["deeper" if self._depth > depth_before else "shallower"] += 1
+            self.counts["same_volume"] += 1
 
     def not_replayed(self, row: int) -> None:
         """A recoil that was not replayed (above ``trim_max_energy``): the atom stays."""
         if self.has_next[row]:
             self.counts["recoils"] += 1
             self.counts["not_replayed"] += 1
+
+    def finish(self) -> None:
+        """After the batch: depths of the moved vertices (one numpy pass), and whether each
+        recoil that stayed in its volume went deeper or shallower."""
+        if self.depth is None or self.depth_of is None:
+            return
+        self.depth[self.vertex == MOVED] = np.nan
+        rows = np.flatnonzero(self.vertex == IMPLANTED)
+        if len(rows):
+            self.depth[rows] = self.depth_of(self.positions[rows], self.deposit_row[rows])
+        if self._moves:
+            dep = np.array([m[0] for m in self._moves])
+            start = np.array([m[1] for m in self._moves])
+            end = np.array([m[2] for m in self._moves])
+            before = self.depth_of(start, dep)
+            first = np.array([m[3] for m in self._moves])
+            before[first] = self.depth[dep[first]]  # from the deposit: its sampled depth
+            after = self.depth_of(end, dep)
+            self.counts["deeper"] += int((after > before).sum())
+            self.counts["shallower"] += int((after <= before).sum())
+            self._moves.clear()
 
     def summary(self) -> dict:
         """Counts of this batch for the run record (:func:`score4.output.chunk_counts` adds

@@ -339,6 +339,8 @@ class Simulation:
             with redirect_native_output(self.log_path):
                 self.run_manager.BeamOn(n)
         self._stop = None
+        if self.atoms is not None:
+            self.atoms.finish()
         if self._stopped or (stop is not None and stop.is_set()):
             raise RunCancelled(f"run cancelled after {self._next_event} of {n} events")
         self._report_progress(final=True)
@@ -360,12 +362,36 @@ class Simulation:
                 "source.decay.implantation: needs native tiling (a recoil in a portal subworld "
                 "stops at no place of the world)"
             )
-        self.atoms = AtomTracker(primaries, self._positions, self.heavy_ions)
+        self.atoms = AtomTracker(
+            primaries, self._positions, self.heavy_ions, self._depth_function(primaries)
+        )
         self._replaying = True  # the tracker places every decay, also without heavy ions
         # atoms whose events are all done after k events (the progress unit)
         atom_of_event = primaries.extra["atom"][self._offsets[:-1]]
         last = np.r_[atom_of_event[1:] != atom_of_event[:-1], True]
         self._units_after = np.r_[0, np.cumsum(last)]
+
+    def _depth_function(self, primaries: Primaries):
+        """``depth_of(points, rows)`` for the moved vertices of per-atom histories drawn below
+        a surface (None for a bulk source: no depth)."""
+        sampler = getattr(self.source, "sampler", None)
+        ex = primaries.extra
+        if not hasattr(sampler, "depth_of") or "depth" not in ex or "normal_x" not in ex:
+            return None
+        normal = np.column_stack([ex[f"normal_{a}"] for a in "xyz"])
+        depth, position = ex["depth"].copy(), primaries.position.copy()  # as deposited
+        face = ex.get("face")
+
+        def depth_of(points: np.ndarray, rows: np.ndarray) -> np.ndarray:
+            return sampler.depth_of(
+                points,
+                position[rows],
+                normal[rows],
+                depth[rows],
+                None if face is None else face[rows],
+            )
+
+        return depth_of
 
     def run_counts(self) -> dict:
         """Counts of the last :meth:`run` for the run record: ``intercepted_ions`` (heavy-ion
