@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.score4-installed
 PYTEST_ARGS ?=
 
-.PHONY: demo test test-deep lint docs-check docs-check-all clean
+.PHONY: demo detector-module test test-deep lint docs-check docs-check-all clean
 
 # score4 (editable) with the test extra, plus the pinned linters of the `lint` dependency group
 # (pip >= 25.1 reads dependency groups; the step upgrades pip first).
@@ -23,12 +23,25 @@ demo: $(STAMP)
 	$(BIN)/score4 summary out/demo/rough.h5
 	$(BIN)/score4 plot out/demo/flat.h5 out/demo/rough.h5 --label "flat face" --label "10 um pyramids" --out out/demo/spectra.png --overwrite
 
+# The detector-scale example (examples/detector_module, docs/howto-detector-module.md): a module
+# written as GDML by pyg4ometry, Po-210 in its copper frame at two depths, the crystal's spectra.
+MODULE := out/detector_module
+detector-module: $(STAMP)
+	mkdir -p $(MODULE)
+	$(BIN)/python examples/detector_module/write_module.py
+	$(BIN)/score4 run examples/detector_module/po210_20nm.yaml --jobs 2 --out $(MODULE)/po210_20nm.h5 --overwrite
+	$(BIN)/score4 run examples/detector_module/po210_1um.yaml --jobs 2 --out $(MODULE)/po210_1um.h5 --overwrite
+	$(BIN)/score4 summary $(MODULE)/po210_1um.h5 --threshold "50 keV"
+	$(BIN)/score4 plot $(MODULE)/po210_20nm.h5 $(MODULE)/po210_1um.h5 --volume crystal --label "Po-210 20 nm deep" --label "Po-210 1 um deep" --out $(MODULE)/crystal.png --overwrite
+
+# On both cores (pytest-xdist): two tests at a time. Tests that start several worker
+# processes share one xdist group (pytest.mark.xdist_group), so they never run side by side.
 test: $(STAMP)
-	$(BIN)/python -m pytest $(PYTEST_ARGS)
+	$(BIN)/python -m pytest -n 2 --dist loadgroup $(PYTEST_ARGS)
 
 # The long validations and fuzz runs that `make test` leaves out (pytest marker `deep`).
 test-deep: $(STAMP)
-	$(BIN)/python -m pytest -m deep $(PYTEST_ARGS)
+	$(BIN)/python -m pytest -n 2 --dist loadgroup -m deep $(PYTEST_ARGS)
 
 # Lint and types: the same checks as the pre-commit hooks' ruff and mypy.
 lint: $(STAMP)

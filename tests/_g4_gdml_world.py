@@ -108,8 +108,9 @@ def trace_built(config_path: str, rays: list) -> list:
     return [_trace(g4, nav, o, d) for o, d in rays]
 
 
-def trace_gdml(path: str, rays: list) -> list:
-    """Ray paths through a GDML world read back by Geant4's parser."""
+def trace_gdml(path: str, rays: list, points: list | None = None):
+    """Ray paths through a GDML world read back by Geant4's parser; with ``points``, also the
+    names of the physical volumes at them (one process reads the file once)."""
     from score4.geometry.gdml import read_gdml
     from score4.sim.runtime import import_geant4, resolve_physics
 
@@ -117,4 +118,8 @@ def trace_gdml(path: str, rays: list) -> list:
     _parser, world = read_gdml(g4, path)
     nav = g4.G4Navigator()
     nav.SetWorldVolume(world)
-    return [_trace(g4, nav, o, d) for o, d in rays]
+    paths = [_trace(g4, nav, o, d) for o, d in rays]
+    if points is None:
+        return paths
+    found = [nav.LocateGlobalPointAndSetup(g4.G4ThreeVector(*p)) for p in points]
+    return paths, [None if v is None else str(v.GetName()) for v in found]

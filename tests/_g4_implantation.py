@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 
 def implant_chunk(data: dict, atoms: int, seed: int) -> dict:
     """One chunk of ``atoms`` atoms of a config dict, as a worker runs it; plain arrays."""

@@ -10,13 +10,22 @@
 
 Only the pyg4ometry and Geant4 calls here write geometry; the text edits move blocks the writer
 made (materials into an entity, a ``<file>`` reference into a placement).
+
+:func:`cached` keeps the written files in score4's cache folder (``test-gdml-worlds``), keyed by
+this file's content and the writers' versions: writing them takes ~15 s (a spawned Geant4, the
+HPGe detector), and files that stay the same also keep their volume models cached.
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
 import multiprocessing as mp
+import os
+import shutil
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
+from importlib.metadata import version
 from pathlib import Path
 
 #: Crystal (full edges, mm), its copies' positions in the cavity and rotations about z (rad).
@@ -226,3 +235,28 @@ def touching_world(folder: Path) -> Path:
     writer.addDetector(reg)
     writer.write(str(path))
     return path
+
+
+def cached(name: str, writer: Callable[[Path], Path]) -> Path:
+    """The file ``writer(folder)`` writes, made once per content of this module and versions of
+    the writers, then taken from score4's cache folder (a crashed or concurrent writer leaves no
+    half-written world: the folder is renamed into place when complete)."""
+    from score4.files import cache_dir
+
+    digest = hashlib.sha256(Path(__file__).read_bytes())
+    for package in ("pyg4ometry", "legend-pygeom-hpges", "geant4_pybind"):
+        digest.update(f"{package} {version(package)}".encode())
+    folder = cache_dir("test-gdml-worlds", digest.hexdigest()[:16], name)
+    done = folder / ".complete"
+    if done.is_file():
+        return folder / done.read_text().strip()
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    tmp = folder.parent / f".{name}.{os.getpid()}"
+    shutil.rmtree(tmp, ignore_errors=True)
+    path = writer(tmp)
+    (tmp / ".complete").write_text(path.name)
+    try:
+        tmp.rename(folder)
+    except OSError:  # another process finished first
+        shutil.rmtree(tmp, ignore_errors=True)
+    return folder / path.name

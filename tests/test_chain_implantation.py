@@ -8,6 +8,7 @@ with more atoms and histories). Geant4 runs in spawned processes.
 
 from __future__ import annotations
 
+import json
 import multiprocessing as mp
 import subprocess
 import sys
@@ -17,6 +18,7 @@ import numpy as np
 import pytest
 import yaml
 
+from score4.cli.main import main
 from score4.config import parse_config
 from score4.decay.chain import ChainEvents, build_chain
 from score4.errors import ConfigError
@@ -106,7 +108,8 @@ def test_vertices_command_refuses_implantation(tmp_path):
         text=True,
     )
     assert done.returncode == 2
-    assert done.stderr.startswith("score4: error: ") and done.stderr.count("\n") == 1
+    assert done.stderr.startswith("score4: error: ")
+    assert done.stderr.count("\n") == 1
     assert "cannot be drawn beforehand" in done.stderr
 
 
@@ -119,11 +122,17 @@ def test_history_branches_agree_with_the_radiation_emitted():
     rows = ChainEvents(build_chain("Pb212"), None, 0.0).histories(np.random.default_rng(2), 3000)
     bi212 = rows["nuclide"] == 832120
     atom, index = rows["atom"], rows["decay_index"]
-    alpha = {(a, i) for a, i, k in zip(atom[bi212], index[bi212], rows["kind"][bi212]) if k == 0}
+    alpha = {
+        (a, i)
+        for a, i, k in zip(atom[bi212], index[bi212], rows["kind"][bi212], strict=True)
+        if k == 0
+    }
     recoil = rows["particle"][bi212 & (rows["kind"] == 1)]
     assert set(recoil) == {"Tl208"}
-    nxt = {(a, i): z for a, i, z in zip(atom, index, rows["nuclide"])}
-    after = [(nxt[(a, i + 1)], (a, i) in alpha) for a, i in zip(atom[bi212], index[bi212])]
+    nxt = {(a, i): z for a, i, z in zip(atom, index, rows["nuclide"], strict=True)}
+    after = [
+        (nxt[(a, i + 1)], (a, i) in alpha) for a, i in zip(atom[bi212], index[bi212], strict=True)
+    ]
     assert all(z == (812080 if was_alpha else 842120) for z, was_alpha in after)
     decays = set(zip(atom[bi212], index[bi212], strict=True))
     share = len(alpha) / len(decays)
@@ -222,7 +231,8 @@ def check_daughters_at_recoil_stops(out: dict, tmp, ions: int, rel_mean: float, 
     pos, depth = out["position"][first], ex["depth"][first]
     head = (index == 0) & (nuclide == 842180)
     daughter = (index == 1) & (nuclide == 822140)
-    assert (vertex[head] == 0).all() and (vertex[daughter] == 1).all()
+    assert (vertex[head] == 0).all()
+    assert (vertex[daughter] == 1).all()
     both = np.intersect1d(atom[head], atom[daughter])
     assert len(both) >= 0.99 * head.sum()  # At-218 (0.02 %) is the other branch
     h = np.searchsorted(atom[head], both)
@@ -249,7 +259,7 @@ def check_daughters_at_recoil_stops(out: dict, tmp, ions: int, rel_mean: float, 
 
 
 def test_daughters_decay_where_the_recoils_stopped_like_trim(tmp_path):
-    out = deep_deposit(400, 300)
+    out = deep_deposit(300, 300)
     check_daughters_at_recoil_stops(out, tmp_path, 300, 0.10, 0.30)
 
 
@@ -297,22 +307,19 @@ def run_cli(tmp_path, name: str, jobs: int, chunk: int, atoms: int):
     return read_results(out)
 
 
-@pytest.fixture(scope="module")
-def facing_runs(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("facing")
-    return run_cli(tmp, "one", 1, 10_000, 150), run_cli(tmp, "two", 2, 40, 150)
-
-
-def test_recoils_across_a_gap_decay_in_the_opposite_face(facing_runs):
+def test_recoils_across_a_gap_decay_in_the_opposite_face(tmp_path, capsys):
     """Po-218 on the surface of the bottom box, a second box 5 um above: a Pb-214 recoil sent
-    outward crosses the gap and stops in the top box, where Pb-214, Bi-214 and Po-214 decay."""
-    r = facing_runs[0]
+    outward crosses the gap and stops in the top box, where Pb-214, Bi-214 and Po-214 decay.
+    The same run in 4 chunks on 2 jobs gives the same results (one test: the two runs are
+    made once)."""
+    r = run_cli(tmp_path, "one", 1, 10_000, 150)
     p, ex = r.primaries, r.primaries.extra
     first = p.event_offsets()[:-1]
     vertex, z = ex["vertex"][first], p.position[first, 2]
     moved = vertex == 2
     # in the top box, within TRIM's reach of its face (z = 5 um)
-    assert (z[moved] > 0.005).all() and (z[moved] < 0.005 + 200e-6).all()
+    assert (z[moved] > 0.005).all()
+    assert (z[moved] < 0.005 + 200e-6).all()
     assert np.isnan(ex["depth"][first][moved]).all()
     assert (z[vertex == 1] < 0).all()  # implanted into the bottom box
     counts = r.run["implantation"]
@@ -325,15 +332,33 @@ def test_recoils_across_a_gap_decay_in_the_opposite_face(facing_runs):
     # the decays of atoms that left the world are not in the results, and are counted
     assert not (ex["vertex"] == 3).any()
     assert counts["lost_decays"] >= counts["left_world"]
-    assert r.run["n_atoms"] == 150 and r.run["n_events"] == len(r.event_id)
+    assert r.run["n_atoms"] == 150
+    assert r.run["n_events"] == len(r.event_id)
     assert np.array_equal(r.event_id, np.arange(len(r.event_id)))
     assert r.run["energy_violations"] == 0
     assert r.run["intercepted_ions"] == 0  # alphas and electrons knock on no heavy ions here
+    check_template_counts_per_head_decay(r, tmp_path, capsys)
+    check_same_in_any_chunking(r, run_cli(tmp_path, "two", 2, 40, 150))
 
 
-def test_results_do_not_depend_on_jobs_or_chunks(facing_runs):
-    one, two = facing_runs
-    assert two.run["n_chunks"] == 4 and two.run["jobs"] == 2
+def check_template_counts_per_head_decay(r, tmp_path, capsys) -> None:
+    """The unit of the run is a deposited Po-218 atom, i.e. one Po-218 decay: a template for a
+    quoted Po-218 activity counts every event of the chain's decays over the atoms."""
+    assert r.run["simulated_decays"] == 150
+    assert r.run["activity_nuclide"] == "Po218"
+    out = tmp_path / "t.h5"
+    args = ["template", str(tmp_path / "one.h5"), "--activity", "1 mBq/cm2"]
+    assert main([*args, "--emax", "20 MeV", "--out", str(out), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    for name, det in report["detectors"].items():
+        hits = np.count_nonzero(r.edep[name])  # Po-214 alphas (7.7 MeV) are below 20 MeV
+        per_kg_day = hits / 150 * 1e-5 * 100.0 * 86400 / det["mass_kg"]  # 1 cm2 face
+        assert det["counts_per_kg_day"] == pytest.approx(per_kg_day, rel=1e-12)
+
+
+def check_same_in_any_chunking(one, two) -> None:
+    assert two.run["n_chunks"] == 4
+    assert two.run["jobs"] == 2
     assert np.array_equal(one.event_id, two.event_id)
     for name in one.edep:
         assert np.array_equal(one.edep[name], two.edep[name])

@@ -256,7 +256,7 @@ def _density_warning_config(tmp_path: Path) -> Path:
     data["targets"][0]["rough"] = [
         {"variants": [{"surface": "s", "density": 1}, {"surface": "s", "density": 1}]}
     ]
-    data["targets"][0]["size"] = ["10 um", "10 um", "1 cm"]
+    data["targets"][0]["size"] = ["20 um", "10 um", "1 cm"]  # two patches: one of each
     config = tmp_path / "w.yaml"
     config.write_text(yaml.safe_dump(data))
     return config

@@ -144,7 +144,8 @@ def test_vtx_group_follows_remage_vertex_reader(vertex_file):
 
     with h5py.File(vertex_file) as f:
         vtx = f["vtx"]
-        assert list(vtx) == ["pos"]
+        assert sorted(vtx) == ["kin", "pos"]
+        assert vtx.attrs["datatype"] == "struct{pos,kin}"
         pos = vtx["pos"]
         assert isinstance(pos, h5py.Group)
         assert pos.attrs["datatype"] == "table{xloc,yloc,zloc}"
@@ -158,3 +159,62 @@ def test_vtx_group_follows_remage_vertex_reader(vertex_file):
             assert kind.get_class() == h5py.h5t.STRING
             units.add(column.attrs["units"])
         assert units == {"mm"}
+
+
+def test_vtx_kin_follows_remage_generator_reader(tmp_path):
+    """remage's ``FromFile`` generator (RMGGeneratorFromFile, read at legend-exp/remage) reads
+    ``vtx/kin``: integer ``g4_pid`` (PDG code) and ``n_part``, double ``ekin`` (units eV, keV,
+    MeV or GeV), ``px/py/pz`` and ``time`` (units ns, ms or s); an event is a row with
+    ``n_part`` > 0 followed by ``n_part - 1`` rows with ``n_part`` = 0. Read as remage walks it,
+    the file gives each event's particles, energies, directions and decay times; legend-lh5io
+    reads it as a table."""
+    import h5py
+
+    from score4.source.vertex_file import pdg_codes
+
+    cfg = tmp_path / "chain.yaml"
+    cfg.write_text(
+        CONFIG.replace("decay: Po210", "decay: {chain: Rn222, until: Pb210}").replace(
+            "events: 30", "events: 200"
+        )
+    )
+    out = tmp_path / "chain.h5"
+    assert main(["vertices", str(cfg), "--out", str(out)]) == 0
+    ours = read_vertex_file(out)
+    with h5py.File(out) as f:
+        kin = f["vtx/kin"]
+        assert kin.attrs["datatype"] == "table{ekin,g4_pid,px,py,pz,time,n_part}"
+        for name in ("g4_pid", "n_part"):
+            assert kin[name].id.get_type().get_class() == h5py.h5t.INTEGER
+            assert kin[name].dtype == np.int32
+        for name in ("ekin", "px", "py", "pz", "time"):
+            assert kin[name].dtype == np.float64
+        assert kin["ekin"].attrs["units"] in ("eV", "keV", "MeV", "GeV")
+        assert kin["time"].attrs["units"] in ("ns", "ms", "s")
+        rows = {name: kin[name][()] for name in kin}
+    # remage's loop: the first row of an event says how many rows it has
+    events, row = [], 0
+    while row < len(rows["n_part"]):
+        n = int(rows["n_part"][row])
+        assert n > 0
+        assert not rows["n_part"][row + 1 : row + n].any()
+        events.append(range(row, row + n))
+        row += n
+    assert len(events) == 200
+    offsets = ours.event_offsets()
+    for k, rng in enumerate(events):
+        assert (rng.start, rng.stop) == (offsets[k], offsets[k + 1])
+    assert np.array_equal(rows["g4_pid"], pdg_codes(ours.particle))
+    assert np.array_equal(rows["ekin"], ours.energy)
+    assert np.array_equal(np.column_stack([rows["px"], rows["py"], rows["pz"]]), ours.direction)
+    assert np.allclose(rows["time"], ours.extra["time"] * 1e9)
+    assert rows["time"].max() > 0  # Po-214 within the window of its Bi-214 decay
+    codes = dict(zip(ours.particle, rows["g4_pid"], strict=True))
+    assert codes["alpha"] == 1000020040
+    assert codes["Pb210"] == 1000822100
+    assert codes["e-"] == 11
+    assert codes["gamma"] == 22
+    table = lh5.read("vtx/kin", out)
+    assert list(table.keys()) == ["ekin", "g4_pid", "px", "py", "pz", "time", "n_part"]
+    assert np.array_equal(table["g4_pid"].nda, rows["g4_pid"])
+    assert pdg_codes(np.array(["alpha", "geantino"])) is None  # no kin table for geantinos

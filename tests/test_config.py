@@ -139,7 +139,7 @@ def test_merge_keys_may_still_be_overridden(tmp_path: Path):
         ),
         (
             {"targets": [{"name": "crystal", "size": ["1e-6 nm", "1 cm", "1 cm"]}]},
-            "cfg.yaml: targets.0.size.0: '1e-6 nm' is shorter than 1 pm",
+            "cfg.yaml: targets.0.size.0: '1e-6 nm' is shorter than 10 pm",
         ),
         (
             {"source": {"energi": "5 MeV"}},
@@ -175,7 +175,10 @@ def test_merge_keys_may_still_be_overridden(tmp_path: Path):
         ),
         (
             {"source": {"depth": {"profile": "exponential", "mean": "5 nm", "sigma": "2 nm"}}},
-            "cfg.yaml: source.depth: sigma: not used by profile exponential (it uses mean",
+            (
+                "cfg.yaml: source.depth.sigma: used only with profile: truncated_gaussian (here "
+                "profile is exponential); remove sigma or change profile"
+            ),
         ),
     ],
 )
@@ -313,9 +316,15 @@ def test_a_key_the_chosen_option_ignores_is_refused(sections, message):
     assert message in str(err.value)
 
 
+_TWO = [{"surface": "s", "density": 0.5}, {"surface": "s", "density": 0.5}]
+
+
 def test_a_key_under_the_option_that_uses_it_is_accepted():
     config = parse_config(
-        config_dict(surfaces=_SURFACES, targets=_rough_target(fill="tiles", n_tiles=8))
+        config_dict(
+            surfaces=_SURFACES,
+            targets=_rough_target(fill="tiles", n_tiles=8, surface=None, variants=_TWO),
+        )
     )
     assert config.targets[0].rough[0].n_tiles == 8
     physics = parse_config(config_dict(physics={"trim_max_energy": "2 MeV"})).physics

@@ -25,6 +25,10 @@ from score4.sim.worker import CRASH_HOOK, Chunk, WorkerSpec, chunk_path
 
 from conftest import config_dict
 
+# Each test starts several worker processes: under `make test` (pytest-xdist, -n 2) these run one
+# after another on one xdist worker, not side by side with each other (Makefile: test).
+pytestmark = pytest.mark.xdist_group("worker-processes")
+
 distributed = pytest.importorskip("distributed")
 
 RUN = {"events": 600, "seed": 13, "chunk_events": 100}

@@ -18,7 +18,7 @@ import yaml
 from score4.cli.main import main
 from score4.config import parse_config
 from score4.errors import ConfigError
-from score4.geometry.gdml_files import load_geometry_model
+from score4.geometry.gdml_files import _read_in_subprocess, load_geometry_model
 from score4.scene import build_scene
 
 HERE = Path(__file__).parent
@@ -39,12 +39,12 @@ def spawned(name, *args):
 
 
 @pytest.fixture(scope="module")
-def worlds(tmp_path_factory) -> dict[str, Path]:
-    folder = tmp_path_factory.mktemp("gdml")
+def worlds() -> dict[str, Path]:
+    """The worlds of tests/_gdml_worlds.py, written once and kept in score4's cache folder."""
     return {
-        "pyg4ometry": W.pyg4ometry_world(folder / "pyg4"),
-        "geant4": W.geant4_world(folder / "g4"),
-        "reflected": W.reflected_world(folder / "refl"),
+        "pyg4ometry": W.cached("pyg4", W.pyg4ometry_world),
+        "geant4": W.cached("g4", W.geant4_world),
+        "reflected": W.cached("refl", W.reflected_world),
     }
 
 
@@ -59,7 +59,11 @@ def _rx(a: float) -> np.ndarray:
 
 
 def test_model_lists_every_volume_of_both_writers(worlds):
+    # the model is cached; Geant4 reading the file now gives the same
+    fresh = _read_in_subprocess(worlds["pyg4ometry"], "world.gdml")
     model = load_geometry_model(worlds["pyg4ometry"])
+    assert fresh["logicals"] == model.to_dict()["logicals"]
+    assert fresh["materials"] == model.materials
     names = [i.name for i in model.instances]
     # the module comes from <file>, the materials from an XML entity
     for name in ("cavity", "crystal_0", "crystal_1", "crystal_2", "disk", "holder", "chip", "bege"):
@@ -444,8 +448,14 @@ def test_exported_world_gives_the_same_paths_and_reads_in_pyg4ometry(worlds, tmp
             start = frame.to_world([uv[0], uv[1], 0.5])
             tilt = frame.rotation @ np.array([*rng.uniform(-0.3, 0.3, 2), -1.0])
             rays.append((start.tolist(), tilt.tolist()))
+    # score4's vertices, drawn for the run, in the exported world (the same frame)
+    vtx = tmp_path / "v.h5"
+    assert main(["vertices", str(cfg), "--n", "20", "--out", str(vtx)]) == 0
+    from score4.source.vertex_file import read_vertex_file
+
+    pos = read_vertex_file(vtx).position
     ours = spawned("trace_built", str(cfg), rays)
-    back = spawned("trace_gdml", str(out), rays)
+    back, names = spawned("trace_gdml", str(out), rays, pos.tolist())
     for a, b in zip(ours, back, strict=True):
         assert [v for v, _ in a] == [v for v, _ in b]
         np.testing.assert_allclose([p for _, p in a], [p for _, p in b], atol=1e-9, rtol=0)
@@ -458,12 +468,6 @@ def test_exported_world_gives_the_same_paths_and_reads_in_pyg4ometry(worlds, tmp
     lvs = [n.split("0x")[0] for n in reg.logicalVolumeDict]
     assert {"crystal_1_roughpz", "disk_roughmz", "B00000T", "CrystalLV_u1"} <= set(lvs)
     # vertices drawn by score4 lie in the exported world's crystal_1 material
-    vtx = tmp_path / "v.h5"
-    assert main(["vertices", str(cfg), "--n", "20", "--out", str(vtx)]) == 0
-    from score4.source.vertex_file import read_vertex_file
-
-    pos = read_vertex_file(vtx).position
-    names = spawned("locate", str(out), pos.tolist())
     assert set(names) <= {"crystal_1", "crystal_1_roughpz_v0"} | {
         n for n in names if n and n.startswith("crystal_1_roughpz")
     }

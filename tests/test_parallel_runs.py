@@ -23,11 +23,16 @@ import yaml
 from score4.cli.main import main
 from score4.config import parse_config
 from score4.errors import Score4Error
+from score4.limits import MEMORY_ENV
 from score4.output import read_results
 from score4.sim.engine import config_fingerprint, run
 from score4.sim.worker import CRASH_HOOK
 
 from conftest import config_dict, tmpfs_mount_command
+
+# Each test starts several worker processes: under `make test` (pytest-xdist, -n 2) these run one
+# after another on one xdist worker, not side by side with each other (Makefile: test).
+pytestmark = pytest.mark.xdist_group("worker-processes")
 
 # 40 chunks of 100 events: a few seconds on 2 cores, so a run can be stopped in the middle.
 LONG = {"events": 4000, "seed": 21, "chunk_events": 100}
@@ -63,10 +68,11 @@ def assert_same_events(a, b) -> None:
         assert np.array_equal(getattr(a.primaries, field), getattr(b.primaries, field))
 
 
-def start_cli(tmp_path: Path, *args: str) -> subprocess.Popen:
+def start_cli(tmp_path: Path, *args: str, env: dict | None = None) -> subprocess.Popen:
     """``score4 run ...`` in a new session; its stderr goes to tmp_path/stderr.txt.
 
-    No progress bar (stderr is a file), so the notices and warnings stay readable.
+    No progress bar (stderr is a file: plain progress lines), so the notices stay readable.
+    ``env``: variables added to the environment.
     """
     with open(tmp_path / "stderr.txt", "w") as err:
         return subprocess.Popen(
@@ -74,6 +80,7 @@ def start_cli(tmp_path: Path, *args: str) -> subprocess.Popen:
             stdout=subprocess.DEVNULL,
             stderr=err,
             start_new_session=True,
+            env={**os.environ, **(env or {})},
         )
 
 
@@ -193,8 +200,16 @@ def test_ctrl_c_stops_a_huge_run_at_once(tmp_path: Path):
     config_file = tmp_path / "huge.yaml"
     config_file.write_text(yaml.safe_dump(config_dict()))
     parts = tmp_path / "huge.h5.parts"
+    # (this machine could not merge 10^11 events: score4 would refuse the run at once, so the
+    # test lets it plan with 10 PB of memory)
     proc = start_cli(
-        tmp_path, str(config_file), "--out", str(tmp_path / "huge.h5"), "--events", "1e11"
+        tmp_path,
+        str(config_file),
+        "--out",
+        str(tmp_path / "huge.h5"),
+        "--events",
+        "1e11",
+        env={MEMORY_ENV: "1e16"},
     )
     deadline = time.monotonic() + 60
     while not parts.exists() and time.monotonic() < deadline:  # the workers are being started

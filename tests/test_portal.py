@@ -42,7 +42,7 @@ VARIANTS = {
         "height_sigma": "2 um",
         "seed": 4,
     },
-    "b": {"kind": "spikes", "nx": 4, "ny": 4, "width": "5 um", "height": "4 um", "seed": 5},
+    "b": {"kind": "spikes", "nx": 4, "ny": 4, "width": "5 um", "height": "4 um"},
 }
 # +z face: 10 x 6 cells; -x face (u = -y, v = z): 6 x 5 cells.
 CRYSTAL = {

@@ -200,8 +200,8 @@ def test_materials_from_config(fake, capfd, tmp_path):
             "MATERIAL: unknown material 'G4_Silicon'; closest: .*G4_Si",
         ),
         (["Pb206", "103 keV", "sodium_iodide"], "closest: G4_SODIUM_IODIDE"),
-        (["Pb206", "0 keV", "G4_Si"], "ENERGY: must be > 0"),
-        (["Pb206", "-5 keV", "G4_Si"], "ENERGY: must be > 0"),
+        (["Pb206", "0 keV", "G4_Si"], "ENERGY: must be greater than 0"),
+        (["Pb206", "-5 keV", "G4_Si"], "ENERGY: must be greater than 0"),
         (["Pb206", "103", "G4_Si"], "ENERGY: '103' has no unit"),
         (
             ["alpha", "10 GeV", "G4_Si", "--compare-srim"],
@@ -215,7 +215,10 @@ def test_materials_from_config(fake, capfd, tmp_path):
             ["Pb206", "2 MeV", "G4_Si"],
             r"above the validity of score4's heavy-ion model for Pb-206: .* up to 1 MeV",
         ),
-        (["Pb206", "103 keV", "G4_Si", "--thickness", "0 nm"], "--thickness: must be > 0"),
+        (
+            ["Pb206", "103 keV", "G4_Si", "--thickness", "0 nm"],
+            "--thickness: must be greater than 0",
+        ),
         (["Pb206", "103 keV", "G4_Si", "--thickness", "20"], "--thickness: '20' has no unit"),
         (
             ["Pb206", "103 keV", "G4_Si", "--density", "2 g/cm3"],

@@ -411,7 +411,7 @@ def test_export_gdml_tessellated_and_multiunion(tmp_path, capsys):
         ),
         (
             ["export", "{tmp}/good.yaml", "--stl", "{tmp}/a.stl", "--base-thickness", "0 um"],
-            "--base-thickness: must be positive",
+            "--base-thickness: must be greater than 0",
         ),
         (
             ["export", "{tmp}/good.yaml", "--stl", "{tmp}/a.stl", "--solid", "multiunion"],

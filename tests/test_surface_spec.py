@@ -153,7 +153,7 @@ def measured_dict(path: Path, **extra) -> dict:
                 "corr_length": "5 um",
                 "hurst": 0.5,
             },
-            "hurst belong(s) to model self_affine, not gaussian",
+            "hurst: used only with model: self_affine (here model is gaussian)",
         ),
         (
             {
@@ -201,7 +201,7 @@ def measured_dict(path: Path, **extra) -> dict:
                 "hurst": 0.7,
                 "corr_length": "3 um",
             },
-            "corr_length belongs to the gaussian/exponential models",
+            "corr_length: used only with model: gaussian or exponential (here model is self_affine",
         ),
         (
             {

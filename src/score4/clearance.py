@@ -5,13 +5,16 @@
 * A GDML world: a rough layer must not meet any other daughter of its volume's mother (the
   volume's sisters, boxes of the configuration, other layers) and must stay inside the mother;
   boxes of the configuration likewise. G4Box solids are tested exactly (oriented boxes,
-  separating axes), G4Tubs by a grid of points of the envelope, other solids by their bounding
-  box. Errors name what the layer meets and the free gap along the face normal.
+  separating axes), G4Tubs and the other solids score4.shapes describes (booleans: a frame is a
+  box less a box) by a grid of points of the envelope, the rest by their bounding box. Errors
+  name what the layer meets and the free gap along the face normal.
 """
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -28,6 +31,7 @@ from .scene import (
     target_aabb,
     target_obb,
 )
+from .shapes import Shape, shape_from_dict
 
 
 def _overlap(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> bool:
@@ -86,21 +90,32 @@ class _Body:
     to_local: object  # world -> the solid's frame
     lo: np.ndarray
     hi: np.ndarray
+    shape: Shape | None = None  # the solid as score4.shapes describes it (None: not described)
 
     def meets(self, box: OrientedBox) -> bool:
         if not self.obb.overlaps(box):
             return False
         if self.solid == "G4Box":
             return True  # the bounding box is the solid
-        pts = box.grid()
-        q = self.to_local(pts)  # type: ignore[operator]
-        return bool(solid_contains(self.solid, self.params, self.lo, self.hi, q).any())
+        q = self.to_local(box.grid())  # type: ignore[operator]
+        return bool(self.contains(q, touching=False).any())
+
+    def contains(self, q: np.ndarray, touching: bool = True) -> np.ndarray:
+        """Points (the solid's frame) in the solid: exact for G4Box and G4Tubs and for every
+        solid score4.shapes describes (a frame: a box less a box), else its bounding box.
+        ``touching=False``: points on the surface of a shape do not count (a layer may touch
+        a sister)."""
+        if self.shape is not None and self.solid not in ("G4Box", "G4Tubs"):
+            d = self.shape.signed_distance(q)
+            return np.asarray(d <= BOUNDARY_TOLERANCE if touching else d < -BOUNDARY_TOLERANCE)
+        return solid_contains(self.solid, self.params, self.lo, self.hi, q)
 
 
 def _instance_body(model: GeometryModel, inst: Instance, label: str | None = None) -> _Body:
     lv = model.logicals[inst.logical]
     lo, hi = np.asarray(lv.solid["lo"], float), np.asarray(lv.solid["hi"], float)
     obb = OrientedBox(inst.to_world((lo + hi) / 2), inst.rotation, (hi - lo) / 2)
+    data = lv.solid.get("shape")
     return _Body(
         label or f"volume {model.label(inst)!r}",
         obb,
@@ -109,7 +124,18 @@ def _instance_body(model: GeometryModel, inst: Instance, label: str | None = Non
         inst.to_local,
         lo,
         hi,
+        _shape(data) if data and lv.solid_type not in ("G4Box", "G4Tubs") else None,
     )
+
+
+@lru_cache(maxsize=256)
+def _shape_of(text: str) -> Shape:
+    return shape_from_dict(json.loads(text))
+
+
+def _shape(data: dict) -> Shape:
+    """The shape of a model's solid record (cached: a world places one solid many times)."""
+    return _shape_of(json.dumps(data, sort_keys=True))
 
 
 def _target_body(t: TargetVolume) -> _Body:
@@ -121,8 +147,9 @@ def check_gdml_clearance(scene: Scene) -> None:
 
     A layer on a face (outside the volume) must not meet any other daughter of the volume's
     mother (other GDML volumes, boxes of the configuration, other layers) and must stay inside
-    the mother. G4Box solids are tested exactly (oriented boxes), G4Tubs by a grid of points of
-    the layer's envelope, other solids by their bounding box.
+    the mother. G4Box solids are tested exactly (oriented boxes), G4Tubs and the solids
+    score4.shapes describes by a grid of points of the layer's envelope, other solids by their
+    bounding box.
     """
     model = scene.model
     assert model is not None
@@ -140,10 +167,7 @@ def check_gdml_clearance(scene: Scene) -> None:
                 )
         mother_body = _instance_body(model, t.mother)
         pts = box.corners() if mother_body.solid == "G4Box" else box.grid()
-        q = t.mother.to_local(pts)
-        if not solid_contains(
-            mother_body.solid, mother_body.params, mother_body.lo, mother_body.hi, q
-        ).all():
+        if not mother_body.contains(t.mother.to_local(pts)).all():
             raise ConfigError(
                 f"targets.{t.entry}: box {t.name!r} sticks out of its mother "
                 f"{model.label(t.mother)!r}; position is in the mother's frame"
@@ -172,9 +196,42 @@ def check_gdml_clearance(scene: Scene) -> None:
 
 
 def _gap(layer: RoughLayer, body: _Body) -> float:
-    """Free space along the face normal between the face and ``body``'s bounding box."""
+    """Free space between the face and ``body``: along the face normal to its bounding box (a
+    box), or the least distance from a grid of points of the face to its solid (a shape)."""
+    if body.shape is not None:
+        return _shape_gap(layer, body)
     q = layer.frame.to_local(body.obb.corners())
     return float(q[:, 2].min())
+
+
+def _shape_gap(layer: RoughLayer, body: _Body, n_face: int = 25, n_steps: int = 400) -> float:
+    """Least distance along the face normal from a grid of points of the face to the solid of
+    ``body`` (a shape), within the layer's thickness: marched in ``n_steps``, then bisected."""
+    lu, lv = layer.frame.size
+    u, v = np.meshgrid(np.linspace(-lu / 2, lu / 2, n_face), np.linspace(-lv / 2, lv / 2, n_face))
+    face = np.column_stack([u.ravel(), v.ravel(), np.zeros(u.size)])
+    steps = np.linspace(0.0, layer.thickness, n_steps + 1)
+
+    def inside(local_face: np.ndarray, t: np.ndarray) -> np.ndarray:
+        pts = layer.frame.to_world(local_face + t[:, None] * np.array([0.0, 0.0, 1.0]))
+        return body.contains(body.to_local(pts), touching=False)  # type: ignore[operator]
+
+    grid = inside(np.repeat(face, len(steps), axis=0), np.tile(steps, len(face)))
+    hits = grid.reshape(len(face), len(steps))
+    if not hits.any():
+        return 0.0
+    first = np.where(hits.any(axis=1), hits.argmax(axis=1), len(steps))
+    k = int(np.argmin(first))
+    if first[k] == 0:
+        return 0.0
+    lo, hi = steps[first[k] - 1], steps[first[k]]
+    for _ in range(30):  # bisection on the first point that meets the solid
+        mid = 0.5 * (lo + hi)
+        if inside(face[k : k + 1], np.array([mid]))[0]:
+            hi = mid
+        else:
+            lo = mid
+    return float(hi)
 
 
 def _check_inside_mother(
@@ -183,7 +240,7 @@ def _check_inside_mother(
     lv = model.logicals[mother.logical]
     body = _instance_body(model, mother)
     pts = box.corners() if body.solid == "G4Box" else box.grid()
-    inside = solid_contains(body.solid, body.params, body.lo, body.hi, mother.to_local(pts))
+    inside = body.contains(mother.to_local(pts))
     if not inside.all():
         raise ConfigError(
             f"{layer.name}: the rough layer on face {layer.config.face} of {layer.target.name!r} "

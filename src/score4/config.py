@@ -18,12 +18,16 @@ from pydantic import (
     Field,
     Tag,
     ValidationError,
+    ValidationInfo,
     field_validator,
     model_validator,
 )
 
+from . import limits
 from .errors import ConfigError
+from .response import ResponseConfig
 from .schema import (
+    GIVEN,
     ConfigPath,
     NonNegativeLength,
     NonNegativeTime,
@@ -33,6 +37,7 @@ from .schema import (
     Size3,
     StrictModel,
     Vector3,
+    check_option_keys,
     describe_validation_error,
 )
 from .surface.patchmap import DEFAULT_TILES
@@ -99,6 +104,8 @@ class MaterialSpec(StrictModel):
     ("6.02 g/cm3", "3070 kg/m3"; stored in g/cm3). Geant4 builds it from its NIST elements
     (natural isotopic composition); TRIM comparisons use the same atoms and density.
     """
+
+    used_only_with: ClassVar[dict[str, object]] = {"fractions": ("elements", GIVEN)}
 
     formula: str | None = None
     elements: dict[str, float] | None = None
@@ -235,9 +242,12 @@ class RoughFace(StrictModel):
     face, outside the box, in the target's material, and is scored with the target.
     """
 
-    used_only_with: ClassVar[dict[str, tuple[str, tuple[object, ...]]]] = {
+    used_only_with: ClassVar[dict[str, object]] = {
         "n_tiles": ("fill", ("tiles",)),
         "native_layout": ("tiling", ("native",)),
+        "block_cells": ("solid", ("blocks",)),  # solid: auto resolves per surface (option_values)
+        "fill": ("variants", GIVEN),  # one surface: every cell shows it, there is nothing to fill
+        "seed": ("variants", GIVEN),
         "into": ("tiling", ("native",)),
     }
 
@@ -273,6 +283,16 @@ class RoughFace(StrictModel):
             )
         return self
 
+    def option_values(self, key: str, root) -> tuple[object, ...] | None:
+        """``solid: auto`` stands for the solids its surfaces resolve to (see
+        :meth:`score4.scene.RoughLayer.solid_kind`), known once the run's surfaces are."""
+        if key != "solid" or self.solid != "auto":
+            return super().option_values(key, root)
+        if root is None:
+            return None
+        kinds = [auto_solid(root.surfaces.get(v.surface)) for v in self.variant_list]
+        return None if None in kinds else tuple(dict.fromkeys(kinds))
+
     @property
     def variant_list(self) -> list[PatchVariant]:
         assert self.variants is not None or self.surface is not None  # the validator's rule
@@ -283,8 +303,35 @@ class RoughFace(StrictModel):
         )
 
 
+def auto_solid(description) -> str | None:
+    """The solid ``solid: auto`` makes of a surface description; None when it cannot be told
+    without building the surface (an unreadable surface file).
+
+    Spike grids of equal heights become a multi-union, with a height spread frustums, height
+    maps blocks (the choice explained at :meth:`score4.scene.RoughLayer.solid_kind`).
+    """
+    if isinstance(description, SurfaceFile):
+        from .surface.store import stored_spec
+
+        description = stored_spec(description.file)
+    if isinstance(description, SpikeSurfaceSpec):
+        return "multiunion" if description.height_sigma == 0 else "frustums"
+    if isinstance(description, (RandomSurfaceSpec, MeasuredSurfaceSpec)):
+        return "blocks"
+    return None
+
+
 class DepthConfig(StrictModel):
     """How deep below the local surface a vertex sits."""
+
+    used_only_with: ClassVar[dict[str, object]] = {
+        "mean": ("profile", ("exponential", "truncated_gaussian")),
+        "sigma": ("profile", ("truncated_gaussian",)),
+        "means": ("profile", ("multi_exponential",)),
+        "weights": ("profile", ("multi_exponential",)),
+        "file": ("profile", ("table",)),
+        "unit": ("profile", ("table",)),
+    }
 
     profile: Literal[
         "zero", "exponential", "multi_exponential", "uniform", "truncated_gaussian", "table"
@@ -312,17 +359,6 @@ class DepthConfig(StrictModel):
         missing = [k for k in need if getattr(self, k) is None]
         if missing:
             raise ValueError(f"profile {self.profile} needs {' and '.join(missing)}")
-        # keys of other profiles would be ignored silently: refuse them
-        own = set(need) | {"profile", "min", "max", "definition"}
-        if self.profile == "table":
-            own.add("unit")
-        foreign = sorted(k for k in self.model_fields_set - own if getattr(self, k) is not None)
-        if foreign:
-            uses = ", ".join(k for k in need) or "no parameters"
-            raise ValueError(
-                f"{', '.join(foreign)}: not used by profile {self.profile} (it uses {uses}, "
-                f"and min/max to cut it); remove {'it' if len(foreign) == 1 else 'them'}"
-            )
         if self.max is not None and self.max <= self.min:
             raise ValueError(
                 f"max ({length_text(self.max)}) must be larger than min ({length_text(self.min)})"
@@ -401,7 +437,9 @@ class SourceConfig(StrictModel):
     ``score4 vertices`` whose rows are used as they are.
     """
 
-    used_only_with: ClassVar[dict[str, tuple[str, tuple[object, ...]]]] = {
+    used_only_with: ClassVar[dict[str, object]] = {
+        "energy": ("particle", GIVEN),
+        "spectrum": ("particle", GIVEN),
         # a bulk source (volume: NAME) has no surface: no depth below it, no confinement
         "depth": ("volume", (None,)),
         "confine": ("volume", (None,)),
@@ -476,8 +514,9 @@ class SourceConfig(StrictModel):
 
 
 class PhysicsConfig(StrictModel):
-    used_only_with: ClassVar[dict[str, tuple[str, tuple[object, ...]]]] = {
+    used_only_with: ClassVar[dict[str, object]] = {
         "trim_max_energy": ("heavy_ions", ("trim",)),
+        "trim_histories": (("heavy_ions", ("trim",)), ("alphas", ("trim",))),
     }
 
     mode: Literal["auto", "full", "lite"] = "auto"
@@ -500,6 +539,14 @@ class RunSettings(StrictModel):
     seed: int = Field(1, ge=0, lt=2**63)
     chunk_events: int = Field(10_000, gt=0)
 
+    @field_validator("events", "chunk_events")
+    @classmethod
+    def _not_absurd(cls, n: int) -> int:
+        problem = limits.too_many_events(n)
+        if problem:
+            raise ValueError(problem)
+        return n
+
 
 class HistogramConfig(StrictModel):
     bins: int = Field(100, gt=0)
@@ -509,6 +556,10 @@ class HistogramConfig(StrictModel):
 class OutputConfig(StrictModel):
     histogram: HistogramConfig = HistogramConfig()
     track_length: bool = False  # also score the summed charged/neutral track length per volume (mm)
+    # also score each volume's deposit split by the class of the particle that made it: alpha,
+    # electron (e-, e+, gamma) and ion (the rest: nuclear recoils); the detector response's
+    # quenching needs it (score4 template, docs/templates.md). Costs ~15 us per volume per event.
+    split_by_particle: bool = False
 
 
 class RunConfig(StrictModel):
@@ -522,6 +573,8 @@ class RunConfig(StrictModel):
     source: SourceConfig
     run: RunSettings = RunSettings()
     output: OutputConfig = OutputConfig()
+    # the detector response 'score4 template' applies (not used by the run itself)
+    response: ResponseConfig | None = None
 
     @field_validator("physics", mode="before")
     @classmethod
@@ -536,7 +589,7 @@ class RunConfig(StrictModel):
         return v
 
     @model_validator(mode="after")
-    def _check_references(self) -> RunConfig:
+    def _check_references(self, info: ValidationInfo) -> RunConfig:
         names = [t.label for t in self.targets]
         dupes = sorted({n for n in names if names.count(n) > 1})
         if dupes:
@@ -558,7 +611,7 @@ class RunConfig(StrictModel):
             raise ValueError(
                 f"source.surface.volume: {src.volume!r} is not a target; targets are: {', '.join(names)}"
             )
-        if src is not None and src.face not in (*FACES, "all"):
+        if src is not None and self.world.gdml is None and src.face not in (*FACES, "all"):
             raise ValueError(
                 f"source.surface.face: a box target has the faces {', '.join(FACES)} (or all), "
                 f"not {src.face!r}"
@@ -579,7 +632,22 @@ class RunConfig(StrictModel):
                         raise ValueError(
                             f"targets.{i}.rough.{j}: surface {v.surface!r} is not under surfaces ({known})"
                         )
+        if not (info.context or {}).get("stored"):  # a stored description has every key filled in
+            check_option_keys(self)  # options that resolve across sections (solid: auto)
+        self._check_materials()
         return self
+
+    def _check_materials(self) -> None:
+        """Every material named here a NIST name or a ``materials:`` entry: checked without
+        Geant4, so that ``score4 vertices`` refuses a typo as ``score4 run`` does (a GDML
+        world brings its own materials)."""
+        from .geometry.materials import check_material
+
+        if self.world.gdml is None:
+            check_material(self.world.material, "world.material", self.materials)
+        for i, t in enumerate(self.targets):
+            if isinstance(t, BoxVolume):
+                check_material(t.material, f"targets.{i}.material", self.materials)
 
     def target(self, name: str) -> BoxVolume | GdmlVolume:
         return next(t for t in self.targets if t.label == name)
@@ -640,7 +708,7 @@ def parse_config(
             data, context={"base_dir": Path(base_dir) if base_dir else None}
         )
     except ValidationError as err:
-        raise ConfigError(describe_validation_error(err, origin)) from None
+        raise ConfigError(describe_validation_error(err, origin, data)) from None
 
 
 def load_config(path: str | Path) -> RunConfig:

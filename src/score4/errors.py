@@ -10,6 +10,36 @@ import contextlib
 from collections.abc import Iterator
 
 
+def brief(value: object, limit: int = 60) -> str:
+    """``repr(value)`` cut to about ``limit`` characters: messages never repeat unbounded input.
+
+    Containers are not expanded beyond what the cut keeps (a YAML alias bomb expands to 10^9
+    items; its repr would never finish).
+    """
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 100:
+        return f"{'-' if value < 0 else ''}a {int(value.bit_length() * 0.30103) + 1}-digit number"
+    if isinstance(value, (dict, list, tuple, set)):
+        kind = type(value).__name__
+        if len(value) > 8:
+            return f"<{kind} of {len(value)} items>"
+        try:
+            text = _short_repr(value)
+        except RecursionError:
+            return f"<{kind}>"
+    else:
+        text = repr(value[: 2 * limit] if isinstance(value, (str, bytes)) else value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _short_repr(value: object) -> str:
+    """repr with nested containers and long strings shortened (reprlib), never unbounded."""
+    import reprlib
+
+    r = reprlib.Repr()
+    r.maxlevel, r.maxstring, r.maxother, r.maxdict, r.maxlist = 3, 40, 40, 6, 6
+    return r.repr(value)
+
+
 class Score4Error(Exception):
     """Base class for errors caused by input (configuration, files, data sets)."""
 

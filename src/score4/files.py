@@ -7,7 +7,7 @@ import io
 import os
 import shutil
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 
 import h5py
@@ -23,14 +23,39 @@ def cache_dir(*parts: str) -> Path:
     return base.joinpath("score4", *parts)
 
 
-def check_output_file(path: str | os.PathLike, overwrite: bool, option: str = "--out") -> Path:
+def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
+    """True if ``a`` and ``b`` name the same file: equal resolved paths, or (both existing) the
+    same file on disk (hard links, other spellings through symbolic links)."""
+    a, b = Path(a), Path(b)
+    try:
+        if a.resolve() == b.resolve():
+            return True
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except (OSError, RuntimeError):  # a symlink loop: they cannot be read, let the caller fail
+        return False
+
+
+def check_output_file(
+    path: str | os.PathLike,
+    overwrite: bool,
+    option: str = "--out",
+    inputs: Mapping[str, str | os.PathLike | None] | None = None,
+) -> Path:
     """``path`` as a Path, after the checks every command makes before writing a file.
 
-    Its folder must exist and be writable, it must not be a folder, and an existing file is
-    replaced only with ``overwrite`` (the command's ``--overwrite``). Errors are
-    :class:`ConfigError` naming ``option`` (the command-line option that gave the path).
+    Its folder must exist and be writable, it must not be a folder, it must not be one of the
+    command's ``inputs`` (``{what: path}``; not even with ``overwrite``: the output would
+    replace what it is made from), and an existing file is replaced only with ``overwrite``
+    (the command's ``--overwrite``). Errors are :class:`ConfigError` naming ``option`` (the
+    command-line option that gave the path).
     """
     path = Path(path)
+    for what, source in (inputs or {}).items():
+        if source is not None and same_file(path, source):
+            raise ConfigError(
+                f"{option}: {str(path)!r} is {what}; an output never replaces an input, even "
+                "with --overwrite: choose another file name"
+            )
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
         raise ConfigError(f"{option}: folder {str(folder)!r} does not exist (create it first)")

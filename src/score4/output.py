@@ -9,6 +9,8 @@ Layout of a results file (lengths in mm, energies in MeV, stated in ``units`` at
     /events/atom       (n,) int64, per-atom histories only: the deposited atom of the event
     /events/edep/<volume>   (n,) energy deposited in that volume
     /events/track_length/<volume>  (n,) summed track length in that volume (if scored)
+    /events/edep_alpha|edep_electron|edep_ion/<volume>  (n,) the deposit split by the class of
+                       the particle that made it (output.split_by_particle, see sim/scoring.py)
     /primaries/{event, particle, energy, xloc, yloc, zloc, dirx, diry, dirz, <extra>...}
 
 With per-atom histories (a chain with implantation) a chunk is a range of atoms
@@ -45,7 +47,14 @@ from .units import parse_quantity
 
 FORMAT = "score4-results"
 FORMAT_VERSION = 1
-QUANTITY_UNITS = {"edep": "MeV", "track_length": "mm"}
+QUANTITY_UNITS = {
+    "edep": "MeV",
+    "track_length": "mm",
+    # output.split_by_particle: edep by the class of the particle that deposited it
+    "edep_alpha": "MeV",
+    "edep_electron": "MeV",
+    "edep_ion": "MeV",
+}
 
 
 @contextlib.contextmanager
@@ -147,6 +156,7 @@ def merge_chunks(chunk_paths: list[Path], out: Path, run_record: dict) -> None:
         with results_h5(out) as f:
             run = f.create_group("run")
             for key, value in run_record.items():
+                # containers and None (HDF5 attributes hold neither) as JSON
                 run.attrs[key] = (
                     json.dumps(value)
                     if isinstance(value, (dict, list, tuple)) or value is None

@@ -515,3 +515,126 @@ def plot_range_depths(
     fig.tight_layout()
     _save(fig, path)
     return RangeDepths(list(depths), edges, drawn, [len(d) for d in depths.values()])
+
+
+# --- templates and models ------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class StackComponent:
+    """One layer of a stacked spectrum: ``values`` per bin on ``edges_kev`` (any rate unit)."""
+
+    label: str
+    edges_kev: np.ndarray
+    values: np.ndarray
+
+
+def _mark_roi(ax, roi_kev: tuple[float, float] | None, scale: float) -> None:
+    if roi_kev is not None:
+        ax.axvspan(
+            roi_kev[0] * scale, roi_kev[1] * scale, color="0.6", alpha=0.25, lw=0, label="ROI"
+        )
+
+
+def _energy_scale(edges_kev: np.ndarray) -> tuple[float, str]:
+    """Draw in MeV when the range passes 2 MeV, else in keV."""
+    return (1e-3, "MeV") if edges_kev[-1] > 2000 else (1.0, "keV")
+
+
+def draw_stack(ax, components: Sequence[StackComponent], roi_kev=None) -> np.ndarray:
+    """Stack ``components`` (first at the bottom) as filled steps on ``ax``; return the total."""
+    edges = components[0].edges_kev
+    scale, unit = _energy_scale(edges)
+    bottom = np.zeros(len(edges) - 1)
+    for c in components:
+        top = bottom + c.values
+        ax.stairs(top, edges * scale, baseline=bottom, fill=True, alpha=0.75, label=c.label)
+        bottom = top
+    ax.stairs(bottom, edges * scale, color="k", lw=0.8, label="total")
+    _mark_roi(ax, roi_kev, scale)
+    _log_axis(ax, [bottom])
+    ax.set_xlim(edges[0] * scale, edges[-1] * scale)
+    ax.set_xlabel(f"energy [{unit}]")
+    ax.grid(alpha=0.3)
+    return bottom
+
+
+def plot_stacked(
+    panels: dict[str, Sequence[StackComponent]],
+    out: str | Path,
+    ylabel: str = "counts / (keV kg day)",
+    roi_kev: tuple[float, float] | None = None,
+    title: str = "",
+) -> dict[str, np.ndarray]:
+    """One panel per detector, components stacked on a log axis, the ROI shaded; returns the
+    total of each panel."""
+    if not panels:
+        raise ConfigError("plot: no templates to draw")
+    fig = Figure(figsize=(8, 3.6 * len(panels) + 0.6), layout="constrained")
+    totals = {}
+    for k, (name, components) in enumerate(panels.items()):
+        ax = fig.add_subplot(len(panels), 1, k + 1)
+        totals[name] = draw_stack(ax, components, roi_kev)
+        ax.set_ylabel(ylabel)
+        ax.set_title(f"{title} {name}".strip())
+        ax.legend(fontsize="small")
+    _save(fig, out)
+    return totals
+
+
+def plot_templates(ts, out: str | Path) -> dict[str, np.ndarray]:
+    """A templates set (:class:`score4.templates.TemplateSet`): per detector, its M1 and M2
+    templates stacked (their sum is the ``all`` template, with M3+ on top), on a log axis."""
+    panels: dict[str, Sequence[StackComponent]] = {}
+    for d in ts.detectors:
+        kinds = ts.final.detectors[d]
+        rest = kinds["all"].rate - kinds["m1"].rate - kinds["m2"].rate
+        layers = [("M1", kinds["m1"].rate), ("M2", kinds["m2"].rate)]
+        if (rest > 1e-12 * kinds["all"].rate.max(initial=0)).any():
+            layers.append(("M3+", rest))
+        panels[d] = [StackComponent(label, ts.edges_kev, values) for label, values in layers]
+    return plot_stacked(
+        panels, out, roi_kev=ts.roi_kev, title=f"{ts.activity.text}, {ts.final.name}:"
+    )
+
+
+def plot_fit(
+    edges_kev: np.ndarray,
+    data: np.ndarray,
+    components: Sequence[StackComponent],
+    out: str | Path,
+    roi_kev: tuple[float, float] | None = None,
+    title: str = "",
+) -> np.ndarray:
+    """Data (points, Poisson errors) over the fitted model (stacked), residuals below in units
+    of the Poisson error of the model; returns the residuals."""
+    fig = Figure(figsize=(8, 6.5), layout="constrained")
+    top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=(3, 1))
+    total = draw_stack(top, components, roi_kev)
+    scale, _ = _energy_scale(edges_kev)
+    centres = (edges_kev[:-1] + edges_kev[1:]) / 2 * scale
+    shown = data > 0
+    top.errorbar(
+        centres[shown],
+        data[shown],
+        yerr=np.sqrt(data[shown]),
+        fmt="o",
+        ms=2.5,
+        color="k",
+        elinewidth=0.8,
+        label="data",
+    )
+    _log_axis(top, [total, data])
+    top.set_ylabel("counts per bin")
+    top.set_xlabel("")
+    top.set_title(title)
+    top.legend(fontsize="small")
+    residual = np.divide(data - total, np.sqrt(total), out=np.zeros_like(total), where=total > 0)
+    bottom.stairs(residual, edges_kev * scale, color="k", lw=0.8)
+    bottom.axhline(0, color="0.5", lw=0.8)
+    _mark_roi(bottom, roi_kev, scale)
+    bottom.set_ylabel("(data - model) / sqrt(model)")
+    bottom.set_xlabel(top.get_xlabel() or f"energy [{_energy_scale(edges_kev)[1]}]")
+    bottom.grid(alpha=0.3)
+    _save(fig, out)
+    return residual

@@ -21,15 +21,18 @@ layer's thickness (the volume is cut by it), so the layer's top is where the fac
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
 
+from . import limits
 from .config import BoxVolume, GdmlVolume, RoughFace, RunConfig, SurfaceFile
 from .errors import ConfigError
 from .geometry.volumes import GeometryModel, Instance
 from .obb import OrientedBox
+from .shapes import G4Box as G4BoxShape
+from .shapes import PlacedShape, Shape, Transform, shape_from_dict
 from .surface.blocks import check_patch
 from .surface.patchmap import PatchMap, make_patch_map
 from .surface.spec import Surface, build_surface
@@ -105,6 +108,9 @@ class TargetVolume:
     hi: np.ndarray
     instance: Instance | None = None
     mother: Instance | None = None
+    shape: Shape | None = None  # the solid as score4.shapes describes it (None: not described)
+    exclude: tuple[Shape, ...] = ()  # in world coordinates: daughters, not this volume's material
+    unknown_daughters: tuple[str, ...] = ()  # daughters whose solid score4.shapes cannot describe
 
     @property
     def name(self) -> str:
@@ -132,8 +138,26 @@ class TargetVolume:
         return (np.asarray(world, float) - self.translation) @ self.rotation
 
     def contains(self, points: np.ndarray) -> np.ndarray:
-        """True for world points in the solid (G4Box, G4Tubs exactly; others: bounding box)."""
-        return solid_contains(self.solid, self.params, self.lo, self.hi, self.to_local(points))
+        """True for world points in the volume's own material: inside its solid (exact for
+        G4Box, G4Tubs and every solid :mod:`score4.shapes` describes; the bounding box for
+        others) and not strictly inside one of its daughters (:attr:`exclude`)."""
+        points = np.asarray(points, float).reshape(-1, 3)
+        local = self.to_local(points)
+        if self.shape is not None and self.solid not in ("G4Box", "G4Tubs"):
+            inside = np.asarray(self.shape.signed_distance(local) <= BOUNDARY_TOLERANCE)
+        else:
+            inside = solid_contains(self.solid, self.params, self.lo, self.hi, local)
+        if self.unknown_daughters:
+            raise ConfigError(
+                f"{self.column}: holds {', '.join(self.unknown_daughters)}, of a solid type "
+                "score4.shapes does not describe, so points in its own material cannot be told "
+                "apart from points in that daughter"
+            )
+        for daughter in self.exclude:
+            rows = np.flatnonzero(inside)
+            if len(rows):
+                inside[rows] = daughter.signed_distance(points[rows]) >= -BOUNDARY_TOLERANCE
+        return inside
 
 
 def solid_contains(
@@ -349,9 +373,13 @@ class RoughLayer:
 
 @dataclass
 class Scene:
-    """The targets of a run with their rough layers (and the volume model of a GDML world)."""
+    """The targets of a run with their rough layers (and the volume model of a GDML world).
 
-    config: RunConfig
+    ``config`` is the run configuration the scene was built from (None for a scene of a live
+    world built through :mod:`score4.api`).
+    """
+
+    config: RunConfig | None
     surfaces: dict[str, Surface]
     layers: list[RoughLayer] = field(default_factory=list)
     targets: list[TargetVolume] = field(default_factory=list)
@@ -429,6 +457,15 @@ class Scene:
         boxes = [target_aabb(t) for t in self.targets] + [layer_aabb(r) for r in self.layers]
         return np.min([lo for lo, _ in boxes], axis=0), np.max([hi for _, hi in boxes], axis=0)
 
+    @cached_property
+    def world_half(self) -> np.ndarray:
+        """Half-lengths of the world box, centred on the origin, that holds every target, rough
+        layer and ``world.margin`` (where particles move; a portal adds subworlds beyond it)."""
+        if self.config is None or self.config.world.gdml is not None:
+            return np.full(3, np.inf)  # a GDML or user's world: its own extent (not read here)
+        lo, hi = self.bounds
+        return np.maximum(np.abs(lo), np.abs(hi)) + self.config.world.margin
+
 
 def target_aabb(target: TargetVolume) -> tuple[np.ndarray, np.ndarray]:
     """Axis-aligned (lo, hi) of a target's bounding box in the world."""
@@ -480,9 +517,8 @@ def resolve_targets(config: RunConfig, model: GeometryModel | None) -> list[Targ
             out.append(box_target(t, i, mother))
             continue
         assert model is not None
-        instances = model.resolve(t.volume, f"targets.{i}.volume")
-        for k, inst in enumerate(instances):
-            out.append(_gdml_target(model, t, i, inst, k if len(instances) > 1 else None))
+        out += gdml_targets(model, t, i)
+    out = _exclude_boxes_in_targets(out)
     claimed: dict[int, int] = {}
     for tv in out:
         if tv.instance is None:
@@ -503,10 +539,60 @@ def resolve_targets(config: RunConfig, model: GeometryModel | None) -> list[Targ
     return out
 
 
+def gdml_targets(model: GeometryModel, t: GdmlVolume, entry: int) -> list[TargetVolume]:
+    """One :class:`TargetVolume` per instance (copy) the target's ``volume`` names
+    (``targets.{entry}.volume`` in errors)."""
+    instances = model.resolve(t.volume, f"targets.{entry}.volume")
+    return [
+        _gdml_target(model, t, entry, inst, k if len(instances) > 1 else None)
+        for k, inst in enumerate(instances)
+    ]
+
+
+def _exclude_boxes_in_targets(targets: list[TargetVolume]) -> list[TargetVolume]:
+    """Boxes of the configuration placed in a GDML target are not that target's material."""
+    boxes = [t for t in targets if t.instance is None and t.mother is not None]
+    out = []
+    for t in targets:
+        inside = [
+            PlacedShape(
+                G4BoxShape(*b.half), Transform(rotation=b.rotation, translation=b.translation)
+            )
+            for b in boxes
+            if t.instance is not None
+            and b.mother is not None
+            and b.mother.index == t.instance.index
+        ]
+        out.append(replace(t, exclude=t.exclude + tuple(inside)) if inside else t)
+    return out
+
+
+def daughter_shapes(
+    model: GeometryModel, inst: Instance
+) -> tuple[tuple[Shape, ...], tuple[str, ...]]:
+    """The daughters of ``inst`` as shapes in world coordinates, and the labels of those whose
+    solid :mod:`score4.shapes` does not describe."""
+    known: list[Shape] = []
+    unknown: list[str] = []
+    for d in model.daughters(inst):
+        data = model.logicals[d.logical].solid.get("shape")
+        if data is None:
+            unknown.append(f"{model.label(d)!r} ({model.logicals[d.logical].solid_type})")
+            continue
+        placed = Transform(rotation=d.rotation, translation=d.translation)
+        known.append(PlacedShape(shape_from_dict(data), placed))
+    return tuple(known), tuple(unknown)
+
+
 def _gdml_target(
-    model: GeometryModel, t: GdmlVolume, entry: int, inst: Instance, k: int | None
+    model: GeometryModel,
+    t: GdmlVolume,
+    entry: int,
+    inst: Instance,
+    k: int | None,
+    where: str | None = None,
 ) -> TargetVolume:
-    where = f"targets.{entry}.volume"
+    where = where or f"targets.{entry}.volume"
     if inst.index == 0:
         raise ConfigError(f"{where}: {t.volume!r} is the world volume; score a volume inside it")
     if inst.reflected:
@@ -526,6 +612,8 @@ def _gdml_target(
         column = f"{inst.name}_{inst.occurrence}"
     assert inst.mother is not None  # only the world has none
     mother = model.instances[inst.mother]
+    data = lv.solid.get("shape")
+    exclude, unknown = daughter_shapes(model, inst)
     return TargetVolume(
         column,
         entry,
@@ -539,6 +627,9 @@ def _gdml_target(
         np.asarray(lv.solid["hi"], float),
         inst,
         mother,
+        shape_from_dict(data) if data else None,
+        exclude,
+        unknown,
     )
 
 
@@ -553,10 +644,18 @@ def _tubs_mask(target: TargetVolume, patch_map: PatchMap) -> np.ndarray:
     return (far <= rmax * (1 + 1e-12)) & (near >= rmin * (1 - 1e-12))
 
 
-def _layer(
-    config: RunConfig, surfaces: dict[str, Surface], target: TargetVolume, j: int, rough: RoughFace
+def make_layer(
+    surfaces: dict[str, Surface],
+    target: TargetVolume,
+    j: int,
+    rough: RoughFace,
+    where: str | None = None,
 ) -> RoughLayer:
-    where = f"targets.{target.entry}.rough.{j}"
+    """The rough layer of ``rough`` (entry ``j`` of the target's rough faces) on ``target``:
+    variants from ``surfaces`` by name, face frame, patch map, cell mask of a round face, the
+    frame moved inward for ``into``. Errors start with ``where`` (default
+    ``targets.{entry}.rough.{j}``)."""
+    where = where or f"targets.{target.entry}.rough.{j}"
     names = [v.surface for v in rough.variant_list]
     variants = [surfaces[n] for n in names]
     size = (variants[0].size_x, variants[0].size_y)
@@ -644,8 +743,14 @@ def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
     scene = Scene(config, surfaces, targets=targets, model=model)
     for target in targets:
         for j, rough in enumerate(target.config.rough):
-            scene.layers.append(_layer(config, surfaces, target, j, rough))
+            scene.layers.append(make_layer(surfaces, target, j, rough))
     from .clearance import check_clearance
 
     check_clearance(scene)
+    far = float(np.max(scene.world_half))
+    if np.isfinite(far) and far > limits.MAX_WORLD_EXTENT:
+        raise ConfigError(
+            f"targets: the world reaches {far / 1e3:.4g} m from the origin (targets, rough layers "
+            "and world.margin); score4's limit is 1 km (move the targets towards the origin)"
+        )
     return scene

@@ -47,13 +47,11 @@ def check(config_file: Path, points: int, max_placements: int, tolerance: str, l
     from ..geometry.check import check_placements
     from ..geometry.world import build_world
     from ..scene import build_scene
+    from ..schema import quantity
     from ..sim.runtime import import_geant4, redirect_native_output, resolve_physics
-    from ..units import parse_quantity
 
     config = load_config(config_file)
-    tol = parse_quantity(tolerance, "length", "--tolerance")
-    if tol < 0:
-        raise click.BadParameter(f"must be >= 0, got {tolerance!r}", param_hint="--tolerance")
+    tol = quantity(tolerance, "length", "--tolerance", non_negative=True)
     with naming_file(config_file):
         scene = build_scene(config)
     g4 = import_geant4(resolve_physics("lite"))  # geometry needs no physics data

@@ -41,7 +41,7 @@ def import_macro(macro: Path, out: Path, overwrite: bool, strict: bool) -> None:
     from ..macro import import_macro as convert
     from ..macro import write_config
 
-    check_output_file(out, overwrite, "--out")
+    check_output_file(out, overwrite, "--out", {"the macro": macro})
     config, report = convert(macro, out=out)
     for item in sorted(report.unknown, key=lambda i: i.order):
         notice(

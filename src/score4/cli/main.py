@@ -17,7 +17,7 @@ from pathlib import Path
 import click
 
 from .. import __version__
-from ..errors import ConfigError, RunInterrupted, Score4Error, Score4Warning, naming_file
+from ..errors import ConfigError, RunInterrupted, Score4Error, Score4Warning, brief, naming_file
 from .data import data
 from .decay_cmd import decay_command
 from .geometry import geometry
@@ -26,6 +26,7 @@ from .quiet import is_quiet, notice, set_quiet
 from .range_cmd import range_command
 from .results import export, plot
 from .surface import surface
+from .templates import model, template
 from .usage import command_path, usage_error_line
 
 
@@ -35,22 +36,18 @@ class EventCount(click.ParamType):
     name = "integer"
 
     def convert(self, value, param, ctx):
-        if isinstance(value, int) and not isinstance(value, bool):
-            number = value
-        else:
-            text = str(value).strip()
-            try:
-                number = int(text)
-            except ValueError:
-                try:
-                    as_float = float(text)
-                except ValueError:
-                    self.fail(f"{value!r} is not a number of events", param, ctx)
-                if not as_float.is_integer():
-                    self.fail(f"{value!r} is not a whole number of events", param, ctx)
-                number = int(as_float)
+        from ..limits import too_many_events
+        from ..units import parse_count
+
+        try:
+            number = parse_count(value)
+        except ConfigError:
+            self.fail(f"{brief(value)} is not a whole number of events", param, ctx)
         if number < 1:
-            self.fail(f"{value!r}: need at least 1 event", param, ctx)
+            self.fail(f"{brief(value)}: need at least 1 event", param, ctx)
+        problem = too_many_events(number)
+        if problem:
+            self.fail(problem, param, ctx)
         return number
 
 
@@ -140,6 +137,7 @@ def run(
     quiet,
 ) -> None:
     """Simulate the run described in CONFIG.yaml and write an HDF5 results file."""
+    from ..files import check_output_file
     from ..output import read_results, summarize
     from ..sim.engine import run as run_engine
 
@@ -149,6 +147,7 @@ def run(
 
     config = _load_with_overrides(config_file, events, seed)
     out = out or Path(config_file.stem + ".h5")
+    check_output_file(out, True, "--out", {"the configuration": config_file})
     with naming_file(config_file):
         run_engine(
             config,
@@ -187,9 +186,12 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
     file (source: {vertices: FILE}) with the same seed reproduces the direct run event by event,
     and the first N rows are the vertices of a run of N events.
     """
+    from .. import limits
     from ..config import config_to_dict
     from ..files import check_output_file
     from ..scene import build_scene
+    from ..schema import input_paths
+    from ..source.blocks import BLOCK_EVENTS
     from ..source.build import make_source, source_geometry
     from ..source.vertex_file import write_vertex_file
 
@@ -204,11 +206,20 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
             "run's TRIM replay stops the alpha recoils, so they cannot be drawn beforehand; "
             "run the configuration with 'score4 run'"
         )
-    check_output_file(out, overwrite, "--out")
+    check_output_file(
+        out, overwrite, "--out", {"the configuration": config_file, **input_paths(config)}
+    )
     n, seed = config.run.events, config.run.seed
     with naming_file(config_file):
         scene = build_scene(config)
         source = make_source(config, scene)
+        sample = source.events(seed, 0, min(n, BLOCK_EVENTS))
+        limits.check_memory(
+            2 * n * limits.PRIMARY_BYTES * len(sample) / sample.n_events,
+            f"writing the vertices of {n} events",
+            "--n",
+            "write several files with different --seed values",
+        )
         primaries = source.events(seed, 0, n)
         where = source_geometry(config, scene)
     write_vertex_file(out, primaries, config_to_dict(config), seed, where)
@@ -289,21 +300,33 @@ def summary(results_file: Path, as_json: bool, bins, threshold: str) -> None:
             f"{v['n_nonzero']} events with deposit, {full} with (nearly) the full energy "
             f"(max primary energy {emax:.4g} MeV)"
         )
-    click.echo(f"  above {limit * 1e3:g} keV (rate = events above / simulated events):")
-    for v in s["volumes"]:
+    _echo_rates(s, limit)
+
+
+def _echo_rates(s: dict, limit: float) -> None:
+    """Per-volume rates above the threshold; the multiplicity only when there is more than one
+    volume (with one it says nothing the rate does not)."""
+    volumes = s["volumes"]
+    keV = f"{limit * 1e3:g} keV"
+    for v in volumes:
         mass = v.get("mass_kg")
         per_kg = (
             f", {v['rate_per_event_per_kg']:.4g} per kg ({mass * 1e3:.4g} g {v.get('material')})"
             if mass
             else ""
         )
+        alone = f"; alone (multiplicity 1) {v['alone_above_threshold']}" if len(volumes) > 1 else ""
+        head = f"    {v['name']}:" if len(volumes) > 1 else f"  above {keV}:"
+        if len(volumes) > 1 and v is volumes[0]:
+            click.echo(f"  above {keV} (rate = events above / simulated events):")
         click.echo(
-            f"    {v['name']}: {v['above_threshold']} events, rate {v['rate_per_event']:.4g}"
-            f"{per_kg}; alone (multiplicity 1) {v['alone_above_threshold']}"
+            f"{head} {v['above_threshold']} events, rate {v['rate_per_event']:.4g} per event"
+            f"{per_kg}{alone}"
         )
-    counts = s["multiplicity"]["events"]
-    shown = ", ".join(f"{m}: {c}" for m, c in counts.items() if c or m <= 2)
-    click.echo(f"  multiplicity (volumes above {limit * 1e3:g} keV: events) {shown}")
+    if len(volumes) > 1:
+        counts = s["multiplicity"]["events"]
+        shown = ", ".join(f"{m}: {c}" for m, c in counts.items() if c or m <= 2)
+        click.echo(f"  multiplicity (volumes above {keV}: events) {shown}")
 
 
 cli.add_command(data)
@@ -313,6 +336,8 @@ cli.add_command(surface)
 cli.add_command(import_macro)
 cli.add_command(geometry)
 cli.add_command(range_command)
+cli.add_command(template)
+cli.add_command(model)
 cli.add_command(decay_command)
 
 
@@ -333,6 +358,16 @@ _PYTHON_SHOWWARNING = warnings.showwarning
 _NO_ARGS_IS_HELP = getattr(click.exceptions, "NoArgsIsHelpError", ())
 
 
+#: Longest error line the CLI prints; longer messages (which quote other programs' output) are cut.
+MAX_ERROR_CHARS = 2000
+
+
+def one_line(text: str) -> str:
+    """An error message as one line of at most MAX_ERROR_CHARS characters."""
+    text = " ".join(part.strip() for part in text.splitlines() if part.strip())
+    return text if len(text) <= MAX_ERROR_CHARS else text[: MAX_ERROR_CHARS - 5] + " [...]"
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI; return the exit status (2 for input errors)."""
     _SHOWN.clear()
@@ -346,7 +381,7 @@ def _main(argv: list[str] | None) -> int:
     try:
         status = cli.main(args=argv, prog_name="score4", standalone_mode=False)
     except Score4Error as err:
-        click.echo(f"score4: error: {err}", err=True)
+        click.echo(f"score4: error: {one_line(str(err))}", err=True)
         return 2
     except click.exceptions.Exit as err:
         return err.exit_code
@@ -355,10 +390,10 @@ def _main(argv: list[str] | None) -> int:
         return 2
     except click.UsageError as err:
         path = command_path(cli, sys.argv[1:] if argv is None else list(argv))
-        click.echo(f"score4: error: {usage_error_line(err, path)}", err=True)
+        click.echo(f"score4: error: {one_line(usage_error_line(err, path))}", err=True)
         return 2
     except click.ClickException as err:
-        click.echo(f"score4: error: {err.format_message()}", err=True)
+        click.echo(f"score4: error: {one_line(err.format_message())}", err=True)
         return 2
     except click.exceptions.Abort as err:
         cause = err.__cause__ or err.__context__

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import click
 
-from ..errors import ConfigError, Score4Error
+from ..errors import ConfigError, Score4Error, brief
 from .quiet import notice, set_quiet
 
 # Rows of the comparison table: key, label, kind ("length" in nm, "fraction", "energy" in keV).
@@ -52,18 +52,13 @@ def nist_names() -> list[str]:
 
 def load_materials(path: Path) -> dict:
     """The ``materials:`` section of a YAML file (other sections are not read)."""
-    import yaml
     from pydantic import TypeAdapter, ValidationError
 
     from ..config import MaterialSpec
     from ..schema import describe_validation_error
+    from ..yamlfile import load_yaml
 
-    if not path.is_file():
-        raise ConfigError(f"--config: file {str(path)!r} does not exist")
-    try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except (yaml.YAMLError, UnicodeDecodeError) as err:
-        raise ConfigError(f"--config: {path}: not valid YAML ({err})") from None
+    data = load_yaml(path, "--config") or {}
     section = data.get("materials", {}) if isinstance(data, dict) else None
     if not isinstance(section, dict):
         raise ConfigError(f"--config: {path}: materials must be a mapping of names to materials")
@@ -298,7 +293,7 @@ def range_command(
     if png is not None:
         from ..files import check_output_file
 
-        check_output_file(png, overwrite, "--png")
+        check_output_file(png, overwrite, "--png", {"the --config file": config_file})
     materials = load_materials(config_file) if config_file is not None else {}
     materials = resolve_material(material, density, materials)
 
@@ -345,12 +340,10 @@ def parse_case(ion, energy, events, srim_events, seed, thickness, angle, compare
     before any simulation starts.
     """
     from ..ions.species import parse_ion
-    from ..units import parse_quantity
+    from ..schema import quantity
 
     species = parse_ion(ion, "ION")
-    energy_mev = parse_quantity(energy, "energy", "ENERGY")
-    if not energy_mev > 0:
-        raise ConfigError(f"ENERGY: must be > 0, got {energy!r}")
+    energy_mev = quantity(energy, "energy", "ENERGY", positive=True)
     n_events = _positive_int(events, "--events")
     n_srim = _positive_int(srim_events, "--srim-events") if srim_events is not None else n_events
     seed_value = _int(seed, "--seed")
@@ -358,9 +351,7 @@ def parse_case(ion, energy, events, srim_events, seed, thickness, angle, compare
         raise ConfigError(f"--seed: must be in [0, 2147483562], got {seed!r}")
     thickness_mm = None
     if thickness is not None:
-        thickness_mm = parse_quantity(thickness, "length", "--thickness")
-        if not thickness_mm > 0:
-            raise ConfigError(f"--thickness: must be > 0, got {thickness!r}")
+        thickness_mm = quantity(thickness, "length", "--thickness", positive=True)
     try:
         angle_deg = float(str(angle).removesuffix("deg").strip())
     except ValueError:
@@ -408,16 +399,25 @@ def check_model_energy(species, energy_mev: float) -> None:
 
 
 def _int(text, option: str) -> int:
+    from ..units import parse_count
+
     try:
-        return int(str(text))
-    except ValueError:
-        raise ConfigError(f"{option}: expected an integer, got {text!r}") from None
+        return parse_count(text)
+    except ConfigError:
+        raise ConfigError(f"{option}: expected an integer, got {brief(text)}") from None
 
 
 def _positive_int(text, option: str) -> int:
+    from .. import limits
+
     value = _int(text, option)
     if value <= 0:
-        raise ConfigError(f"{option}: must be >= 1, got {text!r}")
+        raise ConfigError(f"{option}: must be >= 1, got {brief(text)}")
+    problem = limits.too_many_events(value)
+    if problem:
+        raise ConfigError(f"{option}: {problem}")
+    # every event keeps its end point and deposits in memory (~200 bytes)
+    limits.check_memory(200 * value, f"{value} events", option)
     return value
 
 

@@ -17,9 +17,9 @@ _SPECTRUM_ONLY = ("volume", "emin", "emax", "per_event", "errors")
 
 
 def _energy(value: str | None, option: str) -> float | None:
-    from ..units import parse_quantity
+    from ..schema import quantity
 
-    return None if value is None else parse_quantity(value, "energy", option)
+    return None if value is None else quantity(value, "energy", option)
 
 
 def _plot_surface(path: Path, out: Path) -> None:
@@ -65,7 +65,7 @@ def plot(
     from ..files import check_output_file
     from ..plots import file_kind, plot_depths, plot_spectra
 
-    check_output_file(out, overwrite, "--out")
+    check_output_file(out, overwrite, "--out", {f"input {f}": f for f in files})
     kinds = [file_kind(f) for f in files]
     if len(set(kinds)) > 1:
         listing = ", ".join(f"{f.name} ({k})" for f, k in zip(files, kinds, strict=True))
@@ -149,9 +149,11 @@ def export(results_file, csv_out, events_out, root_out, volume, bins, emax, over
     results = read_results(results_file)
     emax_mev = _energy(emax, "--emax")
     select_volumes(results, volume)  # every check before the first file is written
+    written: dict[str, Path] = {"the results file": results_file}
     for option, out in (("--csv", csv_out), ("--events-csv", events_out), ("--root", root_out)):
         if out is not None:
-            check_output_file(out, overwrite, option)
+            check_output_file(out, overwrite, option, written)
+            written[f"also the output of {option}"] = out
     if csv_out:
         export_csv(results, csv_out, volume=volume, bins=bins, emax=emax_mev)
         click.echo(f"wrote {csv_out}")

@@ -21,7 +21,8 @@ import click
 
 from ..errors import ConfigError, Score4Error
 from ..files import check_output_file
-from ..units import parse_quantity, um
+from ..schema import input_paths, quantity
+from ..units import um
 
 __all__ = ["load_any", "stats_document", "surface"]
 
@@ -162,8 +163,11 @@ def generate_cmd(description: Path, out: Path | None, overwrite: bool) -> None:
         raise ConfigError(
             f"--out: {str(out)!r} must end with {SUFFIX} (an HDF5 score4 surface file)"
         )
-    check_output_file(out, overwrite, "--out")
-    built = build_surface(load_surface_spec(description))
+    spec = load_surface_spec(description)
+    check_output_file(
+        out, overwrite, "--out", {"the description": description, **input_paths(spec)}
+    )
+    built = build_surface(spec)
     save_surface(built, out)
     sq, how = headline_sq(built)
     click.echo(
@@ -235,7 +239,7 @@ def show_cmd(file: Path, png: Path, dpi: int, overwrite: bool) -> None:
     """Draw FILE: height-map image (with colour bar and scale bar) and a 3D view, as a PNG."""
     from ..surface.plot import plot_surface
 
-    check_output_file(png, overwrite, "--png")
+    check_output_file(png, overwrite, "--png", {"the surface file": file})
     plot_surface(load_any(file), png, dpi=dpi)
     click.echo(f"wrote {png}")
 
@@ -322,14 +326,12 @@ def export_cmd(
         given = ", ".join(f"--{n}" for n, _ in chosen) or "none"
         raise ConfigError(f"export: give exactly one of --stl, --ply and --gdml (got {given})")
     fmt, out = chosen[0]
-    thickness = parse_quantity(base_thickness, "length", "--base-thickness")
-    if not thickness > 0:
-        raise ConfigError(f"--base-thickness: must be positive, got {base_thickness!r}")
+    thickness = quantity(base_thickness, "length", "--base-thickness", positive=True)
     if solid_kind == "multiunion" and fmt != "gdml":
         raise ConfigError(
             f"--solid: 'multiunion' is a Geant4 solid and applies to --gdml only, not --{fmt}"
         )
-    check_output_file(out, overwrite, f"--{fmt}")
+    check_output_file(out, overwrite, f"--{fmt}", {"the surface file": file})
     built = load_any(file)
     if solid_kind == "multiunion" and built.spikes is None:
         raise ConfigError(

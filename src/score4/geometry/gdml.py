@@ -175,8 +175,12 @@ def material_record(g4, material) -> dict:
     }
 
 
-def extract_model(g4, world_pv, source: str, files: list[str]) -> dict:
-    """The plain-data model (:class:`score4.geometry.volumes.GeometryModel`) of a live world."""
+def extract_model(g4, world_pv, source: str, files: list[str], live: list | None = None) -> dict:
+    """The plain-data model (:class:`score4.geometry.volumes.GeometryModel`) of a live world.
+
+    ``live``, if given, receives the live logical volumes in the order of the model's
+    ``logicals`` (their Python objects, so identity tests against a user's objects work).
+    """
     from .volumes import MODEL_FORMAT
 
     index: dict[int, int] = {}  # id of a logical volume's Python object -> model index
@@ -231,6 +235,8 @@ def extract_model(g4, world_pv, source: str, files: list[str]) -> dict:
             "material": mname,
             "daughters": daughters,
         }
+    if live is not None:
+        live.extend(alive)
     return {
         "format": MODEL_FORMAT,
         "source": source,

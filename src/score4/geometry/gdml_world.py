@@ -19,11 +19,9 @@ from __future__ import annotations
 from collections import Counter
 from typing import Any
 
-import numpy as np
-
 from ..config import RunConfig
 from ..errors import ConfigError
-from ..scene import FaceFrame, Scene, TargetVolume
+from ..scene import FaceFrame, RoughLayer, Scene, TargetVolume
 from .gdml import read_gdml
 from .materials import find_material
 from .tiling import place_native
@@ -92,9 +90,62 @@ def _mother_frame(frame: FaceFrame, mother: Instance) -> FaceFrame:
     return FaceFrame(mother.to_local(frame.centre), mother.rotation.T @ frame.rotation, frame.size)
 
 
+class LiveWorld:
+    """score4's additions to a live Geant4 world whose volume model is known.
+
+    Used for a GDML world read by Geant4 (:func:`build_gdml_world`) and for a world a user built
+    in their own geant4_pybind application (:class:`score4.api.World`): finds the live volumes
+    of targets by their model paths (giving copies their own logical volumes, see the module
+    docstring), cuts volumes for ``into`` layers, places boxes of the configuration and rough
+    layers. ``keep`` holds the Python references of everything made here.
+    """
+
+    def __init__(self, g4, model: GeometryModel, world_pv, materials: dict | None = None) -> None:
+        self.g4 = g4
+        self.model = model
+        self.world_pv = world_pv
+        self.materials = materials or {}
+        self.unshare = _Unsharer(g4, model, world_pv)
+        self.mothers: dict[int, Any] = {0: world_pv.GetLogicalVolume()}
+        self.keep: list = [self.unshare.keep]
+
+    def mother_lv(self, inst: Instance):
+        """The live logical volume of ``inst``, its own (cloned if it was shared)."""
+        if inst.index not in self.mothers:
+            self.mothers[inst.index] = self.unshare.path(inst)[1]
+        return self.mothers[inst.index]
+
+    def place_target(self, scene: Scene, t: TargetVolume) -> tuple[Any, Any]:
+        """The live logical volume of a target and its material: a GDML volume found (and cut
+        for its ``into`` layers), a box of the configuration placed in its mother."""
+        assert t.mother is not None  # every target of a model world has one
+        if t.instance is None:
+            return _place_box(self, scene, t)
+        pv, lv = self.unshare.path(t.instance)
+        _cut(self, scene, t, pv, lv)
+        return lv, lv.GetMaterial()
+
+    def place_layer(self, layer: RoughLayer, material) -> list:
+        """Place a rough layer (native tiling) in the mother of its target, its envelope of the
+        mother's material and its patches of ``material``; returns the patch logical volumes."""
+        t = layer.target
+        assert t.mother is not None
+        mlv = self.mother_lv(t.mother)
+        patch_lvs, keep = place_native(
+            self.g4,
+            layer,
+            mlv,
+            mlv.GetMaterial(),
+            material,
+            frame=_mother_frame(layer.frame, t.mother),
+        )
+        self.keep.append(keep)
+        return patch_lvs
+
+
 def build_gdml_world(g4, config: RunConfig, scene: Scene):
     """The GDML world with the run's targets scored and its boxes and rough layers placed."""
-    from .world import BuiltGeometry, cut_for_layers
+    from .world import BuiltGeometry
 
     model = scene.model
     assert model is not None
@@ -103,62 +154,54 @@ def build_gdml_world(g4, config: RunConfig, scene: Scene):
     if world_pv is None:
         raise ConfigError(f"world.gdml: {config.world.gdml}: the file has no world volume")
     built = BuiltGeometry(world=world_pv, keep=[parser])
-    unshare = _Unsharer(g4, model, world_pv)
-    mothers: dict[int, Any] = {0: world_pv.GetLogicalVolume()}
-
-    def mother_lv(inst: Instance):
-        if inst.index not in mothers:
-            mothers[inst.index] = unshare.path(inst)[1]
-        return mothers[inst.index]
-
+    live = LiveWorld(g4, model, world_pv, config.materials)
     for t in scene.targets:
-        assert t.mother is not None  # every target of a GDML world has one
-        if t.instance is None:  # a box of the configuration
-            lv, mat = _place_box(g4, config, scene, t, mother_lv(t.mother), built)
-        else:
-            pv, lv = unshare.path(t.instance)
-            mat = lv.GetMaterial()
-            _cut(g4, scene, t, pv, lv, built, cut_for_layers)
+        lv, material = live.place_target(scene, t)
         built.scoring[t.name] = [lv]
         for layer in scene.layers_of(t.name):
-            mlv = mother_lv(t.mother)
-            patch_lvs, keep = place_native(
-                g4, layer, mlv, mlv.GetMaterial(), mat, frame=_mother_frame(layer.frame, t.mother)
-            )
-            built.scoring[t.name] += patch_lvs
-            built.keep += keep
-    built.keep.append(unshare.keep)
+            built.scoring[t.name] += live.place_layer(layer, material)
+    built.keep.append(live.keep)
     return built
 
 
-def _place_box(g4, config: RunConfig, scene: Scene, t: TargetVolume, mlv, built):
+def _place_box(live: LiveWorld, scene: Scene, t: TargetVolume):
     from .world import cut_for_layers
 
+    g4 = live.g4
+    assert t.mother is not None
+    mlv = live.mother_lv(t.mother)
     solid = g4.G4Box(t.name, *t.half)
     solid, shift, keep_cut = cut_for_layers(g4, scene, t, solid, t.name)
-    material = find_material(g4, t.material, f"targets.{t.entry}.material", config.materials)
+    material = find_material(g4, t.material, f"targets.{t.entry}.material", live.materials)
     lv = g4.G4LogicalVolume(solid, material, t.name)
-    assert t.mother is not None
     where = t.mother.to_local(t.translation) + shift  # boxes are not rotated in their mother
     pv = g4.G4PVPlacement(None, g4.G4ThreeVector(*where), lv, t.name, mlv, False, 0, False)
-    built.keep += [solid, lv, pv, keep_cut]
+    live.keep += [solid, lv, pv, keep_cut]
     return lv, material
 
 
-def _cut(g4, scene: Scene, t: TargetVolume, pv, lv, built, cut_for_layers) -> None:
-    """Cut a GDML target for its ``into: true`` layers (see :func:`cut_for_layers`)."""
+def _cut(live: LiveWorld, scene: Scene, t: TargetVolume, pv, lv) -> None:
+    """Cut a GDML target for its ``into: true`` layers (see :func:`cut_for_layers`).
+
+    The cut solid and the placement's shift are computed from the volume's solid and placement
+    as the model holds them, so cutting again (a second ``into`` layer added later) gives the
+    volume cut by both layers, not cut twice.
+    """
+    from .world import cut_for_layers
+
     if not any(r.config.into for r in scene.layers_of(t.name)):
         return
-    solid, shift, keep = cut_for_layers(g4, scene, t, lv.GetSolid(), f"{lv.GetName()}_cut")
+    g4 = live.g4
+    assert t.instance is not None
+    assert t.mother is not None
     if lv.GetNoDaughters():
         raise ConfigError(
             f"{t.name}: into: true cuts the volume, which holds daughters "
             f"({lv.GetDaughter(0).GetName()}, ...); put the layer outside (into: false)"
         )
+    solid, shift, keep = cut_for_layers(g4, scene, t, lv.GetSolid(), f"{lv.GetName()}_cut")
     lv.SetSolid(solid)
-    r = pv.GetObjectRotationValue()
-    rot = np.array([[r.xx, r.xy, r.xz], [r.yx, r.yy, r.yz], [r.zx, r.zy, r.zz]])
-    old = pv.GetTranslation()
-    moved = np.array([old.x, old.y, old.z]) + rot @ shift
+    placement = live.model.logicals[t.mother.logical].daughters[t.instance.path[-1]]
+    moved = placement.translation + placement.rotation @ shift
     pv.SetTranslation(g4.G4ThreeVector(*moved))
-    built.keep += [keep, solid]
+    live.keep += [keep, solid]

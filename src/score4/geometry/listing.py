@@ -41,7 +41,11 @@ def geometry_rows(scene: Scene) -> dict:
     """Plain data: ``volumes`` (GDML world: every physical volume) and ``targets``."""
     model = scene.model
     return {
-        "world": str(scene.config.world.gdml) if model is not None else "generated box",
+        "world": "generated box"
+        if model is None
+        else str(scene.config.world.gdml)
+        if scene.config is not None
+        else model.source,
         "volumes": list(model.rows()) if model is not None else [],
         "truncated": bool(model.truncated) if model is not None else False,
         "targets": _target_rows(scene),

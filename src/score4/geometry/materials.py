@@ -3,14 +3,43 @@
 from __future__ import annotations
 
 import difflib
-from collections.abc import Mapping
+import functools
+from collections.abc import Mapping, Sequence
+from importlib import resources
 
-from ..errors import ConfigError
+from ..errors import ConfigError, brief
 
 
 def nist_material_names(g4) -> list[str]:
     """Every material name of Geant4's NIST database (``G4_Si``, ``G4_CALCIUM_TUNGSTATE``, ...)."""
     return list(g4.G4NistManager.Instance().GetNistMaterialNames())
+
+
+@functools.cache
+def shipped_nist_names() -> tuple[str, ...]:
+    """The NIST material names as shipped with score4 (no Geant4 import; the same list)."""
+    text = resources.files("score4").joinpath("data/nist_materials.txt").read_text()
+    return tuple(line.strip() for line in text.splitlines() if line.strip() and line[0] != "#")
+
+
+def check_material(
+    name: str, parameter: str, materials: Mapping | None = None, known: Sequence[str] = ()
+) -> None:
+    """Refuse a material that is neither a ``materials:`` entry nor a NIST name, with the
+    closest names (the check :func:`find_material` makes, without Geant4)."""
+    materials = materials or {}
+    known = list(known) or list(shipped_nist_names())
+    if name in materials or name in known:
+        return
+    close = suggest_materials(name, list(materials) + known)
+    which = "names" if materials else "NIST names"
+    hint = (
+        f"; closest {which}: {', '.join(close)}"
+        if close
+        else "; NIST names look like G4_Si, G4_Cu, G4_Galactic"
+    )
+    custom = f" (materials: defines {', '.join(materials)})" if materials else ""
+    raise ConfigError(f"{parameter}: unknown material {brief(name)}{hint}{custom}")
 
 
 def _as_spec(spec):
@@ -69,17 +98,7 @@ def find_material(g4, name: str, parameter: str = "material", materials: Mapping
     if name in materials:
         return build_material(g4, name, materials[name])
     nist = g4.G4NistManager.Instance()
-    known = nist_material_names(g4)
-    if name not in known:
-        close = suggest_materials(name, list(materials) + known)
-        which = "names" if materials else "NIST names"
-        hint = (
-            f"; closest {which}: {', '.join(close)}"
-            if close
-            else "; NIST names look like G4_Si, G4_Cu, G4_Galactic"
-        )
-        custom = f" (materials: defines {', '.join(materials)})" if materials else ""
-        raise ConfigError(f"{parameter}: unknown material {name!r}{hint}{custom}")
+    check_material(name, parameter, materials, nist_material_names(g4))
     return nist.FindOrBuildMaterial(name)
 
 

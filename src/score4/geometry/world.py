@@ -31,8 +31,7 @@ class BuiltGeometry:
 
 def world_half_size(config: RunConfig, scene: Scene) -> np.ndarray:
     """Half-lengths of a world box centred on the origin that holds every target, rough layer and the margin."""
-    lo, hi = scene.bounds
-    return np.maximum(np.abs(lo), np.abs(hi)) + config.world.margin
+    return scene.world_half
 
 
 def portal_layout(config: RunConfig, scene: Scene) -> tuple[np.ndarray, dict[str, np.ndarray]]:

@@ -8,6 +8,7 @@ Geant4 run describe the same matter, with the same density.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 
@@ -54,7 +55,16 @@ class Composition:
             )
         counts: dict[str, float] = {}
         for symbol, number in tokens:
-            counts[symbol] = counts.get(symbol, 0.0) + (float(number) if number else 1.0)
+            try:
+                count = float(number) if number else 1.0
+            except ValueError:  # "." alone
+                count = math.nan
+            if not (count > 0 and math.isfinite(count)):
+                raise ConfigError(
+                    f"material {name!r}: formula {formula!r}: the count of {symbol} must be a "
+                    f"number > 0, got {number!r} (leave an element out rather than count it 0)"
+                )
+            counts[symbol] = counts.get(symbol, 0.0) + count
         return cls(name, tuple(counts.items()), float(density))
 
     @classmethod

@@ -42,16 +42,18 @@ from typing import Any, Protocol
 
 import h5py
 import numpy as np
-from tqdm import tqdm
 
-from .. import __version__, errors
+from .. import __version__, errors, limits
 from ..config import RunConfig, config_to_dict
 from ..errors import ConfigError, Score4Error
 from ..files import atomic_output, check_free_space, check_output_file
 from ..geometry.walls import warn_rays_in_walls
+from ..normalisation import run_normalisation
 from ..output import chunk_counts, merge_chunks
+from ..progress import progress_bar
 from ..scene import build_scene
-from ..source.build import decay_normalisation, make_source, needs_radioactive_decay
+from ..schema import input_paths
+from ..source.build import make_source, needs_radioactive_decay
 from ..source.vertex_file import read_vertex_file
 from .conservation import check_chunk_files
 from .runtime import resolve_physics
@@ -81,6 +83,8 @@ class Executor(Protocol):
     - ``("ready", info)``: a worker has built the Geant4 application (``info`` goes into the run
       record: ``geant4_version``, ``removed_processes``, ``trim_library_seed``);
     - ``("progress", n_events)``: more events are done (for the progress bar);
+    - ``("library", "start" | "done", what, text)``: a worker starts or ends building the TRIM
+      library ``what`` (the text says about how long; the time is left out of the events' rate);
     - ``("done", index)``: the file of chunk ``index`` is complete in ``spec.parts_dir``;
     - ``("failed", index, error_class_name, message)``: chunk ``index`` failed (``index`` is
       ``None`` when a worker could not start).
@@ -228,14 +232,21 @@ def run(
     """
     out = Path(out)
     echo = echo or (lambda msg: print(msg, file=sys.stderr))
-    check_output_file(out, overwrite, "--out")
+    check_output_file(out, overwrite, "--out", input_paths(config))
     seed = config.run.seed
     if jobs < 1:
         raise ConfigError(f"--jobs: must be at least 1, got {jobs}")
     choice = resolve_physics(config.physics.mode, needs_decay=needs_radioactive_decay(config))
-    # Build the scene and draw one event here: bad surfaces, files and constraints fail now, not in a worker.
+    # Build the scene and draw the first events here: bad surfaces, files, constraints and
+    # vertices outside the world fail now, not in a worker (which checks every event again).
     scene = build_scene(config)
-    make_source(config, scene).primaries(np.random.default_rng(0), 0, 1)
+    source = make_source(config, scene)
+    drawn = min(config.run.events, BLOCK_EVENTS)  # events, or atoms for per-atom histories
+    sample = source.events(seed, 0, drawn)
+    unit = f"{getattr(source, 'unit', 'event')}s"
+    rows_per_unit = len(sample) / (drawn if unit == "atoms" else sample.n_events)
+    check_run_memory(config, rows_per_unit)
+    run_normalisation(config, scene)  # the source's area or mass: any problem shows now
     if config.source.vertices is not None and scene.layers:  # hand-made rays: beams on walls?
         rays = read_vertex_file(config.source.vertices)
         text = warn_rays_in_walls(scene, rays.position, rays.direction)
@@ -256,6 +267,12 @@ def run(
         config.run.events, config.run.chunk_events, jobs
     )
     done = _finished_chunks(parts, chunks, fingerprint, echo) if resuming else set()
+    limits.check_memory(  # every worker holds one chunk's primaries and scores
+        jobs * chunks.size * (limits.PRIMARY_BYTES * rows_per_unit + 64),
+        f"{jobs} worker(s) holding chunks of {chunks.size} {unit}",
+        "run.chunk_events",
+        "use a smaller run.chunk_events",
+    )
     n_todo = len(chunks) - len(done)
     if done:
         echo(
@@ -322,8 +339,6 @@ def run(
         "missing_data_sets": list(choice.missing_data),
         "removed_processes": info.get("removed_processes", []),
         **{k: info[k] for k in ("trim_library_seed",) if k in info},  # runs with a TRIM replay
-        # one entry per scoring column (contract 1: name, material, density, volume, mass)
-        "volumes": info.get("volumes", []),
         "rough_shares": {layer.name: layer.rough_share for layer in scene.layers},
         "gdml_files": scene.model.files if scene.model is not None else [],
         "score4_version": __version__,
@@ -343,8 +358,10 @@ def run(
         **balance,
         **_untracked_photons(files),
         **_counts(files, config),
-        # contract 1: the decays the events stand for (score4.normalisation will own this)
-        **decay_normalisation(config),
+        # contract 1, what the events stand for: volumes (one per scoring column: name, material,
+        # density, volume, mass; from the worker's Geant4 world), the sampled area or mass, the
+        # decays (score4.normalisation)
+        **run_normalisation(config, scene, volumes=info.get("volumes") or None),
     }
     try:
         check_free_space(out, sum(f.stat().st_size for f in files))
@@ -360,6 +377,18 @@ def run(
     return out
 
 
+def check_run_memory(config: RunConfig, primaries_per_event: float) -> None:
+    """Refuse a run whose results this machine cannot merge (the merge holds them in memory)."""
+    n = config.run.events
+    columns = 2 + len(config.targets) * (3 if config.output.track_length else 1)
+    limits.check_memory(
+        limits.results_bytes(n, columns, primaries_per_event),
+        f"merging the results of {n} events",
+        "run.events",
+        "split it into runs of fewer events with different --seed values",
+    )
+
+
 def _run_chunks(
     executor: Executor, spec: WorkerSpec, chunks: ChunkPlan, done: set[int], show: bool
 ) -> dict:
@@ -370,14 +399,10 @@ def _run_chunks(
     info: dict = {}
     finished: set[int] = set()
     failures: dict[int, str] = {}
-    bar = tqdm(
-        total=chunks.n_events,
-        initial=sum(chunks[i].n_events for i in done),
-        unit="ev",
-        disable=not show or None,
-        mininterval=0.5,
-        file=sys.stderr,
-    )
+    # per-atom histories (a chain with implantation): run.events and the progress count atoms
+    unit = "atoms" if getattr(spec.config.source.decay, "implantation", False) else "events"
+    bar = progress_bar(chunks.n_events, sum(chunks[i].n_events for i in done), unit, "run", show)
+    told: set[tuple[str, str]] = set()
     try:
         with contextlib.closing(executor.execute(spec, chunks.remaining(done))) as events:
             for event in events:
@@ -387,10 +412,19 @@ def _run_chunks(
                     _remember_info(spec.parts_dir, info)
                 elif kind == "progress":
                     bar.update(event[1])
+                elif kind == "library":  # a worker builds a TRIM library (see trim_library)
+                    _, phase, what, text = event
+                    if (phase, what) not in told and show:  # workers may build the same one
+                        told.add((phase, what))
+                        bar.write(f"run: {text}")
+                    if phase == "done":
+                        bar.unpause()  # the time it took is not part of the events' rate
                 elif kind == "done":
                     finished.add(event[1])
                 elif kind == "failed":
                     _, index, cls, text = event
+                    if cls == "WorkerDied":
+                        text += _last_exception_text(spec.parts_dir, text)
                     if cls in _ERRORS:  # bad input or a fault of the environment: stop now
                         where = (
                             ""
@@ -507,7 +541,7 @@ class _LocalWorker:
                     self.ready = True
                     yield msg
                     self._send_next(pending)
-                elif kind == "progress":
+                elif kind in ("progress", "library"):
                     yield msg
                 elif kind == "done":
                     self.chunk = None
@@ -754,13 +788,43 @@ def _geant4_exceptions(parts: Path) -> list[tuple[str, str, str]]:
     """(code, issuer, message) of every G4Exception in the workers' logs, in log order."""
     found = []
     for log in sorted(parts.glob("geant4-*.log")):
-        lines = log.read_text(errors="replace").splitlines()
-        for i, line in enumerate(lines):
-            m = re.search(r"G4Exception : (\S+)", line)
-            if m:
-                issuer = lines[i + 1].split(":", 1)[-1].strip() if i + 1 < len(lines) else ""
-                message = lines[i + 2].strip() if i + 2 < len(lines) else ""
-                found.append((m.group(1), issuer, message))
+        found += _exceptions_in(log.read_text(errors="replace"))
+    return found
+
+
+def _last_exception_text(parts: Path, text: str) -> str:
+    """ "; Geant4's fatal exception: ..." with the last fatal G4Exception (one that aborts the
+    process; warnings are not the cause) in the log of the worker ``text`` names
+    (``worker process <pid> died``), or "" when there is none."""
+    m = re.search(r"worker process (\d+)", text)
+    logs = [parts / f"geant4-{m.group(1)}.log"] if m else sorted(parts.glob("geant4-*.log"))
+    found = []
+    for log in logs:
+        with contextlib.suppress(OSError):
+            found += _exceptions_in(log.read_text(errors="replace"), fatal_only=True)
+    if not found:
+        return ""
+    code, issuer, message = found[-1]
+    return f"; Geant4's fatal exception: {code} ({issuer}): {message}"
+
+
+def _exceptions_in(text: str, fatal_only: bool = False) -> list[tuple[str, str, str]]:
+    """(code, issuer, message) of every G4Exception in one log text, in order; with
+    ``fatal_only``, those Geant4 marks fatal (an ``EEEE`` start line, not ``WWWW``)."""
+    found = []
+    lines = text.splitlines()
+    for i, line in enumerate(lines):
+        m = re.search(r"G4Exception : (\S+)", line)
+        if not m:
+            continue
+        start = next(
+            (lines[j] for j in range(i - 1, max(i - 4, -1), -1) if "-START" in lines[j]), ""
+        )
+        if fatal_only and "EEEE" not in start:
+            continue
+        issuer = lines[i + 1].split(":", 1)[-1].strip() if i + 1 < len(lines) else ""
+        message = lines[i + 2].strip() if i + 2 < len(lines) else ""
+        found.append((m.group(1), issuer, message))
     return found
 
 

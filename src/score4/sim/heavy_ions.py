@@ -24,13 +24,16 @@ from __future__ import annotations
 
 import bisect
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from ..errors import Score4Error
 from ..ions.composition import Composition
 from ..ions.trim_library import TrajectoryLibrary, trim_library
+from ..source.primaries import Primaries
 
 #: Materials thinner than this (g/cm3) are vacuum for a heavy ion: it crosses them in a line.
 VACUUM_DENSITY = 1e-5
@@ -42,6 +45,32 @@ def heavy_ion_z(particle) -> int:
     """Z of a Geant4 particle definition if it is a nucleus heavier than helium, else 0."""
     z = int(particle.GetAtomicNumber())
     return z if particle.GetParticleType() == "nucleus" and z > 2 else 0
+
+
+def trim_mask(
+    primaries: Primaries,
+    definition: Callable[[str], Any],
+    heavy_ions: str = "trim",
+    alphas: str = "geant4",
+    max_energy: float = 1.0,
+) -> np.ndarray:
+    """Rows of ``primaries`` that follow TRIM trajectories instead of Geant4.
+
+    Ions heavier than helium of kinetic energy in (0, ``max_energy``] (MeV) with
+    ``heavy_ions="trim"`` (an ion at rest, a nuclide source, is Geant4's radioactive decay's),
+    and alphas of any energy with ``alphas="trim"`` (the settings ``physics.heavy_ions``,
+    ``physics.alphas`` and ``physics.trim_max_energy`` of a run configuration).
+    ``definition(name)`` gives the G4ParticleDefinition of a particle name.
+    """
+    mask = np.zeros(len(primaries), dtype=bool)
+    energy = primaries.energy
+    for name in np.unique(primaries.particle):
+        rows = primaries.particle == name
+        if name == "alpha" and alphas == "trim":
+            mask |= rows
+        elif heavy_ions == "trim" and heavy_ion_z(definition(str(name))):
+            mask |= rows & (energy <= max_energy) & (energy > 0)
+    return mask
 
 
 @dataclass

@@ -11,7 +11,27 @@ from __future__ import annotations
 import numpy as np
 
 # Quantity name -> Geant4 primitive scorer class name.
-PRIMITIVES = {"edep": "G4PSEnergyDeposit", "track_length": "G4PSTrackLength"}
+PRIMITIVES = {
+    "edep": "G4PSEnergyDeposit",
+    "track_length": "G4PSTrackLength",
+    "edep_alpha": "G4PSEnergyDeposit",
+    "edep_electron": "G4PSEnergyDeposit",
+}
+#: Particle classes of the split deposits (``output.split_by_particle``), as G4SDParticleFilter
+#: lists: a step's deposit counts for the class of the particle that made the step. The third
+#: class, ``edep_ion`` (nuclei heavier than helium: recoils; and anything that is neither), is
+#: the rest: ``edep - edep_alpha - edep_electron`` (:func:`ion_deposits`).
+PARTICLE_FILTERS = {"edep_alpha": ("alpha",), "edep_electron": ("e-", "e+", "gamma")}
+SPLIT_QUANTITIES = ("edep_alpha", "edep_electron")
+#: Deposits below this (MeV) left over by the subtraction are rounding, not ions.
+ION_ROUNDING = 1e-12
+
+
+def ion_deposits(scores: dict[str, np.ndarray]) -> np.ndarray:
+    """The ion class of split deposits: total minus alpha minus electron, rounding set to 0."""
+    rest = scores["edep"] - scores["edep_alpha"] - scores["edep_electron"]
+    rest[np.abs(rest) <= ION_ROUNDING * (1.0 + scores["edep"])] = 0.0
+    return np.maximum(rest, 0.0)
 
 
 class VolumeScorer:
@@ -25,6 +45,7 @@ class VolumeScorer:
         self.groups = groups
         self.quantities = quantities
         self.detectors: list = []
+        self.filters: list = []  # Geant4 keeps pointers only: Python must keep them alive
         self.collection_ids: list[list[int]] = []
 
     def attach(self) -> None:
@@ -34,7 +55,14 @@ class VolumeScorer:
         for name in self.names:
             mfd = g4.G4MultiFunctionalDetector(f"score4_{name}")
             for q in self.quantities:
-                mfd.RegisterPrimitive(getattr(g4, PRIMITIVES[q])(q))
+                primitive = getattr(g4, PRIMITIVES[q])(q)
+                if q in PARTICLE_FILTERS:
+                    particle_filter = g4.G4SDParticleFilter(f"score4_{name}_{q}")
+                    for particle in PARTICLE_FILTERS[q]:
+                        particle_filter.add(particle)
+                    primitive.SetFilter(particle_filter)
+                    self.filters.append(particle_filter)
+                mfd.RegisterPrimitive(primitive)
             sdm.AddNewDetector(mfd)
             for lv in self.groups[name]:
                 lv.SetSensitiveDetector(mfd)

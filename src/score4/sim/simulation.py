@@ -21,7 +21,8 @@ from ..geometry.world import BuiltGeometry, build_world, check_materials
 from ..scene import build_scene
 from ..source.build import make_source
 from ..source.primaries import Primaries
-from .heavy_ions import IonFate, ReplayStream
+from .feed import EventFeed, replay_row
+from .heavy_ions import IonFate
 from .implantation import AtomTracker, drop_lost, is_history
 from .interception import InterceptedIon, make_stacking_action, needs_interception
 from .physics import (
@@ -31,13 +32,12 @@ from .physics import (
     strip_data_hungry_processes,
 )
 from .runtime import PhysicsChoice, import_geant4, redirect_native_output
-from .scoring import VolumeScorer
+from .scoring import SPLIT_QUANTITIES, VolumeScorer, ion_deposits
 from .seeds import library_trim_seed
 
 if TYPE_CHECKING:
     from .heavy_ions import HeavyIonTransport
 
-_REPLAY_STREAM = 0x5C0E4  # mixed into the seeds of the heavy-ion replay's random streams
 _ION = re.compile(r"^([A-Z][a-z]?)-?(\d{1,3})$")
 
 
@@ -83,7 +83,11 @@ class Simulation:
         self.source = make_source(config, self.scene)
         self.choice = choice
         self.log_path = log_path
-        self.quantities = ("edep", "track_length") if config.output.track_length else ("edep",)
+        self.quantities: tuple[str, ...] = ("edep",)
+        if config.output.track_length:
+            self.quantities += ("track_length",)
+        if config.output.split_by_particle:  # alpha and electron classes; ions are the rest
+            self.quantities += SPLIT_QUANTITIES
         self._progress: Callable[[int], None] | None = None  # see run()
         self._reported, self._report_every = 0, 1
         self._stop: threading.Event | None = None  # see run()
@@ -189,26 +193,16 @@ class Simulation:
         return self._particles[name]
 
     def trim_rows(self, primaries: Primaries) -> np.ndarray:
-        """Rows of ``primaries`` that follow TRIM trajectories instead of Geant4.
-
-        Ions heavier than helium of kinetic energy in (0, ``physics.trim_max_energy``]
-        (``heavy_ions: trim``), and alphas of any energy with ``alphas: trim``.
-        """
-        mask = np.zeros(len(primaries), dtype=bool)
+        """Rows of ``primaries`` that follow TRIM trajectories instead of Geant4
+        (:func:`score4.sim.heavy_ions.trim_mask` with the run's physics settings)."""
         if self.heavy_ions is None:
-            return mask
-        from .heavy_ions import heavy_ion_z
+            return np.zeros(len(primaries), dtype=bool)
+        from .heavy_ions import trim_mask
 
         physics = self.config.physics
-        for name in np.unique(primaries.particle):
-            rows = primaries.particle == name
-            if name == "alpha" and physics.alphas == "trim":
-                mask |= rows
-            elif physics.heavy_ions == "trim" and heavy_ion_z(self.particle(str(name))):
-                # at rest (a nuclide source): Geant4's radioactive decay takes it
-                energy = primaries.energy
-                mask |= rows & (energy <= physics.trim_max_energy) & (energy > 0)
-        return mask
+        return trim_mask(
+            primaries, self.particle, physics.heavy_ions, physics.alphas, physics.trim_max_energy
+        )
 
     def untracked_rows(self, primaries: Primaries) -> np.ndarray:
         """Rows of ``primaries`` that are photons lite physics cannot track (no data-free
@@ -233,31 +227,22 @@ class Simulation:
 
     def _generate(self, gun, event) -> None:
         k = self._next_event
-        g4, p = self.g4, self._primaries
-        if self._event_seeds is not None:
-            g4.G4Random.setTheSeed(int(self._event_seeds[k]))
+        feed = self._feed
         if self._replaying:  # heavy ions first: an implanted daughter starts where one stopped
             self._replay_event(k)
         if self.teleporter is not None:
-            self.teleporter.begin_event(int(self._offsets[k]), int(self._offsets[k + 1]))
-        for row in range(self._offsets[k], self._offsets[k + 1]):
-            if self._skip[row]:  # replayed on TRIM, or a gamma lite physics cannot track
-                continue
-            gun.SetParticleDefinition(self._defs[row])
-            gun.SetParticleEnergy(p.energy[row])
-            gun.SetParticlePosition(g4.G4ThreeVector(*self._positions[row]))
-            gun.SetParticleMomentumDirection(g4.G4ThreeVector(*p.direction[row]))
-            gun.GeneratePrimaryVertex(event)
+            self.teleporter.begin_event(int(feed.offsets[k]), int(feed.offsets[k + 1]))
+        feed.fill(gun, event, k)  # not the rows replayed on TRIM or gammas lite cannot track
 
     def _score(self, event) -> None:
         k = self._next_event
         self.scorer.read(event, self._scores, k)
         self._scored = True
-        for fate in self._pending:  # heavy-ion secondaries replayed during the event
-            self.book(k, fate)
+        for fate, alpha in self._pending:  # heavy-ion secondaries replayed during the event
+            self.book(k, fate, alpha)
         self._pending.clear()
-        for fate in self._replayed:  # its heavy-ion primaries, replayed before it
-            self.book(k, fate)
+        for fate, alpha in self._replayed:  # its heavy-ion primaries, replayed before it
+            self.book(k, fate, alpha)
         self._replayed.clear()
         self._next_event += 1
         self._scored = False
@@ -280,8 +265,9 @@ class Simulation:
         geometry (Geant4 walks the volume tree to update regions and cuts: 0.8 s with 4 million
         flat placements, see docs/tiling.md). ``progress(n)`` is called from the event action
         every ``batch`` events (default: a twentieth of the events) and once at the end.
-        Heavy ions (:meth:`trim_rows`) are moved along TRIM trajectories after Geant4 has
-        tracked the rest (:mod:`score4.sim.heavy_ions`); their deposits join their events'.
+        Heavy ions (:meth:`trim_rows`) are moved along TRIM trajectories just before Geant4
+        tracks the rest of their event (:mod:`score4.sim.heavy_ions`; per-atom histories need
+        the stop points first); their deposits join their events'.
         With ``endpoints=True``, ``self.endpoints`` is then an (n_rows, 4) array: where each
         primary ended (x, y, z mm) and its kinetic energy there (MeV; > 0 if it left the world).
         ``stop``, set from another thread, ends the run after the event being tracked
@@ -293,13 +279,12 @@ class Simulation:
         n = primaries.n_events
         self._primaries = primaries
         # Portal tiling: vertices in a portal box start at their subworld point.
-        self._positions = (
+        positions = (
             primaries.position
             if self.teleporter is None
             else self.teleporter.map_primaries(primaries.position)
         )
-        self._defs = [self._particles[str(name)] for name in primaries.particle]
-        self._offsets = primaries.event_offsets()
+        definitions = [self._particles[str(name)] for name in primaries.particle]
         self._trim = self.trim_rows(primaries)
         self._scores = {q: np.zeros((n, len(self.volumes))) for q in self.quantities}
         self._untracked_rows = (
@@ -308,6 +293,7 @@ class Simulation:
             else np.zeros(len(primaries), dtype=bool)
         )
         self._skip = self._trim | self._untracked_rows
+        self._feed = EventFeed(self.g4, primaries, definitions, g4_seed, self._skip, positions)
         self.untracked_gamma = np.bincount(
             primaries.event[self._untracked_rows],
             weights=primaries.energy[self._untracked_rows],
@@ -318,19 +304,13 @@ class Simulation:
         self._prepare_replay(primaries, g4_seed)
         self._prepare_atoms(primaries)
         self.intercepted, self.ion_fates = [], {}
-        self._pending: list[IonFate] = []
-        self._replayed: list[IonFate] = []
+        self._pending: list[tuple[IonFate, bool]] = []
+        self._replayed: list[tuple[IonFate, bool]] = []
         self._scored = False
         self._intercept(names)
         self._next_event = 0
-        self._event_seeds: np.ndarray | None = None
         if np.ndim(g4_seed) == 0:
             self.g4.G4Random.setTheSeed(int(g4_seed))
-        else:
-            seeds = np.asarray(g4_seed)
-            if len(seeds) != n:
-                raise ValueError(f"g4_seed: need one seed per event ({n}), got {len(seeds)}")
-            self._event_seeds = seeds
         self._progress, self._reported = progress, 0
         units = n if self._units_after is None else int(self._units_after[-1])
         self._report_every = batch or max(1, units // 20)
@@ -344,6 +324,8 @@ class Simulation:
         if self._stopped or (stop is not None and stop.is_set()):
             raise RunCancelled(f"run cancelled after {self._next_event} of {n} events")
         self._report_progress(final=True)
+        if "edep_alpha" in self._scores:
+            self._scores["edep_ion"] = ion_deposits(self._scores)
         return self._scores
 
     def _prepare_atoms(self, primaries: Primaries) -> None:
@@ -363,18 +345,18 @@ class Simulation:
                 "stops at no place of the world)"
             )
         self.atoms = AtomTracker(
-            primaries, self._positions, self.heavy_ions, self._depth_function(primaries)
+            primaries, self._feed.positions, self.heavy_ions, self._depth_function(primaries)
         )
         self._replaying = True  # the tracker places every decay, also without heavy ions
         # atoms whose events are all done after k events (the progress unit)
-        atom_of_event = primaries.extra["atom"][self._offsets[:-1]]
+        atom_of_event = primaries.extra["atom"][self._feed.offsets[:-1]]
         last = np.r_[atom_of_event[1:] != atom_of_event[:-1], True]
         self._units_after = np.r_[0, np.cumsum(last)]
 
     def _depth_function(self, primaries: Primaries):
         """``depth_of(points, rows)`` for the moved vertices of per-atom histories drawn below
         a surface (None for a bulk source: no depth)."""
-        sampler = getattr(self.source, "sampler", None)
+        sampler: Any = getattr(self.source, "sampler", None)
         ex = primaries.extra
         if not hasattr(sampler, "depth_of") or "depth" not in ex or "normal_x" not in ex:
             return None
@@ -420,7 +402,7 @@ class Simulation:
         return primaries, scores
 
     def _prepare_replay(self, primaries: Primaries, g4_seed: int | np.ndarray) -> None:
-        """Heavy ions of this batch: libraries announced, random streams chosen."""
+        """Heavy ions of this batch: one library per ion, start energy and material announced."""
         self._replaying = bool(self._trim.any())
         self._replay_seeds = np.asarray(g4_seed)
         if not self._replaying:
@@ -431,13 +413,6 @@ class Simulation:
         rows = self._trim
         for name, energy in set(zip(primaries.particle[rows], primaries.energy[rows], strict=True)):
             transport.need(str(name), float(energy))
-        # Own streams: one per primary with per-event Geant4 seeds (so the first N events of a
-        # run are the same in a longer run), else one for the batch.
-        self._replay_rng = (
-            ReplayStream(int(self._replay_seeds), _REPLAY_STREAM)
-            if self._replay_seeds.ndim == 0
-            else None
-        )
 
     # -- heavy-ion secondaries (score4.sim.interception) -------------------------------------
 
@@ -455,15 +430,18 @@ class Simulation:
         seeds = self._replay_seeds
         return k, int(seeds) * 1_000_003 + k if seeds.ndim == 0 else int(seeds[k])
 
-    def book(self, k: int, fate: IonFate) -> None:
-        """Add a replayed ion's deposits (and track lengths) to event ``k``.
+    def book(self, k: int, fate: IonFate, alpha: bool = False) -> None:
+        """Add a replayed ion's deposits (and track lengths) to event ``k``; ``alpha``: an alpha
+        on TRIM (``alphas: trim``), whose deposits also count in the alpha class when split.
 
         While Geant4 tracks event ``k`` they wait: its scores are read at its end."""
         if k == self._next_event and not self._scored:
-            self._pending.append(fate)
+            self._pending.append((fate, alpha))
             return
         for volume, value in fate.deposits.items():
             self._scores["edep"][k, volume] += value
+            if alpha and "edep_alpha" in self._scores:
+                self._scores["edep_alpha"][k, volume] += value
         if "track_length" in self._scores:
             for volume, value in fate.lengths.items():
                 self._scores["track_length"][k, volume] += value
@@ -496,15 +474,13 @@ class Simulation:
         """Move event ``k``'s heavy ions along TRIM trajectories before Geant4 tracks the event
         (their deposits join the event's at its end); with per-atom histories, put each decay
         where its atom is first (:class:`~score4.sim.implantation.AtomTracker`)."""
-        first, end = int(self._offsets[k]), int(self._offsets[k + 1])
-        atoms = self.atoms
+        feed, atoms = self._feed, self.atoms
         if atoms is None:
-            for row in range(first, end):
-                if self._trim[row]:
-                    self._replay_row(k, row, first)
+            for row in feed.rows_of(k, self._trim):
+                self._replay_row(k, int(row))
             return
         decay = atoms.decay_index
-        a = first
+        a, end = int(feed.offsets[k]), int(feed.offsets[k + 1])
         while a < end:  # one decay (rows a .. b - 1) at a time, in decay order
             b = a + 1
             while b < end and decay[b] == decay[a]:
@@ -514,7 +490,7 @@ class Simulation:
             else:
                 for row in range(a, b):
                     if self._trim[row]:
-                        fate = self._replay_row(k, row, first)
+                        fate = self._replay_row(k, row)
                         if atoms.recoil[row]:
                             atoms.moved(row, fate)
                     elif atoms.recoil[row]:
@@ -523,32 +499,22 @@ class Simulation:
 
     def _lose(self, k: int, a: int, b: int) -> None:
         """Rows ``a .. b - 1`` of event ``k`` are not emitted: their atom left the world."""
-        self._skip[a:b] = True
+        feed = self._feed
+        feed.skip[a:b] = True
         untracked = self._untracked_rows[a:b]
         if untracked.any():
             self._untracked_rows[a:b] = False
-            rows = slice(int(self._offsets[k]), int(self._offsets[k + 1]))
+            rows = slice(int(feed.offsets[k]), int(feed.offsets[k + 1]))
             kept = self._untracked_rows[rows]
-            self.untracked_gamma[k] = float(self._primaries.energy[rows][kept].sum())
+            self.untracked_gamma[k] = float(feed.primaries.energy[rows][kept].sum())
 
-    def _replay_row(self, k: int, row: int, first: int) -> IonFate:
-        """Replay the heavy ion of ``row`` (event ``k``, whose first row is ``first``)."""
-        transport, p = self.heavy_ions, self._primaries
+    def _replay_row(self, k: int, row: int) -> IonFate:
+        """Replay the heavy ion of ``row`` (event ``k``); its deposits join the event's at its
+        end (an alpha's also the alpha class, ``alphas: trim``)."""
+        transport, feed = self.heavy_ions, self._feed
         assert transport is not None
-        rng = self._replay_rng
-        if rng is None:
-            seed = int(self._replay_seeds[k])
-            rng = ReplayStream(seed, _REPLAY_STREAM, row - first)
-        name = str(p.particle[row])
-        fate = transport.transport(
-            self._particles[name],
-            name,
-            float(p.energy[row]),
-            self._positions[row],  # portal tiling: the subworld point
-            p.direction[row],
-            rng,
-        )
-        self._replayed.append(fate)
+        fate = replay_row(transport, feed, k, row)
+        self._replayed.append((fate, str(feed.primaries.particle[row]) == "alpha"))
         self.ion_fates[row] = fate
         if self.endpoints is not None:
             self.endpoints[row] = (*fate.position, fate.escaped_energy)
@@ -583,8 +549,7 @@ class Simulation:
         return self._null_action
 
     def _g4_rows_of_event(self, k: int) -> np.ndarray:
-        rows = np.arange(self._offsets[k], self._offsets[k + 1])
-        return rows[~self._skip[rows]]
+        return self._feed.geant4_rows(k)
 
     def _check_stop(self) -> None:
         """End the run after this event when asked to (one attribute test per event)."""

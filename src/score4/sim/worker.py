@@ -5,6 +5,7 @@ dies can never leave a shared lock held):
 
 - parent -> worker: a :class:`Chunk` to run, or ``None`` to finish;
 - worker -> parent: ``("ready", info)``, ``("progress", n_events)``, ``("done", chunk index)``,
+  ``("library", "start" | "done", what, text)`` (a TRIM library being built),
   ``("error", chunk index or None, exception class name, message)``. After an error the worker
   exits: a Geant4 application that failed half-way through a chunk is not reused.
 
@@ -32,6 +33,7 @@ import numpy as np
 
 from ..config import RunConfig
 from ..errors import Score4Error, Score4Warning
+from ..ions.trim_library import set_build_listener
 from ..output import write_chunk
 from ..source.primaries import Primaries, atom_histories
 from .runtime import PhysicsChoice
@@ -143,6 +145,7 @@ def worker_main(spec: WorkerSpec, conn) -> None:
 
     log = Path(spec.parts_dir) / f"geant4-{os.getpid()}.log"
     chunk = None
+    set_build_listener(lambda phase, what, text: _report(conn, ("library", phase, what, text)))
     try:
         sim = Simulation(spec.config, spec.choice, log_path=log, seed=spec.seed)
         conn.send(("ready", ready_info(sim)))

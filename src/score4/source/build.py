@@ -13,15 +13,16 @@ about the source (kind, true and projected area, volume).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
 import numpy as np
 
+from .. import limits
 from ..config import FACES, DecayChainConfig, DepthConfig, RunConfig, SourceConfig
 from ..errors import ConfigError
 from ..scene import RoughLayer, Scene, TargetVolume, face_frame
-from ..shapes import G4Box, G4Tubs, PlacedShape, Shape, Transform, shape_from_dict
+from ..shapes import G4Box, G4Tubs, Shape, Transform, shape_from_dict
 from .blocks import draw_events
 from .decay_source import DecayEmitter
 from .depth import VertexSampler
@@ -249,19 +250,12 @@ def bulk_sampler(scene: Scene, volume: str) -> BulkSampler:
     a box target has none, and its rough layers are separate volumes outside it)."""
     target = source_target(scene, volume, "source.volume")
     shape, transform = target_shape(scene, target.name)
-    exclude: list[Shape] = []
-    if scene.model is not None and target.instance is not None:
-        for d in scene.model.daughters(target.instance):
-            logical = scene.model.logicals[d.logical]
-            data = logical.solid.get("shape")
-            if data is None:
-                raise ConfigError(
-                    f"source.volume: {target.name!r} holds {d.name!r}, a {logical.solid_type} "
-                    "score4.shapes does not describe, so its material cannot be sampled"
-                )
-            placed = Transform(rotation=d.rotation, translation=d.translation)
-            exclude.append(PlacedShape(shape_from_dict(data), placed))
-    return BulkSampler(shape, transform, exclude, name=target.name)
+    if target.unknown_daughters:
+        raise ConfigError(
+            f"source.volume: {target.name!r} holds {', '.join(target.unknown_daughters)}, of a "
+            "solid type score4.shapes does not describe, so its material cannot be sampled"
+        )
+    return BulkSampler(shape, transform, list(target.exclude), name=target.name)
 
 
 def number_atoms(primaries: Primaries, first: int) -> Primaries:
@@ -272,16 +266,31 @@ def number_atoms(primaries: Primaries, first: int) -> Primaries:
     return primaries
 
 
+def run_numbers(primaries: Primaries, first_event: int) -> np.ndarray:
+    """Per row, the run's number of its event, or of its atom for per-atom histories (whose
+    events are not numbered in the run)."""
+    if "atom" in primaries.extra:
+        return np.asarray(primaries.extra["atom"])
+    return primaries.event + first_event
+
+
 @dataclass
 class SampledSource:
-    """Vertices drawn below a (rough) face, each emitting the configured particles."""
+    """Vertices drawn below a (rough) face, each emitting the configured particles.
+
+    Every vertex drawn is checked inside the world box ``|x_i| < world_half_i`` (Geant4 crashes
+    or loses a primary outside its world): a depth profile reaching out of the target with
+    ``confine: false`` is refused with the event it would have started.
+    """
 
     sampler: VertexSampler
     emitter: Emitter | DecayEmitter
+    world_half: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
 
     def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
-        """``n_events`` events (atoms, with implantation: :attr:`unit`) drawn from ``rng``;
-        ``first_event`` numbers the atoms."""
+        """``n_events`` events (atoms, with implantation: :attr:`unit`) drawn from the stream
+        ``rng``; ``first_event`` only numbers the atoms (:meth:`events` gives the prefix-stable
+        events of a run)."""
         v = self.sampler.sample(rng, n_events)
         return number_atoms(
             make_primaries(
@@ -304,15 +313,19 @@ class SampledSource:
 
     def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
         """Events ``first_event ..`` of the run with ``seed``, the same in any chunking."""
-        return draw_events(self, seed, first_event, n_events)
+        p = draw_events(self, seed, first_event, n_events)
+        limits.check_vertices(p.position, self.world_half, "source", run_numbers(p, first_event))
+        return p
 
 
 @dataclass
 class BulkSource:
-    """Vertices uniform in a volume's own material, emitting isotropically."""
+    """Vertices uniform in a volume's own material, emitting isotropically (checked inside the
+    world like :class:`SampledSource`'s)."""
 
     sampler: BulkSampler
     emitter: Emitter | DecayEmitter
+    world_half: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
 
     def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
         """As :meth:`SampledSource.primaries`."""
@@ -326,15 +339,23 @@ class BulkSource:
 
     def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
         """Events ``first_event ..`` of the run with ``seed``, the same in any chunking."""
-        return draw_events(self, seed, first_event, n_events)
+        p = draw_events(self, seed, first_event, n_events)
+        limits.check_vertices(p.position, self.world_half, "source", run_numbers(p, first_event))
+        return p
 
 
 @dataclass
 class FileSource:
-    """Primaries read from a vertex file, event by event."""
+    """Primaries read from a vertex file, event by event (all checked inside the world)."""
 
     primaries_all: Primaries
     path: str
+    world_half: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
+
+    def __post_init__(self) -> None:
+        p = self.primaries_all
+        label = f"source.vertices: {self.path}"
+        limits.check_vertices(p.position, self.world_half, label, p.event)
 
     def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
         available = self.primaries_all.n_events
@@ -364,15 +385,24 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | BulkSource |
     """What :meth:`primaries` needs, built once: checks files, materials and constraints now."""
     src = config.source
     if src.vertices is not None:
-        source = FileSource(read_vertex_file(src.vertices), str(src.vertices))
+        source = FileSource(read_vertex_file(src.vertices), str(src.vertices), scene.world_half)
         if source.primaries_all.n_events < config.run.events:
             raise ConfigError(
                 f"source.vertices: {src.vertices} holds {source.primaries_all.n_events} events, "
                 f"fewer than run.events = {config.run.events}"
             )
         return source
+    return source_from_config(src, scene)
+
+
+def source_from_config(src: SourceConfig, scene: Scene) -> SampledSource | BulkSource:
+    """The sampled source (surface or bulk; not a vertex file) that ``src`` describes on the
+    targets of ``scene``: a run configuration's ``source`` section, or the keys a user gives
+    :meth:`score4.api.World.source`. Files, materials and constraints are checked now."""
+    if src.vertices is not None:
+        raise ConfigError("source.vertices: a vertex file is read by make_source")
     if src.volume is not None:
-        return BulkSource(bulk_sampler(scene, src.volume), _emitter(src))
+        return BulkSource(bulk_sampler(scene, src.volume), _emitter(src), scene.world_half)
     surface_ref = _given(src.surface, "source.surface")
     target = source_target(scene, surface_ref.volume, "source.surface.volume")
     volume, face = target.name, surface_ref.face
@@ -381,7 +411,13 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | BulkSource |
         layer = scene.layer(volume, face)
         surface = layer.sampler() if layer is not None else flat_face_sampler(scene, volume, face)
     else:
-        surface = shape_face_sampler(scene, volume, face)
+        try:
+            surface = shape_face_sampler(scene, volume, face)
+        except ConfigError as err:  # "face: G4Box has no face 'top'; its faces: ..."
+            text = str(err)
+            raise ConfigError(
+                f"source.surface.{text}" if text.startswith("face:") else text
+            ) from None
     inside = None
     if src.confine is True:
         inside = lambda p: scene.inside_target(volume, p)  # noqa: E731
@@ -402,7 +438,7 @@ def make_source(config: RunConfig, scene: Scene) -> SampledSource | BulkSource |
     ) as err:  # the library names min_depth/max_depth; the config calls them min/max
         message = str(err).replace("min_depth", "min").replace("max_depth", "max")
         raise ConfigError(f"source.depth: {message}") from None
-    return SampledSource(sampler, _emitter(src))
+    return SampledSource(sampler, _emitter(src), scene.world_half)
 
 
 def _emitter(src: SourceConfig) -> Emitter | DecayEmitter:

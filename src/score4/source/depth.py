@@ -868,11 +868,12 @@ class VertexSampler:
         if not len(x):
             return depth
         parts: list[tuple[np.ndarray, Any]] = []
-        if isinstance(self.surface, (SurfaceSampler, TiledSurfaceSampler)):
-            parts.append((np.arange(len(x)), self.surface))
+        surface: Any = self.surface  # also a ShapeSurfaceSampler (faces of a volume)
+        if isinstance(surface, (SurfaceSampler, TiledSurfaceSampler)):
+            parts.append((np.arange(len(x)), surface))
         elif face is not None:  # faces of a volume: the rough ones on their meshes
             face = np.asarray(face)
-            for index, sampler in getattr(self.surface, "rough", []):
+            for index, sampler in getattr(surface, "rough", []):
                 rows = np.flatnonzero(face == index)
                 meshes = [p for p in getattr(sampler, "parts", [sampler]) if _has_mesh(p)]
                 parts.extend((rows, part) for part in meshes)

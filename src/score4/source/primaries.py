@@ -69,6 +69,7 @@ class Primaries:
 
     @property
     def n_events(self) -> int:
+        """Number of events (the last event index + 1)."""
         return int(self.event[-1]) + 1 if len(self.event) else 0
 
     def __len__(self) -> int:

@@ -27,7 +27,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import ConfigError
+from .. import limits
+from ..errors import ConfigError, brief
 from ..units import DIMENSIONS
 
 __all__ = [
@@ -308,7 +309,7 @@ def read_table(
             rows.append((float(fields[0]), float(fields[1])))
         except ValueError:
             raise ConfigError(
-                f"{label} line {number}: cannot read {raw.strip()!r} as two numbers '{xname} "
+                f"{label} line {number}: cannot read {brief(raw.strip())} as two numbers '{xname} "
                 "weight'"
             ) from None
         lines.append(f"line {number}")
@@ -329,6 +330,12 @@ def read_table(
     data = np.array(rows, dtype=float).reshape(-1, 2)
     x, w = data[:, 0] * units[chosen], data[:, 1]
     _check_table(x / units[chosen], w, lines, label, xname)
+    top = {"length": (limits.MAX_LENGTH, "100 m"), "energy": (limits.MAX_ENERGY, "100 TeV")}
+    if dimension in top and x[-1] > top[dimension][0]:
+        raise ConfigError(
+            f"{label} {lines[-1]}: {xname} {x[-1] / units[chosen]:g} {chosen} is above "
+            f"{top[dimension][1]}, score4's limit for any {dimension} (a unit slip?)"
+        )
     return x, w
 
 

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import limits
 from ..errors import ConfigError
 
 
@@ -42,8 +43,24 @@ class HeightMap:
             p = getattr(self, name)
             if not (np.isfinite(p) and p > 0):
                 raise ConfigError(f"{name}: must be a positive length, got {p!r}")
+            limits.check_length(p, name)
+        ny, nx = z.shape
+        extent = max((nx - 1) * self.pitch_x, (ny - 1) * self.pitch_y)
+        limits.check_length(extent, "map size (points - 1) x pitch")
         if np.isnan(z).all():
             raise ConfigError("heights: every point is NaN (no valid measurement)")
+        if np.isinf(z).any():
+            j, i = np.argwhere(np.isinf(z))[0]
+            raise ConfigError(
+                f"heights: point (row {j}, column {i}) is {z[j, i]}; heights must be finite (NaN "
+                "marks a missing point)"
+            )
+        span = float(np.nanmax(z) - np.nanmin(z))
+        if span > limits.MAX_LENGTH:
+            raise ConfigError(
+                f"heights: span {span / 1e3:.4g} m, more than 100 m, score4's limit for any length "
+                "(a unit slip?)"
+            )
         object.__setattr__(self, "heights", z)
 
     @property

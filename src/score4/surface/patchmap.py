@@ -42,6 +42,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import limits
 from ..errors import ConfigError, Score4Warning
 from ..units import parse_quantity
 
@@ -638,6 +639,9 @@ def make_patch_map(
         return PatchMap(grid, patch, tuple(d.tolist()), method, seed)
     if method == "exact":
         counts = largest_remainder(n, d)
+        _every_variant(
+            counts, d, f"the face has {n} cell(s)", "use smaller patches or fewer variants"
+        )
         flat = rng.permutation(np.repeat(np.arange(d.size, dtype=_VARIANT_DTYPE), counts))
     else:
         flat = rng.choice(d.size, size=n, p=d).astype(_VARIANT_DTYPE)
@@ -663,15 +667,36 @@ def _tiled(
     if isinstance(n_tiles, bool) or not isinstance(n_tiles, numbers.Integral) or n_tiles < 1:
         raise ConfigError(f"n_tiles: must be a whole number >= 1, got {n_tiles!r}")
     t, k = tile_cells(nx, ny, max_boxes), int(n_tiles)
+    limits.check_memory(
+        k * t * t * limits.CELL_BYTES, f"a library of {k} tiles of {t} x {t} cells", "n_tiles"
+    )
     # The library as a whole has exact counts (largest remainder over its k t^2 cells; one tile
     # alone would round each density to 1 / t^2), and every tile is used equally often.
     counts = largest_remainder(k * t * t, d)
+    need = math.ceil(1 / (float(d[d > 0].min()) * t * t))
+    _every_variant(
+        counts,
+        d,
+        f"n_tiles: the library of {k} tile(s) of {t} x {t} cells has {k * t * t} cell(s)",
+        f"give n_tiles >= {need}",
+    )
     cells = np.repeat(np.arange(d.size, dtype=_VARIANT_DTYPE), counts)
     library = rng.permutation(cells).reshape(k, t, t)
     gy, gx = -(-ny // t), -(-nx // t)
     pick = rng.permutation(np.arange(gy * gx) % k).reshape(gy, gx)
     grid = library[pick].transpose(0, 2, 1, 3).reshape(gy * t, gx * t)
     return np.ascontiguousarray(grid[:ny, :nx])
+
+
+def _every_variant(counts: np.ndarray, d: np.ndarray, where: str, fix: str) -> None:
+    """Refuse a fill that leaves a variant of non-zero density without a single cell."""
+    lost = np.flatnonzero((counts == 0) & (d > 0))
+    if len(lost):
+        k = int(lost[0])
+        raise ConfigError(
+            f"{where}, and variant {k} (density {d[k]:.3g}) gets none of them; {fix} (no variant "
+            "may be dropped silently)"
+        )
 
 
 def uniform_patch_map(

@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 
+from .. import limits
 from ..errors import ConfigError
 from ..units import length_text, parse_quantity
 from .heightmap import HeightMap
@@ -122,6 +123,13 @@ def resample(
             f"pitch_x, pitch_y: {length_text(px)}, {length_text(py)} leave fewer than 2 samples "
             f"on a {length_text(hm.size_x)} x {length_text(hm.size_y)} map"
         )
+    limits.check_memory(
+        limits.heightmap_bytes(nx * ny),
+        f"resampling the {length_text(hm.size_x)} x {length_text(hm.size_y)} map at "
+        f"{length_text(px)} ({nx} x {ny} points)",
+        "resample_pitch",
+        "use a larger pitch",
+    )
     xs = np.minimum(
         hm.origin[0] + px * np.arange(nx), hm.x[-1]
     )  # clip round-off past the last sample

@@ -118,13 +118,16 @@ def _heightmap(
         )
     if np.isnan(z).all():
         raise ConfigError(f"{path}: every point is missing (NaN); no valid measurement")
-    return HeightMap(
-        z,
-        px,
-        py,
-        origin=(float(origin[0]), float(origin[1])),
-        metadata={"source": str(path), "format": fmt, **meta},
-    )
+    try:
+        return HeightMap(
+            z,
+            px,
+            py,
+            origin=(float(origin[0]), float(origin[1])),
+            metadata={"source": str(path), "format": fmt, **meta},
+        )
+    except ConfigError as err:
+        raise ConfigError(f"{path}: {err}") from None
 
 
 # ------------------------------------------------------------------------ regular grids from points
@@ -490,7 +493,8 @@ def _read_plu(path: Path, fmt: str, **_) -> HeightMap:
 
 
 # ----------------------------------------------------------------------------- entry point
-def _format_of(path: Path, format: str | None) -> str:
+def format_of(path: Path, format: str | None) -> str:
+    """The reader's name for ``format``, or the one ``path``'s extension names; else ConfigError."""
     fmt = (format if format is not None else path.suffix).lower().lstrip(".")
     if fmt not in FORMATS:
         what = (
@@ -533,7 +537,7 @@ def read_topography(
         ``metadata`` holds ``source`` (the path), ``format`` and what the reader found.
     """
     path = Path(path)
-    fmt = _format_of(path, format)
+    fmt = format_of(path, format)
     if not path.is_file():
         raise ConfigError(f"path: {path} does not exist or is not a file")
     reader = (

@@ -18,13 +18,15 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated, ClassVar, Literal
 
 import numpy as np
 from pydantic import Field, TypeAdapter, ValidationError, model_validator
 
+from .. import limits
 from ..errors import ConfigError
 from ..schema import (
+    ABOVE_ZERO,
     ConfigPath,
     Length,
     NonNegativeLength,
@@ -37,7 +39,7 @@ from .heightmap import HeightMap
 from .mesh import TriangleMesh, closed_body, from_heightmap
 from .processing import close_periodic, crop, fill_missing, level_plane, resample
 from .random import random_surface
-from .readers import read_topography
+from .readers import TEXT_FORMATS, format_of, read_topography
 from .spikes import SpikeGrid
 
 #: Height-map samples per spike cell and axis used to picture and measure a spike grid as a map.
@@ -48,6 +50,11 @@ class SpikeSurfaceSpec(StrictModel):
     """A grid of ``nx`` x ``ny`` spikes; all lengths are full lengths."""
 
     exclusive_keys = (("width", "width_x"), ("width", "width_y"))
+    # heights are drawn (with the seed, truncated at min_height) only with a spread
+    used_only_with: ClassVar[dict[str, object]] = {
+        "min_height": ("height_sigma", ABOVE_ZERO),
+        "seed": ("height_sigma", ABOVE_ZERO),
+    }
 
     kind: Literal["spikes"]
     nx: int = Field(gt=0)
@@ -70,11 +77,28 @@ class SpikeSurfaceSpec(StrictModel):
             raise ValueError("give the spike cell size as width (square) or as width_x and width_y")
         object.__setattr__(self, "width_x", wx)
         object.__setattr__(self, "width_y", wy)
+        limits.check_memory(
+            limits.spike_grid_bytes(self.nx * self.ny, self.n_layers),
+            f"a grid of {self.nx} x {self.ny} spikes of {self.n_layers} layer(s)",
+            "nx, ny",
+            "use fewer, larger spikes; a large face is tiled from one patch (docs/tiling.md)",
+        )
         return self
 
 
 class RandomSurfaceSpec(StrictModel):
     """A random rough surface on an ``nx`` x ``ny`` grid (see :mod:`score4.surface.random`)."""
+
+    _SELF_AFFINE = ("model", ("self_affine",))
+    _CORRELATED = ("model", ("gaussian", "exponential"))
+    used_only_with: ClassVar[dict[str, object]] = {
+        "hurst": _SELF_AFFINE,
+        "rms_slope": _SELF_AFFINE,
+        "long_cutoff": _SELF_AFFINE,
+        "short_cutoff": _SELF_AFFINE,
+        "corr_length": _CORRELATED,
+        "corr_length_y": _CORRELATED,
+    }
 
     kind: Literal["random"]
     model: Literal["gaussian", "exponential", "self_affine"] = "gaussian"
@@ -101,28 +125,27 @@ class RandomSurfaceSpec(StrictModel):
                 raise ValueError("model self_affine needs hurst (0 < H < 1)")
             if (self.sq is None) == (self.rms_slope is None):
                 raise ValueError("model self_affine needs exactly one of sq and rms_slope")
-            if self.corr_length is not None or self.corr_length_y is not None:
-                raise ValueError(
-                    "corr_length belongs to the gaussian/exponential models; self_affine uses "
-                    "long_cutoff"
-                )
-        else:
-            if self.sq is None or self.corr_length is None:
-                raise ValueError(f"model {self.model} needs sq and corr_length")
-            extra = [
-                k
-                for k in ("hurst", "rms_slope", "long_cutoff", "short_cutoff")
-                if getattr(self, k) is not None
-            ]
-            if extra:
-                raise ValueError(
-                    f"{', '.join(extra)} belong(s) to model self_affine, not {self.model}"
-                )
+        elif self.sq is None or self.corr_length is None:
+            raise ValueError(f"model {self.model} needs sq and corr_length")
+        limits.check_memory(
+            limits.heightmap_bytes(self.nx * self.ny),
+            f"a random map of {self.nx} x {self.ny} points",
+            "nx, ny",
+            "use fewer points or a larger pitch; a large face is tiled from one patch",
+        )
         return self
 
 
 class MeasuredSurfaceSpec(StrictModel):
     """A measured topography file and what to do with it before use."""
+
+    # what the readers of each format take (score4.surface.readers)
+    used_only_with: ClassVar[dict[str, object]] = {
+        "pitch": ("format", TEXT_FORMATS),
+        "xy_unit": ("format", ("xyz", "gwy")),
+        "z_unit": ("format", (*TEXT_FORMATS, "xyz", "gwy")),
+        "channel": ("format", ("gwy",)),
+    }
 
     kind: Literal["measured"]
     file: ConfigPath
@@ -137,6 +160,15 @@ class MeasuredSurfaceSpec(StrictModel):
     resample_pitch: PositiveLength | None = None
     fill_missing: bool = False  # fill NaN points (Laplace interpolation) instead of refusing them
 
+    def option_values(self, key: str, root) -> tuple[object, ...] | None:
+        """``format`` not given is the file's extension (None if that names no format)."""
+        if key != "format" or self.format is not None:
+            return super().option_values(key, root)
+        try:
+            return (format_of(self.file, None),)
+        except ConfigError:
+            return None
+
 
 SurfaceSpec = Annotated[
     SpikeSurfaceSpec | RandomSurfaceSpec | MeasuredSurfaceSpec, Field(discriminator="kind")
@@ -146,11 +178,15 @@ KINDS = ("spikes", "random", "measured")
 
 
 def parse_surface_spec(
-    data: object, origin: str = "surface", base_dir: str | Path | None = None
+    data: object,
+    origin: str = "surface",
+    base_dir: str | Path | None = None,
+    stored: bool = False,
 ) -> SpikeSurfaceSpec | RandomSurfaceSpec | MeasuredSurfaceSpec:
     """Validate a mapping into a surface description; errors are one :class:`ConfigError` line.
 
-    A relative measured-file path is taken relative to ``base_dir``.
+    A relative measured-file path is taken relative to ``base_dir``. ``stored``: a description
+    score4 wrote with every key filled in (keys the options ignore are not refused there).
     """
     if not isinstance(data, dict):
         raise ConfigError(
@@ -161,9 +197,9 @@ def parse_surface_spec(
             f"{origin}: kind: must be one of {', '.join(KINDS)} (got {data.get('kind')!r})"
         )
     try:
-        return _SPEC_ADAPTER.validate_python(data, context={"base_dir": base_dir})
+        return _SPEC_ADAPTER.validate_python(data, context={"base_dir": base_dir, "stored": stored})
     except ValidationError as err:
-        raise ConfigError(describe_validation_error(err, origin)) from None
+        raise ConfigError(describe_validation_error(err, origin, data)) from None
 
 
 def load_surface_spec(path: str | Path):
@@ -192,10 +228,12 @@ class Surface:
 
     @property
     def size_x(self) -> float:
+        """Patch size along x, mm (the tile of a rough face)."""
         return self.spikes.size_x if self.spikes is not None else self._extent[0]
 
     @property
     def size_y(self) -> float:
+        """Patch size along y, mm."""
         return self.spikes.size_y if self.spikes is not None else self._extent[1]
 
     @property
@@ -229,6 +267,11 @@ class Surface:
         if self.spikes is None:
             return self.placed_map
         g = self.spikes
+        limits.check_memory(
+            g.nx * g.ny * limits.SPIKE_PICTURE_BYTES,
+            f"the picture of {g.nx} x {g.ny} spikes ({SPIKE_MAP_SAMPLES}^2 samples a spike)",
+            "nx, ny",
+        )
         return g.to_heightmap((g.width_x / SPIKE_MAP_SAMPLES, g.width_y / SPIKE_MAP_SAMPLES))
 
     @cached_property

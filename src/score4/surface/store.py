@@ -83,7 +83,9 @@ def _read(f: h5py.File, path: Path) -> Surface:
             f"surface file: {path} has format version {version}; this score4 reads up to "
             f"{FORMAT_VERSION}"
         )
-    spec = parse_surface_spec(json.loads(f.attrs["spec"]), origin=f"{path} (stored description)")
+    spec = parse_surface_spec(
+        json.loads(f.attrs["spec"]), origin=f"{path} (stored description)", stored=True
+    )
     metadata = json.loads(f.attrs.get("metadata", "{}"))
     if "spikes" in f:
         stored = f["spikes/heights"][...]
@@ -107,3 +109,15 @@ def _read(f: h5py.File, path: Path) -> Surface:
         metadata=metadata,
     )
     return Surface(spec, heightmap=hm, metadata=metadata)
+
+
+def stored_spec(path: str | Path):
+    """The description stored in a surface file (its attributes only, no height data), or None
+    if the file cannot be read as one."""
+    try:
+        with h5py.File(path, "r") as f:
+            if f.attrs.get("format") != FORMAT:
+                return None
+            return parse_surface_spec(json.loads(f.attrs["spec"]), stored=True)
+    except (OSError, KeyError, ValueError, TypeError):
+        return None

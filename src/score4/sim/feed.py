@@ -1,0 +1,128 @@
+"""Primaries handed to Geant4 event by event, some rows kept back (TRIM replay, untracked photons).
+
+Shared by score4's own application (:class:`score4.sim.simulation.Simulation`) and the primary
+generator of the library (:class:`score4.api.PrimaryGenerator`), so that a user's geant4_pybind
+program and ``score4 run`` fill their events the same way:
+
+* every event may start from its own Geant4 seed (:func:`score4.sim.seeds.event_geant4_seeds`),
+  set when the event's primaries are generated, so its result does not depend on the events
+  tracked before it;
+* rows can be kept from Geant4 (``skip``): the heavy ions
+  :func:`score4.sim.heavy_ions.trim_mask` marks, which follow TRIM trajectories
+  (:func:`replay_row`; score4's application replays them just before Geant4 tracks the event,
+  the library after it), each from a random stream of its own (:meth:`EventFeed.replay_rng`),
+  so the replay too is the same in any chunking; and photons lite physics cannot track.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..source.primaries import Primaries
+from .heavy_ions import ReplayStream
+
+#: Mixed into the seeds of the heavy-ion replay's random streams.
+REPLAY_STREAM = 0x5C0E4
+
+
+class EventFeed:
+    """A batch of events ready for Geant4.
+
+    Parameters
+    ----------
+    g4
+        The geant4_pybind module.
+    primaries
+        The batch's primaries (one row per particle, events numbered from 0).
+    definitions
+        The ``G4ParticleDefinition`` of every row.
+    g4_seed
+        One Geant4 seed for the whole batch (set once by the caller), or one per event
+        (``(n_events,)`` integers), set as each event is generated.
+    skip
+        Rows not given to Geant4 (heavy ions for the TRIM replay, photons lite physics cannot
+        track); None: none.
+    positions
+        Where each row starts in Geant4 (default: the primaries' positions; portal tiling maps
+        vertices in a portal box to their subworld point).
+    reseed
+        With per-event seeds: set Geant4's seed to the event's when filling it (False: the
+        seeds only make the replay's random streams).
+    """
+
+    def __init__(
+        self,
+        g4,
+        primaries: Primaries,
+        definitions: Sequence,
+        g4_seed: int | np.ndarray,
+        skip: np.ndarray | None = None,
+        positions: np.ndarray | None = None,
+        reseed: bool = True,
+    ) -> None:
+        self.g4 = g4
+        self.reseed = reseed
+        self.primaries = primaries
+        self.definitions = list(definitions)
+        self.offsets = primaries.event_offsets()
+        self.skip = np.zeros(len(primaries), dtype=bool) if skip is None else np.asarray(skip)
+        self.positions = primaries.position if positions is None else positions
+        self.seeds = np.asarray(g4_seed)
+        if self.seeds.ndim and len(self.seeds) != primaries.n_events:
+            raise ValueError(
+                f"g4_seed: need one seed per event ({primaries.n_events}), got {len(self.seeds)}"
+            )
+        self._batch_rng = (
+            ReplayStream(int(self.seeds), REPLAY_STREAM) if self.seeds.ndim == 0 else None
+        )
+
+    @property
+    def n_events(self) -> int:
+        return self.primaries.n_events
+
+    def rows_of(self, k: int, mask: np.ndarray) -> np.ndarray:
+        """The rows of event ``k`` that ``mask`` (one entry per row) marks."""
+        first = int(self.offsets[k])
+        return first + np.flatnonzero(mask[first : int(self.offsets[k + 1])])
+
+    def geant4_rows(self, k: int) -> np.ndarray:
+        """The rows of event ``k`` given to Geant4, in the order of their primary tracks."""
+        return self.rows_of(k, ~self.skip)
+
+    def fill(self, gun, event, k: int) -> None:
+        """Put event ``k``'s primaries (all but the skipped rows) into the G4Event ``event``
+        through the G4ParticleGun ``gun``; set the event's Geant4 seed first if it has one."""
+        g4, p = self.g4, self.primaries
+        if self.seeds.ndim and self.reseed:
+            g4.G4Random.setTheSeed(int(self.seeds[k]))
+        for row in self.geant4_rows(k):
+            gun.SetParticleDefinition(self.definitions[row])
+            gun.SetParticleEnergy(float(p.energy[row]))
+            gun.SetParticlePosition(g4.G4ThreeVector(*self.positions[row]))
+            gun.SetParticleMomentumDirection(g4.G4ThreeVector(*p.direction[row]))
+            gun.GeneratePrimaryVertex(event)
+
+    def replay_rng(self, k: int, row: int) -> ReplayStream:
+        """The random stream of the replay of row ``row`` of event ``k``: its own with per-event
+        seeds (so the first N events of a run replay the same in a longer run), else the
+        batch's."""
+        if self._batch_rng is not None:
+            return self._batch_rng
+        return ReplayStream(int(self.seeds[k]), REPLAY_STREAM, row - int(self.offsets[k]))
+
+
+def replay_row(transport, feed: EventFeed, k: int, row: int):
+    """Move row ``row`` (kept from Geant4) of event ``k`` along a TRIM trajectory with
+    :class:`score4.sim.heavy_ions.HeavyIonTransport` ``transport``; returns its
+    :class:`~score4.sim.heavy_ions.IonFate` (deposits by scoring index)."""
+    p = feed.primaries
+    return transport.transport(
+        feed.definitions[row],
+        str(p.particle[row]),
+        float(p.energy[row]),
+        feed.positions[row],  # portal tiling: the subworld point
+        p.direction[row],
+        feed.replay_rng(k, row),
+    )

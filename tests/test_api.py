@@ -1,0 +1,182 @@
+"""score4 as a library (score4.api, issue 17 item 7): a user's own geant4_pybind application
+gives the same events as ``score4 run`` on the same world, the example runs, errors are one
+line. Geant4 runs in spawned processes (tests/_g4_api.py); pytest itself never imports it."""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+import subprocess
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from score4.cli.main import main
+from score4.output import read_results
+
+HERE = Path(__file__).parent
+ROOT = HERE.parent
+sys.path.insert(0, str(HERE))
+import _g4_api as W  # noqa: E402 (its module level is numpy only; Geant4 stays in the functions)
+
+#: A holder plate and a crystal 0.5 mm above it, turned by 20 degrees about z (GDML by hand).
+GDML = """<?xml version="1.0" encoding="UTF-8"?>
+<gdml>
+  <define>
+    <rotation name="turn" z="20" unit="deg"/>
+  </define>
+  <materials/>
+  <solids>
+    <box name="WorldBox" x="40" y="40" z="40" lunit="mm"/>
+    <box name="HolderBox" x="30" y="30" z="2" lunit="mm"/>
+    <box name="CrystalBox" x="4" y="4" z="2" lunit="mm"/>
+  </solids>
+  <structure>
+    <volume name="HolderLV">
+      <materialref ref="G4_Cu"/><solidref ref="HolderBox"/>
+    </volume>
+    <volume name="CrystalLV">
+      <materialref ref="G4_CALCIUM_TUNGSTATE"/><solidref ref="CrystalBox"/>
+    </volume>
+    <volume name="WorldLV">
+      <materialref ref="G4_Galactic"/><solidref ref="WorldBox"/>
+      <physvol name="holder">
+        <volumeref ref="HolderLV"/><position name="hp" z="-1" unit="mm"/>
+      </physvol>
+      <physvol name="crystal">
+        <volumeref ref="CrystalLV"/><position name="cp" z="1.5" unit="mm"/>
+        <rotationref ref="turn"/>
+      </physvol>
+    </volume>
+  </structure>
+  <setup name="Default" version="1.0"><world ref="WorldLV"/></setup>
+</gdml>
+"""
+
+
+def _call(name, *args):
+    sys.path.insert(0, str(HERE))
+    import _g4_api
+
+    return getattr(_g4_api, name)(*args)
+
+
+def spawned(name, *args):
+    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
+        return pool.submit(_call, name, *args).result()
+
+
+@pytest.fixture(scope="module")
+def gdml(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("api") / "module.gdml"
+    path.write_text(GDML)
+    return path
+
+
+def test_own_application_equals_score4_run(gdml, tmp_path):
+    """The same world (read from GDML by the user's program, or by score4 from the config), the
+    same rough face, source and seed: per-event deposits identical, event by event (both paths
+    share the scene, tiling, source, event feed and heavy-ion replay code)."""
+    events, seed, histories = 300, 3, 100
+    config: dict = {
+        "physics": {"mode": "lite", "trim_histories": histories},
+        "world": {"gdml": str(gdml)},
+        "surfaces": {"pyr": W.PYRAMIDS},
+    }
+    config["targets"] = [
+        {
+            "volume": "crystal",
+            "rough": [{"face": "-z", "surface": "pyr", "base_thickness": "1 um"}],
+        },
+        {"volume": "holder"},
+    ]
+    config["source"] = {
+        "surface": {"volume": "crystal", "face": "-z"},
+        "decay": "Po210",
+        "depth": {"profile": "exponential", "mean": "20 nm"},
+    }
+    config["run"] = {"events": events, "seed": seed}
+    cfg = tmp_path / "run.yaml"
+    cfg.write_text(yaml.safe_dump(config))
+    out = tmp_path / "run.h5"
+    assert main(["run", str(cfg), "--out", str(out), "-q"]) == 0
+    ref = read_results(out)
+
+    own = spawned("own_run", str(gdml), events, seed, histories)
+    assert own["names"] == ["crystal", "holder"] == list(ref.edep)
+    assert own["holder_columns"] == ["holder"]
+    assert own["scored_lvs"] == {"crystal": 2}  # the crystal and the multi-union patch
+    assert own["patches"] == 40 * 40  # 4 mm face, 100 um patches
+    assert own["removed"]  # lite: bremsstrahlung and the gamma process taken out
+    assert own["materials"] == ["G4_CALCIUM_TUNGSTATE"]  # vertices in the crystal's material
+    assert own["replayed"] == 1  # the last event's Pb-206 recoil went through the replay
+    for j, name in enumerate(own["names"]):
+        np.testing.assert_array_equal(own["edep"][:, j], ref.edep[name])
+    # and the physics is there: the alpha into the crystal or out into the copper
+    crystal, holder = ref.edep["crystal"], ref.edep["holder"]
+    assert np.mean(crystal > 5.0) == pytest.approx(0.5, abs=0.1)
+    assert (holder > 0).sum() > 0.3 * events
+    assert (crystal + holder).max() <= 5.4075 + 1e-3  # Po-210's Q value
+
+
+def test_stacking_action_replays_heavy_ion_secondaries(gdml):
+    """A Pb-206 pushed onto Geant4's stack in every event of a proton run is taken by the
+    replay's stacking action and replayed; the event gains its energy in the holder (the ion
+    flies into the copper), the protons' own deposits stay the same."""
+    out = spawned("own_secondaries", str(gdml), 20)
+    assert out["intercepted_plain"] == 0  # 5 MeV protons make no heavy-ion secondary here
+    assert out["counts"] == [1] * 20  # one intercepted ion per event
+    holder = out["names"].index("holder")
+    gained = out["pushed"][:, holder] - out["plain"][:, holder]
+    np.testing.assert_allclose(gained, out["booked"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(gained, 0.103144, rtol=0, atol=1e-9)  # it stops in the copper
+
+
+def test_api_errors_are_one_line(gdml):
+    messages = spawned("api_errors", str(gdml))
+    expected = [
+        (
+            "roughen('cristal', '-z'): no volume named 'cristal' in world WorldLV_PV; closest: "
+            "crystal, CrystalLV; World.model.rows() lists the volumes"
+        ),
+        "roughen('crystal', '-z'): surface: height: '10' has no unit",
+        "roughen('crystal', '-z'): base_thicknes: unknown key; did you mean 'base_thickness'?",
+        "runs into sister volume 'crystal' (free gap there: 500 um)",
+        "source.surface.face: G4Box has no face '+q'; its faces: +x, -x, +y, -y, +z, -z, all",
+        "source: energy: '5' has no unit",
+        "roughen(x, '-z'): give a G4VPhysicalVolume, a G4LogicalVolume or a volume name, not a G4",
+        "roughen(lonely, '-z'): lonely is not in this world",
+    ]
+    assert len(messages) == len(expected)
+    for message, part in zip(messages, expected, strict=True):
+        assert part in message, message
+        assert "\n" not in message
+
+
+def test_example_own_application_runs():
+    """examples/own_application.py, as a user runs it (a fresh process, lite physics)."""
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "examples" / "own_application.py"), "--events", "300"],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        check=False,
+        timeout=600,
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    lines = proc.stdout.splitlines()
+    table = {
+        line.split()[0]: line.split()[1:]
+        for line in lines
+        if line.split()[:1] and line.split()[0] in ("crystal", "holder", "clamp")
+    }
+    crystal, holder, clamp = (table[n] for n in ("crystal", "holder", "clamp"))
+    assert int(crystal[1]) == 300  # every decay leaves its alpha or its recoil in the crystal
+    assert 0 < int(holder[1]) < 300  # alphas leaving the rough face reach the copper below
+    assert clamp == ["0.0000", "0", "0"]  # above 5 mm of CaWO4: out of an alpha's reach
+    total = next(line for line in lines if line.startswith("sum over volumes"))
+    assert float(total.split("max ")[1].split()[0]) <= 5.4075 + 1e-3
