@@ -245,7 +245,7 @@ def run(
     sample = source.events(seed, 0, drawn)
     unit = f"{getattr(source, 'unit', 'event')}s"
     rows_per_unit = len(sample) / (drawn if unit == "atoms" else sample.n_events)
-    check_run_memory(config, rows_per_unit)
+    check_run_memory(config, len(sample) / sample.n_events, sample.n_events / drawn)
     run_normalisation(config, scene)  # the source's area or mass: any problem shows now
     if config.source.vertices is not None and scene.layers:  # hand-made rays: beams on walls?
         rays = read_vertex_file(config.source.vertices)
@@ -377,13 +377,18 @@ def run(
     return out
 
 
-def check_run_memory(config: RunConfig, primaries_per_event: float) -> None:
-    """Refuse a run whose results this machine cannot merge (the merge holds them in memory)."""
+def check_run_memory(
+    config: RunConfig, primaries_per_event: float, events_per_unit: float = 1.0
+) -> None:
+    """Refuse a run whose results this machine cannot merge (the merge holds them in memory).
+
+    ``events_per_unit``: events per ``run.events`` unit (per atom for per-atom histories)."""
     n = config.run.events
     columns = 2 + len(config.targets) * (3 if config.output.track_length else 1)
+    events = int(np.ceil(n * events_per_unit))
     limits.check_memory(
-        limits.results_bytes(n, columns, primaries_per_event),
-        f"merging the results of {n} events",
+        limits.results_bytes(events, columns, primaries_per_event),
+        f"merging the results of {events} events",
         "run.events",
         "split it into runs of fewer events with different --seed values",
     )
