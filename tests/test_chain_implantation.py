@@ -338,6 +338,10 @@ def test_recoils_across_a_gap_decay_in_the_opposite_face(tmp_path, capsys):
     assert r.run["energy_violations"] == 0
     assert r.run["intercepted_ions"] == 0  # alphas and electrons knock on no heavy ions here
     check_template_counts_per_head_decay(r, tmp_path, capsys)
+    assert main(["summary", str(tmp_path / "one.h5")]) == 0
+    atoms = next(ln for ln in capsys.readouterr().out.splitlines() if "atoms " in ln)
+    assert f"{counts['left_world']} left the world" in atoms
+    assert "150 deposited Po218 atoms" in atoms
     check_same_in_any_chunking(r, run_cli(tmp_path, "two", 2, 40, 150))
 
 
