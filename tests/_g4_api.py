@@ -117,6 +117,9 @@ def api_errors(gdml: str) -> list[str]:
         lambda: world.roughen("holder", "+z", {**PYRAMIDS, "height": "600 um"}),
         lambda: world.source(surface=("crystal", "+q"), particle="alpha", energy="5 MeV"),
         lambda: world.source(volume="crystal", particle="alpha", energy="5"),
+        lambda: world.source(
+            surface=("crystal", "+z"), decay={"chain": "Po218", "implantation": True}
+        ),
         lambda: world.roughen(g4.G4Box("x", 1, 1, 1), "-z", PYRAMIDS),
         lambda: world.roughen(lonely, "-z", PYRAMIDS),
     ]

@@ -379,14 +379,23 @@ class DecayChainConfig(StrictModel):
     ``until``, which is excluded) or a list of members in decay order. Activities: secular
     equilibrium (the default), or ``since_deposition``: pure head atoms deposited that long ago.
     A daughter decaying within ``coincidence_window`` of its event's first decay joins that
-    event (docs/decay.md).
+    event (docs/decay.md). ``implantation``: the unit of the run is a deposited head atom,
+    followed down the chain; a decay after an alpha decay happens where the alpha's recoil
+    stopped (docs/decay.md#recoil-implantation-along-a-chain).
     """
+
+    used_only_with: ClassVar[dict[str, tuple[str, tuple[object, ...]]]] = {
+        # per-atom histories follow every atom to the chain's end: secular equilibrium
+        "since_deposition": ("implantation", (False,)),
+    }
 
     chain: str | list[str]
     until: str | None = None
     equilibrium: Literal["secular"] | None = None
     since_deposition: NonNegativeTime | None = None
     coincidence_window: NonNegativeTime = 1e4  # ns: 10 us
+    # one deposited head atom per run unit; daughters decay where alpha recoils stopped
+    implantation: bool = False
 
     @model_validator(mode="after")
     def _check(self) -> DecayChainConfig:
@@ -607,6 +616,7 @@ class RunConfig(StrictModel):
                 f"source.surface.face: a box target has the faces {', '.join(FACES)} (or all), "
                 f"not {src.face!r}"
             )
+        self._check_implantation()
         if self.source.volume is not None and self.source.volume not in names:
             raise ValueError(
                 f"source.volume: {self.source.volume!r} is not a target; targets are: {', '.join(names)}"
@@ -641,6 +651,45 @@ class RunConfig(StrictModel):
 
     def target(self, name: str) -> BoxVolume | GdmlVolume:
         return next(t for t in self.targets if t.label == name)
+
+    def _check_implantation(self) -> None:
+        """A chain with implantation needs every alpha recoil of the chain replayed on TRIM
+        (its stop point is the daughter's vertex) and native tiling (a portal subworld point
+        is not a place in the world)."""
+        decay = self.source.decay
+        if not isinstance(decay, DecayChainConfig) or not decay.implantation:
+            return
+        physics = self.physics
+        if physics.heavy_ions != "trim":
+            raise ValueError(
+                "source.decay.implantation: needs physics.heavy_ions: trim (the daughters decay "
+                f"where the TRIM replay stops the alpha recoils), not {physics.heavy_ions}"
+            )
+        from .decay.chain import build_chain
+        from .decay.scheme import decay_scheme
+
+        recoil = max(
+            (
+                ln.energy
+                for m in build_chain(decay.chain, decay.until).members
+                for ln in decay_scheme(m).lines()
+                if ln.kind == "recoil"
+            ),
+            default=0.0,
+        )
+        if recoil * 1e-3 > physics.trim_max_energy:
+            raise ValueError(
+                f"source.decay.implantation: the chain's alpha recoils reach {recoil:.4g} keV, "
+                f"above physics.trim_max_energy ({physics.trim_max_energy * 1e3:.4g} keV); "
+                "raise trim_max_energy so that every recoil is replayed"
+            )
+        for i, t in enumerate(self.targets):
+            for j, r in enumerate(getattr(t, "rough", [])):
+                if r.tiling == "portal":
+                    raise ValueError(
+                        f"targets.{i}.rough.{j}.tiling: source.decay.implantation needs native "
+                        "tiling (a recoil in a portal subworld stops at no place of the world)"
+                    )
 
 
 def parse_config(

@@ -21,7 +21,10 @@ results file (``/run`` attributes, JSON):
 ``simulated_decays``
     how many decays of ``activity_nuclide`` the events stand for (a float): one per event for a
     nuclide or particle source; for a decay chain, the decays of its head that the events stand
-    for (:func:`score4.source.build.decay_normalisation`, with ``decay_chain``).
+    for (:func:`score4.source.build.decay_normalisation`, with ``decay_chain``); for a chain
+    with ``implantation``, the deposited head atoms (``n_atoms``: each decays once as the head,
+    then its daughters as they are fed), so a quoted activity is the head's, the chain in
+    secular equilibrium below it.
 ``activity_nuclide``
     the nuclide a quoted activity refers to (the ``decay`` nuclide or chain head, the ``nuclide``
     of a Geant4 radioactive-decay source), None for a plain particle source (an activity then

@@ -6,11 +6,18 @@ Layout of a results file (lengths in mm, energies in MeV, stated in ``units`` at
     /run               attrs: config (JSON), seed, physics_mode, physics_lacks, versions, ...
     /events/event_id   (n,) int64
     /events/primary_energy  (n,) total primary kinetic energy of the event
+    /events/atom       (n,) int64, per-atom histories only: the deposited atom of the event
     /events/edep/<volume>   (n,) energy deposited in that volume
     /events/track_length/<volume>  (n,) summed track length in that volume (if scored)
     /events/edep_alpha|edep_electron|edep_ion/<volume>  (n,) the deposit split by the class of
                        the particle that made it (output.split_by_particle, see sim/scoring.py)
     /primaries/{event, particle, energy, xloc, yloc, zloc, dirx, diry, dirz, <extra>...}
+
+With per-atom histories (a chain with implantation) a chunk is a range of atoms
+(attributes ``unit = "atom"``, ``first_event``: its first atom, ``n_units``: its atoms); its
+events are numbered from 0 and :func:`merge_chunks` numbers them through the run. A chunk's
+``counts`` attribute (JSON) holds the counts the run record adds up (intercepted ions,
+implantation).
 
 ``/events`` (with its ``edep``/``track_length`` groups) and ``/primaries`` carry LH5 ``datatype``
 attributes (``table{...}``, ``array<1>{real}``), so legend-lh5io reads them
@@ -34,7 +41,7 @@ import numpy as np
 
 from .errors import Score4Error
 from .files import atomic_h5, open_h5
-from .source.primaries import Primaries
+from .source.primaries import Primaries, atom_histories
 from .source.vertex_file import read_primaries_table, write_primaries_table
 from .units import parse_quantity
 
@@ -67,21 +74,32 @@ def write_chunk(
     primaries: Primaries,
     fingerprint: str = "",
     columns: dict[str, np.ndarray] | None = None,
+    counts: dict | None = None,
 ) -> None:
-    """Write one finished chunk (events ``first_event ...``) atomically.
+    """Write one finished chunk (events ``first_event ...``; atoms, for per-atom histories)
+    atomically.
 
     ``scores`` maps a quantity ("edep", "track_length") to an (n_events, n_volumes) array;
     ``fingerprint`` identifies the configuration and seed, so a resume never mixes runs;
     ``columns``: more per-event energies (MeV), ``/events/<name>`` (e.g.
-    ``untracked_gamma_energy`` in lite physics).
+    ``untracked_gamma_energy`` in lite physics); ``counts``: numbers the run record adds up
+    over the chunks (:func:`chunk_counts`).
     """
     n = primaries.n_events
+    atoms = atom_histories(primaries)
+    offset = 0 if atoms else first_event  # atoms: events numbered by merge_chunks
     with results_h5(path) as f:
         f.attrs["first_event"] = first_event
         f.attrs["fingerprint"] = fingerprint
+        f.attrs["counts"] = json.dumps(counts or {})
         ev = f.create_group("events")
         ev.attrs["quantities"] = json.dumps(list(scores))
-        ev.create_dataset("event_id", data=first_event + np.arange(n, dtype=np.int64))
+        ev.create_dataset("event_id", data=offset + np.arange(n, dtype=np.int64))
+        if atoms:
+            f.attrs["unit"] = "atom"
+            atom = primaries.extra["atom"][primaries.event_offsets()[:-1]]
+            f.attrs["n_units"] = len(np.unique(atom))
+            ev.create_dataset("atom", data=np.asarray(atom, np.int64))
         total = np.bincount(primaries.event, weights=primaries.energy, minlength=n)
         ev.create_dataset("primary_energy", data=total).attrs["units"] = "MeV"
         for name, values in (columns or {}).items():
@@ -92,7 +110,24 @@ def write_chunk(
             for k, name in enumerate(volumes):
                 g.create_dataset(name, data=values[:, k]).attrs["units"] = QUANTITY_UNITS[quantity]
         _label_lh5(ev, volumes, list(scores))
-        write_primaries_table(f.create_group("primaries"), primaries, first_event)
+        write_primaries_table(f.create_group("primaries"), primaries, offset)
+
+
+def chunk_counts(paths: list[Path]) -> dict:
+    """The ``counts`` of chunk files added up (nested dicts of numbers)."""
+    total: dict = {}
+    for path in paths:
+        with h5py.File(path, "r") as f:
+            _add_counts(total, json.loads(f.attrs.get("counts", "{}")))
+    return total
+
+
+def _add_counts(total: dict, part: dict) -> None:
+    for key, value in part.items():
+        if isinstance(value, dict):
+            _add_counts(total.setdefault(key, {}), value)
+        else:
+            total[key] = total.get(key, 0) + value
 
 
 def _event_columns(events: h5py.Group) -> list[str]:
@@ -129,12 +164,16 @@ def merge_chunks(chunk_paths: list[Path], out: Path, run_record: dict) -> None:
                 )
             ev = f.create_group("events")
             ev.attrs["quantities"] = json.dumps(quantities)
+            # per-atom histories: each chunk's events are numbered from 0; number them on
+            offsets = np.cumsum([0] + [len(p["events/event_id"]) for p in parts])
+            renumber = any(p.attrs.get("unit") == "atom" for p in parts)
             # columns every chunk has (a chunk of an older version may lack a newer column)
             shared = set.intersection(*(set(_event_columns(p["events"])) for p in parts))
             for name in [c for c in _event_columns(parts[0]["events"]) if c in shared]:
-                d = ev.create_dataset(
-                    name, data=np.concatenate([p["events"][name][()] for p in parts])
-                )
+                data = np.concatenate([p["events"][name][()] for p in parts])
+                if renumber and name == "event_id":
+                    data = np.arange(offsets[-1], dtype=np.int64)
+                d = ev.create_dataset(name, data=data)
                 if "units" in parts[0]["events"][name].attrs:
                     d.attrs["units"] = parts[0]["events"][name].attrs["units"]
             for quantity in quantities:
@@ -148,7 +187,10 @@ def merge_chunks(chunk_paths: list[Path], out: Path, run_record: dict) -> None:
             prim.attrs.update(dict(parts[0]["primaries"].attrs))
             for key in parts[0]["primaries"]:
                 src = [p["primaries"][key] for p in parts]
-                d = prim.create_dataset(key, data=np.concatenate([s[()] for s in src]))
+                values = [s[()] for s in src]
+                if renumber and key == "event":
+                    values = [v + o for v, o in zip(values, offsets[:-1], strict=True)]
+                d = prim.create_dataset(key, data=np.concatenate(values))
                 d.attrs.update(dict(src[0].attrs))
     finally:
         for p in parts:

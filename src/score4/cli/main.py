@@ -200,6 +200,12 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
         raise ConfigError(
             f"{config_file}: source.vertices: the source already reads a vertex file; nothing to draw"
         )
+    if getattr(config.source.decay, "implantation", False):
+        raise ConfigError(
+            f"{config_file}: source.decay.implantation: the daughters' vertices are where the "
+            "run's TRIM replay stops the alpha recoils, so they cannot be drawn beforehand; "
+            "run the configuration with 'score4 run'"
+        )
     check_output_file(
         out, overwrite, "--out", {"the configuration": config_file, **input_paths(config)}
     )
@@ -258,6 +264,15 @@ def summary(results_file: Path, as_json: bool, bins, threshold: str) -> None:
     run = results.run
     click.echo(f"{s['file']}")
     click.echo(f"  events        {s['n_events']}")
+    if "n_atoms" in run:  # per-atom histories: a chain with recoil implantation
+        moved = run.get("implantation", {})
+        click.echo(
+            f"  atoms         {run['n_atoms']} deposited {run.get('activity_nuclide')} atoms "
+            f"followed down the chain; {moved.get('recoils', 0)} recoils moved an atom, "
+            f"{moved.get('left_world', 0)} left the world with it "
+            f"({moved.get('lost_decays', 0)} decays lost); simulated_decays "
+            f"{float(run.get('simulated_decays', 0)):g} (one per atom)"
+        )
     click.echo(
         f"  physics       {s['physics_mode']}"
         + (f" ({run.get('physics_lacks')})" if run.get("physics_lacks") else "")

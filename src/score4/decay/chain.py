@@ -293,22 +293,26 @@ class ChainEvents:
     ) -> dict[str, np.ndarray]:
         """Per-atom histories: every decay of ``n_atoms`` deposited head atoms, in order.
 
-        Each atom decays down the chain (branches by their fractions, lifetimes drawn) until a
-        stable nuclide, a nuclide outside the chain, or ``until_s`` seconds after deposition.
-        Events are numbered atom by atom, in time order; a decay within the window of its
-        event's first decay joins that event (as in :meth:`sample`). Rows as :meth:`sample`,
-        plus ``atom`` (the deposited atom) and ``decay_time`` (s since deposition). Whoever
-        moves a decay's vertex (recoil implantation) finds the atom's previous event by
-        ``atom``; a recoil ion row in it is where the atom went.
+        Each atom decays down the chain (lifetimes drawn) until a stable nuclide, a nuclide
+        outside the chain, or ``until_s`` seconds after deposition. The branch of each decay is
+        the one its sampled radiations took (an alpha decay of Bi-212 leads to Tl-208 and emits
+        a Tl-208 recoil, its beta decay to Po-212), so the nuclide an atom becomes and the
+        recoil it received agree. Events are numbered atom by atom, in time order; a decay
+        within the window of its event's first decay joins that event (as in :meth:`sample`).
+        Rows as :meth:`sample`, plus ``atom`` (the deposited atom), ``decay_index`` (0 for
+        the atom's first decay, 1 for its daughter's, ...) and ``decay_time`` (s since
+        deposition). Whoever moves a decay's vertex (recoil implantation) follows an atom by
+        ``atom`` and ``decay_index``: an alpha decay's recoil row is where the atom went.
         """
         members = self.chain.members
         lam = self.chain.decay_constant
         atom = np.arange(n_atoms)
         member = np.zeros(n_atoms, np.int64)
         t = np.zeros(n_atoms)
-        # (atoms, member, times, delays): the delays since the atom's previous decay are kept
-        # apart, because a time since deposition of 1e17 s (Th-232) cannot resolve microseconds
-        decays: list[tuple[np.ndarray, int, np.ndarray, np.ndarray]] = []
+        # (atoms, member, times, delays, emissions): the delays since the atom's previous decay
+        # are kept apart, because a time since deposition of 1e17 s (Th-232) cannot resolve
+        # microseconds
+        decays: list[tuple[np.ndarray, int, np.ndarray, np.ndarray, object]] = []
         while len(atom):
             delay = rng.exponential(1.0, len(atom)) / lam[member]
             t = t + delay
@@ -317,73 +321,81 @@ class ChainEvents:
             nxt = np.full(len(atom), -1, np.int64)
             for m in np.unique(member):
                 sel = np.nonzero(member == m)[0]
-                decays.append((atom[sel], int(m), t[sel], delay[sel]))
-                fractions = decay_scheme(members[m]).product_fractions()
-                names = list(fractions)
-                cdf = np.cumsum([fractions[x] for x in names])
-                pick = np.searchsorted(cdf / cdf[-1], rng.random(len(sel)), side="right")
-                to = np.array([members.index(x) if x in members else -1 for x in names])
-                nxt[sel] = to[np.minimum(pick, len(names) - 1)]
+                em = decay_scheme(members[m]).sample(rng, len(sel))
+                decays.append((atom[sel], int(m), t[sel], delay[sel], em))
+                to = np.array([members.index(x) if x in members else -1 for x in em.products])
+                nxt[sel] = to[em.product] if len(to) else -1
             alive = nxt >= 0
             atom, member, t = atom[alive], nxt[alive], t[alive]
-        return self._history_rows(rng, decays, n_atoms)
+        return self._history_rows(decays)
 
-    def _history_rows(self, rng, decays, n_atoms: int) -> dict[str, np.ndarray]:
+    def _history_rows(self, decays) -> dict[str, np.ndarray]:
         members = self.chain.members
-        d_atom = np.concatenate([d[0] for d in decays]) if decays else np.zeros(0, np.int64)
-        d_member = np.concatenate([np.full(len(d[0]), d[1]) for d in decays]) if decays else d_atom
-        d_time = np.concatenate([d[2] for d in decays]) if decays else np.zeros(0)
-        d_delay = np.concatenate([d[3] for d in decays]) if decays else np.zeros(0)
-        step = (
-            np.concatenate([np.full(len(d[0]), i) for i, d in enumerate(decays)])
-            if decays
-            else d_atom
-        )
+        if not decays:
+            none = np.zeros(0, np.int64)
+            per_atom = {"decay_time": np.zeros(0), "atom": none, "decay_index": none}
+            return fill_empty_events([], 0, none, [], per_atom)
+        d_atom = np.concatenate([d[0] for d in decays])
+        d_member = np.concatenate([np.full(len(d[0]), d[1]) for d in decays])
+        d_time = np.concatenate([d[2] for d in decays])
+        d_delay = np.concatenate([d[3] for d in decays])
+        step = np.concatenate([np.full(len(d[0]), i) for i, d in enumerate(decays)])
         order = np.lexsort((step, d_atom))  # an atom's decays in the order they happened
+        rank = np.empty(len(order), np.int64)  # position of each decay in that order
+        rank[order] = np.arange(len(order))
         d_atom, d_member, d_time, d_delay = (
             d_atom[order],
             d_member[order],
             d_time[order],
             d_delay[order],
         )
+        first_of_atom = np.r_[True, d_atom[1:] != d_atom[:-1]]
+        start = np.maximum.accumulate(np.where(first_of_atom, np.arange(len(d_atom)), 0))
+        d_index = np.arange(len(d_atom)) - start  # 0 for an atom's first decay
         # events: a decay opens a new event unless it falls within the window of the open one
         event = np.zeros(len(d_atom), np.int64)
         since = np.zeros(len(d_atom))  # s after the event's first decay
-        current, elapsed, prev_atom = -1, 0.0, -1
-        for i in range(len(d_atom)):  # one pass over the decays (a few per atom)
-            if d_atom[i] != prev_atom or elapsed + d_delay[i] >= self.window_s:
+        current, elapsed = -1, 0.0
+        window = self.window_s
+        for i, (new_atom, delay) in enumerate(
+            zip(first_of_atom.tolist(), d_delay.tolist(), strict=True)
+        ):
+            if new_atom or elapsed + delay >= window:  # one pass over the decays
                 current += 1
                 elapsed = 0.0
             else:
-                elapsed += d_delay[i]
-            event[i], since[i], prev_atom = current, elapsed, d_atom[i]
+                elapsed += delay
+            event[i], since[i] = current, elapsed
         parts: list[dict[str, np.ndarray]] = []
         names: dict[str, int] = {}
-        for m in np.unique(d_member):
-            sel = np.nonzero(d_member == m)[0]
-            em = decay_scheme(members[m]).sample(rng, len(sel))
+        offset = 0
+        for _, m, _, _, em in decays:
+            n_here = len(em.product)
             codes = np.array([names.setdefault(x, len(names)) for x in em.names], np.int16)
-            rows_of = sel[em.event]
+            rows_of = rank[offset + em.event]
+            offset += n_here
             parts.append(
                 {
                     "event": event[rows_of],
                     "decay": rows_of,
                     "kind": em.kind,
                     "energy": em.energy,
-                    "particle": codes[em.particle],
+                    "particle": codes[em.particle] if len(codes) else em.particle,
                     "nuclide": np.full(len(em.event), ZAI(members[m]), np.int64),
                     "time": since[rows_of],
                     "decay_time": d_time[rows_of],
                     "atom": d_atom[rows_of],
+                    "decay_index": d_index[rows_of],
                 }
             )
-        n_events = int(event[-1]) + 1 if len(event) else 0
-        first = np.r_[True, event[1:] != event[:-1]] if len(event) else np.zeros(0, bool)
+        n_events = int(event[-1]) + 1
+        first = np.r_[True, event[1:] != event[:-1]]
         zai = np.array([ZAI(m) for m in members], np.int64)[d_member[first]]
         per_event = {
             "decay": np.flatnonzero(first),
             "decay_time": d_time[first],
             "atom": d_atom[first],
+            "decay_index": d_index[first],
         }
         rows = fill_empty_events(parts, n_events, zai, list(names), per_event)
         order = np.lexsort((rows["decay"], rows["event"]))  # stable: by decay, then as made

@@ -98,6 +98,7 @@ class ChunkOutput:
     log: str
     worker: str
     columns: dict[str, np.ndarray] = field(default_factory=dict)  # more per-event columns
+    counts: dict = field(default_factory=dict)  # for the run record (Simulation.run_counts)
 
 
 class DaskExecutor:
@@ -256,6 +257,7 @@ def _store(spec: WorkerSpec, result: ChunkOutput) -> None:
         result.primaries,
         spec.fingerprint,
         columns=result.columns,
+        counts=result.counts,
     )
     if result.log:
         with (
@@ -336,6 +338,7 @@ def _run_chunk_here(spec: WorkerSpec, chunk: Chunk, stop: threading.Event) -> Ch
         _new_log_text(),
         f"{socket.gethostname()}-{os.getpid()}",
         sim.event_columns(),
+        sim.run_counts(),
     )
 
 

@@ -49,7 +49,7 @@ from ..errors import ConfigError, Score4Error
 from ..files import atomic_output, check_free_space, check_output_file
 from ..geometry.walls import warn_rays_in_walls
 from ..normalisation import run_normalisation
-from ..output import merge_chunks
+from ..output import chunk_counts, merge_chunks
 from ..progress import progress_bar
 from ..scene import build_scene
 from ..schema import input_paths
@@ -240,8 +240,12 @@ def run(
     # Build the scene and draw the first events here: bad surfaces, files, constraints and
     # vertices outside the world fail now, not in a worker (which checks every event again).
     scene = build_scene(config)
-    sample = make_source(config, scene).events(seed, 0, min(config.run.events, BLOCK_EVENTS))
-    check_run_memory(config, len(sample) / sample.n_events)
+    source = make_source(config, scene)
+    drawn = min(config.run.events, BLOCK_EVENTS)  # events, or atoms for per-atom histories
+    sample = source.events(seed, 0, drawn)
+    unit = f"{getattr(source, 'unit', 'event')}s"
+    rows_per_unit = len(sample) / (drawn if unit == "atoms" else sample.n_events)
+    check_run_memory(config, len(sample) / sample.n_events, sample.n_events / drawn)
     run_normalisation(config, scene)  # the source's area or mass: any problem shows now
     if config.source.vertices is not None and scene.layers:  # hand-made rays: beams on walls?
         rays = read_vertex_file(config.source.vertices)
@@ -264,8 +268,8 @@ def run(
     )
     done = _finished_chunks(parts, chunks, fingerprint, echo) if resuming else set()
     limits.check_memory(  # every worker holds one chunk's primaries and scores
-        jobs * chunks.size * (limits.PRIMARY_BYTES * len(sample) / sample.n_events + 64),
-        f"{jobs} worker(s) holding chunks of {chunks.size} events",
+        jobs * chunks.size * (limits.PRIMARY_BYTES * rows_per_unit + 64),
+        f"{jobs} worker(s) holding chunks of {chunks.size} {unit}",
         "run.chunk_events",
         "use a smaller run.chunk_events",
     )
@@ -340,7 +344,7 @@ def run(
         "score4_version": __version__,
         "geant4_pybind_version": version("geant4_pybind"),
         "geant4_version": info.get("geant4_version", ""),
-        "n_events": config.run.events,
+        **_run_size(config, files),
         "n_chunks": len(chunks),
         "chunk_events": chunks.size,
         "jobs": workers,
@@ -353,6 +357,7 @@ def run(
         **_stuck_tracks(exceptions),
         **balance,
         **_untracked_photons(files),
+        **_counts(files, config),
         # contract 1, what the events stand for: volumes (one per scoring column: name, material,
         # density, volume, mass; from the worker's Geant4 world), the sampled area or mass, the
         # decays (score4.normalisation)
@@ -372,13 +377,18 @@ def run(
     return out
 
 
-def check_run_memory(config: RunConfig, primaries_per_event: float) -> None:
-    """Refuse a run whose results this machine cannot merge (the merge holds them in memory)."""
+def check_run_memory(
+    config: RunConfig, primaries_per_event: float, events_per_unit: float = 1.0
+) -> None:
+    """Refuse a run whose results this machine cannot merge (the merge holds them in memory).
+
+    ``events_per_unit``: events per ``run.events`` unit (per atom for per-atom histories)."""
     n = config.run.events
     columns = 2 + len(config.targets) * (3 if config.output.track_length else 1)
+    events = int(np.ceil(n * events_per_unit))
     limits.check_memory(
-        limits.results_bytes(n, columns, primaries_per_event),
-        f"merging the results of {n} events",
+        limits.results_bytes(events, columns, primaries_per_event),
+        f"merging the results of {events} events",
         "run.events",
         "split it into runs of fewer events with different --seed values",
     )
@@ -394,9 +404,9 @@ def _run_chunks(
     info: dict = {}
     finished: set[int] = set()
     failures: dict[int, str] = {}
-    bar = progress_bar(
-        chunks.n_events, sum(chunks[i].n_events for i in done), "events", "run", show
-    )
+    # per-atom histories (a chain with implantation): run.events and the progress count atoms
+    unit = "atoms" if getattr(spec.config.source.decay, "implantation", False) else "events"
+    bar = progress_bar(chunks.n_events, sum(chunks[i].n_events for i in done), unit, "run", show)
     told: set[tuple[str, str]] = set()
     try:
         with contextlib.closing(executor.execute(spec, chunks.remaining(done))) as events:
@@ -663,11 +673,18 @@ def _finished_chunks(parts: Path, chunks: ChunkPlan, fingerprint: str, echo) -> 
                     and f.attrs.get("first_event") == c.first_event
                 )
                 ids = f["events/event_id"][()]
+                atoms = f.attrs.get("unit") == "atom"
+                units = int(f.attrs.get("n_units", -1))
         except (OSError, KeyError):
             damaged.append(c.index)
             continue
         if not same:
             foreign.append(c.index)
+        elif atoms:  # per-atom histories: all the chunk's atoms, events numbered from 0
+            if units != c.n_events or not np.array_equal(ids, np.arange(len(ids))):
+                damaged.append(c.index)
+            else:
+                done.add(c.index)
         elif not np.array_equal(ids, c.first_event + np.arange(c.n_events)):
             damaged.append(c.index)
         else:
@@ -711,6 +728,31 @@ def _untracked_photons(files: list[Path]) -> dict:
             total += float(values.sum())
             events += int((values > 0).sum())
     return {"untracked_gamma_energy_MeV": total, "untracked_gamma_events": events}
+
+
+def _run_size(config: RunConfig, files: list[Path]) -> dict:
+    """``n_events``; with per-atom histories (a chain with implantation) ``run.events`` counts
+    atoms (``n_atoms``) and ``n_events`` is the events their decays made."""
+    decay = config.source.decay
+    if not getattr(decay, "implantation", False):
+        return {"n_events": config.run.events}
+    events = 0
+    for path in files:
+        with h5py.File(path, "r") as f:
+            events += len(f["events/event_id"])
+    return {"n_atoms": config.run.events, "n_events": events}
+
+
+def _counts(files: list[Path], config: RunConfig) -> dict:
+    """Run-record counts added up over the chunks: ``intercepted_ions`` and
+    ``reinjected_ions`` (runs with the TRIM replay), ``implantation`` (chains with it)."""
+    counts = chunk_counts(files)
+    out = {}
+    if config.physics.heavy_ions == "trim":
+        out = {k: int(counts.get(k, 0)) for k in ("intercepted_ions", "reinjected_ions")}
+    if getattr(config.source.decay, "implantation", False):
+        out["implantation"] = counts.get("implantation", {})
+    return out
 
 
 def _count_chunk_files(parts: Path, chunks: ChunkPlan) -> int:

@@ -155,6 +155,8 @@ class HeavyIonTransport:
         self.nav = g4.G4Navigator()
         self.nav.SetWorldVolume(world)
         self.index = {str(lv.GetName()): k for k, lvs in enumerate(scoring.values()) for lv in lvs}
+        #: the scoring columns' names (``index`` values index it)
+        self.column_names = list(scoring)
         self.histories = histories
         self.library_seed = library_seed
         self._libraries: dict[tuple[str, str, float], TrajectoryLibrary] = {}
@@ -215,6 +217,12 @@ class HeavyIonTransport:
         return self.nav.LocateGlobalPointAndSetup(
             self._vec(point), self._vec(direction), relative, False
         )
+
+    def volume_at(self, point) -> _Volume | None:
+        """The volume holding ``point`` (mm; None outside the world): its logical volume name
+        (``.logical``), material (``.material_name``), whether it is vacuum, scoring column."""
+        pv = self._locate(np.asarray(point, float), np.array([0.0, 0.0, 1.0]), relative=False)
+        return None if pv is None else self._volume(pv)
 
     def _is_vacuum(self, material) -> bool:
         return float(material.GetDensity()) < self._vacuum

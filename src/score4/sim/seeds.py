@@ -10,6 +10,10 @@ So event ``k`` is the same event, with the same energy deposits, whatever the nu
 the chunk size, the number of workers or the executor; and the first N events of a run are a
 run of N events.
 
+- Per-atom histories (a chain with implantation): the unit is the atom. Event ``j`` of atom
+  ``a`` (its ``j``-th event, in time order) gets the seed of :func:`atom_event_geant4_seeds`:
+  atom ``a``'s word of the same block streams, mixed with ``j``; so an atom's events are the
+  same whatever chunk holds the atom.
 - TRIM: the trajectory libraries of a run (:mod:`score4.ions.trim_library`) are built with the
   TRIM seed :func:`library_trim_seed` of the run seed, so runs with other seeds replay other
   histories; ``score4 range --compare-srim`` runs its TRIM reference with
@@ -24,6 +28,7 @@ from ..source.blocks import BLOCK_EVENTS, block_rng
 
 __all__ = [
     "BLOCK_EVENTS",
+    "atom_event_geant4_seeds",
     "block_rng",
     "event_geant4_seeds",
     "library_trim_seed",
@@ -53,6 +58,27 @@ def event_geant4_seeds(seed: int, first_event: int, n_events: int) -> np.ndarray
             words[max(first_event, start) - start : min(stop, start + BLOCK_EVENTS) - start]
         )
     return np.concatenate(parts) if parts else np.zeros(0, np.uint64)
+
+
+def atom_event_geant4_seeds(seed: int, atom: np.ndarray) -> np.ndarray:
+    """Geant4 seeds of the events of per-atom histories, ``atom``: the atom of each event
+    (non-decreasing, all events of each atom present, in order).
+
+    The seed of event ``j`` of atom ``a`` is a SplitMix64 mix of ``a``'s word of
+    :func:`event_geant4_seeds` (the same streams, indexed by atom) and ``j``.
+    """
+    atom = np.asarray(atom, dtype=np.int64)
+    if not len(atom):
+        return np.zeros(0, np.uint64)
+    first = int(atom[0])
+    words = event_geant4_seeds(seed, first, int(atom[-1]) - first + 1)[atom - first]
+    starts = np.r_[True, atom[1:] != atom[:-1]]
+    index = np.arange(len(atom)) - np.maximum.accumulate(np.where(starts, np.arange(len(atom)), 0))
+    z = words + (index.astype(np.uint64) + np.uint64(1)) * np.uint64(0x9E3779B97F4A7C15)
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    z = z ^ (z >> np.uint64(31))
+    return np.maximum(z >> np.uint64(1), np.uint64(1))
 
 
 def _trim_seed(seed: int, stream: int) -> int:

@@ -23,6 +23,7 @@ from ..source.build import make_source
 from ..source.primaries import Primaries
 from .feed import EventFeed, replay_row
 from .heavy_ions import IonFate
+from .implantation import AtomTracker, drop_lost, is_history
 from .interception import InterceptedIon, make_stacking_action, needs_interception
 from .physics import (
     drop_unused_parallel_world_region,
@@ -177,6 +178,9 @@ class Simulation:
         self.intercepted: list[InterceptedIon] = []
         #: how each replayed primary ended in the last :meth:`run`: {row of primaries: fate}
         self.ion_fates: dict[int, IonFate] = {}
+        #: the atoms of the last :meth:`run` of per-atom histories (None for other batches)
+        self.atoms: AtomTracker | None = None
+        self._units_after: np.ndarray | None = None
         self.endpoints: np.ndarray | None = None
         self._particles: dict[str, object] = {}
         self.volumes = list(self.scorer.names)
@@ -224,6 +228,8 @@ class Simulation:
     def _generate(self, gun, event) -> None:
         k = self._next_event
         feed = self._feed
+        if self._replaying:  # heavy ions first: an implanted daughter starts where one stopped
+            self._replay_event(k)
         if self.teleporter is not None:
             self.teleporter.begin_event(int(feed.offsets[k]), int(feed.offsets[k + 1]))
         feed.fill(gun, event, k)  # not the rows replayed on TRIM or gammas lite cannot track
@@ -235,8 +241,9 @@ class Simulation:
         for fate, alpha in self._pending:  # heavy-ion secondaries replayed during the event
             self.book(k, fate, alpha)
         self._pending.clear()
-        if self._replaying:
-            self._replay_event(k)
+        for fate, alpha in self._replayed:  # its heavy-ion primaries, replayed before it
+            self.book(k, fate, alpha)
+        self._replayed.clear()
         self._next_event += 1
         self._scored = False
 
@@ -258,8 +265,9 @@ class Simulation:
         geometry (Geant4 walks the volume tree to update regions and cuts: 0.8 s with 4 million
         flat placements, see docs/tiling.md). ``progress(n)`` is called from the event action
         every ``batch`` events (default: a twentieth of the events) and once at the end.
-        Heavy ions (:meth:`trim_rows`) are moved along TRIM trajectories after Geant4 has
-        tracked the rest (:mod:`score4.sim.heavy_ions`); their deposits join their events'.
+        Heavy ions (:meth:`trim_rows`) are moved along TRIM trajectories just before Geant4
+        tracks the rest of their event (:mod:`score4.sim.heavy_ions`; per-atom histories need
+        the stop points first); their deposits join their events'.
         With ``endpoints=True``, ``self.endpoints`` is then an (n_rows, 4) array: where each
         primary ended (x, y, z mm) and its kinetic energy there (MeV; > 0 if it left the world).
         ``stop``, set from another thread, ends the run after the event being tracked
@@ -294,26 +302,104 @@ class Simulation:
         self.endpoints = np.full((len(primaries), 4), np.nan) if endpoints else None
         self._track_endpoints(endpoints)
         self._prepare_replay(primaries, g4_seed)
+        self._prepare_atoms(primaries)
         self.intercepted, self.ion_fates = [], {}
         self._pending: list[tuple[IonFate, bool]] = []
+        self._replayed: list[tuple[IonFate, bool]] = []
         self._scored = False
         self._intercept(names)
         self._next_event = 0
         if np.ndim(g4_seed) == 0:
             self.g4.G4Random.setTheSeed(int(g4_seed))
         self._progress, self._reported = progress, 0
-        self._report_every = batch or max(1, n // 20)
+        units = n if self._units_after is None else int(self._units_after[-1])
+        self._report_every = batch or max(1, units // 20)
         self._stop, self._stopped = stop, False
         if n > 0 and not (stop is not None and stop.is_set()):  # BeamOn(0) still starts a run
             with redirect_native_output(self.log_path):
                 self.run_manager.BeamOn(n)
         self._stop = None
+        if self.atoms is not None:
+            self.atoms.finish()
         if self._stopped or (stop is not None and stop.is_set()):
             raise RunCancelled(f"run cancelled after {self._next_event} of {n} events")
         self._report_progress(final=True)
         if "edep_alpha" in self._scores:
             self._scores["edep_ion"] = ion_deposits(self._scores)
         return self._scores
+
+    def _prepare_atoms(self, primaries: Primaries) -> None:
+        """Per-atom histories (a chain with implantation): follow the atoms
+        (:class:`score4.sim.implantation.AtomTracker`); progress counts atoms."""
+        self.atoms, self._units_after = None, None
+        if not is_history(primaries):
+            return
+        if self.heavy_ions is None or self.config.physics.heavy_ions != "trim":
+            raise ConfigError(
+                "source.decay.implantation: needs physics.heavy_ions: trim (per-atom histories "
+                "move each daughter to where the TRIM replay stopped its alpha recoil)"
+            )
+        if self.teleporter is not None:
+            raise ConfigError(
+                "source.decay.implantation: needs native tiling (a recoil in a portal subworld "
+                "stops at no place of the world)"
+            )
+        self.atoms = AtomTracker(
+            primaries, self._feed.positions, self.heavy_ions, self._depth_function(primaries)
+        )
+        self._replaying = True  # the tracker places every decay, also without heavy ions
+        # atoms whose events are all done after k events (the progress unit)
+        atom_of_event = primaries.extra["atom"][self._feed.offsets[:-1]]
+        last = np.r_[atom_of_event[1:] != atom_of_event[:-1], True]
+        self._units_after = np.r_[0, np.cumsum(last)]
+
+    def _depth_function(self, primaries: Primaries):
+        """``depth_of(points, rows)`` for the moved vertices of per-atom histories drawn below
+        a surface (None for a bulk source: no depth)."""
+        sampler: Any = getattr(self.source, "sampler", None)
+        ex = primaries.extra
+        if not hasattr(sampler, "depth_of") or "depth" not in ex or "normal_x" not in ex:
+            return None
+        normal = np.column_stack([ex[f"normal_{a}"] for a in "xyz"])
+        depth, position = ex["depth"].copy(), primaries.position.copy()  # as deposited
+        face = ex.get("face")
+
+        def depth_of(points: np.ndarray, rows: np.ndarray) -> np.ndarray:
+            return sampler.depth_of(
+                points,
+                position[rows],
+                normal[rows],
+                depth[rows],
+                None if face is None else face[rows],
+            )
+
+        return depth_of
+
+    def run_counts(self) -> dict:
+        """Counts of the last :meth:`run` for the run record: ``intercepted_ions`` (heavy-ion
+        secondaries taken from Geant4 and replayed) and ``reinjected_ions`` (of them, sent back
+        to Geant4 to decay); ``implantation`` (per-atom histories:
+        :meth:`score4.sim.implantation.AtomTracker.summary`)."""
+        out: dict = {
+            "intercepted_ions": len(self.intercepted),
+            "reinjected_ions": sum(1 for ion in self.intercepted if ion.reinjected),
+        }
+        if self.atoms is not None:
+            out["implantation"] = self.atoms.summary()
+        return out
+
+    def drop_lost(
+        self, primaries: Primaries, scores: dict[str, np.ndarray]
+    ) -> tuple[Primaries, dict[str, np.ndarray]]:
+        """The last :meth:`run`'s ``primaries`` and ``scores`` without the decays lost with
+        their atoms (:func:`score4.sim.implantation.drop_lost`); :meth:`event_columns` then
+        describes the events that remain."""
+        primaries, scores, columns, dropped = drop_lost(primaries, scores, self.event_columns())
+        if dropped and self.atoms is not None:
+            self.atoms.counts["lost_events"] += dropped
+            if "untracked_gamma_energy" in columns:
+                self.untracked_gamma = columns["untracked_gamma_energy"]
+        return primaries, scores
 
     def _prepare_replay(self, primaries: Primaries, g4_seed: int | np.ndarray) -> None:
         """Heavy ions of this batch: one library per ion, start energy and material announced."""
@@ -385,16 +471,54 @@ class Simulation:
         self._interceptor.gammas |= gammas
 
     def _replay_event(self, k: int) -> None:
-        """Move event ``k``'s heavy ions along TRIM trajectories; add their deposits (per event,
-        after Geant4 has tracked the event's other primaries)."""
+        """Move event ``k``'s heavy ions along TRIM trajectories before Geant4 tracks the event
+        (their deposits join the event's at its end); with per-atom histories, put each decay
+        where its atom is first (:class:`~score4.sim.implantation.AtomTracker`)."""
+        feed, atoms = self._feed, self.atoms
+        if atoms is None:
+            for row in feed.rows_of(k, self._trim):
+                self._replay_row(k, int(row))
+            return
+        decay = atoms.decay_index
+        a, end = int(feed.offsets[k]), int(feed.offsets[k + 1])
+        while a < end:  # one decay (rows a .. b - 1) at a time, in decay order
+            b = a + 1
+            while b < end and decay[b] == decay[a]:
+                b += 1
+            if not atoms.place(a, b):
+                self._lose(k, a, b)
+            else:
+                for row in range(a, b):
+                    if self._trim[row]:
+                        fate = self._replay_row(k, row)
+                        if atoms.recoil[row]:
+                            atoms.moved(row, fate)
+                    elif atoms.recoil[row]:
+                        atoms.not_replayed(row)
+            a = b
+
+    def _lose(self, k: int, a: int, b: int) -> None:
+        """Rows ``a .. b - 1`` of event ``k`` are not emitted: their atom left the world."""
+        feed = self._feed
+        feed.skip[a:b] = True
+        untracked = self._untracked_rows[a:b]
+        if untracked.any():
+            self._untracked_rows[a:b] = False
+            rows = slice(int(feed.offsets[k]), int(feed.offsets[k + 1]))
+            kept = self._untracked_rows[rows]
+            self.untracked_gamma[k] = float(feed.primaries.energy[rows][kept].sum())
+
+    def _replay_row(self, k: int, row: int) -> IonFate:
+        """Replay the heavy ion of ``row`` (event ``k``); its deposits join the event's at its
+        end (an alpha's also the alpha class, ``alphas: trim``)."""
         transport, feed = self.heavy_ions, self._feed
         assert transport is not None
-        for row in feed.rows_of(k, self._trim):
-            fate = replay_row(transport, feed, k, int(row))
-            self.book(k, fate, alpha=str(feed.primaries.particle[row]) == "alpha")
-            self.ion_fates[int(row)] = fate
-            if self.endpoints is not None:
-                self.endpoints[row] = (*fate.position, fate.escaped_energy)
+        fate = replay_row(transport, feed, k, row)
+        self._replayed.append((fate, str(feed.primaries.particle[row]) == "alpha"))
+        self.ion_fates[row] = fate
+        if self.endpoints is not None:
+            self.endpoints[row] = (*fate.position, fate.escaped_energy)
+        return fate
 
     def _track_endpoints(self, on: bool) -> None:
         """Record where Geant4's primaries end (a Python tracking action, only when asked)."""
@@ -434,8 +558,11 @@ class Simulation:
             self.run_manager.AbortRun(True)  # soft: the current event is complete, no new one
 
     def _report_progress(self, final: bool = False) -> None:
-        """Call the progress callback with the events done since the last call (see :meth:`run`)."""
-        done = self._next_event - self._reported
+        """Call the progress callback with the events (atoms, for per-atom histories) done
+        since the last call (see :meth:`run`)."""
+        k = self._next_event
+        now = k if self._units_after is None else int(self._units_after[k])
+        done = now - self._reported
         if self._progress is not None and done > 0 and (final or done >= self._report_every):
-            self._reported = self._next_event
+            self._reported = now
             self._progress(done)

@@ -35,16 +35,17 @@ from ..config import RunConfig
 from ..errors import Score4Error, Score4Warning
 from ..ions.trim_library import set_build_listener
 from ..output import write_chunk
-from ..source.primaries import Primaries
+from ..source.primaries import Primaries, atom_histories
 from .runtime import PhysicsChoice
-from .seeds import event_geant4_seeds
+from .seeds import atom_event_geant4_seeds, event_geant4_seeds
 
 CRASH_HOOK = "SCORE4_TEST_CRASH_CHUNK"
 
 
 @dataclass(frozen=True)
 class Chunk:
-    """Events ``first_event .. first_event + n_events - 1`` of a run, simulated as one piece."""
+    """Events ``first_event .. first_event + n_events - 1`` of a run, simulated as one piece
+    (atoms, when the source draws per-atom histories: a chain with implantation)."""
 
     index: int
     first_event: int
@@ -80,9 +81,14 @@ def simulate_chunk(
     if str(chunk.index) in os.environ.get(CRASH_HOOK, "").split(","):
         os._exit(70)  # test hook, see the module docstring
     primaries = sim.source.events(spec.seed, chunk.first_event, chunk.n_events)
-    g4_seeds = event_geant4_seeds(spec.seed, chunk.first_event, chunk.n_events)
+    if atom_histories(primaries):  # the chunk is atoms: seeds by atom and event of the atom
+        g4_seeds = atom_event_geant4_seeds(
+            spec.seed, primaries.extra["atom"][primaries.event_offsets()[:-1]]
+        )
+    else:
+        g4_seeds = event_geant4_seeds(spec.seed, chunk.first_event, chunk.n_events)
     scores = sim.run(primaries, g4_seeds, progress=progress, stop=stop)
-    return primaries, scores
+    return sim.drop_lost(primaries, scores)
 
 
 def run_chunk(sim, spec: WorkerSpec, chunk: Chunk, progress=None) -> Path:
@@ -97,6 +103,7 @@ def run_chunk(sim, spec: WorkerSpec, chunk: Chunk, progress=None) -> Path:
         primaries,
         spec.fingerprint,
         columns=sim.event_columns(),
+        counts=sim.run_counts(),
     )
     return path
 

@@ -6,6 +6,10 @@ events asked for. So the first N events of a run are the same events (vertices, 
 energies) whatever the number of events, the chunk size or the number of workers: a run with
 ``--events 5000`` is the first 5000 events of the same run with ``--events 20000``.
 
+With per-atom histories (a chain with implantation, whose primaries carry an ``atom`` column)
+the unit is the deposited atom: a block is ``BLOCK_EVENTS`` atoms with all their decays, and a
+chunk takes whole atoms (all events of an atom stay in one chunk), renumbered from event 0.
+
 The cost is at most one block drawn in excess at each end of a chunk (sampling 1000 vertices
 takes milliseconds; tracking them in Geant4 takes seconds), so chunks need not fall on block
 boundaries, although the planned ones do whenever they are larger than a block.
@@ -34,7 +38,8 @@ def block_rng(seed: int, block: int) -> np.random.Generator:
 
 
 def draw_events(source: BlockSource, seed: int, first_event: int, n_events: int) -> Primaries:
-    """Primaries of events ``first_event .. first_event + n_events - 1`` (renumbered from 0).
+    """Primaries of events ``first_event .. first_event + n_events - 1`` (renumbered from 0);
+    of atoms ``first_event ..`` when the source draws per-atom histories.
 
     Every block the range touches is drawn whole with :func:`block_rng`, then cut.
     """
@@ -45,9 +50,11 @@ def draw_events(source: BlockSource, seed: int, first_event: int, n_events: int)
     for block in range(first_event // BLOCK_EVENTS, (stop - 1) // BLOCK_EVENTS + 1):
         start = block * BLOCK_EVENTS
         drawn = source.primaries(block_rng(seed, block), start, BLOCK_EVENTS)
-        parts.append(
-            drawn.select_events(
-                max(first_event, start) - start, min(stop, start + BLOCK_EVENTS) - start
-            )
-        )
+        lo, hi = max(first_event, start), min(stop, start + BLOCK_EVENTS)
+        if "atom" in drawn.extra:  # whole atoms: the events of atoms lo .. hi - 1
+            atom_of_event = drawn.extra["atom"][drawn.event_offsets()[:-1]]
+            a, b = np.searchsorted(atom_of_event, [lo, hi], side="left")
+            parts.append(drawn.select_events(int(a), int(b)))
+        else:
+            parts.append(drawn.select_events(lo - start, hi - start))
     return parts[0] if len(parts) == 1 else Primaries.concatenate(parts)

@@ -104,6 +104,7 @@ def decay_emitter(src: SourceConfig) -> DecayEmitter:
             None if decay.since_deposition is None else decay.since_deposition * 1e-9,
             decay.coincidence_window * 1e-9,
             src.direction,
+            implantation=decay.implantation,
         )
     return DecayEmitter(_given(decay, "source.decay"), direction=src.direction)
 
@@ -129,11 +130,15 @@ def decay_normalisation(config: RunConfig) -> dict:
             out["decay_chain"] = {
                 "members": list(ce.chain.members),
                 "relative_activity": [float(a) for a in ce.activity],
-                "event_share": [float(x) for x in ce.share / ce.share.sum()],
-                "head_decays_per_event": ce.head_decays_per_event,
                 "coincidence_window_s": ce.window_s,
                 "since_deposition_s": ce.since_deposition_s,
+                "implantation": emitter.implantation,
             }
+            if emitter.implantation:  # whole histories: each member decays as it is fed
+                out["decay_chain"]["decays_per_atom"] = [float(a) for a in ce.activity]
+            else:
+                out["decay_chain"]["event_share"] = [float(x) for x in ce.share / ce.share.sum()]
+                out["decay_chain"]["head_decays_per_event"] = ce.head_decays_per_event
         return out
     if src.nuclide is not None:
         return {"simulated_decays": float(n), "activity_nuclide": src.nuclide}
@@ -253,6 +258,22 @@ def bulk_sampler(scene: Scene, volume: str) -> BulkSampler:
     return BulkSampler(shape, transform, list(target.exclude), name=target.name)
 
 
+def number_atoms(primaries: Primaries, first: int) -> Primaries:
+    """Per-atom histories drawn for atoms ``first, first + 1, ...``: their ``atom`` column
+    made the run's atom index (unchanged when there is no such column)."""
+    if "atom" in primaries.extra and first:
+        primaries.extra["atom"] = primaries.extra["atom"] + first
+    return primaries
+
+
+def run_numbers(primaries: Primaries, first_event: int) -> np.ndarray:
+    """Per row, the run's number of its event, or of its atom for per-atom histories (whose
+    events are not numbered in the run)."""
+    if "atom" in primaries.extra:
+        return np.asarray(primaries.extra["atom"])
+    return primaries.event + first_event
+
+
 @dataclass
 class SampledSource:
     """Vertices drawn below a (rough) face, each emitting the configured particles.
@@ -267,24 +288,33 @@ class SampledSource:
     world_half: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
 
     def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
-        """``n_events`` events drawn from the stream ``rng`` (``first_event`` is not used:
-        :meth:`events` gives the prefix-stable events of a run)."""
+        """``n_events`` events (atoms, with implantation: :attr:`unit`) drawn from the stream
+        ``rng``; ``first_event`` only numbers the atoms (:meth:`events` gives the prefix-stable
+        events of a run)."""
         v = self.sampler.sample(rng, n_events)
-        return make_primaries(
-            self.emitter,
-            rng,
-            v.position,
-            v.normal,
-            depth=v.depth,
-            facet=v.facet,
-            patch=v.patch if v.patch is not None else np.full(n_events, -1),
-            face=v.face,
+        return number_atoms(
+            make_primaries(
+                self.emitter,
+                rng,
+                v.position,
+                v.normal,
+                depth=v.depth,
+                facet=v.facet,
+                patch=v.patch if v.patch is not None else np.full(n_events, -1),
+                face=v.face,
+            ),
+            first_event,
         )
+
+    @property
+    def unit(self) -> str:
+        """What ``run.events`` counts: ``"event"``, or ``"atom"`` (chain with implantation)."""
+        return getattr(self.emitter, "unit", "event")
 
     def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
         """Events ``first_event ..`` of the run with ``seed``, the same in any chunking."""
         p = draw_events(self, seed, first_event, n_events)
-        limits.check_vertices(p.position, self.world_half, "source", p.event + first_event)
+        limits.check_vertices(p.position, self.world_half, "source", run_numbers(p, first_event))
         return p
 
 
@@ -298,14 +328,19 @@ class BulkSource:
     world_half: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
 
     def primaries(self, rng: np.random.Generator, first_event: int, n_events: int) -> Primaries:
-        """``n_events`` events drawn from the stream ``rng`` (``first_event`` is not used:
-        :meth:`events` gives the prefix-stable events of a run)."""
-        return make_primaries(self.emitter, rng, self.sampler.sample(rng, n_events))
+        """As :meth:`SampledSource.primaries`."""
+        positions = self.sampler.sample(rng, n_events)
+        return number_atoms(make_primaries(self.emitter, rng, positions), first_event)
+
+    @property
+    def unit(self) -> str:
+        """What ``run.events`` counts: ``"event"``, or ``"atom"`` (chain with implantation)."""
+        return getattr(self.emitter, "unit", "event")
 
     def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
         """Events ``first_event ..`` of the run with ``seed``, the same in any chunking."""
         p = draw_events(self, seed, first_event, n_events)
-        limits.check_vertices(p.position, self.world_half, "source", p.event + first_event)
+        limits.check_vertices(p.position, self.world_half, "source", run_numbers(p, first_event))
         return p
 
 
@@ -330,6 +365,8 @@ class FileSource:
                 f"events up to {first_event + n_events} (set run.events <= {available})"
             )
         return self.primaries_all.select_events(first_event, first_event + n_events)
+
+    unit = "event"
 
     def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
         """Rows of events ``first_event ..`` of the file (``seed`` plays no part)."""

@@ -59,7 +59,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -688,6 +688,37 @@ class Vertices:
     face: np.ndarray | None = None
 
 
+def _has_mesh(sampler: object) -> bool:
+    return isinstance(sampler, (SurfaceSampler, TiledSurfaceSampler))
+
+
+def _mesh_distance(sampler: SurfaceSampler | TiledSurfaceSampler, x: np.ndarray) -> np.ndarray:
+    """Unsigned distances of world points to a sampler's mesh (NaN off a tiled face's patches);
+    the distance structures are built once per sampler and kept on it."""
+    cache = sampler.__dict__.setdefault("_mesh_distances", {})
+    if isinstance(sampler, SurfaceSampler):
+        if "all" not in cache:
+            cache["all"] = MeshDistance(sampler.triangles)
+        return cache["all"].distance(x)[0]
+    px, py = sampler.pitch
+    local = (x - sampler.origin) @ sampler.rotation
+    i = np.floor(local[:, 0] / px).astype(np.int64)
+    j = np.floor(local[:, 1] / py).astype(np.int64)
+    nx, ny = sampler.shape
+    inside = (i >= 0) & (i < nx) & (j >= 0) & (j < ny)
+    variant = np.full(len(x), -1, np.int64)
+    variant[inside] = sampler.layout[i[inside], j[inside]]
+    out = np.full(len(x), np.nan)
+    for k, v in enumerate(sampler.variants):
+        rows = np.flatnonzero(variant == k)
+        if len(rows):
+            if k not in cache:
+                cache[k] = MeshDistance(v.triangles, period=sampler.pitch)
+            offset = np.stack([i[rows] * px, j[rows] * py, np.zeros(len(rows))], axis=1)
+            out[rows] = cache[k].distance(local[rows] - offset)[0]
+    return out
+
+
 class _SingleLayout:
     """A plain triangle set seen as a 1 x 1 tiling, so both cases share one code path."""
 
@@ -812,6 +843,46 @@ class VertexSampler:
             f"depth to another part of the surface (depth window [{self.min_depth:g}, "
             f"{self.max_depth:g}] mm is sampled exactly and never fails)"
         )
+
+    def depth_of(
+        self,
+        points: ArrayLike,
+        anchor: ArrayLike,
+        normal: ArrayLike,
+        anchor_depth: ArrayLike,
+        face: ArrayLike | None = None,
+    ) -> np.ndarray:
+        """Depths (mm) below the surface of points in the material, e.g. where a recoil moved a
+        vertex: the true distance to the surface mesh (a triangle set, or the mesh of a tiled
+        face, its cell's variant taken as periodic with the cell pitch, as ``distance``
+        vertices are), else (flat faces of a volume, cells without patch) the depth below the
+        plane through ``anchor`` (a vertex at ``anchor_depth`` below the surface point whose
+        outward normal is ``normal``): ``anchor_depth + (anchor - x) . normal``. ``face``:
+        the ``face`` index of each anchor on a sampler over faces of a volume.
+        """
+        x = np.asarray(points, dtype=float).reshape(-1, 3)
+        n0 = np.asarray(normal, dtype=float).reshape(-1, 3)
+        depth = np.asarray(anchor_depth, dtype=float) + np.einsum(
+            "ij,ij->i", np.asarray(anchor, dtype=float).reshape(-1, 3) - x, n0
+        )
+        if not len(x):
+            return depth
+        parts: list[tuple[np.ndarray, Any]] = []
+        surface: Any = self.surface  # also a ShapeSurfaceSampler (faces of a volume)
+        if isinstance(surface, (SurfaceSampler, TiledSurfaceSampler)):
+            parts.append((np.arange(len(x)), surface))
+        elif face is not None:  # faces of a volume: the rough ones on their meshes
+            face = np.asarray(face)
+            for index, sampler in getattr(surface, "rough", []):
+                rows = np.flatnonzero(face == index)
+                meshes = [p for p in getattr(sampler, "parts", [sampler]) if _has_mesh(p)]
+                parts.extend((rows, part) for part in meshes)
+        for rows, sampler in parts:
+            if len(rows):
+                d = _mesh_distance(sampler, x[rows])
+                ok = np.isfinite(d)
+                depth[rows[ok]] = d[ok]
+        return depth
 
     def _confined(self, x: np.ndarray, on_level: np.ndarray) -> np.ndarray:
         if self.inside is None:

@@ -501,14 +501,20 @@ def _event_columns(n: int, **columns: ArrayLike | None) -> dict[str, np.ndarray]
 def _variable_rows(emitter, rng, pos, normals, **columns) -> Primaries:
     n = len(pos)
     per_event = _event_columns(n, **columns)
-    rows = emitter.emit_rows(
-        rng, n, None if normals is None else np.asarray(normals, dtype=float).reshape(-1, 3)
-    )
+    if normals is not None:
+        normals = np.asarray(normals, dtype=float).reshape(-1, 3)
+    rows = emitter.emit_rows(rng, n, normals)
+    at = rows.event if getattr(rows, "vertex", None) is None else rows.vertex
+    extra = {**{k: v[at] for k, v in per_event.items()}, **rows.extra}
+    if at is not rows.event and normals is not None:
+        # per-atom histories: a decay moved by a recoil gets its depth below the surface plane
+        # of its atom's deposit, along this normal (score4.sim.implantation)
+        extra.update({f"normal_{a}": normals[at, k] for k, a in enumerate("xyz")})
     return Primaries(
         event=rows.event,
         particle=rows.particle,
         energy=rows.energy,
-        position=pos[rows.event],
+        position=pos[at],
         direction=rows.direction,
-        extra={**{k: v[rows.event] for k, v in per_event.items()}, **rows.extra},
+        extra=extra,
     )

@@ -108,3 +108,9 @@ class Primaries:
             direction=np.concatenate([p.direction for p in parts]) if parts else np.zeros((0, 3)),
             extra={k: np.concatenate([p.extra[k] for p in parts]) for k in keys},
         )
+
+
+def atom_histories(primaries: Primaries) -> bool:
+    """True for per-atom histories (a chain with implantation): rows carry ``atom`` and
+    ``decay_index``, and the unit of a run is the atom, not the event."""
+    return "atom" in primaries.extra and "decay_index" in primaries.extra

@@ -70,6 +70,9 @@ def write_primaries_table(group: h5py.Group, p: Primaries, event_offset: int = 0
 
 _DIMENSION = {"energy": "energy", "xloc": "length", "yloc": "length", "zloc": "length"}
 _DIMENSION["depth"] = "length"
+#: Columns where NaN means something: ``depth`` of a decay that an alpha recoil moved out of
+#: its deposit's volume (recoil implantation, :mod:`score4.sim.implantation`).
+_MAY_BE_NAN = ("depth",)
 
 
 def _column(group: h5py.Group, name: str, label: str) -> np.ndarray:
@@ -88,7 +91,9 @@ def _column(group: h5py.Group, name: str, label: str) -> np.ndarray:
                 f"{', '.join(factors)}"
             )
         values = values * factors[unit] if factors[unit] != 1.0 else values
-    if values.dtype.kind in "fc":
+    if name in _MAY_BE_NAN:  # NaN is a stated value there; infinities are not
+        limits.check_finite(np.where(np.isnan(values), 0.0, values), f"{label}: column {name}")
+    elif values.dtype.kind in "fc":
         limits.check_finite(values, f"{label}: column {name}")
     return values
 
