@@ -83,7 +83,8 @@ def test_alphas_on_flat_face_conserve_energy(tmp_path: Path, make_config):
     assert rec["energy_max_excess_MeV"] == 0.0
 
 
-def test_alphas_on_pyramids_conserve_energy(tmp_path: Path, make_config):
+@pytest.mark.parametrize("events", [3000, pytest.param(10000, marks=pytest.mark.deep)])
+def test_alphas_on_pyramids_conserve_energy(tmp_path: Path, make_config, events: int):
     n, _ = _violations(
         make_config,
         tmp_path,
@@ -91,7 +92,7 @@ def test_alphas_on_pyramids_conserve_energy(tmp_path: Path, make_config):
         surfaces=PYRAMIDS,
         targets=[ROUGH_TARGET],
         source={"depth": {"profile": "exponential", "mean": "20 nm"}},
-        run={"events": 10000, "seed": 1},
+        run={"events": events, "seed": 1},
     )
     assert n == 0
 

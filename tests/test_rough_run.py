@@ -81,13 +81,13 @@ def geantino_vertex_run(
 @pytest.mark.parametrize(
     ("face", "surface", "solid", "layout"),
     [
-        ("+z", PYRAMIDS, "multiunion", "placements"),
-        ("-x", RANDOM, "tessellated", "placements"),
-        ("+y", PYRAMIDS, "tessellated", "placements"),
+        pytest.param(*("+z", PYRAMIDS, "multiunion", "placements"), marks=pytest.mark.deep),
+        pytest.param(*("-x", RANDOM, "tessellated", "placements"), marks=pytest.mark.deep),
+        pytest.param(*("+y", PYRAMIDS, "tessellated", "placements"), marks=pytest.mark.deep),
         ("-x", PYRAMIDS, "multiunion", "replicas"),
         ("+z", RANDOM, "tessellated", "nested"),
         ("+y", RANDOM, "blocks", "placements"),
-        ("-z", PYRAMIDS, "blocks", "replicas"),
+        pytest.param(*("-z", PYRAMIDS, "blocks", "replicas"), marks=pytest.mark.deep),
     ],
 )
 def test_geantino_path_through_placed_patches_matches_the_sampled_vertex(

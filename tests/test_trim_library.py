@@ -59,6 +59,7 @@ def test_continuation_from_the_start_energy_is_a_whole_history_turned():
     assert k >= 0
 
 
+@pytest.mark.deep  # two TRIM runs of 1000 Pb ions in CaWO4 (~15 s)
 def test_continuation_from_inside_is_unbiased():
     # An ion continued at 30 keV from 100 keV histories must range like a 30 keV history.
     # Before the within-1 % choice of histories, continuations in CaWO4 (where a Pb ion can give
