@@ -222,7 +222,11 @@ def _data(surface: dict, solid: str, source: dict | None = None, **rough) -> dic
     return config_dict(surfaces={"s": surface}, targets=[target], source=source)
 
 
-@pytest.mark.parametrize(("surface", "cells"), [(RANDOM, None), (SPREAD, 1)])
+# The random map's case (~25 s) under deep: test_block_body.py compares blocks of a random map
+# with one tessellated solid in make test.
+@pytest.mark.parametrize(
+    ("surface", "cells"), [pytest.param(RANDOM, None, marks=pytest.mark.deep), (SPREAD, 1)]
+)
 def test_geantino_paths_through_blocks_match_one_tessellated_solid(tmp_path, surface, cells):
     """The same ~2000 geantinos through the patches as one G4TessellatedSolid each and as blocks
     (the face holds 2 x 2 patches of the random map, 4 x 5 of the bumps): normal, oblique,
