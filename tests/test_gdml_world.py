@@ -19,6 +19,7 @@ from score4.cli.main import main
 from score4.config import parse_config
 from score4.errors import ConfigError
 from score4.geometry.gdml_files import _read_in_subprocess, load_geometry_model
+from score4.normalisation import layer_volume
 from score4.scene import build_scene
 
 HERE = Path(__file__).parent
@@ -196,6 +197,10 @@ def test_rough_faces_on_a_rotated_box_copy_and_a_disk(worlds, tmp_path):
     corners = [np.hypot(np.abs(x) + 0.25, np.abs(y) + 0.25) <= 15]
     assert disk.mask.sum() == corners[0].sum()
     assert disk.rough_share == pytest.approx(corners[0].sum() * 0.25 / (math.pi * 15**2))
+    # the layer's material: one patch body per rough cell (cells outside the disk hold none)
+    box_layer = scene.layer("crystal_1", "+z")  # same surface, every cell rough
+    one_cell = layer_volume(box_layer) / box_layer.cell_variants.size
+    assert layer_volume(disk) == pytest.approx(one_cell * corners[0].sum(), rel=1e-12)
     # the layer sits on the rotated face, outside the crystal
     layer = scene.layer("crystal_1", "+z")
     inst = scene.target("crystal_1").instance

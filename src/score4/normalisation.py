@@ -74,7 +74,8 @@ def layer_volume(layer: RoughLayer) -> float:
     The volume under a height-field top mesh is the sum over its triangles of the projected
     (xy) area times the mean height of the three corners, exact for the piecewise-linear mesh.
     """
-    counts = np.bincount(np.asarray(layer.cell_variants).ravel(), minlength=len(layer.variants))
+    variants = np.asarray(layer.cell_variants).ravel()
+    counts = np.bincount(variants[variants >= 0], minlength=len(layer.variants))  # -1: no patch
     px, py = layer.patch_size
     total = 0.0
     for count, surface in zip(counts, layer.variants, strict=True):

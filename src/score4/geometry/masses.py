@@ -4,24 +4,13 @@ One entry per scoring column in ``events/edep`` order, as contract 1 of the run 
 ``{"name", "material", "density_g_cm3", "volume_mm3", "mass_kg"}``; the rough layers' material
 counts with its target. The target's own volume is its solid's (Geant4's ``GetCubicVolume``,
 after an ``into`` cut) less its daughters'; a rough layer adds the closed patch bodies (slab +
-rough top, :func:`score4.surface.mesh.signed_volume`) times the cells that hold them.
+rough top, :func:`score4.normalisation.layer_volume`) times the cells that hold them.
 """
 
 from __future__ import annotations
 
-from ..scene import RoughLayer, Scene
-from ..surface.mesh import signed_volume
-
-
-def layer_volume(layer: RoughLayer) -> float:
-    """mm3 of material in a rough layer: each variant's patch body times its cells."""
-    variants = layer.cell_variants
-    total = 0.0
-    for k, surface in enumerate(layer.variants):
-        n = int((variants == k).sum())
-        if n:
-            total += n * abs(signed_volume(surface.body(layer.base_thickness)))
-    return total
+from ..normalisation import layer_volume
+from ..scene import Scene
 
 
 def volume_records(g4, scene: Scene, scoring: dict[str, list]) -> list[dict]:
