@@ -287,13 +287,13 @@ def run(
     executor = make_executor(
         cluster, workers, echo
     )  # before creating anything: a bad --cluster leaves no trace
-    parts.mkdir(exist_ok=True)
-    _remember_plan(parts, chunks)
-    for stale in parts.glob("*.partial"):  # temporary files of writers that were killed
-        stale.unlink()
     started = time.time()
-    spec = WorkerSpec(config, choice, seed, parts, fingerprint)
-    try:
+    try:  # from the first file on: a Ctrl-C here also leaves nothing half-made
+        parts.mkdir(exist_ok=True)
+        _remember_plan(parts, chunks)
+        for stale in parts.glob("*.partial"):  # temporary files of writers that were killed
+            stale.unlink()
+        spec = WorkerSpec(config, choice, seed, parts, fingerprint)
         with _sigterm_as_interrupt():
             info = _run_chunks(executor, spec, chunks, done, progress)
     except KeyboardInterrupt:
