@@ -96,6 +96,7 @@ def test_cli_cluster_dask_gives_the_local_result(tmp_path, reference, capsys):
     assert "Geant4 version" in log
 
 
+@pytest.mark.deep  # two more clusters; the CLI test above covers --cluster dask in make test
 def test_existing_scheduler_address_and_client(tmp_path, reference, cluster):
     config, local = reference
     said = []

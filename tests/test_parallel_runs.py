@@ -310,6 +310,7 @@ def test_repeated_crashes_stop_the_run(tmp_path: Path, make_config, monkeypatch)
 
 
 @pytest.mark.slow
+@pytest.mark.deep  # three runs of 3600 events; test_output's full-disk checks stay in make test
 def test_full_disk_stops_with_a_clear_error_and_keeps_finished_chunks(tmp_path: Path):
     # A real full disk: the run writes into a 640 kB tmpfs mounted in a private mount namespace.
     mnt = tmp_path / "small_disk"
