@@ -34,6 +34,23 @@ BASE_CONFIG = {
 }
 
 
+# Two silicon detectors facing each other across a 0.05 mm gap (templates, model tests).
+DETECTOR_PAIR = [
+    {
+        "name": "top",
+        "material": "G4_Si",
+        "size": ["2 mm", "2 mm", "0.5 mm"],
+        "position": ["0 mm", "0 mm", "0.3 mm"],
+    },
+    {
+        "name": "bottom",
+        "material": "G4_Si",
+        "size": ["2 mm", "2 mm", "0.5 mm"],
+        "position": ["0 mm", "0 mm", "-0.25 mm"],
+    },
+]
+
+
 def config_dict(**sections) -> dict:
     """BASE_CONFIG with top-level sections updated (shallow per section)."""
     data = copy.deepcopy(BASE_CONFIG)

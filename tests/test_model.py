@@ -16,23 +16,10 @@ import yaml
 from score4.cli.main import main
 from score4.model import build_model, fit_model, load_model, pseudo_data
 
+from conftest import DETECTOR_PAIR
+
 # Its module fixture runs once, on one pytest-xdist worker (not once per worker).
 pytestmark = pytest.mark.xdist_group("model")
-
-TARGETS = [
-    {
-        "name": "top",
-        "material": "G4_Si",
-        "size": ["2 mm", "2 mm", "0.5 mm"],
-        "position": ["0 mm", "0 mm", "0.3 mm"],
-    },
-    {
-        "name": "bottom",
-        "material": "G4_Si",
-        "size": ["2 mm", "2 mm", "0.5 mm"],
-        "position": ["0 mm", "0 mm", "-0.25 mm"],
-    },
-]
 
 
 def _template(folder, name: str, face: dict, seed: int) -> str:
@@ -41,7 +28,7 @@ def _template(folder, name: str, face: dict, seed: int) -> str:
         yaml.safe_dump(
             {
                 "physics": "lite",
-                "targets": TARGETS,
+                "targets": DETECTOR_PAIR,
                 "source": {
                     "decay": "Po210",
                     "surface": face,

@@ -19,27 +19,14 @@ from score4.output import read_results
 from score4.response import ResponseConfig
 from score4.templates import build_templates
 
-from conftest import config_dict
+from conftest import DETECTOR_PAIR, config_dict
 
 # Its module fixture runs once, on one pytest-xdist worker (not once per worker).
 pytestmark = pytest.mark.xdist_group("templates")
 
 PAIR = {
     "physics": "lite",
-    "targets": [
-        {
-            "name": "top",
-            "material": "G4_Si",
-            "size": ["2 mm", "2 mm", "0.5 mm"],
-            "position": ["0 mm", "0 mm", "0.3 mm"],
-        },
-        {
-            "name": "bottom",
-            "material": "G4_Si",
-            "size": ["2 mm", "2 mm", "0.5 mm"],
-            "position": ["0 mm", "0 mm", "-0.25 mm"],
-        },
-    ],
+    "targets": DETECTOR_PAIR,
     "source": {
         "decay": "Po210",
         "surface": {"volume": "bottom", "face": "+z"},
@@ -263,42 +250,16 @@ def test_bad_input_is_one_line_and_writes_nothing(alpha_run, tmp_path, capsys, a
 
 def test_response_problems_exit_2(alpha_run, tmp_path, capsys):
     out = tmp_path / "t.h5"
-    bad = tmp_path / "r.yaml"
-    bad.write_text("quenching: {alpha: 5}\n")
-    assert (
-        main(
-            [
-                "template",
-                str(alpha_run),
-                "--activity",
-                "1 mBq/cm2",
-                "--response",
-                str(bad),
-                "--out",
-                str(out),
-            ]
-        )
-        == 2
-    )
-    assert "quenching.alpha" in capsys.readouterr().err
-    needs_split = tmp_path / "q.yaml"
-    needs_split.write_text("quenching: {alpha: 0.2}\nresolution: {a: 5 keV}\n")
-    assert (
-        main(
-            [
-                "template",
-                str(alpha_run),
-                "--activity",
-                "1 mBq/cm2",
-                "--response",
-                str(needs_split),
-                "--out",
-                str(out),
-            ]
-        )
-        == 2
-    )
-    assert "split_by_particle" in capsys.readouterr().err
+    cases = [
+        ("quenching: {alpha: 5}\n", "quenching.alpha"),  # out of range
+        ("quenching: {alpha: 0.2}\nresolution: {a: 5 keV}\n", "split_by_particle"),
+    ]
+    for i, (text, named) in enumerate(cases):
+        response = tmp_path / f"r{i}.yaml"
+        response.write_text(text)
+        args = [str(alpha_run), "--activity", "1 mBq/cm2", "--response", str(response)]
+        assert main(["template", *args, "--out", str(out)]) == 2
+        assert named in capsys.readouterr().err
     assert not out.exists()
 
 
