@@ -4,9 +4,11 @@ legend-pygeom-hpges detector) and by Geant4's own writer (tests/_gdml_worlds.py)
 
 from __future__ import annotations
 
+import html
 import json
 import math
 import multiprocessing as mp
+import re
 import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -419,6 +421,12 @@ def test_po210_on_a_crystal_hits_its_neighbour_multiplicity_2(worlds, tmp_path, 
     assert masses["crystal_1"] == pytest.approx(np.prod(W.CRYSTAL) * 6.062e-6, rel=1e-9)
 
 
+def _base(name: str | None) -> str | None:
+    """A physical volume name of score4's additions without the export's numbering (the export
+    names repeated placements ``name``, ``name_1``, ...)."""
+    return re.sub(r"_\d+$", "", name) if name and "_rough" in name else name
+
+
 def test_exported_world_gives_the_same_paths_and_reads_in_pyg4ometry(worlds, tmp_path, monkeypatch):
     """The whole world with its rough layers, written to GDML: Geant4's reader gives the same
     ray (geantino) paths to 1e-9 mm, pyg4ometry reads it, and score4's vertices lie in the
@@ -462,7 +470,7 @@ def test_exported_world_gives_the_same_paths_and_reads_in_pyg4ometry(worlds, tmp
     ours = spawned("trace_built", str(cfg), rays)
     back, names = spawned("trace_gdml", str(out), rays, pos.tolist())
     for a, b in zip(ours, back, strict=True):
-        assert [v for v, _ in a] == [v for v, _ in b]
+        assert [_base(v) for v, _ in a] == [_base(v) for v, _ in b]
         np.testing.assert_allclose([p for _, p in a], [p for _, p in b], atol=1e-9, rtol=0)
     assert max(len(a) for a in ours) > 6  # the rays cross patch cells and spikes
     # pyg4ometry reads it (without meshing, which it cannot do for every rough solid)
@@ -569,3 +577,125 @@ def test_sources_on_gdml_volumes_by_their_shapes(worlds, tmp_path):
     flat_area = math.pi * 15**2 - cells * 0.25
     expect = rough_area / (rough_area + flat_area)
     assert on_patch == pytest.approx(expect, abs=4 * math.sqrt(expect * (1 - expect) / 4000))
+
+
+def _with_userinfo(tmp_path: Path, source: Path) -> Path:
+    """The pyg4ometry world of the fixtures with remage's detector registration (as
+    legend-pygeom-tools writes it) and auxiliary tags on volumes, its includes copied along."""
+    folder = tmp_path / "user"
+    folder.mkdir()
+    for f in source.parent.iterdir():
+        if f.suffix in (".xml", ".gdml"):
+            (folder / f.name).write_text(f.read_text())
+    text = (folder / source.name).read_text()
+    text = text.replace(
+        '<solidref ref="disk_s"/>',
+        '<solidref ref="disk_s"/>\n\t\t\t<auxiliary auxtype="rmg_color" auxvalue="0.1,0.2,0.3,1"/>',
+    )
+    text = text.replace(
+        "</structure>",
+        "</structure>\n\t<userinfo>\n"
+        '\t\t<auxiliary auxtype="RMG_detector" auxvalue="germanium">\n'
+        '\t\t\t<auxiliary auxtype="disk" auxvalue="7"/>\n'
+        '\t\t\t<auxiliary auxtype="bege" auxvalue="8"/>\n'
+        "\t\t</auxiliary>\n"
+        '\t\t<auxiliary auxtype="RMG_detector_meta" auxvalue="">\n'
+        f'\t\t\t<auxiliary auxtype="bege" auxvalue="{html.escape(json.dumps(W.BEGE))}"/>\n'
+        "\t\t</auxiliary>\n"
+        "\t</userinfo>",
+        1,
+    )
+    out = folder / source.name
+    out.write_text(text)
+    return out
+
+
+def test_export_keeps_the_users_file_and_registers_the_rough_layer(worlds, tmp_path, monkeypatch):
+    """The export is the user's file with lines added: every name, auxiliary tag and the
+    userinfo block unchanged (only the includes point back to the user's folder); the rough
+    layer's patch bodies join the disk's remage detector (UID 7, reuse allowed, the disk's
+    table); Geant4 reads it with the same paths; pyg4ometry reads names and userinfo."""
+    import difflib
+
+    gdml = _with_userinfo(tmp_path, worlds["pyg4ometry"])
+    cfg = _config(
+        tmp_path,
+        gdml,
+        [{"volume": "disk", "rough": [{"face": "-z", "surface": "coarse", "solid": "blocks"}]}],
+        source={
+            "surface": {"volume": "disk", "face": "-z"},
+            "particle": "alpha",
+            "energy": "5 MeV",
+        },
+    )
+    out = tmp_path / "export" / "world.gdml"
+    out.parent.mkdir()
+    assert main(["geometry", "export", str(cfg), "--gdml", str(out)]) == 0
+    before = gdml.read_text().splitlines()
+    after = out.read_text().splitlines()
+    changed = []
+    for op, i1, i2, _, _ in difflib.SequenceMatcher(
+        None, before, after, autojunk=False
+    ).get_opcodes():
+        if op in ("replace", "delete"):
+            changed += before[i1:i2]
+    # only the includes (relative to the new folder) and the empty <define/> (now holding ours)
+    assert changed == [
+        '<!ENTITY materials SYSTEM "materials.xml">',
+        "\t<define/>",
+        '\t\t\t\t<file name="module.gdml"/>',
+    ]
+    text = out.read_text()
+    assert '<!ENTITY materials SYSTEM "../user/materials.xml">' in text
+    # the disk's patch bodies in its detector group, after the disk
+    patches = re.findall(r'<auxiliary auxtype="([^"]+)" auxvalue=":7,true,disk"/>', text)
+    assert patches
+    assert all(p.startswith("disk_roughmz_v0_b") for p in patches)
+    physvols = re.findall(r'<physvol\b[^>]*name="([^"]+)"', text)
+    assert len(physvols) == len(set(physvols))  # unique names
+    assert set(patches) <= set(physvols)
+    # Geant4: the same paths as score4's own world
+    rng = np.random.default_rng(2)
+    scene = build_scene(parse_config(yaml.safe_load(cfg.read_text()), base_dir=tmp_path))
+    frame = scene.layer("disk", "-z").frame
+    rays = []
+    for _ in range(6):
+        start = frame.to_world([*rng.uniform(-8, 8, 2), 0.5])
+        rays.append(
+            (start.tolist(), (frame.rotation @ [*rng.uniform(-0.3, 0.3, 2), -1.0]).tolist())
+        )
+    ours = spawned("trace_built", str(cfg), rays)
+    back = spawned("trace_gdml", str(out), rays)
+    for a, b in zip(ours, back, strict=True):
+        assert [_base(v) for v, _ in a] == [_base(v) for v, _ in b]
+        np.testing.assert_allclose([p for _, p in a], [p for _, p in b], atol=1e-9, rtol=0)
+    assert max(len(a) for a in ours) > 6
+    import pyg4ometry
+
+    monkeypatch.setattr(pyg4ometry.config, "doMeshing", False)
+    monkeypatch.chdir(out.parent)  # pyg4ometry reads <file> includes from the working folder
+    reg = pyg4ometry.gdml.Reader(str(out)).getRegistry()
+    assert {"disk", "bege", "crystal_0", "crystal_1", "cavity"} <= set(reg.physicalVolumeDict)
+    det = next(a for a in reg.userInfo if a.auxtype == "RMG_detector")
+    entries = {a.auxtype: a.auxvalue for a in det.subaux}
+    assert entries["disk"] == "7"
+    assert entries["bege"] == "8"
+    assert {k for k, v in entries.items() if v == ":7,true,disk"} == set(patches)
+    disk = reg.logicalVolumeDict["DiskLV"]
+    assert [(a.auxtype, a.auxvalue) for a in disk.auxiliary] == [("rmg_color", "0.1,0.2,0.3,1")]
+    # LEGEND's readers: legend-pygeom-tools reads the registration, revertex finds the BEGe
+    from pygeomtools.detectors import get_all_sensvols
+    from revertex.utils import get_hpges
+
+    sensvols = get_all_sensvols(reg)
+    assert sensvols["disk"].uid == 7
+    assert not sensvols["disk"].allow_uid_reuse
+    for p in patches:
+        assert (sensvols[p].uid, sensvols[p].allow_uid_reuse, sensvols[p].ntuple_name) == (
+            7,
+            True,
+            "disk",
+        )
+    hpges, pos = get_hpges(reg, ["bege"])
+    assert list(hpges) == ["bege"]
+    np.testing.assert_allclose(pos["bege"], W.BEGE_POSITION)

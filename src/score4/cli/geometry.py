@@ -141,3 +141,8 @@ def export_gdml(config_file: Path, out: Path, overwrite: bool) -> None:
     click.echo(
         f"wrote {out}: {info['size'] / 1e6:.3g} MB, rough layers: {', '.join(info['layers']) or 'none'}"
     )
+    if info.get("registered"):
+        click.echo(
+            "rough layers registered with their remage detectors (RMG_detector, UID reused): "
+            + ", ".join(info["registered"])
+        )

@@ -1,6 +1,8 @@
 """``score4 geometry export``: the run's whole world, rough layers included, as one GDML file.
 
-The world is built exactly as the workers build it (:func:`score4.geometry.world.build_world`)
+A GDML world is the user's file with the rough layers added (:mod:`score4.geometry.gdml_splice`:
+every name, ``<auxiliary>`` and the ``<userinfo>`` block kept). A world of the configuration's
+boxes is built exactly as the workers build it (:func:`score4.geometry.world.build_world`)
 in a spawned process (the calling process never imports Geant4) and written with Geant4's own
 writer. Names keep Geant4's pointer suffixes (``crystal0x55d1...``): score4's patch volumes and
 the copies of unshared GDML volumes would otherwise share names, and GDML readers (Geant4's,
@@ -35,6 +37,14 @@ def _write(config: RunConfig, out: str) -> dict:
     tmp.unlink(missing_ok=True)  # Geant4's writer refuses to overwrite
     with tempfile.TemporaryDirectory(prefix="score4-export-") as folder:
         log = Path(folder) / "geant4.log"
+        if scene.model is not None:  # a GDML world: the user's file, layers added
+            from .gdml_splice import splice
+
+            tmp.unlink(missing_ok=True)
+            with redirect_native_output(log):
+                info = splice(g4, config, scene, tmp, Path(folder) / "additions.gdml")
+            os.replace(tmp, path)
+            return {"size": path.stat().st_size, **info}
         with redirect_native_output(log):
             built = build_world(g4, config, scene)
             parser = g4.G4GDMLParser()
