@@ -423,8 +423,11 @@ def test_po210_on_a_crystal_hits_its_neighbour_multiplicity_2(worlds, tmp_path, 
 
 def _base(name: str | None) -> str | None:
     """A physical volume name of score4's additions without the export's numbering (the export
-    names repeated placements ``name``, ``name_1``, ...)."""
-    return re.sub(r"_\d+$", "", name) if name and "_rough" in name else name
+    names repeated placements ``name``, ``name_1``, ...) and face (a target's layers of the same
+    make share their volumes, named after the first)."""
+    if not name or "_rough" not in name:
+        return name
+    return re.sub(r"_\d+$", "", re.sub(r"_rough[pm][xyz]", "_rough", name))
 
 
 def test_exported_world_gives_the_same_paths_and_reads_in_pyg4ometry(worlds, tmp_path, monkeypatch):
@@ -621,7 +624,15 @@ def test_export_keeps_the_users_file_and_registers_the_rough_layer(worlds, tmp_p
     cfg = _config(
         tmp_path,
         gdml,
-        [{"volume": "disk", "rough": [{"face": "-z", "surface": "coarse", "solid": "blocks"}]}],
+        [
+            {
+                "volume": "disk",
+                "rough": [
+                    {"face": "-z", "surface": "coarse", "solid": "blocks"},
+                    {"face": "+z", "surface": "coarse", "solid": "blocks"},
+                ],
+            }
+        ],
         source={
             "surface": {"volume": "disk", "face": "-z"},
             "particle": "alpha",
@@ -657,9 +668,9 @@ def test_export_keeps_the_users_file_and_registers_the_rough_layer(worlds, tmp_p
     # Geant4: the same paths as score4's own world
     rng = np.random.default_rng(2)
     scene = build_scene(parse_config(yaml.safe_load(cfg.read_text()), base_dir=tmp_path))
-    frame = scene.layer("disk", "-z").frame
     rays = []
-    for _ in range(6):
+    for k in range(12):
+        frame = scene.layer("disk", "-z" if k % 2 else "+z").frame
         start = frame.to_world([*rng.uniform(-8, 8, 2), 0.5])
         rays.append(
             (start.tolist(), (frame.rotation @ [*rng.uniform(-0.3, 0.3, 2), -1.0]).tolist())
@@ -670,6 +681,9 @@ def test_export_keeps_the_users_file_and_registers_the_rough_layer(worlds, tmp_p
         assert [_base(v) for v, _ in a] == [_base(v) for v, _ in b]
         np.testing.assert_allclose([p for _, p in a], [p for _, p in b], atol=1e-9, rtol=0)
     assert max(len(a) for a in ours) > 6
+    # the two faces are of the same make: one envelope volume placed twice
+    envelopes = re.findall(r'<physvol name="(disk_rough[pm]z)">\s*<volumeref ref="([^"]+)"', text)
+    assert envelopes == [("disk_roughmz", "disk_roughmz"), ("disk_roughpz", "disk_roughmz")]
     import pyg4ometry
 
     monkeypatch.setattr(pyg4ometry.config, "doMeshing", False)

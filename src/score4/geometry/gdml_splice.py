@@ -40,6 +40,8 @@ from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import ConfigError
 
 _DAUGHTER = re.compile(
@@ -184,13 +186,17 @@ def _line_start(text: str, at: int) -> int:
     return start if not text[start:at].strip() else at
 
 
-def _unique(base: str, taken: set[str]) -> str:
+def _unique(base: str, taken: set[str], serial: Counter[str]) -> str:
+    """``base``, or ``base_<n>`` with the next free ``n`` (``serial`` counts per base)."""
     if base not in taken:
         taken.add(base)
         return base
-    n = 1
-    while f"{base}_{n}" in taken:
+    n = serial[base]
+    while True:
         n += 1
+        if f"{base}_{n}" not in taken:
+            break
+    serial[base] = n
     taken.add(f"{base}_{n}")
     return f"{base}_{n}"
 
@@ -262,6 +268,7 @@ def read_fragment(
     assert world_ref is not None
     world = world_ref.get("ref")
     taken: dict[str, set[str]] = {}  # per kind of name: the user's names, then ours
+    serial: Counter[str] = Counter()
     names: dict[str, str] = {}
     keep_materials: list[ET.Element] = []
     materials = root.find("materials")
@@ -287,7 +294,7 @@ def read_fragment(
         if n not in names:
             m = _POINTER.match(n)
             space = taken.setdefault(kind, set(user.names))
-            names[n] = _unique(n if m is None else m.group(1) + m.group(2), space)
+            names[n] = _unique(n if m is None else m.group(1) + m.group(2), space, serial)
         return names[n]
 
     def renamed(el: ET.Element, kind: str) -> None:
@@ -434,6 +441,25 @@ def register_patches(text: str, detectors: dict[str, list[str]]) -> tuple[str, l
     return text, found
 
 
+def _layer_key(layer, mother_material, material) -> tuple:
+    """What the volumes of a rough layer are made of: two layers of one target with the same key
+    are the same volumes (placed twice)."""
+    return (
+        tuple(layer.names),
+        layer.base_thickness,
+        layer.thickness,
+        tuple(layer.patch_size),
+        tuple(np.round(layer.frame.size, 12)),
+        layer.cell_variants.shape,
+        layer.cell_variants.tobytes(),
+        layer.config.native_layout,
+        layer.config.block_cells,
+        tuple(layer.solid_kind(k) for k in range(len(layer.variants))),
+        str(mother_material.GetName()),
+        str(material.GetName()),
+    )
+
+
 def splice(g4, config, scene, out: Path, fragment_path: Path) -> dict:
     """Write the export of a GDML world (see the module docstring) to ``out``.
 
@@ -443,7 +469,7 @@ def splice(g4, config, scene, out: Path, fragment_path: Path) -> dict:
     from .gdml import read_gdml
     from .gdml_world import _mother_frame
     from .materials import find_material
-    from .tiling import place_native
+    from .tiling import _rotation, place_native
     from .world import cut_for_layers
 
     model = scene.model
@@ -499,17 +525,30 @@ def splice(g4, config, scene, out: Path, fragment_path: Path) -> dict:
                 keep += [solid, kc, lv, pv]
                 jobs.append(("cut", t, shift))
         _, m_lv = live(t.mother)
+        envelopes: dict[tuple, object] = {}  # the target's layers of the same make: one volume
         for layer in scene.layers_of(t.name):
-            patch_lvs, k = place_native(
-                g4,
-                layer,
-                w_lv,
-                m_lv.GetMaterial(),
-                material,
-                frame=_mother_frame(layer.frame, t.mother),
-            )
-            keep.append(k)
-            patches.setdefault(t.name, set()).update(str(lv.GetName()) for lv in patch_lvs)
+            frame = _mother_frame(layer.frame, t.mother)
+            key = _layer_key(layer, m_lv.GetMaterial(), material)
+            if key in envelopes:
+                rot = _rotation(g4, frame.rotation)
+                centre = frame.to_world(np.array([0.0, 0.0, layer.thickness / 2]))
+                pv = g4.G4PVPlacement(
+                    g4.G4Transform3D(rot, g4.G4ThreeVector(*centre)),
+                    envelopes[key],
+                    layer.name,
+                    w_lv,
+                    False,
+                    0,
+                    False,
+                )
+                keep += [rot, pv]
+            else:
+                patch_lvs, k = place_native(
+                    g4, layer, w_lv, m_lv.GetMaterial(), material, frame=frame
+                )
+                keep.append(k)
+                envelopes[key] = w_lv.GetDaughter(w_lv.GetNoDaughters() - 1).GetLogicalVolume()
+                patches.setdefault(t.name, set()).update(str(lv.GetName()) for lv in patch_lvs)
             jobs.append(("layer", t, layer))
     writer = g4.G4GDMLParser()
     writer.SetAddPointerToName(True)
