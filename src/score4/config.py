@@ -48,6 +48,20 @@ from .yamlfile import load_yaml
 FACES = ("+x", "-x", "+y", "-y", "+z", "-z")
 
 
+class Activeness(StrictModel):
+    """The charge collection of a detector near some of its faces (``targets[].activeness``).
+
+    A deposit at distance ``d`` from the nearest of ``faces`` counts with the weight 0 for
+    ``d < dlf * fccd`` (the dead layer), rising linearly to 1 at ``d = fccd`` (the full charge
+    collection depth; the transition layer), 1 beyond: LEGEND's piecewise-linear model.
+    ``faces``: face names or groups of the volume's shape, or ``all``.
+    """
+
+    fccd: PositiveLength
+    dlf: float = Field(ge=0.0, le=1.0)
+    faces: str | list[str] = "all"
+
+
 class BoxVolume(StrictModel):
     """A box-shaped volume: full edge lengths, centre position in the world.
 
@@ -61,6 +75,7 @@ class BoxVolume(StrictModel):
     position: Vector3 = (0.0, 0.0, 0.0)
     mother: str | None = None  # a volume of the GDML world (default: the world volume)
     rough: list[RoughFace] = []  # noqa: RUF012 pydantic copies field defaults per instance
+    activeness: list[Activeness] = []  # noqa: RUF012 pydantic copies field defaults per instance
 
     @property
     def label(self) -> str:
@@ -77,6 +92,7 @@ class GdmlVolume(StrictModel):
 
     volume: str = Field(min_length=1)
     rough: list[RoughFace] = []  # noqa: RUF012 pydantic copies field defaults per instance
+    activeness: list[Activeness] = []  # noqa: RUF012 pydantic copies field defaults per instance
 
     @property
     def label(self) -> str:
@@ -560,6 +576,9 @@ class OutputConfig(StrictModel):
     # electron (e-, e+, gamma) and ion (the rest: nuclear recoils); the detector response's
     # quenching needs it (score4 template, docs/templates.md). Costs ~15 us per volume per event.
     split_by_particle: bool = False
+    # every step with a deposit in a scored volume, per volume: /stp/<volume> as remage writes
+    # its germanium steps (docs/activeness.md); a Python stepping action, off unless asked
+    steps: bool = False
 
 
 class RunConfig(StrictModel):

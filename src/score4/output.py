@@ -54,7 +54,20 @@ QUANTITY_UNITS = {
     "edep_alpha": "MeV",
     "edep_electron": "MeV",
     "edep_ion": "MeV",
+    # targets[].activeness: each step's deposit weighted by the activeness at its position
+    "active_edep": "MeV",
 }
+#: /stp/<volume> columns as remage writes its germanium steps: (name, dtype, units)
+STEP_COLUMNS = (
+    ("evtid", np.int32, None),
+    ("particle", np.int32, None),
+    ("edep", np.float64, "keV"),
+    ("time", np.float64, "ns"),
+    ("xloc", np.float64, "m"),
+    ("yloc", np.float64, "m"),
+    ("zloc", np.float64, "m"),
+    ("dist_to_surf", np.float64, "m"),
+)
 
 
 @contextlib.contextmanager
@@ -75,6 +88,7 @@ def write_chunk(
     fingerprint: str = "",
     columns: dict[str, np.ndarray] | None = None,
     counts: dict | None = None,
+    steps: dict[str, np.ndarray] | None = None,
 ) -> None:
     """Write one finished chunk (events ``first_event ...``; atoms, for per-atom histories)
     atomically.
@@ -83,7 +97,8 @@ def write_chunk(
     ``fingerprint`` identifies the configuration and seed, so a resume never mixes runs;
     ``columns``: more per-event energies (MeV), ``/events/<name>`` (e.g.
     ``untracked_gamma_energy`` in lite physics); ``counts``: numbers the run record adds up
-    over the chunks (:func:`chunk_counts`).
+    over the chunks (:func:`chunk_counts`); ``steps``: the chunk's steps
+    (:meth:`score4.sim.simulation.Simulation.step_table`), written as ``/stp/<volume>``.
     """
     n = primaries.n_events
     atoms = atom_histories(primaries)
@@ -111,6 +126,36 @@ def write_chunk(
                 g.create_dataset(name, data=values[:, k]).attrs["units"] = QUANTITY_UNITS[quantity]
         _label_lh5(ev, volumes, list(scores))
         write_primaries_table(f.create_group("primaries"), primaries, offset)
+        if steps is not None:
+            tables = {}
+            for k, name in enumerate(volumes):
+                rows = steps["volume"] == k
+                tables[name] = {
+                    "evtid": offset + steps["event"][rows],
+                    "particle": steps["particle"][rows],
+                    "edep": steps["edep"][rows] * 1e3,  # MeV -> keV
+                    "time": steps["time"][rows],
+                    "xloc": steps["x"][rows] * 1e-3,  # mm -> m
+                    "yloc": steps["y"][rows] * 1e-3,
+                    "zloc": steps["z"][rows] * 1e-3,
+                    "dist_to_surf": steps["dist"][rows] * 1e-3,
+                }
+            write_step_tables(f, volumes, tables)
+
+
+def write_step_tables(f: h5py.File, volumes: list[str], tables: dict[str, dict]) -> None:
+    """``/stp/<volume>``: flat LH5 tables of steps as remage writes them (``datatype``
+    attributes ``struct{...}``, ``table{...}``, ``array<1>{real}``; units keV, ns, m)."""
+    stp = f.create_group("stp")
+    stp.attrs["datatype"] = "struct{" + ",".join(volumes) + "}"
+    for name in volumes:
+        g = stp.create_group(name)
+        g.attrs["datatype"] = "table{" + ",".join(c for c, _, _ in STEP_COLUMNS) + "}"
+        for column, dtype, unit in STEP_COLUMNS:
+            d = g.create_dataset(column, data=np.asarray(tables[name][column], dtype=dtype))
+            d.attrs["datatype"] = "array<1>{real}"
+            if unit is not None:
+                d.attrs["units"] = unit
 
 
 def chunk_counts(paths: list[Path]) -> dict:
@@ -183,6 +228,19 @@ def merge_chunks(chunk_paths: list[Path], out: Path, run_record: dict) -> None:
                     data = np.concatenate([p["events"][quantity][name][()] for p in parts])
                     g.create_dataset(name, data=data).attrs["units"] = QUANTITY_UNITS[quantity]
             _label_lh5(ev, volumes, quantities)
+            if all("stp" in p for p in parts):
+                tables = {}
+                for name in volumes:
+                    tables[name] = {
+                        c: np.concatenate(
+                            [
+                                p["stp"][name][c][()] + (o if renumber and c == "evtid" else 0)
+                                for p, o in zip(parts, offsets[:-1], strict=True)
+                            ]
+                        )
+                        for c, _, _ in STEP_COLUMNS
+                    }
+                write_step_tables(f, volumes, tables)
             prim = f.create_group("primaries")
             prim.attrs.update(dict(parts[0]["primaries"].attrs))
             for key in parts[0]["primaries"]:

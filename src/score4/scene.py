@@ -753,4 +753,8 @@ def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
             f"targets: the world reaches {far / 1e3:.4g} m from the origin (targets, rough layers "
             "and world.margin); score4's limit is 1 km (move the targets towards the origin)"
         )
+    if any(t.config.activeness for t in scene.targets):
+        from .activeness import volume_activeness
+
+        volume_activeness(scene)  # faces the shape lacks: refused before anything is written
     return scene

