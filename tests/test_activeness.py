@@ -194,3 +194,20 @@ def test_reference_is_what_astar_says():
     assert _range_cm(np.array([5.0]))[0] * GE_DENSITY == pytest.approx(0.00963962, rel=1e-12)
     assert float(_energy_after(np.array([0.0]))[0]) == pytest.approx(E0, rel=1e-12)
     assert math.isclose(float(weight(np.array([2.5e-3]), LAYER, 0.0)[0]), 0.5)
+
+
+def test_summary_and_template_use_the_active_energy(dead, tmp_path, capsys):
+    import json
+
+    res = read_results(dead)
+    assert main(["summary", str(dead), "--json"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s["energy"] == "active_edep"
+    mean = s["volumes"][0]["mean_edep_MeV"]
+    assert mean == pytest.approx(res.scores["active_edep"]["crystal"].mean(), rel=1e-12)
+    assert mean < res.edep["crystal"].mean() - 0.5  # the dead layer took ~0.9 MeV
+    assert main(["summary", str(dead)]) == 0
+    assert "active energy" in capsys.readouterr().out
+    out = tmp_path / "t.h5"
+    assert main(["template", str(dead), "--activity", "1 mBq/cm2", "--out", str(out)]) == 0
+    assert "active energy" in capsys.readouterr().out

@@ -277,6 +277,17 @@ class Results:
         """Energy deposit (MeV) per volume."""
         return self.scores["edep"]
 
+    @property
+    def active(self) -> bool:
+        """True when the run scored the active energy (``targets[].activeness``)."""
+        return "active_edep" in self.scores
+
+    @property
+    def detected(self) -> dict[str, np.ndarray]:
+        """The energy a detector sees (MeV) per volume: the active energy when the run has
+        activeness (volumes without activeness: their whole deposit), else the deposit."""
+        return self.scores["active_edep"] if self.active else self.scores["edep"]
+
 
 def _decode_attr(value):
     if isinstance(value, bytes):
@@ -319,10 +330,10 @@ def read_results(path: str | Path) -> Results:
 def multiplicity(results: Results, threshold: float) -> dict:
     """Events by how many volumes have a deposit above ``threshold`` (MeV), and per volume the
     events above it (alone and in all)."""
-    names = list(results.edep)
+    names = list(results.detected)
     if not names:
         return {"threshold_MeV": threshold, "counts": {}, "volumes": {}}
-    hits = np.column_stack([results.edep[n] > threshold for n in names])
+    hits = np.column_stack([results.detected[n] > threshold for n in names])
     m = hits.sum(axis=1)
     counts = np.bincount(m, minlength=len(names) + 1)
     return {
@@ -351,7 +362,7 @@ def summarize(
     emax = emax or stored_max or float(results.primary_energy.max(initial=0.0)) or 1.0
     edges = np.linspace(0.0, emax, bins + 1)
     volumes = []
-    for name, e in results.edep.items():
+    for name, e in results.detected.items():
         # Sums of step deposits can exceed the emitted energy by rounding (1e-15 MeV): such
         # values belong in the top bin; anything really above the range is counted as overflow.
         at_top = (e > emax) & (e <= emax * (1 + 1e-9))
@@ -379,6 +390,8 @@ def summarize(
         "n_events": results.n_events,
         "physics_mode": results.run.get("physics_mode"),
         "seed": results.run.get("seed"),
+        # the energy the histograms, means and rates are of
+        "energy": "active_edep" if results.active else "edep",
         "volumes": volumes,
     }
     if threshold is not None:

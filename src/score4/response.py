@@ -142,8 +142,14 @@ def needs_split(response: ResponseConfig) -> bool:
 def visible_energy(scores: dict[str, dict[str, np.ndarray]], volume: str, response: ResponseConfig):
     """Quenched energy (MeV) per event in ``volume`` (deposits if there is no quenching)."""
     q = response.quenching
-    if q.trivial:
-        return np.asarray(scores["edep"][volume], float)
+    if q.trivial:  # the active energy when the run has activeness
+        return np.asarray(scores.get("active_edep", scores["edep"])[volume], float)
+    if "active_edep" in scores:
+        raise ConfigError(
+            "response.quenching: quenching factors with activeness are not supported yet (the "
+            "active energy is not split by particle class); use quenching 1 or a run without "
+            "targets[].activeness"
+        )
     missing = [quantity for quantity in CLASSES.values() if quantity not in scores]
     if missing:
         raise ConfigError(

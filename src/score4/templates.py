@@ -360,6 +360,7 @@ class TemplateSet:
     stages: dict[str, Stage]
     response: dict | None
     roi_kev: tuple[float, float] | None
+    energy: str = "edep"  # active_edep: the run's active energy (targets[].activeness)
 
     @property
     def final(self) -> Stage:
@@ -387,6 +388,7 @@ class TemplateSet:
             "energy_unit": "keV",
             "roi_keV": list(self.roi_kev) if self.roi_kev else None,
             "response": self.response,
+            "energy": self.energy,
             "formula": "rate = counts * total_activity_Bq / simulated_decays * 86400 / mass_kg "
             "/ bin_width_keV",
         }
@@ -413,6 +415,7 @@ class TemplateSet:
             "energy_range_keV": [float(self.edges_kev[0]), float(self.edges_kev[-1])],
             "roi_keV": list(self.roi_kev) if self.roi_kev else None,
             "response": self.response,
+            "energy": self.energy,
             "detectors": detectors,
         }
 
@@ -453,7 +456,7 @@ def build_templates(
     per_event = act.total_bq / n * SECONDS_PER_DAY
     stages = {
         "deposit": build_stage(
-            "deposit", {d: results.edep[d] for d in names}, edges, per_event, masses, window
+            "deposit", {d: results.detected[d] for d in names}, edges, per_event, masses, window
         )
     }
     if response is not None:
@@ -472,6 +475,7 @@ def build_templates(
         stages=stages,
         response=None if response is None else response_to_dict(response),
         roi_kev=None if window is None else (window[0] * 1e3, window[1] * 1e3),
+        energy="active_edep" if results.active else "edep",
     )
 
 

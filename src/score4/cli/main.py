@@ -278,6 +278,11 @@ def summary(results_file: Path, as_json: bool, bins, threshold: str) -> None:
         + (f" ({run.get('physics_lacks')})" if run.get("physics_lacks") else "")
     )
     click.echo(f"  seed          {s['seed']}")
+    if results.active:
+        click.echo(
+            "  energy        active energy (targets[].activeness: deposits weighted by the "
+            "charge collection at their distance to the faces; /events/active_edep)"
+        )
     click.echo(
         f"  versions      score4 {run.get('score4_version')}, Geant4 {run.get('geant4_version')}, "
         f"geant4_pybind {run.get('geant4_pybind_version')}"

@@ -119,6 +119,10 @@ def template(
         click.echo(json.dumps(ts.to_json(), indent=2))
         return
     _print_template_summary(ts, written)
+    if results.active:
+        click.echo(
+            "  energy        active energy of the run (targets[].activeness, /events/active_edep)"
+        )
 
 
 def _print_template_summary(ts, written: list[str]) -> None:
@@ -215,6 +219,13 @@ def model(
         )
         return
     _print_model(summary, fit, written)
+    active = [
+        c.name for c in m.components if c.template.normalisation.get("energy") == "active_edep"
+    ]
+    if active:
+        click.echo(
+            f"  energy        active energy (targets[].activeness) in the templates of {', '.join(active)}"
+        )
 
 
 def _write_pseudo(m, seed: int, out: Path, model_file: Path) -> None:
