@@ -85,6 +85,8 @@ class IonFate:
     volume: str = ""  # logical volume where it stopped ("" when it left the world)
     material: str = ""  # material there ("" when it left the world)
     pdg: int = 0  # the ion's PDG code (steps output)
+    #: scoring index -> the last point (mm) of the ion's path in that volume (steps output)
+    points: dict[int, tuple[float, float, float]] = field(default_factory=dict)
 
     @property
     def stopped(self) -> bool:
@@ -407,7 +409,7 @@ class HeavyIonTransport:
             cx, cy, cz = cx + step * ux, cy + step * uy, cz + step * uz
             e_cur, s_cur = e_cur - lost, s_cur + step
             fate.crossings += 1
-            _book(fate, volume, dep, length_in)
+            _book(fate, volume, dep, length_in, (cx, cy, cz))
             dep = length_in = 0.0
             cur, u = np.array([cx, cy, cz]), np.array([ux, uy, uz])
             nav.SetGeometricallyLimitedStep()
@@ -420,14 +422,21 @@ class HeavyIonTransport:
             volume = there.index
             located = vec(cx, cy, cz)  # _locate put the navigator here
             safety = 0.0
-        _book(fate, volume, dep, length_in)
+        _book(fate, volume, dep, length_in, (cx, cy, cz))
         # a stopped history's last energy is 0 (TRIM's <= 1 eV rest is in its last piece)
         return None
 
 
-def _book(fate: IonFate, volume: int | None, deposit: float, length: float) -> None:
+def _book(
+    fate: IonFate,
+    volume: int | None,
+    deposit: float,
+    length: float,
+    where: tuple[float, float, float],
+) -> None:
     if volume is not None:
         if deposit:
             fate.deposits[volume] = fate.deposits.get(volume, 0.0) + deposit
+            fate.points[volume] = where
         if length:
             fate.lengths[volume] = fate.lengths.get(volume, 0.0) + length

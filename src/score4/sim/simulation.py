@@ -507,7 +507,7 @@ class Simulation:
         for volume, value in fate.deposits.items():
             self._scores["edep"][k, volume] += value
             if self.steps is not None and value > 0.0:
-                self.steps.add(k, volume, fate.pdg, value, fate.position)
+                self.steps.add(k, volume, fate.pdg, value, fate.points.get(volume, fate.position))
             if alpha and "edep_alpha" in self._scores:
                 self._scores["edep_alpha"][k, volume] += value
         if "track_length" in self._scores:
