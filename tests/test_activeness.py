@@ -211,3 +211,27 @@ def test_summary_and_template_use_the_active_energy(dead, tmp_path, capsys):
     out = tmp_path / "t.h5"
     assert main(["template", str(dead), "--activity", "1 mBq/cm2", "--out", str(out)]) == 0
     assert "active energy" in capsys.readouterr().out
+
+
+def test_replayed_heavy_ions_are_steps_along_their_paths(tmp_path_factory):
+    """A 103 keV Pb-206 recoil moved along TRIM trajectories: its deposits are steps along the
+    path (tens of nanometres under the face), adding up to the event's edep."""
+    data = _config([{"fccd": "20 nm", "dlf": 0.0, "faces": "all"}], events=20)
+    data["source"].update(particle="Pb206", energy="103 keV")
+    data["physics"] = {"mode": "lite", "trim_histories": 50}
+    out = _run(tmp_path_factory, "pb", data)
+    res = read_results(out)
+    with h5py.File(out, "r") as f:
+        g = f["stp/crystal"]
+        evtid, edep = g["evtid"][()], g["edep"][()] / 1e3
+        particle, dist = g["particle"][()], g["dist_to_surf"][()]
+    assert set(particle.tolist()) == {1000822060}
+    assert len(edep) > 5 * res.n_events  # many pieces per ion, not one step
+    per_event = np.bincount(evtid, weights=edep, minlength=res.n_events)
+    np.testing.assert_allclose(per_event, res.edep["crystal"], atol=1e-9, rtol=0)
+    assert res.edep["crystal"].min() > 0.09  # the recoil stays in germanium
+    assert dist.max() < 200e-9  # 103 keV Pb-206 in Ge: tens of nm
+    w = weight(dist * 1e3, 20e-6, 0.0)
+    again = np.bincount(evtid, weights=edep * w, minlength=res.n_events)
+    np.testing.assert_allclose(again, res.scores["active_edep"]["crystal"], atol=1e-12, rtol=0)
+    assert 0 < again.sum() < res.edep["crystal"].sum()  # partly in the 20 nm transition layer

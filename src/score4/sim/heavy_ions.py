@@ -87,6 +87,9 @@ class IonFate:
     pdg: int = 0  # the ion's PDG code (steps output)
     #: scoring index -> the last point (mm) of the ion's path in that volume (steps output)
     points: dict[int, tuple[float, float, float]] = field(default_factory=dict)
+    #: with ``HeavyIonTransport.record_pieces``: (scoring index, mid-point x, y, z mm, MeV) of
+    #: every piece of the path that deposited (TRIM's points, cut at boundaries)
+    pieces: list[tuple[int, float, float, float, float]] = field(default_factory=list)
 
     @property
     def stopped(self) -> bool:
@@ -167,6 +170,8 @@ class HeavyIonTransport:
         self._compositions: dict[str, Composition] = {}
         self._vacuum = VACUUM_DENSITY * g4.g / g4.cm3
         self._volumes: dict[int, _Volume] = {}
+        #: keep every piece of the path with its deposit (``IonFate.pieces``: steps output)
+        self.record_pieces = False
 
     # -- libraries -------------------------------------------------------------------------------
 
@@ -354,6 +359,7 @@ class HeavyIonTransport:
         """
         nav = self.nav
         vec = self.g4.G4ThreeVector
+        rec = fate.pieces if self.record_pieces else None
         here = self._volume(pv)
         material, volume = here.material_name, here.index
         xs, ys, zs = points.T.tolist()
@@ -378,6 +384,14 @@ class HeavyIonTransport:
                         break
                     j += 1
                 if j > i:
+                    if rec is not None and volume is not None:
+                        px, py, pz, pe = cx, cy, cz, e_cur
+                        for m in range(i + 1, j + 1):
+                            x2, y2, z2 = xs[m], ys[m], zs[m]
+                            rec.append(
+                                (volume, (px + x2) / 2, (py + y2) / 2, (pz + z2) / 2, pe - es[m])
+                            )
+                            px, py, pz, pe = x2, y2, z2, es[m]
                     dep += e_cur - es[j]
                     length_in += ws[j] - s_cur
                     i, cx, cy, cz, e_cur, s_cur = j, xs[j], ys[j], zs[j], es[j], ws[j]
@@ -396,6 +410,9 @@ class HeavyIonTransport:
             step = nav.ComputeStep(located, vec(ux, uy, uz), length, 0.0)
             if step >= length:
                 i += 1
+                if rec is not None and volume is not None:
+                    mid = ((cx + xs[i]) / 2, (cy + ys[i]) / 2, (cz + zs[i]) / 2)
+                    rec.append((volume, *mid, e_cur - es[i]))
                 dep += e_cur - es[i]
                 length_in += length
                 cx, cy, cz, e_cur, s_cur = xs[i], ys[i], zs[i], es[i], ws[i]
@@ -404,6 +421,9 @@ class HeavyIonTransport:
                 safety = nav.ComputeSafety(located, _FAR, True)
                 continue
             lost = (e_cur - ars[i + 1]) * step * inv
+            if rec is not None and volume is not None:
+                h = 0.5 * step
+                rec.append((volume, cx + h * ux, cy + h * uy, cz + h * uz, lost))
             dep += lost
             length_in += step
             cx, cy, cz = cx + step * ux, cy + step * uy, cz + step * uz

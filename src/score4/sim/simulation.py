@@ -192,6 +192,8 @@ class Simulation:
                 histories=self.config.physics.trim_histories,
                 library_seed=library_trim_seed(self.run_seed),
             )
+            # steps: the replayed ions' deposits piece by piece along their paths
+            self.heavy_ions.record_pieces = self.steps is not None
         self._endpoint_action: Any = None
         self._next_event = 0  # index in the batch of the event being tracked
         self._replaying = False  # this batch has heavy ions to replay
@@ -506,8 +508,12 @@ class Simulation:
             return
         for volume, value in fate.deposits.items():
             self._scores["edep"][k, volume] += value
-            if self.steps is not None and value > 0.0:
+            if self.steps is not None and value > 0.0 and not fate.pieces:
                 self.steps.add(k, volume, fate.pdg, value, fate.points.get(volume, fate.position))
+        if self.steps is not None:  # the path's pieces, each a step
+            for volume, x, y, z, value in fate.pieces:
+                if value > 0.0:
+                    self.steps.add(k, volume, fate.pdg, value, (x, y, z))
             if alpha and "edep_alpha" in self._scores:
                 self._scores["edep_alpha"][k, volume] += value
         if "track_length" in self._scores:

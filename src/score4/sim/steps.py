@@ -9,9 +9,8 @@ position is the mid-point of the step (remage's default ``StepPositionMode Avera
 is its post-step point), the time is the pre-step point's global time.
 
 Heavy ions moved along TRIM trajectories (:mod:`score4.sim.heavy_ions`) deposit outside Geant4:
-each replayed ion adds one step per volume it deposited in, at the last point of its path in
-that volume (where it stopped, or left the volume; the ranges are tens of nanometres);
-``particle`` is its PDG code.
+each piece of a replayed ion's path (between TRIM's points, cut at boundaries) that deposited is
+a step at its mid-point, ``particle`` the ion's PDG code, ``time`` 0 (the replay keeps no time).
 """
 
 from __future__ import annotations
