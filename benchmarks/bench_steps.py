@@ -88,7 +88,7 @@ def main() -> None:
     times: dict[str, list[float]] = {name: [] for name in cases}
     n_steps: dict[str, float] = {}
     try:
-        for name, pool in pools.items():  # build each application before timing
+        for pool in pools.values():  # build each application before timing
             pool.submit(_round, 0, 10).result()
         for r in range(args.rounds):
             for name, pool in pools.items():
