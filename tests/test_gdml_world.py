@@ -713,3 +713,48 @@ def test_export_keeps_the_users_file_and_registers_the_rough_layer(worlds, tmp_p
     hpges, pos = get_hpges(reg, ["bege"])
     assert list(hpges) == ["bege"]
     np.testing.assert_allclose(pos["bege"], W.BEGE_POSITION)
+
+
+def test_export_adds_a_configured_box_and_cuts_one_copy_of_a_shared_volume(worlds, tmp_path):
+    """A box of the configuration in a GDML mother (rough), and into: true on one copy of the
+    shared CrystalLV: the export gives Geant4 the same paths as score4's own world."""
+    cfg = _config(
+        tmp_path,
+        worlds["pyg4ometry"],
+        [
+            {
+                "name": "foil",
+                "material": "G4_Cu",
+                "size": ["4 mm", "4 mm", "1 mm"],
+                "mother": "cavity",
+                "position": ["0 mm", "-30 mm", "0 mm"],
+                "rough": [{"face": "+z", "surface": "coarse"}],
+            },
+            {"volume": "crystal_1", "rough": [{"face": "+z", "surface": "coarse", "into": True}]},
+        ],
+        source={
+            "surface": {"volume": "foil", "face": "+z"},
+            "particle": "alpha",
+            "energy": "5 MeV",
+        },
+    )
+    out = tmp_path / "world.gdml"
+    assert main(["geometry", "export", str(cfg), "--gdml", str(out)]) == 0
+    text = out.read_text()
+    assert '<volume name="CrystalLV_u1">' in text
+    assert re.search(r"<physvol name=\"foil\"[^>]*>\s*<volumeref ref=\"foil\" ?/>", text)
+    scene = build_scene(parse_config(yaml.safe_load(cfg.read_text()), base_dir=tmp_path))
+    rng = np.random.default_rng(1)
+    rays = []
+    for name in ("foil", "crystal_1"):
+        frame = scene.layer(name, "+z").frame
+        for _ in range(5):
+            start = frame.to_world([*rng.uniform(-1.5, 1.5, 2), 0.5])
+            tilt = frame.rotation @ [*rng.uniform(-0.3, 0.3, 2), -1.0]
+            rays.append((start.tolist(), tilt.tolist()))
+    ours = spawned("trace_built", str(cfg), rays)
+    back = spawned("trace_gdml", str(out), rays)
+    for a, b in zip(ours, back, strict=True):
+        assert [_base(v) for v, _ in a] == [_base(v) for v, _ in b]
+        np.testing.assert_allclose([p for _, p in a], [p for _, p in b], atol=1e-9, rtol=0)
+    assert max(len(a) for a in ours) > 5
