@@ -76,16 +76,18 @@ def _config(activeness: list, steps: bool = True, events: int = 200) -> dict:
     }
 
 
-def _run(tmp_path_factory, name: str, data: dict):
+def _run(tmp_path_factory, name: str, data: dict, jobs: int = 1):
     out = tmp_path_factory.mktemp("act") / f"{name}.h5"
-    run(parse_config(data), out, progress=False, echo=lambda m: None)
+    run(parse_config(data), out, jobs=jobs, progress=False, echo=lambda m: None)
     return out
 
 
 @pytest.fixture(scope="module")
 def dead(tmp_path_factory):
-    """A fully dead layer of 5 um on every face (dlf = 1)."""
-    return _run(tmp_path_factory, "dead", _config([{"fccd": "5 um", "dlf": 1.0, "faces": "all"}]))
+    """A fully dead layer of 5 um on every face (dlf = 1); two chunks (the steps merged)."""
+    data = _config([{"fccd": "5 um", "dlf": 1.0, "faces": "all"}])
+    data["run"]["chunk_events"] = 100
+    return _run(tmp_path_factory, "dead", data)
 
 
 @pytest.fixture(scope="module")
@@ -144,6 +146,8 @@ def test_steps_in_remages_layout_add_up_and_reproduce_active_edep(dead):
         assert g["evtid"].dtype == np.int32
         assert g["edep"].dtype == np.float64
     evtid = np.asarray(table["evtid"].nda)
+    assert evtid.min() == 0
+    assert evtid.max() == res.n_events - 1  # both chunks, numbered through the run
     edep_mev = np.asarray(table["edep"].nda) / 1e3
     per_event = np.bincount(evtid, weights=edep_mev, minlength=res.n_events)
     np.testing.assert_allclose(per_event, res.edep["crystal"], atol=1e-6, rtol=0)
