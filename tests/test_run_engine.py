@@ -149,7 +149,7 @@ def test_results_reader_rejects_other_files(tmp_path: Path):
 
 def test_resume_reuses_only_chunks_of_the_same_run(tmp_path: Path, make_config):
     from score4.output import write_chunk
-    from score4.sim.engine import config_fingerprint
+    from score4.run_plan import config_fingerprint
     from score4.sim.worker import chunk_path
     from score4.source.primaries import Primaries
 
@@ -203,7 +203,8 @@ def test_resume_keeps_the_chunks_of_the_interrupted_run_whatever_jobs_is_now(
     tmp_path: Path, make_config
 ):
     from score4.output import write_chunk
-    from score4.sim.engine import config_fingerprint, plan_chunks
+    from score4.run_plan import config_fingerprint
+    from score4.sim.engine import plan_chunks
     from score4.sim.worker import chunk_path
     from score4.source.primaries import Primaries
 

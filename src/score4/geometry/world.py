@@ -8,6 +8,7 @@ import numpy as np
 
 from ..config import BoxVolume, RunConfig
 from ..errors import ConfigError
+from ..run_plan import RunPlan
 from ..scene import Scene, TargetVolume
 from .materials import find_material
 from .portal import PortalGeometry, place_portal, subworld_bounds, trigger_extent
@@ -57,8 +58,9 @@ def portal_layout(config: RunConfig, scene: Scene) -> tuple[np.ndarray, dict[str
     return half, origins
 
 
-def check_materials(g4, config: RunConfig) -> None:
+def check_materials(g4, plan: RunPlan) -> None:
     """Resolve every material now, so a typo fails before any output is written."""
+    config = plan.config
     for name in config.materials:
         find_material(g4, name, f"materials.{name}", config.materials)
     if config.world.gdml is None:
@@ -109,7 +111,7 @@ def cut_for_layers(g4, scene: Scene, target: TargetVolume, solid, name: str):
     raise ConfigError(f"{target.name}: into: true needs a G4Box or G4Tubs, not a {target.solid}")
 
 
-def build_world(g4, config: RunConfig, scene: Scene) -> BuiltGeometry:
+def build_world(g4, plan: RunPlan) -> BuiltGeometry:
     """World box with the configured targets and their rough layers placed inside it.
 
     With a portal layer the targets go into a box ``Lab`` of the native world's size (world
@@ -118,10 +120,11 @@ def build_world(g4, config: RunConfig, scene: Scene) -> BuiltGeometry:
     action kills it, so nothing it does after the native world's end counts. A GDML world is
     built by :func:`score4.geometry.gdml_world.build_gdml_world`.
     """
+    config, scene = plan.config, plan.scene
     if scene.model is not None:
         from .gdml_world import build_gdml_world
 
-        return build_gdml_world(g4, config, scene)
+        return build_gdml_world(g4, plan)
     half, origins = portal_layout(config, scene)
     world_solid = g4.G4Box("World", *half)
     world_material = find_material(g4, config.world.material, "world.material", config.materials)
