@@ -10,6 +10,7 @@ from score4.config import load_config, parse_config
 from score4.errors import ConfigError, Score4Error
 from score4.output import read_results, summarize
 from score4.sim.engine import run
+from score4.sim.run_record import RunRecord
 
 from conftest import ROOT
 
@@ -69,6 +70,11 @@ def test_run_record_and_summary(tmp_path: Path, make_config):
     )  # stored with units: parse_config reads it back
     assert parse_config(rec["config"]).source.energy == pytest.approx(5.3)
     assert rec["wall_time_s"] > 0
+    # the typed record reads the file's /run attributes back, every one of them
+    record = RunRecord.from_dict(rec)
+    assert (record.seed, record.n_events, record.n_atoms, record.jobs) == (3, 50, None, 1)
+    assert {"volumes", "source", "normalisation_version"} <= set(record.normalisation)
+    assert record.to_dict() == rec
     s = summarize(res)
     (vol,) = s["volumes"]
     assert vol["name"] == "crystal"
