@@ -33,6 +33,7 @@ IGNORED_RECORD = frozenset(
         "chunk_events",
         "resumed_chunks",
         "gdml_files",  # absolute paths
+        "geant4_warnings",  # each worker process logs its start-up warnings once
     }
 )
 

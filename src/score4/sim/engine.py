@@ -1,4 +1,11 @@
-"""Run a configuration: plan chunks, run them on an executor, merge their files.
+"""Run a configuration: plan, execute or resume the chunks on an executor, merge their files.
+
+:func:`run` is three steps: **plan** (:func:`score4.run_plan.plan_run` resolves the
+configuration once; :func:`preflight` checks it by drawing the first events), **execute or
+resume** (:func:`prepare` cuts the chunks and finds those a resume reuses, :func:`execute` runs
+the others; the workers receive the :class:`~score4.run_plan.RunPlan` in a
+:class:`~score4.sim.worker.WorkerSpec`), **merge** (:func:`run_record` makes the
+:class:`~score4.sim.run_record.RunRecord`, :func:`merge` writes the results file).
 
 The calling process never imports Geant4. An *executor* runs the chunks elsewhere: local
 worker processes (:class:`LocalProcesses`, the default) or a Dask cluster
