@@ -6,6 +6,7 @@ import h5py
 import numpy as np
 import pytest
 
+from score4 import api
 from score4.config import load_config, parse_config
 from score4.errors import ConfigError, Score4Error
 from score4.output import read_results, summarize
@@ -50,14 +51,14 @@ def test_same_seed_same_output_and_jobs_do_not_matter(tmp_path: Path, make_confi
 
 
 def test_run_record_and_summary(tmp_path: Path, make_config):
-    res = read_results(
-        run(
-            make_config(run={"events": 50, "seed": 3}),
-            tmp_path / "r.h5",
-            progress=False,
-            echo=lambda m: None,
-        )
-    )
+    config = make_config(run={"events": 50, "seed": 3})
+    res = read_results(run(config, tmp_path / "r.h5", progress=False, echo=lambda m: None))
+    # a library user's plan of the same configuration draws the events the run tracked
+    plan = api.plan_run(config)
+    assert plan.source is not None
+    drawn = plan.source.events(plan.seed, 0, 50)
+    assert np.array_equal(drawn.position, res.primaries.position)
+    assert np.array_equal(drawn.direction, res.primaries.direction)
     rec = res.run
     assert rec["seed"] == 3
     assert rec["n_events"] == 50

@@ -14,6 +14,9 @@ generator and event loop):
   and returns the logical volumes to score; :meth:`World.source` makes a source on faces of a
   volume (below the rough surface, with a depth profile) or in its bulk, emitting a particle,
   a nuclide's decays (``Po210``) or a chain's (score4's own decay data, no Geant4 data).
+* **A run configuration**: :func:`plan_run` resolves one (a ``score4 run`` YAML file read by
+  :func:`score4.config.load_config`) into the :class:`RunPlan` that ``score4 run`` itself runs:
+  its source (``plan.source``) and seed (``plan.seed``) give your application the same events.
 * **Events**: :class:`PrimaryGenerator` fills your ``G4Event`` s from a source;
   :class:`HeavyIonReplay` moves heavy ions (the Pb-206 recoil of Po-210) along TRIM
   trajectories through your geometry, as a hook for your end-of-event action.
@@ -49,6 +52,7 @@ from .source.build import BulkSource, SampledSource, source_from_config
 from .source.primaries import Primaries
 from .surface.spec import Surface, build_surface
 from .surface.store import load_surface, save_surface
+from .run_plan import RunPlan, plan_run
 from .units import parse_quantity
 
 __all__ = [
@@ -58,6 +62,7 @@ __all__ = [
     "PrimaryGenerator",
     "ReplayedIon",
     "RoughenedVolume",
+    "RunPlan",
     "SampledSource",
     "Surface",
     "World",
@@ -66,6 +71,7 @@ __all__ = [
     "import_geant4",
     "load_surface",
     "physics_list",
+    "plan_run",
     "save_surface",
 ]
 

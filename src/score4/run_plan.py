@@ -52,6 +52,9 @@ def config_fingerprint(config: RunConfig, seed: int, gdml_key: str | None = None
 class RunPlan:
     """One run configuration, resolved: what every later step of a run reads.
 
+    Two plans are equal when their fingerprints, seeds and physics choices are. A plan pickles
+    as its recipe and is rebuilt from it on unpickling, in a worker (:mod:`score4.run_plan`).
+
     Attributes
     ----------
     config
@@ -73,9 +76,6 @@ class RunPlan:
         chunk file carries it, and a resume reuses only chunks with the same one.
     gdml_key
         The content key of a GDML world's files (None without one).
-
-    Two plans are equal when their fingerprints, seeds and physics choices are. A plan pickles
-    as its recipe and is rebuilt on unpickling (see the module docstring).
     """
 
     config: RunConfig
