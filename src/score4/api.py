@@ -46,13 +46,13 @@ from pydantic import ValidationError
 from .config import GdmlVolume, PhysicsConfig, RoughFace, SourceConfig
 from .errors import ConfigError
 from .geometry.volumes import GeometryModel, Instance
+from .run_plan import RunPlan, plan_run
 from .scene import RoughLayer, Scene, TargetVolume, _gdml_target, make_layer
 from .schema import describe_validation_error
 from .source.build import BulkSource, SampledSource, source_from_config
 from .source.primaries import Primaries
 from .surface.spec import Surface, build_surface
 from .surface.store import load_surface, save_surface
-from .run_plan import RunPlan, plan_run
 from .units import parse_quantity
 
 __all__ = [
