@@ -3,8 +3,10 @@ runs: a plan is made once, pickles small, and rebuilds to the same scene and eve
 
 from __future__ import annotations
 
+import copy
 import pickle
 import re
+import warnings
 from dataclasses import replace
 from pathlib import Path
 
@@ -13,7 +15,7 @@ import pytest
 
 from score4 import run_plan
 from score4.config import parse_config
-from score4.errors import ConfigError
+from score4.errors import ConfigError, Score4Warning
 from score4.run_plan import RunPlan, config_fingerprint, plan_run
 from score4.sim.run_record import RunRecord
 from score4.sim.runtime import resolve_physics
@@ -218,3 +220,16 @@ def test_every_run_record_field_is_documented_with_the_results_file():
         "decay_chain",
         "normalisation_version",
     }
+
+
+def test_a_worker_rebuilds_silently_what_warned_in_the_parent():
+    data = copy.deepcopy(ROUGH)
+    data["targets"][0]["rough"] = [
+        {"variants": [{"surface": "pyramids", "density": 1}, {"surface": "pyramids", "density": 1}]}
+    ]
+    with pytest.warns(Score4Warning, match="densities"):
+        plan = plan_run(parse_config(data))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        back, _ = _rebuilt(plan)
+    assert back == plan

@@ -21,10 +21,12 @@ from __future__ import annotations
 
 import hashlib
 import json
+import warnings
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from .config import OutputConfig, RunConfig, config_to_dict
+from .errors import Score4Warning
 
 if TYPE_CHECKING:
     from .geometry.volumes import GeometryModel
@@ -174,8 +176,10 @@ def _rebuild(
     from .scene import build_scene
     from .source.build import make_source
 
-    scene = build_scene(config, model)
-    sampler = make_source(config, scene) if source else None
+    with warnings.catch_warnings():  # the parent showed them when it planned
+        warnings.simplefilter("ignore", Score4Warning)
+        scene = build_scene(config, model)
+        sampler = make_source(config, scene) if source else None
     plan = RunPlan(config, seed, physics, scene, sampler, fingerprint, gdml_key)
     _REBUILT["plan"] = plan
     return plan
