@@ -30,19 +30,15 @@ class BuiltGeometry:
     portals: list[PortalGeometry] = field(default_factory=list)
 
 
-def world_half_size(config: RunConfig, scene: Scene) -> np.ndarray:
-    """Half-lengths of a world box centred on the origin that holds every target, rough layer and the margin."""
-    return scene.world_half
-
-
-def portal_layout(config: RunConfig, scene: Scene) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+def portal_layout(plan: RunPlan) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """World half-lengths and the first subworld centre of every portal layer (by layer name).
 
-    Particles move in the box of :func:`world_half_size` (``Lab``); the subworlds of all portal
-    layers follow each other along +x beyond it, one trigger width apart, and the world grows to
-    hold them with the margin.
+    Particles move in the box of ``plan.scene.world_half`` (``Lab``: every target, rough layer
+    and the margin); the subworlds of all portal layers follow each other along +x beyond it,
+    one trigger width apart, and the world grows to hold them with the margin.
     """
-    lab = world_half_size(config, scene)
+    scene = plan.scene
+    lab = scene.world_half
     origins: dict[str, np.ndarray] = {}
     hi = lab.copy()
     x = lab[0]
@@ -54,7 +50,7 @@ def portal_layout(config: RunConfig, scene: Scene) -> tuple[np.ndarray, dict[str
         lo_k, hi_k = subworld_bounds(layer, origins[layer.name])
         hi = np.maximum(hi, np.maximum(np.abs(lo_k), np.abs(hi_k)))
         x = hi_k[0]
-    half = np.maximum(lab, hi + config.world.margin) if origins else lab
+    half = np.maximum(lab, hi + plan.config.world.margin) if origins else lab
     return half, origins
 
 
@@ -125,7 +121,7 @@ def build_world(g4, plan: RunPlan) -> BuiltGeometry:
         from .gdml_world import build_gdml_world
 
         return build_gdml_world(g4, plan)
-    half, origins = portal_layout(config, scene)
+    half, origins = portal_layout(plan)
     world_solid = g4.G4Box("World", *half)
     world_material = find_material(g4, config.world.material, "world.material", config.materials)
     outer = find_material(g4, "G4_Galactic") if origins else world_material
@@ -134,7 +130,7 @@ def build_world(g4, plan: RunPlan) -> BuiltGeometry:
     built = BuiltGeometry(world=world_pv, keep=[world_solid, world_lv, world_pv])
     mother_lv, reachable = world_lv, None
     if origins:
-        lab = world_half_size(config, scene)
+        lab = scene.world_half
         lab_solid = g4.G4Box("Lab", *lab)
         mother_lv = g4.G4LogicalVolume(lab_solid, world_material, "Lab")
         lab_pv = g4.G4PVPlacement(
