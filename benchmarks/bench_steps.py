@@ -46,10 +46,12 @@ _SIM = None
 def _setup(steps: bool, activeness: bool) -> None:
     global _SIM
     from score4.config import parse_config
+    from score4.run_plan import plan_run
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
 
-    _SIM = Simulation(parse_config(config(steps, activeness)), resolve_physics("lite"))
+    plan = plan_run(parse_config(config(steps, activeness)), physics=resolve_physics("lite"))
+    _SIM = Simulation(plan)
 
 
 def _round(first: int, n: int) -> tuple[float, float]:
