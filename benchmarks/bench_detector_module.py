@@ -32,9 +32,9 @@ EXAMPLE = HERE.parent / "examples" / "detector_module"
 
 
 def measure(config_path: str, events: int) -> tuple[float, float]:
-    from score4.config import load_config
+    from score4.inputs.config import load_config
+    from score4.runner.seeds import event_geant4_seeds
     from score4.sim.runtime import resolve_physics
-    from score4.sim.seeds import event_geant4_seeds
     from score4.sim.simulation import Simulation
 
     config = load_config(config_path)

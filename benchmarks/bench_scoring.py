@@ -39,7 +39,7 @@ CONFIG = {
 
 
 def measure(method: str, n: int) -> dict:
-    from score4.config import parse_config
+    from score4.inputs.config import parse_config
     from score4.sim import scoring
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation

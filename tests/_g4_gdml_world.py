@@ -20,10 +20,10 @@ def locate(path: str, points: list) -> list:
 def built_world_locate(config_path: str, points: list) -> dict:
     """Build the run's world (GDML + score4's layers) and locate ``points``: for each, the
     physical volume name and which scoring column its logical volume counts for."""
-    from score4.config import load_config
     from score4.geometry.world import build_world
-    from score4.scene import build_scene
+    from score4.inputs.config import load_config
     from score4.sim.runtime import import_geant4, resolve_physics
+    from score4.world.scene import build_scene
 
     config = load_config(config_path)
     scene = build_scene(config)
@@ -95,10 +95,10 @@ def _trace(g4, nav, origin, direction, far: float = 1e7, max_steps: int = 5000) 
 
 def trace_built(config_path: str, rays: list) -> list:
     """Ray paths through the world score4 builds for a run."""
-    from score4.config import load_config
     from score4.geometry.world import build_world
-    from score4.scene import build_scene
+    from score4.inputs.config import load_config
     from score4.sim.runtime import import_geant4, resolve_physics
+    from score4.world.scene import build_scene
 
     config = load_config(config_path)
     g4 = import_geant4(resolve_physics("lite"))

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 
 def check(config_data: dict, plant_overlap: bool) -> tuple[bool, list[str], int, int]:
-    from score4.config import parse_config
     from score4.geometry.check import check_placements
     from score4.geometry.world import build_world
-    from score4.scene import build_scene
+    from score4.inputs.config import parse_config
     from score4.sim.runtime import import_geant4, redirect_native_output, resolve_physics
+    from score4.world.scene import build_scene
 
     config = parse_config(config_data)
     g4 = import_geant4(resolve_physics("lite"))

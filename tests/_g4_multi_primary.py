@@ -4,7 +4,7 @@ import numpy as np
 
 
 def po210_like_events(n: int) -> list[float]:
-    from score4.config import parse_config
+    from score4.inputs.config import parse_config
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
     from score4.source.primaries import Primaries

@@ -11,7 +11,7 @@ def run_primaries(config_data: dict, primaries: dict, g4_seed: int = 3) -> dict:
 
     Returns the per-event scores and, for portal tiling, the teleporter's counters.
     """
-    from score4.config import parse_config
+    from score4.inputs.config import parse_config
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
     from score4.source.primaries import Primaries

@@ -6,10 +6,10 @@ from __future__ import annotations
 def locate(config_data: dict, points: list) -> tuple[list[str], list[str]]:
     """Physical volume and material that Geant4's navigator finds at each point of the world
     score4 builds for the config."""
-    from score4.config import parse_config
     from score4.geometry.world import build_world
-    from score4.scene import build_scene
+    from score4.inputs.config import parse_config
     from score4.sim.runtime import import_geant4, redirect_native_output, resolve_physics
+    from score4.world.scene import build_scene
 
     config = parse_config(config_data)
     g4 = import_geant4(resolve_physics("lite"))

@@ -6,10 +6,10 @@ import h5py
 import numpy as np
 import pytest
 
-from score4.config import load_config, parse_config
 from score4.errors import ConfigError, Score4Error
-from score4.output import read_results, summarize
-from score4.sim.engine import run
+from score4.inputs.config import load_config, parse_config
+from score4.runner.engine import run
+from score4.runner.output import read_results, summarize
 
 from conftest import ROOT
 
@@ -148,8 +148,8 @@ def test_results_reader_rejects_other_files(tmp_path: Path):
 
 
 def test_resume_reuses_only_chunks_of_the_same_run(tmp_path: Path, make_config):
-    from score4.output import write_chunk
-    from score4.sim.engine import config_fingerprint
+    from score4.runner.engine import config_fingerprint
+    from score4.runner.output import write_chunk
     from score4.sim.worker import chunk_path
     from score4.source.primaries import Primaries
 
@@ -182,9 +182,10 @@ def test_resume_reuses_only_chunks_of_the_same_run(tmp_path: Path, make_config):
 
 
 def test_first_events_of_a_longer_run_are_the_same_events(tmp_path: Path, make_config):
-    # Prefix-stable sampling (source/blocks.py) and one Geant4 seed per event (sim/seeds.py):
-    # the 3000 events of a one-chunk run are the first 3000 of a 5000-event run cut into
-    # 700-event chunks (not on the 1000-event block boundaries) on 2 workers. Exact equality.
+    # Prefix-stable sampling (source/event_blocks.py) and one Geant4 seed per event
+    # (runner/seeds.py): the 3000 events of a one-chunk run are the first 3000 of a 5000-event run
+    # cut into 700-event chunks (not on the 1000-event block boundaries) on 2 workers. Exact
+    # equality.
     fast = {"particle": "alpha", "energy": "1 MeV"}  # ~4 um range: a few steps per event
     short = make_config(source=fast, run={"events": 3000, "seed": 5})
     long = make_config(source=fast, run={"events": 5000, "seed": 5, "chunk_events": 700})
@@ -202,8 +203,8 @@ def test_first_events_of_a_longer_run_are_the_same_events(tmp_path: Path, make_c
 def test_resume_keeps_the_chunks_of_the_interrupted_run_whatever_jobs_is_now(
     tmp_path: Path, make_config
 ):
-    from score4.output import write_chunk
-    from score4.sim.engine import config_fingerprint, plan_chunks
+    from score4.runner.engine import config_fingerprint, plan_chunks
+    from score4.runner.output import write_chunk
     from score4.sim.worker import chunk_path
     from score4.source.primaries import Primaries
 

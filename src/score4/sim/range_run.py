@@ -18,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..config import RunConfig, parse_config
+from score4.inputs.config import RunConfig, parse_config
+
 from ..errors import ConfigError
 from ..ions.composition import Composition
 from ..ions.srim_reference import RangeSample

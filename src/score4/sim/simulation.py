@@ -1,7 +1,7 @@
 """One Geant4 application in one process: geometry, physics, primaries, scoring.
 
 A :class:`Simulation` is built once per worker process and then runs chunks of events;
-every event reseeds Geant4 with its own seed (:mod:`score4.sim.seeds`), so an event's result
+every event reseeds Geant4 with its own seed (:mod:`score4.runner.seeds`), so an event's result
 does not depend on which worker ran it, what ran before it or how the run was chunked.
 """
 
@@ -15,10 +15,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..config import RunConfig
+from score4.inputs.config import RunConfig
+from score4.runner.seeds import library_trim_seed
+from score4.world.scene import build_scene
+
 from ..errors import ConfigError, RunCancelled, Score4Error
 from ..geometry.world import BuiltGeometry, build_world, check_materials
-from ..scene import build_scene
 from ..source.build import make_source
 from ..source.primaries import Primaries
 from .feed import EventFeed, replay_row
@@ -33,7 +35,6 @@ from .physics import (
 )
 from .runtime import PhysicsChoice, import_geant4, redirect_native_output
 from .scoring import SPLIT_QUANTITIES, VolumeScorer, ion_deposits
-from .seeds import library_trim_seed
 
 if TYPE_CHECKING:
     from .heavy_ions import HeavyIonTransport
@@ -76,7 +77,7 @@ class Simulation:
         seed: int | None = None,
     ) -> None:
         """``seed``: the run seed (default ``config.run.seed``); it fixes the TRIM seed of the
-        trajectory libraries (:func:`score4.sim.seeds.library_trim_seed`)."""
+        trajectory libraries (:func:`score4.runner.seeds.library_trim_seed`)."""
         self.config = config
         self.run_seed = config.run.seed if seed is None else int(seed)
         self.scene = build_scene(config)
@@ -259,7 +260,7 @@ class Simulation:
         """Track ``primaries``; return {quantity: (n_events, n_volumes) array} (MeV, mm).
 
         ``g4_seed`` is one seed for the whole batch, or one seed per event (``(n_events,)``
-        integers, see :func:`score4.sim.seeds.event_geant4_seeds`): each event then starts
+        integers, see :func:`score4.runner.seeds.event_geant4_seeds`): each event then starts
         from its own seed and its result does not depend on the events run before it.
         All events go into one ``BeamOn``: each ``BeamOn`` has a fixed cost that grows with the
         geometry (Geant4 walks the volume tree to update regions and cuts: 0.8 s with 4 million
