@@ -136,8 +136,8 @@ def measure(
     """Build one solid, place it in a world, track geantinos; runs in its own process."""
     from score4.geometry.solids import multiunion_solid, tessellated_solid
     from score4.sim.runtime import import_geant4, resolve_physics
-    from score4.surface.mesh import closed_body
     from score4.surface.spikes import SpikeGrid
+    from score4.surface.triangle_mesh import closed_body
 
     g4 = import_geant4(resolve_physics("lite"))
     rss_import = _rss_mb()

@@ -45,8 +45,8 @@ _SIM = None
 
 def _setup(steps: bool, activeness: bool) -> None:
     global _SIM
-    from score4.config import parse_config
-    from score4.run_plan import plan_run
+    from score4.inputs.config import parse_config
+    from score4.runner.run_plan import plan_run
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
 
@@ -55,7 +55,7 @@ def _setup(steps: bool, activeness: bool) -> None:
 
 
 def _round(first: int, n: int) -> tuple[float, float]:
-    from score4.sim.seeds import event_geant4_seeds
+    from score4.runner.seeds import event_geant4_seeds
 
     sim = _SIM
     assert sim is not None

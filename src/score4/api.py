@@ -15,8 +15,8 @@ generator and event loop):
   volume (below the rough surface, with a depth profile) or in its bulk, emitting a particle,
   a nuclide's decays (``Po210``) or a chain's (score4's own decay data, no Geant4 data).
 * **A run configuration**: :func:`plan_run` resolves one (a ``score4 run`` YAML file read by
-  :func:`score4.config.load_config`) into the :class:`RunPlan` that ``score4 run`` itself runs:
-  its source (``plan.source``) and seed (``plan.seed``) give your application the same events.
+  :func:`score4.inputs.config.load_config`) into the :class:`RunPlan` that ``score4 run`` itself
+  runs: its source (``plan.source``) and seed (``plan.seed``) give your application the same events.
 * **Events**: :class:`PrimaryGenerator` fills your ``G4Event`` s from a source;
   :class:`HeavyIonReplay` moves heavy ions (the Pb-206 recoil of Po-210) along TRIM
   trajectories through your geometry, as a hook for your end-of-event action.
@@ -43,17 +43,18 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
-from .config import GdmlVolume, PhysicsConfig, RoughFace, SourceConfig
+from score4.inputs.config import GdmlVolume, PhysicsConfig, RoughFace, SourceConfig
+from score4.inputs.schema import describe_validation_error
+from score4.inputs.units import parse_quantity
+from score4.runner.run_plan import RunPlan, plan_run
+from score4.world.gdml_model import GeometryModel, Instance
+from score4.world.scene import RoughLayer, Scene, TargetVolume, _gdml_target, make_layer
+
 from .errors import ConfigError
-from .geometry.volumes import GeometryModel, Instance
-from .run_plan import RunPlan, plan_run
-from .scene import RoughLayer, Scene, TargetVolume, _gdml_target, make_layer
-from .schema import describe_validation_error
 from .source.build import BulkSource, SampledSource, source_from_config
 from .source.primaries import Primaries
 from .surface.spec import Surface, build_surface
 from .surface.store import load_surface, save_surface
-from .units import parse_quantity
 
 __all__ = [
     "BulkSource",
@@ -172,7 +173,7 @@ class RoughenedVolume:
     Attributes
     ----------
     layers
-        The rough layers, one per copy of the volume (:class:`score4.scene.RoughLayer`: face
+        The rough layers, one per copy of the volume (:class:`score4.world.scene.RoughLayer`: face
         frame, patch map, true area through ``layer.sampler().area``).
     volumes
         Per scoring column (the volume's name, ``name_k`` for copies): the logical volumes whose
@@ -211,7 +212,7 @@ class World:
     Attributes
     ----------
     scene
-        score4's description of the volumes it uses (:class:`score4.scene.Scene`).
+        score4's description of the volumes it uses (:class:`score4.world.scene.Scene`).
     scoring
         Scoring column -> the logical volumes whose deposits count for it (the volume's own,
         then the patches of its rough layers): for your scorer and for
@@ -378,7 +379,7 @@ class World:
                 raise ConfigError(f"{where}: face {face} of {t.name!r} is rough already")
             j = len(self.scene.layers_of(t.name))
             layers.append(make_layer(self.scene.surfaces, t, j, rough, where=where))
-        from .clearance import check_clearance
+        from score4.world.clearance import check_clearance
 
         self.scene.layers += layers
         try:
@@ -577,8 +578,9 @@ class HeavyIonReplay:
         """The :class:`score4.sim.heavy_ions.HeavyIonTransport` (made at first use: Geant4
         must have closed the geometry, i.e. a run must have started)."""
         if self._transport is None:
+            from score4.runner.seeds import library_trim_seed
+
             from .sim.heavy_ions import HeavyIonTransport
-            from .sim.seeds import library_trim_seed
 
             self._transport = HeavyIonTransport(
                 self.g4,
@@ -745,7 +747,7 @@ class PrimaryGenerator:
     def generate(self, event) -> Primaries:
         """Put the next event's primaries into the G4Event ``event`` (heavy ions the replay
         takes are held back); returns all of the event's primaries (rows of event 0)."""
-        from .source.blocks import BLOCK_EVENTS
+        from score4.source.event_blocks import BLOCK_EVENTS
 
         k = self.next_event - self._first
         if self._feed is None or k >= self._feed.n_events:
@@ -760,8 +762,9 @@ class PrimaryGenerator:
         return self._feed.primaries.select_events(k, k + 1)
 
     def _load(self, first: int, n: int) -> None:
+        from score4.runner.seeds import event_geant4_seeds
+
         from .sim.feed import EventFeed
-        from .sim.seeds import event_geant4_seeds
 
         primaries = self.source.events(self.seed, first, n)
         definitions = [self._definition(str(name)) for name in primaries.particle]

@@ -37,7 +37,7 @@ from functools import cache
 
 import numpy as np
 
-from .data import decay_data, nuclide_record
+from .nuclear_data import decay_data, nuclide_record
 from .spectra import ELECTRON_MASS_KEV, BetaSpectrum, shape_factor
 
 __all__ = ["KINDS", "DecayScheme", "Emissions", "Line", "decay_scheme", "two_body_kinetic"]

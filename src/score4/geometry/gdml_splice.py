@@ -468,7 +468,7 @@ def splice(g4, config, scene, out: Path, fragment_path: Path) -> dict:
     """
     from .gdml import read_gdml
     from .gdml_world import _mother_frame
-    from .materials import find_material
+    from ..inputs.materials import find_material
     from .tiling import _rotation, place_native
     from .world import cut_for_layers
 

@@ -49,7 +49,7 @@ class PhysicsChoice:
 
 def resolve_physics(requested: str, needs_decay: bool = False) -> PhysicsChoice:
     """Pick ``full`` or ``lite`` physics for ``requested`` in {"auto", "full", "lite"}."""
-    from .. import datasets
+    from score4.runner import datasets
 
     statuses = datasets.status()
     full_missing = tuple(datasets.missing_for("full", statuses))
@@ -88,7 +88,7 @@ def lite_stub_dir() -> Path:
 
 def prepare_environment(choice: PhysicsChoice) -> None:
     """Set the data-set variables Geant4 reads, before geant4_pybind is imported."""
-    from .. import datasets
+    from score4.runner import datasets
 
     if "geant4_pybind" in sys.modules:
         return

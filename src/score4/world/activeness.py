@@ -1,0 +1,162 @@
+"""Detector activeness: how much of a deposit counts, by its distance to the detector's faces.
+
+LEGEND's piecewise-linear model (``targets[].activeness``): at distance ``d`` from the nearest
+listed face a deposit counts with
+
+    0                          for d < dlf * fccd     (dead layer)
+    (d - dlf fccd) / ((1 - dlf) fccd)   up to d = fccd  (transition layer)
+    1                          beyond                 (full charge collection)
+
+Distances are exact, to the faces of the target's shape (:mod:`score4.shapes`): plane
+triangles, surfaces of revolution (cylinders, cones, annuli, the contour of a polycone).
+Several entries (each face its own fccd and dlf) combine by the smallest weight, which is the
+nearest face's when the layers do not overlap. A step outside the flat shape (in a rough
+layer's patch) is at distance 0: rough faces are not yet measured by their own surface.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ConfigError
+from ..shapes.base import PlaneTriangles, Revolved
+from ..shapes.placed import PlacedShape
+
+
+def weight(d: np.ndarray, fccd: float, dlf: float) -> np.ndarray:
+    """The piecewise-linear activeness at distances ``d`` (mm)."""
+    d = np.asarray(d, float)
+    dead = dlf * fccd
+    if fccd <= dead:  # dlf = 1: a step function
+        return (d >= fccd).astype(float)
+    return np.clip((d - dead) / (fccd - dead), 0.0, 1.0)
+
+
+def _segment_distance_2d(r, z, r1, z1, r2, z2) -> np.ndarray:
+    dr, dz = r2 - r1, z2 - z1
+    length2 = dr * dr + dz * dz
+    t = (
+        np.zeros_like(r)
+        if length2 == 0
+        else np.clip(((r - r1) * dr + (z - z1) * dz) / length2, 0, 1)
+    )
+    return np.hypot(r - (r1 + t * dr), z - (z1 + t * dz))
+
+
+def _segment_distance_3d(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    d = b - a
+    length2 = float(d @ d)
+    t = np.zeros(len(p)) if length2 == 0 else np.clip((p - a) @ d / length2, 0, 1)
+    return np.linalg.norm(p - (a + t[:, None] * d), axis=1)
+
+
+def _revolved_distance(patch: Revolved, p: np.ndarray) -> np.ndarray:
+    """Exact distance of points to a segment swept about z over [phi0, phi0 + dphi]."""
+    r = np.hypot(p[:, 0], p[:, 1])
+    d = _segment_distance_2d(r, p[:, 2], patch.r1, patch.z1, patch.r2, patch.z2)
+    if patch.dphi >= 2 * np.pi - 1e-12:
+        return d
+    phi = np.mod(np.arctan2(p[:, 1], p[:, 0]) - patch.phi0, 2 * np.pi)
+    inside = phi <= patch.dphi
+    edges = []
+    for angle in (patch.phi0, patch.phi0 + patch.dphi):
+        c, s = np.cos(angle), np.sin(angle)
+        a = np.array([patch.r1 * c, patch.r1 * s, patch.z1])
+        b = np.array([patch.r2 * c, patch.r2 * s, patch.z2])
+        edges.append(_segment_distance_3d(p, a, b))
+    return np.where(inside, d, np.minimum(*edges))
+
+
+def _triangles_distance(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
+    from ..shapes.mesh_shape import _tri_distance
+
+    out = np.full(len(p), np.inf)
+    for start in range(0, len(p), 4096):
+        block = p[start : start + 4096]
+        out[start : start + 4096] = _tri_distance(block, tri).min(axis=1)
+    return out
+
+
+def face_distance(shape, faces: tuple[str, ...], points: np.ndarray) -> np.ndarray:
+    """Exact distance (mm) of world ``points`` to the union of ``faces`` of ``shape``."""
+    p = np.asarray(points, float).reshape(-1, 3)
+    while isinstance(shape, PlacedShape):
+        p = shape.transform.inverse_apply(p)
+        shape = shape.shape
+    index = {shape.faces.index(f) for f in faces}
+    best = np.full(len(p), np.inf)
+    for patch in shape.patches:
+        if patch.face not in index:
+            continue
+        if isinstance(patch, PlaneTriangles):
+            d = _triangles_distance(np.asarray(patch.triangles, float), p)
+        elif isinstance(patch, Revolved):
+            d = _revolved_distance(patch, p)
+        else:
+            raise ConfigError(
+                f"activeness: distances to a {type(patch).__name__} face of a {shape.kind} are "
+                "not supported (plane faces and surfaces of revolution are)"
+            )
+        best = np.minimum(best, d)
+    return best
+
+
+@dataclass
+class VolumeActiveness:
+    """The activeness entries of one scored volume: (faces, fccd mm, dlf) each; ``shape`` in
+    the volume's frame, ``target`` maps world points there."""
+
+    shape: object
+    entries: list[tuple[tuple[str, ...], float, float]]
+    target: object
+
+    def weights(self, points: np.ndarray) -> np.ndarray:
+        """The activeness at world ``points``."""
+        p = self.target.to_local(np.asarray(points, float).reshape(-1, 3))  # type: ignore[attr-defined]
+        w = np.ones(len(p))
+        if not len(p):
+            return w
+        outside = self.shape.signed_distance(p) > 1e-9  # type: ignore[attr-defined]
+        for faces, fccd, dlf in self.entries:
+            d = face_distance(self.shape, faces, p)
+            d[outside] = 0.0
+            w = np.minimum(w, weight(d, fccd, dlf))
+        return w
+
+
+def volume_activeness(scene) -> list[VolumeActiveness | None]:
+    """Per scoring column of ``scene``, its activeness (None: every deposit counts).
+
+    Bad input (faces the shape lacks, a shape score4 cannot measure) is refused here, with the
+    parameter's path."""
+    out: list[VolumeActiveness | None] = []
+    for t in scene.targets:
+        entries = t.config.activeness
+        if not entries:
+            out.append(None)
+            continue
+        shape = t.shape
+        if shape is None and t.solid == "G4Box":
+            from ..shapes import G4Box
+
+            shape = G4Box(*t.half)
+        if shape is None:
+            raise ConfigError(
+                f"targets.{t.entry}.activeness: {t.name}'s solid ({t.solid}) has no shape score4 "
+                "can measure distances in"
+            )
+        resolved = []
+        for j, a in enumerate(entries):
+            where = f"targets.{t.entry}.activeness.{j}.faces"
+            try:
+                faces = shape.resolve_faces(a.faces)
+            except ConfigError as err:
+                raise ConfigError(f"{where}: {err}".replace(": face: ", ": ", 1)) from None
+            resolved.append((faces, float(a.fccd), float(a.dlf)))
+        va = VolumeActiveness(shape, resolved, t)
+        for faces, _, _ in resolved:  # every face kind measurable: refuse now, not mid-run
+            face_distance(shape, faces, np.zeros((1, 3)))
+        out.append(va)
+    return out
