@@ -466,9 +466,9 @@ def splice(g4, config, scene, out: Path, fragment_path: Path) -> dict:
     Runs where Geant4 is imported (the additions are written by Geant4's writer to
     ``fragment_path`` first). Returns ``{"layers", "registered", "clones"}``.
     """
+    from ..inputs.materials import find_material
     from .gdml import read_gdml
     from .gdml_world import _mother_frame
-    from ..inputs.materials import find_material
     from .tiling import _rotation, place_native
     from .world import cut_for_layers
 
