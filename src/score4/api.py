@@ -47,7 +47,7 @@ from .config import GdmlVolume, PhysicsConfig, RoughFace, SourceConfig
 from .errors import ConfigError
 from .geometry.volumes import GeometryModel, Instance
 from .run_plan import RunPlan, plan_run
-from .scene import RoughLayer, Scene, TargetVolume, _gdml_target, make_layer
+from .scene import RoughLayer, Scene, TargetVolume, gdml_target, make_layer
 from .schema import describe_validation_error
 from .source.build import BulkSource, SampledSource, source_from_config
 from .source.primaries import Primaries
@@ -289,7 +289,7 @@ class World:
             else:  # an object: its name for several copies, else the name of its one placement
                 label = str(volume.GetName()) if several else self.model.label(inst)
             entry = len({t.entry for t in self.scene.targets})
-            target = _gdml_target(
+            target = gdml_target(
                 self.model, GdmlVolume(volume=label), entry, inst, k if several else None, parameter
             )
             if any(t.column == target.column for t in self.scene.targets):

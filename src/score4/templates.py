@@ -51,7 +51,7 @@ from .export import histogram_edges
 from .files import atomic_output, check_output_file, open_h5
 from .output import Results
 from .response import ResponseConfig, apply_response, needs_split, response_to_dict
-from .units import ACTIVITY_KINDS, format_readable, parse_activity, parse_quantity
+from .units import format_readable, parse_activity, parse_quantity
 
 FORMAT = "score4-templates"
 FORMAT_VERSION = 1
@@ -221,11 +221,6 @@ class Template:
     @property
     def unit(self) -> str:
         return RATE_UNIT if len(self.edges) == 1 else "counts/(keV^2 kg day)"
-
-    def to_hist(self):
-        """The template as a :class:`hist.Hist` (variable energy axes in keV, ``Weight`` storage:
-        value = rate, variance = error squared)."""
-        return template_hist(self.edges, self.rate, self.error, self.unit)
 
 
 def _fold_top(values: np.ndarray, top: float) -> np.ndarray:
@@ -770,8 +765,3 @@ def read_hist(path: str | Path, name: str):
         return template_hist(
             edges, g["weights"][()], f[f"{name}_error"]["weights"][()], str(g.attrs["units"])
         )
-
-
-def activity_kind_dimension(kind: str) -> str:
-    """The units dimension of an activity kind (area: ``surface activity``, ...)."""
-    return ACTIVITY_KINDS[kind]
