@@ -43,11 +43,13 @@ test: $(STAMP)
 test-deep: $(STAMP)
 	$(BIN)/python -m pytest -n 2 --dist loadgroup -m deep $(PYTEST_ARGS)
 
-# Lint and types: the same checks as the pre-commit hooks' ruff and mypy.
+# Lint and types: the same checks as the pre-commit hooks' ruff and mypy, and the import
+# contracts of pyproject.toml ([tool.importlinter]: the process boundary, no cycles).
 lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy
+	$(BIN)/lint-imports
 
 # Re-run the commands behind every transcript and figure in README.md and docs/*.md
 # (docs/checks.yaml); fails on any difference and on a transcript or figure no check covers

@@ -19,7 +19,7 @@ nox.options.default_venv_backend = "none"  # the Makefile owns .venv
 
 @nox.session(default=True)
 def lint(session: nox.Session) -> None:
-    """ruff check, ruff format --check and mypy (``make lint``)."""
+    """ruff check, ruff format --check, mypy and lint-imports (``make lint``)."""
     session.run("make", "lint", external=True)
 
 
