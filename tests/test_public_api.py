@@ -104,6 +104,7 @@ def test_a_run_through_the_public_face_leaves_geant4_to_the_worker(tmp_path) -> 
     """load_config -> plan_run -> run -> read_results, in a fresh parent process that never
     imports geant4_pybind (the chunk runs in a spawned worker)."""
     import yaml
+
     from conftest import BASE_CONFIG
 
     config = tmp_path / "run.yaml"
