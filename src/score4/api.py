@@ -145,9 +145,19 @@ def physics_list(g4, physics: str = "auto", production_cut: str = "1 um"):
 
 
 def after_initialize(g4, physics: str = "auto") -> list[str]:
-    """Finish the physics after your run manager's ``Initialize()``: in ``lite`` mode remove the
-    processes that would read missing data at the first event (bremsstrahlung, the gamma
-    process). Returns the removed processes (``particle:process``); nothing in ``full`` mode."""
+    """Finish the physics: call it after your run manager's ``Initialize()`` and before the
+    first ``BeamOn``.
+
+    In ``lite`` mode (no Geant4 data sets, see :func:`import_geant4`) the physics list still
+    holds processes whose tables come from the G4EMLOW data set and are read at the first
+    event: bremsstrahlung of e- and e+ (``eBrem``) and the gamma process
+    (``GammaGeneralProc``). This removes them, so alphas and ions are tracked without data
+    (docs/geant4-facts.md); electrons then radiate no bremsstrahlung and gammas are not
+    tracked (what lite physics lacks: ``score4.sim.runtime.LITE_LACKS``). In ``full`` mode
+    (and ``auto`` with the data installed) it does nothing.
+
+    Returns the removed processes as ``particle:process`` (empty in full mode).
+    """
     from .sim.physics import strip_data_hungry_processes
     from .sim.runtime import resolve_physics
 
