@@ -35,5 +35,11 @@ def demo(session: nox.Session) -> None:
     session.run("make", "demo", external=True)
 
 
+@nox.session(default=False)
+def docs(session: nox.Session) -> None:
+    """The documentation site, built offline and strictly into site/ (``make docs``)."""
+    session.run("make", "docs", external=True)
+
+
 if __name__ == "__main__":
     nox.main()
