@@ -75,6 +75,9 @@ def test_public_names_are_the_implementations() -> None:
     assert score4.run is run
     assert score4.read_results is read_results
     assert score4.api.plan_run is plan_run
+    from importlib.metadata import version
+
+    assert score4.__version__ == version("score4")
 
 
 def test_dir_shows_the_public_face_and_unknown_names_fail() -> None:

@@ -25,13 +25,7 @@ between versions (docs/architecture.md describes the packages).
 from __future__ import annotations
 
 import importlib
-from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING, Any
-
-try:
-    __version__ = version("score4")
-except PackageNotFoundError:  # running from a source tree without installation
-    __version__ = "0.0.0+unknown"
 
 # public name -> (module, attribute); attribute None: the module itself
 _PUBLIC: dict[str, tuple[str, str | None]] = {
@@ -70,6 +64,7 @@ __all__ = [  # exactly the keys of _PUBLIC and __version__ (tests/test_public_ap
 ]
 
 if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names come from __getattr__
+    __version__: str
     from . import api
     from .config import RunConfig, load_config
     from .errors import ConfigError, Score4Error
@@ -80,7 +75,19 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names come from
     from .surface.store import load_surface, save_surface
 
 
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("score4")
+    except PackageNotFoundError:  # running from a source tree without installation
+        return "0.0.0+unknown"
+
+
 def __getattr__(name: str) -> Any:
+    if name == "__version__":  # importlib.metadata costs more than the rest of the import
+        globals()[name] = found = _version()
+        return found
     try:
         module, attribute = _PUBLIC[name]
     except KeyError:
