@@ -223,11 +223,6 @@ class Template:
     def unit(self) -> str:
         return RATE_UNIT if len(self.edges) == 1 else "counts/(keV^2 kg day)"
 
-    def to_hist(self):
-        """The template as a :class:`hist.Hist` (variable energy axes in keV, ``Weight`` storage:
-        value = rate, variance = error squared)."""
-        return template_hist(self.edges, self.rate, self.error, self.unit)
-
 
 def _fold_top(values: np.ndarray, top: float) -> np.ndarray:
     at_top = (values > top) & (values <= top * (1 + TOP_TOLERANCE))
@@ -771,8 +766,3 @@ def read_hist(path: str | Path, name: str):
         return template_hist(
             edges, g["weights"][()], f[f"{name}_error"]["weights"][()], str(g.attrs["units"])
         )
-
-
-def activity_kind_dimension(kind: str) -> str:
-    """The units dimension of an activity kind (area: ``surface activity``, ...)."""
-    return ACTIVITY_KINDS[kind]
