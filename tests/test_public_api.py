@@ -66,9 +66,9 @@ def test_every_public_name_resolves_without_geant4() -> None:
 
 def test_public_names_are_the_implementations() -> None:
     from score4.inputs.config import load_config
+    from score4.runner.engine import run
     from score4.runner.output import read_results
     from score4.runner.run_plan import plan_run
-    from score4.runner.engine import run
 
     assert score4.load_config is load_config
     assert score4.plan_run is plan_run

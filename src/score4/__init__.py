@@ -65,12 +65,13 @@ __all__ = [  # exactly the keys of _PUBLIC and __version__ (tests/test_public_ap
 
 if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names come from __getattr__
     __version__: str
-    from . import api
     from score4.inputs.config import RunConfig, load_config
-    from .errors import ConfigError, Score4Error
+    from score4.runner.engine import run
     from score4.runner.output import Results, read_results
     from score4.runner.run_plan import RunPlan, plan_run
-    from score4.runner.engine import run
+
+    from . import api
+    from .errors import ConfigError, Score4Error
     from .surface.spec import Surface, build_surface
     from .surface.store import load_surface, save_surface
 

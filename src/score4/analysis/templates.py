@@ -48,7 +48,7 @@ import numpy as np
 
 from score4.errors import ConfigError
 from score4.files import atomic_output, check_output_file, open_h5
-from score4.inputs.units import ACTIVITY_KINDS, format_readable, parse_activity, parse_quantity
+from score4.inputs.units import format_readable, parse_activity, parse_quantity
 from score4.runner.output import Results
 
 from .export import histogram_edges
