@@ -10,7 +10,7 @@ from scipy import stats
 
 from score4.config import parse_config
 from score4.errors import ConfigError, Score4Warning
-from score4.geometry.walls import rays_in_walls
+from score4.geometry.walls import rays_in_walls, wall_planes
 from score4.output import read_results
 from score4.scene import build_scene
 from score4.sim.engine import run
@@ -92,8 +92,21 @@ def test_auto_block_size_splits_any_map():
     assert set(np.diff(edges)) <= {3, 4}
     assert blk.auto_block_cells(build_surface(RANDOM)) == 2  # 2 facets per pixel: 2 x 2 pixels
     assert blk.auto_block_cells(build_surface(SPREAD)) == 1  # 20 facets per bump: one per block
-    # placed 40 000 times (a 10 cm face of 0.5 mm cells): at most 50 blocks of 40 x 40 cells
-    assert blk.auto_block_cells(build_surface(RANDOM), 40_000) == 6
+
+
+def test_auto_block_size_does_not_grow_with_the_face():
+    """The same patch tiled 1 x 1 (0.1 mm face) and 120 x 120 times (12 mm: 14 400 copies of 400
+    blocks) is cut alike: 2 x 2-pixel blocks of ~8 top facets (a bound on copies x blocks once
+    gave large faces blocks of thousands of facets, each step inside them slow)."""
+    cuts = []
+    for size in ("0.1 mm", "12 mm"):
+        data = _data(RANDOM, "blocks")
+        data["targets"][0]["size"] = [size, size, "0.1 mm"]
+        layer = build_scene(parse_config(data)).layers[0]
+        assert layer.patch_map.variants.size == (1 if size == "0.1 mm" else 14_400)
+        u, _ = wall_planes(layer)
+        cuts.append(set(np.round(np.diff(u) * 1e6).astype(int).tolist()))  # nm
+    assert cuts == [{5000}, {5000}]  # a cut every 2 pixels of 2.5 um
 
 
 def test_block_size_that_does_not_divide_the_map_is_refused():

@@ -54,14 +54,12 @@ def place_variant(
     material,
     name: str,
     copy_no: int = 0,
-    copies: int = 1,
 ) -> tuple[list, list]:
     """Place patch variant ``k`` in ``mother_lv`` with its base plane at height ``z``.
 
     The patch is one solid (``tessellated`` / ``multiunion``: the closed body, slab below the
     base plane), a grid of closed blocks (``blocks``, :mod:`.blocks`) or a spike grid's base box
     and frustums placed side by side (``frustums``, :mod:`.frustums`).
-    ``copies`` is how many times ``mother_lv`` is placed (blocks: bounds the placed blocks).
     Returns ``(logical volumes of the patch's material, objects to keep alive)``.
     """
     surface = layer.variants[k]
@@ -76,7 +74,6 @@ def place_variant(
             mother_lv,
             z,
             name,
-            copies,
         )
     if kind == "frustums":
         assert surface.spikes is not None  # only spike grids are made of frustums
@@ -125,10 +122,7 @@ def place_native(
     for k in range(len(layer.variants)):
         cell_solid = g4.G4Box(f"{name}_cell{k}", px / 2, py / 2, t / 2)
         cell_lv = g4.G4LogicalVolume(cell_solid, world_material, f"{name}_cell{k}")
-        copies = int((layer.patch_map.variants == k).sum())
-        lvs_k, keep_k = place_variant(
-            g4, layer, k, cell_lv, z, material, f"{name}_v{k}", copies=copies
-        )
+        lvs_k, keep_k = place_variant(g4, layer, k, cell_lv, z, material, f"{name}_v{k}")
         keep += [cell_solid, cell_lv, keep_k]
         patch_lvs += lvs_k
         cell_lvs.append(cell_lv)
