@@ -339,13 +339,12 @@ class RoughLayer:
         i, j = self.patch_map.cell_of(q[:, :2])
         inside = (i >= 0) & (q[:, 2] >= -BOUNDARY_TOLERANCE)
         rows = np.flatnonzero(inside)
-        centres = self.cell_centres()
+        cx, cy = self.patch_map.cell_centre_axes()
         variant = self.cell_variants[j[rows], i[rows]]
         inside[rows[variant < 0]] = False
         for k, surface in enumerate(self.variants):
             r = rows[variant == k]
-            c = centres[j[r], i[r]]
-            h = surface.height_at(q[r, 0] - c[:, 0], q[r, 1] - c[:, 1])
+            h = surface.height_at(q[r, 0] - cx[i[r]], q[r, 1] - cy[j[r]])
             inside[r] = q[r, 2] <= self.base_thickness + h + BOUNDARY_TOLERANCE
         return inside
 

@@ -184,8 +184,9 @@ def _unique_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     while len(cols) > 1:
         merged = []
         for a, b in zip(cols[0::2], cols[1::2], strict=False):
-            _, key = np.unique(a * (int(b.max()) + 1) + b, return_inverse=True)
-            merged.append(key.ravel())
+            pair = a.astype(np.int64) * (int(b.max()) + 1) + b  # no overflow of int32 ids
+            _, key = np.unique(pair, return_inverse=True)
+            merged.append(key.ravel().astype(np.int32))
         if len(cols) % 2:
             merged.append(cols[-1])
         cols = merged
@@ -203,7 +204,8 @@ def group_grid(ids: np.ndarray, g: int) -> tuple[np.ndarray, np.ndarray]:
     """
     ny, nx = ids.shape
     gy, gx = -(-ny // g), -(-nx // g)
-    padded = np.full((gy * g, gx * g), -1, dtype=np.int64)
+    # int32 (ids are variant and pattern numbers): a 10 m^2 face has 4e7 cells, 160 MB a copy
+    padded = np.full((gy * g, gx * g), -1, dtype=np.int32)
     padded[:ny, :nx] = ids
     blocks = padded.reshape(gy, g, gx, g).transpose(0, 2, 1, 3).reshape(gy * gx, g * g)
     first, inverse = _unique_rows(blocks)
@@ -223,7 +225,7 @@ def grouping_plan(
     patterns repeat) and the next level decides again. Few levels keep navigation fast; a face
     of one variant always gets a single level.
     """
-    ids = np.asarray(variants, dtype=np.int64)
+    ids = np.asarray(variants, dtype=np.int32)
     plan: list[tuple] = []
     while ids.size > max_daughters:
         g = 2
@@ -263,7 +265,7 @@ def place_nested(
     lvs = list(cell_lvs)
     span_x = [1] * len(lvs)  # cells covered by box id, along x and y
     span_y = [1] * len(lvs)
-    ids = np.asarray(variants, dtype=np.int64)
+    ids = np.asarray(variants, dtype=np.int32)
     keep: list = []
     levels = [list(cell_lvs)]  # the distinct volumes of each level, cells first
     size = 1  # cells per box side at the current level (full boxes)
