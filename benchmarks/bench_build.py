@@ -116,7 +116,8 @@ def main() -> None:
             rows.setdefault(case, []).append(tuple(map(float, lines[-1].split()[1:])))
     print(f"load average at end: {os.getloadavg()}")
     print(
-        f"{'case':12s} {'build CPU s':>11s} {'peak RSS MB':>11s} {'ms/event':>8s}  all rounds (s, MB, ms)"
+        f"{'case':12s} {'build CPU s':>11s} {'peak RSS MB':>11s} {'ms/event':>8s}"
+        "  all rounds (s, MB, ms)"
     )
     for case, runs in rows.items():
         med = np.median(np.array(runs), axis=0)
