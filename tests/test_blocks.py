@@ -12,6 +12,7 @@ from score4.config import parse_config
 from score4.errors import ConfigError, Score4Warning
 from score4.geometry.walls import rays_in_walls, wall_planes
 from score4.output import read_results
+from score4 import scene as scene_module
 from score4.scene import build_scene
 from score4.sim.engine import run
 from score4.source.build import make_source
@@ -132,7 +133,7 @@ def test_map_too_large_is_refused_with_size_and_limit(monkeypatch):
         blk.check_patch(build_surface(RANDOM), "blocks", None)
 
 
-def test_auto_picks_blocks_except_for_equal_spikes():
+def test_auto_picks_blocks_except_for_equal_spikes(monkeypatch):
     pyr = {"kind": "spikes", "nx": 4, "ny": 4, "width": "10 um", "height": "10 um"}
     data = config_dict(
         surfaces={"r": RANDOM, "s": SPREAD, "p": pyr},
@@ -144,6 +145,10 @@ def test_auto_picks_blocks_except_for_equal_spikes():
         layer = build_scene(parse_config(data)).layers[0]
         kinds[name] = layer.solid_kind(0)
     assert kinds == {"r": "blocks", "s": "frustums", "p": "multiunion"}
+    # equal spikes, but more than a multi-union voxelises in reasonable time: frustums
+    monkeypatch.setattr(scene_module, "AUTO_MULTIUNION_MAX_SPIKES", 15)
+    data["targets"][0]["rough"][0]["surface"] = "p"
+    assert build_scene(parse_config(data)).layers[0].solid_kind(0) == "frustums"
 
 
 # --- Geant4: same paths, same spectra -------------------------------------------------------------

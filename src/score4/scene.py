@@ -55,6 +55,10 @@ BOUNDARY_TOLERANCE = 1e-9
 #: Gap between the tips of the highest patch and the top of the layer's envelope, mm (1 nm).
 ENVELOPE_CLEARANCE = 1e-6
 
+#: ``solid: auto`` takes the multi-union for a spike grid of equal heights up to this many
+#: spikes, frustums above (see :meth:`RoughLayer.solid_kind`).
+AUTO_MULTIUNION_MAX_SPIKES = 100_000
+
 
 #: Rough faces supported, by solid type (the words of the error for the others).
 SUPPORTED_FACES = (
@@ -298,7 +302,10 @@ class RoughLayer:
         tessellated blocks, :mod:`score4.geometry.blocks`): one tessellated solid per patch
         tracked alphas 10-40x slower (benchmarks/bench_surfaces.py), and a multi-union with a
         height spread explodes in voxelisation (50 x 50 pyramids with a 3 um spread: 42 s and
-        1.7 GB, against 0.6 s and 10 MB tessellated).
+        1.7 GB, against 0.6 s and 10 MB tessellated). A grid of more than
+        :data:`AUTO_MULTIUNION_MAX_SPIKES` spikes also gets ``frustums``: a multi-union's
+        voxelisation grows ~N^2 (10^5 spikes ~7 s; 10^6 did not finish in 10 min), frustums
+        build 1000 x 1000 pyramids in ~12 s (benchmarks/bench_build.py).
         """
         choice = self.config.solid
         grid = self.variants[k].spikes
@@ -310,7 +317,8 @@ class RoughLayer:
         if choice == "auto":
             if grid is None:
                 return "blocks"
-            return "multiunion" if grid.height_sigma == 0 else "frustums"
+            small = grid.nx * grid.ny <= AUTO_MULTIUNION_MAX_SPIKES
+            return "multiunion" if grid.height_sigma == 0 and small else "frustums"
         return choice
 
     def cell_centres(self) -> np.ndarray:
