@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from score4 import scene as scene_module
 from score4.config import parse_config
 from score4.errors import ConfigError, Score4Warning
 from score4.geometry.walls import rays_in_walls, wall_planes
 from score4.output import read_results
-from score4 import scene as scene_module
 from score4.scene import build_scene
 from score4.sim.engine import run
 from score4.source.build import make_source
