@@ -4,7 +4,9 @@
         [--cases a,b] [--sizes 256,512] [--warm] [--markdown]
 
 ``--markdown`` prints the tables of docs/tiling.md (with ``--warm``: the CPU per event; with
-``--cases ""``: the build cost), checked by ``make docs-check-all``.
+``--cases ""``: the build cost), checked by ``make docs-check-all``. ``--warm --faces
+1.5,30,100`` runs each case on faces of about 1.5 mm, 3 cm and 10 cm (a whole number of
+patches), with ratios to the pyramid face of the same size, the build CPU and the peak RSS.
 
 First table: each case is a whole ``score4 run`` in its own process (``--jobs 1``, lite physics,
 5.3 MeV alphas, isotropic, exponential depth 20 nm below the local surface, the +z face of a
