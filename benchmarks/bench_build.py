@@ -3,8 +3,8 @@
     .venv/bin/python benchmarks/bench_build.py [--cases face1m2,face10m2,spikes50,spikes1000]
         [--repeat 3] [--events 1000]
 
-Each case builds a whole ``Simulation`` (parse, scene, vertex sampler, Geant4 geometry and
-physics) in a fresh process and prints the CPU seconds of that build, the process's peak RSS,
+Each case builds a whole ``Simulation`` (the run plan: scene, source; then the Geant4 geometry
+and physics) in a fresh process and prints the CPU seconds of that build, the process's peak RSS,
 and the CPU per event of ``--events`` alphas after 50 warm-up events (5.3 MeV, isotropic,
 20 nm exponential depth, lite physics). Rounds interleave the cases; each row is the median of
 its rounds, with the load at the start and end.
@@ -71,12 +71,13 @@ def config(case: str, events: int) -> dict:
 def child(case: str, events: int) -> None:
     """Build ``case``, run it; print ``BUILD cpu_s rss_mb ms_per_event``."""
     from score4.config import parse_config
+    from score4.run_plan import plan_run
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
 
     cfg = parse_config(config(case, events))
     c0 = time.process_time()
-    sim = Simulation(cfg, resolve_physics("lite"))
+    sim = Simulation(plan_run(cfg, physics=resolve_physics("lite")))
     build = time.process_time() - c0
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     primaries = sim.source.primaries(np.random.default_rng(5), 0, 50 + events)

@@ -111,6 +111,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from score4.run_plan import plan_run
+
 ROOT = Path(__file__).resolve().parents[1]
 SURF = ROOT / "examples" / "surfaces"
 PYRAMIDS = {"kind": "spikes", "nx": 50, "ny": 50, "width": "10 um", "height": "10 um"}
@@ -222,7 +224,8 @@ def warm_case(case: str, events: int, face: float = 1.5) -> None:
     from score4.sim.simulation import Simulation
 
     b0 = time.process_time()
-    sim = Simulation(parse_config(config(case, events, face)), resolve_physics("lite"))
+    config_ = parse_config(config(case, events, face))
+    sim = Simulation(plan_run(config_, physics=resolve_physics("lite")))
     build = time.process_time() - b0
     primaries = sim.source.primaries(np.random.default_rng(5), 0, 200 + events)
     sim.run(primaries.select_events(0, 200), 1)
