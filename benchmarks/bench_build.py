@@ -70,8 +70,8 @@ def config(case: str, events: int) -> dict:
 
 def child(case: str, events: int) -> None:
     """Build ``case``, run it; print ``BUILD cpu_s rss_mb ms_per_event``."""
-    from score4.config import parse_config
-    from score4.run_plan import plan_run
+    from score4.inputs.config import parse_config
+    from score4.runner.run_plan import plan_run
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
 
