@@ -48,6 +48,7 @@ lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy
+	$(BIN)/lint-imports
 
 # Re-run the commands behind every transcript and figure in README.md and docs/*.md
 # (docs/checks.yaml); fails on any difference and on a transcript or figure no check covers
