@@ -23,13 +23,8 @@ from pydantic import (
     model_validator,
 )
 
-from score4.analysis.response import ResponseConfig
-from score4.errors import ConfigError
-from score4.surface.patchmap import DEFAULT_TILES
-from score4.surface.spec import MeasuredSurfaceSpec, RandomSurfaceSpec, SpikeSurfaceSpec
-
-from . import limits
-from .schema import (
+from score4.core import limits
+from score4.core.schema import (
     GIVEN,
     ConfigPath,
     NonNegativeLength,
@@ -43,8 +38,12 @@ from .schema import (
     check_option_keys,
     describe_validation_error,
 )
-from .units import length_text
-from .yamlfile import load_yaml
+from score4.core.units import length_text
+from score4.core.yamlfile import load_yaml
+from score4.errors import ConfigError
+from score4.inputs.response import ResponseConfig
+from score4.surface.patchmap import DEFAULT_TILES
+from score4.surface.spec import MeasuredSurfaceSpec, RandomSurfaceSpec, SpikeSurfaceSpec
 
 FACES = ("+x", "-x", "+y", "-y", "+z", "-z")
 

@@ -45,9 +45,9 @@ import numpy as np
 
 from score4 import __version__, errors
 from score4.analysis.normalisation import run_normalisation
-from score4.inputs import limits
+from score4.core import limits
+from score4.core.schema import input_paths
 from score4.inputs.config import RunConfig, config_to_dict
-from score4.inputs.schema import input_paths
 from score4.sim.runtime import resolve_physics
 from score4.sim.worker import Chunk, WorkerSpec, chunk_path, worker_main
 from score4.world.scene import build_scene

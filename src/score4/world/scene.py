@@ -26,8 +26,8 @@ from functools import cached_property
 
 import numpy as np
 
+from score4.core import limits
 from score4.errors import ConfigError
-from score4.inputs import limits
 from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig, SurfaceFile
 from score4.shapes import G4Box as G4BoxShape
 from score4.shapes import PlacedShape, Shape, Transform, shape_from_dict

@@ -1,0 +1,1 @@
+"""The base layer every package builds on: units, schema pieces, limits, strict YAML (no Geant4)."""
