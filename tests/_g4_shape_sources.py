@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from score4.runner.run_plan import plan_run
+
 
 def locate(config_data: dict, points: list) -> tuple[list[str], list[str]]:
     """Physical volume and material that Geant4's navigator finds at each point of the world
@@ -9,12 +11,11 @@ def locate(config_data: dict, points: list) -> tuple[list[str], list[str]]:
     from score4.geometry.world import build_world
     from score4.inputs.config import parse_config
     from score4.sim.runtime import import_geant4, redirect_native_output, resolve_physics
-    from score4.world.scene import build_scene
 
     config = parse_config(config_data)
     g4 = import_geant4(resolve_physics("lite"))
     with redirect_native_output(None):
-        built = build_world(g4, config, build_scene(config))
+        built = build_world(g4, plan_run(config, physics=resolve_physics("lite"), source=False))
         navigator = g4.G4Navigator()
         navigator.SetWorldVolume(built.world)
         names, materials = [], []

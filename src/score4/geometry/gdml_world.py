@@ -19,8 +19,8 @@ from __future__ import annotations
 from collections import Counter
 from typing import Any
 
-from score4.inputs.config import RunConfig
 from score4.inputs.materials import find_material
+from score4.runner.run_plan import RunPlan
 from score4.world.gdml_model import GeometryModel, Instance
 from score4.world.scene import FaceFrame, RoughLayer, Scene, TargetVolume
 
@@ -144,9 +144,12 @@ class LiveWorld:
         return patch_lvs
 
 
-def build_gdml_world(g4, config: RunConfig, scene: Scene):
-    """The GDML world with the run's targets scored and its boxes and rough layers placed."""
+def build_gdml_world(g4, plan: RunPlan):
+    """The GDML world with the run's targets scored and its boxes and rough layers placed
+    (Geant4 reads the GDML file here, the only time in a worker process)."""
     from .world import BuiltGeometry
+
+    config, scene = plan.config, plan.scene
 
     model = scene.model
     assert model is not None
