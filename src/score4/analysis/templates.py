@@ -46,7 +46,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from score4.core.units import ACTIVITY_KINDS, format_readable, parse_activity, parse_quantity
+from score4.core.units import format_readable, parse_activity, parse_quantity
 from score4.errors import ConfigError
 from score4.files import atomic_output, check_output_file, open_h5
 from score4.inputs.response import ResponseConfig, apply_response, needs_split, response_to_dict
@@ -222,11 +222,6 @@ class Template:
     @property
     def unit(self) -> str:
         return RATE_UNIT if len(self.edges) == 1 else "counts/(keV^2 kg day)"
-
-    def to_hist(self):
-        """The template as a :class:`hist.Hist` (variable energy axes in keV, ``Weight`` storage:
-        value = rate, variance = error squared)."""
-        return template_hist(self.edges, self.rate, self.error, self.unit)
 
 
 def _fold_top(values: np.ndarray, top: float) -> np.ndarray:
@@ -771,8 +766,3 @@ def read_hist(path: str | Path, name: str):
         return template_hist(
             edges, g["weights"][()], f[f"{name}_error"]["weights"][()], str(g.attrs["units"])
         )
-
-
-def activity_kind_dimension(kind: str) -> str:
-    """The units dimension of an activity kind (area: ``surface activity``, ...)."""
-    return ACTIVITY_KINDS[kind]

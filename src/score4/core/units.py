@@ -247,8 +247,3 @@ def format_readable(value: float, dimension: str, digits: int = 6) -> str:
 def length_text(value_mm: float) -> str:
     """A length in mm as readable text (:func:`format_readable`)."""
     return format_readable(value_mm, "length")
-
-
-def energy_text(value_mev: float) -> str:
-    """An energy in MeV as readable text (:func:`format_readable`)."""
-    return format_readable(value_mev, "energy")

@@ -102,10 +102,6 @@ class Emissions:
     product: np.ndarray
     products: tuple[str, ...]
 
-    @property
-    def particle_names(self) -> np.ndarray:
-        return np.asarray(self.names)[self.particle]
-
     def total_per_event(self, n: int, kinds: tuple[str, ...] | None = None) -> np.ndarray:
         """Summed emitted energy (MeV) of each of the ``n`` decays (only ``kinds`` if given)."""
         rows = np.ones(len(self.event), bool)

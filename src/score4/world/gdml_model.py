@@ -240,12 +240,6 @@ class GeometryModel:
                 table.setdefault(inst.mother, []).append(inst.index)
         return table
 
-    def sisters(self, inst: Instance) -> list[Instance]:
-        """The other daughters of ``inst``'s mother."""
-        if inst.mother is None:
-            return []
-        return [self.instances[i] for i in self.children.get(inst.mother, []) if i != inst.index]
-
     def daughters(self, inst: Instance) -> list[Instance]:
         return [self.instances[i] for i in self.children.get(inst.index, [])]
 
