@@ -28,10 +28,10 @@ from _fuzz import VALID, command_line, commands, documents
 from hypothesis import HealthCheck, assume, event, given, settings
 
 from score4.cli.main import cli, main
-from score4.core import limits
-from score4.core.units import parse_count
 from score4.errors import ConfigError, Score4Error
+from score4.inputs import limits
 from score4.inputs.config import load_config
+from score4.inputs.units import parse_count
 from score4.source.build import make_source
 from score4.world.scene import build_scene
 

@@ -190,9 +190,9 @@ def test_resume_reuses_only_chunks_of_the_same_run(tmp_path: Path, make_config):
 
 def test_first_events_of_a_longer_run_are_the_same_events(tmp_path: Path, make_config):
     # Prefix-stable sampling (source/event_blocks.py) and one Geant4 seed per event
-    # (runner/seeds.py): the 3000 events of a one-chunk run are the first 3000 of a 5000-event run
-    # cut into 700-event chunks (not on the 1000-event block boundaries) on 2 workers. Exact
-    # equality.
+    # (runner/seeds.py):
+    # the 3000 events of a one-chunk run are the first 3000 of a 5000-event run cut into
+    # 700-event chunks (not on the 1000-event block boundaries) on 2 workers. Exact equality.
     fast = {"particle": "alpha", "energy": "1 MeV"}  # ~4 um range: a few steps per event
     short = make_config(source=fast, run={"events": 3000, "seed": 5})
     long = make_config(source=fast, run={"events": 5000, "seed": 5, "chunk_events": 700})

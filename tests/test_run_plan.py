@@ -1,5 +1,6 @@
-"""The run plan (score4.runner.run_plan) and the run record (score4.runner.run_record), without
-Geant4 runs: a plan is made once, pickles small, and rebuilds to the same scene and events."""
+"""The run plan (score4.runner.run_plan) and the run record (score4.runner.run_record),
+without Geant4 runs: a plan is made once, pickles small, and rebuilds to the same scene and
+events."""
 
 from __future__ import annotations
 

@@ -43,12 +43,12 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
-from score4.core.schema import describe_validation_error
-from score4.core.units import parse_quantity
 from score4.inputs.config import GdmlVolume, PhysicsConfig, RoughFace, SourceConfig
+from score4.inputs.schema import describe_validation_error
+from score4.inputs.units import parse_quantity
 from score4.runner.run_plan import RunPlan, plan_run
 from score4.world.gdml_model import GeometryModel, Instance
-from score4.world.scene import RoughLayer, Scene, TargetVolume, _gdml_target, make_layer
+from score4.world.scene import RoughLayer, Scene, TargetVolume, gdml_target, make_layer
 
 from .errors import ConfigError
 from .source.build import BulkSource, SampledSource, source_from_config
@@ -146,9 +146,19 @@ def physics_list(g4, physics: str = "auto", production_cut: str = "1 um"):
 
 
 def after_initialize(g4, physics: str = "auto") -> list[str]:
-    """Finish the physics after your run manager's ``Initialize()``: in ``lite`` mode remove the
-    processes that would read missing data at the first event (bremsstrahlung, the gamma
-    process). Returns the removed processes (``particle:process``); nothing in ``full`` mode."""
+    """Finish the physics: call it after your run manager's ``Initialize()`` and before the
+    first ``BeamOn``.
+
+    In ``lite`` mode (no Geant4 data sets, see :func:`import_geant4`) the physics list still
+    holds processes whose tables come from the G4EMLOW data set and are read at the first
+    event: bremsstrahlung of e- and e+ (``eBrem``) and the gamma process
+    (``GammaGeneralProc``). This removes them, so alphas and ions are tracked without data
+    (docs/geant4-facts.md); electrons then radiate no bremsstrahlung and gammas are not
+    tracked (what lite physics lacks: ``score4.sim.runtime.LITE_LACKS``). In ``full`` mode
+    (and ``auto`` with the data installed) it does nothing.
+
+    Returns the removed processes as ``particle:process`` (empty in full mode).
+    """
     from .sim.physics import strip_data_hungry_processes
     from .sim.runtime import resolve_physics
 
@@ -290,7 +300,7 @@ class World:
             else:  # an object: its name for several copies, else the name of its one placement
                 label = str(volume.GetName()) if several else self.model.label(inst)
             entry = len({t.entry for t in self.scene.targets})
-            target = _gdml_target(
+            target = gdml_target(
                 self.model, GdmlVolume(volume=label), entry, inst, k if several else None, parameter
             )
             if any(t.column == target.column for t in self.scene.targets):

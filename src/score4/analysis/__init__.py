@@ -1,1 +1,1 @@
-"""Results to physics: templates, background models, normalisation, export, plots (no Geant4)."""
+"""Results to physics: templates, models, response, normalisation, export, plots (no Geant4)."""

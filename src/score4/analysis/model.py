@@ -35,8 +35,9 @@ from typing import Any
 import numpy as np
 from pydantic import Field, ValidationError, field_validator, model_validator
 
-from score4.core.schema import ConfigPath, StrictModel, describe_validation_error
-from score4.core.units import (
+from score4.errors import ConfigError
+from score4.inputs.schema import ConfigPath, StrictModel, describe_validation_error
+from score4.inputs.units import (
     ACTIVITY_KINDS,
     DIMENSIONS,
     ENERGY,
@@ -44,8 +45,7 @@ from score4.core.units import (
     parse_quantity,
     split_quantity,
 )
-from score4.core.yamlfile import load_yaml
-from score4.errors import ConfigError
+from score4.inputs.yamlfile import load_yaml
 
 from .templates import SECONDS_PER_DAY, StoredTemplate, read_template
 

@@ -19,7 +19,7 @@ contamination per unit of true area multiplies the true area, not the projected 
 (``Bq``) only for a vertex file whose area or mass is unknown.
 
 Per detector and stage (``deposit``: the energy deposited, seen when > 0; ``visible``: after the
-detector response of :mod:`score4.inputs.response`, seen above its threshold):
+detector response of :mod:`score4.analysis.response`, seen above its threshold):
 
 * ``all``: every event the detector sees; ``m1``: events that only this detector sees;
   ``m2``: events seen by exactly two detectors (this one's energy);
@@ -46,13 +46,13 @@ from typing import Any
 import h5py
 import numpy as np
 
-from score4.core.units import format_readable, parse_activity, parse_quantity
 from score4.errors import ConfigError
 from score4.files import atomic_output, check_output_file, open_h5
-from score4.inputs.response import ResponseConfig, apply_response, needs_split, response_to_dict
+from score4.inputs.units import format_readable, parse_activity, parse_quantity
 from score4.runner.output import Results
 
 from .export import histogram_edges
+from .response import ResponseConfig, apply_response, needs_split, response_to_dict
 
 FORMAT = "score4-templates"
 FORMAT_VERSION = 1

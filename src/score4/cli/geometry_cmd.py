@@ -42,8 +42,8 @@ def geometry() -> None:
 )
 def check(config_file: Path, points: int, max_placements: int, tolerance: str, log_path) -> None:
     """Check CONFIG.yaml's volumes for overlaps (Geant4 CheckOverlaps). Exit status 1 if any overlap."""
-    from score4.core.schema import quantity
     from score4.inputs.config import load_config
+    from score4.inputs.schema import quantity
     from score4.runner.run_plan import plan_run
 
     from ..errors import naming_file

@@ -36,8 +36,8 @@ class EventCount(click.ParamType):
     name = "integer"
 
     def convert(self, value, param, ctx):
-        from score4.core.limits import too_many_events
-        from score4.core.units import parse_count
+        from score4.inputs.limits import too_many_events
+        from score4.inputs.units import parse_count
 
         try:
             number = parse_count(value)
@@ -187,9 +187,9 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
     file (source: {vertices: FILE}) with the same seed reproduces the direct run event by event,
     and the first N rows are the vertices of a run of N events.
     """
-    from score4.core import limits
-    from score4.core.schema import input_paths
+    from score4.inputs import limits
     from score4.inputs.config import config_to_dict
+    from score4.inputs.schema import input_paths
     from score4.source.event_blocks import BLOCK_EVENTS
     from score4.world.scene import build_scene
 
@@ -252,7 +252,7 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
 def summary(results_file: Path, as_json: bool, bins, threshold: str) -> None:
     """Summarise a results file: events, physics, energy deposit per volume, per-volume rates
     above --threshold and the multiplicity (events with 1, 2, ... volumes above it)."""
-    from score4.core.units import parse_quantity
+    from score4.inputs.units import parse_quantity
     from score4.runner.output import read_results, summarize
 
     limit = parse_quantity(threshold, "energy", "--threshold")

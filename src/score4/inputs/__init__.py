@@ -1,1 +1,1 @@
-"""What a user writes: the run configuration, materials, detector response (no Geant4)."""
+"""What a user writes: run configuration, schema, units, limits, material names (no Geant4)."""

@@ -23,8 +23,13 @@ from pydantic import (
     model_validator,
 )
 
-from score4.core import limits
-from score4.core.schema import (
+from score4.analysis.response import ResponseConfig
+from score4.errors import ConfigError
+from score4.surface.patchmap import DEFAULT_TILES
+from score4.surface.spec import MeasuredSurfaceSpec, RandomSurfaceSpec, SpikeSurfaceSpec
+
+from . import limits
+from .schema import (
     GIVEN,
     ConfigPath,
     NonNegativeLength,
@@ -38,12 +43,8 @@ from score4.core.schema import (
     check_option_keys,
     describe_validation_error,
 )
-from score4.core.units import length_text
-from score4.core.yamlfile import load_yaml
-from score4.errors import ConfigError
-from score4.inputs.response import ResponseConfig
-from score4.surface.patchmap import DEFAULT_TILES
-from score4.surface.spec import MeasuredSurfaceSpec, RandomSurfaceSpec, SpikeSurfaceSpec
+from .units import length_text
+from .yamlfile import load_yaml
 
 FACES = ("+x", "-x", "+y", "-y", "+z", "-z")
 

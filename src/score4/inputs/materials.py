@@ -50,7 +50,7 @@ def _as_spec(spec):
     if isinstance(spec, Mapping):
         from pydantic import ValidationError
 
-        from score4.core.schema import describe_validation_error
+        from .schema import describe_validation_error
 
         try:
             return MaterialSpec.model_validate(dict(spec))

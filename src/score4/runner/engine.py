@@ -52,21 +52,21 @@ import numpy as np
 
 from score4 import __version__, errors
 from score4.analysis.normalisation import run_normalisation
-from score4.core import limits
-from score4.core.schema import input_paths
+from score4.inputs import limits
 from score4.inputs.config import RunConfig, config_to_dict
+from score4.inputs.schema import input_paths
+from score4.runner.conservation import check_chunk_files
 from score4.runner.output import chunk_counts, merge_chunks
 from score4.runner.progress import progress_bar
 from score4.runner.run_plan import RunPlan, plan_run
+from score4.runner.run_record import RunRecord
+from score4.runner.seeds import BLOCK_EVENTS
 from score4.sim.worker import Chunk, WorkerSpec, chunk_path, worker_main
 from score4.world.walls import warn_rays_in_walls
 
 from ..errors import ConfigError, Score4Error
 from ..files import atomic_output, check_free_space, check_output_file
 from ..source.vertex_file import read_vertex_file
-from .conservation import check_chunk_files
-from .run_record import RunRecord
-from .seeds import BLOCK_EVENTS
 
 # Errors that workers report by class name and that the engine raises again as they are.
 _ERRORS = {
@@ -173,7 +173,7 @@ def make_executor(cluster: Any, jobs: int, echo) -> Executor:
     """The executor for ``cluster``: ``None`` = local processes, else Dask (see :func:`run`)."""
     if cluster is None:
         return LocalProcesses(jobs)
-    from .dask_backend import DaskExecutor
+    from score4.runner.dask_backend import DaskExecutor
 
     return DaskExecutor(cluster, jobs, echo=echo)
 

@@ -39,9 +39,9 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from score4.core.units import parse_quantity
 from score4.errors import Score4Error
 from score4.files import atomic_h5, open_h5
+from score4.inputs.units import parse_quantity
 from score4.source.primaries import Primaries, atom_histories
 from score4.source.vertex_file import read_primaries_table, write_primaries_table
 

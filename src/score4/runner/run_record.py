@@ -3,8 +3,8 @@
 :class:`RunRecord` is written by the engine's merge (:func:`score4.runner.engine.run`) as one HDF5
 attribute per field (containers and None as JSON) and read back by
 :func:`score4.runner.output.read_results` as the dict ``Results.run``;
-:meth:`RunRecord.from_dict` turns that dict into the record again. The fields are documented
-with the results-file layout in docs/getting-started.md#the-results-file.
+:meth:`RunRecord.from_dict` turns that dict into the record again. The fields are documented with
+the results-file layout in docs/getting-started.md#the-results-file.
 """
 
 from __future__ import annotations

@@ -76,7 +76,7 @@ def resolve_physics(requested: str, needs_decay: bool = False) -> PhysicsChoice:
 
 
 def lite_stub_dir() -> Path:
-    """A folder with the empty stand-ins that let Geant4 start without data (see DESIGN.md)."""
+    """A folder with the empty stand-ins that let Geant4 start without data (docs/geant4-facts.md)."""
     from ..files import cache_dir
 
     base = cache_dir("geant4-lite-stub")

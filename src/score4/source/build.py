@@ -19,7 +19,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from score4.core import limits
+from score4.inputs import limits
 from score4.inputs.config import FACES, DecayChainConfig, DepthConfig, RunConfig, SourceConfig
 from score4.world.scene import RoughLayer, Scene, TargetVolume, face_frame
 

@@ -31,7 +31,7 @@ from typing import Any, Literal, Protocol, cast, get_args
 import numpy as np
 from numpy.typing import ArrayLike
 
-from score4.core.units import parse_quantity
+from score4.inputs.units import parse_quantity
 
 from ..errors import ConfigError
 from .primaries import Primaries

@@ -27,8 +27,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
-from score4.core import limits
-from score4.core.units import DIMENSIONS
+from score4.inputs import limits
+from score4.inputs.units import DIMENSIONS
 
 from ..errors import ConfigError, brief
 

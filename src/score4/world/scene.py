@@ -26,8 +26,8 @@ from functools import cached_property
 
 import numpy as np
 
-from score4.core import limits
 from score4.errors import ConfigError
+from score4.inputs import limits
 from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig, SurfaceFile
 from score4.shapes import G4Box as G4BoxShape
 from score4.shapes import PlacedShape, Shape, Transform, shape_from_dict
@@ -545,7 +545,7 @@ def gdml_targets(model: GeometryModel, t: GdmlVolume, entry: int) -> list[Target
     (``targets.{entry}.volume`` in errors)."""
     instances = model.resolve(t.volume, f"targets.{entry}.volume")
     return [
-        _gdml_target(model, t, entry, inst, k if len(instances) > 1 else None)
+        gdml_target(model, t, entry, inst, k if len(instances) > 1 else None)
         for k, inst in enumerate(instances)
     ]
 
@@ -585,7 +585,7 @@ def daughter_shapes(
     return tuple(known), tuple(unknown)
 
 
-def _gdml_target(
+def gdml_target(
     model: GeometryModel,
     t: GdmlVolume,
     entry: int,
@@ -593,6 +593,13 @@ def _gdml_target(
     k: int | None,
     where: str | None = None,
 ) -> TargetVolume:
+    """The target of GDML volume entry ``t`` (``targets[entry]``) at placement ``inst``.
+
+    ``k`` numbers the placement when the entry names several (its column is ``name_k``), else
+    ``None``. ``where`` names the configuration key in errors (default ``targets.<entry>.volume``).
+    Raises :class:`~score4.errors.ConfigError` for the world volume, a reflected placement or a
+    volume inside a replica.
+    """
     where = where or f"targets.{entry}.volume"
     if inst.index == 0:
         raise ConfigError(f"{where}: {t.volume!r} is the world volume; score a volume inside it")

@@ -31,15 +31,15 @@ from typing import ClassVar, Literal
 import numpy as np
 from pydantic import Field, ValidationError, model_validator
 
-from score4.core.schema import (
+from score4.errors import ConfigError
+from score4.inputs.schema import (
     ConfigPath,
     NonNegativeEnergy,
     StrictModel,
     describe_validation_error,
 )
-from score4.core.units import ENERGY
-from score4.core.yamlfile import load_yaml
-from score4.errors import ConfigError
+from score4.inputs.units import ENERGY
+from score4.inputs.yamlfile import load_yaml
 
 #: Particle classes of the split deposits and their results-file quantities.
 CLASSES = {"alpha": "edep_alpha", "ion": "edep_ion", "electron": "edep_electron"}
