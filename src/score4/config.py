@@ -549,7 +549,7 @@ class RunSettings(StrictModel):
 
 
 class HistogramConfig(StrictModel):
-    bins: int = Field(100, gt=0)
+    bins: int = Field(100, gt=0, le=limits.MAX_BINS)
     max: PositiveEnergy | None = None  # default: the largest primary energy of the run
 
 

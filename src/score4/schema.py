@@ -407,6 +407,10 @@ def input_paths(root: BaseModel) -> dict[str, Path]:
             value = getattr(model, name)
             if isinstance(value, Path):
                 found[f"the file of {path}{name}"] = value
+            elif isinstance(value, list | tuple):
+                for k, item in enumerate(value):
+                    if isinstance(item, Path):
+                        found[f"the file of {path}{name}.{k}"] = item
     return found
 
 

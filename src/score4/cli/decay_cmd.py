@@ -64,9 +64,9 @@ def decay_command(nuclide, chain, until, since_deposition, min_intensity, as_jso
         raise ConfigError("--until and --since-deposition need --chain")
     seconds = _seconds(since_deposition)
     if png is not None:
-        from ..files import check_output_file
+        from ..files import check_outputs
 
-        check_output_file(png, overwrite, "--png")
+        check_outputs({"--png": png}, overwrite, images=("--png",))
     table = radiation_table(nuclide, chain, until, seconds, min_intensity / 100.0)
     if as_json:
         click.echo(json.dumps(table, indent=1))

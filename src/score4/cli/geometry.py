@@ -44,14 +44,19 @@ def check(config_file: Path, points: int, max_placements: int, tolerance: str, l
     """Check CONFIG.yaml's volumes for overlaps (Geant4 CheckOverlaps). Exit status 1 if any overlap."""
     from ..config import load_config
     from ..errors import naming_file
+    from ..files import check_outputs
     from ..geometry.check import check_placements
     from ..geometry.world import build_world
     from ..scene import build_scene
-    from ..schema import quantity
+    from ..schema import input_paths, quantity
     from ..sim.runtime import import_geant4, redirect_native_output, resolve_physics
 
     config = load_config(config_file)
     tol = quantity(tolerance, "length", "--tolerance", non_negative=True)
+    # --log appends to an existing file, but never to an input
+    check_outputs(
+        {"--log": log_path}, True, {"the configuration": config_file, **input_paths(config)}
+    )
     with naming_file(config_file):
         scene = build_scene(config)
     g4 = import_geant4(resolve_physics("lite"))  # geometry needs no physics data
@@ -129,12 +134,15 @@ def export_gdml(config_file: Path, out: Path, overwrite: bool) -> None:
     application, pyg4ometry). Vertices from 'score4 vertices' are in this world's frame."""
     from ..config import load_config
     from ..errors import naming_file
-    from ..files import check_output_file
+    from ..files import check_outputs
     from ..geometry.export_world import export_world
     from ..scene import build_scene
+    from ..schema import input_paths
 
     config = load_config(config_file)
-    check_output_file(out, overwrite, "--gdml")
+    check_outputs(
+        {"--gdml": out}, overwrite, {"the configuration": config_file, **input_paths(config)}
+    )
     with naming_file(config_file):
         build_scene(config)  # bad input fails here, before any Geant4 process
         info = export_world(config, out)

@@ -137,8 +137,9 @@ def run(
     quiet,
 ) -> None:
     """Simulate the run described in CONFIG.yaml and write an HDF5 results file."""
-    from ..files import check_output_file
+    from ..files import check_outputs
     from ..output import read_results, summarize
+    from ..schema import input_paths
     from ..sim.engine import run as run_engine
 
     if quiet:
@@ -147,7 +148,7 @@ def run(
 
     config = _load_with_overrides(config_file, events, seed)
     out = out or Path(config_file.stem + ".h5")
-    check_output_file(out, True, "--out", {"the configuration": config_file})
+    check_outputs({"--out": out}, True, {"the configuration": config_file, **input_paths(config)})
     with naming_file(config_file):
         run_engine(
             config,

@@ -62,10 +62,10 @@ def plot(
 ) -> None:
     """Plot results files (energy-deposit spectra, overlaid), a vertex file (depth histogram)
     or a surface file (.s4s.h5, height map)."""
-    from ..files import check_output_file
+    from ..files import check_outputs
     from ..plots import file_kind, plot_depths, plot_spectra
 
-    check_output_file(out, overwrite, "--out", {f"input {f}": f for f in files})
+    check_outputs({"--out": out}, overwrite, {f"input {f}": f for f in files}, images=("--out",))
     kinds = [file_kind(f) for f in files]
     if len(set(kinds)) > 1:
         listing = ", ".join(f"{f.name} ({k})" for f, k in zip(files, kinds, strict=True))
@@ -137,7 +137,7 @@ def plot(
 def export(results_file, csv_out, events_out, root_out, volume, bins, emax, overwrite) -> None:
     """Export a results FILE to CSV (histograms or events) and/or ROOT."""
     from ..export import export_csv, export_events_csv, export_root, select_volumes
-    from ..files import check_output_file
+    from ..files import check_outputs
     from ..output import read_results
 
     if not (csv_out or events_out or root_out):
@@ -149,11 +149,11 @@ def export(results_file, csv_out, events_out, root_out, volume, bins, emax, over
     results = read_results(results_file)
     emax_mev = _energy(emax, "--emax")
     select_volumes(results, volume)  # every check before the first file is written
-    written: dict[str, Path] = {"the results file": results_file}
-    for option, out in (("--csv", csv_out), ("--events-csv", events_out), ("--root", root_out)):
-        if out is not None:
-            check_output_file(out, overwrite, option, written)
-            written[f"also the output of {option}"] = out
+    check_outputs(
+        {"--csv": csv_out, "--events-csv": events_out, "--root": root_out},
+        overwrite,
+        {"the results file": results_file},
+    )
     if csv_out:
         export_csv(results, csv_out, volume=volume, bins=bins, emax=emax_mev)
         click.echo(f"wrote {csv_out}")

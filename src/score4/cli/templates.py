@@ -85,13 +85,16 @@ def template(
     overwrite,
 ) -> None:
     """Templates of RUN.h5 in counts/(keV kg day) per detector for the given activity."""
-    from ..files import check_output_file
+    from ..files import check_outputs
     from ..output import read_results
     from ..templates import build_templates, write_templates_h5, write_templates_root
 
-    for option, path in (("--out", out), ("--root", root_out), ("--plot", plot_out)):
-        if path is not None:
-            check_output_file(path, overwrite, option)
+    check_outputs(
+        {"--out": out, "--root": root_out, "--plot": plot_out},
+        overwrite,
+        {"the run results": results_file, "the --response file": response_file},
+        images=("--plot",),
+    )
     results = read_results(results_file)
     response = _response(results, response_file)
     ts = build_templates(
@@ -178,17 +181,23 @@ def model(
     model_file, data_file, histogram, plot_out, fit_plot_out, pseudo_out, seed, as_json, overwrite
 ) -> None:
     """Sum templates times activities into a predicted spectrum; fit the activities to data."""
-    from ..files import check_output_file
+    from ..files import check_outputs
     from ..model import DataConfig, build_model, load_model, model_summary
+    from ..schema import input_paths
 
-    for option, path in (
-        ("--plot", plot_out),
-        ("--fit-plot", fit_plot_out),
-        ("--pseudo-data", pseudo_out),
-    ):
-        if path is not None:
-            check_output_file(path, overwrite, option)
+    if pseudo_out is not None and (data_file is not None or histogram is not None):
+        given = "--data" if data_file is not None else "--histogram"
+        raise ConfigError(
+            f"{given}: --pseudo-data draws a spectrum from the model and fits nothing; "
+            f"give {given} or --pseudo-data, not both"
+        )
     config = load_model(model_file)
+    check_outputs(
+        {"--plot": plot_out, "--fit-plot": fit_plot_out, "--pseudo-data": pseudo_out},
+        overwrite,
+        {"the model": model_file, "the --data file": data_file, **input_paths(config)},
+        images=("--plot", "--fit-plot"),
+    )
     m = build_model(config)
     data_cfg: DataConfig | None
     if data_file is not None:

@@ -13,11 +13,11 @@ pyg4ometry refuses on them (:func:`score4.geometry.gdml.drop_nist_state`).
 from __future__ import annotations
 
 import multiprocessing as mp
-import os
 import tempfile
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+from .. import files as score4_files
 from ..config import RunConfig
 from ..errors import ConfigError, Score4Error
 
@@ -31,9 +31,12 @@ def _write(config: RunConfig, out: str) -> dict:
     g4 = import_geant4(resolve_physics("lite"))  # geometry and NIST materials need no data
     scene = build_scene(config)
     path = Path(out)
-    tmp = path.with_name(path.name + ".partial.gdml")
-    tmp.unlink(missing_ok=True)  # Geant4's writer refuses to overwrite
-    with tempfile.TemporaryDirectory(prefix="score4-export-") as folder:
+    complete = score4_files.ends_with(b"</gdml>", "GDML file")
+    with (
+        score4_files.atomic_output(path, complete, ".partial.gdml") as tmp,
+        tempfile.TemporaryDirectory(prefix="score4-export-") as folder,
+    ):
+        tmp.unlink()  # Geant4's writer refuses to overwrite
         log = Path(folder) / "geant4.log"
         with redirect_native_output(log):
             built = build_world(g4, config, scene)
@@ -43,8 +46,7 @@ def _write(config: RunConfig, out: str) -> dict:
         if not tmp.is_file():
             tail = " | ".join(log.read_text(errors="replace").strip().splitlines()[-3:])
             raise Score4Error(f"--gdml: Geant4 did not write {path} ({tail})")
-    tmp.write_text(drop_nist_state(tmp.read_text()))
-    os.replace(tmp, path)
+        tmp.write_text(drop_nist_state(tmp.read_text()))
     return {"size": path.stat().st_size, "layers": [layer.name for layer in scene.layers]}
 
 
