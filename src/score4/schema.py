@@ -442,7 +442,16 @@ def _unknown(key: object, fields: dict) -> str:
 
 # Tags of tagged unions that pydantic puts into error locations; they are not keys the user wrote.
 UNION_TAGS = frozenset(
-    {"spikes", "random", "measured", "surface-file", "box-target", "gdml-target"}
+    {
+        "spikes",
+        "random",
+        "measured",
+        "surface-file",
+        "box-target",
+        "gdml-target",
+        "chain",
+        "nuclide",
+    }
 )
 # Errors about the keys themselves come first: a typo is the cause of a "Field required" next to it.
 _KEY_ERRORS = ("unknown_key", "exclusive_keys", "extra_forbidden")
@@ -459,6 +468,8 @@ def _shown(value: object) -> str:
             value = value.item()
     if isinstance(value, float):
         return f"{value:.6g}" if math.isfinite(value) else str(value)
+    if isinstance(value, Path):  # as written in the YAML, not PosixPath('w.gdml')
+        return str(value)
     return brief(value)
 
 

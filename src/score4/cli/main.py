@@ -73,11 +73,22 @@ def cli(ctx: click.Context, quiet: bool) -> None:
         set_quiet(ctx)
 
 
-def _load_with_overrides(config_file: Path, events: int | None, seed: int | None):
+_ALLOW_OVERLAPS = click.option(
+    "--allow-overlaps",
+    is_flag=True,
+    help="Run although the GDML world's own volumes overlap (world: {allow_overlaps: true}).",
+)
+
+
+def _load_with_overrides(
+    config_file: Path, events: int | None, seed: int | None, allow_overlaps: bool = False
+):
     """The configuration with ``--events``/``--seed`` written into its run section."""
-    from ..config import load_config
+    from ..config import allowing_overlaps, load_config
 
     config = load_config(config_file)
+    if allow_overlaps:
+        config = allowing_overlaps(config)
     overrides = {k: v for k, v in {"events": events, "seed": seed}.items() if v is not None}
     if overrides:
         config = config.model_copy(update={"run": config.run.model_copy(update=overrides)})
@@ -123,6 +134,7 @@ def _load_with_overrides(config_file: Path, events: int | None, seed: int | None
     is_flag=True,
     help="No progress bar, notices or warnings on stderr: errors only (as score4 -q run).",
 )
+@_ALLOW_OVERLAPS
 @click.pass_context
 def run(
     ctx: click.Context,
@@ -135,6 +147,7 @@ def run(
     resume,
     cluster,
     quiet,
+    allow_overlaps,
 ) -> None:
     """Simulate the run described in CONFIG.yaml and write an HDF5 results file."""
     from ..files import check_outputs
@@ -146,7 +159,7 @@ def run(
         set_quiet(ctx)
     quiet = is_quiet()
 
-    config = _load_with_overrides(config_file, events, seed)
+    config = _load_with_overrides(config_file, events, seed, allow_overlaps)
     out = out or Path(config_file.stem + ".h5")
     check_outputs({"--out": out}, True, {"the configuration": config_file, **input_paths(config)})
     with naming_file(config_file):
@@ -178,7 +191,10 @@ def run(
     "--out", type=click.Path(path_type=Path), required=True, help="Vertex file to write (.h5)."
 )
 @click.option("--overwrite", is_flag=True, help="Replace an existing file.")
-def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> None:
+@_ALLOW_OVERLAPS
+def vertices(
+    config_file: Path, n_events, seed, out: Path, overwrite: bool, allow_overlaps: bool
+) -> None:
     """Draw the source vertices of CONFIG.yaml into an HDF5 vertex file (no Geant4 run).
 
     Columns: event, particle, energy (MeV), xloc/yloc/zloc (mm), dirx/diry/dirz, depth (mm),
@@ -196,7 +212,7 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
     from ..source.build import make_source, source_geometry
     from ..source.vertex_file import write_vertex_file
 
-    config = _load_with_overrides(config_file, n_events, seed)
+    config = _load_with_overrides(config_file, n_events, seed, allow_overlaps)
     if config.source.vertices is not None:
         raise ConfigError(
             f"{config_file}: source.vertices: the source already reads a vertex file; nothing to draw"
