@@ -304,7 +304,8 @@ def summarize(
                 "mean_edep_MeV": float(e.mean()) if len(e) else 0.0,
                 "n_nonzero": int(np.count_nonzero(e)),
                 "histogram": {
-                    "edges_MeV": edges.tolist(),
+                    # 12 digits: 0.05, not linspace's 0.049999999999999996
+                    "edges_MeV": [float(f"{x:.12g}") for x in edges],
                     "counts": counts.tolist(),
                     "overflow": int(np.count_nonzero(e > emax * (1 + 1e-9))),
                 },

@@ -411,7 +411,7 @@ class TemplateSet:
             "activity_nuclide": self.activity_nuclide,
             "livetime_s": self.livetime_s,
             "bins": len(self.edges_kev) - 1,
-            "energy_range_keV": [float(self.edges_kev[0]), float(self.edges_kev[-1])],
+            "energy_range_keV": [float(f"{self.edges_kev[i]:.12g}") for i in (0, -1)],
             "roi_keV": list(self.roi_kev) if self.roi_kev else None,
             "response": self.response,
             "detectors": detectors,

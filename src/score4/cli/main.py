@@ -18,6 +18,7 @@ import click
 
 from .. import __version__
 from ..errors import ConfigError, RunInterrupted, Score4Error, Score4Warning, brief, naming_file
+from ..units import count_text
 from .data import data
 from .decay_cmd import decay_command
 from .geometry import geometry
@@ -162,6 +163,10 @@ def run(
     config = _load_with_overrides(config_file, events, seed, allow_overlaps)
     out = out or Path(config_file.stem + ".h5")
     check_outputs({"--out": out}, True, {"the configuration": config_file, **input_paths(config)})
+    notice(  # the first line within a second: the geometry and Geant4 take a while to start
+        f"run: {count_text(config.run.events, 'event')} of {config_file}: building the "
+        f"geometry and the source, then starting Geant4 ({count_text(jobs, 'worker')})"
+    )
     with naming_file(config_file):
         run_engine(
             config,
@@ -175,7 +180,8 @@ def run(
         )
     summary = summarize(read_results(out))
     click.echo(
-        f"wrote {out}: {summary['n_events']} events, physics {summary['physics_mode']}, seed {summary['seed']}"
+        f"wrote {out}: {count_text(summary['n_events'], 'event')}, physics "
+        f"{summary['physics_mode']}, seed {summary['seed']}"
     )
 
 
@@ -240,7 +246,7 @@ def vertices(
         primaries = source.events(seed, 0, n)
         where = source_geometry(config, scene)
     write_vertex_file(out, primaries, config_to_dict(config), seed, where)
-    text = f"wrote {out}: {n} events, {len(primaries.event)} primaries"
+    text = f"wrote {out}: {count_text(n, 'event')}, {count_text(len(primaries.event), 'primary', 'primaries')}"
     if "depth" in primaries.extra:
         depth = primaries.extra["depth"]
         text += (
@@ -337,7 +343,7 @@ def _echo_rates(s: dict, limit: float) -> None:
     for v in volumes:
         mass = v.get("mass_kg")
         per_kg = (
-            f", {v['rate_per_event_per_kg']:.4g} per kg ({mass * 1e3:.4g} g {v.get('material')})"
+            f", {v['rate_per_event_per_kg']:.4g} /(kg event) ({mass * 1e3:.4g} g {v.get('material')})"
             if mass
             else ""
         )
@@ -346,7 +352,8 @@ def _echo_rates(s: dict, limit: float) -> None:
         if len(volumes) > 1 and v is volumes[0]:
             click.echo(f"  above {keV} (rate = events above / simulated events):")
         click.echo(
-            f"{head} {v['above_threshold']} events, rate {v['rate_per_event']:.4g} per event"
+            f"{head} {count_text(v['above_threshold'], 'event')}, rate "
+            f"{v['rate_per_event']:.4g} /event"
             f"{per_kg}{alone}"
         )
     if len(volumes) > 1:

@@ -97,7 +97,16 @@ def plot(
             per_event=per_event,
             errors=errors,
         )
-        click.echo(f"wrote {out}: {len(spectra)} spectra")
+        left = getattr(spectra, "left_out", [])
+        click.echo(
+            f"wrote {out}: {len(spectra)} spectra"
+            + (
+                f"; left out {len(left)} volume(s) without any deposit: "
+                + ", ".join(s.volume for s in left)
+                if left
+                else ""
+            )
+        )
     elif kind == "vertices":
         hists = plot_depths(list(files), out, bins=bins, labels=list(labels) or None)
         click.echo(f"wrote {out}: {len(hists)} depth histogram(s)")

@@ -125,6 +125,8 @@ def template(
 
 
 def _print_template_summary(ts, written: list[str]) -> None:
+    from ..units import count_text
+
     act = ts.activity
     click.echo(f"wrote {', '.join(written)}")
     click.echo(f"  activity      {act.text} x {act.size_text} = {act.total_bq:.6g} Bq")
@@ -136,7 +138,7 @@ def _print_template_summary(ts, written: list[str]) -> None:
         t = ts.final.totals[d]
         line = (
             f"  {d}: {ts.masses[d]:.6g} kg, {t['counts_per_kg_day']:.4g} +- "
-            f"{t['counts_per_kg_day_error']:.2g} counts/(kg day) ({t['simulated_counts']} events)"
+            f"{t['counts_per_kg_day_error']:.2g} counts/(kg day) ({count_text(t['simulated_counts'], 'event')})"
         )
         if ts.roi_kev:
             line += (
@@ -166,7 +168,8 @@ def _print_template_summary(ts, written: list[str]) -> None:
     "--pseudo-data",
     "pseudo_out",
     type=_FILE,
-    help="Write Poisson pseudo-data drawn from the model (CSV) and stop.",
+    help="Write Poisson pseudo-data drawn from the model (CSV) and stop (nothing is fitted: "
+    "not with --data).",
 )
 @click.option(
     "--seed",

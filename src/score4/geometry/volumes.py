@@ -276,7 +276,7 @@ class GeometryModel:
             more = " (the tree was cut at MAX_INSTANCES volumes)" if self.truncated else ""
             raise ConfigError(
                 f"{parameter}: no volume named {name!r} in {self.source}{hint}{more}; "
-                "`score4 geometry list CONFIG` lists the volumes"
+                f"`score4 geometry list {self.source}` lists the volumes"
             )
         if index is None:
             return [self.instances[i] for i in hits]

@@ -419,9 +419,12 @@ def _run_chunks(
                     bar.update(event[1])
                 elif kind == "library":  # a worker builds a TRIM library (see trim_library)
                     _, phase, what, text = event
-                    if (phase, what) not in told and show:  # workers may build the same one
+                    if (phase, what) not in told:  # workers may build the same one
                         told.add((phase, what))
-                        bar.write(f"run: {text}")
+                        if show:
+                            bar.write(f"run: {text}")
+                        elif phase == "start":  # even quiet: a one-time wait of a minute
+                            print(f"score4: run: {text}", file=sys.stderr, flush=True)
                     if phase == "done":
                         bar.unpause()  # the time it took is not part of the events' rate
                 elif kind == "done":
