@@ -291,6 +291,9 @@ def summarize(
     stored_max = hist_cfg.get("max")  # stored with its unit ("6.0 MeV")
     stored_max = parse_quantity(stored_max, "energy") if stored_max is not None else None
     emax = emax or stored_max or float(results.primary_energy.max(initial=0.0)) or 1.0
+    from . import limits
+
+    limits.check_bins(int(bins), "--bins", n_1d=max(1, len(results.edep)))
     edges = np.linspace(0.0, emax, bins + 1)
     volumes = []
     for name, e in results.edep.items():

@@ -163,10 +163,6 @@ def run(
     config = _load_with_overrides(config_file, events, seed, allow_overlaps)
     out = out or Path(config_file.stem + ".h5")
     check_outputs({"--out": out}, True, {"the configuration": config_file, **input_paths(config)})
-    notice(  # the first line within a second: the geometry and Geant4 take a while to start
-        f"run: {count_text(config.run.events, 'event')} of {config_file}: building the "
-        f"geometry and the source, then starting Geant4 ({count_text(jobs, 'worker')})"
-    )
     with naming_file(config_file):
         run_engine(
             config,

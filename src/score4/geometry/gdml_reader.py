@@ -51,7 +51,7 @@ def own_overlaps(world) -> list[dict]:
         text = log.read_text(errors="replace") if report.overlaps else ""
     found: dict[frozenset, dict] = {}
     for a, b, depth in _OVERLAP.findall(text):
-        found.setdefault(frozenset((a, b)), {"volumes": [a, b], "by": depth})
+        found.setdefault(frozenset((a, b)), {"volumes": sorted((a, b)), "by": depth})
     return list(found.values())
 
 

@@ -85,11 +85,11 @@ def geometry_text(rows: dict) -> str:
             out.append("  ... (more volumes: the listing stops at 200000)")
     else:
         out.append("world: a generated box around the targets")
-    for o in rows.get("overlaps", []):
-        out.append(
-            f"overlap: {o['volumes'][0]} and {o['volumes'][1]} by {o['by']} (Geant4 "
-            "CheckOverlaps; a run needs --allow-overlaps)"
-        )
+    out.extend(
+        f"overlap: {o['volumes'][0]} and {o['volumes'][1]} by {o['by']} (Geant4 "
+        "CheckOverlaps; a run needs --allow-overlaps)"
+        for o in rows.get("overlaps", [])
+    )
     if not rows["targets"]:
         out.append(
             "targets: none yet; score a volume with targets: [{volume: NAME}] in a run "

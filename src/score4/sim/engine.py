@@ -284,6 +284,8 @@ def run(
             f"notice: --jobs {jobs} but only {n_todo} chunk(s) to run ({_chunks_text(chunks, done)}); "
             f"using {workers} worker(s)"
         )
+    if progress:  # Geant4 takes seconds to start: say so before the bar's first line
+        echo(f"run: geometry and source ready; starting Geant4 in {workers} worker(s)")
     executor = make_executor(
         cluster, workers, echo
     )  # before creating anything: a bad --cluster leaves no trace
