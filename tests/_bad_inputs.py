@@ -800,6 +800,13 @@ CASES: list[Case] = [
         },
         "x: 0.01 to 0.02 mm keeps 0 sample(s) of the map along x",
     ),
+    Case(
+        "decay-since-deposition-names-the-option",
+        "other",
+        ["decay", "Pb210", "--chain", "--since-deposition", "1e30 y"],
+        {},
+        "--since-deposition: the head has decayed away by then",
+    ),
     # --- issue 26: the newcomer's first GDML (accepted) ------------------------------------------
     Case(
         "geometry-list-bare-gdml", "other", ["geometry", "list", "w.gdml"], {"w.gdml": gdml_world}
