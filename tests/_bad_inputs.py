@@ -652,7 +652,7 @@ CASES: list[Case] = [
         "model-pseudo-data-is-the-model",
         "footgun",
         ["model", "m.yaml", "--pseudo-data", "t.h5", "--overwrite"],
-        {"t.h5": templates_file, "m.yaml": MODEL_ONE},
+        {"t.h5": results_file, "m.yaml": MODEL_ONE},  # refused before any template is read
         "is the file of components.0.template",
     ),
     # --- issue 26: memory ------------------------------------------------------------------------
