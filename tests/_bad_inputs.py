@@ -655,6 +655,13 @@ CASES: list[Case] = [
         {"t.h5": results_file, "m.yaml": MODEL_ONE},  # refused before any template is read
         "is the file of components.0.template",
     ),
+    Case(
+        "run-log-is-the-config",
+        "footgun",
+        ["run", "r.geant4.log", "--out", "r.h5"],
+        {"r.geant4.log": config()},
+        "its Geant4 log: 'r.geant4.log' is the configuration",
+    ),
     # --- issue 26: memory ------------------------------------------------------------------------
     Case(
         "template-bins-1e8",

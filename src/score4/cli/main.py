@@ -162,7 +162,11 @@ def run(
 
     config = _load_with_overrides(config_file, events, seed, allow_overlaps)
     out = out or Path(config_file.stem + ".h5")
-    check_outputs({"--out": out}, True, {"the configuration": config_file, **input_paths(config)})
+    check_outputs(  # the results and, beside them, Geant4's log
+        {"--out": out, "its Geant4 log": out.with_name(out.stem + ".geant4.log")},
+        True,
+        {"the configuration": config_file, **input_paths(config)},
+    )
     with naming_file(config_file):
         run_engine(
             config,

@@ -870,7 +870,7 @@ def _stuck_tracks(exceptions: list[tuple[str, str, str]]) -> dict:
 
 def _collect_logs(parts: Path, out: Path) -> Path:
     log = out.with_name(out.stem + ".geant4.log")
-    with open(log, "w") as dst:
+    with atomic_output(log) as tmp, open(tmp, "w") as dst:
         dst.writelines(
             f"===== {src.name} =====\n{src.read_text(errors='replace')}"
             for src in sorted(parts.glob("geant4-*.log"))
