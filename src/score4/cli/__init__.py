@@ -15,6 +15,7 @@ import sys
 def _interrupted(kind, value, traceback) -> None:
     if issubclass(kind, KeyboardInterrupt):
         try:
+            sys.stdout.flush()
             sys.stderr.write("\nscore4: aborted\n")
             sys.stderr.flush()
         finally:
