@@ -738,6 +738,13 @@ CASES: list[Case] = [
         "--roi: 10000 to 11000 keV is not inside the templates' energy range",
     ),
     Case(
+        "model-roi-outside-the-templates",
+        "traceback",
+        ["model", "m.yaml"],
+        {"t.h5": templates_file, "m.yaml": {**MODEL_ONE, "roi": ["10 MeV", "11 MeV"]}},
+        "roi: 10000 to 11000 keV holds no bin centre of the templates",
+    ),
+    Case(
         "template-emax-1e30-mev",
         "silent",
         [*TEMPLATE, "--emax", "1e30 MeV"],

@@ -592,6 +592,12 @@ def model_summary(model: Model) -> dict[str, Any]:
     if roi is not None:
         centres = (model.edges_kev[:-1] + model.edges_kev[1:]) / 2
         in_roi = (centres >= roi[0]) & (centres < roi[1])
+        if not in_roi.any():
+            raise ConfigError(
+                f"roi: {roi[0]:.6g} to {roi[1]:.6g} keV holds no bin centre of the templates "
+                f"({model.edges_kev[0]:.6g} to {model.edges_kev[-1]:.6g} keV in "
+                f"{len(model.edges_kev) - 1} bins)"
+            )
     total_counts = 0.0
     for c, rate in zip(model.components, model.rates(), strict=True):
         counts = float((rate * width).sum() * model.mass_kg * model.livetime_days)
