@@ -10,7 +10,7 @@ from pathlib import Path
 
 import click
 
-from ..errors import ConfigError
+from ..errors import ConfigError, naming_file
 
 _FILE = click.Path(dir_okay=False, path_type=Path)
 
@@ -201,7 +201,8 @@ def model(
         {"the model": model_file, "the --data file": data_file, **input_paths(config)},
         images=("--plot", "--fit-plot"),
     )
-    m = build_model(config)
+    with naming_file(model_file):
+        m = build_model(config)
     data_cfg: DataConfig | None
     if data_file is not None:
         data_cfg = DataConfig.model_validate({"file": data_file, "histogram": histogram})
@@ -211,7 +212,8 @@ def model(
         data_cfg = config.data
     if fit_plot_out is not None and data_cfg is None:
         raise ConfigError("--fit-plot: needs data to fit (--data FILE or data: in the model)")
-    summary = model_summary(m)
+    with naming_file(model_file):
+        summary = model_summary(m)
     if pseudo_out is not None:
         _write_pseudo(m, seed, pseudo_out, model_file)
         return
@@ -219,7 +221,8 @@ def model(
     if data_cfg is not None:
         from ..model import fit_model, read_spectrum
 
-        fit = fit_model(m, read_spectrum(data_cfg))
+        with naming_file(model_file):
+            fit = fit_model(m, read_spectrum(data_cfg))
     written = _model_plots(m, fit, plot_out, fit_plot_out)
     if as_json:
         click.echo(
