@@ -17,6 +17,8 @@ from _bad_inputs import CASES, Case, digest, gdml_config, gdml_world
 
 from score4.cli.main import main
 
+from conftest import tmpfs_mount_command
+
 
 def _run(case: Case, folder: Path, capsys) -> tuple[int, str]:
     if case.subprocess:  # Geant4 in the command, or a hang when it fails: its own process
@@ -131,3 +133,30 @@ def test_a_gdml_files_own_overlaps_are_read_once_per_content(tmp_path, monkeypat
     assert len(reads) == 2
     assert "overlap:" not in capsys.readouterr().out
     gdml_files._MODELS.clear()
+
+
+@pytest.mark.deep
+def test_geometry_export_to_a_real_full_disk_keeps_the_old_file(tmp_path):
+    """As above on a real full disk (ENOSPC): an 8 kB tmpfs in a private mount namespace whose
+    two pages hold the old file and a filler."""
+    mnt = tmp_path / "small_disk"
+    mnt.mkdir()
+    unshare = tmpfs_mount_command(mnt)
+    if unshare is None:
+        pytest.skip("cannot mount a tmpfs in a private mount namespace here (unshare -m / -rm)")
+    gdml_world(tmp_path / "w.gdml")
+    (tmp_path / "c.yaml").write_text(yaml.safe_dump(gdml_config()))
+    assert main(["geometry", "list", str(tmp_path / "c.yaml")]) == 0  # its model cached
+    export = f"{sys.executable} -m score4 geometry export c.yaml --gdml {mnt}/out.gdml --overwrite"
+    script = (
+        f"mount -t tmpfs -o size=8k tmpfs {mnt} || exit 99; echo old > {mnt}/out.gdml; "
+        f"head -c 2000 /dev/zero > {mnt}/filler; cd {tmp_path}; {export} 2> err.txt; "
+        f"echo $? > rc.txt; cp {mnt}/out.gdml after.gdml; ls -a {mnt} > ls.txt"
+    )
+    subprocess.run([*unshare, "sh", "-c", script], check=True, timeout=300)
+    err = (tmp_path / "err.txt").read_text()
+    assert (tmp_path / "rc.txt").read_text().strip() == "2", err
+    assert err.startswith(f"score4: error: cannot write {mnt}/out.gdml: "), err
+    assert "Traceback" not in err
+    assert (tmp_path / "after.gdml").read_text() == "old\n"
+    assert (tmp_path / "ls.txt").read_text().split() == [".", "..", "filler", "out.gdml"]
