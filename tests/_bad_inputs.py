@@ -678,6 +678,13 @@ CASES: list[Case] = [
         "100000000 bins are more than score4's limit of 1000000",
     ),
     Case(
+        "run-jobs-1e5",
+        "other",
+        [*RUN, "--jobs", "100000"],
+        {"c.yaml": config()},
+        "--jobs: running 100000 Geant4 workers (at least 150 MB each) needs about",
+    ),
+    Case(
         "config-histogram-bins-1e8",
         "other",
         RUN,

@@ -79,6 +79,10 @@ MAX_BINS = 10**6
 #: A histogram bin in memory: counts, rate, error and expected counts (float64) and numpy's
 #: temporaries while it is filled.
 BIN_BYTES = 48
+#: A Geant4 worker process of a run: peak resident memory of a lite-physics worker (a GDML
+#: world of two boxes, 3000 alphas), 150 MB by /proc VmRSS; full physics and large worlds need
+#: more, so this is a lower bound for ``--jobs``.
+WORKER_BYTES = 150 * 2**20
 #: A primary particle in memory (event, energy, position, direction, depth, facet, patch, name).
 PRIMARY_BYTES = 120
 

@@ -162,6 +162,15 @@ def run(
 
     config = _load_with_overrides(config_file, events, seed, allow_overlaps)
     out = out or Path(config_file.stem + ".h5")
+    if cluster is None:  # local workers: each a Geant4 process of its own
+        from .. import limits
+
+        limits.check_memory(
+            jobs * limits.WORKER_BYTES,
+            f"running {count_text(jobs, 'Geant4 worker')} (at least 150 MB each)",
+            "--jobs",
+            "use fewer --jobs",
+        )
     check_outputs(  # the results and, beside them, Geant4's log
         {"--out": out, "its Geant4 log": out.with_name(out.stem + ".geant4.log")},
         True,
