@@ -682,7 +682,7 @@ CASES: list[Case] = [
         "other",
         [*RUN, "--jobs", "100000"],
         {"c.yaml": config()},
-        "--jobs: running 100000 Geant4 workers (at least 150 MB each) needs about",
+        "--jobs: running 100000 Geant4 processes (at least 150 MB each) needs about",
     ),
     Case(
         "config-histogram-bins-1e8",

@@ -167,7 +167,7 @@ def run(
 
         limits.check_memory(
             jobs * limits.WORKER_BYTES,
-            f"running {count_text(jobs, 'Geant4 worker')} (at least 150 MB each)",
+            f"running {count_text(jobs, 'Geant4 process', 'Geant4 processes')} (at least 150 MB each)",
             "--jobs",
             "use fewer --jobs",
         )
