@@ -133,7 +133,8 @@ def _load_with_overrides(
     "--quiet",
     "-q",
     is_flag=True,
-    help="No progress bar, notices or warnings on stderr: errors only (as score4 -q run).",
+    help="No progress bar, notices or warnings on stderr: errors only (as score4 -q run); at a "
+    "terminal it still says once that it builds a TRIM library (a wait of up to minutes).",
 )
 @_ALLOW_OVERLAPS
 @click.pass_context

@@ -481,7 +481,8 @@ def _run_chunks(
                         told.add((phase, what))
                         if show:
                             bar.write(f"run: {text}")
-                        elif phase == "start":  # even quiet: a one-time wait of a minute
+                        elif phase == "start" and sys.stderr.isatty():
+                            # even quiet, at a terminal: a one-time wait of up to minutes
                             print(f"score4: run: {text}", file=sys.stderr, flush=True)
                     if phase == "done":
                         bar.unpause()  # the time it took is not part of the events' rate
