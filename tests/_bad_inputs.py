@@ -1,4 +1,4 @@
-"""The bad inputs of issue 20's "Why" list, one case each, for tests/test_bad_inputs.py.
+"""The bad inputs of the "Why" lists of issues 20 and 26, one case each (tests/test_bad_inputs.py).
 
 Each case writes its files into an empty folder and gives the command line; it says which
 class of fault the input caused when the issue was filed (crash, traceback, silent accept,
