@@ -114,7 +114,7 @@ def test_a_gdml_files_own_overlaps_are_read_once_per_content(tmp_path, monkeypat
     """The overlap check runs with the volume model, in the one Geant4 read of a GDML file that
     its cache (keyed by content) keeps: a second command reads no GDML; a changed file is
     read (and checked) again."""
-    from score4.geometry import gdml_files
+    from score4.world import gdml_files
 
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
     gdml_files._MODELS.clear()

@@ -16,18 +16,19 @@ from pathlib import Path
 
 import click
 
+from score4.inputs.units import count_text
+
 from .. import __version__
 from ..errors import ConfigError, RunInterrupted, Score4Error, Score4Warning, brief, naming_file
-from ..units import count_text
-from .data import data
+from .data_cmd import data
 from .decay_cmd import decay_command
-from .geometry import geometry
-from .macro import import_macro
+from .geometry_cmd import geometry
+from .macro_cmd import import_macro
 from .quiet import is_quiet, notice, set_quiet
 from .range_cmd import range_command
-from .results import export, plot
-from .surface import surface
-from .templates import model, template
+from .results_cmd import export, plot
+from .surface_cmd import surface
+from .templates_cmd import model, template
 from .usage import command_path, usage_error_line
 
 
@@ -37,8 +38,8 @@ class EventCount(click.ParamType):
     name = "integer"
 
     def convert(self, value, param, ctx):
-        from ..limits import too_many_events
-        from ..units import parse_count
+        from score4.inputs.limits import too_many_events
+        from score4.inputs.units import parse_count
 
         try:
             number = parse_count(value)
@@ -85,7 +86,7 @@ def _load_with_overrides(
     config_file: Path, events: int | None, seed: int | None, allow_overlaps: bool = False
 ):
     """The configuration with ``--events``/``--seed`` written into its run section."""
-    from ..config import allowing_overlaps, load_config
+    from score4.inputs.config import allowing_overlaps, load_config
 
     config = load_config(config_file)
     if allow_overlaps:
@@ -152,10 +153,11 @@ def run(
     allow_overlaps,
 ) -> None:
     """Simulate the run described in CONFIG.yaml and write an HDF5 results file."""
+    from score4.inputs.schema import input_paths
+    from score4.runner.engine import run as run_engine
+    from score4.runner.output import read_results, summarize
+
     from ..files import check_outputs
-    from ..output import read_results, summarize
-    from ..schema import input_paths
-    from ..sim.engine import run as run_engine
 
     if quiet:
         set_quiet(ctx)
@@ -164,7 +166,7 @@ def run(
     config = _load_with_overrides(config_file, events, seed, allow_overlaps)
     out = out or Path(config_file.stem + ".h5")
     if cluster is None:  # local workers: each a Geant4 process of its own
-        from .. import limits
+        from score4.inputs import limits
 
         limits.check_memory(
             jobs * limits.WORKER_BYTES,
@@ -219,12 +221,13 @@ def vertices(
     file (source: {vertices: FILE}) with the same seed reproduces the direct run event by event,
     and the first N rows are the vertices of a run of N events.
     """
-    from .. import limits
-    from ..config import config_to_dict
+    from score4.inputs import limits
+    from score4.inputs.config import config_to_dict
+    from score4.inputs.schema import input_paths
+    from score4.source.event_blocks import BLOCK_EVENTS
+    from score4.world.scene import build_scene
+
     from ..files import check_output_file
-    from ..scene import build_scene
-    from ..schema import input_paths
-    from ..source.blocks import BLOCK_EVENTS
     from ..source.build import make_source, source_geometry
     from ..source.vertex_file import write_vertex_file
 
@@ -283,8 +286,8 @@ def vertices(
 def summary(results_file: Path, as_json: bool, bins, threshold: str) -> None:
     """Summarise a results file: events, physics, energy deposit per volume, per-volume rates
     above --threshold and the multiplicity (events with 1, 2, ... volumes above it)."""
-    from ..output import read_results, summarize
-    from ..units import parse_quantity
+    from score4.inputs.units import parse_quantity
+    from score4.runner.output import read_results, summarize
 
     limit = parse_quantity(threshold, "energy", "--threshold")
     if limit < 0:
