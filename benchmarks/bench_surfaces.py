@@ -4,7 +4,9 @@
         [--cases a,b] [--sizes 256,512] [--warm] [--markdown]
 
 ``--markdown`` prints the tables of docs/tiling.md (with ``--warm``: the CPU per event; with
-``--cases ""``: the build cost), checked by ``make docs-check-all``.
+``--cases ""``: the build cost), checked by ``make docs-check-all``. ``--warm --faces
+1.5,30,100`` runs each case on faces of about 1.5 mm, 3 cm and 10 cm (a whole number of
+patches), with ratios to the pyramid face of the same size, the build CPU and the peak RSS.
 
 First table: each case is a whole ``score4 run`` in its own process (``--jobs 1``, lite physics,
 5.3 MeV alphas, isotropic, exponential depth 20 nm below the local surface, the +z face of a
@@ -149,15 +151,16 @@ CASES = {
 }
 
 
-def config(case: str, events: int) -> dict:
-    """Run configuration of ``case``; ``<case>_b<N>`` is ``<case>`` with ``block_cells: N``."""
+def config(case: str, events: int, face: float = 1.5) -> dict:
+    """Run configuration of ``case`` on a face of about ``face`` x ``face`` mm (a whole number
+    of patches); ``<case>_b<N>`` is ``<case>`` with ``block_cells: N``."""
     base, _, cells = case.rpartition("_b")
     block_cells = int(cells) if base in CASES and cells.isdigit() else None
     surface, patch, solid = CASES[base if block_cells else case]
-    n = max(1, round(1.5 / patch))
+    n = max(1, round(face / patch))
     size_x = size_y = n * patch
-    if case.startswith("measured"):
-        size_x, size_y = 50 * 0.030, 60 * 0.025
+    if case.startswith("measured"):  # 30 um x 25 um patches
+        size_x, size_y = max(1, round(face / 0.030)) * 0.030, max(1, round(face / 0.025)) * 0.025
     target = {
         "name": "crystal",
         "material": "G4_Si",
@@ -211,21 +214,27 @@ def run_case(case: str, events: int, tmp: Path) -> tuple[float, float]:
     return cpu, float(read_results(out).scores["edep"]["crystal"].mean())
 
 
-def warm_case(case: str, events: int) -> None:
+def warm_case(case: str, events: int, face: float = 1.5) -> None:
     """Child process: build ``case`` once, run 200 warm-up events, then time ``events`` events
-    (CPU of this process) in one BeamOn; print ms per event and the mean deposit."""
+    (CPU of this process) in one BeamOn; print ms per event, the mean deposit, the CPU seconds
+    of building and the peak RSS (MB)."""
 
     from score4.inputs.config import parse_config
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
 
-    sim = Simulation(plan_run(parse_config(config(case, events)), physics=resolve_physics("lite")))
+    b0 = time.process_time()
+    config_ = parse_config(config(case, events, face))
+    sim = Simulation(plan_run(config_, physics=resolve_physics("lite")))
+    build = time.process_time() - b0
     primaries = sim.source.primaries(np.random.default_rng(5), 0, 200 + events)
     sim.run(primaries.select_events(0, 200), 1)
     c0 = time.process_time()
     scores = sim.run(primaries.select_events(200, 200 + events), 2)
     per = (time.process_time() - c0) / events
-    print(f"WARM {per * 1e3:.4f} {float(scores['edep'][:, 0].mean()):.4f}")
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    mean = float(scores["edep"][:, 0].mean())
+    print(f"WARM {per * 1e3:.4f} {mean:.4f} {build:.2f} {rss:.0f}")
 
 
 #: docs/tiling.md's labels of the cases: (surface, solid)
@@ -248,45 +257,66 @@ def label(case: str) -> tuple[str, str]:
 
 
 def warm_table(
-    cases: list[str], events: int, repeat: int, slow_events: int, markdown: bool = False
+    cases: list[str],
+    events: int,
+    repeat: int,
+    slow_events: int,
+    markdown: bool = False,
+    faces: tuple[float, ...] = (1.5,),
 ) -> None:
-    """CPU per event with building and start-up left out: one process per case and round."""
+    """CPU per event with building and start-up left out: one process per case, face and
+    round; the rounds interleave all cases and faces. Ratios are to the equal-pyramid face of
+    the same size."""
     if markdown:
         from stamp import stamp  # this folder is on sys.path when run as a script
 
         print(stamp())
     else:
         print(f"load average at start: {os.getloadavg()}")
-    runs: dict[str, list[float]] = {}
+    runs: dict[tuple[str, float], list[tuple[float, ...]]] = {}
     for _ in range(repeat):
-        for case in cases:
-            n = slow_events if case.endswith("_tess") else events
-            r = subprocess.run(
-                [sys.executable, __file__, "--warm-child", case, "--events", str(n)],
-                check=False,
-                capture_output=True,
-                text=True,
-                env={**os.environ, "PYTHONPATH": str(ROOT / "src")},
-            )
-            lines = [x for x in r.stdout.splitlines() if x.startswith("WARM ")]
-            if r.returncode or not lines:
-                print(f"{case}: failed: {r.stderr.strip().splitlines()[-1:]}")
-                continue
-            runs.setdefault(case, []).append(float(lines[-1].split()[1]))
-    ref = float(np.median(runs["pyramids"])) if "pyramids" in runs else float("nan")
+        for face in faces:
+            for case in cases:
+                n = slow_events if case.endswith("_tess") else events
+                cmd = [sys.executable, __file__, "--warm-child", case, "--events", str(n)]
+                r = subprocess.run(
+                    [*cmd, "--faces", str(face)],
+                    check=False,
+                    capture_output=True,
+                    text=True,
+                    env={**os.environ, "PYTHONPATH": str(ROOT / "src")},
+                )
+                lines = [x for x in r.stdout.splitlines() if x.startswith("WARM ")]
+                if r.returncode or not lines:
+                    print(f"{case} {face} mm: failed: {r.stderr.strip().splitlines()[-1:]}")
+                    continue
+                runs.setdefault((case, face), []).append(tuple(map(float, lines[-1].split()[1:])))
+
+    def med(key: tuple[str, float], k: int = 0) -> float:
+        return float(np.median([r[k] for r in runs[key]])) if key in runs else float("nan")
+
+    one_face = len(faces) == 1
     if markdown:
-        print("| surface | solid | ms CPU per alpha event | ratio to equal pyramids |")
-        print("| --- | --- | --- | --- |")
-        for case, per in runs.items():
-            med = float(np.median(per))
-            print(f"| {' | '.join(label(case))} | {med:.3f} | {med / ref:.2f} |")
+        head = "| surface | solid |" + ("" if one_face else " face mm |")
+        print(head + " ms CPU per alpha event | ratio to equal pyramids |")
+        print("| --- " * (head.count("|") + 1) + "|")
+        for case, face in runs:
+            per, ref = med((case, face)), med(("pyramids", face))
+            where = "" if one_face else f" {face:g} |"
+            print(f"| {' | '.join(label(case))} |{where} {per:.3f} | {per / ref:.2f} |")
         return
     print(f"load average at end: {os.getloadavg()}")
-    print(f"{'case':18s} {'ms/event':>9s} {'ratio':>6s}  all rounds ms/event")
-    for case, per in runs.items():
-        med = float(np.median(per))
-        every = " ".join(f"{x:.3f}" for x in per)
-        print(f"{case:18s} {med:9.3f} {med / ref:6.2f}  {every}")
+    print(
+        f"{'case':18s} {'face mm':>7s} {'ms/event':>9s} {'ratio':>6s} {'build s':>7s} "
+        f"{'RSS MB':>6s} {'mean MeV':>8s}  all rounds ms/event"
+    )
+    for case, face in runs:
+        per, ref = med((case, face)), med(("pyramids", face))
+        every = " ".join(f"{r[0]:.3f}" for r in runs[case, face])
+        print(
+            f"{case:18s} {face:7g} {per:9.3f} {per / ref:6.2f} {med((case, face), 2):7.2f} "
+            f"{med((case, face), 3):6.0f} {med((case, face), 1):8.4f}  {every}"
+        )
 
 
 def build_case(n: int) -> None:
@@ -357,6 +387,9 @@ def main() -> None:
         help="instead: one process per case, 200 warm-up events, then --events timed",
     )
     p.add_argument("--markdown", action="store_true", help="docs/tiling.md's tables")
+    p.add_argument(
+        "--faces", default="1.5", help="--warm: face sides, mm (e.g. 1.5,30,100), each a table row"
+    )
     p.add_argument("--build-child", type=int, help=argparse.SUPPRESS)
     p.add_argument("--warm-child", help=argparse.SUPPRESS)
     a = p.parse_args()
@@ -364,11 +397,12 @@ def main() -> None:
         build_case(a.build_child)
         return
     if a.warm_child:
-        warm_case(a.warm_child, a.events)
+        warm_case(a.warm_child, a.events, float(a.faces))
         return
     if a.warm:
         cases = [c for c in a.cases.split(",") if c]
-        warm_table(cases, a.events, a.repeat, a.slow_events, a.markdown)
+        faces = tuple(float(f) for f in a.faces.split(",") if f)
+        warm_table(cases, a.events, a.repeat, a.slow_events, a.markdown, faces)
         return
     cases = [c for c in a.cases.split(",") if c]
     if a.markdown and not cases:

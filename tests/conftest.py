@@ -171,9 +171,16 @@ def straight_down_paths(config, primaries) -> tuple[np.ndarray, np.ndarray]:
 def pytest_configure(config) -> None:
     """``--dist loadgroup`` needs pytest < 9.2 with pytest-xdist 3.8: pytest 9.2 ignores the
     ``@group`` suffix xdist puts on test ids, so xdist_group marks would do nothing and tests that
-    must not run side by side (several worker processes each) would. Stop with the reason."""
+    must not run side by side (several worker processes each) would. Stop with the reason.
+    On xdist worker gw0, start the collection progress line (see pytest_collectreport)."""
+    import sys
     from importlib.metadata import version
 
+    worker = getattr(config, "workerinput", {}).get("workerid")
+    if worker == "gw0" and not config.option.collectonly:
+        _COLLECTION_ECHO[0] = True
+        sys.stderr.write("collecting the test files on each xdist worker: ")
+        sys.stderr.flush()
     if getattr(config.option, "dist", None) != "loadgroup" or hasattr(config, "workerinput"):
         return
     pytest_version = tuple(int(x) for x in pytest.__version__.split(".")[:2])
@@ -183,3 +190,26 @@ def pytest_configure(config) -> None:
             f"pytest {pytest.__version__} ignores pytest-xdist {version('pytest-xdist')}'s test "
             "groups (xdist_group marks): install pytest<9.2 (pip install -e '.[test]')"
         )
+
+
+#: xdist worker gw0 reports its collection on stderr (xdist shows nothing until every worker has
+#: collected: ~10 s of CPU per worker, minutes on a loaded machine); set in pytest_configure.
+_COLLECTION_ECHO: list[bool] = [False]
+
+
+def pytest_collectreport(report) -> None:
+    """A dot on stderr per test file gw0 has collected (only under xdist; its own progress
+    line starts once all workers have collected)."""
+    import sys
+
+    if _COLLECTION_ECHO[0] and report.nodeid.endswith(".py"):
+        sys.stderr.write(".")
+        sys.stderr.flush()
+
+
+def pytest_collection_finish(session) -> None:
+    import sys
+
+    if _COLLECTION_ECHO[0]:
+        sys.stderr.write(f" {len(session.items)} tests collected on each worker\n")
+        sys.stderr.flush()

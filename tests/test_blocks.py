@@ -18,8 +18,9 @@ from score4.source.vertex_file import write_vertex_file
 from score4.surface import block_cut as blk
 from score4.surface.spec import build_surface
 from score4.surface.triangle_mesh import is_watertight, signed_volume
+from score4.world import scene as scene_module
 from score4.world.scene import build_scene
-from score4.world.walls import rays_in_walls
+from score4.world.walls import rays_in_walls, wall_planes
 
 from conftest import (
     SPREAD,
@@ -92,8 +93,21 @@ def test_auto_block_size_splits_any_map():
     assert set(np.diff(edges)) <= {3, 4}
     assert blk.auto_block_cells(build_surface(RANDOM)) == 2  # 2 facets per pixel: 2 x 2 pixels
     assert blk.auto_block_cells(build_surface(SPREAD)) == 1  # 20 facets per bump: one per block
-    # placed 40 000 times (a 10 cm face of 0.5 mm cells): at most 50 blocks of 40 x 40 cells
-    assert blk.auto_block_cells(build_surface(RANDOM), 40_000) == 6
+
+
+def test_auto_block_size_does_not_grow_with_the_face():
+    """The same patch tiled 1 x 1 (0.1 mm face) and 120 x 120 times (12 mm: 14 400 copies of 400
+    blocks) is cut alike: 2 x 2-pixel blocks of ~8 top facets (a bound on copies x blocks once
+    gave large faces blocks of thousands of facets, each step inside them slow)."""
+    cuts = []
+    for size in ("0.1 mm", "12 mm"):
+        data = _data(RANDOM, "blocks")
+        data["targets"][0]["size"] = [size, size, "0.1 mm"]
+        layer = build_scene(parse_config(data)).layers[0]
+        assert layer.patch_map.variants.size == (1 if size == "0.1 mm" else 14_400)
+        u, _ = wall_planes(layer)
+        cuts.append(set(np.round(np.diff(u) * 1e6).astype(int).tolist()))  # nm
+    assert cuts == [{5000}, {5000}]  # a cut every 2 pixels of 2.5 um
 
 
 def test_block_size_that_does_not_divide_the_map_is_refused():
@@ -119,7 +133,7 @@ def test_map_too_large_is_refused_with_size_and_limit(monkeypatch):
         blk.check_patch(build_surface(RANDOM), "blocks", None)
 
 
-def test_auto_picks_blocks_except_for_equal_spikes():
+def test_auto_picks_blocks_except_for_equal_spikes(monkeypatch):
     pyr = {"kind": "spikes", "nx": 4, "ny": 4, "width": "10 um", "height": "10 um"}
     data = config_dict(
         surfaces={"r": RANDOM, "s": SPREAD, "p": pyr},
@@ -131,6 +145,10 @@ def test_auto_picks_blocks_except_for_equal_spikes():
         layer = build_scene(parse_config(data)).layers[0]
         kinds[name] = layer.solid_kind(0)
     assert kinds == {"r": "blocks", "s": "frustums", "p": "multiunion"}
+    # equal spikes, but more than a multi-union voxelises in reasonable time: frustums
+    monkeypatch.setattr(scene_module, "AUTO_MULTIUNION_MAX_SPIKES", 15)
+    data["targets"][0]["rough"][0]["surface"] = "p"
+    assert build_scene(parse_config(data)).layers[0].solid_kind(0) == "frustums"
 
 
 # --- Geant4: same paths, same spectra -------------------------------------------------------------

@@ -33,18 +33,16 @@ def place_blocks(
     mother_lv,
     z: float,
     name: str,
-    copies: int = 1,
 ) -> tuple[list, list]:
     """Place the patch's blocks in ``mother_lv``, base plane at height ``z`` of the mother.
 
     Returns ``(logical volumes of the blocks, objects to keep alive)``; all logical volumes
-    are of ``material`` and belong to the patch's scoring group. ``copies``: how many times the
-    mother is placed (the automatic block size keeps copies x blocks bounded).
+    are of ``material`` and belong to the patch's scoring group.
     """
     lvs, keep = [], []
     where = g4.G4ThreeVector(0.0, 0.0, z)
     keep.append(where)
-    for b, body in enumerate(block_bodies(surface, base_thickness, block_cells, copies)):
+    for b, body in enumerate(block_bodies(surface, base_thickness, block_cells)):
         solid = fast_tessellated(g4, body, f"{name}_b{b}")
         lv = g4.G4LogicalVolume(solid, material, f"{name}_b{b}")
         pv = g4.G4PVPlacement(None, where, lv, f"{name}_b{b}", mother_lv, False, b, False)

@@ -55,14 +55,12 @@ def place_variant(
     material,
     name: str,
     copy_no: int = 0,
-    copies: int = 1,
 ) -> tuple[list, list]:
     """Place patch variant ``k`` in ``mother_lv`` with its base plane at height ``z``.
 
     The patch is one solid (``tessellated`` / ``multiunion``: the closed body, slab below the
     base plane), a grid of closed blocks (``blocks``, :mod:`.blocks`) or a spike grid's base box
     and frustums placed side by side (``frustums``, :mod:`.frustums`).
-    ``copies`` is how many times ``mother_lv`` is placed (blocks: bounds the placed blocks).
     Returns ``(logical volumes of the patch's material, objects to keep alive)``.
     """
     surface = layer.variants[k]
@@ -77,7 +75,6 @@ def place_variant(
             mother_lv,
             z,
             name,
-            copies,
         )
     if kind == "frustums":
         assert surface.spikes is not None  # only spike grids are made of frustums
@@ -126,10 +123,7 @@ def place_native(
     for k in range(len(layer.variants)):
         cell_solid = g4.G4Box(f"{name}_cell{k}", px / 2, py / 2, t / 2)
         cell_lv = g4.G4LogicalVolume(cell_solid, world_material, f"{name}_cell{k}")
-        copies = int((layer.patch_map.variants == k).sum())
-        lvs_k, keep_k = place_variant(
-            g4, layer, k, cell_lv, z, material, f"{name}_v{k}", copies=copies
-        )
+        lvs_k, keep_k = place_variant(g4, layer, k, cell_lv, z, material, f"{name}_v{k}")
         keep += [cell_solid, cell_lv, keep_k]
         patch_lvs += lvs_k
         cell_lvs.append(cell_lv)
@@ -191,8 +185,9 @@ def _unique_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     while len(cols) > 1:
         merged = []
         for a, b in zip(cols[0::2], cols[1::2], strict=False):
-            _, key = np.unique(a * (int(b.max()) + 1) + b, return_inverse=True)
-            merged.append(key.ravel())
+            pair = a.astype(np.int64) * (int(b.max()) + 1) + b  # no overflow of int32 ids
+            _, key = np.unique(pair, return_inverse=True)
+            merged.append(key.ravel().astype(np.int32))
         if len(cols) % 2:
             merged.append(cols[-1])
         cols = merged
@@ -210,7 +205,8 @@ def group_grid(ids: np.ndarray, g: int) -> tuple[np.ndarray, np.ndarray]:
     """
     ny, nx = ids.shape
     gy, gx = -(-ny // g), -(-nx // g)
-    padded = np.full((gy * g, gx * g), -1, dtype=np.int64)
+    # int32 (ids are variant and pattern numbers): a 10 m^2 face has 4e7 cells, 160 MB a copy
+    padded = np.full((gy * g, gx * g), -1, dtype=np.int32)
     padded[:ny, :nx] = ids
     blocks = padded.reshape(gy, g, gx, g).transpose(0, 2, 1, 3).reshape(gy * gx, g * g)
     first, inverse = _unique_rows(blocks)
@@ -230,7 +226,7 @@ def grouping_plan(
     patterns repeat) and the next level decides again. Few levels keep navigation fast; a face
     of one variant always gets a single level.
     """
-    ids = np.asarray(variants, dtype=np.int64)
+    ids = np.asarray(variants, dtype=np.int32)
     plan: list[tuple] = []
     while ids.size > max_daughters:
         g = 2
@@ -270,7 +266,7 @@ def place_nested(
     lvs = list(cell_lvs)
     span_x = [1] * len(lvs)  # cells covered by box id, along x and y
     span_y = [1] * len(lvs)
-    ids = np.asarray(variants, dtype=np.int64)
+    ids = np.asarray(variants, dtype=np.int32)
     keep: list = []
     levels = [list(cell_lvs)]  # the distinct volumes of each level, cells first
     size = 1  # cells per box side at the current level (full boxes)

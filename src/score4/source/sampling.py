@@ -582,13 +582,20 @@ class TiledSurfaceSampler:
         self.pitch = (sizes[0], sizes[1])
         self.origin = np.asarray(origin, dtype=float).reshape(3)
         self.rotation = _rotation(rotation)
-        self.layout = grid.astype(np.int64)
+        self.layout = grid
         self.shape = grid.shape
-        flat = self.layout.ravel()
-        order = np.argsort(flat, kind="stable")
-        order = order[flat[order] >= 0]  # cells of -1 hold no patch (outside a round face)
-        self.cell_counts = np.bincount(flat[flat >= 0], minlength=len(self.variants))
-        self._cells_of = np.split(order, np.cumsum(self.cell_counts)[:-1])
+        lo, hi = int(grid.min()), int(grid.max())
+        self._cells_of: list[np.ndarray | None]
+        if lo == hi:  # one variant in every cell: cell n is the n-th (no 10^7-cell index arrays)
+            self.cell_counts = np.zeros(len(self.variants), dtype=np.int64)
+            self.cell_counts[lo] = grid.size
+            self._cells_of = [None] * len(self.variants)
+        else:
+            flat = grid.astype(np.int64).ravel()
+            order = np.argsort(flat, kind="stable")
+            order = order[flat[order] >= 0]  # cells of -1 hold no patch (outside a round face)
+            self.cell_counts = np.bincount(flat[flat >= 0], minlength=len(self.variants))
+            self._cells_of = list(np.split(order, np.cumsum(self.cell_counts)[:-1]))
         variant_area = np.array([v.area for v in self.variants])
         self.area = float((self.cell_counts * variant_area).sum())
         self._variant_choice = DiscreteSampler(self.cell_counts * variant_area, "variant areas")
@@ -608,7 +615,9 @@ class TiledSurfaceSampler:
         for k, cells in enumerate(self._cells_of):
             rows = np.flatnonzero(variant == k)
             if len(rows):
-                patch[rows] = cells[rng.integers(0, len(cells), len(rows))]
+                n = int(self.cell_counts[k])
+                pick = rng.integers(0, n, len(rows))
+                patch[rows] = pick if cells is None else cells[pick]
         return patch
 
     def sample(self, rng: np.random.Generator, n: int) -> SurfaceSample:

@@ -33,12 +33,12 @@ from .triangle_mesh import TriangleMesh, boundary_half_edges, closed_body
 AUTO_BLOCK_FACETS = 8
 #: ... but at most this many blocks per patch (each is a solid, a logical and a physical volume
 #: of ~1-3 KB): a 1024 x 1024 map gets 8 x 8 pixel blocks instead of 262 144 blocks of 2 x 2.
+#: The number of placed copies of the patch does not enter: the copies share the patch's
+#: logical volumes, and the walk over the volume tree before each ``BeamOn`` stops at each level
+#: of shared volumes (score4.geometry.tiling.level_regions). A bound on copies x blocks (2e6,
+#: until 2026-11) gave a 3 cm face of 30 um x 25 um measured patches one block of ~4600 facets
+#: per patch, and 12x the pyramid face's CPU per alpha event (bench_surfaces.py --faces).
 AUTO_MAX_BLOCKS = 16_384
-#: ... and at most this many blocks over all placed copies of the patch. Geant4 walks the whole
-#: volume tree (every placed block of every cell) at the start of every BeamOn
-#: (G4Region::ScanVolumeTree, G4ProductionCutsTable::ScanAndSetCouple): with 175 million placed
-#: blocks (paper_b's 40 000 cells of 2 x 2-pixel blocks) that took ~20 s per BeamOn.
-AUTO_MAX_PLACED_BLOCKS = 2_000_000
 
 #: Top facets of one patch variant above which building is refused (a 1024 x 1024 map has 2.1e6).
 MAX_PATCH_FACETS = 4_000_000
@@ -54,17 +54,16 @@ def cell_shape(surface: Surface) -> tuple[int, int]:
     return ny - 1, nx - 1
 
 
-def auto_block_cells(surface: Surface, copies: int = 1) -> int:
+def auto_block_cells(surface: Surface) -> int:
     """Cells per block side for ``block_cells: auto``.
 
-    ~AUTO_BLOCK_FACETS top facets a block, at most ~AUTO_MAX_BLOCKS blocks a patch and
-    ~AUTO_MAX_PLACED_BLOCKS over its ``copies`` placements.
+    ~AUTO_BLOCK_FACETS top facets a block, at most ~AUTO_MAX_BLOCKS blocks a patch, whatever
+    the size of the face the patch is tiled over.
     """
     ny, nx = cell_shape(surface)
     per_cell = surface.top_mesh.n_faces / (nx * ny)
     cells = max(1, round(float(np.sqrt(AUTO_BLOCK_FACETS / per_cell))))
-    max_blocks = max(1, min(AUTO_MAX_BLOCKS, AUTO_MAX_PLACED_BLOCKS // max(1, copies)))
-    return max(cells, int(np.ceil(np.sqrt(nx * ny / max_blocks))))
+    return max(cells, int(np.ceil(np.sqrt(nx * ny / AUTO_MAX_BLOCKS))))
 
 
 def block_edges(
@@ -115,9 +114,7 @@ def check_patch(surface: Surface, kind: str, block_cells: int | None) -> None:
         block_edges(ny, block_cells, "y")
 
 
-def split_top(
-    surface: Surface, block_cells: int | None = None, copies: int = 1
-) -> list[TriangleMesh]:
+def split_top(surface: Surface, block_cells: int | None = None) -> list[TriangleMesh]:
     """The surface's top mesh cut into blocks of cells, row by row (y outer, x inner).
 
     Every face of :attr:`Surface.top_mesh` lands in exactly one block (faces never cross a cell
@@ -126,7 +123,7 @@ def split_top(
     check_patch(surface, "blocks", block_cells)
     mesh = surface.top_mesh
     ny, nx = cell_shape(surface)
-    auto = auto_block_cells(surface, copies)
+    auto = auto_block_cells(surface)
     ex, ey = block_edges(nx, block_cells, "x", auto), block_edges(ny, block_cells, "y", auto)
     cell = mesh.facet
     assert cell is not None  # surface meshes carry the cell of each face
@@ -146,10 +143,10 @@ def split_top(
 
 
 def block_bodies(
-    surface: Surface, base_thickness: float, block_cells: int | None = None, copies: int = 1
+    surface: Surface, base_thickness: float, block_cells: int | None = None
 ) -> list[TriangleMesh]:
     """Closed bodies of the blocks: each block's top on walls down to ``z = -base_thickness``."""
-    return [block_body(top, base_thickness) for top in split_top(surface, block_cells, copies)]
+    return [block_body(top, base_thickness) for top in split_top(surface, block_cells)]
 
 
 def _upright(

@@ -56,6 +56,10 @@ BOUNDARY_TOLERANCE = 1e-9
 #: Gap between the tips of the highest patch and the top of the layer's envelope, mm (1 nm).
 ENVELOPE_CLEARANCE = 1e-6
 
+#: ``solid: auto`` takes the multi-union for a spike grid of equal heights up to this many
+#: spikes, frustums above (see :meth:`RoughLayer.solid_kind`).
+AUTO_MULTIUNION_MAX_SPIKES = 100_000
+
 
 #: Rough faces supported, by solid type (the words of the error for the others).
 SUPPORTED_FACES = (
@@ -299,7 +303,10 @@ class RoughLayer:
         tessellated blocks, :mod:`score4.geometry.block_solids`): one tessellated solid per patch
         tracked alphas 10-40x slower (benchmarks/bench_surfaces.py), and a multi-union with a
         height spread explodes in voxelisation (50 x 50 pyramids with a 3 um spread: 42 s and
-        1.7 GB, against 0.6 s and 10 MB tessellated).
+        1.7 GB, against 0.6 s and 10 MB tessellated). A grid of more than
+        :data:`AUTO_MULTIUNION_MAX_SPIKES` spikes also gets ``frustums``: a multi-union's
+        voxelisation grows ~N^2 (10^5 spikes ~7 s; 10^6 did not finish in 10 min), frustums
+        build 1000 x 1000 pyramids in ~12 s (benchmarks/bench_build.py).
         """
         choice = self.config.solid
         grid = self.variants[k].spikes
@@ -311,7 +318,8 @@ class RoughLayer:
         if choice == "auto":
             if grid is None:
                 return "blocks"
-            return "multiunion" if grid.height_sigma == 0 else "frustums"
+            small = grid.nx * grid.ny <= AUTO_MULTIUNION_MAX_SPIKES
+            return "multiunion" if grid.height_sigma == 0 and small else "frustums"
         return choice
 
     def cell_centres(self) -> np.ndarray:
@@ -340,13 +348,12 @@ class RoughLayer:
         i, j = self.patch_map.cell_of(q[:, :2])
         inside = (i >= 0) & (q[:, 2] >= -BOUNDARY_TOLERANCE)
         rows = np.flatnonzero(inside)
-        centres = self.cell_centres()
+        cx, cy = self.patch_map.cell_centre_axes()
         variant = self.cell_variants[j[rows], i[rows]]
         inside[rows[variant < 0]] = False
         for k, surface in enumerate(self.variants):
             r = rows[variant == k]
-            c = centres[j[r], i[r]]
-            h = surface.height_at(q[r, 0] - c[:, 0], q[r, 1] - c[:, 1])
+            h = surface.height_at(q[r, 0] - cx[i[r]], q[r, 1] - cy[j[r]])
             inside[r] = q[r, 2] <= self.base_thickness + h + BOUNDARY_TOLERANCE
         return inside
 

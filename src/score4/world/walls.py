@@ -43,7 +43,7 @@ def wall_planes(layer: RoughLayer) -> tuple[np.ndarray, np.ndarray]:
         if layer.solid_kind(k) != "blocks":
             continue
         cy, cx = cell_shape(surface)
-        auto = auto_block_cells(surface, int((variants == k).sum()))
+        auto = auto_block_cells(surface)
         cells = layer.config.block_cells
         ex = block_edges(cx, cells, "x", auto)[1:-1] * (surface.size_x / cx) - surface.size_x / 2
         ey = block_edges(cy, cells, "y", auto)[1:-1] * (surface.size_y / cy) - surface.size_y / 2
