@@ -1,4 +1,4 @@
-"""The bad inputs of issue 20's "Why" list, one case each, for tests/test_bad_inputs.py.
+"""The bad inputs of the "Why" lists of issues 20 and 26, one case each (tests/test_bad_inputs.py).
 
 Each case writes its files into an empty folder and gives the command line; it says which
 class of fault the input caused when the issue was filed (crash, traceback, silent accept,
@@ -134,6 +134,131 @@ def _alias_bomb() -> str:
     for prev, name in zip("abcdefgh", "bcdefghi", strict=True):
         lists.append(f"&{name} [" + ", ".join([f"*{prev}"] * 10) + "]")
     return "physics:\n  mode: [" + ", ".join(lists) + "]\n"
+
+
+# --- issue 26 ---------------------------------------------------------------------------------
+
+#: A GDML world (its materials in an XML entity file, mat.xml) with a silicon crystal and a copper
+#: plate below it; ``plate_z`` -11 mm makes them overlap by 1 mm, -13 mm makes them touch.
+_GDML = """<?xml version="1.0" encoding="UTF-8"?>
+<!DOCTYPE gdml [
+<!ENTITY materials SYSTEM "mat.xml">
+]>
+<gdml>
+  <define/>
+  &materials;
+  <solids>
+    <box name="WorldBox" x="200" y="200" z="200" lunit="mm"/>
+    <box name="CrystalBox" x="20" y="20" z="20" lunit="mm"/>
+    <box name="PlateBox" x="20" y="20" z="4" lunit="mm"/>
+  </solids>
+  <structure>
+    <volume name="Crystal"><materialref ref="G4_Si"/><solidref ref="CrystalBox"/></volume>
+    <volume name="Plate"><materialref ref="G4_Cu"/><solidref ref="PlateBox"/></volume>
+    <volume name="World">
+      <materialref ref="G4_Galactic"/><solidref ref="WorldBox"/>
+      <physvol name="crystal_pv"><volumeref ref="Crystal"/></physvol>
+      <physvol name="plate_pv">
+        <volumeref ref="Plate"/><position name="p" x="0" y="0" z="PLATE_Z" unit="mm"/>
+      </physvol>
+    </volume>
+  </structure>
+  <setup name="Default" version="1.0"><world ref="World"/></setup>
+</gdml>
+"""
+
+
+def gdml_world(path: Path, plate_z: float = -13.0) -> None:
+    """The GDML world above at ``path``, with its entity file mat.xml beside it."""
+    path.write_text(_GDML.replace("PLATE_Z", f"{plate_z:g}"))
+    (path.parent / "mat.xml").write_text("<materials/>\n")
+
+
+def gdml_config(**world) -> dict:
+    """A run of alphas from the top face of the GDML world's crystal (gdml_world)."""
+    return {
+        "physics": "lite",
+        "world": {"gdml": "w.gdml", **world},
+        "targets": [{"volume": "crystal_pv"}],
+        "source": {
+            "particle": "alpha",
+            "energy": "5.3 MeV",
+            "surface": {"volume": "crystal_pv", "face": "+z"},
+        },
+        "run": {"events": 20, "seed": 7},
+    }
+
+
+def symlink_to(target: str) -> Callable[[Path], None]:
+    return lambda path: path.symlink_to(target)
+
+
+_REAL_RUN: dict[str, Path] = {}
+
+
+def real_run(path: Path) -> None:
+    """Results of a real (small) score4 run of BASE: 200 alphas from the crystal's top face,
+    made once per process and copied."""
+    import shutil
+
+    if "r" not in _REAL_RUN:
+        from score4.cli.main import main as score4_main
+
+        folder = Path(tempfile.mkdtemp(prefix="score4-bad-inputs-"))
+        (folder / "c.yaml").write_text(yaml.safe_dump(config(run={"events": 200, "seed": 3})))
+        out = folder / "r.h5"
+        assert score4_main(["-q", "run", str(folder / "c.yaml"), "--out", str(out)]) == 0
+        _REAL_RUN["r"] = out
+    shutil.copyfile(_REAL_RUN["r"], path)
+
+
+def templates_file(path: Path, zero: bool = False) -> None:
+    """score4 template of :func:`real_run` (1 mBq/cm2, 0 to 6 MeV in 60 bins) at ``path``;
+    ``zero``: every rate and count set to 0 (a source none of whose events reach the detector)."""
+    from score4.cli.main import main as score4_main
+
+    run = path.with_name(path.stem + "_run.h5")
+    real_run(run)
+    argv = ["-q", "template", str(run), "--activity", "1 mBq/cm2", "--emax", "6 MeV"]
+    assert score4_main([*argv, "--bins", "60", "--out", str(path)]) == 0
+    run.unlink()
+    if zero:
+        with h5py.File(path, "r+") as f:
+
+            def clear(name: str, obj: object) -> None:
+                if (
+                    isinstance(obj, h5py.Dataset)
+                    and "edges" not in name
+                    and "binedge" not in name
+                    and obj.dtype.kind == "f"
+                    and obj.ndim >= 1
+                    and obj.shape[0] == 60
+                ):
+                    obj[...] = 0.0
+
+            f.visititems(clear)
+
+
+def data_csv(path: Path, counts_at_kev: float = 50.0, counts: float = 1e9) -> None:
+    """A measured spectrum on the templates' bins (0-6 MeV in 60 bins): ``counts`` in the bin of
+    ``counts_at_kev``, none elsewhere."""
+    lines = ["bin_low_keV,bin_high_keV,counts"]
+    for k in range(60):
+        lo, hi = 100.0 * k, 100.0 * (k + 1)
+        lines.append(f"{lo:g},{hi:g},{counts if lo <= counts_at_kev < hi else 0:g}")
+    path.write_text("\n".join(lines) + "\n")
+
+
+MODEL_TWO = {
+    "detector": "crystal",
+    "livetime": "1 yr",
+    "components": [
+        {"name": "top", "template": "t.h5", "activity": "1 mBq/cm2"},
+        {"name": "far", "template": "t0.h5", "activity": "1 mBq/cm2"},
+    ],
+}
+MODEL_ONE = {**MODEL_TWO, "components": MODEL_TWO["components"][:1]}
+TEMPLATE = ["template", "r.h5", "--activity", "1 mBq/cm2", "--out", "t.h5"]
 
 
 @dataclass
@@ -465,6 +590,253 @@ CASES: list[Case] = [
         ["export", "r.h5", "--csv", "r.h5", "--overwrite"],
         {"r.h5": results_file},
         "is the results file",
+    ),
+    # --- issue 26: outputs that destroy inputs -------------------------------------------------
+    Case(
+        "export-gdml-is-the-world",
+        "footgun",
+        ["geometry", "export", "c.yaml", "--gdml", "w.gdml", "--overwrite"],
+        {"w.gdml": gdml_world, "c.yaml": gdml_config()},
+        "--gdml: 'w.gdml' is the file of world.gdml",
+    ),
+    Case(
+        "export-gdml-is-the-config",
+        "footgun",
+        ["geometry", "export", "c.yaml", "--gdml", "c.yaml", "--overwrite"],
+        {"w.gdml": gdml_world, "c.yaml": gdml_config()},
+        "--gdml: 'c.yaml' is the configuration",
+    ),
+    Case(
+        "export-gdml-is-an-include",
+        "footgun",
+        ["geometry", "export", "c.yaml", "--gdml", "mat.xml", "--overwrite"],
+        {"w.gdml": gdml_world, "c.yaml": gdml_config()},
+        "included by the file of world.gdml",
+    ),
+    Case(
+        "export-gdml-is-a-link-to-the-world",
+        "footgun",
+        ["geometry", "export", "c.yaml", "--gdml", "l.gdml", "--overwrite"],
+        {"w.gdml": gdml_world, "l.gdml": symlink_to("w.gdml"), "c.yaml": gdml_config()},
+        "--gdml: 'l.gdml' is the file of world.gdml",
+    ),
+    Case(
+        "template-out-is-the-results",
+        "footgun",
+        ["template", "r.h5", "--activity", "1 mBq/cm2", "--out", "r.h5", "--overwrite"],
+        {"r.h5": results_file},
+        "--out: 'r.h5' is the run results",
+    ),
+    Case(
+        "template-root-is-the-out",
+        "footgun",
+        [*TEMPLATE, "--root", "t.h5"],
+        {"r.h5": results_file},
+        "--root: 't.h5' is also the output of --out",
+    ),
+    Case(
+        "template-plot-xyz-before-anything",
+        "footgun",
+        [*TEMPLATE, "--plot", "t.xyz"],
+        {"r.h5": results_file},
+        "--plot: unknown image format '.xyz'",
+    ),
+    Case(
+        "plot-out-is-its-input",
+        "footgun",
+        ["plot", "r.h5", "--out", "r.h5", "--overwrite"],
+        {"r.h5": results_file},
+        "--out: 'r.h5' is input r.h5",
+    ),
+    Case(
+        "model-pseudo-data-is-the-model",
+        "footgun",
+        ["model", "m.yaml", "--pseudo-data", "t.h5", "--overwrite"],
+        {"t.h5": results_file, "m.yaml": MODEL_ONE},  # refused before any template is read
+        "is the file of components.0.template",
+    ),
+    Case(
+        "run-log-is-the-config",
+        "footgun",
+        ["run", "r.geant4.log", "--out", "r.h5"],
+        {"r.geant4.log": config()},
+        "its Geant4 log: 'r.geant4.log' is the configuration",
+    ),
+    # --- issue 26: memory ------------------------------------------------------------------------
+    Case(
+        "template-bins-1e8",
+        "crash",
+        [*TEMPLATE, "--bins", "100000000"],
+        {"r.h5": real_run},
+        "100000000 bins are more than score4's limit of 1000000",
+    ),
+    Case(
+        "plot-bins-1e8",
+        "traceback",
+        ["plot", "r.h5", "--out", "p.png", "--bins", "100000000"],
+        {"r.h5": results_file},
+        "100000000 bins are more than score4's limit of 1000000",
+    ),
+    Case(
+        "run-jobs-1e5",
+        "other",
+        [*RUN, "--jobs", "100000"],
+        {"c.yaml": config()},
+        "--jobs: running 100000 Geant4 processes (at least 150 MB each) needs about",
+    ),
+    Case(
+        "config-histogram-bins-1e8",
+        "other",
+        RUN,
+        {"c.yaml": config(output={"histogram": {"bins": 100_000_000}})},
+        "output.histogram.bins",
+    ),
+    # --- issue 26: tracebacks --------------------------------------------------------------------
+    Case(
+        "out-name-300-characters",
+        "traceback",
+        ["vertices", "c.yaml", "--out", "v" * 297 + ".h5"],
+        {"c.yaml": config()},
+        "choose a shorter name",
+    ),
+    Case(
+        "model-component-template-all-zero",
+        "traceback",
+        ["model", "m.yaml", "--data", "d.csv"],
+        {
+            "t.h5": templates_file,
+            "t0.h5": _writer(templates_file, zero=True),
+            "d.csv": _writer(data_csv, counts_at_kev=5250.0, counts=10),
+            "m.yaml": MODEL_TWO,
+        },
+        "components.1 (far): its template is zero in every bin of the fit range",
+    ),
+    Case(
+        "model-counts-where-every-template-is-zero",
+        "silent",
+        ["model", "m.yaml", "--data", "d.csv"],
+        {
+            "t.h5": templates_file,
+            "d.csv": _writer(data_csv, counts_at_kev=5750.0),  # above the 5.3 MeV alphas
+            "m.yaml": MODEL_ONE,
+        },
+        "holds 1e+09 counts where every component's template is zero",
+    ),
+    # --- issue 26: silent accepts ----------------------------------------------------------------
+    Case(
+        "gdml-own-overlap-4mm",
+        "silent",
+        RUN,
+        {"w.gdml": _writer(gdml_world, plate_z=-8.0), "c.yaml": gdml_config()},
+        "volumes 'crystal_pv' and 'plate_pv' overlap by 4 mm",
+        outputs=("r.h5",),
+    ),
+    Case(
+        "gdml-own-overlap-allowed",
+        "other",
+        ["vertices", "c.yaml", "--out", "v.h5", "--allow-overlaps"],
+        {"w.gdml": _writer(gdml_world, plate_z=-8.0), "c.yaml": gdml_config()},
+    ),
+    Case(
+        "template-roi-outside-the-histogram",
+        "silent",
+        [*TEMPLATE, "--roi", "10 MeV", "11 MeV"],
+        {"r.h5": real_run},
+        "--roi: 10000 to 11000 keV is not inside the templates' energy range",
+    ),
+    Case(
+        "model-roi-outside-the-templates",
+        "traceback",
+        ["model", "m.yaml"],
+        {"t.h5": templates_file, "m.yaml": {**MODEL_ONE, "roi": ["10 MeV", "11 MeV"]}},
+        "roi: 10000 to 11000 keV holds no bin centre of the templates",
+    ),
+    Case(
+        "template-emax-1e30-mev",
+        "silent",
+        [*TEMPLATE, "--emax", "1e30 MeV"],
+        {"r.h5": real_run},
+        "is above 100 TeV",
+    ),
+    Case(
+        "model-data-with-pseudo-data",
+        "silent",
+        ["model", "m.yaml", "--data", "d.csv", "--pseudo-data", "p.csv"],
+        {"m.yaml": MODEL_TWO, "d.csv": data_csv},
+        "--data: --pseudo-data draws a spectrum from the model and fits nothing",
+    ),
+    # --- issue 26: unclear -----------------------------------------------------------------------
+    Case(
+        "gdml-path-is-a-folder",
+        "other",
+        ["geometry", "list", "c.yaml"],
+        {
+            "g.gdml": lambda path: path.mkdir(),
+            "c.yaml": {**gdml_config(), "world": {"gdml": "g.gdml"}},
+        },
+        "is a folder, not a GDML file",
+    ),
+    Case(
+        "world-material-with-gdml",
+        "other",
+        RUN,
+        {"w.gdml": gdml_world, "c.yaml": gdml_config(material="G4_AIR")},
+        "(here gdml is w.gdml)",
+    ),
+    Case(
+        "decay-nuclide-key",
+        "other",
+        RUN,
+        {"c.yaml": config(source={"decay": {"nuclide": "Pb210"}})},
+        "source.decay.nuclide: unknown key",
+    ),
+    Case(
+        "material-neither-formula-nor-elements",
+        "other",
+        ["range", "alpha", "5 MeV", "m", "--config", "c.yaml"],
+        {"c.yaml": {"materials": {"m": {"density": "2 g/cm3"}}}},
+        "none is given",
+    ),
+    Case(
+        "material-fraction-inf",
+        "other",
+        ["range", "alpha", "5 MeV", "m", "--config", "c.yaml"],
+        {"c.yaml": "materials:\n  m: {elements: {Cu: .inf}, density: 8 g/cm3}\n"},
+        "fractions must be finite numbers > 0",
+    ),
+    Case(
+        "out-folder-is-a-file",
+        "other",
+        ["vertices", "c.yaml", "--out", "afile/v.h5"],
+        {"c.yaml": config(), "afile": "not a folder\n"},
+        "'afile' is a file, not a folder",
+    ),
+    Case(
+        "crop-keeps-no-column",
+        "other",
+        GEN,
+        {
+            "g.txt": text_grid,
+            "s.yaml": {"kind": "measured", "file": "g.txt", "crop_x": ["10 um", "20 um"]},
+        },
+        "x: 0.01 to 0.02 mm keeps 0 sample(s) of the map along x",
+    ),
+    Case(
+        "decay-since-deposition-names-the-option",
+        "other",
+        ["decay", "Pb210", "--chain", "--since-deposition", "1e30 y"],
+        {},
+        "--since-deposition: the head has decayed away by then",
+    ),
+    # --- issue 26: the newcomer's first GDML (accepted) ------------------------------------------
+    Case(
+        "geometry-list-bare-gdml", "other", ["geometry", "list", "w.gdml"], {"w.gdml": gdml_world}
+    ),
+    Case(
+        "geometry-list-world-only",
+        "other",
+        ["geometry", "list", "wo.yaml"],
+        {"w.gdml": gdml_world, "wo.yaml": {"world": {"gdml": "w.gdml"}}},
     ),
     # --- accepted now: a count written 1e6 in YAML (as --events 1e6 always was) -------------
     Case(

@@ -14,10 +14,12 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import io
+import re
 import shutil
 import signal
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -26,6 +28,7 @@ import yaml
 from _bad_inputs import results_file, text_grid
 from _fuzz import VALID, command_line, commands, documents
 from hypothesis import HealthCheck, assume, event, given, settings
+from hypothesis import strategies as st
 
 from score4.cli.main import cli, main
 from score4.errors import ConfigError, Score4Error
@@ -235,4 +238,177 @@ def test_deep_fuzzed_command_lines_in_subprocesses(argv, work, pool):
         pytest.fail(f"{argv}: no answer within {HANG * 3} s (a hang)")
     assert p.returncode >= 0, (argv, "killed by a signal", p.stderr[-2000:])
     _check_outcome(argv, p.returncode, p.stderr, before, _digests(work))
+    _restore(work, pool)
+
+
+# ----------------------------------------------------------------- issue 26: outputs, sizes, Ctrl-C
+
+#: Commands with outputs, each with the inputs it reads and its output options.
+WRITERS = [
+    (["vertices", "c.yaml"], ["c.yaml"], ["--out"]),
+    (["template", "r.h5", "--activity", "1 mBq/cm2"], ["r.h5"], ["--out", "--root", "--plot"]),
+    (["export", "r.h5"], ["r.h5"], ["--csv", "--events-csv", "--root"]),
+    (["plot", "r.h5"], ["r.h5"], ["--out"]),
+    (["surface", "show", "s.s4s.h5"], ["s.s4s.h5"], ["--png"]),
+    (["surface", "export", "s.s4s.h5"], ["s.s4s.h5"], ["--stl"]),
+    (["import-macro", "m.mac"], ["m.mac"], ["--out"]),
+    (["geometry", "export", "c.yaml"], ["c.yaml"], ["--gdml"]),
+]
+
+
+def _spellings(name: str) -> st.SearchStrategy:
+    """Other names of the file ``name`` in the work folder: ./x, dir/../x, a link to it."""
+    return st.sampled_from([name, f"./{name}", f"dir/../{name}", f"link-to-{name}"])
+
+
+@st.composite
+def outputs_onto_inputs(draw) -> tuple[list[str], str]:
+    """A command line one of whose outputs is one of its inputs (under any spelling) or another
+    of its outputs; and the words the refusal must hold."""
+    head, inputs, options = draw(st.sampled_from(WRITERS))
+    argv = list(head)
+    clash = draw(st.sampled_from(options))
+    if len(options) > 1 and draw(st.booleans()):  # two outputs, one file
+        other = draw(st.sampled_from([o for o in options if o != clash]))
+        name = draw(st.sampled_from(["same.h5", "same.png"]))
+        argv += [other, name, clash, draw(st.sampled_from([name, f"./{name}"]))]
+        expect = "is also the output of"
+    else:
+        argv += [clash, draw(_spellings(draw(st.sampled_from(inputs))))]
+        expect = "an output never replaces an input"
+    return [*argv, "--overwrite"], expect
+
+
+@settings(max_examples=12, **FAST)
+@given(case=outputs_onto_inputs())
+def test_an_output_never_replaces_an_input_nor_another_output(case, work, pool):
+    argv, expect = case
+    for name in ("c.yaml", "r.h5", "s.yaml", "s.s4s.h5", "m.mac"):
+        (work / f"link-to-{name}").unlink(missing_ok=True)
+        (work / f"link-to-{name}").symlink_to(name)
+    before = _digests(work)
+    err = io.StringIO()
+    with alarm(HANG), contextlib.chdir(work), contextlib.redirect_stderr(err):
+        code = main(argv)
+    said = err.getvalue()
+    assert code == 2, (argv, said)
+    assert len(said.strip().splitlines()) == 1, (argv, said)
+    assert expect in said, (argv, said)
+    assert _digests(work) == before, argv
+    _restore(work, pool)
+
+
+#: Sizes a user types, by command line; each must be refused naming its limit when huge.
+SIZES = [
+    ["plot", "r.h5", "--out", "p.png", "--bins"],
+    ["export", "r.h5", "--csv", "x.csv", "--bins"],
+    ["summary", "r.h5", "--bins"],
+    ["vertices", "c.yaml", "--out", "v9.h5", "--n"],
+]
+
+
+@settings(max_examples=10, **FAST)
+@given(
+    argv=st.sampled_from(SIZES),
+    size=st.one_of(st.integers(10**6 + 1, 10**12), st.sampled_from([10**8, 10**15, 2**63 - 1])),
+)
+def test_huge_sizes_are_refused_naming_the_limit(argv, size, work, pool):
+    """Far more than the memory (or score4's limit) allows: one line naming the limit, at
+    once, nothing written (not the machine's whole memory, not a traceback)."""
+    before = _digests(work)
+    err = io.StringIO()
+    with (
+        alarm(HANG),
+        contextlib.chdir(work),
+        contextlib.redirect_stderr(err),
+        pytest.MonkeyPatch.context() as mp,
+    ):
+        mp.setattr(limits, "memory_limit", lambda: FUZZ_MEMORY)
+        assert main([*argv, str(size)]) == 2
+    said = err.getvalue()
+    assert len(said.strip().splitlines()) == 1, said
+    assert re.search(r"limit|needs about|more than", said), said
+    assert _digests(work) == before
+    _restore(work, pool)
+
+
+@settings(max_examples=10, **FAST)
+@given(
+    key=st.sampled_from(
+        [("output", "histogram", "bins"), ("run", "chunk_events"), ("run", "events")]
+    ),
+    size=st.sampled_from([10**7, 10**13, 10**18]),
+)
+def test_huge_sizes_in_a_description_are_refused(key, size, work):
+    doc = yaml.safe_load((work / "c.yaml").read_text())
+    node = doc
+    for k in key[:-1]:
+        node = node.setdefault(k, {})
+    node[key[-1]] = size
+    path = work / "huge.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    (work / "v2.h5").unlink(missing_ok=True)
+    err = io.StringIO()
+    with (
+        alarm(HANG),
+        contextlib.chdir(work),
+        contextlib.redirect_stderr(err),
+        pytest.MonkeyPatch.context() as mp,
+    ):
+        mp.setattr(limits, "memory_limit", lambda: FUZZ_MEMORY)
+        code = main(["vertices", "huge.yaml", "--out", "v2.h5"])
+    said = err.getvalue()
+    if key[-1] == "chunk_events":  # a chunk never holds more than the run's events
+        assert code in (0, 2), said
+        (work / "v2.h5").unlink(missing_ok=True)
+        return
+    assert code == 2, said
+    assert len(said.strip().splitlines()) == 1, said
+    assert re.search(r"limit|needs about|less than or equal|more than", said), said
+    assert not (work / "v2.h5").exists()
+
+
+def _interrupted_run(folder: Path, delay: float) -> tuple[int, str]:
+    p = subprocess.Popen(
+        [sys.executable, "-m", "score4", "run", "c.yaml", "--out", "ctrl.h5"],
+        cwd=folder,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    time.sleep(delay)
+    p.send_signal(signal.SIGINT)
+    _out, err = p.communicate(timeout=HANG)
+    return p.returncode, err
+
+
+def _check_interrupted(code: int, err: str, folder: Path) -> None:
+    assert "Traceback" not in err, err[-2000:]
+    assert code in (0, 130), (code, err[-2000:])
+    if code == 130:  # interrupted: one last line, no results, no half-written file
+        assert err.strip().splitlines()[-1].startswith("score4: "), err[-2000:]
+        assert not (folder / "ctrl.h5").exists()
+    assert not list(folder.glob("*.partial"))
+    assert not list(folder.glob(".*.partial"))
+
+
+@settings(max_examples=3, **FAST)
+@given(delay=st.floats(0.2, 2.5))
+def test_ctrl_c_at_any_moment_ends_in_one_line(delay, work, pool):
+    """Ctrl-C while Python imports score4 (the first half second), while the scene is built,
+    while Geant4 starts: ``score4: aborted`` or the run's own message, status 130, never a
+    traceback."""
+    code, err = _interrupted_run(work, delay)
+    event(f"exit {code}")
+    _check_interrupted(code, err, work)
+    _restore(work, pool)
+
+
+@pytest.mark.deep
+@settings(max_examples=25, **FAST)
+@given(delay=st.floats(0.1, 6.0))
+def test_deep_ctrl_c_at_any_moment(delay, work, pool):
+    code, err = _interrupted_run(work, delay)
+    event(f"exit {code}")
+    _check_interrupted(code, err, work)
     _restore(work, pool)

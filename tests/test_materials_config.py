@@ -64,7 +64,10 @@ def test_materials_parse_and_compose():
             {"X": {"formula": "TeO2", "fractions": "mass", "density": "6 g/cm3"}},
             r"fractions: used only with elements given \(here elements is not given\)",
         ),
-        ({"X": {"elements": {"Cu": 0}, "density": "6 g/cm3"}}, "fractions must be > 0"),
+        (
+            {"X": {"elements": {"Cu": 0}, "density": "6 g/cm3"}},
+            "fractions must be finite numbers > 0",
+        ),
         ({"X": {"formula": "teo2", "density": "6 g/cm3"}}, "not a chemical formula"),
     ],
 )

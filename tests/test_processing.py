@@ -63,7 +63,9 @@ def test_crop_in_mm_and_in_samples():
 
 def test_crop_errors():
     hm = _map(lambda x, y: x)
-    with pytest.raises(ConfigError, match="at least 2 x 2"):
+    with pytest.raises(
+        ConfigError, match=r"keeps 1 sample\(s\) of the map along x.*rule: at least 2"
+    ):
         crop(hm, x=(2.0, 2.2), y=(-2.0, 0.0))
     with pytest.raises(ConfigError, match="at least 2 x 2"):
         crop_samples(hm, (5, 5), (0, 3))

@@ -25,7 +25,15 @@ between versions (docs/architecture.md describes the packages).
 from __future__ import annotations
 
 import importlib
+import os as _os
+import sys as _sys
 from typing import TYPE_CHECKING, Any
+
+if _sys.argv and _os.path.basename(_sys.argv[0]) == "score4":
+    # the console script: a Ctrl-C while the command imports is one line, not a traceback
+    from .cli import quiet_interrupts as _quiet
+
+    _quiet()
 
 # public name -> (module, attribute); attribute None: the module itself
 _PUBLIC: dict[str, tuple[str, str | None]] = {

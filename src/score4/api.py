@@ -35,6 +35,7 @@ docstrings (``tools/make_api_docs.py``).
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -252,7 +253,7 @@ class World:
             try:
                 return model.resolve(volume, parameter)
             except ConfigError as err:
-                text = str(err).replace("`score4 geometry list CONFIG`", "World.model.rows()")
+                text = re.sub(r"`score4 geometry list [^`]*`", "World.model.rows()", str(err))
                 raise ConfigError(text) from None
         if hasattr(volume, "GetLogicalVolume"):  # a physical volume: match the live objects
             hits = [

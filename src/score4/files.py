@@ -5,9 +5,10 @@ from __future__ import annotations
 import contextlib
 import io
 import os
+import re
 import shutil
 import tempfile
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 
 import h5py
@@ -35,6 +36,63 @@ def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
         return False
 
 
+#: Characters the temporary file beside an output adds to its name (``.NAME.XXXXXXXX.partial``).
+_TMP_EXTRA = 18
+#: Image formats the plotting commands write (matplotlib's names, chosen by the file suffix).
+IMAGE_FORMATS = ("png", "pdf", "svg", "eps", "ps", "jpg", "jpeg", "tif", "tiff", "webp")
+_GDML_INCLUDE = re.compile(
+    r"""<file\s[^>]*?name\s*=\s*["']([^"']+)["']|<!ENTITY\s[^>]*?SYSTEM\s+["']([^"']+)["']"""
+)
+_INCLUDES_READ = 64 * 2**20  # bytes of a GDML file searched for <file> includes
+
+
+def gdml_includes(path: str | os.PathLike) -> list[Path]:
+    """The files a GDML file pulls in with ``<file name=...>`` or an XML entity (``<!ENTITY m
+    SYSTEM "materials.xml">``), recursively, relative to the including file's folder (as
+    :func:`score4.geometry.gdml.read_gdml` reads them)."""
+    found: list[Path] = []
+    todo = [Path(path)]
+    seen: set[Path] = set()
+    while todo:
+        current = todo.pop()
+        try:
+            key = current.resolve()
+            if key in seen or not current.is_file():
+                continue
+            seen.add(key)
+            with open(current, "rb") as f:
+                text = f.read(_INCLUDES_READ).decode("utf-8", "replace")
+        except (OSError, RuntimeError):
+            continue
+        for names in _GDML_INCLUDE.findall(text):
+            child = current.parent / (names[0] or names[1])
+            found.append(child)
+            todo.append(child)
+    return found
+
+
+def with_includes(
+    inputs: Mapping[str, str | os.PathLike | None],
+) -> dict[str, str | os.PathLike]:
+    """``inputs`` plus the files their GDML files include (``{what: path}``)."""
+    out: dict[str, str | os.PathLike] = {}
+    for what, source in inputs.items():
+        if source is None:
+            continue
+        out[what] = source
+        if str(source).lower().endswith(".gdml"):
+            for child in gdml_includes(source):
+                out.setdefault(f"the file {str(child)!r} included by {what}", child)
+    return out
+
+
+def _name_max(folder: Path) -> int:
+    try:
+        return int(os.pathconf(folder, "PC_NAME_MAX"))
+    except (OSError, ValueError, AttributeError):
+        return 255
+
+
 def check_output_file(
     path: str | os.PathLike,
     overwrite: bool,
@@ -43,24 +101,40 @@ def check_output_file(
 ) -> Path:
     """``path`` as a Path, after the checks every command makes before writing a file.
 
-    Its folder must exist and be writable, it must not be a folder, it must not be one of the
-    command's ``inputs`` (``{what: path}``; not even with ``overwrite``: the output would
-    replace what it is made from), and an existing file is replaced only with ``overwrite``
-    (the command's ``--overwrite``). Errors are :class:`ConfigError` naming ``option`` (the
-    command-line option that gave the path).
+    Its folder must exist and be writable, it must not be a folder, its name must fit the file
+    system (with the temporary file written beside it), it must not be one of the command's
+    ``inputs`` (``{what: path}``, with the files their GDML files include; not even with
+    ``overwrite``: the output would replace what it is made from), and an existing file is
+    replaced only with ``overwrite`` (the command's ``--overwrite``). Errors are
+    :class:`ConfigError` naming ``option`` (the command-line option that gave the path).
+    Commands with several outputs call :func:`check_outputs`.
     """
     path = Path(path)
-    for what, source in (inputs or {}).items():
-        if source is not None and same_file(path, source):
+    if not path.name or path.name in (".", ".."):
+        raise ConfigError(f"{option}: {str(path)!r} is a folder, not a file name")
+    for what, source in with_includes(inputs or {}).items():
+        if same_file(path, source):
             raise ConfigError(
                 f"{option}: {str(path)!r} is {what}; an output never replaces an input, even "
                 "with --overwrite: choose another file name"
             )
     folder = path.parent if str(path.parent) else Path(".")
+    for up in (folder, *folder.parents):
+        if up.exists() and not up.is_dir():
+            raise ConfigError(
+                f"{option}: {str(up)!r} is a file, not a folder: {str(path)!r} cannot be written"
+            )
     if not folder.is_dir():
         raise ConfigError(f"{option}: folder {str(folder)!r} does not exist (create it first)")
     if not os.access(folder, os.W_OK):
         raise ConfigError(f"{option}: folder {str(folder)!r} is not writable")
+    longest = _name_max(folder) - _TMP_EXTRA
+    if len(os.fsencode(path.name)) > longest:
+        raise ConfigError(
+            f"{option}: the file name {path.name[:40]!r}... has {len(os.fsencode(path.name))} "
+            f"bytes, more than the {longest} this file system allows (255 less room for the "
+            "temporary file written beside it): choose a shorter name"
+        )
     if path.is_dir():
         raise ConfigError(f"{option}: {str(path)!r} is a folder, not a file name")
     if path.exists() and not overwrite:
@@ -68,17 +142,64 @@ def check_output_file(
     return path
 
 
+def check_image_file(path: str | os.PathLike, option: str) -> None:
+    """Refuse an image file name whose suffix names no format the plots can write."""
+    path = Path(path)
+    fmt = path.suffix.lower().lstrip(".") or "png"
+    if fmt not in IMAGE_FORMATS:
+        raise ConfigError(
+            f"{option}: unknown image format {path.suffix!r} in {str(path)!r}; use one of: "
+            + ", ".join(f".{f}" for f in sorted(IMAGE_FORMATS))
+        )
+
+
+def check_outputs(
+    outputs: Mapping[str, str | os.PathLike | None],
+    overwrite: bool,
+    inputs: Mapping[str, str | os.PathLike | None] | None = None,
+    images: tuple[str, ...] = (),
+) -> dict[str, Path]:
+    """The one rule for every command's outputs, checked before anything is written.
+
+    ``outputs`` maps each output option to its path (None: not asked for). Every output passes
+    :func:`check_output_file` against every input (``{what: path}``, GDML includes followed),
+    no two outputs are the same file, and the options in ``images`` name a known image
+    format. Returns the outputs given, as Paths.
+    """
+    given = {option: Path(p) for option, p in outputs.items() if p is not None}
+    every_input = with_includes(inputs or {})
+    seen: dict[str, Path] = {}
+    for option, path in given.items():
+        for other, earlier in seen.items():
+            if same_file(path, earlier):
+                raise ConfigError(
+                    f"{option}: {str(path)!r} is also the output of {other}; every output "
+                    "needs a file of its own"
+                )
+        check_output_file(path, overwrite, option, every_input)
+        if option in images:
+            check_image_file(path, option)
+        seen[option] = path
+    return given
+
+
 @contextlib.contextmanager
-def atomic_output(path: str | os.PathLike):
+def atomic_output(
+    path: str | os.PathLike,
+    check: Callable[[Path], str | None] | None = None,
+    suffix: str = ".partial",
+) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it over ``path`` only if the block succeeds.
 
     A failure (disk full, permissions, an exception in the block) leaves any existing ``path``
     untouched and removes the temporary file; ``OSError`` becomes a :class:`Score4Error` naming
-    the file.
+    the file. The write is checked before the rename: the temporary file must exist, and
+    ``check(tmp)`` (for writers that do not report a failed write, such as Geant4's GDML
+    writer on a full disk) returns None or why the file is incomplete.
     """
     path = Path(path)
     try:
-        fd, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".partial")
+        fd, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=suffix)
     except OSError as err:
         raise Score4Error(f"cannot write {path}: {err}") from err
     os.close(fd)
@@ -89,6 +210,11 @@ def atomic_output(path: str | os.PathLike):
         os.umask(umask)
         tmp.chmod(0o666 & ~umask)
         yield tmp
+        if not tmp.is_file():
+            raise Score4Error(f"cannot write {path}: the writer left no file")
+        why = check(tmp) if check is not None else None
+        if why:
+            raise Score4Error(f"cannot write {path}: {why} (is the disk full?)")
         os.replace(tmp, path)
     except OSError as err:
         tmp.unlink(missing_ok=True)
@@ -96,6 +222,20 @@ def atomic_output(path: str | os.PathLike):
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+
+
+def ends_with(tail: bytes, what: str) -> Callable[[Path], str | None]:
+    """A ``check`` for :func:`atomic_output`: the file must end with ``tail`` (after white
+    space), as a complete XML document ends with its root's closing tag."""
+
+    def check(tmp: Path) -> str | None:
+        size = tmp.stat().st_size
+        with open(tmp, "rb") as f:
+            f.seek(max(0, size - 4096))
+            end = f.read().rstrip()
+        return None if end.endswith(tail) else f"the {what} written is incomplete ({size} bytes)"
+
+    return check
 
 
 def check_free_space(path: str | os.PathLike, nbytes: int) -> None:

@@ -27,6 +27,7 @@ import numpy as np
 
 from score4.errors import ConfigError
 from score4.files import atomic_output, check_output_file
+from score4.inputs import limits
 from score4.inputs.units import parse_quantity
 from score4.runner.output import QUANTITY_UNITS, Results
 
@@ -69,7 +70,13 @@ def energy_value(value: float | str | None, name: str) -> float | None:
     if value is None:
         return None
     if isinstance(value, str):
-        return parse_quantity(value, "energy", name)
+        v = parse_quantity(value, "energy", name)
+        if abs(v) > limits.MAX_ENERGY:
+            raise ConfigError(
+                f"{name}: {value!r} is above 100 TeV, the top of Geant4's electromagnetic "
+                "physics tables (a unit slip?)"
+            )
+        return v
     given: object = value  # checked at run time: callers may pass anything
     if (
         isinstance(given, bool)
@@ -88,6 +95,8 @@ def check_bins(bins: object) -> None:
         isinstance(bins, bool) or not isinstance(bins, (int, np.integer)) or bins < 1
     ):
         raise ConfigError(f"bins: must be a positive integer, got {bins!r}")
+    if bins is not None:
+        limits.check_bins(int(bins), "bins")
 
 
 def _run_histogram_setting(results: Results) -> tuple[int | None, float | None]:

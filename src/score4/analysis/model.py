@@ -477,6 +477,30 @@ def poisson_nll(mu: np.ndarray, n: np.ndarray) -> float:
     return float(np.sum(mu - n * np.log(mu)))
 
 
+def _check_fittable(
+    model: Model, per_unit: np.ndarray, counts: np.ndarray, edges: np.ndarray
+) -> None:
+    """Refuse a fit no activity can make: a fitted component whose template is zero in every
+    bin of the fit window (its activity changes nothing), or data counts in a bin where every
+    template is zero (no activity explains them; the likelihood is 0)."""
+    detector = model.components[0].template.detector
+    for k, c in enumerate(model.components):
+        if c.fit and not np.any(per_unit[k] > 0):
+            raise ConfigError(
+                f"components.{k} ({c.name}): its template is zero in every bin of the fit range "
+                f"(none of its events deposits energy in {detector} there), so the data cannot "
+                "tell its activity; give it fit: false or leave it out"
+            )
+    empty = (per_unit.sum(axis=0) <= 0) & (counts > 0)
+    if empty.any():
+        k = int(np.argmax(empty))
+        raise ConfigError(
+            f"data: the bin {edges[k]:.6g}-{edges[k + 1]:.6g} keV holds {counts[k]:.6g} counts "
+            f"where every component's template is zero ({int(empty.sum())} such bin(s)): no "
+            "activity explains them; add the component that makes them or narrow range:"
+        )
+
+
 def fit_model(model: Model, data: Spectrum) -> FitResult:
     """Fit the activities of the ``fit: true`` components to ``data`` (see the module notes)."""
     from iminuit import Minuit
@@ -487,6 +511,7 @@ def fit_model(model: Model, data: Spectrum) -> FitResult:
     fitted = [c.name for c in model.components if c.fit]
     if not fitted:
         raise ConfigError("components: no component has fit: true; nothing to fit")
+    _check_fittable(model, per_unit, counts, edges)
 
     def nll(*scales: float) -> float:
         return poisson_nll(np.asarray(scales) @ per_unit, counts)
@@ -501,7 +526,10 @@ def fit_model(model: Model, data: Spectrum) -> FitResult:
     scales = np.array(m.values)
     factors = {c.name: c.reference / c.unit_factor for c in model.components}
     idx = [names.index(n) for n in fitted]
-    cov = np.array(m.covariance)[np.ix_(idx, idx)]
+    if m.covariance is None:  # HESSE failed: no errors, no correlations
+        cov = np.full((len(idx), len(idx)), np.nan)
+    else:
+        cov = np.array(m.covariance)[np.ix_(idx, idx)]
     sd = np.sqrt(np.diag(cov))
     corr = cov / np.outer(sd, sd) if np.all(sd > 0) else np.eye(len(idx))
     mu = scales @ per_unit
@@ -565,6 +593,12 @@ def model_summary(model: Model) -> dict[str, Any]:
     if roi is not None:
         centres = (model.edges_kev[:-1] + model.edges_kev[1:]) / 2
         in_roi = (centres >= roi[0]) & (centres < roi[1])
+        if not in_roi.any():
+            raise ConfigError(
+                f"roi: {roi[0]:.6g} to {roi[1]:.6g} keV holds no bin centre of the templates "
+                f"({model.edges_kev[0]:.6g} to {model.edges_kev[-1]:.6g} keV in "
+                f"{len(model.edges_kev) - 1} bins)"
+            )
     total_counts = 0.0
     for c, rate in zip(model.components, model.rates(), strict=True):
         counts = float((rate * width).sum() * model.mass_kg * model.livetime_days)

@@ -42,7 +42,8 @@ class Spectrum:
     """One drawn spectrum: ``y`` is counts per keV (per event if ``per_event``) on ``hist.edges``
     (MeV).
 
-    ``legend`` is the full legend entry: ``label`` plus the events without deposit (not drawn).
+    ``legend`` is the full legend entry: ``label`` plus the events without deposit (not drawn),
+    when there are any.
     """
 
     label: str
@@ -289,7 +290,7 @@ def plot_spectra(
     logy: bool = True,
     per_event: bool = False,
     errors: bool = False,
-) -> list[Spectrum]:
+) -> DrawnSpectra:
     """Draw the energy-deposit spectra of one or several runs, overlaid, and save the figure.
 
     Parameters
@@ -322,7 +323,7 @@ def plot_spectra(
     edges = line_centred_edges(
         histogram_edges(runs, bins=bins, emin=emin, emax=emax), full if full > 0 else None
     )
-    spectra = []
+    spectra = DrawnSpectra()
     for k, res in enumerate(runs):
         names = select_volumes(res, volume)
         base = given[k] if given else default_label(res)
@@ -330,18 +331,34 @@ def plot_spectra(
             hist = deposit_histogram(res.edep[name], edges)
             y = hist.counts_per_keV / (max(res.n_events, 1) if per_event else 1)
             label = base if len(names) == 1 else f"{base} [{name}]"
-            legend = f"{label}\n{hist.n_zero} of {hist.n_events} events without deposit (not drawn)"
-            if hist.n_overflow:
-                legend += f", {hist.n_overflow} above range"
+            said = [f"{hist.n_zero} of {hist.n_events} events without deposit"] * (hist.n_zero > 0)
+            said += [f"{hist.n_overflow} above range"] * (hist.n_overflow > 0)
+            legend = f"{label} ({', '.join(said)})" if said else label
             spectra.append(Spectrum(label, legend, res.path, name, hist, y, per_event))
+    if volume is None and any(s.hist.n_zero < s.hist.n_events for s in spectra):
+        # volumes no event deposited energy in: left out of the figure, named once
+        spectra.left_out = [s for s in spectra if s.hist.n_zero == s.hist.n_events]
+        spectra[:] = [s for s in spectra if s.hist.n_zero < s.hist.n_events]
 
     in_keV = edges[-1] < 1.0
     scale = 1e3 if in_keV else 1.0
-    fig = Figure(figsize=(8, 5), layout="constrained")
+    outside = len(spectra) > LEGEND_INSIDE
+    fig = Figure(figsize=(11 if outside else 8, 5), layout="constrained")
     ax = fig.add_subplot()
     centres = (edges[:-1] + edges[1:]) / 2 * scale
-    for s in spectra:
-        line = ax.stairs(s.y, edges * scale, label=s.legend, linewidth=1.3)
+    one_run = len(runs) == 1 and len(spectra) > 1
+    for k, s in enumerate(spectra):
+        # one run of several volumes: the run's label once (title), the volumes in the legend
+        entry = s.volume + s.legend[len(s.label) :] if one_run else s.legend
+        style = line_style(k)
+        line = ax.stairs(
+            s.y,
+            edges * scale,
+            label=entry,
+            linewidth=1.3,
+            color=style["color"],
+            linestyle=style["linestyle"],
+        )
         if errors:
             per_count = np.divide(
                 s.y, s.hist.counts, out=np.zeros_like(s.y), where=s.hist.counts > 0
@@ -363,15 +380,48 @@ def plot_spectra(
     ax.set_xlabel(f"energy deposit [{'keV' if in_keV else 'MeV'}]")
     ax.set_ylabel("counts / keV / event" if per_event else "counts / keV")
     title = f"energy deposit in {volume}" if volume else "energy deposit"
+    if len(runs) == 1 and len(spectra) > 1:
+        title = f"{spectra[0].label[: -len(spectra[0].volume) - 3]}: {title}"
     ax.set_title(
         f"{title} ({edges[1] - edges[0]:.4g} MeV bins)"
         if not in_keV
         else f"{title} ({(edges[1] - edges[0]) * 1e3:.4g} keV bins)"
     )
-    ax.legend(fontsize="small")
+    if outside:  # beside the axes, not over the spectra
+        ax.legend(fontsize="x-small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    else:
+        ax.legend(fontsize="small")
+    notes = ["events without deposit are not drawn"]
+    if spectra.left_out:
+        empty = ", ".join(s.volume for s in spectra.left_out[:8])
+        more = " ..." if len(spectra.left_out) > 8 else ""
+        notes.append(f"volumes without any deposit left out: {empty}{more}")
+    ax.set_xlabel(f"{ax.get_xlabel()}\n({'; '.join(notes)})", fontsize="small")
     ax.grid(alpha=0.3)
     _save(fig, out_png)
     return spectra
+
+
+#: Most legend entries drawn inside the axes; more go beside them.
+LEGEND_INSIDE = 4
+_LINE_STYLES = ("-", "--", ":", "-.")
+
+
+def line_style(k: int) -> dict[str, str]:
+    """Colour and line style of the k-th curve: the ten tab10 colours, then the same colours
+    dashed, dotted, dash-dotted (40 distinct styles before any repeats)."""
+    return {"color": f"C{k % 10}", "linestyle": _LINE_STYLES[(k // 10) % len(_LINE_STYLES)]}
+
+
+class DrawnSpectra(list[Spectrum]):
+    """The spectra drawn, with ``left_out``: volumes no event deposited energy in (when every
+    volume was asked for), which the figure leaves out and names once."""
+
+    left_out: list[Spectrum]
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.left_out = []
 
 
 def plot_depths(

@@ -48,6 +48,7 @@ import numpy as np
 
 from score4.errors import ConfigError
 from score4.files import atomic_output, check_output_file, open_h5
+from score4.inputs import limits
 from score4.inputs.units import format_readable, parse_activity, parse_quantity
 from score4.runner.output import Results
 
@@ -408,7 +409,7 @@ class TemplateSet:
             "activity_nuclide": self.activity_nuclide,
             "livetime_s": self.livetime_s,
             "bins": len(self.edges_kev) - 1,
-            "energy_range_keV": [float(self.edges_kev[0]), float(self.edges_kev[-1])],
+            "energy_range_keV": [float(f"{self.edges_kev[i]:.12g}") for i in (0, -1)],
             "roi_keV": list(self.roi_kev) if self.roi_kev else None,
             "response": self.response,
             "energy": self.energy,
@@ -448,6 +449,22 @@ def build_templates(
             f"which {results.path} lacks; run again with output: {{split_by_particle: true}}"
         )
     edges = histogram_edges(results, bins=bins, emin=emin, emax=emax)
+    if window is not None and not (
+        edges[0] - 1e-9 <= window[0] and window[1] <= edges[-1] * (1 + 1e-9) + 1e-12
+    ):
+        raise ConfigError(
+            f"--roi: {window[0] * 1e3:.6g} to {window[1] * 1e3:.6g} keV is not inside the "
+            "templates' energy range, "
+            f"{edges[0] * 1e3:.6g} to {edges[-1] * 1e3:.6g} keV (set --emin/--emax to cover it)"
+        )
+    n_stages, n_det = 1 + (response is not None), len(names)
+    limits.check_bins(  # per stage: a few 1D kinds per detector, the sum, a 2D one per pair
+        len(edges) - 1,
+        "bins",
+        n_1d=n_stages * (4 * n_det + 1),
+        n_2d=n_stages * n_det * (n_det - 1) // 2,
+        hint="use fewer bins or fewer --detector",
+    )
     n = float(results.run["simulated_decays"])
     per_event = act.total_bq / n * SECONDS_PER_DAY
     stages = {

@@ -155,7 +155,12 @@ def install_cmd(
     url: str | None,
     no_progress: bool,
 ) -> None:
-    """Download, verify (md5) and unpack official Geant4 data sets."""
+    """Download, verify (md5) and unpack official Geant4 data sets.
+
+    Each tarball's download size (as the server announces it) shows in its progress bar as
+    the download starts; 'score4 data status' lists what each physics mode still needs, and
+    --mode or --only fetches just that (lite mode needs no data set).
+    """
     target = (directory or datasets.default_data_dir()).expanduser().absolute()
     names = list(only)
     if mode is not None:

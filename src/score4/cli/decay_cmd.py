@@ -25,6 +25,14 @@ def _seconds(text: str | None) -> float | None:
     return value * 1e-9
 
 
+#: Configuration keys (in the decay chain's messages) and the options of this command.
+_OPTIONS = {
+    "source.decay.since_deposition": "--since-deposition",
+    "source.decay.until": "--until",
+    "source.decay.chain": "NUCLIDE",
+}
+
+
 @click.command("decay")
 @click.argument("nuclide")
 @click.option("--chain", is_flag=True, help="The whole chain from NUCLIDE (see --until).")
@@ -64,10 +72,16 @@ def decay_command(nuclide, chain, until, since_deposition, min_intensity, as_jso
         raise ConfigError("--until and --since-deposition need --chain")
     seconds = _seconds(since_deposition)
     if png is not None:
-        from ..files import check_output_file
+        from ..files import check_outputs
 
-        check_output_file(png, overwrite, "--png")
-    table = radiation_table(nuclide, chain, until, seconds, min_intensity / 100.0)
+        check_outputs({"--png": png}, overwrite, images=("--png",))
+    try:
+        table = radiation_table(nuclide, chain, until, seconds, min_intensity / 100.0)
+    except ConfigError as err:  # name the options, not the configuration keys they stand for
+        text = str(err)
+        for key, option in _OPTIONS.items():
+            text = text.replace(key, option)
+        raise ConfigError(text) from None
     if as_json:
         click.echo(json.dumps(table, indent=1))
     else:

@@ -42,17 +42,22 @@ def geometry() -> None:
 )
 def check(config_file: Path, points: int, max_placements: int, tolerance: str, log_path) -> None:
     """Check CONFIG.yaml's volumes for overlaps (Geant4 CheckOverlaps). Exit status 1 if any overlap."""
-    from score4.inputs.config import load_config
-    from score4.inputs.schema import quantity
+    from score4.inputs.config import allowing_overlaps, load_config
+    from score4.inputs.schema import input_paths, quantity
     from score4.runner.run_plan import plan_run
 
     from ..errors import naming_file
+    from ..files import check_outputs
     from ..geometry.check import check_placements
     from ..geometry.world import build_world
     from ..sim.runtime import import_geant4, redirect_native_output, resolve_physics
 
-    config = load_config(config_file)
+    config = allowing_overlaps(load_config(config_file))  # the check reports them itself
     tol = quantity(tolerance, "length", "--tolerance", non_negative=True)
+    # --log appends to an existing file, but never to an input
+    check_outputs(
+        {"--log": log_path}, True, {"the configuration": config_file, **input_paths(config)}
+    )
     lite = resolve_physics("lite")  # geometry needs no physics data
     with naming_file(config_file):
         plan = plan_run(config, physics=lite, source=False)
@@ -87,33 +92,80 @@ def check(config_file: Path, points: int, max_placements: int, tolerance: str, l
     raise click.exceptions.Exit(1)
 
 
+def _bare_gdml(path: Path) -> Path | None:
+    """The GDML file to list when ``path`` is one, or a YAML file holding only ``world: {gdml:
+    FILE}`` (no targets yet); else None."""
+    from ..errors import ConfigError
+
+    if path.suffix.lower() in (".gdml", ".xml"):
+        return path
+    if not path.is_file():
+        return None
+    from score4.inputs.yamlfile import load_yaml
+
+    data = load_yaml(path, "config")
+    if isinstance(data, dict) and "targets" not in data and "source" not in data:
+        world = data.get("world")
+        gdml = world.get("gdml") if isinstance(world, dict) else None
+        if not isinstance(gdml, str):
+            raise ConfigError(
+                f"{path}: world.gdml: give the GDML file to list (world: {{gdml: FILE}}), or "
+                "a whole run configuration"
+            )
+        return path.parent / gdml
+    return None
+
+
+def _gdml_rows(path: Path, parameter: str) -> dict:
+    from score4.world.gdml_files import load_geometry_model
+
+    model = load_geometry_model(path, parameter)
+    return {
+        "world": str(path),
+        "volumes": list(model.rows()),
+        "truncated": bool(model.truncated),
+        "overlaps": model.overlaps,
+        "targets": [],
+    }
+
+
 @geometry.command(name="list")
 @click.argument(
-    "config_file", metavar="CONFIG.yaml", type=click.Path(dir_okay=False, path_type=Path)
+    "config_file", metavar="CONFIG.yaml|FILE.gdml", type=click.Path(dir_okay=False, path_type=Path)
 )
 @click.option("--json", "as_json", is_flag=True, help="One JSON object per volume, as a list.")
 def list_volumes(config_file: Path, as_json: bool) -> None:
-    """List the volumes of CONFIG.yaml's world: name[copy], solid, material, mass, area, position.
+    """List the volumes of a world: name[copy], solid, material, mass, area, position.
 
-    For a GDML world (world: {gdml: FILE}) every physical volume of the file, indented by depth,
-    then the run's targets with their rough faces; for a generated world the targets.
+    Give a GDML file (every physical volume, indented by depth, and any overlaps of its own
+    volumes), a YAML file with only world: {gdml: FILE}, or a run configuration (its world,
+    then the targets with their rough faces; for a generated world the targets).
     """
     import json
 
-    from score4.inputs.config import load_config
+    from score4.inputs.config import allowing_overlaps, load_config
     from score4.world.listing import geometry_rows, geometry_text
     from score4.world.scene import build_scene
 
     from ..errors import naming_file
 
-    config = load_config(config_file)
-    with naming_file(config_file):
-        scene = build_scene(config)
-    rows = geometry_rows(scene)
+    gdml = _bare_gdml(config_file)
+    if gdml is not None:
+        if gdml == config_file:
+            rows = _gdml_rows(gdml, "FILE.gdml")
+        else:
+            with naming_file(config_file):
+                rows = _gdml_rows(gdml, "world.gdml")
+    else:
+        config = allowing_overlaps(load_config(config_file))  # the listing shows them
+        with naming_file(config_file):
+            scene = build_scene(config)
+        rows = geometry_rows(scene)
+        rows["overlaps"] = scene.model.overlaps if scene.model is not None else []
     if as_json:
         click.echo(json.dumps(rows, indent=1))
         return
-    click.echo(geometry_text(scene, rows))
+    click.echo(geometry_text(rows))
 
 
 @geometry.command(name="export")
@@ -128,18 +180,26 @@ def list_volumes(config_file: Path, as_json: bool) -> None:
     help="GDML file to write: the whole world with its rough layers.",
 )
 @click.option("--overwrite", is_flag=True, help="Replace an existing file.")
-def export_gdml(config_file: Path, out: Path, overwrite: bool) -> None:
+@click.option(
+    "--allow-overlaps", is_flag=True, help="Export although the GDML world's own volumes overlap."
+)
+def export_gdml(config_file: Path, out: Path, overwrite: bool, allow_overlaps: bool) -> None:
     """Write CONFIG.yaml's world with its rough layers as GDML (for remage, your own Geant4
     application, pyg4ometry). Vertices from 'score4 vertices' are in this world's frame."""
-    from score4.inputs.config import load_config
+    from score4.inputs.config import allowing_overlaps, load_config
+    from score4.inputs.schema import input_paths
     from score4.world.scene import build_scene
 
     from ..errors import naming_file
-    from ..files import check_output_file
+    from ..files import check_outputs
     from ..geometry.export_world import export_world
 
     config = load_config(config_file)
-    check_output_file(out, overwrite, "--gdml")
+    if allow_overlaps:
+        config = allowing_overlaps(config)
+    check_outputs(
+        {"--gdml": out}, overwrite, {"the configuration": config_file, **input_paths(config)}
+    )
     with naming_file(config_file):
         build_scene(config)  # bad input fails here, before any Geant4 process
         info = export_world(config, out)

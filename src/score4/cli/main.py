@@ -16,6 +16,8 @@ from pathlib import Path
 
 import click
 
+from score4.inputs.units import count_text
+
 from .. import __version__
 from ..errors import ConfigError, RunInterrupted, Score4Error, Score4Warning, brief, naming_file
 from .data_cmd import data
@@ -73,11 +75,22 @@ def cli(ctx: click.Context, quiet: bool) -> None:
         set_quiet(ctx)
 
 
-def _load_with_overrides(config_file: Path, events: int | None, seed: int | None):
+_ALLOW_OVERLAPS = click.option(
+    "--allow-overlaps",
+    is_flag=True,
+    help="Run although the GDML world's own volumes overlap (world: {allow_overlaps: true}).",
+)
+
+
+def _load_with_overrides(
+    config_file: Path, events: int | None, seed: int | None, allow_overlaps: bool = False
+):
     """The configuration with ``--events``/``--seed`` written into its run section."""
-    from score4.inputs.config import load_config
+    from score4.inputs.config import allowing_overlaps, load_config
 
     config = load_config(config_file)
+    if allow_overlaps:
+        config = allowing_overlaps(config)
     overrides = {k: v for k, v in {"events": events, "seed": seed}.items() if v is not None}
     if overrides:
         config = config.model_copy(update={"run": config.run.model_copy(update=overrides)})
@@ -121,8 +134,10 @@ def _load_with_overrides(config_file: Path, events: int | None, seed: int | None
     "--quiet",
     "-q",
     is_flag=True,
-    help="No progress bar, notices or warnings on stderr: errors only (as score4 -q run).",
+    help="No progress bar, notices or warnings on stderr: errors only (as score4 -q run); at a "
+    "terminal it still says once that it builds a TRIM library (a wait of up to minutes).",
 )
+@_ALLOW_OVERLAPS
 @click.pass_context
 def run(
     ctx: click.Context,
@@ -135,20 +150,35 @@ def run(
     resume,
     cluster,
     quiet,
+    allow_overlaps,
 ) -> None:
     """Simulate the run described in CONFIG.yaml and write an HDF5 results file."""
+    from score4.inputs.schema import input_paths
     from score4.runner.engine import run as run_engine
     from score4.runner.output import read_results, summarize
 
-    from ..files import check_output_file
+    from ..files import check_outputs
 
     if quiet:
         set_quiet(ctx)
     quiet = is_quiet()
 
-    config = _load_with_overrides(config_file, events, seed)
+    config = _load_with_overrides(config_file, events, seed, allow_overlaps)
     out = out or Path(config_file.stem + ".h5")
-    check_output_file(out, True, "--out", {"the configuration": config_file})
+    if cluster is None:  # local workers: each a Geant4 process of its own
+        from score4.inputs import limits
+
+        limits.check_memory(
+            jobs * limits.WORKER_BYTES,
+            f"running {count_text(jobs, 'Geant4 process', 'Geant4 processes')} (at least 150 MB each)",
+            "--jobs",
+            "use fewer --jobs",
+        )
+    check_outputs(  # the results and, beside them, Geant4's log
+        {"--out": out, "its Geant4 log": out.with_name(out.stem + ".geant4.log")},
+        True,
+        {"the configuration": config_file, **input_paths(config)},
+    )
     with naming_file(config_file):
         run_engine(
             config,
@@ -162,7 +192,8 @@ def run(
         )
     summary = summarize(read_results(out))
     click.echo(
-        f"wrote {out}: {summary['n_events']} events, physics {summary['physics_mode']}, seed {summary['seed']}"
+        f"wrote {out}: {count_text(summary['n_events'], 'event')}, physics "
+        f"{summary['physics_mode']}, seed {summary['seed']}"
     )
 
 
@@ -178,7 +209,10 @@ def run(
     "--out", type=click.Path(path_type=Path), required=True, help="Vertex file to write (.h5)."
 )
 @click.option("--overwrite", is_flag=True, help="Replace an existing file.")
-def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> None:
+@_ALLOW_OVERLAPS
+def vertices(
+    config_file: Path, n_events, seed, out: Path, overwrite: bool, allow_overlaps: bool
+) -> None:
     """Draw the source vertices of CONFIG.yaml into an HDF5 vertex file (no Geant4 run).
 
     Columns: event, particle, energy (MeV), xloc/yloc/zloc (mm), dirx/diry/dirz, depth (mm),
@@ -197,7 +231,7 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
     from ..source.build import make_source, source_geometry
     from ..source.vertex_file import write_vertex_file
 
-    config = _load_with_overrides(config_file, n_events, seed)
+    config = _load_with_overrides(config_file, n_events, seed, allow_overlaps)
     if config.source.vertices is not None:
         raise ConfigError(
             f"{config_file}: source.vertices: the source already reads a vertex file; nothing to draw"
@@ -225,7 +259,7 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
         primaries = source.events(seed, 0, n)
         where = source_geometry(config, scene)
     write_vertex_file(out, primaries, config_to_dict(config), seed, where)
-    text = f"wrote {out}: {n} events, {len(primaries.event)} primaries"
+    text = f"wrote {out}: {count_text(n, 'event')}, {count_text(len(primaries.event), 'primary', 'primaries')}"
     if "depth" in primaries.extra:
         depth = primaries.extra["depth"]
         text += (
@@ -327,7 +361,7 @@ def _echo_rates(s: dict, limit: float) -> None:
     for v in volumes:
         mass = v.get("mass_kg")
         per_kg = (
-            f", {v['rate_per_event_per_kg']:.4g} per kg ({mass * 1e3:.4g} g {v.get('material')})"
+            f", {v['rate_per_event_per_kg']:.4g} /(kg event) ({mass * 1e3:.4g} g {v.get('material')})"
             if mass
             else ""
         )
@@ -336,7 +370,8 @@ def _echo_rates(s: dict, limit: float) -> None:
         if len(volumes) > 1 and v is volumes[0]:
             click.echo(f"  above {keV} (rate = events above / simulated events):")
         click.echo(
-            f"{head} {v['above_threshold']} events, rate {v['rate_per_event']:.4g} per event"
+            f"{head} {count_text(v['above_threshold'], 'event')}, rate "
+            f"{v['rate_per_event']:.4g} /event"
             f"{per_kg}{alone}"
         )
     if len(volumes) > 1:

@@ -292,9 +292,9 @@ def range_command(
         ion, energy, events, srim_events, seed, thickness, angle, compare_srim
     )
     if png is not None:
-        from ..files import check_output_file
+        from ..files import check_outputs
 
-        check_output_file(png, overwrite, "--png", {"the --config file": config_file})
+        check_outputs({"--png": png}, overwrite, {"the --config file": config_file}, ("--png",))
     materials = load_materials(config_file) if config_file is not None else {}
     materials = resolve_material(material, density, materials)
 

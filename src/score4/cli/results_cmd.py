@@ -64,9 +64,9 @@ def plot(
     or a surface file (.s4s.h5, height map)."""
     from score4.analysis.plots import file_kind, plot_depths, plot_spectra
 
-    from ..files import check_output_file
+    from ..files import check_outputs
 
-    check_output_file(out, overwrite, "--out", {f"input {f}": f for f in files})
+    check_outputs({"--out": out}, overwrite, {f"input {f}": f for f in files}, images=("--out",))
     kinds = [file_kind(f) for f in files]
     if len(set(kinds)) > 1:
         listing = ", ".join(f"{f.name} ({k})" for f, k in zip(files, kinds, strict=True))
@@ -98,7 +98,16 @@ def plot(
             per_event=per_event,
             errors=errors,
         )
-        click.echo(f"wrote {out}: {len(spectra)} spectra")
+        left = getattr(spectra, "left_out", [])
+        click.echo(
+            f"wrote {out}: {len(spectra)} spectra"
+            + (
+                f"; left out {len(left)} volume(s) without any deposit: "
+                + ", ".join(s.volume for s in left)
+                if left
+                else ""
+            )
+        )
     elif kind == "vertices":
         hists = plot_depths(list(files), out, bins=bins, labels=list(labels) or None)
         click.echo(f"wrote {out}: {len(hists)} depth histogram(s)")
@@ -140,7 +149,7 @@ def export(results_file, csv_out, events_out, root_out, volume, bins, emax, over
     from score4.analysis.export import export_csv, export_events_csv, export_root, select_volumes
     from score4.runner.output import read_results
 
-    from ..files import check_output_file
+    from ..files import check_outputs
 
     if not (csv_out or events_out or root_out):
         raise ConfigError(
@@ -151,11 +160,11 @@ def export(results_file, csv_out, events_out, root_out, volume, bins, emax, over
     results = read_results(results_file)
     emax_mev = _energy(emax, "--emax")
     select_volumes(results, volume)  # every check before the first file is written
-    written: dict[str, Path] = {"the results file": results_file}
-    for option, out in (("--csv", csv_out), ("--events-csv", events_out), ("--root", root_out)):
-        if out is not None:
-            check_output_file(out, overwrite, option, written)
-            written[f"also the output of {option}"] = out
+    check_outputs(
+        {"--csv": csv_out, "--events-csv": events_out, "--root": root_out},
+        overwrite,
+        {"the results file": results_file},
+    )
     if csv_out:
         export_csv(results, csv_out, volume=volume, bins=bins, emax=emax_mev)
         click.echo(f"wrote {csv_out}")

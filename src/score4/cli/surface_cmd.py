@@ -23,7 +23,7 @@ from score4.inputs.schema import input_paths, quantity
 from score4.inputs.units import um
 
 from ..errors import ConfigError, Score4Error
-from ..files import check_output_file
+from ..files import check_output_file, check_outputs
 
 __all__ = ["load_any", "stats_document", "surface"]
 
@@ -240,7 +240,7 @@ def show_cmd(file: Path, png: Path, dpi: int, overwrite: bool) -> None:
     """Draw FILE: height-map image (with colour bar and scale bar) and a 3D view, as a PNG."""
     from ..surface.plot import plot_surface
 
-    check_output_file(png, overwrite, "--png", {"the surface file": file})
+    check_outputs({"--png": png}, overwrite, {"the surface file": file}, images=("--png",))
     plot_surface(load_any(file), png, dpi=dpi)
     click.echo(f"wrote {png}")
 
@@ -332,7 +332,7 @@ def export_cmd(
         raise ConfigError(
             f"--solid: 'multiunion' is a Geant4 solid and applies to --gdml only, not --{fmt}"
         )
-    check_output_file(out, overwrite, f"--{fmt}", {"the surface file": file})
+    check_outputs({f"--{fmt}": out}, overwrite, {"the surface file": file})
     built = load_any(file)
     if solid_kind == "multiunion" and built.spikes is None:
         raise ConfigError(

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import click
 
-from ..errors import ConfigError
+from ..errors import ConfigError, naming_file
 
 _FILE = click.Path(dir_okay=False, path_type=Path)
 
@@ -88,11 +88,14 @@ def template(
     from score4.analysis.templates import build_templates, write_templates_h5, write_templates_root
     from score4.runner.output import read_results
 
-    from ..files import check_output_file
+    from ..files import check_outputs
 
-    for option, path in (("--out", out), ("--root", root_out), ("--plot", plot_out)):
-        if path is not None:
-            check_output_file(path, overwrite, option)
+    check_outputs(
+        {"--out": out, "--root": root_out, "--plot": plot_out},
+        overwrite,
+        {"the run results": results_file, "the --response file": response_file},
+        images=("--plot",),
+    )
     results = read_results(results_file)
     response = _response(results, response_file)
     ts = build_templates(
@@ -127,6 +130,8 @@ def template(
 
 
 def _print_template_summary(ts, written: list[str]) -> None:
+    from score4.inputs.units import count_text
+
     act = ts.activity
     click.echo(f"wrote {', '.join(written)}")
     click.echo(f"  activity      {act.text} x {act.size_text} = {act.total_bq:.6g} Bq")
@@ -138,7 +143,7 @@ def _print_template_summary(ts, written: list[str]) -> None:
         t = ts.final.totals[d]
         line = (
             f"  {d}: {ts.masses[d]:.6g} kg, {t['counts_per_kg_day']:.4g} +- "
-            f"{t['counts_per_kg_day_error']:.2g} counts/(kg day) ({t['simulated_counts']} events)"
+            f"{t['counts_per_kg_day_error']:.2g} counts/(kg day) ({count_text(t['simulated_counts'], 'event')})"
         )
         if ts.roi_kev:
             line += (
@@ -168,7 +173,8 @@ def _print_template_summary(ts, written: list[str]) -> None:
     "--pseudo-data",
     "pseudo_out",
     type=_FILE,
-    help="Write Poisson pseudo-data drawn from the model (CSV) and stop.",
+    help="Write Poisson pseudo-data drawn from the model (CSV) and stop (nothing is fitted: "
+    "not with --data).",
 )
 @click.option(
     "--seed",
@@ -184,18 +190,25 @@ def model(
 ) -> None:
     """Sum templates times activities into a predicted spectrum; fit the activities to data."""
     from score4.analysis.model import DataConfig, build_model, load_model, model_summary
+    from score4.inputs.schema import input_paths
 
-    from ..files import check_output_file
+    from ..files import check_outputs
 
-    for option, path in (
-        ("--plot", plot_out),
-        ("--fit-plot", fit_plot_out),
-        ("--pseudo-data", pseudo_out),
-    ):
-        if path is not None:
-            check_output_file(path, overwrite, option)
+    if pseudo_out is not None and (data_file is not None or histogram is not None):
+        given = "--data" if data_file is not None else "--histogram"
+        raise ConfigError(
+            f"{given}: --pseudo-data draws a spectrum from the model and fits nothing; "
+            f"give {given} or --pseudo-data, not both"
+        )
     config = load_model(model_file)
-    m = build_model(config)
+    check_outputs(
+        {"--plot": plot_out, "--fit-plot": fit_plot_out, "--pseudo-data": pseudo_out},
+        overwrite,
+        {"the model": model_file, "the --data file": data_file, **input_paths(config)},
+        images=("--plot", "--fit-plot"),
+    )
+    with naming_file(model_file):
+        m = build_model(config)
     data_cfg: DataConfig | None
     if data_file is not None:
         data_cfg = DataConfig.model_validate({"file": data_file, "histogram": histogram})
@@ -205,7 +218,8 @@ def model(
         data_cfg = config.data
     if fit_plot_out is not None and data_cfg is None:
         raise ConfigError("--fit-plot: needs data to fit (--data FILE or data: in the model)")
-    summary = model_summary(m)
+    with naming_file(model_file):
+        summary = model_summary(m)
     if pseudo_out is not None:
         _write_pseudo(m, seed, pseudo_out, model_file)
         return
@@ -213,7 +227,8 @@ def model(
     if data_cfg is not None:
         from score4.analysis.model import fit_model, read_spectrum
 
-        fit = fit_model(m, read_spectrum(data_cfg))
+        with naming_file(model_file):
+            fit = fit_model(m, read_spectrum(data_cfg))
     written = _model_plots(m, fit, plot_out, fit_plot_out)
     if as_json:
         click.echo(

@@ -98,6 +98,20 @@ def _readable_time(seconds: float) -> str:
     return f"{seconds:.6g} s"
 
 
+def readable_half_life(text: str) -> str:
+    """``"4468000000.0 y"`` as ``"4.468e9 y"``, ``"22.2 y"`` as it is (a record's half-life)."""
+    number, _, unit = str(text).partition(" ")
+    try:
+        value = float(number)
+    except ValueError:
+        return str(text)
+    shown = f"{value:.6g}"
+    if "e" in shown:
+        mantissa, exponent = shown.split("e")
+        shown = f"{mantissa}e{int(exponent)}"
+    return f"{shown} {unit}".strip()
+
+
 def table_text(table: dict) -> str:
     """The table as aligned text."""
     out = []
@@ -109,7 +123,7 @@ def table_text(table: dict) -> str:
         modes = ", ".join(
             f"{m['mode']} {100 * m['branching']:.4g} % -> {m['daughter']}" for m in entry["modes"]
         )
-        head = f"{entry['nuclide']}  half-life {entry['half_life']}  {modes}"
+        head = f"{entry['nuclide']}  half-life {readable_half_life(entry['half_life'])}  {modes}"
         if "chain" in table:
             head += f"  ({entry['decays_per_head_decay']:.4g} decays per head decay)"
         out.append(head)

@@ -15,13 +15,13 @@ pyg4ometry refuses on them (:func:`score4.geometry.gdml.drop_nist_state`).
 from __future__ import annotations
 
 import multiprocessing as mp
-import os
 import tempfile
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from score4.inputs.config import RunConfig
 
+from .. import files as score4_files
 from ..errors import ConfigError, Score4Error
 
 
@@ -37,9 +37,12 @@ def _write(config: RunConfig, out: str) -> dict:
     plan = plan_run(config, physics=lite, source=False)
     scene = plan.scene
     path = Path(out)
-    tmp = path.with_name(path.name + ".partial.gdml")
-    tmp.unlink(missing_ok=True)  # Geant4's writer refuses to overwrite
-    with tempfile.TemporaryDirectory(prefix="score4-export-") as folder:
+    complete = score4_files.ends_with(b"</gdml>", "GDML file")
+    with (
+        score4_files.atomic_output(path, complete, ".partial.gdml") as tmp,
+        tempfile.TemporaryDirectory(prefix="score4-export-") as folder,
+    ):
+        tmp.unlink()  # Geant4's writer refuses to overwrite
         log = Path(folder) / "geant4.log"
         if scene.model is not None:  # a GDML world: the user's file, layers added
             from .gdml_splice import splice
@@ -57,8 +60,7 @@ def _write(config: RunConfig, out: str) -> dict:
         if not tmp.is_file():
             tail = " | ".join(log.read_text(errors="replace").strip().splitlines()[-3:])
             raise Score4Error(f"--gdml: Geant4 did not write {path} ({tail})")
-    tmp.write_text(drop_nist_state(tmp.read_text()))
-    os.replace(tmp, path)
+        tmp.write_text(drop_nist_state(tmp.read_text()))
     return {"size": path.stat().st_size, "layers": [layer.name for layer in scene.layers]}
 
 

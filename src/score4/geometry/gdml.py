@@ -33,15 +33,17 @@ def write_solid_gdml(
     pv = g4.G4PVPlacement(
         None, g4.G4ThreeVector(), lv, solid.GetName() + "_pv", world_lv, False, 0, False
     )
-    tmp = path.with_name(path.name + ".partial.gdml")
-    tmp.unlink(missing_ok=True)  # G4GDMLParser refuses to overwrite
-    parser = g4.G4GDMLParser()
-    parser.SetAddPointerToName(False)  # stable names, readable by other tools
-    parser.Write(str(tmp), pv_world, False)
-    if not tmp.is_file():
-        raise Score4Error(f"gdml: Geant4 did not write {path} (see Geant4's output)")
-    tmp.write_text(drop_nist_state(tmp.read_text()))
-    os.replace(tmp, path)
+    from .. import files
+
+    complete = files.ends_with(b"</gdml>", "GDML file")
+    with files.atomic_output(path, complete, ".partial.gdml") as tmp:
+        tmp.unlink()  # G4GDMLParser refuses to overwrite
+        parser = g4.G4GDMLParser()
+        parser.SetAddPointerToName(False)  # stable names, readable by other tools
+        parser.Write(str(tmp), pv_world, False)
+        if not tmp.is_file():
+            raise Score4Error(f"gdml: Geant4 did not write {path} (see Geant4's output)")
+        tmp.write_text(drop_nist_state(tmp.read_text()))
     _keep = (world_solid, world_lv, lv, pv, pv_world)  # alive until written
 
 

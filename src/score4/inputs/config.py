@@ -9,6 +9,7 @@ that names the file, the key path, the value and the rule.
 from __future__ import annotations
 
 import difflib
+import math
 import re
 from pathlib import Path
 from typing import Annotated, ClassVar, Literal
@@ -136,7 +137,8 @@ class MaterialSpec(StrictModel):
 
         if (self.formula is None) == (self.elements is None):
             raise ValueError(
-                "give either formula (e.g. TeO2) or elements (e.g. {Cu: 0.99, Sn: 0.01}), not both"
+                "give either formula (e.g. TeO2) or elements (e.g. {Cu: 0.99, Sn: 0.01}), "
+                + ("not both" if self.formula is not None else "none is given")
             )
         if self.formula is not None:
             if self.fractions is not None:
@@ -148,9 +150,9 @@ class MaterialSpec(StrictModel):
             symbols = list(elements)
             if not symbols:
                 raise ValueError("elements: give at least one element")
-            bad = {s: f for s, f in elements.items() if not f > 0}
+            bad = {s: f for s, f in elements.items() if not (f > 0 and math.isfinite(f))}
             if bad:
-                raise ValueError(f"elements: fractions must be > 0, got {bad}")
+                raise ValueError(f"elements: fractions must be finite numbers > 0, got {bad}")
         for symbol in symbols:
             if symbol not in Z_OF:
                 close = difflib.get_close_matches(symbol, list(Z_OF), n=3, cutoff=0.4)
@@ -204,6 +206,15 @@ class WorldConfig(StrictModel):
     gdml: ConfigPath | None = None
     material: str = "G4_Galactic"
     margin: PositiveLength = 10.0  # space around the targets, mm
+    # run although the GDML file's own volumes overlap (the CLI's --allow-overlaps)
+    allow_overlaps: bool = False
+
+
+def allowing_overlaps(config: RunConfig) -> RunConfig:
+    """``config`` with ``world.allow_overlaps: true``."""
+    return config.model_copy(
+        update={"world": config.world.model_copy(update={"allow_overlaps": True})}
+    )
 
 
 Face = Literal["+x", "-x", "+y", "-y", "+z", "-z"]
@@ -566,7 +577,7 @@ class RunSettings(StrictModel):
 
 
 class HistogramConfig(StrictModel):
-    bins: int = Field(100, gt=0)
+    bins: int = Field(100, gt=0, le=limits.MAX_BINS)
     max: PositiveEnergy | None = None  # default: the largest primary energy of the run
 
 

@@ -72,6 +72,17 @@ MAP_POINT_BYTES = 450
 SPIKE_PICTURE_BYTES = 21_000
 #: A patch-map cell is an int32, with a shuffled copy and the permutation while it is drawn.
 CELL_BYTES = 24
+#: Most bins on one axis of a histogram (spectra, templates, CSV and ROOT exports): 10 eV bins
+#: over 10 MeV, a hundred times finer than the best detectors resolve (germanium, ~1 keV FWHM
+#: at 1 MeV); more only costs memory (a 2D coincidence template holds bins squared).
+MAX_BINS = 10**6
+#: A histogram bin in memory: counts, rate, error and expected counts (float64) and numpy's
+#: temporaries while it is filled.
+BIN_BYTES = 48
+#: A Geant4 worker process of a run: peak resident memory of a lite-physics worker (a GDML
+#: world of two boxes, 3000 alphas), 150 MB by /proc VmRSS; full physics and large worlds need
+#: more, so this is a lower bound for ``--jobs``.
+WORKER_BYTES = 150 * 2**20
 #: A primary particle in memory (event, energy, position, direction, depth, facet, patch, name).
 PRIMARY_BYTES = 120
 
@@ -117,6 +128,22 @@ def check_memory(nbytes: float, what: str, label: str, hint: str = "") -> None:
             f"{label}: {what} needs about {_gib(nbytes)} of memory, more than this machine's "
             f"{_gib(limit)}{more}"
         )
+
+
+def check_bins(
+    bins: int, label: str, n_1d: int = 1, n_2d: int = 0, hint: str = "use fewer bins"
+) -> None:
+    """Refuse ``bins`` bins an axis above :data:`MAX_BINS`, or histograms (``n_1d`` of one axis,
+    ``n_2d`` of two) that need more than this machine's memory."""
+    if bins > MAX_BINS:
+        raise ConfigError(
+            f"{label}: {bins} bins are more than score4's limit of {MAX_BINS} an axis (10 eV "
+            "bins over 10 MeV, finer than any detector resolves)"
+        )
+    what = f"{n_1d} histogram(s) of {bins} bins" + (
+        f" and {n_2d} coincidence histogram(s) of {bins} x {bins} bins" if n_2d else ""
+    )
+    check_memory(BIN_BYTES * (n_1d * bins + n_2d * bins**2), what, label, hint)
 
 
 def spike_grid_bytes(n_spikes: int, n_layers: int = 1) -> int:

@@ -409,6 +409,10 @@ def input_paths(root: BaseModel) -> dict[str, Path]:
             value = getattr(model, name)
             if isinstance(value, Path):
                 found[f"the file of {path}{name}"] = value
+            elif isinstance(value, list | tuple):
+                for k, item in enumerate(value):
+                    if isinstance(item, Path):
+                        found[f"the file of {path}{name}.{k}"] = item
     return found
 
 
@@ -440,7 +444,16 @@ def _unknown(key: object, fields: dict) -> str:
 
 # Tags of tagged unions that pydantic puts into error locations; they are not keys the user wrote.
 UNION_TAGS = frozenset(
-    {"spikes", "random", "measured", "surface-file", "box-target", "gdml-target"}
+    {
+        "spikes",
+        "random",
+        "measured",
+        "surface-file",
+        "box-target",
+        "gdml-target",
+        "chain",
+        "nuclide",
+    }
 )
 # Errors about the keys themselves come first: a typo is the cause of a "Field required" next to it.
 _KEY_ERRORS = ("unknown_key", "exclusive_keys", "extra_forbidden")
@@ -457,6 +470,8 @@ def _shown(value: object) -> str:
             value = value.item()
     if isinstance(value, float):
         return f"{value:.6g}" if math.isfinite(value) else str(value)
+    if isinstance(value, Path):  # as written in the YAML, not PosixPath('w.gdml')
+        return str(value)
     return brief(value)
 
 

@@ -244,6 +244,11 @@ def format_readable(value: float, dimension: str, digits: int = 6) -> str:
     return f"{number:g} {chosen}" if abs(number) < 1e6 else f"{number:.{digits}g} {chosen}"
 
 
+def count_text(n: float, word: str, plural: str | None = None) -> str:
+    """``1 event``, ``2 events``, ``0 events`` (``word`` singular; ``plural`` default word + s)."""
+    return f"{n} {word}" if n == 1 else f"{n} {plural or word + 's'}"
+
+
 def length_text(value_mm: float) -> str:
     """A length in mm as readable text (:func:`format_readable`)."""
     return format_readable(value_mm, "length")

@@ -260,6 +260,8 @@ def run(
     plan = config if isinstance(config, RunPlan) else plan_run(config)
     checked = preflight(plan)
     job = prepare(plan, out, jobs, resume, checked, echo)
+    if progress:  # Geant4 takes seconds to start: say so before the bar's first line
+        echo(f"run: geometry and source ready; starting Geant4 in {job.workers} worker(s)")
     executor = make_executor(
         cluster, job.workers, echo
     )  # before creating anything: a bad --cluster leaves no trace
@@ -477,9 +479,13 @@ def _run_chunks(
                     bar.update(event[1])
                 elif kind == "library":  # a worker builds a TRIM library (see trim_library)
                     _, phase, what, text = event
-                    if (phase, what) not in told and show:  # workers may build the same one
+                    if (phase, what) not in told:  # workers may build the same one
                         told.add((phase, what))
-                        bar.write(f"run: {text}")
+                        if show:
+                            bar.write(f"run: {text}")
+                        elif phase == "start" and sys.stderr.isatty():
+                            # even quiet, at a terminal: a one-time wait of up to minutes
+                            print(f"score4: run: {text}", file=sys.stderr, flush=True)
                     if phase == "done":
                         bar.unpause()  # the time it took is not part of the events' rate
                 elif kind == "done":
@@ -922,7 +928,7 @@ def _stuck_tracks(exceptions: list[tuple[str, str, str]]) -> dict:
 
 def _collect_logs(parts: Path, out: Path) -> Path:
     log = out.with_name(out.stem + ".geant4.log")
-    with open(log, "w") as dst:
+    with atomic_output(log) as tmp, open(tmp, "w") as dst:
         dst.writelines(
             f"===== {src.name} =====\n{src.read_text(errors='replace')}"
             for src in sorted(parts.glob("geant4-*.log"))

@@ -360,6 +360,9 @@ def summarize(
     stored_max = hist_cfg.get("max")  # stored with its unit ("6.0 MeV")
     stored_max = parse_quantity(stored_max, "energy") if stored_max is not None else None
     emax = emax or stored_max or float(results.primary_energy.max(initial=0.0)) or 1.0
+    from score4.inputs import limits
+
+    limits.check_bins(int(bins), "--bins", n_1d=max(1, len(results.edep)))
     edges = np.linspace(0.0, emax, bins + 1)
     volumes = []
     for name, e in results.detected.items():
@@ -373,7 +376,8 @@ def summarize(
                 "mean_edep_MeV": float(e.mean()) if len(e) else 0.0,
                 "n_nonzero": int(np.count_nonzero(e)),
                 "histogram": {
-                    "edges_MeV": edges.tolist(),
+                    # 12 digits: 0.05, not linspace's 0.049999999999999996
+                    "edges_MeV": [float(f"{x:.12g}") for x in edges],
                     "counts": counts.tolist(),
                     "overflow": int(np.count_nonzero(e > emax * (1 + 1e-9))),
                 },

@@ -83,6 +83,7 @@ def lite_stub_dir() -> Path:
     (base / "G4ENSDFSTATE3.0").mkdir(parents=True, exist_ok=True)
     (base / "G4ENSDFSTATE3.0" / "ENSDFSTATE.dat").touch()
     (base / "PhotonEvaporation6.1.2").mkdir(parents=True, exist_ok=True)
+    (base / "G4EMLOW8.8").mkdir(parents=True, exist_ok=True)
     return base
 
 
@@ -99,6 +100,9 @@ def prepare_environment(choice: PhysicsChoice) -> None:
         # empty stand-ins satisfy both when the real sets are absent.
         os.environ.setdefault("G4ENSDFSTATEDATA", str(stub / "G4ENSDFSTATE3.0"))
         os.environ.setdefault("G4LEVELGAMMADATA", str(stub / "PhotonEvaporation6.1.2"))
+        # G4EmParameters warns (twice, G4Exception em0003) when no G4LEDATA folder exists; lite
+        # physics reads nothing from it
+        os.environ.setdefault("G4LEDATA", str(stub / "G4EMLOW8.8"))
         os.environ.setdefault("GEANT4_DATA_DIR", str(stub))
     else:
         os.environ.setdefault("GEANT4_DATA_DIR", str(datasets.default_data_dir()))

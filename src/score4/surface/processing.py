@@ -86,6 +86,17 @@ def crop(
     r0 = math.ceil((y0 - hm.origin[1]) / hm.pitch_y - 1e-9)
     r1 = math.floor((y1 - hm.origin[1] + eps_y) / hm.pitch_y) + 1
     ny, nx = hm.shape
+    for name, lo, hi, k0, k1, n, start, pitch in (
+        ("x", x0, x1, c0, c1, nx, hm.origin[0], hm.pitch_x),
+        ("y", y0, y1, r0, r1, ny, hm.origin[1], hm.pitch_y),
+    ):
+        kept = max(min(k1, n) - max(k0, 0), 0)
+        if kept < 2:
+            raise ConfigError(
+                f"{name}: {lo:.6g} to {hi:.6g} mm keeps {kept} sample(s) of the map along {name} "
+                f"(it spans {start:.6g} to {start + (n - 1) * pitch:.6g} mm, pitch "
+                f"{pitch:.6g} mm); rule: at least 2"
+            )
     return crop_samples(hm, (max(c0, 0), min(c1, nx)), (max(r0, 0), min(r1, ny)))
 
 

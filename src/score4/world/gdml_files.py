@@ -71,6 +71,8 @@ def _check_xml(path: Path, parameter: str, seen: list[Path]) -> None:
 def gdml_files(path: str | Path, parameter: str = "world.gdml") -> list[Path]:
     """The GDML file and every file it includes, all checked to be well-formed XML."""
     path = Path(path)
+    if path.is_dir():
+        raise ConfigError(f"{parameter}: {str(path)!r} is a folder, not a GDML file")
     if not path.is_file():
         raise ConfigError(f"{parameter}: GDML file {str(path)!r} does not exist")
     seen: list[Path] = []

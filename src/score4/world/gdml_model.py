@@ -27,7 +27,7 @@ import numpy as np
 from ..errors import ConfigError
 
 #: Format of the stored model (bump when its contents change: cached models are made again).
-MODEL_FORMAT = 2
+MODEL_FORMAT = 4  # 4: with the GDML's own overlaps (gdml_reader.own_overlaps)
 
 #: Most instances the tree is expanded to (a world of nested tiling holds millions of cells).
 MAX_INSTANCES = 200_000
@@ -109,6 +109,8 @@ class GeometryModel:
     logicals: list[Logical]
     materials: dict[str, dict]
     files: list[str] = field(default_factory=list)  # the GDML file and the files it includes
+    # the file's own overlaps found by Geant4 when it was read: {"volumes": [a, b], "by": "1 mm"}
+    overlaps: list[dict] = field(default_factory=list)
 
     # -- plain data ------------------------------------------------------------------------------
 
@@ -141,6 +143,7 @@ class GeometryModel:
             logicals,
             data["materials"],
             list(data.get("files", [])),
+            list(data.get("overlaps", [])),
         )
 
     def to_dict(self) -> dict:
@@ -150,6 +153,7 @@ class GeometryModel:
             "world": self.world,
             "world_name": self.world_name,
             "files": self.files,
+            "overlaps": self.overlaps,
             "materials": self.materials,
             "logicals": [
                 {
@@ -266,7 +270,7 @@ class GeometryModel:
             more = " (the tree was cut at MAX_INSTANCES volumes)" if self.truncated else ""
             raise ConfigError(
                 f"{parameter}: no volume named {name!r} in {self.source}{hint}{more}; "
-                "`score4 geometry list CONFIG` lists the volumes"
+                f"`score4 geometry list {self.source}` lists the volumes"
             )
         if index is None:
             return [self.instances[i] for i in hits]

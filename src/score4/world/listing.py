@@ -62,8 +62,8 @@ def _fmt_mass(kg: float) -> str:
     return f"{kg * 1e6:.4g} mg"
 
 
-def geometry_text(scene: Scene, rows: dict) -> str:
-    """The listing as text: the tree, then the targets."""
+def geometry_text(rows: dict) -> str:
+    """The listing as text: the tree, its overlaps, then the targets."""
     out = []
     if rows["volumes"]:
         out.append(f"world {rows['world']}: {len(rows['volumes'])} physical volumes")
@@ -85,6 +85,17 @@ def geometry_text(scene: Scene, rows: dict) -> str:
             out.append("  ... (more volumes: the listing stops at 200000)")
     else:
         out.append("world: a generated box around the targets")
+    out.extend(
+        f"overlap: {o['volumes'][0]} and {o['volumes'][1]} by {o['by']} (Geant4 "
+        "CheckOverlaps; a run needs --allow-overlaps)"
+        for o in rows.get("overlaps", [])
+    )
+    if not rows["targets"]:
+        out.append(
+            "targets: none yet; score a volume with targets: [{volume: NAME}] in a run "
+            "configuration (NAME as listed above, name[copy] for one copy)"
+        )
+        return "\n".join(out)
     out.append("targets (scoring columns):")
     for t in rows["targets"]:
         where = f" = {t['gdml_volume']}" if t["gdml_volume"] else ""

@@ -750,6 +750,15 @@ def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
         from .gdml_files import load_geometry_model
 
         model = load_geometry_model(config.world.gdml)
+    if model is not None and model.overlaps and not config.world.allow_overlaps:
+        first = model.overlaps[0]
+        more = f" (and {len(model.overlaps) - 1} more pair(s))" if len(model.overlaps) > 1 else ""
+        raise ConfigError(
+            f"world.gdml: in {model.source}, volumes {first['volumes'][0]!r} and "
+            f"{first['volumes'][1]!r} overlap by {first['by']}{more} (Geant4 CheckOverlaps); "
+            "particles in an overlap are tracked wrongly: fix the GDML file, or run anyway "
+            "with --allow-overlaps (world: {allow_overlaps: true})"
+        )
     used = {v.surface for t in config.targets for r in t.rough for v in r.variant_list}
     surfaces = {
         name: _load(name, config.surfaces[name]) for name in config.surfaces if name in used
