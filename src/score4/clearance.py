@@ -4,9 +4,9 @@
   extruded by the layer thickness) must not run into another target or layer.
 * A GDML world: a rough layer must not meet any other daughter of its volume's mother (the
   volume's sisters, boxes of the configuration, other layers) and must stay inside the mother;
-  boxes of the configuration likewise. G4Box solids are tested exactly (oriented boxes,
-  separating axes), G4Tubs and the other solids score4.shapes describes (booleans: a frame is a
-  box less a box) by a grid of points of the envelope, the rest by their bounding box. Errors
+  boxes of the configuration likewise. Boxes are tested exactly (oriented boxes, separating
+  axes), the other solids score4.shapes describes (booleans: a frame is a box less a box) by a
+  grid of points of the envelope, the rest by their bounding box. Errors
   name what the layer meets and the free gap along the face normal.
 """
 
@@ -27,7 +27,7 @@ from .scene import (
     Scene,
     TargetVolume,
     layer_aabb,
-    solid_contains,
+    shape_contains,
     target_aabb,
     target_obb,
 )
@@ -85,30 +85,34 @@ class _Body:
 
     label: str
     obb: OrientedBox
-    solid: str
-    params: dict
     to_local: object  # world -> the solid's frame
     lo: np.ndarray
     hi: np.ndarray
     shape: Shape | None = None  # the solid as score4.shapes describes it (None: not described)
 
+    @property
+    def box_like(self) -> bool:
+        """The solid is its oriented bounding box (a box)."""
+        return self.shape is not None and self.shape.box_like
+
     def meets(self, box: OrientedBox) -> bool:
         if not self.obb.overlaps(box):
             return False
-        if self.solid == "G4Box":
+        if self.box_like:
             return True  # the bounding box is the solid
         q = self.to_local(box.grid())  # type: ignore[operator]
         return bool(self.contains(q, touching=False).any())
 
     def contains(self, q: np.ndarray, touching: bool = True) -> np.ndarray:
-        """Points (the solid's frame) in the solid: exact for G4Box and G4Tubs and for every
-        solid score4.shapes describes (a frame: a box less a box), else its bounding box.
-        ``touching=False``: points on the surface of a shape do not count (a layer may touch
-        a sister)."""
-        if self.shape is not None and self.solid not in ("G4Box", "G4Tubs"):
-            d = self.shape.signed_distance(q)
-            return np.asarray(d <= BOUNDARY_TOLERANCE if touching else d < -BOUNDARY_TOLERANCE)
-        return solid_contains(self.solid, self.params, self.lo, self.hi, q)
+        """Points (the solid's frame) in the solid: exact for every solid score4.shapes
+        describes (a frame: a box less a box), else its bounding box. ``touching=False``:
+        points on the surface of a shape do not count (a layer may touch a sister)."""
+        return shape_contains(self.shape, self.lo, self.hi, q, touching)
+
+    def probe_points(self, box: OrientedBox) -> np.ndarray:
+        """Points of ``box`` whose containment in this solid tells whether the whole box is
+        in it: the corners for a box, a grid otherwise."""
+        return box.corners() if self.box_like else box.grid()
 
 
 def _instance_body(model: GeometryModel, inst: Instance, label: str | None = None) -> _Body:
@@ -119,12 +123,10 @@ def _instance_body(model: GeometryModel, inst: Instance, label: str | None = Non
     return _Body(
         label or f"volume {model.label(inst)!r}",
         obb,
-        lv.solid_type,
-        lv.solid.get("params", {}),
         inst.to_local,
         lo,
         hi,
-        _shape(data) if data and lv.solid_type not in ("G4Box", "G4Tubs") else None,
+        _shape(data) if data else None,
     )
 
 
@@ -139,7 +141,7 @@ def _shape(data: dict) -> Shape:
 
 
 def _target_body(t: TargetVolume) -> _Body:
-    return _Body(f"target {t.name!r}", target_obb(t), t.solid, t.params, t.to_local, t.lo, t.hi)
+    return _Body(f"target {t.name!r}", target_obb(t), t.to_local, t.lo, t.hi, t.shape)
 
 
 def check_gdml_clearance(scene: Scene) -> None:
@@ -147,9 +149,8 @@ def check_gdml_clearance(scene: Scene) -> None:
 
     A layer on a face (outside the volume) must not meet any other daughter of the volume's
     mother (other GDML volumes, boxes of the configuration, other layers) and must stay inside
-    the mother. G4Box solids are tested exactly (oriented boxes), G4Tubs and the solids
-    score4.shapes describes by a grid of points of the layer's envelope, other solids by their
-    bounding box.
+    the mother. Boxes are tested exactly (oriented boxes), the other solids score4.shapes
+    describes by a grid of points of the layer's envelope, other solids by their bounding box.
     """
     model = scene.model
     assert model is not None
@@ -166,7 +167,7 @@ def check_gdml_clearance(scene: Scene) -> None:
                     f"{model.label(t.mother)!r}; Geant4 needs volumes that do not overlap"
                 )
         mother_body = _instance_body(model, t.mother)
-        pts = box.corners() if mother_body.solid == "G4Box" else box.grid()
+        pts = mother_body.probe_points(box)
         if not mother_body.contains(t.mother.to_local(pts)).all():
             raise ConfigError(
                 f"targets.{t.entry}: box {t.name!r} sticks out of its mother "
@@ -198,7 +199,7 @@ def check_gdml_clearance(scene: Scene) -> None:
 def _gap(layer: RoughLayer, body: _Body) -> float:
     """Free space between the face and ``body``: along the face normal to its bounding box (a
     box), or the least distance from a grid of points of the face to its solid (a shape)."""
-    if body.shape is not None:
+    if body.shape is not None and not body.box_like:
         return _shape_gap(layer, body)
     q = layer.frame.to_local(body.obb.corners())
     return float(q[:, 2].min())
@@ -239,7 +240,7 @@ def _check_inside_mother(
 ) -> None:
     lv = model.logicals[mother.logical]
     body = _instance_body(model, mother)
-    pts = box.corners() if body.solid == "G4Box" else box.grid()
+    pts = body.probe_points(box)
     inside = body.contains(mother.to_local(pts))
     if not inside.all():
         raise ConfigError(

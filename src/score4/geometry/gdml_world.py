@@ -165,12 +165,12 @@ def build_gdml_world(g4, config: RunConfig, scene: Scene):
 
 
 def _place_box(live: LiveWorld, scene: Scene, t: TargetVolume):
-    from .world import cut_for_layers
+    from .world import cut_for_layers, g4_solid
 
     g4 = live.g4
     assert t.mother is not None
     mlv = live.mother_lv(t.mother)
-    solid = g4.G4Box(t.name, *t.half)
+    solid = g4_solid(g4, t.described("targets"), t.name)
     solid, shift, keep_cut = cut_for_layers(g4, scene, t, solid, t.name)
     material = find_material(g4, t.material, f"targets.{t.entry}.material", live.materials)
     lv = g4.G4LogicalVolume(solid, material, t.name)

@@ -19,10 +19,11 @@ from typing import Any, TypeVar
 import numpy as np
 
 from .. import limits
-from ..config import FACES, DecayChainConfig, DepthConfig, RunConfig, SourceConfig
+from ..config import DecayChainConfig, DepthConfig, RunConfig, SourceConfig
 from ..errors import ConfigError
 from ..scene import RoughLayer, Scene, TargetVolume, face_frame
-from ..shapes import G4Box, G4Tubs, Shape, Transform, shape_from_dict
+from ..shapes import Shape, Transform
+from ..shapes.faces import AnnulusFace, PlaneFace
 from .blocks import draw_events
 from .decay_source import DecayEmitter
 from .depth import VertexSampler
@@ -148,7 +149,7 @@ def decay_normalisation(config: RunConfig) -> dict:
 def flat_face_sampler(scene: Scene, volume: str, face: str) -> SurfaceSampler:
     """Two world-coordinate triangles covering a flat box face."""
     target = scene.target(volume)
-    if target.solid != "G4Box":
+    if not is_rectangle_face(target, face):
         raise ConfigError(
             f"source.surface: {volume!r} is a {target.solid}; a source on a face needs a G4Box "
             "(or a rough face of a G4Tubs)"
@@ -161,6 +162,16 @@ def flat_face_sampler(scene: Scene, volume: str, face: str) -> SurfaceSampler:
         )
     )
     return SurfaceSampler(vertices=corners, faces=[[0, 1, 2], [0, 2, 3]])
+
+
+def is_rectangle_face(target: TargetVolume, face: str) -> bool:
+    """True when ``face`` is a whole flat rectangle of the target's shape (a box face): its
+    source is the rough layer on it or the two triangles of the rectangle."""
+    shape = target.shape
+    if shape is None or face not in shape.faces:
+        return False
+    geometry = shape.face(face) if shape.box_like else None
+    return isinstance(geometry, PlaneFace) and geometry.rectangle
 
 
 def source_target(scene: Scene, ref: str, parameter: str) -> TargetVolume:
@@ -177,26 +188,12 @@ def source_target(scene: Scene, ref: str, parameter: str) -> TargetVolume:
 def target_shape(scene: Scene, volume: str) -> tuple[Shape, Transform]:
     """The shape of a target (a box, or a GDML volume's solid) and its local -> world transform."""
     target = source_target(scene, volume, "source")
-    transform = Transform(rotation=target.rotation, translation=target.translation)
-    if target.solid == "G4Box":
-        return G4Box(*target.half), transform
-    if target.solid == "G4Tubs":
-        return G4Tubs(**target.params), transform
-    shape = _model_shape(scene, target)
-    if shape is None:
+    if target.shape is None:
         raise ConfigError(
             f"source: {target.name!r} is a {target.solid}, which score4.shapes does not "
             "describe; a source needs a solid it can sample"
         )
-    return shape, transform
-
-
-def _model_shape(scene: Scene, target: TargetVolume) -> Shape | None:
-    """The shape the GDML model stored for a target's solid (None: none)."""
-    if scene.model is None or target.instance is None:
-        return None
-    data = scene.model.logicals[target.instance.logical].solid.get("shape")
-    return shape_from_dict(data) if data else None
+    return target.shape, target.transform
 
 
 def shape_face_sampler(scene: Scene, volume: str, face: str):
@@ -220,8 +217,9 @@ class FlatRemainderSampler:
 
     def __init__(self, layer: RoughLayer) -> None:
         self.layer = layer
-        p = layer.target.params
-        self.rmin, self.rmax = float(p["rmin"]), float(p["rmax"])
+        ring = layer.target.face(layer.config.face)
+        assert isinstance(ring, AnnulusFace)  # a layer with a mask lies on a ring
+        self.rmin, self.rmax = ring.rmin, ring.rmax
         px, py = layer.patch_size
         rough_cells = int((layer.cell_variants >= 0).sum())
         self.area = float(np.pi * (self.rmax**2 - self.rmin**2) - rough_cells * px * py)
@@ -407,7 +405,7 @@ def source_from_config(src: SourceConfig, scene: Scene) -> SampledSource | BulkS
     target = source_target(scene, surface_ref.volume, "source.surface.volume")
     volume, face = target.name, surface_ref.face
     surface: SurfaceSampler | ShapeSurfaceSampler | object
-    if face in FACES and target.solid == "G4Box":  # a box face: its rough layer or 2 triangles
+    if is_rectangle_face(target, face):  # a box face: its rough layer or 2 triangles
         layer = scene.layer(volume, face)
         surface = layer.sampler() if layer is not None else flat_face_sampler(scene, volume, face)
     else:
@@ -474,7 +472,7 @@ def source_geometry(config: RunConfig, scene: Scene) -> dict:
     ref = _given(src.surface, "source.surface")
     target = source_target(scene, ref.volume, "source.surface.volume")
     out = {"kind": "surface", "volume": target.name, "face": ref.face}
-    if ref.face in FACES and target.solid == "G4Box":
+    if is_rectangle_face(target, ref.face):
         frame = face_frame(target, ref.face)
         layer = scene.layer(target.name, ref.face)
         projected = frame.size[0] * frame.size[1]
