@@ -251,7 +251,7 @@ class RoughFace(StrictModel):
         "into": ("tiling", ("native",)),
     }
 
-    face: Face = "+z"
+    face: str = Field("+z", min_length=1)  # a face of the volume's solid (score4.shapes)
     surface: str | None = None
     variants: list[PatchVariant] | None = Field(None, min_length=1)
     fill: Literal["exact", "random", "tiles"] = "exact"  # how cells get their variant

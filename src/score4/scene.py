@@ -28,12 +28,21 @@ import numpy as np
 
 from . import limits
 from .config import BoxVolume, GdmlVolume, RoughFace, RunConfig, SurfaceFile
+from .curved import (
+    BentVariant,
+    RingLayout,
+    check_radius,
+    flat_body,
+    gap_limit,
+    measure_floor,
+    top_sagitta,
+)
 from .errors import ConfigError
 from .geometry.volumes import GeometryModel, Instance
 from .obb import OrientedBox
 from .shapes import G4Box as G4BoxShape
 from .shapes import PlacedShape, Shape, Transform, shape_from_dict
-from .shapes.faces import AnnulusFace, Face, PlaneFace
+from .shapes.faces import AnnulusFace, Face, PlaneFace, RevolvedFace
 from .surface.blocks import check_patch
 from .surface.patchmap import PatchMap, make_patch_map
 from .surface.spec import Surface, build_surface
@@ -365,6 +374,114 @@ class RoughLayer:
 
 
 @dataclass
+class CurvedRoughLayer(RoughLayer):
+    """A rough layer on a face swept around z (:mod:`score4.curved`): patches bent onto the
+    surface in rings. ``frame`` is the face's frame at its middle (messages, bounds);
+    ``patch_map`` is the grid (rows = rings, columns = cells of the longest ring) and ``mask``
+    the cells each ring holds."""
+
+    layout: RingLayout | None = None
+    lift: float = 0.0  # the patches' base above the true surface (convex faces), mm
+    gap: float = 0.0  # largest distance of the base from the true surface, mm
+    top_margin: float = 0.0  # sagitta of the bent tops' facets (concave faces), mm
+
+    def solid_kind(self, k: int) -> str:
+        return "tessellated"  # bent closed bodies
+
+    @property
+    def ring_layout(self) -> RingLayout:
+        assert self.layout is not None
+        return self.layout
+
+    @property
+    def thickness(self) -> float:
+        return super().thickness + self.lift + self.top_margin
+
+    def _flat(self, k: int) -> tuple[np.ndarray, np.ndarray, int]:
+        key = ("flat", k)
+        if key not in self._cache:
+            self._cache[key] = flat_body(self.variants[k], self.base_thickness)
+        return self._cache[key]
+
+    @cached_property
+    def _cache(self) -> dict:
+        return {}
+
+    def ring_solid_key(self, j: int) -> float:
+        """Rings of equal radius and slope share their bent solids (all rings of a cylinder)."""
+        return float(np.round(self.ring_layout.radius[j], 12))
+
+    def bent(self, k: int, j: int) -> BentVariant:
+        """Variant ``k`` bent onto ring ``j`` (cached per ring radius)."""
+        key = ("bent", k, self.ring_solid_key(j))
+        if key not in self._cache:
+            v, faces, n_top = self._flat(k)
+            bent = self.ring_layout.bend(v, j, self.base_thickness + self.lift)
+            self._cache[key] = BentVariant(bent, faces, n_top)
+        return self._cache[key]
+
+    def cells(self) -> list[tuple[int, int, int, float]]:
+        """(ring j, cell i, variant k, azimuth) of every patch."""
+        out = []
+        grid = self.cell_variants
+        for j in range(len(self.ring_layout.v)):
+            for i, phi in enumerate(self.ring_layout.cell_phi(j)):
+                out.append((j, i, int(grid[j, i]), float(phi)))
+        return out
+
+    def sampler(self):
+        """Area-uniform points on the bent tops (world coordinates), see
+        :class:`~score4.source.sampling.RingSurfaceSampler`."""
+        from .source.sampling import RingSurfaceSampler
+
+        return RingSurfaceSampler(self)
+
+    def contains(self, points: np.ndarray) -> np.ndarray:
+        """True for world points inside a patch body (the height map of its variant above the
+        bent base; exact up to the sagitta of the bent facets)."""
+        q = self.target.to_local(np.asarray(points, float).reshape(-1, 3))
+        j, i, local = self.ring_layout.locate(q)
+        inside = (j >= 0) & (local[:, 2] >= self.lift - BOUNDARY_TOLERANCE)
+        rows = np.flatnonzero(inside)
+        variant = self.cell_variants[j[rows], i[rows]]
+        inside[rows[variant < 0]] = False
+        for k, surface in enumerate(self.variants):
+            r = rows[variant == k]
+            h = surface.height_at(local[r, 0], local[r, 1])
+            top = self.lift + self.base_thickness + h + BOUNDARY_TOLERANCE
+            inside[r] = local[r, 2] <= top
+        return inside
+
+    def in_cut(self, points: np.ndarray) -> np.ndarray:
+        return np.zeros(len(points), dtype=bool)  # into: true is refused on curved faces
+
+    def shell_points(self, n_phi: int = 72, n_v: int = 9, n_h: int = 3) -> np.ndarray:
+        """World points on and in the layer's shell (the face extruded by the thickness along
+        its normal), for the clearance checks."""
+        face = self.ring_layout.face
+        (u0, u1), (v0, v1) = face.extent
+        grid = np.meshgrid(
+            np.linspace(u0, u1, n_phi),
+            np.linspace(v0, v1, n_v),
+            np.linspace(0.0, self.thickness, n_h),
+            indexing="ij",
+        )
+        u, v, h = (g.ravel() for g in grid)
+        local = face.point(u, v) + h[:, None] * face.normal(u, v)
+        return self.target.to_world(local)
+
+    def envelope_box(self) -> OrientedBox:
+        """An oriented box (the target's axes) holding the layer's shell."""
+        local = self.target.to_local(self.shell_points())
+        lo, hi = local.min(axis=0), local.max(axis=0)
+        face = self.ring_layout.face
+        if face.dphi >= 2 * np.pi - 1e-9:  # the circle's extremes between the grid's points
+            r = float(np.hypot(local[:, 0], local[:, 1]).max())
+            lo[:2], hi[:2] = -r, r
+        return OrientedBox(self.target.to_world((lo + hi) / 2), self.target.rotation, (hi - lo) / 2)
+
+
+@dataclass
 class Scene:
     """The targets of a run with their rough layers (and the volume model of a GDML world).
 
@@ -645,10 +762,15 @@ def make_layer(
                 f"{s.size_y * 1e3:g} um"
             )
     try:
+        geometry = target_face(target, rough.face)
+    except ConfigError as err:
+        raise ConfigError(f"{where}: {err}") from None
+    if isinstance(geometry, RevolvedFace):
+        return make_curved_layer(target, rough, geometry, names, variants, size, where)
+    try:
         frame = face_frame(target, rough.face)
     except ConfigError as err:
         raise ConfigError(f"{where}: {err}") from None
-    geometry = target_face(target, rough.face)
     round_face = isinstance(geometry, AnnulusFace)
     if round_face:  # the whole cells of the bounding square, centred
         cells = [max(int(np.floor(frame.size[a] / size[a] * (1 + 1e-9))), 1) for a in (0, 1)]
@@ -697,6 +819,79 @@ def make_layer(
                 f"{target.name!r} ({extent * 1e3:.4g} um along the face normal)"
             )
         layer.frame = frame.shifted(-layer.thickness)
+    return layer
+
+
+def make_curved_layer(
+    target: TargetVolume,
+    rough: RoughFace,
+    face: RevolvedFace,
+    names: list[str],
+    variants: list[Surface],
+    size: tuple[float, float],
+    where: str,
+) -> CurvedRoughLayer:
+    """The rough layer on a face swept around z (:mod:`score4.curved`)."""
+    what = f"face {rough.face} of {target.name!r}"
+    if rough.into:
+        raise ConfigError(
+            f"{where}: into: true on a curved face ({what}) is not supported; the layer goes "
+            "outside the volume (into: false)"
+        )
+    if rough.tiling == "portal":
+        raise ConfigError(f"{where}: a curved face ({what}) takes tiling: native")
+    if rough.native_layout == "replicas":
+        raise ConfigError(
+            f"{where}: native_layout replicas fills a rectangle; a curved face takes auto"
+        )
+    if rough.solid not in ("auto", "tessellated"):
+        raise ConfigError(
+            f"{where}: solid {rough.solid} on a curved face ({what}); its patches are bent "
+            "tessellated bodies (solid: auto or tessellated)"
+        )
+    reserve = 1.05 * (rough.base_thickness + max(s.max_height for s in variants)) + 1e-4
+    layout = RingLayout.make(face, size, reserve)
+    if layout.n_cells == 0:
+        raise ConfigError(
+            f"{where}: no whole patch of {size[0] * 1e3:g} x {size[1] * 1e3:g} um fits on {what} "
+            f"(generator {face.length:.4g} mm, radius {float(face.radius(0.0)):.4g} mm)"
+        )
+    ny, nx = len(layout.v), int(layout.count.max())
+    try:
+        patch_map = make_patch_map(
+            (nx * size[0], ny * size[1]),
+            size,
+            [v.density for v in rough.variant_list],
+            method=rough.fill,
+            seed=rough.seed,
+            n_tiles=rough.n_tiles,
+        )
+    except ConfigError as err:
+        raise ConfigError(f"{where} ({what}): {err}") from None
+    mask = np.arange(nx)[None, :] < layout.count[:, None]
+    local = face.frame
+    frame = FaceFrame(
+        target.to_world(local.translation),
+        target.rotation @ local.rotation,
+        (nx * size[0], ny * size[1]),
+    )
+    layer = CurvedRoughLayer(
+        target, rough, frame, names, variants, patch_map, mask, float(face.area), layout
+    )
+    lows, highs, tops = [], [], []
+    for k in range(len(variants)):
+        flat = layer._flat(k)
+        for j in {0, ny - 1}:
+            lo, hi = measure_floor(layout, flat, rough.base_thickness, j)
+            lows.append(lo)
+            highs.append(hi)
+        tops.append(top_sagitta(layout, flat))
+    convex = face.nrz[0] > 0
+    layer.lift = max(-min(lows), 0.0)
+    layer.gap = max(highs) + layer.lift
+    layer.top_margin = 0.0 if convex else max(tops)
+    limit = gap_limit(max(s.max_height for s in variants))
+    check_radius(layout, layer.gap, limit, where, target.name, rough.face)
     return layer
 
 

@@ -21,7 +21,8 @@ from typing import Any
 
 from ..config import RunConfig
 from ..errors import ConfigError
-from ..scene import FaceFrame, RoughLayer, Scene, TargetVolume
+from ..scene import CurvedRoughLayer, FaceFrame, RoughLayer, Scene, TargetVolume
+from ..shapes import Transform
 from .gdml import read_gdml
 from .materials import find_material
 from .tiling import place_native
@@ -131,6 +132,18 @@ class LiveWorld:
         t = layer.target
         assert t.mother is not None
         mlv = self.mother_lv(t.mother)
+        if isinstance(layer, CurvedRoughLayer):
+            from .curved import place_curved
+
+            mother = Transform(t.mother.rotation, t.mother.translation)
+            placement = Transform(
+                mother.rotation.T @ t.rotation, mother.inverse_apply(t.translation)
+            )
+            patch_lvs, keep = place_curved(
+                self.g4, layer, mlv, mlv.GetMaterial(), material, placement
+            )
+            self.keep.append(keep)
+            return patch_lvs
         patch_lvs, keep = place_native(
             self.g4,
             layer,

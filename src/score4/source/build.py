@@ -21,7 +21,7 @@ import numpy as np
 from .. import limits
 from ..config import DecayChainConfig, DepthConfig, RunConfig, SourceConfig
 from ..errors import ConfigError
-from ..scene import RoughLayer, Scene, TargetVolume, face_frame
+from ..scene import CurvedRoughLayer, RoughLayer, Scene, TargetVolume, face_frame
 from ..shapes import Shape, Transform
 from ..shapes.faces import AnnulusFace, PlaneFace
 from .blocks import draw_events
@@ -44,7 +44,7 @@ from .profiles import (
     UniformProfile,
     ZeroDepth,
 )
-from .sampling import SurfaceSample, SurfaceSampler
+from .sampling import CurvedRemainderSampler, SurfaceSample, SurfaceSampler
 from .shapes import BulkSampler, CombinedSurfaceSampler, ShapeSurfaceSampler
 from .vertex_file import read_vertex_file, vertex_file_config
 
@@ -205,7 +205,12 @@ def shape_face_sampler(scene: Scene, volume: str, face: str):
         if layer.mask is None:
             rough[layer.config.face] = layer.sampler()
         else:
-            parts = [layer.sampler(), FlatRemainderSampler(layer)]
+            rest = (
+                CurvedRemainderSampler(layer)
+                if isinstance(layer, CurvedRoughLayer)
+                else FlatRemainderSampler(layer)
+            )
+            parts = [layer.sampler(), rest]
             rough[layer.config.face] = CombinedSurfaceSampler([p for p in parts if p.area > 0])
     return ShapeSurfaceSampler(shape, face, transform, rough)
 
