@@ -20,16 +20,23 @@ RADIUS, HALF_Z = 5.0, 1.0  # mm
 PYRAMIDS = {"kind": "spikes", "nx": 10, "ny": 10, "width": "10 um", "height": "10 um"}
 
 
-def write_cylinder(path, radius=RADIUS, half_z=HALF_Z, rmin=0.0):
+def write_cylinder(path, radius=RADIUS, half_z=HALF_Z, rmin=0.0, dphi=2 * math.pi, sister=None):
+    """A G4Tubs ``cyl`` of silicon in vacuum; ``sister``: the gap (mm) from its wall to a 1 mm
+    copper cube beside it on +x."""
     import pyg4ometry as pg
 
     reg = pg.geant4.Registry()
     world = pg.geant4.LogicalVolume(
         pg.geant4.solid.Box("world_s", 60, 60, 60, reg), "G4_Galactic", "World", reg
     )
-    solid = pg.geant4.solid.Tubs("cyl_s", rmin, radius, 2 * half_z, 0, 2 * math.pi, reg)
+    solid = pg.geant4.solid.Tubs("cyl_s", rmin, radius, 2 * half_z, 0, dphi, reg)
     cyl = pg.geant4.LogicalVolume(solid, "G4_Si", "Cyl", reg)
     pg.geant4.PhysicalVolume([0, 0, 0], [0, 0, 0], cyl, "cyl", world, reg)
+    if sister is not None:
+        cube = pg.geant4.LogicalVolume(
+            pg.geant4.solid.Box("cube_s", 1, 1, 1, reg), "G4_Cu", "Cube", reg
+        )
+        pg.geant4.PhysicalVolume([0, 0, 0], [radius + sister + 0.5, 0, 0], cube, "cube", world, reg)
     reg.setWorld(world.name)
     writer = pg.gdml.Writer()
     writer.addDetector(reg)
@@ -38,7 +45,7 @@ def write_cylinder(path, radius=RADIUS, half_z=HALF_Z, rmin=0.0):
 
 
 def cylinder_config(gdml, face="outer", surface=PYRAMIDS, source=None, **extra):
-    data = {
+    return {
         "physics": "lite",
         "world": {"gdml": str(gdml)},
         "surfaces": {"p": surface},
@@ -52,7 +59,6 @@ def cylinder_config(gdml, face="outer", surface=PYRAMIDS, source=None, **extra):
         "run": {"events": 100, "seed": 3},
         **extra,
     }
-    return data
 
 
 @pytest.fixture(scope="module")
@@ -72,7 +78,7 @@ def test_bent_layer_follows_the_cylinder(cylinder):
     assert 0.99 < layer.rough_share <= 1.0
     # every vertex of every bent body lies on or outside the true surface, within the layer
     bent = layer.bent(0, 0)
-    h = lay.face.locate(bent.vertices + [0.0, 0.0, lay.ring_z(0)])[2]
+    h = lay.face.locate(bent.vertices + np.array([0.0, 0.0, lay.ring_z(0)]))[2]
     assert h.min() >= 0.0
     assert h.max() <= layer.thickness
 
@@ -134,7 +140,7 @@ def ray_path(origins, directions, layer, radius, half_z, window=4):
                     body = layer.bent(int(layer.cell_variants[j, i]), j)
                     c_, s_ = math.cos(phi), math.sin(phi)
                     v = body.vertices @ np.array([[c_, s_, 0], [-s_, c_, 0], [0, 0, 1]])
-                    v = v + [0.0, 0.0, lay.ring_z(j)]
+                    v = v + np.array([0.0, 0.0, lay.ring_z(j)])
                     tri_all.append(v[body.faces])
             tri = np.concatenate(tri_all)
             e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
@@ -202,3 +208,29 @@ def test_a_radius_too_small_for_the_patch_states_the_limit(tmp_path):
     flat = {"kind": "spikes", "nx": 1, "ny": 1, "width": "100 um", "height": "2 um"}
     with pytest.raises(ConfigError, match=r"curved too tightly .* radius >= [\d.]+ mm"):
         build_scene(parse_config(cylinder_config(gdml, surface=flat)))
+
+
+def test_a_layer_meeting_a_sister_names_it_and_the_gap(tmp_path):
+    gdml = write_cylinder(tmp_path / "sister.gdml", sister=0.005)
+    with pytest.raises(
+        ConfigError, match=r"runs into sister volume 'cube' \(free gap there: 5 um\)"
+    ):
+        build_scene(parse_config(cylinder_config(gdml)))
+    far = write_cylinder(tmp_path / "far.gdml", sister=0.05)
+    assert build_scene(parse_config(cylinder_config(far))).layers
+
+
+def test_wall_and_end_faces_rough_together(cylinder):
+    """An HPGe-like detector: the side wall and both end faces rough; the layers touch at the
+    edges and do not meet."""
+    data = cylinder_config(cylinder)
+    data["targets"][0]["rough"] += [
+        {"face": "+z", "surface": "p"},
+        {"face": "-z", "surface": "p"},
+    ]
+    scene = build_scene(parse_config(data))
+    assert [type(layer).__name__ for layer in scene.layers] == [
+        "CurvedRoughLayer",
+        "RoughLayer",
+        "RoughLayer",
+    ]

@@ -23,6 +23,7 @@ from .geometry.volumes import GeometryModel, Instance
 from .obb import OrientedBox
 from .scene import (
     BOUNDARY_TOLERANCE,
+    CurvedRoughLayer,
     RoughLayer,
     Scene,
     TargetVolume,
@@ -175,6 +176,9 @@ def check_gdml_clearance(scene: Scene) -> None:
             )
     layers = [(layer, layer.envelope_box()) for layer in scene.layers]
     for n, (layer, box) in enumerate(layers):
+        if isinstance(layer, CurvedRoughLayer):
+            _check_curved(model, scene, layer, [o for o, _ in layers[n + 1 :]])
+            continue
         mother = layer.target.mother
         assert mother is not None  # in a GDML world every target has a mother (the world at least)
         own = layer.target.instance.index if layer.target.instance is not None else -1
@@ -191,9 +195,77 @@ def check_gdml_clearance(scene: Scene) -> None:
             if body.meets(box):
                 raise ConfigError(_meets(layer, body.label, _gap(layer, body)))
         for other, other_box in layers[n + 1 :]:
+            if isinstance(other, CurvedRoughLayer):
+                if other.target.mother == mother and other.in_shell(box.grid()).any():
+                    raise ConfigError(_meets(layer, f"the rough layer {other.name}", 0.0))
+                continue
             if other.target.mother == mother and other_box.overlaps(box):
                 raise ConfigError(_meets(layer, f"the rough layer {other.name}", 0.0))
         _check_inside_mother(model, mother, layer, box)
+
+
+def _check_curved(
+    model: GeometryModel, scene: Scene, layer: CurvedRoughLayer, others: list[RoughLayer]
+) -> None:
+    """A bent layer against the sisters of its volume, boxes and layers in the same mother, and
+    its mother, by points of its shell; the gap is the least height above the face of a shell
+    point inside what it meets."""
+    mother = layer.target.mother
+    assert mother is not None
+    points = layer.shell_points()
+    height = layer.ring_layout.face.distance(layer.target.to_local(points))
+    own = layer.target.instance.index if layer.target.instance is not None else -1
+    bodies = [
+        _instance_body(model, model.instances[i])
+        for i in model.children.get(mother.index, [])
+        if i != own
+    ]
+    bodies += [
+        _target_body(t)
+        for t in scene.targets
+        if t is not layer.target and t.instance is None and t.mother == mother
+    ]
+    for body in bodies:
+        hit = body.contains(body.to_local(points), touching=False)  # type: ignore[operator]
+        if hit.any():
+            what = body.label if body.label.startswith("target") else f"sister {body.label}"
+            k = np.flatnonzero(hit)[np.argmin(height[hit])]
+            raise ConfigError(_meets(layer, what, _curved_gap(layer, body, points[k])))
+    for other in others:
+        if other.target.mother != mother:
+            continue
+        if isinstance(other, CurvedRoughLayer):
+            meets = bool(other.in_shell(points).any() or layer.in_shell(other.shell_points()).any())
+        else:
+            meets = bool(other.envelope_box().contains(points).any()) or bool(
+                layer.in_shell(other.envelope_box().grid()).any()
+            )
+        if meets:
+            raise ConfigError(_meets(layer, f"the rough layer {other.name}", 0.0))
+    body = _instance_body(model, mother)
+    if not body.contains(mother.to_local(points)).all():
+        raise ConfigError(
+            f"{layer.name}: the rough layer on face {layer.config.face} of {layer.target.name!r} "
+            f"({layer.thickness * 1e3:.4g} um thick) leaves its mother volume "
+            f"{model.label(mother)!r}; use a lower surface"
+        )
+
+
+def _curved_gap(layer: CurvedRoughLayer, body: _Body, point: np.ndarray) -> float:
+    """Height above the face, bisected along the face normal under ``point``, where ``body``
+    begins."""
+    face = layer.ring_layout.face
+    u, v, hi = (float(x[0]) for x in face.locate(layer.target.to_local(point[None, :])))
+    lo = 0.0
+    base, normal = face.point(u, v), face.normal(u, v)
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        p = layer.target.to_world((base + mid * normal)[None, :])
+        if body.contains(body.to_local(p), touching=False)[0]:  # type: ignore[operator]
+            hi = mid
+        else:
+            lo = mid
+    return hi
 
 
 def _gap(layer: RoughLayer, body: _Body) -> float:

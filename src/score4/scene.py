@@ -470,6 +470,22 @@ class CurvedRoughLayer(RoughLayer):
         local = face.point(u, v) + h[:, None] * face.normal(u, v)
         return self.target.to_world(local)
 
+    def in_shell(self, points: np.ndarray) -> np.ndarray:
+        """True for world points strictly inside the layer's envelope (touching does not
+        count)."""
+        face = self.ring_layout.face
+        u, v, h = face.locate(self.target.to_local(np.asarray(points, float).reshape(-1, 3)))
+        (u0, u1), (v0, v1) = face.extent
+        tol = BOUNDARY_TOLERANCE
+        return np.asarray(
+            (h > tol)
+            & (h < self.thickness - tol)
+            & (v > v0 + tol)
+            & (v < v1 - tol)
+            & (u > u0 + 1e-12)
+            & (u < u1 - 1e-12)
+        )
+
     def envelope_box(self) -> OrientedBox:
         """An oriented box (the target's axes) holding the layer's shell."""
         local = self.target.to_local(self.shell_points())
