@@ -107,7 +107,18 @@ def test_samples_lie_on_the_bent_tops_with_the_mesh_area(cylinder):
     # slope x (height / R) x facet width / 2 = 2 x 2e-3 x 5 um / 2 = 10 nm here
     expected = layer.lift + layer.base_thickness + height
     np.testing.assert_allclose(local[on, 2], expected, atol=1e-5)
-    assert scene.inside_target("cyl", p.position - 1e-6 * p.direction).mean() > 0.0
+    # confinement agrees with the bent bodies: every point on a bent top is in the target
+    assert scene.inside_target("cyl", p.position).all()
+    assert not scene.inside_target(
+        "cyl", p.position[on] + 1e-4 * lay_normal(layer, p.position[on])
+    ).any()
+
+
+def lay_normal(layer, points):
+    """The cylinder's outward normal at world points."""
+    q = layer.target.to_local(points)
+    u = np.arctan2(q[:, 1], q[:, 0])
+    return layer.ring_layout.face.normal(u, 0.0) @ layer.target.rotation.T
 
 
 def ray_path(origins, directions, layer, radius, half_z, window=4):
@@ -291,3 +302,24 @@ def test_alphas_from_a_rough_wall_match_the_same_roughness_on_a_flat_face(tmp_pa
 @pytest.mark.deep
 def test_alphas_from_a_rough_wall_match_the_flat_face_deep(tmp_path):
     _same_spectrum(*alpha_spectra(tmp_path, 10000))
+
+
+def test_a_source_on_a_list_of_faces_weighs_the_rough_wall_by_its_mesh_area(cylinder):
+    source = {
+        "particle": "geantino",
+        "energy": "1 MeV",
+        "surface": {"volume": "cyl", "face": ["outer", "+z"]},
+    }
+    config = parse_config(cylinder_config(cylinder, source=source))
+    scene = build_scene(config)
+    geo = source_geometry(config, scene)
+    wall = source_geometry(
+        parse_config(cylinder_config(cylinder)),
+        build_scene(parse_config(cylinder_config(cylinder))),
+    )
+    assert geo["faces"] == ["-z", "outer", "+z"]
+    assert geo["area_mm2"] == pytest.approx(wall["area_mm2"] + math.pi * RADIUS**2, rel=1e-12)
+    p = make_source(config, scene).primaries(np.random.default_rng(3), 0, 4000)
+    on_top = np.isclose(p.position[:, 2], HALF_Z, atol=1e-9)
+    share = math.pi * RADIUS**2 / geo["area_mm2"]
+    assert abs(on_top.mean() - share) < 4 * math.sqrt(share * (1 - share) / 4000)

@@ -165,7 +165,7 @@ class RingLayout:
         jj = np.where(ok, j, 0)
         step, count = self.step[jj], self.count[jj]
         first = self.phi_mid - (count - 1) / 2 * step
-        dphi = np.mod(u - first + step / 2 + np.pi, 2 * np.pi) - np.pi
+        dphi = np.mod(u - first + step / 2, 2 * np.pi)
         i = np.floor(dphi / step).astype(np.int64)
         ok &= (i >= 0) & (i < count)
         x = (dphi - (i + 0.5) * step) * self.radius[jj]
@@ -189,6 +189,36 @@ class BentVariant:
     @property
     def top_triangles(self) -> np.ndarray:
         return self.vertices[self.faces[: self.n_top]]
+
+    def contains(self, points: np.ndarray, directions: np.ndarray, tol: float) -> np.ndarray:
+        """True for points (ring frame) inside the closed body or within ``tol`` of it along
+        ``directions``: the parity of the crossings of a ray along each direction (the surface's
+        outward normal there) with the body's triangles."""
+        tri = self.vertices[self.faces]
+        e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+        out = np.zeros(len(points), dtype=bool)
+        for start in range(0, len(points), 512):
+            o = points[start : start + 512, None, :]
+            d = directions[start : start + 512, None, :]
+            pv = np.cross(d, e2[None])
+            det = np.einsum("nkc,kc->nk", pv, e1)
+            ok = np.abs(det) > 1e-300
+            inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+            tv = o - tri[None, :, 0]
+            u = np.einsum("nkc,nkc->nk", tv, pv) * inv
+            qv = np.cross(tv, e1[None])
+            w = np.einsum("nkc,nkc->nk", qv, d) * inv
+            t = np.einsum("nkc,kc->nk", qv, e2) * inv
+            hit = ok & (u >= 0) & (w >= 0) & (u + w <= 1)
+            on = (hit & (np.abs(t) <= tol)).any(axis=1)
+            ahead = np.sort(np.where(hit & (t > tol), t, np.inf), axis=1)
+            finite = np.isfinite(ahead)
+            # a ray through an edge or corner meets two or more facets at one point: count once
+            with np.errstate(invalid="ignore"):  # inf - inf past the last crossing
+                gaps = np.diff(ahead, axis=1) > 1e-12
+            new = finite & np.concatenate([finite[:, :1], gaps], axis=1)
+            out[start : start + 512] = on | (new.sum(axis=1) % 2 == 1)
+        return out
 
 
 def measure_floor(

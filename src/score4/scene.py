@@ -437,19 +437,36 @@ class CurvedRoughLayer(RoughLayer):
         return RingSurfaceSampler(self)
 
     def contains(self, points: np.ndarray) -> np.ndarray:
-        """True for world points inside a patch body (the height map of its variant above the
-        bent base; exact up to the sagitta of the bent facets)."""
+        """True for world points inside a patch body or on it (within the boundary tolerance):
+        the bent bodies Geant4 gets, by the parity of a ray along the surface normal."""
         q = self.target.to_local(np.asarray(points, float).reshape(-1, 3))
-        j, i, local = self.ring_layout.locate(q)
-        inside = (j >= 0) & (local[:, 2] >= self.lift - BOUNDARY_TOLERANCE)
-        rows = np.flatnonzero(inside)
+        lay = self.ring_layout
+        j, i, local = lay.locate(q)
+        inside = np.zeros(len(q), dtype=bool)
+        rows = np.flatnonzero((j >= 0) & (local[:, 2] >= -BOUNDARY_TOLERANCE))
+        rows = rows[local[rows, 2] <= self.thickness]
+        if not len(rows):
+            return inside
         variant = self.cell_variants[j[rows], i[rows]]
-        inside[rows[variant < 0]] = False
-        for k, surface in enumerate(self.variants):
-            r = rows[variant == k]
-            h = surface.height_at(local[r, 0], local[r, 1])
-            top = self.lift + self.base_thickness + h + BOUNDARY_TOLERANCE
-            inside[r] = local[r, 2] <= top
+        keys = np.array([self.ring_solid_key(int(r)) for r in j[rows]])
+        for k in np.unique(variant[variant >= 0]):
+            for key in np.unique(keys[variant == k]):
+                sel = rows[(variant == k) & (keys == key)]
+                ring = int(j[sel[0]])
+                phi = np.array(
+                    [lay.cell_phi(int(a))[int(b)] for a, b in zip(j[sel], i[sel], strict=True)]
+                )
+                c, s = np.cos(-phi), np.sin(-phi)
+                p = q[sel]
+                turned = np.column_stack(
+                    [c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1], p[:, 2]]
+                )
+                turned[:, 2] -= np.array([lay.ring_z(int(a)) for a in j[sel]])
+                u = np.arctan2(turned[:, 1], turned[:, 0])
+                direction = lay.face.normal(u, 0.0)
+                inside[sel] = self.bent(int(k), ring).contains(
+                    turned, direction, BOUNDARY_TOLERANCE
+                )
         return inside
 
     def in_cut(self, points: np.ndarray) -> np.ndarray:

@@ -14,7 +14,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..scene import CurvedRoughLayer
-from ..shapes import Transform
 from ..surface.mesh import TriangleMesh
 from .solids import tessellated_solid
 
@@ -59,6 +58,7 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
     keep: list = [env_solid, env_lv, rot, env_pv]
     lvs: dict[tuple[int, float], object] = {}
     patch_lvs = []
+    ring_z = [layer.ring_layout.ring_z(j) for j in range(len(layer.ring_layout.v))]
     for copy_no, (j, _, k, phi) in enumerate(layer.cells()):
         key = (k, layer.ring_solid_key(j))
         if key not in lvs:
@@ -69,10 +69,10 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
             lvs[key] = lv
             patch_lvs.append(lv)
             keep += [solid, lv]
-        turn = Transform(_rz(phi), np.array([0.0, 0.0, layer.ring_layout.ring_z(j) - zc]))
-        r3 = _rotation(g4, turn.rotation)
+        r3 = g4.G4RotationMatrix()
+        r3.rotateZ(phi)  # the object turned by phi about z
         g4.G4PVPlacement(
-            g4.G4Transform3D(r3, g4.G4ThreeVector(*turn.translation)),
+            g4.G4Transform3D(r3, g4.G4ThreeVector(0.0, 0.0, ring_z[j] - zc)),
             lvs[key],
             f"{name}_cell",
             env_lv,
@@ -81,8 +81,3 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
             False,
         )
     return patch_lvs, keep
-
-
-def _rz(phi: float) -> np.ndarray:
-    c, s = np.cos(phi), np.sin(phi)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])

@@ -196,7 +196,7 @@ def target_shape(scene: Scene, volume: str) -> tuple[Shape, Transform]:
     return target.shape, target.transform
 
 
-def shape_face_sampler(scene: Scene, volume: str, face: str):
+def shape_face_sampler(scene: Scene, volume: str, face: str | list[str]):
     """Area-uniform sampler on faces of a target, each rough face on its mesh (a round face
     partly rough: its rough cells and the flat rest, :class:`FlatRemainderSampler`)."""
     shape, transform = target_shape(scene, volume)
@@ -410,7 +410,7 @@ def source_from_config(src: SourceConfig, scene: Scene) -> SampledSource | BulkS
     target = source_target(scene, surface_ref.volume, "source.surface.volume")
     volume, face = target.name, surface_ref.face
     surface: SurfaceSampler | ShapeSurfaceSampler | object
-    if is_rectangle_face(target, face):  # a box face: its rough layer or 2 triangles
+    if isinstance(face, str) and is_rectangle_face(target, face):  # a box face: rough or flat
         layer = scene.layer(volume, face)
         surface = layer.sampler() if layer is not None else flat_face_sampler(scene, volume, face)
     else:
@@ -477,7 +477,7 @@ def source_geometry(config: RunConfig, scene: Scene) -> dict:
     ref = _given(src.surface, "source.surface")
     target = source_target(scene, ref.volume, "source.surface.volume")
     out = {"kind": "surface", "volume": target.name, "face": ref.face}
-    if is_rectangle_face(target, ref.face):
+    if isinstance(ref.face, str) and is_rectangle_face(target, ref.face):
         frame = face_frame(target, ref.face)
         layer = scene.layer(target.name, ref.face)
         projected = frame.size[0] * frame.size[1]

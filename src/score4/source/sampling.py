@@ -652,14 +652,16 @@ class RingSurfaceSampler:
         self.nx = int(layer.cell_variants.shape[1])
         self.z = np.array([layer.ring_layout.ring_z(j) for j in range(len(layer.ring_layout.v))])
         self._samplers: dict[tuple[int, int], SurfaceSampler] = {}
-        keys = [self._key(k, j) for k, j in zip(self.variant, self.ring, strict=True)]
-        area = np.array([self._sampler(k, j).area for k, j in keys])
+        radius = layer.ring_layout.radius
+        first = np.array([int(np.flatnonzero(radius == r)[0]) for r in radius], np.int64)
+        self.keys = np.column_stack([self.variant, first[self.ring]])  # cells sharing a mesh
+        area_of = {
+            (int(k), int(j)): self._sampler(int(k), int(j)).area
+            for k, j in np.unique(self.keys, axis=0)
+        }
+        area = np.array([area_of[(int(k), int(j))] for k, j in self.keys])
         self.area = float(area.sum())
         self._choice = DiscreteSampler(area, "cell areas")
-
-    def _key(self, k: int, j: int) -> tuple[int, int]:
-        radius = self.layer.ring_layout.radius
-        return int(k), int(np.flatnonzero(radius == radius[j])[0])
 
     def _sampler(self, k: int, j: int) -> SurfaceSampler:
         if (k, j) not in self._samplers:
@@ -670,8 +672,7 @@ class RingSurfaceSampler:
         cell = self._choice.sample(rng, n)
         local, normal = np.empty((n, 3)), np.empty((n, 3))
         facet = np.empty(n, np.int64)
-        keys = np.array([self._key(k, j) for k, j in zip(self.variant, self.ring, strict=True)])
-        chosen = keys[cell]
+        chosen = self.keys[cell]
         for k, j in {(int(a), int(b)) for a, b in chosen}:
             rows = np.flatnonzero((chosen[:, 0] == k) & (chosen[:, 1] == j))
             s = self._sampler(k, j).sample(rng, len(rows))
