@@ -57,9 +57,9 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
     )
     keep: list = [env_solid, env_lv, rot, env_pv]
     lvs: dict[tuple[int, float], object] = {}
-    patch_lvs = []
-    ring_z = [layer.ring_layout.ring_z(j) for j in range(len(layer.ring_layout.v))]
-    for copy_no, (j, _, k, phi) in enumerate(layer.cells()):
+    patch_lvs: list = []
+
+    def patch_lv(k: int, j: int):
         key = (k, layer.ring_solid_key(j))
         if key not in lvs:
             bent = layer.bent(k, j)
@@ -68,16 +68,46 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
             lv = g4.G4LogicalVolume(solid, material, tag)
             lvs[key] = lv
             patch_lvs.append(lv)
-            keep += [solid, lv]
+            keep.extend([solid, lv])
+        return lvs[key]
+
+    def place(lv, phi: float, z: float, mother, copy_no: int) -> None:
         r3 = g4.G4RotationMatrix()
         r3.rotateZ(phi)  # the object turned by phi about z
         g4.G4PVPlacement(
-            g4.G4Transform3D(r3, g4.G4ThreeVector(0.0, 0.0, ring_z[j] - zc)),
-            lvs[key],
+            g4.G4Transform3D(r3, g4.G4ThreeVector(0.0, 0.0, z)),
+            lv,
             f"{name}_cell",
-            env_lv,
+            mother,
             False,
             copy_no,
             False,
         )
+
+    lay = layer.ring_layout
+    ring_z = [lay.ring_z(j) for j in range(len(lay.v))]
+    cells = layer.cells()
+    if abs(face.nrz[1]) > 1e-12:  # a cone: every patch placed in the envelope
+        for copy_no, (j, _, k, phi) in enumerate(cells):
+            place(patch_lv(k, j), phi, ring_z[j] - zc, env_lv, copy_no)
+        return patch_lvs, keep
+    # A cylinder: each ring is a shell of one row (a G4Tubs), and rings with the same variants in
+    # the same order are one logical volume placed once per row: one ring of one variant serves
+    # the whole wall.
+    py = layer.patch_size[1]
+    rings: dict[tuple, object] = {}
+    by_row: dict[int, list[tuple[int, float]]] = {}
+    for j, _, k, phi in cells:
+        by_row.setdefault(j, []).append((k, phi))
+    for j, row in sorted(by_row.items()):
+        key = (layer.ring_solid_key(j), tuple(k for k, _ in row))
+        if key not in rings:
+            tag = f"{name}_ring{len(rings)}"
+            ring_solid = g4.G4Tubs(tag, rmin1, rmax1, py / 2, face.phi0, face.dphi)
+            ring_lv = g4.G4LogicalVolume(ring_solid, mother_material, tag)
+            for copy_no, (k, phi) in enumerate(row):
+                place(patch_lv(k, j), phi, 0.0, ring_lv, copy_no)
+            rings[key] = ring_lv
+            keep.extend([ring_solid, ring_lv])
+        place(rings[key], 0.0, ring_z[j] - zc, env_lv, j)
     return patch_lvs, keep
