@@ -193,32 +193,77 @@ class BentVariant:
     def contains(self, points: np.ndarray, directions: np.ndarray, tol: float) -> np.ndarray:
         """True for points (ring frame) inside the closed body or within ``tol`` of it along
         ``directions``: the parity of the crossings of a ray along each direction (the surface's
-        outward normal there) with the body's triangles."""
+        outward normal there) with the body's triangles, tested against the triangles of the
+        point's (azimuth, z) bin only (:meth:`_bins`; the rays stay in their bin)."""
         tri = self.vertices[self.faces]
-        e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+        edges, members = self._bins
         out = np.zeros(len(points), dtype=bool)
-        for start in range(0, len(points), 512):
-            o = points[start : start + 512, None, :]
-            d = directions[start : start + 512, None, :]
-            pv = np.cross(d, e2[None])
-            det = np.einsum("nkc,kc->nk", pv, e1)
-            ok = np.abs(det) > 1e-300
-            inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
-            tv = o - tri[None, :, 0]
-            u = np.einsum("nkc,nkc->nk", tv, pv) * inv
-            qv = np.cross(tv, e1[None])
-            w = np.einsum("nkc,nkc->nk", qv, d) * inv
-            t = np.einsum("nkc,kc->nk", qv, e2) * inv
-            hit = ok & (u >= 0) & (w >= 0) & (u + w <= 1)
-            on = (hit & (np.abs(t) <= tol)).any(axis=1)
-            ahead = np.sort(np.where(hit & (t > tol), t, np.inf), axis=1)
-            finite = np.isfinite(ahead)
-            # a ray through an edge or corner meets two or more facets at one point: count once
-            with np.errstate(invalid="ignore"):  # inf - inf past the last crossing
-                gaps = np.diff(ahead, axis=1) > 1e-12
-            new = finite & np.concatenate([finite[:, :1], gaps], axis=1)
-            out[start : start + 512] = on | (new.sum(axis=1) % 2 == 1)
+        phi = np.arctan2(points[:, 1], points[:, 0])
+        bi = np.clip(np.searchsorted(edges[0], phi) - 1, 0, len(edges[0]) - 2)
+        bj = np.clip(np.searchsorted(edges[1], points[:, 2]) - 1, 0, len(edges[1]) - 2)
+        key = bi * (len(edges[1]) - 1) + bj
+        order = np.argsort(key, kind="stable")
+        bounds = np.flatnonzero(np.diff(key[order])) + 1
+        for rows in np.split(order, bounds):
+            out[rows] = _ray_parity(
+                points[rows], directions[rows], tri[members[int(key[rows[0]])]], tol
+            )
         return out
+
+    @cached_property
+    def _bins(self) -> tuple[tuple[np.ndarray, np.ndarray], list[np.ndarray]]:
+        """A 32 x 32 grid over the body's azimuth and z ranges, and the triangles meeting each
+        cell (their ranges widened by the body's radial extent, which a tilted ray crosses)."""
+        v = self.vertices
+        phi = np.arctan2(v[:, 1], v[:, 0])
+        rho = np.hypot(v[:, 0], v[:, 1])
+        margin = float(rho.max() - rho.min()) + 1e-9
+        edges = (
+            np.linspace(phi.min() - 1e-12, phi.max() + 1e-12, 33),
+            np.linspace(v[:, 2].min() - margin, v[:, 2].max() + margin, 33),
+        )
+        tp, tz = phi[self.faces], v[self.faces, 2]
+        i0 = np.clip(np.searchsorted(edges[0], tp.min(axis=1)) - 1, 0, 31)
+        i1 = np.clip(np.searchsorted(edges[0], tp.max(axis=1)) - 1, 0, 31)
+        j0 = np.clip(np.searchsorted(edges[1], tz.min(axis=1) - margin) - 1, 0, 31)
+        j1 = np.clip(np.searchsorted(edges[1], tz.max(axis=1) + margin) - 1, 0, 31)
+        members: list[list[int]] = [[] for _ in range(32 * 32)]
+        for t in range(len(self.faces)):
+            for a in range(i0[t], i1[t] + 1):
+                for b in range(j0[t], j1[t] + 1):
+                    members[a * 32 + b].append(t)
+        return edges, [np.asarray(m, dtype=np.int64) for m in members]
+
+
+def _ray_parity(o: np.ndarray, d: np.ndarray, tri: np.ndarray, tol: float) -> np.ndarray:
+    """Odd number of crossings ahead (or a crossing within ``tol``) of rays with triangles."""
+    if len(tri) == 0:
+        return np.zeros(len(o), dtype=bool)
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    out = np.zeros(len(o), dtype=bool)
+    chunk = max(1, 200_000 // len(tri))  # arrays of (chunk, triangles, 3): ~5 MB each
+    for start in range(0, len(o), chunk):
+        p = o[start : start + chunk, None, :]
+        r = d[start : start + chunk, None, :]
+        pv = np.cross(r, e2[None])
+        det = np.einsum("nkc,kc->nk", pv, e1)
+        ok = np.abs(det) > 1e-300
+        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+        tv = p - tri[None, :, 0]
+        u = np.einsum("nkc,nkc->nk", tv, pv) * inv
+        qv = np.cross(tv, e1[None])
+        w = np.einsum("nkc,nkc->nk", qv, r) * inv
+        t = np.einsum("nkc,kc->nk", qv, e2) * inv
+        hit = ok & (u >= 0) & (w >= 0) & (u + w <= 1)
+        on = (hit & (np.abs(t) <= tol)).any(axis=1)
+        ahead = np.sort(np.where(hit & (t > tol), t, np.inf), axis=1)
+        finite = np.isfinite(ahead)
+        # a ray through an edge or corner meets two or more facets at one point: count once
+        with np.errstate(invalid="ignore"):  # inf - inf past the last crossing
+            gaps = np.diff(ahead, axis=1) > 1e-12
+        new = finite & np.concatenate([finite[:, :1], gaps], axis=1)
+        out[start : start + chunk] = on | (new.sum(axis=1) % 2 == 1)
+    return out
 
 
 def measure_floor(
