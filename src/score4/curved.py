@@ -112,24 +112,32 @@ class RingLayout:
     step: np.ndarray
     phi_mid: float
 
+    row_gap: float = 0.0
+
     @classmethod
     def make(
-        cls, face: RevolvedFace, patch_size: tuple[float, float], reserve: float = 0.0
+        cls,
+        face: RevolvedFace,
+        patch_size: tuple[float, float],
+        reserve: float = 0.0,
+        row_gap: float = 0.0,
     ) -> RingLayout:
         """Rings on ``face``; on a cone, the rows keep ``reserve`` (at least the layer's
         thickness) clear of the z planes of the face's ends, so the patches stay between
-        them."""
+        them, and ``row_gap`` (mm) apart: neighbouring rings bend their facets with different
+        radii, so their walls (chords of the circle) do not coincide exactly."""
         px, py = patch_size
         tz = abs(float(face._tangent[1]))
         usable = face.length - 2 * reserve * abs(face.nrz[1]) / max(tz, 1e-300)
-        rows = max(int(np.floor(usable / py * (1 + 1e-9))), 0)
-        v = (np.arange(rows) - (rows - 1) / 2) * py
+        pitch = py + row_gap
+        rows = max(int(np.floor((usable + row_gap) / pitch * (1 + 1e-9))), 0)
+        v = (np.arange(rows) - (rows - 1) / 2) * pitch
         radius = face.radius(v)
         # a ring holds its patches at the smallest radius the row reaches
         inner = np.minimum(face.radius(v - py / 2), face.radius(v + py / 2))
         count = np.floor(np.maximum(inner, 0.0) * face.dphi / px * (1 + 1e-9)).astype(np.int64)
         step = px / np.maximum(radius, 1e-300)
-        return cls(face, patch_size, v, radius, count, step, face.phi0 + 0.5 * face.dphi)
+        return cls(face, patch_size, v, radius, count, step, face.phi0 + 0.5 * face.dphi, row_gap)
 
     @property
     def n_cells(self) -> int:
@@ -160,9 +168,11 @@ class RingLayout:
         u, v, h = self.face.locate(points)
         py = self.patch_size[1]
         rows = len(self.v)
-        j = np.floor((v - self.v[0]) / py + 0.5).astype(np.int64) if rows else np.zeros(0, int)
+        pitch = py + self.row_gap
+        j = np.floor((v - self.v[0]) / pitch + 0.5).astype(np.int64) if rows else np.zeros(0, int)
         ok = (j >= 0) & (j < rows)
         jj = np.where(ok, j, 0)
+        ok &= np.abs(v - self.v[jj]) <= py / 2
         step, count = self.step[jj], self.count[jj]
         first = self.phi_mid - (count - 1) / 2 * step
         dphi = np.mod(u - first + step / 2, 2 * np.pi)

@@ -883,7 +883,13 @@ def make_curved_layer(
             "tessellated bodies (solid: auto or tessellated)"
         )
     reserve = 1.05 * (rough.base_thickness + max(s.max_height for s in variants)) + 1e-4
-    layout = RingLayout.make(face, size, reserve)
+    row_gap = 0.0
+    if abs(face.nrz[1]) > 1e-12:  # a cone: rings apart by twice the walls' chord sagitta
+        probe = RingLayout.make(face, size, reserve)
+        if len(probe.v):
+            sag = max(top_sagitta(probe, flat_body(v, rough.base_thickness)) for v in variants)
+            row_gap = 2 * sag + 1e-7
+    layout = RingLayout.make(face, size, reserve, row_gap)
     if layout.n_cells == 0:
         raise ConfigError(
             f"{where}: no whole patch of {size[0] * 1e3:g} x {size[1] * 1e3:g} um fits on {what} "
