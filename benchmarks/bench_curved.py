@@ -3,7 +3,7 @@
     .venv/bin/python benchmarks/bench_curved.py [--radius 40] [--half-length 40] [--events 400]
 
 A silicon G4Tubs (GDML, written with pyg4ometry) with its outer wall rough (10 um pyramids,
-50 x 50 to a 0.5 mm patch: bent tessellated bodies in rings, score4.curved), and a box of the
+50 x 50 to a 0.5 mm patch: bent tessellated bodies in rings, score4.world.curved), and a box of the
 configuration whose +z face has the wall's area, rough with the same pyramids (as multi-union,
 ``solid: auto``, and as tessellated bodies). Each case is run twice with ``score4 run`` in a
 child process (5.3 MeV alphas, isotropic, from the rough face, exponential depth of mean 1 um),

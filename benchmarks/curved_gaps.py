@@ -5,7 +5,7 @@
 Generates the table of docs/geometry.md (check ``curved-gaps``): for faces of the solids of
 real detectors (a BEGe-like cylinder wall, a thin cylinder, a bore, a cone, an ICPC-like polycone
 taper) and three surfaces, the layer score4 builds (numpy only, no Geant4) and its measured gap:
-the largest distance between the patches' base and the true surface (score4.curved: the floor
+the largest distance between the patches' base and the true surface (score4.world.curved: the floor
 facets are chords of the circle, the patch is lifted by the deepest one), against the limit
 max(1 % of the roughness height, 0.1 um).
 """
@@ -16,11 +16,11 @@ import argparse
 
 import numpy as np
 
-from score4.config import GdmlVolume, RoughFace
-from score4.curved import gap_limit
-from score4.scene import TargetVolume, make_layer
+from score4.inputs.config import GdmlVolume, RoughFace
 from score4.shapes import G4Cons, G4GenericPolycone, G4Tubs, Shape, Transform
 from score4.surface.spec import build_surface, parse_surface_spec
+from score4.world.curved import gap_limit
+from score4.world.scene import TargetVolume, make_layer
 
 SURFACES = {
     "10 um pyramids, 0.5 mm patch": {

@@ -1,4 +1,4 @@
-"""Rough layers on curved faces (score4.curved): bent patches on a cylinder wall, in numpy and
+"""Rough layers on curved faces (score4.world.curved): bent patches on a cylinder wall, in numpy and
 in Geant4."""
 
 from __future__ import annotations
@@ -8,13 +8,13 @@ import math
 import numpy as np
 import pytest
 
-from score4.config import parse_config
 from score4.errors import ConfigError
-from score4.output import read_results
-from score4.scene import CurvedRoughLayer, build_scene
-from score4.sim.engine import run
+from score4.inputs.config import parse_config
+from score4.runner.engine import run
+from score4.runner.output import read_results
 from score4.source.build import make_source, source_geometry
 from score4.source.vertex_file import write_vertex_file
+from score4.world.scene import CurvedRoughLayer, build_scene
 
 RADIUS, HALF_Z = 5.0, 1.0  # mm
 PYRAMIDS = {"kind": "spikes", "nx": 10, "ny": 10, "width": "10 um", "height": "10 um"}

@@ -132,7 +132,7 @@ def test_energy_per_decay_at_most_q_and_alpha_shares_q_minus_level():
 
 
 def _modes(name):
-    from score4.decay.data import decay_data
+    from score4.decay.nuclear_data import decay_data
 
     rec = decay_data()["nuclides"][name]
     return [{**m, "q_keV": m["q_keV"] + rec["level_keV"]} for m in rec["modes"]]

@@ -28,9 +28,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .. import limits
+from score4.inputs import limits
+from score4.inputs.units import DIMENSIONS
+
 from ..errors import ConfigError, brief
-from ..units import DIMENSIONS
 
 __all__ = [
     "DiscreteSampler",
@@ -415,7 +416,7 @@ class SurfaceSample:
         (n,) patch variant of that cell on a tiled face, else None.
     face
         (n,) index of the volume's face the point lies on (samplers on several faces of a
-        shape, :mod:`score4.source.shapes`), else None.
+        shape, :mod:`score4.source.shape_sampling`), else None.
     """
 
     position: np.ndarray
@@ -634,7 +635,7 @@ class TiledSurfaceSampler:
 
 class RingSurfaceSampler:
     """Uniform points per true area on the bent patch tops of a rough layer on a face swept
-    around z (:class:`score4.scene.CurvedRoughLayer`), in world coordinates.
+    around z (:class:`score4.world.scene.CurvedRoughLayer`), in world coordinates.
 
     A cell is chosen with probability proportional to the area of its variant's bent top
     (exact: the triangles Geant4 gets), then a point uniformly on those triangles, rotated

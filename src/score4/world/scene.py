@@ -1,0 +1,972 @@
+"""The rough faces of a run, resolved in numpy: surfaces, patch maps, face frames, materials.
+
+Geometry (placing the patches in Geant4) and the source (sampling vertices on the same
+patches, confining them to a material) both read this, so they cannot disagree.
+
+Targets. A :class:`TargetVolume` is one scored volume: a box of the configuration or one
+instance (copy) of a volume of a GDML world, with its solid, material and global transform
+(rotation columns = the volume's axes in the world, translation = its origin). A GDML target
+named by a volume with several copies becomes one target per copy.
+
+Frames. A face of a target box has a right-handed frame ``(u, v, n)`` in the box's own frame:
+``n`` is the outward normal, ``(u, v)`` span the face (+z: (x, y); -z: (x, -y); +x: (y, z); -x:
+(-y, z); +y: (z, x); -y: (x, z)); the end faces ``+z``/``-z`` of a G4Tubs use the same axes. The
+target's global rotation turns it into the world. Face-local coordinates are centred on the
+face, with z along ``n`` (z = 0 on the face). The rough layer sits on the face, outside the
+volume: patch ``(i, j)`` is its surface with the base plane at face-local z = ``base_thickness``
+and a slab of material below it down to the face, so the layer fills
+0 <= z <= base_thickness + surface height. With ``into: true`` the face is moved inward by the
+layer's thickness (the volume is cut by it), so the layer's top is where the face was.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from functools import cached_property
+
+import numpy as np
+
+from score4.errors import ConfigError
+from score4.inputs import limits
+from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig, SurfaceFile
+from score4.shapes import G4Box as G4BoxShape
+from score4.shapes import PlacedShape, Shape, Transform, shape_from_dict
+from score4.shapes.faces import AnnulusFace, Face, PlaneFace, RevolvedFace
+from score4.surface.block_cut import check_patch
+from score4.surface.patchmap import PatchMap, make_patch_map
+from score4.surface.spec import Surface, build_surface
+from score4.surface.store import load_surface
+
+from .curved import (
+    BentVariant,
+    RingLayout,
+    check_radius,
+    flat_body,
+    gap_limit,
+    measure_floor,
+    top_sagitta,
+)
+from .gdml_model import GeometryModel, Instance
+from .obb import OrientedBox
+
+#: Points this close (mm) outside a volume's boundary still count as inside (vertices at depth 0
+#: lie exactly on the surface).
+BOUNDARY_TOLERANCE = 1e-9
+
+#: Gap between the tips of the highest patch and the top of the layer's envelope, mm (1 nm).
+ENVELOPE_CLEARANCE = 1e-6
+
+
+#: Rough faces supported, by solid type (the words of the error for the others).
+SUPPORTED_FACES = (
+    "the six faces (+x, -x, +y, -y, +z, -z) of a G4Box and the flat end faces (+z, -z) of a "
+    "G4Tubs with a full circle"
+)
+
+
+@dataclass(frozen=True)
+class FaceFrame:
+    """A face: centre, rotation (columns u, v, n) and size (along u, along v), in the world."""
+
+    centre: np.ndarray
+    rotation: np.ndarray
+    size: tuple[float, float]
+
+    @property
+    def normal(self) -> np.ndarray:
+        return self.rotation[:, 2]
+
+    def to_world(self, local: np.ndarray) -> np.ndarray:
+        return self.centre + np.asarray(local, float) @ self.rotation.T
+
+    def to_local(self, world: np.ndarray) -> np.ndarray:
+        return (np.asarray(world, float) - self.centre) @ self.rotation
+
+    def shifted(self, distance: float) -> FaceFrame:
+        """The same frame moved by ``distance`` along its normal."""
+        return FaceFrame(self.centre + distance * self.normal, self.rotation, self.size)
+
+
+@dataclass(frozen=True, eq=False)
+class TargetVolume:
+    """One scored volume: a box of the configuration or one copy of a GDML volume.
+
+    ``shape`` is its solid as :mod:`score4.shapes` describes it, in the solid's own frame (None
+    only for a GDML solid of a type score4.shapes does not describe: then ``lo``/``hi``, the
+    solid's bounding limits, stand for it); ``solid`` is the solid's type name (for messages);
+    ``transform`` takes the solid's frame to the world (rotation columns: the volume's axes,
+    translation: its origin). ``mother`` is the GDML instance the volume is placed in (None:
+    the world volume).
+    """
+
+    column: str
+    entry: int
+    config: BoxVolume | GdmlVolume
+    material: str
+    solid: str
+    shape: Shape | None
+    transform: Transform
+    lo: np.ndarray  # bounding limits in the volume's frame
+    hi: np.ndarray
+    instance: Instance | None = None
+    mother: Instance | None = None
+    exclude: tuple[Shape, ...] = ()  # in world coordinates: daughters, not this volume's material
+    unknown_daughters: tuple[str, ...] = ()  # daughters whose solid score4.shapes cannot describe
+
+    @property
+    def name(self) -> str:
+        return self.column
+
+    @property
+    def rotation(self) -> np.ndarray:
+        return self.transform.rotation
+
+    @property
+    def translation(self) -> np.ndarray:
+        return self.transform.translation
+
+    @property
+    def position(self) -> tuple[float, float, float]:
+        t = self.translation
+        return (float(t[0]), float(t[1]), float(t[2]))
+
+    def to_world(self, local: np.ndarray) -> np.ndarray:
+        return self.transform.apply(local)
+
+    def to_local(self, world: np.ndarray) -> np.ndarray:
+        return self.transform.inverse_apply(world)
+
+    def described(self, what: str) -> Shape:
+        """The target's shape; ConfigError (``what`` needs it) for a solid score4.shapes does
+        not describe."""
+        if self.shape is None:
+            raise ConfigError(
+                f"{what}: {self.name!r} is a {self.solid}, which score4.shapes does not "
+                f"describe; {what} needs a solid it can describe"
+            )
+        return self.shape
+
+    def face(self, name: str) -> Face:
+        """The geometry of face ``name`` of the target's shape (its own frame)."""
+        return self.described("face").face(name)
+
+    def contains(self, points: np.ndarray) -> np.ndarray:
+        """True for world points in the volume's own material: inside its solid (exact for
+        every solid :mod:`score4.shapes` describes; the bounding box for others) and not
+        strictly inside one of its daughters (:attr:`exclude`)."""
+        points = np.asarray(points, float).reshape(-1, 3)
+        local = self.to_local(points)
+        inside = shape_contains(self.shape, self.lo, self.hi, local)
+        if self.unknown_daughters:
+            raise ConfigError(
+                f"{self.column}: holds {', '.join(self.unknown_daughters)}, of a solid type "
+                "score4.shapes does not describe, so points in its own material cannot be told "
+                "apart from points in that daughter"
+            )
+        for daughter in self.exclude:
+            rows = np.flatnonzero(inside)
+            if len(rows):
+                inside[rows] = daughter.signed_distance(points[rows]) >= -BOUNDARY_TOLERANCE
+        return inside
+
+
+def shape_contains(
+    shape: Shape | None, lo: np.ndarray, hi: np.ndarray, q: np.ndarray, touching: bool = True
+) -> np.ndarray:
+    """Inside test in the solid's frame (points within the tolerance of the surface count,
+    unless ``touching`` is False): exact for a shape, the bounding limits (lo, hi) without."""
+    q = np.asarray(q, float).reshape(-1, 3)
+    tol = BOUNDARY_TOLERANCE
+    if shape is not None:
+        d = shape.signed_distance(q)
+        return np.asarray(d <= tol if touching else d < -tol)
+    return np.asarray(((q >= np.asarray(lo) - tol) & (q <= np.asarray(hi) + tol)).all(axis=1))
+
+
+def target_face(target: TargetVolume, face: str) -> Face:
+    """Face ``face`` of a target's shape; ConfigError naming the faces and groups it has."""
+    try:
+        return target.face(face)
+    except ConfigError as err:
+        text = str(err).removeprefix("face: ")
+        if f"has no face {face!r}" in text:
+            text = f"no face {face!r} on a {target.solid}; " + text.split("; ", 1)[1]
+        raise ConfigError(f"{target.column}: {text}") from None
+
+
+def face_frame(target: TargetVolume | BoxVolume, face: str) -> FaceFrame:
+    """The right-handed frame of a flat ``face`` of a target, in the world: a box face
+    ("+z", "-x", ...) with the axes of :data:`score4.shapes.csg.BOX_FACE_AXES`, a ring (the end
+    face of a tube) in its bounding square."""
+    if isinstance(target, BoxVolume):
+        target = box_target(target, 0)
+    geometry = target_face(target, face)
+    if not isinstance(geometry, PlaneFace):
+        raise ConfigError(
+            f"{target.column}: no rough face on face {face} of a {target.solid} (curved); rough "
+            f"faces are {SUPPORTED_FACES}"
+        )
+    if not geometry.rectangle and not (isinstance(geometry, AnnulusFace) and geometry.full_circle):
+        cut = (
+            f" cut to {np.degrees(geometry.dphi):.4g} degrees of phi"
+            if isinstance(geometry, AnnulusFace)
+            else ""
+        )
+        raise ConfigError(
+            f"{target.column}: face {face} of a {target.solid}{cut}; rough faces are "
+            f"{SUPPORTED_FACES}"
+        )
+    local = geometry.frame
+    return FaceFrame(
+        target.to_world(local.translation), target.rotation @ local.rotation, geometry.size
+    )
+
+
+def box_target(box: BoxVolume, entry: int, mother: Instance | None = None) -> TargetVolume:
+    """The :class:`TargetVolume` of a box of the configuration (in ``mother``'s frame if given)."""
+    half = np.asarray(box.size, float) / 2
+    rotation = np.eye(3) if mother is None else mother.rotation
+    translation = np.asarray(box.position, float)
+    if mother is not None:
+        translation = mother.to_world(translation)
+    return TargetVolume(
+        box.name,
+        entry,
+        box,
+        box.material,
+        "G4Box",
+        G4BoxShape(float(half[0]), float(half[1]), float(half[2])),
+        Transform(rotation, translation),
+        -half,
+        half,
+        None,
+        mother,
+    )
+
+
+@dataclass
+class RoughLayer:
+    """A rough face: patch variants tiled over a face of a target.
+
+    ``mask`` (``(ny, nx)``, None: all) marks the cells that hold a patch: on the round end face
+    of a G4Tubs, the cells wholly inside the face; the others stay flat.
+    """
+
+    target: TargetVolume
+    config: RoughFace
+    frame: FaceFrame
+    names: list[str]  # surface name of each variant
+    variants: list[Surface]
+    patch_map: PatchMap
+    mask: np.ndarray | None = None
+    face_area: float = 0.0  # the flat face's area, mm2
+
+    @property
+    def name(self) -> str:
+        return f"{self.target.name}_rough{self.config.face}".replace("+", "p").replace("-", "m")
+
+    @property
+    def base_thickness(self) -> float:
+        return self.config.base_thickness
+
+    @property
+    def patch_size(self) -> tuple[float, float]:
+        return self.patch_map.patch_size
+
+    @property
+    def thickness(self) -> float:
+        """Height of the layer above the face, including the clearance above the highest tip."""
+        return self.base_thickness + max(s.max_height for s in self.variants) + ENVELOPE_CLEARANCE
+
+    @property
+    def cell_variants(self) -> np.ndarray:
+        """``(ny, nx)`` variant of each cell, -1 where the cell holds no patch (see ``mask``)."""
+        v = self.patch_map.variants
+        return v if self.mask is None else np.where(self.mask, v, -1)
+
+    @property
+    def rough_share(self) -> float:
+        """Share of the face's flat area covered by patches."""
+        px, py = self.patch_size
+        n = self.patch_map.variants.size if self.mask is None else int(self.mask.sum())
+        return float(n * px * py / self.face_area) if self.face_area > 0 else 1.0
+
+    def solid_kind(self, k: int) -> str:
+        """``tessellated``, ``multiunion``, ``frustums`` or ``blocks`` for variant ``k``.
+
+        ``auto`` takes the multi-union for spike grids of equal heights (fastest to track and to
+        build, bench_solids.py), ``frustums`` (the multi-union's nodes placed side by side, see
+        :mod:`score4.geometry.frustums`) for spike grids with a height spread, and ``blocks``
+        otherwise (the closed body cut into small
+        tessellated blocks, :mod:`score4.geometry.block_solids`): one tessellated solid per patch
+        tracked alphas 10-40x slower (benchmarks/bench_surfaces.py), and a multi-union with a
+        height spread explodes in voxelisation (50 x 50 pyramids with a 3 um spread: 42 s and
+        1.7 GB, against 0.6 s and 10 MB tessellated).
+        """
+        choice = self.config.solid
+        grid = self.variants[k].spikes
+        if choice in ("multiunion", "frustums") and grid is None:
+            raise ConfigError(
+                f"{self.name}: solid {choice} needs a spike-grid surface; {self.names[k]!r} is a "
+                "height map"
+            )
+        if choice == "auto":
+            if grid is None:
+                return "blocks"
+            return "multiunion" if grid.height_sigma == 0 else "frustums"
+        return choice
+
+    def cell_centres(self) -> np.ndarray:
+        """(ny, nx, 2) face-local centres of the cells."""
+        return self.patch_map.cell_centres()
+
+    def sampler(self):
+        """A :class:`~score4.source.sampling.TiledSurfaceSampler` on the rough tops."""
+        from score4.source.sampling import SurfaceSampler, TiledSurfaceSampler
+
+        px, py = self.patch_size
+        shift = np.array([px / 2, py / 2, 0.0])  # the sampler's patches span [0, px] x [0, py]
+        variants = [
+            SurfaceSampler(vertices=s.top_mesh.vertices + shift, faces=s.top_mesh.faces)
+            for s in self.variants
+        ]
+        lu, lv = self.frame.size
+        origin = self.frame.to_world(np.array([-lu / 2, -lv / 2, self.base_thickness]))
+        return TiledSurfaceSampler(
+            variants, self.cell_variants.T, (px, py), origin, self.frame.rotation
+        )
+
+    def contains(self, points: np.ndarray) -> np.ndarray:
+        """True for world points inside a patch body (on its boundary within the tolerance)."""
+        q = self.frame.to_local(points)
+        i, j = self.patch_map.cell_of(q[:, :2])
+        inside = (i >= 0) & (q[:, 2] >= -BOUNDARY_TOLERANCE)
+        rows = np.flatnonzero(inside)
+        centres = self.cell_centres()
+        variant = self.cell_variants[j[rows], i[rows]]
+        inside[rows[variant < 0]] = False
+        for k, surface in enumerate(self.variants):
+            r = rows[variant == k]
+            c = centres[j[r], i[r]]
+            h = surface.height_at(q[r, 0] - c[:, 0], q[r, 1] - c[:, 1])
+            inside[r] = q[r, 2] <= self.base_thickness + h + BOUNDARY_TOLERANCE
+        return inside
+
+    def in_cut(self, points: np.ndarray) -> np.ndarray:
+        """With ``into``: True for world points in the slab cut from the target for the layer."""
+        q = self.frame.to_local(points)
+        lu, lv = self.frame.size
+        return (
+            (np.abs(q[:, 0]) <= lu / 2)
+            & (np.abs(q[:, 1]) <= lv / 2)
+            & (q[:, 2] > BOUNDARY_TOLERANCE)
+            & (q[:, 2] <= self.thickness + BOUNDARY_TOLERANCE)
+        )
+
+    def envelope_box(self) -> OrientedBox:
+        """The layer's envelope (face size x thickness) as an oriented box in the world."""
+        lu, lv = self.frame.size
+        t = self.thickness
+        return OrientedBox(
+            self.frame.to_world(np.array([0.0, 0.0, t / 2])),
+            self.frame.rotation,
+            np.array([lu / 2, lv / 2, t / 2]),
+        )
+
+
+@dataclass
+class CurvedRoughLayer(RoughLayer):
+    """A rough layer on a face swept around z (:mod:`score4.world.curved`): patches bent onto the
+    surface in rings. ``frame`` is the face's frame at its middle (messages, bounds);
+    ``patch_map`` is the grid (rows = rings, columns = cells of the longest ring) and ``mask``
+    the cells each ring holds."""
+
+    layout: RingLayout | None = None
+    lift: float = 0.0  # the patches' base above the true surface (convex faces), mm
+    gap: float = 0.0  # largest distance of the base from the true surface, mm
+    top_margin: float = 0.0  # sagitta of the bent tops' facets (concave faces), mm
+
+    def solid_kind(self, k: int) -> str:
+        return "tessellated"  # bent closed bodies
+
+    @property
+    def ring_layout(self) -> RingLayout:
+        assert self.layout is not None
+        return self.layout
+
+    @property
+    def thickness(self) -> float:
+        return super().thickness + self.lift + self.top_margin
+
+    def _flat(self, k: int) -> tuple[np.ndarray, np.ndarray, int]:
+        key = ("flat", k)
+        if key not in self._cache:
+            self._cache[key] = flat_body(self.variants[k], self.base_thickness)
+        return self._cache[key]
+
+    @cached_property
+    def _cache(self) -> dict:
+        return {}
+
+    def ring_solid_key(self, j: int) -> float:
+        """Rings of equal radius and slope share their bent solids (all rings of a cylinder)."""
+        return float(np.round(self.ring_layout.radius[j], 12))
+
+    def bent(self, k: int, j: int) -> BentVariant:
+        """Variant ``k`` bent onto ring ``j`` (cached per ring radius)."""
+        key = ("bent", k, self.ring_solid_key(j))
+        if key not in self._cache:
+            v, faces, n_top = self._flat(k)
+            bent = self.ring_layout.bend(v, j, self.base_thickness + self.lift)
+            self._cache[key] = BentVariant(bent, faces, n_top)
+        return self._cache[key]
+
+    def cells(self) -> list[tuple[int, int, int, float]]:
+        """(ring j, cell i, variant k, azimuth) of every patch."""
+        out = []
+        grid = self.cell_variants
+        for j in range(len(self.ring_layout.v)):
+            for i, phi in enumerate(self.ring_layout.cell_phi(j)):
+                out.append((j, i, int(grid[j, i]), float(phi)))
+        return out
+
+    def sampler(self):
+        """Area-uniform points on the bent tops (world coordinates), see
+        :class:`~score4.source.sampling.RingSurfaceSampler`."""
+        from score4.source.sampling import RingSurfaceSampler
+
+        return RingSurfaceSampler(self)
+
+    def contains(self, points: np.ndarray) -> np.ndarray:
+        """True for world points inside a patch body or on it (within the boundary tolerance):
+        the bent bodies Geant4 gets, by the parity of a ray along the surface normal."""
+        q = self.target.to_local(np.asarray(points, float).reshape(-1, 3))
+        lay = self.ring_layout
+        j, i, local = lay.locate(q)
+        inside = np.zeros(len(q), dtype=bool)
+        rows = np.flatnonzero((j >= 0) & (local[:, 2] >= -BOUNDARY_TOLERANCE))
+        rows = rows[local[rows, 2] <= self.thickness]
+        if not len(rows):
+            return inside
+        variant = self.cell_variants[j[rows], i[rows]]
+        keys = np.array([self.ring_solid_key(int(r)) for r in j[rows]])
+        for k in np.unique(variant[variant >= 0]):
+            for key in np.unique(keys[variant == k]):
+                sel = rows[(variant == k) & (keys == key)]
+                ring = int(j[sel[0]])
+                phi = np.array(
+                    [lay.cell_phi(int(a))[int(b)] for a, b in zip(j[sel], i[sel], strict=True)]
+                )
+                c, s = np.cos(-phi), np.sin(-phi)
+                p = q[sel]
+                turned = np.column_stack(
+                    [c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1], p[:, 2]]
+                )
+                turned[:, 2] -= np.array([lay.ring_z(int(a)) for a in j[sel]])
+                u = np.arctan2(turned[:, 1], turned[:, 0])
+                direction = lay.face.normal(u, 0.0)
+                inside[sel] = self.bent(int(k), ring).contains(
+                    turned, direction, BOUNDARY_TOLERANCE
+                )
+        return inside
+
+    def in_cut(self, points: np.ndarray) -> np.ndarray:
+        return np.zeros(len(points), dtype=bool)  # into: true is refused on curved faces
+
+    def shell_points(self, n_phi: int = 72, n_v: int = 9, n_h: int = 3) -> np.ndarray:
+        """World points on and in the layer's shell (the face extruded by the thickness along
+        its normal), for the clearance checks."""
+        face = self.ring_layout.face
+        (u0, u1), (v0, v1) = face.extent
+        grid = np.meshgrid(
+            np.linspace(u0, u1, n_phi),
+            np.linspace(v0, v1, n_v),
+            np.linspace(0.0, self.thickness, n_h),
+            indexing="ij",
+        )
+        u, v, h = (g.ravel() for g in grid)
+        local = face.point(u, v) + h[:, None] * face.normal(u, v)
+        return self.target.to_world(local)
+
+    def in_shell(self, points: np.ndarray) -> np.ndarray:
+        """True for world points strictly inside the layer's envelope (touching does not
+        count)."""
+        face = self.ring_layout.face
+        u, v, h = face.locate(self.target.to_local(np.asarray(points, float).reshape(-1, 3)))
+        (u0, u1), (v0, v1) = face.extent
+        tol = BOUNDARY_TOLERANCE
+        return np.asarray(
+            (h > tol)
+            & (h < self.thickness - tol)
+            & (v > v0 + tol)
+            & (v < v1 - tol)
+            & (u > u0 + 1e-12)
+            & (u < u1 - 1e-12)
+        )
+
+    def envelope_box(self) -> OrientedBox:
+        """An oriented box (the target's axes) holding the layer's shell."""
+        local = self.target.to_local(self.shell_points())
+        lo, hi = local.min(axis=0), local.max(axis=0)
+        face = self.ring_layout.face
+        if face.dphi >= 2 * np.pi - 1e-9:  # the circle's extremes between the grid's points
+            r = float(np.hypot(local[:, 0], local[:, 1]).max())
+            lo[:2], hi[:2] = -r, r
+        return OrientedBox(self.target.to_world((lo + hi) / 2), self.target.rotation, (hi - lo) / 2)
+
+
+@dataclass
+class Scene:
+    """The targets of a run with their rough layers (and the volume model of a GDML world).
+
+    ``config`` is the run configuration the scene was built from (None for a scene of a live
+    world built through :mod:`score4.api`).
+    """
+
+    config: RunConfig | None
+    surfaces: dict[str, Surface]
+    layers: list[RoughLayer] = field(default_factory=list)
+    targets: list[TargetVolume] = field(default_factory=list)
+    model: GeometryModel | None = None
+
+    @property
+    def columns(self) -> list[str]:
+        """Scoring columns, one per target volume (copy), in ``events/edep`` order."""
+        return [t.column for t in self.targets]
+
+    def target(self, name: str) -> TargetVolume:
+        """The target of column ``name`` (or of the single copy a configured name stands for)."""
+        hits = self.targets_named(name, "volume")
+        if len(hits) != 1:
+            raise ConfigError(
+                f"{name!r} stands for {len(hits)} volumes ({', '.join(t.column for t in hits)}); "
+                "name one copy, e.g. " + f"{name}[0]"
+            )
+        return hits[0]
+
+    def targets_named(self, ref: str, parameter: str) -> list[TargetVolume]:
+        """The targets ``ref`` names: a column, a target's configured name, or (GDML) a volume
+        name or ``name[k]`` whose instances are targets."""
+        hits = [t for t in self.targets if t.column == ref]
+        if hits:
+            return hits
+        hits = [t for t in self.targets if t.config.label == ref]
+        if hits:
+            return hits
+        if self.model is not None:
+            instances = {i.index for i in self.model.resolve(ref, parameter)}
+            hits = [t for t in self.targets if t.instance and t.instance.index in instances]
+            if hits:
+                return hits
+        raise ConfigError(
+            f"{parameter}: {ref!r} is not a target; targets are: {', '.join(self.columns)}"
+        )
+
+    def layer(self, volume: str, face: str) -> RoughLayer | None:
+        return next(
+            (r for r in self.layers if r.target.name == volume and r.config.face == face), None
+        )
+
+    def layers_of(self, volume: str) -> list[RoughLayer]:
+        return [r for r in self.layers if r.target.name == volume]
+
+    def inside_target(self, volume: str, points: np.ndarray) -> np.ndarray:
+        """True for points in the volume (less the slabs of ``into`` layers) or its rough layers."""
+        points = np.asarray(points, float).reshape(-1, 3)
+        inside = self.target(volume).contains(points)
+        for layer in self.layers_of(volume):
+            if layer.config.into:
+                inside &= ~layer.in_cut(points)
+        for layer in self.layers_of(volume):
+            inside |= layer.contains(points)
+        return inside
+
+    def inside_material(self, material: str, points: np.ndarray) -> np.ndarray:
+        """True for points in any target (with its rough layers) made of ``material``."""
+        names = [t.name for t in self.targets if t.material == material]
+        if not names:
+            known = sorted({t.material for t in self.targets})
+            raise ConfigError(
+                f"source.confine: no target is made of {material!r}; target materials: "
+                f"{', '.join(known)}"
+            )
+        inside = np.zeros(len(points), dtype=bool)
+        for name in names:
+            inside |= self.inside_target(name, points)
+        return inside
+
+    @cached_property
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lo, hi) corners of a box holding every target and rough layer."""
+        boxes = [target_aabb(t) for t in self.targets] + [layer_aabb(r) for r in self.layers]
+        return np.min([lo for lo, _ in boxes], axis=0), np.max([hi for _, hi in boxes], axis=0)
+
+    @cached_property
+    def world_half(self) -> np.ndarray:
+        """Half-lengths of the world box, centred on the origin, that holds every target, rough
+        layer and ``world.margin`` (where particles move; a portal adds subworlds beyond it)."""
+        if self.config is None or self.config.world.gdml is not None:
+            return np.full(3, np.inf)  # a GDML or user's world: its own extent (not read here)
+        lo, hi = self.bounds
+        return np.maximum(np.abs(lo), np.abs(hi)) + self.config.world.margin
+
+
+def target_aabb(target: TargetVolume) -> tuple[np.ndarray, np.ndarray]:
+    """Axis-aligned (lo, hi) of a target's bounding box in the world."""
+    return target_obb(target).aabb()
+
+
+def layer_aabb(layer: RoughLayer) -> tuple[np.ndarray, np.ndarray]:
+    """Axis-aligned (lo, hi) of the layer's envelope: the face extruded by the layer thickness."""
+    return layer.envelope_box().aabb()
+
+
+def target_obb(target: TargetVolume) -> OrientedBox:
+    """The target's bounding box as an oriented box in the world."""
+    lo, hi = np.asarray(target.lo, float), np.asarray(target.hi, float)
+    return OrientedBox(target.to_world((lo + hi) / 2), target.rotation, (hi - lo) / 2)
+
+
+def _load(name: str, description) -> Surface:
+    where = f"surfaces.{name}"
+    try:
+        return (
+            load_surface(description.file)
+            if isinstance(description, SurfaceFile)
+            else build_surface(description)
+        )
+    except ConfigError as err:
+        raise ConfigError(f"{where}: {err}") from None
+
+
+def _same_size(a: float, b: float) -> bool:
+    return abs(a - b) <= 1e-9 * max(abs(a), abs(b))
+
+
+def resolve_targets(config: RunConfig, model: GeometryModel | None) -> list[TargetVolume]:
+    """One :class:`TargetVolume` per configured box and per copy of each GDML target."""
+    out: list[TargetVolume] = []
+    for i, t in enumerate(config.targets):
+        if isinstance(t, BoxVolume):
+            mother = model.instances[0] if model is not None else None
+            if t.mother is not None:
+                assert model is not None  # the config refuses a mother without a GDML world
+                hits = model.resolve(t.mother, f"targets.{i}.mother")
+                if len(hits) != 1:
+                    raise ConfigError(
+                        f"targets.{i}.mother: {t.mother!r} has {len(hits)} copies; name one, "
+                        f"e.g. {t.mother}[0]"
+                    )
+                mother = hits[0]
+            out.append(box_target(t, i, mother))
+            continue
+        assert model is not None
+        out += gdml_targets(model, t, i)
+    out = _exclude_boxes_in_targets(out)
+    claimed: dict[int, int] = {}
+    for tv in out:
+        if tv.instance is None:
+            continue
+        first = claimed.setdefault(tv.instance.index, tv.entry)
+        if first != tv.entry:
+            raise ConfigError(
+                f"targets.{tv.entry}.volume: {tv.config.label!r} includes {tv.column!r}, already a "
+                f"target through targets.{first}; score each volume once"
+            )
+    columns = [t.column for t in out]
+    dupes = sorted({c for c in columns if columns.count(c) > 1})
+    if dupes:
+        raise ConfigError(
+            f"targets: scoring columns must be unique, repeated: {', '.join(dupes)} (a copy of "
+            "a GDML volume is column NAME_k)"
+        )
+    return out
+
+
+def gdml_targets(model: GeometryModel, t: GdmlVolume, entry: int) -> list[TargetVolume]:
+    """One :class:`TargetVolume` per instance (copy) the target's ``volume`` names
+    (``targets.{entry}.volume`` in errors)."""
+    instances = model.resolve(t.volume, f"targets.{entry}.volume")
+    return [
+        gdml_target(model, t, entry, inst, k if len(instances) > 1 else None)
+        for k, inst in enumerate(instances)
+    ]
+
+
+def _exclude_boxes_in_targets(targets: list[TargetVolume]) -> list[TargetVolume]:
+    """Boxes of the configuration placed in a GDML target are not that target's material."""
+    boxes = [t for t in targets if t.instance is None and t.mother is not None]
+    out = []
+    for t in targets:
+        inside = [
+            PlacedShape(b.described("targets"), b.transform)
+            for b in boxes
+            if t.instance is not None
+            and b.mother is not None
+            and b.mother.index == t.instance.index
+        ]
+        out.append(replace(t, exclude=t.exclude + tuple(inside)) if inside else t)
+    return out
+
+
+def daughter_shapes(
+    model: GeometryModel, inst: Instance
+) -> tuple[tuple[Shape, ...], tuple[str, ...]]:
+    """The daughters of ``inst`` as shapes in world coordinates, and the labels of those whose
+    solid :mod:`score4.shapes` does not describe."""
+    known: list[Shape] = []
+    unknown: list[str] = []
+    for d in model.daughters(inst):
+        data = model.logicals[d.logical].solid.get("shape")
+        if data is None:
+            unknown.append(f"{model.label(d)!r} ({model.logicals[d.logical].solid_type})")
+            continue
+        placed = Transform(rotation=d.rotation, translation=d.translation)
+        known.append(PlacedShape(shape_from_dict(data), placed))
+    return tuple(known), tuple(unknown)
+
+
+def gdml_target(
+    model: GeometryModel,
+    t: GdmlVolume,
+    entry: int,
+    inst: Instance,
+    k: int | None,
+    where: str | None = None,
+) -> TargetVolume:
+    """The target of GDML volume entry ``t`` (``targets[entry]``) at placement ``inst``.
+
+    ``k`` numbers the placement when the entry names several (its column is ``name_k``), else
+    ``None``. ``where`` names the configuration key in errors (default ``targets.<entry>.volume``).
+    Raises :class:`~score4.errors.ConfigError` for the world volume, a reflected placement or a
+    volume inside a replica.
+    """
+    where = where or f"targets.{entry}.volume"
+    if inst.index == 0:
+        raise ConfigError(f"{where}: {t.volume!r} is the world volume; score a volume inside it")
+    if inst.reflected:
+        raise ConfigError(
+            f"{where}: {model.label(inst)!r} is placed with a reflection (a G4ReflectedSolid on "
+            "its placement chain); score4 refuses reflected volumes: place a mirrored solid "
+            "without reflection"
+        )
+    if inst.replicated:
+        raise ConfigError(
+            f"{where}: {model.label(inst)!r} lies in a replica or parameterised volume; score4 "
+            "takes volumes placed with G4PVPlacement only"
+        )
+    lv = model.logicals[inst.logical]
+    column = t.volume if k is None else f"{t.volume.split('[')[0]}_{k}"
+    if k is None and "[" in t.volume:
+        column = f"{inst.name}_{inst.occurrence}"
+    assert inst.mother is not None  # only the world has none
+    mother = model.instances[inst.mother]
+    data = lv.solid.get("shape")
+    exclude, unknown = daughter_shapes(model, inst)
+    return TargetVolume(
+        column,
+        entry,
+        t,
+        lv.material,
+        lv.solid_type,
+        shape_from_dict(data) if data else None,
+        Transform(inst.rotation, inst.translation),
+        np.asarray(lv.solid["lo"], float),
+        np.asarray(lv.solid["hi"], float),
+        inst,
+        mother,
+        exclude,
+        unknown,
+    )
+
+
+def make_layer(
+    surfaces: dict[str, Surface],
+    target: TargetVolume,
+    j: int,
+    rough: RoughFace,
+    where: str | None = None,
+) -> RoughLayer:
+    """The rough layer of ``rough`` (entry ``j`` of the target's rough faces) on ``target``:
+    variants from ``surfaces`` by name, face frame, patch map, cell mask of a round face, the
+    frame moved inward for ``into``. Errors start with ``where`` (default
+    ``targets.{entry}.rough.{j}``)."""
+    where = where or f"targets.{target.entry}.rough.{j}"
+    names = [v.surface for v in rough.variant_list]
+    variants = [surfaces[n] for n in names]
+    size = (variants[0].size_x, variants[0].size_y)
+    for n, s in zip(names, variants, strict=True):
+        if not (_same_size(s.size_x, size[0]) and _same_size(s.size_y, size[1])):
+            raise ConfigError(
+                f"{where}: all variants must have the same patch size; {names[0]!r} is "
+                f"{size[0] * 1e3:g} x {size[1] * 1e3:g} um, {n!r} is {s.size_x * 1e3:g} x "
+                f"{s.size_y * 1e3:g} um"
+            )
+    try:
+        geometry = target_face(target, rough.face)
+    except ConfigError as err:
+        raise ConfigError(f"{where}: {err}") from None
+    if isinstance(geometry, RevolvedFace):
+        return make_curved_layer(target, rough, geometry, names, variants, size, where)
+    try:
+        frame = face_frame(target, rough.face)
+    except ConfigError as err:
+        raise ConfigError(f"{where}: {err}") from None
+    round_face = isinstance(geometry, AnnulusFace)
+    if round_face:  # the whole cells of the bounding square, centred
+        cells = [max(int(np.floor(frame.size[a] / size[a] * (1 + 1e-9))), 1) for a in (0, 1)]
+        frame = FaceFrame(frame.centre, frame.rotation, (cells[0] * size[0], cells[1] * size[1]))
+    if rough.tiling == "portal" and target.instance is not None:
+        raise ConfigError(
+            f"{where}: tiling portal works on boxes of the configuration in a generated world; "
+            "a GDML volume takes tiling: native (the default)"
+        )
+    try:
+        patch_map = make_patch_map(
+            frame.size,
+            size,
+            [v.density for v in rough.variant_list],
+            method=rough.fill,
+            seed=rough.seed,
+            n_tiles=rough.n_tiles,
+        )
+    except ConfigError as err:
+        raise ConfigError(f"{where} (face {rough.face} of {target.name}): {err}") from None
+    mask, area = None, frame.size[0] * frame.size[1]
+    if isinstance(geometry, AnnulusFace):
+        mask = geometry.covers(patch_map.cell_centres(), patch_map.patch_size)
+        area = float(geometry.area)
+        if not mask.any():
+            raise ConfigError(
+                f"{where}: no whole patch of {size[0] * 1e3:g} x {size[1] * 1e3:g} um fits on "
+                f"face {rough.face} of {target.name!r}"
+            )
+        if rough.native_layout == "replicas":
+            raise ConfigError(
+                f"{where}: native_layout replicas fills a rectangle; a round face takes auto, "
+                "nested or placements"
+            )
+    layer = RoughLayer(target, rough, frame, names, variants, patch_map, mask, area)
+    for k, n in enumerate(names):
+        try:
+            check_patch(variants[k], layer.solid_kind(k), rough.block_cells)
+        except ConfigError as err:
+            raise ConfigError(f"{where} (surface {n!r}): {err}") from None
+    if rough.into:
+        extent = target.described("into").thickness_along(geometry.frame.rotation[:, 2])
+        if layer.thickness >= extent:
+            raise ConfigError(
+                f"{where}: into: the layer ({layer.thickness * 1e3:.4g} um) is not thinner than "
+                f"{target.name!r} ({extent * 1e3:.4g} um along the face normal)"
+            )
+        layer.frame = frame.shifted(-layer.thickness)
+    return layer
+
+
+def make_curved_layer(
+    target: TargetVolume,
+    rough: RoughFace,
+    face: RevolvedFace,
+    names: list[str],
+    variants: list[Surface],
+    size: tuple[float, float],
+    where: str,
+) -> CurvedRoughLayer:
+    """The rough layer on a face swept around z (:mod:`score4.world.curved`)."""
+    what = f"face {rough.face} of {target.name!r}"
+    if rough.into:
+        raise ConfigError(
+            f"{where}: into: true on a curved face ({what}) is not supported; the layer goes "
+            "outside the volume (into: false)"
+        )
+    if rough.tiling == "portal":
+        raise ConfigError(f"{where}: a curved face ({what}) takes tiling: native")
+    if rough.native_layout == "replicas":
+        raise ConfigError(
+            f"{where}: native_layout replicas fills a rectangle; a curved face takes auto"
+        )
+    if rough.solid not in ("auto", "tessellated"):
+        raise ConfigError(
+            f"{where}: solid {rough.solid} on a curved face ({what}); its patches are bent "
+            "tessellated bodies (solid: auto or tessellated)"
+        )
+    reserve = 1.05 * (rough.base_thickness + max(s.max_height for s in variants)) + 1e-4
+    row_gap = 0.0
+    if abs(face.nrz[1]) > 1e-12:  # a cone: rings apart by twice the walls' chord sagitta
+        probe = RingLayout.make(face, size, reserve)
+        if len(probe.v):
+            sag = max(top_sagitta(probe, flat_body(v, rough.base_thickness)) for v in variants)
+            row_gap = 2 * sag + 1e-7
+    layout = RingLayout.make(face, size, reserve, row_gap)
+    if layout.n_cells == 0:
+        raise ConfigError(
+            f"{where}: no whole patch of {size[0] * 1e3:g} x {size[1] * 1e3:g} um fits on {what} "
+            f"(generator {face.length:.4g} mm, radius {float(face.radius(0.0)):.4g} mm)"
+        )
+    ny, nx = len(layout.v), int(layout.count.max())
+    try:
+        patch_map = make_patch_map(
+            (nx * size[0], ny * size[1]),
+            size,
+            [v.density for v in rough.variant_list],
+            method=rough.fill,
+            seed=rough.seed,
+            n_tiles=rough.n_tiles,
+        )
+    except ConfigError as err:
+        raise ConfigError(f"{where} ({what}): {err}") from None
+    mask = np.arange(nx)[None, :] < layout.count[:, None]
+    local = face.frame
+    frame = FaceFrame(
+        target.to_world(local.translation),
+        target.rotation @ local.rotation,
+        (nx * size[0], ny * size[1]),
+    )
+    layer = CurvedRoughLayer(
+        target, rough, frame, names, variants, patch_map, mask, float(face.area), layout
+    )
+    lows, highs, tops = [], [], []
+    for k in range(len(variants)):
+        flat = layer._flat(k)
+        for j in {0, ny - 1}:
+            lo, hi = measure_floor(layout, flat, rough.base_thickness, j)
+            lows.append(lo)
+            highs.append(hi)
+        tops.append(top_sagitta(layout, flat))
+    convex = face.nrz[0] > 0
+    layer.lift = max(-min(lows), 0.0)
+    layer.gap = max(highs) + layer.lift
+    layer.top_margin = 0.0 if convex else max(tops)
+    limit = gap_limit(max(s.max_height for s in variants))
+    check_radius(layout, layer.gap, limit, where, target.name, rough.face)
+    return layer
+
+
+def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
+    """Build every surface the targets use and the patch map of every rough face.
+
+    A GDML world's volume model is read (and cached) here unless given.
+    """
+    if model is None and config.world.gdml is not None:
+        from .gdml_files import load_geometry_model
+
+        model = load_geometry_model(config.world.gdml)
+    used = {v.surface for t in config.targets for r in t.rough for v in r.variant_list}
+    surfaces = {
+        name: _load(name, config.surfaces[name]) for name in config.surfaces if name in used
+    }
+    targets = resolve_targets(config, model)
+    scene = Scene(config, surfaces, targets=targets, model=model)
+    for target in targets:
+        for j, rough in enumerate(target.config.rough):
+            scene.layers.append(make_layer(surfaces, target, j, rough))
+    from .clearance import check_clearance
+
+    check_clearance(scene)
+    far = float(np.max(scene.world_half))
+    if np.isfinite(far) and far > limits.MAX_WORLD_EXTENT:
+        raise ConfigError(
+            f"targets: the world reaches {far / 1e3:.4g} m from the origin (targets, rough layers "
+            "and world.margin); score4's limit is 1 km (move the targets towards the origin)"
+        )
+    return scene
