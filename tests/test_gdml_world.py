@@ -301,8 +301,11 @@ def test_geometry_list_json_and_text(worlds, tmp_path, capsys):
         ),
         ("unknown", r"targets.0.volume: no volume named 'crystl' .*closest: crystal_\d"),
         ("copy_range", r"'disk\[2\]': 'disk' has 1 copy"),
-        ("curved", r"no rough face on a G4GenericPolycone; rough faces are the six faces"),
-        ("tubs_side", r"no rough face on face \+x of a G4Tubs \(its curved side\)"),
+        (
+            "curved",
+            r"no face '\+z' on a G4GenericPolycone; its faces: seg_0, .*, outer, inner, top",
+        ),
+        ("tubs_side", r"no face '\+x' on a G4Tubs; its faces: -z, outer, \+z, all$"),
         ("reflected", r"'mirrored' is placed with a reflection"),
         ("portal", r"tiling portal works on boxes of the configuration"),
     ],

@@ -75,7 +75,18 @@ def check_placements(
             child = pv.GetLogicalVolume()
             inner = _daughters(child)
             layer = by_name.get(str(pv.GetName()))
-            if layer is not None:  # the patches inside their cell boxes: exact, any grid size
+            if layer is not None and hasattr(layer, "ring_layout"):
+                # a curved layer: its rings or patches by Geant4 (no cell boxes to prove it)
+                if len(inner) > max_placements:
+                    report.total += len(inner)
+                    report.overlaps.append(
+                        f"{pv.GetName()}: {len(inner)} bent patches not checked (more than "
+                        f"{max_placements})"
+                    )
+                elif id(child) not in seen:
+                    seen[id(child)] = child
+                    visit(child)
+            elif layer is not None:  # the patches inside their cell boxes: exact, any grid size
                 report.total += len(inner)
                 if len(inner) <= max_placements:
                     for d in inner:

@@ -22,9 +22,10 @@ from typing import Any
 from score4.inputs.materials import find_material
 from score4.runner.run_plan import RunPlan
 from score4.world.gdml_model import GeometryModel, Instance
-from score4.world.scene import FaceFrame, RoughLayer, Scene, TargetVolume
+from score4.world.scene import CurvedRoughLayer, FaceFrame, RoughLayer, Scene, TargetVolume
 
 from ..errors import ConfigError
+from ..shapes import Transform
 from .gdml import read_gdml
 from .tiling import place_native
 
@@ -132,6 +133,18 @@ class LiveWorld:
         t = layer.target
         assert t.mother is not None
         mlv = self.mother_lv(t.mother)
+        if isinstance(layer, CurvedRoughLayer):
+            from .curved import place_curved
+
+            mother = Transform(t.mother.rotation, t.mother.translation)
+            placement = Transform(
+                mother.rotation.T @ t.rotation, mother.inverse_apply(t.translation)
+            )
+            patch_lvs, keep = place_curved(
+                self.g4, layer, mlv, mlv.GetMaterial(), material, placement
+            )
+            self.keep.append(keep)
+            return patch_lvs
         patch_lvs, keep = place_native(
             self.g4,
             layer,
@@ -169,12 +182,12 @@ def build_gdml_world(g4, plan: RunPlan):
 
 
 def _place_box(live: LiveWorld, scene: Scene, t: TargetVolume):
-    from .world import cut_for_layers
+    from .world import cut_for_layers, g4_solid
 
     g4 = live.g4
     assert t.mother is not None
     mlv = live.mother_lv(t.mother)
-    solid = g4.G4Box(t.name, *t.half)
+    solid = g4_solid(g4, t.described("targets"), t.name)
     solid, shift, keep_cut = cut_for_layers(g4, scene, t, solid, t.name)
     material = find_material(g4, t.material, f"targets.{t.entry}.material", live.materials)
     lv = g4.G4LogicalVolume(solid, material, t.name)

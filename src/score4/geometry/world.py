@@ -12,6 +12,9 @@ from score4.runner.run_plan import RunPlan
 from score4.world.scene import Scene, TargetVolume
 
 from ..errors import ConfigError
+from ..shapes import G4Box as G4BoxShape
+from ..shapes import G4Tubs as G4TubsShape
+from ..shapes import Shape
 from .portal import PortalGeometry, place_portal, subworld_bounds, trigger_extent
 from .tiling import place_native
 
@@ -71,41 +74,35 @@ def _target_material(g4, config: RunConfig, target: TargetVolume):
     return find_material(g4, target.material, f"targets.{target.entry}.material", config.materials)
 
 
+def g4_solid(g4, shape: Shape, name: str):
+    """The Geant4 solid of a :mod:`score4.shapes` box or tube (the shapes score4 makes itself:
+    boxes of the configuration and volumes cut for ``into`` layers)."""
+    if isinstance(shape, G4BoxShape):
+        return g4.G4Box(name, shape.dx, shape.dy, shape.dz)
+    if isinstance(shape, G4TubsShape):
+        return g4.G4Tubs(name, shape.rmin, shape.rmax, shape.dz, shape.sphi, shape.dphi)
+    raise ConfigError(f"{name}: score4 builds no Geant4 solid of a {shape.kind}")
+
+
 def cut_for_layers(g4, scene: Scene, target: TargetVolume, solid, name: str):
     """The solid of ``target`` less the slabs its ``into: true`` layers take, and the shift (in
     the volume's own frame) of its placement.
 
-    A box or tube without daughters is made shorter along the face normal and moved back by
-    half the cut, so its outer faces stay; other cases keep the frame and subtract the slab
-    (a ``G4SubtractionSolid``). Returns ``(solid, shift, objects to keep alive)``.
+    The target's shape is made thinner behind each such face (:meth:`Shape.trimmed`: a box
+    along the face normal, a tube along z) and moved back by half the cut, so its outer faces
+    stay. Returns ``(solid, shift, objects to keep alive)``.
     """
     layers = [r for r in scene.layers_of(target.name) if r.config.into]
     if not layers:
         return solid, np.zeros(3), []
-    shift = np.zeros(3)
-    if target.solid == "G4Box":
-        lo, hi = -target.half, target.half.copy()
-        for layer in layers:
-            n = target.rotation.T @ layer.frame.normal  # the face's normal in the box frame
-            axis = int(np.argmax(np.abs(n)))
-            if n[axis] > 0:
-                hi[axis] -= layer.thickness
-            else:
-                lo[axis] += layer.thickness
-        cut = g4.G4Box(name, *((hi - lo) / 2))
-        return cut, (hi + lo) / 2, [cut]
-    if target.solid == "G4Tubs":
-        p = target.params
-        lo_z, hi_z = -p["dz"], p["dz"]
-        for layer in layers:
-            if (target.rotation.T @ layer.frame.normal)[2] > 0:
-                hi_z -= layer.thickness
-            else:
-                lo_z += layer.thickness
-        cut = g4.G4Tubs(name, p["rmin"], p["rmax"], (hi_z - lo_z) / 2, p["sphi"], p["dphi"])
-        shift[2] = (hi_z + lo_z) / 2
-        return cut, shift, [cut]
-    raise ConfigError(f"{target.name}: into: true needs a G4Box or G4Tubs, not a {target.solid}")
+    cuts: dict[str, float] = {layer.config.face: layer.thickness for layer in layers}
+    trimmed = None if target.shape is None else target.shape.trimmed(cuts)
+    if trimmed is None:
+        raise ConfigError(
+            f"{target.name}: into: true needs a G4Box or G4Tubs (end faces), not a {target.solid}"
+        )
+    cut = g4_solid(g4, trimmed[0], name)
+    return cut, trimmed[1], [cut]
 
 
 def build_world(g4, plan: RunPlan) -> BuiltGeometry:
@@ -140,7 +137,7 @@ def build_world(g4, plan: RunPlan) -> BuiltGeometry:
         built.keep += [lab_solid, mother_lv, lab_pv]
         reachable = (-lab, lab)
     for t in scene.targets:
-        solid = g4.G4Box(t.name, *t.half)
+        solid = g4_solid(g4, t.described("targets"), t.name)
         solid, shift, keep_cut = cut_for_layers(g4, scene, t, solid, t.name)
         lv = g4.G4LogicalVolume(solid, _target_material(g4, config, t), t.name)
         pv = g4.G4PVPlacement(

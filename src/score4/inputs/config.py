@@ -221,13 +221,14 @@ Face = Literal["+x", "-x", "+y", "-y", "+z", "-z"]
 
 
 class FaceRef(StrictModel):
-    """Faces of a volume: ``face: "+z"`` (one face), ``all`` (every face, area-uniform), or a
+    """Faces of a volume: ``face: "+z"`` (one face), ``all`` (every face, area-uniform), a
     face or group name of the volume's solid (:mod:`score4.shapes`; box targets have the six
-    faces ``+x`` ... ``-z``). ``volume`` is a box target's name or, in a GDML world, the
-    ``volume`` of a GDML target (or one of its copies, ``name[k]``)."""
+    faces ``+x`` ... ``-z``), or a list of them (``[seg_2, seg_3, top]``). ``volume`` is a box
+    target's name or, in a GDML world, the ``volume`` of a GDML target (or one of its copies,
+    ``name[k]``)."""
 
     volume: str
-    face: str = Field("+z", min_length=1)
+    face: str | list[Annotated[str, Field(min_length=1)]] = Field("+z", min_length=1)
 
 
 class SurfaceFile(StrictModel):
@@ -279,7 +280,7 @@ class RoughFace(StrictModel):
         "into": ("tiling", ("native",)),
     }
 
-    face: Face = "+z"
+    face: str = Field("+z", min_length=1)  # a face of the volume's solid (score4.shapes)
     surface: str | None = None
     variants: list[PatchVariant] | None = Field(None, min_length=1)
     fill: Literal["exact", "random", "tiles"] = "exact"  # how cells get their variant
@@ -642,10 +643,16 @@ class RunConfig(StrictModel):
             raise ValueError(
                 f"source.surface.volume: {src.volume!r} is not a target; targets are: {', '.join(names)}"
             )
-        if src is not None and self.world.gdml is None and src.face not in (*FACES, "all"):
+        wrong = [
+            f
+            for f in ([src.face] if src is not None and isinstance(src.face, str) else [])
+            + (list(src.face) if src is not None and isinstance(src.face, list) else [])
+            if f not in (*FACES, "all")
+        ]
+        if src is not None and self.world.gdml is None and wrong:
             raise ValueError(
                 f"source.surface.face: a box target has the faces {', '.join(FACES)} (or all), "
-                f"not {src.face!r}"
+                f"not {wrong[0]!r}"
             )
         self._check_implantation()
         if self.source.volume is not None and self.source.volume not in names:

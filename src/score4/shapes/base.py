@@ -21,6 +21,8 @@ from numpy.typing import ArrayLike
 
 from ..errors import ConfigError
 from ._plane import TOLERANCE
+from .faces import AnnulusFace, Face, PlaneFace, RevolvedFace
+from .transform import Transform
 
 OUTSIDE, SURFACE, INSIDE = 0, 1, 2
 
@@ -139,6 +141,22 @@ class Revolved(Patch):
         normal = np.column_stack([self.nr * c, self.nr * s, np.full(n, self.nz)])
         return pos, normal
 
+    def as_face(self, name: str) -> Face:
+        """This patch as a :class:`~score4.shapes.faces.Face`: an annulus (perpendicular to
+        z) or a cylinder/cone piece."""
+        if abs(self.nr) <= 1e-12:
+            return AnnulusFace.make(
+                name, sorted((self.r1, self.r2)), self.z1, self.nz, self.phi0, self.dphi
+            )
+        return RevolvedFace(
+            name,
+            (self.r1, self.z1),
+            (self.r2, self.z2),
+            self.phi0,
+            self.dphi,
+            (self.nr, self.nz),
+        )
+
     def parallel_factor(self, position: np.ndarray, d: np.ndarray) -> np.ndarray:
         rho = np.hypot(position[:, 0], position[:, 1])
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -222,6 +240,26 @@ class SphereSector(Patch):
 # --------------------------------------------------------------------------------------------
 # Shapes
 # --------------------------------------------------------------------------------------------
+
+
+def _plane_face(name: str, patches: Sequence[PlaneTriangles]) -> PlaneFace:
+    """A face of flat triangles with one normal: a frame at the centroid of its corners, x along
+    its first edge; the extent the bounding rectangle of its corners."""
+    tris = np.concatenate([p.triangles for p in patches])
+    normals = np.concatenate([p.normals for p in patches])
+    n = normals[0]
+    if not np.allclose(normals, n, atol=1e-9):
+        raise ConfigError(f"face: face {name!r} is not flat (its facets have several normals)")
+    x = tris[0, 1] - tris[0, 0]
+    x = x - (x @ n) * n
+    x /= max(float(np.linalg.norm(x)), 1e-300)
+    rotation = np.column_stack([x, np.cross(n, x), n])
+    centre = tris.reshape(-1, 3).mean(axis=0)
+    q = (tris.reshape(-1, 3) - centre) @ rotation
+    area = float(sum(p.area for p in patches))
+    lo, hi = q.min(axis=0), q.max(axis=0)
+    extent = ((float(lo[0]), float(hi[0])), (float(lo[1]), float(hi[1])))
+    return PlaneFace(name, area, Transform(rotation, centre), extent)
 
 
 def as_points(points: ArrayLike) -> np.ndarray:
@@ -331,6 +369,40 @@ class Shape:
         if not out:
             raise ConfigError("face: the selection names no face")
         return tuple(out)
+
+    def face(self, name: str) -> Face:
+        """The geometry of one face (:mod:`score4.shapes.faces`): a flat face (a plane's
+        triangles, an annulus) or a piece of a cylinder or cone around z; ConfigError for a
+        face of another kind or a name the shape does not have."""
+        self.resolve_faces(name)  # a name it does not have: the error lists its faces
+        if name not in self.faces:
+            raise ConfigError(f"face: {name!r} names several faces of a {self.kind}; give one")
+        k = self.faces.index(name)
+        patches = [p for p in self.patches if p.face == k]
+        if len(patches) == 1 and isinstance(patches[0], Revolved):
+            return patches[0].as_face(name)
+        if patches and all(isinstance(p, PlaneTriangles) for p in patches):
+            return _plane_face(name, [p for p in patches if isinstance(p, PlaneTriangles)])
+        raise ConfigError(
+            f"face: face {name!r} of a {self.kind} is neither flat nor a surface of revolution"
+        )
+
+    def thickness_along(self, direction: np.ndarray) -> float:
+        """Width of the bounding box along a unit ``direction`` (the solid's thickness behind
+        a face perpendicular to an axis: exact for boxes and the end faces of tubes)."""
+        lo, hi = self.bounding_box()
+        return float(np.abs(np.asarray(direction, float)) @ (hi - lo))
+
+    @property
+    def box_like(self) -> bool:
+        """True when the solid is its own bounding box (a G4Box)."""
+        return False
+
+    def trimmed(self, cuts: dict[str, float]) -> tuple[Shape, np.ndarray] | None:
+        """The solid made thinner by ``cuts[face]`` (mm) behind each named flat face, and the
+        shift of its origin in this frame (so the other faces stay); None when the shape cannot
+        be cut that way."""
+        return None
 
     def face_sampler(self, faces: str | Sequence[str] = "all") -> FaceSampler:
         """A reusable sampler on the selected faces (see :class:`FaceSampler`)."""

@@ -30,7 +30,9 @@ from numpy.typing import ArrayLike
 
 from ..errors import ConfigError
 from .base import Patch, PlaneTriangles, Shape, SphereSector, SphereZone, as_points
+from .faces import Face, PlaneFace
 from .revolved import RevolvedShape, _wedge_distance
+from .transform import Transform
 
 TWO_PI = 2 * math.pi
 ANGLE_TOLERANCE = 1e-9  # Geant4's kAngTolerance, rad
@@ -67,6 +69,17 @@ _QUADS = {
     "-y": (0, 1, 5, 4),
     "+z": (4, 5, 7, 6),
     "-z": (0, 2, 3, 1),
+}
+
+
+#: Face -> (u, v) axes of its frame as (axis index, sign); n = u x v is the outward normal.
+BOX_FACE_AXES = {
+    "+z": ((0, 1), (1, 1)),
+    "-z": ((0, 1), (1, -1)),
+    "+x": ((1, 1), (2, 1)),
+    "-x": ((1, -1), (2, 1)),
+    "+y": ((2, 1), (0, 1)),
+    "-y": ((0, 1), (2, 1)),
 }
 
 
@@ -148,6 +161,46 @@ class G4Box(_Hexahedron):
     def signed_distance(self, points: ArrayLike) -> np.ndarray:
         p = as_points(points)
         return (np.abs(p) - np.array([self.dx, self.dy, self.dz])).max(axis=1)
+
+    @property
+    def half(self) -> np.ndarray:
+        return np.array([self.dx, self.dy, self.dz], float)
+
+    @property
+    def box_like(self) -> bool:
+        return True
+
+    def face(self, name: str) -> Face:
+        """A face of the box with the axes of :data:`BOX_FACE_AXES`, centred on the face."""
+        if name not in BOX_FACE_AXES:
+            self.resolve_faces(name)  # the error lists the faces
+            return super().face(name)
+        (a, sa), (b, sb) = BOX_FACE_AXES[name]
+        u, v = np.zeros(3), np.zeros(3)
+        u[a], v[b] = sa, sb
+        n = np.cross(u, v)
+        axis = int(np.flatnonzero(n)[0])
+        half = self.half
+        centre = np.zeros(3)
+        centre[axis] = n[axis] * half[axis]
+        lu, lv = float(2 * half[a]), float(2 * half[b])
+        return PlaneFace(
+            name,
+            lu * lv,
+            Transform(np.column_stack([u, v, n]), centre),
+            ((-lu / 2, lu / 2), (-lv / 2, lv / 2)),
+            rectangle=True,
+        )
+
+    def trimmed(self, cuts: dict[str, float]) -> tuple[Shape, np.ndarray] | None:
+        lo, hi = -self.half, self.half.copy()
+        for name, depth in cuts.items():
+            axis = "xyz".index(name[1])
+            if name[0] == "+":
+                hi[axis] -= depth
+            else:
+                lo[axis] += depth
+        return G4Box(*((hi - lo) / 2)), (hi + lo) / 2
 
     @property
     def volume(self) -> float:
@@ -248,6 +301,19 @@ class G4Tubs(RevolvedShape):
 
     def contour(self) -> tuple[np.ndarray, list[str]]:
         return _cone_contour(self.rmin, self.rmax, self.rmin, self.rmax, self.dz)
+
+    def trimmed(self, cuts: dict[str, float]) -> tuple[Shape, np.ndarray] | None:
+        """Shorter along z for cuts behind the end faces ``+z``/``-z`` (None for others)."""
+        if set(cuts) - {"+z", "-z"}:
+            return None
+        lo_z, hi_z = -self.dz, self.dz
+        for name, depth in cuts.items():
+            if name == "+z":
+                hi_z -= depth
+            else:
+                lo_z += depth
+        shorter = G4Tubs(self.rmin, self.rmax, (hi_z - lo_z) / 2, self.sphi, self.dphi)
+        return shorter, np.array([0.0, 0.0, (hi_z + lo_z) / 2])
 
 
 @dataclass(frozen=True)

@@ -20,11 +20,12 @@ from typing import Any, TypeVar
 import numpy as np
 
 from score4.inputs import limits
-from score4.inputs.config import FACES, DecayChainConfig, DepthConfig, RunConfig, SourceConfig
-from score4.world.scene import RoughLayer, Scene, TargetVolume, face_frame
+from score4.inputs.config import DecayChainConfig, DepthConfig, RunConfig, SourceConfig
+from score4.world.scene import CurvedRoughLayer, RoughLayer, Scene, TargetVolume, face_frame
 
 from ..errors import ConfigError
-from ..shapes import G4Box, G4Tubs, Shape, Transform, shape_from_dict
+from ..shapes import Shape, Transform
+from ..shapes.faces import AnnulusFace, PlaneFace
 from .decay_source import DecayEmitter
 from .depth import VertexSampler
 from .emitters import (
@@ -45,7 +46,7 @@ from .profiles import (
     UniformProfile,
     ZeroDepth,
 )
-from .sampling import SurfaceSample, SurfaceSampler
+from .sampling import CurvedRemainderSampler, SurfaceSample, SurfaceSampler
 from .shape_sampling import BulkSampler, CombinedSurfaceSampler, ShapeSurfaceSampler
 from .vertex_file import read_vertex_file, vertex_file_config
 
@@ -150,7 +151,7 @@ def decay_normalisation(config: RunConfig) -> dict:
 def flat_face_sampler(scene: Scene, volume: str, face: str) -> SurfaceSampler:
     """Two world-coordinate triangles covering a flat box face."""
     target = scene.target(volume)
-    if target.solid != "G4Box":
+    if not is_rectangle_face(target, face):
         raise ConfigError(
             f"source.surface: {volume!r} is a {target.solid}; a source on a face needs a G4Box "
             "(or a rough face of a G4Tubs)"
@@ -163,6 +164,16 @@ def flat_face_sampler(scene: Scene, volume: str, face: str) -> SurfaceSampler:
         )
     )
     return SurfaceSampler(vertices=corners, faces=[[0, 1, 2], [0, 2, 3]])
+
+
+def is_rectangle_face(target: TargetVolume, face: str) -> bool:
+    """True when ``face`` is a whole flat rectangle of the target's shape (a box face): its
+    source is the rough layer on it or the two triangles of the rectangle."""
+    shape = target.shape
+    if shape is None or face not in shape.faces:
+        return False
+    geometry = shape.face(face) if shape.box_like else None
+    return isinstance(geometry, PlaneFace) and geometry.rectangle
 
 
 def source_target(scene: Scene, ref: str, parameter: str) -> TargetVolume:
@@ -179,29 +190,15 @@ def source_target(scene: Scene, ref: str, parameter: str) -> TargetVolume:
 def target_shape(scene: Scene, volume: str) -> tuple[Shape, Transform]:
     """The shape of a target (a box, or a GDML volume's solid) and its local -> world transform."""
     target = source_target(scene, volume, "source")
-    transform = Transform(rotation=target.rotation, translation=target.translation)
-    if target.solid == "G4Box":
-        return G4Box(*target.half), transform
-    if target.solid == "G4Tubs":
-        return G4Tubs(**target.params), transform
-    shape = _model_shape(scene, target)
-    if shape is None:
+    if target.shape is None:
         raise ConfigError(
             f"source: {target.name!r} is a {target.solid}, which score4.shapes does not "
             "describe; a source needs a solid it can sample"
         )
-    return shape, transform
+    return target.shape, target.transform
 
 
-def _model_shape(scene: Scene, target: TargetVolume) -> Shape | None:
-    """The shape the GDML model stored for a target's solid (None: none)."""
-    if scene.model is None or target.instance is None:
-        return None
-    data = scene.model.logicals[target.instance.logical].solid.get("shape")
-    return shape_from_dict(data) if data else None
-
-
-def shape_face_sampler(scene: Scene, volume: str, face: str):
+def shape_face_sampler(scene: Scene, volume: str, face: str | list[str]):
     """Area-uniform sampler on faces of a target, each rough face on its mesh (a round face
     partly rough: its rough cells and the flat rest, :class:`FlatRemainderSampler`)."""
     shape, transform = target_shape(scene, volume)
@@ -210,7 +207,12 @@ def shape_face_sampler(scene: Scene, volume: str, face: str):
         if layer.mask is None:
             rough[layer.config.face] = layer.sampler()
         else:
-            parts = [layer.sampler(), FlatRemainderSampler(layer)]
+            rest = (
+                CurvedRemainderSampler(layer)
+                if isinstance(layer, CurvedRoughLayer)
+                else FlatRemainderSampler(layer)
+            )
+            parts = [layer.sampler(), rest]
             rough[layer.config.face] = CombinedSurfaceSampler([p for p in parts if p.area > 0])
     return ShapeSurfaceSampler(shape, face, transform, rough)
 
@@ -222,8 +224,9 @@ class FlatRemainderSampler:
 
     def __init__(self, layer: RoughLayer) -> None:
         self.layer = layer
-        p = layer.target.params
-        self.rmin, self.rmax = float(p["rmin"]), float(p["rmax"])
+        ring = layer.target.face(layer.config.face)
+        assert isinstance(ring, AnnulusFace)  # a layer with a mask lies on a ring
+        self.rmin, self.rmax = ring.rmin, ring.rmax
         px, py = layer.patch_size
         rough_cells = int((layer.cell_variants >= 0).sum())
         self.area = float(np.pi * (self.rmax**2 - self.rmin**2) - rough_cells * px * py)
@@ -409,7 +412,7 @@ def source_from_config(src: SourceConfig, scene: Scene) -> SampledSource | BulkS
     target = source_target(scene, surface_ref.volume, "source.surface.volume")
     volume, face = target.name, surface_ref.face
     surface: SurfaceSampler | ShapeSurfaceSampler | object
-    if face in FACES and target.solid == "G4Box":  # a box face: its rough layer or 2 triangles
+    if isinstance(face, str) and is_rectangle_face(target, face):  # a box face: rough or flat
         layer = scene.layer(volume, face)
         surface = layer.sampler() if layer is not None else flat_face_sampler(scene, volume, face)
     else:
@@ -476,7 +479,7 @@ def source_geometry(config: RunConfig, scene: Scene) -> dict:
     ref = _given(src.surface, "source.surface")
     target = source_target(scene, ref.volume, "source.surface.volume")
     out = {"kind": "surface", "volume": target.name, "face": ref.face}
-    if ref.face in FACES and target.solid == "G4Box":
+    if isinstance(ref.face, str) and is_rectangle_face(target, ref.face):
         frame = face_frame(target, ref.face)
         layer = scene.layer(target.name, ref.face)
         projected = frame.size[0] * frame.size[1]

@@ -23,6 +23,7 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -639,3 +640,111 @@ class TiledSurfaceSampler:
             patch=patch,
             variant=variant,
         )
+
+
+class RingSurfaceSampler:
+    """Uniform points per true area on the bent patch tops of a rough layer on a face swept
+    around z (:class:`score4.world.scene.CurvedRoughLayer`), in world coordinates.
+
+    A cell is chosen with probability proportional to the area of its variant's bent top
+    (exact: the triangles Geant4 gets), then a point uniformly on those triangles, rotated
+    about z to the cell's azimuth and moved to its ring. ``patch`` is the flat cell index
+    ``j * nx + i`` (ring j, cell i), ``variant`` the cell's variant.
+    """
+
+    def __init__(self, layer: Any) -> None:
+        self.layer = layer
+        cells = layer.cells()
+        self.ring = np.array([c[0] for c in cells], np.int64)
+        self.index = np.array([c[1] for c in cells], np.int64)
+        self.variant = np.array([c[2] for c in cells], np.int64)
+        self.phi = np.array([c[3] for c in cells], float)
+        self.nx = int(layer.cell_variants.shape[1])
+        self.z = np.array([layer.ring_layout.ring_z(j) for j in range(len(layer.ring_layout.v))])
+        self._samplers: dict[tuple[int, int], SurfaceSampler] = {}
+        radius = layer.ring_layout.radius
+        first = np.array([int(np.flatnonzero(radius == r)[0]) for r in radius], np.int64)
+        self.keys = np.column_stack([self.variant, first[self.ring]])  # cells sharing a mesh
+        area_of = {
+            (int(k), int(j)): self._sampler(int(k), int(j)).area
+            for k, j in np.unique(self.keys, axis=0)
+        }
+        area = np.array([area_of[(int(k), int(j))] for k, j in self.keys])
+        self.area = float(area.sum())
+        self._choice = DiscreteSampler(area, "cell areas")
+
+    def _sampler(self, k: int, j: int) -> SurfaceSampler:
+        if (k, j) not in self._samplers:
+            self._samplers[(k, j)] = SurfaceSampler(self.layer.bent(k, j).top_triangles)
+        return self._samplers[(k, j)]
+
+    def sample(self, rng: np.random.Generator, n: int) -> SurfaceSample:
+        cell = self._choice.sample(rng, n)
+        local, normal = np.empty((n, 3)), np.empty((n, 3))
+        facet = np.empty(n, np.int64)
+        chosen = self.keys[cell]
+        for k, j in {(int(a), int(b)) for a, b in chosen}:
+            rows = np.flatnonzero((chosen[:, 0] == k) & (chosen[:, 1] == j))
+            s = self._sampler(k, j).sample(rng, len(rows))
+            local[rows], normal[rows], facet[rows] = s.position, s.normal, s.facet
+        c, s_ = np.cos(self.phi[cell]), np.sin(self.phi[cell])
+
+        def turn(p: np.ndarray) -> np.ndarray:
+            return np.column_stack(
+                [c * p[:, 0] - s_ * p[:, 1], s_ * p[:, 0] + c * p[:, 1], p[:, 2]]
+            )
+
+        pos = turn(local)
+        pos[:, 2] += self.z[self.ring[cell]]
+        target = self.layer.target
+        return SurfaceSample(
+            position=target.to_world(pos),
+            normal=turn(normal) @ target.rotation.T,
+            facet=facet,
+            patch=self.ring[cell] * self.nx + self.index[cell],
+            variant=self.variant[cell],
+        )
+
+
+class CurvedRemainderSampler:
+    """Uniform points on the part of a curved face that holds no patch (the strips at the ends
+    of the generator and beside the cells of each ring), on the exact surface: drawn on the
+    whole face per area, points in a patch's cell rejected."""
+
+    def __init__(self, layer: Any) -> None:
+        self.layer = layer
+        face = layer.ring_layout.face
+        self.patch = _revolved_patch(face)
+        py = layer.patch_size[1]
+        # the cells' share of the face, exactly: each cell spans its angular pitch over py
+        lay = layer.ring_layout
+        covered = 0.0
+        for j in range(len(lay.v)):
+            r_lo, r_hi = face.radius(lay.v[j] - py / 2), face.radius(lay.v[j] + py / 2)
+            covered += float(lay.count[j] * lay.step[j] * py * 0.5 * (r_lo + r_hi))
+        self.area = max(float(face.area) - covered, 0.0)
+
+    def sample(self, rng: np.random.Generator, n: int) -> SurfaceSample:
+        pts = np.empty((0, 3))
+        nrm = np.empty((0, 3))
+        while len(pts) < n:
+            m = 4 * (n - len(pts)) + 16
+            p, q = self.patch.sample(rng, m)
+            j, _, _ = self.layer.ring_layout.locate(p)
+            keep = j < 0
+            pts, nrm = np.concatenate([pts, p[keep]]), np.concatenate([nrm, q[keep]])
+        target = self.layer.target
+        none = np.full(n, -1, np.int64)
+        return SurfaceSample(
+            target.to_world(pts[:n]),
+            nrm[:n] @ target.rotation.T,
+            none.copy(),
+            none.copy(),
+            none.copy(),
+        )
+
+
+def _revolved_patch(face: Any) -> Any:
+    from ..shapes.base import Revolved
+
+    return Revolved(0, face.rz1, face.rz2, face.phi0, face.dphi, face.nrz)

@@ -4,9 +4,9 @@
   extruded by the layer thickness) must not run into another target or layer.
 * A GDML world: a rough layer must not meet any other daughter of its volume's mother (the
   volume's sisters, boxes of the configuration, other layers) and must stay inside the mother;
-  boxes of the configuration likewise. G4Box solids are tested exactly (oriented boxes,
-  separating axes), G4Tubs and the other solids score4.shapes describes (booleans: a frame is a
-  box less a box) by a grid of points of the envelope, the rest by their bounding box. Errors
+  boxes of the configuration likewise. Boxes are tested exactly (oriented boxes, separating
+  axes), the other solids score4.shapes describes (booleans: a frame is a box less a box) by a
+  grid of points of the envelope, the rest by their bounding box. Errors
   name what the layer meets and the free gap along the face normal.
 """
 
@@ -25,11 +25,12 @@ from .gdml_model import GeometryModel, Instance
 from .obb import OrientedBox
 from .scene import (
     BOUNDARY_TOLERANCE,
+    CurvedRoughLayer,
     RoughLayer,
     Scene,
     TargetVolume,
     layer_aabb,
-    solid_contains,
+    shape_contains,
     target_aabb,
     target_obb,
 )
@@ -86,30 +87,34 @@ class _Body:
 
     label: str
     obb: OrientedBox
-    solid: str
-    params: dict
     to_local: object  # world -> the solid's frame
     lo: np.ndarray
     hi: np.ndarray
     shape: Shape | None = None  # the solid as score4.shapes describes it (None: not described)
 
+    @property
+    def box_like(self) -> bool:
+        """The solid is its oriented bounding box (a box)."""
+        return self.shape is not None and self.shape.box_like
+
     def meets(self, box: OrientedBox) -> bool:
         if not self.obb.overlaps(box):
             return False
-        if self.solid == "G4Box":
+        if self.box_like:
             return True  # the bounding box is the solid
         q = self.to_local(box.grid())  # type: ignore[operator]
         return bool(self.contains(q, touching=False).any())
 
     def contains(self, q: np.ndarray, touching: bool = True) -> np.ndarray:
-        """Points (the solid's frame) in the solid: exact for G4Box and G4Tubs and for every
-        solid score4.shapes describes (a frame: a box less a box), else its bounding box.
-        ``touching=False``: points on the surface of a shape do not count (a layer may touch
-        a sister)."""
-        if self.shape is not None and self.solid not in ("G4Box", "G4Tubs"):
-            d = self.shape.signed_distance(q)
-            return np.asarray(d <= BOUNDARY_TOLERANCE if touching else d < -BOUNDARY_TOLERANCE)
-        return solid_contains(self.solid, self.params, self.lo, self.hi, q)
+        """Points (the solid's frame) in the solid: exact for every solid score4.shapes
+        describes (a frame: a box less a box), else its bounding box. ``touching=False``:
+        points on the surface of a shape do not count (a layer may touch a sister)."""
+        return shape_contains(self.shape, self.lo, self.hi, q, touching)
+
+    def probe_points(self, box: OrientedBox) -> np.ndarray:
+        """Points of ``box`` whose containment in this solid tells whether the whole box is
+        in it: the corners for a box, a grid otherwise."""
+        return box.corners() if self.box_like else box.grid()
 
 
 def _instance_body(model: GeometryModel, inst: Instance, label: str | None = None) -> _Body:
@@ -120,12 +125,10 @@ def _instance_body(model: GeometryModel, inst: Instance, label: str | None = Non
     return _Body(
         label or f"volume {model.label(inst)!r}",
         obb,
-        lv.solid_type,
-        lv.solid.get("params", {}),
         inst.to_local,
         lo,
         hi,
-        _shape(data) if data and lv.solid_type not in ("G4Box", "G4Tubs") else None,
+        _shape(data) if data else None,
     )
 
 
@@ -140,7 +143,7 @@ def _shape(data: dict) -> Shape:
 
 
 def _target_body(t: TargetVolume) -> _Body:
-    return _Body(f"target {t.name!r}", target_obb(t), t.solid, t.params, t.to_local, t.lo, t.hi)
+    return _Body(f"target {t.name!r}", target_obb(t), t.to_local, t.lo, t.hi, t.shape)
 
 
 def check_gdml_clearance(scene: Scene) -> None:
@@ -148,9 +151,8 @@ def check_gdml_clearance(scene: Scene) -> None:
 
     A layer on a face (outside the volume) must not meet any other daughter of the volume's
     mother (other GDML volumes, boxes of the configuration, other layers) and must stay inside
-    the mother. G4Box solids are tested exactly (oriented boxes), G4Tubs and the solids
-    score4.shapes describes by a grid of points of the layer's envelope, other solids by their
-    bounding box.
+    the mother. Boxes are tested exactly (oriented boxes), the other solids score4.shapes
+    describes by a grid of points of the layer's envelope, other solids by their bounding box.
     """
     model = scene.model
     assert model is not None
@@ -167,7 +169,7 @@ def check_gdml_clearance(scene: Scene) -> None:
                     f"{model.label(t.mother)!r}; Geant4 needs volumes that do not overlap"
                 )
         mother_body = _instance_body(model, t.mother)
-        pts = box.corners() if mother_body.solid == "G4Box" else box.grid()
+        pts = mother_body.probe_points(box)
         if not mother_body.contains(t.mother.to_local(pts)).all():
             raise ConfigError(
                 f"targets.{t.entry}: box {t.name!r} sticks out of its mother "
@@ -175,6 +177,9 @@ def check_gdml_clearance(scene: Scene) -> None:
             )
     layers = [(layer, layer.envelope_box()) for layer in scene.layers]
     for n, (layer, box) in enumerate(layers):
+        if isinstance(layer, CurvedRoughLayer):
+            _check_curved(model, scene, layer, [o for o, _ in layers[n + 1 :]])
+            continue
         mother = layer.target.mother
         assert mother is not None  # in a GDML world every target has a mother (the world at least)
         own = layer.target.instance.index if layer.target.instance is not None else -1
@@ -191,15 +196,83 @@ def check_gdml_clearance(scene: Scene) -> None:
             if body.meets(box):
                 raise ConfigError(_meets(layer, body.label, _gap(layer, body)))
         for other, other_box in layers[n + 1 :]:
+            if isinstance(other, CurvedRoughLayer):
+                if other.target.mother == mother and other.in_shell(box.grid()).any():
+                    raise ConfigError(_meets(layer, f"the rough layer {other.name}", 0.0))
+                continue
             if other.target.mother == mother and other_box.overlaps(box):
                 raise ConfigError(_meets(layer, f"the rough layer {other.name}", 0.0))
         _check_inside_mother(model, mother, layer, box)
 
 
+def _check_curved(
+    model: GeometryModel, scene: Scene, layer: CurvedRoughLayer, others: list[RoughLayer]
+) -> None:
+    """A bent layer against the sisters of its volume, boxes and layers in the same mother, and
+    its mother, by points of its shell; the gap is the least height above the face of a shell
+    point inside what it meets."""
+    mother = layer.target.mother
+    assert mother is not None
+    points = layer.shell_points()
+    height = layer.ring_layout.face.distance(layer.target.to_local(points))
+    own = layer.target.instance.index if layer.target.instance is not None else -1
+    bodies = [
+        _instance_body(model, model.instances[i])
+        for i in model.children.get(mother.index, [])
+        if i != own
+    ]
+    bodies += [
+        _target_body(t)
+        for t in scene.targets
+        if t is not layer.target and t.instance is None and t.mother == mother
+    ]
+    for body in bodies:
+        hit = body.contains(body.to_local(points), touching=False)  # type: ignore[operator]
+        if hit.any():
+            what = body.label if body.label.startswith("target") else f"sister {body.label}"
+            k = np.flatnonzero(hit)[np.argmin(height[hit])]
+            raise ConfigError(_meets(layer, what, _curved_gap(layer, body, points[k])))
+    for other in others:
+        if other.target.mother != mother:
+            continue
+        if isinstance(other, CurvedRoughLayer):
+            meets = bool(other.in_shell(points).any() or layer.in_shell(other.shell_points()).any())
+        else:
+            meets = bool(other.envelope_box().contains(points).any()) or bool(
+                layer.in_shell(other.envelope_box().grid()).any()
+            )
+        if meets:
+            raise ConfigError(_meets(layer, f"the rough layer {other.name}", 0.0))
+    body = _instance_body(model, mother)
+    if not body.contains(mother.to_local(points)).all():
+        raise ConfigError(
+            f"{layer.name}: the rough layer on face {layer.config.face} of {layer.target.name!r} "
+            f"({layer.thickness * 1e3:.4g} um thick) leaves its mother volume "
+            f"{model.label(mother)!r}; use a lower surface"
+        )
+
+
+def _curved_gap(layer: CurvedRoughLayer, body: _Body, point: np.ndarray) -> float:
+    """Height above the face, bisected along the face normal under ``point``, where ``body``
+    begins."""
+    face = layer.ring_layout.face
+    u, v, hi = (float(x[0]) for x in face.locate(layer.target.to_local(point[None, :])))
+    lo = 0.0
+    base, normal = face.point(u, v), face.normal(u, v)
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        p = layer.target.to_world((base + mid * normal)[None, :])
+        if body.contains(body.to_local(p), touching=False)[0]:  # type: ignore[operator]
+            hi = mid
+        else:
+            lo = mid
+    return hi
+
+
 def _gap(layer: RoughLayer, body: _Body) -> float:
     """Free space between the face and ``body``: along the face normal to its bounding box (a
     box), or the least distance from a grid of points of the face to its solid (a shape)."""
-    if body.shape is not None:
+    if body.shape is not None and not body.box_like:
         return _shape_gap(layer, body)
     q = layer.frame.to_local(body.obb.corners())
     return float(q[:, 2].min())
@@ -240,7 +313,7 @@ def _check_inside_mother(
 ) -> None:
     lv = model.logicals[mother.logical]
     body = _instance_body(model, mother)
-    pts = box.corners() if body.solid == "G4Box" else box.grid()
+    pts = body.probe_points(box)
     inside = body.contains(mother.to_local(pts))
     if not inside.all():
         raise ConfigError(

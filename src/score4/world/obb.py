@@ -32,6 +32,11 @@ class OrientedBox:
         q = np.stack(np.meshgrid(s, s, np.linspace(-1, 1, 3), indexing="ij"), -1).reshape(-1, 3)
         return self.centre + (q * self.half) @ self.rotation.T
 
+    def contains(self, points: np.ndarray, tol: float = TOLERANCE) -> np.ndarray:
+        """True for points strictly inside the box (more than ``tol`` from its faces)."""
+        q = (np.asarray(points, float).reshape(-1, 3) - self.centre) @ self.rotation
+        return np.asarray((np.abs(q) < self.half - tol).all(axis=1))
+
     def overlaps(self, other: OrientedBox, tol: float = TOLERANCE) -> bool:
         """Separating-axis test: True when the boxes share volume (touching is fine)."""
         a, b = self.rotation, other.rotation

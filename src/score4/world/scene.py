@@ -31,23 +31,23 @@ from score4.inputs import limits
 from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig, SurfaceFile
 from score4.shapes import G4Box as G4BoxShape
 from score4.shapes import PlacedShape, Shape, Transform, shape_from_dict
+from score4.shapes.faces import AnnulusFace, Face, PlaneFace, RevolvedFace
 from score4.surface.block_cut import check_patch
 from score4.surface.patchmap import PatchMap, make_patch_map
 from score4.surface.spec import Surface, build_surface
 from score4.surface.store import load_surface
 
+from .curved import (
+    BentVariant,
+    RingLayout,
+    check_radius,
+    flat_body,
+    gap_limit,
+    measure_floor,
+    top_sagitta,
+)
 from .gdml_model import GeometryModel, Instance
 from .obb import OrientedBox
-
-# Face -> (u, v) axes as (axis index, sign); n = u x v is the outward normal.
-_FACE_AXES = {
-    "+z": ((0, 1), (1, 1)),
-    "-z": ((0, 1), (1, -1)),
-    "+x": ((1, 1), (2, 1)),
-    "-x": ((1, -1), (2, 1)),
-    "+y": ((2, 1), (0, 1)),
-    "-y": ((0, 1), (2, 1)),
-}
 
 #: Points this close (mm) outside a volume's boundary still count as inside (vertices at depth 0
 #: lie exactly on the surface).
@@ -95,10 +95,12 @@ class FaceFrame:
 class TargetVolume:
     """One scored volume: a box of the configuration or one copy of a GDML volume.
 
-    ``params`` are the solid's parameters in Geant4's conventions (G4Box: half-lengths ``x, y,
-    z``; G4Tubs: ``rmin, rmax, dz, sphi, dphi``); ``rotation`` (columns: the volume's axes) and
-    ``translation`` (its origin) are global. ``mother`` is the GDML instance the volume is
-    placed in (None: the world volume).
+    ``shape`` is its solid as :mod:`score4.shapes` describes it, in the solid's own frame (None
+    only for a GDML solid of a type score4.shapes does not describe: then ``lo``/``hi``, the
+    solid's bounding limits, stand for it); ``solid`` is the solid's type name (for messages);
+    ``transform`` takes the solid's frame to the world (rotation columns: the volume's axes,
+    translation: its origin). ``mother`` is the GDML instance the volume is placed in (None:
+    the world volume).
     """
 
     column: str
@@ -106,14 +108,12 @@ class TargetVolume:
     config: BoxVolume | GdmlVolume
     material: str
     solid: str
-    params: dict
-    rotation: np.ndarray
-    translation: np.ndarray
+    shape: Shape | None
+    transform: Transform
     lo: np.ndarray  # bounding limits in the volume's frame
     hi: np.ndarray
     instance: Instance | None = None
     mother: Instance | None = None
-    shape: Shape | None = None  # the solid as score4.shapes describes it (None: not described)
     exclude: tuple[Shape, ...] = ()  # in world coordinates: daughters, not this volume's material
     unknown_daughters: tuple[str, ...] = ()  # daughters whose solid score4.shapes cannot describe
 
@@ -122,14 +122,12 @@ class TargetVolume:
         return self.column
 
     @property
-    def half(self) -> np.ndarray:
-        """Half-lengths of a G4Box target."""
-        return np.array([self.params["x"], self.params["y"], self.params["z"]], float)
+    def rotation(self) -> np.ndarray:
+        return self.transform.rotation
 
     @property
-    def size(self) -> tuple[float, float, float]:
-        h = 2 * self.half
-        return (float(h[0]), float(h[1]), float(h[2]))
+    def translation(self) -> np.ndarray:
+        return self.transform.translation
 
     @property
     def position(self) -> tuple[float, float, float]:
@@ -137,21 +135,32 @@ class TargetVolume:
         return (float(t[0]), float(t[1]), float(t[2]))
 
     def to_world(self, local: np.ndarray) -> np.ndarray:
-        return self.translation + np.asarray(local, float) @ self.rotation.T
+        return self.transform.apply(local)
 
     def to_local(self, world: np.ndarray) -> np.ndarray:
-        return (np.asarray(world, float) - self.translation) @ self.rotation
+        return self.transform.inverse_apply(world)
+
+    def described(self, what: str) -> Shape:
+        """The target's shape; ConfigError (``what`` needs it) for a solid score4.shapes does
+        not describe."""
+        if self.shape is None:
+            raise ConfigError(
+                f"{what}: {self.name!r} is a {self.solid}, which score4.shapes does not "
+                f"describe; {what} needs a solid it can describe"
+            )
+        return self.shape
+
+    def face(self, name: str) -> Face:
+        """The geometry of face ``name`` of the target's shape (its own frame)."""
+        return self.described("face").face(name)
 
     def contains(self, points: np.ndarray) -> np.ndarray:
         """True for world points in the volume's own material: inside its solid (exact for
-        G4Box, G4Tubs and every solid :mod:`score4.shapes` describes; the bounding box for
-        others) and not strictly inside one of its daughters (:attr:`exclude`)."""
+        every solid :mod:`score4.shapes` describes; the bounding box for others) and not
+        strictly inside one of its daughters (:attr:`exclude`)."""
         points = np.asarray(points, float).reshape(-1, 3)
         local = self.to_local(points)
-        if self.shape is not None and self.solid not in ("G4Box", "G4Tubs"):
-            inside = np.asarray(self.shape.signed_distance(local) <= BOUNDARY_TOLERANCE)
-        else:
-            inside = solid_contains(self.solid, self.params, self.lo, self.hi, local)
+        inside = shape_contains(self.shape, self.lo, self.hi, local)
         if self.unknown_daughters:
             raise ConfigError(
                 f"{self.column}: holds {', '.join(self.unknown_daughters)}, of a solid type "
@@ -165,61 +174,56 @@ class TargetVolume:
         return inside
 
 
-def solid_contains(
-    solid: str, params: dict, lo: np.ndarray, hi: np.ndarray, q: np.ndarray
+def shape_contains(
+    shape: Shape | None, lo: np.ndarray, hi: np.ndarray, q: np.ndarray, touching: bool = True
 ) -> np.ndarray:
-    """Inside test in the solid's frame: exact for G4Box and G4Tubs, the bounding box otherwise."""
+    """Inside test in the solid's frame (points within the tolerance of the surface count,
+    unless ``touching`` is False): exact for a shape, the bounding limits (lo, hi) without."""
     q = np.asarray(q, float).reshape(-1, 3)
     tol = BOUNDARY_TOLERANCE
-    if solid == "G4Box":
-        half = np.array([params["x"], params["y"], params["z"]]) + tol
-        return (np.abs(q) <= half).all(axis=1)
-    if solid == "G4Tubs":
-        r = np.hypot(q[:, 0], q[:, 1])
-        inside = (r <= params["rmax"] + tol) & (r >= params["rmin"] - tol)
-        inside &= np.abs(q[:, 2]) <= params["dz"] + tol
-        if params["dphi"] < 2 * np.pi - 1e-12:
-            phi = np.mod(np.arctan2(q[:, 1], q[:, 0]) - params["sphi"], 2 * np.pi)
-            inside &= phi <= params["dphi"] + 1e-12
-        return np.asarray(inside)
+    if shape is not None:
+        d = shape.signed_distance(q)
+        return np.asarray(d <= tol if touching else d < -tol)
     return np.asarray(((q >= np.asarray(lo) - tol) & (q <= np.asarray(hi) + tol)).all(axis=1))
 
 
+def target_face(target: TargetVolume, face: str) -> Face:
+    """Face ``face`` of a target's shape; ConfigError naming the faces and groups it has."""
+    try:
+        return target.face(face)
+    except ConfigError as err:
+        text = str(err).removeprefix("face: ")
+        if f"has no face {face!r}" in text:
+            text = f"no face {face!r} on a {target.solid}; " + text.split("; ", 1)[1]
+        raise ConfigError(f"{target.column}: {text}") from None
+
+
 def face_frame(target: TargetVolume | BoxVolume, face: str) -> FaceFrame:
-    """The right-handed frame of ``face`` ("+z", "-x", ...) of a G4Box or G4Tubs target, in the
-    world (a G4Tubs end face: its bounding square)."""
+    """The right-handed frame of a flat ``face`` of a target, in the world: a box face
+    ("+z", "-x", ...) with the axes of :data:`score4.shapes.csg.BOX_FACE_AXES`, a ring (the end
+    face of a tube) in its bounding square."""
     if isinstance(target, BoxVolume):
         target = box_target(target, 0)
-    (a, sa), (b, sb) = _FACE_AXES[face]
-    u, v = np.zeros(3), np.zeros(3)
-    u[a], v[b] = sa, sb
-    n = np.cross(u, v)
-    axis = int(np.flatnonzero(n)[0])
-    rotation = np.column_stack([u, v, n])
-    centre = np.zeros(3)
-    if target.solid == "G4Box":
-        half = target.half
-        centre[axis] = n[axis] * half[axis]
-        size = (float(2 * half[a]), float(2 * half[b]))
-    elif target.solid == "G4Tubs" and face in ("+z", "-z"):
-        p = target.params
-        if p["dphi"] < 2 * np.pi - 1e-9:
-            raise ConfigError(
-                f"{target.column}: face {face} of a G4Tubs cut to {np.degrees(p['dphi']):.4g} "
-                f"degrees of phi; rough faces are {SUPPORTED_FACES}"
-            )
-        centre[2] = n[2] * p["dz"]
-        size = (2 * float(p["rmax"]), 2 * float(p["rmax"]))
-    else:
-        what = (
-            f"face {face} of a G4Tubs (its curved side)"
-            if target.solid == "G4Tubs"
-            else (f"a {target.solid}")
+    geometry = target_face(target, face)
+    if not isinstance(geometry, PlaneFace):
+        raise ConfigError(
+            f"{target.column}: no rough face on face {face} of a {target.solid} (curved); rough "
+            f"faces are {SUPPORTED_FACES}"
+        )
+    if not geometry.rectangle and not (isinstance(geometry, AnnulusFace) and geometry.full_circle):
+        cut = (
+            f" cut to {np.degrees(geometry.dphi):.4g} degrees of phi"
+            if isinstance(geometry, AnnulusFace)
+            else ""
         )
         raise ConfigError(
-            f"{target.column}: no rough face on {what}; rough faces are {SUPPORTED_FACES}"
+            f"{target.column}: face {face} of a {target.solid}{cut}; rough faces are "
+            f"{SUPPORTED_FACES}"
         )
-    return FaceFrame(target.to_world(centre), target.rotation @ rotation, size)
+    local = geometry.frame
+    return FaceFrame(
+        target.to_world(local.translation), target.rotation @ local.rotation, geometry.size
+    )
 
 
 def box_target(box: BoxVolume, entry: int, mother: Instance | None = None) -> TargetVolume:
@@ -229,16 +233,14 @@ def box_target(box: BoxVolume, entry: int, mother: Instance | None = None) -> Ta
     translation = np.asarray(box.position, float)
     if mother is not None:
         translation = mother.to_world(translation)
-    params = {"x": float(half[0]), "y": float(half[1]), "z": float(half[2])}
     return TargetVolume(
         box.name,
         entry,
         box,
         box.material,
         "G4Box",
-        params,
-        rotation,
-        translation,
+        G4BoxShape(float(half[0]), float(half[1]), float(half[2])),
+        Transform(rotation, translation),
         -half,
         half,
         None,
@@ -377,6 +379,147 @@ class RoughLayer:
             self.frame.rotation,
             np.array([lu / 2, lv / 2, t / 2]),
         )
+
+
+@dataclass
+class CurvedRoughLayer(RoughLayer):
+    """A rough layer on a face swept around z (:mod:`score4.world.curved`): patches bent onto the
+    surface in rings. ``frame`` is the face's frame at its middle (messages, bounds);
+    ``patch_map`` is the grid (rows = rings, columns = cells of the longest ring) and ``mask``
+    the cells each ring holds."""
+
+    layout: RingLayout | None = None
+    lift: float = 0.0  # the patches' base above the true surface (convex faces), mm
+    gap: float = 0.0  # largest distance of the base from the true surface, mm
+    top_margin: float = 0.0  # sagitta of the bent tops' facets (concave faces), mm
+
+    def solid_kind(self, k: int) -> str:
+        return "tessellated"  # bent closed bodies
+
+    @property
+    def ring_layout(self) -> RingLayout:
+        assert self.layout is not None
+        return self.layout
+
+    @property
+    def thickness(self) -> float:
+        return super().thickness + self.lift + self.top_margin
+
+    def _flat(self, k: int) -> tuple[np.ndarray, np.ndarray, int]:
+        key = ("flat", k)
+        if key not in self._cache:
+            self._cache[key] = flat_body(self.variants[k], self.base_thickness)
+        return self._cache[key]
+
+    @cached_property
+    def _cache(self) -> dict:
+        return {}
+
+    def ring_solid_key(self, j: int) -> float:
+        """Rings of equal radius and slope share their bent solids (all rings of a cylinder)."""
+        return float(np.round(self.ring_layout.radius[j], 12))
+
+    def bent(self, k: int, j: int) -> BentVariant:
+        """Variant ``k`` bent onto ring ``j`` (cached per ring radius)."""
+        key = ("bent", k, self.ring_solid_key(j))
+        if key not in self._cache:
+            v, faces, n_top = self._flat(k)
+            bent = self.ring_layout.bend(v, j, self.base_thickness + self.lift)
+            self._cache[key] = BentVariant(bent, faces, n_top)
+        return self._cache[key]
+
+    def cells(self) -> list[tuple[int, int, int, float]]:
+        """(ring j, cell i, variant k, azimuth) of every patch."""
+        out = []
+        grid = self.cell_variants
+        for j in range(len(self.ring_layout.v)):
+            for i, phi in enumerate(self.ring_layout.cell_phi(j)):
+                out.append((j, i, int(grid[j, i]), float(phi)))
+        return out
+
+    def sampler(self):
+        """Area-uniform points on the bent tops (world coordinates), see
+        :class:`~score4.source.sampling.RingSurfaceSampler`."""
+        from score4.source.sampling import RingSurfaceSampler
+
+        return RingSurfaceSampler(self)
+
+    def contains(self, points: np.ndarray) -> np.ndarray:
+        """True for world points inside a patch body or on it (within the boundary tolerance):
+        the bent bodies Geant4 gets, by the parity of a ray along the surface normal."""
+        q = self.target.to_local(np.asarray(points, float).reshape(-1, 3))
+        lay = self.ring_layout
+        j, i, local = lay.locate(q)
+        inside = np.zeros(len(q), dtype=bool)
+        rows = np.flatnonzero((j >= 0) & (local[:, 2] >= -BOUNDARY_TOLERANCE))
+        rows = rows[local[rows, 2] <= self.thickness]
+        if not len(rows):
+            return inside
+        variant = self.cell_variants[j[rows], i[rows]]
+        keys = np.array([self.ring_solid_key(int(r)) for r in j[rows]])
+        for k in np.unique(variant[variant >= 0]):
+            for key in np.unique(keys[variant == k]):
+                sel = rows[(variant == k) & (keys == key)]
+                ring = int(j[sel[0]])
+                phi = np.array(
+                    [lay.cell_phi(int(a))[int(b)] for a, b in zip(j[sel], i[sel], strict=True)]
+                )
+                c, s = np.cos(-phi), np.sin(-phi)
+                p = q[sel]
+                turned = np.column_stack(
+                    [c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1], p[:, 2]]
+                )
+                turned[:, 2] -= np.array([lay.ring_z(int(a)) for a in j[sel]])
+                u = np.arctan2(turned[:, 1], turned[:, 0])
+                direction = lay.face.normal(u, 0.0)
+                inside[sel] = self.bent(int(k), ring).contains(
+                    turned, direction, BOUNDARY_TOLERANCE
+                )
+        return inside
+
+    def in_cut(self, points: np.ndarray) -> np.ndarray:
+        return np.zeros(len(points), dtype=bool)  # into: true is refused on curved faces
+
+    def shell_points(self, n_phi: int = 72, n_v: int = 9, n_h: int = 3) -> np.ndarray:
+        """World points on and in the layer's shell (the face extruded by the thickness along
+        its normal), for the clearance checks."""
+        face = self.ring_layout.face
+        (u0, u1), (v0, v1) = face.extent
+        grid = np.meshgrid(
+            np.linspace(u0, u1, n_phi),
+            np.linspace(v0, v1, n_v),
+            np.linspace(0.0, self.thickness, n_h),
+            indexing="ij",
+        )
+        u, v, h = (g.ravel() for g in grid)
+        local = face.point(u, v) + h[:, None] * face.normal(u, v)
+        return self.target.to_world(local)
+
+    def in_shell(self, points: np.ndarray) -> np.ndarray:
+        """True for world points strictly inside the layer's envelope (touching does not
+        count)."""
+        face = self.ring_layout.face
+        u, v, h = face.locate(self.target.to_local(np.asarray(points, float).reshape(-1, 3)))
+        (u0, u1), (v0, v1) = face.extent
+        tol = BOUNDARY_TOLERANCE
+        return np.asarray(
+            (h > tol)
+            & (h < self.thickness - tol)
+            & (v > v0 + tol)
+            & (v < v1 - tol)
+            & (u > u0 + 1e-12)
+            & (u < u1 - 1e-12)
+        )
+
+    def envelope_box(self) -> OrientedBox:
+        """An oriented box (the target's axes) holding the layer's shell."""
+        local = self.target.to_local(self.shell_points())
+        lo, hi = local.min(axis=0), local.max(axis=0)
+        face = self.ring_layout.face
+        if face.dphi >= 2 * np.pi - 1e-9:  # the circle's extremes between the grid's points
+            r = float(np.hypot(local[:, 0], local[:, 1]).max())
+            lo[:2], hi[:2] = -r, r
+        return OrientedBox(self.target.to_world((lo + hi) / 2), self.target.rotation, (hi - lo) / 2)
 
 
 @dataclass
@@ -563,9 +706,7 @@ def _exclude_boxes_in_targets(targets: list[TargetVolume]) -> list[TargetVolume]
     out = []
     for t in targets:
         inside = [
-            PlacedShape(
-                G4BoxShape(*b.half), Transform(rotation=b.rotation, translation=b.translation)
-            )
+            PlacedShape(b.described("targets"), b.transform)
             for b in boxes
             if t.instance is not None
             and b.mother is not None
@@ -635,28 +776,15 @@ def gdml_target(
         t,
         lv.material,
         lv.solid_type,
-        dict(lv.solid.get("params", {})),
-        inst.rotation,
-        inst.translation,
+        shape_from_dict(data) if data else None,
+        Transform(inst.rotation, inst.translation),
         np.asarray(lv.solid["lo"], float),
         np.asarray(lv.solid["hi"], float),
         inst,
         mother,
-        shape_from_dict(data) if data else None,
         exclude,
         unknown,
     )
-
-
-def _tubs_mask(target: TargetVolume, patch_map: PatchMap) -> np.ndarray:
-    """Cells wholly inside the annulus rmin <= r <= rmax of a G4Tubs end face."""
-    px, py = patch_map.patch_size
-    c = patch_map.cell_centres()
-    x, y = np.abs(c[..., 0]), np.abs(c[..., 1])
-    far = np.hypot(x + px / 2, y + py / 2)
-    near = np.hypot(np.maximum(x - px / 2, 0.0), np.maximum(y - py / 2, 0.0))
-    rmin, rmax = target.params["rmin"], target.params["rmax"]
-    return (far <= rmax * (1 + 1e-12)) & (near >= rmin * (1 - 1e-12))
 
 
 def make_layer(
@@ -682,10 +810,16 @@ def make_layer(
                 f"{s.size_y * 1e3:g} um"
             )
     try:
+        geometry = target_face(target, rough.face)
+    except ConfigError as err:
+        raise ConfigError(f"{where}: {err}") from None
+    if isinstance(geometry, RevolvedFace):
+        return make_curved_layer(target, rough, geometry, names, variants, size, where)
+    try:
         frame = face_frame(target, rough.face)
     except ConfigError as err:
         raise ConfigError(f"{where}: {err}") from None
-    round_face = target.solid == "G4Tubs"
+    round_face = isinstance(geometry, AnnulusFace)
     if round_face:  # the whole cells of the bounding square, centred
         cells = [max(int(np.floor(frame.size[a] / size[a] * (1 + 1e-9))), 1) for a in (0, 1)]
         frame = FaceFrame(frame.centre, frame.rotation, (cells[0] * size[0], cells[1] * size[1]))
@@ -706,10 +840,9 @@ def make_layer(
     except ConfigError as err:
         raise ConfigError(f"{where} (face {rough.face} of {target.name}): {err}") from None
     mask, area = None, frame.size[0] * frame.size[1]
-    if round_face:
-        mask = _tubs_mask(target, patch_map)
-        p = target.params
-        area = float(np.pi * (p["rmax"] ** 2 - p["rmin"] ** 2))
+    if isinstance(geometry, AnnulusFace):
+        mask = geometry.covers(patch_map.cell_centres(), patch_map.patch_size)
+        area = float(geometry.area)
         if not mask.any():
             raise ConfigError(
                 f"{where}: no whole patch of {size[0] * 1e3:g} x {size[1] * 1e3:g} um fits on "
@@ -727,17 +860,92 @@ def make_layer(
         except ConfigError as err:
             raise ConfigError(f"{where} (surface {n!r}): {err}") from None
     if rough.into:
-        extent = (
-            2 * target.half[int(np.argmax(np.abs(target.rotation.T @ frame.normal)))]
-            if target.solid == "G4Box"
-            else 2 * target.params["dz"]
-        )
+        extent = target.described("into").thickness_along(geometry.frame.rotation[:, 2])
         if layer.thickness >= extent:
             raise ConfigError(
                 f"{where}: into: the layer ({layer.thickness * 1e3:.4g} um) is not thinner than "
                 f"{target.name!r} ({extent * 1e3:.4g} um along the face normal)"
             )
         layer.frame = frame.shifted(-layer.thickness)
+    return layer
+
+
+def make_curved_layer(
+    target: TargetVolume,
+    rough: RoughFace,
+    face: RevolvedFace,
+    names: list[str],
+    variants: list[Surface],
+    size: tuple[float, float],
+    where: str,
+) -> CurvedRoughLayer:
+    """The rough layer on a face swept around z (:mod:`score4.world.curved`)."""
+    what = f"face {rough.face} of {target.name!r}"
+    if rough.into:
+        raise ConfigError(
+            f"{where}: into: true on a curved face ({what}) is not supported; the layer goes "
+            "outside the volume (into: false)"
+        )
+    if rough.tiling == "portal":
+        raise ConfigError(f"{where}: a curved face ({what}) takes tiling: native")
+    if rough.native_layout == "replicas":
+        raise ConfigError(
+            f"{where}: native_layout replicas fills a rectangle; a curved face takes auto"
+        )
+    if rough.solid not in ("auto", "tessellated"):
+        raise ConfigError(
+            f"{where}: solid {rough.solid} on a curved face ({what}); its patches are bent "
+            "tessellated bodies (solid: auto or tessellated)"
+        )
+    reserve = 1.05 * (rough.base_thickness + max(s.max_height for s in variants)) + 1e-4
+    row_gap = 0.0
+    if abs(face.nrz[1]) > 1e-12:  # a cone: rings apart by twice the walls' chord sagitta
+        probe = RingLayout.make(face, size, reserve)
+        if len(probe.v):
+            sag = max(top_sagitta(probe, flat_body(v, rough.base_thickness)) for v in variants)
+            row_gap = 2 * sag + 1e-7
+    layout = RingLayout.make(face, size, reserve, row_gap)
+    if layout.n_cells == 0:
+        raise ConfigError(
+            f"{where}: no whole patch of {size[0] * 1e3:g} x {size[1] * 1e3:g} um fits on {what} "
+            f"(generator {face.length:.4g} mm, radius {float(face.radius(0.0)):.4g} mm)"
+        )
+    ny, nx = len(layout.v), int(layout.count.max())
+    try:
+        patch_map = make_patch_map(
+            (nx * size[0], ny * size[1]),
+            size,
+            [v.density for v in rough.variant_list],
+            method=rough.fill,
+            seed=rough.seed,
+            n_tiles=rough.n_tiles,
+        )
+    except ConfigError as err:
+        raise ConfigError(f"{where} ({what}): {err}") from None
+    mask = np.arange(nx)[None, :] < layout.count[:, None]
+    local = face.frame
+    frame = FaceFrame(
+        target.to_world(local.translation),
+        target.rotation @ local.rotation,
+        (nx * size[0], ny * size[1]),
+    )
+    layer = CurvedRoughLayer(
+        target, rough, frame, names, variants, patch_map, mask, float(face.area), layout
+    )
+    lows, highs, tops = [], [], []
+    for k in range(len(variants)):
+        flat = layer._flat(k)
+        for j in {0, ny - 1}:
+            lo, hi = measure_floor(layout, flat, rough.base_thickness, j)
+            lows.append(lo)
+            highs.append(hi)
+        tops.append(top_sagitta(layout, flat))
+    convex = face.nrz[0] > 0
+    layer.lift = max(-min(lows), 0.0)
+    layer.gap = max(highs) + layer.lift
+    layer.top_margin = 0.0 if convex else max(tops)
+    limit = gap_limit(max(s.max_height for s in variants))
+    check_radius(layout, layer.gap, limit, where, target.name, rough.face)
     return layer
 
 

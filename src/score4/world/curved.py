@@ -1,0 +1,324 @@
+"""Rough layers on curved faces: patches bent onto a surface of revolution (numpy, no Geant4).
+
+A face swept around z (the side wall of a G4Tubs, a G4Cons face, a segment of a G4Polycone or
+G4GenericPolycone: :class:`~score4.shapes.faces.RevolvedFace`) is tiled in *rings*: rows of
+patches along the generator (pitch ``py``, centred on the face), each row a ring of
+``floor(r dphi / px)`` patches around the axis (angular pitch ``px / r`` at the row's radius
+``r``, centred on the face's phi range). A patch is the closed body of its surface variant
+(rough top, walls, a slab of ``base_thickness`` below the base plane) *bent* onto the surface:
+a patch-local point ``(x, y, z)`` goes to azimuth ``x / r``, generator position ``v + y`` and
+height ``z + base_thickness + lift`` along the surface's outward normal. The vertices are mapped
+exactly; the facets stay flat between them. The slab's floor is triangulated as a strip between
+its two long edges, so each floor facet spans only the distance between neighbouring boundary
+vertices; a chord of the circle lies inside it by its sagitta, so the whole patch is lifted by
+the largest floor sagitta (``lift``) on a convex face (a concave face, a bore, needs none): the
+floor then never enters the volume, and its gap to the true surface is at most ``lift`` (the
+measured ``gap`` of the layer). The walls between patches of a ring lie in planes through the
+axis, shared exactly by neighbours.
+
+Rotational symmetry: all patches of a ring (and all rings of a cylinder) of one variant are
+the same solid, rotated about z; Geant4 gets one solid and logical volume per variant and ring
+radius, placed once per cell.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from score4.errors import ConfigError
+from score4.shapes.faces import RevolvedFace
+from score4.surface.spec import Surface
+from score4.surface.triangle_mesh import TriangleMesh
+
+#: The base of a bent layer must follow the true surface this closely: the larger of this share
+#: of the roughness height and GAP_FLOOR (mm).
+GAP_SHARE = 0.01
+GAP_FLOOR = 1e-4
+
+
+def gap_limit(max_height: float) -> float:
+    """Largest allowed gap (mm) between a bent layer's base and the true surface."""
+    return max(GAP_SHARE * max_height, GAP_FLOOR)
+
+
+def _floor_strip(xy: np.ndarray, ring: np.ndarray, px: float, py: float) -> np.ndarray:
+    """Triangles (k, 3) of vertex indices (from ``ring``) covering the rectangle
+    [-px/2, px/2] x [-py/2, py/2] whose boundary vertices are ``xy[ring]``: fans at the two
+    short sides, a strip between the two long sides."""
+    p = xy[ring]
+    tol = 1e-9 * max(px, py)
+    low, high = np.abs(p[:, 1] + py / 2) <= tol, np.abs(p[:, 1] - py / 2) <= tol
+    left, right = np.abs(p[:, 0] + px / 2) <= tol, np.abs(p[:, 0] - px / 2) <= tol
+    a = ring[low][np.argsort(p[low, 0], kind="stable")]  # bottom edge, x rising
+    b = ring[high][np.argsort(p[high, 0], kind="stable")]  # top edge, x rising
+    side_l = ring[left & ~low & ~high][np.argsort(p[left & ~low & ~high, 1], kind="stable")]
+    side_r = ring[right & ~low & ~high][np.argsort(p[right & ~low & ~high, 1], kind="stable")]
+    tris: list[tuple[int, int, int]] = []
+    chain = [a[0], *side_l, b[0]]
+    tris += [(chain[k], chain[k + 1], a[1]) for k in range(len(chain) - 1)]
+    chain = [a[-1], *side_r, b[-1]]
+    tris += [(chain[k], chain[k + 1], b[-2]) for k in range(len(chain) - 1)]
+    lo, hi = list(a[1:]), list(b[:-1])
+    i = j = 0
+    while i < len(lo) - 1 or j < len(hi) - 1:
+        if j == len(hi) - 1 or (i < len(lo) - 1 and xy[lo[i + 1], 0] <= xy[hi[j + 1], 0]):
+            tris.append((lo[i], lo[i + 1], hi[j]))
+            i += 1
+        else:
+            tris.append((lo[i], hi[j + 1], hi[j]))
+            j += 1
+    out = np.array(tris, dtype=np.int64)
+    # the floor faces down (-z): flip the triangles wound the other way
+    e1, e2 = xy[out[:, 1]] - xy[out[:, 0]], xy[out[:, 2]] - xy[out[:, 0]]
+    up = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0] > 0
+    out[up] = out[up][:, ::-1]
+    return out
+
+
+def flat_body(surface: Surface, base_thickness: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """A variant's closed patch body with its floor as a strip (see :func:`_floor_strip`):
+    vertices (patch-local, centred), faces, and the number of top faces (first)."""
+    body = surface.body(base_thickness)
+    top = np.asarray(body.top, bool)
+    faces = body.faces
+    v = body.vertices
+    floor_level = np.abs(v[:, 2] + base_thickness) <= 1e-12
+    is_floor = floor_level[faces].all(axis=1)
+    ring = np.unique(faces[is_floor & ~top].ravel())
+    ring = ring[np.isin(ring, faces[~is_floor & ~top].ravel())]  # not the fan's centre
+    floor = _floor_strip(v[:, :2], ring, surface.size_x, surface.size_y)
+    keep = faces[~is_floor]
+    n_top = int(top[~is_floor].sum())
+    return v, np.vstack([keep, floor]), n_top
+
+
+@dataclass
+class RingLayout:
+    """Rows (rings) of patches on a surface of revolution (see the module docstring).
+
+    ``v``: generator position of each row's centre (mm, from the face's middle); ``radius``:
+    the surface's distance from the axis there; ``count``: patches in the ring; ``step``:
+    angular pitch (rad); ``phi_mid``: the middle of the face's phi range.
+    """
+
+    face: RevolvedFace
+    patch_size: tuple[float, float]
+    v: np.ndarray
+    radius: np.ndarray
+    count: np.ndarray
+    step: np.ndarray
+    phi_mid: float
+
+    row_gap: float = 0.0
+
+    @classmethod
+    def make(
+        cls,
+        face: RevolvedFace,
+        patch_size: tuple[float, float],
+        reserve: float = 0.0,
+        row_gap: float = 0.0,
+    ) -> RingLayout:
+        """Rings on ``face``; on a cone, the rows keep ``reserve`` (at least the layer's
+        thickness) clear of the z planes of the face's ends, so the patches stay between
+        them, and ``row_gap`` (mm) apart: neighbouring rings bend their facets with different
+        radii, so their walls (chords of the circle) do not coincide exactly."""
+        px, py = patch_size
+        tz = abs(float(face._tangent[1]))
+        usable = face.length - 2 * reserve * abs(face.nrz[1]) / max(tz, 1e-300)
+        pitch = py + row_gap
+        rows = max(int(np.floor((usable + row_gap) / pitch * (1 + 1e-9))), 0)
+        v = (np.arange(rows) - (rows - 1) / 2) * pitch
+        radius = face.radius(v)
+        # a ring holds its patches at the smallest radius the row reaches
+        inner = np.minimum(face.radius(v - py / 2), face.radius(v + py / 2))
+        count = np.floor(np.maximum(inner, 0.0) * face.dphi / px * (1 + 1e-9)).astype(np.int64)
+        step = px / np.maximum(radius, 1e-300)
+        return cls(face, patch_size, v, radius, count, step, face.phi0 + 0.5 * face.dphi, row_gap)
+
+    @property
+    def n_cells(self) -> int:
+        return int(self.count.sum())
+
+    def cell_phi(self, j: int) -> np.ndarray:
+        """Azimuths of the cell centres of ring ``j``."""
+        n = int(self.count[j])
+        return self.phi_mid + (np.arange(n) - (n - 1) / 2) * self.step[j]
+
+    def ring_z(self, j: int) -> float:
+        """z of the surface at the centre of ring ``j`` (the placement's shift along z)."""
+        return float(self.face.point(0.0, self.v[j])[2])
+
+    def bend(self, local: np.ndarray, j: int, height_offset: float) -> np.ndarray:
+        """Patch-local points (x, y, z) of a cell of ring ``j`` centred at phi = 0, bent onto the
+        surface, relative to the ring's centre z (see the module docstring)."""
+        x, y, z = local[:, 0], local[:, 1], local[:, 2]
+        phi = x / self.radius[j]
+        face = self.face
+        p = face.point(phi, self.v[j] + y) + (z + height_offset)[:, None] * face.normal(phi, 0.0)
+        p[:, 2] -= self.ring_z(j)
+        return p
+
+    def locate(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Cell (ring j, index i; -1 off the patches) and patch-local (x, y, h) of points in the
+        target's frame (h: height above the true surface)."""
+        u, v, h = self.face.locate(points)
+        py = self.patch_size[1]
+        rows = len(self.v)
+        pitch = py + self.row_gap
+        j = np.floor((v - self.v[0]) / pitch + 0.5).astype(np.int64) if rows else np.zeros(0, int)
+        ok = (j >= 0) & (j < rows)
+        jj = np.where(ok, j, 0)
+        ok &= np.abs(v - self.v[jj]) <= py / 2
+        step, count = self.step[jj], self.count[jj]
+        first = self.phi_mid - (count - 1) / 2 * step
+        dphi = np.mod(u - first + step / 2, 2 * np.pi)
+        i = np.floor(dphi / step).astype(np.int64)
+        ok &= (i >= 0) & (i < count)
+        x = (dphi - (i + 0.5) * step) * self.radius[jj]
+        y = v - self.v[jj]
+        return np.where(ok, j, -1), np.where(ok, i, -1), np.column_stack([x, y, h])
+
+
+@dataclass
+class BentVariant:
+    """One variant bent onto one ring radius: the closed body (Geant4) and its top (sampling),
+    in the ring's frame (cell at phi = 0, z from the ring's centre)."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    n_top: int
+
+    @cached_property
+    def mesh(self) -> TriangleMesh:
+        return TriangleMesh(self.vertices, self.faces)
+
+    @property
+    def top_triangles(self) -> np.ndarray:
+        return self.vertices[self.faces[: self.n_top]]
+
+    def contains(self, points: np.ndarray, directions: np.ndarray, tol: float) -> np.ndarray:
+        """True for points (ring frame) inside the closed body or within ``tol`` of it along
+        ``directions``: the parity of the crossings of a ray along each direction (the surface's
+        outward normal there) with the body's triangles, tested against the triangles of the
+        point's (azimuth, z) bin only (:meth:`_bins`; the rays stay in their bin)."""
+        tri = self.vertices[self.faces]
+        edges, members = self._bins
+        out = np.zeros(len(points), dtype=bool)
+        phi = np.arctan2(points[:, 1], points[:, 0])
+        bi = np.clip(np.searchsorted(edges[0], phi) - 1, 0, len(edges[0]) - 2)
+        bj = np.clip(np.searchsorted(edges[1], points[:, 2]) - 1, 0, len(edges[1]) - 2)
+        key = bi * (len(edges[1]) - 1) + bj
+        order = np.argsort(key, kind="stable")
+        bounds = np.flatnonzero(np.diff(key[order])) + 1
+        for rows in np.split(order, bounds):
+            out[rows] = _ray_parity(
+                points[rows], directions[rows], tri[members[int(key[rows[0]])]], tol
+            )
+        return out
+
+    @cached_property
+    def _bins(self) -> tuple[tuple[np.ndarray, np.ndarray], list[np.ndarray]]:
+        """A 32 x 32 grid over the body's azimuth and z ranges, and the triangles meeting each
+        cell (their ranges widened by the body's radial extent, which a tilted ray crosses)."""
+        v = self.vertices
+        phi = np.arctan2(v[:, 1], v[:, 0])
+        rho = np.hypot(v[:, 0], v[:, 1])
+        margin = float(rho.max() - rho.min()) + 1e-9
+        edges = (
+            np.linspace(phi.min() - 1e-12, phi.max() + 1e-12, 33),
+            np.linspace(v[:, 2].min() - margin, v[:, 2].max() + margin, 33),
+        )
+        tp, tz = phi[self.faces], v[self.faces, 2]
+        i0 = np.clip(np.searchsorted(edges[0], tp.min(axis=1)) - 1, 0, 31)
+        i1 = np.clip(np.searchsorted(edges[0], tp.max(axis=1)) - 1, 0, 31)
+        j0 = np.clip(np.searchsorted(edges[1], tz.min(axis=1) - margin) - 1, 0, 31)
+        j1 = np.clip(np.searchsorted(edges[1], tz.max(axis=1) + margin) - 1, 0, 31)
+        members: list[list[int]] = [[] for _ in range(32 * 32)]
+        for t in range(len(self.faces)):
+            for a in range(i0[t], i1[t] + 1):
+                for b in range(j0[t], j1[t] + 1):
+                    members[a * 32 + b].append(t)
+        return edges, [np.asarray(m, dtype=np.int64) for m in members]
+
+
+def _ray_parity(o: np.ndarray, d: np.ndarray, tri: np.ndarray, tol: float) -> np.ndarray:
+    """Odd number of crossings ahead (or a crossing within ``tol``) of rays with triangles."""
+    if len(tri) == 0:
+        return np.zeros(len(o), dtype=bool)
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    out = np.zeros(len(o), dtype=bool)
+    chunk = max(1, 200_000 // len(tri))  # arrays of (chunk, triangles, 3): ~5 MB each
+    for start in range(0, len(o), chunk):
+        p = o[start : start + chunk, None, :]
+        r = d[start : start + chunk, None, :]
+        pv = np.cross(r, e2[None])
+        det = np.einsum("nkc,kc->nk", pv, e1)
+        ok = np.abs(det) > 1e-300
+        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+        tv = p - tri[None, :, 0]
+        u = np.einsum("nkc,nkc->nk", tv, pv) * inv
+        qv = np.cross(tv, e1[None])
+        w = np.einsum("nkc,nkc->nk", qv, r) * inv
+        t = np.einsum("nkc,kc->nk", qv, e2) * inv
+        hit = ok & (u >= 0) & (w >= 0) & (u + w <= 1)
+        on = (hit & (np.abs(t) <= tol)).any(axis=1)
+        ahead = np.sort(np.where(hit & (t > tol), t, np.inf), axis=1)
+        finite = np.isfinite(ahead)
+        # a ray through an edge or corner meets two or more facets at one point: count once
+        with np.errstate(invalid="ignore"):  # inf - inf past the last crossing
+            gaps = np.diff(ahead, axis=1) > 1e-12
+        new = finite & np.concatenate([finite[:, :1], gaps], axis=1)
+        out[start : start + chunk] = on | (new.sum(axis=1) % 2 == 1)
+    return out
+
+
+def measure_floor(
+    layout: RingLayout, flat: tuple[np.ndarray, np.ndarray, int], base: float, j: int
+) -> tuple[float, float]:
+    """Lowest and highest height (mm) above the true surface of the bent floor of a patch of
+    ring ``j`` with no lift: points on its facets (corners, edge midpoints, inner points)
+    located exactly."""
+    v, faces, _ = flat
+    floor = faces[len(faces) - _n_floor(v, faces, base) :]
+    bent = layout.bend(v, j, base)
+    bent[:, 2] += layout.ring_z(j)
+    tri = bent[floor]
+    w = np.array([[1, 0, 0], [0.5, 0.5, 0], [1 / 3, 1 / 3, 1 / 3], [0.5, 0.25, 0.25]])
+    pts = np.einsum("kw,twc->tkc", w, tri).reshape(-1, 3)
+    h = layout.face.locate(pts)[2]
+    return float(h.min()), float(h.max())
+
+
+def top_sagitta(layout: RingLayout, flat: tuple[np.ndarray, np.ndarray, int]) -> float:
+    """Bound (mm) of how far a bent top facet bulges beyond its corners' heights: the sagitta
+    of its widest azimuthal extent at the smallest ring radius."""
+    v, faces, n_top = flat
+    x = v[faces[:n_top], 0]
+    width = float((x.max(axis=1) - x.min(axis=1)).max()) if n_top else 0.0
+    r = float(layout.radius.min())
+    return width * width / (8 * r) if r > 0 else 0.0
+
+
+def _n_floor(v: np.ndarray, faces: np.ndarray, base: float) -> int:
+    on = np.abs(v[:, 2] + base) <= 1e-12
+    return int(on[faces].all(axis=1).sum())
+
+
+def check_radius(
+    layout: RingLayout, gap: float, limit: float, where: str, target: str, face: str
+) -> None:
+    """ConfigError when the bent base leaves a gap above ``limit`` (a radius too small)."""
+    if gap <= limit:
+        return
+    r = float(layout.radius.min())
+    need = r * gap / limit  # the sagitta falls as 1 / r at a fixed chord
+    raise ConfigError(
+        f"{where}: face {face} of {target!r} is curved too tightly for this surface: at radius "
+        f"{r:.4g} mm the bent patch's base is {gap * 1e3:.3g} um from the true surface, above "
+        f"the limit {limit * 1e3:.3g} um (max of 1 % of the roughness height, 0.1 um); use a "
+        f"face of radius >= {need:.4g} mm or a surface with more vertices along its edges"
+    )

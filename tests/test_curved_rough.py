@@ -1,0 +1,338 @@
+"""Rough layers on curved faces (score4.world.curved): bent patches on a cylinder wall, in numpy and
+in Geant4."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from score4.errors import ConfigError
+from score4.inputs.config import parse_config
+from score4.runner.engine import run
+from score4.runner.output import read_results
+from score4.source.build import make_source, source_geometry
+from score4.source.vertex_file import write_vertex_file
+from score4.world.scene import CurvedRoughLayer, build_scene
+
+RADIUS, HALF_Z = 5.0, 1.0  # mm
+PYRAMIDS = {"kind": "spikes", "nx": 10, "ny": 10, "width": "10 um", "height": "10 um"}
+
+
+def write_cylinder(path, radius=RADIUS, half_z=HALF_Z, rmin=0.0, dphi=2 * math.pi, sister=None):
+    """A G4Tubs ``cyl`` of silicon in vacuum; ``sister``: the gap (mm) from its wall to a 1 mm
+    copper cube beside it on +x."""
+    import pyg4ometry as pg
+
+    reg = pg.geant4.Registry()
+    world = pg.geant4.LogicalVolume(
+        pg.geant4.solid.Box("world_s", 200, 200, 200, reg), "G4_Galactic", "World", reg
+    )
+    solid = pg.geant4.solid.Tubs("cyl_s", rmin, radius, 2 * half_z, 0, dphi, reg)
+    cyl = pg.geant4.LogicalVolume(solid, "G4_Si", "Cyl", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], [0, 0, 0], cyl, "cyl", world, reg)
+    if sister is not None:
+        cube = pg.geant4.LogicalVolume(
+            pg.geant4.solid.Box("cube_s", 1, 1, 1, reg), "G4_Cu", "Cube", reg
+        )
+        pg.geant4.PhysicalVolume([0, 0, 0], [radius + sister + 0.5, 0, 0], cube, "cube", world, reg)
+    reg.setWorld(world.name)
+    writer = pg.gdml.Writer()
+    writer.addDetector(reg)
+    writer.write(str(path))
+    return path
+
+
+def cylinder_config(gdml, face="outer", surface=PYRAMIDS, source=None, **extra):
+    return {
+        "physics": "lite",
+        "world": {"gdml": str(gdml)},
+        "surfaces": {"p": surface},
+        "targets": [{"volume": "cyl", "rough": [{"face": face, "surface": "p"}]}],
+        "source": source
+        or {
+            "particle": "geantino",
+            "energy": "1 MeV",
+            "surface": {"volume": "cyl", "face": face},
+        },
+        "run": {"events": 100, "seed": 3},
+        **extra,
+    }
+
+
+@pytest.fixture(scope="module")
+def cylinder(tmp_path_factory):
+    return write_cylinder(tmp_path_factory.mktemp("cyl") / "cyl.gdml")
+
+
+def test_bent_layer_follows_the_cylinder(cylinder):
+    scene = build_scene(parse_config(cylinder_config(cylinder)))
+    (layer,) = scene.layers
+    assert isinstance(layer, CurvedRoughLayer)
+    assert layer.gap <= 1e-4  # within max(1 % of 10 um, 0.1 um)
+    assert layer.gap == pytest.approx(0.01**2 / (8 * RADIUS), rel=0.05)  # the chord's sagitta
+    lay = layer.ring_layout
+    assert len(lay.v) == 20  # 2 mm of wall in 0.1 mm rows
+    assert lay.count[0] == math.floor(2 * math.pi * RADIUS / 0.1)
+    assert 0.99 < layer.rough_share <= 1.0
+    # every vertex of every bent body lies on or outside the true surface, within the layer
+    bent = layer.bent(0, 0)
+    h = lay.face.locate(bent.vertices + np.array([0.0, 0.0, lay.ring_z(0)]))[2]
+    assert h.min() >= 0.0
+    assert h.max() <= layer.thickness
+
+
+def test_samples_lie_on_the_bent_tops_with_the_mesh_area(cylinder):
+    config = parse_config(cylinder_config(cylinder))
+    scene = build_scene(config)
+    (layer,) = scene.layers
+    geo = source_geometry(config, scene)
+    cells = layer.ring_layout.n_cells
+    top = layer.bent(0, 0).top_triangles
+    e1, e2 = top[:, 1] - top[:, 0], top[:, 2] - top[:, 0]
+    bent_area = 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1).sum()
+    # the pyramids' true area (sqrt(5) x the flat one) on each cell, plus the flat remainder
+    assert geo["area_mm2"] == pytest.approx(
+        cells * bent_area + (2 * math.pi * RADIUS * 2 * HALF_Z - cells * 0.01), rel=1e-9
+    )
+    assert bent_area == pytest.approx(math.sqrt(5) * 0.01 * (1 + 5e-3 / RADIUS), rel=2e-3)
+    p = make_source(config, scene).primaries(np.random.default_rng(2), 0, 2000)
+    q = layer.target.to_local(p.position)
+    j, _, local = layer.ring_layout.locate(q)
+    on = j >= 0
+    assert on.mean() > 0.99
+    height = layer.variants[0].height_at(local[on, 0], local[on, 1])
+    # the bent facets are flat between bent vertices: they leave the bent height map by about
+    # slope x (height / R) x facet width / 2 = 2 x 2e-3 x 5 um / 2 = 10 nm here
+    expected = layer.lift + layer.base_thickness + height
+    np.testing.assert_allclose(local[on, 2], expected, atol=1e-5)
+    # confinement agrees with the bent bodies: every point on a bent top is in the target
+    assert scene.inside_target("cyl", p.position).all()
+    assert not scene.inside_target(
+        "cyl", p.position[on] + 1e-4 * lay_normal(layer, p.position[on])
+    ).any()
+
+
+def lay_normal(layer, points):
+    """The cylinder's outward normal at world points."""
+    q = layer.target.to_local(points)
+    u = np.arctan2(q[:, 1], q[:, 0])
+    return layer.ring_layout.face.normal(u, 0.0) @ layer.target.rotation.T
+
+
+def ray_path(origins, directions, layer, radius, half_z, window=4):
+    """Independent ray trace: the path length (mm) of each ray in the cylinder (analytic) and in
+    the bent patch bodies (Moeller-Trumbore on their triangles) near where it crosses the wall."""
+    out = np.zeros(len(origins))
+    lay = layer.ring_layout
+    for n, (o, d) in enumerate(zip(origins, directions, strict=True)):
+        a = d[0] ** 2 + d[1] ** 2
+        b = 2 * (o[0] * d[0] + o[1] * d[1])
+        c = o[0] ** 2 + o[1] ** 2 - radius**2
+        disc = b * b - 4 * a * c
+        hits = []
+        if disc > 0:
+            t1, t2 = (-b - math.sqrt(disc)) / (2 * a), (-b + math.sqrt(disc)) / (2 * a)
+            zs = o[2] + np.array([t1, t2]) * d[2]
+            assert np.all(np.abs(zs) < half_z)  # the test's rays cross the wall, not the ends
+            out[n] += t2 - t1
+            hits = [o + t1 * d, o + t2 * d]
+        for p in hits:  # the patch bodies around each crossing of the wall
+            tri_all = []
+            phi0 = math.atan2(p[1], p[0])
+            for j in range(len(lay.v)):
+                if abs(lay.ring_z(j) - p[2]) > window * layer.patch_size[1]:
+                    continue
+                for i, phi in enumerate(lay.cell_phi(j)):
+                    dphi = (phi - phi0 + math.pi) % (2 * math.pi) - math.pi
+                    if abs(dphi) * radius > window * layer.patch_size[0]:
+                        continue
+                    body = layer.bent(int(layer.cell_variants[j, i]), j)
+                    c_, s_ = math.cos(phi), math.sin(phi)
+                    v = body.vertices @ np.array([[c_, s_, 0], [-s_, c_, 0], [0, 0, 1]])
+                    v = v + np.array([0.0, 0.0, lay.ring_z(j)])
+                    tri_all.append(v[body.faces])
+            tri = np.concatenate(tri_all)
+            e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+            pv = np.cross(d, e2)
+            det = np.einsum("ij,ij->i", e1, pv)
+            ok = np.abs(det) > 1e-30
+            inv = np.where(ok, 1 / np.where(ok, det, 1), 0)
+            tv = o - tri[:, 0]
+            u = np.einsum("ij,ij->i", tv, pv) * inv
+            qv = np.cross(tv, e1)
+            w = (qv @ d) * inv
+            t = np.einsum("ij,ij->i", e2, qv) * inv
+            hit = ok & (u >= 0) & (w >= 0) & (u + w <= 1) & (t > 0)
+            ts = np.sort(t[hit])
+            ts = ts[np.concatenate([[True], np.diff(ts) > 1e-12])]  # a ray through an edge
+            assert len(ts) % 2 == 0
+            out[n] += float(np.sum(ts[1::2] - ts[0::2]))
+    return out
+
+
+def test_geantino_paths_agree_with_an_independent_ray_trace(cylinder, tmp_path):
+    """Geantinos from outside the layer, through the rough wall, the cylinder and the rough
+    wall on the far side: Geant4's track length in the target (its patches count) equals the
+    ray trace of the analytic cylinder plus the bent patch mesh, to 1e-9 mm."""
+    data = cylinder_config(cylinder, output={"track_length": True})
+    config = parse_config(data)
+    scene = build_scene(config)
+    (layer,) = scene.layers
+    rng = np.random.default_rng(7)
+    n = 40
+    primaries = make_source(config, scene).primaries(np.random.default_rng(1), 0, n)
+    phi = rng.uniform(0, 2 * np.pi, n)
+    start = np.column_stack(
+        [(RADIUS + 0.1) * np.cos(phi), (RADIUS + 0.1) * np.sin(phi), rng.uniform(-0.3, 0.3, n)]
+    )
+    aim = np.column_stack([rng.uniform(-2, 2, n), rng.uniform(-2, 2, n), rng.uniform(-0.3, 0.3, n)])
+    direction = aim - start
+    direction /= np.linalg.norm(direction, axis=1)[:, None]
+    primaries.position[:] = start
+    primaries.direction[:] = direction
+    vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
+    replay = parse_config({**data, "source": {"vertices": str(vfile)}, "run": {"events": n}})
+    r = read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
+    expected = ray_path(start, direction, layer, RADIUS, HALF_Z)
+    np.testing.assert_allclose(r.scores["track_length"]["cyl"], expected, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"face": "side"}, r"no face 'side' on a G4Tubs; its faces: -z, outer, \+z, all"),
+        ({"face": "outer", "into": True}, r"into: true on a curved face"),
+        ({"face": "outer", "solid": "blocks"}, r"solid blocks on a curved face"),
+    ],
+)
+def test_bad_curved_layers_are_one_line_errors(cylinder, change, message):
+    data = cylinder_config(cylinder)
+    data["targets"][0]["rough"][0].update(change)
+    with pytest.raises(ConfigError, match=message):
+        build_scene(parse_config(data))
+
+
+def test_a_radius_too_small_for_the_patch_states_the_limit(tmp_path):
+    gdml = write_cylinder(tmp_path / "thin.gdml", radius=0.2, half_z=0.5)
+    flat = {"kind": "spikes", "nx": 1, "ny": 1, "width": "100 um", "height": "2 um"}
+    with pytest.raises(ConfigError, match=r"curved too tightly .* radius >= [\d.]+ mm"):
+        build_scene(parse_config(cylinder_config(gdml, surface=flat)))
+
+
+def test_a_layer_meeting_a_sister_names_it_and_the_gap(tmp_path):
+    gdml = write_cylinder(tmp_path / "sister.gdml", sister=0.005)
+    with pytest.raises(
+        ConfigError, match=r"runs into sister volume 'cube' \(free gap there: 5 um\)"
+    ):
+        build_scene(parse_config(cylinder_config(gdml)))
+    far = write_cylinder(tmp_path / "far.gdml", sister=0.05)
+    assert build_scene(parse_config(cylinder_config(far))).layers
+
+
+def test_wall_and_end_faces_rough_together(cylinder):
+    """An HPGe-like detector: the side wall and both end faces rough; the layers touch at the
+    edges and do not meet."""
+    data = cylinder_config(cylinder)
+    data["targets"][0]["rough"] += [
+        {"face": "+z", "surface": "p"},
+        {"face": "-z", "surface": "p"},
+    ]
+    scene = build_scene(parse_config(data))
+    assert [type(layer).__name__ for layer in scene.layers] == [
+        "CurvedRoughLayer",
+        "RoughLayer",
+        "RoughLayer",
+    ]
+
+
+def alpha_spectra(tmp_path, events: int) -> tuple[np.ndarray, np.ndarray]:
+    """Deposits of 5.3 MeV alphas (isotropic, exponential depth of mean 1 um, confined) from
+    10 um pyramids on a cylinder wall of radius 50 mm (a 0.04 rad sector, 2 mm x 2 mm) and on
+    a flat face of the same size."""
+    gdml = write_cylinder(tmp_path / "sector.gdml", radius=50.0, half_z=1.0, rmin=49.7, dphi=0.04)
+    source = {
+        "particle": "alpha",
+        "energy": "5.3 MeV",
+        "direction": "isotropic",
+        "surface": {"volume": "cyl", "face": "outer"},
+        "depth": {"profile": "exponential", "mean": "1 um"},
+        "confine": True,
+    }
+    curved = cylinder_config(gdml, source=source)
+    curved["run"] = {"events": events, "seed": 4}
+    flat = {
+        "physics": "lite",
+        "surfaces": {"p": PYRAMIDS},
+        "targets": [
+            {
+                "name": "cyl",
+                "material": "G4_Si",
+                "size": ["2 mm", "2 mm", "0.3 mm"],
+                "rough": [{"face": "+z", "surface": "p"}],
+            }
+        ],
+        "source": {**source, "surface": {"volume": "cyl", "face": "+z"}},
+        "run": {"events": events, "seed": 4},
+    }
+    out = []
+    for name, data in (("curved", curved), ("flat", flat)):
+        path = run(parse_config(data), tmp_path / f"{name}.h5", progress=False, echo=lambda m: None)
+        out.append(np.asarray(read_results(path).edep["cyl"]))
+    return out[0], out[1]
+
+
+def _same_spectrum(curved: np.ndarray, flat: np.ndarray) -> None:
+    from scipy.stats import ks_2samp
+
+    assert ks_2samp(curved, flat).pvalue > 0.01
+    n = len(curved)
+    full_c, full_f = (curved > 5.2).mean(), (flat > 5.2).mean()
+    sigma = np.sqrt(full_c * (1 - full_c) / n + full_f * (1 - full_f) / n)
+    assert abs(full_c - full_f) < 4 * sigma
+
+
+def test_alphas_from_a_rough_wall_match_the_same_roughness_on_a_flat_face(tmp_path):
+    """R = 50 mm >> the 10 um pyramids: the deposit spectra agree (two-sample KS p > 0.01 and
+    full-energy shares within 4 sigma, 800 alphas each; seed fixed)."""
+    _same_spectrum(*alpha_spectra(tmp_path, 800))
+
+
+@pytest.mark.deep
+def test_alphas_from_a_rough_wall_match_the_flat_face_deep(tmp_path):
+    _same_spectrum(*alpha_spectra(tmp_path, 10000))
+
+
+def test_a_source_on_a_list_of_faces_weighs_the_rough_wall_by_its_mesh_area(cylinder):
+    source = {
+        "particle": "geantino",
+        "energy": "1 MeV",
+        "surface": {"volume": "cyl", "face": ["outer", "+z"]},
+    }
+    config = parse_config(cylinder_config(cylinder, source=source))
+    scene = build_scene(config)
+    geo = source_geometry(config, scene)
+    wall = source_geometry(
+        parse_config(cylinder_config(cylinder)),
+        build_scene(parse_config(cylinder_config(cylinder))),
+    )
+    assert geo["faces"] == ["-z", "outer", "+z"]
+    assert geo["area_mm2"] == pytest.approx(wall["area_mm2"] + math.pi * RADIUS**2, rel=1e-12)
+    p = make_source(config, scene).primaries(np.random.default_rng(3), 0, 4000)
+    on_top = np.isclose(p.position[:, 2], HALF_Z, atol=1e-9)
+    share = math.pi * RADIUS**2 / geo["area_mm2"]
+    assert abs(on_top.mean() - share) < 4 * math.sqrt(share * (1 - share) / 4000)
+
+
+def test_geant4_finds_no_overlap_in_a_rough_bore(tmp_path, capsys):
+    """Geant4's own overlap check over every ring and bent patch of a layer in a bore."""
+    import yaml
+
+    from score4.cli.main import main
+
+    gdml = write_cylinder(tmp_path / "bore.gdml", radius=1.0, half_z=0.4, rmin=0.6)
+    data = cylinder_config(gdml, face="inner")
+    (tmp_path / "bore.yaml").write_text(yaml.safe_dump(data))
+    assert main(["geometry", "check", str(tmp_path / "bore.yaml")]) == 0
+    assert "no overlaps" in capsys.readouterr().out
