@@ -85,9 +85,11 @@ SHAPE_EXCEPTIONS = {("Bi210", 1162), ("K40", 1311), ("Tl210", 2413)}
 def test_mean_beta_energies_within_3_percent_of_ensdf():
     checked = 0
     for name, ln in _branches():
-        if (name, round(ln.energy)) in SHAPE_EXCEPTIONS:
+        if any(name == n and abs(ln.energy - e) < 2 for n, e in SHAPE_EXCEPTIONS):
             continue
-        assert ln.mean == pytest.approx(ln.mean_ensdf, rel=0.03), (name, ln)
+        # AME2020's Q moves the endpoint from ENSDF's (Ra-228: 0.26 keV of 12.7 keV)
+        dq = _q_shift(name) / ln.energy
+        assert ln.mean == pytest.approx(ln.mean_ensdf, rel=0.03 + dq), (name, ln)
         checked += 1
     assert checked > 60
 
@@ -107,28 +109,40 @@ def test_the_shape_exceptions_are_what_docs_say():
 
 
 def test_energy_per_decay_at_most_q_and_alpha_shares_q_minus_level():
-    """10^5 decays of every nuclide: emitted energy <= Q; alpha + recoil = Q - E(level)."""
+    """10^5 decays of every nuclide: emitted energy <= Q (+ a measured alpha line's excess
+    over Q - E(level), within 2 sigma of ENSDF's Q and line uncertainties); alpha + recoil is
+    one of the branches' values, within that excess of Q - E(level)."""
     rng = np.random.default_rng(18)
     n = 100_000
     for name in known_nuclides():
         scheme = decay_scheme(name)
         em = scheme.sample(rng, n)
         total = em.total_per_event(n) * 1e3
-        assert total.max() <= scheme.q_max_kev * (1 + 1e-12) + 1e-9, name
+        assert scheme.alpha_excess_kev < 11.0, name
+        assert total.max() <= scheme.q_max_kev + scheme.alpha_excess_kev + 1e-6, name
         alpha = em.kind == KINDS.index("alpha")
         if alpha.any():
             two_body = em.total_per_event(n, ("alpha", "recoil"))[em.event[alpha]] * 1e3
             record = scheme.entries
-            allowed = np.unique(
-                np.round((record.t_alpha + record.t_recoil)[record.kind == 0] * 1e3, 6)
-            )
+            sums = (record.t_alpha + record.t_recoil)[record.kind == 0] * 1e3
+            allowed = np.unique(np.round(sums, 6))
             assert np.isin(np.round(two_body, 6), allowed).all(), name
-            # and those are Q minus the fed level energies
+            # and those are Q minus the fed level energies, up to a measured line's excess
             q = max(m["q_keV"] for m in _modes(name) if m["mode"] == "A")
             fed = scheme.level_energy[record.level[record.kind == 0]]
-            assert np.allclose(
-                np.sort(allowed), np.sort(np.unique(np.round(q - fed, 6))), atol=1e-6
-            )
+            diff = sums - (q - fed)
+            assert (np.abs(diff) <= 2 * 11.0).all(), name
+            assert diff.max() <= scheme.alpha_excess_kev + 1e-6, name
+
+
+def _q_shift(name):
+    from score4.decay.data import decay_data
+
+    return max(
+        abs(m["q_keV"] - m["q_ensdf_keV"])
+        for m in decay_data()["nuclides"][name]["modes"]
+        if m.get("q_ensdf_keV") is not None
+    )
 
 
 def _modes(name):
