@@ -66,6 +66,8 @@ def _conversion(g: dict) -> tuple[float, float, float, float]:
     k, lsh, rest = per[0], per[1], sum(per[2:])
     if total > 0 and k + lsh + rest == 0:  # only the total is known: call it all L
         lsh = total
+    if total == 0:  # only the shells are known: the total is their sum
+        total = k + lsh + rest
     return total, k, lsh, rest
 
 
@@ -130,6 +132,8 @@ def _balance(
     gammas) are what adjusts. Level by level from the top, with ``in`` the transition intensity
     into a level, ``out`` the known intensity out of it and ``f`` ENSDF's feeding:
 
+    * a fed level without any transition in the data set de-excites straight to the ground
+      state by one gamma of its energy (origin FROM_FEEDING; U-235's 331 keV level of Th-231);
     * a level with transitions without intensity passes ``f + in - out`` (if positive) through
       them, shared equally (origin FROM_FEEDING: U-234's 810 keV E0 branch in Pa-234m decay,
       the 43.5 and 99.9 keV transitions below it, which the data set gives no RI);
@@ -174,6 +178,11 @@ def _balance(
         out = sum(total(t) for t in known)
         if i in stops or not ts:
             feed[i] = ensdf.get(i, 0.0)
+            if not ts and i not in stops and feed[i] + into > 0:  # no known de-excitation
+                extra = [i, 0, levels[i], feed[i] + into, 0.0, 0.0, 0.0, 0.0, 0.0, FROM_FEEDING, 0]
+                transitions.append(extra)
+                by_from.setdefault(i, []).append(extra)
+                by_to.setdefault(0, []).append(extra)
             continue
         if unknown:
             feed[i] = ensdf.get(i, 0.0)
