@@ -126,9 +126,11 @@ def test_pa234m_e0_branch_has_its_own_intensity():
     ce = sum(ln.intensity for ln in lines if ln.kind.startswith("ce") and round(ln.energy, 3) in e0)
     flux = scheme.level_energy == 809.96
     assert flux.sum() == 1
-    # the level's flux (feeding + cascades into it), from the same arrays as the table
+    # its direct feeding, from the same arrays as the table
     fed = sum(
-        p for p, lv in zip(scheme.entries.prob, scheme.entries.level) if lv == np.argmax(flux)
+        p
+        for p, lv in zip(scheme.entries.prob, scheme.entries.level, strict=True)
+        if lv == np.argmax(flux)
     )
     assert 100 * ce == pytest.approx(0.73, abs=0.01)
     assert 100 * fed == pytest.approx(0.948 * 1.0016 * 0.9984, rel=1e-6)
