@@ -8,10 +8,10 @@ from __future__ import annotations
 import math
 
 from score4.decay import decay_scheme, known_nuclides
-from score4.decay.data import decay_data
-from score4.decay.table import radiation_table
 from score4.decay.chain import build_chain, chain_activities
+from score4.decay.data import decay_data
 from score4.decay.spectra import BetaSpectrum
+from score4.decay.table import radiation_table
 
 
 def line(name: str, kind: str, energy: float):
