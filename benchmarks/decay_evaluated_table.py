@@ -21,9 +21,10 @@ def main() -> None:
     )
     print(
         "| nuclide | mode | Q AME2020 (keV) | Q ENSDF (keV) | gammas >= 0.05 % | "
-        "largest gamma deviation (%) | intensity scale | from level feeding >= 0.05 % |"
+        "largest gamma deviation (%) | largest feeding change (% per decay) | intensity scale | "
+        "from level feeding >= 0.05 % |"
     )
-    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for name in names:
         rec = decay_data()["nuclides"][name]
         total = sum(m["branching"] for m in rec["modes"])
@@ -44,8 +45,10 @@ def main() -> None:
                 if t[10] or t[3] <= 0:
                     continue
                 key = round(min(t[2], levels[int(t[0])] - levels[int(t[1])]), 4)
-                into = fill if int(t[9]) == 1 else data
-                into[key] = into.get(key, 0.0) + t[3] * share
+                if int(t[9]) == 1:
+                    fill[key] = fill.get(key, 0.0) + t[3] * share
+                else:  # the data set's intensity (a scaled line emits another)
+                    data[key] = data.get(key, 0.0) + t[11] * share
             scale = m.get("intensity_scale", 1.0)
             shown = {k: v for k, v in data.items() if v >= MIN_PERCENT}
             worst = max(
@@ -66,9 +69,16 @@ def main() -> None:
                 for f in mine
             )
             q_ensdf = f"{m['q_ensdf_keV']:g}({m['dq_ensdf_keV']:g})"
+            moved = max(
+                (
+                    abs(f["intensity"] - f.get("intensity_ensdf", f["intensity"]))
+                    for f in m["feeds"]
+                ),
+                default=0.0,
+            )
             print(
                 f"| {name} | {m['mode']} | {m['q_keV']:.2f} | {q_ensdf} | {len(shown)} | "
-                f"{100 * worst:.2f} | {scale:.4g} | {fed or '-'} |"
+                f"{100 * worst:.2f} | {moved * share:.2f} | {scale:.4g} | {fed or '-'} |"
             )
 
 

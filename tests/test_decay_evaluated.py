@@ -48,7 +48,7 @@ def _evaluated(name: str):
                 filled[key] = filled.get(key, 0.0) + t[3] * share * m.get("intensity_scale", 1.0)
                 continue
             d = data.setdefault(key, [0.0, 0.0])
-            d[0] += t[3] * share
+            d[0] += t[11] * share  # the data set's RI x NR
             d[1] = float(np.hypot(d[1], t[4] * share))
     return data, filled, scales
 

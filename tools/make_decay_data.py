@@ -88,12 +88,14 @@ FROM_DATA, FROM_FEEDING = 0, 1
 def _levels(d: dict, isomers: set[float]) -> tuple[list[float], list[list[float]], list[int]]:
     """Level energies, transitions and stop levels of a data set, intensities as evaluated.
 
-    A transition is ``[from, to, E, I, dI, a, aK, aL, aM+, origin, e0]`` with ``I = RI x NR``
-    the gamma intensity per 100 decays of the mode (ENSDF's per 100 decays of the parent is
-    that times BR), ``dI`` its uncertainty (RI's and NR's), ``origin`` FROM_DATA and ``e0`` 1
-    for an E0 transition (no gamma: ``I`` is then its conversion intensity). Transitions the
-    data set gives no usable intensity (RI blank: E0 branches, gammas seen only in
-    coincidence; or ``RI NR (1 + a)`` above 110 per 100 decays, which cannot be a gamma
+    A transition is ``[from, to, E, I, dI, a, aK, aL, aM+, origin, e0, I_data]`` with
+    ``I = RI x NR`` the gamma intensity per 100 decays of the mode (ENSDF's per 100 decays of
+    the parent is that times BR), ``dI`` its uncertainty (RI's and NR's), ``origin``
+    FROM_DATA and ``e0`` 1 for an E0 transition (no gamma: ``I`` is then its conversion
+    intensity); ``I_data`` keeps the data set's ``RI x NR`` (0 where it gives none) when
+    :func:`_balance` fills ``I``. Transitions the data set gives no usable intensity (RI blank:
+    E0 branches, gammas seen only in coincidence; or ``RI NR (1 + a)`` above 110 per 100
+    decays, which cannot be a gamma
     intensity: Ra-228's 12.75 keV) get theirs in :func:`_balance`.
     """
     nr, dnr, _, _ = _norm(d)
@@ -113,7 +115,9 @@ def _levels(d: dict, isomers: set[float]) -> tuple[list[float], list[list[float]
             if ri * nr * (1.0 + a) > 110.0:
                 ri = dri = 0.0
             di = ri * nr * ((dri / ri) ** 2 + dnr**2) ** 0.5 if ri > 0 else 0.0
-            transitions.append([i, j, energy, ri * nr, di, a, k, lsh, rest, FROM_DATA, int(e0)])
+            transitions.append(
+                [i, j, energy, ri * nr, di, a, k, lsh, rest, FROM_DATA, int(e0), ri * nr]
+            )
     stops = [i for i, e in enumerate(levels) if i and round(e, 2) in isomers]
     return levels, transitions, stops
 
@@ -138,7 +142,10 @@ def _balance(
       them, shared equally (origin FROM_FEEDING: U-234's 810 keV E0 branch in Pa-234m decay,
       the 43.5 and 99.9 keV transitions below it, which the data set gives no RI);
     * a level with only known transitions out is fed ``out - in`` (ENSDF's feedings are
-      themselves such balances; they differ within their uncertainties);
+      themselves such balances; they differ within their uncertainties, mostly: the alpha
+      feedings of U-235, Th-227, Pa-231 and Ac-227, measured directly, differ more, because
+      the balance of their highly converted low-energy transitions does not close; the gamma
+      lines are kept and the alpha intensities follow, docs/decay.md);
     * where ``in`` exceeds ``out`` and the level has no transitions without intensity, the
       filled (FROM_FEEDING) transitions into it are lowered first, with the feeding of the
       level they leave (Ra-228: the 12.75 keV transition into the 20.19 keV level, whose one
@@ -179,7 +186,7 @@ def _balance(
         if i in stops or not ts:
             feed[i] = ensdf.get(i, 0.0)
             if not ts and i not in stops and feed[i] + into > 0:  # no known de-excitation
-                extra = [i, 0, levels[i], feed[i] + into, 0.0, 0.0, 0.0, 0.0, 0.0, FROM_FEEDING, 0]
+                extra = [i, 0, levels[i], feed[i] + into, 0, 0, 0, 0, 0, FROM_FEEDING, 0, 0]
                 transitions.append(extra)
                 by_from.setdefault(i, []).append(extra)
                 by_to.setdefault(0, []).append(extra)
@@ -204,7 +211,7 @@ def _balance(
                 feed[src] -= cut
                 into -= cut
         if into > out:  # what still arrives unaccounted for goes to the ground state
-            extra = [i, 0, levels[i], into - out, 0.0, 0.0, 0.0, 0.0, 0.0, FROM_FEEDING, 0]
+            extra = [i, 0, levels[i], into - out, 0, 0, 0, 0, 0, FROM_FEEDING, 0, 0]
             transitions.append(extra)
             by_from.setdefault(i, []).append(extra)
             by_to.setdefault(0, []).append(extra)
