@@ -274,6 +274,7 @@ def test_chain_events_share_the_activities():
         ((["Pb206"], None), "no decay data for Pb206"),
         (("Pb210", "Pb207"), "Pb207 is not in the chain of Pb210"),
         ((["Pb210", "Po214"], None), "Po214 is not a daughter of an earlier member"),
+        (("U238", "U238"), "U238 is the chain's head"),
     ],
 )
 def test_bad_chains(args, message):
