@@ -7,9 +7,11 @@ Per decay (:meth:`DecayScheme.sample`):
    keeps what is dropped: spontaneous fission, branches below 1e-5);
 2. what the branch emits:
 
-   * **alpha**: the alpha and the recoiling daughter (an ion primary such as ``"Pb206"``), back
-     to back, sharing ``Q + E(parent level) - E(daughter level)`` by exact relativistic two-body
-     kinematics (AME2020 atomic masses minus the electrons);
+   * **alpha**: the alpha at ENSDF's measured energy and the recoiling daughter (an ion
+     primary such as ``"Pb206"``) with the alpha's momentum, back to back (exact relativistic
+     kinematics, AME2020 atomic masses minus the electrons); where the line has no uncertainty
+     or lies more than 2 sigma from ``Q + E(parent level) - E(daughter level)``, the two share
+     that energy by two-body kinematics instead;
    * **beta-** / **beta+**: the electron or positron from the branch's spectrum
      (:mod:`score4.decay.spectra`); the antineutrino/neutrino is not emitted; the beta recoil
      (at most a few tens of eV here) is not emitted either;
@@ -18,16 +20,18 @@ Per decay (:meth:`DecayScheme.sample`):
 
 3. the gamma cascade from the fed level down to the ground state (or to a long-lived level that
    is a nuclide of its own, Pa-234m): at each level a transition by its total intensity
-   ``I_gamma (1 + alpha)``; each transition is a gamma, or a conversion electron from the K, L or
-   M+ shell by the BrIcc shell coefficients, with energy ``E_gamma - B`` (binding energy of the
-   shell's first subshell: K, L1, M1);
+   ``I_gamma (1 + alpha)`` (the data set's, or from level feeding: ``tools/make_decay_data.py``);
+   an E0 transition is a conversion electron only; any other is a gamma, or a conversion
+   electron from the K, L or M+ shell by the BrIcc shell coefficients, with energy
+   ``E_gamma - B`` (binding energy of the shell's first subshell: K, L1, M1);
 4. each K or L vacancy (conversion or capture) fills by one photon or one electron: a K (L3)
    X-ray line by its relative intensity with probability omega_K (omega_L3), else a KLL
    (L3MM) Auger electron of energy ``B_K - B_L2 - B_L3`` (``B_L3 - B_M4 - B_M5``). The vacancies
    this leaves are not followed (their energy, a few keV at most, is not emitted).
 
 All directions are isotropic and independent (no angular correlations) except the recoil,
-opposite to its alpha. Emitted energy per decay is at most Q by construction.
+opposite to its alpha. Emitted energy per decay is at most Q by construction, plus for alpha
+decays the measured line's excess over ``Q - E(level)`` (``alpha_excess_kev``, within 2 sigma).
 """
 
 from __future__ import annotations
@@ -172,7 +176,7 @@ class DecayScheme:
     trans_energy: np.ndarray  # keV
     trans_cum: np.ndarray  # (T, 3): cumulative P(gamma), +P(ce-K), +P(ce-L)
     ce_energy: np.ndarray  # (T, 3): keV of ce-K, ce-L, ce-M+
-    trans_origin: np.ndarray  # (T,) 0 the data set's intensity, 1 from level feeding, 2 scaled
+    trans_origin: np.ndarray  # (T,) 0 the data set's intensity, 1 from level feeding
     assumed_transitions: int
     atoms: list[dict] = field(default_factory=list)
     _inverse: np.ndarray = field(default_factory=lambda: np.zeros((0, INVERSE_POINTS)))
