@@ -69,7 +69,7 @@ def _filled_lines(record: dict) -> list[dict]:
         for t in m.get("transitions", []):
             if int(t[9]) != 1 or t[3] <= 0:
                 continue
-            share = m["branching"] / total / 100.0
+            share = m["branching"] / total / 100.0 * m.get("intensity_scale", 1.0)
             out.append(
                 {
                     "energy_keV": round(t[2], 4),
