@@ -43,6 +43,7 @@ def cancel_latency(repeat: int, wait: float) -> None:
 
     sys.path.insert(0, str(ROOT / "tests"))
     from score4.config import parse_config
+    from score4.run_plan import plan_run
     from score4.sim.dask_backend import DaskExecutor
     from score4.sim.runtime import resolve_physics
     from score4.sim.worker import Chunk, WorkerSpec
@@ -57,7 +58,7 @@ def cancel_latency(repeat: int, wait: float) -> None:
         ) as cluster,
         distributed.Client(cluster) as client,
     ):
-        spec = WorkerSpec(config, resolve_physics("lite"), 3, Path(tmp), "fp")
+        spec = WorkerSpec(plan_run(config, physics=resolve_physics("lite")), Path(tmp))
         pid = client.run(os.getpid)
         for k in range(repeat):
             todo = [Chunk(2 * k, 0, 100), Chunk(2 * k + 1, 100, 1_000_000)]

@@ -27,6 +27,8 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+from score4.run_plan import plan_run
+
 HERE = Path(__file__).resolve().parent
 EXAMPLE = HERE.parent / "examples" / "detector_module"
 
@@ -39,7 +41,7 @@ def measure(config_path: str, events: int) -> tuple[float, float]:
 
     config = load_config(config_path)
     t0 = time.perf_counter()
-    sim = Simulation(config, resolve_physics("lite"), log_path=Path(os.devnull))
+    sim = Simulation(plan_run(config, physics=resolve_physics("lite")), log_path=Path(os.devnull))
     build = time.perf_counter() - t0
     sim.run(sim.source.events(1, 0, 20), event_geant4_seeds(1, 0, 20))
     primaries = sim.source.events(1, 20, events)

@@ -34,6 +34,8 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+from score4.run_plan import plan_run
+
 SURFACE = {
     "kind": "spikes",
     "shape": "pyramid",
@@ -104,7 +106,7 @@ def measure(data: dict, events: int) -> dict:
 
     cfg = parse_config(data)
     t0 = time.perf_counter()
-    sim = Simulation(cfg, resolve_physics("lite"), log_path=Path(os.devnull))
+    sim = Simulation(plan_run(cfg, physics=resolve_physics("lite")), log_path=Path(os.devnull))
     build = time.perf_counter() - t0
     warm = sim.source.events(1, 0, 20)
     sim.run(warm, event_geant4_seeds(1, 0, 20))

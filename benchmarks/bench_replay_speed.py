@@ -23,6 +23,8 @@ import subprocess
 import sys
 import time
 
+from score4.run_plan import plan_run
+
 
 def config(face: str, ions: str, events: int) -> dict:
     data: dict = {
@@ -60,7 +62,9 @@ def batches(face: str, ions: str, events: int, count: int) -> list[float]:
     from score4.sim.seeds import event_geant4_seeds
     from score4.sim.simulation import Simulation
 
-    sim = Simulation(parse_config(config(face, ions, events)), resolve_physics("lite"))
+    sim = Simulation(
+        plan_run(parse_config(config(face, ions, events)), physics=resolve_physics("lite"))
+    )
     sim.run(sim.source.events(1, 0, 200), event_geant4_seeds(1, 0, 200))  # warm up
     out = []
     for b in range(count):

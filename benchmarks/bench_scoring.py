@@ -20,6 +20,8 @@ import time
 
 import numpy as np
 
+from score4.run_plan import plan_run
+
 CONFIG = {
     "physics": "lite",
     "targets": [
@@ -70,7 +72,7 @@ def measure(method: str, n: int) -> dict:
         scoring.VolumeScorer.attach = attach
         scoring.VolumeScorer.resolve_ids = lambda self: None
         scoring.VolumeScorer.read = read
-    sim = Simulation(config, resolve_physics("lite"), log_path=None)
+    sim = Simulation(plan_run(config, physics=resolve_physics("lite")), log_path=None)
     if method == "stepping":
         g4 = sim.g4
         crystal = sim.geometry.scoring["crystal"][0]

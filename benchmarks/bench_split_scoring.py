@@ -21,6 +21,8 @@ import subprocess
 import sys
 import time
 
+from score4.run_plan import plan_run
+
 
 def config(volumes: int, split: bool, po210: bool) -> dict:
     targets = [
@@ -50,7 +52,7 @@ def measure(volumes: int, split: bool, n: int, po210: bool) -> dict:
     from score4.sim.simulation import Simulation
 
     cfg = parse_config(config(volumes, split, po210))
-    sim = Simulation(cfg, resolve_physics("lite"), log_path=None)
+    sim = Simulation(plan_run(cfg, physics=resolve_physics("lite")), log_path=None)
     primaries = sim.source.events(1, 0, n)
     sim.run(sim.source.events(1, n, 50), 7)  # warm-up: libraries, first-event costs
     best = float("inf")

@@ -109,6 +109,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from score4.run_plan import plan_run
+
 ROOT = Path(__file__).resolve().parents[1]
 SURF = ROOT / "examples" / "surfaces"
 PYRAMIDS = {"kind": "spikes", "nx": 50, "ny": 50, "width": "10 um", "height": "10 um"}
@@ -217,7 +219,7 @@ def warm_case(case: str, events: int) -> None:
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
 
-    sim = Simulation(parse_config(config(case, events)), resolve_physics("lite"))
+    sim = Simulation(plan_run(parse_config(config(case, events)), physics=resolve_physics("lite")))
     primaries = sim.source.primaries(np.random.default_rng(5), 0, 200 + events)
     sim.run(primaries.select_events(0, 200), 1)
     c0 = time.process_time()

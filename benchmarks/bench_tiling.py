@@ -81,6 +81,8 @@ import time
 
 import numpy as np
 
+from score4.run_plan import plan_run
+
 MARK = "BENCH_RESULT "
 FACE_CM = 10.0
 PATCH_MM = 0.5
@@ -161,7 +163,7 @@ def timed_simulation(data: dict):
     simulation.build_world = timed_build
     config = parse_config(data)
     t0 = time.perf_counter()
-    sim = simulation.Simulation(config, resolve_physics("lite"))
+    sim = simulation.Simulation(plan_run(config, physics=resolve_physics("lite")))
     return sim, {"init_s": time.perf_counter() - t0, **timed}
 
 

@@ -18,6 +18,8 @@ import time
 
 import numpy as np
 
+from score4.run_plan import plan_run
+
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -51,7 +53,7 @@ def main() -> None:
         },
         "run": {"events": args.events, "seed": 1},
     }
-    sim = Simulation(parse_config(data), resolve_physics("lite"))
+    sim = Simulation(plan_run(parse_config(data), physics=resolve_physics("lite")))
     transport = sim.heavy_ions
     assert transport is not None
     primaries = sim.source.events(1, 0, args.events)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from score4.run_plan import plan_run
+
 
 def locate(path: str, points: list) -> list:
     """Names of the physical volumes Geant4's navigator finds at world ``points`` of a GDML
@@ -22,13 +24,12 @@ def built_world_locate(config_path: str, points: list) -> dict:
     physical volume name and which scoring column its logical volume counts for."""
     from score4.config import load_config
     from score4.geometry.world import build_world
-    from score4.scene import build_scene
     from score4.sim.runtime import import_geant4, resolve_physics
 
     config = load_config(config_path)
-    scene = build_scene(config)
-    g4 = import_geant4(resolve_physics("lite"))
-    built = build_world(g4, config, scene)
+    plan = plan_run(config, physics=resolve_physics("lite"), source=False)
+    g4 = import_geant4(plan.physics)
+    built = build_world(g4, plan)
     column = {id(lv): name for name, lvs in built.scoring.items() for lv in lvs}
     keep = list(built.scoring.values())
     nav = g4.G4Navigator()
@@ -97,12 +98,11 @@ def trace_built(config_path: str, rays: list) -> list:
     """Ray paths through the world score4 builds for a run."""
     from score4.config import load_config
     from score4.geometry.world import build_world
-    from score4.scene import build_scene
     from score4.sim.runtime import import_geant4, resolve_physics
 
     config = load_config(config_path)
     g4 = import_geant4(resolve_physics("lite"))
-    built = build_world(g4, config, build_scene(config))
+    built = build_world(g4, plan_run(config, physics=resolve_physics("lite"), source=False))
     nav = g4.G4Navigator()
     nav.SetWorldVolume(built.world)
     return [_trace(g4, nav, o, d) for o, d in rays]

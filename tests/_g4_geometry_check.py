@@ -2,19 +2,21 @@
 
 from __future__ import annotations
 
+from score4.run_plan import plan_run
+
 
 def check(config_data: dict, plant_overlap: bool) -> tuple[bool, list[str], int, int]:
     from score4.config import parse_config
     from score4.geometry.check import check_placements
     from score4.geometry.world import build_world
-    from score4.scene import build_scene
     from score4.sim.runtime import import_geant4, redirect_native_output, resolve_physics
 
     config = parse_config(config_data)
     g4 = import_geant4(resolve_physics("lite"))
     with redirect_native_output(None):
-        built_scene = build_scene(config)
-        built = build_world(g4, config, built_scene)
+        plan = plan_run(config, physics=resolve_physics("lite"), source=False)
+        built_scene = plan.scene
+        built = build_world(g4, plan)
         world_lv = built.world.GetLogicalVolume()
         if plant_overlap:  # a copper box straddling the top face of the crystal
             solid = g4.G4Box("intruder", 0.05, 0.05, 0.05)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from score4.run_plan import plan_run
+
 
 def ranges(cases, events, seed, histories, materials=None, alphas="geant4"):
     """simulate_ranges for ``cases`` (tuples of RangeCase arguments); plain arrays per case."""
@@ -28,7 +30,7 @@ def run_config(data: dict, seed: int):
     from score4.sim.simulation import Simulation
 
     config = parse_config(data)
-    sim = Simulation(config, resolve_physics("lite"))
+    sim = Simulation(plan_run(config, physics=resolve_physics("lite")))
     primaries = sim.source.primaries(np.random.default_rng(seed), 0, config.run.events)
     scores = sim.run(primaries, seed, endpoints=True)
     return {
@@ -134,7 +136,7 @@ def pushed_recoils(events: int):
         },
         "run": {"events": events, "seed": 4},
     }
-    sim = Simulation(parse_config(data), resolve_physics("lite"))
+    sim = Simulation(plan_run(parse_config(data), physics=resolve_physics("lite")))
     g4 = sim.g4
     lead = sim.particle("Pb206")
     push = [False]
@@ -219,7 +221,9 @@ def nuclide_recoils(nuclide: str, events: int):
         },
         "run": {"events": events, "seed": 5},
     }
-    sim = Simulation(parse_config(data), resolve_physics("full", needs_decay=True))
+    sim = Simulation(
+        plan_run(parse_config(data), physics=resolve_physics("full", needs_decay=True))
+    )
     primaries = sim.source.primaries(np.random.default_rng(5), 0, events)
     sim.run(primaries, 5)
     return [(x.event, x.ion, x.energy, x.reinjected) for x in sim.intercepted]

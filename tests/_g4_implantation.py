@@ -8,14 +8,16 @@ from pathlib import Path
 def implant_chunk(data: dict, atoms: int, seed: int) -> dict:
     """One chunk of ``atoms`` atoms of a config dict, as a worker runs it; plain arrays."""
     from score4.config import parse_config
+    from score4.run_plan import plan_run
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
     from score4.sim.worker import Chunk, WorkerSpec, simulate_chunk
 
     config = parse_config(data)
     choice = resolve_physics("lite")
-    sim = Simulation(config, choice, seed=seed)
-    spec = WorkerSpec(config, choice, seed, Path("."), "")
+    plan = plan_run(config, seed=seed, physics=choice)
+    sim = Simulation(plan)
+    spec = WorkerSpec(plan, Path("."))
     primaries, scores = simulate_chunk(sim, spec, Chunk(0, 0, atoms))
     return {
         "particle": primaries.particle,

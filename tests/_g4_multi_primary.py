@@ -5,6 +5,7 @@ import numpy as np
 
 def po210_like_events(n: int) -> list[float]:
     from score4.config import parse_config
+    from score4.run_plan import plan_run
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
     from score4.source.primaries import Primaries
@@ -12,7 +13,7 @@ def po210_like_events(n: int) -> list[float]:
     from conftest import config_dict
 
     config = parse_config(config_dict(physics={"mode": "lite", "production_cut": "0.7 mm"}))
-    sim = Simulation(config, resolve_physics("lite"))
+    sim = Simulation(plan_run(config, physics=resolve_physics("lite")))
     # Two primaries per event from one vertex 1 um deep: an alpha down, a Pb-206 recoil up.
     z = -1e-3
     primaries = Primaries(

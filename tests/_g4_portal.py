@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from score4.run_plan import plan_run
+
 
 def run_primaries(config_data: dict, primaries: dict, g4_seed: int = 3) -> dict:
     """Track ``primaries`` (Primaries fields as arrays) through ``config_data``'s geometry.
@@ -17,7 +19,7 @@ def run_primaries(config_data: dict, primaries: dict, g4_seed: int = 3) -> dict:
     from score4.source.primaries import Primaries
 
     config = parse_config(config_data)
-    sim = Simulation(config, resolve_physics("lite"))
+    sim = Simulation(plan_run(config, physics=resolve_physics("lite")))
     scores = sim.run(Primaries(**primaries), g4_seed)
     out = {q: v.tolist() for q, v in scores.items()}
     out["volumes"] = sim.volumes

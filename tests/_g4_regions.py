@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from score4.run_plan import plan_run
+
 
 def region_and_deposits(data: dict, seed: int, keep_parallel_region: bool):
     """Is DefaultRegionForParallelWorld in the region store after set-up, and the deposits of
@@ -15,7 +17,7 @@ def region_and_deposits(data: dict, seed: int, keep_parallel_region: bool):
     if keep_parallel_region:
         simulation.drop_unused_parallel_world_region = lambda g4: False
     config = parse_config(data)
-    sim = simulation.Simulation(config, resolve_physics("lite"))
+    sim = simulation.Simulation(plan_run(config, physics=resolve_physics("lite")))
     store = sim.g4.G4RegionStore.GetInstance()
     present = store.GetRegion("DefaultRegionForParallelWorld", False) is not None
     primaries = sim.source.primaries(np.random.default_rng(seed), 0, config.run.events)

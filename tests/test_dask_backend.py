@@ -19,6 +19,7 @@ from score4.cli.main import main
 from score4.config import parse_config
 from score4.errors import ConfigError, Score4Error
 from score4.output import read_results
+from score4.run_plan import plan_run
 from score4.sim.engine import run
 from score4.sim.runtime import resolve_physics
 from score4.sim.worker import CRASH_HOOK, Chunk, WorkerSpec, chunk_path
@@ -187,7 +188,7 @@ def test_a_cancelled_chunk_stops_on_its_worker_and_the_worker_runs_on(tmp_path):
     from score4.sim.dask_backend import DaskExecutor
 
     config = parse_config(config_dict(run={"events": 100, "seed": 3}))
-    spec = WorkerSpec(config, resolve_physics("lite"), 3, tmp_path, "fp")
+    spec = WorkerSpec(plan_run(config, physics=resolve_physics("lite")), tmp_path)
     # chunk 1 would run for minutes (~1 ms per event); one worker runs chunk 0 first
     todo = [Chunk(0, 0, 100), Chunk(1, 100, 1_000_000)]
     with (

@@ -25,7 +25,8 @@ from score4.config import parse_config
 from score4.errors import Score4Error
 from score4.limits import MEMORY_ENV
 from score4.output import read_results
-from score4.sim.engine import config_fingerprint, run
+from score4.run_plan import config_fingerprint
+from score4.sim.engine import run
 from score4.sim.worker import CRASH_HOOK
 
 from conftest import config_dict, tmpfs_mount_command

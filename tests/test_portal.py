@@ -19,8 +19,9 @@ from score4.geometry.portal import (
     subworld_bounds,
     subworld_centres,
 )
-from score4.geometry.world import portal_layout, world_half_size
+from score4.geometry.world import portal_layout
 from score4.output import read_results
+from score4.run_plan import plan_run
 from score4.scene import build_scene, face_frame
 from score4.sim.engine import run
 from score4.sim.portal_action import _Layer
@@ -481,10 +482,10 @@ def test_exit_faces_of_a_subworld():
 def test_subworlds_lie_outside_the_region_particles_reach():
     """The layout puts every portal layer's subworlds beyond Lab (the native world) and inside the
     world; a subworld origin where particles can move is refused with a clear error."""
-    config = parse_config(tiled_config("portal", face_source("+z")))
-    scene = build_scene(config)
-    lab = world_half_size(config, scene)
-    half, origins = portal_layout(config, scene)
+    plan = plan_run(parse_config(tiled_config("portal", face_source("+z"))))
+    scene = plan.scene
+    lab = scene.world_half
+    half, origins = portal_layout(plan)
     assert set(origins) == {layer.name for layer in scene.layers}
     boxes = [subworld_bounds(layer, origins[layer.name]) for layer in scene.layers]
     for lo, hi in boxes:
@@ -504,7 +505,7 @@ def test_subworlds_lie_outside_the_region_particles_reach():
     ):
         check_unreachable(scene.layers[0], (0.05, 0.0, 0.0), -lab, lab)
     native = parse_config(tiled_config("native", face_source("+z")))
-    assert portal_layout(native, build_scene(native))[1] == {}
+    assert portal_layout(plan_run(native))[1] == {}
 
 
 # --- per-track cells without a tracking action (no Geant4) --------------------------------------

@@ -6,10 +6,12 @@ import h5py
 import numpy as np
 import pytest
 
+from score4 import api
 from score4.config import load_config, parse_config
 from score4.errors import ConfigError, Score4Error
 from score4.output import read_results, summarize
 from score4.sim.engine import run
+from score4.sim.run_record import RunRecord
 
 from conftest import ROOT
 
@@ -49,14 +51,14 @@ def test_same_seed_same_output_and_jobs_do_not_matter(tmp_path: Path, make_confi
 
 
 def test_run_record_and_summary(tmp_path: Path, make_config):
-    res = read_results(
-        run(
-            make_config(run={"events": 50, "seed": 3}),
-            tmp_path / "r.h5",
-            progress=False,
-            echo=lambda m: None,
-        )
-    )
+    config = make_config(run={"events": 50, "seed": 3})
+    res = read_results(run(config, tmp_path / "r.h5", progress=False, echo=lambda m: None))
+    # a library user's plan of the same configuration draws the events the run tracked
+    plan = api.plan_run(config)
+    assert plan.source is not None
+    drawn = plan.source.events(plan.seed, 0, 50)
+    assert np.array_equal(drawn.position, res.primaries.position)
+    assert np.array_equal(drawn.direction, res.primaries.direction)
     rec = res.run
     assert rec["seed"] == 3
     assert rec["n_events"] == 50
@@ -69,6 +71,11 @@ def test_run_record_and_summary(tmp_path: Path, make_config):
     )  # stored with units: parse_config reads it back
     assert parse_config(rec["config"]).source.energy == pytest.approx(5.3)
     assert rec["wall_time_s"] > 0
+    # the typed record reads the file's /run attributes back, every one of them
+    record = RunRecord.from_dict(rec)
+    assert (record.seed, record.n_events, record.n_atoms, record.jobs) == (3, 50, None, 1)
+    assert {"volumes", "source", "normalisation_version"} <= set(record.normalisation)
+    assert record.to_dict() == rec
     s = summarize(res)
     (vol,) = s["volumes"]
     assert vol["name"] == "crystal"
@@ -149,7 +156,7 @@ def test_results_reader_rejects_other_files(tmp_path: Path):
 
 def test_resume_reuses_only_chunks_of_the_same_run(tmp_path: Path, make_config):
     from score4.output import write_chunk
-    from score4.sim.engine import config_fingerprint
+    from score4.run_plan import config_fingerprint
     from score4.sim.worker import chunk_path
     from score4.source.primaries import Primaries
 
@@ -203,7 +210,8 @@ def test_resume_keeps_the_chunks_of_the_interrupted_run_whatever_jobs_is_now(
     tmp_path: Path, make_config
 ):
     from score4.output import write_chunk
-    from score4.sim.engine import config_fingerprint, plan_chunks
+    from score4.run_plan import config_fingerprint
+    from score4.sim.engine import plan_chunks
     from score4.sim.worker import chunk_path
     from score4.source.primaries import Primaries
 

@@ -33,6 +33,7 @@ SECTIONS = {
     "Geant4 set-up": ["import_geant4", "physics_list", "after_initialize"],
     "Surfaces": ["build_surface", "load_surface", "save_surface", "Surface"],
     "Your world: rough faces and sources": ["World", "RoughenedVolume"],
+    "A run configuration": ["plan_run", "RunPlan"],
     "Events": ["PrimaryGenerator", "HeavyIonReplay", "ReplayedIon"],
     "What sources give": ["SampledSource", "BulkSource", "Primaries"],
 }
@@ -43,6 +44,7 @@ MEMBERS = {
     "SampledSource": ["events", "primaries"],
     "BulkSource": ["events", "primaries"],
     "Primaries": ["n_events", "event_offsets", "select_events"],
+    "RunPlan": ["output", "model", "per_atom"],
 }
 
 _ROLE = re.compile(r":(?:func|class|meth|attr|mod|data|exc):`~?([^`]+)`")

@@ -14,6 +14,9 @@ generator and event loop):
   and returns the logical volumes to score; :meth:`World.source` makes a source on faces of a
   volume (below the rough surface, with a depth profile) or in its bulk, emitting a particle,
   a nuclide's decays (``Po210``) or a chain's (score4's own decay data, no Geant4 data).
+* **A run configuration**: :func:`plan_run` resolves one (a ``score4 run`` YAML file read by
+  :func:`score4.config.load_config`) into the :class:`RunPlan` that ``score4 run`` itself runs:
+  its source (``plan.source``) and seed (``plan.seed``) give your application the same events.
 * **Events**: :class:`PrimaryGenerator` fills your ``G4Event`` s from a source;
   :class:`HeavyIonReplay` moves heavy ions (the Pb-206 recoil of Po-210) along TRIM
   trajectories through your geometry, as a hook for your end-of-event action.
@@ -43,6 +46,7 @@ from pydantic import ValidationError
 from .config import GdmlVolume, PhysicsConfig, RoughFace, SourceConfig
 from .errors import ConfigError
 from .geometry.volumes import GeometryModel, Instance
+from .run_plan import RunPlan, plan_run
 from .scene import RoughLayer, Scene, TargetVolume, _gdml_target, make_layer
 from .schema import describe_validation_error
 from .source.build import BulkSource, SampledSource, source_from_config
@@ -58,6 +62,7 @@ __all__ = [
     "PrimaryGenerator",
     "ReplayedIon",
     "RoughenedVolume",
+    "RunPlan",
     "SampledSource",
     "Surface",
     "World",
@@ -66,6 +71,7 @@ __all__ = [
     "import_geant4",
     "load_surface",
     "physics_list",
+    "plan_run",
     "save_surface",
 ]
 

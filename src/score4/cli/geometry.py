@@ -46,19 +46,21 @@ def check(config_file: Path, points: int, max_placements: int, tolerance: str, l
     from ..errors import naming_file
     from ..geometry.check import check_placements
     from ..geometry.world import build_world
-    from ..scene import build_scene
+    from ..run_plan import plan_run
     from ..schema import quantity
     from ..sim.runtime import import_geant4, redirect_native_output, resolve_physics
 
     config = load_config(config_file)
     tol = quantity(tolerance, "length", "--tolerance", non_negative=True)
+    lite = resolve_physics("lite")  # geometry needs no physics data
     with naming_file(config_file):
-        scene = build_scene(config)
-    g4 = import_geant4(resolve_physics("lite"))  # geometry needs no physics data
+        plan = plan_run(config, physics=lite, source=False)
+    scene = plan.scene
+    g4 = import_geant4(lite)
     with tempfile.TemporaryDirectory() as tmp:
         log = log_path or Path(tmp) / "geant4.log"
         with redirect_native_output(log), naming_file(config_file):
-            built = build_world(g4, config, scene)
+            built = build_world(g4, plan)
             report = check_placements(built.world, points, tol, max_placements, layers=scene.layers)
         click.echo(
             f"Geant4 checked {report.checked} of {report.total} placements with {points} points each"

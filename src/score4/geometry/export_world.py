@@ -23,20 +23,22 @@ from ..errors import ConfigError, Score4Error
 
 
 def _write(config: RunConfig, out: str) -> dict:
-    from ..scene import build_scene
+    from ..run_plan import plan_run
     from ..sim.runtime import import_geant4, redirect_native_output, resolve_physics
     from .gdml import drop_nist_state
     from .world import build_world
 
-    g4 = import_geant4(resolve_physics("lite"))  # geometry and NIST materials need no data
-    scene = build_scene(config)
+    lite = resolve_physics("lite")  # geometry and NIST materials need no data
+    g4 = import_geant4(lite)
+    plan = plan_run(config, physics=lite, source=False)
+    scene = plan.scene
     path = Path(out)
     tmp = path.with_name(path.name + ".partial.gdml")
     tmp.unlink(missing_ok=True)  # Geant4's writer refuses to overwrite
     with tempfile.TemporaryDirectory(prefix="score4-export-") as folder:
         log = Path(folder) / "geant4.log"
         with redirect_native_output(log):
-            built = build_world(g4, config, scene)
+            built = build_world(g4, plan)
             parser = g4.G4GDMLParser()
             parser.SetAddPointerToName(True)
             parser.Write(str(tmp), built.world, True)

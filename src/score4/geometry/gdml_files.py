@@ -108,10 +108,18 @@ def cache_dir() -> Path:
 
 def load_geometry_model(path: str | Path, parameter: str = "world.gdml") -> GeometryModel:
     """The volume model of the GDML world in ``path`` (read by Geant4 in a subprocess, cached)."""
+    return keyed_geometry_model(path, parameter)[0]
+
+
+def keyed_geometry_model(
+    path: str | Path, parameter: str = "world.gdml"
+) -> tuple[GeometryModel, str]:
+    """:func:`load_geometry_model` and the model's :func:`model_key` (the content of all its
+    files), from one reading of the files."""
     files = gdml_files(path, parameter)
     key = model_key(files)
     if key in _MODELS:
-        return _MODELS[key]
+        return _MODELS[key], key
     cached = cache_dir() / f"{key}.json"
     data = None
     if cached.is_file():
@@ -131,7 +139,7 @@ def load_geometry_model(path: str | Path, parameter: str = "world.gdml") -> Geom
     data["source"] = str(path)
     model = GeometryModel.from_dict(data)
     _MODELS[key] = model
-    return model
+    return model, key
 
 
 def _geant4_complaint(text: str) -> str | None:

@@ -19,8 +19,8 @@ from __future__ import annotations
 from collections import Counter
 from typing import Any
 
-from ..config import RunConfig
 from ..errors import ConfigError
+from ..run_plan import RunPlan
 from ..scene import FaceFrame, RoughLayer, Scene, TargetVolume
 from .gdml import read_gdml
 from .materials import find_material
@@ -143,9 +143,12 @@ class LiveWorld:
         return patch_lvs
 
 
-def build_gdml_world(g4, config: RunConfig, scene: Scene):
-    """The GDML world with the run's targets scored and its boxes and rough layers placed."""
+def build_gdml_world(g4, plan: RunPlan):
+    """The GDML world with the run's targets scored and its boxes and rough layers placed
+    (Geant4 reads the GDML file here, the only time in a worker process)."""
     from .world import BuiltGeometry
+
+    config, scene = plan.config, plan.scene
 
     model = scene.model
     assert model is not None

@@ -8,6 +8,7 @@ import numpy as np
 
 from ..config import BoxVolume, RunConfig
 from ..errors import ConfigError
+from ..run_plan import RunPlan
 from ..scene import Scene, TargetVolume
 from .materials import find_material
 from .portal import PortalGeometry, place_portal, subworld_bounds, trigger_extent
@@ -29,19 +30,15 @@ class BuiltGeometry:
     portals: list[PortalGeometry] = field(default_factory=list)
 
 
-def world_half_size(config: RunConfig, scene: Scene) -> np.ndarray:
-    """Half-lengths of a world box centred on the origin that holds every target, rough layer and the margin."""
-    return scene.world_half
-
-
-def portal_layout(config: RunConfig, scene: Scene) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+def portal_layout(plan: RunPlan) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """World half-lengths and the first subworld centre of every portal layer (by layer name).
 
-    Particles move in the box of :func:`world_half_size` (``Lab``); the subworlds of all portal
-    layers follow each other along +x beyond it, one trigger width apart, and the world grows to
-    hold them with the margin.
+    Particles move in the box of ``plan.scene.world_half`` (``Lab``: every target, rough layer
+    and the margin); the subworlds of all portal layers follow each other along +x beyond it,
+    one trigger width apart, and the world grows to hold them with the margin.
     """
-    lab = world_half_size(config, scene)
+    scene = plan.scene
+    lab = scene.world_half
     origins: dict[str, np.ndarray] = {}
     hi = lab.copy()
     x = lab[0]
@@ -53,12 +50,13 @@ def portal_layout(config: RunConfig, scene: Scene) -> tuple[np.ndarray, dict[str
         lo_k, hi_k = subworld_bounds(layer, origins[layer.name])
         hi = np.maximum(hi, np.maximum(np.abs(lo_k), np.abs(hi_k)))
         x = hi_k[0]
-    half = np.maximum(lab, hi + config.world.margin) if origins else lab
+    half = np.maximum(lab, hi + plan.config.world.margin) if origins else lab
     return half, origins
 
 
-def check_materials(g4, config: RunConfig) -> None:
+def check_materials(g4, plan: RunPlan) -> None:
     """Resolve every material now, so a typo fails before any output is written."""
+    config = plan.config
     for name in config.materials:
         find_material(g4, name, f"materials.{name}", config.materials)
     if config.world.gdml is None:
@@ -109,7 +107,7 @@ def cut_for_layers(g4, scene: Scene, target: TargetVolume, solid, name: str):
     raise ConfigError(f"{target.name}: into: true needs a G4Box or G4Tubs, not a {target.solid}")
 
 
-def build_world(g4, config: RunConfig, scene: Scene) -> BuiltGeometry:
+def build_world(g4, plan: RunPlan) -> BuiltGeometry:
     """World box with the configured targets and their rough layers placed inside it.
 
     With a portal layer the targets go into a box ``Lab`` of the native world's size (world
@@ -118,11 +116,12 @@ def build_world(g4, config: RunConfig, scene: Scene) -> BuiltGeometry:
     action kills it, so nothing it does after the native world's end counts. A GDML world is
     built by :func:`score4.geometry.gdml_world.build_gdml_world`.
     """
+    config, scene = plan.config, plan.scene
     if scene.model is not None:
         from .gdml_world import build_gdml_world
 
-        return build_gdml_world(g4, config, scene)
-    half, origins = portal_layout(config, scene)
+        return build_gdml_world(g4, plan)
+    half, origins = portal_layout(plan)
     world_solid = g4.G4Box("World", *half)
     world_material = find_material(g4, config.world.material, "world.material", config.materials)
     outer = find_material(g4, "G4_Galactic") if origins else world_material
@@ -131,7 +130,7 @@ def build_world(g4, config: RunConfig, scene: Scene) -> BuiltGeometry:
     built = BuiltGeometry(world=world_pv, keep=[world_solid, world_lv, world_pv])
     mother_lv, reachable = world_lv, None
     if origins:
-        lab = world_half_size(config, scene)
+        lab = scene.world_half
         lab_solid = g4.G4Box("Lab", *lab)
         mother_lv = g4.G4LogicalVolume(lab_solid, world_material, "Lab")
         lab_pv = g4.G4PVPlacement(

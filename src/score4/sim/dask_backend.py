@@ -277,7 +277,8 @@ _g4_executor: ThreadPoolExecutor | None = None
 def setup_key(spec: WorkerSpec) -> str:
     """Identifies the Geant4 set-up a chunk needs (configuration and physics; not the seed)."""
     text = json.dumps(
-        {"config": config_to_dict(spec.config), "physics": asdict(spec.choice)}, sort_keys=True
+        {"config": config_to_dict(spec.plan.config), "physics": asdict(spec.plan.physics)},
+        sort_keys=True,
     )
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -352,7 +353,7 @@ def _simulation(spec: WorkerSpec):
         try:
             with warnings.catch_warnings():  # the client has shown them already
                 warnings.simplefilter("ignore", Score4Warning)
-                _held["sim"] = Simulation(spec.config, spec.choice, log_path=log, seed=spec.seed)
+                _held["sim"] = Simulation(spec.plan, log_path=log)
         except BaseException as err:
             _held["error"] = err
             raise

@@ -1,4 +1,11 @@
-"""Run a configuration: plan chunks, run them on an executor, merge their files.
+"""Run a configuration: plan, execute or resume the chunks on an executor, merge their files.
+
+:func:`run` is three steps: **plan** (:func:`score4.run_plan.plan_run` resolves the
+configuration once; :func:`preflight` checks it by drawing the first events), **execute or
+resume** (:func:`prepare` cuts the chunks and finds those a resume reuses, :func:`execute` runs
+the others; the workers receive the :class:`~score4.run_plan.RunPlan` in a
+:class:`~score4.sim.worker.WorkerSpec`), **merge** (:func:`run_record` makes the
+:class:`~score4.sim.run_record.RunRecord`, :func:`merge` writes the results file).
 
 The calling process never imports Geant4. An *executor* runs the chunks elsewhere: local
 worker processes (:class:`LocalProcesses`, the default) or a Dask cluster
@@ -21,7 +28,6 @@ Faults:
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import json
 import multiprocessing as mp
 import platform
@@ -34,6 +40,7 @@ import time
 import warnings
 from collections import Counter, deque
 from collections.abc import Generator, Iterable, Iterator, Sequence, Sized
+from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from importlib.metadata import version
 from multiprocessing.connection import wait
@@ -51,12 +58,11 @@ from ..geometry.walls import warn_rays_in_walls
 from ..normalisation import run_normalisation
 from ..output import chunk_counts, merge_chunks
 from ..progress import progress_bar
-from ..scene import build_scene
+from ..run_plan import RunPlan, plan_run
 from ..schema import input_paths
-from ..source.build import make_source, needs_radioactive_decay
 from ..source.vertex_file import read_vertex_file
 from .conservation import check_chunk_files
-from .runtime import resolve_physics
+from .run_record import RunRecord
 from .seeds import BLOCK_EVENTS
 from .worker import Chunk, WorkerSpec, chunk_path, worker_main
 
@@ -161,18 +167,6 @@ def plan_chunks(n_events: int, chunk_events: int, jobs: int = 1) -> ChunkPlan:
     return ChunkPlan(n_events, chunk_size(n_events, chunk_events, jobs))
 
 
-def config_fingerprint(config: RunConfig, seed: int) -> str:
-    """Identifies what a chunk file was made from, so resume never mixes runs (a GDML world by
-    the content of its files, not only their names)."""
-    data: dict[str, Any] = {"config": config_to_dict(config), "seed": seed}
-    if config.world.gdml is not None:
-        from ..geometry.gdml_files import gdml_files, model_key
-
-        data["gdml"] = model_key(gdml_files(config.world.gdml))
-    text = json.dumps(data, sort_keys=True)
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
-
-
 def make_executor(cluster: Any, jobs: int, echo) -> Executor:
     """The executor for ``cluster``: ``None`` = local processes, else Dask (see :func:`run`)."""
     if cluster is None:
@@ -182,8 +176,29 @@ def make_executor(cluster: Any, jobs: int, echo) -> Executor:
     return DaskExecutor(cluster, jobs, echo=echo)
 
 
+@dataclass(frozen=True)
+class Preflight:
+    """What the parent's checks before a run found out (:func:`preflight`)."""
+
+    unit: str  # "events", or "atoms" for per-atom histories
+    rows_per_unit: float  # primaries per event (per atom for per-atom histories)
+
+
+@dataclass
+class Execution:
+    """The chunks of a run and which of them are to run (:func:`prepare`), then what ran."""
+
+    parts: Path
+    chunks: ChunkPlan
+    done: set[int]  # finished chunks a resume reuses
+    workers: int
+    backend: str = ""
+    info: dict = field(default_factory=dict)  # a worker's ready info
+    started: float = 0.0
+
+
 def run(
-    config: RunConfig,
+    config: RunConfig | RunPlan,
     out: str | Path,
     *,
     overwrite: bool = False,
@@ -195,10 +210,14 @@ def run(
 ) -> Path:
     """Simulate ``config`` and write the results to ``out``; return ``out``.
 
+    Three steps: plan (:func:`~score4.run_plan.plan_run` and :func:`preflight`, in this
+    process), execute or resume (:func:`prepare`, :func:`execute`: the chunks on workers), merge
+    (:func:`merge`: the chunk files and the :class:`~score4.sim.run_record.RunRecord`).
+
     Parameters
     ----------
     config
-        The validated run configuration.
+        The validated run configuration, or its :class:`~score4.run_plan.RunPlan`.
     out
         Results file (HDF5). Chunks are kept in ``<out>.parts/`` until the merge.
     overwrite
@@ -232,17 +251,31 @@ def run(
     """
     out = Path(out)
     echo = echo or (lambda msg: print(msg, file=sys.stderr))
-    check_output_file(out, overwrite, "--out", input_paths(config))
-    seed = config.run.seed
+    given = config.config if isinstance(config, RunPlan) else config
+    check_output_file(out, overwrite, "--out", input_paths(given))
     if jobs < 1:
         raise ConfigError(f"--jobs: must be at least 1, got {jobs}")
-    choice = resolve_physics(config.physics.mode, needs_decay=needs_radioactive_decay(config))
-    # Build the scene and draw the first events here: bad surfaces, files, constraints and
-    # vertices outside the world fail now, not in a worker (which checks every event again).
-    scene = build_scene(config)
-    source = make_source(config, scene)
+    plan = config if isinstance(config, RunPlan) else plan_run(config)
+    checked = preflight(plan)
+    job = prepare(plan, out, jobs, resume, checked, echo)
+    executor = make_executor(
+        cluster, job.workers, echo
+    )  # before creating anything: a bad --cluster leaves no trace
+    execute(plan, job, executor, progress, out)
+    record = run_record(plan, job)
+    merge(out, job, record, echo)
+    return out
+
+
+def preflight(plan: RunPlan) -> Preflight:
+    """The parent's checks before a run: draw the first events (bad surfaces, files,
+    constraints and vertices outside the world fail now, not in a worker), the memory of the
+    merge, the source's normalisation, hand-made rays on block walls, lite-physics warnings."""
+    config, scene, source = plan.config, plan.scene, plan.source
+    if source is None:
+        raise ValueError("preflight: the plan has no source (made with source=False)")
     drawn = min(config.run.events, BLOCK_EVENTS)  # events, or atoms for per-atom histories
-    sample = source.events(seed, 0, drawn)
+    sample = source.events(plan.seed, 0, drawn)
     unit = f"{getattr(source, 'unit', 'event')}s"
     rows_per_unit = len(sample) / (drawn if unit == "atoms" else sample.n_events)
     check_run_memory(config, len(sample) / sample.n_events, sample.n_events / drawn)
@@ -251,10 +284,17 @@ def run(
         rays = read_vertex_file(config.source.vertices)
         text = warn_rays_in_walls(scene, rays.position, rays.direction)
         if text:
-            warnings.warn(text, errors.Score4Warning, stacklevel=2)
-    if choice.warning:
-        warnings.warn(choice.warning, errors.Score4Warning, stacklevel=2)
-    fingerprint = config_fingerprint(config, seed)
+            warnings.warn(text, errors.Score4Warning, stacklevel=3)
+    if plan.physics.warning:
+        warnings.warn(plan.physics.warning, errors.Score4Warning, stacklevel=3)
+    return Preflight(unit, rows_per_unit)
+
+
+def prepare(
+    plan: RunPlan, out: Path, jobs: int, resume: bool, checked: Preflight, echo
+) -> Execution:
+    """The chunks of the run, those a resume reuses from ``<out>.parts/``, and the workers."""
+    n_events = plan.config.run.events
     parts = out.with_name(out.name + ".parts")
     if parts.exists() and not resume:
         raise ConfigError(
@@ -263,13 +303,13 @@ def run(
         )
     resuming = resume and parts.exists()
     # A resumed run keeps the chunks of the run it continues, whatever --jobs is now.
-    chunks = (resuming and _recall_plan(parts, config.run.events)) or plan_chunks(
-        config.run.events, config.run.chunk_events, jobs
+    chunks = (resuming and _recall_plan(parts, n_events)) or plan_chunks(
+        n_events, plan.config.run.chunk_events, jobs
     )
-    done = _finished_chunks(parts, chunks, fingerprint, echo) if resuming else set()
+    done = _finished_chunks(parts, chunks, plan.fingerprint, echo) if resuming else set()
     limits.check_memory(  # every worker holds one chunk's primaries and scores
-        jobs * chunks.size * (limits.PRIMARY_BYTES * rows_per_unit + 64),
-        f"{jobs} worker(s) holding chunks of {chunks.size} {unit}",
+        jobs * chunks.size * (limits.PRIMARY_BYTES * checked.rows_per_unit + 64),
+        f"{jobs} worker(s) holding chunks of {chunks.size} {checked.unit}",
         "run.chunk_events",
         "use a smaller run.chunk_events",
     )
@@ -284,18 +324,23 @@ def run(
             f"notice: --jobs {jobs} but only {n_todo} chunk(s) to run ({_chunks_text(chunks, done)}); "
             f"using {workers} worker(s)"
         )
-    executor = make_executor(
-        cluster, workers, echo
-    )  # before creating anything: a bad --cluster leaves no trace
-    started = time.time()
+    return Execution(parts, chunks, done, workers)
+
+
+def execute(plan: RunPlan, job: Execution, executor: Executor, progress: bool, out: Path) -> None:
+    """Run the chunks not yet done on ``executor`` into ``job.parts``; on any failure keep the
+    finished chunks for a resume (or leave no trace when none finished) and raise."""
+    parts, chunks = job.parts, job.chunks
+    job.backend = executor.description
+    job.started = time.time()
     try:  # from the first file on: a Ctrl-C here also leaves nothing half-made
         parts.mkdir(exist_ok=True)
         _remember_plan(parts, chunks)
         for stale in parts.glob("*.partial"):  # temporary files of writers that were killed
             stale.unlink()
-        spec = WorkerSpec(config, choice, seed, parts, fingerprint)
+        spec = WorkerSpec(plan, parts)
         with _sigterm_as_interrupt():
-            info = _run_chunks(executor, spec, chunks, done, progress)
+            info = _run_chunks(executor, spec, chunks, job.done, progress)
     except KeyboardInterrupt:
         kept = _count_chunk_files(parts, chunks)
         if kept:
@@ -325,56 +370,67 @@ def run(
         if not _count_chunk_files(parts, chunks):
             shutil.rmtree(parts, ignore_errors=True)
         raise
-    info = info or _recall_info(parts)
-    files = [chunk_path(parts, c.index) for c in chunks]
+    job.info = info or _recall_info(parts)
+
+
+def run_record(plan: RunPlan, job: Execution) -> RunRecord:
+    """The run record of a finished run: the plan, what the workers reported, sums over the
+    chunk files (energy balance, untracked photons, ion counts), Geant4's warnings."""
+    config, scene, choice, info = plan.config, plan.scene, plan.physics, job.info
+    files = [chunk_path(job.parts, c.index) for c in job.chunks]
     balance = _energy_balance(files, choice.decay)
-    exceptions = _geant4_exceptions(parts)
-    record = {
-        "config": config_to_dict(config),
-        "patch_maps": {layer.name: layer.patch_map.to_dict() for layer in scene.layers},
-        "seed": seed,
-        "physics_mode": choice.mode,
-        "physics_requested": choice.requested,
-        "physics_lacks": choice.lacks,
-        "missing_data_sets": list(choice.missing_data),
-        "removed_processes": info.get("removed_processes", []),
-        **{k: info[k] for k in ("trim_library_seed",) if k in info},  # runs with a TRIM replay
-        "rough_shares": {layer.name: layer.rough_share for layer in scene.layers},
-        "gdml_files": scene.model.files if scene.model is not None else [],
-        "score4_version": __version__,
-        "geant4_pybind_version": version("geant4_pybind"),
-        "geant4_version": info.get("geant4_version", ""),
-        **_run_size(config, files),
-        "n_chunks": len(chunks),
-        "chunk_events": chunks.size,
-        "jobs": workers,
-        "backend": executor.description,
-        "resumed_chunks": len(done),
-        "wall_time_s": round(time.time() - started, 3),
-        "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
-        "host": platform.node(),
-        "geant4_warnings": _geant4_warnings(exceptions),
+    exceptions = _geant4_exceptions(job.parts)
+    return RunRecord(
+        config=config_to_dict(config),
+        patch_maps={layer.name: layer.patch_map.to_dict() for layer in scene.layers},
+        seed=plan.seed,
+        physics_mode=choice.mode,
+        physics_requested=choice.requested,
+        physics_lacks=choice.lacks,
+        missing_data_sets=list(choice.missing_data),
+        removed_processes=info.get("removed_processes", []),
+        trim_library_seed=info.get("trim_library_seed"),  # runs with a TRIM replay
+        rough_shares={layer.name: layer.rough_share for layer in scene.layers},
+        gdml_files=scene.model.files if scene.model is not None else [],
+        score4_version=__version__,
+        geant4_pybind_version=version("geant4_pybind"),
+        geant4_version=info.get("geant4_version", ""),
+        **_run_size(plan, files),
+        n_chunks=len(job.chunks),
+        chunk_events=job.chunks.size,
+        jobs=job.workers,
+        backend=job.backend,
+        resumed_chunks=len(job.done),
+        wall_time_s=round(time.time() - job.started, 3),
+        created_utc=datetime.now(UTC).isoformat(timespec="seconds"),
+        host=platform.node(),
+        geant4_warnings=_geant4_warnings(exceptions),
         **_stuck_tracks(exceptions),
         **balance,
         **_untracked_photons(files),
-        **_counts(files, config),
+        **_counts(files, plan),
         # contract 1, what the events stand for: volumes (one per scoring column: name, material,
         # density, volume, mass; from the worker's Geant4 world), the sampled area or mass, the
         # decays (score4.normalisation)
-        **run_normalisation(config, scene, volumes=info.get("volumes") or None),
-    }
+        normalisation=run_normalisation(config, scene, volumes=info.get("volumes") or None),
+    )
+
+
+def merge(out: Path, job: Execution, record: RunRecord, echo) -> None:
+    """Merge the chunk files into ``out`` with ``record``; collect Geant4's logs beside it and
+    remove the parts folder."""
+    files = [chunk_path(job.parts, c.index) for c in job.chunks]
     try:
         check_free_space(out, sum(f.stat().st_size for f in files))
-        merge_chunks(files, out, record)
+        merge_chunks(files, out, record.to_dict())
     except Score4Error as err:
         raise Score4Error(
-            f"{err}; all {len(chunks)} chunks are finished and kept in {parts}: fix the cause (e.g. free disk "
+            f"{err}; all {len(job.chunks)} chunks are finished and kept in {job.parts}: fix the cause (e.g. free disk "
             f"space) and run the same command again with --resume to merge them"
         ) from None
-    log = _collect_logs(parts, out)
-    shutil.rmtree(parts)
+    log = _collect_logs(job.parts, out)
+    shutil.rmtree(job.parts)
     echo(f"Geant4 output: {log}")
-    return out
 
 
 def check_run_memory(
@@ -405,7 +461,7 @@ def _run_chunks(
     finished: set[int] = set()
     failures: dict[int, str] = {}
     # per-atom histories (a chain with implantation): run.events and the progress count atoms
-    unit = "atoms" if getattr(spec.config.source.decay, "implantation", False) else "events"
+    unit = "atoms" if spec.plan.per_atom else "events"
     bar = progress_bar(chunks.n_events, sum(chunks[i].n_events for i in done), unit, "run", show)
     told: set[tuple[str, str]] = set()
     try:
@@ -707,7 +763,7 @@ def _energy_balance(files: list[Path], decay: bool) -> dict:
         return {"energy_check": "skipped: radioactive decay adds energy to the primaries'"}
     balance = check_chunk_files(files)
     if balance.warning:
-        warnings.warn(balance.warning, errors.Score4Warning, stacklevel=3)
+        warnings.warn(balance.warning, errors.Score4Warning, stacklevel=4)
     return {
         "energy_check": "event deposit (all volumes) <= primaries' kinetic energy + 1 eV",
         "energy_violations": balance.violations,
@@ -730,27 +786,26 @@ def _untracked_photons(files: list[Path]) -> dict:
     return {"untracked_gamma_energy_MeV": total, "untracked_gamma_events": events}
 
 
-def _run_size(config: RunConfig, files: list[Path]) -> dict:
+def _run_size(plan: RunPlan, files: list[Path]) -> dict:
     """``n_events``; with per-atom histories (a chain with implantation) ``run.events`` counts
     atoms (``n_atoms``) and ``n_events`` is the events their decays made."""
-    decay = config.source.decay
-    if not getattr(decay, "implantation", False):
-        return {"n_events": config.run.events}
+    if not plan.per_atom:
+        return {"n_events": plan.config.run.events}
     events = 0
     for path in files:
         with h5py.File(path, "r") as f:
             events += len(f["events/event_id"])
-    return {"n_atoms": config.run.events, "n_events": events}
+    return {"n_atoms": plan.config.run.events, "n_events": events}
 
 
-def _counts(files: list[Path], config: RunConfig) -> dict:
+def _counts(files: list[Path], plan: RunPlan) -> dict:
     """Run-record counts added up over the chunks: ``intercepted_ions`` and
     ``reinjected_ions`` (runs with the TRIM replay), ``implantation`` (chains with it)."""
     counts = chunk_counts(files)
     out = {}
-    if config.physics.heavy_ions == "trim":
+    if plan.config.physics.heavy_ions == "trim":
         out = {k: int(counts.get(k, 0)) for k in ("intercepted_ions", "reinjected_ions")}
-    if getattr(config.source.decay, "implantation", False):
+    if plan.per_atom:
         out["implantation"] = counts.get("implantation", {})
     return out
 
@@ -858,7 +913,7 @@ def _stuck_tracks(exceptions: list[tuple[str, str, str]]) -> dict:
             "such beams from the cell grid (docs/tiling.md#rays-on-block-walls); the count is the "
             "run record's stuck_events_aborted",
             errors.Score4Warning,
-            stacklevel=3,
+            stacklevel=4,
         )
     return {"stuck_tracks_pushed": counts[STUCK_PUSHED], "stuck_events_aborted": aborted}
 

@@ -133,6 +133,7 @@ def simulate_ranges(
     alphas: str = "geant4",
 ) -> list[tuple[RangeSample, Composition]]:
     """Run ``events`` ions per case; return per case where they ended and the block's matter."""
+    from ..run_plan import plan_run
     from .simulation import Simulation
 
     if not cases:
@@ -143,7 +144,7 @@ def simulate_ranges(
     choice = resolve_physics(config.physics.mode)
     if log_path is None:
         log_path = Path(tempfile.mkdtemp(prefix="score4-range-")) / "geant4.log"
-    sim = Simulation(config, choice, log_path=log_path, seed=int(seed))
+    sim = Simulation(plan_run(config, seed=int(seed), physics=choice), log_path=log_path)
     scores = sim.run(beams(cases, events), int(seed), endpoints=True)
     endpoints = sim.endpoints
     assert endpoints is not None  # asked for above

@@ -15,11 +15,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..config import RunConfig
 from ..errors import ConfigError, RunCancelled, Score4Error
 from ..geometry.world import BuiltGeometry, build_world, check_materials
-from ..scene import build_scene
-from ..source.build import make_source
+from ..run_plan import RunPlan
 from ..source.primaries import Primaries
 from .feed import EventFeed, replay_row
 from .heavy_ions import IonFate
@@ -31,7 +29,7 @@ from .physics import (
     set_production_cut,
     strip_data_hungry_processes,
 )
-from .runtime import PhysicsChoice, import_geant4, redirect_native_output
+from .runtime import import_geant4, redirect_native_output
 from .scoring import SPLIT_QUANTITIES, VolumeScorer, ion_deposits
 from .seeds import library_trim_seed
 
@@ -68,20 +66,19 @@ class Simulation:
     geometry: BuiltGeometry
     scorer: VolumeScorer
 
-    def __init__(
-        self,
-        config: RunConfig,
-        choice: PhysicsChoice,
-        log_path: Path | None = None,
-        seed: int | None = None,
-    ) -> None:
-        """``seed``: the run seed (default ``config.run.seed``); it fixes the TRIM seed of the
-        trajectory libraries (:func:`score4.sim.seeds.library_trim_seed`)."""
-        self.config = config
-        self.run_seed = config.run.seed if seed is None else int(seed)
-        self.scene = build_scene(config)
-        self.source = make_source(config, self.scene)
-        self.choice = choice
+    def __init__(self, plan: RunPlan, log_path: Path | None = None) -> None:
+        """The application of ``plan`` (:func:`score4.run_plan.plan_run`): its scene, source and
+        physics; the plan's seed fixes the TRIM seed of the trajectory libraries
+        (:func:`score4.sim.seeds.library_trim_seed`). Geant4's console output goes to
+        ``log_path``."""
+        if plan.source is None:
+            raise ValueError("Simulation: the plan has no source (made with source=False)")
+        self.plan = plan
+        config = self.config = plan.config
+        self.run_seed = plan.seed
+        self.scene = plan.scene
+        self.source = plan.source
+        self.choice = plan.physics
         self.log_path = log_path
         self.quantities: tuple[str, ...] = ("edep",)
         if config.output.track_length:
@@ -92,12 +89,12 @@ class Simulation:
         self._reported, self._report_every = 0, 1
         self._stop: threading.Event | None = None  # see run()
         self._stopped = False
-        g4 = self.g4 = import_geant4(choice)
+        g4 = self.g4 = import_geant4(plan.physics)
         with redirect_native_output(log_path):
             self._build(g4)
 
     def _build(self, g4) -> None:
-        check_materials(g4, self.config)
+        check_materials(g4, self.plan)
         self.run_manager = g4.G4RunManagerFactory.CreateRunManager(g4.G4RunManagerType.Serial)
         ui = g4.G4UImanager.GetUIpointer()
         for cmd in (
@@ -111,7 +108,7 @@ class Simulation:
 
         class Detector(g4.G4VUserDetectorConstruction):
             def Construct(self):
-                sim.geometry = build_world(g4, sim.config, sim.scene)
+                sim.geometry = build_world(g4, sim.plan)
                 sim.scorer = VolumeScorer(g4, sim.geometry.scoring, sim.quantities)
                 return sim.geometry.world
 

@@ -31,12 +31,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..config import RunConfig
 from ..errors import Score4Error, Score4Warning
 from ..ions.trim_library import set_build_listener
 from ..output import write_chunk
+from ..run_plan import RunPlan
 from ..source.primaries import Primaries, atom_histories
-from .runtime import PhysicsChoice
 from .seeds import atom_event_geant4_seeds, event_geant4_seeds
 
 CRASH_HOOK = "SCORE4_TEST_CRASH_CHUNK"
@@ -54,13 +53,19 @@ class Chunk:
 
 @dataclass(frozen=True)
 class WorkerSpec:
-    """Everything a worker needs to build the application and run chunks of one run."""
+    """Everything a worker needs to build the application and run chunks of one run: the run
+    plan (it travels as its recipe, :mod:`score4.run_plan`) and where chunk files go."""
 
-    config: RunConfig
-    choice: PhysicsChoice
-    seed: int
+    plan: RunPlan
     parts_dir: Path
-    fingerprint: str
+
+    @property
+    def seed(self) -> int:
+        return self.plan.seed
+
+    @property
+    def fingerprint(self) -> str:
+        return self.plan.fingerprint
 
 
 def chunk_path(parts_dir: Path, index: int) -> Path:
@@ -147,7 +152,7 @@ def worker_main(spec: WorkerSpec, conn) -> None:
     chunk = None
     set_build_listener(lambda phase, what, text: _report(conn, ("library", phase, what, text)))
     try:
-        sim = Simulation(spec.config, spec.choice, log_path=log, seed=spec.seed)
+        sim = Simulation(spec.plan, log_path=log)
         conn.send(("ready", ready_info(sim)))
         while (chunk := conn.recv()) is not None:
             run_chunk(sim, spec, chunk, progress=lambda n: conn.send(("progress", n)))

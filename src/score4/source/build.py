@@ -14,6 +14,7 @@ about the source (kind, true and projected area, volume).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any, TypeVar
 
 import numpy as np
@@ -420,10 +421,10 @@ def source_from_config(src: SourceConfig, scene: Scene) -> SampledSource | BulkS
             ) from None
     inside = None
     if src.confine is True:
-        inside = lambda p: scene.inside_target(volume, p)  # noqa: E731
+        inside = partial(scene.inside_target, volume)  # a partial, not a lambda: picklable
     elif isinstance(src.confine, str):
         scene.inside_material(src.confine, np.zeros((0, 3)))  # fails now if no target has it
-        inside = lambda p: scene.inside_material(src.confine, p)  # noqa: E731
+        inside = partial(scene.inside_material, src.confine)
     try:
         sampler = VertexSampler(
             surface,  # type: ignore[arg-type]  # a ShapeSurfaceSampler plugs in by its hook
