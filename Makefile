@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.score4-installed
 PYTEST_ARGS ?=
 
-.PHONY: demo detector-module test test-deep lint docs-check docs-check-all clean
+.PHONY: demo detector-module test test-deep lint docs docs-check docs-check-all clean
 
 # score4 (editable) with the test extra, plus the pinned linters of the `lint` dependency group
 # (pip >= 25.1 reads dependency groups; the step upgrades pip first).
@@ -43,11 +43,13 @@ test: $(STAMP)
 test-deep: $(STAMP)
 	$(BIN)/python -m pytest -n 2 --dist loadgroup -m deep $(PYTEST_ARGS)
 
-# Lint and types: the same checks as the pre-commit hooks' ruff and mypy.
+# Lint and types: the same checks as the pre-commit hooks' ruff and mypy, and the import
+# contracts of pyproject.toml ([tool.importlinter]: the process boundary, no cycles).
 lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy
+	$(BIN)/lint-imports
 
 # Re-run the commands behind every transcript and figure in README.md and docs/*.md
 # (docs/checks.yaml); fails on any difference and on a transcript or figure no check covers
@@ -61,5 +63,16 @@ docs-check: $(STAMP)
 docs-check-all: $(STAMP)
 	$(BIN)/python tools/docs_check.py --all
 
+# The documentation as a site in site/ (mkdocs.yml; the `docs` dependency group: MkDocs and
+# mkdocstrings, installed here on first use). Offline; --strict: a broken page, anchor or
+# docstring reference fails the build.
+DOCS_STAMP := $(VENV)/.score4-docs-installed
+$(DOCS_STAMP): $(STAMP)
+	$(BIN)/python -m pip install --quiet --group docs
+	touch $(DOCS_STAMP)
+
+docs: $(DOCS_STAMP)
+	$(BIN)/mkdocs build --strict
+
 clean:
-	rm -rf $(VENV) out build src/*.egg-info
+	rm -rf $(VENV) out build site src/*.egg-info

@@ -19,7 +19,7 @@ nox.options.default_venv_backend = "none"  # the Makefile owns .venv
 
 @nox.session(default=True)
 def lint(session: nox.Session) -> None:
-    """ruff check, ruff format --check and mypy (``make lint``)."""
+    """ruff check, ruff format --check, mypy and lint-imports (``make lint``)."""
     session.run("make", "lint", external=True)
 
 
@@ -33,6 +33,12 @@ def tests(session: nox.Session) -> None:
 def demo(session: nox.Session) -> None:
     """The paper's flat-vs-rough alpha example, plotted into out/demo (``make demo``)."""
     session.run("make", "demo", external=True)
+
+
+@nox.session(default=False)
+def docs(session: nox.Session) -> None:
+    """The documentation site, built offline and strictly into site/ (``make docs``)."""
+    session.run("make", "docs", external=True)
 
 
 if __name__ == "__main__":

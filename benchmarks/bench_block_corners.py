@@ -49,13 +49,13 @@ from pathlib import Path
 
 import numpy as np
 
-from score4.config import parse_config
-from score4.output import read_results
-from score4.scene import build_scene
-from score4.sim.engine import run
+from score4.inputs.config import parse_config
+from score4.runner.engine import run
+from score4.runner.output import read_results
 from score4.source.primaries import Primaries
 from score4.source.vertex_file import write_vertex_file
-from score4.surface import blocks as blk
+from score4.surface import block_cut as blk
+from score4.world.scene import build_scene
 
 RANDOM = {
     "kind": "random",
@@ -188,7 +188,7 @@ def union_cost(n: int) -> None:
     import resource
     import time
 
-    from score4.geometry.blocks import fast_tessellated
+    from score4.geometry.block_solids import fast_tessellated
     from score4.sim.runtime import import_geant4, resolve_physics
     from score4.surface.spec import build_surface
 

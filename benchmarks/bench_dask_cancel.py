@@ -42,9 +42,9 @@ def cancel_latency(repeat: int, wait: float) -> None:
     import distributed
 
     sys.path.insert(0, str(ROOT / "tests"))
-    from score4.config import parse_config
-    from score4.run_plan import plan_run
-    from score4.sim.dask_backend import DaskExecutor
+    from score4.inputs.config import parse_config
+    from score4.runner.dask_backend import DaskExecutor
+    from score4.runner.run_plan import plan_run
     from score4.sim.runtime import resolve_physics
     from score4.sim.worker import Chunk, WorkerSpec
 

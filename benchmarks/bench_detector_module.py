@@ -27,16 +27,16 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from score4.run_plan import plan_run
+from score4.runner.run_plan import plan_run
 
 HERE = Path(__file__).resolve().parent
 EXAMPLE = HERE.parent / "examples" / "detector_module"
 
 
 def measure(config_path: str, events: int) -> tuple[float, float]:
-    from score4.config import load_config
+    from score4.inputs.config import load_config
+    from score4.runner.seeds import event_geant4_seeds
     from score4.sim.runtime import resolve_physics
-    from score4.sim.seeds import event_geant4_seeds
     from score4.sim.simulation import Simulation
 
     config = load_config(config_path)

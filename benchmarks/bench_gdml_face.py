@@ -34,7 +34,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from score4.run_plan import plan_run
+from score4.runner.run_plan import plan_run
 
 SURFACE = {
     "kind": "spikes",
@@ -99,9 +99,9 @@ def config(case: str, gdml: Path, events: int) -> dict:
 
 
 def measure(data: dict, events: int) -> dict:
-    from score4.config import parse_config
+    from score4.inputs.config import parse_config
+    from score4.runner.seeds import event_geant4_seeds
     from score4.sim.runtime import resolve_physics
-    from score4.sim.seeds import event_geant4_seeds
     from score4.sim.simulation import Simulation
 
     cfg = parse_config(data)

@@ -4,7 +4,7 @@
 
 Writes ``--chunks`` chunk files of Po-210-like events (an alpha and a Pb-206 recoil per event,
 edep and track length in 2 volumes, extras depth/facet/patch), then merges them into one
-results file (score4.output.merge_chunks) in a fresh process per merge, alternately:
+results file (score4.runner.output.merge_chunks) in a fresh process per merge, alternately:
 
 ``memory``  the library as it is: HDF5 builds the file in a BytesIO image, then plain I/O
             writes the image to the temporary file (``files.atomic_h5``);
@@ -53,7 +53,7 @@ def _chunk_primaries(n: int, rng):
 
 
 def write_chunks(folder: Path, events: int, chunks: int) -> list[Path]:
-    from score4.output import write_chunk
+    from score4.runner.output import write_chunk
 
     rng = np.random.default_rng(1)
     size = events // chunks
@@ -81,7 +81,7 @@ def merge_once(way: str, chunk_list: str, out: str) -> None:
     """In a fresh process: merge the chunks; print one JSON line of figures."""
     import h5py
 
-    import score4.output as output
+    import score4.runner.output as output
     from score4.files import atomic_output
 
     if way == "direct":

@@ -28,7 +28,7 @@ def main() -> None:
     parser.add_argument("--wait", type=float, default=8.0)
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
-    from score4.sim.engine import plan_chunks
+    from score4.runner.engine import plan_chunks
 
     n = int(float(args.events))
     t = time.perf_counter()

@@ -23,7 +23,7 @@ import subprocess
 import sys
 import time
 
-from score4.run_plan import plan_run
+from score4.runner.run_plan import plan_run
 
 
 def config(face: str, ions: str, events: int) -> dict:
@@ -57,9 +57,9 @@ def config(face: str, ions: str, events: int) -> dict:
 
 def batches(face: str, ions: str, events: int, count: int) -> list[float]:
     """CPU ms per event of ``count`` batches (run in a process of its own: ``--one``)."""
-    from score4.config import parse_config
+    from score4.inputs.config import parse_config
+    from score4.runner.seeds import event_geant4_seeds
     from score4.sim.runtime import resolve_physics
-    from score4.sim.seeds import event_geant4_seeds
     from score4.sim.simulation import Simulation
 
     sim = Simulation(

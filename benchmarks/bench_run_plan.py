@@ -2,7 +2,7 @@
 
     .venv/bin/python benchmarks/bench_run_plan.py [--rounds 5] [--face-cm 10]
 
-A :class:`score4.run_plan.RunPlan` holds the resolved scene (targets, rough layers with their
+A :class:`score4.runner.run_plan.RunPlan` holds the resolved scene (targets, rough layers with their
 surfaces and patch maps) and the source. A worker (a spawned process, or a Dask task: Dask
 pickles a task's arguments with every task) can receive either
 
@@ -28,9 +28,9 @@ from pathlib import Path
 
 import yaml
 
-from score4 import run_plan
-from score4.config import parse_config
-from score4.run_plan import plan_run
+from score4.inputs.config import parse_config
+from score4.runner import run_plan
+from score4.runner.run_plan import plan_run
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 

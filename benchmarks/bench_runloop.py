@@ -9,7 +9,7 @@ Parts (each case runs in its own process, so its RSS and start-up are its own):
 
 ``startup``
     A one-event run of examples/paper_a_rough.yaml with one worker: CPU seconds of importing
-    ``score4.sim.engine`` (what the parent and every spawned worker import) and its RSS, of the
+    ``score4.runner.engine`` (what the parent and every spawned worker import) and its RSS, of the
     parent process and of the worker (everything before the first event, plus one event).
 ``faces``
     The paper's pyramid face (10 um pyramids, 0.5 mm patches of 50 x 50, one variant, multi-union)
@@ -225,8 +225,8 @@ def score4_cmd() -> list[str]:
 _STARTUP_PROBE = """
 import resource, sys, time
 c0 = time.process_time()
-from score4.sim import engine
-from score4.config import load_config
+from score4.runner import engine
+from score4.inputs.config import load_config
 imported = time.process_time() - c0
 rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 config = load_config(sys.argv[1])
@@ -259,7 +259,7 @@ def part_startup() -> None:
             ).stdout.split()
             rows.append([float(x) for x in out[-5:]])
     imported, rss, parent, worker, worker_rss = min(rows, key=lambda r: r[2] + r[3])
-    print(f"  import score4.sim.engine: CPU {imported:5.2f} s, RSS {rss:4.0f} MB")
+    print(f"  import score4.runner.engine: CPU {imported:5.2f} s, RSS {rss:4.0f} MB")
     print(f"  parent process (import, scene, 1 event drawn, merge): CPU {parent:5.2f} s")
     print(
         f"  worker process (import, Geant4 set-up, 1 event): CPU {worker:5.2f} s, "
@@ -343,9 +343,9 @@ def _spaced(n: int) -> str:
 
 def part_plans() -> None:
     """The nested layout's levels for the faces of ``part_faces`` (numpy only: exact counts)."""
-    from score4.config import parse_config
     from score4.geometry.tiling import grouping_plan
-    from score4.scene import build_scene
+    from score4.inputs.config import parse_config
+    from score4.world.scene import build_scene
 
     for side, variants in [(10.0, "one"), (100.0, "one"), (100.0, "random"), (100.0, "exact")]:
         layer = build_scene(parse_config(face_config(side, variants=variants))).layers[0]
@@ -390,8 +390,8 @@ def part_portal(events: int) -> None:
 
 _JOBS_PROBE = """
 import resource, sys, time
-from score4.sim import engine
-from score4.config import load_config
+from score4.runner import engine
+from score4.inputs.config import load_config
 config = load_config(sys.argv[1])
 events = int(sys.argv[3])
 config = config.model_copy(update={"run": config.run.model_copy(update={"events": events})})

@@ -16,11 +16,11 @@ import time
 
 import numpy as np
 
+from score4.inputs.units import nm, um
 from score4.source.depth import MeshDistance, VertexSampler
 from score4.source.emitters import Po210Emitter, make_primaries
 from score4.source.profiles import ExponentialProfile
 from score4.source.sampling import SurfaceSampler, TiledSurfaceSampler
-from score4.units import nm, um
 
 
 def pyramid_grid(n_side: int, pitch: float, rng: np.random.Generator) -> np.ndarray:

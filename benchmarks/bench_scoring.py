@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from score4.run_plan import plan_run
+from score4.runner.run_plan import plan_run
 
 CONFIG = {
     "physics": "lite",
@@ -41,7 +41,7 @@ CONFIG = {
 
 
 def measure(method: str, n: int) -> dict:
-    from score4.config import parse_config
+    from score4.inputs.config import parse_config
     from score4.sim import scoring
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation

@@ -36,7 +36,7 @@ from score4.shapes import (
 )
 from score4.source.depth import VertexSampler
 from score4.source.profiles import ExponentialProfile
-from score4.source.shapes import ShapeSurfaceSampler
+from score4.source.shape_sampling import ShapeSurfaceSampler
 
 ICPC_R = [0, 7, 7, 10, 10, 38, 40, 40, 35, 5, 5, 0]
 ICPC_Z = [0, 0, 2, 2, 0, 0, 2, 75, 80, 80, 30, 30]

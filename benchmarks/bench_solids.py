@@ -48,7 +48,7 @@ Same, tessellated only, with SetMaxVoxels(10000) before closing (--solids tessel
    10000 tessellated   voxel 0.24 s, dRSS 23 MB,  us/event 44.0
    99856 tessellated   voxel 10.4 s, dRSS 268 MB, us/event 111.0
   300304 tessellated   voxel 83.4 s, dRSS 822 MB, us/event 142.8
-1e6 spikes was not run here (DESIGN.md: a 1e6 multi-union does not finish in 10 min).
+1e6 spikes was not run here (docs/geant4-facts.md: a 1e6 multi-union does not finish in 10 min).
 
 Conclusion. For spike grids score4 should build the paper's G4MultiUnion by default: at every N
 it tracks faster (1e4: 13 vs 58 us/event; 1e5: 39 vs 130; 3e5: 106 vs 298, or 143 with
@@ -136,8 +136,8 @@ def measure(
     """Build one solid, place it in a world, track geantinos; runs in its own process."""
     from score4.geometry.solids import multiunion_solid, tessellated_solid
     from score4.sim.runtime import import_geant4, resolve_physics
-    from score4.surface.mesh import closed_body
     from score4.surface.spikes import SpikeGrid
+    from score4.surface.triangle_mesh import closed_body
 
     g4 = import_geant4(resolve_physics("lite"))
     rss_import = _rss_mb()

@@ -12,9 +12,9 @@ import functools
 import resource
 import time
 
-from score4.surface.mesh import closed_body, is_watertight
 from score4.surface.metrology import mesh_parameters
 from score4.surface.spikes import SpikeGrid
+from score4.surface.triangle_mesh import closed_body, is_watertight
 
 
 def _timed(fn, *args):

@@ -21,7 +21,7 @@ import subprocess
 import sys
 import time
 
-from score4.run_plan import plan_run
+from score4.runner.run_plan import plan_run
 
 
 def config(volumes: int, split: bool, po210: bool) -> dict:
@@ -47,7 +47,7 @@ def config(volumes: int, split: bool, po210: bool) -> dict:
 def measure(volumes: int, split: bool, n: int, po210: bool) -> dict:
     import numpy as np
 
-    from score4.config import parse_config
+    from score4.inputs.config import parse_config
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
 

@@ -109,7 +109,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from score4.run_plan import plan_run
+from score4.runner.run_plan import plan_run
 
 ROOT = Path(__file__).resolve().parents[1]
 SURF = ROOT / "examples" / "surfaces"
@@ -206,7 +206,7 @@ def run_case(case: str, events: int, tmp: Path) -> tuple[float, float]:
     subprocess.run(cmd, check=True, env={**os.environ, "PYTHONPATH": str(ROOT / "src")})
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
-    from score4.output import read_results
+    from score4.runner.output import read_results
 
     return cpu, float(read_results(out).scores["edep"]["crystal"].mean())
 
@@ -215,7 +215,7 @@ def warm_case(case: str, events: int) -> None:
     """Child process: build ``case`` once, run 200 warm-up events, then time ``events`` events
     (CPU of this process) in one BeamOn; print ms per event and the mean deposit."""
 
-    from score4.config import parse_config
+    from score4.inputs.config import parse_config
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
 
@@ -296,8 +296,8 @@ def build_case(n: int) -> None:
 
     g4 = import_geant4(resolve_physics("lite"))
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    from score4.geometry.blocks import fast_tessellated
-    from score4.surface.blocks import block_bodies
+    from score4.geometry.block_solids import fast_tessellated
+    from score4.surface.block_cut import block_bodies
     from score4.surface.spec import build_surface
 
     spec = {"kind": "random", "nx": n + 1, "ny": n + 1, "pitch": "0.5 um", "sq": "0.3 um"}

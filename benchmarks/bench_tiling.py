@@ -81,7 +81,7 @@ import time
 
 import numpy as np
 
-from score4.run_plan import plan_run
+from score4.runner.run_plan import plan_run
 
 MARK = "BENCH_RESULT "
 FACE_CM = 10.0
@@ -147,7 +147,7 @@ def run_config(tiling: str, face_cm: float = FACE_CM) -> dict:
 def timed_simulation(data: dict):
     """A lite :class:`Simulation` of config dict ``data`` and ``{"init_s", "build_s"}``: wall
     seconds of its whole set-up and of ``build_world`` within it (the config parsed before)."""
-    from score4.config import parse_config
+    from score4.inputs.config import parse_config
     from score4.sim import simulation
     from score4.sim.runtime import resolve_physics
 
@@ -195,8 +195,8 @@ def measure_patch(size_mm: float, solid: str) -> dict:
     """One patch solid of 10 um pyramids, ``size_mm`` wide, built alone in this process."""
     from score4.geometry.solids import multiunion_solid, tessellated_solid
     from score4.sim.runtime import import_geant4, resolve_physics
-    from score4.surface.mesh import closed_body
     from score4.surface.spikes import SpikeGrid
+    from score4.surface.triangle_mesh import closed_body
 
     g4 = import_geant4(resolve_physics("lite"))
     base = _rss_mb()

@@ -18,7 +18,7 @@ import time
 
 import numpy as np
 
-from score4.run_plan import plan_run
+from score4.runner.run_plan import plan_run
 
 
 def main() -> None:
@@ -29,10 +29,10 @@ def main() -> None:
     args = parser.parse_args()
     os.environ["XDG_CACHE_HOME"] = tempfile.mkdtemp(prefix="score4-reuse-")  # cold cache
 
-    from score4.config import parse_config
+    from score4.inputs.config import parse_config
     from score4.ions.trim_library import cache_dir
+    from score4.runner.seeds import event_geant4_seeds
     from score4.sim.runtime import resolve_physics
-    from score4.sim.seeds import event_geant4_seeds
     from score4.sim.simulation import Simulation
 
     data = {

@@ -26,11 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
-from score4.config import parse_config
-from score4.decay.data import ZAI
+from score4.decay.nuclear_data import ZAI
 from score4.decay.scheme import decay_scheme
-from score4.output import read_results
-from score4.sim.engine import run
+from score4.inputs.config import parse_config
+from score4.runner.engine import run
+from score4.runner.output import read_results
 
 PB210, BI210, PO210 = ZAI("Pb210"), ZAI("Bi210"), ZAI("Po210")
 CRYSTAL = {

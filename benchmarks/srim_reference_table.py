@@ -52,7 +52,7 @@ ANGLES = (0.0, 60.0)
 
 def compositions() -> dict:
     """Composition of each material as Geant4 builds it (atoms and density)."""
-    from score4.geometry.materials import find_material
+    from score4.inputs.materials import find_material
     from score4.ions.composition import Composition
     from score4.sim.runtime import import_geant4, resolve_physics
 

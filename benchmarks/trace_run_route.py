@@ -8,7 +8,7 @@ of the steps a configuration goes through: reading and validating it, planning (
 physics, the GDML model and fingerprint), the parent's checks, the worker's rebuild of the plan
 and its Geant4 world. Prints, per process (the parent, each worker, a GDML reader
 subprocess), how many times each step ran. The GDML file is read by Geant4 in
-``geometry/gdml.py:read_gdml`` and checked as XML in ``geometry/gdml_files.py:gdml_files``.
+``geometry/gdml.py:read_gdml`` and checked as XML in ``world/gdml_files.py:gdml_files``.
 """
 
 from __future__ import annotations

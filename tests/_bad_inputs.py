@@ -110,7 +110,7 @@ def text_grid(path: Path, header: str = "# pitch: 1 um\n# z_unit: nm\n", bad: st
 
 def results_file(path: Path) -> None:
     """A small results file, made with score4's own writer (no Geant4 run)."""
-    from score4.output import merge_chunks, write_chunk
+    from score4.runner.output import merge_chunks, write_chunk
     from score4.source.primaries import Primaries
 
     n = 4

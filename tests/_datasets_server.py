@@ -1,4 +1,4 @@
-"""Test helpers for score4.datasets: tiny tarballs and a loopback HTTP server."""
+"""Test helpers for score4.runner.datasets: tiny tarballs and a loopback HTTP server."""
 
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """Hypothesis strategies for the fuzz suite, derived from the schema and the command tree.
 
 Nothing here names a configuration key or a command option: the strategies walk the pydantic
-models of :class:`score4.config.RunConfig` (and the surface descriptions) and the click
+models of :class:`score4.inputs.config.RunConfig` (and the surface descriptions) and the click
 commands of ``score4``, so a key or an option another branch adds is fuzzed without new code.
 
 * :func:`documents`: run descriptions. Half are generated whole from the schema; half are a
@@ -24,9 +24,9 @@ import click
 from hypothesis import strategies as st
 from pydantic import BaseModel
 
-from score4.config import RunConfig
-from score4.schema import _quantity_kind
-from score4.units import DIMENSIONS
+from score4.inputs.config import RunConfig
+from score4.inputs.schema import _quantity_kind
+from score4.inputs.units import DIMENSIONS
 
 #: A valid description the mutations start from: a rough face (its surface is built) and one
 #: surface of each kind, named by its kind (mutations of a kind's keys go to its own entry).

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from score4.run_plan import plan_run
+from score4.runner.run_plan import plan_run
 
 
 def locate(path: str, points: list) -> list:
@@ -22,8 +22,8 @@ def locate(path: str, points: list) -> list:
 def built_world_locate(config_path: str, points: list) -> dict:
     """Build the run's world (GDML + score4's layers) and locate ``points``: for each, the
     physical volume name and which scoring column its logical volume counts for."""
-    from score4.config import load_config
     from score4.geometry.world import build_world
+    from score4.inputs.config import load_config
     from score4.sim.runtime import import_geant4, resolve_physics
 
     config = load_config(config_path)
@@ -96,8 +96,8 @@ def _trace(g4, nav, origin, direction, far: float = 1e7, max_steps: int = 5000) 
 
 def trace_built(config_path: str, rays: list) -> list:
     """Ray paths through the world score4 builds for a run."""
-    from score4.config import load_config
     from score4.geometry.world import build_world
+    from score4.inputs.config import load_config
     from score4.sim.runtime import import_geant4, resolve_physics
 
     config = load_config(config_path)

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-from score4.run_plan import plan_run
+from score4.runner.run_plan import plan_run
 
 
 def check(config_data: dict, plant_overlap: bool) -> tuple[bool, list[str], int, int]:
-    from score4.config import parse_config
     from score4.geometry.check import check_placements
     from score4.geometry.world import build_world
+    from score4.inputs.config import parse_config
     from score4.sim.runtime import import_geant4, redirect_native_output, resolve_physics
 
     config = parse_config(config_data)

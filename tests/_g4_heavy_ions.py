@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from score4.run_plan import plan_run
+from score4.runner.run_plan import plan_run
 
 
 def ranges(cases, events, seed, histories, materials=None, alphas="geant4"):
@@ -25,7 +25,7 @@ def ranges(cases, events, seed, histories, materials=None, alphas="geant4"):
 
 def run_config(data: dict, seed: int):
     """Sample and track the events of a config dict; primaries, scores, end points, volumes."""
-    from score4.config import parse_config
+    from score4.inputs.config import parse_config
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
 
@@ -114,7 +114,7 @@ def pushed_recoils(events: int):
     decay); returns deposits, the intercepted ions and where Geant4 then starts Pb-206 tracks."""
     import ctypes
 
-    from score4.config import parse_config
+    from score4.inputs.config import parse_config
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
 
@@ -200,7 +200,7 @@ def pushed_recoils(events: int):
 def nuclide_recoils(nuclide: str, events: int):
     """``nuclide`` at rest 20 nm under a Si face, full physics with radioactive decay (needs the
     Geant4 data sets); (event, ion, energy MeV, reinjected) of every intercepted ion."""
-    from score4.config import parse_config
+    from score4.inputs.config import parse_config
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
 

@@ -7,8 +7,8 @@ from pathlib import Path
 
 def implant_chunk(data: dict, atoms: int, seed: int) -> dict:
     """One chunk of ``atoms`` atoms of a config dict, as a worker runs it; plain arrays."""
-    from score4.config import parse_config
-    from score4.run_plan import plan_run
+    from score4.inputs.config import parse_config
+    from score4.runner.run_plan import plan_run
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
     from score4.sim.worker import Chunk, WorkerSpec, simulate_chunk

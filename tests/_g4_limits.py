@@ -4,7 +4,7 @@ with a fatal G4Exception."""
 
 import sys
 
-from score4.geometry.materials import nist_material_names
+from score4.inputs.materials import nist_material_names
 from score4.sim.runtime import import_geant4, resolve_physics
 
 g4 = import_geant4(resolve_physics("lite"))

@@ -4,8 +4,8 @@ import numpy as np
 
 
 def po210_like_events(n: int) -> list[float]:
-    from score4.config import parse_config
-    from score4.run_plan import plan_run
+    from score4.inputs.config import parse_config
+    from score4.runner.run_plan import plan_run
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
     from score4.source.primaries import Primaries

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from score4.run_plan import plan_run
+from score4.runner.run_plan import plan_run
 
 
 def run_primaries(config_data: dict, primaries: dict, g4_seed: int = 3) -> dict:
@@ -13,7 +13,7 @@ def run_primaries(config_data: dict, primaries: dict, g4_seed: int = 3) -> dict:
 
     Returns the per-event scores and, for portal tiling, the teleporter's counters.
     """
-    from score4.config import parse_config
+    from score4.inputs.config import parse_config
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
     from score4.source.primaries import Primaries

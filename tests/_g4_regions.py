@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from score4.run_plan import plan_run
+from score4.runner.run_plan import plan_run
 
 
 def region_and_deposits(data: dict, seed: int, keep_parallel_region: bool):
@@ -10,7 +10,7 @@ def region_and_deposits(data: dict, seed: int, keep_parallel_region: bool):
     ``data``'s events (``keep_parallel_region``: skip score4's removal of that region)."""
     import numpy as np
 
-    from score4.config import parse_config
+    from score4.inputs.config import parse_config
     from score4.sim import simulation
     from score4.sim.runtime import resolve_physics
 

@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-from score4.run_plan import plan_run
+from score4.runner.run_plan import plan_run
 
 
 def locate(config_data: dict, points: list) -> tuple[list[str], list[str]]:
     """Physical volume and material that Geant4's navigator finds at each point of the world
     score4 builds for the config."""
-    from score4.config import parse_config
     from score4.geometry.world import build_world
+    from score4.inputs.config import parse_config
     from score4.sim.runtime import import_geant4, redirect_native_output, resolve_physics
 
     config = parse_config(config_data)

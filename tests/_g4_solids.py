@@ -6,8 +6,8 @@ import numpy as np
 def classify(points, grid_kwargs, thickness):
     from score4.geometry.solids import inside_codes, multiunion_solid, tessellated_solid
     from score4.sim.runtime import import_geant4, resolve_physics
-    from score4.surface.mesh import closed_body
     from score4.surface.spikes import SpikeGrid
+    from score4.surface.triangle_mesh import closed_body
 
     g4 = import_geant4(resolve_physics("lite"))
     grid = SpikeGrid(**grid_kwargs)
@@ -21,8 +21,8 @@ def gdml_roundtrip(points, grid_kwargs, thickness, path):
     from score4.geometry.gdml import read_gdml, write_solid_gdml
     from score4.geometry.solids import inside_codes, tessellated_solid
     from score4.sim.runtime import import_geant4, resolve_physics
-    from score4.surface.mesh import closed_body
     from score4.surface.spikes import SpikeGrid
+    from score4.surface.triangle_mesh import closed_body
 
     g4 = import_geant4(resolve_physics("lite"))
     mesh = closed_body(SpikeGrid(**grid_kwargs).top_mesh(), thickness)

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from score4.config import parse_config
+from score4.inputs.config import parse_config
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -106,8 +106,8 @@ def pyramid_triangles(nx: int, ny: int, pitch: float = 1.0, heights=1.0) -> np.n
 def replay_vertices(tmp_path: Path, data: dict, vfile: Path, n: int, name: str):
     """Run config dict ``data`` on the ``n`` events of vertex file ``vfile`` with track lengths
     scored (seed 5); the results read back from ``tmp_path / name.h5``."""
-    from score4.output import read_results
-    from score4.sim.engine import run
+    from score4.runner.engine import run
+    from score4.runner.output import read_results
 
     replayed = parse_config(
         {
@@ -157,7 +157,7 @@ def crystal_track_lengths(tmp_path: Path, configs: dict, primaries) -> dict:
 def straight_down_paths(config, primaries) -> tuple[np.ndarray, np.ndarray]:
     """(mask of the rays straight down, their exact path in the crystal group): mesh height at
     the ray + slab + the target's depth (first layer of ``config``)."""
-    from score4.scene import build_scene
+    from score4.world.scene import build_scene
 
     layer = build_scene(config).layers[0]
     down = (primaries.direction == [0.0, 0.0, -1.0]).all(axis=1)

@@ -16,7 +16,7 @@ import pytest
 import yaml
 
 from score4.cli.main import main
-from score4.output import read_results
+from score4.runner.output import read_results
 
 HERE = Path(__file__).parent
 ROOT = HERE.parent

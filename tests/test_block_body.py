@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from test_frustums import _data, _rays
 
-from score4.config import parse_config
-from score4.surface import blocks as blk
-from score4.surface.mesh import TriangleMesh, is_watertight, signed_volume
+from score4.inputs.config import parse_config
+from score4.surface import block_cut as blk
 from score4.surface.spec import build_surface
+from score4.surface.triangle_mesh import TriangleMesh, is_watertight, signed_volume
 
 from conftest import crystal_track_lengths, straight_down_paths
 

@@ -8,18 +8,18 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from score4.config import parse_config
 from score4.errors import ConfigError, Score4Warning
-from score4.geometry.walls import rays_in_walls
-from score4.output import read_results
-from score4.scene import build_scene
-from score4.sim.engine import run
+from score4.inputs.config import parse_config
+from score4.runner.engine import run
+from score4.runner.output import read_results
 from score4.source.build import make_source
 from score4.source.primaries import Primaries
 from score4.source.vertex_file import write_vertex_file
-from score4.surface import blocks as blk
-from score4.surface.mesh import is_watertight, signed_volume
+from score4.surface import block_cut as blk
 from score4.surface.spec import build_surface
+from score4.surface.triangle_mesh import is_watertight, signed_volume
+from score4.world.scene import build_scene
+from score4.world.walls import rays_in_walls
 
 from conftest import (
     SPREAD,

@@ -19,13 +19,13 @@ import pytest
 import yaml
 
 from score4.cli.main import main
-from score4.config import parse_config
 from score4.decay.chain import ChainEvents, build_chain
 from score4.errors import ConfigError
-from score4.output import read_results
-from score4.scene import build_scene
-from score4.sim.seeds import atom_event_geant4_seeds
+from score4.inputs.config import parse_config
+from score4.runner.output import read_results
+from score4.runner.seeds import atom_event_geant4_seeds
 from score4.source.build import decay_normalisation, make_source
+from score4.world.scene import build_scene
 
 from conftest import config_dict
 

@@ -24,8 +24,8 @@ import yaml
 
 from score4.cli.main import main
 from score4.geometry.gdml import drop_nist_state
-from score4.surface.mesh import signed_volume
 from score4.surface.store import load_surface
+from score4.surface.triangle_mesh import signed_volume
 
 pyg4ometry = pytest.importorskip("pyg4ometry")
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from score4.cli.main import main
-from score4.output import merge_chunks, write_chunk
+from score4.runner.output import merge_chunks, write_chunk
 from score4.source.primaries import Primaries
 from score4.source.vertex_file import read_vertex_file
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from score4.output import merge_chunks, write_chunk
+from score4.runner.output import merge_chunks, write_chunk
 from score4.source.primaries import Primaries
 
 from conftest import ROOT

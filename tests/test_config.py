@@ -3,8 +3,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from score4.config import load_config, parse_config
 from score4.errors import ConfigError
+from score4.inputs.config import load_config, parse_config
 
 from conftest import ROOT, config_dict
 
@@ -96,7 +96,7 @@ def test_a_key_given_twice_names_the_key_both_lines_and_the_file(tmp_path: Path)
 
 
 def test_merge_keys_may_still_be_overridden(tmp_path: Path):
-    from score4.yamlfile import load_yaml
+    from score4.inputs.yamlfile import load_yaml
 
     path = write_yaml(
         tmp_path,
@@ -214,7 +214,7 @@ def test_width_with_width_x_is_refused_unless_equal():
 
 
 def test_readable_quantities():
-    from score4.units import format_readable
+    from score4.inputs.units import format_readable
 
     assert format_readable(1e-05, "length") == "10 nm"
     assert format_readable(0.00019999999999999998, "length") == "200 nm"
@@ -223,7 +223,7 @@ def test_readable_quantities():
 
 
 def test_material_suggestions_read_element_names_and_formulas():
-    from score4.geometry.materials import suggest_materials
+    from score4.inputs.materials import suggest_materials
 
     known = [
         "G4_S",

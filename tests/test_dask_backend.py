@@ -16,11 +16,11 @@ import pytest
 import yaml
 
 from score4.cli.main import main
-from score4.config import parse_config
 from score4.errors import ConfigError, Score4Error
-from score4.output import read_results
-from score4.run_plan import plan_run
-from score4.sim.engine import run
+from score4.inputs.config import parse_config
+from score4.runner.engine import run
+from score4.runner.output import read_results
+from score4.runner.run_plan import plan_run
 from score4.sim.runtime import resolve_physics
 from score4.sim.worker import CRASH_HOOK, Chunk, WorkerSpec, chunk_path
 
@@ -185,7 +185,7 @@ def _wait_for(condition, timeout: float) -> float | None:
 
 def test_a_cancelled_chunk_stops_on_its_worker_and_the_worker_runs_on(tmp_path):
     """Dask does not interrupt a running task: the chunk task must stop its Geant4 run itself."""
-    from score4.sim.dask_backend import DaskExecutor
+    from score4.runner.dask_backend import DaskExecutor
 
     config = parse_config(config_dict(run={"events": 100, "seed": 3}))
     spec = WorkerSpec(plan_run(config, physics=resolve_physics("lite")), tmp_path)

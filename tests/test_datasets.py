@@ -1,4 +1,4 @@
-"""Tests for score4.datasets and the ``score4 data`` CLI group (loopback network only)."""
+"""Tests for score4.runner.datasets and the ``score4 data`` CLI group (loopback network only)."""
 
 from __future__ import annotations
 
@@ -14,10 +14,10 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from score4 import datasets
-from score4.cli.data import data
-from score4.datasets import DataSet, Source
+from score4.cli.data_cmd import data
 from score4.errors import ConfigError, DataError
+from score4.runner import datasets
+from score4.runner.datasets import DataSet, Source
 
 from _datasets_server import Route, closed_port, make_tarball, md5, serve
 
@@ -104,7 +104,7 @@ def test_parsing_does_not_import_geant4_pybind(tmp_path: Path) -> None:
     env = {k: v for k, v in os.environ.items() if k not in ("GEANT4_DATA_DIR", "CI")}
     env["HOME"] = str(tmp_path)
     code = (
-        "import sys; from score4 import datasets as d; n = len(d.official_datasets()); "
+        "import sys; from score4.runner import datasets as d; n = len(d.official_datasets()); "
         "d.status(); print(n, 'geant4_pybind' in sys.modules)"
     )
     out = subprocess.run(

@@ -146,7 +146,7 @@ def _q_shift(name):
 
 
 def _modes(name):
-    from score4.decay.data import decay_data
+    from score4.decay.nuclear_data import decay_data
 
     rec = decay_data()["nuclides"][name]
     return [{**m, "q_keV": m["q_keV"] + rec["level_keV"]} for m in rec["modes"]]

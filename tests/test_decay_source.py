@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 import yaml
 
-from score4.config import parse_config
 from score4.errors import ConfigError
-from score4.output import read_results
+from score4.inputs.config import parse_config
+from score4.runner.output import read_results
 from score4.source.build import decay_emitter, decay_normalisation
 from score4.source.emitters import make_primaries
 

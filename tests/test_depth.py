@@ -11,6 +11,7 @@ from scipy import integrate, stats
 from scipy.spatial import cKDTree
 
 from score4.errors import ConfigError
+from score4.inputs.units import nm
 from score4.source.depth import (
     MeshDistance,
     OffsetSurface,
@@ -26,7 +27,6 @@ from score4.source.profiles import (
     ZeroDepth,
 )
 from score4.source.sampling import SurfaceSampler, TiledSurfaceSampler
-from score4.units import nm
 
 from conftest import pyramid_triangles
 

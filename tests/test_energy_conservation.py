@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from score4.errors import Score4Warning
-from score4.output import read_results, write_chunk
-from score4.sim.conservation import TOLERANCE_MEV, check_chunk_files, energy_balance
-from score4.sim.engine import _energy_balance, run
+from score4.runner.conservation import TOLERANCE_MEV, check_chunk_files, energy_balance
+from score4.runner.engine import _energy_balance, run
+from score4.runner.output import read_results, write_chunk
 from score4.source.primaries import Primaries
 
 PYRAMIDS = {"pyramids": {"kind": "spikes", "nx": 20, "ny": 20, "width": "10 um", "height": "10 um"}}

@@ -6,11 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from score4.config import parse_config
 from score4.errors import ConfigError
-from score4.scene import build_scene
+from score4.inputs.config import parse_config
 from score4.source.build import make_source
 from score4.source.primaries import Primaries
+from score4.world.scene import build_scene
 
 from conftest import SPREAD, TARGET, config_dict, crystal_track_lengths, straight_down_paths
 

@@ -27,13 +27,13 @@ from _bad_inputs import results_file, text_grid
 from _fuzz import VALID, command_line, commands, documents
 from hypothesis import HealthCheck, assume, event, given, settings
 
-from score4 import limits
 from score4.cli.main import cli, main
-from score4.config import load_config
 from score4.errors import ConfigError, Score4Error
-from score4.scene import build_scene
+from score4.inputs import limits
+from score4.inputs.config import load_config
+from score4.inputs.units import parse_count
 from score4.source.build import make_source
-from score4.units import parse_count
+from score4.world.scene import build_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 # hypothesis warns when it prints a failing example with a 10 kB string (one of the hostile

@@ -15,12 +15,12 @@ import numpy as np
 import pytest
 import yaml
 
+from score4.analysis.normalisation import layer_volume
 from score4.cli.main import main
-from score4.config import parse_config
 from score4.errors import ConfigError
-from score4.geometry.gdml_files import _read_in_subprocess, load_geometry_model
-from score4.normalisation import layer_volume
-from score4.scene import build_scene
+from score4.inputs.config import parse_config
+from score4.world.gdml_files import _read_in_subprocess, load_geometry_model
+from score4.world.scene import build_scene
 
 HERE = Path(__file__).parent
 sys.path.insert(0, str(HERE))
@@ -256,7 +256,7 @@ def test_run_scores_copies_in_columns(worlds, tmp_path):
     )
     out = tmp_path / "r.h5"
     assert main(["run", str(cfg), "--out", str(out)]) == 0
-    from score4.output import read_results
+    from score4.runner.output import read_results
 
     res = read_results(out)
     assert list(res.edep) == ["CrystalLV_0", "CrystalLV_1", "CrystalLV_2"]
@@ -396,7 +396,7 @@ def test_po210_on_a_crystal_hits_its_neighbour_multiplicity_2(worlds, tmp_path, 
     cfg.write_text(yaml.safe_dump(data))
     out = tmp_path / "m.h5"
     assert main(["run", str(cfg), "--out", str(out)]) == 0
-    from score4.output import read_results
+    from score4.runner.output import read_results
 
     res = read_results(out)
     p = res.primaries

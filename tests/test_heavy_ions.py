@@ -275,7 +275,7 @@ def test_compare_srim_reference_is_independent_of_the_library():
     # matched a TRIM one (to 0.0005 nm: TRIM writes depths to 0.01 Angstrom). Now the
     # reference has its own TRIM seed: by chance about 200 * 200 * 2e-3 nm * 0.04 / nm (the
     # depth density at its peak) ~ 3 pairs lie that close (4 measured, seed 1); 200 before.
-    from score4.sim.seeds import library_trim_seed, reference_trim_seed
+    from score4.runner.seeds import library_trim_seed, reference_trim_seed
 
     ours, ref, trim_seed = _spawned("range_with_reference", 1, 200)
     assert trim_seed == reference_trim_seed(1) != library_trim_seed(1)
@@ -285,6 +285,6 @@ def test_compare_srim_reference_is_independent_of_the_library():
 
 
 def test_library_seed_follows_the_run_seed(po210_flat):
-    from score4.sim.seeds import library_trim_seed
+    from score4.runner.seeds import library_trim_seed
 
     assert po210_flat["library_seed"] == library_trim_seed(5)

@@ -13,10 +13,10 @@ import pytest
 import yaml
 
 from score4.cli.main import main
-from score4.config import load_config, parse_config
 from score4.errors import ConfigError
+from score4.inputs.config import load_config, parse_config
 from score4.macro import import_macro
-from score4.scene import build_scene
+from score4.world.scene import build_scene
 
 from conftest import ROOT
 

@@ -75,7 +75,7 @@ def test_reinjected_ions_start_at_rest_where_trim_stopped_them(pushed):
 
 
 def test_nuclide_recoils_in_full_physics():
-    from score4 import datasets
+    from score4.runner import datasets
 
     missing = datasets.missing_for("full", datasets.status()) + datasets.missing_for(
         "decay", datasets.status()

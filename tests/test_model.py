@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 import yaml
 
+from score4.analysis.model import build_model, fit_model, load_model, pseudo_data
 from score4.cli.main import main
-from score4.model import build_model, fit_model, load_model, pseudo_data
 
 from conftest import DETECTOR_PAIR
 

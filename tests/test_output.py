@@ -48,7 +48,7 @@ _WRITER = textwrap.dedent(
     import resource, signal, sys
     import numpy as np
     from score4.errors import Score4Error
-    from score4.output import write_chunk
+    from score4.runner.output import write_chunk
     from score4.source.primaries import Primaries
     from score4.source.vertex_file import write_vertex_file
 

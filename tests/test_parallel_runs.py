@@ -21,12 +21,12 @@ import pytest
 import yaml
 
 from score4.cli.main import main
-from score4.config import parse_config
 from score4.errors import Score4Error
-from score4.limits import MEMORY_ENV
-from score4.output import read_results
-from score4.run_plan import config_fingerprint
-from score4.sim.engine import run
+from score4.inputs.config import parse_config
+from score4.inputs.limits import MEMORY_ENV
+from score4.runner.engine import run
+from score4.runner.output import read_results
+from score4.runner.run_plan import config_fingerprint
 from score4.sim.worker import CRASH_HOOK
 
 from conftest import config_dict, tmpfs_mount_command

@@ -2,8 +2,8 @@
 
 import pytest
 
-from score4.output import read_results
-from score4.sim.engine import run
+from score4.runner.engine import run
+from score4.runner.output import read_results
 
 # NIST ASTAR, alpha in silicon, CSDA range at 5.3 MeV: 6.1465e-3 g/cm2 (log-log interpolation
 # between the ASTAR rows 5.0 MeV: 5.65146e-3 and 5.5 MeV: 6.48708e-3), / 2.33 g/cm3 = 26.38 um.
@@ -15,7 +15,7 @@ ASTAR_CSDA_RANGE_SI_5P3_MEV_MM = 26.38e-3
 
 def _alphas(tmp_path_factory, name: str, **physics):
     """200 alphas of 5.3 MeV shot from the silicon face along its inward normal (lite physics)."""
-    from score4.config import parse_config
+    from score4.inputs.config import parse_config
 
     from conftest import config_dict
 

@@ -21,13 +21,13 @@ import pytest
 import uproot
 from PIL import Image
 
+from score4.analysis.export import export_csv, export_events_csv, export_root
+from score4.analysis.plots import default_label, describe_run, file_kind, plot_depths, plot_spectra
 from score4.cli.main import main
-from score4.config import parse_config
 from score4.errors import ConfigError, Score4Error
-from score4.export import export_csv, export_events_csv, export_root
-from score4.output import read_results
-from score4.plots import default_label, describe_run, file_kind, plot_depths, plot_spectra
-from score4.sim.engine import run
+from score4.inputs.config import parse_config
+from score4.runner.engine import run
+from score4.runner.output import read_results
 
 from conftest import BASE_CONFIG, config_dict
 
@@ -528,7 +528,7 @@ def test_cli_errors_exit_2_with_one_line(runs, tmp_path, capsys):
 
 def test_vertex_depths_are_counted_once_per_event(tmp_path):
     """Po-210 events have two primaries (alpha and recoil) at one vertex: one depth per event."""
-    from score4.plots import read_vertex_depths
+    from score4.analysis.plots import read_vertex_depths
     from score4.source.emitters import Po210Emitter, make_primaries
     from score4.source.vertex_file import write_vertex_file
 

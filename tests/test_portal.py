@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from score4.config import parse_config
 from score4.errors import ConfigError
 from score4.geometry.portal import (
     PortalMap,
@@ -20,14 +19,15 @@ from score4.geometry.portal import (
     subworld_centres,
 )
 from score4.geometry.world import portal_layout
-from score4.output import read_results
-from score4.run_plan import plan_run
-from score4.scene import build_scene, face_frame
-from score4.sim.engine import run
+from score4.inputs.config import parse_config
+from score4.runner.engine import run
+from score4.runner.output import read_results
+from score4.runner.run_plan import plan_run
 from score4.sim.portal_action import _Layer
 from score4.source.build import make_source
 from score4.source.primaries import Primaries
 from score4.source.vertex_file import write_vertex_file
+from score4.world.scene import build_scene, face_frame
 
 from conftest import config_dict
 

@@ -1,11 +1,11 @@
-"""Progress lines in batch logs (score4.progress) and what a dead worker's error line says."""
+"""Progress lines in batch logs (score4.runner.progress); what a dead worker's error line says."""
 
 from __future__ import annotations
 
 import io
 
-from score4.progress import PlainProgress, progress_bar
-from score4.sim.engine import _last_exception_text
+from score4.runner.engine import _last_exception_text
+from score4.runner.progress import PlainProgress, progress_bar
 
 
 class Clock:

@@ -131,7 +131,7 @@ def test_json_keys_and_srim_values(fake, capfd):
     assert data["projected_range_nm"] == pytest.approx(46, abs=2.5)  # the fake's 46 nm
     # TRIM with its own seed (never the libraries'): 200 ions, 45.9 nm (1000 ions, seed 1, in
     # docs/data/srim_reference.csv) within 3 standard errors (straggling 10.2 nm / sqrt(200))
-    from score4.sim.seeds import reference_trim_seed
+    from score4.runner.seeds import reference_trim_seed
 
     assert data["seed"] == 1
     assert data["srim"]["trim_seed"] == reference_trim_seed(1)
@@ -291,7 +291,7 @@ def test_unknown_material_with_real_geant4_names(tmp_path):
 
 
 def test_depth_plot_shares_bins_and_normalises(tmp_path):
-    from score4.plots import plot_range_depths
+    from score4.analysis.plots import plot_range_depths
 
     rng = np.random.default_rng(4)
 

@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 
 from score4.cli.main import main
-from score4.config import parse_config
 from score4.errors import ConfigError, PhysicsUnavailableError
-from score4.output import read_results
-from score4.scene import build_scene, face_frame
-from score4.sim.engine import run
+from score4.inputs.config import parse_config
+from score4.runner.engine import run
+from score4.runner.output import read_results
 from score4.source.build import make_source
 from score4.source.vertex_file import write_vertex_file
+from score4.world.scene import build_scene, face_frame
 
 from conftest import config_dict
 

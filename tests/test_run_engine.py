@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 from score4 import api
-from score4.config import load_config, parse_config
 from score4.errors import ConfigError, Score4Error
-from score4.output import read_results, summarize
-from score4.sim.engine import run
-from score4.sim.run_record import RunRecord
+from score4.inputs.config import load_config, parse_config
+from score4.runner.engine import run
+from score4.runner.output import read_results, summarize
+from score4.runner.run_record import RunRecord
 
 from conftest import ROOT
 
@@ -155,8 +155,8 @@ def test_results_reader_rejects_other_files(tmp_path: Path):
 
 
 def test_resume_reuses_only_chunks_of_the_same_run(tmp_path: Path, make_config):
-    from score4.output import write_chunk
-    from score4.run_plan import config_fingerprint
+    from score4.runner.output import write_chunk
+    from score4.runner.run_plan import config_fingerprint
     from score4.sim.worker import chunk_path
     from score4.source.primaries import Primaries
 
@@ -189,7 +189,8 @@ def test_resume_reuses_only_chunks_of_the_same_run(tmp_path: Path, make_config):
 
 
 def test_first_events_of_a_longer_run_are_the_same_events(tmp_path: Path, make_config):
-    # Prefix-stable sampling (source/blocks.py) and one Geant4 seed per event (sim/seeds.py):
+    # Prefix-stable sampling (source/event_blocks.py) and one Geant4 seed per event
+    # (runner/seeds.py):
     # the 3000 events of a one-chunk run are the first 3000 of a 5000-event run cut into
     # 700-event chunks (not on the 1000-event block boundaries) on 2 workers. Exact equality.
     fast = {"particle": "alpha", "energy": "1 MeV"}  # ~4 um range: a few steps per event
@@ -209,9 +210,9 @@ def test_first_events_of_a_longer_run_are_the_same_events(tmp_path: Path, make_c
 def test_resume_keeps_the_chunks_of_the_interrupted_run_whatever_jobs_is_now(
     tmp_path: Path, make_config
 ):
-    from score4.output import write_chunk
-    from score4.run_plan import config_fingerprint
-    from score4.sim.engine import plan_chunks
+    from score4.runner.engine import plan_chunks
+    from score4.runner.output import write_chunk
+    from score4.runner.run_plan import config_fingerprint
     from score4.sim.worker import chunk_path
     from score4.source.primaries import Primaries
 

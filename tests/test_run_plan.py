@@ -1,5 +1,6 @@
-"""The run plan (score4.run_plan) and the run record (score4.sim.run_record), without Geant4
-runs: a plan is made once, pickles small, and rebuilds to the same scene and events."""
+"""The run plan (score4.runner.run_plan) and the run record (score4.runner.run_record),
+without Geant4 runs: a plan is made once, pickles small, and rebuilds to the same scene and
+events."""
 
 from __future__ import annotations
 
@@ -13,11 +14,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from score4 import run_plan
-from score4.config import parse_config
 from score4.errors import ConfigError, Score4Warning
-from score4.run_plan import RunPlan, config_fingerprint, plan_run
-from score4.sim.run_record import RunRecord
+from score4.inputs.config import parse_config
+from score4.runner import run_plan
+from score4.runner.run_plan import RunPlan, config_fingerprint, plan_run
+from score4.runner.run_record import RunRecord
 from score4.sim.runtime import resolve_physics
 
 from conftest import config_dict

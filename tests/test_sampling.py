@@ -287,8 +287,8 @@ def test_read_table_errors_name_file_line_and_rule(tmp_path, text, unit, match):
 
 
 def test_block_sampling_is_prefix_stable_and_independent_of_chunking():
-    from score4.source.blocks import BLOCK_EVENTS, draw_events
     from score4.source.emitters import ParticleEmitter, make_primaries
+    from score4.source.event_blocks import BLOCK_EVENTS, draw_events
 
     class Flat:  # a 1 mm square at z = 0 emitting isotropic 1 MeV alphas
         def primaries(self, rng, first_event, n_events):

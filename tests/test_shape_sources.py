@@ -9,9 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from score4.config import parse_config
 from score4.errors import ConfigError
-from score4.scene import build_scene
+from score4.inputs.config import parse_config
 from score4.shapes import OUTSIDE, G4Box, G4Orb, G4Tubs, PlacedShape, Transform
 from score4.source.build import make_source, source_geometry
 from score4.source.depth import VertexSampler
@@ -23,7 +22,8 @@ from score4.source.profiles import (
     UniformProfile,
 )
 from score4.source.sampling import SurfaceSampler, TiledSurfaceSampler
-from score4.source.shapes import BulkSampler, CombinedSurfaceSampler, ShapeSurfaceSampler
+from score4.source.shape_sampling import BulkSampler, CombinedSurfaceSampler, ShapeSurfaceSampler
+from score4.world.scene import build_scene
 
 FACES = ("+x", "-x", "+y", "-y", "+z", "-z")
 

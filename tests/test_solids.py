@@ -85,7 +85,7 @@ def test_gdml_round_trip_keeps_the_solid(tmp_path):
     assert kind == "G4TessellatedSolid"
     assert material == "G4_Si"
     assert before == after
-    from score4.surface.mesh import closed_body
+    from score4.surface.triangle_mesh import closed_body
 
     assert path.read_text().count("<triangular ") == closed_body(grid.top_mesh(), THICKNESS).n_faces
     assert [p.name for p in tmp_path.iterdir()] == ["rough.gdml"]

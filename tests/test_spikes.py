@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 
 from score4.errors import ConfigError
-from score4.surface.mesh import closed_body, degenerate_faces, is_watertight, signed_volume
 from score4.surface.spikes import (
     MAX_TRUNCATED_FRACTION,
     MIN_LAYER_HEIGHT,
     PEAK_STEEPNESS,
     SpikeGrid,
 )
+from score4.surface.triangle_mesh import closed_body, degenerate_faces, is_watertight, signed_volume
 
 SHAPES = [("pyramid", 1), ("bump", 1), ("bump", 5), ("peak", 4)]
 

@@ -14,10 +14,10 @@ import pytest
 import yaml
 
 from score4.cli.main import main
-from score4.surface.mesh import TriangleMesh, is_watertight, signed_volume
 from score4.surface.metrology import PARAMETERS
 from score4.surface.plot import nice_length
 from score4.surface.store import load_surface
+from score4.surface.triangle_mesh import TriangleMesh, is_watertight, signed_volume
 
 from conftest import ROOT
 

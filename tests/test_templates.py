@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 import yaml
 
+from score4.analysis.response import ResponseConfig
+from score4.analysis.templates import build_templates
 from score4.cli.main import main
-from score4.output import read_results
-from score4.response import ResponseConfig
-from score4.templates import build_templates
+from score4.runner.output import read_results
 
 from conftest import DETECTOR_PAIR, config_dict
 
@@ -211,7 +211,7 @@ def test_particle_classes_and_response(pair_run):
         }
     )
     ts = build_templates(results, "1 mBq/cm2", emax="6 MeV", bins=120, response=response)
-    from score4.response import apply_response, visible_energy
+    from score4.analysis.response import apply_response, visible_energy
 
     seen = apply_response(results.scores, ["bottom"], response)["bottom"]
     quenched = visible_energy(results.scores, "bottom", response)
@@ -279,7 +279,7 @@ def test_results_without_normalisation_are_refused(alpha_run, tmp_path, capsys):
 
 
 def test_resolution_formula_and_table(tmp_path):
-    from score4.response import sigma_function
+    from score4.analysis.response import sigma_function
 
     formula = ResponseConfig.model_validate(
         {"resolution": {"a": "1 keV", "b": "0.3 eV", "c": 0.002}}
@@ -323,7 +323,7 @@ def test_the_run_configurations_response_applies_without_response_file(pair_run,
 
 
 def test_templates_as_hist_objects_with_errors(pair_run, tmp_path):
-    from score4.templates import read_hist, write_templates_h5
+    from score4.analysis.templates import read_hist, write_templates_h5
 
     ts = build_templates(read_results(pair_run), "1 mBq/cm2", emax="6 MeV", bins=60)
     out = write_templates_h5(ts, tmp_path / "t.h5")

@@ -115,7 +115,7 @@ def test_rotations():
 
 def test_run_seeds_give_other_histories():
     # the libraries of a run are built with the TRIM seed of its run seed
-    from score4.sim.seeds import library_trim_seed, reference_trim_seed
+    from score4.runner.seeds import library_trim_seed, reference_trim_seed
 
     seeds = [library_trim_seed(s) for s in range(200)]
     assert len(set(seeds)) == 200

@@ -3,7 +3,7 @@ import math
 import pytest
 
 from score4.errors import ConfigError
-from score4.units import format_quantity, parse_quantity
+from score4.inputs.units import format_quantity, parse_quantity
 
 
 @pytest.mark.parametrize(

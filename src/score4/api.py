@@ -15,8 +15,8 @@ generator and event loop):
   volume (below the rough surface, with a depth profile) or in its bulk, emitting a particle,
   a nuclide's decays (``Po210``) or a chain's (score4's own decay data, no Geant4 data).
 * **A run configuration**: :func:`plan_run` resolves one (a ``score4 run`` YAML file read by
-  :func:`score4.config.load_config`) into the :class:`RunPlan` that ``score4 run`` itself runs:
-  its source (``plan.source``) and seed (``plan.seed``) give your application the same events.
+  :func:`score4.inputs.config.load_config`) into the :class:`RunPlan` that ``score4 run`` itself
+  runs: its source (``plan.source``) and seed (``plan.seed``) give your application the same events.
 * **Events**: :class:`PrimaryGenerator` fills your ``G4Event`` s from a source;
   :class:`HeavyIonReplay` moves heavy ions (the Pb-206 recoil of Po-210) along TRIM
   trajectories through your geometry, as a hook for your end-of-event action.
@@ -43,17 +43,18 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
-from .config import GdmlVolume, PhysicsConfig, RoughFace, SourceConfig
+from score4.inputs.config import GdmlVolume, PhysicsConfig, RoughFace, SourceConfig
+from score4.inputs.schema import describe_validation_error
+from score4.inputs.units import parse_quantity
+from score4.runner.run_plan import RunPlan, plan_run
+from score4.world.gdml_model import GeometryModel, Instance
+from score4.world.scene import RoughLayer, Scene, TargetVolume, gdml_target, make_layer
+
 from .errors import ConfigError
-from .geometry.volumes import GeometryModel, Instance
-from .run_plan import RunPlan, plan_run
-from .scene import RoughLayer, Scene, TargetVolume, _gdml_target, make_layer
-from .schema import describe_validation_error
 from .source.build import BulkSource, SampledSource, source_from_config
 from .source.primaries import Primaries
 from .surface.spec import Surface, build_surface
 from .surface.store import load_surface, save_surface
-from .units import parse_quantity
 
 __all__ = [
     "BulkSource",
@@ -145,9 +146,19 @@ def physics_list(g4, physics: str = "auto", production_cut: str = "1 um"):
 
 
 def after_initialize(g4, physics: str = "auto") -> list[str]:
-    """Finish the physics after your run manager's ``Initialize()``: in ``lite`` mode remove the
-    processes that would read missing data at the first event (bremsstrahlung, the gamma
-    process). Returns the removed processes (``particle:process``); nothing in ``full`` mode."""
+    """Finish the physics: call it after your run manager's ``Initialize()`` and before the
+    first ``BeamOn``.
+
+    In ``lite`` mode (no Geant4 data sets, see :func:`import_geant4`) the physics list still
+    holds processes whose tables come from the G4EMLOW data set and are read at the first
+    event: bremsstrahlung of e- and e+ (``eBrem``) and the gamma process
+    (``GammaGeneralProc``). This removes them, so alphas and ions are tracked without data
+    (docs/geant4-facts.md); electrons then radiate no bremsstrahlung and gammas are not
+    tracked (what lite physics lacks: ``score4.sim.runtime.LITE_LACKS``). In ``full`` mode
+    (and ``auto`` with the data installed) it does nothing.
+
+    Returns the removed processes as ``particle:process`` (empty in full mode).
+    """
     from .sim.physics import strip_data_hungry_processes
     from .sim.runtime import resolve_physics
 
@@ -172,7 +183,7 @@ class RoughenedVolume:
     Attributes
     ----------
     layers
-        The rough layers, one per copy of the volume (:class:`score4.scene.RoughLayer`: face
+        The rough layers, one per copy of the volume (:class:`score4.world.scene.RoughLayer`: face
         frame, patch map, true area through ``layer.sampler().area``).
     volumes
         Per scoring column (the volume's name, ``name_k`` for copies): the logical volumes whose
@@ -211,7 +222,7 @@ class World:
     Attributes
     ----------
     scene
-        score4's description of the volumes it uses (:class:`score4.scene.Scene`).
+        score4's description of the volumes it uses (:class:`score4.world.scene.Scene`).
     scoring
         Scoring column -> the logical volumes whose deposits count for it (the volume's own,
         then the patches of its rough layers): for your scorer and for
@@ -289,7 +300,7 @@ class World:
             else:  # an object: its name for several copies, else the name of its one placement
                 label = str(volume.GetName()) if several else self.model.label(inst)
             entry = len({t.entry for t in self.scene.targets})
-            target = _gdml_target(
+            target = gdml_target(
                 self.model, GdmlVolume(volume=label), entry, inst, k if several else None, parameter
             )
             if any(t.column == target.column for t in self.scene.targets):
@@ -378,7 +389,7 @@ class World:
                 raise ConfigError(f"{where}: face {face} of {t.name!r} is rough already")
             j = len(self.scene.layers_of(t.name))
             layers.append(make_layer(self.scene.surfaces, t, j, rough, where=where))
-        from .clearance import check_clearance
+        from score4.world.clearance import check_clearance
 
         self.scene.layers += layers
         try:
@@ -577,8 +588,9 @@ class HeavyIonReplay:
         """The :class:`score4.sim.heavy_ions.HeavyIonTransport` (made at first use: Geant4
         must have closed the geometry, i.e. a run must have started)."""
         if self._transport is None:
+            from score4.runner.seeds import library_trim_seed
+
             from .sim.heavy_ions import HeavyIonTransport
-            from .sim.seeds import library_trim_seed
 
             self._transport = HeavyIonTransport(
                 self.g4,
@@ -745,7 +757,7 @@ class PrimaryGenerator:
     def generate(self, event) -> Primaries:
         """Put the next event's primaries into the G4Event ``event`` (heavy ions the replay
         takes are held back); returns all of the event's primaries (rows of event 0)."""
-        from .source.blocks import BLOCK_EVENTS
+        from score4.source.event_blocks import BLOCK_EVENTS
 
         k = self.next_event - self._first
         if self._feed is None or k >= self._feed.n_events:
@@ -760,8 +772,9 @@ class PrimaryGenerator:
         return self._feed.primaries.select_events(k, k + 1)
 
     def _load(self, first: int, n: int) -> None:
+        from score4.runner.seeds import event_geant4_seeds
+
         from .sim.feed import EventFeed
-        from .sim.seeds import event_geant4_seeds
 
         primaries = self.source.events(self.seed, first, n)
         definitions = [self._definition(str(name)) for name in primaries.particle]

@@ -18,15 +18,15 @@ import click
 
 from .. import __version__
 from ..errors import ConfigError, RunInterrupted, Score4Error, Score4Warning, brief, naming_file
-from .data import data
+from .data_cmd import data
 from .decay_cmd import decay_command
-from .geometry import geometry
-from .macro import import_macro
+from .geometry_cmd import geometry
+from .macro_cmd import import_macro
 from .quiet import is_quiet, notice, set_quiet
 from .range_cmd import range_command
-from .results import export, plot
-from .surface import surface
-from .templates import model, template
+from .results_cmd import export, plot
+from .surface_cmd import surface
+from .templates_cmd import model, template
 from .usage import command_path, usage_error_line
 
 
@@ -36,8 +36,8 @@ class EventCount(click.ParamType):
     name = "integer"
 
     def convert(self, value, param, ctx):
-        from ..limits import too_many_events
-        from ..units import parse_count
+        from score4.inputs.limits import too_many_events
+        from score4.inputs.units import parse_count
 
         try:
             number = parse_count(value)
@@ -75,7 +75,7 @@ def cli(ctx: click.Context, quiet: bool) -> None:
 
 def _load_with_overrides(config_file: Path, events: int | None, seed: int | None):
     """The configuration with ``--events``/``--seed`` written into its run section."""
-    from ..config import load_config
+    from score4.inputs.config import load_config
 
     config = load_config(config_file)
     overrides = {k: v for k, v in {"events": events, "seed": seed}.items() if v is not None}
@@ -137,9 +137,10 @@ def run(
     quiet,
 ) -> None:
     """Simulate the run described in CONFIG.yaml and write an HDF5 results file."""
+    from score4.runner.engine import run as run_engine
+    from score4.runner.output import read_results, summarize
+
     from ..files import check_output_file
-    from ..output import read_results, summarize
-    from ..sim.engine import run as run_engine
 
     if quiet:
         set_quiet(ctx)
@@ -186,12 +187,13 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
     file (source: {vertices: FILE}) with the same seed reproduces the direct run event by event,
     and the first N rows are the vertices of a run of N events.
     """
-    from .. import limits
-    from ..config import config_to_dict
+    from score4.inputs import limits
+    from score4.inputs.config import config_to_dict
+    from score4.inputs.schema import input_paths
+    from score4.source.event_blocks import BLOCK_EVENTS
+    from score4.world.scene import build_scene
+
     from ..files import check_output_file
-    from ..scene import build_scene
-    from ..schema import input_paths
-    from ..source.blocks import BLOCK_EVENTS
     from ..source.build import make_source, source_geometry
     from ..source.vertex_file import write_vertex_file
 
@@ -250,8 +252,8 @@ def vertices(config_file: Path, n_events, seed, out: Path, overwrite: bool) -> N
 def summary(results_file: Path, as_json: bool, bins, threshold: str) -> None:
     """Summarise a results file: events, physics, energy deposit per volume, per-volume rates
     above --threshold and the multiplicity (events with 1, 2, ... volumes above it)."""
-    from ..output import read_results, summarize
-    from ..units import parse_quantity
+    from score4.inputs.units import parse_quantity
+    from score4.runner.output import read_results, summarize
 
     limit = parse_quantity(threshold, "energy", "--threshold")
     if limit < 0:

@@ -44,7 +44,8 @@ ERRORS = {
 
 def nist_names() -> list[str]:
     """Geant4's NIST material names (imports geant4_pybind, without physics data)."""
-    from ..geometry.materials import nist_material_names
+    from score4.inputs.materials import nist_material_names
+
     from ..sim.runtime import import_geant4, resolve_physics
 
     return nist_material_names(import_geant4(resolve_physics("auto")))
@@ -54,9 +55,9 @@ def load_materials(path: Path) -> dict:
     """The ``materials:`` section of a YAML file (other sections are not read)."""
     from pydantic import TypeAdapter, ValidationError
 
-    from ..config import MaterialSpec
-    from ..schema import describe_validation_error
-    from ..yamlfile import load_yaml
+    from score4.inputs.config import MaterialSpec
+    from score4.inputs.schema import describe_validation_error
+    from score4.inputs.yamlfile import load_yaml
 
     data = load_yaml(path, "--config") or {}
     section = data.get("materials", {}) if isinstance(data, dict) else None
@@ -67,7 +68,7 @@ def load_materials(path: Path) -> dict:
         materials = adapter.validate_python({"materials": section})["materials"]
     except ValidationError as err:
         raise ConfigError(describe_validation_error(err, str(path))) from None
-    from ..config import check_material_name
+    from score4.inputs.config import check_material_name
 
     for name in materials:  # the same naming rules as in a run configuration
         try:
@@ -83,7 +84,7 @@ def resolve_material(name: str, density: str | None, materials: dict, names=None
     ``name`` is a ``materials:`` entry, a Geant4 NIST name, or a chemical formula when
     ``density`` is given.
     """
-    from ..config import MaterialSpec
+    from score4.inputs.config import MaterialSpec
 
     if density is not None:
         if name in materials or name.startswith("G4_"):
@@ -93,7 +94,7 @@ def resolve_material(name: str, density: str | None, materials: dict, names=None
             )
         from pydantic import ValidationError
 
-        from ..schema import describe_validation_error
+        from score4.inputs.schema import describe_validation_error
 
         try:
             spec = MaterialSpec(formula=name, density=density)
@@ -106,7 +107,7 @@ def resolve_material(name: str, density: str | None, materials: dict, names=None
     known = (names or nist_names)()
     if name in known:
         return materials
-    from ..geometry.materials import suggest_materials
+    from score4.inputs.materials import suggest_materials
 
     close = suggest_materials(name, list(materials) + known)
     hint = f"; closest: {', '.join(close)}" if close else ""
@@ -315,7 +316,7 @@ def range_command(
         alphas,
     )
     if png is not None:
-        from ..plots import plot_range_depths
+        from score4.analysis.plots import plot_range_depths
 
         samples = {"score4": result.pop("_score4_sample")}
         if "_srim_sample" in result:
@@ -339,8 +340,9 @@ def parse_case(ion, energy, events, srim_events, seed, thickness, angle, compare
     Raises :class:`ConfigError` (one line naming the argument) for anything out of range,
     before any simulation starts.
     """
+    from score4.inputs.schema import quantity
+
     from ..ions.species import parse_ion
-    from ..schema import quantity
 
     species = parse_ion(ion, "ION")
     energy_mev = quantity(energy, "energy", "ENERGY", positive=True)
@@ -379,7 +381,7 @@ def parse_case(ion, energy, events, srim_events, seed, thickness, angle, compare
 
 def heavy_ion_limit_mev() -> float:
     """Energy up to which ions with Z > 2 follow TRIM trajectories in score4 (MeV)."""
-    from ..config import PhysicsConfig
+    from score4.inputs.config import PhysicsConfig
 
     field = PhysicsConfig.model_fields.get("trim_max_energy")
     return float(field.default) if field is not None else HEAVY_ION_MAX_MEV
@@ -399,7 +401,7 @@ def check_model_energy(species, energy_mev: float) -> None:
 
 
 def _int(text, option: str) -> int:
-    from ..units import parse_count
+    from score4.inputs.units import parse_count
 
     try:
         return parse_count(text)
@@ -408,7 +410,7 @@ def _int(text, option: str) -> int:
 
 
 def _positive_int(text, option: str) -> int:
-    from .. import limits
+    from score4.inputs import limits
 
     value = _int(text, option)
     if value <= 0:
@@ -497,8 +499,9 @@ def run_range(
         "_score4_sample": sample,
     }
     if srim_events is not None:
+        from score4.runner.seeds import reference_trim_seed
+
         from ..ions.srim_reference import srim_range_sample, stopping_table_reference
-        from ..sim.seeds import reference_trim_seed
 
         # never the seed of score4's own trajectory libraries: an independent TRIM run
         trim_seed = reference_trim_seed(seed)

@@ -6,7 +6,7 @@
 * :mod:`.chain`: decay chains, Bateman activities, chain events with coincidences.
 """
 
-from .data import ZAI, known_nuclides, nuclide_record, zai_name
+from .nuclear_data import ZAI, known_nuclides, nuclide_record, zai_name
 from .scheme import KINDS, DecayScheme, Emissions, Line, decay_scheme, two_body_kinetic
 
 __all__ = [

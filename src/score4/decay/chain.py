@@ -35,7 +35,7 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import ConfigError
-from .data import ZAI, decay_data, nuclide_record
+from .nuclear_data import ZAI, decay_data, nuclide_record
 from .scheme import decay_scheme
 
 __all__ = [
@@ -132,7 +132,7 @@ def build_chain(
 
 
 def _until_name(until: str, what: str) -> str:
-    from .data import nuclide_name
+    from .nuclear_data import nuclide_name
 
     return nuclide_name(until, f"{what}.until")
 

@@ -41,7 +41,7 @@ from functools import cache
 
 import numpy as np
 
-from .data import decay_data, nuclide_record
+from .nuclear_data import decay_data, nuclide_record
 from .spectra import ELECTRON_MASS_KEV, BetaSpectrum, shape_factor
 
 __all__ = ["KINDS", "DecayScheme", "Emissions", "Line", "decay_scheme", "two_body_kinetic"]
@@ -105,10 +105,6 @@ class Emissions:
     names: tuple[str, ...]
     product: np.ndarray
     products: tuple[str, ...]
-
-    @property
-    def particle_names(self) -> np.ndarray:
-        return np.asarray(self.names)[self.particle]
 
     def total_per_event(self, n: int, kinds: tuple[str, ...] | None = None) -> np.ndarray:
         """Summed emitted energy (MeV) of each of the ``n`` decays (only ``kinds`` if given)."""

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from .chain import ChainEvents, build_chain
-from .data import decay_data
+from .nuclear_data import decay_data
 from .scheme import KINDS, Line, decay_scheme
 
 __all__ = ["plot_spectra", "radiation_table", "table_text"]

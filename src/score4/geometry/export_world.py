@@ -18,12 +18,14 @@ import tempfile
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from ..config import RunConfig
+from score4.inputs.config import RunConfig
+
 from ..errors import ConfigError, Score4Error
 
 
 def _write(config: RunConfig, out: str) -> dict:
-    from ..run_plan import plan_run
+    from score4.runner.run_plan import plan_run
+
     from ..sim.runtime import import_geant4, redirect_native_output, resolve_physics
     from .gdml import drop_nist_state
     from .world import build_world

@@ -6,8 +6,9 @@ import os
 import re
 from pathlib import Path
 
+from score4.inputs.materials import find_material
+
 from ..errors import Score4Error
-from .materials import find_material
 
 
 def write_solid_gdml(
@@ -176,12 +177,12 @@ def material_record(g4, material) -> dict:
 
 
 def extract_model(g4, world_pv, source: str, files: list[str], live: list | None = None) -> dict:
-    """The plain-data model (:class:`score4.geometry.volumes.GeometryModel`) of a live world.
+    """The plain-data model (:class:`score4.world.gdml_model.GeometryModel`) of a live world.
 
     ``live``, if given, receives the live logical volumes in the order of the model's
     ``logicals`` (their Python objects, so identity tests against a user's objects work).
     """
-    from .volumes import MODEL_FORMAT
+    from score4.world.gdml_model import MODEL_FORMAT
 
     index: dict[int, int] = {}  # id of a logical volume's Python object -> model index
     alive: list = []  # keeps those objects (and so their ids) alive

@@ -1,6 +1,6 @@
 """``python -m score4.geometry.gdml_reader FILE.gdml OUT.json``: the volume model of a GDML world.
 
-Run as a subprocess by :func:`score4.geometry.gdml_files.load_geometry_model`, so that the
+Run as a subprocess by :func:`score4.world.gdml_files.load_geometry_model`, so that the
 process reading the configuration never imports Geant4, and so that Geant4 aborting on a broken
 GDML file (it calls ``abort()`` on fatal read errors) ends this process only.
 """

@@ -1,7 +1,7 @@
 """A GDML world in Geant4, with score4's targets, boxes and rough layers added to it.
 
 The world is read with Geant4's own parser (:func:`score4.geometry.gdml.read_gdml`). The volume
-model of the same file (:mod:`score4.geometry.volumes`, read by the configuration's process)
+model of the same file (:mod:`score4.world.gdml_model`, read by the configuration's process)
 says which placement path each target instance is; this module finds the live volumes along
 those paths.
 
@@ -19,13 +19,14 @@ from __future__ import annotations
 from collections import Counter
 from typing import Any
 
+from score4.inputs.materials import find_material
+from score4.runner.run_plan import RunPlan
+from score4.world.gdml_model import GeometryModel, Instance
+from score4.world.scene import FaceFrame, RoughLayer, Scene, TargetVolume
+
 from ..errors import ConfigError
-from ..run_plan import RunPlan
-from ..scene import FaceFrame, RoughLayer, Scene, TargetVolume
 from .gdml import read_gdml
-from .materials import find_material
 from .tiling import place_native
-from .volumes import GeometryModel, Instance
 
 
 class _Unsharer:

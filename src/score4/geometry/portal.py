@@ -26,8 +26,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from score4.world.scene import RoughLayer
+
 from ..errors import ConfigError
-from ..scene import RoughLayer
 from .tiling import _rotation, place_variant
 
 #: Trigger box half-lengths as a multiple of the subworld's ("slightly larger").

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..surface.mesh import TriangleMesh
+from score4.surface.triangle_mesh import TriangleMesh
+
 from ..surface.spikes import SpikeGrid
 
 #: Above this many facets a tessellated solid gets at most TESSELLATED_MAX_VOXELS voxels: fewer,

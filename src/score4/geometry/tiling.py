@@ -17,7 +17,7 @@ navigation stays in C++. Layouts (``native_layout``):
 * ``nested``: the same at any grid size, down to at most 4 boxes in the envelope (deep trees:
   for tests and comparisons).
 
-The envelope is rotated into the face frame of :mod:`score4.scene`; inside it the patch bodies
+The envelope is rotated into the face frame of :mod:`score4.world.scene`; inside it the patch bodies
 have their slab bottom on the face.
 """
 
@@ -25,9 +25,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..scene import FaceFrame, RoughLayer
+from score4.world.scene import FaceFrame, RoughLayer
+
 from ..surface.patchmap import MAX_TOP_BOXES
-from .blocks import place_blocks
+from .block_solids import place_blocks
 from .frustums import place_frustums
 from .solids import multiunion_solid, tessellated_solid
 

@@ -6,11 +6,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..config import BoxVolume, RunConfig
+from score4.inputs.config import BoxVolume, RunConfig
+from score4.inputs.materials import find_material
+from score4.runner.run_plan import RunPlan
+from score4.world.scene import Scene, TargetVolume
+
 from ..errors import ConfigError
-from ..run_plan import RunPlan
-from ..scene import Scene, TargetVolume
-from .materials import find_material
 from .portal import PortalGeometry, place_portal, subworld_bounds, trigger_extent
 from .tiling import place_native
 

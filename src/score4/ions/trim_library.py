@@ -31,9 +31,10 @@ from pathlib import Path
 
 import numpy as np
 
+from score4.runner.progress import duration_text
+
 from .. import files
 from ..errors import Score4Error
-from ..progress import duration_text
 from .composition import Composition
 
 _CROSSING_TOLERANCE = 0.01

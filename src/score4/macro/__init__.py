@@ -2,8 +2,8 @@
 
 :func:`import_macro` reads a plain Geant4 macro (no ``/control/alias``) written for the
 original C++ SCoRe4 and returns a score4 run configuration (a mapping that
-:func:`score4.config.parse_config` accepts) together with an :class:`ImportReport` that accounts
-for every command: converted (line -> config key), ignored on purpose (with the reason), or
+:func:`score4.inputs.config.parse_config` accepts) together with an :class:`ImportReport` that
+accounts for every command: converted (line -> config key), ignored on purpose (with the reason), or
 not converted (unknown commands and values score4 cannot represent; never dropped silently).
 :func:`write_config` writes the configuration as commented YAML.
 

@@ -12,9 +12,10 @@ from typing import Any
 
 import numpy as np
 
-from ..config import parse_config
+from score4.inputs.config import parse_config
+from score4.inputs.units import parse_quantity
+
 from ..errors import ConfigError
-from ..units import parse_quantity
 from .collect import Helper, State, collect
 from .reader import G4_LENGTH, Quantity, number_text, read_macro
 from .report import ImportReport
@@ -678,7 +679,7 @@ def import_macro(
     Returns
     -------
     config, report
-        ``config`` validates with :func:`score4.config.parse_config` (checked here, with
+        ``config`` validates with :func:`score4.inputs.config.parse_config` (checked here, with
         ``base_dir`` = the output folder); ``report`` accounts for every command.
 
     Raises

@@ -9,9 +9,10 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+from score4.inputs.units import ENERGY as SCORE4_ENERGY
+from score4.inputs.units import LENGTH as SCORE4_LENGTH
+
 from ..errors import ConfigError
-from ..units import ENERGY as SCORE4_ENERGY
-from ..units import LENGTH as SCORE4_LENGTH
 
 # --------------------------------------------------------------------------------------------
 # Geant4 units (G4UnitDefinition names and symbols), factor to score4's internal unit

@@ -9,7 +9,7 @@ from .reader import Quantity
 VERBOSE = "output verbosity only"
 _VOXEL = (
     "voxel boundary cap of the original's patched G4Voxelizer; score4 builds its solids "
-    "without it (DESIGN.md: solids of <= 1e5 spikes, large faces tiled)"
+    "without it (docs/geant4-facts.md: solids of <= 1e5 spikes, large faces tiled)"
 )
 _STEP = (
     "deviation: G4UserLimits max step on the patch; score4 sets no per-volume step limit (its "

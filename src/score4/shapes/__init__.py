@@ -11,7 +11,7 @@ from .base import INSIDE, OUTSIDE, SURFACE, FaceSampler, Shape, ShapeSample
 from .boolean import BooleanShape
 from .csg import G4Box, G4Cons, G4Orb, G4Sphere, G4Trd, G4Tubs
 from .g4read import LiveSolidShape, shape_from_dict, shape_from_g4_solid
-from .mesh import MeshShape
+from .mesh_shape import MeshShape
 from .placed import PlacedShape
 from .revolved import G4GenericPolycone, G4GenericPolyhedra, G4Polycone, G4Polyhedra
 from .transform import Transform

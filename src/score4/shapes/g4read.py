@@ -31,7 +31,7 @@ from ..errors import ConfigError
 from .base import INSIDE, Shape, ShapeSample, as_points
 from .boolean import BooleanShape
 from .csg import G4Box, G4Cons, G4Orb, G4Sphere, G4Trd, G4Tubs
-from .mesh import MeshShape
+from .mesh_shape import MeshShape
 from .placed import PlacedShape
 from .revolved import G4GenericPolycone, G4GenericPolyhedra, G4Polycone, G4Polyhedra
 from .transform import Transform

@@ -63,9 +63,5 @@ class Transform:
         """``(self @ other).apply(x) == self.apply(other.apply(x))``."""
         return Transform(self.rotation @ other.rotation, self.apply(other.translation))
 
-    @property
-    def is_identity(self) -> bool:
-        return bool(np.allclose(self.rotation, np.eye(3)) and not self.translation.any())
-
     def to_dict(self) -> dict[str, list]:
         return {"rotation": self.rotation.tolist(), "translation": self.translation.tolist()}

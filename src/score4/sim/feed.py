@@ -4,7 +4,7 @@ Shared by score4's own application (:class:`score4.sim.simulation.Simulation`) a
 generator of the library (:class:`score4.api.PrimaryGenerator`), so that a user's geant4_pybind
 program and ``score4 run`` fill their events the same way:
 
-* every event may start from its own Geant4 seed (:func:`score4.sim.seeds.event_geant4_seeds`),
+* every event may start from its own Geant4 seed (:func:`score4.runner.seeds.event_geant4_seeds`),
   set when the event's primaries are generated, so its result does not depend on the events
   tracked before it;
 * rows can be kept from Geant4 (``skip``): the heavy ions

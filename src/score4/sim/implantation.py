@@ -198,7 +198,7 @@ class AtomTracker:
             self._moves.clear()
 
     def summary(self) -> dict:
-        """Counts of this batch for the run record (:func:`score4.output.chunk_counts` adds
+        """Counts of this batch for the run record (:func:`score4.runner.output.chunk_counts` adds
         up the chunks')."""
         keys = (
             "recoils",

@@ -18,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..config import RunConfig, parse_config
+from score4.inputs.config import RunConfig, parse_config
+
 from ..errors import ConfigError
 from ..ions.composition import Composition
 from ..ions.srim_reference import RangeSample
@@ -133,7 +134,8 @@ def simulate_ranges(
     alphas: str = "geant4",
 ) -> list[tuple[RangeSample, Composition]]:
     """Run ``events`` ions per case; return per case where they ended and the block's matter."""
-    from ..run_plan import plan_run
+    from score4.runner.run_plan import plan_run
+
     from .simulation import Simulation
 
     if not cases:

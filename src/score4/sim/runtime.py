@@ -49,7 +49,7 @@ class PhysicsChoice:
 
 def resolve_physics(requested: str, needs_decay: bool = False) -> PhysicsChoice:
     """Pick ``full`` or ``lite`` physics for ``requested`` in {"auto", "full", "lite"}."""
-    from .. import datasets
+    from score4.runner import datasets
 
     statuses = datasets.status()
     full_missing = tuple(datasets.missing_for("full", statuses))
@@ -76,7 +76,7 @@ def resolve_physics(requested: str, needs_decay: bool = False) -> PhysicsChoice:
 
 
 def lite_stub_dir() -> Path:
-    """A folder with the empty stand-ins that let Geant4 start without data (see DESIGN.md)."""
+    """A folder with the empty stand-ins that let Geant4 start without data (docs/geant4-facts.md)."""
     from ..files import cache_dir
 
     base = cache_dir("geant4-lite-stub")
@@ -88,7 +88,7 @@ def lite_stub_dir() -> Path:
 
 def prepare_environment(choice: PhysicsChoice) -> None:
     """Set the data-set variables Geant4 reads, before geant4_pybind is imported."""
-    from .. import datasets
+    from score4.runner import datasets
 
     if "geant4_pybind" in sys.modules:
         return

@@ -1,7 +1,7 @@
 """One Geant4 application in one process: geometry, physics, primaries, scoring.
 
 A :class:`Simulation` is built once per worker process and then runs chunks of events;
-every event reseeds Geant4 with its own seed (:mod:`score4.sim.seeds`), so an event's result
+every event reseeds Geant4 with its own seed (:mod:`score4.runner.seeds`), so an event's result
 does not depend on which worker ran it, what ran before it or how the run was chunked.
 """
 
@@ -15,9 +15,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from score4.runner.run_plan import RunPlan
+from score4.runner.seeds import library_trim_seed
+
 from ..errors import ConfigError, RunCancelled, Score4Error
 from ..geometry.world import BuiltGeometry, build_world, check_materials
-from ..run_plan import RunPlan
 from ..source.primaries import Primaries
 from .feed import EventFeed, replay_row
 from .heavy_ions import IonFate
@@ -31,7 +33,6 @@ from .physics import (
 )
 from .runtime import import_geant4, redirect_native_output
 from .scoring import SPLIT_QUANTITIES, VolumeScorer, ion_deposits
-from .seeds import library_trim_seed
 
 if TYPE_CHECKING:
     from .heavy_ions import HeavyIonTransport
@@ -67,9 +68,9 @@ class Simulation:
     scorer: VolumeScorer
 
     def __init__(self, plan: RunPlan, log_path: Path | None = None) -> None:
-        """The application of ``plan`` (:func:`score4.run_plan.plan_run`): its scene, source and
+        """The application of ``plan`` (:func:`score4.runner.run_plan.plan_run`): its scene, source and
         physics; the plan's seed fixes the TRIM seed of the trajectory libraries
-        (:func:`score4.sim.seeds.library_trim_seed`). Geant4's console output goes to
+        (:func:`score4.runner.seeds.library_trim_seed`). Geant4's console output goes to
         ``log_path``."""
         if plan.source is None:
             raise ValueError("Simulation: the plan has no source (made with source=False)")
@@ -256,7 +257,7 @@ class Simulation:
         """Track ``primaries``; return {quantity: (n_events, n_volumes) array} (MeV, mm).
 
         ``g4_seed`` is one seed for the whole batch, or one seed per event (``(n_events,)``
-        integers, see :func:`score4.sim.seeds.event_geant4_seeds`): each event then starts
+        integers, see :func:`score4.runner.seeds.event_geant4_seeds`): each event then starts
         from its own seed and its result does not depend on the events run before it.
         All events go into one ``BeamOn``: each ``BeamOn`` has a fixed cost that grows with the
         geometry (Geant4 walks the volume tree to update regions and cuts: 0.8 s with 4 million

@@ -31,12 +31,13 @@ from pathlib import Path
 
 import numpy as np
 
+from score4.runner.output import write_chunk
+from score4.runner.run_plan import RunPlan
+from score4.runner.seeds import atom_event_geant4_seeds, event_geant4_seeds
+
 from ..errors import Score4Error, Score4Warning
 from ..ions.trim_library import set_build_listener
-from ..output import write_chunk
-from ..run_plan import RunPlan
 from ..source.primaries import Primaries, atom_histories
-from .seeds import atom_event_geant4_seeds, event_geant4_seeds
 
 CRASH_HOOK = "SCORE4_TEST_CRASH_CHUNK"
 
@@ -54,7 +55,7 @@ class Chunk:
 @dataclass(frozen=True)
 class WorkerSpec:
     """Everything a worker needs to build the application and run chunks of one run: the run
-    plan (it travels as its recipe, :mod:`score4.run_plan`) and where chunk files go."""
+    plan (it travels as its recipe, :mod:`score4.runner.run_plan`) and where chunk files go."""
 
     plan: RunPlan
     parts_dir: Path
@@ -79,7 +80,7 @@ def simulate_chunk(
     """Sample and track one chunk; return its primaries and {quantity: (n_events, n_volumes) array}.
 
     The random streams depend only on the run seed and the event indices
-    (:mod:`score4.sim.seeds`), so a chunk gives the same result in any process, and an event
+    (:mod:`score4.runner.seeds`), so a chunk gives the same result in any process, and an event
     the same result in any chunking. Setting ``stop`` (another thread) ends the chunk after
     its current event with :class:`score4.errors.RunCancelled`.
     """

@@ -2,11 +2,11 @@
 
 :func:`make_source` builds, once per process, what every chunk needs: the vertex sampler on the
 configured face (its rough layer if it has one, else the flat face), on several faces of a
-volume (``face: all``: :class:`~score4.source.shapes.ShapeSurfaceSampler`) or in a volume
-(``volume:``, bulk: :class:`~score4.source.shapes.BulkSampler`), the depth profile, the
+volume (``face: all``: :class:`~score4.source.shape_sampling.ShapeSurfaceSampler`) or in a volume
+(``volume:``, bulk: :class:`~score4.source.shape_sampling.BulkSampler`), the depth profile, the
 confinement and the emitter; or the rows of a vertex file. ``source.events(seed, first, n)``
 then gives the primaries of events ``first .. first + n - 1`` of the run with that seed, drawn in
-prefix-stable blocks (:mod:`score4.source.blocks`); ``source.primaries(rng, first, n)`` draws
+prefix-stable blocks (:mod:`score4.source.event_blocks`); ``source.primaries(rng, first, n)`` draws
 ``n`` events from one given stream. :func:`source_geometry` gives what the run record states
 about the source (kind, true and projected area, volume).
 """
@@ -19,12 +19,12 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from .. import limits
-from ..config import FACES, DecayChainConfig, DepthConfig, RunConfig, SourceConfig
+from score4.inputs import limits
+from score4.inputs.config import FACES, DecayChainConfig, DepthConfig, RunConfig, SourceConfig
+from score4.world.scene import RoughLayer, Scene, TargetVolume, face_frame
+
 from ..errors import ConfigError
-from ..scene import RoughLayer, Scene, TargetVolume, face_frame
 from ..shapes import G4Box, G4Tubs, Shape, Transform, shape_from_dict
-from .blocks import draw_events
 from .decay_source import DecayEmitter
 from .depth import VertexSampler
 from .emitters import (
@@ -34,6 +34,7 @@ from .emitters import (
     ParticleEmitter,
     make_primaries,
 )
+from .event_blocks import draw_events
 from .primaries import Primaries
 from .profiles import (
     DepthProfile,
@@ -45,7 +46,7 @@ from .profiles import (
     ZeroDepth,
 )
 from .sampling import SurfaceSample, SurfaceSampler
-from .shapes import BulkSampler, CombinedSurfaceSampler, ShapeSurfaceSampler
+from .shape_sampling import BulkSampler, CombinedSurfaceSampler, ShapeSurfaceSampler
 from .vertex_file import read_vertex_file, vertex_file_config
 
 _T = TypeVar("_T")

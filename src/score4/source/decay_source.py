@@ -23,8 +23,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from score4.decay.nuclear_data import ZAI
+
 from ..decay.chain import ChainEvents, build_chain, fill_empty_events
-from ..decay.data import ZAI
 from ..decay.scheme import KINDS, decay_scheme
 from .emitters import DirectionKind, _check_direction, sample_directions
 

@@ -676,7 +676,7 @@ class Vertices:
         (n,) cell index and variant on a tiled face, else None.
     face
         (n,) face index of the surface point on a sampler over several faces of a volume
-        (:class:`~score4.source.shapes.ShapeSurfaceSampler`), else None.
+        (:class:`~score4.source.shape_sampling.ShapeSurfaceSampler`), else None.
     """
 
     position: np.ndarray
@@ -742,7 +742,7 @@ class VertexSampler:
     surface
         A :class:`SurfaceSampler` (one triangle set), a :class:`TiledSurfaceSampler`, or a
         sampler with its own ``draw_vertices(rng, depths, definition)`` hook such as
-        :class:`~score4.source.shapes.ShapeSurfaceSampler` (faces of any volume).
+        :class:`~score4.source.shape_sampling.ShapeSurfaceSampler` (faces of any volume).
     profile
         The depth profile.
     definition

@@ -31,8 +31,9 @@ from typing import Any, Literal, Protocol, cast, get_args
 import numpy as np
 from numpy.typing import ArrayLike
 
+from score4.inputs.units import parse_quantity
+
 from ..errors import ConfigError
-from ..units import parse_quantity
 from .primaries import Primaries
 from .sampling import Histogram, PiecewiseLinear, orthonormal_basis, read_table
 

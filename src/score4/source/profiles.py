@@ -16,8 +16,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
+from score4.inputs.units import length_text, parse_quantity
+
 from ..errors import ConfigError
-from ..units import length_text, parse_quantity
 from .sampling import DiscreteSampler, PiecewiseLinear, read_table
 
 __all__ = [

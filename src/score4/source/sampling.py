@@ -27,9 +27,10 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .. import limits
+from score4.inputs import limits
+from score4.inputs.units import DIMENSIONS
+
 from ..errors import ConfigError, brief
-from ..units import DIMENSIONS
 
 __all__ = [
     "DiscreteSampler",
@@ -414,7 +415,7 @@ class SurfaceSample:
         (n,) patch variant of that cell on a tiled face, else None.
     face
         (n,) index of the volume's face the point lies on (samplers on several faces of a
-        shape, :mod:`score4.source.shapes`), else None.
+        shape, :mod:`score4.source.shape_sampling`), else None.
     """
 
     position: np.ndarray

@@ -38,10 +38,11 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from .. import limits
+from score4.inputs import limits
+from score4.inputs.units import DIMENSIONS
+
 from ..errors import ConfigError, brief
 from ..files import atomic_h5, open_h5
-from ..units import DIMENSIONS
 from .primaries import Primaries
 
 FORMAT = "score4-vertices"

@@ -6,12 +6,12 @@ Nothing in this package imports Geant4.
 
 from .fit import fit_random_surface
 from .heightmap import HeightMap
-from .mesh import TriangleMesh, closed_body, from_heightmap
 from .metrology import PARAMETERS, areal_parameters, mesh_parameters
 from .processing import crop, fill_missing, level_plane, resample
 from .random import random_surface
 from .readers import read_topography
 from .spikes import SpikeGrid
+from .triangle_mesh import TriangleMesh, closed_body, from_heightmap
 
 __all__ = [
     "PARAMETERS",

@@ -6,7 +6,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import limits
+from score4.inputs import limits
+
 from ..errors import ConfigError
 
 

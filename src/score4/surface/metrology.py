@@ -4,8 +4,9 @@ Two entry points return a dict keyed by ISO symbol (heights in mm, see :data:`PA
 
 * :func:`areal_parameters` on a :class:`~score4.surface.heightmap.HeightMap`: the discrete
   definitions (sums over sample points), after removing the least-squares mean plane;
-* :func:`mesh_parameters` on the ``top`` faces of a :class:`~score4.surface.mesh.TriangleMesh`:
-  closed-form integrals over each facet, exact for the piecewise-linear surface.
+* :func:`mesh_parameters` on the ``top`` faces of a
+  :class:`~score4.surface.triangle_mesh.TriangleMesh`: closed-form integrals over each facet, exact
+  for the piecewise-linear surface.
 
 Definitions and discretisation (z is the height above the reference plane):
 
@@ -17,15 +18,15 @@ Definitions and discretisation (z is the height above the reference plane):
   height map, i.e. forward differences averaged per grid cell:
   Sdq² = mean over cells of [(Δx_bottom² + Δx_top²) / 2 / px² + (Δy_left² + Δy_right²) / 2 / py²].
   It is independent of the diagonal chosen for the triangles and equals the mesh Sdq of
-  :func:`~score4.surface.mesh.from_heightmap` exactly. surfalize 0.19 instead averages every
-  row/column forward difference with equal weight; the two differ only by the half weight of
+  :func:`~score4.surface.triangle_mesh.from_heightmap` exactly. surfalize 0.19 instead averages
+  every row/column forward difference with equal weight; the two differ only by the half weight of
   the border rows/columns, O(1/n) (ISO 25178-2 fixes the integral, not the difference scheme).
 * Sdr (developed interfacial area ratio), in percent: each grid cell's area is the mean of its
   two triangulations, i.e. a quarter of the sum of the four corner cross products
   (px, 0, Δx) x (0, py, Δy) (the rule surfalize 0.19 attributes to ISO 25178-2:2021 Annex D,
   eq. D.15; we did not have the standard's text); Sdr = (area / projected area - 1) * 100.
   The mesh Sdr uses the mesh's own triangles (one diagonal per cell for
-  :func:`~score4.surface.mesh.from_heightmap`), so the two differ at second order.
+  :func:`~score4.surface.triangle_mesh.from_heightmap`), so the two differ at second order.
 * Sal, Str (ISO 25178-2 §4.3, s = 0.2 after ISO 25178-3): from the areal autocorrelation
   function f_ACF of the centred heights, computed by zero-padded FFT as a linear (not circular)
   correlation, each lag divided by its number of overlapping valid points (unbiased), then
@@ -57,8 +58,8 @@ import numpy as np
 
 from ..errors import ConfigError
 from .heightmap import HeightMap
-from .mesh import TriangleMesh
 from .processing import one_period
+from .triangle_mesh import TriangleMesh
 
 #: (ISO symbol, unit kind, description). Unit kinds: "length" (mm internally),
 #: "ratio" (dimensionless), "percent".

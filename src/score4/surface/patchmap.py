@@ -42,9 +42,10 @@ from typing import Any
 
 import numpy as np
 
-from .. import limits
+from score4.inputs import limits
+from score4.inputs.units import parse_quantity
+
 from ..errors import ConfigError, Score4Warning
-from ..units import parse_quantity
 
 METHODS = ("exact", "random", "tiles", "given")
 

@@ -14,8 +14,9 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
+from score4.inputs.units import um
+
 from ..files import atomic_output
-from ..units import um
 from .metrology import areal_parameters, mesh_parameters
 from .spec import SPIKE_MAP_SAMPLES, Surface
 

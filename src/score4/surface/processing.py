@@ -11,9 +11,10 @@ import math
 
 import numpy as np
 
-from .. import limits
+from score4.inputs import limits
+from score4.inputs.units import length_text, parse_quantity
+
 from ..errors import ConfigError
-from ..units import length_text, parse_quantity
 from .heightmap import HeightMap
 
 RESAMPLE_METHODS = ("linear", "cubic")

@@ -56,8 +56,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from score4.inputs.units import length_text, parse_quantity
+
 from ..errors import ConfigError
-from ..units import length_text, parse_quantity
 from .heightmap import HeightMap
 
 ACF_MODELS = ("gaussian", "exponential")

@@ -52,8 +52,9 @@ from pathlib import Path
 
 import numpy as np
 
+from score4.inputs.units import LENGTH, parse_quantity
+
 from ..errors import ConfigError
-from ..units import LENGTH, parse_quantity
 from .heightmap import HeightMap
 
 TEXT_FORMATS = ("txt", "csv", "asc")

@@ -23,9 +23,8 @@ from typing import Annotated, ClassVar, Literal
 import numpy as np
 from pydantic import Field, TypeAdapter, ValidationError, model_validator
 
-from .. import limits
-from ..errors import ConfigError
-from ..schema import (
+from score4.inputs import limits
+from score4.inputs.schema import (
     ABOVE_ZERO,
     ConfigPath,
     Length,
@@ -34,13 +33,15 @@ from ..schema import (
     StrictModel,
     describe_validation_error,
 )
-from ..yamlfile import load_yaml
+from score4.inputs.yamlfile import load_yaml
+
+from ..errors import ConfigError
 from .heightmap import HeightMap
-from .mesh import TriangleMesh, closed_body, from_heightmap
 from .processing import close_periodic, crop, fill_missing, level_plane, resample
 from .random import random_surface
 from .readers import TEXT_FORMATS, format_of, read_topography
 from .spikes import SpikeGrid
+from .triangle_mesh import TriangleMesh, closed_body, from_heightmap
 
 #: Height-map samples per spike cell and axis used to picture and measure a spike grid as a map.
 SPIKE_MAP_SAMPLES = 16

@@ -35,10 +35,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from score4.inputs.units import length_text, parse_quantity
+
 from ..errors import ConfigError
-from ..units import length_text, parse_quantity
 from .heightmap import HeightMap
-from .mesh import TriangleMesh
+from .triangle_mesh import TriangleMesh
 
 SHAPES = ("pyramid", "bump", "peak")
 

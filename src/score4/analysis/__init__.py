@@ -1,0 +1,1 @@
+"""Results to physics: templates, models, response, normalisation, export, plots (no Geant4)."""

@@ -1,0 +1,148 @@
+"""``score4 geometry check``: build a run's geometry and let Geant4 look for overlaps."""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+import click
+
+
+@click.group()
+def geometry() -> None:
+    """Inspect the Geant4 geometry a run configuration builds."""
+
+
+@geometry.command()
+@click.argument(
+    "config_file", metavar="CONFIG.yaml", type=click.Path(dir_okay=False, path_type=Path)
+)
+@click.option(
+    "--points",
+    type=click.IntRange(min=10),
+    default=1000,
+    show_default=True,
+    help="Surface points per placement that Geant4 tests.",
+)
+@click.option(
+    "--max-placements",
+    type=click.IntRange(min=1),
+    default=500,
+    show_default=True,
+    help="Rough layers with more patches get the exact cell-containment check instead.",
+)
+@click.option(
+    "--tolerance", default="0 nm", show_default=True, help="Overlaps up to this depth are ignored."
+)
+@click.option(
+    "--log",
+    "log_path",
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Keep Geant4's output here (appended to an existing file).",
+)
+def check(config_file: Path, points: int, max_placements: int, tolerance: str, log_path) -> None:
+    """Check CONFIG.yaml's volumes for overlaps (Geant4 CheckOverlaps). Exit status 1 if any overlap."""
+    from score4.inputs.config import load_config
+    from score4.inputs.schema import quantity
+    from score4.runner.run_plan import plan_run
+
+    from ..errors import naming_file
+    from ..geometry.check import check_placements
+    from ..geometry.world import build_world
+    from ..sim.runtime import import_geant4, redirect_native_output, resolve_physics
+
+    config = load_config(config_file)
+    tol = quantity(tolerance, "length", "--tolerance", non_negative=True)
+    lite = resolve_physics("lite")  # geometry needs no physics data
+    with naming_file(config_file):
+        plan = plan_run(config, physics=lite, source=False)
+    scene = plan.scene
+    g4 = import_geant4(lite)
+    with tempfile.TemporaryDirectory() as tmp:
+        log = log_path or Path(tmp) / "geant4.log"
+        with redirect_native_output(log), naming_file(config_file):
+            built = build_world(g4, plan)
+            report = check_placements(built.world, points, tol, max_placements, layers=scene.layers)
+        click.echo(
+            f"Geant4 checked {report.checked} of {report.total} placements with {points} points each"
+            + (
+                f"; {report.exact} patch placements of large layers by exact cell containment"
+                if report.exact
+                else ""
+            )
+        )
+        if report.ok:
+            click.echo("no overlaps")
+            return
+        click.echo(
+            f"{len(report.overlaps)} placement(s) overlap: {', '.join(report.overlaps[:10])}"
+            + (" ..." if len(report.overlaps) > 10 else ""),
+            err=True,
+        )
+        details = [
+            line for line in log.read_text(errors="replace").splitlines() if "verlap" in line
+        ]
+        for line in details[:20]:
+            click.echo(f"  {line.strip()}", err=True)
+    raise click.exceptions.Exit(1)
+
+
+@geometry.command(name="list")
+@click.argument(
+    "config_file", metavar="CONFIG.yaml", type=click.Path(dir_okay=False, path_type=Path)
+)
+@click.option("--json", "as_json", is_flag=True, help="One JSON object per volume, as a list.")
+def list_volumes(config_file: Path, as_json: bool) -> None:
+    """List the volumes of CONFIG.yaml's world: name[copy], solid, material, mass, area, position.
+
+    For a GDML world (world: {gdml: FILE}) every physical volume of the file, indented by depth,
+    then the run's targets with their rough faces; for a generated world the targets.
+    """
+    import json
+
+    from score4.inputs.config import load_config
+    from score4.world.listing import geometry_rows, geometry_text
+    from score4.world.scene import build_scene
+
+    from ..errors import naming_file
+
+    config = load_config(config_file)
+    with naming_file(config_file):
+        scene = build_scene(config)
+    rows = geometry_rows(scene)
+    if as_json:
+        click.echo(json.dumps(rows, indent=1))
+        return
+    click.echo(geometry_text(scene, rows))
+
+
+@geometry.command(name="export")
+@click.argument(
+    "config_file", metavar="CONFIG.yaml", type=click.Path(dir_okay=False, path_type=Path)
+)
+@click.option(
+    "--gdml",
+    "out",
+    type=click.Path(dir_okay=False, path_type=Path),
+    required=True,
+    help="GDML file to write: the whole world with its rough layers.",
+)
+@click.option("--overwrite", is_flag=True, help="Replace an existing file.")
+def export_gdml(config_file: Path, out: Path, overwrite: bool) -> None:
+    """Write CONFIG.yaml's world with its rough layers as GDML (for remage, your own Geant4
+    application, pyg4ometry). Vertices from 'score4 vertices' are in this world's frame."""
+    from score4.inputs.config import load_config
+    from score4.world.scene import build_scene
+
+    from ..errors import naming_file
+    from ..files import check_output_file
+    from ..geometry.export_world import export_world
+
+    config = load_config(config_file)
+    check_output_file(out, overwrite, "--gdml")
+    with naming_file(config_file):
+        build_scene(config)  # bad input fails here, before any Geant4 process
+        info = export_world(config, out)
+    click.echo(
+        f"wrote {out}: {info['size'] / 1e6:.3g} MB, rough layers: {', '.join(info['layers']) or 'none'}"
+    )

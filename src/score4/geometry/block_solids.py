@@ -1,0 +1,53 @@
+"""Rough patches as a grid of small closed tessellated blocks in Geant4 (``solid: blocks``).
+
+The cut itself (pure numpy, exact) is :mod:`score4.surface.block_cut`; this module turns the block
+bodies into ``G4TessellatedSolid`` volumes placed side by side in the patch's mother volume.
+"""
+
+from __future__ import annotations
+
+from score4.surface.block_cut import block_bodies
+from score4.surface.triangle_mesh import TriangleMesh
+
+from ..surface.spec import Surface
+
+
+def fast_tessellated(g4, mesh: TriangleMesh, name: str):
+    """A closed G4TessellatedSolid of ``mesh``; one G4ThreeVector per vertex, shared by its faces."""
+    solid = g4.G4TessellatedSolid(name)
+    vec, facet, absolute = g4.G4ThreeVector, g4.G4TriangularFacet, g4.ABSOLUTE
+    points = [vec(*p) for p in mesh.vertices.tolist()]
+    add = solid.AddFacet
+    for a, b, c in mesh.faces.tolist():
+        add(facet(points[a], points[b], points[c], absolute))
+    solid.SetSolidClosed(True)
+    return solid
+
+
+def place_blocks(
+    g4,
+    surface: Surface,
+    base_thickness: float,
+    block_cells: int | None,
+    material,
+    mother_lv,
+    z: float,
+    name: str,
+    copies: int = 1,
+) -> tuple[list, list]:
+    """Place the patch's blocks in ``mother_lv``, base plane at height ``z`` of the mother.
+
+    Returns ``(logical volumes of the blocks, objects to keep alive)``; all logical volumes
+    are of ``material`` and belong to the patch's scoring group. ``copies``: how many times the
+    mother is placed (the automatic block size keeps copies x blocks bounded).
+    """
+    lvs, keep = [], []
+    where = g4.G4ThreeVector(0.0, 0.0, z)
+    keep.append(where)
+    for b, body in enumerate(block_bodies(surface, base_thickness, block_cells, copies)):
+        solid = fast_tessellated(g4, body, f"{name}_b{b}")
+        lv = g4.G4LogicalVolume(solid, material, f"{name}_b{b}")
+        pv = g4.G4PVPlacement(None, where, lv, f"{name}_b{b}", mother_lv, False, b, False)
+        lvs.append(lv)
+        keep += [solid, lv, pv]
+    return lvs, keep

@@ -1,0 +1,1 @@
+"""What a user writes: run configuration, schema, units, limits, material names (no Geant4)."""

@@ -1,0 +1,240 @@
+"""A rough patch cut into blocks of cells: the numpy half of ``solid: blocks``.
+
+One large ``G4TessellatedSolid`` per patch is slow to track charged particles through: every
+step of an alpha inside it asks the solid for a safety distance and a distance to its boundary,
+and with 10^4-10^6 facets those queries walk many voxels and candidate facets. Here the patch
+body is cut along the surface's cell grid into blocks of ``block_cells x block_cells`` cells
+(pixels of a height map, spikes of a spike grid). Each block is a closed tessellated solid: its
+share of the exact top mesh, vertical walls under its edges and a flat bottom at the patch's
+bottom plane. The blocks are placed side by side in the patch's mother volume, so Geant4's
+voxelised navigation hands each step to one small solid.
+
+Exactness. The blocks are made from the faces of the one triangle mesh (:attr:`Surface.top_mesh`)
+without moving a vertex: the top of the blocks is that mesh face for face, and neighbouring
+blocks share their walls exactly (the same boundary vertices, so the same planes): there is no
+gap and no overlap between them. Their union is the old closed body (:meth:`Surface.body`).
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+from ..errors import ConfigError
+from .spec import Surface
+from .triangle_mesh import TriangleMesh, boundary_half_edges, closed_body
+
+#: Top facets per block that ``block_cells: auto`` aims at. Measured (bench_surfaces.py, alphas,
+#: ratio to the equal-height pyramid multi-union, shared machine): measured map 2 x 2 pixels
+#: (8 facets) 1.27, 5 x 5 1.54, 10 x 10 2.60, 1 x 1 4.9 (too many daughters and boundaries);
+#: pyramids with a spread 1 spike (4 facets) 1.11, 2 x 2 1.39, 5 x 5 1.83; bumps (28 facets per
+#: spike) 1 spike 1.82, 2 x 2 2.15.
+AUTO_BLOCK_FACETS = 8
+#: ... but at most this many blocks per patch (each is a solid, a logical and a physical volume
+#: of ~1-3 KB): a 1024 x 1024 map gets 8 x 8 pixel blocks instead of 262 144 blocks of 2 x 2.
+AUTO_MAX_BLOCKS = 16_384
+#: ... and at most this many blocks over all placed copies of the patch. Geant4 walks the whole
+#: volume tree (every placed block of every cell) at the start of every BeamOn
+#: (G4Region::ScanVolumeTree, G4ProductionCutsTable::ScanAndSetCouple): with 175 million placed
+#: blocks (paper_b's 40 000 cells of 2 x 2-pixel blocks) that took ~20 s per BeamOn.
+AUTO_MAX_PLACED_BLOCKS = 2_000_000
+
+#: Top facets of one patch variant above which building is refused (a 1024 x 1024 map has 2.1e6).
+MAX_PATCH_FACETS = 4_000_000
+#: Rough Geant4 memory per facet, bytes (used in the message only; bench_surfaces.py measures it).
+FACET_BYTES = 1000
+
+
+def cell_shape(surface: Surface) -> tuple[int, int]:
+    """(ny, nx) cells: the spikes of a spike grid, the pixels (sample gaps) of a height map."""
+    if surface.spikes is not None:
+        return surface.spikes.ny, surface.spikes.nx
+    ny, nx = surface.placed_map.heights.shape
+    return ny - 1, nx - 1
+
+
+def auto_block_cells(surface: Surface, copies: int = 1) -> int:
+    """Cells per block side for ``block_cells: auto``.
+
+    ~AUTO_BLOCK_FACETS top facets a block, at most ~AUTO_MAX_BLOCKS blocks a patch and
+    ~AUTO_MAX_PLACED_BLOCKS over its ``copies`` placements.
+    """
+    ny, nx = cell_shape(surface)
+    per_cell = surface.top_mesh.n_faces / (nx * ny)
+    cells = max(1, round(float(np.sqrt(AUTO_BLOCK_FACETS / per_cell))))
+    max_blocks = max(1, min(AUTO_MAX_BLOCKS, AUTO_MAX_PLACED_BLOCKS // max(1, copies)))
+    return max(cells, int(np.ceil(np.sqrt(nx * ny / max_blocks))))
+
+
+def block_edges(
+    n_cells: int, block_cells: int | None, axis: str, auto_cells: int = 2
+) -> np.ndarray:
+    """Cell indices where blocks start along one axis, with ``n_cells`` appended.
+
+    ``block_cells=None`` (auto) splits into ``ceil(n_cells / auto_cells)`` nearly equal blocks,
+    so any number of cells works; an explicit size must divide the number of cells.
+    """
+    if block_cells is None:
+        n_blocks = max(1, -(-n_cells // auto_cells))
+        return np.linspace(0, n_cells, n_blocks + 1).round().astype(np.int64)
+    value: object = block_cells  # callers outside the config may pass anything
+    ok = isinstance(value, numbers.Integral) and not isinstance(value, bool)
+    if not ok or block_cells < 1:
+        raise ConfigError(f"block_cells: must be a positive whole number, got {block_cells!r}")
+    if n_cells % block_cells:
+        divisors = [d for d in range(1, n_cells + 1) if n_cells % d == 0]
+        raise ConfigError(
+            f"block_cells: {block_cells} does not divide the {n_cells} cells of the surface along "
+            f"{axis}; use a divisor ({', '.join(map(str, divisors[:12]))}"
+            f"{', ...' if len(divisors) > 12 else ''}) or leave it out (auto splits any size)"
+        )
+    return np.arange(0, n_cells + 1, block_cells, dtype=np.int64)
+
+
+def check_patch(surface: Surface, kind: str, block_cells: int | None) -> None:
+    """Refuse, before any Geant4 work, a patch too large to build or blocks that do not fit.
+
+    ``kind`` is the solid the patch becomes (``tessellated``, ``multiunion``, ``frustums``,
+    ``blocks``).
+    """
+    if kind in ("multiunion", "frustums"):
+        return
+    mesh = surface.top_mesh
+    if mesh.n_faces > MAX_PATCH_FACETS:
+        ny, nx = cell_shape(surface)
+        raise ConfigError(
+            f"surface: {nx} x {ny} cells give {mesh.n_faces} facets, above the limit of "
+            f"{MAX_PATCH_FACETS} facets per patch (~{MAX_PATCH_FACETS * FACET_BYTES / 1e9:.0f} GB "
+            "of Geant4 memory); crop the map (crop_x, crop_y) or resample it on a coarser grid "
+            "(resample_pitch)"
+        )
+    if kind == "blocks":
+        ny, nx = cell_shape(surface)
+        block_edges(nx, block_cells, "x")
+        block_edges(ny, block_cells, "y")
+
+
+def split_top(
+    surface: Surface, block_cells: int | None = None, copies: int = 1
+) -> list[TriangleMesh]:
+    """The surface's top mesh cut into blocks of cells, row by row (y outer, x inner).
+
+    Every face of :attr:`Surface.top_mesh` lands in exactly one block (faces never cross a cell
+    edge); vertices are copied, not moved.
+    """
+    check_patch(surface, "blocks", block_cells)
+    mesh = surface.top_mesh
+    ny, nx = cell_shape(surface)
+    auto = auto_block_cells(surface, copies)
+    ex, ey = block_edges(nx, block_cells, "x", auto), block_edges(ny, block_cells, "y", auto)
+    cell = mesh.facet
+    assert cell is not None  # surface meshes carry the cell of each face
+    ci, cj = cell % nx, cell // nx
+    bi = np.searchsorted(ex, ci, side="right") - 1
+    bj = np.searchsorted(ey, cj, side="right") - 1
+    block = bj * (len(ex) - 1) + bi
+    order = np.argsort(block, kind="stable")
+    starts = np.searchsorted(block[order], np.arange((len(ex) - 1) * (len(ey) - 1) + 1))
+    out = []
+    for b in range(len(starts) - 1):
+        rows = order[starts[b] : starts[b + 1]]
+        faces = mesh.faces[rows]
+        used, local = np.unique(faces, return_inverse=True)
+        out.append(TriangleMesh(mesh.vertices[used], local.reshape(-1, 3), facet=cell[rows]))
+    return out
+
+
+def block_bodies(
+    surface: Surface, base_thickness: float, block_cells: int | None = None, copies: int = 1
+) -> list[TriangleMesh]:
+    """Closed bodies of the blocks: each block's top on walls down to ``z = -base_thickness``."""
+    return [block_body(top, base_thickness) for top in split_top(surface, block_cells, copies)]
+
+
+def _upright(
+    v: np.ndarray, thickness: float, a: int, b: int, low_a: int, tris: list[tuple]
+) -> bool:
+    """True if the wall triangles ``tris`` (vertex ids; ids >= len(v) are bottom corners:
+    ``low_a`` under ``a``, another under ``b``) all turn the same way as the wall from ``a`` to
+    ``b`` (anticlockwise in (distance along the side, z)): none folds over the polygon."""
+    d = v[b, :2] - v[a, :2]
+    d = d / np.hypot(*d)
+
+    def sz(i: int) -> tuple[float, float]:
+        if i < len(v):
+            return float((v[i, :2] - v[a, :2]) @ d), float(v[i, 2])
+        return (0.0 if i == low_a else float((v[b, :2] - v[a, :2]) @ d)), -float(thickness)
+
+    for p, q, r in tris:
+        (ps, pz), (qs, qz), (rs, rz) = sz(p), sz(q), sz(r)
+        if (qs - ps) * (rz - pz) - (qz - pz) * (rs - ps) <= 0:
+            return False
+    return True
+
+
+def block_body(top: TriangleMesh, thickness: float) -> TriangleMesh:
+    """One block's closed body with few facets, for blocks whose sides are 1 to 3 cells long.
+
+    Geant4 asks a block for its exact safety at every step inside it, a distance to each nearby
+    facet (bench_surfaces.py, docs/tiling.md): fewer facets, cheaper steps. :func:`closed_body`
+    gives every top edge on the outline a wall quad (2 triangles) reaching a bottom vertex under
+    each outline vertex, and fans the bottom from a centre vertex: 32 facets for 2 x 2 pixels.
+    Here each side's wall polygon (its 2 or 3 top vertices over the side's two bottom corners)
+    is 2, 3 or 4 triangles and the bottom is 2: 22 facets for 2 x 2 pixels, 36 instead of 54
+    for 3 x 3. The walls lie in the same planes with the same top edges, so neighbouring blocks
+    still share their walls exactly. Longer sides keep :func:`closed_body`.
+    """
+    v = top.vertices
+    lo, hi = v[:, :2].min(axis=0), v[:, :2].max(axis=0)
+    edges = boundary_half_edges(top)
+    nxt = dict(zip(edges[:, 0].tolist(), edges[:, 1].tolist(), strict=True))
+    xy = v[:, :2]
+    corner = [a for a in nxt if all(xy[a, k] in (lo[k], hi[k]) for k in (0, 1))]
+    if len(corner) != 4 or len(nxt) != len(edges):
+        return closed_body(top, thickness)
+    # the outline (anticlockwise) cut at the corners into the four sides' chains
+    chains, start = [], corner[0]
+    for _ in range(4):
+        chain = [start]
+        while True:
+            chain.append(nxt[chain[-1]])
+            if chain[-1] in corner:
+                break
+            if len(chain) > 4:
+                return closed_body(top, thickness)  # a side of 4 or more edges
+        chains.append(chain)
+        start = chain[-1]
+    if start != corner[0]:
+        return closed_body(top, thickness)
+    n_top = len(v)
+    ends = [c[0] for c in chains]  # the corners, in loop order
+    low = {c: n_top + k for k, c in enumerate(ends)}
+    bottom = np.column_stack([v[ends, :2], np.full(4, -float(thickness))])
+    walls = []
+    for chain in chains:  # orientation as in closed_body: each top edge reversed on its wall
+        a, b = chain[0], chain[-1]
+        la, lb = low[a], low[b]
+        if len(chain) == 2:
+            walls += [(b, a, la), (b, la, lb)]
+        elif len(chain) == 3:
+            m = chain[1]
+            walls += [(m, a, la), (b, m, lb), (m, la, lb)]
+        else:  # the quad m1, A, B, m2 between the end triangles: cut along a valid diagonal
+            m1, m2 = chain[1], chain[2]
+            walls += [(m1, a, la), (b, m2, lb)]
+            if _upright(v, thickness, a, b, la, [(m1, la, m2), (la, lb, m2)]):
+                walls += [(m1, la, m2), (la, lb, m2)]
+            else:
+                walls += [(m1, la, lb), (m1, lb, m2)]
+    c0, c1, c2, c3 = (low[c] for c in ends)
+    floor = [(c1, c0, c3), (c3, c2, c1)]
+    faces = np.vstack([top.faces, np.array(walls + floor, dtype=top.faces.dtype)])
+    n_extra = len(walls) + len(floor)
+    return TriangleMesh(
+        np.vstack([v, bottom]),
+        faces,
+        top=np.concatenate([top.top, np.zeros(n_extra, bool)]),
+        patch=None if top.patch is None else np.concatenate([top.patch, np.full(n_extra, -1)]),
+        facet=None if top.facet is None else np.concatenate([top.facet, np.full(n_extra, -1)]),
+    )

@@ -1,0 +1,1 @@
+"""The resolved world: rough faces, targets, clearance, GDML files, listing (no Geant4)."""

@@ -1,0 +1,251 @@
+"""Clearance checks of a run's targets and rough layers (numpy, no Geant4).
+
+* A generated world: targets (boxes) must not overlap, and a rough layer (its envelope: the face
+  extruded by the layer thickness) must not run into another target or layer.
+* A GDML world: a rough layer must not meet any other daughter of its volume's mother (the
+  volume's sisters, boxes of the configuration, other layers) and must stay inside the mother;
+  boxes of the configuration likewise. G4Box solids are tested exactly (oriented boxes,
+  separating axes), G4Tubs and the other solids score4.shapes describes (booleans: a frame is a
+  box less a box) by a grid of points of the envelope, the rest by their bounding box. Errors
+  name what the layer meets and the free gap along the face normal.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from score4.errors import ConfigError
+from score4.shapes import Shape, shape_from_dict
+
+from .gdml_model import GeometryModel, Instance
+from .obb import OrientedBox
+from .scene import (
+    BOUNDARY_TOLERANCE,
+    RoughLayer,
+    Scene,
+    TargetVolume,
+    layer_aabb,
+    solid_contains,
+    target_aabb,
+    target_obb,
+)
+
+
+def _overlap(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> bool:
+    """Boxes share volume (touching faces are fine)."""
+    return bool(np.all(np.minimum(a[1], b[1]) - np.maximum(a[0], b[0]) > BOUNDARY_TOLERANCE))
+
+
+def check_clearance(scene: Scene) -> None:
+    """Refuse targets that overlap, and rough layers that run into another target or rough layer."""
+    if scene.model is not None:
+        check_gdml_clearance(scene)
+        return
+    boxes = {t.name: target_aabb(t) for t in scene.targets}
+    names = list(boxes)
+    for a, name in enumerate(names):
+        for other in names[a + 1 :]:
+            if _overlap(boxes[name], boxes[other]):
+                raise ConfigError(
+                    f"targets: {name!r} and {other!r} overlap; Geant4 needs volumes that do not "
+                    "overlap"
+                )
+    layers = [(layer, layer_aabb(layer)) for layer in scene.layers]
+    for n, (layer, box) in enumerate(layers):
+        others = [(f"target {name!r}", b) for name, b in boxes.items() if name != layer.target.name]
+        others += [(f"the rough layer {o.name}", ob) for o, ob in layers[n + 1 :]]
+        for what, other_box in others:
+            if _overlap(box, other_box):
+                axis = int(np.argmax(np.abs(layer.frame.normal)))
+                gap = (
+                    (other_box[0][axis] - box[0][axis])
+                    if layer.frame.normal[axis] > 0
+                    else (box[1][axis] - other_box[1][axis])
+                )
+                raise ConfigError(_meets(layer, what, gap))
+
+
+def _meets(layer: RoughLayer, what: str, gap: float) -> str:
+    return (
+        f"{layer.name}: the rough layer on face {layer.config.face} of "
+        f"{layer.target.name!r} is {layer.thickness * 1e3:.4g} um thick (base "
+        f"{layer.base_thickness * 1e3:.4g} um + highest tip) and runs into {what} "
+        f"(free gap there: {max(gap, 0.0) * 1e3:.4g} um); move the volumes apart, use a lower "
+        "surface"
+        + (" or into: true (the layer inside the volume)" if not layer.config.into else "")
+    )
+
+
+@dataclass(frozen=True)
+class _Body:
+    """A solid in some mother, for the clearance checks of a GDML world."""
+
+    label: str
+    obb: OrientedBox
+    solid: str
+    params: dict
+    to_local: object  # world -> the solid's frame
+    lo: np.ndarray
+    hi: np.ndarray
+    shape: Shape | None = None  # the solid as score4.shapes describes it (None: not described)
+
+    def meets(self, box: OrientedBox) -> bool:
+        if not self.obb.overlaps(box):
+            return False
+        if self.solid == "G4Box":
+            return True  # the bounding box is the solid
+        q = self.to_local(box.grid())  # type: ignore[operator]
+        return bool(self.contains(q, touching=False).any())
+
+    def contains(self, q: np.ndarray, touching: bool = True) -> np.ndarray:
+        """Points (the solid's frame) in the solid: exact for G4Box and G4Tubs and for every
+        solid score4.shapes describes (a frame: a box less a box), else its bounding box.
+        ``touching=False``: points on the surface of a shape do not count (a layer may touch
+        a sister)."""
+        if self.shape is not None and self.solid not in ("G4Box", "G4Tubs"):
+            d = self.shape.signed_distance(q)
+            return np.asarray(d <= BOUNDARY_TOLERANCE if touching else d < -BOUNDARY_TOLERANCE)
+        return solid_contains(self.solid, self.params, self.lo, self.hi, q)
+
+
+def _instance_body(model: GeometryModel, inst: Instance, label: str | None = None) -> _Body:
+    lv = model.logicals[inst.logical]
+    lo, hi = np.asarray(lv.solid["lo"], float), np.asarray(lv.solid["hi"], float)
+    obb = OrientedBox(inst.to_world((lo + hi) / 2), inst.rotation, (hi - lo) / 2)
+    data = lv.solid.get("shape")
+    return _Body(
+        label or f"volume {model.label(inst)!r}",
+        obb,
+        lv.solid_type,
+        lv.solid.get("params", {}),
+        inst.to_local,
+        lo,
+        hi,
+        _shape(data) if data and lv.solid_type not in ("G4Box", "G4Tubs") else None,
+    )
+
+
+@lru_cache(maxsize=256)
+def _shape_of(text: str) -> Shape:
+    return shape_from_dict(json.loads(text))
+
+
+def _shape(data: dict) -> Shape:
+    """The shape of a model's solid record (cached: a world places one solid many times)."""
+    return _shape_of(json.dumps(data, sort_keys=True))
+
+
+def _target_body(t: TargetVolume) -> _Body:
+    return _Body(f"target {t.name!r}", target_obb(t), t.solid, t.params, t.to_local, t.lo, t.hi)
+
+
+def check_gdml_clearance(scene: Scene) -> None:
+    """Rough layers and boxes of a GDML world against their sisters and their mother.
+
+    A layer on a face (outside the volume) must not meet any other daughter of the volume's
+    mother (other GDML volumes, boxes of the configuration, other layers) and must stay inside
+    the mother. G4Box solids are tested exactly (oriented boxes), G4Tubs and the solids
+    score4.shapes describes by a grid of points of the layer's envelope, other solids by their
+    bounding box.
+    """
+    model = scene.model
+    assert model is not None
+    for t in scene.targets:
+        if t.instance is not None:
+            continue
+        assert t.mother is not None
+        box = target_obb(t)
+        for inst in model.children.get(t.mother.index, []):
+            body = _instance_body(model, model.instances[inst])
+            if body.meets(box):
+                raise ConfigError(
+                    f"targets.{t.entry}: box {t.name!r} overlaps {body.label} in "
+                    f"{model.label(t.mother)!r}; Geant4 needs volumes that do not overlap"
+                )
+        mother_body = _instance_body(model, t.mother)
+        pts = box.corners() if mother_body.solid == "G4Box" else box.grid()
+        if not mother_body.contains(t.mother.to_local(pts)).all():
+            raise ConfigError(
+                f"targets.{t.entry}: box {t.name!r} sticks out of its mother "
+                f"{model.label(t.mother)!r}; position is in the mother's frame"
+            )
+    layers = [(layer, layer.envelope_box()) for layer in scene.layers]
+    for n, (layer, box) in enumerate(layers):
+        mother = layer.target.mother
+        assert mother is not None  # in a GDML world every target has a mother (the world at least)
+        own = layer.target.instance.index if layer.target.instance is not None else -1
+        for inst in model.children.get(mother.index, []):
+            if inst == own:
+                continue
+            body = _instance_body(model, model.instances[inst], None)
+            if body.meets(box):
+                raise ConfigError(_meets(layer, f"sister {body.label}", _gap(layer, body)))
+        for t in scene.targets:
+            if t is layer.target or t.instance is not None or t.mother != mother:
+                continue
+            body = _target_body(t)
+            if body.meets(box):
+                raise ConfigError(_meets(layer, body.label, _gap(layer, body)))
+        for other, other_box in layers[n + 1 :]:
+            if other.target.mother == mother and other_box.overlaps(box):
+                raise ConfigError(_meets(layer, f"the rough layer {other.name}", 0.0))
+        _check_inside_mother(model, mother, layer, box)
+
+
+def _gap(layer: RoughLayer, body: _Body) -> float:
+    """Free space between the face and ``body``: along the face normal to its bounding box (a
+    box), or the least distance from a grid of points of the face to its solid (a shape)."""
+    if body.shape is not None:
+        return _shape_gap(layer, body)
+    q = layer.frame.to_local(body.obb.corners())
+    return float(q[:, 2].min())
+
+
+def _shape_gap(layer: RoughLayer, body: _Body, n_face: int = 25, n_steps: int = 400) -> float:
+    """Least distance along the face normal from a grid of points of the face to the solid of
+    ``body`` (a shape), within the layer's thickness: marched in ``n_steps``, then bisected."""
+    lu, lv = layer.frame.size
+    u, v = np.meshgrid(np.linspace(-lu / 2, lu / 2, n_face), np.linspace(-lv / 2, lv / 2, n_face))
+    face = np.column_stack([u.ravel(), v.ravel(), np.zeros(u.size)])
+    steps = np.linspace(0.0, layer.thickness, n_steps + 1)
+
+    def inside(local_face: np.ndarray, t: np.ndarray) -> np.ndarray:
+        pts = layer.frame.to_world(local_face + t[:, None] * np.array([0.0, 0.0, 1.0]))
+        return body.contains(body.to_local(pts), touching=False)  # type: ignore[operator]
+
+    grid = inside(np.repeat(face, len(steps), axis=0), np.tile(steps, len(face)))
+    hits = grid.reshape(len(face), len(steps))
+    if not hits.any():
+        return 0.0
+    first = np.where(hits.any(axis=1), hits.argmax(axis=1), len(steps))
+    k = int(np.argmin(first))
+    if first[k] == 0:
+        return 0.0
+    lo, hi = steps[first[k] - 1], steps[first[k]]
+    for _ in range(30):  # bisection on the first point that meets the solid
+        mid = 0.5 * (lo + hi)
+        if inside(face[k : k + 1], np.array([mid]))[0]:
+            hi = mid
+        else:
+            lo = mid
+    return float(hi)
+
+
+def _check_inside_mother(
+    model: GeometryModel, mother: Instance, layer: RoughLayer, box: OrientedBox
+) -> None:
+    lv = model.logicals[mother.logical]
+    body = _instance_body(model, mother)
+    pts = box.corners() if body.solid == "G4Box" else box.grid()
+    inside = body.contains(mother.to_local(pts))
+    if not inside.all():
+        raise ConfigError(
+            f"{layer.name}: the rough layer on face {layer.config.face} of {layer.target.name!r} "
+            f"({layer.thickness * 1e3:.4g} um thick) leaves its mother volume "
+            f"{model.label(mother)!r} ({lv.solid_type}); use into: true (the layer inside the "
+            "volume) or a lower surface"
+        )
