@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from score4.decay import decay_scheme
 from score4.decay.chain import build_chain
-from score4.decay.data import decay_data
+from score4.decay.nuclear_data import decay_data
 from score4.decay.table import _filled_lines
 
 MIN_PERCENT = 0.05

@@ -9,7 +9,7 @@ import math
 
 from score4.decay import decay_scheme, known_nuclides
 from score4.decay.chain import build_chain, chain_activities
-from score4.decay.data import decay_data
+from score4.decay.nuclear_data import decay_data
 from score4.decay.spectra import BetaSpectrum
 from score4.decay.table import radiation_table
 

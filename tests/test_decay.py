@@ -136,7 +136,7 @@ def test_energy_per_decay_at_most_q_and_alpha_shares_q_minus_level():
 
 
 def _q_shift(name):
-    from score4.decay.data import decay_data
+    from score4.decay.nuclear_data import decay_data
 
     return max(
         abs(m["q_keV"] - m["q_ensdf_keV"])

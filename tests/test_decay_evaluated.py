@@ -13,7 +13,7 @@ import pytest
 
 from score4.decay import decay_scheme
 from score4.decay.chain import build_chain
-from score4.decay.data import decay_data
+from score4.decay.nuclear_data import decay_data
 
 NUCLIDES = sorted(
     {m for head in ("U238", "U235", "Th232") for m in build_chain(head).members} | {"Pb210", "K40"}
