@@ -7,9 +7,11 @@ from __future__ import annotations
 
 import math
 
-from score4.decay import decay_scheme
+from score4.decay import decay_scheme, known_nuclides
 from score4.decay.chain import build_chain, chain_activities
+from score4.decay.nuclear_data import decay_data
 from score4.decay.spectra import BetaSpectrum
+from score4.decay.table import radiation_table
 
 
 def line(name: str, kind: str, energy: float):
@@ -27,8 +29,20 @@ def main() -> None:
     print(f"K40 mean {line('K40', 'beta-', 1311).mean:.1f} keV")
     k40_2u = BetaSpectrum.build(1310.89, 20, 40, forbiddenness="2UF").mean_kev
     print(f"K40 mean second unique {k40_2u:.1f} keV")
-    tl = line("Tl210", "beta-", 2413)
+    tl = line("Tl210", "beta-", 2412.4)
     print(f"Tl210 2413 difference {100 * (tl.mean / tl.mean_ensdf - 1):.1f} %")
+    excess = max(decay_scheme(n).alpha_excess_kev for n in known_nuclides())
+    print(f"largest measured alpha excess {excess:.1f} keV")
+    print(f"U235 gamma 185.7 {100 * line('U235', 'gamma', 185.713).intensity:.1f} %")
+    for name, mode in (("Pa234", "B-"), ("Tl210", "B-"), ("Fr223", "B-"), ("U235", "A")):
+        m = next(m for m in decay_data()["nuclides"][name]["modes"] if m["mode"] == mode)
+        print(f"{name} {mode} intensity scale {m['intensity_scale']:.2f}")
+    e0 = sum(
+        f["transition_percent"]
+        for f in radiation_table("Pa234m")["nuclides"][0]["lines_from_level_feeding"]
+        if f["E0"] and abs(f["energy_keV"] - 811) < 1
+    )
+    print(f"Pa234m E0 810 keV {e0:.2f} %")
     merged = 100 * (1 - math.exp(-math.log(2) * 10 / 163.6))
     print(f"Po214 merged in 10 us {merged:.1f} %")
     a = chain_activities(build_chain("Pb210"), 180 * 86400.0)

@@ -342,6 +342,15 @@ def test_recoils_across_a_gap_decay_in_the_opposite_face(tmp_path, capsys):
     atoms = next(ln for ln in capsys.readouterr().out.splitlines() if "atoms " in ln)
     assert f"{counts['left_world']} left the world" in atoms
     assert "150 deposited Po218 atoms" in atoms
+    # the JSON summary carries the same atoms line
+    assert main(["summary", str(tmp_path / "one.h5"), "--json"]) == 0
+    js = json.loads(capsys.readouterr().out)["atoms"]
+    assert js["n_atoms"] == 150
+    assert js["nuclide"] == "Po218"
+    assert js["left_world"] == counts["left_world"]
+    assert js["recoils"] == counts["recoils"]
+    assert js["lost_decays"] == counts["lost_decays"]
+    assert js["simulated_decays"] == 150
     check_same_in_any_chunking(r, run_cli(tmp_path, "two", 2, 40, 150))
 
 

@@ -24,10 +24,10 @@ from score4.errors import ConfigError
 
 # (nuclide, radiation, published energy keV, published intensity % per decay, tolerance on the
 # intensity (relative), why). Energies: gammas within 0.1 keV (score4 caps a line at its level
-# difference); alphas within 2 keV, because score4 shares Q - E(level) by two-body kinematics
-# while ENSDF lists the measured alpha energy (U-238 4151 keV: 4149.2 from Q).
+# difference); alphas within 2 keV (score4 takes the measured line where it agrees with
+# Q - E(level) within 2 sigma, else shares Q - E(level) by two-body kinematics).
 PUBLISHED = [
-    ("Pb210", "gamma", 46.539, 4.25, 0.07, "feeding 84(3) % x 1/(1+17.86): 3.6 % uncertainty"),
+    ("Pb210", "gamma", 46.539, 4.25, 0.01, "ENSDF's measured 4.25(4) %"),
     ("Po210", "alpha", 5304.33, 100.0, 0.01, ""),
     ("Bi214", "gamma", 609.312, 45.49, 0.03, ""),
     ("Bi214", "gamma", 1120.287, 14.91, 0.03, ""),
@@ -36,8 +36,8 @@ PUBLISHED = [
     ("Tl208", "gamma", 2614.511, 99.754, 0.01, ""),
     ("Tl208", "gamma", 583.187, 85.0, 0.03, ""),
     ("Tl208", "gamma", 860.557, 12.50, 0.03, ""),
-    ("Ac228", "gamma", 911.204, 25.8, 0.03, "feedings from the gamma balance"),
-    ("Ac228", "gamma", 968.971, 15.8, 0.03, "feedings from the gamma balance"),
+    ("Ac228", "gamma", 911.204, 25.8, 0.01, ""),
+    ("Ac228", "gamma", 968.971, 15.8, 0.01, ""),
     ("Bi212", "gamma", 727.330, 6.67, 0.03, ""),
     ("Bi212", "alpha", 6050.78, 25.13, 0.03, ""),
     ("K40", "gamma", 1460.820, 10.66, 0.01, ""),
@@ -85,9 +85,11 @@ SHAPE_EXCEPTIONS = {("Bi210", 1162), ("K40", 1311), ("Tl210", 2413)}
 def test_mean_beta_energies_within_3_percent_of_ensdf():
     checked = 0
     for name, ln in _branches():
-        if (name, round(ln.energy)) in SHAPE_EXCEPTIONS:
+        if any(name == n and abs(ln.energy - e) < 2 for n, e in SHAPE_EXCEPTIONS):
             continue
-        assert ln.mean == pytest.approx(ln.mean_ensdf, rel=0.03), (name, ln)
+        # AME2020's Q moves the endpoint from ENSDF's (Ra-228: 0.26 keV of 12.7 keV)
+        dq = _q_shift(name) / ln.energy
+        assert ln.mean == pytest.approx(ln.mean_ensdf, rel=0.03 + dq), (name, ln)
         checked += 1
     assert checked > 60
 
@@ -107,28 +109,40 @@ def test_the_shape_exceptions_are_what_docs_say():
 
 
 def test_energy_per_decay_at_most_q_and_alpha_shares_q_minus_level():
-    """10^5 decays of every nuclide: emitted energy <= Q; alpha + recoil = Q - E(level)."""
+    """10^5 decays of every nuclide: emitted energy <= Q (+ a measured alpha line's excess
+    over Q - E(level), within 2 sigma of ENSDF's Q and line uncertainties); alpha + recoil is
+    one of the branches' values, within that excess of Q - E(level)."""
     rng = np.random.default_rng(18)
     n = 100_000
     for name in known_nuclides():
         scheme = decay_scheme(name)
         em = scheme.sample(rng, n)
         total = em.total_per_event(n) * 1e3
-        assert total.max() <= scheme.q_max_kev * (1 + 1e-12) + 1e-9, name
+        assert scheme.alpha_excess_kev < 11.0, name
+        assert total.max() <= scheme.q_max_kev + scheme.alpha_excess_kev + 1e-6, name
         alpha = em.kind == KINDS.index("alpha")
         if alpha.any():
             two_body = em.total_per_event(n, ("alpha", "recoil"))[em.event[alpha]] * 1e3
             record = scheme.entries
-            allowed = np.unique(
-                np.round((record.t_alpha + record.t_recoil)[record.kind == 0] * 1e3, 6)
-            )
+            sums = (record.t_alpha + record.t_recoil)[record.kind == 0] * 1e3
+            allowed = np.unique(np.round(sums, 6))
             assert np.isin(np.round(two_body, 6), allowed).all(), name
-            # and those are Q minus the fed level energies
+            # and those are Q minus the fed level energies, up to a measured line's excess
             q = max(m["q_keV"] for m in _modes(name) if m["mode"] == "A")
             fed = scheme.level_energy[record.level[record.kind == 0]]
-            assert np.allclose(
-                np.sort(allowed), np.sort(np.unique(np.round(q - fed, 6))), atol=1e-6
-            )
+            diff = sums - (q - fed)
+            assert (np.abs(diff) <= 2 * 11.0).all(), name
+            assert diff.max() <= scheme.alpha_excess_kev + 1e-6, name
+
+
+def _q_shift(name):
+    from score4.decay.nuclear_data import decay_data
+
+    return max(
+        abs(m["q_keV"] - m["q_ensdf_keV"])
+        for m in decay_data()["nuclides"][name]["modes"]
+        if m.get("q_ensdf_keV") is not None
+    )
 
 
 def _modes(name):
@@ -260,6 +274,7 @@ def test_chain_events_share_the_activities():
         ((["Pb206"], None), "no decay data for Pb206"),
         (("Pb210", "Pb207"), "Pb207 is not in the chain of Pb210"),
         ((["Pb210", "Po214"], None), "Po214 is not a daughter of an earlier member"),
+        (("U238", "U238"), "U238 is the chain's head"),
     ],
 )
 def test_bad_chains(args, message):
@@ -287,7 +302,8 @@ def test_energy_at_most_q_over_a_million_decays_of_every_nuclide():
     for name in known_nuclides():
         scheme = decay_scheme(name)
         em = scheme.sample(rng, 1_000_000)
-        assert em.total_per_event(1_000_000).max() * 1e3 <= scheme.q_max_kev * (1 + 1e-12)
+        top = scheme.q_max_kev + scheme.alpha_excess_kev + 1e-6
+        assert em.total_per_event(1_000_000).max() * 1e3 <= top, name
 
 
 @pytest.mark.deep
@@ -302,11 +318,19 @@ def _chi2_lines(name: str, n: int) -> None:
     scheme = decay_scheme(name)
     em = scheme.sample(np.random.default_rng(11), n)
     expected, observed = [], []
+    # lines of one kind that the energy match below cannot tell apart (U-235: 185.713 keV and
+    # the 185.7143 keV line from level feeding) count as one
+    merged: list[list] = []
     for ln in scheme.lines():
-        if ln.kind in ("beta-", "beta+") or n * ln.intensity < 30:
+        if merged and merged[-1][0] == ln.kind and np.isclose(ln.energy, merged[-1][1], atol=5e-4):
+            merged[-1][2] += ln.intensity
+        else:
+            merged.append([ln.kind, ln.energy, ln.intensity])
+    for kind, energy, intensity in merged:
+        if kind in ("beta-", "beta+") or n * intensity < 30:
             continue
-        rows = (em.kind == KINDS.index(ln.kind)) & np.isclose(em.energy * 1e3, ln.energy, atol=5e-4)
-        expected.append(n * ln.intensity)
+        rows = (em.kind == KINDS.index(kind)) & np.isclose(em.energy * 1e3, energy, atol=5e-4)
+        expected.append(n * intensity)
         observed.append(int(rows.sum()))
     if expected:
         e, o = np.array(expected), np.array(observed)

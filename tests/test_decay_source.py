@@ -151,6 +151,13 @@ def test_decay_command_table_json_and_png(tmp_path):
     done = run_cli("decay", "Rn222", "--chain", "--until", "Pb210", "--json")
     table = json.loads(done.stdout)
     assert [e["nuclide"] for e in table["nuclides"]][:3] == ["Rn222", "Po218", "Pb214"]
+    # per nuclide: the transitions whose intensity comes from level feeding (Pb-214: the
+    # 9.5 keV line, which ENSDF gives no intensity), per mode the Q and its source
+    pb214 = table["nuclides"][2]
+    assert pb214["modes"][0]["q_source"] == "AME2020"
+    assert any(abs(f["energy_keV"] - 9.5) < 0.01 for f in pb214["lines_from_level_feeding"])
+    # Rn-222: its 676 keV level (0.0005 %) has no transition in the data set
+    assert [f["energy_keV"] for f in table["nuclides"][0]["lines_from_level_feeding"]] == [676.0]
     png = tmp_path / "bi212.png"
     done = run_cli("decay", "Bi212", "--png", png)
     assert done.returncode == 0
@@ -168,6 +175,9 @@ def test_decay_command_table_json_and_png(tmp_path):
         (["Pb210", "--chain", "--since-deposition", "-2 d"], "must be 0 or more"),
         (["Pb210", "--chain", "--since-deposition", "2 MeV"], "unknown time unit"),
         (["Pb210", "--until", "Po210"], "need --chain"),
+        (["U238", "--chain", "--until", "U238"], "decay.until: U238 is the chain's head"),
+        (["U238", "--chain", "--until", "Xx12"], "unknown element symbol 'Xx'"),
+        (["Foo", "--chain"], "decay.chain: cannot read nuclide 'Foo'"),
     ],
 )
 def test_decay_command_bad_input(args, message):

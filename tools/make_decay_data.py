@@ -66,11 +66,39 @@ def _conversion(g: dict) -> tuple[float, float, float, float]:
     k, lsh, rest = per[0], per[1], sum(per[2:])
     if total > 0 and k + lsh + rest == 0:  # only the total is known: call it all L
         lsh = total
+    if total == 0:  # only the shells are known: the total is their sum
+        total = k + lsh + rest
     return total, k, lsh, rest
 
 
-def _levels(d: dict, isomers: set[float]) -> tuple[list[float], list[list[float]], list[int], int]:
-    """Level energies, transitions [from, to, E, RI, a, aK, aL, aM+], stop levels, guesses."""
+def _norm(d: dict) -> tuple[float, float, float, float]:
+    """ENSDF's normalisation: NR (photons), its relative uncertainty, NB (feedings), BR."""
+    rec = d["decaySchemeNormalization"][0]["normalizationRecord"][0]
+    br = float(rec["multiplerBranchingRatio"] or 1.0) if rec["recordExistsBR"] else 1.0
+    nb = float(rec["multiplerLeptonIntensity"] or 1.0) if rec["recordExistsNB"] else 1.0
+    nr = float(rec["multiplerPhotonIntensity"] or 1.0) if rec["recordExistsNR"] else 1.0
+    dnr = float(rec["dMultiplerPhotonIntensity"] or 0.0) if rec["recordExistsNR"] else 0.0
+    return nr, dnr / nr, nb, br
+
+
+# where a transition's intensity comes from (column 9 of a transition)
+FROM_DATA, FROM_FEEDING = 0, 1
+
+
+def _levels(d: dict, isomers: set[float]) -> tuple[list[float], list[list[float]], list[int]]:
+    """Level energies, transitions and stop levels of a data set, intensities as evaluated.
+
+    A transition is ``[from, to, E, I, dI, a, aK, aL, aM+, origin, e0, I_data]`` with
+    ``I = RI x NR`` the gamma intensity per 100 decays of the mode (ENSDF's per 100 decays of
+    the parent is that times BR), ``dI`` its uncertainty (RI's and NR's), ``origin``
+    FROM_DATA and ``e0`` 1 for an E0 transition (no gamma: ``I`` is then its conversion
+    intensity); ``I_data`` keeps the data set's ``RI x NR`` (0 where it gives none) when
+    :func:`_balance` fills ``I``. Transitions the data set gives no usable intensity (RI blank:
+    E0 branches, gammas seen only in coincidence; or ``RI NR (1 + a)`` above 110 per 100
+    decays, which cannot be a gamma
+    intensity: Ra-228's 12.75 keV) get theirs in :func:`_balance`.
+    """
+    nr, dnr, _, _ = _norm(d)
     levels = [_energy(lv["levelEnergy"]) for lv in d["levelScheme"]]
     transitions = []
     for i, lv in enumerate(d["levelScheme"]):
@@ -80,9 +108,134 @@ def _levels(d: dict, isomers: set[float]) -> tuple[list[float], list[list[float]
             if j is None or j >= i or energy <= 0:
                 continue
             a, k, lsh, rest = _conversion(g)
-            transitions.append([i, j, energy, float(g["gammaIntensity"] or 0.0), a, k, lsh, rest])
+            ri, dri = float(g["gammaIntensity"] or 0.0), float(g["dGammaIntensity"] or 0.0)
+            e0 = str(g["multipolarity"] or "").strip("()[]") == "E0"
+            if e0:
+                a = k = lsh = rest = 0.0
+            if ri * nr * (1.0 + a) > 110.0:
+                ri = dri = 0.0
+            di = ri * nr * ((dri / ri) ** 2 + dnr**2) ** 0.5 if ri > 0 else 0.0
+            transitions.append(
+                [i, j, energy, ri * nr, di, a, k, lsh, rest, FROM_DATA, int(e0), ri * nr]
+            )
     stops = [i for i, e in enumerate(levels) if i and round(e, 2) in isomers]
-    return levels, transitions, stops, 0
+    return levels, transitions, stops
+
+
+def _balance(
+    d: dict,
+    feeds: list[dict],
+    levels: list[float],
+    transitions: list[list[float]],
+    stops: list[int],
+) -> tuple[list[dict], list[list[float]], float]:
+    """Feedings, transition intensities and their scale that make one consistent cascade.
+
+    The data set's gamma intensities ``I (1 + a)`` (its RI records) are kept as they are; the
+    level feedings and the transitions the data set gives no intensity (E0 branches, unobserved
+    gammas) are what adjusts. Level by level from the top, with ``in`` the transition intensity
+    into a level, ``out`` the known intensity out of it and ``f`` ENSDF's feeding:
+
+    * a fed level without any transition in the data set de-excites straight to the ground
+      state by one gamma of its energy (origin FROM_FEEDING; U-235's 331 keV level of Th-231);
+    * a level with transitions without intensity passes ``f + in - out`` (if positive) through
+      them, shared equally (origin FROM_FEEDING: U-234's 810 keV E0 branch in Pa-234m decay,
+      the 43.5 and 99.9 keV transitions below it, which the data set gives no RI);
+    * a level with only known transitions out is fed ``out - in`` (ENSDF's feedings are
+      themselves such balances; they differ within their uncertainties, mostly: the alpha
+      feedings of U-235, Th-227, Pa-231 and Ac-227, measured directly, differ more, because
+      the balance of their highly converted low-energy transitions does not close; the gamma
+      lines are kept and the alpha intensities follow, docs/decay.md);
+    * where ``in`` exceeds ``out`` and the level has no transitions without intensity, the
+      filled (FROM_FEEDING) transitions into it are lowered first, with the feeding of the
+      level they leave (Ra-228: the 12.75 keV transition into the 20.19 keV level, whose one
+      known line, 13.52 keV, is measured at 1.6(8) %); what remains goes straight to the
+      ground state as one gamma of the level's energy (origin FROM_FEEDING: a line the data
+      set does not list, e.g. Ac-228's 968.3 keV level receives 2.1 % by the 674.75 keV line,
+      which ENSDF places twice, and emits 0.20 % by its two lines);
+    * the ground state gets the rest up to 100 per 100 decays of the mode; where the rest is
+      negative (the data set's transition intensities to the ground state, with what the rules
+      above add, exceed 100), every feeding is scaled down to make 100 and the mode's
+      ``intensity_scale`` says by how much: every line of the mode comes out that much below
+      the data set (Pa-234, Tl-210, Fr-223 beta-, U-235; docs/decay.md).
+
+    Feedings come out per 100 decays of the mode (``intensity``) with ENSDF's own
+    (``intensity_ensdf`` = I x NB).
+    """
+    _, _, nb, _ = _norm(d)
+    if not levels:  # no level scheme (Po-218 and At-219 beta-): the ground state
+        return feeds, transitions, 1.0
+    ensdf = {f["level"]: f["intensity"] * nb for f in feeds}
+    template = dict.fromkeys(feeds[0]) if feeds else {"intensity": 0.0}
+    by_from: dict[int, list[list[float]]] = {}
+    by_to: dict[int, list[list[float]]] = {}
+    for t in transitions:
+        by_from.setdefault(int(t[0]), []).append(t)
+        by_to.setdefault(int(t[1]), []).append(t)
+    feed = [0.0] * len(levels)
+
+    def total(t: list[float]) -> float:
+        return t[3] * (1.0 + t[5])
+
+    for i in range(len(levels) - 1, 0, -1):
+        into = sum(total(t) for t in by_to.get(i, []))
+        ts = by_from.get(i, [])
+        known = [t for t in ts if t[9] == FROM_DATA and t[3] > 0]
+        unknown = [t for t in ts if t not in known]
+        out = sum(total(t) for t in known)
+        if i in stops or not ts:
+            feed[i] = ensdf.get(i, 0.0)
+            if not ts and i not in stops and feed[i] + into > 0:  # no known de-excitation
+                extra = [i, 0, levels[i], feed[i] + into, 0, 0, 0, 0, 0, FROM_FEEDING, 0, 0]
+                transitions.append(extra)
+                by_from.setdefault(i, []).append(extra)
+                by_to.setdefault(0, []).append(extra)
+            continue
+        if unknown:
+            feed[i] = ensdf.get(i, 0.0)
+            rest = feed[i] + into - out
+            if rest < 0:  # the known lines carry more than ENSDF's feeding: feed the level more
+                feed[i] -= rest
+                rest = 0.0
+            for t in unknown:
+                t[3] = rest / len(unknown) / (1.0 + t[5])
+                t[9] = FROM_FEEDING
+            continue
+        if into > out:
+            for t in by_to.get(i, []):
+                if t[9] != FROM_FEEDING or into <= out:
+                    continue
+                src = int(t[0])
+                cut = min(total(t), into - out, feed[src])
+                t[3] -= cut / (1.0 + t[5])
+                feed[src] -= cut
+                into -= cut
+        if into > out:  # what still arrives unaccounted for goes to the ground state
+            extra = [i, 0, levels[i], into - out, 0, 0, 0, 0, 0, FROM_FEEDING, 0, 0]
+            transitions.append(extra)
+            by_from.setdefault(i, []).append(extra)
+            by_to.setdefault(0, []).append(extra)
+            out = into
+        feed[i] = out - into
+    feed[0] = 100.0 - sum(feed[1:])
+    scale = 1.0
+    if feed[0] < 0:
+        scale = 100.0 / sum(feed[1:])
+        feed = [0.0] + [f * scale for f in feed[1:]]
+        # the transitions keep the data set's intensities: a level's branching ratios do not
+        # change, and its flux scales with the feedings
+    by_level = {f["level"]: f for f in feeds}
+    out_feeds = []
+    for i, f in enumerate(feed):
+        if f <= 1e-12:
+            continue
+        rec = dict(by_level.get(i, {**template, "level": i}))
+        rec["intensity"] = f
+        rec["intensity_ensdf"] = ensdf.get(i, 0.0)
+        if "pk" in rec and rec["pk"] is None:
+            rec.update(pk=1.0, pl=0.0, ec=f, beta_plus=0.0)
+        out_feeds.append(rec)
+    return out_feeds, transitions, scale
 
 
 def _energy(value: object) -> float:
@@ -92,7 +245,12 @@ def _energy(value: object) -> float:
 
 def _alpha_feeds(d: dict) -> list[dict]:
     return [
-        {"level": i, "intensity": a["alphaIntensity"], "alpha_keV": a["alphaEnergy"]}
+        {
+            "level": i,
+            "intensity": a["alphaIntensity"],
+            "alpha_keV": a["alphaEnergy"],
+            "d_alpha_keV": a.get("dAlphaEnergy"),
+        }
         for i, lv in enumerate(d["levelScheme"])
         for a in lv.get("alphaDecay") or []
         if a.get("alphaIntensity")
@@ -143,48 +301,6 @@ def _ec_feeds(d: dict) -> list[dict]:
                 }
             )
     return feeds
-
-
-def _balance_feeds(
-    d: dict, feeds: list[dict], levels: list[float], transitions: list[list[float]]
-) -> tuple[list[dict], bool]:
-    """Feedings from the gamma intensity balance when ENSDF's own do not add up.
-
-    ENSDF gives feedings (per 100 decays: I x NB x BR) and gamma intensities (RI x NR x BR).
-    When the feedings of a data set sum to more than 2 % away from 100 x BR (Ac-228: 95.1 %,
-    Pa-234, Th-231, Tl-210), each excited level's feeding is taken as its transition intensity
-    out minus in, ``sum RI NR (1 + alpha)``, clipped at 0; the ground state gets the rest. The
-    branch properties (endpoint, shape, mean) stay those of ENSDF's record where one exists.
-    """
-    rec = d["decaySchemeNormalization"][0]["normalizationRecord"][0]
-    br = float(rec["multiplerBranchingRatio"] or 1.0) if rec["recordExistsBR"] else 1.0
-    nb = float(rec["multiplerLeptonIntensity"] or 1.0) if rec["recordExistsNB"] else 1.0
-    nr = float(rec["multiplerPhotonIntensity"] or 1.0) if rec["recordExistsNR"] else 1.0
-    total = sum(f["intensity"] for f in feeds) * nb * br
-    if not feeds or abs(total - 100.0 * br) <= 2.0 * br or not transitions:
-        return feeds, False
-    net = [0.0] * len(levels)
-    for t in transitions:
-        ti = t[3] * nr * br * (1.0 + t[4])
-        net[int(t[0])] += ti
-        net[int(t[1])] -= ti
-    by_level = {f["level"]: f for f in feeds}
-    template = dict.fromkeys(feeds[0])
-    out = []
-    for i in range(1, len(levels)):
-        if net[i] > 0:
-            f = dict(by_level.get(i, {**template, "level": i}))
-            f["intensity"] = net[i] / (nb * br)
-            out.append(f)
-    rest = 100.0 * br - sum(f["intensity"] for f in out) * nb * br
-    if rest > 0:
-        f = dict(by_level.get(0, {**template, "level": 0}))
-        f["intensity"] = rest / (nb * br)
-        out.append(f)
-    for f in out:
-        if "pk" in f and f["pk"] is None:
-            f.update(pk=1.0, pl=0.0, ec=f["intensity"], beta_plus=0.0)
-    return sorted(out, key=lambda f: f["level"]), True
 
 
 def _name(symbol_id: str, level: float) -> str:
@@ -252,10 +368,12 @@ def build(root: Path) -> dict:
             daughter = d["daughterID"]
             elements.add(re.match(r"[A-Z][a-z]?", daughter).group(0))
             iso = isomer_levels.get(daughter, set())
-            levels, transitions, stops, _ = _levels(d, iso)
+            levels, transitions, stops = _levels(d, iso)
             feeds = {"A": _alpha_feeds, "B-": _beta_feeds, "EC": _ec_feeds}[mode](d)
-            feeds, balanced = _balance_feeds(d, feeds, levels, transitions)
-            q = float(d["parentDecay"][0]["valueQ"])  # each mode has its own Q
+            feeds, transitions, scale = _balance(d, feeds, levels, transitions, stops)
+            q_ensdf = float(d["parentDecay"][0]["valueQ"])  # each mode has its own Q
+            dq_ensdf = float(d["parentDecay"][0]["dValueQ"] or 0.0)
+            q = _q_ame(parent, daughter, mode)
             record["modes"].append(
                 {
                     "mode": mode,
@@ -263,13 +381,16 @@ def build(root: Path) -> dict:
                     "daughter": daughter,
                     "daughter_z": d["daughterAtomicNumber"],
                     "daughter_mass_u": rd.Nuclide(daughter).atomic_mass,
-                    "q_keV": q,
+                    "q_keV": round(q, 2),
+                    "q_source": "AME2020",
+                    "q_ensdf_keV": q_ensdf,
+                    "dq_ensdf_keV": dq_ensdf,
                     "dataset": d["_file"],
                     "levels_keV": levels,
                     "stop_levels": {str(s): _name(daughter, levels[s]) for s in stops},
                     "transitions": transitions,
                     "feeds": feeds,
-                    "feeds_from_gamma_balance": balanced,
+                    "intensity_scale": scale,
                 }
             )
             products = {(daughter, levels[s]) for s in stops if _reachable(s, feeds, transitions)}
@@ -287,7 +408,7 @@ def build(root: Path) -> dict:
         nuclides[name] = record
     return {
         "format": "score4-decay-data",
-        "format_version": 1,
+        "format_version": 2,
         "provenance": {
             "decay": "ENSDF decay data sets (archive of September 2023) as JSON, "
             f"paceENSDF {version('paceENSDF')}",
@@ -300,6 +421,17 @@ def build(root: Path) -> dict:
         "nuclides": dict(sorted(nuclides.items())),
         "atoms": {e: _atom(e) for e in sorted(elements)},
     }
+
+
+def _q_ame(parent: str, daughter: str, mode: str) -> float:
+    """Q of a ground-state decay (keV) from the AME2020 atomic masses."""
+    import radioactivedecay as rd
+
+    u_kev = 931494.10242
+    dm = rd.Nuclide(parent).atomic_mass - rd.Nuclide(daughter).atomic_mass
+    if mode == "A":
+        dm -= rd.Nuclide("He4").atomic_mass
+    return dm * u_kev
 
 
 def _reachable(level: int, feeds: list[dict], transitions: list[list[float]]) -> bool:

@@ -294,20 +294,30 @@ def summary(results_file: Path, as_json: bool, bins, threshold: str) -> None:
         raise ConfigError(f"--threshold: must be >= 0, got {threshold!r}")
     results = read_results(results_file)
     s = summarize(results, bins=bins, threshold=limit)
+    run = results.run
+    if "n_atoms" in run:  # per-atom histories: a chain with recoil implantation
+        moved = run.get("implantation", {})
+        s["atoms"] = {
+            "n_atoms": int(run["n_atoms"]),
+            "nuclide": run.get("activity_nuclide"),
+            "recoils": int(moved.get("recoils", 0)),
+            "left_world": int(moved.get("left_world", 0)),
+            "lost_decays": int(moved.get("lost_decays", 0)),
+            "simulated_decays": float(run.get("simulated_decays", 0)),
+        }
     if as_json:
         click.echo(json.dumps(s, indent=2))
         return
-    run = results.run
     click.echo(f"{s['file']}")
     click.echo(f"  events        {s['n_events']}")
-    if "n_atoms" in run:  # per-atom histories: a chain with recoil implantation
-        moved = run.get("implantation", {})
+    if "atoms" in s:
+        a = s["atoms"]
         click.echo(
-            f"  atoms         {run['n_atoms']} deposited {run.get('activity_nuclide')} atoms "
-            f"followed down the chain; {moved.get('recoils', 0)} recoils moved an atom, "
-            f"{moved.get('left_world', 0)} left the world with it "
-            f"({moved.get('lost_decays', 0)} decays lost); simulated_decays "
-            f"{float(run.get('simulated_decays', 0)):g} (one per atom)"
+            f"  atoms         {a['n_atoms']} deposited {a['nuclide']} atoms "
+            f"followed down the chain; {a['recoils']} recoils moved an atom, "
+            f"{a['left_world']} left the world with it "
+            f"({a['lost_decays']} decays lost); simulated_decays "
+            f"{a['simulated_decays']:g} (one per atom)"
         )
     click.echo(
         f"  physics       {s['physics_mode']}"

@@ -91,6 +91,11 @@ def build_chain(
     else:
         start = nuclide_record(head, f"{what}.chain")[0]
         stop = None if until is None else _until_name(until, what)
+        if stop == start:
+            raise ConfigError(
+                f"{what}.until: {stop} is the chain's head; until names the first nuclide "
+                f"after the last one wanted (the chain would be empty)"
+            )
         members, seen = [], set()
         todo = [start]
         while todo:

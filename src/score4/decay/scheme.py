@@ -7,9 +7,11 @@ Per decay (:meth:`DecayScheme.sample`):
    keeps what is dropped: spontaneous fission, branches below 1e-5);
 2. what the branch emits:
 
-   * **alpha**: the alpha and the recoiling daughter (an ion primary such as ``"Pb206"``), back
-     to back, sharing ``Q + E(parent level) - E(daughter level)`` by exact relativistic two-body
-     kinematics (AME2020 atomic masses minus the electrons);
+   * **alpha**: the alpha at ENSDF's measured energy and the recoiling daughter (an ion
+     primary such as ``"Pb206"``) with the alpha's momentum, back to back (exact relativistic
+     kinematics, AME2020 atomic masses minus the electrons); where the line has no uncertainty
+     or lies more than 2 sigma from ``Q + E(parent level) - E(daughter level)``, the two share
+     that energy by two-body kinematics instead;
    * **beta-** / **beta+**: the electron or positron from the branch's spectrum
      (:mod:`score4.decay.spectra`); the antineutrino/neutrino is not emitted; the beta recoil
      (at most a few tens of eV here) is not emitted either;
@@ -18,16 +20,18 @@ Per decay (:meth:`DecayScheme.sample`):
 
 3. the gamma cascade from the fed level down to the ground state (or to a long-lived level that
    is a nuclide of its own, Pa-234m): at each level a transition by its total intensity
-   ``I_gamma (1 + alpha)``; each transition is a gamma, or a conversion electron from the K, L or
-   M+ shell by the BrIcc shell coefficients, with energy ``E_gamma - B`` (binding energy of the
-   shell's first subshell: K, L1, M1);
+   ``I_gamma (1 + alpha)`` (the data set's, or from level feeding: ``tools/make_decay_data.py``);
+   an E0 transition is a conversion electron only; any other is a gamma, or a conversion
+   electron from the K, L or M+ shell by the BrIcc shell coefficients, with energy
+   ``E_gamma - B`` (binding energy of the shell's first subshell: K, L1, M1);
 4. each K or L vacancy (conversion or capture) fills by one photon or one electron: a K (L3)
    X-ray line by its relative intensity with probability omega_K (omega_L3), else a KLL
    (L3MM) Auger electron of energy ``B_K - B_L2 - B_L3`` (``B_L3 - B_M4 - B_M5``). The vacancies
    this leaves are not followed (their energy, a few keV at most, is not emitted).
 
 All directions are isotropic and independent (no angular correlations) except the recoil,
-opposite to its alpha. Emitted energy per decay is at most Q by construction.
+opposite to its alpha. Emitted energy per decay is at most Q by construction, plus for alpha
+decays the measured line's excess over ``Q - E(level)`` (``alpha_excess_kev``, within 2 sigma).
 """
 
 from __future__ import annotations
@@ -153,6 +157,7 @@ class DecayScheme:
     half_life_s: float
     not_simulated: float
     q_max_kev: float  # largest Q (+ parent level) over the modes
+    alpha_excess_kev: float  # largest measured alpha + recoil above Q - E(level) (within 2 sigma)
     names: tuple[str, ...]
     products: tuple[str, ...]
     entries: _Entries
@@ -167,6 +172,7 @@ class DecayScheme:
     trans_energy: np.ndarray  # keV
     trans_cum: np.ndarray  # (T, 3): cumulative P(gamma), +P(ce-K), +P(ce-L)
     ce_energy: np.ndarray  # (T, 3): keV of ce-K, ce-L, ce-M+
+    trans_origin: np.ndarray  # (T,) 0 the data set's intensity, 1 from level feeding
     assumed_transitions: int
     atoms: list[dict] = field(default_factory=list)
     _inverse: np.ndarray = field(default_factory=lambda: np.zeros((0, INVERSE_POINTS)))
@@ -446,6 +452,7 @@ def _compile(key: str, rec: dict) -> DecayScheme:
     assumed = 0
     parent_level = float(rec["level_keV"])
     q_max = 0.0
+    excess = 0.0
 
     def index(lst: list[str], item: str) -> int:
         if item not in lst:
@@ -487,19 +494,24 @@ def _compile(key: str, rec: dict) -> DecayScheme:
                 continue
             ts = by_level.get(i)
             if not ts:  # no known de-excitation: straight to the ground state as one gamma
-                ts = [[i, 0, levels[i], 1.0, 0.0, 0.0, 0.0, 0.0]]
+                ts = [[i, 0, levels[i], 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1, 0]]
                 assumed += 1
-            weights = np.array([t[3] * (1.0 + t[4]) for t in ts])
+            weights = np.array([t[3] * (1.0 + t[5]) for t in ts])
             if weights.sum() <= 0:
                 weights = np.ones(len(ts))
             cum = np.cumsum(weights) / weights.sum()
+            # an E0 branch converts like the level's other transitions (K, L, M+ shares)
+            ref = [t for t in ts if not t[10] and sum(t[6:9]) > 0]
+            e0_shells = np.array(ref[0][6:9], float) if ref else np.array([1.0, 0.0, 0.0])
             for t, c in zip(ts, cum, strict=True):
                 # the level difference caps the line energy: the cascade never emits more
                 # than the level held (ENSDF's fitted gamma and level energies differ slightly)
                 energy = min(t[2], levels[i] - levels[int(t[1])])
-                a, ak, al, am = t[4], t[5], t[6], t[7]
-                shells = np.array([ak, al, am])
-                if a > 0 and shells.sum() > 0:
+                a = t[5]
+                shells = np.array(t[6:9], float)
+                if t[10]:  # E0: conversion only (no gamma; pairs need more than 1022 keV)
+                    shells = e0_shells.copy()
+                elif a > 0 and shells.sum() > 0:
                     shells *= a / shells.sum()
                 ce = energy - np.array([binding["K"], binding["L1"], binding["M1"]])
                 for s in (0, 1):  # a shell bound tighter than the transition converts further out
@@ -507,6 +519,8 @@ def _compile(key: str, rec: dict) -> DecayScheme:
                         shells[s + 1] += shells[s]
                         shells[s] = 0.0
                 p = np.concatenate([[1.0], shells]) / (1.0 + shells.sum())
+                if t[10]:
+                    p = np.concatenate([[0.0], shells]) / shells.sum()
                 trans.append(
                     (
                         base + i,
@@ -515,6 +529,7 @@ def _compile(key: str, rec: dict) -> DecayScheme:
                         base + i + c,
                         np.cumsum(p)[:3],
                         np.maximum(ce, 0.0),
+                        int(t[9]),
                     )
                 )
         feeds = m["feeds"]
@@ -526,9 +541,12 @@ def _compile(key: str, rec: dict) -> DecayScheme:
             lev = base + f["level"]
             kinetic = q - levels[f["level"]]
             if m["mode"] == "A":
-                m_alpha = ALPHA_MASS_MEV
                 m_d = m["daughter_mass_u"] * U_MEV - m["daughter_z"] * ME_MEV
-                ta, tr = two_body_kinetic(kinetic / 1e3, m_alpha, m_d)
+                ta, tr = two_body_kinetic(kinetic / 1e3, ALPHA_MASS_MEV, m_d)
+                measured = _measured_alpha(f, m, m_d, kinetic)
+                if measured is not None:  # the measured line; the recoil takes its momentum
+                    ta, tr = measured
+                    excess = max(excess, (ta + tr) * 1e3 - kinetic)
                 _add_entry(
                     ent, p, 0, lev, t_alpha=ta, t_recoil=tr, ion=index(names, daughter), atom=atom
                 )
@@ -585,6 +603,7 @@ def _compile(key: str, rec: dict) -> DecayScheme:
         half_life_s=float(rec["half_life_s"]),
         not_simulated=not_simulated,
         q_max_kev=q_max,
+        alpha_excess_kev=excess,
         names=tuple(names),
         products=tuple(products),
         entries=entries,
@@ -599,6 +618,7 @@ def _compile(key: str, rec: dict) -> DecayScheme:
         trans_energy=np.asarray([t[2] for t in trans], float),
         trans_cum=np.asarray([t[4] for t in trans], float).reshape(-1, 3),
         ce_energy=np.asarray([t[5] for t in trans], float).reshape(-1, 3),
+        trans_origin=np.asarray([t[6] for t in trans], np.int8),
         assumed_transitions=assumed,
         atoms=[_atom_tables(a) for a in atom_names],
     )
@@ -606,6 +626,24 @@ def _compile(key: str, rec: dict) -> DecayScheme:
         u = np.linspace(0.0, 1.0, INVERSE_POINTS)
         scheme._inverse = np.array([np.interp(u, sp.cdf, sp.energy_kev) for sp in spectra])
     return scheme
+
+
+def _measured_alpha(f: dict, m: dict, m_d: float, kinetic: float) -> tuple[float, float] | None:
+    """Alpha and recoil energies (MeV) of ENSDF's measured line, if it agrees with ``Q - E``.
+
+    The measured line is taken when it has an uncertainty and alpha + recoil lies within
+    2 sigma (the line's and ENSDF's Q uncertainty combined) of ``Q - E(level)``; otherwise
+    (weak lines listed without uncertainty, At-219, At-218) two-body kinematics gives it.
+    """
+    e, de = f.get("alpha_keV"), f.get("d_alpha_keV")
+    if not e or not de or float(de) > 0.01 * float(e):
+        return None
+    ta = float(e) / 1e3
+    tr = float(np.sqrt(ta * ta + 2.0 * ta * ALPHA_MASS_MEV + m_d * m_d) - m_d)
+    sigma = float(np.hypot(float(de), float(m.get("dq_ensdf_keV") or 0.0)))
+    if abs((ta + tr) * 1e3 - kinetic) > 2.0 * sigma:
+        return None
+    return ta, tr
 
 
 def _add_entry(ent: dict, prob: float, kind: int, level: int, **kw) -> None:

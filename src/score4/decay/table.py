@@ -43,13 +43,44 @@ def _nuclide_entry(name: str, scale: float, min_intensity: float) -> dict:
                 "branching": m["branching"],
                 "daughter": m["daughter"],
                 "q_keV": m["q_keV"],
+                "q_source": m.get("q_source", ""),
+                "q_ensdf_keV": m.get("q_ensdf_keV"),
                 "dataset": m.get("dataset", ""),
+                "intensity_scale": m.get("intensity_scale", 1.0),
             }
             for m in record["modes"]
         ],
+        "lines_from_level_feeding": _filled_lines(record),
         "decays_per_head_decay": scale,
         "radiations": [_line_dict(ln, scale) for ln in lines],
     }
+
+
+def _filled_lines(record: dict) -> list[dict]:
+    """Transitions whose intensity comes from level feeding, not from the data set's records.
+
+    Per decay of the nuclide: E0 branches and gammas the data set gives no intensity, and the
+    lines to the ground state that carry what arrives at a level beyond what leaves it.
+    """
+    total = sum(m["branching"] for m in record["modes"])
+    out = []
+    for m in record["modes"]:
+        levels = m.get("levels_keV") or []
+        for t in m.get("transitions", []):
+            if int(t[9]) != 1 or t[3] <= 0:
+                continue
+            share = m["branching"] / total / 100.0 * m.get("intensity_scale", 1.0)
+            out.append(
+                {
+                    "energy_keV": round(t[2], 4),
+                    "from_level_keV": levels[int(t[0])],
+                    "to_level_keV": levels[int(t[1])],
+                    "E0": bool(t[10]),
+                    "gamma_percent": 0.0 if t[10] else 100.0 * t[3] * share,
+                    "transition_percent": 100.0 * t[3] * (1.0 + t[5]) * share,
+                }
+            )
+    return out
 
 
 def _line_dict(ln: Line, scale: float) -> dict:
