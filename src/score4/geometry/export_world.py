@@ -47,21 +47,20 @@ def _write(config: RunConfig, out: str) -> dict:
         if scene.model is not None:  # a GDML world: the user's file, layers added
             from .gdml_splice import splice
 
-            tmp.unlink(missing_ok=True)
             with redirect_native_output(log):
                 info = splice(g4, config, scene, tmp, Path(folder) / "additions.gdml")
-            os.replace(tmp, path)
-            return {"size": path.stat().st_size, **info}
-        with redirect_native_output(log):
-            built = build_world(g4, plan)
-            parser = g4.G4GDMLParser()
-            parser.SetAddPointerToName(True)
-            parser.Write(str(tmp), built.world, True)
-        if not tmp.is_file():
-            tail = " | ".join(log.read_text(errors="replace").strip().splitlines()[-3:])
-            raise Score4Error(f"--gdml: Geant4 did not write {path} ({tail})")
-        tmp.write_text(drop_nist_state(tmp.read_text()))
-    return {"size": path.stat().st_size, "layers": [layer.name for layer in scene.layers]}
+        else:
+            with redirect_native_output(log):
+                built = build_world(g4, plan)
+                parser = g4.G4GDMLParser()
+                parser.SetAddPointerToName(True)
+                parser.Write(str(tmp), built.world, True)
+            if not tmp.is_file():
+                tail = " | ".join(log.read_text(errors="replace").strip().splitlines()[-3:])
+                raise Score4Error(f"--gdml: Geant4 did not write {path} ({tail})")
+            tmp.write_text(drop_nist_state(tmp.read_text()))
+            info = {"layers": [layer.name for layer in scene.layers]}
+    return {"size": path.stat().st_size, **info}
 
 
 def export_world(config: RunConfig, out: Path) -> dict:

@@ -431,15 +431,11 @@ class Simulation:
             rows = steps["volume"] == c
             if not rows.any():
                 continue
-            shape = t.shape
-            if shape is None and t.solid == "G4Box":
-                from ..shapes import G4Box
-
-                shape = G4Box(*t.half)
-            if shape is None:
+            if t.shape is None:  # a solid score4.shapes cannot describe
                 dist[rows] = np.nan
                 continue
-            dist[rows] = np.maximum(-shape.signed_distance(t.to_local(points[rows])), 0.0)
+            local = t.to_local(points[rows])
+            dist[rows] = np.maximum(-t.shape.signed_distance(local), 0.0)
         steps["dist"] = dist
         return steps
 
