@@ -6,6 +6,8 @@ python benchmarks/decay_evaluated_table.py
 
 from __future__ import annotations
 
+import argparse
+
 from score4.decay import decay_scheme
 from score4.decay.chain import build_chain
 from score4.decay.nuclear_data import decay_data
@@ -83,4 +85,5 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args()
     main()

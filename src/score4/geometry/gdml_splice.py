@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, Score4Error
 
 _DAUGHTER = re.compile(
     r"<(physvol|replicavol|paramvol|divisionvol)\b[^>]*?(?:/>|>.*?</\1\s*>)", re.DOTALL
@@ -263,7 +263,13 @@ def read_fragment(
     ``patches`` the target of each rough layer to the Geant4 names of its patch logical volumes:
     their placements get copy number 0, and their names are returned in ``Fragment.patches``.
     """
-    root = ET.parse(path).getroot()
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError as err:  # Geant4's writer does not report a failed write (full disk)
+        raise Score4Error(
+            f"the GDML additions Geant4 wrote are incomplete or unreadable ({err}): is the disk "
+            "full?"
+        ) from None
     world_ref = root.find("setup/world")
     assert world_ref is not None
     world = world_ref.get("ref")
@@ -470,7 +476,7 @@ def splice(g4, config, scene, out: Path, fragment_path: Path) -> dict:
     from .gdml import read_gdml
     from .gdml_world import _mother_frame
     from .tiling import _rotation, place_native
-    from .world import cut_for_layers
+    from .world import cut_for_layers, g4_solid
 
     model = scene.model
     src = Path(config.world.gdml)
@@ -499,7 +505,9 @@ def splice(g4, config, scene, out: Path, fragment_path: Path) -> dict:
             material = find_material(
                 g4, t.material, f"targets.{t.entry}.material", config.materials
             )
-            solid, shift, kc = cut_for_layers(g4, scene, t, g4.G4Box(t.name, *t.half), t.name)
+            solid, shift, kc = cut_for_layers(
+                g4, scene, t, g4_solid(g4, t.described("targets"), t.name), t.name
+            )
             lv = g4.G4LogicalVolume(solid, material, t.name)
             where = t.mother.to_local(t.translation) + shift
             pv = g4.G4PVPlacement(None, g4.G4ThreeVector(*where), lv, t.name, w_lv, False, 0, False)
@@ -554,8 +562,6 @@ def splice(g4, config, scene, out: Path, fragment_path: Path) -> dict:
     writer.SetAddPointerToName(True)
     writer.Write(str(fragment_path), w_pv, True)
     if not fragment_path.is_file():
-        from ..errors import Score4Error
-
         raise Score4Error(f"--gdml: Geant4 did not write the rough layers for {out}")
 
     text = relink(src.read_text(), src.resolve().parent, out.resolve().parent)

@@ -138,10 +138,6 @@ def volume_activeness(scene) -> list[VolumeActiveness | None]:
             out.append(None)
             continue
         shape = t.shape
-        if shape is None and t.solid == "G4Box":
-            from ..shapes import G4Box
-
-            shape = G4Box(*t.half)
         if shape is None:
             raise ConfigError(
                 f"targets.{t.entry}.activeness: {t.name}'s solid ({t.solid}) has no shape score4 "
