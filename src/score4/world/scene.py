@@ -828,17 +828,9 @@ def make_layer(
             f"{where}: tiling portal works on boxes of the configuration in a generated world; "
             "a GDML volume takes tiling: native (the default)"
         )
-    try:
-        patch_map = make_patch_map(
-            frame.size,
-            size,
-            [v.density for v in rough.variant_list],
-            method=rough.fill,
-            seed=rough.seed,
-            n_tiles=rough.n_tiles,
-        )
-    except ConfigError as err:
-        raise ConfigError(f"{where} (face {rough.face} of {target.name}): {err}") from None
+    patch_map = _rough_patch_map(
+        frame.size, size, rough, f"{where} (face {rough.face} of {target.name})"
+    )
     mask, area = None, frame.size[0] * frame.size[1]
     if isinstance(geometry, AnnulusFace):
         mask = geometry.covers(patch_map.cell_centres(), patch_map.patch_size)
@@ -911,17 +903,7 @@ def make_curved_layer(
             f"(generator {face.length:.4g} mm, radius {float(face.radius(0.0)):.4g} mm)"
         )
     ny, nx = len(layout.v), int(layout.count.max())
-    try:
-        patch_map = make_patch_map(
-            (nx * size[0], ny * size[1]),
-            size,
-            [v.density for v in rough.variant_list],
-            method=rough.fill,
-            seed=rough.seed,
-            n_tiles=rough.n_tiles,
-        )
-    except ConfigError as err:
-        raise ConfigError(f"{where} ({what}): {err}") from None
+    patch_map = _rough_patch_map((nx * size[0], ny * size[1]), size, rough, f"{where} ({what})")
     mask = np.arange(nx)[None, :] < layout.count[:, None]
     local = face.frame
     frame = FaceFrame(
@@ -990,3 +972,18 @@ def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
 
         volume_activeness(scene)  # faces the shape lacks: refused before anything is written
     return scene
+
+
+def _rough_patch_map(extent, size, rough: RoughFace, context: str) -> PatchMap:
+    """The patch map of ``rough`` over ``extent`` (mm); its errors name ``context``."""
+    try:
+        return make_patch_map(
+            extent,
+            size,
+            [v.density for v in rough.variant_list],
+            method=rough.fill,
+            seed=rough.seed,
+            n_tiles=rough.n_tiles,
+        )
+    except ConfigError as err:
+        raise ConfigError(f"{context}: {err}") from None
