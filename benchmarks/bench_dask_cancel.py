@@ -15,12 +15,13 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import tempfile
 import threading
 import time
 import timeit
 from pathlib import Path
+
+import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -41,16 +42,16 @@ def _wait_for(condition, timeout: float) -> float | None:
 def cancel_latency(repeat: int, wait: float) -> None:
     import distributed
 
-    sys.path.insert(0, str(ROOT / "tests"))
     from score4.inputs.config import parse_config
     from score4.runner.dask_backend import DaskExecutor
     from score4.runner.run_plan import plan_run
     from score4.sim.runtime import resolve_physics
     from score4.sim.worker import Chunk, WorkerSpec
 
-    from conftest import config_dict
-
-    config = parse_config(config_dict(run={"events": 100, "seed": 3}))
+    # the built-in example, small and in lite physics (no data sets needed)
+    data = yaml.safe_load((ROOT / "examples" / "flat_alpha.yaml").read_text())
+    data.update(physics="lite", run={"events": 100, "seed": 3})
+    config = parse_config(data)
     with (
         tempfile.TemporaryDirectory() as tmp,
         distributed.LocalCluster(

@@ -156,9 +156,6 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "src"))
-
 # Target materials: Geant4 name -> (TRIM target formula, density g/cm3). TeO2 is not a NIST
 # material: built from elements with the density of CUORE's crystals.
 MATERIALS = {
