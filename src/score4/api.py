@@ -463,7 +463,7 @@ class World:
             src = SourceConfig.model_validate(data, context={"base_dir": Path.cwd()})
         except ValidationError as err:
             raise ConfigError(describe_validation_error(err, "source")) from None
-        if getattr(src.decay, "implantation", False):  # the tracker lives in score4's own loop
+        if src.run_unit == "atom":  # the tracker lives in score4's own loop
             raise ConfigError(
                 "source.decay.implantation: per-atom histories need score4 run (it moves each "
                 "daughter to where the TRIM replay stopped its recoil before Geant4 tracks the "

@@ -236,7 +236,7 @@ def vertices(
         raise ConfigError(
             f"{config_file}: source.vertices: the source already reads a vertex file; nothing to draw"
         )
-    if getattr(config.source.decay, "implantation", False):
+    if config.source.run_unit == "atom":
         raise ConfigError(
             f"{config_file}: source.decay.implantation: the daughters' vertices are where the "
             "run's TRIM replay stops the alpha recoils, so they cannot be drawn beforehand; "

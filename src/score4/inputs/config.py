@@ -453,6 +453,12 @@ DecaySpec = Annotated[
 ]
 
 
+#: What ``run.events`` counts: ``"event"``, or ``"atom"``, a per-atom history: one deposited head
+#: atom of a decay chain with recoil implantation and the decays of all its daughters, each where
+#: the previous recoil stopped (docs/decay.md).
+RunUnit = Literal["event", "atom"]
+
+
 class SourceConfig(StrictModel):
     """Where decays start and what they emit.
 
@@ -505,6 +511,12 @@ class SourceConfig(StrictModel):
             except ConfigError as err:
                 raise ValueError(str(err).removeprefix("decay: ")) from None
         return v
+
+    @property
+    def run_unit(self) -> RunUnit:
+        """What ``run.events`` counts with this source (:data:`RunUnit`)."""
+        decay = self.decay
+        return "atom" if isinstance(decay, DecayChainConfig) and decay.implantation else "event"
 
     @model_validator(mode="after")
     def _emitter(self) -> SourceConfig:

@@ -280,7 +280,7 @@ def preflight(plan: RunPlan) -> Preflight:
         raise ValueError("preflight: the plan has no source (made with source=False)")
     drawn = min(config.run.events, BLOCK_EVENTS)  # events, or atoms for per-atom histories
     sample = source.events(plan.seed, 0, drawn)
-    unit = f"{getattr(source, 'unit', 'event')}s"
+    unit = f"{source.unit}s"
     rows_per_unit = len(sample) / (drawn if unit == "atoms" else sample.n_events)
     check_run_memory(config, len(sample) / sample.n_events, sample.n_events / drawn)
     run_normalisation(config, scene)  # the source's area or mass: any problem shows now

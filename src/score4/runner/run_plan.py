@@ -101,7 +101,7 @@ class RunPlan:
     @property
     def per_atom(self) -> bool:
         """True when ``run.events`` counts atoms (a chain with implantation: per-atom histories)."""
-        return bool(getattr(self.config.source.decay, "implantation", False))
+        return self.config.source.run_unit == "atom"
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, RunPlan):

@@ -20,7 +20,7 @@ from typing import Any, TypeVar
 import numpy as np
 
 from score4.inputs import limits
-from score4.inputs.config import DecayChainConfig, DepthConfig, RunConfig, SourceConfig
+from score4.inputs.config import DecayChainConfig, DepthConfig, RunConfig, RunUnit, SourceConfig
 from score4.world.scene import CurvedRoughLayer, RoughLayer, Scene, TargetVolume, face_frame
 
 from ..errors import ConfigError
@@ -312,9 +312,9 @@ class SampledSource:
         )
 
     @property
-    def unit(self) -> str:
+    def unit(self) -> RunUnit:
         """What ``run.events`` counts: ``"event"``, or ``"atom"`` (chain with implantation)."""
-        return getattr(self.emitter, "unit", "event")
+        return self.emitter.unit if isinstance(self.emitter, DecayEmitter) else "event"
 
     def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
         """Events ``first_event ..`` of the run with ``seed``, the same in any chunking."""
@@ -338,9 +338,9 @@ class BulkSource:
         return number_atoms(make_primaries(self.emitter, rng, positions), first_event)
 
     @property
-    def unit(self) -> str:
+    def unit(self) -> RunUnit:
         """What ``run.events`` counts: ``"event"``, or ``"atom"`` (chain with implantation)."""
-        return getattr(self.emitter, "unit", "event")
+        return self.emitter.unit if isinstance(self.emitter, DecayEmitter) else "event"
 
     def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
         """Events ``first_event ..`` of the run with ``seed``, the same in any chunking."""
@@ -371,7 +371,7 @@ class FileSource:
             )
         return self.primaries_all.select_events(first_event, first_event + n_events)
 
-    unit = "event"
+    unit: RunUnit = "event"
 
     def events(self, seed: int, first_event: int, n_events: int) -> Primaries:
         """Rows of events ``first_event ..`` of the file (``seed`` plays no part)."""

@@ -20,6 +20,7 @@ recoil stopped (:mod:`score4.sim.implantation`).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -28,6 +29,9 @@ from score4.decay.nuclear_data import ZAI
 from ..decay.chain import ChainEvents, build_chain, fill_empty_events
 from ..decay.scheme import KINDS, decay_scheme
 from .emitters import DirectionKind, _check_direction, sample_directions
+
+if TYPE_CHECKING:
+    from score4.inputs.config import RunUnit
 
 __all__ = ["DecayEmitter", "DecayRows"]
 
@@ -105,7 +109,7 @@ class DecayEmitter:
         return self.scheme.nuclide if self.scheme is not None else self.chain.chain.head  # type: ignore[union-attr]
 
     @property
-    def unit(self) -> str:
+    def unit(self) -> RunUnit:
         """What one vertex stands for: ``"event"``, or ``"atom"`` with implantation."""
         return "atom" if self.implantation else "event"
 
