@@ -14,8 +14,8 @@ from functools import cache
 from importlib import resources
 from typing import Any
 
+from ..elements import ELEMENTS, atomic_number
 from ..errors import ConfigError
-from ..source.emitters import ELEMENTS
 
 __all__ = [
     "ZAI",
@@ -26,7 +26,6 @@ __all__ = [
     "zai_name",
 ]
 
-_Z = {s.lower(): z for z, s in enumerate(ELEMENTS, start=1)}
 _NAME = re.compile(
     r"^\s*(?:([A-Za-z]{1,2})-?(\d{1,3})(m)?|(\d{1,3})(m)?-?([A-Za-z]{1,2}))\s*$", re.IGNORECASE
 )
@@ -59,7 +58,7 @@ def nuclide_name(name: str, what: str = "decay") -> str:
     symbol, mass, meta = (
         (m.group(1), m.group(2), m.group(3)) if m.group(1) else (m.group(6), m.group(4), m.group(5))
     )
-    z = _Z.get(symbol.lower())
+    z = atomic_number(symbol)
     if z is None:
         raise ConfigError(f"{what}: {name!r} has unknown element symbol {symbol!r}")
     a = int(mass)
@@ -101,7 +100,8 @@ def ZAI(name: str) -> int:
     key = nuclide_name(name)
     m = re.match(r"([A-Z][a-z]?)(\d+)(m?)$", key)
     assert m is not None
-    z = _Z[m.group(1).lower()]
+    z = atomic_number(m.group(1))
+    assert z is not None  # nuclide_name accepted the element
     return 10000 * z + 10 * int(m.group(2)) + (1 if m.group(3) else 0)
 
 

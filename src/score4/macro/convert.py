@@ -376,7 +376,7 @@ def _source(
         ion = s.get("ion")
         if ion is None:
             raise particle[1].fail("'ion' needs /gps/ion Z A to say which ion")
-        from ..source.emitters import ELEMENTS
+        from ..elements import ELEMENTS
 
         z, a = ion[0]
         if z > len(ELEMENTS) or a < z:

@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike
 
 from score4.inputs.units import parse_quantity
 
+from ..elements import ELEMENTS, atomic_number
 from ..errors import ConfigError
 from .primaries import Primaries
 from .sampling import Histogram, PiecewiseLinear, orthonormal_basis, read_table
@@ -66,19 +67,6 @@ DIRECTIONS: tuple[str, ...] = get_args(DirectionKind)
 # Particle and nuclide names
 # --------------------------------------------------------------------------------------------
 
-# Element symbols by atomic number, one line per period of the periodic table.
-_ELEMENT_TABLE = """
-    H He
-    Li Be B C N O F Ne
-    Na Mg Al Si P S Cl Ar
-    K Ca Sc Ti V Cr Mn Fe Co Ni Cu Zn Ga Ge As Se Br Kr
-    Rb Sr Y Zr Nb Mo Tc Ru Rh Pd Ag Cd In Sn Sb Te I Xe
-    Cs Ba La Ce Pr Nd Pm Sm Eu Gd Tb Dy Ho Er Tm Yb Lu Hf Ta W Re Os Ir Pt Au Hg Tl Pb Bi Po At Rn
-    Fr Ra Ac Th Pa U Np Pu Am Cm Bk Cf Es Fm Md No Lr Rf Db Sg Bh Hs Mt Ds Rg Cn Nh Fl Mc Lv Ts Og
-    """
-#: Element symbols by atomic number: ``ELEMENTS[Z - 1]``.
-ELEMENTS: tuple[str, ...] = tuple(_ELEMENT_TABLE.split())
-_Z = {symbol.lower(): z for z, symbol in enumerate(ELEMENTS, start=1)}
 
 # Geant4 particle names accepted as they are (ions are written element + mass number)
 PARTICLES: frozenset[str] = frozenset(
@@ -132,7 +120,7 @@ def normalise_nuclide(name: str) -> str:
     symbol, mass = (
         (match.group(1), match.group(2)) if match.group(1) else (match.group(4), match.group(3))
     )
-    z = _Z.get(symbol.lower())
+    z = atomic_number(symbol)
     if z is None:
         raise ConfigError(f"nuclide: {name!r} has unknown element symbol {symbol!r}")
     a = int(mass)
