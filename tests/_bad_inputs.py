@@ -29,23 +29,13 @@ import h5py
 import numpy as np
 import yaml
 
-BASE = {
-    "physics": "lite",
-    "targets": [
-        {
-            "name": "crystal",
-            "material": "G4_Si",
-            "size": ["1 cm", "1 cm", "1 cm"],
-            "position": ["0 cm", "0 cm", "-0.5 cm"],
-        }
-    ],
-    "source": {
-        "particle": "alpha",
-        "energy": "5.3 MeV",
-        "surface": {"volume": "crystal", "face": "+z"},
-    },
-    "run": {"events": 20, "seed": 7},
-}
+from conftest import BASE_CONFIG
+
+# conftest's BASE_CONFIG, with two overrides: the cases run 20 events (not 100), and their
+# source leaves the direction to its default.
+BASE = copy.deepcopy(BASE_CONFIG)
+BASE["run"] = {**BASE["run"], "events": 20}
+del BASE["source"]["direction"]
 PYRAMIDS = {"kind": "spikes", "nx": 2, "ny": 2, "width": "5 um", "height": "2 um"}
 
 
