@@ -20,13 +20,13 @@ from __future__ import annotations
 
 import hashlib
 import math
-import multiprocessing as mp
 import os
 import shutil
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from importlib.metadata import version
 from pathlib import Path
+
+from _spawn import run_in_spawned_process
 
 #: Crystal (full edges, mm), its copies' positions in the cavity and rotations about z (rad).
 CRYSTAL = (20.0, 30.0, 40.0)
@@ -212,8 +212,7 @@ def geant4_world(folder: Path) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / "geant4_written.gdml"
     path.unlink(missing_ok=True)
-    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-        pool.submit(_write_geant4_world, str(path)).result()
+    run_in_spawned_process(_write_geant4_world, str(path))
     return path
 
 

@@ -8,10 +8,9 @@ recomputes its rows). These tests pin down the measured reason; they do not hide
 
 from __future__ import annotations
 
-import multiprocessing as mp
-from concurrent.futures import ProcessPoolExecutor
-
 import pytest
+
+from _spawn import run_in_spawned_process
 
 # TRIM, 5.3 MeV alphas in Si (2.33 g/cm3): projected range and longitudinal straggling, um
 TRIM_RANGE_UM, TRIM_STRAGGLING_UM = 26.5872, 0.294397
@@ -19,8 +18,7 @@ TRIM = {1.0: (3.48594, 0.177078), 3.0: (12.0387, 0.239665), 5.3: (26.5872, 0.294
 
 
 def _spawned(spec):
-    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-        return pool.submit(_call, spec).result()
+    return run_in_spawned_process(_call, spec)
 
 
 def _call(spec):

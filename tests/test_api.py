@@ -4,11 +4,9 @@ line. Geant4 runs in spawned processes (tests/_g4_api.py); pytest itself never i
 
 from __future__ import annotations
 
-import multiprocessing as mp
 import os
 import subprocess
 import sys
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +15,8 @@ import yaml
 
 from score4.cli.main import main
 from score4.runner.output import read_results
+
+from _spawn import run_in_spawned_process
 
 HERE = Path(__file__).parent
 ROOT = HERE.parent
@@ -66,8 +66,7 @@ def _call(name, *args):
 
 
 def spawned(name, *args):
-    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-        return pool.submit(_call, name, *args).result()
+    return run_in_spawned_process(_call, name, *args)
 
 
 @pytest.fixture(scope="module")

@@ -9,10 +9,8 @@ with more atoms and histories). Geant4 runs in spawned processes.
 from __future__ import annotations
 
 import json
-import multiprocessing as mp
 import subprocess
 import sys
-from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 import pytest
@@ -27,6 +25,7 @@ from score4.runner.seeds import atom_event_geant4_seeds
 from score4.source.build import decay_normalisation, make_source
 from score4.world.scene import build_scene
 
+from _spawn import run_in_spawned_process
 from conftest import config_dict
 
 PB214_RECOIL_KEV = 112.35  # Po-218 alpha decay (Q 6114.7 keV): the Pb-214 recoil
@@ -34,8 +33,7 @@ PB214_AMU = 213.9998
 
 
 def _spawned(function, *args):
-    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-        return pool.submit(_call, function, *args).result()
+    return run_in_spawned_process(_call, function, *args)
 
 
 def _call(function, *args):

@@ -16,9 +16,6 @@ and tessellated solids are meshed explicitly.
 
 from __future__ import annotations
 
-import multiprocessing as mp
-from concurrent.futures import ProcessPoolExecutor
-
 import pytest
 import yaml
 
@@ -26,6 +23,8 @@ from score4.cli.main import main
 from score4.geometry.gdml import drop_nist_state
 from score4.surface.store import load_surface
 from score4.surface.triangle_mesh import signed_volume
+
+from _spawn import run_in_spawned_process
 
 pyg4ometry = pytest.importorskip("pyg4ometry")
 
@@ -69,8 +68,7 @@ def _export(tmp_path, name: str, solid: str, material: str = "G4_Si"):
     args = ["surface", "export", str(surface_file), "--gdml", str(gdml), "--solid", solid]
     args += ["--base-thickness", "2 um", "--material", material]
     # Geant4 is imported by the export: run it in a fresh process (pytest never imports Geant4).
-    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn"), max_tasks_per_child=1) as pool:
-        assert pool.submit(main, args).result() == 0
+    assert run_in_spawned_process(main, args) == 0
     return load_surface(surface_file), gdml
 
 

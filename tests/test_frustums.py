@@ -12,6 +12,7 @@ from score4.source.build import make_source
 from score4.source.primaries import Primaries
 from score4.world.scene import build_scene
 
+from _spawn import run_in_spawned_process
 from conftest import SPREAD, TARGET, config_dict, crystal_track_lengths, straight_down_paths
 
 PYRAMIDS = {**SPREAD, "shape": "pyramid", "n_layers": 1, "seed": 7}
@@ -104,11 +105,7 @@ def test_geantino_paths_through_frustums_match_the_multiunion(tmp_path, surface)
 
 
 def _spawned(function, *args):
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor
-
-    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-        return pool.submit(_call, function, *args).result()
+    return run_in_spawned_process(_call, function, *args)
 
 
 def _call(function, *args):

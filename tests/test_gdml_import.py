@@ -7,14 +7,14 @@ covered by test_solids.test_gdml_round_trip_keeps_the_solid.
 """
 
 import importlib.util
-import multiprocessing as mp
 import sys
 import xml.etree.ElementTree as ET
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+from _spawn import run_in_spawned_process
 
 HERE = Path(__file__).parent
 GDML = HERE / "data" / "gdml" / "pyg4ometry_tessellated.gdml"
@@ -78,8 +78,7 @@ def report():
     random_points = rng.uniform([-16, -16, -6], [16, 16, 10], (3000, 3))
     solid_points = [p for p, _ in KNOWN] + random_points.tolist()
     world_points = (random_points[:300] + np.array(GEN.PLACEMENT)).tolist()
-    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-        out = pool.submit(_inspect, str(GDML), solid_points, world_points).result()
+    out = run_in_spawned_process(_inspect, str(GDML), solid_points, world_points)
     out["random_points"] = random_points
     return out
 

@@ -7,10 +7,8 @@ from __future__ import annotations
 import html
 import json
 import math
-import multiprocessing as mp
 import re
 import sys
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +21,8 @@ from score4.errors import ConfigError
 from score4.inputs.config import parse_config
 from score4.world.gdml_files import _read_in_subprocess, load_geometry_model
 from score4.world.scene import build_scene
+
+from _spawn import run_in_spawned_process
 
 HERE = Path(__file__).parent
 sys.path.insert(0, str(HERE))
@@ -37,8 +37,7 @@ def _call(name, *args):
 
 
 def spawned(name, *args):
-    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-        return pool.submit(_call, name, *args).result()
+    return run_in_spawned_process(_call, name, *args)
 
 
 @pytest.fixture(scope="module")

@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-import multiprocessing
-from concurrent.futures import ProcessPoolExecutor
-
 import yaml
 
 from score4.cli.main import main
 
+from _spawn import run_in_spawned_process
 from conftest import config_dict
 
 ROUGH = config_dict(
@@ -40,8 +38,7 @@ ROUGH = config_dict(
 def _check(data: dict, plant: bool):
     import _g4_geometry_check
 
-    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
-        return pool.submit(_g4_geometry_check.check, data, plant).result()
+    return run_in_spawned_process(_g4_geometry_check.check, data, plant)
 
 
 def test_generated_rough_layers_do_not_overlap_and_a_planted_overlap_is_found():

@@ -9,11 +9,10 @@ and mean exit energy within 10 %, escape fraction within 0.05. Geant4 runs in sp
 
 from __future__ import annotations
 
-import multiprocessing as mp
-from concurrent.futures import ProcessPoolExecutor
-
 import numpy as np
 import pytest
+
+from _spawn import run_in_spawned_process
 
 lunasrim = pytest.importorskip("lunasrim")
 
@@ -37,8 +36,7 @@ MATERIALS = {"TeO2": {"formula": "TeO2", "density": "6.02 g/cm3"}}
 
 
 def _spawned(function, *args):
-    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-        return pool.submit(_call, function, *args).result()
+    return run_in_spawned_process(_call, function, *args)
 
 
 def _call(function, *args):

@@ -8,11 +8,10 @@ spawned processes.
 
 from __future__ import annotations
 
-import multiprocessing as mp
-from concurrent.futures import ProcessPoolExecutor
-
 import numpy as np
 import pytest
+
+from _spawn import run_in_spawned_process
 
 pytest.importorskip("lunasrim")
 
@@ -20,8 +19,7 @@ RECOIL_MEV = 0.103144
 
 
 def _spawned(function, *args):
-    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-        return pool.submit(_call, function, *args).result()
+    return run_in_spawned_process(_call, function, *args)
 
 
 def _call(function, *args):

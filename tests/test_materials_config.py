@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import multiprocessing as mp
 import sys
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +13,7 @@ from score4.inputs.config import parse_config
 from score4.runner.engine import run
 from score4.runner.output import read_results
 
+from _spawn import run_in_spawned_process
 from conftest import config_dict
 
 MATERIALS = {
@@ -98,8 +97,7 @@ def _geant4_materials(materials: dict, names: list[str]) -> dict:
 
 
 def _in_process(fn, *args):
-    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-        return pool.submit(fn, *args).result()
+    return run_in_spawned_process(fn, *args)
 
 
 def test_geant4_builds_the_materials():

@@ -1,12 +1,10 @@
-import multiprocessing as mp
-from concurrent.futures import ProcessPoolExecutor
-
 import numpy as np
+
+from _spawn import run_in_spawned_process
 
 
 def test_two_primaries_per_event_are_tracked_together():
-    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-        edep = np.array(pool.submit(_run, 20).result())
+    edep = np.array(run_in_spawned_process(_run, 20))
     # The alpha stops in the crystal (5.304 MeV); the recoil, 1 um deep and heading up, also
     # stops inside (lite range 283 nm < 1 um): every event deposits the sum of both.
     assert edep.shape == (20,)

@@ -3,8 +3,6 @@ bad input."""
 
 from __future__ import annotations
 
-import multiprocessing as mp
-from concurrent.futures import ProcessPoolExecutor
 from types import SimpleNamespace
 
 import numpy as np
@@ -29,6 +27,7 @@ from score4.source.primaries import Primaries
 from score4.source.vertex_file import write_vertex_file
 from score4.world.scene import build_scene, face_frame
 
+from _spawn import run_in_spawned_process
 from conftest import config_dict
 
 # Two patch variants, 20 um x 20 um: four 10 um pyramids with a height spread, or sixteen low 5 um
@@ -345,8 +344,7 @@ def test_alpha_spectra_of_native_and_portal_tiling_agree(tmp_path, events):
 
 
 def _spawned(config_data, primaries):
-    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-        return pool.submit(_run_primaries, config_data, primaries).result()
+    return run_in_spawned_process(_run_primaries, config_data, primaries)
 
 
 def _run_primaries(config_data, primaries):

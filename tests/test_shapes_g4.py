@@ -5,9 +5,7 @@ pyg4ometry, including a LEGEND HPGe detector from legend-pygeom-hpges."""
 from __future__ import annotations
 
 import math
-import multiprocessing as mp
 import sys
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +27,8 @@ from score4.shapes import (
     Transform,
     shape_from_dict,
 )
+
+from _spawn import run_in_spawned_process
 
 # Its module fixture runs once, on one pytest-xdist worker (not once per worker).
 pytestmark = pytest.mark.xdist_group("shapes-g4")
@@ -156,8 +156,7 @@ def measured(tmp_path_factory):
     requests["tessellated"] = {}
     requests["torus"] = {"n_live": 3000}
     requests["tubs_live"] = {"solid": "tubs_as_union", "live": True, "n_live": 3000}
-    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-        got = pool.submit(_measure, str(gdml), requests).result()
+    got = run_in_spawned_process(_measure, str(gdml), requests)
     return hand, samples, got
 
 
@@ -300,7 +299,6 @@ def test_transform_from_a_geant4_placement():
     coordinates, inside the placed box."""
     rng = np.random.default_rng(12)
     local = G4Box(10, 20, 30).sample_volume(rng, 200)
-    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-        got = pool.submit(_placement, local.tolist()).result()
+    got = run_in_spawned_process(_placement, local.tolist())
     assert {g[0] for g in got} == {"b"}
     np.testing.assert_allclose(np.array([g[1:] for g in got]), local, atol=1e-9)

@@ -1,14 +1,14 @@
 """Geant4 solids and the numpy mesh agree on inside/outside (issue 3, item 6)."""
 
-import multiprocessing as mp
 import sys
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from score4.surface.spikes import SpikeGrid
+
+from _spawn import run_in_spawned_process
 
 GRIDS = [
     dict(nx=4, ny=3, width_x=0.01, width_y=0.015, mean_height=0.008, height_sigma=0.002, seed=2),
@@ -48,8 +48,7 @@ def test_tessellated_multiunion_and_mesh_agree(grid_kwargs):
         -np.inf,
     )
     expected = in_xy & (points[:, 2] > -THICKNESS) & (points[:, 2] < z_top)
-    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-        tess, union = pool.submit(_classify, points.tolist(), grid_kwargs).result()
+    tess, union = run_in_spawned_process(_classify, points.tolist(), grid_kwargs)
     tess, union = np.array(tess), np.array(union)
     # Random points land on a surface (within 1e-9 mm) with probability ~0: require exact agreement.
     assert np.array_equal(tess == 2, expected), (
@@ -78,10 +77,9 @@ def test_gdml_round_trip_keeps_the_solid(tmp_path):
         (2000, 3),
     )
     path = tmp_path / "rough.gdml"
-    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-        before, after, kind, material = pool.submit(
-            _roundtrip, points.tolist(), grid_kwargs, str(path)
-        ).result()
+    before, after, kind, material = run_in_spawned_process(
+        _roundtrip, points.tolist(), grid_kwargs, str(path)
+    )
     assert kind == "G4TessellatedSolid"
     assert material == "G4_Si"
     assert before == after

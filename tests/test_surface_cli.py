@@ -4,9 +4,7 @@ from __future__ import annotations
 
 import json
 import math
-import multiprocessing as mp
 import sys
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +17,7 @@ from score4.surface.plot import nice_length
 from score4.surface.store import load_surface
 from score4.surface.triangle_mesh import TriangleMesh, is_watertight, signed_volume
 
+from _spawn import run_in_spawned_process
 from conftest import ROOT
 
 UM = 1e-3  # mm
@@ -356,13 +355,12 @@ def test_export_gdml_tessellated_and_multiunion(tmp_path, capsys):
     }
     # One fresh process per file: Geant4 keeps volumes in global stores, and reading a second
     # GDML file with the same volume names in one process returned the first file's world.
-    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn"), max_tasks_per_child=1) as pool:
-        results = {
-            k: pool.submit(
-                _export_gdml, *(str(a) if isinstance(a, Path) else a for a in job)
-            ).result()
-            for k, job in jobs.items()
-        }
+    results = {
+        k: run_in_spawned_process(
+            _export_gdml, *(str(a) if isinstance(a, Path) else a for a in job)
+        )
+        for k, job in jobs.items()
+    }
     for name in ("tess", "union"):
         status, kind, _material, blo, bhi, codes = results[name]
         assert status == 0

@@ -2,15 +2,15 @@
 
 from __future__ import annotations
 
-import multiprocessing as mp
 import sys
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from score4.geometry.tiling import group_grid, grouping_plan
+
+from _spawn import run_in_spawned_process
 
 
 def _run(*args):
@@ -21,8 +21,7 @@ def _run(*args):
 
 
 def spawned(*args):
-    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-        return pool.submit(_run, *args).result()
+    return run_in_spawned_process(_run, *args)
 
 
 def test_group_grid_keeps_every_box_and_shares_equal_groups():
