@@ -41,7 +41,8 @@ def geometry() -> None:
     help="Keep Geant4's output here (appended to an existing file).",
 )
 def check(config_file: Path, points: int, max_placements: int, tolerance: str, log_path) -> None:
-    """Check CONFIG.yaml's volumes for overlaps (Geant4 CheckOverlaps). Exit status 1 if any overlap."""
+    """Check CONFIG.yaml's volumes for overlaps (Geant4 CheckOverlaps). Exit status 1 if any
+    overlap."""
     from score4.inputs.config import allowing_overlaps, load_config
     from score4.inputs.schema import input_paths, quantity
     from score4.runner.run_plan import plan_run
@@ -69,7 +70,8 @@ def check(config_file: Path, points: int, max_placements: int, tolerance: str, l
             built = build_world(g4, plan)
             report = check_placements(built.world, points, tol, max_placements, layers=scene.layers)
         click.echo(
-            f"Geant4 checked {report.checked} of {report.total} placements with {points} points each"
+            f"Geant4 checked {report.checked} of {report.total} placements with {points} points "
+            "each"
             + (
                 f"; {report.exact} patch placements of large layers by exact cell containment"
                 if report.exact
@@ -204,7 +206,8 @@ def export_gdml(config_file: Path, out: Path, overwrite: bool, allow_overlaps: b
         build_scene(config)  # bad input fails here, before any Geant4 process
         info = export_world(config, out)
     click.echo(
-        f"wrote {out}: {info['size'] / 1e6:.3g} MB, rough layers: {', '.join(info['layers']) or 'none'}"
+        f"wrote {out}: {info['size'] / 1e6:.3g} MB, rough layers: "
+        f"{', '.join(info['layers']) or 'none'}"
     )
     if info.get("registered"):
         click.echo(

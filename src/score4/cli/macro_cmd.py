@@ -53,7 +53,8 @@ def import_macro(macro: Path, out: Path, overwrite: bool, strict: bool) -> None:
             for i in sorted(report.unknown, key=lambda i: i.order)
         )
         raise ConfigError(
-            f"{macro}: {len(report.unknown)} command(s) not converted (--strict; nothing written): {listed}"
+            f"{macro}: {len(report.unknown)} command(s) not converted (--strict; nothing written): "
+            f"{listed}"
         )
     written = write_config(config, report, out, overwrite=overwrite)
     for line in report.lines():

@@ -127,8 +127,8 @@ def _load_with_overrides(
 @click.option(
     "--cluster",
     metavar="dask|ADDRESS",
-    help="Run the chunks with Dask: 'dask' for a local Dask cluster of --jobs worker processes, or the "
-    "address of a running scheduler (tcp://host:8786). Needs: pip install 'score4[cluster]'.",
+    help="Run the chunks with Dask: 'dask' for a local Dask cluster of --jobs worker processes, or "
+    "the address of a running scheduler (tcp://host:8786). Needs: pip install 'score4[cluster]'.",
 )
 @click.option(
     "--quiet",
@@ -170,7 +170,8 @@ def run(
 
         limits.check_memory(
             jobs * limits.WORKER_BYTES,
-            f"running {count_text(jobs, 'Geant4 process', 'Geant4 processes')} (at least 150 MB each)",
+            f"running {count_text(jobs, 'Geant4 process', 'Geant4 processes')} (at least 150 MB "
+            "each)",
             "--jobs",
             "use fewer --jobs",
         )
@@ -234,7 +235,8 @@ def vertices(
     config = _load_with_overrides(config_file, n_events, seed, allow_overlaps)
     if config.source.vertices is not None:
         raise ConfigError(
-            f"{config_file}: source.vertices: the source already reads a vertex file; nothing to draw"
+            f"{config_file}: source.vertices: the source already reads a vertex file; nothing to "
+            "draw"
         )
     if config.source.run_unit == "atom":
         raise ConfigError(
@@ -259,7 +261,10 @@ def vertices(
         primaries = source.events(seed, 0, n)
         where = source_geometry(config, scene)
     write_vertex_file(out, primaries, config_to_dict(config), seed, where)
-    text = f"wrote {out}: {count_text(n, 'event')}, {count_text(len(primaries.event), 'primary', 'primaries')}"
+    text = (
+        f"wrote {out}: {count_text(n, 'event')}, "
+        f"{count_text(len(primaries.event), 'primary', 'primaries')}"
+    )
     if "depth" in primaries.extra:
         depth = primaries.extra["depth"]
         text += (
@@ -348,8 +353,8 @@ def summary(results_file: Path, as_json: bool, bins, threshold: str) -> None:
         )
     if int(run.get("stuck_events_aborted", 0)):
         click.echo(
-            f"  stuck tracks  {run['stuck_events_aborted']} events aborted by Geant4 (a track stuck "
-            "on a volume boundary was killed: their deposits are incomplete)"
+            f"  stuck tracks  {run['stuck_events_aborted']} events aborted by Geant4 (a track "
+            "stuck on a volume boundary was killed: their deposits are incomplete)"
         )
     emax = max(float(results.primary_energy.max(initial=0.0)), 1e-12)
     for v in s["volumes"]:
@@ -371,7 +376,8 @@ def _echo_rates(s: dict, limit: float) -> None:
     for v in volumes:
         mass = v.get("mass_kg")
         per_kg = (
-            f", {v['rate_per_event_per_kg']:.4g} /(kg event) ({mass * 1e3:.4g} g {v.get('material')})"
+            f", {v['rate_per_event_per_kg']:.4g} /(kg event) ({mass * 1e3:.4g} g "
+            f"{v.get('material')})"
             if mass
             else ""
         )

@@ -122,7 +122,8 @@ def _check_lunasrim() -> None:
         import lunasrim  # noqa: F401
     except ImportError:
         raise Score4Error(
-            "--compare-srim needs the package lunasrim, which is not installed; pip install lunasrim"
+            "--compare-srim needs the package lunasrim, which is not installed; pip install "
+            "lunasrim"
         ) from None
 
 
@@ -193,7 +194,8 @@ def format_table(result: dict) -> str:
     table = (srim or {}).get("table")
     if table:
         lines.append(
-            f"  SRIM range table (analytic): projected range {_fmt(table['projected_range_nm'], None, 'length', um)}, "
+            "  SRIM range table (analytic): projected range "
+            f"{_fmt(table['projected_range_nm'], None, 'length', um)}, "
             f"straggling {_fmt(table['straggling_nm'], None, 'length', um)}, "
             f"lateral {_fmt(table['lateral_nm'], None, 'length', um)}"
         )
@@ -216,7 +218,8 @@ def format_table(result: dict) -> str:
     default="1",
     metavar="S",
     show_default=True,
-    help="Random seed; score4's TRIM libraries and the TRIM reference draw their own seeds from it.",
+    help="Random seed; score4's TRIM libraries and the TRIM reference draw their own seeds from "
+    "it.",
 )
 @click.option(
     "--thickness",

@@ -29,7 +29,8 @@ def _plot_surface(path: Path, out: Path) -> None:
         if err.name != "score4.surface.plot":
             raise
         raise Score4Error(
-            f"{path}: plotting surface files needs score4.surface.plot, which this score4 does not have"
+            f"{path}: plotting surface files needs score4.surface.plot, which this score4 does not "
+            "have"
         ) from None
     from ..surface.store import load_surface
 
@@ -141,7 +142,8 @@ def plot(
 )
 @click.option(
     "--emax",
-    help='Histogram upper edge, e.g. "6 MeV" (default: the run\'s setting or largest primary energy).',
+    help='Histogram upper edge, e.g. "6 MeV" (default: the run\'s setting or largest primary '
+    "energy).",
 )
 @click.option("--overwrite", is_flag=True, help="Replace existing output files.")
 def export(results_file, csv_out, events_out, root_out, volume, bins, emax, overwrite) -> None:

@@ -49,13 +49,15 @@ def _file_kind(path: Path) -> str:
     if path.suffix.lower().lstrip(".") in FORMATS:
         return "topography"
     raise ConfigError(
-        f"FILE: cannot tell what {str(path)!r} is from its extension {path.suffix!r}; expected a surface file "
-        f"(.s4s.h5), a description (.yaml/.yml) or a topography file ({', '.join(FORMATS)})"
+        f"FILE: cannot tell what {str(path)!r} is from its extension {path.suffix!r}; expected a "
+        "surface file (.s4s.h5), a description (.yaml/.yml) or a topography file "
+        f"({', '.join(FORMATS)})"
     )
 
 
 def load_any(path: str | Path):
-    """A :class:`~score4.surface.spec.Surface` from a surface file, a description or a topography file.
+    """A :class:`~score4.surface.spec.Surface` from a surface file, a description or a topography
+    file.
 
     A topography file is taken with the defaults of a ``kind: measured`` description (plane
     levelled; missing points refused): write a description to change them.
@@ -336,7 +338,8 @@ def export_cmd(
     built = load_any(file)
     if solid_kind == "multiunion" and built.spikes is None:
         raise ConfigError(
-            f"--solid: 'multiunion' needs a spike grid; {str(file)!r} is a {built.spec.kind} surface"
+            f"--solid: 'multiunion' needs a spike grid; {str(file)!r} is a {built.spec.kind} "
+            "surface"
         )
     body = built.body(thickness) if solid_kind == "tessellated" else None
     if fmt in ("stl", "ply"):

@@ -143,11 +143,13 @@ def _print_template_summary(ts, written: list[str]) -> None:
         t = ts.final.totals[d]
         line = (
             f"  {d}: {ts.masses[d]:.6g} kg, {t['counts_per_kg_day']:.4g} +- "
-            f"{t['counts_per_kg_day_error']:.2g} counts/(kg day) ({count_text(t['simulated_counts'], 'event')})"
+            f"{t['counts_per_kg_day_error']:.2g} counts/(kg day) "
+            f"({count_text(t['simulated_counts'], 'event')})"
         )
         if ts.roi_kev:
             line += (
-                f"; ROI {ts.roi_kev[0]:g}-{ts.roi_kev[1]:g} keV: {t['roi_counts_per_keV_kg_day']:.4g} +- "
+                f"; ROI {ts.roi_kev[0]:g}-{ts.roi_kev[1]:g} keV: "
+                f"{t['roi_counts_per_keV_kg_day']:.4g} +- "
                 f"{t['roi_counts_per_keV_kg_day_error']:.2g} counts/(keV kg day)"
             )
         click.echo(line)
@@ -241,7 +243,8 @@ def model(
     ]
     if active:
         click.echo(
-            f"  energy        active energy (targets[].activeness) in the templates of {', '.join(active)}"
+            "  energy        active energy (targets[].activeness) in the templates of "
+            f"{', '.join(active)}"
         )
 
 
@@ -254,7 +257,8 @@ def _write_pseudo(m, seed: int, out: Path, model_file: Path) -> None:
         spectrum, out, f"pseudo-data of {model_file} (seed {seed}): Poisson counts at {activities}"
     )
     click.echo(
-        f"wrote {out}: {len(spectrum.counts)} bins, {int(spectrum.counts.sum())} counts (seed {seed})"
+        f"wrote {out}: {len(spectrum.counts)} bins, {int(spectrum.counts.sum())} counts (seed "
+        f"{seed})"
     )
 
 
@@ -305,7 +309,8 @@ def _print_model(summary: dict, fit, written: list[str]) -> None:
         click.echo(f"wrote {', '.join(written)}")
     click.echo(
         f"model: detector {summary['detector']} ({summary['kind']}), {summary['mass_kg']:.6g} kg, "
-        f"live time {summary['livetime_days']:.6g} d: {summary['expected_counts']:.6g} counts expected"
+        f"live time {summary['livetime_days']:.6g} d: {summary['expected_counts']:.6g} counts "
+        "expected"
     )
     for name, c in summary["components"].items():
         line = f"  {name}: {c['activity']:.6g} {c['unit']} -> {c['expected_counts']:.6g} counts"

@@ -13,7 +13,8 @@ from ..surface.spec import Surface
 
 
 def fast_tessellated(g4, mesh: TriangleMesh, name: str):
-    """A closed G4TessellatedSolid of ``mesh``; one G4ThreeVector per vertex, shared by its faces."""
+    """A closed G4TessellatedSolid of ``mesh``; one G4ThreeVector per vertex, shared by its
+    faces."""
     solid = g4.G4TessellatedSolid(name)
     vec, facet, absolute = g4.G4ThreeVector, g4.G4TriangularFacet, g4.ABSOLUTE
     points = [vec(*p) for p in mesh.vertices.tolist()]

@@ -1,16 +1,17 @@
 """Overlap check of a built geometry with Geant4's own ``CheckOverlaps``.
 
 Every placement of the world's tree (targets, rough-layer envelopes, the volumes of a GDML
-world at any depth, each logical volume's daughters once) is checked; inside a rough layer the patch placements are all checked up to ``max_placements`` per layer. Beyond
-that, Geant4's check is too slow to be useful: it tests each point against every sister
-volume, and a 200 x 200 grid has 40 000 sisters (20 placements x 100 points took 5 min).
-Large layers get the exact equivalent instead (:func:`patches_fit_their_cells`, run on every
-layer, since the patches sit one level down in their cell boxes): every patch body lies inside
-its own cell column, so no two patches can overlap and none can leave the envelope. In the
-nested layout (:func:`score4.geometry.tiling.place_nested`) the envelope holds group boxes that
-hold the cell boxes; the groups tile the envelope and the cells their group by construction
-(tests/test_tiling_nested.py checks every cell's position through the volume tree), so the same
-exact check covers every cell; ``exact`` counts the cells. Geant4 prints the details of each overlap to its log.
+world at any depth, each logical volume's daughters once) is checked; inside a rough layer the patch
+placements are all checked up to ``max_placements`` per layer. Beyond that, Geant4's check is too
+slow to be useful: it tests each point against every sister volume, and a 200 x 200 grid has 40 000
+sisters (20 placements x 100 points took 5 min). Large layers get the exact equivalent instead
+(:func:`patches_fit_their_cells`, run on every layer, since the patches sit one level down in their
+cell boxes): every patch body lies inside its own cell column, so no two patches can overlap and
+none can leave the envelope. In the nested layout (:func:`score4.geometry.tiling.place_nested`) the
+envelope holds group boxes that hold the cell boxes; the groups tile the envelope and the cells
+their group by construction (tests/test_tiling_nested.py checks every cell's position through the
+volume tree), so the same exact check covers every cell; ``exact`` counts the cells. Geant4 prints
+the details of each overlap to its log.
 """
 
 from __future__ import annotations
@@ -37,7 +38,8 @@ def _daughters(lv) -> list:
 
 
 def patches_fit_their_cells(layer, tolerance: float = 0.0) -> list[str]:
-    """Variants of a rough layer whose closed body leaves its cell column (exact, from the meshes)."""
+    """Variants of a rough layer whose closed body leaves its cell column (exact, from the
+    meshes)."""
     px, py = layer.patch_size
     lo = np.array([-px / 2, -py / 2, -layer.base_thickness]) - tolerance
     hi = np.array([px / 2, py / 2, layer.thickness - layer.base_thickness]) + tolerance
@@ -46,7 +48,8 @@ def patches_fit_their_cells(layer, tolerance: float = 0.0) -> list[str]:
         v = surface.top_mesh.vertices  # the body adds only walls and a bottom inside the same box
         if (v < lo).any() or (v > hi).any():
             bad.append(
-                f"{layer.name}: variant {name!r} reaches outside its {px * 1e3:g} x {py * 1e3:g} um cell"
+                f"{layer.name}: variant {name!r} reaches outside its {px * 1e3:g} x {py * 1e3:g} "
+                "um cell"
             )
     return bad
 

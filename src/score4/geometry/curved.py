@@ -1,12 +1,13 @@
-"""Rough layers on curved faces in Geant4 (:mod:`score4.world.curved`): a shell envelope and the bent
-patch bodies placed around the axis.
+"""Rough layers on curved faces in Geant4 (:mod:`score4.world.curved`): a shell envelope and the
+bent patch bodies placed around the axis.
 
 The envelope is a ``G4Cons`` of the mother's material over the face's phi range, between the
 z planes of the face's ends: the face's cone (or cylinder) and the same moved out by the layer
 thickness along the face's normal (it touches the target's face and nothing of the target).
-The rings keep clear of the envelope's ends (:meth:`score4.world.curved.RingLayout.make`). Each variant bent onto a ring radius is one ``G4TessellatedSolid`` and one
-logical volume (all rings of a cylinder share it), placed once per cell: turned about z to the
-cell's azimuth and moved along z to its ring.
+The rings keep clear of the envelope's ends (:meth:`score4.world.curved.RingLayout.make`). Each
+variant bent onto a ring radius is one ``G4TessellatedSolid`` and one logical volume (all rings of a
+cylinder share it), placed once per cell: turned about z to the cell's azimuth and moved along z to
+its ring.
 """
 
 from __future__ import annotations

@@ -149,9 +149,10 @@ def check_unreachable(layer: RoughLayer, origin, reach_lo, reach_hi) -> None:
             return "(" + ", ".join(f"{x:g}" for x in v) + ") mm"
 
         raise ConfigError(
-            f"{layer.name}: subworld_origin {fmt(np.asarray(origin, float))} puts the subworlds (box {fmt(lo)} to "
-            f"{fmt(hi)}) where particles can move (box {fmt(reach_lo)} to {fmt(reach_hi)}); subworlds must lie "
-            "outside the targets, rough layers and world margin"
+            f"{layer.name}: subworld_origin {fmt(np.asarray(origin, float))} puts the subworlds "
+            f"(box {fmt(lo)} to {fmt(hi)}) where particles can move (box {fmt(reach_lo)} to "
+            f"{fmt(reach_hi)}); subworlds must lie outside the targets, rough layers and world "
+            "margin"
         )
 
 

@@ -164,7 +164,8 @@ class MaterialSpec(StrictModel):
         """The :class:`~score4.ions.composition.Composition` (atom fractions, g/cm3) of the entry.
 
         Mass fractions are turned into atom fractions with SRIM's natural atomic weights
-        (lunasrim); Geant4 materials use Geant4's own (:func:`score4.inputs.materials.build_material`).
+        (lunasrim); Geant4 materials use Geant4's own
+        (:func:`score4.inputs.materials.build_material`).
         """
         from score4.ions.composition import Composition
 
@@ -252,7 +253,8 @@ SurfaceDescription = Annotated[
     Discriminator(
         _surface_tag,
         custom_error_type="surface_kind",
-        custom_error_message="a surface needs kind: spikes, random or measured, or file: <name>.s4s.h5",
+        custom_error_message="a surface needs kind: spikes, random or measured, or file: "
+        "<name>.s4s.h5",
     ),
 ]
 
@@ -524,8 +526,8 @@ class SourceConfig(StrictModel):
             extra = sorted(self.model_fields_set - {"vertices"})
             if extra:
                 raise ValueError(
-                    f"vertices: a vertex file already holds positions, directions, depths and particles; "
-                    f"drop {', '.join(extra)}"
+                    "vertices: a vertex file already holds positions, directions, depths and "
+                    f"particles; drop {', '.join(extra)}"
                 )
             return self
         if (self.surface is None) == (self.volume is None):
@@ -542,14 +544,16 @@ class SourceConfig(StrictModel):
         kinds = [k for k in ("particle", "decay", "nuclide") if getattr(self, k) is not None]
         if len(kinds) != 1:
             raise ValueError(
-                "give exactly one emitter: particle (with energy or spectrum), decay (a nuclide such as Pb210, or a chain), or nuclide"
+                "give exactly one emitter: particle (with energy or spectrum), decay (a nuclide "
+                "such as Pb210, or a chain), or nuclide"
                 + (f" (got {', '.join(kinds)})" if kinds else "")
             )
         if self.particle is not None and (self.energy is None) == (self.spectrum is None):
             raise ValueError(f"particle {self.particle}: give exactly one of energy and spectrum")
         if self.particle is None and (self.energy is not None or self.spectrum is not None):
             raise ValueError(
-                "energy/spectrum belong to particle; decay and nuclide sources fix their own energies"
+                "energy/spectrum belong to particle; decay and nuclide sources fix their own "
+                "energies"
             )
         return self
 
@@ -653,7 +657,8 @@ class RunConfig(StrictModel):
         src = self.source.surface
         if src is not None and self.world.gdml is None and src.volume not in names:
             raise ValueError(
-                f"source.surface.volume: {src.volume!r} is not a target; targets are: {', '.join(names)}"
+                f"source.surface.volume: {src.volume!r} is not a target; targets are: "
+                f"{', '.join(names)}"
             )
         wrong = [
             f
@@ -669,7 +674,8 @@ class RunConfig(StrictModel):
         self._check_implantation()
         if self.source.volume is not None and self.source.volume not in names:
             raise ValueError(
-                f"source.volume: {self.source.volume!r} is not a target; targets are: {', '.join(names)}"
+                f"source.volume: {self.source.volume!r} is not a target; targets are: "
+                f"{', '.join(names)}"
             )
         for i, t in enumerate(self.targets):
             faces = [r.face for r in t.rough]
@@ -680,7 +686,8 @@ class RunConfig(StrictModel):
                     if v.surface not in self.surfaces:
                         known = ", ".join(self.surfaces) or "none defined"
                         raise ValueError(
-                            f"targets.{i}.rough.{j}: surface {v.surface!r} is not under surfaces ({known})"
+                            f"targets.{i}.rough.{j}: surface {v.surface!r} is not under surfaces "
+                            f"({known})"
                         )
         if not (info.context or {}).get("stored"):  # a stored description has every key filled in
             check_option_keys(self)  # options that resolve across sections (solid: auto)

@@ -1,4 +1,5 @@
-"""Materials: Geant4's NIST database plus the run's own ``materials:`` entries, with helpful errors."""
+"""Materials: Geant4's NIST database plus the run's own ``materials:`` entries, with helpful
+errors."""
 
 from __future__ import annotations
 
@@ -93,7 +94,8 @@ def build_material(g4, name: str, spec):
 
 
 def find_material(g4, name: str, parameter: str = "material", materials: Mapping | None = None):
-    """The G4Material ``name``: a ``materials:`` entry or a NIST name; else raise with close names."""
+    """The G4Material ``name``: a ``materials:`` entry or a NIST name; else raise with close
+    names."""
     materials = materials or {}
     if name in materials:
         return build_material(g4, name, materials[name])

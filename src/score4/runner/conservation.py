@@ -43,13 +43,14 @@ class EnergyBalance:
             return None
         return (
             f"energy conservation: {self.violations} of {self.events} events deposit more than "
-            f"their primaries' kinetic energy + 1 eV (largest excess {self.max_excess_mev * 1e3:.4g} "
-            f"keV); counted in the run record (energy_violations)"
+            "their primaries' kinetic energy + 1 eV (largest excess "
+            f"{self.max_excess_mev * 1e3:.4g} keV); counted in the run record (energy_violations)"
         )
 
 
 def energy_balance(primary_energy: np.ndarray, edep: np.ndarray) -> EnergyBalance:
-    """Check events given their primaries' total energy ``(n,)`` and deposits ``(n, volumes)`` (MeV)."""
+    """Check events given their primaries' total energy ``(n,)`` and deposits ``(n, volumes)``
+    (MeV)."""
     primary_energy = np.asarray(primary_energy, dtype=float)
     edep = np.asarray(edep, dtype=float).reshape(len(primary_energy), -1)
     excess = edep.sum(axis=1) - primary_energy
@@ -62,7 +63,8 @@ def energy_balance(primary_energy: np.ndarray, edep: np.ndarray) -> EnergyBalanc
 
 
 def check_chunk_files(paths: Iterable[Path]) -> EnergyBalance:
-    """The energy balance of a run from its chunk files (``events/primary_energy`` and ``events/edep``)."""
+    """The energy balance of a run from its chunk files (``events/primary_energy`` and
+    ``events/edep``)."""
     total = EnergyBalance(0, 0, 0.0)
     for path in paths:
         with h5py.File(path, "r") as f:

@@ -74,8 +74,8 @@ def require_distributed():
         import distributed
     except ImportError as err:
         raise Score4Error(
-            f"--cluster: the Dask backend needs the 'distributed' package, which is not installed ({err}); "
-            f"install it with: {INSTALL_HINT}"
+            "--cluster: the Dask backend needs the 'distributed' package, which is not installed "
+            f"({err}); install it with: {INSTALL_HINT}"
         ) from None
     return distributed
 
@@ -125,12 +125,13 @@ class DaskExecutor:
             self.description = f"dask {cluster}"
         else:
             raise ConfigError(
-                f"--cluster: {cluster!r} is neither 'dask' (a local Dask cluster of --jobs workers) "
-                f"nor a Dask scheduler address such as tcp://host:8786"
+                f"--cluster: {cluster!r} is neither 'dask' (a local Dask cluster of --jobs "
+                "workers) nor a Dask scheduler address such as tcp://host:8786"
             )
         if self.address and jobs > 1:
             echo(
-                f"notice: --jobs {jobs} does not apply with --cluster {cluster}: the scheduler's workers run the chunks"
+                f"notice: --jobs {jobs} does not apply with --cluster {cluster}: the scheduler's "
+                "workers run the chunks"
             )
 
     def execute(self, spec: WorkerSpec, todo: Iterable[Chunk]) -> Generator[tuple, None, None]:
@@ -224,14 +225,16 @@ class DaskExecutor:
         others = [addr for addr, k in held.items() if k not in (None, key)]
         if others:
             self.echo(
-                f"notice: restarting {len(others)} Dask worker(s) that hold another run's Geant4 set-up"
+                f"notice: restarting {len(others)} Dask worker(s) that hold another run's Geant4 "
+                "set-up"
             )
             try:
                 client.restart_workers(others)
             except Exception as err:  # noqa: BLE001 whatever stops the restart ends the run here
                 raise Score4Error(
-                    f"--cluster: could not restart Dask workers {others} that hold another run's Geant4 set-up "
-                    f"({err}); start the workers with a nanny, or restart them by hand"
+                    f"--cluster: could not restart Dask workers {others} that hold another run's "
+                    f"Geant4 set-up ({err}); start the workers with a nanny, or restart them by "
+                    "hand"
                 ) from None
 
 
@@ -357,8 +360,9 @@ def _simulation(spec: WorkerSpec):
             raise
     if _held["key"] != key:
         raise Score4Error(
-            "--cluster: this Dask worker process already holds the Geant4 set-up of another run (Geant4 allows "
-            "one per process); restart the workers (Client.restart()) or give each run its own workers"
+            "--cluster: this Dask worker process already holds the Geant4 set-up of another run "
+            "(Geant4 allows one per process); restart the workers (Client.restart()) or give each "
+            "run its own workers"
         )
     if "error" in _held:  # Geant4 may be half set up: never build it twice in one process
         prior = _held["error"]
@@ -366,7 +370,8 @@ def _simulation(spec: WorkerSpec):
             type(prior)(str(prior))
             if isinstance(prior, Score4Error)
             else Score4Error(
-                f"this Dask worker process failed to set up Geant4 before: {type(prior).__name__}: {prior}"
+                f"this Dask worker process failed to set up Geant4 before: {type(prior).__name__}: "
+                f"{prior}"
             )
         )
     return _held["sim"]

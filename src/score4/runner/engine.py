@@ -153,8 +153,8 @@ def chunk_size(n_events: int, chunk_events: int, jobs: int = 1) -> int:
     (:data:`~score4.runner.seeds.BLOCK_EVENTS`) when that still makes at least ``jobs`` chunks,
     and capped by ``chunk_events`` (``run.chunk_events``). So 5000 events on 2 workers are 2
     chunks (3000 + 2000 events) and each worker gets one; there are fewer chunks than workers
-    only in runs of fewer than ``jobs * (jobs - 1)`` events. The result of a run does not depend on the
-    chunk size (:mod:`score4.runner.seeds`).
+    only in runs of fewer than ``jobs * (jobs - 1)`` events. The result of a run does not depend on
+    the chunk size (:mod:`score4.runner.seeds`).
     """
     jobs = max(1, jobs)
     size = -(-n_events // jobs)
@@ -302,8 +302,8 @@ def prepare(
     parts = out.with_name(out.name + ".parts")
     if parts.exists() and not resume:
         raise ConfigError(
-            f"--out: unfinished run parts found in {str(parts)!r}; continue that run with --resume, "
-            f"or delete the folder to start again"
+            f"--out: unfinished run parts found in {str(parts)!r}; continue that run with "
+            "--resume, or delete the folder to start again"
         )
     resuming = resume and parts.exists()
     # A resumed run keeps the chunks of the run it continues, whatever --jobs is now.
@@ -320,12 +320,14 @@ def prepare(
     n_todo = len(chunks) - len(done)
     if done:
         echo(
-            f"resume: {len(done)} of {len(chunks)} chunks already finished in {parts}; running the other {n_todo}"
+            f"resume: {len(done)} of {len(chunks)} chunks already finished in {parts}; running the "
+            f"other {n_todo}"
         )
     workers = min(jobs, max(1, n_todo))
     if n_todo and jobs > n_todo:
         echo(
-            f"notice: --jobs {jobs} but only {n_todo} chunk(s) to run ({_chunks_text(chunks, done)}); "
+            f"notice: --jobs {jobs} but only {n_todo} chunk(s) to run "
+            f"({_chunks_text(chunks, done)}); "
             f"using {workers} worker(s)"
         )
     return Execution(parts, chunks, done, workers)
@@ -349,8 +351,8 @@ def execute(plan: RunPlan, job: Execution, executor: Executor, progress: bool, o
         kept = _count_chunk_files(parts, chunks)
         if kept:
             said = (
-                f"run interrupted: {kept} of {len(chunks)} chunks are finished and kept in {parts}; "
-                f"run the same command again with --resume to finish the run"
+                f"run interrupted: {kept} of {len(chunks)} chunks are finished and kept in "
+                f"{parts}; run the same command again with --resume to finish the run"
             )
         else:
             shutil.rmtree(parts, ignore_errors=True)
@@ -366,9 +368,9 @@ def execute(plan: RunPlan, job: Execution, executor: Executor, progress: bool, o
             shutil.rmtree(parts, ignore_errors=True)
             raise err from None
         raise type(err)(
-            f"{err}; {kept} of {len(chunks)} chunks are finished and kept in {parts} (Geant4's output: "
-            f"geant4-*.log there); run the same command again with --resume to retry the failed and "
-            f"missing chunks"
+            f"{err}; {kept} of {len(chunks)} chunks are finished and kept in {parts} (Geant4's "
+            "output: geant4-*.log there); run the same command again with --resume to retry the "
+            "failed and missing chunks"
         ) from None
     except BaseException:
         if not _count_chunk_files(parts, chunks):
@@ -429,8 +431,9 @@ def merge(out: Path, job: Execution, record: RunRecord, echo) -> None:
         merge_chunks(files, out, record.to_dict())
     except Score4Error as err:
         raise Score4Error(
-            f"{err}; all {len(job.chunks)} chunks are finished and kept in {job.parts}: fix the cause (e.g. free disk "
-            f"space) and run the same command again with --resume to merge them"
+            f"{err}; all {len(job.chunks)} chunks are finished and kept in {job.parts}: fix the "
+            "cause (e.g. free disk space) and run the same command again with --resume to merge "
+            "them"
         ) from None
     log = _collect_logs(job.parts, out)
     shutil.rmtree(job.parts)
@@ -457,7 +460,8 @@ def check_run_memory(
 def _run_chunks(
     executor: Executor, spec: WorkerSpec, chunks: ChunkPlan, done: set[int], show: bool
 ) -> dict:
-    """Run the chunks not in ``done`` on ``executor``; return a worker's ready info; raise on failed chunks."""
+    """Run the chunks not in ``done`` on ``executor``; return a worker's ready info; raise on failed
+    chunks."""
     n_todo = len(chunks) - len(done)
     if not n_todo:
         return {}
@@ -682,7 +686,8 @@ def _ranges(indices: list[int]) -> str:
 
 
 def _complement_ranges(n: int, excluded: set[int]) -> str:
-    """:func:`_ranges` of the indices ``0 .. n-1`` not in ``excluded`` (a small set), without listing them."""
+    """:func:`_ranges` of the indices ``0 .. n-1`` not in ``excluded`` (a small set), without
+    listing them."""
     out, start = [], 0
     for k in [*sorted(i for i in excluded if 0 <= i < n), n]:
         if k > start:
@@ -755,12 +760,13 @@ def _finished_chunks(parts: Path, chunks: ChunkPlan, fingerprint: str, echo) -> 
             done.add(c.index)
     if foreign:
         echo(
-            f"resume: chunk files {_ranges(foreign)} in {parts} come from another configuration or seed; "
-            f"they are run again"
+            f"resume: chunk files {_ranges(foreign)} in {parts} come from another configuration or "
+            "seed; they are run again"
         )
     if damaged:
         echo(
-            f"resume: chunk files {_ranges(damaged)} in {parts} are damaged or incomplete; they are run again"
+            f"resume: chunk files {_ranges(damaged)} in {parts} are damaged or incomplete; they "
+            "are run again"
         )
     return done
 
@@ -823,7 +829,8 @@ def _count_chunk_files(parts: Path, chunks: ChunkPlan) -> int:
 
 
 def _remember_plan(parts: Path, chunks: ChunkPlan) -> None:
-    """Keep the chunk size in the parts folder: a resume with another --jobs keeps the same chunks."""
+    """Keep the chunk size in the parts folder: a resume with another --jobs keeps the same
+    chunks."""
     with contextlib.suppress(Score4Error), atomic_output(parts / _PLAN_FILE) as tmp:
         tmp.write_text(json.dumps({"n_events": chunks.n_events, "chunk_size": chunks.size}))
 
@@ -840,7 +847,8 @@ def _recall_plan(parts: Path, n_events: int) -> ChunkPlan | None:
 
 
 def _remember_info(parts: Path, info: dict) -> None:
-    """Keep a worker's ready info in the parts folder: a resume with nothing left to run needs it."""
+    """Keep a worker's ready info in the parts folder: a resume with nothing left to run needs
+    it."""
     with contextlib.suppress(Score4Error), atomic_output(parts / _INFO_FILE) as tmp:
         tmp.write_text(json.dumps(info))
 

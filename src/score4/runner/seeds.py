@@ -42,7 +42,8 @@ _REFERENCE_STREAM = 3
 
 
 def event_geant4_seeds(seed: int, first_event: int, n_events: int) -> np.ndarray:
-    """(n_events,) positive 63-bit Geant4 seeds of events ``first_event ..``, as Python-int-able uint64.
+    """(n_events,) positive 63-bit Geant4 seeds of events ``first_event ..``, as Python-int-able
+    uint64.
 
     The seeds of block ``b`` come from ``SeedSequence(seed, spawn_key=(b, 1))``.
     """

@@ -101,7 +101,8 @@ class _Layer:
         )
 
     def jump(self, i: int, j: int) -> tuple[float, float, float]:
-        """T[i, j]: portal point + T = subworld point (same expression as PortalMap.translations)."""
+        """T[i, j]: portal point + T = subworld point (same expression as
+        PortalMap.translations)."""
         a, eu, ev = self.a[self.variants[j][i]], self.eu, self.ev
         return (
             a[0] - i * eu[0] - j * ev[0],
@@ -139,7 +140,8 @@ def outward_faces(pos, d, half) -> list[int]:
 
 
 def enters(pos, d, half) -> bool:
-    """True if ``pos`` lies inside the box, or on a face of it with ``d`` pointing in through that face."""
+    """True if ``pos`` lies inside the box, or on a face of it with ``d`` pointing in through that
+    face."""
     if max(abs(c) - h for c, h in zip(pos, half, strict=True)) < -EDGE_TOLERANCE:
         return True
     return any(
@@ -316,7 +318,9 @@ class Teleporter:
         if kind == _PORTAL:
             q = lay.local(x, y, z, lay.portal_centre)
             if not enters(q, dl, lay.portal_half):
-                return  # on the boundary moving out (after a jump back, or turned back): Geant4 takes it out
+                # on the boundary moving out (after a jump back, or turned back):
+                # Geant4 takes it out
+                return
             i, j = lay.cell(q[0], q[1])
             t = lay.jump(i, j)
             self._move(step, track, pre, x + t[0], y + t[1], z + t[2])

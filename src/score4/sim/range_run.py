@@ -75,7 +75,8 @@ def range_config(
     histories: int | None = None,
     alphas: str = "geant4",
 ) -> RunConfig:
-    """One run configuration holding a block per case; block ``k``'s entry point is (k PITCH, 0, 0)."""
+    """One run configuration holding a block per case; block ``k``'s entry point
+    is (k PITCH, 0, 0)."""
     phys: dict = {"mode": physics, "alphas": alphas}
     if histories is not None:
         phys["trim_histories"] = histories

@@ -58,17 +58,17 @@ def resolve_physics(requested: str, needs_decay: bool = False) -> PhysicsChoice:
         if requested == "lite" or decay_missing or full_missing:
             missing = ", ".join(sorted(set(full_missing + decay_missing))) or "none"
             raise PhysicsUnavailableError(
-                f"physics: this source needs Geant4 radioactive decay, which needs the data sets "
-                f"G4EMLOW, G4ENSDFSTATE, PhotonEvaporation and RadioactiveDecay (missing: {missing}); "
-                f"lite mode cannot do decays. Run 'score4 data install' on a machine with internet, "
-                f"or use source.decay instead of source.nuclide (score4's own decay sampling, "
-                f"e.g. decay: Pb210), which needs no data"
+                "physics: this source needs Geant4 radioactive decay, which needs the data sets "
+                "G4EMLOW, G4ENSDFSTATE, PhotonEvaporation and RadioactiveDecay (missing: "
+                f"{missing}); lite mode cannot do decays. Run 'score4 data install' on a machine "
+                "with internet, or use source.decay instead of source.nuclide (score4's own decay "
+                "sampling, e.g. decay: Pb210), which needs no data"
             )
         return PhysicsChoice("full", requested, True, "", ())
     if requested == "full" and full_missing:
         raise PhysicsUnavailableError(
-            f"physics.mode: 'full' needs the Geant4 data sets {', '.join(full_missing)}, which are not "
-            f"installed; run 'score4 data install', or use mode 'lite' ({LITE_LACKS})"
+            f"physics.mode: 'full' needs the Geant4 data sets {', '.join(full_missing)}, which are "
+            f"not installed; run 'score4 data install', or use mode 'lite' ({LITE_LACKS})"
         )
     if requested == "lite" or full_missing:
         return PhysicsChoice("lite", requested, False, LITE_LACKS, full_missing)
@@ -76,7 +76,8 @@ def resolve_physics(requested: str, needs_decay: bool = False) -> PhysicsChoice:
 
 
 def lite_stub_dir() -> Path:
-    """A folder with the empty stand-ins that let Geant4 start without data (docs/geant4-facts.md)."""
+    """A folder with the empty stand-ins that let Geant4 start without data
+    (docs/geant4-facts.md)."""
     from ..files import cache_dir
 
     base = cache_dir("geant4-lite-stub")

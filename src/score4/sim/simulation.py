@@ -71,8 +71,8 @@ class Simulation:
     _scores: dict[str, np.ndarray]
 
     def __init__(self, plan: RunPlan, log_path: Path | None = None) -> None:
-        """The application of ``plan`` (:func:`score4.runner.run_plan.plan_run`): its scene, source and
-        physics; the plan's seed fixes the TRIM seed of the trajectory libraries
+        """The application of ``plan`` (:func:`score4.runner.run_plan.plan_run`): its scene, source
+        and physics; the plan's seed fixes the TRIM seed of the trajectory libraries
         (:func:`score4.runner.seeds.library_trim_seed`). Geant4's console output goes to
         ``log_path``."""
         if plan.source is None:

@@ -12,9 +12,10 @@ dies can never leave a shared lock held):
 A worker ignores Ctrl-C (the parent handles it and stops the workers) and exits on its own when
 the parent process dies, so a killed run leaves no orphans.
 
-Test hook (fault tests only): with the environment variable ``SCORE4_TEST_CRASH_CHUNK=<i>[,<j>...]``,
-the process that starts chunk ``i`` dies at once with ``os._exit(70)``, as a segfault or an
-out-of-memory kill would. It works the same in local and Dask workers.
+Test hook (fault tests only): with the environment variable
+``SCORE4_TEST_CRASH_CHUNK=<i>[,<j>...]``, the process that starts chunk ``i`` dies at once with
+``os._exit(70)``, as a segfault or an out-of-memory kill would. It works the same in local and Dask
+workers.
 """
 
 from __future__ import annotations

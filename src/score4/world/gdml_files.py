@@ -33,7 +33,8 @@ _MODELS: dict[str, GeometryModel] = {}
 
 
 def _check_xml(path: Path, parameter: str, seen: list[Path]) -> None:
-    """Parse ``path`` with expat (external entities followed); append every file read to ``seen``."""
+    """Parse ``path`` with expat (external entities followed); append every file read to
+    ``seen``."""
     seen.append(path)
     parser = xml.parsers.expat.ParserCreate()
     parser.SetParamEntityParsing(xml.parsers.expat.XML_PARAM_ENTITY_PARSING_UNLESS_STANDALONE)
