@@ -6,6 +6,8 @@ species and target compositions (:mod:`score4.ions`) and material checks read it
 
 from __future__ import annotations
 
+from .errors import ConfigError
+
 # Element symbols by atomic number, one line per period of the periodic table.
 _TABLE = """
     H He
@@ -26,3 +28,20 @@ _Z_LOWER = {symbol.lower(): z for z, symbol in enumerate(ELEMENTS, start=1)}
 def atomic_number(symbol: str) -> int | None:
     """Z of an element symbol in any case (``"pb"``, ``"Pb"``), None for an unknown symbol."""
     return _Z_LOWER.get(symbol.lower())
+
+
+def nuclide_za(symbol: str, mass: str, name: str, what: str) -> tuple[int, int]:
+    """Z and A of nuclide ``name`` read as element ``symbol`` and mass number ``mass``.
+
+    Raises ConfigError naming ``what`` for an unknown element or a mass number outside
+    [Z, 300]; the one check behind every nuclide name score4 reads.
+    """
+    z = atomic_number(symbol)
+    if z is None:
+        raise ConfigError(f"{what}: {name!r} has unknown element symbol {symbol!r}")
+    a = int(mass)
+    if not z <= a <= 300:
+        raise ConfigError(
+            f"{what}: {name!r} has mass number {a}; it must be between Z = {z} and 300"
+        )
+    return z, a

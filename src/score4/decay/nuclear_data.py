@@ -14,7 +14,7 @@ from functools import cache
 from importlib import resources
 from typing import Any
 
-from ..elements import ELEMENTS, atomic_number
+from ..elements import ELEMENTS, atomic_number, nuclide_za
 from ..errors import ConfigError
 
 __all__ = [
@@ -58,14 +58,7 @@ def nuclide_name(name: str, what: str = "decay") -> str:
     symbol, mass, meta = (
         (m.group(1), m.group(2), m.group(3)) if m.group(1) else (m.group(6), m.group(4), m.group(5))
     )
-    z = atomic_number(symbol)
-    if z is None:
-        raise ConfigError(f"{what}: {name!r} has unknown element symbol {symbol!r}")
-    a = int(mass)
-    if not z <= a <= 300:
-        raise ConfigError(
-            f"{what}: {name!r} has mass number {a}; it must be between Z = {z} and 300"
-        )
+    z, a = nuclide_za(symbol, mass, name, what)
     return f"{ELEMENTS[z - 1]}{a}" + ("m" if meta else "")
 
 

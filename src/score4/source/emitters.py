@@ -33,7 +33,7 @@ from numpy.typing import ArrayLike
 
 from score4.inputs.units import parse_quantity
 
-from ..elements import ELEMENTS, atomic_number
+from ..elements import ELEMENTS, nuclide_za
 from ..errors import ConfigError
 from .primaries import Primaries
 from .sampling import Histogram, PiecewiseLinear, orthonormal_basis, read_table
@@ -120,14 +120,7 @@ def normalise_nuclide(name: str) -> str:
     symbol, mass = (
         (match.group(1), match.group(2)) if match.group(1) else (match.group(4), match.group(3))
     )
-    z = atomic_number(symbol)
-    if z is None:
-        raise ConfigError(f"nuclide: {name!r} has unknown element symbol {symbol!r}")
-    a = int(mass)
-    if not z <= a <= 300:
-        raise ConfigError(
-            f"nuclide: {name!r} has mass number {a}; it must be between Z = {z} and 300"
-        )
+    z, a = nuclide_za(symbol, mass, name, "nuclide")
     return f"{ELEMENTS[z - 1]}{a}"
 
 
