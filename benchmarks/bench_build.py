@@ -25,14 +25,10 @@ from __future__ import annotations
 import argparse
 import os
 import resource
-import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
-
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def config(case: str, events: int) -> dict:
@@ -98,23 +94,19 @@ def main() -> None:
     if a.child:
         child(a.child, a.events)
         return
+    from stamp import child_figures  # this folder is on sys.path when run as a script
+
     cases = [c for c in a.cases.split(",") if c]
     print(f"load average at start: {os.getloadavg()}")
     rows: dict[str, list[tuple[float, ...]]] = {}
     for _ in range(a.repeat):
         for case in cases:
-            r = subprocess.run(
-                [sys.executable, __file__, "--child", case, "--events", str(a.events)],
-                check=False,
-                capture_output=True,
-                text=True,
-                env={**os.environ, "PYTHONPATH": str(ROOT / "src")},
-            )
-            lines = [x for x in r.stdout.splitlines() if x.startswith("BUILD ")]
-            if r.returncode or not lines:
-                print(f"{case}: failed: {r.stderr.strip().splitlines()[-1:]}")
+            cmd = [sys.executable, __file__, "--child", case, "--events", str(a.events)]
+            figures = child_figures(cmd, "BUILD")
+            if isinstance(figures, str):
+                print(f"{case}: {figures}")
                 continue
-            rows.setdefault(case, []).append(tuple(map(float, lines[-1].split()[1:])))
+            rows.setdefault(case, []).append(figures)
     print(f"load average at end: {os.getloadavg()}")
     print(
         f"{'case':12s} {'build CPU s':>11s} {'peak RSS MB':>11s} {'ms/event':>8s}"

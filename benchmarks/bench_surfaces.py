@@ -273,24 +273,19 @@ def warm_table(
         print(stamp())
     else:
         print(f"load average at start: {os.getloadavg()}")
+    from stamp import child_figures  # this folder is on sys.path when run as a script
+
     runs: dict[tuple[str, float], list[tuple[float, ...]]] = {}
     for _ in range(repeat):
         for face in faces:
             for case in cases:
                 n = slow_events if case.endswith("_tess") else events
                 cmd = [sys.executable, __file__, "--warm-child", case, "--events", str(n)]
-                r = subprocess.run(
-                    [*cmd, "--faces", str(face)],
-                    check=False,
-                    capture_output=True,
-                    text=True,
-                    env={**os.environ, "PYTHONPATH": str(ROOT / "src")},
-                )
-                lines = [x for x in r.stdout.splitlines() if x.startswith("WARM ")]
-                if r.returncode or not lines:
-                    print(f"{case} {face} mm: failed: {r.stderr.strip().splitlines()[-1:]}")
+                figures = child_figures([*cmd, "--faces", str(face)], "WARM")
+                if isinstance(figures, str):
+                    print(f"{case} {face} mm: {figures}")
                     continue
-                runs.setdefault((case, face), []).append(tuple(map(float, lines[-1].split()[1:])))
+                runs.setdefault((case, face), []).append(figures)
 
     def med(key: tuple[str, float], k: int = 0) -> float:
         return float(np.median([r[k] for r in runs[key]])) if key in runs else float("nan")
