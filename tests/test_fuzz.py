@@ -36,7 +36,7 @@ from score4.inputs import limits
 from score4.inputs.config import load_config
 from score4.inputs.units import parse_count
 from score4.source.build import make_source
-from score4.world.scene import build_scene
+from score4.world.resolve import build_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 # hypothesis warns when it prints a failing example with a 10 kB string (one of the hostile

@@ -20,7 +20,7 @@ from score4.cli.main import main
 from score4.errors import ConfigError
 from score4.inputs.config import parse_config
 from score4.world.gdml_files import _read_in_subprocess, load_geometry_model
-from score4.world.scene import build_scene
+from score4.world.resolve import build_scene
 
 from _spawn import run_in_spawned_process
 

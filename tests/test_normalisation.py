@@ -18,7 +18,7 @@ import pytest
 from score4.analysis.normalisation import nist_density_table, run_normalisation
 from score4.cli.main import main
 from score4.inputs.config import parse_config
-from score4.world.scene import build_scene
+from score4.world.resolve import build_scene
 
 from conftest import ROOT, config_dict
 

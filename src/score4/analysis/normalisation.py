@@ -47,7 +47,8 @@ import numpy as np
 
 from score4.errors import ConfigError
 from score4.inputs.config import RunConfig
-from score4.world.scene import RoughLayer, Scene, build_scene
+from score4.world.resolve import build_scene
+from score4.world.scene import RoughLayer, Scene
 
 #: Version of the normalisation entries; a results file without ``simulated_decays`` predates them.
 NORMALISATION_VERSION = 1

@@ -147,7 +147,7 @@ def list_volumes(config_file: Path, as_json: bool) -> None:
 
     from score4.inputs.config import allowing_overlaps, load_config
     from score4.world.listing import geometry_rows, geometry_text
-    from score4.world.scene import build_scene
+    from score4.world.resolve import build_scene
 
     from ..errors import naming_file
 
@@ -190,7 +190,7 @@ def export_gdml(config_file: Path, out: Path, overwrite: bool, allow_overlaps: b
     application, pyg4ometry). Vertices from 'score4 vertices' are in this world's frame."""
     from score4.inputs.config import allowing_overlaps, load_config
     from score4.inputs.schema import input_paths
-    from score4.world.scene import build_scene
+    from score4.world.resolve import build_scene
 
     from ..errors import naming_file
     from ..files import check_outputs

@@ -226,7 +226,7 @@ def vertices(
     from score4.inputs.config import config_to_dict
     from score4.inputs.schema import input_paths
     from score4.source.event_blocks import BLOCK_EVENTS
-    from score4.world.scene import build_scene
+    from score4.world.resolve import build_scene
 
     from ..files import check_output_file
     from ..source.build import make_source, source_geometry

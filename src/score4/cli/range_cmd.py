@@ -55,7 +55,7 @@ def load_materials(path: Path) -> dict:
     """The ``materials:`` section of a YAML file (other sections are not read)."""
     from pydantic import TypeAdapter, ValidationError
 
-    from score4.inputs.config import MaterialSpec
+    from score4.inputs.materials import MaterialSpec
     from score4.inputs.schema import describe_validation_error
     from score4.inputs.yamlfile import load_yaml
 
@@ -68,7 +68,7 @@ def load_materials(path: Path) -> dict:
         materials = adapter.validate_python({"materials": section})["materials"]
     except ValidationError as err:
         raise ConfigError(describe_validation_error(err, str(path))) from None
-    from score4.inputs.config import check_material_name
+    from score4.inputs.materials import check_material_name
 
     for name in materials:  # the same naming rules as in a run configuration
         try:
@@ -84,7 +84,7 @@ def resolve_material(name: str, density: str | None, materials: dict, names=None
     ``name`` is a ``materials:`` entry, a Geant4 NIST name, or a chemical formula when
     ``density`` is given.
     """
-    from score4.inputs.config import MaterialSpec
+    from score4.inputs.materials import MaterialSpec
 
     if density is not None:
         if name in materials or name.startswith("G4_"):

@@ -473,10 +473,10 @@ def splice(g4, config, scene, out: Path, fragment_path: Path) -> dict:
     ``fragment_path`` first). Returns ``{"layers", "registered", "clones"}``.
     """
     from ..inputs.materials import find_material
+    from .built import cut_for_layers, g4_solid
     from .gdml import read_gdml
     from .gdml_world import _mother_frame
     from .tiling import _rotation, place_native
-    from .world import cut_for_layers, g4_solid
 
     model = scene.model
     src = Path(config.world.gdml)

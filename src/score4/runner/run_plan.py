@@ -140,7 +140,7 @@ def plan_run(
     """
     from score4.sim.runtime import resolve_physics
     from score4.source.build import make_source, needs_radioactive_decay
-    from score4.world.scene import build_scene
+    from score4.world.resolve import build_scene
 
     seed = config.run.seed if seed is None else int(seed)
     if physics is None:
@@ -174,7 +174,7 @@ def _rebuild(
     if held is not None and (*_identity(held), held.source is not None) == key:
         return held
     from score4.source.build import make_source
-    from score4.world.scene import build_scene
+    from score4.world.resolve import build_scene
 
     with warnings.catch_warnings():  # the parent showed them when it planned
         warnings.simplefilter("ignore", Score4Warning)

@@ -27,15 +27,13 @@ from functools import cached_property
 import numpy as np
 
 from score4.errors import ConfigError
-from score4.inputs import limits
-from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig, SurfaceFile
+from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig
 from score4.shapes import G4Box as G4BoxShape
 from score4.shapes import PlacedShape, Shape, Transform, shape_from_dict
 from score4.shapes.faces import AnnulusFace, Face, PlaneFace, RevolvedFace
 from score4.surface.block_cut import check_patch
 from score4.surface.patchmap import PatchMap, make_patch_map
-from score4.surface.spec import Surface, build_surface
-from score4.surface.store import load_surface
+from score4.surface.spec import Surface
 
 from .curved import (
     BentVariant,
@@ -634,18 +632,6 @@ def target_obb(target: TargetVolume) -> OrientedBox:
     return OrientedBox(target.to_world((lo + hi) / 2), target.rotation, (hi - lo) / 2)
 
 
-def _load(name: str, description) -> Surface:
-    where = f"surfaces.{name}"
-    try:
-        return (
-            load_surface(description.file)
-            if isinstance(description, SurfaceFile)
-            else build_surface(description)
-        )
-    except ConfigError as err:
-        raise ConfigError(f"{where}: {err}") from None
-
-
 def _same_size(a: float, b: float) -> bool:
     return abs(a - b) <= 1e-9 * max(abs(a), abs(b))
 
@@ -929,49 +915,6 @@ def make_curved_layer(
     limit = gap_limit(max(s.max_height for s in variants))
     check_radius(layout, layer.gap, limit, where, target.name, rough.face)
     return layer
-
-
-def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
-    """Build every surface the targets use and the patch map of every rough face.
-
-    A GDML world's volume model is read (and cached) here unless given.
-    """
-    if model is None and config.world.gdml is not None:
-        from .gdml_files import load_geometry_model
-
-        model = load_geometry_model(config.world.gdml)
-    if model is not None and model.overlaps and not config.world.allow_overlaps:
-        first = model.overlaps[0]
-        more = f" (and {len(model.overlaps) - 1} more pair(s))" if len(model.overlaps) > 1 else ""
-        raise ConfigError(
-            f"world.gdml: in {model.source}, volumes {first['volumes'][0]!r} and "
-            f"{first['volumes'][1]!r} overlap by {first['by']}{more} (Geant4 CheckOverlaps); "
-            "particles in an overlap are tracked wrongly: fix the GDML file, or run anyway "
-            "with --allow-overlaps (world: {allow_overlaps: true})"
-        )
-    used = {v.surface for t in config.targets for r in t.rough for v in r.variant_list}
-    surfaces = {
-        name: _load(name, config.surfaces[name]) for name in config.surfaces if name in used
-    }
-    targets = resolve_targets(config, model)
-    scene = Scene(config, surfaces, targets=targets, model=model)
-    for target in targets:
-        for j, rough in enumerate(target.config.rough):
-            scene.layers.append(make_layer(surfaces, target, j, rough))
-    from .clearance import check_clearance
-
-    check_clearance(scene)
-    far = float(np.max(scene.world_half))
-    if np.isfinite(far) and far > limits.MAX_WORLD_EXTENT:
-        raise ConfigError(
-            f"targets: the world reaches {far / 1e3:.4g} m from the origin (targets, rough layers "
-            "and world.margin); score4's limit is 1 km (move the targets towards the origin)"
-        )
-    if any(t.config.activeness for t in scene.targets):
-        from .activeness import volume_activeness
-
-        volume_activeness(scene)  # faces the shape lacks: refused before anything is written
-    return scene
 
 
 def _rough_patch_map(extent, size, rough: RoughFace, context: str) -> PatchMap:
