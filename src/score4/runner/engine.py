@@ -51,11 +51,11 @@ import h5py
 import numpy as np
 
 from score4 import __version__, errors
-from score4.analysis.normalisation import run_normalisation
 from score4.inputs import limits
 from score4.inputs.config import RunConfig, config_to_dict
 from score4.inputs.schema import input_paths
 from score4.runner.conservation import check_chunk_files
+from score4.runner.normalisation import run_normalisation
 from score4.runner.output import chunk_counts, merge_chunks
 from score4.runner.progress import progress_bar
 from score4.runner.run_plan import RunPlan, plan_run
@@ -417,7 +417,7 @@ def run_record(plan: RunPlan, job: Execution) -> RunRecord:
         **_counts(files, plan),
         # contract 1, what the events stand for: volumes (one per scoring column: name, material,
         # density, volume, mass; from the worker's Geant4 world), the sampled area or mass, the
-        # decays (score4.analysis.normalisation)
+        # decays (score4.runner.normalisation)
         normalisation=run_normalisation(config, scene, volumes=info.get("volumes") or None),
     )
 
