@@ -185,7 +185,7 @@ class RoughenedVolume:
     ----------
     layers
         The rough layers, one per copy of the volume (:class:`score4.world.scene.RoughLayer`: face
-        frame, patch map, true area through ``layer.sampler().area``).
+        frame, patch map, true area through ``score4.source.build.layer_sampler(layer).area``).
     volumes
         Per scoring column (the volume's name, ``name_k`` for copies): the logical volumes whose
         energy deposits count for it, the volume's own first, then the patch bodies of its

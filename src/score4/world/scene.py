@@ -326,22 +326,6 @@ class RoughLayer:
         """(ny, nx, 2) face-local centres of the cells."""
         return self.patch_map.cell_centres()
 
-    def sampler(self):
-        """A :class:`~score4.source.sampling.TiledSurfaceSampler` on the rough tops."""
-        from score4.source.sampling import SurfaceSampler, TiledSurfaceSampler
-
-        px, py = self.patch_size
-        shift = np.array([px / 2, py / 2, 0.0])  # the sampler's patches span [0, px] x [0, py]
-        variants = [
-            SurfaceSampler(vertices=s.top_mesh.vertices + shift, faces=s.top_mesh.faces)
-            for s in self.variants
-        ]
-        lu, lv = self.frame.size
-        origin = self.frame.to_world(np.array([-lu / 2, -lv / 2, self.base_thickness]))
-        return TiledSurfaceSampler(
-            variants, self.cell_variants.T, (px, py), origin, self.frame.rotation
-        )
-
     def contains(self, points: np.ndarray) -> np.ndarray:
         """True for world points inside a patch body (on its boundary within the tolerance)."""
         q = self.frame.to_local(points)
@@ -434,13 +418,6 @@ class CurvedRoughLayer(RoughLayer):
             for i, phi in enumerate(self.ring_layout.cell_phi(j)):
                 out.append((j, i, int(grid[j, i]), float(phi)))
         return out
-
-    def sampler(self):
-        """Area-uniform points on the bent tops (world coordinates), see
-        :class:`~score4.source.sampling.RingSurfaceSampler`."""
-        from score4.source.sampling import RingSurfaceSampler
-
-        return RingSurfaceSampler(self)
 
     def contains(self, points: np.ndarray) -> np.ndarray:
         """True for world points inside a patch body or on it (within the boundary tolerance):
