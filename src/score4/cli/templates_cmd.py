@@ -17,7 +17,7 @@ _FILE = click.Path(dir_okay=False, path_type=Path)
 
 def _response(results, response_file: Path | None):
     """The response to apply: --response FILE, else the run configuration's ``response:``."""
-    from score4.analysis.response import ResponseConfig, load_response
+    from score4.inputs.response_spec import ResponseConfig, load_response
 
     if response_file is not None:
         return load_response(response_file)

@@ -21,13 +21,13 @@ from pydantic import (
     model_validator,
 )
 
-from score4.analysis.response import ResponseConfig
 from score4.errors import ConfigError
 from score4.surface.patchmap import DEFAULT_TILES
 from score4.surface.spec import MeasuredSurfaceSpec, RandomSurfaceSpec, SpikeSurfaceSpec
 
 from . import limits
 from .materials import MaterialSpec, check_material_name
+from .response_spec import ResponseConfig
 from .schema import (
     GIVEN,
     ConfigPath,
