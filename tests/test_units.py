@@ -2,8 +2,8 @@ import math
 
 import pytest
 
+from score4.common.units import format_quantity, parse_quantity
 from score4.errors import ConfigError
-from score4.inputs.units import format_quantity, parse_quantity
 
 
 @pytest.mark.parametrize(

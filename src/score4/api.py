@@ -44,9 +44,9 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
+from score4.common.schema import describe_validation_error
+from score4.common.units import parse_quantity
 from score4.inputs.config import GdmlVolume, PhysicsConfig, RoughFace, SourceConfig
-from score4.inputs.schema import describe_validation_error
-from score4.inputs.units import parse_quantity
 from score4.runner.run_plan import RunPlan, plan_run
 from score4.world.gdml_model import GeometryModel, Instance
 from score4.world.scene import RoughLayer, Scene, TargetVolume, gdml_target, make_layer

@@ -29,9 +29,9 @@ from pathlib import Path
 
 import numpy as np
 
+from score4.common.units import ENERGY
 from score4.errors import ConfigError
 from score4.inputs.response_spec import ResolutionConfig, ResponseConfig
-from score4.inputs.units import ENERGY
 
 #: Particle classes of the split deposits and their results-file quantities.
 CLASSES = {"alpha": "edep_alpha", "ion": "edep_ion", "electron": "edep_electron"}

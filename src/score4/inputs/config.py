@@ -21,14 +21,8 @@ from pydantic import (
     model_validator,
 )
 
-from score4.errors import ConfigError
-from score4.surface.patchmap import DEFAULT_TILES
-from score4.surface.spec import MeasuredSurfaceSpec, RandomSurfaceSpec, SpikeSurfaceSpec
-
-from . import limits
-from .materials import MaterialSpec, check_material_name
-from .response_spec import ResponseConfig
-from .schema import (
+from score4.common import limits
+from score4.common.schema import (
     GIVEN,
     ConfigPath,
     NonNegativeLength,
@@ -41,8 +35,14 @@ from .schema import (
     check_option_keys,
     describe_validation_error,
 )
-from .units import length_text
-from .yamlfile import load_yaml
+from score4.common.units import length_text
+from score4.common.yamlfile import load_yaml
+from score4.errors import ConfigError
+from score4.surface.patchmap import DEFAULT_TILES
+from score4.surface.spec import MeasuredSurfaceSpec, RandomSurfaceSpec, SpikeSurfaceSpec
+
+from .materials import MaterialSpec, check_material_name
+from .response_spec import ResponseConfig
 
 FACES = ("+x", "-x", "+y", "-y", "+z", "-z")
 

@@ -13,8 +13,9 @@ from typing import ClassVar, Literal
 
 from pydantic import model_validator
 
+from score4.common.schema import GIVEN, PositiveDensity, StrictModel
+
 from ..errors import ConfigError, brief
-from .schema import GIVEN, PositiveDensity, StrictModel
 
 
 class MaterialSpec(StrictModel):
@@ -136,7 +137,7 @@ def _as_spec(spec):
     if isinstance(spec, Mapping):
         from pydantic import ValidationError
 
-        from .schema import describe_validation_error
+        from score4.common.schema import describe_validation_error
 
         try:
             return MaterialSpec.model_validate(dict(spec))

@@ -8,10 +8,14 @@ from typing import ClassVar, Literal
 
 from pydantic import Field, ValidationError, model_validator
 
+from score4.common.schema import (
+    ConfigPath,
+    NonNegativeEnergy,
+    StrictModel,
+    describe_validation_error,
+)
+from score4.common.yamlfile import load_yaml
 from score4.errors import ConfigError
-
-from .schema import ConfigPath, NonNegativeEnergy, StrictModel, describe_validation_error
-from .yamlfile import load_yaml
 
 #: A quenching factor above this is a slip (the largest measured ratios are ~1.1, for alphas in
 #: some bolometers' heat channel).

@@ -146,7 +146,7 @@ def parse_stored_config(data: dict, origin: str) -> RunConfig:
     """A configuration stored with a file (``config_to_dict``: every key filled in), validated."""
     from pydantic import ValidationError
 
-    from score4.inputs.schema import describe_validation_error
+    from score4.common.schema import describe_validation_error
 
     try:
         return RunConfig.model_validate(data, context={"base_dir": None, "stored": True})

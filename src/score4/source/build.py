@@ -19,7 +19,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from score4.inputs import limits
+from score4.common import limits
 from score4.inputs.config import DecayChainConfig, DepthConfig, RunConfig, RunUnit, SourceConfig
 from score4.world.scene import CurvedRoughLayer, RoughLayer, Scene, TargetVolume, face_frame
 

@@ -38,8 +38,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from score4.inputs import limits
-from score4.inputs.units import DIMENSIONS
+from score4.common import limits
+from score4.common.units import DIMENSIONS
 
 from ..errors import ConfigError, brief
 from ..files import atomic_h5, open_h5

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from score4.common import limits
 from score4.errors import ConfigError
-from score4.inputs import limits
 from score4.inputs.config import RunConfig, SurfaceFile
 from score4.surface.spec import Surface, build_surface
 from score4.surface.store import load_surface
