@@ -225,11 +225,12 @@ def vertices(
     from score4.common import limits
     from score4.common.schema import input_paths
     from score4.inputs.config import config_to_dict
+    from score4.runner.physics_choice import resolve_physics
+    from score4.runner.run_plan import plan_run
     from score4.source.event_blocks import BLOCK_EVENTS
-    from score4.world.resolve import build_scene
 
     from ..files import check_output_file
-    from ..source.build import make_source, source_geometry
+    from ..source.build import source_geometry
     from ..source.vertex_file import write_vertex_file
 
     config = _load_with_overrides(config_file, n_events, seed, allow_overlaps)
@@ -249,8 +250,11 @@ def vertices(
     )
     n, seed = config.run.events, config.run.seed
     with naming_file(config_file):
-        scene = build_scene(config)
-        source = make_source(config, scene)
+        # the plan of a run (world, source); drawing vertices tracks nothing, so the physics is
+        # not asked of the installed data (lite needs none)
+        plan = plan_run(config, physics=resolve_physics("lite"))
+        scene, source = plan.scene, plan.source
+        assert source is not None  # a plan with its source
         sample = source.events(seed, 0, min(n, BLOCK_EVENTS))
         limits.check_memory(
             2 * n * limits.PRIMARY_BYTES * len(sample) / sample.n_events,

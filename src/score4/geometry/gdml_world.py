@@ -25,7 +25,6 @@ from score4.world.gdml_model import GeometryModel, Instance
 from score4.world.scene import CurvedRoughLayer, FaceFrame, RoughLayer, Scene, TargetVolume
 
 from ..errors import ConfigError
-from ..shapes import Transform
 from .built import BuiltGeometry, cut_for_layers, g4_solid
 from .gdml import read_gdml
 from .tiling import place_native
@@ -90,7 +89,8 @@ class _Unsharer:
 
 def _mother_frame(frame: FaceFrame, mother: Instance) -> FaceFrame:
     """A world face frame in the coordinates of ``mother``."""
-    return FaceFrame(mother.to_local(frame.centre), mother.rotation.T @ frame.rotation, frame.size)
+    placed = frame.transform.relative_to(mother.transform)
+    return FaceFrame(placed.translation, placed.rotation, frame.size)
 
 
 class LiveWorld:
@@ -137,10 +137,7 @@ class LiveWorld:
         if isinstance(layer, CurvedRoughLayer):
             from .curved import place_curved
 
-            mother = Transform(t.mother.rotation, t.mother.translation)
-            placement = Transform(
-                mother.rotation.T @ t.rotation, mother.inverse_apply(t.translation)
-            )
+            placement = t.transform.relative_to(t.mother.transform)
             patch_lvs, keep = place_curved(
                 self.g4, layer, mlv, mlv.GetMaterial(), material, placement
             )

@@ -74,15 +74,20 @@ class FaceFrame:
     rotation: np.ndarray
     size: tuple[float, float]
 
+    @cached_property
+    def transform(self) -> Transform:
+        """Face-local coordinates (u, v, n) -> world."""
+        return Transform(self.rotation, self.centre)
+
     @property
     def normal(self) -> np.ndarray:
         return self.rotation[:, 2]
 
     def to_world(self, local: np.ndarray) -> np.ndarray:
-        return self.centre + np.asarray(local, float) @ self.rotation.T
+        return self.transform.apply(local)
 
     def to_local(self, world: np.ndarray) -> np.ndarray:
-        return (np.asarray(world, float) - self.centre) @ self.rotation
+        return self.transform.inverse_apply(world)
 
     def shifted(self, distance: float) -> FaceFrame:
         """The same frame moved by ``distance`` along its normal."""
@@ -218,10 +223,8 @@ def face_frame(target: TargetVolume | BoxVolume, face: str) -> FaceFrame:
             f"{target.column}: face {face} of a {target.solid}{cut}; rough faces are "
             f"{SUPPORTED_FACES}"
         )
-    local = geometry.frame
-    return FaceFrame(
-        target.to_world(local.translation), target.rotation @ local.rotation, geometry.size
-    )
+    placed = target.transform @ geometry.frame
+    return FaceFrame(placed.translation, placed.rotation, geometry.size)
 
 
 def box_target(box: BoxVolume, entry: int, mother: Instance | None = None) -> TargetVolume:
@@ -868,12 +871,8 @@ def make_curved_layer(
     ny, nx = len(layout.v), int(layout.count.max())
     patch_map = _rough_patch_map((nx * size[0], ny * size[1]), size, rough, f"{where} ({what})")
     mask = np.arange(nx)[None, :] < layout.count[:, None]
-    local = face.frame
-    frame = FaceFrame(
-        target.to_world(local.translation),
-        target.rotation @ local.rotation,
-        (nx * size[0], ny * size[1]),
-    )
+    placed = target.transform @ face.frame
+    frame = FaceFrame(placed.translation, placed.rotation, (nx * size[0], ny * size[1]))
     layer = CurvedRoughLayer(
         target, rough, frame, names, variants, patch_map, mask, float(face.area), layout
     )
