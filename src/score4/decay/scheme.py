@@ -62,14 +62,6 @@ KINDS = (
     "Auger-L",
 )
 K = {k: i for i, k in enumerate(KINDS)}
-_PARTICLE_OF_KIND = {
-    "alpha": "alpha",
-    "beta-": "e-",
-    "beta+": "e+",
-    "gamma": "gamma",
-    "X-K": "gamma",
-    "X-L": "gamma",
-}
 BASE_PARTICLES = ("alpha", "e-", "e+", "gamma")
 U_MEV = 931.49410242
 ALPHA_MASS_MEV = 3727.3794066
