@@ -63,6 +63,13 @@ def test_every_script_is_found():
     assert all((ROOT / "benchmarks" / name).exists() for name in HELPERS)
 
 
+@pytest.mark.parametrize("folder", FOLDERS, ids=lambda d: d.name)
+def test_every_script_is_listed_in_its_folders_readme(folder):
+    readme = (folder / "README.md").read_text()
+    for path in folder.glob("*.py"):
+        assert path.name in readme, f"{path.name} is not in {folder.name}/README.md"
+
+
 @pytest.mark.parametrize("script", SCRIPTS)
 def test_script_answers_help(answers, script):
     got = answers[script]
