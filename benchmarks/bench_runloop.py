@@ -2,6 +2,7 @@
 
     .venv/bin/python benchmarks/bench_runloop.py [--events 2000]
         [--parts startup,faces,spread,portal,jobs] (also: plans) [--markdown]
+        [--rounds 5] [--baseline OLD/src]
 
 ``--markdown`` prints the faces part as docs/tiling.md's table (``make docs-check-all``).
 
@@ -11,6 +12,10 @@ Parts (each case runs in its own process, so its RSS and start-up are its own):
     A one-event run of examples/paper_a_rough.yaml with one worker: CPU seconds of importing
     ``score4.runner.engine`` (what the parent and every spawned worker import) and its RSS, of the
     parent process and of the worker (everything before the first event, plus one event).
+    Medians of ``--rounds`` rounds; ``--baseline OLD/src`` times another score4 checkout in the
+    same rounds (before/after). The figures depend on Python's bytecode cache: with
+    PYTHONDONTWRITEBYTECODE set and no ``__pycache__`` in ``src/``, every process compiles
+    score4's modules again (printed in the heading).
 ``faces``
     The paper's pyramid face (10 um pyramids, 0.5 mm patches of 50 x 50, one variant, multi-union)
     on a 10 cm and a 1 m square face (200 x 200 and 2000 x 2000 cells), in the default layout
@@ -239,32 +244,58 @@ print(imported, rss, cpu_self, cpu_kids, kids.ru_maxrss / 1024)
 """
 
 
-def part_startup() -> None:
-    """CPU of a one-event run of paper_a_rough: the parent (import, scene, merge) and its worker."""
-    print("start-up: one-event run of examples/paper_a_rough.yaml, --jobs 1 (best of 3)")
-    rows = []
-    with tempfile.TemporaryDirectory() as tmp:
-        for _ in range(3):
-            out = subprocess.run(
-                [
-                    sys.executable,
-                    "-c",
-                    _STARTUP_PROBE,
-                    str(ROOT / "examples" / "paper_a_rough.yaml"),
-                    str(Path(tmp) / "a.h5"),
-                ],
-                check=True,
-                capture_output=True,
-                text=True,
-            ).stdout.split()
-            rows.append([float(x) for x in out[-5:]])
-    imported, rss, parent, worker, worker_rss = min(rows, key=lambda r: r[2] + r[3])
-    print(f"  import score4.runner.engine: CPU {imported:5.2f} s, RSS {rss:4.0f} MB")
-    print(f"  parent process (import, scene, 1 event drawn, merge): CPU {parent:5.2f} s")
+def _startup_round(src: str | None, config: Path, out: Path) -> list[float]:
+    """One one-event run in a fresh interpreter (``src``: score4 sources to put first on the
+    path, an older version for a before/after comparison); the probe's five figures."""
+    env = dict(os.environ)
+    if src:
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (src, env.get("PYTHONPATH")) if p)
+    text = subprocess.run(
+        [sys.executable, "-c", _STARTUP_PROBE, str(config), str(out)],
+        check=True,
+        capture_output=True,
+        text=True,
+        env=env,
+    ).stdout.split()
+    return [float(x) for x in text[-5:]]
+
+
+def part_startup(rounds: int = 5, baseline: str | None = None) -> None:
+    """CPU of a one-event run of paper_a_rough: the parent (import, scene, merge) and its worker.
+
+    Medians of ``rounds`` rounds; with ``baseline`` (the ``src`` folder of another score4
+    checkout) each round runs that version right after this one, and both are printed.
+    """
+    import statistics
+
+    versions = {"this": None} if baseline is None else {"this": None, "baseline": baseline}
     print(
-        f"  worker process (import, Geant4 set-up, 1 event): CPU {worker:5.2f} s, "
-        f"RSS {worker_rss:4.0f} MB"
+        f"start-up: one-event run of examples/paper_a_rough.yaml, --jobs 1 (median of {rounds} "
+        f"interleaved rounds; Python writes bytecode caches: {not sys.flags.dont_write_bytecode})"
     )
+    rows: dict[str, list[list[float]]] = {name: [] for name in versions}
+    with tempfile.TemporaryDirectory() as tmp:
+        for _ in range(rounds):
+            for name, src in versions.items():
+                rows[name].append(
+                    _startup_round(
+                        src, ROOT / "examples" / "paper_a_rough.yaml", Path(tmp) / "a.h5"
+                    )
+                )
+    print(f"  load average after: {os.getloadavg()}")
+    for name, src in versions.items():
+        imported, rss, parent, worker, worker_rss = (
+            statistics.median(r[k] for r in rows[name]) for k in range(5)
+        )
+        if baseline is not None:
+            print(f"  {name}{f' ({src})' if src else ''}:")
+        print(f"  import score4.runner.engine: CPU {imported:5.2f} s, RSS {rss:4.0f} MB")
+        print(f"  parent process (import, scene, 1 event drawn, merge): CPU {parent:5.2f} s")
+        print(
+            f"  worker process (import, Geant4 set-up, 1 event): CPU {worker:5.2f} s, "
+            f"RSS {worker_rss:4.0f} MB"
+        )
+        print(f"  worker CPU, all rounds: {', '.join(f'{r[3]:.2f}' for r in rows[name])} s")
 
 
 def part_faces(events: int, flat_1m: bool) -> None:
@@ -451,6 +482,10 @@ def main() -> None:
     parser.add_argument("--events", type=int, default=2000, help="alpha / Po-210 events per case")
     parser.add_argument("--jobs-events", type=int, default=20000)
     parser.add_argument("--parts", default="startup,faces,spread,portal,jobs")
+    parser.add_argument("--rounds", type=int, default=5, help="start-up: rounds (median)")
+    parser.add_argument(
+        "--baseline", help="start-up: also time the score4 sources in this src folder, interleaved"
+    )
     parser.add_argument("--flat-1m", action="store_true", help="also the 1 m face, flat placements")
     parser.add_argument("--markdown", action="store_true", help="the faces as docs' table")
     parser.add_argument("--face", nargs=3, help=argparse.SUPPRESS)
@@ -471,7 +506,7 @@ def main() -> None:
     if "plans" in parts:
         part_plans()
     if "startup" in parts:
-        part_startup()
+        part_startup(args.rounds, args.baseline)
     if "faces" in parts:
         part_faces(args.events, args.flat_1m)
     if "spread" in parts:
