@@ -25,6 +25,8 @@ from .heavy_ions import ReplayStream
 
 #: Mixed into the seeds of the heavy-ion replay's random streams.
 REPLAY_STREAM = 0x5C0E4
+#: events with at most this many rows are looked at row by row (numpy costs more there)
+_FEW_ROWS = 16
 
 
 class EventFeed:
@@ -67,6 +69,11 @@ class EventFeed:
         self.primaries = primaries
         self.definitions = list(definitions)
         self.offsets = primaries.event_offsets()
+        self._first = self.offsets.tolist()  # Python ints: read per event
+        # Python floats of what never changes during a run (positions may: per-atom histories
+        # move their atoms), read per row
+        self._energy = primaries.energy.tolist()
+        self._direction = primaries.direction.tolist()
         self.skip = np.zeros(len(primaries), dtype=bool) if skip is None else np.asarray(skip)
         self.positions = primaries.position if positions is None else positions
         self.seeds = np.asarray(g4_seed)
@@ -82,26 +89,32 @@ class EventFeed:
     def n_events(self) -> int:
         return self.primaries.n_events
 
-    def rows_of(self, k: int, mask: np.ndarray) -> np.ndarray:
+    def rows_of(self, k: int, mask: np.ndarray) -> list[int]:
         """The rows of event ``k`` that ``mask`` (one entry per row) marks."""
-        first = int(self.offsets[k])
-        return first + np.flatnonzero(mask[first : int(self.offsets[k + 1])])
+        first, end = self._first[k], self._first[k + 1]
+        if end - first <= _FEW_ROWS:  # a few rows: cheaper one by one than through numpy
+            return [row for row in range(first, end) if mask[row]]
+        return (first + np.flatnonzero(mask[first:end])).tolist()
 
-    def geant4_rows(self, k: int) -> np.ndarray:
+    def geant4_rows(self, k: int) -> list[int]:
         """The rows of event ``k`` given to Geant4, in the order of their primary tracks."""
-        return self.rows_of(k, ~self.skip)
+        skip, first, end = self.skip, self._first[k], self._first[k + 1]
+        if end - first <= _FEW_ROWS:
+            return [row for row in range(first, end) if not skip[row]]
+        return (first + np.flatnonzero(~skip[first:end])).tolist()
 
     def fill(self, gun, event, k: int) -> None:
         """Put event ``k``'s primaries (all but the skipped rows) into the G4Event ``event``
         through the G4ParticleGun ``gun``; set the event's Geant4 seed first if it has one."""
-        g4, p = self.g4, self.primaries
+        g4 = self.g4
         if self.seeds.ndim and self.reseed:
             g4.G4Random.setTheSeed(int(self.seeds[k]))
+        vector, energy, direction = g4.G4ThreeVector, self._energy, self._direction
         for row in self.geant4_rows(k):
             gun.SetParticleDefinition(self.definitions[row])
-            gun.SetParticleEnergy(float(p.energy[row]))
-            gun.SetParticlePosition(g4.G4ThreeVector(*self.positions[row]))
-            gun.SetParticleMomentumDirection(g4.G4ThreeVector(*p.direction[row]))
+            gun.SetParticleEnergy(energy[row])
+            gun.SetParticlePosition(vector(*self.positions[row].tolist()))
+            gun.SetParticleMomentumDirection(vector(*direction[row]))
             gun.GeneratePrimaryVertex(event)
 
     def replay_rng(self, k: int, row: int) -> ReplayStream:
@@ -121,8 +134,8 @@ def replay_row(transport, feed: EventFeed, k: int, row: int):
     return transport.transport(
         feed.definitions[row],
         str(p.particle[row]),
-        float(p.energy[row]),
+        feed._energy[row],
         feed.positions[row],  # portal tiling: the subworld point
-        p.direction[row],
+        feed._direction[row],
         feed.replay_rng(k, row),
     )
