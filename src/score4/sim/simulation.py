@@ -616,7 +616,7 @@ class Simulation:
         self._null_action = self.g4.G4UserTrackingAction()
         return self._null_action
 
-    def _g4_rows_of_event(self, k: int) -> np.ndarray:
+    def _g4_rows_of_event(self, k: int) -> list[int]:
         return self._feed.geant4_rows(k)
 
     def _check_stop(self) -> None:
