@@ -1,7 +1,7 @@
 """The run loop's fixed and per-event costs: start-up, per-BeamOn, per-event, large faces, jobs.
 
     .venv/bin/python benchmarks/bench_runloop.py [--events 2000]
-        [--parts startup,faces,spread,portal,jobs] (also: plans) [--markdown]
+        [--parts startup,faces,spread,portal,jobs] (also: plans, python) [--markdown]
         [--rounds 5] [--baseline OLD/src]
 
 ``--markdown`` prints the faces part as docs/tiling.md's table (``make docs-check-all``).
@@ -46,6 +46,12 @@ Parts (each case runs in its own process, so its RSS and start-up are its own):
     track while the tracking action is on, ``_move`` per jump inside ``on_step``). The first
     two runs work on older score4 versions too (PYTHONPATH=old/src), for a before/after
     comparison.
+``python``
+    Alphas (5.3 MeV, isotropic, 20 nm deep) on the paper's 3 cm pyramid face: CPU per event
+    and the time spent in score4's Python per event (feeding the primaries, reading the
+    scores, progress and stop checks; wall-clock timers inside them, as a share of the
+    run's wall time), medians of
+    ``--rounds`` processes, interleaved with ``--baseline OLD/src`` if given.
 ``plans``
     No Geant4, no timing (seconds): the nested layout's plan for the faces of ``faces``, the
     group sizes per level, how many distinct groups each has and the placements they need
@@ -203,9 +209,82 @@ def measure_portal(tiling: str, events: int) -> dict:
     return out
 
 
-def in_subprocess(args: list[str]) -> dict:
+def measure_python_share(events: int, side_cm: float = 3.0) -> dict:
+    """CPU per alpha event on the pyramid face of ``side_cm`` and the part of it spent in
+    score4's Python per event: the bodies of the primary generator (``Simulation._generate``:
+    feeding the primaries) and of the event action (``_score``: reading the scores; the
+    progress and stop checks), timed with ``perf_counter`` inside them (the binding's calls
+    into them are not included). The share is of the run's wall time: the process CPU clock
+    costs ~2 us a reading here, too much for a timer around every call, and a busy machine
+    pauses the process as often inside those parts as outside them."""
+    from score4.sim import simulation
+
+    spent: dict[str, list] = {}
+    for name in ("_generate", "_score", "_report_progress", "_check_stop"):
+        inner = getattr(simulation.Simulation, name)
+
+        def timed(*args, _inner=inner, _name=name, **kwargs):
+            t0 = time.perf_counter()
+            _inner(*args, **kwargs)
+            row = spent.setdefault(_name, [0, 0.0])
+            row[0] += 1
+            row[1] += time.perf_counter() - t0
+
+        setattr(simulation.Simulation, name, timed)
+    sim, out = timed_simulation(face_config(side_cm))
+    primaries = sim.source.primaries(np.random.default_rng(5), 0, WARMUP + events)
+    sim.run(primaries.select_events(0, WARMUP), 1)
+    spent.clear()
+    c0, t0 = time.process_time(), time.perf_counter()
+    scores = sim.run(primaries.select_events(WARMUP, WARMUP + events), 2)
+    cpu, wall = time.process_time() - c0, time.perf_counter() - t0
+    out.update(
+        cpu_ms=cpu / events * 1e3,
+        wall_ms=wall / events * 1e3,
+        mean_edep_mev=float(scores["edep"][:, 0].mean()),
+    )
+    for name, (calls, seconds) in spent.items():
+        out[f"{name}_ms"] = seconds / events * 1e3
+        out[f"{name}_calls"] = calls / events
+    return out
+
+
+def part_python(events: int, rounds: int, baseline: str | None) -> None:
+    """The Python share per event of an alpha run on the 3 cm pyramid face (medians of
+    ``rounds`` rounds, one process each, interleaved with ``baseline`` if given)."""
+    import statistics
+
+    versions = {"this": None} if baseline is None else {"this": None, "baseline": baseline}
+    rows: dict[str, list[dict]] = {name: [] for name in versions}
+    for _ in range(rounds):
+        for name, src in versions.items():
+            rows[name].append(in_subprocess(["--python-share", "--events", str(events)], src))
+    print(
+        f"Python per event: {events} alphas of 5.3 MeV on the 3 cm pyramid face, medians of "
+        f"{rounds} rounds (load after: {os.getloadavg()})"
+    )
+    for name, src in versions.items():
+        med = {k: statistics.median(r[k] for r in rows[name]) for k in rows[name][0]}
+        python = med["_generate_ms"] + med["_score_ms"]
+        python += med.get("_report_progress_ms", 0.0) + med.get("_check_stop_ms", 0.0)
+        print(
+            f"  {name}{f' ({src})' if src else ''}: CPU {med['cpu_ms']:.3f} ms/event (wall "
+            f"{med['wall_ms']:.3f}); primaries {med['_generate_ms'] * 1e3:.1f} us, scores "
+            f"{med['_score_ms'] * 1e3:.1f} us, progress and stop "
+            f"{(python - med['_generate_ms'] - med['_score_ms']) * 1e3:.1f} us: Python "
+            f"{python / med['wall_ms']:.1%} of the event's wall time; mean deposit "
+            f"{med['mean_edep_mev']:.4f} MeV"
+        )
+
+
+def in_subprocess(args: list[str], src: str | None = None) -> dict:
+    """Run this script with ``args`` in a new process (``src``: another score4's sources
+    first on the path) and return the figures it prints."""
     cmd = [sys.executable, os.path.abspath(__file__), *args]
-    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    env = dict(os.environ)
+    if src:
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (src, env.get("PYTHONPATH")) if p)
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False, env=env)
     lines = [line for line in proc.stdout.splitlines() if line.startswith(MARK)]
     if proc.returncode != 0 or not lines:
         raise RuntimeError(f"{' '.join(args)}: failed ({proc.returncode}): {proc.stderr[-2000:]}")
@@ -490,6 +569,7 @@ def main() -> None:
     parser.add_argument("--markdown", action="store_true", help="the faces as docs' table")
     parser.add_argument("--face", nargs=3, help=argparse.SUPPRESS)
     parser.add_argument("--portal", help=argparse.SUPPRESS)
+    parser.add_argument("--python-share", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.face:
         side, layout, variants = args.face
@@ -497,6 +577,9 @@ def main() -> None:
         return
     if args.portal:
         print(MARK + json.dumps(measure_portal(args.portal, args.events)))
+        return
+    if args.python_share:
+        print(MARK + json.dumps(measure_python_share(args.events)))
         return
     parts = args.parts.split(",")
     if args.markdown:
@@ -513,6 +596,8 @@ def main() -> None:
         _face_table(SPREAD_CASES, args.events)
     if "portal" in parts:
         part_portal(args.events)
+    if "python" in parts:
+        part_python(args.events, args.rounds, args.baseline)
     if "jobs" in parts:
         part_jobs(args.jobs_events)
 

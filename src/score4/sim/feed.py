@@ -81,6 +81,7 @@ class EventFeed:
             raise ValueError(
                 f"g4_seed: need one seed per event ({primaries.n_events}), got {len(self.seeds)}"
             )
+        self._seeds: list[int] = self.seeds.tolist() if self.seeds.ndim else []  # per event
         self._batch_rng = (
             ReplayStream(int(self.seeds), REPLAY_STREAM) if self.seeds.ndim == 0 else None
         )
@@ -107,8 +108,8 @@ class EventFeed:
         """Put event ``k``'s primaries (all but the skipped rows) into the G4Event ``event``
         through the G4ParticleGun ``gun``; set the event's Geant4 seed first if it has one."""
         g4 = self.g4
-        if self.seeds.ndim and self.reseed:
-            g4.G4Random.setTheSeed(int(self.seeds[k]))
+        if self._seeds and self.reseed:
+            g4.G4Random.setTheSeed(self._seeds[k])
         vector, energy, direction = g4.G4ThreeVector, self._energy, self._direction
         for row in self.geant4_rows(k):
             gun.SetParticleDefinition(self.definitions[row])
@@ -123,7 +124,7 @@ class EventFeed:
         batch's."""
         if self._batch_rng is not None:
             return self._batch_rng
-        return ReplayStream(int(self.seeds[k]), REPLAY_STREAM, row - int(self.offsets[k]))
+        return ReplayStream(self._seeds[k], REPLAY_STREAM, row - self._first[k])
 
 
 def replay_row(transport, feed: EventFeed, k: int, row: int):
