@@ -7,7 +7,11 @@ each builds its application, warms up (libraries built, caches filled) and then 
 ``--batches`` batches of ``--events`` events with its own process CPU clock. Printed: the
 per-batch CPU per event of both, their medians and the ratio of the medians.
 
-    python benchmarks/bench_replay_speed.py [--events 1000] [--batches 5]
+    python benchmarks/bench_replay_speed.py [--events 1000] [--batches 5] [--rounds 1]
+        [--baseline OLD/src]
+
+``--rounds`` repeats the pair of processes per face and prints the median of their ratios;
+``--baseline`` times another score4 checkout's sources in the same rounds (before/after).
 
 On a machine shared with other jobs single timings move by tens of per cent; running the two
 modes together and taking medians keeps their ratio steadier than timing them one after the
@@ -18,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import statistics
 import subprocess
 import sys
@@ -77,37 +82,75 @@ def batches(face: str, ions: str, events: int, count: int) -> list[float]:
     return out
 
 
+def _pair(face: str, events: int, count: int, src: str | None) -> dict[str, list[float]]:
+    """The trim and geant4 processes of one face, side by side (``src``: another score4's
+    sources first on the path); their per-batch CPU ms per event."""
+    env = dict(os.environ)
+    if src:
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (src, env.get("PYTHONPATH")) if p)
+    runs = {
+        ions: subprocess.Popen(
+            [
+                *(sys.executable, __file__, "--one", face, ions),
+                *("--events", str(events), "--batches", str(count)),
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            text=True,
+            env=env,
+        )
+        for ions in ("trim", "geant4")
+    }
+    values = {}
+    for ions, run in runs.items():
+        out, _ = run.communicate()
+        line = next(x for x in out.splitlines() if x.startswith("RESULT "))
+        values[ions] = json.loads(line.removeprefix("RESULT "))
+    return values
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--events", type=int, default=1000)
     parser.add_argument("--batches", type=int, default=5)
+    parser.add_argument("--rounds", type=int, default=1, help="pairs of processes per face")
+    parser.add_argument(
+        "--baseline", help="also time the score4 sources in this src folder, interleaved"
+    )
     parser.add_argument("--one", nargs=2, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one:
         print("RESULT " + json.dumps(batches(*args.one, args.events, args.batches)))
         return
+    versions = (
+        {"this": None} if args.baseline is None else {"this": None, "baseline": args.baseline}
+    )
+    # one version, one round: the transcript docs/physics.md quotes
+    plain = args.baseline is None and args.rounds == 1
+    if not plain:
+        print(f"load average at start: {os.getloadavg()}")
     for face in ("flat", "pyramids"):
-        runs = {
-            ions: subprocess.Popen(
-                [
-                    *(sys.executable, __file__, "--one", face, ions),
-                    *("--events", str(args.events), "--batches", str(args.batches)),
-                ],
-                stdout=subprocess.PIPE,
-                stderr=subprocess.DEVNULL,
-                text=True,
+        ratios: dict[str, list[float]] = {name: [] for name in versions}
+        for _ in range(args.rounds):
+            for name, src in versions.items():
+                label = f"{face:9s} " if plain else f"{face:9s} {name:8s} "
+                values = _pair(face, args.events, args.batches, src)
+                medians = {ions: statistics.median(v) for ions, v in values.items()}
+                for ions, v in values.items():
+                    shown = ", ".join(f"{x:.3f}" for x in v)
+                    print(f"{label}{ions:6s} {shown} ms per event, median {medians[ions]:.3f}")
+                ratios[name].append(medians["trim"] / medians["geant4"])
+                print(f"{label}trim / geant4 {ratios[name][-1]:.2f}", flush=True)
+        if plain:
+            continue
+        for name, src in versions.items():
+            shown = ", ".join(f"{x:.2f}" for x in ratios[name])
+            print(
+                f"{face:9s} {name}{f' ({src})' if src else ''}: trim / geant4, median of "
+                f"{args.rounds} rounds {statistics.median(ratios[name]):.2f} ({shown})"
             )
-            for ions in ("trim", "geant4")
-        }
-        medians = {}
-        for ions, run in runs.items():
-            out, _ = run.communicate()
-            line = next(x for x in out.splitlines() if x.startswith("RESULT "))
-            values = json.loads(line.removeprefix("RESULT "))
-            medians[ions] = statistics.median(values)
-            shown = ", ".join(f"{v:.3f}" for v in values)
-            print(f"{face:9s} {ions:6s} {shown} ms per event, median {medians[ions]:.3f}")
-        print(f"{face:9s} trim / geant4 {medians['trim'] / medians['geant4']:.2f}", flush=True)
+    if not plain:
+        print(f"load average at the end: {os.getloadavg()}")
 
 
 if __name__ == "__main__":

@@ -470,20 +470,37 @@ def part_plans() -> None:
         )
 
 
-def part_portal(events: int) -> None:
-    print(f"{'tiling':7} {'ms/ev':>6} {'mean MeV':>8} {'jumps/ev':>8} {'tracked':>7}")
+def part_portal(events: int, rounds: int = 1, baseline: str | None = None) -> None:
+    import statistics
+
+    versions = {"this": None} if baseline is None else {"this": None, "baseline": baseline}
+    runs: dict[tuple[str, str], list[dict]] = {}
+    for _ in range(rounds):  # interleaved: each round runs every version and tiling once
+        for name, src in versions.items():
+            for tiling in ("native", "portal"):
+                args = ["--portal", tiling, "--events", str(events)]
+                runs.setdefault((name, tiling), []).append(in_subprocess(args, src))
+    print(f"portal part: medians of {rounds} rounds (load after: {os.getloadavg()})")
+    print(f"{'version':8} {'tiling':7} {'ms/ev':>6} {'mean MeV':>8} {'jumps/ev':>8} {'tracked':>7}")
     res = {}
-    for tiling in ("native", "portal"):
-        r = res[tiling] = in_subprocess(["--portal", tiling, "--events", str(events)])
+    for name in versions:
+        for tiling in ("native", "portal"):
+            rows = runs[(name, tiling)]
+            r = res[(name, tiling)] = {k: statistics.median(x[k] for x in rows) for k in rows[0]}
+            print(
+                f"{name:8} {tiling:7} {r['per_event_ms']:6.3f} {r['mean_edep_mev']:8.3f} "
+                f"{r['jumps_per_event']:8.2f} {r['tracked_share']:7.3f}",
+                flush=True,
+            )
+        ratios = [
+            p["per_event_ms"] / n["per_event_ms"]
+            for p, n in zip(runs[(name, "portal")], runs[(name, "native")], strict=True)
+        ]
         print(
-            f"{tiling:7} {r['per_event_ms']:6.3f} {r['mean_edep_mev']:8.3f} "
-            f"{r['jumps_per_event']:8.2f} {r['tracked_share']:7.3f}",
-            flush=True,
+            f"{name}: portal / native per event: median {statistics.median(ratios):.2f} "
+            f"(rounds: {', '.join(f'{x:.2f}' for x in ratios)})"
         )
-    print(
-        f"portal / native per event: "
-        f"{res['portal']['per_event_ms'] / res['native']['per_event_ms']:.2f}"
-    )
+    res = {tiling: res[("this", tiling)] for tiling in ("native", "portal")}
     # where the difference goes: the portal's Python, timed in a third run (timers add cost)
     r = in_subprocess(["--portal", "portal-timed", "--events", str(events)])
     python_ms = 0.0
@@ -595,7 +612,7 @@ def main() -> None:
     if "spread" in parts:
         _face_table(SPREAD_CASES, args.events)
     if "portal" in parts:
-        part_portal(args.events)
+        part_portal(args.events, args.rounds, args.baseline)
     if "python" in parts:
         part_python(args.events, args.rounds, args.baseline)
     if "jobs" in parts:
