@@ -16,6 +16,7 @@ program and ``score4 run`` fill their events the same way:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -52,6 +53,10 @@ class EventFeed:
     reseed
         With per-event seeds: set Geant4's seed to the event's when filling it (False: the
         seeds only make the replay's random streams).
+    own_gun
+        The gun is this feed's alone during the run (score4's own application): the particle
+        and energy are set only when they change. False (a user's gun, :mod:`score4.api`): set
+        for every row.
     """
 
     def __init__(
@@ -63,8 +68,10 @@ class EventFeed:
         skip: np.ndarray | None = None,
         positions: np.ndarray | None = None,
         reseed: bool = True,
+        own_gun: bool = False,
     ) -> None:
         self.g4 = g4
+        self.own_gun = own_gun
         self.reseed = reseed
         self.primaries = primaries
         self.definitions = list(definitions)
@@ -81,6 +88,9 @@ class EventFeed:
             raise ValueError(
                 f"g4_seed: need one seed per event ({primaries.n_events}), got {len(self.seeds)}"
             )
+        # what this feed last gave the gun (each run has its own feed: it sets both again)
+        self._gun_definition: object = None
+        self._gun_energy = math.nan
         self._seeds: list[int] = self.seeds.tolist() if self.seeds.ndim else []  # per event
         self._batch_rng = (
             ReplayStream(int(self.seeds), REPLAY_STREAM) if self.seeds.ndim == 0 else None
@@ -112,8 +122,15 @@ class EventFeed:
             g4.G4Random.setTheSeed(self._seeds[k])
         vector, energy, direction = g4.G4ThreeVector, self._energy, self._direction
         for row in self.geant4_rows(k):
-            gun.SetParticleDefinition(self.definitions[row])
-            gun.SetParticleEnergy(energy[row])
+            # the gun keeps its particle and energy: set them only when they change (we never
+            # set a momentum, so setting the same particle again changes nothing)
+            definition, e = self.definitions[row], energy[row]
+            if definition is not self._gun_definition:
+                gun.SetParticleDefinition(definition)
+                self._gun_definition = definition if self.own_gun else None
+            if e != self._gun_energy:
+                gun.SetParticleEnergy(e)
+                self._gun_energy = e if self.own_gun else math.nan
             gun.SetParticlePosition(vector(*self.positions[row].tolist()))
             gun.SetParticleMomentumDirection(vector(*direction[row]))
             gun.GeneratePrimaryVertex(event)

@@ -86,5 +86,9 @@ class VolumeScorer:
             target = out[q]
             for k, cid in enumerate(ids):
                 hits = get(cid)
-                if hits.entries():  # nothing deposited: the row keeps its 0
+                n = hits.entries()
+                if n == 1:  # one touchable (the usual case): its sum, without a generator
+                    ((_, value),) = hits
+                    target[row, k] = 0 + value  # as sum() gives it (-0.0 becomes 0.0)
+                elif n:  # nothing deposited: the row keeps its 0
                     target[row, k] = sum(value for _, value in hits)

@@ -315,7 +315,9 @@ class Simulation:
             else np.zeros(len(primaries), dtype=bool)
         )
         self._skip = self._trim | self._untracked_rows
-        self._feed = EventFeed(self.g4, primaries, definitions, g4_seed, self._skip, positions)
+        self._feed = EventFeed(
+            self.g4, primaries, definitions, g4_seed, self._skip, positions, own_gun=True
+        )
         self.untracked_gamma = np.bincount(
             primaries.event[self._untracked_rows],
             weights=primaries.energy[self._untracked_rows],
