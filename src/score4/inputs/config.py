@@ -282,7 +282,8 @@ class RoughFace(StrictModel):
         "into": ("tiling", ("native",)),
     }
 
-    face: str = Field("+z", min_length=1)  # a face of the volume's solid (score4.shapes)
+    # a face or group of the volume's solid (score4.shapes), or a list of them: one layer per face
+    face: str | list[Annotated[str, Field(min_length=1)]] = Field("+z", min_length=1)
     surface: str | None = None
     variants: list[PatchVariant] | None = Field(None, min_length=1)
     fill: Literal["exact", "random", "tiles"] = "exact"  # how cells get their variant
@@ -323,6 +324,17 @@ class RoughFace(StrictModel):
             return None
         kinds = [auto_solid(root.surfaces.get(v.surface)) for v in self.variant_list]
         return None if None in kinds else tuple(dict.fromkeys(kinds))
+
+    @property
+    def face_list(self) -> list[str]:
+        """The face names and groups as given (one name or a list)."""
+        return [self.face] if isinstance(self.face, str) else list(self.face)
+
+    @property
+    def face_name(self) -> str:
+        """The one face of a resolved layer (the scene makes one layer per face)."""
+        assert isinstance(self.face, str), "a face list is resolved into one layer per face"
+        return self.face
 
     @property
     def variant_list(self) -> list[PatchVariant]:
@@ -678,7 +690,7 @@ class RunConfig(StrictModel):
                 f"{', '.join(names)}"
             )
         for i, t in enumerate(self.targets):
-            faces = [r.face for r in t.rough]
+            faces = [f for r in t.rough for f in r.face_list]
             if len(set(faces)) != len(faces):
                 raise ValueError(f"targets.{i}.rough: face given twice ({', '.join(faces)})")
             for j, r in enumerate(t.rough):

@@ -205,7 +205,7 @@ def shape_face_sampler(scene: Scene, volume: str, face: str | list[str]):
     rough: dict[str, Any] = {}
     for layer in scene.layers_of(volume):
         if layer.mask is None:
-            rough[layer.config.face] = layer.sampler()
+            rough[layer.config.face_name] = layer.sampler()
         else:
             rest = (
                 CurvedRemainderSampler(layer)
@@ -213,7 +213,7 @@ def shape_face_sampler(scene: Scene, volume: str, face: str | list[str]):
                 else FlatRemainderSampler(layer)
             )
             parts = [layer.sampler(), rest]
-            rough[layer.config.face] = CombinedSurfaceSampler([p for p in parts if p.area > 0])
+            rough[layer.config.face_name] = CombinedSurfaceSampler([p for p in parts if p.area > 0])
     return ShapeSurfaceSampler(shape, face, transform, rough)
 
 
@@ -224,7 +224,7 @@ class FlatRemainderSampler:
 
     def __init__(self, layer: RoughLayer) -> None:
         self.layer = layer
-        ring = layer.target.face(layer.config.face)
+        ring = layer.target.face(layer.config.face_name)
         assert isinstance(ring, AnnulusFace)  # a layer with a mask lies on a ring
         self.rmin, self.rmax = ring.rmin, ring.rmax
         px, py = layer.patch_size

@@ -27,7 +27,8 @@ import numpy as np
 from ..errors import ConfigError
 
 #: Format of the stored model (bump when its contents change: cached models are made again).
-MODEL_FORMAT = 4  # 4: with the GDML's own overlaps (gdml_reader.own_overlaps)
+# 4: with the GDML's own overlaps (gdml_reader.own_overlaps); 5: with detector metadata
+MODEL_FORMAT = 5
 
 #: Most instances the tree is expanded to (a world of nested tiling holds millions of cells).
 MAX_INSTANCES = 200_000
@@ -111,6 +112,9 @@ class GeometryModel:
     files: list[str] = field(default_factory=list)  # the GDML file and the files it includes
     # the file's own overlaps found by Geant4 when it was read: {"volumes": [a, b], "by": "1 mm"}
     overlaps: list[dict] = field(default_factory=list)
+    # physical volume name -> detector metadata from the GDML's <userinfo> (gdml_files.
+    # detector_metadata): a LEGEND HPGe's entry names its surfaces (score4.shapes.hpge)
+    metadata: dict[str, dict] = field(default_factory=dict)
 
     # -- plain data ------------------------------------------------------------------------------
 
@@ -144,6 +148,7 @@ class GeometryModel:
             data["materials"],
             list(data.get("files", [])),
             list(data.get("overlaps", [])),
+            dict(data.get("metadata", {})),
         )
 
     def to_dict(self) -> dict:
@@ -154,6 +159,7 @@ class GeometryModel:
             "world_name": self.world_name,
             "files": self.files,
             "overlaps": self.overlaps,
+            "metadata": self.metadata,
             "materials": self.materials,
             "logicals": [
                 {

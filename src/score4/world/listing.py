@@ -23,7 +23,7 @@ def _target_rows(scene: Scene) -> list[dict]:
                 "position_mm": t.translation.tolist(),
                 "rough_faces": [
                     {
-                        "face": r.config.face,
+                        "face": r.config.face_name,
                         "layer": r.name,
                         "into": r.config.into,
                         "cells": int(r.patch_map.variants.size if r.mask is None else r.mask.sum()),

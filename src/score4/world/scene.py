@@ -30,8 +30,9 @@ from score4.errors import ConfigError
 from score4.inputs import limits
 from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig, SurfaceFile
 from score4.shapes import G4Box as G4BoxShape
-from score4.shapes import PlacedShape, Shape, Transform, shape_from_dict
+from score4.shapes import G4GenericPolycone, PlacedShape, Shape, Transform, shape_from_dict
 from score4.shapes.faces import AnnulusFace, Face, PlaneFace, RevolvedFace
+from score4.shapes.hpge import hpge_groups, is_hpge_metadata
 from score4.surface.block_cut import check_patch
 from score4.surface.patchmap import PatchMap, make_patch_map
 from score4.surface.spec import Surface, build_surface
@@ -267,7 +268,8 @@ class RoughLayer:
 
     @property
     def name(self) -> str:
-        return f"{self.target.name}_rough{self.config.face}".replace("+", "p").replace("-", "m")
+        face = self.config.face_name
+        return f"{self.target.name}_rough{face}".replace("+", "p").replace("-", "m")
 
     @property
     def base_thickness(self) -> float:
@@ -571,7 +573,7 @@ class Scene:
 
     def layer(self, volume: str, face: str) -> RoughLayer | None:
         return next(
-            (r for r in self.layers if r.target.name == volume and r.config.face == face), None
+            (r for r in self.layers if r.target.name == volume and r.config.face_name == face), None
         )
 
     def layers_of(self, volume: str) -> list[RoughLayer]:
@@ -770,13 +772,18 @@ def gdml_target(
     mother = model.instances[inst.mother]
     data = lv.solid.get("shape")
     exclude, unknown = daughter_shapes(model, inst)
+    shape = shape_from_dict(data) if data else None
+    meta = model.metadata.get(inst.name)
+    if isinstance(shape, G4GenericPolycone) and is_hpge_metadata(meta):
+        assert meta is not None
+        shape = hpge_groups(shape, meta)  # the pplus, passive and nplus groups of an HPGe
     return TargetVolume(
         column,
         entry,
         t,
         lv.material,
         lv.solid_type,
-        shape_from_dict(data) if data else None,
+        shape,
         Transform(inst.rotation, inst.translation),
         np.asarray(lv.solid["lo"], float),
         np.asarray(lv.solid["hi"], float),
@@ -785,6 +792,20 @@ def gdml_target(
         exclude,
         unknown,
     )
+
+
+def rough_faces(target: TargetVolume, rough: RoughFace, where: str) -> list[str]:
+    """The faces a rough entry names: its face names, groups (``outer``, ``pplus``, ...) and
+    lists of them, resolved on the target's shape; ConfigError (``where``) listing the faces
+    and groups for a name the shape lacks."""
+    names = rough.face_list
+    if target.shape is None:
+        return names
+    try:
+        return list(target.shape.resolve_faces(names))
+    except ConfigError as err:
+        text = str(err).removeprefix("face: ")
+        raise ConfigError(f"{where}.face: {target.column}: {text}") from None
 
 
 def make_layer(
@@ -810,13 +831,13 @@ def make_layer(
                 f"{s.size_y * 1e3:g} um"
             )
     try:
-        geometry = target_face(target, rough.face)
+        geometry = target_face(target, rough.face_name)
     except ConfigError as err:
         raise ConfigError(f"{where}: {err}") from None
     if isinstance(geometry, RevolvedFace):
         return make_curved_layer(target, rough, geometry, names, variants, size, where)
     try:
-        frame = face_frame(target, rough.face)
+        frame = face_frame(target, rough.face_name)
     except ConfigError as err:
         raise ConfigError(f"{where}: {err}") from None
     round_face = isinstance(geometry, AnnulusFace)
@@ -829,7 +850,7 @@ def make_layer(
             "a GDML volume takes tiling: native (the default)"
         )
     patch_map = _rough_patch_map(
-        frame.size, size, rough, f"{where} (face {rough.face} of {target.name})"
+        frame.size, size, rough, f"{where} (face {rough.face_name} of {target.name})"
     )
     mask, area = None, frame.size[0] * frame.size[1]
     if isinstance(geometry, AnnulusFace):
@@ -838,7 +859,7 @@ def make_layer(
         if not mask.any():
             raise ConfigError(
                 f"{where}: no whole patch of {size[0] * 1e3:g} x {size[1] * 1e3:g} um fits on "
-                f"face {rough.face} of {target.name!r}"
+                f"face {rough.face_name} of {target.name!r}"
             )
         if rough.native_layout == "replicas":
             raise ConfigError(
@@ -872,7 +893,7 @@ def make_curved_layer(
     where: str,
 ) -> CurvedRoughLayer:
     """The rough layer on a face swept around z (:mod:`score4.world.curved`)."""
-    what = f"face {rough.face} of {target.name!r}"
+    what = f"face {rough.face_name} of {target.name!r}"
     if rough.into:
         raise ConfigError(
             f"{where}: into: true on a curved face ({what}) is not supported; the layer goes "
@@ -927,7 +948,7 @@ def make_curved_layer(
     layer.gap = max(highs) + layer.lift
     layer.top_margin = 0.0 if convex else max(tops)
     limit = gap_limit(max(s.max_height for s in variants))
-    check_radius(layout, layer.gap, limit, where, target.name, rough.face)
+    check_radius(layout, layer.gap, limit, where, target.name, rough.face_name)
     return layer
 
 
@@ -956,8 +977,18 @@ def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
     targets = resolve_targets(config, model)
     scene = Scene(config, surfaces, targets=targets, model=model)
     for target in targets:
+        seen: dict[str, int] = {}
         for j, rough in enumerate(target.config.rough):
-            scene.layers.append(make_layer(surfaces, target, j, rough))
+            where = f"targets.{target.entry}.rough.{j}"
+            for face in rough_faces(target, rough, where):
+                if face in seen:
+                    raise ConfigError(
+                        f"{where}: face {face} of {target.name!r} is rough already "
+                        f"(targets.{target.entry}.rough.{seen[face]})"
+                    )
+                seen[face] = j
+                one = rough if rough.face == face else rough.model_copy(update={"face": face})
+                scene.layers.append(make_layer(surfaces, target, j, one))
     from .clearance import check_clearance
 
     check_clearance(scene)
