@@ -17,6 +17,7 @@ along the placement chain: ``global = R_mother (R local + t) + t_mother``.
 from __future__ import annotations
 
 import difflib
+import fnmatch
 import re
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -287,6 +288,49 @@ class GeometryModel:
                 f"{'y' if len(hits) == 1 else 'ies'} ({name}[0] to {name}[{len(hits) - 1}])"
             )
         return [self.instances[hits[k]]]
+
+    def select(
+        self, glob: str | None, regex: str | None, material: str | None, parameter: str
+    ) -> list[Instance]:
+        """The volumes (the world excluded) whose physical volume name matches the glob
+        pattern ``glob`` and the regular expression ``regex`` (the whole name) and whose
+        material is ``material`` (each if given). Raises :class:`ConfigError` naming
+        ``parameter`` and the closest names when none does."""
+        rx = re.compile(regex) if regex is not None else None
+        hits = [
+            inst
+            for inst in self.instances[1:]
+            if (glob is None or fnmatch.fnmatchcase(inst.name, glob))
+            and (rx is None or rx.fullmatch(inst.name))
+            and (material is None or self.logicals[inst.logical].material == material)
+        ]
+        if hits:
+            return hits
+        what = []
+        if glob is not None:
+            what.append(f"matches {glob!r}")
+        if regex is not None:
+            what.append(f"matches the regular expression {regex!r}")
+        if material is not None:
+            what.append(f"is of material {material!r}")
+        materials = sorted({self.logicals[i.logical].material for i in self.instances[1:]})
+        if material is not None and material not in materials:
+            close = difflib.get_close_matches(material, materials, n=5, cutoff=0.3)
+            hint = f"; closest materials: {', '.join(close)}" if close else ""
+        else:
+            bare = re.sub(r"[*?\[\]^$.+(){}|\\]", "", glob or regex or "")
+            names = list(dict.fromkeys(i.name for i in self.instances[1:]))
+            close = difflib.get_close_matches(bare, names, n=5, cutoff=0.5) if bare else []
+            hint = f"; closest names: {', '.join(close)}" if close else ""
+        raise ConfigError(
+            f"{parameter}: no volume of {self.source} {' and '.join(what)}{hint}; "
+            f"`score4 geometry list {self.source}` lists the volumes"
+        )
+
+    def column(self, inst: Instance) -> str:
+        """The scoring column of a volume a pattern selects: its name, ``name_k`` for copy k
+        of a name with several copies."""
+        return inst.name if len(self.by_name[inst.name]) == 1 else f"{inst.name}_{inst.occurrence}"
 
     def _with_copies(self, name: str) -> str:
         n = len(self.by_name.get(name) or self.by_logical_name.get(name) or [])

@@ -537,6 +537,8 @@ class Scene:
     layers: list[RoughLayer] = field(default_factory=list)
     targets: list[TargetVolume] = field(default_factory=list)
     model: GeometryModel | None = None
+    # GDML volumes a source names that are not targets (not scored; Scene.unscored_target)
+    unscored: list[TargetVolume] = field(default_factory=list)
 
     @property
     def columns(self) -> list[str]:
@@ -557,19 +559,42 @@ class Scene:
         """The targets ``ref`` names: a column, a target's configured name, or (GDML) a volume
         name or ``name[k]`` whose instances are targets."""
         hits = [t for t in self.targets if t.column == ref]
+        hits = hits or [t for t in self.unscored if t.column == ref]
         if hits:
             return hits
         hits = [t for t in self.targets if t.config.label == ref]
         if hits:
             return hits
         if self.model is not None:
-            instances = {i.index for i in self.model.resolve(ref, parameter)}
+            found = self.model.resolve(ref, parameter)
+            instances = {i.index for i in found}
             hits = [t for t in self.targets if t.instance and t.instance.index in instances]
             if hits:
                 return hits
+            if parameter.startswith("source"):  # a source may sit on a volume not scored
+                return [self.unscored_target(ref, inst, parameter) for inst in found]
         raise ConfigError(
             f"{parameter}: {ref!r} is not a target; targets are: {', '.join(self.columns)}"
         )
+
+    def unscored_target(self, ref: str, inst: Instance, parameter: str) -> TargetVolume:
+        """The volume ``inst`` of the GDML world as a target that is not scored: a source may
+        sit on it or in it; it has no scoring column, no rough layers and no activeness."""
+        assert self.model is not None
+        for t in self.unscored:
+            if t.instance is not None and t.instance.index == inst.index:
+                return t
+        target = gdml_target(
+            self.model,
+            GdmlVolume(volume=ref),
+            -1,
+            inst,
+            None,
+            parameter,
+            column=self.model.column(inst),
+        )
+        self.unscored.append(target)
+        return target
 
     def layer(self, volume: str, face: str) -> RoughLayer | None:
         return next(
@@ -695,6 +720,26 @@ def resolve_targets(config: RunConfig, model: GeometryModel | None) -> list[Targ
 def gdml_targets(model: GeometryModel, t: GdmlVolume, entry: int) -> list[TargetVolume]:
     """One :class:`TargetVolume` per instance (copy) the target's ``volume`` names
     (``targets.{entry}.volume`` in errors)."""
+    if t.pattern:
+        where = f"targets.{entry}.{'volume_regex' if t.volume_regex else 'volume'}"
+        if t.volume is None and t.volume_regex is None:
+            where = f"targets.{entry}.material"
+        glob = t.volume if t.volume is not None and any(c in t.volume for c in "*?") else None
+        if t.volume is not None and glob is None:  # a name with a material: the name's copies
+            named = model.resolve(t.volume, where)
+            instances = [i for i in named if model.logicals[i.logical].material == t.material]
+            if not instances:
+                have = model.logicals[named[0].logical].material
+                raise ConfigError(
+                    f"{where}: {t.volume!r} is of material {have!r}, not {t.material!r}"
+                )
+        else:
+            instances = model.select(glob, t.volume_regex, t.material, where)
+        return [
+            gdml_target(model, t, entry, inst, None, where, column=model.column(inst))
+            for inst in instances
+        ]
+    assert t.volume is not None  # a name: the validator's rule
     instances = model.resolve(t.volume, f"targets.{entry}.volume")
     return [
         gdml_target(model, t, entry, inst, k if len(instances) > 1 else None)
@@ -742,6 +787,7 @@ def gdml_target(
     inst: Instance,
     k: int | None,
     where: str | None = None,
+    column: str | None = None,
 ) -> TargetVolume:
     """The target of GDML volume entry ``t`` (``targets[entry]``) at placement ``inst``.
 
@@ -752,7 +798,7 @@ def gdml_target(
     """
     where = where or f"targets.{entry}.volume"
     if inst.index == 0:
-        raise ConfigError(f"{where}: {t.volume!r} is the world volume; score a volume inside it")
+        raise ConfigError(f"{where}: {t.label!r} is the world volume; score a volume inside it")
     if inst.reflected:
         raise ConfigError(
             f"{where}: {model.label(inst)!r} is placed with a reflection (a G4ReflectedSolid on "
@@ -765,9 +811,11 @@ def gdml_target(
             "takes volumes placed with G4PVPlacement only"
         )
     lv = model.logicals[inst.logical]
-    column = t.volume if k is None else f"{t.volume.split('[')[0]}_{k}"
-    if k is None and "[" in t.volume:
-        column = f"{inst.name}_{inst.occurrence}"
+    if column is None:
+        assert t.volume is not None  # a pattern's volumes come with their columns
+        column = t.volume if k is None else f"{t.volume.split('[')[0]}_{k}"
+        if k is None and "[" in t.volume:
+            column = f"{inst.name}_{inst.occurrence}"
     assert inst.mother is not None  # only the world has none
     mother = model.instances[inst.mother]
     data = lv.solid.get("shape")
@@ -794,18 +842,22 @@ def gdml_target(
     )
 
 
-def rough_faces(target: TargetVolume, rough: RoughFace, where: str) -> list[str]:
+def rough_faces(target: TargetVolume, rough: RoughFace) -> list[str]:
     """The faces a rough entry names: its face names, groups (``outer``, ``pplus``, ...) and
-    lists of them, resolved on the target's shape; ConfigError (``where``) listing the faces
-    and groups for a name the shape lacks."""
+    lists of them, resolved on the target's shape; ConfigError listing the faces and groups
+    for a name the shape lacks."""
     names = rough.face_list
     if target.shape is None:
         return names
-    try:
-        return list(target.shape.resolve_faces(names))
-    except ConfigError as err:
-        text = str(err).removeprefix("face: ")
-        raise ConfigError(f"{where}.face: {target.column}: {text}") from None
+    out: list[str] = []
+    for name in names:
+        try:
+            faces = target.shape.resolve_faces(name)
+        except ConfigError:
+            target_face(target, name)  # raises, naming the solid's faces and groups
+            raise
+        out += [f for f in faces if f not in out]
+    return out
 
 
 def make_layer(
@@ -980,7 +1032,11 @@ def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
         seen: dict[str, int] = {}
         for j, rough in enumerate(target.config.rough):
             where = f"targets.{target.entry}.rough.{j}"
-            for face in rough_faces(target, rough, where):
+            try:
+                faces = rough_faces(target, rough)
+            except ConfigError as err:
+                raise ConfigError(f"{where}: {err}") from None
+            for face in faces:
                 if face in seen:
                     raise ConfigError(
                         f"{where}: face {face} of {target.name!r} is rough already "
