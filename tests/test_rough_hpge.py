@@ -63,3 +63,15 @@ def test_face_given_twice_through_a_group_is_refused(folder):
     )
     with pytest.raises(ConfigError, match=r"targets\.0\.rough\.1: face seg_0a of 'bege' is rough"):
         build_scene(load_config(bad))
+
+
+def test_listing_shows_the_metadata_surfaces(folder):
+    from score4.world.listing import geometry_rows, geometry_text
+
+    rows = geometry_rows(build_scene(load_config(folder / "po210_rough.yaml")))
+    (target,) = rows["targets"]
+    assert target["groups"]["pplus"] == ["seg_0a"]
+    assert "seg_0a" in target["faces"]
+    assert "seg_0" not in target["faces"]
+    text = geometry_text(rows)
+    assert "    surfaces (metadata): pplus seg_0a; passive seg_0b, seg_1, seg_2, seg_3; " in text

@@ -28,6 +28,8 @@ from .revolved import G4GenericPolycone, _edges
 
 #: LEGEND detector types whose surfaces score4 names.
 HPGE_TYPES = ("bege", "icpc", "ppc", "coax")
+#: The surface groups a detector's metadata give.
+HPGE_GROUPS = ("pplus", "passive", "nplus")
 
 _EPS = 1e-6  # mm
 
