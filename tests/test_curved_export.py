@@ -17,18 +17,18 @@ from score4.cli.main import main
 from score4.inputs.config import load_config
 from score4.world.scene import build_scene
 
-from _spawn import run_in_spawned_process
+from helpers.spawn import run_in_spawned_process
 
 HERE = Path(__file__).parent
 sys.path.insert(0, str(HERE))
-import _gdml_worlds as W  # noqa: E402
+from helpers import gdml_worlds as W  # noqa: E402
 
 
 def _call(name, *args):
     sys.path.insert(0, str(HERE))
-    import _g4_gdml_world
+    from helpers import g4_gdml_world
 
-    return getattr(_g4_gdml_world, name)(*args)
+    return getattr(g4_gdml_world, name)(*args)
 
 
 def _base(name: str | None) -> str | None:

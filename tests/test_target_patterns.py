@@ -5,13 +5,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import _gdml_worlds as W
 import pytest
 import yaml
 
 from score4.cli.main import main
 from score4.inputs.config import load_config
 from score4.world.scene import build_scene
+
+from helpers import gdml_worlds as W
 
 
 @pytest.fixture(scope="module")
