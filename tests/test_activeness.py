@@ -278,3 +278,26 @@ def test_a_rough_face_is_measured_by_its_rough_surface(tmp_path_factory):
     w = weight(rough, 3e-3, 0.5)  # activeness lists +z only
     again = np.bincount(evtid, weights=edep * w, minlength=res.n_events)
     np.testing.assert_allclose(again, res.scores["active_edep"]["crystal"], atol=1e-12, rtol=0)
+
+
+def test_alphas_on_trim_count_in_the_alpha_class_with_and_without_steps(tmp_path_factory):
+    """physics.alphas: trim with output.split_by_particle: the replayed alphas' deposits are in
+    edep_alpha whether steps are recorded or not (they once were only with steps, and only the
+    last piece of the path); the steps carry the alpha's start time, 0 for a primary."""
+    data = _config([], steps=False, events=10)
+    data["physics"] = {"mode": "lite", "alphas": "trim", "trim_histories": 50}
+    data["output"]["split_by_particle"] = True
+    plain = read_results(_run(tmp_path_factory, "trim_alpha", data))
+    data["output"]["steps"] = True
+    out = _run(tmp_path_factory, "trim_alpha_steps", data)
+    with_steps = read_results(out)
+    for res in (plain, with_steps):
+        np.testing.assert_allclose(
+            res.scores["edep_alpha"]["crystal"], res.edep["crystal"], rtol=0, atol=1e-9
+        )
+        assert res.edep["crystal"].min() > 5.0
+    np.testing.assert_array_equal(with_steps.edep["crystal"], plain.edep["crystal"])
+    with h5py.File(out, "r") as f:
+        g = f["stp/crystal"]
+        assert set(g["particle"][()].tolist()) == {1000020040}
+        assert (g["time"][()] == 0).all()

@@ -507,16 +507,18 @@ class Simulation:
         if k == self._next_event and not self._scored:
             self._pending.append((fate, alpha))
             return
+        steps = self.steps
         for volume, value in fate.deposits.items():
             self._scores["edep"][k, volume] += value
-            if self.steps is not None and value > 0.0 and not fate.pieces:
-                self.steps.add(k, volume, fate.pdg, value, fate.points.get(volume, fate.position))
-        if self.steps is not None:  # the path's pieces, each a step
-            for volume, x, y, z, value in fate.pieces:
-                if value > 0.0:
-                    self.steps.add(k, volume, fate.pdg, value, (x, y, z))
             if alpha and "edep_alpha" in self._scores:
                 self._scores["edep_alpha"][k, volume] += value
+            if steps is not None and value > 0.0 and not fate.pieces:
+                where = fate.points.get(volume, fate.position)
+                steps.add(k, volume, fate.pdg, value, where, fate.time)
+        if steps is not None:  # the path's pieces, each a step
+            for volume, x, y, z, value in fate.pieces:
+                if value > 0.0:
+                    steps.add(k, volume, fate.pdg, value, (x, y, z), fate.time)
         if "track_length" in self._scores:
             for volume, value in fate.lengths.items():
                 self._scores["track_length"][k, volume] += value
