@@ -301,3 +301,44 @@ def test_alphas_on_trim_count_in_the_alpha_class_with_and_without_steps(tmp_path
         g = f["stp/crystal"]
         assert set(g["particle"][()].tolist()) == {1000020040}
         assert (g["time"][()] == 0).all()
+
+
+def test_steps_of_decays_lost_with_their_atoms_are_dropped(tmp_path_factory):
+    """Po-218 implantation on a lone box face: outward Pb-214 recoils leave the world, and the
+    decays of those atoms are not in the results; neither are their steps. The steps left add up
+    to the kept events' edep, numbered like them, in both chunks."""
+    data = {
+        "physics": {"mode": "lite", "trim_histories": 200},
+        "targets": [
+            {
+                "name": "crystal",
+                "material": "G4_Si",
+                "size": ["2 mm", "2 mm", "1 mm"],
+                "position": ["0 mm", "0 mm", "-0.5 mm"],
+                "activeness": [{"fccd": "10 um", "dlf": 0.5, "faces": "all"}],
+            }
+        ],
+        "source": {
+            "surface": {"volume": "crystal", "face": "+z"},
+            "decay": {"chain": "Po218", "until": "Pb210", "implantation": True},
+            "depth": {"profile": "zero"},
+        },
+        "run": {"events": 40, "seed": 5, "chunk_events": 20},
+        "output": {"steps": True},
+    }
+    out = _run(tmp_path_factory, "lost", data)
+    res = read_results(out)
+    counts = res.run["implantation"]
+    assert counts["lost_decays"] > 10  # about half of the atoms leave with their recoil
+    assert res.run["n_events"] == len(res.event_id)
+    with h5py.File(out, "r") as f:
+        g = f["stp/crystal"]
+        evtid, edep = g["evtid"][()], g["edep"][()] / 1e3
+        dist = g["dist_to_surf"][()] * 1e3
+    assert evtid.min() >= 0
+    assert evtid.max() < res.n_events
+    per_event = np.bincount(evtid, weights=edep, minlength=res.n_events)
+    np.testing.assert_allclose(per_event, res.edep["crystal"], atol=1e-9, rtol=0)
+    w = weight(dist, 10e-3, 0.5)  # activeness on all faces: of dist_to_surf
+    again = np.bincount(evtid, weights=edep * w, minlength=res.n_events)
+    np.testing.assert_allclose(again, res.scores["active_edep"]["crystal"], atol=1e-9, rtol=0)
