@@ -895,7 +895,8 @@ CASES: list[Case] = [
         "other",
         RUN,
         {"c.yaml": {**rough(PYRAMIDS, tiling="portal"), "output": {"steps": True}}},
-        "output.steps: steps (and activeness) need native tiling; targets.0.rough.0 has tiling: portal",
+        "output.steps: steps (and activeness) need native tiling; targets.0.rough.0 has tiling: "
+        "portal",
         outputs=("r.h5",),
     ),
     Case(
