@@ -8,7 +8,7 @@ the face and for points inside the patches alike.
 
 Search. Each variant's facets sit in a k-d tree of their centroids (scipy); a facet is no
 nearer than its centroid's distance less its circumradius. Per point, an upper bound (the
-nearest centroids' facets in the 3 x 3 cells around it) limits the ball searched in each cell
+nearest centroids' facets in its own cell) limits the ball searched in each cell
 of a window around the point, and every facet in the ball is measured exactly. The window is
 wide enough for every point less than :attr:`RoughSurfaceDistance.exact_depth` below the
 lowest level of the surface, and the result is checked against a lower bound for all cells
@@ -41,7 +41,9 @@ EXACT_DEPTH_RADII = 300.0
 #: Largest window half-width in cells (the window holds (2 m + 1)^2 cells).
 MAX_WINDOW = 6
 #: Nearest centroids whose facets give each point's first upper bound.
-FIRST_GUESS = 4
+FIRST_GUESS = 2
+#: Centroids asked for per point in the ball search (more where that many lie in the ball).
+BALL_FACETS = 32
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -77,17 +79,48 @@ def _rect_distance(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
 
 
 class _Variant:
-    """One patch variant's top facets in its cell's frame (cell centre at x = y = 0)."""
+    """One patch variant's top facets in its cell's frame (cell centre at x = y = 0), with what
+    the distance of a point to a facet needs computed once: corners, edges, unit normal, the
+    in-plane normals of the edges."""
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, lift: float) -> None:
         v = np.asarray(vertices, float) + np.array([0.0, 0.0, lift])
         self.tri = v[np.asarray(faces)]
         centroid = self.tri.mean(axis=1)
-        self.radius = float(np.linalg.norm(self.tri - centroid[:, None], axis=2).max())
+        self.radii = np.linalg.norm(self.tri - centroid[:, None], axis=2).max(axis=1)
+        self.radius = float(self.radii.max())
         self.tree = cKDTree(centroid)
         self.zmin = float(v[:, 2].min())
         self.zmax = float(v[:, 2].max())
         self.low = cKDTree(v[v[:, 2] <= self.zmin + 1e-12, :2])  # the lowest vertices
+        corners = [self.tri[:, 0], self.tri[:, 1], self.tri[:, 2]]
+        n = np.cross(corners[1] - corners[0], corners[2] - corners[0])
+        area2 = np.sqrt(_dot(n, n))
+        self.flat = area2 == 0  # degenerate facets: measured by their edges only
+        self.normal = n / np.where(self.flat, 1.0, area2)[:, None]
+        self.edges = [corners[(e + 1) % 3] - corners[e] for e in range(3)]
+        self.inv_len2 = [1.0 / np.maximum(_dot(d, d), 1e-300) for d in self.edges]
+        self.inward = [np.cross(self.normal, d) for d in self.edges]  # in-plane, into the facet
+        self.corners = corners
+
+    def distance(self, p: np.ndarray, facet: np.ndarray) -> np.ndarray:
+        """Exact distance of points ``p`` (n, 3) to facets ``facet`` (n,), pair by pair."""
+        w = [p - c[facet] for c in self.corners]
+        inside = ~self.flat[facet]
+        for e in range(3):
+            inside &= _dot(w[e], self.inward[e][facet]) >= 0
+        out = np.abs(_dot(w[0], self.normal[facet]))
+        rows = np.flatnonzero(~inside)
+        if len(rows):
+            f = facet[rows]
+            best = np.full(len(rows), np.inf)
+            for e in range(3):
+                d, we = self.edges[e][f], w[e][rows]
+                t = np.clip(_dot(we, d) * self.inv_len2[e][f], 0.0, 1.0)
+                x = we - t[:, None] * d
+                best = np.minimum(best, _dot(x, x))
+            out[rows] = np.sqrt(best)
+        return out
 
 
 class RoughSurfaceDistance:
@@ -184,8 +217,8 @@ class RoughSurfaceDistance:
             return np.empty(0)
         i0, j0 = self._cell_of(q)
         best = np.full(len(q), np.inf)
-        # first guess: the facets of the nearest centroids in the 3 x 3 cells around
-        for rows, i, j in self._cells_near(q, i0, j0, 1):
+        # first guess: the facets of the nearest centroids in the point's own cell
+        for rows, i, j in self._cells_near(q, i0, j0, 0):
             self._measure(q, rows, i, j, best, ball=False)
         m = self.window
         for rows, i, j in self._cells_near(q, i0, j0, m):
@@ -216,19 +249,40 @@ class RoughSurfaceDistance:
                 n = min(FIRST_GUESS, len(variant.tri))
                 _, idx = variant.tree.query(p, k=n)
                 idx = np.asarray(idx).reshape(len(r), n)
-                d = point_triangle_distance(p[:, None, :], variant.tri[idx]).min(axis=1)
-                best[r] = np.minimum(best[r], d)
+                d = variant.distance(np.repeat(p, n, axis=0), idx.ravel())
+                best[r] = np.minimum(best[r], d.reshape(len(r), n).min(axis=1))
                 continue
-            hits = variant.tree.query_ball_point(p, best[r] + variant.radius)
-            counts = np.fromiter((len(h) for h in hits), np.int64, len(hits))
-            if not counts.sum():
-                continue
-            owner = np.repeat(np.arange(len(r)), counts)
-            facet = np.concatenate([np.asarray(h, np.int64) for h in hits if len(h)])
-            d = point_triangle_distance(p[owner], variant.tri[facet])
-            got = np.full(len(r), np.inf)
-            np.minimum.at(got, owner, d)
-            best[r] = np.minimum(best[r], got)
+            self._ball(variant, p, r, best)
+
+    def _ball(self, variant: _Variant, p: np.ndarray, r: np.ndarray, best: np.ndarray) -> None:
+        """Lower ``best[r]`` by every facet of ``variant`` that can be nearer to points ``p``
+        than it: centroids within best + the largest facet radius, less each facet's radius."""
+        n_facets = len(variant.tri)
+        todo = np.arange(len(r))
+        k = BALL_FACETS
+        while len(todo):
+            k = min(k, n_facets)
+            bound = best[r[todo]] + variant.radius
+            dist, idx = variant.tree.query(
+                p[todo], k=k, distance_upper_bound=float(np.nextafter(bound.max(), np.inf))
+            )
+            dist, idx = (
+                np.asarray(dist).reshape(len(todo), k),
+                np.asarray(idx).reshape(len(todo), k),
+            )
+            found = (idx < n_facets) & (dist <= bound[:, None])
+            owner, col = np.nonzero(found)
+            facet = idx[owner, col]
+            near = dist[owner, col] - variant.radii[facet] < best[r[todo[owner]]]
+            owner, facet = owner[near], facet[near]
+            if len(owner):
+                got = np.full(len(todo), np.inf)
+                np.minimum.at(got, owner, variant.distance(p[todo[owner]], facet))
+                best[r[todo]] = np.minimum(best[r[todo]], got)
+            if k == n_facets:
+                break
+            todo = todo[found[:, -1]]  # k facets within the bound: there may be more
+            k *= 4
 
     def _far(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Points deep under the surface: (lower bound, upper bound) of the distance; the lower
