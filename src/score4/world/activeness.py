@@ -21,13 +21,17 @@ still measured by the smooth face, and a step in one of its patches is at distan
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import ConfigError
-from ..shapes.base import PlaneTriangles, Revolved
+from ..shapes.base import PlaneTriangles, Revolved, Shape
 from ..shapes.placed import PlacedShape
 from .rough_distance import RoughSurfaceDistance
+
+if TYPE_CHECKING:  # world.scene imports this module when it needs activeness
+    from .scene import RoughLayer, Scene, TargetVolume
 
 
 def weight(d: np.ndarray, fccd: float, dlf: float) -> np.ndarray:
@@ -114,12 +118,13 @@ class TargetDistance:
 
     ``layers``: the target's rough layers (:class:`score4.world.scene.RoughLayer`)."""
 
-    def __init__(self, target, layers: list) -> None:
+    def __init__(self, target: TargetVolume, layers: list[RoughLayer]) -> None:
         self.target = target
-        self.shape = target.shape
+        assert target.shape is not None  # target_distances gives None for such a volume
+        self.shape: Shape = target.shape
         self.layers = list(layers)
         #: face name -> its flat rough layer (distances built on first use)
-        self.rough: dict[str, object] = {}
+        self.rough: dict[str, RoughLayer] = {}
         for layer in self.layers:
             if not layer.curved:
                 (face,) = self.shape.resolve_faces([layer.config.face])
@@ -134,7 +139,7 @@ class TargetDistance:
     def rough_distance(self, face: str) -> RoughSurfaceDistance:
         """The distance to the rough surface of ``face`` (a face with a flat rough layer)."""
         if face not in self._measures:
-            self._measures[face] = RoughSurfaceDistance(self.rough[face])  # type: ignore[arg-type]
+            self._measures[face] = RoughSurfaceDistance(self.rough[face])
         return self._measures[face]
 
     def _outside(self, world: np.ndarray, local: np.ndarray) -> np.ndarray:
@@ -188,7 +193,7 @@ class VolumeActiveness:
         return w
 
 
-def target_distances(scene) -> list[TargetDistance | None]:
+def target_distances(scene: Scene) -> list[TargetDistance | None]:
     """Per scoring column of ``scene``, the distances to its volume's faces (None: a solid
     :mod:`score4.shapes` does not describe)."""
     return [
@@ -198,7 +203,7 @@ def target_distances(scene) -> list[TargetDistance | None]:
 
 
 def volume_activeness(
-    scene, distances: list[TargetDistance | None] | None = None
+    scene: Scene, distances: list[TargetDistance | None] | None = None
 ) -> list[VolumeActiveness | None]:
     """Per scoring column of ``scene``, its activeness (None: every deposit counts).
 
