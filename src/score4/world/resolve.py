@@ -14,7 +14,7 @@ from score4.surface.store import load_surface
 
 from .clearance import check_clearance
 from .gdml_model import GeometryModel
-from .scene import Scene, make_layer, resolve_targets
+from .scene import Scene, make_layer, resolve_targets, rough_faces
 
 
 def _load(name: str, description) -> Surface:
@@ -54,8 +54,22 @@ def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
     targets = resolve_targets(config, model)
     scene = Scene(config, surfaces, targets=targets, model=model)
     for target in targets:
+        seen: dict[str, int] = {}
         for j, rough in enumerate(target.config.rough):
-            scene.layers.append(make_layer(surfaces, target, j, rough))
+            where = f"targets.{target.entry}.rough.{j}"
+            try:
+                faces = rough_faces(target, rough)
+            except ConfigError as err:
+                raise ConfigError(f"{where}: {err}") from None
+            for face in faces:
+                if face in seen:
+                    raise ConfigError(
+                        f"{where}: face {face} of {target.name!r} is rough already "
+                        f"(targets.{target.entry}.rough.{seen[face]})"
+                    )
+                seen[face] = j
+                one = rough if rough.face == face else rough.model_copy(update={"face": face})
+                scene.layers.append(make_layer(surfaces, target, j, one))
     check_clearance(scene)
     far = float(np.max(scene.world_half))
     if np.isfinite(far) and far > limits.MAX_WORLD_EXTENT:
