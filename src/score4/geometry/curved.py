@@ -8,6 +8,10 @@ The rings keep clear of the envelope's ends (:meth:`score4.world.curved.RingLayo
 variant bent onto a ring radius is one ``G4TessellatedSolid`` and one logical volume (all rings of a
 cylinder share it), placed once per cell: turned about z to the cell's azimuth and moved along z to
 its ring.
+
+On a cylinder a spike grid's patch is instead a cell (a ``G4Tubs`` segment of the mother's
+material) of bent G4Trds, one per spike layer and one per column of the slab
+(:func:`place_bent_frustums`): the same body, tracked through analytic solids.
 """
 
 from __future__ import annotations
@@ -155,7 +159,7 @@ def bent_trds(
             pts[:, c, 0] = box["x"] + sx * box[wx_key] / 2
             pts[:, c, 1] = box["y"] + sy * box[wy_key] / 2
             pts[:, c, 2] = box[z_key]
-        rows.append(lay.bend(pts.reshape(-1, 3), j, np.full(4 * n, offset)).reshape(n, 4, 3))
+        rows.append(lay.bend(pts.reshape(-1, 3), j, offset).reshape(n, 4, 3))
     bottom, top = rows
     phi = box["x"] / lay.radius[j]
     radial = np.column_stack([np.cos(phi), np.sin(phi), np.zeros(n)])
