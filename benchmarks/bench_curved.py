@@ -7,14 +7,15 @@ A silicon G4Tubs (GDML, written with pyg4ometry) with its outer wall rough (10 u
 50 x 50 to a 0.5 mm patch, bent onto the wall in rings, score4.world.curved) as bent G4Trds
 (``frustums``, what ``solid: auto`` picks for spike grids on a cylinder) or as one bent
 tessellated body per patch (``tessellated``), and a box of the configuration whose +z face has the
-wall's area, rough with the same pyramids (``flat``: multi-union, ``solid: auto``; ``flat_tess``:
-tessellated bodies). Each case runs with ``score4 run`` in a child process (5.3 MeV alphas,
-isotropic, from the rough face, exponential depth of mean 1 um), with ``--events 20`` and
-``--events N``; the CPU time of the children (``os.wait4``) gives the build and start-up (the
-short run less its events) and the CPU time per event (the difference over the extra events);
-memory is the larger peak resident set of the two children. The cases run in interleaved rounds;
-the table gives medians over the rounds, the ratio column the median of the per-round ratios to
-the flat face's CPU per event.
+wall's area, rough with the same pyramids (``flat``: multi-union, ``solid: auto``;
+``flat_tess``: tessellated bodies); ``whole``: the wall and both end faces rough (an HPGe
+crystal's whole surface; alphas from all three faces). Each case runs with ``score4 run`` in a
+child process (5.3 MeV alphas, isotropic, from the rough face, exponential depth of mean 1 um),
+with ``--events 20`` and ``--events N``; the CPU time of the children (``os.wait4``) gives the
+build and start-up (the short run less its events) and the CPU time per event (the difference
+over the extra events); memory is the larger peak resident set of the two children (of the
+largest process of each). The cases run in interleaved rounds; the table gives medians over the
+rounds, the ratio column the median of the per-round ratios to the flat face's CPU per event.
 """
 
 from __future__ import annotations
@@ -60,6 +61,7 @@ def write_cylinder(path: Path, radius: float, half_length: float) -> None:
 CASES = {
     "frustums": "curved wall, bent G4Trds (solid: auto)",
     "tessellated": "curved wall, bent tessellated bodies",
+    "whole": "whole surface: wall and both ends rough (solid: auto)",
     "flat": "flat face of equal area, multi-union (solid: auto)",
     "flat_tess": "flat face of equal area, tessellated",
 }
@@ -80,6 +82,15 @@ def configs(folder: Path, radius: float, half_length: float) -> dict[str, dict]:
             ],
             "source": {**SOURCE, "surface": {"volume": "cyl", "face": "outer"}},
         }
+    out["whole"] = {
+        "physics": "lite",
+        "world": {"gdml": "cyl.gdml"},
+        "surfaces": {"p": PYRAMIDS},
+        "targets": [
+            {"volume": "cyl", "rough": [{"face": f, "surface": "p"} for f in ("outer", "+z", "-z")]}
+        ],
+        "source": {**SOURCE, "surface": {"volume": "cyl", "face": ["outer", "+z", "-z"]}},
+    }
     for case, solid in (("flat", "auto"), ("flat_tess", "tessellated")):
         out[case] = {
             "physics": "lite",
