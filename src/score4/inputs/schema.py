@@ -107,7 +107,6 @@ def _with_unit(dimension: str):
 
 
 Length = Annotated[float, _quantity("length"), _with_unit("length")]
-Energy = Annotated[float, _quantity("energy"), _with_unit("energy")]
 PositiveLength = Annotated[float, _quantity("length", positive=True), _with_unit("length")]
 NonNegativeLength = Annotated[float, _quantity("length", non_negative=True), _with_unit("length")]
 PositiveEnergy = Annotated[float, _quantity("energy", positive=True), _with_unit("energy")]

@@ -55,7 +55,6 @@ class PlainProgress:
         self.clock = clock
         self.started = self._last_line = self._rate_t0 = clock()
         self._rate_n0 = self.n
-        self._paused = 0.0  # seconds left out of the rate by unpause()
         self._next_mark = self._mark_after(self.n)
         self.closed = False
         done = f", {initial} already done" if initial else ""
