@@ -1,7 +1,8 @@
 """A rough cylinder wall against the same pyramids on a flat face of equal area.
 
     .venv/bin/python benchmarks/bench_curved.py [--radius 40] [--half-length 40] [--events 3000]
-        [--rounds 3] [--cases frustums,tessellated,flat]
+        [--rounds 3] [--cases frustums,tessellated,flat] [--markdown]
+    .venv/bin/python benchmarks/bench_curved.py --spectra 3000
 
 A silicon G4Tubs (GDML, written with pyg4ometry) with its outer wall rough (10 um pyramids,
 50 x 50 to a 0.5 mm patch, bent onto the wall in rings, score4.world.curved) as bent G4Trds
@@ -16,6 +17,9 @@ build and start-up (the short run less its events) and the CPU time per event (t
 over the extra events); memory is the larger peak resident set of the two children (of the
 largest process of each). The cases run in interleaved rounds; the table gives medians over the
 rounds, the ratio column the median of the per-round ratios to the flat face's CPU per event.
+
+``--spectra N`` instead runs N alphas (seed 1) on the wall as bent G4Trds and as bent
+tessellated bodies (one body, two representations) and compares their deposits.
 """
 
 from __future__ import annotations
@@ -134,6 +138,34 @@ def measure(folder: Path, name: str, config: dict, events: int) -> tuple[float, 
     return cpu[0] - 20 * per_event, per_event, max(peak)
 
 
+def compare_spectra(radius: float, half_length: float, events: int) -> None:
+    """The same alphas (seed 1) on the wall as bent G4Trds and as bent tessellated bodies (one
+    body, two representations): events with the same deposit, KS p, means and full-energy
+    shares."""
+    import numpy as np
+    from scipy.stats import ks_2samp
+
+    from score4.runner.output import read_results
+
+    out = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        cases = configs(folder, radius, half_length)
+        for name in ("frustums", "tessellated"):
+            path = folder / f"{name}.yaml"
+            path.write_text(yaml.safe_dump(cases[name]))
+            h5 = folder / f"{name}.h5"
+            child_cpu([*SCORE4, str(path), "--events", str(events), "--out", str(h5)], folder)
+            out[name] = np.asarray(read_results(h5).edep["cyl"])
+    a, b = out["frustums"], out["tessellated"]
+    se = math.sqrt((a.var() + b.var()) / len(a))
+    print(f"{events} alphas, seed 1, radius {radius:g} mm, length {2 * half_length:g} mm")
+    print(f"same deposit (1e-9 MeV): {(np.abs(a - b) <= 1e-9).sum()} of {len(a)} events")
+    print(f"mean deposit MeV: G4Trds {a.mean():.4f}, tessellated {b.mean():.4f} (s.e. {se:.4f})")
+    print(f"full energy (> 5.2 MeV): {(a > 5.2).mean():.4f} vs {(b > 5.2).mean():.4f}")
+    print(f"two-sample KS p = {ks_2samp(a, b).pvalue:.3f}")
+
+
 def main() -> None:
     from stamp import stamp  # this folder is on sys.path when run as a script
 
@@ -146,7 +178,17 @@ def main() -> None:
         "--cases", default="frustums,tessellated,flat", help=f"of {', '.join(CASES)}"
     )
     parser.add_argument("--markdown", action="store_true", help="print a Markdown table")
+    parser.add_argument(
+        "--spectra",
+        type=int,
+        default=0,
+        help="instead: N alphas (seed 1) on the wall as bent G4Trds and as bent tessellated "
+        "bodies; compare their deposits",
+    )
     args = parser.parse_args()
+    if args.spectra:
+        compare_spectra(args.radius, args.half_length, args.spectra)
+        return
     names = args.cases.split(",")
     print(stamp())
     rows: dict[str, list[tuple[float, float, float]]] = {n: [] for n in names}
