@@ -172,13 +172,21 @@ def ray_path(origins, directions, layer, radius, half_z, window=4):
     return out
 
 
-@pytest.mark.parametrize("solid", ["frustums", "tessellated"])
-def test_geantino_paths_agree_with_an_independent_ray_trace(cylinder, tmp_path, solid):
+BUMPS = {**PYRAMIDS, "shape": "bump", "n_layers": 4, "height_sigma": "2 um", "seed": 3}
+
+
+@pytest.mark.parametrize(
+    ("solid", "surface"),
+    [("frustums", PYRAMIDS), ("tessellated", PYRAMIDS), ("frustums", BUMPS)],
+    ids=["pyramids-frustums", "pyramids-tessellated", "bumps-spread-frustums"],
+)
+def test_geantino_paths_agree_with_an_independent_ray_trace(cylinder, tmp_path, solid, surface):
     """Geantinos from outside the layer, through the rough wall, the cylinder and the rough
     wall on the far side: Geant4's track length in the target (its patches count) equals the
     ray trace of the analytic cylinder plus the bent patch mesh, to 1e-9 mm, with the patches as
-    bent G4Trds (``solid: auto`` on a cylinder) and as one tessellated body each."""
-    data = cylinder_config(cylinder, output={"track_length": True})
+    bent G4Trds (``solid: auto`` on a cylinder; also bumps of 4 frustum layers with a height
+    spread) and as one tessellated body each."""
+    data = cylinder_config(cylinder, surface=surface, output={"track_length": True})
     data["targets"][0]["rough"][0]["solid"] = solid
     config = parse_config(data)
     scene = build_scene(config)
