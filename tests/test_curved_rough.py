@@ -400,28 +400,3 @@ def test_geant4_finds_no_overlap_in_a_rough_bore(tmp_path, capsys):
     (tmp_path / "bore.yaml").write_text(yaml.safe_dump(data))
     assert main(["geometry", "check", str(tmp_path / "bore.yaml")]) == 0
     assert "no overlaps" in capsys.readouterr().out
-
-
-def test_an_exported_curved_layer_is_the_bent_layer_and_reads_back(cylinder, tmp_path, capsys):
-    """``geometry export`` writes the curved layer as a run builds it (a G4Cons shell, ring
-    G4Tubs, bent G4Trds), not as a flat layer on the face's tangent plane; Geant4 reads the file
-    back and finds no overlap in it."""
-    import yaml
-
-    from score4.cli.main import main
-
-    data = cylinder_config(cylinder)
-    (tmp_path / "c.yaml").write_text(yaml.safe_dump(data))
-    out = tmp_path / "out.gdml"
-    assert main(["geometry", "export", str(tmp_path / "c.yaml"), "--gdml", str(out)]) == 0
-    text = out.read_text()
-    assert "<cone " in text
-    assert "<trd " in text
-    assert "_base" not in text  # no flat patch (a base box and G4Trds in a cell box)
-    back = {**data, "world": {"gdml": str(out)}}
-    back["targets"] = [{"volume": "cyl"}]
-    back["source"] = {**data["source"], "surface": {"volume": "cyl", "face": "+z"}}
-    (tmp_path / "back.yaml").write_text(yaml.safe_dump(back))
-    capsys.readouterr()
-    assert main(["geometry", "check", str(tmp_path / "back.yaml")]) == 0
-    assert "no overlaps" in capsys.readouterr().out

@@ -210,7 +210,9 @@ class StrictModel(BaseModel):
     key of :attr:`used_only_with` given under options that ignore it is refused.
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    # defer_build: a model's validator is built when it first validates, not when the class is
+    # made; a worker process only unpickles validated models and never pays for it
+    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)
 
     #: Pairs of keys that say the same thing in two ways; giving both (with different values)
     #: is an error.

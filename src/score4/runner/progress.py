@@ -21,8 +21,6 @@ import time
 from collections.abc import Callable
 from typing import Any, TextIO
 
-from tqdm import tqdm
-
 #: Plain lines: one per this fraction of the work, and at least one per this many seconds.
 STEP_FRACTION = 0.1
 STEP_SECONDS = 60.0
@@ -129,5 +127,7 @@ def progress_bar(
     if not show:
         return _Silent()
     if getattr(file, "isatty", lambda: False)():
+        from tqdm import tqdm  # imported here: a worker process shows no bar
+
         return tqdm(total=total, initial=initial, unit=unit[:2], mininterval=0.5, file=file)
     return PlainProgress(total, initial, unit, desc, file)

@@ -313,7 +313,9 @@ class Simulation:
             else np.zeros(len(primaries), dtype=bool)
         )
         self._skip = self._trim | self._untracked_rows
-        self._feed = EventFeed(self.g4, primaries, definitions, g4_seed, self._skip, positions)
+        self._feed = EventFeed(
+            self.g4, primaries, definitions, g4_seed, self._skip, positions, own_gun=True
+        )
         self.untracked_gamma = np.bincount(
             primaries.event[self._untracked_rows],
             weights=primaries.energy[self._untracked_rows],
@@ -614,7 +616,7 @@ class Simulation:
         self._null_action = self.g4.G4UserTrackingAction()
         return self._null_action
 
-    def _g4_rows_of_event(self, k: int) -> np.ndarray:
+    def _g4_rows_of_event(self, k: int) -> list[int]:
         return self._feed.geant4_rows(k)
 
     def _check_stop(self) -> None:
