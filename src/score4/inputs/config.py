@@ -233,9 +233,10 @@ class WorldConfig(StrictModel):
     """The world: a box of ``material`` around the targets (``margin`` beyond them), or the world
     of a GDML file (``gdml``, relative to the configuration), read with Geant4's parser."""
 
-    used_only_with: ClassVar[dict[str, tuple[str, tuple[object, ...]]]] = {
+    used_only_with: ClassVar[dict[str, object]] = {
         "material": ("gdml", (None,)),
         "margin": ("gdml", (None,)),
+        "allow_overlaps": ("gdml", GIVEN),  # the check it turns off reads a GDML file's volumes
     }
 
     gdml: ConfigPath | None = None
@@ -739,7 +740,24 @@ class RunConfig(StrictModel):
         if not (info.context or {}).get("stored"):  # a stored description has every key filled in
             check_option_keys(self)  # options that resolve across sections (solid: auto)
         self._check_materials()
+        self._check_steps_tiling()
         return self
+
+    def _check_steps_tiling(self) -> None:
+        """Steps (``output.steps``, ``targets[].activeness``) take Geant4's one stepping action,
+        which a portal layer needs for itself: refused here, before any worker starts."""
+        key = "output.steps" if self.output.steps else None
+        for i, t in enumerate(self.targets):
+            key = key or (f"targets.{i}.activeness" if t.activeness else None)
+        if key is None:
+            return
+        for i, t in enumerate(self.targets):
+            for j, r in enumerate(t.rough):
+                if r.tiling == "portal":
+                    raise ValueError(
+                        f"{key}: steps (and activeness) need native tiling; targets.{i}.rough.{j} "
+                        "has tiling: portal, whose layer has a stepping action of its own"
+                    )
 
     def _check_materials(self) -> None:
         """Every material named here a NIST name or a ``materials:`` entry: checked without

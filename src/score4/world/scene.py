@@ -265,6 +265,7 @@ class RoughLayer:
     patch_map: PatchMap
     mask: np.ndarray | None = None
     face_area: float = 0.0  # the flat face's area, mm2
+    curved = False  # patches bent onto a face swept around z (CurvedRoughLayer)
 
     @property
     def name(self) -> str:
@@ -390,6 +391,7 @@ class CurvedRoughLayer(RoughLayer):
     ``patch_map`` is the grid (rows = rings, columns = cells of the longest ring) and ``mask``
     the cells each ring holds."""
 
+    curved = True
     layout: RingLayout | None = None
     lift: float = 0.0  # the patches' base above the true surface (convex faces), mm
     gap: float = 0.0  # largest distance of the base from the true surface, mm
