@@ -25,6 +25,7 @@ from score4.world.gdml_model import GeometryModel, Instance
 from score4.world.scene import CurvedRoughLayer, FaceFrame, RoughLayer, Scene, TargetVolume
 
 from ..errors import ConfigError
+from ..shapes import Transform
 from .built import BuiltGeometry, cut_for_layers, g4_solid
 from .gdml import read_gdml
 from .tiling import place_native
@@ -137,9 +138,8 @@ class LiveWorld:
         if isinstance(layer, CurvedRoughLayer):
             from .curved import place_curved
 
-            placement = t.transform.relative_to(t.mother.transform)
             patch_lvs, keep = place_curved(
-                self.g4, layer, mlv, mlv.GetMaterial(), material, placement
+                self.g4, layer, mlv, mlv.GetMaterial(), material, _target_in_mother(t)
             )
             self.keep.append(keep)
             return patch_lvs
@@ -153,6 +153,12 @@ class LiveWorld:
         )
         self.keep.append(keep)
         return patch_lvs
+
+
+def _target_in_mother(t: TargetVolume) -> Transform:
+    """The target's transform in its mother's frame."""
+    assert t.mother is not None
+    return t.transform.relative_to(t.mother.transform)
 
 
 def build_gdml_world(g4, plan: RunPlan):
