@@ -39,7 +39,7 @@ from score4.runner.output import read_results
 from score4.source.primaries import Primaries
 from score4.source.vertex_file import write_vertex_file
 from score4.surface import block_cut as blk
-from score4.world.scene import build_scene
+from score4.world.resolve import build_scene
 
 RANDOM = {
     "kind": "random",

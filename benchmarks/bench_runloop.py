@@ -455,7 +455,7 @@ def part_plans() -> None:
     """The nested layout's levels for the faces of ``part_faces`` (numpy only: exact counts)."""
     from score4.geometry.tiling import grouping_plan
     from score4.inputs.config import parse_config
-    from score4.world.scene import build_scene
+    from score4.world.resolve import build_scene
 
     for side, variants in [(10.0, "one"), (100.0, "one"), (100.0, "random"), (100.0, "exact")]:
         layer = build_scene(parse_config(face_config(side, variants=variants))).layers[0]

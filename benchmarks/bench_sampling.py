@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from score4.inputs.units import nm, um
+from score4.common.units import nm, um
 from score4.source.depth import MeshDistance, VertexSampler
 from score4.source.emitters import Po210Emitter, make_primaries
 from score4.source.profiles import ExponentialProfile

@@ -4,7 +4,7 @@ Every try runs in its own process (a fatal G4Exception aborts it). A size is acc
 solid builds, answers ``Inside`` for its centre and Geant4 printed no G4Exception. The solid is
 a cube of full edge ``s`` (G4Box, G4Trd, G4Tubs radius and length, and a closed
 G4TessellatedSolid of 12 triangles); the search is a bisection in log scale between 1e-12 mm
-and 1e-6 mm. score4.inputs.limits.MIN_SOLID_LENGTH is set from this output with a margin.
+and 1e-6 mm. score4.common.limits.MIN_SOLID_LENGTH is set from this output with a margin.
 
     .venv/bin/python benchmarks/g4_solid_limits.py
 """

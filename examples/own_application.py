@@ -21,6 +21,7 @@ import time
 import numpy as np
 
 from score4 import api
+from score4.source.build import layer_sampler
 
 # geant4_pybind must be imported through score4 (or after it): the data locations come first.
 g4 = api.import_geant4("lite")
@@ -127,7 +128,7 @@ def main() -> None:
     layer = rough.layers[0]
     print(
         f"rough face -z of crystal: {layer.patch_map.variants.size} patches of 10 x 10 pyramids, "
-        f"true area {layer.sampler().area:.2f} mm2 on {math.prod(layer.frame.size):.2f} mm2"
+        f"true area {layer_sampler(layer).area:.2f} mm2 on {math.prod(layer.frame.size):.2f} mm2"
     )
     print(f"{args.events} events of Po-210, 20 nm below the rough face (seed {args.seed})")
     print(f"{'volume':8s} {'mean MeV':>9s} {'events > 10 keV':>16s} {'> 5 MeV':>8s}")

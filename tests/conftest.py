@@ -157,7 +157,7 @@ def crystal_track_lengths(tmp_path: Path, configs: dict, primaries) -> dict:
 def straight_down_paths(config, primaries) -> tuple[np.ndarray, np.ndarray]:
     """(mask of the rays straight down, their exact path in the crystal group): mesh height at
     the ray + slab + the target's depth (first layer of ``config``)."""
-    from score4.world.scene import build_scene
+    from score4.world.resolve import build_scene
 
     layer = build_scene(config).layers[0]
     down = (primaries.direction == [0.0, 0.0, -1.0]).all(axis=1)

@@ -246,8 +246,8 @@ def test_a_rough_face_is_measured_by_its_rough_surface(tmp_path_factory):
     to the rough surface (not 0), steps under them the distance to the nearest facet, which
     dist_to_surf stores and active_edep weights."""
     from score4.world.activeness import face_distance
+    from score4.world.resolve import build_scene
     from score4.world.rough_distance import RoughSurfaceDistance
-    from score4.world.scene import build_scene
 
     data = _config([{"fccd": "3 um", "dlf": 0.5, "faces": ["+z"]}], events=40)
     data["surfaces"] = {

@@ -19,7 +19,7 @@ from score4.surface import block_cut as blk
 from score4.surface.spec import build_surface
 from score4.surface.triangle_mesh import is_watertight, signed_volume
 from score4.world import scene as scene_module
-from score4.world.scene import build_scene
+from score4.world.resolve import build_scene
 from score4.world.walls import rays_in_walls, wall_planes
 
 from conftest import (

@@ -23,7 +23,7 @@ from score4.inputs.config import parse_config
 from score4.runner.output import read_results
 from score4.runner.seeds import atom_event_geant4_seeds
 from score4.source.build import decay_normalisation, make_source
-from score4.world.scene import build_scene
+from score4.world.resolve import build_scene
 
 from conftest import config_dict
 from helpers.spawn import run_in_spawned_process

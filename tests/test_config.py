@@ -96,7 +96,7 @@ def test_a_key_given_twice_names_the_key_both_lines_and_the_file(tmp_path: Path)
 
 
 def test_merge_keys_may_still_be_overridden(tmp_path: Path):
-    from score4.inputs.yamlfile import load_yaml
+    from score4.common.yamlfile import load_yaml
 
     path = write_yaml(
         tmp_path,
@@ -214,7 +214,7 @@ def test_width_with_width_x_is_refused_unless_equal():
 
 
 def test_readable_quantities():
-    from score4.inputs.units import format_readable
+    from score4.common.units import format_readable
 
     assert format_readable(1e-05, "length") == "10 nm"
     assert format_readable(0.00019999999999999998, "length") == "200 nm"

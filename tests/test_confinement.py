@@ -11,7 +11,7 @@ from score4.inputs.config import parse_config
 from score4.shapes import G4Box, G4Orb
 from score4.source.build import make_source
 from score4.world.gdml_model import GeometryModel
-from score4.world.scene import build_scene
+from score4.world.resolve import build_scene
 
 
 def _solid(shape) -> dict:

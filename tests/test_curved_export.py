@@ -15,7 +15,7 @@ import yaml
 
 from score4.cli.main import main
 from score4.inputs.config import load_config
-from score4.world.scene import build_scene
+from score4.world.resolve import build_scene
 
 from helpers.spawn import run_in_spawned_process
 

@@ -14,7 +14,8 @@ from score4.runner.engine import run
 from score4.runner.output import read_results
 from score4.source.build import make_source, source_geometry
 from score4.source.vertex_file import write_vertex_file
-from score4.world.scene import CurvedRoughLayer, build_scene
+from score4.world.resolve import build_scene
+from score4.world.scene import CurvedRoughLayer
 
 RADIUS, HALF_Z = 5.0, 1.0  # mm
 PYRAMIDS = {"kind": "spikes", "nx": 10, "ny": 10, "width": "10 um", "height": "10 um"}

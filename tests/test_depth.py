@@ -10,8 +10,8 @@ import pytest
 from scipy import integrate, stats
 from scipy.spatial import cKDTree
 
+from score4.common.units import nm
 from score4.errors import ConfigError
-from score4.inputs.units import nm
 from score4.source.depth import (
     MeshDistance,
     OffsetSurface,

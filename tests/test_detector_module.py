@@ -17,7 +17,7 @@ from score4.errors import ConfigError
 from score4.inputs.config import load_config
 from score4.runner.output import read_results
 from score4.source.build import make_source, source_geometry
-from score4.world.scene import build_scene
+from score4.world.resolve import build_scene
 
 # Its module fixture runs once, on one pytest-xdist worker (not once per worker).
 pytestmark = pytest.mark.xdist_group("detector-module")

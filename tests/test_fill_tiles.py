@@ -11,7 +11,7 @@ from score4.errors import ConfigError
 from score4.geometry.tiling import grouping_plan
 from score4.inputs.config import parse_config
 from score4.surface import patchmap as pm
-from score4.world.scene import build_scene
+from score4.world.resolve import build_scene
 
 from conftest import config_dict
 

@@ -30,12 +30,12 @@ from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
 
 from score4.cli.main import cli, main
+from score4.common import limits
+from score4.common.units import parse_count
 from score4.errors import ConfigError, Score4Error
-from score4.inputs import limits
 from score4.inputs.config import load_config
-from score4.inputs.units import parse_count
 from score4.source.build import make_source
-from score4.world.scene import build_scene
+from score4.world.resolve import build_scene
 
 from helpers.bad_inputs import results_file, text_grid
 from helpers.fuzz import VALID, command_line, commands, documents

@@ -15,12 +15,12 @@ import numpy as np
 import pytest
 import yaml
 
-from score4.analysis.normalisation import layer_volume
 from score4.cli.main import main
 from score4.errors import ConfigError
 from score4.inputs.config import parse_config
+from score4.runner.normalisation import layer_volume
 from score4.world.gdml_files import _read_in_subprocess, load_geometry_model
-from score4.world.scene import build_scene
+from score4.world.resolve import build_scene
 
 from helpers.spawn import run_in_spawned_process
 

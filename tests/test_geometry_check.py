@@ -73,7 +73,7 @@ def test_nested_layout_is_checked_group_by_group_and_cell_by_cell():
 def test_exact_cell_check_finds_a_patch_wider_than_its_cell():
     from score4.geometry.check import patches_fit_their_cells
     from score4.inputs.config import parse_config
-    from score4.world.scene import build_scene
+    from score4.world.resolve import build_scene
 
     layer = build_scene(parse_config(ROUGH)).layers[0]
     assert patches_fit_their_cells(layer) == []

@@ -16,7 +16,7 @@ from score4.cli.main import main
 from score4.errors import ConfigError
 from score4.inputs.config import load_config, parse_config
 from score4.macro import import_macro
-from score4.world.scene import build_scene
+from score4.world.resolve import build_scene
 
 from conftest import ROOT
 

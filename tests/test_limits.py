@@ -1,4 +1,4 @@
-"""score4.inputs.limits: the limits of inputs, each checked against what it stands for.
+"""score4.common.limits: the limits of inputs, each checked against what it stands for.
 
 Geant4's smallest solid and its NIST names in Geant4 itself (a subprocess), the memory estimates
 against tracemalloc, the vertex and finiteness checks on hand-made arrays.
@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from score4.common import limits
 from score4.errors import ConfigError
-from score4.inputs import limits
 from score4.inputs.materials import shipped_nist_names
 from score4.surface.spec import build_surface, parse_surface_spec
 

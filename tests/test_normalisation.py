@@ -1,4 +1,4 @@
-"""The run record's normalisation (score4.analysis.normalisation): masses, sampled areas, decays.
+"""The run record's normalisation (score4.runner.normalisation): masses, sampled areas, decays.
 
 Volumes and areas are checked against closed formulas for square pyramids (not against the
 mesh code), densities against Geant4's own NIST manager (in a spawned process), and a real run
@@ -15,10 +15,10 @@ import sys
 import h5py
 import pytest
 
-from score4.analysis.normalisation import nist_density_table, run_normalisation
 from score4.cli.main import main
 from score4.inputs.config import parse_config
-from score4.world.scene import build_scene
+from score4.runner.normalisation import nist_density_table, run_normalisation
+from score4.world.resolve import build_scene
 
 from conftest import ROOT, config_dict
 

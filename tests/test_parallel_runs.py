@@ -21,9 +21,9 @@ import pytest
 import yaml
 
 from score4.cli.main import main
+from score4.common.limits import MEMORY_ENV
 from score4.errors import Score4Error
 from score4.inputs.config import parse_config
-from score4.inputs.limits import MEMORY_ENV
 from score4.runner.engine import run
 from score4.runner.output import read_results
 from score4.runner.run_plan import config_fingerprint

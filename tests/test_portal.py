@@ -25,7 +25,8 @@ from score4.sim.portal_action import _Layer
 from score4.source.build import make_source
 from score4.source.primaries import Primaries
 from score4.source.vertex_file import write_vertex_file
-from score4.world.scene import build_scene, face_frame
+from score4.world.resolve import build_scene
+from score4.world.scene import face_frame
 
 from conftest import config_dict
 from helpers.spawn import run_in_spawned_process

@@ -12,8 +12,9 @@ import pytest
 from score4.inputs.config import parse_config
 from score4.surface.triangle_mesh import TriangleMesh
 from score4.world.activeness import face_distance, target_distances
+from score4.world.resolve import build_scene
 from score4.world.rough_distance import RoughSurfaceDistance, point_triangle_distance
-from score4.world.scene import FaceFrame, build_scene
+from score4.world.scene import FaceFrame
 
 
 def _brute_triangle(p: np.ndarray, tri: np.ndarray) -> np.ndarray:

@@ -12,7 +12,7 @@ import pytest
 
 from score4.errors import ConfigError
 from score4.inputs.config import load_config
-from score4.world.scene import build_scene
+from score4.world.resolve import build_scene
 
 pytest.importorskip("pygeomhpges")
 pytest.importorskip("pygeomtools")

@@ -14,7 +14,8 @@ from score4.runner.engine import run
 from score4.runner.output import read_results
 from score4.source.build import make_source
 from score4.source.vertex_file import write_vertex_file
-from score4.world.scene import build_scene, face_frame
+from score4.world.resolve import build_scene
+from score4.world.scene import face_frame
 
 from conftest import config_dict
 

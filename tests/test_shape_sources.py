@@ -23,7 +23,7 @@ from score4.source.profiles import (
 )
 from score4.source.sampling import SurfaceSampler, TiledSurfaceSampler
 from score4.source.shape_sampling import BulkSampler, CombinedSurfaceSampler, ShapeSurfaceSampler
-from score4.world.scene import build_scene
+from score4.world.resolve import build_scene
 
 FACES = ("+x", "-x", "+y", "-y", "+z", "-z")
 

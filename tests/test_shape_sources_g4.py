@@ -18,7 +18,7 @@ import yaml
 from score4.inputs.config import parse_config
 from score4.runner.output import read_results
 from score4.source.build import make_source
-from score4.world.scene import build_scene
+from score4.world.resolve import build_scene
 
 ROUGH = {"pyramids": {"kind": "spikes", "nx": 10, "ny": 10, "width": "10 um", "height": "10 um"}}
 

@@ -288,11 +288,51 @@ def test_placed_shape_moves_points_and_normals():
         (lambda: G4Orb(1).face_sampler("top"), "G4Orb has no face 'top'"),
         (lambda: shape_from_dict({"type": "G4Nothing"}), "unknown type 'G4Nothing'"),
         (lambda: Transform(np.diag([1.0, 1, -1])), "reflections are not supported"),
+        (lambda: Transform(np.diag([1.0, 1, 1 + 1e-4])), "rotation must be orthonormal"),
     ],
 )
 def test_bad_input_names_the_rule(make, message):
     with pytest.raises(ConfigError, match=message):
         make()
+
+
+def _rotation(rng: np.random.Generator) -> np.ndarray:
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    return q * np.sign(np.linalg.det(q))
+
+
+def test_relative_to_is_the_placement_in_the_mother_frame():
+    """``t.relative_to(m)`` is ``m``'s inverse composed with ``t``, computed as the GDML builder
+    did before (bit for bit: R_m^T R_t and (t_t - t_m) R_m)."""
+    rng = np.random.default_rng(7)
+    mother = Transform(_rotation(rng), rng.normal(size=3) * 50)
+    placed = Transform(_rotation(rng), rng.normal(size=3) * 50)
+    local = placed.relative_to(mother)
+    x = rng.normal(size=(20, 3)) * 10
+    assert np.allclose((mother @ local).apply(x), placed.apply(x), rtol=0, atol=1e-12)
+    assert np.array_equal(local.rotation, mother.rotation.T @ placed.rotation)
+    assert np.array_equal(
+        local.translation, (placed.translation - mother.translation) @ mother.rotation
+    )
+
+
+def test_frames_and_boxes_apply_shapes_transform_bit_for_bit():
+    """FaceFrame, GDML Instance and OrientedBox go through shapes.Transform; the results are the
+    bits of the formulas each had of its own before."""
+    from score4.world.obb import OrientedBox
+    from score4.world.scene import FaceFrame
+
+    rng = np.random.default_rng(11)
+    r, c = _rotation(rng), rng.normal(size=3) * 100
+    x = rng.normal(size=(50, 3)) * 7
+    frame = FaceFrame(c, r, (3.0, 4.0))
+    assert np.array_equal(frame.to_world(x), c + x @ r.T)
+    assert np.array_equal(frame.to_local(x), (x - c) @ r)
+    box = OrientedBox(c, r, np.array([1.0, 2.0, 3.0]))
+    signs = np.array([[a, b, d] for a in (-1, 1) for b in (-1, 1) for d in (-1, 1)], float)
+    assert np.array_equal(box.corners(), c + (signs * box.half) @ r.T)
+    inside = np.abs((x - c) @ r) < box.half - 1e-9
+    assert np.array_equal(box.contains(x), inside.all(axis=1))
 
 
 def test_shapes_never_import_geant4():

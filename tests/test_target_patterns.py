@@ -10,7 +10,7 @@ import yaml
 
 from score4.cli.main import main
 from score4.inputs.config import load_config
-from score4.world.scene import build_scene
+from score4.world.resolve import build_scene
 
 from helpers import gdml_worlds as W
 

@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 import yaml
 
-from score4.analysis.response import ResponseConfig
 from score4.analysis.templates import build_templates
 from score4.cli.main import main
+from score4.inputs.response_spec import ResponseConfig
 from score4.runner.output import read_results
 
 from conftest import DETECTOR_PAIR, config_dict

@@ -2,8 +2,8 @@ import math
 
 import pytest
 
+from score4.common.units import parse_quantity
 from score4.errors import ConfigError
-from score4.inputs.units import parse_quantity
 
 
 @pytest.mark.parametrize(

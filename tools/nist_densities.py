@@ -1,7 +1,7 @@
 """Write ``src/score4/data/nist_densities.json``: the density of every Geant4 NIST material.
 
 The process that reads a run configuration never imports Geant4, yet the run record needs the
-mass of every scored volume (:mod:`score4.analysis.normalisation`). This script asks Geant4 itself
+mass of every scored volume (:mod:`score4.runner.normalisation`). This script asks Geant4 itself
 (``G4NistManager``) for each NIST material's density and writes the table that score4 ships.
 Run it again when geant4_pybind moves to a new Geant4 (``tests/test_normalisation.py`` compares
 the table with the installed Geant4 and fails when they differ)::

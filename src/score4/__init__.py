@@ -84,18 +84,11 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names come from
     from .surface.store import load_surface, save_surface
 
 
-def _version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("score4")
-    except PackageNotFoundError:  # running from a source tree without installation
-        return "0.0.0+unknown"
-
-
 def __getattr__(name: str) -> Any:
     if name == "__version__":  # importlib.metadata costs more than the rest of the import
-        globals()[name] = found = _version()
+        from .version import package_version
+
+        globals()[name] = found = package_version()
         return found
     try:
         module, attribute = _PUBLIC[name]

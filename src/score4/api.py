@@ -44,9 +44,9 @@ from typing import Any
 import numpy as np
 from pydantic import ValidationError
 
+from score4.common.schema import describe_validation_error
+from score4.common.units import parse_quantity
 from score4.inputs.config import GdmlVolume, PhysicsConfig, RoughFace, SourceConfig
-from score4.inputs.schema import describe_validation_error
-from score4.inputs.units import parse_quantity
 from score4.runner.run_plan import RunPlan, plan_run
 from score4.world.gdml_model import GeometryModel, Instance
 from score4.world.scene import RoughLayer, Scene, TargetVolume, gdml_target, make_layer
@@ -185,7 +185,7 @@ class RoughenedVolume:
     ----------
     layers
         The rough layers, one per copy of the volume (:class:`score4.world.scene.RoughLayer`: face
-        frame, patch map, true area through ``layer.sampler().area``).
+        frame, patch map, true area through ``score4.source.build.layer_sampler(layer).area``).
     volumes
         Per scoring column (the volume's name, ``name_k`` for copies): the logical volumes whose
         energy deposits count for it, the volume's own first, then the patch bodies of its

@@ -24,9 +24,9 @@ import click
 from hypothesis import strategies as st
 from pydantic import BaseModel
 
+from score4.common.schema import _quantity_kind
+from score4.common.units import DIMENSIONS
 from score4.inputs.config import RunConfig
-from score4.inputs.schema import _quantity_kind
-from score4.inputs.units import DIMENSIONS
 
 #: A valid description the mutations start from: a rough face (its surface is built) and one
 #: surface of each kind, named by its kind (mutations of a kind's keys go to its own entry).

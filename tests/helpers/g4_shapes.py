@@ -61,8 +61,8 @@ def measure(gdml_path: str, gdml_names: list[str], requests: dict) -> dict:
     """For each requested solid: Geant4's area and volume, the shape read from it, Inside codes
     and SurfaceNormal at the given points; LiveSolidShape figures for the live-only ones."""
     from score4.geometry.gdml import read_gdml
+    from score4.geometry.solid_shapes import LiveSolidShape, shape_from_g4_solid
     from score4.geometry.solids import inside_codes
-    from score4.shapes import LiveSolidShape, shape_from_g4_solid
     from score4.sim.runtime import import_geant4, resolve_physics
 
     g4 = import_geant4(resolve_physics("lite"))

@@ -25,10 +25,10 @@ from pathlib import Path
 
 import numpy as np
 
+from score4.common import limits
+from score4.common.units import parse_quantity
 from score4.errors import ConfigError
 from score4.files import atomic_output, check_output_file
-from score4.inputs import limits
-from score4.inputs.units import parse_quantity
 from score4.runner.output import QUANTITY_UNITS, Results
 
 DEFAULT_BINS = 100

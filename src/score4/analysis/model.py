@@ -35,9 +35,8 @@ from typing import Any
 import numpy as np
 from pydantic import Field, ValidationError, field_validator, model_validator
 
-from score4.errors import ConfigError
-from score4.inputs.schema import ConfigPath, StrictModel, describe_validation_error
-from score4.inputs.units import (
+from score4.common.schema import ConfigPath, StrictModel, describe_validation_error
+from score4.common.units import (
     ACTIVITY_KINDS,
     DIMENSIONS,
     ENERGY,
@@ -45,7 +44,8 @@ from score4.inputs.units import (
     parse_quantity,
     split_quantity,
 )
-from score4.inputs.yamlfile import load_yaml
+from score4.common.yamlfile import load_yaml
+from score4.errors import ConfigError
 
 from .templates import SECONDS_PER_DAY, StoredTemplate, read_template
 

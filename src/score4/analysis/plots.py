@@ -18,9 +18,9 @@ import h5py
 import numpy as np
 from matplotlib.figure import Figure
 
+from score4.common.units import LENGTH
 from score4.errors import ConfigError, Score4Error
 from score4.files import atomic_output, check_output_file
-from score4.inputs.units import LENGTH
 from score4.runner.output import FORMAT as RESULTS_FORMAT
 from score4.runner.output import Results, read_results
 
@@ -477,7 +477,7 @@ def plot_depths(
         names.append(given[k] if given else name)
     check_bins(bins)
     if isinstance(dmax, str):
-        from score4.inputs.units import parse_quantity
+        from score4.common.units import parse_quantity
 
         dmax = parse_quantity(dmax, "length", "dmax")
     everything = np.concatenate(data)

@@ -46,14 +46,15 @@ from typing import Any
 import h5py
 import numpy as np
 
+from score4.common import limits
+from score4.common.units import format_readable, parse_activity, parse_quantity
 from score4.errors import ConfigError
 from score4.files import atomic_output, check_output_file, open_h5
-from score4.inputs import limits
-from score4.inputs.units import format_readable, parse_activity, parse_quantity
+from score4.inputs.response_spec import ResponseConfig
 from score4.runner.output import Results
 
 from .export import histogram_edges
-from .response import ResponseConfig, apply_response, needs_split, response_to_dict
+from .response import apply_response, needs_split, response_to_dict
 
 FORMAT = "score4-templates"
 FORMAT_VERSION = 1

@@ -14,7 +14,7 @@ from .quiet import notice
 def _seconds(text: str | None) -> float | None:
     if text is None:
         return None
-    from score4.inputs.units import parse_quantity
+    from score4.common.units import parse_quantity
 
     try:
         value = parse_quantity(text, "time", "--since-deposition")

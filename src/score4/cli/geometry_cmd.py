@@ -43,8 +43,8 @@ def geometry() -> None:
 def check(config_file: Path, points: int, max_placements: int, tolerance: str, log_path) -> None:
     """Check CONFIG.yaml's volumes for overlaps (Geant4 CheckOverlaps). Exit status 1 if any
     overlap."""
+    from score4.common.schema import input_paths, quantity
     from score4.inputs.config import allowing_overlaps, load_config
-    from score4.inputs.schema import input_paths, quantity
     from score4.runner.run_plan import plan_run
 
     from ..errors import naming_file
@@ -103,7 +103,7 @@ def _bare_gdml(path: Path) -> Path | None:
         return path
     if not path.is_file():
         return None
-    from score4.inputs.yamlfile import load_yaml
+    from score4.common.yamlfile import load_yaml
 
     data = load_yaml(path, "config")
     if isinstance(data, dict) and "targets" not in data and "source" not in data:
@@ -147,7 +147,7 @@ def list_volumes(config_file: Path, as_json: bool) -> None:
 
     from score4.inputs.config import allowing_overlaps, load_config
     from score4.world.listing import geometry_rows, geometry_text
-    from score4.world.scene import build_scene
+    from score4.world.resolve import build_scene
 
     from ..errors import naming_file
 
@@ -188,13 +188,13 @@ def list_volumes(config_file: Path, as_json: bool) -> None:
 def export_gdml(config_file: Path, out: Path, overwrite: bool, allow_overlaps: bool) -> None:
     """Write CONFIG.yaml's world with its rough layers as GDML (for remage, your own Geant4
     application, pyg4ometry). Vertices from 'score4 vertices' are in this world's frame."""
+    from score4.common.schema import input_paths
     from score4.inputs.config import allowing_overlaps, load_config
-    from score4.inputs.schema import input_paths
-    from score4.world.scene import build_scene
+    from score4.world.resolve import build_scene
 
     from ..errors import naming_file
     from ..files import check_outputs
-    from ..geometry.export_world import export_world
+    from ..sim.export_world import export_world
 
     config = load_config(config_file)
     if allow_overlaps:

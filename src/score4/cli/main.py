@@ -16,7 +16,7 @@ from pathlib import Path
 
 import click
 
-from score4.inputs.units import count_text
+from score4.common.units import count_text
 
 from .. import __version__
 from ..errors import ConfigError, RunInterrupted, Score4Error, Score4Warning, brief, naming_file
@@ -38,8 +38,8 @@ class EventCount(click.ParamType):
     name = "integer"
 
     def convert(self, value, param, ctx):
-        from score4.inputs.limits import too_many_events
-        from score4.inputs.units import parse_count
+        from score4.common.limits import too_many_events
+        from score4.common.units import parse_count
 
         try:
             number = parse_count(value)
@@ -153,7 +153,7 @@ def run(
     allow_overlaps,
 ) -> None:
     """Simulate the run described in CONFIG.yaml and write an HDF5 results file."""
-    from score4.inputs.schema import input_paths
+    from score4.common.schema import input_paths
     from score4.runner.engine import run as run_engine
     from score4.runner.output import read_results, summarize
 
@@ -166,7 +166,7 @@ def run(
     config = _load_with_overrides(config_file, events, seed, allow_overlaps)
     out = out or Path(config_file.stem + ".h5")
     if cluster is None:  # local workers: each a Geant4 process of its own
-        from score4.inputs import limits
+        from score4.common import limits
 
         limits.check_memory(
             jobs * limits.WORKER_BYTES,
@@ -222,14 +222,15 @@ def vertices(
     file (source: {vertices: FILE}) with the same seed reproduces the direct run event by event,
     and the first N rows are the vertices of a run of N events.
     """
-    from score4.inputs import limits
+    from score4.common import limits
+    from score4.common.schema import input_paths
     from score4.inputs.config import config_to_dict
-    from score4.inputs.schema import input_paths
+    from score4.runner.physics_choice import resolve_physics
+    from score4.runner.run_plan import plan_run
     from score4.source.event_blocks import BLOCK_EVENTS
-    from score4.world.scene import build_scene
 
     from ..files import check_output_file
-    from ..source.build import make_source, source_geometry
+    from ..source.build import source_geometry
     from ..source.vertex_file import write_vertex_file
 
     config = _load_with_overrides(config_file, n_events, seed, allow_overlaps)
@@ -249,8 +250,11 @@ def vertices(
     )
     n, seed = config.run.events, config.run.seed
     with naming_file(config_file):
-        scene = build_scene(config)
-        source = make_source(config, scene)
+        # the plan of a run (world, source); drawing vertices tracks nothing, so the physics is
+        # not asked of the installed data (lite needs none)
+        plan = plan_run(config, physics=resolve_physics("lite"))
+        scene, source = plan.scene, plan.source
+        assert source is not None  # a plan with its source
         sample = source.events(seed, 0, min(n, BLOCK_EVENTS))
         limits.check_memory(
             2 * n * limits.PRIMARY_BYTES * len(sample) / sample.n_events,
@@ -291,7 +295,7 @@ def vertices(
 def summary(results_file: Path, as_json: bool, bins, threshold: str) -> None:
     """Summarise a results file: events, physics, energy deposit per volume, per-volume rates
     above --threshold and the multiplicity (events with 1, 2, ... volumes above it)."""
-    from score4.inputs.units import parse_quantity
+    from score4.common.units import parse_quantity
     from score4.runner.output import read_results, summarize
 
     limit = parse_quantity(threshold, "energy", "--threshold")

@@ -55,9 +55,9 @@ def load_materials(path: Path) -> dict:
     """The ``materials:`` section of a YAML file (other sections are not read)."""
     from pydantic import TypeAdapter, ValidationError
 
-    from score4.inputs.config import MaterialSpec
-    from score4.inputs.schema import describe_validation_error
-    from score4.inputs.yamlfile import load_yaml
+    from score4.common.schema import describe_validation_error
+    from score4.common.yamlfile import load_yaml
+    from score4.inputs.materials import MaterialSpec
 
     data = load_yaml(path, "--config") or {}
     section = data.get("materials", {}) if isinstance(data, dict) else None
@@ -68,7 +68,7 @@ def load_materials(path: Path) -> dict:
         materials = adapter.validate_python({"materials": section})["materials"]
     except ValidationError as err:
         raise ConfigError(describe_validation_error(err, str(path))) from None
-    from score4.inputs.config import check_material_name
+    from score4.inputs.materials import check_material_name
 
     for name in materials:  # the same naming rules as in a run configuration
         try:
@@ -84,7 +84,7 @@ def resolve_material(name: str, density: str | None, materials: dict, names=None
     ``name`` is a ``materials:`` entry, a Geant4 NIST name, or a chemical formula when
     ``density`` is given.
     """
-    from score4.inputs.config import MaterialSpec
+    from score4.inputs.materials import MaterialSpec
 
     if density is not None:
         if name in materials or name.startswith("G4_"):
@@ -94,7 +94,7 @@ def resolve_material(name: str, density: str | None, materials: dict, names=None
             )
         from pydantic import ValidationError
 
-        from score4.inputs.schema import describe_validation_error
+        from score4.common.schema import describe_validation_error
 
         try:
             spec = MaterialSpec(formula=name, density=density)
@@ -343,7 +343,7 @@ def parse_case(ion, energy, events, srim_events, seed, thickness, angle, compare
     Raises :class:`ConfigError` (one line naming the argument) for anything out of range,
     before any simulation starts.
     """
-    from score4.inputs.schema import quantity
+    from score4.common.schema import quantity
 
     from ..ions.species import parse_ion
 
@@ -404,7 +404,7 @@ def check_model_energy(species, energy_mev: float) -> None:
 
 
 def _int(text, option: str) -> int:
-    from score4.inputs.units import parse_count
+    from score4.common.units import parse_count
 
     try:
         return parse_count(text)
@@ -413,7 +413,7 @@ def _int(text, option: str) -> int:
 
 
 def _positive_int(text, option: str) -> int:
-    from score4.inputs import limits
+    from score4.common import limits
 
     value = _int(text, option)
     if value <= 0:

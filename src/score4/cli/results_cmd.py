@@ -17,7 +17,7 @@ _SPECTRUM_ONLY = ("volume", "emin", "emax", "per_event", "errors")
 
 
 def _energy(value: str | None, option: str) -> float | None:
-    from score4.inputs.schema import quantity
+    from score4.common.schema import quantity
 
     return None if value is None else quantity(value, "energy", option)
 

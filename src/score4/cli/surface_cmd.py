@@ -19,8 +19,8 @@ from typing import Any
 
 import click
 
-from score4.inputs.schema import input_paths, quantity
-from score4.inputs.units import um
+from score4.common.schema import input_paths, quantity
+from score4.common.units import um
 
 from ..errors import ConfigError, Score4Error
 from ..files import check_output_file, check_outputs

@@ -17,7 +17,7 @@ _FILE = click.Path(dir_okay=False, path_type=Path)
 
 def _response(results, response_file: Path | None):
     """The response to apply: --response FILE, else the run configuration's ``response:``."""
-    from score4.analysis.response import ResponseConfig, load_response
+    from score4.inputs.response_spec import ResponseConfig, load_response
 
     if response_file is not None:
         return load_response(response_file)
@@ -130,7 +130,7 @@ def template(
 
 
 def _print_template_summary(ts, written: list[str]) -> None:
-    from score4.inputs.units import count_text
+    from score4.common.units import count_text
 
     act = ts.activity
     click.echo(f"wrote {', '.join(written)}")
@@ -192,7 +192,7 @@ def model(
 ) -> None:
     """Sum templates times activities into a predicted spectrum; fit the activities to data."""
     from score4.analysis.model import DataConfig, build_model, load_model, model_summary
-    from score4.inputs.schema import input_paths
+    from score4.common.schema import input_paths
 
     from ..files import check_outputs
 

@@ -129,7 +129,7 @@ def solid_record(g4, solid) -> dict:
 def _shape_dict(solid) -> dict | None:
     """The solid as :mod:`score4.shapes` plain data (None: a type it does not describe)."""
     from ..errors import ConfigError
-    from ..shapes import shape_from_g4_solid
+    from .solid_shapes import shape_from_g4_solid
 
     try:
         return shape_from_g4_solid(solid, live_fallback=False).to_dict()

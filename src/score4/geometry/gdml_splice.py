@@ -470,11 +470,11 @@ def splice(g4, config, scene, out: Path, fragment_path: Path) -> dict:
     """
     from ..inputs.materials import find_material
     from ..world.scene import CurvedRoughLayer
+    from .built import cut_for_layers, g4_solid
     from .curved import place_curved
     from .gdml import read_gdml
     from .gdml_world import _mother_frame, _target_in_mother
     from .tiling import _rotation, place_native
-    from .world import cut_for_layers, g4_solid
 
     model = scene.model
     src = Path(config.world.gdml)

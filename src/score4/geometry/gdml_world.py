@@ -26,6 +26,7 @@ from score4.world.scene import CurvedRoughLayer, FaceFrame, RoughLayer, Scene, T
 
 from ..errors import ConfigError
 from ..shapes import Transform
+from .built import BuiltGeometry, cut_for_layers, g4_solid
 from .gdml import read_gdml
 from .tiling import place_native
 
@@ -89,7 +90,8 @@ class _Unsharer:
 
 def _mother_frame(frame: FaceFrame, mother: Instance) -> FaceFrame:
     """A world face frame in the coordinates of ``mother``."""
-    return FaceFrame(mother.to_local(frame.centre), mother.rotation.T @ frame.rotation, frame.size)
+    placed = frame.transform.relative_to(mother.transform)
+    return FaceFrame(placed.translation, placed.rotation, frame.size)
 
 
 class LiveWorld:
@@ -156,15 +158,12 @@ class LiveWorld:
 def _target_in_mother(t: TargetVolume) -> Transform:
     """The target's transform in its mother's frame."""
     assert t.mother is not None
-    mother = Transform(t.mother.rotation, t.mother.translation)
-    return Transform(mother.rotation.T @ t.rotation, mother.inverse_apply(t.translation))
+    return t.transform.relative_to(t.mother.transform)
 
 
 def build_gdml_world(g4, plan: RunPlan):
     """The GDML world with the run's targets scored and its boxes and rough layers placed
     (Geant4 reads the GDML file here, the only time in a worker process)."""
-    from .world import BuiltGeometry
-
     config, scene = plan.config, plan.scene
 
     model = scene.model
@@ -185,8 +184,6 @@ def build_gdml_world(g4, plan: RunPlan):
 
 
 def _place_box(live: LiveWorld, scene: Scene, t: TargetVolume):
-    from .world import cut_for_layers, g4_solid
-
     g4 = live.g4
     assert t.mother is not None
     mlv = live.mother_lv(t.mother)
@@ -207,8 +204,6 @@ def _cut(live: LiveWorld, scene: Scene, t: TargetVolume, pv, lv) -> None:
     as the model holds them, so cutting again (a second ``into`` layer added later) gives the
     volume cut by both layers, not cut twice.
     """
-    from .world import cut_for_layers
-
     if not any(r.config.into for r in scene.layers_of(t.name)):
         return
     g4 = live.g4

@@ -4,12 +4,12 @@ One entry per scoring column in ``events/edep`` order, as contract 1 of the run 
 ``{"name", "material", "density_g_cm3", "volume_mm3", "mass_kg"}``; the rough layers' material
 counts with its target. The target's own volume is its solid's (Geant4's ``GetCubicVolume``,
 after an ``into`` cut) less its daughters'; a rough layer adds the closed patch bodies (slab +
-rough top, :func:`score4.analysis.normalisation.layer_volume`) times the cells that hold them.
+rough top, :func:`score4.runner.normalisation.layer_volume`) times the cells that hold them.
 """
 
 from __future__ import annotations
 
-from score4.analysis.normalisation import layer_volume
+from score4.runner.normalisation import layer_volume
 from score4.world.scene import Scene
 
 

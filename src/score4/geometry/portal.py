@@ -74,7 +74,7 @@ class PortalMap:
         px, py = self.layer.patch_size
         r = self.rotation
         corner_cell = np.array([-lu / 2 + px / 2, -lv / 2 + py / 2, self.layer.thickness / 2])
-        a = self.subworld_centres - self.layer.frame.centre - r @ corner_cell
+        a = self.subworld_centres - self.layer.frame.to_world(corner_cell)
         return a, r[:, 0] * px, r[:, 1] * py
 
     def translations(self, i: np.ndarray, j: np.ndarray) -> np.ndarray:

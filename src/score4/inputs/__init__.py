@@ -1,1 +1,1 @@
-"""What a user writes: run configuration, schema, units, limits, material names (no Geant4)."""
+"""What a user writes: the run configuration, its materials and its response section (no Geant4)."""

@@ -8,8 +8,6 @@ that names the file, the key path, the value and the rule.
 
 from __future__ import annotations
 
-import difflib
-import math
 import re
 from pathlib import Path
 from typing import Annotated, ClassVar, Literal
@@ -24,18 +22,12 @@ from pydantic import (
     model_validator,
 )
 
-from score4.analysis.response import ResponseConfig
-from score4.errors import ConfigError
-from score4.surface.patchmap import DEFAULT_TILES
-from score4.surface.spec import MeasuredSurfaceSpec, RandomSurfaceSpec, SpikeSurfaceSpec
-
-from . import limits
-from .schema import (
+from score4.common import limits
+from score4.common.schema import (
     GIVEN,
     ConfigPath,
     NonNegativeLength,
     NonNegativeTime,
-    PositiveDensity,
     PositiveEnergy,
     PositiveLength,
     Size3,
@@ -44,8 +36,14 @@ from .schema import (
     check_option_keys,
     describe_validation_error,
 )
-from .units import length_text
-from .yamlfile import load_yaml
+from score4.common.units import length_text
+from score4.common.yamlfile import load_yaml
+from score4.errors import ConfigError
+from score4.surface.patchmap import DEFAULT_TILES
+from score4.surface.spec import MeasuredSurfaceSpec, RandomSurfaceSpec, SpikeSurfaceSpec
+
+from .materials import MaterialSpec, check_material_name
+from .response_spec import ResponseConfig
 
 FACES = ("+x", "-x", "+y", "-y", "+z", "-z")
 
@@ -146,87 +144,6 @@ Target = Annotated[
     Annotated[BoxVolume, Tag("box-target")] | Annotated[GdmlVolume, Tag("gdml-target")],
     Discriminator(_target_tag),
 ]
-
-
-class MaterialSpec(StrictModel):
-    """A material that is not in Geant4's NIST database (an entry under ``materials:``).
-
-    Give ``formula`` (``TeO2``, ``Li2MoO4``; decimal counts allowed) or ``elements``
-    (symbol: fraction, by ``atoms`` (default) or by ``mass``), and the ``density`` with its unit
-    ("6.02 g/cm3", "3070 kg/m3"; stored in g/cm3). Geant4 builds it from its NIST elements
-    (natural isotopic composition); TRIM comparisons use the same atoms and density.
-    """
-
-    used_only_with: ClassVar[dict[str, object]] = {"fractions": ("elements", GIVEN)}
-
-    formula: str | None = None
-    elements: dict[str, float] | None = None
-    fractions: Literal["atoms", "mass"] | None = None  # of elements; None means atoms
-    density: PositiveDensity
-
-    @model_validator(mode="after")
-    def _one_description(self) -> MaterialSpec:
-        from score4.ions.composition import Composition
-        from score4.ions.species import Z_OF
-
-        if (self.formula is None) == (self.elements is None):
-            raise ValueError(
-                "give either formula (e.g. TeO2) or elements (e.g. {Cu: 0.99, Sn: 0.01}), "
-                + ("not both" if self.formula is not None else "none is given")
-            )
-        if self.formula is not None:
-            if self.fractions is not None:
-                raise ValueError("fractions belongs to elements; a formula counts atoms")
-            composition = Composition.from_formula(self.formula, self.formula, self.density)
-            symbols = [s for s, _ in composition.atoms]
-        else:
-            elements = self.elements or {}
-            symbols = list(elements)
-            if not symbols:
-                raise ValueError("elements: give at least one element")
-            bad = {s: f for s, f in elements.items() if not (f > 0 and math.isfinite(f))}
-            if bad:
-                raise ValueError(f"elements: fractions must be finite numbers > 0, got {bad}")
-        for symbol in symbols:
-            if symbol not in Z_OF:
-                close = difflib.get_close_matches(symbol, list(Z_OF), n=3, cutoff=0.4)
-                hint = f" (closest: {', '.join(close)})" if close else ""
-                raise ValueError(f"unknown element symbol {symbol!r}{hint}")
-        return self
-
-    def composition(self, name: str):
-        """The :class:`~score4.ions.composition.Composition` (atom fractions, g/cm3) of the entry.
-
-        Mass fractions are turned into atom fractions with SRIM's natural atomic weights
-        (lunasrim); Geant4 materials use Geant4's own
-        (:func:`score4.inputs.materials.build_material`).
-        """
-        from score4.ions.composition import Composition
-
-        if self.formula is not None:
-            return Composition.from_formula(name, self.formula, self.density)
-        atoms = dict(self.elements or {})
-        if self.fractions == "mass":
-            from lunasrim import data_files
-
-            from score4.ions.species import Z_OF
-
-            atoms = {s: w / data_files.atomdata(Z_OF[s]).natural_weight for s, w in atoms.items()}
-        return Composition(name, tuple(atoms.items()), self.density)
-
-
-def check_material_name(name: str) -> None:
-    """Raise ValueError unless ``name`` may name a ``materials:`` entry."""
-    if name.startswith("G4_"):
-        raise ValueError(
-            f"{name!r}: names starting with G4_ belong to Geant4's NIST database; "
-            f"use a NIST name directly or give this material another name"
-        )
-    if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_\-+.]*", name):
-        raise ValueError(
-            f"{name!r}: a material name starts with a letter or _ and holds letters, "
-            f"digits and _ - + ."
-        )
 
 
 class WorldConfig(StrictModel):

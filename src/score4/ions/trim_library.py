@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from score4.runner.progress import duration_text
+from score4.common.units import duration_text
 
 from .. import files
 from ..errors import Score4Error

@@ -12,8 +12,8 @@ from typing import Any
 
 import numpy as np
 
+from score4.common.units import parse_quantity
 from score4.inputs.config import parse_config
-from score4.inputs.units import parse_quantity
 
 from ..errors import ConfigError
 from .collect import Helper, State, collect

@@ -9,8 +9,8 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from score4.inputs.units import ENERGY as SCORE4_ENERGY
-from score4.inputs.units import LENGTH as SCORE4_LENGTH
+from score4.common.units import ENERGY as SCORE4_ENERGY
+from score4.common.units import LENGTH as SCORE4_LENGTH
 
 from ..errors import ConfigError
 

@@ -27,13 +27,13 @@ _Dumper.add_representer(
 
 def render_yaml(config: dict, report: ImportReport) -> str:
     """The configuration as YAML under a comment header: source macro, date, the report."""
-    from .. import __version__
+    from ..version import package_version
 
     now = dt.datetime.now().astimezone().isoformat(timespec="seconds")
     header = [
         "score4 run configuration converted from an original SCoRe4 macro by 'score4 import-macro'",
         f"source macro: {report.macro.resolve()}",
-        f"date:         {now} (score4 {__version__})",
+        f"date:         {now} (score4 {package_version()})",
         "",
         "Lengths: the original's setters take HALF-lengths; score4 uses FULL lengths everywhere,",
         "so every length below is twice the macro's, and a pyramid is 2 x setSpikeMeanHeight high",

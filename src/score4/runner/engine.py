@@ -50,18 +50,19 @@ from typing import Any, Protocol
 import h5py
 import numpy as np
 
-from score4 import __version__, errors
-from score4.analysis.normalisation import run_normalisation
-from score4.inputs import limits
+from score4 import errors
+from score4.common import limits
+from score4.common.schema import input_paths
 from score4.inputs.config import RunConfig, config_to_dict
-from score4.inputs.schema import input_paths
 from score4.runner.conservation import check_chunk_files
+from score4.runner.normalisation import run_normalisation
 from score4.runner.output import chunk_counts, merge_chunks
 from score4.runner.progress import progress_bar
 from score4.runner.run_plan import RunPlan, plan_run
 from score4.runner.run_record import RunRecord
 from score4.runner.seeds import BLOCK_EVENTS
 from score4.sim.worker import Chunk, WorkerSpec, chunk_path, worker_main
+from score4.version import package_version
 from score4.world.walls import warn_rays_in_walls
 
 from ..errors import ConfigError, Score4Error
@@ -398,7 +399,7 @@ def run_record(plan: RunPlan, job: Execution) -> RunRecord:
         trim_library_seed=info.get("trim_library_seed"),  # runs with a TRIM replay
         rough_shares={layer.name: layer.rough_share for layer in scene.layers},
         gdml_files=scene.model.files if scene.model is not None else [],
-        score4_version=__version__,
+        score4_version=package_version(),
         geant4_pybind_version=version("geant4_pybind"),
         geant4_version=info.get("geant4_version", ""),
         **_run_size(plan, files),
@@ -417,7 +418,7 @@ def run_record(plan: RunPlan, job: Execution) -> RunRecord:
         **_counts(files, plan),
         # contract 1, what the events stand for: volumes (one per scoring column: name, material,
         # density, volume, mass; from the worker's Geant4 world), the sampled area or mass, the
-        # decays (score4.analysis.normalisation)
+        # decays (score4.runner.normalisation)
         normalisation=run_normalisation(config, scene, volumes=info.get("volumes") or None),
     )
 

@@ -39,9 +39,9 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from score4.common.units import parse_quantity
 from score4.errors import Score4Error
 from score4.files import atomic_h5, open_h5
-from score4.inputs.units import parse_quantity
 from score4.source.primaries import Primaries, atom_histories
 from score4.source.vertex_file import read_primaries_table, write_primaries_table
 
@@ -360,7 +360,7 @@ def summarize(
     stored_max = hist_cfg.get("max")  # stored with its unit ("6.0 MeV")
     stored_max = parse_quantity(stored_max, "energy") if stored_max is not None else None
     emax = emax or stored_max or float(results.primary_energy.max(initial=0.0)) or 1.0
-    from score4.inputs import limits
+    from score4.common import limits
 
     limits.check_bins(int(bins), "--bins", n_1d=max(1, len(results.edep)))
     edges = np.linspace(0.0, emax, bins + 1)

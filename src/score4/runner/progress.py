@@ -21,19 +21,11 @@ import time
 from collections.abc import Callable
 from typing import Any, TextIO
 
+from score4.common.units import duration_text
+
 #: Plain lines: one per this fraction of the work, and at least one per this many seconds.
 STEP_FRACTION = 0.1
 STEP_SECONDS = 60.0
-
-
-def duration_text(seconds: float) -> str:
-    """``"1 h 2 min"``, ``"3 min 5 s"``, ``"12 s"``."""
-    s = round(max(seconds, 0.0))
-    if s >= 3600:
-        return f"{s // 3600} h {s % 3600 // 60} min"
-    if s >= 60:
-        return f"{s // 60} min {s % 60} s"
-    return f"{s} s"
 
 
 class PlainProgress:

@@ -29,7 +29,7 @@ from score4.errors import Score4Warning
 from score4.inputs.config import OutputConfig, RunConfig, config_to_dict
 
 if TYPE_CHECKING:
-    from score4.sim.runtime import PhysicsChoice
+    from score4.runner.physics_choice import PhysicsChoice
     from score4.source.build import BulkSource, FileSource, SampledSource
     from score4.world.gdml_model import GeometryModel
     from score4.world.scene import Scene
@@ -138,9 +138,9 @@ def plan_run(
     A GDML world's files are checked and its volume model read (from score4's cache) once.
     ``source=False`` leaves the source out (a plan of the world, for the geometry commands).
     """
-    from score4.sim.runtime import resolve_physics
+    from score4.runner.physics_choice import resolve_physics
     from score4.source.build import make_source, needs_radioactive_decay
-    from score4.world.scene import build_scene
+    from score4.world.resolve import build_scene
 
     seed = config.run.seed if seed is None else int(seed)
     if physics is None:
@@ -174,7 +174,7 @@ def _rebuild(
     if held is not None and (*_identity(held), held.source is not None) == key:
         return held
     from score4.source.build import make_source
-    from score4.world.scene import build_scene
+    from score4.world.resolve import build_scene
 
     with warnings.catch_warnings():  # the parent showed them when it planned
         warnings.simplefilter("ignore", Score4Warning)

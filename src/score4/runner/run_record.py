@@ -23,7 +23,7 @@ class RunRecord:
     ``untracked_gamma_*`` (lite physics), ``intercepted_ions`` and ``reinjected_ions`` (the
     heavy-ion TRIM replay), ``implantation`` (chains with implantation). ``normalisation`` is
     written as its own top-level entries (``volumes``, ``source``, ``simulated_decays``, ...:
-    :func:`score4.analysis.normalisation.run_normalisation`).
+    :func:`score4.runner.normalisation.run_normalisation`).
     """
 
     config: dict[str, Any]  # the whole configuration, quantities with units

@@ -1,8 +1,9 @@
 """Geant4 solids in numpy: named faces, exact areas and volumes, inside, area-uniform sampling.
 
 Pure numpy (never imports Geant4). Shapes are frozen dataclasses holding Geant4's own
-parameters (mm, rad, half-lengths as Geant4 stores them); :func:`shape_from_g4_solid` reads
-them from a live Geant4 solid, :func:`shape_from_dict` from plain data.
+parameters (mm, rad, half-lengths as Geant4 stores them); :func:`shape_from_dict` makes them
+from plain data, :func:`score4.geometry.solid_shapes.shape_from_g4_solid` (worker side) from a
+live Geant4 solid.
 """
 
 from __future__ import annotations
@@ -10,7 +11,7 @@ from __future__ import annotations
 from .base import INSIDE, OUTSIDE, SURFACE, FaceSampler, Shape, ShapeSample
 from .boolean import BooleanShape
 from .csg import G4Box, G4Cons, G4Orb, G4Sphere, G4Trd, G4Tubs
-from .g4read import LiveSolidShape, shape_from_dict, shape_from_g4_solid
+from .from_data import shape_from_dict
 from .mesh_shape import MeshShape
 from .placed import PlacedShape
 from .revolved import G4GenericPolycone, G4GenericPolyhedra, G4Polycone, G4Polyhedra
@@ -32,12 +33,10 @@ __all__ = [
     "G4Sphere",
     "G4Trd",
     "G4Tubs",
-    "LiveSolidShape",
     "MeshShape",
     "PlacedShape",
     "Shape",
     "ShapeSample",
     "Transform",
     "shape_from_dict",
-    "shape_from_g4_solid",
 ]

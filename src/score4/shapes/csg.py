@@ -31,23 +31,8 @@ from numpy.typing import ArrayLike
 from ..errors import ConfigError
 from .base import Patch, PlaneTriangles, Shape, SphereSector, SphereZone, as_points
 from .faces import Face, PlaneFace
-from .revolved import RevolvedShape, _wedge_distance
+from .revolved import TWO_PI, RevolvedShape, _wedge_distance, normalise_phi
 from .transform import Transform
-
-TWO_PI = 2 * math.pi
-ANGLE_TOLERANCE = 1e-9  # Geant4's kAngTolerance, rad
-
-
-def normalise_phi(sphi: float, dphi: float, what: str) -> tuple[float, float]:
-    """Geant4's rule for phi ranges (G4Tubs::CheckPhiAngles and friends)."""
-    if not dphi > 0:
-        raise ConfigError(f"{what}: the phi range must be > 0, got {dphi:g} rad")
-    if dphi >= TWO_PI - 0.5 * ANGLE_TOLERANCE:
-        return 0.0, TWO_PI
-    sphi = TWO_PI - math.fmod(abs(sphi), TWO_PI) if sphi < 0 else math.fmod(sphi, TWO_PI)
-    if sphi + dphi > TWO_PI:
-        sphi -= TWO_PI
-    return sphi, float(dphi)
 
 
 def _positive(what: str, **values: float) -> None:

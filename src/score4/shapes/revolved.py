@@ -31,6 +31,19 @@ from . import _plane
 from .base import Patch, PlaneTriangles, Revolved, Shape, as_points
 
 TWO_PI = 2 * math.pi
+ANGLE_TOLERANCE = 1e-9  # Geant4's kAngTolerance, rad
+
+
+def normalise_phi(sphi: float, dphi: float, what: str) -> tuple[float, float]:
+    """Geant4's rule for phi ranges (G4Tubs::CheckPhiAngles and friends)."""
+    if not dphi > 0:
+        raise ConfigError(f"{what}: the phi range must be > 0, got {dphi:g} rad")
+    if dphi >= TWO_PI - 0.5 * ANGLE_TOLERANCE:
+        return 0.0, TWO_PI
+    sphi = TWO_PI - math.fmod(abs(sphi), TWO_PI) if sphi < 0 else math.fmod(sphi, TWO_PI)
+    if sphi + dphi > TWO_PI:
+        sphi -= TWO_PI
+    return sphi, float(dphi)
 
 
 def _wedge_distance(points: np.ndarray, sphi: float, dphi: float) -> np.ndarray:
@@ -273,8 +286,6 @@ def _planes_contour(
 
 
 def _set_phi(obj: Any, what: str) -> None:
-    from .csg import normalise_phi
-
     s, d = normalise_phi(obj.sphi, obj.dphi, what)
     object.__setattr__(obj, "sphi", s)
     object.__setattr__(obj, "dphi", d)

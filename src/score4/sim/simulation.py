@@ -19,7 +19,8 @@ from score4.runner.seeds import library_trim_seed
 
 from ..elements import split_ion_name
 from ..errors import ConfigError, RunCancelled, Score4Error
-from ..geometry.world import BuiltGeometry, build_world, check_materials
+from ..geometry.built import BuiltGeometry
+from ..geometry.world import build_world, check_materials
 from ..source.primaries import Primaries
 from .feed import EventFeed, replay_row
 from .heavy_ions import IonFate

@@ -19,7 +19,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from score4.inputs import limits
+from score4.common import limits
 from score4.inputs.config import DecayChainConfig, DepthConfig, RunConfig, RunUnit, SourceConfig
 from score4.world.scene import CurvedRoughLayer, RoughLayer, Scene, TargetVolume, face_frame
 
@@ -46,7 +46,13 @@ from .profiles import (
     UniformProfile,
     ZeroDepth,
 )
-from .sampling import CurvedRemainderSampler, SurfaceSample, SurfaceSampler
+from .sampling import (
+    CurvedRemainderSampler,
+    RingSurfaceSampler,
+    SurfaceSample,
+    SurfaceSampler,
+    TiledSurfaceSampler,
+)
 from .shape_sampling import BulkSampler, CombinedSurfaceSampler, ShapeSurfaceSampler
 from .vertex_file import read_vertex_file, vertex_file_config
 
@@ -198,6 +204,25 @@ def target_shape(scene: Scene, volume: str) -> tuple[Shape, Transform]:
     return target.shape, target.transform
 
 
+def layer_sampler(layer: RoughLayer):
+    """Area-uniform points on the rough tops of ``layer``, in world coordinates: a
+    :class:`~score4.source.sampling.TiledSurfaceSampler` on a flat face, a
+    :class:`~score4.source.sampling.RingSurfaceSampler` on the bent tops of a curved one."""
+    if isinstance(layer, CurvedRoughLayer):
+        return RingSurfaceSampler(layer)
+    px, py = layer.patch_size
+    shift = np.array([px / 2, py / 2, 0.0])  # the sampler's patches span [0, px] x [0, py]
+    variants = [
+        SurfaceSampler(vertices=s.top_mesh.vertices + shift, faces=s.top_mesh.faces)
+        for s in layer.variants
+    ]
+    lu, lv = layer.frame.size
+    origin = layer.frame.to_world(np.array([-lu / 2, -lv / 2, layer.base_thickness]))
+    return TiledSurfaceSampler(
+        variants, layer.cell_variants.T, (px, py), origin, layer.frame.rotation
+    )
+
+
 def shape_face_sampler(scene: Scene, volume: str, face: str | list[str]):
     """Area-uniform sampler on faces of a target, each rough face on its mesh (a round face
     partly rough: its rough cells and the flat rest, :class:`FlatRemainderSampler`)."""
@@ -205,14 +230,14 @@ def shape_face_sampler(scene: Scene, volume: str, face: str | list[str]):
     rough: dict[str, Any] = {}
     for layer in scene.layers_of(volume):
         if layer.mask is None:
-            rough[layer.config.face_name] = layer.sampler()
+            rough[layer.config.face_name] = layer_sampler(layer)
         else:
             rest = (
                 CurvedRemainderSampler(layer)
                 if isinstance(layer, CurvedRoughLayer)
                 else FlatRemainderSampler(layer)
             )
-            parts = [layer.sampler(), rest]
+            parts = [layer_sampler(layer), rest]
             rough[layer.config.face_name] = CombinedSurfaceSampler([p for p in parts if p.area > 0])
     return ShapeSurfaceSampler(shape, face, transform, rough)
 
@@ -414,7 +439,9 @@ def source_from_config(src: SourceConfig, scene: Scene) -> SampledSource | BulkS
     surface: SurfaceSampler | ShapeSurfaceSampler | object
     if isinstance(face, str) and is_rectangle_face(target, face):  # a box face: rough or flat
         layer = scene.layer(volume, face)
-        surface = layer.sampler() if layer is not None else flat_face_sampler(scene, volume, face)
+        surface = (
+            layer_sampler(layer) if layer is not None else flat_face_sampler(scene, volume, face)
+        )
     else:
         try:
             surface = shape_face_sampler(scene, volume, face)
@@ -485,7 +512,7 @@ def source_geometry(config: RunConfig, scene: Scene) -> dict:
         frame = face_frame(target, ref.face)
         layer = scene.layer(target.name, ref.face)
         projected = frame.size[0] * frame.size[1]
-        area = layer.sampler().area if layer is not None else projected
+        area = layer_sampler(layer).area if layer is not None else projected
         names, error = [ref.face], 0.0
     else:
         sampler = shape_face_sampler(scene, target.name, ref.face)

@@ -30,7 +30,7 @@ from typing import Any, Literal, Protocol, cast, get_args
 import numpy as np
 from numpy.typing import ArrayLike
 
-from score4.inputs.units import parse_quantity
+from score4.common.units import parse_quantity
 
 from ..elements import ELEMENTS, nuclide_za, split_nuclide
 from ..errors import ConfigError

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
-from score4.inputs.units import length_text, parse_quantity
+from score4.common.units import length_text, parse_quantity
 
 from ..errors import ConfigError
 from .sampling import DiscreteSampler, PiecewiseLinear, read_table

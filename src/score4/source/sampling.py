@@ -28,8 +28,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from score4.inputs import limits
-from score4.inputs.units import DIMENSIONS
+from score4.common import limits
+from score4.common.units import DIMENSIONS
 
 from ..errors import ConfigError, brief
 

@@ -37,8 +37,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from score4.inputs import limits
-from score4.inputs.units import DIMENSIONS
+from score4.common import limits
+from score4.common.units import DIMENSIONS
 
 from ..elements import split_ion_name
 from ..errors import ConfigError, brief

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from score4.inputs import limits
+from score4.common import limits
 
 from ..errors import ConfigError
 

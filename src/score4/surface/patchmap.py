@@ -42,8 +42,8 @@ from typing import Any
 
 import numpy as np
 
-from score4.inputs import limits
-from score4.inputs.units import parse_quantity
+from score4.common import limits
+from score4.common.units import parse_quantity
 
 from ..errors import ConfigError, Score4Warning
 

@@ -14,7 +14,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
 
-from score4.inputs.units import um
+from score4.common.units import um
 
 from ..files import atomic_output
 from .metrology import areal_parameters, mesh_parameters

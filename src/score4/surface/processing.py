@@ -11,8 +11,8 @@ import math
 
 import numpy as np
 
-from score4.inputs import limits
-from score4.inputs.units import length_text, parse_quantity
+from score4.common import limits
+from score4.common.units import length_text, parse_quantity
 
 from ..errors import ConfigError
 from .heightmap import HeightMap

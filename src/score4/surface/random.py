@@ -56,7 +56,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from score4.inputs.units import length_text, parse_quantity
+from score4.common.units import length_text, parse_quantity
 
 from ..errors import ConfigError
 from .heightmap import HeightMap

@@ -52,7 +52,7 @@ from pathlib import Path
 
 import numpy as np
 
-from score4.inputs.units import LENGTH, parse_quantity
+from score4.common.units import LENGTH, parse_quantity
 
 from ..errors import ConfigError
 from .heightmap import HeightMap

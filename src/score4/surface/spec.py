@@ -23,8 +23,8 @@ from typing import Annotated, ClassVar, Literal
 import numpy as np
 from pydantic import Field, TypeAdapter, ValidationError, model_validator
 
-from score4.inputs import limits
-from score4.inputs.schema import (
+from score4.common import limits
+from score4.common.schema import (
     ABOVE_ZERO,
     ConfigPath,
     Length,
@@ -33,7 +33,7 @@ from score4.inputs.schema import (
     StrictModel,
     describe_validation_error,
 )
-from score4.inputs.yamlfile import load_yaml
+from score4.common.yamlfile import load_yaml
 
 from ..errors import ConfigError
 from .heightmap import HeightMap

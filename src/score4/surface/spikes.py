@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from score4.inputs.units import length_text, parse_quantity
+from score4.common.units import length_text, parse_quantity
 
 from ..errors import ConfigError
 from .heightmap import HeightMap

@@ -22,7 +22,7 @@ from functools import cached_property
 
 import numpy as np
 
-from score4.inputs.units import length_text
+from score4.common.units import length_text
 
 from ..errors import ConfigError
 from ..files import atomic_output

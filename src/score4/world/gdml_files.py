@@ -4,7 +4,7 @@
   SYSTEM "file">`` and ``<file name="..."/>``) are well-formed XML, naming file and line of the
   first fault (Geant4's reader, without validation, stops silently on broken XML);
 * :func:`load_geometry_model`: the :class:`~score4.world.gdml_model.GeometryModel` of a GDML
-  world, read by Geant4 in a subprocess (``python -m score4.geometry.gdml_reader``) and kept in
+  world, read by Geant4 in a subprocess (``python -m score4.sim.gdml_reader``) and kept in
   score4's cache folder keyed by the content of all those files. The subprocess catches what
   Geant4 aborts on (a missing volume reference, an unreadable file) and reports Geant4's own
   message in one line.
@@ -197,7 +197,7 @@ def _read_in_subprocess(path: Path, parameter: str) -> dict:
     with tempfile.TemporaryDirectory(prefix="score4-gdml-") as tmp:
         out = Path(tmp) / "model.json"
         proc = subprocess.run(
-            [sys.executable, "-m", "score4.geometry.gdml_reader", str(path), str(out)],
+            [sys.executable, "-m", "score4.sim.gdml_reader", str(path), str(out)],
             capture_output=True,
             text=True,
             env={**os.environ, "PYTHONUNBUFFERED": "1"},

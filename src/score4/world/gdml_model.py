@@ -26,6 +26,7 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import ConfigError
+from ..shapes import Transform
 
 #: Format of the stored model (bump when its contents change: cached models are made again).
 # 4: with the GDML's own overlaps (gdml_reader.own_overlaps); 5: with detector metadata
@@ -94,11 +95,16 @@ class Instance:
     def depth(self) -> int:
         return len(self.path)
 
+    @cached_property
+    def transform(self) -> Transform:
+        """The volume's frame -> the world."""
+        return Transform(self.rotation, self.translation)
+
     def to_world(self, local: np.ndarray) -> np.ndarray:
-        return self.translation + np.asarray(local, float) @ self.rotation.T
+        return self.transform.apply(local)
 
     def to_local(self, world: np.ndarray) -> np.ndarray:
-        return (np.asarray(world, float) - self.translation) @ self.rotation
+        return self.transform.inverse_apply(world)
 
 
 @dataclass

@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
+
+from score4.shapes import Transform
 
 #: Boxes that share less than this (mm) do not overlap (touching faces are fine).
 TOLERANCE = 1e-9
@@ -18,9 +21,14 @@ class OrientedBox:
     rotation: np.ndarray
     half: np.ndarray
 
+    @cached_property
+    def transform(self) -> Transform:
+        """The box's own frame (centre, axes) -> the world."""
+        return Transform(self.rotation, self.centre)
+
     def corners(self) -> np.ndarray:
         signs = np.array([[a, b, c] for a in (-1, 1) for b in (-1, 1) for c in (-1, 1)], float)
-        return self.centre + (signs * self.half) @ self.rotation.T
+        return self.transform.apply(signs * self.half)
 
     def aabb(self) -> tuple[np.ndarray, np.ndarray]:
         c = self.corners()
@@ -30,11 +38,11 @@ class OrientedBox:
         """Points of an ``n`` x ``n`` x 3 grid filling the box (corners and edges included)."""
         s = np.linspace(-1, 1, n)
         q = np.stack(np.meshgrid(s, s, np.linspace(-1, 1, 3), indexing="ij"), -1).reshape(-1, 3)
-        return self.centre + (q * self.half) @ self.rotation.T
+        return self.transform.apply(q * self.half)
 
     def contains(self, points: np.ndarray, tol: float = TOLERANCE) -> np.ndarray:
         """True for points strictly inside the box (more than ``tol`` from its faces)."""
-        q = (np.asarray(points, float).reshape(-1, 3) - self.centre) @ self.rotation
+        q = self.transform.inverse_apply(np.asarray(points, float).reshape(-1, 3))
         return np.asarray((np.abs(q) < self.half - tol).all(axis=1))
 
     def overlaps(self, other: OrientedBox, tol: float = TOLERANCE) -> bool:

@@ -27,16 +27,14 @@ from functools import cached_property
 import numpy as np
 
 from score4.errors import ConfigError
-from score4.inputs import limits
-from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig, SurfaceFile
+from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig
 from score4.shapes import G4Box as G4BoxShape
 from score4.shapes import G4GenericPolycone, PlacedShape, Shape, Transform, shape_from_dict
 from score4.shapes.faces import AnnulusFace, Face, PlaneFace, RevolvedFace
 from score4.shapes.hpge import hpge_groups, is_hpge_metadata
 from score4.surface.block_cut import check_patch
 from score4.surface.patchmap import PatchMap, make_patch_map
-from score4.surface.spec import Surface, build_surface
-from score4.surface.store import load_surface
+from score4.surface.spec import Surface
 
 from .curved import (
     BentVariant,
@@ -77,15 +75,20 @@ class FaceFrame:
     rotation: np.ndarray
     size: tuple[float, float]
 
+    @cached_property
+    def transform(self) -> Transform:
+        """Face-local coordinates (u, v, n) -> world."""
+        return Transform(self.rotation, self.centre)
+
     @property
     def normal(self) -> np.ndarray:
         return self.rotation[:, 2]
 
     def to_world(self, local: np.ndarray) -> np.ndarray:
-        return self.centre + np.asarray(local, float) @ self.rotation.T
+        return self.transform.apply(local)
 
     def to_local(self, world: np.ndarray) -> np.ndarray:
-        return (np.asarray(world, float) - self.centre) @ self.rotation
+        return self.transform.inverse_apply(world)
 
     def shifted(self, distance: float) -> FaceFrame:
         """The same frame moved by ``distance`` along its normal."""
@@ -221,10 +224,8 @@ def face_frame(target: TargetVolume | BoxVolume, face: str) -> FaceFrame:
             f"{target.column}: face {face} of a {target.solid}{cut}; rough faces are "
             f"{SUPPORTED_FACES}"
         )
-    local = geometry.frame
-    return FaceFrame(
-        target.to_world(local.translation), target.rotation @ local.rotation, geometry.size
-    )
+    placed = target.transform @ geometry.frame
+    return FaceFrame(placed.translation, placed.rotation, geometry.size)
 
 
 def box_target(box: BoxVolume, entry: int, mother: Instance | None = None) -> TargetVolume:
@@ -330,22 +331,6 @@ class RoughLayer:
     def cell_centres(self) -> np.ndarray:
         """(ny, nx, 2) face-local centres of the cells."""
         return self.patch_map.cell_centres()
-
-    def sampler(self):
-        """A :class:`~score4.source.sampling.TiledSurfaceSampler` on the rough tops."""
-        from score4.source.sampling import SurfaceSampler, TiledSurfaceSampler
-
-        px, py = self.patch_size
-        shift = np.array([px / 2, py / 2, 0.0])  # the sampler's patches span [0, px] x [0, py]
-        variants = [
-            SurfaceSampler(vertices=s.top_mesh.vertices + shift, faces=s.top_mesh.faces)
-            for s in self.variants
-        ]
-        lu, lv = self.frame.size
-        origin = self.frame.to_world(np.array([-lu / 2, -lv / 2, self.base_thickness]))
-        return TiledSurfaceSampler(
-            variants, self.cell_variants.T, (px, py), origin, self.frame.rotation
-        )
 
     def contains(self, points: np.ndarray) -> np.ndarray:
         """True for world points inside a patch body (on its boundary within the tolerance)."""
@@ -454,13 +439,6 @@ class CurvedRoughLayer(RoughLayer):
             for i, phi in enumerate(self.ring_layout.cell_phi(j)):
                 out.append((j, i, int(grid[j, i]), float(phi)))
         return out
-
-    def sampler(self):
-        """Area-uniform points on the bent tops (world coordinates), see
-        :class:`~score4.source.sampling.RingSurfaceSampler`."""
-        from score4.source.sampling import RingSurfaceSampler
-
-        return RingSurfaceSampler(self)
 
     def contains(self, points: np.ndarray) -> np.ndarray:
         """True for world points inside a patch body or on it (within the boundary tolerance):
@@ -675,18 +653,6 @@ def target_obb(target: TargetVolume) -> OrientedBox:
     """The target's bounding box as an oriented box in the world."""
     lo, hi = np.asarray(target.lo, float), np.asarray(target.hi, float)
     return OrientedBox(target.to_world((lo + hi) / 2), target.rotation, (hi - lo) / 2)
-
-
-def _load(name: str, description) -> Surface:
-    where = f"surfaces.{name}"
-    try:
-        return (
-            load_surface(description.file)
-            if isinstance(description, SurfaceFile)
-            else build_surface(description)
-        )
-    except ConfigError as err:
-        raise ConfigError(f"{where}: {err}") from None
 
 
 def _same_size(a: float, b: float) -> bool:
@@ -1001,12 +967,8 @@ def make_curved_layer(
     ny, nx = len(layout.v), int(layout.count.max())
     patch_map = _rough_patch_map((nx * size[0], ny * size[1]), size, rough, f"{where} ({what})")
     mask = np.arange(nx)[None, :] < layout.count[:, None]
-    local = face.frame
-    frame = FaceFrame(
-        target.to_world(local.translation),
-        target.rotation @ local.rotation,
-        (nx * size[0], ny * size[1]),
-    )
+    placed = target.transform @ face.frame
+    frame = FaceFrame(placed.translation, placed.rotation, (nx * size[0], ny * size[1]))
     layer = CurvedRoughLayer(
         target, rough, frame, names, variants, patch_map, mask, float(face.area), layout
     )
@@ -1025,63 +987,6 @@ def make_curved_layer(
     limit = gap_limit(max(s.max_height for s in variants))
     check_radius(layout, layer.gap, limit, where, target.name, rough.face_name)
     return layer
-
-
-def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
-    """Build every surface the targets use and the patch map of every rough face.
-
-    A GDML world's volume model is read (and cached) here unless given.
-    """
-    if model is None and config.world.gdml is not None:
-        from .gdml_files import load_geometry_model
-
-        model = load_geometry_model(config.world.gdml)
-    if model is not None and model.overlaps and not config.world.allow_overlaps:
-        first = model.overlaps[0]
-        more = f" (and {len(model.overlaps) - 1} more pair(s))" if len(model.overlaps) > 1 else ""
-        raise ConfigError(
-            f"world.gdml: in {model.source}, volumes {first['volumes'][0]!r} and "
-            f"{first['volumes'][1]!r} overlap by {first['by']}{more} (Geant4 CheckOverlaps); "
-            "particles in an overlap are tracked wrongly: fix the GDML file, or run anyway "
-            "with --allow-overlaps (world: {allow_overlaps: true})"
-        )
-    used = {v.surface for t in config.targets for r in t.rough for v in r.variant_list}
-    surfaces = {
-        name: _load(name, config.surfaces[name]) for name in config.surfaces if name in used
-    }
-    targets = resolve_targets(config, model)
-    scene = Scene(config, surfaces, targets=targets, model=model)
-    for target in targets:
-        seen: dict[str, int] = {}
-        for j, rough in enumerate(target.config.rough):
-            where = f"targets.{target.entry}.rough.{j}"
-            try:
-                faces = rough_faces(target, rough)
-            except ConfigError as err:
-                raise ConfigError(f"{where}: {err}") from None
-            for face in faces:
-                if face in seen:
-                    raise ConfigError(
-                        f"{where}: face {face} of {target.name!r} is rough already "
-                        f"(targets.{target.entry}.rough.{seen[face]})"
-                    )
-                seen[face] = j
-                one = rough if rough.face == face else rough.model_copy(update={"face": face})
-                scene.layers.append(make_layer(surfaces, target, j, one))
-    from .clearance import check_clearance
-
-    check_clearance(scene)
-    far = float(np.max(scene.world_half))
-    if np.isfinite(far) and far > limits.MAX_WORLD_EXTENT:
-        raise ConfigError(
-            f"targets: the world reaches {far / 1e3:.4g} m from the origin (targets, rough layers "
-            "and world.margin); score4's limit is 1 km (move the targets towards the origin)"
-        )
-    if any(t.config.activeness for t in scene.targets):
-        from .activeness import volume_activeness
-
-        volume_activeness(scene)  # faces the shape lacks: refused before anything is written
-    return scene
 
 
 def _rough_patch_map(extent, size, rough: RoughFace, context: str) -> PatchMap:

@@ -5,8 +5,8 @@ PyYAML's ``safe_load`` keeps the last of two equal keys silently (``energy: 5.3 
 lines and the file. Keys brought in by a merge key (``<<: *defaults``) may still be
 overridden, as YAML intends.
 
-It also bounds what a document may expand to (:data:`score4.inputs.limits.MAX_YAML_DEPTH` levels of
-nesting, :data:`score4.inputs.limits.MAX_YAML_VALUES` values once aliases are expanded, no alias
+It also bounds what a document may expand to (:data:`score4.common.limits.MAX_YAML_DEPTH` levels of
+nesting, :data:`score4.common.limits.MAX_YAML_VALUES` values once aliases are expanded, no alias
 that contains itself), before anything is built from it: a 1 kB file of nested aliases ("billion
 laughs") would otherwise expand to 10^9 values and hang whatever reads it, and 5000 nested
 brackets would overflow Python's recursion.

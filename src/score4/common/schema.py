@@ -35,7 +35,7 @@ from .units import format_readable, parse_count, parse_quantity
 
 _INTERNAL_UNIT = {"length": "mm", "energy": "MeV", "density": "g/cm3", "time": "ns"}
 
-# The limits themselves, with their reasons, live in score4.inputs.limits (one place for
+# The limits themselves, with their reasons, live in score4.common.limits (one place for
 # all of them).
 MAX_LENGTH, MIN_LENGTH, MAX_ENERGY = limits.MAX_LENGTH, limits.MIN_LENGTH, limits.MAX_ENERGY
 
@@ -111,9 +111,9 @@ PositiveLength = Annotated[float, _quantity("length", positive=True), _with_unit
 NonNegativeLength = Annotated[float, _quantity("length", non_negative=True), _with_unit("length")]
 PositiveEnergy = Annotated[float, _quantity("energy", positive=True), _with_unit("energy")]
 NonNegativeEnergy = Annotated[float, _quantity("energy", non_negative=True), _with_unit("energy")]
-# times are kept in ns (Geant4's internal unit; see score4.inputs.units.TIME)
+# times are kept in ns (Geant4's internal unit; see score4.common.units.TIME)
 NonNegativeTime = Annotated[float, _quantity("time", non_negative=True), _with_unit("time")]
-# densities are kept in g/cm3 (see score4.inputs.units.DENSITY)
+# densities are kept in g/cm3 (see score4.common.units.DENSITY)
 PositiveDensity = Annotated[float, _quantity("density", positive=True), _with_unit("density")]
 Vector3 = tuple[Length, Length, Length]
 Size3 = tuple[PositiveLength, PositiveLength, PositiveLength]

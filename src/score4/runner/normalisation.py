@@ -47,7 +47,8 @@ import numpy as np
 
 from score4.errors import ConfigError
 from score4.inputs.config import RunConfig
-from score4.world.scene import RoughLayer, Scene, build_scene
+from score4.world.resolve import build_scene
+from score4.world.scene import RoughLayer, Scene
 
 #: Version of the normalisation entries; a results file without ``simulated_decays`` predates them.
 NORMALISATION_VERSION = 1
@@ -145,7 +146,7 @@ def parse_stored_config(data: dict, origin: str) -> RunConfig:
     """A configuration stored with a file (``config_to_dict``: every key filled in), validated."""
     from pydantic import ValidationError
 
-    from score4.inputs.schema import describe_validation_error
+    from score4.common.schema import describe_validation_error
 
     try:
         return RunConfig.model_validate(data, context={"base_dir": None, "stored": True})

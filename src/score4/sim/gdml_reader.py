@@ -1,4 +1,4 @@
-"""``python -m score4.geometry.gdml_reader FILE.gdml OUT.json``: the volume model of a GDML world.
+"""``python -m score4.sim.gdml_reader FILE.gdml OUT.json``: the volume model of a GDML world.
 
 Run as a subprocess by :func:`score4.world.gdml_files.load_geometry_model`, so that the
 process reading the configuration never imports Geant4, and so that Geant4 aborting on a broken
@@ -16,9 +16,9 @@ from pathlib import Path
 
 def main(argv: list[str]) -> int:
     path, out = Path(argv[0]), Path(argv[1])
-    from ..sim.runtime import import_geant4, resolve_physics
+    from ..geometry.gdml import extract_model, read_gdml
     from ..world.gdml_files import detector_metadata
-    from .gdml import extract_model, read_gdml
+    from .runtime import import_geant4, resolve_physics
 
     g4 = import_geant4(resolve_physics("lite"))  # reading geometry needs no physics data
     _parser, world = read_gdml(g4, path)
@@ -43,8 +43,8 @@ _OVERLAP = re.compile(
 def own_overlaps(world) -> list[dict]:
     """The overlaps of a GDML world's own volumes (Geant4 ``CheckOverlaps``, each logical
     volume's daughters once): ``[{"volumes": [a, b], "by": "1 mm"}]``, each pair once."""
-    from ..sim.runtime import redirect_native_output
-    from .check import check_placements
+    from ..geometry.check import check_placements
+    from .runtime import redirect_native_output
 
     with tempfile.TemporaryDirectory(prefix="score4-overlaps-") as folder:
         log = Path(folder) / "geant4.log"

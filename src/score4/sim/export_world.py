@@ -87,9 +87,9 @@ def unique_names(world) -> int:
 def _write(config: RunConfig, out: str) -> dict:
     from score4.runner.run_plan import plan_run
 
-    from ..sim.runtime import import_geant4, redirect_native_output, resolve_physics
-    from .gdml import drop_nist_state
-    from .world import build_world
+    from ..geometry.gdml import drop_nist_state
+    from ..geometry.world import build_world
+    from .runtime import import_geant4, redirect_native_output, resolve_physics
 
     lite = resolve_physics("lite")  # geometry and NIST materials need no data
     g4 = import_geant4(lite)
@@ -104,7 +104,7 @@ def _write(config: RunConfig, out: str) -> dict:
         tmp.unlink()  # Geant4's writer refuses to overwrite
         log = Path(folder) / "geant4.log"
         if scene.model is not None:  # a GDML world: the user's file, layers added
-            from .gdml_splice import splice
+            from ..geometry.gdml_splice import splice
 
             with redirect_native_output(log):
                 info = splice(g4, config, scene, tmp, Path(folder) / "additions.gdml")

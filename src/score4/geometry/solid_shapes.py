@@ -1,7 +1,9 @@
-"""Shapes from live Geant4 solids and from plain data.
+"""Shapes from live Geant4 solids (worker side: the GDML reader subprocess, a program using
+:mod:`score4.api`).
 
-:func:`shape_from_g4_solid` reads a solid through geant4_pybind's getters (duck-typed: this
-module never imports Geant4). What it gives per solid type:
+:func:`shape_from_g4_solid` reads a solid through geant4_pybind's getters (duck-typed); only a
+:class:`LiveSolidShape`, the fallback for solids no dataclass describes, imports geant4_pybind to
+ask the live solid. What it gives per solid type:
 
 =====================================  ==============================================
 G4Box, G4Trd, G4Tubs, G4Cons,          the dataclass of the same name
@@ -27,30 +29,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import ConfigError
-from .base import INSIDE, Shape, ShapeSample, as_points
-from .boolean import BooleanShape
-from .csg import G4Box, G4Cons, G4Orb, G4Sphere, G4Trd, G4Tubs
-from .mesh_shape import MeshShape
-from .placed import PlacedShape
-from .revolved import G4GenericPolycone, G4GenericPolyhedra, G4Polycone, G4Polyhedra
-from .transform import Transform
-
-_DATACLASSES: dict[str, Any] = {
-    c.kind: c
-    for c in (
-        G4Box,
-        G4Trd,
-        G4Tubs,
-        G4Cons,
-        G4Sphere,
-        G4Orb,
-        G4Polycone,
-        G4GenericPolycone,
-        G4Polyhedra,
-        G4GenericPolyhedra,
-    )
-}
+from score4.errors import ConfigError
+from score4.shapes.base import INSIDE, Shape, ShapeSample, as_points
+from score4.shapes.boolean import BooleanShape
+from score4.shapes.csg import G4Box, G4Cons, G4Orb, G4Sphere, G4Trd, G4Tubs
+from score4.shapes.from_data import SHAPE_TYPES
+from score4.shapes.mesh_shape import MeshShape
+from score4.shapes.placed import PlacedShape
+from score4.shapes.revolved import G4GenericPolycone, G4GenericPolyhedra
+from score4.shapes.transform import Transform
 
 
 def _rotation(r: Any) -> np.ndarray:
@@ -186,7 +173,7 @@ def shape_from_g4_solid(solid: Any, *, live_fallback: bool = True) -> Shape:
             return LiveSolidShape(solid)
         supported = ", ".join(
             [
-                *_DATACLASSES,
+                *SHAPE_TYPES,
                 "G4TessellatedSolid",
                 "G4ExtrudedSolid",
                 "booleans",
@@ -197,31 +184,6 @@ def shape_from_g4_solid(solid: Any, *, live_fallback: bool = True) -> Shape:
         raise ConfigError(
             f"solid {solid.GetName()!r}: type {err} has no numpy shape; supported: {supported}"
         ) from None
-
-
-def shape_from_dict(data: dict[str, Any]) -> Shape:
-    """Inverse of ``shape.to_dict()``."""
-    data = dict(data)
-    kind = data.pop("type", None)
-    if kind in _DATACLASSES:
-        return _DATACLASSES[kind](**data)
-    if kind == "MeshShape":
-        return MeshShape(
-            np.array(data["triangles"]), np.array(data["facet_faces"]), tuple(data["face_names"])
-        )
-    if kind == "BooleanShape":
-        return BooleanShape(
-            data["operation"],
-            shape_from_dict(data["first"]),
-            shape_from_dict(data["second"]),
-            Transform(**data["transform"]),
-        )
-    if kind == "PlacedShape":
-        return PlacedShape(shape_from_dict(data["shape"]), Transform(**data["transform"]))
-    raise ConfigError(
-        f"shape: unknown type {kind!r}; known: {', '.join(_DATACLASSES)}, "
-        "MeshShape, BooleanShape, PlacedShape"
-    )
 
 
 # --------------------------------------------------------------------------------------------

@@ -246,3 +246,13 @@ def count_text(n: float, word: str, plural: str | None = None) -> str:
 def length_text(value_mm: float) -> str:
     """A length in mm as readable text (:func:`format_readable`)."""
     return format_readable(value_mm, "length")
+
+
+def duration_text(seconds: float) -> str:
+    """``"1 h 2 min"``, ``"3 min 5 s"``, ``"12 s"``."""
+    s = round(max(seconds, 0.0))
+    if s >= 3600:
+        return f"{s // 3600} h {s % 3600 // 60} min"
+    if s >= 60:
+        return f"{s // 60} min {s % 60} s"
+    return f"{s} s"

@@ -1,7 +1,7 @@
 """What Geant4, numpy and this machine can hold, checked before anything is built.
 
 Every limit of score4's inputs lives here with the reason for its value: the configuration
-schema (:mod:`score4.inputs.schema`), the file readers and the builders all check against these, so
+schema (:mod:`score4.common.schema`), the file readers and the builders all check against these, so
 a value that would abort Geant4, exhaust the memory or make no physical sense is refused as one
 line naming the parameter, the value and the rule, before any work starts.
 

@@ -1,0 +1,64 @@
+"""What a built world hands the simulation (:class:`BuiltGeometry`), and the Geant4 solids of
+the shapes score4 makes itself (configuration boxes, volumes cut for ``into`` layers); used by
+the builders of both a configured world (:mod:`score4.geometry.world`) and a GDML world
+(:mod:`score4.geometry.gdml_world`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from score4.world.scene import Scene, TargetVolume
+
+from ..errors import ConfigError
+from ..shapes import G4Box as G4BoxShape
+from ..shapes import G4Tubs as G4TubsShape
+from ..shapes import Shape
+from .portal import PortalGeometry
+
+
+@dataclass
+class BuiltGeometry:
+    """What the simulation needs from a built geometry.
+
+    ``scoring`` maps a volume name to the logical volumes whose energy deposits count for
+    it (a crystal and the rough patches on its face are scored together). ``keep`` holds
+    Python references to every Geant4 object, which Geant4 does not own from Python.
+    """
+
+    world: object
+    scoring: dict[str, list] = field(default_factory=dict)
+    keep: list = field(default_factory=list)
+    portals: list[PortalGeometry] = field(default_factory=list)
+
+
+def g4_solid(g4, shape: Shape, name: str):
+    """The Geant4 solid of a :mod:`score4.shapes` box or tube (the shapes score4 makes itself:
+    boxes of the configuration and volumes cut for ``into`` layers)."""
+    if isinstance(shape, G4BoxShape):
+        return g4.G4Box(name, shape.dx, shape.dy, shape.dz)
+    if isinstance(shape, G4TubsShape):
+        return g4.G4Tubs(name, shape.rmin, shape.rmax, shape.dz, shape.sphi, shape.dphi)
+    raise ConfigError(f"{name}: score4 builds no Geant4 solid of a {shape.kind}")
+
+
+def cut_for_layers(g4, scene: Scene, target: TargetVolume, solid, name: str):
+    """The solid of ``target`` less the slabs its ``into: true`` layers take, and the shift (in
+    the volume's own frame) of its placement.
+
+    The target's shape is made thinner behind each such face (:meth:`Shape.trimmed`: a box
+    along the face normal, a tube along z) and moved back by half the cut, so its outer faces
+    stay. Returns ``(solid, shift, objects to keep alive)``.
+    """
+    layers = [r for r in scene.layers_of(target.name) if r.config.into]
+    if not layers:
+        return solid, np.zeros(3), []
+    cuts: dict[str, float] = {layer.config.face_name: layer.thickness for layer in layers}
+    trimmed = None if target.shape is None else target.shape.trimmed(cuts)
+    if trimmed is None:
+        raise ConfigError(
+            f"{target.name}: into: true needs a G4Box or G4Tubs (end faces), not a {target.solid}"
+        )
+    cut = g4_solid(g4, trimmed[0], name)
+    return cut, trimmed[1], [cut]
