@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from .base import INSIDE, OUTSIDE, SURFACE, FaceSampler, Shape, ShapeSample
 from .boolean import BooleanShape
-from .csg import G4Box, G4Cons, G4Orb, G4Sphere, G4Trd, G4Tubs
+from .csg import G4Box, G4Cons, G4Orb, G4Sphere, G4Trap, G4Trd, G4Tubs
 from .g4read import LiveSolidShape, shape_from_dict, shape_from_g4_solid
 from .mesh_shape import MeshShape
 from .placed import PlacedShape
@@ -30,6 +30,7 @@ __all__ = [
     "G4Polycone",
     "G4Polyhedra",
     "G4Sphere",
+    "G4Trap",
     "G4Trd",
     "G4Tubs",
     "LiveSolidShape",
