@@ -4,9 +4,10 @@
 
 Generates the table of docs/geometry.md (check ``curved-gaps``): for faces of the solids of
 real detectors (a BEGe-like cylinder wall, a thin cylinder, a bore, a cone, an ICPC-like polycone
-taper) and three surfaces, the layer score4 builds (numpy only, no Geant4) and its measured gap:
-the largest distance between the patches' base and the true surface (score4.world.curved: the floor
-facets are chords of the circle, the patch is lifted by the deepest one), against the limit
+taper, a sphere and a spherical cavity) and three surfaces, the layer score4 builds (numpy only,
+no Geant4) and its measured gap: the largest distance between the patches' base and the true
+surface (score4.world.curved: the floor facets are chords of the circle, the patch is lifted by
+the deepest one), against the limit
 max(1 % of the roughness height, 0.1 um).
 
 With ``--facets``, a second table (check ``facet-gaps``) does the same for flat faces of any
@@ -26,7 +27,9 @@ from score4.inputs.config import GdmlVolume, RoughFace
 from score4.shapes import (
     G4Cons,
     G4GenericPolycone,
+    G4Orb,
     G4Polyhedra,
+    G4Sphere,
     G4Trap,
     G4Trd,
     G4Tubs,
@@ -61,6 +64,8 @@ FACES: list[tuple[str, Shape, str]] = [
         G4GenericPolycone(0.0, 2 * np.pi, [0, 38, 38, 30, 0], [0, 0, 60, 80, 80]),
         "seg_2",
     ),
+    ("G4Orb r 10 mm", G4Orb(10.0), "outer"),
+    ("G4Sphere cavity r 5 mm", G4Sphere(5.0, 40.0, 0.0, 2 * np.pi, 0.5, 2.0), "inner"),
 ]
 
 
@@ -108,7 +113,7 @@ def main() -> None:
             t = target(shape, face)
             rough = t.config.rough[0]  # type: ignore[union-attr]
             layer = make_layer({"s": surface}, t, 0, rough)
-            r = float(layer.ring_layout.radius.min())  # type: ignore[attr-defined]
+            r = layer.ring_layout.min_radius  # type: ignore[attr-defined]
             limit = gap_limit(surface.max_height)
             gap = layer.gap  # type: ignore[attr-defined]
             print(f"| {label} {face} | {r:.4g} | {name} | {gap * 1e3:.2g} | {limit * 1e3:.2g} |")

@@ -27,7 +27,9 @@ import numpy as np
 from ..errors import ConfigError
 
 #: Format of the stored model (bump when its contents change: cached models are made again).
-MODEL_FORMAT = 6  # 4: the GDML's own overlaps (gdml_reader.own_overlaps); 6: G4Trap described (5: s7-hpge)
+MODEL_FORMAT = (
+    6  # 4: the GDML's own overlaps (gdml_reader.own_overlaps); 6: G4Trap described (5: s7-hpge)
+)
 
 #: Most instances the tree is expanded to (a world of nested tiling holds millions of cells).
 MAX_INSTANCES = 200_000

@@ -31,7 +31,7 @@ from score4.inputs import limits
 from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig, SurfaceFile
 from score4.shapes import G4Box as G4BoxShape
 from score4.shapes import PlacedShape, Shape, Transform, shape_from_dict
-from score4.shapes.faces import AnnulusFace, Face, PlaneFace, RevolvedFace
+from score4.shapes.faces import AnnulusFace, Face, PlaneFace, RevolvedFace, SphereFace
 from score4.surface.block_cut import check_patch
 from score4.surface.patchmap import PatchMap, make_patch_map
 from score4.surface.spec import Surface, build_surface
@@ -408,6 +408,21 @@ class CurvedRoughLayer(RoughLayer):
         return "tessellated"  # bent closed bodies
 
     @property
+    def rough_share(self) -> float:
+        """Share of the face's area covered by patch cells (on a sphere: the exact areas of the
+        cells' bands, which differ from px x py)."""
+        lay = self.ring_layout
+        face = lay.face
+        if not isinstance(face, SphereFace):
+            return super().rough_share
+        py = self.patch_size[1]
+        covered = sum(
+            face.band_area(lay.v[j] - py / 2, lay.v[j] + py / 2, float(lay.count[j] * lay.step[j]))
+            for j in range(len(lay.v))
+        )
+        return float(covered / self.face_area)
+
+    @property
     def ring_layout(self) -> RingLayout:
         assert self.layout is not None
         return self.layout
@@ -419,7 +434,8 @@ class CurvedRoughLayer(RoughLayer):
     def _flat(self, k: int) -> tuple[np.ndarray, np.ndarray, int]:
         key = ("flat", k)
         if key not in self._cache:
-            self._cache[key] = flat_body(self.variants[k], self.base_thickness)
+            sphere = isinstance(self.ring_layout.face, SphereFace)
+            self._cache[key] = flat_body(self.variants[k], self.base_thickness, sphere)
         return self._cache[key]
 
     @cached_property
@@ -427,8 +443,12 @@ class CurvedRoughLayer(RoughLayer):
         return {}
 
     def ring_solid_key(self, j: int) -> float:
-        """Rings of equal radius and slope share their bent solids (all rings of a cylinder)."""
-        return float(np.round(self.ring_layout.radius[j], 12))
+        """Rings of equal radius and slope share their bent solids (all rings of a cylinder);
+        on a sphere every ring has its own (the key is its position along the meridian)."""
+        lay = self.ring_layout
+        if isinstance(lay.face, SphereFace):
+            return float(np.round(lay.v[j], 12)) + 1e6  # apart from any radius
+        return float(np.round(lay.radius[j], 12))
 
     def bent(self, k: int, j: int) -> BentVariant:
         """Variant ``k`` bent onto ring ``j`` (cached per ring radius)."""
@@ -482,7 +502,7 @@ class CurvedRoughLayer(RoughLayer):
                 )
                 turned[:, 2] -= np.array([lay.ring_z(int(a)) for a in j[sel]])
                 u = np.arctan2(turned[:, 1], turned[:, 0])
-                direction = lay.face.normal(u, 0.0)
+                direction = lay.face.normal(u, lay.v[ring])
                 inside[sel] = self.bent(int(k), ring).contains(
                     turned, direction, BOUNDARY_TOLERANCE
                 )
@@ -922,7 +942,7 @@ def make_layer(
         geometry = target_face(target, rough.face)
     except ConfigError as err:
         raise ConfigError(f"{where}: {err}") from None
-    if isinstance(geometry, RevolvedFace):
+    if isinstance(geometry, RevolvedFace | SphereFace):
         return make_curved_layer(target, rough, geometry, names, variants, size, where)
     if (
         isinstance(geometry, PlaneFace)
@@ -980,7 +1000,7 @@ def make_layer(
 def make_curved_layer(
     target: TargetVolume,
     rough: RoughFace,
-    face: RevolvedFace,
+    face: RevolvedFace | SphereFace,
     names: list[str],
     variants: list[Surface],
     size: tuple[float, float],
@@ -1006,7 +1026,8 @@ def make_curved_layer(
         )
     reserve = 1.05 * (rough.base_thickness + max(s.max_height for s in variants)) + 1e-4
     row_gap = 0.0
-    if abs(face.nrz[1]) > 1e-12:  # a cone: rings apart by twice the walls' chord sagitta
+    if isinstance(face, SphereFace) or abs(face.nrz[1]) > 1e-12:  # rings apart by twice the
+        # walls' chord sagitta (a cone, a sphere: neighbouring rings bend with other radii)
         probe = RingLayout.make(face, size, reserve)
         if len(probe.v):
             sag = max(top_sagitta(probe, flat_body(v, rough.base_thickness)) for v in variants)
@@ -1030,14 +1051,17 @@ def make_curved_layer(
         target, rough, frame, names, variants, patch_map, mask, float(face.area), layout
     )
     lows, highs, tops = [], [], []
+    rows = {0, ny - 1}
+    if isinstance(face, SphereFace):  # the rings' shapes differ all along the meridian
+        rows = {int(j) for j in np.flatnonzero(layout.count > 0)}
     for k in range(len(variants)):
         flat = layer._flat(k)
-        for j in {0, ny - 1}:
+        for j in rows:
             lo, hi = measure_floor(layout, flat, rough.base_thickness, j)
             lows.append(lo)
             highs.append(hi)
         tops.append(top_sagitta(layout, flat))
-    convex = face.nrz[0] > 0
+    convex = face.sign > 0 if isinstance(face, SphereFace) else face.nrz[0] > 0
     layer.lift = max(-min(lows), 0.0)
     layer.gap = max(highs) + layer.lift
     layer.top_margin = 0.0 if convex else max(tops)
