@@ -22,7 +22,7 @@ from score4.source.build import make_source, source_geometry
 from score4.source.vertex_file import write_vertex_file
 from score4.world.scene import PolygonRoughLayer, build_scene
 
-from _spawn import run_in_spawned_process
+from helpers.spawn import run_in_spawned_process
 
 HERE = Path(__file__).parent
 PYRAMIDS = {"kind": "spikes", "nx": 10, "ny": 10, "width": "10 um", "height": "10 um"}
@@ -233,9 +233,9 @@ def test_geantino_paths_agree_with_an_independent_ray_trace(gdml, scene, tmp_pat
 
 def _call(name, *args):
     sys.path.insert(0, str(HERE))
-    import _g4_gdml_world
+    from helpers import g4_gdml_world
 
-    return getattr(_g4_gdml_world, name)(*args)
+    return getattr(g4_gdml_world, name)(*args)
 
 
 def test_exported_world_gives_the_same_geantino_paths(gdml, scene, tmp_path):

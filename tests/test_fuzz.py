@@ -1,12 +1,12 @@
 """Fuzz suite: generated run descriptions and command lines never crash score4.
 
-The strategies (tests/_fuzz.py) derive from the schema and the click command tree, so keys and
-options added later are fuzzed without new test code. Asserted for every example: the input is
-accepted or refused with one :class:`~score4.errors.Score4Error` line (CLI: exit 0 or 2, one
-``score4: error:`` line), no other exception, no traceback, no hang (an alarm), nothing written
-on an error, no input changed. The default run is small and derandomized (the same examples
-every time); ``make test-deep`` runs many more, and command lines in subprocesses (``run``,
-``range`` and ``geometry check`` start Geant4, which pytest itself never imports).
+The strategies (tests/helpers/fuzz.py) derive from the schema and the click command tree, so
+keys and options added later are fuzzed without new test code. Asserted for every example: the
+input is accepted or refused with one :class:`~score4.errors.Score4Error` line (CLI: exit 0 or
+2, one ``score4: error:`` line), no other exception, no traceback, no hang (an alarm), nothing
+written on an error, no input changed. The default run is small and derandomized (the same
+examples every time); ``make test-deep`` runs many more, and command lines in subprocesses
+(``run``, ``range`` and ``geometry check`` start Geant4, which pytest itself never imports).
 """
 
 from __future__ import annotations
@@ -25,8 +25,6 @@ from pathlib import Path
 
 import pytest
 import yaml
-from _bad_inputs import results_file, text_grid
-from _fuzz import VALID, command_line, commands, documents
 from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
 
@@ -37,6 +35,9 @@ from score4.inputs.config import load_config
 from score4.inputs.units import parse_count
 from score4.source.build import make_source
 from score4.world.scene import build_scene
+
+from helpers.bad_inputs import results_file, text_grid
+from helpers.fuzz import VALID, command_line, commands, documents
 
 ROOT = Path(__file__).resolve().parents[1]
 # hypothesis warns when it prints a failing example with a 10 kB string (one of the hostile

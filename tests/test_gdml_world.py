@@ -1,6 +1,6 @@
 """GDML worlds (issue 17): the volume model, names and copies, transforms, materials by Z, rough
 faces on GDML volumes, bad input. The GDML files are written at test time by pyg4ometry (with a
-legend-pygeom-hpges detector) and by Geant4's own writer (tests/_gdml_worlds.py)."""
+legend-pygeom-hpges detector) and by Geant4's own writer (tests/helpers/gdml_worlds.py)."""
 
 from __future__ import annotations
 
@@ -22,18 +22,18 @@ from score4.inputs.config import parse_config
 from score4.world.gdml_files import _read_in_subprocess, load_geometry_model
 from score4.world.scene import build_scene
 
-from _spawn import run_in_spawned_process
+from helpers.spawn import run_in_spawned_process
 
 HERE = Path(__file__).parent
 sys.path.insert(0, str(HERE))
-import _gdml_worlds as W  # noqa: E402
+from helpers import gdml_worlds as W  # noqa: E402
 
 
 def _call(name, *args):
     sys.path.insert(0, str(HERE))
-    import _g4_gdml_world
+    from helpers import g4_gdml_world
 
-    return getattr(_g4_gdml_world, name)(*args)
+    return getattr(g4_gdml_world, name)(*args)
 
 
 def spawned(name, *args):
@@ -42,7 +42,7 @@ def spawned(name, *args):
 
 @pytest.fixture(scope="module")
 def worlds() -> dict[str, Path]:
-    """The worlds of tests/_gdml_worlds.py, written once and kept in score4's cache folder."""
+    """The worlds of tests/helpers/gdml_worlds.py, written once, kept in score4's cache folder."""
     return {
         "pyg4ometry": W.cached("pyg4", W.pyg4ometry_world),
         "geant4": W.cached("g4", W.geant4_world),

@@ -2,7 +2,7 @@
 
 Geant4's radioactive decay (``source.nuclide``) needs data sets absent here, so the lite-mode
 test makes such an ion another way: a 103.144 keV Pb-206 pushed onto Geant4's stack as a
-secondary during each event of a proton run (``tests/_g4_heavy_ions.py``). Geant4 runs in
+secondary during each event of a proton run (``tests/helpers/g4_heavy_ions.py``). Geant4 runs in
 spawned processes.
 """
 
@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from _spawn import run_in_spawned_process
+from helpers.spawn import run_in_spawned_process
 
 pytest.importorskip("lunasrim")
 
@@ -27,9 +27,9 @@ def _call(function, *args):
     from pathlib import Path
 
     sys.path.insert(0, str(Path(__file__).parent))
-    import _g4_heavy_ions
+    from helpers import g4_heavy_ions
 
-    return getattr(_g4_heavy_ions, function)(*args)
+    return getattr(g4_heavy_ions, function)(*args)
 
 
 @pytest.fixture(scope="module")

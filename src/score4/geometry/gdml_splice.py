@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError, Score4Error
+from ..files import gdml_include_refs
 from ..shapes import Transform
 from ..world.scene import CurvedRoughLayer
 
@@ -390,16 +391,11 @@ def relink(text: str, source: Path, target: Path) -> str:
         except ValueError:  # another drive
             return str(full)
 
-    text = re.sub(
-        r"(<!ENTITY\s+\S+\s+SYSTEM\s+\")([^\"]+)(\")",
-        lambda m: m.group(1) + moved(m.group(2)) + m.group(3),
-        text,
-    )
-    return re.sub(
-        r"(<file\b[^>]*?\bname\s*=\s*\")([^\"]+)(\")",
-        lambda m: m.group(1) + moved(m.group(2)) + m.group(3),
-        text,
-    )
+    parts, at = [], 0
+    for _, name, (start, end) in gdml_include_refs(text):
+        parts += [text[at:start], moved(name)]
+        at = end
+    return "".join(parts) + text[at:]
 
 
 def insert_section(text: str, tag: str, content: str, before: tuple[str, ...]) -> str:

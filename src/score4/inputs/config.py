@@ -326,12 +326,12 @@ class RoughFace(StrictModel):
 
     @property
     def variant_list(self) -> list[PatchVariant]:
-        assert self.variants is not None or self.surface is not None  # the validator's rule
-        return (
-            self.variants
-            if self.variants is not None
-            else [PatchVariant(surface=self.surface, density=1.0)]
-        )
+        if self.variants is not None:
+            return self.variants
+        assert self.surface is not None  # the validator's rule: surface or variants
+        # built without validation (the values are valid): a worker process then never builds
+        # the models' validators
+        return [PatchVariant.model_construct(surface=self.surface, density=1.0)]
 
 
 def auto_solid(description) -> str | None:
@@ -496,7 +496,7 @@ class SourceConfig(StrictModel):
     direction: Literal[
         "isotropic", "inward", "outward", "cosine_inward", "cosine_outward", "normal"
     ] = "isotropic"
-    depth: DepthConfig = DepthConfig()
+    depth: DepthConfig = Field(default_factory=DepthConfig)
     # Keep vertices inside the material of the face's target (a shift along the normal can leave
     # a thin spike); a material name confines to that material instead; false turns it off.
     confine: bool | str = True
@@ -599,7 +599,7 @@ class HistogramConfig(StrictModel):
 
 
 class OutputConfig(StrictModel):
-    histogram: HistogramConfig = HistogramConfig()
+    histogram: HistogramConfig = Field(default_factory=HistogramConfig)
     track_length: bool = False  # also score the summed charged/neutral track length per volume (mm)
     # also score each volume's deposit split by the class of the particle that made it: alpha,
     # electron (e-, e+, gamma) and ion (the rest: nuclear recoils); the detector response's
@@ -613,14 +613,14 @@ class OutputConfig(StrictModel):
 class RunConfig(StrictModel):
     """A complete run description."""
 
-    physics: PhysicsConfig = PhysicsConfig()
+    physics: PhysicsConfig = Field(default_factory=PhysicsConfig)
     materials: dict[str, MaterialSpec] = {}  # noqa: RUF012 pydantic copies defaults
-    world: WorldConfig = WorldConfig()
+    world: WorldConfig = Field(default_factory=WorldConfig)
     surfaces: dict[str, SurfaceDescription] = {}  # noqa: RUF012 pydantic copies defaults
     targets: list[Target] = Field(min_length=1)
     source: SourceConfig
-    run: RunSettings = RunSettings()
-    output: OutputConfig = OutputConfig()
+    run: RunSettings = Field(default_factory=RunSettings)
+    output: OutputConfig = Field(default_factory=OutputConfig)
     # the detector response 'score4 template' applies (not used by the run itself)
     response: ResponseConfig | None = None
 

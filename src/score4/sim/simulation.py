@@ -7,7 +7,6 @@ does not depend on which worker ran it, what ran before it or how the run was ch
 
 from __future__ import annotations
 
-import re
 import threading
 from collections.abc import Callable
 from pathlib import Path
@@ -18,6 +17,7 @@ import numpy as np
 from score4.runner.run_plan import RunPlan
 from score4.runner.seeds import library_trim_seed
 
+from ..elements import split_ion_name
 from ..errors import ConfigError, RunCancelled, Score4Error
 from ..geometry.world import BuiltGeometry, build_world, check_materials
 from ..source.primaries import Primaries
@@ -38,8 +38,6 @@ from .steps import StepRecorder, active_deposits, wants_steps
 if TYPE_CHECKING:
     from .heavy_ions import HeavyIonTransport
 
-_ION = re.compile(r"^([A-Z][a-z]?)-?(\d{1,3})$")
-
 
 def resolve_particle(g4, name: str, parameter: str = "source.particle"):
     """G4ParticleDefinition for a Geant4 particle name or an ion such as "Pb206"."""
@@ -47,10 +45,10 @@ def resolve_particle(g4, name: str, parameter: str = "source.particle"):
     particle = table.FindParticle(name)
     if particle is not None:
         return particle
-    match = _ION.match(name)
-    if match:
-        z = g4.G4NistManager.Instance().GetZ(match.group(1))
-        a = int(match.group(2))
+    ion = split_ion_name(name)
+    if ion:
+        z = g4.G4NistManager.Instance().GetZ(ion[0])
+        a = ion[1]
         if z > 0 and a >= z:
             ion = g4.G4IonTable.GetIonTable().GetIon(int(z), a, 0.0)
             if ion is not None:
@@ -315,7 +313,9 @@ class Simulation:
             else np.zeros(len(primaries), dtype=bool)
         )
         self._skip = self._trim | self._untracked_rows
-        self._feed = EventFeed(self.g4, primaries, definitions, g4_seed, self._skip, positions)
+        self._feed = EventFeed(
+            self.g4, primaries, definitions, g4_seed, self._skip, positions, own_gun=True
+        )
         self.untracked_gamma = np.bincount(
             primaries.event[self._untracked_rows],
             weights=primaries.energy[self._untracked_rows],
@@ -616,7 +616,7 @@ class Simulation:
         self._null_action = self.g4.G4UserTrackingAction()
         return self._null_action
 
-    def _g4_rows_of_event(self, k: int) -> np.ndarray:
+    def _g4_rows_of_event(self, k: int) -> list[int]:
         return self._feed.geant4_rows(k)
 
     def _check_stop(self) -> None:

@@ -17,12 +17,16 @@ layer's patch) is at distance 0: rough faces are not yet measured by their own s
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import ConfigError
-from ..shapes.base import PlaneTriangles, Revolved
+from ..shapes.base import PlaneTriangles, Revolved, Shape
 from ..shapes.placed import PlacedShape
+
+if TYPE_CHECKING:  # world.scene imports this module when it needs activeness
+    from .scene import Scene, TargetVolume
 
 
 def weight(d: np.ndarray, fccd: float, dlf: float) -> np.ndarray:
@@ -108,17 +112,17 @@ class VolumeActiveness:
     """The activeness entries of one scored volume: (faces, fccd mm, dlf) each; ``shape`` in
     the volume's frame, ``target`` maps world points there."""
 
-    shape: object
+    shape: Shape
     entries: list[tuple[tuple[str, ...], float, float]]
-    target: object
+    target: TargetVolume
 
     def weights(self, points: np.ndarray) -> np.ndarray:
         """The activeness at world ``points``."""
-        p = self.target.to_local(np.asarray(points, float).reshape(-1, 3))  # type: ignore[attr-defined]
+        p = self.target.to_local(np.asarray(points, float).reshape(-1, 3))
         w = np.ones(len(p))
         if not len(p):
             return w
-        outside = self.shape.signed_distance(p) > 1e-9  # type: ignore[attr-defined]
+        outside = self.shape.signed_distance(p) > 1e-9
         for faces, fccd, dlf in self.entries:
             d = face_distance(self.shape, faces, p)
             d[outside] = 0.0
@@ -126,7 +130,7 @@ class VolumeActiveness:
         return w
 
 
-def volume_activeness(scene) -> list[VolumeActiveness | None]:
+def volume_activeness(scene: Scene) -> list[VolumeActiveness | None]:
     """Per scoring column of ``scene``, its activeness (None: every deposit counts).
 
     Bad input (faces the shape lacks, a shape score4 cannot measure) is refused here, with the

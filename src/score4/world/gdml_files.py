@@ -15,7 +15,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import re
 import subprocess
 import sys
 import tempfile
@@ -25,8 +24,6 @@ from pathlib import Path
 from .. import files as score4_files
 from ..errors import ConfigError, Score4Error
 from .gdml_model import MODEL_FORMAT, GeometryModel
-
-_FILE_ELEMENT = re.compile(r"<file\s[^>]*name\s*=\s*[\"']([^\"']+)[\"']")
 
 #: Models read in this process, by cache key.
 _MODELS: dict[str, GeometryModel] = {}
@@ -85,7 +82,8 @@ def gdml_files(path: str | Path, parameter: str = "world.gdml") -> list[Path]:
         before = len(seen)
         _check_xml(current, parameter, seen)
         for read in seen[before:]:
-            for name in _FILE_ELEMENT.findall(read.read_text(errors="replace")):
+            refs = score4_files.gdml_include_refs(read.read_text(errors="replace"))
+            for name in (name for kind, name, _ in refs if kind == "file"):  # entities: expat
                 included = (current.parent / name).resolve()
                 if not included.is_file():
                     raise ConfigError(

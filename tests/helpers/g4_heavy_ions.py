@@ -260,7 +260,7 @@ def alpha_depths(spec: dict):
     import sys
     from pathlib import Path
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     from bench_alpha_straggling import measure
 
     return measure(spec)

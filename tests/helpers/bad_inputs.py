@@ -5,10 +5,10 @@ class of fault the input caused when the issue was filed (crash, traceback, sile
 footgun, refused) and the words the one-line error must hold now.
 
 Run as a script it classifies every case as a user meets it, each command in its own process
-(with a timeout), and prints the counts per class; run it against any checkout with
-``PYTHONPATH=<checkout>/src``:
+(with a timeout), and prints the counts per class; run it from tests/ (it reads conftest's base
+config) against any checkout with ``PYTHONPATH=<checkout>/src``:
 
-    .venv/bin/python tests/_bad_inputs.py            # this checkout
+    cd tests && ../.venv/bin/python -m helpers.bad_inputs    # this checkout
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """What the overlaps Geant4 reports on a rough G4Cons face are: each reported point, probed.
 
-    .venv/bin/python benchmarks/cone_overlaps.py
+    .venv/bin/python tools/figures/cone_overlaps.py
 
 Writes a small G4Cons (radius 3 -> 4 mm over 0.6 mm, 0.3 rad of phi) with 10 um pyramids on its
 ``outer`` face, runs ``score4 geometry check`` on it (Geant4's CheckOverlaps on every bent patch,
@@ -15,6 +15,7 @@ Checked by docs/geometry.md (check ``cone-overlaps``).
 
 from __future__ import annotations
 
+import argparse
 import re
 import subprocess
 import sys
@@ -72,6 +73,7 @@ def g4_body(g4, vertices: np.ndarray, faces: np.ndarray, max_voxels: int | None,
 
 
 def main() -> None:
+    argparse.ArgumentParser(description=__doc__.split("\n")[0]).parse_args()
     from score4.geometry.solids import tessellated_solid
     from score4.sim.runtime import import_geant4, resolve_physics
     from score4.surface.triangle_mesh import TriangleMesh
