@@ -23,6 +23,7 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 from hypothesis import HealthCheck, assume, event, given, settings
@@ -120,6 +121,28 @@ def _restore(folder: Path, pool: Path) -> None:
     shutil.copytree(pool, folder)
 
 
+def _check_activeness(scene, points: np.ndarray) -> None:
+    """With activeness: its weights at the drawn vertices (on and under the rough face) are
+    finite and in [0, 1], and every distance to the volume's surface is finite and >= 0."""
+    if not any(t.config.activeness for t in scene.targets):
+        return
+    from score4.world.activeness import target_distances, volume_activeness
+
+    distances = target_distances(scene)
+    for model, distance in zip(volume_activeness(scene, distances), distances, strict=True):
+        if model is None or distance is None:
+            continue
+        below = points - [0.0, 0.0, 2e-3]  # 2 um under each vertex as well
+        probe = np.concatenate([points, below])
+        w = model.weights(probe)
+        assert np.isfinite(w).all()
+        assert ((w >= 0) & (w <= 1)).all()
+        d = distance.to_surface(probe)
+        assert np.isfinite(d).all()
+        assert (d >= 0).all()
+    event("valid: activeness weighed")
+
+
 def check_document(doc: dict, folder: Path) -> None:
     """Validate ``doc`` as a file in ``folder``; if valid, build its scene and draw events."""
     path = folder / "doc.yaml"
@@ -134,8 +157,11 @@ def check_document(doc: dict, folder: Path) -> None:
             return
         try:
             scene = build_scene(config)
-            make_source(config, scene).events(config.run.seed, 0, min(config.run.events, 30))
+            primaries = make_source(config, scene).events(
+                config.run.seed, 0, min(config.run.events, 30)
+            )
             event("valid: scene built, events drawn")
+            _check_activeness(scene, primaries.position)
         except Score4Error as err:
             _one_line(err)
             event("refused when built")

@@ -89,3 +89,18 @@ def test_nuclide_recoils_in_full_physics():
     recoils = [x for x in r if x[1].startswith("Pb206")]
     assert len(recoils) == 200
     assert all(abs(x[2] - RECOIL_MEV) < 2e-3 for x in recoils)
+
+
+def test_steps_of_an_intercepted_ion_carry_its_creation_time():
+    """A Pb-206 made at the end of each proton's track (its global time, about 0.1 ns in): the
+    replayed ion's steps carry that time, the protons' steps Geant4's."""
+    out = _spawned("pushed_recoil_steps", 5)
+    steps, times = out["steps"], out["times"]
+    assert out["intercepted"] == len(times) == 5
+    assert (times > 0.01).all()
+    lead = steps["particle"] == 1000822060
+    assert lead.sum() > 5  # pieces of the replayed paths
+    np.testing.assert_array_equal(steps["time"][lead], times[steps["event"][lead]])
+    protons = steps["particle"] == 2212
+    assert (steps["time"][protons] <= times[steps["event"][protons]] + 1e-12).all()
+    assert steps["time"][protons].max() > 0

@@ -90,6 +90,10 @@ class IonFate:
     #: with ``HeavyIonTransport.record_pieces``: (scoring index, mid-point x, y, z mm, MeV) of
     #: every piece of the path that deposited (TRIM's points, cut at boundaries)
     pieces: list[tuple[int, float, float, float, float]] = field(default_factory=list)
+    #: global time (ns) the ion started at: 0 for a primary, its creation for a secondary taken
+    #: from Geant4 (steps output; TRIM's slowing down takes under a picosecond, so its pieces
+    #: all carry this time)
+    time: float = 0.0
 
     @property
     def stopped(self) -> bool:

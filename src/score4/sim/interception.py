@@ -141,6 +141,7 @@ def make_stacking_action(g4, transport: HeavyIonTransport | None, state):
             fate = transport.transport(
                 definition, name, energy, position, direction, rng, announce=False
             )
+            fate.time = track.GetGlobalTime()
             state.book(event, fate)
             unstable = state.decay and not definition.GetPDGStable()
             back = fate.stopped and (unstable or self.reinject_stable)

@@ -170,10 +170,16 @@ class Simulation:
             )
             self.run_manager.SetUserAction(self.steps.action)
         self.activeness = None
+        #: per scoring column, distances to its volume's faces (steps and activeness), else None
+        self.distances = None
+        if self.steps is not None:
+            from ..world.activeness import target_distances
+
+            self.distances = target_distances(self.scene)
         if any(t.config.activeness for t in self.scene.targets):
             from ..world.activeness import volume_activeness
 
-            self.activeness = volume_activeness(self.scene)
+            self.activeness = volume_activeness(self.scene, self.distances)
         #: the steps of the last run (event indices of its batch), when recorded
         self.last_steps: dict[str, np.ndarray] | None = None
         self.scorer.resolve_ids()
@@ -420,22 +426,23 @@ class Simulation:
 
     def step_table(self) -> dict[str, np.ndarray] | None:
         """The last run's steps (after :meth:`drop_lost`) with ``dist``, each step's distance to
-        the surface of its volume's solid (mm, exact, :mod:`score4.shapes`; 0 in a rough layer's
-        patch); None when steps are not recorded or not asked for (``output.steps``)."""
+        the surface of its volume (mm, exact, :mod:`score4.shapes`; a face with a flat rough
+        layer by its rough surface, :class:`score4.world.activeness.TargetDistance`); None when
+        steps are not recorded or not asked for (``output.steps``)."""
         if self.last_steps is None or not self.config.output.steps:
             return None
         steps = dict(self.last_steps)
         dist = np.zeros(len(steps["edep"]))
         points = np.column_stack([steps["x"], steps["y"], steps["z"]])
-        for c, t in enumerate(self.scene.targets):
+        assert self.distances is not None  # built with the step recorder
+        for c, distance in enumerate(self.distances):
             rows = steps["volume"] == c
             if not rows.any():
                 continue
-            if t.shape is None:  # a solid score4.shapes cannot describe
+            if distance is None:  # a solid score4.shapes cannot describe
                 dist[rows] = np.nan
                 continue
-            local = t.to_local(points[rows])
-            dist[rows] = np.maximum(-t.shape.signed_distance(local), 0.0)
+            dist[rows] = distance.to_surface(points[rows])
         steps["dist"] = dist
         return steps
 
@@ -500,16 +507,18 @@ class Simulation:
         if k == self._next_event and not self._scored:
             self._pending.append((fate, alpha))
             return
+        steps = self.steps
         for volume, value in fate.deposits.items():
             self._scores["edep"][k, volume] += value
-            if self.steps is not None and value > 0.0 and not fate.pieces:
-                self.steps.add(k, volume, fate.pdg, value, fate.points.get(volume, fate.position))
-        if self.steps is not None:  # the path's pieces, each a step
-            for volume, x, y, z, value in fate.pieces:
-                if value > 0.0:
-                    self.steps.add(k, volume, fate.pdg, value, (x, y, z))
             if alpha and "edep_alpha" in self._scores:
                 self._scores["edep_alpha"][k, volume] += value
+            if steps is not None and value > 0.0 and not fate.pieces:
+                where = fate.points.get(volume, fate.position)
+                steps.add(k, volume, fate.pdg, value, where, fate.time)
+        if steps is not None:  # the path's pieces, each a step
+            for volume, x, y, z, value in fate.pieces:
+                if value > 0.0:
+                    steps.add(k, volume, fate.pdg, value, (x, y, z), fate.time)
         if "track_length" in self._scores:
             for volume, value in fate.lengths.items():
                 self._scores["track_length"][k, volume] += value
