@@ -127,7 +127,7 @@ class TargetDistance:
         self.rough: dict[str, RoughLayer] = {}
         for layer in self.layers:
             if not layer.curved:
-                (face,) = self.shape.resolve_faces([layer.config.face])
+                (face,) = self.shape.resolve_faces([layer.config.face_name])
                 self.rough[face] = layer
         self._measures: dict[str, RoughSurfaceDistance] = {}
         try:  # every face measurable by face_distance (else the whole surface: signed distance)
