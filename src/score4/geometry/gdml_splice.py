@@ -44,8 +44,6 @@ import numpy as np
 
 from ..errors import ConfigError, Score4Error
 from ..files import gdml_include_refs
-from ..shapes import Transform
-from ..world.scene import CurvedRoughLayer
 
 _DAUGHTER = re.compile(
     r"<(physvol|replicavol|paramvol|divisionvol)\b[^>]*?(?:/>|>.*?</\1\s*>)", re.DOTALL
@@ -550,19 +548,7 @@ def splice(g4, config, scene, out: Path, fragment_path: Path) -> dict:
                 continue
             frame = _mother_frame(layer.frame, t.mother)
             key = _layer_key(layer, m_lv.GetMaterial(), material)
-            if isinstance(layer, CurvedRoughLayer):  # bent patches in a shell around the axis
-                from .curved import place_curved
-
-                in_mother = Transform(t.mother.rotation, t.mother.translation)
-                placement = Transform(
-                    in_mother.rotation.T @ t.rotation, in_mother.inverse_apply(t.translation)
-                )
-                patch_lvs, k = place_curved(
-                    g4, layer, w_lv, m_lv.GetMaterial(), material, placement
-                )
-                keep.append(k)
-                patches.setdefault(t.name, set()).update(str(lv.GetName()) for lv in patch_lvs)
-            elif key in envelopes:
+            if key in envelopes:
                 rot = _rotation(g4, frame.rotation)
                 centre = frame.to_world(np.array([0.0, 0.0, layer.thickness / 2]))
                 pv = g4.G4PVPlacement(
