@@ -469,11 +469,10 @@ def splice(g4, config, scene, out: Path, fragment_path: Path) -> dict:
     ``fragment_path`` first). Returns ``{"layers", "registered", "clones"}``.
     """
     from ..inputs.materials import find_material
-    from ..shapes import Transform
     from ..world.scene import CurvedRoughLayer
     from .curved import place_curved
     from .gdml import read_gdml
-    from .gdml_world import _mother_frame
+    from .gdml_world import _mother_frame, _target_in_mother
     from .tiling import _rotation, place_native
     from .world import cut_for_layers, g4_solid
 
@@ -534,13 +533,9 @@ def splice(g4, config, scene, out: Path, fragment_path: Path) -> dict:
         _, m_lv = live(t.mother)
         envelopes: dict[tuple, object] = {}  # the target's layers of the same make: one volume
         for layer in scene.layers_of(t.name):
-            if isinstance(layer, CurvedRoughLayer):  # rings of bent patches, as the run has them
-                held = Transform(t.mother.rotation, t.mother.translation)
-                placement = Transform(
-                    held.rotation.T @ t.rotation, held.inverse_apply(t.translation)
-                )
+            if isinstance(layer, CurvedRoughLayer):  # bent patches in a shell, as a run builds
                 patch_lvs, k = place_curved(
-                    g4, layer, w_lv, m_lv.GetMaterial(), material, placement
+                    g4, layer, w_lv, m_lv.GetMaterial(), material, _target_in_mother(t)
                 )
                 keep.append(k)
                 patches.setdefault(t.name, set()).update(str(lv.GetName()) for lv in patch_lvs)

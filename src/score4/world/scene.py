@@ -409,7 +409,22 @@ class CurvedRoughLayer(RoughLayer):
     top_margin: float = 0.0  # sagitta of the bent tops' facets (concave faces), mm
 
     def solid_kind(self, k: int) -> str:
-        return "tessellated"  # bent closed bodies
+        """``frustums`` for a spike grid on a cylinder (``solid: auto`` or ``frustums``): each
+        bent spike layer and each column of the bent slab is exactly a G4Trd
+        (:mod:`score4.geometry.curved`); ``tessellated`` (the bent closed body as one solid)
+        otherwise."""
+        spikes = self.variants[k].spikes is not None
+        return (
+            "frustums"
+            if spikes and self.config.solid != "tessellated" and self.is_cylinder
+            else "tessellated"
+        )
+
+    @property
+    def is_cylinder(self) -> bool:
+        """A face parallel to the axis (a cylinder wall or bore), not a cone or a sphere."""
+        face = self.ring_layout.face
+        return not isinstance(face, SphereFace) and abs(float(face.nrz[1])) <= 1e-12
 
     @property
     def rough_share(self) -> float:
@@ -1094,10 +1109,17 @@ def make_curved_layer(
         raise ConfigError(
             f"{where}: native_layout replicas fills a rectangle; a curved face takes auto"
         )
-    if rough.solid not in ("auto", "tessellated"):
+    if rough.solid not in ("auto", "tessellated", "frustums"):
         raise ConfigError(
             f"{where}: solid {rough.solid} on a curved face ({what}); its patches are bent "
-            "tessellated bodies (solid: auto or tessellated)"
+            "tessellated bodies or, for spike grids on a cylinder, bent frustums (solid: auto, "
+            "tessellated or frustums)"
+        )
+    cone = isinstance(face, SphereFace) or abs(face.nrz[1]) > 1e-12  # not a cylinder
+    if rough.solid == "frustums" and (cone or any(s.spikes is None for s in variants)):
+        raise ConfigError(
+            f"{where}: solid frustums on a curved face ({what}) needs spike-grid surfaces on a "
+            "cylinder wall; use solid: auto or tessellated"
         )
     reserve = 1.05 * (rough.base_thickness + max(s.max_height for s in variants)) + 1e-4
     row_gap = 0.0
