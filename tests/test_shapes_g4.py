@@ -21,6 +21,7 @@ from score4.shapes import (
     G4Polycone,
     G4Polyhedra,
     G4Sphere,
+    G4Trap,
     G4Trd,
     G4Tubs,
     Shape,
@@ -66,6 +67,7 @@ GPH = dict(sphi=0.0, dphi=TWO_PI, nsides=8, r=[0, 10, 10, 0], z=[0, 0, 10, 20])
 HAND: dict[str, Shape] = {
     "box": G4Box(10, 20, 30),
     "trd": G4Trd(10, 5, 20, 8, 15),
+    "trap": G4Trap(30, 0.1, 0.2, 20, 10, 15, 0.1, 10, 5, 7.5, 0.1),
     "tubs": G4Tubs(5, 35, 10, 0.3, 4.0),
     "tubs_full": G4Tubs(0, 35, 10),
     "cons": G4Cons(2, 10, 5, 20, 15, 0.5, 5.0),

@@ -49,7 +49,7 @@ from score4.common.units import parse_quantity
 from score4.inputs.config import GdmlVolume, PhysicsConfig, RoughFace, SourceConfig
 from score4.runner.run_plan import RunPlan, plan_run
 from score4.world.gdml_model import GeometryModel, Instance
-from score4.world.scene import RoughLayer, Scene, TargetVolume, gdml_target, make_layer
+from score4.world.scene import RoughLayer, Scene, TargetVolume, gdml_target, make_layers
 
 from .errors import ConfigError
 from .source.build import BulkSource, SampledSource, source_from_config
@@ -384,12 +384,12 @@ class World:
         except ValidationError as err:
             raise ConfigError(describe_validation_error(err, where)) from None
         targets = self.targets(volume, where)
-        layers = []
+        layers: list[RoughLayer] = []
         for t in targets:
             if self.scene.layer(t.name, face) is not None:
                 raise ConfigError(f"{where}: face {face} of {t.name!r} is rough already")
             j = len(self.scene.layers_of(t.name))
-            layers.append(make_layer(self.scene.surfaces, t, j, rough, where=where))
+            layers += make_layers(self.scene.surfaces, t, j, rough, where=where)
         from score4.world.clearance import check_clearance
 
         self.scene.layers += layers

@@ -37,6 +37,7 @@ def make_direct(g4) -> dict:
     keep = {
         "box": g4.G4Box("box", 10, 20, 30),
         "trd": g4.G4Trd("trd", 10, 5, 20, 8, 15),
+        "trap": g4.G4Trap("trap", 30, 0.1, 0.2, 20, 10, 15, 0.1, 10, 5, 7.5, 0.1),
         "tubs": g4.G4Tubs("tubs", 5, 35, 10, 0.3, 4.0),
         "tubs_full": g4.G4Tubs("tubs_full", 0, 35, 10, 0, TWO_PI),
         "cons": g4.G4Cons("cons", 2, 10, 5, 20, 15, 0.5, 5.0),

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from score4.shapes.faces import SphereFace
 from score4.world.scene import CurvedRoughLayer
 
 from ..surface.triangle_mesh import TriangleMesh
@@ -29,6 +30,7 @@ def envelope_cone(layer: CurvedRoughLayer) -> tuple[float, float, float, float, 
     cylinder) and the same moved out by the layer thickness along the face normal, between the
     z planes of the face's ends."""
     face = layer.ring_layout.face
+    assert not isinstance(face, SphereFace)
     (r1, z1), (r2, z2) = face.rz1, face.rz2
     if z1 > z2:
         (r1, z1), (r2, z2) = (r2, z2), (r1, z1)
@@ -47,8 +49,15 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
 
     face = layer.ring_layout.face
     name = layer.name
-    rmin1, rmax1, rmin2, rmax2, dz, zc = envelope_cone(layer)
-    env_solid = g4.G4Cons(name, rmin1, rmax1, rmin2, rmax2, dz, face.phi0, face.dphi)
+    if isinstance(face, SphereFace):  # a spherical shell over the zone
+        r = face.sphere_radius
+        lo, hi = (r, r + layer.thickness) if face.sign > 0 else (r - layer.thickness, r)
+        t0, t1 = face.theta
+        env_solid = g4.G4Sphere(name, lo, hi, face.phi0, face.dphi, t0, t1 - t0)
+        zc = 0.0
+    else:
+        rmin1, rmax1, rmin2, rmax2, dz, zc = envelope_cone(layer)
+        env_solid = g4.G4Cons(name, rmin1, rmax1, rmin2, rmax2, dz, face.phi0, face.dphi)
     env_lv = g4.G4LogicalVolume(env_solid, mother_material, name)
     rot = _rotation(g4, placement.rotation)
     centre = placement.apply(np.array([0.0, 0.0, zc]))
@@ -103,7 +112,7 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
 
     ring_z = [lay.ring_z(j) for j in range(len(lay.v))]
     cells = layer.cells()
-    if abs(face.nrz[1]) > 1e-12:  # a cone: every patch placed in the envelope
+    if isinstance(face, SphereFace) or abs(face.nrz[1]) > 1e-12:  # every patch in the envelope
         for copy_no, (j, _, k, phi) in enumerate(cells):
             place(patch_lv(k, j), phi, ring_z[j] - zc, env_lv, copy_no)
         keep += level_regions(g4, [cell_lvs], name) if cell_lvs else []
@@ -164,7 +173,9 @@ def bent_trds(
     phi = box["x"] / lay.radius[j]
     radial = np.column_stack([np.cos(phi), np.sin(phi), np.zeros(n)])
     tangent = np.column_stack([-np.sin(phi), np.cos(phi), np.zeros(n)])
-    up = np.sign(float(lay.face.nrz[0])) * radial  # the Trd's +z: away from the base
+    face = lay.face
+    assert not isinstance(face, SphereFace)  # frustums are for cylinder walls only
+    up = np.sign(float(face.nrz[0])) * radial  # the Trd's +z: away from the base
     u0 = np.einsum("nc,nkc->nk", up, bottom).mean(axis=1)
     u1 = np.einsum("nc,nkc->nk", up, top).mean(axis=1)
     centre_bottom = bottom.mean(axis=1)

@@ -6,7 +6,7 @@
 ask the live solid. What it gives per solid type:
 
 =====================================  ==============================================
-G4Box, G4Trd, G4Tubs, G4Cons,          the dataclass of the same name
+G4Box, G4Trd, G4Trap, G4Tubs, G4Cons,  the dataclass of the same name
 G4Sphere, G4Orb
 G4Polycone, G4GenericPolycone          :class:`G4GenericPolycone` of Geant4's contour
                                        (``GetCorner``); the binding gives only the first
@@ -32,7 +32,7 @@ from numpy.typing import ArrayLike
 from score4.errors import ConfigError
 from score4.shapes.base import INSIDE, Shape, ShapeSample, as_points
 from score4.shapes.boolean import BooleanShape
-from score4.shapes.csg import G4Box, G4Cons, G4Orb, G4Sphere, G4Trd, G4Tubs
+from score4.shapes.csg import G4Box, G4Cons, G4Orb, G4Sphere, G4Trap, G4Trd, G4Tubs
 from score4.shapes.from_data import SHAPE_TYPES
 from score4.shapes.mesh_shape import MeshShape
 from score4.shapes.placed import PlacedShape
@@ -84,6 +84,21 @@ def _read(solid: Any) -> Shape:
             solid.GetYHalfLength1(),
             solid.GetYHalfLength2(),
             solid.GetZHalfLength(),
+        )
+    if kind == "G4Trap":
+        axis = _vector(solid.GetSymAxis())
+        return G4Trap(
+            solid.GetZHalfLength(),
+            math.atan2(math.hypot(axis[0], axis[1]), axis[2]),
+            math.atan2(axis[1], axis[0]),
+            solid.GetYHalfLength1(),
+            solid.GetXHalfLength1(),
+            solid.GetXHalfLength2(),
+            math.atan(solid.GetTanAlpha1()),
+            solid.GetYHalfLength2(),
+            solid.GetXHalfLength3(),
+            solid.GetXHalfLength4(),
+            math.atan(solid.GetTanAlpha2()),
         )
     if kind == "G4Tubs":
         return G4Tubs(

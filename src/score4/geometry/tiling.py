@@ -106,7 +106,11 @@ def place_native(
     lu, lv = frame.size
     t = layer.thickness
     name = layer.name
-    env_solid = g4.G4Box(name, lu / 2, lv / 2, t / 2)
+    prism = getattr(layer, "prism", None)  # a polygon face: the envelope is its prism
+    if prism is not None:
+        env_solid = tessellated_solid(g4, prism, name)
+    else:
+        env_solid = g4.G4Box(name, lu / 2, lv / 2, t / 2)
     env_lv = g4.G4LogicalVolume(env_solid, world_material, name)
     rot = _rotation(g4, frame.rotation)
     centre = frame.to_world(np.array([0.0, 0.0, t / 2]))
@@ -146,6 +150,8 @@ def place_native(
         keep += [row_solid, row_lv, rows, cells]
         return patch_lvs, keep
     layout = layer.config.native_layout
+    if prism is not None:
+        layout = "placements"  # boxes of empty cells would leave the polygon
     if layout == "nested" or (layout == "auto" and variants.size > MAX_DAUGHTERS):
         # nested at any size: at most 4 boxes in the envelope (deep trees, for tests)
         most = MAX_DAUGHTERS if layout == "auto" else 4

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from .base import INSIDE, OUTSIDE, SURFACE, FaceSampler, Shape, ShapeSample
 from .boolean import BooleanShape
-from .csg import G4Box, G4Cons, G4Orb, G4Sphere, G4Trd, G4Tubs
+from .csg import G4Box, G4Cons, G4Orb, G4Sphere, G4Trap, G4Trd, G4Tubs
 from .from_data import shape_from_dict
 from .mesh_shape import MeshShape
 from .placed import PlacedShape
@@ -31,6 +31,7 @@ __all__ = [
     "G4Polycone",
     "G4Polyhedra",
     "G4Sphere",
+    "G4Trap",
     "G4Trd",
     "G4Tubs",
     "MeshShape",

@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import ConfigError
 from ._plane import TOLERANCE
-from .faces import AnnulusFace, Face, PlaneFace, RevolvedFace
+from .faces import AnnulusFace, Face, PlaneFace, RevolvedFace, SphereFace
 from .transform import Transform
 
 OUTSIDE, SURFACE, INSIDE = 0, 1, 2
@@ -381,6 +381,10 @@ class Shape:
         patches = [p for p in self.patches if p.face == k]
         if len(patches) == 1 and isinstance(patches[0], Revolved):
             return patches[0].as_face(name)
+        if len(patches) == 1 and isinstance(patches[0], SphereZone):
+            z = patches[0]
+            theta = (float(np.arccos(z.c1)), float(np.arccos(z.c2)))
+            return SphereFace(name, z.radius, theta, z.phi0, z.dphi, z.sign)
         if patches and all(isinstance(p, PlaneTriangles) for p in patches):
             return _plane_face(name, [p for p in patches if isinstance(p, PlaneTriangles)])
         raise ConfigError(

@@ -1,4 +1,5 @@
-"""Geant4's CSG solids as parameter dataclasses: G4Box, G4Trd, G4Tubs, G4Cons, G4Orb, G4Sphere.
+"""Geant4's CSG solids as parameter dataclasses: G4Box, G4Trd, G4Trap, G4Tubs, G4Cons, G4Orb,
+G4Sphere.
 
 Parameters are Geant4's own (half-lengths, mm; angles in rad), in the order of the Geant4
 constructors. Phi ranges are normalised as Geant4 does (a range of 2 pi or more is the full
@@ -6,9 +7,10 @@ circle with start 0; a start below 0 or above 2 pi is brought into [0, 2 pi)).
 
 Face names
 ----------
-G4Box, G4Trd
+G4Box, G4Trd, G4Trap
     ``+x``, ``-x``, ``+y``, ``-y``, ``+z``, ``-z`` (the face whose outward normal points most
-    along that axis; a G4Trd's ``-z`` face is the ``dx1 x dy1`` one).
+    along that axis; a G4Trd's ``-z`` face is the ``dx1 x dy1`` one, a G4Trap's the ``-dz``
+    one).
 G4Tubs, G4Cons
     ``-z``, ``+z`` (end caps: disks, annuli or their sectors), ``outer``, ``inner`` (only with
     an inner radius), ``phi_start``, ``phi_end`` (only for a phi segment). A face of zero area
@@ -248,6 +250,56 @@ class G4Trd(_Hexahedron):
         a1, a2 = 4 * self.dx1 * self.dy1, 4 * self.dx2 * self.dy2
         am = 4 * 0.5 * (self.dx1 + self.dx2) * 0.5 * (self.dy1 + self.dy2)
         return 2 * self.dz * (a1 + 4 * am + a2) / 6.0  # Simpson: exact for a quadratic section
+
+
+@dataclass(frozen=True)
+class G4Trap(_Hexahedron):
+    """``G4Trap(name, pDz, pTheta, pPhi, pDy1, pDx1, pDx2, pAlp1, pDy2, pDx3, pDx4, pAlp2)``:
+    half-length in z, polar and azimuthal angle of the line joining the centres of the -z and +z
+    faces, and at each end (1: -z, 2: +z) the half-length in y, the half-lengths in x at -y and
+    +y, and the tilt angle of the x sides (mm, rad). Faces as a G4Box's (the ``-z`` face is the
+    ``-dz`` one)."""
+
+    dz: float
+    theta: float
+    phi: float
+    dy1: float
+    dx1: float
+    dx2: float
+    alpha1: float
+    dy2: float
+    dx3: float
+    dx4: float
+    alpha2: float
+    kind = "G4Trap"
+
+    def __post_init__(self) -> None:
+        _positive("G4Trap", dz=self.dz, dy1=self.dy1, dy2=self.dy2)
+        for name in ("dx1", "dx2", "dx3", "dx4"):
+            if not getattr(self, name) > 0:
+                raise ConfigError(f"G4Trap: {name} must be > 0, got {getattr(self, name)!r}")
+        c = self.corners()
+        for quad in _QUADS.values():  # Geant4 refuses a trap whose side faces are not planes
+            q = c[list(quad)]
+            n = np.cross(q[2] - q[0], q[3] - q[1])
+            n /= np.linalg.norm(n)
+            off = float(np.abs((q - q[0]) @ n).max())
+            if off > 1e-9 * max(float(np.abs(c).max()), 1.0):
+                raise ConfigError(f"G4Trap: a side face is not planar (off by {off:.3g} mm)")
+
+    def corners(self) -> np.ndarray:
+        """The eight corners, indexed by bits (x: 1, y: 2, z: 4) as G4Trap numbers them."""
+        tx = math.tan(self.theta) * math.cos(self.phi)
+        ty = math.tan(self.theta) * math.sin(self.phi)
+        ta1, ta2 = math.tan(self.alpha1), math.tan(self.alpha2)
+        out = []
+        for z, dy, dxm, dxp, ta in (
+            (-self.dz, self.dy1, self.dx1, self.dx2, ta1),
+            (self.dz, self.dy2, self.dx3, self.dx4, ta2),
+        ):
+            for y, dx in ((-dy, dxm), (dy, dxp)):
+                out += [[z * tx + y * ta + sx * dx, z * ty + y, z] for sx in (-1, 1)]
+        return np.array(out, float)
 
 
 # --------------------------------------------------------------------------------------------

@@ -213,3 +213,82 @@ class AnnulusFace(PlaneFace):
         far = np.hypot(x + px / 2, y + py / 2)
         near = np.hypot(np.maximum(x - px / 2, 0.0), np.maximum(y - py / 2, 0.0))
         return np.asarray((far <= self.rmax * (1 + 1e-12)) & (near >= self.rmin * (1 - 1e-12)))
+
+
+@dataclass(frozen=True, eq=False)
+class SphereFace(Face):
+    """A zone of the sphere of ``radius`` about the origin between polar angles theta1 < theta2,
+    over phi in [phi0, phi0 + dphi]; ``sign`` +1 for an outer (convex) face, -1 for an inner one.
+    (u, v) = (azimuth phi, arc length along the meridian from the zone's middle), v running so
+    that (increasing phi, increasing v, outward normal) is right-handed: towards smaller theta
+    on an outer face, larger theta on an inner one. The area element is ``R sin(theta) du dv``.
+    The same interface as :class:`RevolvedFace` where rough layers need it (``radius(v)``,
+    ``length``, ``band_area``)."""
+
+    name: str
+    sphere_radius: float
+    theta: tuple[float, float]
+    phi0: float
+    dphi: float
+    sign: int = 1
+
+    @property
+    def planar(self) -> bool:
+        return False
+
+    @property
+    def length(self) -> float:
+        """Length of the meridian arc, mm."""
+        return self.sphere_radius * (self.theta[1] - self.theta[0])
+
+    @property
+    def area(self) -> float:  # type: ignore[override]
+        c1, c2 = np.cos(self.theta[0]), np.cos(self.theta[1])
+        return float(self.sphere_radius**2 * self.dphi * (c1 - c2))
+
+    @property
+    def extent(self) -> Extent:  # type: ignore[override]
+        half = 0.5 * self.length
+        return ((self.phi0, self.phi0 + self.dphi), (-half, half))
+
+    def polar(self, v: ArrayLike) -> np.ndarray:
+        """Polar angle at meridian arc length ``v``."""
+        mid = 0.5 * (self.theta[0] + self.theta[1])
+        return mid - self.sign * np.asarray(v, float) / self.sphere_radius
+
+    def radius(self, v: ArrayLike) -> np.ndarray:
+        """Distance from the z axis of the sphere at arc length ``v``."""
+        return self.sphere_radius * np.sin(self.polar(v))
+
+    def band_area(self, v0: float, v1: float, dphi: float) -> float:
+        """Exact area of the band between arc lengths v0 and v1 over ``dphi``."""
+        c0, c1 = np.cos(self.polar(v0)), np.cos(self.polar(v1))
+        return float(self.sphere_radius**2 * dphi * abs(c0 - c1))
+
+    @property
+    def frame(self) -> Transform:  # type: ignore[override]
+        """Local frame at the zone's middle: x along increasing phi, y along increasing v,
+        z the outward normal."""
+        phi = self.phi0 + 0.5 * self.dphi
+        n = self.normal(phi, 0.0)
+        x = np.array([-np.sin(phi), np.cos(phi), 0.0])
+        return Transform(np.column_stack([x, np.cross(n, x), n]), self.point(phi, 0.0))
+
+    def point(self, u: ArrayLike, v: ArrayLike) -> np.ndarray:
+        u, v = np.broadcast_arrays(np.asarray(u, float), np.asarray(v, float))
+        t = self.polar(v)
+        st = np.sin(t)
+        unit = np.stack([st * np.cos(u), st * np.sin(u), np.cos(t)], axis=-1)
+        return self.sphere_radius * unit
+
+    def normal(self, u: ArrayLike, v: ArrayLike) -> np.ndarray:
+        return self.sign * self.point(u, v) / self.sphere_radius
+
+    def locate(self, points: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        p = np.asarray(points, float).reshape(-1, 3)
+        r = np.linalg.norm(p, axis=1)
+        phi = np.mod(np.arctan2(p[:, 1], p[:, 0]) - self.phi0, 2 * np.pi) + self.phi0
+        t = np.arccos(np.clip(p[:, 2] / np.maximum(r, 1e-300), -1.0, 1.0))
+        mid = 0.5 * (self.theta[0] + self.theta[1])
+        v = -self.sign * (t - mid) * self.sphere_radius
+        return phi, v, self.sign * (r - self.sphere_radius)

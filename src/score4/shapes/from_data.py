@@ -11,7 +11,7 @@ import numpy as np
 from ..errors import ConfigError
 from .base import Shape
 from .boolean import BooleanShape
-from .csg import G4Box, G4Cons, G4Orb, G4Sphere, G4Trd, G4Tubs
+from .csg import G4Box, G4Cons, G4Orb, G4Sphere, G4Trap, G4Trd, G4Tubs
 from .mesh_shape import MeshShape
 from .placed import PlacedShape
 from .revolved import G4GenericPolycone, G4GenericPolyhedra, G4Polycone, G4Polyhedra
@@ -23,6 +23,7 @@ SHAPE_TYPES: dict[str, Any] = {
     for c in (
         G4Box,
         G4Trd,
+        G4Trap,
         G4Tubs,
         G4Cons,
         G4Sphere,

@@ -228,6 +228,7 @@ def shape_face_sampler(scene: Scene, volume: str, face: str | list[str]):
     partly rough: its rough cells and the flat rest, :class:`FlatRemainderSampler`)."""
     shape, transform = target_shape(scene, volume)
     rough: dict[str, Any] = {}
+    planes: dict[str, list] = {}  # a face of several planes: one layer per plane
     for layer in scene.layers_of(volume):
         if layer.mask is None:
             rough[layer.config.face_name] = layer_sampler(layer)
@@ -238,17 +239,30 @@ def shape_face_sampler(scene: Scene, volume: str, face: str | list[str]):
                 else FlatRemainderSampler(layer)
             )
             parts = [layer_sampler(layer), rest]
-            rough[layer.config.face_name] = CombinedSurfaceSampler([p for p in parts if p.area > 0])
+            planes.setdefault(layer.config.face_name, []).extend(p for p in parts if p.area > 0)
+    for face_name, parts in planes.items():
+        rough[face_name] = CombinedSurfaceSampler(parts)
     return ShapeSurfaceSampler(shape, face, transform, rough)
 
 
 class FlatRemainderSampler:
-    """Uniform points on the flat part of a round (G4Tubs end) face that holds no patch: the
-    annulus less the rough cells, in the plane of the layer's base (the cut face with
-    ``into``). Drawn in the annulus, points in a rough cell rejected."""
+    """Uniform points on the flat part of a round (G4Tubs end) or polygon face that holds no
+    patch: the annulus (or the polygon's triangles) less the rough cells, in the plane of the
+    layer's base (the cut face with ``into``). Drawn in the annulus (the triangles), points in a
+    rough cell rejected."""
 
     def __init__(self, layer: RoughLayer) -> None:
         self.layer = layer
+        outline = getattr(layer, "outline", None)
+        px, py = layer.patch_size
+        rough_cells = int((layer.cell_variants >= 0).sum())
+        if outline is not None:  # a polygon face: its triangles in the layer's frame
+            e1, e2 = outline[:, 1] - outline[:, 0], outline[:, 2] - outline[:, 0]
+            tri_area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+            self.outline, self._cum = outline, np.cumsum(tri_area)
+            self.area = float(tri_area.sum() - rough_cells * px * py)
+            return
+        self.outline = None
         ring = layer.target.face(layer.config.face_name)
         assert isinstance(ring, AnnulusFace)  # a layer with a mask lies on a ring
         self.rmin, self.rmax = ring.rmin, ring.rmax
@@ -260,9 +274,12 @@ class FlatRemainderSampler:
         points = np.empty((0, 2))
         while len(points) < n:
             m = 2 * (n - len(points)) + 16
-            r = np.sqrt(rng.uniform(self.rmin**2, self.rmax**2, m))
-            phi = rng.uniform(0, 2 * np.pi, m)
-            xy = np.column_stack([r * np.cos(phi), r * np.sin(phi)])
+            if self.outline is not None:
+                xy = self._in_outline(rng, m)
+            else:
+                r = np.sqrt(rng.uniform(self.rmin**2, self.rmax**2, m))
+                phi = rng.uniform(0, 2 * np.pi, m)
+                xy = np.column_stack([r * np.cos(phi), r * np.sin(phi)])
             i, j = self.layer.patch_map.cell_of(xy)
             keep = i < 0
             keep[~keep] = self.layer.cell_variants[j[~keep], i[~keep]] < 0
@@ -273,6 +290,19 @@ class FlatRemainderSampler:
         normal = np.tile(frame.normal, (n, 1))
         none = np.full(n, -1, np.int64)
         return SurfaceSample(position, normal, none.copy(), none.copy(), none.copy())
+
+    def _in_outline(self, rng: np.random.Generator, m: int) -> np.ndarray:
+        """``m`` points uniform per area in the polygon's triangles."""
+        assert self.outline is not None
+        k = np.minimum(
+            np.searchsorted(self._cum, rng.random(m) * self._cum[-1], side="right"),
+            len(self._cum) - 1,
+        )
+        st = rng.random((2, m))
+        flip = st.sum(axis=0) > 1
+        st[:, flip] = 1 - st[:, flip]
+        t = self.outline[k]
+        return t[:, 0] + st[0, :, None] * (t[:, 1] - t[:, 0]) + st[1, :, None] * (t[:, 2] - t[:, 0])
 
 
 def bulk_sampler(scene: Scene, volume: str) -> BulkSampler:

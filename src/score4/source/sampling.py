@@ -662,8 +662,8 @@ class RingSurfaceSampler:
         self.nx = int(layer.cell_variants.shape[1])
         self.z = np.array([layer.ring_layout.ring_z(j) for j in range(len(layer.ring_layout.v))])
         self._samplers: dict[tuple[int, int], SurfaceSampler] = {}
-        radius = layer.ring_layout.radius
-        first = np.array([int(np.flatnonzero(radius == r)[0]) for r in radius], np.int64)
+        key = np.array([layer.ring_solid_key(j) for j in range(len(layer.ring_layout.v))])
+        first = np.array([int(np.flatnonzero(key == r)[0]) for r in key], np.int64)
         self.keys = np.column_stack([self.variant, first[self.ring]])  # cells sharing a mesh
         area_of = {
             (int(k), int(j)): self._sampler(int(k), int(j)).area
@@ -720,6 +720,10 @@ class CurvedRemainderSampler:
         lay = layer.ring_layout
         covered = 0.0
         for j in range(len(lay.v)):
+            if hasattr(face, "band_area"):  # a sphere
+                v0, v1 = lay.v[j] - py / 2, lay.v[j] + py / 2
+                covered += face.band_area(v0, v1, float(lay.count[j] * lay.step[j]))
+                continue
             r_lo, r_hi = face.radius(lay.v[j] - py / 2), face.radius(lay.v[j] + py / 2)
             covered += float(lay.count[j] * lay.step[j] * py * 0.5 * (r_lo + r_hi))
         self.area = max(float(face.area) - covered, 0.0)
@@ -745,6 +749,8 @@ class CurvedRemainderSampler:
 
 
 def _revolved_patch(face: Any) -> Any:
-    from ..shapes.base import Revolved
+    from ..shapes.base import Revolved, SphereZone
 
+    if hasattr(face, "sphere_radius"):
+        return SphereZone(0, face.sphere_radius, face.theta, face.phi0, face.dphi, face.sign)
     return Revolved(0, face.rz1, face.rz2, face.phi0, face.dphi, face.nrz)

@@ -26,6 +26,7 @@ from .obb import OrientedBox
 from .scene import (
     BOUNDARY_TOLERANCE,
     CurvedRoughLayer,
+    PolygonRoughLayer,
     RoughLayer,
     Scene,
     TargetVolume,
@@ -183,26 +184,61 @@ def check_gdml_clearance(scene: Scene) -> None:
         mother = layer.target.mother
         assert mother is not None  # in a GDML world every target has a mother (the world at least)
         own = layer.target.instance.index if layer.target.instance is not None else -1
+        if isinstance(layer, PolygonRoughLayer):
+            own_body = _target_body(layer.target)
+            if _layer_meets(own_body, layer, box):  # a concave edge of its own solid
+                raise ConfigError(_meets(layer, f"its own volume {layer.target.name!r}", 0.0))
         for inst in model.children.get(mother.index, []):
             if inst == own:
                 continue
             body = _instance_body(model, model.instances[inst], None)
-            if body.meets(box):
+            if _layer_meets(body, layer, box):
                 raise ConfigError(_meets(layer, f"sister {body.label}", _gap(layer, body)))
         for t in scene.targets:
             if t is layer.target or t.instance is not None or t.mother != mother:
                 continue
             body = _target_body(t)
-            if body.meets(box):
+            if _layer_meets(body, layer, box):
                 raise ConfigError(_meets(layer, body.label, _gap(layer, body)))
         for other, other_box in layers[n + 1 :]:
+            if other.target.mother != mother:
+                continue
             if isinstance(other, CurvedRoughLayer):
-                if other.target.mother == mother and other.in_shell(box.grid()).any():
+                if other.in_shell(_envelope_points(layer, box)).any():
                     raise ConfigError(_meets(layer, f"the rough layer {other.name}", 0.0))
                 continue
-            if other.target.mother == mother and other_box.overlaps(box):
+            if isinstance(layer, PolygonRoughLayer) or isinstance(other, PolygonRoughLayer):
+                met = other_box.overlaps(box) and bool(
+                    _in_envelope(other, other_box, _envelope_points(layer, box)).any()
+                    or _in_envelope(layer, box, _envelope_points(other, other_box)).any()
+                )
+            else:
+                met = other_box.overlaps(box)
+            if met:
                 raise ConfigError(_meets(layer, f"the rough layer {other.name}", 0.0))
         _check_inside_mother(model, mother, layer, box)
+
+
+def _envelope_points(layer: RoughLayer, box: OrientedBox) -> np.ndarray:
+    """Points of a flat layer's envelope: its prism's for a polygon face, else its box's grid."""
+    return layer.envelope_points() if isinstance(layer, PolygonRoughLayer) else box.grid()
+
+
+def _in_envelope(layer: RoughLayer, box: OrientedBox, points: np.ndarray) -> np.ndarray:
+    """True for world points strictly inside a flat layer's envelope."""
+    if isinstance(layer, PolygonRoughLayer):
+        return layer.in_envelope(points)
+    return box.contains(points)
+
+
+def _layer_meets(body: _Body, layer: RoughLayer, box: OrientedBox) -> bool:
+    """The layer's envelope (a box, or the prism of a polygon face) meets ``body``."""
+    if not isinstance(layer, PolygonRoughLayer):
+        return body.meets(box)
+    if not body.obb.overlaps(box):
+        return False
+    q = body.to_local(layer.envelope_points())  # type: ignore[operator]
+    return bool(body.contains(q, touching=False).any())
 
 
 def _check_curved(
@@ -314,7 +350,9 @@ def _check_inside_mother(
 ) -> None:
     lv = model.logicals[mother.logical]
     body = _instance_body(model, mother)
-    pts = body.probe_points(box)
+    pts = (
+        layer.envelope_points() if isinstance(layer, PolygonRoughLayer) else body.probe_points(box)
+    )
     inside = body.contains(mother.to_local(pts))
     if not inside.all():
         raise ConfigError(

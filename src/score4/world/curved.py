@@ -29,7 +29,7 @@ from functools import cached_property
 import numpy as np
 
 from score4.errors import ConfigError
-from score4.shapes.faces import RevolvedFace
+from score4.shapes.faces import RevolvedFace, SphereFace
 from score4.surface.spec import Surface
 from score4.surface.triangle_mesh import TriangleMesh
 
@@ -37,6 +37,11 @@ from score4.surface.triangle_mesh import TriangleMesh
 #: of the roughness height and GAP_FLOOR (mm).
 GAP_SHARE = 0.01
 GAP_FLOOR = 1e-4
+
+#: On a sphere, a ring holds patches only where a patch's width at the ring's edge nearer the
+#: pole differs from its width at the ring's centre by at most this share (the bent patch is
+#: squeezed towards the pole); rings nearer the poles stay flat (``rough_shares``).
+MAX_SQUEEZE = 0.05
 
 
 def gap_limit(max_height: float) -> float:
@@ -78,9 +83,15 @@ def _floor_strip(xy: np.ndarray, ring: np.ndarray, px: float, py: float) -> np.n
     return out
 
 
-def flat_body(surface: Surface, base_thickness: float) -> tuple[np.ndarray, np.ndarray, int]:
+def flat_body(
+    surface: Surface, base_thickness: float, grid_floor: bool = False
+) -> tuple[np.ndarray, np.ndarray, int]:
     """A variant's closed patch body with its floor as a strip (see :func:`_floor_strip`):
-    vertices (patch-local, centred), faces, and the number of top faces (first)."""
+    vertices (patch-local, centred), faces, and the number of top faces (first).
+
+    ``grid_floor``: the floor is the top's own triangulation moved down to the floor (its
+    facets as small as the top's in both directions: a surface curved along both, a sphere,
+    bends a strip's long facets away from it by ``py^2 / 8R``)."""
     body = surface.body(base_thickness)
     top = np.asarray(body.top, bool)
     faces = body.faces
@@ -89,7 +100,24 @@ def flat_body(surface: Surface, base_thickness: float) -> tuple[np.ndarray, np.n
     is_floor = floor_level[faces].all(axis=1)
     ring = np.unique(faces[is_floor & ~top].ravel())
     ring = ring[np.isin(ring, faces[~is_floor & ~top].ravel())]  # not the fan's centre
-    floor = _floor_strip(v[:, :2], ring, surface.size_x, surface.size_y)
+    if grid_floor:
+        top_faces = faces[top]
+        used = np.unique(top_faces)
+        scale = max(surface.size_x, surface.size_y)
+        key = {tuple(np.round(v[i, :2] / scale * 1e9).astype(np.int64)): int(i) for i in ring}
+        index = np.empty(len(v), np.int64)
+        extra: list[list[float]] = []
+        for i in used:
+            k = tuple(np.round(v[i, :2] / scale * 1e9).astype(np.int64))
+            if k in key:
+                index[i] = key[k]
+            else:
+                index[i] = len(v) + len(extra)
+                extra.append([v[i, 0], v[i, 1], -base_thickness])
+        v = np.vstack([v, np.array(extra, float).reshape(-1, 3)])
+        floor = index[top_faces][:, ::-1]  # facing down
+    else:
+        floor = _floor_strip(v[:, :2], ring, surface.size_x, surface.size_y)
     keep = faces[~is_floor]
     n_top = int(top[~is_floor].sum())
     return v, np.vstack([keep, floor]), n_top
@@ -104,7 +132,7 @@ class RingLayout:
     angular pitch (rad); ``phi_mid``: the middle of the face's phi range.
     """
 
-    face: RevolvedFace
+    face: RevolvedFace | SphereFace
     patch_size: tuple[float, float]
     v: np.ndarray
     radius: np.ndarray
@@ -117,7 +145,7 @@ class RingLayout:
     @classmethod
     def make(
         cls,
-        face: RevolvedFace,
+        face: RevolvedFace | SphereFace,
         patch_size: tuple[float, float],
         reserve: float = 0.0,
         row_gap: float = 0.0,
@@ -127,8 +155,14 @@ class RingLayout:
         them, and ``row_gap`` (mm) apart: neighbouring rings bend their facets with different
         radii, so their walls (chords of the circle) do not coincide exactly."""
         px, py = patch_size
-        tz = abs(float(face._tangent[1]))
-        usable = face.length - 2 * reserve * abs(face.nrz[1]) / max(tz, 1e-300)
+        if isinstance(face, SphereFace):
+            # its ends are cones through the centre (or poles): the end rows' outer walls are
+            # chords of those cones' circles, inside them only by the chords' sagitta, which
+            # row_gap exceeds
+            usable = face.length - 2 * row_gap
+        else:
+            tz = abs(float(face._tangent[1]))
+            usable = face.length - 2 * reserve * abs(face.nrz[1]) / max(tz, 1e-300)
         pitch = py + row_gap
         rows = max(int(np.floor((usable + row_gap) / pitch * (1 + 1e-9))), 0)
         v = (np.arange(rows) - (rows - 1) / 2) * pitch
@@ -136,12 +170,21 @@ class RingLayout:
         # a ring holds its patches at the smallest radius the row reaches
         inner = np.minimum(face.radius(v - py / 2), face.radius(v + py / 2))
         count = np.floor(np.maximum(inner, 0.0) * face.dphi / px * (1 + 1e-9)).astype(np.int64)
+        if isinstance(face, SphereFace):
+            squeezed = inner < (1 - MAX_SQUEEZE) * radius
+            count[squeezed] = 0
         step = px / np.maximum(radius, 1e-300)
         return cls(face, patch_size, v, radius, count, step, face.phi0 + 0.5 * face.dphi, row_gap)
 
     @property
     def n_cells(self) -> int:
         return int(self.count.sum())
+
+    @property
+    def min_radius(self) -> float:
+        """The smallest ring radius among the rings that hold patches (all rings if none)."""
+        held = self.radius[self.count > 0]
+        return float((held if len(held) else self.radius).min())
 
     def cell_phi(self, j: int) -> np.ndarray:
         """Azimuths of the cell centres of ring ``j``."""
@@ -158,7 +201,8 @@ class RingLayout:
         x, y, z = local[:, 0], local[:, 1], local[:, 2]
         phi = x / self.radius[j]
         face = self.face
-        p = face.point(phi, self.v[j] + y) + (z + height_offset)[:, None] * face.normal(phi, 0.0)
+        v = self.v[j] + y
+        p = face.point(phi, v) + (z + height_offset)[:, None] * face.normal(phi, v)
         p[:, 2] -= self.ring_z(j)
         return p
 
@@ -281,7 +325,9 @@ def measure_floor(
 ) -> tuple[float, float]:
     """Lowest and highest height (mm) above the true surface of the bent floor of a patch of
     ring ``j`` with no lift: points on its facets (corners, edge midpoints, inner points)
-    located exactly."""
+    located exactly. On a sphere also each facet's circumcentre where it lies in the facet:
+    a flat triangle with its corners on a sphere dips deepest there (else at the midpoint of
+    its longest edge), so the lowest height is exact."""
     v, faces, _ = flat
     floor = faces[len(faces) - _n_floor(v, faces, base) :]
     bent = layout.bend(v, j, base)
@@ -289,6 +335,21 @@ def measure_floor(
     tri = bent[floor]
     w = np.array([[1, 0, 0], [0.5, 0.5, 0], [1 / 3, 1 / 3, 1 / 3], [0.5, 0.25, 0.25]])
     pts = np.einsum("kw,twc->tkc", w, tri).reshape(-1, 3)
+    if isinstance(layout.face, SphereFace):
+        a2 = np.sum((tri[:, 1] - tri[:, 2]) ** 2, axis=1)
+        b2 = np.sum((tri[:, 2] - tri[:, 0]) ** 2, axis=1)
+        c2 = np.sum((tri[:, 0] - tri[:, 1]) ** 2, axis=1)
+        bc = np.column_stack([a2 * (b2 + c2 - a2), b2 * (c2 + a2 - b2), c2 * (a2 + b2 - c2)])
+        inside = (bc >= 0).all(axis=1)
+        bc = bc[inside] / bc[inside].sum(axis=1, keepdims=True)
+        mids = np.array([[0, 0.5, 0.5], [0.5, 0, 0.5]])  # the other two edges' midpoints
+        pts = np.vstack(
+            [
+                pts,
+                np.einsum("tw,twc->tc", bc, tri[inside]),
+                np.einsum("kw,twc->tkc", mids, tri).reshape(-1, 3),
+            ]
+        )
     h = layout.face.locate(pts)[2]
     return float(h.min()), float(h.max())
 
@@ -299,7 +360,7 @@ def top_sagitta(layout: RingLayout, flat: tuple[np.ndarray, np.ndarray, int]) ->
     v, faces, n_top = flat
     x = v[faces[:n_top], 0]
     width = float((x.max(axis=1) - x.min(axis=1)).max()) if n_top else 0.0
-    r = float(layout.radius.min())
+    r = layout.min_radius
     return width * width / (8 * r) if r > 0 else 0.0
 
 
@@ -314,7 +375,7 @@ def check_radius(
     """ConfigError when the bent base leaves a gap above ``limit`` (a radius too small)."""
     if gap <= limit:
         return
-    r = float(layout.radius.min())
+    r = layout.min_radius
     need = r * gap / limit  # the sagitta falls as 1 / r at a fixed chord
     raise ConfigError(
         f"{where}: face {face} of {target!r} is curved too tightly for this surface: at radius "

@@ -14,7 +14,7 @@ from score4.surface.store import load_surface
 
 from .clearance import check_clearance
 from .gdml_model import GeometryModel
-from .scene import Scene, make_layer, resolve_targets, rough_faces
+from .scene import Scene, make_layers, resolve_targets, rough_faces
 
 
 def _load(name: str, description) -> Surface:
@@ -69,7 +69,7 @@ def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
                     )
                 seen[face] = j
                 one = rough if rough.face == face else rough.model_copy(update={"face": face})
-                scene.layers.append(make_layer(surfaces, target, j, one))
+                scene.layers += make_layers(surfaces, target, j, one)
     check_clearance(scene)
     far = float(np.max(scene.world_half))
     if np.isfinite(far) and far > limits.MAX_WORLD_EXTENT:

@@ -30,7 +30,7 @@ from score4.errors import ConfigError
 from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig
 from score4.shapes import G4Box as G4BoxShape
 from score4.shapes import G4GenericPolycone, PlacedShape, Shape, Transform, shape_from_dict
-from score4.shapes.faces import AnnulusFace, Face, PlaneFace, RevolvedFace
+from score4.shapes.faces import AnnulusFace, Face, PlaneFace, RevolvedFace, SphereFace
 from score4.shapes.hpge import hpge_groups, is_hpge_metadata
 from score4.surface.block_cut import check_patch
 from score4.surface.patchmap import PatchMap, make_patch_map
@@ -44,6 +44,17 @@ from .curved import (
     gap_limit,
     measure_floor,
     top_sagitta,
+)
+from .facets import (
+    boundary_edges,
+    ccw,
+    cells_inside,
+    check_one_plane,
+    face_triangles,
+    plane_face,
+    plane_groups,
+    point_in_triangles,
+    prism_mesh,
 )
 from .gdml_model import GeometryModel, Instance
 from .obb import OrientedBox
@@ -62,8 +73,8 @@ AUTO_MULTIUNION_MAX_SPIKES = 100_000
 
 #: Rough faces supported, by solid type (the words of the error for the others).
 SUPPORTED_FACES = (
-    "the six faces (+x, -x, +y, -y, +z, -z) of a G4Box and the flat end faces (+z, -z) of a "
-    "G4Tubs with a full circle"
+    "the flat faces of any solid (a G4Box's six, the end faces of a G4Tubs, a facet group that "
+    "lies in one plane) and the curved faces swept around z of G4Tubs, G4Cons and polycones"
 )
 
 
@@ -396,8 +407,24 @@ class CurvedRoughLayer(RoughLayer):
 
     @property
     def is_cylinder(self) -> bool:
-        """A face parallel to the axis (a cylinder wall or bore), not a cone."""
-        return abs(float(self.ring_layout.face.nrz[1])) <= 1e-12
+        """A face parallel to the axis (a cylinder wall or bore), not a cone or a sphere."""
+        face = self.ring_layout.face
+        return not isinstance(face, SphereFace) and abs(float(face.nrz[1])) <= 1e-12
+
+    @property
+    def rough_share(self) -> float:
+        """Share of the face's area covered by patch cells (on a sphere: the exact areas of the
+        cells' bands, which differ from px x py)."""
+        lay = self.ring_layout
+        face = lay.face
+        if not isinstance(face, SphereFace):
+            return super().rough_share
+        py = self.patch_size[1]
+        covered = sum(
+            face.band_area(lay.v[j] - py / 2, lay.v[j] + py / 2, float(lay.count[j] * lay.step[j]))
+            for j in range(len(lay.v))
+        )
+        return float(covered / self.face_area)
 
     @property
     def ring_layout(self) -> RingLayout:
@@ -411,7 +438,8 @@ class CurvedRoughLayer(RoughLayer):
     def _flat(self, k: int) -> tuple[np.ndarray, np.ndarray, int]:
         key = ("flat", k)
         if key not in self._cache:
-            self._cache[key] = flat_body(self.variants[k], self.base_thickness)
+            sphere = isinstance(self.ring_layout.face, SphereFace)
+            self._cache[key] = flat_body(self.variants[k], self.base_thickness, sphere)
         return self._cache[key]
 
     @cached_property
@@ -419,8 +447,12 @@ class CurvedRoughLayer(RoughLayer):
         return {}
 
     def ring_solid_key(self, j: int) -> float:
-        """Rings of equal radius and slope share their bent solids (all rings of a cylinder)."""
-        return float(np.round(self.ring_layout.radius[j], 12))
+        """Rings of equal radius and slope share their bent solids (all rings of a cylinder);
+        on a sphere every ring has its own (the key is its position along the meridian)."""
+        lay = self.ring_layout
+        if isinstance(lay.face, SphereFace):
+            return float(np.round(lay.v[j], 12)) + 1e6  # apart from any radius
+        return float(np.round(lay.radius[j], 12))
 
     def bent(self, k: int, j: int) -> BentVariant:
         """Variant ``k`` bent onto ring ``j`` (cached per ring radius)."""
@@ -467,7 +499,7 @@ class CurvedRoughLayer(RoughLayer):
                 )
                 turned[:, 2] -= np.array([lay.ring_z(int(a)) for a in j[sel]])
                 u = np.arctan2(turned[:, 1], turned[:, 0])
-                direction = lay.face.normal(u, 0.0)
+                direction = lay.face.normal(u, lay.v[ring])
                 inside[sel] = self.bent(int(k), ring).contains(
                     turned, direction, BOUNDARY_TOLERANCE
                 )
@@ -516,6 +548,68 @@ class CurvedRoughLayer(RoughLayer):
             r = float(np.hypot(local[:, 0], local[:, 1]).max())
             lo[:2], hi[:2] = -r, r
         return OrientedBox(self.target.to_world((lo + hi) / 2), self.target.rotation, (hi - lo) / 2)
+
+
+@dataclass
+class PolygonRoughLayer(RoughLayer):
+    """A rough layer on a flat face of any outline (:mod:`score4.world.facets`): ``outline``
+    holds the face's triangles in the layer's frame (x, y; centred on the patch grid), the
+    envelope is their prism (``prism``, z from -thickness/2 to +thickness/2 about the envelope's
+    centre), ``mask`` the cells wholly in the face."""
+
+    outline: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 2)))
+    part: int = -1  # the plane's index on a face of several planes (-1: a face of one plane)
+
+    @property
+    def name(self) -> str:
+        base = super().name
+        return base if self.part < 0 else f"{base}_{self.part}"
+
+    @cached_property
+    def prism(self):
+        """The envelope: the face's polygon extruded by the layer's thickness (frame-local,
+        centred on the envelope box's centre)."""
+        return prism_mesh(self.outline, self.thickness)
+
+    def in_face(self, xy: np.ndarray, tol: float = BOUNDARY_TOLERANCE) -> np.ndarray:
+        """True for frame-local (x, y) points in the face's polygon."""
+        return point_in_triangles(np.asarray(xy, float).reshape(-1, 2), self.outline, tol)
+
+    def in_envelope(self, points: np.ndarray) -> np.ndarray:
+        """True for world points strictly inside the envelope (touching does not count)."""
+        q = self.frame.to_local(np.asarray(points, float).reshape(-1, 3))
+        tol = BOUNDARY_TOLERANCE
+        inside = (q[:, 2] > tol) & (q[:, 2] < self.thickness - tol)
+        rows = np.flatnonzero(inside)
+        inside[rows] = self.in_face(q[rows, :2], -tol)
+        return inside
+
+    def envelope_points(self, n: int = 25) -> np.ndarray:
+        """World points of the envelope (a grid of its box kept in the polygon, and the
+        polygon's corners), at the bottom, middle and top, for the clearance checks."""
+        lu, lv = self.frame.size
+        u, v = np.meshgrid(np.linspace(-lu / 2, lu / 2, n), np.linspace(-lv / 2, lv / 2, n))
+        xy = np.column_stack([u.ravel(), v.ravel()])
+        xy = np.concatenate([xy[self.in_face(xy)], self.outline.reshape(-1, 2)])
+        t = self.thickness
+        pts = [np.column_stack([xy, np.full(len(xy), h)]) for h in (0.0, t / 2, t)]
+        # along the outline, just inside it and low: where the layer of a neighbouring face
+        # meets this one at a concave edge (a region about t x t along the edge)
+        edges = boundary_edges(self.outline)
+        s = np.linspace(0.0, 1.0, n)
+        for a, b in edges:
+            d = b - a
+            inward = np.array([-d[1], d[0]]) / max(float(np.hypot(*d)), 1e-300)
+            line = a + s[:, None] * d
+            for off in (0.05, 0.25, 0.5):
+                for h in (0.05, 0.25, 0.5, 0.95):
+                    q = line + off * t * inward
+                    q = q[self.in_face(q)]  # not past a neighbouring edge at a sharp corner
+                    pts.append(np.column_stack([q, np.full(len(q), h * t)]))
+        return self.frame.to_world(np.concatenate(pts))
+
+    def in_cut(self, points: np.ndarray) -> np.ndarray:
+        return np.zeros(len(points), dtype=bool)  # into: true is refused on such faces
 
 
 @dataclass
@@ -824,6 +918,35 @@ def gdml_target(
     )
 
 
+def make_layers(
+    surfaces: dict[str, Surface],
+    target: TargetVolume,
+    j: int,
+    rough: RoughFace,
+    where: str | None = None,
+) -> list[RoughLayer]:
+    """The rough layers of ``rough`` on ``target``: one (:func:`make_layer`), or one per plane of
+    a face made of flat facets in several planes (the ``nsides`` sides of a G4Polyhedra face, the
+    planes of a tessellated mesh: :func:`score4.world.facets.plane_groups`)."""
+    shape = target.shape
+    if shape is not None and isinstance(rough.face, str) and rough.face in shape.faces:
+        groups = plane_groups(face_triangles(shape, rough.face))
+        if len(groups) > 1:
+            where = where or f"targets.{target.entry}.rough.{j}"
+            names = [v.surface for v in rough.variant_list]
+            variants = [surfaces[n] for n in names]
+            size = (variants[0].size_x, variants[0].size_y)
+            layer = make_layer(surfaces, target, j, rough, where, groups[0], 0)
+            out: list[RoughLayer] = [layer]
+            for k, tris in enumerate(groups[1:], start=1):
+                face = plane_face(rough.face_name, tris)
+                out.append(
+                    make_polygon_layer(target, rough, face, names, variants, size, where, tris, k)
+                )
+            return out
+    return [make_layer(surfaces, target, j, rough, where)]
+
+
 def rough_faces(target: TargetVolume, rough: RoughFace) -> list[str]:
     """The faces a rough entry names: its face names, groups (``outer``, ``pplus``, ...) and
     lists of them, resolved on the target's shape; ConfigError listing the faces and groups
@@ -848,6 +971,8 @@ def make_layer(
     j: int,
     rough: RoughFace,
     where: str | None = None,
+    triangles: np.ndarray | None = None,
+    part: int = -1,
 ) -> RoughLayer:
     """The rough layer of ``rough`` (entry ``j`` of the target's rough faces) on ``target``:
     variants from ``surfaces`` by name, face frame, patch map, cell mask of a round face, the
@@ -864,12 +989,23 @@ def make_layer(
                 f"{size[0] * 1e3:g} x {size[1] * 1e3:g} um, {n!r} is {s.size_x * 1e3:g} x "
                 f"{s.size_y * 1e3:g} um"
             )
+    if triangles is not None:  # one plane of a face of several
+        face = plane_face(rough.face_name, triangles)
+        return make_polygon_layer(
+            target, rough, face, names, variants, size, where, triangles, part
+        )
     try:
         geometry = target_face(target, rough.face_name)
     except ConfigError as err:
         raise ConfigError(f"{where}: {err}") from None
-    if isinstance(geometry, RevolvedFace):
+    if isinstance(geometry, RevolvedFace | SphereFace):
         return make_curved_layer(target, rough, geometry, names, variants, size, where)
+    if (
+        isinstance(geometry, PlaneFace)
+        and not geometry.rectangle
+        and not isinstance(geometry, AnnulusFace)
+    ):
+        return make_polygon_layer(target, rough, geometry, names, variants, size, where)
     try:
         frame = face_frame(target, rough.face_name)
     except ConfigError as err:
@@ -920,7 +1056,7 @@ def make_layer(
 def make_curved_layer(
     target: TargetVolume,
     rough: RoughFace,
-    face: RevolvedFace,
+    face: RevolvedFace | SphereFace,
     names: list[str],
     variants: list[Surface],
     size: tuple[float, float],
@@ -945,7 +1081,7 @@ def make_curved_layer(
             "tessellated bodies or, for spike grids on a cylinder, bent frustums (solid: auto, "
             "tessellated or frustums)"
         )
-    cone = abs(face.nrz[1]) > 1e-12
+    cone = isinstance(face, SphereFace) or abs(face.nrz[1]) > 1e-12  # not a cylinder
     if rough.solid == "frustums" and (cone or any(s.spikes is None for s in variants)):
         raise ConfigError(
             f"{where}: solid frustums on a curved face ({what}) needs spike-grid surfaces on a "
@@ -953,7 +1089,8 @@ def make_curved_layer(
         )
     reserve = 1.05 * (rough.base_thickness + max(s.max_height for s in variants)) + 1e-4
     row_gap = 0.0
-    if abs(face.nrz[1]) > 1e-12:  # a cone: rings apart by twice the walls' chord sagitta
+    if isinstance(face, SphereFace) or abs(face.nrz[1]) > 1e-12:  # rings apart by twice the
+        # walls' chord sagitta (a cone, a sphere: neighbouring rings bend with other radii)
         probe = RingLayout.make(face, size, reserve)
         if len(probe.v):
             sag = max(top_sagitta(probe, flat_body(v, rough.base_thickness)) for v in variants)
@@ -973,19 +1110,86 @@ def make_curved_layer(
         target, rough, frame, names, variants, patch_map, mask, float(face.area), layout
     )
     lows, highs, tops = [], [], []
+    rows = {0, ny - 1}
+    if isinstance(face, SphereFace):  # the rings' shapes differ all along the meridian
+        rows = {int(j) for j in np.flatnonzero(layout.count > 0)}
     for k in range(len(variants)):
         flat = layer._flat(k)
-        for j in {0, ny - 1}:
+        for j in rows:
             lo, hi = measure_floor(layout, flat, rough.base_thickness, j)
             lows.append(lo)
             highs.append(hi)
         tops.append(top_sagitta(layout, flat))
-    convex = face.nrz[0] > 0
+    convex = face.sign > 0 if isinstance(face, SphereFace) else face.nrz[0] > 0
     layer.lift = max(-min(lows), 0.0)
     layer.gap = max(highs) + layer.lift
     layer.top_margin = 0.0 if convex else max(tops)
     limit = gap_limit(max(s.max_height for s in variants))
     check_radius(layout, layer.gap, limit, where, target.name, rough.face_name)
+    return layer
+
+
+def make_polygon_layer(
+    target: TargetVolume,
+    rough: RoughFace,
+    face: PlaneFace,
+    names: list[str],
+    variants: list[Surface],
+    size: tuple[float, float],
+    where: str,
+    triangles: np.ndarray | None = None,
+    part: int = -1,
+) -> PolygonRoughLayer:
+    """The rough layer on a flat face of any outline (:mod:`score4.world.facets`): the face's
+    triangles (shape frame; default: all of face ``rough.face``), ``part``: the plane's index
+    on a face of several planes."""
+    what = f"face {rough.face_name} of {target.name!r}"
+    if rough.into:
+        raise ConfigError(
+            f"{where}: into: true on {what} (a {target.solid}) is not supported; the layer goes "
+            "outside the volume (into: false)"
+        )
+    if rough.tiling == "portal":
+        raise ConfigError(f"{where}: {what} (a {target.solid}) takes tiling: native")
+    if rough.native_layout in ("replicas", "nested"):
+        raise ConfigError(
+            f"{where}: native_layout {rough.native_layout} fills a rectangle; {what} (a polygon) "
+            "takes auto or placements"
+        )
+    if triangles is None:
+        triangles = face_triangles(target.described("rough"), rough.face_name)
+    if part >= 0:
+        what += f" (plane {part})"
+    local = face.frame.inverse_apply(triangles.reshape(-1, 3))
+    local = local.reshape(-1, 3, 3)
+    check_one_plane(local, where, rough.face_name, target.name)
+    flat = local[..., :2]
+    lo, hi = flat.reshape(-1, 2).min(axis=0), flat.reshape(-1, 2).max(axis=0)
+    mid = (lo + hi) / 2
+    cells = [max(int(np.floor((hi[a] - lo[a]) / size[a] * (1 + 1e-9))), 1) for a in (0, 1)]
+    extent = (cells[0] * size[0], cells[1] * size[1])
+    frame = FaceFrame(
+        target.to_world(face.frame.apply(np.array([mid[0], mid[1], 0.0]))),
+        target.rotation @ face.frame.rotation,
+        extent,
+    )
+    outline = ccw(flat - mid)
+    patch_map = _rough_patch_map(extent, size, rough, f"{where} ({what})")
+    scale = max(float(np.abs(outline).max()), 1.0)
+    mask = cells_inside(outline, patch_map.cell_centres(), size, 1e-9 * scale)
+    if not mask.any():
+        raise ConfigError(
+            f"{where}: no whole patch of {size[0] * 1e3:g} x {size[1] * 1e3:g} um fits on {what} "
+            f"(a polygon of {(hi - lo)[0]:.4g} x {(hi - lo)[1]:.4g} mm)"
+        )
+    layer = PolygonRoughLayer(
+        target, rough, frame, names, variants, patch_map, mask, float(face.area), outline, part
+    )
+    for k, n in enumerate(names):
+        try:
+            check_patch(variants[k], layer.solid_kind(k), rough.block_cells)
+        except ConfigError as err:
+            raise ConfigError(f"{where} (surface {n!r}): {err}") from None
     return layer
 
 

@@ -1,0 +1,316 @@
+"""Rough layers on flat faces of any outline (score4.world.facets): the faces of a G4Trd and a
+G4Trap, the six sides of a G4Polyhedra face, every plane of a G4ExtrudedSolid and a
+G4TessellatedSolid; in numpy, in Geant4 and exported to GDML."""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from score4.cli.main import main
+from score4.errors import ConfigError
+from score4.inputs.config import parse_config
+from score4.runner.engine import run
+from score4.runner.output import read_results
+from score4.shapes.base import INSIDE, OUTSIDE, PlaneTriangles
+from score4.source.build import layer_sampler, make_source, source_geometry
+from score4.source.vertex_file import write_vertex_file
+from score4.world.resolve import build_scene
+from score4.world.scene import PolygonRoughLayer
+
+from helpers.spawn import run_in_spawned_process
+
+HERE = Path(__file__).parent
+PYRAMIDS = {"kind": "spikes", "nx": 10, "ny": 10, "width": "10 um", "height": "10 um"}
+
+#: volume -> (its rough faces, its position in the world, mm)
+SOLIDS = {
+    "trd": (["+x", "+z"], (0.0, 0.0, 0.0)),
+    "trap": (["+x", "-y"], (12.0, 0.0, 0.0)),
+    "ph": (["seg_1"], (-12.0, 0.0, 0.0)),
+    "xt": (["mesh"], (0.0, 12.0, 0.0)),
+    "tess": (["mesh"], (0.0, -12.0, 0.0)),
+}
+
+
+def octahedron(a: float) -> list:
+    """Vertices and outward-wound triangles of an octahedron of half-diagonal ``a``."""
+    verts = [[a, 0, 0], [-a, 0, 0], [0, a, 0], [0, -a, 0], [0, 0, a], [0, 0, -a]]
+    tris = []
+    for sx, ix in ((1, 0), (-1, 1)):
+        for sy, iy in ((1, 2), (-1, 3)):
+            for sz, iz in ((1, 4), (-1, 5)):
+                tri = [ix, iy, iz]
+                tris.append(tri if sx * sy * sz > 0 else tri[::-1])
+    return [verts, tris]
+
+
+def write_solids(path: Path, concave: bool = False) -> Path:
+    """The solids of :data:`SOLIDS` (silicon, in vacuum), written by pyg4ometry; ``concave``:
+    the extruded solid an L shape."""
+    import pyg4ometry as pg
+
+    reg = pg.geant4.Registry()
+    s = pg.geant4.solid
+    world = pg.geant4.LogicalVolume(s.Box("world_s", 60, 60, 60, reg), "G4_Galactic", "W", reg)
+    outline = (
+        [[-1.5, -1.5], [1.5, -1.5], [1.5, 0], [0, 0], [0, 1.5], [-1.5, 1.5]]
+        if concave
+        else [[-1.5, -1.2], [1.4, -1.5], [1.6, 0.8], [0.1, 1.6], [-1.4, 1.0]]
+    )
+    solids = {
+        "trd": s.Trd("trd_s", 3, 1.6, 2.4, 1.2, 2.0, reg),
+        "trap": s.Trap("trap_s", 1.5, 0.1, 0.2, 1.0, 1.2, 1.5, 0.1, 0.5, 0.6, 0.75, 0.1, reg),
+        "ph": s.Polyhedra("ph_s", 0, 2 * math.pi, 6, 2, [-1.2, 1.2], [0, 0], [1.6, 1.6], reg),
+        "xt": s.ExtrudedSolid("xt_s", outline, [[-1.0, [0, 0], 1], [1.0, [0, 0], 1]], reg),
+        "tess": s.TessellatedSolid("tess_s", octahedron(1.8), reg),
+    }
+    for name, solid in solids.items():
+        lv = pg.geant4.LogicalVolume(solid, "G4_Si", f"{name}_lv", reg)
+        pg.geant4.PhysicalVolume([0, 0, 0], list(SOLIDS[name][1]), lv, name, world, reg)
+    reg.setWorld(world.name)
+    writer = pg.gdml.Writer()
+    writer.addDetector(reg)
+    writer.write(str(path))
+    return path
+
+
+def config(gdml: Path, solids=SOLIDS, **extra) -> dict:
+    return {
+        "physics": "lite",
+        "world": {"gdml": str(gdml)},
+        "surfaces": {"p": PYRAMIDS},
+        "targets": [
+            {"volume": v, "rough": [{"face": f, "surface": "p"} for f in solids[v][0]]}
+            for v in solids
+        ],
+        "source": {"particle": "geantino", "energy": "1 MeV", "surface": {"volume": "trd"}},
+        "run": {"events": 10, "seed": 3},
+        **extra,
+    }
+
+
+@pytest.fixture(scope="module")
+def gdml(tmp_path_factory) -> Path:
+    return write_solids(tmp_path_factory.mktemp("facets") / "solids.gdml")
+
+
+@pytest.fixture(scope="module")
+def scene(gdml):
+    return build_scene(parse_config(config(gdml)))
+
+
+def test_every_plane_gets_a_layer_of_whole_cells_inside_its_polygon(scene):
+    """One layer per plane of each face (6 sides of the polyhedra face, 7 planes of the
+    extruded pentagon, 8 of the octahedron); each cell that holds a patch lies wholly in the
+    face: its corners, a hair below the face, are inside the solid; the rough share is the
+    patches' area over the face's."""
+    counts: dict[str, int] = {}
+    for layer in scene.layers:
+        assert isinstance(layer, PolygonRoughLayer)
+        counts[layer.target.name] = counts.get(layer.target.name, 0) + 1
+        px, py = layer.patch_size
+        centres = layer.cell_centres()[layer.mask]
+        corners = np.concatenate(
+            [
+                centres + np.array([sx * px, sy * py])
+                for sx in (-0.485, 0.485)
+                for sy in (-0.485, 0.485)
+            ]
+        )
+        below = layer.frame.to_world(np.column_stack([corners, np.full(len(corners), -1e-6)]))
+        shape, t = layer.target.shape, layer.target
+        assert (shape.inside(t.to_local(below)) == INSIDE).all()
+        share = layer.mask.sum() * px * py / layer.face_area
+        assert layer.rough_share == pytest.approx(share, rel=1e-12)
+        assert 0.5 < layer.rough_share <= 1.0 + 1e-12
+    assert counts == {"trd": 2, "trap": 2, "ph": 6, "xt": 7, "tess": 8}
+
+
+def test_samples_lie_on_the_patches_and_the_flat_rest_by_area(gdml, scene):
+    """A source on a face of several planes: points on the rough tops (in the target with its
+    layers) and on the flat rest, the flat share as the uncovered area's share of the true
+    area (4 sigma)."""
+    data = config(gdml)
+    data["source"]["surface"] = {"volume": "ph", "face": "seg_1"}
+    cfg = parse_config(data)
+    p = make_source(cfg, scene).primaries(np.random.default_rng(4), 0, 4000)
+    assert scene.inside_target("ph", p.position).all()
+    geo = source_geometry(cfg, scene)
+    layers = scene.layers_of("ph")
+    flat_area = sum(la.face_area * (1 - la.rough_share) for la in layers)
+    tops = sum(layer_sampler(la).area for la in layers)
+    assert geo["area_mm2"] == pytest.approx(tops + flat_area, rel=1e-9)
+    on_flat = p.extra["patch"] < 0
+    share = flat_area / geo["area_mm2"]
+    assert abs(on_flat.mean() - share) < 4 * math.sqrt(share * (1 - share) / 4000)
+    shape = layers[0].target
+    flat_pos = shape.to_local(p.position[on_flat])
+    assert np.abs(shape.shape.signed_distance(flat_pos)).max() < 1e-9
+
+
+def _crossings(o: np.ndarray, d: np.ndarray, tri: np.ndarray) -> float:
+    """Path length of a ray in the closed mesh ``tri`` (Moeller-Trumbore, crossings paired)."""
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    pv = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, pv)
+    ok = np.abs(det) > 1e-30
+    inv = np.where(ok, 1 / np.where(ok, det, 1), 0)
+    tv = o - tri[:, 0]
+    u = np.einsum("ij,ij->i", tv, pv) * inv
+    qv = np.cross(tv, e1)
+    w = (qv @ d) * inv
+    t = np.einsum("ij,ij->i", e2, qv) * inv
+    hit = ok & (u >= -1e-12) & (w >= -1e-12) & (u + w <= 1 + 1e-12) & (t > 0)
+    ts = np.sort(t[hit])
+    ts = ts[np.concatenate([[True], np.diff(ts) > 1e-10])] if len(ts) else ts
+    assert len(ts) % 2 == 0
+    return float(np.sum(ts[1::2] - ts[0::2]))
+
+
+def ray_path(o: np.ndarray, d: np.ndarray, scene, volume: str) -> float:
+    """Independent ray trace: the path in the solid's own triangles plus the path in each patch
+    body (the surface's closed body at the cell's place in the face frame) near the ray."""
+    target = scene.target(volume)
+    tri = np.concatenate(
+        [p.triangles for p in target.shape.patches if isinstance(p, PlaneTriangles)]
+    )
+    total = _crossings(o, d, target.to_world(tri.reshape(-1, 3)).reshape(-1, 3, 3))
+    for layer in scene.layers_of(volume):
+        frame, t = layer.frame, layer.thickness
+        lo, dl = frame.to_local(o[None])[0], d @ frame.rotation
+        if abs(dl[2]) < 1e-12:
+            continue
+        ts = np.linspace(-lo[2] / dl[2], (t - lo[2]) / dl[2], 40)
+        path = lo[None, :2] + ts[:, None] * dl[None, :2]
+        px, py = layer.patch_size
+        centres = layer.cell_centres()
+        near = np.zeros(layer.mask.shape, dtype=bool)
+        for q in path:
+            near |= (np.abs(centres[..., 0] - q[0]) < px) & (np.abs(centres[..., 1] - q[1]) < py)
+        body = layer.variants[0].body(layer.base_thickness)
+        for j, i in zip(*np.nonzero(near & layer.mask), strict=True):
+            v = body.vertices + np.array([*centres[j, i], layer.base_thickness])
+            total += _crossings(o, d, frame.to_world(v)[body.faces])
+    return total
+
+
+def test_geantino_paths_agree_with_an_independent_ray_trace(gdml, scene, tmp_path):
+    """Geantinos from outside each solid's layers through a rough face and the solid: Geant4's
+    track length in the target (its patches count) equals the ray trace of the solid's facets
+    plus the patch meshes, to 1e-9 mm, on every solid."""
+    data = config(gdml, output={"track_length": True})
+    cfg = parse_config(data)
+    rng = np.random.default_rng(7)
+    starts, directions, volumes = [], [], []
+    for volume in SOLIDS:
+        for layer in scene.layers_of(volume):
+            target = layer.target
+            for _ in range(3 if layer.part < 0 else 1):
+                centres = layer.cell_centres()[layer.mask]
+                c = centres[rng.integers(len(centres))] + rng.uniform(-0.05, 0.05, 2)
+                start = layer.frame.to_world(np.array([*c, 0.03]))
+                aim = target.to_world(target.shape.sample_volume(rng, 1))[0]
+                starts.append(start)
+                directions.append((aim - start) / np.linalg.norm(aim - start))
+                volumes.append(volume)
+    n = len(starts)
+    primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n)
+    primaries.position[:] = np.array(starts)
+    primaries.direction[:] = np.array(directions)
+    vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
+    replay = parse_config({**data, "source": {"vertices": str(vfile)}, "run": {"events": n}})
+    r = read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
+    for k in range(n):
+        got = r.scores["track_length"][volumes[k]][k]
+        expected = ray_path(starts[k], directions[k], scene, volumes[k])
+        assert got == pytest.approx(expected, abs=1e-9, rel=0), (volumes[k], k)
+
+
+def _call(name, *args):
+    sys.path.insert(0, str(HERE))
+    from helpers import g4_gdml_world
+
+    return getattr(g4_gdml_world, name)(*args)
+
+
+def test_exported_world_gives_the_same_geantino_paths(gdml, scene, tmp_path):
+    """The world with every layer above, written to GDML by `score4 geometry export` and read
+    back by Geant4: the same ray paths (volumes and points to 1e-9 mm) as the world score4
+    builds, through the rough faces of the G4Trd and the G4TessellatedSolid."""
+    cfg = tmp_path / "solids.yaml"
+    cfg.write_text(yaml.safe_dump(config(gdml, {v: SOLIDS[v] for v in ("trd", "tess")})))
+    out = tmp_path / "world.gdml"
+    assert main(["geometry", "export", str(cfg), "--gdml", str(out)]) == 0
+    rng = np.random.default_rng(5)
+    rays = []
+    for volume in ("trd", "tess"):
+        for layer in scene.layers_of(volume)[:3]:
+            centres = layer.cell_centres()[layer.mask]
+            for c in centres[rng.integers(len(centres), size=3)]:
+                start = layer.frame.to_world(np.array([*c, 0.2]))
+                tilt = layer.frame.rotation @ np.array([*rng.uniform(-0.3, 0.3, 2), -1.0])
+                rays.append((start.tolist(), tilt.tolist()))
+    ours = run_in_spawned_process(_call, "trace_built", str(cfg), rays)
+    back = run_in_spawned_process(_call, "trace_gdml", str(out), rays)
+    for a, b in zip(ours, back, strict=True):
+        assert len(a) == len(b)
+        np.testing.assert_allclose([p for _, p in a], [p for _, p in b], atol=1e-9, rtol=0)
+    assert min(len(a) for a in ours) > 4  # the rays cross layers, cells and spikes
+
+
+def test_geant4_finds_no_overlap_on_neighbouring_rough_faces(gdml, tmp_path, capsys):
+    """Geant4's own overlap check on the trd's two neighbouring rough faces (prism envelopes
+    that meet at the edge) and the cells in them."""
+    solids = {"trd": SOLIDS["trd"]}
+    data = config(gdml, solids)
+    data["surfaces"]["p"] = {**PYRAMIDS, "nx": 40, "ny": 40}  # 0.4 mm patches: fewer cells
+    (tmp_path / "trd.yaml").write_text(yaml.safe_dump(data))
+    assert main(["geometry", "check", str(tmp_path / "trd.yaml")]) == 0
+    assert "no overlaps" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("volume", "change", "message"),
+    [
+        ("trd", {"face": "top"}, r"no face 'top' on a G4Trd; its faces: \+x, -x, \+y, -y, \+z, -z"),
+        ("trap", {"face": "+x", "into": True}, r"into: true on face \+x of 'trap' \(a G4Trap\)"),
+        ("ph", {"face": "seg_1", "native_layout": "replicas"}, r"takes auto or placements"),
+        ("trd", {"face": "+z", "tiling": "portal"}, r"takes tiling: native"),
+    ],
+)
+def test_bad_facet_layers_are_one_line_errors(gdml, volume, change, message):
+    data = config(gdml, {volume: SOLIDS[volume]})
+    data["targets"][0]["rough"] = [{"surface": "p", **change}]
+    with pytest.raises(ConfigError, match=message):
+        build_scene(parse_config(data))
+
+
+def test_a_face_smaller_than_a_patch_states_its_size(gdml):
+    data = config(gdml, {"trd": SOLIDS["trd"]})
+    data["surfaces"]["p"] = {**PYRAMIDS, "nx": 400, "ny": 400}  # 4 mm patches
+    with pytest.raises(ConfigError, match=r"no whole patch of 4000 x 4000 um fits on face \+x"):
+        build_scene(parse_config(data))
+
+
+def test_layers_meeting_at_a_concave_edge_are_refused(tmp_path):
+    """An L-shaped extrusion: the layers of the two faces of its inner corner would overlap."""
+    gdml = write_solids(tmp_path / "l.gdml", concave=True)
+    with pytest.raises(ConfigError, match=r"xt_roughmesh_\d+: .* runs into the rough layer"):
+        build_scene(parse_config(config(gdml, {"xt": SOLIDS["xt"]})))
+
+
+def test_the_trap_outline_matches_its_shape(scene):
+    """The G4Trap read from the GDML: its +x face is the quadrilateral of its corners."""
+    layer = scene.layer("trap", "+x")
+    e1 = layer.outline[:, 1] - layer.outline[:, 0]
+    e2 = layer.outline[:, 2] - layer.outline[:, 0]
+    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum()
+    assert area == pytest.approx(layer.target.shape.face_areas["+x"], rel=1e-12)
+    centre = layer.target.to_local(layer.frame.centre[None])
+    assert (layer.target.shape.inside(centre) != OUTSIDE).all()

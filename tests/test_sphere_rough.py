@@ -1,0 +1,258 @@
+"""Rough layers on the curved faces of G4Orb and G4Sphere (score4.world.curved with a
+score4.shapes.faces.SphereFace): patches bent onto the sphere in rings, in numpy, in Geant4 and
+exported to GDML."""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from score4.cli.main import main
+from score4.errors import ConfigError
+from score4.inputs.config import parse_config
+from score4.runner.engine import run
+from score4.runner.output import read_results
+from score4.source.build import layer_sampler, make_source, source_geometry
+from score4.source.vertex_file import write_vertex_file
+from score4.world.curved import MAX_SQUEEZE, gap_limit
+from score4.world.resolve import build_scene
+from score4.world.scene import CurvedRoughLayer
+
+from helpers.spawn import run_in_spawned_process
+
+HERE = Path(__file__).parent
+PYRAMIDS = {"kind": "spikes", "nx": 10, "ny": 10, "width": "10 um", "height": "10 um"}
+ORB_R = 3.0  # mm
+SPHERE = (2.0, 4.0, 0.2, 0.4, 1.1, 0.5)  # rmin, rmax, sphi, dphi, stheta, dtheta
+
+
+def write_spheres(path: Path, orb_r: float = ORB_R) -> Path:
+    """A G4Orb ``orb`` at the origin and a G4Sphere zone ``sph`` (a shell segment) at x = 15
+    mm, silicon in vacuum, written by pyg4ometry."""
+    import pyg4ometry as pg
+
+    reg = pg.geant4.Registry()
+    s = pg.geant4.solid
+    world = pg.geant4.LogicalVolume(s.Box("world_s", 60, 60, 60, reg), "G4_Galactic", "W", reg)
+    solids = {"orb": s.Orb("orb_s", orb_r, reg), "sph": s.Sphere("sph_s", *SPHERE, reg)}
+    for (name, solid), pos in zip(solids.items(), ([0, 0, 0], [15, 0, 0]), strict=True):
+        lv = pg.geant4.LogicalVolume(solid, "G4_Si", f"{name}_lv", reg)
+        pg.geant4.PhysicalVolume([0, 0, 0], pos, lv, name, world, reg)
+    reg.setWorld(world.name)
+    writer = pg.gdml.Writer()
+    writer.addDetector(reg)
+    writer.write(str(path))
+    return path
+
+
+def config(gdml: Path, rough: dict | None = None, **extra) -> dict:
+    rough = rough or {"orb": ["outer"], "sph": ["outer", "inner"]}
+    return {
+        "physics": "lite",
+        "world": {"gdml": str(gdml)},
+        "surfaces": {"p": PYRAMIDS},
+        "targets": [
+            {"volume": v, "rough": [{"face": f, "surface": "p"} for f in faces]}
+            for v, faces in rough.items()
+        ],
+        "source": {
+            "particle": "geantino",
+            "energy": "1 MeV",
+            "surface": {"volume": "sph", "face": ["outer", "inner"]},
+        },
+        "run": {"events": 10, "seed": 3},
+        **extra,
+    }
+
+
+@pytest.fixture(scope="module")
+def gdml(tmp_path_factory) -> Path:
+    return write_spheres(tmp_path_factory.mktemp("spheres") / "spheres.gdml")
+
+
+@pytest.fixture(scope="module")
+def scene(gdml):
+    return build_scene(parse_config(config(gdml)))
+
+
+def test_bent_layers_follow_the_sphere(scene):
+    """Every bent body lies on or outside the true sphere (outer faces) or inside the cavity
+    (the inner face), within the layer; the measured gap is under the limit; the orb's polar
+    caps, where a patch would be squeezed by more than MAX_SQUEEZE, stay flat."""
+    for layer in scene.layers:
+        assert isinstance(layer, CurvedRoughLayer)
+        lay = layer.ring_layout
+        assert layer.gap <= gap_limit(10e-3)
+        for j in np.flatnonzero(lay.count > 0)[:: max(1, len(lay.v) // 5)]:
+            body = layer.bent(0, int(j))
+            h = lay.face.locate(body.vertices + np.array([0.0, 0.0, lay.ring_z(int(j))]))[2]
+            assert h.min() >= -1e-12
+            assert h.max() <= layer.thickness
+    orb = scene.layer("orb", "outer")
+    lay = orb.ring_layout
+    held = lay.count > 0
+    py = orb.patch_size[1]
+    inner = np.minimum(lay.face.radius(lay.v - py / 2), lay.face.radius(lay.v + py / 2))
+    assert (inner[held] >= (1 - MAX_SQUEEZE) * lay.radius[held]).all()
+    assert not held.all()  # the caps
+    assert 0.9 < orb.rough_share < 1.0
+
+
+def test_samples_lie_on_the_bent_tops_and_the_flat_rest(gdml, scene):
+    """A source on both curved faces of the shell: every point in the target or its layers,
+    the flat share as the uncovered area's share of the true area (4 sigma)."""
+    cfg = parse_config(config(gdml))
+    p = make_source(cfg, scene).primaries(np.random.default_rng(2), 0, 4000)
+    assert scene.inside_target("sph", p.position).all()
+    geo = source_geometry(cfg, scene)
+    layers = scene.layers_of("sph")
+    flat_area = sum(la.face_area * (1 - la.rough_share) for la in layers)
+    tops = sum(layer_sampler(la).area for la in layers)
+    assert geo["area_mm2"] == pytest.approx(tops + flat_area, rel=1e-9)
+    share = flat_area / geo["area_mm2"]
+    on_flat = p.extra["patch"] < 0
+    assert abs(on_flat.mean() - share) < 4 * math.sqrt(share * (1 - share) / 4000)
+
+
+def _crossings(o: np.ndarray, d: np.ndarray, tri: np.ndarray) -> float:
+    """Path length of a ray in the closed mesh ``tri`` (Moeller-Trumbore, crossings paired)."""
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    pv = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, pv)
+    ok = np.abs(det) > 1e-30
+    inv = np.where(ok, 1 / np.where(ok, det, 1), 0)
+    tv = o - tri[:, 0]
+    u = np.einsum("ij,ij->i", tv, pv) * inv
+    qv = np.cross(tv, e1)
+    w = (qv @ d) * inv
+    t = np.einsum("ij,ij->i", e2, qv) * inv
+    hit = ok & (u >= 0) & (w >= 0) & (u + w <= 1) & (t > 0)
+    ts = np.sort(t[hit])
+    ts = ts[np.concatenate([[True], np.diff(ts) > 1e-12])] if len(ts) else ts
+    assert len(ts) % 2 == 0
+    return float(np.sum(ts[1::2] - ts[0::2]))
+
+
+def orb_path(o: np.ndarray, d: np.ndarray, layer) -> float:
+    """Independent ray trace: the chord of the analytic orb plus the path in the bent patch
+    bodies of the cells near where the ray crosses the sphere."""
+    b = o @ d
+    c = o @ o - ORB_R**2
+    disc = b * b - c
+    total = 0.0
+    lay = layer.ring_layout
+    if disc <= 0:
+        return 0.0
+    t1, t2 = -b - math.sqrt(disc), -b + math.sqrt(disc)
+    total += t2 - t1
+    px, py = layer.patch_size
+    for t in (t1, t2):
+        _, v0, _ = lay.face.locate((o + t * d)[None])
+        phi0 = math.atan2((o + t * d)[1], (o + t * d)[0])
+        tri_all = []
+        for j in np.flatnonzero((np.abs(lay.v - v0[0]) < 3 * py) & (lay.count > 0)):
+            r = lay.radius[j]
+            for i, phi in enumerate(lay.cell_phi(int(j))):
+                dphi = (phi - phi0 + math.pi) % (2 * math.pi) - math.pi
+                if abs(dphi) * r > 3 * px:
+                    continue
+                body = layer.bent(int(layer.cell_variants[j, i]), int(j))
+                cs, sn = math.cos(phi), math.sin(phi)
+                v = body.vertices @ np.array([[cs, sn, 0], [-sn, cs, 0], [0, 0, 1]])
+                tri_all.append((v + np.array([0.0, 0.0, lay.ring_z(int(j))]))[body.faces])
+        if tri_all:
+            for tri in tri_all:
+                total += _crossings(o, d, tri)
+    return total
+
+
+def test_geantino_paths_agree_with_an_independent_ray_trace(gdml, scene, tmp_path):
+    """Geantinos from outside the orb's layer through the rough sphere (both crossings):
+    Geant4's track length in the orb (its patches count) equals the ray trace of the analytic
+    sphere plus the bent patch meshes, to 1e-9 mm."""
+    data = config(gdml, {"orb": ["outer"]}, output={"track_length": True})
+    data["source"]["surface"] = {"volume": "orb", "face": "outer"}
+    cfg = parse_config(data)
+    own = build_scene(cfg)
+    layer = own.layer("orb", "outer")
+    rng = np.random.default_rng(7)
+    n = 30
+    lay = layer.ring_layout
+    rows = np.flatnonzero(lay.count > 0)
+    starts, directions = [], []
+    for _ in range(n):
+        j = int(rng.choice(rows))
+        phi = float(rng.choice(lay.cell_phi(j))) + rng.uniform(-0.3, 0.3) * lay.step[j]
+        p = lay.face.point(phi, lay.v[j] + rng.uniform(-0.03, 0.03))
+        start = p * (ORB_R + 0.05) / ORB_R
+        aim = rng.uniform(-1.5, 1.5, 3)
+        starts.append(start)
+        directions.append((aim - start) / np.linalg.norm(aim - start))
+    primaries = make_source(cfg, own).primaries(np.random.default_rng(1), 0, n)
+    primaries.position[:] = np.array(starts)
+    primaries.direction[:] = np.array(directions)
+    vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
+    replay = parse_config({**data, "source": {"vertices": str(vfile)}, "run": {"events": n}})
+    r = read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
+    got = np.asarray(r.scores["track_length"]["orb"])
+    expected = np.array([orb_path(o, d, layer) for o, d in zip(starts, directions, strict=True)])
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9)
+    assert (expected > 2 * ORB_R * 0.1).all()
+
+
+def _call(name, *args):
+    sys.path.insert(0, str(HERE))
+    from helpers import g4_gdml_world
+
+    return getattr(g4_gdml_world, name)(*args)
+
+
+def test_exported_sphere_layers_give_the_same_geantino_paths(gdml, scene, tmp_path):
+    """The shell segment with both curved faces rough, written to GDML by `score4 geometry
+    export` and read back by Geant4: the same ray paths (volumes and points, 1e-9 mm)."""
+    cfg = tmp_path / "sph.yaml"
+    cfg.write_text(yaml.safe_dump(config(gdml, {"sph": ["outer", "inner"]})))
+    out = tmp_path / "world.gdml"
+    assert main(["geometry", "export", str(cfg), "--gdml", str(out)]) == 0
+    rng = np.random.default_rng(5)
+    rays = []
+    for face in ("outer", "inner"):
+        layer = scene.layer("sph", face)
+        lay = layer.ring_layout
+        target = layer.target
+        for _ in range(4):
+            j = int(rng.choice(np.flatnonzero(lay.count > 0)))
+            phi = float(rng.choice(lay.cell_phi(j)))
+            p = lay.face.point(phi, lay.v[j]) + 0.03 * lay.face.normal(phi, lay.v[j])
+            inward = -lay.face.normal(phi, lay.v[j]) + rng.uniform(-0.2, 0.2, 3)
+            rays.append((target.to_world(p[None])[0].tolist(), inward.tolist()))
+    ours = run_in_spawned_process(_call, "trace_built", str(cfg), rays)
+    back = run_in_spawned_process(_call, "trace_gdml", str(out), rays)
+    for a, b in zip(ours, back, strict=True):
+        assert len(a) == len(b)
+        np.testing.assert_allclose([p for _, p in a], [p for _, p in b], atol=1e-9, rtol=0)
+    assert min(len(a) for a in ours) > 4  # the rays cross the envelope, cells and spikes
+
+
+def test_a_face_the_orb_lacks_lists_its_faces(gdml):
+    with pytest.raises(ConfigError, match=r"no face 'inner' on a G4Orb; its faces: outer, all"):
+        build_scene(parse_config(config(gdml, {"orb": ["inner"]})))
+
+
+def test_an_orb_too_small_for_the_patch_states_the_radius_needed(tmp_path):
+    gdml = write_spheres(tmp_path / "small.gdml", orb_r=0.5)
+    data = config(gdml, {"orb": ["outer"]})
+    data["surfaces"]["p"] = {
+        "kind": "spikes",
+        "nx": 1,
+        "ny": 1,
+        "width": "100 um",
+        "height": "2 um",
+    }
+    with pytest.raises(ConfigError, match=r"curved too tightly .* radius >= [\d.]+ mm"):
+        build_scene(parse_config(data))
