@@ -472,12 +472,11 @@ class CurvedRoughSurfaceDistance:
             ok = (j >= 0) & (j < rings)
             jj = np.where(ok, j, 0)
             step, count = lay.step[jj], lay.count[jj]
-            first = lay.phi_mid - (count - 1) / 2 * step
-            ic = np.floor(np.mod(u - first + step / 2, 2 * np.pi) / step).astype(np.int64)
-            if self.full:  # a point in the ring's gap: its nearest cell
-                ic = np.where(
-                    ic >= count, np.where(ic - count < (2 * np.pi / step - ic), count - 1, 0), ic
-                )
+            # the azimuth from the face's middle, in (-pi, pi]; beyond the ring's ends (its
+            # gap, or off a partial face) the nearest end cell
+            d = np.mod(u - lay.phi_mid + np.pi, 2 * np.pi) - np.pi
+            ic = np.floor((d + count * step / 2) / step).astype(np.int64)
+            ic = np.clip(ic, 0, np.maximum(count - 1, 0))
             for di in range(-m, m + 1):
                 i = ic + di
                 if self.full:
