@@ -459,7 +459,8 @@ class CurvedRoughSurfaceDistance:
         return _revolved_distance(self.face_patch, q) if len(q) else np.empty(0)
 
     def _window(self, q: np.ndarray):
-        """(rows, ring j, cell i) of every cell of the window around each point."""
+        """(rows, ring j, cell i, the point's own cell) of every cell of the window around each
+        point."""
         lay = self.lay
         u, v, _ = lay.face.locate(q)
         rings = len(lay.v)
@@ -484,7 +485,7 @@ class CurvedRoughSurfaceDistance:
                 good = ok & (i >= 0) & (i < count)
                 rows = np.flatnonzero(good)
                 if len(rows):
-                    yield rows, j[rows], i[rows]
+                    yield rows, j[rows], i[rows], di == 0 and dj == 0
 
     def _turned(self, q: np.ndarray, j: np.ndarray, i: np.ndarray) -> np.ndarray:
         """Points in the frame of cell (j, i): turned by minus its azimuth, z from its ring."""
@@ -499,15 +500,18 @@ class CurvedRoughSurfaceDistance:
         if not len(q):
             return best
         cells = list(self._window(q))
-        for ball in (False, True):
-            for rows, j, i in cells:
-                self._measure(q, rows, j, i, best, ball)
+        # first guess: the own cell's nearest centroids' facets; then every cell's ball
+        for rows, j, i, own in cells:
+            if own:
+                self._measure(q, rows, j, i, best, False)
+        for rows, j, i, _ in cells:
+            self._measure(q, rows, j, i, best, True)
         return best
 
     def _measure(self, q, rows, j, i, best, ball: bool) -> None:
         k = self.cells[j, i]
         flat = k < 0
-        if flat.any() and not ball:
+        if flat.any():  # an empty cell: the smooth face's piece there
             lay, face = self.lay, self.lay.face
             for a, b in {(int(a), int(b)) for a, b in zip(j[flat], i[flat], strict=True)}:
                 sel = flat & (j == a) & (i == b)
