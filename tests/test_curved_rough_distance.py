@@ -196,3 +196,20 @@ def test_cones_bores_and_partial_walls_match_the_brute_force(tmp_path, case):
     brute = _brute_triangle(local, _every_bent_facet(layer)).min(axis=1)
     got = CurvedRoughSurfaceDistance(layer)(layer.target.to_world(local))
     np.testing.assert_allclose(got, brute, rtol=0, atol=1e-12)
+
+
+def test_a_cell_without_patch_is_the_smooth_wall_there(tube):
+    """A cell emptied by hand (-1): a point over or under its middle is at its height from the
+    smooth wall, nearer than any facet of the neighbouring patches."""
+    layer = _layer(tube)
+    rd = CurvedRoughSurfaceDistance(layer)
+    rd.cells = rd.cells.copy()
+    rd.cells[1, 7] = -1
+    lay = layer.ring_layout
+    phi, v = lay.cell_phi(1)[7], lay.v[1]
+    h = np.array([0.002, -0.01])
+    local = lay.face.point(phi, v) + h[:, None] * lay.face.normal(phi, v)
+    got = rd(layer.target.to_world(local))
+    np.testing.assert_allclose(got, np.abs(h), rtol=0, atol=1e-12)
+    facets = _every_bent_facet(layer)
+    assert np.all(_brute_triangle(local, facets).min(axis=1) > np.abs(h) + 1e-4)
