@@ -15,7 +15,7 @@ nearest face's when the layers do not overlap.
 A face with a flat rough layer is measured by its rough surface (the patch tops,
 :mod:`score4.world.rough_distance`), for steps in the bulk under it and in its patches alike.
 A face with a curved rough layer (patches bent onto a cylinder, cone or polycone segment) is
-still measured by the smooth face, and a step in one of its patches is at distance 0.
+measured by its bent patch tops the same way (:class:`CurvedRoughSurfaceDistance`).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..shapes.base import PlaneTriangles, Revolved, Shape
 from ..shapes.placed import PlacedShape
-from .rough_distance import RoughSurfaceDistance
+from .rough_distance import CurvedRoughSurfaceDistance, RoughSurfaceDistance, _revolved_distance
 
 if TYPE_CHECKING:  # world.scene imports this module when it needs activeness
     from .scene import RoughLayer, Scene, TargetVolume
@@ -41,41 +41,6 @@ def weight(d: np.ndarray, fccd: float, dlf: float) -> np.ndarray:
     if fccd <= dead:  # dlf = 1: a step function
         return (d >= fccd).astype(float)
     return np.clip((d - dead) / (fccd - dead), 0.0, 1.0)
-
-
-def _segment_distance_2d(r, z, r1, z1, r2, z2) -> np.ndarray:
-    dr, dz = r2 - r1, z2 - z1
-    length2 = dr * dr + dz * dz
-    t = (
-        np.zeros_like(r)
-        if length2 == 0
-        else np.clip(((r - r1) * dr + (z - z1) * dz) / length2, 0, 1)
-    )
-    return np.hypot(r - (r1 + t * dr), z - (z1 + t * dz))
-
-
-def _segment_distance_3d(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    d = b - a
-    length2 = float(d @ d)
-    t = np.zeros(len(p)) if length2 == 0 else np.clip((p - a) @ d / length2, 0, 1)
-    return np.linalg.norm(p - (a + t[:, None] * d), axis=1)
-
-
-def _revolved_distance(patch: Revolved, p: np.ndarray) -> np.ndarray:
-    """Exact distance of points to a segment swept about z over [phi0, phi0 + dphi]."""
-    r = np.hypot(p[:, 0], p[:, 1])
-    d = _segment_distance_2d(r, p[:, 2], patch.r1, patch.z1, patch.r2, patch.z2)
-    if patch.dphi >= 2 * np.pi - 1e-12:
-        return d
-    phi = np.mod(np.arctan2(p[:, 1], p[:, 0]) - patch.phi0, 2 * np.pi)
-    inside = phi <= patch.dphi
-    edges = []
-    for angle in (patch.phi0, patch.phi0 + patch.dphi):
-        c, s = np.cos(angle), np.sin(angle)
-        a = np.array([patch.r1 * c, patch.r1 * s, patch.z1])
-        b = np.array([patch.r2 * c, patch.r2 * s, patch.z2])
-        edges.append(_segment_distance_3d(p, a, b))
-    return np.where(inside, d, np.minimum(*edges))
 
 
 def _triangles_distance(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -114,7 +79,8 @@ def face_distance(shape, faces: tuple[str, ...], points: np.ndarray) -> np.ndarr
 
 class TargetDistance:
     """Distances of world points to faces of one target: plane faces and surfaces of revolution
-    exactly (:func:`face_distance`), faces with a flat rough layer to their rough surface.
+    exactly (:func:`face_distance`), faces with a rough layer (flat or curved) to their rough
+    surface.
 
     ``layers``: the target's rough layers (:class:`score4.world.scene.RoughLayer`)."""
 
@@ -123,34 +89,37 @@ class TargetDistance:
         assert target.shape is not None  # target_distances gives None for such a volume
         self.shape: Shape = target.shape
         self.layers = list(layers)
-        #: face name -> its flat rough layer (distances built on first use)
+        #: face name -> its rough layer (distances built on first use)
         self.rough: dict[str, RoughLayer] = {}
         for layer in self.layers:
-            if not layer.curved:
-                (face,) = self.shape.resolve_faces([layer.config.face_name])
-                self.rough[face] = layer
-        self._measures: dict[str, RoughSurfaceDistance] = {}
+            (face,) = self.shape.resolve_faces([layer.config.face_name])
+            self.rough[face] = layer
+        self._measures: dict[str, RoughSurfaceDistance | CurvedRoughSurfaceDistance] = {}
         try:  # every face measurable by face_distance (else the whole surface: signed distance)
             face_distance(self.shape, tuple(self.shape.faces), np.zeros((1, 3)))
             self.exact_faces = True
         except ConfigError:
             self.exact_faces = False
 
-    def rough_distance(self, face: str) -> RoughSurfaceDistance:
-        """The distance to the rough surface of ``face`` (a face with a flat rough layer)."""
+    def rough_distance(self, face: str) -> RoughSurfaceDistance | CurvedRoughSurfaceDistance:
+        """The distance to the rough surface of ``face`` (a face with a rough layer)."""
         if face not in self._measures:
-            self._measures[face] = RoughSurfaceDistance(self.rough[face])
+            layer = self.rough[face]
+            self._measures[face] = (
+                CurvedRoughSurfaceDistance(layer)  # type: ignore[arg-type]
+                if layer.curved
+                else RoughSurfaceDistance(layer)
+            )
         return self._measures[face]
 
     def _outside(self, world: np.ndarray, local: np.ndarray) -> np.ndarray:
-        """Points outside the flat shape and in none of its flat layers' patches (curved
-        layers' patches, or a hair outside the volume)."""
+        """Points outside the smooth shape and in none of its layers' patches (a hair outside
+        the volume)."""
         outside = self.shape.signed_distance(local) > 1e-9
         rows = np.flatnonzero(outside)
         if len(rows):
             for layer in self.layers:
-                if not layer.curved:
-                    outside[rows[layer.contains(world[rows])]] = False
+                outside[rows[layer.contains(world[rows])]] = False
         return outside
 
     def to_faces(self, faces: tuple[str, ...], world: np.ndarray) -> np.ndarray:

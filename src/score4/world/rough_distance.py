@@ -32,8 +32,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..shapes.base import Revolved
+
 if TYPE_CHECKING:
-    from .scene import RoughLayer
+    from .scene import CurvedRoughLayer, RoughLayer
 
 #: Depth below the surface's lowest level, in units of the largest facet circumradius, down to
 #: which distances are exact (a ball at depth a holds ~2 pi a / r facets of radius r).
@@ -70,6 +72,41 @@ def point_triangle_distance(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
         inside &= _dot(np.cross(v - u, q - u), n) >= 0
     edges = np.minimum(np.minimum(_segment(p, a, b), _segment(p, b, c)), _segment(p, c, a))
     return np.where(inside, np.abs(h), edges)
+
+
+def _segment_distance_2d(r, z, r1, z1, r2, z2) -> np.ndarray:
+    dr, dz = r2 - r1, z2 - z1
+    length2 = dr * dr + dz * dz
+    t = (
+        np.zeros_like(r)
+        if length2 == 0
+        else np.clip(((r - r1) * dr + (z - z1) * dz) / length2, 0, 1)
+    )
+    return np.hypot(r - (r1 + t * dr), z - (z1 + t * dz))
+
+
+def _segment_distance_3d(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    d = b - a
+    length2 = float(d @ d)
+    t = np.zeros(len(p)) if length2 == 0 else np.clip((p - a) @ d / length2, 0, 1)
+    return np.linalg.norm(p - (a + t[:, None] * d), axis=1)
+
+
+def _revolved_distance(patch: Revolved, p: np.ndarray) -> np.ndarray:
+    """Exact distance of points to a segment swept about z over [phi0, phi0 + dphi]."""
+    r = np.hypot(p[:, 0], p[:, 1])
+    d = _segment_distance_2d(r, p[:, 2], patch.r1, patch.z1, patch.r2, patch.z2)
+    if patch.dphi >= 2 * np.pi - 1e-12:
+        return d
+    phi = np.mod(np.arctan2(p[:, 1], p[:, 0]) - patch.phi0, 2 * np.pi)
+    inside = phi <= patch.dphi
+    edges = []
+    for angle in (patch.phi0, patch.phi0 + patch.dphi):
+        c, s = np.cos(angle), np.sin(angle)
+        a = np.array([patch.r1 * c, patch.r1 * s, patch.z1])
+        b = np.array([patch.r2 * c, patch.r2 * s, patch.z2])
+        edges.append(_segment_distance_3d(p, a, b))
+    return np.where(inside, d, np.minimum(*edges))
 
 
 def _rect_distance(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -121,6 +158,37 @@ class _Variant:
                 best = np.minimum(best, _dot(x, x))
             out[rows] = np.sqrt(best)
         return out
+
+
+def _ball(variant: _Variant, p: np.ndarray, r: np.ndarray, best: np.ndarray) -> None:
+    """Lower ``best[r]`` by every facet of ``variant`` that can be nearer to points ``p``
+    than it: centroids within best + the largest facet radius, less each facet's radius."""
+    n_facets = len(variant.tri)
+    todo = np.arange(len(r))
+    k = BALL_FACETS
+    while len(todo):
+        k = min(k, n_facets)
+        bound = best[r[todo]] + variant.radius
+        dist, idx = variant.tree.query(
+            p[todo], k=k, distance_upper_bound=float(np.nextafter(bound.max(), np.inf))
+        )
+        dist, idx = (
+            np.asarray(dist).reshape(len(todo), k),
+            np.asarray(idx).reshape(len(todo), k),
+        )
+        found = (idx < n_facets) & (dist <= bound[:, None])
+        owner, col = np.nonzero(found)
+        facet = idx[owner, col]
+        near = dist[owner, col] - variant.radii[facet] < best[r[todo[owner]]]
+        owner, facet = owner[near], facet[near]
+        if len(owner):
+            got = np.full(len(todo), np.inf)
+            np.minimum.at(got, owner, variant.distance(p[todo[owner]], facet))
+            best[r[todo]] = np.minimum(best[r[todo]], got)
+        if k == n_facets:
+            break
+        todo = todo[found[:, -1]]  # k facets within the bound: there may be more
+        k *= 4
 
 
 class RoughSurfaceDistance:
@@ -255,34 +323,7 @@ class RoughSurfaceDistance:
             self._ball(variant, p, r, best)
 
     def _ball(self, variant: _Variant, p: np.ndarray, r: np.ndarray, best: np.ndarray) -> None:
-        """Lower ``best[r]`` by every facet of ``variant`` that can be nearer to points ``p``
-        than it: centroids within best + the largest facet radius, less each facet's radius."""
-        n_facets = len(variant.tri)
-        todo = np.arange(len(r))
-        k = BALL_FACETS
-        while len(todo):
-            k = min(k, n_facets)
-            bound = best[r[todo]] + variant.radius
-            dist, idx = variant.tree.query(
-                p[todo], k=k, distance_upper_bound=float(np.nextafter(bound.max(), np.inf))
-            )
-            dist, idx = (
-                np.asarray(dist).reshape(len(todo), k),
-                np.asarray(idx).reshape(len(todo), k),
-            )
-            found = (idx < n_facets) & (dist <= bound[:, None])
-            owner, col = np.nonzero(found)
-            facet = idx[owner, col]
-            near = dist[owner, col] - variant.radii[facet] < best[r[todo[owner]]]
-            owner, facet = owner[near], facet[near]
-            if len(owner):
-                got = np.full(len(todo), np.inf)
-                np.minimum.at(got, owner, variant.distance(p[todo[owner]], facet))
-                best[r[todo]] = np.minimum(best[r[todo]], got)
-            if k == n_facets:
-                break
-            todo = todo[found[:, -1]]  # k facets within the bound: there may be more
-            k *= 4
+        _ball(variant, p, r, best)
 
     def _far(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Points deep under the surface: (lower bound, upper bound) of the distance; the lower
@@ -317,3 +358,183 @@ class RoughSurfaceDistance:
         lower, upper = self._far(q[deep])
         out[deep] = upper - lower
         return out
+
+
+class CurvedRoughSurfaceDistance:
+    """Distances of world points to the rough surface of a curved ``layer`` (mm): the bent
+    patch tops (:class:`score4.world.curved.BentVariant`, one facet set per variant and ring
+    radius) and, in a cell without a patch, the smooth face there.
+
+    The same search as :class:`RoughSurfaceDistance`, cell by cell in a window of rings and
+    cells around the point (each point turned into the frame of each cell): the nearest
+    centroids' facets give an upper bound, then every facet whose centroid lies within it plus
+    the facet's radius is measured exactly. Points more than :attr:`exact_depth` under the
+    lowest level of the tops take the smooth face's distance plus that level (a lower bound,
+    off by less than :meth:`far_error`)."""
+
+    def __init__(self, layer: CurvedRoughLayer) -> None:
+        self.layer = layer
+        lay = layer.ring_layout
+        self.lay = lay
+        self.cells = np.asarray(layer.cell_variants)  # (rings, columns), -1: flat
+        self.px, self.py = lay.patch_size
+        self.pitch = self.py + lay.row_gap
+        self.full = lay.face.dphi >= 2 * np.pi - 1e-9
+        self.phi = np.zeros((len(lay.v), max(int(lay.count.max()) if len(lay.v) else 0, 1)))
+        for j in range(len(lay.v)):
+            self.phi[j, : int(lay.count[j])] = lay.cell_phi(j)
+        self.ring_key = np.array([layer.ring_solid_key(j) for j in range(len(lay.v))])
+        self.ring_z = np.array([lay.ring_z(j) for j in range(len(lay.v))])
+        face = lay.face
+        self.face_patch = Revolved(0, face.rz1, face.rz2, face.phi0, face.dphi, face.nrz)
+        self._variants: dict[tuple[int, float], _Variant] = {}
+        self._reach: dict[tuple[int, float], tuple[np.ndarray, float]] = {}
+        offset = layer.base_thickness + layer.lift
+        real = np.zeros(self.cells.shape, bool)
+        for j, n in enumerate(lay.count):
+            real[j, : int(n)] = True
+        used = np.unique(self.cells[real & (self.cells >= 0)])
+        levels = [
+            (
+                float(layer.variants[k].top_mesh.vertices[:, 2].min()) + offset,
+                float(layer.variants[k].top_mesh.vertices[:, 2].max()) + offset,
+            )
+            for k in used
+        ]
+        empty = bool((real & (self.cells < 0)).any())
+        #: lowest and highest level of the tops above the true surface (at the vertices), mm
+        self.zlo = min([lo for lo, _ in levels] + ([0.0] if empty else []))
+        self.zhi = max([hi for _, hi in levels] + [0.0]) + layer.top_margin
+        radius = max(
+            [self.variant(int(k), j).radius for k in used for j in self._rings_of(int(k))]
+            or [max(self.px, self.py)]
+        )
+        #: depth below the lowest level of the tops down to which distances are exact, mm
+        self.exact_depth = EXACT_DEPTH_RADII * radius
+        height = self.zhi - self.zlo
+        reach = np.sqrt(2 * self.exact_depth * height + height**2) + 2 * radius
+        self.window = int(min(MAX_WINDOW, 1 + np.ceil(reach / min(self.px, self.py))))
+
+    def _rings_of(self, k: int) -> list[int]:
+        """One ring per distinct ring radius holding variant ``k``."""
+        seen: dict[float, int] = {}
+        for j in range(len(self.lay.v)):
+            n = int(self.lay.count[j])
+            if (self.cells[j, :n] == k).any():
+                seen.setdefault(self.layer.ring_solid_key(j), j)
+        return list(seen.values())
+
+    def variant(self, k: int, j: int) -> _Variant:
+        """Variant ``k``'s bent top facets on ring ``j`` (ring frame: cell at phi = 0)."""
+        key = (k, self.layer.ring_solid_key(j))
+        if key not in self._variants:
+            bent = self.layer.bent(k, j)
+            self._variants[key] = _Variant(bent.vertices, bent.faces[: bent.n_top], 0.0)
+            v = bent.top_triangles.reshape(-1, 3)
+            centre = 0.5 * (v.min(axis=0) + v.max(axis=0))
+            self._reach[key] = (centre, float(np.linalg.norm(v - centre, axis=1).max()))
+        return self._variants[key]
+
+    def local(self, world: np.ndarray) -> np.ndarray:
+        """World points in the target's frame."""
+        return self.layer.target.to_local(np.asarray(world, float).reshape(-1, 3))
+
+    def __call__(self, world: np.ndarray) -> np.ndarray:
+        """Distance (mm) of world points to the rough surface."""
+        q = self.local(world)
+        h = self.lay.face.locate(q)[2]
+        out = np.empty(len(q))
+        deep = h < self.zlo - self.exact_depth
+        out[~deep] = self._exact(q[~deep])
+        out[deep] = self._smooth(q[deep]) + self.zlo
+        return out
+
+    def far_error(self, world: np.ndarray) -> np.ndarray:
+        """Per point, how far the distance returned may lie below the true one (0 where it is
+        exact): the tops' height range for points deeper than :attr:`exact_depth`."""
+        h = self.lay.face.locate(self.local(world))[2]
+        return np.where(h < self.zlo - self.exact_depth, self.zhi - self.zlo, 0.0)
+
+    def _smooth(self, q: np.ndarray) -> np.ndarray:
+        return _revolved_distance(self.face_patch, q) if len(q) else np.empty(0)
+
+    def _window(self, q: np.ndarray):
+        """(rows, ring j, cell i, the point's own cell) of every cell of the window around each
+        point."""
+        lay = self.lay
+        u, v, _ = lay.face.locate(q)
+        rings = len(lay.v)
+        if not rings:
+            return
+        jc = np.clip(np.floor((v - lay.v[0]) / self.pitch + 0.5), 0, rings - 1).astype(np.int64)
+        m = self.window
+        for dj in range(-m, m + 1):
+            j = jc + dj
+            ok = (j >= 0) & (j < rings)
+            jj = np.where(ok, j, 0)
+            step, count = lay.step[jj], lay.count[jj]
+            # the azimuth from the face's middle, in (-pi, pi]; beyond the ring's ends (its
+            # gap, or off a partial face) the nearest end cell
+            d = np.mod(u - lay.phi_mid + np.pi, 2 * np.pi) - np.pi
+            ic = np.floor((d + count * step / 2) / step).astype(np.int64)
+            ic = np.clip(ic, 0, np.maximum(count - 1, 0))
+            for di in range(-m, m + 1):
+                i = ic + di
+                if self.full:
+                    i = np.mod(i, np.maximum(count, 1))
+                good = ok & (i >= 0) & (i < count)
+                rows = np.flatnonzero(good)
+                if len(rows):
+                    yield rows, j[rows], i[rows], di == 0 and dj == 0
+
+    def _turned(self, q: np.ndarray, j: np.ndarray, i: np.ndarray) -> np.ndarray:
+        """Points in the frame of cell (j, i): turned by minus its azimuth, z from its ring."""
+        phi = self.phi[j, i]
+        c, s = np.cos(phi), np.sin(phi)
+        return np.column_stack(
+            [c * q[:, 0] + s * q[:, 1], -s * q[:, 0] + c * q[:, 1], q[:, 2] - self.ring_z[j]]
+        )
+
+    def _exact(self, q: np.ndarray) -> np.ndarray:
+        best = np.full(len(q), np.inf)
+        if not len(q):
+            return best
+        cells = list(self._window(q))
+        # first guess: the own cell's nearest centroids' facets; then every cell's ball
+        for rows, j, i, own in cells:
+            if own:
+                self._measure(q, rows, j, i, best, False)
+        for rows, j, i, _ in cells:
+            self._measure(q, rows, j, i, best, True)
+        return best
+
+    def _measure(self, q, rows, j, i, best, ball: bool) -> None:
+        k = self.cells[j, i]
+        flat = k < 0
+        if flat.any():  # an empty cell: the smooth face's piece there
+            lay, face = self.lay, self.lay.face
+            for a, b in {(int(a), int(b)) for a, b in zip(j[flat], i[flat], strict=True)}:
+                sel = flat & (j == a) & (i == b)
+                lo, hi = lay.v[a] - self.py / 2, lay.v[a] + self.py / 2
+                p0, p1 = face.point(0.0, lo), face.point(0.0, hi)
+                phi0 = self.phi[a, b] - lay.step[a] / 2
+                patch = Revolved(0, (p0[0], p0[2]), (p1[0], p1[2]), phi0, lay.step[a], face.nrz)
+                r = rows[sel]
+                best[r] = np.minimum(best[r], _revolved_distance(patch, q[r]))
+        keys = self.ring_key[j]
+        for kv in np.unique(k[~flat]):
+            for key in np.unique(keys[k == kv]):
+                sel = (k == kv) & (keys == key)
+                r = rows[sel]
+                variant = self.variant(int(kv), int(j[sel][0]))
+                p = self._turned(q[r], j[sel], i[sel])
+                if not ball:
+                    n = min(FIRST_GUESS, len(variant.tri))
+                    _, idx = variant.tree.query(p, k=n)
+                    idx = np.asarray(idx).reshape(len(r), n)
+                    d = variant.distance(np.repeat(p, n, axis=0), idx.ravel())
+                    best[r] = np.minimum(best[r], d.reshape(len(r), n).min(axis=1))
+                    continue
+                centre, reach = self._reach[(int(kv), float(key))]
+                near = np.linalg.norm(p - centre, axis=1) - reach < best[r]
+                _ball(variant, p[near], r[near], best)
