@@ -1,6 +1,6 @@
 """Geantinos exactly (to the bit) on block corners, in block cut planes and in patch-cell walls.
 
-    PYTHONPATH=src .venv/bin/python benchmarks/bench_block_corners.py [--cases a,b]
+    .venv/bin/python benchmarks/bench_block_corners.py [--cases a,b]
 
 The +z face (0.2 mm x 0.2 mm) of a silicon box holds 2 x 2 patches. Rays: straight down and
 slanted through every inner block corner of one patch, straight down through the face centre
@@ -20,24 +20,8 @@ patch's blocks" (shared walls inside one solid): build and voxelise a multi-unio
 blocks (2 x 2 pixels) of an n x n-pixel random map (0.5 um pitch) in this process; CPU seconds
 and the process's peak RSS, one size per process (``--union-sizes 90``) for a clean RSS.
 
-Measured 2026-11-25 (shared 2-core machine, load ~4), geant4_pybind 0.1.3 / Geant4 11.4.1:
-    PYTHONPATH=src .venv/bin/python benchmarks/bench_block_corners.py
-
-    random_tess: Geant4 pushed 1 stuck tracks, killed 0 (events aborted)
-        block corner, down 361 rays 0 off; cut planes 2 of 76 off by 1.2e-6 mm (sampling);
-        face centre, down: 3.13 um short; patch wall (rough layer, slab): 0.2 mm short
-    random_blocks: Geant4 pushed 41 stuck tracks, killed 3 (events aborted)
-        block corner, down 3 of 361 off (0.105 mm: killed); cut planes 59 of 76 off (4.9 um,
-        one block); face centre 3.13 um short; patch wall 0.2 mm short
-    pyramids_union: pushed 0, killed 0; face centre 1.0 um short (the slab box); patch wall in
-        the slab 0.2 mm short; all else exact
-    pyramids_blocks: pushed 1, killed 0; cut planes in the slab 6 of 16 off (19.9 um); face
-        centre 1.0 um short; patch wall in the slab 0.2 mm short
-
-    --union-sizes 40 / 90 / 128 (one process each):
-    40 x 40 px: 400 blocks, build 0.05 s, voxelise 0.07 s, peak RSS 184 MB
-    90 x 90 px: 2025 blocks, build 0.26 s, voxelise 3.08 s, peak RSS 1024 MB
-    128 x 128 px: 4096 blocks, build 0.47 s, voxelise 18.69 s, peak RSS 3701 MB
+This docstring says what the script measures; what it measured (tables of past runs, with
+date and load) is in benchmarks/README.md, section bench_block_corners.py.
 """
 
 from __future__ import annotations

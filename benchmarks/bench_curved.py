@@ -1,15 +1,25 @@
 """A rough cylinder wall against the same pyramids on a flat face of equal area.
 
-    .venv/bin/python benchmarks/bench_curved.py [--radius 40] [--half-length 40] [--events 400]
+    .venv/bin/python benchmarks/bench_curved.py [--radius 40] [--half-length 40] [--events 3000]
+        [--rounds 3] [--cases frustums,tessellated,flat] [--markdown]
+    .venv/bin/python benchmarks/bench_curved.py --spectra 3000
 
 A silicon G4Tubs (GDML, written with pyg4ometry) with its outer wall rough (10 um pyramids,
-50 x 50 to a 0.5 mm patch: bent tessellated bodies in rings, score4.world.curved), and a box of the
-configuration whose +z face has the wall's area, rough with the same pyramids (as multi-union,
-``solid: auto``, and as tessellated bodies). Each case is run twice with ``score4 run`` in a
+50 x 50 to a 0.5 mm patch, bent onto the wall in rings, score4.world.curved) as bent G4Trds
+(``frustums``, what ``solid: auto`` picks for spike grids on a cylinder) or as one bent
+tessellated body per patch (``tessellated``), and a box of the configuration whose +z face has the
+wall's area, rough with the same pyramids (``flat``: multi-union, ``solid: auto``;
+``flat_tess``: tessellated bodies); ``whole``: the wall and both end faces rough (an HPGe
+crystal's whole surface; alphas from all three faces). Each case runs with ``score4 run`` in a
 child process (5.3 MeV alphas, isotropic, from the rough face, exponential depth of mean 1 um),
-with ``--events 20`` and ``--events N``; the CPU time of the children gives the build and
-start-up (the short run less its events) and the CPU time per event (the difference over the
-extra events). Peak memory is the largest resident set of the children. Prints one table.
+with ``--events 20`` and ``--events N``; the CPU time of the children (``os.wait4``) gives the
+build and start-up (the short run less its events) and the CPU time per event (the difference
+over the extra events); memory is the larger peak resident set of the two children (of the
+largest process of each). The cases run in interleaved rounds; the table gives medians over the
+rounds, the ratio column the median of the per-round ratios to the flat face's CPU per event.
+
+``--spectra N`` instead runs N alphas (seed 1) on the wall as bent G4Trds and as bent
+tessellated bodies (one body, two representations) and compares their deposits.
 """
 
 from __future__ import annotations
@@ -17,11 +27,10 @@ from __future__ import annotations
 import argparse
 import math
 import os
-import resource
+import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import yaml
@@ -53,21 +62,41 @@ def write_cylinder(path: Path, radius: float, half_length: float) -> None:
     writer.write(str(path))
 
 
+CASES = {
+    "frustums": "curved wall, bent G4Trds (solid: auto)",
+    "tessellated": "curved wall, bent tessellated bodies",
+    "whole": "whole surface: wall and both ends rough (solid: auto)",
+    "flat": "flat face of equal area, multi-union (solid: auto)",
+    "flat_tess": "flat face of equal area, tessellated",
+}
+
+
 def configs(folder: Path, radius: float, half_length: float) -> dict[str, dict]:
     write_cylinder(folder / "cyl.gdml", radius, half_length)
     area = 2 * math.pi * radius * 2 * half_length
     side = math.floor(math.sqrt(area) / 0.5) * 0.5  # whole 0.5 mm patches
-    out = {
-        "curved wall (tessellated)": {
+    out = {}
+    for case, solid in (("frustums", "auto"), ("tessellated", "tessellated")):
+        out[case] = {
             "physics": "lite",
             "world": {"gdml": "cyl.gdml"},
             "surfaces": {"p": PYRAMIDS},
-            "targets": [{"volume": "cyl", "rough": [{"face": "outer", "surface": "p"}]}],
+            "targets": [
+                {"volume": "cyl", "rough": [{"face": "outer", "surface": "p", "solid": solid}]}
+            ],
             "source": {**SOURCE, "surface": {"volume": "cyl", "face": "outer"}},
         }
+    out["whole"] = {
+        "physics": "lite",
+        "world": {"gdml": "cyl.gdml"},
+        "surfaces": {"p": PYRAMIDS},
+        "targets": [
+            {"volume": "cyl", "rough": [{"face": f, "surface": "p"} for f in ("outer", "+z", "-z")]}
+        ],
+        "source": {**SOURCE, "surface": {"volume": "cyl", "face": ["outer", "+z", "-z"]}},
     }
-    for solid in ("multiunion", "tessellated"):
-        out[f"flat face ({solid})"] = {
+    for case, solid in (("flat", "auto"), ("flat_tess", "tessellated")):
+        out[case] = {
             "physics": "lite",
             "surfaces": {"p": PYRAMIDS},
             "targets": [
@@ -83,50 +112,117 @@ def configs(folder: Path, radius: float, half_length: float) -> dict[str, dict]:
     return out
 
 
+def child_cpu(cmd: list[str], cwd: Path) -> tuple[float, float]:
+    """(CPU s, peak RSS MB) of one child process."""
+    proc = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.DEVNULL)
+    _, status, usage = os.wait4(proc.pid, 0)
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    if proc.returncode:
+        raise SystemExit(f"failed ({proc.returncode}): {' '.join(cmd)}")
+    return usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024
+
+
 def measure(folder: Path, name: str, config: dict, events: int) -> tuple[float, float, float]:
     """(CPU s of a 20-event run less its events, CPU s per event, peak RSS MB) of one case."""
-    path = folder / f"{name.split()[0]}_{len(name)}.yaml"
+    path = folder / f"{name}.yaml"
     path.write_text(yaml.safe_dump(config))
-    cpu = []
+    cpu, peak = [], []
     for n in (20, events):
-        before = resource.getrusage(resource.RUSAGE_CHILDREN)
-        subprocess.run(
-            [*SCORE4, str(path), "--events", str(n), "--out", str(folder / "o.h5"), "--overwrite"],
-            check=True,
-            cwd=folder,
+        out = folder / f"{name}.h5"
+        c, m = child_cpu(
+            [*SCORE4, str(path), "--events", str(n), "--out", str(out), "--overwrite"], folder
         )
-        after = resource.getrusage(resource.RUSAGE_CHILDREN)
-        cpu.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
+        cpu.append(c)
+        peak.append(m)
     per_event = (cpu[1] - cpu[0]) / (events - 20)
-    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
-    return cpu[0] - 20 * per_event, per_event, peak
+    return cpu[0] - 20 * per_event, per_event, max(peak)
+
+
+def compare_spectra(radius: float, half_length: float, events: int) -> None:
+    """The same alphas (seed 1) on the wall as bent G4Trds and as bent tessellated bodies (one
+    body, two representations): events with the same deposit, KS p, means and full-energy
+    shares."""
+    import numpy as np
+    from scipy.stats import ks_2samp
+
+    from score4.runner.output import read_results
+
+    out = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        cases = configs(folder, radius, half_length)
+        for name in ("frustums", "tessellated"):
+            path = folder / f"{name}.yaml"
+            path.write_text(yaml.safe_dump(cases[name]))
+            h5 = folder / f"{name}.h5"
+            child_cpu([*SCORE4, str(path), "--events", str(events), "--out", str(h5)], folder)
+            out[name] = np.asarray(read_results(h5).edep["cyl"])
+    a, b = out["frustums"], out["tessellated"]
+    se = math.sqrt((a.var() + b.var()) / len(a))
+    print(f"{events} alphas, seed 1, radius {radius:g} mm, length {2 * half_length:g} mm")
+    print(f"same deposit (1e-9 MeV): {(np.abs(a - b) <= 1e-9).sum()} of {len(a)} events")
+    print(f"mean deposit MeV: G4Trds {a.mean():.4f}, tessellated {b.mean():.4f} (s.e. {se:.4f})")
+    print(f"full energy (> 5.2 MeV): {(a > 5.2).mean():.4f} vs {(b > 5.2).mean():.4f}")
+    print(f"two-sample KS p = {ks_2samp(a, b).pvalue:.3f}")
 
 
 def main() -> None:
+    from stamp import stamp  # this folder is on sys.path when run as a script
+
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--radius", type=float, default=40.0, help="cylinder radius, mm")
     parser.add_argument("--half-length", type=float, default=40.0, help="half length, mm")
-    parser.add_argument("--events", type=int, default=400, help="events of the long run")
+    parser.add_argument("--events", type=int, default=3000, help="events of the long run")
+    parser.add_argument("--rounds", type=int, default=3, help="interleaved rounds")
+    parser.add_argument(
+        "--cases", default="frustums,tessellated,flat", help=f"of {', '.join(CASES)}"
+    )
+    parser.add_argument("--markdown", action="store_true", help="print a Markdown table")
+    parser.add_argument(
+        "--spectra",
+        type=int,
+        default=0,
+        help="instead: N alphas (seed 1) on the wall as bent G4Trds and as bent tessellated "
+        "bodies; compare their deposits",
+    )
     args = parser.parse_args()
-    print(f"load: {os.getloadavg()[0]:.2f}  {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
+    if args.spectra:
+        compare_spectra(args.radius, args.half_length, args.spectra)
+        return
+    names = args.cases.split(",")
+    print(stamp())
+    rows: dict[str, list[tuple[float, float, float]]] = {n: [] for n in names}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         cases = configs(folder, args.radius, args.half_length)
-        rows = {name: measure(folder, name, cfg, args.events) for name, cfg in cases.items()}
-    ref = rows["curved wall (tessellated)"][1]
+        for _ in range(args.rounds):
+            for name in names:
+                rows[name].append(measure(folder, name, cases[name], args.events))
+    print(f"load at the end {os.getloadavg()[0]:.1f}")
+    area = 2 * math.pi * args.radius * 2 * args.half_length
     print(
-        f"radius {args.radius:g} mm, length {2 * args.half_length:g} mm, 10 um pyramids, "
-        f"0.5 mm patches, {args.events} alphas"
+        f"radius {args.radius:g} mm, length {2 * args.half_length:g} mm "
+        f"({area:.0f} mm2), 10 um pyramids, 0.5 mm patches, {args.events} alphas, "
+        f"medians of {args.rounds} interleaved rounds"
     )
-    print(f"{'case':28s} {'build+start CPU s':>18s} {'CPU ms/event':>13s} {'curved/this':>12s}")
-    for name, (build, per_event, peak) in rows.items():
-        print(
-            f"{name:28s} {build:18.1f} {per_event * 1e3:13.2f} {ref / per_event:12.2f}"
-            f"   peak RSS so far {peak:.0f} MB"
+    ref = rows.get("flat")
+    table = []
+    for name, r in rows.items():
+        build, per_event, peak = (statistics.median(x) for x in zip(*r, strict=True))
+        ratio = (
+            statistics.median(a[1] / b[1] for a, b in zip(r, ref, strict=True)) if ref else math.nan
         )
-    print(
-        "(peak RSS: the largest child so far; the curved case runs first, so its figure is its own)"
-    )
+        table.append((CASES[name], build, per_event * 1e3, peak, ratio))
+    if args.markdown:
+        print("| case | build and start-up s CPU | ms CPU per alpha event | peak RSS MB | ratio |")
+        print("| --- | --- | --- | --- | --- |")
+        for what, build, ms, peak, ratio in table:
+            print(f"| {what} | {build:.1f} | {ms:.2f} | {peak:.0f} | {ratio:.2f} |")
+        return
+    head = f"{'build+start CPU s':>18s} {'CPU ms/event':>13s} {'peak MB':>8s} {'/flat':>6s}"
+    print(f"{'case':52s} {head}")
+    for what, build, ms, peak, ratio in table:
+        print(f"{what:52s} {build:18.1f} {ms:13.2f} {peak:8.0f} {ratio:6.2f}")
 
 
 if __name__ == "__main__":

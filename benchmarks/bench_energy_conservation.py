@@ -1,59 +1,21 @@
 """Why Geant4 deposited more energy than an event had, step by step (issue 10, item 9).
 
 A stand-alone Geant4 application (score4's lite set-up before issue 10: G4EmStandardPhysics,
-1 um cut, default step functions, eBrem and GammaGeneralProc removed; serial; no data sets): a 1 mm silicon block in vacuum, its top face at
-z = 0; ions start at an exponential depth (mean 20 nm) below it, going outward (upper hemisphere,
-uniform in cos(theta); ``--isotropic``: all directions). A Python stepping action records every step; the script counts
-events whose deposit in the block exceeds the primary's energy + 1 eV, and prints the steps of
-the first violating events, split into ionisation and non-ionising (nuclear stopping) deposits.
+1 um cut, default step functions, eBrem and GammaGeneralProc removed; serial; no data sets): a
+1 mm silicon block in vacuum, its top face at z = 0; ions start at an exponential depth (mean
+20 nm) below it, going outward (upper hemisphere, uniform in cos(theta); ``--isotropic``: all
+directions). A Python stepping action records every step; the script counts events whose
+deposit in the block exceeds the primary's energy + 1 eV, and prints the steps of the first
+violating events, split into ionisation and non-ionising (nuclear stopping) deposits.
 
 Usage::
 
-    python benchmarks/bench_energy_conservation.py                       # Pb206 outward, NIEL 1 MeV and 0
+    python benchmarks/bench_energy_conservation.py            # Pb206 outward, NIEL 1 MeV and 0
     python benchmarks/bench_energy_conservation.py --ion alpha --energy 5300 --events 20000
-    python benchmarks/bench_energy_conservation.py --cut 0.7 --niel 1      # no delta electrons
+    python benchmarks/bench_energy_conservation.py --cut 0.7 --niel 1   # no delta electrons
 
-Measured (2026-11-25, geant4_pybind 0.1.3 = Geant4 11.4.1, seed 1; violating events / events,
-largest excess over the primary's energy):
-
-==========================================  ======================  ==================
-case (flag)                                 NIEL limit 1 MeV        NIEL limit 0 (off)
-==========================================  ======================  ==================
-Pb206 103.144 keV outward (default)         95 / 2000, +51.85 keV   0 / 2000
-Pb206 103.144 keV outward, ``--cut 0.7``    95 / 2000, +51.85 keV   --
-Pb206 103.144 keV ``--isotropic``           46 / 2000, +53.64 keV   0 / 2000
-alpha 5300 keV outward, 20000 events        0 / 20000               0 / 20000
-==========================================  ======================  ==================
-
-The same runs print the escape fraction of the outward Pb-206 (deposit < energy - 1 keV): 0.12
-(NIEL 1 MeV) and 0.13 (off), far below TRIM's; that is the range problem of
-``bench_ion_setups.py``, not a conservation one.
-
-Through score4 itself (``score4 run``; 10 x 10 patches of 50 x 50 pyramids, 10 um, alphas
-at 20 nm exponential depth, 20000 events: 10 violations, max +5.49 keV with NIEL 1 MeV, 0 with
-NIEL off; Po-210 on a flat Si face, 2000 events: 38, max +44.9 keV vs 0; Po-210 on the same
-pyramids, 5000 events: 175, max +56.4 keV vs 0).
-
-The anatomy of every violating step is the same: the step that stops the ion deposits more than
-its pre-step energy, and its non-ionising part is ``min(nuclear loss, E_pre)``; e.g. a Pb-206
-re-entering the face at 100.198 keV deposits 113.399 keV in one 67 nm step, of which 100.198 keV
-non-ionising and 13.201 keV ionisation. Cause, in Geant4 11.4's code:
-
-* ``G4NuclearStopping::AlongStepDoIt`` runs after ``G4ionIonisation`` and computes the nuclear
-  loss over the whole step, but caps it at the pre-step energy ``T1`` (``if(nloss > T1) nloss =
-  T1``), not at ``T2``, the energy ionisation left; it proposes ``T1 - nloss``.
-* ``G4ParticleChangeForLoss::UpdateStepForAlongStep`` adds the change to the post-step energy and,
-  when the sum is negative, sets 0 without taking the negative remainder back from the deposit
-  (older Geant4 versions did: ``theLocalEnergyDeposit += kinEnergy``).
-
-So a step whose nuclear loss exceeds ``T2`` deposits ``(T1 - T2) + min(nloss, T1)``: up to the
-step's ionisation loss ``T1 - T2`` more than the ``T1`` the ion had. Such steps are long steps of slow ions whose step limit ignores nuclear
-stopping (msc or geometry limited: ions re-entering the face, grazing alphas in pyramids at the
-end of their range). Setting ``G4EmParameters::SetMaxNIELEnergy(0)`` does not register
-``G4NuclearStopping`` at all, and every case above conserves energy; score4 does that. With score4's final set-up (also the
-light-ion step function, ``score4.sim.physics``) the score4 runs above, ``examples/flat_alpha``,
-``paper_a_flat``, ``paper_a_rough``, ``paper_b_po210_tiled`` and ``paper_c_measured`` all give 0
-violating events.
+This docstring says what the script measures; what it measured (tables of past runs, with
+date and load) is in benchmarks/README.md, section bench_energy_conservation.py.
 """
 
 from __future__ import annotations

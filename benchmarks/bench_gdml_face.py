@@ -15,10 +15,8 @@ process, ``--repeat`` times in turn (the machine is shared: the best of the repe
 
 The issue's bound: the GDML case costs at most 1.2x the config case, per event and to build.
 
-Measured 2026-11-25 on the shared 2-core machine, load 6-9 (docs/geometry.md#speed):
-    .venv/bin/python benchmarks/bench_gdml_face.py --events 1000 --repeat 4
-    config 0.62 s build, 1172 ev/s CPU; gdml 0.56 s, 1169 ev/s: build 0.90x, per event 1.00x
-(single runs scatter: two repeats gave 0.74x and, in another run, 1.22x for the build)
+This docstring says what the script measures; what it measured (tables of past runs, with
+date and load) is in benchmarks/README.md, section bench_gdml_face.py.
 """
 
 from __future__ import annotations

@@ -16,9 +16,8 @@ figure: the command is single-threaded, so on an idle machine wall ~ CPU).
 
 The issue's bound: < 5 s.
 
-Measured 2026-11-25 on the shared 2-core machine, load 5 (docs/geometry.md#speed): cold 5.07 s
-wall / 2.48 s CPU, warm 2.80 s / 1.37 s; at load 10-11 the wall times were 17.4 s and 8.8 s
-for the same CPU times.
+This docstring says what the script measures; what it measured (tables of past runs, with
+date and load) is in benchmarks/README.md, section bench_gdml_list.py.
 """
 
 from __future__ import annotations

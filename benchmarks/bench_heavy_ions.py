@@ -14,14 +14,8 @@ and the events that deposit more than was emitted.
 building cancel), and the ratio ``trim`` / ``geant4`` per face: medians of ``--repeat`` (3)
 alternating measurements.
 
-Measured 2026-11-25 (lite physics, --events 2000 --jobs 1, machine shared with other jobs:
-compare the rows, not the seconds; CPU includes the ~1 s start-up of each run):
-
-    face      ions    CPU s  recoil only 50-110 keV  alpha + part of recoil    alpha + whole recoil  over emitted
-    flat      trim      2.8         31.65 +- 1.26 %         34.20 +- 1.31 %         16.25 +- 0.90 %  0 (max 0.00 keV)
-    flat      geant4    2.3         31.65 +- 1.26 %         12.95 +- 0.80 %         37.50 +- 1.37 %  0 (max 0.00 keV)
-    pyramids  trim      3.5         14.70 +- 0.86 %         24.30 +- 1.10 %         29.80 +- 1.22 %  0 (max 0.00 keV)
-    pyramids  geant4    2.6         14.70 +- 0.86 %         14.45 +- 0.85 %         39.65 +- 1.41 %  0 (max 0.00 keV)
+This docstring says what the script measures; what it measured (tables of past runs, with
+date and load) is in benchmarks/README.md, section bench_heavy_ions.py.
 """
 
 from __future__ import annotations

@@ -11,11 +11,11 @@ target composition, cached in ``~/.cache/score4/bench_ion_setups_trim.json``.
 
 Usage::
 
-    python benchmarks/bench_ion_setups.py                      # Pb206 103.144 keV in G4_Si, all set-ups
+    python benchmarks/bench_ion_setups.py          # Pb206 103.144 keV in G4_Si, all set-ups
     python benchmarks/bench_ion_setups.py --ion alpha --energy 5300 --events 200
     python benchmarks/bench_ion_setups.py --material TeO2 --setups lite,msc_off,ss
-    python benchmarks/bench_ion_setups.py --matrix             # key set-ups x 6 materials x 3 energies
-    python benchmarks/bench_ion_setups.py --matrix --energy 103.144 --setups lite_before  # one energy
+    python benchmarks/bench_ion_setups.py --matrix # key set-ups x 6 materials x 3 energies
+    python benchmarks/bench_ion_setups.py --matrix --energy 103.144 --setups lite_before
 
 Columns: mean projected depth of the ions that stop in the target, longitudinal straggling (sigma
 of that depth), lateral straggling (rms of one transverse coordinate), backscattered fraction,
@@ -24,124 +24,8 @@ tracking action, a few us; the machine is shared, so CPU figures are noisy: comp
 run). Ratios are Geant4 / TRIM. Tolerances (issue 10): Pb-206 depth within 10 %, straggling within
 30 %; alpha depth within 3 %.
 
-Measured 2026-11-25 (geant4_pybind 0.1.3 = Geant4 11.4.1, lunasrim 1.0.0; 200 Geant4 ions per
-set-up (100 for ``stepfn_light_*`` in the alpha matrix), TRIM 500 ions, seed 1; shared machine,
-CPU figures noisy). Set-up names are the keys of ``SETUPS``; ``lite`` is score4's set-up now
-(no nuclear stopping, light-ion step function 0.05 / 0.1 um), ``lite_before`` the one before
-issue 10 (nuclear stopping below 1 MeV, default step functions).
-
-Which constructors start without Geant4 data (ions and alphas only; eBrem/GammaGeneralProc
-removed): G4EmStandardPhysics, _option1, _option3 (SetFluo(False)). Abort for lack of G4EMLOW:
-_option2 (G4LivermorePhotoElectricModel pe-cs), _option4, Livermore, Penelope (em0006,
-G4GoudsmitSaundersonTable::LoadMSCData), SS, WVI, GS (G4ShellData::LoadData: "Please set
-G4LEDATA"), LowEP (G4PhotoElectricAngularGeneratorPolarized). So no single-Coulomb-scattering
-set-up for ions can run here. _option3 crashed once (signal 11) for alphas in NaI. option1 never
-registers nuclearStopping; option0 and option3 register it below SetMaxNIELEnergy (option3's
-default 1 MeV), 0 removes it. G4MscStepLimitType is not bound: SetMscMuHadStepLimitType cannot
-be called, ``/process/msc/StepLimitMuHad`` works. ``ApplyCommand`` returns None through the
-binding; the parameters the commands leave are recorded in ``--json`` (``parameters``).
-
-1. ``python benchmarks/bench_ion_setups.py`` (Pb206 103.144 keV in G4_Si, lengths in nm)::
-
-    set-up                             depth  ratio    sigma  ratio  lateral backsc   steps   cpu_us
-    TRIM (lunasrim)                    45.87            9.71            8.04  0.000
-    lite_before                        7.185  0.157  0.00212   0.00        0  0.000     2.0       10
-    lite                               7.676  0.167     3.44   0.35     4.45  0.020     9.2       17
-    cut_0.7mm                          7.185  0.157  0.00212   0.00        0  0.000     2.0       10
-    msc_off                            283.4  6.177        0   0.00        0  0.000     2.0       13
-    msc_off_niel0                      283.4  6.177        0   0.00        0  0.000     2.0        8
-    stepfn_ions_0.01_1nm                6.26  0.136     2.76   0.28     2.93  0.065    10.1       21
-    stepfn_ions_0.01_1nm_msc_off       33.46  0.729     1.77   0.18        0  0.000    10.4       16
-    stepfn_ions_0.001_0.1nm_msc_off    33.45  0.729     1.68   0.17        0  0.000    95.8       78
-    stepfn_ions_0.01_1nm_rf_0.001      7.832  0.171     4.03   0.42     5.08  0.280    94.2      122
-    stepfn_light_0.01_1nm              7.185  0.157  0.00212   0.00        0  0.000     2.0       10
-    ui_stepfn_ions                      6.26  0.136     2.76   0.28     2.93  0.065    10.1       19
-    lowest_muhad_10eV (and ui_)        7.185  0.157  0.00212   0.00        0  0.000     2.0       10
-    ui_msc_muhad_minimal               7.185  0.157  0.00212   0.00        0  0.000     2.0        9
-    ui_msc_muhad_distance               7.19  0.157  0.00202   0.00        0  0.000     3.0       10
-    ui_msc_muhad_safetyplus            7.185  0.157  0.00213   0.00        0  0.000     2.0       10
-    msc_muhad_rf_0.001 (and ui_)       16.75  0.365       14   1.44     21.6  0.415    93.3      117
-    msc_muhad_lateral_on               7.185  0.157   0.0028   0.00     5.03  0.000     2.0       11
-    max_step_1nm                       7.997  0.174     4.52   0.47     5.29  0.215    31.3       49
-    max_step_1nm_msc_off               34.04  0.742     1.91   0.20        0  0.000    35.0       35
-    option1                            7.676  0.167     3.44   0.35     4.45  0.020     9.2       17
-    option3                            7.185  0.157   0.0028   0.00     5.03  0.000     2.0       10
-    option3_niel0                      8.758  0.191     14.7   1.52     22.9  0.150     8.3       19
-    stopping powers (keV/nm), Geant4 electronic, nuclear | SRIM electronic, nuclear:
-      103.1 keV  0.7282 3.3715 | 0.4653 2.8102        20.63 keV  0.3257 2.4581 | 0.2081 1.7846
-
-2. ``--matrix`` (Pb206; depth ratio / straggling ratio, Geant4 / TRIM; ``lite_niel0`` = ``lite``)::
-
-    material               E keV  TRIM nm     lite        lite_before  msc_off      stepfn_ions  msc_rf_0.001 max_step_1nm
-                                                                                    _0.01_1nm
-                                                                                    _msc_off
-    G4_Si                     50  29.3+-6.1   0.103/0.86  0.065/0.00   6.726/0.00   0.684/0.25   0.441/2.24   0.140/0.39
-    G4_Si                 103.14  45.9+-9.7   0.167/0.35  0.157/0.00   6.177/0.00   0.729/0.18   0.365/1.44   0.174/0.47
-    G4_Si                    200  71.8+-15.9  0.314/0.51  0.324/0.01   5.493/0.00   0.769/0.12   0.380/1.10   0.243/0.51
-    G4_Ge                     50  17.4+-6.2   0.070/0.66  0.029/0.00  11.298/0.00   0.738/0.14   0.758/2.05   0.129/0.25
-    G4_Ge                 103.14  27.8+-9.8   0.079/0.31  0.065/0.00  10.146/0.00   0.800/0.14   0.510/1.36   0.148/0.26
-    G4_Ge                    200  43.9+-15.2  0.144/0.16  0.138/0.00   8.942/0.00   0.858/0.09   0.379/0.94   0.180/0.26
-    G4_Cu                     50   9.9+-3.3   0.081/0.92  0.031/0.00  15.927/0.00   0.695/0.26   1.199/3.19   0.167/0.37
-    G4_Cu                 103.14  16.1+-5.1   0.098/0.56  0.069/0.00  14.048/0.00   0.796/0.20   0.713/2.02   0.167/0.29
-    G4_Cu                    200  24.9+-8.5   0.150/0.14  0.151/0.00  12.633/0.00   0.850/0.14   0.489/1.27   0.222/0.35
-    G4_CALCIUM_TUNGSTATE      50  16.2+-6.2   0.061/0.54  0.025/0.00  11.286/0.00   0.762/0.13   0.822/2.07   0.136/0.21
-    G4_CALCIUM_TUNGSTATE  103.14  25.6+-9.6   0.063/0.28  0.053/0.00  10.285/0.00   0.833/0.12   0.523/1.25   0.159/0.25
-    G4_CALCIUM_TUNGSTATE     200  41.0+-14.0  0.114/0.21  0.104/0.00   8.926/0.00   0.877/0.10   0.375/0.92   0.166/0.26
-    G4_SODIUM_IODIDE          50  28.0+-10.9  0.066/0.64  0.023/0.00  10.583/0.00   0.845/0.20   0.838/1.76   0.114/0.18
-    G4_SODIUM_IODIDE      103.14  45.3+-17.3  0.052/0.14  0.048/0.00   9.374/0.00   0.862/0.15   0.447/1.07   0.124/0.18
-    G4_SODIUM_IODIDE         200  70.4+-26.7  0.105/0.12  0.100/0.00   8.404/0.00   0.914/0.11   0.308/0.74   0.152/0.25
-    TeO2                      50  16.4+-6.4   0.071/0.60  0.026/0.00  10.566/0.00   0.778/0.19   0.993/1.83   0.150/0.23
-    TeO2                  103.14  26.5+-10.1  0.067/0.22  0.055/0.00   9.375/0.00   0.818/0.15   0.500/1.35   0.140/0.23
-    TeO2                     200  42.4+-15.7  0.117/0.10  0.111/0.00   8.176/0.00   0.856/0.09   0.373/0.84   0.169/0.27
-
-   Geant4 / SRIM stopping at the ion's energy: electronic 1.56 (Si), 1.59 (Ge), 1.35 (Cu),
-   1.74 (CaWO4), 1.41 (NaI), 1.87 (TeO2); nuclear 1.13-1.30 (all).
-
-3. ``--matrix --ion alpha --setups lite,lite_niel0,lite_before,msc_off,stepfn_light_0.01_1nm``::
-
-    material               E keV  TRIM um       lite        lite_niel0  lite_before msc_off     stepfn_light_0.01_1nm
-    G4_Si                   1000   3.49+-0.18   1.022/1.15  1.182/0.00  1.182/0.00  1.188/0.00  1.007/1.44
-    G4_Si                   3000  12.04+-0.24   0.994/1.07  1.038/1.09  1.036/1.65  1.042/0.55  0.984/1.41
-    G4_Si                   5300  26.59+-0.30   0.983/1.79  1.003/1.57  1.003/1.70  1.005/1.14  0.981/1.52
-    G4_Ge                   1000   3.08+-0.26   1.006/0.96  1.154/0.00  1.154/0.00  1.175/0.00  0.968/1.34
-    G4_Ge                   3000   9.40+-0.41   0.992/0.94  1.051/0.00  1.051/0.00  1.058/0.00  0.984/0.81
-    G4_Ge                   5300  19.16+-0.47   0.994/0.86  1.023/0.38  1.023/0.38  1.027/0.42  0.990/1.12
-    G4_Cu                   1000   1.91+-0.21   1.019/0.94  1.232/0.00  1.232/0.00  1.256/0.00  0.992/0.86
-    G4_Cu                   3000   5.48+-0.20   0.995/0.95  1.081/0.00  1.081/0.00  1.088/0.00  0.986/1.23
-    G4_Cu                   5300  10.96+-0.26   0.989/1.01  1.037/0.00  1.037/0.00  1.038/0.00  0.986/1.23
-    G4_CALCIUM_TUNGSTATE    1000   2.42+-0.24   0.940/0.95  1.097/0.00  1.097/0.00  1.120/0.00  0.901/0.85
-    G4_CALCIUM_TUNGSTATE    3000   7.59+-0.24   0.969/1.05  1.025/0.00  1.025/0.00  1.034/0.00  0.953/2.02
-    G4_CALCIUM_TUNGSTATE    5300  15.98+-0.57   1.006/0.53  1.037/0.00  1.037/0.00  1.040/0.00  1.004/0.49
-    G4_SODIUM_IODIDE        1000   4.01+-0.38   1.027/1.10  1.256/0.00  1.256/0.00  1.286/0.00  0.999/1.15
-    G4_SODIUM_IODIDE        3000  13.43+-0.52   1.049/0.94  1.120/0.71  1.123/0.39  1.133/0.33  1.031/1.79
-    G4_SODIUM_IODIDE        5300  28.46+-1.11   1.057/1.39  1.096/0.48  1.094/0.46  1.104/0.37  1.055/0.85
-    TeO2                    1000   2.36+-0.24   0.962/0.81  1.163/0.00  1.163/0.00  1.185/0.00  0.938/0.88
-    TeO2                    3000   7.51+-0.29   0.972/0.81  1.040/0.00  1.040/0.00  1.048/0.00  0.961/1.12
-    TeO2                    5300  16.08+-0.35   0.986/0.81  1.021/0.00  1.021/0.00  1.023/0.00  0.981/1.04
-
-   Geant4 / SRIM electronic stopping of alphas at 5.3, 2.65, 1.06, 0.265 MeV: Si 1.01 1.03 0.99
-   1.00; Ge 1.00 1.02 0.99 1.01; Cu 1.02 1.01 1.01 0.99; CaWO4 0.96 0.98 1.05 1.06; NaI 0.94 0.93
-   1.00 0.92; TeO2 0.99 1.01 1.03 1.04. ``python benchmarks/bench_ion_setups.py --ion alpha``
-   (5.3 MeV in Si, all set-ups): every set-up that runs is within 3 % (0.978-1.005).
-
-Conclusions:
-
-* Pb-206 (50-200 keV): NO set-up reaches the tolerances in ANY of the six materials. With ion
-  msc on, the ion's range from the ionisation tables (electronic only, 283 nm in Si: the step
-  limit ignores nuclear stopping) is taken in one or a few steps that msc folds to 2-32 % of
-  TRIM's depth with far too little straggling; finer msc steps (range factor 0.001, or a 1 nm
-  step limit) give 11-120 % of the depth, straggling 0.2-3.2x, and up to 40 % backscatter in Si
-  (TRIM: 0). With msc off and a fine ion step function the ion goes straight: the depth is its
-  CSDA path, 0.68-0.91 of TRIM's depth with 0.09-0.26 of its straggling, and no msc set-up can
-  exceed that path. The path is short because Geant4's stopping powers for Pb ions are
-  1.35-1.87x SRIM's (electronic) and 1.13-1.30x (nuclear). Hence the TRIM-trajectory replay.
-* Alphas: ``lite`` (score4 now) is within 3 % of TRIM's depth in Si, Ge and Cu at 1, 3 and 5.3
-  MeV; it fails in CaWO4 at 1 and 3 MeV (0.940, 0.969), NaI at 3 and 5.3 MeV (1.049, 1.057)
-  and TeO2 at 1 MeV (0.962), where Geant4's alpha stopping differs from SRIM's by 4-8 %: no
-  step or msc setting changes that. Geant4's default light-ion step function lets alphas below
-  ~1-5 MeV cross their range in one straight step: 10-29 % too deep at 1 MeV (``lite_niel0``).
-* Nuclear stopping (``lite_before``) changes Pb-206 depths little (it is folded away with msc on)
-  and alphas not at all, and breaks energy conservation (bench_energy_conservation.py): off.
+This docstring says what the script measures; what it measured (tables of past runs, with
+date and load) is in benchmarks/README.md, section bench_ion_setups.py.
 """
 
 from __future__ import annotations
@@ -632,8 +516,8 @@ def print_ratios(cases: list[dict]) -> None:
             rs = g["straggling_nm"] / t["straggling_nm"]
             cells.append(f"{rd:7.3f}/{rs:<7.2f}")
         print(
-            f"{case['material']:22s} {case['energy_kev']:7.5g} {t['depth_nm']:7.1f}+-{t['straggling_nm']:<6.1f} "
-            + " ".join(cells)
+            f"{case['material']:22s} {case['energy_kev']:7.5g} "
+            f"{t['depth_nm']:7.1f}+-{t['straggling_nm']:<6.1f} " + " ".join(cells)
         )
     # the spans docs/physics.md quotes: depth ratios over all cases, per set-up, and the stopping
     # powers at each case's own energy (set-ups with nuclear stopping only)
@@ -659,7 +543,8 @@ def print_ratios(cases: list[dict]) -> None:
     if electronic:
         print(
             f"Geant4 / SRIM stopping at each case's energy: electronic "
-            f"{min(electronic):.2f}-{max(electronic):.2f}, nuclear {min(nuclear):.2f}-{max(nuclear):.2f}"
+            f"{min(electronic):.2f}-{max(electronic):.2f}, "
+            f"nuclear {min(nuclear):.2f}-{max(nuclear):.2f}"
         )
 
 

@@ -7,7 +7,13 @@ each builds its application, warms up (libraries built, caches filled) and then 
 ``--batches`` batches of ``--events`` events with its own process CPU clock. Printed: the
 per-batch CPU per event of both, their medians and the ratio of the medians.
 
-    python benchmarks/bench_replay_speed.py [--events 1000] [--batches 5]
+    python benchmarks/bench_replay_speed.py [--events 1000] [--batches 5] [--rounds 1]
+        [--baseline OLD/src]
+
+``--rounds`` repeats the pair of processes per face and prints the median of their ratios;
+``--baseline`` times another score4 checkout's sources in the same rounds (before/after).
+``--recoils`` times the replay alone (``HeavyIonTransport.transport``, us CPU per Pb-206
+recoil, ``--batches`` passes over the recoils of ``--events`` events per process).
 
 On a machine shared with other jobs single timings move by tens of per cent; running the two
 modes together and taking medians keeps their ratio steadier than timing them one after the
@@ -18,10 +24,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import statistics
 import subprocess
 import sys
 import time
+
+import numpy as np
 
 from score4.runner.run_plan import plan_run
 
@@ -77,37 +86,153 @@ def batches(face: str, ions: str, events: int, count: int) -> list[float]:
     return out
 
 
+def recoil_replays(face: str, events: int, count: int) -> list[float]:
+    """CPU us per Pb-206 recoil of ``HeavyIonTransport.transport`` alone (no Geant4 event
+    around it): the recoils of ``events`` Po-210 events, each with its own ReplayStream,
+    ``count`` times over (``--recoils``; run in a process of its own)."""
+    from score4.inputs.config import parse_config
+    from score4.runner.seeds import event_geant4_seeds
+    from score4.sim.heavy_ions import ReplayStream
+    from score4.sim.runtime import resolve_physics
+    from score4.sim.simulation import Simulation
+
+    sim = Simulation(
+        plan_run(parse_config(config(face, "trim", events)), physics=resolve_physics("lite"))
+    )
+    sim.run(sim.source.events(1, 0, 200), event_geant4_seeds(1, 0, 200))  # warm up
+    primaries = sim.source.events(1, 1000, events)
+    transport, particle = sim.heavy_ions, sim.particle("Pb206")
+    assert transport is not None
+    rows = [int(r) for r in np.flatnonzero(primaries.particle == "Pb206")]
+    out = []
+    for _ in range(count):
+        t = time.process_time()
+        for r in rows:
+            transport.transport(
+                particle,
+                "Pb206",
+                float(primaries.energy[r]),
+                primaries.position[r],
+                primaries.direction[r],
+                ReplayStream(7, 1, r),
+            )
+        out.append(1e6 * (time.process_time() - t) / len(rows))
+    return out
+
+
+def part_recoils(events: int, count: int, rounds: int, baseline: str | None) -> None:
+    """``--recoils``: the replay alone, per recoil, in processes of their own, interleaved."""
+    versions = {"this": None} if baseline is None else {"this": None, "baseline": baseline}
+    print(f"load average at start: {os.getloadavg()}")
+    for face in ("flat", "pyramids"):
+        values: dict[str, list[float]] = {name: [] for name in versions}
+        for _ in range(rounds):
+            for name, src in versions.items():
+                env = dict(os.environ)
+                if src:
+                    env["PYTHONPATH"] = os.pathsep.join(
+                        p for p in (src, env.get("PYTHONPATH")) if p
+                    )
+                out = subprocess.run(
+                    [
+                        *(sys.executable, __file__, "--one-recoils", face),
+                        *("--events", str(events), "--batches", str(count)),
+                    ],
+                    capture_output=True,
+                    text=True,
+                    env=env,
+                    check=True,
+                ).stdout
+                line = next(x for x in out.splitlines() if x.startswith("RESULT "))
+                values[name].extend(json.loads(line.removeprefix("RESULT ")))
+        for name, src in versions.items():
+            us = statistics.median(values[name])
+            print(
+                f"{face:9s} {name}{f' ({src})' if src else ''}: replay {us:.1f} us CPU per "
+                f"recoil, median of {len(values[name])} passes over {events} events"
+            )
+    print(f"load average at the end: {os.getloadavg()}")
+
+
+def _pair(face: str, events: int, count: int, src: str | None) -> dict[str, list[float]]:
+    """The trim and geant4 processes of one face, side by side (``src``: another score4's
+    sources first on the path); their per-batch CPU ms per event."""
+    env = dict(os.environ)
+    if src:
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (src, env.get("PYTHONPATH")) if p)
+    runs = {
+        ions: subprocess.Popen(
+            [
+                *(sys.executable, __file__, "--one", face, ions),
+                *("--events", str(events), "--batches", str(count)),
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            text=True,
+            env=env,
+        )
+        for ions in ("trim", "geant4")
+    }
+    values = {}
+    for ions, run in runs.items():
+        out, _ = run.communicate()
+        line = next(x for x in out.splitlines() if x.startswith("RESULT "))
+        values[ions] = json.loads(line.removeprefix("RESULT "))
+    return values
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--events", type=int, default=1000)
     parser.add_argument("--batches", type=int, default=5)
+    parser.add_argument("--rounds", type=int, default=1, help="pairs of processes per face")
+    parser.add_argument(
+        "--baseline", help="also time the score4 sources in this src folder, interleaved"
+    )
+    parser.add_argument(
+        "--recoils", action="store_true", help="time the replay alone, us CPU per recoil"
+    )
     parser.add_argument("--one", nargs=2, help=argparse.SUPPRESS)
+    parser.add_argument("--one-recoils", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one:
         print("RESULT " + json.dumps(batches(*args.one, args.events, args.batches)))
         return
+    if args.one_recoils:
+        print("RESULT " + json.dumps(recoil_replays(args.one_recoils, args.events, args.batches)))
+        return
+    if args.recoils:
+        part_recoils(args.events, args.batches, args.rounds, args.baseline)
+        return
+    versions = (
+        {"this": None} if args.baseline is None else {"this": None, "baseline": args.baseline}
+    )
+    # one version, one round: the transcript docs/physics.md quotes
+    plain = args.baseline is None and args.rounds == 1
+    if not plain:
+        print(f"load average at start: {os.getloadavg()}")
     for face in ("flat", "pyramids"):
-        runs = {
-            ions: subprocess.Popen(
-                [
-                    *(sys.executable, __file__, "--one", face, ions),
-                    *("--events", str(args.events), "--batches", str(args.batches)),
-                ],
-                stdout=subprocess.PIPE,
-                stderr=subprocess.DEVNULL,
-                text=True,
+        ratios: dict[str, list[float]] = {name: [] for name in versions}
+        for _ in range(args.rounds):
+            for name, src in versions.items():
+                label = f"{face:9s} " if plain else f"{face:9s} {name:8s} "
+                values = _pair(face, args.events, args.batches, src)
+                medians = {ions: statistics.median(v) for ions, v in values.items()}
+                for ions, v in values.items():
+                    shown = ", ".join(f"{x:.3f}" for x in v)
+                    print(f"{label}{ions:6s} {shown} ms per event, median {medians[ions]:.3f}")
+                ratios[name].append(medians["trim"] / medians["geant4"])
+                print(f"{label}trim / geant4 {ratios[name][-1]:.2f}", flush=True)
+        if plain:
+            continue
+        for name, src in versions.items():
+            shown = ", ".join(f"{x:.2f}" for x in ratios[name])
+            print(
+                f"{face:9s} {name}{f' ({src})' if src else ''}: trim / geant4, median of "
+                f"{args.rounds} rounds {statistics.median(ratios[name]):.2f} ({shown})"
             )
-            for ions in ("trim", "geant4")
-        }
-        medians = {}
-        for ions, run in runs.items():
-            out, _ = run.communicate()
-            line = next(x for x in out.splitlines() if x.startswith("RESULT "))
-            values = json.loads(line.removeprefix("RESULT "))
-            medians[ions] = statistics.median(values)
-            shown = ", ".join(f"{v:.3f}" for v in values)
-            print(f"{face:9s} {ions:6s} {shown} ms per event, median {medians[ions]:.3f}")
-        print(f"{face:9s} trim / geant4 {medians['trim'] / medians['geant4']:.2f}", flush=True)
+    if not plain:
+        print(f"load average at the end: {os.getloadavg()}")
 
 
 if __name__ == "__main__":

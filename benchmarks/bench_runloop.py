@@ -1,7 +1,8 @@
 """The run loop's fixed and per-event costs: start-up, per-BeamOn, per-event, large faces, jobs.
 
     .venv/bin/python benchmarks/bench_runloop.py [--events 2000]
-        [--parts startup,faces,spread,portal,jobs] (also: plans) [--markdown]
+        [--parts startup,faces,spread,portal,jobs] (also: plans, python) [--markdown]
+        [--rounds 5] [--baseline OLD/src]
 
 ``--markdown`` prints the faces part as docs/tiling.md's table (``make docs-check-all``).
 
@@ -11,6 +12,10 @@ Parts (each case runs in its own process, so its RSS and start-up are its own):
     A one-event run of examples/paper_a_rough.yaml with one worker: CPU seconds of importing
     ``score4.runner.engine`` (what the parent and every spawned worker import) and its RSS, of the
     parent process and of the worker (everything before the first event, plus one event).
+    Medians of ``--rounds`` rounds; ``--baseline OLD/src`` times another score4 checkout in the
+    same rounds (before/after). The figures depend on Python's bytecode cache: with
+    PYTHONDONTWRITEBYTECODE set and no ``__pycache__`` in ``src/``, every process compiles
+    score4's modules again (printed in the heading).
 ``faces``
     The paper's pyramid face (10 um pyramids, 0.5 mm patches of 50 x 50, one variant, multi-union)
     on a 10 cm and a 1 m square face (200 x 200 and 2000 x 2000 cells), in the default layout
@@ -41,6 +46,12 @@ Parts (each case runs in its own process, so its RSS and start-up are its own):
     track while the tracking action is on, ``_move`` per jump inside ``on_step``). The first
     two runs work on older score4 versions too (PYTHONPATH=old/src), for a before/after
     comparison.
+``python``
+    Alphas (5.3 MeV, isotropic, 20 nm deep) on the paper's 3 cm pyramid face: CPU per event
+    and the time spent in score4's Python per event (feeding the primaries, reading the
+    scores, progress and stop checks; wall-clock timers inside them, as a share of the
+    run's wall time), medians of
+    ``--rounds`` processes, interleaved with ``--baseline OLD/src`` if given.
 ``plans``
     No Geant4, no timing (seconds): the nested layout's plan for the faces of ``faces``, the
     group sizes per level, how many distinct groups each has and the placements they need
@@ -198,9 +209,82 @@ def measure_portal(tiling: str, events: int) -> dict:
     return out
 
 
-def in_subprocess(args: list[str]) -> dict:
+def measure_python_share(events: int, side_cm: float = 3.0) -> dict:
+    """CPU per alpha event on the pyramid face of ``side_cm`` and the part of it spent in
+    score4's Python per event: the bodies of the primary generator (``Simulation._generate``:
+    feeding the primaries) and of the event action (``_score``: reading the scores; the
+    progress and stop checks), timed with ``perf_counter`` inside them (the binding's calls
+    into them are not included). The share is of the run's wall time: the process CPU clock
+    costs ~2 us a reading here, too much for a timer around every call, and a busy machine
+    pauses the process as often inside those parts as outside them."""
+    from score4.sim import simulation
+
+    spent: dict[str, list] = {}
+    for name in ("_generate", "_score", "_report_progress", "_check_stop"):
+        inner = getattr(simulation.Simulation, name)
+
+        def timed(*args, _inner=inner, _name=name, **kwargs):
+            t0 = time.perf_counter()
+            _inner(*args, **kwargs)
+            row = spent.setdefault(_name, [0, 0.0])
+            row[0] += 1
+            row[1] += time.perf_counter() - t0
+
+        setattr(simulation.Simulation, name, timed)
+    sim, out = timed_simulation(face_config(side_cm))
+    primaries = sim.source.primaries(np.random.default_rng(5), 0, WARMUP + events)
+    sim.run(primaries.select_events(0, WARMUP), 1)
+    spent.clear()
+    c0, t0 = time.process_time(), time.perf_counter()
+    scores = sim.run(primaries.select_events(WARMUP, WARMUP + events), 2)
+    cpu, wall = time.process_time() - c0, time.perf_counter() - t0
+    out.update(
+        cpu_ms=cpu / events * 1e3,
+        wall_ms=wall / events * 1e3,
+        mean_edep_mev=float(scores["edep"][:, 0].mean()),
+    )
+    for name, (calls, seconds) in spent.items():
+        out[f"{name}_ms"] = seconds / events * 1e3
+        out[f"{name}_calls"] = calls / events
+    return out
+
+
+def part_python(events: int, rounds: int, baseline: str | None) -> None:
+    """The Python share per event of an alpha run on the 3 cm pyramid face (medians of
+    ``rounds`` rounds, one process each, interleaved with ``baseline`` if given)."""
+    import statistics
+
+    versions = {"this": None} if baseline is None else {"this": None, "baseline": baseline}
+    rows: dict[str, list[dict]] = {name: [] for name in versions}
+    for _ in range(rounds):
+        for name, src in versions.items():
+            rows[name].append(in_subprocess(["--python-share", "--events", str(events)], src))
+    print(
+        f"Python per event: {events} alphas of 5.3 MeV on the 3 cm pyramid face, medians of "
+        f"{rounds} rounds (load after: {os.getloadavg()})"
+    )
+    for name, src in versions.items():
+        med = {k: statistics.median(r[k] for r in rows[name]) for k in rows[name][0]}
+        python = med["_generate_ms"] + med["_score_ms"]
+        python += med.get("_report_progress_ms", 0.0) + med.get("_check_stop_ms", 0.0)
+        print(
+            f"  {name}{f' ({src})' if src else ''}: CPU {med['cpu_ms']:.3f} ms/event (wall "
+            f"{med['wall_ms']:.3f}); primaries {med['_generate_ms'] * 1e3:.1f} us, scores "
+            f"{med['_score_ms'] * 1e3:.1f} us, progress and stop "
+            f"{(python - med['_generate_ms'] - med['_score_ms']) * 1e3:.1f} us: Python "
+            f"{python / med['wall_ms']:.1%} of the event's wall time; mean deposit "
+            f"{med['mean_edep_mev']:.4f} MeV"
+        )
+
+
+def in_subprocess(args: list[str], src: str | None = None) -> dict:
+    """Run this script with ``args`` in a new process (``src``: another score4's sources
+    first on the path) and return the figures it prints."""
     cmd = [sys.executable, os.path.abspath(__file__), *args]
-    proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+    env = dict(os.environ)
+    if src:
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (src, env.get("PYTHONPATH")) if p)
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False, env=env)
     lines = [line for line in proc.stdout.splitlines() if line.startswith(MARK)]
     if proc.returncode != 0 or not lines:
         raise RuntimeError(f"{' '.join(args)}: failed ({proc.returncode}): {proc.stderr[-2000:]}")
@@ -239,32 +323,58 @@ print(imported, rss, cpu_self, cpu_kids, kids.ru_maxrss / 1024)
 """
 
 
-def part_startup() -> None:
-    """CPU of a one-event run of paper_a_rough: the parent (import, scene, merge) and its worker."""
-    print("start-up: one-event run of examples/paper_a_rough.yaml, --jobs 1 (best of 3)")
-    rows = []
-    with tempfile.TemporaryDirectory() as tmp:
-        for _ in range(3):
-            out = subprocess.run(
-                [
-                    sys.executable,
-                    "-c",
-                    _STARTUP_PROBE,
-                    str(ROOT / "examples" / "paper_a_rough.yaml"),
-                    str(Path(tmp) / "a.h5"),
-                ],
-                check=True,
-                capture_output=True,
-                text=True,
-            ).stdout.split()
-            rows.append([float(x) for x in out[-5:]])
-    imported, rss, parent, worker, worker_rss = min(rows, key=lambda r: r[2] + r[3])
-    print(f"  import score4.runner.engine: CPU {imported:5.2f} s, RSS {rss:4.0f} MB")
-    print(f"  parent process (import, scene, 1 event drawn, merge): CPU {parent:5.2f} s")
+def _startup_round(src: str | None, config: Path, out: Path) -> list[float]:
+    """One one-event run in a fresh interpreter (``src``: score4 sources to put first on the
+    path, an older version for a before/after comparison); the probe's five figures."""
+    env = dict(os.environ)
+    if src:
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (src, env.get("PYTHONPATH")) if p)
+    text = subprocess.run(
+        [sys.executable, "-c", _STARTUP_PROBE, str(config), str(out)],
+        check=True,
+        capture_output=True,
+        text=True,
+        env=env,
+    ).stdout.split()
+    return [float(x) for x in text[-5:]]
+
+
+def part_startup(rounds: int = 5, baseline: str | None = None) -> None:
+    """CPU of a one-event run of paper_a_rough: the parent (import, scene, merge) and its worker.
+
+    Medians of ``rounds`` rounds; with ``baseline`` (the ``src`` folder of another score4
+    checkout) each round runs that version right after this one, and both are printed.
+    """
+    import statistics
+
+    versions = {"this": None} if baseline is None else {"this": None, "baseline": baseline}
     print(
-        f"  worker process (import, Geant4 set-up, 1 event): CPU {worker:5.2f} s, "
-        f"RSS {worker_rss:4.0f} MB"
+        f"start-up: one-event run of examples/paper_a_rough.yaml, --jobs 1 (median of {rounds} "
+        f"interleaved rounds; Python writes bytecode caches: {not sys.flags.dont_write_bytecode})"
     )
+    rows: dict[str, list[list[float]]] = {name: [] for name in versions}
+    with tempfile.TemporaryDirectory() as tmp:
+        for _ in range(rounds):
+            for name, src in versions.items():
+                rows[name].append(
+                    _startup_round(
+                        src, ROOT / "examples" / "paper_a_rough.yaml", Path(tmp) / "a.h5"
+                    )
+                )
+    print(f"  load average after: {os.getloadavg()}")
+    for name, src in versions.items():
+        imported, rss, parent, worker, worker_rss = (
+            statistics.median(r[k] for r in rows[name]) for k in range(5)
+        )
+        if baseline is not None:
+            print(f"  {name}{f' ({src})' if src else ''}:")
+        print(f"  import score4.runner.engine: CPU {imported:5.2f} s, RSS {rss:4.0f} MB")
+        print(f"  parent process (import, scene, 1 event drawn, merge): CPU {parent:5.2f} s")
+        print(
+            f"  worker process (import, Geant4 set-up, 1 event): CPU {worker:5.2f} s, "
+            f"RSS {worker_rss:4.0f} MB"
+        )
+        print(f"  worker CPU, all rounds: {', '.join(f'{r[3]:.2f}' for r in rows[name])} s")
 
 
 def part_faces(events: int, flat_1m: bool) -> None:
@@ -360,20 +470,37 @@ def part_plans() -> None:
         )
 
 
-def part_portal(events: int) -> None:
-    print(f"{'tiling':7} {'ms/ev':>6} {'mean MeV':>8} {'jumps/ev':>8} {'tracked':>7}")
+def part_portal(events: int, rounds: int = 1, baseline: str | None = None) -> None:
+    import statistics
+
+    versions = {"this": None} if baseline is None else {"this": None, "baseline": baseline}
+    runs: dict[tuple[str, str], list[dict]] = {}
+    for _ in range(rounds):  # interleaved: each round runs every version and tiling once
+        for name, src in versions.items():
+            for tiling in ("native", "portal"):
+                args = ["--portal", tiling, "--events", str(events)]
+                runs.setdefault((name, tiling), []).append(in_subprocess(args, src))
+    print(f"portal part: medians of {rounds} rounds (load after: {os.getloadavg()})")
+    print(f"{'version':8} {'tiling':7} {'ms/ev':>6} {'mean MeV':>8} {'jumps/ev':>8} {'tracked':>7}")
     res = {}
-    for tiling in ("native", "portal"):
-        r = res[tiling] = in_subprocess(["--portal", tiling, "--events", str(events)])
+    for name in versions:
+        for tiling in ("native", "portal"):
+            rows = runs[(name, tiling)]
+            r = res[(name, tiling)] = {k: statistics.median(x[k] for x in rows) for k in rows[0]}
+            print(
+                f"{name:8} {tiling:7} {r['per_event_ms']:6.3f} {r['mean_edep_mev']:8.3f} "
+                f"{r['jumps_per_event']:8.2f} {r['tracked_share']:7.3f}",
+                flush=True,
+            )
+        ratios = [
+            p["per_event_ms"] / n["per_event_ms"]
+            for p, n in zip(runs[(name, "portal")], runs[(name, "native")], strict=True)
+        ]
         print(
-            f"{tiling:7} {r['per_event_ms']:6.3f} {r['mean_edep_mev']:8.3f} "
-            f"{r['jumps_per_event']:8.2f} {r['tracked_share']:7.3f}",
-            flush=True,
+            f"{name}: portal / native per event: median {statistics.median(ratios):.2f} "
+            f"(rounds: {', '.join(f'{x:.2f}' for x in ratios)})"
         )
-    print(
-        f"portal / native per event: "
-        f"{res['portal']['per_event_ms'] / res['native']['per_event_ms']:.2f}"
-    )
+    res = {tiling: res[("this", tiling)] for tiling in ("native", "portal")}
     # where the difference goes: the portal's Python, timed in a third run (timers add cost)
     r = in_subprocess(["--portal", "portal-timed", "--events", str(events)])
     python_ms = 0.0
@@ -451,10 +578,15 @@ def main() -> None:
     parser.add_argument("--events", type=int, default=2000, help="alpha / Po-210 events per case")
     parser.add_argument("--jobs-events", type=int, default=20000)
     parser.add_argument("--parts", default="startup,faces,spread,portal,jobs")
+    parser.add_argument("--rounds", type=int, default=5, help="start-up: rounds (median)")
+    parser.add_argument(
+        "--baseline", help="start-up: also time the score4 sources in this src folder, interleaved"
+    )
     parser.add_argument("--flat-1m", action="store_true", help="also the 1 m face, flat placements")
     parser.add_argument("--markdown", action="store_true", help="the faces as docs' table")
     parser.add_argument("--face", nargs=3, help=argparse.SUPPRESS)
     parser.add_argument("--portal", help=argparse.SUPPRESS)
+    parser.add_argument("--python-share", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.face:
         side, layout, variants = args.face
@@ -462,6 +594,9 @@ def main() -> None:
         return
     if args.portal:
         print(MARK + json.dumps(measure_portal(args.portal, args.events)))
+        return
+    if args.python_share:
+        print(MARK + json.dumps(measure_python_share(args.events)))
         return
     parts = args.parts.split(",")
     if args.markdown:
@@ -471,13 +606,15 @@ def main() -> None:
     if "plans" in parts:
         part_plans()
     if "startup" in parts:
-        part_startup()
+        part_startup(args.rounds, args.baseline)
     if "faces" in parts:
         part_faces(args.events, args.flat_1m)
     if "spread" in parts:
         _face_table(SPREAD_CASES, args.events)
     if "portal" in parts:
-        part_portal(args.events)
+        part_portal(args.events, args.rounds, args.baseline)
+    if "python" in parts:
+        part_python(args.events, args.rounds, args.baseline)
     if "jobs" in parts:
         part_jobs(args.jobs_events)
 

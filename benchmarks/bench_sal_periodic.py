@@ -7,12 +7,12 @@ directions instead of the shortest one, and Sal of the exact Gaussian ACF. Findi
 direction mean is 1.00 and the exact ACF gives 1.00, so Sal of one realisation reads low because
 it is the minimum over directions of a noisy sample ACF (see score4.surface.metrology). Usage:
 
-    PYTHONPATH=src python benchmarks/bench_sal_periodic.py [n] [corr_px] [seeds]
+    python benchmarks/bench_sal_periodic.py [n] [corr_px] [seeds]
 """
 
 from __future__ import annotations
 
-import sys
+import argparse
 
 import numpy as np
 
@@ -23,9 +23,12 @@ from score4.surface.random import SAL_PER_CORR_LENGTH, gaussian_random_surface
 
 
 def main() -> None:
-    n = int(sys.argv[1]) if len(sys.argv) > 1 else 128
-    corr = float(sys.argv[2]) if len(sys.argv) > 2 else 6.0
-    seeds = int(sys.argv[3]) if len(sys.argv) > 3 else 6
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("n", nargs="?", type=int, default=128, help="pixels per side (128)")
+    parser.add_argument("corr_px", nargs="?", type=float, default=6.0, help="corr. length (6)")
+    parser.add_argument("seeds", nargs="?", type=int, default=6, help="realisations (6)")
+    args = parser.parse_args()
+    n, corr, seeds = args.n, args.corr_px, args.seeds
     expected = SAL_PER_CORR_LENGTH["gaussian"] * corr
     rows = []
     for seed in range(seeds):

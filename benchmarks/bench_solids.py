@@ -18,48 +18,8 @@ Surface: square pyramids 10 um wide and 10 um high (all equal) on a square n x n
 `box` is a flat G4Box of the patch footprint and the base thickness (the floor of tracking cost).
 A case that does not finish within --timeout is killed and reported as "> timeout".
 
-Measured 2026-11-21 on the 2-core project machine, geant4_pybind 0.1.3 / Geant4 11.4.1. The
-machine was shared (load 2-4.5): a first run under heavier load gave up to 4x longer voxelising
-times and 1.5-3x longer us/event for some rows, so read the figures to +-30 %, ratios more
-firmly. Command:
-    .venv/bin/python benchmarks/bench_solids.py --max-spikes 3e5
-
-       N solid         numpy s  build s  voxel s  init s   RSS MB  dRSS MB  us/event   path nm
-     100 box              0.00     0.00     0.00    0.00      155        0       5.9     0.000
-     100 multiunion       0.00     0.00     0.00    0.00      155        0       8.1     0.000
-     100 tessellated      0.00     0.00     0.00    0.00      155        0      10.4     0.000
-    1024 box              0.00     0.00     0.00    0.00      155        0       6.0     0.000
-    1024 multiunion       0.00     0.01     0.00    0.00      155        0       9.1     0.000
-    1024 tessellated      0.00     0.04     0.01    0.00      156        1      25.9     0.000
-   10000 box              0.00     0.00     0.00    0.00      155        0       6.2     0.000
-   10000 multiunion       0.00     0.11     0.08    0.00      174       19      13.3     0.000
-   10000 tessellated      0.01     0.42     0.28    0.00      182       28      58.0     0.000
-   99856 box              0.00     0.00     0.00    0.00      154        0       5.9     0.000
-   99856 multiunion       0.03     1.19     4.25    0.00      392      237      39.4     0.000
-   99856 tessellated      0.20     5.01    15.03    0.00      647      493     129.9     0.000
-  300304 box              0.00     0.00     0.00    0.00      155        0       6.1     0.000
-  300304 multiunion       0.03     3.65    59.02    0.00      940      785     105.8     0.000
-  300304 tessellated      0.88    15.40   104.95    0.00     1845     1690     297.5     0.000
-
-Same, tessellated only, with SetMaxVoxels(10000) before closing (--solids tessellated
---tess-max-voxels 1e4; 100 and 1024 repeated, both settings, under load 4.5):
-     100 tessellated   us/event 22.7 (default voxels, same load: 14.2)
-    1024 tessellated   us/event 53.7 (default: 23.1)
-   10000 tessellated   voxel 0.24 s, dRSS 23 MB,  us/event 44.0
-   99856 tessellated   voxel 10.4 s, dRSS 268 MB, us/event 111.0
-  300304 tessellated   voxel 83.4 s, dRSS 822 MB, us/event 142.8
-1e6 spikes was not run here (docs/geant4-facts.md: a 1e6 multi-union does not finish in 10 min).
-
-Conclusion. For spike grids score4 should build the paper's G4MultiUnion by default: at every N
-it tracks faster (1e4: 13 vs 58 us/event; 1e5: 39 vs 130; 3e5: 106 vs 298, or 143 with
-SetMaxVoxels), builds 3-4x faster at 1e5 (5.4 vs 20 s) and takes half the memory (1e5: 237 vs
-493 MB; 3e5: 785 vs 1690 MB). Both grow faster than N (voxelising 1e4 -> 1e5 -> 3e5: union
-0.08 -> 4.3 -> 59 s, tessellated 0.28 -> 15 -> 105 s), so one solid should hold <= ~1e5 spikes
-and larger faces be tiled. The tessellated solid stays the only choice for general meshes
-(random or measured surfaces); there, SetMaxVoxels(1e4) pays from ~1e4 spikes (4e4 facets) on
-(3e5: 2x faster tracking, half the memory) but slows small solids, whose default voxel count
-(about one per facet) is better. Every geantino's path in the solid matched top height + base
-to < 1e-3 nm (path nm column), so both solids describe the same body.
+This docstring says what the script measures; what it measured (tables of past runs, with
+date and load) is in benchmarks/README.md, section bench_solids.py.
 """
 
 from __future__ import annotations

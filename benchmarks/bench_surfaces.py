@@ -27,74 +27,8 @@ The machine is shared with other jobs: absolute figures vary by +-30 %; ratios f
 invocation are firmer, and firmer still with ``--repeat N`` (N rounds over all cases, each row
 the round with the median CPU per event of its case).
 
-Measured 2026-11-25 on the shared 2-core machine (other engineers' jobs running, load 2-12),
-geant4_pybind 0.1.3 / Geant4 11.4.1. Run 1, all cases 3000 events (auto blocks then aimed at
-8 facets without the placed-blocks bound, so the measured map had 2 x 2-pixel blocks):
-    .venv/bin/python benchmarks/bench_surfaces.py --events 3000 --slow-events 3000
-
-    case                ms/event  ratio
-    flat                   0.393   0.77
-    pyramids               0.509   1.00
-    pyramids_tess          7.376  14.49
-    pyramids_blocks        0.678   1.33
-    spread_tess           38.514  75.66
-    spread_blocks          0.696   1.37
-    bumps_union            0.858   1.69
-    bumps_blocks           1.118   2.20
-    measured_tess         22.951  45.08
-    measured_blocks        1.177   2.31
-
-     pixels blocks   facets numpy s   G4 s RSS MB dRSS MB
-        256  16384   524288    1.86   2.15    554     451
-        512  16384  1310720    2.14   6.64    990     886
-       1024  16384  3670016    2.97  20.16   2331    2228
-       2048 refused: 8388608 top facets, above the limit of 4000000
-
-Run 2 (current code), load ~2:
-    .venv/bin/python benchmarks/bench_surfaces.py --events 5000 --slow-events 300 \
-        --cases pyramids,flat,gauss_blocks,selfaff_blocks,measured_blocks,spread_blocks,gauss_tess,selfaff_tess --sizes ""
-
-    case                ms/event  ratio
-    pyramids               0.563   1.00
-    flat                   0.281   0.50
-    gauss_blocks           0.694   1.23
-    selfaff_blocks         1.200   2.13
-    measured_blocks        0.720   1.28
-    spread_blocks          0.752   1.34
-    gauss_tess          1284.164 2280.00
-    selfaff_tess        1229.124 2182.28
-
-Run 3 (solid: frustums for spike grids with a spread; median of 3 rounds), load 3.7-4.2:
-    .venv/bin/python benchmarks/bench_surfaces.py --events 5000 --slow-events 300 --repeat 3 \
-        --cases pyramids,flat,spread_blocks,spread_frustums,selfaff_blocks,gauss_blocks,measured_blocks,pyramids_frustums --sizes ""
-
-    case                ms/event  ratio  all rounds ms/event
-    pyramids               0.553   1.00  0.569 0.527 0.553
-    flat                   0.331   0.60  0.351 0.331 0.270
-    spread_blocks          0.636   1.15  0.615 0.687 0.636
-    spread_frustums        0.481   0.87  0.504 0.438 0.481
-    selfaff_blocks         0.737   1.33  0.564 0.737 0.797
-    gauss_blocks           0.918   1.66  0.918 0.908 1.155
-    measured_blocks        0.712   1.29  0.712 0.650 0.845
-    pyramids_frustums      0.429   0.78  0.391 0.429 0.565
-
-The height maps' figures scatter by up to +-25 % between rounds: their short runs include
-seconds of building (CPU small s 5-8 s), whose own scatter enters the difference.
-
---warm (one process per case and round, building left out), load 0.4-1.0, the code before
-(commit aa389a2, this script) and after frustums and the blocks with fewer facets:
-    .venv/bin/python benchmarks/bench_surfaces.py --warm --repeat 3 --events 4000 \
-        --cases pyramids,flat,spread_blocks,spread_frustums,pyramids_frustums,selfaff_blocks,gauss_blocks,measured_blocks
-
-    case                before ms ratio   after ms ratio  (after: all rounds ms/event)
-    pyramids               0.521   1.00      0.491   1.00  0.486 0.491 0.508
-    flat                   0.331   0.64      0.315   0.64  0.315 0.327 0.313
-    spread_blocks          0.659   1.26      0.615   1.25  0.615 0.595 0.615
-    spread_frustums            -      -      0.427   0.87  0.428 0.422 0.427
-    pyramids_frustums          -      -      0.423   0.86  0.419 0.431 0.423
-    selfaff_blocks         0.867   1.66      0.799   1.63  0.784 0.799 0.818
-    gauss_blocks           0.840   1.61      0.759   1.55  0.759 0.784 0.754
-    measured_blocks        0.653   1.25      0.655   1.34  0.668 0.621 0.655
+This docstring says what the script measures; what it measured (tables of past runs, with
+date and load) is in benchmarks/README.md, section bench_surfaces.py.
 """
 
 from __future__ import annotations
@@ -206,7 +140,7 @@ def run_case(case: str, events: int, tmp: Path) -> tuple[float, float]:
         "-q",
         "--overwrite",
     ]
-    subprocess.run(cmd, check=True, env={**os.environ, "PYTHONPATH": str(ROOT / "src")})
+    subprocess.run(cmd, check=True)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
     from score4.runner.output import read_results
@@ -358,7 +292,6 @@ def build_table(sizes: list[int]) -> None:
             check=True,
             capture_output=True,
             text=True,
-            env={**os.environ, "PYTHONPATH": str(ROOT / "src")},
         )
         f = r.stdout.split()[-7:]
         facets = f"{int(f[2]):,}".replace(",", " ")
@@ -426,8 +359,8 @@ def main() -> None:
     rows = {c: sorted(r)[(len(r) - 1) // 2] for c, r in runs.items()}
     ref = rows.get("pyramids", (float("nan"),))[0]
     print(
-        f"{'case':18s} {'ms/event':>9s} {'ratio':>6s} {'CPU big s':>9s} {'CPU small s':>11s} {'mean MeV':>8s}"
-        f"  all rounds ms/event"
+        f"{'case':18s} {'ms/event':>9s} {'ratio':>6s} {'CPU big s':>9s} {'CPU small s':>11s} "
+        f"{'mean MeV':>8s}  all rounds ms/event"
     )
     for case, (per, big, small, mean) in rows.items():
         every = " ".join(f"{r[0] * 1e3:.3f}" for r in runs[case])
@@ -438,7 +371,8 @@ def main() -> None:
     sizes = [int(s) for s in a.sizes.split(",") if s]
     if sizes:
         print(
-            f"\n{'pixels':>7s} {'blocks':>6s} {'facets':>8s} {'numpy s':>7s} {'G4 s':>6s} {'RSS MB':>6s} {'dRSS MB':>7s}"
+            f"\n{'pixels':>7s} {'blocks':>6s} {'facets':>8s} {'numpy s':>7s} {'G4 s':>6s} "
+            f"{'RSS MB':>6s} {'dRSS MB':>7s}"
         )
     for n in sizes:
         r = subprocess.run(
@@ -446,14 +380,14 @@ def main() -> None:
             check=False,
             capture_output=True,
             text=True,
-            env={**os.environ, "PYTHONPATH": str(ROOT / "src")},
         )
         if r.returncode:
             print(f"{n:7d} failed: {r.stderr.strip().splitlines()[-1:]}")
             continue
         f = r.stdout.split()[-7:]
         print(
-            f"{int(f[0]):7d} {int(f[1]):6d} {int(f[2]):8d} {f[3]:>7s} {f[4]:>6s} {f[5]:>6s} {f[6]:>7s}"
+            f"{int(f[0]):7d} {int(f[1]):6d} {int(f[2]):8d} {f[3]:>7s} {f[4]:>6s} "
+            f"{f[5]:>6s} {f[6]:>7s}"
         )
 
 

@@ -23,49 +23,8 @@ the 0.5 mm patch (2 500 pyramids) and a 1 cm patch (10^6 pyramids as one solid),
 (equal heights) and tessellated solid. A case that does not finish within --limit seconds is
 killed and reported as "> limit" with the peak RSS it had reached (VmHWM read from /proc).
 
-Measured 2026-11-21 on the 2-core project machine (shared with other jobs, load 4-7), geant4_pybind
-0.1.3 / Geant4 11.4.1, command:
-    .venv/bin/python benchmarks/bench_tiling.py --events 2000 --limit 300
-
-    case      build s  init s 1st run s  RSS MB ev/s wall ev/s CPU mean MeV jumps/ev
-    flat         0.00    0.27      0.26     184      2538     3551    2.658      nan
-    native       0.79    1.14     55.89     256        42       54    3.086      nan
-    portal       0.26    0.49      0.58     218        38       48    3.078     1.73
-
-       patch solid         pyramids   build s   RSS MB  dRSS MB
-       0.5mm multiunion        2500      0.03      155        0
-       0.5mm tessellated       2500      0.14      157        2
-      10.0mm multiunion     1000000     > 300  >= 2455
-      10.0mm tessellated    1000000     > 300  >= 2199
-
-Re-measured the same day after native tiling put each patch in a vacuum cell box (commit "Native
-tiling: patches sit in one vacuum cell box"), with the one-variant cases added (placements1 /
-replicas1: only the equal-height pyramids, multi-union), load ~2:
-    .venv/bin/python benchmarks/bench_tiling.py --cases native,placements1,replicas1 \\
-        --skip-patches --events 2000
-
-    case         build s  init s 1st run s  RSS MB ev/s wall ev/s CPU mean MeV jumps/ev
-    native          0.43    0.60      0.54     253        55       55    3.083      nan
-    placements1     0.20    0.37      0.26     229      2208     2209    3.097      nan
-    replicas1       0.02    0.18      0.19     193      2426     2427    3.097      nan
-
-The native start-up cost is gone (first run 0.54 s instead of 55.9 s). The per-event cost is set
-by the solids: two of the three variants have a height spread and are tessellated (55 ev/s);
-with only the equal-height multi-union pyramids native tiling runs 2200 ev/s, 0.62x the flat
-face. Replicas build 10x faster, use 36 MB less and track 10 % faster than placements, for
-faces covered by one variant. Score4's default stays native placements (any patch map); use
-native_layout: replicas for one-variant faces.
-
-Reading of the first table. Per event the rough face costs ~70x the flat one (alphas and their delta
-electrons take hundreds of steps in pyramid solids). Native tiling tracks ~11 % faster than the
-portal (CPU 54 vs 48 ev/s: the portal adds ~1.7 jumps per event, each a Python call plus an undone
-vacuum step, and one Python call per track for the cell bookkeeping); the spectra agree (mean 3.086
-vs 3.078 MeV, and tests/test_portal.py). But native pays its start-up in the first run: ~56 s in
-which Geant4 closes the geometry (smart voxels of the envelope's 40 000 daughters; CloseGeometry
-alone took 36 s on this geometry in a separate measurement) and needs 38 MB more. Per worker process
-the portal is ahead up to ~20 000 events (56 s / (1/38 - 1/42) s per event), native beyond. One 1 cm
-patch as a single solid did not build within 300 s and had passed 2.2-2.5 GB by then, so large faces
-must be tiled (either way) from patches of ~10^4-10^5 spikes.
+This docstring says what the script measures; what it measured (tables of past runs, with
+date and load) is in benchmarks/README.md, section bench_tiling.py.
 """
 
 from __future__ import annotations

@@ -11,6 +11,7 @@ and 1e-6 mm. score4.inputs.limits.MIN_SOLID_LENGTH is set from this output with 
 
 from __future__ import annotations
 
+import argparse
 import math
 import subprocess
 import sys
@@ -72,6 +73,7 @@ def smallest(kind: str, lo: float = 1e-12, hi: float = 1e-6, steps: int = 14) ->
 
 
 def main() -> None:
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args()
     for kind in ("G4Box", "G4Trd", "G4Tubs", "G4TessellatedSolid"):
         s = smallest(kind)
         _, why = accepted(kind, s * 0.9)

@@ -239,3 +239,106 @@ def test_replayed_heavy_ions_are_steps_along_their_paths(tmp_path_factory):
     again = np.bincount(evtid, weights=edep * w, minlength=res.n_events)
     np.testing.assert_allclose(again, res.scores["active_edep"]["crystal"], atol=1e-12, rtol=0)
     assert 0 < again.sum() < res.edep["crystal"].sum()  # partly in the 20 nm transition layer
+
+
+def test_a_rough_face_is_measured_by_its_rough_surface(tmp_path_factory):
+    """Alphas from the tops of pyramids on +z: steps inside the pyramids have their true distance
+    to the rough surface (not 0), steps under them the distance to the nearest facet, which
+    dist_to_surf stores and active_edep weights."""
+    from score4.world.activeness import face_distance
+    from score4.world.rough_distance import RoughSurfaceDistance
+    from score4.world.scene import build_scene
+
+    data = _config([{"fccd": "3 um", "dlf": 0.5, "faces": ["+z"]}], events=40)
+    data["surfaces"] = {
+        "pyr": {"kind": "spikes", "nx": 5, "ny": 5, "width": "10 um", "height": "10 um"}
+    }
+    data["targets"][0].update(size=["0.5 mm", "0.5 mm", "10 mm"])
+    data["targets"][0]["rough"] = [{"face": "+z", "surface": "pyr", "base_thickness": "1 um"}]
+    data["source"]["direction"] = "isotropic"
+    out = _run(tmp_path_factory, "rough", data)
+    res = read_results(out)
+    with h5py.File(out, "r") as f:
+        g = f["stp/crystal"]
+        points = np.column_stack([g[c][()] * 1e3 for c in ("xloc", "yloc", "zloc")])
+        evtid, edep, dist = g["evtid"][()], g["edep"][()] / 1e3, g["dist_to_surf"][()] * 1e3
+    layer = build_scene(parse_config(data)).layers[0]
+    in_patch = layer.contains(points)
+    assert in_patch.sum() > 0.3 * len(points)  # many steps inside the pyramids
+    rough = RoughSurfaceDistance(layer)(points)
+    target = layer.target
+    sides = tuple(f for f in target.shape.faces if f != "+z")
+    flat = face_distance(target.shape, sides, target.to_local(points))
+    np.testing.assert_allclose(dist, np.minimum(rough, flat), rtol=0, atol=1e-12)
+    assert dist[in_patch].max() > 1e-3  # up to micrometres inside a pyramid, not 0
+    under = ~in_patch & (flat > rough)  # in the bulk, nearest to the rough face
+    assert under.sum() > 10
+    # at least the base's 1 um further than the flat face was
+    assert np.all(rough[under] >= -points[under, 2] + 1e-3 - 1e-12)
+    w = weight(rough, 3e-3, 0.5)  # activeness lists +z only
+    again = np.bincount(evtid, weights=edep * w, minlength=res.n_events)
+    np.testing.assert_allclose(again, res.scores["active_edep"]["crystal"], atol=1e-12, rtol=0)
+
+
+def test_alphas_on_trim_count_in_the_alpha_class_with_and_without_steps(tmp_path_factory):
+    """physics.alphas: trim with output.split_by_particle: the replayed alphas' deposits are in
+    edep_alpha whether steps are recorded or not (they once were only with steps, and only the
+    last piece of the path); the steps carry the alpha's start time, 0 for a primary."""
+    data = _config([], steps=False, events=10)
+    data["physics"] = {"mode": "lite", "alphas": "trim", "trim_histories": 50}
+    data["output"]["split_by_particle"] = True
+    plain = read_results(_run(tmp_path_factory, "trim_alpha", data))
+    data["output"]["steps"] = True
+    out = _run(tmp_path_factory, "trim_alpha_steps", data)
+    with_steps = read_results(out)
+    for res in (plain, with_steps):
+        np.testing.assert_allclose(
+            res.scores["edep_alpha"]["crystal"], res.edep["crystal"], rtol=0, atol=1e-9
+        )
+        assert res.edep["crystal"].min() > 5.0
+    np.testing.assert_array_equal(with_steps.edep["crystal"], plain.edep["crystal"])
+    with h5py.File(out, "r") as f:
+        g = f["stp/crystal"]
+        assert set(g["particle"][()].tolist()) == {1000020040}
+        assert (g["time"][()] == 0).all()
+
+
+def test_steps_of_decays_lost_with_their_atoms_are_dropped(tmp_path_factory):
+    """Po-218 implantation on a lone box face: outward Pb-214 recoils leave the world, and the
+    decays of those atoms are not in the results; neither are their steps. The steps left add up
+    to the kept events' edep, numbered like them, in both chunks."""
+    data = {
+        "physics": {"mode": "lite", "trim_histories": 200},
+        "targets": [
+            {
+                "name": "crystal",
+                "material": "G4_Si",
+                "size": ["2 mm", "2 mm", "1 mm"],
+                "position": ["0 mm", "0 mm", "-0.5 mm"],
+                "activeness": [{"fccd": "10 um", "dlf": 0.5, "faces": "all"}],
+            }
+        ],
+        "source": {
+            "surface": {"volume": "crystal", "face": "+z"},
+            "decay": {"chain": "Po218", "until": "Pb210", "implantation": True},
+            "depth": {"profile": "zero"},
+        },
+        "run": {"events": 40, "seed": 5, "chunk_events": 20},
+        "output": {"steps": True},
+    }
+    out = _run(tmp_path_factory, "lost", data)
+    res = read_results(out)
+    counts = res.run["implantation"]
+    assert counts["lost_decays"] > 10  # about half of the atoms leave with their recoil
+    assert res.run["n_events"] == len(res.event_id)
+    with h5py.File(out, "r") as f:
+        g = f["stp/crystal"]
+        evtid, edep = g["evtid"][()], g["edep"][()] / 1e3
+        dist = g["dist_to_surf"][()] * 1e3
+    assert evtid.min() >= 0
+    assert evtid.max() < res.n_events
+    per_event = np.bincount(evtid, weights=edep, minlength=res.n_events)
+    np.testing.assert_allclose(per_event, res.edep["crystal"], atol=1e-9, rtol=0)
+    w = weight(dist, 10e-3, 0.5)  # activeness on all faces: of dist_to_surf
+    again = np.bincount(evtid, weights=edep * w, minlength=res.n_events)
+    np.testing.assert_allclose(again, res.scores["active_edep"]["crystal"], atol=1e-9, rtol=0)

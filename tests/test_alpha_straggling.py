@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import pytest
 
-from _spawn import run_in_spawned_process
+from helpers.spawn import run_in_spawned_process
 
 # TRIM, 5.3 MeV alphas in Si (2.33 g/cm3): projected range and longitudinal straggling, um
 TRIM_RANGE_UM, TRIM_STRAGGLING_UM = 26.5872, 0.294397
@@ -26,9 +26,9 @@ def _call(spec):
     from pathlib import Path
 
     sys.path.insert(0, str(Path(__file__).parent))
-    import _g4_heavy_ions
+    from helpers import g4_heavy_ions
 
-    return _g4_heavy_ions.alpha_depths(spec)
+    return g4_heavy_ions.alpha_depths(spec)
 
 
 def test_energy_loss_fluctuations_in_short_steps_make_the_excess():

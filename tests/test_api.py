@@ -1,6 +1,6 @@
 """score4 as a library (score4.api, issue 17 item 7): a user's own geant4_pybind application
 gives the same events as ``score4 run`` on the same world, the example runs, errors are one
-line. Geant4 runs in spawned processes (tests/_g4_api.py); pytest itself never imports it."""
+line. Geant4 runs in spawned processes (tests/helpers/g4_api.py); pytest itself never imports it."""
 
 from __future__ import annotations
 
@@ -16,12 +16,12 @@ import yaml
 from score4.cli.main import main
 from score4.runner.output import read_results
 
-from _spawn import run_in_spawned_process
+from helpers.spawn import run_in_spawned_process
 
 HERE = Path(__file__).parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
-import _g4_api as W  # noqa: E402 (its module level is numpy only; Geant4 stays in the functions)
+from helpers import g4_api as W  # noqa: E402 (its module level is numpy only; Geant4 stays in the functions)
 
 #: A holder plate and a crystal 0.5 mm above it, turned by 20 degrees about z (GDML by hand).
 GDML = """<?xml version="1.0" encoding="UTF-8"?>
@@ -60,9 +60,9 @@ GDML = """<?xml version="1.0" encoding="UTF-8"?>
 
 def _call(name, *args):
     sys.path.insert(0, str(HERE))
-    import _g4_api
+    from helpers import g4_api
 
-    return getattr(_g4_api, name)(*args)
+    return getattr(g4_api, name)(*args)
 
 
 def spawned(name, *args):

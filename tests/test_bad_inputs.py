@@ -1,6 +1,6 @@
 """Every bad input of issues 20 and 26 ("Why" lists) ends in one line and exit status 2, before
 any Geant4 work, with no output written and no input changed, or is now handled as a user
-expects (tests/_bad_inputs.py holds the cases and, run as a script, classifies them as a user
+expects (tests/helpers/bad_inputs.py holds the cases and, run as a script, classifies them as a user
 meets them); and a GDML export to a full disk keeps the old file."""
 
 from __future__ import annotations
@@ -13,11 +13,11 @@ from pathlib import Path
 
 import pytest
 import yaml
-from _bad_inputs import CASES, Case, digest, gdml_config, gdml_world
 
 from score4.cli.main import main
 
 from conftest import tmpfs_mount_command
+from helpers.bad_inputs import CASES, Case, digest, gdml_config, gdml_world
 
 
 def _run(case: Case, folder: Path, capsys) -> tuple[int, str]:

@@ -25,8 +25,8 @@ from score4.runner.seeds import atom_event_geant4_seeds
 from score4.source.build import decay_normalisation, make_source
 from score4.world.scene import build_scene
 
-from _spawn import run_in_spawned_process
 from conftest import config_dict
+from helpers.spawn import run_in_spawned_process
 
 PB214_RECOIL_KEV = 112.35  # Po-218 alpha decay (Q 6114.7 keV): the Pb-214 recoil
 PB214_AMU = 213.9998
@@ -40,9 +40,9 @@ def _call(function, *args):
     from pathlib import Path
 
     sys.path.insert(0, str(Path(__file__).parent))
-    import _g4_implantation
+    from helpers import g4_implantation
 
-    return getattr(_g4_implantation, function)(*args)
+    return getattr(g4_implantation, function)(*args)
 
 
 def chain_config(decay: dict, depth: dict | None = None, **sections) -> dict:

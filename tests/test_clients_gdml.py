@@ -24,7 +24,7 @@ from score4.geometry.gdml import drop_nist_state
 from score4.surface.store import load_surface
 from score4.surface.triangle_mesh import signed_volume
 
-from _spawn import run_in_spawned_process
+from helpers.spawn import run_in_spawned_process
 
 pyg4ometry = pytest.importorskip("pyg4ometry")
 

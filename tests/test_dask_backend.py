@@ -97,6 +97,33 @@ def test_cli_cluster_dask_gives_the_local_result(tmp_path, reference, capsys):
     assert "Geant4 version" in log
 
 
+def test_steps_and_activeness_on_dask_are_the_local_ones(tmp_path):
+    """output.steps and targets[].activeness on a local Dask cluster: the same /stp tables
+    (every column, every row, in the same order) and active energies as with local processes."""
+    targets = [{**config_dict()["targets"][0], "activeness": [{"fccd": "5 um", "dlf": 0.5}]}]
+    data = config_dict(
+        targets=targets, run={"events": 120, "seed": 13, "chunk_events": 40}, output={"steps": True}
+    )
+    config = parse_config(data)
+    local = run(config, tmp_path / "local.h5", jobs=1, progress=False, echo=quiet)
+    dask = run(config, tmp_path / "dask.h5", cluster="dask", jobs=2, progress=False, echo=quiet)
+    a, b = read_results(local), read_results(dask)
+    assert b.run["backend"] == "dask local cluster (2 workers)"
+    assert_same_events(a, b)
+    np.testing.assert_array_equal(
+        a.scores["active_edep"]["crystal"], b.scores["active_edep"]["crystal"]
+    )
+    assert (a.scores["active_edep"]["crystal"] < a.edep["crystal"]).any()
+    with h5py.File(local, "r") as f, h5py.File(dask, "r") as g:
+        columns = list(f["stp/crystal"])
+        assert columns == list(g["stp/crystal"])
+        assert len(f["stp/crystal/evtid"]) > 10 * 120
+        for c in columns:
+            np.testing.assert_array_equal(f["stp/crystal"][c][()], g["stp/crystal"][c][()])
+        hit = np.flatnonzero(b.edep["crystal"] > 0)  # events numbered through the chunks
+        assert np.array_equal(np.unique(g["stp/crystal/evtid"][()]), hit)
+
+
 @pytest.mark.deep  # two more clusters; the CLI test above covers --cluster dask in make test
 def test_existing_scheduler_address_and_client(tmp_path, reference, cluster):
     config, local = reference

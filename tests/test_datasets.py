@@ -19,7 +19,7 @@ from score4.errors import ConfigError, DataError
 from score4.runner import datasets
 from score4.runner.datasets import DataSet, Source
 
-from _datasets_server import Route, closed_port, make_tarball, md5, serve
+from helpers.datasets_server import Route, closed_port, make_tarball, md5, serve
 
 FAKE_FILES = {
     "FAKEDATA1.0": None,

@@ -12,8 +12,8 @@ from score4.source.build import make_source
 from score4.source.primaries import Primaries
 from score4.world.scene import build_scene
 
-from _spawn import run_in_spawned_process
 from conftest import SPREAD, TARGET, config_dict, crystal_track_lengths, straight_down_paths
+from helpers.spawn import run_in_spawned_process
 
 PYRAMIDS = {**SPREAD, "shape": "pyramid", "n_layers": 1, "seed": 7}
 RANDOM = {
@@ -113,9 +113,9 @@ def _call(function, *args):
     from pathlib import Path
 
     sys.path.insert(0, str(Path(__file__).parent))
-    import _g4_regions
+    from helpers import g4_regions
 
-    return getattr(_g4_regions, function)(*args)
+    return getattr(g4_regions, function)(*args)
 
 
 def test_the_unused_parallel_world_region_is_dropped_and_results_do_not_change():

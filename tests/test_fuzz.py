@@ -1,12 +1,12 @@
 """Fuzz suite: generated run descriptions and command lines never crash score4.
 
-The strategies (tests/_fuzz.py) derive from the schema and the click command tree, so keys and
-options added later are fuzzed without new test code. Asserted for every example: the input is
-accepted or refused with one :class:`~score4.errors.Score4Error` line (CLI: exit 0 or 2, one
-``score4: error:`` line), no other exception, no traceback, no hang (an alarm), nothing written
-on an error, no input changed. The default run is small and derandomized (the same examples
-every time); ``make test-deep`` runs many more, and command lines in subprocesses (``run``,
-``range`` and ``geometry check`` start Geant4, which pytest itself never imports).
+The strategies (tests/helpers/fuzz.py) derive from the schema and the click command tree, so
+keys and options added later are fuzzed without new test code. Asserted for every example: the
+input is accepted or refused with one :class:`~score4.errors.Score4Error` line (CLI: exit 0 or
+2, one ``score4: error:`` line), no other exception, no traceback, no hang (an alarm), nothing
+written on an error, no input changed. The default run is small and derandomized (the same
+examples every time); ``make test-deep`` runs many more, and command lines in subprocesses
+(``run``, ``range`` and ``geometry check`` start Geant4, which pytest itself never imports).
 """
 
 from __future__ import annotations
@@ -23,10 +23,9 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
-from _bad_inputs import results_file, text_grid
-from _fuzz import VALID, command_line, commands, documents
 from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
 
@@ -37,6 +36,9 @@ from score4.inputs.config import load_config
 from score4.inputs.units import parse_count
 from score4.source.build import make_source
 from score4.world.scene import build_scene
+
+from helpers.bad_inputs import results_file, text_grid
+from helpers.fuzz import VALID, command_line, commands, documents
 
 ROOT = Path(__file__).resolve().parents[1]
 # hypothesis warns when it prints a failing example with a 10 kB string (one of the hostile
@@ -119,6 +121,28 @@ def _restore(folder: Path, pool: Path) -> None:
     shutil.copytree(pool, folder)
 
 
+def _check_activeness(scene, points: np.ndarray) -> None:
+    """With activeness: its weights at the drawn vertices (on and under the rough face) are
+    finite and in [0, 1], and every distance to the volume's surface is finite and >= 0."""
+    if not any(t.config.activeness for t in scene.targets):
+        return
+    from score4.world.activeness import target_distances, volume_activeness
+
+    distances = target_distances(scene)
+    for model, distance in zip(volume_activeness(scene, distances), distances, strict=True):
+        if model is None or distance is None:
+            continue
+        below = points - [0.0, 0.0, 2e-3]  # 2 um under each vertex as well
+        probe = np.concatenate([points, below])
+        w = model.weights(probe)
+        assert np.isfinite(w).all()
+        assert ((w >= 0) & (w <= 1)).all()
+        d = distance.to_surface(probe)
+        assert np.isfinite(d).all()
+        assert (d >= 0).all()
+    event("valid: activeness weighed")
+
+
 def check_document(doc: dict, folder: Path) -> None:
     """Validate ``doc`` as a file in ``folder``; if valid, build its scene and draw events."""
     path = folder / "doc.yaml"
@@ -133,8 +157,11 @@ def check_document(doc: dict, folder: Path) -> None:
             return
         try:
             scene = build_scene(config)
-            make_source(config, scene).events(config.run.seed, 0, min(config.run.events, 30))
+            primaries = make_source(config, scene).events(
+                config.run.seed, 0, min(config.run.events, 30)
+            )
             event("valid: scene built, events drawn")
+            _check_activeness(scene, primaries.position)
         except Score4Error as err:
             _one_line(err)
             event("refused when built")

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from _spawn import run_in_spawned_process
+from helpers.spawn import run_in_spawned_process
 
 HERE = Path(__file__).parent
 GDML = HERE / "data" / "gdml" / "pyg4ometry_tessellated.gdml"
@@ -50,7 +50,7 @@ def expected_inside(p: np.ndarray) -> np.ndarray:
 
 def _inspect(path, solid_points, world_points):
     sys.path.insert(0, str(HERE))
-    from _g4_gdml_import import inspect_gdml
+    from helpers.g4_gdml_import import inspect_gdml
 
     return inspect_gdml(path, solid_points, world_points)
 

@@ -1,6 +1,6 @@
 """GDML worlds (issue 17): the volume model, names and copies, transforms, materials by Z, rough
 faces on GDML volumes, bad input. The GDML files are written at test time by pyg4ometry (with a
-legend-pygeom-hpges detector) and by Geant4's own writer (tests/_gdml_worlds.py)."""
+legend-pygeom-hpges detector) and by Geant4's own writer (tests/helpers/gdml_worlds.py)."""
 
 from __future__ import annotations
 
@@ -22,18 +22,18 @@ from score4.inputs.config import parse_config
 from score4.world.gdml_files import _read_in_subprocess, load_geometry_model
 from score4.world.scene import build_scene
 
-from _spawn import run_in_spawned_process
+from helpers.spawn import run_in_spawned_process
 
 HERE = Path(__file__).parent
 sys.path.insert(0, str(HERE))
-import _gdml_worlds as W  # noqa: E402
+from helpers import gdml_worlds as W  # noqa: E402
 
 
 def _call(name, *args):
     sys.path.insert(0, str(HERE))
-    import _g4_gdml_world
+    from helpers import g4_gdml_world
 
-    return getattr(_g4_gdml_world, name)(*args)
+    return getattr(g4_gdml_world, name)(*args)
 
 
 def spawned(name, *args):
@@ -42,7 +42,7 @@ def spawned(name, *args):
 
 @pytest.fixture(scope="module")
 def worlds() -> dict[str, Path]:
-    """The worlds of tests/_gdml_worlds.py, written once and kept in score4's cache folder."""
+    """The worlds of tests/helpers/gdml_worlds.py, written once, kept in score4's cache folder."""
     return {
         "pyg4ometry": W.cached("pyg4", W.pyg4ometry_world),
         "geant4": W.cached("g4", W.geant4_world),
@@ -490,6 +490,84 @@ def test_exported_world_gives_the_same_paths_and_reads_in_pyg4ometry(worlds, tmp
         n for n in names if n and n.startswith("crystal_1_roughpz")
     }
     assert all(n is not None and n.startswith("crystal_1") for n in names)
+
+
+BOX_WORLD = {
+    "physics": "lite",
+    "surfaces": {
+        "pyr": {"kind": "spikes", "nx": 5, "ny": 5, "width": "10 um", "height": "10 um"},
+        "low": {"kind": "spikes", "nx": 5, "ny": 5, "width": "10 um", "height": "6 um"},
+    },
+    "targets": [
+        {
+            "name": "crystal",
+            "material": "G4_Ge",
+            "size": ["1 mm", "1 mm", "1 mm"],
+            "position": ["0 mm", "0 mm", "-0.5 mm"],
+            "rough": [
+                {
+                    "face": "+z",
+                    "variants": [
+                        {"surface": "pyr", "density": 0.5},
+                        {"surface": "low", "density": 0.5},
+                    ],
+                },
+                {"face": "-x", "surface": "low", "solid": "tessellated"},
+            ],
+        },
+        {
+            "name": "plate",
+            "material": "G4_Cu",
+            "size": ["1 mm", "1 mm", "0.2 mm"],
+            "position": ["0 mm", "0 mm", "-1.5 mm"],
+        },
+    ],
+    "source": {"particle": "alpha", "energy": "5 MeV", "surface": {"volume": "crystal"}},
+    "run": {"events": 10},
+}
+
+
+def test_a_box_world_exports_with_clean_unique_names(tmp_path, monkeypatch):
+    """A world of configuration boxes with rough layers, written by Geant4's writer: no pointer
+    suffixes, every name unique within its kind (repeated placements numbered), and Geant4
+    reads it back with the same ray paths and names as the world score4 builds; pyg4ometry reads
+    it too."""
+    cfg = tmp_path / "box.yaml"
+    cfg.write_text(yaml.safe_dump(BOX_WORLD))
+    out = tmp_path / "box.gdml"
+    assert main(["geometry", "export", str(cfg), "--gdml", str(out)]) == 0
+    text = out.read_text()
+    assert "0x" not in text
+    for tag in ("physvol", "volume", "position", "multiUnionNode", "trd", "box", "tessellated"):
+        names = re.findall(rf'<{tag}\b[^>]*\bname="([^"]+)"', text)
+        assert names, tag
+        assert len(set(names)) == len(names), tag
+    assert 'name="crystal_roughpz_cell_1"' in text  # a repeated placement, numbered
+    scene = build_scene(parse_config(BOX_WORLD))
+    rng = np.random.default_rng(3)
+    rays = []
+    for face in ("+z", "-x"):
+        frame = scene.layer("crystal", face).frame
+        for _ in range(5):
+            start = frame.to_world([*rng.uniform(-0.45, 0.45, 2), 0.05])
+            tilt = frame.rotation @ np.array([*rng.uniform(-0.3, 0.3, 2), -1.0])
+            rays.append((start.tolist(), tilt.tolist()))
+    ours = spawned("trace_built", str(cfg), rays)
+    back = spawned("trace_gdml", str(out), rays)
+    for a, b in zip(ours, back, strict=True):
+        # the first of a name keeps it: a repeated placement is name_k in the file; Geant4's
+        # reader makes the world's placement itself, World_PV
+        names = [re.sub(r"_cell_\d+$", "_cell", v or "") or v for v, _ in b]
+        assert [v for v, _ in a] == ["World" if v == "World_PV" else v for v in names]
+        np.testing.assert_allclose([p for _, p in a], [p for _, p in b], atol=1e-9, rtol=0)
+    assert max(len(a) for a in ours) > 6
+    import pyg4ometry
+
+    monkeypatch.setattr(pyg4ometry.config, "doMeshing", False)
+    reg = pyg4ometry.gdml.Reader(str(out)).getRegistry()
+    assert {"World", "crystal", "plate", "crystal_roughpz", "crystal_roughmx"} <= set(
+        reg.logicalVolumeDict
+    )
 
 
 def test_layer_meeting_a_gdml_sister_and_into(worlds, tmp_path):

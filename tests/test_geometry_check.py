@@ -6,8 +6,8 @@ import yaml
 
 from score4.cli.main import main
 
-from _spawn import run_in_spawned_process
 from conftest import config_dict
+from helpers.spawn import run_in_spawned_process
 
 ROUGH = config_dict(
     surfaces={
@@ -36,9 +36,9 @@ ROUGH = config_dict(
 
 
 def _check(data: dict, plant: bool):
-    import _g4_geometry_check
+    from helpers import g4_geometry_check
 
-    return run_in_spawned_process(_g4_geometry_check.check, data, plant)
+    return run_in_spawned_process(g4_geometry_check.check, data, plant)
 
 
 def test_generated_rough_layers_do_not_overlap_and_a_planted_overlap_is_found():

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from _spawn import run_in_spawned_process
+from helpers.spawn import run_in_spawned_process
 
 lunasrim = pytest.importorskip("lunasrim")
 
@@ -44,9 +44,9 @@ def _call(function, *args):
     from pathlib import Path
 
     sys.path.insert(0, str(Path(__file__).parent))
-    import _g4_heavy_ions
+    from helpers import g4_heavy_ions
 
-    return getattr(_g4_heavy_ions, function)(*args)
+    return getattr(g4_heavy_ions, function)(*args)
 
 
 def trim_reference(tmp, ion, mass, material, energy_kev, ions, seed, thickness_nm, angle=0.0):

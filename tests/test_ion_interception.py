@@ -2,7 +2,7 @@
 
 Geant4's radioactive decay (``source.nuclide``) needs data sets absent here, so the lite-mode
 test makes such an ion another way: a 103.144 keV Pb-206 pushed onto Geant4's stack as a
-secondary during each event of a proton run (``tests/_g4_heavy_ions.py``). Geant4 runs in
+secondary during each event of a proton run (``tests/helpers/g4_heavy_ions.py``). Geant4 runs in
 spawned processes.
 """
 
@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from _spawn import run_in_spawned_process
+from helpers.spawn import run_in_spawned_process
 
 pytest.importorskip("lunasrim")
 
@@ -27,9 +27,9 @@ def _call(function, *args):
     from pathlib import Path
 
     sys.path.insert(0, str(Path(__file__).parent))
-    import _g4_heavy_ions
+    from helpers import g4_heavy_ions
 
-    return getattr(_g4_heavy_ions, function)(*args)
+    return getattr(g4_heavy_ions, function)(*args)
 
 
 @pytest.fixture(scope="module")
@@ -89,3 +89,18 @@ def test_nuclide_recoils_in_full_physics():
     recoils = [x for x in r if x[1].startswith("Pb206")]
     assert len(recoils) == 200
     assert all(abs(x[2] - RECOIL_MEV) < 2e-3 for x in recoils)
+
+
+def test_steps_of_an_intercepted_ion_carry_its_creation_time():
+    """A Pb-206 made at the end of each proton's track (its global time, about 0.1 ns in): the
+    replayed ion's steps carry that time, the protons' steps Geant4's."""
+    out = _spawned("pushed_recoil_steps", 5)
+    steps, times = out["steps"], out["times"]
+    assert out["intercepted"] == len(times) == 5
+    assert (times > 0.01).all()
+    lead = steps["particle"] == 1000822060
+    assert lead.sum() > 5  # pieces of the replayed paths
+    np.testing.assert_array_equal(steps["time"][lead], times[steps["event"][lead]])
+    protons = steps["particle"] == 2212
+    assert (steps["time"][protons] <= times[steps["event"][protons]] + 1e-12).all()
+    assert steps["time"][protons].max() > 0

@@ -24,7 +24,7 @@ HERE = Path(__file__).parent
 
 def _g4_box(size_mm: float) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [sys.executable, str(HERE / "_g4_limits.py"), repr(size_mm)],
+        [sys.executable, str(HERE / "helpers" / "g4_limits.py"), repr(size_mm)],
         capture_output=True,
         text=True,
         timeout=300,

@@ -13,8 +13,8 @@ from score4.inputs.config import parse_config
 from score4.runner.engine import run
 from score4.runner.output import read_results
 
-from _spawn import run_in_spawned_process
 from conftest import config_dict
+from helpers.spawn import run_in_spawned_process
 
 MATERIALS = {
     "TeO2": {"formula": "TeO2", "density": "6.02 g/cm3"},

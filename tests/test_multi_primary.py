@@ -1,6 +1,6 @@
 import numpy as np
 
-from _spawn import run_in_spawned_process
+from helpers.spawn import run_in_spawned_process
 
 
 def test_two_primaries_per_event_are_tracked_together():
@@ -16,6 +16,6 @@ def _run(n):
     from pathlib import Path
 
     sys.path.insert(0, str(Path(__file__).parent))
-    from _g4_multi_primary import po210_like_events
+    from helpers.g4_multi_primary import po210_like_events
 
     return po210_like_events(n)

@@ -27,8 +27,8 @@ from score4.source.primaries import Primaries
 from score4.source.vertex_file import write_vertex_file
 from score4.world.scene import build_scene, face_frame
 
-from _spawn import run_in_spawned_process
 from conftest import config_dict
+from helpers.spawn import run_in_spawned_process
 
 # Two patch variants, 20 um x 20 um: four 10 um pyramids with a height spread, or sixteen low 5 um
 # ones.
@@ -352,14 +352,14 @@ def _run_primaries(config_data, primaries):
     from pathlib import Path
 
     sys.path.insert(0, str(Path(__file__).parent))
-    from _g4_portal import run_primaries
+    from helpers.g4_portal import run_primaries
 
     return run_primaries(config_data, primaries)
 
 
 def slab_primaries(config_data, particle: str, energy: float, n: int, seed: int) -> dict:
     """Particles started 30 um deep in a 60 um base slab under +z, moving nearly along the face."""
-    from _g4_portal import as_lists
+    from helpers.g4_portal import as_lists
 
     layer = build_scene(parse_config(config_data)).layer("crystal", "+z")
     rng = np.random.default_rng(seed)

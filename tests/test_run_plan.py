@@ -5,8 +5,11 @@ events."""
 from __future__ import annotations
 
 import copy
+import json
 import pickle
 import re
+import subprocess
+import sys
 import warnings
 from dataclasses import replace
 from pathlib import Path
@@ -234,3 +237,27 @@ def test_a_worker_rebuilds_silently_what_warned_in_the_parent():
         warnings.simplefilter("error")
         back, _ = _rebuilt(plan)
     assert back == plan
+
+
+def test_a_worker_rebuilds_a_plan_without_yaml_tqdm_or_building_validators(tmp_path: Path):
+    """A worker unpickles validated models and rebuilds the scene and source from them: it
+    needs no YAML parser, no progress bar and none of the configuration models' validators
+    (pydantic builds them on first validation, ``defer_build``; building one loads pydantic's
+    plugin loader). Checked in a fresh interpreter, as a spawned worker starts."""
+    data = copy.deepcopy(ROUGH)
+    data["targets"][0]["rough"][0]["native_layout"] = "placements"
+    blob = tmp_path / "plan.pkl"
+    blob.write_bytes(pickle.dumps(plan_run(parse_config(data))))
+    code = (
+        "import json, pickle, sys; "
+        f"plan = pickle.loads(open({str(blob)!r}, 'rb').read()); "
+        "n = len(plan.source.events(plan.seed, 0, 5).energy); "
+        "import score4.sim.worker, score4.sim.simulation; "
+        "print(json.dumps({'events': n, 'loaded': sorted(m for m in sys.modules "
+        "if m in ('yaml', 'tqdm', 'pydantic.plugin._loader', 'geant4_pybind'))}))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], check=False, capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert json.loads(done.stdout.strip().splitlines()[-1]) == {"events": 5, "loaded": []}

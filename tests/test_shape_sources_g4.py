@@ -43,7 +43,7 @@ def _config(source: dict, size=("2 mm", "1 mm", "0.5 mm"), rough: bool = True, e
 
 def _locate(config_data, points):
     sys.path.insert(0, str(Path(__file__).parent))
-    from _g4_shape_sources import locate
+    from helpers.g4_shape_sources import locate
 
     return locate(config_data, points)
 

@@ -28,7 +28,7 @@ from score4.shapes import (
     shape_from_dict,
 )
 
-from _spawn import run_in_spawned_process
+from helpers.spawn import run_in_spawned_process
 
 # Its module fixture runs once, on one pytest-xdist worker (not once per worker).
 pytestmark = pytest.mark.xdist_group("shapes-g4")
@@ -122,7 +122,7 @@ def _write_gdml(path: Path) -> Shape:
 
 def _measure(gdml: str, requests: dict) -> dict:
     sys.path.insert(0, str(Path(__file__).parent))
-    from _g4_shapes import measure
+    from helpers.g4_shapes import measure
 
     return measure(gdml, GDML_NAMES, requests)
 
@@ -288,7 +288,7 @@ def test_hpge_faces(measured):
 
 def _placement(points):
     sys.path.insert(0, str(Path(__file__).parent))
-    from _g4_shapes import placement_check
+    from helpers.g4_shapes import placement_check
 
     return placement_check(points)
 

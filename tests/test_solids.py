@@ -8,7 +8,7 @@ import pytest
 
 from score4.surface.spikes import SpikeGrid
 
-from _spawn import run_in_spawned_process
+from helpers.spawn import run_in_spawned_process
 
 GRIDS = [
     dict(nx=4, ny=3, width_x=0.01, width_y=0.015, mean_height=0.008, height_sigma=0.002, seed=2),
@@ -24,7 +24,7 @@ THICKNESS = 0.005
 
 def _classify(points, grid_kwargs):
     sys.path.insert(0, str(Path(__file__).parent))
-    from _g4_solids import classify
+    from helpers.g4_solids import classify
 
     return classify(points, grid_kwargs, THICKNESS)
 
@@ -62,7 +62,7 @@ def test_tessellated_multiunion_and_mesh_agree(grid_kwargs):
 
 def _roundtrip(points, grid_kwargs, path):
     sys.path.insert(0, str(Path(__file__).parent))
-    from _g4_solids import gdml_roundtrip
+    from helpers.g4_solids import gdml_roundtrip
 
     return gdml_roundtrip(points, grid_kwargs, THICKNESS, path)
 

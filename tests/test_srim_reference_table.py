@@ -1,6 +1,6 @@
 """The SRIM reference tables in docs/data cannot go stale: rows are recomputed with lunasrim.
 
-Written by ``benchmarks/srim_reference_table.py``; SRIM's analytic range table is fast (tens of
+Written by ``tools/figures/srim_reference_table.py``; SRIM's analytic range table is fast (tens of
 ms per row), so a few rows are recomputed here from the composition and density in the file.
 TRIM Monte Carlo columns are checked for consistency with the table (they take seconds per
 row to recompute, so they are not rerun here).

@@ -17,8 +17,8 @@ from score4.surface.plot import nice_length
 from score4.surface.store import load_surface
 from score4.surface.triangle_mesh import TriangleMesh, is_watertight, signed_volume
 
-from _spawn import run_in_spawned_process
 from conftest import ROOT
+from helpers.spawn import run_in_spawned_process
 
 UM = 1e-3  # mm
 SYMBOLS = [symbol for symbol, _, _ in PARAMETERS]
@@ -316,7 +316,7 @@ def test_export_ply_keeps_the_exact_body(tmp_path, capsys):
 
 def _export_gdml(surface_file, gdml_path, extra_args, points):
     sys.path.insert(0, str(Path(__file__).parent))
-    from _g4_surface_cli import export_and_classify
+    from helpers.g4_surface_cli import export_and_classify
 
     return export_and_classify(surface_file, gdml_path, extra_args, points)
 

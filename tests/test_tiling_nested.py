@@ -10,12 +10,12 @@ import pytest
 
 from score4.geometry.tiling import group_grid, grouping_plan
 
-from _spawn import run_in_spawned_process
+from helpers.spawn import run_in_spawned_process
 
 
 def _run(*args):
     sys.path.insert(0, str(Path(__file__).parent))
-    from _g4_nested import nested_cells
+    from helpers.g4_nested import nested_cells
 
     return nested_cells(*args)
 

@@ -3,7 +3,7 @@ import math
 import pytest
 
 from score4.errors import ConfigError
-from score4.inputs.units import format_quantity, parse_quantity
+from score4.inputs.units import parse_quantity
 
 
 @pytest.mark.parametrize(
@@ -45,9 +45,3 @@ def test_parse_quantity_errors(value, message):
 def test_error_names_parameter():
     with pytest.raises(ConfigError, match=r"^source.energy: "):
         parse_quantity("5", "energy", name="source.energy")
-
-
-def test_format_roundtrip():
-    assert parse_quantity(format_quantity(0.0123, "length", "um"), "length") == pytest.approx(
-        0.0123
-    )

@@ -5,8 +5,8 @@ Fails on any difference, and on any transcript or figure that no check covers. T
 are written for authors at the top of ``docs/checks.yaml``; in short:
 
 * ``docs/checks.yaml`` declares the checks: each a list of shell commands, run in a scratch
-  folder that links the repository's ``examples``, ``docs``, ``tests`` and ``benchmarks``
-  folders, with the ``score4`` of the running Python first on PATH. Their combined output
+  folder that links the repository's ``examples``, ``docs``, ``tests``, ``benchmarks`` and
+  ``tools`` folders, with the ``score4`` of the running Python first on PATH. Their combined output
   (stdout and stderr) is what the documents quote. Two helpers take code from the documents:
   ``write-block DOC LANG N FILE`` writes the N-th (from 1) fenced block of language LANG
   (``-``: none) in DOC to FILE; ``python-block DOC N [ARGS]`` runs the N-th ``python`` block.
@@ -66,7 +66,7 @@ import yaml
 ROOT = Path(__file__).resolve().parent.parent
 CHECKS = ROOT / "docs" / "checks.yaml"
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
-LINKED = ("examples", "docs", "tests", "benchmarks")
+LINKED = ("examples", "docs", "tests", "benchmarks", "tools")
 
 # --remeasure: take masked figures (timings) and values from the new output too
 REMEASURE = False

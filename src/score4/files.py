@@ -40,10 +40,29 @@ def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
 _TMP_EXTRA = 18
 #: Image formats the plotting commands write (matplotlib's names, chosen by the file suffix).
 IMAGE_FORMATS = ("png", "pdf", "svg", "eps", "ps", "jpg", "jpeg", "tif", "tiff", "webp")
+# An include of a GDML file: ``<file name="f.gdml"/>`` (not ``volname``) or an external XML
+# entity ``<!ENTITY m SYSTEM "materials.xml">`` (also ``<!ENTITY % m SYSTEM ...>``), either quote.
 _GDML_INCLUDE = re.compile(
-    r"""<file\s[^>]*?name\s*=\s*["']([^"']+)["']|<!ENTITY\s[^>]*?SYSTEM\s+["']([^"']+)["']"""
+    r"""<file\b[^>]*?\bname\s*=\s*["'](?P<file>[^"']+)["']"""
+    r"""|<!ENTITY\s[^>]*?SYSTEM\s+["'](?P<entity>[^"']+)["']"""
 )
 _INCLUDES_READ = 64 * 2**20  # bytes of a GDML file searched for <file> includes
+
+
+def gdml_include_refs(text: str) -> list[tuple[str, str, tuple[int, int]]]:
+    """The includes written in GDML ``text``, in order: ``(kind, name, span)`` with kind
+    ``"file"`` (``<file name=...>``) or ``"entity"`` (``<!ENTITY ... SYSTEM ...>``), the name
+    as written (relative to the including file's folder, usually) and its span in ``text``.
+
+    The one reader of GDML includes: :func:`gdml_includes` follows them, the world's volume
+    model checks them (:func:`score4.world.gdml_files.gdml_files`) and the GDML export moves
+    them to the output's folder (:func:`score4.geometry.gdml_splice.relink`).
+    """
+    out = []
+    for m in _GDML_INCLUDE.finditer(text):
+        kind = "file" if m.group("file") is not None else "entity"
+        out.append((kind, m.group(kind), m.span(kind)))
+    return out
 
 
 def gdml_includes(path: str | os.PathLike) -> list[Path]:
@@ -64,8 +83,8 @@ def gdml_includes(path: str | os.PathLike) -> list[Path]:
                 text = f.read(_INCLUDES_READ).decode("utf-8", "replace")
         except (OSError, RuntimeError):
             continue
-        for names in _GDML_INCLUDE.findall(text):
-            child = current.parent / (names[0] or names[1])
+        for _, name, _ in gdml_include_refs(text):
+            child = current.parent / name
             found.append(child)
             todo.append(child)
     return found

@@ -91,7 +91,7 @@ class ResponseConfig(StrictModel):
     """The ``response:`` section (or a response file): see the module notes."""
 
     channel: str = Field("energy", min_length=1)  # a label: heat, light, ionisation, ...
-    quenching: QuenchingConfig = QuenchingConfig()
+    quenching: QuenchingConfig = Field(default_factory=QuenchingConfig)
     resolution: ResolutionConfig | None = None
     threshold: NonNegativeEnergy = 0.0
     seed: int = Field(0, ge=0, lt=2**63)

@@ -93,10 +93,6 @@ class SourceActivity:
     size_text: str  # what was multiplied, in words
     total_bq: float
 
-    def scaled(self, factor: float) -> float:
-        """Total activity (Bq) of ``factor`` times this activity."""
-        return self.total_bq * factor
-
     def to_dict(self) -> dict[str, Any]:
         return {
             "text": self.text,

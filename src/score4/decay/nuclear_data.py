@@ -9,12 +9,11 @@ from __future__ import annotations
 
 import difflib
 import json
-import re
 from functools import cache
 from importlib import resources
 from typing import Any
 
-from ..elements import ELEMENTS, atomic_number, nuclide_za
+from ..elements import ELEMENTS, atomic_number, nuclide_za, split_nuclide
 from ..errors import ConfigError
 
 __all__ = [
@@ -25,10 +24,6 @@ __all__ = [
     "nuclide_record",
     "zai_name",
 ]
-
-_NAME = re.compile(
-    r"^\s*(?:([A-Za-z]{1,2})-?(\d{1,3})(m)?|(\d{1,3})(m)?-?([A-Za-z]{1,2}))\s*$", re.IGNORECASE
-)
 
 
 @cache
@@ -49,15 +44,13 @@ def nuclide_name(name: str, what: str = "decay") -> str:
     Only the spelling is checked here (element symbol, mass number); :func:`nuclide_record`
     also requires decay data.
     """
-    m = _NAME.match(str(name))
-    if not m:
+    parts = split_nuclide(str(name), metastable=True)
+    if parts is None:
         raise ConfigError(
             f"{what}: cannot read nuclide {name!r}; write element symbol + mass number, e.g. "
             f"'Pb210', 'Pb-210' or '210Pb' ('Pa234m' for the metastable state)"
         )
-    symbol, mass, meta = (
-        (m.group(1), m.group(2), m.group(3)) if m.group(1) else (m.group(6), m.group(4), m.group(5))
-    )
+    symbol, mass, meta = parts
     z, a = nuclide_za(symbol, mass, name, what)
     return f"{ELEMENTS[z - 1]}{a}" + ("m" if meta else "")
 
@@ -91,11 +84,12 @@ def nuclide_record(name: str, what: str = "decay") -> tuple[str, dict[str, Any]]
 def ZAI(name: str) -> int:
     """Nuclide code ``10000 Z + 10 A + I`` (I = 1 for a metastable state): Pb210 -> 822100."""
     key = nuclide_name(name)
-    m = re.match(r"([A-Z][a-z]?)(\d+)(m?)$", key)
-    assert m is not None
-    z = atomic_number(m.group(1))
+    parts = split_nuclide(key, metastable=True)
+    assert parts is not None
+    symbol, mass, meta = parts
+    z = atomic_number(symbol)
     assert z is not None  # nuclide_name accepted the element
-    return 10000 * z + 10 * int(m.group(2)) + (1 if m.group(3) else 0)
+    return 10000 * z + 10 * int(mass) + (1 if meta else 0)
 
 
 def zai_name(zai: int) -> str:

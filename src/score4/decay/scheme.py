@@ -41,6 +41,7 @@ from functools import cache
 
 import numpy as np
 
+from ..elements import split_nuclide
 from .nuclear_data import decay_data, nuclide_record
 from .spectra import ELECTRON_MASS_KEV, BetaSpectrum, shape_factor
 
@@ -62,14 +63,6 @@ KINDS = (
     "Auger-L",
 )
 K = {k: i for i, k in enumerate(KINDS)}
-_PARTICLE_OF_KIND = {
-    "alpha": "alpha",
-    "beta-": "e-",
-    "beta+": "e+",
-    "gamma": "gamma",
-    "X-K": "gamma",
-    "X-L": "gamma",
-}
 BASE_PARTICLES = ("alpha", "e-", "e+", "gamma")
 U_MEV = 931.49410242
 ALPHA_MASS_MEV = 3727.3794066
@@ -424,7 +417,10 @@ def _atom_tables(symbol: str) -> dict:
 
 
 def _symbol(name: str) -> str:
-    return name.rstrip("0123456789m").rstrip("0123456789")
+    """The element symbol of a nuclide name of the data file (``"Pa234m"`` -> ``"Pa"``)."""
+    parts = split_nuclide(name, metastable=True)
+    assert parts is not None, name  # the data file's names are normalised
+    return parts[0]
 
 
 @cache

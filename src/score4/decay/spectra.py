@@ -70,17 +70,6 @@ def finite_size(z: float, w: np.ndarray, radius: float) -> np.ndarray:
     )
 
 
-def screening(z: float, w: np.ndarray, radius: float) -> np.ndarray:
-    """Rose's screening correction S (``z`` < 0 for positrons)."""
-    v0 = 1.13 * ALPHA**2 * abs(z) ** (4.0 / 3.0)
-    shifted = np.maximum(w - np.sign(z) * v0, 1.0 + 1e-9)
-    p, ps = np.sqrt(np.maximum(w * w - 1, 1e-300)), np.sqrt(shifted * shifted - 1)
-    log_ratio = log_generalised_fermi(1, z, shifted, radius) - log_generalised_fermi(
-        1, z, w, radius
-    )
-    return ps * shifted / (p * w) * np.exp(log_ratio)
-
-
 def log_generalised_fermi(k: int, z: float, w: np.ndarray, radius: float) -> np.ndarray:
     """``log F_(k-1)`` of the point charge at radius ``radius`` (``k = 1`` gives ``F0``)::
 

@@ -4,9 +4,10 @@ A GDML world is the user's file with the rough layers added (:mod:`score4.geomet
 every name, ``<auxiliary>`` and the ``<userinfo>`` block kept). A world of the configuration's
 boxes is built exactly as the workers build it (:func:`score4.geometry.world.build_world`)
 in a spawned process (the calling process never imports Geant4) and written with Geant4's own
-writer. Names keep Geant4's pointer suffixes (``crystal0x55d1...``): score4's patch volumes and
-the copies of unshared GDML volumes would otherwise share names, and GDML readers (Geant4's,
-pyg4ometry's) look volumes and solids up by name; Geant4's reader strips the suffixes again.
+writer, without its pointer suffixes (``crystal0x55d1...``): every logical volume, physical
+volume and solid of the world gets a unique name first (:func:`unique_names`: the first keeps
+its name, repeats become ``name_1``, ``name_2``, ...; a placement repeated in a row of patches is
+such a repeat), since GDML readers (Geant4's, pyg4ometry's) look volumes and solids up by name.
 The nested tiling's shared logical volumes are written once, so a 10 cm face of a few thousand
 placements stays at megabytes. ``<T>``/``<P>`` are removed from NIST materials, which
 pyg4ometry refuses on them (:func:`score4.geometry.gdml.drop_nist_state`).
@@ -23,6 +24,64 @@ from score4.inputs.config import RunConfig
 
 from .. import files as score4_files
 from ..errors import ConfigError, Score4Error
+
+
+def _solids_of(solid, seen: dict) -> None:
+    """``solid`` and the solids it is made of (boolean constituents, displaced and multi-union
+    nodes), by identity into ``seen``."""
+    if solid is None or id(solid) in seen:
+        return
+    seen[id(solid)] = solid
+    for i in (0, 1):  # a boolean's two constituents (None for any other solid)
+        _solids_of(solid.GetConstituentSolid(i), seen)
+    if hasattr(solid, "GetConstituentMovedSolid"):
+        _solids_of(solid.GetConstituentMovedSolid(), seen)
+    if hasattr(solid, "GetNumberOfSolids"):
+        for i in range(solid.GetNumberOfSolids()):
+            _solids_of(solid.GetSolid(i), seen)
+
+
+def unique_names(world) -> int:
+    """Give every physical volume, logical volume and solid under the world volume ``world`` a
+    name of its own within its kind, in the order of a walk from the world (the first of a
+    name keeps it; the others get ``_1``, ``_2``, ... not yet taken). Returns how many were
+    renamed."""
+    pvs: dict = {}
+    lvs: dict = {}
+    solids: dict = {}
+    stack = [world]
+    while stack:
+        pv = stack.pop()
+        pvs.setdefault(id(pv), pv)
+        lv = pv.GetLogicalVolume()
+        if id(lv) in lvs:
+            continue
+        lvs[id(lv)] = lv
+        _solids_of(lv.GetSolid(), solids)
+        stack += [lv.GetDaughter(i) for i in reversed(range(lv.GetNoDaughters()))]
+    renamed = 0
+    for kind in (pvs, lvs, solids):
+        objects = list(kind.values())
+        taken = {str(o.GetName()) for o in objects}
+        seen: set[str] = set()
+        count: dict[str, int] = {}
+        for o in objects:
+            name = str(o.GetName())
+            if name not in seen:
+                seen.add(name)
+                continue
+            k = count.get(name, 0)
+            while True:
+                k += 1
+                new = f"{name}_{k}"
+                if new not in taken:
+                    break
+            count[name] = k
+            taken.add(new)
+            seen.add(new)
+            o.SetName(new)
+            renamed += 1
+    return renamed
 
 
 def _write(config: RunConfig, out: str) -> dict:
@@ -52,9 +111,10 @@ def _write(config: RunConfig, out: str) -> dict:
         else:
             with redirect_native_output(log):
                 built = build_world(g4, plan)
+                unique_names(built.world)
                 parser = g4.G4GDMLParser()
-                parser.SetAddPointerToName(True)
-                parser.Write(str(tmp), built.world, True)
+                parser.SetAddPointerToName(False)
+                parser.Write(str(tmp), built.world, False)  # False: no pointer suffixes
             if not tmp.is_file():
                 tail = " | ".join(log.read_text(errors="replace").strip().splitlines()[-3:])
                 raise Score4Error(f"--gdml: Geant4 did not write {path} ({tail})")

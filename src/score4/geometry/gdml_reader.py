@@ -17,6 +17,7 @@ from pathlib import Path
 def main(argv: list[str]) -> int:
     path, out = Path(argv[0]), Path(argv[1])
     from ..sim.runtime import import_geant4, resolve_physics
+    from ..world.gdml_files import detector_metadata
     from .gdml import extract_model, read_gdml
 
     g4 = import_geant4(resolve_physics("lite"))  # reading geometry needs no physics data
@@ -26,6 +27,7 @@ def main(argv: list[str]) -> int:
         return 3
     model = extract_model(g4, world, str(path), [str(path)])
     model["overlaps"] = own_overlaps(world)
+    model["metadata"] = detector_metadata(path)
     out.write_text(json.dumps(model))
     return 0
 

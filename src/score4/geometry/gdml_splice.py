@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError, Score4Error
+from ..files import gdml_include_refs
 
 _DAUGHTER = re.compile(
     r"<(physvol|replicavol|paramvol|divisionvol)\b[^>]*?(?:/>|>.*?</\1\s*>)", re.DOTALL
@@ -388,16 +389,11 @@ def relink(text: str, source: Path, target: Path) -> str:
         except ValueError:  # another drive
             return str(full)
 
-    text = re.sub(
-        r"(<!ENTITY\s+\S+\s+SYSTEM\s+\")([^\"]+)(\")",
-        lambda m: m.group(1) + moved(m.group(2)) + m.group(3),
-        text,
-    )
-    return re.sub(
-        r"(<file\b[^>]*?\bname\s*=\s*\")([^\"]+)(\")",
-        lambda m: m.group(1) + moved(m.group(2)) + m.group(3),
-        text,
-    )
+    parts, at = [], 0
+    for _, name, (start, end) in gdml_include_refs(text):
+        parts += [text[at:start], moved(name)]
+        at = end
+    return "".join(parts) + text[at:]
 
 
 def insert_section(text: str, tag: str, content: str, before: tuple[str, ...]) -> str:
@@ -473,8 +469,10 @@ def splice(g4, config, scene, out: Path, fragment_path: Path) -> dict:
     ``fragment_path`` first). Returns ``{"layers", "registered", "clones"}``.
     """
     from ..inputs.materials import find_material
+    from ..world.scene import CurvedRoughLayer
+    from .curved import place_curved
     from .gdml import read_gdml
-    from .gdml_world import _mother_frame
+    from .gdml_world import _mother_frame, _target_in_mother
     from .tiling import _rotation, place_native
     from .world import cut_for_layers, g4_solid
 
@@ -535,6 +533,14 @@ def splice(g4, config, scene, out: Path, fragment_path: Path) -> dict:
         _, m_lv = live(t.mother)
         envelopes: dict[tuple, object] = {}  # the target's layers of the same make: one volume
         for layer in scene.layers_of(t.name):
+            if isinstance(layer, CurvedRoughLayer):  # bent patches in a shell, as a run builds
+                patch_lvs, k = place_curved(
+                    g4, layer, w_lv, m_lv.GetMaterial(), material, _target_in_mother(t)
+                )
+                keep.append(k)
+                patches.setdefault(t.name, set()).update(str(lv.GetName()) for lv in patch_lvs)
+                jobs.append(("layer", t, layer))
+                continue
             frame = _mother_frame(layer.frame, t.mother)
             key = _layer_key(layer, m_lv.GetMaterial(), material)
             if key in envelopes:

@@ -136,12 +136,8 @@ class LiveWorld:
         if isinstance(layer, CurvedRoughLayer):
             from .curved import place_curved
 
-            mother = Transform(t.mother.rotation, t.mother.translation)
-            placement = Transform(
-                mother.rotation.T @ t.rotation, mother.inverse_apply(t.translation)
-            )
             patch_lvs, keep = place_curved(
-                self.g4, layer, mlv, mlv.GetMaterial(), material, placement
+                self.g4, layer, mlv, mlv.GetMaterial(), material, _target_in_mother(t)
             )
             self.keep.append(keep)
             return patch_lvs
@@ -155,6 +151,13 @@ class LiveWorld:
         )
         self.keep.append(keep)
         return patch_lvs
+
+
+def _target_in_mother(t: TargetVolume) -> Transform:
+    """The target's transform in its mother's frame."""
+    assert t.mother is not None
+    mother = Transform(t.mother.rotation, t.mother.translation)
+    return Transform(mother.rotation.T @ t.rotation, mother.inverse_apply(t.translation))
 
 
 def build_gdml_world(g4, plan: RunPlan):

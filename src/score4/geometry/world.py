@@ -95,7 +95,7 @@ def cut_for_layers(g4, scene: Scene, target: TargetVolume, solid, name: str):
     layers = [r for r in scene.layers_of(target.name) if r.config.into]
     if not layers:
         return solid, np.zeros(3), []
-    cuts: dict[str, float] = {layer.config.face: layer.thickness for layer in layers}
+    cuts: dict[str, float] = {layer.config.face_name: layer.thickness for layer in layers}
     trimmed = None if target.shape is None else target.shape.trimmed(cuts)
     if trimmed is None:
         raise ConfigError(

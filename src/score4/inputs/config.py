@@ -88,22 +88,56 @@ class GdmlVolume(StrictModel):
     """A physical volume of the GDML world, scored (and roughened where ``rough`` says so).
 
     ``volume`` is a physical volume name (all its copies), ``name[k]`` (the k-th copy in the
-    order of ``score4 geometry list``), or a logical volume name (all its placements). Each
-    copy is one scoring column (``name_0``, ``name_1``, ... when there are several).
+    order of ``score4 geometry list``), a logical volume name (all its placements), or a glob
+    pattern of physical volume names (``V0*``, ``crystal_?``: a name with ``*`` or ``?``).
+    ``volume_regex`` selects physical volume names by a regular expression (the whole name
+    matches), ``material`` the volumes of a material; given together, a volume must pass each.
+    Each copy is one scoring column (``name_0``, ``name_1``, ... when there are several; a
+    pattern's volumes are columns by their names).
     """
 
-    volume: str = Field(min_length=1)
+    volume: str | None = Field(None, min_length=1)
+    volume_regex: str | None = Field(None, min_length=1)
+    material: str | None = Field(None, min_length=1)
     rough: list[RoughFace] = []  # noqa: RUF012 pydantic copies field defaults per instance
     activeness: list[Activeness] = []  # noqa: RUF012 pydantic copies field defaults per instance
 
+    @model_validator(mode="after")
+    def _one_selection(self) -> GdmlVolume:
+        if self.volume is None and self.volume_regex is None and self.material is None:
+            raise ValueError(
+                "give volume (a name or a glob pattern such as 'V0*'), volume_regex or material"
+            )
+        if self.volume is not None and self.volume_regex is not None:
+            raise ValueError("give volume (a name or glob) or volume_regex, not both")
+        if self.volume_regex is not None:
+            try:
+                re.compile(self.volume_regex)
+            except re.error as err:
+                raise ValueError(
+                    f"volume_regex: {self.volume_regex!r} is not a regular expression ({err})"
+                ) from None
+        return self
+
+    @property
+    def pattern(self) -> bool:
+        """True when the entry selects volumes by a pattern or a material, not by a name."""
+        glob = self.volume is not None and any(c in self.volume for c in "*?")
+        return glob or self.volume_regex is not None or self.material is not None
+
     @property
     def label(self) -> str:
-        return self.volume
+        parts = [self.volume or self.volume_regex or ""]
+        if self.material is not None:
+            parts.append(f"material {self.material}")
+        return " ".join(p for p in parts if p)
 
 
 def _target_tag(value: object) -> str:
     if isinstance(value, dict):
-        return "gdml-target" if "volume" in value else "box-target"
+        named = "volume" in value or "volume_regex" in value
+        by_material = "material" in value and not ({"name", "size"} & set(value))
+        return "gdml-target" if named or by_material else "box-target"
     return "gdml-target" if isinstance(value, GdmlVolume) else "box-target"
 
 
@@ -199,9 +233,10 @@ class WorldConfig(StrictModel):
     """The world: a box of ``material`` around the targets (``margin`` beyond them), or the world
     of a GDML file (``gdml``, relative to the configuration), read with Geant4's parser."""
 
-    used_only_with: ClassVar[dict[str, tuple[str, tuple[object, ...]]]] = {
+    used_only_with: ClassVar[dict[str, object]] = {
         "material": ("gdml", (None,)),
         "margin": ("gdml", (None,)),
+        "allow_overlaps": ("gdml", GIVEN),  # the check it turns off reads a GDML file's volumes
     }
 
     gdml: ConfigPath | None = None
@@ -282,7 +317,8 @@ class RoughFace(StrictModel):
         "into": ("tiling", ("native",)),
     }
 
-    face: str = Field("+z", min_length=1)  # a face of the volume's solid (score4.shapes)
+    # a face or group of the volume's solid (score4.shapes), or a list of them: one layer per face
+    face: str | list[Annotated[str, Field(min_length=1)]] = Field("+z", min_length=1)
     surface: str | None = None
     variants: list[PatchVariant] | None = Field(None, min_length=1)
     fill: Literal["exact", "random", "tiles"] = "exact"  # how cells get their variant
@@ -325,13 +361,24 @@ class RoughFace(StrictModel):
         return None if None in kinds else tuple(dict.fromkeys(kinds))
 
     @property
+    def face_list(self) -> list[str]:
+        """The face names and groups as given (one name or a list)."""
+        return [self.face] if isinstance(self.face, str) else list(self.face)
+
+    @property
+    def face_name(self) -> str:
+        """The one face of a resolved layer (the scene makes one layer per face)."""
+        assert isinstance(self.face, str), "a face list is resolved into one layer per face"
+        return self.face
+
+    @property
     def variant_list(self) -> list[PatchVariant]:
-        assert self.variants is not None or self.surface is not None  # the validator's rule
-        return (
-            self.variants
-            if self.variants is not None
-            else [PatchVariant(surface=self.surface, density=1.0)]
-        )
+        if self.variants is not None:
+            return self.variants
+        assert self.surface is not None  # the validator's rule: surface or variants
+        # built without validation (the values are valid): a worker process then never builds
+        # the models' validators
+        return [PatchVariant.model_construct(surface=self.surface, density=1.0)]
 
 
 def auto_solid(description) -> str | None:
@@ -496,7 +543,7 @@ class SourceConfig(StrictModel):
     direction: Literal[
         "isotropic", "inward", "outward", "cosine_inward", "cosine_outward", "normal"
     ] = "isotropic"
-    depth: DepthConfig = DepthConfig()
+    depth: DepthConfig = Field(default_factory=DepthConfig)
     # Keep vertices inside the material of the face's target (a shift along the normal can leave
     # a thin spike); a material name confines to that material instead; false turns it off.
     confine: bool | str = True
@@ -599,7 +646,7 @@ class HistogramConfig(StrictModel):
 
 
 class OutputConfig(StrictModel):
-    histogram: HistogramConfig = HistogramConfig()
+    histogram: HistogramConfig = Field(default_factory=HistogramConfig)
     track_length: bool = False  # also score the summed charged/neutral track length per volume (mm)
     # also score each volume's deposit split by the class of the particle that made it: alpha,
     # electron (e-, e+, gamma) and ion (the rest: nuclear recoils); the detector response's
@@ -613,14 +660,14 @@ class OutputConfig(StrictModel):
 class RunConfig(StrictModel):
     """A complete run description."""
 
-    physics: PhysicsConfig = PhysicsConfig()
+    physics: PhysicsConfig = Field(default_factory=PhysicsConfig)
     materials: dict[str, MaterialSpec] = {}  # noqa: RUF012 pydantic copies defaults
-    world: WorldConfig = WorldConfig()
+    world: WorldConfig = Field(default_factory=WorldConfig)
     surfaces: dict[str, SurfaceDescription] = {}  # noqa: RUF012 pydantic copies defaults
     targets: list[Target] = Field(min_length=1)
     source: SourceConfig
-    run: RunSettings = RunSettings()
-    output: OutputConfig = OutputConfig()
+    run: RunSettings = Field(default_factory=RunSettings)
+    output: OutputConfig = Field(default_factory=OutputConfig)
     # the detector response 'score4 template' applies (not used by the run itself)
     response: ResponseConfig | None = None
 
@@ -646,7 +693,7 @@ class RunConfig(StrictModel):
             for i, t in enumerate(self.targets):
                 if isinstance(t, GdmlVolume):
                     raise ValueError(
-                        f"targets.{i}.volume: {t.volume!r}: volumes by name need a GDML world "
+                        f"targets.{i}.volume: {t.label!r}: volumes by name need a GDML world "
                         "(world: {gdml: FILE}); a box target has name, size and position"
                     )
                 if t.mother is not None:
@@ -672,13 +719,14 @@ class RunConfig(StrictModel):
                 f"not {wrong[0]!r}"
             )
         self._check_implantation()
-        if self.source.volume is not None and self.source.volume not in names:
+        volume = self.source.volume
+        if volume is not None and self.world.gdml is None and volume not in names:
             raise ValueError(
                 f"source.volume: {self.source.volume!r} is not a target; targets are: "
                 f"{', '.join(names)}"
             )
         for i, t in enumerate(self.targets):
-            faces = [r.face for r in t.rough]
+            faces = [f for r in t.rough for f in r.face_list]
             if len(set(faces)) != len(faces):
                 raise ValueError(f"targets.{i}.rough: face given twice ({', '.join(faces)})")
             for j, r in enumerate(t.rough):
@@ -692,7 +740,24 @@ class RunConfig(StrictModel):
         if not (info.context or {}).get("stored"):  # a stored description has every key filled in
             check_option_keys(self)  # options that resolve across sections (solid: auto)
         self._check_materials()
+        self._check_steps_tiling()
         return self
+
+    def _check_steps_tiling(self) -> None:
+        """Steps (``output.steps``, ``targets[].activeness``) take Geant4's one stepping action,
+        which a portal layer needs for itself: refused here, before any worker starts."""
+        key = "output.steps" if self.output.steps else None
+        for i, t in enumerate(self.targets):
+            key = key or (f"targets.{i}.activeness" if t.activeness else None)
+        if key is None:
+            return
+        for i, t in enumerate(self.targets):
+            for j, r in enumerate(t.rough):
+                if r.tiling == "portal":
+                    raise ValueError(
+                        f"{key}: steps (and activeness) need native tiling; targets.{i}.rough.{j} "
+                        "has tiling: portal, whose layer has a stepping action of its own"
+                    )
 
     def _check_materials(self) -> None:
         """Every material named here a NIST name or a ``materials:`` entry: checked without

@@ -8,6 +8,7 @@ import functools
 from collections.abc import Mapping, Sequence
 from importlib import resources
 
+from ..elements import ELEMENT_NAMES
 from ..errors import ConfigError, brief
 
 
@@ -104,26 +105,6 @@ def find_material(g4, name: str, parameter: str = "material", materials: Mapping
     return nist.FindOrBuildMaterial(name)
 
 
-# Element names (English, as NIST material names spell them) and their symbols, Z = 1 to 98.
-_ELEMENT_TEXT = (
-    "hydrogen H helium He lithium Li beryllium Be boron B carbon C nitrogen N oxygen O "
-    "fluorine F neon Ne sodium Na magnesium Mg aluminum Al aluminium Al silicon Si phosphorus P "
-    "sulfur S sulphur S chlorine Cl argon Ar potassium K calcium Ca scandium Sc titanium Ti "
-    "vanadium V chromium Cr manganese Mn iron Fe cobalt Co nickel Ni copper Cu zinc Zn "
-    "gallium Ga germanium Ge arsenic As selenium Se bromine Br krypton Kr rubidium Rb "
-    "strontium Sr yttrium Y zirconium Zr niobium Nb molybdenum Mo technetium Tc ruthenium Ru "
-    "rhodium Rh palladium Pd silver Ag cadmium Cd indium In tin Sn antimony Sb tellurium Te "
-    "iodine I xenon Xe cesium Cs caesium Cs barium Ba lanthanum La cerium Ce praseodymium Pr "
-    "neodymium Nd promethium Pm samarium Sm europium Eu gadolinium Gd terbium Tb dysprosium Dy "
-    "holmium Ho erbium Er thulium Tm ytterbium Yb lutetium Lu hafnium Hf tantalum Ta "
-    "tungsten W wolfram W rhenium Re osmium Os iridium Ir platinum Pt gold Au mercury Hg "
-    "thallium Tl lead Pb bismuth Bi polonium Po astatine At radon Rn francium Fr radium Ra "
-    "actinium Ac thorium Th protactinium Pa uranium U neptunium Np plutonium Pu americium Am "
-    "curium Cm berkelium Bk californium Cf"
-)
-_ELEMENTS = _ELEMENT_TEXT.split()
-ELEMENT_SYMBOLS = dict(zip(_ELEMENTS[::2], _ELEMENTS[1::2], strict=True))
-
 # Anions of NIST compound names, as formulas: G4_CALCIUM_TUNGSTATE reads as CaWO4.
 _ANIONS = {
     "IODIDE": "I",
@@ -173,15 +154,15 @@ def _forms(name: str, query: bool) -> set[str]:
     body = _body(name)
     forms = {body.lower()}
     if query:
-        element = difflib.get_close_matches(body.lower(), list(ELEMENT_SYMBOLS), n=1, cutoff=0.8)
+        element = difflib.get_close_matches(body.lower(), list(ELEMENT_NAMES), n=1, cutoff=0.8)
         if element:
-            forms.add(ELEMENT_SYMBOLS[element[0]].lower())
+            forms.add(ELEMENT_NAMES[element[0]].lower())
         if body.lower() in _ALIASES:
             forms.add(_ALIASES[body.lower()])
     else:
         parts = body.upper().split("_")
         if len(parts) == 2 and parts[1] in _ANIONS:
-            symbol = ELEMENT_SYMBOLS.get(parts[0].lower())
+            symbol = ELEMENT_NAMES.get(parts[0].lower())
             if symbol:
                 forms.add((symbol + _ANIONS[parts[1]]).lower())
     return {f.translate(_CONFUSABLE) for f in forms}

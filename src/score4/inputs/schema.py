@@ -107,7 +107,6 @@ def _with_unit(dimension: str):
 
 
 Length = Annotated[float, _quantity("length"), _with_unit("length")]
-Energy = Annotated[float, _quantity("energy"), _with_unit("energy")]
 PositiveLength = Annotated[float, _quantity("length", positive=True), _with_unit("length")]
 NonNegativeLength = Annotated[float, _quantity("length", non_negative=True), _with_unit("length")]
 PositiveEnergy = Annotated[float, _quantity("energy", positive=True), _with_unit("energy")]
@@ -211,7 +210,9 @@ class StrictModel(BaseModel):
     key of :attr:`used_only_with` given under options that ignore it is refused.
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    # defer_build: a model's validator is built when it first validates, not when the class is
+    # made; a worker process only unpickles validated models and never pays for it
+    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)
 
     #: Pairs of keys that say the same thing in two ways; giving both (with different values)
     #: is an error.

@@ -203,12 +203,6 @@ def parse_activity(value: object, name: str = "activity") -> tuple[str, float]:
     )
 
 
-def format_quantity(value: float, dimension: str, unit: str) -> str:
-    """Format an internal-unit value as ``"<number> <unit>"`` (the inverse of
-    :func:`parse_quantity`)."""
-    return f"{value / DIMENSIONS[dimension][unit]:.12g} {unit}"
-
-
 # Units a readable value is shown in, smallest first (a number between 1 and 1000 in one of them).
 _READABLE = {
     "length": ("pm", "nm", "um", "mm", "m", "km"),

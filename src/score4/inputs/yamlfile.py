@@ -16,19 +16,21 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import yaml
-
 from score4.errors import ConfigError, brief
 
 from .limits import MAX_YAML_DEPTH, MAX_YAML_VALUES
 
 
 def _scalar_key(node) -> object:
+    import yaml  # imported in each function: a worker process never reads YAML
+
     return node.value if isinstance(node, yaml.ScalarNode) else None
 
 
 def find_duplicate_key(node, path: str = "") -> tuple[str, int, int] | None:
     """The first (key path, first line, second line) of a key repeated in one mapping, or None."""
+    import yaml
+
     stack, seen_nodes = [(node, path)], set()
     while stack:
         node, path = stack.pop()
@@ -55,6 +57,8 @@ def find_duplicate_key(node, path: str = "") -> tuple[str, int, int] | None:
 def _check_depth(text: str) -> None:
     """Refuse nesting deeper than MAX_YAML_DEPTH, reading only the parser's events (the
     parser keeps its own stack; composing a node tree would recurse in Python)."""
+    import yaml
+
     loader = yaml.SafeLoader(text)
     try:
         depth = 0
@@ -83,6 +87,8 @@ def _check_expansion(root) -> None:
 
     Aliases share nodes, so the expanded size is counted once per distinct node (memoised).
     """
+    import yaml
+
     size: dict[int, int] = {}
     active: set[int] = set()
     stack: list[tuple[yaml.Node, bool]] = [(root, False)]
@@ -119,6 +125,8 @@ def load_yaml(path: str | Path, what: str = "config") -> object:
 
     ``what`` starts the message when the file cannot be read at all ("config", "surface").
     """
+    import yaml
+
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"{what}: file {brief(str(path))} does not exist")

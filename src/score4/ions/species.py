@@ -7,10 +7,9 @@ closest valid names in the error) before Geant4 or lunasrim is involved.
 from __future__ import annotations
 
 import difflib
-import re
 from dataclasses import dataclass
 
-from ..elements import ELEMENTS
+from ..elements import ELEMENTS, split_nuclide
 from ..errors import ConfigError
 
 # Element symbols by atomic number (index + 1), hydrogen to lawrencium.
@@ -22,9 +21,6 @@ _LIGHT_MASS = {(1, 1): 1.00782503, (1, 2): 2.01410178, (1, 3): 3.01604928, (2, 3
 _LIGHT_MASS[(2, 4)] = 4.00260325
 # Geant4 particle names that are ions.
 _NAMED = {"alpha": (2, 4), "proton": (1, 1), "deuteron": (1, 2), "triton": (1, 3), "He3": (2, 3)}
-
-_SYMBOL_A = re.compile(r"^([A-Za-z]{1,2})-?(\d{1,3})$")
-_A_SYMBOL = re.compile(r"^(\d{1,3})-?([A-Za-z]{1,2})$")
 
 
 @dataclass(frozen=True)
@@ -73,14 +69,12 @@ def parse_ion(name: str, parameter: str = "ION") -> IonSpecies:
     text = str(name).strip()
     za = _NAMED.get(text.lower()) if text.lower() != "he3" else None
     if za is None:
-        for pattern, order in ((_SYMBOL_A, (0, 1)), (_A_SYMBOL, (1, 0))):
-            match = pattern.match(text)
-            if match:
-                symbol, number = match.group(1 + order[0]), match.group(1 + order[1])
-                symbol = symbol[0].upper() + symbol[1:].lower()
-                if symbol in Z_OF:
-                    za = (Z_OF[symbol], int(number))
-                break
+        parts = split_nuclide(text)
+        if parts is not None:
+            symbol, number, _ = parts
+            symbol = symbol[0].upper() + symbol[1:].lower()
+            if symbol in Z_OF:
+                za = (Z_OF[symbol], int(number))
     if za is None:
         examples = [*_NAMED, "Pb206", "Po210", "Rn222", "He4"]
         close = difflib.get_close_matches(text, examples, n=3, cutoff=0.5)

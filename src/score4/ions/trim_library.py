@@ -88,6 +88,13 @@ class TrajectoryLibrary:
         return total - np.repeat(total[self.offsets[:-1]], np.diff(self.offsets))
 
     @cached_property
+    def columns(self) -> tuple[list[float], list[float], list[float]]:
+        """``energies``, ``arrivals`` and ``walked`` as Python lists, made once: a replay reads
+        a few of a history's values one at a time, and slicing a list is far cheaper than
+        slicing and converting an array per replay."""
+        return self.energies.tolist(), self.arrivals.tolist(), self.walked.tolist()
+
+    @cached_property
     def _energy_keys(self) -> np.ndarray:
         """(N,) increasing: history index + a fraction that grows as its energy falls.
 
@@ -186,6 +193,13 @@ class TrajectoryLibrary:
     @cached_property
     def _starts(self) -> frozenset[int]:
         return frozenset(int(o) for o in self.offsets[:-1])
+
+    @cached_property
+    def zero_starts(self) -> frozenset[int]:
+        """The first points of the histories that start exactly at (0, 0, 0) (TRIM's all do:
+        subtracting such a point changes nothing, to the bit)."""
+        first = self.offsets[:-1]
+        return frozenset(first[(self.points[first] == 0.0).all(axis=1)].tolist())
 
     def continuation(
         self, energy: float, rng: np.random.Generator

@@ -18,7 +18,6 @@ import ast
 import enum
 import functools
 import hashlib
-import http.client
 import importlib.util
 import mmap
 import os
@@ -26,17 +25,18 @@ import re
 import shlex
 import shutil
 import sys
-import tarfile
 import tempfile
-import urllib.error
-import urllib.request
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
-from typing import IO, Any, cast
+from typing import IO, TYPE_CHECKING, Any, cast
 
 from score4.errors import ConfigError, DataError
+
+if TYPE_CHECKING:  # the network and tar modules are imported where a download needs them
+    import http.client
+    import tarfile
 
 __all__ = [
     "DECAY",
@@ -489,6 +489,10 @@ def _offline_hint(directory: Path) -> str:
 
 def _open_url(url: str, timeout: float, directory: Path) -> http.client.HTTPResponse:
     """Open ``url``; every network failure becomes a one-line DataError."""
+    import http.client
+    import urllib.error
+    import urllib.request
+
     try:
         response = urllib.request.urlopen(url, timeout=timeout)  # the official or the user's URL
         return cast(http.client.HTTPResponse, response)
@@ -522,6 +526,8 @@ def _stream(
     progress: bool,
 ) -> tuple[int, int | None, str]:
     """Copy the body to ``out``; return bytes read, announced length and md5 hex digest."""
+    import http.client
+
     from tqdm import tqdm  # imported here: only downloads need it
 
     total = _content_length(response)
@@ -596,6 +602,8 @@ def _extract_checked(tarball: Path, into: Path, dirname: str) -> Path:
 
     Returns the extracted ``into/<dirname>`` folder.
     """
+    import tarfile
+
     try:
         with tarfile.open(tarball, "r:*") as tar:
             for member in tar:

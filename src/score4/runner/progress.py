@@ -21,8 +21,6 @@ import time
 from collections.abc import Callable
 from typing import Any, TextIO
 
-from tqdm import tqdm
-
 #: Plain lines: one per this fraction of the work, and at least one per this many seconds.
 STEP_FRACTION = 0.1
 STEP_SECONDS = 60.0
@@ -55,7 +53,6 @@ class PlainProgress:
         self.clock = clock
         self.started = self._last_line = self._rate_t0 = clock()
         self._rate_n0 = self.n
-        self._paused = 0.0  # seconds left out of the rate by unpause()
         self._next_mark = self._mark_after(self.n)
         self.closed = False
         done = f", {initial} already done" if initial else ""
@@ -130,5 +127,7 @@ def progress_bar(
     if not show:
         return _Silent()
     if getattr(file, "isatty", lambda: False)():
+        from tqdm import tqdm  # imported here: a worker process shows no bar
+
         return tqdm(total=total, initial=initial, unit=unit[:2], mininterval=0.5, file=file)
     return PlainProgress(total, initial, unit, desc, file)

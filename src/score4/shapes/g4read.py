@@ -358,6 +358,7 @@ class LiveFaceSampler:
     def __init__(self, shape: LiveSolidShape) -> None:
         self.shape = shape
         self.area = shape.area
+        self.area_error = shape.area_error  # the random lines' standard error
         self.faces = ("surface",)
         self.planar = False
 

@@ -179,17 +179,79 @@ class RevolvedShape(Shape):
 
 
 class _ContourShape(RevolvedShape):
-    """Revolved solids whose faces are named after the canonical contour (``seg_<i>``)."""
+    """Revolved solids whose faces are named after the canonical contour (``seg_<i>``).
+
+    ``cuts`` (G4GenericPolycone) divide faces at points of the contour: edge ``i`` cut at k
+    points gives the faces ``seg_<i>a``, ``seg_<i>b``, ... (from corner i on) and the group
+    ``seg_<i>`` of them. ``labels`` name a group per face (``pplus``, ``passive``, ...).
+    """
 
     def canonical(self) -> np.ndarray:
         raise NotImplementedError
 
-    def contour(self) -> tuple[np.ndarray, list[str]]:
+    def _cut_points(self) -> np.ndarray:
+        return np.asarray(getattr(self, "cuts", ()), float).reshape(-1, 2)
+
+    def _split(self) -> tuple[np.ndarray, list[str], dict[str, tuple[str, ...]]]:
+        """The contour with the cut points inserted, a name per edge, and the sub-faces of each
+        divided face."""
         poly = self.canonical()
-        return poly, _contour_names(poly)[0]
+        names = _contour_names(poly)[0]
+        cuts = self._cut_points()
+        if not len(cuts):
+            return poly, names, {}
+        corners: list[np.ndarray] = []
+        out: list[str] = []
+        parts: dict[str, tuple[str, ...]] = {}
+        used = np.zeros(len(cuts), dtype=bool)
+        a, b, _ = _edges(poly)
+        for i, name in enumerate(names):
+            d = b[i] - a[i]
+            length2 = float(d @ d)
+            t = ((cuts - a[i]) @ d) / length2
+            off = np.abs((cuts[:, 0] - a[i, 0]) * d[1] - (cuts[:, 1] - a[i, 1]) * d[0])
+            on = (off <= 1e-9 * math.sqrt(length2)) & (t > 1e-9) & (t < 1 - 1e-9) & bool(name)
+            used |= on
+            ts = np.unique(np.round(t[on], 12))
+            corners.append(a[i][None, :])
+            if not len(ts):
+                out.append(name)
+                continue
+            corners.append(a[i] + ts[:, None] * d)
+            sub = tuple(f"{name}{chr(ord('a') + k)}" for k in range(len(ts) + 1))
+            out += list(sub)
+            parts[name] = sub
+        if not used.all():
+            r, z = cuts[int(np.flatnonzero(~used)[0])]
+            raise ConfigError(
+                f"{self.kind}: the face cut at (r, z) = ({r:g}, {z:g}) mm is not inside a face "
+                "of the contour"
+            )
+        return np.concatenate(corners), out, parts
+
+    def contour(self) -> tuple[np.ndarray, list[str]]:
+        poly, names, _ = self._split()
+        return poly, names
 
     def _groups(self, names: list[str]) -> dict[str, tuple[str, ...]]:
-        return _contour_names(self.canonical())[1]
+        _, faces, parts = self._split()
+        groups = {
+            g: tuple(f for base in members for f in parts.get(base, (base,)))
+            for g, members in _contour_names(self.canonical())[1].items()
+        }
+        groups.update(parts)
+        labels = tuple(getattr(self, "labels", ()))
+        if labels:
+            named = [f for f in faces if f]
+            if len(labels) != len(named):
+                raise ConfigError(
+                    f"{self.kind}: {len(labels)} face labels for {len(named)} faces "
+                    f"({', '.join(named)})"
+                )
+            for label, face in zip(labels, named, strict=True):
+                if label:
+                    groups[label] = (*groups.get(label, ()), face)
+        return groups
 
 
 def _as_tuple(values: ArrayLike) -> tuple[float, ...]:
@@ -247,11 +309,18 @@ class G4GenericPolycone(_ContourShape):
     dphi: float
     r: tuple[float, ...]
     z: tuple[float, ...]
+    # (r, z) points, flattened, where a face of the contour is divided (see _ContourShape)
+    cuts: tuple[float, ...] = ()
+    labels: tuple[str, ...] = ()  # a group name per face (after the cuts), "" for none
     kind = "G4GenericPolycone"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "r", _as_tuple(self.r))
         object.__setattr__(self, "z", _as_tuple(self.z))
+        object.__setattr__(self, "cuts", _as_tuple(self.cuts))
+        object.__setattr__(self, "labels", tuple(str(x) for x in self.labels))
+        if len(self.cuts) % 2:
+            raise ConfigError("G4GenericPolycone: cuts are (r, z) pairs")
         if len(self.r) != len(self.z):
             raise ConfigError(
                 f"G4GenericPolycone: {len(self.r)} r values but {len(self.z)} z values"

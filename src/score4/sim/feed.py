@@ -16,6 +16,7 @@ program and ``score4 run`` fill their events the same way:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -25,6 +26,8 @@ from .heavy_ions import ReplayStream
 
 #: Mixed into the seeds of the heavy-ion replay's random streams.
 REPLAY_STREAM = 0x5C0E4
+#: events with at most this many rows are looked at row by row (numpy costs more there)
+_FEW_ROWS = 16
 
 
 class EventFeed:
@@ -50,6 +53,10 @@ class EventFeed:
     reseed
         With per-event seeds: set Geant4's seed to the event's when filling it (False: the
         seeds only make the replay's random streams).
+    own_gun
+        The gun is this feed's alone during the run (score4's own application): the particle
+        and energy are set only when they change. False (a user's gun, :mod:`score4.api`): set
+        for every row.
     """
 
     def __init__(
@@ -61,12 +68,19 @@ class EventFeed:
         skip: np.ndarray | None = None,
         positions: np.ndarray | None = None,
         reseed: bool = True,
+        own_gun: bool = False,
     ) -> None:
         self.g4 = g4
+        self.own_gun = own_gun
         self.reseed = reseed
         self.primaries = primaries
         self.definitions = list(definitions)
         self.offsets = primaries.event_offsets()
+        self._first = self.offsets.tolist()  # Python ints: read per event
+        # Python floats of what never changes during a run (positions may: per-atom histories
+        # move their atoms), read per row
+        self._energy = primaries.energy.tolist()
+        self._direction = primaries.direction.tolist()
         self.skip = np.zeros(len(primaries), dtype=bool) if skip is None else np.asarray(skip)
         self.positions = primaries.position if positions is None else positions
         self.seeds = np.asarray(g4_seed)
@@ -74,6 +88,10 @@ class EventFeed:
             raise ValueError(
                 f"g4_seed: need one seed per event ({primaries.n_events}), got {len(self.seeds)}"
             )
+        # what this feed last gave the gun (each run has its own feed: it sets both again)
+        self._gun_definition: object = None
+        self._gun_energy = math.nan
+        self._seeds: list[int] = self.seeds.tolist() if self.seeds.ndim else []  # per event
         self._batch_rng = (
             ReplayStream(int(self.seeds), REPLAY_STREAM) if self.seeds.ndim == 0 else None
         )
@@ -82,26 +100,39 @@ class EventFeed:
     def n_events(self) -> int:
         return self.primaries.n_events
 
-    def rows_of(self, k: int, mask: np.ndarray) -> np.ndarray:
+    def rows_of(self, k: int, mask: np.ndarray) -> list[int]:
         """The rows of event ``k`` that ``mask`` (one entry per row) marks."""
-        first = int(self.offsets[k])
-        return first + np.flatnonzero(mask[first : int(self.offsets[k + 1])])
+        first, end = self._first[k], self._first[k + 1]
+        if end - first <= _FEW_ROWS:  # a few rows: cheaper one by one than through numpy
+            return [row for row in range(first, end) if mask[row]]
+        return (first + np.flatnonzero(mask[first:end])).tolist()
 
-    def geant4_rows(self, k: int) -> np.ndarray:
+    def geant4_rows(self, k: int) -> list[int]:
         """The rows of event ``k`` given to Geant4, in the order of their primary tracks."""
-        return self.rows_of(k, ~self.skip)
+        skip, first, end = self.skip, self._first[k], self._first[k + 1]
+        if end - first <= _FEW_ROWS:
+            return [row for row in range(first, end) if not skip[row]]
+        return (first + np.flatnonzero(~skip[first:end])).tolist()
 
     def fill(self, gun, event, k: int) -> None:
         """Put event ``k``'s primaries (all but the skipped rows) into the G4Event ``event``
         through the G4ParticleGun ``gun``; set the event's Geant4 seed first if it has one."""
-        g4, p = self.g4, self.primaries
-        if self.seeds.ndim and self.reseed:
-            g4.G4Random.setTheSeed(int(self.seeds[k]))
+        g4 = self.g4
+        if self._seeds and self.reseed:
+            g4.G4Random.setTheSeed(self._seeds[k])
+        vector, energy, direction = g4.G4ThreeVector, self._energy, self._direction
         for row in self.geant4_rows(k):
-            gun.SetParticleDefinition(self.definitions[row])
-            gun.SetParticleEnergy(float(p.energy[row]))
-            gun.SetParticlePosition(g4.G4ThreeVector(*self.positions[row]))
-            gun.SetParticleMomentumDirection(g4.G4ThreeVector(*p.direction[row]))
+            # the gun keeps its particle and energy: set them only when they change (we never
+            # set a momentum, so setting the same particle again changes nothing)
+            definition, e = self.definitions[row], energy[row]
+            if definition is not self._gun_definition:
+                gun.SetParticleDefinition(definition)
+                self._gun_definition = definition if self.own_gun else None
+            if e != self._gun_energy:
+                gun.SetParticleEnergy(e)
+                self._gun_energy = e if self.own_gun else math.nan
+            gun.SetParticlePosition(vector(*self.positions[row].tolist()))
+            gun.SetParticleMomentumDirection(vector(*direction[row]))
             gun.GeneratePrimaryVertex(event)
 
     def replay_rng(self, k: int, row: int) -> ReplayStream:
@@ -110,7 +141,7 @@ class EventFeed:
         batch's."""
         if self._batch_rng is not None:
             return self._batch_rng
-        return ReplayStream(int(self.seeds[k]), REPLAY_STREAM, row - int(self.offsets[k]))
+        return ReplayStream(self._seeds[k], REPLAY_STREAM, row - self._first[k])
 
 
 def replay_row(transport, feed: EventFeed, k: int, row: int):
@@ -121,8 +152,8 @@ def replay_row(transport, feed: EventFeed, k: int, row: int):
     return transport.transport(
         feed.definitions[row],
         str(p.particle[row]),
-        float(p.energy[row]),
+        feed._energy[row],
         feed.positions[row],  # portal tiling: the subworld point
-        p.direction[row],
+        feed._direction[row],
         feed.replay_rng(k, row),
     )

@@ -90,6 +90,10 @@ class IonFate:
     #: with ``HeavyIonTransport.record_pieces``: (scoring index, mid-point x, y, z mm, MeV) of
     #: every piece of the path that deposited (TRIM's points, cut at boundaries)
     pieces: list[tuple[int, float, float, float, float]] = field(default_factory=list)
+    #: global time (ns) the ion started at: 0 for a primary, its creation for a secondary taken
+    #: from Geant4 (steps output; TRIM's slowing down takes under a picosecond, so its pieces
+    #: all carry this time)
+    time: float = 0.0
 
     @property
     def stopped(self) -> bool:
@@ -167,6 +171,8 @@ class HeavyIonTransport:
         self.library_seed = library_seed
         self._libraries: dict[tuple[str, str, float], TrajectoryLibrary] = {}
         self._energies: dict[str, list[float]] = {}  # announced start energies, sorted
+        self._announced: set[tuple[str, float]] = set()  # (ion, energy) as given to need()
+        self._pdg: dict[str, int] = {}  # ion name -> PDG code
         self._compositions: dict[str, Composition] = {}
         self._vacuum = VACUUM_DENSITY * g4.g / g4.cm3
         self._volumes: dict[int, _Volume] = {}
@@ -182,6 +188,9 @@ class HeavyIonTransport:
         matter, a new material) starts after a collision that took the ion to or below the
         wanted energy, a little lower on average (``tests/test_heavy_ions.py`` measures it).
         """
+        if (ion, energy) in self._announced:  # most replays start at energies seen before
+            return
+        self._announced.add((ion, energy))
         energies = self._energies.setdefault(ion, [])
         energy = round(float(energy), 12)
         k = bisect.bisect_left(energies, energy)
@@ -219,7 +228,8 @@ class HeavyIonTransport:
     # -- transport -------------------------------------------------------------------------------
 
     def _vec(self, v) -> object:
-        return self.g4.G4ThreeVector(float(v[0]), float(v[1]), float(v[2]))
+        x, y, z = v.tolist() if isinstance(v, np.ndarray) else v
+        return self.g4.G4ThreeVector(float(x), float(y), float(z))
 
     def _locate(self, point, direction, relative: bool):
         return self.nav.LocateGlobalPointAndSetup(
@@ -279,7 +289,10 @@ class HeavyIonTransport:
         dx, dy, dz = (float(c) for c in direction)
         norm = math.sqrt(dx * dx + dy * dy + dz * dz)
         d = np.array([dx / norm, dy / norm, dz / norm])
-        fate = IonFate(pos, 0.0, pdg=int(particle.GetPDGEncoding()))
+        pdg = self._pdg.get(ion)
+        if pdg is None:
+            pdg = self._pdg[ion] = int(particle.GetPDGEncoding())
+        fate = IonFate(pos, 0.0, pdg=pdg)
         pv = self._locate(pos, d, relative=False)
         e = float(energy)
         while e > 0:
@@ -307,13 +320,16 @@ class HeavyIonTransport:
             if i >= end - 1:  # at rest already
                 e = 0.0
                 break
-            points = pos + (lib.points[i:end] - lib.points[i]) @ lib.turn(i, azimuth, d).T
-            out = self._walk(
-                points, e, lib.energies[i:end], lib.arrivals[i:end], lib.walked[i:end], pv, fate
+            # from a history's start (at TRIM's origin, exactly 0) the offsets are the points
+            offsets = (
+                lib.points[i:end] if i in lib.zero_starts else lib.points[i:end] - lib.points[i]
             )
+            points = pos + offsets @ lib.turn(i, azimuth, d).T
+            energies, arrivals, walked = lib.columns
+            out = self._walk(points, e, energies[i:end], arrivals[i:end], walked[i:end], pv, fate)
             if out is None:  # the history ended inside matter of this material
                 pos = points[-1]
-                e = float(lib.energies[end - 1])
+                e = energies[end - 1]
                 if not lib.left[k]:
                     e = 0.0
                     break
@@ -333,9 +349,9 @@ class HeavyIonTransport:
         self,
         points: np.ndarray,
         energy: float,
-        energies: np.ndarray,
-        arrivals: np.ndarray,
-        walked: np.ndarray,
+        energies: list[float],
+        arrivals: list[float],
+        walked: list[float],
         pv,
         fate: IonFate,
     ):
@@ -363,7 +379,7 @@ class HeavyIonTransport:
         here = self._volume(pv)
         material, volume = here.material_name, here.index
         xs, ys, zs = points.T.tolist()
-        es, ars, ws = energies.tolist(), arrivals.tolist(), walked.tolist()
+        es, ars, ws = energies, arrivals, walked  # the caller's copies (list slices)
         es[0] = ars[0] = energy
         last = len(xs) - 1
         i = 0  # the ion is on piece i, from (cx, cy, cz) to point i + 1

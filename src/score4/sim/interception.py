@@ -21,11 +21,11 @@ only for runs whose sources can create such ions (:func:`needs_interception`).
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..elements import ground_state_name
 from .heavy_ions import HeavyIonTransport, IonFate, ReplayStream, heavy_ion_z
 
 #: Ions created below this kinetic energy (MeV) stay with Geant4: beta-decay recoils (eV) and
@@ -42,7 +42,6 @@ RECOIL_FREE = frozenset(
 #: per energy.
 GRID_PER_DECADE = 8
 _STREAM = 0x5C0E5  # mixed into the seeds of the random streams of intercepted ions
-_EXCITATION = re.compile(r"\[.*\]$")
 
 
 def needs_interception(names, is_ion, decay: bool) -> bool:
@@ -63,7 +62,7 @@ def grid_energy(energy: float) -> float:
 
 def ion_name(particle) -> str:
     """The ground-state name of a Geant4 ion ("Pb206" for "Pb206[803.054]")."""
-    return _EXCITATION.sub("", str(particle.GetParticleName()))
+    return ground_state_name(str(particle.GetParticleName()))
 
 
 @dataclass
@@ -142,6 +141,7 @@ def make_stacking_action(g4, transport: HeavyIonTransport | None, state):
             fate = transport.transport(
                 definition, name, energy, position, direction, rng, announce=False
             )
+            fate.time = track.GetGlobalTime()
             state.book(event, fate)
             unstable = state.decay and not definition.GetPDGStable()
             back = fate.stopped and (unstable or self.reinject_stable)

@@ -76,11 +76,19 @@ class VolumeScorer:
         ]
 
     def read(self, event, out: dict[str, np.ndarray], row: int) -> None:
-        """Write this event's sums per volume into ``out[quantity][row]`` (MeV, mm)."""
+        """Write this event's sums per volume into ``out[quantity][row]`` (MeV, mm). The rows
+        start at 0: a volume without hits keeps its 0."""
         hce = event.GetHCofThisEvent()
         if hce is None:
             return
+        get = hce.GetHC
         for q, ids in zip(self.quantities, self.collection_ids, strict=True):
-            target = out[q][row]
+            target = out[q]
             for k, cid in enumerate(ids):
-                target[k] = sum(value for _, value in hce.GetHC(cid))
+                hits = get(cid)
+                n = hits.entries()
+                if n == 1:  # one touchable (the usual case): its sum, without a generator
+                    ((_, value),) = hits
+                    target[row, k] = 0 + value  # as sum() gives it (-0.0 becomes 0.0)
+                elif n:  # nothing deposited: the row keeps its 0
+                    target[row, k] = sum(value for _, value in hits)

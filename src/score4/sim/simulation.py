@@ -7,7 +7,6 @@ does not depend on which worker ran it, what ran before it or how the run was ch
 
 from __future__ import annotations
 
-import re
 import threading
 from collections.abc import Callable
 from pathlib import Path
@@ -18,6 +17,7 @@ import numpy as np
 from score4.runner.run_plan import RunPlan
 from score4.runner.seeds import library_trim_seed
 
+from ..elements import split_ion_name
 from ..errors import ConfigError, RunCancelled, Score4Error
 from ..geometry.world import BuiltGeometry, build_world, check_materials
 from ..source.primaries import Primaries
@@ -38,8 +38,6 @@ from .steps import StepRecorder, active_deposits, wants_steps
 if TYPE_CHECKING:
     from .heavy_ions import HeavyIonTransport
 
-_ION = re.compile(r"^([A-Z][a-z]?)-?(\d{1,3})$")
-
 
 def resolve_particle(g4, name: str, parameter: str = "source.particle"):
     """G4ParticleDefinition for a Geant4 particle name or an ion such as "Pb206"."""
@@ -47,10 +45,10 @@ def resolve_particle(g4, name: str, parameter: str = "source.particle"):
     particle = table.FindParticle(name)
     if particle is not None:
         return particle
-    match = _ION.match(name)
-    if match:
-        z = g4.G4NistManager.Instance().GetZ(match.group(1))
-        a = int(match.group(2))
+    ion = split_ion_name(name)
+    if ion:
+        z = g4.G4NistManager.Instance().GetZ(ion[0])
+        a = ion[1]
         if z > 0 and a >= z:
             ion = g4.G4IonTable.GetIonTable().GetIon(int(z), a, 0.0)
             if ion is not None:
@@ -172,10 +170,16 @@ class Simulation:
             )
             self.run_manager.SetUserAction(self.steps.action)
         self.activeness = None
+        #: per scoring column, distances to its volume's faces (steps and activeness), else None
+        self.distances = None
+        if self.steps is not None:
+            from ..world.activeness import target_distances
+
+            self.distances = target_distances(self.scene)
         if any(t.config.activeness for t in self.scene.targets):
             from ..world.activeness import volume_activeness
 
-            self.activeness = volume_activeness(self.scene)
+            self.activeness = volume_activeness(self.scene, self.distances)
         #: the steps of the last run (event indices of its batch), when recorded
         self.last_steps: dict[str, np.ndarray] | None = None
         self.scorer.resolve_ids()
@@ -315,7 +319,9 @@ class Simulation:
             else np.zeros(len(primaries), dtype=bool)
         )
         self._skip = self._trim | self._untracked_rows
-        self._feed = EventFeed(self.g4, primaries, definitions, g4_seed, self._skip, positions)
+        self._feed = EventFeed(
+            self.g4, primaries, definitions, g4_seed, self._skip, positions, own_gun=True
+        )
         self.untracked_gamma = np.bincount(
             primaries.event[self._untracked_rows],
             weights=primaries.energy[self._untracked_rows],
@@ -420,22 +426,23 @@ class Simulation:
 
     def step_table(self) -> dict[str, np.ndarray] | None:
         """The last run's steps (after :meth:`drop_lost`) with ``dist``, each step's distance to
-        the surface of its volume's solid (mm, exact, :mod:`score4.shapes`; 0 in a rough layer's
-        patch); None when steps are not recorded or not asked for (``output.steps``)."""
+        the surface of its volume (mm, exact, :mod:`score4.shapes`; a face with a flat rough
+        layer by its rough surface, :class:`score4.world.activeness.TargetDistance`); None when
+        steps are not recorded or not asked for (``output.steps``)."""
         if self.last_steps is None or not self.config.output.steps:
             return None
         steps = dict(self.last_steps)
         dist = np.zeros(len(steps["edep"]))
         points = np.column_stack([steps["x"], steps["y"], steps["z"]])
-        for c, t in enumerate(self.scene.targets):
+        assert self.distances is not None  # built with the step recorder
+        for c, distance in enumerate(self.distances):
             rows = steps["volume"] == c
             if not rows.any():
                 continue
-            if t.shape is None:  # a solid score4.shapes cannot describe
+            if distance is None:  # a solid score4.shapes cannot describe
                 dist[rows] = np.nan
                 continue
-            local = t.to_local(points[rows])
-            dist[rows] = np.maximum(-t.shape.signed_distance(local), 0.0)
+            dist[rows] = distance.to_surface(points[rows])
         steps["dist"] = dist
         return steps
 
@@ -500,16 +507,18 @@ class Simulation:
         if k == self._next_event and not self._scored:
             self._pending.append((fate, alpha))
             return
+        steps = self.steps
         for volume, value in fate.deposits.items():
             self._scores["edep"][k, volume] += value
-            if self.steps is not None and value > 0.0 and not fate.pieces:
-                self.steps.add(k, volume, fate.pdg, value, fate.points.get(volume, fate.position))
-        if self.steps is not None:  # the path's pieces, each a step
-            for volume, x, y, z, value in fate.pieces:
-                if value > 0.0:
-                    self.steps.add(k, volume, fate.pdg, value, (x, y, z))
             if alpha and "edep_alpha" in self._scores:
                 self._scores["edep_alpha"][k, volume] += value
+            if steps is not None and value > 0.0 and not fate.pieces:
+                where = fate.points.get(volume, fate.position)
+                steps.add(k, volume, fate.pdg, value, where, fate.time)
+        if steps is not None:  # the path's pieces, each a step
+            for volume, x, y, z, value in fate.pieces:
+                if value > 0.0:
+                    steps.add(k, volume, fate.pdg, value, (x, y, z), fate.time)
         if "track_length" in self._scores:
             for volume, value in fate.lengths.items():
                 self._scores["track_length"][k, volume] += value
@@ -616,7 +625,7 @@ class Simulation:
         self._null_action = self.g4.G4UserTrackingAction()
         return self._null_action
 
-    def _g4_rows_of_event(self, k: int) -> np.ndarray:
+    def _g4_rows_of_event(self, k: int) -> list[int]:
         return self._feed.geant4_rows(k)
 
     def _check_stop(self) -> None:

@@ -10,7 +10,10 @@ is its post-step point), the time is the pre-step point's global time.
 
 Heavy ions moved along TRIM trajectories (:mod:`score4.sim.heavy_ions`) deposit outside Geant4:
 each piece of a replayed ion's path (between TRIM's points, cut at boundaries) that deposited is
-a step at its mid-point, ``particle`` the ion's PDG code, ``time`` 0 (the replay keeps no time).
+a step at its mid-point, ``particle`` the ion's PDG code, ``time`` the global time the ion
+started at (0 for a primary, like every primary vertex here; its creation time for a secondary
+taken from Geant4). The replay keeps no time along the path: a heavy ion of a few hundred keV
+stops within a picosecond, far below the nanosecond resolution of the table.
 """
 
 from __future__ import annotations
@@ -67,9 +70,11 @@ class StepRecorder:
 
         return Steps()
 
-    def add(self, event: int, volume: int, pdg: int, edep: float, position) -> None:
-        """A deposit made outside Geant4 (a TRIM replay), as one step."""
-        self.rows.append((event, volume, pdg, edep, 0.0, *map(float, position)))
+    def add(
+        self, event: int, volume: int, pdg: int, edep: float, position, time: float = 0.0
+    ) -> None:
+        """A deposit made outside Geant4 (a TRIM replay), as one step at global ``time`` (ns)."""
+        self.rows.append((event, volume, pdg, edep, float(time), *map(float, position)))
 
     def take(self) -> dict[str, np.ndarray]:
         rows = self.rows

@@ -205,7 +205,7 @@ def shape_face_sampler(scene: Scene, volume: str, face: str | list[str]):
     rough: dict[str, Any] = {}
     for layer in scene.layers_of(volume):
         if layer.mask is None:
-            rough[layer.config.face] = layer.sampler()
+            rough[layer.config.face_name] = layer.sampler()
         else:
             rest = (
                 CurvedRemainderSampler(layer)
@@ -213,7 +213,7 @@ def shape_face_sampler(scene: Scene, volume: str, face: str | list[str]):
                 else FlatRemainderSampler(layer)
             )
             parts = [layer.sampler(), rest]
-            rough[layer.config.face] = CombinedSurfaceSampler([p for p in parts if p.area > 0])
+            rough[layer.config.face_name] = CombinedSurfaceSampler([p for p in parts if p.area > 0])
     return ShapeSurfaceSampler(shape, face, transform, rough)
 
 
@@ -224,7 +224,7 @@ class FlatRemainderSampler:
 
     def __init__(self, layer: RoughLayer) -> None:
         self.layer = layer
-        ring = layer.target.face(layer.config.face)
+        ring = layer.target.face(layer.config.face_name)
         assert isinstance(ring, AnnulusFace)  # a layer with a mask lies on a ring
         self.rmin, self.rmax = ring.rmin, ring.rmax
         px, py = layer.patch_size
@@ -457,7 +457,9 @@ def source_geometry(config: RunConfig, scene: Scene) -> dict:
     """What the run record states about where the source is (contract 1, ``source`` entry).
 
     ``kind`` (surface | bulk | vertices), ``volume``, ``face``, ``area_mm2`` (true sampled area:
-    rough faces with their mesh area), ``projected_area_mm2`` (the faces counted flat),
+    rough faces with their mesh area), ``area_error_mm2`` (its standard error where the area is
+    estimated by random draws, boolean and other solids; 0 when exact),
+    ``projected_area_mm2`` (the faces counted flat),
     ``faces`` (face names; the ``face`` column of the primaries indexes it), ``volume_mm3``
     (bulk: the volume's own material), and ``mass_kg`` when the material's density is known
     without Geant4 (a ``materials:`` entry; NIST densities come from Geant4, left None here).
@@ -484,8 +486,15 @@ def source_geometry(config: RunConfig, scene: Scene) -> dict:
         layer = scene.layer(target.name, ref.face)
         projected = frame.size[0] * frame.size[1]
         area = layer.sampler().area if layer is not None else projected
-        names = [ref.face]
+        names, error = [ref.face], 0.0
     else:
         sampler = shape_face_sampler(scene, target.name, ref.face)
         area, projected, names = sampler.area, sampler.projected_area, list(sampler.face_names)
-    return {**out, "area_mm2": float(area), "projected_area_mm2": float(projected), "faces": names}
+        error = getattr(sampler, "area_error", 0.0)
+    return {
+        **out,
+        "area_mm2": float(area),
+        "area_error_mm2": float(error),
+        "projected_area_mm2": float(projected),
+        "faces": names,
+    }

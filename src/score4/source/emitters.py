@@ -23,7 +23,6 @@ This gives ``T_Pb = 0.103144 MeV`` (Q = 5.40747 MeV).
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal, Protocol, cast, get_args
@@ -33,7 +32,7 @@ from numpy.typing import ArrayLike
 
 from score4.inputs.units import parse_quantity
 
-from ..elements import ELEMENTS, nuclide_za
+from ..elements import ELEMENTS, nuclide_za, split_nuclide
 from ..errors import ConfigError
 from .primaries import Primaries
 from .sampling import Histogram, PiecewiseLinear, orthonormal_basis, read_table
@@ -100,8 +99,6 @@ PARTICLES: frozenset[str] = frozenset(
     )
 )
 
-_NUCLIDE = re.compile(r"^\s*(?:([A-Za-z]{1,2})-?(\d{1,3})|(\d{1,3})-?([A-Za-z]{1,2}))\s*$")
-
 
 def normalise_nuclide(name: str) -> str:
     """``"Po-210"``, ``"po210"``, ``"210Po"`` -> ``"Po210"`` (Geant4 ion name, ground state).
@@ -111,15 +108,13 @@ def normalise_nuclide(name: str) -> str:
     ConfigError
         Unknown element symbol, or a mass number below the atomic number or above 300.
     """
-    match = _NUCLIDE.match(str(name))
-    if not match:
+    parts = split_nuclide(str(name))
+    if parts is None:
         raise ConfigError(
             f"nuclide: cannot read {name!r}; write element symbol + mass number, e.g. 'Pb210' or "
             "'Po-210'"
         )
-    symbol, mass = (
-        (match.group(1), match.group(2)) if match.group(1) else (match.group(4), match.group(3))
-    )
+    symbol, mass, _ = parts
     z, a = nuclide_za(symbol, mass, name, "nuclide")
     return f"{ELEMENTS[z - 1]}{a}"
 
@@ -129,7 +124,7 @@ def normalise_particle(name: str) -> str:
     name = str(name).strip()
     if name in PARTICLES:
         return name
-    if _NUCLIDE.match(name):
+    if split_nuclide(name) is not None:
         return normalise_nuclide(name)
     raise ConfigError(
         f"particle: unknown name {name!r}; use a Geant4 particle ({', '.join(sorted(PARTICLES))}) "

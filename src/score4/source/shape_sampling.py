@@ -92,6 +92,8 @@ class ShapeSurfaceSampler:
             raise ConfigError(f"face: the selected faces ({', '.join(self.selected)}) have no area")
         self._cum = np.cumsum(weights)
         self.area = float(self._cum[-1])
+        # the standard error of an estimated area (boolean and live solids), 0 when exact
+        self.area_error = float(getattr(self.flat, "area_error", 0.0))
         self.projected_area = float(shape.face_area(self.selected))
         self.has_patches = bool(self.rough)
 

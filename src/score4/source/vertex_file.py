@@ -32,7 +32,6 @@ file)`` is tested; remage itself is not installable here):
 from __future__ import annotations
 
 import json
-import re
 from pathlib import Path
 
 import h5py
@@ -41,6 +40,7 @@ import numpy as np
 from score4.inputs import limits
 from score4.inputs.units import DIMENSIONS
 
+from ..elements import split_ion_name
 from ..errors import ConfigError, brief
 from ..files import atomic_h5, open_h5
 from .primaries import Primaries
@@ -151,7 +151,6 @@ PDG = {
     "He3": 1000020030,
     "alpha": 1000020040,
 }
-_ION_NAME = re.compile(r"^([A-Z][a-z]?)-?(\d{1,3})$")
 
 
 def pdg_codes(names: np.ndarray) -> np.ndarray | None:
@@ -167,10 +166,10 @@ def pdg_codes(names: np.ndarray) -> np.ndarray | None:
         if name in PDG:
             codes[k] = PDG[name]
             continue
-        match = _ION_NAME.match(name)
-        if match is None or match.group(1) not in Z_OF:
+        ion = split_ion_name(name)
+        if ion is None or ion[0] not in Z_OF:
             return None
-        z, a = Z_OF[match.group(1)], int(match.group(2))
+        z, a = Z_OF[ion[0]], ion[1]
         codes[k] = 1_000_000_000 + 10_000 * z + 10 * a
     return codes[inverse.ravel()]
 

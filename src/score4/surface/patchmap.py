@@ -68,7 +68,6 @@ MAX_TOP_BOXES = 2500
 #: Tiles in the library of ``fill: tiles`` unless given.
 DEFAULT_TILES = 64
 
-_AXES = ("x", "y")
 _VARIANT_DTYPE = np.int32
 _DICT_KEYS = (
     "format",

@@ -16,7 +16,7 @@ below z = 0 (:meth:`Surface.body`).
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from functools import cached_property
+from functools import cache, cached_property
 from pathlib import Path
 from typing import Annotated, ClassVar, Literal
 
@@ -174,7 +174,14 @@ class MeasuredSurfaceSpec(StrictModel):
 SurfaceSpec = Annotated[
     SpikeSurfaceSpec | RandomSurfaceSpec | MeasuredSurfaceSpec, Field(discriminator="kind")
 ]
-_SPEC_ADAPTER: TypeAdapter = TypeAdapter(SurfaceSpec)
+
+
+@cache
+def _spec_adapter() -> TypeAdapter:
+    """The validator of a surface description, built on first use (a worker never needs it)."""
+    return TypeAdapter(SurfaceSpec)
+
+
 KINDS = ("spikes", "random", "measured")
 
 
@@ -198,7 +205,9 @@ def parse_surface_spec(
             f"{origin}: kind: must be one of {', '.join(KINDS)} (got {data.get('kind')!r})"
         )
     try:
-        return _SPEC_ADAPTER.validate_python(data, context={"base_dir": base_dir, "stored": stored})
+        return _spec_adapter().validate_python(
+            data, context={"base_dir": base_dir, "stored": stored}
+        )
     except ValidationError as err:
         raise ConfigError(describe_validation_error(err, origin, data)) from None
 

@@ -10,19 +10,28 @@ listed face a deposit counts with
 Distances are exact, to the faces of the target's shape (:mod:`score4.shapes`): plane
 triangles, surfaces of revolution (cylinders, cones, annuli, the contour of a polycone).
 Several entries (each face its own fccd and dlf) combine by the smallest weight, which is the
-nearest face's when the layers do not overlap. A step outside the flat shape (in a rough
-layer's patch) is at distance 0: rough faces are not yet measured by their own surface.
+nearest face's when the layers do not overlap.
+
+A face with a flat rough layer is measured by its rough surface (the patch tops,
+:mod:`score4.world.rough_distance`), for steps in the bulk under it and in its patches alike.
+A face with a curved rough layer (patches bent onto a cylinder, cone or polycone segment) is
+still measured by the smooth face, and a step in one of its patches is at distance 0.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import ConfigError
-from ..shapes.base import PlaneTriangles, Revolved
+from ..shapes.base import PlaneTriangles, Revolved, Shape
 from ..shapes.placed import PlacedShape
+from .rough_distance import RoughSurfaceDistance
+
+if TYPE_CHECKING:  # world.scene imports this module when it needs activeness
+    from .scene import RoughLayer, Scene, TargetVolume
 
 
 def weight(d: np.ndarray, fccd: float, dlf: float) -> np.ndarray:
@@ -103,36 +112,105 @@ def face_distance(shape, faces: tuple[str, ...], points: np.ndarray) -> np.ndarr
     return best
 
 
+class TargetDistance:
+    """Distances of world points to faces of one target: plane faces and surfaces of revolution
+    exactly (:func:`face_distance`), faces with a flat rough layer to their rough surface.
+
+    ``layers``: the target's rough layers (:class:`score4.world.scene.RoughLayer`)."""
+
+    def __init__(self, target: TargetVolume, layers: list[RoughLayer]) -> None:
+        self.target = target
+        assert target.shape is not None  # target_distances gives None for such a volume
+        self.shape: Shape = target.shape
+        self.layers = list(layers)
+        #: face name -> its flat rough layer (distances built on first use)
+        self.rough: dict[str, RoughLayer] = {}
+        for layer in self.layers:
+            if not layer.curved:
+                (face,) = self.shape.resolve_faces([layer.config.face_name])
+                self.rough[face] = layer
+        self._measures: dict[str, RoughSurfaceDistance] = {}
+        try:  # every face measurable by face_distance (else the whole surface: signed distance)
+            face_distance(self.shape, tuple(self.shape.faces), np.zeros((1, 3)))
+            self.exact_faces = True
+        except ConfigError:
+            self.exact_faces = False
+
+    def rough_distance(self, face: str) -> RoughSurfaceDistance:
+        """The distance to the rough surface of ``face`` (a face with a flat rough layer)."""
+        if face not in self._measures:
+            self._measures[face] = RoughSurfaceDistance(self.rough[face])
+        return self._measures[face]
+
+    def _outside(self, world: np.ndarray, local: np.ndarray) -> np.ndarray:
+        """Points outside the flat shape and in none of its flat layers' patches (curved
+        layers' patches, or a hair outside the volume)."""
+        outside = self.shape.signed_distance(local) > 1e-9
+        rows = np.flatnonzero(outside)
+        if len(rows):
+            for layer in self.layers:
+                if not layer.curved:
+                    outside[rows[layer.contains(world[rows])]] = False
+        return outside
+
+    def to_faces(self, faces: tuple[str, ...], world: np.ndarray) -> np.ndarray:
+        """Distance (mm) of world points to the union of ``faces`` (0 where :meth:`_outside`)."""
+        world = np.asarray(world, float).reshape(-1, 3)
+        local = self.target.to_local(world)
+        flat = tuple(f for f in faces if f not in self.rough)
+        d = face_distance(self.shape, flat, local) if flat else np.full(len(world), np.inf)
+        for f in faces:
+            if f in self.rough:
+                d = np.minimum(d, self.rough_distance(f)(world))
+        d[self._outside(world, local)] = 0.0
+        return d
+
+    def to_surface(self, world: np.ndarray) -> np.ndarray:
+        """Distance (mm) of world points to the whole surface of the volume (its rough faces
+        by their rough surface; 0 where :meth:`_outside`)."""
+        world = np.asarray(world, float).reshape(-1, 3)
+        if not self.rough or not self.exact_faces:
+            return np.maximum(-self.shape.signed_distance(self.target.to_local(world)), 0.0)
+        return self.to_faces(tuple(self.shape.faces), world)
+
+
 @dataclass
 class VolumeActiveness:
-    """The activeness entries of one scored volume: (faces, fccd mm, dlf) each; ``shape`` in
-    the volume's frame, ``target`` maps world points there."""
+    """The activeness entries of one scored volume: (faces, fccd mm, dlf) each, measured by
+    ``distance``."""
 
-    shape: object
+    distance: TargetDistance
     entries: list[tuple[tuple[str, ...], float, float]]
-    target: object
 
     def weights(self, points: np.ndarray) -> np.ndarray:
         """The activeness at world ``points``."""
-        p = self.target.to_local(np.asarray(points, float).reshape(-1, 3))  # type: ignore[attr-defined]
+        p = np.asarray(points, float).reshape(-1, 3)
         w = np.ones(len(p))
         if not len(p):
             return w
-        outside = self.shape.signed_distance(p) > 1e-9  # type: ignore[attr-defined]
         for faces, fccd, dlf in self.entries:
-            d = face_distance(self.shape, faces, p)
-            d[outside] = 0.0
-            w = np.minimum(w, weight(d, fccd, dlf))
+            w = np.minimum(w, weight(self.distance.to_faces(faces, p), fccd, dlf))
         return w
 
 
-def volume_activeness(scene) -> list[VolumeActiveness | None]:
+def target_distances(scene: Scene) -> list[TargetDistance | None]:
+    """Per scoring column of ``scene``, the distances to its volume's faces (None: a solid
+    :mod:`score4.shapes` does not describe)."""
+    return [
+        None if t.shape is None else TargetDistance(t, [r for r in scene.layers if r.target is t])
+        for t in scene.targets
+    ]
+
+
+def volume_activeness(
+    scene: Scene, distances: list[TargetDistance | None] | None = None
+) -> list[VolumeActiveness | None]:
     """Per scoring column of ``scene``, its activeness (None: every deposit counts).
 
     Bad input (faces the shape lacks, a shape score4 cannot measure) is refused here, with the
     parameter's path."""
     out: list[VolumeActiveness | None] = []
-    for t in scene.targets:
+    for c, t in enumerate(scene.targets):
         entries = t.config.activeness
         if not entries:
             out.append(None)
@@ -151,8 +229,10 @@ def volume_activeness(scene) -> list[VolumeActiveness | None]:
             except ConfigError as err:
                 raise ConfigError(f"{where}: {err}".replace(": face: ", ": ", 1)) from None
             resolved.append((faces, float(a.fccd), float(a.dlf)))
-        va = VolumeActiveness(shape, resolved, t)
         for faces, _, _ in resolved:  # every face kind measurable: refuse now, not mid-run
             face_distance(shape, faces, np.zeros((1, 3)))
-        out.append(va)
+        distance = distances[c] if distances is not None else None
+        if distance is None:
+            distance = TargetDistance(t, [r for r in scene.layers if r.target is t])
+        out.append(VolumeActiveness(distance, resolved))
     return out

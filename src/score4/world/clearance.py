@@ -72,7 +72,7 @@ def check_clearance(scene: Scene) -> None:
 
 def _meets(layer: RoughLayer, what: str, gap: float) -> str:
     return (
-        f"{layer.name}: the rough layer on face {layer.config.face} of "
+        f"{layer.name}: the rough layer on face {layer.config.face_name} of "
         f"{layer.target.name!r} is {layer.thickness * 1e3:.4g} um thick (base "
         f"{layer.base_thickness * 1e3:.4g} um + highest tip) and runs into {what} "
         f"(free gap there: {max(gap, 0.0) * 1e3:.4g} um); move the volumes apart, use a lower "
@@ -246,7 +246,8 @@ def _check_curved(
     body = _instance_body(model, mother)
     if not body.contains(mother.to_local(points)).all():
         raise ConfigError(
-            f"{layer.name}: the rough layer on face {layer.config.face} of {layer.target.name!r} "
+            f"{layer.name}: the rough layer on face {layer.config.face_name} of "
+            f"{layer.target.name!r} "
             f"({layer.thickness * 1e3:.4g} um thick) leaves its mother volume "
             f"{model.label(mother)!r}; use a lower surface"
         )
@@ -317,7 +318,8 @@ def _check_inside_mother(
     inside = body.contains(mother.to_local(pts))
     if not inside.all():
         raise ConfigError(
-            f"{layer.name}: the rough layer on face {layer.config.face} of {layer.target.name!r} "
+            f"{layer.name}: the rough layer on face {layer.config.face_name} of "
+            f"{layer.target.name!r} "
             f"({layer.thickness * 1e3:.4g} um thick) leaves its mother volume "
             f"{model.label(mother)!r} ({lv.solid_type}); use into: true (the layer inside the "
             "volume) or a lower surface"

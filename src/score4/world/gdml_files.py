@@ -15,7 +15,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import re
 import subprocess
 import sys
 import tempfile
@@ -25,8 +24,6 @@ from pathlib import Path
 from .. import files as score4_files
 from ..errors import ConfigError, Score4Error
 from .gdml_model import MODEL_FORMAT, GeometryModel
-
-_FILE_ELEMENT = re.compile(r"<file\s[^>]*name\s*=\s*[\"']([^\"']+)[\"']")
 
 #: Models read in this process, by cache key.
 _MODELS: dict[str, GeometryModel] = {}
@@ -69,6 +66,40 @@ def _check_xml(path: Path, parameter: str, seen: list[Path]) -> None:
         ) from None
 
 
+#: The ``<userinfo>`` auxiliary legend-pygeom-tools writes detector metadata under (one
+#: sub-auxiliary per physical volume: ``auxtype`` its name, ``auxvalue`` the metadata as JSON).
+DETECTOR_METADATA_AUX = "RMG_detector_meta"
+
+
+def detector_metadata(path: str | Path) -> dict[str, dict]:
+    """Physical volume name -> metadata entry, from the GDML file's ``<userinfo>`` (the
+    ``RMG_detector_meta`` auxiliary legend-pygeom-tools writes; LEGEND HPGe detectors carry
+    their geometry there, :mod:`score4.shapes.hpge`). Empty when there is none; an entry whose
+    value is not a JSON object is left out."""
+    out: dict[str, dict] = {}
+    stack: list[str] = []
+
+    def start(name, attrs):
+        parent = stack[-1] if stack else ""
+        if name == "auxiliary" and parent == DETECTOR_METADATA_AUX:
+            try:
+                value = json.loads(attrs.get("auxvalue", ""))
+            except ValueError:
+                value = None
+            if isinstance(value, dict) and attrs.get("auxtype"):
+                out[attrs["auxtype"]] = value
+        inside = name == "auxiliary" and attrs.get("auxtype") == DETECTOR_METADATA_AUX
+        stack.append(DETECTOR_METADATA_AUX if inside and parent == "userinfo" else name)
+
+    parser = xml.parsers.expat.ParserCreate()
+    parser.SetParamEntityParsing(xml.parsers.expat.XML_PARAM_ENTITY_PARSING_UNLESS_STANDALONE)
+    parser.ExternalEntityRefHandler = lambda *args: 1  # included files hold no userinfo
+    parser.StartElementHandler = start
+    parser.EndElementHandler = lambda name: stack.pop()
+    parser.Parse(Path(path).read_bytes(), True)
+    return out
+
+
 def gdml_files(path: str | Path, parameter: str = "world.gdml") -> list[Path]:
     """The GDML file and every file it includes, all checked to be well-formed XML."""
     path = Path(path)
@@ -85,7 +116,8 @@ def gdml_files(path: str | Path, parameter: str = "world.gdml") -> list[Path]:
         before = len(seen)
         _check_xml(current, parameter, seen)
         for read in seen[before:]:
-            for name in _FILE_ELEMENT.findall(read.read_text(errors="replace")):
+            refs = score4_files.gdml_include_refs(read.read_text(errors="replace"))
+            for name in (name for kind, name, _ in refs if kind == "file"):  # entities: expat
                 included = (current.parent / name).resolve()
                 if not included.is_file():
                     raise ConfigError(

@@ -17,6 +17,7 @@ along the placement chain: ``global = R_mother (R local + t) + t_mother``.
 from __future__ import annotations
 
 import difflib
+import fnmatch
 import re
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -27,7 +28,8 @@ import numpy as np
 from ..errors import ConfigError
 
 #: Format of the stored model (bump when its contents change: cached models are made again).
-MODEL_FORMAT = 4  # 4: with the GDML's own overlaps (gdml_reader.own_overlaps)
+# 4: with the GDML's own overlaps (gdml_reader.own_overlaps); 5: with detector metadata
+MODEL_FORMAT = 5
 
 #: Most instances the tree is expanded to (a world of nested tiling holds millions of cells).
 MAX_INSTANCES = 200_000
@@ -111,6 +113,9 @@ class GeometryModel:
     files: list[str] = field(default_factory=list)  # the GDML file and the files it includes
     # the file's own overlaps found by Geant4 when it was read: {"volumes": [a, b], "by": "1 mm"}
     overlaps: list[dict] = field(default_factory=list)
+    # physical volume name -> detector metadata from the GDML's <userinfo> (gdml_files.
+    # detector_metadata): a LEGEND HPGe's entry names its surfaces (score4.shapes.hpge)
+    metadata: dict[str, dict] = field(default_factory=dict)
 
     # -- plain data ------------------------------------------------------------------------------
 
@@ -144,6 +149,7 @@ class GeometryModel:
             data["materials"],
             list(data.get("files", [])),
             list(data.get("overlaps", [])),
+            dict(data.get("metadata", {})),
         )
 
     def to_dict(self) -> dict:
@@ -154,6 +160,7 @@ class GeometryModel:
             "world_name": self.world_name,
             "files": self.files,
             "overlaps": self.overlaps,
+            "metadata": self.metadata,
             "materials": self.materials,
             "logicals": [
                 {
@@ -281,6 +288,49 @@ class GeometryModel:
                 f"{'y' if len(hits) == 1 else 'ies'} ({name}[0] to {name}[{len(hits) - 1}])"
             )
         return [self.instances[hits[k]]]
+
+    def select(
+        self, glob: str | None, regex: str | None, material: str | None, parameter: str
+    ) -> list[Instance]:
+        """The volumes (the world excluded) whose physical volume name matches the glob
+        pattern ``glob`` and the regular expression ``regex`` (the whole name) and whose
+        material is ``material`` (each if given). Raises :class:`ConfigError` naming
+        ``parameter`` and the closest names when none does."""
+        rx = re.compile(regex) if regex is not None else None
+        hits = [
+            inst
+            for inst in self.instances[1:]
+            if (glob is None or fnmatch.fnmatchcase(inst.name, glob))
+            and (rx is None or rx.fullmatch(inst.name))
+            and (material is None or self.logicals[inst.logical].material == material)
+        ]
+        if hits:
+            return hits
+        what = []
+        if glob is not None:
+            what.append(f"matches {glob!r}")
+        if regex is not None:
+            what.append(f"matches the regular expression {regex!r}")
+        if material is not None:
+            what.append(f"is of material {material!r}")
+        materials = sorted({self.logicals[i.logical].material for i in self.instances[1:]})
+        if material is not None and material not in materials:
+            close = difflib.get_close_matches(material, materials, n=5, cutoff=0.3)
+            hint = f"; closest materials: {', '.join(close)}" if close else ""
+        else:
+            bare = re.sub(r"[*?\[\]^$.+(){}|\\]", "", glob or regex or "")
+            names = list(dict.fromkeys(i.name for i in self.instances[1:]))
+            close = difflib.get_close_matches(bare, names, n=5, cutoff=0.5) if bare else []
+            hint = f"; closest names: {', '.join(close)}" if close else ""
+        raise ConfigError(
+            f"{parameter}: no volume of {self.source} {' and '.join(what)}{hint}; "
+            f"`score4 geometry list {self.source}` lists the volumes"
+        )
+
+    def column(self, inst: Instance) -> str:
+        """The scoring column of a volume a pattern selects: its name, ``name_k`` for copy k
+        of a name with several copies."""
+        return inst.name if len(self.by_name[inst.name]) == 1 else f"{inst.name}_{inst.occurrence}"
 
     def _with_copies(self, name: str) -> str:
         n = len(self.by_name.get(name) or self.by_logical_name.get(name) or [])

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from score4.shapes.hpge import HPGE_GROUPS
+
 from .scene import Scene
 
 
@@ -11,9 +13,14 @@ def _target_rows(scene: Scene) -> list[dict]:
     rows = []
     for t in scene.targets:
         layers = scene.layers_of(t.name)
+        shape = t.shape
         rows.append(
             {
                 "target": t.name,
+                "faces": list(shape.faces) if shape is not None else [],
+                "groups": {k: list(v) for k, v in shape.groups.items()}
+                if shape is not None
+                else {},
                 "volume": t.config.label,
                 "gdml_volume": None
                 if t.instance is None or scene.model is None
@@ -23,7 +30,7 @@ def _target_rows(scene: Scene) -> list[dict]:
                 "position_mm": t.translation.tolist(),
                 "rough_faces": [
                     {
-                        "face": r.config.face,
+                        "face": r.config.face_name,
                         "layer": r.name,
                         "into": r.config.into,
                         "cells": int(r.patch_map.variants.size if r.mask is None else r.mask.sum()),
@@ -101,6 +108,12 @@ def geometry_text(rows: dict) -> str:
         where = f" = {t['gdml_volume']}" if t["gdml_volume"] else ""
         pos = ", ".join(f"{x:.4g}" for x in np.round(t["position_mm"], 9))
         out.append(f"  {t['target']}{where}: {t['solid']}, {t['material']}, at ({pos}) mm")
+        named = [g for g in HPGE_GROUPS if g in t.get("groups", {})]
+        if named:  # a detector whose metadata name its surfaces
+            out.append(
+                "    surfaces (metadata): "
+                + "; ".join(f"{g} {', '.join(t['groups'][g])}" for g in named)
+            )
         out.extend(
             f"    rough face {f['face']}: {f['cells']} patches, {100 * f['rough_share']:.4g} % "
             f"of the face rough, layer {f['thickness_um']:.4g} um"

@@ -30,8 +30,9 @@ from score4.errors import ConfigError
 from score4.inputs import limits
 from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig, SurfaceFile
 from score4.shapes import G4Box as G4BoxShape
-from score4.shapes import PlacedShape, Shape, Transform, shape_from_dict
+from score4.shapes import G4GenericPolycone, PlacedShape, Shape, Transform, shape_from_dict
 from score4.shapes.faces import AnnulusFace, Face, PlaneFace, RevolvedFace
+from score4.shapes.hpge import hpge_groups, is_hpge_metadata
 from score4.surface.block_cut import check_patch
 from score4.surface.patchmap import PatchMap, make_patch_map
 from score4.surface.spec import Surface, build_surface
@@ -264,10 +265,12 @@ class RoughLayer:
     patch_map: PatchMap
     mask: np.ndarray | None = None
     face_area: float = 0.0  # the flat face's area, mm2
+    curved = False  # patches bent onto a face swept around z (CurvedRoughLayer)
 
     @property
     def name(self) -> str:
-        return f"{self.target.name}_rough{self.config.face}".replace("+", "p").replace("-", "m")
+        face = self.config.face_name
+        return f"{self.target.name}_rough{face}".replace("+", "p").replace("-", "m")
 
     @property
     def base_thickness(self) -> float:
@@ -388,13 +391,28 @@ class CurvedRoughLayer(RoughLayer):
     ``patch_map`` is the grid (rows = rings, columns = cells of the longest ring) and ``mask``
     the cells each ring holds."""
 
+    curved = True
     layout: RingLayout | None = None
     lift: float = 0.0  # the patches' base above the true surface (convex faces), mm
     gap: float = 0.0  # largest distance of the base from the true surface, mm
     top_margin: float = 0.0  # sagitta of the bent tops' facets (concave faces), mm
 
     def solid_kind(self, k: int) -> str:
-        return "tessellated"  # bent closed bodies
+        """``frustums`` for a spike grid on a cylinder (``solid: auto`` or ``frustums``): each
+        bent spike layer and each column of the bent slab is exactly a G4Trd
+        (:mod:`score4.geometry.curved`); ``tessellated`` (the bent closed body as one solid)
+        otherwise."""
+        spikes = self.variants[k].spikes is not None
+        return (
+            "frustums"
+            if spikes and self.config.solid != "tessellated" and self.is_cylinder
+            else "tessellated"
+        )
+
+    @property
+    def is_cylinder(self) -> bool:
+        """A face parallel to the axis (a cylinder wall or bore), not a cone."""
+        return abs(float(self.ring_layout.face.nrz[1])) <= 1e-12
 
     @property
     def ring_layout(self) -> RingLayout:
@@ -535,6 +553,8 @@ class Scene:
     layers: list[RoughLayer] = field(default_factory=list)
     targets: list[TargetVolume] = field(default_factory=list)
     model: GeometryModel | None = None
+    # GDML volumes a source names that are not targets (not scored; Scene.unscored_target)
+    unscored: list[TargetVolume] = field(default_factory=list)
 
     @property
     def columns(self) -> list[str]:
@@ -555,23 +575,46 @@ class Scene:
         """The targets ``ref`` names: a column, a target's configured name, or (GDML) a volume
         name or ``name[k]`` whose instances are targets."""
         hits = [t for t in self.targets if t.column == ref]
+        hits = hits or [t for t in self.unscored if t.column == ref]
         if hits:
             return hits
         hits = [t for t in self.targets if t.config.label == ref]
         if hits:
             return hits
         if self.model is not None:
-            instances = {i.index for i in self.model.resolve(ref, parameter)}
+            found = self.model.resolve(ref, parameter)
+            instances = {i.index for i in found}
             hits = [t for t in self.targets if t.instance and t.instance.index in instances]
             if hits:
                 return hits
+            if parameter.startswith("source"):  # a source may sit on a volume not scored
+                return [self.unscored_target(ref, inst, parameter) for inst in found]
         raise ConfigError(
             f"{parameter}: {ref!r} is not a target; targets are: {', '.join(self.columns)}"
         )
 
+    def unscored_target(self, ref: str, inst: Instance, parameter: str) -> TargetVolume:
+        """The volume ``inst`` of the GDML world as a target that is not scored: a source may
+        sit on it or in it; it has no scoring column, no rough layers and no activeness."""
+        assert self.model is not None
+        for t in self.unscored:
+            if t.instance is not None and t.instance.index == inst.index:
+                return t
+        target = gdml_target(
+            self.model,
+            GdmlVolume(volume=ref),
+            -1,
+            inst,
+            None,
+            parameter,
+            column=self.model.column(inst),
+        )
+        self.unscored.append(target)
+        return target
+
     def layer(self, volume: str, face: str) -> RoughLayer | None:
         return next(
-            (r for r in self.layers if r.target.name == volume and r.config.face == face), None
+            (r for r in self.layers if r.target.name == volume and r.config.face_name == face), None
         )
 
     def layers_of(self, volume: str) -> list[RoughLayer]:
@@ -693,6 +736,26 @@ def resolve_targets(config: RunConfig, model: GeometryModel | None) -> list[Targ
 def gdml_targets(model: GeometryModel, t: GdmlVolume, entry: int) -> list[TargetVolume]:
     """One :class:`TargetVolume` per instance (copy) the target's ``volume`` names
     (``targets.{entry}.volume`` in errors)."""
+    if t.pattern:
+        where = f"targets.{entry}.{'volume_regex' if t.volume_regex else 'volume'}"
+        if t.volume is None and t.volume_regex is None:
+            where = f"targets.{entry}.material"
+        glob = t.volume if t.volume is not None and any(c in t.volume for c in "*?") else None
+        if t.volume is not None and glob is None:  # a name with a material: the name's copies
+            named = model.resolve(t.volume, where)
+            instances = [i for i in named if model.logicals[i.logical].material == t.material]
+            if not instances:
+                have = model.logicals[named[0].logical].material
+                raise ConfigError(
+                    f"{where}: {t.volume!r} is of material {have!r}, not {t.material!r}"
+                )
+        else:
+            instances = model.select(glob, t.volume_regex, t.material, where)
+        return [
+            gdml_target(model, t, entry, inst, None, where, column=model.column(inst))
+            for inst in instances
+        ]
+    assert t.volume is not None  # a name: the validator's rule
     instances = model.resolve(t.volume, f"targets.{entry}.volume")
     return [
         gdml_target(model, t, entry, inst, k if len(instances) > 1 else None)
@@ -740,6 +803,7 @@ def gdml_target(
     inst: Instance,
     k: int | None,
     where: str | None = None,
+    column: str | None = None,
 ) -> TargetVolume:
     """The target of GDML volume entry ``t`` (``targets[entry]``) at placement ``inst``.
 
@@ -750,7 +814,7 @@ def gdml_target(
     """
     where = where or f"targets.{entry}.volume"
     if inst.index == 0:
-        raise ConfigError(f"{where}: {t.volume!r} is the world volume; score a volume inside it")
+        raise ConfigError(f"{where}: {t.label!r} is the world volume; score a volume inside it")
     if inst.reflected:
         raise ConfigError(
             f"{where}: {model.label(inst)!r} is placed with a reflection (a G4ReflectedSolid on "
@@ -763,20 +827,27 @@ def gdml_target(
             "takes volumes placed with G4PVPlacement only"
         )
     lv = model.logicals[inst.logical]
-    column = t.volume if k is None else f"{t.volume.split('[')[0]}_{k}"
-    if k is None and "[" in t.volume:
-        column = f"{inst.name}_{inst.occurrence}"
+    if column is None:
+        assert t.volume is not None  # a pattern's volumes come with their columns
+        column = t.volume if k is None else f"{t.volume.split('[')[0]}_{k}"
+        if k is None and "[" in t.volume:
+            column = f"{inst.name}_{inst.occurrence}"
     assert inst.mother is not None  # only the world has none
     mother = model.instances[inst.mother]
     data = lv.solid.get("shape")
     exclude, unknown = daughter_shapes(model, inst)
+    shape = shape_from_dict(data) if data else None
+    meta = model.metadata.get(inst.name)
+    if isinstance(shape, G4GenericPolycone) and is_hpge_metadata(meta):
+        assert meta is not None
+        shape = hpge_groups(shape, meta)  # the pplus, passive and nplus groups of an HPGe
     return TargetVolume(
         column,
         entry,
         t,
         lv.material,
         lv.solid_type,
-        shape_from_dict(data) if data else None,
+        shape,
         Transform(inst.rotation, inst.translation),
         np.asarray(lv.solid["lo"], float),
         np.asarray(lv.solid["hi"], float),
@@ -785,6 +856,24 @@ def gdml_target(
         exclude,
         unknown,
     )
+
+
+def rough_faces(target: TargetVolume, rough: RoughFace) -> list[str]:
+    """The faces a rough entry names: its face names, groups (``outer``, ``pplus``, ...) and
+    lists of them, resolved on the target's shape; ConfigError listing the faces and groups
+    for a name the shape lacks."""
+    names = rough.face_list
+    if target.shape is None:
+        return names
+    out: list[str] = []
+    for name in names:
+        try:
+            faces = target.shape.resolve_faces(name)
+        except ConfigError:
+            target_face(target, name)  # raises, naming the solid's faces and groups
+            raise
+        out += [f for f in faces if f not in out]
+    return out
 
 
 def make_layer(
@@ -810,13 +899,13 @@ def make_layer(
                 f"{s.size_y * 1e3:g} um"
             )
     try:
-        geometry = target_face(target, rough.face)
+        geometry = target_face(target, rough.face_name)
     except ConfigError as err:
         raise ConfigError(f"{where}: {err}") from None
     if isinstance(geometry, RevolvedFace):
         return make_curved_layer(target, rough, geometry, names, variants, size, where)
     try:
-        frame = face_frame(target, rough.face)
+        frame = face_frame(target, rough.face_name)
     except ConfigError as err:
         raise ConfigError(f"{where}: {err}") from None
     round_face = isinstance(geometry, AnnulusFace)
@@ -829,7 +918,7 @@ def make_layer(
             "a GDML volume takes tiling: native (the default)"
         )
     patch_map = _rough_patch_map(
-        frame.size, size, rough, f"{where} (face {rough.face} of {target.name})"
+        frame.size, size, rough, f"{where} (face {rough.face_name} of {target.name})"
     )
     mask, area = None, frame.size[0] * frame.size[1]
     if isinstance(geometry, AnnulusFace):
@@ -838,7 +927,7 @@ def make_layer(
         if not mask.any():
             raise ConfigError(
                 f"{where}: no whole patch of {size[0] * 1e3:g} x {size[1] * 1e3:g} um fits on "
-                f"face {rough.face} of {target.name!r}"
+                f"face {rough.face_name} of {target.name!r}"
             )
         if rough.native_layout == "replicas":
             raise ConfigError(
@@ -872,7 +961,7 @@ def make_curved_layer(
     where: str,
 ) -> CurvedRoughLayer:
     """The rough layer on a face swept around z (:mod:`score4.world.curved`)."""
-    what = f"face {rough.face} of {target.name!r}"
+    what = f"face {rough.face_name} of {target.name!r}"
     if rough.into:
         raise ConfigError(
             f"{where}: into: true on a curved face ({what}) is not supported; the layer goes "
@@ -884,10 +973,17 @@ def make_curved_layer(
         raise ConfigError(
             f"{where}: native_layout replicas fills a rectangle; a curved face takes auto"
         )
-    if rough.solid not in ("auto", "tessellated"):
+    if rough.solid not in ("auto", "tessellated", "frustums"):
         raise ConfigError(
             f"{where}: solid {rough.solid} on a curved face ({what}); its patches are bent "
-            "tessellated bodies (solid: auto or tessellated)"
+            "tessellated bodies or, for spike grids on a cylinder, bent frustums (solid: auto, "
+            "tessellated or frustums)"
+        )
+    cone = abs(face.nrz[1]) > 1e-12
+    if rough.solid == "frustums" and (cone or any(s.spikes is None for s in variants)):
+        raise ConfigError(
+            f"{where}: solid frustums on a curved face ({what}) needs spike-grid surfaces on a "
+            "cylinder wall; use solid: auto or tessellated"
         )
     reserve = 1.05 * (rough.base_thickness + max(s.max_height for s in variants)) + 1e-4
     row_gap = 0.0
@@ -927,7 +1023,7 @@ def make_curved_layer(
     layer.gap = max(highs) + layer.lift
     layer.top_margin = 0.0 if convex else max(tops)
     limit = gap_limit(max(s.max_height for s in variants))
-    check_radius(layout, layer.gap, limit, where, target.name, rough.face)
+    check_radius(layout, layer.gap, limit, where, target.name, rough.face_name)
     return layer
 
 
@@ -956,8 +1052,22 @@ def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
     targets = resolve_targets(config, model)
     scene = Scene(config, surfaces, targets=targets, model=model)
     for target in targets:
+        seen: dict[str, int] = {}
         for j, rough in enumerate(target.config.rough):
-            scene.layers.append(make_layer(surfaces, target, j, rough))
+            where = f"targets.{target.entry}.rough.{j}"
+            try:
+                faces = rough_faces(target, rough)
+            except ConfigError as err:
+                raise ConfigError(f"{where}: {err}") from None
+            for face in faces:
+                if face in seen:
+                    raise ConfigError(
+                        f"{where}: face {face} of {target.name!r} is rough already "
+                        f"(targets.{target.entry}.rough.{seen[face]})"
+                    )
+                seen[face] = j
+                one = rough if rough.face == face else rough.model_copy(update={"face": face})
+                scene.layers.append(make_layer(surfaces, target, j, one))
     from .clearance import check_clearance
 
     check_clearance(scene)

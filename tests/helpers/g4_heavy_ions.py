@@ -197,6 +197,61 @@ def pushed_recoils(events: int):
     }
 
 
+def pushed_recoil_steps(events: int):
+    """Protons (5 MeV, normal) into Si with steps recorded; at the end of each proton's track a
+    103.144 keV Pb-206 is pushed onto Geant4's stack there, at the proton's global time. Returns
+    the step table and the time of each push (ns)."""
+    import ctypes
+
+    from score4.inputs.config import parse_config
+    from score4.sim.runtime import resolve_physics
+    from score4.sim.simulation import Simulation
+
+    data = {
+        "physics": {"mode": "lite", "trim_histories": 200},
+        "targets": [
+            {
+                "name": "crystal",
+                "material": "G4_Si",
+                "size": ["2 mm", "2 mm", "1 mm"],
+                "position": ["0 mm", "0 mm", "-0.5 mm"],
+            }
+        ],
+        "source": {
+            "particle": "proton",
+            "energy": "5 MeV",
+            "direction": "normal",
+            "surface": {"volume": "crystal", "face": "+z"},
+        },
+        "run": {"events": events, "seed": 4},
+        "output": {"steps": True},
+    }
+    sim = Simulation(plan_run(parse_config(data), physics=resolve_physics("lite")))
+    g4 = sim.g4
+    lead = sim.particle("Pb206")
+    times = []
+
+    class Push(g4.G4UserTrackingAction):  # the stepping action records the steps
+        def PostUserTrackingAction(self, track):
+            if track.GetTrackID() != 1:
+                return
+            p, t = track.GetPosition(), track.GetGlobalTime()
+            particle = g4.G4DynamicParticle(lead, g4.G4ThreeVector(0.0, 0.6, -0.8), 0.103144, 0.0)
+            ion = g4.G4Track(particle, t, g4.G4ThreeVector(p.x, p.y, p.z))
+            ion.SetParentID(1)
+            for obj in (particle, ion):  # Geant4 deletes them: Python must never do so
+                ctypes.pythonapi.Py_IncRef(ctypes.py_object(obj))
+            g4.G4EventManager.GetEventManager().GetStackManager().PushOneTrack(ion)
+            times.append(t)
+
+    action = Push()
+    sim.run_manager.SetUserAction(action)
+    primaries = sim.source.primaries(np.random.default_rng(4), 0, events)
+    sim.run(primaries, 4)
+    steps = {k: np.asarray(v) for k, v in (sim.last_steps or {}).items()}
+    return {"steps": steps, "times": np.array(times), "intercepted": len(sim.intercepted)}
+
+
 def nuclide_recoils(nuclide: str, events: int):
     """``nuclide`` at rest 20 nm under a Si face, full physics with radioactive decay (needs the
     Geant4 data sets); (event, ion, energy MeV, reinjected) of every intercepted ion."""
@@ -260,7 +315,7 @@ def alpha_depths(spec: dict):
     import sys
     from pathlib import Path
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     from bench_alpha_straggling import measure
 
     return measure(spec)

@@ -5,10 +5,10 @@ class of fault the input caused when the issue was filed (crash, traceback, sile
 footgun, refused) and the words the one-line error must hold now.
 
 Run as a script it classifies every case as a user meets it, each command in its own process
-(with a timeout), and prints the counts per class; run it against any checkout with
-``PYTHONPATH=<checkout>/src``:
+(with a timeout), and prints the counts per class; run it from tests/ (it reads conftest's base
+config) against any checkout with ``PYTHONPATH=<checkout>/src``:
 
-    .venv/bin/python tests/_bad_inputs.py            # this checkout
+    cd tests && ../.venv/bin/python -m helpers.bad_inputs    # this checkout
 """
 
 from __future__ import annotations
@@ -835,6 +835,93 @@ CASES: list[Case] = [
         "other",
         ["geometry", "list", "wo.yaml"],
         {"w.gdml": gdml_world, "wo.yaml": {"world": {"gdml": "w.gdml"}}},
+    ),
+    # --- issue 27: activeness, steps, allow_overlaps ------------------------------------------
+    *[
+        Case(
+            f"activeness-{name}",
+            "other",
+            RUN,
+            {"c.yaml": config(**{"targets.0.activeness": entries})},
+            expect,
+            outputs=("r.h5",),
+        )
+        for name, entries, expect in (
+            (
+                "fccd-negative",
+                [{"fccd": "-1 mm", "dlf": 0.2}],
+                "targets.0.activeness.0.fccd: must be greater than 0, got '-1 mm'",
+            ),
+            (
+                "fccd-not-a-length",
+                [{"fccd": "1 kg", "dlf": 0.2}],
+                "targets.0.activeness.0.fccd: unknown length unit 'kg'",
+            ),
+            (
+                "fccd-nan",
+                [{"fccd": ".nan mm", "dlf": 0.2}],
+                "targets.0.activeness.0.fccd: cannot read '.nan mm' as a length",
+            ),
+            (
+                "dlf-negative",
+                [{"fccd": "1 mm", "dlf": -0.1}],
+                "targets.0.activeness.0.dlf: Input should be greater than or equal to 0",
+            ),
+            ("dlf-missing", [{"fccd": "1 mm"}], "targets.0.activeness.0.dlf: Field required"),
+            (
+                "faces-empty",
+                [{"fccd": "1 mm", "dlf": 0.2, "faces": []}],
+                "targets.0.activeness.0.faces: the selection names no face",
+            ),
+            (
+                "faces-unknown",
+                [{"fccd": "1 mm", "dlf": 0.2, "faces": ["+z", "nplus"]}],
+                "targets.0.activeness.0.faces: ",
+            ),
+            (
+                "not-a-list",
+                {"fccd": "1 mm", "dlf": 0.2},
+                "targets.0.activeness: Input should be a valid list",
+            ),
+            (
+                "unknown-key",
+                [{"fccd": "1 mm", "dlf": 0.2, "depth": "1 mm"}],
+                "targets.0.activeness.0.depth: unknown key; valid keys here: fccd, dlf, faces",
+            ),
+        )
+    ],
+    Case(
+        "steps-not-a-boolean",
+        "other",
+        RUN,
+        {"c.yaml": config(output={"steps": "yes please"})},
+        "output.steps: Input should be a valid boolean",
+        outputs=("r.h5",),
+    ),
+    Case(
+        "steps-with-a-portal-layer",
+        "other",
+        RUN,
+        {"c.yaml": {**rough(PYRAMIDS, tiling="portal"), "output": {"steps": True}}},
+        "output.steps: steps (and activeness) need native tiling; targets.0.rough.0 has tiling: "
+        "portal",
+        outputs=("r.h5",),
+    ),
+    Case(
+        "allow-overlaps-not-a-boolean",
+        "other",
+        RUN,
+        {"c.yaml": config(world={"allow_overlaps": "maybe"})},
+        "world.allow_overlaps: Input should be a valid boolean",
+        outputs=("r.h5",),
+    ),
+    Case(
+        "allow-overlaps-without-gdml",
+        "silent",
+        RUN,
+        {"c.yaml": config(world={"allow_overlaps": True})},
+        "world.allow_overlaps: used only with gdml given",
+        outputs=("r.h5",),
     ),
     # --- accepted now: a count written 1e6 in YAML (as --events 1e6 always was) -------------
     Case(

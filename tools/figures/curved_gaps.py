@@ -1,6 +1,6 @@
 """How closely bent rough layers follow curved faces: the gap of the layer's base, per solid.
 
-    .venv/bin/python benchmarks/curved_gaps.py
+    .venv/bin/python tools/figures/curved_gaps.py
 
 Generates the table of docs/geometry.md (check ``curved-gaps``): for faces of the solids of
 real detectors (a BEGe-like cylinder wall, a thin cylinder, a bore, a cone, an ICPC-like polycone

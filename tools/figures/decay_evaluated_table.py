@@ -1,7 +1,7 @@
 """Per nuclide of the U-238, U-235 and Th-232 chains, Pb-210 and K-40: Q values, the gamma lines
 of the data sets and the lines that come from level feeding (docs/decay.md's tables).
 
-python benchmarks/decay_evaluated_table.py
+python tools/figures/decay_evaluated_table.py
 """
 
 from __future__ import annotations

@@ -26,7 +26,7 @@ from collections.abc import Callable
 from importlib.metadata import version
 from pathlib import Path
 
-from _spawn import run_in_spawned_process
+from helpers.spawn import run_in_spawned_process
 
 #: Crystal (full edges, mm), its copies' positions in the cavity and rotations about z (rad).
 CRYSTAL = (20.0, 30.0, 40.0)

@@ -244,10 +244,17 @@ def _child(node: Any, key: object, empty: Any) -> Any:
     return node[key]
 
 
+#: VALID with activeness on the rough face and steps asked for (issue 27's keys), so that
+#: mutations reach the activeness checks and the distances to a rough surface.
+VALID_ACTIVE = copy.deepcopy(VALID)
+VALID_ACTIVE["targets"][0]["activeness"] = [{"fccd": "2 um", "dlf": 0.5, "faces": ["+z"]}]
+VALID_ACTIVE["output"] = {"steps": True}
+
+
 @st.composite
-def mutations(draw) -> dict:
-    """VALID with one to three values replaced at schema paths."""
-    doc = copy.deepcopy(VALID)
+def mutations(draw, base: dict | None = None) -> dict:
+    """``base`` (default VALID) with one to three values replaced at schema paths."""
+    doc = copy.deepcopy(VALID if base is None else base)
     if isinstance(doc.get("physics"), str):
         doc["physics"] = {"mode": doc["physics"]}
     for _ in range(draw(st.sampled_from([1, 1, 1, 2, 3]))):
@@ -258,7 +265,12 @@ def mutations(draw) -> dict:
 
 def documents() -> st.SearchStrategy:
     """Run descriptions: mutated valid ones and whole generated ones."""
-    return st.one_of(*[mutations()] * 4, model_documents(RunConfig))
+    return st.one_of(
+        *[mutations()] * 4,
+        mutations(VALID_ACTIVE),
+        mutations(VALID_ACTIVE),
+        model_documents(RunConfig),
+    )
 
 
 # -------------------------------------------------------------------------------- command lines

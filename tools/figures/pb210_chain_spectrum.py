@@ -15,7 +15,7 @@ Two lite-physics runs (seconds each), the figures and tables of docs/physics.md
 Also prints the lines emitted per 100 Pb-210 decays in the run against score4's decay data
 (``score4 decay Pb210``: ENSDF).
 
-    python benchmarks/pb210_chain_spectrum.py [--events 4000] [--atoms 1000] [--png FILE]
+    python tools/figures/pb210_chain_spectrum.py [--events 4000] [--atoms 1000] [--png FILE]
 """
 
 from __future__ import annotations

@@ -1,10 +1,11 @@
 """Figures that docs/decay.md quotes from score4's decay data and sampler (one per line).
 
-python benchmarks/decay_facts.py
+python tools/figures/decay_facts.py
 """
 
 from __future__ import annotations
 
+import argparse
 import math
 
 from score4.decay import decay_scheme, known_nuclides
@@ -20,6 +21,7 @@ def line(name: str, kind: str, energy: float):
 
 
 def main() -> None:
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args()
     print(f"Po210 alpha {line('Po210', 'alpha', 5304).energy:.2f} keV")
     print(f"Po210 recoil {line('Po210', 'recoil', 103).energy:.3f} keV")
     print(f"U238 alpha {line('U238', 'alpha', 4151).energy:.1f} keV")

@@ -1,6 +1,6 @@
 """SRIM/TRIM reference ranges of the ions and detector materials of the field (issue 10, 1 and 5).
 
-Run: ``.venv/bin/python benchmarks/srim_reference_table.py [--pb-ions 1000] [--alpha-ions 500]``.
+Run: ``.venv/bin/python tools/figures/srim_reference_table.py [--pb-ions 1000] [--alpha-ions 500]``.
 
 Prints and writes two tables (lunasrim 1.0.0 = SRIM-2013):
 
@@ -31,7 +31,7 @@ import math
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 # label -> (Geant4 material, how it is defined)
 MATERIALS = {
@@ -259,7 +259,7 @@ def main() -> None:
     write_csv(
         args.out / "srim_reference.csv",
         rows,
-        f"written by benchmarks/srim_reference_table.py with {version}; lengths in nm; "
+        f"written by tools/figures/srim_reference_table.py with {version}; lengths in nm; "
         f"table_* = SRIM range table, trim_* = TRIM Monte Carlo (trim_ions ions, seed trim_seed)",
     )
     print(f"\nthin layers, {version}: TRIM transmitted fraction and mean exit energy")
@@ -273,7 +273,7 @@ def main() -> None:
     write_csv(
         args.out / "srim_thin_layers.csv",
         thin,
-        f"written by benchmarks/srim_reference_table.py with {version}; TRIM ions through a "
+        f"written by tools/figures/srim_reference_table.py with {version}; TRIM ions through a "
         f"layer at angle_deg from the normal; energies in keV",
     )
     print(

@@ -1,8 +1,9 @@
 """Run one function in a fresh spawned process and return its result (the tests' one helper).
 
 Geant4 keeps global state (volume and material stores, the run manager) and pytest never imports
-it: a test that needs Geant4 calls a function of a ``tests/_g4_*.py`` module (or a module-level
-function of its own) here, once, in a new interpreter, and gets its (picklable) return value.
+it: a test that needs Geant4 calls a function of a ``tests/helpers/g4_*.py`` module (or a
+module-level function of its own) here, once, in a new interpreter, and gets its (picklable)
+return value. The child inherits the parent's ``sys.path``, on which pytest put ``tests/``.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Mean beta energies of score4's spectra against ENSDF's, as the Markdown table of docs/decay.md.
 
-    python benchmarks/decay_mean_table.py [--min-share 5]
+    python tools/figures/decay_mean_table.py [--min-share 5]
 
 One row per beta branch carrying at least ``--min-share`` % of its nuclide's decays.
 """
