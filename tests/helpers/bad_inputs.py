@@ -463,6 +463,14 @@ CASES: list[Case] = [
         outputs=("v.h5",),
     ),
     Case(
+        "trim_histories-too-few",
+        "silent",
+        VERT,
+        {"c.yaml": config(physics={"trim_histories": 5})},
+        "physics.trim_histories: Input should be greater than or equal to 10 (got 5)",
+        outputs=("v.h5",),
+    ),
+    Case(
         "formula-Te0O2",
         "silent",
         VERT,
