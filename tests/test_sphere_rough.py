@@ -256,3 +256,10 @@ def test_an_orb_too_small_for_the_patch_states_the_radius_needed(tmp_path):
     }
     with pytest.raises(ConfigError, match=r"curved too tightly .* radius >= [\d.]+ mm"):
         build_scene(parse_config(data))
+
+
+def test_steps_on_a_rough_sphere_face_are_refused_before_anything_runs(gdml):
+    data = config(gdml)
+    data["output"] = {**data.get("output", {}), "steps": True}
+    with pytest.raises(ConfigError, match="rough sphere face; steps"):
+        build_scene(parse_config(data))

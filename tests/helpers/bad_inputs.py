@@ -920,7 +920,7 @@ CASES: list[Case] = [
         "silent",
         RUN,
         {"c.yaml": config(world={"allow_overlaps": True})},
-        "world.allow_overlaps: used only with gdml given",
+        "world: allow_overlaps: true is used only with gdml given",
         outputs=("r.h5",),
     ),
     # --- accepted now: a count written 1e6 in YAML (as --events 1e6 always was) -------------

@@ -153,7 +153,6 @@ class WorldConfig(StrictModel):
     used_only_with: ClassVar[dict[str, object]] = {
         "material": ("gdml", (None,)),
         "margin": ("gdml", (None,)),
-        "allow_overlaps": ("gdml", GIVEN),  # the check it turns off reads a GDML file's volumes
     }
 
     gdml: ConfigPath | None = None
@@ -161,6 +160,16 @@ class WorldConfig(StrictModel):
     margin: PositiveLength = 10.0  # space around the targets, mm
     # run although the GDML file's own volumes overlap (the CLI's --allow-overlaps)
     allow_overlaps: bool = False
+
+    @model_validator(mode="after")
+    def _overlaps_need_gdml(self) -> WorldConfig:
+        # only true is refused: a dumped configuration carries the default false and re-reads
+        if self.allow_overlaps and self.gdml is None:
+            raise ValueError(
+                "allow_overlaps: true is used only with gdml given (the check it turns off reads "
+                "a GDML file's volumes; here gdml is not given); remove allow_overlaps"
+            )
+        return self
 
 
 def allowing_overlaps(config: RunConfig) -> RunConfig:

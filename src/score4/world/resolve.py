@@ -9,12 +9,13 @@ import numpy as np
 from score4.common import limits
 from score4.errors import ConfigError
 from score4.inputs.config import RunConfig, SurfaceFile
+from score4.shapes.faces import SphereFace
 from score4.surface.spec import Surface, build_surface
 from score4.surface.store import load_surface
 
 from .clearance import check_clearance
 from .gdml_model import GeometryModel
-from .scene import Scene, make_layers, resolve_targets, rough_faces
+from .scene import CurvedRoughLayer, Scene, make_layers, resolve_targets, rough_faces
 
 
 def _load(name: str, description) -> Surface:
@@ -77,8 +78,23 @@ def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
             f"targets: the world reaches {far / 1e3:.4g} m from the origin (targets, rough layers "
             "and world.margin); score4's limit is 1 km (move the targets towards the origin)"
         )
+    if config.output.steps or any(t.config.activeness for t in scene.targets):
+        _check_distances_defined(scene)
     if any(t.config.activeness for t in scene.targets):
         from .activeness import volume_activeness
 
         volume_activeness(scene)  # faces the shape lacks: refused before anything is written
     return scene
+
+
+def _check_distances_defined(scene: Scene) -> None:
+    """Steps and activeness need each step's distance to the rough surface; for patches bent
+    onto a sphere that distance is not implemented: refused before anything is written."""
+    for layer in scene.layers:
+        if isinstance(layer, CurvedRoughLayer) and isinstance(layer.ring_layout.face, SphereFace):
+            raise ConfigError(
+                f"targets.{layer.target.entry}.rough: face {layer.config.face_name} of "
+                f"{layer.target.name!r} is a rough sphere face; steps (output.steps) and "
+                "activeness need the distance to its rough surface, which score4 does not compute "
+                "for sphere faces yet (use them without steps and activeness)"
+            )

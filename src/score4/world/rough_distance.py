@@ -33,6 +33,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..shapes.base import Revolved
+from ..shapes.faces import RevolvedFace
 
 if TYPE_CHECKING:
     from .scene import CurvedRoughLayer, RoughLayer
@@ -386,6 +387,7 @@ class CurvedRoughSurfaceDistance:
         self.ring_key = np.array([layer.ring_solid_key(j) for j in range(len(lay.v))])
         self.ring_z = np.array([lay.ring_z(j) for j in range(len(lay.v))])
         face = lay.face
+        assert isinstance(face, RevolvedFace), "sphere faces are refused by world.resolve"
         self.face_patch = Revolved(0, face.rz1, face.rz2, face.phi0, face.dphi, face.nrz)
         self._variants: dict[tuple[int, float], _Variant] = {}
         self._reach: dict[tuple[int, float], tuple[np.ndarray, float]] = {}
@@ -513,6 +515,7 @@ class CurvedRoughSurfaceDistance:
         flat = k < 0
         if flat.any():  # an empty cell: the smooth face's piece there
             lay, face = self.lay, self.lay.face
+            assert isinstance(face, RevolvedFace)
             for a, b in {(int(a), int(b)) for a, b in zip(j[flat], i[flat], strict=True)}:
                 sel = flat & (j == a) & (i == b)
                 lo, hi = lay.v[a] - self.py / 2, lay.v[a] + self.py / 2
