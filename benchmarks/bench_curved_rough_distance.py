@@ -31,7 +31,7 @@ def main() -> None:
     from score4.inputs.config import parse_config
     from score4.world.activeness import face_distance
     from score4.world.rough_distance import CurvedRoughSurfaceDistance
-    from score4.world.scene import build_scene
+    from score4.world.resolve import build_scene
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--points", type=int, default=20000)
