@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -22,16 +21,14 @@ from pathlib import Path
 import numpy as np
 from stamp import stamp
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-
 
 def main() -> None:
-    from test_curved_rough import cylinder_config, write_cylinder
+    from bench_curved import write_cylinder  # this folder is on sys.path when run as a script
 
     from score4.inputs.config import parse_config
     from score4.world.activeness import face_distance
-    from score4.world.rough_distance import CurvedRoughSurfaceDistance
     from score4.world.resolve import build_scene
+    from score4.world.rough_distance import CurvedRoughSurfaceDistance
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--points", type=int, default=20000)
@@ -40,8 +37,21 @@ def main() -> None:
     print(stamp())
     pyramids = {"kind": "spikes", "nx": 50, "ny": 50, "width": "10 um", "height": "10 um"}
     with tempfile.TemporaryDirectory() as tmp:
-        gdml = write_cylinder(Path(tmp) / "tube.gdml", 5.0, 1.0)
-        (layer,) = build_scene(parse_config(cylinder_config(gdml, surface=pyramids))).layers
+        gdml = Path(tmp) / "tube.gdml"
+        write_cylinder(gdml, 5.0, 1.0)
+        config = {
+            "physics": "lite",
+            "world": {"gdml": str(gdml)},
+            "surfaces": {"p": pyramids},
+            "targets": [{"volume": "cyl", "rough": [{"face": "outer", "surface": "p"}]}],
+            "source": {
+                "particle": "geantino",
+                "energy": "1 MeV",
+                "surface": {"volume": "cyl", "face": "outer"},
+            },
+            "run": {"events": 100, "seed": 3},
+        }
+        (layer,) = build_scene(parse_config(config)).layers
     lay = layer.ring_layout
     rng = np.random.default_rng(2)
     n = args.points

@@ -14,8 +14,8 @@ from test_rough_distance import _brute_triangle
 from score4.inputs.config import parse_config
 from score4.runner.output import read_results
 from score4.world.activeness import face_distance, weight
-from score4.world.rough_distance import CurvedRoughSurfaceDistance, _Variant
 from score4.world.resolve import build_scene
+from score4.world.rough_distance import CurvedRoughSurfaceDistance, _Variant
 from score4.world.scene import CurvedRoughLayer
 
 RADIUS, HALF_Z = 0.5, 0.05  # mm: two rings of 50 um patches
