@@ -29,8 +29,8 @@ same seed, gives the same events and the same energy deposits.
 This module imports no Geant4 itself: every function that needs it takes the ``geant4_pybind``
 module (``g4``) as its first argument.
 
-Example: ``examples/own_application.py``; the page ``docs/api.md`` is made from these
-docstrings (``tools/make_api_docs.py``).
+Example: ``examples/own_application.py``; the reference part of ``docs/api.md`` is
+rendered from these docstrings by ``make docs`` (mkdocstrings).
 """
 
 from __future__ import annotations
