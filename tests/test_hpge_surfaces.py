@@ -11,24 +11,11 @@ import pytest
 from score4.shapes import G4GenericPolycone
 from score4.shapes.hpge import hpge_groups
 
+from helpers.gdml_worlds import BEGE
+
 pytest.importorskip("pygeomhpges")
 
 _TAPER0 = {"top": {"angle_in_deg": 0.0, "height_in_mm": 0.0}}
-BEGE = {
-    "name": "B00000T",
-    "type": "bege",
-    "production": {"enrichment": 0.88},
-    "geometry": {
-        "height_in_mm": 30.0,
-        "radius_in_mm": 35.0,
-        "groove": {"depth_in_mm": 2.0, "radius_in_mm": {"outer": 13.0, "inner": 10.0}},
-        "pp_contact": {"radius_in_mm": 7.5, "depth_in_mm": 0.0},
-        "taper": {
-            "top": {"angle_in_deg": 45.0, "height_in_mm": 2.0},
-            "bottom": {"angle_in_deg": 45.0, "height_in_mm": 2.0},
-        },
-    },
-}
 ICPC = {
     "name": "V00000A",
     "type": "icpc",
