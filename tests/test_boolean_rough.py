@@ -45,11 +45,9 @@ def config(gdml: Path, rough: dict[str, list], **extra) -> dict:
     }
 
 
-ROUGH = {
-    "cutbox": ["first.+z", "first.+x"],
-    "ppc": ["second.-x", "pplus", "first.seg_2"],
-    "stack": ["second.outer"],
-}
+ROUGH = {"cutbox": ["first.+z", "first.+x"], "stack": ["second.outer"]}
+#: the cut face, the p+ contact and the side wall of P00664B
+PPC_ROUGH = {"ppc": ["second.-x", "pplus", "first.seg_2"]}
 
 
 @pytest.fixture(scope="module")
@@ -84,8 +82,21 @@ def _cell_points(layer) -> np.ndarray:
 def test_kept_cells_lie_wholly_on_the_boolean_surface(scene):
     """Each kept cell (25 points of it) lies on the boolean's surface: a hair against the
     face's normal is inside the solid, a hair along it outside; the rough share is the kept
-    cells' area over the boolean face's (estimated) area."""
-    assert len(scene.layers) == 6
+    cells' area over the boolean face's (estimated) area (box less a tube, union of tubes)."""
+    assert len(scene.layers) == 3
+    _check_kept_cells(scene)
+
+
+@pytest.mark.deep
+def test_kept_cells_on_the_cut_detector_lie_on_its_surface(gdml):
+    """As above on P00664B: the box's face that cuts the crystal, the p+ contact and the side
+    wall less the cut."""
+    scene = build_scene(parse_config(config(gdml, PPC_ROUGH)))
+    assert len(scene.layers) == 3
+    _check_kept_cells(scene)
+
+
+def _check_kept_cells(scene) -> None:
     for layer in scene.layers:
         on = layer.on_boolean
         assert on is not None
@@ -259,6 +270,7 @@ def test_hpge_groups_resolve_on_a_detector_with_a_cut(gdml):
     assert err < 1e-3 * (wall - cut)
 
 
+@pytest.mark.deep
 def test_a_rough_pplus_and_cut_face_run_in_geant4(gdml, tmp_path):
     """Po-210 alphas on the rough cut face and nplus wall of P00664B: Geant4 builds the
     layers without overlaps and every event deposits energy in the detector."""
