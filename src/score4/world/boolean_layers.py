@@ -14,7 +14,7 @@ left unproven stays flat. The flat rest of the face
 (:class:`score4.source.build.BooleanRemainderSampler`); ``rough_shares`` reports the rough share
 of the boolean's face, whose area is estimated (:attr:`BooleanShape.face_area_errors`).
 
-Refused, in one line each: ``into: true`` and ``tiling: portal``; a face of a subtracted solid
+Refused, in one line each: ``into: true``, ``tiling: portal`` and ``native_layout: replicas``; a face of a subtracted solid
 that is curved (its layer would lie inside the cut: flat faces of a subtracted solid work); a face
 of a solid made of flat facets in several planes; a layer whose envelope runs into the solid
 itself (a face partly covered by another part of a union, or whose envelope leaves a cut);
@@ -92,6 +92,11 @@ def boolean_layers(
         )
     if rough.tiling == "portal":
         raise ConfigError(f"{where}: {what} takes tiling: native")
+    if rough.native_layout == "replicas":
+        raise ConfigError(
+            f"{where}: native_layout replicas fills every cell; {what}, whose cells off its "
+            "surface hold no patch, takes auto, nested or placements"
+        )
     area = float(shape.face_areas[name])
     if not area > 0:
         raise ConfigError(f"{where}: {what} lies nowhere on the solid's surface (area 0)")
