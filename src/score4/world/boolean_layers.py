@@ -16,9 +16,9 @@ of the boolean's face, whose area is estimated (:attr:`BooleanShape.face_area_er
 
 Refused, in one line each: ``into: true``, ``tiling: portal`` and ``native_layout: replicas``;
 a face of a subtracted solid that is curved (its layer would lie inside the cut: flat faces of a
-subtracted solid work); a face of a solid made of flat facets in several planes; a layer whose envelope runs into the solid
-itself (a face partly covered by another part of a union, or whose envelope leaves a cut);
-steps and activeness (no distance to such a layer's rough surface yet).
+subtracted solid work); a face of a solid made of flat facets in several planes; a layer whose
+envelope runs into the solid itself (a face partly covered by another part of a union, or whose
+envelope leaves a cut); steps and activeness (no distance to such a layer's rough surface yet).
 """
 
 from __future__ import annotations
