@@ -282,6 +282,12 @@ def test_geant4_finds_no_overlap_on_neighbouring_rough_faces(gdml, tmp_path, cap
         ("trap", {"face": "+x", "into": True}, r"into: true on face \+x of 'trap' \(a G4Trap\)"),
         ("ph", {"face": "seg_1", "native_layout": "replicas"}, r"takes auto or placements"),
         ("trd", {"face": "+z", "tiling": "portal"}, r"takes tiling: native"),
+        (
+            "tess",
+            {"face": "plane_8"},
+            r"no face 'plane_8' on a G4TessellatedSolid; its faces: plane_0, .*, mesh, all$",
+        ),
+        ("xt", {"face": "side_5"}, r"its faces: -z, \+z, side_0, .*, side_4, mesh, sides, all$"),
     ],
 )
 def test_bad_facet_layers_are_one_line_errors(gdml, volume, change, message):
@@ -301,7 +307,7 @@ def test_a_face_smaller_than_a_patch_states_its_size(gdml):
 def test_layers_meeting_at_a_concave_edge_are_refused(tmp_path):
     """An L-shaped extrusion: the layers of the two faces of its inner corner would overlap."""
     gdml = write_solids(tmp_path / "l.gdml", concave=True)
-    with pytest.raises(ConfigError, match=r"xt_roughmesh_\d+: .* runs into the rough layer"):
+    with pytest.raises(ConfigError, match=r"xt_roughside_\d+: .* runs into the rough layer"):
         build_scene(parse_config(config(gdml, {"xt": SOLIDS["xt"]})))
 
 
@@ -314,3 +320,87 @@ def test_the_trap_outline_matches_its_shape(scene):
     assert area == pytest.approx(layer.target.shape.face_areas["+x"], rel=1e-12)
     centre = layer.target.to_local(layer.frame.centre[None])
     assert (layer.target.shape.inside(centre) != OUTSIDE).all()
+
+
+def test_the_planes_of_a_mesh_are_faces_of_their_own(scene):
+    """The octahedron's 8 planes are faces plane_0..plane_7 and the extruded pentagon's -z, +z
+    and side_0..side_4 (groups mesh and sides): each face is its coplanar facets, -z and +z
+    lie at the ends with normals -z and +z, and the faces' areas add up to the solid's."""
+    tess, xt = scene.target("tess").shape, scene.target("xt").shape
+    assert tess.faces == tuple(f"plane_{i}" for i in range(8))
+    assert tess.groups["mesh"] == tess.faces
+    assert xt.faces == ("-z", "+z", *(f"side_{i}" for i in range(5)))
+    assert xt.groups["sides"] == xt.faces[2:]
+    assert xt.groups["mesh"] == xt.faces
+    for shape in (tess, xt):
+        total = sum(p.area for p in shape.patches)
+        assert sum(shape.face_areas.values()) == pytest.approx(total, rel=1e-12)
+        for face in shape.faces:
+            tri = np.concatenate(
+                [p.triangles for p in shape.patches if shape.faces[p.face] == face]
+            )
+            n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+            n /= np.linalg.norm(n, axis=1)[:, None]
+            np.testing.assert_allclose(n, np.broadcast_to(n[0], n.shape), atol=1e-12)
+            offset = np.einsum("ij,ij->i", tri.reshape(-1, 3), np.repeat(n, 3, axis=0))
+            assert np.ptp(offset) < 1e-12
+            if face in ("-z", "+z"):
+                sign = 1.0 if face == "+z" else -1.0
+                np.testing.assert_allclose(n[0], [0, 0, sign], atol=1e-12)
+                assert tri[..., 2].min() == pytest.approx(sign * 1.0, abs=1e-12)
+
+
+def test_one_plane_of_a_mesh_takes_a_rough_layer_and_a_source(gdml):
+    """A rough layer on plane_3 of the octahedron alone, and on side_2 of the extrusion; a
+    source on [side_2, -z] of the extrusion draws on those two faces only (the rough tops of
+    side_2, the flat rest of side_2 and -z), each point in the target with its layer, with
+    the flat share of the true area (4 sigma)."""
+    data = config(gdml, {"tess": (["plane_3"], SOLIDS["tess"][1]), "xt": (["side_2"], (0, 12, 0))})
+    data["source"]["surface"] = {"volume": "xt", "face": ["side_2", "-z"]}
+    cfg = parse_config(data)
+    scene = build_scene(cfg)
+    assert [la.name for la in scene.layers] == ["tess_roughplane_3", "xt_roughside_2"]
+    p = make_source(cfg, scene).primaries(np.random.default_rng(8), 0, 4000)
+    assert scene.inside_target("xt", p.position).all()
+    layer = scene.layers_of("xt")[0]
+    on_flat = p.extra["patch"] < 0
+    face = layer.frame.to_local(p.position)
+    target = layer.target
+    local = target.to_local(p.position[on_flat])
+    on_side = np.abs(face[on_flat, 2]) < 1e-9
+    on_bottom = np.abs(local[:, 2] + 1.0) < 1e-9
+    assert (on_side | on_bottom).all()  # flat points: on side_2 or on -z
+    assert not on_side.all()
+    assert not on_bottom.all()
+    rough = ~on_flat  # rough tops: over side_2, within the layer
+    assert (face[rough, 2] > -1e-9).all()
+    assert (face[rough, 2] <= layer.thickness).all()
+    assert layer.in_face(face[rough, :2]).all()
+    geo = source_geometry(cfg, scene)
+    flat_area = layer.face_area * (1 - layer.rough_share) + target.shape.face_areas["-z"]
+    share = flat_area / geo["area_mm2"]
+    assert abs(on_flat.mean() - share) < 4 * math.sqrt(share * (1 - share) / 4000)
+
+
+def test_geometry_list_names_each_targets_faces_and_groups(gdml, tmp_path, capsys):
+    """`score4 geometry list --faces`: each target's faces with their areas, and its groups;
+    a source on a face the mesh lacks is one line naming its faces and groups, exit 2."""
+    data = config(gdml, {"tess": (["plane_3"], SOLIDS["tess"][1]), "xt": (["side_2"], (0, 12, 0))})
+    cfg = tmp_path / "planes.yaml"
+    cfg.write_text(yaml.safe_dump(data))
+    assert main(["geometry", "list", "--faces", str(cfg)]) == 0
+    out = capsys.readouterr().out
+    assert "    faces: plane_0 (2.8059 mm2), plane_1 (2.8059 mm2)," in out
+    assert "    groups: mesh = plane_0, plane_1, plane_2," in out
+    assert "    faces: -z (7.725 mm2), +z (7.725 mm2), side_0 (3.2311 mm2)," in out
+    assert "; sides = side_0, side_1, side_2, side_3, side_4\n" in out
+    data["source"]["surface"] = {"volume": "tess", "face": "plane_4x"}
+    cfg.write_text(yaml.safe_dump(data))
+    assert main(["run", str(cfg), "--out", str(tmp_path / "o.h5")]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(err) == 1, err
+    assert (
+        "source.surface.face: tess: no face 'plane_4x' on a G4TessellatedSolid; its faces: "
+        "plane_0, plane_1, plane_2, plane_3, plane_4, plane_5, plane_6, plane_7, mesh, all"
+    ) in err[0]
+    assert not (tmp_path / "o.h5").exists()

@@ -22,6 +22,7 @@ from score4.errors import ConfigError
 from score4.shapes import Shape
 from score4.shapes.base import PlaneTriangles, _plane_face
 from score4.shapes.faces import PlaneFace
+from score4.shapes.mesh_shape import plane_index
 from score4.surface.triangle_mesh import TriangleMesh
 
 
@@ -135,19 +136,9 @@ def check_one_plane(tri_local: np.ndarray, where: str, face: str, target: str) -
 
 def plane_groups(triangles: np.ndarray) -> list[np.ndarray]:
     """The triangles (k, 3, 3) grouped by their plane (normal and offset), in order of first
-    appearance; empty when they are not all flat facets."""
-    if len(triangles) == 0:
-        return []
-    n = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
-    norm = np.linalg.norm(n, axis=1)
-    keep = norm > 0
-    tris, n = triangles[keep], n[keep] / norm[keep, None]
-    scale = max(float(np.abs(tris).max()), 1.0)
-    offset = np.einsum("ij,ij->i", n, tris[:, 0]) / scale
-    key = np.round(np.column_stack([n, offset]) * 1e8).astype(np.int64)
-    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
-    order = np.argsort(first)
-    return [tris[inverse.ravel() == g] for g in order]
+    appearance, degenerate ones left out (:func:`score4.shapes.mesh_shape.plane_index`)."""
+    plane = plane_index(triangles)
+    return [triangles[plane == g] for g in range(int(plane.max(initial=-1)) + 1)]
 
 
 def plane_face(name: str, triangles: np.ndarray) -> PlaneFace:

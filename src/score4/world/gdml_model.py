@@ -31,8 +31,8 @@ from ..shapes import Transform
 #: Format of the stored model (bump when its contents change: cached models are made again).
 # 4: with the GDML's own overlaps (gdml_reader.own_overlaps); 5: with detector metadata;
 # 7: G4Trap described (6 was used by pre-merge runs of s7-solids, whose cached models lack 5's
-# metadata)
-MODEL_FORMAT = 7
+# metadata); 8: tessellated and extruded solids with one face per plane (MeshShape.by_planes)
+MODEL_FORMAT = 8
 
 #: Most instances the tree is expanded to (a world of nested tiling holds millions of cells).
 MAX_INSTANCES = 200_000
