@@ -20,6 +20,7 @@ from score4.runner.output import read_results
 from score4.shapes.base import INSIDE, OUTSIDE, PlaneTriangles
 from score4.source.build import layer_sampler, make_source, source_geometry
 from score4.source.vertex_file import write_vertex_file
+from score4.world.facets import point_in_triangles
 from score4.world.resolve import build_scene
 from score4.world.scene import PolygonRoughLayer
 
@@ -279,7 +280,11 @@ def test_geant4_finds_no_overlap_on_neighbouring_rough_faces(gdml, tmp_path, cap
     ("volume", "change", "message"),
     [
         ("trd", {"face": "top"}, r"no face 'top' on a G4Trd; its faces: \+x, -x, \+y, -y, \+z, -z"),
-        ("trap", {"face": "+x", "into": True}, r"into: true on face \+x of 'trap' \(a G4Trap\)"),
+        (
+            "trap",
+            {"face": "+x", "tiling": "portal"},
+            r"tiling portal on face \+x of 'trap' \(a G4Trap\): a portal's subworlds must lie",
+        ),
         ("ph", {"face": "seg_1", "native_layout": "replicas"}, r"takes auto or placements"),
         ("trd", {"face": "+z", "tiling": "portal"}, r"takes tiling: native"),
         (
@@ -309,6 +314,10 @@ def test_layers_meeting_at_a_concave_edge_are_refused(tmp_path):
     gdml = write_solids(tmp_path / "l.gdml", concave=True)
     with pytest.raises(ConfigError, match=r"xt_roughside_\d+: .* runs into the rough layer"):
         build_scene(parse_config(config(gdml, {"xt": SOLIDS["xt"]})))
+    data = config(gdml, {"xt": (["side_0"], SOLIDS["xt"][1])})
+    data["targets"][0]["rough"][0]["into"] = True  # into: a solid score4 cannot clip
+    with pytest.raises(ConfigError, match=r"into: true on face side_0 of 'xt' \(a G4Extruded"):
+        build_scene(parse_config(data))
 
 
 def test_the_trap_outline_matches_its_shape(scene):
@@ -404,3 +413,156 @@ def test_geometry_list_names_each_targets_faces_and_groups(gdml, tmp_path, capsy
         "plane_0, plane_1, plane_2, plane_3, plane_4, plane_5, plane_6, plane_7, mesh, all"
     ) in err[0]
     assert not (tmp_path / "o.h5").exists()
+
+
+INTO = {
+    "trd": (["+x"], (0.0, 0.0, 0.0)),
+    "trap": (["+x"], (12.0, 0.0, 0.0)),
+    "xt": (["side_2"], (0.0, 12.0, 0.0)),
+    "tess": (["plane_3"], (0.0, -12.0, 0.0)),
+}
+
+
+@pytest.fixture(scope="module")
+def into_data(gdml) -> dict:
+    data = config(gdml, INTO, output={"track_length": True})
+    for t in data["targets"]:
+        t["rough"] = [{**r, "into": True} for r in t["rough"]]
+    return data
+
+
+def _clipped_path(o: np.ndarray, d: np.ndarray, tri: np.ndarray, n: np.ndarray, top: float):
+    """Path of a ray in a convex solid (its triangles) cut by ``n . x <= top``: the chord of
+    the solid (two crossings) clipped by the half-space, apart from score4's clipping."""
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    pv = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, pv)
+    ok = np.abs(det) > 1e-30
+    inv = np.where(ok, 1 / np.where(ok, det, 1), 0)
+    tv = o - tri[:, 0]
+    u = np.einsum("ij,ij->i", tv, pv) * inv
+    w = (np.cross(tv, e1) @ d) * inv
+    t = np.einsum("ij,ij->i", e2, np.cross(tv, e1)) * inv
+    hit = ok & (u >= -1e-12) & (w >= -1e-12) & (u + w <= 1 + 1e-12)
+    if not hit.any():
+        return 0.0
+    t0, t1 = float(t[hit].min()), float(t[hit].max())
+    nd, no = float(n @ d), float(n @ o)
+    if abs(nd) > 1e-15:  # n . (o + s d) <= top
+        bound = (top - no) / nd
+        t0, t1 = (max(t0, bound), t1) if nd < 0 else (t0, min(t1, bound))
+    elif no > top:
+        return 0.0
+    return max(t1 - max(t0, 0.0), 0.0)
+
+
+def test_into_layers_cut_convex_solids_of_flat_facets(into_data, tmp_path):
+    """into: true on a face of a G4Trd, G4Trap, extruded and tessellated solid: the layer's top
+    lies in the face's plane, the solid is clipped by that plane moved in by the layer's
+    thickness (points of the slab are not in the target unless in a patch, points below are),
+    and Geant4's geantino track lengths in the target equal an independent ray trace (the
+    solid's chord clipped by the plane, plus the patch meshes) to 1e-9 mm."""
+    cfg = parse_config(into_data)
+    scene = build_scene(cfg)
+    rng = np.random.default_rng(11)
+    starts, directions, volumes = [], [], []
+    for volume in INTO:
+        (layer,) = scene.layers_of(volume)
+        target, t = layer.target, layer.thickness
+        assert layer.config.into
+        tri = np.concatenate([p.triangles for p in target.shape.patches])
+        n = target.rotation.T @ layer.frame.normal
+        top = float(n @ target.to_local(layer.frame.centre[None])[0])
+        assert float((tri.reshape(-1, 3) @ n).max()) == pytest.approx(top + t, abs=1e-12)
+        inner = target.to_world(target.shape.sample_volume(rng, 4000))
+        depth = layer.frame.to_local(inner)[:, 2]
+        inside = scene.inside_target(volume, inner)
+        assert inside[depth <= -1e-9].all()  # below the cut: the target's material
+        slab = depth > 1e-9  # in the slab: only where a patch body is
+        assert slab.sum() > 0
+        np.testing.assert_array_equal(inside[slab], layer.contains(inner[slab]))
+        # the flat rest is drawn on the face's polygon cut to the solid's section at the cut
+        # (narrower where a side leans inward: the G4Trd's and G4Trap's +x faces)
+        lu, lv = 2 * np.abs(layer.outline).max(axis=(0, 1))
+        xy = rng.uniform(-0.5, 0.5, (100_000, 2)) * [lu, lv]
+        base = point_in_triangles(xy, layer.base_outline, 1e-12)
+        cut = target.contains(layer.frame.to_world(np.column_stack([xy, np.zeros(len(xy))])))
+        np.testing.assert_array_equal(base, cut & layer.in_face(xy))
+        face = {**into_data, "source": {**into_data["source"], "confine": False}}
+        face["source"]["surface"] = {"volume": volume, "face": INTO[volume][0][0]}
+        p = make_source(parse_config(face), scene).primaries(rng, 0, 3000)
+        assert scene.inside_target(volume, p.position).all()  # rough tops and the flat rest
+        flat = p.extra["patch"] < 0
+        assert 0 < flat.mean() < 0.5
+        assert np.abs(layer.frame.to_local(p.position[flat])[:, 2]).max() < 1e-9  # on the cut
+        for _ in range(4):
+            centres = layer.cell_centres()[layer.mask]
+            c = centres[rng.integers(len(centres))] + rng.uniform(-0.05, 0.05, 2)
+            start = layer.frame.to_world(np.array([*c, t + 0.03]))
+            aim = target.to_world(target.shape.sample_volume(rng, 1))[0]
+            starts.append(start)
+            directions.append((aim - start) / np.linalg.norm(aim - start))
+            volumes.append(volume)
+    n_rays = len(starts)
+    primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n_rays)
+    primaries.position[:] = np.array(starts)
+    primaries.direction[:] = np.array(directions)
+    vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
+    replay = parse_config(
+        {**into_data, "source": {"vertices": str(vfile)}, "run": {"events": n_rays}}
+    )
+    r = read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
+    for k in range(n_rays):
+        (layer,) = scene.layers_of(volumes[k])
+        target = layer.target
+        tri = np.concatenate([p.triangles for p in target.shape.patches])
+        world_tri = target.to_world(tri.reshape(-1, 3)).reshape(-1, 3, 3)
+        n = layer.frame.normal
+        top = float(n @ layer.frame.centre)
+        expected = _clipped_path(starts[k], directions[k], world_tri, n, top)
+        patches = ray_path(starts[k], directions[k], scene, volumes[k]) - _crossings(
+            starts[k], directions[k], world_tri
+        )
+        got = r.scores["track_length"][volumes[k]][k]
+        assert got == pytest.approx(expected + patches, abs=1e-9, rel=0), (volumes[k], k)
+        assert patches > 0 or expected > 0
+
+
+def test_into_layers_on_neighbouring_faces_are_refused(gdml):
+    """The six sides of a polyhedra face: their into layers meet below the common edges."""
+    data = config(gdml, {"ph": SOLIDS["ph"]})
+    data["targets"][0]["rough"][0]["into"] = True
+    with pytest.raises(
+        ConfigError,
+        match=r"ph_roughseg_1_0: .* runs into the rough layer .*"
+        r"into: the layers of two faces that share an edge meet below it",
+    ):
+        build_scene(parse_config(data))
+
+
+def test_exported_into_world_gives_the_same_geantino_paths(into_data, tmp_path):
+    """into layers on the G4Trd and the G4TessellatedSolid written to GDML (the clipped solids
+    as tessellated solids) and read back by Geant4: the same ray paths to 1e-9 mm."""
+    data = {
+        **into_data,
+        "targets": [t for t in into_data["targets"] if t["volume"] in ("trd", "tess")],
+    }
+    cfg = tmp_path / "into.yaml"
+    cfg.write_text(yaml.safe_dump(data))
+    out = tmp_path / "world.gdml"
+    assert main(["geometry", "export", str(cfg), "--gdml", str(out)]) == 0
+    scene = build_scene(parse_config(data))
+    rng = np.random.default_rng(5)
+    rays = []
+    for layer in scene.layers:
+        centres = layer.cell_centres()[layer.mask]
+        for c in centres[rng.integers(len(centres), size=4)]:
+            start = layer.frame.to_world(np.array([*c, 0.2]))
+            tilt = layer.frame.rotation @ np.array([*rng.uniform(-0.3, 0.3, 2), -1.0])
+            rays.append((start.tolist(), tilt.tolist()))
+    ours = run_in_spawned_process(_call, "trace_built", str(cfg), rays)
+    back = run_in_spawned_process(_call, "trace_gdml", str(out), rays)
+    for a, b in zip(ours, back, strict=True):
+        assert len(a) == len(b), ([v for v, _ in a], [v for v, _ in b])
+        np.testing.assert_allclose([p for _, p in a], [p for _, p in b], atol=1e-9, rtol=0)
+    assert min(len(a) for a in ours) > 4

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from score4.world.facets import clip_convex, is_convex, mesh_of, solid_triangles
 from score4.world.scene import Scene, TargetVolume
 
 from ..errors import ConfigError
@@ -16,6 +17,7 @@ from ..shapes import G4Box as G4BoxShape
 from ..shapes import G4Tubs as G4TubsShape
 from ..shapes import Shape
 from .portal import PortalGeometry
+from .solids import tessellated_solid
 
 
 @dataclass
@@ -49,7 +51,10 @@ def cut_for_layers(g4, scene: Scene, target: TargetVolume, solid, name: str):
 
     The target's shape is made thinner behind each such face (:meth:`Shape.trimmed`: a box
     along the face normal, a tube along z) and moved back by half the cut, so its outer faces
-    stay. Returns ``(solid, shift, objects to keep alive)``.
+    stay; a convex solid of flat facets (G4Trd, G4Trap, G4Polyhedra, a tessellated or extruded
+    solid) becomes the G4TessellatedSolid of its facets clipped by each face's plane moved
+    inward (:func:`score4.world.facets.clip_convex`), in place. Returns ``(solid, shift, objects
+    to keep alive)``.
     """
     layers = [r for r in scene.layers_of(target.name) if r.config.into]
     if not layers:
@@ -57,8 +62,17 @@ def cut_for_layers(g4, scene: Scene, target: TargetVolume, solid, name: str):
     cuts: dict[str, float] = {layer.config.face_name: layer.thickness for layer in layers}
     trimmed = None if target.shape is None else target.shape.trimmed(cuts)
     if trimmed is None:
-        raise ConfigError(
-            f"{target.name}: into: true needs a G4Box or G4Tubs (end faces), not a {target.solid}"
-        )
+        triangles = None if target.shape is None else solid_triangles(target.shape)
+        if triangles is None or not is_convex(triangles):
+            raise ConfigError(
+                f"{target.name}: into: true needs a G4Box, a G4Tubs (end faces) or a convex "
+                f"solid of flat facets, not a {target.solid}"
+            )
+        for layer in layers:  # each face's plane moved inward (the layer's shifted frame)
+            n = target.rotation.T @ layer.frame.normal
+            base = target.to_local(layer.frame.centre[None])[0]
+            triangles = clip_convex(triangles, n, float(n @ base))
+        cut = tessellated_solid(g4, mesh_of(triangles), name)
+        return cut, np.zeros(3), [cut]
     cut = g4_solid(g4, trimmed[0], name)
     return cut, trimmed[1], [cut]

@@ -254,7 +254,9 @@ class FlatRemainderSampler:
 
     def __init__(self, layer: RoughLayer) -> None:
         self.layer = layer
-        outline = getattr(layer, "outline", None)
+        outline = getattr(layer, "base_outline", None)
+        if outline is None:
+            outline = getattr(layer, "outline", None)
         px, py = layer.patch_size
         rough_cells = int((layer.cell_variants >= 0).sum())
         if outline is not None:  # a polygon face: its triangles in the layer's frame

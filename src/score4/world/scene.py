@@ -50,11 +50,15 @@ from .facets import (
     ccw,
     cells_inside,
     check_one_plane,
+    clip_to_convex,
     face_triangles,
+    is_convex,
     plane_face,
     plane_groups,
     point_in_triangles,
     prism_mesh,
+    section,
+    solid_triangles,
 )
 from .gdml_model import GeometryModel, Instance
 from .obb import OrientedBox
@@ -559,6 +563,9 @@ class PolygonRoughLayer(RoughLayer):
 
     outline: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 2)))
     part: int = -1  # the plane's index on a face of several planes (-1: a face of one plane)
+    # where the face's flat rest lies (the layer's frame): the outline, or with ``into`` the
+    # outline cut to the solid's section at the cut (it is narrower where a side leans inward)
+    base_outline: np.ndarray | None = None
 
     @property
     def name(self) -> str:
@@ -608,8 +615,22 @@ class PolygonRoughLayer(RoughLayer):
                     pts.append(np.column_stack([q, np.full(len(q), h * t)]))
         return self.frame.to_world(np.concatenate(pts))
 
+    def envelope_box(self) -> OrientedBox:
+        """The prism's bounding box (the polygon reaches past the whole cells' grid)."""
+        flat = self.outline.reshape(-1, 2)
+        lo, hi = flat.min(axis=0), flat.max(axis=0)
+        t = self.thickness
+        centre = np.array([*(lo + hi) / 2, t / 2])
+        return OrientedBox(
+            self.frame.to_world(centre), self.frame.rotation, np.array([*(hi - lo) / 2, t / 2])
+        )
+
     def in_cut(self, points: np.ndarray) -> np.ndarray:
-        return np.zeros(len(points), dtype=bool)  # into: true is refused on such faces
+        """With ``into``: True for world points in the slab the (convex) solid is clipped by:
+        the whole slab under the face's plane, as deep as the layer, not only under the
+        polygon."""
+        q = self.frame.to_local(np.asarray(points, float).reshape(-1, 3))
+        return (q[:, 2] > BOUNDARY_TOLERANCE) & (q[:, 2] <= self.thickness + BOUNDARY_TOLERANCE)
 
 
 @dataclass
@@ -1002,9 +1023,9 @@ def make_layer(
         return make_curved_layer(target, rough, geometry, names, variants, size, where)
     if (
         isinstance(geometry, PlaneFace)
-        and not geometry.rectangle
         and not isinstance(geometry, AnnulusFace)
-    ):
+        and (not geometry.rectangle or (rough.into and not _trimmable(target, rough.face_name)))
+    ):  # a polygon; or a rectangle of a solid cut by clipping (into), like its other faces
         return make_polygon_layer(target, rough, geometry, names, variants, size, where)
     try:
         frame = face_frame(target, rough.face_name)
@@ -1070,7 +1091,11 @@ def make_curved_layer(
             "outside the volume (into: false)"
         )
     if rough.tiling == "portal":
-        raise ConfigError(f"{where}: a curved face ({what}) takes tiling: native")
+        raise ConfigError(
+            f"{where}: tiling portal on a curved face ({what}): a portal's jumps are pure "
+            "translations between the flat cells of one plane, and bent patches differ from ring "
+            "to ring; a curved face takes tiling: native"
+        )
     if rough.native_layout == "replicas":
         raise ConfigError(
             f"{where}: native_layout replicas fills a rectangle; a curved face takes auto"
@@ -1144,13 +1169,20 @@ def make_polygon_layer(
     triangles (shape frame; default: all of face ``rough.face``), ``part``: the plane's index
     on a face of several planes."""
     what = f"face {rough.face_name} of {target.name!r}"
-    if rough.into:
+    solid = None if target.shape is None else solid_triangles(target.shape)
+    if rough.into and (solid is None or not is_convex(solid)):
         raise ConfigError(
-            f"{where}: into: true on {what} (a {target.solid}) is not supported; the layer goes "
-            "outside the volume (into: false)"
+            f"{where}: into: true on {what} (a {target.solid}) cuts the volume below the face, "
+            "which score4 does for a box, a tube's end faces and convex solids of flat facets "
+            "(G4Trd, G4Trap, a convex G4Polyhedra, tessellated or extruded solid) only; this "
+            "solid is not one: put the layer outside the volume (into: false)"
         )
     if rough.tiling == "portal":
-        raise ConfigError(f"{where}: {what} (a {target.solid}) takes tiling: native")
+        raise ConfigError(
+            f"{where}: tiling portal on {what} (a {target.solid}): a portal's subworlds must lie "
+            "where no particle goes, which score4 knows only in the world it generates, whose "
+            "targets are boxes; a face of a GDML solid takes tiling: native"
+        )
     if rough.native_layout in ("replicas", "nested"):
         raise ConfigError(
             f"{where}: native_layout {rough.native_layout} fills a rectangle; {what} (a polygon) "
@@ -1190,7 +1222,43 @@ def make_polygon_layer(
             check_patch(variants[k], layer.solid_kind(k), rough.block_cells)
         except ConfigError as err:
             raise ConfigError(f"{where} (surface {n!r}): {err}") from None
+    if rough.into:
+        assert solid is not None
+        _into_polygon(layer, solid, where, what)
     return layer
+
+
+def _into_polygon(layer: PolygonRoughLayer, solid: np.ndarray, where: str, what: str) -> None:
+    """Move a polygon layer into its (convex) solid by its thickness: the solid is clipped by
+    the face's plane moved inward (:func:`score4.world.facets.clip_convex`), the layer's frame
+    moved with it; the cells whose patch would overhang the cut (where a neighbouring face
+    leans inward) stay flat."""
+    target, t = layer.target, layer.thickness
+    n = target.rotation.T @ layer.frame.normal
+    top = float(n @ target.to_local(layer.frame.centre[None])[0])
+    extent = top - float((solid.reshape(-1, 3) @ n).min())
+    if t >= extent:
+        raise ConfigError(
+            f"{where}: into: the layer ({t * 1e3:.4g} um) is not thinner than "
+            f"{target.name!r} ({extent * 1e3:.4g} um along the normal of {what})"
+        )
+    layer.frame = layer.frame.shifted(-t)
+    cap = section(solid, n, top - t)  # the solid's cut, where the patches' base lies
+    local = layer.frame.to_local(target.to_world(cap.reshape(-1, 3))).reshape(-1, 3, 3)
+    scale = max(float(np.abs(layer.outline).max()), 1.0)
+    assert layer.mask is not None
+    centres = layer.patch_map.cell_centres()
+    cap2d = ccw(local[..., :2])
+    layer.mask = layer.mask & cells_inside(cap2d, centres, layer.patch_size, 1e-9 * scale)
+    layer.base_outline = ccw(clip_to_convex(layer.outline, cap2d))  # the flat rest lies there
+    if not layer.mask.any():
+        raise ConfigError(f"{where}: into: no whole patch fits on the cut below {what}")
+
+
+def _trimmable(target: TargetVolume, face: str) -> bool:
+    """The target's solid is cut for an ``into`` layer on ``face`` by a thinner solid of its own
+    type (a box, a tube's end face: :meth:`Shape.trimmed`)."""
+    return target.shape is not None and target.shape.trimmed({face: 0.0}) is not None
 
 
 def _rough_patch_map(extent, size, rough: RoughFace, context: str) -> PatchMap:
