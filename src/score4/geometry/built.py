@@ -14,6 +14,8 @@ from score4.world.scene import Scene, TargetVolume
 
 from ..errors import ConfigError
 from ..shapes import G4Box as G4BoxShape
+from ..shapes import G4Orb as G4OrbShape
+from ..shapes import G4Sphere as G4SphereShape
 from ..shapes import G4Tubs as G4TubsShape
 from ..shapes import Shape
 from .portal import PortalGeometry
@@ -42,6 +44,12 @@ def g4_solid(g4, shape: Shape, name: str):
         return g4.G4Box(name, shape.dx, shape.dy, shape.dz)
     if isinstance(shape, G4TubsShape):
         return g4.G4Tubs(name, shape.rmin, shape.rmax, shape.dz, shape.sphi, shape.dphi)
+    if isinstance(shape, G4SphereShape):
+        return g4.G4Sphere(
+            name, shape.rmin, shape.rmax, shape.sphi, shape.dphi, shape.stheta, shape.dtheta
+        )
+    if isinstance(shape, G4OrbShape):
+        return g4.G4Orb(name, shape.r)
     raise ConfigError(f"{name}: score4 builds no Geant4 solid of a {shape.kind}")
 
 

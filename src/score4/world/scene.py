@@ -30,6 +30,7 @@ from score4.errors import ConfigError
 from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig
 from score4.shapes import G4Box as G4BoxShape
 from score4.shapes import G4GenericPolycone, PlacedShape, Shape, Transform, shape_from_dict
+from score4.shapes import G4Sphere as G4SphereShape
 from score4.shapes.faces import AnnulusFace, Face, PlaneFace, RevolvedFace, SphereFace
 from score4.shapes.hpge import hpge_groups, is_hpge_metadata
 from score4.surface.block_cut import check_patch
@@ -510,7 +511,13 @@ class CurvedRoughLayer(RoughLayer):
         return inside
 
     def in_cut(self, points: np.ndarray) -> np.ndarray:
-        return np.zeros(len(points), dtype=bool)  # into: true is refused on curved faces
+        """With ``into`` (a sphere's face): True for world points in the shell cut from the
+        solid, between the layer's face and the solid's face."""
+        if not self.config.into:
+            return np.zeros(len(points), dtype=bool)
+        face = self.ring_layout.face
+        h = face.locate(self.target.to_local(np.asarray(points, float).reshape(-1, 3)))[2]
+        return np.asarray((h > BOUNDARY_TOLERANCE) & (h <= self.thickness + BOUNDARY_TOLERANCE))
 
     def shell_points(self, n_phi: int = 72, n_v: int = 9, n_h: int = 3) -> np.ndarray:
         """World points on and in the layer's shell (the face extruded by the thickness along
@@ -1086,10 +1093,13 @@ def make_curved_layer(
     """The rough layer on a face swept around z (:mod:`score4.world.curved`)."""
     what = f"face {rough.face_name} of {target.name!r}"
     if rough.into:
-        raise ConfigError(
-            f"{where}: into: true on a curved face ({what}) is not supported; the layer goes "
-            "outside the volume (into: false)"
-        )
+        if not isinstance(face, SphereFace) or not _trimmable(target, rough.face_name):
+            raise ConfigError(
+                f"{where}: into: true on a curved face ({what}) is supported on the outer and "
+                "inner faces of a G4Sphere or G4Orb only; the layer goes outside the volume "
+                "(into: false)"
+            )
+        return _into_sphere(target, rough, face, names, variants, size, where)
     if rough.tiling == "portal":
         raise ConfigError(
             f"{where}: tiling portal on a curved face ({what}): a portal's jumps are pure "
@@ -1152,6 +1162,42 @@ def make_curved_layer(
     limit = gap_limit(max(s.max_height for s in variants))
     check_radius(layout, layer.gap, limit, where, target.name, rough.face_name)
     return layer
+
+
+def _into_sphere(
+    target: TargetVolume,
+    rough: RoughFace,
+    face: SphereFace,
+    names: list[str],
+    variants: list[Surface],
+    size: tuple[float, float],
+    where: str,
+) -> CurvedRoughLayer:
+    """The layer of ``rough`` grown into a G4Sphere or G4Orb: laid out on the face of the solid
+    made thinner by the layer's thickness (the radius moved in for ``outer``, out for
+    ``inner``), its top padded to reach the face (the bent layer's thickness changes a little
+    with the radius: the cut is taken again until the layer fits)."""
+    outside = rough.model_copy(update={"into": False})
+    shape = target.described("into")
+    cut = make_curved_layer(target, outside, face, names, variants, size, where).thickness
+    lo, hi = (shape.rmin, shape.rmax) if isinstance(shape, G4SphereShape) else (0.0, shape.r)
+    for _ in range(4):
+        if cut >= hi - lo:
+            raise ConfigError(
+                f"{where}: into: the layer ({cut * 1e3:.4g} um) is not thinner than "
+                f"{target.name!r} ({(hi - lo) * 1e3:.4g} um between its spheres)"
+            )
+        trimmed = shape.trimmed({rough.face_name: cut})
+        assert trimmed is not None
+        inner = trimmed[0].face(rough.face_name)
+        assert isinstance(inner, SphereFace)
+        layer = make_curved_layer(target, outside, inner, names, variants, size, where)
+        if layer.thickness <= cut:
+            layer.top_margin += cut - layer.thickness  # the top where the face was
+            layer.config = rough
+            return layer
+        cut = layer.thickness * (1 + 1e-9)
+    raise ConfigError(f"{where}: into: the layer on {face.name} does not settle on a cut")
 
 
 def make_polygon_layer(
