@@ -30,6 +30,7 @@ from score4.errors import ConfigError
 from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig
 from score4.shapes import G4Box as G4BoxShape
 from score4.shapes import G4GenericPolycone, PlacedShape, Shape, Transform, shape_from_dict
+from score4.shapes import G4Orb as G4OrbShape
 from score4.shapes import G4Sphere as G4SphereShape
 from score4.shapes.faces import AnnulusFace, Face, PlaneFace, RevolvedFace, SphereFace
 from score4.shapes.hpge import hpge_groups, is_hpge_metadata
@@ -1180,7 +1181,11 @@ def _into_sphere(
     outside = rough.model_copy(update={"into": False})
     shape = target.described("into")
     cut = make_curved_layer(target, outside, face, names, variants, size, where).thickness
-    lo, hi = (shape.rmin, shape.rmax) if isinstance(shape, G4SphereShape) else (0.0, shape.r)
+    if isinstance(shape, G4SphereShape):
+        lo, hi = shape.rmin, shape.rmax
+    else:
+        assert isinstance(shape, G4OrbShape)  # _trimmable: a G4Sphere or a G4Orb
+        lo, hi = 0.0, shape.r
     for _ in range(4):
         if cut >= hi - lo:
             raise ConfigError(
