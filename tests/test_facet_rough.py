@@ -540,6 +540,7 @@ def test_into_layers_on_neighbouring_faces_are_refused(gdml):
         build_scene(parse_config(data))
 
 
+@pytest.mark.deep
 def test_exported_into_world_gives_the_same_geantino_paths(into_data, tmp_path):
     """into layers on the G4Trd and the G4TessellatedSolid written to GDML (the clipped solids
     as tessellated solids) and read back by Geant4: the same ray paths to 1e-9 mm."""

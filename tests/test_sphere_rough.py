@@ -212,11 +212,17 @@ def _call(name, *args):
     return getattr(g4_gdml_world, name)(*args)
 
 
-def test_exported_sphere_layers_give_the_same_geantino_paths(gdml, scene, tmp_path):
-    """The shell segment with both curved faces rough, written to GDML by `score4 geometry
-    export` and read back by Geant4: the same ray paths (volumes and points, 1e-9 mm)."""
+@pytest.mark.parametrize("into", [False, pytest.param(True, marks=pytest.mark.deep)])
+def test_exported_sphere_layers_give_the_same_geantino_paths(gdml, scene, tmp_path, into):
+    """The shell segment with both curved faces rough (``into``: grown into the shell, which
+    is thinner), written to GDML by `score4 geometry export` and read back by Geant4: the same
+    ray paths (volumes and points, 1e-9 mm)."""
     cfg = tmp_path / "sph.yaml"
-    cfg.write_text(yaml.safe_dump(config(gdml, {"sph": ["outer", "inner"]})))
+    data = config(gdml, {"sph": ["outer", "inner"]})
+    for r in data["targets"][0]["rough"]:
+        r["into"] = into
+    cfg.write_text(yaml.safe_dump(data))
+    scene = build_scene(parse_config(data)) if into else scene
     out = tmp_path / "world.gdml"
     assert main(["geometry", "export", str(cfg), "--gdml", str(out)]) == 0
     rng = np.random.default_rng(5)
