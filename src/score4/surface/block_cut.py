@@ -18,6 +18,7 @@ gap and no overlap between them. Their union is the old closed body (:meth:`Surf
 from __future__ import annotations
 
 import numbers
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -120,6 +121,11 @@ def split_top(surface: Surface, block_cells: int | None = None) -> list[Triangle
     Every face of :attr:`Surface.top_mesh` lands in exactly one block (faces never cross a cell
     edge); vertices are copied, not moved.
     """
+    return list(iter_split_top(surface, block_cells))
+
+
+def iter_split_top(surface: Surface, block_cells: int | None = None) -> Iterator[TriangleMesh]:
+    """:func:`split_top` one block at a time (the patch is checked before the first)."""
     check_patch(surface, "blocks", block_cells)
     mesh = surface.top_mesh
     ny, nx = cell_shape(surface)
@@ -133,20 +139,26 @@ def split_top(surface: Surface, block_cells: int | None = None) -> list[Triangle
     block = bj * (len(ex) - 1) + bi
     order = np.argsort(block, kind="stable")
     starts = np.searchsorted(block[order], np.arange((len(ex) - 1) * (len(ey) - 1) + 1))
-    out = []
     for b in range(len(starts) - 1):
         rows = order[starts[b] : starts[b + 1]]
         faces = mesh.faces[rows]
         used, local = np.unique(faces, return_inverse=True)
-        out.append(TriangleMesh(mesh.vertices[used], local.reshape(-1, 3), facet=cell[rows]))
-    return out
+        yield TriangleMesh(mesh.vertices[used], local.reshape(-1, 3), facet=cell[rows])
 
 
 def block_bodies(
     surface: Surface, base_thickness: float, block_cells: int | None = None
 ) -> list[TriangleMesh]:
     """Closed bodies of the blocks: each block's top on walls down to ``z = -base_thickness``."""
-    return [block_body(top, base_thickness) for top in split_top(surface, block_cells)]
+    return list(iter_block_bodies(surface, base_thickness, block_cells))
+
+
+def iter_block_bodies(
+    surface: Surface, base_thickness: float, block_cells: int | None = None
+) -> Iterator[TriangleMesh]:
+    """:func:`block_bodies` one at a time, so a caller that hands each to Geant4 and drops it
+    never holds them all (a 1024 x 1024-pixel map: ~390 MB of numpy bodies)."""
+    return (block_body(top, base_thickness) for top in iter_split_top(surface, block_cells))
 
 
 def _upright(
