@@ -183,13 +183,15 @@ class TrajectoryLibrary:
         """The rotation that takes the continuation from point ``i`` (turned by ``azimuth``)
         onto unit vector ``direction``: world offsets are ``(points[i:] - points[i]) @ turn.T``
         (:meth:`rotation` as a 3 x 3 array)."""
-        return np.array(self.rotation(i, azimuth, direction)).reshape(3, 3)
+        rows = self.rotation(i, azimuth, [float(c) for c in direction])
+        return np.array(rows).reshape(3, 3)
 
     def rotation(self, i: int, azimuth: float, direction) -> tuple[float, ...]:
         """:meth:`turn`'s nine elements row by row, in plain floats (numpy's per-call cost is
-        most of a replay): ``rotation_from_x(direction) @ frame(i, azimuth)``."""
+        most of a replay): ``rotation_from_x(direction) @ frame(i, azimuth)``; ``direction``
+        three floats."""
         ca, sa = math.cos(azimuth), math.sin(azimuth)
-        dx, dy, dz = (float(c) for c in direction)
+        dx, dy, dz = direction
         if dx < -1 + 1e-12:  # the rotation from +x: half a turn about z
             d = ((-1.0, 0.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, 1.0))
         else:  # rows of rotation_from_x(direction), the transpose of _rotation_to_x's base
@@ -202,7 +204,8 @@ class TrajectoryLibrary:
         # d @ spin(azimuth): spin mixes the 2nd and 3rd columns
         ds = [(r[0], r[1] * ca + r[2] * sa, r[2] * ca - r[1] * sa) for r in d]
         if i in self._starts:  # TRIM's ions enter along +x: the frame is the spin alone
-            return tuple(v for r in ds for v in r)
+            (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = ds
+            return (r00, r01, r02, r10, r11, r12, r20, r21, r22)
         # the piece from point i to +x (_rotation_to_x's base, no spin): ds @ base
         x, y, z = self.columns[0], self.columns[1], self.columns[2]
         ux, uy, uz = x[i + 1] - x[i], y[i + 1] - y[i], z[i + 1] - z[i]

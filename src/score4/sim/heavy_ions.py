@@ -285,8 +285,10 @@ class HeavyIonTransport:
         """
         if announce:
             self.need(ion, energy)
-        px, py, pz = (float(c) for c in position)
-        dx, dy, dz = (float(c) for c in direction)
+        px, py, pz = position.tolist() if isinstance(position, np.ndarray) else map(float, position)
+        dx, dy, dz = (
+            direction.tolist() if isinstance(direction, np.ndarray) else map(float, direction)
+        )
         norm = math.sqrt(dx * dx + dy * dy + dz * dz)
         dx, dy, dz = dx / norm, dy / norm, dz / norm
         pdg = self._pdg.get(ion)

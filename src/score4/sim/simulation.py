@@ -335,6 +335,9 @@ class Simulation:
         self.intercepted, self.ion_fates = [], {}
         self._pending: list[tuple[IonFate, bool]] = []
         self._replayed: list[tuple[IonFate, bool]] = []
+        self._early: dict[int, list[tuple[IonFate, bool]]] = {}
+        if self._replaying and self.atoms is None:
+            self._replay_all()
         self._scored = False
         self._intercept(names)
         if self.steps is not None:
@@ -553,9 +556,8 @@ class Simulation:
         (their deposits join the event's at its end); with per-atom histories, put each decay
         where its atom is first (:class:`~score4.sim.implantation.AtomTracker`)."""
         feed, atoms = self._feed, self.atoms
-        if atoms is None:
-            for row in feed.rows_of(k, self._trim):
-                self._replay_row(k, int(row))
+        if atoms is None:  # replayed before the run (_replay_all)
+            self._replayed.extend(self._early.pop(k, ()))
             return
         decay = atoms.decay_index
         a, end = int(feed.offsets[k]), int(feed.offsets[k + 1])
@@ -569,6 +571,7 @@ class Simulation:
                 for row in range(a, b):
                     if self._trim[row]:
                         fate = self._replay_row(k, row)
+                        self._replayed.append((fate, self._is_alpha(row)))
                         if atoms.recoil[row]:
                             atoms.moved(row, fate)
                     elif atoms.recoil[row]:
@@ -586,13 +589,29 @@ class Simulation:
             kept = self._untracked_rows[rows]
             self.untracked_gamma[k] = float(feed.primaries.energy[rows][kept].sum())
 
+    def _replay_all(self) -> None:
+        """Replay the heavy ions of every event of the batch, in event order, before Geant4
+        tracks any (without per-atom histories nothing of Geant4's tracking changes a replay):
+        one tight loop keeps the replay's code and data in the CPU's caches, which a replay
+        between two Geant4 events finds cold (it then costs about twice as much:
+        ``benchmarks/bench_replay_speed.py``). Each event books its fates at its end."""
+        feed, early = self._feed, self._early
+        event = feed.primaries.event
+        for row in np.flatnonzero(self._trim).tolist():
+            k = int(event[row])
+            early.setdefault(k, []).append((self._replay_row(k, row), self._is_alpha(row)))
+
+    def _is_alpha(self, row: int) -> bool:
+        """Row ``row`` is an alpha (on TRIM with ``alphas: trim``): its deposits also count in
+        the alpha class."""
+        return str(self._feed.primaries.particle[row]) == "alpha"
+
     def _replay_row(self, k: int, row: int) -> IonFate:
-        """Replay the heavy ion of ``row`` (event ``k``); its deposits join the event's at its
-        end (an alpha's also the alpha class, ``alphas: trim``)."""
+        """Replay the heavy ion of ``row`` (event ``k``); the caller books its deposits into
+        the event's at its end (:meth:`_replay_all`, :meth:`_replay_event`)."""
         transport, feed = self.heavy_ions, self._feed
         assert transport is not None
         fate = replay_row(transport, feed, k, row)
-        self._replayed.append((fate, str(feed.primaries.particle[row]) == "alpha"))
         self.ion_fates[row] = fate
         if self.endpoints is not None:
             self.endpoints[row] = (*fate.position, fate.escaped_energy)
