@@ -16,8 +16,10 @@ geometry with a Geant4 navigator of its own:
 * in vacuum it flies straight until it meets matter again (a recoil leaving a spike may enter the
   next one) or leaves the world.
 
-Python runs per heavy ion, not per Geant4 step; pieces that lie inside the current volume's
-safety sphere are summed in numpy without asking the navigator.
+Python runs per heavy ion, not per Geant4 step. The walk runs in the library's own frame on
+flat arrays (a point is turned into the world only where the navigator is asked about it), and
+pieces that lie inside the current volume's safety sphere are summed without asking the
+navigator (a new sphere about the last point passed, before any piece is stepped through).
 """
 
 from __future__ import annotations

@@ -292,9 +292,10 @@ class Simulation:
         geometry (Geant4 walks the volume tree to update regions and cuts: 0.8 s with 4 million
         flat placements, see docs/tiling.md). ``progress(n)`` is called from the event action
         every ``batch`` events (default: a twentieth of the events) and once at the end.
-        Heavy ions (:meth:`trim_rows`) are moved along TRIM trajectories just before Geant4
-        tracks the rest of their event (:mod:`score4.sim.heavy_ions`; per-atom histories need
-        the stop points first); their deposits join their events'.
+        Heavy ions (:meth:`trim_rows`) are moved along TRIM trajectories
+        (:mod:`score4.sim.heavy_ions`) all before Geant4 tracks the batch, each from its own
+        random stream (with per-atom histories just before Geant4 tracks their event: a
+        daughter starts where its recoil stopped); their deposits join their events'.
         With ``endpoints=True``, ``self.endpoints`` is then an (n_rows, 4) array: where each
         primary ended (x, y, z mm) and its kinetic energy there (MeV; > 0 if it left the world).
         ``stop``, set from another thread, ends the run after the event being tracked
@@ -552,9 +553,10 @@ class Simulation:
         self._interceptor.gammas |= gammas
 
     def _replay_event(self, k: int) -> None:
-        """Move event ``k``'s heavy ions along TRIM trajectories before Geant4 tracks the event
-        (their deposits join the event's at its end); with per-atom histories, put each decay
-        where its atom is first (:class:`~score4.sim.implantation.AtomTracker`)."""
+        """Before Geant4 tracks event ``k``: have its heavy ions' deposits join the event's at
+        its end (replayed before the run: :meth:`_replay_all`); with per-atom histories,
+        replay them now and put each decay where its atom is first
+        (:class:`~score4.sim.implantation.AtomTracker`)."""
         feed, atoms = self._feed, self.atoms
         if atoms is None:  # replayed before the run (_replay_all)
             self._replayed.extend(self._early.pop(k, ()))
