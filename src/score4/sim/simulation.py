@@ -338,7 +338,7 @@ class Simulation:
         self._replayed: list[tuple[IonFate, bool]] = []
         self._early: dict[int, list[tuple[IonFate, bool]]] = {}
         if self._replaying and self.atoms is None:
-            self._replay_all()
+            self._replay_all(stop)
         self._scored = False
         self._intercept(names)
         if self.steps is not None:
@@ -591,15 +591,18 @@ class Simulation:
             kept = self._untracked_rows[rows]
             self.untracked_gamma[k] = float(feed.primaries.energy[rows][kept].sum())
 
-    def _replay_all(self) -> None:
+    def _replay_all(self, stop: threading.Event | None = None) -> None:
         """Replay the heavy ions of every event of the batch, in event order, before Geant4
         tracks any (without per-atom histories nothing of Geant4's tracking changes a replay):
         one tight loop keeps the replay's code and data in the CPU's caches, which a replay
         between two Geant4 events finds cold (it then costs about twice as much:
-        ``benchmarks/bench_replay_speed.py``). Each event books its fates at its end."""
+        ``benchmarks/bench_replay_speed.py``). Each event books its fates at its end.
+        ``stop`` (see :meth:`run`) is looked at every 1000 ions."""
         feed, early = self._feed, self._early
         event = feed.primaries.event
-        for row in np.flatnonzero(self._trim).tolist():
+        for n, row in enumerate(np.flatnonzero(self._trim).tolist()):
+            if n % 1000 == 999 and stop is not None and stop.is_set():
+                raise RunCancelled(f"run cancelled after 0 of {feed.n_events} events")
             k = int(event[row])
             early.setdefault(k, []).append((self._replay_row(k, row), self._is_alpha(row)))
 
