@@ -100,6 +100,11 @@ def boolean_layers(
     area = float(shape.face_areas[name])
     if not area > 0:
         raise ConfigError(f"{where}: {what} lies nowhere on the solid's surface (area 0)")
+    if isinstance(clip.leaf.face(clip.face), SphereFace):
+        raise ConfigError(
+            f"{where}: {what} is the sphere face {clip.face} of a {clip.leaf.kind}; rough faces "
+            "of a boolean are flat faces and cylinder or cone walls"
+        )
     if clip.flipped and not isinstance(clip.leaf.face(clip.face), PlaneFace):
         raise ConfigError(
             f"{where}: {what} is the curved face {clip.face} of a subtracted "
