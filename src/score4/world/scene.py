@@ -32,8 +32,9 @@ from score4.shapes import G4Box as G4BoxShape
 from score4.shapes import G4GenericPolycone, PlacedShape, Shape, Transform, shape_from_dict
 from score4.shapes import G4Orb as G4OrbShape
 from score4.shapes import G4Sphere as G4SphereShape
+from score4.shapes.boolean import BooleanShape, FaceClip
 from score4.shapes.faces import AnnulusFace, Face, PlaneFace, RevolvedFace, SphereFace
-from score4.shapes.hpge import hpge_groups, is_hpge_metadata
+from score4.shapes.hpge import HPGE_GROUPS, hpge_groups, is_hpge_metadata
 from score4.surface.block_cut import check_patch
 from score4.surface.patchmap import PatchMap, make_patch_map
 from score4.surface.spec import Surface
@@ -267,6 +268,22 @@ def box_target(box: BoxVolume, entry: int, mother: Instance | None = None) -> Ta
     )
 
 
+@dataclass(frozen=True, eq=False)
+class BooleanFace:
+    """Where a rough layer's face lies on a boolean solid: ``shape`` (the target's solid),
+    ``face`` (its face name), ``clip`` (the leaf face and the solids cutting it) and
+    ``transform`` (the boolean's frame to the world)."""
+
+    shape: Shape
+    face: str
+    clip: FaceClip
+    transform: Transform
+
+    def on_surface(self, world: np.ndarray) -> np.ndarray:
+        """True for world points of the leaf face that lie on the boolean's surface."""
+        return np.asarray(self.clip.margin(self.transform.inverse_apply(world)) > 0)
+
+
 @dataclass
 class RoughLayer:
     """A rough face: patch variants tiled over a face of a target.
@@ -284,11 +301,16 @@ class RoughLayer:
     mask: np.ndarray | None = None
     face_area: float = 0.0  # the flat face's area, mm2
     curved = False  # patches bent onto a face swept around z (CurvedRoughLayer)
+    #: on a face of a boolean solid: the boolean and where its face lies (``target`` is then the
+    #: volume seen as the leaf solid that face belongs to, :mod:`score4.world.boolean_layers`)
+    on_boolean: BooleanFace | None = field(default=None, kw_only=True)
 
     @property
     def name(self) -> str:
         face = self.config.face_name
-        return f"{self.target.name}_rough{face}".replace("+", "p").replace("-", "m")
+        return (
+            f"{self.target.name}_rough{face}".replace("+", "p").replace("-", "m").replace(".", "_")
+        )
 
     @property
     def base_thickness(self) -> float:
@@ -475,7 +497,8 @@ class CurvedRoughLayer(RoughLayer):
         grid = self.cell_variants
         for j in range(len(self.ring_layout.v)):
             for i, phi in enumerate(self.ring_layout.cell_phi(j)):
-                out.append((j, i, int(grid[j, i]), float(phi)))
+                if grid[j, i] >= 0:  # a cell off a boolean's surface holds none
+                    out.append((j, i, int(grid[j, i]), float(phi)))
         return out
 
     def contains(self, points: np.ndarray) -> np.ndarray:
@@ -930,6 +953,14 @@ def gdml_target(
     if isinstance(shape, G4GenericPolycone) and is_hpge_metadata(meta):
         assert meta is not None
         shape = hpge_groups(shape, meta)  # the pplus, passive and nplus groups of an HPGe
+    elif (
+        isinstance(shape, BooleanShape)
+        and isinstance(shape.first, G4GenericPolycone)
+        and is_hpge_metadata(meta)
+    ):
+        assert meta is not None  # an HPGe with a cut (legend-pygeom-hpges' P00664B, V02160A):
+        # the groups of its polycone, on the boolean's faces
+        shape = replace(shape, first=hpge_groups(shape.first, meta), aliases=HPGE_GROUPS)
     return TargetVolume(
         column,
         entry,
