@@ -79,6 +79,7 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
     shifts: dict[tuple[int, float], float] = {}  # a cone's cell centre above its ring's
     patch_lvs: list = []
     cell_lvs: list = []  # the cells of bent frustums (mother material, ~2500 daughters each)
+    column_lvs: list = []  # on a cone, a cell's column of spikes (placed across the cell)
 
     def patch_lv(k: int, j: int):
         key = (k, layer.ring_solid_key(j))
@@ -98,11 +99,42 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
                 band = g4.G4Cons(f"{tag}_b", *b, 0.0, 2 * np.pi)
                 cell = g4.G4IntersectionSolid(tag, shell, band)
                 lv = g4.G4LogicalVolume(cell, mother_material, tag)
-                inner, inner_keep = place_bent_frustums(g4, layer, k, j, material, lv, tag, z_cell)
+                keep.extend([shell, band, cell, lv])
+                grid = layer.variants[k].spikes
+                assert grid is not None
+                if np.all(
+                    grid.heights == grid.heights[:, :1]
+                ):  # columns alike: one placed nx times
+                    angle = grid.width_x / float(lay.radius[j])
+                    col_shell = g4.G4Cons(f"{tag}_ca", *a[:5], -angle / 2, angle)
+                    col = g4.G4IntersectionSolid(f"{tag}_col", col_shell, band)
+                    col_lv = g4.G4LogicalVolume(col, mother_material, f"{tag}_col")
+                    inner, inner_keep = place_bent_frustums(
+                        g4, layer, k, j, material, col_lv, f"{tag}_col", z_cell, column=True
+                    )
+                    xs = (np.arange(grid.nx) + 0.5) * grid.width_x - grid.size_x / 2
+                    for i, x in enumerate(xs):
+                        r3 = g4.G4RotationMatrix()
+                        r3.rotateZ(float(x) / float(lay.radius[j]))
+                        g4.G4PVPlacement(
+                            g4.G4Transform3D(r3, g4.G4ThreeVector()),
+                            col_lv,
+                            f"{tag}_col",
+                            lv,
+                            False,
+                            i,
+                            False,
+                        )
+                    column_lvs.append(col_lv)
+                    keep.extend([col_shell, col, col_lv])
+                else:
+                    inner, inner_keep = place_bent_frustums(
+                        g4, layer, k, j, material, lv, tag, z_cell
+                    )
                 shifts[key] = z_cell
                 patch_lvs.extend(inner)
                 cell_lvs.append(lv)
-                keep.extend([shell, band, cell, lv, *inner_keep])
+                keep.extend(inner_keep)
             else:
                 bent = layer.bent(k, j)
                 solid = tessellated_solid(g4, TriangleMesh(bent.vertices, bent.faces), tag)
@@ -132,7 +164,8 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
             lv = patch_lv(k, j)
             z_cell = shifts.get((k, layer.ring_solid_key(j)), 0.0)
             place(lv, phi, ring_z[j] - zc + z_cell, env_lv, copy_no)
-        keep += level_regions(g4, [cell_lvs], name) if cell_lvs else []
+        levels = [column_lvs, cell_lvs] if column_lvs else [cell_lvs]
+        keep += level_regions(g4, levels, name) if cell_lvs else []
         return patch_lvs, keep
     # A cylinder: each ring is a shell of one row (a G4Tubs), and rings with the same variants in
     # the same order are one logical volume placed once per row: one ring of one variant serves
@@ -327,14 +360,24 @@ def bent_traps(
 
 
 def place_bent_frustums(
-    g4, layer: CurvedRoughLayer, k: int, j: int, material, cell_lv, name: str, z_shift: float = 0.0
+    g4,
+    layer: CurvedRoughLayer,
+    k: int,
+    j: int,
+    material,
+    cell_lv,
+    name: str,
+    z_shift: float = 0.0,
+    column: bool = False,
 ) -> tuple[list, list]:
     """Place variant ``k`` (a spike grid) bent onto ring ``j`` in ``cell_lv`` (the patch's cell
     at phi = 0, its centre ``z_shift`` above the ring's): one solid per column of cells for the
     slab (its floor and top are the chords the tessellated body has) and one per spike layer;
     on a cylinder G4Trds (:func:`bent_trds`), on a cone G4Traps and, for layers that end in a
     point, G4GenericTraps (:func:`bent_traps`). Shapes repeat, so solids and logical volumes are
-    shared. Returns ``(logical volumes of material, objects to keep alive)``."""
+    shared. ``column``: only the first column of spikes (and its column of the slab), moved to
+    the cell's centre azimuth (a cell of one column, placed across the patch when all columns
+    are alike). Returns ``(logical volumes of material, objects to keep alive)``."""
     from .tiling import _rotation
 
     grid = layer.variants[k].spikes
@@ -363,13 +406,20 @@ def place_bent_frustums(
         "wyb": f["width_y_bottom"],
         "wyt": f["width_y_top"],
     }
+    if column:  # the first column at x = 0
+        first = np.asarray(f["spike"]) % grid.nx == 0
+        spikes = {key: value[first] for key, value in spikes.items()}
+        spikes["x"] = np.zeros(int(first.sum()))
+        columns = {key: value[:1] for key, value in columns.items()}
+        columns["x"] = np.zeros(1)
+        f = f[first]
     lvs: list = []
     keep: list = []
     shapes: dict[tuple, object] = {}
     copy_no = 0
     shift = np.array([0.0, 0.0, z_shift])
     for part, box, group in (
-        ("c", columns, np.arange(grid.nx)),
+        ("c", columns, np.arange(len(columns["x"]))),
         ("s", spikes, np.asarray(f["spike"], np.int64)),
     ):
         solids: list[tuple[tuple, tuple]] = []  # (sharing key, (kind, parameters))
