@@ -94,9 +94,7 @@ def write_orb(path: Path, radius: float) -> None:
         "World",
         reg,
     )
-    orb = pg.geant4.LogicalVolume(
-        pg.geant4.solid.Orb("orb_s", radius, reg), "G4_Si", "Orb", reg
-    )
+    orb = pg.geant4.LogicalVolume(pg.geant4.solid.Orb("orb_s", radius, reg), "G4_Si", "Orb", reg)
     pg.geant4.PhysicalVolume([0, 0, 0], [0, 0, 0], orb, "cyl", world, reg)
     reg.setWorld(world.name)
     writer = pg.gdml.Writer()

@@ -11,7 +11,10 @@ its ring.
 
 On a cylinder a spike grid's patch is instead a cell (a ``G4Tubs`` segment of the mother's
 material) of bent G4Trds, one per spike layer and one per column of the slab
-(:func:`place_bent_frustums`): the same body, tracked through analytic solids.
+(:func:`place_bent_frustums`): the same body, tracked through analytic solids. On a cone the
+bent layers are G4Traps and G4GenericTraps (:func:`bent_traps`) in a cell that is the common
+part of two G4Cons (:func:`score4.world.curved.cone_cell`); a patch whose spike columns are
+alike is one column cell placed across it.
 """
 
 from __future__ import annotations
