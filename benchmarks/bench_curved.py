@@ -62,9 +62,58 @@ def write_cylinder(path: Path, radius: float, half_length: float) -> None:
     writer.write(str(path))
 
 
+def write_cone(path: Path, radius: float, half_length: float) -> None:
+    """A silicon G4Cons at 45 degrees whose side has the cylinder wall's area: mean radius
+    ``radius``, generator ``2 half_length``."""
+    import pyg4ometry as pg
+
+    reg = pg.geant4.Registry()
+    dr = half_length / math.sqrt(2)  # half the radius change and half the height
+    side = 4 * (radius + half_length)
+    world = pg.geant4.LogicalVolume(
+        pg.geant4.solid.Box("world_s", side, side, side, reg), "G4_Galactic", "World", reg
+    )
+    solid = pg.geant4.solid.Cons(
+        "cone_s", 0, radius - dr, 0, radius + dr, 2 * dr, 0, 2 * math.pi, reg
+    )
+    cone = pg.geant4.LogicalVolume(solid, "G4_Si", "Cone", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], [0, 0, 0], cone, "cyl", world, reg)
+    reg.setWorld(world.name)
+    writer = pg.gdml.Writer()
+    writer.addDetector(reg)
+    writer.write(str(path))
+
+
+def write_orb(path: Path, radius: float) -> None:
+    import pyg4ometry as pg
+
+    reg = pg.geant4.Registry()
+    world = pg.geant4.LogicalVolume(
+        pg.geant4.solid.Box("world_s", 4 * radius, 4 * radius, 4 * radius, reg),
+        "G4_Galactic",
+        "World",
+        reg,
+    )
+    orb = pg.geant4.LogicalVolume(pg.geant4.solid.Orb("orb_s", radius, reg), "G4_Si", "Orb", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], [0, 0, 0], orb, "cyl", world, reg)
+    reg.setWorld(world.name)
+    writer = pg.gdml.Writer()
+    writer.addDetector(reg)
+    writer.write(str(path))
+
+
+#: The BEGe's faces that take rough layers together (the contact disk seg_0a, the ring seg_0b
+#: and the top disk seg_8 are flat layers whose envelope boxes meet their neighbours' layers:
+#: refused by the clearance check).
+BEGE_FACES = ["seg_1", "seg_2", "seg_3", "seg_4", "seg_5", "seg_6", "seg_7"]
+
 CASES = {
     "frustums": "curved wall, bent G4Trds (solid: auto)",
     "tessellated": "curved wall, bent tessellated bodies",
+    "cone": "45 degree cone side, bent G4Traps (solid: auto)",
+    "cone_tess": "45 degree cone side, bent tessellated bodies",
+    "bege": "BEGe, 7 of its 10 faces rough (solid: auto)",
+    "orb": "orb of equal area, whole sphere rough",
     "whole": "whole surface: wall and both ends rough (solid: auto)",
     "flat": "flat face of equal area, multi-union (solid: auto)",
     "flat_tess": "flat face of equal area, tessellated",
@@ -86,6 +135,28 @@ def configs(folder: Path, radius: float, half_length: float) -> dict[str, dict]:
             ],
             "source": {**SOURCE, "surface": {"volume": "cyl", "face": "outer"}},
         }
+    write_cone(folder / "cone.gdml", radius, half_length)
+    for case, solid in (("cone", "auto"), ("cone_tess", "tessellated")):
+        out[case] = {
+            **out["frustums"],
+            "world": {"gdml": "cone.gdml"},
+            "targets": [
+                {"volume": "cyl", "rough": [{"face": "outer", "surface": "p", "solid": solid}]}
+            ],
+        }
+    write_orb(folder / "orb.gdml", math.sqrt(radius * half_length))  # 4 pi r^2 = the wall's
+    out["orb"] = {**out["frustums"], "world": {"gdml": "orb.gdml"}}
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples" / "rough_hpge"))
+    from write_bege import main as write_bege
+
+    write_bege(str(folder / "bege.gdml"))
+    out["bege"] = {
+        "physics": "lite",
+        "world": {"gdml": "bege.gdml"},
+        "surfaces": {"p": PYRAMIDS},
+        "targets": [{"volume": "bege", "rough": [{"face": BEGE_FACES, "surface": "p"}]}],
+        "source": {**SOURCE, "surface": {"volume": "bege", "face": BEGE_FACES}},
+    }
     out["whole"] = {
         "physics": "lite",
         "world": {"gdml": "cyl.gdml"},

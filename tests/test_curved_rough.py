@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from score4.errors import ConfigError
+from score4.geometry.curved import bent_corners, bent_traps
 from score4.inputs.config import parse_config
 from score4.runner.engine import run
 from score4.runner.output import read_results
@@ -122,15 +123,17 @@ def lay_normal(layer, points):
     return layer.ring_layout.face.normal(u, 0.0) @ layer.target.rotation.T
 
 
-def ray_path(origins, directions, layer, radius, half_z, window=4):
-    """Independent ray trace: the path length (mm) of each ray in the cylinder (analytic) and in
-    the bent patch bodies (Moeller-Trumbore on their triangles) near where it crosses the wall."""
+def ray_path(origins, directions, layer, radius, half_z, window=4, slope=0.0):
+    """Independent ray trace: the path length (mm) of each ray in the cylinder (analytic; a cone
+    of radius ``radius + slope z`` with ``slope``) and in the bent patch bodies (Moeller-Trumbore
+    on their triangles) near where it crosses the wall."""
     out = np.zeros(len(origins))
     lay = layer.ring_layout
     for n, (o, d) in enumerate(zip(origins, directions, strict=True)):
-        a = d[0] ** 2 + d[1] ** 2
-        b = 2 * (o[0] * d[0] + o[1] * d[1])
-        c = o[0] ** 2 + o[1] ** 2 - radius**2
+        r0 = radius + slope * o[2]  # the cone's radius at the ray's origin height
+        a = d[0] ** 2 + d[1] ** 2 - (slope * d[2]) ** 2
+        b = 2 * (o[0] * d[0] + o[1] * d[1]) - 2 * slope * d[2] * r0
+        c = o[0] ** 2 + o[1] ** 2 - r0**2
         disc = b * b - 4 * a * c
         hits = []
         if disc > 0:
@@ -167,7 +170,7 @@ def ray_path(origins, directions, layer, radius, half_z, window=4):
             t = np.einsum("ij,ij->i", e2, qv) * inv
             hit = ok & (u >= 0) & (w >= 0) & (u + w <= 1) & (t > 0)
             ts = np.sort(t[hit])
-            ts = ts[np.concatenate([[True], np.diff(ts) > 1e-12])]  # a ray through an edge
+            ts = ts[np.concatenate([[True], np.diff(ts) > 1e-12])[: len(ts)]]  # through an edge
             assert len(ts) % 2 == 0
             out[n] += float(np.sum(ts[1::2] - ts[0::2]))
     return out
@@ -210,6 +213,83 @@ def test_geantino_paths_agree_with_an_independent_ray_trace(cylinder, tmp_path, 
     r = read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
     expected = ray_path(start, direction, layer, RADIUS, HALF_Z)
     np.testing.assert_allclose(r.scores["track_length"]["cyl"], expected, rtol=0, atol=1e-9)
+
+
+ORDER = [0, 1, 3, 2, 4, 5, 7, 6]  # bent_corners' corners in G4Trap's order
+
+
+def write_cone(path, r1=3.0, r2=4.0, half_z=1.0):
+    """A G4Cons ``cyl`` of silicon in vacuum: radius ``r1`` at -z to ``r2`` at +z."""
+    import pyg4ometry as pg
+
+    reg = pg.geant4.Registry()
+    world = pg.geant4.LogicalVolume(
+        pg.geant4.solid.Box("world_s", 200, 200, 200, reg), "G4_Galactic", "World", reg
+    )
+    solid = pg.geant4.solid.Cons("cyl_s", 0, r1, 0, r2, 2 * half_z, 0, 2 * math.pi, reg)
+    cone = pg.geant4.LogicalVolume(solid, "G4_Si", "Cyl", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], [0, 0, 0], cone, "cyl", world, reg)
+    reg.setWorld(world.name)
+    writer = pg.gdml.Writer()
+    writer.addDetector(reg)
+    writer.write(str(path))
+    return path
+
+
+@pytest.fixture(scope="module")
+def cone(tmp_path_factory):
+    return write_cone(tmp_path_factory.mktemp("cone") / "cone.gdml")
+
+
+@pytest.mark.parametrize(
+    ("solid", "surface", "tol"),
+    [("frustums", PYRAMIDS, 1e-9), ("tessellated", PYRAMIDS, 1e-9), ("frustums", BUMPS, 2e-5)],
+    ids=["pyramids-frustums", "pyramids-tessellated", "bumps-spread-frustums"],
+)
+def test_geantino_paths_through_a_rough_cone(cone, tmp_path, solid, surface, tol):
+    """The same on a cone's side (radius 3 to 4 mm over 2 mm): with bent G4Traps and
+    G4GenericTraps in cells of two G4Cons (``solid: auto`` on a cone) the track lengths equal
+    the ray trace of the analytic cone plus the bent patch mesh to 1e-9 mm for pyramids (their
+    faces are the mesh's triangles). Bumps of 4 frustum layers have their bent side faces made
+    planar (:func:`score4.geometry.curved.bent_traps`): their corners move by at most 1e-6 mm
+    (1 % of the 0.1 um limit, on this 3 mm radius) and rays that graze a moved face differ by
+    up to 2e-5 mm."""
+    data = cylinder_config(cone, surface=surface, output={"track_length": True})
+    data["targets"][0]["rough"][0]["solid"] = solid
+    config = parse_config(data)
+    scene = build_scene(config)
+    (layer,) = scene.layers
+    assert layer.solid_kind(0) == solid
+    if solid == "frustums":
+        f = layer.variants[0].spikes.frustums()
+        box = {"x": f["x"], "y": f["y"], "z0": f["z"] - f["height"] / 2}
+        box |= {"z1": f["z"] + f["height"] / 2, "wxb": f["width_x_bottom"]}
+        box |= {"wxt": f["width_x_top"], "wyb": f["width_y_bottom"], "wyt": f["width_y_top"]}
+        for j in (0, len(layer.ring_layout.v) - 1):
+            traps = bent_traps(layer, j, box, np.asarray(f["spike"]))
+            bottom, top = bent_corners(layer, j, box)
+            moved = np.abs(traps.vertices - np.concatenate([bottom, top], axis=1)[:, ORDER])
+            assert moved.max() <= (1e-6 if surface is BUMPS else 1e-15)
+    rng = np.random.default_rng(7)
+    n = 40
+    primaries = make_source(config, scene).primaries(np.random.default_rng(1), 0, n)
+    phi = rng.uniform(0, 2 * np.pi, n)
+    z = rng.uniform(-0.3, 0.3, n)
+    r = 3.5 + 0.5 * z + 0.1
+    start = np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
+    aim = np.column_stack(
+        [rng.uniform(-1.5, 1.5, n), rng.uniform(-1.5, 1.5, n), rng.uniform(-0.3, 0.3, n)]
+    )
+    direction = aim - start
+    direction /= np.linalg.norm(direction, axis=1)[:, None]
+    primaries.position[:] = start
+    primaries.direction[:] = direction
+    vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
+    replay = parse_config({**data, "source": {"vertices": str(vfile)}, "run": {"events": n}})
+    res = read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
+    expected = ray_path(start, direction, layer, 3.5, 1.0, slope=0.5)
+    assert (expected > 1.0).all()  # every ray crosses the cone
+    np.testing.assert_allclose(res.scores["track_length"]["cyl"], expected, rtol=0, atol=tol)
 
 
 @pytest.mark.parametrize(

@@ -53,7 +53,9 @@ def write_cone(folder: Path) -> Path:
         "physics": "lite",
         "world": {"gdml": "cone.gdml"},
         "surfaces": {"p": pyramids},
-        "targets": [{"volume": "cone", "rough": [{"face": "outer", "surface": "p"}]}],
+        "targets": [
+            {"volume": "cone", "rough": [{"face": "outer", "surface": "p", "solid": "tessellated"}]}
+        ],
         "source": {"particle": "geantino", "energy": "1 MeV", "surface": {"volume": "cone"}},
         "run": {"events": 10, "seed": 3},
     }

@@ -11,14 +11,20 @@ its ring.
 
 On a cylinder a spike grid's patch is instead a cell (a ``G4Tubs`` segment of the mother's
 material) of bent G4Trds, one per spike layer and one per column of the slab
-(:func:`place_bent_frustums`): the same body, tracked through analytic solids.
+(:func:`place_bent_frustums`): the same body, tracked through analytic solids. On a cone the
+bent layers are G4Traps and G4GenericTraps (:func:`bent_traps`) in a cell that is the common
+part of two G4Cons (:func:`score4.world.curved.cone_cell`); a patch whose spike columns are
+alike is one column cell placed across it.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from score4.shapes.faces import SphereFace
+from score4.world.curved import cone_cell
 from score4.world.scene import CurvedRoughLayer
 
 from ..surface.triangle_mesh import TriangleMesh
@@ -73,14 +79,16 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
     keep: list = [env_solid, env_lv, rot, env_pv]
     lay = layer.ring_layout
     lvs: dict[tuple[int, float], object] = {}
+    shifts: dict[tuple[int, float], float] = {}  # a cone's cell centre above its ring's
     patch_lvs: list = []
     cell_lvs: list = []  # the cells of bent frustums (mother material, ~2500 daughters each)
+    column_lvs: list = []  # on a cone, a cell's column of spikes (placed across the cell)
 
     def patch_lv(k: int, j: int):
         key = (k, layer.ring_solid_key(j))
         if key not in lvs:
             tag = f"{name}_v{k}_r{len(lvs)}"
-            if layer.solid_kind(k) == "frustums":
+            if layer.solid_kind(k) == "frustums" and layer.is_cylinder:
                 py, step = lay.patch_size[1], float(lay.step[j])
                 cell = g4.G4Tubs(tag, rmin1, rmax1, py / 2, -step / 2, step)
                 lv = g4.G4LogicalVolume(cell, mother_material, tag)
@@ -88,6 +96,48 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
                 patch_lvs.extend(inner)
                 cell_lvs.append(lv)
                 keep.extend([cell, lv, *inner_keep])
+            elif layer.solid_kind(k) == "frustums":  # a cone: the cell is two cones' common part
+                a, b, z_cell = cone_cell(lay, j, layer.thickness)
+                shell = g4.G4Cons(f"{tag}_a", *a)
+                band = g4.G4Cons(f"{tag}_b", *b, 0.0, 2 * np.pi)
+                cell = g4.G4IntersectionSolid(tag, shell, band)
+                lv = g4.G4LogicalVolume(cell, mother_material, tag)
+                keep.extend([shell, band, cell, lv])
+                grid = layer.variants[k].spikes
+                assert grid is not None
+                if np.all(
+                    grid.heights == grid.heights[:, :1]
+                ):  # columns alike: one placed nx times
+                    angle = grid.width_x / float(lay.radius[j])
+                    col_shell = g4.G4Cons(f"{tag}_ca", *a[:5], -angle / 2, angle)
+                    col = g4.G4IntersectionSolid(f"{tag}_col", col_shell, band)
+                    col_lv = g4.G4LogicalVolume(col, mother_material, f"{tag}_col")
+                    inner, inner_keep = place_bent_frustums(
+                        g4, layer, k, j, material, col_lv, f"{tag}_col", z_cell, column=True
+                    )
+                    xs = (np.arange(grid.nx) + 0.5) * grid.width_x - grid.size_x / 2
+                    for i, x in enumerate(xs):
+                        r3 = g4.G4RotationMatrix()
+                        r3.rotateZ(float(x) / float(lay.radius[j]))
+                        g4.G4PVPlacement(
+                            g4.G4Transform3D(r3, g4.G4ThreeVector()),
+                            col_lv,
+                            f"{tag}_col",
+                            lv,
+                            False,
+                            i,
+                            False,
+                        )
+                    column_lvs.append(col_lv)
+                    keep.extend([col_shell, col, col_lv])
+                else:
+                    inner, inner_keep = place_bent_frustums(
+                        g4, layer, k, j, material, lv, tag, z_cell
+                    )
+                shifts[key] = z_cell
+                patch_lvs.extend(inner)
+                cell_lvs.append(lv)
+                keep.extend(inner_keep)
             else:
                 bent = layer.bent(k, j)
                 solid = tessellated_solid(g4, TriangleMesh(bent.vertices, bent.faces), tag)
@@ -114,8 +164,11 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
     cells = layer.cells()
     if isinstance(face, SphereFace) or abs(face.nrz[1]) > 1e-12:  # every patch in the envelope
         for copy_no, (j, _, k, phi) in enumerate(cells):
-            place(patch_lv(k, j), phi, ring_z[j] - zc, env_lv, copy_no)
-        keep += level_regions(g4, [cell_lvs], name) if cell_lvs else []
+            lv = patch_lv(k, j)
+            z_cell = shifts.get((k, layer.ring_solid_key(j)), 0.0)
+            place(lv, phi, ring_z[j] - zc + z_cell, env_lv, copy_no)
+        levels = [column_lvs, cell_lvs] if column_lvs else [cell_lvs]
+        keep += level_regions(g4, levels, name) if cell_lvs else []
         return patch_lvs, keep
     # A cylinder: each ring is a shell of one row (a G4Tubs), and rings with the same variants in
     # the same order are one logical volume placed once per row: one ring of one variant serves
@@ -145,20 +198,14 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
     return patch_lvs, keep
 
 
-def bent_trds(
+def bent_corners(
     layer: CurvedRoughLayer, j: int, box: dict[str, np.ndarray]
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray]:
     """Patch-local frustums (``box``: arrays ``x``, ``y`` (centre), ``z0``, ``z1`` (bottom and
     top height above the base plane), ``wxb``, ``wxt``, ``wyb``, ``wyt`` (full widths)) bent
-    onto ring ``j`` of a cylinder as :meth:`RingLayout.bend` bends their corners, in the frame of
-    a cell at phi = 0.
-
-    The four corners of a bent frustum's bottom (or top) lie at one distance from the axis and
-    one azimuth pair symmetric about the frustum's centre azimuth, at one pair of z: a rectangle
-    in a plane normal to the radius through the centre. Both rectangles are centred on that
-    radius, so the bent frustum is exactly a G4Trd: returns its half sizes (n, 5: dx1, dx2, dy1,
-    dy2, dz), centres (n, 3) and rotations (n, 3, 3; columns: the images of the Trd's x, y, z).
-    """
+    onto ring ``j`` as :meth:`RingLayout.bend` bends their corners, in the frame of a cell at
+    phi = 0: the bottom and top corners (n, 4, 3), in the order (-x, -y), (+x, -y), (+x, +y),
+    (-x, +y) of the patch-local corners."""
     lay = layer.ring_layout
     offset = layer.base_thickness + layer.lift
     n = len(box["x"])
@@ -170,12 +217,29 @@ def bent_trds(
             pts[:, c, 1] = box["y"] + sy * box[wy_key] / 2
             pts[:, c, 2] = box[z_key]
         rows.append(lay.bend(pts.reshape(-1, 3), j, offset).reshape(n, 4, 3))
-    bottom, top = rows
+    return rows[0], rows[1]
+
+
+def bent_trds(
+    layer: CurvedRoughLayer, j: int, box: dict[str, np.ndarray]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Frustums (``box``, see :func:`bent_corners`) bent onto ring ``j`` of a cylinder, in the
+    frame of a cell at phi = 0.
+
+    The four corners of a bent frustum's bottom (or top) lie at one distance from the axis and
+    one azimuth pair symmetric about the frustum's centre azimuth, at one pair of z: a rectangle
+    in a plane normal to the radius through the centre. Both rectangles are centred on that
+    radius, so the bent frustum is exactly a G4Trd: returns its half sizes (n, 5: dx1, dx2, dy1,
+    dy2, dz), centres (n, 3) and rotations (n, 3, 3; columns: the images of the Trd's x, y, z).
+    """
+    lay = layer.ring_layout
+    n = len(box["x"])
+    bottom, top = bent_corners(layer, j, box)
     phi = box["x"] / lay.radius[j]
     radial = np.column_stack([np.cos(phi), np.sin(phi), np.zeros(n)])
     tangent = np.column_stack([-np.sin(phi), np.cos(phi), np.zeros(n)])
     face = lay.face
-    assert not isinstance(face, SphereFace)  # frustums are for cylinder walls only
+    assert not isinstance(face, SphereFace)  # frustums are for cylinder walls and cones only
     up = np.sign(float(face.nrz[0])) * radial  # the Trd's +z: away from the base
     u0 = np.einsum("nc,nkc->nk", up, bottom).mean(axis=1)
     u1 = np.einsum("nc,nkc->nk", up, top).mean(axis=1)
@@ -196,14 +260,128 @@ def bent_trds(
     return half, centre, rotation
 
 
+@dataclass
+class BentTraps:
+    """Frustums bent onto a cone as Geant4 solids (:func:`bent_traps`), in a cell's frame.
+
+    ``apex``: True where the frustum ends in a point (a G4GenericTrap, ``generic``: its eight
+    (x, y) vertices, four at -dz then four at +dz, clockwise); else a G4Trap with ``trap``:
+    (dz, theta, phi, dy1, dx1, dx2, alpha1, dy2, dx3, dx4, alpha2). ``dz``: half heights;
+    ``centre`` and ``rotation`` (columns: the solid's x, y, z axes) place each one;
+    ``vertices`` (n, 8, 3): the solid's corners in the cell frame (G4Trap's order: -dz face
+    (-y edge: -x, +x; +y edge: -x, +x), then the +dz face)."""
+
+    apex: np.ndarray
+    trap: np.ndarray
+    generic: np.ndarray
+    dz: np.ndarray
+    centre: np.ndarray
+    rotation: np.ndarray
+    vertices: np.ndarray
+
+
+def bent_traps(
+    layer: CurvedRoughLayer, j: int, box: dict[str, np.ndarray], group: np.ndarray
+) -> BentTraps:
+    """Frustums (``box``, see :func:`bent_corners`) bent onto ring ``j`` of a cone, in the frame
+    of a cell at phi = 0, as G4Traps (G4GenericTraps where a frustum ends in a point).
+
+    The four bent corners of a frustum's bottom lie at two distances from the axis (the two
+    generator positions), each pair symmetric about the frustum's azimuth: an isosceles
+    trapezoid in a plane. Its top is another, in a plane tilted from the bottom's by
+    ``t_r (cos a_top - cos a_bottom)`` (a: the half azimuth, ~1e-4 rad; ~1e-8 rad) and with
+    edges that narrow along the generator at another rate than the bottom's (their side faces
+    are not quite planar). Each frustum of one ``group`` (the layers of one spike, or one slab
+    column) is made in the frame of the group's base (x: the tangent, z: the base plane's
+    normal, away from the surface) with every face's corners projected onto a plane normal to z
+    and every face's x half-widths narrowing along y at the base's rate: the side faces are
+    planar, stacked layers share their faces exactly, and the corners move from the bent ones
+    by at most ``t_r (a_bottom - a_top) dy`` (about 1e-7 mm for 10 um pyramids on a 20 mm
+    radius; :attr:`BentTraps.vertices` against :func:`bent_corners` measures it). Slab columns
+    have one azimuth pair at both faces and are exact but for rounding."""
+    bottom, top = bent_corners(layer, j, box)
+    n = len(bottom)
+    first = np.unique(group, return_index=True)[1]
+    base_of = np.searchsorted(group[first], group)
+    base = bottom[first[base_of]]
+    x_axis = base[:, 1] - base[:, 0] + base[:, 2] - base[:, 3]
+    x_axis /= np.linalg.norm(x_axis, axis=1)[:, None]
+    g = 0.5 * (base[:, 3] + base[:, 2] - base[:, 0] - base[:, 1])
+    z_axis = np.cross(x_axis, g)
+    z_axis /= np.linalg.norm(z_axis, axis=1)[:, None]
+    up = top.mean(axis=1) - bottom.mean(axis=1)
+    flip = np.einsum("nc,nc->n", z_axis, up) < 0
+    z_axis[flip] *= -1
+    y_axis = np.cross(z_axis, x_axis)
+    rotation = np.stack([x_axis, y_axis, z_axis], axis=2)
+    origin = base.mean(axis=1)
+
+    def local(p: np.ndarray) -> np.ndarray:
+        return np.einsum("nkc,nca->nka", p - origin[:, None], rotation)
+
+    def face(p: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Centre x, centre y, half y extent, half x width at the centre, x half-width slope
+        and z of a face's corners (n, 4, 3; local)."""
+        ya, yb = p[:, [0, 1], 1].mean(axis=1), p[:, [3, 2], 1].mean(axis=1)
+        ha, hb = (p[:, 1, 0] - p[:, 0, 0]) / 2, (p[:, 2, 0] - p[:, 3, 0]) / 2
+        xc = (p[:, :, 0].sum(axis=1)) / 4
+        yc, dy = (ya + yb) / 2, (yb - ya) / 2
+        slope = np.divide(hb - ha, 2 * dy, out=np.zeros(n), where=np.abs(dy) > 0)
+        return xc, yc, dy, (ha + hb) / 2, slope, p[:, :, 2].mean(axis=1)
+
+    xb, yb, dyb, mb, slope_b, zb = face(local(bottom))
+    xt, yt, dyt, mt, _, zt = face(local(top))
+    slope = slope_b[first[base_of]]  # every face of a group narrows at its base's rate
+    dz = (zt - zb) / 2
+    apex = (box["wxt"] <= 0) & (box["wyt"] <= 0)
+    # the solids' corners (local): -dz face then +dz face; -y edge (-x, +x), +y edge (-x, +x)
+    verts = np.empty((n, 8, 3))
+    for f, (xc, yc, dy, m, z) in enumerate(((xb, yb, dyb, mb, zb), (xt, yt, dyt, mt, zt))):
+        for e, sy in enumerate((-1.0, 1.0)):
+            half = m + sy * slope * dy
+            for c, sx in enumerate((-1.0, 1.0)):
+                verts[:, 4 * f + 2 * e + c] = np.column_stack([xc + sx * half, yc + sy * dy, z])
+    mid = np.column_stack([(xb + xt) / 2, (yb + yt) / 2, (zb + zt) / 2])
+    tx, ty = (xt - xb) / (2 * dz), (yt - yb) / (2 * dz)
+    theta = np.arctan(np.hypot(tx, ty))
+    phi = np.arctan2(ty, tx)
+    ady, ady_t = np.abs(dyb), np.abs(dyt)
+    # dx at -y and +y of each face (a face whose y runs the other way swaps them)
+    lo_b = np.where(dyb >= 0, mb - slope * dyb, mb + slope * dyb)
+    hi_b = np.where(dyb >= 0, mb + slope * dyb, mb - slope * dyb)
+    lo_t = np.where(dyt >= 0, mt - slope * dyt, mt + slope * dyt)
+    hi_t = np.where(dyt >= 0, mt + slope * dyt, mt - slope * dyt)
+    zeros = np.zeros(n)
+    trap = np.column_stack([dz, theta, phi, ady, lo_b, hi_b, zeros, ady_t, lo_t, hi_t, zeros])
+    # G4GenericTrap: its frame is the local frame moved to the middle height, clockwise seen
+    # from +z: (-x, -y), (-x, +y), (+x, +y), (+x, -y) of each face
+    order = [0, 2, 3, 1, 4, 6, 7, 5]
+    centre_local = np.where(apex[:, None], np.column_stack([zeros, zeros, mid[:, 2]]), mid)
+    generic = verts[:, order, :2]
+    cell_verts = np.einsum("nca,nka->nkc", rotation, verts) + origin[:, None]
+    centre = np.einsum("nca,na->nc", rotation, centre_local) + origin
+    return BentTraps(apex, trap, generic, dz, centre, rotation, cell_verts)
+
+
 def place_bent_frustums(
-    g4, layer: CurvedRoughLayer, k: int, j: int, material, cell_lv, name: str
+    g4,
+    layer: CurvedRoughLayer,
+    k: int,
+    j: int,
+    material,
+    cell_lv,
+    name: str,
+    z_shift: float = 0.0,
+    column: bool = False,
 ) -> tuple[list, list]:
-    """Place variant ``k`` (a spike grid) bent onto ring ``j`` of a cylinder in ``cell_lv`` (the
-    patch's cell, a G4Tubs segment at phi = 0): one G4Trd per column of cells for the slab (its
-    floor and top are the chords the tessellated body has) and one per spike layer
-    (:func:`bent_trds`). Shapes repeat, so G4Trds and logical volumes are shared. Returns
-    ``(logical volumes of material, objects to keep alive)``."""
+    """Place variant ``k`` (a spike grid) bent onto ring ``j`` in ``cell_lv`` (the patch's cell
+    at phi = 0, its centre ``z_shift`` above the ring's): one solid per column of cells for the
+    slab (its floor and top are the chords the tessellated body has) and one per spike layer;
+    on a cylinder G4Trds (:func:`bent_trds`), on a cone G4Traps and, for layers that end in a
+    point, G4GenericTraps (:func:`bent_traps`). Shapes repeat, so solids and logical volumes are
+    shared. ``column``: only the first column of spikes (and its column of the slab), moved to
+    the cell's centre azimuth (a cell of one column, placed across the patch when all columns
+    are alike). Returns ``(logical volumes of material, objects to keep alive)``."""
     from .tiling import _rotation
 
     grid = layer.variants[k].spikes
@@ -232,25 +410,49 @@ def place_bent_frustums(
         "wyb": f["width_y_bottom"],
         "wyt": f["width_y_top"],
     }
+    if column:  # the first column at x = 0
+        first = np.asarray(f["spike"]) % grid.nx == 0
+        spikes = {key: value[first] for key, value in spikes.items()}
+        spikes["x"] = np.zeros(int(first.sum()))
+        columns = {key: value[:1] for key, value in columns.items()}
+        columns["x"] = np.zeros(1)
+        f = f[first]
     lvs: list = []
     keep: list = []
     shapes: dict[tuple, object] = {}
     copy_no = 0
-    for part, box in (("c", columns), ("s", spikes)):
-        half, centre, rotation = bent_trds(layer, j, box)
-        keys = [tuple(h) for h in np.round(half, 15).tolist()]
-        for n, key in enumerate(keys):
+    shift = np.array([0.0, 0.0, z_shift])
+    for part, box, group in (
+        ("c", columns, np.arange(len(columns["x"]))),
+        ("s", spikes, np.asarray(f["spike"], np.int64)),
+    ):
+        solids: list[tuple[tuple, tuple]] = []  # (sharing key, (kind, parameters))
+        if layer.is_cylinder:
+            half, centre, rotation = bent_trds(layer, j, box)
+            solids += [(("trd", *np.round(h, 15).tolist()), ("trd", h.tolist())) for h in half]
+        else:
+            traps = bent_traps(layer, j, box, group)
+            centre, rotation = traps.centre, traps.rotation
+            for n in range(len(centre)):
+                if traps.apex[n]:
+                    dz, xy = float(traps.dz[n]), traps.generic[n]
+                    key = ("gen", float(np.round(dz, 12)), *np.round(xy, 12).ravel().tolist())
+                    solids.append((key, ("gen", (dz, xy.tolist()))))
+                else:
+                    p = traps.trap[n]
+                    solids.append((("trap", *np.round(p, 12).tolist()), ("trap", p.tolist())))
+        for n, (key, (kind, args)) in enumerate(solids):
             lv = shapes.get(key)
             if lv is None:
                 tag = f"{name}_{part}{len(shapes)}"
-                trd = g4.G4Trd(tag, *half[n].tolist())
-                lv = g4.G4LogicalVolume(trd, material, tag)
+                solid = _make_solid(g4, tag, kind, args)
+                lv = g4.G4LogicalVolume(solid, material, tag)
                 shapes[key] = lv
                 lvs.append(lv)
-                keep += [trd, lv]
+                keep += [solid, lv]
             rot = _rotation(g4, rotation[n])
             g4.G4PVPlacement(
-                g4.G4Transform3D(rot, g4.G4ThreeVector(*centre[n].tolist())),
+                g4.G4Transform3D(rot, g4.G4ThreeVector(*(centre[n] - shift).tolist())),
                 lv,
                 f"{name}_{part}",
                 cell_lv,
@@ -260,3 +462,17 @@ def place_bent_frustums(
             )
             copy_no += 1
     return lvs, keep
+
+
+def _make_solid(g4, tag: str, kind: str, args):
+    """A G4Trd (``args``: its five half sizes), G4Trap (its eleven parameters) or
+    G4GenericTrap (``(dz, eight (x, y) vertices)``)."""
+    if kind == "trd":
+        return g4.G4Trd(tag, *args)
+    if kind == "trap":
+        return g4.G4Trap(tag, *args)
+    dz, xy = args
+    vertices = g4.G4TwoVectorVector()
+    for x, y in xy:
+        vertices.append(g4.G4TwoVector(x, y))
+    return g4.G4GenericTrap(tag, dz, vertices)

@@ -227,6 +227,45 @@ class RingLayout:
         return np.where(ok, j, -1), np.where(ok, i, -1), np.column_stack([x, y, h])
 
 
+def cone_cell(
+    lay: RingLayout, j: int, t: float
+) -> tuple[tuple[float, ...], tuple[float, ...], float]:
+    """The cell of a patch on ring ``j`` of a cone, exactly: the wedge of the patch's azimuths
+    between the face and the face moved out by the layer thickness ``t`` (a G4Cons segment ``a``)
+    and between the two cones of surface normals through the patch's ends along the generator,
+    moved apart by the rows' gap (a G4Cons ``b``), both over the z range of the cell and centred
+    on its middle ``zc`` (ring frame). Returns ``(a, b, zc)`` with ``a`` = (rmin1, rmax1,
+    rmin2, rmax2, dz, sphi, dphi) and ``b`` = (rmin1, rmax1, rmin2, rmax2, dz)."""
+    face = lay.face
+    assert isinstance(face, RevolvedFace)
+    py = lay.patch_size[1]
+    e = 0.5 * lay.row_gap
+    v = lay.v[j] + np.array([-py / 2 - e, py / 2 + e])
+    corners: dict[tuple[int, int], tuple[float, float]] = {}
+    for ia, vv in enumerate(v):
+        for ib, h in enumerate((0.0, t)):
+            p = face.point(0.0, vv) + h * face.normal(0.0, vv)
+            corners[ia, ib] = (float(p[0]), float(p[2]) - lay.ring_z(j))
+    zs = [c[1] for c in corners.values()]
+    z0, z1 = min(zs), max(zs)
+
+    def at(p: tuple[float, float], q: tuple[float, float], z: float) -> float:
+        return p[0] + (q[0] - p[0]) * (z - p[1]) / (q[1] - p[1])
+
+    def cons(line1, line2) -> tuple[float, float, float, float]:
+        lo = [at(line1[0], line1[1], z) for z in (z0, z1)]
+        hi = [at(line2[0], line2[1], z) for z in (z0, z1)]
+        if lo[0] + lo[1] > hi[0] + hi[1]:
+            lo, hi = hi, lo
+        return lo[0], hi[0], lo[1], hi[1]
+
+    dz = (z1 - z0) / 2
+    step = float(lay.step[j])
+    shell = (*cons((corners[0, 0], corners[1, 0]), (corners[0, 1], corners[1, 1])), dz)
+    band = (*cons((corners[0, 0], corners[0, 1]), (corners[1, 0], corners[1, 1])), dz)
+    return (*shell, -step / 2, step), band, (z0 + z1) / 2
+
+
 @dataclass
 class BentVariant:
     """One variant bent onto one ring radius: the closed body (Geant4) and its top (sampling),
@@ -281,12 +320,17 @@ class BentVariant:
         i1 = np.clip(np.searchsorted(edges[0], tp.max(axis=1)) - 1, 0, 31)
         j0 = np.clip(np.searchsorted(edges[1], tz.min(axis=1) - margin) - 1, 0, 31)
         j1 = np.clip(np.searchsorted(edges[1], tz.max(axis=1) + margin) - 1, 0, 31)
-        members: list[list[int]] = [[] for _ in range(32 * 32)]
-        for t in range(len(self.faces)):
-            for a in range(i0[t], i1[t] + 1):
-                for b in range(j0[t], j1[t] + 1):
-                    members[a * 32 + b].append(t)
-        return edges, [np.asarray(m, dtype=np.int64) for m in members]
+        # every (triangle, bin) pair of each triangle's bin rectangle, in triangle order
+        ni, nj = i1 - i0 + 1, j1 - j0 + 1
+        tri = np.repeat(np.arange(len(self.faces)), ni * nj)
+        k = np.arange(len(tri)) - np.repeat(np.cumsum(ni * nj) - ni * nj, ni * nj)
+        a = i0[tri] + k // nj[tri]
+        b = j0[tri] + k % nj[tri]
+        key = a * 32 + b
+        order = np.argsort(key, kind="stable")
+        bounds = np.searchsorted(key[order], np.arange(32 * 32 + 1))
+        sorted_tri = tri[order].astype(np.int64)
+        return edges, [sorted_tri[bounds[m] : bounds[m + 1]] for m in range(32 * 32)]
 
 
 def _ray_parity(o: np.ndarray, d: np.ndarray, tri: np.ndarray, tol: float) -> np.ndarray:

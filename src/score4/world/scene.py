@@ -43,6 +43,7 @@ from .curved import (
     BentVariant,
     RingLayout,
     check_radius,
+    cone_cell,
     flat_body,
     gap_limit,
     measure_floor,
@@ -422,16 +423,36 @@ class CurvedRoughLayer(RoughLayer):
     top_margin: float = 0.0  # sagitta of the bent tops' facets (concave faces), mm
 
     def solid_kind(self, k: int) -> str:
-        """``frustums`` for a spike grid on a cylinder (``solid: auto`` or ``frustums``): each
-        bent spike layer and each column of the bent slab is exactly a G4Trd
+        """``frustums`` for a spike grid on a cylinder or a cone (``solid: auto`` or
+        ``frustums``): on a cylinder each bent spike layer and each column of the bent slab is
+        exactly a G4Trd, on a cone a G4Trap or G4GenericTrap in a cell of two G4Cons
         (:mod:`score4.geometry.curved`); ``tessellated`` (the bent closed body as one solid)
-        otherwise."""
+        otherwise (also on a cone too close to a cylinder for its cells:
+        :attr:`frustum_cells`)."""
         spikes = self.variants[k].spikes is not None
         return (
             "frustums"
-            if spikes and self.config.solid != "tessellated" and self.is_cylinder
+            if spikes and self.config.solid != "tessellated" and self.frustum_cells
             else "tessellated"
         )
+
+    @cached_property
+    def frustum_cells(self) -> bool:
+        """Bent frustums can be placed: on a cylinder always; on a cone where the cones of
+        surface normals bounding each ring's cells (:func:`~score4.world.curved.cone_cell`)
+        stay off the axis over the cell's z range (not on a cone within about
+        ``patch length / radius`` of a cylinder); never on a sphere."""
+        face = self.ring_layout.face
+        if isinstance(face, SphereFace):
+            return False
+        if self.is_cylinder:
+            return True
+        lay = self.ring_layout
+        for j in np.flatnonzero(lay.count > 0):
+            a, b, _ = cone_cell(lay, int(j), self.thickness)
+            if min(a[:4]) < 0 or min(b[:4]) <= 1e-3 * float(lay.radius[j]):
+                return False
+        return True
 
     @property
     def is_cylinder(self) -> bool:
@@ -1148,11 +1169,12 @@ def make_curved_layer(
             "tessellated bodies or, for spike grids on a cylinder, bent frustums (solid: auto, "
             "tessellated or frustums)"
         )
-    cone = isinstance(face, SphereFace) or abs(face.nrz[1]) > 1e-12  # not a cylinder
-    if rough.solid == "frustums" and (cone or any(s.spikes is None for s in variants)):
+    if rough.solid == "frustums" and (
+        isinstance(face, SphereFace) or any(s.spikes is None for s in variants)
+    ):
         raise ConfigError(
             f"{where}: solid frustums on a curved face ({what}) needs spike-grid surfaces on a "
-            "cylinder wall; use solid: auto or tessellated"
+            "cylinder wall or a cone; use solid: auto or tessellated"
         )
     reserve = 1.05 * (rough.base_thickness + max(s.max_height for s in variants)) + 1e-4
     row_gap = 0.0
@@ -1193,6 +1215,12 @@ def make_curved_layer(
     layer.top_margin = 0.0 if convex else max(tops)
     limit = gap_limit(max(s.max_height for s in variants))
     check_radius(layout, layer.gap, limit, where, target.name, rough.face_name)
+    if rough.solid == "frustums" and not layer.frustum_cells:
+        raise ConfigError(
+            f"{where}: solid frustums on {what}: the cone is too close to a cylinder for cells "
+            "of bent frustums (the cones of its normals through a patch's ends meet the axis); "
+            "use solid: auto or tessellated"
+        )
     return layer
 
 
