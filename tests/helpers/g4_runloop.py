@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import threading
 
+import numpy as np
+
 
 def _simulation(source: dict | None = None, **sections):
     from score4.inputs.config import parse_config
@@ -61,3 +63,34 @@ def kept_events_in_batches(n: int, kept: int) -> dict:
     simulation.KEPT_EVENTS = 10_000
     run("after")
     return out
+
+
+def idle_particles() -> dict:
+    """Which particles an alpha source's and a mu- source's lite set-ups leave without tables,
+    a mu- run's deposits, and what a pi+ primary gets on the alpha set-up."""
+    from score4.errors import Score4Error
+    from score4.source.primaries import Primaries
+
+    out: dict = {}
+    sim = _simulation()
+    out["alpha"] = sim.idle_particles
+    pion = Primaries(
+        event=np.array([0]),
+        particle=np.array(["pi+"]),
+        energy=np.array([10.0]),
+        position=np.array([[0.0, 0.0, -1e-3]]),
+        direction=np.array([[0.0, 0.0, -1.0]]),
+    )
+    try:
+        sim.run(pion, 1)
+    except Score4Error as err:
+        out["pion"] = str(err)
+    return out
+
+
+def muon_run() -> dict:
+    """A mu- source's idle particles and the deposits of 20 muons of 100 MeV."""
+    source = {"particle": "mu-", "energy": "100 MeV", "direction": "normal"}
+    sim = _simulation({**source, "surface": {"volume": "crystal", "face": "+z"}})
+    scores = sim.run(sim.source.events(1, 0, 20), 1)
+    return {"idle": sim.idle_particles, "edep": scores["edep"][:, 0].tolist()}

@@ -21,6 +21,9 @@ from ..elements import split_ion_name
 from ..errors import ConfigError, RunCancelled, Score4Error
 from ..geometry.built import BuiltGeometry
 from ..geometry.world import build_world, check_materials
+from ..source.build import FileSource
+from ..source.decay_source import DecayEmitter
+from ..source.emitters import NuclideEmitter, ParticleEmitter, Po210Emitter
 from ..source.primaries import Primaries
 from .feed import EventFeed, replay_row
 from .heavy_ions import IonFate
@@ -28,6 +31,7 @@ from .implantation import AtomTracker, drop_lost, is_history
 from .interception import InterceptedIon, make_stacking_action, needs_interception
 from .physics import (
     drop_unused_parallel_world_region,
+    idle_uncreated_particles,
     make_physics_list,
     set_production_cut,
     strip_data_hungry_processes,
@@ -63,6 +67,19 @@ def resolve_particle(g4, name: str, parameter: str = "source.particle"):
         f"{parameter}: unknown particle {name!r}; use a Geant4 name (alpha, e-, e+, gamma, proton, "
         f"neutron, geantino) or an ion as element symbol + mass number (Pb206, Po210)"
     )
+
+
+def source_particles(source) -> set[str] | None:
+    """The names of the particles ``source`` can start (decays: none of
+    :data:`~score4.sim.physics.UNCREATED_PARTICLES`, whatever they emit); None when unknown."""
+    if isinstance(source, FileSource):
+        return {str(name) for name in np.unique(source.primaries_all.particle)}
+    emitter = getattr(source, "emitter", None)
+    if isinstance(emitter, ParticleEmitter):
+        return {emitter.particle}
+    if isinstance(emitter, DecayEmitter | NuclideEmitter | Po210Emitter):
+        return set()  # alphas, electrons, positrons, photons, neutrinos, nuclei
+    return None
 
 
 class Simulation:
@@ -157,6 +174,13 @@ class Simulation:
             self.run_manager.SetUserAction(tracking)
         self.removed_processes = (
             strip_data_hungry_processes(g4) if self.choice.mode == "lite" else []
+        )
+        #: lite mode: particles no process creates and the source does not start, without
+        #: tables (no effect on any result; see idle_uncreated_particles)
+        self.idle_particles = (
+            idle_uncreated_particles(g4, source_particles(self.source))
+            if self.choice.mode == "lite"
+            else []
         )
         #: steps with a deposit (output.steps, targets[].activeness), else None: no Python per step
         self.steps: StepRecorder | None = None
@@ -346,6 +370,8 @@ class Simulation:
         names = [str(name) for name in np.unique(primaries.particle)]
         for name in names:
             self.particle(name)
+            if name in self.idle_particles:  # source_particles did not foresee it
+                raise Score4Error(f"run: {name} primaries, but {name} has no physics processes")
         n = primaries.n_events
         self._primaries = primaries
         # Portal tiling: vertices in a portal box start at their subworld point.
