@@ -6,7 +6,7 @@ bodies into ``G4TessellatedSolid`` volumes placed side by side in the patch's mo
 
 from __future__ import annotations
 
-from score4.surface.block_cut import block_bodies
+from score4.surface.block_cut import iter_block_bodies
 from score4.surface.triangle_mesh import TriangleMesh
 
 from ..surface.spec import Surface
@@ -43,7 +43,7 @@ def place_blocks(
     lvs, keep = [], []
     where = g4.G4ThreeVector(0.0, 0.0, z)
     keep.append(where)
-    for b, body in enumerate(block_bodies(surface, base_thickness, block_cells)):
+    for b, body in enumerate(iter_block_bodies(surface, base_thickness, block_cells)):
         solid = fast_tessellated(g4, body, f"{name}_b{b}")
         lv = g4.G4LogicalVolume(solid, material, f"{name}_b{b}")
         pv = g4.G4PVPlacement(None, where, lv, f"{name}_b{b}", mother_lv, False, b, False)
