@@ -220,7 +220,10 @@ def measure_python_share(events: int, side_cm: float = 3.0) -> dict:
     from score4.sim import simulation
 
     spent: dict[str, list] = {}
-    for name in ("_generate", "_score", "_report_progress", "_check_stop"):
+    names = ["_generate", "_read_scores"]  # scores read after each BeamOn, checks in _generate
+    if hasattr(simulation.Simulation, "_score"):  # older versions: a Python event action
+        names = ["_generate", "_score", "_report_progress", "_check_stop"]
+    for name in names:
         inner = getattr(simulation.Simulation, name)
 
         def timed(*args, _inner=inner, _name=name, **kwargs):
@@ -265,13 +268,14 @@ def part_python(events: int, rounds: int, baseline: str | None) -> None:
     )
     for name, src in versions.items():
         med = {k: statistics.median(r[k] for r in rows[name]) for k in rows[name][0]}
-        python = med["_generate_ms"] + med["_score_ms"]
+        scores = med.get("_score_ms", med.get("_read_scores_ms", 0.0))
+        python = med["_generate_ms"] + scores
         python += med.get("_report_progress_ms", 0.0) + med.get("_check_stop_ms", 0.0)
         print(
             f"  {name}{f' ({src})' if src else ''}: CPU {med['cpu_ms']:.3f} ms/event (wall "
             f"{med['wall_ms']:.3f}); primaries {med['_generate_ms'] * 1e3:.1f} us, scores "
-            f"{med['_score_ms'] * 1e3:.1f} us, progress and stop "
-            f"{(python - med['_generate_ms'] - med['_score_ms']) * 1e3:.1f} us: Python "
+            f"{scores * 1e3:.1f} us, progress and stop "
+            f"{(python - med['_generate_ms'] - scores) * 1e3:.1f} us: Python "
             f"{python / med['wall_ms']:.1%} of the event's wall time; mean deposit "
             f"{med['mean_edep_mev']:.4f} MeV"
         )

@@ -21,6 +21,9 @@ from ..elements import split_ion_name
 from ..errors import ConfigError, RunCancelled, Score4Error
 from ..geometry.built import BuiltGeometry
 from ..geometry.world import build_world, check_materials
+from ..source.build import FileSource
+from ..source.decay_source import DecayEmitter
+from ..source.emitters import NuclideEmitter, ParticleEmitter, Po210Emitter
 from ..source.primaries import Primaries
 from .feed import EventFeed, replay_row
 from .heavy_ions import IonFate
@@ -28,6 +31,7 @@ from .implantation import AtomTracker, drop_lost, is_history
 from .interception import InterceptedIon, make_stacking_action, needs_interception
 from .physics import (
     drop_unused_parallel_world_region,
+    idle_uncreated_particles,
     make_physics_list,
     set_production_cut,
     strip_data_hungry_processes,
@@ -38,6 +42,11 @@ from .steps import StepRecorder, active_deposits, wants_steps
 
 if TYPE_CHECKING:
     from .heavy_ions import HeavyIonTransport
+
+#: Events per BeamOn at most. Geant4 keeps the events of a BeamOn until it ends (their scores
+#: are read then, not by a Python event action at each event's end): ~1 kB an event plus
+#: ~0.15 kB per scoring volume and quantity. A larger batch runs as several BeamOns.
+KEPT_EVENTS = 10_000
 
 
 def resolve_particle(g4, name: str, parameter: str = "source.particle"):
@@ -58,6 +67,19 @@ def resolve_particle(g4, name: str, parameter: str = "source.particle"):
         f"{parameter}: unknown particle {name!r}; use a Geant4 name (alpha, e-, e+, gamma, proton, "
         f"neutron, geantino) or an ion as element symbol + mass number (Pb206, Po210)"
     )
+
+
+def source_particles(source) -> set[str] | None:
+    """The names of the particles ``source`` can start (decays: none of
+    :data:`~score4.sim.physics.UNCREATED_PARTICLES`, whatever they emit); None when unknown."""
+    if isinstance(source, FileSource):
+        return {str(name) for name in np.unique(source.primaries_all.particle)}
+    emitter = getattr(source, "emitter", None)
+    if isinstance(emitter, ParticleEmitter):
+        return {emitter.particle}
+    if isinstance(emitter, DecayEmitter | NuclideEmitter | Po210Emitter):
+        return set()  # alphas, electrons, positrons, photons, neutrinos, nuclei
+    return None
 
 
 class Simulation:
@@ -126,20 +148,15 @@ class Simulation:
             def GeneratePrimaries(self, event):
                 sim._generate(self.gun, event)
 
-        class EventAction(g4.G4UserEventAction):
-            def EndOfEventAction(self, event):
-                sim._score(event)
-                sim._report_progress()
-                sim._check_stop()
-
         # Geant4 requires this order: detector and physics registered before any user action exists.
         self._actions = [Detector(), make_physics_list(g4, self.choice)]
         self.run_manager.SetUserInitialization(self._actions[0])
         self.run_manager.SetUserInitialization(self._actions[1])
         set_production_cut(g4, self.config.physics.production_cut)
-        self._actions += [Generator(), EventAction()]
+        # No event action: the primary generator closes each event when the next one starts,
+        # and the scores are read after each BeamOn (see run)
+        self._actions.append(Generator())
         self.run_manager.SetUserAction(self._actions[2])
-        self.run_manager.SetUserAction(self._actions[3])
         drop_unused_parallel_world_region(g4)
         self.run_manager.Initialize()
         self.teleporter = None
@@ -157,6 +174,13 @@ class Simulation:
             self.run_manager.SetUserAction(tracking)
         self.removed_processes = (
             strip_data_hungry_processes(g4) if self.choice.mode == "lite" else []
+        )
+        #: lite mode: particles no process creates and the source does not start, without
+        #: tables (no effect on any result; see idle_uncreated_particles)
+        self.idle_particles = (
+            idle_uncreated_particles(g4, source_particles(self.source))
+            if self.choice.mode == "lite"
+            else []
         )
         #: steps with a deposit (output.steps, targets[].activeness), else None: no Python per step
         self.steps: StepRecorder | None = None
@@ -199,6 +223,10 @@ class Simulation:
             self.heavy_ions.record_pieces = self.steps is not None
         self._endpoint_action: Any = None
         self._next_event = 0  # index in the batch of the event being tracked
+        self._started = 0  # events of the batch generated so far
+        self._open = False  # event _next_event is generated and not yet closed (_close_event)
+        #: replayed ions of the closed events whose Geant4 scores are not read yet
+        self._books: list[tuple[int, IonFate, bool]] | None = None
         self._replaying = False  # this batch has heavy ions to replay
         self._interceptor: Any = None  # stacking action for heavy-ion secondaries, once needed
         #: heavy-ion secondaries taken from Geant4 in the last :meth:`run` (``interception``)
@@ -253,7 +281,17 @@ class Simulation:
         self.untracked_gamma[k] += energy
 
     def _generate(self, gun, event) -> None:
-        k = self._next_event
+        """Geant4's primary generator, the only Python call per event: close the event before
+        (:meth:`_close_event`), stop if asked to, then fill event ``k``. Geant4 keeps the
+        event: its scores are read after the BeamOn (:meth:`_read_scores`)."""
+        k = self._started
+        if self._open:
+            self._close_event(k - 1)
+        if self._check_stop():
+            return  # this event stays empty; Geant4 starts no other
+        self._started = k + 1
+        self._next_event, self._open = k, True
+        event.KeepTheEvent(True)
         feed = self._feed
         if self._replaying:  # heavy ions first: an implanted daughter starts where one stopped
             self._replay_event(k)
@@ -261,18 +299,47 @@ class Simulation:
             self.teleporter.begin_event(int(feed.offsets[k]), int(feed.offsets[k + 1]))
         feed.fill(gun, event, k)  # not the rows replayed on TRIM or gammas lite cannot track
 
-    def _score(self, event) -> None:
-        k = self._next_event
-        self.scorer.read(event, self._scores, k)
-        self._scored = True
-        for fate, alpha in self._pending:  # heavy-ion secondaries replayed during the event
-            self.book(k, fate, alpha)
-        self._pending.clear()
-        for fate, alpha in self._replayed:  # its heavy-ion primaries, replayed before it
-            self.book(k, fate, alpha)
-        self._replayed.clear()
-        self._next_event += 1
-        self._scored = False
+    def _close_event(self, k: int) -> None:
+        """Event ``k`` is complete: its replayed ions join it (their steps now, their scores
+        after its Geant4 scores are read), and progress is reported."""
+        self._open = False
+        if self._pending or self._replayed:
+            # heavy-ion secondaries replayed during the event, then its heavy-ion primaries
+            # replayed before it
+            for fate, alpha in (*self._pending, *self._replayed):
+                self._book_steps(k, fate)
+                assert self._books is not None  # set for the run
+                self._books.append((k, fate, alpha))
+            self._pending.clear()
+            self._replayed.clear()
+        if self._progress is not None:
+            self._report_progress(k + 1)
+
+    def _beam_on(self, n: int) -> None:
+        """Track events ``self._started ..`` of the batch, ``n`` at most (fewer when stopped),
+        in one BeamOn, then read their scores."""
+        first = self._started
+        with redirect_native_output(self.log_path):
+            self.run_manager.BeamOn(n)
+        if self._open:
+            self._close_event(self._started - 1)
+        if not self._stopped:
+            self._read_scores(first)
+
+    def _read_scores(self, first: int) -> None:
+        """The scores of the events Geant4 kept in the last BeamOn (rows ``first ..``), then
+        the replayed ions booked to them."""
+        events = self.run_manager.GetCurrentRun().GetEventVector()
+        if len(events) != self._started - first:
+            raise Score4Error(
+                f"Geant4 kept {len(events)} events of the {self._started - first} tracked"
+            )
+        self.scorer.read_events(events, self._scores, first)
+        del events  # the run owns them: Geant4 deletes them at the next BeamOn
+        assert self._books is not None
+        for k, fate, alpha in self._books:
+            self._book_scores(k, fate, alpha)
+        self._books.clear()
 
     def run(
         self,
@@ -304,6 +371,8 @@ class Simulation:
         names = [str(name) for name in np.unique(primaries.particle)]
         for name in names:
             self.particle(name)
+            if name in self.idle_particles:  # source_particles did not foresee it
+                raise Score4Error(f"run: {name} primaries, but {name} has no physics processes")
         n = primaries.n_events
         self._primaries = primaries
         # Portal tiling: vertices in a portal box start at their subworld point.
@@ -339,26 +408,30 @@ class Simulation:
         self._early: dict[int, list[tuple[IonFate, bool]]] = {}
         if self._replaying and self.atoms is None:
             self._replay_all(stop)
-        self._scored = False
         self._intercept(names)
         if self.steps is not None:
             self.steps.take()  # nothing left from a cancelled run
-        self._next_event = 0
+        self._next_event, self._started, self._open, self._books = 0, 0, False, []
         if np.ndim(g4_seed) == 0:
             self.g4.G4Random.setTheSeed(int(g4_seed))
         self._progress, self._reported = progress, 0
         units = n if self._units_after is None else int(self._units_after[-1])
         self._report_every = batch or max(1, units // 20)
         self._stop, self._stopped = stop, False
-        if n > 0 and not (stop is not None and stop.is_set()):  # BeamOn(0) still starts a run
-            with redirect_native_output(self.log_path):
-                self.run_manager.BeamOn(n)
-        self._stop = None
+        try:
+            # BeamOn(0) still starts a run; a batch of many events runs as several BeamOns
+            # (KEPT_EVENTS: Geant4 keeps the events of a BeamOn until it ends)
+            while self._started < n and not self._stopped:
+                if stop is not None and stop.is_set():
+                    break
+                self._beam_on(min(n - self._started, KEPT_EVENTS))
+        finally:
+            self._stop, self._open, self._books = None, False, None
         if self.atoms is not None:
             self.atoms.finish()
         if self._stopped or (stop is not None and stop.is_set()):
-            raise RunCancelled(f"run cancelled after {self._next_event} of {n} events")
-        self._report_progress(final=True)
+            raise RunCancelled(f"run cancelled after {self._started} of {n} events")
+        self._report_progress(self._started, final=True)
         if "edep_alpha" in self._scores:
             self._scores["edep_ion"] = ion_deposits(self._scores)
         if self.steps is not None:
@@ -508,22 +581,37 @@ class Simulation:
         """Add a replayed ion's deposits (and track lengths) to event ``k``; ``alpha``: an alpha
         on TRIM (``alphas: trim``), whose deposits also count in the alpha class when split.
 
-        While Geant4 tracks event ``k`` they wait: its scores are read at its end."""
-        if k == self._next_event and not self._scored:
+        While Geant4 tracks event ``k`` they wait: they join it when it is complete
+        (:meth:`_close_event`); during a run, after its Geant4 scores are read."""
+        if self._open and k == self._next_event:
             self._pending.append((fate, alpha))
             return
+        self._book_steps(k, fate)
+        if self._books is not None:  # a run: Geant4's scores of event k are not read yet
+            self._books.append((k, fate, alpha))
+        else:
+            self._book_scores(k, fate, alpha)
+
+    def _book_steps(self, k: int, fate: IonFate) -> None:
+        """A replayed ion's deposits as steps of event ``k`` (when steps are recorded)."""
         steps = self.steps
+        if steps is None:
+            return
+        if not fate.pieces:
+            for volume, value in fate.deposits.items():
+                if value > 0.0:
+                    where = fate.points.get(volume, fate.position)
+                    steps.add(k, volume, fate.pdg, value, where, fate.time)
+        for volume, x, y, z, value in fate.pieces:  # the path's pieces, each a step
+            if value > 0.0:
+                steps.add(k, volume, fate.pdg, value, (x, y, z), fate.time)
+
+    def _book_scores(self, k: int, fate: IonFate, alpha: bool) -> None:
+        """Add a replayed ion's deposits and track lengths to the scores of event ``k``."""
         for volume, value in fate.deposits.items():
             self._scores["edep"][k, volume] += value
             if alpha and "edep_alpha" in self._scores:
                 self._scores["edep_alpha"][k, volume] += value
-            if steps is not None and value > 0.0 and not fate.pieces:
-                where = fate.points.get(volume, fate.position)
-                steps.add(k, volume, fate.pdg, value, where, fate.time)
-        if steps is not None:  # the path's pieces, each a step
-            for volume, x, y, z, value in fate.pieces:
-                if value > 0.0:
-                    steps.add(k, volume, fate.pdg, value, (x, y, z), fate.time)
         if "track_length" in self._scores:
             for volume, value in fate.lengths.items():
                 self._scores["track_length"][k, volume] += value
@@ -653,16 +741,19 @@ class Simulation:
     def _g4_rows_of_event(self, k: int) -> list[int]:
         return self._feed.geant4_rows(k)
 
-    def _check_stop(self) -> None:
-        """End the run after this event when asked to (one attribute test per event)."""
-        if self._stop is not None and not self._stopped and self._stop.is_set():
+    def _check_stop(self) -> bool:
+        """Whether the run stops before the next event because it was asked to (one attribute
+        test per event); the first time, end the run after the event Geant4 is starting."""
+        if self._stop is None or not self._stop.is_set():
+            return False
+        if not self._stopped:
             self._stopped = True
-            self.run_manager.AbortRun(True)  # soft: the current event is complete, no new one
+            self.run_manager.AbortRun(True)  # soft: the current event is processed, no new one
+        return True
 
-    def _report_progress(self, final: bool = False) -> None:
+    def _report_progress(self, k: int, final: bool = False) -> None:
         """Call the progress callback with the events (atoms, for per-atom histories) done
-        since the last call (see :meth:`run`)."""
-        k = self._next_event
+        since the last call, ``k`` events of the batch being done (see :meth:`run`)."""
         now = k if self._units_after is None else int(self._units_after[k])
         done = now - self._reported
         if self._progress is not None and done > 0 and (final or done >= self._report_every):
