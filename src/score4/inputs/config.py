@@ -554,9 +554,9 @@ class PhysicsConfig(StrictModel):
 
 
 #: Events per 1000 TRIM histories of a library whose size is not given: a run draws its ions'
-#: histories with replacement, and at up to 20 events per history the library's own sample
-#: error adds about a tenth to the variance of the recoil-deposit spectrum (docs/physics.md,
-#: "Library size"); the smallest default library has 1000 histories, the largest 100 000.
+#: histories with replacement; at up to 20 events per history the library's own sample error
+#: was within the scatter of the recoil-deposit spectrum's chi2 at 2e4 and 1e5 events (at most
+#: about a fifth of its variance; docs/physics.md, "Library size"). 1000 to 100 000 histories.
 EVENTS_PER_THOUSAND_HISTORIES = 20_000
 
 
