@@ -789,5 +789,9 @@ def load_config(path: str | Path) -> RunConfig:
 
 
 def config_to_dict(config: RunConfig) -> dict:
-    """Plain data (internal units) for storage with the results."""
-    return config.model_dump(mode="json")
+    """Plain data (internal units) for storage with the results; ``physics.trim_histories`` is
+    the library size the run uses (:func:`trim_histories`) when it replays ions."""
+    data = config.model_dump(mode="json")
+    if "trim" in (config.physics.heavy_ions, config.physics.alphas):
+        data["physics"]["trim_histories"] = trim_histories(config)
+    return data
