@@ -12,7 +12,8 @@ G4Polycone, G4GenericPolycone          :class:`G4GenericPolycone` of Geant4's co
                                        (``GetCorner``); the binding gives only the first
                                        z plane of ``GetOriginalParameters``
 G4Polyhedra                            :class:`G4GenericPolyhedra` of the contour
-G4TessellatedSolid, G4ExtrudedSolid    :class:`MeshShape` of its facets (exact)
+G4TessellatedSolid, G4ExtrudedSolid    :class:`MeshShape` of its facets (exact), one face
+                                       per plane (:meth:`MeshShape.by_planes`)
 G4UnionSolid, G4SubtractionSolid,      :class:`BooleanShape` of its constituents,
 G4IntersectionSolid, G4MultiUnion,     :class:`PlacedShape` for a displaced solid
 G4DisplacedSolid
@@ -136,7 +137,7 @@ def _read(solid: Any) -> Shape:
         r, z = _corners(solid)
         return G4GenericPolyhedra(*_phi(solid), solid.GetNumSide(), r, z)
     if kind in ("G4TessellatedSolid", "G4ExtrudedSolid"):
-        return MeshShape(_facets(solid))
+        return MeshShape.by_planes(_facets(solid), extruded=kind == "G4ExtrudedSolid")
     if kind == "G4DisplacedSolid":
         return PlacedShape(
             _read(solid.GetConstituentMovedSolid()),

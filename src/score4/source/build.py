@@ -13,6 +13,7 @@ about the source (kind, true and projected area, volume).
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from functools import partial
 from typing import Any, TypeVar
@@ -253,7 +254,9 @@ class FlatRemainderSampler:
 
     def __init__(self, layer: RoughLayer) -> None:
         self.layer = layer
-        outline = getattr(layer, "outline", None)
+        outline = getattr(layer, "base_outline", None)
+        if outline is None:
+            outline = getattr(layer, "outline", None)
         px, py = layer.patch_size
         rough_cells = int((layer.cell_variants >= 0).sum())
         if outline is not None:  # a polygon face: its triangles in the layer's frame
@@ -476,7 +479,12 @@ def source_from_config(src: SourceConfig, scene: Scene) -> SampledSource | BulkS
         try:
             surface = shape_face_sampler(scene, volume, face)
         except ConfigError as err:  # "face: G4Box has no face 'top'; its faces: ..."
-            text = str(err)
+            text = re.sub(  # the volume and its Geant4 solid, as for rough faces
+                r"^face: \S+ has no face ",
+                lambda _: f"face: {volume}: no face ",
+                str(err),
+            )
+            text = re.sub(r"^(face: .*?: no face '[^']*'); ", rf"\1 on a {target.solid}; ", text)
             raise ConfigError(
                 f"source.surface.{text}" if text.startswith("face:") else text
             ) from None
