@@ -4,7 +4,13 @@ import pytest
 import yaml
 
 from score4.errors import ConfigError
-from score4.inputs.config import load_config, parse_config
+from score4.inputs.config import (
+    config_to_dict,
+    default_trim_histories,
+    load_config,
+    parse_config,
+    trim_histories,
+)
 
 from conftest import ROOT, config_dict
 
@@ -329,3 +335,32 @@ def test_a_key_under_the_option_that_uses_it_is_accepted():
     assert config.targets[0].rough[0].n_tiles == 8
     physics = parse_config(config_dict(physics={"trim_max_energy": "2 MeV"})).physics
     assert physics.trim_max_energy == pytest.approx(2.0)
+
+
+@pytest.mark.parametrize(
+    ("events", "histories"),
+    [
+        (1, 1000),
+        (20_000, 1000),
+        (20_001, 2000),
+        (100_000, 5000),
+        (2_000_000, 100_000),
+        (10**9, 100_000),
+    ],
+)
+def test_the_default_trim_library_grows_with_the_run(events, histories):
+    """At most 20 events per history (docs/physics.md, Library size), 1000 to 100 000."""
+    assert default_trim_histories(events) == histories
+    config = parse_config(config_dict(run={"events": events}))
+    assert config.physics.trim_histories is None
+    assert trim_histories(config) == histories
+
+
+def test_a_given_trim_library_size_is_kept_and_a_dump_reads_back():
+    config = parse_config(config_dict(run={"events": 10**6}, physics={"trim_histories": 300}))
+    assert trim_histories(config) == 300
+    stored = config_to_dict(parse_config(config_dict(run={"events": 10**5})))
+    assert stored["physics"]["trim_histories"] == 5000  # the size the run used
+    assert trim_histories(parse_config(stored)) == 5000
+    geant4 = config_dict(physics={"mode": "lite", "heavy_ions": "geant4"})
+    assert config_to_dict(parse_config(geant4))["physics"]["trim_histories"] is None

@@ -205,6 +205,19 @@ def _executing(client) -> int:
     return sum(counts.values())
 
 
+def _tracking(client, n_events: int) -> bool:
+    """True once the worker's Geant4 run of ``n_events`` events has tracked one of them."""
+
+    def probe() -> bool:
+        from score4.runner import dask_backend
+
+        sim = dask_backend._held.get("sim")  # the worker's Simulation (private: a test probe)
+        primaries = getattr(sim, "_primaries", None)
+        return primaries is not None and primaries.n_events == n_events and sim._next_event > 0
+
+    return all(client.run(probe).values())
+
+
 def _wait_for(condition, timeout: float) -> float | None:
     """Seconds until ``condition()`` held (polled every 0.05 s), or None after ``timeout``."""
     start = time.monotonic()
@@ -236,7 +249,9 @@ def test_a_cancelled_chunk_stops_on_its_worker_and_the_worker_runs_on(tmp_path):
             if event == ("done", 0):
                 break
         assert _wait_for(lambda: _executing(client) == 1, STOP_BOUND_S) is not None  # chunk 1 runs
-        time.sleep(0.5)
+        # cancel once Geant4 tracks chunk 1's events (an event, not a time: sampling its
+        # million vertices takes ~1 s idle and longer under load)
+        assert _wait_for(lambda: _tracking(client, 1_000_000), STOP_BOUND_S) is not None
         events.close()  # what Ctrl-C or a failure does: the executor cancels the rest
         # Wait for the event (the worker executes nothing), not for a time: it takes ~0.1 s idle
         # and seconds under load (bench_dask_cancel.py); the bound only ends a broken stop,

@@ -482,6 +482,7 @@ def test_exported_world_gives_the_same_paths_and_reads_in_pyg4ometry(worlds, tmp
     import pyg4ometry
 
     monkeypatch.setattr(pyg4ometry.config, "doMeshing", False)
+    monkeypatch.chdir(out.parent)  # pyg4ometry reads <file> includes from the working folder
     reg = pyg4ometry.gdml.Reader(str(out)).getRegistry()
     lvs = [n.split("0x")[0] for n in reg.logicalVolumeDict]
     assert {"crystal_1_roughpz", "disk_roughmz", "B00000T", "CrystalLV_u1"} <= set(lvs)

@@ -539,7 +539,9 @@ class HeavyIonReplay:
     max_energy
         Heavy ions above it stay with Geant4.
     histories
-        TRIM histories per ion, energy and material.
+        TRIM histories per ion, energy and material. ``score4 run`` scales its default with the
+        run's events (:func:`score4.inputs.config.default_trim_histories`: 1000 per 20 000
+        events); with more than 20 000 replayed ions per library, raise it likewise.
     """
 
     def __init__(
@@ -570,6 +572,7 @@ class HeavyIonReplay:
         self.g4 = g4
         self.world = world
         self.seed = int(seed)
+        self.histories = int(histories)
         self.volumes = {
             name: list(lvs) if isinstance(lvs, (list, tuple)) else [lvs]
             for name, lvs in volumes.items()
@@ -598,7 +601,7 @@ class HeavyIonReplay:
                 self.g4,
                 self.world,
                 self.volumes,
-                histories=self.settings.trim_histories,
+                histories=self.histories,
                 library_seed=library_trim_seed(self.seed),
             )
         return self._transport

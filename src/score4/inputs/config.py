@@ -546,10 +546,32 @@ class PhysicsConfig(StrictModel):
     # short with no straggling (docs/physics.md). 'geant4' leaves them to Geant4, for comparison.
     heavy_ions: Literal["trim", "geant4"] = "trim"
     trim_max_energy: PositiveEnergy = 1.0
-    trim_histories: int = Field(1000, ge=10, le=100_000)
+    # TRIM histories per library; not given: scaled with run.events (default_trim_histories)
+    trim_histories: int | None = Field(None, ge=10, le=100_000)
     # Alphas: Geant4 (ASTAR-based stopping; within 3 % of TRIM's ranges in Si, Ge, Cu, 4-6 % off
     # in NaI, CaWO4 and TeO2 at some energies) or TRIM trajectories like heavy ions (SRIM stopping).
     alphas: Literal["geant4", "trim"] = "geant4"
+
+
+#: Events per 1000 TRIM histories of a library whose size is not given: a run draws its ions'
+#: histories with replacement; at up to 20 events per history the library's own sample error
+#: was within the scatter of the recoil-deposit spectrum's chi2 at 2e4 and 1e5 events (at most
+#: about a fifth of its variance; docs/physics.md, "Library size"). 1000 to 100 000 histories.
+EVENTS_PER_THOUSAND_HISTORIES = 20_000
+
+
+def default_trim_histories(events: int) -> int:
+    """TRIM histories of a library when ``physics.trim_histories`` is not given: 1000 per
+    :data:`EVENTS_PER_THOUSAND_HISTORIES` events of the run (rounded up), 1000 to 100 000."""
+    thousands = -(-int(events) // EVENTS_PER_THOUSAND_HISTORIES)
+    return 1000 * min(max(thousands, 1), 100)
+
+
+def trim_histories(config: RunConfig) -> int:
+    """The TRIM library size of a run: ``physics.trim_histories``, or
+    :func:`default_trim_histories` of its ``run.events``."""
+    given = config.physics.trim_histories
+    return given if given is not None else default_trim_histories(config.run.events)
 
 
 class RunSettings(StrictModel):
@@ -767,5 +789,9 @@ def load_config(path: str | Path) -> RunConfig:
 
 
 def config_to_dict(config: RunConfig) -> dict:
-    """Plain data (internal units) for storage with the results."""
-    return config.model_dump(mode="json")
+    """Plain data (internal units) for storage with the results; ``physics.trim_histories`` is
+    the library size the run uses (:func:`trim_histories`) when it replays ions."""
+    data = config.model_dump(mode="json")
+    if "trim" in (config.physics.heavy_ions, config.physics.alphas):
+        data["physics"]["trim_histories"] = trim_histories(config)
+    return data

@@ -21,6 +21,7 @@ from ..elements import split_ion_name
 from ..errors import ConfigError, RunCancelled, Score4Error
 from ..geometry.built import BuiltGeometry
 from ..geometry.world import build_world, check_materials
+from ..inputs.config import trim_histories
 from ..source.build import FileSource
 from ..source.decay_source import DecayEmitter
 from ..source.emitters import NuclideEmitter, ParticleEmitter, Po210Emitter
@@ -216,7 +217,7 @@ class Simulation:
                 g4,
                 self.geometry.world,
                 self.geometry.scoring,
-                histories=self.config.physics.trim_histories,
+                histories=trim_histories(self.config),
                 library_seed=library_trim_seed(self.run_seed),
             )
             # steps: the replayed ions' deposits piece by piece along their paths
