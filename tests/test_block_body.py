@@ -125,3 +125,15 @@ def test_geantino_paths_through_three_cell_blocks_match_one_tessellated_solid(tm
     np.testing.assert_allclose(out["blocks"][down], exact, rtol=0, atol=1e-9)
     assert (np.abs(out["blocks"] - out["tessellated"]) > 1e-9).mean() < 0.01
     assert (out["blocks"] > 0).mean() > 0.6
+
+
+def test_sides_of_four_cells_keep_closed_body():
+    """4 x 4-pixel blocks (sides of 4 edges, e.g. the automatic size of a 512 x 512 map) are
+    closed_body's: watertight, 80 faces, the blocks' volumes adding up to the body's. Until
+    2026-11-27 such a side took the 3-edge wall, leaving a hole in every block."""
+    surface = build_surface(RANDOM)
+    bodies = blk.block_bodies(surface, BASE, 4)
+    assert all(is_watertight(b) for b in bodies)
+    assert {b.n_faces for b in bodies} == {80}
+    total = sum(signed_volume(b) for b in bodies)
+    assert total == pytest.approx(signed_volume(surface.body(BASE)), rel=1e-12)

@@ -194,12 +194,12 @@ def block_body(top: TriangleMesh, thickness: float) -> TriangleMesh:
     chains, start = [], corner[0]
     for _ in range(4):
         chain = [start]
-        while True:
+        while len(chain) < 5:  # a side's chain: its 2 corners and at most 2 vertices between
             chain.append(nxt[chain[-1]])
             if chain[-1] in corner:
                 break
-            if len(chain) > 4:
-                return closed_body(top, thickness)  # a side of 4 or more edges
+        if len(chain) > 4 or chain[-1] not in corner:
+            return closed_body(top, thickness)  # a side of 4 or more edges
         chains.append(chain)
         start = chain[-1]
     if start != corner[0]:
