@@ -1,11 +1,15 @@
 """The area estimate of a boolean solid's faces: its error and its cost, one round of draws per
 face (as before issue 24) against rounds until 0.1 % per face.
 
-    .venv/bin/python benchmarks/bench_boolean_area.py [--repeat 3]
+    .venv/bin/python benchmarks/bench_boolean_area.py [--repeat 3] [--live]
 
 A 20 mm box less a 4 mm bore through it (exact area 2400 - 32 pi + 160 pi mm2): per setting the
 estimated area, its standard error, the largest relative error of a face and the CPU time
 (median of interleaved rounds).
+
+``--live``: a G4Torus (radii 5 and 20 mm, exact area 4 pi^2 100 mm2) read through the live solid
+(``LiveSolidShape``, random lines in rounds of 10^5 until 0.1 %): its area, error, lines and CPU
+time (one run, in Geant4).
 """
 
 from __future__ import annotations
@@ -34,10 +38,31 @@ def one(rounds: int) -> tuple[float, float, float, float]:
     return area, total, worst, cpu
 
 
+def live() -> None:
+    from score4.geometry.solid_shapes import LiveSolidShape
+    from score4.sim.runtime import import_geant4, resolve_physics
+
+    g4 = import_geant4(resolve_physics("lite"))
+    torus = g4.G4Torus("torus", 0, 5, 20, 0, 2 * math.pi)
+    for cap in (100_000, 4_000_000):
+        start = time.process_time()
+        shape = LiveSolidShape(torus, max_area_lines=cap)
+        area, err = shape.area, shape.area_error
+        cpu = time.process_time() - start
+        print(
+            f"live torus, at most {cap} lines: area {area:.2f} +- {err:.2f} mm2 "
+            f"({100 * err / area:.3f} %), exact {4 * math.pi**2 * 100:.2f}, CPU {cpu:.1f} s"
+        )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3, help="interleaved rounds")
+    parser.add_argument("--live", action="store_true", help="the live-solid torus instead")
     args = parser.parse_args()
+    if args.live:
+        live()
+        return
     settings = {"one round (50 000 draws per face)": 1, "until 0.1 % per face": 40}
     runs: dict[str, list] = {k: [] for k in settings}
     for _ in range(args.repeat):

@@ -13,7 +13,8 @@ per-batch CPU per event of both, their medians and the ratio of the medians.
 ``--rounds`` repeats the pair of processes per face and prints the median of their ratios;
 ``--baseline`` times another score4 checkout's sources in the same rounds (before/after).
 ``--recoils`` times the replay alone (``HeavyIonTransport.transport``, us CPU per Pb-206
-recoil, ``--batches`` passes over the recoils of ``--events`` events per process).
+recoil, ``--batches`` passes over the recoils of ``--events`` events per process); ``--calls``
+counts its navigator calls per recoil, by method (no timing).
 
 On a machine shared with other jobs single timings move by tens of per cent; running the two
 modes together and taking medians keeps their ratio steadier than timing them one after the
@@ -120,6 +121,77 @@ def recoil_replays(face: str, events: int, count: int) -> list[float]:
     return out
 
 
+def recoil_calls(face: str, events: int) -> dict[str, float]:
+    """Navigator calls per Pb-206 recoil of ``HeavyIonTransport.transport``, by method, over
+    the recoils of ``events`` Po-210 events (``--calls``; run in a process of its own)."""
+    from collections import Counter
+
+    from score4.inputs.config import parse_config
+    from score4.sim.heavy_ions import ReplayStream
+    from score4.sim.runtime import resolve_physics
+    from score4.sim.simulation import Simulation
+
+    sim = Simulation(
+        plan_run(parse_config(config(face, "trim", events)), physics=resolve_physics("lite"))
+    )
+    primaries = sim.source.events(1, 1000, events)
+    transport, particle = sim.heavy_ions, sim.particle("Pb206")
+    assert transport is not None
+    calls: Counter[str] = Counter()
+
+    class Counting:
+        """The navigator, counting the calls made through it."""
+
+        def __init__(self, nav) -> None:
+            self._nav = nav
+
+        def __getattr__(self, name: str):
+            method = getattr(self._nav, name)
+
+            def counted(*args):
+                calls[name] += 1
+                return method(*args)
+
+            return counted
+
+    transport.nav = Counting(transport.nav)
+    rows = [int(r) for r in np.flatnonzero(primaries.particle == "Pb206")]
+    for r in rows:
+        transport.transport(
+            particle,
+            "Pb206",
+            float(primaries.energy[r]),
+            primaries.position[r],
+            primaries.direction[r],
+            ReplayStream(7, 1, r),
+        )
+    return {name: n / len(rows) for name, n in sorted(calls.items())}
+
+
+def part_calls(events: int, baseline: str | None) -> None:
+    """``--calls``: navigator calls per recoil, in processes of their own."""
+    versions = {"this": None} if baseline is None else {"this": None, "baseline": baseline}
+    for face in ("flat", "pyramids"):
+        for name, src in versions.items():
+            env = dict(os.environ)
+            if src:
+                env["PYTHONPATH"] = os.pathsep.join(p for p in (src, env.get("PYTHONPATH")) if p)
+            out = subprocess.run(
+                [sys.executable, __file__, "--one-calls", face, "--events", str(events)],
+                capture_output=True,
+                text=True,
+                env=env,
+                check=True,
+            ).stdout
+            line = next(x for x in out.splitlines() if x.startswith("RESULT "))
+            calls = json.loads(line.removeprefix("RESULT "))
+            shown = ", ".join(f"{k} {v:.2f}" for k, v in calls.items())
+            print(
+                f"{face:9s} {name}{f' ({src})' if src else ''}: navigator calls per recoil "
+                f"{sum(calls.values()):.1f} ({shown})"
+            )
+
+
 def part_recoils(events: int, count: int, rounds: int, baseline: str | None) -> None:
     """``--recoils``: the replay alone, per recoil, in processes of their own, interleaved."""
     versions = {"this": None} if baseline is None else {"this": None, "baseline": baseline}
@@ -192,7 +264,11 @@ def main() -> None:
     parser.add_argument(
         "--recoils", action="store_true", help="time the replay alone, us CPU per recoil"
     )
+    parser.add_argument(
+        "--calls", action="store_true", help="count the replay's navigator calls per recoil"
+    )
     parser.add_argument("--one", nargs=2, help=argparse.SUPPRESS)
+    parser.add_argument("--one-calls", help=argparse.SUPPRESS)
     parser.add_argument("--one-recoils", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one:
@@ -200,6 +276,12 @@ def main() -> None:
         return
     if args.one_recoils:
         print("RESULT " + json.dumps(recoil_replays(args.one_recoils, args.events, args.batches)))
+        return
+    if args.one_calls:
+        print("RESULT " + json.dumps(recoil_calls(args.one_calls, args.events)))
+        return
+    if args.calls:
+        part_calls(args.events, args.baseline)
         return
     if args.recoils:
         part_recoils(args.events, args.batches, args.rounds, args.baseline)

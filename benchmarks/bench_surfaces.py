@@ -23,8 +23,9 @@ deposit as a check.
 
 Second table (``--sizes``): build cost of one patch of a Gaussian random map of n x n pixels
 (0.5 um pitch) as ``solid: blocks`` in a fresh process: numpy (cutting the mesh into closed
-blocks), Geant4 (solids and placements), peak RSS of the process and its growth over a process
-that only imported Geant4.
+blocks), Geant4 (solids and placements), the growth of resident memory while Geant4 builds per
+facet, the peak RSS of the process and its growth over a process that only imported Geant4.
+benchmarks/bench_facet_handoff.py splits Geant4's part per facet.
 
 The machine is shared with other jobs: absolute figures vary by +-30 %; ratios from one
 invocation are firmer, and firmer still with ``--repeat N`` (N rounds over all cases, each row
@@ -261,35 +262,52 @@ def warm_table(
         )
 
 
+def _resident() -> int:
+    """The process's resident memory now, bytes."""
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
 def build_case(n: int) -> None:
-    """Child process: build one n x n pixel patch as blocks, print numpy s, Geant4 s, RSS."""
+    """Child process: build one n x n pixel patch as blocks, print numpy s, Geant4 s, RSS and
+    the growth of resident memory while Geant4 builds, per facet.
+
+    The blocks are built as a run builds them (``place_blocks``: each block's closed body is
+    cut, handed to Geant4 and dropped); a first pass only cuts the bodies, for the numpy time
+    (with the exact top mesh), and Geant4's time is the rest of ``place_blocks``.
+    """
 
     from score4.sim.runtime import import_geant4, resolve_physics
 
     g4 = import_geant4(resolve_physics("lite"))
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    from score4.geometry.block_solids import fast_tessellated
-    from score4.surface.block_cut import block_bodies
+    from score4.geometry.block_solids import place_blocks
+    from score4.surface.block_cut import iter_block_bodies
     from score4.surface.spec import build_surface
 
     spec = {"kind": "random", "nx": n + 1, "ny": n + 1, "pitch": "0.5 um", "sq": "0.3 um"}
     surface = build_surface({**spec, "corr_length": "3 um", "periodic": False, "seed": 1})
+    tm = time.process_time()
+    _ = surface.top_mesh  # the exact mesh, built once (counted in numpy)
     t0 = time.process_time()
-    bodies = block_bodies(surface, 1e-3)
+    blocks = facets = 0
+    for body in iter_block_bodies(surface, 1e-3):
+        blocks, facets = blocks + 1, facets + body.n_faces
     t1 = time.process_time()
     mat = g4.G4NistManager.Instance().FindOrBuildMaterial("G4_Si")
     box = g4.G4Box("m", 1.0, 1.0, 1.0)
     mother = g4.G4LogicalVolume(box, mat, "m")
-    keep = []
-    where = g4.G4ThreeVector()
-    for b, body in enumerate(bodies):
-        solid = fast_tessellated(g4, body, f"b{b}")
-        lv = g4.G4LogicalVolume(solid, mat, f"b{b}")
-        keep += [solid, lv, g4.G4PVPlacement(None, where, lv, f"b{b}", mother, False, b, False)]
+    resident = _resident()
     t2 = time.process_time()
+    keep = place_blocks(g4, surface, 1e-3, None, mat, mother, 0.0, "p")
+    t3 = time.process_time()
+    per_facet = (_resident() - resident) / facets
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    facets = int(np.sum([b.n_faces for b in bodies]))
-    print(f"{n} {len(bodies)} {facets} {t1 - t0:.2f} {t2 - t1:.2f} {rss:.0f} {rss - rss0:.0f}")
+    numpy_s, g4_s = t1 - tm, (t3 - t2) - (t1 - t0)
+    print(
+        f"{n} {blocks} {facets} {numpy_s:.2f} {g4_s:.2f} {rss:.0f} {rss - rss0:.0f} {per_facet:.0f}"
+    )
+    del keep
 
 
 def build_table(sizes: list[int]) -> None:
@@ -297,8 +315,8 @@ def build_table(sizes: list[int]) -> None:
     from stamp import stamp  # this folder is on sys.path when run as a script
 
     print(stamp())
-    print("| map | blocks | facets | numpy s | Geant4 s | peak RSS MB |")
-    print("| --- | --- | --- | --- | --- | --- |")
+    print("| map | blocks | facets | numpy s | Geant4 s | bytes per facet | peak RSS MB |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
     for n in sizes:
         r = subprocess.run(
             [sys.executable, __file__, "--build-child", str(n)],
@@ -306,9 +324,9 @@ def build_table(sizes: list[int]) -> None:
             capture_output=True,
             text=True,
         )
-        f = r.stdout.split()[-7:]
+        f = r.stdout.split()[-8:]
         facets = f"{int(f[2]):,}".replace(",", " ")
-        print(f"| {n} x {n} pixels | {f[1]} | {facets} | {f[3]} | {f[4]} | {f[5]} |")
+        print(f"| {n} x {n} pixels | {f[1]} | {facets} | {f[3]} | {f[4]} | {f[7]} | {f[5]} |")
 
 
 def main() -> None:
@@ -389,7 +407,7 @@ def main() -> None:
     if sizes:
         print(
             f"\n{'pixels':>7s} {'blocks':>6s} {'facets':>8s} {'numpy s':>7s} {'G4 s':>6s} "
-            f"{'RSS MB':>6s} {'dRSS MB':>7s}"
+            f"{'RSS MB':>6s} {'dRSS MB':>7s} {'B/facet':>7s}"
         )
     for n in sizes:
         r = subprocess.run(
@@ -401,10 +419,10 @@ def main() -> None:
         if r.returncode:
             print(f"{n:7d} failed: {r.stderr.strip().splitlines()[-1:]}")
             continue
-        f = r.stdout.split()[-7:]
+        f = r.stdout.split()[-8:]
         print(
             f"{int(f[0]):7d} {int(f[1]):6d} {int(f[2]):8d} {f[3]:>7s} {f[4]:>6s} "
-            f"{f[5]:>6s} {f[6]:>7s}"
+            f"{f[5]:>6s} {f[6]:>7s} {f[7]:>7s}"
         )
 
 

@@ -145,7 +145,10 @@ def test_api_errors_are_one_line(gdml):
         "roughen('crystal', '-z'): surface: height: '10' has no unit",
         "roughen('crystal', '-z'): base_thicknes: unknown key; did you mean 'base_thickness'?",
         "runs into sister volume 'crystal' (free gap there: 500 um)",
-        "source.surface.face: G4Box has no face '+q'; its faces: +x, -x, +y, -y, +z, -z, all",
+        (
+            "source.surface.face: crystal: no face '+q' on a G4Box; its faces: +x, -x, +y, -y, "
+            "+z, -z, all"
+        ),
         "source: energy: '5' has no unit",
         "source.decay.implantation: per-atom histories need score4 run",
         "roughen(x, '-z'): give a G4VPhysicalVolume, a G4LogicalVolume or a volume name, not a G4",

@@ -1,6 +1,6 @@
-"""Blocks with few facets (surface.blocks.block_body): each side's wall is 2-4 triangles over
-the side's two bottom corners and the bottom is 2, instead of a quad per top edge and a bottom
-fan; still the same closed body, walls in the cut planes, nothing folded."""
+"""Blocks with few facets (surface.blocks.block_body): each side's wall of n top edges is n + 1
+triangles over the side's two bottom corners and the bottom is 2, instead of a quad per top edge
+and a bottom fan; still the same closed body, walls in the cut planes, nothing folded."""
 
 from __future__ import annotations
 
@@ -52,11 +52,11 @@ def _check_walls(body: TriangleMesh, thickness: float) -> None:
     assert on_side.all()
 
 
-@pytest.mark.parametrize(("cells", "facets"), [(1, 12), (2, 22), (3, 36)])
+@pytest.mark.parametrize(("cells", "facets"), [(1, 12), (2, 22), (3, 36), (4, 54), (6, 102)])
 def test_blocks_have_few_facets_and_are_the_same_body(cells, facets):
-    """36 x 36 pixels cut into 1 x 1, 2 x 2 and 3 x 3 blocks: 12, 22 and 36 facets a block
-    (closed_body gives 14, 32 and 54); watertight; the top faces unchanged; the blocks' volumes
-    add up to the one body's (1e-12)."""
+    """36 x 36 pixels cut into 1 x 1 to 6 x 6 blocks: 12, 22, 36, 54 and 102 facets a block
+    (closed_body gives 14, 32, 54, 80 and 150); watertight; the top faces unchanged; the blocks'
+    volumes add up to the one body's (1e-12)."""
     surface = build_surface(RANDOM)
     bodies = blk.block_bodies(surface, BASE, cells)
     assert {b.n_faces for b in bodies} == {facets}
@@ -108,18 +108,19 @@ def test_three_cell_side_with_a_cliff_takes_the_unfolded_diagonal(monkeypatch, c
     assert signed_volume(body) == pytest.approx(signed_volume(blk.closed_body(top, 1e-3)))
 
 
-def test_geantino_paths_through_three_cell_blocks_match_one_tessellated_solid(tmp_path):
+@pytest.mark.parametrize("cells", [3, 6])
+def test_geantino_paths_through_blocks_match_one_tessellated_solid(tmp_path, cells):
     """1500 geantinos (straight down, oblique, grazing, horizontal in the layer, isotropic from
     sampled vertices) through 2 x 2 patches of the 36 x 36-pixel map as one tessellated solid
-    and as 3 x 3-pixel blocks: straight-down paths equal the exact mesh height + slab + box to
-    1e-9 mm, and at most 1 % of all paths differ by more than 1e-9 mm (grazing rays along a
-    block's top edge; see test_blocks.py for the measured differences). Most of these blocks
-    stand on a floor box (floored_blocks), so the rays cross caps, floors and the planes
-    between them."""
-    floors = [f for _, f in blk.floored_blocks(build_surface(RANDOM), BASE, 3) if f is not None]
-    assert len(floors) > 100
+    and as 3 x 3- or 6 x 6-pixel blocks (walls of 4 and 7 triangles a side): straight-down
+    paths equal the exact mesh height + slab + box to 1e-9 mm, and at most 1 % of all paths
+    differ by more than 1e-9 mm (grazing rays along a block's top edge; see test_blocks.py for
+    the measured differences). Most of these blocks stand on a floor box (floored_blocks), so
+    the rays cross caps, floors and the planes between them."""
+    floors = [f for _, f in blk.floored_blocks(build_surface(RANDOM), BASE, cells) if f is not None]
+    assert len(floors) > 20
     data = {s: _data(RANDOM, s) for s in ("tessellated", "blocks")}
-    data["blocks"]["targets"][0]["rough"][0]["block_cells"] = 3
+    data["blocks"]["targets"][0]["rough"][0]["block_cells"] = cells
     for d in data.values():  # 2 x 2 patches of 90 um
         d["targets"][0]["size"] = ["0.18 mm", "0.18 mm", "0.1 mm"]
     config = parse_config(data["tessellated"])
@@ -131,18 +132,36 @@ def test_geantino_paths_through_three_cell_blocks_match_one_tessellated_solid(tm
     assert (out["blocks"] > 0).mean() > 0.6
 
 
+def test_long_side_with_spikes_is_cut_without_folds():
+    """A 6 x 6-cell block whose first side (y = 0) zigzags between 0.1 um and 50 um: a fan from
+    the first bottom corner would fold over the wall. The side's wall is still 7 triangles, all
+    facing out and vertical; the block is watertight and its volume is closed_body's."""
+    h = np.full((7, 7), 1e-4)
+    h[0, 1::2] = 0.05
+    top = _grid_top(h)
+    s, z = top.vertices[:7, 0], top.vertices[:7, 2] + 1e-3  # the side, from its bottom corner
+    assert min(s[1:] * z[:-1] - z[1:] * s[:-1]) < 0  # fan triangles (corner, p[i+1], p[i])
+    wall = blk._terrain_wall(top.vertices, 1e-3, list(range(7)), 49, 50)
+    assert wall is not None
+    assert len(wall) == 7
+    body = blk.block_body(top, 1e-3)
+    assert body.n_faces == 72 + 4 * 7 + 2
+    assert is_watertight(body)
+    _check_walls(body, 1e-3)
+    assert signed_volume(body) == pytest.approx(signed_volume(blk.closed_body(top, 1e-3)))
+
+
 @pytest.mark.parametrize("cells", [2, 4])
 def test_floored_blocks_are_the_blocks_cut_at_a_plane(cells):
     """Each block as Geant4 gets it (surface.block_cut.floored_blocks): a tessellated cap on a
-    box. Cap top faces unchanged (bitwise), caps watertight (2 x 2 pixels: walls in the
-    block's side planes and a bottom of 2 faces; 4 x 4: closed_body's walls and bottom fan),
-    every cap wall triangle reaching at least FLOOR_GAP down from a top vertex (lower walls
-    make Geant4's facet tolerance accept hits far outside a facet); the box under the cap's
-    outline (the same coordinates, bitwise), from the slab's bottom up to the cap's bottom;
-    cap + box = the block's volume."""
+    box. Cap top faces unchanged (bitwise), caps watertight with walls in the block's side
+    planes and a bottom of 2 faces, every wall triangle on a bottom corner reaching at least
+    FLOOR_GAP up to a top vertex (lower walls make Geant4's facet tolerance accept hits far
+    outside a facet); the box under the cap's outline (the same coordinates, bitwise), from the
+    slab's bottom up to the cap's bottom; cap + box = the block's volume."""
     surface = build_surface(RANDOM)
     blocks = blk.block_bodies(surface, BASE, cells)
-    floored = blk.floored_blocks(surface, BASE, cells)
+    floored = list(blk.floored_blocks(surface, BASE, cells))
     assert len(floored) == len(blocks)
     n_floors = 0
     for block, (cap, floor) in zip(blocks, floored, strict=True):
@@ -158,10 +177,10 @@ def test_floored_blocks_are_the_blocks_cut_at_a_plane(cells):
             assert top_low - blk.FLOOR_GAP + BASE < blk.MIN_FLOOR
             continue
         n_floors += 1
-        if cells == 2:
-            _check_walls(cap, -bottom)
+        _check_walls(cap, -bottom)
         walls = v[cap.faces[~cap.top]]
         walls = walls[~(walls[:, :, 2] == bottom).all(axis=1)]  # not the bottom
+        walls = walls[(walls[:, :, 2] == bottom).any(axis=1)]  # on a bottom corner
         assert (np.ptp(walls[:, :, 2], axis=1) >= blk.FLOOR_GAP).all()
         assert bottom == top_low - blk.FLOOR_GAP
         np.testing.assert_array_equal(floor[0, :2], v[:, :2].min(axis=0))
@@ -171,15 +190,12 @@ def test_floored_blocks_are_the_blocks_cut_at_a_plane(cells):
         box = np.prod(floor[1] - floor[0])
         assert signed_volume(cap) + box == pytest.approx(signed_volume(block), rel=1e-12)
     assert n_floors > 0.9 * len(blocks)  # the map's heights start at 0: a few blocks have none
-
-
-def test_sides_of_four_cells_keep_closed_body():
-    """4 x 4-pixel blocks (sides of 4 edges, e.g. the automatic size of a 512 x 512 map) are
-    closed_body's: watertight, 80 faces, the blocks' volumes adding up to the body's. Until
-    2026-11-27 such a side took the 3-edge wall, leaving a hole in every block."""
-    surface = build_surface(RANDOM)
-    bodies = blk.block_bodies(surface, BASE, 4)
-    assert all(is_watertight(b) for b in bodies)
-    assert {b.n_faces for b in bodies} == {80}
-    total = sum(signed_volume(b) for b in bodies)
-    assert total == pytest.approx(signed_volume(surface.body(BASE)), rel=1e-12)
+    # closed_body's walls and bottom fan (block_body's fallback) also stand on a floor
+    top = blk.split_top(surface, cells)[0]
+    z = float(top.vertices[:, 2].min()) - blk.FLOOR_GAP
+    cap = blk._closed_body(top, -z)
+    assert is_watertight(cap)
+    full = signed_volume(blk.closed_body(top, BASE))
+    assert signed_volume(cap) == pytest.approx(
+        full - np.prod(np.ptp(top.vertices[:, :2], axis=0)) * (z + BASE)
+    )

@@ -73,15 +73,21 @@ def test_blocks_are_the_body_cut_along_cell_edges(spec, cells):
     cut_y = {float(b.vertices[:, 1].min()) for b in bodies} - {float(lo[1])}
     edges = {}
     for b in bodies:
+        top_tris = b.vertices[b.faces[b.top]].tolist()
+        top_edges = {
+            tuple(sorted((tuple(t[i]), tuple(t[(i + 1) % 3])))) for t in top_tris for i in range(3)
+        }
         walls = b.vertices[b.faces[~b.top]]
-        walls = walls[~(walls[:, :, 2] == -base).all(axis=1)]  # not the bottom fan
+        walls = walls[~(walls[:, :, 2] == -base).all(axis=1)]  # not the bottom
         outline = ((walls[:, :, :2] == lo) | (walls[:, :, :2] == hi)).all(axis=1).any(axis=1)
         for tri in walls[~outline]:
             xs, ys = set(tri[:, 0].tolist()), set(tri[:, 1].tolist())
             assert (len(xs) == 1 and xs <= cut_x) or (len(ys) == 1 and ys <= cut_y)
-            upper = tuple(sorted(map(tuple, tri[tri[:, 2] != -base].tolist())))
-            if len(upper) == 2:  # the wall's top edge (the other triangle has one top vertex)
-                edges.setdefault(upper, []).append(id(b))
+            corners = list(map(tuple, tri.tolist()))
+            for i in range(3):  # the wall's top edges (a diagonal between top vertices is not)
+                edge = tuple(sorted((corners[i], corners[(i + 1) % 3])))
+                if edge in top_edges:
+                    edges.setdefault(edge, []).append(id(b))
     assert len(bodies) == 1 or edges
     assert all(len(v) == 2 and v[0] != v[1] for v in edges.values())
 

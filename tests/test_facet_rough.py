@@ -20,6 +20,7 @@ from score4.runner.output import read_results
 from score4.shapes.base import INSIDE, OUTSIDE, PlaneTriangles
 from score4.source.build import layer_sampler, make_source, source_geometry
 from score4.source.vertex_file import write_vertex_file
+from score4.world.facets import point_in_triangles
 from score4.world.resolve import build_scene
 from score4.world.scene import PolygonRoughLayer
 
@@ -279,9 +280,19 @@ def test_geant4_finds_no_overlap_on_neighbouring_rough_faces(gdml, tmp_path, cap
     ("volume", "change", "message"),
     [
         ("trd", {"face": "top"}, r"no face 'top' on a G4Trd; its faces: \+x, -x, \+y, -y, \+z, -z"),
-        ("trap", {"face": "+x", "into": True}, r"into: true on face \+x of 'trap' \(a G4Trap\)"),
+        (
+            "trap",
+            {"face": "+x", "tiling": "portal"},
+            r"tiling portal on face \+x of 'trap' \(a G4Trap\): a portal's subworlds must lie",
+        ),
         ("ph", {"face": "seg_1", "native_layout": "replicas"}, r"takes auto or placements"),
         ("trd", {"face": "+z", "tiling": "portal"}, r"takes tiling: native"),
+        (
+            "tess",
+            {"face": "plane_8"},
+            r"no face 'plane_8' on a G4TessellatedSolid; its faces: plane_0, .*, mesh, all$",
+        ),
+        ("xt", {"face": "side_5"}, r"its faces: -z, \+z, side_0, .*, side_4, mesh, sides, all$"),
     ],
 )
 def test_bad_facet_layers_are_one_line_errors(gdml, volume, change, message):
@@ -301,8 +312,12 @@ def test_a_face_smaller_than_a_patch_states_its_size(gdml):
 def test_layers_meeting_at_a_concave_edge_are_refused(tmp_path):
     """An L-shaped extrusion: the layers of the two faces of its inner corner would overlap."""
     gdml = write_solids(tmp_path / "l.gdml", concave=True)
-    with pytest.raises(ConfigError, match=r"xt_roughmesh_\d+: .* runs into the rough layer"):
+    with pytest.raises(ConfigError, match=r"xt_roughside_\d+: .* runs into the rough layer"):
         build_scene(parse_config(config(gdml, {"xt": SOLIDS["xt"]})))
+    data = config(gdml, {"xt": (["side_0"], SOLIDS["xt"][1])})
+    data["targets"][0]["rough"][0]["into"] = True  # into: a solid score4 cannot clip
+    with pytest.raises(ConfigError, match=r"into: true on face side_0 of 'xt' \(a G4Extruded"):
+        build_scene(parse_config(data))
 
 
 def test_the_trap_outline_matches_its_shape(scene):
@@ -314,3 +329,241 @@ def test_the_trap_outline_matches_its_shape(scene):
     assert area == pytest.approx(layer.target.shape.face_areas["+x"], rel=1e-12)
     centre = layer.target.to_local(layer.frame.centre[None])
     assert (layer.target.shape.inside(centre) != OUTSIDE).all()
+
+
+def test_the_planes_of_a_mesh_are_faces_of_their_own(scene):
+    """The octahedron's 8 planes are faces plane_0..plane_7 and the extruded pentagon's -z, +z
+    and side_0..side_4 (groups mesh and sides): each face is its coplanar facets, -z and +z
+    lie at the ends with normals -z and +z, and the faces' areas add up to the solid's."""
+    tess, xt = scene.target("tess").shape, scene.target("xt").shape
+    assert tess.faces == tuple(f"plane_{i}" for i in range(8))
+    assert tess.groups["mesh"] == tess.faces
+    assert xt.faces == ("-z", "+z", *(f"side_{i}" for i in range(5)))
+    assert xt.groups["sides"] == xt.faces[2:]
+    assert xt.groups["mesh"] == xt.faces
+    for shape in (tess, xt):
+        total = sum(p.area for p in shape.patches)
+        assert sum(shape.face_areas.values()) == pytest.approx(total, rel=1e-12)
+        for face in shape.faces:
+            tri = np.concatenate(
+                [p.triangles for p in shape.patches if shape.faces[p.face] == face]
+            )
+            n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+            n /= np.linalg.norm(n, axis=1)[:, None]
+            np.testing.assert_allclose(n, np.broadcast_to(n[0], n.shape), atol=1e-12)
+            offset = np.einsum("ij,ij->i", tri.reshape(-1, 3), np.repeat(n, 3, axis=0))
+            assert np.ptp(offset) < 1e-12
+            if face in ("-z", "+z"):
+                sign = 1.0 if face == "+z" else -1.0
+                np.testing.assert_allclose(n[0], [0, 0, sign], atol=1e-12)
+                assert tri[..., 2].min() == pytest.approx(sign * 1.0, abs=1e-12)
+
+
+def test_one_plane_of_a_mesh_takes_a_rough_layer_and_a_source(gdml):
+    """A rough layer on plane_3 of the octahedron alone, and on side_2 of the extrusion; a
+    source on [side_2, -z] of the extrusion draws on those two faces only (the rough tops of
+    side_2, the flat rest of side_2 and -z), each point in the target with its layer, with
+    the flat share of the true area (4 sigma)."""
+    data = config(gdml, {"tess": (["plane_3"], SOLIDS["tess"][1]), "xt": (["side_2"], (0, 12, 0))})
+    data["source"]["surface"] = {"volume": "xt", "face": ["side_2", "-z"]}
+    cfg = parse_config(data)
+    scene = build_scene(cfg)
+    assert [la.name for la in scene.layers] == ["tess_roughplane_3", "xt_roughside_2"]
+    p = make_source(cfg, scene).primaries(np.random.default_rng(8), 0, 4000)
+    assert scene.inside_target("xt", p.position).all()
+    layer = scene.layers_of("xt")[0]
+    on_flat = p.extra["patch"] < 0
+    face = layer.frame.to_local(p.position)
+    target = layer.target
+    local = target.to_local(p.position[on_flat])
+    on_side = np.abs(face[on_flat, 2]) < 1e-9
+    on_bottom = np.abs(local[:, 2] + 1.0) < 1e-9
+    assert (on_side | on_bottom).all()  # flat points: on side_2 or on -z
+    assert not on_side.all()
+    assert not on_bottom.all()
+    rough = ~on_flat  # rough tops: over side_2, within the layer
+    assert (face[rough, 2] > -1e-9).all()
+    assert (face[rough, 2] <= layer.thickness).all()
+    assert layer.in_face(face[rough, :2]).all()
+    geo = source_geometry(cfg, scene)
+    flat_area = layer.face_area * (1 - layer.rough_share) + target.shape.face_areas["-z"]
+    share = flat_area / geo["area_mm2"]
+    assert abs(on_flat.mean() - share) < 4 * math.sqrt(share * (1 - share) / 4000)
+
+
+def test_geometry_list_names_each_targets_faces_and_groups(gdml, tmp_path, capsys):
+    """`score4 geometry list --faces`: each target's faces with their areas, and its groups;
+    a source on a face the mesh lacks is one line naming its faces and groups, exit 2."""
+    data = config(gdml, {"tess": (["plane_3"], SOLIDS["tess"][1]), "xt": (["side_2"], (0, 12, 0))})
+    cfg = tmp_path / "planes.yaml"
+    cfg.write_text(yaml.safe_dump(data))
+    assert main(["geometry", "list", "--faces", str(cfg)]) == 0
+    out = capsys.readouterr().out
+    assert "    faces: plane_0 (2.8059 mm2), plane_1 (2.8059 mm2)," in out
+    assert "    groups: mesh = plane_0, plane_1, plane_2," in out
+    assert "    faces: -z (7.725 mm2), +z (7.725 mm2), side_0 (3.2311 mm2)," in out
+    assert "; sides = side_0, side_1, side_2, side_3, side_4\n" in out
+    data["source"]["surface"] = {"volume": "tess", "face": "plane_4x"}
+    cfg.write_text(yaml.safe_dump(data))
+    assert main(["run", str(cfg), "--out", str(tmp_path / "o.h5")]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(err) == 1, err
+    assert (
+        "source.surface.face: tess: no face 'plane_4x' on a G4TessellatedSolid; its faces: "
+        "plane_0, plane_1, plane_2, plane_3, plane_4, plane_5, plane_6, plane_7, mesh, all"
+    ) in err[0]
+    assert not (tmp_path / "o.h5").exists()
+
+
+INTO = {
+    "trd": (["+x"], (0.0, 0.0, 0.0)),
+    "trap": (["+x"], (12.0, 0.0, 0.0)),
+    "xt": (["side_2"], (0.0, 12.0, 0.0)),
+    "tess": (["plane_3"], (0.0, -12.0, 0.0)),
+}
+
+
+@pytest.fixture(scope="module")
+def into_data(gdml) -> dict:
+    data = config(gdml, INTO, output={"track_length": True})
+    for t in data["targets"]:
+        t["rough"] = [{**r, "into": True} for r in t["rough"]]
+    return data
+
+
+def _clipped_path(o: np.ndarray, d: np.ndarray, tri: np.ndarray, n: np.ndarray, top: float):
+    """Path of a ray in a convex solid (its triangles) cut by ``n . x <= top``: the chord of
+    the solid (two crossings) clipped by the half-space, apart from score4's clipping."""
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    pv = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, pv)
+    ok = np.abs(det) > 1e-30
+    inv = np.where(ok, 1 / np.where(ok, det, 1), 0)
+    tv = o - tri[:, 0]
+    u = np.einsum("ij,ij->i", tv, pv) * inv
+    w = (np.cross(tv, e1) @ d) * inv
+    t = np.einsum("ij,ij->i", e2, np.cross(tv, e1)) * inv
+    hit = ok & (u >= -1e-12) & (w >= -1e-12) & (u + w <= 1 + 1e-12)
+    if not hit.any():
+        return 0.0
+    t0, t1 = float(t[hit].min()), float(t[hit].max())
+    nd, no = float(n @ d), float(n @ o)
+    if abs(nd) > 1e-15:  # n . (o + s d) <= top
+        bound = (top - no) / nd
+        t0, t1 = (max(t0, bound), t1) if nd < 0 else (t0, min(t1, bound))
+    elif no > top:
+        return 0.0
+    return max(t1 - max(t0, 0.0), 0.0)
+
+
+def test_into_layers_cut_convex_solids_of_flat_facets(into_data, tmp_path):
+    """into: true on a face of a G4Trd, G4Trap, extruded and tessellated solid: the layer's top
+    lies in the face's plane, the solid is clipped by that plane moved in by the layer's
+    thickness (points of the slab are not in the target unless in a patch, points below are),
+    and Geant4's geantino track lengths in the target equal an independent ray trace (the
+    solid's chord clipped by the plane, plus the patch meshes) to 1e-9 mm."""
+    cfg = parse_config(into_data)
+    scene = build_scene(cfg)
+    rng = np.random.default_rng(11)
+    starts, directions, volumes = [], [], []
+    for volume in INTO:
+        (layer,) = scene.layers_of(volume)
+        target, t = layer.target, layer.thickness
+        assert layer.config.into
+        tri = np.concatenate([p.triangles for p in target.shape.patches])
+        n = target.rotation.T @ layer.frame.normal
+        top = float(n @ target.to_local(layer.frame.centre[None])[0])
+        assert float((tri.reshape(-1, 3) @ n).max()) == pytest.approx(top + t, abs=1e-12)
+        inner = target.to_world(target.shape.sample_volume(rng, 4000))
+        depth = layer.frame.to_local(inner)[:, 2]
+        inside = scene.inside_target(volume, inner)
+        assert inside[depth <= -1e-9].all()  # below the cut: the target's material
+        slab = depth > 1e-9  # in the slab: only where a patch body is
+        assert slab.sum() > 0
+        np.testing.assert_array_equal(inside[slab], layer.contains(inner[slab]))
+        # the flat rest is drawn on the face's polygon cut to the solid's section at the cut
+        # (narrower where a side leans inward: the G4Trd's and G4Trap's +x faces)
+        lu, lv = 2 * np.abs(layer.outline).max(axis=(0, 1))
+        xy = rng.uniform(-0.5, 0.5, (100_000, 2)) * [lu, lv]
+        base = point_in_triangles(xy, layer.base_outline, 1e-12)
+        cut = target.contains(layer.frame.to_world(np.column_stack([xy, np.zeros(len(xy))])))
+        np.testing.assert_array_equal(base, cut & layer.in_face(xy))
+        face = {**into_data, "source": {**into_data["source"], "confine": False}}
+        face["source"]["surface"] = {"volume": volume, "face": INTO[volume][0][0]}
+        p = make_source(parse_config(face), scene).primaries(rng, 0, 3000)
+        assert scene.inside_target(volume, p.position).all()  # rough tops and the flat rest
+        flat = p.extra["patch"] < 0
+        assert 0 < flat.mean() < 0.5
+        assert np.abs(layer.frame.to_local(p.position[flat])[:, 2]).max() < 1e-9  # on the cut
+        for _ in range(4):
+            centres = layer.cell_centres()[layer.mask]
+            c = centres[rng.integers(len(centres))] + rng.uniform(-0.05, 0.05, 2)
+            start = layer.frame.to_world(np.array([*c, t + 0.03]))
+            aim = target.to_world(target.shape.sample_volume(rng, 1))[0]
+            starts.append(start)
+            directions.append((aim - start) / np.linalg.norm(aim - start))
+            volumes.append(volume)
+    n_rays = len(starts)
+    primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n_rays)
+    primaries.position[:] = np.array(starts)
+    primaries.direction[:] = np.array(directions)
+    vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
+    replay = parse_config(
+        {**into_data, "source": {"vertices": str(vfile)}, "run": {"events": n_rays}}
+    )
+    r = read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
+    for k in range(n_rays):
+        (layer,) = scene.layers_of(volumes[k])
+        target = layer.target
+        tri = np.concatenate([p.triangles for p in target.shape.patches])
+        world_tri = target.to_world(tri.reshape(-1, 3)).reshape(-1, 3, 3)
+        n = layer.frame.normal
+        top = float(n @ layer.frame.centre)
+        expected = _clipped_path(starts[k], directions[k], world_tri, n, top)
+        patches = ray_path(starts[k], directions[k], scene, volumes[k]) - _crossings(
+            starts[k], directions[k], world_tri
+        )
+        got = r.scores["track_length"][volumes[k]][k]
+        assert got == pytest.approx(expected + patches, abs=1e-9, rel=0), (volumes[k], k)
+        assert patches > 0 or expected > 0
+
+
+def test_into_layers_on_neighbouring_faces_are_refused(gdml):
+    """The six sides of a polyhedra face: their into layers meet below the common edges."""
+    data = config(gdml, {"ph": SOLIDS["ph"]})
+    data["targets"][0]["rough"][0]["into"] = True
+    with pytest.raises(
+        ConfigError,
+        match=r"ph_roughseg_1_0: .* runs into the rough layer .*"
+        r"into: the layers of two faces that share an edge meet below it",
+    ):
+        build_scene(parse_config(data))
+
+
+@pytest.mark.deep
+def test_exported_into_world_gives_the_same_geantino_paths(into_data, tmp_path):
+    """into layers on the G4Trd and the G4TessellatedSolid written to GDML (the clipped solids
+    as tessellated solids) and read back by Geant4: the same ray paths to 1e-9 mm."""
+    data = {
+        **into_data,
+        "targets": [t for t in into_data["targets"] if t["volume"] in ("trd", "tess")],
+    }
+    cfg = tmp_path / "into.yaml"
+    cfg.write_text(yaml.safe_dump(data))
+    out = tmp_path / "world.gdml"
+    assert main(["geometry", "export", str(cfg), "--gdml", str(out)]) == 0
+    scene = build_scene(parse_config(data))
+    rng = np.random.default_rng(5)
+    rays = []
+    for layer in scene.layers:
+        centres = layer.cell_centres()[layer.mask]
+        for c in centres[rng.integers(len(centres), size=4)]:
+            start = layer.frame.to_world(np.array([*c, 0.2]))
+            tilt = layer.frame.rotation @ np.array([*rng.uniform(-0.3, 0.3, 2), -1.0])
+            rays.append((start.tolist(), tilt.tolist()))
+    ours = run_in_spawned_process(_call, "trace_built", str(cfg), rays)
+    back = run_in_spawned_process(_call, "trace_gdml", str(out), rays)
+    for a, b in zip(ours, back, strict=True):
+        assert len(a) == len(b), ([v for v, _ in a], [v for v, _ in b])
+        np.testing.assert_allclose([p for _, p in a], [p for _, p in b], atol=1e-9, rtol=0)
+    assert min(len(a) for a in ours) > 4

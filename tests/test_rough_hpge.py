@@ -1,4 +1,4 @@
-"""A LEGEND BEGe written with its metadata (examples/rough_hpge/write_bege.py): the surface
+"""A LEGEND BEGe written with its metadata (examples/bege/write_bege.py --metadata): the surface
 groups reach the run's targets, and rough face lists make one layer per face."""
 
 from __future__ import annotations
@@ -23,7 +23,8 @@ EXAMPLE = Path(__file__).parent.parent / "examples" / "rough_hpge"
 @pytest.fixture(scope="module")
 def folder(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("rough_hpge")
-    runpy.run_path(str(EXAMPLE / "write_bege.py"), run_name="write")["main"](str(out / "bege.gdml"))
+    writer = runpy.run_path(str(EXAMPLE.parent / "bege" / "write_bege.py"), run_name="write")
+    writer["main"](str(out / "bege.gdml"), metadata=True)
     for f in ("po210_flat.yaml", "po210_rough.yaml"):
         shutil.copy(EXAMPLE / f, out / f)
     return out

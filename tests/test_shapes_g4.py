@@ -156,8 +156,13 @@ def measured(tmp_path_factory):
             "normals_at": surf.position[:500].tolist(),
         }
     requests["tessellated"] = {}
-    requests["torus"] = {"n_live": 3000}
-    requests["tubs_live"] = {"solid": "tubs_as_union", "live": True, "n_live": 3000}
+    requests["torus"] = {"n_live": 3000, "max_lines": 100_000}
+    requests["tubs_live"] = {
+        "solid": "tubs_as_union",
+        "live": True,
+        "n_live": 3000,
+        "max_lines": 100_000,
+    }
     got = run_in_spawned_process(_measure, str(gdml), requests)
     return hand, samples, got
 

@@ -138,11 +138,11 @@ def _crossings(o: np.ndarray, d: np.ndarray, tri: np.ndarray) -> float:
     return float(np.sum(ts[1::2] - ts[0::2]))
 
 
-def orb_path(o: np.ndarray, d: np.ndarray, layer) -> float:
-    """Independent ray trace: the chord of the analytic orb plus the path in the bent patch
-    bodies of the cells near where the ray crosses the sphere."""
+def orb_path(o: np.ndarray, d: np.ndarray, layer, radius: float = ORB_R) -> float:
+    """Independent ray trace: the chord of the analytic orb (of ``radius``) plus the path in
+    the bent patch bodies of the cells near where the ray crosses the sphere."""
     b = o @ d
-    c = o @ o - ORB_R**2
+    c = o @ o - radius**2
     disc = b * b - c
     total = 0.0
     lay = layer.ring_layout
@@ -212,11 +212,17 @@ def _call(name, *args):
     return getattr(g4_gdml_world, name)(*args)
 
 
-def test_exported_sphere_layers_give_the_same_geantino_paths(gdml, scene, tmp_path):
-    """The shell segment with both curved faces rough, written to GDML by `score4 geometry
-    export` and read back by Geant4: the same ray paths (volumes and points, 1e-9 mm)."""
+@pytest.mark.parametrize("into", [False, pytest.param(True, marks=pytest.mark.deep)])
+def test_exported_sphere_layers_give_the_same_geantino_paths(gdml, scene, tmp_path, into):
+    """The shell segment with both curved faces rough (``into``: grown into the shell, which
+    is thinner), written to GDML by `score4 geometry export` and read back by Geant4: the same
+    ray paths (volumes and points, 1e-9 mm)."""
     cfg = tmp_path / "sph.yaml"
-    cfg.write_text(yaml.safe_dump(config(gdml, {"sph": ["outer", "inner"]})))
+    data = config(gdml, {"sph": ["outer", "inner"]})
+    for r in data["targets"][0]["rough"]:
+        r["into"] = into
+    cfg.write_text(yaml.safe_dump(data))
+    scene = build_scene(parse_config(data)) if into else scene
     out = tmp_path / "world.gdml"
     assert main(["geometry", "export", str(cfg), "--gdml", str(out)]) == 0
     rng = np.random.default_rng(5)
@@ -263,3 +269,54 @@ def test_steps_on_a_rough_sphere_face_are_refused_before_anything_runs(gdml):
     data["output"] = {**data.get("output", {}), "steps": True}
     with pytest.raises(ConfigError, match="rough sphere face; steps"):
         build_scene(parse_config(data))
+
+
+def test_into_the_orb_cuts_it_and_keeps_the_paths(gdml, tmp_path):
+    """into: true on the orb's face: the orb is made smaller by the layer's thickness, the
+    layer's top lies on the old sphere; points of the cut shell count only in a patch; Geant4's
+    geantino track lengths equal the ray trace of the smaller sphere plus the bent patches to
+    1e-9 mm. The shell's faces take into too."""
+    data = config(gdml, {"orb": ["outer"]}, output={"track_length": True})
+    data["targets"][0]["rough"][0]["into"] = True
+    data["source"]["surface"] = {"volume": "orb", "face": "outer"}
+    cfg = parse_config(data)
+    own = build_scene(cfg)
+    layer = own.layer("orb", "outer")
+    lay = layer.ring_layout
+    radius = lay.face.sphere_radius
+    assert radius + layer.thickness == pytest.approx(ORB_R, abs=1e-12)
+    assert layer.thickness == pytest.approx(11e-3, rel=1e-3)
+    rng = np.random.default_rng(9)
+    shell = rng.normal(size=(4000, 3))  # points in the cut shell, radius - thickness .. radius
+    depth = rng.uniform(1e-6, layer.thickness - 1e-6, 4000)
+    shell *= ((radius + depth) / np.linalg.norm(shell, axis=1))[:, None]
+    np.testing.assert_array_equal(own.inside_target("orb", shell), layer.contains(shell))
+    assert own.inside_target("orb", shell * (radius - 1e-6) / ORB_R).all()
+    rows = np.flatnonzero(lay.count > 0)
+    n = 20
+    starts, directions = [], []
+    for _ in range(n):
+        j = int(rng.choice(rows))
+        phi = float(rng.choice(lay.cell_phi(j))) + rng.uniform(-0.3, 0.3) * lay.step[j]
+        p = lay.face.point(phi, lay.v[j] + rng.uniform(-0.03, 0.03))
+        start = p * (ORB_R + 0.05) / radius
+        aim = rng.uniform(-1.5, 1.5, 3)
+        starts.append(start)
+        directions.append((aim - start) / np.linalg.norm(aim - start))
+    primaries = make_source(cfg, own).primaries(np.random.default_rng(1), 0, n)
+    assert own.inside_target("orb", primaries.position).all()
+    primaries.position[:] = np.array(starts)
+    primaries.direction[:] = np.array(directions)
+    vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
+    replay = parse_config({**data, "source": {"vertices": str(vfile)}, "run": {"events": n}})
+    r = read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
+    got = np.asarray(r.scores["track_length"]["orb"])
+    expected = [orb_path(o, d, layer, radius) for o, d in zip(starts, directions, strict=True)]
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9)
+    both = config(gdml, {"sph": ["outer", "inner"]})
+    for r in both["targets"][0]["rough"]:
+        r["into"] = True
+    shells = build_scene(parse_config(both))
+    outer, inner = shells.layer("sph", "outer"), shells.layer("sph", "inner")
+    assert outer.ring_layout.face.sphere_radius + outer.thickness == pytest.approx(4.0, abs=1e-12)
+    assert inner.ring_layout.face.sphere_radius - inner.thickness == pytest.approx(2.0, abs=1e-12)

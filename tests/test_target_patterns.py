@@ -62,6 +62,18 @@ def test_glob_regex_and_material_select_volumes(tmp_path, world):
             r"targets\.0\.material: no volume .* of material 'G4_CU'; closest materials: G4_Cu",
         ),
         ({"volume_regex": "crystal_("}, r"volume_regex: 'crystal_\(' is not a regular expression"),
+        (  # too far for difflib's cutoff: the names sharing the pattern's literal start
+            {"volume": "cry*X"},
+            r"no volume of .* matches 'cry\*X'; closest names: crystal_0, crystal_1, crystal_2;",
+        ),
+        (  # nothing alike at all: still the nearest names
+            {"volume_regex": "Q[0-9]+"},
+            r"regular expression 'Q\[0-9\]\+'; closest names: \w+, \w+, \w+, \w+, \w+;",
+        ),
+        (  # the names match, the material not: what they are made of
+            {"volume": "crystal_*", "material": "G4_Cu"},
+            r"of material 'G4_Cu'; the volumes that match are of G4_CALCIUM_TUNGSTATE;",
+        ),
     ],
 )
 def test_a_pattern_that_matches_nothing_is_one_line(tmp_path, world, capsys, target, message):

@@ -48,8 +48,9 @@ from score4.common.schema import describe_validation_error
 from score4.common.units import parse_quantity
 from score4.inputs.config import GdmlVolume, PhysicsConfig, RoughFace, SourceConfig
 from score4.runner.run_plan import RunPlan, plan_run
+from score4.world.boolean_layers import target_layers
 from score4.world.gdml_model import GeometryModel, Instance
-from score4.world.scene import RoughLayer, Scene, TargetVolume, gdml_target, make_layers
+from score4.world.scene import RoughLayer, Scene, TargetVolume, gdml_target
 
 from .errors import ConfigError
 from .source.build import BulkSource, SampledSource, source_from_config
@@ -389,7 +390,7 @@ class World:
             if self.scene.layer(t.name, face) is not None:
                 raise ConfigError(f"{where}: face {face} of {t.name!r} is rough already")
             j = len(self.scene.layers_of(t.name))
-            layers += make_layers(self.scene.surfaces, t, j, rough, where=where)
+            layers += target_layers(self.scene.surfaces, t, j, rough, where=where)
         from score4.world.clearance import check_clearance
 
         self.scene.layers += layers

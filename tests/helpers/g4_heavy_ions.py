@@ -78,6 +78,11 @@ def two_layers(gap_nm: float, events: int):
 
 def po210(rough: bool, events: int):
     """Po-210 (alpha + Pb-206 recoil) 20 nm (mean, exponential) under a Si face."""
+    return run_config(po210_config(rough, events), 5)
+
+
+def po210_config(rough: bool, events: int) -> dict:
+    """The config dict of :func:`po210` (pyramids on the face with ``rough``)."""
     data = {
         "physics": {"mode": "lite"},
         "targets": [
@@ -103,7 +108,7 @@ def po210(rough: bool, events: int):
         data["targets"][0]["rough"] = [
             {"face": "+z", "surface": "pyramids", "base_thickness": "1 um"}
         ]
-    return run_config(data, 5)
+    return data
 
 
 def pushed_recoils(events: int):
@@ -319,3 +324,52 @@ def alpha_depths(spec: dict):
     from bench_alpha_straggling import measure
 
     return measure(spec)
+
+
+def replay_pairs(rough: bool, events: int, seed: int = 5):
+    """The Pb-206 recoils of ``events`` Po-210 decays (the :func:`po210` set-up) replayed twice
+    from the same random streams and libraries: by score4's walk and by the previous one
+    (``helpers.replay_reference``). Per recoil and walk: deposit per scoring column (MeV),
+    escaped energy (MeV), end point (mm) and boundaries crossed."""
+    from score4.inputs.config import parse_config
+    from score4.sim.heavy_ions import ReplayStream
+    from score4.sim.runtime import resolve_physics
+    from score4.sim.simulation import Simulation
+
+    from .replay_reference import ReferenceTransport
+
+    data = po210_config(rough, events)
+    sim = Simulation(plan_run(parse_config(data), physics=resolve_physics("lite")))
+    fast = sim.heavy_ions
+    assert fast is not None
+    reference = ReferenceTransport(
+        sim.g4, sim.geometry.world, sim.geometry.scoring, fast.histories, fast.library_seed
+    )
+    reference._libraries = fast._libraries  # the same libraries (they are read once)
+    primaries = sim.source.primaries(np.random.default_rng(seed), 0, events)
+    particle = sim.particle("Pb206")
+    rows = np.flatnonzero(primaries.particle == "Pb206")
+    out = {}
+    for name, transport in (("fast", fast), ("reference", reference)):
+        deposits = np.zeros((len(rows), len(sim.volumes)))
+        escaped, ends, crossings = (
+            np.zeros(len(rows)),
+            np.zeros((len(rows), 3)),
+            np.zeros(len(rows)),
+        )
+        for n, r in enumerate(rows.tolist()):
+            fate = transport.transport(
+                particle,
+                "Pb206",
+                float(primaries.energy[r]),
+                primaries.position[r],
+                primaries.direction[r],
+                ReplayStream(seed, 1, r),
+            )
+            for volume, value in fate.deposits.items():
+                deposits[n, volume] += value
+            escaped[n], ends[n], crossings[n] = fate.escaped_energy, fate.position, fate.crossings
+        out[name] = {"deposits": deposits, "escaped": escaped, "end": ends, "crossings": crossings}
+    out["energy"] = primaries.energy[rows]
+    out["position"] = primaries.position[rows]
+    return out

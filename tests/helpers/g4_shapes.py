@@ -76,6 +76,8 @@ def measure(gdml_path: str, gdml_names: list[str], requests: dict) -> dict:
     for name, req in requests.items():
         solid = solids[req.get("solid", name)]
         shape = LiveSolidShape(solid) if req.get("live") else shape_from_g4_solid(solid)
+        if isinstance(shape, LiveSolidShape) and "max_lines" in req:  # one round of 10^5
+            shape = LiveSolidShape(solid, max_area_lines=req["max_lines"])
         res: dict = {
             "type": solid.GetEntityType(),
             "g4_area": solid.GetSurfaceArea(),

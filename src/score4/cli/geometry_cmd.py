@@ -136,12 +136,19 @@ def _gdml_rows(path: Path, parameter: str) -> dict:
     "config_file", metavar="CONFIG.yaml|FILE.gdml", type=click.Path(dir_okay=False, path_type=Path)
 )
 @click.option("--json", "as_json", is_flag=True, help="One JSON object per volume, as a list.")
-def list_volumes(config_file: Path, as_json: bool) -> None:
+@click.option(
+    "--faces",
+    "with_faces",
+    is_flag=True,
+    help="Also list each target's faces with their areas, and its face groups.",
+)
+def list_volumes(config_file: Path, as_json: bool, with_faces: bool) -> None:
     """List the volumes of a world: name[copy], solid, material, mass, area, position.
 
     Give a GDML file (every physical volume, indented by depth, and any overlaps of its own
     volumes), a YAML file with only world: {gdml: FILE}, or a run configuration (its world,
-    then the targets with their rough faces; for a generated world the targets).
+    then the targets with their rough faces; for a generated world the targets). With
+    --faces, each target's faces (the names rough faces and surface sources take) and groups.
     """
     import json
 
@@ -162,12 +169,12 @@ def list_volumes(config_file: Path, as_json: bool) -> None:
         config = allowing_overlaps(load_config(config_file))  # the listing shows them
         with naming_file(config_file):
             scene = build_scene(config)
-        rows = geometry_rows(scene)
+        rows = geometry_rows(scene, with_faces)
         rows["overlaps"] = scene.model.overlaps if scene.model is not None else []
     if as_json:
         click.echo(json.dumps(rows, indent=1))
         return
-    click.echo(geometry_text(rows))
+    click.echo(geometry_text(rows, with_faces))
 
 
 @geometry.command(name="export")

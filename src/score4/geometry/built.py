@@ -9,13 +9,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from score4.world.facets import clip_convex, is_convex, mesh_of, solid_triangles
 from score4.world.scene import Scene, TargetVolume
 
 from ..errors import ConfigError
 from ..shapes import G4Box as G4BoxShape
+from ..shapes import G4Orb as G4OrbShape
+from ..shapes import G4Sphere as G4SphereShape
 from ..shapes import G4Tubs as G4TubsShape
 from ..shapes import Shape
 from .portal import PortalGeometry
+from .solids import tessellated_solid
 
 
 @dataclass
@@ -40,6 +44,12 @@ def g4_solid(g4, shape: Shape, name: str):
         return g4.G4Box(name, shape.dx, shape.dy, shape.dz)
     if isinstance(shape, G4TubsShape):
         return g4.G4Tubs(name, shape.rmin, shape.rmax, shape.dz, shape.sphi, shape.dphi)
+    if isinstance(shape, G4SphereShape):
+        return g4.G4Sphere(
+            name, shape.rmin, shape.rmax, shape.sphi, shape.dphi, shape.stheta, shape.dtheta
+        )
+    if isinstance(shape, G4OrbShape):
+        return g4.G4Orb(name, shape.r)
     raise ConfigError(f"{name}: score4 builds no Geant4 solid of a {shape.kind}")
 
 
@@ -49,7 +59,10 @@ def cut_for_layers(g4, scene: Scene, target: TargetVolume, solid, name: str):
 
     The target's shape is made thinner behind each such face (:meth:`Shape.trimmed`: a box
     along the face normal, a tube along z) and moved back by half the cut, so its outer faces
-    stay. Returns ``(solid, shift, objects to keep alive)``.
+    stay; a convex solid of flat facets (G4Trd, G4Trap, G4Polyhedra, a tessellated or extruded
+    solid) becomes the G4TessellatedSolid of its facets clipped by each face's plane moved
+    inward (:func:`score4.world.facets.clip_convex`), in place. Returns ``(solid, shift, objects
+    to keep alive)``.
     """
     layers = [r for r in scene.layers_of(target.name) if r.config.into]
     if not layers:
@@ -57,8 +70,17 @@ def cut_for_layers(g4, scene: Scene, target: TargetVolume, solid, name: str):
     cuts: dict[str, float] = {layer.config.face_name: layer.thickness for layer in layers}
     trimmed = None if target.shape is None else target.shape.trimmed(cuts)
     if trimmed is None:
-        raise ConfigError(
-            f"{target.name}: into: true needs a G4Box or G4Tubs (end faces), not a {target.solid}"
-        )
+        triangles = None if target.shape is None else solid_triangles(target.shape)
+        if triangles is None or not is_convex(triangles):
+            raise ConfigError(
+                f"{target.name}: into: true needs a G4Box, a G4Tubs (end faces) or a convex "
+                f"solid of flat facets, not a {target.solid}"
+            )
+        for layer in layers:  # each face's plane moved inward (the layer's shifted frame)
+            n = target.rotation.T @ layer.frame.normal
+            base = target.to_local(layer.frame.centre[None])[0]
+            triangles = clip_convex(triangles, n, float(n @ base))
+        cut = tessellated_solid(g4, mesh_of(triangles), name)
+        return cut, np.zeros(3), [cut]
     cut = g4_solid(g4, trimmed[0], name)
     return cut, trimmed[1], [cut]

@@ -126,7 +126,8 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
     for j, _, k, phi in cells:
         by_row.setdefault(j, []).append((k, phi))
     for j, row in sorted(by_row.items()):
-        key = (layer.ring_solid_key(j), tuple(k for k, _ in row))
+        # (the azimuths too: on a boolean's face rings may hold different cells)
+        key = (layer.ring_solid_key(j), tuple((k, round(p, 12)) for k, p in row))
         if key not in rings:
             tag = f"{name}_ring{len(rings)}"
             ring_solid = g4.G4Tubs(tag, rmin1, rmax1, py / 2, face.phi0, face.dphi)

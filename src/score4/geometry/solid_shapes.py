@@ -12,7 +12,8 @@ G4Polycone, G4GenericPolycone          :class:`G4GenericPolycone` of Geant4's co
                                        (``GetCorner``); the binding gives only the first
                                        z plane of ``GetOriginalParameters``
 G4Polyhedra                            :class:`G4GenericPolyhedra` of the contour
-G4TessellatedSolid, G4ExtrudedSolid    :class:`MeshShape` of its facets (exact)
+G4TessellatedSolid, G4ExtrudedSolid    :class:`MeshShape` of its facets (exact), one face
+                                       per plane (:meth:`MeshShape.by_planes`)
 G4UnionSolid, G4SubtractionSolid,      :class:`BooleanShape` of its constituents,
 G4IntersectionSolid, G4MultiUnion,     :class:`PlacedShape` for a displaced solid
 G4DisplacedSolid
@@ -136,7 +137,7 @@ def _read(solid: Any) -> Shape:
         r, z = _corners(solid)
         return G4GenericPolyhedra(*_phi(solid), solid.GetNumSide(), r, z)
     if kind in ("G4TessellatedSolid", "G4ExtrudedSolid"):
-        return MeshShape(_facets(solid))
+        return MeshShape.by_planes(_facets(solid), extruded=kind == "G4ExtrudedSolid")
     if kind == "G4DisplacedSolid":
         return PlacedShape(
             _read(solid.GetConstituentMovedSolid()),
@@ -217,12 +218,18 @@ class LiveSolidShape(Shape):
     a surface at points that are uniform per true area, and a line crosses it on average
     ``A / (2 pi R^2)`` times (Cauchy-Crofton), which gives the area. Each crossing comes from
     ``DistanceToIn`` / ``DistanceToOut`` along the line; the normal from ``SurfaceNormal``.
-    One face, ``surface``. ``to_dict`` is not available (the shape is the live object).
+    The area is drawn in rounds of ``n_area_lines`` lines until its standard error is at most
+    ``area_precision`` of it (0.1 %, issue 24) or ``max_area_lines`` lines are drawn
+    (:attr:`area_error` states what it reached; a torus of radii 5 and 20 mm needs about
+    3.6 10^6 lines, each a few Geant4 calls from Python). One face, ``surface``. ``to_dict`` is
+    not available (the shape is the live object).
     """
 
     solid: Any
     n_area_lines: int = 100_000
     seed: int = 20263
+    area_precision: float = 1e-3
+    max_area_lines: int = 4_000_000
     kind = "LiveSolidShape"
     _pool: dict = field(default_factory=dict, repr=False)
 
@@ -280,11 +287,16 @@ class LiveSolidShape(Shape):
         if "area" not in self._pool:
             rng = np.random.default_rng(self.seed)
             counts: list[int] = []
-            self.crossings(rng, self.n_area_lines, counts)
             _, radius = self._sphere
-            c = np.array(counts, float)
             scale = 2 * math.pi * radius**2
-            self._pool["area"] = (scale * c.mean(), scale * c.std(ddof=1) / math.sqrt(len(c)))
+            while True:  # rounds of n_area_lines until the error is small enough
+                self.crossings(rng, self.n_area_lines, counts)
+                c = np.array(counts, float)
+                area, err = scale * c.mean(), scale * c.std(ddof=1) / math.sqrt(len(c))
+                done = err <= self.area_precision * area
+                if done or len(counts) + self.n_area_lines > self.max_area_lines:
+                    break
+            self._pool["area"] = (area, err)
         return self._pool["area"]
 
     def _build(self):

@@ -88,11 +88,24 @@ class TrajectoryLibrary:
         return total - np.repeat(total[self.offsets[:-1]], np.diff(self.offsets))
 
     @cached_property
-    def columns(self) -> tuple[list[float], list[float], list[float]]:
-        """``energies``, ``arrivals`` and ``walked`` as Python lists, made once: a replay reads
-        a few of a history's values one at a time, and slicing a list is far cheaper than
-        slicing and converting an array per replay."""
-        return self.energies.tolist(), self.arrivals.tolist(), self.walked.tolist()
+    def columns(self) -> tuple[array, array, array, array, array, array]:
+        """``x``, ``y``, ``z`` (of ``points``), ``energies``, ``arrivals`` and ``walked`` as
+        flat ``array('d')``, made once: a replay reads a few of a history's values one at a
+        time by their absolute index (no slice, no copy: an event's replay then touches a few
+        cache lines of the library, not all of the history)."""
+        return tuple(  # type: ignore[return-value]
+            array("d", np.ascontiguousarray(c, dtype=float).tobytes())
+            for c in (*self.points.T, self.energies, self.arrivals, self.walked)
+        )
+
+    @cached_property
+    def reach(self) -> list[float]:
+        """(size,) mm: how far each history gets from its first point (the radius of the
+        smallest sphere about that point that holds it all)."""
+        counts = np.diff(self.offsets)
+        first = self.points[self.offsets[:-1]]
+        far = ((self.points - np.repeat(first, counts, axis=0)) ** 2).sum(axis=1)
+        return np.sqrt(np.maximum.reduceat(far, self.offsets[:-1])).tolist()
 
     @cached_property
     def _energy_keys(self) -> np.ndarray:
@@ -168,13 +181,17 @@ class TrajectoryLibrary:
 
     def turn(self, i: int, azimuth: float, direction) -> np.ndarray:
         """The rotation that takes the continuation from point ``i`` (turned by ``azimuth``)
-        onto unit vector ``direction``: world offsets are ``(points[i:] - points[i]) @ turn.T``.
+        onto unit vector ``direction``: world offsets are ``(points[i:] - points[i]) @ turn.T``
+        (:meth:`rotation` as a 3 x 3 array)."""
+        rows = self.rotation(i, azimuth, [float(c) for c in direction])
+        return np.array(rows).reshape(3, 3)
 
-        (``rotation_from_x(direction) @ frame(i, azimuth)``, in plain floats: numpy's per-call
-        cost is most of a replay.)
-        """
+    def rotation(self, i: int, azimuth: float, direction) -> tuple[float, ...]:
+        """:meth:`turn`'s nine elements row by row, in plain floats (numpy's per-call cost is
+        most of a replay): ``rotation_from_x(direction) @ frame(i, azimuth)``; ``direction``
+        three floats."""
         ca, sa = math.cos(azimuth), math.sin(azimuth)
-        dx, dy, dz = (float(c) for c in direction)
+        dx, dy, dz = direction
         if dx < -1 + 1e-12:  # the rotation from +x: half a turn about z
             d = ((-1.0, 0.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, 1.0))
         else:  # rows of rotation_from_x(direction), the transpose of _rotation_to_x's base
@@ -186,20 +203,30 @@ class TrajectoryLibrary:
             )
         # d @ spin(azimuth): spin mixes the 2nd and 3rd columns
         ds = [(r[0], r[1] * ca + r[2] * sa, r[2] * ca - r[1] * sa) for r in d]
-        if i in self._starts:
-            return np.array(ds)
-        return np.array(ds) @ self.frame(i, 0.0)
+        if i in self._starts:  # TRIM's ions enter along +x: the frame is the spin alone
+            (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = ds
+            return (r00, r01, r02, r10, r11, r12, r20, r21, r22)
+        # the piece from point i to +x (_rotation_to_x's base, no spin): ds @ base
+        x, y, z = self.columns[0], self.columns[1], self.columns[2]
+        ux, uy, uz = x[i + 1] - x[i], y[i + 1] - y[i], z[i + 1] - z[i]
+        norm = math.sqrt(ux * ux + uy * uy + uz * uz)
+        ux, uy, uz = ux / norm, uy / norm, uz / norm
+        if ux < -1 + 1e-12:
+            base = ((-1.0, 0.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, 1.0))
+        else:
+            f = 1.0 / (1.0 + ux)
+            base = (
+                (ux, uy, uz),
+                (-uy, 1.0 - f * uy * uy, -f * uy * uz),
+                (-uz, -f * uy * uz, 1.0 - f * uz * uz),
+            )
+        return tuple(
+            r[0] * base[0][c] + r[1] * base[1][c] + r[2] * base[2][c] for r in ds for c in range(3)
+        )
 
     @cached_property
     def _starts(self) -> frozenset[int]:
         return frozenset(int(o) for o in self.offsets[:-1])
-
-    @cached_property
-    def zero_starts(self) -> frozenset[int]:
-        """The first points of the histories that start exactly at (0, 0, 0) (TRIM's all do:
-        subtracting such a point changes nothing, to the bit)."""
-        first = self.offsets[:-1]
-        return frozenset(first[(self.points[first] == 0.0).all(axis=1)].tolist())
 
     def continuation(
         self, energy: float, rng: np.random.Generator

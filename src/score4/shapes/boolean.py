@@ -10,7 +10,14 @@ is 0.1 % of the face's area (:data:`AREA_PRECISION`; of the solid's area for a s
 :data:`MAX_AREA_ROUNDS` rounds): :attr:`BooleanShape.face_area_errors` gives the errors.
 
 Faces are named ``first.<face of A>`` and ``second.<face of B>``; groups ``first``/``second``
-(and ``first.<group of A>``, ...) select all faces of one constituent.
+(and ``first.<group of A>``, ...) select all faces of one constituent; ``aliases`` names groups
+of A that are also groups of the boolean itself (an HPGe's ``pplus``, ``passive``, ``nplus`` when
+the detector is a polycone with a cut).
+
+:meth:`BooleanShape.face_clip` tells where a face lies: on a face of one *leaf* solid (not a
+boolean), kept where the leaf's siblings on the way up (:class:`FaceClip`) say so; their signed
+distances bound how far the kept part reaches (rough layers lay patches only where that bound
+proves a whole cell kept, :mod:`score4.world.boolean_layers`).
 """
 
 from __future__ import annotations
@@ -25,6 +32,7 @@ from numpy.typing import ArrayLike
 
 from ..errors import ConfigError
 from .base import INSIDE, OUTSIDE, Shape, ShapeSample, as_points
+from .placed import PlacedShape
 from .transform import Transform
 
 PROBE = 1e-7  # mm: far above Geant4's tolerance, far below any feature of a detector
@@ -33,6 +41,7 @@ PROBE = 1e-7  # mm: far above Geant4's tolerance, far below any feature of a det
 AREA_PRECISION = 1e-3
 #: Most rounds of ``n_area`` draws per face for the area estimate.
 MAX_AREA_ROUNDS = 40
+_EYE = np.eye(3)
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,6 +66,7 @@ class BooleanShape(Shape):
     second: Shape
     transform: Transform = field(default_factory=Transform)
     n_area: int = 50_000
+    aliases: tuple[str, ...] = ()
     kind = "BooleanShape"
 
     def __post_init__(self) -> None:
@@ -88,7 +98,37 @@ class BooleanShape(Shape):
             for g, members in shape.groups.items():
                 if g != "all":
                     groups[f"{tag}.{g}"] = tuple(f"{tag}.{m}" for m in members)
+        for g in self.aliases:
+            if f"first.{g}" in groups:
+                groups[g] = groups[f"first.{g}"]
         return names, groups, []
+
+    def face_clip(self, name: str) -> FaceClip:
+        """Where face ``name`` lies: a face of a leaf solid, in this boolean's frame, and the
+        solids that cut it (ConfigError listing the faces for a name the boolean lacks)."""
+        if name not in self.faces:
+            self.resolve_faces(name)  # the error lists the faces and groups
+            raise ConfigError(f"face: {name!r} names several faces of a {self.kind}; give one")
+        part, rest = name.split(".", 1)
+        if part == "first":
+            shape, placed, other, other_at = self.first, Transform(), self.second, self.transform
+        else:
+            shape, placed, other, other_at = self.second, self.transform, self.first, Transform()
+        inside = self.operation == "intersection" or (
+            self.operation == "subtraction" and part == "second"
+        )
+        flipped = self.operation == "subtraction" and part == "second"
+        while isinstance(shape, PlacedShape):
+            placed, shape = placed @ shape.transform, shape.shape
+        here = (other, other_at, inside)
+        if isinstance(shape, BooleanShape):
+            inner = shape.face_clip(rest)
+            clips = tuple((s, placed @ t, k) for s, t, k in inner.clips)
+            return FaceClip(
+                inner.leaf, inner.face, placed @ inner.transform, inner.flipped != flipped,
+                (*clips, here),
+            )  # fmt: skip
+        return FaceClip(shape, rest, placed, flipped, (here,))
 
     def _candidates(
         self, rng: np.random.Generator, n: int, part: str, faces: tuple[str, ...]
@@ -197,6 +237,40 @@ class BooleanShape(Shape):
             "second": self.second.to_dict(),
             "transform": self.transform.to_dict(),
         }
+
+
+@dataclass(frozen=True, eq=False)
+class FaceClip:
+    """A face of a boolean solid as a face of a leaf solid and the solids that cut it.
+
+    ``leaf``'s face ``face`` (``transform``: leaf frame to the boolean's frame; ``flipped``: the
+    boolean's outward normal is against the leaf's, a face of a subtracted solid) is the
+    boolean's face where, for every ``(solid, transform, inside)`` of ``clips``, the point is
+    inside (``inside``) or outside that solid (placed by ``transform`` in the boolean's frame).
+    """
+
+    leaf: Shape
+    face: str
+    transform: Transform
+    flipped: bool
+    clips: tuple[tuple[Shape, Transform, bool], ...]
+
+    def margin(self, points: ArrayLike) -> np.ndarray:
+        """For points (boolean frame) on the leaf's face: a lower bound of the distance to the
+        nearest point where the face stops being the boolean's (> 0: this point is on the
+        boolean's surface, and so is every point of the face within that distance; < 0: it is
+        not). Exact for boxes and tubes, a lower bound for every shape (their signed distances
+        are)."""
+        p = as_points(points)
+        out = np.full(len(p), np.inf)
+        for shape, transform, inside in self.clips:
+            if np.array_equal(transform.rotation, _EYE):  # a shift (most cuts): no product
+                local = p - transform.translation
+            else:
+                local = transform.inverse_apply(p)
+            d = shape.signed_distance(local)
+            out = np.minimum(out, -d if inside else d)
+        return out
 
 
 class BooleanFaceSampler:

@@ -418,6 +418,14 @@ class G4Sphere(Shape):
     def _full_phi(self) -> bool:
         return self.dphi >= TWO_PI
 
+    def trimmed(self, cuts: dict[str, float]) -> tuple[Shape, np.ndarray] | None:
+        """Thinner by cuts behind its faces ``outer`` and ``inner`` (None for others)."""
+        if set(cuts) - {"outer", "inner"}:
+            return None
+        rmin = self.rmin + cuts.get("inner", 0.0)
+        rmax = self.rmax - cuts.get("outer", 0.0)
+        return G4Sphere(rmin, rmax, self.sphi, self.dphi, self.stheta, self.dtheta), np.zeros(3)
+
     def _build(self):
         t1, t2 = self._theta
         names: list[str] = []
@@ -538,6 +546,12 @@ class G4Orb(Shape):
 
     def signed_distance(self, points: ArrayLike) -> np.ndarray:
         return np.linalg.norm(as_points(points), axis=1) - self.r
+
+    def trimmed(self, cuts: dict[str, float]) -> tuple[Shape, np.ndarray] | None:
+        """Smaller by a cut behind its face ``outer`` (None for others)."""
+        if set(cuts) - {"outer"}:
+            return None
+        return G4Orb(self.r - cuts.get("outer", 0.0)), np.zeros(3)
 
     @property
     def volume(self) -> float:

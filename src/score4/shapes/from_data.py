@@ -44,7 +44,10 @@ def shape_from_dict(data: dict[str, Any]) -> Shape:
         return SHAPE_TYPES[kind](**data)
     if kind == "MeshShape":
         return MeshShape(
-            np.array(data["triangles"]), np.array(data["facet_faces"]), tuple(data["face_names"])
+            np.array(data["triangles"]),
+            np.array(data["facet_faces"]),
+            tuple(data["face_names"]),
+            tuple((g, tuple(f)) for g, f in data.get("face_groups", [])),
         )
     if kind == "BooleanShape":
         return BooleanShape(

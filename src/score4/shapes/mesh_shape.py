@@ -1,8 +1,12 @@
 """A closed triangle mesh as a shape (G4TessellatedSolid, G4ExtrudedSolid, or any triangulation).
 
 For a tessellated solid the mesh *is* the solid's surface, so areas, volume and sampling are
-exact. The whole mesh is one face, ``mesh``; facets may be grouped into named faces with
-``facet_faces``.
+exact. A bare mesh is one face, ``mesh``; facets may be grouped into named faces with
+``facet_faces``. The mesh of a G4TessellatedSolid or G4ExtrudedSolid (:meth:`MeshShape.by_planes`)
+has one face per plane (its coplanar facets): ``plane_<i>`` for a tessellated solid, ``-z``,
+``+z`` and ``side_<i>`` for an extruded one, numbered in the order of the solid's facets, with
+the group ``mesh`` for them all (and ``sides`` for an extruded solid's sides); a mesh of more
+than :data:`MAX_NAMED_PLANES` planes (a curved surface cut into facets) stays one face ``mesh``.
 """
 
 from __future__ import annotations
@@ -15,6 +19,33 @@ from numpy.typing import ArrayLike
 
 from ..errors import ConfigError
 from .base import Patch, PlaneTriangles, Shape, as_points
+
+#: A mesh of more planes than this keeps one face, ``mesh`` (:meth:`MeshShape.by_planes`).
+MAX_NAMED_PLANES = 100
+
+
+def plane_index(triangles: np.ndarray) -> np.ndarray:
+    """(m,) the plane of each triangle (m, 3, 3): triangles with the same outward normal and
+    offset (to 1e-8 of the mesh's size) share one, numbered in order of first appearance;
+    degenerate triangles (no normal) get -1."""
+    tri = np.asarray(triangles, float).reshape(-1, 3, 3)
+    out = np.full(len(tri), -1, np.int64)
+    if len(tri) == 0:
+        return out
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    norm = np.linalg.norm(n, axis=1)
+    keep = np.flatnonzero(norm > 0)
+    if len(keep) == 0:
+        return out
+    n = n[keep] / norm[keep, None]
+    scale = max(float(np.abs(tri).max()), 1.0)
+    offset = np.einsum("ij,ij->i", n, tri[keep, 0]) / scale
+    key = np.round(np.column_stack([n, offset]) * 1e8).astype(np.int64)
+    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    rank = np.empty(len(first), np.int64)
+    rank[np.argsort(first)] = np.arange(len(first))
+    out[keep] = rank[inverse.ravel()]
+    return out
 
 
 def _tri_distance(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
@@ -76,6 +107,7 @@ class MeshShape(Shape):
     triangles: np.ndarray
     facet_faces: np.ndarray | None = None
     face_names: tuple[str, ...] = ("mesh",)
+    face_groups: tuple[tuple[str, tuple[str, ...]], ...] = ()
     kind = "MeshShape"
     _chunk: int = field(default=4_000_000, repr=False)
 
@@ -93,6 +125,45 @@ class MeshShape(Shape):
             raise ConfigError("MeshShape: facet_faces must index face_names, one per facet")
         object.__setattr__(self, "facet_faces", ff)
         object.__setattr__(self, "face_names", tuple(self.face_names))
+        groups = tuple((str(g), tuple(f)) for g, f in self.face_groups)
+        if any(g in self.face_names or not set(f) <= set(self.face_names) for g, f in groups):
+            raise ConfigError("MeshShape: face_groups must name groups of face_names")
+        object.__setattr__(self, "face_groups", groups)
+
+    @classmethod
+    def by_planes(cls, triangles: np.ndarray, extruded: bool = False) -> MeshShape:
+        """The mesh of a G4TessellatedSolid (``extruded``: a G4ExtrudedSolid) with one face
+        per plane (see the module docstring); one face ``mesh`` beyond
+        :data:`MAX_NAMED_PLANES` planes. Degenerate facets join the first plane."""
+        tri = np.asarray(triangles, float).reshape(-1, 3, 3)
+        plane = plane_index(tri)
+        count = int(plane.max()) + 1
+        if count <= 1 or count > MAX_NAMED_PLANES:
+            return cls(tri)
+        plane[plane < 0] = 0
+        names = [f"plane_{i}" for i in range(count)]
+        groups: list[tuple[str, tuple[str, ...]]] = []
+        if extruded:
+            z = tri[..., 2]
+            lo, hi = float(z.min()), float(z.max())
+            tol = 1e-9 * max(float(np.abs(tri).max()), 1.0)
+            n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+            ends: dict[int, str] = {}
+            for i in range(count):
+                rows = plane == i
+                nz = n[rows][0, 2] / max(float(np.linalg.norm(n[rows][0])), 1e-300)
+                if nz < -1 + 1e-12 and np.all(np.abs(z[rows] - lo) <= tol):
+                    ends[i] = "-z"
+                elif nz > 1 - 1e-12 and np.all(np.abs(z[rows] - hi) <= tol):
+                    ends[i] = "+z"
+            sides = [i for i in range(count) if i not in ends]
+            for k, i in enumerate(sides):
+                names[i] = f"side_{k}"
+            for i, end in ends.items():
+                names[i] = end
+            groups.append(("sides", tuple(names[i] for i in sides)))
+        groups.insert(0, ("mesh", tuple(names)))
+        return cls(tri, plane, tuple(names), tuple(groups))
 
     def _build(self):
         tri = self.triangles
@@ -105,7 +176,7 @@ class MeshShape(Shape):
             rows = np.flatnonzero(self.facet_faces == k)
             if len(rows):
                 patches.append(PlaneTriangles(k, tri[rows], normal[rows]))
-        return self.face_names, {}, patches
+        return self.face_names, dict(self.face_groups), patches
 
     def signed_distance(self, points: ArrayLike) -> np.ndarray:
         p = as_points(points)
@@ -134,4 +205,5 @@ class MeshShape(Shape):
             "triangles": self.triangles.tolist(),
             "facet_faces": self.facet_faces.tolist(),
             "face_names": list(self.face_names),
+            "face_groups": [[g, list(f)] for g, f in self.face_groups],
         }

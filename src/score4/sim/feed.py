@@ -9,9 +9,10 @@ program and ``score4 run`` fill their events the same way:
   tracked before it;
 * rows can be kept from Geant4 (``skip``): the heavy ions
   :func:`score4.sim.heavy_ions.trim_mask` marks, which follow TRIM trajectories
-  (:func:`replay_row`; score4's application replays them just before Geant4 tracks the event,
-  the library after it), each from a random stream of its own (:meth:`EventFeed.replay_rng`),
-  so the replay too is the same in any chunking; and photons lite physics cannot track.
+  (:func:`replay_row`; score4's application replays them before Geant4 tracks the batch, or
+  with per-atom histories just before their event, the library after it), each from a random
+  stream of its own (:meth:`EventFeed.replay_rng`), so the replay too is the same in any
+  chunking; and photons lite physics cannot track.
 """
 
 from __future__ import annotations

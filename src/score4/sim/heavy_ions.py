@@ -16,8 +16,10 @@ geometry with a Geant4 navigator of its own:
 * in vacuum it flies straight until it meets matter again (a recoil leaving a spike may enter the
   next one) or leaves the world.
 
-Python runs per heavy ion, not per Geant4 step; pieces that lie inside the current volume's
-safety sphere are summed in numpy without asking the navigator.
+Python runs per heavy ion, not per Geant4 step. The walk runs in the library's own frame on
+flat arrays (a point is turned into the world only where the navigator is asked about it), and
+pieces that lie inside the current volume's safety sphere are summed without asking the
+navigator (a new sphere about the last point passed, before any piece is stepped through).
 """
 
 from __future__ import annotations
@@ -285,15 +287,18 @@ class HeavyIonTransport:
         """
         if announce:
             self.need(ion, energy)
-        pos = np.array(position, dtype=float)
-        dx, dy, dz = (float(c) for c in direction)
+        px, py, pz = position.tolist() if isinstance(position, np.ndarray) else map(float, position)
+        dx, dy, dz = (
+            direction.tolist() if isinstance(direction, np.ndarray) else map(float, direction)
+        )
         norm = math.sqrt(dx * dx + dy * dy + dz * dz)
-        d = np.array([dx / norm, dy / norm, dz / norm])
+        dx, dy, dz = dx / norm, dy / norm, dz / norm
         pdg = self._pdg.get(ion)
         if pdg is None:
             pdg = self._pdg[ion] = int(particle.GetPDGEncoding())
-        fate = IonFate(pos, 0.0, pdg=pdg)
-        pv = self._locate(pos, d, relative=False)
+        fate = IonFate(np.zeros(3), 0.0, pdg=pdg)
+        nav, vec = self.nav, self.g4.G4ThreeVector
+        pv = nav.LocateGlobalPointAndSetup(vec(px, py, pz), vec(dx, dy, dz), False, False)
         e = float(energy)
         while e > 0:
             if fate.crossings > _MAX_CROSSINGS:
@@ -306,13 +311,13 @@ class HeavyIonTransport:
                 break
             here = self._volume(pv)
             if here.vacuum:
-                step = self.nav.ComputeStep(self._vec(pos), self._vec(d), _FAR, 0.0)
+                step = nav.ComputeStep(vec(px, py, pz), vec(dx, dy, dz), _FAR, 0.0)
                 if step >= _FAR:
                     fate.escaped_energy = e
                     break
-                pos = pos + step * d
-                self.nav.SetGeometricallyLimitedStep()
-                pv = self._locate(pos, d, relative=True)
+                px, py, pz = px + step * dx, py + step * dy, pz + step * dz
+                nav.SetGeometricallyLimitedStep()
+                pv = nav.LocateGlobalPointAndSetup(vec(px, py, pz), vec(dx, dy, dz), True, False)
                 fate.crossings += 1
                 continue
             lib = self.library(particle, ion, here.material, e, here.material_name)
@@ -320,26 +325,27 @@ class HeavyIonTransport:
             if i >= end - 1:  # at rest already
                 e = 0.0
                 break
-            # from a history's start (at TRIM's origin, exactly 0) the offsets are the points
-            offsets = (
-                lib.points[i:end] if i in lib.zero_starts else lib.points[i:end] - lib.points[i]
-            )
-            points = pos + offsets @ lib.turn(i, azimuth, d).T
-            energies, arrivals, walked = lib.columns
-            out = self._walk(points, e, energies[i:end], arrivals[i:end], walked[i:end], pv, fate)
+            turn = lib.rotation(i, azimuth, (dx, dy, dz))
+            # the whole history lies within `reach` of its first point
+            reach = lib.reach[k] if i == lib.offsets[k] else _FAR
+            out = self._walk(lib, i, end, turn, (px, py, pz), reach, e, pv, fate)
             if out is None:  # the history ended inside matter of this material
-                pos = points[-1]
-                e = energies[end - 1]
+                x, y, z = lib.columns[0], lib.columns[1], lib.columns[2]
+                e = lib.columns[3][end - 1]
                 if not lib.left[k]:
+                    px, py, pz = _world(turn, (px, py, pz), x, y, z, i, end - 1)
                     e = 0.0
                     break
                 # TRIM's layer ended (rare): go on from its last point in the same direction
-                d = points[-1] - points[-2]
-                d /= math.sqrt(float(d @ d))
-                pv = self._locate(pos, d, relative=False)
+                ax, ay, az = _world(turn, (px, py, pz), x, y, z, i, end - 2)
+                px, py, pz = _world(turn, (px, py, pz), x, y, z, i, end - 1)
+                dx, dy, dz = px - ax, py - ay, pz - az
+                norm = math.sqrt(dx * dx + dy * dy + dz * dz)
+                dx, dy, dz = dx / norm, dy / norm, dz / norm
+                pv = nav.LocateGlobalPointAndSetup(vec(px, py, pz), vec(dx, dy, dz), False, False)
                 continue
-            pos, e, d, pv = out
-        fate.position = pos
+            (px, py, pz), e, (dx, dy, dz), pv = out
+        fate.position = np.array((px, py, pz))
         if e == 0.0 and pv is not None:
             here = self._volume(pv)
             fate.volume, fate.material = here.logical, here.material_name
@@ -347,120 +353,161 @@ class HeavyIonTransport:
 
     def _walk(
         self,
-        points: np.ndarray,
+        lib: TrajectoryLibrary,
+        first: int,
+        end: int,
+        turn: tuple[float, ...],
+        origin: tuple[float, float, float],
+        reach: float,
         energy: float,
-        energies: list[float],
-        arrivals: list[float],
-        walked: list[float],
         pv,
         fate: IonFate,
     ):
-        """Deposit along ``points`` while they stay in matter of ``pv``'s material.
+        """Deposit along ``lib``'s points ``first .. end - 1`` while they stay in matter of
+        ``pv``'s material; the polyline is turned by ``turn`` (:meth:`TrajectoryLibrary.rotation`)
+        and moved so its point ``first`` is at ``origin``; it lies within ``reach`` of that
+        point.
 
         A whole piece deposits what the ion loses from one point to the next, collision at the
         end included; a piece cut by a boundary deposits its share of the electronic loss only
-        (the collision at its end does not happen). ``energies``/``arrivals``: the ion's energy
-        after/before each point's collision (at the first point it has ``energy``);
-        ``walked``: path length to each point (from any origin).
+        (the collision at its end does not happen). The ion has ``energy`` at the first point;
+        the library's ``energies``/``arrivals`` are its energy after/before each point's
+        collision; ``walked`` its path length to each point.
 
         Crossing into another volume of the same material (a neighbouring patch, the target
         under a rough layer) keeps the history. Returns ``(point, energy, direction, volume)``
         where it enters other matter or vacuum, or None when the polyline ends.
 
-        Points within the safety distance of the last point the navigator was asked about are
-        inside the volume and passed in one go: the path length from that point bounds their
-        distance (a bisection), and the next few are tested one by one; only the piece that
-        leaves the sphere is asked about (``ComputeStep``). Plain floats: per-piece numpy calls
-        cost more than the arithmetic.
+        The walk runs in the library's own frame (distances do not change under a rotation):
+        a point is turned into the world only where the navigator is asked about it. Points
+        within the safety distance of the last point the navigator was asked about are inside
+        the volume and passed in one go: all of them when the history's ``reach`` is within
+        it, else the path length from that point bounds their distance (a bisection) and the
+        next few are tested one by one; only the piece that leaves the sphere is asked about
+        (``ComputeStep``, which moves the navigator to its start itself). Plain floats:
+        per-piece numpy calls cost more than the arithmetic.
         """
         nav = self.nav
         vec = self.g4.G4ThreeVector
         rec = fate.pieces if self.record_pieces else None
         here = self._volume(pv)
         material, volume = here.material_name, here.index
-        xs, ys, zs = points.T.tolist()
-        es, ars, ws = energies, arrivals, walked  # the caller's copies (list slices)
-        es[0] = ars[0] = energy
-        last = len(xs) - 1
-        i = 0  # the ion is on piece i, from (cx, cy, cz) to point i + 1
-        cx, cy, cz = xs[0], ys[0], zs[0]
-        e_cur, s_cur = energy, ws[0]
+        xs, ys, zs, es, ars, ws = lib.columns
+        r00, r01, r02, r10, r11, r12, r20, r21, r22 = turn
+        ox, oy, oz = origin
+        x0, y0, z0 = xs[first], ys[first], zs[first]
+        last = end - 1
+        i = first  # the ion is on piece i, from (cx, cy, cz) to point i + 1 (library frame)
+        cx, cy, cz = x0, y0, z0
+        wx, wy, wz = ox, oy, oz  # the current point in the world
+        e_cur, s_cur = energy, ws[first]
         dep = length_in = 0.0  # in `volume`, not yet booked
-        located = vec(cx, cy, cz)  # where the navigator stands (the caller located it there)
-        safety = nav.ComputeSafety(located, _FAR, True)
+        # the caller located the navigator at the first point
+        safety = nav.ComputeSafety(vec(wx, wy, wz), _FAR, True)
         bisect_left = bisect.bisect_left
         while i < last:
             # points inside the safety sphere about the current point are in the volume
             if safety > 0.0:
-                j = bisect_left(ws, s_cur + safety, i + 1) - 1  # path-length bound
-                s2 = safety * safety
-                while j < last:
-                    dx, dy, dz = xs[j + 1] - cx, ys[j + 1] - cy, zs[j + 1] - cz
-                    if dx * dx + dy * dy + dz * dz >= s2:
-                        break
-                    j += 1
+                if reach < safety:  # all of them (the first sphere only)
+                    j = last
+                else:
+                    j = bisect_left(ws, s_cur + safety, i + 1, end) - 1  # path-length bound
+                    s2 = safety * safety
+                    while j < last:
+                        dx, dy, dz = xs[j + 1] - cx, ys[j + 1] - cy, zs[j + 1] - cz
+                        if dx * dx + dy * dy + dz * dz >= s2:
+                            break
+                        j += 1
                 if j > i:
                     if rec is not None and volume is not None:
                         px, py, pz, pe = cx, cy, cz, e_cur
                         for m in range(i + 1, j + 1):
                             x2, y2, z2 = xs[m], ys[m], zs[m]
+                            mid = ((px + x2) / 2, (py + y2) / 2, (pz + z2) / 2)
                             rec.append(
-                                (volume, (px + x2) / 2, (py + y2) / 2, (pz + z2) / 2, pe - es[m])
+                                (volume, *_turned(turn, origin, x0, y0, z0, *mid), pe - es[m])
                             )
                             px, py, pz, pe = x2, y2, z2, es[m]
                     dep += e_cur - es[j]
                     length_in += ws[j] - s_cur
                     i, cx, cy, cz, e_cur, s_cur = j, xs[j], ys[j], zs[j], es[j], ws[j]
-                    located = None
+                    ax, ay, az = cx - x0, cy - y0, cz - z0
+                    wx = ox + r00 * ax + r01 * ay + r02 * az
+                    wy = oy + r10 * ax + r11 * ay + r12 * az
+                    wz = oz + r20 * ax + r21 * ay + r22 * az
                     if i >= last:
                         break
+                    # a sphere about the new point (its next point is often in it: one call
+                    # instead of a step to it and a sphere about it)
+                    reach = _FAR
+                    safety = nav.ComputeSafety(vec(wx, wy, wz), _FAR, True)
+                    continue
+            # the next point is outside the sphere about this one: step to it
             length = ws[i + 1] - s_cur
             if length <= 0.0:
                 i += 1
                 continue
             inv = 1.0 / length
-            ux, uy, uz = (xs[i + 1] - cx) * inv, (ys[i + 1] - cy) * inv, (zs[i + 1] - cz) * inv
-            if located is None:
-                located = vec(cx, cy, cz)
-                nav.LocateGlobalPointWithinVolume(located)
-            step = nav.ComputeStep(located, vec(ux, uy, uz), length, 0.0)
+            lx, ly, lz = (xs[i + 1] - cx) * inv, (ys[i + 1] - cy) * inv, (zs[i + 1] - cz) * inv
+            ux = r00 * lx + r01 * ly + r02 * lz
+            uy = r10 * lx + r11 * ly + r12 * lz
+            uz = r20 * lx + r21 * ly + r22 * lz
+            step = nav.ComputeStep(vec(wx, wy, wz), vec(ux, uy, uz), length, 0.0)
             if step >= length:
                 i += 1
                 if rec is not None and volume is not None:
                     mid = ((cx + xs[i]) / 2, (cy + ys[i]) / 2, (cz + zs[i]) / 2)
-                    rec.append((volume, *mid, e_cur - es[i]))
+                    rec.append((volume, *_turned(turn, origin, x0, y0, z0, *mid), e_cur - es[i]))
                 dep += e_cur - es[i]
                 length_in += length
                 cx, cy, cz, e_cur, s_cur = xs[i], ys[i], zs[i], es[i], ws[i]
-                located = vec(cx, cy, cz)
-                nav.LocateGlobalPointWithinVolume(located)
-                safety = nav.ComputeSafety(located, _FAR, True)
+                ax, ay, az = cx - x0, cy - y0, cz - z0
+                wx = ox + r00 * ax + r01 * ay + r02 * az
+                wy = oy + r10 * ax + r11 * ay + r12 * az
+                wz = oz + r20 * ax + r21 * ay + r22 * az
+                safety = nav.ComputeSafety(vec(wx, wy, wz), _FAR, True)
                 continue
             lost = (e_cur - ars[i + 1]) * step * inv
+            wx, wy, wz = wx + step * ux, wy + step * uy, wz + step * uz
             if rec is not None and volume is not None:
                 h = 0.5 * step
-                rec.append((volume, cx + h * ux, cy + h * uy, cz + h * uz, lost))
+                rec.append((volume, wx - h * ux, wy - h * uy, wz - h * uz, lost))
             dep += lost
             length_in += step
-            cx, cy, cz = cx + step * ux, cy + step * uy, cz + step * uz
+            cx, cy, cz = cx + step * lx, cy + step * ly, cz + step * lz
             e_cur, s_cur = e_cur - lost, s_cur + step
             fate.crossings += 1
-            _book(fate, volume, dep, length_in, (cx, cy, cz))
+            _book(fate, volume, dep, length_in, (wx, wy, wz))
             dep = length_in = 0.0
-            cur, u = np.array([cx, cy, cz]), np.array([ux, uy, uz])
             nav.SetGeometricallyLimitedStep()
-            nxt = self._locate(cur, u, relative=True)
+            nxt = nav.LocateGlobalPointAndSetup(vec(wx, wy, wz), vec(ux, uy, uz), True, False)
             if nxt is None:
-                return cur, e_cur, u, nxt
+                return (wx, wy, wz), e_cur, (ux, uy, uz), nxt
             there = self._volume(nxt)
             if there.material_name != material:
-                return cur, e_cur, u, nxt
+                return (wx, wy, wz), e_cur, (ux, uy, uz), nxt
             volume = there.index
-            located = vec(cx, cy, cz)  # _locate put the navigator here
             safety = 0.0
-        _book(fate, volume, dep, length_in, (cx, cy, cz))
+        _book(fate, volume, dep, length_in, (wx, wy, wz))
         # a stopped history's last energy is 0 (TRIM's <= 1 eV rest is in its last piece)
         return None
+
+
+def _turned(turn, origin, x0, y0, z0, x, y, z) -> tuple[float, float, float]:
+    """Library point (x, y, z) in the world: turned by ``turn`` about library point
+    (x0, y0, z0), which goes to ``origin``."""
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = turn
+    ax, ay, az = x - x0, y - y0, z - z0
+    return (
+        origin[0] + r00 * ax + r01 * ay + r02 * az,
+        origin[1] + r10 * ax + r11 * ay + r12 * az,
+        origin[2] + r20 * ax + r21 * ay + r22 * az,
+    )
+
+
+def _world(turn, origin, xs, ys, zs, first: int, m: int) -> tuple[float, float, float]:
+    """Point ``m`` of a library's columns in the world (its point ``first`` at ``origin``)."""
+    return _turned(turn, origin, xs[first], ys[first], zs[first], xs[m], ys[m], zs[m])
 
 
 def _book(

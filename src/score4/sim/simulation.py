@@ -292,9 +292,10 @@ class Simulation:
         geometry (Geant4 walks the volume tree to update regions and cuts: 0.8 s with 4 million
         flat placements, see docs/tiling.md). ``progress(n)`` is called from the event action
         every ``batch`` events (default: a twentieth of the events) and once at the end.
-        Heavy ions (:meth:`trim_rows`) are moved along TRIM trajectories just before Geant4
-        tracks the rest of their event (:mod:`score4.sim.heavy_ions`; per-atom histories need
-        the stop points first); their deposits join their events'.
+        Heavy ions (:meth:`trim_rows`) are moved along TRIM trajectories
+        (:mod:`score4.sim.heavy_ions`) all before Geant4 tracks the batch, each from its own
+        random stream (with per-atom histories just before Geant4 tracks their event: a
+        daughter starts where its recoil stopped); their deposits join their events'.
         With ``endpoints=True``, ``self.endpoints`` is then an (n_rows, 4) array: where each
         primary ended (x, y, z mm) and its kinetic energy there (MeV; > 0 if it left the world).
         ``stop``, set from another thread, ends the run after the event being tracked
@@ -335,6 +336,9 @@ class Simulation:
         self.intercepted, self.ion_fates = [], {}
         self._pending: list[tuple[IonFate, bool]] = []
         self._replayed: list[tuple[IonFate, bool]] = []
+        self._early: dict[int, list[tuple[IonFate, bool]]] = {}
+        if self._replaying and self.atoms is None:
+            self._replay_all(stop)
         self._scored = False
         self._intercept(names)
         if self.steps is not None:
@@ -549,13 +553,13 @@ class Simulation:
         self._interceptor.gammas |= gammas
 
     def _replay_event(self, k: int) -> None:
-        """Move event ``k``'s heavy ions along TRIM trajectories before Geant4 tracks the event
-        (their deposits join the event's at its end); with per-atom histories, put each decay
-        where its atom is first (:class:`~score4.sim.implantation.AtomTracker`)."""
+        """Before Geant4 tracks event ``k``: have its heavy ions' deposits join the event's at
+        its end (replayed before the run: :meth:`_replay_all`); with per-atom histories,
+        replay them now and put each decay where its atom is first
+        (:class:`~score4.sim.implantation.AtomTracker`)."""
         feed, atoms = self._feed, self.atoms
-        if atoms is None:
-            for row in feed.rows_of(k, self._trim):
-                self._replay_row(k, int(row))
+        if atoms is None:  # replayed before the run (_replay_all)
+            self._replayed.extend(self._early.pop(k, ()))
             return
         decay = atoms.decay_index
         a, end = int(feed.offsets[k]), int(feed.offsets[k + 1])
@@ -569,6 +573,7 @@ class Simulation:
                 for row in range(a, b):
                     if self._trim[row]:
                         fate = self._replay_row(k, row)
+                        self._replayed.append((fate, self._is_alpha(row)))
                         if atoms.recoil[row]:
                             atoms.moved(row, fate)
                     elif atoms.recoil[row]:
@@ -586,13 +591,32 @@ class Simulation:
             kept = self._untracked_rows[rows]
             self.untracked_gamma[k] = float(feed.primaries.energy[rows][kept].sum())
 
+    def _replay_all(self, stop: threading.Event | None = None) -> None:
+        """Replay the heavy ions of every event of the batch, in event order, before Geant4
+        tracks any (without per-atom histories nothing of Geant4's tracking changes a replay):
+        one tight loop keeps the replay's code and data in the CPU's caches, which a replay
+        between two Geant4 events finds cold (it then costs about twice as much:
+        ``benchmarks/bench_replay_speed.py``). Each event books its fates at its end.
+        ``stop`` (see :meth:`run`) is looked at every 1000 ions."""
+        feed, early = self._feed, self._early
+        event = feed.primaries.event
+        for n, row in enumerate(np.flatnonzero(self._trim).tolist()):
+            if n % 1000 == 999 and stop is not None and stop.is_set():
+                raise RunCancelled(f"run cancelled after 0 of {feed.n_events} events")
+            k = int(event[row])
+            early.setdefault(k, []).append((self._replay_row(k, row), self._is_alpha(row)))
+
+    def _is_alpha(self, row: int) -> bool:
+        """Row ``row`` is an alpha (on TRIM with ``alphas: trim``): its deposits also count in
+        the alpha class."""
+        return str(self._feed.primaries.particle[row]) == "alpha"
+
     def _replay_row(self, k: int, row: int) -> IonFate:
-        """Replay the heavy ion of ``row`` (event ``k``); its deposits join the event's at its
-        end (an alpha's also the alpha class, ``alphas: trim``)."""
+        """Replay the heavy ion of ``row`` (event ``k``); the caller books its deposits into
+        the event's at its end (:meth:`_replay_all`, :meth:`_replay_event`)."""
         transport, feed = self.heavy_ions, self._feed
         assert transport is not None
         fate = replay_row(transport, feed, k, row)
-        self._replayed.append((fate, str(feed.primaries.particle[row]) == "alpha"))
         self.ion_fates[row] = fate
         if self.endpoints is not None:
             self.endpoints[row] = (*fate.position, fate.escaped_energy)

@@ -13,6 +13,7 @@ about the source (kind, true and projected area, volume).
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from functools import partial
 from typing import Any, TypeVar
@@ -233,11 +234,13 @@ def shape_face_sampler(scene: Scene, volume: str, face: str | list[str]):
         if layer.mask is None:
             rough[layer.config.face_name] = layer_sampler(layer)
         else:
-            rest = (
+            rest: Any = (
                 CurvedRemainderSampler(layer)
                 if isinstance(layer, CurvedRoughLayer)
                 else FlatRemainderSampler(layer)
             )
+            if layer.on_boolean is not None:  # the rest that lies on the boolean's surface
+                rest = BooleanRemainderSampler(layer, rest)
             parts = [layer_sampler(layer), rest]
             planes.setdefault(layer.config.face_name, []).extend(p for p in parts if p.area > 0)
     for face_name, parts in planes.items():
@@ -253,7 +256,9 @@ class FlatRemainderSampler:
 
     def __init__(self, layer: RoughLayer) -> None:
         self.layer = layer
-        outline = getattr(layer, "outline", None)
+        outline = getattr(layer, "base_outline", None)
+        if outline is None:
+            outline = getattr(layer, "outline", None)
         px, py = layer.patch_size
         rough_cells = int((layer.cell_variants >= 0).sum())
         if outline is not None:  # a polygon face: its triangles in the layer's frame
@@ -263,11 +268,16 @@ class FlatRemainderSampler:
             self.area = float(tri_area.sum() - rough_cells * px * py)
             return
         self.outline = None
-        ring = layer.target.face(layer.config.face_name)
-        assert isinstance(ring, AnnulusFace)  # a layer with a mask lies on a ring
+        name = layer.config.face_name
+        if layer.on_boolean is not None:  # the leaf solid's face the boolean's lies on
+            name = layer.on_boolean.clip.face
+        ring = layer.target.face(name)
+        if not isinstance(ring, AnnulusFace):  # a rectangle (a box face of a boolean)
+            self.rmin = self.rmax = -1.0
+            lu, lv = layer.frame.size
+            self.area = float(lu * lv - rough_cells * px * py)
+            return
         self.rmin, self.rmax = ring.rmin, ring.rmax
-        px, py = layer.patch_size
-        rough_cells = int((layer.cell_variants >= 0).sum())
         self.area = float(np.pi * (self.rmax**2 - self.rmin**2) - rough_cells * px * py)
 
     def sample(self, rng: np.random.Generator, n: int) -> SurfaceSample:
@@ -276,6 +286,9 @@ class FlatRemainderSampler:
             m = 2 * (n - len(points)) + 16
             if self.outline is not None:
                 xy = self._in_outline(rng, m)
+            elif self.rmax < 0:
+                lu, lv = self.layer.frame.size
+                xy = (rng.random((m, 2)) - 0.5) * np.array([lu, lv])
             else:
                 r = np.sqrt(rng.uniform(self.rmin**2, self.rmax**2, m))
                 phi = rng.uniform(0, 2 * np.pi, m)
@@ -303,6 +316,42 @@ class FlatRemainderSampler:
         st[:, flip] = 1 - st[:, flip]
         t = self.outline[k]
         return t[:, 0] + st[0, :, None] * (t[:, 1] - t[:, 0]) + st[1, :, None] * (t[:, 2] - t[:, 0])
+
+
+class BooleanRemainderSampler:
+    """The flat rest of a rough face of a boolean solid: points of the leaf face's rest
+    (``inner``: a :class:`FlatRemainderSampler` or
+    :class:`~score4.source.sampling.CurvedRemainderSampler`) kept where they lie on the
+    boolean's surface. Its area is the boolean face's (estimated, ``area_error``) less the rough
+    cells', which lie wholly on it."""
+
+    def __init__(self, layer: RoughLayer, inner: Any) -> None:
+        on = layer.on_boolean
+        assert on is not None
+        self.layer, self.inner, self.on = layer, inner, on
+        shape = on.shape
+        full = float(on.clip.leaf.face_areas[on.clip.face])
+        covered = full - float(inner.area)
+        self.area = max(float(shape.face_areas[on.face]) - covered, 0.0)
+        self.area_error = float(getattr(shape, "face_area_errors", {}).get(on.face, 0.0))
+
+    def sample(self, rng: np.random.Generator, n: int) -> SurfaceSample:
+        got: list[SurfaceSample] = []
+        have, share = 0, max(self.area / max(float(self.inner.area), 1e-300), 1e-3)
+        while have < n:
+            s = self.inner.sample(rng, int((n - have) / share * 1.2) + 16)
+            keep = self.on.on_surface(s.position)
+            got.append(
+                SurfaceSample(
+                    s.position[keep], s.normal[keep], s.facet[keep], s.patch[keep], s.variant[keep]
+                )
+            )
+            have += int(keep.sum())
+        cat = [np.concatenate([getattr(g, a) for g in got])[:n] for a in _SAMPLE_FIELDS]
+        return SurfaceSample(*cat)
+
+
+_SAMPLE_FIELDS = ("position", "normal", "facet", "patch", "variant")
 
 
 def bulk_sampler(scene: Scene, volume: str) -> BulkSampler:
@@ -476,7 +525,12 @@ def source_from_config(src: SourceConfig, scene: Scene) -> SampledSource | BulkS
         try:
             surface = shape_face_sampler(scene, volume, face)
         except ConfigError as err:  # "face: G4Box has no face 'top'; its faces: ..."
-            text = str(err)
+            text = re.sub(  # the volume and its Geant4 solid, as for rough faces
+                r"^face: \S+ has no face ",
+                lambda _: f"face: {volume}: no face ",
+                str(err),
+            )
+            text = re.sub(r"^(face: .*?: no face '[^']*'); ", rf"\1 on a {target.solid}; ", text)
             raise ConfigError(
                 f"source.surface.{text}" if text.startswith("face:") else text
             ) from None

@@ -725,7 +725,8 @@ class CurvedRemainderSampler:
                 covered += face.band_area(v0, v1, float(lay.count[j] * lay.step[j]))
                 continue
             r_lo, r_hi = face.radius(lay.v[j] - py / 2), face.radius(lay.v[j] + py / 2)
-            covered += float(lay.count[j] * lay.step[j] * py * 0.5 * (r_lo + r_hi))
+            held = int((layer.cell_variants[j] >= 0).sum())  # all count cells but on a boolean
+            covered += float(held * lay.step[j] * py * 0.5 * (r_lo + r_hi))
         self.area = max(float(face.area) - covered, 0.0)
 
     def sample(self, rng: np.random.Generator, n: int) -> SurfaceSample:
@@ -734,8 +735,9 @@ class CurvedRemainderSampler:
         while len(pts) < n:
             m = 4 * (n - len(pts)) + 16
             p, q = self.patch.sample(rng, m)
-            j, _, _ = self.layer.ring_layout.locate(p)
+            j, i, _ = self.layer.ring_layout.locate(p)
             keep = j < 0
+            keep[~keep] = self.layer.cell_variants[j[~keep], i[~keep]] < 0
             pts, nrm = np.concatenate([pts, p[keep]]), np.concatenate([nrm, q[keep]])
         target = self.layer.target
         none = np.full(n, -1, np.int64)

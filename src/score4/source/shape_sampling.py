@@ -93,7 +93,9 @@ class ShapeSurfaceSampler:
         self._cum = np.cumsum(weights)
         self.area = float(self._cum[-1])
         # the standard error of an estimated area (boolean and live solids), 0 when exact
-        self.area_error = float(getattr(self.flat, "area_error", 0.0))
+        errors = [getattr(self.flat, "area_error", 0.0)]  # (a boolean's rough face: its rest)
+        errors += [getattr(r, "area_error", 0.0) for _, r in self.rough]
+        self.area_error = float(np.sqrt(sum(float(e) ** 2 for e in errors)))
         self.projected_area = float(shape.face_area(self.selected))
         self.has_patches = bool(self.rough)
 
@@ -187,6 +189,10 @@ class CombinedSurfaceSampler:
         self.parts = list(parts)
         self._cum = np.cumsum([p.area for p in self.parts])
         self.area = float(self._cum[-1])
+        #: the standard error of an estimated area among the parts (a boolean's face), else 0
+        self.area_error = float(
+            np.sqrt(sum(float(getattr(p, "area_error", 0.0)) ** 2 for p in self.parts))
+        )
 
     def sample(self, rng: np.random.Generator, n: int) -> SurfaceSample:
         which = np.minimum(

@@ -78,7 +78,11 @@ def _meets(layer: RoughLayer, what: str, gap: float) -> str:
         f"{layer.base_thickness * 1e3:.4g} um + highest tip) and runs into {what} "
         f"(free gap there: {max(gap, 0.0) * 1e3:.4g} um); move the volumes apart, use a lower "
         "surface"
-        + (" or into: true (the layer inside the volume)" if not layer.config.into else "")
+        + (
+            " or into: true (the layer inside the volume)"
+            if not layer.config.into
+            else " (into: the layers of two faces that share an edge meet below it)"
+        )
     )
 
 
@@ -184,7 +188,8 @@ def check_gdml_clearance(scene: Scene) -> None:
         mother = layer.target.mother
         assert mother is not None  # in a GDML world every target has a mother (the world at least)
         own = layer.target.instance.index if layer.target.instance is not None else -1
-        if isinstance(layer, PolygonRoughLayer):
+        if isinstance(layer, PolygonRoughLayer) and not layer.config.into:  # (into: the
+            # layer is in the slab the convex solid is clipped by)
             own_body = _target_body(layer.target)
             if _layer_meets(own_body, layer, box):  # a concave edge of its own solid
                 raise ConfigError(_meets(layer, f"its own volume {layer.target.name!r}", 0.0))

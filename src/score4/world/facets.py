@@ -22,6 +22,7 @@ from score4.errors import ConfigError
 from score4.shapes import Shape
 from score4.shapes.base import PlaneTriangles, _plane_face
 from score4.shapes.faces import PlaneFace
+from score4.shapes.mesh_shape import plane_index
 from score4.surface.triangle_mesh import TriangleMesh
 
 
@@ -135,19 +136,9 @@ def check_one_plane(tri_local: np.ndarray, where: str, face: str, target: str) -
 
 def plane_groups(triangles: np.ndarray) -> list[np.ndarray]:
     """The triangles (k, 3, 3) grouped by their plane (normal and offset), in order of first
-    appearance; empty when they are not all flat facets."""
-    if len(triangles) == 0:
-        return []
-    n = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
-    norm = np.linalg.norm(n, axis=1)
-    keep = norm > 0
-    tris, n = triangles[keep], n[keep] / norm[keep, None]
-    scale = max(float(np.abs(tris).max()), 1.0)
-    offset = np.einsum("ij,ij->i", n, tris[:, 0]) / scale
-    key = np.round(np.column_stack([n, offset]) * 1e8).astype(np.int64)
-    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
-    order = np.argsort(first)
-    return [tris[inverse.ravel() == g] for g in order]
+    appearance, degenerate ones left out (:func:`score4.shapes.mesh_shape.plane_index`)."""
+    plane = plane_index(triangles)
+    return [triangles[plane == g] for g in range(int(plane.max(initial=-1)) + 1)]
 
 
 def plane_face(name: str, triangles: np.ndarray) -> PlaneFace:
@@ -155,3 +146,108 @@ def plane_face(name: str, triangles: np.ndarray) -> PlaneFace:
     n = np.cross(triangles[0, 1] - triangles[0, 0], triangles[0, 2] - triangles[0, 0])
     n = n / np.linalg.norm(n)
     return _plane_face(name, [PlaneTriangles(0, triangles, n)])
+
+
+def solid_triangles(shape: Shape) -> np.ndarray | None:
+    """The closed surface (k, 3, 3) of a solid made of flat facets only (a G4Trd, G4Trap,
+    G4Polyhedra, tessellated or extruded solid), in its own frame; None for any other."""
+    if not shape.patches or not all(isinstance(p, PlaneTriangles) for p in shape.patches):
+        return None
+    return np.concatenate([p.triangles for p in shape.patches if isinstance(p, PlaneTriangles)])
+
+
+def is_convex(triangles: np.ndarray) -> bool:
+    """True when every corner lies on the inner side of every facet's plane (to 1e-9 of the
+    solid's size): a convex solid."""
+    n = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    norm = np.linalg.norm(n, axis=1)
+    keep = norm > 0
+    n = n[keep] / norm[keep, None]
+    offset = np.einsum("ij,ij->i", n, triangles[keep, 0])
+    corners = np.unique(triangles.reshape(-1, 3), axis=0)
+    tol = 1e-9 * max(float(np.abs(triangles).max()), 1.0)
+    return bool((corners @ n.T - offset[None, :] <= tol).all())
+
+
+def clip_convex(triangles: np.ndarray, normal: np.ndarray, offset: float) -> np.ndarray:
+    """The closed surface of a convex solid (its triangles, wound outward) cut by the plane
+    ``normal . x = offset``: the part with ``normal . x <= offset``, the cut closed by a cap
+    (the convex polygon of the cut, fanned from its centre, facing ``normal``)."""
+    n = np.asarray(normal, float) / np.linalg.norm(normal)
+    scale = max(float(np.abs(triangles).max()), 1.0)
+    tol = 1e-12 * scale
+    out: list[np.ndarray] = []
+    on_plane: list[np.ndarray] = []
+    for tri in triangles:
+        s = tri @ n - offset
+        poly = []
+        for k in range(3):  # Sutherland-Hodgman against one plane
+            a, b, sa, sb = tri[k], tri[(k + 1) % 3], s[k], s[(k + 1) % 3]
+            if sa <= tol:
+                poly.append(a)
+            if (sa < -tol and sb > tol) or (sa > tol and sb < -tol):
+                poly.append(a + (b - a) * (sa / (sa - sb)))
+        on_plane += [p for p in poly if abs(float(p @ n) - offset) <= tol]
+        out += [np.array([poly[0], poly[k], poly[k + 1]]) for k in range(1, len(poly) - 1)]
+    out += list(_cap(np.array(on_plane).reshape(-1, 3), n, tol))
+    tris = np.array(out).reshape(-1, 3, 3)
+    area = np.linalg.norm(np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]), axis=1)
+    return tris[area > 1e-12 * scale * scale]
+
+
+def _cap(points: np.ndarray, n: np.ndarray, tol: float) -> np.ndarray:
+    """Triangles (k, 3, 3) fanning the convex polygon of ``points`` (in one plane of normal
+    ``n``) from its centre, wound counter-clockwise about ``n``."""
+    if len(points) < 3:
+        return np.zeros((0, 3, 3))
+    pts = np.unique(np.round(points / tol) * tol, axis=0)
+    if len(pts) < 3:
+        return np.zeros((0, 3, 3))
+    centre = pts.mean(axis=0)
+    u = pts[0] - centre
+    u -= (u @ n) * n
+    u /= np.linalg.norm(u)
+    d = pts - centre
+    ring = pts[np.argsort(np.arctan2(d @ np.cross(n, u), d @ u))]
+    return np.array([[centre, ring[k], ring[(k + 1) % len(ring)]] for k in range(len(ring))])
+
+
+def section(triangles: np.ndarray, normal: np.ndarray, offset: float) -> np.ndarray:
+    """The cut of a convex solid (its triangles) by the plane ``normal . x = offset``: the cap
+    of :func:`clip_convex`, triangles (k, 3, 3) facing ``normal`` (none when the plane misses)."""
+    n = np.asarray(normal, float) / np.linalg.norm(normal)
+    tris = clip_convex(triangles, n, offset)
+    tol = 1e-9 * max(float(np.abs(triangles).max()), 1.0)
+    flat = np.abs(tris @ n - offset).max(axis=1) <= tol
+    return tris[flat]
+
+
+def clip_to_convex(tri2d: np.ndarray, convex: np.ndarray) -> np.ndarray:
+    """The 2D triangles ``tri2d`` (k, 3, 2) cut to the convex polygon that the triangles
+    ``convex`` cover (wound counter-clockwise): each clipped by the half-plane left of every
+    outline edge, the pieces fanned into triangles."""
+    edges = boundary_edges(ccw(convex))
+    out = []
+    for tri in tri2d:
+        poly = list(tri)
+        for a, b in edges:
+            d = b - a
+            s = [d[0] * (q[1] - a[1]) - d[1] * (q[0] - a[0]) for q in poly]
+            cut = []
+            for k in range(len(poly)):
+                p0, p1, s0, s1 = poly[k], poly[(k + 1) % len(poly)], s[k], s[(k + 1) % len(poly)]
+                if s0 >= 0:
+                    cut.append(p0)
+                if (s0 < 0 < s1) or (s1 < 0 < s0):
+                    cut.append(p0 + (p1 - p0) * (s0 / (s0 - s1)))
+            poly = cut
+            if len(poly) < 3:
+                break
+        out += [[poly[0], poly[k], poly[k + 1]] for k in range(1, len(poly) - 1)]
+    return np.array(out, float).reshape(-1, 3, 2)
+
+
+def mesh_of(triangles: np.ndarray) -> TriangleMesh:
+    """A :class:`TriangleMesh` of triangles (k, 3, 3), corners merged."""
+    vertices, faces = np.unique(triangles.reshape(-1, 3), axis=0, return_inverse=True)
+    return TriangleMesh(vertices, faces.reshape(-1, 3))

@@ -31,8 +31,8 @@ from ..shapes import Transform
 #: Format of the stored model (bump when its contents change: cached models are made again).
 # 4: with the GDML's own overlaps (gdml_reader.own_overlaps); 5: with detector metadata;
 # 7: G4Trap described (6 was used by pre-merge runs of s7-solids, whose cached models lack 5's
-# metadata)
-MODEL_FORMAT = 7
+# metadata); 8: tessellated and extruded solids with one face per plane (MeshShape.by_planes)
+MODEL_FORMAT = 8
 
 #: Most instances the tree is expanded to (a world of nested tiling holds millions of cells).
 MAX_INSTANCES = 200_000
@@ -107,6 +107,14 @@ class Instance:
 
     def to_local(self, world: np.ndarray) -> np.ndarray:
         return self.transform.inverse_apply(world)
+
+
+def _shared_start(a: str, b: str) -> int:
+    """Length of the start two names share."""
+    n = 0
+    while n < min(len(a), len(b)) and a[n] == b[n]:
+        n += 1
+    return n
 
 
 @dataclass
@@ -324,16 +332,45 @@ class GeometryModel:
         materials = sorted({self.logicals[i.logical].material for i in self.instances[1:]})
         if material is not None and material not in materials:
             close = difflib.get_close_matches(material, materials, n=5, cutoff=0.3)
-            hint = f"; closest materials: {', '.join(close)}" if close else ""
+            hint = f"; closest materials: {', '.join(close or materials[:5])}"
+        elif material is not None and (glob is not None or regex is not None):
+            named = [  # the name matches, the material does not: say what those are made of
+                inst
+                for inst in self.instances[1:]
+                if (glob is None or fnmatch.fnmatchcase(inst.name, glob))
+                and (rx is None or rx.fullmatch(inst.name))
+            ]
+            have = sorted({self.logicals[i.logical].material for i in named})
+            hint = (
+                f"; the volumes that match are of {', '.join(have)}"
+                if have
+                else f"; closest names: {', '.join(self.closest_names(glob or regex or ''))}"
+            )
         else:
-            bare = re.sub(r"[*?\[\]^$.+(){}|\\]", "", glob or regex or "")
-            names = list(dict.fromkeys(i.name for i in self.instances[1:]))
-            close = difflib.get_close_matches(bare, names, n=5, cutoff=0.5) if bare else []
-            hint = f"; closest names: {', '.join(close)}" if close else ""
+            hint = f"; closest names: {', '.join(self.closest_names(glob or regex or ''))}"
         raise ConfigError(
             f"{parameter}: no volume of {self.source} {' and '.join(what)}{hint}; "
             f"`score4 geometry list {self.source}` lists the volumes"
         )
+
+    def closest_names(self, pattern: str, n: int = 5) -> list[str]:
+        """Up to ``n`` volume names (the world excluded) closest to a glob or regular
+        expression: :mod:`difflib`'s close matches to its literal characters; failing those,
+        the names sharing the longest start with its literal head (``V0*``: ``V02160B``, ...);
+        failing those, the best :mod:`difflib` ratios (never empty while the world holds a
+        volume)."""
+        names = list(dict.fromkeys(i.name for i in self.instances[1:]))
+        special = r"[*?\[\]^$.+(){}|\\]"
+        bare = re.sub(special, "", pattern)
+        close = difflib.get_close_matches(bare, names, n=n, cutoff=0.5) if bare else []
+        if close:
+            return close
+        head = re.split(special, pattern, maxsplit=1)[0]
+        shared = {m: _shared_start(head, m) for m in names}
+        best = max(shared.values(), default=0)
+        if best:
+            return [m for m in names if shared[m] == best][:n]
+        return sorted(names, key=lambda m: -difflib.SequenceMatcher(None, bare, m).ratio())[:n]
 
     def column(self, inst: Instance) -> str:
         """The scoring column of a volume a pattern selects: its name, ``name_k`` for copy k

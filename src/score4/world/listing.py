@@ -9,7 +9,7 @@ from score4.shapes.hpge import HPGE_GROUPS
 from .scene import Scene
 
 
-def _target_rows(scene: Scene) -> list[dict]:
+def _target_rows(scene: Scene, faces: bool = False) -> list[dict]:
     rows = []
     for t in scene.targets:
         layers = scene.layers_of(t.name)
@@ -41,11 +41,14 @@ def _target_rows(scene: Scene) -> list[dict]:
                 ],
             }
         )
+        if faces:  # areas of boolean solids' faces are estimated: only when asked
+            rows[-1]["face_areas_mm2"] = dict(shape.face_areas) if shape is not None else {}
     return rows
 
 
-def geometry_rows(scene: Scene) -> dict:
-    """Plain data: ``volumes`` (GDML world: every physical volume) and ``targets``."""
+def geometry_rows(scene: Scene, faces: bool = False) -> dict:
+    """Plain data: ``volumes`` (GDML world: every physical volume) and ``targets`` (``faces``:
+    with their faces' areas)."""
     model = scene.model
     return {
         "world": "generated box"
@@ -55,7 +58,7 @@ def geometry_rows(scene: Scene) -> dict:
         else model.source,
         "volumes": list(model.rows()) if model is not None else [],
         "truncated": bool(model.truncated) if model is not None else False,
-        "targets": _target_rows(scene),
+        "targets": _target_rows(scene, faces),
     }
 
 
@@ -69,8 +72,24 @@ def _fmt_mass(kg: float) -> str:
     return f"{kg * 1e6:.4g} mg"
 
 
-def geometry_text(rows: dict) -> str:
-    """The listing as text: the tree, its overlaps, then the targets."""
+def _faces_text(t: dict) -> list[str]:
+    """A target's faces with their areas, and its groups (``all`` left out)."""
+    if not t["faces"]:
+        return ["    faces: not known (a solid score4.shapes does not describe)"]
+    areas = t.get("face_areas_mm2", {})
+    out = [
+        "    faces: "
+        + ", ".join(f"{f} ({areas[f]:.5g} mm2)" if f in areas else f for f in t["faces"])
+    ]
+    groups = {g: f for g, f in t.get("groups", {}).items() if g != "all"}
+    if groups:
+        out.append("    groups: " + "; ".join(f"{g} = {', '.join(f)}" for g, f in groups.items()))
+    return out
+
+
+def geometry_text(rows: dict, faces: bool = False) -> str:
+    """The listing as text: the tree, its overlaps, then the targets (``faces``: with each
+    target's faces, their areas and its groups)."""
     out = []
     if rows["volumes"]:
         out.append(f"world {rows['world']}: {len(rows['volumes'])} physical volumes")
@@ -108,6 +127,8 @@ def geometry_text(rows: dict) -> str:
         where = f" = {t['gdml_volume']}" if t["gdml_volume"] else ""
         pos = ", ".join(f"{x:.4g}" for x in np.round(t["position_mm"], 9))
         out.append(f"  {t['target']}{where}: {t['solid']}, {t['material']}, at ({pos}) mm")
+        if faces:
+            out.extend(_faces_text(t))
         named = [g for g in HPGE_GROUPS if g in t.get("groups", {})]
         if named:  # a detector whose metadata name its surfaces
             out.append(

@@ -13,9 +13,10 @@ from score4.shapes.faces import SphereFace
 from score4.surface.spec import Surface, build_surface
 from score4.surface.store import load_surface
 
+from .boolean_layers import target_layers
 from .clearance import check_clearance
 from .gdml_model import GeometryModel
-from .scene import CurvedRoughLayer, Scene, make_layers, resolve_targets, rough_faces
+from .scene import CurvedRoughLayer, Scene, resolve_targets, rough_faces
 
 
 def _load(name: str, description) -> Surface:
@@ -70,7 +71,7 @@ def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
                     )
                 seen[face] = j
                 one = rough if rough.face == face else rough.model_copy(update={"face": face})
-                scene.layers += make_layers(surfaces, target, j, one)
+                scene.layers += target_layers(surfaces, target, j, one)
     check_clearance(scene)
     far = float(np.max(scene.world_half))
     if np.isfinite(far) and far > limits.MAX_WORLD_EXTENT:
@@ -91,6 +92,13 @@ def _check_distances_defined(scene: Scene) -> None:
     """Steps and activeness need each step's distance to the rough surface; for patches bent
     onto a sphere that distance is not implemented: refused before anything is written."""
     for layer in scene.layers:
+        if layer.on_boolean is not None:
+            raise ConfigError(
+                f"targets.{layer.target.entry}.rough: face {layer.config.face_name} of "
+                f"{layer.target.name!r} is a rough face of a boolean solid; steps (output.steps) "
+                "and activeness need the distance to its rough surface, which score4 does not "
+                "compute for boolean faces yet (use them without steps and activeness)"
+            )
         if isinstance(layer, CurvedRoughLayer) and isinstance(layer.ring_layout.face, SphereFace):
             raise ConfigError(
                 f"targets.{layer.target.entry}.rough: face {layer.config.face_name} of "

@@ -30,8 +30,11 @@ from score4.errors import ConfigError
 from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig
 from score4.shapes import G4Box as G4BoxShape
 from score4.shapes import G4GenericPolycone, PlacedShape, Shape, Transform, shape_from_dict
+from score4.shapes import G4Orb as G4OrbShape
+from score4.shapes import G4Sphere as G4SphereShape
+from score4.shapes.boolean import BooleanShape, FaceClip
 from score4.shapes.faces import AnnulusFace, Face, PlaneFace, RevolvedFace, SphereFace
-from score4.shapes.hpge import hpge_groups, is_hpge_metadata
+from score4.shapes.hpge import HPGE_GROUPS, hpge_groups, is_hpge_metadata
 from score4.surface.block_cut import check_patch
 from score4.surface.patchmap import PatchMap, make_patch_map
 from score4.surface.spec import Surface
@@ -50,11 +53,15 @@ from .facets import (
     ccw,
     cells_inside,
     check_one_plane,
+    clip_to_convex,
     face_triangles,
+    is_convex,
     plane_face,
     plane_groups,
     point_in_triangles,
     prism_mesh,
+    section,
+    solid_triangles,
 )
 from .gdml_model import GeometryModel, Instance
 from .obb import OrientedBox
@@ -261,6 +268,22 @@ def box_target(box: BoxVolume, entry: int, mother: Instance | None = None) -> Ta
     )
 
 
+@dataclass(frozen=True, eq=False)
+class BooleanFace:
+    """Where a rough layer's face lies on a boolean solid: ``shape`` (the target's solid),
+    ``face`` (its face name), ``clip`` (the leaf face and the solids cutting it) and
+    ``transform`` (the boolean's frame to the world)."""
+
+    shape: Shape
+    face: str
+    clip: FaceClip
+    transform: Transform
+
+    def on_surface(self, world: np.ndarray) -> np.ndarray:
+        """True for world points of the leaf face that lie on the boolean's surface."""
+        return np.asarray(self.clip.margin(self.transform.inverse_apply(world)) > 0)
+
+
 @dataclass
 class RoughLayer:
     """A rough face: patch variants tiled over a face of a target.
@@ -278,11 +301,16 @@ class RoughLayer:
     mask: np.ndarray | None = None
     face_area: float = 0.0  # the flat face's area, mm2
     curved = False  # patches bent onto a face swept around z (CurvedRoughLayer)
+    #: on a face of a boolean solid: the boolean and where its face lies (``target`` is then the
+    #: volume seen as the leaf solid that face belongs to, :mod:`score4.world.boolean_layers`)
+    on_boolean: BooleanFace | None = field(default=None, kw_only=True)
 
     @property
     def name(self) -> str:
         face = self.config.face_name
-        return f"{self.target.name}_rough{face}".replace("+", "p").replace("-", "m")
+        return (
+            f"{self.target.name}_rough{face}".replace("+", "p").replace("-", "m").replace(".", "_")
+        )
 
     @property
     def base_thickness(self) -> float:
@@ -469,7 +497,8 @@ class CurvedRoughLayer(RoughLayer):
         grid = self.cell_variants
         for j in range(len(self.ring_layout.v)):
             for i, phi in enumerate(self.ring_layout.cell_phi(j)):
-                out.append((j, i, int(grid[j, i]), float(phi)))
+                if grid[j, i] >= 0:  # a cell off a boolean's surface holds none
+                    out.append((j, i, int(grid[j, i]), float(phi)))
         return out
 
     def contains(self, points: np.ndarray) -> np.ndarray:
@@ -506,7 +535,13 @@ class CurvedRoughLayer(RoughLayer):
         return inside
 
     def in_cut(self, points: np.ndarray) -> np.ndarray:
-        return np.zeros(len(points), dtype=bool)  # into: true is refused on curved faces
+        """With ``into`` (a sphere's face): True for world points in the shell cut from the
+        solid, between the layer's face and the solid's face."""
+        if not self.config.into:
+            return np.zeros(len(points), dtype=bool)
+        face = self.ring_layout.face
+        h = face.locate(self.target.to_local(np.asarray(points, float).reshape(-1, 3)))[2]
+        return np.asarray((h > BOUNDARY_TOLERANCE) & (h <= self.thickness + BOUNDARY_TOLERANCE))
 
     def shell_points(self, n_phi: int = 72, n_v: int = 9, n_h: int = 3) -> np.ndarray:
         """World points on and in the layer's shell (the face extruded by the thickness along
@@ -559,6 +594,9 @@ class PolygonRoughLayer(RoughLayer):
 
     outline: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 2)))
     part: int = -1  # the plane's index on a face of several planes (-1: a face of one plane)
+    # where the face's flat rest lies (the layer's frame): the outline, or with ``into`` the
+    # outline cut to the solid's section at the cut (it is narrower where a side leans inward)
+    base_outline: np.ndarray | None = None
 
     @property
     def name(self) -> str:
@@ -608,8 +646,22 @@ class PolygonRoughLayer(RoughLayer):
                     pts.append(np.column_stack([q, np.full(len(q), h * t)]))
         return self.frame.to_world(np.concatenate(pts))
 
+    def envelope_box(self) -> OrientedBox:
+        """The prism's bounding box (the polygon reaches past the whole cells' grid)."""
+        flat = self.outline.reshape(-1, 2)
+        lo, hi = flat.min(axis=0), flat.max(axis=0)
+        t = self.thickness
+        centre = np.array([*(lo + hi) / 2, t / 2])
+        return OrientedBox(
+            self.frame.to_world(centre), self.frame.rotation, np.array([*(hi - lo) / 2, t / 2])
+        )
+
     def in_cut(self, points: np.ndarray) -> np.ndarray:
-        return np.zeros(len(points), dtype=bool)  # into: true is refused on such faces
+        """With ``into``: True for world points in the slab the (convex) solid is clipped by:
+        the whole slab under the face's plane, as deep as the layer, not only under the
+        polygon."""
+        q = self.frame.to_local(np.asarray(points, float).reshape(-1, 3))
+        return (q[:, 2] > BOUNDARY_TOLERANCE) & (q[:, 2] <= self.thickness + BOUNDARY_TOLERANCE)
 
 
 @dataclass
@@ -901,6 +953,14 @@ def gdml_target(
     if isinstance(shape, G4GenericPolycone) and is_hpge_metadata(meta):
         assert meta is not None
         shape = hpge_groups(shape, meta)  # the pplus, passive and nplus groups of an HPGe
+    elif (
+        isinstance(shape, BooleanShape)
+        and isinstance(shape.first, G4GenericPolycone)
+        and is_hpge_metadata(meta)
+    ):
+        assert meta is not None  # an HPGe with a cut (legend-pygeom-hpges' P00664B, V02160A):
+        # the groups of its polycone, on the boolean's faces
+        shape = replace(shape, first=hpge_groups(shape.first, meta), aliases=HPGE_GROUPS)
     return TargetVolume(
         column,
         entry,
@@ -1002,9 +1062,9 @@ def make_layer(
         return make_curved_layer(target, rough, geometry, names, variants, size, where)
     if (
         isinstance(geometry, PlaneFace)
-        and not geometry.rectangle
         and not isinstance(geometry, AnnulusFace)
-    ):
+        and (not geometry.rectangle or (rough.into and not _trimmable(target, rough.face_name)))
+    ):  # a polygon; or a rectangle of a solid cut by clipping (into), like its other faces
         return make_polygon_layer(target, rough, geometry, names, variants, size, where)
     try:
         frame = face_frame(target, rough.face_name)
@@ -1065,12 +1125,19 @@ def make_curved_layer(
     """The rough layer on a face swept around z (:mod:`score4.world.curved`)."""
     what = f"face {rough.face_name} of {target.name!r}"
     if rough.into:
-        raise ConfigError(
-            f"{where}: into: true on a curved face ({what}) is not supported; the layer goes "
-            "outside the volume (into: false)"
-        )
+        if not isinstance(face, SphereFace) or not _trimmable(target, rough.face_name):
+            raise ConfigError(
+                f"{where}: into: true on a curved face ({what}) is supported on the outer and "
+                "inner faces of a G4Sphere or G4Orb only; the layer goes outside the volume "
+                "(into: false)"
+            )
+        return _into_sphere(target, rough, face, names, variants, size, where)
     if rough.tiling == "portal":
-        raise ConfigError(f"{where}: a curved face ({what}) takes tiling: native")
+        raise ConfigError(
+            f"{where}: tiling portal on a curved face ({what}): a portal's jumps are pure "
+            "translations between the flat cells of one plane, and bent patches differ from ring "
+            "to ring; a curved face takes tiling: native"
+        )
     if rough.native_layout == "replicas":
         raise ConfigError(
             f"{where}: native_layout replicas fills a rectangle; a curved face takes auto"
@@ -1129,6 +1196,46 @@ def make_curved_layer(
     return layer
 
 
+def _into_sphere(
+    target: TargetVolume,
+    rough: RoughFace,
+    face: SphereFace,
+    names: list[str],
+    variants: list[Surface],
+    size: tuple[float, float],
+    where: str,
+) -> CurvedRoughLayer:
+    """The layer of ``rough`` grown into a G4Sphere or G4Orb: laid out on the face of the solid
+    made thinner by the layer's thickness (the radius moved in for ``outer``, out for
+    ``inner``), its top padded to reach the face (the bent layer's thickness changes a little
+    with the radius: the cut is taken again until the layer fits)."""
+    outside = rough.model_copy(update={"into": False})
+    shape = target.described("into")
+    cut = make_curved_layer(target, outside, face, names, variants, size, where).thickness
+    if isinstance(shape, G4SphereShape):
+        lo, hi = shape.rmin, shape.rmax
+    else:
+        assert isinstance(shape, G4OrbShape)  # _trimmable: a G4Sphere or a G4Orb
+        lo, hi = 0.0, shape.r
+    for _ in range(4):
+        if cut >= hi - lo:
+            raise ConfigError(
+                f"{where}: into: the layer ({cut * 1e3:.4g} um) is not thinner than "
+                f"{target.name!r} ({(hi - lo) * 1e3:.4g} um between its spheres)"
+            )
+        trimmed = shape.trimmed({rough.face_name: cut})
+        assert trimmed is not None
+        inner = trimmed[0].face(rough.face_name)
+        assert isinstance(inner, SphereFace)
+        layer = make_curved_layer(target, outside, inner, names, variants, size, where)
+        if layer.thickness <= cut:
+            layer.top_margin += cut - layer.thickness  # the top where the face was
+            layer.config = rough
+            return layer
+        cut = layer.thickness * (1 + 1e-9)
+    raise ConfigError(f"{where}: into: the layer on {face.name} does not settle on a cut")
+
+
 def make_polygon_layer(
     target: TargetVolume,
     rough: RoughFace,
@@ -1144,13 +1251,20 @@ def make_polygon_layer(
     triangles (shape frame; default: all of face ``rough.face``), ``part``: the plane's index
     on a face of several planes."""
     what = f"face {rough.face_name} of {target.name!r}"
-    if rough.into:
+    solid = None if target.shape is None else solid_triangles(target.shape)
+    if rough.into and (solid is None or not is_convex(solid)):
         raise ConfigError(
-            f"{where}: into: true on {what} (a {target.solid}) is not supported; the layer goes "
-            "outside the volume (into: false)"
+            f"{where}: into: true on {what} (a {target.solid}) cuts the volume below the face, "
+            "which score4 does for a box, a tube's end faces and convex solids of flat facets "
+            "(G4Trd, G4Trap, a convex G4Polyhedra, tessellated or extruded solid) only; this "
+            "solid is not one: put the layer outside the volume (into: false)"
         )
     if rough.tiling == "portal":
-        raise ConfigError(f"{where}: {what} (a {target.solid}) takes tiling: native")
+        raise ConfigError(
+            f"{where}: tiling portal on {what} (a {target.solid}): a portal's subworlds must lie "
+            "where no particle goes, which score4 knows only in the world it generates, whose "
+            "targets are boxes; a face of a GDML solid takes tiling: native"
+        )
     if rough.native_layout in ("replicas", "nested"):
         raise ConfigError(
             f"{where}: native_layout {rough.native_layout} fills a rectangle; {what} (a polygon) "
@@ -1190,7 +1304,43 @@ def make_polygon_layer(
             check_patch(variants[k], layer.solid_kind(k), rough.block_cells)
         except ConfigError as err:
             raise ConfigError(f"{where} (surface {n!r}): {err}") from None
+    if rough.into:
+        assert solid is not None
+        _into_polygon(layer, solid, where, what)
     return layer
+
+
+def _into_polygon(layer: PolygonRoughLayer, solid: np.ndarray, where: str, what: str) -> None:
+    """Move a polygon layer into its (convex) solid by its thickness: the solid is clipped by
+    the face's plane moved inward (:func:`score4.world.facets.clip_convex`), the layer's frame
+    moved with it; the cells whose patch would overhang the cut (where a neighbouring face
+    leans inward) stay flat."""
+    target, t = layer.target, layer.thickness
+    n = target.rotation.T @ layer.frame.normal
+    top = float(n @ target.to_local(layer.frame.centre[None])[0])
+    extent = top - float((solid.reshape(-1, 3) @ n).min())
+    if t >= extent:
+        raise ConfigError(
+            f"{where}: into: the layer ({t * 1e3:.4g} um) is not thinner than "
+            f"{target.name!r} ({extent * 1e3:.4g} um along the normal of {what})"
+        )
+    layer.frame = layer.frame.shifted(-t)
+    cap = section(solid, n, top - t)  # the solid's cut, where the patches' base lies
+    local = layer.frame.to_local(target.to_world(cap.reshape(-1, 3))).reshape(-1, 3, 3)
+    scale = max(float(np.abs(layer.outline).max()), 1.0)
+    assert layer.mask is not None
+    centres = layer.patch_map.cell_centres()
+    cap2d = ccw(local[..., :2])
+    layer.mask = layer.mask & cells_inside(cap2d, centres, layer.patch_size, 1e-9 * scale)
+    layer.base_outline = ccw(clip_to_convex(layer.outline, cap2d))  # the flat rest lies there
+    if not layer.mask.any():
+        raise ConfigError(f"{where}: into: no whole patch fits on the cut below {what}")
+
+
+def _trimmable(target: TargetVolume, face: str) -> bool:
+    """The target's solid is cut for an ``into`` layer on ``face`` by a thinner solid of its own
+    type (a box, a tube's end face: :meth:`Shape.trimmed`)."""
+    return target.shape is not None and target.shape.trimmed({face: 0.0}) is not None
 
 
 def _rough_patch_map(extent, size, rough: RoughFace, context: str) -> PatchMap:

@@ -1,0 +1,253 @@
+"""Rough layers on faces of boolean solids (G4UnionSolid, G4SubtractionSolid,
+G4IntersectionSolid; numpy, no Geant4).
+
+A face of a boolean is a face of one *leaf* solid (a box, tube, polycone, ...) cut by the other
+solids (:meth:`score4.shapes.BooleanShape.face_clip`). Its layer is laid out on the leaf's whole
+face as on any solid (:func:`score4.world.scene.make_layers`: a flat face, a cylinder or cone
+wall), and a cell keeps its patch only when the whole cell is proven on the boolean's surface:
+the cutting solids' signed distances bound how far the kept part of the face reaches from a
+point (:meth:`score4.shapes.boolean.FaceClip.margin`), so a cell whose centre lies deeper in the
+kept part than the cell's half-diagonal is wholly kept; a cell with a point off the kept part
+stays flat; other cells are split in four, down to :data:`LEVELS` times, and a cell with a piece
+left unproven stays flat. The flat rest of the face
+(its part on the boolean's surface outside the rough cells) is sampled by rejection
+(:class:`score4.source.build.BooleanRemainderSampler`); ``rough_shares`` reports the rough share
+of the boolean's face, whose area is estimated (:attr:`BooleanShape.face_area_errors`).
+
+Refused, in one line each: ``into: true``, ``tiling: portal`` and ``native_layout: replicas``;
+a face of a subtracted solid that is curved (its layer would lie inside the cut: flat faces of a
+subtracted solid work); a face of a solid made of flat facets in several planes; a layer whose
+envelope runs into the solid itself (a face partly covered by another part of a union, or whose
+envelope leaves a cut); steps and activeness (no distance to such a layer's rough surface yet).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from score4.errors import ConfigError
+from score4.inputs.config import RoughFace
+from score4.shapes import BooleanShape
+from score4.shapes.base import INSIDE
+from score4.shapes.boolean import FaceClip
+from score4.shapes.faces import PlaneFace, SphereFace
+from score4.surface.spec import Surface
+
+from .facets import ccw
+from .scene import (
+    BooleanFace,
+    CurvedRoughLayer,
+    FaceFrame,
+    PolygonRoughLayer,
+    RoughLayer,
+    TargetVolume,
+    make_layers,
+)
+
+#: Halvings of a cell when its centre's margin does not prove it whole (a cell cut by the
+#: boundary of the kept part is found in 4^LEVELS pieces at most).
+LEVELS = 6
+#: Margin kept from the boundary of the kept part, mm (far below any patch, above rounding).
+MARGIN = 1e-9
+
+
+def target_layers(
+    surfaces: dict[str, Surface],
+    target: TargetVolume,
+    j: int,
+    rough: RoughFace,
+    where: str | None = None,
+) -> list[RoughLayer]:
+    """The rough layers of ``rough`` on ``target``: :func:`boolean_layers` on a boolean solid,
+    :func:`score4.world.scene.make_layers` otherwise."""
+    if isinstance(target.shape, BooleanShape):
+        return boolean_layers(surfaces, target, j, rough, where)
+    return make_layers(surfaces, target, j, rough, where)
+
+
+def boolean_layers(
+    surfaces: dict[str, Surface],
+    target: TargetVolume,
+    j: int,
+    rough: RoughFace,
+    where: str | None = None,
+) -> list[RoughLayer]:
+    """The rough layer on face ``rough.face`` of a target whose solid is a boolean (see the
+    module docstring)."""
+    where = where or f"targets.{target.entry}.rough.{j}"
+    shape = target.shape
+    assert isinstance(shape, BooleanShape)
+    name = rough.face_name
+    what = f"face {name} of {target.name!r} (a {target.solid})"
+    try:
+        clip = shape.face_clip(name)
+    except ConfigError as err:
+        raise ConfigError(f"{where}: {target.column}: {str(err).removeprefix('face: ')}") from None
+    if rough.into:
+        raise ConfigError(
+            f"{where}: into: true on {what} is not supported; the layer goes outside the volume "
+            "(into: false)"
+        )
+    if rough.tiling == "portal":
+        raise ConfigError(f"{where}: {what} takes tiling: native")
+    if rough.native_layout == "replicas":
+        raise ConfigError(
+            f"{where}: native_layout replicas fills every cell; {what}, whose cells off its "
+            "surface hold no patch, takes auto, nested or placements"
+        )
+    area = float(shape.face_areas[name])
+    if not area > 0:
+        raise ConfigError(f"{where}: {what} lies nowhere on the solid's surface (area 0)")
+    if isinstance(clip.leaf.face(clip.face), SphereFace):
+        raise ConfigError(
+            f"{where}: {what} is the sphere face {clip.face} of a {clip.leaf.kind}; rough faces "
+            "of a boolean are flat faces and cylinder or cone walls"
+        )
+    if clip.flipped and not isinstance(clip.leaf.face(clip.face), PlaneFace):
+        raise ConfigError(
+            f"{where}: {what} is the curved face {clip.face} of a subtracted "
+            f"{clip.leaf.kind}; rough faces of a subtracted solid are its flat faces"
+        )
+    leaf_target = replace(
+        target, shape=clip.leaf, transform=target.transform @ clip.transform, exclude=()
+    )
+    leaf_rough = rough.model_copy(update={"face": clip.face})
+    try:
+        layers = make_layers(surfaces, leaf_target, j, leaf_rough, where)
+    except ConfigError as err:
+        raise ConfigError(
+            f"{err} (face {name} of the {target.solid} is face {clip.face} of its {clip.leaf.kind})"
+        ) from None
+    if len(layers) != 1:
+        raise ConfigError(
+            f"{where}: {what} is face {clip.face} of a {clip.leaf.kind} in {len(layers)} planes; "
+            "rough faces of a boolean are faces of one plane or of revolution"
+        )
+    layer = layers[0]
+    if clip.flipped:
+        _flip(layer)
+    on = BooleanFace(shape, name, clip, target.transform)
+    kept = kept_cells(layer, clip, on)
+    layer.mask = kept
+    if not kept.any():
+        px, py = layer.patch_size
+        raise ConfigError(
+            f"{where}: no whole patch of {px * 1e3:g} x {py * 1e3:g} um fits on the part of "
+            f"{what} that lies on the solid's surface"
+        )
+    layer.config = rough
+    layer.face_area = area
+    layer.on_boolean = on
+    _check_own_solid(layer, on, where, what)
+    return [layer]
+
+
+def _flip(layer: RoughLayer) -> None:
+    """Turn a flat layer over (normal reversed, y reversed: the frame stays right-handed); the
+    cell grid is centred on the frame, so rows swap."""
+    f = layer.frame
+    layer.frame = FaceFrame(f.centre, f.rotation @ np.diag([1.0, -1.0, -1.0]), f.size)
+    if layer.mask is not None:
+        layer.mask = layer.mask[::-1].copy()
+    if isinstance(layer, PolygonRoughLayer):
+        layer.outline = ccw(layer.outline * np.array([1.0, -1.0]))
+        layer.__dict__.pop("prism", None)
+
+
+def _certify(centres, half_u, half_v, point, bound, margin) -> np.ndarray:
+    """True for the cells (centres (n, 2) in face parameters, half widths ``half_u``,
+    ``half_v`` (n,)) proven on the boolean's surface: ``point(uv)`` gives world points,
+    ``bound(uv, hu, hv)`` a bound of the distance from a centre to its cell's points,
+    ``margin(world)`` the clip margin."""
+    n = len(centres)
+    ok = np.ones(n, dtype=bool)
+    pending = np.arange(n)
+    uv, hu, hv = centres.copy(), half_u.copy(), half_v.copy()
+    for level in range(LEVELS + 1):
+        if not len(pending):
+            break
+        m = margin(point(uv))
+        r = bound(uv, hu, hv)
+        proven = m > r + MARGIN
+        out = m <= MARGIN  # a point of the cell off the surface (or on its edge): not kept
+        ok[np.unique(pending[out])] = False
+        undecided = ~proven & ~out
+        if level == LEVELS:
+            ok[np.unique(pending[undecided])] = False
+            break
+        keep = undecided & ok[pending]
+        pending, uv, hu, hv = pending[keep], uv[keep], hu[keep] / 2, hv[keep] / 2
+        offsets = np.array([[-1, -1], [1, -1], [-1, 1], [1, 1]], float)
+        uv = (uv[:, None, :] + offsets[None] * np.column_stack([hu, hv])[:, None, :]).reshape(-1, 2)
+        pending, hu, hv = np.repeat(pending, 4), np.repeat(hu, 4), np.repeat(hv, 4)
+    return ok
+
+
+def kept_cells(layer: RoughLayer, clip: FaceClip, on: BooleanFace) -> np.ndarray:
+    """The layer's cells (``(ny, nx)``) that hold a patch and lie wholly on the boolean's
+    surface."""
+    base = layer.cell_variants >= 0
+    rows, cols = np.nonzero(base)
+    px, py = layer.patch_size
+
+    if isinstance(layer, CurvedRoughLayer):
+        lay = layer.ring_layout
+        face = lay.face
+        assert not isinstance(face, SphereFace)  # a boolean's sphere faces stay refused
+        phi = lay.phi_mid + (cols - (lay.count[rows] - 1) / 2) * lay.step[rows]  # cell_phi
+        centres = np.column_stack([phi, lay.v[rows]])
+        half_u, half_v = lay.step[rows] / 2, np.full(len(rows), py / 2)
+        to_boolean = clip.transform  # the leaf's frame, where the face's points are
+
+        def point(uv: np.ndarray) -> np.ndarray:
+            return face.point(uv[:, 0], uv[:, 1])
+
+        def bound(uv: np.ndarray, hu: np.ndarray, hv: np.ndarray) -> np.ndarray:
+            # along the generator, then along the circle at the larger radius
+            r = np.maximum(face.radius(uv[:, 1] - hv), face.radius(uv[:, 1] + hv))
+            return hv + np.abs(r) * hu
+
+    else:
+        cc = layer.patch_map.cell_centres()
+        centres = cc[rows, cols] if len(rows) else np.zeros((0, 2))
+        half_u, half_v = np.full(len(rows), px / 2), np.full(len(rows), py / 2)
+        to_boolean = layer.frame.transform.relative_to(on.transform)
+
+        def point(uv: np.ndarray) -> np.ndarray:
+            return np.column_stack([uv, np.zeros(len(uv))])
+
+        def bound(uv: np.ndarray, hu: np.ndarray, hv: np.ndarray) -> np.ndarray:
+            return np.hypot(hu, hv)
+
+    r, t = to_boolean.rotation, to_boolean.translation
+
+    def margin(local: np.ndarray) -> np.ndarray:
+        # to_boolean.apply written out: a BLAS product of (n, 3) by (3, 3) is slow where the
+        # cores are shared
+        q = t + local[:, :1] * r[:, 0] + local[:, 1:2] * r[:, 1] + local[:, 2:] * r[:, 2]
+        return clip.margin(q)
+
+    ok = _certify(centres, half_u, half_v, point, bound, margin)
+    out = np.zeros_like(base)
+    out[rows[ok], cols[ok]] = True
+    return out
+
+
+def _check_own_solid(layer: RoughLayer, on: BooleanFace, where: str, what: str) -> None:
+    """The layer's envelope must stay out of the boolean solid (a face partly covered by another
+    part of a union would put it inside)."""
+    if isinstance(layer, CurvedRoughLayer):
+        points = layer.shell_points()
+    elif isinstance(layer, PolygonRoughLayer):
+        points = layer.envelope_points()
+    else:
+        points = layer.envelope_box().grid(25)
+    codes = on.shape.inside(on.transform.inverse_apply(points))
+    if (codes == INSIDE).any():
+        raise ConfigError(
+            f"{where}: the rough layer on {what} ({layer.thickness * 1e3:.4g} um thick) runs "
+            "into the solid itself (another part of the boolean covers or meets that face); "
+            "choose a face the layer can lie on outside the solid"
+        )

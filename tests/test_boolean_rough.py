@@ -1,0 +1,323 @@
+"""Rough layers on faces of boolean solids (score4.world.boolean_layers): a copper box less a
+tube, LEGEND's P00664B (a PPC polycone less a box, with its pplus / passive / nplus groups) and a
+union of two tubes; in numpy and in Geant4."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from score4.errors import ConfigError
+from score4.inputs.config import parse_config
+from score4.runner.engine import run
+from score4.runner.output import read_results
+from score4.shapes.base import INSIDE, OUTSIDE
+from score4.source.build import layer_sampler, make_source, source_geometry
+from score4.source.vertex_file import write_vertex_file
+from score4.world.resolve import build_scene
+from score4.world.scene import CurvedRoughLayer
+
+from helpers.boolean_worlds import CUTBOX_POSITION, write_world
+
+#: 0.5 mm patches of 5 x 5 pyramids, 20 um high
+PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
+
+
+def config(gdml: Path, rough: dict[str, list], **extra) -> dict:
+    return {
+        "physics": "lite",
+        "world": {"gdml": str(gdml)},
+        "surfaces": {"p": PYRAMIDS},
+        "targets": [
+            {"volume": v, "rough": [{"face": f, "surface": "p"} for f in faces]}
+            for v, faces in rough.items()
+        ],
+        "source": {
+            "particle": "geantino",
+            "energy": "1 MeV",
+            "surface": {"volume": "cutbox", "face": "first.+z"},
+        },
+        "run": {"events": 10, "seed": 3},
+        **extra,
+    }
+
+
+ROUGH = {"cutbox": ["first.+z", "first.+x"], "stack": ["second.outer"]}
+#: the cut face, the p+ contact and the side wall of P00664B
+PPC_ROUGH = {"ppc": ["second.-x", "pplus", "first.seg_2"]}
+
+
+@pytest.fixture(scope="module")
+def gdml(tmp_path_factory) -> Path:
+    return write_world(tmp_path_factory.mktemp("boolean") / "boolean.gdml")
+
+
+@pytest.fixture(scope="module")
+def scene(gdml):
+    return build_scene(parse_config(config(gdml, ROUGH)))
+
+
+def _cell_points(layer) -> np.ndarray:
+    """World points of every kept cell (a 5 x 5 grid reaching 0.499 of the cell) on the face."""
+    px, py = layer.patch_size
+    s = np.linspace(-0.499, 0.499, 5)
+    off = np.stack(np.meshgrid(s * px, s * py), -1).reshape(-1, 2)
+    if isinstance(layer, CurvedRoughLayer):
+        lay = layer.ring_layout
+        pts = []
+        for j, _i, _, phi in layer.cells():
+            step = lay.step[j]
+            u = phi + off[:, 0] / px * step
+            v = lay.v[j] + off[:, 1]
+            pts.append(layer.target.to_world(lay.face.point(u, v)))
+        return np.concatenate(pts)
+    centres = layer.cell_centres()[layer.mask]
+    xy = (centres[:, None, :] + off[None]).reshape(-1, 2)
+    return layer.frame.to_world(np.column_stack([xy, np.zeros(len(xy))]))
+
+
+def test_kept_cells_lie_wholly_on_the_boolean_surface(scene):
+    """Each kept cell (25 points of it) lies on the boolean's surface: a hair against the
+    face's normal is inside the solid, a hair along it outside; the rough share is the kept
+    cells' area over the boolean face's (estimated) area (box less a tube, union of tubes)."""
+    assert len(scene.layers) == 3
+    _check_kept_cells(scene)
+
+
+@pytest.mark.deep
+def test_kept_cells_on_the_cut_detector_lie_on_its_surface(gdml):
+    """As above on P00664B: the box's face that cuts the crystal, the p+ contact and the side
+    wall less the cut."""
+    scene = build_scene(parse_config(config(gdml, PPC_ROUGH)))
+    assert len(scene.layers) == 3
+    _check_kept_cells(scene)
+
+
+def _check_kept_cells(scene) -> None:
+    for layer in scene.layers:
+        on = layer.on_boolean
+        assert on is not None
+        pts = _cell_points(layer)
+        local = on.transform.inverse_apply(pts)
+        n = layer.frame.normal if not isinstance(layer, CurvedRoughLayer) else None
+        if n is None:  # a cylinder wall: the radial direction (outward)
+            q = layer.target.to_local(pts)
+            radial = np.column_stack([q[:, 0], q[:, 1], np.zeros(len(q))])
+            radial /= np.linalg.norm(radial, axis=1, keepdims=True)
+            nl = radial @ on.clip.transform.rotation.T
+        else:
+            nl = np.tile(n @ on.transform.rotation, (len(pts), 1))
+        assert (on.shape.inside(local - 1e-6 * nl) == INSIDE).all(), layer.name
+        assert (on.shape.inside(local + 1e-6 * nl) == OUTSIDE).all(), layer.name
+        px, py = layer.patch_size
+        if not isinstance(layer, CurvedRoughLayer):
+            share = layer.mask.sum() * px * py / on.shape.face_areas[on.face]
+            assert layer.rough_share == pytest.approx(share, rel=1e-12)
+        assert 0.5 < layer.rough_share <= 1.0 + 4e-3
+
+
+def test_the_box_face_around_the_hole_keeps_the_cells_clear_of_it(scene):
+    """On the +z face of the box less the tube (r 5 mm): the kept cells are those whose
+    rectangle stays out of the hole (an exact count from the cells' nearest points to the axis),
+    less at most the cells within 0.01 mm of the hole's rim (left unproven)."""
+    layer = scene.layer("cutbox", "first.+z")
+    px, py = layer.patch_size
+    c = layer.cell_centres()
+    centre = layer.frame.to_local(np.array([CUTBOX_POSITION]))[0, :2]
+    d = c - centre
+    nearest = np.hypot(
+        np.maximum(np.abs(d[..., 0]) - px / 2, 0), np.maximum(np.abs(d[..., 1]) - py / 2, 0)
+    )
+    clear = nearest > 5.0
+    assert not (layer.mask & ~clear).any()
+    rim = clear & (nearest < 5.01)
+    assert not (clear & ~layer.mask & ~rim).any()
+    assert layer.mask.sum() > 0.95 * clear.sum()
+    assert scene.layer("cutbox", "first.+x").mask.all()  # the hole does not reach +x
+
+
+def test_samples_lie_on_the_patches_and_the_flat_rest_on_the_surface(gdml, scene):
+    """A source on the rough +z face of the box less the tube: points on the patch tops or on
+    the flat rest, which lies on the boolean's surface and outside every rough cell; the flat
+    share is the rest's share of the area (4 sigma); the area carries the estimate's error."""
+    data = config(gdml, ROUGH)
+    data["source"]["surface"] = {"volume": "cutbox", "face": "first.+z"}
+    cfg = parse_config(data)
+    n = 4000
+    p = make_source(cfg, scene).primaries(np.random.default_rng(4), 0, n)
+    layer = scene.layer("cutbox", "first.+z")
+    geo = source_geometry(cfg, scene)
+    tops = layer_sampler(layer).area
+    on = layer.on_boolean
+    flat = on.shape.face_areas[on.face] - layer.mask.sum() * np.prod(layer.patch_size)
+    assert geo["area_mm2"] == pytest.approx(tops + flat, rel=1e-9)
+    assert geo["area_error_mm2"] == pytest.approx(on.shape.face_area_errors[on.face], rel=1e-9)
+    assert geo["area_error_mm2"] > 0
+    on_flat = p.extra["patch"] < 0
+    share = flat / geo["area_mm2"]
+    assert abs(on_flat.mean() - share) < 4 * math.sqrt(share * (1 - share) / n)
+    local = on.transform.inverse_apply(p.position[on_flat])
+    assert np.abs(on.shape.signed_distance(local)).max() < 1e-9
+    xy = layer.frame.to_local(p.position[on_flat])[:, :2]
+    i, j = layer.patch_map.cell_of(xy)
+    inside = i >= 0
+    assert (layer.cell_variants[j[inside], i[inside]] < 0).all()
+    assert scene.inside_target("cutbox", p.position).all()
+
+
+def _box_less_tube_path(o: np.ndarray, d: np.ndarray) -> float:
+    """Path of a ray (box frame) in the box |x|,|y|,|z| < 10 less the cylinder r < 5."""
+    t0, t1 = -np.inf, np.inf
+    for k in range(3):
+        if abs(d[k]) < 1e-15:
+            continue
+        a, b = (-10 - o[k]) / d[k], (10 - o[k]) / d[k]
+        t0, t1 = max(t0, min(a, b)), min(t1, max(a, b))
+    t0 = max(t0, 0.0)
+    if t1 <= t0:
+        return 0.0
+    a = d[0] ** 2 + d[1] ** 2
+    b = 2 * (o[0] * d[0] + o[1] * d[1])
+    c = o[0] ** 2 + o[1] ** 2 - 25
+    disc = b * b - 4 * a * c
+    if a < 1e-15 or disc <= 0:
+        return t1 - t0
+    c0, c1 = (-b - math.sqrt(disc)) / (2 * a), (-b + math.sqrt(disc)) / (2 * a)
+    overlap = max(0.0, min(t1, c1) - max(t0, c0))
+    return t1 - t0 - overlap
+
+
+def _mesh_path(o: np.ndarray, d: np.ndarray, tri: np.ndarray) -> float:
+    """Path of a ray in a closed mesh (Moeller-Trumbore, crossings paired)."""
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    pv = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, pv)
+    ok = np.abs(det) > 1e-30
+    inv = np.where(ok, 1 / np.where(ok, det, 1), 0)
+    tv = o - tri[:, 0]
+    u = np.einsum("ij,ij->i", tv, pv) * inv
+    qv = np.cross(tv, e1)
+    w = (qv @ d) * inv
+    t = np.einsum("ij,ij->i", e2, qv) * inv
+    hit = ok & (u >= -1e-12) & (w >= -1e-12) & (u + w <= 1 + 1e-12) & (t > 0)
+    ts = np.sort(t[hit])
+    ts = ts[np.concatenate([[True], np.diff(ts) > 1e-10])] if len(ts) else ts
+    assert len(ts) % 2 == 0
+    return float(np.sum(ts[1::2] - ts[0::2]))
+
+
+def test_geantino_paths_agree_with_an_independent_ray_trace(gdml, scene, tmp_path):
+    """Geantinos from just above kept cells of the +z face of the box less the tube, aimed at
+    points of the solid: Geant4's track length in the target equals the analytic path in the
+    box less the cylinder plus the path in the patch bodies near the ray, to 1e-9 mm."""
+    data = config(gdml, {"cutbox": ["first.+z"]}, output={"track_length": True})
+    cfg = parse_config(data)
+    one = build_scene(cfg)
+    layer = one.layer("cutbox", "first.+z")
+    target = one.target("cutbox")
+    rng = np.random.default_rng(7)
+    centres = layer.cell_centres()[layer.mask]
+    starts, directions = [], []
+    for _ in range(12):
+        c = centres[rng.integers(len(centres))] + rng.uniform(-0.2, 0.2, 2)
+        start = layer.frame.to_world(np.array([*c, 0.03]))
+        aim = target.to_world(target.shape.sample_volume(rng, 1))[0]
+        starts.append(start)
+        directions.append((aim - start) / np.linalg.norm(aim - start))
+    n = len(starts)
+    primaries = make_source(cfg, one).primaries(np.random.default_rng(1), 0, n)
+    primaries.position[:] = np.array(starts)
+    primaries.direction[:] = np.array(directions)
+    vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
+    replay = parse_config({**data, "source": {"vertices": str(vfile)}, "run": {"events": n}})
+    r = read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
+    body = layer.variants[0].body(layer.base_thickness)
+    px, py = layer.patch_size
+    cc = layer.cell_centres()
+    for k in range(n):
+        o, d = starts[k], directions[k]
+        expected = _box_less_tube_path(target.to_local(o[None])[0], d @ target.rotation)
+        lo, dl = layer.frame.to_local(o[None])[0], d @ layer.frame.rotation
+        ts = np.linspace(-lo[2] / dl[2], (layer.thickness - lo[2]) / dl[2], 40)
+        path = lo[None, :2] + ts[:, None] * dl[None, :2]
+        near = np.zeros(layer.mask.shape, dtype=bool)
+        for q in path:
+            near |= (np.abs(cc[..., 0] - q[0]) < px) & (np.abs(cc[..., 1] - q[1]) < py)
+        for j, i in zip(*np.nonzero(near & layer.mask), strict=True):
+            v = body.vertices + np.array([*cc[j, i], layer.base_thickness])
+            expected += _mesh_path(o, d, layer.frame.to_world(v)[body.faces])
+        got = r.scores["track_length"]["cutbox"][k]
+        assert got == pytest.approx(expected, abs=1e-9, rel=0), k
+
+
+def test_hpge_groups_resolve_on_a_detector_with_a_cut(gdml):
+    """P00664B (a PPC polycone less a box): its pplus / passive / nplus groups name faces of
+    the polycone inside the boolean; their areas are the polycone faces' less the cut (the
+    bottom annulus and the cylinder wall lose the part beyond x = 30 mm); the p+ contact is
+    whole."""
+    s = build_scene(parse_config(config(gdml, {"ppc": []}))).target("ppc").shape
+    assert s.groups["pplus"] == ("first.seg_0a",)
+    assert s.groups["passive"] == ("first.seg_0b",)
+    assert s.groups["nplus"] == ("first.seg_1", "first.seg_2", "first.seg_3", "first.seg_4")
+    assert s.face_areas["first.seg_0a"] == pytest.approx(math.pi * 4, rel=1e-9)
+    wall = 2 * math.pi * 35 * 26  # r 35 mm, 26 mm between the tapers
+    cut = 2 * math.acos(30 / 35) * 35 * 26
+    err = s.face_area_errors["first.seg_2"]
+    assert s.face_areas["first.seg_2"] == pytest.approx(wall - cut, abs=4 * err)
+    assert err < 1e-3 * (wall - cut)
+
+
+@pytest.mark.deep
+def test_a_rough_pplus_and_cut_face_run_in_geant4(gdml, tmp_path):
+    """Po-210 alphas on the rough cut face and nplus wall of P00664B: Geant4 builds the
+    layers without overlaps and every event deposits energy in the detector."""
+    data = config(
+        gdml,
+        {"ppc": ["second.-x", "first.seg_2"]},
+        source={
+            "particle": "alpha",
+            "energy": "5.3 MeV",
+            "surface": {"volume": "ppc", "face": ["second.-x"]},
+        },
+    )
+    data["run"] = {"events": 30, "seed": 5}
+    r = read_results(
+        run(parse_config(data), tmp_path / "a.h5", progress=False, echo=lambda m: None)
+    )
+    edep = np.asarray(r.scores["edep"]["ppc"])
+    assert len(edep) == 30
+    assert (edep > 0).mean() > 0.3
+
+
+@pytest.mark.parametrize(
+    ("volume", "face", "extra", "message"),
+    [
+        (
+            "cutbox",
+            "first.+q",
+            {},
+            "no face 'first.+q' on a G4SubtractionSolid; its faces: first.+x",
+        ),
+        ("cutbox", "second.outer", {}, "is the curved face outer of a subtracted G4Tubs"),
+        ("stack", "first.+z", {}, "runs into the solid itself"),
+        ("cutbox", "first.+z", {"into": True}, "into: true on face first.+z of 'cutbox'"),
+        ("cutbox", "second.+z", {}, "lies nowhere on the solid's surface"),
+        ("cutbox", "first.+z", {"native_layout": "replicas"}, "native_layout replicas fills"),
+    ],
+)
+def test_bad_boolean_layers_are_one_line_errors(gdml, volume, face, extra, message):
+    data = config(gdml, {volume: [face]})
+    data["targets"][0]["rough"][0].update(extra)
+    with pytest.raises(ConfigError, match=None) as err:
+        build_scene(parse_config(data))
+    assert message in str(err.value)
+    assert "\n" not in str(err.value)
+
+
+def test_steps_with_a_rough_boolean_face_are_refused(gdml):
+    data = config(gdml, {"cutbox": ["first.+z"]}, output={"steps": True})
+    with pytest.raises(ConfigError, match="rough face of a boolean solid; steps"):
+        build_scene(parse_config(data))
