@@ -6,7 +6,10 @@
 ``--markdown`` prints the tables of docs/tiling.md (with ``--warm``: the CPU per event; with
 ``--cases ""``: the build cost), checked by ``make docs-check-all``. ``--warm --faces
 1.5,30,100`` runs each case on faces of about 1.5 mm, 3 cm and 10 cm (a whole number of
-patches), with ratios to the pyramid face of the same size, the build CPU and the peak RSS.
+patches), with ratios to the pyramid face of the same size, the build CPU and the peak RSS;
+``--warm --baseline OLD/src`` also runs every case with another score4 checkout's sources
+first on the path, interleaved in each round (before/after; each version's ratios are to its
+own pyramid face, and the mean deposits of the pyramid and flat faces must agree).
 
 First table: each case is a whole ``score4 run`` in its own process (``--jobs 1``, lite physics,
 5.3 MeV alphas, isotropic, exponential depth 20 nm below the local surface, the +z face of a
@@ -198,10 +201,12 @@ def warm_table(
     slow_events: int,
     markdown: bool = False,
     faces: tuple[float, ...] = (1.5,),
+    baseline: str | None = None,
 ) -> None:
-    """CPU per event with building and start-up left out: one process per case, face and
-    round; the rounds interleave all cases and faces. Ratios are to the equal-pyramid face of
-    the same size."""
+    """CPU per event with building and start-up left out: one process per case, face, version
+    and round; the rounds interleave all cases, faces and versions (this checkout's sources and
+    ``baseline``'s, a ``src`` folder, if given). Ratios are to the equal-pyramid face of the
+    same size and version."""
     if markdown:
         from stamp import stamp  # this folder is on sys.path when run as a script
 
@@ -210,19 +215,22 @@ def warm_table(
         print(f"load average at start: {os.getloadavg()}")
     from stamp import child_figures  # this folder is on sys.path when run as a script
 
-    runs: dict[tuple[str, float], list[tuple[float, ...]]] = {}
+    versions = {"this": None} if baseline is None else {"this": None, "baseline": baseline}
+    runs: dict[tuple[str, float, str], list[tuple[float, ...]]] = {}
     for _ in range(repeat):
         for face in faces:
             for case in cases:
-                n = slow_events if case.endswith("_tess") else events
-                cmd = [sys.executable, __file__, "--warm-child", case, "--events", str(n)]
-                figures = child_figures([*cmd, "--faces", str(face)], "WARM")
-                if isinstance(figures, str):
-                    print(f"{case} {face} mm: {figures}")
-                    continue
-                runs.setdefault((case, face), []).append(figures)
+                for version, src in versions.items():
+                    n = slow_events if case.endswith("_tess") else events
+                    env = [] if src is None else ["env", f"PYTHONPATH={os.path.abspath(src)}"]
+                    cmd = [*env, sys.executable, __file__, "--warm-child", case, "--events", str(n)]
+                    figures = child_figures([*cmd, "--faces", str(face)], "WARM")
+                    if isinstance(figures, str):
+                        print(f"{case} {face} mm {version}: {figures}")
+                        continue
+                    runs.setdefault((case, face, version), []).append(figures)
 
-    def med(key: tuple[str, float], k: int = 0) -> float:
+    def med(key: tuple[str, float, str], k: int = 0) -> float:
         return float(np.median([r[k] for r in runs[key]])) if key in runs else float("nan")
 
     one_face = len(faces) == 1
@@ -230,22 +238,27 @@ def warm_table(
         head = "| surface | solid |" + ("" if one_face else " face mm |")
         print(head + " ms CPU per alpha event | ratio to equal pyramids |")
         print("| --- " * (head.count("|") + 1) + "|")
-        for case, face in runs:
-            per, ref = med((case, face)), med(("pyramids", face))
+        for case, face, version in runs:
+            if version != "this":
+                continue
+            per, ref = med((case, face, version)), med(("pyramids", face, version))
             where = "" if one_face else f" {face:g} |"
             print(f"| {' | '.join(label(case))} |{where} {per:.3f} | {per / ref:.2f} |")
         return
     print(f"load average at end: {os.getloadavg()}")
+    if baseline is not None:
+        print(f"baseline: {baseline}")
     print(
-        f"{'case':18s} {'face mm':>7s} {'ms/event':>9s} {'ratio':>6s} {'build s':>7s} "
-        f"{'RSS MB':>6s} {'mean MeV':>8s}  all rounds ms/event"
+        f"{'case':18s} {'face mm':>7s} {'version':>8s} {'ms/event':>9s} {'ratio':>6s} "
+        f"{'build s':>7s} {'RSS MB':>6s} {'mean MeV':>8s}  all rounds ms/event"
     )
-    for case, face in runs:
-        per, ref = med((case, face)), med(("pyramids", face))
-        every = " ".join(f"{r[0]:.3f}" for r in runs[case, face])
+    for key in sorted(runs, key=lambda k: (k[1], cases.index(k[0]), k[2] != "this")):
+        case, face, version = key
+        per, ref = med(key), med(("pyramids", face, version))
+        every = " ".join(f"{r[0]:.3f}" for r in runs[key])
         print(
-            f"{case:18s} {face:7g} {per:9.3f} {per / ref:6.2f} {med((case, face), 2):7.2f} "
-            f"{med((case, face), 3):6.0f} {med((case, face), 1):8.4f}  {every}"
+            f"{case:18s} {face:7g} {version:>8s} {per:9.3f} {per / ref:6.2f} {med(key, 2):7.2f} "
+            f"{med(key, 3):6.0f} {med(key, 1):8.4f}  {every}"
         )
 
 
@@ -336,6 +349,10 @@ def main() -> None:
     p.add_argument(
         "--faces", default="1.5", help="--warm: face sides, mm (e.g. 1.5,30,100), each a table row"
     )
+    p.add_argument(
+        "--baseline",
+        help="--warm: also time the score4 sources in this src folder, interleaved (before/after)",
+    )
     p.add_argument("--build-child", type=int, help=argparse.SUPPRESS)
     p.add_argument("--warm-child", help=argparse.SUPPRESS)
     a = p.parse_args()
@@ -348,7 +365,7 @@ def main() -> None:
     if a.warm:
         cases = [c for c in a.cases.split(",") if c]
         faces = tuple(float(f) for f in a.faces.split(",") if f)
-        warm_table(cases, a.events, a.repeat, a.slow_events, a.markdown, faces)
+        warm_table(cases, a.events, a.repeat, a.slow_events, a.markdown, faces, a.baseline)
         return
     cases = [c for c in a.cases.split(",") if c]
     if a.markdown and not cases:

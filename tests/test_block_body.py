@@ -115,7 +115,10 @@ def test_geantino_paths_through_blocks_match_one_tessellated_solid(tmp_path, cel
     and as 3 x 3- or 6 x 6-pixel blocks (walls of 4 and 7 triangles a side): straight-down
     paths equal the exact mesh height + slab + box to 1e-9 mm, and at most 1 % of all paths
     differ by more than 1e-9 mm (grazing rays along a block's top edge; see test_blocks.py for
-    the measured differences)."""
+    the measured differences). Most of these blocks stand on a floor box (floored_blocks), so
+    the rays cross caps, floors and the planes between them."""
+    floors = [f for _, f in blk.floored_blocks(build_surface(RANDOM), BASE, cells) if f is not None]
+    assert len(floors) > 20
     data = {s: _data(RANDOM, s) for s in ("tessellated", "blocks")}
     data["blocks"]["targets"][0]["rough"][0]["block_cells"] = cells
     for d in data.values():  # 2 x 2 patches of 90 um
@@ -146,3 +149,53 @@ def test_long_side_with_spikes_is_cut_without_folds():
     assert is_watertight(body)
     _check_walls(body, 1e-3)
     assert signed_volume(body) == pytest.approx(signed_volume(blk.closed_body(top, 1e-3)))
+
+
+@pytest.mark.parametrize("cells", [2, 4])
+def test_floored_blocks_are_the_blocks_cut_at_a_plane(cells):
+    """Each block as Geant4 gets it (surface.block_cut.floored_blocks): a tessellated cap on a
+    box. Cap top faces unchanged (bitwise), caps watertight with walls in the block's side
+    planes and a bottom of 2 faces, every wall triangle on a bottom corner reaching at least
+    FLOOR_GAP up to a top vertex (lower walls make Geant4's facet tolerance accept hits far
+    outside a facet); the box under the cap's outline (the same coordinates, bitwise), from the
+    slab's bottom up to the cap's bottom; cap + box = the block's volume."""
+    surface = build_surface(RANDOM)
+    blocks = blk.block_bodies(surface, BASE, cells)
+    floored = list(blk.floored_blocks(surface, BASE, cells))
+    assert len(floored) == len(blocks)
+    n_floors = 0
+    for block, (cap, floor) in zip(blocks, floored, strict=True):
+        np.testing.assert_array_equal(
+            cap.vertices[cap.faces[cap.top]], block.vertices[block.faces[block.top]]
+        )
+        assert is_watertight(cap)
+        v = cap.vertices
+        bottom = float(v[:, 2].min())
+        top_low = float(v[cap.faces[cap.top]][:, :, 2].min())
+        if floor is None:
+            assert bottom == -BASE
+            assert top_low - blk.FLOOR_GAP + BASE < blk.MIN_FLOOR
+            continue
+        n_floors += 1
+        _check_walls(cap, -bottom)
+        walls = v[cap.faces[~cap.top]]
+        walls = walls[~(walls[:, :, 2] == bottom).all(axis=1)]  # not the bottom
+        walls = walls[(walls[:, :, 2] == bottom).any(axis=1)]  # on a bottom corner
+        assert (np.ptp(walls[:, :, 2], axis=1) >= blk.FLOOR_GAP).all()
+        assert bottom == top_low - blk.FLOOR_GAP
+        np.testing.assert_array_equal(floor[0, :2], v[:, :2].min(axis=0))
+        np.testing.assert_array_equal(floor[1, :2], v[:, :2].max(axis=0))
+        assert floor[0, 2] == -BASE
+        assert floor[1, 2] == bottom
+        box = np.prod(floor[1] - floor[0])
+        assert signed_volume(cap) + box == pytest.approx(signed_volume(block), rel=1e-12)
+    assert n_floors > 0.9 * len(blocks)  # the map's heights start at 0: a few blocks have none
+    # closed_body's walls and bottom fan (block_body's fallback) also stand on a floor
+    top = blk.split_top(surface, cells)[0]
+    z = float(top.vertices[:, 2].min()) - blk.FLOOR_GAP
+    cap = blk._closed_body(top, -z)
+    assert is_watertight(cap)
+    full = signed_volume(blk.closed_body(top, BASE))
+    assert signed_volume(cap) == pytest.approx(
+        full - np.prod(np.ptp(top.vertices[:, :2], axis=0)) * (z + BASE)
+    )

@@ -1,12 +1,13 @@
 """Rough patches as a grid of small closed tessellated blocks in Geant4 (``solid: blocks``).
 
-The cut itself (pure numpy, exact) is :mod:`score4.surface.block_cut`; this module turns the block
-bodies into ``G4TessellatedSolid`` volumes placed side by side in the patch's mother volume.
+The cut itself (pure numpy, exact) is :mod:`score4.surface.block_cut`; this module turns the
+blocks into volumes placed side by side in the patch's mother volume: each block's rough cap a
+``G4TessellatedSolid``, the floor under it a ``G4Box``.
 """
 
 from __future__ import annotations
 
-from score4.surface.block_cut import iter_block_bodies
+from score4.surface.block_cut import floored_blocks
 from score4.surface.triangle_mesh import TriangleMesh
 
 from ..surface.spec import Surface
@@ -37,16 +38,27 @@ def place_blocks(
 ) -> tuple[list, list]:
     """Place the patch's blocks in ``mother_lv``, base plane at height ``z`` of the mother.
 
+    Each block is its tessellated cap on a box, its floor (:func:`floored_blocks`).
     Returns ``(logical volumes of the blocks, objects to keep alive)``; all logical volumes
     are of ``material`` and belong to the patch's scoring group.
     """
     lvs, keep = [], []
-    where = g4.G4ThreeVector(0.0, 0.0, z)
+    vec = g4.G4ThreeVector
+    where = vec(0.0, 0.0, z)
     keep.append(where)
-    for b, body in enumerate(iter_block_bodies(surface, base_thickness, block_cells)):
+    for b, (body, floor) in enumerate(floored_blocks(surface, base_thickness, block_cells)):
         solid = fast_tessellated(g4, body, f"{name}_b{b}")
         lv = g4.G4LogicalVolume(solid, material, f"{name}_b{b}")
         pv = g4.G4PVPlacement(None, where, lv, f"{name}_b{b}", mother_lv, False, b, False)
         lvs.append(lv)
         keep += [solid, lv, pv]
+        if floor is None:
+            continue
+        (x0, y0, z0), (x1, y1, z1) = floor.tolist()
+        box = g4.G4Box(f"{name}_f{b}", (x1 - x0) / 2, (y1 - y0) / 2, (z1 - z0) / 2)
+        lv = g4.G4LogicalVolume(box, material, f"{name}_f{b}")
+        at = vec((x0 + x1) / 2, (y0 + y1) / 2, z + (z0 + z1) / 2)
+        pv = g4.G4PVPlacement(None, at, lv, f"{name}_f{b}", mother_lv, False, b, False)
+        lvs.append(lv)
+        keep += [box, lv, pv, at]
     return lvs, keep

@@ -13,6 +13,10 @@ Exactness. The blocks are made from the faces of the one triangle mesh (:attr:`S
 without moving a vertex: the top of the blocks is that mesh face for face, and neighbouring
 blocks share their walls exactly (the same boundary vertices, so the same planes): there is no
 gap and no overlap between them. Their union is the old closed body (:meth:`Surface.body`).
+
+Floors. In Geant4 each block is cut once more, at a plane :data:`FLOOR_GAP` below its lowest
+top vertex (:func:`floored_blocks`): a box (its floor) under a thin tessellated cap. The cut
+moves no vertex either; cap and floor share the plane and the block's side planes.
 """
 
 from __future__ import annotations
@@ -41,6 +45,21 @@ AUTO_BLOCK_FACETS = 8
 #: until 2026-11) gave a 3 cm face of 30 um x 25 um measured patches one block of ~4600 facets
 #: per patch, and 12x the pyramid face's CPU per alpha event (bench_surfaces.py --faces).
 AUTO_MAX_BLOCKS = 16_384
+
+#: Each block stands on a box, its floor, from the slab's bottom up to this far below the block's
+#: lowest top vertex; the tessellated block is only the rough cap above it. Most steps inside
+#: the surface are then in boxes, whose safety and distances are cheap: an exact safety inside a
+#: tessellated block measures the distance to each nearby facet, and most of the work per event
+#: on a height map went there (bench_surfaces.py --faces: a Gaussian map cost 1.5 x the pyramid
+#: face's CPU per alpha event without floors, 1.1-1.3 x with). Not less than 1 um: a
+#: G4TriangularFacet accepts a hit up to ~4 kCarTolerance / h^2 (h its lowest altitude, in mm)
+#: of its size outside itself, so low walls let rays in far from the cap (measured: a 50 nm gap
+#: gave 10-100 nm too much path on ~2 % of grazing geantinos; 1 um walls are what the 1 um slab
+#: gave before).
+FLOOR_GAP = 1e-3  # mm
+#: No floor under a block whose floor would be thinner than this: the block then reaches down to
+#: the slab's bottom, as without floors.
+MIN_FLOOR = 10e-6  # mm
 
 #: Top facets of one patch variant above which building is refused (a 1024 x 1024 map has 2.1e6).
 MAX_PATCH_FACETS = 4_000_000
@@ -162,6 +181,47 @@ def iter_block_bodies(
     return (block_body(top, base_thickness) for top in iter_split_top(surface, block_cells))
 
 
+def floored_blocks(
+    surface: Surface, base_thickness: float, block_cells: int | None = None
+) -> Iterator[tuple[TriangleMesh, np.ndarray | None]]:
+    """The blocks as Geant4 gets them, one at a time: ``(cap, floor)`` per block, row by row.
+
+    ``floor`` is the ``(2, 3)`` array of the low and high corners (x, y, z) of the box under the
+    block, from ``z = -base_thickness`` up to :data:`FLOOR_GAP` below the block's lowest top
+    vertex; ``cap`` is the block's closed body down to the floor's top. Cap and floor together
+    are the block of :func:`block_bodies` exactly: the cap's top faces unchanged, its walls in
+    the same planes x = const, y = const (the floor's corners are the block's own outline
+    coordinates), the cut between them a plane z = const. Where the floor would be thinner than
+    :data:`MIN_FLOOR` it is None and the cap is the whole block.
+    """
+    for top in iter_split_top(surface, block_cells):
+        v = top.vertices
+        z = float(v[:, 2].min()) - FLOOR_GAP
+        if z + base_thickness < MIN_FLOOR:
+            yield block_body(top, base_thickness), None
+            continue
+        lo, hi = v[:, :2].min(axis=0), v[:, :2].max(axis=0)
+        floor = np.array([[lo[0], lo[1], -base_thickness], [hi[0], hi[1], z]])
+        yield block_body(top, -z), floor
+
+
+def _closed_body(top: TriangleMesh, thickness: float) -> TriangleMesh:
+    """:func:`closed_body` with its bottom at ``z = -thickness``, also above the base plane
+    (``thickness`` <= 0: a cap on a floor); the bottom must lie below every top vertex."""
+    if thickness > 0:
+        return closed_body(top, thickness)
+    zmin = float(top.vertices[:, 2].min())
+    if not zmin > -thickness:
+        raise ConfigError(
+            f"thickness: the bottom plane z = {-thickness!r} mm must lie below the lowest top "
+            f"vertex (z = {zmin!r} mm)"
+        )
+    body = closed_body(top, 1.0)  # then the bottom vertices (all after the top's) moved up
+    v = body.vertices.copy()
+    v[top.n_vertices :, 2] = -float(thickness)
+    return TriangleMesh(v, body.faces, top=body.top, patch=body.patch, facet=body.facet)
+
+
 def _upright(
     v: np.ndarray, thickness: float, a: int, b: int, low_a: int, tris: list[tuple]
 ) -> bool:
@@ -233,6 +293,9 @@ def block_body(top: TriangleMesh, thickness: float) -> TriangleMesh:
     still share their walls exactly. A side of n >= 4 edges gets n + 1 triangles
     (:func:`_terrain_wall`; closed_body gave 2n and a bottom fan: 166 instead of 224 facets for
     8 x 8 pixels, the blocks of a 1024 x 1024 map).
+
+    ``thickness`` may be negative: the bottom plane ``z = -thickness`` above the base plane, for
+    a cap on a floor (:func:`floored_blocks`).
     """
     v = top.vertices
     lo, hi = v[:, :2].min(axis=0), v[:, :2].max(axis=0)
@@ -241,7 +304,7 @@ def block_body(top: TriangleMesh, thickness: float) -> TriangleMesh:
     xy = v[:, :2]
     corner = [a for a in nxt if all(xy[a, k] in (lo[k], hi[k]) for k in (0, 1))]
     if len(corner) != 4 or len(nxt) != len(edges):
-        return closed_body(top, thickness)
+        return _closed_body(top, thickness)
     # the outline (anticlockwise) cut at the corners into the four sides' chains
     chains, start = [], corner[0]
     for _ in range(4):
@@ -251,11 +314,11 @@ def block_body(top: TriangleMesh, thickness: float) -> TriangleMesh:
             if chain[-1] in corner:
                 break
             if len(chain) > len(nxt):
-                return closed_body(top, thickness)  # not a loop through the corners
+                return _closed_body(top, thickness)  # not a loop through the corners
         chains.append(chain)
         start = chain[-1]
     if start != corner[0]:
-        return closed_body(top, thickness)
+        return _closed_body(top, thickness)
     n_top = len(v)
     ends = [c[0] for c in chains]  # the corners, in loop order
     low = {c: n_top + k for k, c in enumerate(ends)}
@@ -279,7 +342,7 @@ def block_body(top: TriangleMesh, thickness: float) -> TriangleMesh:
         else:
             long_wall = _terrain_wall(v, thickness, chain, la, lb)
             if long_wall is None:
-                return closed_body(top, thickness)
+                return _closed_body(top, thickness)
             walls += long_wall
     c0, c1, c2, c3 = (low[c] for c in ends)
     floor = [(c1, c0, c3), (c3, c2, c1)]
