@@ -408,7 +408,8 @@ class Simulation:
         self._replayed: list[tuple[IonFate, bool]] = []
         self._early: dict[int, list[tuple[IonFate, bool]]] = {}
         if self._replaying and self.atoms is None:
-            self._replay_all(stop)
+            with redirect_native_output(self.log_path):  # the navigator's warnings to the log
+                self._replay_all(stop)
         self._intercept(names)
         if self.steps is not None:
             self.steps.take()  # nothing left from a cancelled run
