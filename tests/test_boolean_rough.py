@@ -21,6 +21,7 @@ from score4.world.resolve import build_scene
 from score4.world.scene import CurvedRoughLayer
 
 from helpers.boolean_worlds import CUTBOX_POSITION, write_world
+from helpers.ray_trace import mesh_path
 
 #: 0.5 mm patches of 5 x 5 pyramids, 20 um high
 PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
@@ -190,25 +191,6 @@ def _box_less_tube_path(o: np.ndarray, d: np.ndarray) -> float:
     return t1 - t0 - overlap
 
 
-def _mesh_path(o: np.ndarray, d: np.ndarray, tri: np.ndarray) -> float:
-    """Path of a ray in a closed mesh (Moeller-Trumbore, crossings paired)."""
-    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
-    pv = np.cross(d, e2)
-    det = np.einsum("ij,ij->i", e1, pv)
-    ok = np.abs(det) > 1e-30
-    inv = np.where(ok, 1 / np.where(ok, det, 1), 0)
-    tv = o - tri[:, 0]
-    u = np.einsum("ij,ij->i", tv, pv) * inv
-    qv = np.cross(tv, e1)
-    w = (qv @ d) * inv
-    t = np.einsum("ij,ij->i", e2, qv) * inv
-    hit = ok & (u >= -1e-12) & (w >= -1e-12) & (u + w <= 1 + 1e-12) & (t > 0)
-    ts = np.sort(t[hit])
-    ts = ts[np.concatenate([[True], np.diff(ts) > 1e-10])] if len(ts) else ts
-    assert len(ts) % 2 == 0
-    return float(np.sum(ts[1::2] - ts[0::2]))
-
-
 def test_geantino_paths_agree_with_an_independent_ray_trace(gdml, scene, tmp_path):
     """Geantinos from just above kept cells of the +z face of the box less the tube, aimed at
     points of the solid: Geant4's track length in the target equals the analytic path in the
@@ -248,7 +230,9 @@ def test_geantino_paths_agree_with_an_independent_ray_trace(gdml, scene, tmp_pat
             near |= (np.abs(cc[..., 0] - q[0]) < px) & (np.abs(cc[..., 1] - q[1]) < py)
         for j, i in zip(*np.nonzero(near & layer.mask), strict=True):
             v = body.vertices + np.array([*cc[j, i], layer.base_thickness])
-            expected += _mesh_path(o, d, layer.frame.to_world(v)[body.faces])
+            expected += mesh_path(
+                o, d, layer.frame.to_world(v)[body.faces], edge=1e-12, merge=1e-10
+            )
         got = r.scores["track_length"]["cutbox"][k]
         assert got == pytest.approx(expected, abs=1e-9, rel=0), k
 

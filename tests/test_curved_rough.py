@@ -18,6 +18,8 @@ from score4.source.vertex_file import write_vertex_file
 from score4.world.resolve import build_scene
 from score4.world.scene import CurvedRoughLayer
 
+from helpers.ray_trace import mesh_path
+
 RADIUS, HALF_Z = 5.0, 1.0  # mm
 PYRAMIDS = {"kind": "spikes", "nx": 10, "ny": 10, "width": "10 um", "height": "10 um"}
 
@@ -158,21 +160,7 @@ def ray_path(origins, directions, layer, radius, half_z, window=4, slope=0.0):
                     v = v + np.array([0.0, 0.0, lay.ring_z(j)])
                     tri_all.append(v[body.faces])
             tri = np.concatenate(tri_all)
-            e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
-            pv = np.cross(d, e2)
-            det = np.einsum("ij,ij->i", e1, pv)
-            ok = np.abs(det) > 1e-30
-            inv = np.where(ok, 1 / np.where(ok, det, 1), 0)
-            tv = o - tri[:, 0]
-            u = np.einsum("ij,ij->i", tv, pv) * inv
-            qv = np.cross(tv, e1)
-            w = (qv @ d) * inv
-            t = np.einsum("ij,ij->i", e2, qv) * inv
-            hit = ok & (u >= 0) & (w >= 0) & (u + w <= 1) & (t > 0)
-            ts = np.sort(t[hit])
-            ts = ts[np.concatenate([[True], np.diff(ts) > 1e-12])[: len(ts)]]  # through an edge
-            assert len(ts) % 2 == 0
-            out[n] += float(np.sum(ts[1::2] - ts[0::2]))
+            out[n] += mesh_path(o, d, tri)  # a ray through an edge hits twice
     return out
 
 

@@ -24,6 +24,7 @@ from score4.world.facets import point_in_triangles
 from score4.world.resolve import build_scene
 from score4.world.scene import PolygonRoughLayer
 
+from helpers.ray_trace import mesh_path
 from helpers.spawn import run_in_spawned_process
 
 HERE = Path(__file__).parent
@@ -155,25 +156,6 @@ def test_samples_lie_on_the_patches_and_the_flat_rest_by_area(gdml, scene):
     assert np.abs(shape.shape.signed_distance(flat_pos)).max() < 1e-9
 
 
-def _crossings(o: np.ndarray, d: np.ndarray, tri: np.ndarray) -> float:
-    """Path length of a ray in the closed mesh ``tri`` (Moeller-Trumbore, crossings paired)."""
-    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
-    pv = np.cross(d, e2)
-    det = np.einsum("ij,ij->i", e1, pv)
-    ok = np.abs(det) > 1e-30
-    inv = np.where(ok, 1 / np.where(ok, det, 1), 0)
-    tv = o - tri[:, 0]
-    u = np.einsum("ij,ij->i", tv, pv) * inv
-    qv = np.cross(tv, e1)
-    w = (qv @ d) * inv
-    t = np.einsum("ij,ij->i", e2, qv) * inv
-    hit = ok & (u >= -1e-12) & (w >= -1e-12) & (u + w <= 1 + 1e-12) & (t > 0)
-    ts = np.sort(t[hit])
-    ts = ts[np.concatenate([[True], np.diff(ts) > 1e-10])] if len(ts) else ts
-    assert len(ts) % 2 == 0
-    return float(np.sum(ts[1::2] - ts[0::2]))
-
-
 def ray_path(o: np.ndarray, d: np.ndarray, scene, volume: str) -> float:
     """Independent ray trace: the path in the solid's own triangles plus the path in each patch
     body (the surface's closed body at the cell's place in the face frame) near the ray."""
@@ -181,7 +163,9 @@ def ray_path(o: np.ndarray, d: np.ndarray, scene, volume: str) -> float:
     tri = np.concatenate(
         [p.triangles for p in target.shape.patches if isinstance(p, PlaneTriangles)]
     )
-    total = _crossings(o, d, target.to_world(tri.reshape(-1, 3)).reshape(-1, 3, 3))
+    total = mesh_path(
+        o, d, target.to_world(tri.reshape(-1, 3)).reshape(-1, 3, 3), edge=1e-12, merge=1e-10
+    )
     for layer in scene.layers_of(volume):
         frame, t = layer.frame, layer.thickness
         lo, dl = frame.to_local(o[None])[0], d @ frame.rotation
@@ -197,7 +181,7 @@ def ray_path(o: np.ndarray, d: np.ndarray, scene, volume: str) -> float:
         body = layer.variants[0].body(layer.base_thickness)
         for j, i in zip(*np.nonzero(near & layer.mask), strict=True):
             v = body.vertices + np.array([*centres[j, i], layer.base_thickness])
-            total += _crossings(o, d, frame.to_world(v)[body.faces])
+            total += mesh_path(o, d, frame.to_world(v)[body.faces], edge=1e-12, merge=1e-10)
     return total
 
 
@@ -520,8 +504,8 @@ def test_into_layers_cut_convex_solids_of_flat_facets(into_data, tmp_path):
         n = layer.frame.normal
         top = float(n @ layer.frame.centre)
         expected = _clipped_path(starts[k], directions[k], world_tri, n, top)
-        patches = ray_path(starts[k], directions[k], scene, volumes[k]) - _crossings(
-            starts[k], directions[k], world_tri
+        patches = ray_path(starts[k], directions[k], scene, volumes[k]) - mesh_path(
+            starts[k], directions[k], world_tri, edge=1e-12, merge=1e-10
         )
         got = r.scores["track_length"][volumes[k]][k]
         assert got == pytest.approx(expected + patches, abs=1e-9, rel=0), (volumes[k], k)

@@ -23,6 +23,7 @@ from score4.world.curved import MAX_SQUEEZE, gap_limit
 from score4.world.resolve import build_scene
 from score4.world.scene import CurvedRoughLayer
 
+from helpers.ray_trace import mesh_path
 from helpers.spawn import run_in_spawned_process
 
 HERE = Path(__file__).parent
@@ -119,25 +120,6 @@ def test_samples_lie_on_the_bent_tops_and_the_flat_rest(gdml, scene):
     assert abs(on_flat.mean() - share) < 4 * math.sqrt(share * (1 - share) / 4000)
 
 
-def _crossings(o: np.ndarray, d: np.ndarray, tri: np.ndarray) -> float:
-    """Path length of a ray in the closed mesh ``tri`` (Moeller-Trumbore, crossings paired)."""
-    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
-    pv = np.cross(d, e2)
-    det = np.einsum("ij,ij->i", e1, pv)
-    ok = np.abs(det) > 1e-30
-    inv = np.where(ok, 1 / np.where(ok, det, 1), 0)
-    tv = o - tri[:, 0]
-    u = np.einsum("ij,ij->i", tv, pv) * inv
-    qv = np.cross(tv, e1)
-    w = (qv @ d) * inv
-    t = np.einsum("ij,ij->i", e2, qv) * inv
-    hit = ok & (u >= 0) & (w >= 0) & (u + w <= 1) & (t > 0)
-    ts = np.sort(t[hit])
-    ts = ts[np.concatenate([[True], np.diff(ts) > 1e-12])] if len(ts) else ts
-    assert len(ts) % 2 == 0
-    return float(np.sum(ts[1::2] - ts[0::2]))
-
-
 def orb_path(o: np.ndarray, d: np.ndarray, layer, radius: float = ORB_R) -> float:
     """Independent ray trace: the chord of the analytic orb (of ``radius``) plus the path in
     the bent patch bodies of the cells near where the ray crosses the sphere."""
@@ -167,7 +149,7 @@ def orb_path(o: np.ndarray, d: np.ndarray, layer, radius: float = ORB_R) -> floa
                 tri_all.append((v + np.array([0.0, 0.0, lay.ring_z(int(j))]))[body.faces])
         if tri_all:
             for tri in tri_all:
-                total += _crossings(o, d, tri)
+                total += mesh_path(o, d, tri)
     return total
 
 
