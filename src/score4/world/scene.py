@@ -41,6 +41,7 @@ from score4.surface.spec import Surface
 
 from .curved import (
     BentVariant,
+    Footprints,
     RingLayout,
     check_radius,
     cone_cell,
@@ -512,6 +513,15 @@ class CurvedRoughLayer(RoughLayer):
             self._cache[key] = BentVariant(bent, faces, n_top)
         return self._cache[key]
 
+    def footprints(self, k: int) -> Footprints:
+        """Variant ``k``'s flat body binned for :meth:`contains` on every ring."""
+        key = ("footprints", k)
+        if key not in self._cache:
+            v, faces, _ = self._flat(k)
+            radius = self.ring_layout.min_radius - self.thickness  # a concave face's bodies
+            self._cache[key] = Footprints.make(v, faces, max(radius, 1e-3 * self.thickness))
+        return self._cache[key]
+
     def cells(self) -> list[tuple[int, int, int, float]]:
         """(ring j, cell i, variant k, azimuth) of every patch."""
         out = []
@@ -534,25 +544,12 @@ class CurvedRoughLayer(RoughLayer):
         if not len(rows):
             return inside
         variant = self.cell_variants[j[rows], i[rows]]
-        keys = np.array([self.ring_solid_key(int(r)) for r in j[rows]])
+        offset = self.base_thickness + self.lift
         for k in np.unique(variant[variant >= 0]):
-            for key in np.unique(keys[variant == k]):
-                sel = rows[(variant == k) & (keys == key)]
-                ring = int(j[sel[0]])
-                phi = np.array(
-                    [lay.cell_phi(int(a))[int(b)] for a, b in zip(j[sel], i[sel], strict=True)]
-                )
-                c, s = np.cos(-phi), np.sin(-phi)
-                p = q[sel]
-                turned = np.column_stack(
-                    [c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1], p[:, 2]]
-                )
-                turned[:, 2] -= np.array([lay.ring_z(int(a)) for a in j[sel]])
-                u = np.arctan2(turned[:, 1], turned[:, 0])
-                direction = lay.face.normal(u, lay.v[ring])
-                inside[sel] = self.bent(int(k), ring).contains(
-                    turned, direction, BOUNDARY_TOLERANCE
-                )
+            sel = rows[variant == k]
+            inside[sel] = self.footprints(int(k)).contains(
+                lay, q[sel], j[sel], i[sel], local[sel], offset, BOUNDARY_TOLERANCE
+            )
         return inside
 
     def in_cut(self, points: np.ndarray) -> np.ndarray:
