@@ -499,10 +499,14 @@ class CurvedRoughLayer(RoughLayer):
     def ring_solid_key(self, j: int) -> float:
         """Rings of equal radius and slope share their bent solids (all rings of a cylinder);
         on a sphere every ring has its own (the key is its position along the meridian)."""
+        return float(self._ring_solid_keys[j])
+
+    @cached_property
+    def _ring_solid_keys(self) -> np.ndarray:
         lay = self.ring_layout
         if isinstance(lay.face, SphereFace):
-            return float(np.round(lay.v[j], 12)) + 1e6  # apart from any radius
-        return float(np.round(lay.radius[j], 12))
+            return np.round(lay.v, 12) + 1e6  # apart from any radius
+        return np.round(lay.radius, 12)
 
     def bent(self, k: int, j: int) -> BentVariant:
         """Variant ``k`` bent onto ring ``j`` (cached per ring radius)."""
