@@ -343,8 +343,8 @@ def test_wall_and_end_faces_rough_together(cylinder):
     scene = build_scene(parse_config(data))
     assert [type(layer).__name__ for layer in scene.layers] == [
         "CurvedRoughLayer",
-        "RoughLayer",
-        "RoughLayer",
+        "RingRoughLayer",
+        "RingRoughLayer",
     ]
 
 
