@@ -301,3 +301,15 @@ def test_exported_polycone_into_world_gives_the_same_geantino_paths(tmp_path):
         assert len(a) == len(b)
         np.testing.assert_allclose([p for _, p in a], [p for _, p in b], atol=1e-9, rtol=0)
     assert min(len(a) for a in ours) > 4  # the rays cross the envelope, cells and spikes
+
+
+def test_into_clears_a_sister_the_layer_outside_would_meet(tmp_path):
+    """A copper cube 5 um from the tube's wall: the 11 um layer outside runs into it (refused,
+    naming the gap); cut into the wall, the layer stays in the old envelope and passes."""
+    gdml = write_cylinder(tmp_path / "sister.gdml", sister=0.005)
+    outside = into_config(gdml)
+    outside["targets"][0]["rough"][0]["into"] = False
+    with pytest.raises(ConfigError, match=r"runs into sister volume 'cube' \(free gap there: 5 um"):
+        build_scene(parse_config(outside))
+    (layer,) = build_scene(parse_config(into_config(gdml))).layers
+    assert float(layer.ring_layout.face.radius(0.0)) + layer.thickness == pytest.approx(RADIUS)
