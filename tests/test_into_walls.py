@@ -313,3 +313,50 @@ def test_into_clears_a_sister_the_layer_outside_would_meet(tmp_path):
         build_scene(parse_config(outside))
     (layer,) = build_scene(parse_config(into_config(gdml))).layers
     assert float(layer.ring_layout.face.radius(0.0)) + layer.thickness == pytest.approx(RADIUS)
+
+
+def test_into_a_tube_wall_and_end_face_together(cylinder, tmp_path):
+    """into on the wall and the +z face of a tube: the joint cut is a G4Tubs thinner by the
+    wall's layer and shorter by the end's; the wall's layer lies on the shortened wall, the end
+    face's cells and flat rest within the ring the wall's cut leaves; sources on both faces
+    stay in the volume; Geant4's volume is the cut tube's and geantino paths through the wall
+    equal the ray trace of the thinner cylinder plus the bent patches to 1e-9 mm."""
+    data = into_config(cylinder)
+    data["targets"][0]["rough"].append({"face": "+z", "surface": "p", "into": True})
+    data["source"]["surface"]["face"] = ["outer", "+z"]
+    config = parse_config(data)
+    scene = build_scene(config)
+    wall, end = scene.layer("cyl", "outer"), scene.layer("cyl", "+z")
+    face = wall.ring_layout.face
+    radius = float(face.radius(0.0))
+    assert radius + wall.thickness == pytest.approx(RADIUS, abs=1e-12)
+    assert face.rz1[1] == -HALF_Z
+    assert face.rz2[1] == pytest.approx(HALF_Z - end.thickness, abs=1e-12)
+    assert end.rest_radii == (0.0, radius)
+    centres = end.patch_map.cell_centres()[end.mask]
+    far = np.hypot(np.abs(centres[:, 0]) + 0.05, np.abs(centres[:, 1]) + 0.05)
+    assert far.max() <= radius
+    p = make_source(config, scene).primaries(np.random.default_rng(2), 0, 2000)
+    assert scene.inside_target("cyl", p.position).all()
+    n = 30
+    rng = np.random.default_rng(7)
+    phi = rng.uniform(0, 2 * np.pi, n)
+    start = np.column_stack(
+        [(RADIUS + 0.1) * np.cos(phi), (RADIUS + 0.1) * np.sin(phi), rng.uniform(-0.3, 0.3, n)]
+    )
+    aim = np.column_stack(  # nearly level: the rays leave through the far wall, not the ends
+        [rng.uniform(-2, 2, n), rng.uniform(-2, 2, n), start[:, 2] + rng.uniform(-0.1, 0.1, n)]
+    )
+    direction = aim - start
+    direction /= np.linalg.norm(direction, axis=1)[:, None]
+    p = make_source(config, scene).primaries(np.random.default_rng(1), 0, n)
+    p.position[:] = start
+    p.direction[:] = direction
+    vfile = write_vertex_file(tmp_path / "v.h5", p, {}, 1)
+    replay = parse_config({**data, "source": {"vertices": str(vfile)}, "run": {"events": n}})
+    res = read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
+    expected = ray_path(start, direction, wall, radius, HALF_Z)
+    np.testing.assert_allclose(res.scores["track_length"]["cyl"], expected, rtol=0, atol=1e-9)
+    (vol,) = res.run["volumes"]
+    own = vol["volume_mm3"] - vol["layer_volume_mm3"]
+    assert own == pytest.approx(math.pi * radius**2 * (2 * HALF_Z - end.thickness), rel=1e-9)

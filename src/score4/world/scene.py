@@ -306,6 +306,9 @@ class RoughLayer:
     #: on a face of a boolean solid: the boolean and where its face lies (``target`` is then the
     #: volume seen as the leaf solid that face belongs to, :mod:`score4.world.boolean_layers`)
     on_boolean: BooleanFace | None = field(default=None, kw_only=True)
+    #: with ``into`` on a tube's end face and wall: the radii of the end face's cut ring, where
+    #: its cells and flat rest lie (None: the face's own)
+    rest_radii: tuple[float, float] | None = field(default=None, kw_only=True)
 
     @property
     def name(self) -> str:
@@ -1295,8 +1298,10 @@ def _into_revolved(
     variants: list[Surface],
     size: tuple[float, float],
     where: str,
+    others: dict[str, float] | None = None,
 ) -> CurvedRoughLayer:
-    """The layer of ``rough`` cut into a wall of a G4Tubs, G4Cons or polycone: laid out on the
+    """The layer of ``rough`` cut into a wall of a G4Tubs, G4Cons or polycone (``others``: the
+    cuts of the target's other ``into`` faces, which move the wall's ends): laid out on the
     wall of the solid cut by the layer's thickness (:meth:`RevolvedShape.cut_contour`: the wall
     moved inward along its normal, its neighbours' lines kept), its top padded to reach the old
     face; the cut is taken again until the bent layer (whose lift grows as the radius falls)
@@ -1309,7 +1314,7 @@ def _into_revolved(
     for _ in range(4):
         try:
             trimmed = shape.trimmed({name: cut})
-            moved = shape.cut_face(name, {name: cut}).as_face(name)
+            moved = shape.cut_face(name, {**(others or {}), name: cut}).as_face(name)
         except ConfigError as err:
             raise ConfigError(
                 f"{where}: into: the layer ({cut * 1e3:.4g} um) on face {name} of "
@@ -1431,11 +1436,15 @@ def _into_polygon(layer: PolygonRoughLayer, solid: np.ndarray, where: str, what:
 def check_into_edges(scene: Scene, target: TargetVolume) -> None:
     """Refuse ``into`` on two faces of a solid swept around z that share an edge (a circle of
     the contour's corner): each layer is laid out on its own cut face, so the two layers
-    would overlap (a convex edge) or leave a notch (a concave one) below the edge."""
+    would overlap below a convex edge. A full G4Tubs' end face and wall are laid out on their
+    joint cut instead (:func:`_into_tube_corners`)."""
     shape = target.shape
     into = {r.config.face_name for r in scene.layers_of(target.name) if r.config.into}
     swept = ("G4Tubs", "G4Cons", "G4Polycone", "G4GenericPolycone")  # not a polyhedra's planes
     if len(into) < 2 or not isinstance(shape, RevolvedShape) or shape.kind not in swept:
+        return
+    if shape.kind == "G4Tubs" and shape.full_phi:
+        _into_tube_corners(scene, target)
         return
     poly, names = shape.contour()
     for k, name in enumerate(names):
@@ -1447,6 +1456,45 @@ def check_into_edges(scene: Scene, target: TargetVolume) -> None:
                 f"{target.name!r}, which share an edge (the circle r = {r:.4g} mm at z = "
                 f"{z:.4g} mm): their layers would meet below it; put one of them outside the "
                 "volume (into: false)"
+            )
+
+
+def _into_tube_corners(scene: Scene, target: TargetVolume) -> None:
+    """``into`` on an end face and a wall of a full G4Tubs: the wall's layer is laid out again
+    on the wall shortened by the end faces' cuts, and the end faces' cells and flat rest kept
+    within the ring the walls' cuts leave (the joint cut is a G4Tubs thinner and shorter). The
+    ring of the old volume between the two layers at the edge (the wall's cut x the end's)
+    belongs to neither: it is cut away, like the space between the patches' tips."""
+    shape = target.shape
+    assert isinstance(shape, RevolvedShape)
+    layers = {r.config.face_name: r for r in scene.layers_of(target.name) if r.config.into}
+    ends: dict[str, float] = {f: layers[f].thickness for f in ("+z", "-z") if f in layers}
+    walls: list[str] = [f for f in ("outer", "inner") if f in layers]
+    if not ends or not walls:
+        return
+    where = f"targets.{target.entry}.rough"
+    cuts: dict[str, float] = {}
+    for name in walls:
+        old = layers[name]
+        face = shape.face(name)
+        assert isinstance(face, RevolvedFace)
+        new = _into_revolved(
+            target, old.config, face, old.names, old.variants, old.patch_size, where, ends
+        )
+        scene.layers[scene.layers.index(old)] = new
+        cuts[name] = new.thickness
+    rmin = getattr(shape, "rmin", 0.0) + cuts.get("inner", 0.0)
+    rmax = getattr(shape, "rmax", 0.0) - cuts.get("outer", 0.0)
+    for end in ends:
+        layer = layers[end]
+        ring = AnnulusFace.make(end, [rmin, rmax], 0.0, 1.0, 0.0, 2 * np.pi)
+        assert layer.mask is not None  # a round face
+        layer.mask = layer.mask & ring.covers(layer.patch_map.cell_centres(), layer.patch_size)
+        layer.rest_radii = (rmin, rmax)
+        if not layer.mask.any():
+            raise ConfigError(
+                f"{where}: into: no whole patch fits on face {end} of {target.name!r} within "
+                f"the ring r = {rmin:.4g} .. {rmax:.4g} mm the walls' cuts leave"
             )
 
 
