@@ -40,8 +40,20 @@ from .heightmap import HeightMap
 from .processing import close_periodic, crop, fill_missing, level_plane, resample
 from .random import random_surface
 from .readers import TEXT_FORMATS, format_of, read_topography
+from .simplify import MAX_QUAD, SIMPLIFIED_MAX_BLOCKS, simplified_mesh
 from .spikes import SpikeGrid
 from .triangle_mesh import TriangleMesh, closed_body, from_heightmap
+
+#: ``tolerance: auto`` keeps a height map's mesh exact up to this many triangles (a map of up to
+#: ~500 x 500 pixels, every example and test map: their results do not change); above it the
+#: tolerance is the rule issue 24 set for rough layers on curved faces: 1 % of the map's height
+#: (peak to valley) or 0.1 um, whichever is larger. A 1024 x 1024 map's 2.1 M exact triangles
+#: cost ~30 s and ~1.7 GB to build in Geant4 (docs/surfaces.md).
+AUTO_EXACT_FACETS = 500_000
+#: The smallest automatic tolerance, mm (0.1 um).
+AUTO_MIN_TOLERANCE = 1e-4
+#: The automatic tolerance's share of the map's height (peak to valley).
+AUTO_HEIGHT_SHARE = 0.01
 
 #: Height-map samples per spike cell and axis used to picture and measure a spike grid as a map.
 SPIKE_MAP_SAMPLES = 16
@@ -118,6 +130,9 @@ class RandomSurfaceSpec(StrictModel):
     kurtosis: float = 3.0
     periodic: bool = True  # tiles join without steps
     seed: int = Field(0, ge=0)
+    # the largest vertical error of the map's mesh: 0 the exact mesh, "auto" the rule of
+    # Surface.mesh_tolerance (score4.surface.simplify)
+    tolerance: Literal["auto", 0] | NonNegativeLength = "auto"
 
     @model_validator(mode="after")
     def _model_parameters(self) -> RandomSurfaceSpec:
@@ -160,6 +175,9 @@ class MeasuredSurfaceSpec(StrictModel):
     crop_y: tuple[Length, Length] | None = None
     resample_pitch: PositiveLength | None = None
     fill_missing: bool = False  # fill NaN points (Laplace interpolation) instead of refusing them
+    # the largest vertical error of the map's mesh: 0 the exact mesh, "auto" the rule of
+    # Surface.mesh_tolerance (score4.surface.simplify)
+    tolerance: Literal["auto", 0] | NonNegativeLength = "auto"
 
     def option_values(self, key: str, root) -> tuple[object, ...] | None:
         """``format`` not given is the file's extension (None if that names no format)."""
@@ -285,15 +303,58 @@ class Surface:
         return g.to_heightmap((g.width_x / SPIKE_MAP_SAMPLES, g.width_y / SPIKE_MAP_SAMPLES))
 
     @cached_property
+    def mesh_tolerance(self) -> float:
+        """Largest vertical distance (mm) between a map sample and :attr:`top_mesh`: 0 for an
+        exact mesh (spike grids always; maps with ``tolerance: 0`` or small enough for ``auto``).
+        """
+        t = getattr(self.spec, "tolerance", 0.0)
+        if self.heightmap is None or t == 0:
+            return 0.0
+        if t != "auto":
+            return float(t)
+        ny, nx = self.placed_map.shape
+        if 2 * (nx - 1) * (ny - 1) <= AUTO_EXACT_FACETS:
+            return 0.0
+        return max(AUTO_HEIGHT_SHARE * self.max_height, AUTO_MIN_TOLERANCE)
+
+    @cached_property
+    def quad_cells(self) -> int | None:
+        """A simplified map's largest quad side, pixels, which is also its block side
+        (:mod:`score4.surface.simplify`); None for an exact mesh."""
+        return self._simplified[1]
+
+    @cached_property
+    def _simplified(self) -> tuple[TriangleMesh | None, int | None]:
+        if not self.mesh_tolerance > 0:
+            return None, None
+        from .block_cut import AUTO_BLOCK_FACETS  # block_cut imports this module
+
+        hm, tol = self.placed_map, self.mesh_tolerance
+        mesh = simplified_mesh(hm, tol, MAX_QUAD)
+        # blocks of ~AUTO_BLOCK_FACETS triangles, as for an exact mesh, but at most about
+        # SIMPLIFIED_MAX_BLOCKS of them and a power of two of pixels a side: quads never cross a
+        # block edge
+        cells = (hm.shape[0] - 1) * (hm.shape[1] - 1)
+        want = np.sqrt(AUTO_BLOCK_FACETS * cells / mesh.n_faces)
+        want = max(want, np.sqrt(cells / SIMPLIFIED_MAX_BLOCKS))
+        quad = int(min(MAX_QUAD, 2 ** max(0, int(np.ceil(np.log2(want))))))
+        if quad < MAX_QUAD:
+            mesh = simplified_mesh(hm, tol, quad)
+        return mesh, quad
+
+    @cached_property
     def top_mesh(self) -> TriangleMesh:
-        """The exact triangle mesh of the rough top (shared by geometry, sampling and metrology)."""
-        return (
-            self.spikes.top_mesh() if self.spikes is not None else from_heightmap(self.placed_map)
-        )
+        """The triangle mesh of the rough top (shared by geometry, sampling and metrology):
+        exact, or a height map's simplified mesh within :attr:`mesh_tolerance` of every sample."""
+        if self.spikes is not None:
+            return self.spikes.top_mesh()
+        mesh = self._simplified[0]
+        return from_heightmap(self.placed_map) if mesh is None else mesh
 
     def height_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Exact height of :attr:`top_mesh` above the base plane at (x, y), mm (points clipped to
-        the patch)."""
+        """Height above the base plane at (x, y), mm (points clipped to the patch): of
+        :attr:`top_mesh` exactly for spikes and exact maps; the map's exact mesh (within
+        :attr:`mesh_tolerance` of the simplified one) otherwise."""
         if self.spikes is not None:
             return self.spikes.height_at(x, y)
         hm = self.placed_map
