@@ -311,7 +311,7 @@ def build_case(n: int, tolerance: str = "0", kind: str = "gauss") -> None:
     numpy_s, g4_s = t1 - tm, (t3 - t2) - (t1 - t0)
     print(
         f"{n} {blocks} {facets} {numpy_s:.2f} {g4_s:.2f} {rss:.0f} {rss - rss0:.0f} {per_facet:.0f}"
-        f" {surface.mesh_tolerance * 1e3:.4g} {max_error(surface, mesh) * 1e3:.4g}"
+        f" {surface.mesh_tolerance * 1e3:.4g} {max_error(surface, mesh) * 1e3:.6g} {mesh.n_faces}"
     )
     del keep
 
@@ -327,8 +327,13 @@ def map_spec(n: int, tolerance: str, kind: str) -> dict:
 
 
 def max_error(surface, mesh) -> float:
-    """Largest |z_mesh - z_map| over the map's samples, mm, by matplotlib's own interpolation."""
+    """Largest |z_mesh - z_map| over the map's samples, mm, by matplotlib's own interpolation
+    (0 for the exact mesh, whose vertices are the samples: matplotlib needs minutes for 2 M
+    triangles)."""
     import matplotlib.tri as mtri
+
+    if surface.mesh_tolerance == 0:
+        return 0.0
 
     hm = surface.placed_map
     tri = mtri.Triangulation(mesh.vertices[:, 0], mesh.vertices[:, 1], mesh.faces)
@@ -362,12 +367,12 @@ def tolerance_table(n: int, maps: list[str], tolerances: list[str], repeat: int)
                     capture_output=True,
                     text=True,
                 )
-                runs.setdefault((m, t), []).append(r.stdout.split()[-10:])
+                runs.setdefault((m, t), []).append(r.stdout.split()[-11:])
     print(
-        "| map | tolerance um | max error um | facets | blocks | numpy s | Geant4 s | "
-        "build CPU s | peak RSS MB |"
+        "| map | tolerance um | max error um | top facets | facets with walls | blocks | numpy s "
+        "| Geant4 s | build CPU s | peak RSS MB |"
     )
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for (m, t), rows in runs.items():
 
         def med(i: int, rows: list[list[str]] = rows) -> float:
@@ -376,7 +381,8 @@ def tolerance_table(n: int, maps: list[str], tolerances: list[str], repeat: int)
         f = rows[0]
         pixels = "76 x 59" if m == "measured" else f"{n} x {n}"
         print(
-            f"| {m} {pixels} | {t} ({f[8]}) | {f[9]} | {int(f[2]):,} | {f[1]} | {med(3):.2f} | "
+            f"| {m} {pixels} | {t} ({f[8]}) | {f[9]} | {int(f[10]):,} | {int(f[2]):,} | {f[1]} | "
+            f"{med(3):.2f} | "
             f"{med(4):.2f} | {med(3) + med(4):.2f} | {med(5):.0f} |".replace(",", " ")
         )
 
@@ -395,7 +401,7 @@ def build_table(sizes: list[int]) -> None:
             capture_output=True,
             text=True,
         )
-        f = r.stdout.split()[-10:]
+        f = r.stdout.split()[-11:]
         facets = f"{int(f[2]):,}".replace(",", " ")
         print(f"| {n} x {n} pixels | {f[1]} | {facets} | {f[3]} | {f[4]} | {f[7]} | {f[5]} |")
 
@@ -509,7 +515,7 @@ def main() -> None:
         if r.returncode:
             print(f"{n:7d} failed: {r.stderr.strip().splitlines()[-1:]}")
             continue
-        f = r.stdout.split()[-10:]
+        f = r.stdout.split()[-11:]
         print(
             f"{int(f[0]):7d} {int(f[1]):6d} {int(f[2]):8d} {f[3]:>7s} {f[4]:>6s} "
             f"{f[5]:>6s} {f[6]:>7s} {f[7]:>7s}"

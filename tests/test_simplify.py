@@ -72,7 +72,8 @@ def test_every_map_sample_lies_within_the_tolerance(spec, tol_um):
     if tol_um >= 0.1:  # these smooth maps simplify (measured: 3-10x fewer facets at 0.1 um)
         assert mesh.n_faces < exact.n_faces / 2
     # a height field over the whole patch, no sliver, the same outline
-    assert (mesh.projected_areas > 0).all() and len(degenerate_faces(mesh)) == 0
+    assert (mesh.projected_areas > 0).all()
+    assert len(degenerate_faces(mesh)) == 0
     assert mesh.projected_areas.sum() == pytest.approx(hm.size_x * hm.size_y, rel=1e-12)
     assert is_watertight(closed_body(mesh, 1e-3))
 
@@ -80,12 +81,14 @@ def test_every_map_sample_lies_within_the_tolerance(spec, tol_um):
 def test_zero_tolerance_is_the_exact_mesh():
     surface = build_surface({**GAUSS, "tolerance": 0})
     exact = from_heightmap(surface.placed_map)
-    assert surface.mesh_tolerance == 0 and surface.quad_cells is None
+    assert surface.mesh_tolerance == 0
+    assert surface.quad_cells is None
     assert np.array_equal(surface.top_mesh.vertices, exact.vertices)
     assert np.array_equal(surface.top_mesh.faces, exact.faces)
     # a tolerance below every deviation also keeps every sample: all quads of one pixel
     tiny = simplified_mesh(surface.placed_map, 1e-15)
-    assert tiny.n_faces == exact.n_faces and _map_error(tiny, surface.placed_map) <= 1e-15
+    assert tiny.n_faces == exact.n_faces
+    assert _map_error(tiny, surface.placed_map) <= 1e-15
 
 
 def test_auto_keeps_small_maps_exact_and_simplifies_large_ones(monkeypatch):
@@ -106,7 +109,8 @@ def test_blocks_of_a_simplified_map_cut_its_body_exactly():
     the simplified body's."""
     surface = build_surface({**GAUSS, "tolerance": "0.1 um"})
     q = surface.quad_cells
-    assert q is not None and q & (q - 1) == 0
+    assert q is not None
+    assert q & (q - 1) == 0
     bodies = blk.block_bodies(surface, 1e-3)
     ex, ey = blk.surface_block_edges(surface, None)
     assert len(bodies) == (len(ex) - 1) * (len(ey) - 1)

@@ -21,7 +21,14 @@ from pathlib import Path
 from typing import Annotated, ClassVar, Literal
 
 import numpy as np
-from pydantic import Field, TypeAdapter, ValidationError, model_validator
+from pydantic import (
+    BeforeValidator,
+    Field,
+    PlainSerializer,
+    TypeAdapter,
+    ValidationError,
+    model_validator,
+)
 
 from score4.common import limits
 from score4.common.schema import (
@@ -32,6 +39,7 @@ from score4.common.schema import (
     PositiveLength,
     StrictModel,
     describe_validation_error,
+    quantity,
 )
 from score4.common.yamlfile import load_yaml
 
@@ -54,6 +62,29 @@ AUTO_EXACT_FACETS = 500_000
 AUTO_MIN_TOLERANCE = 1e-4
 #: The automatic tolerance's share of the map's height (peak to valley).
 AUTO_HEIGHT_SHARE = 0.01
+
+
+def _tolerance(value: object) -> float | str:
+    """A map's ``tolerance``: ``auto``, 0 (the exact mesh) or a length, mm."""
+    if value == "auto":
+        return "auto"
+    if not isinstance(value, bool) and isinstance(value, (int, float, str)) and value in (0, "0"):
+        return 0.0
+    try:
+        return quantity(value, "length", "tolerance", non_negative=True)
+    except ConfigError as err:
+        raise ValueError(
+            f"{str(err).removeprefix('tolerance: ')}; give a length such as '0.1 um', 0 (the "
+            "exact mesh) or auto"
+        ) from None
+
+
+#: ``tolerance:`` of a height map (:attr:`Surface.mesh_tolerance`); stored with its unit.
+Tolerance = Annotated[
+    float | str,
+    BeforeValidator(_tolerance),
+    PlainSerializer(lambda v: v if v == "auto" else f"{v!r} mm", when_used="json"),
+]
 
 #: Height-map samples per spike cell and axis used to picture and measure a spike grid as a map.
 SPIKE_MAP_SAMPLES = 16
@@ -132,7 +163,7 @@ class RandomSurfaceSpec(StrictModel):
     seed: int = Field(0, ge=0)
     # the largest vertical error of the map's mesh: 0 the exact mesh, "auto" the rule of
     # Surface.mesh_tolerance (score4.surface.simplify)
-    tolerance: Literal["auto", 0] | NonNegativeLength = "auto"
+    tolerance: Tolerance = "auto"
 
     @model_validator(mode="after")
     def _model_parameters(self) -> RandomSurfaceSpec:
@@ -177,7 +208,7 @@ class MeasuredSurfaceSpec(StrictModel):
     fill_missing: bool = False  # fill NaN points (Laplace interpolation) instead of refusing them
     # the largest vertical error of the map's mesh: 0 the exact mesh, "auto" the rule of
     # Surface.mesh_tolerance (score4.surface.simplify)
-    tolerance: Literal["auto", 0] | NonNegativeLength = "auto"
+    tolerance: Tolerance = "auto"
 
     def option_values(self, key: str, root) -> tuple[object, ...] | None:
         """``format`` not given is the file's extension (None if that names no format)."""
