@@ -351,7 +351,10 @@ def tolerance_table(n: int, maps: list[str], tolerances: list[str], repeat: int)
     runs: dict[tuple[str, str], list[list[str]]] = {}
     for _ in range(repeat):
         for m in maps:
-            for t in tolerances:
+            for entry in tolerances:  # "0.1um", or "gauss:0.1um" for that map only
+                on, _, t = entry.rpartition(":")
+                if on not in ("", m):
+                    continue
                 r = subprocess.run(
                     [
                         sys.executable,
@@ -442,8 +445,8 @@ def main() -> None:
     p.add_argument(
         "--tolerances",
         help="instead: the simplified-map table (docs/surfaces.md): for each --map (comma list) "
-        "and each tolerance here (comma list), one n x n patch (--sizes' first) built in its own "
-        "process, --repeat interleaved rounds, medians",
+        "and each tolerance here (comma list; MAP:TOLERANCE for one map only), one n x n patch "
+        "(--sizes' first) built in its own process, --repeat interleaved rounds, medians",
     )
     p.add_argument("--warm-child", help=argparse.SUPPRESS)
     a = p.parse_args()

@@ -39,6 +39,8 @@ MAX_QUAD = 64
 #: 452 k, 5.6 s, 461 MB (bench_surfaces.py --build-child 1024 --tolerance auto, load 4-8).
 #: Fewer, larger blocks hold more facets each, which costs per event (docs/tiling.md).
 SIMPLIFIED_MAX_BLOCKS = 1024
+#: Top facets per block aimed at, as block_cut.AUTO_BLOCK_FACETS for exact meshes.
+BLOCK_FACETS = 8
 
 
 def _fan_weights(s: int) -> np.ndarray:
@@ -222,3 +224,16 @@ def simplified_mesh(hm: HeightMap, tolerance: float, max_quad: int = MAX_QUAD) -
     cell = quads[owner, 1] * nx + quads[owner, 0]
     order = np.argsort(cell, kind="stable")
     return TriangleMesh(vertices, local.reshape(-1, 3)[order], facet=cell[order])
+
+
+def simplified_blocks(hm: HeightMap, tolerance: float) -> tuple[TriangleMesh, int]:
+    """The simplified mesh and its block side (pixels, a power of two): blocks of about
+    :data:`BLOCK_FACETS` triangles, as for an exact mesh, but at most about
+    :data:`SIMPLIFIED_MAX_BLOCKS` of them and no larger than :data:`MAX_QUAD`."""
+    mesh = simplified_mesh(hm, tolerance, MAX_QUAD)
+    cells = (hm.shape[0] - 1) * (hm.shape[1] - 1)
+    want = max(np.sqrt(BLOCK_FACETS * cells / mesh.n_faces), np.sqrt(cells / SIMPLIFIED_MAX_BLOCKS))
+    quad = int(min(MAX_QUAD, 2 ** max(0, int(np.ceil(np.log2(want))))))
+    if quad < MAX_QUAD:  # smaller quads: the mesh again, with quads no larger than the blocks
+        mesh = simplified_mesh(hm, tolerance, quad)
+    return mesh, quad

@@ -48,7 +48,7 @@ from .heightmap import HeightMap
 from .processing import close_periodic, crop, fill_missing, level_plane, resample
 from .random import random_surface
 from .readers import TEXT_FORMATS, format_of, read_topography
-from .simplify import MAX_QUAD, SIMPLIFIED_MAX_BLOCKS, simplified_mesh
+from .simplify import simplified_blocks
 from .spikes import SpikeGrid
 from .triangle_mesh import TriangleMesh, closed_body, from_heightmap
 
@@ -358,20 +358,7 @@ class Surface:
     def _simplified(self) -> tuple[TriangleMesh | None, int | None]:
         if not self.mesh_tolerance > 0:
             return None, None
-        from .block_cut import AUTO_BLOCK_FACETS  # block_cut imports this module
-
-        hm, tol = self.placed_map, self.mesh_tolerance
-        mesh = simplified_mesh(hm, tol, MAX_QUAD)
-        # blocks of ~AUTO_BLOCK_FACETS triangles, as for an exact mesh, but at most about
-        # SIMPLIFIED_MAX_BLOCKS of them and a power of two of pixels a side: quads never cross a
-        # block edge
-        cells = (hm.shape[0] - 1) * (hm.shape[1] - 1)
-        want = np.sqrt(AUTO_BLOCK_FACETS * cells / mesh.n_faces)
-        want = max(want, np.sqrt(cells / SIMPLIFIED_MAX_BLOCKS))
-        quad = int(min(MAX_QUAD, 2 ** max(0, int(np.ceil(np.log2(want))))))
-        if quad < MAX_QUAD:
-            mesh = simplified_mesh(hm, tol, quad)
-        return mesh, quad
+        return simplified_blocks(self.placed_map, self.mesh_tolerance)
 
     @cached_property
     def top_mesh(self) -> TriangleMesh:
