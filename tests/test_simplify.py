@@ -158,7 +158,10 @@ def _alpha_run(surface: dict, events: int, seed: int) -> dict:
 def test_alpha_spectra_of_exact_and_simplified_maps_agree(tmp_path, events):
     """``events`` alphas (5.3 MeV, 20 nm below a Gaussian map of 2.6 um peak to valley,
     isotropic) on the exact mesh and on its 0.1 um simplification, independent seeds: two-sample
-    KS p > 0.01 (a KS distance below 1.63 sqrt(2 / events): 0.042 for 3000 events)."""
+    KS p > 0.01 (a KS distance below 1.63 sqrt(2 / events): 0.042 for 3000 events). Measured:
+    p = 0.19 (12 800 exact top facets, 2164 simplified; mean deposit 2.54 and 2.47 MeV); a
+    deliberately coarse 1 um tolerance (69 facets, the map nearly flat) gives p = 0.001 and
+    fails it."""
     spec = {**GAUSS, **RUN_MAP}
     out = {}
     for tol, seed in ((0, 1), ("0.1 um", 2)):
