@@ -27,6 +27,7 @@ from functools import cached_property
 import numpy as np
 
 from score4.errors import ConfigError
+from score4.files import cache_dir
 from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig
 from score4.shapes import G4Box as G4BoxShape
 from score4.shapes import G4GenericPolycone, PlacedShape, Shape, Transform, shape_from_dict
@@ -70,6 +71,10 @@ from .obb import OrientedBox
 #: Points this close (mm) outside a volume's boundary still count as inside (vertices at depth 0
 #: lie exactly on the surface).
 BOUNDARY_TOLERANCE = 1e-9
+
+#: Folder of score4's cache (:func:`score4.files.cache_dir`) where boolean solids' area
+#: estimates are kept (:attr:`score4.shapes.BooleanShape.area_key`).
+BOOLEAN_AREAS = "boolean-areas"
 
 #: Gap between the tips of the highest patch and the top of the layer's envelope, mm (1 nm).
 ENVELOPE_CLEARANCE = 1e-6
@@ -982,6 +987,8 @@ def gdml_target(
         assert meta is not None  # an HPGe with a cut (legend-pygeom-hpges' P00664B, V02160A):
         # the groups of its polycone, on the boolean's faces
         shape = replace(shape, first=hpge_groups(shape.first, meta), aliases=HPGE_GROUPS)
+    if isinstance(shape, BooleanShape):  # its area estimate, made once per solid
+        shape = replace(shape, area_cache=cache_dir(BOOLEAN_AREAS))
     return TargetVolume(
         column,
         entry,
