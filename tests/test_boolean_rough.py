@@ -9,7 +9,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
+from score4.cli.main import main
 from score4.errors import ConfigError
 from score4.inputs.config import parse_config
 from score4.runner.engine import run
@@ -20,7 +22,8 @@ from score4.source.vertex_file import write_vertex_file
 from score4.world.resolve import build_scene
 from score4.world.scene import CurvedRoughLayer
 
-from helpers.boolean_worlds import CUTBOX_POSITION, write_world
+from helpers.boolean_worlds import CUTBOX_POSITION, STACK_POSITION, write_world
+from helpers.export_paths import assert_same_paths, base_name, three_paths
 from helpers.ray_trace import mesh_path
 
 #: 0.5 mm patches of 5 x 5 pyramids, 20 um high
@@ -235,6 +238,38 @@ def test_geantino_paths_agree_with_an_independent_ray_trace(gdml, scene, tmp_pat
             )
         got = r.scores["track_length"]["cutbox"][k]
         assert got == pytest.approx(expected, abs=1e-9, rel=0), k
+
+
+def test_rough_boolean_faces_export_with_the_same_paths(gdml, tmp_path, monkeypatch):
+    """The box less a tube with its +z face (around the bore) and +x face rough, and the union
+    of two tubes with the upper tube's wall rough, written by `score4 geometry export`: Geant4
+    reads the file back with the same geantino paths (1e-9 mm), and so it reads the file
+    pyg4ometry reads and writes again (issue 24 item 5)."""
+    data = config(gdml, ROUGH)
+    cfg = tmp_path / "boolean.yaml"
+    cfg.write_text(yaml.safe_dump(data))
+    out = tmp_path / "boolean_rough.gdml"
+    assert main(["geometry", "export", str(cfg), "--gdml", str(out)]) == 0
+    rng = np.random.default_rng(11)
+    rays = []
+    box = np.array(CUTBOX_POSITION)
+    for axis in (2, 0):  # from 0.5 mm above +z (some over the bore) and +x, into the box
+        for _ in range(5):
+            start = box + rng.uniform(-9.5, 9.5, 3)
+            start[axis] = box[axis] + 10.5
+            aim = box + rng.uniform(-9.5, 9.5, 3)
+            rays.append((start, aim - start))
+    stack = np.array(STACK_POSITION)
+    for _ in range(5):  # from 0.5 mm outside the upper tube's wall (r 7 mm, z 5 to 15), inwards
+        phi, z = rng.uniform(0, 2 * np.pi), rng.uniform(6, 14)
+        radial = np.array([np.cos(phi), np.sin(phi), 0.0])
+        rays.append((stack + 7.5 * radial + [0, 0, z], -radial + [0, 0, rng.uniform(-0.3, 0.3)]))
+    rays = [(o.tolist(), (d / np.linalg.norm(d)).tolist()) for o, d in rays]
+    ours, back, relay = three_paths(cfg, out, rays, monkeypatch)
+    crossed = {base_name(v) for path in ours for v, _ in path}
+    for layer in ("cutbox_roughfirst_pz", "cutbox_roughfirst_px", "stack_roughsecond_outer"):
+        assert any(v and v.startswith(layer) for v in crossed), layer  # each layer's patches
+    assert_same_paths(ours, back, relay)
 
 
 def test_hpge_groups_resolve_on_a_detector_with_a_cut(gdml):
