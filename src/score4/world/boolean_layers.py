@@ -1,9 +1,10 @@
 """Rough layers on faces of boolean solids (G4UnionSolid, G4SubtractionSolid,
-G4IntersectionSolid; numpy, no Geant4).
+G4IntersectionSolid; numpy, no Geant4), and :func:`target_layers`, the one entry point that
+makes the layers of a rough entry on any target.
 
 A face of a boolean is a face of one *leaf* solid (a box, tube, polycone, ...) cut by the other
 solids (:meth:`score4.shapes.BooleanShape.face_clip`). Its layer is laid out on the leaf's whole
-face as on any solid (:func:`score4.world.scene.make_layers`: a flat face, a cylinder or cone
+face as on any solid (:func:`target_layers`: a flat face, a cylinder or cone
 wall), and a cell keeps its patch only when the whole cell is proven on the boolean's surface:
 the cutting solids' signed distances bound how far the kept part of the face reaches from a
 point (:meth:`score4.shapes.boolean.FaceClip.margin`), so a cell whose centre lies deeper in the
@@ -40,7 +41,7 @@ from score4.shapes.boolean import FaceClip
 from score4.shapes.faces import PlaneFace, SphereFace
 from score4.surface.spec import Surface
 
-from .facets import ccw
+from .facets import ccw, face_triangles, plane_face, plane_groups
 from .scene import (
     BooleanFace,
     CurvedRoughLayer,
@@ -48,7 +49,8 @@ from .scene import (
     PolygonRoughLayer,
     RoughLayer,
     TargetVolume,
-    make_layers,
+    make_layer,
+    make_polygon_layer,
 )
 
 #: Halvings of a cell when its centre's margin does not prove it whole (a cell cut by the
@@ -65,27 +67,55 @@ def target_layers(
     rough: RoughFace,
     where: str | None = None,
 ) -> list[RoughLayer]:
-    """The rough layers of ``rough`` on ``target``: :func:`boolean_layers` on a boolean solid,
-    :func:`score4.world.scene.make_layers` otherwise."""
-    if isinstance(target.shape, BooleanShape):
-        return boolean_layers(surfaces, target, j, rough, where)
-    return make_layers(surfaces, target, j, rough, where)
-
-
-def boolean_layers(
-    surfaces: dict[str, Surface],
-    target: TargetVolume,
-    j: int,
-    rough: RoughFace,
-    where: str | None = None,
-) -> list[RoughLayer]:
-    """The rough layer on face ``rough.face`` of a target whose solid is a boolean (see the
-    module docstring)."""
+    """The rough layers of ``rough`` on ``target``: on a boolean solid, the one layer on face
+    ``rough.face`` (see the module docstring); on other solids one
+    (:func:`score4.world.scene.make_layer`), or one per plane of a face made of flat facets in
+    several planes (the ``nsides`` sides of a G4Polyhedra face, the planes of a tessellated
+    mesh: :func:`score4.world.facets.plane_groups`)."""
     where = where or f"targets.{target.entry}.rough.{j}"
+    shape = target.shape
+    if isinstance(shape, BooleanShape):
+        clip, leaf_target, leaf_rough, placed = _leaf(target, rough, where)
+        try:
+            layers = target_layers(surfaces, leaf_target, j, leaf_rough, where)
+        except ConfigError as err:
+            seen = "" if leaf_rough.face == clip.face else ", turned: the wall of a solid beside it"
+            raise ConfigError(
+                f"{err} (face {rough.face_name} of the {target.solid} is face {clip.face} of its "
+                f"{clip.leaf.kind}{seen})"
+            ) from None
+        return [_on_boolean(layers, target, rough, clip, placed, where)]
+    if shape is not None and isinstance(rough.face, str) and rough.face in shape.faces:
+        groups = plane_groups(face_triangles(shape, rough.face))
+        if len(groups) > 1:
+            names = [v.surface for v in rough.variant_list]
+            variants = [surfaces[n] for n in names]
+            size = (variants[0].size_x, variants[0].size_y)
+            layer = make_layer(surfaces, target, j, rough, where, groups[0], 0)
+            out: list[RoughLayer] = [layer]
+            for k, tris in enumerate(groups[1:], start=1):
+                face = plane_face(rough.face_name, tris)
+                out.append(
+                    make_polygon_layer(target, rough, face, names, variants, size, where, tris, k)
+                )
+            return out
+    return [make_layer(surfaces, target, j, rough, where)]
+
+
+def _what(target: TargetVolume, rough: RoughFace) -> str:
+    return f"face {rough.face_name} of {target.name!r} (a {target.solid})"
+
+
+def _leaf(
+    target: TargetVolume, rough: RoughFace, where: str
+) -> tuple[FaceClip, TargetVolume, RoughFace, Transform]:
+    """Where the layer on a boolean's face goes: the face's clip, the leaf solid as a target
+    (a subtracted tube's wall turned: :func:`turned_wall`), the entry on the leaf's face, and the
+    leaf's frame in the boolean's; one-line errors for what boolean layers refuse."""
     shape = target.shape
     assert isinstance(shape, BooleanShape)
     name = rough.face_name
-    what = f"face {name} of {target.name!r} (a {target.solid})"
+    what = _what(target, rough)
     try:
         clip = shape.face_clip(name)
     except ConfigError as err:
@@ -125,15 +155,22 @@ def boolean_layers(
         leaf, face, shift = turned
         placed = clip.transform @ Transform(np.eye(3), shift)
     leaf_target = replace(target, shape=leaf, transform=target.transform @ placed, exclude=())
-    leaf_rough = rough.model_copy(update={"face": face})
-    try:
-        layers = make_layers(surfaces, leaf_target, j, leaf_rough, where)
-    except ConfigError as err:
-        seen = "" if face == clip.face else f", turned: the {face} wall of a solid beside it"
-        raise ConfigError(
-            f"{err} (face {name} of the {target.solid} is face {clip.face} of its "
-            f"{clip.leaf.kind}{seen})"
-        ) from None
+    return clip, leaf_target, rough.model_copy(update={"face": face}), placed
+
+
+def _on_boolean(
+    layers: list[RoughLayer],
+    target: TargetVolume,
+    rough: RoughFace,
+    clip: FaceClip,
+    placed: Transform,
+    where: str,
+) -> RoughLayer:
+    """The layer laid out on the leaf's face (``layers``), turned to the boolean's side, with
+    only the cells proven on the boolean's surface kept (:func:`kept_cells`)."""
+    shape = target.shape
+    assert isinstance(shape, BooleanShape)
+    name, what = rough.face_name, _what(target, rough)
     if len(layers) != 1:
         raise ConfigError(
             f"{where}: {what} is face {clip.face} of a {clip.leaf.kind} in {len(layers)} planes; "
@@ -152,10 +189,10 @@ def boolean_layers(
             f"{what} that lies on the solid's surface"
         )
     layer.config = rough
-    layer.face_area = area
+    layer.face_area = float(shape.face_areas[name])
     layer.on_boolean = on
     _check_own_solid(layer, on, where, what)
-    return [layer]
+    return layer
 
 
 def turned_wall(

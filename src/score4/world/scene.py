@@ -59,7 +59,6 @@ from .facets import (
     face_triangles,
     is_convex,
     plane_face,
-    plane_groups,
     point_in_triangles,
     prism_mesh,
     section,
@@ -1004,35 +1003,6 @@ def gdml_target(
         exclude,
         unknown,
     )
-
-
-def make_layers(
-    surfaces: dict[str, Surface],
-    target: TargetVolume,
-    j: int,
-    rough: RoughFace,
-    where: str | None = None,
-) -> list[RoughLayer]:
-    """The rough layers of ``rough`` on ``target``: one (:func:`make_layer`), or one per plane of
-    a face made of flat facets in several planes (the ``nsides`` sides of a G4Polyhedra face, the
-    planes of a tessellated mesh: :func:`score4.world.facets.plane_groups`)."""
-    shape = target.shape
-    if shape is not None and isinstance(rough.face, str) and rough.face in shape.faces:
-        groups = plane_groups(face_triangles(shape, rough.face))
-        if len(groups) > 1:
-            where = where or f"targets.{target.entry}.rough.{j}"
-            names = [v.surface for v in rough.variant_list]
-            variants = [surfaces[n] for n in names]
-            size = (variants[0].size_x, variants[0].size_y)
-            layer = make_layer(surfaces, target, j, rough, where, groups[0], 0)
-            out: list[RoughLayer] = [layer]
-            for k, tris in enumerate(groups[1:], start=1):
-                face = plane_face(rough.face_name, tris)
-                out.append(
-                    make_polygon_layer(target, rough, face, names, variants, size, where, tris, k)
-                )
-            return out
-    return [make_layer(surfaces, target, j, rough, where)]
 
 
 def rough_faces(target: TargetVolume, rough: RoughFace) -> list[str]:
