@@ -27,6 +27,7 @@ from functools import cached_property
 import numpy as np
 
 from score4.errors import ConfigError
+from score4.files import cache_dir
 from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig
 from score4.shapes import G4Box as G4BoxShape
 from score4.shapes import G4GenericPolycone, PlacedShape, Shape, Transform, shape_from_dict
@@ -59,7 +60,6 @@ from .facets import (
     face_triangles,
     is_convex,
     plane_face,
-    plane_groups,
     point_in_triangles,
     prism_mesh,
     section,
@@ -71,6 +71,10 @@ from .obb import OrientedBox
 #: Points this close (mm) outside a volume's boundary still count as inside (vertices at depth 0
 #: lie exactly on the surface).
 BOUNDARY_TOLERANCE = 1e-9
+
+#: Folder of score4's cache (:func:`score4.files.cache_dir`) where boolean solids' area
+#: estimates are kept (:attr:`score4.shapes.BooleanShape.area_key`).
+BOOLEAN_AREAS = "boolean-areas"
 
 #: Gap between the tips of the highest patch and the top of the layer's envelope, mm (1 nm).
 ENVELOPE_CLEARANCE = 1e-6
@@ -994,6 +998,8 @@ def gdml_target(
         assert meta is not None  # an HPGe with a cut (legend-pygeom-hpges' P00664B, V02160A):
         # the groups of its polycone, on the boolean's faces
         shape = replace(shape, first=hpge_groups(shape.first, meta), aliases=HPGE_GROUPS)
+    if isinstance(shape, BooleanShape):  # its area estimate, made once per solid
+        shape = replace(shape, area_cache=cache_dir(BOOLEAN_AREAS))
     return TargetVolume(
         column,
         entry,
@@ -1009,35 +1015,6 @@ def gdml_target(
         exclude,
         unknown,
     )
-
-
-def make_layers(
-    surfaces: dict[str, Surface],
-    target: TargetVolume,
-    j: int,
-    rough: RoughFace,
-    where: str | None = None,
-) -> list[RoughLayer]:
-    """The rough layers of ``rough`` on ``target``: one (:func:`make_layer`), or one per plane of
-    a face made of flat facets in several planes (the ``nsides`` sides of a G4Polyhedra face, the
-    planes of a tessellated mesh: :func:`score4.world.facets.plane_groups`)."""
-    shape = target.shape
-    if shape is not None and isinstance(rough.face, str) and rough.face in shape.faces:
-        groups = plane_groups(face_triangles(shape, rough.face))
-        if len(groups) > 1:
-            where = where or f"targets.{target.entry}.rough.{j}"
-            names = [v.surface for v in rough.variant_list]
-            variants = [surfaces[n] for n in names]
-            size = (variants[0].size_x, variants[0].size_y)
-            layer = make_layer(surfaces, target, j, rough, where, groups[0], 0)
-            out: list[RoughLayer] = [layer]
-            for k, tris in enumerate(groups[1:], start=1):
-                face = plane_face(rough.face_name, tris)
-                out.append(
-                    make_polygon_layer(target, rough, face, names, variants, size, where, tris, k)
-                )
-            return out
-    return [make_layer(surfaces, target, j, rough, where)]
 
 
 def rough_faces(target: TargetVolume, rough: RoughFace) -> list[str]:
