@@ -4,19 +4,21 @@
         [--rounds 3] [--cases frustums,tessellated,flat] [--markdown]
     .venv/bin/python benchmarks/bench_curved.py --spectra 3000
 
-A silicon G4Tubs (GDML, written with pyg4ometry) with its outer wall rough (10 um pyramids,
-50 x 50 to a 0.5 mm patch, bent onto the wall in rings, score4.world.curved) as bent G4Trds
-(``frustums``, what ``solid: auto`` picks for spike grids on a cylinder) or as one bent
-tessellated body per patch (``tessellated``), and a box of the configuration whose +z face has the
-wall's area, rough with the same pyramids (``flat``: multi-union, ``solid: auto``;
-``flat_tess``: tessellated bodies); ``whole``: the wall and both end faces rough (an HPGe
-crystal's whole surface; alphas from all three faces). Each case runs with ``score4 run`` in a
+A silicon G4Tubs (GDML, written with pyg4ometry) with its outer wall rough (10 um pyramids, 50 x 50
+to a 0.5 mm patch, bent onto the wall in rings, score4.world.curved) as bent G4Trds (``frustums``,
+what ``solid: auto`` picks for spike grids on a cylinder) or as one bent tessellated body per patch
+(``tessellated``), and a box of the configuration whose +z face has the wall's area, rough with the
+same pyramids (``flat``: multi-union, ``solid: auto``; ``flat_tess``: tessellated bodies);
+``whole``: the wall and both end faces rough (an HPGe crystal's whole surface; alphas from all
+three faces); ``bege``: seven faces of a LEGEND BEGe (examples/bege/write_bege.py --metadata),
+``bege_all``: its whole surface (``face: all``: the contact, the rings of the bottom, the groove,
+the tapers, the side and the top; alphas from all of it). Each case runs with ``score4 run`` in a
 child process (5.3 MeV alphas, isotropic, from the rough face, exponential depth of mean 1 um),
 with ``--events 20`` and ``--events N``; the CPU time of the children (``os.wait4``) gives the
-build and start-up (the short run less its events) and the CPU time per event (the difference
-over the extra events); memory is the larger peak resident set of the two children (of the
-largest process of each). The cases run in interleaved rounds; the table gives medians over the
-rounds, the ratio column the median of the per-round ratios to the flat face's CPU per event.
+build and start-up (the short run less its events) and the CPU time per event (the difference over
+the extra events); memory is the larger peak resident set of the two children (of the largest
+process of each). The cases run in interleaved rounds; the table gives medians over the rounds, the
+ratio column the median of the per-round ratios to the flat face's CPU per event.
 
 ``--spectra N`` instead runs N alphas (seed 1) on the wall as bent G4Trds and as bent
 tessellated bodies (one body, two representations) and compares their deposits.
@@ -102,9 +104,8 @@ def write_orb(path: Path, radius: float) -> None:
     writer.write(str(path))
 
 
-#: The BEGe's faces that take rough layers together (the contact disk seg_0a, the ring seg_0b
-#: and the top disk seg_8 are flat layers whose envelope boxes meet their neighbours' layers:
-#: refused by the clearance check).
+#: The BEGe's faces of the ``bege`` case (seven of its ten; ``bege_all``: every face,
+#: ``face: all``).
 BEGE_FACES = ["seg_1", "seg_2", "seg_3", "seg_4", "seg_5", "seg_6", "seg_7"]
 
 CASES = {
@@ -113,6 +114,7 @@ CASES = {
     "cone": "45 degree cone side, bent G4Traps (solid: auto)",
     "cone_tess": "45 degree cone side, bent tessellated bodies",
     "bege": "BEGe, 7 of its 10 faces rough (solid: auto)",
+    "bege_all": "BEGe, its whole surface rough (face: all)",
     "orb": "orb of equal area, whole sphere rough",
     "whole": "whole surface: wall and both ends rough (solid: auto)",
     "flat": "flat face of equal area, multi-union (solid: auto)",
@@ -146,17 +148,18 @@ def configs(folder: Path, radius: float, half_length: float) -> dict[str, dict]:
         }
     write_orb(folder / "orb.gdml", math.sqrt(radius * half_length))  # 4 pi r^2 = the wall's
     out["orb"] = {**out["frustums"], "world": {"gdml": "orb.gdml"}}
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples" / "rough_hpge"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples" / "bege"))
     from write_bege import main as write_bege
 
-    write_bege(str(folder / "bege.gdml"))
-    out["bege"] = {
-        "physics": "lite",
-        "world": {"gdml": "bege.gdml"},
-        "surfaces": {"p": PYRAMIDS},
-        "targets": [{"volume": "bege", "rough": [{"face": BEGE_FACES, "surface": "p"}]}],
-        "source": {**SOURCE, "surface": {"volume": "bege", "face": BEGE_FACES}},
-    }
+    write_bege(str(folder / "bege.gdml"), metadata=True)  # as examples/rough_hpge writes it
+    for case, faces in (("bege", BEGE_FACES), ("bege_all", "all")):
+        out[case] = {
+            "physics": "lite",
+            "world": {"gdml": "bege.gdml"},
+            "surfaces": {"p": PYRAMIDS},
+            "targets": [{"volume": "bege", "rough": [{"face": faces, "surface": "p"}]}],
+            "source": {**SOURCE, "surface": {"volume": "bege", "face": faces}},
+        }
     out["whole"] = {
         "physics": "lite",
         "world": {"gdml": "cyl.gdml"},

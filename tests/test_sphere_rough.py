@@ -228,7 +228,9 @@ def test_exported_sphere_layers_give_the_same_geantino_paths(gdml, scene, tmp_pa
 
 
 def test_a_face_the_orb_lacks_lists_its_faces(gdml):
-    with pytest.raises(ConfigError, match=r"no face 'inner' on a G4Orb; its faces: outer, all"):
+    with pytest.raises(
+        ConfigError, match=r"no face 'inner' on a G4Orb; its faces: outer; groups: all"
+    ):
         build_scene(parse_config(config(gdml, {"orb": ["inner"]})))
 
 
