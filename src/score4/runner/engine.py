@@ -814,12 +814,14 @@ def _run_size(plan: RunPlan, files: list[Path]) -> dict:
 
 
 def _counts(files: list[Path], plan: RunPlan) -> dict:
-    """Run-record counts added up over the chunks: ``intercepted_ions`` and
-    ``reinjected_ions`` (runs with the TRIM replay), ``implantation`` (chains with it)."""
+    """Run-record counts added up over the chunks: ``intercepted_ions``,
+    ``reinjected_ions`` and ``replay_pushes`` (runs with the TRIM replay), ``implantation``
+    (chains with it)."""
     counts = chunk_counts(files)
     out = {}
     if plan.config.physics.heavy_ions == "trim":
-        out = {k: int(counts.get(k, 0)) for k in ("intercepted_ions", "reinjected_ions")}
+        keys = ("intercepted_ions", "reinjected_ions", "replay_pushes")
+        out = {k: int(counts.get(k, 0)) for k in keys}
     if plan.per_atom:
         out["implantation"] = counts.get("implantation", {})
     return out
