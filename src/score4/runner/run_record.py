@@ -21,9 +21,9 @@ class RunRecord:
     replay), ``n_atoms`` (per-atom histories: ``run.events`` counts atoms),
     ``energy_violations`` and ``energy_max_excess_MeV`` (not with radioactive decay),
     ``untracked_gamma_*`` (lite physics), ``intercepted_ions``, ``reinjected_ions`` and
-    ``replay_pushes`` (the heavy-ion TRIM replay), ``implantation`` (chains with implantation). ``normalisation`` is
-    written as its own top-level entries (``volumes``, ``source``, ``simulated_decays``, ...:
-    :func:`score4.runner.normalisation.run_normalisation`).
+    ``replay_pushes`` (the heavy-ion TRIM replay), ``implantation`` (chains with
+    implantation). ``normalisation`` is written as its own top-level entries (``volumes``,
+    ``source``, ``simulated_decays``, ...: :func:`score4.runner.normalisation.run_normalisation`).
     """
 
     config: dict[str, Any]  # the whole configuration, quantities with units

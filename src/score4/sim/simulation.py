@@ -497,8 +497,8 @@ class Simulation:
         """Counts of the last :meth:`run` for the run record: ``intercepted_ions`` (heavy-ion
         secondaries taken from Geant4 and replayed), ``reinjected_ions`` (of them, sent back
         to Geant4 to decay), ``replay_pushes`` (stuck replayed ions G4Navigator pushed 1e-7 mm:
-        :meth:`score4.sim.heavy_ions.HeavyIonTransport._locate_after`); ``implantation`` (per-atom histories:
-        :meth:`score4.sim.implantation.AtomTracker.summary`)."""
+        :meth:`score4.sim.heavy_ions.HeavyIonTransport._locate_after`); ``implantation``
+        (per-atom histories: :meth:`score4.sim.implantation.AtomTracker.summary`)."""
         out: dict = {
             "intercepted_ions": len(self.intercepted),
             "reinjected_ions": sum(1 for ion in self.intercepted if ion.reinjected),
