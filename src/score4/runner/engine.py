@@ -30,6 +30,7 @@ from __future__ import annotations
 import contextlib
 import json
 import multiprocessing as mp
+import pickle
 import platform
 import re
 import shutil
@@ -599,7 +600,9 @@ class _LocalWorker:
 
     def __init__(self, ctx, spec: WorkerSpec) -> None:
         self.conn, child = ctx.Pipe()
-        self.process = ctx.Process(target=worker_main, args=(spec, child), daemon=True)
+        # the spec goes pickled: the worker rebuilds the plan with the garbage collector off
+        blob = pickle.dumps(spec)
+        self.process = ctx.Process(target=worker_main, args=(blob, child), daemon=True)
         self.process.start()
         child.close()
         self.chunk: Chunk | None = None  # the chunk it runs now
