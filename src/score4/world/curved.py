@@ -428,16 +428,27 @@ def _ray_parity(o: np.ndarray, d: np.ndarray, tri: np.ndarray, tol: float) -> np
 
 
 def measure_floor(
-    layout: RingLayout, flat: tuple[np.ndarray, np.ndarray, int], base: float, j: int
+    layout: RingLayout,
+    flat: tuple[np.ndarray, np.ndarray, int],
+    base: float,
+    j: int,
+    column: float | None = None,
 ) -> tuple[float, float]:
     """Lowest and highest height (mm) above the true surface of the bent floor of a patch of
     ring ``j`` with no lift: points on its facets (corners, edge midpoints, inner points)
     located exactly. On a sphere also each facet's circumcentre where it lies in the facet:
     a flat triangle with its corners on a sphere dips deepest there (else at the midpoint of
-    its longest edge), so the lowest height is exact."""
+    its longest edge), so the lowest height is exact. ``column``: the floor's columns of this
+    width (mm) are alike (a spike grid's), so only the first is measured: bending turns every
+    column into the first about z."""
     v, faces, _ = flat
     floor = faces[len(faces) - _n_floor(v, faces, base) :]
-    bent = layout.bend(v, j, base)
+    if column is not None:
+        x = v[floor, 0]
+        floor = floor[(x <= x.min() + column * (1 + 1e-9)).all(axis=1)]
+    used = np.unique(floor)
+    bent = np.zeros_like(v)
+    bent[used] = layout.bend(v[used], j, base)
     bent[:, 2] += layout.ring_z(j)
     tri = bent[floor]
     w = np.array([[1, 0, 0], [0.5, 0.5, 0], [1 / 3, 1 / 3, 1 / 3], [0.5, 0.25, 0.25]])

@@ -1214,7 +1214,9 @@ def make_curved_layer(
     for k in range(len(variants)):
         flat = layer._flat(k)
         for j in rows:
-            lo, hi = measure_floor(layout, flat, rough.base_thickness, j)
+            spikes = variants[k].spikes
+            column = spikes.width_x if spikes is not None and isinstance(face, SphereFace) else None
+            lo, hi = measure_floor(layout, flat, rough.base_thickness, j, column)
             lows.append(lo)
             highs.append(hi)
         tops.append(top_sagitta(layout, flat))
