@@ -1,7 +1,7 @@
 """A rough cylinder wall against the same pyramids on a flat face of equal area.
 
     .venv/bin/python benchmarks/bench_curved.py [--radius 40] [--half-length 40] [--events 3000]
-        [--rounds 3] [--cases frustums,tessellated,flat] [--markdown]
+        [--rounds 3] [--cases frustums,tessellated,flat] [--markdown] [--baseline OLD/src]
     .venv/bin/python benchmarks/bench_curved.py --spectra 3000
 
 A silicon G4Tubs (GDML, written with pyg4ometry) with its outer wall rough (10 um pyramids, 50 x 50
@@ -186,9 +186,10 @@ def configs(folder: Path, radius: float, half_length: float) -> dict[str, dict]:
     return out
 
 
-def child_cpu(cmd: list[str], cwd: Path) -> tuple[float, float]:
-    """(CPU s, peak RSS MB) of one child process."""
-    proc = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.DEVNULL)
+def child_cpu(cmd: list[str], cwd: Path, src: str | None = None) -> tuple[float, float]:
+    """(CPU s, peak RSS MB) of one child process (``src``: import score4 from there)."""
+    env = {**os.environ, "PYTHONPATH": src} if src else None
+    proc = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.DEVNULL, env=env)
     _, status, usage = os.wait4(proc.pid, 0)
     proc.returncode = os.waitstatus_to_exitcode(status)
     if proc.returncode:
@@ -196,15 +197,20 @@ def child_cpu(cmd: list[str], cwd: Path) -> tuple[float, float]:
     return usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024
 
 
-def measure(folder: Path, name: str, config: dict, events: int) -> tuple[float, float, float]:
-    """(CPU s of a 20-event run less its events, CPU s per event, peak RSS MB) of one case."""
+def measure(
+    folder: Path, name: str, config: dict, events: int, src: str | None = None
+) -> tuple[float, float, float]:
+    """(CPU s of a 20-event run less its events, CPU s per event, peak RSS MB) of one case
+    (``src``: with score4 imported from that folder, a baseline)."""
     path = folder / f"{name}.yaml"
     path.write_text(yaml.safe_dump(config))
     cpu, peak = [], []
     for n in (20, events):
         out = folder / f"{name}.h5"
         c, m = child_cpu(
-            [*SCORE4, str(path), "--events", str(n), "--out", str(out), "--overwrite"], folder
+            [*SCORE4, str(path), "--events", str(n), "--out", str(out), "--overwrite"],
+            folder,
+            src,
         )
         cpu.append(c)
         peak.append(m)
@@ -253,6 +259,12 @@ def main() -> None:
     )
     parser.add_argument("--markdown", action="store_true", help="print a Markdown table")
     parser.add_argument(
+        "--baseline",
+        default=None,
+        help="also run each case (but flat) with score4 imported from this src folder "
+        "(an older checkout), interleaved",
+    )
+    parser.add_argument(
         "--spectra",
         type=int,
         default=0,
@@ -265,13 +277,16 @@ def main() -> None:
         return
     names = args.cases.split(",")
     print(stamp())
-    rows: dict[str, list[tuple[float, float, float]]] = {n: [] for n in names}
+    runs = [(n, n, None) for n in names]
+    if args.baseline:
+        runs += [(f"{n} (baseline)", n, args.baseline) for n in names if n != "flat"]
+    rows: dict[str, list[tuple[float, float, float]]] = {label: [] for label, _, _ in runs}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         cases = configs(folder, args.radius, args.half_length)
         for _ in range(args.rounds):
-            for name in names:
-                rows[name].append(measure(folder, name, cases[name], args.events))
+            for label, name, src in runs:
+                rows[label].append(measure(folder, name, cases[name], args.events, src))
     print(f"load at the end {os.getloadavg()[0]:.1f}")
     area = 2 * math.pi * args.radius * 2 * args.half_length
     print(
@@ -286,7 +301,8 @@ def main() -> None:
         ratio = (
             statistics.median(a[1] / b[1] for a, b in zip(r, ref, strict=True)) if ref else math.nan
         )
-        table.append((CASES[name], build, per_event * 1e3, peak, ratio))
+        what = CASES[name.split(" ")[0]] + (" (baseline)" if name.endswith("(baseline)") else "")
+        table.append((what, build, per_event * 1e3, peak, ratio))
     if args.markdown:
         print("| case | build and start-up s CPU | ms CPU per alpha event | peak RSS MB | ratio |")
         print("| --- | --- | --- | --- | --- |")
@@ -294,9 +310,9 @@ def main() -> None:
             print(f"| {what} | {build:.1f} | {ms:.2f} | {peak:.0f} | {ratio:.2f} |")
         return
     head = f"{'build+start CPU s':>18s} {'CPU ms/event':>13s} {'peak MB':>8s} {'/flat':>6s}"
-    print(f"{'case':52s} {head}")
+    print(f"{'case':60s} {head}")
     for what, build, ms, peak, ratio in table:
-        print(f"{what:52s} {build:18.1f} {ms:13.2f} {peak:8.0f} {ratio:6.2f}")
+        print(f"{what:60s} {build:18.1f} {ms:13.2f} {peak:8.0f} {ratio:6.2f}")
 
 
 if __name__ == "__main__":

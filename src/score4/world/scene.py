@@ -434,9 +434,10 @@ class CurvedRoughLayer(RoughLayer):
     cut_shape: tuple[Shape, np.ndarray] | None = None
 
     def solid_kind(self, k: int) -> str:
-        """``frustums`` for a spike grid on a cylinder or a cone (``solid: auto`` or
+        """``frustums`` for a spike grid on a cylinder, a cone or a sphere (``solid: auto`` or
         ``frustums``): on a cylinder each bent spike layer and each column of the bent slab is
-        exactly a G4Trd, on a cone a G4Trap or G4GenericTrap in a cell of two G4Cons
+        exactly a G4Trd, on a cone a G4Trap or G4GenericTrap in a cell of two G4Cons, on a
+        sphere the same in a cell that is a G4Sphere segment, with the slab cut per spike
         (:mod:`score4.geometry.curved`); ``tessellated`` (the bent closed body as one solid)
         otherwise (also on a cone too close to a cylinder for its cells:
         :attr:`frustum_cells`)."""
@@ -452,10 +453,11 @@ class CurvedRoughLayer(RoughLayer):
         """Bent frustums can be placed: on a cylinder always; on a cone where the cones of
         surface normals bounding each ring's cells (:func:`~score4.world.curved.cone_cell`)
         stay off the axis over the cell's z range (not on a cone within about
-        ``patch length / radius`` of a cylinder); never on a sphere."""
+        ``patch length / radius`` of a cylinder); on a sphere always (the cells are G4Sphere
+        segments, :func:`~score4.world.curved.sphere_cell`)."""
         face = self.ring_layout.face
         if isinstance(face, SphereFace):
-            return False
+            return True
         if self.is_cylinder:
             return True
         lay = self.ring_layout
@@ -521,6 +523,15 @@ class CurvedRoughLayer(RoughLayer):
             v, faces, n_top = self._flat(k)
             bent = self.ring_layout.bend(v, j, self.base_thickness + self.lift)
             self._cache[key] = BentVariant(bent, faces, n_top)
+        return self._cache[key]
+
+    def top_area(self, k: int, j: int) -> float:
+        """Area (mm2) of variant ``k``'s bent top on ring ``j`` (cached per ring solid)."""
+        key = ("top_area", k, self.ring_solid_key(j))
+        if key not in self._cache:
+            tri = self.bent(k, j).top_triangles
+            e = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+            self._cache[key] = float((0.5 * np.linalg.norm(e, axis=1)).sum())
         return self._cache[key]
 
     def cells(self) -> list[tuple[int, int, int, float]]:
@@ -1346,15 +1357,13 @@ def make_curved_layer(
     if rough.solid not in ("auto", "tessellated", "frustums"):
         raise ConfigError(
             f"{where}: solid {rough.solid} on a curved face ({what}); its patches are bent "
-            "tessellated bodies or, for spike grids on a cylinder, bent frustums (solid: auto, "
+            "tessellated bodies or, for spike grids, bent frustums (solid: auto, "
             "tessellated or frustums)"
         )
-    if rough.solid == "frustums" and (
-        isinstance(face, SphereFace) or any(s.spikes is None for s in variants)
-    ):
+    if rough.solid == "frustums" and any(s.spikes is None for s in variants):
         raise ConfigError(
-            f"{where}: solid frustums on a curved face ({what}) needs spike-grid surfaces on a "
-            "cylinder wall or a cone; use solid: auto or tessellated"
+            f"{where}: solid frustums on a curved face ({what}) needs spike-grid surfaces; "
+            "use solid: auto or tessellated"
         )
     reserve = 1.05 * (rough.base_thickness + max(s.max_height for s in variants)) + 1e-4
     row_gap = 0.0
@@ -1385,7 +1394,9 @@ def make_curved_layer(
     for k in range(len(variants)):
         flat = layer._flat(k)
         for j in rows:
-            lo, hi = measure_floor(layout, flat, rough.base_thickness, j)
+            spikes = variants[k].spikes
+            column = spikes.width_x if spikes is not None and isinstance(face, SphereFace) else None
+            lo, hi = measure_floor(layout, flat, rough.base_thickness, j, column)
             lows.append(lo)
             highs.append(hi)
         tops.append(top_sagitta(layout, flat))
