@@ -456,6 +456,7 @@ def _layer_key(layer, mother_material, material) -> tuple:
         layer.cell_variants.tobytes(),
         layer.config.native_layout,
         layer.config.block_cells,
+        getattr(layer, "ring", None),  # a round face's envelope
         tuple(layer.solid_kind(k) for k in range(len(layer.variants))),
         str(mother_material.GetName()),
         str(material.GetName()),
@@ -534,8 +535,9 @@ def splice(g4, config, scene, out: Path, fragment_path: Path) -> dict:
         envelopes: dict[tuple, object] = {}  # the target's layers of the same make: one volume
         for layer in scene.layers_of(t.name):
             if isinstance(layer, CurvedRoughLayer):  # bent patches in a shell, as a run builds
+                # (placed as the layer's own target: on a boolean, the constituent it lies on)
                 patch_lvs, k = place_curved(
-                    g4, layer, w_lv, m_lv.GetMaterial(), material, _target_in_mother(t)
+                    g4, layer, w_lv, m_lv.GetMaterial(), material, _target_in_mother(layer.target)
                 )
                 keep.append(k)
                 patches.setdefault(t.name, set()).update(str(lv.GetName()) for lv in patch_lvs)

@@ -30,6 +30,7 @@ from __future__ import annotations
 import contextlib
 import json
 import multiprocessing as mp
+import pickle
 import platform
 import re
 import shutil
@@ -63,6 +64,7 @@ from score4.runner.run_record import RunRecord
 from score4.runner.seeds import BLOCK_EVENTS
 from score4.sim.worker import Chunk, WorkerSpec, chunk_path, worker_main
 from score4.version import package_version
+from score4.world.scene import Scene
 from score4.world.walls import warn_rays_in_walls
 
 from ..errors import ConfigError, Score4Error
@@ -380,6 +382,20 @@ def execute(plan: RunPlan, job: Execution, executor: Executor, progress: bool, o
     job.info = info or _recall_info(parts)
 
 
+def _map_meshes(scene: Scene) -> dict[str, Any] | None:
+    """Per rough layer of height maps: the tolerance (um; 0 the exact mesh) and the number of top
+    facets of each variant's mesh (score4.surface.simplify); None without height maps."""
+    out = {
+        layer.name: {
+            "tolerance_um": [round(s.mesh_tolerance * 1e3, 9) for s in layer.variants],
+            "top_facets": [s.top_mesh.n_faces for s in layer.variants],
+        }
+        for layer in scene.layers
+        if any(s.heightmap is not None for s in layer.variants)
+    }
+    return out or None
+
+
 def run_record(plan: RunPlan, job: Execution) -> RunRecord:
     """The run record of a finished run: the plan, what the workers reported, sums over the
     chunk files (energy balance, untracked photons, ion counts), Geant4's warnings."""
@@ -398,6 +414,7 @@ def run_record(plan: RunPlan, job: Execution) -> RunRecord:
         removed_processes=info.get("removed_processes", []),
         trim_library_seed=info.get("trim_library_seed"),  # runs with a TRIM replay
         rough_shares={layer.name: layer.rough_share for layer in scene.layers},
+        map_meshes=_map_meshes(scene),
         gdml_files=scene.model.files if scene.model is not None else [],
         score4_version=package_version(),
         geant4_pybind_version=version("geant4_pybind"),
@@ -599,7 +616,9 @@ class _LocalWorker:
 
     def __init__(self, ctx, spec: WorkerSpec) -> None:
         self.conn, child = ctx.Pipe()
-        self.process = ctx.Process(target=worker_main, args=(spec, child), daemon=True)
+        # the spec goes pickled: the worker rebuilds the plan with the garbage collector off
+        blob = pickle.dumps(spec)
+        self.process = ctx.Process(target=worker_main, args=(blob, child), daemon=True)
         self.process.start()
         child.close()
         self.chunk: Chunk | None = None  # the chunk it runs now
@@ -814,12 +833,14 @@ def _run_size(plan: RunPlan, files: list[Path]) -> dict:
 
 
 def _counts(files: list[Path], plan: RunPlan) -> dict:
-    """Run-record counts added up over the chunks: ``intercepted_ions`` and
-    ``reinjected_ions`` (runs with the TRIM replay), ``implantation`` (chains with it)."""
+    """Run-record counts added up over the chunks: ``intercepted_ions``,
+    ``reinjected_ions`` and ``replay_pushes`` (runs with the TRIM replay), ``implantation``
+    (chains with it)."""
     counts = chunk_counts(files)
     out = {}
     if plan.config.physics.heavy_ions == "trim":
-        out = {k: int(counts.get(k, 0)) for k in ("intercepted_ions", "reinjected_ions")}
+        keys = ("intercepted_ions", "reinjected_ions", "replay_pushes")
+        out = {k: int(counts.get(k, 0)) for k in keys}
     if plan.per_atom:
         out["implantation"] = counts.get("implantation", {})
     return out

@@ -20,9 +20,10 @@ class RunRecord:
     Optional fields (None) are left out of the file: ``trim_library_seed`` (runs with a TRIM
     replay), ``n_atoms`` (per-atom histories: ``run.events`` counts atoms),
     ``energy_violations`` and ``energy_max_excess_MeV`` (not with radioactive decay),
-    ``untracked_gamma_*`` (lite physics), ``intercepted_ions`` and ``reinjected_ions`` (the
-    heavy-ion TRIM replay), ``implantation`` (chains with implantation). ``normalisation`` is
-    written as its own top-level entries (``volumes``, ``source``, ``simulated_decays``, ...:
+    ``untracked_gamma_*`` (lite physics), ``intercepted_ions``, ``reinjected_ions`` and
+    ``replay_pushes`` (the heavy-ion TRIM replay), ``implantation`` (chains with
+    implantation), ``map_meshes`` (rough layers of height maps). ``normalisation`` is written
+    as its own top-level entries (``volumes``, ``source``, ``simulated_decays``, ...:
     :func:`score4.runner.normalisation.run_normalisation`).
     """
 
@@ -36,6 +37,8 @@ class RunRecord:
     removed_processes: list[str]  # processes lite physics removed
     trim_library_seed: int | None = None
     rough_shares: dict[str, float]  # per rough layer: the share of its face that is rough
+    # per rough layer of height maps: each variant's mesh tolerance (um, 0 exact) and top facets
+    map_meshes: dict[str, Any] | None = None
     gdml_files: list[str]  # a GDML world's files (the file and those it includes)
     score4_version: str
     geant4_pybind_version: str
@@ -60,6 +63,7 @@ class RunRecord:
     untracked_gamma_events: int | None = None
     intercepted_ions: int | None = None
     reinjected_ions: int | None = None
+    replay_pushes: int | None = None  # stuck replayed ions G4Navigator pushed (GeomNav1002)
     implantation: dict[str, Any] | None = None
     normalisation: dict[str, Any] = field(default_factory=dict)
 

@@ -27,6 +27,7 @@ from functools import cached_property
 import numpy as np
 
 from score4.errors import ConfigError
+from score4.files import cache_dir
 from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig
 from score4.shapes import G4Box as G4BoxShape
 from score4.shapes import G4GenericPolycone, PlacedShape, Shape, Transform, shape_from_dict
@@ -35,6 +36,7 @@ from score4.shapes import G4Sphere as G4SphereShape
 from score4.shapes.boolean import BooleanShape, FaceClip
 from score4.shapes.faces import AnnulusFace, Face, PlaneFace, RevolvedFace, SphereFace
 from score4.shapes.hpge import HPGE_GROUPS, hpge_groups, is_hpge_metadata
+from score4.shapes.revolved import RevolvedShape
 from score4.surface.block_cut import check_patch
 from score4.surface.patchmap import PatchMap, make_patch_map
 from score4.surface.spec import Surface
@@ -59,7 +61,6 @@ from .facets import (
     face_triangles,
     is_convex,
     plane_face,
-    plane_groups,
     point_in_triangles,
     prism_mesh,
     section,
@@ -71,6 +72,10 @@ from .obb import OrientedBox
 #: Points this close (mm) outside a volume's boundary still count as inside (vertices at depth 0
 #: lie exactly on the surface).
 BOUNDARY_TOLERANCE = 1e-9
+
+#: Folder of score4's cache (:func:`score4.files.cache_dir`) where boolean solids' area
+#: estimates are kept (:attr:`score4.shapes.BooleanShape.area_key`).
+BOOLEAN_AREAS = "boolean-areas"
 
 #: Gap between the tips of the highest patch and the top of the layer's envelope, mm (1 nm).
 ENVELOPE_CLEARANCE = 1e-6
@@ -306,6 +311,9 @@ class RoughLayer:
     #: on a face of a boolean solid: the boolean and where its face lies (``target`` is then the
     #: volume seen as the leaf solid that face belongs to, :mod:`score4.world.boolean_layers`)
     on_boolean: BooleanFace | None = field(default=None, kw_only=True)
+    #: with ``into`` on a tube's end face and wall: the radii of the end face's cut ring, where
+    #: its cells and flat rest lie (None: the face's own)
+    rest_radii: tuple[float, float] | None = field(default=None, kw_only=True)
 
     @property
     def name(self) -> str:
@@ -422,11 +430,15 @@ class CurvedRoughLayer(RoughLayer):
     lift: float = 0.0  # the patches' base above the true surface (convex faces), mm
     gap: float = 0.0  # largest distance of the base from the true surface, mm
     top_margin: float = 0.0  # sagitta of the bent tops' facets (concave faces), mm
+    #: with ``into`` on a wall swept around z: the target's shape cut for this layer alone and
+    #: its centre's shift in the target's frame (:meth:`Shape.trimmed`)
+    cut_shape: tuple[Shape, np.ndarray] | None = None
 
     def solid_kind(self, k: int) -> str:
-        """``frustums`` for a spike grid on a cylinder or a cone (``solid: auto`` or
+        """``frustums`` for a spike grid on a cylinder, a cone or a sphere (``solid: auto`` or
         ``frustums``): on a cylinder each bent spike layer and each column of the bent slab is
-        exactly a G4Trd, on a cone a G4Trap or G4GenericTrap in a cell of two G4Cons
+        exactly a G4Trd, on a cone a G4Trap or G4GenericTrap in a cell of two G4Cons, on a
+        sphere the same in a cell that is a G4Sphere segment, with the slab cut per spike
         (:mod:`score4.geometry.curved`); ``tessellated`` (the bent closed body as one solid)
         otherwise (also on a cone too close to a cylinder for its cells:
         :attr:`frustum_cells`)."""
@@ -442,10 +454,11 @@ class CurvedRoughLayer(RoughLayer):
         """Bent frustums can be placed: on a cylinder always; on a cone where the cones of
         surface normals bounding each ring's cells (:func:`~score4.world.curved.cone_cell`)
         stay off the axis over the cell's z range (not on a cone within about
-        ``patch length / radius`` of a cylinder); never on a sphere."""
+        ``patch length / radius`` of a cylinder); on a sphere always (the cells are G4Sphere
+        segments, :func:`~score4.world.curved.sphere_cell`)."""
         face = self.ring_layout.face
         if isinstance(face, SphereFace):
-            return False
+            return True
         if self.is_cylinder:
             return True
         lay = self.ring_layout
@@ -526,6 +539,15 @@ class CurvedRoughLayer(RoughLayer):
             self._cache[key] = Footprints.make(v, faces, max(radius, 1e-3 * self.thickness))
         return self._cache[key]
 
+    def top_area(self, k: int, j: int) -> float:
+        """Area (mm2) of variant ``k``'s bent top on ring ``j`` (cached per ring solid)."""
+        key = ("top_area", k, self.ring_solid_key(j))
+        if key not in self._cache:
+            tri = self.bent(k, j).top_triangles
+            e = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+            self._cache[key] = float((0.5 * np.linalg.norm(e, axis=1)).sum())
+        return self._cache[key]
+
     def cells(self) -> list[tuple[int, int, int, float]]:
         """(ring j, cell i, variant k, azimuth) of every patch."""
         out = []
@@ -557,10 +579,15 @@ class CurvedRoughLayer(RoughLayer):
         return inside
 
     def in_cut(self, points: np.ndarray) -> np.ndarray:
-        """With ``into`` (a sphere's face): True for world points in the shell cut from the
-        solid, between the layer's face and the solid's face."""
+        """With ``into``: True for world points in the shell cut from the solid, between the
+        layer's face and the solid's face (on a wall of a G4Tubs, G4Cons or polycone: outside
+        the solid cut for this layer, :attr:`cut_shape`)."""
         if not self.config.into:
             return np.zeros(len(points), dtype=bool)
+        if self.cut_shape is not None:  # a wall: outside the solid cut for this layer alone
+            shape, shift = self.cut_shape
+            local = self.target.to_local(np.asarray(points, float).reshape(-1, 3)) - shift
+            return np.asarray(shape.signed_distance(local) > BOUNDARY_TOLERANCE)
         face = self.ring_layout.face
         h = face.locate(self.target.to_local(np.asarray(points, float).reshape(-1, 3)))[2]
         return np.asarray((h > BOUNDARY_TOLERANCE) & (h <= self.thickness + BOUNDARY_TOLERANCE))
@@ -605,6 +632,168 @@ class CurvedRoughLayer(RoughLayer):
             r = float(np.hypot(local[:, 0], local[:, 1]).max())
             lo[:2], hi[:2] = -r, r
         return OrientedBox(self.target.to_world((lo + hi) / 2), self.target.rotation, (hi - lo) / 2)
+
+
+@dataclass
+class RingRoughLayer(RoughLayer):
+    """A rough layer on a flat ring (an :class:`~score4.shapes.faces.AnnulusFace`: the end face
+    of a tube, cone or polycone, a flat polycone segment): its envelope is the ring
+    ``rmin <= r <= rmax`` about the frame's centre (on the axis) extruded by the layer's
+    thickness, not the face's bounding square, so that layers on coplanar rings of one solid (a
+    BEGe's contact, the ring around it and the bottom beyond its groove) do not meet.
+    ``rmin``/``rmax`` start as the face's radii; where the envelope of a curved layer of the same
+    solid reaches into the ring's slab (a wall rising from the ring at a concave edge, as in a
+    groove) the ring gives way (:func:`fit_rings`): the cells over that band stay flat
+    (``rough_shares``)."""
+
+    rmin: float = 0.0
+    rmax: float = 0.0
+
+    @property
+    def ring(self) -> tuple[float, float]:
+        """(rmin, rmax) of the envelope, mm."""
+        return self.rmin, self.rmax
+
+    def in_envelope(self, points: np.ndarray) -> np.ndarray:
+        """True for world points strictly inside the envelope (touching does not count)."""
+        q = self.frame.to_local(np.asarray(points, float).reshape(-1, 3))
+        tol = BOUNDARY_TOLERANCE
+        rho = np.hypot(q[:, 0], q[:, 1])
+        return np.asarray(
+            (q[:, 2] > tol)
+            & (q[:, 2] < self.thickness - tol)
+            & (rho > self.rmin + tol)
+            & (rho < self.rmax - tol)
+        )
+
+    def envelope_points(self, n: int = 25) -> np.ndarray:
+        """World points of the envelope (rings of points from rmin to rmax at the bottom,
+        middle and top, and close to its inner and outer walls), for the clearance checks
+        (kept until the ring is narrowed)."""
+        key = (n, self.rmin, self.rmax, self.thickness)
+        if key not in self._points:
+            self._points.clear()
+            self._points[key] = self._envelope_points(n)
+        return self._points[key]
+
+    @cached_property
+    def _points(self) -> dict:
+        return {}
+
+    def _envelope_points(self, n: int) -> np.ndarray:
+        t = self.thickness
+        r = np.linspace(self.rmin, self.rmax, n)
+        edge = min(0.5 * t, 0.25 * (self.rmax - self.rmin))
+        r = np.unique(np.concatenate([r, [self.rmin + 0.05 * edge, self.rmin + edge]]))
+        r = np.unique(np.concatenate([r, [self.rmax - 0.05 * edge, self.rmax - edge]]))
+        n_phi = int(np.clip(np.ceil(2 * np.pi * self.rmax / max(t, 1e-3)), 72, 360))
+        phi = np.linspace(0.0, 2 * np.pi, n_phi, endpoint=False)
+        h = np.array([0.0, 0.05, 0.5, 0.95, 1.0]) * t
+        rr, pp, hh = (g.ravel() for g in np.meshgrid(r, phi, h, indexing="ij"))
+        local = np.column_stack([rr * np.cos(pp), rr * np.sin(pp), hh])
+        return self.frame.to_world(local)
+
+    def envelope_box(self) -> OrientedBox:
+        """The square about the ring (side 2 rmax) times the thickness."""
+        t = self.thickness
+        return OrientedBox(
+            self.frame.to_world(np.array([0.0, 0.0, t / 2])),
+            self.frame.rotation,
+            np.array([self.rmax, self.rmax, t / 2]),
+        )
+
+    def refit(self, rmin: float, rmax: float, where: str) -> None:
+        """Narrow the envelope to ``rmin``..``rmax``: only the cells wholly inside keep their
+        patch."""
+        self.rmin, self.rmax = float(rmin), float(rmax)
+        assert self.mask is not None
+        self.mask = self.mask & ring_cells(
+            self.patch_map.cell_centres(), self.patch_size, self.rmin, self.rmax
+        )
+        if not self.mask.any():
+            px, py = self.patch_size
+            raise ConfigError(
+                f"{where}: no whole patch of {px * 1e3:g} x {py * 1e3:g} um fits on face "
+                f"{self.config.face_name} of {self.target.name!r} between r = "
+                f"{self.rmin:.6g} and {self.rmax:.6g} mm (the face less the layers of its "
+                "neighbouring walls)"
+            )
+
+
+def ring_cells(
+    centres: np.ndarray, size: tuple[float, float], rmin: float, rmax: float
+) -> np.ndarray:
+    """True for the (u, v) rectangles of ``size`` around ``centres`` (..., 2) that lie wholly
+    in the ring ``rmin <= r <= rmax``."""
+    px, py = size
+    x, y = np.abs(centres[..., 0]), np.abs(centres[..., 1])
+    far = np.hypot(x + px / 2, y + py / 2)
+    near = np.hypot(np.maximum(x - px / 2, 0.0), np.maximum(y - py / 2, 0.0))
+    return np.asarray((far <= rmax * (1 + 1e-12)) & (near >= rmin * (1 - 1e-12)))
+
+
+def fit_rings(layers: list[RoughLayer]) -> None:
+    """Ring layers of a solid give way to the curved layers of the same solid whose envelopes
+    reach into their slab (see :class:`RingRoughLayer`).
+
+    A wall (cylinder or cone) meeting a flat ring at a concave edge (a groove's walls and its
+    bottom, a bore's wall and its bottom) has its envelope, between the z planes of its ends,
+    inside the ring's slab (the ring's plane moved out by the ring layer's thickness): the ring's
+    envelope then starts (or ends) where the wall's envelope ends in that slab. At a convex edge
+    the two envelopes only touch and nothing changes. A wall's envelope reaching into the
+    middle of a ring is left to the clearance check."""
+    rings = [r for r in layers if isinstance(r, RingRoughLayer) and not r.config.into]
+    walls = [
+        c
+        for c in layers
+        if isinstance(c, CurvedRoughLayer)
+        and isinstance(c.ring_layout.face, RevolvedFace)
+        and c.on_boolean is None
+    ]
+    for ring in rings:
+        if ring.on_boolean is not None:
+            continue
+        face = ring.target.face(ring.config.face_name)
+        assert isinstance(face, AnnulusFace)
+        z0 = float(face.frame.translation[2])
+        nz = float(face.frame.rotation[2, 2])
+        slab = sorted((z0, z0 + nz * ring.thickness))
+        rmin, rmax = ring.rmin, ring.rmax
+        for wall in walls:
+            if wall.target is not ring.target:
+                continue
+            a1, b1, a2, b2, dz, zc = wall_envelope(wall)
+            lo, hi = max(slab[0], zc - dz), min(slab[1], zc + dz)
+            if hi - lo <= BOUNDARY_TOLERANCE:
+                continue  # the envelopes touch at most (a convex edge)
+            at = [(z - (zc - dz)) / (2 * dz) if dz > 0 else 0.0 for z in (lo, hi)]
+            radii = [a1 + f * (a2 - a1) for f in at] + [b1 + f * (b2 - b1) for f in at]
+            r_lo, r_hi = min(radii), max(radii)
+            if r_hi <= rmin + BOUNDARY_TOLERANCE or r_lo >= rmax - BOUNDARY_TOLERANCE:
+                continue
+            if r_lo <= rmin + BOUNDARY_TOLERANCE:
+                rmin = r_hi
+            elif r_hi >= rmax - BOUNDARY_TOLERANCE:
+                rmax = r_lo
+        if (rmin, rmax) != (ring.rmin, ring.rmax):
+            ring.refit(rmin, rmax, f"targets.{ring.target.entry}.rough")
+
+
+def wall_envelope(layer: CurvedRoughLayer) -> tuple[float, float, float, float, float, float]:
+    """``(rmin1, rmax1, rmin2, rmax2, dz, z_centre)`` of a curved layer's envelope on a cylinder
+    or cone (the shape's frame): the face and the same moved out by the layer thickness along
+    its normal, between the z planes of the face's ends (the ``G4Cons`` of
+    :mod:`score4.geometry.curved`)."""
+    face = layer.ring_layout.face
+    assert isinstance(face, RevolvedFace)
+    (r1, z1), (r2, z2) = face.rz1, face.rz2
+    if z1 > z2:
+        (r1, z1), (r2, z2) = (r2, z2), (r1, z1)
+    tz = abs(float(face._tangent[1]))
+    shift = float(np.sign(face.nrz[0])) * layer.thickness / tz  # the offset surface, same z
+    a1, b1 = sorted((r1, r1 + shift))
+    a2, b2 = sorted((r2, r2 + shift))
+    return float(a1), float(b1), float(a2), float(b2), 0.5 * (z2 - z1), 0.5 * (z1 + z2)
 
 
 @dataclass
@@ -983,6 +1172,8 @@ def gdml_target(
         assert meta is not None  # an HPGe with a cut (legend-pygeom-hpges' P00664B, V02160A):
         # the groups of its polycone, on the boolean's faces
         shape = replace(shape, first=hpge_groups(shape.first, meta), aliases=HPGE_GROUPS)
+    if isinstance(shape, BooleanShape):  # its area estimate, made once per solid
+        shape = replace(shape, area_cache=cache_dir(BOOLEAN_AREAS))
     return TargetVolume(
         column,
         entry,
@@ -998,35 +1189,6 @@ def gdml_target(
         exclude,
         unknown,
     )
-
-
-def make_layers(
-    surfaces: dict[str, Surface],
-    target: TargetVolume,
-    j: int,
-    rough: RoughFace,
-    where: str | None = None,
-) -> list[RoughLayer]:
-    """The rough layers of ``rough`` on ``target``: one (:func:`make_layer`), or one per plane of
-    a face made of flat facets in several planes (the ``nsides`` sides of a G4Polyhedra face, the
-    planes of a tessellated mesh: :func:`score4.world.facets.plane_groups`)."""
-    shape = target.shape
-    if shape is not None and isinstance(rough.face, str) and rough.face in shape.faces:
-        groups = plane_groups(face_triangles(shape, rough.face))
-        if len(groups) > 1:
-            where = where or f"targets.{target.entry}.rough.{j}"
-            names = [v.surface for v in rough.variant_list]
-            variants = [surfaces[n] for n in names]
-            size = (variants[0].size_x, variants[0].size_y)
-            layer = make_layer(surfaces, target, j, rough, where, groups[0], 0)
-            out: list[RoughLayer] = [layer]
-            for k, tris in enumerate(groups[1:], start=1):
-                face = plane_face(rough.face_name, tris)
-                out.append(
-                    make_polygon_layer(target, rough, face, names, variants, size, where, tris, k)
-                )
-            return out
-    return [make_layer(surfaces, target, j, rough, where)]
 
 
 def rough_faces(target: TargetVolume, rough: RoughFace) -> list[str]:
@@ -1093,6 +1255,17 @@ def make_layer(
     except ConfigError as err:
         raise ConfigError(f"{where}: {err}") from None
     round_face = isinstance(geometry, AnnulusFace)
+    if (
+        rough.into
+        and round_face
+        and isinstance(target.shape, RevolvedShape)
+        and target.shape.kind != "G4Tubs"
+    ):
+        raise ConfigError(
+            f"{where}: into: true on the flat face {rough.face_name} of {target.name!r} (a "
+            f"{target.solid}) is supported on a G4Tubs only (a neighbouring wall that slants "
+            "changes the ring's radii at the cut); put the layer outside the volume (into: false)"
+        )
     if round_face:  # the whole cells of the bounding square, centred
         cells = [max(int(np.floor(frame.size[a] / size[a] * (1 + 1e-9))), 1) for a in (0, 1)]
         frame = FaceFrame(frame.centre, frame.rotation, (cells[0] * size[0], cells[1] * size[1]))
@@ -1118,7 +1291,22 @@ def make_layer(
                 f"{where}: native_layout replicas fills a rectangle; a round face takes auto, "
                 "nested or placements"
             )
-    layer = RoughLayer(target, rough, frame, names, variants, patch_map, mask, area)
+    layer = (
+        RingRoughLayer(
+            target,
+            rough,
+            frame,
+            names,
+            variants,
+            patch_map,
+            mask,
+            area,
+            rmin=geometry.rmin,
+            rmax=geometry.rmax,
+        )
+        if isinstance(geometry, AnnulusFace)
+        else RoughLayer(target, rough, frame, names, variants, patch_map, mask, area)
+    )
     for k, n in enumerate(names):
         try:
             check_patch(variants[k], layer.solid_kind(k), rough.block_cells)
@@ -1147,13 +1335,16 @@ def make_curved_layer(
     """The rough layer on a face swept around z (:mod:`score4.world.curved`)."""
     what = f"face {rough.face_name} of {target.name!r}"
     if rough.into:
-        if not isinstance(face, SphereFace) or not _trimmable(target, rough.face_name):
+        if not _trimmable(target, rough.face_name):
             raise ConfigError(
-                f"{where}: into: true on a curved face ({what}) is supported on the outer and "
-                "inner faces of a G4Sphere or G4Orb only; the layer goes outside the volume "
+                f"{where}: into: true on a curved face ({what}, a {target.solid}) is supported "
+                "on the walls of a G4Tubs, G4Cons, G4Polycone or G4GenericPolycone and the outer "
+                "and inner faces of a G4Sphere or G4Orb only; the layer goes outside the volume "
                 "(into: false)"
             )
-        return _into_sphere(target, rough, face, names, variants, size, where)
+        if isinstance(face, SphereFace):
+            return _into_sphere(target, rough, face, names, variants, size, where)
+        return _into_revolved(target, rough, face, names, variants, size, where)
     if rough.tiling == "portal":
         raise ConfigError(
             f"{where}: tiling portal on a curved face ({what}): a portal's jumps are pure "
@@ -1167,15 +1358,13 @@ def make_curved_layer(
     if rough.solid not in ("auto", "tessellated", "frustums"):
         raise ConfigError(
             f"{where}: solid {rough.solid} on a curved face ({what}); its patches are bent "
-            "tessellated bodies or, for spike grids on a cylinder, bent frustums (solid: auto, "
+            "tessellated bodies or, for spike grids, bent frustums (solid: auto, "
             "tessellated or frustums)"
         )
-    if rough.solid == "frustums" and (
-        isinstance(face, SphereFace) or any(s.spikes is None for s in variants)
-    ):
+    if rough.solid == "frustums" and any(s.spikes is None for s in variants):
         raise ConfigError(
-            f"{where}: solid frustums on a curved face ({what}) needs spike-grid surfaces on a "
-            "cylinder wall or a cone; use solid: auto or tessellated"
+            f"{where}: solid frustums on a curved face ({what}) needs spike-grid surfaces; "
+            "use solid: auto or tessellated"
         )
     reserve = 1.05 * (rough.base_thickness + max(s.max_height for s in variants)) + 1e-4
     row_gap = 0.0
@@ -1206,7 +1395,9 @@ def make_curved_layer(
     for k in range(len(variants)):
         flat = layer._flat(k)
         for j in rows:
-            lo, hi = measure_floor(layout, flat, rough.base_thickness, j)
+            spikes = variants[k].spikes
+            column = spikes.width_x if spikes is not None and isinstance(face, SphereFace) else None
+            lo, hi = measure_floor(layout, flat, rough.base_thickness, j, column)
             lows.append(lo)
             highs.append(hi)
         tops.append(top_sagitta(layout, flat))
@@ -1263,6 +1454,48 @@ def _into_sphere(
             return layer
         cut = layer.thickness * (1 + 1e-9)
     raise ConfigError(f"{where}: into: the layer on {face.name} does not settle on a cut")
+
+
+def _into_revolved(
+    target: TargetVolume,
+    rough: RoughFace,
+    face: RevolvedFace,
+    names: list[str],
+    variants: list[Surface],
+    size: tuple[float, float],
+    where: str,
+    others: dict[str, float] | None = None,
+) -> CurvedRoughLayer:
+    """The layer of ``rough`` cut into a wall of a G4Tubs, G4Cons or polycone (``others``: the
+    cuts of the target's other ``into`` faces, which move the wall's ends): laid out on the
+    wall of the solid cut by the layer's thickness (:meth:`RevolvedShape.cut_contour`: the wall
+    moved inward along its normal, its neighbours' lines kept), its top padded to reach the old
+    face; the cut is taken again until the bent layer (whose lift grows as the radius falls)
+    fits."""
+    outside = rough.model_copy(update={"into": False})
+    shape = target.described("into")
+    assert isinstance(shape, RevolvedShape)  # _trimmable: a G4Tubs, G4Cons or polycone
+    name = rough.face_name
+    cut = make_curved_layer(target, outside, face, names, variants, size, where).thickness
+    for _ in range(4):
+        try:
+            trimmed = shape.trimmed({name: cut})
+            moved = shape.cut_face(name, {**(others or {}), name: cut}).as_face(name)
+        except ConfigError as err:
+            raise ConfigError(
+                f"{where}: into: the layer ({cut * 1e3:.4g} um) on face {name} of "
+                f"{target.name!r}: {err}"
+            ) from None
+        assert trimmed is not None
+        assert isinstance(moved, RevolvedFace)
+        layer = make_curved_layer(target, outside, moved, names, variants, size, where)
+        if layer.thickness <= cut:
+            layer.top_margin += cut - layer.thickness  # the top where the face was
+            layer.config = rough
+            layer.cut_shape = trimmed
+            return layer
+        cut = layer.thickness * (1 + 1e-9)
+    raise ConfigError(f"{where}: into: the layer on {name} does not settle on a cut")
 
 
 def make_polygon_layer(
@@ -1364,6 +1597,71 @@ def _into_polygon(layer: PolygonRoughLayer, solid: np.ndarray, where: str, what:
     layer.base_outline = ccw(clip_to_convex(layer.outline, cap2d))  # the flat rest lies there
     if not layer.mask.any():
         raise ConfigError(f"{where}: into: no whole patch fits on the cut below {what}")
+
+
+def check_into_edges(scene: Scene, target: TargetVolume) -> None:
+    """Refuse ``into`` on two faces of a solid swept around z that share an edge (a circle of
+    the contour's corner): each layer is laid out on its own cut face, so the two layers
+    would overlap below a convex edge. A full G4Tubs' end face and wall are laid out on their
+    joint cut instead (:func:`_into_tube_corners`)."""
+    shape = target.shape
+    into = {r.config.face_name for r in scene.layers_of(target.name) if r.config.into}
+    swept = ("G4Tubs", "G4Cons", "G4Polycone", "G4GenericPolycone")  # not a polyhedra's planes
+    if len(into) < 2 or not isinstance(shape, RevolvedShape) or shape.kind not in swept:
+        return
+    if shape.kind == "G4Tubs" and shape.full_phi:
+        _into_tube_corners(scene, target)
+        return
+    poly, names = shape.contour()
+    for k, name in enumerate(names):
+        other = names[(k + 1) % len(names)]
+        if name in into and other in into:
+            r, z = poly[(k + 1) % len(poly)]
+            raise ConfigError(
+                f"targets.{target.entry}.rough: into: true on faces {name} and {other} of "
+                f"{target.name!r}, which share an edge (the circle r = {r:.4g} mm at z = "
+                f"{z:.4g} mm): their layers would meet below it; put one of them outside the "
+                "volume (into: false)"
+            )
+
+
+def _into_tube_corners(scene: Scene, target: TargetVolume) -> None:
+    """``into`` on an end face and a wall of a full G4Tubs: the wall's layer is laid out again
+    on the wall shortened by the end faces' cuts, and the end faces' cells and flat rest kept
+    within the ring the walls' cuts leave (the joint cut is a G4Tubs thinner and shorter). The
+    ring of the old volume between the two layers at the edge (the wall's cut x the end's)
+    belongs to neither: it is cut away, like the space between the patches' tips."""
+    shape = target.shape
+    assert isinstance(shape, RevolvedShape)
+    layers = {r.config.face_name: r for r in scene.layers_of(target.name) if r.config.into}
+    ends: dict[str, float] = {f: layers[f].thickness for f in ("+z", "-z") if f in layers}
+    walls: list[str] = [f for f in ("outer", "inner") if f in layers]
+    if not ends or not walls:
+        return
+    where = f"targets.{target.entry}.rough"
+    cuts: dict[str, float] = {}
+    for name in walls:
+        old = layers[name]
+        face = shape.face(name)
+        assert isinstance(face, RevolvedFace)
+        new = _into_revolved(
+            target, old.config, face, old.names, old.variants, old.patch_size, where, ends
+        )
+        scene.layers[scene.layers.index(old)] = new
+        cuts[name] = new.thickness
+    rmin = getattr(shape, "rmin", 0.0) + cuts.get("inner", 0.0)
+    rmax = getattr(shape, "rmax", 0.0) - cuts.get("outer", 0.0)
+    for end in ends:
+        layer = layers[end]
+        ring = AnnulusFace.make(end, [rmin, rmax], 0.0, 1.0, 0.0, 2 * np.pi)
+        assert layer.mask is not None  # a round face
+        layer.mask = layer.mask & ring.covers(layer.patch_map.cell_centres(), layer.patch_size)
+        layer.rest_radii = (rmin, rmax)
+        if not layer.mask.any():
+            raise ConfigError(
+                f"{where}: into: no whole patch fits on face {end} of {target.name!r} within "
+                f"the ring r = {rmin:.4g} .. {rmax:.4g} mm the walls' cuts leave"
+            )
 
 
 def _trimmable(target: TargetVolume, face: str) -> bool:
