@@ -268,9 +268,15 @@ def _resident() -> int:
         return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
 
 
-def build_case(n: int) -> None:
+def build_case(n: int, tolerance: str = "0", kind: str = "gauss") -> None:
     """Child process: build one n x n pixel patch as blocks, print numpy s, Geant4 s, RSS and
-    the growth of resident memory while Geant4 builds, per facet.
+    the growth of resident memory while Geant4 builds, per facet; then the mesh's tolerance (um)
+    and its largest vertical error at the map's samples (um).
+
+    ``tolerance``: the surface's ``tolerance`` (a length, ``0`` the exact mesh, or ``auto``).
+    ``kind``: ``gauss`` (the Gaussian map below, correlation length 6 pixels), ``noise`` (the
+    same with a correlation length of 2 pixels, the shortest allowed: noise-like) or ``measured``
+    (examples/surfaces/measured.yaml as it is, 76 x 59 pixels; ``n`` is ignored).
 
     The blocks are built as a run builds them (``place_blocks``: each block's closed body is
     cut, handed to Geant4 and dropped); a first pass only cuts the bodies, for the numpy time
@@ -285,10 +291,9 @@ def build_case(n: int) -> None:
     from score4.surface.block_cut import iter_block_bodies
     from score4.surface.spec import build_surface
 
-    spec = {"kind": "random", "nx": n + 1, "ny": n + 1, "pitch": "0.5 um", "sq": "0.3 um"}
-    surface = build_surface({**spec, "corr_length": "3 um", "periodic": False, "seed": 1})
     tm = time.process_time()
-    _ = surface.top_mesh  # the exact mesh, built once (counted in numpy)
+    surface = build_surface(map_spec(n, tolerance, kind))
+    mesh = surface.top_mesh  # the mesh, built once (counted in numpy)
     t0 = time.process_time()
     blocks = facets = 0
     for body in iter_block_bodies(surface, 1e-3):
@@ -306,8 +311,83 @@ def build_case(n: int) -> None:
     numpy_s, g4_s = t1 - tm, (t3 - t2) - (t1 - t0)
     print(
         f"{n} {blocks} {facets} {numpy_s:.2f} {g4_s:.2f} {rss:.0f} {rss - rss0:.0f} {per_facet:.0f}"
+        f" {surface.mesh_tolerance * 1e3:.4g} {max_error(surface, mesh) * 1e3:.6g} {mesh.n_faces}"
     )
     del keep
+
+
+def map_spec(n: int, tolerance: str, kind: str) -> dict:
+    """The n x n-pixel map of build_case (a surface description)."""
+    if kind == "measured":
+        spec = yaml.safe_load((SURF / "measured.yaml").read_text())
+        return {**spec, "file": str(SURF / spec["file"]), "tolerance": tolerance}
+    spec = {"kind": "random", "nx": n + 1, "ny": n + 1, "pitch": "0.5 um", "sq": "0.3 um"}
+    corr = "1 um" if kind == "noise" else "3 um"
+    return {**spec, "corr_length": corr, "periodic": False, "seed": 1, "tolerance": tolerance}
+
+
+def max_error(surface, mesh) -> float:
+    """Largest |z_mesh - z_map| over the map's samples, mm, by matplotlib's own interpolation
+    (0 for the exact mesh, whose vertices are the samples: matplotlib needs minutes for 2 M
+    triangles)."""
+    import matplotlib.tri as mtri
+
+    if surface.mesh_tolerance == 0:
+        return 0.0
+
+    hm = surface.placed_map
+    tri = mtri.Triangulation(mesh.vertices[:, 0], mesh.vertices[:, 1], mesh.faces)
+    xx, yy = np.meshgrid(hm.x, hm.y)
+    z = mtri.LinearTriInterpolator(tri, mesh.vertices[:, 2])(xx, yy)
+    return float(np.abs(z - hm.heights).max())
+
+
+def tolerance_table(n: int, maps: list[str], tolerances: list[str], repeat: int) -> None:
+    """docs/surfaces.md's table: facets, build CPU and peak memory of one simplified map patch
+    per tolerance (medians of ``repeat`` interleaved rounds), and the largest error measured."""
+    from stamp import stamp  # this folder is on sys.path when run as a script
+
+    print(stamp())
+    runs: dict[tuple[str, str], list[list[str]]] = {}
+    for _ in range(repeat):
+        for m in maps:
+            for entry in tolerances:  # "0.1um", or "gauss:0.1um" for that map only
+                on, _, t = entry.rpartition(":")
+                if on not in ("", m):
+                    continue
+                r = subprocess.run(
+                    [
+                        sys.executable,
+                        __file__,
+                        "--build-child",
+                        str(n),
+                        "--tolerance",
+                        t,
+                        "--map",
+                        m,
+                    ],
+                    check=True,
+                    capture_output=True,
+                    text=True,
+                )
+                runs.setdefault((m, t), []).append(r.stdout.split()[-11:])
+    print(
+        "| map | tolerance um | max error um | top facets | facets with walls | blocks | numpy s "
+        "| Geant4 s | build CPU s | peak RSS MB |"
+    )
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    for (m, t), rows in runs.items():
+
+        def med(i: int, rows: list[list[str]] = rows) -> float:
+            return float(np.median([float(r[i]) for r in rows]))
+
+        f = rows[0]
+        pixels = "76 x 59" if m == "measured" else f"{n} x {n}"
+        print(
+            f"| {m} {pixels} | {t} ({f[8]}) | {f[9]} | {int(f[10]):,} | {int(f[2]):,} | {f[1]} | "
+            f"{med(3):.2f} | "
+            f"{med(4):.2f} | {med(3) + med(4):.2f} | {med(5):.0f} |".replace(",", " ")
+        )
 
 
 def build_table(sizes: list[int]) -> None:
@@ -319,12 +399,12 @@ def build_table(sizes: list[int]) -> None:
     print("| --- | --- | --- | --- | --- | --- | --- |")
     for n in sizes:
         r = subprocess.run(
-            [sys.executable, __file__, "--build-child", str(n)],
+            [sys.executable, __file__, "--build-child", str(n), "--tolerance", "0"],
             check=True,
             capture_output=True,
             text=True,
         )
-        f = r.stdout.split()[-8:]
+        f = r.stdout.split()[-11:]
         facets = f"{int(f[2]):,}".replace(",", " ")
         print(f"| {n} x {n} pixels | {f[1]} | {facets} | {f[3]} | {f[4]} | {f[7]} | {f[5]} |")
 
@@ -354,10 +434,29 @@ def main() -> None:
         help="--warm: also time the score4 sources in this src folder, interleaved (before/after)",
     )
     p.add_argument("--build-child", type=int, help=argparse.SUPPRESS)
+    p.add_argument(
+        "--tolerance",
+        default="0",
+        help="--build-child: the map's tolerance (a length such as '0.1 um', 0 exact, or auto)",
+    )
+    p.add_argument(
+        "--map", default="gauss", help="--build-child: gauss, noise or measured (build_case)"
+    )
+    p.add_argument(
+        "--tolerances",
+        help="instead: the simplified-map table (docs/surfaces.md): for each --map (comma list) "
+        "and each tolerance here (comma list; MAP:TOLERANCE for one map only), one n x n patch "
+        "(--sizes' first) built in its own process, --repeat interleaved rounds, medians",
+    )
     p.add_argument("--warm-child", help=argparse.SUPPRESS)
     a = p.parse_args()
     if a.build_child:
-        build_case(a.build_child)
+        build_case(a.build_child, a.tolerance, a.map)
+        return
+    if a.tolerances:
+        tolerance_table(
+            int(a.sizes.split(",")[0]), a.map.split(","), a.tolerances.split(","), a.repeat
+        )
         return
     if a.warm_child:
         warm_case(a.warm_child, a.events, float(a.faces))
@@ -411,7 +510,7 @@ def main() -> None:
         )
     for n in sizes:
         r = subprocess.run(
-            [sys.executable, __file__, "--build-child", str(n)],
+            [sys.executable, __file__, "--build-child", str(n), "--tolerance", "0"],
             check=False,
             capture_output=True,
             text=True,
@@ -419,7 +518,7 @@ def main() -> None:
         if r.returncode:
             print(f"{n:7d} failed: {r.stderr.strip().splitlines()[-1:]}")
             continue
-        f = r.stdout.split()[-8:]
+        f = r.stdout.split()[-11:]
         print(
             f"{int(f[0]):7d} {int(f[1]):6d} {int(f[2]):8d} {f[3]:>7s} {f[4]:>6s} "
             f"{f[5]:>6s} {f[6]:>7s} {f[7]:>7s}"

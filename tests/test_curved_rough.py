@@ -284,7 +284,6 @@ def test_geantino_paths_through_a_rough_cone(cone, tmp_path, solid, surface, tol
     ("change", "message"),
     [
         ({"face": "side"}, r"no face 'side' on a G4Tubs; its faces: -z, outer, \+z, all"),
-        ({"face": "outer", "into": True}, r"into: true on a curved face"),
         ({"face": "outer", "solid": "blocks"}, r"solid blocks on a curved face"),
     ],
 )

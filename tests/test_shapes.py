@@ -5,6 +5,7 @@ inside, serialisation and bad input (issue 17, item 4). Geant4's view: test_shap
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -265,6 +266,46 @@ def test_boolean_subtraction_areas_within_their_errors():
     assert (cut.inside(s.position) == SURFACE).all()
     assert (cut.inside(s.position + 1e-6 * s.normal) == OUTSIDE).all()  # the bore faces inwards
     assert abs(cut.volume - (8000 - math.pi * 16 * 20)) < 4 * cut.volume_error
+
+
+def test_boolean_area_estimate_is_kept_per_solid_description(tmp_path, monkeypatch):
+    """The estimate is made once per solid description: a new shape of the same parameters
+    takes it from memory, another process from the folder (the file read back gives the same
+    numbers); another placement of the cut is another solid, estimated anew."""
+    from score4.shapes import boolean
+
+    def cut(dx: float = 0.0) -> BooleanShape:
+        at = Transform(np.eye(3), [dx, 0, 0])
+        return BooleanShape("subtraction", G4Box(10, 10, 10), G4Tubs(0, 4, 20), at, n_area=4000)
+
+    made = []
+    real = BooleanShape._estimate_areas
+
+    def counted(self):
+        made.append(self.area_key)
+        return real(self)
+
+    monkeypatch.setattr(BooleanShape, "_estimate_areas", counted)
+    monkeypatch.setattr(boolean, "_AREAS", {})
+    first = replace(cut(), area_cache=tmp_path)
+    areas = dict(first.face_areas)
+    assert len(made) == 1
+    assert (tmp_path / f"{first.area_key}.json").is_file()
+    assert cut().face_areas == areas
+    assert len(made) == 1
+    monkeypatch.setattr(boolean, "_AREAS", {})  # as in a new process: from the file
+    again = replace(cut(), area_cache=tmp_path)
+    assert again.face_areas == areas
+    assert again.face_area_errors == first.face_area_errors
+    assert len(made) == 1
+    moved = replace(cut(1.0), area_cache=tmp_path)
+    assert moved.area_key != first.area_key
+    assert moved.face_areas != areas
+    assert len(made) == 2
+    (tmp_path / f"{moved.area_key}.json").write_text("{not json")  # a damaged file: estimated
+    monkeypatch.setattr(boolean, "_AREAS", {})
+    assert replace(cut(1.0), area_cache=tmp_path).face_areas == moved.face_areas
+    assert len(made) == 3
 
 
 def test_placed_shape_moves_points_and_normals():

@@ -5,7 +5,9 @@ the builders of both a configured world (:mod:`score4.geometry.world`) and a GDM
 
 from __future__ import annotations
 
+import tempfile
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -14,10 +16,13 @@ from score4.world.scene import Scene, TargetVolume
 
 from ..errors import ConfigError
 from ..shapes import G4Box as G4BoxShape
+from ..shapes import G4Cons as G4ConsShape
+from ..shapes import G4GenericPolycone as G4GenericPolyconeShape
 from ..shapes import G4Orb as G4OrbShape
 from ..shapes import G4Sphere as G4SphereShape
 from ..shapes import G4Tubs as G4TubsShape
 from ..shapes import Shape
+from .gdml import read_gdml
 from .portal import PortalGeometry
 from .solids import tessellated_solid
 
@@ -38,8 +43,9 @@ class BuiltGeometry:
 
 
 def g4_solid(g4, shape: Shape, name: str):
-    """The Geant4 solid of a :mod:`score4.shapes` box or tube (the shapes score4 makes itself:
-    boxes of the configuration and volumes cut for ``into`` layers)."""
+    """The Geant4 solid of a :mod:`score4.shapes` box, tube, cone, sphere, orb or generic
+    polycone (the shapes score4 makes itself: boxes of the configuration and volumes cut for
+    ``into`` layers)."""
     if isinstance(shape, G4BoxShape):
         return g4.G4Box(name, shape.dx, shape.dy, shape.dz)
     if isinstance(shape, G4TubsShape):
@@ -50,7 +56,53 @@ def g4_solid(g4, shape: Shape, name: str):
         )
     if isinstance(shape, G4OrbShape):
         return g4.G4Orb(name, shape.r)
+    if isinstance(shape, G4ConsShape):
+        return g4.G4Cons(
+            name,
+            shape.rmin1,
+            shape.rmax1,
+            shape.rmin2,
+            shape.rmax2,
+            shape.dz,
+            shape.sphi,
+            shape.dphi,
+        )
+    if isinstance(shape, G4GenericPolyconeShape):
+        return _generic_polycone(g4, shape, name)
     raise ConfigError(f"{name}: score4 builds no Geant4 solid of a {shape.kind}")
+
+
+_GDML_SOLIDS: list = []  # the parsers and worlds of the solids read from GDML (kept alive)
+
+
+def _generic_polycone(g4, shape: G4GenericPolyconeShape, name: str):
+    """A G4GenericPolycone of ``shape``: geant4_pybind binds its constructor's ``r`` and ``z``
+    arrays as single numbers, so the solid is read by Geant4's GDML parser from a small file
+    of its own (unique volume names: Geant4's stores are global)."""
+    tag = f"score4_pc{len(_GDML_SOLIDS)}"
+    points = "".join(
+        f'<rzpoint r="{r!r}" z="{z!r}"/>' for r, z in zip(shape.r, shape.z, strict=True)
+    )
+    world = 2 * max(max(abs(v) for v in shape.r + shape.z), 1.0) + 1.0
+    text = (
+        '<?xml version="1.0" encoding="UTF-8"?><gdml><define/><materials/><solids>'
+        f'<genericPolycone name="{tag}" startphi="{shape.sphi!r}" deltaphi="{shape.dphi!r}" '
+        f'aunit="rad" lunit="mm">{points}</genericPolycone>'
+        f'<box name="{tag}_w" x="{world!r}" y="{world!r}" z="{world!r}" lunit="mm"/></solids>'
+        f'<structure><volume name="{tag}_lv"><materialref ref="G4_Galactic"/>'
+        f'<solidref ref="{tag}"/></volume><volume name="{tag}_wl">'
+        f'<materialref ref="G4_Galactic"/><solidref ref="{tag}_w"/><physvol name="{tag}_pv">'
+        f'<volumeref ref="{tag}_lv"/></physvol></volume></structure>'
+        f'<setup name="Default" version="1.0"><world ref="{tag}_wl"/></setup></gdml>'
+    )
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / f"{tag}.gdml"
+        path.write_text(text)
+        parser, pv = read_gdml(g4, path)
+    _GDML_SOLIDS.append((parser, pv))
+    solid = pv.GetLogicalVolume().GetDaughter(0).GetLogicalVolume().GetSolid()
+    solid.SetName(name)
+    return solid
 
 
 def cut_for_layers(g4, scene: Scene, target: TargetVolume, solid, name: str):
@@ -58,9 +110,10 @@ def cut_for_layers(g4, scene: Scene, target: TargetVolume, solid, name: str):
     the volume's own frame) of its placement.
 
     The target's shape is made thinner behind each such face (:meth:`Shape.trimmed`: a box
-    along the face normal, a tube along z) and moved back by half the cut, so its outer faces
-    stay; a convex solid of flat facets (G4Trd, G4Trap, G4Polyhedra, a tessellated or extruded
-    solid) becomes the G4TessellatedSolid of its facets clipped by each face's plane moved
+    along the face normal, a tube along z or in radius, a cone's or polycone's wall along its
+    normal, a sphere in radius) and moved back by half the cut, so its outer faces stay; a
+    convex solid of flat facets (G4Trd, G4Trap, G4Polyhedra, a tessellated or extruded solid)
+    becomes the G4TessellatedSolid of its facets clipped by each face's plane moved
     inward (:func:`score4.world.facets.clip_convex`), in place. Returns ``(solid, shift, objects
     to keep alive)``.
     """

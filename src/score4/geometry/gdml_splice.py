@@ -534,8 +534,9 @@ def splice(g4, config, scene, out: Path, fragment_path: Path) -> dict:
         envelopes: dict[tuple, object] = {}  # the target's layers of the same make: one volume
         for layer in scene.layers_of(t.name):
             if isinstance(layer, CurvedRoughLayer):  # bent patches in a shell, as a run builds
+                # (placed as the layer's own target: on a boolean, the constituent it lies on)
                 patch_lvs, k = place_curved(
-                    g4, layer, w_lv, m_lv.GetMaterial(), material, _target_in_mother(t)
+                    g4, layer, w_lv, m_lv.GetMaterial(), material, _target_in_mother(layer.target)
                 )
                 keep.append(k)
                 patches.setdefault(t.name, set()).update(str(lv.GetName()) for lv in patch_lvs)

@@ -63,6 +63,7 @@ from score4.runner.run_record import RunRecord
 from score4.runner.seeds import BLOCK_EVENTS
 from score4.sim.worker import Chunk, WorkerSpec, chunk_path, worker_main
 from score4.version import package_version
+from score4.world.scene import Scene
 from score4.world.walls import warn_rays_in_walls
 
 from ..errors import ConfigError, Score4Error
@@ -380,6 +381,20 @@ def execute(plan: RunPlan, job: Execution, executor: Executor, progress: bool, o
     job.info = info or _recall_info(parts)
 
 
+def _map_meshes(scene: Scene) -> dict[str, Any] | None:
+    """Per rough layer of height maps: the tolerance (um; 0 the exact mesh) and the number of top
+    facets of each variant's mesh (score4.surface.simplify); None without height maps."""
+    out = {
+        layer.name: {
+            "tolerance_um": [round(s.mesh_tolerance * 1e3, 9) for s in layer.variants],
+            "top_facets": [s.top_mesh.n_faces for s in layer.variants],
+        }
+        for layer in scene.layers
+        if any(s.heightmap is not None for s in layer.variants)
+    }
+    return out or None
+
+
 def run_record(plan: RunPlan, job: Execution) -> RunRecord:
     """The run record of a finished run: the plan, what the workers reported, sums over the
     chunk files (energy balance, untracked photons, ion counts), Geant4's warnings."""
@@ -398,6 +413,7 @@ def run_record(plan: RunPlan, job: Execution) -> RunRecord:
         removed_processes=info.get("removed_processes", []),
         trim_library_seed=info.get("trim_library_seed"),  # runs with a TRIM replay
         rough_shares={layer.name: layer.rough_share for layer in scene.layers},
+        map_meshes=_map_meshes(scene),
         gdml_files=scene.model.files if scene.model is not None else [],
         score4_version=package_version(),
         geant4_pybind_version=version("geant4_pybind"),

@@ -21,8 +21,9 @@ class RunRecord:
     replay), ``n_atoms`` (per-atom histories: ``run.events`` counts atoms),
     ``energy_violations`` and ``energy_max_excess_MeV`` (not with radioactive decay),
     ``untracked_gamma_*`` (lite physics), ``intercepted_ions`` and ``reinjected_ions`` (the
-    heavy-ion TRIM replay), ``implantation`` (chains with implantation). ``normalisation`` is
-    written as its own top-level entries (``volumes``, ``source``, ``simulated_decays``, ...:
+    heavy-ion TRIM replay), ``implantation`` (chains with implantation), ``map_meshes`` (rough
+    layers of height maps). ``normalisation`` is written as its own top-level entries
+    (``volumes``, ``source``, ``simulated_decays``, ...:
     :func:`score4.runner.normalisation.run_normalisation`).
     """
 
@@ -36,6 +37,8 @@ class RunRecord:
     removed_processes: list[str]  # processes lite physics removed
     trim_library_seed: int | None = None
     rough_shares: dict[str, float]  # per rough layer: the share of its face that is rough
+    # per rough layer of height maps: each variant's mesh tolerance (um, 0 exact) and top facets
+    map_meshes: dict[str, Any] | None = None
     gdml_files: list[str]  # a GDML world's files (the file and those it includes)
     score4_version: str
     geant4_pybind_version: str

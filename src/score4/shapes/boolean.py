@@ -7,7 +7,11 @@ per area on a face of A or B is kept when it is on the boolean's surface: a step
 points are uniform per area on the true surface. The areas of the pieces are estimated from
 the kept fraction of fixed-seed draws per face, in rounds of ``n_area`` until the standard error
 is 0.1 % of the face's area (:data:`AREA_PRECISION`; of the solid's area for a sliver, at most
-:data:`MAX_AREA_ROUNDS` rounds): :attr:`BooleanShape.face_area_errors` gives the errors.
+:data:`MAX_AREA_ROUNDS` rounds): :attr:`BooleanShape.face_area_errors` gives the errors. An
+estimate is kept per solid description (:attr:`BooleanShape.area_key`: the solid's parameters,
+face names and the estimate's settings) in memory and, when the shape names a folder
+(``area_cache``; the world gives score4's cache folder), in a small JSON file there, so a solid is
+estimated once, not at every scene build.
 
 Faces are named ``first.<face of A>`` and ``second.<face of B>``; groups ``first``/``second``
 (and ``first.<group of A>``, ...) select all faces of one constituent; ``aliases`` names groups
@@ -22,9 +26,14 @@ proves a whole cell kept, :mod:`score4.world.boolean_layers`).
 
 from __future__ import annotations
 
+import hashlib
+import json
+import os
+import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
+from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
@@ -41,7 +50,11 @@ PROBE = 1e-7  # mm: far above Geant4's tolerance, far below any feature of a det
 AREA_PRECISION = 1e-3
 #: Most rounds of ``n_area`` draws per face for the area estimate.
 MAX_AREA_ROUNDS = 40
+#: Version of the area estimate's method and file (a new one leaves older cached estimates unused).
+AREA_FORMAT = 1
 _EYE = np.eye(3)
+#: Area estimates made in this process, by :attr:`BooleanShape.area_key`.
+_AREAS: dict[str, tuple[dict[str, float], dict[str, float]]] = {}
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,6 +72,8 @@ class BooleanShape(Shape):
         ``G4DisplacedSolid::GetObjectRotation/GetObjectTranslation``).
     n_area
         Draws per constituent face for the area estimate.
+    area_cache
+        Folder where area estimates are kept between processes (None: in memory only).
     """
 
     operation: Literal["union", "subtraction", "intersection"]
@@ -67,6 +82,7 @@ class BooleanShape(Shape):
     transform: Transform = field(default_factory=Transform)
     n_area: int = 50_000
     aliases: tuple[str, ...] = ()
+    area_cache: Path | None = field(default=None, compare=False, repr=False)
     kind = "BooleanShape"
 
     def __post_init__(self) -> None:
@@ -150,7 +166,40 @@ class BooleanShape(Shape):
         return ShapeSample(pos, normal, s.face + offset), out
 
     @cached_property
+    def area_key(self) -> str:
+        """Key of this solid's area estimate: its description (constituents, placement, face
+        names) and the estimate's settings."""
+        text = json.dumps(
+            {
+                "format": AREA_FORMAT,
+                "shape": self.to_dict(),
+                "faces": list(self.faces),
+                "n_area": self.n_area,
+                "precision": AREA_PRECISION,
+                "rounds": MAX_AREA_ROUNDS,
+            },
+            sort_keys=True,
+            default=str,
+        )
+        return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+    @cached_property
     def _area_estimate(self) -> tuple[dict[str, float], dict[str, float]]:
+        """:meth:`_estimate_areas`, once per :attr:`area_key` (in memory, and in
+        ``area_cache`` when given)."""
+        key = self.area_key
+        if key in _AREAS:
+            return _AREAS[key]
+        path = None if self.area_cache is None else Path(self.area_cache) / f"{key}.json"
+        found = _read_areas(path, self.faces) if path is not None else None
+        if found is None:
+            found = self._estimate_areas()
+            if path is not None:
+                _write_areas(path, found)
+        _AREAS[key] = found
+        return found
+
+    def _estimate_areas(self) -> tuple[dict[str, float], dict[str, float]]:
         """Per face: draws in rounds of ``n_area`` until the standard error is at most
         :data:`AREA_PRECISION` of the face's area (or of the solid's area, for a sliver), at
         most :data:`MAX_AREA_ROUNDS` rounds."""
@@ -310,3 +359,37 @@ class BooleanFaceSampler:
             )
         order = rng.permutation(len(out.face))[:n]  # mix the parts
         return ShapeSample(out.position[order], out.normal[order], out.face[order])
+
+
+def _read_areas(
+    path: Path, faces: Sequence[str]
+) -> tuple[dict[str, float], dict[str, float]] | None:
+    """An area estimate kept by :func:`_write_areas` (None if absent, unreadable or not for
+    these faces)."""
+    try:
+        data = json.loads(path.read_text())
+        areas = {str(k): float(v) for k, v in data["areas"].items()}
+        errors = {str(k): float(v) for k, v in data["errors"].items()}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return None
+    if data.get("format") != AREA_FORMAT or set(areas) != set(faces) or set(errors) != set(faces):
+        return None
+    return areas, errors
+
+
+def _write_areas(path: Path, found: tuple[dict[str, float], dict[str, float]]) -> None:
+    """Keep an area estimate in ``path`` (written whole or not at all; a folder that cannot be
+    written leaves the estimate in memory only)."""
+    text = json.dumps({"format": AREA_FORMAT, "areas": found[0], "errors": found[1]})
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".partial", dir=path.parent)
+        try:
+            with os.fdopen(fd, "w") as f:
+                f.write(text)
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+    except OSError:
+        pass

@@ -340,16 +340,27 @@ class G4Tubs(RevolvedShape):
         return _cone_contour(self.rmin, self.rmax, self.rmin, self.rmax, self.dz)
 
     def trimmed(self, cuts: dict[str, float]) -> tuple[Shape, np.ndarray] | None:
-        """Shorter along z for cuts behind the end faces ``+z``/``-z`` (None for others)."""
-        if set(cuts) - {"+z", "-z"}:
+        """Shorter along z for cuts behind the end faces ``+z``/``-z``, thinner for cuts behind
+        the walls ``outer`` (rmax less the cut) and ``inner`` (rmin more); None for others."""
+        if set(cuts) - {"+z", "-z", "outer", "inner"} or ("inner" in cuts and self.rmin == 0):
             return None
         lo_z, hi_z = -self.dz, self.dz
+        rmin, rmax = self.rmin + cuts.get("inner", 0.0), self.rmax - cuts.get("outer", 0.0)
+        if rmin >= rmax:
+            walls = " and ".join(
+                f"{cuts[w] * 1e3:.4g} um behind face {w}" for w in ("outer", "inner") if w in cuts
+            )
+            raise ConfigError(
+                f"G4Tubs: a cut of {walls} leaves no wall: the tube is "
+                f"{(self.rmax - self.rmin) * 1e3:.4g} um thick (rmax - rmin); the cut must be "
+                "thinner"
+            )
         for name, depth in cuts.items():
             if name == "+z":
                 hi_z -= depth
-            else:
+            elif name == "-z":
                 lo_z += depth
-        shorter = G4Tubs(self.rmin, self.rmax, (hi_z - lo_z) / 2, self.sphi, self.dphi)
+        shorter = G4Tubs(rmin, rmax, (hi_z - lo_z) / 2, self.sphi, self.dphi)
         return shorter, np.array([0.0, 0.0, (hi_z + lo_z) / 2])
 
 
@@ -379,6 +390,29 @@ class G4Cons(RevolvedShape):
 
     def contour(self) -> tuple[np.ndarray, list[str]]:
         return _cone_contour(self.rmin1, self.rmax1, self.rmin2, self.rmax2, self.dz)
+
+    def trimmed(self, cuts: dict[str, float]) -> tuple[Shape, np.ndarray] | None:
+        """The G4Cons with the faces ``cuts`` names moved inward by their depths: a wall's
+        radii at both ends moved so that the wall moves by the depth along its normal, an end
+        face moved along z (:meth:`cut_contour`; a cone closing to a point gets shorter); the
+        shift of its centre along z. None for a phi cut."""
+        cut = self.cut_contour(cuts)
+        if cut is None:
+            return None
+        poly = cut[0]
+        z0, z1 = float(poly[:, 1].min()), float(poly[:, 1].max())
+        tol = 1e-12 * max(float(np.abs(poly).max()), 1.0)
+        low, high = poly[np.abs(poly[:, 1] - z0) <= tol, 0], poly[np.abs(poly[:, 1] - z1) <= tol, 0]
+        shape = G4Cons(
+            float(low.min()),
+            float(low.max()),
+            float(high.min()),
+            float(high.max()),
+            (z1 - z0) / 2,
+            self.sphi,
+            self.dphi,
+        )
+        return shape, np.array([0.0, 0.0, (z0 + z1) / 2])
 
 
 # --------------------------------------------------------------------------------------------

@@ -110,6 +110,66 @@ def _sample_rz(rng: np.random.Generator, poly: np.ndarray, n: int) -> np.ndarray
     return out[:n]
 
 
+def offset_contour(
+    poly: np.ndarray, names: list[str], cuts: dict[str, float], what: str
+) -> tuple[np.ndarray, list[int]]:
+    """The contour with each named edge moved inward (against its outward normal) by
+    ``cuts[name]`` mm: every corner is where the lines of its two edges (moved or not) meet, so
+    a neighbour of a moved edge keeps its line and gets shorter or longer. Where two edges in
+    one line (a face divided by cuts) move by different depths, a step joins them. Returns the
+    new corners and, for each old edge, the index of its new edge. ConfigError (after
+    ``what``) when an edge would vanish or turn round, a radius would fall below 0 or the
+    contour would cross itself."""
+    a, b, normal = _edges(poly)
+    n = len(poly)
+    depth = np.array([cuts.get(name, 0.0) if name else 0.0 for name in names])
+    scale = max(float(np.abs(poly).max()), 1.0)
+    corners: list[np.ndarray] = []
+    first: list[int] = []  # index of the first new corner of each old corner
+    for k in range(n):
+        i, j = (k - 1) % n, k  # edge i ends at corner k, edge j starts there
+        first.append(len(corners))
+        if depth[i] == 0 and depth[j] == 0:
+            corners.append(poly[k].copy())
+            continue
+        di, dj = b[i] - a[i], b[j] - a[j]
+        den = di[0] * dj[1] - di[1] * dj[0]
+        if abs(den) <= 1e-12 * float(np.hypot(*di) * np.hypot(*dj)):  # one line
+            pi, pj = poly[k] - depth[i] * normal[i], poly[k] - depth[j] * normal[j]
+            corners += [pi] if depth[i] == depth[j] else [pi, pj]
+            continue
+        # the moved lines: normal . p = normal . a - depth
+        m = np.array([normal[i], normal[j]])
+        h = np.array([normal[i] @ a[i] - depth[i], normal[j] @ a[j] - depth[j]])
+        corners.append(np.linalg.solve(m, h))
+    out = np.array(corners)
+    # old edge k runs from the last new corner of corner k to the first of corner k + 1
+    last = [(first[k + 1] - 1) if k + 1 < n else len(corners) - 1 for k in range(n)]
+    for k in range(n):
+        s, e = out[last[k]], out[first[(k + 1) % n]]
+        d_old, d_new = b[k] - a[k], e - s
+        if names[k] and (d_new @ d_old <= 1e-9 * scale * float(np.hypot(*d_old))):
+            moved = [names[m] for m in ((k - 1) % n, (k + 1) % n, k) if depth[m] > 0]
+            raise ConfigError(
+                f"{what}: a cut of {max(depth) * 1e3:.4g} um behind face {moved[0]} leaves no "
+                f"face {names[k]} ({float(np.hypot(*d_old)):.4g} mm long); a face next to an "
+                "into face must be longer than the cut moves its end"
+            )
+    if (out[:, 0] < -1e-9 * scale).any():
+        raise ConfigError(
+            f"{what}: the cut moves a corner of the (r, z) contour to r = "
+            f"{float(out[:, 0].min()):.4g} mm, past the axis; the cut must be thinner than the "
+            "solid"
+        )
+    out[:, 0] = np.maximum(out[:, 0], 0.0)
+    if _plane._self_crossing(out):
+        raise ConfigError(
+            f"{what}: the cut makes the (r, z) contour cross itself; the cut must be thinner "
+            "than the solid is wide there"
+        )
+    return out, last
+
+
 class RevolvedShape(Shape):
     """A solid of revolution: an (r, z) contour swept over ``[sphi, sphi + dphi]``.
 
@@ -129,6 +189,29 @@ class RevolvedShape(Shape):
 
     def _groups(self, names: list[str]) -> dict[str, tuple[str, ...]]:
         return {}
+
+    def cut_contour(self, cuts: dict[str, float]) -> tuple[np.ndarray, list[int]] | None:
+        """The (r, z) contour with the faces ``cuts`` names moved inward by their depths
+        (:func:`offset_contour`) and the new edge of each old one; None when a cut names no
+        face swept from the contour (a phi cut)."""
+        poly, names = self.contour()
+        a, b, _ = _edges(poly)
+        names = ["" if (a[i, 0] == 0 and b[i, 0] == 0) else n for i, n in enumerate(names)]
+        if set(cuts) - {n for n in names if n}:
+            return None
+        return offset_contour(poly, names, cuts, self.kind)
+
+    def cut_face(self, name: str, cuts: dict[str, float]) -> Revolved:
+        """Face ``name`` of the solid cut by ``cuts`` (see :meth:`cut_contour`), as a patch
+        (``.as_face(name)``)."""
+        poly, names = self.contour()
+        cut = self.cut_contour(cuts)
+        assert cut is not None
+        new, edge_of = cut
+        k = names.index(name)
+        e = edge_of[k]
+        normal = _edges(poly)[2][k]
+        return Revolved(0, new[e], new[(e + 1) % len(new)], self.sphi, self.dphi, normal)
 
     def _build(self):
         poly, names = self.contour()
@@ -311,6 +394,11 @@ class G4Polycone(_ContourShape):
     def canonical(self) -> np.ndarray:
         return _planes_contour(self.z, self.rmin, self.rmax, "G4Polycone")
 
+    def trimmed(self, cuts: dict[str, float]) -> tuple[Shape, np.ndarray] | None:
+        """A G4GenericPolycone of the contour with the faces ``cuts`` names moved inward
+        (:meth:`cut_contour`); None for a phi cut."""
+        return _cut_polycone(self, cuts)
+
 
 @dataclass(frozen=True)
 class G4GenericPolycone(_ContourShape):
@@ -341,6 +429,11 @@ class G4GenericPolycone(_ContourShape):
 
     def canonical(self) -> np.ndarray:
         return _plane.canonical_contour(np.array(self.r), np.array(self.z), "G4GenericPolycone")
+
+    def trimmed(self, cuts: dict[str, float]) -> tuple[Shape, np.ndarray] | None:
+        """A G4GenericPolycone of the contour with the faces ``cuts`` names moved inward
+        (:meth:`cut_contour`); None for a phi cut."""
+        return _cut_polycone(self, cuts)
 
 
 class _PolyhedraBase(_ContourShape):
@@ -489,3 +582,14 @@ class G4GenericPolyhedra(_PolyhedraBase):
     def canonical(self) -> np.ndarray:
         apothem = np.array(self.r) * math.cos(0.5 * self.dphi / self.nsides)
         return _plane.canonical_contour(apothem, np.array(self.z), "G4Polyhedra")
+
+
+def _cut_polycone(
+    shape: G4Polycone | G4GenericPolycone, cuts: dict[str, float]
+) -> tuple[Shape, np.ndarray] | None:
+    cut = shape.cut_contour(cuts)
+    if cut is None:
+        return None
+    poly = cut[0]
+    r, z = _as_tuple(poly[:, 0]), _as_tuple(poly[:, 1])
+    return G4GenericPolycone(shape.sphi, shape.dphi, r, z), np.zeros(3)

@@ -277,7 +277,7 @@ class FlatRemainderSampler:
             lu, lv = layer.frame.size
             self.area = float(lu * lv - rough_cells * px * py)
             return
-        self.rmin, self.rmax = ring.rmin, ring.rmax
+        self.rmin, self.rmax = layer.rest_radii or (ring.rmin, ring.rmax)
         self.area = float(np.pi * (self.rmax**2 - self.rmin**2) - rough_cells * px * py)
 
     def sample(self, rng: np.random.Generator, n: int) -> SurfaceSample:

@@ -81,6 +81,8 @@ def auto_block_cells(surface: Surface) -> int:
     ~AUTO_BLOCK_FACETS top facets a block, at most ~AUTO_MAX_BLOCKS blocks a patch, whatever
     the size of the face the patch is tiled over.
     """
+    if surface.quad_cells is not None:
+        return surface.quad_cells  # a simplified map's quads never cross its blocks' edges
     ny, nx = cell_shape(surface)
     per_cell = surface.top_mesh.n_faces / (nx * ny)
     cells = max(1, round(float(np.sqrt(AUTO_BLOCK_FACETS / per_cell))))
@@ -112,6 +114,17 @@ def block_edges(
     return np.arange(0, n_cells + 1, block_cells, dtype=np.int64)
 
 
+def surface_block_edges(surface: Surface, block_cells: int | None) -> tuple[np.ndarray, np.ndarray]:
+    """Cell indices where the surface's blocks start along x and along y (:func:`block_edges`);
+    a simplified map's blocks start at multiples of its quad side (the last one may be short)."""
+    ny, nx = cell_shape(surface)
+    q = surface.quad_cells
+    if q is not None:
+        return np.r_[np.arange(0, nx, q), nx], np.r_[np.arange(0, ny, q), ny]
+    auto = auto_block_cells(surface)
+    return block_edges(nx, block_cells, "x", auto), block_edges(ny, block_cells, "y", auto)
+
+
 def check_patch(surface: Surface, kind: str, block_cells: int | None) -> None:
     """Refuse, before any Geant4 work, a patch too large to build or blocks that do not fit.
 
@@ -126,8 +139,16 @@ def check_patch(surface: Surface, kind: str, block_cells: int | None) -> None:
         raise ConfigError(
             f"surface: {nx} x {ny} cells give {mesh.n_faces} facets, above the limit of "
             f"{MAX_PATCH_FACETS} facets per patch (~{MAX_PATCH_FACETS * FACET_BYTES / 1e9:.0f} GB "
-            "of Geant4 memory); crop the map (crop_x, crop_y) or resample it on a coarser grid "
-            "(resample_pitch)"
+            "of Geant4 memory); crop the map (crop_x, crop_y), resample it on a coarser grid "
+            "(resample_pitch) or give the surface a tolerance (a length: the mesh's largest "
+            "vertical error)"
+        )
+    if kind == "blocks" and surface.quad_cells is not None and block_cells is not None:
+        raise ConfigError(
+            f"block_cells: {block_cells} is not allowed on a simplified height map (tolerance "
+            f"{surface.mesh_tolerance * 1e3:.4g} um): its blocks are its quads of "
+            f"{surface.quad_cells} x {surface.quad_cells} pixels; leave block_cells out or set "
+            "the surface's tolerance: 0"
         )
     if kind == "blocks":
         ny, nx = cell_shape(surface)
@@ -148,9 +169,8 @@ def iter_split_top(surface: Surface, block_cells: int | None = None) -> Iterator
     """:func:`split_top` one block at a time (the patch is checked before the first)."""
     check_patch(surface, "blocks", block_cells)
     mesh = surface.top_mesh
-    ny, nx = cell_shape(surface)
-    auto = auto_block_cells(surface)
-    ex, ey = block_edges(nx, block_cells, "x", auto), block_edges(ny, block_cells, "y", auto)
+    nx = cell_shape(surface)[1]
+    ex, ey = surface_block_edges(surface, block_cells)
     cell = mesh.facet
     assert cell is not None  # surface meshes carry the cell of each face
     ci, cj = cell % nx, cell // nx

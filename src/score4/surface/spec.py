@@ -21,7 +21,14 @@ from pathlib import Path
 from typing import Annotated, ClassVar, Literal
 
 import numpy as np
-from pydantic import Field, TypeAdapter, ValidationError, model_validator
+from pydantic import (
+    BeforeValidator,
+    Field,
+    PlainSerializer,
+    TypeAdapter,
+    ValidationError,
+    model_validator,
+)
 
 from score4.common import limits
 from score4.common.schema import (
@@ -32,6 +39,7 @@ from score4.common.schema import (
     PositiveLength,
     StrictModel,
     describe_validation_error,
+    quantity,
 )
 from score4.common.yamlfile import load_yaml
 
@@ -40,8 +48,43 @@ from .heightmap import HeightMap
 from .processing import close_periodic, crop, fill_missing, level_plane, resample
 from .random import random_surface
 from .readers import TEXT_FORMATS, format_of, read_topography
+from .simplify import simplified_blocks
 from .spikes import SpikeGrid
 from .triangle_mesh import TriangleMesh, closed_body, from_heightmap
+
+#: ``tolerance: auto`` keeps a height map's mesh exact up to this many triangles (a map of up to
+#: ~500 x 500 pixels, every example and test map: their results do not change); above it the
+#: tolerance is the rule issue 24 set for rough layers on curved faces: 1 % of the map's height
+#: (peak to valley) or 0.1 um, whichever is larger. A 1024 x 1024 map's 2.1 M exact triangles
+#: cost ~30 s and ~1.7 GB to build in Geant4 (docs/surfaces.md).
+AUTO_EXACT_FACETS = 500_000
+#: The smallest automatic tolerance, mm (0.1 um).
+AUTO_MIN_TOLERANCE = 1e-4
+#: The automatic tolerance's share of the map's height (peak to valley).
+AUTO_HEIGHT_SHARE = 0.01
+
+
+def _tolerance(value: object) -> float | str:
+    """A map's ``tolerance``: ``auto``, 0 (the exact mesh) or a length, mm."""
+    if value == "auto":
+        return "auto"
+    if not isinstance(value, bool) and isinstance(value, (int, float, str)) and value in (0, "0"):
+        return 0.0
+    try:
+        return quantity(value, "length", "tolerance", non_negative=True)
+    except ConfigError as err:
+        raise ValueError(
+            f"{str(err).removeprefix('tolerance: ')}; give a length such as '0.1 um', 0 (the "
+            "exact mesh) or auto"
+        ) from None
+
+
+#: ``tolerance:`` of a height map (:attr:`Surface.mesh_tolerance`); stored with its unit.
+Tolerance = Annotated[
+    float | str,
+    BeforeValidator(_tolerance),
+    PlainSerializer(lambda v: v if v == "auto" else f"{v!r} mm", when_used="json"),
+]
 
 #: Height-map samples per spike cell and axis used to picture and measure a spike grid as a map.
 SPIKE_MAP_SAMPLES = 16
@@ -118,6 +161,9 @@ class RandomSurfaceSpec(StrictModel):
     kurtosis: float = 3.0
     periodic: bool = True  # tiles join without steps
     seed: int = Field(0, ge=0)
+    # the largest vertical error of the map's mesh: 0 the exact mesh, "auto" the rule of
+    # Surface.mesh_tolerance (score4.surface.simplify)
+    tolerance: Tolerance = "auto"
 
     @model_validator(mode="after")
     def _model_parameters(self) -> RandomSurfaceSpec:
@@ -160,6 +206,9 @@ class MeasuredSurfaceSpec(StrictModel):
     crop_y: tuple[Length, Length] | None = None
     resample_pitch: PositiveLength | None = None
     fill_missing: bool = False  # fill NaN points (Laplace interpolation) instead of refusing them
+    # the largest vertical error of the map's mesh: 0 the exact mesh, "auto" the rule of
+    # Surface.mesh_tolerance (score4.surface.simplify)
+    tolerance: Tolerance = "auto"
 
     def option_values(self, key: str, root) -> tuple[object, ...] | None:
         """``format`` not given is the file's extension (None if that names no format)."""
@@ -285,15 +334,45 @@ class Surface:
         return g.to_heightmap((g.width_x / SPIKE_MAP_SAMPLES, g.width_y / SPIKE_MAP_SAMPLES))
 
     @cached_property
+    def mesh_tolerance(self) -> float:
+        """Largest vertical distance (mm) between a map sample and :attr:`top_mesh`: 0 for an
+        exact mesh (spike grids always; maps with ``tolerance: 0`` or small enough for ``auto``).
+        """
+        t = getattr(self.spec, "tolerance", 0.0)
+        if self.heightmap is None or t == 0:
+            return 0.0
+        if t != "auto":
+            return float(t)
+        ny, nx = self.placed_map.shape
+        if 2 * (nx - 1) * (ny - 1) <= AUTO_EXACT_FACETS:
+            return 0.0
+        return max(AUTO_HEIGHT_SHARE * self.max_height, AUTO_MIN_TOLERANCE)
+
+    @cached_property
+    def quad_cells(self) -> int | None:
+        """A simplified map's largest quad side, pixels, which is also its block side
+        (:mod:`score4.surface.simplify`); None for an exact mesh."""
+        return self._simplified[1]
+
+    @cached_property
+    def _simplified(self) -> tuple[TriangleMesh | None, int | None]:
+        if not self.mesh_tolerance > 0:
+            return None, None
+        return simplified_blocks(self.placed_map, self.mesh_tolerance)
+
+    @cached_property
     def top_mesh(self) -> TriangleMesh:
-        """The exact triangle mesh of the rough top (shared by geometry, sampling and metrology)."""
-        return (
-            self.spikes.top_mesh() if self.spikes is not None else from_heightmap(self.placed_map)
-        )
+        """The triangle mesh of the rough top (shared by geometry, sampling and metrology):
+        exact, or a height map's simplified mesh within :attr:`mesh_tolerance` of every sample."""
+        if self.spikes is not None:
+            return self.spikes.top_mesh()
+        mesh = self._simplified[0]
+        return from_heightmap(self.placed_map) if mesh is None else mesh
 
     def height_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Exact height of :attr:`top_mesh` above the base plane at (x, y), mm (points clipped to
-        the patch)."""
+        """Height above the base plane at (x, y), mm (points clipped to the patch): of
+        :attr:`top_mesh` exactly for spikes and exact maps; the map's exact mesh (within
+        :attr:`mesh_tolerance` of the simplified one) otherwise."""
         if self.spikes is not None:
             return self.spikes.height_at(x, y)
         hm = self.placed_map

@@ -1,9 +1,10 @@
 """Rough layers on faces of boolean solids (G4UnionSolid, G4SubtractionSolid,
-G4IntersectionSolid; numpy, no Geant4).
+G4IntersectionSolid; numpy, no Geant4), and :func:`target_layers`, the one entry point that
+makes the layers of a rough entry on any target.
 
 A face of a boolean is a face of one *leaf* solid (a box, tube, polycone, ...) cut by the other
 solids (:meth:`score4.shapes.BooleanShape.face_clip`). Its layer is laid out on the leaf's whole
-face as on any solid (:func:`score4.world.scene.make_layers`: a flat face, a cylinder or cone
+face as on any solid (:func:`target_layers`: a flat face, a cylinder or cone
 wall), and a cell keeps its patch only when the whole cell is proven on the boolean's surface:
 the cutting solids' signed distances bound how far the kept part of the face reaches from a
 point (:meth:`score4.shapes.boolean.FaceClip.margin`), so a cell whose centre lies deeper in the
@@ -14,9 +15,14 @@ left unproven stays flat. The flat rest of the face
 (:class:`score4.source.build.BooleanRemainderSampler`); ``rough_shares`` reports the rough share
 of the boolean's face, whose area is estimated (:attr:`BooleanShape.face_area_errors`).
 
+The wall of a subtracted G4Tubs (a bore) faces the other way than the tube's: its layer is laid
+out as on the opposite wall of a tube beside it (:func:`turned_wall`: the bore is the ``inner``
+wall of a tube whose inner radius is the cylinder's), cut along the axis to where the boolean
+can be, so the layer lies in the bore and its shell ends where the solid does.
+
 Refused, in one line each: ``into: true``, ``tiling: portal`` and ``native_layout: replicas``;
-a face of a subtracted solid that is curved (its layer would lie inside the cut: flat faces of a
-subtracted solid work); a face of a solid made of flat facets in several planes; a layer whose
+a curved face of a subtracted solid other than a G4Tubs wall (cones, spheres); a face of a solid
+made of flat facets in several planes; a layer whose
 envelope runs into the solid itself (a face partly covered by another part of a union, or whose
 envelope leaves a cut); steps and activeness (no distance to such a layer's rough surface yet).
 """
@@ -29,13 +35,13 @@ import numpy as np
 
 from score4.errors import ConfigError
 from score4.inputs.config import RoughFace
-from score4.shapes import BooleanShape
+from score4.shapes import BooleanShape, G4Tubs, Shape, Transform
 from score4.shapes.base import INSIDE
 from score4.shapes.boolean import FaceClip
 from score4.shapes.faces import PlaneFace, SphereFace
 from score4.surface.spec import Surface
 
-from .facets import ccw
+from .facets import ccw, face_triangles, plane_face, plane_groups
 from .scene import (
     BooleanFace,
     CurvedRoughLayer,
@@ -43,7 +49,8 @@ from .scene import (
     PolygonRoughLayer,
     RoughLayer,
     TargetVolume,
-    make_layers,
+    make_layer,
+    make_polygon_layer,
 )
 
 #: Halvings of a cell when its centre's margin does not prove it whole (a cell cut by the
@@ -60,27 +67,55 @@ def target_layers(
     rough: RoughFace,
     where: str | None = None,
 ) -> list[RoughLayer]:
-    """The rough layers of ``rough`` on ``target``: :func:`boolean_layers` on a boolean solid,
-    :func:`score4.world.scene.make_layers` otherwise."""
-    if isinstance(target.shape, BooleanShape):
-        return boolean_layers(surfaces, target, j, rough, where)
-    return make_layers(surfaces, target, j, rough, where)
-
-
-def boolean_layers(
-    surfaces: dict[str, Surface],
-    target: TargetVolume,
-    j: int,
-    rough: RoughFace,
-    where: str | None = None,
-) -> list[RoughLayer]:
-    """The rough layer on face ``rough.face`` of a target whose solid is a boolean (see the
-    module docstring)."""
+    """The rough layers of ``rough`` on ``target``: on a boolean solid, the one layer on face
+    ``rough.face`` (see the module docstring); on other solids one
+    (:func:`score4.world.scene.make_layer`), or one per plane of a face made of flat facets in
+    several planes (the ``nsides`` sides of a G4Polyhedra face, the planes of a tessellated
+    mesh: :func:`score4.world.facets.plane_groups`)."""
     where = where or f"targets.{target.entry}.rough.{j}"
+    shape = target.shape
+    if isinstance(shape, BooleanShape):
+        clip, leaf_target, leaf_rough, placed = _leaf(target, rough, where)
+        try:
+            layers = target_layers(surfaces, leaf_target, j, leaf_rough, where)
+        except ConfigError as err:
+            seen = "" if leaf_rough.face == clip.face else ", turned: the wall of a solid beside it"
+            raise ConfigError(
+                f"{err} (face {rough.face_name} of the {target.solid} is face {clip.face} of its "
+                f"{clip.leaf.kind}{seen})"
+            ) from None
+        return [_on_boolean(layers, target, rough, clip, placed, where)]
+    if shape is not None and isinstance(rough.face, str) and rough.face in shape.faces:
+        groups = plane_groups(face_triangles(shape, rough.face))
+        if len(groups) > 1:
+            names = [v.surface for v in rough.variant_list]
+            variants = [surfaces[n] for n in names]
+            size = (variants[0].size_x, variants[0].size_y)
+            layer = make_layer(surfaces, target, j, rough, where, groups[0], 0)
+            out: list[RoughLayer] = [layer]
+            for k, tris in enumerate(groups[1:], start=1):
+                face = plane_face(rough.face_name, tris)
+                out.append(
+                    make_polygon_layer(target, rough, face, names, variants, size, where, tris, k)
+                )
+            return out
+    return [make_layer(surfaces, target, j, rough, where)]
+
+
+def _what(target: TargetVolume, rough: RoughFace) -> str:
+    return f"face {rough.face_name} of {target.name!r} (a {target.solid})"
+
+
+def _leaf(
+    target: TargetVolume, rough: RoughFace, where: str
+) -> tuple[FaceClip, TargetVolume, RoughFace, Transform]:
+    """Where the layer on a boolean's face goes: the face's clip, the leaf solid as a target
+    (a subtracted tube's wall turned: :func:`turned_wall`), the entry on the leaf's face, and the
+    leaf's frame in the boolean's; one-line errors for what boolean layers refuse."""
     shape = target.shape
     assert isinstance(shape, BooleanShape)
     name = rough.face_name
-    what = f"face {name} of {target.name!r} (a {target.solid})"
+    what = _what(target, rough)
     try:
         clip = shape.face_clip(name)
     except ConfigError as err:
@@ -105,31 +140,47 @@ def boolean_layers(
             f"{where}: {what} is the sphere face {clip.face} of a {clip.leaf.kind}; rough faces "
             "of a boolean are flat faces and cylinder or cone walls"
         )
-    if clip.flipped and not isinstance(clip.leaf.face(clip.face), PlaneFace):
-        raise ConfigError(
-            f"{where}: {what} is the curved face {clip.face} of a subtracted "
-            f"{clip.leaf.kind}; rough faces of a subtracted solid are its flat faces"
-        )
-    leaf_target = replace(
-        target, shape=clip.leaf, transform=target.transform @ clip.transform, exclude=()
-    )
-    leaf_rough = rough.model_copy(update={"face": clip.face})
-    try:
-        layers = make_layers(surfaces, leaf_target, j, leaf_rough, where)
-    except ConfigError as err:
-        raise ConfigError(
-            f"{err} (face {name} of the {target.solid} is face {clip.face} of its {clip.leaf.kind})"
-        ) from None
+    leaf, face, placed = clip.leaf, clip.face, clip.transform
+    if clip.flipped and not isinstance(leaf.face(face), PlaneFace):
+        lo, hi = shape.bounding_box()
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                            for z in (lo[2], hi[2])])  # fmt: skip
+        z = clip.transform.inverse_apply(corners)[:, 2]
+        turned = turned_wall(leaf, face, (float(z.min()), float(z.max())))
+        if turned is None:
+            raise ConfigError(
+                f"{where}: {what} is the curved face {face} of a subtracted {leaf.kind}; rough "
+                "curved faces of a subtracted solid are the walls of a G4Tubs"
+            )
+        leaf, face, shift = turned
+        placed = clip.transform @ Transform(np.eye(3), shift)
+    leaf_target = replace(target, shape=leaf, transform=target.transform @ placed, exclude=())
+    return clip, leaf_target, rough.model_copy(update={"face": face}), placed
+
+
+def _on_boolean(
+    layers: list[RoughLayer],
+    target: TargetVolume,
+    rough: RoughFace,
+    clip: FaceClip,
+    placed: Transform,
+    where: str,
+) -> RoughLayer:
+    """The layer laid out on the leaf's face (``layers``), turned to the boolean's side, with
+    only the cells proven on the boolean's surface kept (:func:`kept_cells`)."""
+    shape = target.shape
+    assert isinstance(shape, BooleanShape)
+    name, what = rough.face_name, _what(target, rough)
     if len(layers) != 1:
         raise ConfigError(
             f"{where}: {what} is face {clip.face} of a {clip.leaf.kind} in {len(layers)} planes; "
             "rough faces of a boolean are faces of one plane or of revolution"
         )
     layer = layers[0]
-    if clip.flipped:
+    if clip.flipped and not isinstance(layer, CurvedRoughLayer):
         _flip(layer)
     on = BooleanFace(shape, name, clip, target.transform)
-    kept = kept_cells(layer, clip, on)
+    kept = kept_cells(layer, clip, on, placed)
     layer.mask = kept
     if not kept.any():
         px, py = layer.patch_size
@@ -138,10 +189,35 @@ def boolean_layers(
             f"{what} that lies on the solid's surface"
         )
     layer.config = rough
-    layer.face_area = area
+    layer.face_area = float(shape.face_areas[name])
     layer.on_boolean = on
     _check_own_solid(layer, on, where, what)
-    return [layer]
+    return layer
+
+
+def turned_wall(
+    leaf: Shape, face: str, extent: tuple[float, float]
+) -> tuple[Shape, str, np.ndarray] | None:
+    """The wall ``face`` of a subtracted G4Tubs as the opposite wall of a tube beside it, whose
+    outward normal is the boolean's (the bore a subtracted cylinder leaves is the ``inner`` wall
+    of a tube whose inner radius is the cylinder's; a subtracted tube's ``inner`` wall is the
+    ``outer`` wall of a full cylinder), cut to ``extent`` (z range, leaf frame: where the
+    boolean can be, so the layer's shell ends where the solid does), and the shift of its origin
+    in the leaf's frame; None for other solids and faces."""
+    if not isinstance(leaf, G4Tubs) or face not in ("outer", "inner"):
+        return None
+    if face == "outer":
+        turned, name = replace(leaf, rmin=leaf.rmax, rmax=2 * leaf.rmax), "inner"
+    elif leaf.rmin > 0:
+        turned, name = replace(leaf, rmin=0.0, rmax=leaf.rmin), "outer"
+    else:
+        return None
+    lo, hi = max(extent[0], -leaf.dz), min(extent[1], leaf.dz)
+    if not hi > lo:
+        return None
+    cut = turned.trimmed({"-z": lo + leaf.dz, "+z": leaf.dz - hi})
+    assert cut is not None  # a G4Tubs is cut along z
+    return cut[0], name, cut[1]
 
 
 def _flip(layer: RoughLayer) -> None:
@@ -185,9 +261,12 @@ def _certify(centres, half_u, half_v, point, bound, margin) -> np.ndarray:
     return ok
 
 
-def kept_cells(layer: RoughLayer, clip: FaceClip, on: BooleanFace) -> np.ndarray:
+def kept_cells(
+    layer: RoughLayer, clip: FaceClip, on: BooleanFace, placed: Transform | None = None
+) -> np.ndarray:
     """The layer's cells (``(ny, nx)``) that hold a patch and lie wholly on the boolean's
-    surface."""
+    surface (``placed``: the frame of a curved layer's solid in the boolean's, by default the
+    leaf's, ``clip.transform``)."""
     base = layer.cell_variants >= 0
     rows, cols = np.nonzero(base)
     px, py = layer.patch_size
@@ -199,7 +278,7 @@ def kept_cells(layer: RoughLayer, clip: FaceClip, on: BooleanFace) -> np.ndarray
         phi = lay.phi_mid + (cols - (lay.count[rows] - 1) / 2) * lay.step[rows]  # cell_phi
         centres = np.column_stack([phi, lay.v[rows]])
         half_u, half_v = lay.step[rows] / 2, np.full(len(rows), py / 2)
-        to_boolean = clip.transform  # the leaf's frame, where the face's points are
+        to_boolean = clip.transform if placed is None else placed  # where the face's points are
 
         def point(uv: np.ndarray) -> np.ndarray:
             return face.point(uv[:, 0], uv[:, 1])

@@ -27,6 +27,7 @@ from functools import cached_property
 import numpy as np
 
 from score4.errors import ConfigError
+from score4.files import cache_dir
 from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig
 from score4.shapes import G4Box as G4BoxShape
 from score4.shapes import G4GenericPolycone, PlacedShape, Shape, Transform, shape_from_dict
@@ -35,6 +36,7 @@ from score4.shapes import G4Sphere as G4SphereShape
 from score4.shapes.boolean import BooleanShape, FaceClip
 from score4.shapes.faces import AnnulusFace, Face, PlaneFace, RevolvedFace, SphereFace
 from score4.shapes.hpge import HPGE_GROUPS, hpge_groups, is_hpge_metadata
+from score4.shapes.revolved import RevolvedShape
 from score4.surface.block_cut import check_patch
 from score4.surface.patchmap import PatchMap, make_patch_map
 from score4.surface.spec import Surface
@@ -58,7 +60,6 @@ from .facets import (
     face_triangles,
     is_convex,
     plane_face,
-    plane_groups,
     point_in_triangles,
     prism_mesh,
     section,
@@ -70,6 +71,10 @@ from .obb import OrientedBox
 #: Points this close (mm) outside a volume's boundary still count as inside (vertices at depth 0
 #: lie exactly on the surface).
 BOUNDARY_TOLERANCE = 1e-9
+
+#: Folder of score4's cache (:func:`score4.files.cache_dir`) where boolean solids' area
+#: estimates are kept (:attr:`score4.shapes.BooleanShape.area_key`).
+BOOLEAN_AREAS = "boolean-areas"
 
 #: Gap between the tips of the highest patch and the top of the layer's envelope, mm (1 nm).
 ENVELOPE_CLEARANCE = 1e-6
@@ -305,6 +310,9 @@ class RoughLayer:
     #: on a face of a boolean solid: the boolean and where its face lies (``target`` is then the
     #: volume seen as the leaf solid that face belongs to, :mod:`score4.world.boolean_layers`)
     on_boolean: BooleanFace | None = field(default=None, kw_only=True)
+    #: with ``into`` on a tube's end face and wall: the radii of the end face's cut ring, where
+    #: its cells and flat rest lie (None: the face's own)
+    rest_radii: tuple[float, float] | None = field(default=None, kw_only=True)
 
     @property
     def name(self) -> str:
@@ -425,6 +433,9 @@ class CurvedRoughLayer(RoughLayer):
     lift: float = 0.0  # the patches' base above the true surface (convex faces), mm
     gap: float = 0.0  # largest distance of the base from the true surface, mm
     top_margin: float = 0.0  # sagitta of the bent tops' facets (concave faces), mm
+    #: with ``into`` on a wall swept around z: the target's shape cut for this layer alone and
+    #: its centre's shift in the target's frame (:meth:`Shape.trimmed`)
+    cut_shape: tuple[Shape, np.ndarray] | None = None
 
     def solid_kind(self, k: int) -> str:
         """``frustums`` for a spike grid on a cylinder or a cone (``solid: auto`` or
@@ -560,10 +571,15 @@ class CurvedRoughLayer(RoughLayer):
         return inside
 
     def in_cut(self, points: np.ndarray) -> np.ndarray:
-        """With ``into`` (a sphere's face): True for world points in the shell cut from the
-        solid, between the layer's face and the solid's face."""
+        """With ``into``: True for world points in the shell cut from the solid, between the
+        layer's face and the solid's face (on a wall of a G4Tubs, G4Cons or polycone: outside
+        the solid cut for this layer, :attr:`cut_shape`)."""
         if not self.config.into:
             return np.zeros(len(points), dtype=bool)
+        if self.cut_shape is not None:  # a wall: outside the solid cut for this layer alone
+            shape, shift = self.cut_shape
+            local = self.target.to_local(np.asarray(points, float).reshape(-1, 3)) - shift
+            return np.asarray(shape.signed_distance(local) > BOUNDARY_TOLERANCE)
         face = self.ring_layout.face
         h = face.locate(self.target.to_local(np.asarray(points, float).reshape(-1, 3)))[2]
         return np.asarray((h > BOUNDARY_TOLERANCE) & (h <= self.thickness + BOUNDARY_TOLERANCE))
@@ -986,6 +1002,8 @@ def gdml_target(
         assert meta is not None  # an HPGe with a cut (legend-pygeom-hpges' P00664B, V02160A):
         # the groups of its polycone, on the boolean's faces
         shape = replace(shape, first=hpge_groups(shape.first, meta), aliases=HPGE_GROUPS)
+    if isinstance(shape, BooleanShape):  # its area estimate, made once per solid
+        shape = replace(shape, area_cache=cache_dir(BOOLEAN_AREAS))
     return TargetVolume(
         column,
         entry,
@@ -1001,35 +1019,6 @@ def gdml_target(
         exclude,
         unknown,
     )
-
-
-def make_layers(
-    surfaces: dict[str, Surface],
-    target: TargetVolume,
-    j: int,
-    rough: RoughFace,
-    where: str | None = None,
-) -> list[RoughLayer]:
-    """The rough layers of ``rough`` on ``target``: one (:func:`make_layer`), or one per plane of
-    a face made of flat facets in several planes (the ``nsides`` sides of a G4Polyhedra face, the
-    planes of a tessellated mesh: :func:`score4.world.facets.plane_groups`)."""
-    shape = target.shape
-    if shape is not None and isinstance(rough.face, str) and rough.face in shape.faces:
-        groups = plane_groups(face_triangles(shape, rough.face))
-        if len(groups) > 1:
-            where = where or f"targets.{target.entry}.rough.{j}"
-            names = [v.surface for v in rough.variant_list]
-            variants = [surfaces[n] for n in names]
-            size = (variants[0].size_x, variants[0].size_y)
-            layer = make_layer(surfaces, target, j, rough, where, groups[0], 0)
-            out: list[RoughLayer] = [layer]
-            for k, tris in enumerate(groups[1:], start=1):
-                face = plane_face(rough.face_name, tris)
-                out.append(
-                    make_polygon_layer(target, rough, face, names, variants, size, where, tris, k)
-                )
-            return out
-    return [make_layer(surfaces, target, j, rough, where)]
 
 
 def rough_faces(target: TargetVolume, rough: RoughFace) -> list[str]:
@@ -1096,6 +1085,17 @@ def make_layer(
     except ConfigError as err:
         raise ConfigError(f"{where}: {err}") from None
     round_face = isinstance(geometry, AnnulusFace)
+    if (
+        rough.into
+        and round_face
+        and isinstance(target.shape, RevolvedShape)
+        and target.shape.kind != "G4Tubs"
+    ):
+        raise ConfigError(
+            f"{where}: into: true on the flat face {rough.face_name} of {target.name!r} (a "
+            f"{target.solid}) is supported on a G4Tubs only (a neighbouring wall that slants "
+            "changes the ring's radii at the cut); put the layer outside the volume (into: false)"
+        )
     if round_face:  # the whole cells of the bounding square, centred
         cells = [max(int(np.floor(frame.size[a] / size[a] * (1 + 1e-9))), 1) for a in (0, 1)]
         frame = FaceFrame(frame.centre, frame.rotation, (cells[0] * size[0], cells[1] * size[1]))
@@ -1150,13 +1150,16 @@ def make_curved_layer(
     """The rough layer on a face swept around z (:mod:`score4.world.curved`)."""
     what = f"face {rough.face_name} of {target.name!r}"
     if rough.into:
-        if not isinstance(face, SphereFace) or not _trimmable(target, rough.face_name):
+        if not _trimmable(target, rough.face_name):
             raise ConfigError(
-                f"{where}: into: true on a curved face ({what}) is supported on the outer and "
-                "inner faces of a G4Sphere or G4Orb only; the layer goes outside the volume "
+                f"{where}: into: true on a curved face ({what}, a {target.solid}) is supported "
+                "on the walls of a G4Tubs, G4Cons, G4Polycone or G4GenericPolycone and the outer "
+                "and inner faces of a G4Sphere or G4Orb only; the layer goes outside the volume "
                 "(into: false)"
             )
-        return _into_sphere(target, rough, face, names, variants, size, where)
+        if isinstance(face, SphereFace):
+            return _into_sphere(target, rough, face, names, variants, size, where)
+        return _into_revolved(target, rough, face, names, variants, size, where)
     if rough.tiling == "portal":
         raise ConfigError(
             f"{where}: tiling portal on a curved face ({what}): a portal's jumps are pure "
@@ -1268,6 +1271,48 @@ def _into_sphere(
     raise ConfigError(f"{where}: into: the layer on {face.name} does not settle on a cut")
 
 
+def _into_revolved(
+    target: TargetVolume,
+    rough: RoughFace,
+    face: RevolvedFace,
+    names: list[str],
+    variants: list[Surface],
+    size: tuple[float, float],
+    where: str,
+    others: dict[str, float] | None = None,
+) -> CurvedRoughLayer:
+    """The layer of ``rough`` cut into a wall of a G4Tubs, G4Cons or polycone (``others``: the
+    cuts of the target's other ``into`` faces, which move the wall's ends): laid out on the
+    wall of the solid cut by the layer's thickness (:meth:`RevolvedShape.cut_contour`: the wall
+    moved inward along its normal, its neighbours' lines kept), its top padded to reach the old
+    face; the cut is taken again until the bent layer (whose lift grows as the radius falls)
+    fits."""
+    outside = rough.model_copy(update={"into": False})
+    shape = target.described("into")
+    assert isinstance(shape, RevolvedShape)  # _trimmable: a G4Tubs, G4Cons or polycone
+    name = rough.face_name
+    cut = make_curved_layer(target, outside, face, names, variants, size, where).thickness
+    for _ in range(4):
+        try:
+            trimmed = shape.trimmed({name: cut})
+            moved = shape.cut_face(name, {**(others or {}), name: cut}).as_face(name)
+        except ConfigError as err:
+            raise ConfigError(
+                f"{where}: into: the layer ({cut * 1e3:.4g} um) on face {name} of "
+                f"{target.name!r}: {err}"
+            ) from None
+        assert trimmed is not None
+        assert isinstance(moved, RevolvedFace)
+        layer = make_curved_layer(target, outside, moved, names, variants, size, where)
+        if layer.thickness <= cut:
+            layer.top_margin += cut - layer.thickness  # the top where the face was
+            layer.config = rough
+            layer.cut_shape = trimmed
+            return layer
+        cut = layer.thickness * (1 + 1e-9)
+    raise ConfigError(f"{where}: into: the layer on {name} does not settle on a cut")
+
+
 def make_polygon_layer(
     target: TargetVolume,
     rough: RoughFace,
@@ -1367,6 +1412,71 @@ def _into_polygon(layer: PolygonRoughLayer, solid: np.ndarray, where: str, what:
     layer.base_outline = ccw(clip_to_convex(layer.outline, cap2d))  # the flat rest lies there
     if not layer.mask.any():
         raise ConfigError(f"{where}: into: no whole patch fits on the cut below {what}")
+
+
+def check_into_edges(scene: Scene, target: TargetVolume) -> None:
+    """Refuse ``into`` on two faces of a solid swept around z that share an edge (a circle of
+    the contour's corner): each layer is laid out on its own cut face, so the two layers
+    would overlap below a convex edge. A full G4Tubs' end face and wall are laid out on their
+    joint cut instead (:func:`_into_tube_corners`)."""
+    shape = target.shape
+    into = {r.config.face_name for r in scene.layers_of(target.name) if r.config.into}
+    swept = ("G4Tubs", "G4Cons", "G4Polycone", "G4GenericPolycone")  # not a polyhedra's planes
+    if len(into) < 2 or not isinstance(shape, RevolvedShape) or shape.kind not in swept:
+        return
+    if shape.kind == "G4Tubs" and shape.full_phi:
+        _into_tube_corners(scene, target)
+        return
+    poly, names = shape.contour()
+    for k, name in enumerate(names):
+        other = names[(k + 1) % len(names)]
+        if name in into and other in into:
+            r, z = poly[(k + 1) % len(poly)]
+            raise ConfigError(
+                f"targets.{target.entry}.rough: into: true on faces {name} and {other} of "
+                f"{target.name!r}, which share an edge (the circle r = {r:.4g} mm at z = "
+                f"{z:.4g} mm): their layers would meet below it; put one of them outside the "
+                "volume (into: false)"
+            )
+
+
+def _into_tube_corners(scene: Scene, target: TargetVolume) -> None:
+    """``into`` on an end face and a wall of a full G4Tubs: the wall's layer is laid out again
+    on the wall shortened by the end faces' cuts, and the end faces' cells and flat rest kept
+    within the ring the walls' cuts leave (the joint cut is a G4Tubs thinner and shorter). The
+    ring of the old volume between the two layers at the edge (the wall's cut x the end's)
+    belongs to neither: it is cut away, like the space between the patches' tips."""
+    shape = target.shape
+    assert isinstance(shape, RevolvedShape)
+    layers = {r.config.face_name: r for r in scene.layers_of(target.name) if r.config.into}
+    ends: dict[str, float] = {f: layers[f].thickness for f in ("+z", "-z") if f in layers}
+    walls: list[str] = [f for f in ("outer", "inner") if f in layers]
+    if not ends or not walls:
+        return
+    where = f"targets.{target.entry}.rough"
+    cuts: dict[str, float] = {}
+    for name in walls:
+        old = layers[name]
+        face = shape.face(name)
+        assert isinstance(face, RevolvedFace)
+        new = _into_revolved(
+            target, old.config, face, old.names, old.variants, old.patch_size, where, ends
+        )
+        scene.layers[scene.layers.index(old)] = new
+        cuts[name] = new.thickness
+    rmin = getattr(shape, "rmin", 0.0) + cuts.get("inner", 0.0)
+    rmax = getattr(shape, "rmax", 0.0) - cuts.get("outer", 0.0)
+    for end in ends:
+        layer = layers[end]
+        ring = AnnulusFace.make(end, [rmin, rmax], 0.0, 1.0, 0.0, 2 * np.pi)
+        assert layer.mask is not None  # a round face
+        layer.mask = layer.mask & ring.covers(layer.patch_map.cell_centres(), layer.patch_size)
+        layer.rest_radii = (rmin, rmax)
+        if not layer.mask.any():
+            raise ConfigError(
+                f"{where}: into: no whole patch fits on face {end} of {target.name!r} within "
+                f"the ring r = {rmin:.4g} .. {rmax:.4g} mm the walls' cuts leave"
+            )
 
 
 def _trimmable(target: TargetVolume, face: str) -> bool:

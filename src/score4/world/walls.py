@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from score4.surface.block_cut import auto_block_cells, block_edges, cell_shape
+from score4.surface.block_cut import cell_shape, surface_block_edges
 
 from .scene import RoughLayer, Scene
 
@@ -43,10 +43,9 @@ def wall_planes(layer: RoughLayer) -> tuple[np.ndarray, np.ndarray]:
         if layer.solid_kind(k) != "blocks":
             continue
         cy, cx = cell_shape(surface)
-        auto = auto_block_cells(surface)
-        cells = layer.config.block_cells
-        ex = block_edges(cx, cells, "x", auto)[1:-1] * (surface.size_x / cx) - surface.size_x / 2
-        ey = block_edges(cy, cells, "y", auto)[1:-1] * (surface.size_y / cy) - surface.size_y / 2
+        bx, by = surface_block_edges(surface, layer.config.block_cells)
+        ex = bx[1:-1] * (surface.size_x / cx) - surface.size_x / 2
+        ey = by[1:-1] * (surface.size_y / cy) - surface.size_y / 2
         u.append((np.unique(centres[..., 0])[:, None] + ex[None, :]).ravel())
         v.append((np.unique(centres[..., 1])[:, None] + ey[None, :]).ravel())
     return np.unique(np.concatenate(u)), np.unique(np.concatenate(v))
