@@ -1,22 +1,24 @@
 """A rough cylinder wall against the same pyramids on a flat face of equal area.
 
     .venv/bin/python benchmarks/bench_curved.py [--radius 40] [--half-length 40] [--events 3000]
-        [--rounds 3] [--cases frustums,tessellated,flat] [--markdown]
+        [--rounds 3] [--cases frustums,tessellated,flat] [--markdown] [--baseline OLD/src]
     .venv/bin/python benchmarks/bench_curved.py --spectra 3000
 
-A silicon G4Tubs (GDML, written with pyg4ometry) with its outer wall rough (10 um pyramids,
-50 x 50 to a 0.5 mm patch, bent onto the wall in rings, score4.world.curved) as bent G4Trds
-(``frustums``, what ``solid: auto`` picks for spike grids on a cylinder) or as one bent
-tessellated body per patch (``tessellated``), and a box of the configuration whose +z face has the
-wall's area, rough with the same pyramids (``flat``: multi-union, ``solid: auto``;
-``flat_tess``: tessellated bodies); ``whole``: the wall and both end faces rough (an HPGe
-crystal's whole surface; alphas from all three faces). Each case runs with ``score4 run`` in a
+A silicon G4Tubs (GDML, written with pyg4ometry) with its outer wall rough (10 um pyramids, 50 x 50
+to a 0.5 mm patch, bent onto the wall in rings, score4.world.curved) as bent G4Trds (``frustums``,
+what ``solid: auto`` picks for spike grids on a cylinder) or as one bent tessellated body per patch
+(``tessellated``), and a box of the configuration whose +z face has the wall's area, rough with the
+same pyramids (``flat``: multi-union, ``solid: auto``; ``flat_tess``: tessellated bodies);
+``whole``: the wall and both end faces rough (an HPGe crystal's whole surface; alphas from all
+three faces); ``bege``: seven faces of a LEGEND BEGe (examples/bege/write_bege.py --metadata),
+``bege_all``: its whole surface (``face: all``: the contact, the rings of the bottom, the groove,
+the tapers, the side and the top; alphas from all of it). Each case runs with ``score4 run`` in a
 child process (5.3 MeV alphas, isotropic, from the rough face, exponential depth of mean 1 um),
 with ``--events 20`` and ``--events N``; the CPU time of the children (``os.wait4``) gives the
-build and start-up (the short run less its events) and the CPU time per event (the difference
-over the extra events); memory is the larger peak resident set of the two children (of the
-largest process of each). The cases run in interleaved rounds; the table gives medians over the
-rounds, the ratio column the median of the per-round ratios to the flat face's CPU per event.
+build and start-up (the short run less its events) and the CPU time per event (the difference over
+the extra events); memory is the larger peak resident set of the two children (of the largest
+process of each). The cases run in interleaved rounds; the table gives medians over the rounds, the
+ratio column the median of the per-round ratios to the flat face's CPU per event.
 
 ``--spectra N`` instead runs N alphas (seed 1) on the wall as bent G4Trds and as bent
 tessellated bodies (one body, two representations) and compares their deposits.
@@ -102,9 +104,8 @@ def write_orb(path: Path, radius: float) -> None:
     writer.write(str(path))
 
 
-#: The BEGe's faces that take rough layers together (the contact disk seg_0a, the ring seg_0b
-#: and the top disk seg_8 are flat layers whose envelope boxes meet their neighbours' layers:
-#: refused by the clearance check).
+#: The BEGe's faces of the ``bege`` case (seven of its ten; ``bege_all``: every face,
+#: ``face: all``).
 BEGE_FACES = ["seg_1", "seg_2", "seg_3", "seg_4", "seg_5", "seg_6", "seg_7"]
 
 CASES = {
@@ -113,6 +114,7 @@ CASES = {
     "cone": "45 degree cone side, bent G4Traps (solid: auto)",
     "cone_tess": "45 degree cone side, bent tessellated bodies",
     "bege": "BEGe, 7 of its 10 faces rough (solid: auto)",
+    "bege_all": "BEGe, its whole surface rough (face: all)",
     "orb": "orb of equal area, whole sphere rough",
     "whole": "whole surface: wall and both ends rough (solid: auto)",
     "flat": "flat face of equal area, multi-union (solid: auto)",
@@ -146,17 +148,18 @@ def configs(folder: Path, radius: float, half_length: float) -> dict[str, dict]:
         }
     write_orb(folder / "orb.gdml", math.sqrt(radius * half_length))  # 4 pi r^2 = the wall's
     out["orb"] = {**out["frustums"], "world": {"gdml": "orb.gdml"}}
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples" / "rough_hpge"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples" / "bege"))
     from write_bege import main as write_bege
 
-    write_bege(str(folder / "bege.gdml"))
-    out["bege"] = {
-        "physics": "lite",
-        "world": {"gdml": "bege.gdml"},
-        "surfaces": {"p": PYRAMIDS},
-        "targets": [{"volume": "bege", "rough": [{"face": BEGE_FACES, "surface": "p"}]}],
-        "source": {**SOURCE, "surface": {"volume": "bege", "face": BEGE_FACES}},
-    }
+    write_bege(str(folder / "bege.gdml"), metadata=True)  # as examples/rough_hpge writes it
+    for case, faces in (("bege", BEGE_FACES), ("bege_all", "all")):
+        out[case] = {
+            "physics": "lite",
+            "world": {"gdml": "bege.gdml"},
+            "surfaces": {"p": PYRAMIDS},
+            "targets": [{"volume": "bege", "rough": [{"face": faces, "surface": "p"}]}],
+            "source": {**SOURCE, "surface": {"volume": "bege", "face": faces}},
+        }
     out["whole"] = {
         "physics": "lite",
         "world": {"gdml": "cyl.gdml"},
@@ -183,9 +186,10 @@ def configs(folder: Path, radius: float, half_length: float) -> dict[str, dict]:
     return out
 
 
-def child_cpu(cmd: list[str], cwd: Path) -> tuple[float, float]:
-    """(CPU s, peak RSS MB) of one child process."""
-    proc = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.DEVNULL)
+def child_cpu(cmd: list[str], cwd: Path, src: str | None = None) -> tuple[float, float]:
+    """(CPU s, peak RSS MB) of one child process (``src``: import score4 from there)."""
+    env = {**os.environ, "PYTHONPATH": src} if src else None
+    proc = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.DEVNULL, env=env)
     _, status, usage = os.wait4(proc.pid, 0)
     proc.returncode = os.waitstatus_to_exitcode(status)
     if proc.returncode:
@@ -193,15 +197,20 @@ def child_cpu(cmd: list[str], cwd: Path) -> tuple[float, float]:
     return usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024
 
 
-def measure(folder: Path, name: str, config: dict, events: int) -> tuple[float, float, float]:
-    """(CPU s of a 20-event run less its events, CPU s per event, peak RSS MB) of one case."""
+def measure(
+    folder: Path, name: str, config: dict, events: int, src: str | None = None
+) -> tuple[float, float, float]:
+    """(CPU s of a 20-event run less its events, CPU s per event, peak RSS MB) of one case
+    (``src``: with score4 imported from that folder, a baseline)."""
     path = folder / f"{name}.yaml"
     path.write_text(yaml.safe_dump(config))
     cpu, peak = [], []
     for n in (20, events):
         out = folder / f"{name}.h5"
         c, m = child_cpu(
-            [*SCORE4, str(path), "--events", str(n), "--out", str(out), "--overwrite"], folder
+            [*SCORE4, str(path), "--events", str(n), "--out", str(out), "--overwrite"],
+            folder,
+            src,
         )
         cpu.append(c)
         peak.append(m)
@@ -250,6 +259,12 @@ def main() -> None:
     )
     parser.add_argument("--markdown", action="store_true", help="print a Markdown table")
     parser.add_argument(
+        "--baseline",
+        default=None,
+        help="also run each case (but flat) with score4 imported from this src folder "
+        "(an older checkout), interleaved",
+    )
+    parser.add_argument(
         "--spectra",
         type=int,
         default=0,
@@ -262,13 +277,16 @@ def main() -> None:
         return
     names = args.cases.split(",")
     print(stamp())
-    rows: dict[str, list[tuple[float, float, float]]] = {n: [] for n in names}
+    runs = [(n, n, None) for n in names]
+    if args.baseline:
+        runs += [(f"{n} (baseline)", n, args.baseline) for n in names if n != "flat"]
+    rows: dict[str, list[tuple[float, float, float]]] = {label: [] for label, _, _ in runs}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         cases = configs(folder, args.radius, args.half_length)
         for _ in range(args.rounds):
-            for name in names:
-                rows[name].append(measure(folder, name, cases[name], args.events))
+            for label, name, src in runs:
+                rows[label].append(measure(folder, name, cases[name], args.events, src))
     print(f"load at the end {os.getloadavg()[0]:.1f}")
     area = 2 * math.pi * args.radius * 2 * args.half_length
     print(
@@ -283,7 +301,8 @@ def main() -> None:
         ratio = (
             statistics.median(a[1] / b[1] for a, b in zip(r, ref, strict=True)) if ref else math.nan
         )
-        table.append((CASES[name], build, per_event * 1e3, peak, ratio))
+        what = CASES[name.split(" ")[0]] + (" (baseline)" if name.endswith("(baseline)") else "")
+        table.append((what, build, per_event * 1e3, peak, ratio))
     if args.markdown:
         print("| case | build and start-up s CPU | ms CPU per alpha event | peak RSS MB | ratio |")
         print("| --- | --- | --- | --- | --- |")
@@ -291,9 +310,9 @@ def main() -> None:
             print(f"| {what} | {build:.1f} | {ms:.2f} | {peak:.0f} | {ratio:.2f} |")
         return
     head = f"{'build+start CPU s':>18s} {'CPU ms/event':>13s} {'peak MB':>8s} {'/flat':>6s}"
-    print(f"{'case':52s} {head}")
+    print(f"{'case':60s} {head}")
     for what, build, ms, peak, ratio in table:
-        print(f"{what:52s} {build:18.1f} {ms:13.2f} {peak:8.0f} {ratio:6.2f}")
+        print(f"{what:60s} {build:18.1f} {ms:13.2f} {peak:8.0f} {ratio:6.2f}")
 
 
 if __name__ == "__main__":

@@ -202,6 +202,9 @@ def measure_portal(tiling: str, events: int) -> dict:
         mean_edep_mev=float(scores["edep"][:, 0].mean()),
         tracked_share=(getattr(t, "tracked_events", np.nan) - tracked0) / events,
         jumps_per_event=t.jumps / (WARMUP + events) if t else float("nan"),
+        quick_exits_per_event=getattr(t, "quick_exits", np.nan) / (WARMUP + events)
+        if t
+        else float("nan"),
     )
     for name, (calls, cpu) in spent.items():  # warm-up included: per call figures
         out[f"{name}_per_event"] = calls / (WARMUP + events)

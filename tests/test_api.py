@@ -147,7 +147,7 @@ def test_api_errors_are_one_line(gdml):
         "runs into sister volume 'crystal' (free gap there: 500 um)",
         (
             "source.surface.face: crystal: no face '+q' on a G4Box; its faces: +x, -x, +y, -y, "
-            "+z, -z, all"
+            "+z, -z; groups: all"
         ),
         "source: energy: '5' has no unit",
         "source.decay.implantation: per-atom histories need score4 run",

@@ -283,7 +283,7 @@ def test_geantino_paths_through_a_rough_cone(cone, tmp_path, solid, surface, tol
 @pytest.mark.parametrize(
     ("change", "message"),
     [
-        ({"face": "side"}, r"no face 'side' on a G4Tubs; its faces: -z, outer, \+z, all"),
+        ({"face": "side"}, r"no face 'side' on a G4Tubs; its faces: -z, outer, \+z; groups: all"),
         ({"face": "outer", "solid": "blocks"}, r"solid blocks on a curved face"),
     ],
 )
@@ -342,8 +342,8 @@ def test_wall_and_end_faces_rough_together(cylinder):
     scene = build_scene(parse_config(data))
     assert [type(layer).__name__ for layer in scene.layers] == [
         "CurvedRoughLayer",
-        "RoughLayer",
-        "RoughLayer",
+        "RingRoughLayer",
+        "RingRoughLayer",
     ]
 
 

@@ -274,9 +274,16 @@ def test_geant4_finds_no_overlap_on_neighbouring_rough_faces(gdml, tmp_path, cap
         (
             "tess",
             {"face": "plane_8"},
-            r"no face 'plane_8' on a G4TessellatedSolid; its faces: plane_0, .*, mesh, all$",
+            (
+                r"no face 'plane_8' on a G4TessellatedSolid; "
+                r"its faces: plane_0, .*; groups: mesh, all$"
+            ),
         ),
-        ("xt", {"face": "side_5"}, r"its faces: -z, \+z, side_0, .*, side_4, mesh, sides, all$"),
+        (
+            "xt",
+            {"face": "side_5"},
+            r"its faces: -z, \+z, side_0, .*, side_4; groups: mesh, sides, all$",
+        ),
     ],
 )
 def test_bad_facet_layers_are_one_line_errors(gdml, volume, change, message):
@@ -394,7 +401,7 @@ def test_geometry_list_names_each_targets_faces_and_groups(gdml, tmp_path, capsy
     assert len(err) == 1, err
     assert (
         "source.surface.face: tess: no face 'plane_4x' on a G4TessellatedSolid; its faces: "
-        "plane_0, plane_1, plane_2, plane_3, plane_4, plane_5, plane_6, plane_7, mesh, all"
+        "plane_0, plane_1, plane_2, plane_3, plane_4, plane_5, plane_6, plane_7; groups: mesh, all"
     ) in err[0]
     assert not (tmp_path / "o.h5").exists()
 

@@ -302,9 +302,12 @@ def test_geometry_list_json_and_text(worlds, tmp_path, capsys):
         ("copy_range", r"'disk\[2\]': 'disk' has 1 copy"),
         (
             "curved",
-            r"no face '\+z' on a G4GenericPolycone; its faces: seg_0, .*, outer, inner, top",
+            (
+                r"no face '\+z' on a G4GenericPolycone; "
+                r"its faces: seg_0, .*; groups: outer, inner, top"
+            ),
         ),
-        ("tubs_side", r"no face '\+x' on a G4Tubs; its faces: -z, outer, \+z, all$"),
+        ("tubs_side", r"no face '\+x' on a G4Tubs; its faces: -z, outer, \+z; groups: all$"),
         ("reflected", r"'mirrored' is placed with a reflection"),
         ("portal", r"tiling portal works on boxes of the configuration"),
     ],

@@ -45,9 +45,9 @@ def test_rough_face_list_makes_one_layer_per_face(folder):
     scene = build_scene(load_config(folder / "po210_rough.yaml"))
     assert [layer.config.face for layer in scene.layers] == ["seg_0a", "seg_1", "seg_2", "seg_3"]
     assert [type(layer).__name__ for layer in scene.layers] == [
-        "RoughLayer",
+        "RingRoughLayer",
         "CurvedRoughLayer",
-        "RoughLayer",
+        "RingRoughLayer",
         "CurvedRoughLayer",
     ]
     assert {layer.config.surface for layer in scene.layers} == {"pyramids"}

@@ -75,5 +75,5 @@ def test_end_faces_are_rings_with_the_box_convention():
 
 
 def test_unknown_face_lists_the_faces():
-    with pytest.raises(ConfigError, match=r"no face '\+x'; its faces: -z, outer, \+z, all"):
+    with pytest.raises(ConfigError, match=r"no face '\+x'; its faces: -z, outer, \+z; groups: all"):
         G4Tubs(0.0, 4.0, 2.0).face("+x")

@@ -202,7 +202,7 @@ def test_groups_and_selections():
     with pytest.raises(
         ConfigError,
         match=r"face: G4GenericPolycone has no face 'side'; its faces: "
-        r"seg_0, .* outer, inner|top",
+        r"seg_0, .*; groups: outer, top, bottom, all$",
     ):
         pc.resolve_faces("side")
 

@@ -38,21 +38,23 @@ BEGE = {
 }
 
 
-def main(out: str = "bege.gdml", metadata: bool = False) -> None:
+def main(out: str = "bege.gdml", metadata: bool = False, detector: dict | None = None) -> None:
+    """Write the BEGe (``detector``: other metadata of the same layout, default ``BEGE``)."""
     import pyg4ometry as pg
     from pygeomhpges import make_hpge
 
+    detector = detector or BEGE
     reg = pg.geant4.Registry()
     world = pg.geant4.LogicalVolume(
         pg.geant4.solid.Box("world_s", 200, 200, 200, reg), "G4_Galactic", "World", reg
     )
-    bege = make_hpge(BEGE, registry=reg)
+    bege = make_hpge(detector, registry=reg)
     pv = pg.geant4.PhysicalVolume([0, 0, 0], [0, 0, 0], bege, "bege", world, reg)
     reg.setWorld(world.name)
     if metadata:
         import pygeomtools
 
-        pv.set_pygeom_active_detector(pygeomtools.RemageDetectorInfo("germanium", 1, BEGE))
+        pv.set_pygeom_active_detector(pygeomtools.RemageDetectorInfo("germanium", 1, detector))
         pygeomtools.write_pygeom(reg, out)
         return
     writer = pg.gdml.Writer()

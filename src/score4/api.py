@@ -50,7 +50,7 @@ from score4.inputs.config import GdmlVolume, PhysicsConfig, RoughFace, SourceCon
 from score4.runner.run_plan import RunPlan, plan_run
 from score4.world.boolean_layers import target_layers
 from score4.world.gdml_model import GeometryModel, Instance
-from score4.world.scene import RoughLayer, Scene, TargetVolume, gdml_target
+from score4.world.scene import RoughLayer, Scene, TargetVolume, fit_rings, gdml_target
 
 from .errors import ConfigError
 from .source.build import BulkSource, SampledSource, source_from_config
@@ -395,6 +395,8 @@ class World:
 
         self.scene.layers += layers
         try:
+            for t in targets:
+                fit_rings(self.scene.layers_of(t.name))
             check_clearance(self.scene)
         except ConfigError:
             del self.scene.layers[-len(layers) :]

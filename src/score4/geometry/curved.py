@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from score4.shapes.faces import SphereFace
-from score4.world.curved import cone_cell
+from score4.world.curved import cone_cell, sphere_cell
 from score4.world.scene import CurvedRoughLayer
 
 from ..surface.triangle_mesh import TriangleMesh
@@ -78,6 +78,7 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
     )
     keep: list = [env_solid, env_lv, rot, env_pv]
     lay = layer.ring_layout
+    ring_key = [layer.ring_solid_key(j) for j in range(len(lay.v))]
     lvs: dict[tuple[int, float], object] = {}
     shifts: dict[tuple[int, float], float] = {}  # a cone's cell centre above its ring's
     patch_lvs: list = []
@@ -85,7 +86,7 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
     column_lvs: list = []  # on a cone, a cell's column of spikes (placed across the cell)
 
     def patch_lv(k: int, j: int):
-        key = (k, layer.ring_solid_key(j))
+        key = (k, ring_key[j])
         if key not in lvs:
             tag = f"{name}_v{k}_r{len(lvs)}"
             if layer.solid_kind(k) == "frustums" and layer.is_cylinder:
@@ -96,6 +97,45 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
                 patch_lvs.extend(inner)
                 cell_lvs.append(lv)
                 keep.extend([cell, lv, *inner_keep])
+            elif layer.solid_kind(k) == "frustums" and isinstance(face, SphereFace):
+                # a G4Sphere segment about the sphere's centre (no shift in z)
+                rlo, rhi, th0, dth, step = sphere_cell(lay, j, layer.thickness)
+                cell = g4.G4Sphere(tag, rlo, rhi, -step / 2, step, th0, dth)
+                lv = g4.G4LogicalVolume(cell, mother_material, tag)
+                keep.extend([cell, lv])
+                grid = layer.variants[k].spikes
+                assert grid is not None
+                z_cell = -lay.ring_z(j)
+                if np.all(grid.heights == grid.heights[:, :1]):  # one column placed nx times
+                    angle = grid.width_x / float(lay.radius[j])
+                    col = g4.G4Sphere(f"{tag}_col", rlo, rhi, -angle / 2, angle, th0, dth)
+                    col_lv = g4.G4LogicalVolume(col, mother_material, f"{tag}_col")
+                    inner, inner_keep = place_bent_frustums(
+                        g4, layer, k, j, material, col_lv, f"{tag}_col", z_cell, column=True
+                    )
+                    xs = (np.arange(grid.nx) + 0.5) * grid.width_x - grid.size_x / 2
+                    for i, x in enumerate(xs):
+                        r3 = g4.G4RotationMatrix()
+                        r3.rotateZ(float(x) / float(lay.radius[j]))
+                        g4.G4PVPlacement(
+                            g4.G4Transform3D(r3, g4.G4ThreeVector()),
+                            col_lv,
+                            f"{tag}_col",
+                            lv,
+                            False,
+                            i,
+                            False,
+                        )
+                    column_lvs.append(col_lv)
+                    keep.extend([col, col_lv])
+                else:
+                    inner, inner_keep = place_bent_frustums(
+                        g4, layer, k, j, material, lv, tag, z_cell
+                    )
+                shifts[key] = z_cell
+                patch_lvs.extend(inner)
+                cell_lvs.append(lv)
+                keep.extend(inner_keep)
             elif layer.solid_kind(k) == "frustums":  # a cone: the cell is two cones' common part
                 a, b, z_cell = cone_cell(lay, j, layer.thickness)
                 shell = g4.G4Cons(f"{tag}_a", *a)
@@ -162,10 +202,33 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
 
     ring_z = [lay.ring_z(j) for j in range(len(lay.v))]
     cells = layer.cells()
+    if isinstance(face, SphereFace) and any(
+        layer.solid_kind(k) == "frustums" for k in range(len(layer.variants))
+    ):
+        # a sphere's cells of bent frustums: one band (a G4Sphere zone over the face's phi range)
+        # per ring, its cells placed in it by rotation about z (each ring's cell is one logical
+        # volume); the bands in the envelope
+        rings_of: dict[int, list[tuple[int, float]]] = {}
+        for j, _, k, phi in cells:
+            rings_of.setdefault(j, []).append((k, phi))
+        for j, row in sorted(rings_of.items()):
+            rlo, rhi, th0, dth, _ = sphere_cell(lay, j, layer.thickness)
+            tag = f"{name}_ring{j}"
+            band = g4.G4Sphere(tag, rlo, rhi, face.phi0, face.dphi, th0, dth)
+            band_lv = g4.G4LogicalVolume(band, mother_material, tag)
+            keep.extend([band, band_lv])
+            for copy_no, (k, phi) in enumerate(row):
+                lv = patch_lv(k, j)
+                z_cell = shifts.get((k, ring_key[j]), 0.0)
+                place(lv, phi, ring_z[j] + z_cell, band_lv, copy_no)
+            place(band_lv, 0.0, 0.0, env_lv, j)
+        levels = [column_lvs, cell_lvs] if column_lvs else [cell_lvs]
+        keep += level_regions(g4, levels, name)
+        return patch_lvs, keep
     if isinstance(face, SphereFace) or abs(face.nrz[1]) > 1e-12:  # every patch in the envelope
         for copy_no, (j, _, k, phi) in enumerate(cells):
             lv = patch_lv(k, j)
-            z_cell = shifts.get((k, layer.ring_solid_key(j)), 0.0)
+            z_cell = shifts.get((k, ring_key[j]), 0.0)
             place(lv, phi, ring_z[j] - zc + z_cell, env_lv, copy_no)
         levels = [column_lvs, cell_lvs] if column_lvs else [cell_lvs]
         keep += level_regions(g4, levels, name) if cell_lvs else []
@@ -180,7 +243,7 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
         by_row.setdefault(j, []).append((k, phi))
     for j, row in sorted(by_row.items()):
         # (the azimuths too: on a boolean's face rings may hold different cells)
-        key = (layer.ring_solid_key(j), tuple((k, round(p, 12)) for k, p in row))
+        key = (ring_key[j], tuple((k, round(p, 12)) for k, p in row))
         if key not in rings:
             tag = f"{name}_ring{len(rings)}"
             ring_solid = g4.G4Tubs(tag, rmin1, rmax1, py / 2, face.phi0, face.dphi)
@@ -417,15 +480,34 @@ def place_bent_frustums(
         columns = {key: value[:1] for key, value in columns.items()}
         columns["x"] = np.zeros(1)
         f = f[first]
+    spike_of = np.asarray(f["spike"], np.int64)
+    parts = [("c", columns, np.arange(len(columns["x"]))), ("s", spikes, spike_of)]
+    if isinstance(layer.ring_layout.face, SphereFace):
+        # a column of the slab would be one trap the patch's length long, its floor a chord
+        # py^2 / 8R inside the sphere: the slab is cut per spike instead, each block the first
+        # layer of its spike (its floor the body's floor of that cell, flat_body)
+        ids = np.unique(spike_of)
+        ix, iy = ids % grid.nx, ids // grid.nx
+        slab = {
+            "x": spikes["x"][np.searchsorted(spike_of, ids)] if column else grid.x_centres[ix],
+            "y": grid.y_centres[iy],
+            "z0": np.full(len(ids), -base),
+            "z1": np.zeros(len(ids)),
+            "wxb": np.full(len(ids), grid.width_x),
+            "wxt": np.full(len(ids), grid.width_x),
+            "wyb": np.full(len(ids), grid.width_y),
+            "wyt": np.full(len(ids), grid.width_y),
+        }
+        merged = {key: np.concatenate([slab[key], spikes[key]]) for key in slab}
+        group = np.concatenate([ids, spike_of])
+        order = np.lexsort((np.arange(len(group)), group))  # per spike: its block, its layers
+        parts = [("s", {key: value[order] for key, value in merged.items()}, group[order])]
     lvs: list = []
     keep: list = []
     shapes: dict[tuple, object] = {}
     copy_no = 0
     shift = np.array([0.0, 0.0, z_shift])
-    for part, box, group in (
-        ("c", columns, np.arange(len(columns["x"]))),
-        ("s", spikes, np.asarray(f["spike"], np.int64)),
-    ):
+    for part, box, group in parts:
         solids: list[tuple[tuple, tuple]] = []  # (sharing key, (kind, parameters))
         if layer.is_cylinder:
             half, centre, rotation = bent_trds(layer, j, box)

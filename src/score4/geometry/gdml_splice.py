@@ -456,6 +456,7 @@ def _layer_key(layer, mother_material, material) -> tuple:
         layer.cell_variants.tobytes(),
         layer.config.native_layout,
         layer.config.block_cells,
+        getattr(layer, "ring", None),  # a round face's envelope
         tuple(layer.solid_kind(k) for k in range(len(layer.variants))),
         str(mother_material.GetName()),
         str(material.GetName()),

@@ -107,8 +107,11 @@ def place_native(
     t = layer.thickness
     name = layer.name
     prism = getattr(layer, "prism", None)  # a polygon face: the envelope is its prism
+    ring = getattr(layer, "ring", None)  # a round face: the envelope is its ring
     if prism is not None:
         env_solid = tessellated_solid(g4, prism, name)
+    elif ring is not None:
+        env_solid = g4.G4Tubs(name, ring[0], ring[1], t / 2, 0.0, 2 * np.pi)
     else:
         env_solid = g4.G4Box(name, lu / 2, lv / 2, t / 2)
     env_lv = g4.G4LogicalVolume(env_solid, world_material, name)
@@ -150,8 +153,8 @@ def place_native(
         keep += [row_solid, row_lv, rows, cells]
         return patch_lvs, keep
     layout = layer.config.native_layout
-    if prism is not None:
-        layout = "placements"  # boxes of empty cells would leave the polygon
+    if prism is not None or ring is not None:
+        layout = "placements"  # boxes of empty cells would leave the polygon or the ring
     if layout == "nested" or (layout == "auto" and variants.size > MAX_DAUGHTERS):
         # nested at any size: at most 4 boxes in the envelope (deep trees, for tests)
         most = MAX_DAUGHTERS if layout == "auto" else 4

@@ -30,6 +30,7 @@ from __future__ import annotations
 import contextlib
 import json
 import multiprocessing as mp
+import pickle
 import platform
 import re
 import shutil
@@ -615,7 +616,9 @@ class _LocalWorker:
 
     def __init__(self, ctx, spec: WorkerSpec) -> None:
         self.conn, child = ctx.Pipe()
-        self.process = ctx.Process(target=worker_main, args=(spec, child), daemon=True)
+        # the spec goes pickled: the worker rebuilds the plan with the garbage collector off
+        blob = pickle.dumps(spec)
+        self.process = ctx.Process(target=worker_main, args=(blob, child), daemon=True)
         self.process.start()
         child.close()
         self.chunk: Chunk | None = None  # the chunk it runs now
@@ -830,12 +833,14 @@ def _run_size(plan: RunPlan, files: list[Path]) -> dict:
 
 
 def _counts(files: list[Path], plan: RunPlan) -> dict:
-    """Run-record counts added up over the chunks: ``intercepted_ions`` and
-    ``reinjected_ions`` (runs with the TRIM replay), ``implantation`` (chains with it)."""
+    """Run-record counts added up over the chunks: ``intercepted_ions``,
+    ``reinjected_ions`` and ``replay_pushes`` (runs with the TRIM replay), ``implantation``
+    (chains with it)."""
     counts = chunk_counts(files)
     out = {}
     if plan.config.physics.heavy_ions == "trim":
-        out = {k: int(counts.get(k, 0)) for k in ("intercepted_ions", "reinjected_ions")}
+        keys = ("intercepted_ions", "reinjected_ions", "replay_pushes")
+        out = {k: int(counts.get(k, 0)) for k in keys}
     if plan.per_atom:
         out["implantation"] = counts.get("implantation", {})
     return out

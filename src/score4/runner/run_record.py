@@ -20,10 +20,10 @@ class RunRecord:
     Optional fields (None) are left out of the file: ``trim_library_seed`` (runs with a TRIM
     replay), ``n_atoms`` (per-atom histories: ``run.events`` counts atoms),
     ``energy_violations`` and ``energy_max_excess_MeV`` (not with radioactive decay),
-    ``untracked_gamma_*`` (lite physics), ``intercepted_ions`` and ``reinjected_ions`` (the
-    heavy-ion TRIM replay), ``implantation`` (chains with implantation), ``map_meshes`` (rough
-    layers of height maps). ``normalisation`` is written as its own top-level entries
-    (``volumes``, ``source``, ``simulated_decays``, ...:
+    ``untracked_gamma_*`` (lite physics), ``intercepted_ions``, ``reinjected_ions`` and
+    ``replay_pushes`` (the heavy-ion TRIM replay), ``implantation`` (chains with
+    implantation), ``map_meshes`` (rough layers of height maps). ``normalisation`` is written
+    as its own top-level entries (``volumes``, ``source``, ``simulated_decays``, ...:
     :func:`score4.runner.normalisation.run_normalisation`).
     """
 
@@ -63,6 +63,7 @@ class RunRecord:
     untracked_gamma_events: int | None = None
     intercepted_ions: int | None = None
     reinjected_ions: int | None = None
+    replay_pushes: int | None = None  # stuck replayed ions G4Navigator pushed (GeomNav1002)
     implantation: dict[str, Any] | None = None
     normalisation: dict[str, Any] = field(default_factory=dict)
 

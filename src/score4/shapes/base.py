@@ -364,7 +364,8 @@ class Shape:
                 if item not in out:
                     out.append(item)
             else:
-                choices = ", ".join([*self.faces, *(g for g in groups if g not in self.faces)])
+                named = [g for g in groups if g not in self.faces]
+                choices = ", ".join(self.faces) + (f"; groups: {', '.join(named)}" if named else "")
                 raise ConfigError(f"face: {self.kind} has no face {item!r}; its faces: {choices}")
         if not out:
             raise ConfigError("face: the selection names no face")

@@ -41,6 +41,11 @@ from ..source.primaries import Primaries
 VACUUM_DENSITY = 1e-5
 _MAX_CROSSINGS = 10_000
 _FAR = 1e90
+#: A ComputeStep this short (mm; G4Navigator's zero-step threshold, 0.05 kCarTolerance) left
+#: the ion where it was; after this many in a row the next one is G4Navigator's push of _PUSH.
+_ZERO_STEP = 5e-11
+_ZEROS_BEFORE_PUSH = 9
+_PUSH = 1e-7  # mm, 100 kCarTolerance
 
 
 def heavy_ion_z(particle) -> int:
@@ -180,6 +185,10 @@ class HeavyIonTransport:
         self._volumes: dict[int, _Volume] = {}
         #: keep every piece of the path with its deposit (``IonFate.pieces``: steps output)
         self.record_pieces = False
+        #: zero steps met and pushes G4Navigator made (see :meth:`_locate_after`)
+        self.zero_steps = 0
+        self.pushes = 0
+        self._zeros_in_row = 0
 
     # -- libraries -------------------------------------------------------------------------------
 
@@ -232,6 +241,28 @@ class HeavyIonTransport:
     def _vec(self, v) -> object:
         x, y, z = v.tolist() if isinstance(v, np.ndarray) else v
         return self.g4.G4ThreeVector(float(x), float(y), float(z))
+
+    def _locate_after(
+        self, step: float, x: float, y: float, z: float, ux: float, uy: float, uz: float
+    ):
+        """The volume an ion at (x, y, z) moving along (ux, uy, uz) is in after a ``step`` the
+        navigator limited (SetGeometricallyLimitedStep called): Geant4's relative locate.
+
+        Counts zero steps (``zero_steps``) and the pushes G4Navigator makes after 10 of them in
+        a row (``pushes``, its "Stuck Track" warning GeomNav1002: a 1e-7 mm push along the ion's
+        direction). Among tessellated blocks a point on the surfaces of two solids that
+        disagree (one says the ion enters it, the other that it leaves) bounces the ion between
+        them; a fresh locate, also ahead of the ion, lands in the same pair (tried in session 9).
+        """
+        if step > _ZERO_STEP:
+            if self._zeros_in_row >= _ZEROS_BEFORE_PUSH and step <= _PUSH * (1 + 1e-6):
+                self.pushes += 1
+            self._zeros_in_row = 0
+        else:
+            self.zero_steps += 1
+            self._zeros_in_row += 1
+        vec = self.g4.G4ThreeVector
+        return self.nav.LocateGlobalPointAndSetup(vec(x, y, z), vec(ux, uy, uz), True, False)
 
     def _locate(self, point, direction, relative: bool):
         return self.nav.LocateGlobalPointAndSetup(
@@ -317,7 +348,7 @@ class HeavyIonTransport:
                     break
                 px, py, pz = px + step * dx, py + step * dy, pz + step * dz
                 nav.SetGeometricallyLimitedStep()
-                pv = nav.LocateGlobalPointAndSetup(vec(px, py, pz), vec(dx, dy, dz), True, False)
+                pv = self._locate_after(step, px, py, pz, dx, dy, dz)
                 fate.crossings += 1
                 continue
             lib = self.library(particle, ion, here.material, e, here.material_name)
@@ -480,7 +511,7 @@ class HeavyIonTransport:
             _book(fate, volume, dep, length_in, (wx, wy, wz))
             dep = length_in = 0.0
             nav.SetGeometricallyLimitedStep()
-            nxt = nav.LocateGlobalPointAndSetup(vec(wx, wy, wz), vec(ux, uy, uz), True, False)
+            nxt = self._locate_after(step, wx, wy, wz, ux, uy, uz)
             if nxt is None:
                 return (wx, wy, wz), e_cur, (ux, uy, uz), nxt
             there = self._volume(nxt)

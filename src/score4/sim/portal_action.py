@@ -187,6 +187,10 @@ class Teleporter:
         self.secondary_jumps = 0
         self.left_lab = 0
         self.anomalies = 0
+        # (track id, step number) of the zero step out of the portal that follows a jump back to
+        # its boundary: on_step returns at once for it (see on_step)
+        self.exit_step: tuple[int, int] | None = None
+        self.quick_exits = 0
 
     # --- primaries ------------------------------------------------------------------------
 
@@ -210,6 +214,7 @@ class Teleporter:
         """A new event whose primaries are rows ``first_row .. end_row - 1``."""
         self.history.clear()
         self.first_cell.clear()
+        self.exit_step = None
         self.first_row = first_row
         cells = self.primary_cells[first_row:end_row]
         ambiguous = False
@@ -301,7 +306,19 @@ class Teleporter:
         track.SetTrackStatus(self.stop_and_kill)
 
     def on_step(self, step) -> None:
-        """Apply the rules to a step that started in a portal box or a trigger."""
+        """Apply the rules to a step that started in a portal box or a trigger.
+
+        The step that follows a jump back to the portal's boundary (half of all calls) is known
+        by its track and step number and returns before asking Geant4 anything else: it starts
+        on the boundary moving out, so the rules leave it alone (a track landed in the target
+        instead never matches again, as step numbers only grow).
+        """
+        if self.exit_step is not None:
+            track = step.GetTrack()
+            exit_step, self.exit_step = self.exit_step, None
+            if (track.GetTrackID(), track.GetCurrentStepNumber()) == exit_step:
+                self.quick_exits += 1
+                return
         pre = step.GetPreStepPoint()
         role = self.roles.get(pre.GetTouchable().GetVolume())
         if role is None:
@@ -349,6 +366,7 @@ class Teleporter:
         if through_z or not (0 <= i < lay.nx and 0 <= j < lay.ny):
             self._move(step, track, pre, x, y, z)
             self._record(tid, time, None, cell)
+            self.exit_step = (tid, track.GetCurrentStepNumber() + 1)
         else:
             t = lay.jump(i, j)
             self._move(step, track, pre, x + t[0], y + t[1], z + t[2])

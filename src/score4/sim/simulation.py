@@ -232,6 +232,7 @@ class Simulation:
         self._interceptor: Any = None  # stacking action for heavy-ion secondaries, once needed
         #: heavy-ion secondaries taken from Geant4 in the last :meth:`run` (``interception``)
         self.intercepted: list[InterceptedIon] = []
+        self._pushes_before = 0
         #: how each replayed primary ended in the last :meth:`run`: {row of primaries: fate}
         self.ion_fates: dict[int, IonFate] = {}
         #: the atoms of the last :meth:`run` of per-atom histories (None for other batches)
@@ -401,6 +402,7 @@ class Simulation:
         ).astype(float)
         self.endpoints = np.full((len(primaries), 4), np.nan) if endpoints else None
         self._track_endpoints(endpoints)
+        self._pushes_before = 0 if self.heavy_ions is None else self.heavy_ions.pushes
         self._prepare_replay(primaries, g4_seed)
         self._prepare_atoms(primaries)
         self.intercepted, self.ion_fates = [], {}
@@ -493,13 +495,16 @@ class Simulation:
 
     def run_counts(self) -> dict:
         """Counts of the last :meth:`run` for the run record: ``intercepted_ions`` (heavy-ion
-        secondaries taken from Geant4 and replayed) and ``reinjected_ions`` (of them, sent back
-        to Geant4 to decay); ``implantation`` (per-atom histories:
-        :meth:`score4.sim.implantation.AtomTracker.summary`)."""
+        secondaries taken from Geant4 and replayed), ``reinjected_ions`` (of them, sent back
+        to Geant4 to decay), ``replay_pushes`` (stuck replayed ions G4Navigator pushed 1e-7 mm:
+        :meth:`score4.sim.heavy_ions.HeavyIonTransport._locate_after`); ``implantation``
+        (per-atom histories: :meth:`score4.sim.implantation.AtomTracker.summary`)."""
         out: dict = {
             "intercepted_ions": len(self.intercepted),
             "reinjected_ions": sum(1 for ion in self.intercepted if ion.reinjected),
         }
+        if self.heavy_ions is not None:
+            out["replay_pushes"] = self.heavy_ions.pushes - self._pushes_before
         if self.atoms is not None:
             out["implantation"] = self.atoms.summary()
         return out

@@ -21,6 +21,7 @@ workers.
 from __future__ import annotations
 
 import contextlib
+import gc
 import multiprocessing as mp
 import os
 import signal
@@ -29,16 +30,16 @@ import traceback
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-
-import numpy as np
-
-from score4.runner.output import write_chunk
-from score4.runner.run_plan import RunPlan
-from score4.runner.seeds import atom_event_geant4_seeds, event_geant4_seeds
+from typing import TYPE_CHECKING
 
 from ..errors import Score4Error, Score4Warning
-from ..ions.trim_library import set_build_listener
-from ..source.primaries import Primaries, atom_histories
+
+if TYPE_CHECKING:  # imported where used: a spawned worker imports them with gc off
+    import numpy as np
+
+    from score4.runner.run_plan import RunPlan
+
+    from ..source.primaries import Primaries
 
 CRASH_HOOK = "SCORE4_TEST_CRASH_CHUNK"
 
@@ -87,6 +88,10 @@ def simulate_chunk(
     """
     if str(chunk.index) in os.environ.get(CRASH_HOOK, "").split(","):
         os._exit(70)  # test hook, see the module docstring
+    from score4.runner.seeds import atom_event_geant4_seeds, event_geant4_seeds
+
+    from ..source.primaries import atom_histories
+
     primaries = sim.source.events(spec.seed, chunk.first_event, chunk.n_events)
     if atom_histories(primaries):  # the chunk is atoms: seeds by atom and event of the atom
         g4_seeds = atom_event_geant4_seeds(
@@ -100,6 +105,8 @@ def simulate_chunk(
 
 def run_chunk(sim, spec: WorkerSpec, chunk: Chunk, progress=None) -> Path:
     """Sample, track and write one chunk (atomically); return the chunk file."""
+    from score4.runner.output import write_chunk
+
     primaries, scores = simulate_chunk(sim, spec, chunk, progress)
     path = chunk_path(spec.parts_dir, chunk.index)
     write_chunk(
@@ -144,18 +151,37 @@ def _exit_with_parent() -> None:
     threading.Thread(target=watch, name="score4-parent-watch", daemon=True).start()
 
 
-def worker_main(spec: WorkerSpec, conn) -> None:
-    """Entry point of a local worker process; ``conn`` is its end of the pipe to the parent."""
+def worker_main(spec: WorkerSpec | bytes, conn) -> None:
+    """Entry point of a local worker process; ``conn`` is its end of the pipe to the parent.
+
+    ``spec`` may come pickled (bytes): then the plan is rebuilt here, after the garbage
+    collector is switched off, and not while the process unpickles its arguments.
+    """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     warnings.simplefilter("ignore", Score4Warning)  # the parent has shown them already
     _exit_with_parent()
-    from .simulation import Simulation
-
-    log = Path(spec.parts_dir) / f"geant4-{os.getpid()}.log"
+    # No garbage collection while the application is set up: the imports, the plan and the
+    # Geant4 build make many objects that all stay alive, and the collector's passes over them
+    # find nothing (cyclic garbage made meanwhile is collected once the worker is ready).
+    gc.disable()
     chunk = None
-    set_build_listener(lambda phase, what, text: _report(conn, ("library", phase, what, text)))
     try:
-        sim = Simulation(spec.plan, log_path=log)
+        try:
+            if isinstance(spec, bytes):
+                import pickle
+
+                spec = pickle.loads(spec)
+            assert isinstance(spec, WorkerSpec)
+            from ..ions.trim_library import set_build_listener
+            from .simulation import Simulation
+
+            set_build_listener(
+                lambda phase, what, text: _report(conn, ("library", phase, what, text))
+            )
+            log = Path(spec.parts_dir) / f"geant4-{os.getpid()}.log"
+            sim = Simulation(spec.plan, log_path=log)
+        finally:
+            gc.enable()
         conn.send(("ready", ready_info(sim)))
         while (chunk := conn.recv()) is not None:
             run_chunk(sim, spec, chunk, progress=lambda n: conn.send(("progress", n)))

@@ -505,6 +505,48 @@ class SurfaceSampler:
         )
 
 
+class IndexedSurfaceSampler(SurfaceSampler):
+    """A :class:`SurfaceSampler` that keeps ``vertices`` and ``faces`` (shared with their
+    owner) and gathers the drawn triangles' corners per draw instead of holding every
+    triangle's corners, edges and normal: the same points and normals (the same arithmetic on
+    the same rows) in a tenth of the memory."""
+
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray) -> None:
+        self._vertices, self._faces = vertices, faces
+        tri = vertices[faces]
+        self.areas = triangle_areas(tri)
+        if not (self.areas > 0).any():
+            raise ConfigError(f"triangles: all {len(tri)} triangles have zero area")
+        self.area = float(self.areas.sum())
+        self.facet_ids = None
+        self._choice = DiscreteSampler(self.areas, "triangle areas")
+
+    def __len__(self) -> int:
+        return len(self._faces)
+
+    def _corners(self, index: np.ndarray) -> np.ndarray:
+        return self._vertices[self._faces[index]]
+
+    def points_in(self, rng: np.random.Generator, index: np.ndarray) -> np.ndarray:
+        st = rng.random((2, len(index)))
+        flip = st.sum(axis=0) > 1.0
+        st[:, flip] = 1.0 - st[:, flip]
+        tri = self._corners(index)
+        return (
+            tri[:, 0]
+            + st[0, :, None] * (tri[:, 1] - tri[:, 0])
+            + st[1, :, None] * (tri[:, 2] - tri[:, 0])
+        )
+
+    def sample(self, rng: np.random.Generator, n: int) -> SurfaceSample:
+        index = self.sample_index(rng, n)
+        return SurfaceSample(
+            position=self.points_in(rng, index),
+            normal=triangle_normals(self._corners(index)),
+            facet=index,
+        )
+
+
 def orthonormal_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Two unit vectors ``(e1, e2)`` completing unit vectors ``n`` (k, 3) to right-handed frames."""
     helper = np.zeros_like(n)
@@ -665,8 +707,10 @@ class RingSurfaceSampler:
         key = np.array([layer.ring_solid_key(j) for j in range(len(layer.ring_layout.v))])
         first = np.array([int(np.flatnonzero(key == r)[0]) for r in key], np.int64)
         self.keys = np.column_stack([self.variant, first[self.ring]])  # cells sharing a mesh
+        # the tops' areas only: a ring's sampler is made when a point is drawn on it (a sphere
+        # has a mesh per ring, ~2 MB each as triangles)
         area_of = {
-            (int(k), int(j)): self._sampler(int(k), int(j)).area
+            (int(k), int(j)): layer.top_area(int(k), int(j))
             for k, j in np.unique(self.keys, axis=0)
         }
         area = np.array([area_of[(int(k), int(j))] for k, j in self.keys])
@@ -675,7 +719,8 @@ class RingSurfaceSampler:
 
     def _sampler(self, k: int, j: int) -> SurfaceSampler:
         if (k, j) not in self._samplers:
-            self._samplers[(k, j)] = SurfaceSampler(self.layer.bent(k, j).top_triangles)
+            bent = self.layer.bent(k, j)
+            self._samplers[(k, j)] = IndexedSurfaceSampler(bent.vertices, bent.faces[: bent.n_top])
         return self._samplers[(k, j)]
 
     def sample(self, rng: np.random.Generator, n: int) -> SurfaceSample:

@@ -47,6 +47,7 @@ from .scene import (
     CurvedRoughLayer,
     FaceFrame,
     PolygonRoughLayer,
+    RingRoughLayer,
     RoughLayer,
     TargetVolume,
     make_layer,
@@ -319,7 +320,7 @@ def _check_own_solid(layer: RoughLayer, on: BooleanFace, where: str, what: str) 
     part of a union would put it inside)."""
     if isinstance(layer, CurvedRoughLayer):
         points = layer.shell_points()
-    elif isinstance(layer, PolygonRoughLayer):
+    elif isinstance(layer, PolygonRoughLayer | RingRoughLayer):
         points = layer.envelope_points()
     else:
         points = layer.envelope_box().grid(25)

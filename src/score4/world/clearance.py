@@ -27,6 +27,7 @@ from .scene import (
     BOUNDARY_TOLERANCE,
     CurvedRoughLayer,
     PolygonRoughLayer,
+    RingRoughLayer,
     RoughLayer,
     Scene,
     TargetVolume,
@@ -188,8 +189,8 @@ def check_gdml_clearance(scene: Scene) -> None:
         mother = layer.target.mother
         assert mother is not None  # in a GDML world every target has a mother (the world at least)
         own = layer.target.instance.index if layer.target.instance is not None else -1
-        if isinstance(layer, PolygonRoughLayer) and not layer.config.into:  # (into: the
-            # layer is in the slab the convex solid is clipped by)
+        if isinstance(layer, PolygonRoughLayer | RingRoughLayer) and not layer.config.into:
+            # (into: the layer is in the slab the solid is cut or clipped by)
             own_body = _target_body(layer.target)
             if _layer_meets(own_body, layer, box):  # a concave edge of its own solid
                 raise ConfigError(_meets(layer, f"its own volume {layer.target.name!r}", 0.0))
@@ -210,9 +211,11 @@ def check_gdml_clearance(scene: Scene) -> None:
                 continue
             if isinstance(other, CurvedRoughLayer):
                 if other.in_shell(_envelope_points(layer, box)).any():
-                    raise ConfigError(_meets(layer, f"the rough layer {other.name}", 0.0))
+                    raise ConfigError(
+                        _meets(layer, f"the rough layer {other.name}", _pair_gap(layer, other))
+                    )
                 continue
-            if isinstance(layer, PolygonRoughLayer) or isinstance(other, PolygonRoughLayer):
+            if isinstance(layer, _SHAPED) or isinstance(other, _SHAPED):
                 met = other_box.overlaps(box) and bool(
                     _in_envelope(other, other_box, _envelope_points(layer, box)).any()
                     or _in_envelope(layer, box, _envelope_points(other, other_box)).any()
@@ -220,25 +223,63 @@ def check_gdml_clearance(scene: Scene) -> None:
             else:
                 met = other_box.overlaps(box)
             if met:
-                raise ConfigError(_meets(layer, f"the rough layer {other.name}", 0.0))
+                raise ConfigError(
+                    _meets(layer, f"the rough layer {other.name}", _pair_gap(layer, other))
+                )
         _check_inside_mother(model, mother, layer, box)
 
 
+#: Flat layers whose envelope is not their box: a polygon's prism, a ring.
+_SHAPED = (PolygonRoughLayer, RingRoughLayer)
+
+
 def _envelope_points(layer: RoughLayer, box: OrientedBox) -> np.ndarray:
-    """Points of a flat layer's envelope: its prism's for a polygon face, else its box's grid."""
-    return layer.envelope_points() if isinstance(layer, PolygonRoughLayer) else box.grid()
+    """Points of a flat layer's envelope: its prism's for a polygon face, its ring's for a
+    round face, else its box's grid."""
+    return layer.envelope_points() if isinstance(layer, _SHAPED) else box.grid()
 
 
 def _in_envelope(layer: RoughLayer, box: OrientedBox, points: np.ndarray) -> np.ndarray:
     """True for world points strictly inside a flat layer's envelope."""
-    if isinstance(layer, PolygonRoughLayer):
+    if isinstance(layer, _SHAPED):
         return layer.in_envelope(points)
     return box.contains(points)
 
 
+def _points_of(layer: RoughLayer) -> np.ndarray:
+    """World points of a layer's envelope (its shell on a curved face)."""
+    if isinstance(layer, CurvedRoughLayer):
+        return layer.shell_points()
+    return _envelope_points(layer, layer.envelope_box())
+
+
+def _inside(layer: RoughLayer, points: np.ndarray) -> np.ndarray:
+    """World points strictly inside a layer's envelope (its shell on a curved face)."""
+    if isinstance(layer, CurvedRoughLayer):
+        return layer.in_shell(points)
+    return _in_envelope(layer, layer.envelope_box(), points)
+
+
+def _height(layer: RoughLayer, points: np.ndarray) -> np.ndarray:
+    """Height of world points above the layer's face, along its normal."""
+    if isinstance(layer, CurvedRoughLayer):
+        return layer.ring_layout.face.locate(layer.target.to_local(points))[2]
+    return layer.frame.to_local(points)[:, 2]
+
+
+def _pair_gap(layer: RoughLayer, other: RoughLayer) -> float:
+    """The free gap between ``layer``'s face and the envelope of ``other`` where they meet: the
+    least height above the face of a point of ``other``'s envelope inside ``layer``'s."""
+    pts = _points_of(other)
+    hit = _inside(layer, pts)
+    if not hit.any():
+        return 0.0
+    return max(float(_height(layer, pts[hit]).min()), 0.0)
+
+
 def _layer_meets(body: _Body, layer: RoughLayer, box: OrientedBox) -> bool:
-    """The layer's envelope (a box, or the prism of a polygon face) meets ``body``."""
-    if not isinstance(layer, PolygonRoughLayer):
+    """The layer's envelope (a box, the prism of a polygon face or a ring) meets ``body``."""
+    if not isinstance(layer, _SHAPED):
         return body.meets(box)
     if not body.obb.overlaps(box):
         return False
@@ -279,11 +320,14 @@ def _check_curved(
         if isinstance(other, CurvedRoughLayer):
             meets = bool(other.in_shell(points).any() or layer.in_shell(other.shell_points()).any())
         else:
-            meets = bool(other.envelope_box().contains(points).any()) or bool(
-                layer.in_shell(other.envelope_box().grid()).any()
+            box = other.envelope_box()
+            meets = bool(_in_envelope(other, box, points).any()) or bool(
+                layer.in_shell(_envelope_points(other, box)).any()
             )
         if meets:
-            raise ConfigError(_meets(layer, f"the rough layer {other.name}", 0.0))
+            raise ConfigError(
+                _meets(layer, f"the rough layer {other.name}", _pair_gap(layer, other))
+            )
     body = _instance_body(model, mother)
     if not body.contains(mother.to_local(points)).all():
         raise ConfigError(
@@ -355,9 +399,7 @@ def _check_inside_mother(
 ) -> None:
     lv = model.logicals[mother.logical]
     body = _instance_body(model, mother)
-    pts = (
-        layer.envelope_points() if isinstance(layer, PolygonRoughLayer) else body.probe_points(box)
-    )
+    pts = layer.envelope_points() if isinstance(layer, _SHAPED) else body.probe_points(box)
     inside = body.contains(mother.to_local(pts))
     if not inside.all():
         raise ConfigError(

@@ -44,6 +44,10 @@ GAP_FLOOR = 1e-4
 MAX_SQUEEZE = 0.05
 
 
+#: Up to this many points per body, :meth:`BentVariant.contains` tests them without its bins.
+FEW_POINTS = 64
+
+
 def gap_limit(max_height: float) -> float:
     """Largest allowed gap (mm) between a bent layer's base and the true surface."""
     return max(GAP_SHARE * max_height, GAP_FLOOR)
@@ -91,7 +95,10 @@ def flat_body(
 
     ``grid_floor``: the floor is the top's own triangulation moved down to the floor (its
     facets as small as the top's in both directions: a surface curved along both, a sphere,
-    bends a strip's long facets away from it by ``py^2 / 8R``)."""
+    bends a strip's long facets away from it by ``py^2 / 8R``); for a spike grid, two
+    triangles per spike cell between the cell's corners, so each cell's floor bent onto a
+    sphere is the planar floor of the bent G4Trap below that spike
+    (:func:`score4.geometry.curved.place_bent_frustums`)."""
     body = surface.body(base_thickness)
     top = np.asarray(body.top, bool)
     faces = body.faces
@@ -100,7 +107,29 @@ def flat_body(
     is_floor = floor_level[faces].all(axis=1)
     ring = np.unique(faces[is_floor & ~top].ravel())
     ring = ring[np.isin(ring, faces[~is_floor & ~top].ravel())]  # not the fan's centre
-    if grid_floor:
+    if grid_floor and surface.spikes is not None:
+        g = surface.spikes
+        cx = np.arange(g.nx + 1) * g.width_x - 0.5 * g.size_x
+        cy = np.arange(g.ny + 1) * g.width_y - 0.5 * g.size_y
+        gx, gy = np.meshgrid(cx, cy)
+        corners = np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, -base_thickness)])
+        scale = max(surface.size_x, surface.size_y)
+        key = {tuple(np.round(v[i, :2] / scale * 1e9).astype(np.int64)): int(i) for i in ring}
+        index = np.empty(len(corners), np.int64)
+        extra_c: list[np.ndarray] = []
+        for n, c in enumerate(corners):
+            k = tuple(np.round(c[:2] / scale * 1e9).astype(np.int64))
+            if k in key:
+                index[n] = key[k]
+            else:
+                index[n] = len(v) + len(extra_c)
+                extra_c.append(c)
+        v = np.vstack([v, np.array(extra_c, float).reshape(-1, 3)])
+        c = index.reshape(g.ny + 1, g.nx + 1)
+        a, b, d, e = c[:-1, :-1].ravel(), c[:-1, 1:].ravel(), c[1:, 1:].ravel(), c[1:, :-1].ravel()
+        # facing down (-z): (a, d, b) and (a, e, d) with a, b, d, e counter-clockwise from above
+        floor = np.vstack([np.column_stack([a, d, b]), np.column_stack([a, e, d])])
+    elif grid_floor:
         top_faces = faces[top]
         used = np.unique(top_faces)
         scale = max(surface.size_x, surface.size_y)
@@ -266,6 +295,23 @@ def cone_cell(
     return (*shell, -step / 2, step), band, (z0 + z1) / 2
 
 
+def sphere_cell(lay: RingLayout, j: int, t: float) -> tuple[float, float, float, float, float]:
+    """The cell of a patch on ring ``j`` of a sphere, exactly: the G4Sphere segment over the
+    patch's azimuths (centred on phi = 0) between the face and the face moved out (in, on an
+    inner face) by the layer thickness ``t``, and between the cones of polar angle through the
+    patch's ends along the meridian, moved apart by the rows' gap (neighbouring rings' cells
+    touch). Returns (rmin, rmax, stheta, dtheta, dphi) of a cell centred on the sphere's
+    centre."""
+    face = lay.face
+    assert isinstance(face, SphereFace)
+    r = face.sphere_radius
+    lo, hi = (r, r + t) if face.sign > 0 else (r - t, r)
+    e = 0.5 * lay.row_gap
+    py = lay.patch_size[1]
+    a, b = sorted(float(x) for x in face.polar(lay.v[j] + np.array([-py / 2 - e, py / 2 + e])))
+    return lo, hi, a, b - a, float(lay.step[j])
+
+
 @dataclass
 class BentVariant:
     """One variant bent onto one ring radius: the closed body (Geant4) and its top (sampling),
@@ -287,8 +333,25 @@ class BentVariant:
         """True for points (ring frame) inside the closed body or within ``tol`` of it along
         ``directions``: the parity of the crossings of a ray along each direction (the surface's
         outward normal there) with the body's triangles, tested against the triangles of the
-        point's (azimuth, z) bin only (:meth:`_bins`; the rays stay in their bin)."""
+        point's (azimuth, z) bin only (:meth:`_bins`; the rays stay in their bin). A few points
+        (``FEW_POINTS``) are tested against the triangles whose (azimuth, z) range (widened as
+        the bins' are) holds them, without building the bins (a sphere has a body per ring)."""
         tri = self.vertices[self.faces]
+        if len(points) <= FEW_POINTS and "_bins" not in self.__dict__:
+            v = self.vertices
+            phi_v = np.arctan2(v[:, 1], v[:, 0])
+            rho = np.hypot(v[:, 0], v[:, 1])
+            margin = float(rho.max() - rho.min()) + 1e-9
+            tp, tz = phi_v[self.faces], v[self.faces, 2]
+            lo_p, hi_p = tp.min(axis=1) - 1e-12, tp.max(axis=1) + 1e-12
+            lo_z, hi_z = tz.min(axis=1) - margin, tz.max(axis=1) + margin
+            phi_p = np.arctan2(points[:, 1], points[:, 0])
+            out = np.zeros(len(points), dtype=bool)
+            for n in range(len(points)):
+                near = (lo_p <= phi_p[n]) & (phi_p[n] <= hi_p)
+                near &= (lo_z <= points[n, 2]) & (points[n, 2] <= hi_z)
+                out[n] = _ray_parity(points[n : n + 1], directions[n : n + 1], tri[near], tol)[0]
+            return out
         edges, members = self._bins
         out = np.zeros(len(points), dtype=bool)
         phi = np.arctan2(points[:, 1], points[:, 0])
@@ -365,16 +428,27 @@ def _ray_parity(o: np.ndarray, d: np.ndarray, tri: np.ndarray, tol: float) -> np
 
 
 def measure_floor(
-    layout: RingLayout, flat: tuple[np.ndarray, np.ndarray, int], base: float, j: int
+    layout: RingLayout,
+    flat: tuple[np.ndarray, np.ndarray, int],
+    base: float,
+    j: int,
+    column: float | None = None,
 ) -> tuple[float, float]:
     """Lowest and highest height (mm) above the true surface of the bent floor of a patch of
     ring ``j`` with no lift: points on its facets (corners, edge midpoints, inner points)
     located exactly. On a sphere also each facet's circumcentre where it lies in the facet:
     a flat triangle with its corners on a sphere dips deepest there (else at the midpoint of
-    its longest edge), so the lowest height is exact."""
+    its longest edge), so the lowest height is exact. ``column``: the floor's columns of this
+    width (mm) are alike (a spike grid's), so only the first is measured: bending turns every
+    column into the first about z."""
     v, faces, _ = flat
     floor = faces[len(faces) - _n_floor(v, faces, base) :]
-    bent = layout.bend(v, j, base)
+    if column is not None:
+        x = v[floor, 0]
+        floor = floor[(x <= x.min() + column * (1 + 1e-9)).all(axis=1)]
+    used = np.unique(floor)
+    bent = np.zeros_like(v)
+    bent[used] = layout.bend(v[used], j, base)
     bent[:, 2] += layout.ring_z(j)
     tri = bent[floor]
     w = np.array([[1, 0, 0], [0.5, 0.5, 0], [1 / 3, 1 / 3, 1 / 3], [0.5, 0.25, 0.25]])

@@ -16,7 +16,14 @@ from score4.surface.store import load_surface
 from .boolean_layers import target_layers
 from .clearance import check_clearance
 from .gdml_model import GeometryModel
-from .scene import CurvedRoughLayer, Scene, check_into_edges, resolve_targets, rough_faces
+from .scene import (
+    CurvedRoughLayer,
+    Scene,
+    check_into_edges,
+    fit_rings,
+    resolve_targets,
+    rough_faces,
+)
 
 
 def _load(name: str, description) -> Surface:
@@ -72,6 +79,7 @@ def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
                 seen[face] = j
                 one = rough if rough.face == face else rough.model_copy(update={"face": face})
                 scene.layers += target_layers(surfaces, target, j, one)
+        fit_rings(scene.layers_of(target.name))
         check_into_edges(scene, target)
     check_clearance(scene)
     far = float(np.max(scene.world_half))

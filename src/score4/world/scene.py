@@ -438,9 +438,10 @@ class CurvedRoughLayer(RoughLayer):
     cut_shape: tuple[Shape, np.ndarray] | None = None
 
     def solid_kind(self, k: int) -> str:
-        """``frustums`` for a spike grid on a cylinder or a cone (``solid: auto`` or
+        """``frustums`` for a spike grid on a cylinder, a cone or a sphere (``solid: auto`` or
         ``frustums``): on a cylinder each bent spike layer and each column of the bent slab is
-        exactly a G4Trd, on a cone a G4Trap or G4GenericTrap in a cell of two G4Cons
+        exactly a G4Trd, on a cone a G4Trap or G4GenericTrap in a cell of two G4Cons, on a
+        sphere the same in a cell that is a G4Sphere segment, with the slab cut per spike
         (:mod:`score4.geometry.curved`); ``tessellated`` (the bent closed body as one solid)
         otherwise (also on a cone too close to a cylinder for its cells:
         :attr:`frustum_cells`)."""
@@ -456,10 +457,11 @@ class CurvedRoughLayer(RoughLayer):
         """Bent frustums can be placed: on a cylinder always; on a cone where the cones of
         surface normals bounding each ring's cells (:func:`~score4.world.curved.cone_cell`)
         stay off the axis over the cell's z range (not on a cone within about
-        ``patch length / radius`` of a cylinder); never on a sphere."""
+        ``patch length / radius`` of a cylinder); on a sphere always (the cells are G4Sphere
+        segments, :func:`~score4.world.curved.sphere_cell`)."""
         face = self.ring_layout.face
         if isinstance(face, SphereFace):
-            return False
+            return True
         if self.is_cylinder:
             return True
         lay = self.ring_layout
@@ -525,6 +527,15 @@ class CurvedRoughLayer(RoughLayer):
             v, faces, n_top = self._flat(k)
             bent = self.ring_layout.bend(v, j, self.base_thickness + self.lift)
             self._cache[key] = BentVariant(bent, faces, n_top)
+        return self._cache[key]
+
+    def top_area(self, k: int, j: int) -> float:
+        """Area (mm2) of variant ``k``'s bent top on ring ``j`` (cached per ring solid)."""
+        key = ("top_area", k, self.ring_solid_key(j))
+        if key not in self._cache:
+            tri = self.bent(k, j).top_triangles
+            e = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+            self._cache[key] = float((0.5 * np.linalg.norm(e, axis=1)).sum())
         return self._cache[key]
 
     def cells(self) -> list[tuple[int, int, int, float]]:
@@ -624,6 +635,168 @@ class CurvedRoughLayer(RoughLayer):
             r = float(np.hypot(local[:, 0], local[:, 1]).max())
             lo[:2], hi[:2] = -r, r
         return OrientedBox(self.target.to_world((lo + hi) / 2), self.target.rotation, (hi - lo) / 2)
+
+
+@dataclass
+class RingRoughLayer(RoughLayer):
+    """A rough layer on a flat ring (an :class:`~score4.shapes.faces.AnnulusFace`: the end face
+    of a tube, cone or polycone, a flat polycone segment): its envelope is the ring
+    ``rmin <= r <= rmax`` about the frame's centre (on the axis) extruded by the layer's
+    thickness, not the face's bounding square, so that layers on coplanar rings of one solid (a
+    BEGe's contact, the ring around it and the bottom beyond its groove) do not meet.
+    ``rmin``/``rmax`` start as the face's radii; where the envelope of a curved layer of the same
+    solid reaches into the ring's slab (a wall rising from the ring at a concave edge, as in a
+    groove) the ring gives way (:func:`fit_rings`): the cells over that band stay flat
+    (``rough_shares``)."""
+
+    rmin: float = 0.0
+    rmax: float = 0.0
+
+    @property
+    def ring(self) -> tuple[float, float]:
+        """(rmin, rmax) of the envelope, mm."""
+        return self.rmin, self.rmax
+
+    def in_envelope(self, points: np.ndarray) -> np.ndarray:
+        """True for world points strictly inside the envelope (touching does not count)."""
+        q = self.frame.to_local(np.asarray(points, float).reshape(-1, 3))
+        tol = BOUNDARY_TOLERANCE
+        rho = np.hypot(q[:, 0], q[:, 1])
+        return np.asarray(
+            (q[:, 2] > tol)
+            & (q[:, 2] < self.thickness - tol)
+            & (rho > self.rmin + tol)
+            & (rho < self.rmax - tol)
+        )
+
+    def envelope_points(self, n: int = 25) -> np.ndarray:
+        """World points of the envelope (rings of points from rmin to rmax at the bottom,
+        middle and top, and close to its inner and outer walls), for the clearance checks
+        (kept until the ring is narrowed)."""
+        key = (n, self.rmin, self.rmax, self.thickness)
+        if key not in self._points:
+            self._points.clear()
+            self._points[key] = self._envelope_points(n)
+        return self._points[key]
+
+    @cached_property
+    def _points(self) -> dict:
+        return {}
+
+    def _envelope_points(self, n: int) -> np.ndarray:
+        t = self.thickness
+        r = np.linspace(self.rmin, self.rmax, n)
+        edge = min(0.5 * t, 0.25 * (self.rmax - self.rmin))
+        r = np.unique(np.concatenate([r, [self.rmin + 0.05 * edge, self.rmin + edge]]))
+        r = np.unique(np.concatenate([r, [self.rmax - 0.05 * edge, self.rmax - edge]]))
+        n_phi = int(np.clip(np.ceil(2 * np.pi * self.rmax / max(t, 1e-3)), 72, 360))
+        phi = np.linspace(0.0, 2 * np.pi, n_phi, endpoint=False)
+        h = np.array([0.0, 0.05, 0.5, 0.95, 1.0]) * t
+        rr, pp, hh = (g.ravel() for g in np.meshgrid(r, phi, h, indexing="ij"))
+        local = np.column_stack([rr * np.cos(pp), rr * np.sin(pp), hh])
+        return self.frame.to_world(local)
+
+    def envelope_box(self) -> OrientedBox:
+        """The square about the ring (side 2 rmax) times the thickness."""
+        t = self.thickness
+        return OrientedBox(
+            self.frame.to_world(np.array([0.0, 0.0, t / 2])),
+            self.frame.rotation,
+            np.array([self.rmax, self.rmax, t / 2]),
+        )
+
+    def refit(self, rmin: float, rmax: float, where: str) -> None:
+        """Narrow the envelope to ``rmin``..``rmax``: only the cells wholly inside keep their
+        patch."""
+        self.rmin, self.rmax = float(rmin), float(rmax)
+        assert self.mask is not None
+        self.mask = self.mask & ring_cells(
+            self.patch_map.cell_centres(), self.patch_size, self.rmin, self.rmax
+        )
+        if not self.mask.any():
+            px, py = self.patch_size
+            raise ConfigError(
+                f"{where}: no whole patch of {px * 1e3:g} x {py * 1e3:g} um fits on face "
+                f"{self.config.face_name} of {self.target.name!r} between r = "
+                f"{self.rmin:.6g} and {self.rmax:.6g} mm (the face less the layers of its "
+                "neighbouring walls)"
+            )
+
+
+def ring_cells(
+    centres: np.ndarray, size: tuple[float, float], rmin: float, rmax: float
+) -> np.ndarray:
+    """True for the (u, v) rectangles of ``size`` around ``centres`` (..., 2) that lie wholly
+    in the ring ``rmin <= r <= rmax``."""
+    px, py = size
+    x, y = np.abs(centres[..., 0]), np.abs(centres[..., 1])
+    far = np.hypot(x + px / 2, y + py / 2)
+    near = np.hypot(np.maximum(x - px / 2, 0.0), np.maximum(y - py / 2, 0.0))
+    return np.asarray((far <= rmax * (1 + 1e-12)) & (near >= rmin * (1 - 1e-12)))
+
+
+def fit_rings(layers: list[RoughLayer]) -> None:
+    """Ring layers of a solid give way to the curved layers of the same solid whose envelopes
+    reach into their slab (see :class:`RingRoughLayer`).
+
+    A wall (cylinder or cone) meeting a flat ring at a concave edge (a groove's walls and its
+    bottom, a bore's wall and its bottom) has its envelope, between the z planes of its ends,
+    inside the ring's slab (the ring's plane moved out by the ring layer's thickness): the ring's
+    envelope then starts (or ends) where the wall's envelope ends in that slab. At a convex edge
+    the two envelopes only touch and nothing changes. A wall's envelope reaching into the
+    middle of a ring is left to the clearance check."""
+    rings = [r for r in layers if isinstance(r, RingRoughLayer) and not r.config.into]
+    walls = [
+        c
+        for c in layers
+        if isinstance(c, CurvedRoughLayer)
+        and isinstance(c.ring_layout.face, RevolvedFace)
+        and c.on_boolean is None
+    ]
+    for ring in rings:
+        if ring.on_boolean is not None:
+            continue
+        face = ring.target.face(ring.config.face_name)
+        assert isinstance(face, AnnulusFace)
+        z0 = float(face.frame.translation[2])
+        nz = float(face.frame.rotation[2, 2])
+        slab = sorted((z0, z0 + nz * ring.thickness))
+        rmin, rmax = ring.rmin, ring.rmax
+        for wall in walls:
+            if wall.target is not ring.target:
+                continue
+            a1, b1, a2, b2, dz, zc = wall_envelope(wall)
+            lo, hi = max(slab[0], zc - dz), min(slab[1], zc + dz)
+            if hi - lo <= BOUNDARY_TOLERANCE:
+                continue  # the envelopes touch at most (a convex edge)
+            at = [(z - (zc - dz)) / (2 * dz) if dz > 0 else 0.0 for z in (lo, hi)]
+            radii = [a1 + f * (a2 - a1) for f in at] + [b1 + f * (b2 - b1) for f in at]
+            r_lo, r_hi = min(radii), max(radii)
+            if r_hi <= rmin + BOUNDARY_TOLERANCE or r_lo >= rmax - BOUNDARY_TOLERANCE:
+                continue
+            if r_lo <= rmin + BOUNDARY_TOLERANCE:
+                rmin = r_hi
+            elif r_hi >= rmax - BOUNDARY_TOLERANCE:
+                rmax = r_lo
+        if (rmin, rmax) != (ring.rmin, ring.rmax):
+            ring.refit(rmin, rmax, f"targets.{ring.target.entry}.rough")
+
+
+def wall_envelope(layer: CurvedRoughLayer) -> tuple[float, float, float, float, float, float]:
+    """``(rmin1, rmax1, rmin2, rmax2, dz, z_centre)`` of a curved layer's envelope on a cylinder
+    or cone (the shape's frame): the face and the same moved out by the layer thickness along
+    its normal, between the z planes of the face's ends (the ``G4Cons`` of
+    :mod:`score4.geometry.curved`)."""
+    face = layer.ring_layout.face
+    assert isinstance(face, RevolvedFace)
+    (r1, z1), (r2, z2) = face.rz1, face.rz2
+    if z1 > z2:
+        (r1, z1), (r2, z2) = (r2, z2), (r1, z1)
+    tz = abs(float(face._tangent[1]))
+    shift = float(np.sign(face.nrz[0])) * layer.thickness / tz  # the offset surface, same z
+    a1, b1 = sorted((r1, r1 + shift))
+    a2, b2 = sorted((r2, r2 + shift))
+    return float(a1), float(b1), float(a2), float(b2), 0.5 * (z2 - z1), 0.5 * (z1 + z2)
 
 
 @dataclass
@@ -1121,7 +1294,22 @@ def make_layer(
                 f"{where}: native_layout replicas fills a rectangle; a round face takes auto, "
                 "nested or placements"
             )
-    layer = RoughLayer(target, rough, frame, names, variants, patch_map, mask, area)
+    layer = (
+        RingRoughLayer(
+            target,
+            rough,
+            frame,
+            names,
+            variants,
+            patch_map,
+            mask,
+            area,
+            rmin=geometry.rmin,
+            rmax=geometry.rmax,
+        )
+        if isinstance(geometry, AnnulusFace)
+        else RoughLayer(target, rough, frame, names, variants, patch_map, mask, area)
+    )
     for k, n in enumerate(names):
         try:
             check_patch(variants[k], layer.solid_kind(k), rough.block_cells)
@@ -1173,15 +1361,13 @@ def make_curved_layer(
     if rough.solid not in ("auto", "tessellated", "frustums"):
         raise ConfigError(
             f"{where}: solid {rough.solid} on a curved face ({what}); its patches are bent "
-            "tessellated bodies or, for spike grids on a cylinder, bent frustums (solid: auto, "
+            "tessellated bodies or, for spike grids, bent frustums (solid: auto, "
             "tessellated or frustums)"
         )
-    if rough.solid == "frustums" and (
-        isinstance(face, SphereFace) or any(s.spikes is None for s in variants)
-    ):
+    if rough.solid == "frustums" and any(s.spikes is None for s in variants):
         raise ConfigError(
-            f"{where}: solid frustums on a curved face ({what}) needs spike-grid surfaces on a "
-            "cylinder wall or a cone; use solid: auto or tessellated"
+            f"{where}: solid frustums on a curved face ({what}) needs spike-grid surfaces; "
+            "use solid: auto or tessellated"
         )
     reserve = 1.05 * (rough.base_thickness + max(s.max_height for s in variants)) + 1e-4
     row_gap = 0.0
@@ -1212,7 +1398,9 @@ def make_curved_layer(
     for k in range(len(variants)):
         flat = layer._flat(k)
         for j in rows:
-            lo, hi = measure_floor(layout, flat, rough.base_thickness, j)
+            spikes = variants[k].spikes
+            column = spikes.width_x if spikes is not None and isinstance(face, SphereFace) else None
+            lo, hi = measure_floor(layout, flat, rough.base_thickness, j, column)
             lows.append(lo)
             highs.append(hi)
         tops.append(top_sagitta(layout, flat))
