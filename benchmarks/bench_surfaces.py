@@ -180,7 +180,7 @@ LABELS = {
     "flat": ("flat face (no rough layer)", "-"),
     "pyramids": ("pyramids 10 um, equal heights", "multiunion (auto)"),
     "spread": ("pyramids 10 um, 2 um height spread", "frustums (auto)"),
-    "bumps": ("bumps, 4 layers, equal heights", "multiunion (auto)"),
+    "bumps": ("bumps, 4 layers, equal heights", "frustums (auto)"),
     "gauss": ("Gaussian random field, 0.5 um pixels", "blocks (auto)"),
     "selfaff": ("self-affine random field, 0.5 um pixels", "blocks (auto)"),
     "measured": ("measured map, 60 x 50 pixels", "blocks (auto)"),

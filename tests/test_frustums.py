@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from score4.errors import ConfigError
-from score4.inputs.config import parse_config
+from score4.inputs.config import auto_solid, parse_config
 from score4.source.build import make_source
 from score4.source.primaries import Primaries
 from score4.world.resolve import build_scene
@@ -38,13 +38,24 @@ def _data(surface: dict, solid: str = "auto") -> dict:
     return config_dict(surfaces={"s": surface}, targets=[target], source=source)
 
 
-def test_auto_takes_frustums_for_spike_grids_with_a_spread():
+def test_auto_takes_frustums_for_spike_grids_with_a_spread_or_layers():
+    """Auto: a multi-union for equal single-layer spikes (pyramids) only; frustums for a height
+    spread and for spikes of several layers (here bumps of 3), blocks for a height map; the
+    config's auto_solid says the same before building."""
     kinds = {}
     equal = {k: v for k, v in SPREAD.items() if k != "seed"} | {"height_sigma": "0 um"}
-    for name, surface in (("spread", SPREAD), ("equal", equal)):
-        kinds[name] = build_scene(parse_config(_data(surface))).layers[0].solid_kind(0)
-    kinds["random"] = build_scene(parse_config(_data(RANDOM))).layers[0].solid_kind(0)
-    assert kinds == {"spread": "frustums", "equal": "multiunion", "random": "blocks"}
+    pyramids = {k: v for k, v in equal.items() if k not in ("shape", "n_layers")}
+    surfaces = (("spread", SPREAD), ("equal", equal), ("pyramids", pyramids), ("random", RANDOM))
+    for name, surface in surfaces:
+        config = parse_config(_data(surface))
+        kinds[name] = build_scene(config).layers[0].solid_kind(0)
+        assert auto_solid(config.surfaces["s"]) == kinds[name]
+    assert kinds == {
+        "spread": "frustums",
+        "equal": "frustums",
+        "pyramids": "multiunion",
+        "random": "blocks",
+    }
 
 
 def test_frustums_of_a_height_map_are_refused():

@@ -311,7 +311,8 @@ def auto_solid(description) -> str | None:
     """The solid ``solid: auto`` makes of a surface description; None when it cannot be told
     without building the surface (an unreadable surface file).
 
-    Spike grids of equal heights become a multi-union, with a height spread frustums, height
+    Spike grids of equal single-layer spikes become a multi-union, with a height spread or
+    several layers (bumps, peaks) frustums, height
     maps blocks (the choice explained at :meth:`score4.world.scene.RoughLayer.solid_kind`).
     """
     if isinstance(description, SurfaceFile):
@@ -319,7 +320,8 @@ def auto_solid(description) -> str | None:
 
         description = stored_spec(description.file)
     if isinstance(description, SpikeSurfaceSpec):
-        return "multiunion" if description.height_sigma == 0 else "frustums"
+        single = description.height_sigma == 0 and description.n_layers == 1
+        return "multiunion" if single else "frustums"
     if isinstance(description, (RandomSurfaceSpec, MeasuredSurfaceSpec)):
         return "blocks"
     return None

@@ -351,9 +351,12 @@ class RoughLayer:
     def solid_kind(self, k: int) -> str:
         """``tessellated``, ``multiunion``, ``frustums`` or ``blocks`` for variant ``k``.
 
-        ``auto`` takes the multi-union for spike grids of equal heights (fastest to track and to
-        build, bench_solids.py), ``frustums`` (the multi-union's nodes placed side by side, see
-        :mod:`score4.geometry.frustums`) for spike grids with a height spread, and ``blocks``
+        ``auto`` takes the multi-union for spike grids of equal single-layer spikes (pyramids;
+        fast to track and to build, bench_solids.py), ``frustums`` (the multi-union's nodes
+        placed side by side, see :mod:`score4.geometry.frustums`) for spike grids with a height
+        spread or of several layers (bumps and peaks: 50 x 50 bumps of 4 layers cost 0.87x the
+        pyramid multi-union's instructions per alpha event as frustums, 1.50x as a multi-union,
+        benchmarks/bench_instructions.py), and ``blocks``
         otherwise (the closed body cut into small
         tessellated blocks, :mod:`score4.geometry.block_solids`): one tessellated solid per patch
         tracked alphas 10-40x slower (benchmarks/bench_surfaces.py), and a multi-union with a
@@ -374,7 +377,8 @@ class RoughLayer:
             if grid is None:
                 return "blocks"
             small = grid.nx * grid.ny <= AUTO_MULTIUNION_MAX_SPIKES
-            return "multiunion" if grid.height_sigma == 0 and small else "frustums"
+            single = grid.height_sigma == 0 and grid.n_layers == 1
+            return "multiunion" if single and small else "frustums"
         return choice
 
     def cell_centres(self) -> np.ndarray:
