@@ -204,18 +204,48 @@ def measure(
     (``src``: with score4 imported from that folder, a baseline)."""
     path = folder / f"{name}.yaml"
     path.write_text(yaml.safe_dump(config))
-    cpu, peak = [], []
-    for n in (20, events):
-        out = folder / f"{name}.h5"
-        c, m = child_cpu(
-            [*SCORE4, str(path), "--events", str(n), "--out", str(out), "--overwrite"],
-            folder,
-            src,
-        )
-        cpu.append(c)
-        peak.append(m)
-    per_event = (cpu[1] - cpu[0]) / (events - 20)
-    return cpu[0] - 20 * per_event, per_event, max(peak)
+    out = folder / f"{name}.h5"
+    cpu, peak = child_cpu(
+        [*SCORE4, str(path), "--events", "20", "--out", str(out), "--overwrite"],
+        folder,
+        src,
+    )
+    proc = subprocess.run(
+        [sys.executable, __file__, "--child", str(path), "--events", str(events)],
+        cwd=folder,
+        capture_output=True,
+        text=True,
+        check=True,
+        env={**os.environ, "PYTHONPATH": src} if src else None,
+    )
+    per_event, child_peak = (float(x) for x in proc.stdout.split()[-2:])
+    return cpu - 20 * per_event, per_event, max(peak, child_peak)
+
+
+def child(path: Path, events: int) -> None:
+    """Build ``path``'s case in this process as a worker does, track 20 events, then time
+    ``events`` more: drawn (``Source.events``, confinement included) and tracked as one chunk.
+    Prints ``CPU s per event`` and the process's peak RSS MB."""
+    import resource
+    import time
+
+    from score4.inputs.config import parse_config
+    from score4.runner.run_plan import plan_run
+    from score4.runner.seeds import event_geant4_seeds
+    from score4.sim.runtime import resolve_physics
+    from score4.sim.simulation import Simulation
+
+    os.chdir(path.parent)
+    config = parse_config(yaml.safe_load(path.read_text()))
+    sim = Simulation(plan_run(config, physics=resolve_physics("lite")))
+    seed = config.run.seed
+    for first, n in ((0, 20), (20, events)):
+        c0 = time.process_time()
+        sim.run(sim.source.events(seed, first, n), event_geant4_seeds(seed, first, n))
+        per_event = (time.process_time() - c0) / n
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"{per_event:.9f} {peak:.1f}", flush=True)
+    os._exit(0)  # skip Geant4's teardown
 
 
 def compare_spectra(radius: float, half_length: float, events: int) -> None:
@@ -271,7 +301,11 @@ def main() -> None:
         help="instead: N alphas (seed 1) on the wall as bent G4Trds and as bent tessellated "
         "bodies; compare their deposits",
     )
+    parser.add_argument("--child", type=Path, help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.child:
+        child(args.child, args.events)
+        return
     if args.spectra:
         compare_spectra(args.radius, args.half_length, args.spectra)
         return

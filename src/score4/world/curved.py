@@ -44,10 +44,6 @@ GAP_FLOOR = 1e-4
 MAX_SQUEEZE = 0.05
 
 
-#: Up to this many points per body, :meth:`BentVariant.contains` tests them without its bins.
-FEW_POINTS = 64
-
-
 def gap_limit(max_height: float) -> float:
     """Largest allowed gap (mm) between a bent layer's base and the true surface."""
     return max(GAP_SHARE * max_height, GAP_FLOOR)
@@ -235,6 +231,16 @@ class RingLayout:
         p[:, 2] -= self.ring_z(j)
         return p
 
+    def bend_rows(self, local: np.ndarray, j: np.ndarray, height_offset: float) -> np.ndarray:
+        """:meth:`bend` with a ring ``j[n]`` for each point ``local[n]``."""
+        x, y, z = local[:, 0], local[:, 1], local[:, 2]
+        face = self.face
+        phi = x / self.radius[j]
+        v = self.v[j] + y
+        p = face.point(phi, v) + (z + height_offset)[:, None] * face.normal(phi, v)
+        p[:, 2] -= face.point(np.zeros(len(j)), self.v[j])[:, 2]
+        return p
+
     def locate(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Cell (ring j, index i; -1 off the patches) and patch-local (x, y, h) of points in the
         target's frame (h: height above the true surface)."""
@@ -329,102 +335,116 @@ class BentVariant:
     def top_triangles(self) -> np.ndarray:
         return self.vertices[self.faces[: self.n_top]]
 
-    def contains(self, points: np.ndarray, directions: np.ndarray, tol: float) -> np.ndarray:
-        """True for points (ring frame) inside the closed body or within ``tol`` of it along
-        ``directions``: the parity of the crossings of a ray along each direction (the surface's
-        outward normal there) with the body's triangles, tested against the triangles of the
-        point's (azimuth, z) bin only (:meth:`_bins`; the rays stay in their bin). A few points
-        (``FEW_POINTS``) are tested against the triangles whose (azimuth, z) range (widened as
-        the bins' are) holds them, without building the bins (a sphere has a body per ring)."""
-        tri = self.vertices[self.faces]
-        if len(points) <= FEW_POINTS and "_bins" not in self.__dict__:
-            v = self.vertices
-            phi_v = np.arctan2(v[:, 1], v[:, 0])
-            rho = np.hypot(v[:, 0], v[:, 1])
-            margin = float(rho.max() - rho.min()) + 1e-9
-            tp, tz = phi_v[self.faces], v[self.faces, 2]
-            lo_p, hi_p = tp.min(axis=1) - 1e-12, tp.max(axis=1) + 1e-12
-            lo_z, hi_z = tz.min(axis=1) - margin, tz.max(axis=1) + margin
-            phi_p = np.arctan2(points[:, 1], points[:, 0])
-            out = np.zeros(len(points), dtype=bool)
-            for n in range(len(points)):
-                near = (lo_p <= phi_p[n]) & (phi_p[n] <= hi_p)
-                near &= (lo_z <= points[n, 2]) & (points[n, 2] <= hi_z)
-                out[n] = _ray_parity(points[n : n + 1], directions[n : n + 1], tri[near], tol)[0]
-            return out
-        edges, members = self._bins
-        out = np.zeros(len(points), dtype=bool)
-        phi = np.arctan2(points[:, 1], points[:, 0])
-        bi = np.clip(np.searchsorted(edges[0], phi) - 1, 0, len(edges[0]) - 2)
-        bj = np.clip(np.searchsorted(edges[1], points[:, 2]) - 1, 0, len(edges[1]) - 2)
-        key = bi * (len(edges[1]) - 1) + bj
+
+@dataclass
+class Footprints:
+    """A variant's flat closed body (patch-local vertices and faces) with its triangles binned
+    by patch-local (x, y), for :meth:`contains` on the body bent onto any ring.
+
+    The normal line through a point of a bent patch keeps the point's azimuth and generator
+    position, so it is the line of the point's patch-local (x, y): a bent triangle it crosses
+    is one whose flat footprint holds that (x, y), but for the bending. Bent facets are flat
+    between bent corners; their local footprint leaves the flat one by second-order terms of
+    the bend, below ``diameter^2 / r`` for a radius ``r`` (each footprint is widened by that),
+    so the bin of a point's (x, y) lists every triangle its normal line can cross."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    edges: tuple[np.ndarray, np.ndarray]
+    start: np.ndarray
+    members: np.ndarray
+
+    @classmethod
+    def make(cls, vertices: np.ndarray, faces: np.ndarray, radius: float, n: int = 32):
+        tri = vertices[faces]
+        lo, hi = tri.min(axis=1), tri.max(axis=1)
+        margin = ((hi - lo) ** 2).sum(axis=1) / max(radius, 1e-300) + 1e-9
+        edges = tuple(
+            np.linspace(vertices[:, a].min(), vertices[:, a].max(), n + 1) for a in (0, 1)
+        )
+        ij = []
+        for a in (0, 1):
+            first = np.searchsorted(edges[a], lo[:, a] - margin, side="right") - 1
+            last = np.searchsorted(edges[a], hi[:, a] + margin, side="right") - 1
+            ij.append((np.clip(first, 0, n - 1), np.clip(last, 0, n - 1)))
+        (i0, i1), (j0, j1) = ij
+        # every (triangle, bin) pair of each triangle's bin rectangle
+        ni, nj = i1 - i0 + 1, j1 - j0 + 1
+        tri_id = np.repeat(np.arange(len(faces)), ni * nj)
+        k = np.arange(len(tri_id)) - np.repeat(np.cumsum(ni * nj) - ni * nj, ni * nj)
+        key = (i0[tri_id] + k // nj[tri_id]) * n + j0[tri_id] + k % nj[tri_id]
         order = np.argsort(key, kind="stable")
-        bounds = np.flatnonzero(np.diff(key[order])) + 1
-        for rows in np.split(order, bounds):
-            out[rows] = _ray_parity(
-                points[rows], directions[rows], tri[members[int(key[rows[0]])]], tol
-            )
+        start = np.searchsorted(key[order], np.arange(n * n + 1))
+        return cls(vertices, faces, (edges[0], edges[1]), start, tri_id[order].astype(np.int64))
+
+    def contains(
+        self,
+        lay: RingLayout,
+        q: np.ndarray,
+        j: np.ndarray,
+        i: np.ndarray,
+        local: np.ndarray,
+        offset: float,
+        tol: float,
+    ) -> np.ndarray:
+        """True for points ``q`` (target frame) of cells ``(j, i)`` at patch-local ``local``
+        inside the body bent onto their ring with ``offset`` (:meth:`RingLayout.bend`) or
+        within ``tol`` of it: the parity of the crossings of the normal line up from each point
+        with the bent triangles of its (x, y) bin, in the frame of its cell at phi = 0."""
+        face = lay.face
+        phi = lay.phi_mid + (i - (lay.count[j] - 1) / 2) * lay.step[j]  # the cell's azimuth
+        c, s = np.cos(-phi), np.sin(-phi)
+        o = np.column_stack([c * q[:, 0] - s * q[:, 1], s * q[:, 0] + c * q[:, 1], q[:, 2]])
+        o[:, 2] -= face.point(np.zeros(len(j)), lay.v[j])[:, 2]
+        d = face.normal(np.arctan2(o[:, 1], o[:, 0]), lay.v[j] + local[:, 1])
+        n = len(self.edges[1]) - 1
+        bx = np.clip(np.searchsorted(self.edges[0], local[:, 0], side="right") - 1, 0, n - 1)
+        by = np.clip(np.searchsorted(self.edges[1], local[:, 1], side="right") - 1, 0, n - 1)
+        first, count = self.start[bx * n + by], np.diff(self.start)[bx * n + by]
+        out = np.zeros(len(q), dtype=bool)
+        ends = np.cumsum(count)
+        per_chunk = 200_000  # (point, triangle) pairs at a time: ~15 arrays of 5 MB
+        lo = 0
+        while lo < len(q):
+            hi = max(int(np.searchsorted(ends, ends[lo] - count[lo] + per_chunk)), lo + 1)
+            rows = np.arange(lo, min(hi, len(q)))
+            out[rows] = self._parity(lay, o, d, j, rows, first, count, offset, tol)
+            lo = rows[-1] + 1
         return out
 
-    @cached_property
-    def _bins(self) -> tuple[tuple[np.ndarray, np.ndarray], list[np.ndarray]]:
-        """A 32 x 32 grid over the body's azimuth and z ranges, and the triangles meeting each
-        cell (their ranges widened by the body's radial extent, which a tilted ray crosses)."""
-        v = self.vertices
-        phi = np.arctan2(v[:, 1], v[:, 0])
-        rho = np.hypot(v[:, 0], v[:, 1])
-        margin = float(rho.max() - rho.min()) + 1e-9
-        edges = (
-            np.linspace(phi.min() - 1e-12, phi.max() + 1e-12, 33),
-            np.linspace(v[:, 2].min() - margin, v[:, 2].max() + margin, 33),
-        )
-        tp, tz = phi[self.faces], v[self.faces, 2]
-        i0 = np.clip(np.searchsorted(edges[0], tp.min(axis=1)) - 1, 0, 31)
-        i1 = np.clip(np.searchsorted(edges[0], tp.max(axis=1)) - 1, 0, 31)
-        j0 = np.clip(np.searchsorted(edges[1], tz.min(axis=1) - margin) - 1, 0, 31)
-        j1 = np.clip(np.searchsorted(edges[1], tz.max(axis=1) + margin) - 1, 0, 31)
-        # every (triangle, bin) pair of each triangle's bin rectangle, in triangle order
-        ni, nj = i1 - i0 + 1, j1 - j0 + 1
-        tri = np.repeat(np.arange(len(self.faces)), ni * nj)
-        k = np.arange(len(tri)) - np.repeat(np.cumsum(ni * nj) - ni * nj, ni * nj)
-        a = i0[tri] + k // nj[tri]
-        b = j0[tri] + k % nj[tri]
-        key = a * 32 + b
-        order = np.argsort(key, kind="stable")
-        bounds = np.searchsorted(key[order], np.arange(32 * 32 + 1))
-        sorted_tri = tri[order].astype(np.int64)
-        return edges, [sorted_tri[bounds[m] : bounds[m + 1]] for m in range(32 * 32)]
-
-
-def _ray_parity(o: np.ndarray, d: np.ndarray, tri: np.ndarray, tol: float) -> np.ndarray:
-    """Odd number of crossings ahead (or a crossing within ``tol``) of rays with triangles."""
-    if len(tri) == 0:
-        return np.zeros(len(o), dtype=bool)
-    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
-    out = np.zeros(len(o), dtype=bool)
-    chunk = max(1, 200_000 // len(tri))  # arrays of (chunk, triangles, 3): ~5 MB each
-    for start in range(0, len(o), chunk):
-        p = o[start : start + chunk, None, :]
-        r = d[start : start + chunk, None, :]
-        pv = np.cross(r, e2[None])
-        det = np.einsum("nkc,kc->nk", pv, e1)
+    def _parity(self, lay, o, d, j, rows, first, count, offset, tol) -> np.ndarray:
+        cnt = count[rows]
+        owner = np.repeat(np.arange(len(rows)), cnt)
+        if not len(owner):
+            return np.zeros(len(rows), dtype=bool)
+        at = np.arange(len(owner)) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+        tri_id = self.members[first[rows][owner] + at]
+        flat = self.vertices[self.faces[tri_id]].reshape(-1, 3)
+        ring = np.repeat(j[rows][owner], 3)
+        tri = lay.bend_rows(flat, ring, offset).reshape(-1, 3, 3)
+        p, r = o[rows][owner], d[rows][owner]
+        e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+        pv = np.cross(r, e2)
+        det = np.einsum("nc,nc->n", pv, e1)
         ok = np.abs(det) > 1e-300
         inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
-        tv = p - tri[None, :, 0]
-        u = np.einsum("nkc,nkc->nk", tv, pv) * inv
-        qv = np.cross(tv, e1[None])
-        w = np.einsum("nkc,nkc->nk", qv, r) * inv
-        t = np.einsum("nkc,kc->nk", qv, e2) * inv
+        tv = p - tri[:, 0]
+        u = np.einsum("nc,nc->n", tv, pv) * inv
+        qv = np.cross(tv, e1)
+        w = np.einsum("nc,nc->n", qv, r) * inv
+        t = np.einsum("nc,nc->n", qv, e2) * inv
         hit = ok & (u >= 0) & (w >= 0) & (u + w <= 1)
-        on = (hit & (np.abs(t) <= tol)).any(axis=1)
-        ahead = np.sort(np.where(hit & (t > tol), t, np.inf), axis=1)
-        finite = np.isfinite(ahead)
+        out = np.zeros(len(rows), dtype=bool)
+        out[owner[hit & (np.abs(t) <= tol)]] = True
+        ahead = hit & (t > tol)
+        who, when = owner[ahead], t[ahead]
+        order = np.lexsort((when, who))
+        who, when = who[order], when[order]
         # a ray through an edge or corner meets two or more facets at one point: count once
-        with np.errstate(invalid="ignore"):  # inf - inf past the last crossing
-            gaps = np.diff(ahead, axis=1) > 1e-12
-        new = finite & np.concatenate([finite[:, :1], gaps], axis=1)
-        out[start : start + chunk] = on | (new.sum(axis=1) % 2 == 1)
-    return out
+        new = np.ones(len(who), dtype=bool)
+        new[1:] = (who[1:] != who[:-1]) | (np.diff(when) > 1e-12)
+        odd = np.bincount(who[new], minlength=len(rows)) % 2 == 1
+        return out | odd
 
 
 def measure_floor(

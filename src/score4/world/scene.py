@@ -43,6 +43,7 @@ from score4.surface.spec import Surface
 
 from .curved import (
     BentVariant,
+    Footprints,
     RingLayout,
     check_radius,
     cone_cell,
@@ -515,10 +516,14 @@ class CurvedRoughLayer(RoughLayer):
     def ring_solid_key(self, j: int) -> float:
         """Rings of equal radius and slope share their bent solids (all rings of a cylinder);
         on a sphere every ring has its own (the key is its position along the meridian)."""
+        return float(self._ring_solid_keys[j])
+
+    @cached_property
+    def _ring_solid_keys(self) -> np.ndarray:
         lay = self.ring_layout
         if isinstance(lay.face, SphereFace):
-            return float(np.round(lay.v[j], 12)) + 1e6  # apart from any radius
-        return float(np.round(lay.radius[j], 12))
+            return np.round(lay.v, 12) + 1e6  # apart from any radius
+        return np.round(lay.radius, 12)
 
     def bent(self, k: int, j: int) -> BentVariant:
         """Variant ``k`` bent onto ring ``j`` (cached per ring radius)."""
@@ -527,6 +532,15 @@ class CurvedRoughLayer(RoughLayer):
             v, faces, n_top = self._flat(k)
             bent = self.ring_layout.bend(v, j, self.base_thickness + self.lift)
             self._cache[key] = BentVariant(bent, faces, n_top)
+        return self._cache[key]
+
+    def footprints(self, k: int) -> Footprints:
+        """Variant ``k``'s flat body binned for :meth:`contains` on every ring."""
+        key = ("footprints", k)
+        if key not in self._cache:
+            v, faces, _ = self._flat(k)
+            radius = self.ring_layout.min_radius - self.thickness  # a concave face's bodies
+            self._cache[key] = Footprints.make(v, faces, max(radius, 1e-3 * self.thickness))
         return self._cache[key]
 
     def top_area(self, k: int, j: int) -> float:
@@ -560,25 +574,12 @@ class CurvedRoughLayer(RoughLayer):
         if not len(rows):
             return inside
         variant = self.cell_variants[j[rows], i[rows]]
-        keys = np.array([self.ring_solid_key(int(r)) for r in j[rows]])
+        offset = self.base_thickness + self.lift
         for k in np.unique(variant[variant >= 0]):
-            for key in np.unique(keys[variant == k]):
-                sel = rows[(variant == k) & (keys == key)]
-                ring = int(j[sel[0]])
-                phi = np.array(
-                    [lay.cell_phi(int(a))[int(b)] for a, b in zip(j[sel], i[sel], strict=True)]
-                )
-                c, s = np.cos(-phi), np.sin(-phi)
-                p = q[sel]
-                turned = np.column_stack(
-                    [c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1], p[:, 2]]
-                )
-                turned[:, 2] -= np.array([lay.ring_z(int(a)) for a in j[sel]])
-                u = np.arctan2(turned[:, 1], turned[:, 0])
-                direction = lay.face.normal(u, lay.v[ring])
-                inside[sel] = self.bent(int(k), ring).contains(
-                    turned, direction, BOUNDARY_TOLERANCE
-                )
+            sel = rows[variant == k]
+            inside[sel] = self.footprints(int(k)).contains(
+                lay, q[sel], j[sel], i[sel], local[sel], offset, BOUNDARY_TOLERANCE
+            )
         return inside
 
     def in_cut(self, points: np.ndarray) -> np.ndarray:
