@@ -13,6 +13,7 @@ second one in a new process (areas read back). Checked by docs/geometry.md (chec
 
 from __future__ import annotations
 
+import argparse
 import os
 import subprocess
 import sys
@@ -57,8 +58,11 @@ def _build(gdml: str) -> None:
 
 
 def main() -> None:
-    if len(sys.argv) > 1:
-        _build(sys.argv[1])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("gdml", nargs="?", help="build the scene of this world only (the child)")
+    args = parser.parse_args()
+    if args.gdml:
+        _build(args.gdml)
         return
     sys.path.insert(0, str(HERE.parents[2] / "tests"))
     from helpers.boolean_worlds import write_world

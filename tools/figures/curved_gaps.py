@@ -39,7 +39,8 @@ from score4.shapes import (
 )
 from score4.surface.spec import build_surface, parse_surface_spec
 from score4.world.curved import gap_limit
-from score4.world.scene import TargetVolume, make_layer, make_layers
+from score4.world.boolean_layers import target_layers
+from score4.world.scene import TargetVolume, make_layer
 
 SURFACES = {
     "10 um pyramids, 0.5 mm patch": {
@@ -125,7 +126,7 @@ def facet_table(surfaces: dict) -> None:
     for label, shape, face in FACETS:
         for name, surface in surfaces.items():
             t = target(shape, face)
-            layers = make_layers({"s": surface}, t, 0, t.config.rough[0])  # type: ignore[union-attr]
+            layers = target_layers({"s": surface}, t, 0, t.config.rough[0])  # type: ignore[union-attr]
             gap, rough, area = 0.0, 0.0, 0.0
             for layer in layers:
                 px, py = layer.patch_size
