@@ -102,8 +102,7 @@ def main() -> None:
         p = np.array([float(x), float(y), float(z)])
         tri = body.vertices[body.faces]
         dist = float(_tri_distance(p[None], tri).min())
-        u = np.arctan2(p[1], p[0])
-        inside_np = bool(body.contains(p[None], lay.face.normal(np.array([u]), 0.0), 1e-9)[0])
+        inside_np = bool(layer.contains(p[None])[0])  # the cone sits at the world's origin
         ours = tessellated_solid(g4, TriangleMesh(body.vertices, body.faces), "ours")
         fine = g4_body(g4, body.vertices, body.faces, 10**6, "fine")
         side = [
