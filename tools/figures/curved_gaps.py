@@ -38,8 +38,8 @@ from score4.shapes import (
     Transform,
 )
 from score4.surface.spec import build_surface, parse_surface_spec
-from score4.world.curved import gap_limit
 from score4.world.boolean_layers import target_layers
+from score4.world.curved import gap_limit
 from score4.world.scene import TargetVolume, make_layer
 
 SURFACES = {

@@ -85,6 +85,31 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
     cell_lvs: list = []  # the cells of bent frustums (mother material, ~2500 daughters each)
     column_lvs: list = []  # on a cone, a cell's column of spikes (placed across the cell)
 
+    def cell_spikes(k: int, j: int, lv, tag: str, z_cell: float, column_solid):
+        """Bent frustums of variant ``k`` in the cell ``lv`` of ring ``j``: when the spike
+        grid's columns are alike, one column (``column_solid(angle)`` -> (solid, keep)) built
+        once and placed ``nx`` times by rotation about z; else every spike in the cell."""
+        grid = layer.variants[k].spikes
+        assert grid is not None
+        if not np.all(grid.heights == grid.heights[:, :1]):
+            return place_bent_frustums(g4, layer, k, j, material, lv, tag, z_cell)
+        angle = grid.width_x / float(lay.radius[j])
+        col, col_keep = column_solid(angle)
+        col_lv = g4.G4LogicalVolume(col, mother_material, f"{tag}_col")
+        inner, inner_keep = place_bent_frustums(
+            g4, layer, k, j, material, col_lv, f"{tag}_col", z_cell, column=True
+        )
+        xs = (np.arange(grid.nx) + 0.5) * grid.width_x - grid.size_x / 2
+        for i, x in enumerate(xs):
+            r3 = g4.G4RotationMatrix()
+            r3.rotateZ(float(x) / float(lay.radius[j]))
+            g4.G4PVPlacement(
+                g4.G4Transform3D(r3, g4.G4ThreeVector()), col_lv, f"{tag}_col", lv, False, i, False
+            )
+        column_lvs.append(col_lv)
+        keep.extend([*col_keep, col_lv])
+        return inner, inner_keep
+
     def patch_lv(k: int, j: int):
         key = (k, ring_key[j])
         if key not in lvs:
@@ -103,35 +128,13 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
                 cell = g4.G4Sphere(tag, rlo, rhi, -step / 2, step, th0, dth)
                 lv = g4.G4LogicalVolume(cell, mother_material, tag)
                 keep.extend([cell, lv])
-                grid = layer.variants[k].spikes
-                assert grid is not None
                 z_cell = -lay.ring_z(j)
-                if np.all(grid.heights == grid.heights[:, :1]):  # one column placed nx times
-                    angle = grid.width_x / float(lay.radius[j])
+
+                def sphere_column(angle: float):
                     col = g4.G4Sphere(f"{tag}_col", rlo, rhi, -angle / 2, angle, th0, dth)
-                    col_lv = g4.G4LogicalVolume(col, mother_material, f"{tag}_col")
-                    inner, inner_keep = place_bent_frustums(
-                        g4, layer, k, j, material, col_lv, f"{tag}_col", z_cell, column=True
-                    )
-                    xs = (np.arange(grid.nx) + 0.5) * grid.width_x - grid.size_x / 2
-                    for i, x in enumerate(xs):
-                        r3 = g4.G4RotationMatrix()
-                        r3.rotateZ(float(x) / float(lay.radius[j]))
-                        g4.G4PVPlacement(
-                            g4.G4Transform3D(r3, g4.G4ThreeVector()),
-                            col_lv,
-                            f"{tag}_col",
-                            lv,
-                            False,
-                            i,
-                            False,
-                        )
-                    column_lvs.append(col_lv)
-                    keep.extend([col, col_lv])
-                else:
-                    inner, inner_keep = place_bent_frustums(
-                        g4, layer, k, j, material, lv, tag, z_cell
-                    )
+                    return col, [col]
+
+                inner, inner_keep = cell_spikes(k, j, lv, tag, z_cell, sphere_column)
                 shifts[key] = z_cell
                 patch_lvs.extend(inner)
                 cell_lvs.append(lv)
@@ -143,37 +146,13 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
                 cell = g4.G4IntersectionSolid(tag, shell, band)
                 lv = g4.G4LogicalVolume(cell, mother_material, tag)
                 keep.extend([shell, band, cell, lv])
-                grid = layer.variants[k].spikes
-                assert grid is not None
-                if np.all(
-                    grid.heights == grid.heights[:, :1]
-                ):  # columns alike: one placed nx times
-                    angle = grid.width_x / float(lay.radius[j])
+
+                def cone_column(angle: float):
                     col_shell = g4.G4Cons(f"{tag}_ca", *a[:5], -angle / 2, angle)
                     col = g4.G4IntersectionSolid(f"{tag}_col", col_shell, band)
-                    col_lv = g4.G4LogicalVolume(col, mother_material, f"{tag}_col")
-                    inner, inner_keep = place_bent_frustums(
-                        g4, layer, k, j, material, col_lv, f"{tag}_col", z_cell, column=True
-                    )
-                    xs = (np.arange(grid.nx) + 0.5) * grid.width_x - grid.size_x / 2
-                    for i, x in enumerate(xs):
-                        r3 = g4.G4RotationMatrix()
-                        r3.rotateZ(float(x) / float(lay.radius[j]))
-                        g4.G4PVPlacement(
-                            g4.G4Transform3D(r3, g4.G4ThreeVector()),
-                            col_lv,
-                            f"{tag}_col",
-                            lv,
-                            False,
-                            i,
-                            False,
-                        )
-                    column_lvs.append(col_lv)
-                    keep.extend([col_shell, col, col_lv])
-                else:
-                    inner, inner_keep = place_bent_frustums(
-                        g4, layer, k, j, material, lv, tag, z_cell
-                    )
+                    return col, [col_shell, col]
+
+                inner, inner_keep = cell_spikes(k, j, lv, tag, z_cell, cone_column)
                 shifts[key] = z_cell
                 patch_lvs.extend(inner)
                 cell_lvs.append(lv)
