@@ -187,15 +187,31 @@ def configs(folder: Path, radius: float, half_length: float) -> dict[str, dict]:
     return out
 
 
+# Runs the command from a small process and reports the command's own rusage: a child forked
+# from this (large) process would count this process's resident set in its ru_maxrss.
+_LAUNCH = (
+    "import os, subprocess, sys\n"
+    "p = subprocess.Popen(sys.argv[1:], stdout=subprocess.DEVNULL)\n"
+    "_, status, u = os.wait4(p.pid, 0)\n"
+    "print(os.waitstatus_to_exitcode(status), u.ru_utime + u.ru_stime, u.ru_maxrss)\n"
+)
+
+
 def child_cpu(cmd: list[str], cwd: Path, src: str | None = None) -> tuple[float, float]:
     """(CPU s, peak RSS MB) of one child process (``src``: import score4 from there)."""
     env = {**os.environ, "PYTHONPATH": src} if src else None
-    proc = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.DEVNULL, env=env)
-    _, status, usage = os.wait4(proc.pid, 0)
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    if proc.returncode:
-        raise SystemExit(f"failed ({proc.returncode}): {' '.join(cmd)}")
-    return usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024
+    out = subprocess.run(
+        [sys.executable, "-c", _LAUNCH, *cmd],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.split()
+    code, cpu, maxrss = int(out[-3]), float(out[-2]), float(out[-1])
+    if code:
+        raise SystemExit(f"failed ({code}): {' '.join(cmd)}")
+    return cpu, maxrss / 1024
 
 
 def measure(
