@@ -169,8 +169,12 @@ BUMPS = {**PYRAMIDS, "shape": "bump", "n_layers": 4, "height_sigma": "2 um", "se
 
 @pytest.mark.parametrize(
     ("solid", "surface"),
-    [("frustums", PYRAMIDS), ("tessellated", PYRAMIDS), ("frustums", BUMPS)],
-    ids=["pyramids-frustums", "pyramids-tessellated", "bumps-spread-frustums"],
+    [
+        pytest.param("frustums", PYRAMIDS, id="pyramids-frustums"),
+        pytest.param("tessellated", PYRAMIDS, id="pyramids-tessellated"),
+        # deep: the bumps' many frustums build slowly; test_frustums covers them on flat faces
+        pytest.param("frustums", BUMPS, id="bumps-spread-frustums", marks=pytest.mark.deep),
+    ],
 )
 def test_geantino_paths_agree_with_an_independent_ray_trace(cylinder, tmp_path, solid, surface):
     """Geantinos from outside the layer, through the rough wall, the cylinder and the rough
@@ -231,8 +235,11 @@ def cone(tmp_path_factory):
 
 @pytest.mark.parametrize(
     ("solid", "surface", "tol"),
-    [("frustums", PYRAMIDS, 1e-9), ("tessellated", PYRAMIDS, 1e-9), ("frustums", BUMPS, 2e-5)],
-    ids=["pyramids-frustums", "pyramids-tessellated", "bumps-spread-frustums"],
+    [
+        pytest.param("frustums", PYRAMIDS, 1e-9, id="pyramids-frustums"),
+        pytest.param("tessellated", PYRAMIDS, 1e-9, id="pyramids-tessellated"),
+        pytest.param("frustums", BUMPS, 2e-5, id="bumps-spread-frustums", marks=pytest.mark.deep),
+    ],
 )
 def test_geantino_paths_through_a_rough_cone(cone, tmp_path, solid, surface, tol):
     """The same on a cone's side (radius 3 to 4 mm over 2 mm): with bent G4Traps and
