@@ -14,13 +14,11 @@ import pytest
 
 from score4.errors import ConfigError
 from score4.inputs.config import parse_config
-from score4.runner.engine import run
-from score4.runner.output import read_results
 from score4.source.build import make_source
-from score4.source.vertex_file import write_vertex_file
 from score4.world.resolve import build_scene
 from score4.world.scene import CurvedRoughLayer, RingRoughLayer
 
+from helpers.geantinos import geantino_run
 from helpers.ray_trace import mesh_path
 
 pytest.importorskip("pygeomhpges")
@@ -264,11 +262,7 @@ def test_geantino_paths_through_the_whole_rough_surface(gdml, tmp_path):
     u /= np.linalg.norm(u, axis=1)[:, None]
     start = target.to_world(aim + 18.0 * u)
     direction = -u @ target.rotation.T
-    primaries.position[:] = start
-    primaries.direction[:] = direction
-    vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
-    replay = parse_config({**data, "source": {"vertices": str(vfile)}, "run": {"events": n}})
-    got = read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
+    got = geantino_run(data, primaries, start, direction, tmp_path)
     shape = target.shape
     assert shape is not None
     expected, in_cones = np.zeros(n), np.zeros(n, dtype=bool)

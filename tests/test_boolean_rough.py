@@ -18,12 +18,12 @@ from score4.runner.engine import run
 from score4.runner.output import read_results
 from score4.shapes.base import INSIDE, OUTSIDE
 from score4.source.build import layer_sampler, make_source, source_geometry
-from score4.source.vertex_file import write_vertex_file
 from score4.world.resolve import build_scene
 from score4.world.scene import CurvedRoughLayer
 
 from helpers.boolean_worlds import CUTBOX_POSITION, STACK_POSITION, write_world
 from helpers.export_paths import assert_same_paths, base_name, three_paths
+from helpers.geantinos import geantino_run
 from helpers.ray_trace import mesh_path
 
 #: 0.5 mm patches of 5 x 5 pyramids, 20 um high
@@ -214,11 +214,7 @@ def test_geantino_paths_agree_with_an_independent_ray_trace(gdml, scene, tmp_pat
         directions.append((aim - start) / np.linalg.norm(aim - start))
     n = len(starts)
     primaries = make_source(cfg, one).primaries(np.random.default_rng(1), 0, n)
-    primaries.position[:] = np.array(starts)
-    primaries.direction[:] = np.array(directions)
-    vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
-    replay = parse_config({**data, "source": {"vertices": str(vfile)}, "run": {"events": n}})
-    r = read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
+    r = geantino_run(data, primaries, np.array(starts), np.array(directions), tmp_path)
     body = layer.variants[0].body(layer.base_thickness)
     px, py = layer.patch_size
     cc = layer.cell_centres()
@@ -300,11 +296,7 @@ def test_geantino_paths_through_a_rough_bore(bore, tmp_path):
     out /= np.linalg.norm(out, axis=1, keepdims=True)
     starts, directions = target.to_world(local), out @ target.rotation.T
     primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n)
-    primaries.position[:] = starts
-    primaries.direction[:] = directions
-    vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
-    replay = parse_config({**bore, "source": {"vertices": str(vfile)}, "run": {"events": n}})
-    r = read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
+    r = geantino_run(bore, primaries, starts, directions, tmp_path)
     got = np.asarray(r.scores["track_length"]["cutbox"])
     cells, crossed = layer.cells(), 0
     for k in range(n):

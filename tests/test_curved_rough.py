@@ -14,10 +14,10 @@ from score4.inputs.config import parse_config
 from score4.runner.engine import run
 from score4.runner.output import read_results
 from score4.source.build import make_source, source_geometry
-from score4.source.vertex_file import write_vertex_file
 from score4.world.resolve import build_scene
 from score4.world.scene import CurvedRoughLayer
 
+from helpers.geantinos import geantino_run
 from helpers.ray_trace import mesh_path
 
 RADIUS, HALF_Z = 5.0, 1.0  # mm
@@ -198,11 +198,7 @@ def test_geantino_paths_agree_with_an_independent_ray_trace(cylinder, tmp_path, 
     aim = np.column_stack([rng.uniform(-2, 2, n), rng.uniform(-2, 2, n), rng.uniform(-0.3, 0.3, n)])
     direction = aim - start
     direction /= np.linalg.norm(direction, axis=1)[:, None]
-    primaries.position[:] = start
-    primaries.direction[:] = direction
-    vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
-    replay = parse_config({**data, "source": {"vertices": str(vfile)}, "run": {"events": n}})
-    r = read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
+    r = geantino_run(data, primaries, start, direction, tmp_path)
     expected = ray_path(start, direction, layer, RADIUS, HALF_Z)
     np.testing.assert_allclose(r.scores["track_length"]["cyl"], expected, rtol=0, atol=1e-9)
 
@@ -277,11 +273,7 @@ def test_geantino_paths_through_a_rough_cone(cone, tmp_path, solid, surface, tol
     )
     direction = aim - start
     direction /= np.linalg.norm(direction, axis=1)[:, None]
-    primaries.position[:] = start
-    primaries.direction[:] = direction
-    vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
-    replay = parse_config({**data, "source": {"vertices": str(vfile)}, "run": {"events": n}})
-    res = read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
+    res = geantino_run(data, primaries, start, direction, tmp_path)
     expected = ray_path(start, direction, layer, 3.5, 1.0, slope=0.5)
     assert (expected > 1.0).all()  # every ray crosses the cone
     np.testing.assert_allclose(res.scores["track_length"]["cyl"], expected, rtol=0, atol=tol)

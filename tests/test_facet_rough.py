@@ -24,6 +24,7 @@ from score4.world.facets import point_in_triangles
 from score4.world.resolve import build_scene
 from score4.world.scene import PolygonRoughLayer
 
+from helpers.geantinos import geantino_run
 from helpers.ray_trace import mesh_path
 from helpers.spawn import run_in_spawned_process
 
@@ -206,11 +207,7 @@ def test_geantino_paths_agree_with_an_independent_ray_trace(gdml, scene, tmp_pat
                 volumes.append(volume)
     n = len(starts)
     primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n)
-    primaries.position[:] = np.array(starts)
-    primaries.direction[:] = np.array(directions)
-    vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
-    replay = parse_config({**data, "source": {"vertices": str(vfile)}, "run": {"events": n}})
-    r = read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
+    r = geantino_run(data, primaries, np.array(starts), np.array(directions), tmp_path)
     for k in range(n):
         got = r.scores["track_length"][volumes[k]][k]
         expected = ray_path(starts[k], directions[k], scene, volumes[k])

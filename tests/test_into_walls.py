@@ -27,9 +27,9 @@ from score4.runner.engine import run
 from score4.runner.output import read_results
 from score4.shapes import G4Cons, G4GenericPolycone, G4Polycone, G4Tubs
 from score4.source.build import make_source, source_geometry
-from score4.source.vertex_file import write_vertex_file
 from score4.world.resolve import build_scene
 
+from helpers.geantinos import geantino_run
 from helpers.spawn import run_in_spawned_process
 
 
@@ -134,11 +134,7 @@ def test_into_a_tube_wall_cuts_it_and_keeps_the_paths(cylinder, tmp_path):
     direction = aim - start
     direction /= np.linalg.norm(direction, axis=1)[:, None]
     p = make_source(config, scene).primaries(np.random.default_rng(1), 0, n)
-    p.position[:] = start
-    p.direction[:] = direction
-    vfile = write_vertex_file(tmp_path / "v.h5", p, {}, 1)
-    replay = parse_config({**data, "source": {"vertices": str(vfile)}, "run": {"events": n}})
-    res = read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
+    res = geantino_run(data, p, start, direction, tmp_path)
     expected = ray_path(start, direction, layer, radius, HALF_Z)
     np.testing.assert_allclose(res.scores["track_length"]["cyl"], expected, rtol=0, atol=1e-9)
     (vol,) = res.run["volumes"]
@@ -179,11 +175,7 @@ def test_into_a_cone_wall_cuts_it_and_keeps_the_paths(cone, tmp_path):
     )
     direction = aim - start
     direction /= np.linalg.norm(direction, axis=1)[:, None]
-    p.position[:] = start
-    p.direction[:] = direction
-    vfile = write_vertex_file(tmp_path / "v.h5", p, {}, 1)
-    replay = parse_config({**data, "source": {"vertices": str(vfile)}, "run": {"events": n}})
-    res = read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
+    res = geantino_run(data, p, start, direction, tmp_path)
     expected = ray_path(start, direction, layer, r0, 1.0, slope=0.5)
     assert (expected > 1.0).all()
     np.testing.assert_allclose(res.scores["track_length"]["cyl"], expected, rtol=0, atol=1e-9)
@@ -350,11 +342,7 @@ def test_into_a_tube_wall_and_end_face_together(cylinder, tmp_path):
     direction = aim - start
     direction /= np.linalg.norm(direction, axis=1)[:, None]
     p = make_source(config, scene).primaries(np.random.default_rng(1), 0, n)
-    p.position[:] = start
-    p.direction[:] = direction
-    vfile = write_vertex_file(tmp_path / "v.h5", p, {}, 1)
-    replay = parse_config({**data, "source": {"vertices": str(vfile)}, "run": {"events": n}})
-    res = read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
+    res = geantino_run(data, p, start, direction, tmp_path)
     expected = ray_path(start, direction, wall, radius, HALF_Z)
     np.testing.assert_allclose(res.scores["track_length"]["cyl"], expected, rtol=0, atol=1e-9)
     (vol,) = res.run["volumes"]

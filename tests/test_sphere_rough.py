@@ -15,14 +15,12 @@ import yaml
 from score4.cli.main import main
 from score4.errors import ConfigError
 from score4.inputs.config import parse_config
-from score4.runner.engine import run
-from score4.runner.output import read_results
 from score4.source.build import layer_sampler, make_source, source_geometry
-from score4.source.vertex_file import write_vertex_file
 from score4.world.curved import MAX_SQUEEZE, gap_limit
 from score4.world.resolve import build_scene
 from score4.world.scene import CurvedRoughLayer
 
+from helpers.geantinos import geantino_run
 from helpers.ray_trace import mesh_path
 from helpers.spawn import run_in_spawned_process
 
@@ -181,11 +179,7 @@ def test_geantino_paths_agree_with_an_independent_ray_trace(gdml, scene, tmp_pat
         starts.append(start)
         directions.append((aim - start) / np.linalg.norm(aim - start))
     primaries = make_source(cfg, own).primaries(np.random.default_rng(1), 0, n)
-    primaries.position[:] = np.array(starts)
-    primaries.direction[:] = np.array(directions)
-    vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
-    replay = parse_config({**data, "source": {"vertices": str(vfile)}, "run": {"events": n}})
-    r = read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
+    r = geantino_run(data, primaries, np.array(starts), np.array(directions), tmp_path)
     got = np.asarray(r.scores["track_length"]["orb"])
     expected = np.array([orb_path(o, d, layer) for o, d in zip(starts, directions, strict=True)])
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9)
@@ -323,11 +317,7 @@ def test_into_the_orb_cuts_it_and_keeps_the_paths(gdml, tmp_path):
         directions.append((aim - start) / np.linalg.norm(aim - start))
     primaries = make_source(cfg, own).primaries(np.random.default_rng(1), 0, n)
     assert own.inside_target("orb", primaries.position).all()
-    primaries.position[:] = np.array(starts)
-    primaries.direction[:] = np.array(directions)
-    vfile = write_vertex_file(tmp_path / "v.h5", primaries, {}, 1)
-    replay = parse_config({**data, "source": {"vertices": str(vfile)}, "run": {"events": n}})
-    r = read_results(run(replay, tmp_path / "g.h5", progress=False, echo=lambda m: None))
+    r = geantino_run(data, primaries, np.array(starts), np.array(directions), tmp_path)
     got = np.asarray(r.scores["track_length"]["orb"])
     expected = [orb_path(o, d, layer, radius) for o, d in zip(starts, directions, strict=True)]
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-9)
