@@ -25,26 +25,10 @@ import numpy as np
 
 from score4.shapes.faces import SphereFace
 from score4.world.curved import cone_cell, sphere_cell
-from score4.world.scene import CurvedRoughLayer
+from score4.world.scene import CurvedRoughLayer, wall_envelope
 
 from ..surface.triangle_mesh import TriangleMesh
 from .solids import tessellated_solid
-
-
-def envelope_cone(layer: CurvedRoughLayer) -> tuple[float, float, float, float, float, float]:
-    """``(rmin1, rmax1, rmin2, rmax2, dz, z_centre)`` of the envelope: the face's cone (or
-    cylinder) and the same moved out by the layer thickness along the face normal, between the
-    z planes of the face's ends."""
-    face = layer.ring_layout.face
-    assert not isinstance(face, SphereFace)
-    (r1, z1), (r2, z2) = face.rz1, face.rz2
-    if z1 > z2:
-        (r1, z1), (r2, z2) = (r2, z2), (r1, z1)
-    tz = abs(face._tangent[1])
-    shift = np.sign(face.nrz[0]) * layer.thickness / tz  # the offset surface, at the same z
-    a1, b1 = sorted((r1, r1 + shift))
-    a2, b2 = sorted((r2, r2 + shift))
-    return float(a1), float(b1), float(a2), float(b2), 0.5 * (z2 - z1), 0.5 * (z1 + z2)
 
 
 def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, material, placement):
@@ -62,7 +46,7 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
         env_solid = g4.G4Sphere(name, lo, hi, face.phi0, face.dphi, t0, t1 - t0)
         zc = 0.0
     else:
-        rmin1, rmax1, rmin2, rmax2, dz, zc = envelope_cone(layer)
+        rmin1, rmax1, rmin2, rmax2, dz, zc = wall_envelope(layer)
         env_solid = g4.G4Cons(name, rmin1, rmax1, rmin2, rmax2, dz, face.phi0, face.dphi)
     env_lv = g4.G4LogicalVolume(env_solid, mother_material, name)
     rot = _rotation(g4, placement.rotation)
