@@ -48,7 +48,7 @@ from score4.common.schema import describe_validation_error
 from score4.common.units import parse_quantity
 from score4.inputs.config import GdmlVolume, PhysicsConfig, RoughFace, SourceConfig
 from score4.runner.run_plan import RunPlan, plan_run
-from score4.world.boolean_layers import target_layers
+from score4.world.boolean_layers import fit_cells, target_layers
 from score4.world.gdml_model import GeometryModel, Instance
 from score4.world.scene import RoughLayer, Scene, TargetVolume, fit_rings, gdml_target
 
@@ -397,6 +397,7 @@ class World:
         try:
             for t in targets:
                 fit_rings(self.scene.layers_of(t.name))
+                fit_cells(self.scene.layers_of(t.name))
             check_clearance(self.scene)
         except ConfigError:
             del self.scene.layers[-len(layers) :]

@@ -57,3 +57,48 @@ def write_world(path: Path) -> Path:
     reg.setWorld(world.name)
     pygeomtools.write_pygeom(reg, str(path))
     return path
+
+
+#: a copper box (20 mm) less a cone (r 4 mm at z = -20 to 8 mm at z = +20) through it along z
+CONEBORE_POSITION = (0.0, 60.0, 0.0)
+#: a copper box (20 mm) with a tube (r 3 mm, 10 mm long) standing on its +z face off its centre
+POSTBOX_POSITION = (60.0, 0.0, 0.0)
+POST_AT = (4.0, 2.0, 15.0)
+#: a copper box (20 mm) with a rod (r 5 mm, 40 mm long) through it along z, a union
+CROSS_POSITION = (-60.0, 0.0, 0.0)
+
+
+def write_more_world(path: Path) -> Path:
+    """A second world of booleans: ``conebore`` (a box less a cone), ``postbox`` (a box with
+    a post on a part of its +z face, a union), ``cross`` (a box with a rod through it, a union)
+    and the ``stack`` of :func:`write_world`."""
+    import pyg4ometry as pg
+
+    reg = pg.geant4.Registry()
+    s = pg.geant4.solid
+    world = pg.geant4.LogicalVolume(s.Box("world_s", 300, 300, 300, reg), "G4_Galactic", "W", reg)
+    box = s.Box("cone_a", 20, 20, 20, reg)
+    cone = s.Cons("cone_b", 0, 4, 0, 8, 40, 0, 2 * math.pi, reg)
+    cut = s.Subtraction("conebore_s", box, cone, [[0, 0, 0], [0, 0, 0]], reg)
+    lv = pg.geant4.LogicalVolume(cut, "G4_Cu", "conebore_lv", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], list(CONEBORE_POSITION), lv, "conebore", world, reg)
+    base = s.Box("post_a", 20, 20, 20, reg)
+    post = s.Tubs("post_b", 0, 3, 10, 0, 2 * math.pi, reg)
+    union = s.Union("postbox_s", base, post, [[0, 0, 0], list(POST_AT)], reg)
+    lv = pg.geant4.LogicalVolume(union, "G4_Cu", "postbox_lv", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], list(POSTBOX_POSITION), lv, "postbox", world, reg)
+    disk = s.Tubs("stack_a", 0, 10, 10, 0, 2 * math.pi, reg)
+    top = s.Tubs("stack_b", 0, 7, 10, 0, 2 * math.pi, reg)
+    stack = s.Union("stack_s", disk, top, [[0, 0, 0], [0, 0, 10]], reg)
+    lv = pg.geant4.LogicalVolume(stack, "G4_Cu", "stack_lv", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], list(STACK_POSITION), lv, "stack", world, reg)
+    cross_box = s.Box("cross_a", 20, 20, 20, reg)
+    rod = s.Tubs("cross_b", 0, 5, 40, 0, 2 * math.pi, reg)
+    cross = s.Union("cross_s", cross_box, rod, [[0, 0, 0], [0, 0, 0]], reg)
+    lv = pg.geant4.LogicalVolume(cross, "G4_Cu", "cross_lv", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], list(CROSS_POSITION), lv, "cross", world, reg)
+    reg.setWorld(world.name)
+    w = pg.gdml.Writer()
+    w.addDetector(reg)
+    w.write(str(path))
+    return path

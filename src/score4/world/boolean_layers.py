@@ -29,13 +29,14 @@ envelope leaves a cut); steps and activeness (no distance to such a layer's roug
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
 
 from score4.errors import ConfigError
 from score4.inputs.config import RoughFace
-from score4.shapes import BooleanShape, G4Tubs, Shape, Transform
+from score4.shapes import BooleanShape, G4Cons, G4Tubs, Shape, Transform
 from score4.shapes.base import INSIDE
 from score4.shapes.boolean import FaceClip
 from score4.shapes.faces import PlaneFace, SphereFace
@@ -47,7 +48,6 @@ from .scene import (
     CurvedRoughLayer,
     FaceFrame,
     PolygonRoughLayer,
-    RingRoughLayer,
     RoughLayer,
     TargetVolume,
     make_layer,
@@ -151,7 +151,7 @@ def _leaf(
         if turned is None:
             raise ConfigError(
                 f"{where}: {what} is the curved face {face} of a subtracted {leaf.kind}; rough "
-                "curved faces of a subtracted solid are the walls of a G4Tubs"
+                "curved faces of a subtracted solid are the walls of a G4Tubs or G4Cons"
             )
         leaf, face, shift = turned
         placed = clip.transform @ Transform(np.eye(3), shift)
@@ -192,32 +192,50 @@ def _on_boolean(
     layer.config = rough
     layer.face_area = float(shape.face_areas[name])
     layer.on_boolean = on
-    _check_own_solid(layer, on, where, what)
+    if _meets_own_solid(layer, on):
+        _clear_of_the_solid(layer, clip, on, placed, where, what)
     return layer
 
 
 def turned_wall(
     leaf: Shape, face: str, extent: tuple[float, float]
 ) -> tuple[Shape, str, np.ndarray] | None:
-    """The wall ``face`` of a subtracted G4Tubs as the opposite wall of a tube beside it, whose
-    outward normal is the boolean's (the bore a subtracted cylinder leaves is the ``inner`` wall
-    of a tube whose inner radius is the cylinder's; a subtracted tube's ``inner`` wall is the
-    ``outer`` wall of a full cylinder), cut to ``extent`` (z range, leaf frame: where the
-    boolean can be, so the layer's shell ends where the solid does), and the shift of its origin
-    in the leaf's frame; None for other solids and faces."""
-    if not isinstance(leaf, G4Tubs) or face not in ("outer", "inner"):
+    """The wall ``face`` of a subtracted G4Tubs or G4Cons as the opposite wall of a solid beside
+    it, whose outward normal is the boolean's (the bore a subtracted cylinder or cone leaves is
+    the ``inner`` wall of a tube or cone whose inner radii are the subtracted solid's outer
+    radii; a subtracted solid's ``inner`` wall is the ``outer`` wall of a full one), cut to
+    ``extent`` (z range, leaf frame: where the boolean can be, so the layer's shell ends where
+    the solid does), and the shift of its origin in the leaf's frame; None for other solids and
+    faces."""
+    if face not in ("outer", "inner"):
         return None
-    if face == "outer":
-        turned, name = replace(leaf, rmin=leaf.rmax, rmax=2 * leaf.rmax), "inner"
-    elif leaf.rmin > 0:
-        turned, name = replace(leaf, rmin=0.0, rmax=leaf.rmin), "outer"
+    turned: Shape
+    if isinstance(leaf, G4Tubs):
+        if face == "outer":
+            turned, name = replace(leaf, rmin=leaf.rmax, rmax=2 * leaf.rmax), "inner"
+        elif leaf.rmin > 0:
+            turned, name = replace(leaf, rmin=0.0, rmax=leaf.rmin), "outer"
+        else:
+            return None
+    elif isinstance(leaf, G4Cons):
+        if face == "outer":
+            w = max(leaf.rmax1, leaf.rmax2)
+            turned = replace(
+                leaf, rmin1=leaf.rmax1, rmax1=leaf.rmax1 + w, rmin2=leaf.rmax2, rmax2=leaf.rmax2 + w
+            )
+            name = "inner"
+        elif max(leaf.rmin1, leaf.rmin2) > 0:
+            turned = replace(leaf, rmin1=0.0, rmax1=leaf.rmin1, rmin2=0.0, rmax2=leaf.rmin2)
+            name = "outer"
+        else:
+            return None
     else:
         return None
     lo, hi = max(extent[0], -leaf.dz), min(extent[1], leaf.dz)
     if not hi > lo:
         return None
     cut = turned.trimmed({"-z": lo + leaf.dz, "+z": leaf.dz - hi})
-    assert cut is not None  # a G4Tubs is cut along z
+    assert cut is not None  # a G4Tubs or G4Cons is cut along z
     return cut[0], name, cut[1]
 
 
@@ -263,11 +281,17 @@ def _certify(centres, half_u, half_v, point, bound, margin) -> np.ndarray:
 
 
 def kept_cells(
-    layer: RoughLayer, clip: FaceClip, on: BooleanFace, placed: Transform | None = None
+    layer: RoughLayer,
+    clip: FaceClip,
+    on: BooleanFace,
+    placed: Transform | None = None,
+    height: float = 0.0,
 ) -> np.ndarray:
     """The layer's cells (``(ny, nx)``) that hold a patch and lie wholly on the boolean's
     surface (``placed``: the frame of a curved layer's solid in the boolean's, by default the
-    leaf's, ``clip.transform``)."""
+    leaf's, ``clip.transform``); with ``height`` (a flat layer) the whole column of the cell up
+    to that height above the face is proven on the kept side of every cutting solid (outside
+    the other part of a union)."""
     base = layer.cell_variants >= 0
     rows, cols = np.nonzero(base)
     px, py = layer.patch_size
@@ -295,11 +319,13 @@ def kept_cells(
         half_u, half_v = np.full(len(rows), px / 2), np.full(len(rows), py / 2)
         to_boolean = layer.frame.transform.relative_to(on.transform)
 
-        def point(uv: np.ndarray) -> np.ndarray:
-            return np.column_stack([uv, np.zeros(len(uv))])
+        def point(uv: np.ndarray) -> np.ndarray:  # the middle of the column
+            return np.column_stack([uv, np.full(len(uv), height / 2)])
 
         def bound(uv: np.ndarray, hu: np.ndarray, hv: np.ndarray) -> np.ndarray:
-            return np.hypot(hu, hv)
+            if not height:
+                return np.hypot(hu, hv)
+            return np.sqrt(hu * hu + hv * hv + height * height / 4)
 
     r, t = to_boolean.rotation, to_boolean.translation
 
@@ -315,19 +341,151 @@ def kept_cells(
     return out
 
 
-def _check_own_solid(layer: RoughLayer, on: BooleanFace, where: str, what: str) -> None:
-    """The layer's envelope must stay out of the boolean solid (a face partly covered by another
-    part of a union would put it inside)."""
+def fit_cells(layers: list[RoughLayer], where: str = "targets") -> None:
+    """Layers whose envelope is the prism of their kept cells (a face partly covered by another
+    part of a union, :func:`_clear_of_the_solid`) give way to the other layers of the same
+    volume: a cell keeps its patch only where its whole column is proven clear of every other
+    layer's envelope (a lower bound of the distance from the column to it: to a flat layer's
+    envelope box, to a cylinder or cone wall's generator less that layer's thickness, to a
+    sphere face less it), so a rough wall rising from such a face (a post's wall on a disk)
+    leaves the cells along its foot flat. Exact, not sampled: a layer a few um thick cannot
+    slip between the clearance check's points."""
+    for layer in layers:
+        others = [o for o in layers if o is not layer]
+        if not layer.cells_envelope or not others or layer.mask is None:
+            continue
+        clear = _column_cells(
+            layer, layer.frame.to_world, _margin([_distance_bound(o) for o in others])
+        )
+        layer.mask = layer.mask & clear
+        if not layer.mask.any():
+            px, py = layer.patch_size
+            raise ConfigError(
+                f"{where}.{layer.target.entry}.rough: no whole patch of {px * 1e3:g} x "
+                f"{py * 1e3:g} um fits on face {layer.config.face_name} of "
+                f"{layer.target.name!r} clear of its other parts and of their rough layers"
+            )
+
+
+def _margin(bounds: list) -> Callable[[np.ndarray], np.ndarray]:
+    """The least of the distance bounds ``bounds`` at world points."""
+
+    def margin(world: np.ndarray) -> np.ndarray:
+        return np.asarray(np.min([b(world) for b in bounds], axis=0))
+
+    return margin
+
+
+def _distance_bound(layer: RoughLayer) -> Callable[[np.ndarray], np.ndarray]:
+    """A function giving, for world points, a lower bound of their distance to ``layer``'s
+    envelope (<= 0 inside or near it)."""
+    if isinstance(layer, CurvedRoughLayer):
+        face, t, to_local = layer.ring_layout.face, layer.thickness, layer.target.to_local
+        if isinstance(face, SphereFace):
+            centre_r = face.sphere_radius
+
+            def sphere(world: np.ndarray) -> np.ndarray:
+                return np.asarray(np.abs(np.linalg.norm(to_local(world), axis=1) - centre_r) - t)
+
+            return sphere
+        (r1, z1), (r2, z2) = face.rz1, face.rz2
+
+        def wall(world: np.ndarray) -> np.ndarray:
+            # in the (r, z) half-plane: the distance to the generator bounds the distance to
+            # the wall at any azimuth
+            q = to_local(world)
+            rho, z = np.hypot(q[:, 0], q[:, 1]), q[:, 2]
+            dr, dz = r2 - r1, z2 - z1
+            s = np.clip(((rho - r1) * dr + (z - z1) * dz) / (dr * dr + dz * dz), 0.0, 1.0)
+            return np.asarray(np.hypot(rho - r1 - s * dr, z - z1 - s * dz) - t)
+
+        return wall
+    box = layer.envelope_box()
+
+    def flat(world: np.ndarray) -> np.ndarray:
+        q = box.transform.inverse_apply(world)
+        return np.asarray(np.linalg.norm(np.maximum(np.abs(q) - box.half, 0.0), axis=1))
+
+    return flat
+
+
+def _column_cells(
+    layer: RoughLayer,
+    to_world: Callable[[np.ndarray], np.ndarray],
+    margin: Callable[[np.ndarray], np.ndarray],
+) -> np.ndarray:
+    """The kept cells of a flat layer whose whole column (the cell up to the layer's thickness)
+    has ``margin`` (of world points) proven positive (:func:`_certify`)."""
+    assert layer.mask is not None
+    rows, cols = np.nonzero(layer.mask)
+    px, py = layer.patch_size
+    centres = layer.cell_centres()[rows, cols]
+    height = layer.thickness
+
+    def point(uv: np.ndarray) -> np.ndarray:
+        return np.column_stack([uv, np.full(len(uv), height / 2)])
+
+    def bound(uv: np.ndarray, hu: np.ndarray, hv: np.ndarray) -> np.ndarray:
+        return np.sqrt(hu * hu + hv * hv + height * height / 4)
+
+    ok = _certify(
+        centres,
+        np.full(len(rows), px / 2),
+        np.full(len(rows), py / 2),
+        point,
+        bound,
+        lambda local: margin(to_world(local)),
+    )
+    out = np.zeros_like(layer.mask)
+    out[rows[ok], cols[ok]] = True
+    return out
+
+
+def _meets_own_solid(layer: RoughLayer, on: BooleanFace) -> bool:
+    """True when points of the layer's envelope lie inside the boolean solid (a face partly
+    covered by another part of a union puts them there)."""
     if isinstance(layer, CurvedRoughLayer):
         points = layer.shell_points()
-    elif isinstance(layer, PolygonRoughLayer | RingRoughLayer):
-        points = layer.envelope_points()
     else:
-        points = layer.envelope_box().grid(25)
+        points = layer.envelope_points()
     codes = on.shape.inside(on.transform.inverse_apply(points))
-    if (codes == INSIDE).any():
+    return bool((codes == INSIDE).any())
+
+
+def _clear_of_the_solid(
+    layer: RoughLayer,
+    clip: FaceClip,
+    on: BooleanFace,
+    placed: Transform,
+    where: str,
+    what: str,
+) -> None:
+    """A flat layer whose envelope runs into the solid (a face partly covered by another part of
+    a union): only the cells whose whole column (the cell times the layer's thickness) is proven
+    clear of the solids cutting the face keep their patch (:func:`kept_cells` with the
+    thickness), and the envelope becomes the prism of those cells (``cells_envelope``); the
+    cells the other part covers or meets stay flat (``rough_shares``). Curved layers are
+    refused: their envelope is the face's whole shell."""
+    thick = f"{layer.thickness * 1e3:.4g} um thick"
+    if isinstance(layer, CurvedRoughLayer):
         raise ConfigError(
-            f"{where}: the rough layer on {what} ({layer.thickness * 1e3:.4g} um thick) runs "
-            "into the solid itself (another part of the boolean covers or meets that face); "
-            "choose a face the layer can lie on outside the solid"
+            f"{where}: the rough layer on {what} ({thick}) runs into the solid itself (another "
+            "part of the boolean covers or meets that face); a rough curved face of a boolean "
+            "must lie wholly outside its other parts (partly covered faces take a layer when "
+            "flat)"
+        )
+    assert layer.mask is not None
+    layer.mask = layer.mask & kept_cells(layer, clip, on, placed, height=layer.thickness)
+    layer.cells_envelope = True
+    if not layer.mask.any():
+        px, py = layer.patch_size
+        raise ConfigError(
+            f"{where}: no whole patch of {px * 1e3:g} x {py * 1e3:g} um with its layer "
+            f"({thick}) fits on the part of {what} clear of the solid's other parts"
+        )
+    if _meets_own_solid(layer, on):
+        raise ConfigError(
+            f"{where}: the rough layer on {what} ({thick}) runs into the solid itself (another "
+            "part of the boolean covers or meets that face); choose a face the layer can lie on "
+            "outside the solid"
         )

@@ -13,7 +13,7 @@ from score4.shapes.faces import SphereFace
 from score4.surface.spec import Surface, build_surface
 from score4.surface.store import load_surface
 
-from .boolean_layers import target_layers
+from .boolean_layers import fit_cells, target_layers
 from .clearance import check_clearance
 from .gdml_model import GeometryModel
 from .scene import (
@@ -80,6 +80,7 @@ def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
                 one = rough if rough.face == face else rough.model_copy(update={"face": face})
                 scene.layers += target_layers(surfaces, target, j, one)
         fit_rings(scene.layers_of(target.name))
+        fit_cells(scene.layers_of(target.name))
         check_into_edges(scene, target)
     check_clearance(scene)
     far = float(np.max(scene.world_half))
