@@ -66,12 +66,15 @@ POSTBOX_POSITION = (60.0, 0.0, 0.0)
 POST_AT = (4.0, 2.0, 15.0)
 #: a copper box (20 mm) with a rod (r 5 mm, 40 mm long) through it along z, a union
 CROSS_POSITION = (-60.0, 0.0, 0.0)
+#: a silicon orb (r 3 mm) less a box beyond x = 1.5 mm
+ORBCUT_POSITION = (0.0, 0.0, 60.0)
+ORB_CUT = 1.5
 
 
 def write_more_world(path: Path) -> Path:
     """A second world of booleans: ``conebore`` (a box less a cone), ``postbox`` (a box with
-    a post on a part of its +z face, a union), ``cross`` (a box with a rod through it, a union)
-    and the ``stack`` of :func:`write_world`."""
+    a post on a part of its +z face, a union), ``cross`` (a box with a rod through it, a union),
+    ``orbcut`` (an orb less a box) and the ``stack`` of :func:`write_world`."""
     import pyg4ometry as pg
 
     reg = pg.geant4.Registry()
@@ -97,6 +100,11 @@ def write_more_world(path: Path) -> Path:
     cross = s.Union("cross_s", cross_box, rod, [[0, 0, 0], [0, 0, 0]], reg)
     lv = pg.geant4.LogicalVolume(cross, "G4_Cu", "cross_lv", reg)
     pg.geant4.PhysicalVolume([0, 0, 0], list(CROSS_POSITION), lv, "cross", world, reg)
+    orb = s.Orb("orbcut_a", 3, reg)
+    cutter = s.Box("orbcut_b", 10, 10, 10, reg)
+    orbcut = s.Subtraction("orbcut_s", orb, cutter, [[0, 0, 0], [ORB_CUT + 5, 0, 0]], reg)
+    lv = pg.geant4.LogicalVolume(orbcut, "G4_Si", "orbcut_lv", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], list(ORBCUT_POSITION), lv, "orbcut", world, reg)
     reg.setWorld(world.name)
     w = pg.gdml.Writer()
     w.addDetector(reg)

@@ -15,16 +15,24 @@ left unproven stays flat. The flat rest of the face
 (:class:`score4.source.build.BooleanRemainderSampler`); ``rough_shares`` reports the rough share
 of the boolean's face, whose area is estimated (:attr:`BooleanShape.face_area_errors`).
 
-The wall of a subtracted G4Tubs (a bore) faces the other way than the tube's: its layer is laid
-out as on the opposite wall of a tube beside it (:func:`turned_wall`: the bore is the ``inner``
-wall of a tube whose inner radius is the cylinder's), cut along the axis to where the boolean
-can be, so the layer lies in the bore and its shell ends where the solid does.
+The wall of a subtracted G4Tubs or G4Cons (a bore) faces the other way than the solid's: its
+layer is laid out as on the opposite wall of a solid beside it (:func:`turned_wall`: the bore is
+the ``inner`` wall of a tube or cone whose inner radii are the subtracted solid's), cut along the
+axis to where the boolean can be, so the layer lies in the bore and its shell ends where the
+solid does. A sphere face of a G4Sphere or G4Orb leaf takes the sphere's cells (a cell's points
+lie within its half-height plus the sphere radius times its half-angle of its centre).
+
+A flat face partly covered by another part of a union (the layer's envelope would run into
+the solid): only the cells whose whole column (the cell up to the layer's thickness) is proven
+clear of the cutting solids keep their patch, and the envelope becomes the prism of those cells
+(:func:`_clear_of_the_solid`); :func:`fit_cells` then keeps them clear of the volume's other
+layers too (a wall's layer rising from the face).
 
 Refused, in one line each: ``into: true``, ``tiling: portal`` and ``native_layout: replicas``;
-a curved face of a subtracted solid other than a G4Tubs wall (cones, spheres); a face of a solid
-made of flat facets in several planes; a layer whose
-envelope runs into the solid itself (a face partly covered by another part of a union, or whose
-envelope leaves a cut); steps and activeness (no distance to such a layer's rough surface yet).
+a curved face of a subtracted solid other than a G4Tubs or G4Cons wall (spheres); a face of a
+solid made of flat facets in several planes; a curved layer whose envelope runs into the solid
+itself (a wall partly covered by another part of a union), a flat one that keeps no cell clear
+of the other parts; steps and activeness (no distance to such a layer's rough surface yet).
 """
 
 from __future__ import annotations
@@ -136,11 +144,6 @@ def _leaf(
     area = float(shape.face_areas[name])
     if not area > 0:
         raise ConfigError(f"{where}: {what} lies nowhere on the solid's surface (area 0)")
-    if isinstance(clip.leaf.face(clip.face), SphereFace):
-        raise ConfigError(
-            f"{where}: {what} is the sphere face {clip.face} of a {clip.leaf.kind}; rough faces "
-            "of a boolean are flat faces and cylinder or cone walls"
-        )
     leaf, face, placed = clip.leaf, clip.face, clip.transform
     if clip.flipped and not isinstance(leaf.face(face), PlaneFace):
         lo, hi = shape.bounding_box()
@@ -299,7 +302,6 @@ def kept_cells(
     if isinstance(layer, CurvedRoughLayer):
         lay = layer.ring_layout
         face = lay.face
-        assert not isinstance(face, SphereFace)  # a boolean's sphere faces stay refused
         phi = lay.phi_mid + (cols - (lay.count[rows] - 1) / 2) * lay.step[rows]  # cell_phi
         centres = np.column_stack([phi, lay.v[rows]])
         half_u, half_v = lay.step[rows] / 2, np.full(len(rows), py / 2)
@@ -309,7 +311,10 @@ def kept_cells(
             return face.point(uv[:, 0], uv[:, 1])
 
         def bound(uv: np.ndarray, hu: np.ndarray, hv: np.ndarray) -> np.ndarray:
-            # along the generator, then along the circle at the larger radius
+            # along the generator (a meridian), then along the circle at the larger radius (on
+            # a sphere at most the sphere's: a cell may straddle the equator)
+            if isinstance(face, SphereFace):
+                return hv + face.sphere_radius * hu
             r = np.maximum(face.radius(uv[:, 1] - hv), face.radius(uv[:, 1] + hv))
             return hv + np.abs(r) * hu
 

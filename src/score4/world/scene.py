@@ -550,8 +550,9 @@ class CurvedRoughLayer(RoughLayer):
         if not isinstance(face, SphereFace):
             return super().rough_share
         py = self.patch_size[1]
+        held = (self.cell_variants >= 0).sum(axis=1)  # all count cells but on a boolean
         covered = sum(
-            face.band_area(lay.v[j] - py / 2, lay.v[j] + py / 2, float(lay.count[j] * lay.step[j]))
+            face.band_area(lay.v[j] - py / 2, lay.v[j] + py / 2, float(held[j] * lay.step[j]))
             for j in range(len(lay.v))
         )
         return float(covered / self.face_area)
