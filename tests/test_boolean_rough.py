@@ -125,8 +125,9 @@ def _check_kept_cells(scene) -> None:
 
 def test_the_box_face_around_the_hole_keeps_the_cells_clear_of_it(scene):
     """On the +z face of the box less the tube (r 5 mm): the kept cells are those whose
-    rectangle stays out of the hole (an exact count from the cells' nearest points to the axis),
-    less at most the cells within 0.01 mm of the hole's rim (left unproven)."""
+    rectangle stays out of the hole or touches its rim (an exact count from the cells' nearest
+    points to the axis), less at most the cells within 0.01 mm of the hole's rim (left
+    unproven)."""
     layer = scene.layer("cutbox", "first.+z")
     px, py = layer.patch_size
     c = layer.cell_centres()
@@ -135,7 +136,7 @@ def test_the_box_face_around_the_hole_keeps_the_cells_clear_of_it(scene):
     nearest = np.hypot(
         np.maximum(np.abs(d[..., 0]) - px / 2, 0), np.maximum(np.abs(d[..., 1]) - py / 2, 0)
     )
-    clear = nearest > 5.0
+    clear = nearest >= 5.0  # a cell may touch the hole's rim (its bounding box proves it)
     assert not (layer.mask & ~clear).any()
     rim = clear & (nearest < 5.01)
     assert not (clear & ~layer.mask & ~rim).any()

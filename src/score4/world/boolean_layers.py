@@ -44,7 +44,7 @@ import numpy as np
 
 from score4.errors import ConfigError
 from score4.inputs.config import RoughFace
-from score4.shapes import BooleanShape, G4Cons, G4Tubs, Shape, Transform
+from score4.shapes import BooleanShape, G4Box, G4Cons, G4Tubs, Shape, Transform
 from score4.shapes.base import INSIDE
 from score4.shapes.boolean import FaceClip
 from score4.shapes.faces import PlaneFace, SphereFace
@@ -258,7 +258,8 @@ def _certify(centres, half_u, half_v, point, bound, margin) -> np.ndarray:
     """True for the cells (centres (n, 2) in face parameters, half widths ``half_u``,
     ``half_v`` (n,)) proven on the boolean's surface: ``point(uv)`` gives world points,
     ``bound(uv, hu, hv)`` a bound of the distance from a centre to its cell's points,
-    ``margin(world)`` the clip margin."""
+    ``margin(world, cells)`` the clip margin (``cells``: the index of the cell of each
+    point)."""
     n = len(centres)
     ok = np.ones(n, dtype=bool)
     pending = np.arange(n)
@@ -266,7 +267,7 @@ def _certify(centres, half_u, half_v, point, bound, margin) -> np.ndarray:
     for level in range(LEVELS + 1):
         if not len(pending):
             break
-        m = margin(point(uv))
+        m = margin(point(uv), pending)
         r = bound(uv, hu, hv)
         proven = m > r + MARGIN
         out = m <= MARGIN  # a point of the cell off the surface (or on its edge): not kept
@@ -333,17 +334,104 @@ def kept_cells(
             return np.sqrt(hu * hu + hv * hv + height * height / 4)
 
     r, t = to_boolean.rotation, to_boolean.translation
+    boxes = _cell_boxes(layer, centres, half_u, half_v, height)
+    none = np.zeros(len(rows), dtype=bool)
+    passed = [none if boxes is None else _clear_by_boxes(boxes, to_boolean, *c) for c in clip.clips]
 
-    def margin(local: np.ndarray) -> np.ndarray:
+    def margin(local: np.ndarray, cells: np.ndarray) -> np.ndarray:
         # to_boolean.apply written out: a BLAS product of (n, 3) by (3, 3) is slow where the
         # cores are shared
         q = t + local[:, :1] * r[:, 0] + local[:, 1:2] * r[:, 1] + local[:, 2:] * r[:, 2]
-        return clip.margin(q)
+        # FaceClip.margin, less the cutting solids the cell's bounding box already clears
+        out = np.full(len(q), np.inf)
+        for (shape, transform, inside), done in zip(clip.clips, passed, strict=True):
+            sel = ~done[cells]
+            if not sel.any():
+                continue
+            p = q[sel]
+            if np.array_equal(transform.rotation, np.eye(3)):  # a shift (most cuts)
+                p = p - transform.translation
+            else:
+                p = transform.inverse_apply(p)
+            d = shape.signed_distance(p)
+            out[sel] = np.minimum(out[sel], -d if inside else d)
+        return out
 
     ok = _certify(centres, half_u, half_v, point, bound, margin)
     out = np.zeros_like(base)
     out[rows[ok], cols[ok]] = True
     return out
+
+
+def _cell_boxes(
+    layer: RoughLayer,
+    centres: np.ndarray,
+    half_u: np.ndarray,
+    half_v: np.ndarray,
+    height: float,
+) -> np.ndarray | None:
+    """The 8 corners (n, 8, 3) of a box holding each cell (with ``height``, its column), in the
+    frame of the points kept_cells maps to the boolean's: the face frame of a flat layer, the
+    solid's frame of a cylinder or cone wall (z from the generator's ends, x and y from the
+    arc's extremes at both radii); None on a sphere (not needed there)."""
+    u, v = centres[:, 0], centres[:, 1]
+    if isinstance(layer, CurvedRoughLayer):
+        face = layer.ring_layout.face
+        if isinstance(face, SphereFace):
+            return None
+        za = face.point(u, v - half_v)[:, 2]
+        zb = face.point(u, v + half_v)[:, 2]
+        ra, rb = np.abs(face.radius(v - half_v)), np.abs(face.radius(v + half_v))
+        lo_r, hi_r = np.minimum(ra, rb), np.maximum(ra, rb)
+        phi0, phi1 = u - half_u, u + half_u
+
+        def extremes(shift: float) -> tuple[np.ndarray, np.ndarray]:
+            # least and largest cos(phi - shift) over [phi0, phi1]
+            a, b = np.cos(phi0 - shift), np.cos(phi1 - shift)
+            lo, hi = np.minimum(a, b), np.maximum(a, b)
+            k0 = np.ceil((phi0 - shift) / np.pi)  # multiples of pi inside the range
+            k1 = np.floor((phi1 - shift) / np.pi)
+            has_even = (k1 >= k0) & ((k1 > k0) | (k0 % 2 == 0))
+            has_odd = (k1 >= k0) & ((k1 > k0) | (k0 % 2 == 1))
+            return np.where(has_odd, -1.0, lo), np.where(has_even, 1.0, hi)
+
+        cx0, cx1 = extremes(0.0)
+        sy0, sy1 = extremes(np.pi / 2)
+        x0 = np.minimum(lo_r * cx0, hi_r * cx0)
+        x1 = np.maximum(lo_r * cx1, hi_r * cx1)
+        y0 = np.minimum(lo_r * sy0, hi_r * sy0)
+        y1 = np.maximum(lo_r * sy1, hi_r * sy1)
+        z0, z1 = np.minimum(za, zb), np.maximum(za, zb)
+    else:
+        x0, x1, y0, y1 = u - half_u, u + half_u, v - half_v, v + half_v
+        z0, z1 = np.zeros(len(u)), np.full(len(u), height)
+    xs, ys, zs = np.stack([x0, x1], 1), np.stack([y0, y1], 1), np.stack([z0, z1], 1)
+    i, j, k = (g.ravel() for g in np.meshgrid([0, 1], [0, 1], [0, 1], indexing="ij"))
+    return np.stack([xs[:, i], ys[:, j], zs[:, k]], -1)
+
+
+def _clear_by_boxes(
+    boxes: np.ndarray,
+    to_boolean: Transform,
+    shape: Shape,
+    transform: Transform,
+    inside: bool,
+) -> np.ndarray:
+    """True for the cells whose box (:func:`_cell_boxes`) alone proves them on the kept side
+    of the cutting solid ``shape`` (placed by ``transform`` in the boolean's frame): outside it,
+    the box and the solid's bounding box share no inner point (they may touch: a union's
+    seam); inside it (a G4Box, its own bounding box), the box lies in the solid (it may reach
+    its faces: a bore's ends). Cells that touch the solid's boundary cannot be proven by
+    distances alone."""
+    n = len(boxes)
+    pts = transform.inverse_apply(to_boolean.apply(boxes.reshape(-1, 3))).reshape(n, 8, 3)
+    lo, hi = pts.min(axis=1), pts.max(axis=1)
+    slo, shi = (np.asarray(b, float) for b in shape.bounding_box())
+    if not inside:
+        return np.asarray(((hi <= slo + MARGIN) | (lo >= shi - MARGIN)).any(axis=1))
+    if isinstance(shape, G4Box):
+        return np.asarray(((lo >= slo - MARGIN) & (hi <= shi + MARGIN)).all(axis=1))
+    return np.zeros(n, dtype=bool)
 
 
 def fit_cells(layers: list[RoughLayer], where: str = "targets") -> None:
@@ -439,7 +527,7 @@ def _column_cells(
         np.full(len(rows), py / 2),
         point,
         bound,
-        lambda local: margin(to_world(local)),
+        lambda local, _cells: margin(to_world(local)),
     )
     out = np.zeros_like(layer.mask)
     out[rows[ok], cols[ok]] = True
