@@ -128,11 +128,14 @@ def test_a_partly_covered_union_face_keeps_the_cells_clear_of_the_other_part(
 
 def test_a_wall_rising_from_a_partly_covered_face_leaves_its_foot_flat(gdml):
     """The disk's +z face and the post's wall rough together: the face's cells also keep clear
-    of the wall's layer (its thickness beyond the post), proven, not sampled."""
+    of the wall's layer (its thickness beyond the post), proven, not sampled; the wall keeps
+    the row of cells along its seam with the disk."""
     scene = build_scene(parse_config(config(gdml, {"stack": ["first.+z", "second.outer"]})))
     top, wall = scene.layers
     assert top.cells_envelope
     assert isinstance(wall, CurvedRoughLayer)
+    # the wall keeps every cell, the row along its seam with the disk included
+    assert wall.mask.sum() == wall.ring_layout.count.sum()
     near, _ = _nearest(top, np.zeros(2))
     kept = top.cell_variants >= 0
     assert near[kept].min() > 7.0 + wall.thickness
@@ -493,12 +496,13 @@ def test_the_sphere_face_of_an_orb_less_a_box_takes_a_rough_layer(gdml, tmp_path
     assert (expected > 0.3).all()
 
 
+@pytest.mark.deep
 def test_geantino_paths_through_the_seam_row_of_a_post_wall(gdml, tmp_path):
     """The post's wall on the disk (a union): the row of cells along the seam, which touches
     the disk, keeps its patches (its bounding box proves it; every cell is kept); geantinos
     aimed through that row into the post and on into the disk: Geant4's track length equals
     the analytic path in the disk plus the post plus the path in the bent patch bodies near the
-    crossing, to 1e-9 mm."""
+    crossing, to 1e-9 mm (deep: ~7 s)."""
     data = config(gdml, {"stack": ["second.outer"]}, FINE, output={"track_length": True})
     cfg = parse_config(data)
     scene = build_scene(cfg)
