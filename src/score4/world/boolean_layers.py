@@ -426,7 +426,10 @@ def _clear_by_boxes(
     n = len(boxes)
     pts = transform.inverse_apply(to_boolean.apply(boxes.reshape(-1, 3))).reshape(n, 8, 3)
     lo, hi = pts.min(axis=1), pts.max(axis=1)
-    slo, shi = (np.asarray(b, float) for b in shape.bounding_box())
+    try:
+        slo, shi = (np.asarray(b, float) for b in shape.bounding_box())
+    except NotImplementedError:  # a shape without a bounding box: distances only
+        return np.zeros(n, dtype=bool)
     if not inside:
         return np.asarray(((hi <= slo + MARGIN) | (lo >= shi - MARGIN)).any(axis=1))
     if isinstance(shape, G4Box):
