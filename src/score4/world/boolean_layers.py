@@ -178,7 +178,7 @@ def _on_boolean(
     if len(layers) != 1:
         raise ConfigError(
             f"{where}: {what} is face {clip.face} of a {clip.leaf.kind} in {len(layers)} planes; "
-            "rough faces of a boolean are faces of one plane or of revolution"
+            "rough faces of a boolean are faces of one plane, of revolution or of a sphere"
         )
     layer = layers[0]
     if clip.flipped and not isinstance(layer, CurvedRoughLayer):
