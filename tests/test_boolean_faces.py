@@ -6,6 +6,7 @@ whose envelope is the prism of those cells, and the bore a subtracted G4Cons lea
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -16,13 +17,16 @@ from score4.cli.main import main
 from score4.errors import ConfigError
 from score4.inputs.config import parse_config
 from score4.shapes.base import INSIDE
-from score4.source.build import make_source
+from score4.source.build import layer_sampler, make_source, source_geometry
 from score4.world.resolve import build_scene
 from score4.world.scene import CurvedRoughLayer
 
 from helpers.boolean_worlds import (
     CONEBORE_POSITION,
+    HEX_CUT,
+    HEXCUT_POSITION,
     ORB_CUT,
+    ORBCUT_POSITION,
     POST_AT,
     POSTBOX_POSITION,
     STACK_POSITION,
@@ -334,13 +338,16 @@ def test_geantino_paths_through_a_rough_cone_bore(gdml, tmp_path):
 @pytest.mark.deep
 def test_new_boolean_faces_export_with_the_same_paths(gdml, tmp_path, monkeypatch):
     """The box's +z face around its post, the disk's +z face around its post with the post's
-    wall, and the cone's bore, written by `score4 geometry export`: Geant4 reads the file back
+    wall, the cone's bore, the orb's sphere face and the prism's six sides, written by
+    `score4 geometry export`: Geant4 reads the file back
     with the same geantino paths (1e-9 mm), and so it reads the file pyg4ometry reads and writes
     again (deep: ~40 s, the bore's 50 rings of bent patches)."""
     data = config(gdml, {"postbox": ["first.+z"], "stack": ["first.+z", "second.outer"]})
     bore = {"volume": "conebore", "rough": [{"face": "second.outer", "surface": "q"}]}
-    data["targets"].append(bore)
-    data["surfaces"]["q"] = FINE
+    orb = {"volume": "orbcut", "rough": [{"face": "first.outer", "surface": "s"}]}
+    sides = {"volume": "hexcut", "rough": [{"face": "first.outer", "surface": "p"}]}
+    data["targets"] += [bore, orb, sides]
+    data["surfaces"] |= {"q": FINE, "s": SMALL}
     cfg = tmp_path / "boolean.yaml"
     cfg.write_text(yaml.safe_dump(data))
     out = tmp_path / "boolean_rough.gdml"
@@ -363,12 +370,35 @@ def test_new_boolean_faces_export_with_the_same_paths(gdml, tmp_path, monkeypatc
         phi = rng.uniform(0, 2 * np.pi)
         way = np.array([np.cos(phi), np.sin(phi), 0.1])
         rays.append((cone + np.array([0, 0, rng.uniform(-7, 7)]), way))
+    orb_at = np.array(ORBCUT_POSITION)
+    for _ in range(4):  # from outside the orb (r 3 mm) into it, on the side the cut spares
+        phi = rng.uniform(0.6 * np.pi, 1.4 * np.pi)
+        radial = np.array([np.cos(phi), np.sin(phi), rng.uniform(-0.3, 0.3)])
+        rays.append((orb_at + 3.3 * radial, -radial))
+    hex_at = np.array(HEXCUT_POSITION)
+    for k in range(4):  # from outside the prism's sides (8 mm from its axis) into it
+        a = math.radians(90 + 60 * k)
+        n = np.array([math.cos(a), math.sin(a), 0.0])
+        side = np.array([-n[1], n[0], 0.0]) * rng.uniform(-3, 3)  # off the cells' edges
+        rays.append((hex_at + 8.5 * n + side + [0, 0, rng.uniform(-8, 8)], -n + [0, 0, 0.1]))
     rays = [(o.tolist(), (d / np.linalg.norm(d)).tolist()) for o, d in rays]
     ours, back, relay = three_paths(cfg, out, rays, monkeypatch)
     crossed = {base_name(v) for path in ours for v, _ in path}
-    for layer in ("postbox_roughfirst_pz", "stack_roughfirst_pz", "conebore_roughsecond_outer"):
+    for layer in (
+        "postbox_roughfirst_pz",
+        "stack_roughfirst_pz",
+        "conebore_roughsecond_outer",
+        "orbcut_roughfirst_outer",
+        "hexcut_roughfirst_seg_1",
+    ):
         assert any(v and v.startswith(layer) for v in crossed), layer  # each layer's patches
-    assert_same_paths(ours, back, relay)
+    assert_same_paths(ours[:-4], back[:-4], relay[:-4])
+    # the prism's sides: the export writes the equal patch volumes of its six planes once, under
+    # the first plane's names (as on a G4Polyhedra alone), so the plane's index is left out
+    for a, b in zip(ours[-4:], back[-4:], strict=True):
+        plane = [re.sub(r"seg_1_\d", "seg_1", base_name(v) or "") for v, _ in a]
+        assert plane == [re.sub(r"seg_1_\d", "seg_1", base_name(v) or "") for v, _ in b]
+        np.testing.assert_allclose([q for _, q in a], [q for _, q in b], atol=1e-9, rtol=0)
 
 
 @pytest.mark.parametrize(
@@ -544,3 +574,86 @@ def test_geantino_paths_through_the_seam_row_of_a_post_wall(gdml, tmp_path):
         crossed += in_patches > 0
         assert got[k] == pytest.approx(expected + in_patches, abs=1e-9, rel=0), k
     assert crossed >= n // 2
+
+
+def _hex_less_box_path(o: np.ndarray, d: np.ndarray) -> float:
+    """Path of a ray (solid frame) in the hexagonal prism (side planes at distance 8 mm, their
+    normals at 30 + 60 k degrees, |z| < 10) less the box x, y > 4 mm."""
+    t0, t1 = 0.0, np.inf
+    planes = [
+        (np.array([math.cos(a), math.sin(a), 0.0]), 8.0) for a in np.radians(30 + 60 * np.arange(6))
+    ]
+    planes += [(np.array([0.0, 0.0, 1.0]), 10.0), (np.array([0.0, 0.0, -1.0]), 10.0)]
+    for n, h in planes:
+        dn, on = n @ d, n @ o
+        if abs(dn) < 1e-15:
+            if on > h:
+                return 0.0
+            continue
+        t = (h - on) / dn
+        t0, t1 = (max(t0, t), t1) if dn < 0 else (t0, min(t1, t))
+    if t1 <= t0:
+        return 0.0
+    b0, b1 = _box_path(o, d, (HEX_CUT, HEX_CUT, -20), (HEX_CUT + 20, HEX_CUT + 20, 20))
+    return (t1 - t0) - max(0.0, min(t1, b1) - max(t0, b0))
+
+
+def test_a_face_of_six_planes_on_a_boolean_takes_a_layer_per_plane(gdml, tmp_path):
+    """The six sides of a G4Polyhedra less a box over one corner: one layer per plane, each
+    keeping the cells on the boolean's surface (clear of the box, which cuts two of them); the
+    planes' rough shares add up to the kept cells' area over the face's estimated area, and
+    the flat rest is drawn once for all planes (its share of the source, 4 sigma); geantinos
+    from just outside kept cells into the prism: Geant4's track length equals the analytic
+    path in the prism less the box plus the path in the patch bodies, to 1e-9 mm."""
+    data = config(gdml, {"hexcut": ["first.outer"]}, output={"track_length": True})
+    cfg = parse_config(data)
+    scene = build_scene(cfg)
+    layers = scene.layers
+    assert len(layers) == 6
+    target = scene.target("hexcut")
+    normals = np.array([la.frame.normal @ target.rotation for la in layers])
+    angles = np.sort(np.degrees(np.arctan2(normals[:, 1], normals[:, 0])) % 360)
+    np.testing.assert_allclose(angles, 30 + 60 * np.arange(6), atol=1e-9)
+    px, py = layers[0].patch_size
+    area = target.shape.face_areas["first.seg_1"]
+    kept = sum(int((la.cell_variants >= 0).sum()) for la in layers)
+    assert sum(la.rough_share for la in layers) == pytest.approx(kept * px * py / area, rel=1e-12)
+    assert 0.9 < sum(la.rough_share for la in layers) < 1
+    for la in layers:  # kept cells clear of the box: their corners at x <= 4 or y <= 4
+        c = la.cell_centres()[la.cell_variants >= 0]
+        off = np.array([[sx * px / 2, sy * py / 2] for sx in (-1, 1) for sy in (-1, 1)])
+        xy = (c[:, None, :] + off[None]).reshape(-1, 2)
+        q = target.to_local(la.frame.to_world(np.column_stack([xy, np.zeros(len(xy))])))
+        assert ((q[:, 0] <= HEX_CUT + 1e-9) | (q[:, 1] <= HEX_CUT + 1e-9)).reshape(-1, 4).all()
+    n = 4000
+    p = make_source(cfg, scene).primaries(np.random.default_rng(4), 0, n)
+    geo = source_geometry(cfg, scene)
+    tops = sum(layer_sampler(la).area for la in layers)
+    flat = area - kept * px * py
+    assert geo["area_mm2"] == pytest.approx(tops + flat, rel=1e-9)
+    on_flat = p.extra["patch"] < 0
+    share = flat / geo["area_mm2"]
+    assert abs(on_flat.mean() - share) < 4 * math.sqrt(share * (1 - share) / n)
+    local = target.to_local(p.position[on_flat])
+    assert np.abs(target.shape.signed_distance(local)).max() < 1e-9
+    rng = np.random.default_rng(9)
+    starts, directions = [], []
+    for k in range(12):
+        la = layers[k % 6]
+        cells = np.argwhere(la.cell_variants >= 0)
+        j, i = cells[rng.integers(len(cells))]
+        c = la.cell_centres()[j, i] + rng.uniform(-0.2, 0.2, 2)
+        start = la.frame.to_world(np.array([*c, 0.03]))
+        aim = target.to_world(np.array([[*rng.uniform(-4, 3, 2), rng.uniform(-9, 9)]]))[0]
+        starts.append(start)
+        directions.append((aim - start) / np.linalg.norm(aim - start))
+    primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, len(starts))
+    r = geantino_run(data, primaries, np.array(starts), np.array(directions), tmp_path)
+    got = np.asarray(r.scores["track_length"]["hexcut"])
+    crossed = 0
+    for k, (o, d) in enumerate(zip(starts, directions, strict=True)):
+        in_patches = sum(_flat_patch_path(la, o, d) for la in layers)
+        crossed += in_patches > 0
+        expected = _hex_less_box_path(target.to_local(o[None])[0], d @ target.rotation)
+        assert got[k] == pytest.approx(expected + in_patches, abs=1e-9, rel=0), k
+    assert crossed >= 6

@@ -69,12 +69,17 @@ CROSS_POSITION = (-60.0, 0.0, 0.0)
 #: a silicon orb (r 3 mm) less a box beyond x = 1.5 mm
 ORBCUT_POSITION = (0.0, 0.0, 60.0)
 ORB_CUT = 1.5
+#: a hexagonal copper prism (G4Polyhedra, 6 sides 8 mm from the axis, 20 mm long) less a box
+#: beyond x, y = 4 mm (its side face ``seg_1`` is six planes)
+HEXCUT_POSITION = (60.0, 60.0, 0.0)
+HEX_CUT = 4.0
 
 
 def write_more_world(path: Path) -> Path:
     """A second world of booleans: ``conebore`` (a box less a cone), ``postbox`` (a box with
     a post on a part of its +z face, a union), ``cross`` (a box with a rod through it, a union),
-    ``orbcut`` (an orb less a box) and the ``stack`` of :func:`write_world`."""
+    ``orbcut`` (an orb less a box), ``hexcut`` (a G4Polyhedra less a box) and the ``stack`` of
+    :func:`write_world`."""
     import pyg4ometry as pg
 
     reg = pg.geant4.Registry()
@@ -105,6 +110,12 @@ def write_more_world(path: Path) -> Path:
     orbcut = s.Subtraction("orbcut_s", orb, cutter, [[0, 0, 0], [ORB_CUT + 5, 0, 0]], reg)
     lv = pg.geant4.LogicalVolume(orbcut, "G4_Si", "orbcut_lv", reg)
     pg.geant4.PhysicalVolume([0, 0, 0], list(ORBCUT_POSITION), lv, "orbcut", world, reg)
+    hexa = s.Polyhedra("hex_a", 0, 2 * math.pi, 6, 2, [-10, 10], [0, 0], [8, 8], reg)
+    corner = s.Box("hex_b", 20, 20, 40, reg)
+    at = [HEX_CUT + 10, HEX_CUT + 10, 0]
+    hexcut = s.Subtraction("hexcut_s", hexa, corner, [[0, 0, 0], at], reg)
+    lv = pg.geant4.LogicalVolume(hexcut, "G4_Cu", "hexcut_lv", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], list(HEXCUT_POSITION), lv, "hexcut", world, reg)
     reg.setWorld(world.name)
     w = pg.gdml.Writer()
     w.addDetector(reg)

@@ -10,8 +10,9 @@ and the CPU time of the first scene build (areas estimated, in an empty cache fo
 second one in a new process (areas read back). Then the same table for the second test world
 (tests/test_boolean_faces.py): a box's +z face around a post standing on it, the disk's +z face
 around its post with the post's wall, the bore a subtracted cone leaves, and the sphere face of
-an orb less a box (0.1 mm patches of 10 x 10 pyramids 10 um high). Checked by docs/geometry.md
-(check ``boolean-shares``).
+an orb less a box (0.1 mm patches of 10 x 10 pyramids 10 um high), and the six side planes of
+a G4Polyhedra less a box over one corner. Checked by docs/geometry.md (check
+``boolean-shares``).
 """
 
 from __future__ import annotations
@@ -34,10 +35,17 @@ MORE_FACES = {
     "stack": ["first.+z", "second.outer"],
     "conebore": ["second.outer"],
     "orbcut": ["first.outer"],
+    "hexcut": ["first.outer"],
 }
 #: the orb (r 3 mm) of the second world takes 0.1 mm patches of 10 x 10 pyramids 10 um high
 SMALL = {"kind": "spikes", "nx": 10, "ny": 10, "width": "10 um", "height": "10 um"}
 SURFACE = {"kind": "spikes", "nx": 5, "ny": 5, "width": "80 um", "height": "20 um"}
+
+
+def _plane(layer) -> str:
+    """`` (plane k)`` for a layer on one plane of a face of several planes."""
+    part = getattr(layer, "part", -1)
+    return f" (plane {part})" if part >= 0 else ""
 
 
 def _build(gdml: str, more: bool) -> None:
@@ -72,7 +80,7 @@ def _build(gdml: str, more: bool) -> None:
     for layer in scene.layers:
         kept = int(layer.mask.sum()) if layer.mask is not None else layer.cell_variants.size
         print(
-            f"| {layer.target.name} | {layer.config.face_name} | {kept} "
+            f"| {layer.target.name} | {layer.config.face_name}{_plane(layer)} | {kept} "
             f"| {100 * layer.rough_share:.2f} % |"
         )
     print(f"scene build: {cpu:.2f} s CPU")
@@ -111,7 +119,7 @@ def main() -> None:
             capture_output=True,
             text=True,
         ).stdout.splitlines()
-        print("\nSecond world (union faces partly covered, a cone's bore, an orb less a box):")
+        print("\nSecond world (union faces partly covered, a cone's bore, an orb, a polyhedra):")
         print("\n".join(out[:-1]))
 
 

@@ -28,9 +28,13 @@ clear of the cutting solids keep their patch, and the envelope becomes the prism
 (:func:`_clear_of_the_solid`); :func:`fit_cells` then keeps them clear of the volume's other
 layers too (a wall's layer rising from the face).
 
+A face of a leaf made of flat facets in several planes (the sides of a G4Polyhedra) takes one
+layer per plane (:func:`_on_boolean`; a plane without a kept cell gets none); the source draws
+their flat rest as one (:class:`score4.source.build.PlanesRemainderSampler`).
+
 Refused, in one line each: ``into: true``, ``tiling: portal`` and ``native_layout: replicas``;
-a curved face of a subtracted solid other than a G4Tubs or G4Cons wall (spheres); a face of a
-solid made of flat facets in several planes; a curved layer whose envelope runs into the solid
+a curved face of a subtracted solid other than a G4Tubs or G4Cons wall (spheres); a curved
+layer whose envelope runs into the solid
 itself (a wall partly covered by another part of a union), a flat one that keeps no cell clear
 of the other parts; steps and activeness (no distance to such a layer's rough surface yet).
 """
@@ -76,8 +80,9 @@ def target_layers(
     rough: RoughFace,
     where: str | None = None,
 ) -> list[RoughLayer]:
-    """The rough layers of ``rough`` on ``target``: on a boolean solid, the one layer on face
-    ``rough.face`` (see the module docstring); on other solids one
+    """The rough layers of ``rough`` on ``target``: on a boolean solid, the layer on face
+    ``rough.face`` (one per plane of a face of several planes; see the module docstring); on
+    other solids one
     (:func:`score4.world.scene.make_layer`), or one per plane of a face made of flat facets in
     several planes (the ``nsides`` sides of a G4Polyhedra face, the planes of a tessellated
     mesh: :func:`score4.world.facets.plane_groups`)."""
@@ -93,7 +98,7 @@ def target_layers(
                 f"{err} (face {rough.face_name} of the {target.solid} is face {clip.face} of its "
                 f"{clip.leaf.kind}{seen})"
             ) from None
-        return [_on_boolean(layers, target, rough, clip, placed, where)]
+        return _on_boolean(layers, target, rough, clip, placed, where)
     if shape is not None and isinstance(rough.face, str) and rough.face in shape.faces:
         groups = plane_groups(face_triangles(shape, rough.face))
         if len(groups) > 1:
@@ -169,35 +174,43 @@ def _on_boolean(
     clip: FaceClip,
     placed: Transform,
     where: str,
-) -> RoughLayer:
-    """The layer laid out on the leaf's face (``layers``), turned to the boolean's side, with
-    only the cells proven on the boolean's surface kept (:func:`kept_cells`)."""
+) -> list[RoughLayer]:
+    """The layers laid out on the leaf's face (``layers``: one, or one per plane of a face of
+    several planes), turned to the boolean's side, with only the cells proven on the boolean's
+    surface kept (:func:`kept_cells`); a plane of a face of several planes with no such cell is
+    left out (flat). Each layer's rough share is its cells' area over the boolean face's."""
     shape = target.shape
     assert isinstance(shape, BooleanShape)
     name, what = rough.face_name, _what(target, rough)
-    if len(layers) != 1:
-        raise ConfigError(
-            f"{where}: {what} is face {clip.face} of a {clip.leaf.kind} in {len(layers)} planes; "
-            "rough faces of a boolean are faces of one plane, of revolution or of a sphere"
-        )
-    layer = layers[0]
-    if clip.flipped and not isinstance(layer, CurvedRoughLayer):
-        _flip(layer)
     on = BooleanFace(shape, name, clip, target.transform)
-    kept = kept_cells(layer, clip, on, placed)
-    layer.mask = kept
-    if not kept.any():
-        px, py = layer.patch_size
+    out = []
+    for layer in layers:
+        if clip.flipped and not isinstance(layer, CurvedRoughLayer):
+            _flip(layer)
+        kept = kept_cells(layer, clip, on, placed)
+        layer.mask = kept
+        if not kept.any():
+            if len(layers) > 1:
+                continue
+            px, py = layer.patch_size
+            raise ConfigError(
+                f"{where}: no whole patch of {px * 1e3:g} x {py * 1e3:g} um fits on the part of "
+                f"{what} that lies on the solid's surface"
+            )
+        layer.config = rough
+        layer.face_area = float(shape.face_areas[name])
+        layer.on_boolean = on
+        if _meets_own_solid(layer, on):
+            _clear_of_the_solid(layer, clip, on, placed, where, what)
+        out.append(layer)
+    if not out:
+        px, py = layers[0].patch_size
         raise ConfigError(
             f"{where}: no whole patch of {px * 1e3:g} x {py * 1e3:g} um fits on the part of "
-            f"{what} that lies on the solid's surface"
+            f"{what} (face {clip.face} of a {clip.leaf.kind} in {len(layers)} planes) that lies "
+            "on the solid's surface"
         )
-    layer.config = rough
-    layer.face_area = float(shape.face_areas[name])
-    layer.on_boolean = on
-    if _meets_own_solid(layer, on):
-        _clear_of_the_solid(layer, clip, on, placed, where, what)
-    return layer
+    return out
 
 
 def turned_wall(
