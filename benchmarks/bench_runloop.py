@@ -179,10 +179,9 @@ def _time_python_actions() -> dict:
     return spent
 
 
-def measure_portal(tiling: str, events: int) -> dict:
-    timed_actions = tiling == "portal-timed"
-    spent = _time_python_actions() if timed_actions else {}
-    tiling = "portal" if timed_actions else tiling
+def portal_config(tiling: str) -> dict:
+    """The portal part's run: Po-210 20 nm below the 10 cm pyramid face, ``tiling`` native or
+    portal (also bench_instructions.py's cases ``runloop_native`` and ``runloop_portal``)."""
     data = face_config(10.0, layout="default", tiling=tiling)
     data["source"] = {
         "decay": "Po210",
@@ -190,7 +189,14 @@ def measure_portal(tiling: str, events: int) -> dict:
         "surface": {"volume": "crystal", "face": "+z"},
         "depth": {"profile": "exponential", "mean": "20 nm"},
     }
-    sim, out = timed_simulation(data)
+    return data
+
+
+def measure_portal(tiling: str, events: int) -> dict:
+    timed_actions = tiling == "portal-timed"
+    spent = _time_python_actions() if timed_actions else {}
+    tiling = "portal" if timed_actions else tiling
+    sim, out = timed_simulation(portal_config(tiling))
     primaries = sim.source.primaries(np.random.default_rng(5), 0, WARMUP + events)
     sim.run(primaries.select_events(0, WARMUP), 1)
     t = sim.teleporter
