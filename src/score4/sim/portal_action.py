@@ -177,7 +177,9 @@ class Teleporter:
         self.history: dict[int, tuple[list[float], list]] = {}
         self.primary_cells: list = []
         self.first_row = 0
-        self.first_cell: dict[tuple[int, int], tuple] = {}  # (layer, variant) -> first cell entered
+        self.n_primaries = 0  # of the current event: its primaries are tracks 1 .. n_primaries
+        # (layer, variant) -> first cell entered
+        self.first_cell: dict[tuple[int, int], tuple] = {}
         self.tracking = True  # is the tracking action on (see the module docstring)
         # set by make_actions: switches the tracking action on or off
         self.set_tracking: Callable[[bool], None] | None = None
@@ -216,6 +218,7 @@ class Teleporter:
         self.first_cell.clear()
         self.exit_step = None
         self.first_row = first_row
+        self.n_primaries = end_row - first_row
         cells = self.primary_cells[first_row:end_row]
         ambiguous = False
         for cell in cells:
@@ -255,20 +258,28 @@ class Teleporter:
         if (
             parent == 0
         ):  # Geant4 numbers an event's primaries 1, 2, ... in the order they were given
-            row = self.first_row + track.GetTrackID() - 1
+            tid = track.GetTrackID()
+            row = self.first_row + tid - 1
             cell = self.primary_cells[row] if row < len(self.primary_cells) else None
+            if cell is not None:
+                self.history[tid] = ([-math.inf], [cell])
+            return
+        h = self.history.get(parent)
+        if h is None:
+            # The parent started before the tracking action was switched on and never
+            # jumped: it stayed in the first cell of its subworld's variant, or in Lab.
+            p = track.GetPosition()
+            where = self._subworld(p.x, p.y, p.z)
+            cell = None if where is None else self.first_cell.get(where)
         else:
-            h = self.history.get(parent)
-            if h is None:
-                # The parent started before the tracking action was switched on and never
-                # jumped: it stayed in the first cell of its subworld's variant, or in Lab.
-                p = track.GetPosition()
-                where = self._subworld(p.x, p.y, p.z)
-                cell = None if where is None else self.first_cell.get(where)
-            else:
-                times, cells = h
-                # Born at the time of a jump = born in the step that triggered it: the old cell.
-                cell = cells[bisect_left(times, track.GetGlobalTime()) - 1]
+            times, cells = h
+            # Born at the time of a jump = born in the step that triggered it: the old cell.
+            # A parent that never jumped has one cell: no need to ask for the time.
+            cell = (
+                cells[0]
+                if len(cells) == 1
+                else cells[bisect_left(times, track.GetGlobalTime()) - 1]
+            )
         if cell is not None:
             self.history[track.GetTrackID()] = ([-math.inf], [cell])
 
@@ -285,12 +296,14 @@ class Teleporter:
 
     # --- steps ----------------------------------------------------------------------------
 
-    def _move(self, step, track, pre, x: float, y: float, z: float) -> None:
-        """Undo the vacuum step and restart the track at (x, y, z) with the pre-step state."""
-        d = pre.GetMomentumDirection()
+    def _move(
+        self, step, track, pre, d, time: float, tid: int, x: float, y: float, z: float
+    ) -> None:
+        """Undo the vacuum step and restart track ``tid`` at (x, y, z) with the pre-step state
+        (``d`` and ``time``: the pre-step point's direction and global time, already read)."""
         track.SetMomentumDirection(d)
         track.SetKineticEnergy(pre.GetKineticEnergy())
-        track.SetGlobalTime(pre.GetGlobalTime())
+        track.SetGlobalTime(time)
         track.SetLocalTime(pre.GetLocalTime())
         track.SetProperTime(pre.GetProperTime())
         pos = self.vector(x, y, z)
@@ -299,7 +312,7 @@ class Teleporter:
         self.navigator.LocateGlobalPointAndUpdateTouchable(pos, d, track.GetNextTouchable(), False)
         step.InitializeStep(track)
         self.jumps += 1
-        if track.GetParentID():
+        if tid > self.n_primaries:  # not one of the event's primaries (tracks 1 .. n)
             self.secondary_jumps += 1
 
     def _kill(self, track) -> None:
@@ -340,7 +353,7 @@ class Teleporter:
                 return
             i, j = lay.cell(q[0], q[1])
             t = lay.jump(i, j)
-            self._move(step, track, pre, x + t[0], y + t[1], z + t[2])
+            self._move(step, track, pre, d, time, tid, x + t[0], y + t[1], z + t[2])
             self._record(tid, time, (n, i, j), None)
             return
         local = lay.local(x, y, z, lay.sub[k])
@@ -364,12 +377,12 @@ class Teleporter:
         x, y, z = x - t[0], y - t[1], z - t[2]  # the matching point of the portal
         i, j = i + di, j + dj
         if through_z or not (0 <= i < lay.nx and 0 <= j < lay.ny):
-            self._move(step, track, pre, x, y, z)
+            self._move(step, track, pre, d, time, tid, x, y, z)
             self._record(tid, time, None, cell)
             self.exit_step = (tid, track.GetCurrentStepNumber() + 1)
         else:
             t = lay.jump(i, j)
-            self._move(step, track, pre, x + t[0], y + t[1], z + t[2])
+            self._move(step, track, pre, d, time, tid, x + t[0], y + t[1], z + t[2])
             self._record(tid, time, (n, i, j), cell)
 
 
@@ -384,13 +397,13 @@ def make_actions(g4, teleporter: Teleporter, regions: list) -> tuple:
     on_step = teleporter.on_step
     start_track = teleporter.start_track
 
+    # The teleporter's bound methods are the overrides themselves (the binding looks them up by
+    # name on the object and calls them with the step or track): no Python frame in between.
     class PortalStepping(g4.G4UserSteppingAction):
-        def UserSteppingAction(self, step):
-            on_step(step)
+        UserSteppingAction = staticmethod(on_step)
 
     class PortalTracking(g4.G4UserTrackingAction):
-        def PreUserTrackingAction(self, track):
-            start_track(track)
+        PreUserTrackingAction = staticmethod(start_track)
 
     stepping = PortalStepping()
     for region in regions:
