@@ -518,7 +518,8 @@ def part_portal(events: int, rounds: int = 1, baseline: str | None = None) -> No
     r = in_subprocess(["--portal", "portal-timed", "--events", str(events)])
     python_ms = 0.0
     for name in ("on_step", "start_track", "_move"):
-        n, us = r[f"{name}_per_event"], r[f"{name}_us_per_call"]
+        # a method never called (start_track in runs with no ambiguous event) has no figures
+        n, us = r.get(f"{name}_per_event", 0.0), r.get(f"{name}_us_per_call", 0.0)
         print(f"  {name:12s} {n:5.2f} calls per event, {us:6.1f} us CPU per call")
         if name != "_move":  # _move runs inside on_step
             python_ms += n * us / 1e3

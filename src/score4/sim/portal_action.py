@@ -40,13 +40,16 @@ its creation time (a parent is always tracked to its end before its secondaries)
 
 Python runs only where a particle crosses a portal: no user action runs for the tracks of an
 event (~190 delta electrons per Po-210 event) as long as its cells are unambiguous. Per event and
-per (layer, variant) the teleporter keeps the first cell entered (by a primary's start or a jump):
-while every variant has been entered in at most one cell, a track with no history that leaves a
-subworld of variant k can only be in that variant's one cell, whatever its ancestry. When a jump
-(or the primaries of one event) enters a second cell of some variant, a Python tracking action is
+per (layer, subworld) the teleporter keeps the first cell entered (by a primary's start or a jump):
+while every subworld has been entered in at most one cell, a track with no history that leaves
+subworld k can only be in that subworld's one cell, whatever its ancestry. Each variant has one
+subworld per parity of the cell indices (:func:`score4.geometry.portal.cell_slots`), so a jump
+through a cell border or corner never makes an event ambiguous: that takes a particle entering
+two cells of one parity (two borders crossed, or the portal entered twice). When a jump
+(or the primaries of one event) enters a second cell of some subworld, a Python tracking action is
 switched on for the rest of the event (off again when the next event begins): from then on every
 new track gets its cell from its parent as above, and a parent with no history can only have
-started before the switch, in its variant's first cell. The cells are the same as with a tracking
+started before the switch, in its subworld's first cell. The cells are the same as with a tracking
 action for every track (tests/test_portal.py compares with native tiling). A track that leaves a
 subworld with no known cell (impossible by construction) is killed and counted in
 :attr:`Teleporter.anomalies`.
@@ -88,7 +91,7 @@ class _Layer:
         lu, lv = layer.frame.size
         self.portal_half = (lu / 2, lv / 2, self.half[2])
         self.nx, self.ny = layer.patch_map.nx, layer.patch_map.ny
-        self.variants = layer.patch_map.variants.tolist()
+        self.slots = pmap.slots.tolist()  # the subworld of each cell, [j][i]
 
     def local(self, x: float, y: float, z: float, c) -> tuple[float, float, float]:
         """Face-frame components of the world point (x, y, z) relative to ``c``: R^T (p - c)."""
@@ -103,7 +106,7 @@ class _Layer:
     def jump(self, i: int, j: int) -> tuple[float, float, float]:
         """T[i, j]: portal point + T = subworld point (same expression as
         PortalMap.translations)."""
-        a, eu, ev = self.a[self.variants[j][i]], self.eu, self.ev
+        a, eu, ev = self.a[self.slots[j][i]], self.eu, self.ev
         return (
             a[0] - i * eu[0] - j * ev[0],
             a[1] - i * eu[1] - j * ev[1],
@@ -178,7 +181,7 @@ class Teleporter:
         self.primary_cells: list = []
         self.first_row = 0
         self.n_primaries = 0  # of the current event: its primaries are tracks 1 .. n_primaries
-        # (layer, variant) -> first cell entered
+        # (layer, subworld) -> first cell entered
         self.first_cell: dict[tuple[int, int], tuple] = {}
         self.tracking = True  # is the tracking action on (see the module docstring)
         # set by make_actions: switches the tracking action on or off
@@ -227,9 +230,9 @@ class Teleporter:
         self._track(ambiguous)
 
     def _enter(self, cell) -> bool:
-        """Note that ``cell`` was entered; True if its variant had been entered in another cell."""
+        """Note that ``cell`` was entered; True if its subworld had been entered in another cell."""
         n, i, j = cell
-        return self.first_cell.setdefault((n, self.layers[n].variants[j][i]), cell) != cell
+        return self.first_cell.setdefault((n, self.layers[n].slots[j][i]), cell) != cell
 
     def _track(self, on: bool) -> None:
         """Switch the tracking action on or off (no-op if it already is)."""
@@ -239,7 +242,7 @@ class Teleporter:
             self.tracked_events += on
 
     def _subworld(self, x: float, y: float, z: float) -> tuple[int, int] | None:
-        """(layer, variant) of the subworld holding the world point (x, y, z), or None."""
+        """(layer, subworld) of the subworld holding the world point (x, y, z), or None."""
         for n, lay in enumerate(self.layers):
             for k, centre in enumerate(lay.sub):
                 local = lay.local(x, y, z, centre)
@@ -267,7 +270,7 @@ class Teleporter:
         h = self.history.get(parent)
         if h is None:
             # The parent started before the tracking action was switched on and never
-            # jumped: it stayed in the first cell of its subworld's variant, or in Lab.
+            # jumped: it stayed in the first cell of its subworld, or in Lab.
             p = track.GetPosition()
             where = self._subworld(p.x, p.y, p.z)
             cell = None if where is None else self.first_cell.get(where)
@@ -365,9 +368,9 @@ class Teleporter:
         if crossing is None:
             return  # touched the subworld's boundary and turned back: Geant4 steps back in
         h = self.history.get(tid)
-        # no history: the track never jumped and started in its variant's first cell
+        # no history: the track never jumped and started in its subworld's first cell
         cell = h[1][-1] if h is not None else self.first_cell.get((n, k))
-        if cell is None or cell[0] != n or lay.variants[cell[2]][cell[1]] != k:
+        if cell is None or cell[0] != n or lay.slots[cell[2]][cell[1]] != k:
             self._kill(track)
             self.anomalies += 1
             return
