@@ -329,18 +329,19 @@ class Teleporter:
         on the boundary moving out, so the rules leave it alone (a track landed in the target
         instead never matches again, as step numbers only grow).
         """
+        track = step.GetTrack()
         if self.exit_step is not None:
-            track = step.GetTrack()
             exit_step, self.exit_step = self.exit_step, None
             if (track.GetTrackID(), track.GetCurrentStepNumber()) == exit_step:
                 self.quick_exits += 1
                 return
-        pre = step.GetPreStepPoint()
-        role = self.roles.get(pre.GetTouchable().GetVolume())
+        # The pre-step point's volume: the track's touchable is the pre-step point's until the
+        # next step begins (one binding call less than pre.GetTouchable().GetVolume()).
+        role = self.roles.get(track.GetVolume())
         if role is None:
             return
         kind, n, k = role
-        track = step.GetTrack()
+        pre = step.GetPreStepPoint()
         lay = self.layers[n]
         p = pre.GetPosition()
         x, y, z = p.x, p.y, p.z
