@@ -2,9 +2,11 @@
 machine's load does not move.
 
     .venv/bin/python benchmarks/bench_instructions.py [--cases pyramids,gauss_blocks]
-        [--events 300] [--face 1.5] [--set score4.surface.block_cut.FLOOR_GAP=5e-4]
+        [--events 300] [--face 1.5] [--set score4.surface.block_cut.FLOOR_GAP=5e-4] [--keep DIR]
 
-Each case (benchmarks/bench_surfaces.py's cases, ``<case>_b<N>`` for ``block_cells: N``) runs in
+Each case (benchmarks/bench_surfaces.py's cases, ``<case>_b<N>`` for ``block_cells: N``, or
+``runloop_native`` and ``runloop_portal``: bench_runloop.py's portal part, Po-210 on the 10 cm
+face, where ``--face`` does not apply) runs in
 its own process under ``valgrind --tool=callgrind --instr-atstart=no``: it builds the face,
 runs 200 warm-up events, then the parent switches instrumentation on (``callgrind_control -i
 on``) for ``--events`` alpha events in one BeamOn and off again before the process tears down.
