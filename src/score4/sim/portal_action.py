@@ -78,6 +78,8 @@ class _Layer:
     def __init__(self, pmap: PortalMap) -> None:
         layer = pmap.layer
         self.r = [[float(x) for x in row] for row in layer.frame.rotation]
+        r = self.r  # R^T row by row, flat: one unpacking per call of local()
+        self.rt = tuple(r[m][col] for col in range(3) for m in range(3))
         self.centre = tuple(float(x) for x in layer.frame.centre)
         self.sub = [tuple(float(x) for x in c) for c in pmap.subworld_centres]
         a, eu, ev = pmap.offsets()
@@ -95,12 +97,12 @@ class _Layer:
 
     def local(self, x: float, y: float, z: float, c) -> tuple[float, float, float]:
         """Face-frame components of the world point (x, y, z) relative to ``c``: R^T (p - c)."""
-        r = self.r
+        r00, r10, r20, r01, r11, r21, r02, r12, r22 = self.rt
         dx, dy, dz = x - c[0], y - c[1], z - c[2]
         return (
-            r[0][0] * dx + r[1][0] * dy + r[2][0] * dz,
-            r[0][1] * dx + r[1][1] * dy + r[2][1] * dz,
-            r[0][2] * dx + r[1][2] * dy + r[2][2] * dz,
+            r00 * dx + r10 * dy + r20 * dz,
+            r01 * dx + r11 * dy + r21 * dz,
+            r02 * dx + r12 * dy + r22 * dz,
         )
 
     def jump(self, i: int, j: int) -> tuple[float, float, float]:
@@ -136,19 +138,24 @@ class _Layer:
 def outward_faces(pos, d, half) -> list[int]:
     """Per axis: +1 or -1 where ``pos`` lies on that face of the box of half-lengths ``half``
     (within EDGE_TOLERANCE) and ``d`` points out through it, else 0."""
+    (c0, c1, c2), (u0, u1, u2), (h0, h1, h2) = pos, d, half  # written out: per-step code
     return [
-        (1 if c > 0 else -1) if (h - abs(c) <= EDGE_TOLERANCE and c * u > 0) else 0
-        for c, h, u in zip(pos, half, d, strict=True)
+        (1 if c0 > 0 else -1) if (h0 - abs(c0) <= EDGE_TOLERANCE and c0 * u0 > 0) else 0,
+        (1 if c1 > 0 else -1) if (h1 - abs(c1) <= EDGE_TOLERANCE and c1 * u1 > 0) else 0,
+        (1 if c2 > 0 else -1) if (h2 - abs(c2) <= EDGE_TOLERANCE and c2 * u2 > 0) else 0,
     ]
 
 
 def enters(pos, d, half) -> bool:
     """True if ``pos`` lies inside the box, or on a face of it with ``d`` pointing in through that
     face."""
-    if max(abs(c) - h for c, h in zip(pos, half, strict=True)) < -EDGE_TOLERANCE:
+    (c0, c1, c2), (u0, u1, u2), (h0, h1, h2) = pos, d, half  # written out: per-step code
+    if max(abs(c0) - h0, abs(c1) - h1, abs(c2) - h2) < -EDGE_TOLERANCE:
         return True
-    return any(
-        h - abs(c) <= EDGE_TOLERANCE and c * u < 0 for c, h, u in zip(pos, half, d, strict=True)
+    return (
+        (h0 - abs(c0) <= EDGE_TOLERANCE and c0 * u0 < 0)
+        or (h1 - abs(c1) <= EDGE_TOLERANCE and c1 * u1 < 0)
+        or (h2 - abs(c2) <= EDGE_TOLERANCE and c2 * u2 < 0)
     )
 
 
@@ -361,7 +368,8 @@ class Teleporter:
             self._record(tid, time, (n, i, j), None)
             return
         local = lay.local(x, y, z, lay.sub[k])
-        if max(abs(c) - h_ for c, h_ in zip(local, lay.half, strict=True)) > EDGE_TOLERANCE:
+        (c0, c1, c2), (h0, h1, h2) = local, lay.half
+        if max(abs(c0) - h0, abs(c1) - h1, abs(c2) - h2) > EDGE_TOLERANCE:
             self._kill(track)  # came into the trigger from the world beyond Lab
             self.left_lab += 1
             return
