@@ -65,13 +65,14 @@ class RunPlan:
     """One run configuration, resolved: what every later step of a run reads.
 
     Two plans are equal when their fingerprints, seeds and physics choices are. A plan pickles
-    as its recipe and is rebuilt from it on unpickling, in a worker (:mod:`score4.runner.run_plan`).
+    as its recipe and is rebuilt from it on unpickling (a Dask task); :func:`worker_pickle` sends
+    it resolved, to a local worker (:mod:`score4.runner.run_plan`).
 
     Attributes
     ----------
     config
         The validated configuration (its ``run.seed`` may differ from ``seed``: see
-        :func:`plan_run`).
+        :func:`plan_run`); in a local worker, a :class:`~score4.common.records.Record` of it.
     seed
         The run seed: every random stream of the run derives from it (:mod:`score4.runner.seeds`).
     physics
