@@ -357,9 +357,9 @@ def _cli_round(src: str | None, config: Path, out: Path) -> float:
         env["PYTHONPATH"] = os.pathsep.join(p for p in (src, env.get("PYTHONPATH")) if p)
     script = Path(sys.executable).parent / "score4"
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    args = ["-q", "run", str(config), "--events", "1", "--jobs", "1", "--out", str(out)]
     subprocess.run(
-        [str(script), "-q", "run", str(config), "--events", "1", "--jobs", "1"]
-        + ["--out", str(out), "--overwrite"],
+        [str(script), *args, "--overwrite"],
         check=True,
         capture_output=True,
         env=env,
