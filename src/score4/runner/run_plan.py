@@ -11,15 +11,15 @@ application (:class:`score4.sim.simulation.Simulation`), the world builders
 A plan travels to a local worker process resolved (:func:`worker_pickle`): the scene and the
 source as the parent built them, with every validated model of the configuration in them
 replaced by a :class:`~score4.common.records.Record` of its values. So the worker rebuilds
-nothing and never imports pydantic or :mod:`score4.inputs.config` (their import was a fifth of
-its start-up). ``pickle.dumps(plan)`` writes the plan's *recipe* instead (a Dask task pickles its
-arguments with every task): the configuration, the seed, the physics choice, the fingerprint and
-the GDML volume model; unpickling it rebuilds the scene and the source, deterministically (same
-seeds, same patch maps) and without the checks the parent made before the run: no
-configuration file is read again and a GDML world is not read again in Python (Geant4 parses it
-once, when it builds the world). The recipe of a 10 cm rough face is some 2 kB against several
-MB for the resolved scene, and rebuilding it takes milliseconds (``benchmarks/bench_run_plan.py``
-prints both).
+nothing and never imports pydantic or :mod:`score4.inputs.config` (0.13-0.16 s of a worker's
+0.7-1 s start-up, ``benchmarks/bench_runloop.py --parts startup``). ``pickle.dumps(plan)``
+writes the plan's *recipe* instead (a Dask task pickles its arguments with every task): the
+configuration, the seed, the physics choice, the fingerprint and the GDML volume model;
+unpickling it rebuilds the scene and the source, deterministically (same seeds, same patch
+maps) and without the checks the parent made before the run: no configuration file is read
+again and a GDML world is not read again in Python (Geant4 parses it once, when it builds the
+world). The recipe of a 10 cm rough face is some 2 kB against several MB for the resolved
+scene, and rebuilding it takes milliseconds (``benchmarks/bench_run_plan.py`` prints both).
 """
 
 from __future__ import annotations
@@ -211,15 +211,19 @@ def worker_pickle(obj: object) -> bytes:
 
     Unpickling it imports neither pydantic nor the configuration's models, and rebuilds no scene.
     """
+    from pydantic import BaseModel
+
     buffer = io.BytesIO()
-    _WorkerPickler(buffer, protocol=pickle.HIGHEST_PROTOCOL).dump(obj)
+    _WorkerPickler(buffer, BaseModel).dump(obj)
     return buffer.getvalue()
 
 
 class _WorkerPickler(pickle.Pickler):
-    def reducer_override(self, obj: object) -> Any:
-        from pydantic import BaseModel
+    def __init__(self, file: io.BytesIO, model_class: type) -> None:
+        super().__init__(file, protocol=pickle.HIGHEST_PROTOCOL)
+        self.model_class = model_class
 
+    def reducer_override(self, obj: object) -> Any:
         if isinstance(obj, RunPlan):
             return _resolved, (
                 obj.config,
@@ -230,7 +234,7 @@ class _WorkerPickler(pickle.Pickler):
                 obj.fingerprint,
                 obj.gdml_key,
             )
-        if isinstance(obj, BaseModel):
+        if isinstance(obj, self.model_class):
             return Record, (type(obj).__name__, _model_values(obj))
         return NotImplemented
 
