@@ -21,6 +21,7 @@ layer's thickness (the volume is cut by it), so the layer's top is where the fac
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 
@@ -736,7 +737,9 @@ def ring_cells(
     return np.asarray((far <= rmax * (1 + 1e-12)) & (near >= rmin * (1 - 1e-12)))
 
 
-def fit_rings(layers: list[RoughLayer]) -> None:
+def fit_rings(
+    layers: list[RoughLayer], placed: Sequence[RoughLayer] = (), where: str | None = None
+) -> None:
     """Ring layers of a solid give way to the curved layers of the same solid whose envelopes
     reach into their slab (see :class:`RingRoughLayer`).
 
@@ -745,42 +748,70 @@ def fit_rings(layers: list[RoughLayer]) -> None:
     inside the ring's slab (the ring's plane moved out by the ring layer's thickness): the ring's
     envelope then starts (or ends) where the wall's envelope ends in that slab. At a convex edge
     the two envelopes only touch and nothing changes. A wall's envelope reaching into the
-    middle of a ring is left to the clearance check."""
-    rings = [r for r in layers if isinstance(r, RingRoughLayer) and not r.config.into]
-    walls = [
-        c
-        for c in layers
-        if isinstance(c, CurvedRoughLayer)
-        and isinstance(c.ring_layout.face, RevolvedFace)
-        and c.on_boolean is None
-    ]
-    for ring in rings:
-        if ring.on_boolean is not None:
+    middle of a ring is left to the clearance check.
+
+    ``placed``: layers already built in Geant4 (:class:`score4.api.World`), which must not change:
+    a ring among them that would have to give way is a ConfigError (after ``where``, default
+    ``targets.{entry}.rough``) naming the ring and the wall, and no ring is changed then."""
+    fits: list[tuple[RingRoughLayer, float, float, CurvedRoughLayer]] = []
+    for ring in layers:
+        if isinstance(ring, RingRoughLayer) and not ring.config.into:
+            fit = _ring_fit(ring, layers)
+            if fit is not None:
+                fits.append((ring, *fit))
+    for ring, rmin, rmax, wall in fits:
+        if any(ring is p for p in placed):
+            name = ring.target.name
+            raise ConfigError(
+                f"{where or f'targets.{ring.target.entry}.rough'}: the layer on face "
+                f"{wall.config.face_name} of {name!r} reaches into the slab of the rough ring on "
+                f"face {ring.config.face_name}, which is placed already and cannot give way to it "
+                f"(r = {ring.rmin:.6g} .. {ring.rmax:.6g} mm would become {rmin:.6g} .. "
+                f"{rmax:.6g} mm): roughen a wall before the rings it meets, or both in one call "
+                "(a list of faces)"
+            )
+    for ring, rmin, rmax, _ in fits:
+        ring.refit(rmin, rmax, where or f"targets.{ring.target.entry}.rough")
+
+
+def _ring_fit(
+    ring: RingRoughLayer, layers: list[RoughLayer]
+) -> tuple[float, float, CurvedRoughLayer] | None:
+    """The radii ``ring`` narrows to for the walls among ``layers`` (see :func:`fit_rings`) and
+    the last wall that narrowed it; None when it keeps its radii."""
+    if ring.on_boolean is not None:
+        return None
+    face = ring.target.face(ring.config.face_name)
+    assert isinstance(face, AnnulusFace)
+    z0 = float(face.frame.translation[2])
+    nz = float(face.frame.rotation[2, 2])
+    slab = sorted((z0, z0 + nz * ring.thickness))
+    rmin, rmax = ring.rmin, ring.rmax
+    by: CurvedRoughLayer | None = None
+    for wall in layers:
+        if (
+            not isinstance(wall, CurvedRoughLayer)
+            or not isinstance(wall.ring_layout.face, RevolvedFace)
+            or wall.on_boolean is not None
+            or wall.target is not ring.target
+        ):
             continue
-        face = ring.target.face(ring.config.face_name)
-        assert isinstance(face, AnnulusFace)
-        z0 = float(face.frame.translation[2])
-        nz = float(face.frame.rotation[2, 2])
-        slab = sorted((z0, z0 + nz * ring.thickness))
-        rmin, rmax = ring.rmin, ring.rmax
-        for wall in walls:
-            if wall.target is not ring.target:
-                continue
-            a1, b1, a2, b2, dz, zc = wall_envelope(wall)
-            lo, hi = max(slab[0], zc - dz), min(slab[1], zc + dz)
-            if hi - lo <= BOUNDARY_TOLERANCE:
-                continue  # the envelopes touch at most (a convex edge)
-            at = [(z - (zc - dz)) / (2 * dz) if dz > 0 else 0.0 for z in (lo, hi)]
-            radii = [a1 + f * (a2 - a1) for f in at] + [b1 + f * (b2 - b1) for f in at]
-            r_lo, r_hi = min(radii), max(radii)
-            if r_hi <= rmin + BOUNDARY_TOLERANCE or r_lo >= rmax - BOUNDARY_TOLERANCE:
-                continue
-            if r_lo <= rmin + BOUNDARY_TOLERANCE:
-                rmin = r_hi
-            elif r_hi >= rmax - BOUNDARY_TOLERANCE:
-                rmax = r_lo
-        if (rmin, rmax) != (ring.rmin, ring.rmax):
-            ring.refit(rmin, rmax, f"targets.{ring.target.entry}.rough")
+        a1, b1, a2, b2, dz, zc = wall_envelope(wall)
+        lo, hi = max(slab[0], zc - dz), min(slab[1], zc + dz)
+        if hi - lo <= BOUNDARY_TOLERANCE:
+            continue  # the envelopes touch at most (a convex edge)
+        at = [(z - (zc - dz)) / (2 * dz) if dz > 0 else 0.0 for z in (lo, hi)]
+        radii = [a1 + f * (a2 - a1) for f in at] + [b1 + f * (b2 - b1) for f in at]
+        r_lo, r_hi = min(radii), max(radii)
+        if r_hi <= rmin + BOUNDARY_TOLERANCE or r_lo >= rmax - BOUNDARY_TOLERANCE:
+            continue
+        if r_lo <= rmin + BOUNDARY_TOLERANCE:
+            rmin, by = r_hi, wall
+        elif r_hi >= rmax - BOUNDARY_TOLERANCE:
+            rmax, by = r_lo, wall
+    if by is None or (rmin, rmax) == (ring.rmin, ring.rmax):
+        return None
+    return rmin, rmax, by
 
 
 def wall_envelope(layer: CurvedRoughLayer) -> tuple[float, float, float, float, float, float]:
@@ -1603,18 +1634,20 @@ def _into_polygon(layer: PolygonRoughLayer, solid: np.ndarray, where: str, what:
         raise ConfigError(f"{where}: into: no whole patch fits on the cut below {what}")
 
 
-def check_into_edges(scene: Scene, target: TargetVolume) -> None:
+def check_into_edges(scene: Scene, target: TargetVolume, where: str | None = None) -> None:
     """Refuse ``into`` on two faces of a solid swept around z that share an edge (a circle of
     the contour's corner): each layer is laid out on its own cut face, so the two layers
     would overlap below a convex edge. A full G4Tubs' end face and wall are laid out on their
-    joint cut instead (:func:`_into_tube_corners`)."""
+    joint cut instead (:func:`_into_tube_corners`). Errors start with ``where`` (default
+    ``targets.{entry}.rough``)."""
+    where = where or f"targets.{target.entry}.rough"
     shape = target.shape
     into = {r.config.face_name for r in scene.layers_of(target.name) if r.config.into}
     swept = ("G4Tubs", "G4Cons", "G4Polycone", "G4GenericPolycone")  # not a polyhedra's planes
     if len(into) < 2 or not isinstance(shape, RevolvedShape) or shape.kind not in swept:
         return
     if shape.kind == "G4Tubs" and shape.full_phi:
-        _into_tube_corners(scene, target)
+        _into_tube_corners(scene, target, where)
         return
     poly, names = shape.contour()
     for k, name in enumerate(names):
@@ -1622,14 +1655,14 @@ def check_into_edges(scene: Scene, target: TargetVolume) -> None:
         if name in into and other in into:
             r, z = poly[(k + 1) % len(poly)]
             raise ConfigError(
-                f"targets.{target.entry}.rough: into: true on faces {name} and {other} of "
+                f"{where}: into: true on faces {name} and {other} of "
                 f"{target.name!r}, which share an edge (the circle r = {r:.4g} mm at z = "
                 f"{z:.4g} mm): their layers would meet below it; put one of them outside the "
                 "volume (into: false)"
             )
 
 
-def _into_tube_corners(scene: Scene, target: TargetVolume) -> None:
+def _into_tube_corners(scene: Scene, target: TargetVolume, where: str) -> None:
     """``into`` on an end face and a wall of a full G4Tubs: the wall's layer is laid out again
     on the wall shortened by the end faces' cuts, and the end faces' cells and flat rest kept
     within the ring the walls' cuts leave (the joint cut is a G4Tubs thinner and shorter). The
@@ -1642,7 +1675,6 @@ def _into_tube_corners(scene: Scene, target: TargetVolume) -> None:
     walls: list[str] = [f for f in ("outer", "inner") if f in layers]
     if not ends or not walls:
         return
-    where = f"targets.{target.entry}.rough"
     cuts: dict[str, float] = {}
     for name in walls:
         old = layers[name]
