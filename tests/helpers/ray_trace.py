@@ -98,3 +98,33 @@ def patches_path(o: np.ndarray, d: np.ndarray, layer, length: float = 40.0) -> f
         v = body.vertices + np.array([*centres[b, a], layer.base_thickness])
         total += mesh_path(o, d, layer.frame.to_world(v)[body.faces])
     return total
+
+
+def revolved_path(o: np.ndarray, d: np.ndarray, shape) -> float:
+    """Path of the ray ``o + t d`` (t > 0) in a full solid of revolution (``shape.contour()``:
+    its (r, z) polygon), analytic: where the ray meets the cone or plane of each contour edge
+    (a quadratic in t), the pieces between crossings kept whose middle lies inside."""
+    poly, _ = shape.contour()
+    ts = [0.0]
+    for (r1, z1), (r2, z2) in zip(poly, np.roll(poly, -1, axis=0), strict=True):
+        if abs(z2 - z1) < 1e-15:  # a plane z = z1
+            if abs(d[2]) > 1e-15:
+                ts.append((z1 - o[2]) / d[2])
+            continue
+        # r = a + b z on the edge's cone: x^2 + y^2 = (a + b z)^2 with r >= 0
+        b = (r2 - r1) / (z2 - z1)
+        a = r1 - b * z1
+        ra, rb = a + b * o[2], b * d[2]  # r(t) = ra + rb t on the cone
+        qa = d[0] ** 2 + d[1] ** 2 - rb**2
+        qb = 2 * (o[0] * d[0] + o[1] * d[1]) - 2 * ra * rb
+        qc = o[0] ** 2 + o[1] ** 2 - ra**2
+        if abs(qa) < 1e-15:
+            roots = [-qc / qb] if abs(qb) > 1e-15 else []
+        else:
+            disc = qb * qb - 4 * qa * qc
+            roots = [] if disc < 0 else [(-qb + s * math.sqrt(disc)) / (2 * qa) for s in (-1, 1)]
+        ts += [t for t in roots if ra + rb * t >= 0]
+    ts = np.unique([t for t in ts if t >= 0])
+    mid = 0.5 * (ts[1:] + ts[:-1])
+    inside = shape.signed_distance(o + mid[:, None] * d) < 0
+    return float(np.sum(np.diff(ts)[inside]))
