@@ -264,12 +264,14 @@ def _call(name, *args):
 
 
 @pytest.mark.deep
-def test_exported_polycone_into_world_gives_the_same_geantino_paths(tmp_path):
-    """The polycone cut for into on seg_1 (a G4GenericPolycone read from its own small GDML
-    file) and its layer, written by `score4 geometry export` and read back by Geant4: the same
-    ray paths (volumes and points, 1e-9 mm)."""
+@pytest.mark.parametrize("faces", ["seg_1", ["seg_0", "seg_1", "seg_2", "seg_3"]])
+def test_exported_polycone_into_world_gives_the_same_geantino_paths(tmp_path, faces):
+    """The polycone cut for into on seg_1, and on four neighbouring faces (their joint cut), a
+    G4GenericPolycone read from its own small GDML file, and the layers, written by `score4
+    geometry export` and read back by Geant4: the same ray paths through seg_1's layer
+    (volumes and points, 1e-9 mm)."""
     gdml = write_polycone(tmp_path / "pc.gdml")
-    data = into_config(gdml, face="seg_1")
+    data = into_config(gdml, face=faces)
     cfg = tmp_path / "pc.yaml"
     cfg.write_text(yaml.safe_dump(data))
     scene = build_scene(parse_config(data))
@@ -277,7 +279,7 @@ def test_exported_polycone_into_world_gives_the_same_geantino_paths(tmp_path):
     assert main(["geometry", "export", str(cfg), "--gdml", str(out)]) == 0
     assert "<genericPolycone" in out.read_text()
     rng = np.random.default_rng(5)
-    (layer,) = scene.layers
+    layer = scene.layer("cyl", "seg_1")
     lay = layer.ring_layout
     rays = []
     for _ in range(6):

@@ -412,8 +412,8 @@ class World:
                     one = rough if rough.face == name else rough.model_copy(update={"face": name})
                     self.scene.layers += target_layers(self.scene.surfaces, t, j, one, where=where)
             for t in targets:
-                fit_rings(self.scene.layers_of(t.name), placed, where)
                 check_into_edges(self.scene, t, where)
+                fit_rings(self.scene.layers_of(t.name), placed, where)
             for state in saved:
                 state.refuse_change(self.scene, where)
             check_clearance(self.scene)
