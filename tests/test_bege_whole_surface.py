@@ -166,12 +166,15 @@ def test_a_genuine_overlap_between_two_rings_is_refused(tmp_path):
 
 
 @pytest.mark.deep
-def test_geantino_paths_through_the_whole_rough_surface(gdml, tmp_path):
-    """Geantinos from outside the layers through the rough BEGe (every face rough): Geant4's
-    track length in the target (its patches count) equals the path in the polycone (its signed
-    distance, bisected) plus the path in the patch meshes, to 1e-9 mm. Half the rays aim at the
-    bottom (contact, groove, rings), half anywhere."""
+@pytest.mark.parametrize("into", [False, True])
+def test_geantino_paths_through_the_whole_rough_surface(gdml, tmp_path, into):
+    """Geantinos from outside the layers through the rough BEGe (every face rough; with into,
+    every layer cut into the crystal: their joint cut): Geant4's track length in the target
+    (its patches count) equals the path in the polycone (its signed distance, bisected; with
+    into, the joint cut's) plus the path in the patch meshes, to 1e-9 mm. Half the rays aim at
+    the bottom (contact, groove, rings), half anywhere."""
     data = config(gdml, output={"track_length": True})
+    data["targets"][0]["rough"][0]["into"] = into
     cfg = parse_config(data)
     scene = build_scene(cfg)
     target = scene.target("bege")
@@ -196,11 +199,14 @@ def test_geantino_paths_through_the_whole_rough_surface(gdml, tmp_path):
     start = target.to_world(aim + 18.0 * u)
     direction = -u @ target.rotation.T
     got = geantino_run(data, primaries, start, direction, tmp_path)
-    shape = target.shape
+    shape, shift = target.shape, np.zeros(3)
     assert shape is not None
+    if into:  # the solid Geant4 gets: the joint cut of every face
+        shape, shift = shape.trimmed({r.config.face_name: r.thickness for r in scene.layers})
     expected, in_cones = np.zeros(n), np.zeros(n, dtype=bool)
     for k, (o, d) in enumerate(zip(start, direction, strict=True)):
-        expected[k] = polycone_path(target.to_local(o[None])[0], d @ target.rotation, shape)
+        o_local = target.to_local(o[None])[0] - shift
+        expected[k] = polycone_path(o_local, d @ target.rotation, shape)
         for layer in scene.layers:
             path = patches_path(o, d, layer)
             expected[k] += path
