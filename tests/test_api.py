@@ -212,6 +212,7 @@ def test_roughen_never_changes_placed_layers(tmp_path):
     ), message
     assert out["end_kept"]
     assert out["end_rest"] is None
+    assert out["ends"] == ["+z", "-z"]
     for message in (out["wall_after_ring"], out["wall_after_end"]):
         assert "\n" not in message
 

@@ -521,10 +521,11 @@ class _LayerState:
     def changed(self) -> bool:
         layer = self.layer
         ring = layer.ring if isinstance(layer, RingRoughLayer) else None
-        return layer.mask is not self.mask or (layer.rest_radii, ring) != (
-            self.rest_radii,
-            self.ring,
-        )
+        if (layer.rest_radii, ring) != (self.rest_radii, self.ring):
+            return True
+        if layer.mask is None or self.mask is None:
+            return layer.mask is not self.mask
+        return not np.array_equal(layer.mask, self.mask)
 
     def refuse_change(self, scene: Scene, where: str) -> None:
         """ConfigError when the new layers replaced or changed this placed layer (``into`` on

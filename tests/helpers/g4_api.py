@@ -320,6 +320,9 @@ def api_ring_order(gdml: str) -> dict:
     after = state("rod")
     out["end_kept"] = len(before) == len(after) == 1 and before[0][3] is after[0][3]
     out["end_rest"] = after[0][2]
+    # into on the far end face shares no edge with +z: the placed layer stays as it is
+    world.roughen("rod", "-z", PYRAMIDS, into=True)
+    out["ends"] = [f for f, *_ in state("rod")]
     return out
 
 
