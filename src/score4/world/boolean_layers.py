@@ -39,7 +39,7 @@ from score4.shapes import BooleanShape, G4Tubs, Shape, Transform
 from score4.shapes.base import INSIDE
 from score4.shapes.boolean import FaceClip
 from score4.shapes.faces import PlaneFace, SphereFace
-from score4.surface.spec import Surface
+from score4.surface.rough import Surface
 
 from .facets import ccw, face_triangles, plane_face, plane_groups
 from .scene import (

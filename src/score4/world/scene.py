@@ -24,12 +24,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from score4.errors import ConfigError
 from score4.files import cache_dir
-from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig
 from score4.shapes import G4Box as G4BoxShape
 from score4.shapes import G4GenericPolycone, PlacedShape, Shape, Transform, shape_from_dict
 from score4.shapes import G4Orb as G4OrbShape
@@ -40,7 +40,7 @@ from score4.shapes.hpge import HPGE_GROUPS, hpge_groups, is_hpge_metadata
 from score4.shapes.revolved import RevolvedShape
 from score4.surface.block_cut import check_patch
 from score4.surface.patchmap import PatchMap, make_patch_map
-from score4.surface.spec import Surface
+from score4.surface.rough import Surface
 
 from .curved import (
     BentVariant,
@@ -69,6 +69,9 @@ from .facets import (
 )
 from .gdml_model import GeometryModel, Instance
 from .obb import OrientedBox
+
+if TYPE_CHECKING:  # the configuration's models: a worker reads records of them (common.records)
+    from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig
 
 #: Points this close (mm) outside a volume's boundary still count as inside (vertices at depth 0
 #: lie exactly on the surface).
@@ -232,7 +235,7 @@ def face_frame(target: TargetVolume | BoxVolume, face: str) -> FaceFrame:
     """The right-handed frame of a flat ``face`` of a target, in the world: a box face
     ("+z", "-x", ...) with the axes of :data:`score4.shapes.csg.BOX_FACE_AXES`, a ring (the end
     face of a tube) in its bounding square."""
-    if isinstance(target, BoxVolume):
+    if not isinstance(target, TargetVolume):  # a box of the configuration
         target = box_target(target, 0)
     geometry = target_face(target, face)
     if not isinstance(geometry, PlaneFace):
@@ -1003,6 +1006,8 @@ class Scene:
     def unscored_target(self, ref: str, inst: Instance, parameter: str) -> TargetVolume:
         """The volume ``inst`` of the GDML world as a target that is not scored: a source may
         sit on it or in it; it has no scoring column, no rough layers and no activeness."""
+        from score4.inputs.config import GdmlVolume
+
         assert self.model is not None
         for t in self.unscored:
             if t.instance is not None and t.instance.index == inst.index:
@@ -1100,6 +1105,8 @@ def _same_size(a: float, b: float) -> bool:
 
 def resolve_targets(config: RunConfig, model: GeometryModel | None) -> list[TargetVolume]:
     """One :class:`TargetVolume` per configured box and per copy of each GDML target."""
+    from score4.inputs.config import BoxVolume
+
     out: list[TargetVolume] = []
     for i, t in enumerate(config.targets):
         if isinstance(t, BoxVolume):
