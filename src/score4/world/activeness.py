@@ -26,9 +26,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import ConfigError
-from ..shapes.base import PlaneTriangles, Revolved, Shape
-from ..shapes.placed import PlacedShape
-from .rough_distance import CurvedRoughSurfaceDistance, RoughSurfaceDistance, _revolved_distance
+from ..shapes.base import Shape
+from .face_distance import face_distance
+from .rough_distance import CurvedRoughSurfaceDistance, RoughSurfaceDistance
 
 if TYPE_CHECKING:  # world.scene imports this module when it needs activeness
     from .scene import RoughLayer, Scene, TargetVolume
@@ -41,40 +41,6 @@ def weight(d: np.ndarray, fccd: float, dlf: float) -> np.ndarray:
     if fccd <= dead:  # dlf = 1: a step function
         return (d >= fccd).astype(float)
     return np.clip((d - dead) / (fccd - dead), 0.0, 1.0)
-
-
-def _triangles_distance(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
-    from ..shapes.mesh_shape import _tri_distance
-
-    out = np.full(len(p), np.inf)
-    for start in range(0, len(p), 4096):
-        block = p[start : start + 4096]
-        out[start : start + 4096] = _tri_distance(block, tri).min(axis=1)
-    return out
-
-
-def face_distance(shape, faces: tuple[str, ...], points: np.ndarray) -> np.ndarray:
-    """Exact distance (mm) of world ``points`` to the union of ``faces`` of ``shape``."""
-    p = np.asarray(points, float).reshape(-1, 3)
-    while isinstance(shape, PlacedShape):
-        p = shape.transform.inverse_apply(p)
-        shape = shape.shape
-    index = {shape.faces.index(f) for f in faces}
-    best = np.full(len(p), np.inf)
-    for patch in shape.patches:
-        if patch.face not in index:
-            continue
-        if isinstance(patch, PlaneTriangles):
-            d = _triangles_distance(np.asarray(patch.triangles, float), p)
-        elif isinstance(patch, Revolved):
-            d = _revolved_distance(patch, p)
-        else:
-            raise ConfigError(
-                f"activeness: distances to a {type(patch).__name__} face of a {shape.kind} are "
-                "not supported (plane faces and surfaces of revolution are)"
-            )
-        best = np.minimum(best, d)
-    return best
 
 
 class TargetDistance:
