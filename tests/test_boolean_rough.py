@@ -415,9 +415,3 @@ def test_bad_boolean_layers_are_one_line_errors(gdml, volume, face, extra, messa
         build_scene(parse_config(data))
     assert message in str(err.value)
     assert "\n" not in str(err.value)
-
-
-def test_steps_with_a_rough_boolean_face_are_refused(gdml):
-    data = config(gdml, {"cutbox": ["first.+z"]}, output={"steps": True})
-    with pytest.raises(ConfigError, match="rough face of a boolean solid; steps"):
-        build_scene(parse_config(data))

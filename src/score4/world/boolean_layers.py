@@ -24,7 +24,8 @@ Refused, in one line each: ``into: true``, ``tiling: portal`` and ``native_layou
 a curved face of a subtracted solid other than a G4Tubs wall (cones, spheres); a face of a solid
 made of flat facets in several planes; a layer whose
 envelope runs into the solid itself (a face partly covered by another part of a union, or whose
-envelope leaves a cut); steps and activeness (no distance to such a layer's rough surface yet).
+envelope leaves a cut). Steps and activeness measure these layers through the boolean's
+constituents (:mod:`score4.world.boolean_distance`).
 """
 
 from __future__ import annotations

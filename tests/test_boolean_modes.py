@@ -1,0 +1,208 @@
+"""What a rough layer on a boolean solid's face does besides its geometry
+(score4.world.boolean_distance and boolean_layers): steps (remage's layout) and activeness on
+the copper box less a tube of tests/helpers/boolean_worlds.py, against distances written here
+from the solid's dimensions."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from score4.inputs.config import parse_config
+from score4.runner.engine import run
+from score4.runner.output import read_results
+from score4.world.activeness import target_distances, volume_activeness, weight
+from score4.world.resolve import build_scene
+from score4.world.rough_distance import CurvedRoughSurfaceDistance, RoughSurfaceDistance
+
+#: 0.5 mm patches of 5 x 5 pyramids, 20 um high (0.4 mm for the 5 mm bore)
+PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
+FINE = {**PYRAMIDS, "width": "80 um"}
+HALF, BORE = 10.0, 5.0  # the box's half width and the bore's radius, mm (boolean_worlds)
+
+
+@pytest.fixture(scope="module")
+def gdml(tmp_path_factory) -> Path:
+    """The copper box less a tube of tests/helpers/boolean_worlds.py alone (a 20 mm box less
+    a tube of r 5 mm, 40 mm long, along z, at the origin), written by pyg4ometry."""
+    import pyg4ometry as pg
+
+    reg = pg.geant4.Registry()
+    s = pg.geant4.solid
+    world = pg.geant4.LogicalVolume(s.Box("world_s", 100, 100, 100, reg), "G4_Galactic", "W", reg)
+    box = s.Box("cut_a", 2 * HALF, 2 * HALF, 2 * HALF, reg)
+    hole = s.Tubs("cut_b", 0, BORE, 40, 0, 2 * np.pi, reg)
+    cut = s.Subtraction("cutbox_s", box, hole, [[0, 0, 0], [0, 0, 0]], reg)
+    lv = pg.geant4.LogicalVolume(cut, "G4_Cu", "cutbox_lv", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], [0, 0, 0], lv, "cutbox", world, reg)
+    reg.setWorld(world.name)
+    path = tmp_path_factory.mktemp("modes") / "cutbox.gdml"
+    writer = pg.gdml.Writer()
+    writer.addDetector(reg)
+    writer.write(str(path))
+    return path
+
+
+def config(gdml: Path, rough: list[dict], **extra) -> dict:
+    return {
+        "physics": "lite",
+        "world": {"gdml": str(gdml)},
+        "surfaces": {"p": PYRAMIDS, "fine": FINE},
+        "targets": [{"volume": "cutbox", "rough": rough}],
+        "source": {
+            "particle": "geantino",
+            "energy": "1 MeV",
+            "surface": {"volume": "cutbox", "face": "first.+z"},
+        },
+        "run": {"events": 10, "seed": 3},
+        **extra,
+    }
+
+
+def _rect(p: np.ndarray, lo, hi) -> np.ndarray:
+    """Distance of points to the axis-aligned box [lo, hi] (a face: one side of zero width)."""
+    e = np.maximum(np.maximum(np.asarray(lo) - p, p - np.asarray(hi)), 0.0)
+    return np.sqrt((e * e).sum(axis=1))
+
+
+def box_faces(p: np.ndarray, faces: list[str]) -> np.ndarray:
+    """Exact distance of points (the cutbox's frame: its origin) to the listed faces of the
+    20 mm box, each a whole square."""
+    out = np.full(len(p), np.inf)
+    for f in faces:
+        axis, sign = "xyz".index(f[1]), 1.0 if f[0] == "+" else -1.0
+        lo, hi = np.full(3, -HALF), np.full(3, HALF)
+        lo[axis] = hi[axis] = sign * HALF
+        out = np.minimum(out, _rect(p, lo, hi))
+    return out
+
+
+def tube_ends(p: np.ndarray) -> np.ndarray:
+    """Distance to the end disks (r 5 mm, z = +-20 mm) of the subtracted tube."""
+    r = np.hypot(p[:, 0], p[:, 1])
+    return np.hypot(np.maximum(r - BORE, 0.0), 20.0 - np.abs(p[:, 2]))
+
+
+def test_activeness_on_a_smooth_boolean_face_is_its_distance(gdml):
+    """Without a rough layer: the distance to face first.+z of the box less the tube is
+    10 - z, to first.+x 10 - x (it was infinite, every deposit fully active), to the whole
+    surface the nearest of the box's faces and the bore; outside the solid 0."""
+    data = config(gdml, [])
+    data["targets"][0]["activeness"] = [{"fccd": "1 mm", "dlf": 0.5, "faces": ["first.+z"]}]
+    scene = build_scene(parse_config(data))
+    (act,) = volume_activeness(scene)
+    assert act is not None
+    rng = np.random.default_rng(5)
+    p = rng.uniform(-HALF, HALF, (4000, 3))
+    p = p[np.hypot(p[:, 0], p[:, 1]) > BORE]
+    world = scene.target("cutbox").to_world(p)
+    d = act.distance
+    np.testing.assert_allclose(d.to_faces(("first.+z",), world), HALF - p[:, 2], atol=1e-12)
+    np.testing.assert_allclose(d.to_faces(("first.+x",), world), HALF - p[:, 0], atol=1e-12)
+    whole = np.minimum(HALF - np.abs(p).max(axis=1), np.hypot(p[:, 0], p[:, 1]) - BORE)
+    np.testing.assert_allclose(d.to_surface(world), whole, atol=1e-12)
+    np.testing.assert_allclose(d.to_faces(("first.+z", "second.outer"), world),
+                               np.minimum(HALF - p[:, 2], np.hypot(p[:, 0], p[:, 1]) - BORE),
+                               atol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(act.weights(world), weight(HALF - p[:, 2], 1.0, 0.5), atol=1e-12)
+    hole = scene.target("cutbox").to_world(np.array([[0.0, 1.0, 2.0], [0.0, 0.0, 11.0]]))
+    assert (d.to_faces(("first.+z",), hole) == 0).all()
+
+
+def test_distances_to_a_rough_bore_and_face(gdml):
+    """The bore's wall and the +z face around it rough: the distance of points in the copper
+    near both, and in the bore's patches, is the nearest of the bore's rough surface, the +z
+    face's rough surface and the other faces, each measured whole (exact here)."""
+    rough = [{"face": "second.outer", "surface": "fine"}, {"face": "first.+z", "surface": "p"}]
+    scene = build_scene(parse_config(config(gdml, rough, output={"steps": True})))
+    target = scene.target("cutbox")
+    (distance,) = target_distances(scene)
+    assert distance is not None
+    bore, top = scene.layer("cutbox", "second.outer"), scene.layer("cutbox", "first.+z")
+    rng = np.random.default_rng(7)
+    n = 2500
+    phi = rng.uniform(0, 2 * np.pi, n)
+    z = np.concatenate([rng.uniform(-9.9, 10, n // 2), rng.uniform(9.97, 10.025, n - n // 2)])
+    r = np.concatenate(
+        [rng.uniform(BORE - 0.03, BORE + 0.1, n // 2), rng.uniform(BORE, BORE + 1.5, n - n // 2)]
+    )
+    p = np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
+    world = target.to_world(p)
+    in_bore, in_top = bore.contains(world), top.contains(world)
+    material = (r > BORE) & (z < HALF)
+    keep = material | in_bore | in_top
+    p, world, in_bore, in_top = p[keep], world[keep], in_bore[keep], in_top[keep]
+    assert in_bore.sum() > 30
+    assert in_top.sum() > 3
+    expected = np.minimum.reduce(
+        [
+            CurvedRoughSurfaceDistance(bore)(world),
+            RoughSurfaceDistance(top)(world),
+            box_faces(p, ["+x", "-x", "+y", "-y", "-z"]),
+            tube_ends(p),
+        ]
+    )
+    got = distance.to_surface(world)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)
+    assert (got[in_bore] > 0).all()  # in the bore's patches: in the copper, not 0
+    assert (got[~(in_bore | in_top)] > 0).all()
+    # under the bore's patches, deeper than the smooth wall (the 1 um base at least)
+    deep = (np.hypot(p[:, 0], p[:, 1]) > BORE) & (got < 0.01) & (np.abs(p[:, 2]) < 9)
+    assert deep.sum() > 10
+    assert (got[deep] >= np.hypot(p[deep, 0], p[deep, 1]) - BORE + 1e-3 - 1e-12).all()
+    away = target.to_world(np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 30.0]]))
+    assert (distance.to_surface(away) == 0).all()
+
+
+def test_steps_and_activeness_on_a_rough_boolean_face(gdml, tmp_path):
+    """Alphas from the pyramids on the +z face of the box less the tube, with steps and a 3 um
+    transition layer under that face: the steps add up to each event's deposit; each step's
+    dist_to_surf (remage's layout, read by legend-lh5io) is the nearest of the face's rough
+    surface and the box's other faces and the bore; active_edep weights the deposits by the
+    distance to the rough face."""
+    import lh5
+
+    data = config(gdml, [{"face": "first.+z", "surface": "p", "base_thickness": "1 um"}])
+    data["targets"][0]["activeness"] = [{"fccd": "3 um", "dlf": 0.5, "faces": ["first.+z"]}]
+    data["source"] = {
+        "particle": "alpha",
+        "energy": "5.3 MeV",
+        "direction": "isotropic",
+        "surface": {"volume": "cutbox", "face": "first.+z"},
+    }
+    data["run"] = {"events": 40, "seed": 11}
+    data["output"] = {"steps": True}
+    cfg = parse_config(data)
+    out = tmp_path / "steps.h5"
+    run(cfg, out, progress=False, echo=lambda m: None)
+    res = read_results(out)
+    table = lh5.read("stp/cutbox", str(out))
+    evtid = np.asarray(table["evtid"].nda)
+    edep = np.asarray(table["edep"].nda) / 1e3  # keV -> MeV
+    per_event = np.bincount(evtid, weights=edep, minlength=res.n_events)
+    np.testing.assert_allclose(per_event, res.edep["cutbox"], atol=1e-6, rtol=0)
+    with h5py.File(out, "r") as f:
+        g = f["stp/cutbox"]
+        world = np.column_stack([g[c][()] * 1e3 for c in ("xloc", "yloc", "zloc")])
+        dist = g["dist_to_surf"][()] * 1e3
+    scene = build_scene(cfg)
+    layer = scene.layer("cutbox", "first.+z")
+    p = scene.target("cutbox").to_local(world)
+    in_patch = layer.contains(world)
+    assert in_patch.sum() > 0.2 * len(p)
+    rough = RoughSurfaceDistance(layer)(world)
+    others = np.minimum(
+        box_faces(p, ["+x", "-x", "+y", "-y", "-z"]), np.hypot(p[:, 0], p[:, 1]) - BORE
+    )
+    np.testing.assert_allclose(dist, np.minimum(rough, others), rtol=0, atol=1e-12)
+    assert dist[in_patch].max() > 1e-3  # micrometres inside a pyramid, not 0
+    under = ~in_patch & (others > rough)
+    assert under.sum() > 10
+    assert np.all(rough[under] >= HALF - p[under, 2] + 1e-3 - 1e-12)  # the base: 1 um more
+    w = weight(rough, 3e-3, 0.5)  # activeness lists first.+z only
+    again = np.bincount(evtid, weights=edep * w, minlength=res.n_events)
+    np.testing.assert_allclose(again, res.scores["active_edep"]["cutbox"], atol=1e-9, rtol=0)
+    assert 0 < again.sum() < res.edep["cutbox"].sum()
