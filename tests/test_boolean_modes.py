@@ -11,6 +11,7 @@ import h5py
 import numpy as np
 import pytest
 
+from score4.errors import ConfigError
 from score4.inputs.config import parse_config
 from score4.runner.engine import run
 from score4.runner.output import read_results
@@ -206,3 +207,82 @@ def test_steps_and_activeness_on_a_rough_boolean_face(gdml, tmp_path):
     again = np.bincount(evtid, weights=edep * w, minlength=res.n_events)
     np.testing.assert_allclose(again, res.scores["active_edep"]["cutbox"], atol=1e-9, rtol=0)
     assert 0 < again.sum() < res.edep["cutbox"].sum()
+
+
+def test_replicas_on_an_uncut_boolean_face_track_as_placements(gdml, tmp_path):
+    """native_layout replicas on the box's +x face, which the bore does not cut (every cell
+    keeps its patch): geantinos through it have the same track length in the copper and its
+    patches as with one placement per cell (1e-9 mm), and cross patches; on the +z face around
+    the bore, replicas are refused with the count of cells without a patch."""
+    from score4.source.build import make_source
+
+    from helpers.geantinos import geantino_run
+
+    got = {}
+    n = 12
+    rng = np.random.default_rng(3)
+    local = np.column_stack([np.full(n, HALF + 0.1), rng.uniform(-9, 9, (n, 2))])
+    direction = np.column_stack([-np.ones(n), rng.uniform(-0.2, 0.2, (n, 2))])
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    for layout in ("replicas", "placements"):
+        rough = [{"face": "first.+x", "surface": "p", "native_layout": layout}]
+        data = config(gdml, rough, output={"track_length": True})
+        data["source"]["surface"]["face"] = "first.+x"
+        cfg = parse_config(data)
+        scene = build_scene(cfg)
+        assert scene.layers[0].mask.all()
+        target = scene.target("cutbox")
+        primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n)
+        folder = tmp_path / layout
+        folder.mkdir()
+        starts, dirs = target.to_world(local), direction @ target.rotation.T
+        r = geantino_run(data, primaries, starts, dirs, folder)
+        got[layout] = np.asarray(r.scores["track_length"]["cutbox"])
+    np.testing.assert_allclose(got["replicas"], got["placements"], rtol=0, atol=1e-9)
+    # the smooth box less the tube: from x = 10 to the bore or to the box's far side
+    entry = local + (0.1 / -direction[:, 0])[:, None] * direction  # at x = 10
+    smooth = np.array([_box_less_tube(entry[k], direction[k]) for k in range(n)])
+    assert (got["replicas"] > smooth + 1e-4).sum() >= n // 2  # most rays cross a patch body
+    assert (got["replicas"] < smooth + 0.03).all()  # in the 21 um layer, at most 0.2 rad off x
+    data = config(gdml, [{"face": "first.+z", "surface": "p", "native_layout": "replicas"}])
+    with pytest.raises(ConfigError) as err:
+        build_scene(parse_config(data))
+    assert "cells of face first.+z of 'cutbox'" in str(err.value)
+    assert "\n" not in str(err.value)
+
+
+def _box_less_tube(o: np.ndarray, d: np.ndarray) -> float:
+    """Path length of the ray o + s d (s > 0, o on or in the box) in the box less the bore."""
+    # leave the box
+    s_box = min((np.sign(d[a]) * HALF - o[a]) / d[a] for a in range(3) if d[a] != 0)
+    a, b = d[0] ** 2 + d[1] ** 2, 2 * (o[0] * d[0] + o[1] * d[1])
+    c = o[0] ** 2 + o[1] ** 2 - BORE**2
+    disc = b * b - 4 * a * c
+    if disc <= 0:
+        return float(s_box)
+    s1, s2 = (-b - np.sqrt(disc)) / (2 * a), (-b + np.sqrt(disc)) / (2 * a)
+    if s1 >= s_box or s2 <= 0:
+        return float(s_box)
+    return float(max(s1, 0.0) + max(s_box - s2, 0.0))
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (
+            {"tiling": "portal"},
+            (
+                "a portal's subworlds must lie where no particle goes, which score4 knows only "
+                "in the world it generates"
+            ),
+        ),
+        ({"into": True}, "would cut its G4Box below face +x inside the boolean solid read"),
+    ],
+)
+def test_portal_and_into_on_a_boolean_face_say_why_not(gdml, extra, message):
+    data = config(gdml, [{"face": "first.+x", "surface": "p", **extra}])
+    with pytest.raises(ConfigError) as err:
+        build_scene(parse_config(data))
+    assert message in str(err.value)
+    assert str(err.value).startswith("targets.0.rough.0: ")
+    assert "\n" not in str(err.value)
