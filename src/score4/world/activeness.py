@@ -188,8 +188,9 @@ def volume_activeness(
                 raise ConfigError(f"{where}: {err}".replace(": face: ", ": ", 1)) from None
             resolved.append((faces, float(a.fccd), float(a.dlf)))
         for faces, _, _ in resolved:  # every face kind measurable: refuse now, not mid-run
-            if isinstance(shape, BooleanShape):
-                leaf_face_distance(shape, faces, np.zeros((1, 3)))
+            if isinstance(shape, BooleanShape):  # the whole surface needs no face distance
+                if not set(faces) >= set(shape.faces):
+                    leaf_face_distance(shape, faces, np.zeros((1, 3)))
             else:
                 face_distance(shape, faces, np.zeros((1, 3)))
         distance = distances[c] if distances is not None else None
