@@ -10,26 +10,47 @@
   where every cell of a flat face holds its patch (a face the other solids do not cut, such as
   the side of a box less a tube along its axis), and is refused, with the count of cells off the
   surface, where they do not.
-* ``into: true`` would cut the boolean's constituent below the face inside the Geant4 boolean
-  solid read from the GDML file, which score4 does not rebuild: refused.
+* ``into: true`` on a flat face of a constituent G4Box or the end face of a constituent G4Tubs
+  (not a subtracted one): the constituent is made thinner behind the face
+  (:func:`cut_boolean`; in Geant4 the boolean is rebuilt with it,
+  :mod:`score4.geometry.boolean_cut`), and the layer lies in the slab, on the cut face
+  (:func:`cut_face`). Refused elsewhere: a face of a subtracted solid (the cut would widen) and
+  curved faces.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
+
+import numpy as np
+
 from ..errors import ConfigError
 from ..inputs.config import RoughFace
-from .scene import CurvedRoughLayer, PolygonRoughLayer, RingRoughLayer, RoughLayer
+from ..shapes import BooleanShape, Shape, Transform
+from ..shapes.faces import PlaneFace
+from ..shapes.placed import PlacedShape
+from .boolean_distance import leaf_path
+from .scene import BooleanFace, CurvedRoughLayer, PolygonRoughLayer, RingRoughLayer, RoughLayer
 
 
-def check_modes(rough: RoughFace, where: str, what: str, leaf_kind: str, face: str) -> None:
+def check_modes(
+    rough: RoughFace, where: str, what: str, leaf: Shape, face: str, flipped: bool
+) -> None:
     """One-line errors for ``into: true`` and ``tiling: portal`` on a boolean's face ``what``
-    (face ``face`` of its constituent, a ``leaf_kind``)."""
+    (face ``face`` of its constituent ``leaf``; ``flipped``: of a subtracted solid)."""
     if rough.into:
-        raise ConfigError(
-            f"{where}: into: true on {what} would cut its {leaf_kind} below face {face} inside "
-            "the boolean solid read from the GDML file, which score4 does not rebuild; put the "
-            "layer outside the volume (into: false)"
-        )
+        if flipped:
+            raise ConfigError(
+                f"{where}: into: true on {what}, a face of the subtracted {leaf.kind}, would "
+                "widen the cut, which score4 does not do; put the layer outside the volume "
+                "(into: false)"
+            )
+        if not isinstance(leaf.face(face), PlaneFace) or leaf.trimmed({face: 1e-6}) is None:
+            raise ConfigError(
+                f"{where}: into: true on {what} (face {face} of a {leaf.kind}) is supported on "
+                "the flat faces of a G4Box and the end faces of a G4Tubs of a boolean; put the "
+                "layer outside the volume (into: false)"
+            )
     if rough.tiling == "portal":
         raise ConfigError(
             f"{where}: tiling portal on {what}: a portal's subworlds must lie where no particle "
@@ -57,3 +78,53 @@ def check_replicas(layer: RoughLayer, where: str, what: str) -> None:
             f"{what} lie off the solid's surface (or are not proven on it) and hold no patch: "
             "take auto, nested or placements"
         )
+
+
+def leaf_cuts(shape: BooleanShape, cuts: dict[str, float]) -> dict[str, tuple[Shape, np.ndarray]]:
+    """Per leaf path (:func:`score4.world.boolean_distance.leaf_path`), the leaf made thinner
+    behind the named boolean faces (``cuts``: face -> depth, mm; :meth:`Shape.trimmed`) and the
+    shift of its origin in the leaf's frame."""
+    by_path: dict[str, dict[str, float]] = {}
+    for name, depth in cuts.items():
+        path, face = leaf_path(shape, name)
+        by_path.setdefault(path, {})[face] = depth
+    out = {}
+    for path, faces in by_path.items():
+        leaf = shape.face_clip(path + next(iter(faces))).leaf
+        trimmed = leaf.trimmed(faces)
+        if trimmed is None:  # refused by check_modes before
+            raise ConfigError(f"into: a {leaf.kind} cannot be cut behind {', '.join(faces)}")
+        out[path] = trimmed
+    return out
+
+
+def cut_boolean(shape: BooleanShape, cuts: dict[str, float]) -> BooleanShape:
+    """``shape`` with the leaves behind the named faces made thinner by the depths ``cuts``
+    (the solid an ``into`` layer leaves: the face moved inward, the other faces where they
+    were)."""
+    trims = leaf_cuts(shape, cuts)
+
+    def cut(s: Shape, path: str) -> Shape:
+        if isinstance(s, PlacedShape):
+            return replace(s, shape=cut(s.shape, path))
+        if isinstance(s, BooleanShape):
+            return replace(
+                s, first=cut(s.first, path + "first."), second=cut(s.second, path + "second.")
+            )
+        if path not in trims:
+            return s
+        trimmed, shift = trims[path]
+        return PlacedShape(trimmed, Transform(np.eye(3), np.asarray(shift, float)))
+
+    out = cut(shape, "")
+    assert isinstance(out, BooleanShape)
+    return out
+
+
+def cut_face(on: BooleanFace, depth: float) -> BooleanFace:
+    """Where an ``into`` layer's face lies: the face ``on`` of the boolean cut ``depth`` behind
+    it (:func:`cut_boolean`)."""
+    shape = on.shape
+    assert isinstance(shape, BooleanShape)
+    cut = cut_boolean(shape, {on.face: depth})
+    return BooleanFace(cut, on.face, cut.face_clip(on.face), on.transform)
