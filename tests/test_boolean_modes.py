@@ -271,7 +271,7 @@ def _box_less_tube(o: np.ndarray, d: np.ndarray) -> float:
                 "in the world it generates"
             ),
         ),
-        ({"into": True, "face": "second.outer"}, "would widen the cut"),
+        ({"into": True, "face": "second.+z"}, "would widen the cut, which score4 does for the"),
         (
             {"native_layout": "replicas", "face": "first.+z", "surface": "p"},
             # the 0.5 mm cells whose square reaches into the bore (r 5 mm): 360 of 40 x 40
@@ -418,3 +418,69 @@ def test_a_boolean_face_with_into_exports_with_the_same_paths(into_top, tmp_path
     ours, back, relay = three_paths(cfg, out, rays, monkeypatch)
     assert_same_paths(ours, back, relay)
     assert sum(any("rough" in (v or "") for v, _ in path) for path in ours) >= 4
+
+
+def test_into_a_bore_widens_it_and_keeps_the_paths(gdml, tmp_path):
+    """into: true on the bore's wall (the subtracted tube's outer wall): the subtracted tube
+    grows by the layer's cut, the layer lies in the shell between the old bore and the new one;
+    geantinos from near the axis, out through the wall: Geant4's track length in the target
+    equals the analytic path in the box less the wider cylinder plus the path in the bent patch
+    bodies near the crossing, to 1e-9 mm."""
+    from score4.source.build import make_source
+
+    from helpers.geantinos import geantino_run
+    from helpers.ray_trace import mesh_path
+
+    rough = [{"face": "second.outer", "surface": "fine", "into": True}]
+    data = config(gdml, rough, output={"track_length": True})
+    data["source"]["surface"]["face"] = "second.outer"
+    cfg = parse_config(data)
+    scene = build_scene(cfg)
+    layer = scene.layer("cutbox", "second.outer")
+    target = scene.target("cutbox")
+    wide = BORE + layer.cut_shape[0].rmin - layer.target.shape.rmin  # the bore after the cut
+    assert wide - BORE == pytest.approx(layer.thickness, rel=0.05)
+    shell = target.to_local(layer.shell_points())
+    r = np.hypot(shell[:, 0], shell[:, 1])
+    assert r.min() >= BORE - 1e-9
+    assert r.max() <= wide + 1e-9
+    lay = layer.ring_layout
+    rng = np.random.default_rng(13)
+    n = 10
+    phi, z = rng.uniform(0, 2 * np.pi, n), rng.uniform(-7, 7, n)
+    local = np.column_stack([np.cos(phi), np.sin(phi), z])  # at radius 1 mm
+    out = np.column_stack([np.cos(phi + 0.3), np.sin(phi + 0.3), rng.uniform(-0.3, 0.3, n)])
+    out /= np.linalg.norm(out, axis=1, keepdims=True)
+    starts, directions = target.to_world(local), out @ target.rotation.T
+    primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n)
+    got = geantino_run(data, primaries, starts, directions, tmp_path)
+    got = np.asarray(got.scores["track_length"]["cutbox"])
+    cells, crossed = layer.cells(), 0
+    for k in range(n):
+        o, d = local[k], out[k]
+        a, b = d[0] ** 2 + d[1] ** 2, 2 * (o[0] * d[0] + o[1] * d[1])
+        s_wide = (-b + np.sqrt(b * b - 4 * a * (o[0] ** 2 + o[1] ** 2 - wide**2))) / (2 * a)
+        expected = _box_minus_cylinder_from_inside(o, d, s_wide)
+        hit = o + s_wide * d
+        tri = []
+        for j, _i, v, cell_phi in cells:  # the bent patches around the crossing
+            dphi = (cell_phi - np.arctan2(hit[1], hit[0]) + np.pi) % (2 * np.pi) - np.pi
+            if abs(lay.ring_z(j) - hit[2]) > 4 * layer.patch_size[1] or abs(dphi) * 5 > 2:
+                continue
+            body = layer.bent(v, j)
+            c_, s_ = np.cos(cell_phi), np.sin(cell_phi)
+            w = body.vertices @ np.array([[c_, s_, 0], [-s_, c_, 0], [0, 0, 1]])
+            w = layer.target.to_world(w + np.array([0.0, 0.0, lay.ring_z(j)]))
+            tri.append(target.to_local(w)[body.faces.ravel()].reshape(-1, 3, 3))
+        in_patches = mesh_path(o, d, np.concatenate(tri), edge=1e-12, merge=1e-10)
+        crossed += in_patches > 0
+        assert got[k] == pytest.approx(expected + in_patches, abs=1e-9, rel=0), k
+    assert crossed >= n // 2
+
+
+def _box_minus_cylinder_from_inside(o: np.ndarray, d: np.ndarray, s_wall: float) -> float:
+    """Path of a ray from inside the bore (o + s d, leaving the cylinder at s_wall) in the box:
+    from the wall to the box's side."""
+    with np.errstate(divide="ignore"):
+        s_box = float(np.min(np.where(d != 0, (np.sign(d) * HALF - o) / d, np.inf)))
+    return max(s_box - s_wall, 0.0)

@@ -21,8 +21,8 @@ wall of a tube whose inner radius is the cylinder's), cut along the axis to wher
 can be, so the layer lies in the bore and its shell ends where the solid does.
 
 Refused, in one line each (:mod:`score4.world.boolean_modes` says why): ``into: true`` other
-than on flat faces of a G4Box or G4Tubs constituent, ``tiling: portal``, ``native_layout:
-replicas`` where a cell holds no patch;
+than on flat faces of a G4Box or G4Tubs constituent and on bores, ``tiling: portal``,
+``native_layout: replicas`` where a cell holds no patch;
 a curved face of a subtracted solid other than a G4Tubs wall (cones, spheres); a face of a solid
 made of flat facets in several planes; a layer whose
 envelope runs into the solid itself (a face partly covered by another part of a union, or whose
@@ -44,7 +44,7 @@ from score4.shapes.boolean import FaceClip
 from score4.shapes.faces import PlaneFace, SphereFace
 from score4.surface.spec import Surface
 
-from .boolean_modes import check_modes, check_replicas, cut_face
+from .boolean_modes import check_modes, check_replicas, cut_face, into_depth
 from .facets import ccw, face_triangles, plane_face, plane_groups
 from .scene import (
     BooleanFace,
@@ -175,7 +175,7 @@ def _on_boolean(
         _flip(layer)
     on = BooleanFace(shape, name, clip, target.transform)
     if rough.into:  # the face cut behind by the layer's thickness (boolean_modes)
-        on = cut_face(on, layer.thickness)
+        on = cut_face(on, into_depth(layer))
         clip = on.clip
     kept = kept_cells(layer, clip, on, placed)
     layer.mask = kept

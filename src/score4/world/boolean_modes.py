@@ -14,8 +14,9 @@
   (not a subtracted one): the constituent is made thinner behind the face
   (:func:`cut_boolean`; in Geant4 the boolean is rebuilt with it,
   :mod:`score4.geometry.boolean_cut`), and the layer lies in the slab, on the cut face
-  (:func:`cut_face`). Refused elsewhere: a face of a subtracted solid (the cut would widen) and
-  curved faces.
+  (:func:`cut_face`); on the wall of a subtracted G4Tubs (a bore) the subtracted tube grows by
+  the layer's cut and the layer lies in the shell around the old bore. Refused elsewhere: the
+  flat faces of a subtracted solid and the other curved faces.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..inputs.config import RoughFace
-from ..shapes import BooleanShape, Shape, Transform
+from ..shapes import BooleanShape, G4Tubs, Shape, Transform
 from ..shapes.faces import PlaneFace
 from ..shapes.placed import PlacedShape
 from .boolean_distance import leaf_path
@@ -39,17 +40,18 @@ def check_modes(
     """One-line errors for ``into: true`` and ``tiling: portal`` on a boolean's face ``what``
     (face ``face`` of its constituent ``leaf``; ``flipped``: of a subtracted solid)."""
     if rough.into:
-        if flipped:
+        flat = isinstance(leaf.face(face), PlaneFace)
+        if flipped and (flat or not isinstance(leaf, G4Tubs) or face not in ("outer", "inner")):
             raise ConfigError(
                 f"{where}: into: true on {what}, a face of the subtracted {leaf.kind}, would "
-                "widen the cut, which score4 does not do; put the layer outside the volume "
-                "(into: false)"
+                "widen the cut, which score4 does for the walls of a subtracted G4Tubs (a bore) "
+                "only; put the layer outside the volume (into: false)"
             )
-        if not isinstance(leaf.face(face), PlaneFace) or leaf.trimmed({face: 1e-6}) is None:
+        if not flipped and (not flat or leaf.trimmed({face: 1e-6}) is None):
             raise ConfigError(
                 f"{where}: into: true on {what} (face {face} of a {leaf.kind}) is supported on "
-                "the flat faces of a G4Box and the end faces of a G4Tubs of a boolean; put the "
-                "layer outside the volume (into: false)"
+                "the flat faces of a G4Box, the end faces of a G4Tubs and the walls of a "
+                "subtracted G4Tubs of a boolean; put the layer outside the volume (into: false)"
             )
     if rough.tiling == "portal":
         raise ConfigError(
@@ -121,10 +123,37 @@ def cut_boolean(shape: BooleanShape, cuts: dict[str, float]) -> BooleanShape:
     return out
 
 
+def into_depth(layer: RoughLayer) -> float:
+    """How far an ``into`` layer moves its boolean face inward (mm): the layer's thickness on a
+    flat face; on a bore (a subtracted tube's wall, laid out as the inner wall of a tube beside
+    it) the cut of that tube's inner radius."""
+    if isinstance(layer, CurvedRoughLayer):
+        turned = layer.target.shape
+        assert layer.cut_shape is not None  # into on a wall: the tube cut for it
+        cut = layer.cut_shape[0]
+        assert isinstance(turned, G4Tubs)
+        assert isinstance(cut, G4Tubs)
+        return float(cut.rmin - turned.rmin)
+    return float(layer.thickness)
+
+
 def cut_face(on: BooleanFace, depth: float) -> BooleanFace:
     """Where an ``into`` layer's face lies: the face ``on`` of the boolean cut ``depth`` behind
-    it (:func:`cut_boolean`)."""
+    it (:func:`cut_boolean`; a subtracted solid grows by ``depth``)."""
     shape = on.shape
     assert isinstance(shape, BooleanShape)
-    cut = cut_boolean(shape, {on.face: depth})
+    cut = cut_boolean(shape, {on.face: -depth if on.clip.flipped else depth})
     return BooleanFace(cut, on.face, cut.face_clip(on.face), on.transform)
+
+
+def boolean_cuts(layers: list[RoughLayer]) -> dict[str, float]:
+    """The cuts of a boolean's ``into`` layers (boolean face -> depth, mm, < 0: a subtracted
+    solid grows), as :func:`cut_boolean` and :func:`score4.geometry.boolean_cut.cut_boolean_solid`
+    take them."""
+    out = {}
+    for layer in layers:
+        on = layer.on_boolean
+        assert on is not None
+        depth = into_depth(layer)
+        out[layer.config.face_name] = -depth if on.clip.flipped else depth
+    return out
