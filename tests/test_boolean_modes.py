@@ -420,6 +420,7 @@ def test_a_boolean_face_with_into_exports_with_the_same_paths(into_top, tmp_path
     assert sum(any("rough" in (v or "") for v, _ in path) for path in ours) >= 4
 
 
+@pytest.mark.deep
 def test_into_a_bore_widens_it_and_keeps_the_paths(gdml, tmp_path):
     """into: true on the bore's wall (the subtracted tube's outer wall): the subtracted tube
     grows by the layer's cut, the layer lies in the shell between the old bore and the new one;
