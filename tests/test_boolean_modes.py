@@ -23,12 +23,14 @@ from score4.world.rough_distance import CurvedRoughSurfaceDistance, RoughSurface
 PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
 FINE = {**PYRAMIDS, "width": "80 um"}
 HALF, BORE = 10.0, 5.0  # the box's half width and the bore's radius, mm (boolean_worlds)
+STACK = (0.0, -30.0, 0.0)  # where the union stands
 
 
 @pytest.fixture(scope="module")
 def gdml(tmp_path_factory) -> Path:
-    """The copper box less a tube of tests/helpers/boolean_worlds.py alone (a 20 mm box less
-    a tube of r 5 mm, 40 mm long, along z, at the origin), written by pyg4ometry."""
+    """The copper box less a tube of tests/helpers/boolean_worlds.py (a 20 mm box less a tube
+    of r 5 mm, 40 mm long, along z, at the origin) and its union of two tubes (a disk of r 10 mm,
+    10 mm high, with a post of r 7 mm on it, at ``STACK``), written by pyg4ometry."""
     import pyg4ometry as pg
 
     reg = pg.geant4.Registry()
@@ -39,6 +41,11 @@ def gdml(tmp_path_factory) -> Path:
     cut = s.Subtraction("cutbox_s", box, hole, [[0, 0, 0], [0, 0, 0]], reg)
     lv = pg.geant4.LogicalVolume(cut, "G4_Cu", "cutbox_lv", reg)
     pg.geant4.PhysicalVolume([0, 0, 0], [0, 0, 0], lv, "cutbox", world, reg)
+    disk = s.Tubs("stack_a", 0, 10, 10, 0, 2 * np.pi, reg)  # with a post on it: a union
+    post = s.Tubs("stack_b", 0, 7, 10, 0, 2 * np.pi, reg)
+    stack = s.Union("stack_s", disk, post, [[0, 0, 0], [0, 0, 10]], reg)
+    lv = pg.geant4.LogicalVolume(stack, "G4_Cu", "stack_lv", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], list(STACK), lv, "stack", world, reg)
     reg.setWorld(world.name)
     path = tmp_path_factory.mktemp("modes") / "cutbox.gdml"
     writer = pg.gdml.Writer()
@@ -485,3 +492,56 @@ def _box_minus_cylinder_from_inside(o: np.ndarray, d: np.ndarray, s_wall: float)
     with np.errstate(divide="ignore"):
         s_box = float(np.min(np.where(d != 0, (np.sign(d) * HALF - o) / d, np.inf)))
     return max(s_box - s_wall, 0.0)
+
+
+@pytest.mark.deep
+def test_into_the_top_of_a_union_part(gdml, tmp_path):
+    """into: true on the post's top (the end face of the union's second tube) and the disk's
+    bottom: the tubes made shorter there, the union rebuilt (the post's shift carried into its
+    placement); vertical geantinos through both layers: Geant4's track length in the target is
+    20 mm less both cuts plus the paths in the patch bodies near each ray, to 1e-9 mm."""
+    from score4.source.build import make_source
+
+    from helpers.geantinos import geantino_run
+    from helpers.ray_trace import mesh_path
+
+    rough = [
+        {"face": "second.+z", "surface": "p", "into": True},
+        {"face": "first.-z", "surface": "p", "into": True},
+    ]
+    data = config(gdml, rough, output={"track_length": True})
+    data["targets"][0]["volume"] = "stack"
+    data["source"]["surface"] = {"volume": "stack", "face": "second.+z"}
+    cfg = parse_config(data)
+    scene = build_scene(cfg)
+    target = scene.target("stack")
+    layers = [scene.layer("stack", f) for f in ("second.+z", "first.-z")]
+    rng = np.random.default_rng(17)
+    n = 8
+    r, phi = 6.5 * np.sqrt(rng.uniform(0, 1, n)), rng.uniform(0, 2 * np.pi, n)
+    local = np.column_stack([r * np.cos(phi), r * np.sin(phi), np.full(n, 16.0)])
+    down = np.tile([0.0, 0.0, -1.0], (n, 1))
+    starts, directions = target.to_world(local), down @ target.rotation.T
+    primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n)
+    got = geantino_run(data, primaries, starts, directions, tmp_path)
+    got = np.asarray(got.scores["track_length"]["stack"])
+    crossed = 0
+    for k in range(n):
+        o, d = starts[k], directions[k]
+        expected = 20.0 - sum(layer.thickness for layer in layers)
+        for layer in layers:
+            body = layer.variants[0].body(layer.base_thickness)
+            cc = layer.cell_centres()
+            q = layer.frame.to_local(o[None])[0]
+            px, py = layer.patch_size
+            near = (np.abs(cc[..., 0] - q[0]) < px) & (np.abs(cc[..., 1] - q[1]) < py)
+            path = 0.0
+            for j, i in zip(*np.nonzero(near & layer.mask), strict=True):
+                v = body.vertices + np.array([*cc[j, i], layer.base_thickness])
+                path += mesh_path(
+                    o, d, layer.frame.to_world(v)[body.faces], edge=1e-12, merge=1e-10
+                )
+            crossed += path > 0
+            expected += path
+        assert got[k] == pytest.approx(expected, abs=1e-9, rel=0), k
+    assert crossed >= n
