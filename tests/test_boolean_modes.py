@@ -401,26 +401,35 @@ def test_geantino_paths_through_a_boolean_face_with_into(into_top, tmp_path):
 
 
 @pytest.mark.deep
-def test_a_boolean_face_with_into_exports_with_the_same_paths(into_top, tmp_path, monkeypatch):
-    """The box less the tube cut for its +z layer (the boolean rebuilt around the thinner box),
-    written by `score4 geometry export`: Geant4 reads the file back, and the file pyg4ometry
-    reads and writes again, with the same geantino paths (volumes and points, 1e-9 mm)."""
+@pytest.mark.parametrize("face", ["first.+z", "second.outer"])
+def test_a_boolean_face_with_into_exports_with_the_same_paths(gdml, face, tmp_path, monkeypatch):
+    """The box less the tube cut for an into layer on its +z face (the boolean rebuilt around
+    the thinner box) or on the bore (around the wider tube), written by `score4 geometry
+    export`: Geant4 reads the file back, and the file pyg4ometry reads and writes again, with
+    the same geantino paths (volumes and points, 1e-9 mm)."""
     import yaml
 
     from score4.cli.main import main
 
     from helpers.export_paths import assert_same_paths, three_paths
 
+    surface = "fine" if face == "second.outer" else "p"
+    data = config(gdml, [{"face": face, "surface": surface, "into": True}])
+    data["source"]["surface"]["face"] = face
     cfg = tmp_path / "into.yaml"
-    cfg.write_text(yaml.safe_dump(into_top))
+    cfg.write_text(yaml.safe_dump(data))
     out = tmp_path / "into.gdml"
     assert main(["geometry", "export", str(cfg), "--gdml", str(out)]) == 0
     rng = np.random.default_rng(11)
     rays = []
-    for _ in range(8):  # from 0.5 mm above the +z face (some over the bore), into the box
-        start = np.array([*rng.uniform(-9.5, 9.5, 2), HALF + 0.5])
-        aim = np.array([*rng.uniform(-9.5, 9.5, 2), -9.5])
-        d = aim - start
+    for _ in range(8):
+        if face == "first.+z":  # from 0.5 mm above the +z face (some over the bore), in
+            start = np.array([*rng.uniform(-9.5, 9.5, 2), HALF + 0.5])
+            d = np.array([*rng.uniform(-9.5, 9.5, 2), -9.5]) - start
+        else:  # from 1 mm off the axis, out through the bore's wall
+            phi = rng.uniform(0, 2 * np.pi)
+            start = np.array([np.cos(phi), np.sin(phi), rng.uniform(-7, 7)])
+            d = np.array([np.cos(phi + 0.3), np.sin(phi + 0.3), rng.uniform(-0.3, 0.3)])
         rays.append((start.tolist(), (d / np.linalg.norm(d)).tolist()))
     ours, back, relay = three_paths(cfg, out, rays, monkeypatch)
     assert_same_paths(ours, back, relay)
