@@ -79,8 +79,8 @@ def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
                 seen[face] = j
                 one = rough if rough.face == face else rough.model_copy(update={"face": face})
                 scene.layers += target_layers(surfaces, target, j, one)
+        check_into_edges(scene, target)  # walls re-laid on a joint cut, before rings fit
         fit_rings(scene.layers_of(target.name))
-        check_into_edges(scene, target)
     check_clearance(scene)
     far = float(np.max(scene.world_half))
     if np.isfinite(far) and far > limits.MAX_WORLD_EXTENT:
