@@ -11,7 +11,10 @@ Parts (each case runs in its own process, so its RSS and start-up are its own):
 ``startup``
     A one-event run of examples/paper_a_rough.yaml with one worker: CPU seconds of importing
     ``score4.runner.engine`` (what the parent and every spawned worker import) and its RSS, of the
-    parent process and of the worker (everything before the first event, plus one event).
+    parent process and of the worker (everything before the first event, plus one event); then
+    the same run by the ``score4`` command (``score4 -q run ... --events 1``): CPU of its
+    process and its worker together (a spawned worker of a console script may import the
+    script's modules again).
     Medians of ``--rounds`` rounds; ``--baseline OLD/src`` times another score4 checkout in the
     same rounds (before/after). The figures depend on Python's bytecode cache: with
     PYTHONDONTWRITEBYTECODE set and no ``__pycache__`` in ``src/``, every process compiles
@@ -352,6 +355,25 @@ def _startup_round(src: str | None, config: Path, out: Path) -> list[float]:
     return [float(x) for x in text[-5:]]
 
 
+def _cli_round(src: str | None, config: Path, out: Path) -> float:
+    """CPU seconds of ``score4 -q run CONFIG --events 1 --jobs 1``, the console script (its
+    process and the worker it waits for), with ``src`` first on the path if given."""
+    env = dict(os.environ)
+    if src:
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (src, env.get("PYTHONPATH")) if p)
+    script = Path(sys.executable).parent / "score4"
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    args = ["-q", "run", str(config), "--events", "1", "--jobs", "1", "--out", str(out)]
+    subprocess.run(
+        [str(script), *args, "--overwrite"],
+        check=True,
+        capture_output=True,
+        env=env,
+    )
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+
+
 def part_startup(rounds: int = 5, baseline: str | None = None) -> None:
     """CPU of a one-event run of paper_a_rough: the parent (import, scene, merge) and its worker.
 
@@ -366,14 +388,12 @@ def part_startup(rounds: int = 5, baseline: str | None = None) -> None:
         f"interleaved rounds; Python writes bytecode caches: {not sys.flags.dont_write_bytecode})"
     )
     rows: dict[str, list[list[float]]] = {name: [] for name in versions}
+    config = ROOT / "examples" / "paper_a_rough.yaml"
     with tempfile.TemporaryDirectory() as tmp:
         for _ in range(rounds):
             for name, src in versions.items():
-                rows[name].append(
-                    _startup_round(
-                        src, ROOT / "examples" / "paper_a_rough.yaml", Path(tmp) / "a.h5"
-                    )
-                )
+                row = _startup_round(src, config, Path(tmp) / "a.h5")
+                rows[name].append([*row, _cli_round(src, config, Path(tmp) / "b.h5")])
     print(f"  load average after: {os.getloadavg()}")
     for name, src in versions.items():
         imported, rss, parent, worker, worker_rss = (
@@ -388,6 +408,8 @@ def part_startup(rounds: int = 5, baseline: str | None = None) -> None:
             f"RSS {worker_rss:4.0f} MB"
         )
         print(f"  worker CPU, all rounds: {', '.join(f'{r[3]:.2f}' for r in rows[name])} s")
+        command = statistics.median(r[5] for r in rows[name])
+        print(f"  the score4 command (its process and its worker): CPU {command:5.2f} s")
 
 
 def part_faces(events: int, flat_1m: bool) -> None:
