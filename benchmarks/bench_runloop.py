@@ -182,10 +182,9 @@ def _time_python_actions() -> dict:
     return spent
 
 
-def measure_portal(tiling: str, events: int) -> dict:
-    timed_actions = tiling == "portal-timed"
-    spent = _time_python_actions() if timed_actions else {}
-    tiling = "portal" if timed_actions else tiling
+def portal_config(tiling: str) -> dict:
+    """The portal part's run: Po-210 20 nm below the 10 cm pyramid face, ``tiling`` native or
+    portal (also bench_instructions.py's cases ``runloop_native`` and ``runloop_portal``)."""
     data = face_config(10.0, layout="default", tiling=tiling)
     data["source"] = {
         "decay": "Po210",
@@ -193,7 +192,14 @@ def measure_portal(tiling: str, events: int) -> dict:
         "surface": {"volume": "crystal", "face": "+z"},
         "depth": {"profile": "exponential", "mean": "20 nm"},
     }
-    sim, out = timed_simulation(data)
+    return data
+
+
+def measure_portal(tiling: str, events: int) -> dict:
+    timed_actions = tiling == "portal-timed"
+    spent = _time_python_actions() if timed_actions else {}
+    tiling = "portal" if timed_actions else tiling
+    sim, out = timed_simulation(portal_config(tiling))
     primaries = sim.source.primaries(np.random.default_rng(5), 0, WARMUP + events)
     sim.run(primaries.select_events(0, WARMUP), 1)
     t = sim.teleporter
@@ -534,7 +540,8 @@ def part_portal(events: int, rounds: int = 1, baseline: str | None = None) -> No
     r = in_subprocess(["--portal", "portal-timed", "--events", str(events)])
     python_ms = 0.0
     for name in ("on_step", "start_track", "_move"):
-        n, us = r[f"{name}_per_event"], r[f"{name}_us_per_call"]
+        # a method never called (start_track in runs with no ambiguous event) has no figures
+        n, us = r.get(f"{name}_per_event", 0.0), r.get(f"{name}_us_per_call", 0.0)
         print(f"  {name:12s} {n:5.2f} calls per event, {us:6.1f} us CPU per call")
         if name != "_move":  # _move runs inside on_step
             python_ms += n * us / 1e3
