@@ -22,16 +22,19 @@
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import ConfigError
-from ..inputs.config import RoughFace
 from ..shapes import BooleanShape, G4Tubs, Shape, Transform
 from ..shapes.faces import PlaneFace
 from ..shapes.placed import PlacedShape
 from .boolean_distance import leaf_path
 from .scene import BooleanFace, CurvedRoughLayer, PolygonRoughLayer, RingRoughLayer, RoughLayer
+
+if TYPE_CHECKING:  # a worker imports this module and never the configuration's models
+    from ..inputs.config import RoughFace
 
 
 def check_modes(
