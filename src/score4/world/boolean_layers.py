@@ -32,11 +32,14 @@ A face of a leaf made of flat facets in several planes (the sides of a G4Polyhed
 layer per plane (:func:`_on_boolean`; a plane without a kept cell gets none); the source draws
 their flat rest as one (:class:`score4.source.build.PlanesRemainderSampler`).
 
-Refused, in one line each: ``into: true``, ``tiling: portal`` and ``native_layout: replicas``;
-a curved face of a subtracted solid other than a G4Tubs or G4Cons wall (spheres); a curved
-layer whose envelope runs into the solid
-itself (a wall partly covered by another part of a union), a flat one that keeps no cell clear
-of the other parts; steps and activeness (no distance to such a layer's rough surface yet).
+Refused, in one line each (:mod:`score4.world.boolean_modes` says why): ``into: true`` other
+than on flat faces of a G4Box or G4Tubs constituent and on bores, ``tiling: portal``,
+``native_layout: replicas`` where a cell holds no patch (and on a layer whose envelope is the
+prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs or G4Cons
+wall (spheres); a curved layer whose envelope runs into the solid itself (a wall partly covered
+by another part of a union), a flat one that keeps no cell clear of the other parts. Steps and
+activeness measure these layers through the boolean's constituents
+(:mod:`score4.world.boolean_distance`).
 """
 
 from __future__ import annotations
@@ -52,8 +55,9 @@ from score4.shapes import BooleanShape, G4Box, G4Cons, G4Tubs, Shape, Transform
 from score4.shapes.base import INSIDE
 from score4.shapes.boolean import FaceClip
 from score4.shapes.faces import PlaneFace, SphereFace
-from score4.surface.spec import Surface
+from score4.surface.rough import Surface
 
+from .boolean_modes import check_modes, check_replicas, cut_face, into_depth
 from .facets import ccw, face_triangles, plane_face, plane_groups
 from .scene import (
     BooleanFace,
@@ -134,18 +138,7 @@ def _leaf(
         clip = shape.face_clip(name)
     except ConfigError as err:
         raise ConfigError(f"{where}: {target.column}: {str(err).removeprefix('face: ')}") from None
-    if rough.into:
-        raise ConfigError(
-            f"{where}: into: true on {what} is not supported; the layer goes outside the volume "
-            "(into: false)"
-        )
-    if rough.tiling == "portal":
-        raise ConfigError(f"{where}: {what} takes tiling: native")
-    if rough.native_layout == "replicas":
-        raise ConfigError(
-            f"{where}: native_layout replicas fills every cell; {what}, whose cells off its "
-            "surface hold no patch, takes auto, nested or placements"
-        )
+    check_modes(rough, where, what, clip.leaf, clip.face, clip.flipped)  # boolean_modes
     area = float(shape.face_areas[name])
     if not area > 0:
         raise ConfigError(f"{where}: {what} lies nowhere on the solid's surface (area 0)")
@@ -182,12 +175,16 @@ def _on_boolean(
     shape = target.shape
     assert isinstance(shape, BooleanShape)
     name, what = rough.face_name, _what(target, rough)
-    on = BooleanFace(shape, name, clip, target.transform)
+    base = BooleanFace(shape, name, clip, target.transform)
     out = []
     for layer in layers:
         if clip.flipped and not isinstance(layer, CurvedRoughLayer):
             _flip(layer)
-        kept = kept_cells(layer, clip, on, placed)
+        on, cut = base, clip
+        if rough.into:  # the face cut behind by the layer's thickness (boolean_modes)
+            on = cut_face(base, into_depth(layer))
+            cut = on.clip
+        kept = kept_cells(layer, cut, on, placed)
         layer.mask = kept
         if not kept.any():
             if len(layers) > 1:
@@ -198,10 +195,11 @@ def _on_boolean(
                 f"{what} that lies on the solid's surface"
             )
         layer.config = rough
-        layer.face_area = float(shape.face_areas[name])
+        layer.face_area = float(on.shape.face_areas[name])
         layer.on_boolean = on
         if _meets_own_solid(layer, on):
-            _clear_of_the_solid(layer, clip, on, placed, where, what)
+            _clear_of_the_solid(layer, cut, on, placed, where, what)
+        check_replicas(layer, where, what)
         out.append(layer)
     if not out:
         px, py = layers[0].patch_size
@@ -584,6 +582,12 @@ def _clear_of_the_solid(
             "flat)"
         )
     assert layer.mask is not None
+    if layer.config.native_layout == "replicas":
+        raise ConfigError(
+            f"{where}: native_layout replicas fills every cell; {what} is partly covered by "
+            "another part of the solid, so its envelope holds only the cells clear of it: take "
+            "auto, nested or placements"
+        )
     layer.mask = layer.mask & kept_cells(layer, clip, on, placed, height=layer.thickness)
     layer.cells_envelope = True
     if not layer.mask.any():
