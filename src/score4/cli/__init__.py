@@ -9,6 +9,7 @@ before anything heavy is imported (a library user's process is left alone).
 from __future__ import annotations
 
 import os
+import signal
 import sys
 
 
@@ -23,9 +24,21 @@ def _interrupted(kind, value, traceback) -> None:
     sys.__excepthook__(kind, value, traceback)
 
 
+def _swallowed(unraisable) -> None:
+    # A Ctrl-C that lands in Python code called back from a C extension (pydantic-core building
+    # a model's validator) is only printed there as "Exception ignored", and the command would
+    # go on as if never interrupted: deliver it again, to the next line of plain Python.
+    if isinstance(unraisable.exc_value, KeyboardInterrupt):
+        os.kill(os.getpid(), signal.SIGINT)
+        return
+    sys.__unraisablehook__(unraisable)
+
+
 def quiet_interrupts() -> None:
-    """Print an uncaught Ctrl-C as ``score4: aborted`` (exit status 130), not as a traceback."""
+    """Print an uncaught Ctrl-C as ``score4: aborted`` (exit status 130), not as a traceback,
+    and never lose one inside a C extension."""
     sys.excepthook = _interrupted
+    sys.unraisablehook = _swallowed
 
 
 if sys.argv and os.path.basename(sys.argv[0]) == "score4":  # the console script
