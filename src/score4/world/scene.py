@@ -1392,22 +1392,32 @@ def make_curved_layer(
     layer = CurvedRoughLayer(
         target, rough, frame, names, variants, patch_map, mask, float(face.area), layout
     )
-    lows, highs, tops = [], [], []
     rows = {0, ny - 1}
     if isinstance(face, SphereFace):  # the rings' shapes differ all along the meridian
         rows = {int(j) for j in np.flatnonzero(layout.count > 0)}
-    for k in range(len(variants)):
-        flat = layer._flat(k)
-        for j in rows:
+
+    def floor_heights(lift: float) -> tuple[float, float]:
+        lows, highs = [], []
+        for k in range(len(variants)):
+            flat = layer._flat(k)
             spikes = variants[k].spikes
             column = spikes.width_x if spikes is not None and isinstance(face, SphereFace) else None
-            lo, hi = measure_floor(layout, flat, rough.base_thickness, j, column)
-            lows.append(lo)
-            highs.append(hi)
-        tops.append(top_sagitta(layout, flat))
+            for j in rows:
+                lo, hi = measure_floor(layout, flat, rough.base_thickness, j, column, lift)
+                lows.append(lo)
+                highs.append(hi)
+        return min(lows), max(highs)
+
+    low, high = floor_heights(0.0)
+    tops = [top_sagitta(layout, layer._flat(k)) for k in range(len(variants))]
     convex = face.sign > 0 if isinstance(face, SphereFace) else face.nrz[0] > 0
-    layer.lift = max(-min(lows), 0.0)
-    layer.gap = max(highs) + layer.lift
+    layer.lift = max(-low, 0.0)
+    layer.gap = high + layer.lift
+    if layer.lift > 0:  # lifted, the floor's chords span a larger circle and dip a little deeper
+        # (by lift / radius of the lift, ~1e-10 mm): once more at that height
+        low, high = floor_heights(layer.lift)
+        layer.lift += max(-low, 0.0)
+        layer.gap = high + max(-low, 0.0)
     layer.top_margin = 0.0 if convex else max(tops)
     limit = gap_limit(max(s.max_height for s in variants))
     check_radius(layout, layer.gap, limit, where, target.name, rough.face_name)
