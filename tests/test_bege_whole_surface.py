@@ -116,7 +116,7 @@ def test_every_face_of_the_bege_takes_a_layer(gdml):
 @pytest.mark.parametrize("face", ["seg_5", "seg_7"])
 def test_the_bent_floor_never_enters_the_cone(gdml, face):
     """The lift keeps every point of a bent patch's floor on a 45 degree taper at or above the
-    true cone (1e-12 mm), and is no larger than that needs (1e-12 mm): the floor's facets
+    true cone (to 1e-10 mm, FLOOR_ROUNDING), and is no larger than that needs: the floor's facets
     sampled densely (every edge at 2001 points, the inside on a 60 x 60 grid) on the rings at
     both ends of the face. The deepest point is the middle of the chord across the patch's end
     at the larger radius, which a sample of the facets' corners, one edge midpoint and two
@@ -145,7 +145,7 @@ def test_the_bent_floor_never_enters_the_cone(gdml, face):
             + [np.einsum("kw,twc->tkc", bary, floor).reshape(-1, 3)]
         )
         lowest = min(lowest, float(lay.face.locate(pts)[2].min()))
-    assert -1e-12 <= lowest <= 1e-12, lowest
+    assert -1e-10 <= lowest <= 1e-10, lowest
     assert layer.gap == pytest.approx(layer.lift, abs=1e-12)  # a convex face: the floor's
     # corners are the highest points of its facets
 

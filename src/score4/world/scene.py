@@ -783,6 +783,11 @@ def fit_rings(layers: list[RoughLayer]) -> None:
             ring.refit(rmin, rmax, f"targets.{ring.target.entry}.rough")
 
 
+#: How far (mm) a bent patch's floor may dip below the true surface (a tenth of Geant4's
+#: surface tolerance, 1e-9 mm).
+FLOOR_ROUNDING = 1e-10
+
+
 def wall_envelope(layer: CurvedRoughLayer) -> tuple[float, float, float, float, float, float]:
     """``(rmin1, rmax1, rmin2, rmax2, dz, z_centre)`` of a curved layer's envelope on a cylinder
     or cone (the shape's frame): the face and the same moved out by the layer thickness along
@@ -1414,10 +1419,13 @@ def make_curved_layer(
     layer.lift = max(-low, 0.0)
     layer.gap = high + layer.lift
     if layer.lift > 0:  # lifted, the floor's chords span a larger circle and dip a little deeper
-        # (by lift / radius of the lift, ~1e-10 mm): once more at that height
+        # (by about lift^2 / radius): once more at that height where that is more than
+        # FLOOR_ROUNDING (a cylinder's 2e-14 mm or an orb's 2.5e-11 mm would move the patches for
+        # nothing, and change every run's tracks)
         low, high = floor_heights(layer.lift)
-        layer.lift += max(-low, 0.0)
-        layer.gap = high + max(-low, 0.0)
+        if -low > FLOOR_ROUNDING:
+            layer.lift -= low
+            layer.gap = high - low
     layer.top_margin = 0.0 if convex else max(tops)
     limit = gap_limit(max(s.max_height for s in variants))
     check_radius(layout, layer.gap, limit, where, target.name, rough.face_name)
