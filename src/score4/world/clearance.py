@@ -20,7 +20,9 @@ import numpy as np
 
 from score4.errors import ConfigError
 from score4.shapes import Shape, shape_from_dict
+from score4.shapes.faces import SphereFace
 
+from .facets import boundary_edges
 from .gdml_model import GeometryModel, Instance
 from .obb import OrientedBox
 from .scene import (
@@ -210,11 +212,13 @@ def check_gdml_clearance(scene: Scene) -> None:
             if other.target.mother != mother:
                 continue
             if isinstance(other, CurvedRoughLayer):
-                if other.in_shell(_envelope_points(layer, box)).any():
-                    raise ConfigError(
-                        _meets(layer, f"the rough layer {other.name}", _pair_gap(layer, other))
-                    )
-                continue
+                hit = None
+                if not other.in_shell(_envelope_points(layer, box)).any():
+                    hit = shells_meet(other, layer) if other.envelope_box().overlaps(box) else None
+                    if hit is None:
+                        continue
+                gap = _pair_gap(layer, other) if hit is None else _gap_under(other, layer, hit)
+                raise ConfigError(_meets(layer, f"the rough layer {other.name}", gap))
             if isinstance(layer, _SHAPED) or isinstance(other, _SHAPED):
                 met = other_box.overlaps(box) and bool(
                     _in_envelope(other, other_box, _envelope_points(layer, box)).any()
@@ -324,9 +328,18 @@ def _check_curved(
             meets = bool(_in_envelope(other, box, points).any()) or bool(
                 layer.in_shell(_envelope_points(other, box)).any()
             )
+        gap = None
+        if not meets and layer.envelope_box().overlaps(other.envelope_box()):
+            found = shells_meet(layer, other)  # exact, where the points are sparse
+            meets = found is not None
+            gap = None if found is None else _gap_under(layer, other, found)
         if meets:
             raise ConfigError(
-                _meets(layer, f"the rough layer {other.name}", _pair_gap(layer, other))
+                _meets(
+                    layer,
+                    f"the rough layer {other.name}",
+                    _pair_gap(layer, other) if gap is None else gap,
+                )
             )
     body = _instance_body(model, mother)
     if not body.contains(mother.to_local(points)).all():
@@ -409,3 +422,145 @@ def _check_inside_mother(
             f"{model.label(mother)!r} ({lv.solid_type}); use into: true (the layer inside the "
             "volume) or a lower surface"
         )
+
+
+def _depth(layer: RoughLayer, points: np.ndarray) -> np.ndarray:
+    """How deep world points lie in a layer's envelope: positive inside, negative outside, and
+    never more than the distance to the envelope's boundary (so it changes by at most the
+    distance a point moves): the least of the signed distances to the surfaces that bound it
+    (planes, the face and its offset, cones of normals or polar angle, half-planes of azimuth,
+    cylinders of a ring, the edges of a polygon)."""
+    p = np.asarray(points, float).reshape(-1, 3)
+    t = layer.thickness
+    if isinstance(layer, CurvedRoughLayer):
+        face = layer.ring_layout.face
+        q = layer.target.to_local(p)
+        u, v, h = face.locate(q)
+        (u0, _), (v0, v1) = face.extent
+        depth = np.minimum(h, t - h)
+        if isinstance(face, SphereFace):
+            r = np.linalg.norm(q, axis=1)
+            a = np.clip((v - v0) / face.sphere_radius, -np.pi / 2, np.pi / 2)
+            b = np.clip((v1 - v) / face.sphere_radius, -np.pi / 2, np.pi / 2)
+            depth = np.minimum(depth, r * np.minimum(np.sin(a), np.sin(b)))
+        else:
+            depth = np.minimum(depth, np.minimum(v - v0, v1 - v))
+        if face.dphi < 2 * np.pi - 1e-12:
+            rho = np.hypot(q[:, 0], q[:, 1])
+            a = u - u0  # in [0, 2 pi)
+            half = np.pi / 2
+
+            def far(x: np.ndarray) -> np.ndarray:
+                return rho * np.sin(np.clip(x, 0.0, half))
+
+            inside = a <= face.dphi
+            wedge = np.where(
+                inside,
+                np.minimum(far(a), far(face.dphi - a)),
+                -np.minimum(far(a - face.dphi), far(2 * np.pi - a)),
+            )
+            depth = np.minimum(depth, wedge)
+        return np.asarray(depth)
+    if isinstance(layer, RingRoughLayer):
+        q = layer.frame.to_local(p)
+        rho = np.hypot(q[:, 0], q[:, 1])
+        return np.asarray(
+            np.minimum.reduce([q[:, 2], t - q[:, 2], rho - layer.rmin, layer.rmax - rho])
+        )
+    if isinstance(layer, PolygonRoughLayer):
+        q = layer.frame.to_local(p)
+        edges = boundary_edges(layer.outline)
+        a, b = edges[:, 0], edges[:, 1]
+        d = b - a
+        w = q[:, None, :2] - a[None]
+        s = np.clip(np.einsum("nmc,mc->nm", w, d) / np.maximum((d * d).sum(axis=1), 1e-300), 0, 1)
+        gap = np.linalg.norm(w - s[..., None] * d[None], axis=2).min(axis=1)
+        flat = np.where(layer.in_face(q[:, :2], 0.0), gap, -gap)
+        return np.asarray(np.minimum.reduce([q[:, 2], t - q[:, 2], flat]))
+    box = layer.envelope_box()
+    q = box.transform.inverse_apply(p)
+    return np.asarray((box.half - np.abs(q)).min(axis=1))
+
+
+#: Most cells the exact search of :func:`shells_meet` keeps at once (a bound on its memory).
+MAX_CELLS = 2_000_000
+
+
+def shells_meet(
+    layer: CurvedRoughLayer, other: RoughLayer, tol: float = BOUNDARY_TOLERANCE
+) -> np.ndarray | None:
+    """A world point strictly inside both a curved layer's envelope and ``other``'s (by more
+    than ``tol``), or None when there is none deeper than ``tol + resolution``, resolution
+    being half the thinner layer (5.5 um for two 11 um layers).
+
+    The shell is cut into cells of its (azimuth, generator, height) box; a cell whose centre is
+    at depth ``d`` in ``other`` (:func:`_depth`) and whose points are all within ``R`` of its
+    centre (half its diagonal, the three directions being orthogonal) holds no point deeper
+    than ``d + R``: such cells are dropped, a centre deeper than
+    ``tol`` is the answer, and the other cells are halved along their longest side until they
+    are smaller than the resolution. Points are never missed between samples, however thin
+    the layers (the grid of :meth:`CurvedRoughLayer.shell_points` can miss a 20 um layer)."""
+    face = layer.ring_layout.face
+    t = layer.thickness
+    (u0, u1), (v0, v1) = face.extent
+    resolution = max(min(t, other.thickness) / 2, 1e-7)
+    if isinstance(face, SphereFace):
+        r_out = face.sphere_radius + t
+        rho_max, v_scale = r_out, r_out / face.sphere_radius
+    else:
+        rho_max = float(np.max(face.radius(np.array([v0, v1])))) + t
+        v_scale = 1.0
+    n_u = int(np.clip(np.ceil(rho_max * (u1 - u0) / max(v1 - v0, t)), 1, 4096))
+    n_v = int(np.clip(np.ceil((v1 - v0) / max(rho_max * (u1 - u0) / n_u, t)), 1, 4096))
+    eu, ev = np.linspace(u0, u1, n_u + 1), np.linspace(v0, v1, n_v + 1)
+    ui, vi = np.meshgrid(np.arange(n_u), np.arange(n_v), indexing="ij")
+    lo = np.column_stack([eu[ui.ravel()], ev[vi.ravel()], np.zeros(ui.size)])
+    hi = np.column_stack([eu[ui.ravel() + 1], ev[vi.ravel() + 1], np.full(ui.size, t)])
+    scale = np.array([rho_max, v_scale, 1.0])  # mm per unit of each parameter, at most
+    while len(lo):
+        mid = 0.5 * (lo + hi)
+        local = face.point(mid[:, 0], mid[:, 1]) + mid[:, 2, None] * face.normal(
+            mid[:, 0], mid[:, 1]
+        )
+        world = layer.target.to_world(local)
+        depth = _depth(other, world)
+        deep = np.flatnonzero(depth > tol)
+        if len(deep):
+            return np.asarray(world[deep[np.argmax(depth[deep])]])
+        size = (hi - lo) * scale
+        # the shell's directions of azimuth, generator and height are orthogonal, each
+        # stretched by at most ``scale``: no point of a cell is further from its centre
+        reach = 0.5 * np.sqrt((size * size).sum(axis=1))
+        open_ = (depth + reach > tol) & (reach > resolution)
+        lo, hi, size = lo[open_], hi[open_], size[open_]
+        if len(lo) > MAX_CELLS // 2:
+            raise ConfigError(
+                f"{layer.name}: the clearance check against {other.name} needs more than "
+                f"{MAX_CELLS} cells (the two envelopes touch over a large area); move them apart "
+                "by a micrometre"
+            )
+        axis = np.argmax(size, axis=1)
+        cut = 0.5 * (lo[np.arange(len(lo)), axis] + hi[np.arange(len(lo)), axis])
+        lo2, hi2 = lo.copy(), hi.copy()
+        hi[np.arange(len(lo)), axis] = cut
+        lo2[np.arange(len(lo)), axis] = cut
+        lo, hi = np.concatenate([lo, lo2]), np.concatenate([hi, hi2])
+    return None
+
+
+def _gap_under(layer: CurvedRoughLayer, other: RoughLayer, point: np.ndarray) -> float:
+    """Height above a curved layer's face, bisected along the face normal under ``point`` (in
+    both envelopes), where ``other``'s envelope begins (mm)."""
+    face = layer.ring_layout.face
+    u, v, hi = (float(x[0]) for x in face.locate(layer.target.to_local(point[None, :])))
+    base, normal = face.point(u, v), face.normal(u, v)
+    lo = 0.0
+    if _depth(other, layer.target.to_world(base[None, :]))[0] > 0:
+        return 0.0
+    for _ in range(50):
+        mid = 0.5 * (lo + hi)
+        if _depth(other, layer.target.to_world((base + mid * normal)[None, :]))[0] > 0:
+            hi = mid
+        else:
+            lo = mid
+    return hi
