@@ -37,6 +37,7 @@ from .scene import (
     shape_contains,
     target_aabb,
     target_obb,
+    wall_envelope,
 )
 
 
@@ -438,7 +439,16 @@ def _depth(layer: RoughLayer, points: np.ndarray) -> np.ndarray:
         u, v, h = face.locate(q)
         (u0, _), (v0, v1) = face.extent
         depth = np.minimum(h, t - h)
-        if isinstance(face, SphereFace):
+        if layer._cone_envelope:  # the G4Cons between the z planes of the face's ends
+            a1, b1, a2, b2, dz, zc = wall_envelope(layer)
+            rho, z = np.hypot(q[:, 0], q[:, 1]), q[:, 2] - (zc - dz)
+
+            def beyond(r1: float, r2: float) -> np.ndarray:  # signed distance past a line
+                n = np.array([2 * dz, -(r2 - r1)]) / np.hypot(2 * dz, r2 - r1)
+                return np.asarray(n[0] * (rho - r1) + n[1] * z)
+
+            depth = np.minimum.reduce([z, 2 * dz - z, beyond(a1, a2), -beyond(b1, b2)])
+        elif isinstance(face, SphereFace):
             r = np.linalg.norm(q, axis=1)
             a = np.clip((v - v0) / face.sphere_radius, -np.pi / 2, np.pi / 2)
             b = np.clip((v1 - v) / face.sphere_radius, -np.pi / 2, np.pi / 2)
@@ -504,33 +514,52 @@ def shells_meet(
     t = layer.thickness
     (u0, u1), (v0, v1) = face.extent
     resolution = max(min(t, other.thickness) / 2, 1e-7)
-    if isinstance(face, SphereFace):
+    cone = layer._cone_envelope
+    if cone:  # cells of (azimuth, z, across) in the G4Cons between the face's z planes
+        a1, b1, a2, b2, dz, zc = wall_envelope(layer)
+        v0, v1 = 0.0, 2 * dz  # (v: height above the lower z plane; h: 0 inner .. t outer)
+        rho_max = max(b1, b2)
+        # d/dz moves along z and out by the lines' slope, d/dh across (radially) by at most
+        # the widest end over t: the two add up at most
+        v_scale = float(np.hypot(1.0, max(abs(a2 - a1), abs(b2 - b1)) / (2 * dz)))
+        h_scale = max(b1 - a1, b2 - a2) / t
+    elif isinstance(face, SphereFace):
         r_out = face.sphere_radius + t
-        rho_max, v_scale = r_out, r_out / face.sphere_radius
+        rho_max, v_scale, h_scale = r_out, r_out / face.sphere_radius, 1.0
     else:
         rho_max = float(np.max(face.radius(np.array([v0, v1])))) + t
-        v_scale = 1.0
+        v_scale, h_scale = 1.0, 1.0
+
+    def position(m: np.ndarray) -> np.ndarray:
+        """World points of cell centres (azimuth, v, h)."""
+        if cone:
+            f, s = m[:, 1] / (2 * dz), m[:, 2] / t
+            r = (a1 + f * (a2 - a1)) + s * ((b1 + f * (b2 - b1)) - (a1 + f * (a2 - a1)))
+            local = np.column_stack([r * np.cos(m[:, 0]), r * np.sin(m[:, 0]), zc - dz + m[:, 1]])
+        else:
+            local = face.point(m[:, 0], m[:, 1]) + m[:, 2, None] * face.normal(m[:, 0], m[:, 1])
+        return np.asarray(layer.target.to_world(local))
+
     n_u = int(np.clip(np.ceil(rho_max * (u1 - u0) / max(v1 - v0, t)), 1, 4096))
     n_v = int(np.clip(np.ceil((v1 - v0) / max(rho_max * (u1 - u0) / n_u, t)), 1, 4096))
     eu, ev = np.linspace(u0, u1, n_u + 1), np.linspace(v0, v1, n_v + 1)
     ui, vi = np.meshgrid(np.arange(n_u), np.arange(n_v), indexing="ij")
     lo = np.column_stack([eu[ui.ravel()], ev[vi.ravel()], np.zeros(ui.size)])
     hi = np.column_stack([eu[ui.ravel() + 1], ev[vi.ravel() + 1], np.full(ui.size, t)])
-    scale = np.array([rho_max, v_scale, 1.0])  # mm per unit of each parameter, at most
+    scale = np.array([rho_max, v_scale, h_scale])  # mm per unit of each parameter, at most
     while len(lo):
         mid = 0.5 * (lo + hi)
-        local = face.point(mid[:, 0], mid[:, 1]) + mid[:, 2, None] * face.normal(
-            mid[:, 0], mid[:, 1]
-        )
-        world = layer.target.to_world(local)
+        world = position(mid)
         depth = _depth(other, world)
         deep = np.flatnonzero(depth > tol)
         if len(deep):
             return np.asarray(world[deep[np.argmax(depth[deep])]])
         size = (hi - lo) * scale
-        # the shell's directions of azimuth, generator and height are orthogonal, each
-        # stretched by at most ``scale``: no point of a cell is further from its centre
-        reach = 0.5 * np.sqrt((size * size).sum(axis=1))
+        # the azimuth's direction is orthogonal to the other two, each stretched by at most
+        # ``scale``: no point of a cell is further from its centre (on a shell of normals the
+        # other two are orthogonal as well; in a G4Cons they are added)
+        inplane = np.hypot(size[:, 1], size[:, 2]) if not cone else size[:, 1] + size[:, 2]
+        reach = 0.5 * np.hypot(size[:, 0], inplane)
         open_ = (depth + reach > tol) & (reach > resolution)
         lo, hi, size = lo[open_], hi[open_], size[open_]
         if len(lo) > MAX_CELLS // 2:
