@@ -99,3 +99,37 @@ def test_layers_apart_pass(tmp_path):
     """23 um apart the two 11 um layers keep 1 um of space: accepted."""
     scene = build_scene(parse_config(config(write_world(tmp_path / "apart.gdml", 23.0))))
     assert len(scene.layers) == 2
+
+
+@pytest.fixture(scope="module")
+def bege_gdml(tmp_path_factory):
+    pytest.importorskip("pygeomhpges")
+    import runpy
+
+    from test_bege_whole_surface import MINI, WRITER
+
+    gdml = tmp_path_factory.mktemp("bege_depth") / "mini.gdml"
+    runpy.run_path(str(WRITER), run_name="write")["main"](str(gdml), metadata=True, detector=MINI)
+    return gdml
+
+
+@pytest.mark.parametrize("face", ["seg_6", "seg_7"])  # a cylinder wall, a cone (G4Cons envelope)
+def test_the_depth_agrees_with_the_envelope(bege_gdml, face):
+    """The exact search's depth in a curved layer's envelope is positive where ``in_shell``
+    holds and negative elsewhere (points scattered around the small BEGe's side and taper),
+    and changes by no more than the distance a point moves."""
+    from test_bege_whole_surface import config as bege_config
+
+    (layer,) = build_scene(parse_config(bege_config(bege_gdml, face=face, source_face=face))).layers
+    rng = np.random.default_rng(4)
+    shell = layer.shell_points()
+    pts = shell[rng.integers(len(shell), size=20000)] + rng.normal(scale=0.01, size=(20000, 3))
+    depth = clearance._depth(layer, pts)
+    inside = layer.in_shell(pts)
+    assert inside.any()
+    assert (~inside).any()
+    assert (depth[inside] > 0).all()
+    assert (depth[~inside] <= 1e-9).all()
+    step = rng.normal(scale=0.003, size=pts.shape)
+    moved = clearance._depth(layer, pts + step)
+    assert (np.abs(moved - depth) <= np.linalg.norm(step, axis=1) + 1e-12).all()
