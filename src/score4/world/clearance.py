@@ -22,7 +22,7 @@ from score4.errors import ConfigError
 from score4.shapes import Shape, shape_from_dict
 from score4.shapes.faces import SphereFace
 
-from .facets import boundary_edges
+from .facets import boundary_edges, point_in_triangles
 from .gdml_model import GeometryModel, Instance
 from .obb import OrientedBox
 from .scene import (
@@ -192,7 +192,7 @@ def check_gdml_clearance(scene: Scene) -> None:
         mother = layer.target.mother
         assert mother is not None  # in a GDML world every target has a mother (the world at least)
         own = layer.target.instance.index if layer.target.instance is not None else -1
-        if isinstance(layer, PolygonRoughLayer | RingRoughLayer) and not layer.config.into:
+        if _shaped(layer) and not layer.config.into:
             # (into: the layer is in the slab the solid is cut or clipped by)
             own_body = _target_body(layer.target)
             if _layer_meets(own_body, layer, box):  # a concave edge of its own solid
@@ -220,7 +220,7 @@ def check_gdml_clearance(scene: Scene) -> None:
                         continue
                 gap = _pair_gap(layer, other) if hit is None else _gap_under(other, layer, hit)
                 raise ConfigError(_meets(layer, f"the rough layer {other.name}", gap))
-            if isinstance(layer, _SHAPED) or isinstance(other, _SHAPED):
+            if _shaped(layer) or _shaped(other):
                 met = other_box.overlaps(box) and bool(
                     _in_envelope(other, other_box, _envelope_points(layer, box)).any()
                     or _in_envelope(layer, box, _envelope_points(other, other_box)).any()
@@ -238,15 +238,21 @@ def check_gdml_clearance(scene: Scene) -> None:
 _SHAPED = (PolygonRoughLayer, RingRoughLayer)
 
 
+def _shaped(layer: RoughLayer) -> bool:
+    """A flat layer whose envelope is not its box: a polygon's prism, a ring, or the prism of
+    its kept cells (``cells_envelope``)."""
+    return isinstance(layer, _SHAPED) or layer.cells_envelope
+
+
 def _envelope_points(layer: RoughLayer, box: OrientedBox) -> np.ndarray:
     """Points of a flat layer's envelope: its prism's for a polygon face, its ring's for a
     round face, else its box's grid."""
-    return layer.envelope_points() if isinstance(layer, _SHAPED) else box.grid()
+    return layer.envelope_points() if _shaped(layer) else box.grid()
 
 
 def _in_envelope(layer: RoughLayer, box: OrientedBox, points: np.ndarray) -> np.ndarray:
     """True for world points strictly inside a flat layer's envelope."""
-    if isinstance(layer, _SHAPED):
+    if _shaped(layer):
         return layer.in_envelope(points)
     return box.contains(points)
 
@@ -284,7 +290,7 @@ def _pair_gap(layer: RoughLayer, other: RoughLayer) -> float:
 
 def _layer_meets(body: _Body, layer: RoughLayer, box: OrientedBox) -> bool:
     """The layer's envelope (a box, the prism of a polygon face or a ring) meets ``body``."""
-    if not isinstance(layer, _SHAPED):
+    if not _shaped(layer):
         return body.meets(box)
     if not body.obb.overlaps(box):
         return False
@@ -413,7 +419,7 @@ def _check_inside_mother(
 ) -> None:
     lv = model.logicals[mother.logical]
     body = _instance_body(model, mother)
-    pts = layer.envelope_points() if isinstance(layer, _SHAPED) else body.probe_points(box)
+    pts = layer.envelope_points() if _shaped(layer) else body.probe_points(box)
     inside = body.contains(mother.to_local(pts))
     if not inside.all():
         raise ConfigError(
@@ -477,15 +483,21 @@ def _depth(layer: RoughLayer, points: np.ndarray) -> np.ndarray:
         return np.asarray(
             np.minimum.reduce([q[:, 2], t - q[:, 2], rho - layer.rmin, layer.rmax - rho])
         )
-    if isinstance(layer, PolygonRoughLayer):
+    if isinstance(layer, PolygonRoughLayer) or layer.cells_envelope:
+        # a prism: of the face's polygon, or of the kept cells of a boolean's face
+        outline = layer.outline if isinstance(layer, PolygonRoughLayer) else layer.cells_outline()
         q = layer.frame.to_local(p)
-        edges = boundary_edges(layer.outline)
+        edges = boundary_edges(outline)
         a, b = edges[:, 0], edges[:, 1]
         d = b - a
-        w = q[:, None, :2] - a[None]
-        s = np.clip(np.einsum("nmc,mc->nm", w, d) / np.maximum((d * d).sum(axis=1), 1e-300), 0, 1)
-        gap = np.linalg.norm(w - s[..., None] * d[None], axis=2).min(axis=1)
-        flat = np.where(layer.in_face(q[:, :2], 0.0), gap, -gap)
+        dd = np.maximum((d * d).sum(axis=1), 1e-300)
+        gap = np.empty(len(q))
+        block = max(1, 4_000_000 // max(len(edges), 1))  # points x edges per block
+        for k in range(0, len(q), block):
+            w = q[k : k + block, None, :2] - a[None]
+            s = np.clip(np.einsum("nmc,mc->nm", w, d) / dd, 0, 1)
+            gap[k : k + block] = np.linalg.norm(w - s[..., None] * d[None], axis=2).min(axis=1)
+        flat = np.where(point_in_triangles(q[:, :2], outline, 0.0), gap, -gap)
         return np.asarray(np.minimum.reduce([q[:, 2], t - q[:, 2], flat]))
     box = layer.envelope_box()
     q = box.transform.inverse_apply(p)
