@@ -133,3 +133,27 @@ def test_the_depth_agrees_with_the_envelope(bege_gdml, face):
     step = rng.normal(scale=0.003, size=pts.shape)
     moved = clearance._depth(layer, pts + step)
     assert (np.abs(moved - depth) <= np.linalg.norm(step, axis=1) + 1e-12).all()
+
+
+def test_the_depth_agrees_with_a_boolean_faces_cells_envelope(tmp_path):
+    """A union's disk face (a ring) partly covered by its post keeps the prism of its kept
+    cells as envelope (``cells_envelope``): the depth follows that prism, not the ring, and the
+    post's wall layer rising from it does not meet it."""
+    from test_boolean_faces import config as boolean_config
+
+    from helpers.boolean_worlds import write_more_world
+
+    gdml = write_more_world(tmp_path / "more.gdml")
+    data = boolean_config(gdml, {"stack": ["first.+z", "second.outer"]})
+    top, wall = build_scene(parse_config(data)).layers
+    assert top.cells_envelope
+    rng = np.random.default_rng(5)
+    pts = top.envelope_points()
+    pts = pts[rng.integers(len(pts), size=20000)] + rng.normal(scale=0.02, size=(20000, 3))
+    depth = clearance._depth(top, pts)
+    inside = top.in_envelope(pts)
+    assert inside.any()
+    assert (~inside).any()
+    assert (depth[inside] > 0).all()
+    assert (depth[~inside] <= 1e-9).all()
+    assert clearance.shells_meet(wall, top) is None

@@ -477,15 +477,9 @@ def _depth(layer: RoughLayer, points: np.ndarray) -> np.ndarray:
             )
             depth = np.minimum(depth, wedge)
         return np.asarray(depth)
-    if isinstance(layer, RingRoughLayer):
-        q = layer.frame.to_local(p)
-        rho = np.hypot(q[:, 0], q[:, 1])
-        return np.asarray(
-            np.minimum.reduce([q[:, 2], t - q[:, 2], rho - layer.rmin, layer.rmax - rho])
-        )
-    if isinstance(layer, PolygonRoughLayer) or layer.cells_envelope:
-        # a prism: of the face's polygon, or of the kept cells of a boolean's face
-        outline = layer.outline if isinstance(layer, PolygonRoughLayer) else layer.cells_outline()
+    if layer.cells_envelope or isinstance(layer, PolygonRoughLayer):
+        # a prism: of the kept cells of a boolean's face (a ring's too), or of the face's polygon
+        outline = layer.cells_outline() if layer.cells_envelope else layer.outline
         q = layer.frame.to_local(p)
         edges = boundary_edges(outline)
         a, b = edges[:, 0], edges[:, 1]
@@ -499,6 +493,12 @@ def _depth(layer: RoughLayer, points: np.ndarray) -> np.ndarray:
             gap[k : k + block] = np.linalg.norm(w - s[..., None] * d[None], axis=2).min(axis=1)
         flat = np.where(point_in_triangles(q[:, :2], outline, 0.0), gap, -gap)
         return np.asarray(np.minimum.reduce([q[:, 2], t - q[:, 2], flat]))
+    if isinstance(layer, RingRoughLayer):
+        q = layer.frame.to_local(p)
+        rho = np.hypot(q[:, 0], q[:, 1])
+        return np.asarray(
+            np.minimum.reduce([q[:, 2], t - q[:, 2], rho - layer.rmin, layer.rmax - rho])
+        )
     box = layer.envelope_box()
     q = box.transform.inverse_apply(p)
     return np.asarray((box.half - np.abs(q)).min(axis=1))
