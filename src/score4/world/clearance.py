@@ -479,7 +479,11 @@ def _depth(layer: RoughLayer, points: np.ndarray) -> np.ndarray:
         return np.asarray(depth)
     if layer.cells_envelope or isinstance(layer, PolygonRoughLayer):
         # a prism: of the kept cells of a boolean's face (a ring's too), or of the face's polygon
-        outline = layer.cells_outline() if layer.cells_envelope else layer.outline
+        outline = (
+            layer.outline
+            if isinstance(layer, PolygonRoughLayer) and not layer.cells_envelope
+            else layer.cells_outline()
+        )
         q = layer.frame.to_local(p)
         edges = boundary_edges(outline)
         a, b = edges[:, 0], edges[:, 1]
