@@ -31,3 +31,56 @@ def check(config_data: dict, plant_overlap: bool) -> tuple[bool, list[str], int,
             built.world, points=500, max_placements=20, layers=built_scene.layers
         )
     return report.ok, report.overlaps, report.checked, report.exact, report.total
+
+
+def check_curved(config_data: dict, plant_overlap: bool, max_placements: int = 20) -> dict:
+    """Check a world with a curved layer; ``plant_overlap``: one more copy of the envelope's
+    first cell, turned by half a cell about the axis (it overlaps two cells)."""
+    from score4.geometry.check import check_placements
+    from score4.geometry.world import build_world
+    from score4.inputs.config import parse_config
+    from score4.sim.runtime import import_geant4, redirect_native_output, resolve_physics
+
+    config = parse_config(config_data)
+    g4 = import_geant4(resolve_physics("lite"))
+    lines: list[str] = []
+    with redirect_native_output(None):
+        plan = plan_run(config, physics=resolve_physics("lite"), source=False)
+        (layer,) = plan.scene.layers
+        built = build_world(g4, plan)
+        if plant_overlap:
+            world_lv = built.world.GetLogicalVolume()
+            env = next(
+                world_lv.GetDaughter(i).GetLogicalVolume()
+                for i in range(world_lv.GetNoDaughters())
+                if str(world_lv.GetDaughter(i).GetName()) == layer.name
+            )
+            first = env.GetDaughter(0)
+            rot = g4.G4RotationMatrix(first.GetObjectRotationValue())
+            rot.rotateZ(0.5 * float(layer.ring_layout.step[0]))
+            pv = g4.G4PVPlacement(
+                g4.G4Transform3D(rot, first.GetObjectTranslation()),
+                first.GetLogicalVolume(),
+                "planted",
+                env,
+                False,
+                9999,
+                False,
+            )
+            built.keep += [rot, pv]
+        report = check_placements(
+            built.world,
+            points=200,
+            max_placements=max_placements,
+            layers=plan.scene.layers,
+            progress=lines.append,
+        )
+    return {
+        "ok": report.ok,
+        "overlaps": report.overlaps,
+        "curved": report.curved,
+        "sampled": report.sampled,
+        "checked": report.checked,
+        "no_points": report.no_points,
+        "lines": lines,
+    }

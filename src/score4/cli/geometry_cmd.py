@@ -66,9 +66,16 @@ def check(config_file: Path, points: int, max_placements: int, tolerance: str, l
     g4 = import_geant4(lite)
     with tempfile.TemporaryDirectory() as tmp:
         log = log_path or Path(tmp) / "geant4.log"
-        with redirect_native_output(log), naming_file(config_file):
+        with redirect_native_output(log) as console, naming_file(config_file):
             built = build_world(g4, plan)
-            report = check_placements(built.world, points, tol, max_placements, layers=scene.layers)
+
+            def progress(line: str) -> None:
+                console.write(f"  {line}\n")
+                console.flush()
+
+            report = check_placements(
+                built.world, points, tol, max_placements, layers=scene.layers, progress=progress
+            )
         click.echo(
             f"Geant4 checked {report.checked} of {report.total} placements with {points} points "
             "each"
@@ -77,7 +84,19 @@ def check(config_file: Path, points: int, max_placements: int, tolerance: str, l
                 if report.exact
                 else ""
             )
+            + (
+                f"; {report.curved} cells of curved layers by exact tiling, Geant4 on "
+                f"{report.sampled} placements of sampled neighbourhoods"
+                if report.curved
+                else ""
+            )
         )
+        if report.no_points:
+            click.echo(
+                f"{len(report.no_points)} solid(s) Geant4 cannot put points on (thin boolean "
+                f"cells; the exact tiling covers them): {', '.join(report.no_points[:4])}"
+                + (" ..." if len(report.no_points) > 4 else "")
+            )
         if report.ok:
             click.echo("no overlaps")
             return

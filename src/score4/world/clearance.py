@@ -20,7 +20,9 @@ import numpy as np
 
 from score4.errors import ConfigError
 from score4.shapes import Shape, shape_from_dict
+from score4.shapes.faces import SphereFace
 
+from .facets import boundary_edges, point_in_triangles
 from .gdml_model import GeometryModel, Instance
 from .obb import OrientedBox
 from .scene import (
@@ -35,6 +37,7 @@ from .scene import (
     shape_contains,
     target_aabb,
     target_obb,
+    wall_envelope,
 )
 
 
@@ -210,11 +213,13 @@ def check_gdml_clearance(scene: Scene) -> None:
             if other.target.mother != mother:
                 continue
             if isinstance(other, CurvedRoughLayer):
-                if other.in_shell(_envelope_points(layer, box)).any():
-                    raise ConfigError(
-                        _meets(layer, f"the rough layer {other.name}", _pair_gap(layer, other))
-                    )
-                continue
+                hit = None
+                if not other.in_shell(_envelope_points(layer, box)).any():
+                    hit = shells_meet(other, layer) if other.envelope_box().overlaps(box) else None
+                    if hit is None:
+                        continue
+                gap = _pair_gap(layer, other) if hit is None else _gap_under(other, layer, hit)
+                raise ConfigError(_meets(layer, f"the rough layer {other.name}", gap))
             if _shaped(layer) or _shaped(other):
                 met = other_box.overlaps(box) and bool(
                     _in_envelope(other, other_box, _envelope_points(layer, box)).any()
@@ -330,9 +335,18 @@ def _check_curved(
             meets = bool(_in_envelope(other, box, points).any()) or bool(
                 layer.in_shell(_envelope_points(other, box)).any()
             )
+        gap = None
+        if not meets and layer.envelope_box().overlaps(other.envelope_box()):
+            found = shells_meet(layer, other)  # exact, where the points are sparse
+            meets = found is not None
+            gap = None if found is None else _gap_under(layer, other, found)
         if meets:
             raise ConfigError(
-                _meets(layer, f"the rough layer {other.name}", _pair_gap(layer, other))
+                _meets(
+                    layer,
+                    f"the rough layer {other.name}",
+                    _pair_gap(layer, other) if gap is None else gap,
+                )
             )
     body = _instance_body(model, mother)
     if not body.contains(mother.to_local(points)).all():
@@ -415,3 +429,183 @@ def _check_inside_mother(
             f"{model.label(mother)!r} ({lv.solid_type}); use into: true (the layer inside the "
             "volume) or a lower surface"
         )
+
+
+def _depth(layer: RoughLayer, points: np.ndarray) -> np.ndarray:
+    """How deep world points lie in a layer's envelope: positive inside, negative outside, and
+    never more than the distance to the envelope's boundary (so it changes by at most the
+    distance a point moves): the least of the signed distances to the surfaces that bound it
+    (planes, the face and its offset, cones of normals or polar angle, half-planes of azimuth,
+    cylinders of a ring, the edges of a polygon)."""
+    p = np.asarray(points, float).reshape(-1, 3)
+    t = layer.thickness
+    if isinstance(layer, CurvedRoughLayer):
+        face = layer.ring_layout.face
+        q = layer.target.to_local(p)
+        u, v, h = face.locate(q)
+        (u0, _), (v0, v1) = face.extent
+        depth = np.minimum(h, t - h)
+        if layer._cone_envelope:  # the G4Cons between the z planes of the face's ends
+            a1, b1, a2, b2, dz, zc = wall_envelope(layer)
+            rho, z = np.hypot(q[:, 0], q[:, 1]), q[:, 2] - (zc - dz)
+
+            def beyond(r1: float, r2: float) -> np.ndarray:  # signed distance past a line
+                n = np.array([2 * dz, -(r2 - r1)]) / np.hypot(2 * dz, r2 - r1)
+                return np.asarray(n[0] * (rho - r1) + n[1] * z)
+
+            depth = np.minimum.reduce([z, 2 * dz - z, beyond(a1, a2), -beyond(b1, b2)])
+        elif isinstance(face, SphereFace):
+            r = np.linalg.norm(q, axis=1)
+            a = np.clip((v - v0) / face.sphere_radius, -np.pi / 2, np.pi / 2)
+            b = np.clip((v1 - v) / face.sphere_radius, -np.pi / 2, np.pi / 2)
+            depth = np.minimum(depth, r * np.minimum(np.sin(a), np.sin(b)))
+        else:
+            depth = np.minimum(depth, np.minimum(v - v0, v1 - v))
+        if face.dphi < 2 * np.pi - 1e-12:
+            rho = np.hypot(q[:, 0], q[:, 1])
+            a = u - u0  # in [0, 2 pi)
+            half = np.pi / 2
+
+            def far(x: np.ndarray) -> np.ndarray:
+                return rho * np.sin(np.clip(x, 0.0, half))
+
+            inside = a <= face.dphi
+            wedge = np.where(
+                inside,
+                np.minimum(far(a), far(face.dphi - a)),
+                -np.minimum(far(a - face.dphi), far(2 * np.pi - a)),
+            )
+            depth = np.minimum(depth, wedge)
+        return np.asarray(depth)
+    if layer.cells_envelope or isinstance(layer, PolygonRoughLayer):
+        # a prism: of the kept cells of a boolean's face (a ring's too), or of the face's polygon
+        outline = (
+            layer.outline
+            if isinstance(layer, PolygonRoughLayer) and not layer.cells_envelope
+            else layer.cells_outline()
+        )
+        q = layer.frame.to_local(p)
+        edges = boundary_edges(outline)
+        a, b = edges[:, 0], edges[:, 1]
+        d = b - a
+        dd = np.maximum((d * d).sum(axis=1), 1e-300)
+        gap = np.empty(len(q))
+        block = max(1, 4_000_000 // max(len(edges), 1))  # points x edges per block
+        for k in range(0, len(q), block):
+            w = q[k : k + block, None, :2] - a[None]
+            s = np.clip(np.einsum("nmc,mc->nm", w, d) / dd, 0, 1)
+            gap[k : k + block] = np.linalg.norm(w - s[..., None] * d[None], axis=2).min(axis=1)
+        flat = np.where(point_in_triangles(q[:, :2], outline, 0.0), gap, -gap)
+        return np.asarray(np.minimum.reduce([q[:, 2], t - q[:, 2], flat]))
+    if isinstance(layer, RingRoughLayer):
+        q = layer.frame.to_local(p)
+        rho = np.hypot(q[:, 0], q[:, 1])
+        return np.asarray(
+            np.minimum.reduce([q[:, 2], t - q[:, 2], rho - layer.rmin, layer.rmax - rho])
+        )
+    box = layer.envelope_box()
+    q = box.transform.inverse_apply(p)
+    return np.asarray((box.half - np.abs(q)).min(axis=1))
+
+
+#: Most cells the exact search of :func:`shells_meet` keeps at once (a bound on its memory).
+MAX_CELLS = 2_000_000
+
+
+def shells_meet(
+    layer: CurvedRoughLayer, other: RoughLayer, tol: float = BOUNDARY_TOLERANCE
+) -> np.ndarray | None:
+    """A world point strictly inside both a curved layer's envelope and ``other``'s (by more
+    than ``tol``), or None when there is none deeper than ``tol + resolution``, resolution
+    being half the thinner layer (5.5 um for two 11 um layers).
+
+    The shell is cut into cells of its (azimuth, generator, height) box; a cell whose centre is
+    at depth ``d`` in ``other`` (:func:`_depth`) and whose points are all within ``R`` of its
+    centre (half its diagonal, the three directions being orthogonal) holds no point deeper
+    than ``d + R``: such cells are dropped, a centre deeper than
+    ``tol`` is the answer, and the other cells are halved along their longest side until they
+    are smaller than the resolution. Points are never missed between samples, however thin
+    the layers (the grid of :meth:`CurvedRoughLayer.shell_points` can miss a 20 um layer)."""
+    face = layer.ring_layout.face
+    t = layer.thickness
+    (u0, u1), (v0, v1) = face.extent
+    resolution = max(min(t, other.thickness) / 2, 1e-7)
+    cone = layer._cone_envelope
+    if cone:  # cells of (azimuth, z, across) in the G4Cons between the face's z planes
+        a1, b1, a2, b2, dz, zc = wall_envelope(layer)
+        v0, v1 = 0.0, 2 * dz  # (v: height above the lower z plane; h: 0 inner .. t outer)
+        rho_max = max(b1, b2)
+        # d/dz moves along z and out by the lines' slope, d/dh across (radially) by at most
+        # the widest end over t: the two add up at most
+        v_scale = float(np.hypot(1.0, max(abs(a2 - a1), abs(b2 - b1)) / (2 * dz)))
+        h_scale = max(b1 - a1, b2 - a2) / t
+    elif isinstance(face, SphereFace):
+        r_out = face.sphere_radius + t
+        rho_max, v_scale, h_scale = r_out, r_out / face.sphere_radius, 1.0
+    else:
+        rho_max = float(np.max(face.radius(np.array([v0, v1])))) + t
+        v_scale, h_scale = 1.0, 1.0
+
+    def position(m: np.ndarray) -> np.ndarray:
+        """World points of cell centres (azimuth, v, h)."""
+        if cone:
+            f, s = m[:, 1] / (2 * dz), m[:, 2] / t
+            r = (a1 + f * (a2 - a1)) + s * ((b1 + f * (b2 - b1)) - (a1 + f * (a2 - a1)))
+            local = np.column_stack([r * np.cos(m[:, 0]), r * np.sin(m[:, 0]), zc - dz + m[:, 1]])
+        else:
+            local = face.point(m[:, 0], m[:, 1]) + m[:, 2, None] * face.normal(m[:, 0], m[:, 1])
+        return np.asarray(layer.target.to_world(local))
+
+    n_u = int(np.clip(np.ceil(rho_max * (u1 - u0) / max(v1 - v0, t)), 1, 4096))
+    n_v = int(np.clip(np.ceil((v1 - v0) / max(rho_max * (u1 - u0) / n_u, t)), 1, 4096))
+    eu, ev = np.linspace(u0, u1, n_u + 1), np.linspace(v0, v1, n_v + 1)
+    ui, vi = np.meshgrid(np.arange(n_u), np.arange(n_v), indexing="ij")
+    lo = np.column_stack([eu[ui.ravel()], ev[vi.ravel()], np.zeros(ui.size)])
+    hi = np.column_stack([eu[ui.ravel() + 1], ev[vi.ravel() + 1], np.full(ui.size, t)])
+    scale = np.array([rho_max, v_scale, h_scale])  # mm per unit of each parameter, at most
+    while len(lo):
+        mid = 0.5 * (lo + hi)
+        world = position(mid)
+        depth = _depth(other, world)
+        deep = np.flatnonzero(depth > tol)
+        if len(deep):
+            return np.asarray(world[deep[np.argmax(depth[deep])]])
+        size = (hi - lo) * scale
+        # the azimuth's direction is orthogonal to the other two, each stretched by at most
+        # ``scale``: no point of a cell is further from its centre (on a shell of normals the
+        # other two are orthogonal as well; in a G4Cons they are added)
+        inplane = np.hypot(size[:, 1], size[:, 2]) if not cone else size[:, 1] + size[:, 2]
+        reach = 0.5 * np.hypot(size[:, 0], inplane)
+        open_ = (depth + reach > tol) & (reach > resolution)
+        lo, hi, size = lo[open_], hi[open_], size[open_]
+        if len(lo) > MAX_CELLS // 2:
+            raise ConfigError(
+                f"{layer.name}: the clearance check against {other.name} needs more than "
+                f"{MAX_CELLS} cells (the two envelopes touch over a large area); move them apart "
+                "by a micrometre"
+            )
+        axis = np.argmax(size, axis=1)
+        cut = 0.5 * (lo[np.arange(len(lo)), axis] + hi[np.arange(len(lo)), axis])
+        lo2, hi2 = lo.copy(), hi.copy()
+        hi[np.arange(len(lo)), axis] = cut
+        lo2[np.arange(len(lo)), axis] = cut
+        lo, hi = np.concatenate([lo, lo2]), np.concatenate([hi, hi2])
+    return None
+
+
+def _gap_under(layer: CurvedRoughLayer, other: RoughLayer, point: np.ndarray) -> float:
+    """Height above a curved layer's face, bisected along the face normal under ``point`` (in
+    both envelopes), where ``other``'s envelope begins (mm)."""
+    face = layer.ring_layout.face
+    u, v, hi = (float(x[0]) for x in face.locate(layer.target.to_local(point[None, :])))
+    base, normal = face.point(u, v), face.normal(u, v)
+    lo = 0.0
+    if _depth(other, layer.target.to_world(base[None, :]))[0] > 0:
+        return 0.0
+    for _ in range(50):
+        mid = 0.5 * (lo + hi)
+        if _depth(other, layer.target.to_world((base + mid * normal)[None, :]))[0] > 0:
+            hi = mid
+        else:
+            lo = mid
+    return hi

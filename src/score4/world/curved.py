@@ -453,9 +453,10 @@ def measure_floor(
     base: float,
     j: int,
     column: float | None = None,
+    lift: float = 0.0,
 ) -> tuple[float, float]:
     """Lowest and highest height (mm) above the true surface of the bent floor of a patch of
-    ring ``j`` with no lift: points on its facets (corners, edge midpoints, inner points)
+    ring ``j`` lifted by ``lift``: points on its facets (corners, edge midpoints, inner points)
     located exactly. On a sphere also each facet's circumcentre where it lies in the facet:
     a flat triangle with its corners on a sphere dips deepest there (else at the midpoint of
     its longest edge), so the lowest height is exact. ``column``: the floor's columns of this
@@ -468,7 +469,7 @@ def measure_floor(
         floor = floor[(x <= x.min() + column * (1 + 1e-9)).all(axis=1)]
     used = np.unique(floor)
     bent = np.zeros_like(v)
-    bent[used] = layout.bend(v[used], j, base)
+    bent[used] = layout.bend(v[used], j, base + lift)
     bent[:, 2] += layout.ring_z(j)
     tri = bent[floor]
     w = np.array([[1, 0, 0], [0.5, 0.5, 0], [1 / 3, 1 / 3, 1 / 3], [0.5, 0.25, 0.25]])
@@ -488,8 +489,43 @@ def measure_floor(
                 np.einsum("kw,twc->tkc", mids, tri).reshape(-1, 3),
             ]
         )
-    h = layout.face.locate(pts)[2]
+    face = layout.face
+    if isinstance(face, RevolvedFace):
+        # the height above a cone or cylinder is nr rho + (linear in z): on a flat facet convex
+        # (nr > 0) or concave, and linear along every ray in the facet's plane from the axis's
+        # foot, so its extremes on a facet lie on its edges, where a 1-d search finds them (the
+        # points above miss a long edge's deepest point: a strip facet samples one edge's
+        # midpoint, and a chord across the patch's far end dips deeper than one at its centre)
+        edges = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+        sign = 1.0 if face.nrz[0] > 0 else -1.0
+        pts = np.vstack([pts, _edge_extremes(face, edges[:, 0], edges[:, 1], sign)])
+    h = face.locate(pts)[2]
     return float(h.min()), float(h.max())
+
+
+def _edge_extremes(face: RevolvedFace, a: np.ndarray, b: np.ndarray, sign: float) -> np.ndarray:
+    """The point of each segment ``a`` -> ``b`` where ``sign`` times the height above ``face``
+    (convex along the segment) is least: a golden-section search, its bracket 0.618^48 (1e-10)
+    of the segment at the end (the height there is exact to rounding: it is flat at its least,
+    by (1e-10 x segment)^2 / radius)."""
+    g = (np.sqrt(5.0) - 1) / 2
+    lo, hi = np.zeros(len(a)), np.ones(len(a))
+
+    def f(s: np.ndarray) -> np.ndarray:
+        return sign * face.locate(a + s[:, None] * (b - a))[2]
+
+    x1, x2 = hi - g * (hi - lo), lo + g * (hi - lo)
+    f1, f2 = f(x1), f(x2)
+    for _ in range(48):
+        left = f1 <= f2  # the least is in [lo, x2]: x1 becomes x2, a new x1; else the mirror
+        hi = np.where(left, x2, hi)
+        lo = np.where(left, lo, x1)
+        new = np.where(left, hi - g * (hi - lo), lo + g * (hi - lo))
+        f_new = f(new)
+        x1, x2 = np.where(left, new, x2), np.where(left, x1, new)
+        f1, f2 = np.where(left, f_new, f2), np.where(left, f1, f_new)
+    s = 0.5 * (lo + hi)
+    return a + s[:, None] * (b - a)
 
 
 def top_sagitta(layout: RingLayout, flat: tuple[np.ndarray, np.ndarray, int]) -> float:

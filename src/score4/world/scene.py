@@ -922,6 +922,11 @@ def _ring_fit(
     return rmin, rmax, by
 
 
+#: How far (mm) a bent patch's floor may dip below the true surface (a tenth of Geant4's
+#: surface tolerance, 1e-9 mm).
+FLOOR_ROUNDING = 1e-10
+
+
 def wall_envelope(layer: CurvedRoughLayer) -> tuple[float, float, float, float, float, float]:
     """``(rmin1, rmax1, rmin2, rmax2, dz, z_centre)`` of a curved layer's envelope on a cylinder
     or cone (the shape's frame): the face and the same moved out by the layer thickness along
@@ -1555,22 +1560,35 @@ def make_curved_layer(
     layer = CurvedRoughLayer(
         target, rough, frame, names, variants, patch_map, mask, float(face.area), layout
     )
-    lows, highs, tops = [], [], []
     rows = {0, ny - 1}
     if isinstance(face, SphereFace):  # the rings' shapes differ all along the meridian
         rows = {int(j) for j in np.flatnonzero(layout.count > 0)}
-    for k in range(len(variants)):
-        flat = layer._flat(k)
-        for j in rows:
+
+    def floor_heights(lift: float) -> tuple[float, float]:
+        lows, highs = [], []
+        for k in range(len(variants)):
+            flat = layer._flat(k)
             spikes = variants[k].spikes
             column = spikes.width_x if spikes is not None and isinstance(face, SphereFace) else None
-            lo, hi = measure_floor(layout, flat, rough.base_thickness, j, column)
-            lows.append(lo)
-            highs.append(hi)
-        tops.append(top_sagitta(layout, flat))
+            for j in rows:
+                lo, hi = measure_floor(layout, flat, rough.base_thickness, j, column, lift)
+                lows.append(lo)
+                highs.append(hi)
+        return min(lows), max(highs)
+
+    low, high = floor_heights(0.0)
+    tops = [top_sagitta(layout, layer._flat(k)) for k in range(len(variants))]
     convex = face.sign > 0 if isinstance(face, SphereFace) else face.nrz[0] > 0
-    layer.lift = max(-min(lows), 0.0)
-    layer.gap = max(highs) + layer.lift
+    layer.lift = max(-low, 0.0)
+    layer.gap = high + layer.lift
+    if layer.lift > 0:  # lifted, the floor's chords span a larger circle and dip a little deeper
+        # (by about lift^2 / radius): once more at that height where that is more than
+        # FLOOR_ROUNDING (a cylinder's 2e-14 mm or an orb's 2.5e-11 mm would move the patches for
+        # nothing, and change every run's tracks)
+        low, high = floor_heights(layer.lift)
+        if -low > FLOOR_ROUNDING:
+            layer.lift -= low
+            layer.gap = high - low
     layer.top_margin = 0.0 if convex else max(tops)
     limit = gap_limit(max(s.max_height for s in variants))
     check_radius(layout, layer.gap, limit, where, target.name, rough.face_name)

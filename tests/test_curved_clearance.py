@@ -1,0 +1,159 @@
+"""The clearance check of a curved layer against a flat one is exact where its grid of points is
+sparse (:func:`score4.world.clearance.shells_meet`): a 20 um pair of layers that meet between
+the grid's points is refused, with the free gap."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import score4.world.clearance as clearance
+from score4.errors import ConfigError
+from score4.inputs.config import parse_config
+from score4.world.resolve import build_scene
+
+R = 5.0  # mm, the cylinder's radius
+PYRAMIDS = {"kind": "spikes", "nx": 10, "ny": 10, "width": "10 um", "height": "10 um"}
+
+
+def write_world(path, gap_um: float):
+    """A silicon cylinder (radius 5 mm, 4 mm long) and a copper plate (0.5 x 20 x 4 mm) beside
+    it, its -x face facing the wall ``gap_um`` from it, turned to azimuth 2.5 degrees (between
+    two of the 72 azimuths of the wall's grid of points) and slid 1.25 mm along the wall (half
+    the spacing of the plate layer's grid, so no grid point lies where the two come closest)."""
+    import pyg4ometry as pg
+
+    reg = pg.geant4.Registry()
+    world = pg.geant4.LogicalVolume(
+        pg.geant4.solid.Box("world_s", 200, 200, 200, reg), "G4_Galactic", "World", reg
+    )
+    cyl = pg.geant4.LogicalVolume(
+        pg.geant4.solid.Tubs("cyl_s", 0, R, 4.0, 0, 2 * math.pi, reg), "G4_Si", "Cyl", reg
+    )
+    pg.geant4.PhysicalVolume([0, 0, 0], [0, 0, 0], cyl, "cyl", world, reg)
+    plate = pg.geant4.LogicalVolume(
+        pg.geant4.solid.Box("plate_s", 0.5, 20, 4, reg), "G4_Cu", "Plate", reg
+    )
+    phi = math.radians(2.5)
+    radial = np.array([math.cos(phi), math.sin(phi), 0.0])
+    along = np.array([-math.sin(phi), math.cos(phi), 0.0])
+    centre = (R + gap_um * 1e-3 + 0.25) * radial + 1.25 * along
+    # (GDML rotations turn the frame: -phi turns the plate by +phi)
+    pg.geant4.PhysicalVolume([0, 0, -phi], centre.tolist(), plate, "plate", world, reg)
+    reg.setWorld(world.name)
+    writer = pg.gdml.Writer()
+    writer.addDetector(reg)
+    writer.write(str(path))
+    return path
+
+
+def config(gdml) -> dict:
+    return {
+        "physics": "lite",
+        "world": {"gdml": str(gdml)},
+        "surfaces": {"p": PYRAMIDS},
+        "targets": [
+            {"volume": "cyl", "rough": [{"face": "outer", "surface": "p"}]},
+            {"volume": "plate", "rough": [{"face": "-x", "surface": "p"}]},
+        ],
+        "source": {
+            "particle": "geantino",
+            "energy": "1 MeV",
+            "surface": {"volume": "cyl", "face": "outer"},
+        },
+    }
+
+
+@pytest.fixture(scope="module")
+def near(tmp_path_factory):
+    """The scene of the plate 19 um from the wall, built without its clearance check."""
+    gdml = write_world(tmp_path_factory.mktemp("near") / "w.gdml", 19.0)
+    with pytest.MonkeyPatch.context() as m:
+        m.setattr("score4.world.resolve.check_clearance", lambda scene: None)
+        return build_scene(parse_config(config(gdml)))
+
+
+def test_layers_that_meet_between_the_grid_points_are_refused(near, monkeypatch):
+    """19 um between the wall and the plate, two 11 um layers: they overlap by 3 um over a
+    strip 0.2 mm wide. The grid of points alone lets it pass; the exact search refuses it with
+    the free gap (19 um less the plate's 11.001 um layer)."""
+    with monkeypatch.context() as m:  # the check as it was: points only
+        m.setattr(clearance, "shells_meet", lambda layer, other, tol=0.0: None)
+        clearance.check_clearance(near)
+    with pytest.raises(ConfigError) as err:
+        clearance.check_clearance(near)
+    text = str(err.value)
+    assert "\n" not in text
+    assert text.startswith("cyl_roughouter: the rough layer on face outer of 'cyl'")
+    assert "runs into the rough layer plate_roughmx (free gap there: 7.999 um)" in text
+    wall, plate = near.layers
+    hit = clearance.shells_meet(wall, plate)  # a point in both envelopes
+    assert hit is not None
+    assert wall.in_shell(hit[None])[0]
+    assert plate.envelope_box().contains(hit[None])[0]
+
+
+def test_layers_apart_pass(tmp_path):
+    """23 um apart the two 11 um layers keep 1 um of space: accepted."""
+    scene = build_scene(parse_config(config(write_world(tmp_path / "apart.gdml", 23.0))))
+    assert len(scene.layers) == 2
+
+
+@pytest.fixture(scope="module")
+def bege_gdml(tmp_path_factory):
+    pytest.importorskip("pygeomhpges")
+    import runpy
+
+    from test_bege_whole_surface import MINI, WRITER
+
+    gdml = tmp_path_factory.mktemp("bege_depth") / "mini.gdml"
+    runpy.run_path(str(WRITER), run_name="write")["main"](str(gdml), metadata=True, detector=MINI)
+    return gdml
+
+
+@pytest.mark.parametrize("face", ["seg_6", "seg_7"])  # a cylinder wall, a cone (G4Cons envelope)
+def test_the_depth_agrees_with_the_envelope(bege_gdml, face):
+    """The exact search's depth in a curved layer's envelope is positive where ``in_shell``
+    holds and negative elsewhere (points scattered around the small BEGe's side and taper),
+    and changes by no more than the distance a point moves."""
+    from test_bege_whole_surface import config as bege_config
+
+    (layer,) = build_scene(parse_config(bege_config(bege_gdml, face=face, source_face=face))).layers
+    rng = np.random.default_rng(4)
+    shell = layer.shell_points()
+    pts = shell[rng.integers(len(shell), size=20000)] + rng.normal(scale=0.01, size=(20000, 3))
+    depth = clearance._depth(layer, pts)
+    inside = layer.in_shell(pts)
+    assert inside.any()
+    assert (~inside).any()
+    assert (depth[inside] > 0).all()
+    assert (depth[~inside] <= 1e-9).all()
+    step = rng.normal(scale=0.003, size=pts.shape)
+    moved = clearance._depth(layer, pts + step)
+    assert (np.abs(moved - depth) <= np.linalg.norm(step, axis=1) + 1e-12).all()
+
+
+def test_the_depth_agrees_with_a_boolean_faces_cells_envelope(tmp_path):
+    """A union's disk face (a ring) partly covered by its post keeps the prism of its kept
+    cells as envelope (``cells_envelope``): the depth follows that prism, not the ring, and the
+    post's wall layer rising from it does not meet it."""
+    from test_boolean_faces import config as boolean_config
+
+    from helpers.boolean_worlds import write_more_world
+
+    gdml = write_more_world(tmp_path / "more.gdml")
+    data = boolean_config(gdml, {"stack": ["first.+z", "second.outer"]})
+    top, wall = build_scene(parse_config(data)).layers
+    assert top.cells_envelope
+    rng = np.random.default_rng(5)
+    pts = top.envelope_points()
+    pts = pts[rng.integers(len(pts), size=20000)] + rng.normal(scale=0.02, size=(20000, 3))
+    depth = clearance._depth(top, pts)
+    inside = top.in_envelope(pts)
+    assert inside.any()
+    assert (~inside).any()
+    assert (depth[inside] > 0).all()
+    assert (depth[~inside] <= 1e-9).all()
+    assert clearance.shells_meet(wall, top) is None
