@@ -2,9 +2,11 @@
 machine's load does not move.
 
     .venv/bin/python benchmarks/bench_instructions.py [--cases pyramids,gauss_blocks]
-        [--events 300] [--face 1.5] [--set score4.surface.block_cut.FLOOR_GAP=5e-4]
+        [--events 300] [--face 1.5] [--set score4.surface.block_cut.FLOOR_GAP=5e-4] [--keep DIR]
 
-Each case (benchmarks/bench_surfaces.py's cases, ``<case>_b<N>`` for ``block_cells: N``) runs in
+Each case (benchmarks/bench_surfaces.py's cases, ``<case>_b<N>`` for ``block_cells: N``, or
+``runloop_native`` and ``runloop_portal``: bench_runloop.py's portal part, Po-210 on the 10 cm
+face, where ``--face`` does not apply) runs in
 its own process under ``valgrind --tool=callgrind --instr-atstart=no``: it builds the face,
 runs 200 warm-up events, then the parent switches instrumentation on (``callgrind_control -i
 on``) for ``--events`` alpha events in one BeamOn and off again before the process tears down.
@@ -55,9 +57,13 @@ def child(case: str, events: int, face: float, sets: list[str]) -> None:
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
 
-    sim = Simulation(
-        plan_run(parse_config(config(case, events, face)), physics=resolve_physics("lite"))
-    )
+    if case.startswith("runloop_"):  # bench_runloop.py's portal part: Po-210, 10 cm face
+        from bench_runloop import portal_config
+
+        data = portal_config(case.removeprefix("runloop_"))
+    else:
+        data = config(case, events, face)
+    sim = Simulation(plan_run(parse_config(data), physics=resolve_physics("lite")))
     primaries = sim.source.primaries(np.random.default_rng(5), 0, WARMUP + events)
     sim.run(primaries.select_events(0, WARMUP), 1)
     print("READY", flush=True)
@@ -87,8 +93,11 @@ def measure(case: str, events: int, face: float, sets: list[str], tmp: Path, top
     ]
     log = tmp / f"{case}.log"
     with log.open("w") as err:
+        # lunasrim (TRIM, imported for the Po-210 recoils) runs x87 code valgrind cannot
+        # decode unless told to use Python's math
+        env = {**os.environ, "LUNASRIM_NO_NATIVE_MATH": "1"}
         proc = subprocess.Popen(
-            cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err, text=True
+            cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err, text=True, env=env
         )
         assert proc.stdin is not None
         assert proc.stdout is not None
@@ -125,6 +134,7 @@ def main() -> None:
     p.add_argument("--face", type=float, default=1.5, help="face side, mm")
     p.add_argument("--set", action="append", default=[], dest="sets", metavar="MODULE.NAME=VALUE")
     p.add_argument("--profile", type=int, default=0, metavar="N")
+    p.add_argument("--keep", metavar="DIR", help="write the callgrind files to DIR (kept)")
     p.add_argument("--child", help=argparse.SUPPRESS)
     a = p.parse_args()
     if a.child:
@@ -137,8 +147,10 @@ def main() -> None:
     print("| --- | --- | --- | --- | --- |")
     ref = None
     with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(a.keep or tmp)
+        folder.mkdir(parents=True, exist_ok=True)
         for case in a.cases.split(","):
-            per, mean, stuck = measure(case, a.events, a.face, a.sets, Path(tmp), a.profile)
+            per, mean, stuck = measure(case, a.events, a.face, a.sets, folder, a.profile)
             ref = per if case == "pyramids" else ref
             ratio = f"{per / ref:.3f}" if ref else "-"
             print(f"| {case} | {per / 1e6:.3f} | {ratio} | {mean:.4f} | {stuck} |", flush=True)

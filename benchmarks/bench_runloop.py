@@ -11,7 +11,10 @@ Parts (each case runs in its own process, so its RSS and start-up are its own):
 ``startup``
     A one-event run of examples/paper_a_rough.yaml with one worker: CPU seconds of importing
     ``score4.runner.engine`` (what the parent and every spawned worker import) and its RSS, of the
-    parent process and of the worker (everything before the first event, plus one event).
+    parent process and of the worker (everything before the first event, plus one event); then
+    the same run by the ``score4`` command (``score4 -q run ... --events 1``): CPU of its
+    process and its worker together (a spawned worker of a console script may import the
+    script's modules again).
     Medians of ``--rounds`` rounds; ``--baseline OLD/src`` times another score4 checkout in the
     same rounds (before/after). The figures depend on Python's bytecode cache: with
     PYTHONDONTWRITEBYTECODE set and no ``__pycache__`` in ``src/``, every process compiles
@@ -179,10 +182,9 @@ def _time_python_actions() -> dict:
     return spent
 
 
-def measure_portal(tiling: str, events: int) -> dict:
-    timed_actions = tiling == "portal-timed"
-    spent = _time_python_actions() if timed_actions else {}
-    tiling = "portal" if timed_actions else tiling
+def portal_config(tiling: str) -> dict:
+    """The portal part's run: Po-210 20 nm below the 10 cm pyramid face, ``tiling`` native or
+    portal (also bench_instructions.py's cases ``runloop_native`` and ``runloop_portal``)."""
     data = face_config(10.0, layout="default", tiling=tiling)
     data["source"] = {
         "decay": "Po210",
@@ -190,7 +192,14 @@ def measure_portal(tiling: str, events: int) -> dict:
         "surface": {"volume": "crystal", "face": "+z"},
         "depth": {"profile": "exponential", "mean": "20 nm"},
     }
-    sim, out = timed_simulation(data)
+    return data
+
+
+def measure_portal(tiling: str, events: int) -> dict:
+    timed_actions = tiling == "portal-timed"
+    spent = _time_python_actions() if timed_actions else {}
+    tiling = "portal" if timed_actions else tiling
+    sim, out = timed_simulation(portal_config(tiling))
     primaries = sim.source.primaries(np.random.default_rng(5), 0, WARMUP + events)
     sim.run(primaries.select_events(0, WARMUP), 1)
     t = sim.teleporter
@@ -346,6 +355,25 @@ def _startup_round(src: str | None, config: Path, out: Path) -> list[float]:
     return [float(x) for x in text[-5:]]
 
 
+def _cli_round(src: str | None, config: Path, out: Path) -> float:
+    """CPU seconds of ``score4 -q run CONFIG --events 1 --jobs 1``, the console script (its
+    process and the worker it waits for), with ``src`` first on the path if given."""
+    env = dict(os.environ)
+    if src:
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (src, env.get("PYTHONPATH")) if p)
+    script = Path(sys.executable).parent / "score4"
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    args = ["-q", "run", str(config), "--events", "1", "--jobs", "1", "--out", str(out)]
+    subprocess.run(
+        [str(script), *args, "--overwrite"],
+        check=True,
+        capture_output=True,
+        env=env,
+    )
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+
+
 def part_startup(rounds: int = 5, baseline: str | None = None) -> None:
     """CPU of a one-event run of paper_a_rough: the parent (import, scene, merge) and its worker.
 
@@ -360,14 +388,12 @@ def part_startup(rounds: int = 5, baseline: str | None = None) -> None:
         f"interleaved rounds; Python writes bytecode caches: {not sys.flags.dont_write_bytecode})"
     )
     rows: dict[str, list[list[float]]] = {name: [] for name in versions}
+    config = ROOT / "examples" / "paper_a_rough.yaml"
     with tempfile.TemporaryDirectory() as tmp:
         for _ in range(rounds):
             for name, src in versions.items():
-                rows[name].append(
-                    _startup_round(
-                        src, ROOT / "examples" / "paper_a_rough.yaml", Path(tmp) / "a.h5"
-                    )
-                )
+                row = _startup_round(src, config, Path(tmp) / "a.h5")
+                rows[name].append([*row, _cli_round(src, config, Path(tmp) / "b.h5")])
     print(f"  load average after: {os.getloadavg()}")
     for name, src in versions.items():
         imported, rss, parent, worker, worker_rss = (
@@ -382,6 +408,8 @@ def part_startup(rounds: int = 5, baseline: str | None = None) -> None:
             f"RSS {worker_rss:4.0f} MB"
         )
         print(f"  worker CPU, all rounds: {', '.join(f'{r[3]:.2f}' for r in rows[name])} s")
+        command = statistics.median(r[5] for r in rows[name])
+        print(f"  the score4 command (its process and its worker): CPU {command:5.2f} s")
 
 
 def part_faces(events: int, flat_1m: bool) -> None:
@@ -512,7 +540,8 @@ def part_portal(events: int, rounds: int = 1, baseline: str | None = None) -> No
     r = in_subprocess(["--portal", "portal-timed", "--events", str(events)])
     python_ms = 0.0
     for name in ("on_step", "start_track", "_move"):
-        n, us = r[f"{name}_per_event"], r[f"{name}_us_per_call"]
+        # a method never called (start_track in runs with no ambiguous event) has no figures
+        n, us = r.get(f"{name}_per_event", 0.0), r.get(f"{name}_us_per_call", 0.0)
         print(f"  {name:12s} {n:5.2f} calls per event, {us:6.1f} us CPU per call")
         if name != "_move":  # _move runs inside on_step
             python_ms += n * us / 1e3

@@ -14,7 +14,9 @@ import pytest
 import yaml
 
 from score4.cli.main import main
+from score4.inputs.config import parse_config
 from score4.runner.output import read_results
+from score4.world.resolve import build_scene
 
 from helpers.spawn import run_in_spawned_process
 
@@ -183,3 +185,55 @@ def test_example_own_application_runs():
     assert clamp == ["0.0000", "0", "0"]  # above 5 mm of CaWO4: out of an alpha's reach
     total = next(line for line in lines if line.startswith("sum over volumes"))
     assert float(total.split("max ")[1].split()[0]) <= 5.4075 + 1e-3
+
+
+def test_roughen_never_changes_placed_layers(tmp_path):
+    """Layers placed by an earlier roughen do not change: a wall whose layer reaches into a
+    placed ring's slab (a polycone's shoulder and the wall above it) and into on a tube's wall
+    after its end face (their joint cut) are refused in one line naming the faces and the
+    rule, and the placed layers keep their radii and cells; the wall first (or both in one
+    call, as a configuration gives them) narrows the ring as ``score4 run`` does."""
+    gdml = tmp_path / "step.gdml"
+    gdml.write_text(W.STEP_GDML)
+    out = spawned("api_ring_order", str(gdml))
+    assert out["faces"] == ["seg_0", "seg_1", "seg_2", "seg_3", "seg_4"]
+    message = out["wall_after_ring"]
+    assert message.startswith(
+        "roughen('step', 'seg_3'): the layer on face seg_3 of 'step' reaches into the slab of "
+        "the rough ring on face seg_2, which is placed already and cannot give way to it "
+        "(r = 2 .. 3 mm would become 2.01101 .. 3 mm): roughen a wall before the rings it meets"
+    ), message
+    assert out["ring_kept"]
+    assert out["ring_radii"] == (2.0, 3.0)
+    message = out["wall_after_end"]
+    assert message.startswith(
+        "roughen('rod', 'outer'): the layer on face +z of 'rod' is placed already and would "
+        "change (into on faces that share an edge"
+    ), message
+    assert out["end_kept"]
+    assert out["end_rest"] is None
+    assert out["ends"] == ["+z", "-z"]
+    for message in (out["wall_after_ring"], out["wall_after_end"]):
+        assert "\n" not in message
+
+    together = spawned("api_ring_together", str(gdml))
+    config = {
+        "world": {"gdml": str(gdml)},
+        "surfaces": {"pyr": W.PYRAMIDS},
+        "targets": [
+            {"volume": "step", "rough": [{"face": ["seg_2", "seg_3"], "surface": "pyr"}]},
+            {"volume": "rod", "rough": [{"face": ["+z", "outer"], "surface": "pyr", "into": True}]},
+        ],
+        "source": {"surface": {"volume": "step", "face": "seg_2"}, "particle": "alpha"},
+    }
+    config["source"]["energy"] = "5 MeV"
+    scene = build_scene(parse_config(config))
+    ring = scene.layer("step", "seg_2")
+    assert together["layers"] == ["seg_2"]
+    assert together["ring"] == ring.ring
+    assert ring.ring[0] == pytest.approx(2.0 + scene.layer("step", "seg_3").thickness, abs=1e-12)
+    assert together["ring_cells"] == int(ring.mask.sum())
+    assert together["rod_layers"] == ["+z", "outer"]
+    assert together["end_rest"] == scene.layer("rod", "+z").rest_radii
+    assert together["wall_top"] == pytest.approx(1.0 - together["end_thickness"], abs=1e-12)
+    assert together["scored"]["rod"] > 2  # the cut rod and the patches of both layers

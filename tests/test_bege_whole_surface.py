@@ -19,7 +19,7 @@ from score4.world.resolve import build_scene
 from score4.world.scene import CurvedRoughLayer, RingRoughLayer
 
 from helpers.geantinos import geantino_run
-from helpers.ray_trace import mesh_path
+from helpers.ray_trace import patches_path, polycone_path
 
 pytest.importorskip("pygeomhpges")
 pytest.importorskip("pygeomtools")
@@ -165,80 +165,16 @@ def test_a_genuine_overlap_between_two_rings_is_refused(tmp_path):
     assert "runs into the rough layer b_roughmz (free gap there: 3.999 um)" in text
 
 
-def polycone_path(o: np.ndarray, d: np.ndarray, shape, length: float = 40.0) -> float:
-    """Path of the ray in the solid from its signed distance: sign changes on a 2 um grid,
-    bisected to 1e-13 mm (independent of Geant4's polycone)."""
-    t = np.arange(0.0, length, 0.002)
-    inside = shape.signed_distance(o + t[:, None] * d) < 0
-    edges = np.flatnonzero(np.diff(inside.astype(int)))
-    crossings = []
-    for k in edges:
-        lo, hi = t[k], t[k + 1]
-        for _ in range(60):
-            mid = 0.5 * (lo + hi)
-            if (shape.signed_distance((o + mid * d)[None])[0] < 0) == inside[k]:
-                lo = mid
-            else:
-                hi = mid
-        crossings.append(0.5 * (lo + hi))
-    assert len(crossings) % 2 == 0
-    return float(sum(crossings[1::2]) - sum(crossings[0::2]))
-
-
-def patches_path(o: np.ndarray, d: np.ndarray, layer, length: float = 40.0) -> float:
-    """Path of the ray in the patch bodies of a layer (each closed body on its own,
-    Moeller-Trumbore) of the cells the ray passes near."""
-    t = np.arange(0.0, length, 0.01)
-    pts = o + t[:, None] * d
-    total = 0.0
-    if isinstance(layer, CurvedRoughLayer):
-        lay = layer.ring_layout
-        q = layer.target.to_local(pts)
-        h = lay.face.locate(q)[2]
-        j, i, _ = lay.locate(q[(h > -0.05) & (h < 0.05)])
-        cells = {(a, b + s) for a, b in zip(j, i, strict=True) if a >= 0 for s in (-1, 0, 1)}
-        cells |= {(a + s, b) for a, b in list(cells) for s in (-1, 1)}
-        for a, b in cells:
-            if not (0 <= a < len(lay.v)) or not (0 <= b < lay.count[a]):
-                continue
-            k = int(layer.cell_variants[a, b])
-            if k < 0:
-                continue
-            body = layer.bent(k, a)
-            phi = lay.cell_phi(a)[b]
-            c, s = math.cos(phi), math.sin(phi)
-            v = body.vertices @ np.array([[c, s, 0], [-s, c, 0], [0, 0, 1]])
-            v = layer.target.to_world(v + np.array([0.0, 0.0, lay.ring_z(a)]))
-            total += mesh_path(o, d, v[body.faces])
-        return total
-    q = layer.frame.to_local(pts)
-    q = q[(q[:, 2] > -0.05) & (q[:, 2] < 0.05)]
-    i, j = layer.patch_map.cell_of(q[:, :2])
-    cells = {
-        (b + s, a + r)
-        for a, b in zip(i, j, strict=True)
-        if a >= 0
-        for s in (-1, 0, 1)
-        for r in (-1, 0, 1)
-    }
-    grid = layer.cell_variants
-    centres = layer.cell_centres()
-    for b, a in cells:
-        if not (0 <= b < grid.shape[0] and 0 <= a < grid.shape[1]) or grid[b, a] < 0:
-            continue
-        body = layer.variants[int(grid[b, a])].body(layer.base_thickness)
-        v = body.vertices + np.array([*centres[b, a], layer.base_thickness])
-        total += mesh_path(o, d, layer.frame.to_world(v)[body.faces])
-    return total
-
-
 @pytest.mark.deep
-def test_geantino_paths_through_the_whole_rough_surface(gdml, tmp_path):
-    """Geantinos from outside the layers through the rough BEGe (every face rough): Geant4's
-    track length in the target (its patches count) equals the path in the polycone (its signed
-    distance, bisected) plus the path in the patch meshes, to 1e-9 mm. Half the rays aim at the
-    bottom (contact, groove, rings), half anywhere."""
+@pytest.mark.parametrize("into", [False, True])
+def test_geantino_paths_through_the_whole_rough_surface(gdml, tmp_path, into):
+    """Geantinos from outside the layers through the rough BEGe (every face rough; with into,
+    every layer cut into the crystal: their joint cut): Geant4's track length in the target
+    (its patches count) equals the path in the polycone (its signed distance, bisected; with
+    into, the joint cut's) plus the path in the patch meshes, to 1e-9 mm. Half the rays aim at
+    the bottom (contact, groove, rings), half anywhere."""
     data = config(gdml, output={"track_length": True})
+    data["targets"][0]["rough"][0]["into"] = into
     cfg = parse_config(data)
     scene = build_scene(cfg)
     target = scene.target("bege")
@@ -263,11 +199,14 @@ def test_geantino_paths_through_the_whole_rough_surface(gdml, tmp_path):
     start = target.to_world(aim + 18.0 * u)
     direction = -u @ target.rotation.T
     got = geantino_run(data, primaries, start, direction, tmp_path)
-    shape = target.shape
+    shape, shift = target.shape, np.zeros(3)
     assert shape is not None
+    if into:  # the solid Geant4 gets: the joint cut of every face
+        shape, shift = shape.trimmed({r.config.face_name: r.thickness for r in scene.layers})
     expected, in_cones = np.zeros(n), np.zeros(n, dtype=bool)
     for k, (o, d) in enumerate(zip(start, direction, strict=True)):
-        expected[k] = polycone_path(target.to_local(o[None])[0], d @ target.rotation, shape)
+        o_local = target.to_local(o[None])[0] - shift
+        expected[k] = polycone_path(o_local, d @ target.rotation, shape)
         for layer in scene.layers:
             path = patches_path(o, d, layer)
             expected[k] += path

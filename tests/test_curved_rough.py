@@ -87,6 +87,37 @@ def test_bent_layer_follows_the_cylinder(cylinder):
     assert h.max() <= layer.thickness
 
 
+def test_rough_share_is_the_share_of_the_face_the_cells_cover(cylinder, tmp_path):
+    """rough_share of a cylinder wall and a cone's side is the share of the face's area that
+    lies in a cell (points uniform per area on the face, located in the rings: 3 sigma); on a
+    full cylinder each ring holds floor(2 pi r / px) cells of the patch width px (the ring's
+    step x r), the gap of less than one patch left flat."""
+    rng = np.random.default_rng(6)
+    for gdml in (cylinder, write_cone(tmp_path / "cone.gdml")):
+        (layer,) = build_scene(parse_config(cylinder_config(gdml))).layers
+        lay = layer.ring_layout
+        face = lay.face
+        px, py = layer.patch_size
+        np.testing.assert_allclose(lay.step * lay.radius, px, rtol=1e-12)
+        n = 400_000
+        v = rng.uniform(-face.length / 2, face.length / 2, n)
+        r = face.radius(v)
+        keep = rng.uniform(0, r.max(), n) < r  # uniform per area: density ~ r
+        phi = rng.uniform(face.phi0, face.phi0 + face.dphi, int(keep.sum()))
+        j, _, _ = lay.locate(face.point(phi, v[keep]))
+        share = float(np.mean(j >= 0))
+        sigma = math.sqrt(share * (1 - share) / len(phi))
+        assert abs(layer.rough_share - share) < 3 * sigma, (layer.rough_share, share, sigma)
+        if layer.is_cylinder:
+            gap = 2 * math.pi * face.radius(0.0) - lay.count * px
+            assert (gap >= 0).all()
+            assert (gap < px).all()
+            rows = len(lay.v) * py / face.length
+            assert layer.rough_share == pytest.approx(
+                lay.count[0] * px / (2 * math.pi * RADIUS) * rows, rel=1e-12
+            )
+
+
 def test_samples_lie_on_the_bent_tops_with_the_mesh_area(cylinder):
     config = parse_config(cylinder_config(cylinder))
     scene = build_scene(config)

@@ -30,6 +30,7 @@ from score4.source.build import make_source, source_geometry
 from score4.world.resolve import build_scene
 
 from helpers.geantinos import geantino_run
+from helpers.ray_trace import patches_path, revolved_path
 from helpers.spawn import run_in_spawned_process
 
 
@@ -205,7 +206,9 @@ def test_bad_into_walls_are_one_line_errors(cylinder, tmp_path, capsys):
     assert not (tmp_path / "o.h5").exists()
 
 
-def write_polycone(path, z=(0.0, 1.0, 2.0), rmin=(1.0, 1.0, 1.5), rmax=(3.0, 3.5, 3.5)):
+def write_polycone(
+    path, z=(0.0, 1.0, 2.0), rmin=(1.0, 1.0, 1.5), rmax=(3.0, 3.5, 3.5), dphi=2 * math.pi
+):
     """A G4Polycone ``cyl`` of silicon in vacuum (by default a cone piece from r 3 to 3.5 mm
     over z 0 to 1, then a cylinder of r 3.5 mm to z 2, a bore of r 1 to 1.5 mm)."""
     import pyg4ometry as pg
@@ -214,7 +217,7 @@ def write_polycone(path, z=(0.0, 1.0, 2.0), rmin=(1.0, 1.0, 1.5), rmax=(3.0, 3.5
     world = pg.geant4.LogicalVolume(
         pg.geant4.solid.Box("world_s", 200, 200, 200, reg), "G4_Galactic", "World", reg
     )
-    solid = pg.geant4.solid.Polycone("cyl_s", 0, 2 * math.pi, list(z), list(rmin), list(rmax), reg)
+    solid = pg.geant4.solid.Polycone("cyl_s", 0, dphi, list(z), list(rmin), list(rmax), reg)
     lv = pg.geant4.LogicalVolume(solid, "G4_Si", "Cyl", reg)
     pg.geant4.PhysicalVolume([0, 0, 0], [0, 0, 0], lv, "cyl", world, reg)
     reg.setWorld(world.name)
@@ -228,8 +231,7 @@ def test_into_a_polycone_segment(tmp_path):
     """into on seg_1 of a G4Polycone (the cone piece): the cut solid is a G4GenericPolycone
     with only that segment moved (its neighbours' lines kept), Geant4's volume of it is the
     contour's, the layer's top lies on the old segment and sources on it stay in the volume;
-    into on two neighbouring segments (the group outer) and a segment whose neighbour is
-    shorter than the cut's reach are one-line errors."""
+    a segment whose neighbour is shorter than the cut's reach is a one-line error."""
     gdml = write_polycone(tmp_path / "pc.gdml")
     data = into_config(gdml, face="seg_1", run={"events": 20, "seed": 3})
     config = parse_config(data)
@@ -249,9 +251,6 @@ def test_into_a_polycone_segment(tmp_path):
     res = read_results(run(config, tmp_path / "o.h5", progress=False, echo=lambda m: None))
     (vol,) = res.run["volumes"]
     assert vol["volume_mm3"] - vol["layer_volume_mm3"] == pytest.approx(cut.volume, rel=1e-6)
-    group = into_config(gdml, face="outer")
-    with pytest.raises(ConfigError, match=r"faces seg_1 and seg_2 of 'cyl', which share an edge"):
-        build_scene(parse_config(group))
     short = write_polycone(tmp_path / "short.gdml", z=(0.0, 0.004, 2.0), rmax=(3.0, 3.002, 3.5))
     with pytest.raises(ConfigError, match=r"leaves no face seg_1 \(0\.004\d* mm long\)"):
         build_scene(parse_config(into_config(short, face="seg_2")))
@@ -265,12 +264,14 @@ def _call(name, *args):
 
 
 @pytest.mark.deep
-def test_exported_polycone_into_world_gives_the_same_geantino_paths(tmp_path):
-    """The polycone cut for into on seg_1 (a G4GenericPolycone read from its own small GDML
-    file) and its layer, written by `score4 geometry export` and read back by Geant4: the same
-    ray paths (volumes and points, 1e-9 mm)."""
+@pytest.mark.parametrize("faces", ["seg_1", ["seg_0", "seg_1", "seg_2", "seg_3"]])
+def test_exported_polycone_into_world_gives_the_same_geantino_paths(tmp_path, faces):
+    """The polycone cut for into on seg_1, and on four neighbouring faces (their joint cut), a
+    G4GenericPolycone read from its own small GDML file, and the layers, written by `score4
+    geometry export` and read back by Geant4: the same ray paths through seg_1's layer
+    (volumes and points, 1e-9 mm)."""
     gdml = write_polycone(tmp_path / "pc.gdml")
-    data = into_config(gdml, face="seg_1")
+    data = into_config(gdml, face=faces)
     cfg = tmp_path / "pc.yaml"
     cfg.write_text(yaml.safe_dump(data))
     scene = build_scene(parse_config(data))
@@ -278,7 +279,7 @@ def test_exported_polycone_into_world_gives_the_same_geantino_paths(tmp_path):
     assert main(["geometry", "export", str(cfg), "--gdml", str(out)]) == 0
     assert "<genericPolycone" in out.read_text()
     rng = np.random.default_rng(5)
-    (layer,) = scene.layers
+    layer = scene.layer("cyl", "seg_1")
     lay = layer.ring_layout
     rays = []
     for _ in range(6):
@@ -348,3 +349,143 @@ def test_into_a_tube_wall_and_end_face_together(cylinder, tmp_path):
     (vol,) = res.run["volumes"]
     own = vol["volume_mm3"] - vol["layer_volume_mm3"]
     assert own == pytest.approx(math.pi * radius**2 * (2 * HALF_Z - end.thickness), rel=1e-9)
+
+
+def joint_paths(scene, start, direction):
+    """Independent trace of rays through a target cut for several into layers: the path in the
+    joint cut solid (analytic, its contour's cones and planes) plus the paths in every layer's
+    patch meshes."""
+    target = scene.targets[0]
+    cuts = {layer.config.face_name: layer.thickness for layer in scene.layers}
+    cut, shift = target.shape.trimmed(cuts)
+    out = np.zeros(len(start))
+    for k, (o, d) in enumerate(zip(start, direction, strict=True)):
+        out[k] = revolved_path(target.to_local(o[None])[0] - shift, d @ target.rotation, cut)
+        out[k] += sum(patches_path(o, d, layer, 20.0) for layer in scene.layers)
+    return out, cut
+
+
+def edge_rays(rng, corners, centre, n):
+    """``n`` rays from a sphere of 8 mm about ``centre`` (outside the solid and its layers) to
+    points within 50 um of the contour corners ``corners`` ((r, z) pairs), turned at random
+    about the axis."""
+    rz = np.asarray(corners, float)[rng.integers(0, len(corners), n)]
+    rz += rng.uniform(-0.05, 0.05, (n, 2))
+    phi = rng.uniform(0, 2 * np.pi, n)
+    aim = np.column_stack([rz[:, 0] * np.cos(phi), rz[:, 0] * np.sin(phi), rz[:, 1]])
+    u = rng.normal(size=(n, 3))
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    start = np.asarray(centre) + 8.0 * u
+    direction = aim - start
+    direction /= np.linalg.norm(direction, axis=1)[:, None]
+    return start, direction
+
+
+def test_into_on_neighbouring_polycone_segments(tmp_path):
+    """into on four neighbouring faces of a G4Polycone (the bottom ring, the cone piece, the
+    cylinder wall, the top ring): every layer lies on its face of the joint cut (each face moved
+    inward by its layer, its neighbours' moved lines kept), the walls meeting at the moved
+    corner, the rings' cells and flat rest within the joint cut's faces; sources on all four
+    stay in the volume; Geant4's volume of the cut G4GenericPolycone is the joint contour's, and
+    geantino paths through the edges equal the trace of the joint cut plus every layer's
+    patches to 1e-9 mm."""
+    gdml = write_polycone(tmp_path / "pc.gdml")
+    faces = ["seg_0", "seg_1", "seg_2", "seg_3"]
+    data = into_config(gdml, face=faces)
+    data["source"]["surface"]["face"] = faces
+    config = parse_config(data)
+    scene = build_scene(config)
+    layers = {f: scene.layer("cyl", f) for f in faces}
+    shape = scene.targets[0].shape
+    cuts = {f: layer.thickness for f, layer in layers.items()}
+    joint = shape.cut_contour(cuts)[0]
+    for f in ("seg_1", "seg_2"):
+        wall = layers[f].ring_layout.face
+        k = int(f[-1])
+        np.testing.assert_allclose([wall.rz1, wall.rz2], joint[[k, k + 1]], atol=1e-12)
+    np.testing.assert_allclose(joint[2], [3.5 - cuts["seg_2"], 1.0 + 0.0024], atol=2e-4)
+    bottom, top = layers["seg_0"], layers["seg_3"]
+    assert bottom.rest_radii == pytest.approx((1.0, joint[1, 0]), abs=1e-12)
+    assert top.rest_radii == pytest.approx((joint[4, 0], joint[3, 0]), abs=1e-12)
+    assert top.ring == pytest.approx((1.5, 3.5), abs=1e-12)  # the bore widens up: r >= 1.5
+    for ring in (bottom, top):
+        lo, hi = max(ring.rest_radii[0], ring.ring[0]), min(ring.rest_radii[1], ring.ring[1])
+        centres = ring.patch_map.cell_centres()[ring.mask]
+        far = np.hypot(np.abs(centres[:, 0]) + 0.05, np.abs(centres[:, 1]) + 0.05)
+        near = np.hypot(np.maximum(np.abs(centres[:, 0]) - 0.05, 0), np.abs(centres[:, 1]) - 0.05)
+        assert far.max() <= hi + 1e-12
+        assert near.min() >= lo - 1e-12
+    p = make_source(config, scene).primaries(np.random.default_rng(2), 0, 3000)
+    assert scene.inside_target("cyl", p.position).all()
+    n = 24
+    start, direction = edge_rays(np.random.default_rng(3), joint[:4], (0, 0, 1), n)
+    p = make_source(config, scene).primaries(np.random.default_rng(1), 0, n)
+    res = geantino_run(data, p, start, direction, tmp_path)
+    expected, cut = joint_paths(scene, start, direction)
+    assert (expected > 0).sum() > n // 2
+    np.testing.assert_allclose(res.scores["track_length"]["cyl"], expected, rtol=0, atol=1e-9)
+    (vol,) = res.run["volumes"]
+    assert vol["volume_mm3"] - vol["layer_volume_mm3"] == pytest.approx(cut.volume, rel=1e-6)
+
+
+def test_into_a_cone_wall_and_its_end_faces(tmp_path):
+    """into on a G4Cons' side (radius 3 to 4 mm over 2 mm) and both end faces: the joint cut is
+    a G4Cons; the wall's layer ends on the end faces' cut planes; each end face's envelope is
+    the ring the old cone fills over the whole slab (at +z the wall leans in over it: r <= 4 -
+    t/2), its cells within that and the joint cut's face, its flat rest on the joint cut's
+    face; sources stay in the volume; Geant4's volume and geantino paths through the edges
+    (trace of the cut cone plus every layer's patches, 1e-9 mm)."""
+    from test_curved_rough import write_cone
+
+    gdml = write_cone(tmp_path / "cone.gdml")
+    faces = ["outer", "+z", "-z"]
+    data = into_config(gdml, face=faces)
+    data["source"]["surface"]["face"] = faces
+    config = parse_config(data)
+    scene = build_scene(config)
+    wall, top, bottom = (scene.layer("cyl", f) for f in faces)
+    cuts = {f: scene.layer("cyl", f).thickness for f in faces}
+    cut, _shift = scene.targets[0].shape.trimmed(cuts)
+    assert isinstance(cut, G4Cons)
+    face = wall.ring_layout.face
+    assert face.rz1 == pytest.approx((cut.rmax1, -1.0 + cuts["-z"]), abs=1e-12)
+    assert face.rz2 == pytest.approx((cut.rmax2, 1.0 - cuts["+z"]), abs=1e-12)
+    assert top.ring == pytest.approx((0.0, 4.0 - cuts["+z"] / 2), abs=1e-12)
+    assert bottom.ring == (0.0, 3.0)
+    assert top.rest_radii == pytest.approx((0.0, cut.rmax2), abs=1e-12)
+    assert bottom.rest_radii == pytest.approx((0.0, cut.rmax1), abs=1e-12)
+    p = make_source(config, scene).primaries(np.random.default_rng(2), 0, 3000)
+    assert scene.inside_target("cyl", p.position).all()
+    n = 24
+    start, direction = edge_rays(np.random.default_rng(4), [(4.0, 1.0), (3.0, -1.0)], (0, 0, 0), n)
+    p = make_source(config, scene).primaries(np.random.default_rng(1), 0, n)
+    res = geantino_run(data, p, start, direction, tmp_path)
+    expected, cut = joint_paths(scene, start, direction)
+    assert (expected > 0).sum() > n // 2
+    np.testing.assert_allclose(res.scores["track_length"]["cyl"], expected, rtol=0, atol=1e-9)
+    (vol,) = res.run["volumes"]
+    assert vol["volume_mm3"] - vol["layer_volume_mm3"] == pytest.approx(cut.volume, rel=1e-9)
+
+
+def test_into_on_shared_edges_of_a_phi_segment_is_one_line(tmp_path, capsys):
+    """A polycone with a phi segment: into on two neighbouring segments is refused in one line
+    (exit 2, nothing written), as is into on a phi face of a tube; into on one wall of either
+    is laid out."""
+    gdml = write_polycone(tmp_path / "half.gdml", dphi=math.pi)
+    with pytest.raises(
+        ConfigError,
+        match=r"into: true on faces seg_1 and seg_2 of 'cyl', which share an edge \(the circle "
+        r"r = 3.5 mm at z = 1 mm\), on a G4GenericPolycone with a phi segment",
+    ):
+        build_scene(parse_config(into_config(gdml, face=["seg_1", "seg_2"])))
+    (layer,) = build_scene(parse_config(into_config(gdml, face="seg_2"))).layers
+    assert layer.ring_layout.face.dphi == pytest.approx(math.pi)
+    tube = write_cylinder(tmp_path / "tube.gdml", dphi=math.pi)
+    path = tmp_path / "bad.yaml"
+    for world, faces in ((gdml, ["seg_1", "seg_2"]), (tube, ["outer", "phi_start"])):
+        path.write_text(yaml.safe_dump(into_config(world, face=faces)))
+        assert main(["run", str(path), "--out", str(tmp_path / "o.h5")]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1, err
+        assert "into: true on face" in err[0]
+    assert not (tmp_path / "o.h5").exists()

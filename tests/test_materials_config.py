@@ -77,7 +77,8 @@ def test_materials_bad_input(materials, match):
 
 def _geant4_materials(materials: dict, names: list[str]) -> dict:
     """In a fresh process: build the materials in Geant4, return their compositions."""
-    from score4.inputs.materials import MaterialSpec, find_material
+    from score4.inputs.material_spec import MaterialSpec
+    from score4.inputs.materials import find_material
     from score4.ions.composition import Composition
     from score4.sim.runtime import import_geant4, resolve_physics
 

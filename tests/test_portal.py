@@ -407,8 +407,9 @@ def test_deposits_of_jumping_steps_and_of_secondaries_are_kept():
 
 @pytest.mark.parametrize("face", ["+z", "-z", "+x", "-x", "+y", "-y"])
 def test_portal_map_moves_points_to_the_same_place_in_their_cell(face):
-    """Every face: a point of cell (i, j) lands in its variant's subworld at the same cell-local
-    position (in the face frame), and the jump is a translation (directions never change)."""
+    """Every face: a point of cell (i, j) lands in its subworld (one of its variant's) at the
+    same cell-local position (in the face frame), and the jump is a translation (directions never
+    change)."""
     config = parse_config(tiled_config("portal", face_source(face), faces=(face,), covers=False))
     layer = build_scene(config).layers[0]
     centres = subworld_centres(layer, (5.0, 1.0, -2.0))
@@ -424,7 +425,7 @@ def test_portal_map_moves_points_to_the_same_place_in_their_cell(face):
     )
     moved, inside, i, j = pmap.to_subworld(layer.frame.to_world(local))
     assert inside.all()
-    k = layer.patch_map.variants[j, i]
+    k = pmap.slots[j, i]  # the cell's subworld
     in_cell = (
         moved - centres[k]
     ) @ layer.frame.rotation  # face frame, relative to the subworld centre
@@ -440,6 +441,28 @@ def test_portal_map_moves_points_to_the_same_place_in_their_cell(face):
     assert not inside.any()
     assert (i == -1).all()
     assert np.array_equal(moved, outside)
+
+
+def test_neighbouring_cells_never_share_a_subworld():
+    """Each variant has one subworld per parity of the cell indices: a cell's eight neighbours
+    all lie in other subworlds of the variant (so a jump through a border or a corner never makes
+    an event's cells ambiguous), and every subworld holds its variant."""
+    config = parse_config(tiled_config("portal", face_source("+z"), faces=("+z",), covers=False))
+    layer = build_scene(config).layers[0]
+    slots = PortalMap(layer, subworld_centres(layer, (1.0, 0.0, 0.0))).slots
+    variants = layer.patch_map.variants
+    ny, nx = slots.shape
+    assert min(nx, ny) > 2
+    assert len(subworld_centres(layer, (1.0, 0.0, 0.0))) == 4 * len(layer.variants)
+    np.testing.assert_array_equal(slots // 4, variants)
+    for j in range(ny):
+        for i in range(nx):
+            for dj in (-1, 0, 1):
+                for di in (-1, 0, 1):
+                    if (di or dj) and 0 <= i + di < nx and 0 <= j + dj < ny:
+                        assert slots[j + dj, i + di] != slots[j, i]
+    same = variants[:, 2:] == variants[:, :-2]  # two cells apart: the same subworld again
+    assert (slots[:, 2:] == slots[:, :-2])[same].all()
 
 
 def test_exit_faces_of_a_subworld():
@@ -530,8 +553,8 @@ class _Track:
 
 def test_tracking_action_runs_only_while_an_events_cells_are_ambiguous():
     """The teleporter switches its tracking action on when an event enters a second cell of one
-    variant (by its primaries or by a jump), off when the next event begins; a track with no
-    history is in its variant's first cell, a secondary of a parent with no history gets the
+    subworld (by its primaries or by a jump), off when the next event begins; a track with no
+    history is in its subworld's first cell, a secondary of a parent with no history gets the
     first cell of the subworld it is born in (none in Lab)."""
     from score4.sim.portal_action import Teleporter
 
@@ -549,8 +572,8 @@ def test_tracking_action_runs_only_while_an_events_cells_are_ambiguous():
     t = Teleporter(g4, [portal])
     switched = []
     t.set_tracking, t.tracking = switched.append, False
-    v = layer.patch_map.variants
-    (j1, i1), (j2, i2) = np.argwhere(v == 0)[:2]  # two cells of variant 0
+    v = portal.map.slots
+    (j1, i1), (j2, i2) = np.argwhere(v == 0)[:2]  # two cells of subworld 0
     (j3, i3) = np.argwhere(v == 1)[0]
     c = layer.cell_centres()
     z = layer.thickness / 2
@@ -560,18 +583,18 @@ def test_tracking_action_runs_only_while_an_events_cells_are_ambiguous():
 
     positions = [point(i1, j1), point(i3, j3), point(i1, j1), point(i2, j2), point(i1, j1)]
     t.map_primaries(np.array(positions))
-    t.begin_event(0, 2)  # two primaries, two variants: unambiguous
+    t.begin_event(0, 2)  # two primaries, two subworlds: unambiguous
     assert switched == []
     assert t.first_cell == {(0, 0): (0, i1, j1), (0, 1): (0, i3, j3)}
-    t.begin_event(2, 4)  # two cells of variant 0
+    t.begin_event(2, 4)  # two cells of subworld 0
     assert switched == [True]
     assert t.tracking
     t.begin_event(4, 5)
     assert switched == [True, False]
     assert t.first_cell == {(0, 0): (0, i1, j1)}
-    t._record(7, 1.0, (0, i3, j3), (0, i1, j1))  # a jump into another variant: still fine
+    t._record(7, 1.0, (0, i3, j3), (0, i1, j1))  # a jump into another subworld: still fine
     assert switched == [True, False]
-    t._record(7, 2.0, (0, i2, j2), (0, i3, j3))  # back into variant 0, another cell
+    t._record(7, 2.0, (0, i2, j2), (0, i3, j3))  # back into subworld 0, another cell
     assert switched == [True, False, True]
     sub0 = centres[0]
     t.start_track(_Track(9, 8, sub0))  # parent 8 has no history: born in subworld 0

@@ -15,7 +15,7 @@ from score4.inputs.config import parse_config
 from score4.runner.engine import run
 from score4.runner.output import read_results
 from score4.surface import block_cut as blk
-from score4.surface import spec as spec_module
+from score4.surface import rough as rough_module
 from score4.surface.simplify import simplified_mesh
 from score4.surface.spec import build_surface
 from score4.surface.triangle_mesh import (
@@ -96,7 +96,7 @@ def test_auto_keeps_small_maps_exact_and_simplifies_large_ones(monkeypatch):
     height or 0.1 um, whichever is larger (the rule of issue 24 for rough curved layers)."""
     small = build_surface(GAUSS)
     assert small.mesh_tolerance == 0
-    monkeypatch.setattr(spec_module, "AUTO_EXACT_FACETS", 1000)
+    monkeypatch.setattr(rough_module, "AUTO_EXACT_FACETS", 1000)
     large = build_surface(GAUSS)
     assert large.mesh_tolerance == pytest.approx(max(0.01 * large.max_height, 1e-4))
     steep = build_surface({**GAUSS, "sq": "3 um", "corr_length": "30 um", "pitch": "5 um"})

@@ -49,8 +49,18 @@ from score4.common.units import parse_quantity
 from score4.inputs.config import GdmlVolume, PhysicsConfig, RoughFace, SourceConfig
 from score4.runner.run_plan import RunPlan, plan_run
 from score4.world.boolean_layers import target_layers
+from score4.world.clearance import check_clearance
 from score4.world.gdml_model import GeometryModel, Instance
-from score4.world.scene import RoughLayer, Scene, TargetVolume, fit_rings, gdml_target
+from score4.world.scene import (
+    RingRoughLayer,
+    RoughLayer,
+    Scene,
+    TargetVolume,
+    check_into_edges,
+    fit_rings,
+    gdml_target,
+    rough_faces,
+)
 
 from .errors import ConfigError
 from .source.build import BulkSource, SampledSource, source_from_config
@@ -332,20 +342,25 @@ class World:
     def roughen(
         self,
         volume,
-        face: str = "+z",
+        face: str | Sequence[str] = "+z",
         surface: Surface | Mapping | Sequence[tuple[Surface | Mapping, float]] | None = None,
         **options: Any,
     ) -> RoughenedVolume:
-        """Put a rough layer on ``face`` of ``volume`` and place it in your world (native
-        tiling: Geant4 placements of a few patch volumes, navigation in C++).
+        """Put a rough layer on ``face`` of ``volume`` (on each face of a group or list) and
+        place it in your world (native tiling: Geant4 placements of a few patch volumes,
+        navigation in C++).
 
         The layer sits on the face, outside the volume, in the volume's mother (or, with
         ``into=True``, takes the place of the volume's outermost layer, the volume being cut by
         it, so that its outer dimensions stay); its patches are of the volume's material, its
         envelope of the mother's. It must not meet any other daughter of the mother: the
-        error names what it meets and the free gap. Faces: the six faces of a G4Box
-        (``+x`` ... ``-z`` in the box's own frame, see docs/config.md) and the flat end faces
-        ``+z``/``-z`` of a full G4Tubs. Call it before your run manager's ``Initialize()``.
+        error names what it meets and the free gap. Faces: those a configuration's rough entry
+        takes (docs/config.md; a G4Box's ``+x`` ... ``-z`` in the box's own frame). Layers
+        placed by an earlier call do not change: a flat ring gives way to the layer of a wall
+        rising from it (a groove, a shoulder) only when the wall comes first or in the same
+        call, and ``into`` on faces that share an edge (a tube's wall and end face) needs them
+        in one call; otherwise the call is refused and nothing changes. Call it before your run
+        manager's ``Initialize()``.
 
         Parameters
         ----------
@@ -353,7 +368,8 @@ class World:
             A ``G4VPhysicalVolume``, ``G4LogicalVolume`` (every placement gets its layer) or
             a name.
         face
-            ``+x``, ``-x``, ``+y``, ``-y``, ``+z`` or ``-z``.
+            A face or face group of the volume's solid (``+z``, ``outer``, ``seg_2``, ...), or a
+            list of them.
         surface
             A :class:`Surface` (:func:`build_surface`, :func:`load_surface`), a surface
             description (the keys of a ``surfaces:`` entry), or a list of ``(surface,
@@ -373,7 +389,7 @@ class World:
             raise ConfigError(f"{where}: give surface (a Surface, a description or variants)")
         if "tiling" in options and options["tiling"] != "native":
             raise ConfigError(f"{where}: tiling: your own world takes native tiling only")
-        spec: dict[str, Any] = {"face": face, **options}
+        spec: dict[str, Any] = {"face": face if isinstance(face, str) else list(face), **options}
         if isinstance(surface, (Surface, Mapping)):
             spec["surface"] = self._surface_name(surface, where)
         else:
@@ -385,26 +401,37 @@ class World:
         except ValidationError as err:
             raise ConfigError(describe_validation_error(err, where)) from None
         targets = self.targets(volume, where)
-        layers: list[RoughLayer] = []
-        for t in targets:
-            if self.scene.layer(t.name, face) is not None:
-                raise ConfigError(f"{where}: face {face} of {t.name!r} is rough already")
-            j = len(self.scene.layers_of(t.name))
-            layers += target_layers(self.scene.surfaces, t, j, rough, where=where)
-        from score4.world.clearance import check_clearance
-
-        self.scene.layers += layers
+        placed = list(self.scene.layers)
+        saved = [_LayerState.of(layer) for layer in placed]
         try:
             for t in targets:
-                fit_rings(self.scene.layers_of(t.name))
+                j = len(self.scene.layers_of(t.name))
+                for name in rough_faces(t, rough):
+                    if self.scene.layer(t.name, name) is not None:
+                        raise ConfigError(f"{where}: face {name} of {t.name!r} is rough already")
+                    one = rough if rough.face == name else rough.model_copy(update={"face": name})
+                    self.scene.layers += target_layers(self.scene.surfaces, t, j, one, where=where)
+            for t in targets:
+                check_into_edges(self.scene, t, where)
+                fit_rings(self.scene.layers_of(t.name), placed, where)
+            for state in saved:
+                state.refuse_change(self.scene, where)
             check_clearance(self.scene)
-        except ConfigError:
-            del self.scene.layers[-len(layers) :]
-            raise
+        except ConfigError as err:
+            self.scene.layers[:] = placed  # and every placed layer as it was
+            for state in saved:
+                state.restore()
+            if where in str(err):
+                raise
+            raise ConfigError(f"{where}: {err}") from None
+        layers = [layer for layer in self.scene.layers if not any(layer is p for p in placed)]
         out: dict[str, list] = {}
-        for t, layer in zip(targets, layers, strict=True):
+        for t in targets:
             lv, material = self._live.place_target(self.scene, t)  # cuts the volume for into
-            patches = self._live.place_layer(layer, material)
+            patches = []
+            for layer in layers:
+                if layer.target.name == t.name:
+                    patches += self._live.place_layer(layer, material)
             self.scoring[t.column] += patches
             out[t.column] = [lv, *patches]
         return RoughenedVolume(layers, out)
@@ -473,6 +500,50 @@ class World:
                 "event); the library's PrimaryGenerator would decay every daughter at its deposit"
             )
         return source_from_config(src, self.scene)
+
+
+@dataclass
+class _LayerState:
+    """What the fitting of a new rough layer may change in a layer placed already (a ring's
+    radii and cells, an end face's cut ring): kept to refuse the change, or to restore it when
+    the new layer is refused."""
+
+    layer: RoughLayer
+    mask: np.ndarray | None
+    rest_radii: tuple[float, float] | None
+    ring: tuple[float, float] | None
+
+    @classmethod
+    def of(cls, layer: RoughLayer) -> _LayerState:
+        ring = layer.ring if isinstance(layer, RingRoughLayer) else None
+        return cls(layer, layer.mask, layer.rest_radii, ring)
+
+    def changed(self) -> bool:
+        layer = self.layer
+        ring = layer.ring if isinstance(layer, RingRoughLayer) else None
+        if (layer.rest_radii, ring) != (self.rest_radii, self.ring):
+            return True
+        if layer.mask is None or self.mask is None:
+            return layer.mask is not self.mask
+        return not np.array_equal(layer.mask, self.mask)
+
+    def refuse_change(self, scene: Scene, where: str) -> None:
+        """ConfigError when the new layers replaced or changed this placed layer (``into`` on
+        faces that share an edge: their joint cut lays both out again)."""
+        layer = self.layer
+        if all(r is not layer for r in scene.layers) or self.changed():
+            raise ConfigError(
+                f"{where}: the layer on face {layer.config.face_name} of {layer.target.name!r} "
+                "is placed already and would change (into on faces that share an edge: both "
+                "layers are laid out on their joint cut); give these faces in one call "
+                "(a list of faces)"
+            )
+
+    def restore(self) -> None:
+        layer = self.layer
+        layer.mask, layer.rest_radii = self.mask, self.rest_radii
+        if isinstance(layer, RingRoughLayer) and self.ring is not None:
+            layer.rmin, layer.rmax = self.ring
 
 
 def _label(volume) -> str:

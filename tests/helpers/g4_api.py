@@ -234,3 +234,122 @@ def own_secondaries(gdml: str, events: int) -> dict:
         "counts": counts,
         "intercepted_plain": intercepted_plain,
     }
+
+
+#: A stepped polycone (a ring at z = 1 mm between the walls r = 3 and r = 2 mm: the upper wall
+#: meets the ring at a concave edge) and a full tube, far apart (GDML by hand).
+STEP_GDML = """<?xml version="1.0" encoding="UTF-8"?>
+<gdml>
+  <define/>
+  <materials/>
+  <solids>
+    <box name="WorldBox" x="100" y="100" z="100" lunit="mm"/>
+    <polycone name="StepCone" startphi="0" deltaphi="360" aunit="deg" lunit="mm">
+      <zplane z="0" rmin="0" rmax="3"/>
+      <zplane z="1" rmin="0" rmax="3"/>
+      <zplane z="1" rmin="0" rmax="2"/>
+      <zplane z="2" rmin="0" rmax="2"/>
+    </polycone>
+    <tube name="Rod" rmin="0" rmax="2" z="2" deltaphi="360" aunit="deg" lunit="mm"/>
+  </solids>
+  <structure>
+    <volume name="StepLV">
+      <materialref ref="G4_Ge"/><solidref ref="StepCone"/>
+    </volume>
+    <volume name="RodLV">
+      <materialref ref="G4_Ge"/><solidref ref="Rod"/>
+    </volume>
+    <volume name="WorldLV">
+      <materialref ref="G4_Galactic"/><solidref ref="WorldBox"/>
+      <physvol name="step">
+        <volumeref ref="StepLV"/><position name="sp" x="-20" unit="mm"/>
+      </physvol>
+      <physvol name="rod">
+        <volumeref ref="RodLV"/><position name="rp" x="20" unit="mm"/>
+      </physvol>
+    </volume>
+  </structure>
+  <setup name="Default" version="1.0"><world ref="WorldLV"/></setup>
+</gdml>
+"""
+
+
+def api_ring_order(gdml: str) -> dict:
+    """Rough rings and walls that meet at an edge, roughened one call after another through
+    score4.api on the world of :data:`STEP_GDML`: what was refused, and the rings' radii, cells
+    and layers before and after."""
+    from score4 import api
+    from score4.errors import ConfigError
+
+    g4 = api.import_geant4("lite")
+    parser = g4.G4GDMLParser()
+    parser.Read(gdml, False)
+    world = api.World(g4, parser.GetWorldVolume())
+    shape = world.targets("step")[0].shape
+    faces = list(shape.faces)
+
+    def state(volume: str) -> list:
+        return [
+            (r.config.face_name, getattr(r, "ring", None), r.rest_radii, r.mask)
+            for r in world.scene.layers_of(volume)
+        ]
+
+    def attempt(call) -> str:
+        try:
+            call()
+        except ConfigError as err:
+            return str(err)
+        return "no error"
+
+    out: dict = {"faces": faces}
+    # the shoulder ring (z = 1, r 2 .. 3) placed first, then the wall above it (r = 2)
+    ring, wall = out["ring"], out["wall"] = "seg_2", "seg_3"
+    world.roughen("step", ring, PYRAMIDS)
+    before = state("step")
+    out["wall_after_ring"] = attempt(lambda: world.roughen("step", wall, PYRAMIDS))
+    after = state("step")
+    out["ring_kept"] = len(before) == len(after) and all(
+        a[:3] == b[:3] and a[3] is b[3] for a, b in zip(before, after, strict=True)
+    )
+    out["ring_radii"] = before[0][1]
+    # the rod: into on its +z face, then into on its wall (their joint cut would change the
+    # +z layer's cells)
+    world.roughen("rod", "+z", PYRAMIDS, into=True)
+    before = state("rod")
+    out["wall_after_end"] = attempt(lambda: world.roughen("rod", "outer", PYRAMIDS, into=True))
+    after = state("rod")
+    out["end_kept"] = len(before) == len(after) == 1 and before[0][3] is after[0][3]
+    out["end_rest"] = after[0][2]
+    # into on the far end face shares no edge with +z: the placed layer stays as it is
+    world.roughen("rod", "-z", PYRAMIDS, into=True)
+    out["ends"] = [f for f, *_ in state("rod")]
+    return out
+
+
+def api_ring_together(gdml: str) -> dict:
+    """The wall of :data:`STEP_GDML`'s polycone before the ring it meets, in two calls (the ring
+    gives way to the placed wall); the rod's +z face and wall with into in one call. The ring's
+    radii and cells, the layers and the volumes scored."""
+    from score4 import api
+
+    g4 = api.import_geant4("lite")
+    parser = g4.G4GDMLParser()
+    parser.Read(gdml, False)
+    world = api.World(g4, parser.GetWorldVolume())
+    world.roughen("step", "seg_3", PYRAMIDS)
+    both = world.roughen("step", "seg_2", PYRAMIDS)
+    ring = world.scene.layer("step", "seg_2")
+    rod = world.roughen("rod", ["+z", "outer"], PYRAMIDS, into=True)
+    end = world.scene.layer("rod", "+z")
+    wall = world.scene.layer("rod", "outer")
+    return {
+        "layers": [r.config.face_name for r in both.layers],
+        "ring": ring.ring,
+        "ring_cells": int(ring.mask.sum()),
+        "scored": {k: len(v) for k, v in world.scoring.items()},
+        "rod_layers": [r.config.face_name for r in rod.layers],
+        "end_rest": end.rest_radii,
+        "wall_thickness": wall.thickness,
+        "wall_top": float(wall.ring_layout.face.rz2[1]),
+        "end_thickness": end.thickness,
+    }

@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+
+from score4.world.scene import CurvedRoughLayer
 
 
 def mesh_path(
@@ -27,3 +31,100 @@ def mesh_path(
     ts = ts[np.concatenate([[True], np.diff(ts) > merge])] if len(ts) else ts
     assert len(ts) % 2 == 0
     return float(np.sum(ts[1::2] - ts[0::2]))
+
+
+def polycone_path(o: np.ndarray, d: np.ndarray, shape, length: float = 40.0) -> float:
+    """Path of the ray in the solid from its signed distance: sign changes on a 2 um grid,
+    bisected to 1e-13 mm (independent of Geant4's polycone)."""
+    t = np.arange(0.0, length, 0.002)
+    inside = shape.signed_distance(o + t[:, None] * d) < 0
+    edges = np.flatnonzero(np.diff(inside.astype(int)))
+    crossings = []
+    for k in edges:
+        lo, hi = t[k], t[k + 1]
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            if (shape.signed_distance((o + mid * d)[None])[0] < 0) == inside[k]:
+                lo = mid
+            else:
+                hi = mid
+        crossings.append(0.5 * (lo + hi))
+    assert len(crossings) % 2 == 0
+    return float(sum(crossings[1::2]) - sum(crossings[0::2]))
+
+
+def patches_path(o: np.ndarray, d: np.ndarray, layer, length: float = 40.0) -> float:
+    """Path of the ray in the patch bodies of a layer (each closed body on its own,
+    Moeller-Trumbore) of the cells the ray passes near."""
+    t = np.arange(0.0, length, 0.01)
+    pts = o + t[:, None] * d
+    total = 0.0
+    if isinstance(layer, CurvedRoughLayer):
+        lay = layer.ring_layout
+        q = layer.target.to_local(pts)
+        h = lay.face.locate(q)[2]
+        j, i, _ = lay.locate(q[(h > -0.05) & (h < 0.05)])
+        cells = {(a, b + s) for a, b in zip(j, i, strict=True) if a >= 0 for s in (-1, 0, 1)}
+        cells |= {(a + s, b) for a, b in list(cells) for s in (-1, 1)}
+        for a, b in cells:
+            if not (0 <= a < len(lay.v)) or not (0 <= b < lay.count[a]):
+                continue
+            k = int(layer.cell_variants[a, b])
+            if k < 0:
+                continue
+            body = layer.bent(k, a)
+            phi = lay.cell_phi(a)[b]
+            c, s = math.cos(phi), math.sin(phi)
+            v = body.vertices @ np.array([[c, s, 0], [-s, c, 0], [0, 0, 1]])
+            v = layer.target.to_world(v + np.array([0.0, 0.0, lay.ring_z(a)]))
+            total += mesh_path(o, d, v[body.faces])
+        return total
+    q = layer.frame.to_local(pts)
+    q = q[(q[:, 2] > -0.05) & (q[:, 2] < 0.05)]
+    i, j = layer.patch_map.cell_of(q[:, :2])
+    cells = {
+        (b + s, a + r)
+        for a, b in zip(i, j, strict=True)
+        if a >= 0
+        for s in (-1, 0, 1)
+        for r in (-1, 0, 1)
+    }
+    grid = layer.cell_variants
+    centres = layer.cell_centres()
+    for b, a in cells:
+        if not (0 <= b < grid.shape[0] and 0 <= a < grid.shape[1]) or grid[b, a] < 0:
+            continue
+        body = layer.variants[int(grid[b, a])].body(layer.base_thickness)
+        v = body.vertices + np.array([*centres[b, a], layer.base_thickness])
+        total += mesh_path(o, d, layer.frame.to_world(v)[body.faces])
+    return total
+
+
+def revolved_path(o: np.ndarray, d: np.ndarray, shape) -> float:
+    """Path of the ray ``o + t d`` (t > 0) in a full solid of revolution (``shape.contour()``:
+    its (r, z) polygon), analytic: where the ray meets the cone or plane of each contour edge
+    (a quadratic in t), the pieces between crossings kept whose middle lies inside."""
+    poly, _ = shape.contour()
+    ts = [0.0]
+    for (r1, z1), (r2, z2) in zip(poly, np.roll(poly, -1, axis=0), strict=True):
+        if abs(z2 - z1) < 1e-15:  # a plane z = z1
+            if abs(d[2]) > 1e-15:
+                ts.append((z1 - o[2]) / d[2])
+            continue
+        # r = a + b z on the edge's cone: x^2 + y^2 = (a + b z)^2 with r >= 0
+        b = (r2 - r1) / (z2 - z1)
+        a = r1 - b * z1
+        ra, rb = a + b * o[2], b * d[2]  # r(t) = ra + rb t on the cone
+        qa = d[0] ** 2 + d[1] ** 2 - rb**2
+        qb = 2 * (o[0] * d[0] + o[1] * d[1]) - 2 * ra * rb
+        qc = o[0] ** 2 + o[1] ** 2 - ra**2
+        if abs(qa) < 1e-15:
+            roots = [-qc / qb] if abs(qb) > 1e-15 else []
+        else:
+            disc = qb * qb - 4 * qa * qc
+            roots = [] if disc < 0 else [(-qb + s * math.sqrt(disc)) / (2 * qa) for s in (-1, 1)]
+        ts += [t for t in roots if ra + rb * t >= 0]
+    ts = np.unique([t for t in ts if t >= 0])
+    mid = 0.5 * (ts[1:] + ts[:-1])
+    inside = shape.signed_distance(o + mid[:, None] * d) < 0
+    return float(np.sum(np.diff(ts)[inside]))

@@ -57,7 +57,7 @@ def load_materials(path: Path) -> dict:
 
     from score4.common.schema import describe_validation_error
     from score4.common.yamlfile import load_yaml
-    from score4.inputs.materials import MaterialSpec
+    from score4.inputs.material_spec import MaterialSpec
 
     data = load_yaml(path, "--config") or {}
     section = data.get("materials", {}) if isinstance(data, dict) else None
@@ -84,7 +84,7 @@ def resolve_material(name: str, density: str | None, materials: dict, names=None
     ``name`` is a ``materials:`` entry, a Geant4 NIST name, or a chemical formula when
     ``density`` is given.
     """
-    from score4.inputs.materials import MaterialSpec
+    from score4.inputs.material_spec import MaterialSpec
 
     if density is not None:
         if name in materials or name.startswith("G4_"):

@@ -10,7 +10,7 @@ from __future__ import annotations
 from score4.surface.block_cut import floored_blocks
 from score4.surface.triangle_mesh import TriangleMesh
 
-from ..surface.spec import Surface
+from ..surface.rough import Surface
 
 
 def fast_tessellated(g4, mesh: TriangleMesh, name: str):

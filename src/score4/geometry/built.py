@@ -11,17 +11,19 @@ from pathlib import Path
 
 import numpy as np
 
+from score4.world.boolean_modes import boolean_cuts
 from score4.world.facets import clip_convex, is_convex, mesh_of, solid_triangles
 from score4.world.scene import Scene, TargetVolume
 
 from ..errors import ConfigError
+from ..shapes import BooleanShape, Shape
 from ..shapes import G4Box as G4BoxShape
 from ..shapes import G4Cons as G4ConsShape
 from ..shapes import G4GenericPolycone as G4GenericPolyconeShape
 from ..shapes import G4Orb as G4OrbShape
 from ..shapes import G4Sphere as G4SphereShape
 from ..shapes import G4Tubs as G4TubsShape
-from ..shapes import Shape
+from .boolean_cut import cut_boolean_solid
 from .gdml import read_gdml
 from .portal import PortalGeometry
 from .solids import tessellated_solid
@@ -121,6 +123,9 @@ def cut_for_layers(g4, scene: Scene, target: TargetVolume, solid, name: str):
     if not layers:
         return solid, np.zeros(3), []
     cuts: dict[str, float] = {layer.config.face_name: layer.thickness for layer in layers}
+    if isinstance(target.shape, BooleanShape):  # constituents cut, the boolean rebuilt
+        cuts = boolean_cuts(layers)  # a bore's cut widens it
+        return cut_boolean_solid(g4, solid, target.shape, cuts, name, g4_solid)
     trimmed = None if target.shape is None else target.shape.trimmed(cuts)
     if trimmed is None:
         triangles = None if target.shape is None else solid_triangles(target.shape)

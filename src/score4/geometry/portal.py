@@ -7,7 +7,11 @@ The paper's alternative to placing every cell (:func:`score4.geometry.tiling.pla
 * each of the ``K`` variants gets a **subworld**: a box of one cell (patch size x layer thickness,
   world material) holding one placement of that variant's patch exactly as native tiling places
   it in a cell, inside a slightly larger **trigger** box. Subworlds carry the face's rotation,
-  so a jump is a pure translation and momentum directions never change;
+  so a jump is a pure translation and momentum directions never change. The trigger of each
+  variant is placed four times (two along a grid axis of one cell), one copy per parity of the
+  cell indices (:func:`cell_slots`): neighbouring cells, diagonal ones included, never share a
+  subworld, so a particle that crosses a cell border lands in another copy and its secondaries'
+  cells stay known without Python per track (:mod:`score4.sim.portal_action`);
 * the subworlds lie outside the region particles can reach: the targets sit in a box ``Lab`` of
   the native world's size, the subworlds beside it in a larger world, and a particle that leaves
   ``Lab`` is killed where the native world would have ended (:mod:`score4.sim.portal_action`).
@@ -15,7 +19,8 @@ The paper's alternative to placing every cell (:func:`score4.geometry.tiling.pla
 A particle entering the portal jumps to the matching point of its cell's subworld; leaving a
 subworld through a cell border it jumps to the neighbouring cell's subworld; leaving the grid it
 jumps back to the matching point of the portal boundary. Jump target = point + ``T[i, j]``, with
-``T[i, j] = A[variant(i, j)] - i Eu - j Ev`` (:meth:`PortalMap.translations`).
+``T[i, j] = A[slot(i, j)] - i Eu - j Ev`` (:meth:`PortalMap.translations`, slots from
+:func:`cell_slots`).
 
 This module is numpy except :func:`place_portal`, which receives the geant4_pybind module.
 """
@@ -23,6 +28,7 @@ This module is numpy except :func:`place_portal`, which receives the geant4_pybi
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -47,11 +53,17 @@ class PortalMap:
     layer
         The rough layer (frame, patch map, thickness).
     subworld_centres
-        ``(K, 3)`` world centres of the variants' subworld boxes (rotated like the face).
+        ``(K S, 3)`` world centres of the subworld boxes (rotated like the face), ``S`` per
+        variant (:func:`cell_slots`).
     """
 
     layer: RoughLayer
     subworld_centres: np.ndarray
+
+    @cached_property
+    def slots(self) -> np.ndarray:
+        """``(ny, nx)`` subworld of each cell (:func:`cell_slots`)."""
+        return cell_slots(self.layer)
 
     @property
     def rotation(self) -> np.ndarray:
@@ -69,7 +81,7 @@ class PortalMap:
         return self.layer.frame.to_world(np.array([0.0, 0.0, self.layer.thickness / 2]))
 
     def offsets(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(A, Eu, Ev)``: ``T[i, j] = A[variant] - i Eu - j Ev`` (world vectors, mm)."""
+        """``(A, Eu, Ev)``: ``T[i, j] = A[slot] - i Eu - j Ev`` (world vectors, mm)."""
         lu, lv = self.layer.frame.size
         px, py = self.layer.patch_size
         r = self.rotation
@@ -81,7 +93,7 @@ class PortalMap:
         """``(n, 3)`` jump vectors portal point -> subworld point of cells ``(i, j)``."""
         a, eu, ev = self.offsets()
         i, j = np.asarray(i), np.asarray(j)
-        k = self.layer.patch_map.variants[j, i]
+        k = self.slots[j, i]
         return a[k] - i[:, None] * eu - j[:, None] * ev
 
     def inside_portal(self, points: np.ndarray) -> np.ndarray:
@@ -122,10 +134,29 @@ def trigger_extent(layer: RoughLayer) -> np.ndarray:
     return np.abs(layer.frame.rotation) @ half
 
 
+def slot_counts(layer: RoughLayer) -> tuple[int, int]:
+    """Copies of each variant's subworld along the grid's u and v: 2 (index parities), 1 along an
+    axis of one cell."""
+    return (2 if layer.patch_map.nx > 1 else 1), (2 if layer.patch_map.ny > 1 else 1)
+
+
+def cell_slots(layer: RoughLayer) -> np.ndarray:
+    """``(ny, nx)`` subworld of each cell: ``variant * S + (i mod su) + su (j mod sv)`` with
+    ``(su, sv)`` from :func:`slot_counts`, ``S = su sv`` (-1 stays -1).
+
+    A cell and its eight neighbours lie in different subworlds, so a jump through a cell border
+    or corner always enters another subworld than the one left."""
+    v = layer.patch_map.variants
+    su, sv = slot_counts(layer)
+    j, i = np.indices(v.shape)
+    return np.where(v < 0, v, v * (su * sv) + i % su + su * (j % sv))
+
+
 def subworld_centres(layer: RoughLayer, origin) -> np.ndarray:
-    """``(K, 3)`` subworld centres: the first at ``origin``, the others following along +x."""
+    """``(K S, 3)`` subworld centres: the first at ``origin``, the others following along +x."""
     pitch = 2 * trigger_extent(layer)[0] * (1 + TRIGGER_GAP)
-    k = np.arange(len(layer.variants))
+    su, sv = slot_counts(layer)
+    k = np.arange(len(layer.variants) * su * sv)
     return np.asarray(origin, float)[None, :] + np.outer(k * pitch, [1.0, 0.0, 0.0])
 
 
@@ -202,7 +233,8 @@ def place_portal(
     subworld_mother_lv=None,
     reachable: tuple | None = None,
 ) -> PortalGeometry:
-    """Place the empty portal box in ``mother_lv`` and one trigger + subworld per variant.
+    """Place the empty portal box in ``mother_lv`` and one trigger + subworld per variant, the
+    trigger placed once per slot of the variant (:func:`cell_slots`).
 
     The portal and trigger boxes are vacuum (G4_Galactic) whatever the world material: a particle
     is moved out of them after one straight step, which is undone (position, direction, energy and
@@ -257,28 +289,31 @@ def place_portal(
     keep += [sub_solid, trig_solid]
     z = -t / 2 + layer.base_thickness  # base plane of the patch, as in a native cell
     patch_lvs, subworld_pvs, trigger_pvs = [], [], []
+    su, sv = slot_counts(layer)
     for k in range(len(layer.variants)):
         sub_lv = g4.G4LogicalVolume(sub_solid, world_material, f"{name}_subworld{k}")
         trig_lv = g4.G4LogicalVolume(trig_solid, vacuum, f"{name}_trigger{k}")
-        trig_pv = g4.G4PVPlacement(
-            g4.G4Transform3D(rot, vec(*pmap.subworld_centres[k])),
-            trig_lv,
-            f"{name}_trigger{k}",
-            subworld_mother_lv or mother_lv,
-            False,
-            k,
-            False,
-        )
+        for slot in range(k * su * sv, (k + 1) * su * sv):  # one placement per slot
+            trig_pv = g4.G4PVPlacement(
+                g4.G4Transform3D(rot, vec(*pmap.subworld_centres[slot])),
+                trig_lv,
+                f"{name}_trigger{slot}",
+                subworld_mother_lv or mother_lv,
+                False,
+                slot,
+                False,
+            )
+            keep.append(trig_pv)
+            trigger_pvs.append(trig_pv)
         sub_pv = g4.G4PVPlacement(
             None, vec(), sub_lv, f"{name}_subworld{k}", trig_lv, False, k, False
         )
         lvs_k, keep_k = place_variant(g4, layer, k, sub_lv, z, material, f"{name}_v{k}", k)
         region.AddRootLogicalVolume(trig_lv)
         quiet.AddRootLogicalVolume(sub_lv)
-        keep += [sub_lv, trig_lv, trig_pv, sub_pv, keep_k]
+        keep += [sub_lv, trig_lv, sub_pv, keep_k]
         patch_lvs += lvs_k
         subworld_pvs.append(sub_pv)
-        trigger_pvs.append(trig_pv)
     return PortalGeometry(
         pmap, portal_pv, subworld_pvs, trigger_pvs, patch_lvs, region, quiet, keep
     )

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-from score4.inputs.config import BoxVolume, RunConfig
+from score4.common.records import kind_of
 from score4.inputs.materials import find_material
 from score4.runner.run_plan import RunPlan
 from score4.world.scene import TargetVolume
@@ -13,6 +15,9 @@ from .built import BuiltGeometry, cut_for_layers, g4_solid
 from .gdml_world import build_gdml_world
 from .portal import place_portal, subworld_bounds, trigger_extent
 from .tiling import place_native
+
+if TYPE_CHECKING:
+    from score4.inputs.config import RunConfig
 
 
 def portal_layout(plan: RunPlan) -> tuple[np.ndarray, dict[str, np.ndarray]]:
@@ -47,7 +52,7 @@ def check_materials(g4, plan: RunPlan) -> None:
     if config.world.gdml is None:
         find_material(g4, config.world.material, "world.material", config.materials)
     for i, t in enumerate(config.targets):
-        if isinstance(t, BoxVolume):
+        if kind_of(t) == "BoxVolume" and t.material is not None:  # a model, or a record of it
             find_material(g4, t.material, f"targets.{i}.material", config.materials)
 
 

@@ -39,10 +39,16 @@ from score4.common.schema import (
 from score4.common.units import length_text
 from score4.common.yamlfile import load_yaml
 from score4.errors import ConfigError
+from score4.ions.trim_library import (  # their home was here: re-exported
+    EVENTS_PER_THOUSAND_HISTORIES as EVENTS_PER_THOUSAND_HISTORIES,
+)
+from score4.ions.trim_library import default_trim_histories as default_trim_histories
+from score4.ions.trim_library import trim_histories as trim_histories
 from score4.surface.patchmap import DEFAULT_TILES
 from score4.surface.spec import MeasuredSurfaceSpec, RandomSurfaceSpec, SpikeSurfaceSpec
 
-from .materials import MaterialSpec, check_material_name
+from .material_spec import MaterialSpec
+from .materials import check_material_name
 from .response_spec import ResponseConfig
 
 FACES = ("+x", "-x", "+y", "-y", "+z", "-z")
@@ -553,27 +559,6 @@ class PhysicsConfig(StrictModel):
     # Alphas: Geant4 (ASTAR-based stopping; within 3 % of TRIM's ranges in Si, Ge, Cu, 4-6 % off
     # in NaI, CaWO4 and TeO2 at some energies) or TRIM trajectories like heavy ions (SRIM stopping).
     alphas: Literal["geant4", "trim"] = "geant4"
-
-
-#: Events per 1000 TRIM histories of a library whose size is not given: a run draws its ions'
-#: histories with replacement; at up to 20 events per history the library's own sample error
-#: was within the scatter of the recoil-deposit spectrum's chi2 at 2e4 and 1e5 events (at most
-#: about a fifth of its variance; docs/physics.md, "Library size"). 1000 to 100 000 histories.
-EVENTS_PER_THOUSAND_HISTORIES = 20_000
-
-
-def default_trim_histories(events: int) -> int:
-    """TRIM histories of a library when ``physics.trim_histories`` is not given: 1000 per
-    :data:`EVENTS_PER_THOUSAND_HISTORIES` events of the run (rounded up), 1000 to 100 000."""
-    thousands = -(-int(events) // EVENTS_PER_THOUSAND_HISTORIES)
-    return 1000 * min(max(thousands, 1), 100)
-
-
-def trim_histories(config: RunConfig) -> int:
-    """The TRIM library size of a run: ``physics.trim_histories``, or
-    :func:`default_trim_histories` of its ``run.events``."""
-    given = config.physics.trim_histories
-    return given if given is not None else default_trim_histories(config.run.events)
 
 
 class RunSettings(StrictModel):

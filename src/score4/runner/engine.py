@@ -30,7 +30,6 @@ from __future__ import annotations
 import contextlib
 import json
 import multiprocessing as mp
-import pickle
 import platform
 import re
 import shutil
@@ -59,7 +58,7 @@ from score4.runner.conservation import check_chunk_files
 from score4.runner.normalisation import run_normalisation
 from score4.runner.output import chunk_counts, merge_chunks
 from score4.runner.progress import progress_bar
-from score4.runner.run_plan import RunPlan, plan_run
+from score4.runner.run_plan import RunPlan, plan_run, worker_pickle
 from score4.runner.run_record import RunRecord
 from score4.runner.seeds import BLOCK_EVENTS
 from score4.sim.worker import Chunk, WorkerSpec, chunk_path, worker_main
@@ -562,7 +561,10 @@ class LocalProcesses:
         if not pending:
             return
         n = len(todo) if isinstance(todo, Sized) else self.jobs
-        workers = [_LocalWorker(ctx, spec) for _ in range(min(self.jobs, n))]
+        # pickled once, resolved and without pydantic models (run_plan.worker_pickle): a worker
+        # unpickles it with the garbage collector off and rebuilds nothing
+        blob = worker_pickle(spec)
+        workers = [_LocalWorker(ctx, blob) for _ in range(min(self.jobs, n))]
         # a worker that dies with a chunk is replaced while chunks wait (the engine stops the run
         # after MAX_FAILED_CHUNKS failures; one that dies starting up stops it at once)
         replacements = len(todo) if isinstance(todo, Sized) else float("inf")
@@ -579,7 +581,7 @@ class LocalProcesses:
                         pending and w.ready and replacements > 0
                     ):  # a working worker died: replace it
                         replacements -= 1
-                        workers.append(_LocalWorker(ctx, spec))
+                        workers.append(_LocalWorker(ctx, blob))
         finally:
             for w in workers:
                 w.terminate()
@@ -614,10 +616,8 @@ class _Pending:
 class _LocalWorker:
     """The parent's side of one local worker process."""
 
-    def __init__(self, ctx, spec: WorkerSpec) -> None:
+    def __init__(self, ctx, blob: bytes) -> None:
         self.conn, child = ctx.Pipe()
-        # the spec goes pickled: the worker rebuilds the plan with the garbage collector off
-        blob = pickle.dumps(spec)
         self.process = ctx.Process(target=worker_main, args=(blob, child), daemon=True)
         self.process.start()
         child.close()

@@ -41,14 +41,15 @@ from __future__ import annotations
 import json
 from functools import cache
 from importlib.resources import files
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from score4.errors import ConfigError
-from score4.inputs.config import RunConfig
-from score4.world.resolve import build_scene
-from score4.world.scene import RoughLayer, Scene
+
+if TYPE_CHECKING:  # a worker imports this module for layer_volume only (geometry.masses)
+    from score4.inputs.config import RunConfig
+    from score4.world.scene import RoughLayer, Scene
 
 #: Version of the normalisation entries; a results file without ``simulated_decays`` predates them.
 NORMALISATION_VERSION = 1
@@ -147,6 +148,7 @@ def parse_stored_config(data: dict, origin: str) -> RunConfig:
     from pydantic import ValidationError
 
     from score4.common.schema import describe_validation_error
+    from score4.inputs.config import RunConfig
 
     try:
         return RunConfig.model_validate(data, context={"base_dir": None, "stored": True})
@@ -158,6 +160,7 @@ def _drawn_config(config: RunConfig) -> tuple[RunConfig | None, str | None]:
     """The configuration a vertex file was drawn from (with this run's number of events), or
     None and why not (a hand-made file stores none; a stored one may no longer rebuild)."""
     from score4.source.vertex_file import vertex_file_config
+    from score4.world.resolve import build_scene
 
     path = config.source.vertices
     stored = vertex_file_config(path) if path is not None else {}
@@ -185,6 +188,8 @@ def _vertices_source(config: RunConfig, volumes: list[dict]) -> dict[str, Any]:
         "mass_kg": None,
         "drawn_from": None,  # hand-made vertices: only a total activity applies
     }
+    from score4.world.resolve import build_scene
+
     drawn, note = _drawn_config(config)
     if note:
         entry["note"] = note

@@ -8,9 +8,14 @@ plan: the engine's checks before the run (:func:`score4.runner.engine.run`), the
 application (:class:`score4.sim.simulation.Simulation`), the world builders
 (:func:`score4.geometry.world.build_world`).
 
-A plan travels to a worker (a spawned process, a Dask task) as its *recipe*: the
-configuration, the seed, the physics choice, the fingerprint and the GDML volume model. The
-worker rebuilds the scene and the source from it, deterministically (same seeds, same patch
+A plan travels to a local worker process resolved (:func:`worker_pickle`): the scene and the
+source as the parent built them, with every validated model of the configuration in them
+replaced by a :class:`~score4.common.records.Record` of its values. So the worker rebuilds
+nothing and never imports pydantic or :mod:`score4.inputs.config` (0.13-0.16 s of a worker's
+0.7-1 s start-up, ``benchmarks/bench_runloop.py --parts startup``). ``pickle.dumps(plan)``
+writes the plan's *recipe* instead (a Dask task pickles its arguments with every task): the
+configuration, the seed, the physics choice, the fingerprint and the GDML volume model;
+unpickling it rebuilds the scene and the source, deterministically (same seeds, same patch
 maps) and without the checks the parent made before the run: no configuration file is read
 again and a GDML world is not read again in Python (Geant4 parses it once, when it builds the
 world). The recipe of a 10 cm rough face is some 2 kB against several MB for the resolved
@@ -20,15 +25,18 @@ scene, and rebuilding it takes milliseconds (``benchmarks/bench_run_plan.py`` pr
 from __future__ import annotations
 
 import hashlib
+import io
 import json
+import pickle
 import warnings
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from score4.common.records import Record
 from score4.errors import Score4Warning
-from score4.inputs.config import OutputConfig, RunConfig, config_to_dict
 
 if TYPE_CHECKING:
+    from score4.inputs.config import OutputConfig, RunConfig
     from score4.runner.physics_choice import PhysicsChoice
     from score4.source.build import BulkSource, FileSource, SampledSource
     from score4.world.gdml_model import GeometryModel
@@ -39,6 +47,8 @@ def config_fingerprint(config: RunConfig, seed: int, gdml_key: str | None = None
     """Identifies what a chunk file was made from, so resume never mixes runs (a GDML world by
     the content of its files, ``gdml_key`` = :func:`~score4.world.gdml_files.model_key`,
     not only their names; computed here when not given)."""
+    from score4.inputs.config import config_to_dict
+
     data: dict[str, Any] = {"config": config_to_dict(config), "seed": seed}
     if config.world.gdml is not None:
         if gdml_key is None:
@@ -55,13 +65,14 @@ class RunPlan:
     """One run configuration, resolved: what every later step of a run reads.
 
     Two plans are equal when their fingerprints, seeds and physics choices are. A plan pickles
-    as its recipe and is rebuilt from it on unpickling, in a worker (:mod:`score4.runner.run_plan`).
+    as its recipe and is rebuilt from it on unpickling (a Dask task); :func:`worker_pickle` sends
+    it resolved, to a local worker (:mod:`score4.runner.run_plan`).
 
     Attributes
     ----------
     config
         The validated configuration (its ``run.seed`` may differ from ``seed``: see
-        :func:`plan_run`).
+        :func:`plan_run`); in a local worker, a :class:`~score4.common.records.Record` of it.
     seed
         The run seed: every random stream of the run derives from it (:mod:`score4.runner.seeds`).
     physics
@@ -191,3 +202,66 @@ _REBUILT: dict[str, RunPlan] = {}
 
 def _identity(plan: RunPlan) -> tuple[str, int, PhysicsChoice]:
     return plan.fingerprint, plan.seed, plan.physics
+
+
+def worker_pickle(obj: object) -> bytes:
+    """``obj`` (a worker's spec holding a :class:`RunPlan`) pickled for a worker process: the
+    plan resolved (its scene and source as they are, not its recipe) and every pydantic model
+    in it as a :class:`~score4.common.records.Record` of its fields and property values.
+
+    Unpickling it imports neither pydantic nor the configuration's models, and rebuilds no scene.
+    """
+    from pydantic import BaseModel
+
+    buffer = io.BytesIO()
+    _WorkerPickler(buffer, BaseModel).dump(obj)
+    return buffer.getvalue()
+
+
+class _WorkerPickler(pickle.Pickler):
+    def __init__(self, file: io.BytesIO, model_class: type) -> None:
+        super().__init__(file, protocol=pickle.HIGHEST_PROTOCOL)
+        self.model_class = model_class
+
+    def reducer_override(self, obj: object) -> Any:
+        if isinstance(obj, RunPlan):
+            return _resolved, (
+                obj.config,
+                obj.seed,
+                obj.physics,
+                obj.scene,
+                obj.source,
+                obj.fingerprint,
+                obj.gdml_key,
+            )
+        if isinstance(obj, self.model_class):
+            return Record, (type(obj).__name__, _model_values(obj))
+        return NotImplemented
+
+
+def _model_values(model: Any) -> dict[str, Any]:
+    """A model's fields, then the values of its properties (those that have one)."""
+    values = {name: getattr(model, name) for name in type(model).model_fields}
+    for cls in type(model).__mro__:
+        if cls.__module__.startswith("pydantic"):
+            continue
+        for name, attr in vars(cls).items():
+            if isinstance(attr, property) and name not in values:
+                try:
+                    values[name] = getattr(model, name)
+                except Exception:  # noqa: BLE001 a property this model cannot answer is left out
+                    continue
+    return values
+
+
+def _resolved(
+    config: Any,
+    seed: int,
+    physics: PhysicsChoice,
+    scene: Scene,
+    source: SampledSource | BulkSource | FileSource | None,
+    fingerprint: str,
+    gdml_key: str | None,
+) -> RunPlan:
+    """A plan as its parent resolved it (unpickled from :func:`worker_pickle`)."""
+    return RunPlan(config, seed, physics, scene, source, fingerprint, gdml_key)

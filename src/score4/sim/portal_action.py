@@ -40,13 +40,16 @@ its creation time (a parent is always tracked to its end before its secondaries)
 
 Python runs only where a particle crosses a portal: no user action runs for the tracks of an
 event (~190 delta electrons per Po-210 event) as long as its cells are unambiguous. Per event and
-per (layer, variant) the teleporter keeps the first cell entered (by a primary's start or a jump):
-while every variant has been entered in at most one cell, a track with no history that leaves a
-subworld of variant k can only be in that variant's one cell, whatever its ancestry. When a jump
-(or the primaries of one event) enters a second cell of some variant, a Python tracking action is
+per (layer, subworld) the teleporter keeps the first cell entered (by a primary's start or a jump):
+while every subworld has been entered in at most one cell, a track with no history that leaves
+subworld k can only be in that subworld's one cell, whatever its ancestry. Each variant has one
+subworld per parity of the cell indices (:func:`score4.geometry.portal.cell_slots`), so a jump
+through a cell border or corner never makes an event ambiguous: that takes a particle entering
+two cells of one parity (two borders crossed, or the portal entered twice). When a jump
+(or the primaries of one event) enters a second cell of some subworld, a Python tracking action is
 switched on for the rest of the event (off again when the next event begins): from then on every
 new track gets its cell from its parent as above, and a parent with no history can only have
-started before the switch, in its variant's first cell. The cells are the same as with a tracking
+started before the switch, in its subworld's first cell. The cells are the same as with a tracking
 action for every track (tests/test_portal.py compares with native tiling). A track that leaves a
 subworld with no known cell (impossible by construction) is killed and counted in
 :attr:`Teleporter.anomalies`.
@@ -75,6 +78,8 @@ class _Layer:
     def __init__(self, pmap: PortalMap) -> None:
         layer = pmap.layer
         self.r = [[float(x) for x in row] for row in layer.frame.rotation]
+        r = self.r  # R^T row by row, flat: one unpacking per call of local()
+        self.rt = tuple(r[m][col] for col in range(3) for m in range(3))
         self.centre = tuple(float(x) for x in layer.frame.centre)
         self.sub = [tuple(float(x) for x in c) for c in pmap.subworld_centres]
         a, eu, ev = pmap.offsets()
@@ -88,22 +93,22 @@ class _Layer:
         lu, lv = layer.frame.size
         self.portal_half = (lu / 2, lv / 2, self.half[2])
         self.nx, self.ny = layer.patch_map.nx, layer.patch_map.ny
-        self.variants = layer.patch_map.variants.tolist()
+        self.slots = pmap.slots.tolist()  # the subworld of each cell, [j][i]
 
     def local(self, x: float, y: float, z: float, c) -> tuple[float, float, float]:
         """Face-frame components of the world point (x, y, z) relative to ``c``: R^T (p - c)."""
-        r = self.r
+        r00, r10, r20, r01, r11, r21, r02, r12, r22 = self.rt
         dx, dy, dz = x - c[0], y - c[1], z - c[2]
         return (
-            r[0][0] * dx + r[1][0] * dy + r[2][0] * dz,
-            r[0][1] * dx + r[1][1] * dy + r[2][1] * dz,
-            r[0][2] * dx + r[1][2] * dy + r[2][2] * dz,
+            r00 * dx + r10 * dy + r20 * dz,
+            r01 * dx + r11 * dy + r21 * dz,
+            r02 * dx + r12 * dy + r22 * dz,
         )
 
     def jump(self, i: int, j: int) -> tuple[float, float, float]:
         """T[i, j]: portal point + T = subworld point (same expression as
         PortalMap.translations)."""
-        a, eu, ev = self.a[self.variants[j][i]], self.eu, self.ev
+        a, eu, ev = self.a[self.slots[j][i]], self.eu, self.ev
         return (
             a[0] - i * eu[0] - j * ev[0],
             a[1] - i * eu[1] - j * ev[1],
@@ -133,19 +138,24 @@ class _Layer:
 def outward_faces(pos, d, half) -> list[int]:
     """Per axis: +1 or -1 where ``pos`` lies on that face of the box of half-lengths ``half``
     (within EDGE_TOLERANCE) and ``d`` points out through it, else 0."""
+    (c0, c1, c2), (u0, u1, u2), (h0, h1, h2) = pos, d, half  # written out: per-step code
     return [
-        (1 if c > 0 else -1) if (h - abs(c) <= EDGE_TOLERANCE and c * u > 0) else 0
-        for c, h, u in zip(pos, half, d, strict=True)
+        (1 if c0 > 0 else -1) if (h0 - abs(c0) <= EDGE_TOLERANCE and c0 * u0 > 0) else 0,
+        (1 if c1 > 0 else -1) if (h1 - abs(c1) <= EDGE_TOLERANCE and c1 * u1 > 0) else 0,
+        (1 if c2 > 0 else -1) if (h2 - abs(c2) <= EDGE_TOLERANCE and c2 * u2 > 0) else 0,
     ]
 
 
 def enters(pos, d, half) -> bool:
     """True if ``pos`` lies inside the box, or on a face of it with ``d`` pointing in through that
     face."""
-    if max(abs(c) - h for c, h in zip(pos, half, strict=True)) < -EDGE_TOLERANCE:
+    (c0, c1, c2), (u0, u1, u2), (h0, h1, h2) = pos, d, half  # written out: per-step code
+    if max(abs(c0) - h0, abs(c1) - h1, abs(c2) - h2) < -EDGE_TOLERANCE:
         return True
-    return any(
-        h - abs(c) <= EDGE_TOLERANCE and c * u < 0 for c, h, u in zip(pos, half, d, strict=True)
+    return (
+        (h0 - abs(c0) <= EDGE_TOLERANCE and c0 * u0 < 0)
+        or (h1 - abs(c1) <= EDGE_TOLERANCE and c1 * u1 < 0)
+        or (h2 - abs(c2) <= EDGE_TOLERANCE and c2 * u2 < 0)
     )
 
 
@@ -177,7 +187,9 @@ class Teleporter:
         self.history: dict[int, tuple[list[float], list]] = {}
         self.primary_cells: list = []
         self.first_row = 0
-        self.first_cell: dict[tuple[int, int], tuple] = {}  # (layer, variant) -> first cell entered
+        self.n_primaries = 0  # of the current event: its primaries are tracks 1 .. n_primaries
+        # (layer, subworld) -> first cell entered
+        self.first_cell: dict[tuple[int, int], tuple] = {}
         self.tracking = True  # is the tracking action on (see the module docstring)
         # set by make_actions: switches the tracking action on or off
         self.set_tracking: Callable[[bool], None] | None = None
@@ -216,6 +228,7 @@ class Teleporter:
         self.first_cell.clear()
         self.exit_step = None
         self.first_row = first_row
+        self.n_primaries = end_row - first_row
         cells = self.primary_cells[first_row:end_row]
         ambiguous = False
         for cell in cells:
@@ -224,9 +237,9 @@ class Teleporter:
         self._track(ambiguous)
 
     def _enter(self, cell) -> bool:
-        """Note that ``cell`` was entered; True if its variant had been entered in another cell."""
+        """Note that ``cell`` was entered; True if its subworld had been entered in another cell."""
         n, i, j = cell
-        return self.first_cell.setdefault((n, self.layers[n].variants[j][i]), cell) != cell
+        return self.first_cell.setdefault((n, self.layers[n].slots[j][i]), cell) != cell
 
     def _track(self, on: bool) -> None:
         """Switch the tracking action on or off (no-op if it already is)."""
@@ -236,7 +249,7 @@ class Teleporter:
             self.tracked_events += on
 
     def _subworld(self, x: float, y: float, z: float) -> tuple[int, int] | None:
-        """(layer, variant) of the subworld holding the world point (x, y, z), or None."""
+        """(layer, subworld) of the subworld holding the world point (x, y, z), or None."""
         for n, lay in enumerate(self.layers):
             for k, centre in enumerate(lay.sub):
                 local = lay.local(x, y, z, centre)
@@ -255,20 +268,28 @@ class Teleporter:
         if (
             parent == 0
         ):  # Geant4 numbers an event's primaries 1, 2, ... in the order they were given
-            row = self.first_row + track.GetTrackID() - 1
+            tid = track.GetTrackID()
+            row = self.first_row + tid - 1
             cell = self.primary_cells[row] if row < len(self.primary_cells) else None
+            if cell is not None:
+                self.history[tid] = ([-math.inf], [cell])
+            return
+        h = self.history.get(parent)
+        if h is None:
+            # The parent started before the tracking action was switched on and never
+            # jumped: it stayed in the first cell of its subworld, or in Lab.
+            p = track.GetPosition()
+            where = self._subworld(p.x, p.y, p.z)
+            cell = None if where is None else self.first_cell.get(where)
         else:
-            h = self.history.get(parent)
-            if h is None:
-                # The parent started before the tracking action was switched on and never
-                # jumped: it stayed in the first cell of its subworld's variant, or in Lab.
-                p = track.GetPosition()
-                where = self._subworld(p.x, p.y, p.z)
-                cell = None if where is None else self.first_cell.get(where)
-            else:
-                times, cells = h
-                # Born at the time of a jump = born in the step that triggered it: the old cell.
-                cell = cells[bisect_left(times, track.GetGlobalTime()) - 1]
+            times, cells = h
+            # Born at the time of a jump = born in the step that triggered it: the old cell.
+            # A parent that never jumped has one cell: no need to ask for the time.
+            cell = (
+                cells[0]
+                if len(cells) == 1
+                else cells[bisect_left(times, track.GetGlobalTime()) - 1]
+            )
         if cell is not None:
             self.history[track.GetTrackID()] = ([-math.inf], [cell])
 
@@ -285,12 +306,14 @@ class Teleporter:
 
     # --- steps ----------------------------------------------------------------------------
 
-    def _move(self, step, track, pre, x: float, y: float, z: float) -> None:
-        """Undo the vacuum step and restart the track at (x, y, z) with the pre-step state."""
-        d = pre.GetMomentumDirection()
+    def _move(
+        self, step, track, pre, d, time: float, tid: int, x: float, y: float, z: float
+    ) -> None:
+        """Undo the vacuum step and restart track ``tid`` at (x, y, z) with the pre-step state
+        (``d`` and ``time``: the pre-step point's direction and global time, already read)."""
         track.SetMomentumDirection(d)
         track.SetKineticEnergy(pre.GetKineticEnergy())
-        track.SetGlobalTime(pre.GetGlobalTime())
+        track.SetGlobalTime(time)
         track.SetLocalTime(pre.GetLocalTime())
         track.SetProperTime(pre.GetProperTime())
         pos = self.vector(x, y, z)
@@ -299,7 +322,7 @@ class Teleporter:
         self.navigator.LocateGlobalPointAndUpdateTouchable(pos, d, track.GetNextTouchable(), False)
         step.InitializeStep(track)
         self.jumps += 1
-        if track.GetParentID():
+        if tid > self.n_primaries:  # not one of the event's primaries (tracks 1 .. n)
             self.secondary_jumps += 1
 
     def _kill(self, track) -> None:
@@ -313,18 +336,19 @@ class Teleporter:
         on the boundary moving out, so the rules leave it alone (a track landed in the target
         instead never matches again, as step numbers only grow).
         """
+        track = step.GetTrack()
         if self.exit_step is not None:
-            track = step.GetTrack()
             exit_step, self.exit_step = self.exit_step, None
             if (track.GetTrackID(), track.GetCurrentStepNumber()) == exit_step:
                 self.quick_exits += 1
                 return
-        pre = step.GetPreStepPoint()
-        role = self.roles.get(pre.GetTouchable().GetVolume())
+        # The pre-step point's volume: the track's touchable is the pre-step point's until the
+        # next step begins (one binding call less than pre.GetTouchable().GetVolume()).
+        role = self.roles.get(track.GetVolume())
         if role is None:
             return
         kind, n, k = role
-        track = step.GetTrack()
+        pre = step.GetPreStepPoint()
         lay = self.layers[n]
         p = pre.GetPosition()
         x, y, z = p.x, p.y, p.z
@@ -340,11 +364,12 @@ class Teleporter:
                 return
             i, j = lay.cell(q[0], q[1])
             t = lay.jump(i, j)
-            self._move(step, track, pre, x + t[0], y + t[1], z + t[2])
+            self._move(step, track, pre, d, time, tid, x + t[0], y + t[1], z + t[2])
             self._record(tid, time, (n, i, j), None)
             return
         local = lay.local(x, y, z, lay.sub[k])
-        if max(abs(c) - h_ for c, h_ in zip(local, lay.half, strict=True)) > EDGE_TOLERANCE:
+        (c0, c1, c2), (h0, h1, h2) = local, lay.half
+        if max(abs(c0) - h0, abs(c1) - h1, abs(c2) - h2) > EDGE_TOLERANCE:
             self._kill(track)  # came into the trigger from the world beyond Lab
             self.left_lab += 1
             return
@@ -352,9 +377,9 @@ class Teleporter:
         if crossing is None:
             return  # touched the subworld's boundary and turned back: Geant4 steps back in
         h = self.history.get(tid)
-        # no history: the track never jumped and started in its variant's first cell
+        # no history: the track never jumped and started in its subworld's first cell
         cell = h[1][-1] if h is not None else self.first_cell.get((n, k))
-        if cell is None or cell[0] != n or lay.variants[cell[2]][cell[1]] != k:
+        if cell is None or cell[0] != n or lay.slots[cell[2]][cell[1]] != k:
             self._kill(track)
             self.anomalies += 1
             return
@@ -364,12 +389,12 @@ class Teleporter:
         x, y, z = x - t[0], y - t[1], z - t[2]  # the matching point of the portal
         i, j = i + di, j + dj
         if through_z or not (0 <= i < lay.nx and 0 <= j < lay.ny):
-            self._move(step, track, pre, x, y, z)
+            self._move(step, track, pre, d, time, tid, x, y, z)
             self._record(tid, time, None, cell)
             self.exit_step = (tid, track.GetCurrentStepNumber() + 1)
         else:
             t = lay.jump(i, j)
-            self._move(step, track, pre, x + t[0], y + t[1], z + t[2])
+            self._move(step, track, pre, d, time, tid, x + t[0], y + t[1], z + t[2])
             self._record(tid, time, (n, i, j), cell)
 
 
@@ -384,13 +409,13 @@ def make_actions(g4, teleporter: Teleporter, regions: list) -> tuple:
     on_step = teleporter.on_step
     start_track = teleporter.start_track
 
+    # The teleporter's bound methods are the overrides themselves (the binding looks them up by
+    # name on the object and calls them with the step or track): no Python frame in between.
     class PortalStepping(g4.G4UserSteppingAction):
-        def UserSteppingAction(self, step):
-            on_step(step)
+        UserSteppingAction = staticmethod(on_step)
 
     class PortalTracking(g4.G4UserTrackingAction):
-        def PreUserTrackingAction(self, track):
-            start_track(track)
+        PreUserTrackingAction = staticmethod(start_track)
 
     stepping = PortalStepping()
     for region in regions:

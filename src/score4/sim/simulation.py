@@ -21,7 +21,7 @@ from ..elements import split_ion_name
 from ..errors import ConfigError, RunCancelled, Score4Error
 from ..geometry.built import BuiltGeometry
 from ..geometry.world import build_world, check_materials
-from ..inputs.config import trim_histories
+from ..ions.trim_library import trim_histories
 from ..source.build import FileSource
 from ..source.decay_source import DecayEmitter
 from ..source.emitters import NuclideEmitter, ParticleEmitter, Po210Emitter

@@ -57,7 +57,8 @@ class Chunk:
 @dataclass(frozen=True)
 class WorkerSpec:
     """Everything a worker needs to build the application and run chunks of one run: the run
-    plan (it travels as its recipe, :mod:`score4.runner.run_plan`) and where chunk files go."""
+    plan (resolved, to a local worker; as its recipe, to a Dask task: :mod:`score4.runner.run_plan`)
+    and where chunk files go."""
 
     plan: RunPlan
     parts_dir: Path

@@ -16,12 +16,11 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 from functools import partial
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
 from score4.common import limits
-from score4.inputs.config import DecayChainConfig, DepthConfig, RunConfig, RunUnit, SourceConfig
 from score4.world.scene import CurvedRoughLayer, RoughLayer, Scene, TargetVolume, face_frame
 
 from ..errors import ConfigError
@@ -56,6 +55,9 @@ from .sampling import (
 )
 from .shape_sampling import BulkSampler, CombinedSurfaceSampler, ShapeSurfaceSampler
 from .vertex_file import read_vertex_file, vertex_file_config
+
+if TYPE_CHECKING:  # the configuration's models: a worker reads records of them (common.records)
+    from score4.inputs.config import DepthConfig, RunConfig, RunUnit, SourceConfig
 
 _T = TypeVar("_T")
 
@@ -106,6 +108,8 @@ def make_emitter(src: SourceConfig) -> Emitter | DecayEmitter:
 
 def decay_emitter(src: SourceConfig) -> DecayEmitter:
     """The :class:`DecayEmitter` of ``source.decay`` (a nuclide or a chain)."""
+    from score4.inputs.config import DecayChainConfig
+
     decay = src.decay
     if isinstance(decay, DecayChainConfig):
         return DecayEmitter.for_chain(

@@ -28,7 +28,7 @@ from collections.abc import Iterator
 import numpy as np
 
 from ..errors import ConfigError
-from .spec import Surface
+from .rough import Surface
 from .triangle_mesh import TriangleMesh, boundary_half_edges, closed_body
 
 #: Top facets per block that ``block_cells: auto`` aims at. Measured (bench_surfaces.py, alphas,

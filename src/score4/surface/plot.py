@@ -18,7 +18,7 @@ from score4.common.units import um
 
 from ..files import atomic_output
 from .metrology import areal_parameters, mesh_parameters
-from .spec import SPIKE_MAP_SAMPLES, Surface
+from .rough import SPIKE_MAP_SAMPLES, Surface
 
 #: Largest number of samples per axis drawn in the 3D view (more makes rendering slow, no clearer).
 MAX_3D_SAMPLES = 200
@@ -56,7 +56,7 @@ def _view_3d(surface: Surface, cap: int) -> tuple[np.ndarray, np.ndarray, np.nda
     grid, decimation would alias the spikes into noise and thousands of spikes are a blur in
     3D anyway: the view shows a central window of at most :data:`MAX_3D_CELLS` cells per axis
     at the map's full resolution (decimated by a power of two only if that still exceeds
-    ``cap``; the map has :data:`~score4.surface.spec.SPIKE_MAP_SAMPLES` samples per cell).
+    ``cap``; the map has :data:`~score4.surface.rough.SPIKE_MAP_SAMPLES` samples per cell).
     The window is as small as needed (down to :data:`MIN_3D_CELLS` cells) for the spikes to
     be drawn at their true aspect ratio.
     """

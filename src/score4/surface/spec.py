@@ -15,8 +15,7 @@ below z = 0 (:meth:`Surface.body`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
-from functools import cache, cached_property
+from functools import cache
 from pathlib import Path
 from typing import Annotated, ClassVar, Literal
 
@@ -44,24 +43,15 @@ from score4.common.schema import (
 from score4.common.yamlfile import load_yaml
 
 from ..errors import ConfigError
-from .heightmap import HeightMap
 from .processing import close_periodic, crop, fill_missing, level_plane, resample
 from .random import random_surface
 from .readers import TEXT_FORMATS, format_of, read_topography
-from .simplify import simplified_blocks
+from .rough import AUTO_EXACT_FACETS as AUTO_EXACT_FACETS  # their home was here: re-exported
+from .rough import AUTO_HEIGHT_SHARE as AUTO_HEIGHT_SHARE
+from .rough import AUTO_MIN_TOLERANCE as AUTO_MIN_TOLERANCE
+from .rough import SPIKE_MAP_SAMPLES as SPIKE_MAP_SAMPLES
+from .rough import Surface as Surface
 from .spikes import SpikeGrid
-from .triangle_mesh import TriangleMesh, closed_body, from_heightmap
-
-#: ``tolerance: auto`` keeps a height map's mesh exact up to this many triangles (a map of up to
-#: ~500 x 500 pixels, every example and test map: their results do not change); above it the
-#: tolerance is the rule issue 24 set for rough layers on curved faces: 1 % of the map's height
-#: (peak to valley) or 0.1 um, whichever is larger. A 1024 x 1024 map's 2.1 M exact triangles
-#: cost ~30 s and ~1.7 GB to build in Geant4 (docs/surfaces.md).
-AUTO_EXACT_FACETS = 500_000
-#: The smallest automatic tolerance, mm (0.1 um).
-AUTO_MIN_TOLERANCE = 1e-4
-#: The automatic tolerance's share of the map's height (peak to valley).
-AUTO_HEIGHT_SHARE = 0.01
 
 
 def _tolerance(value: object) -> float | str:
@@ -85,9 +75,6 @@ Tolerance = Annotated[
     BeforeValidator(_tolerance),
     PlainSerializer(lambda v: v if v == "auto" else f"{v!r} mm", when_used="json"),
 ]
-
-#: Height-map samples per spike cell and axis used to picture and measure a spike grid as a map.
-SPIKE_MAP_SAMPLES = 16
 
 
 class SpikeSurfaceSpec(StrictModel):
@@ -266,132 +253,6 @@ def load_surface_spec(path: str | Path):
     path = Path(path)
     data = load_yaml(path, "surface")
     return parse_surface_spec(data, origin=str(path), base_dir=path.parent)
-
-
-@dataclass(frozen=True)
-class Surface:
-    """A rough surface ready for geometry, sampling and metrology.
-
-    Exactly one of ``spikes`` and ``heightmap`` is the primary description; for a spike grid
-    :attr:`map` is a sampled picture of it (for plots and the ISO parameters of maps).
-    """
-
-    spec: SpikeSurfaceSpec | RandomSurfaceSpec | MeasuredSurfaceSpec
-    spikes: SpikeGrid | None = None
-    heightmap: HeightMap | None = None
-    metadata: dict = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        if (self.spikes is None) == (self.heightmap is None):
-            raise ValueError("Surface needs exactly one of spikes and heightmap")
-
-    @property
-    def size_x(self) -> float:
-        """Patch size along x, mm (the tile of a rough face)."""
-        return self.spikes.size_x if self.spikes is not None else self._extent[0]
-
-    @property
-    def size_y(self) -> float:
-        """Patch size along y, mm."""
-        return self.spikes.size_y if self.spikes is not None else self._extent[1]
-
-    @property
-    def _extent(self) -> tuple[float, float]:
-        hm = self.heightmap
-        assert hm is not None  # a surface holds spikes or a height map
-        ny, nx = hm.shape
-        return (nx - 1) * hm.pitch_x, (ny - 1) * hm.pitch_y
-
-    @property
-    def max_height(self) -> float:
-        """Highest point above the base plane z = 0, mm."""
-        return (
-            float(self.spikes.heights.max())
-            if self.spikes is not None
-            else float(self.placed_map.heights.max())
-        )
-
-    @cached_property
-    def placed_map(self) -> HeightMap:
-        """The height map centred on the origin, lowest point at z = 0 (height maps only)."""
-        hm = self.heightmap
-        if hm is None:
-            raise ValueError("placed_map: a spike grid has no primary height map; use .map")
-        z = hm.heights - np.nanmin(hm.heights)
-        return replace(hm, heights=z, origin=(-self._extent[0] / 2, -self._extent[1] / 2))
-
-    @cached_property
-    def map(self) -> HeightMap:
-        """A height map of the surface for pictures and map metrology (spikes: sampled exactly)."""
-        if self.spikes is None:
-            return self.placed_map
-        g = self.spikes
-        limits.check_memory(
-            g.nx * g.ny * limits.SPIKE_PICTURE_BYTES,
-            f"the picture of {g.nx} x {g.ny} spikes ({SPIKE_MAP_SAMPLES}^2 samples a spike)",
-            "nx, ny",
-        )
-        return g.to_heightmap((g.width_x / SPIKE_MAP_SAMPLES, g.width_y / SPIKE_MAP_SAMPLES))
-
-    @cached_property
-    def mesh_tolerance(self) -> float:
-        """Largest vertical distance (mm) between a map sample and :attr:`top_mesh`: 0 for an
-        exact mesh (spike grids always; maps with ``tolerance: 0`` or small enough for ``auto``).
-        """
-        t = getattr(self.spec, "tolerance", 0.0)
-        if self.heightmap is None or t == 0:
-            return 0.0
-        if t != "auto":
-            return float(t)
-        ny, nx = self.placed_map.shape
-        if 2 * (nx - 1) * (ny - 1) <= AUTO_EXACT_FACETS:
-            return 0.0
-        return max(AUTO_HEIGHT_SHARE * self.max_height, AUTO_MIN_TOLERANCE)
-
-    @cached_property
-    def quad_cells(self) -> int | None:
-        """A simplified map's largest quad side, pixels, which is also its block side
-        (:mod:`score4.surface.simplify`); None for an exact mesh."""
-        return self._simplified[1]
-
-    @cached_property
-    def _simplified(self) -> tuple[TriangleMesh | None, int | None]:
-        if not self.mesh_tolerance > 0:
-            return None, None
-        return simplified_blocks(self.placed_map, self.mesh_tolerance)
-
-    @cached_property
-    def top_mesh(self) -> TriangleMesh:
-        """The triangle mesh of the rough top (shared by geometry, sampling and metrology):
-        exact, or a height map's simplified mesh within :attr:`mesh_tolerance` of every sample."""
-        if self.spikes is not None:
-            return self.spikes.top_mesh()
-        mesh = self._simplified[0]
-        return from_heightmap(self.placed_map) if mesh is None else mesh
-
-    def height_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Height above the base plane at (x, y), mm (points clipped to the patch): of
-        :attr:`top_mesh` exactly for spikes and exact maps; the map's exact mesh (within
-        :attr:`mesh_tolerance` of the simplified one) otherwise."""
-        if self.spikes is not None:
-            return self.spikes.height_at(x, y)
-        hm = self.placed_map
-        z = hm.heights
-        ny, nx = z.shape
-        fx = np.clip((np.asarray(x, float) - hm.origin[0]) / hm.pitch_x, 0.0, nx - 1)
-        fy = np.clip((np.asarray(y, float) - hm.origin[1]) / hm.pitch_y, 0.0, ny - 1)
-        i = np.minimum(fx.astype(np.int64), nx - 2)
-        j = np.minimum(fy.astype(np.int64), ny - 2)
-        u, v = fx - i, fy - j
-        za, zb, zc, zd = z[j, i], z[j, i + 1], z[j + 1, i + 1], z[j + 1, i]
-        # from_heightmap splits every cell along (i, j)-(i+1, j+1): linear on each triangle
-        return np.where(
-            u >= v, za + u * (zb - za) + v * (zc - zb), za + v * (zd - za) + u * (zc - zd)
-        )
-
-    def body(self, base_thickness: float) -> TriangleMesh:
-        """Closed, watertight patch: the rough top on a slab ``base_thickness`` below z = 0."""
-        return closed_body(self.top_mesh, base_thickness)
 
 
 def build_surface(spec) -> Surface:

@@ -16,6 +16,8 @@ A face with a flat rough layer is measured by its rough surface (the patch tops,
 :mod:`score4.world.rough_distance`), for steps in the bulk under it and in its patches alike.
 A face with a curved rough layer (patches bent onto a cylinder, cone or polycone segment) is
 measured by its bent patch tops the same way (:class:`CurvedRoughSurfaceDistance`).
+A boolean solid is measured through its constituents (:mod:`score4.world.boolean_distance`),
+with its rough faces the same way.
 """
 
 from __future__ import annotations
@@ -26,9 +28,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import ConfigError
-from ..shapes.base import PlaneTriangles, Revolved, Shape
-from ..shapes.placed import PlacedShape
-from .rough_distance import CurvedRoughSurfaceDistance, RoughSurfaceDistance, _revolved_distance
+from ..shapes.base import Shape
+from ..shapes.boolean import BooleanShape
+from .boolean_distance import BooleanDistance, leaf_face_distance
+from .face_distance import face_distance
+from .rough_distance import CurvedRoughSurfaceDistance, RoughSurfaceDistance
 
 if TYPE_CHECKING:  # world.scene imports this module when it needs activeness
     from .scene import RoughLayer, Scene, TargetVolume
@@ -41,40 +45,6 @@ def weight(d: np.ndarray, fccd: float, dlf: float) -> np.ndarray:
     if fccd <= dead:  # dlf = 1: a step function
         return (d >= fccd).astype(float)
     return np.clip((d - dead) / (fccd - dead), 0.0, 1.0)
-
-
-def _triangles_distance(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
-    from ..shapes.mesh_shape import _tri_distance
-
-    out = np.full(len(p), np.inf)
-    for start in range(0, len(p), 4096):
-        block = p[start : start + 4096]
-        out[start : start + 4096] = _tri_distance(block, tri).min(axis=1)
-    return out
-
-
-def face_distance(shape, faces: tuple[str, ...], points: np.ndarray) -> np.ndarray:
-    """Exact distance (mm) of world ``points`` to the union of ``faces`` of ``shape``."""
-    p = np.asarray(points, float).reshape(-1, 3)
-    while isinstance(shape, PlacedShape):
-        p = shape.transform.inverse_apply(p)
-        shape = shape.shape
-    index = {shape.faces.index(f) for f in faces}
-    best = np.full(len(p), np.inf)
-    for patch in shape.patches:
-        if patch.face not in index:
-            continue
-        if isinstance(patch, PlaneTriangles):
-            d = _triangles_distance(np.asarray(patch.triangles, float), p)
-        elif isinstance(patch, Revolved):
-            d = _revolved_distance(patch, p)
-        else:
-            raise ConfigError(
-                f"activeness: distances to a {type(patch).__name__} face of a {shape.kind} are "
-                "not supported (plane faces and surfaces of revolution are)"
-            )
-        best = np.minimum(best, d)
-    return best
 
 
 class TargetDistance:
@@ -100,6 +70,12 @@ class TargetDistance:
             self.exact_faces = True
         except ConfigError:
             self.exact_faces = False
+        #: a boolean solid: measured through its constituents
+        self.boolean = (
+            BooleanDistance(target, self.rough, self.rough_distance)
+            if isinstance(self.shape, BooleanShape)
+            else None
+        )
 
     def rough_distance(self, face: str) -> RoughSurfaceDistance | CurvedRoughSurfaceDistance:
         """The distance to the rough surface of ``face`` (a face with a rough layer)."""
@@ -125,6 +101,8 @@ class TargetDistance:
     def to_faces(self, faces: tuple[str, ...], world: np.ndarray) -> np.ndarray:
         """Distance (mm) of world points to the union of ``faces`` (0 where :meth:`_outside`)."""
         world = np.asarray(world, float).reshape(-1, 3)
+        if self.boolean is not None:
+            return self.boolean.to_faces(faces, world, self.rough_distance)
         local = self.target.to_local(world)
         flat = tuple(f for f in faces if f not in self.rough)
         d = face_distance(self.shape, flat, local) if flat else np.full(len(world), np.inf)
@@ -138,6 +116,8 @@ class TargetDistance:
         """Distance (mm) of world points to the whole surface of the volume (its rough faces
         by their rough surface; 0 where :meth:`_outside`)."""
         world = np.asarray(world, float).reshape(-1, 3)
+        if self.boolean is not None:
+            return self.boolean.to_surface(world)
         if not self.rough or not self.exact_faces:
             return np.maximum(-self.shape.signed_distance(self.target.to_local(world)), 0.0)
         return self.to_faces(tuple(self.shape.faces), world)
@@ -162,12 +142,21 @@ class VolumeActiveness:
         return w
 
 
+def _layers_of(scene: Scene, t: TargetVolume) -> list[RoughLayer]:
+    """The rough layers of target ``t`` (a boolean's are laid out on its constituent, whose
+    target is a copy of ``t``)."""
+    return [
+        r
+        for r in scene.layers
+        if r.target is t or (r.on_boolean is not None and r.target.column == t.column)
+    ]
+
+
 def target_distances(scene: Scene) -> list[TargetDistance | None]:
     """Per scoring column of ``scene``, the distances to its volume's faces (None: a solid
     :mod:`score4.shapes` does not describe)."""
     return [
-        None if t.shape is None else TargetDistance(t, [r for r in scene.layers if r.target is t])
-        for t in scene.targets
+        None if t.shape is None else TargetDistance(t, _layers_of(scene, t)) for t in scene.targets
     ]
 
 
@@ -199,9 +188,13 @@ def volume_activeness(
                 raise ConfigError(f"{where}: {err}".replace(": face: ", ": ", 1)) from None
             resolved.append((faces, float(a.fccd), float(a.dlf)))
         for faces, _, _ in resolved:  # every face kind measurable: refuse now, not mid-run
-            face_distance(shape, faces, np.zeros((1, 3)))
+            if isinstance(shape, BooleanShape):  # the whole surface needs no face distance
+                if not set(faces) >= set(shape.faces):
+                    leaf_face_distance(shape, faces, np.zeros((1, 3)))
+            else:
+                face_distance(shape, faces, np.zeros((1, 3)))
         distance = distances[c] if distances is not None else None
         if distance is None:
-            distance = TargetDistance(t, [r for r in scene.layers if r.target is t])
+            distance = TargetDistance(t, _layers_of(scene, t))
         out.append(VolumeActiveness(distance, resolved))
     return out

@@ -20,11 +20,14 @@ out as on the opposite wall of a tube beside it (:func:`turned_wall`: the bore i
 wall of a tube whose inner radius is the cylinder's), cut along the axis to where the boolean
 can be, so the layer lies in the bore and its shell ends where the solid does.
 
-Refused, in one line each: ``into: true``, ``tiling: portal`` and ``native_layout: replicas``;
+Refused, in one line each (:mod:`score4.world.boolean_modes` says why): ``into: true`` other
+than on flat faces of a G4Box or G4Tubs constituent and on bores, ``tiling: portal``,
+``native_layout: replicas`` where a cell holds no patch;
 a curved face of a subtracted solid other than a G4Tubs wall (cones, spheres); a face of a solid
 made of flat facets in several planes; a layer whose
 envelope runs into the solid itself (a face partly covered by another part of a union, or whose
-envelope leaves a cut); steps and activeness (no distance to such a layer's rough surface yet).
+envelope leaves a cut). Steps and activeness measure these layers through the boolean's
+constituents (:mod:`score4.world.boolean_distance`).
 """
 
 from __future__ import annotations
@@ -39,8 +42,9 @@ from score4.shapes import BooleanShape, G4Tubs, Shape, Transform
 from score4.shapes.base import INSIDE
 from score4.shapes.boolean import FaceClip
 from score4.shapes.faces import PlaneFace, SphereFace
-from score4.surface.spec import Surface
+from score4.surface.rough import Surface
 
+from .boolean_modes import check_modes, check_replicas, cut_face, into_depth
 from .facets import ccw, face_triangles, plane_face, plane_groups
 from .scene import (
     BooleanFace,
@@ -121,18 +125,7 @@ def _leaf(
         clip = shape.face_clip(name)
     except ConfigError as err:
         raise ConfigError(f"{where}: {target.column}: {str(err).removeprefix('face: ')}") from None
-    if rough.into:
-        raise ConfigError(
-            f"{where}: into: true on {what} is not supported; the layer goes outside the volume "
-            "(into: false)"
-        )
-    if rough.tiling == "portal":
-        raise ConfigError(f"{where}: {what} takes tiling: native")
-    if rough.native_layout == "replicas":
-        raise ConfigError(
-            f"{where}: native_layout replicas fills every cell; {what}, whose cells off its "
-            "surface hold no patch, takes auto, nested or placements"
-        )
+    check_modes(rough, where, what, clip.leaf, clip.face, clip.flipped)  # boolean_modes
     area = float(shape.face_areas[name])
     if not area > 0:
         raise ConfigError(f"{where}: {what} lies nowhere on the solid's surface (area 0)")
@@ -181,6 +174,9 @@ def _on_boolean(
     if clip.flipped and not isinstance(layer, CurvedRoughLayer):
         _flip(layer)
     on = BooleanFace(shape, name, clip, target.transform)
+    if rough.into:  # the face cut behind by the layer's thickness (boolean_modes)
+        on = cut_face(on, into_depth(layer))
+        clip = on.clip
     kept = kept_cells(layer, clip, on, placed)
     layer.mask = kept
     if not kept.any():
@@ -189,8 +185,9 @@ def _on_boolean(
             f"{where}: no whole patch of {px * 1e3:g} x {py * 1e3:g} um fits on the part of "
             f"{what} that lies on the solid's surface"
         )
+    check_replicas(layer, where, what)
     layer.config = rough
-    layer.face_area = float(shape.face_areas[name])
+    layer.face_area = float(on.shape.face_areas[name])
     layer.on_boolean = on
     _check_own_solid(layer, on, where, what)
     return layer

@@ -30,7 +30,7 @@ import numpy as np
 
 from score4.errors import ConfigError
 from score4.shapes.faces import RevolvedFace, SphereFace
-from score4.surface.spec import Surface
+from score4.surface.rough import Surface
 from score4.surface.triangle_mesh import TriangleMesh
 
 #: The base of a bent layer must follow the true surface this closely: the larger of this share

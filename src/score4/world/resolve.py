@@ -79,8 +79,8 @@ def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
                 seen[face] = j
                 one = rough if rough.face == face else rough.model_copy(update={"face": face})
                 scene.layers += target_layers(surfaces, target, j, one)
+        check_into_edges(scene, target)  # walls re-laid on a joint cut, before rings fit
         fit_rings(scene.layers_of(target.name))
-        check_into_edges(scene, target)
     check_clearance(scene)
     far = float(np.max(scene.world_half))
     if np.isfinite(far) and far > limits.MAX_WORLD_EXTENT:
@@ -99,15 +99,14 @@ def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
 
 def _check_distances_defined(scene: Scene) -> None:
     """Steps and activeness need each step's distance to the rough surface; for patches bent
-    onto a sphere that distance is not implemented: refused before anything is written."""
+    onto a sphere that distance is not implemented, and on a boolean's face it needs the other
+    faces of its constituent measured: refused before anything is written."""
+    from .boolean_distance import check_measurable
+
     for layer in scene.layers:
         if layer.on_boolean is not None:
-            raise ConfigError(
-                f"targets.{layer.target.entry}.rough: face {layer.config.face_name} of "
-                f"{layer.target.name!r} is a rough face of a boolean solid; steps (output.steps) "
-                "and activeness need the distance to its rough surface, which score4 does not "
-                "compute for boolean faces yet (use them without steps and activeness)"
-            )
+            check_measurable(layer, f"targets.{layer.target.entry}.rough")
+            continue
         if isinstance(layer, CurvedRoughLayer) and isinstance(layer.ring_layout.face, SphereFace):
             raise ConfigError(
                 f"targets.{layer.target.entry}.rough: face {layer.config.face_name} of "

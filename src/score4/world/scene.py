@@ -21,14 +21,15 @@ layer's thickness (the volume is cut by it), so the layer's top is where the fac
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from score4.errors import ConfigError
 from score4.files import cache_dir
-from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig
 from score4.shapes import G4Box as G4BoxShape
 from score4.shapes import G4GenericPolycone, PlacedShape, Shape, Transform, shape_from_dict
 from score4.shapes import G4Orb as G4OrbShape
@@ -39,7 +40,7 @@ from score4.shapes.hpge import HPGE_GROUPS, hpge_groups, is_hpge_metadata
 from score4.shapes.revolved import RevolvedShape
 from score4.surface.block_cut import check_patch
 from score4.surface.patchmap import PatchMap, make_patch_map
-from score4.surface.spec import Surface
+from score4.surface.rough import Surface
 
 from .curved import (
     BentVariant,
@@ -68,6 +69,9 @@ from .facets import (
 )
 from .gdml_model import GeometryModel, Instance
 from .obb import OrientedBox
+
+if TYPE_CHECKING:  # the configuration's models: a worker reads records of them (common.records)
+    from score4.inputs.config import BoxVolume, GdmlVolume, RoughFace, RunConfig
 
 #: Points this close (mm) outside a volume's boundary still count as inside (vertices at depth 0
 #: lie exactly on the surface).
@@ -231,7 +235,7 @@ def face_frame(target: TargetVolume | BoxVolume, face: str) -> FaceFrame:
     """The right-handed frame of a flat ``face`` of a target, in the world: a box face
     ("+z", "-x", ...) with the axes of :data:`score4.shapes.csg.BOX_FACE_AXES`, a ring (the end
     face of a tube) in its bounding square."""
-    if isinstance(target, BoxVolume):
+    if not isinstance(target, TargetVolume):  # a box of the configuration
         target = box_target(target, 0)
     geometry = target_face(target, face)
     if not isinstance(geometry, PlaneFace):
@@ -598,8 +602,25 @@ class CurvedRoughLayer(RoughLayer):
 
     def shell_points(self, n_phi: int = 72, n_v: int = 9, n_h: int = 3) -> np.ndarray:
         """World points on and in the layer's shell (the face extruded by the thickness along
-        its normal), for the clearance checks."""
+        its normal; on a cone, the envelope Geant4 gets: the same between the z planes of the
+        face's ends, :func:`wall_envelope`), for the clearance checks."""
         face = self.ring_layout.face
+        if self._cone_envelope:
+            a1, b1, a2, b2, dz, zc = wall_envelope(self)
+            (u0, u1), _ = face.extent
+            u, f, g = (
+                x.ravel()
+                for x in np.meshgrid(
+                    np.linspace(u0, u1, n_phi),
+                    np.linspace(0.0, 1.0, n_v),
+                    np.linspace(0.0, 1.0, n_h),
+                    indexing="ij",
+                )
+            )
+            lo, hi = a1 + f * (a2 - a1), b1 + f * (b2 - b1)
+            r = lo + g * (hi - lo)
+            local = np.column_stack([r * np.cos(u), r * np.sin(u), zc - dz + 2 * dz * f])
+            return self.target.to_world(local)
         (u0, u1), (v0, v1) = face.extent
         grid = np.meshgrid(
             np.linspace(u0, u1, n_phi),
@@ -615,9 +636,22 @@ class CurvedRoughLayer(RoughLayer):
         """True for world points strictly inside the layer's envelope (touching does not
         count)."""
         face = self.ring_layout.face
-        u, v, h = face.locate(self.target.to_local(np.asarray(points, float).reshape(-1, 3)))
+        q = self.target.to_local(np.asarray(points, float).reshape(-1, 3))
+        u, v, h = face.locate(q)
         (u0, u1), (v0, v1) = face.extent
         tol = BOUNDARY_TOLERANCE
+        if self._cone_envelope:
+            a1, b1, a2, b2, dz, zc = wall_envelope(self)
+            f = (q[:, 2] - (zc - dz)) / (2 * dz)
+            r = np.hypot(q[:, 0], q[:, 1])
+            return np.asarray(
+                (f > tol / (2 * dz))
+                & (f < 1 - tol / (2 * dz))
+                & (r > a1 + f * (a2 - a1) + tol)
+                & (r < b1 + f * (b2 - b1) - tol)
+                & (u > u0 + 1e-12)
+                & (u < u1 - 1e-12)
+            )
         return np.asarray(
             (h > tol)
             & (h < self.thickness - tol)
@@ -626,6 +660,13 @@ class CurvedRoughLayer(RoughLayer):
             & (u > u0 + 1e-12)
             & (u < u1 - 1e-12)
         )
+
+    @property
+    def _cone_envelope(self) -> bool:
+        """The layer's envelope is a G4Cons between the z planes of its face's ends (a cone's
+        side; a cylinder's is the same as its shell)."""
+        face = self.ring_layout.face
+        return isinstance(face, RevolvedFace) and abs(float(face.nrz[1])) > 1e-12
 
     def envelope_box(self) -> OrientedBox:
         """An oriented box (the target's axes) holding the layer's shell."""
@@ -736,7 +777,9 @@ def ring_cells(
     return np.asarray((far <= rmax * (1 + 1e-12)) & (near >= rmin * (1 - 1e-12)))
 
 
-def fit_rings(layers: list[RoughLayer]) -> None:
+def fit_rings(
+    layers: list[RoughLayer], placed: Sequence[RoughLayer] = (), where: str | None = None
+) -> None:
     """Ring layers of a solid give way to the curved layers of the same solid whose envelopes
     reach into their slab (see :class:`RingRoughLayer`).
 
@@ -745,42 +788,70 @@ def fit_rings(layers: list[RoughLayer]) -> None:
     inside the ring's slab (the ring's plane moved out by the ring layer's thickness): the ring's
     envelope then starts (or ends) where the wall's envelope ends in that slab. At a convex edge
     the two envelopes only touch and nothing changes. A wall's envelope reaching into the
-    middle of a ring is left to the clearance check."""
-    rings = [r for r in layers if isinstance(r, RingRoughLayer) and not r.config.into]
-    walls = [
-        c
-        for c in layers
-        if isinstance(c, CurvedRoughLayer)
-        and isinstance(c.ring_layout.face, RevolvedFace)
-        and c.on_boolean is None
-    ]
-    for ring in rings:
-        if ring.on_boolean is not None:
+    middle of a ring is left to the clearance check.
+
+    ``placed``: layers already built in Geant4 (:class:`score4.api.World`), which must not change:
+    a ring among them that would have to give way is a ConfigError (after ``where``, default
+    ``targets.{entry}.rough``) naming the ring and the wall, and no ring is changed then."""
+    fits: list[tuple[RingRoughLayer, float, float, CurvedRoughLayer]] = []
+    for ring in layers:
+        if isinstance(ring, RingRoughLayer) and not ring.config.into:
+            fit = _ring_fit(ring, layers)
+            if fit is not None:
+                fits.append((ring, *fit))
+    for ring, rmin, rmax, wall in fits:
+        if any(ring is p for p in placed):
+            name = ring.target.name
+            raise ConfigError(
+                f"{where or f'targets.{ring.target.entry}.rough'}: the layer on face "
+                f"{wall.config.face_name} of {name!r} reaches into the slab of the rough ring on "
+                f"face {ring.config.face_name}, which is placed already and cannot give way to it "
+                f"(r = {ring.rmin:.6g} .. {ring.rmax:.6g} mm would become {rmin:.6g} .. "
+                f"{rmax:.6g} mm): roughen a wall before the rings it meets, or both in one call "
+                "(a list of faces)"
+            )
+    for ring, rmin, rmax, _ in fits:
+        ring.refit(rmin, rmax, where or f"targets.{ring.target.entry}.rough")
+
+
+def _ring_fit(
+    ring: RingRoughLayer, layers: list[RoughLayer]
+) -> tuple[float, float, CurvedRoughLayer] | None:
+    """The radii ``ring`` narrows to for the walls among ``layers`` (see :func:`fit_rings`) and
+    the last wall that narrowed it; None when it keeps its radii."""
+    if ring.on_boolean is not None:
+        return None
+    face = ring.target.face(ring.config.face_name)
+    assert isinstance(face, AnnulusFace)
+    z0 = float(face.frame.translation[2])
+    nz = float(face.frame.rotation[2, 2])
+    slab = sorted((z0, z0 + nz * ring.thickness))
+    rmin, rmax = ring.rmin, ring.rmax
+    by: CurvedRoughLayer | None = None
+    for wall in layers:
+        if (
+            not isinstance(wall, CurvedRoughLayer)
+            or not isinstance(wall.ring_layout.face, RevolvedFace)
+            or wall.on_boolean is not None
+            or wall.target is not ring.target
+        ):
             continue
-        face = ring.target.face(ring.config.face_name)
-        assert isinstance(face, AnnulusFace)
-        z0 = float(face.frame.translation[2])
-        nz = float(face.frame.rotation[2, 2])
-        slab = sorted((z0, z0 + nz * ring.thickness))
-        rmin, rmax = ring.rmin, ring.rmax
-        for wall in walls:
-            if wall.target is not ring.target:
-                continue
-            a1, b1, a2, b2, dz, zc = wall_envelope(wall)
-            lo, hi = max(slab[0], zc - dz), min(slab[1], zc + dz)
-            if hi - lo <= BOUNDARY_TOLERANCE:
-                continue  # the envelopes touch at most (a convex edge)
-            at = [(z - (zc - dz)) / (2 * dz) if dz > 0 else 0.0 for z in (lo, hi)]
-            radii = [a1 + f * (a2 - a1) for f in at] + [b1 + f * (b2 - b1) for f in at]
-            r_lo, r_hi = min(radii), max(radii)
-            if r_hi <= rmin + BOUNDARY_TOLERANCE or r_lo >= rmax - BOUNDARY_TOLERANCE:
-                continue
-            if r_lo <= rmin + BOUNDARY_TOLERANCE:
-                rmin = r_hi
-            elif r_hi >= rmax - BOUNDARY_TOLERANCE:
-                rmax = r_lo
-        if (rmin, rmax) != (ring.rmin, ring.rmax):
-            ring.refit(rmin, rmax, f"targets.{ring.target.entry}.rough")
+        a1, b1, a2, b2, dz, zc = wall_envelope(wall)
+        lo, hi = max(slab[0], zc - dz), min(slab[1], zc + dz)
+        if hi - lo <= BOUNDARY_TOLERANCE:
+            continue  # the envelopes touch at most (a convex edge)
+        at = [(z - (zc - dz)) / (2 * dz) if dz > 0 else 0.0 for z in (lo, hi)]
+        radii = [a1 + f * (a2 - a1) for f in at] + [b1 + f * (b2 - b1) for f in at]
+        r_lo, r_hi = min(radii), max(radii)
+        if r_hi <= rmin + BOUNDARY_TOLERANCE or r_lo >= rmax - BOUNDARY_TOLERANCE:
+            continue
+        if r_lo <= rmin + BOUNDARY_TOLERANCE:
+            rmin, by = r_hi, wall
+        elif r_hi >= rmax - BOUNDARY_TOLERANCE:
+            rmax, by = r_lo, wall
+    if by is None or (rmin, rmax) == (ring.rmin, ring.rmax):
+        return None
+    return rmin, rmax, by
 
 
 def wall_envelope(layer: CurvedRoughLayer) -> tuple[float, float, float, float, float, float]:
@@ -935,6 +1006,8 @@ class Scene:
     def unscored_target(self, ref: str, inst: Instance, parameter: str) -> TargetVolume:
         """The volume ``inst`` of the GDML world as a target that is not scored: a source may
         sit on it or in it; it has no scoring column, no rough layers and no activeness."""
+        from score4.inputs.config import GdmlVolume
+
         assert self.model is not None
         for t in self.unscored:
             if t.instance is not None and t.instance.index == inst.index:
@@ -962,9 +1035,19 @@ class Scene:
     def inside_target(self, volume: str, points: np.ndarray) -> np.ndarray:
         """True for points in the volume (less the slabs of ``into`` layers) or its rough layers."""
         points = np.asarray(points, float).reshape(-1, 3)
-        inside = self.target(volume).contains(points)
+        target = self.target(volume)
+        inside = target.contains(points)
+        into = {r.config.face_name: r.thickness for r in self.layers_of(volume) if r.config.into}
+        shape = target.shape
+        if into and isinstance(shape, RevolvedShape) and shape.kind in SWEPT_INTO:
+            # the solid Geant4 gets (geometry.built.cut_for_layers): their joint cut
+            trimmed = shape.trimmed(into)
+            assert trimmed is not None
+            local = target.to_local(points) - trimmed[1]
+            inside &= trimmed[0].signed_distance(local) <= BOUNDARY_TOLERANCE
+            into = {}
         for layer in self.layers_of(volume):
-            if layer.config.into:
+            if layer.config.face_name in into:
                 inside &= ~layer.in_cut(points)
         for layer in self.layers_of(volume):
             inside |= layer.contains(points)
@@ -1022,6 +1105,8 @@ def _same_size(a: float, b: float) -> bool:
 
 def resolve_targets(config: RunConfig, model: GeometryModel | None) -> list[TargetVolume]:
     """One :class:`TargetVolume` per configured box and per copy of each GDML target."""
+    from score4.inputs.config import BoxVolume
+
     out: list[TargetVolume] = []
     for i, t in enumerate(config.targets):
         if isinstance(t, BoxVolume):
@@ -1264,11 +1349,14 @@ def make_layer(
         and round_face
         and isinstance(target.shape, RevolvedShape)
         and target.shape.kind != "G4Tubs"
+        and (target.shape.kind not in SWEPT_INTO or not target.shape.full_phi)
     ):
         raise ConfigError(
             f"{where}: into: true on the flat face {rough.face_name} of {target.name!r} (a "
-            f"{target.solid}) is supported on a G4Tubs only (a neighbouring wall that slants "
-            "changes the ring's radii at the cut); put the layer outside the volume (into: false)"
+            f"{target.solid}) is supported on a G4Tubs and on a full G4Cons, G4Polycone or "
+            "G4GenericPolycone (a slanting neighbour changes the ring's radii at the cut, which "
+            "score4 follows on a full circle only); put the layer outside the volume "
+            "(into: false)"
         )
     if round_face:  # the whole cells of the bounding square, centred
         cells = [max(int(np.floor(frame.size[a] / size[a] * (1 + 1e-9))), 1) for a in (0, 1)]
@@ -1603,68 +1691,105 @@ def _into_polygon(layer: PolygonRoughLayer, solid: np.ndarray, where: str, what:
         raise ConfigError(f"{where}: into: no whole patch fits on the cut below {what}")
 
 
-def check_into_edges(scene: Scene, target: TargetVolume) -> None:
-    """Refuse ``into`` on two faces of a solid swept around z that share an edge (a circle of
-    the contour's corner): each layer is laid out on its own cut face, so the two layers
-    would overlap below a convex edge. A full G4Tubs' end face and wall are laid out on their
-    joint cut instead (:func:`_into_tube_corners`)."""
+#: solids swept around z whose faces ``into`` layers cut along their normals (not a polyhedra's
+#: planes)
+SWEPT_INTO = ("G4Tubs", "G4Cons", "G4Polycone", "G4GenericPolycone")
+
+
+def check_into_edges(scene: Scene, target: TargetVolume, where: str | None = None) -> None:
+    """Lay out the ``into`` layers of a solid swept around z on their joint cut
+    (:func:`_into_joint_cut`): faces that share an edge (a circle of the contour's corner) each
+    end where the other's cut begins. With a phi segment ``into`` on two faces that share an
+    edge is refused. Errors start with ``where`` (default ``targets.{entry}.rough``)."""
+    where = where or f"targets.{target.entry}.rough"
     shape = target.shape
-    into = {r.config.face_name for r in scene.layers_of(target.name) if r.config.into}
-    swept = ("G4Tubs", "G4Cons", "G4Polycone", "G4GenericPolycone")  # not a polyhedra's planes
-    if len(into) < 2 or not isinstance(shape, RevolvedShape) or shape.kind not in swept:
+    layers = {r.config.face_name: r for r in scene.layers_of(target.name) if r.config.into}
+    if not layers or not isinstance(shape, RevolvedShape) or shape.kind not in SWEPT_INTO:
         return
-    if shape.kind == "G4Tubs" and shape.full_phi:
-        _into_tube_corners(scene, target)
+    if shape.full_phi:
+        _into_joint_cut(scene, target, layers, where)
         return
     poly, names = shape.contour()
     for k, name in enumerate(names):
         other = names[(k + 1) % len(names)]
-        if name in into and other in into:
+        if name in layers and other in layers:
             r, z = poly[(k + 1) % len(poly)]
             raise ConfigError(
-                f"targets.{target.entry}.rough: into: true on faces {name} and {other} of "
-                f"{target.name!r}, which share an edge (the circle r = {r:.4g} mm at z = "
-                f"{z:.4g} mm): their layers would meet below it; put one of them outside the "
-                "volume (into: false)"
+                f"{where}: into: true on faces {name} and {other} of {target.name!r}, which share "
+                f"an edge (the circle r = {r:.4g} mm at z = {z:.4g} mm), on a {shape.kind} with "
+                "a phi segment: score4 cuts such faces together on a full circle only; put one "
+                "of them outside the volume (into: false)"
             )
 
 
-def _into_tube_corners(scene: Scene, target: TargetVolume) -> None:
-    """``into`` on an end face and a wall of a full G4Tubs: the wall's layer is laid out again
-    on the wall shortened by the end faces' cuts, and the end faces' cells and flat rest kept
-    within the ring the walls' cuts leave (the joint cut is a G4Tubs thinner and shorter). The
-    ring of the old volume between the two layers at the edge (the wall's cut x the end's)
-    belongs to neither: it is cut away, like the space between the patches' tips."""
+def _into_joint_cut(
+    scene: Scene, target: TargetVolume, layers: dict[str, RoughLayer], where: str
+) -> None:
+    """``into`` layers of a full solid swept around z laid out on the joint cut (every into face
+    moved inward by its layer's thickness, :func:`~score4.shapes.revolved.offset_contour`; the
+    solid Geant4 gets, :func:`score4.geometry.built.cut_for_layers`).
+
+    A wall's layer is laid out again on its face of the joint cut, which ends where its
+    neighbours' moved lines meet it (until the walls' thicknesses settle). A flat ring's layer
+    lies on the cut plane; its envelope is the ring the solid fills over the whole slab (the
+    face's radii, less where a slanting neighbour narrows the solid within the slab), its cells
+    lie in that ring and in the joint cut's face, and its flat rest on the joint cut's face
+    (``rest_radii``). The old volume between two layers at a shared edge (the cut of one face x
+    the other's) belongs to neither: it is cut away, like the space between the patches' tips."""
     shape = target.shape
     assert isinstance(shape, RevolvedShape)
-    layers = {r.config.face_name: r for r in scene.layers_of(target.name) if r.config.into}
-    ends: dict[str, float] = {f: layers[f].thickness for f in ("+z", "-z") if f in layers}
-    walls: list[str] = [f for f in ("outer", "inner") if f in layers]
-    if not ends or not walls:
-        return
-    where = f"targets.{target.entry}.rough"
-    cuts: dict[str, float] = {}
-    for name in walls:
-        old = layers[name]
-        face = shape.face(name)
-        assert isinstance(face, RevolvedFace)
-        new = _into_revolved(
-            target, old.config, face, old.names, old.variants, old.patch_size, where, ends
-        )
-        scene.layers[scene.layers.index(old)] = new
-        cuts[name] = new.thickness
-    rmin = getattr(shape, "rmin", 0.0) + cuts.get("inner", 0.0)
-    rmax = getattr(shape, "rmax", 0.0) - cuts.get("outer", 0.0)
-    for end in ends:
-        layer = layers[end]
-        ring = AnnulusFace.make(end, [rmin, rmax], 0.0, 1.0, 0.0, 2 * np.pi)
-        assert layer.mask is not None  # a round face
-        layer.mask = layer.mask & ring.covers(layer.patch_map.cell_centres(), layer.patch_size)
-        layer.rest_radii = (rmin, rmax)
-        if not layer.mask.any():
+    cuts = {name: layer.thickness for name, layer in layers.items()}
+    walls = [n for n, layer in layers.items() if isinstance(layer, CurvedRoughLayer)]
+    if len(layers) > 1 and walls:
+        for _ in range(4):
+            settled = True
+            for name in walls:
+                old = layers[name]
+                face = shape.face(name)
+                assert isinstance(old, CurvedRoughLayer)
+                assert isinstance(face, RevolvedFace)
+                others = {k: v for k, v in cuts.items() if k != name}
+                new = _into_revolved(
+                    target, old.config, face, old.names, old.variants, old.patch_size, where, others
+                )
+                scene.layers[scene.layers.index(old)] = new
+                layers[name] = new
+                if abs(new.thickness - cuts[name]) > 1e-12:
+                    settled = False
+                cuts[name] = new.thickness
+            if settled:
+                break
+        else:
             raise ConfigError(
-                f"{where}: into: no whole patch fits on face {end} of {target.name!r} within "
-                f"the ring r = {rmin:.4g} .. {rmax:.4g} mm the walls' cuts leave"
+                f"{where}: into: the layers on faces {', '.join(layers)} of {target.name!r} do "
+                "not settle on a joint cut"
+            )
+    for name, ring in layers.items():
+        if not isinstance(ring, RingRoughLayer):
+            continue
+        face = target.face(name)
+        assert isinstance(face, AnnulusFace)
+        try:
+            own, joint = shape.cut_face(name, {name: cuts[name]}), shape.cut_face(name, cuts)
+        except ConfigError as err:
+            raise ConfigError(
+                f"{where}: into: the layer ({cuts[name] * 1e3:.4g} um) on face {name} of "
+                f"{target.name!r}: {err}"
+            ) from None
+        rmin = max(face.rmin, min(own.r1, own.r2))  # where the solid fills the whole slab
+        rmax = min(face.rmax, max(own.r1, own.r2))
+        rest = (min(joint.r1, joint.r2), max(joint.r1, joint.r2))
+        lo, hi = max(rmin, rest[0]), min(rmax, rest[1])
+        cells = AnnulusFace.make(name, [lo, max(lo, hi)], 0.0, 1.0, 0.0, 2 * np.pi)
+        assert ring.mask is not None  # a round face
+        ring.mask = ring.mask & cells.covers(ring.patch_map.cell_centres(), ring.patch_size)
+        ring.rmin, ring.rmax = rmin, rmax
+        if rest != (face.rmin, face.rmax):
+            ring.rest_radii = rest
+        if not ring.mask.any():
+            raise ConfigError(
+                f"{where}: into: no whole patch fits on face {name} of {target.name!r} within "
+                f"the ring r = {lo:.4g} .. {hi:.4g} mm its cut and its neighbours' leave"
             )
 
 

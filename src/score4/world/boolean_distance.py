@@ -1,0 +1,195 @@
+"""Distances in a boolean solid (G4UnionSolid, G4SubtractionSolid, G4IntersectionSolid) with
+rough layers on its faces, for steps (``dist_to_surf``) and activeness (numpy, no Geant4).
+
+A boolean's signed distance combines its constituents' (:meth:`BooleanShape.signed_distance`:
+the smaller of two for a union, the larger for an intersection, ``max(a, -b)`` for ``a`` less
+``b``). A rough layer on a face of a *leaf* solid (:meth:`BooleanShape.face_clip`) changes only
+that leaf: its distance becomes the smaller of the exact distance to its other faces
+(:func:`score4.world.face_distance.face_distance`) and the distance to the layer's rough surface
+(its patch tops where a cell is kept, the leaf's face where not:
+:class:`score4.world.rough_distance.RoughSurfaceDistance`, or the curved one for a cylinder
+wall or a bore), and a point in a patch is in the leaf (outside it for a subtracted leaf, whose
+patches lie in the hole). The boolean combines the leaves as before (:func:`rough_signed`). The
+cells that are not kept count as the leaf's flat face, so the boolean's own cut decides, as for
+a smooth face, where that face is part of the surface.
+
+Like the smooth boolean's, the result is a lower bound of the true distance to the surface,
+exact where the nearest point of the nearest constituent's surface lies on the boolean's
+surface (everywhere inside a box less a tube along an axis, or a cylinder with a cut).
+
+The distance to some faces of a boolean (activeness ``faces``) is the larger of two lower bounds:
+the distance to the whole surface, and the distance to the listed constituent faces whole
+(:func:`leaf_face_distance`, their rough surface where they are rough). It is exact where the
+nearest point of the listed constituent faces lies on the boolean's surface.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..errors import ConfigError
+from ..shapes import BooleanShape, Shape
+from ..shapes.placed import PlacedShape
+from .face_distance import face_distance
+
+if TYPE_CHECKING:
+    from .scene import RoughLayer, TargetVolume
+
+#: A rough surface's distance: world points (n, 3) -> mm (n,)
+Measure = Callable[[np.ndarray], np.ndarray]
+
+
+@dataclass
+class RoughLeaf:
+    """A leaf solid of a boolean with rough layers: its faces that are rough (``faces``, leaf
+    names), the distances to their rough surfaces and their layers (``measures``, ``layers``),
+    and whether the boolean's outward normal is against the leaf's (``flipped``: a subtracted
+    solid)."""
+
+    leaf: Shape
+    faces: list[str]
+    measures: list[Measure]
+    layers: list[RoughLayer]
+    flipped: bool
+
+    def signed(self, local: np.ndarray, world: np.ndarray) -> np.ndarray:
+        """The rough leaf's signed distance at points ``local`` (leaf frame; ``world``: the same
+        points in the world) (< 0 inside)."""
+
+        others = tuple(f for f in self.leaf.faces if f not in self.faces)
+        d = face_distance(self.leaf, others, local) if others else np.full(len(local), np.inf)
+        for measure in self.measures:
+            d = np.minimum(d, measure(world))
+        inside = self.leaf.signed_distance(local) <= 0
+        in_patch = np.zeros(len(world), dtype=bool)
+        for layer in self.layers:
+            in_patch |= layer.contains(world)
+        inside = inside & ~in_patch if self.flipped else inside | in_patch
+        return np.where(inside, -d, d)
+
+
+def leaf_path(shape: BooleanShape, face: str) -> tuple[str, str]:
+    """(path of the leaf, its face name) of boolean face ``face``: ``first.second.outer`` is face
+    ``outer`` of the leaf at ``first.second.``."""
+    clip = shape.face_clip(face)
+    return face[: len(face) - len(clip.face)], clip.face
+
+
+def rough_signed(
+    shape: Shape, local: np.ndarray, world: np.ndarray, leaves: dict[str, RoughLeaf], path: str = ""
+) -> np.ndarray:
+    """The signed distance of ``shape`` at ``local`` (its frame; ``world``: the same points in
+    the world) with the leaves in ``leaves`` (by path) rough."""
+    while isinstance(shape, PlacedShape):
+        local, shape = shape.transform.inverse_apply(local), shape.shape
+    if isinstance(shape, BooleanShape):
+        a = rough_signed(shape.first, local, world, leaves, path + "first.")
+        second = shape.transform.inverse_apply(local)
+        b = rough_signed(shape.second, second, world, leaves, path + "second.")
+        if shape.operation == "union":
+            return np.minimum(a, b)
+        if shape.operation == "intersection":
+            return np.maximum(a, b)
+        return np.maximum(a, -b)
+    if path in leaves:
+        return leaves[path].signed(local, world)
+    return shape.signed_distance(local)
+
+
+def leaf_face_distance(
+    shape: BooleanShape, faces: tuple[str, ...], local: np.ndarray
+) -> np.ndarray:
+    """Exact distance of points (the boolean's frame) to the listed faces of the boolean's
+    constituents, each face whole (where it is cut too: a lower bound of the distance to the
+    boolean's faces)."""
+
+    best = np.full(len(local), np.inf)
+    for name in faces:
+        clip = shape.face_clip(name)
+        best = np.minimum(
+            best, face_distance(clip.leaf, (clip.face,), clip.transform.inverse_apply(local))
+        )
+    return best
+
+
+class BooleanDistance:
+    """Distances of world points to the surface of a ``target`` whose solid is a boolean, with
+    its rough ``layers`` (boolean face name -> layer) measured by ``measure(face)``."""
+
+    def __init__(
+        self,
+        target: TargetVolume,
+        layers: dict[str, RoughLayer],
+        measure: Callable[[str], Measure],
+    ) -> None:
+        shape = target.shape
+        assert isinstance(shape, BooleanShape)
+        self.target, self.shape = target, shape
+        self.leaves: dict[str, RoughLeaf] = {}
+        for face, layer in layers.items():
+            path, leaf_face = leaf_path(shape, face)
+            clip = shape.face_clip(face)
+            leaf = self.leaves.setdefault(path, RoughLeaf(clip.leaf, [], [], [], clip.flipped))
+            leaf.faces.append(leaf_face)
+            leaf.measures.append(_lazy(measure, face))
+            leaf.layers.append(layer)
+
+    def signed(self, world: np.ndarray) -> np.ndarray:
+        """Signed distance (mm, < 0 inside the volume or its patches) of world points."""
+        world = np.asarray(world, float).reshape(-1, 3)
+        local = self.target.to_local(world)
+        if not self.leaves:
+            return self.shape.signed_distance(local)
+        return rough_signed(self.shape, local, world, self.leaves)
+
+    def to_surface(self, world: np.ndarray) -> np.ndarray:
+        """Distance (mm) of world points to the whole surface (0 outside)."""
+        return np.maximum(-self.signed(world), 0.0)
+
+    def to_faces(
+        self, faces: tuple[str, ...], world: np.ndarray, rough: Callable[[str], Measure]
+    ) -> np.ndarray:
+        """Distance (mm) of world points to the listed faces (0 outside): the larger of the
+        distance to the whole surface and that to the listed constituent faces whole."""
+        world = np.asarray(world, float).reshape(-1, 3)
+        whole = self.to_surface(world)
+        if set(faces) >= set(self.shape.faces):
+            return whole
+        local = self.target.to_local(world)
+        smooth = tuple(f for f in faces if f not in self._rough_faces)
+        d = leaf_face_distance(self.shape, smooth, local) if smooth else np.full(len(world), np.inf)
+        for f in faces:
+            if f in self._rough_faces:
+                d = np.minimum(d, rough(f)(world))
+        return np.where(whole > 0, np.maximum(whole, d), 0.0)
+
+    @property
+    def _rough_faces(self) -> set[str]:
+        return {path + face for path, leaf in self.leaves.items() for face in leaf.faces}
+
+
+def _lazy(measure: Callable[[str], Measure], face: str) -> Measure:
+    return lambda world: measure(face)(world)
+
+
+def check_measurable(layer: RoughLayer, where: str) -> None:
+    """Steps and activeness on the rough ``layer`` of a boolean face need the exact distance to
+    its leaf's other faces: a one-line error where :func:`face_distance` cannot give it."""
+
+    on = layer.on_boolean
+    assert on is not None
+    leaf, face = on.clip.leaf, on.clip.face
+    others = tuple(f for f in leaf.faces if f != face)
+    try:
+        if others:
+            face_distance(leaf, others, np.zeros((1, 3)))
+    except ConfigError as err:
+        raise ConfigError(
+            f"{where}: steps (output.steps) and activeness need the distance to the other faces "
+            f"of the {leaf.kind} whose face {face} is rough: "
+            f"{str(err).removeprefix('activeness: ')}"
+        ) from None

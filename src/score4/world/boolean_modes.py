@@ -1,0 +1,162 @@
+"""What a rough layer on a boolean solid's face takes besides its geometry (numpy, no Geant4):
+``tiling``, ``native_layout`` and ``into``, checked by :mod:`score4.world.boolean_layers`.
+
+* ``tiling: portal`` cannot work on a boolean's face, for two reasons: a portal's subworlds must
+  lie where no particle goes, which score4 knows only in the world it generates, whose targets
+  are boxes of the configuration (a boolean solid comes from a GDML world); and a portal jumps
+  into a variant's subworld from every cell, while a boolean's face keeps patches only on the
+  cells proven on its surface (the others stay flat).
+* ``native_layout: replicas`` repeats one cell box over the whole rectangle of cells: it works
+  where every cell of a flat face holds its patch (a face the other solids do not cut, such as
+  the side of a box less a tube along its axis), and is refused, with the count of cells off the
+  surface, where they do not.
+* ``into: true`` on a flat face of a constituent G4Box or the end face of a constituent G4Tubs
+  (not a subtracted one): the constituent is made thinner behind the face
+  (:func:`cut_boolean`; in Geant4 the boolean is rebuilt with it,
+  :mod:`score4.geometry.boolean_cut`), and the layer lies in the slab, on the cut face
+  (:func:`cut_face`); on the wall of a subtracted G4Tubs (a bore) the subtracted tube grows by
+  the layer's cut and the layer lies in the shell around the old bore. Refused elsewhere: the
+  flat faces of a subtracted solid and the other curved faces.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..errors import ConfigError
+from ..shapes import BooleanShape, G4Tubs, Shape, Transform
+from ..shapes.faces import PlaneFace
+from ..shapes.placed import PlacedShape
+from .boolean_distance import leaf_path
+from .scene import BooleanFace, CurvedRoughLayer, PolygonRoughLayer, RingRoughLayer, RoughLayer
+
+if TYPE_CHECKING:  # a worker imports this module and never the configuration's models
+    from ..inputs.config import RoughFace
+
+
+def check_modes(
+    rough: RoughFace, where: str, what: str, leaf: Shape, face: str, flipped: bool
+) -> None:
+    """One-line errors for ``into: true`` and ``tiling: portal`` on a boolean's face ``what``
+    (face ``face`` of its constituent ``leaf``; ``flipped``: of a subtracted solid)."""
+    if rough.into:
+        flat = isinstance(leaf.face(face), PlaneFace)
+        if flipped and (flat or not isinstance(leaf, G4Tubs) or face not in ("outer", "inner")):
+            raise ConfigError(
+                f"{where}: into: true on {what}, a face of the subtracted {leaf.kind}, would "
+                "widen the cut, which score4 does for the walls of a subtracted G4Tubs (a bore) "
+                "only; put the layer outside the volume (into: false)"
+            )
+        if not flipped and (not flat or leaf.trimmed({face: 1e-6}) is None):
+            raise ConfigError(
+                f"{where}: into: true on {what} (face {face} of a {leaf.kind}) is supported on "
+                "the flat faces of a G4Box, the end faces of a G4Tubs and the walls of a "
+                "subtracted G4Tubs of a boolean; put the layer outside the volume (into: false)"
+            )
+    if rough.tiling == "portal":
+        raise ConfigError(
+            f"{where}: tiling portal on {what}: a portal's subworlds must lie where no particle "
+            "goes, which score4 knows only in the world it generates, whose targets are boxes "
+            "(a boolean solid comes from a GDML world), and it jumps into a patch from every "
+            "cell, while a boolean's face keeps patches only where it lies on the solid's "
+            "surface; take tiling: native"
+        )
+
+
+def check_replicas(layer: RoughLayer, where: str, what: str) -> None:
+    """``native_layout: replicas`` on a boolean's face: every cell of a flat rectangle holds its
+    patch, or a one-line error (call once the kept cells are known)."""
+    if layer.config.native_layout != "replicas":
+        return
+    if isinstance(layer, CurvedRoughLayer | PolygonRoughLayer | RingRoughLayer):
+        return  # refused on the constituent's face already (a rectangle only)
+    mask = layer.mask
+    if mask is None:
+        return
+    off = int(mask.size - mask.sum())
+    if off:
+        raise ConfigError(
+            f"{where}: native_layout replicas fills every cell; {off} of the {mask.size} cells of "
+            f"{what} lie off the solid's surface (or are not proven on it) and hold no patch: "
+            "take auto, nested or placements"
+        )
+
+
+def leaf_cuts(shape: BooleanShape, cuts: dict[str, float]) -> dict[str, tuple[Shape, np.ndarray]]:
+    """Per leaf path (:func:`score4.world.boolean_distance.leaf_path`), the leaf made thinner
+    behind the named boolean faces (``cuts``: face -> depth, mm; :meth:`Shape.trimmed`) and the
+    shift of its origin in the leaf's frame."""
+    by_path: dict[str, dict[str, float]] = {}
+    for name, depth in cuts.items():
+        path, face = leaf_path(shape, name)
+        by_path.setdefault(path, {})[face] = depth
+    out = {}
+    for path, faces in by_path.items():
+        leaf = shape.face_clip(path + next(iter(faces))).leaf
+        trimmed = leaf.trimmed(faces)
+        if trimmed is None:  # refused by check_modes before
+            raise ConfigError(f"into: a {leaf.kind} cannot be cut behind {', '.join(faces)}")
+        out[path] = trimmed
+    return out
+
+
+def cut_boolean(shape: BooleanShape, cuts: dict[str, float]) -> BooleanShape:
+    """``shape`` with the leaves behind the named faces made thinner by the depths ``cuts``
+    (the solid an ``into`` layer leaves: the face moved inward, the other faces where they
+    were)."""
+    trims = leaf_cuts(shape, cuts)
+
+    def cut(s: Shape, path: str) -> Shape:
+        if isinstance(s, PlacedShape):
+            return replace(s, shape=cut(s.shape, path))
+        if isinstance(s, BooleanShape):
+            return replace(
+                s, first=cut(s.first, path + "first."), second=cut(s.second, path + "second.")
+            )
+        if path not in trims:
+            return s
+        trimmed, shift = trims[path]
+        return PlacedShape(trimmed, Transform(np.eye(3), np.asarray(shift, float)))
+
+    out = cut(shape, "")
+    assert isinstance(out, BooleanShape)
+    return out
+
+
+def into_depth(layer: RoughLayer) -> float:
+    """How far an ``into`` layer moves its boolean face inward (mm): the layer's thickness on a
+    flat face; on a bore (a subtracted tube's wall, laid out as the inner wall of a tube beside
+    it) the cut of that tube's inner radius."""
+    if isinstance(layer, CurvedRoughLayer):
+        turned = layer.target.shape
+        assert layer.cut_shape is not None  # into on a wall: the tube cut for it
+        cut = layer.cut_shape[0]
+        assert isinstance(turned, G4Tubs)
+        assert isinstance(cut, G4Tubs)
+        return float(cut.rmin - turned.rmin)
+    return float(layer.thickness)
+
+
+def cut_face(on: BooleanFace, depth: float) -> BooleanFace:
+    """Where an ``into`` layer's face lies: the face ``on`` of the boolean cut ``depth`` behind
+    it (:func:`cut_boolean`; a subtracted solid grows by ``depth``)."""
+    shape = on.shape
+    assert isinstance(shape, BooleanShape)
+    cut = cut_boolean(shape, {on.face: -depth if on.clip.flipped else depth})
+    return BooleanFace(cut, on.face, cut.face_clip(on.face), on.transform)
+
+
+def boolean_cuts(layers: list[RoughLayer]) -> dict[str, float]:
+    """The cuts of a boolean's ``into`` layers (boolean face -> depth, mm, < 0: a subtracted
+    solid grows), as :func:`cut_boolean` and :func:`score4.geometry.boolean_cut.cut_boolean_solid`
+    take them."""
+    out = {}
+    for layer in layers:
+        on = layer.on_boolean
+        assert on is not None
+        depth = into_depth(layer)
+        out[layer.config.face_name] = -depth if on.clip.flipped else depth
+    return out
