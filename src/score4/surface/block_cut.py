@@ -67,9 +67,10 @@ MIN_FLOOR = 10e-6  # mm
 #: map is rough; a block's exact safety measures the distance to each facet near the point.
 #: Measured on a 1024 x 1024 Gaussian map at 0.1 um (bench_instructions.py, instructions per
 #: alpha event against the pyramid face; benchmarks/README.md): uncut (~420 facets a block)
-#: 3.75x; cut to 256 1.60x, to 128 1.37x. Each cut adds walls, floors and volumes to build: 128
-#: builds the map in 7.4 s and 504 MB against 5.3 s and 440 MB uncut (32: 14.9 s, 736 MB).
-SIMPLIFIED_BLOCK_FACETS = 128
+#: 3.75x; cut to 256 1.60x, to 128 1.37x, to 64 1.06x, to 32 1.00x. Each cut adds walls, floors
+#: and volumes to build: 64 builds that map in 9.9 s and 600 MB against 5.3 s and 440 MB uncut
+#: (128: 7.4 s, 504 MB; 32: 14.9 s, 736 MB; under load).
+SIMPLIFIED_BLOCK_FACETS = 64
 
 #: Top facets of one patch variant above which building is refused (a 1024 x 1024 map has 2.1e6).
 MAX_PATCH_FACETS = 4_000_000
