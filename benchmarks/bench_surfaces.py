@@ -111,16 +111,21 @@ def config(case: str, events: int, face: float = 1.5) -> dict:
     size_x = size_y = n * patch
     if case.startswith("measured"):  # 30 um x 25 um patches
         size_x, size_y = max(1, round(face / 0.030)) * 0.030, max(1, round(face / 0.025)) * 0.025
-    target = {
+    target: dict[str, object] = {
         "name": "crystal",
         "material": "G4_Si",
         "size": [f"{size_x} mm", f"{size_y} mm", "0.3 mm"],
         "position": ["0 mm", "0 mm", "-0.15 mm"],
     }
-    data = {"physics": "lite"}
+    data: dict[str, object] = {"physics": "lite"}
     if surface is not None:
         data["surfaces"] = {"s": surface}
-        rough = {"face": "+z", "surface": "s", "solid": solid, "base_thickness": "1 um"}
+        rough: dict[str, object] = {
+            "face": "+z",
+            "surface": "s",
+            "solid": solid,
+            "base_thickness": "1 um",
+        }
         if block_cells:
             rough["block_cells"] = block_cells
         target["rough"] = [rough]

@@ -213,3 +213,30 @@ def pytest_collection_finish(session) -> None:
     if _COLLECTION_ECHO[0]:
         sys.stderr.write(f" {len(session.items)} tests collected on each worker\n")
         sys.stderr.flush()
+
+
+def _cpu_seconds() -> float:
+    """User + system CPU of this process and of the children it has waited for (spawned
+    Geant4 processes, run workers, CLI subprocesses)."""
+    import resource
+
+    own, children = (
+        resource.getrusage(w) for w in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)
+    )
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    """With ``SCORE4_TEST_CPU=<file>``, append one line per test to that file: the CPU seconds
+    of its set-up, call and tear-down (a shared fixture counts with the first test that uses
+    it), a tab, its id. Measures only (no test depends on it): where the suite's CPU goes, e.g.
+    ``SCORE4_TEST_CPU=/tmp/cpu.tsv make test; sort -rn /tmp/cpu.tsv | head -20``."""
+    import os
+
+    path = os.environ.get("SCORE4_TEST_CPU")
+    before = _cpu_seconds() if path else 0.0
+    yield
+    if path:
+        with open(path, "a") as out:  # one short append per line: xdist workers share the file
+            out.write(f"{_cpu_seconds() - before:.2f}\t{item.nodeid}\n")

@@ -281,9 +281,9 @@ def _box_less_tube(o: np.ndarray, d: np.ndarray) -> float:
         ({"into": True, "face": "second.+z"}, "would widen the cut, which score4 does for the"),
         (
             {"native_layout": "replicas", "face": "first.+z", "surface": "p"},
-            # the 0.5 mm cells whose square reaches into the bore (r 5 mm): 360 of 40 x 40
+            # the 0.5 mm cells whose square reaches into the bore (r 5 mm): 352 of 40 x 40
             (
-                "native_layout replicas fills every cell; 360 of the 1600 cells of face first.+z "
+                "native_layout replicas fills every cell; 352 of the 1600 cells of face first.+z "
                 "of 'cutbox'"
             ),
         ),

@@ -125,8 +125,9 @@ def _check_kept_cells(scene) -> None:
 
 def test_the_box_face_around_the_hole_keeps_the_cells_clear_of_it(scene):
     """On the +z face of the box less the tube (r 5 mm): the kept cells are those whose
-    rectangle stays out of the hole (an exact count from the cells' nearest points to the axis),
-    less at most the cells within 0.01 mm of the hole's rim (left unproven)."""
+    rectangle stays out of the hole or touches its rim (an exact count from the cells' nearest
+    points to the axis), less at most the cells within 0.01 mm of the hole's rim (left
+    unproven)."""
     layer = scene.layer("cutbox", "first.+z")
     px, py = layer.patch_size
     c = layer.cell_centres()
@@ -135,7 +136,7 @@ def test_the_box_face_around_the_hole_keeps_the_cells_clear_of_it(scene):
     nearest = np.hypot(
         np.maximum(np.abs(d[..., 0]) - px / 2, 0), np.maximum(np.abs(d[..., 1]) - py / 2, 0)
     )
-    clear = nearest > 5.0
+    clear = nearest >= 5.0  # a cell may touch the hole's rim (its bounding box proves it)
     assert not (layer.mask & ~clear).any()
     rim = clear & (nearest < 5.01)
     assert not (clear & ~layer.mask & ~rim).any()
@@ -402,7 +403,6 @@ def test_a_rough_pplus_and_cut_face_run_in_geant4(gdml, tmp_path):
             {},
             "no face 'first.+q' on a G4SubtractionSolid; its faces: first.+x",
         ),
-        ("stack", "first.+z", {}, "runs into the solid itself"),
         ("cutbox", "second.+z", {"into": True}, "into: true on face second.+z of 'cutbox'"),
         ("cutbox", "second.+z", {}, "lies nowhere on the solid's surface"),
         ("cutbox", "first.+z", {"native_layout": "replicas"}, "native_layout replicas fills"),

@@ -5,7 +5,6 @@ writes again."""
 
 from __future__ import annotations
 
-import re
 import sys
 from pathlib import Path
 
@@ -17,23 +16,11 @@ from score4.cli.main import main
 from score4.inputs.config import load_config
 from score4.world.resolve import build_scene
 
-from helpers.spawn import run_in_spawned_process
+from helpers.export_paths import assert_same_paths, three_paths
 
 HERE = Path(__file__).parent
 sys.path.insert(0, str(HERE))
 from helpers import gdml_worlds as W  # noqa: E402
-
-
-def _call(name, *args):
-    sys.path.insert(0, str(HERE))
-    from helpers import g4_gdml_world
-
-    return getattr(g4_gdml_world, name)(*args)
-
-
-def _base(name: str | None) -> str | None:
-    """A volume name without the export's numbering of repeated placements."""
-    return re.sub(r"_\d+$", "", name) if name and "_rough" in name else name
 
 
 def test_rough_wall_exports_with_the_same_paths(tmp_path, monkeypatch):
@@ -66,28 +53,9 @@ def test_rough_wall_exports_with_the_same_paths(tmp_path, monkeypatch):
         start = target.to_world((15.5 * radial + [0, 0, z])[None, :])[0]
         tilt = target.rotation @ (-radial + [0, 0, rng.uniform(-0.3, 0.3)])
         rays.append((start.tolist(), (tilt / np.linalg.norm(tilt)).tolist()))
-    ours = run_in_spawned_process(_call, "trace_built", str(cfg), rays)
-    back = run_in_spawned_process(_call, "trace_gdml", str(out), rays)
-    # pyg4ometry reads the export and writes it again: Geant4 reads that with the same paths
-    import pyg4ometry
-
-    monkeypatch.setattr(pyg4ometry.config, "doMeshing", False)
-    monkeypatch.chdir(out.parent)
-    reg = pyg4ometry.gdml.Reader(str(out)).getRegistry()
-    again = tmp_path / "again.gdml"
-    writer = pyg4ometry.gdml.Writer()
-    writer.addDetector(reg)
-    writer.write(str(again))
-    relay = run_in_spawned_process(_call, "trace_gdml", str(again), rays)
+    ours, back, relay = three_paths(cfg, out, rays, monkeypatch)
     assert max(len(a) for a in ours) > 6  # the rays cross patches and spikes
-    for a, b, c in zip(ours, back, relay, strict=True):
-        names = [_base(v) for v, _ in a]
-        assert names == [_base(v) for v, _ in b]
-        assert [re.sub(r"0x[0-9a-f]+$", "", v or "") for v in names] == [
-            re.sub(r"0x[0-9a-f]+$", "", _base(v) or "") for v, _ in c
-        ]
-        np.testing.assert_allclose([p for _, p in a], [p for _, p in b], atol=1e-9, rtol=0)
-        np.testing.assert_allclose([p for _, p in a], [p for _, p in c], atol=1e-9, rtol=0)
+    assert_same_paths(ours, back, relay)
 
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")

@@ -5,7 +5,7 @@ G4TessellatedSolid; in numpy, in Geant4 and exported to GDML."""
 from __future__ import annotations
 
 import math
-import sys
+import re
 from pathlib import Path
 
 import numpy as np
@@ -24,11 +24,10 @@ from score4.world.facets import point_in_triangles
 from score4.world.resolve import build_scene
 from score4.world.scene import PolygonRoughLayer
 
+from helpers.export_paths import assert_same_paths, base_name, built_and_exported
 from helpers.geantinos import geantino_run
 from helpers.ray_trace import mesh_path
-from helpers.spawn import run_in_spawned_process
 
-HERE = Path(__file__).parent
 PYRAMIDS = {"kind": "spikes", "nx": 10, "ny": 10, "width": "10 um", "height": "10 um"}
 
 #: volume -> (its rough faces, its position in the world, mm)
@@ -214,11 +213,11 @@ def test_geantino_paths_agree_with_an_independent_ray_trace(gdml, scene, tmp_pat
         assert got == pytest.approx(expected, abs=1e-9, rel=0), (volumes[k], k)
 
 
-def _call(name, *args):
-    sys.path.insert(0, str(HERE))
-    from helpers import g4_gdml_world
-
-    return getattr(g4_gdml_world, name)(*args)
+def _shared(name: str | None) -> str | None:
+    """A volume name without its face inside a layer: the export places one layer volume for
+    layers of the same make, its cells named after the first face (``tess_roughplane_0_cell``
+    in ``tess_roughplane_7``)."""
+    return base_name(re.sub(r"(_rough).*?(_v\d+.*|_cell.*)$", r"\1\2", name or "") or name)
 
 
 def test_exported_world_gives_the_same_geantino_paths(gdml, scene, tmp_path):
@@ -238,11 +237,8 @@ def test_exported_world_gives_the_same_geantino_paths(gdml, scene, tmp_path):
                 start = layer.frame.to_world(np.array([*c, 0.2]))
                 tilt = layer.frame.rotation @ np.array([*rng.uniform(-0.3, 0.3, 2), -1.0])
                 rays.append((start.tolist(), tilt.tolist()))
-    ours = run_in_spawned_process(_call, "trace_built", str(cfg), rays)
-    back = run_in_spawned_process(_call, "trace_gdml", str(out), rays)
-    for a, b in zip(ours, back, strict=True):
-        assert len(a) == len(b)
-        np.testing.assert_allclose([p for _, p in a], [p for _, p in b], atol=1e-9, rtol=0)
+    ours, back = built_and_exported(cfg, out, rays)
+    assert_same_paths(ours, back, names=_shared)
     assert min(len(a) for a in ours) > 4  # the rays cross layers, cells and spikes
 
 
@@ -549,9 +545,6 @@ def test_exported_into_world_gives_the_same_geantino_paths(into_data, tmp_path):
             start = layer.frame.to_world(np.array([*c, 0.2]))
             tilt = layer.frame.rotation @ np.array([*rng.uniform(-0.3, 0.3, 2), -1.0])
             rays.append((start.tolist(), tilt.tolist()))
-    ours = run_in_spawned_process(_call, "trace_built", str(cfg), rays)
-    back = run_in_spawned_process(_call, "trace_gdml", str(out), rays)
-    for a, b in zip(ours, back, strict=True):
-        assert len(a) == len(b), ([v for v, _ in a], [v for v, _ in b])
-        np.testing.assert_allclose([p for _, p in a], [p for _, p in b], atol=1e-9, rtol=0)
+    ours, back = built_and_exported(cfg, out, rays)
+    assert_same_paths(ours, back, names=_shared)
     assert min(len(a) for a in ours) > 4

@@ -22,6 +22,7 @@ from score4.runner.normalisation import layer_volume
 from score4.world.gdml_files import _read_in_subprocess, load_geometry_model
 from score4.world.resolve import build_scene
 
+from helpers.export_paths import assert_same_paths, built_and_exported, pyg4ometry_registry
 from helpers.spawn import run_in_spawned_process
 
 HERE = Path(__file__).parent
@@ -475,18 +476,10 @@ def test_exported_world_gives_the_same_paths_and_reads_in_pyg4ometry(worlds, tmp
     from score4.source.vertex_file import read_vertex_file
 
     pos = read_vertex_file(vtx).position
-    ours = spawned("trace_built", str(cfg), rays)
-    back, names = spawned("trace_gdml", str(out), rays, pos.tolist())
-    for a, b in zip(ours, back, strict=True):
-        assert [_base(v) for v, _ in a] == [_base(v) for v, _ in b]
-        np.testing.assert_allclose([p for _, p in a], [p for _, p in b], atol=1e-9, rtol=0)
+    ours, (back, names) = built_and_exported(cfg, out, rays, pos.tolist())
+    assert_same_paths(ours, back, names=_base)
     assert max(len(a) for a in ours) > 6  # the rays cross patch cells and spikes
-    # pyg4ometry reads it (without meshing, which it cannot do for every rough solid)
-    import pyg4ometry
-
-    monkeypatch.setattr(pyg4ometry.config, "doMeshing", False)
-    monkeypatch.chdir(out.parent)  # pyg4ometry reads <file> includes from the working folder
-    reg = pyg4ometry.gdml.Reader(str(out)).getRegistry()
+    reg = pyg4ometry_registry(out, monkeypatch)  # pyg4ometry reads it
     lvs = [n.split("0x")[0] for n in reg.logicalVolumeDict]
     assert {"crystal_1_roughpz", "disk_roughmz", "B00000T", "CrystalLV_u1"} <= set(lvs)
     # vertices drawn by score4 lie in the exported world's crystal_1 material
@@ -531,6 +524,12 @@ BOX_WORLD = {
 }
 
 
+def _box_name(name: str | None) -> str | None:
+    """The first placement of a name keeps it, a repeated one is ``name_k`` in the export, and
+    Geant4's reader makes the world's placement itself, ``World_PV``."""
+    return "World" if name == "World_PV" else re.sub(r"_cell_\d+$", "_cell", name or "") or name
+
+
 def test_a_box_world_exports_with_clean_unique_names(tmp_path, monkeypatch):
     """A world of configuration boxes with rough layers, written by Geant4's writer: no pointer
     suffixes, every name unique within its kind (repeated placements numbered), and Geant4
@@ -556,19 +555,10 @@ def test_a_box_world_exports_with_clean_unique_names(tmp_path, monkeypatch):
             start = frame.to_world([*rng.uniform(-0.45, 0.45, 2), 0.05])
             tilt = frame.rotation @ np.array([*rng.uniform(-0.3, 0.3, 2), -1.0])
             rays.append((start.tolist(), tilt.tolist()))
-    ours = spawned("trace_built", str(cfg), rays)
-    back = spawned("trace_gdml", str(out), rays)
-    for a, b in zip(ours, back, strict=True):
-        # the first of a name keeps it: a repeated placement is name_k in the file; Geant4's
-        # reader makes the world's placement itself, World_PV
-        names = [re.sub(r"_cell_\d+$", "_cell", v or "") or v for v, _ in b]
-        assert [v for v, _ in a] == ["World" if v == "World_PV" else v for v in names]
-        np.testing.assert_allclose([p for _, p in a], [p for _, p in b], atol=1e-9, rtol=0)
+    ours, back = built_and_exported(cfg, out, rays)
+    assert_same_paths(ours, back, names=_box_name)
     assert max(len(a) for a in ours) > 6
-    import pyg4ometry
-
-    monkeypatch.setattr(pyg4ometry.config, "doMeshing", False)
-    reg = pyg4ometry.gdml.Reader(str(out)).getRegistry()
+    reg = pyg4ometry_registry(out, monkeypatch)
     assert {"World", "crystal", "plate", "crystal_roughpz", "crystal_roughmx"} <= set(
         reg.logicalVolumeDict
     )
@@ -759,20 +749,13 @@ def test_export_keeps_the_users_file_and_registers_the_rough_layer(worlds, tmp_p
         rays.append(
             (start.tolist(), (frame.rotation @ [*rng.uniform(-0.3, 0.3, 2), -1.0]).tolist())
         )
-    ours = spawned("trace_built", str(cfg), rays)
-    back = spawned("trace_gdml", str(out), rays)
-    for a, b in zip(ours, back, strict=True):
-        assert [_base(v) for v, _ in a] == [_base(v) for v, _ in b]
-        np.testing.assert_allclose([p for _, p in a], [p for _, p in b], atol=1e-9, rtol=0)
+    ours, back = built_and_exported(cfg, out, rays)
+    assert_same_paths(ours, back, names=_base)
     assert max(len(a) for a in ours) > 6
     # the two faces are of the same make: one envelope volume placed twice
     envelopes = re.findall(r'<physvol name="(disk_rough[pm]z)">\s*<volumeref ref="([^"]+)"', text)
     assert envelopes == [("disk_roughmz", "disk_roughmz"), ("disk_roughpz", "disk_roughmz")]
-    import pyg4ometry
-
-    monkeypatch.setattr(pyg4ometry.config, "doMeshing", False)
-    monkeypatch.chdir(out.parent)  # pyg4ometry reads <file> includes from the working folder
-    reg = pyg4ometry.gdml.Reader(str(out)).getRegistry()
+    reg = pyg4ometry_registry(out, monkeypatch)
     assert {"disk", "bege", "crystal_0", "crystal_1", "cavity"} <= set(reg.physicalVolumeDict)
     det = next(a for a in reg.userInfo if a.auxtype == "RMG_detector")
     entries = {a.auxtype: a.auxvalue for a in det.subaux}
@@ -836,9 +819,6 @@ def test_export_adds_a_configured_box_and_cuts_one_copy_of_a_shared_volume(world
             start = frame.to_world([*rng.uniform(-1.5, 1.5, 2), 0.5])
             tilt = frame.rotation @ [*rng.uniform(-0.3, 0.3, 2), -1.0]
             rays.append((start.tolist(), tilt.tolist()))
-    ours = spawned("trace_built", str(cfg), rays)
-    back = spawned("trace_gdml", str(out), rays)
-    for a, b in zip(ours, back, strict=True):
-        assert [_base(v) for v, _ in a] == [_base(v) for v, _ in b]
-        np.testing.assert_allclose([p for _, p in a], [p for _, p in b], atol=1e-9, rtol=0)
+    ours, back = built_and_exported(cfg, out, rays)
+    assert_same_paths(ours, back, names=_base)
     assert max(len(a) for a in ours) > 5

@@ -57,3 +57,67 @@ def write_world(path: Path) -> Path:
     reg.setWorld(world.name)
     pygeomtools.write_pygeom(reg, str(path))
     return path
+
+
+#: a copper box (20 mm) less a cone (r 4 mm at z = -20 to 8 mm at z = +20) through it along z
+CONEBORE_POSITION = (0.0, 60.0, 0.0)
+#: a copper box (20 mm) with a tube (r 3 mm, 10 mm long) standing on its +z face off its centre
+POSTBOX_POSITION = (60.0, 0.0, 0.0)
+POST_AT = (4.0, 2.0, 15.0)
+#: a copper box (20 mm) with a rod (r 5 mm, 40 mm long) through it along z, a union
+CROSS_POSITION = (-60.0, 0.0, 0.0)
+#: a silicon orb (r 3 mm) less a box beyond x = 1.5 mm
+ORBCUT_POSITION = (0.0, 0.0, 60.0)
+ORB_CUT = 1.5
+#: a hexagonal copper prism (G4Polyhedra, 6 sides 8 mm from the axis, 20 mm long) less a box
+#: beyond x, y = 4 mm (its side face ``seg_1`` is six planes)
+HEXCUT_POSITION = (60.0, 60.0, 0.0)
+HEX_CUT = 4.0
+
+
+def write_more_world(path: Path) -> Path:
+    """A second world of booleans: ``conebore`` (a box less a cone), ``postbox`` (a box with
+    a post on a part of its +z face, a union), ``cross`` (a box with a rod through it, a union),
+    ``orbcut`` (an orb less a box), ``hexcut`` (a G4Polyhedra less a box) and the ``stack`` of
+    :func:`write_world`."""
+    import pyg4ometry as pg
+
+    reg = pg.geant4.Registry()
+    s = pg.geant4.solid
+    world = pg.geant4.LogicalVolume(s.Box("world_s", 300, 300, 300, reg), "G4_Galactic", "W", reg)
+    box = s.Box("cone_a", 20, 20, 20, reg)
+    cone = s.Cons("cone_b", 0, 4, 0, 8, 40, 0, 2 * math.pi, reg)
+    cut = s.Subtraction("conebore_s", box, cone, [[0, 0, 0], [0, 0, 0]], reg)
+    lv = pg.geant4.LogicalVolume(cut, "G4_Cu", "conebore_lv", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], list(CONEBORE_POSITION), lv, "conebore", world, reg)
+    base = s.Box("post_a", 20, 20, 20, reg)
+    post = s.Tubs("post_b", 0, 3, 10, 0, 2 * math.pi, reg)
+    union = s.Union("postbox_s", base, post, [[0, 0, 0], list(POST_AT)], reg)
+    lv = pg.geant4.LogicalVolume(union, "G4_Cu", "postbox_lv", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], list(POSTBOX_POSITION), lv, "postbox", world, reg)
+    disk = s.Tubs("stack_a", 0, 10, 10, 0, 2 * math.pi, reg)
+    top = s.Tubs("stack_b", 0, 7, 10, 0, 2 * math.pi, reg)
+    stack = s.Union("stack_s", disk, top, [[0, 0, 0], [0, 0, 10]], reg)
+    lv = pg.geant4.LogicalVolume(stack, "G4_Cu", "stack_lv", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], list(STACK_POSITION), lv, "stack", world, reg)
+    cross_box = s.Box("cross_a", 20, 20, 20, reg)
+    rod = s.Tubs("cross_b", 0, 5, 40, 0, 2 * math.pi, reg)
+    cross = s.Union("cross_s", cross_box, rod, [[0, 0, 0], [0, 0, 0]], reg)
+    lv = pg.geant4.LogicalVolume(cross, "G4_Cu", "cross_lv", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], list(CROSS_POSITION), lv, "cross", world, reg)
+    orb = s.Orb("orbcut_a", 3, reg)
+    cutter = s.Box("orbcut_b", 10, 10, 10, reg)
+    orbcut = s.Subtraction("orbcut_s", orb, cutter, [[0, 0, 0], [ORB_CUT + 5, 0, 0]], reg)
+    lv = pg.geant4.LogicalVolume(orbcut, "G4_Si", "orbcut_lv", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], list(ORBCUT_POSITION), lv, "orbcut", world, reg)
+    hexa = s.Polyhedra("hex_a", 0, 2 * math.pi, 6, 2, [-10, 10], [0, 0], [8, 8], reg)
+    corner = s.Box("hex_b", 20, 20, 40, reg)
+    at = [HEX_CUT + 10, HEX_CUT + 10, 0]
+    hexcut = s.Subtraction("hexcut_s", hexa, corner, [[0, 0, 0], at], reg)
+    lv = pg.geant4.LogicalVolume(hexcut, "G4_Cu", "hexcut_lv", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], list(HEXCUT_POSITION), lv, "hexcut", world, reg)
+    reg.setWorld(world.name)
+    w = pg.gdml.Writer()
+    w.addDetector(reg)
+    w.write(str(path))
+    return path

@@ -5,6 +5,7 @@ wrote it again. Each runs in a spawned process (:mod:`helpers.g4_gdml_world`).""
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -31,17 +32,33 @@ def base_name(name: str | None) -> str | None:
     return re.sub(r"_\d+$", "", name) if "_rough" in name else name
 
 
-def three_paths(config: Path, exported: Path, rays: list, monkeypatch) -> tuple[list, list, list]:
-    """The paths of ``rays`` ((origin, direction) pairs, world frame) through the world of
-    ``config``, through its export ``exported`` and through pyg4ometry's copy of that export
-    (read without meshing, which it cannot do for every rough solid)."""
+def built_and_exported(config: Path, exported: Path, rays: list, points: list | None = None):
+    """The paths of ``rays`` ((origin, direction) pairs, world frame) through the world score4
+    builds for ``config`` and through its export ``exported`` as Geant4's GDML reader reads it.
+    With ``points``, the second is (paths, names of the physical volumes at ``points``)."""
+    ours = run_in_spawned_process(_call, "trace_built", str(config), rays)
+    extra = () if points is None else (points,)
+    back = run_in_spawned_process(_call, "trace_gdml", str(exported), rays, *extra)
+    return ours, back
+
+
+def pyg4ometry_registry(exported: Path, monkeypatch):
+    """``exported`` as pyg4ometry reads it (without meshing, which it cannot do for every rough
+    solid; <file> includes are read from the file's folder)."""
     import pyg4ometry
 
-    ours = run_in_spawned_process(_call, "trace_built", str(config), rays)
-    back = run_in_spawned_process(_call, "trace_gdml", str(exported), rays)
     monkeypatch.setattr(pyg4ometry.config, "doMeshing", False)
-    monkeypatch.chdir(exported.parent)  # pyg4ometry reads <file> includes from the working folder
-    reg = pyg4ometry.gdml.Reader(str(exported)).getRegistry()
+    monkeypatch.chdir(exported.parent)
+    return pyg4ometry.gdml.Reader(str(exported)).getRegistry()
+
+
+def three_paths(config: Path, exported: Path, rays: list, monkeypatch) -> tuple[list, list, list]:
+    """The paths of ``rays`` through the world of ``config``, through its export ``exported``
+    and through pyg4ometry's copy of that export (:func:`pyg4ometry_registry` written again)."""
+    import pyg4ometry
+
+    ours, back = built_and_exported(config, exported, rays)
+    reg = pyg4ometry_registry(exported, monkeypatch)
     again = exported.with_name(f"{exported.stem}_again.gdml")
     writer = pyg4ometry.gdml.Writer()
     writer.addDetector(reg)
@@ -50,12 +67,15 @@ def three_paths(config: Path, exported: Path, rays: list, monkeypatch) -> tuple[
     return ours, back, relay
 
 
-def assert_same_paths(ours: list, *others: list, atol: float = 1e-9) -> None:
-    """The same volumes crossed in the same order, at the same points to ``atol`` mm."""
+def assert_same_paths(
+    ours: list, *others: list, atol: float = 1e-9, names: Callable = base_name
+) -> None:
+    """The same volumes crossed in the same order (compared as ``names`` gives them), at the
+    same points to ``atol`` mm."""
     for other in others:
         assert len(other) == len(ours)
         for a, b in zip(ours, other, strict=True):
-            names, again = [base_name(v) for v, _ in a], [base_name(v) for v, _ in b]
-            diff = [(x, y) for x, y in zip(names, again, strict=False) if x != y][:3]
-            assert names == again, (len(names), len(again), diff)
+            mine, again = [names(v) for v, _ in a], [names(v) for v, _ in b]
+            diff = [(x, y) for x, y in zip(mine, again, strict=False) if x != y][:3]
+            assert mine == again, (len(mine), len(again), diff)
             np.testing.assert_allclose([p for _, p in a], [p for _, p in b], atol=atol, rtol=0)

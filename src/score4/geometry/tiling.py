@@ -106,7 +106,7 @@ def place_native(
     lu, lv = frame.size
     t = layer.thickness
     name = layer.name
-    prism = getattr(layer, "prism", None)  # a polygon face: the envelope is its prism
+    prism = layer.envelope_prism()  # a polygon face or kept cells: the envelope is a prism
     ring = getattr(layer, "ring", None)  # a round face: the envelope is its ring
     if prism is not None:
         env_solid = tessellated_solid(g4, prism, name)

@@ -234,6 +234,8 @@ def shape_face_sampler(scene: Scene, volume: str, face: str | list[str]):
     shape, transform = target_shape(scene, volume)
     rough: dict[str, Any] = {}
     planes: dict[str, list] = {}  # a face of several planes: one layer per plane
+    # on a boolean: the flat rests of a face's planes, drawn as one rest on its surface
+    rests: dict[str, list] = {}
     for layer in scene.layers_of(volume):
         if layer.mask is None:
             rough[layer.config.face_name] = layer_sampler(layer)
@@ -243,10 +245,19 @@ def shape_face_sampler(scene: Scene, volume: str, face: str | list[str]):
                 if isinstance(layer, CurvedRoughLayer)
                 else FlatRemainderSampler(layer)
             )
-            if layer.on_boolean is not None:  # the rest that lies on the boolean's surface
-                rest = BooleanRemainderSampler(layer, rest)
-            parts = [layer_sampler(layer), rest]
+            if layer.on_boolean is not None:
+                rests.setdefault(layer.config.face_name, []).append((layer, rest))
+                parts = [layer_sampler(layer)]
+            else:
+                parts = [layer_sampler(layer), rest]
             planes.setdefault(layer.config.face_name, []).extend(p for p in parts if p.area > 0)
+    for face_name, layer_rests in rests.items():  # the rest that lies on the boolean's surface
+        first, inner = layer_rests[0]
+        if len(layer_rests) > 1 or getattr(first, "part", -1) >= 0:  # a face of several planes
+            inner = PlanesRemainderSampler([layer for layer, _ in layer_rests])
+        rest = BooleanRemainderSampler(first, inner)
+        if rest.area > 0:
+            planes[face_name].append(rest)
     for face_name, parts in planes.items():
         rough[face_name] = CombinedSurfaceSampler(parts)
     return ShapeSurfaceSampler(shape, face, transform, rough)
@@ -320,6 +331,42 @@ class FlatRemainderSampler:
         st[:, flip] = 1 - st[:, flip]
         t = self.outline[k]
         return t[:, 0] + st[0, :, None] * (t[:, 1] - t[:, 0]) + st[1, :, None] * (t[:, 2] - t[:, 0])
+
+
+class PlanesRemainderSampler:
+    """The flat rest of a leaf face of several planes under a boolean's face (its planes' rough
+    layers, those planes without a kept cell left out): the leaf face drawn whole, points in a
+    rough cell of any plane's layer rejected."""
+
+    def __init__(self, layers: list[RoughLayer]) -> None:
+        self.layers = layers
+        on = layers[0].on_boolean
+        assert on is not None
+        self.leaf, self.face, self.flipped = on.clip.leaf, on.clip.face, on.clip.flipped
+        self.sampler = self.leaf.face_sampler((self.face,))
+        cells = sum(
+            int((la.cell_variants >= 0).sum()) * float(np.prod(la.patch_size)) for la in layers
+        )
+        self.area = float(self.leaf.face_areas[self.face]) - cells
+
+    def sample(self, rng: np.random.Generator, n: int) -> SurfaceSample:
+        target = self.layers[0].target
+        pos, nrm = np.empty((0, 3)), np.empty((0, 3))
+        while len(pos) < n:
+            s = self.sampler.sample(rng, 2 * (n - len(pos)) + 16)
+            world = target.to_world(s.position)
+            keep = np.ones(len(world), dtype=bool)
+            for layer in self.layers:
+                q = layer.frame.to_local(world)
+                i, j = layer.patch_map.cell_of(q[:, :2])
+                hit = (i >= 0) & (np.abs(q[:, 2]) < 1e-9)
+                hit[hit] = layer.cell_variants[j[hit], i[hit]] >= 0
+                keep &= ~hit
+            normal = s.normal @ target.rotation.T
+            pos = np.concatenate([pos, world[keep]])
+            nrm = np.concatenate([nrm, -normal[keep] if self.flipped else normal[keep]])
+        none = np.full(n, -1, np.int64)
+        return SurfaceSample(pos[:n], nrm[:n], none.copy(), none.copy(), none.copy())
 
 
 class BooleanRemainderSampler:

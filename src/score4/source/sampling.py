@@ -765,12 +765,12 @@ class CurvedRemainderSampler:
         lay = layer.ring_layout
         covered = 0.0
         for j in range(len(lay.v)):
+            held = int((layer.cell_variants[j] >= 0).sum())  # all count cells but on a boolean
             if hasattr(face, "band_area"):  # a sphere
                 v0, v1 = lay.v[j] - py / 2, lay.v[j] + py / 2
-                covered += face.band_area(v0, v1, float(lay.count[j] * lay.step[j]))
+                covered += face.band_area(v0, v1, float(held * lay.step[j]))
                 continue
             r_lo, r_hi = face.radius(lay.v[j] - py / 2), face.radius(lay.v[j] + py / 2)
-            held = int((layer.cell_variants[j] >= 0).sum())  # all count cells but on a boolean
             covered += float(held * lay.step[j] * py * 0.5 * (r_lo + r_hi))
         self.area = max(float(face.area) - covered, 0.0)
 

@@ -15,30 +15,43 @@ left unproven stays flat. The flat rest of the face
 (:class:`score4.source.build.BooleanRemainderSampler`); ``rough_shares`` reports the rough share
 of the boolean's face, whose area is estimated (:attr:`BooleanShape.face_area_errors`).
 
-The wall of a subtracted G4Tubs (a bore) faces the other way than the tube's: its layer is laid
-out as on the opposite wall of a tube beside it (:func:`turned_wall`: the bore is the ``inner``
-wall of a tube whose inner radius is the cylinder's), cut along the axis to where the boolean
-can be, so the layer lies in the bore and its shell ends where the solid does.
+The wall of a subtracted G4Tubs or G4Cons (a bore) faces the other way than the solid's: its
+layer is laid out as on the opposite wall of a solid beside it (:func:`turned_wall`: the bore is
+the ``inner`` wall of a tube or cone whose inner radii are the subtracted solid's), cut along the
+axis to where the boolean can be, so the layer lies in the bore and its shell ends where the
+solid does. A sphere face of a G4Sphere or G4Orb leaf takes the sphere's cells (a cell's points
+lie within its half-height plus the sphere radius times its half-angle of its centre).
+
+A flat face partly covered by another part of a union (the layer's envelope would run into
+the solid): only the cells whose whole column (the cell up to the layer's thickness) is proven
+clear of the cutting solids keep their patch, and the envelope becomes the prism of those cells
+(:func:`_clear_of_the_solid`); :func:`fit_cells` then keeps them clear of the volume's other
+layers too (a wall's layer rising from the face).
+
+A face of a leaf made of flat facets in several planes (the sides of a G4Polyhedra) takes one
+layer per plane (:func:`_on_boolean`; a plane without a kept cell gets none); the source draws
+their flat rest as one (:class:`score4.source.build.PlanesRemainderSampler`).
 
 Refused, in one line each (:mod:`score4.world.boolean_modes` says why): ``into: true`` other
 than on flat faces of a G4Box or G4Tubs constituent and on bores, ``tiling: portal``,
-``native_layout: replicas`` where a cell holds no patch;
-a curved face of a subtracted solid other than a G4Tubs wall (cones, spheres); a face of a solid
-made of flat facets in several planes; a layer whose
-envelope runs into the solid itself (a face partly covered by another part of a union, or whose
-envelope leaves a cut). Steps and activeness measure these layers through the boolean's
-constituents (:mod:`score4.world.boolean_distance`).
+``native_layout: replicas`` where a cell holds no patch (and on a layer whose envelope is the
+prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs or G4Cons
+wall (spheres); a curved layer whose envelope runs into the solid itself (a wall partly covered
+by another part of a union), a flat one that keeps no cell clear of the other parts. Steps and
+activeness measure these layers through the boolean's constituents
+(:mod:`score4.world.boolean_distance`).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
 
 from score4.errors import ConfigError
 from score4.inputs.config import RoughFace
-from score4.shapes import BooleanShape, G4Tubs, Shape, Transform
+from score4.shapes import BooleanShape, G4Box, G4Cons, G4Tubs, Shape, Transform
 from score4.shapes.base import INSIDE
 from score4.shapes.boolean import FaceClip
 from score4.shapes.faces import PlaneFace, SphereFace
@@ -51,7 +64,6 @@ from .scene import (
     CurvedRoughLayer,
     FaceFrame,
     PolygonRoughLayer,
-    RingRoughLayer,
     RoughLayer,
     TargetVolume,
     make_layer,
@@ -72,8 +84,9 @@ def target_layers(
     rough: RoughFace,
     where: str | None = None,
 ) -> list[RoughLayer]:
-    """The rough layers of ``rough`` on ``target``: on a boolean solid, the one layer on face
-    ``rough.face`` (see the module docstring); on other solids one
+    """The rough layers of ``rough`` on ``target``: on a boolean solid, the layer on face
+    ``rough.face`` (one per plane of a face of several planes; see the module docstring); on
+    other solids one
     (:func:`score4.world.scene.make_layer`), or one per plane of a face made of flat facets in
     several planes (the ``nsides`` sides of a G4Polyhedra face, the planes of a tessellated
     mesh: :func:`score4.world.facets.plane_groups`)."""
@@ -89,7 +102,7 @@ def target_layers(
                 f"{err} (face {rough.face_name} of the {target.solid} is face {clip.face} of its "
                 f"{clip.leaf.kind}{seen})"
             ) from None
-        return [_on_boolean(layers, target, rough, clip, placed, where)]
+        return _on_boolean(layers, target, rough, clip, placed, where)
     if shape is not None and isinstance(rough.face, str) and rough.face in shape.faces:
         groups = plane_groups(face_triangles(shape, rough.face))
         if len(groups) > 1:
@@ -129,11 +142,6 @@ def _leaf(
     area = float(shape.face_areas[name])
     if not area > 0:
         raise ConfigError(f"{where}: {what} lies nowhere on the solid's surface (area 0)")
-    if isinstance(clip.leaf.face(clip.face), SphereFace):
-        raise ConfigError(
-            f"{where}: {what} is the sphere face {clip.face} of a {clip.leaf.kind}; rough faces "
-            "of a boolean are flat faces and cylinder or cone walls"
-        )
     leaf, face, placed = clip.leaf, clip.face, clip.transform
     if clip.flipped and not isinstance(leaf.face(face), PlaneFace):
         lo, hi = shape.bounding_box()
@@ -144,7 +152,7 @@ def _leaf(
         if turned is None:
             raise ConfigError(
                 f"{where}: {what} is the curved face {face} of a subtracted {leaf.kind}; rough "
-                "curved faces of a subtracted solid are the walls of a G4Tubs"
+                "curved faces of a subtracted solid are the walls of a G4Tubs or G4Cons"
             )
         leaf, face, shift = turned
         placed = clip.transform @ Transform(np.eye(3), shift)
@@ -159,62 +167,89 @@ def _on_boolean(
     clip: FaceClip,
     placed: Transform,
     where: str,
-) -> RoughLayer:
-    """The layer laid out on the leaf's face (``layers``), turned to the boolean's side, with
-    only the cells proven on the boolean's surface kept (:func:`kept_cells`)."""
+) -> list[RoughLayer]:
+    """The layers laid out on the leaf's face (``layers``: one, or one per plane of a face of
+    several planes), turned to the boolean's side, with only the cells proven on the boolean's
+    surface kept (:func:`kept_cells`); a plane of a face of several planes with no such cell is
+    left out (flat). Each layer's rough share is its cells' area over the boolean face's."""
     shape = target.shape
     assert isinstance(shape, BooleanShape)
     name, what = rough.face_name, _what(target, rough)
-    if len(layers) != 1:
-        raise ConfigError(
-            f"{where}: {what} is face {clip.face} of a {clip.leaf.kind} in {len(layers)} planes; "
-            "rough faces of a boolean are faces of one plane or of revolution"
-        )
-    layer = layers[0]
-    if clip.flipped and not isinstance(layer, CurvedRoughLayer):
-        _flip(layer)
-    on = BooleanFace(shape, name, clip, target.transform)
-    if rough.into:  # the face cut behind by the layer's thickness (boolean_modes)
-        on = cut_face(on, into_depth(layer))
-        clip = on.clip
-    kept = kept_cells(layer, clip, on, placed)
-    layer.mask = kept
-    if not kept.any():
-        px, py = layer.patch_size
+    base = BooleanFace(shape, name, clip, target.transform)
+    out = []
+    for layer in layers:
+        if clip.flipped and not isinstance(layer, CurvedRoughLayer):
+            _flip(layer)
+        on, cut = base, clip
+        if rough.into:  # the face cut behind by the layer's thickness (boolean_modes)
+            on = cut_face(base, into_depth(layer))
+            cut = on.clip
+        kept = kept_cells(layer, cut, on, placed)
+        layer.mask = kept
+        if not kept.any():
+            if len(layers) > 1:
+                continue
+            px, py = layer.patch_size
+            raise ConfigError(
+                f"{where}: no whole patch of {px * 1e3:g} x {py * 1e3:g} um fits on the part of "
+                f"{what} that lies on the solid's surface"
+            )
+        layer.config = rough
+        layer.face_area = float(on.shape.face_areas[name])
+        layer.on_boolean = on
+        if _meets_own_solid(layer, on):
+            _clear_of_the_solid(layer, cut, on, placed, where, what)
+        check_replicas(layer, where, what)
+        out.append(layer)
+    if not out:
+        px, py = layers[0].patch_size
         raise ConfigError(
             f"{where}: no whole patch of {px * 1e3:g} x {py * 1e3:g} um fits on the part of "
-            f"{what} that lies on the solid's surface"
+            f"{what} (face {clip.face} of a {clip.leaf.kind} in {len(layers)} planes) that lies "
+            "on the solid's surface"
         )
-    check_replicas(layer, where, what)
-    layer.config = rough
-    layer.face_area = float(on.shape.face_areas[name])
-    layer.on_boolean = on
-    _check_own_solid(layer, on, where, what)
-    return layer
+    return out
 
 
 def turned_wall(
     leaf: Shape, face: str, extent: tuple[float, float]
 ) -> tuple[Shape, str, np.ndarray] | None:
-    """The wall ``face`` of a subtracted G4Tubs as the opposite wall of a tube beside it, whose
-    outward normal is the boolean's (the bore a subtracted cylinder leaves is the ``inner`` wall
-    of a tube whose inner radius is the cylinder's; a subtracted tube's ``inner`` wall is the
-    ``outer`` wall of a full cylinder), cut to ``extent`` (z range, leaf frame: where the
-    boolean can be, so the layer's shell ends where the solid does), and the shift of its origin
-    in the leaf's frame; None for other solids and faces."""
-    if not isinstance(leaf, G4Tubs) or face not in ("outer", "inner"):
+    """The wall ``face`` of a subtracted G4Tubs or G4Cons as the opposite wall of a solid beside
+    it, whose outward normal is the boolean's (the bore a subtracted cylinder or cone leaves is
+    the ``inner`` wall of a tube or cone whose inner radii are the subtracted solid's outer
+    radii; a subtracted solid's ``inner`` wall is the ``outer`` wall of a full one), cut to
+    ``extent`` (z range, leaf frame: where the boolean can be, so the layer's shell ends where
+    the solid does), and the shift of its origin in the leaf's frame; None for other solids and
+    faces."""
+    if face not in ("outer", "inner"):
         return None
-    if face == "outer":
-        turned, name = replace(leaf, rmin=leaf.rmax, rmax=2 * leaf.rmax), "inner"
-    elif leaf.rmin > 0:
-        turned, name = replace(leaf, rmin=0.0, rmax=leaf.rmin), "outer"
+    turned: Shape
+    if isinstance(leaf, G4Tubs):
+        if face == "outer":
+            turned, name = replace(leaf, rmin=leaf.rmax, rmax=2 * leaf.rmax), "inner"
+        elif leaf.rmin > 0:
+            turned, name = replace(leaf, rmin=0.0, rmax=leaf.rmin), "outer"
+        else:
+            return None
+    elif isinstance(leaf, G4Cons):
+        if face == "outer":
+            w = max(leaf.rmax1, leaf.rmax2)
+            turned = replace(
+                leaf, rmin1=leaf.rmax1, rmax1=leaf.rmax1 + w, rmin2=leaf.rmax2, rmax2=leaf.rmax2 + w
+            )
+            name = "inner"
+        elif max(leaf.rmin1, leaf.rmin2) > 0:
+            turned = replace(leaf, rmin1=0.0, rmax1=leaf.rmin1, rmin2=0.0, rmax2=leaf.rmin2)
+            name = "outer"
+        else:
+            return None
     else:
         return None
     lo, hi = max(extent[0], -leaf.dz), min(extent[1], leaf.dz)
     if not hi > lo:
         return None
     cut = turned.trimmed({"-z": lo + leaf.dz, "+z": leaf.dz - hi})
-    assert cut is not None  # a G4Tubs is cut along z
+    assert cut is not None  # a G4Tubs or G4Cons is cut along z
     return cut[0], name, cut[1]
 
 
@@ -234,7 +269,8 @@ def _certify(centres, half_u, half_v, point, bound, margin) -> np.ndarray:
     """True for the cells (centres (n, 2) in face parameters, half widths ``half_u``,
     ``half_v`` (n,)) proven on the boolean's surface: ``point(uv)`` gives world points,
     ``bound(uv, hu, hv)`` a bound of the distance from a centre to its cell's points,
-    ``margin(world)`` the clip margin."""
+    ``margin(world, cells)`` the clip margin (``cells``: the index of the cell of each
+    point)."""
     n = len(centres)
     ok = np.ones(n, dtype=bool)
     pending = np.arange(n)
@@ -242,7 +278,7 @@ def _certify(centres, half_u, half_v, point, bound, margin) -> np.ndarray:
     for level in range(LEVELS + 1):
         if not len(pending):
             break
-        m = margin(point(uv))
+        m = margin(point(uv), pending)
         r = bound(uv, hu, hv)
         proven = m > r + MARGIN
         out = m <= MARGIN  # a point of the cell off the surface (or on its edge): not kept
@@ -260,11 +296,17 @@ def _certify(centres, half_u, half_v, point, bound, margin) -> np.ndarray:
 
 
 def kept_cells(
-    layer: RoughLayer, clip: FaceClip, on: BooleanFace, placed: Transform | None = None
+    layer: RoughLayer,
+    clip: FaceClip,
+    on: BooleanFace,
+    placed: Transform | None = None,
+    height: float = 0.0,
 ) -> np.ndarray:
     """The layer's cells (``(ny, nx)``) that hold a patch and lie wholly on the boolean's
     surface (``placed``: the frame of a curved layer's solid in the boolean's, by default the
-    leaf's, ``clip.transform``)."""
+    leaf's, ``clip.transform``); with ``height`` (a flat layer) the whole column of the cell up
+    to that height above the face is proven on the kept side of every cutting solid (outside
+    the other part of a union)."""
     base = layer.cell_variants >= 0
     rows, cols = np.nonzero(base)
     px, py = layer.patch_size
@@ -272,7 +314,6 @@ def kept_cells(
     if isinstance(layer, CurvedRoughLayer):
         lay = layer.ring_layout
         face = lay.face
-        assert not isinstance(face, SphereFace)  # a boolean's sphere faces stay refused
         phi = lay.phi_mid + (cols - (lay.count[rows] - 1) / 2) * lay.step[rows]  # cell_phi
         centres = np.column_stack([phi, lay.v[rows]])
         half_u, half_v = lay.step[rows] / 2, np.full(len(rows), py / 2)
@@ -282,7 +323,10 @@ def kept_cells(
             return face.point(uv[:, 0], uv[:, 1])
 
         def bound(uv: np.ndarray, hu: np.ndarray, hv: np.ndarray) -> np.ndarray:
-            # along the generator, then along the circle at the larger radius
+            # along the generator (a meridian), then along the circle at the larger radius (on
+            # a sphere at most the sphere's: a cell may straddle the equator)
+            if isinstance(face, SphereFace):
+                return hv + face.sphere_radius * hu
             r = np.maximum(face.radius(uv[:, 1] - hv), face.radius(uv[:, 1] + hv))
             return hv + np.abs(r) * hu
 
@@ -292,19 +336,37 @@ def kept_cells(
         half_u, half_v = np.full(len(rows), px / 2), np.full(len(rows), py / 2)
         to_boolean = layer.frame.transform.relative_to(on.transform)
 
-        def point(uv: np.ndarray) -> np.ndarray:
-            return np.column_stack([uv, np.zeros(len(uv))])
+        def point(uv: np.ndarray) -> np.ndarray:  # the middle of the column
+            return np.column_stack([uv, np.full(len(uv), height / 2)])
 
         def bound(uv: np.ndarray, hu: np.ndarray, hv: np.ndarray) -> np.ndarray:
-            return np.hypot(hu, hv)
+            if not height:
+                return np.hypot(hu, hv)
+            return np.sqrt(hu * hu + hv * hv + height * height / 4)
 
     r, t = to_boolean.rotation, to_boolean.translation
+    boxes = _cell_boxes(layer, centres, half_u, half_v, height)
+    none = np.zeros(len(rows), dtype=bool)
+    passed = [none if boxes is None else _clear_by_boxes(boxes, to_boolean, *c) for c in clip.clips]
 
-    def margin(local: np.ndarray) -> np.ndarray:
+    def margin(local: np.ndarray, cells: np.ndarray) -> np.ndarray:
         # to_boolean.apply written out: a BLAS product of (n, 3) by (3, 3) is slow where the
         # cores are shared
         q = t + local[:, :1] * r[:, 0] + local[:, 1:2] * r[:, 1] + local[:, 2:] * r[:, 2]
-        return clip.margin(q)
+        # FaceClip.margin, less the cutting solids the cell's bounding box already clears
+        out = np.full(len(q), np.inf)
+        for (shape, transform, inside), done in zip(clip.clips, passed, strict=True):
+            sel = ~done[cells]
+            if not sel.any():
+                continue
+            p = q[sel]
+            if np.array_equal(transform.rotation, np.eye(3)):  # a shift (most cuts)
+                p = p - transform.translation
+            else:
+                p = transform.inverse_apply(p)
+            d = shape.signed_distance(p)
+            out[sel] = np.minimum(out[sel], -d if inside else d)
+        return out
 
     ok = _certify(centres, half_u, half_v, point, bound, margin)
     out = np.zeros_like(base)
@@ -312,19 +374,231 @@ def kept_cells(
     return out
 
 
-def _check_own_solid(layer: RoughLayer, on: BooleanFace, where: str, what: str) -> None:
-    """The layer's envelope must stay out of the boolean solid (a face partly covered by another
-    part of a union would put it inside)."""
+def _cell_boxes(
+    layer: RoughLayer,
+    centres: np.ndarray,
+    half_u: np.ndarray,
+    half_v: np.ndarray,
+    height: float,
+) -> np.ndarray | None:
+    """The 8 corners (n, 8, 3) of a box holding each cell (with ``height``, its column), in the
+    frame of the points kept_cells maps to the boolean's: the face frame of a flat layer, the
+    solid's frame of a cylinder or cone wall (z from the generator's ends, x and y from the
+    arc's extremes at both radii); None on a sphere (not needed there)."""
+    u, v = centres[:, 0], centres[:, 1]
+    if isinstance(layer, CurvedRoughLayer):
+        face = layer.ring_layout.face
+        if isinstance(face, SphereFace):
+            return None
+        za = face.point(u, v - half_v)[:, 2]
+        zb = face.point(u, v + half_v)[:, 2]
+        ra, rb = np.abs(face.radius(v - half_v)), np.abs(face.radius(v + half_v))
+        lo_r, hi_r = np.minimum(ra, rb), np.maximum(ra, rb)
+        phi0, phi1 = u - half_u, u + half_u
+
+        def extremes(shift: float) -> tuple[np.ndarray, np.ndarray]:
+            # least and largest cos(phi - shift) over [phi0, phi1]
+            a, b = np.cos(phi0 - shift), np.cos(phi1 - shift)
+            lo, hi = np.minimum(a, b), np.maximum(a, b)
+            k0 = np.ceil((phi0 - shift) / np.pi)  # multiples of pi inside the range
+            k1 = np.floor((phi1 - shift) / np.pi)
+            has_even = (k1 >= k0) & ((k1 > k0) | (k0 % 2 == 0))
+            has_odd = (k1 >= k0) & ((k1 > k0) | (k0 % 2 == 1))
+            return np.where(has_odd, -1.0, lo), np.where(has_even, 1.0, hi)
+
+        cx0, cx1 = extremes(0.0)
+        sy0, sy1 = extremes(np.pi / 2)
+        x0 = np.minimum(lo_r * cx0, hi_r * cx0)
+        x1 = np.maximum(lo_r * cx1, hi_r * cx1)
+        y0 = np.minimum(lo_r * sy0, hi_r * sy0)
+        y1 = np.maximum(lo_r * sy1, hi_r * sy1)
+        z0, z1 = np.minimum(za, zb), np.maximum(za, zb)
+    else:
+        x0, x1, y0, y1 = u - half_u, u + half_u, v - half_v, v + half_v
+        z0, z1 = np.zeros(len(u)), np.full(len(u), height)
+    xs, ys, zs = np.stack([x0, x1], 1), np.stack([y0, y1], 1), np.stack([z0, z1], 1)
+    i, j, k = (g.ravel() for g in np.meshgrid([0, 1], [0, 1], [0, 1], indexing="ij"))
+    return np.stack([xs[:, i], ys[:, j], zs[:, k]], -1)
+
+
+def _clear_by_boxes(
+    boxes: np.ndarray,
+    to_boolean: Transform,
+    shape: Shape,
+    transform: Transform,
+    inside: bool,
+) -> np.ndarray:
+    """True for the cells whose box (:func:`_cell_boxes`) alone proves them on the kept side
+    of the cutting solid ``shape`` (placed by ``transform`` in the boolean's frame): outside it,
+    the box and the solid's bounding box share no inner point (they may touch: a union's
+    seam); inside it (a G4Box, its own bounding box), the box lies in the solid (it may reach
+    its faces: a bore's ends). Cells that touch the solid's boundary cannot be proven by
+    distances alone."""
+    n = len(boxes)
+    pts = transform.inverse_apply(to_boolean.apply(boxes.reshape(-1, 3))).reshape(n, 8, 3)
+    lo, hi = pts.min(axis=1), pts.max(axis=1)
+    try:
+        slo, shi = (np.asarray(b, float) for b in shape.bounding_box())
+    except NotImplementedError:  # a shape without a bounding box: distances only
+        return np.zeros(n, dtype=bool)
+    if not inside:
+        return np.asarray(((hi <= slo + MARGIN) | (lo >= shi - MARGIN)).any(axis=1))
+    if isinstance(shape, G4Box):
+        return np.asarray(((lo >= slo - MARGIN) & (hi <= shi + MARGIN)).all(axis=1))
+    return np.zeros(n, dtype=bool)
+
+
+def fit_cells(layers: list[RoughLayer], where: str = "targets") -> None:
+    """Layers whose envelope is the prism of their kept cells (a face partly covered by another
+    part of a union, :func:`_clear_of_the_solid`) give way to the other layers of the same
+    volume: a cell keeps its patch only where its whole column is proven clear of every other
+    layer's envelope (a lower bound of the distance from the column to it: to a flat layer's
+    envelope box, to a cylinder or cone wall's generator less that layer's thickness, to a
+    sphere face less it), so a rough wall rising from such a face (a post's wall on a disk)
+    leaves the cells along its foot flat. Exact, not sampled: a layer a few um thick cannot
+    slip between the clearance check's points."""
+    for layer in layers:
+        others = [o for o in layers if o is not layer]
+        if not layer.cells_envelope or not others or layer.mask is None:
+            continue
+        clear = _column_cells(
+            layer, layer.frame.to_world, _margin([_distance_bound(o) for o in others])
+        )
+        layer.mask = layer.mask & clear
+        if not layer.mask.any():
+            px, py = layer.patch_size
+            raise ConfigError(
+                f"{where}.{layer.target.entry}.rough: no whole patch of {px * 1e3:g} x "
+                f"{py * 1e3:g} um fits on face {layer.config.face_name} of "
+                f"{layer.target.name!r} clear of its other parts and of their rough layers"
+            )
+
+
+def _margin(bounds: list) -> Callable[[np.ndarray], np.ndarray]:
+    """The least of the distance bounds ``bounds`` at world points."""
+
+    def margin(world: np.ndarray) -> np.ndarray:
+        return np.asarray(np.min([b(world) for b in bounds], axis=0))
+
+    return margin
+
+
+def _distance_bound(layer: RoughLayer) -> Callable[[np.ndarray], np.ndarray]:
+    """A function giving, for world points, a lower bound of their distance to ``layer``'s
+    envelope (<= 0 inside or near it)."""
+    if isinstance(layer, CurvedRoughLayer):
+        face, t, to_local = layer.ring_layout.face, layer.thickness, layer.target.to_local
+        if isinstance(face, SphereFace):
+            centre_r = face.sphere_radius
+
+            def sphere(world: np.ndarray) -> np.ndarray:
+                return np.asarray(np.abs(np.linalg.norm(to_local(world), axis=1) - centre_r) - t)
+
+            return sphere
+        (r1, z1), (r2, z2) = face.rz1, face.rz2
+
+        def wall(world: np.ndarray) -> np.ndarray:
+            # in the (r, z) half-plane: the distance to the generator bounds the distance to
+            # the wall at any azimuth
+            q = to_local(world)
+            rho, z = np.hypot(q[:, 0], q[:, 1]), q[:, 2]
+            dr, dz = r2 - r1, z2 - z1
+            s = np.clip(((rho - r1) * dr + (z - z1) * dz) / (dr * dr + dz * dz), 0.0, 1.0)
+            return np.asarray(np.hypot(rho - r1 - s * dr, z - z1 - s * dz) - t)
+
+        return wall
+    box = layer.envelope_box()
+
+    def flat(world: np.ndarray) -> np.ndarray:
+        q = box.transform.inverse_apply(world)
+        return np.asarray(np.linalg.norm(np.maximum(np.abs(q) - box.half, 0.0), axis=1))
+
+    return flat
+
+
+def _column_cells(
+    layer: RoughLayer,
+    to_world: Callable[[np.ndarray], np.ndarray],
+    margin: Callable[[np.ndarray], np.ndarray],
+) -> np.ndarray:
+    """The kept cells of a flat layer whose whole column (the cell up to the layer's thickness)
+    has ``margin`` (of world points) proven positive (:func:`_certify`)."""
+    assert layer.mask is not None
+    rows, cols = np.nonzero(layer.mask)
+    px, py = layer.patch_size
+    centres = layer.cell_centres()[rows, cols]
+    height = layer.thickness
+
+    def point(uv: np.ndarray) -> np.ndarray:
+        return np.column_stack([uv, np.full(len(uv), height / 2)])
+
+    def bound(uv: np.ndarray, hu: np.ndarray, hv: np.ndarray) -> np.ndarray:
+        return np.sqrt(hu * hu + hv * hv + height * height / 4)
+
+    ok = _certify(
+        centres,
+        np.full(len(rows), px / 2),
+        np.full(len(rows), py / 2),
+        point,
+        bound,
+        lambda local, _cells: margin(to_world(local)),
+    )
+    out = np.zeros_like(layer.mask)
+    out[rows[ok], cols[ok]] = True
+    return out
+
+
+def _meets_own_solid(layer: RoughLayer, on: BooleanFace) -> bool:
+    """True when points of the layer's envelope lie inside the boolean solid (a face partly
+    covered by another part of a union puts them there)."""
     if isinstance(layer, CurvedRoughLayer):
         points = layer.shell_points()
-    elif isinstance(layer, PolygonRoughLayer | RingRoughLayer):
-        points = layer.envelope_points()
     else:
-        points = layer.envelope_box().grid(25)
+        points = layer.envelope_points()
     codes = on.shape.inside(on.transform.inverse_apply(points))
-    if (codes == INSIDE).any():
+    return bool((codes == INSIDE).any())
+
+
+def _clear_of_the_solid(
+    layer: RoughLayer,
+    clip: FaceClip,
+    on: BooleanFace,
+    placed: Transform,
+    where: str,
+    what: str,
+) -> None:
+    """A flat layer whose envelope runs into the solid (a face partly covered by another part of
+    a union): only the cells whose whole column (the cell times the layer's thickness) is proven
+    clear of the solids cutting the face keep their patch (:func:`kept_cells` with the
+    thickness), and the envelope becomes the prism of those cells (``cells_envelope``); the
+    cells the other part covers or meets stay flat (``rough_shares``). Curved layers are
+    refused: their envelope is the face's whole shell."""
+    thick = f"{layer.thickness * 1e3:.4g} um thick"
+    if isinstance(layer, CurvedRoughLayer):
         raise ConfigError(
-            f"{where}: the rough layer on {what} ({layer.thickness * 1e3:.4g} um thick) runs "
-            "into the solid itself (another part of the boolean covers or meets that face); "
-            "choose a face the layer can lie on outside the solid"
+            f"{where}: the rough layer on {what} ({thick}) runs into the solid itself (another "
+            "part of the boolean covers or meets that face); a rough curved face of a boolean "
+            "must lie wholly outside its other parts (partly covered faces take a layer when "
+            "flat)"
+        )
+    assert layer.mask is not None
+    if layer.config.native_layout == "replicas":
+        raise ConfigError(
+            f"{where}: native_layout replicas fills every cell; {what} is partly covered by "
+            "another part of the solid, so its envelope holds only the cells clear of it: take "
+            "auto, nested or placements"
+        )
+    layer.mask = layer.mask & kept_cells(layer, clip, on, placed, height=layer.thickness)
+    layer.cells_envelope = True
+    if not layer.mask.any():
+        px, py = layer.patch_size
+        raise ConfigError(
+            f"{where}: no whole patch of {px * 1e3:g} x {py * 1e3:g} um with its layer "
+            f"({thick}) fits on the part of {what} clear of the solid's other parts"
+        )
+    if _meets_own_solid(layer, on):
+        raise ConfigError(
+            f"{where}: the rough layer on {what} ({thick}) runs into the solid itself (another "
+            "part of the boolean covers or meets that face); choose a face the layer can lie on "
+            "outside the solid"
         )

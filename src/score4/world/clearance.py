@@ -189,7 +189,7 @@ def check_gdml_clearance(scene: Scene) -> None:
         mother = layer.target.mother
         assert mother is not None  # in a GDML world every target has a mother (the world at least)
         own = layer.target.instance.index if layer.target.instance is not None else -1
-        if isinstance(layer, PolygonRoughLayer | RingRoughLayer) and not layer.config.into:
+        if _shaped(layer) and not layer.config.into:
             # (into: the layer is in the slab the solid is cut or clipped by)
             own_body = _target_body(layer.target)
             if _layer_meets(own_body, layer, box):  # a concave edge of its own solid
@@ -215,7 +215,7 @@ def check_gdml_clearance(scene: Scene) -> None:
                         _meets(layer, f"the rough layer {other.name}", _pair_gap(layer, other))
                     )
                 continue
-            if isinstance(layer, _SHAPED) or isinstance(other, _SHAPED):
+            if _shaped(layer) or _shaped(other):
                 met = other_box.overlaps(box) and bool(
                     _in_envelope(other, other_box, _envelope_points(layer, box)).any()
                     or _in_envelope(layer, box, _envelope_points(other, other_box)).any()
@@ -233,15 +233,21 @@ def check_gdml_clearance(scene: Scene) -> None:
 _SHAPED = (PolygonRoughLayer, RingRoughLayer)
 
 
+def _shaped(layer: RoughLayer) -> bool:
+    """A flat layer whose envelope is not its box: a polygon's prism, a ring, or the prism of
+    its kept cells (``cells_envelope``)."""
+    return isinstance(layer, _SHAPED) or layer.cells_envelope
+
+
 def _envelope_points(layer: RoughLayer, box: OrientedBox) -> np.ndarray:
     """Points of a flat layer's envelope: its prism's for a polygon face, its ring's for a
     round face, else its box's grid."""
-    return layer.envelope_points() if isinstance(layer, _SHAPED) else box.grid()
+    return layer.envelope_points() if _shaped(layer) else box.grid()
 
 
 def _in_envelope(layer: RoughLayer, box: OrientedBox, points: np.ndarray) -> np.ndarray:
     """True for world points strictly inside a flat layer's envelope."""
-    if isinstance(layer, _SHAPED):
+    if _shaped(layer):
         return layer.in_envelope(points)
     return box.contains(points)
 
@@ -279,7 +285,7 @@ def _pair_gap(layer: RoughLayer, other: RoughLayer) -> float:
 
 def _layer_meets(body: _Body, layer: RoughLayer, box: OrientedBox) -> bool:
     """The layer's envelope (a box, the prism of a polygon face or a ring) meets ``body``."""
-    if not isinstance(layer, _SHAPED):
+    if not _shaped(layer):
         return body.meets(box)
     if not body.obb.overlaps(box):
         return False
@@ -399,7 +405,7 @@ def _check_inside_mother(
 ) -> None:
     lv = model.logicals[mother.logical]
     body = _instance_body(model, mother)
-    pts = layer.envelope_points() if isinstance(layer, _SHAPED) else body.probe_points(box)
+    pts = layer.envelope_points() if _shaped(layer) else body.probe_points(box)
     inside = body.contains(mother.to_local(pts))
     if not inside.all():
         raise ConfigError(

@@ -13,7 +13,7 @@ from score4.shapes.faces import SphereFace
 from score4.surface.spec import Surface, build_surface
 from score4.surface.store import load_surface
 
-from .boolean_layers import target_layers
+from .boolean_layers import fit_cells, target_layers
 from .clearance import check_clearance
 from .gdml_model import GeometryModel
 from .scene import (
@@ -81,6 +81,7 @@ def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
                 scene.layers += target_layers(surfaces, target, j, one)
         check_into_edges(scene, target)  # walls re-laid on a joint cut, before rings fit
         fit_rings(scene.layers_of(target.name))
+        fit_cells(scene.layers_of(target.name))
     check_clearance(scene)
     far = float(np.max(scene.world_half))
     if np.isfinite(far) and far > limits.MAX_WORLD_EXTENT:

@@ -41,6 +41,7 @@ from score4.shapes.revolved import RevolvedShape
 from score4.surface.block_cut import check_patch
 from score4.surface.patchmap import PatchMap, make_patch_map
 from score4.surface.rough import Surface
+from score4.surface.triangle_mesh import TriangleMesh
 
 from .curved import (
     BentVariant,
@@ -318,6 +319,9 @@ class RoughLayer:
     #: with ``into`` on a tube's end face and wall: the radii of the end face's cut ring, where
     #: its cells and flat rest lie (None: the face's own)
     rest_radii: tuple[float, float] | None = field(default=None, kw_only=True)
+    #: the envelope is the prism of the cells that hold a patch, not the face's (a face of a
+    #: union partly covered by its other part: :mod:`score4.world.boolean_layers`)
+    cells_envelope: bool = field(default=False, kw_only=True)
 
     @property
     def name(self) -> str:
@@ -425,6 +429,65 @@ class RoughLayer:
             np.array([lu / 2, lv / 2, t / 2]),
         )
 
+    def cell_edges(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(x, y)``: the ``(nx + 1,)`` and ``(ny + 1,)`` cell edges in the layer's frame (cell
+        ``(i, j)`` spans ``x[i]..x[i + 1]``, ``y[j]..y[j + 1]``)."""
+        pm = self.patch_map
+        (px, py), (lx, ly) = pm.patch_size, pm.face_size
+        return -lx / 2 + np.arange(pm.nx + 1) * px, -ly / 2 + np.arange(pm.ny + 1) * py
+
+    def cells_outline(self) -> np.ndarray:
+        """The cells holding a patch as 2D triangles (two per cell, counter-clockwise) in the
+        layer's frame, on the grid's edges (neighbours share their corners exactly)."""
+        x, y = self.cell_edges()
+        j, i = np.nonzero(self.cell_variants >= 0)
+        a = np.stack([x[i], y[j]], -1)
+        b = np.stack([x[i + 1], y[j]], -1)
+        c = np.stack([x[i + 1], y[j + 1]], -1)
+        d = np.stack([x[i], y[j + 1]], -1)
+        return np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+
+    def envelope_prism(self) -> TriangleMesh | None:
+        """The envelope as a closed mesh (frame-local, z from -thickness/2 to +thickness/2 about
+        the envelope's centre) where it is not a box or a ring: the prism of the kept cells
+        (``cells_envelope``) or of a polygon face; None for a box or a ring."""
+        if self.cells_envelope:
+            return prism_mesh(self.cells_outline(), self.thickness)
+        return None
+
+    def in_envelope(self, points: np.ndarray) -> np.ndarray:
+        """True for world points strictly inside the envelope (touching does not count)."""
+        q = self.frame.to_local(np.asarray(points, float).reshape(-1, 3))
+        if not self.cells_envelope:
+            return self.envelope_box().contains(points)
+        tol = BOUNDARY_TOLERANCE
+        inside = (q[:, 2] > tol) & (q[:, 2] < self.thickness - tol)
+        kept = self.cell_variants >= 0
+        for sx in (-tol, tol):  # strictly inside the union of the kept cells' rectangles
+            for sy in (-tol, tol):
+                i, j = self.patch_map.cell_of(q[:, :2] + np.array([sx, sy]))
+                ok = i >= 0
+                ok[ok] = kept[j[ok], i[ok]]
+                inside &= ok
+        return inside
+
+    def envelope_points(self, n: int = 25) -> np.ndarray:
+        """World points of the envelope for the clearance checks: the box's grid, or with
+        ``cells_envelope`` a 5 x 5 grid over each kept cell (its edges included) at the
+        bottom, near it, in the middle, near the top and at the top."""
+        if not self.cells_envelope:
+            return self.envelope_box().grid(n)
+        x, y = self.cell_edges()
+        j, i = np.nonzero(self.cell_variants >= 0)
+        s = np.linspace(0.0, 1.0, 5)
+        u = x[i][:, None] + s[None] * (x[i + 1] - x[i])[:, None]
+        v = y[j][:, None] + s[None] * (y[j + 1] - y[j])[:, None]
+        uu = np.repeat(u, 5, axis=1).ravel()
+        vv = np.tile(v, (1, 5)).ravel()
+        h = np.array([0.0, 0.05, 0.5, 0.95, 1.0]) * self.thickness
+        local = np.column_stack([np.repeat(uu, len(h)), np.repeat(vv, len(h)), np.tile(h, len(uu))])
+        return self.frame.to_world(local)
+
 
 @dataclass
 class CurvedRoughLayer(RoughLayer):
@@ -491,8 +554,9 @@ class CurvedRoughLayer(RoughLayer):
         if not isinstance(face, SphereFace):
             return super().rough_share
         py = self.patch_size[1]
+        held = (self.cell_variants >= 0).sum(axis=1)  # all count cells but on a boolean
         covered = sum(
-            face.band_area(lay.v[j] - py / 2, lay.v[j] + py / 2, float(lay.count[j] * lay.step[j]))
+            face.band_area(lay.v[j] - py / 2, lay.v[j] + py / 2, float(held[j] * lay.step[j]))
             for j in range(len(lay.v))
         )
         return float(covered / self.face_area)
@@ -701,6 +765,8 @@ class RingRoughLayer(RoughLayer):
 
     def in_envelope(self, points: np.ndarray) -> np.ndarray:
         """True for world points strictly inside the envelope (touching does not count)."""
+        if self.cells_envelope:
+            return super().in_envelope(points)
         q = self.frame.to_local(np.asarray(points, float).reshape(-1, 3))
         tol = BOUNDARY_TOLERANCE
         rho = np.hypot(q[:, 0], q[:, 1])
@@ -715,6 +781,8 @@ class RingRoughLayer(RoughLayer):
         """World points of the envelope (rings of points from rmin to rmax at the bottom,
         middle and top, and close to its inner and outer walls), for the clearance checks
         (kept until the ring is narrowed)."""
+        if self.cells_envelope:
+            return super().envelope_points(n)
         key = (n, self.rmin, self.rmax, self.thickness)
         if key not in self._points:
             self._points.clear()
@@ -895,12 +963,17 @@ class PolygonRoughLayer(RoughLayer):
         centred on the envelope box's centre)."""
         return prism_mesh(self.outline, self.thickness)
 
+    def envelope_prism(self) -> TriangleMesh | None:
+        return super().envelope_prism() if self.cells_envelope else self.prism
+
     def in_face(self, xy: np.ndarray, tol: float = BOUNDARY_TOLERANCE) -> np.ndarray:
         """True for frame-local (x, y) points in the face's polygon."""
         return point_in_triangles(np.asarray(xy, float).reshape(-1, 2), self.outline, tol)
 
     def in_envelope(self, points: np.ndarray) -> np.ndarray:
         """True for world points strictly inside the envelope (touching does not count)."""
+        if self.cells_envelope:
+            return super().in_envelope(points)
         q = self.frame.to_local(np.asarray(points, float).reshape(-1, 3))
         tol = BOUNDARY_TOLERANCE
         inside = (q[:, 2] > tol) & (q[:, 2] < self.thickness - tol)
@@ -911,6 +984,8 @@ class PolygonRoughLayer(RoughLayer):
     def envelope_points(self, n: int = 25) -> np.ndarray:
         """World points of the envelope (a grid of its box kept in the polygon, and the
         polygon's corners), at the bottom, middle and top, for the clearance checks."""
+        if self.cells_envelope:
+            return super().envelope_points(n)
         lu, lv = self.frame.size
         u, v = np.meshgrid(np.linspace(-lu / 2, lu / 2, n), np.linspace(-lv / 2, lv / 2, n))
         xy = np.column_stack([u.ravel(), v.ravel()])
