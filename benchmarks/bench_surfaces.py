@@ -67,6 +67,12 @@ def _yaml(name: str) -> dict:
     return yaml.safe_load((SURF / name).read_text())
 
 
+#: The Gaussian map of ``--sizes`` (map_spec: 0.5 um pitch, Sq 0.3 um, correlation length 3 um)
+#: as a run surface: 1024 x 1024 pixels under ``tolerance: auto`` (simplified: blocks of ~420
+#: facets), and 256 x 256 pixels exact (blocks of 2 x 2 pixels) for the same statistics.
+BIG_GAUSS = {"kind": "random", "pitch": "0.5 um", "sq": "0.3 um", "corr_length": "3 um", "seed": 1}
+
+
 #: case -> (surface spec or None for flat, patch size in mm, solid)
 CASES = {
     "flat": (None, 0.5, None),
@@ -86,6 +92,12 @@ CASES = {
     "selfaff_blocks": (_yaml("self_affine.yaml"), 0.128, "blocks"),
     "measured_tess": (MEASURED, 0.03, "tessellated"),
     "measured_blocks": (MEASURED, 0.03, "blocks"),
+    "simplified_blocks": (
+        {**BIG_GAUSS, "nx": 1025, "ny": 1025, "periodic": False, "tolerance": "auto"},
+        0.512,
+        "blocks",
+    ),
+    "exact256_blocks": ({**BIG_GAUSS, "nx": 256, "ny": 256, "periodic": True}, 0.128, "blocks"),
 }
 
 
@@ -186,9 +198,11 @@ LABELS = {
     "pyramids": ("pyramids 10 um, equal heights", "multiunion (auto)"),
     "spread": ("pyramids 10 um, 2 um height spread", "frustums (auto)"),
     "bumps": ("bumps, 4 layers, equal heights", "frustums (auto)"),
-    "gauss": ("Gaussian random field, 0.5 um pixels", "blocks (auto)"),
+    "gauss": ("Gaussian random field, 1 um pixels", "blocks (auto)"),
     "selfaff": ("self-affine random field, 0.5 um pixels", "blocks (auto)"),
     "measured": ("measured map, 60 x 50 pixels", "blocks (auto)"),
+    "simplified": ("Gaussian map 1024 x 1024 pixels of 0.5 um, tolerance auto", "blocks (auto)"),
+    "exact256": ("the same statistics, 256 x 256 pixels, exact", "blocks (auto)"),
 }
 
 

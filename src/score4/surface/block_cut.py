@@ -61,6 +61,17 @@ FLOOR_GAP = 1e-3  # mm
 #: the slab's bottom, as without floors.
 MIN_FLOOR = 10e-6  # mm
 
+#: Top facets a block of a simplified map (``tolerance``) may hold before it is cut in four
+#: (down to the quads it is made of: a cut never crosses a quad). A simplified map's blocks are
+#: its quads' side, ~SIMPLIFIED_MAX_BLOCKS a patch, and hold a few hundred facets each where the
+#: map is rough; a block's exact safety measures the distance to each facet near the point.
+#: Measured on a 1024 x 1024 Gaussian map at 0.1 um (bench_instructions.py, instructions per
+#: alpha event against the pyramid face; benchmarks/README.md): uncut (~420 facets a block)
+#: 3.75x; cut to 256 1.60x, to 128 1.37x, to 64 1.06x, to 32 1.00x. Each cut adds walls, floors
+#: and volumes to build: 64 builds that map in 9.9 s and 600 MB against 5.3 s and 440 MB uncut
+#: (128: 7.4 s, 504 MB; 32: 14.9 s, 736 MB; under load).
+SIMPLIFIED_BLOCK_FACETS = 64
+
 #: Top facets of one patch variant above which building is refused (a 1024 x 1024 map has 2.1e6).
 MAX_PATCH_FACETS = 4_000_000
 #: Rough Geant4 memory per facet, bytes (used in the message only; bench_surfaces.py measures it).
@@ -115,14 +126,87 @@ def block_edges(
 
 
 def surface_block_edges(surface: Surface, block_cells: int | None) -> tuple[np.ndarray, np.ndarray]:
-    """Cell indices where the surface's blocks start along x and along y (:func:`block_edges`);
-    a simplified map's blocks start at multiples of its quad side (the last one may be short)."""
+    """Cell indices where the surface's blocks start along x and along y (:func:`block_edges`),
+    with the number of cells appended; a simplified map's blocks start at multiples of its quad
+    side (the last one may be short), and where a block is cut (:func:`block_rects`) along
+    part of a line, that line is listed too."""
     ny, nx = cell_shape(surface)
     q = surface.quad_cells
     if q is not None:
-        return np.r_[np.arange(0, nx, q), nx], np.r_[np.arange(0, ny, q), ny]
+        rects = block_rects(surface, block_cells)[1]
+        return np.unique(rects[:, [0, 1]]), np.unique(rects[:, [2, 3]])
     auto = auto_block_cells(surface)
     return block_edges(nx, block_cells, "x", auto), block_edges(ny, block_cells, "y", auto)
+
+
+def block_rects(surface: Surface, block_cells: int | None) -> tuple[np.ndarray, np.ndarray]:
+    """``(block, rects)``: the block of each top face and each block's cells ``[i0, i1, j0, j1]``
+    (x from i0 to i1, y from j0 to j1), row by row for a grid of equal blocks.
+
+    A simplified map's blocks of its quad side are then cut in four, again and again, while a
+    block holds more than :data:`SIMPLIFIED_BLOCK_FACETS` top faces and no face crosses the
+    cut lines (a face never crosses a line its quad does not: the cuts follow the quadtree).
+    """
+    mesh = surface.top_mesh
+    ny, nx = cell_shape(surface)
+    q = surface.quad_cells
+    if q is None:
+        ex, ey = surface_block_edges(surface, block_cells)
+    else:
+        ex, ey = np.r_[np.arange(0, nx, q), nx], np.r_[np.arange(0, ny, q), ny]
+    cell = mesh.facet
+    assert cell is not None  # surface meshes carry the cell of each face
+    ci, cj = cell % nx, cell // nx
+    bi = np.searchsorted(ex, ci, side="right") - 1
+    bj = np.searchsorted(ey, cj, side="right") - 1
+    block = bj * (len(ex) - 1) + bi
+    ii, jj = np.meshgrid(np.arange(len(ex) - 1), np.arange(len(ey) - 1))
+    rects = np.column_stack(
+        [ex[ii.ravel()], ex[ii.ravel() + 1], ey[jj.ravel()], ey[jj.ravel() + 1]]
+    )
+    if q is None:
+        return block, rects
+    return _split_dense(surface, block, rects)
+
+
+def _split_dense(
+    surface: Surface, block: np.ndarray, rects: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`block_rects`' cuts of a simplified map's dense blocks."""
+    mesh = surface.top_mesh
+    hm = surface.placed_map
+    vi = np.searchsorted(hm.x, mesh.vertices[:, 0])  # vertices are map samples
+    vj = np.searchsorted(hm.y, mesh.vertices[:, 1])
+    fi, fj = vi[mesh.faces], vj[mesh.faces]
+    lo_i, hi_i, lo_j, hi_j = fi.min(axis=1), fi.max(axis=1), fj.min(axis=1), fj.max(axis=1)
+    order = np.argsort(block, kind="stable")
+    starts = np.searchsorted(block[order], np.arange(len(rects) + 1))
+    todo = [(rects[b], order[starts[b] : starts[b + 1]]) for b in range(len(rects))]
+    out_rects, out_faces = [], []
+    while todo:
+        (i0, i1, j0, j1), rows = todo.pop()
+        im, jm = (i0 + i1) // 2, (j0 + j1) // 2
+        cut = len(rows) > SIMPLIFIED_BLOCK_FACETS and i1 - i0 >= 2 and j1 - j0 >= 2
+        if cut:
+            cross_i = (lo_i[rows] < im) & (hi_i[rows] > im)
+            cross_j = (lo_j[rows] < jm) & (hi_j[rows] > jm)
+            cut = not (cross_i.any() or cross_j.any())
+        if not cut:
+            out_rects.append((i0, i1, j0, j1))
+            out_faces.append(rows)
+            continue
+        right, up = lo_i[rows] >= im, lo_j[rows] >= jm
+        for r, u, rect in (
+            (False, False, (i0, im, j0, jm)),
+            (True, False, (im, i1, j0, jm)),
+            (False, True, (i0, im, jm, j1)),
+            (True, True, (im, i1, jm, j1)),
+        ):
+            todo.append((rect, rows[(right == r) & (up == u)]))
+    new_block = np.empty(len(block), dtype=np.int64)
+    for b, rows in enumerate(out_faces):
+        new_block[rows] = b
+    return new_block, np.array(out_rects, dtype=np.int64)
 
 
 def check_patch(surface: Surface, kind: str, block_cells: int | None) -> None:
@@ -169,16 +253,11 @@ def iter_split_top(surface: Surface, block_cells: int | None = None) -> Iterator
     """:func:`split_top` one block at a time (the patch is checked before the first)."""
     check_patch(surface, "blocks", block_cells)
     mesh = surface.top_mesh
-    nx = cell_shape(surface)[1]
-    ex, ey = surface_block_edges(surface, block_cells)
     cell = mesh.facet
     assert cell is not None  # surface meshes carry the cell of each face
-    ci, cj = cell % nx, cell // nx
-    bi = np.searchsorted(ex, ci, side="right") - 1
-    bj = np.searchsorted(ey, cj, side="right") - 1
-    block = bj * (len(ex) - 1) + bi
+    block, rects = block_rects(surface, block_cells)
     order = np.argsort(block, kind="stable")
-    starts = np.searchsorted(block[order], np.arange((len(ex) - 1) * (len(ey) - 1) + 1))
+    starts = np.searchsorted(block[order], np.arange(len(rects) + 1))
     for b in range(len(starts) - 1):
         rows = order[starts[b] : starts[b + 1]]
         faces = mesh.faces[rows]

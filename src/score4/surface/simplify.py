@@ -37,7 +37,8 @@ MAX_QUAD = 64
 #: in 16 384 blocks of 8 x 8 pixels had 697 k facets (266 k of them walls and floors) and built in
 #: 13.9 s and 632 MB; in 1024 blocks of 32 x 32, 478 k facets, 7.6 s and 461 MB; in 256 of 64 x 64,
 #: 452 k, 5.6 s, 461 MB (bench_surfaces.py --build-child 1024 --tolerance auto, load 4-8).
-#: Fewer, larger blocks hold more facets each, which costs per event (docs/tiling.md).
+#: Fewer, larger blocks hold more facets each, which costs per event: block_cut.block_rects cuts
+#: a block of more than block_cut.SIMPLIFIED_BLOCK_FACETS top facets along its quads.
 SIMPLIFIED_MAX_BLOCKS = 1024
 #: Top facets per block aimed at, as block_cut.AUTO_BLOCK_FACETS for exact meshes.
 BLOCK_FACETS = 8
