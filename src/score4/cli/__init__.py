@@ -8,9 +8,10 @@ before anything heavy is imported (a library user's process is left alone).
 
 from __future__ import annotations
 
+import _thread
 import os
-import signal
 import sys
+import threading
 
 
 def _interrupted(kind, value, traceback) -> None:
@@ -29,7 +30,8 @@ def _swallowed(unraisable) -> None:
     # a model's validator) is only printed there as "Exception ignored", and the command would
     # go on as if never interrupted: deliver it again, to the next line of plain Python.
     if isinstance(unraisable.exc_value, KeyboardInterrupt):
-        os.kill(os.getpid(), signal.SIGINT)
+        # From another thread a moment later: raised in this hook, it would be lost again.
+        threading.Timer(0.01, _thread.interrupt_main).start()
         return
     sys.__unraisablehook__(unraisable)
 
