@@ -99,9 +99,28 @@ def test_auto_keeps_small_maps_exact_and_simplifies_large_ones(monkeypatch):
     monkeypatch.setattr(rough_module, "AUTO_EXACT_FACETS", 1000)
     large = build_surface(GAUSS)
     assert large.mesh_tolerance == pytest.approx(max(0.01 * large.max_height, 1e-4))
-    steep = build_surface({**GAUSS, "sq": "3 um", "corr_length": "30 um", "pitch": "5 um"})
+    steep = build_surface({**GAUSS, "sq": "3 um", "corr_length": "20 um", "pitch": "2 um"})
     assert steep.mesh_tolerance == pytest.approx(0.01 * steep.max_height)
     assert steep.mesh_tolerance > 1e-4
+
+
+def test_auto_keeps_a_noise_like_map_exact(monkeypatch):
+    """``tolerance: auto`` on a map that hardly simplifies (correlation length 2 pixels, the
+    shortest allowed) keeps the exact mesh, whose blocks build cheaper than its cut-down
+    simplified ones; the same map with the tolerance given is simplified as asked."""
+    noise = {**GAUSS, "corr_length": "1 um"}
+    monkeypatch.setattr(rough_module, "AUTO_EXACT_FACETS", 1000)
+    tolerance = max(0.01 * build_surface(noise).max_height, 1e-4)
+    given = build_surface({**noise, "tolerance": f"{tolerance * 1e3} um"})
+    exact_faces = 2 * 69 * 52
+    assert given.top_mesh.n_faces > rough_module.AUTO_MIN_SAVING * exact_faces
+    auto = build_surface(noise)
+    assert auto.mesh_tolerance == 0
+    assert auto.quad_cells is None
+    assert auto.top_mesh.n_faces == exact_faces
+    smooth = build_surface(GAUSS)  # the Gaussian map saves more than half: simplified
+    assert smooth.mesh_tolerance > 0
+    assert smooth.top_mesh.n_faces < rough_module.AUTO_MIN_SAVING * exact_faces
 
 
 def test_blocks_of_a_simplified_map_cut_its_body_exactly():

@@ -33,6 +33,10 @@ AUTO_EXACT_FACETS = 500_000
 AUTO_MIN_TOLERANCE = 1e-4
 #: The automatic tolerance's share of the map's height (peak to valley).
 AUTO_HEIGHT_SHARE = 0.01
+#: ``tolerance: auto`` keeps the exact mesh when the simplified one would still hold more than
+#: this share of its triangles: a noise-like map hardly simplifies, and its simplified blocks,
+#: cut down to few facets each for per-event speed, would cost more to build than the exact ones.
+AUTO_MIN_SAVING = 0.5
 
 
 #: Height-map samples per spike cell and axis used to picture and measure a spike grid as a map.
@@ -107,17 +111,9 @@ class Surface:
     @cached_property
     def mesh_tolerance(self) -> float:
         """Largest vertical distance (mm) between a map sample and :attr:`top_mesh`: 0 for an
-        exact mesh (spike grids always; maps with ``tolerance: 0`` or small enough for ``auto``).
-        """
-        t = getattr(self.spec, "tolerance", 0.0)
-        if self.heightmap is None or t == 0:
-            return 0.0
-        if t != "auto":
-            return float(t)
-        ny, nx = self.placed_map.shape
-        if 2 * (nx - 1) * (ny - 1) <= AUTO_EXACT_FACETS:
-            return 0.0
-        return max(AUTO_HEIGHT_SHARE * self.max_height, AUTO_MIN_TOLERANCE)
+        exact mesh (spike grids always; maps with ``tolerance: 0``, and under ``auto`` maps
+        small enough or too noise-like to gain from simplifying)."""
+        return self._mesh_choice[0]
 
     @cached_property
     def quad_cells(self) -> int | None:
@@ -127,9 +123,25 @@ class Surface:
 
     @cached_property
     def _simplified(self) -> tuple[TriangleMesh | None, int | None]:
-        if not self.mesh_tolerance > 0:
-            return None, None
-        return simplified_blocks(self.placed_map, self.mesh_tolerance)
+        return self._mesh_choice[1]
+
+    @cached_property
+    def _mesh_choice(self) -> tuple[float, tuple[TriangleMesh | None, int | None]]:
+        exact: tuple[TriangleMesh | None, int | None] = (None, None)
+        t = getattr(self.spec, "tolerance", 0.0)
+        if self.heightmap is None or t == 0:
+            return 0.0, exact
+        if t != "auto":
+            return float(t), simplified_blocks(self.placed_map, float(t))
+        ny, nx = self.placed_map.shape
+        exact_faces = 2 * (nx - 1) * (ny - 1)
+        if exact_faces <= AUTO_EXACT_FACETS:
+            return 0.0, exact
+        tolerance = max(AUTO_HEIGHT_SHARE * self.max_height, AUTO_MIN_TOLERANCE)
+        simplified = simplified_blocks(self.placed_map, tolerance)
+        if simplified[0].n_faces > AUTO_MIN_SAVING * exact_faces:
+            return 0.0, exact
+        return tolerance, simplified
 
     @cached_property
     def top_mesh(self) -> TriangleMesh:
