@@ -227,6 +227,55 @@ def test_a_grown_pocket_exports_with_the_same_paths(gdml, tmp_path, monkeypatch)
     assert sum(any("rough" in (v or "") for v, _ in path) for path in ours) >= 4
 
 
+@pytest.mark.deep
+def test_into_the_cut_face_of_a_legend_detector(tmp_path):
+    """LEGEND's P00664B (a PPC polycone less a box beyond x = 30 mm): into: true on the box's
+    face that cuts the crystal (second.-x); the box grows by t, so the layer's base lies at
+    x = 30 - t facing +x; Geant4's overlap check (in its own process, as the command runs)
+    finds none, and Po-210 alphas from the layer deposit energy in the crystal."""
+    import subprocess
+    import sys
+
+    import yaml
+
+    from score4.runner.engine import run
+    from score4.runner.output import read_results
+
+    from helpers.boolean_worlds import write_world
+
+    gdml = write_world(tmp_path / "boolean.gdml")
+    data = {
+        **config(gdml, "second.-x", "ppc"),
+        "source": {
+            "particle": "alpha",
+            "energy": "5.3 MeV",
+            "surface": {"volume": "ppc", "face": "second.-x"},
+        },
+        "run": {"events": 30, "seed": 5},
+    }
+    del data["output"]
+    cfg = parse_config(data)
+    scene = build_scene(cfg)
+    layer = scene.layer("ppc", "second.-x")
+    base = scene.target("ppc").to_local(layer.frame.centre[None])[0]
+    assert base[0] == pytest.approx(30.0 - layer.thickness, abs=1e-12)
+    normal = scene.target("ppc").rotation.T @ layer.frame.normal
+    assert normal == pytest.approx([1.0, 0.0, 0.0], abs=1e-12)
+    assert 0.9 < layer.rough_share <= 1.0 + 1e-3  # the face's area is estimated
+    (tmp_path / "ppc.yaml").write_text(yaml.safe_dump(data))
+    done = subprocess.run(
+        [sys.executable, "-m", "score4", "geometry", "check", str(tmp_path / "ppc.yaml")],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "no overlaps" in done.stdout
+    r = read_results(run(cfg, tmp_path / "a.h5", progress=False, echo=lambda m: None))
+    edep = np.asarray(r.scores["edep"]["ppc"])
+    assert (edep > 0).mean() > 0.3
+
+
 def test_into_the_end_of_a_subtracted_tube_is_refused(gdml):
     """The floor of a blind hole (the end face of a subtracted G4Tubs) stays refused, in one
     line."""
