@@ -23,8 +23,9 @@ POCKET_HALF, POCKET_AT = np.array([3.0, 3.0, 5.0]), np.array([0.0, 0.0, 10.0])
 
 @pytest.fixture(scope="module")
 def gdml(tmp_path_factory) -> Path:
-    """The box less the pocket and a box less a tube (a subtracted G4Tubs: its end face is
-    refused), written by pyg4ometry."""
+    """The box less the pocket, a box less a blind hole (a G4Tubs of r 3 mm from z = 5 mm up, at
+    y = 30 mm) and a box less a conical blind hole (a G4Cons, its end face refused, at
+    y = -30 mm), written by pyg4ometry."""
     import pyg4ometry as pg
 
     reg = pg.geant4.Registry()
@@ -40,6 +41,11 @@ def gdml(tmp_path_factory) -> Path:
     cut = s.Subtraction("blind_s", box, tube, [[0, 0, 0], [0, 0, 10]], reg)
     lv = pg.geant4.LogicalVolume(cut, "G4_Cu", "blind_lv", reg)
     pg.geant4.PhysicalVolume([0, 0, 0], [0, 30, 0], lv, "blind", world, reg)
+    box = s.Box("conehole_a", 2 * HALF, 2 * HALF, 2 * HALF, reg)
+    cone = s.Cons("conehole_b", 0, 2, 0, 3, 10, 0, 2 * np.pi, reg)
+    cut = s.Subtraction("conehole_s", box, cone, [[0, 0, 0], [0, 0, 10]], reg)
+    lv = pg.geant4.LogicalVolume(cut, "G4_Cu", "conehole_lv", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], [0, -30, 0], lv, "conehole", world, reg)
     reg.setWorld(world.name)
     path = tmp_path_factory.mktemp("subinto") / "pocket.gdml"
     writer = pg.gdml.Writer()
@@ -276,11 +282,54 @@ def test_into_the_cut_face_of_a_legend_detector(tmp_path):
     assert (edep > 0).mean() > 0.3
 
 
-def test_into_the_end_of_a_subtracted_tube_is_refused(gdml):
-    """The floor of a blind hole (the end face of a subtracted G4Tubs) stays refused, in one
-    line."""
+def test_geantino_paths_through_a_deeper_blind_hole(gdml, tmp_path):
+    """into: true on a blind hole's floor (face -z of a subtracted G4Tubs, z = 5 mm): the tube
+    grows by t downward, the ring layer's base lies t below the old floor facing up; geantinos
+    from inside the hole, down through its floor: Geant4's track length equals the analytic
+    path in the box less the cylinder r < 3 mm, z > 5 - t, plus the path in the patch bodies
+    near the ray, 1e-9 mm."""
+    from score4.source.build import make_source
+
+    from helpers.geantinos import geantino_run
+
+    data = config(gdml, "second.-z", "blind")
+    cfg = parse_config(data)
+    scene = build_scene(cfg)
+    layer = scene.layer("blind", "second.-z")
+    target = scene.target("blind")
+    t = layer.thickness
+    assert target.to_local(layer.frame.centre[None])[0] == pytest.approx([0, 0, 5 - t], abs=1e-12)
+    assert target.rotation.T @ layer.frame.normal == pytest.approx([0, 0, 1], abs=1e-12)
+    rng = np.random.default_rng(5)
+    n = 10
+    local = np.column_stack([rng.uniform(-2, 2, (n, 2)), np.full(n, 9.0)])
+    aims = np.column_stack([rng.uniform(-9, 9, (n, 2)), np.full(n, -9.0)])
+    d = (aims - local) / np.linalg.norm(aims - local, axis=1, keepdims=True)
+    starts, directions = target.to_world(local), d @ target.rotation.T
+    primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n)
+    got = geantino_run(data, primaries, starts, directions, tmp_path)
+    got = np.asarray(got.scores["track_length"]["blind"])
+    crossed = 0
+    for k in range(n):
+        o, dk = local[k], d[k]
+        s0, s1 = _slab(o, dk, np.full(3, -HALF), np.full(3, HALF))
+        a, b = dk[0] ** 2 + dk[1] ** 2, 2 * (o[0] * dk[0] + o[1] * dk[1])
+        root = np.sqrt(b * b - 4 * a * (o[0] ** 2 + o[1] ** 2 - 9.0))  # starts in the hole
+        z0, z1 = sorted([(5.0 - t - o[2]) / dk[2], (15.0 - o[2]) / dk[2]])
+        c0, c1 = max((-b - root) / (2 * a), z0), min((-b + root) / (2 * a), z1)
+        in_patches = _patch_path(layer, starts[k], directions[k])
+        crossed += in_patches > 0
+        expected = (s1 - s0) - max(0.0, min(s1, c1) - max(s0, c0)) + in_patches
+        assert got[k] == pytest.approx(expected, abs=1e-9, rel=0), k
+    assert crossed >= n // 2
+
+
+def test_into_the_end_of_a_subtracted_cone_is_refused(gdml):
+    """The floor of a conical blind hole (the end face of a subtracted G4Cons) stays refused, in
+    one line."""
     with pytest.raises(ConfigError) as err:
-        build_scene(parse_config(config(gdml, "second.-z", "blind")))
-    assert str(err.value).startswith("targets.0.rough.0: into: true on face second.-z of 'blind'")
-    assert "the faces of a subtracted G4Box only" in str(err.value)
-    assert "\n" not in str(err.value)
+        build_scene(parse_config(config(gdml, "second.-z", "conehole")))
+    message = str(err.value)
+    assert message.startswith("targets.0.rough.0: into: true on face second.-z of 'conehole'")
+    assert "a face of the subtracted G4Cons, would widen the cut" in message
+    assert "\n" not in message

@@ -33,13 +33,12 @@ layer per plane (:func:`_on_boolean`; a plane without a kept cell gets none); th
 their flat rest as one (:class:`score4.source.build.PlanesRemainderSampler`).
 
 Refused, in one line each (:mod:`score4.world.boolean_modes` says why): ``into: true`` other
-than on flat faces of a G4Box or G4Tubs constituent, on faces of a subtracted G4Box and on
-bores, ``tiling: portal``,
-``native_layout: replicas`` where a cell holds no patch (and on a layer whose envelope is the
-prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs or G4Cons
-wall (spheres); a curved layer whose envelope runs into the solid itself (a wall partly covered
-by another part of a union), a flat one that keeps no cell clear of the other parts. Steps and
-activeness measure these layers through the boolean's constituents
+than on flat faces of a G4Box or G4Tubs constituent (subtracted or not) and on bores,
+``tiling: portal``, ``native_layout: replicas`` where a cell holds no patch (and on a layer whose
+envelope is the prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs or
+G4Cons wall (spheres); a curved layer whose envelope runs into the solid itself (a wall partly
+covered by another part of a union), a flat one that keeps no cell clear of the other parts.
+Steps and activeness measure these layers through the boolean's constituents
 (:mod:`score4.world.boolean_distance`).
 """
 

@@ -16,10 +16,11 @@
   :mod:`score4.geometry.boolean_cut`), and the layer lies in the slab, on the cut face
   (:func:`cut_face`); on the wall of a subtracted G4Tubs (a bore) the subtracted tube grows by
   the layer's cut and the layer lies in the shell around the old bore; on a face of a
-  subtracted G4Box the box grows by the layer's thickness along that face's normal (into the
-  kept volume: against the boolean's outward normal there), and the layer lies in the slab, on
-  the grown box's face. Refused elsewhere: the flat faces of other subtracted solids (a
-  subtracted G4Tubs' end faces) and the other curved faces.
+  subtracted G4Box or an end face of a subtracted G4Tubs (a blind hole's floor) that solid
+  grows by the layer's thickness along the face's own normal (into the kept volume: against the
+  boolean's outward normal there), and the layer lies in the slab, on the grown solid's face.
+  Refused elsewhere: the flat faces of other subtracted solids (a G4Cons' end faces, a tube's
+  phi cut faces) and the other curved faces.
 """
 
 from __future__ import annotations
@@ -48,12 +49,15 @@ def check_modes(
     if rough.into:
         flat = isinstance(leaf.face(face), PlaneFace)
         bore = isinstance(leaf, G4Tubs) and face in ("outer", "inner")
-        if flipped and not (bore or (flat and isinstance(leaf, G4Box))):
+        grows = (
+            flat and isinstance(leaf, G4Box | G4Tubs) and leaf.trimmed({face: -1e-6}) is not None
+        )
+        if flipped and not (bore or grows):
             raise ConfigError(
                 f"{where}: into: true on {what}, a face of the subtracted {leaf.kind}, would "
-                "widen the cut, which score4 does for the walls of a subtracted G4Tubs (a bore) "
-                "and the faces of a subtracted G4Box only; put the layer outside the volume "
-                "(into: false)"
+                "widen the cut, which score4 does for the walls of a subtracted G4Tubs (a bore), "
+                "its end faces and the faces of a subtracted G4Box only; put the layer outside "
+                "the volume (into: false)"
             )
         if not flipped and (not flat or leaf.trimmed({face: 1e-6}) is None):
             raise ConfigError(
