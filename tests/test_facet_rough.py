@@ -214,32 +214,45 @@ def test_geantino_paths_agree_with_an_independent_ray_trace(gdml, scene, tmp_pat
 
 
 def _shared(name: str | None) -> str | None:
-    """A volume name without its face inside a layer: the export places one layer volume for
-    layers of the same make, its cells named after the first face (``tess_roughplane_0_cell``
-    in ``tess_roughplane_7``)."""
-    return base_name(re.sub(r"(_rough).*?(_v\d+.*|_cell.*)$", r"\1\2", name or "") or name)
+    """A volume name without its plane inside a layer of the G4TessellatedSolid: its planes are
+    faces of their own (``plane_<i>``), and the export places one set of volumes for a target's
+    faces of the same make, named after the first (``tess_roughplane_0_cell`` in
+    ``tess_roughplane_7``). The planes of one face (the polyhedra's ``seg_1``) do not share."""
+    if name and name.startswith("tess_rough"):
+        name = re.sub(r"(_rough).*?(_v\d+.*|_cell.*)$", r"\1\2", name)
+    return base_name(name)
 
 
 def test_exported_world_gives_the_same_geantino_paths(gdml, scene, tmp_path):
     """The world with every layer above, written to GDML by `score4 geometry export` and read
     back by Geant4: the same ray paths (volumes and points to 1e-9 mm) as the world score4
-    builds, through the rough faces of the G4Trd and the G4TessellatedSolid."""
+    builds, through the rough faces of the G4Trd, the six sides of the G4Polyhedra and the
+    G4TessellatedSolid. Each plane's volumes carry its own plane's name (the planes' patch
+    volumes were written once, under the first plane's names)."""
+    solids = ("trd", "ph", "tess")
     cfg = tmp_path / "solids.yaml"
-    cfg.write_text(yaml.safe_dump(config(gdml, {v: SOLIDS[v] for v in ("trd", "tess")})))
+    cfg.write_text(yaml.safe_dump(config(gdml, {v: SOLIDS[v] for v in solids})))
     out = tmp_path / "world.gdml"
     assert main(["geometry", "export", str(cfg), "--gdml", str(out)]) == 0
     rng = np.random.default_rng(5)
-    rays = []
-    for volume in ("trd", "tess"):
-        for layer in scene.layers_of(volume)[:3]:
+    rays, planes = [], []
+    for volume in ("trd", "tess", "ph"):  # the polyhedra's six planes last
+        layers = scene.layers_of(volume)
+        for layer in layers if volume == "ph" else layers[:3]:
             centres = layer.cell_centres()[layer.mask]
-            for c in centres[rng.integers(len(centres), size=3)]:
+            for c in centres[rng.integers(len(centres), size=1 if volume == "ph" else 3)]:
                 start = layer.frame.to_world(np.array([*c, 0.2]))
                 tilt = layer.frame.rotation @ np.array([*rng.uniform(-0.3, 0.3, 2), -1.0])
                 rays.append((start.tolist(), tilt.tolist()))
+                planes.append(layer.name)
     ours, back = built_and_exported(cfg, out, rays)
     assert_same_paths(ours, back, names=_shared)
     assert min(len(a) for a in ours) > 4  # the rays cross layers, cells and spikes
+    for plane, path in zip(planes[-6:], back[-6:], strict=True):
+        names = [v for v, _ in path]
+        rough = [v for v in names[: names.index("ph")] if v and "_rough" in v]  # on the way in
+        assert len(rough) >= 2, names  # a cell and its patch
+        assert all(v == plane or v.startswith(f"{plane}_") for v in rough), (plane, rough)
 
 
 def test_geant4_finds_no_overlap_on_neighbouring_rough_faces(gdml, tmp_path, capsys):

@@ -443,10 +443,29 @@ def register_patches(text: str, detectors: dict[str, list[str]]) -> tuple[str, l
     return text, found
 
 
+def _mesh_key(mesh) -> bytes:
+    """The triangles of ``mesh`` as a set (vertices rounded to 1e-12 mm, -0 as 0, each
+    triangle's corners and the triangles in a fixed order): equal for meshes of the same
+    triangles in any order."""
+    tri = np.round(mesh.vertices[mesh.faces], 12) + 0.0
+    order = np.lexsort(tri.transpose(2, 0, 1)[::-1], axis=-1)
+    tri = np.take_along_axis(tri, order[:, :, None], axis=1).reshape(len(tri), 9)
+    return tri[np.lexsort(tri.T[::-1])].tobytes()
+
+
 def _layer_key(layer, mother_material, material) -> tuple:
     """What the volumes of a rough layer are made of: two layers of one target with the same key
-    are the same volumes (placed twice)."""
+    are the same volumes (placed twice), named after the first of them.
+
+    The planes of a face of several planes (the sides of a G4Polyhedra's ``seg_<i>``, the planes
+    of a mesh) never share: each plane's volumes carry its own name, as in a run, so a step in
+    an exported patch says which plane it is on. A polygon face's envelope is its outline's
+    prism, which is part of the key."""
+    part = getattr(layer, "part", -1)
+    prism = layer.envelope_prism()
     return (
+        layer.name if part >= 0 else None,
+        None if prism is None else _mesh_key(prism),
         tuple(layer.names),
         layer.base_thickness,
         layer.thickness,
