@@ -403,7 +403,7 @@ def test_a_rough_pplus_and_cut_face_run_in_geant4(gdml, tmp_path):
             {},
             "no face 'first.+q' on a G4SubtractionSolid; its faces: first.+x",
         ),
-        ("cutbox", "second.+z", {"into": True}, "into: true on face second.+z of 'cutbox'"),
+        ("cutbox", "second.+z", {"into": True}, "face second.+z of 'cutbox' (a G4Subtraction"),
         ("cutbox", "second.+z", {}, "lies nowhere on the solid's surface"),
         ("cutbox", "first.+z", {"native_layout": "replicas"}, "native_layout replicas fills"),
     ],

@@ -33,12 +33,12 @@ layer per plane (:func:`_on_boolean`; a plane without a kept cell gets none); th
 their flat rest as one (:class:`score4.source.build.PlanesRemainderSampler`).
 
 Refused, in one line each (:mod:`score4.world.boolean_modes` says why): ``into: true`` other
-than on flat faces of a G4Box or G4Tubs constituent and on bores, ``tiling: portal``,
-``native_layout: replicas`` where a cell holds no patch (and on a layer whose envelope is the
-prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs or G4Cons
-wall (spheres); a curved layer whose envelope runs into the solid itself (a wall partly covered
-by another part of a union), a flat one that keeps no cell clear of the other parts. Steps and
-activeness measure these layers through the boolean's constituents
+than on flat faces of a G4Box or G4Tubs constituent (subtracted or not) and on bores,
+``tiling: portal``, ``native_layout: replicas`` where a cell holds no patch (and on a layer whose
+envelope is the prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs or
+G4Cons wall (spheres); a curved layer whose envelope runs into the solid itself (a wall partly
+covered by another part of a union), a flat one that keeps no cell clear of the other parts.
+Steps and activeness measure these layers through the boolean's constituents
 (:mod:`score4.world.boolean_distance`).
 """
 
@@ -157,7 +157,10 @@ def _leaf(
         leaf, face, shift = turned
         placed = clip.transform @ Transform(np.eye(3), shift)
     leaf_target = replace(target, shape=leaf, transform=target.transform @ placed, exclude=())
-    return clip, leaf_target, rough.model_copy(update={"face": face}), placed
+    update: dict[str, object] = {"face": face}
+    if clip.flipped and face == clip.face:  # a subtracted solid's flat face: laid out on its
+        update["into"] = False  # face, then turned and moved by _on_boolean (into: outward)
+    return clip, leaf_target, rough.model_copy(update=update), placed
 
 
 def _on_boolean(
@@ -180,6 +183,8 @@ def _on_boolean(
     for layer in layers:
         if clip.flipped and not isinstance(layer, CurvedRoughLayer):
             _flip(layer)
+            if rough.into:  # the subtracted solid grows: the base lies beyond its old face
+                layer.frame = layer.frame.shifted(-layer.thickness)
         on, cut = base, clip
         if rough.into:  # the face cut behind by the layer's thickness (boolean_modes)
             on = cut_face(base, into_depth(layer))

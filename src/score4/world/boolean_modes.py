@@ -15,8 +15,12 @@
   (:func:`cut_boolean`; in Geant4 the boolean is rebuilt with it,
   :mod:`score4.geometry.boolean_cut`), and the layer lies in the slab, on the cut face
   (:func:`cut_face`); on the wall of a subtracted G4Tubs (a bore) the subtracted tube grows by
-  the layer's cut and the layer lies in the shell around the old bore. Refused elsewhere: the
-  flat faces of a subtracted solid and the other curved faces.
+  the layer's cut and the layer lies in the shell around the old bore; on a face of a
+  subtracted G4Box or an end face of a subtracted G4Tubs (a blind hole's floor) that solid
+  grows by the layer's thickness along the face's own normal (into the kept volume: against the
+  boolean's outward normal there), and the layer lies in the slab, on the grown solid's face.
+  Refused elsewhere: the flat faces of other subtracted solids (a G4Cons' end faces, a tube's
+  phi cut faces) and the other curved faces.
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import ConfigError
-from ..shapes import BooleanShape, G4Tubs, Shape, Transform
+from ..shapes import BooleanShape, G4Box, G4Tubs, Shape, Transform
 from ..shapes.faces import PlaneFace
 from ..shapes.placed import PlacedShape
 from .boolean_distance import leaf_path
@@ -44,11 +48,16 @@ def check_modes(
     (face ``face`` of its constituent ``leaf``; ``flipped``: of a subtracted solid)."""
     if rough.into:
         flat = isinstance(leaf.face(face), PlaneFace)
-        if flipped and (flat or not isinstance(leaf, G4Tubs) or face not in ("outer", "inner")):
+        bore = isinstance(leaf, G4Tubs) and face in ("outer", "inner")
+        grows = (
+            flat and isinstance(leaf, G4Box | G4Tubs) and leaf.trimmed({face: -1e-6}) is not None
+        )
+        if flipped and not (bore or grows):
             raise ConfigError(
                 f"{where}: into: true on {what}, a face of the subtracted {leaf.kind}, would "
-                "widen the cut, which score4 does for the walls of a subtracted G4Tubs (a bore) "
-                "only; put the layer outside the volume (into: false)"
+                "widen the cut, which score4 does for the walls of a subtracted G4Tubs (a bore), "
+                "its end faces and the faces of a subtracted G4Box only; put the layer outside "
+                "the volume (into: false)"
             )
         if not flipped and (not flat or leaf.trimmed({face: 1e-6}) is None):
             raise ConfigError(
