@@ -35,7 +35,7 @@ from helpers.boolean_worlds import (
 )
 from helpers.export_paths import assert_same_paths, base_name, three_paths
 from helpers.geantinos import geantino_run
-from helpers.ray_trace import mesh_path
+from helpers.ray_trace import mesh_path, wall_patches_near
 
 #: 0.5 mm patches of 5 x 5 pyramids, 20 um high
 PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
@@ -328,7 +328,6 @@ def test_geantino_paths_through_a_rough_cone_bore(gdml, tmp_path):
     scene = build_scene(cfg)
     (layer,) = scene.layers
     target = scene.target("conebore")
-    lay = layer.ring_layout
     rng = np.random.default_rng(13)
     n = 10
     phi, z = rng.uniform(0, 2 * np.pi, n), rng.uniform(-7, 7, n)
@@ -339,22 +338,13 @@ def test_geantino_paths_through_a_rough_cone_bore(gdml, tmp_path):
     primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n)
     r = geantino_run(data, primaries, starts, directions, tmp_path)
     got = np.asarray(r.scores["track_length"]["conebore"])
-    cells, crossed = layer.cells(), 0
+    crossed = 0
     for k in range(n):
         o, d = local[k], out[k]
         expected, hit = _box_less_cone_path(o, d)
         assert abs(hit[2]) < 9
-        tri = []
-        for j, _i, v, cell_phi in cells:  # the bent patches around the crossing
-            dphi = (cell_phi - math.atan2(hit[1], hit[0]) + math.pi) % (2 * math.pi) - math.pi
-            if abs(lay.ring_z(j) - hit[2]) > 4 * layer.patch_size[1] or abs(dphi) * 6 > 2:
-                continue
-            body = layer.bent(v, j)
-            c_, s_ = math.cos(cell_phi), math.sin(cell_phi)
-            w = body.vertices @ np.array([[c_, s_, 0], [-s_, c_, 0], [0, 0, 1]])
-            w = layer.target.to_world(w + np.array([0.0, 0.0, lay.ring_z(j)]))
-            tri.append(target.to_local(w)[body.faces.ravel()].reshape(-1, 3, 3))
-        in_patches = mesh_path(o, d, np.concatenate(tri), edge=1e-12, merge=1e-10)
+        tri = wall_patches_near(layer, target, hit, 2 / 6)
+        in_patches = mesh_path(o, d, tri, edge=1e-12, merge=1e-10)
         crossed += in_patches > 0
         assert got[k] == pytest.approx(expected + in_patches, abs=1e-9, rel=0), k
     assert crossed >= n // 2
@@ -570,7 +560,7 @@ def test_geantino_paths_through_the_seam_row_of_a_post_wall(gdml, tmp_path):
     primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n)
     r = geantino_run(data, primaries, target.to_world(local), way @ target.rotation.T, tmp_path)
     got = np.asarray(r.scores["track_length"]["stack"])
-    cells, crossed = layer.cells(), 0
+    crossed = 0
     for k in range(n):
         o, d = local[k], way[k]
         expected = _tube_path(o, d, (0, 0), 10.0, -5.0, 5.0) + _tube_path(o, d, (0, 0), 7.0, 5, 15)
@@ -579,17 +569,8 @@ def test_geantino_paths_through_the_seam_row_of_a_post_wall(gdml, tmp_path):
         hit = o + t * d  # where the ray meets the wall
         assert 5.0 < hit[2] < 5.0 + layer.patch_size[1]  # in the seam row
         at = layer.target.to_local(target.to_world(hit[None]))[0]  # the post's own frame
-        tri = []
-        for j, _i, v, cell_phi in cells:
-            dphi = (cell_phi - math.atan2(at[1], at[0]) + math.pi) % (2 * math.pi) - math.pi
-            if abs(lay.ring_z(j) - at[2]) > 4 * layer.patch_size[1] or abs(dphi) * 7 > 2:
-                continue
-            body = layer.bent(v, j)
-            c_, s_ = math.cos(cell_phi), math.sin(cell_phi)
-            w = body.vertices @ np.array([[c_, s_, 0], [-s_, c_, 0], [0, 0, 1]])
-            w = layer.target.to_world(w + np.array([0.0, 0.0, lay.ring_z(j)]))
-            tri.append(target.to_local(w)[body.faces.ravel()].reshape(-1, 3, 3))
-        in_patches = mesh_path(o, d, np.concatenate(tri), edge=1e-12, merge=1e-10)
+        tri = wall_patches_near(layer, target, at, 2 / 7)
+        in_patches = mesh_path(o, d, tri, edge=1e-12, merge=1e-10)
         crossed += in_patches > 0
         assert got[k] == pytest.approx(expected + in_patches, abs=1e-9, rel=0), k
     assert crossed >= n // 2

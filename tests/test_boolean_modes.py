@@ -447,7 +447,7 @@ def test_into_a_bore_widens_it_and_keeps_the_paths(gdml, tmp_path):
     from score4.source.build import make_source
 
     from helpers.geantinos import geantino_run
-    from helpers.ray_trace import mesh_path
+    from helpers.ray_trace import mesh_path, wall_patches_near
 
     rough = [{"face": "second.outer", "surface": "fine", "into": True}]
     data = config(gdml, rough, output={"track_length": True})
@@ -462,7 +462,6 @@ def test_into_a_bore_widens_it_and_keeps_the_paths(gdml, tmp_path):
     r = np.hypot(shell[:, 0], shell[:, 1])
     assert r.min() >= BORE - 1e-9
     assert r.max() <= wide + 1e-9
-    lay = layer.ring_layout
     rng = np.random.default_rng(13)
     n = 10
     phi, z = rng.uniform(0, 2 * np.pi, n), rng.uniform(-7, 7, n)
@@ -473,24 +472,15 @@ def test_into_a_bore_widens_it_and_keeps_the_paths(gdml, tmp_path):
     primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n)
     got = geantino_run(data, primaries, starts, directions, tmp_path)
     got = np.asarray(got.scores["track_length"]["cutbox"])
-    cells, crossed = layer.cells(), 0
+    crossed = 0
     for k in range(n):
         o, d = local[k], out[k]
         a, b = d[0] ** 2 + d[1] ** 2, 2 * (o[0] * d[0] + o[1] * d[1])
         s_wide = (-b + np.sqrt(b * b - 4 * a * (o[0] ** 2 + o[1] ** 2 - wide**2))) / (2 * a)
         expected = _box_minus_cylinder_from_inside(o, d, s_wide)
         hit = o + s_wide * d
-        tri = []
-        for j, _i, v, cell_phi in cells:  # the bent patches around the crossing
-            dphi = (cell_phi - np.arctan2(hit[1], hit[0]) + np.pi) % (2 * np.pi) - np.pi
-            if abs(lay.ring_z(j) - hit[2]) > 4 * layer.patch_size[1] or abs(dphi) * 5 > 2:
-                continue
-            body = layer.bent(v, j)
-            c_, s_ = np.cos(cell_phi), np.sin(cell_phi)
-            w = body.vertices @ np.array([[c_, s_, 0], [-s_, c_, 0], [0, 0, 1]])
-            w = layer.target.to_world(w + np.array([0.0, 0.0, lay.ring_z(j)]))
-            tri.append(target.to_local(w)[body.faces.ravel()].reshape(-1, 3, 3))
-        in_patches = mesh_path(o, d, np.concatenate(tri), edge=1e-12, merge=1e-10)
+        tri = wall_patches_near(layer, target, hit, 2 / 5)
+        in_patches = mesh_path(o, d, tri, edge=1e-12, merge=1e-10)
         crossed += in_patches > 0
         assert got[k] == pytest.approx(expected + in_patches, abs=1e-9, rel=0), k
     assert crossed >= n // 2

@@ -24,7 +24,7 @@ from score4.world.scene import CurvedRoughLayer
 from helpers.boolean_worlds import CUTBOX_POSITION, STACK_POSITION, write_world
 from helpers.export_paths import assert_same_paths, base_name, three_paths
 from helpers.geantinos import geantino_run
-from helpers.ray_trace import mesh_path
+from helpers.ray_trace import mesh_path, wall_patches_near
 
 #: 0.5 mm patches of 5 x 5 pyramids, 20 um high
 PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
@@ -296,7 +296,6 @@ def test_geantino_paths_through_a_rough_bore(bore, tmp_path):
     scene = build_scene(cfg)
     layer = scene.layer("cutbox", "second.outer")
     target = scene.target("cutbox")
-    lay = layer.ring_layout
     rng = np.random.default_rng(13)
     n = 10
     phi, z = rng.uniform(0, 2 * np.pi, n), rng.uniform(-7, 7, n)
@@ -309,7 +308,7 @@ def test_geantino_paths_through_a_rough_bore(bore, tmp_path):
     primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n)
     r = geantino_run(bore, primaries, starts, directions, tmp_path)
     got = np.asarray(r.scores["track_length"]["cutbox"])
-    cells, crossed = layer.cells(), 0
+    crossed = 0
     for k in range(n):
         o, d = local[k], out[k]
         expected = _box_less_tube_path(o, d)
@@ -317,17 +316,8 @@ def test_geantino_paths_through_a_rough_bore(bore, tmp_path):
         t = (-b + math.sqrt(b * b - 4 * a * (o[0] ** 2 + o[1] ** 2 - 25))) / (2 * a)
         hit = o + t * d  # where the ray leaves the bore
         assert abs(hit[2]) < 9
-        tri = []
-        for j, _i, v, cell_phi in cells:  # the bent patches around the crossing
-            dphi = (cell_phi - math.atan2(hit[1], hit[0]) + math.pi) % (2 * math.pi) - math.pi
-            if abs(lay.ring_z(j) - hit[2]) > 4 * layer.patch_size[1] or abs(dphi) * 5 > 2:
-                continue
-            body = layer.bent(v, j)
-            c_, s_ = math.cos(cell_phi), math.sin(cell_phi)
-            w = body.vertices @ np.array([[c_, s_, 0], [-s_, c_, 0], [0, 0, 1]])
-            w = layer.target.to_world(w + np.array([0.0, 0.0, lay.ring_z(j)]))
-            tri.append(target.to_local(w)[body.faces.ravel()].reshape(-1, 3, 3))
-        in_patches = mesh_path(o, d, np.concatenate(tri), edge=1e-12, merge=1e-10)
+        tri = wall_patches_near(layer, target, hit, 2 / 5)
+        in_patches = mesh_path(o, d, tri, edge=1e-12, merge=1e-10)
         crossed += in_patches > 0
         assert got[k] == pytest.approx(expected + in_patches, abs=1e-9, rel=0), k
     assert crossed >= n // 2  # most rays cross a patch body, not only the gaps between

@@ -128,3 +128,21 @@ def revolved_path(o: np.ndarray, d: np.ndarray, shape) -> float:
     mid = 0.5 * (ts[1:] + ts[:-1])
     inside = shape.signed_distance(o + mid[:, None] * d) < 0
     return float(np.sum(np.diff(ts)[inside]))
+
+
+def wall_patches_near(layer, frame, at: np.ndarray, max_dphi: float) -> np.ndarray:
+    """Triangles, in ``frame``'s local coordinates, of a curved layer's bent patches in the
+    cells around ``at`` (a point in the layer's target frame): rings within 4 patch heights of
+    it, azimuths within ``max_dphi``."""
+    lay = layer.ring_layout
+    tri = []
+    for j, _i, v, cell_phi in layer.cells():
+        dphi = (cell_phi - math.atan2(at[1], at[0]) + math.pi) % (2 * math.pi) - math.pi
+        if abs(lay.ring_z(j) - at[2]) > 4 * layer.patch_size[1] or abs(dphi) > max_dphi:
+            continue
+        body = layer.bent(v, j)
+        c_, s_ = math.cos(cell_phi), math.sin(cell_phi)
+        w = body.vertices @ np.array([[c_, s_, 0], [-s_, c_, 0], [0, 0, 1]])
+        w = layer.target.to_world(w + np.array([0.0, 0.0, lay.ring_z(j)]))
+        tri.append(frame.to_local(w)[body.faces.ravel()].reshape(-1, 3, 3))
+    return np.concatenate(tri)
