@@ -66,7 +66,7 @@ def run_config(tiling: str, face_cm: float = FACE_CM) -> dict:
             "width": "10 um",
             "height": "10 um",
             "height_sigma": f"{s} um",
-            "seed": k + 1,
+            **({"seed": k + 1} if s > 0 else {}),  # a seed only where heights are drawn
         }
         for k, s in enumerate(SPREADS_UM)
     }
