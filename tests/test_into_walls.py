@@ -381,6 +381,19 @@ def edge_rays(rng, corners, centre, n):
     return start, direction
 
 
+def _check_joint_run(data, config, scene, start, direction, tmp_path, volume_rel: float) -> None:
+    """Geantinos along the rays through a joint cut: paths as traced (1e-9 mm), most rays inside
+    the cut solid, and Geant4's volume less the layers' equal to the cut solid's."""
+    n = len(start)
+    p = make_source(config, scene).primaries(np.random.default_rng(1), 0, n)
+    res = geantino_run(data, p, start, direction, tmp_path)
+    expected, cut = joint_paths(scene, start, direction)
+    assert (expected > 0).sum() > n // 2
+    np.testing.assert_allclose(res.scores["track_length"]["cyl"], expected, rtol=0, atol=1e-9)
+    (vol,) = res.run["volumes"]
+    assert vol["volume_mm3"] - vol["layer_volume_mm3"] == pytest.approx(cut.volume, rel=volume_rel)
+
+
 def test_into_on_neighbouring_polycone_segments(tmp_path):
     """into on four neighbouring faces of a G4Polycone (the bottom ring, the cone piece, the
     cylinder wall, the top ring): every layer lies on its face of the joint cut (each face moved
@@ -419,13 +432,7 @@ def test_into_on_neighbouring_polycone_segments(tmp_path):
     assert scene.inside_target("cyl", p.position).all()
     n = 24
     start, direction = edge_rays(np.random.default_rng(3), joint[:4], (0, 0, 1), n)
-    p = make_source(config, scene).primaries(np.random.default_rng(1), 0, n)
-    res = geantino_run(data, p, start, direction, tmp_path)
-    expected, cut = joint_paths(scene, start, direction)
-    assert (expected > 0).sum() > n // 2
-    np.testing.assert_allclose(res.scores["track_length"]["cyl"], expected, rtol=0, atol=1e-9)
-    (vol,) = res.run["volumes"]
-    assert vol["volume_mm3"] - vol["layer_volume_mm3"] == pytest.approx(cut.volume, rel=1e-6)
+    _check_joint_run(data, config, scene, start, direction, tmp_path, volume_rel=1e-6)
 
 
 def test_into_a_cone_wall_and_its_end_faces(tmp_path):
@@ -458,13 +465,7 @@ def test_into_a_cone_wall_and_its_end_faces(tmp_path):
     assert scene.inside_target("cyl", p.position).all()
     n = 24
     start, direction = edge_rays(np.random.default_rng(4), [(4.0, 1.0), (3.0, -1.0)], (0, 0, 0), n)
-    p = make_source(config, scene).primaries(np.random.default_rng(1), 0, n)
-    res = geantino_run(data, p, start, direction, tmp_path)
-    expected, cut = joint_paths(scene, start, direction)
-    assert (expected > 0).sum() > n // 2
-    np.testing.assert_allclose(res.scores["track_length"]["cyl"], expected, rtol=0, atol=1e-9)
-    (vol,) = res.run["volumes"]
-    assert vol["volume_mm3"] - vol["layer_volume_mm3"] == pytest.approx(cut.volume, rel=1e-9)
+    _check_joint_run(data, config, scene, start, direction, tmp_path, volume_rel=1e-9)
 
 
 def test_into_on_shared_edges_of_a_phi_segment_is_one_line(tmp_path, capsys):
