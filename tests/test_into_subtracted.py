@@ -239,15 +239,13 @@ def test_into_the_cut_face_of_a_legend_detector(tmp_path):
     face that cuts the crystal (second.-x); the box grows by t, so the layer's base lies at
     x = 30 - t facing +x; Geant4's overlap check (in its own process, as the command runs)
     finds none, and Po-210 alphas from the layer deposit energy in the crystal."""
-    import subprocess
-    import sys
-
     import yaml
 
     from score4.runner.engine import run
     from score4.runner.output import read_results
 
     from helpers.boolean_worlds import write_world
+    from helpers.g4_geometry_check import assert_no_overlaps
 
     gdml = write_world(tmp_path / "boolean.gdml")
     data = {
@@ -269,14 +267,7 @@ def test_into_the_cut_face_of_a_legend_detector(tmp_path):
     assert normal == pytest.approx([1.0, 0.0, 0.0], abs=1e-12)
     assert 0.9 < layer.rough_share <= 1.0 + 1e-3  # the face's area is estimated
     (tmp_path / "ppc.yaml").write_text(yaml.safe_dump(data))
-    done = subprocess.run(
-        [sys.executable, "-m", "score4", "geometry", "check", str(tmp_path / "ppc.yaml")],
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert done.returncode == 0, done.stderr[-2000:]
-    assert "no overlaps" in done.stdout
+    assert_no_overlaps(tmp_path / "ppc.yaml")
     r = read_results(run(cfg, tmp_path / "a.h5", progress=False, echo=lambda m: None))
     edep = np.asarray(r.scores["edep"]["ppc"])
     assert (edep > 0).mean() > 0.3

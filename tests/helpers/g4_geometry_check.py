@@ -84,3 +84,20 @@ def check_curved(config_data: dict, plant_overlap: bool, max_placements: int = 2
         "no_points": report.no_points,
         "lines": lines,
     }
+
+
+def assert_no_overlaps(config_path) -> None:
+    """``score4 geometry check CONFIG`` in its own process, as a user runs it, reports no
+    overlaps (in one process, Geant4's GDML reader would take volumes of an earlier world from
+    its stores by name)."""
+    import subprocess
+    import sys
+
+    done = subprocess.run(
+        [sys.executable, "-m", "score4", "geometry", "check", str(config_path)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "no overlaps" in done.stdout
