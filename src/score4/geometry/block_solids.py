@@ -20,7 +20,10 @@ from ..surface.rough import Surface
 #: safety's cost. With at most 4 voxels the safety is the same number (the same facets, the same
 #: minimum) for less work, and ``Inside`` and the distance along a ray stay voxelised.
 #: Measured (bench_instructions.py, instructions per alpha event on the 1.5 mm face, self-affine
-#: map): default 5.095 M, 10 voxels 4.978 M, 4 voxels 4.948 M.
+#: map): default 5.095 M, 10 voxels 4.978 M, 4 voxels 4.948 M. The cost: a distance along a ray
+#: meets other facets first, so Geant4's facet tolerance shows on other rays (3 of 2760 geantino
+#: paths on a self-affine map moved, by up to 0.6 um; benchmarks/README.md, session 11).
+#: 0 restores Geant4's voxels.
 CAP_MAX_VOXELS = 4
 #: ... for the caps of height maps with at most this many facets (the 2 x 2 and 3 x 3-pixel
 #: blocks of exact maps); larger caps (simplified maps' blocks of up to 64 top facets) and spike
