@@ -44,7 +44,9 @@ test-deep: $(STAMP)
 	$(BIN)/python -m pytest -n 2 --dist loadgroup -m deep $(PYTEST_ARGS)
 
 # Lint and types: the same checks as the pre-commit hooks' ruff and mypy, and the import
-# contracts of pyproject.toml ([tool.importlinter]: the process boundary, no cycles).
+# contracts of pyproject.toml ([tool.importlinter]: the process boundary, no cycles). ruff and
+# mypy (strict, [tool.mypy] files) check src/, benchmarks/ and tools/: a benchmark that calls a
+# moved or renamed function fails here, not when someone next measures with it.
 lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .

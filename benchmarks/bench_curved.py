@@ -35,12 +35,13 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import yaml
 
 SCORE4 = [sys.executable, "-m", "score4", "-q", "run"]
 PYRAMIDS = {"kind": "spikes", "nx": 50, "ny": 50, "width": "10 um", "height": "10 um"}
-SOURCE = {
+SOURCE: dict[str, Any] = {
     "particle": "alpha",
     "energy": "5.3 MeV",
     "direction": "isotropic",
@@ -136,7 +137,7 @@ def configs(folder: Path, radius: float, half_length: float) -> dict[str, dict]:
             "targets": [
                 {"volume": "cyl", "rough": [{"face": "outer", "surface": "p", "solid": solid}]}
             ],
-            "source": {**SOURCE, "surface": {"volume": "cyl", "face": "outer"}},
+            "source": SOURCE | {"surface": {"volume": "cyl", "face": "outer"}},
         }
     write_cone(folder / "cone.gdml", radius, half_length)
     for case, solid in (("cone", "auto"), ("cone_tess", "tessellated")):
@@ -159,7 +160,7 @@ def configs(folder: Path, radius: float, half_length: float) -> dict[str, dict]:
             "world": {"gdml": "bege.gdml"},
             "surfaces": {"p": PYRAMIDS},
             "targets": [{"volume": "bege", "rough": [{"face": faces, "surface": "p"}]}],
-            "source": {**SOURCE, "surface": {"volume": "bege", "face": faces}},
+            "source": SOURCE | {"surface": {"volume": "bege", "face": faces}},
         }
     out["whole"] = {
         "physics": "lite",
@@ -168,7 +169,7 @@ def configs(folder: Path, radius: float, half_length: float) -> dict[str, dict]:
         "targets": [
             {"volume": "cyl", "rough": [{"face": f, "surface": "p"} for f in ("outer", "+z", "-z")]}
         ],
-        "source": {**SOURCE, "surface": {"volume": "cyl", "face": ["outer", "+z", "-z"]}},
+        "source": SOURCE | {"surface": {"volume": "cyl", "face": ["outer", "+z", "-z"]}},
     }
     for case, solid in (("flat", "auto"), ("flat_tess", "tessellated")):
         out[case] = {
@@ -182,7 +183,7 @@ def configs(folder: Path, radius: float, half_length: float) -> dict[str, dict]:
                     "rough": [{"face": "+z", "surface": "p", "solid": solid}],
                 }
             ],
-            "source": {**SOURCE, "surface": {"volume": "cyl", "face": "+z"}},
+            "source": SOURCE | {"surface": {"volume": "cyl", "face": "+z"}},
         }
     return out
 

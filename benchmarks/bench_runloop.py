@@ -535,7 +535,7 @@ def part_portal(events: int, rounds: int = 1, baseline: str | None = None) -> No
             f"{name}: portal / native per event: median {statistics.median(ratios):.2f} "
             f"(rounds: {', '.join(f'{x:.2f}' for x in ratios)})"
         )
-    res = {tiling: res[("this", tiling)] for tiling in ("native", "portal")}
+    this = {tiling: res[("this", tiling)] for tiling in ("native", "portal")}
     # where the difference goes: the portal's Python, timed in a third run (timers add cost)
     r = in_subprocess(["--portal", "portal-timed", "--events", str(events)])
     python_ms = 0.0
@@ -547,7 +547,7 @@ def part_portal(events: int, rounds: int = 1, baseline: str | None = None) -> No
             python_ms += n * us / 1e3
     print(
         f"  portal Python per event: {python_ms:.3f} ms of the "
-        f"{res['portal']['per_event_ms'] - res['native']['per_event_ms']:.3f} ms difference"
+        f"{this['portal']['per_event_ms'] - this['native']['per_event_ms']:.3f} ms difference"
     )
 
 

@@ -560,7 +560,7 @@ def coverage(path: Path, lines: list[str] | None = None) -> list[str]:
     rel = _rel(path)
     lines = path.read_text().splitlines() if lines is None else lines
     problems = []
-    covered = set()
+    covered: set[int] = set()
     for part in parts(lines, rel):
         covered.update(range(part.first - (part.kind == "block"), part.after))
         if part.kind == "paragraph":
