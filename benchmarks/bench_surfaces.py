@@ -1,7 +1,7 @@
 """CPU per alpha event on rough faces, one tessellated solid per patch vs blocks, and build cost.
 
     .venv/bin/python benchmarks/bench_surfaces.py [--events 10000] [--slow-events 2000]
-        [--cases a,b] [--sizes 256,512] [--warm] [--markdown]
+        [--cases a,b] [--sizes 256,512] [--warm] [--markdown] [--rounds 3]
 
 ``--markdown`` prints the tables of docs/tiling.md (with ``--warm``: the CPU per event; with
 ``--cases ""``: the build cost), checked by ``make docs-check-all``. ``--warm --faces
@@ -10,6 +10,8 @@ patches), with ratios to the pyramid face of the same size, the build CPU and th
 ``--warm --baseline OLD/src`` also runs every case with another score4 checkout's sources
 first on the path, interleaved in each round (before/after; each version's ratios are to its
 own pyramid face, and the mean deposits of the pyramid and flat faces must agree).
+``--rounds N`` (or ``--repeat N``) runs N rounds, each over all cases (and faces, versions) in
+turn, and prints each row's median.
 
 First table: each case is a whole ``score4 run`` in its own process (``--jobs 1``, lite physics,
 5.3 MeV alphas, isotropic, exponential depth 20 nm below the local surface, the +z face of a
@@ -437,7 +439,11 @@ def main() -> None:
     p.add_argument("--cases", default=",".join(CASES))
     p.add_argument("--sizes", default="256,512,1024,2048")
     p.add_argument(
-        "--repeat", type=int, default=1, help="rounds over the cases; each row is the median"
+        "--repeat",
+        "--rounds",
+        type=int,
+        default=1,
+        help="interleaved rounds over the cases; each row is the median",
     )
     p.add_argument(
         "--warm",
