@@ -57,8 +57,11 @@ lint: $(STAMP)
 # (docs/checks.yaml); fails on any difference and on a transcript or figure no check covers
 # (conventions at the top of docs/checks.yaml). After a change that moves the numbers:
 #   .venv/bin/python tools/docs_check.py --update   (then read the diff)
+# --smoke: the slow checks too, each with the small arguments of its `smoke:` entry, their
+# output compared by shape only (exit status, lines, table rows, values), so a benchmark that
+# stops working is seen here.
 docs-check: $(STAMP)
-	$(BIN)/python tools/docs_check.py
+	$(BIN)/python tools/docs_check.py --smoke
 
 # The same plus the slow checks (benchmarks of minutes; timings compared by shape only;
 # `tools/docs_check.py --all --update --remeasure` on a quiet machine takes new figures).
