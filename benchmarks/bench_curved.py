@@ -124,7 +124,9 @@ CASES = {
 }
 
 
-def configs(folder: Path, radius: float, half_length: float) -> dict[str, dict]:
+def configs(folder: Path, radius: float, half_length: float, bege: bool = True) -> dict[str, dict]:
+    """The cases' configurations, their GDML worlds written to ``folder`` (``bege``: also the
+    BEGe's, which takes seconds: only for the bege cases)."""
     write_cylinder(folder / "cyl.gdml", radius, half_length)
     area = 2 * math.pi * radius * 2 * half_length
     side = math.floor(math.sqrt(area) / 0.5) * 0.5  # whole 0.5 mm patches
@@ -153,7 +155,8 @@ def configs(folder: Path, radius: float, half_length: float) -> dict[str, dict]:
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples" / "bege"))
     from write_bege import main as write_bege
 
-    write_bege(str(folder / "bege.gdml"), metadata=True)  # as examples/rough_hpge writes it
+    if bege:
+        write_bege(str(folder / "bege.gdml"), metadata=True)  # as examples/rough_hpge writes it
     for case, faces in (("bege", BEGE_FACES), ("bege_all", "all")):
         out[case] = {
             "physics": "lite",
@@ -335,7 +338,8 @@ def main() -> None:
     rows: dict[str, list[tuple[float, float, float]]] = {label: [] for label, _, _ in runs}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        cases = configs(folder, args.radius, args.half_length)
+        bege = any(name.startswith("bege") for name in names)
+        cases = configs(folder, args.radius, args.half_length, bege)
         for _ in range(args.rounds):
             for label, name, src in runs:
                 rows[label].append(measure(folder, name, cases[name], args.events, src))
