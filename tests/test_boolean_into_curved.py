@@ -136,7 +136,16 @@ def _one(gdml: Path, volume: str, **extra) -> dict:
     return config(gdml, {volume: [CASES[volume][0]]}, **extra)
 
 
-@pytest.mark.parametrize("volume", list(CASES))
+@pytest.mark.parametrize(
+    "volume",
+    [
+        "stack",
+        "lamp",
+        "pie",
+        pytest.param("orbcut", marks=pytest.mark.deep),  # ~5 s: 7729 sphere cells
+        pytest.param("conebore", marks=pytest.mark.deep),  # ~3 s: 4687 cells
+    ],
+)
 def test_into_a_curved_face_cuts_the_constituent_behind_it(gdml, volume):
     """The constituent behind the face is made thinner by the layer's cut (the post's and the
     orb's radius less it, the cone's wall moved along its normal by it; the subtracted cone
@@ -144,7 +153,8 @@ def test_into_a_curved_face_cuts_the_constituent_behind_it(gdml, volume):
     the cut constituent's, its kept cells lie on the cut boolean's surface (proven as on any
     boolean face: a point a hair outside each kept cell's centre is outside the cut solid, a
     hair inside is in it), the shell between the cut face and the old one is no longer in the
-    volume unless in a patch, and the layer's top reaches the old face."""
+    volume unless in a patch, the layer's top reaches the old face, and the source on the face
+    stays in the volume."""
     scene = build_scene(parse_config(_one(gdml, volume)))
     (layer,) = scene.layers
     assert isinstance(layer, CurvedRoughLayer)
@@ -200,6 +210,10 @@ def test_into_a_curved_face_cuts_the_constituent_behind_it(gdml, volume):
     top = world + normal.T * (c + 1e-7)  # beyond the old face
     assert not scene.inside_target(volume, top).any()
     assert 0.8 < layer.rough_share <= 1.0
+    # the source on the face (the rough cells' tops and the cut face's flat rest) stays in it
+    cfg = parse_config(_one(gdml, volume))
+    drawn = make_source(cfg, scene).primaries(np.random.default_rng(3), 0, 500).position
+    assert scene.inside_target(volume, drawn).all()
 
 
 def _tube_path(o: np.ndarray, d: np.ndarray, r: float, z0: float, z1: float) -> float:
@@ -461,3 +475,31 @@ def test_into_where_a_boolean_still_refuses_it(gdml, volume, faces, message):
         build_scene(parse_config(config(gdml, {volume: faces})))
     assert str(err.value).startswith(message)
     assert "\n" not in str(err.value)
+
+
+@pytest.mark.deep
+def test_into_curved_faces_of_booleans_export_with_the_same_paths(gdml, tmp_path, monkeypatch):
+    """All five layers in one world, written by `score4 geometry export`: Geant4 reads the file
+    back, and the file pyg4ometry reads and writes again, with the same geantino paths
+    (volumes and points, 1e-9 mm) as the world score4 builds; most rays cross a patch (deep:
+    ~2 min at load 12)."""
+    from score4.cli.main import main
+
+    from helpers.export_paths import assert_same_paths, three_paths
+
+    data = config(gdml, {v: [face] for v, (face, _) in CASES.items()})
+    path = tmp_path / "into_curved.yaml"
+    path.write_text(yaml.safe_dump(data))
+    out = tmp_path / "into_curved.gdml"
+    assert main(["geometry", "export", str(path), "--gdml", str(out)]) == 0
+    scene = build_scene(parse_config(data))
+    rays = []
+    for k, volume in enumerate(CASES):
+        target = scene.target(volume)
+        layer = scene.layer(volume, CASES[volume][0])
+        local, ways = _rays(volume, target, layer, np.random.default_rng(20 + k), 3)
+        world, turned = target.to_world(local), ways @ target.rotation.T
+        rays += [(o.tolist(), d.tolist()) for o, d in zip(world, turned, strict=True)]
+    ours, back, relay = three_paths(path, out, rays, monkeypatch)
+    assert_same_paths(ours, back, relay)
+    assert sum(any("_rough" in (v or "") for v, _ in p) for p in ours) >= 10
