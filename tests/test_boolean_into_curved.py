@@ -47,6 +47,15 @@ ORB_CUT = 1.5  # the orb (r 3 mm) less the half-space x > 1.5 mm
 #: how far (mm) the rays go down over 6 mm inward: into the disk or the box below the post and the
 #: cone; across the bore
 DOWN = {"stack": 4.0, "lamp": 4.0, "conebore": 1.0, "pie": 4.0}
+#: a point well inside each solid, away from the cut face (the disk, the box's corner, the
+#: plate, the orb's far side, the box's corner around the bore)
+DEEP = {
+    "stack": (9.0, 0.0, 0.0),
+    "lamp": (9.0, 9.0, 0.0),
+    "pie": (0.0, -11.0, -7.0),
+    "orbcut": (-2.0, 0.0, 0.0),
+    "conebore": (9.5, 9.5, 0.0),
+}
 #: Geant4's volume of a union of parts that only touch is the sum of theirs (exact: 0 off); of
 #: a subtraction, its own estimate (G4VSolid::EstimateCubicVolume, 10^6 points): 3.1e-5 off for
 #: the orb, where the cut moves the volume by 9.8e-3; 7.8e-4 off for the cone bore, where the
@@ -154,8 +163,8 @@ def test_into_a_curved_face_cuts_the_constituent_behind_it(gdml, volume):
     the cut constituent's, its kept cells lie on the cut boolean's surface (proven as on any
     boolean face: a point a hair outside each kept cell's centre is outside the cut solid, a
     hair inside is in it), the shell between the cut face and the old one is no longer in the
-    volume unless in a patch, the layer's top reaches the old face, and the source on the face
-    stays in the volume."""
+    volume unless in a patch, the layer's top reaches the old face, the other parts stay in
+    the volume, and the source on the face stays in it."""
     scene = build_scene(parse_config(_one(gdml, volume)))
     (layer,) = scene.layers
     assert isinstance(layer, CurvedRoughLayer)
@@ -211,6 +220,8 @@ def test_into_a_curved_face_cuts_the_constituent_behind_it(gdml, volume):
     top = world + normal.T * (c + 1e-7)  # beyond the old face
     assert not scene.inside_target(volume, top).any()
     assert 0.8 < layer.rough_share <= 1.0
+    # the other parts stay whole (the layer's own cut solid does not hold them)
+    assert scene.inside_target(volume, target.to_world(np.array([DEEP[volume]]))).all()
     # the source on the face (the rough cells' tops and the cut face's flat rest) stays in it
     cfg = parse_config(_one(gdml, volume))
     drawn = make_source(cfg, scene).primaries(np.random.default_rng(3), 0, 500).position
