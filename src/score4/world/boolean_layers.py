@@ -34,7 +34,8 @@ their flat rest as one (:class:`score4.source.build.PlanesRemainderSampler`).
 
 Refused, in one line each (:mod:`score4.world.boolean_modes` says why): ``into: true`` on the
 faces of a subtracted solid other than a G4Box's faces, a G4Tubs' end faces and the walls of a
-G4Tubs or G4Cons (bores), on phi faces, and on two faces of one constituent that share an edge,
+G4Tubs or G4Cons (bores), on phi faces, and on two faces of one constituent not subtracted that
+share an edge,
 ``tiling: portal``, ``native_layout: replicas`` where a cell holds no patch (and on a layer whose
 envelope is the prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs or
 G4Cons wall (spheres); a curved layer whose envelope runs into the solid itself (a wall partly

@@ -23,8 +23,9 @@
   boolean's outward normal there), and the layer lies in the slab, on the grown solid's face.
   Refused elsewhere: the flat faces of other subtracted solids (a G4Cons' end faces), the phi
   faces of a segment (moved off the axis they would make the constituent a boolean of its own),
-  the other curved faces of subtracted solids, and two faces of one constituent swept around z
-  that share an edge (:func:`check_shared_edges`; plain solids get a joint cut there).
+  the other curved faces of subtracted solids, and two faces that share an edge of one
+  constituent swept around z that is not subtracted (:func:`check_shared_edges`; plain solids
+  get a joint cut there).
 """
 
 from __future__ import annotations
@@ -98,10 +99,12 @@ def check_modes(
 
 def check_shared_edges(layers: list[RoughLayer], target: TargetVolume, where: str) -> None:
     """One-line error for ``into`` on two faces of one constituent of a boolean target swept
-    around z that share an edge (``layers``: the target's layers; ``where``: the error's
-    start): each layer is laid out on its own cut, and their slabs would meet at the edge (the
-    joint cut that plain solids get, :func:`score4.world.scene.check_into_edges`, is not made
-    for a boolean's constituents)."""
+    around z (not a subtracted one) that share an edge (``layers``: the target's layers;
+    ``where``: the error's start): each layer is laid out on its own cut, and their slabs
+    would meet at the edge (the joint cut that plain solids get,
+    :func:`score4.world.scene.check_into_edges`, is not made for a boolean's constituents). The
+    layers on a subtracted solid's faces grow apart from their concave edge (the square
+    between their slabs belongs to neither), so they are not refused."""
     shape, name = target.shape, target.name
     if not isinstance(shape, BooleanShape):
         return
@@ -111,9 +114,10 @@ def check_shared_edges(layers: list[RoughLayer], target: TargetVolume, where: st
         path, leaf_face = leaf_path(shape, face)
         by_leaf.setdefault(path, []).append(leaf_face)
     for path, own in by_leaf.items():
-        leaf = shape.face_clip(path + own[0]).leaf
-        if len(own) < 2 or not isinstance(leaf, RevolvedShape):
-            continue
+        clip = shape.face_clip(path + own[0])
+        leaf = clip.leaf
+        if len(own) < 2 or not isinstance(leaf, RevolvedShape) or clip.flipped:
+            continue  # a subtracted solid's edges are concave: its layers grow apart
         poly, names = leaf.contour()
         for k, a in enumerate(names):
             b = names[(k + 1) % len(names)]
