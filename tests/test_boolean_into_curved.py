@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from test_boolean_faces import _box_path, _tube_path
 
 from score4.errors import ConfigError
 from score4.inputs.config import parse_config
@@ -228,25 +229,10 @@ def test_into_a_curved_face_cuts_the_constituent_behind_it(gdml, volume):
     assert scene.inside_target(volume, drawn).all()
 
 
-def _tube_path(o: np.ndarray, d: np.ndarray, r: float, z0: float, z1: float) -> float:
-    """Path of the ray o + t d (t > 0) in the cylinder of radius r about the z axis, z0 < z < z1."""
-    a, b = d[0] ** 2 + d[1] ** 2, 2 * (o[0] * d[0] + o[1] * d[1])
-    disc = b * b - 4 * a * (o[0] ** 2 + o[1] ** 2 - r * r)
-    if a < 1e-15 or disc <= 0:
-        return 0.0
-    t0, t1 = (-b - math.sqrt(disc)) / (2 * a), (-b + math.sqrt(disc)) / (2 * a)
-    if abs(d[2]) > 1e-15:
-        a_, b_ = (z0 - o[2]) / d[2], (z1 - o[2]) / d[2]
-        t0, t1 = max(t0, min(a_, b_)), min(t1, max(a_, b_))
-    return max(t1 - max(t0, 0.0), 0.0)
-
-
-def _box_path(o: np.ndarray, d: np.ndarray, half: float) -> float:
+def _in_cube(o: np.ndarray, d: np.ndarray, half: float) -> float:
     """Path of the ray o + t d (t > 0) in the cube |x|, |y|, |z| < half."""
-    with np.errstate(divide="ignore"):
-        t1, t2 = (-half - o) / d, (half - o) / d
-    t0 = max(float(np.max(np.minimum(t1, t2))), 0.0)
-    return max(float(np.min(np.maximum(t1, t2))) - t0, 0.0)
+    t0, t1 = _box_path(o, d, (-half, -half, -half), (half, half, half))
+    return t1 - t0
 
 
 def _orb_less_half_space(o: np.ndarray, d: np.ndarray, r: float) -> float:
@@ -270,17 +256,17 @@ def _solid_path(volume: str, layer, o: np.ndarray, d: np.ndarray) -> float:
     orb less the half-space."""
     c = layer.into_cut
     if volume == "stack":
-        return _tube_path(o, d, 10.0, -5.0, 5.0) + _tube_path(o, d, 7.0 - c, 5.0, 15.0)
+        return _tube_path(o, d, (0, 0), 10.0, -5, 5) + _tube_path(o, d, (0, 0), 7.0 - c, 5, 15)
     if volume == "lamp":
         cone, shift = layer.cut_shape
         q = o - np.array([0.0, 0.0, CONE_Z]) - shift
-        return _box_path(o, d, 10.0) + revolved_path(q, d, cone)
+        return _in_cube(o, d, 10.0) + revolved_path(q, d, cone)
     if volume == "orbcut":
         return _orb_less_half_space(o, d, 3.0 - c)
     if volume == "pie":
         return _pie_path(o, d, 10.0 - c)
     r1, r2 = _bore_radii(layer)
-    return _box_path(o, d, 10.0) - _in_box_and_cone(o, d, r1, r2)
+    return _in_cube(o, d, 10.0) - _in_box_and_cone(o, d, r1, r2)
 
 
 def _pie_path(o: np.ndarray, d: np.ndarray, r: float) -> float:
