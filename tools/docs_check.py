@@ -853,7 +853,7 @@ def run_ahead(checks: list[Check], only: str | None, run_all: bool) -> None:
     """Run the checks side by side, one per core (each check's commands are processes)."""
     todo = [c for c in checks if runs(c, only, run_all)]
     # the longest first, so that the last one to finish is a short one
-    order = ("ion-setups", "heavy-ions", "alpha-ranges", "demo", "vertices-replay")
+    order: tuple[str, ...] = ("ion-setups", "heavy-ions", "alpha-ranges", "demo", "vertices-replay")
     order += ("solid-speed", "bege-whole-speed", "face-size-speed")  # the longest smoke runs
     todo.sort(key=lambda c: order.index(c.name) if c.name in order else len(order))
     with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
