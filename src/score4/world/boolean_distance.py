@@ -35,6 +35,7 @@ from ..errors import ConfigError
 from ..shapes import BooleanShape, Shape
 from ..shapes.placed import PlacedShape
 from .face_distance import face_distance
+from .kept_face_distance import KeptFaceDistance
 
 if TYPE_CHECKING:
     from .scene import RoughLayer, TargetVolume
@@ -129,6 +130,7 @@ class BooleanDistance:
         shape = target.shape
         assert isinstance(shape, BooleanShape)
         self.target, self.shape = target, shape
+        self._kept: dict[tuple[str, ...], KeptFaceDistance] = {}
         self.leaves: dict[str, RoughLeaf] = {}
         for face, layer in layers.items():
             path, leaf_face = leaf_path(shape, face)
@@ -161,11 +163,18 @@ class BooleanDistance:
             return whole
         local = self.target.to_local(world)
         smooth = tuple(f for f in faces if f not in self._rough_faces)
-        d = leaf_face_distance(self.shape, smooth, local) if smooth else np.full(len(world), np.inf)
+        d = self.kept_faces(smooth)(local) if smooth else np.full(len(world), np.inf)
         for f in faces:
             if f in self._rough_faces:
                 d = np.minimum(d, rough(f)(world))
         return np.where(whole > 0, np.maximum(whole, d), 0.0)
+
+    def kept_faces(self, faces: tuple[str, ...]) -> KeptFaceDistance:
+        """The exact distance to the smooth ``faces`` as they are on the boolean (built once per
+        face list: their rims)."""
+        if faces not in self._kept:
+            self._kept[faces] = KeptFaceDistance(self.shape, faces)
+        return self._kept[faces]
 
     @property
     def _rough_faces(self) -> set[str]:
