@@ -8,7 +8,6 @@ with a post on it: a union) of tests/helpers/boolean_worlds.py."""
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -71,7 +70,8 @@ def dense_face(shape, face: str, h: float) -> np.ndarray:
                     [r * np.cos(phi), r * np.sin(phi), patch.z1 + t * (patch.z2 - patch.z1)]
                 )
             )
-            normals.append(np.column_stack([patch.nr * np.cos(phi), patch.nr * np.sin(phi), np.full(len(t), patch.nz)]))  # fmt: skip
+            nr = patch.nr * np.column_stack([np.cos(phi), np.sin(phi)])
+            normals.append(np.column_stack([nr, np.full(len(t), patch.nz)]))
     x = clip.transform.apply(np.concatenate(pts))
     n = clip.transform.apply_vectors(np.concatenate(normals)) * (-1.0 if clip.flipped else 1.0)
     keep = (shape.inside(x + PROBE * n) == OUTSIDE) & (shape.inside(x - PROBE * n) == INSIDE)
