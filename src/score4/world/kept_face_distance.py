@@ -15,16 +15,19 @@ The rim, once per face. Each patch's parameter domain (a triangle's barycentric 
 swept segment's ``(t, phi)``) is cut into triangles, and those are halved in size until each is
 proven kept or proven cut away by :meth:`FaceClip.margin` (a lower bound of the distance to the
 rim at a point: a piece whose vertices all have margins of one sign, one of them at least the
-piece's size, lies wholly on that side), or down to :data:`FINEST` mm. Kept pieces give the
+piece's size, lies wholly on that side), or down to :data:`FINEST` mm (:data:`SAME_SIDE` for a
+piece whose vertices all lie on one side). Kept pieces give the
 patch's edges they lie on. A finest piece whose vertices differ gives one chord between the
 points where its edges cross the rim (found by bisection). Chords are split in two, their
 midpoints pushed onto the rim the same way, until each chord is within :data:`TOLERANCE` of the
 rim at its midpoint (its sagitta): distances are exact to that. The chords go in a k-d tree of
 their midpoints, searched with a bound for the chords not visited.
 
-Not resolved: a rim feature smaller than :data:`FINEST` that no vertex of the finest pieces
-sees (a sliver cut); and faces that coincide with another constituent's surface count as cut
-away there (the margin is zero), also where two constituents' faces lie flush on the outside.
+Not resolved: a rim feature that no vertex of the finest pieces sees (a sliver cut narrower than
+:data:`FINEST`, or than :data:`SAME_SIDE` inside a piece whose vertices all lie on one side and
+whose margins do not prove it); and faces that coincide with another constituent's surface
+count as cut away there (the margin is zero), also where two constituents' faces lie flush on
+the outside.
 """
 
 from __future__ import annotations
@@ -36,15 +39,19 @@ from ..errors import ConfigError
 from ..shapes import BooleanShape
 from ..shapes.base import PlaneTriangles, Revolved
 from ..shapes.boolean import FaceClip
+from ..shapes.transform import Transform
 
 #: mm: largest gap between a rim chord's midpoint and the rim (the rim is exact to this).
 TOLERANCE = 1e-6
 #: mm: size of the finest pieces of a face's parameter domain near the rim.
 FINEST = 0.05
+#: mm: a piece whose vertices are all on one side is not cut smaller than this (where the
+#: margin stays small over an area, as where a face touches a cutting solid's face).
+SAME_SIDE = 4 * FINEST
 #: a margin this close to zero is on another constituent's surface: not kept.
 ON_SURFACE = 1e-12
-#: bisection steps for a rim crossing (each halves the parameter interval).
-BISECT = 60
+#: bisection steps for a rim crossing (2^-44: 6e-14 of the parameter interval).
+BISECT = 44
 #: straight rim pieces are cut to at most this length (mm) so that the search bound stays tight.
 PIECE = 4 * FINEST
 
@@ -101,23 +108,28 @@ class _SweptMap:
     """A segment (r1, z1) -> (r2, z2) swept about z over [phi0, phi0 + dphi], over ``(t, s)``
     in [0, 1]^2 (``phi = phi0 + s dphi``)."""
 
-    ROWS, COLUMNS = 4, 64
+    #: the first pieces: about this many along the longer of the two directions (nearly square,
+    #: so that halving keeps them so), at least 16 around a full circle
+    ROOTS = 32
 
     def __init__(self, patch: Revolved) -> None:
         self.p = patch
         self.full = patch.dphi >= 2 * np.pi - 1e-12
         self.length = float(np.hypot(patch.r2 - patch.r1, patch.z2 - patch.z1))
         self.rmax = max(patch.r1, patch.r2)
-        t = np.linspace(0, 1, self.ROWS + 1)
-        s = np.linspace(0, 1, self.COLUMNS + 1)
+        cell = max(self.length, self.rmax * patch.dphi) / self.ROOTS
+        rows = max(1, int(np.ceil(self.length / cell)))
+        columns = max(16 if self.full else 1, int(np.ceil(self.rmax * patch.dphi / cell)))
+        t = np.linspace(0, 1, rows + 1)
+        s = np.linspace(0, 1, columns + 1)
         roots, edges = [], []
-        for i in range(self.ROWS):
-            for j in range(self.COLUMNS):
+        for i in range(rows):
+            for j in range(columns):
                 c00, c10 = (t[i], s[j]), (t[i + 1], s[j])
                 c01, c11 = (t[i], s[j + 1]), (t[i + 1], s[j + 1])
-                low, high = i == 0, i == self.ROWS - 1
+                low, high = i == 0, i == rows - 1
                 first = j == 0 and not self.full
-                last = j == self.COLUMNS - 1 and not self.full
+                last = j == columns - 1 and not self.full
                 # (c00, c10, c11): edges c00-c10 (s = s_j), c10-c11 (t = t_i+1), c11-c00 inside
                 roots.append([c00, c10, c11])
                 edges.append([first, high, False])
@@ -208,7 +220,8 @@ class _Rim:
                 chords.append(c)
                 kinds.append(np.zeros(len(c), dtype=bool))
             rest = ~(whole | gone)
-            fine = rest & (size <= FINEST)
+            same = kept.all(axis=1) | ~kept.any(axis=1)
+            fine = rest & ((size <= FINEST) | (same & (size <= SAME_SIDE)))
             for c, kind in self._march(tri[fine], edges[fine], kept[fine]):
                 chords.append(c)
                 kinds.append(kind)
@@ -221,7 +234,7 @@ class _Rim:
         self.a, self.b = _split(clip.transform.apply(a), clip.transform.apply(b))
 
     def margin(self, uv: np.ndarray) -> np.ndarray:
-        return self.clip.margin(self.clip.transform.apply(self.map.point(uv)))
+        return self.clip.margin(_apply(self.clip.transform, self.map.point(uv)))
 
     def _kept(self, uv: np.ndarray) -> np.ndarray:
         return self.margin(uv) > ON_SURFACE
@@ -313,6 +326,13 @@ class _Rim:
         return out, ok
 
 
+def _apply(t: Transform, x: np.ndarray) -> np.ndarray:
+    """``t.apply(x)``, without the product for a shift (most constituents)."""
+    if np.array_equal(t.rotation, np.eye(3)):
+        return x + t.translation
+    return t.apply(x)
+
+
 def _halve(tri: np.ndarray, edges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Each triangle in four by its edge midpoints, with the patch-edge flags of the pieces."""
     a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
@@ -373,7 +393,7 @@ class KeptFaceDistance:
         lost = np.zeros(len(p), dtype=bool)  # a patch's nearest point is cut away
         for clip, m in self.patches:
             d, q = m.nearest(clip.transform.inverse_apply(p))
-            kept = clip.margin(clip.transform.apply(q)) > ON_SURFACE
+            kept = clip.margin(_apply(clip.transform, q)) > ON_SURFACE
             best = np.where(kept, np.minimum(best, d), best)
             lost |= ~kept
         rows = np.flatnonzero(lost)
