@@ -1,8 +1,9 @@
 """Steps and activeness on a boolean face with ``into: true`` (score4.world.boolean_distance):
 the face is measured by its rough surface on the cut face (the patch tops of the kept cells and
 the cut face elsewhere), the other faces as on a plain solid with ``into`` (the uncut solid's),
-in a small Geant4 run on a copper box less a tube, against a brute force over the patch tops of
-the cells around each step (no k-d tree, no search bound)."""
+a smooth face as it is on the boolean; in a small Geant4 run on a copper box less a tube,
+against a brute force over the patch tops of the cells around each step (no k-d tree, no
+search bound)."""
 
 from __future__ import annotations
 
@@ -83,7 +84,8 @@ def test_steps_and_activeness_with_into_on_a_boolean_face(gdml, tmp_path):
     nearest of the brute-force rough surface (its flat cells at the cut face, z = 10 mm less the
     layer's thickness), the box's other faces and the bore, to 1e-9 mm; steps in the slab the
     layer was cut from are all in patches; active_edep weights each step by the brute-force
-    distance to the rough face (1e-9 MeV)."""
+    distance to the rough face and (a 2 mm transition layer) by the distance to the bore's
+    wall, kept between the box's faces (1e-9 MeV)."""
     import lh5
 
     data = {
@@ -96,7 +98,10 @@ def test_steps_and_activeness_with_into_on_a_boolean_face(gdml, tmp_path):
                 "rough": [
                     {"face": "first.+z", "surface": "p", "base_thickness": "1 um", "into": True}
                 ],
-                "activeness": [{"fccd": "3 um", "dlf": 0.5, "faces": ["first.+z"]}],
+                "activeness": [
+                    {"fccd": "3 um", "dlf": 0.5, "faces": ["first.+z"]},
+                    {"fccd": "2 mm", "dlf": 0.2, "faces": ["second.outer"]},
+                ],
             }
         ],
         "source": {
@@ -140,6 +145,11 @@ def test_steps_and_activeness_with_into_on_a_boolean_face(gdml, tmp_path):
     under = ~in_patch & (others > rough)
     assert under.sum() > 10  # in the copper under the cut face: 1 um (the base) below it at least
     assert np.all(rough[under] >= HALF - t - p[under, 2] + 1e-3 - 1e-9)
-    again = np.bincount(evtid, weights=edep * weight(rough, 3e-3, 0.5), minlength=res.n_events)
+    # the bore's wall as it is on the (uncut) box: r = 5 mm for |z| <= 10 mm
+    r = np.hypot(p[:, 0], p[:, 1])
+    bore = np.hypot(r - BORE, np.maximum(np.abs(p[:, 2]) - HALF, 0.0))
+    assert (bore < 2.0).sum() > 5  # steps the bore's entry weights
+    w = np.minimum(weight(rough, 3e-3, 0.5), weight(bore, 2.0, 0.2))
+    again = np.bincount(evtid, weights=edep * w, minlength=res.n_events)
     np.testing.assert_allclose(again, res.scores["active_edep"]["cutbox"], atol=1e-9, rtol=0)
     assert 0 < again.sum() < res.edep["cutbox"].sum()
