@@ -20,8 +20,9 @@ piece whose vertices all lie on one side). Kept pieces give the
 patch's edges they lie on. A finest piece whose vertices differ gives one chord between the
 points where its edges cross the rim (found by bisection). Chords are split in two, their
 midpoints pushed onto the rim the same way, until each chord is within :data:`TOLERANCE` of the
-rim at its midpoint (its sagitta): distances are exact to that. The chords go in a k-d tree of
-their midpoints, searched with a bound for the chords not visited.
+rim at its midpoint (its sagitta): distances are exact to that. The chords go in k-d trees of
+their midpoints, searched with a bound for the chords not visited. The kept parts of a swept
+patch's end circles are joined into arcs and measured in closed form.
 
 Not resolved: a rim feature that no vertex of the finest pieces sees (a sliver cut narrower than
 :data:`FINEST`, or than :data:`SAME_SIDE` inside a piece whose vertices all lie on one side and
@@ -229,6 +230,12 @@ class _Rim:
         ends = np.concatenate(chords) if chords else np.empty((0, 2, 2))
         curve = np.concatenate(kinds) if kinds else np.empty(0, dtype=bool)
         self.unrefined = 0
+        #: the swept patch's own end circles, measured exactly: (t, s0, s1) merged
+        self.arcs: list[tuple[float, float, float]] = []
+        if isinstance(m, _SweptMap) and len(ends):
+            arc = (ends[:, 0, 0] == ends[:, 1, 0]) & ~curve
+            self.arcs = _merge(ends[arc])
+            ends, curve = ends[~arc], curve[~arc]
         ends, curve = self._refine(ends, curve)
         a, b = m.point(ends[:, 0]), m.point(ends[:, 1])
         self.a, self.b = _split(clip.transform.apply(a), clip.transform.apply(b))
@@ -326,6 +333,31 @@ class _Rim:
         return out, ok
 
 
+def _merge(ends: np.ndarray) -> list[tuple[float, float, float]]:
+    """Pieces of circles (parameter chords at one t) joined where they meet: (t, s0, s1)."""
+    t = ends[:, 0, 0]
+    s0, s1 = np.minimum(ends[:, 0, 1], ends[:, 1, 1]), np.maximum(ends[:, 0, 1], ends[:, 1, 1])
+    out: list[tuple[float, float, float]] = []
+    for k in np.lexsort((s0, t)):
+        if out and out[-1][0] == t[k] and s0[k] <= out[-1][2] + 1e-12:
+            out[-1] = (out[-1][0], out[-1][1], max(out[-1][2], float(s1[k])))
+        else:
+            out.append((float(t[k]), float(s0[k]), float(s1[k])))
+    return out
+
+
+def arc_distance(p: np.ndarray, rho: float, z: float, phi: float, dphi: float) -> np.ndarray:
+    """Exact distance of points (the arc's frame) to the circle of radius ``rho`` at height ``z``
+    over azimuths [phi, phi + dphi]."""
+    r = np.hypot(p[:, 0], p[:, 1])
+    on = np.mod(np.arctan2(p[:, 1], p[:, 0]) - phi, 2 * np.pi) <= dphi
+    ends = [
+        np.linalg.norm(p - np.array([rho * np.cos(a), rho * np.sin(a), z]), axis=1)
+        for a in (phi, phi + dphi)
+    ]
+    return np.where(on, np.hypot(r - rho, p[:, 2] - z), np.minimum(*ends))
+
+
 def _apply(t: Transform, x: np.ndarray) -> np.ndarray:
     """``t.apply(x)``, without the product for a shift (most constituents)."""
     if np.array_equal(t.rotation, np.eye(3)):
@@ -374,6 +406,16 @@ class KeptFaceDistance:
         if self._rim is None:
             rims = [_Rim(clip, m) for clip, m in self.patches]
             self.unrefined = sum(r.unrefined for r in rims)
+            self._arcs = []
+            for r in rims:
+                if not r.arcs:
+                    continue
+                assert isinstance(r.map, _SweptMap)
+                w = r.map.p
+                for t, s0, s1 in r.arcs:
+                    rho, z = w.r1 + t * (w.r2 - w.r1), w.z1 + t * (w.z2 - w.z1)
+                    phi, dphi = w.phi0 + s0 * w.dphi, (s1 - s0) * w.dphi
+                    self._arcs.append((r.clip.transform, rho, z, phi, dphi))
             a = np.concatenate([r.a for r in rims]) if rims else np.empty((0, 3))
             b = np.concatenate([r.b for r in rims]) if rims else np.empty((0, 3))
             self._rim = (a, b)
@@ -407,6 +449,8 @@ class KeptFaceDistance:
         plus the group's largest half-chord is measured."""
         a, b = self.rim()
         best = np.full(len(p), np.inf)
+        for transform, rho, z, phi, dphi in self._arcs:
+            best = np.minimum(best, arc_distance(transform.inverse_apply(p), rho, z, phi, dphi))
         for tree, sel, _ in self._groups:
             _, i = tree.query(p)
             best = np.minimum(best, segment_distance(p, a[sel[i]], b[sel[i]]))
