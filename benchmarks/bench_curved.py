@@ -35,12 +35,13 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import yaml
 
 SCORE4 = [sys.executable, "-m", "score4", "-q", "run"]
 PYRAMIDS = {"kind": "spikes", "nx": 50, "ny": 50, "width": "10 um", "height": "10 um"}
-SOURCE = {
+SOURCE: dict[str, Any] = {
     "particle": "alpha",
     "energy": "5.3 MeV",
     "direction": "isotropic",
@@ -123,7 +124,9 @@ CASES = {
 }
 
 
-def configs(folder: Path, radius: float, half_length: float) -> dict[str, dict]:
+def configs(folder: Path, radius: float, half_length: float, bege: bool = True) -> dict[str, dict]:
+    """The cases' configurations, their GDML worlds written to ``folder`` (``bege``: also the
+    BEGe's, which takes seconds: only for the bege cases)."""
     write_cylinder(folder / "cyl.gdml", radius, half_length)
     area = 2 * math.pi * radius * 2 * half_length
     side = math.floor(math.sqrt(area) / 0.5) * 0.5  # whole 0.5 mm patches
@@ -136,7 +139,7 @@ def configs(folder: Path, radius: float, half_length: float) -> dict[str, dict]:
             "targets": [
                 {"volume": "cyl", "rough": [{"face": "outer", "surface": "p", "solid": solid}]}
             ],
-            "source": {**SOURCE, "surface": {"volume": "cyl", "face": "outer"}},
+            "source": SOURCE | {"surface": {"volume": "cyl", "face": "outer"}},
         }
     write_cone(folder / "cone.gdml", radius, half_length)
     for case, solid in (("cone", "auto"), ("cone_tess", "tessellated")):
@@ -152,14 +155,15 @@ def configs(folder: Path, radius: float, half_length: float) -> dict[str, dict]:
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples" / "bege"))
     from write_bege import main as write_bege
 
-    write_bege(str(folder / "bege.gdml"), metadata=True)  # as examples/rough_hpge writes it
+    if bege:
+        write_bege(str(folder / "bege.gdml"), metadata=True)  # as examples/rough_hpge writes it
     for case, faces in (("bege", BEGE_FACES), ("bege_all", "all")):
         out[case] = {
             "physics": "lite",
             "world": {"gdml": "bege.gdml"},
             "surfaces": {"p": PYRAMIDS},
             "targets": [{"volume": "bege", "rough": [{"face": faces, "surface": "p"}]}],
-            "source": {**SOURCE, "surface": {"volume": "bege", "face": faces}},
+            "source": SOURCE | {"surface": {"volume": "bege", "face": faces}},
         }
     out["whole"] = {
         "physics": "lite",
@@ -168,7 +172,7 @@ def configs(folder: Path, radius: float, half_length: float) -> dict[str, dict]:
         "targets": [
             {"volume": "cyl", "rough": [{"face": f, "surface": "p"} for f in ("outer", "+z", "-z")]}
         ],
-        "source": {**SOURCE, "surface": {"volume": "cyl", "face": ["outer", "+z", "-z"]}},
+        "source": SOURCE | {"surface": {"volume": "cyl", "face": ["outer", "+z", "-z"]}},
     }
     for case, solid in (("flat", "auto"), ("flat_tess", "tessellated")):
         out[case] = {
@@ -182,7 +186,7 @@ def configs(folder: Path, radius: float, half_length: float) -> dict[str, dict]:
                     "rough": [{"face": "+z", "surface": "p", "solid": solid}],
                 }
             ],
-            "source": {**SOURCE, "surface": {"volume": "cyl", "face": "+z"}},
+            "source": SOURCE | {"surface": {"volume": "cyl", "face": "+z"}},
         }
     return out
 
@@ -334,7 +338,8 @@ def main() -> None:
     rows: dict[str, list[tuple[float, float, float]]] = {label: [] for label, _, _ in runs}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        cases = configs(folder, args.radius, args.half_length)
+        bege = any(name.startswith("bege") for name in names)
+        cases = configs(folder, args.radius, args.half_length, bege)
         for _ in range(args.rounds):
             for label, name, src in runs:
                 rows[label].append(measure(folder, name, cases[name], args.events, src))
