@@ -24,7 +24,7 @@ POCKET_HALF, POCKET_AT = np.array([3.0, 3.0, 5.0]), np.array([0.0, 0.0, 10.0])
 @pytest.fixture(scope="module")
 def gdml(tmp_path_factory) -> Path:
     """The box less the pocket, a box less a blind hole (a G4Tubs of r 3 mm from z = 5 mm up, at
-    y = 30 mm) and a box less a conical blind hole (a G4Cons, its end face refused, at
+    y = 30 mm) and a box less a conical blind hole (a G4Cons, its wall refused, at
     y = -30 mm), written by pyg4ometry."""
     import pyg4ometry as pg
 
@@ -315,12 +315,12 @@ def test_geantino_paths_through_a_deeper_blind_hole(gdml, tmp_path):
     assert crossed >= n // 2
 
 
-def test_into_the_end_of_a_subtracted_cone_is_refused(gdml):
-    """The floor of a conical blind hole (the end face of a subtracted G4Cons) stays refused, in
-    one line."""
+def test_into_the_wall_of_a_subtracted_cone_is_refused(gdml):
+    """The wall of a conical blind hole (the curved face of a subtracted G4Cons) stays refused,
+    in one line (its floor is not: tests/test_into_subtracted_faces.py)."""
     with pytest.raises(ConfigError) as err:
-        build_scene(parse_config(config(gdml, "second.-z", "conehole")))
+        build_scene(parse_config(config(gdml, "second.outer", "conehole")))
     message = str(err.value)
-    assert message.startswith("targets.0.rough.0: into: true on face second.-z of 'conehole'")
+    assert message.startswith("targets.0.rough.0: into: true on face second.outer of 'conehole'")
     assert "a face of the subtracted G4Cons, would widen the cut" in message
     assert "\n" not in message

@@ -54,20 +54,22 @@ from score4.inputs.config import RoughFace
 from score4.shapes import BooleanShape, G4Box, G4Cons, G4Tubs, Shape, Transform
 from score4.shapes.base import INSIDE
 from score4.shapes.boolean import FaceClip
-from score4.shapes.faces import PlaneFace, SphereFace
+from score4.shapes.faces import AnnulusFace, PlaneFace, SphereFace
 from score4.surface.rough import Surface
 
 from .boolean_modes import check_modes, check_replicas, cut_face, into_depth
-from .facets import ccw, face_triangles, plane_face, plane_groups
+from .facets import ccw, cells_inside, face_triangles, plane_face, plane_groups
 from .scene import (
     BooleanFace,
     CurvedRoughLayer,
     FaceFrame,
     PolygonRoughLayer,
+    RingRoughLayer,
     RoughLayer,
     TargetVolume,
     make_layer,
     make_polygon_layer,
+    ring_cells,
 )
 
 #: Halvings of a cell when its centre's margin does not prove it whole (a cell cut by the
@@ -190,6 +192,8 @@ def _on_boolean(
             on = cut_face(base, into_depth(layer))
             cut = on.clip
         kept = kept_cells(layer, cut, on, placed)
+        if rough.into and clip.flipped and not isinstance(layer, CurvedRoughLayer):
+            kept &= _in_grown_slab(layer, clip, on, target.transform)
         layer.mask = kept
         if not kept.any():
             if len(layers) > 1:
@@ -213,6 +217,38 @@ def _on_boolean(
             f"{what} (face {clip.face} of a {clip.leaf.kind} in {len(layers)} planes) that lies "
             "on the solid's surface"
         )
+    return out
+
+
+def _in_grown_slab(
+    layer: RoughLayer, clip: FaceClip, on: BooleanFace, to_world: Transform
+) -> np.ndarray:
+    """The cells of a flat ``into`` layer on a face of a subtracted solid (grown by the layer's
+    thickness along the face's normal, ``on``) whose whole column, from the grown face up to the
+    old one, lies in the grown solid: the cells on both faces. The solid's other faces next to
+    the slab are planes or cones (a Trd's sides, a cone's wall), so a cell on the slab's two
+    faces is on every section between them. A ring narrows its envelope to the radii both faces
+    cover (a cone's floor shrinks as it grows down)."""
+    size = layer.patch_size
+    centres = layer.cell_centres()
+    grown = on.clip.leaf.face(clip.face)
+    if isinstance(layer, RingRoughLayer):
+        old = clip.leaf.face(clip.face)
+        assert isinstance(old, AnnulusFace)
+        assert isinstance(grown, AnnulusFace)
+        lo, hi = max(old.rmin, grown.rmin, layer.rmin), min(old.rmax, grown.rmax, layer.rmax)
+        layer.rmin, layer.rmax = lo, max(lo, hi)
+        return ring_cells(centres, size, lo, hi)
+    out = np.ones(centres.shape[:-1], dtype=bool) if layer.mask is None else layer.mask.copy()
+    for solid in (clip.leaf, on.clip.leaf):
+        to = to_world @ (clip.transform if solid is clip.leaf else on.clip.transform)
+        world = to.apply(face_triangles(solid, clip.face).reshape(-1, 3))
+        local = layer.frame.to_local(world).reshape(-1, 3, 3)
+        height = layer.thickness if solid is clip.leaf else 0.0
+        plane = np.abs(local[..., 2] - height) <= 1e-9 * max(float(np.abs(local).max()), 1.0)
+        tri2d = ccw(local[plane.all(axis=1)][..., :2])
+        scale = max(float(np.abs(tri2d).max()), 1.0) if len(tri2d) else 1.0
+        out &= cells_inside(tri2d, centres, size, 1e-9 * scale)
     return out
 
 

@@ -19,8 +19,13 @@
   subtracted G4Box or an end face of a subtracted G4Tubs (a blind hole's floor) that solid
   grows by the layer's thickness along the face's own normal (into the kept volume: against the
   boolean's outward normal there), and the layer lies in the slab, on the grown solid's face.
-  Refused elsewhere: the flat faces of other subtracted solids (a G4Cons' end faces, a tube's
-  phi cut faces) and the other curved faces.
+  The same holds for the flat faces of a subtracted G4Cons, G4Polycone or G4GenericPolycone
+  (their (r, z) contour's edge moved, the neighbours' lines kept), G4Trd (a G4Trd again) and
+  G4Polyhedra (the apothem contour's edge moved: a G4GenericPolyhedra); the layer's cells are
+  those the grown solid fills over the whole slab (on the old face and on the grown one: a
+  hole narrowing to its floor loses its outer ring of cells). Refused elsewhere: the phi faces
+  of a subtracted solid, the faces of a subtracted G4Trap, tessellated or extruded solid, and
+  the other curved faces.
 """
 
 from __future__ import annotations
@@ -31,7 +36,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import ConfigError
-from ..shapes import BooleanShape, G4Box, G4Tubs, Shape, Transform
+from ..shapes import BooleanShape, G4Tubs, Shape, Transform
 from ..shapes.faces import PlaneFace
 from ..shapes.placed import PlacedShape
 from .boolean_distance import leaf_path
@@ -49,15 +54,14 @@ def check_modes(
     if rough.into:
         flat = isinstance(leaf.face(face), PlaneFace)
         bore = isinstance(leaf, G4Tubs) and face in ("outer", "inner")
-        grows = (
-            flat and isinstance(leaf, G4Box | G4Tubs) and leaf.trimmed({face: -1e-6}) is not None
-        )
+        grows = flat and leaf.moved({face: -1e-6}) is not None
         if flipped and not (bore or grows):
             raise ConfigError(
                 f"{where}: into: true on {what}, a face of the subtracted {leaf.kind}, would "
-                "widen the cut, which score4 does for the walls of a subtracted G4Tubs (a bore), "
-                "its end faces and the faces of a subtracted G4Box only; put the layer outside "
-                "the volume (into: false)"
+                "widen the cut, which score4 does for the walls of a subtracted G4Tubs (a bore) "
+                "and the flat faces of a subtracted G4Box, G4Tubs, G4Cons, G4Polycone, "
+                "G4GenericPolycone, G4Trd or G4Polyhedra (not phi faces) only; put the layer "
+                "outside the volume (into: false)"
             )
         if not flipped and (not flat or leaf.trimmed({face: 1e-6}) is None):
             raise ConfigError(
@@ -105,7 +109,7 @@ def leaf_cuts(shape: BooleanShape, cuts: dict[str, float]) -> dict[str, tuple[Sh
     out = {}
     for path, faces in by_path.items():
         leaf = shape.face_clip(path + next(iter(faces))).leaf
-        trimmed = leaf.trimmed(faces)
+        trimmed = leaf.moved(faces)
         if trimmed is None:  # refused by check_modes before
             raise ConfigError(f"into: a {leaf.kind} cannot be cut behind {', '.join(faces)}")
         out[path] = trimmed
