@@ -19,7 +19,9 @@ The wall of a subtracted G4Tubs or G4Cons (a bore) faces the other way than the 
 layer is laid out as on the opposite wall of a solid beside it (:func:`turned_wall`: the bore is
 the ``inner`` wall of a tube or cone whose inner radii are the subtracted solid's), cut along the
 axis to where the boolean can be, so the layer lies in the bore and its shell ends where the
-solid does. A sphere face of a G4Sphere or G4Orb leaf takes the sphere's cells (a cell's points
+solid does; the sphere face of a subtracted G4Orb or G4Sphere (a spherical dimple or cavity)
+is the inner face of a shell around it (or the outer face of a ball inside a subtracted shell).
+A sphere face of a G4Sphere or G4Orb leaf takes the sphere's cells (a cell's points
 lie within its half-height plus the sphere radius times its half-angle of its centre).
 
 A flat face partly covered by another part of a union (the layer's envelope would run into
@@ -33,11 +35,13 @@ layer per plane (:func:`_on_boolean`; a plane without a kept cell gets none); th
 their flat rest as one (:class:`score4.source.build.PlanesRemainderSampler`).
 
 Refused, in one line each (:mod:`score4.world.boolean_modes` says why): ``into: true`` other
-than on flat faces of a G4Box or G4Tubs constituent (subtracted or not) and on bores,
+than on flat faces of a G4Box or G4Tubs constituent (subtracted or not), flat faces of a
+subtracted G4Cons, polycone, G4Trd or G4Polyhedra, bores and sphere faces of subtracted solids,
 ``tiling: portal``, ``native_layout: replicas`` where a cell holds no patch (and on a layer whose
 envelope is the prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs or
-G4Cons wall (spheres); a curved layer whose envelope runs into the solid itself (a wall partly
-covered by another part of a union), a flat one that keeps no cell clear of the other parts.
+G4Cons wall or a sphere face (a G4Sphere's theta cones, a polycone's walls); a curved layer
+whose envelope runs into the solid itself (a wall partly covered by another part of a union), a
+flat one that keeps no cell clear of the other parts.
 Steps and activeness measure these layers through the boolean's constituents
 (:mod:`score4.world.boolean_distance`).
 """
@@ -51,7 +55,7 @@ import numpy as np
 
 from score4.errors import ConfigError
 from score4.inputs.config import RoughFace
-from score4.shapes import BooleanShape, G4Box, G4Cons, G4Tubs, Shape, Transform
+from score4.shapes import BooleanShape, G4Box, G4Cons, G4Orb, G4Sphere, G4Tubs, Shape, Transform
 from score4.shapes.base import INSIDE
 from score4.shapes.boolean import FaceClip
 from score4.shapes.faces import AnnulusFace, PlaneFace, SphereFace
@@ -154,7 +158,8 @@ def _leaf(
         if turned is None:
             raise ConfigError(
                 f"{where}: {what} is the curved face {face} of a subtracted {leaf.kind}; rough "
-                "curved faces of a subtracted solid are the walls of a G4Tubs or G4Cons"
+                "curved faces of a subtracted solid are the walls of a G4Tubs or G4Cons and the "
+                "sphere faces (outer, inner) of a G4Orb or G4Sphere"
             )
         leaf, face, shift = turned
         placed = clip.transform @ Transform(np.eye(3), shift)
@@ -255,16 +260,25 @@ def _in_grown_slab(
 def turned_wall(
     leaf: Shape, face: str, extent: tuple[float, float]
 ) -> tuple[Shape, str, np.ndarray] | None:
-    """The wall ``face`` of a subtracted G4Tubs or G4Cons as the opposite wall of a solid beside
-    it, whose outward normal is the boolean's (the bore a subtracted cylinder or cone leaves is
-    the ``inner`` wall of a tube or cone whose inner radii are the subtracted solid's outer
-    radii; a subtracted solid's ``inner`` wall is the ``outer`` wall of a full one), cut to
+    """The wall ``face`` of a subtracted G4Tubs, G4Cons, G4Orb or G4Sphere as the opposite wall
+    of a solid beside it, whose outward normal is the boolean's (the bore a subtracted cylinder
+    or cone leaves is the ``inner`` wall of a tube or cone whose inner radii are the subtracted
+    solid's outer radii, a spherical cavity the ``inner`` face of a shell, not cut; a subtracted
+    solid's ``inner`` wall is the ``outer`` wall of a full one), tubes and cones cut to
     ``extent`` (z range, leaf frame: where the boolean can be, so the layer's shell ends where
     the solid does), and the shift of its origin in the leaf's frame; None for other solids and
     faces."""
     if face not in ("outer", "inner"):
         return None
     turned: Shape
+    if isinstance(leaf, G4Orb):  # a spherical cavity's wall: the inner face of a shell
+        return G4Sphere(leaf.r, 2 * leaf.r), "inner", np.zeros(3)
+    if isinstance(leaf, G4Sphere):
+        if face == "outer":
+            return replace(leaf, rmin=leaf.rmax, rmax=2 * leaf.rmax), "inner", np.zeros(3)
+        if leaf.rmin > 0:
+            return replace(leaf, rmin=0.0, rmax=leaf.rmin), "outer", np.zeros(3)
+        return None
     if isinstance(leaf, G4Tubs):
         if face == "outer":
             turned, name = replace(leaf, rmin=leaf.rmax, rmax=2 * leaf.rmax), "inner"

@@ -23,7 +23,10 @@
   (their (r, z) contour's edge moved, the neighbours' lines kept), G4Trd (a G4Trd again) and
   G4Polyhedra (the apothem contour's edge moved: a G4GenericPolyhedra); the layer's cells are
   those the grown solid fills over the whole slab (on the old face and on the grown one: a
-  hole narrowing to its floor loses its outer ring of cells). Refused elsewhere: the phi faces
+  hole narrowing to its floor loses its outer ring of cells). On the sphere face of a
+  subtracted G4Orb or G4Sphere (a spherical dimple or cavity, laid out as the inner face of a
+  shell beside it) the subtracted solid grows by the layer's cut, as a bore does. Refused
+  elsewhere: the phi faces
   of a subtracted solid, the faces of a subtracted G4Trap, tessellated or extruded solid, and
   the other curved faces.
 """
@@ -36,8 +39,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import ConfigError
-from ..shapes import BooleanShape, G4Tubs, Shape, Transform
-from ..shapes.faces import PlaneFace
+from ..shapes import BooleanShape, G4Orb, G4Sphere, G4Tubs, Shape, Transform
+from ..shapes.faces import PlaneFace, SphereFace
 from ..shapes.placed import PlacedShape
 from .boolean_distance import leaf_path
 from .scene import BooleanFace, CurvedRoughLayer, PolygonRoughLayer, RingRoughLayer, RoughLayer
@@ -53,15 +56,15 @@ def check_modes(
     (face ``face`` of its constituent ``leaf``; ``flipped``: of a subtracted solid)."""
     if rough.into:
         flat = isinstance(leaf.face(face), PlaneFace)
-        bore = isinstance(leaf, G4Tubs) and face in ("outer", "inner")
+        bore = isinstance(leaf, G4Tubs | G4Sphere | G4Orb) and face in ("outer", "inner")
         grows = flat and leaf.moved({face: -1e-6}) is not None
         if flipped and not (bore or grows):
             raise ConfigError(
                 f"{where}: into: true on {what}, a face of the subtracted {leaf.kind}, would "
-                "widen the cut, which score4 does for the walls of a subtracted G4Tubs (a bore) "
-                "and the flat faces of a subtracted G4Box, G4Tubs, G4Cons, G4Polycone, "
-                "G4GenericPolycone, G4Trd or G4Polyhedra (not phi faces) only; put the layer "
-                "outside the volume (into: false)"
+                "widen the cut, which score4 does for the walls of a subtracted G4Tubs (a bore), "
+                "the sphere faces of a subtracted G4Orb or G4Sphere and the flat faces of a "
+                "subtracted G4Box, G4Tubs, G4Cons, G4Polycone, G4GenericPolycone, G4Trd or "
+                "G4Polyhedra (not phi faces) only; put the layer outside the volume (into: false)"
             )
         if not flipped and (not flat or leaf.trimmed({face: 1e-6}) is None):
             raise ConfigError(
@@ -143,6 +146,11 @@ def into_depth(layer: RoughLayer) -> float:
     """How far an ``into`` layer moves its boolean face inward (mm): the layer's thickness on a
     flat face; on a bore (a subtracted tube's wall, laid out as the inner wall of a tube beside
     it) the cut of that tube's inner radius."""
+    if isinstance(layer, CurvedRoughLayer) and isinstance(layer.ring_layout.face, SphereFace):
+        # a spherical cavity's wall: the shell's inner sphere moved out by the cut
+        turned, radius = layer.target.shape, layer.ring_layout.face.sphere_radius
+        assert isinstance(turned, G4Sphere)  # turned_wall: a shell's inner face or a ball's
+        return float(radius - turned.rmin if turned.rmin > 0 else turned.rmax - radius)
     if isinstance(layer, CurvedRoughLayer):
         turned = layer.target.shape
         assert layer.cut_shape is not None  # into on a wall: the tube cut for it
