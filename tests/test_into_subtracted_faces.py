@@ -88,9 +88,17 @@ def config(gdml: Path, holes: dict | None = None) -> dict:
     }
 
 
-def in_hole(name: str, q: np.ndarray, t: float) -> np.ndarray:
+#: into on the sides: the Trd's +x face, the polyhedra's six sides (a deep test)
+SIDES = {"trd": (30.0, ["second.+x"]), "hedra": (60.0, ["second.seg_1"])}
+
+
+def in_hole(name: str, q: np.ndarray, t: float, sides: bool = False) -> np.ndarray:
     """True for points ``q`` (n, 3; box frame) in the hole ``name`` grown by ``t`` behind its
-    into faces, written out from the solids' parameters (hole frame: z less 10 mm)."""
+    into faces (its floor and ledge; with ``sides``, its sides of :data:`SIDES` instead, each
+    plane moved by t along its normal: t sqrt(1.01) across at every z), written out from the
+    solids' parameters (hole frame: z less 10 mm)."""
+    if sides:
+        return _in_grown_sides(name, q, t * math.sqrt(1.01))
     x, y, z = q[:, 0], q[:, 1], q[:, 2] - 10.0
     rho = np.hypot(x, y)
     top = z <= 5.0
@@ -110,19 +118,39 @@ def in_hole(name: str, q: np.ndarray, t: float) -> np.ndarray:
     return (z >= -5.0 - t) & top & (apothem <= 2.0 + 0.1 * (z + 5.0))
 
 
+def _in_grown_sides(name: str, q: np.ndarray, across: float) -> np.ndarray:
+    x, y, z = q[:, 0], q[:, 1], q[:, 2] - 10.0
+    w = 0.1 * (z + 5.0)
+    inside = (z >= -5.0) & (z <= 5.0)
+    if name == "trd":
+        return inside & (x <= 2.0 + w + across) & (x >= -2.0 - w) & (np.abs(y) <= 1.5 + w)
+    apothem = np.max(np.outer(x, np.cos(HEX)) + np.outer(y, np.sin(HEX)), axis=1)
+    return inside & (apothem <= 2.0 + w + across)
+
+
 class _Solid:
     """The box less a grown hole, for helpers.ray_trace.polycone_path (its sign only)."""
 
-    def __init__(self, name: str, t: float) -> None:
-        self.name, self.t = name, t
+    def __init__(self, name: str, t: float, sides: bool) -> None:
+        self.name, self.t, self.sides = name, t, sides
 
     def signed_distance(self, q: np.ndarray) -> np.ndarray:
-        inside = (np.abs(q) < HALF).all(axis=1) & ~in_hole(self.name, q, self.t)
+        inside = (np.abs(q) < HALF).all(axis=1) & ~in_hole(self.name, q, self.t, self.sides)
         return np.where(inside, -1.0, 1.0)
 
 
-def hole_volume(name: str, t: float) -> float:
+def hole_volume(name: str, t: float, sides: bool = False) -> float:
     """The volume of the grown hole inside the box (z from the floor to the box's top), mm3."""
+    if sides:  # the sections' areas are quadratic in z: Simpson
+        s = t * math.sqrt(1.01)
+
+        def section(z: float) -> float:
+            w = 0.1 * (z + 5)
+            if name == "trd":
+                return (4 + 2 * w + s) * (3 + 2 * w)
+            return 2 * math.sqrt(3) * (2 + w + s) ** 2
+
+        return 5 / 6 * (section(-5) + 4 * section(-2.5) + section(0))
 
     def frustum(h: float, r1: float, r2: float) -> float:
         return math.pi * h / 3 * (r1 * r1 + r1 * r2 + r2 * r2)
@@ -174,28 +202,39 @@ def test_into_subtracted_faces_lie_in_the_grown_slab(gdml):
     assert (ledge.rmin, ledge.rmax) == pytest.approx((2.5, 4.0 - t / 14), abs=1e-12)
 
 
-def test_geantino_paths_and_volumes_through_grown_holes(gdml, tmp_path):
-    """Geantinos from inside each hole, down through its into faces: Geant4's track length in
-    each box (the boolean rebuilt around the grown solid) equals the analytic path in the box
-    less the grown hole plus the path in the patch bodies, 1e-9 mm; Geant4's volume of each cut
-    boolean (a Monte Carlo estimate from 10^6 points) is the analytic one to 2e-3."""
+@pytest.mark.parametrize(
+    "sides", [False, pytest.param(True, marks=pytest.mark.deep)], ids=["floors", "sides"]
+)
+def test_geantino_paths_and_volumes_through_grown_holes(gdml, tmp_path, sides):
+    """Geantinos from inside each hole, down through its floor and ledge (or, deep, out through
+    the Trd's +x side and the polyhedra's six sides): Geant4's track length in each box (the
+    boolean rebuilt around the grown solid) equals the analytic path in the box less the grown
+    hole plus the path in the patch bodies, 1e-9 mm; Geant4's volume of each cut boolean (a
+    Monte Carlo estimate from 10^6 points) is the analytic one to 2e-4."""
     from score4.source.build import make_source
 
     from helpers.geantinos import geantino_run
     from helpers.ray_trace import patches_path, polycone_path
 
-    data = config(gdml)
+    holes = SIDES if sides else HOLES
+    data = config(gdml, holes)
     cfg = parse_config(data)
     scene = build_scene(cfg)
     rng = np.random.default_rng(5)
     per = 6
     starts, directions, owners = [], [], []
-    for name, (y, _faces) in HOLES.items():
+    for name, (y, _faces) in holes.items():
         r0 = 3.3 if name == "pcone" else 1.4  # over the ledge (r 2.5 .. 4) or the floor
         phi = rng.uniform(0, 2 * np.pi, per)
         rho = rng.uniform(0.0, 1.0, per) * (0.6 if name == "pcone" else 1.0) + r0 - 0.3
         local = np.column_stack([rho * np.cos(phi), rho * np.sin(phi), np.full(per, 9.5)])
         aim = local + np.column_stack([rng.uniform(-3, 3, (per, 2)), np.full(per, -8.0)])
+        if sides:  # from the axis at z 6 .. 9 out through a side, below the box's top
+            local = np.column_stack([np.zeros((per, 2)), rng.uniform(6.0, 9.0, per)])
+            out = np.column_stack([np.cos(phi), np.sin(phi), rng.uniform(-0.3, 0.1, per)])
+            if name == "trd":
+                out[:, :2] = np.column_stack([np.ones(per), rng.uniform(-0.4, 0.4, per)])
+            aim = local + out
         d = (aim - local) / np.linalg.norm(aim - local, axis=1, keepdims=True)
         starts.append(local + np.array([0.0, y, 0.0]))
         directions.append(d)
@@ -205,13 +244,13 @@ def test_geantino_paths_and_volumes_through_grown_holes(gdml, tmp_path):
     res = geantino_run(data, primaries, start, direction, tmp_path)
     crossed = 0
     for k, name in enumerate(owners):
-        y = HOLES[name][0]
-        layers = [scene.layer(name, f) for f in HOLES[name][1]]
+        y = holes[name][0]
+        layers = scene.layers_of(name)  # a polyhedra's sides: a layer per plane
         t = layers[0].thickness
         o = start[k] - np.array([0.0, y, 0.0])
         in_patches = sum(patches_path(start[k], direction[k], layer) for layer in layers)
         crossed += in_patches > 0
-        expected = polycone_path(o, direction[k], _Solid(name, t)) + in_patches
+        expected = polycone_path(o, direction[k], _Solid(name, t, sides)) + in_patches
         got = np.asarray(res.scores["track_length"][name])[k]
         assert got == pytest.approx(expected, abs=1e-9, rel=0), (name, k)
     assert crossed >= len(owners) // 2
@@ -219,19 +258,22 @@ def test_geantino_paths_and_volumes_through_grown_holes(gdml, tmp_path):
     for vol in res.run["volumes"]:
         name = vol["name"]
         own = vol["volume_mm3"] - vol["layer_volume_mm3"]
-        assert own == pytest.approx((2 * HALF) ** 3 - hole_volume(name, t), rel=2e-3), name
+        hole = hole_volume(name, t, sides)
+        assert own == pytest.approx((2 * HALF) ** 3 - hole, rel=2e-4), name
 
 
 @pytest.mark.deep
 def test_grown_holes_pass_the_overlap_check(gdml, tmp_path):
     """Geant4's overlap check (``score4 geometry check``, in its own process) finds no overlap
-    between the patches of the five layers and their boxes rebuilt around the grown holes."""
+    between the patches of the layers and their boxes rebuilt around the grown holes, the Trd's
+    and the polyhedra's floors and sides grown together."""
     import yaml
 
     from helpers.g4_geometry_check import assert_no_overlaps
 
+    holes = {**HOLES, **{k: (y, HOLES[k][1] + faces) for k, (y, faces) in SIDES.items()}}
     path = tmp_path / "holes.yaml"
-    path.write_text(yaml.safe_dump(config(gdml)))
+    path.write_text(yaml.safe_dump(config(gdml, holes)))
     assert_no_overlaps(path)
 
 

@@ -58,10 +58,10 @@ from score4.inputs.config import RoughFace
 from score4.shapes import BooleanShape, G4Box, G4Cons, G4Orb, G4Sphere, G4Tubs, Shape, Transform
 from score4.shapes.base import INSIDE
 from score4.shapes.boolean import FaceClip
-from score4.shapes.faces import AnnulusFace, PlaneFace, SphereFace
+from score4.shapes.faces import AnnulusFace, SphereFace
 from score4.surface.rough import Surface
 
-from .boolean_modes import check_modes, check_replicas, cut_face, into_depth
+from .boolean_modes import check_modes, check_replicas, cut_face, flat_face, into_depth
 from .facets import ccw, cells_inside, face_triangles, plane_face, plane_groups
 from .scene import (
     BooleanFace,
@@ -149,7 +149,7 @@ def _leaf(
     if not area > 0:
         raise ConfigError(f"{where}: {what} lies nowhere on the solid's surface (area 0)")
     leaf, face, placed = clip.leaf, clip.face, clip.transform
-    if clip.flipped and not isinstance(leaf.face(face), PlaneFace):
+    if clip.flipped and not flat_face(leaf, face):
         lo, hi = shape.bounding_box()
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                             for z in (lo[2], hi[2])])  # fmt: skip
@@ -236,9 +236,8 @@ def _in_grown_slab(
     cover (a cone's floor shrinks as it grows down)."""
     size = layer.patch_size
     centres = layer.cell_centres()
-    grown = on.clip.leaf.face(clip.face)
     if isinstance(layer, RingRoughLayer):
-        old = clip.leaf.face(clip.face)
+        old, grown = clip.leaf.face(clip.face), on.clip.leaf.face(clip.face)
         assert isinstance(old, AnnulusFace)
         assert isinstance(grown, AnnulusFace)
         lo, hi = max(old.rmin, grown.rmin, layer.rmin), min(old.rmax, grown.rmax, layer.rmax)

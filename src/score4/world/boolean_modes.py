@@ -40,6 +40,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..shapes import BooleanShape, G4Orb, G4Sphere, G4Tubs, Shape, Transform
+from ..shapes.base import PlaneTriangles
 from ..shapes.faces import PlaneFace, SphereFace
 from ..shapes.placed import PlacedShape
 from .boolean_distance import leaf_path
@@ -55,7 +56,7 @@ def check_modes(
     """One-line errors for ``into: true`` and ``tiling: portal`` on a boolean's face ``what``
     (face ``face`` of its constituent ``leaf``; ``flipped``: of a subtracted solid)."""
     if rough.into:
-        flat = isinstance(leaf.face(face), PlaneFace)
+        flat = flat_face(leaf, face)
         bore = isinstance(leaf, G4Tubs | G4Sphere | G4Orb) and face in ("outer", "inner")
         grows = flat and leaf.moved({face: -1e-6}) is not None
         if flipped and not (bore or grows):
@@ -80,6 +81,17 @@ def check_modes(
             "cell, while a boolean's face keeps patches only where it lies on the solid's "
             "surface; take tiling: native"
         )
+
+
+def flat_face(leaf: Shape, face: str) -> bool:
+    """True for a face of flat facets: one plane, or several (the sides of a G4Polyhedra)."""
+    try:
+        return isinstance(leaf.face(face), PlaneFace)
+    except ConfigError:  # not one plane
+        pass
+    k = leaf.faces.index(face)
+    patches = [p for p in leaf.patches if p.face == k]
+    return bool(patches) and all(isinstance(p, PlaneTriangles) for p in patches)
 
 
 def check_replicas(layer: RoughLayer, where: str, what: str) -> None:
