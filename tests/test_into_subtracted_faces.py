@@ -36,34 +36,23 @@ HEX = np.radians(30.0 + 60.0 * np.arange(6))  # the hexagon's side directions
 def gdml(tmp_path_factory) -> Path:
     """Six copper boxes (20 mm), each less a hole whose axis is the box's z axis, from
     z = 5 mm up through its top (hole frame: z = 0 at the box's top), written by pyg4ometry."""
-    import pyg4ometry as pg
+    from helpers.boolean_worlds import write_box_holes
 
-    reg = pg.geant4.Registry()
-    s = pg.geant4.solid
-    world = pg.geant4.LogicalVolume(s.Box("world_s", 200, 200, 100, reg), "G4_Galactic", "W", reg)
-    holes = {
-        "cone": s.Cons("cone_b", 0, 2, 0, 3, 10, 0, 2 * np.pi, reg),
-        "undercut": s.Cons("undercut_b", 0, 3, 0, 2, 10, 0, 2 * np.pi, reg),
-        "pcone": s.Polycone(
-            "pcone_b", 0, 2 * np.pi, [-5, -2, -2, 5], [0, 0, 0, 0], [2, 2.5, 4, 4.5], reg
-        ),
-        "trd": s.Trd("trd_b", 4, 6, 3, 5, 10, reg),
-        "hedra": s.Polyhedra("hedra_b", 0, 2 * np.pi, 6, 2, [-5, 5], [0, 0], [2, 3], reg),
-        "trap": s.Trap("trap_b", 10, 0, 0, 3, 4, 4, 0, 5, 6, 6, 0, reg),  # refused: at y = 90 mm
-    }
-    for name, hole in holes.items():
-        box = s.Box(f"{name}_a", 2 * HALF, 2 * HALF, 2 * HALF, reg)
-        cut = s.Subtraction(f"{name}_s", box, hole, [[0, 0, 0], [0, 0, 10]], reg)
-        lv = pg.geant4.LogicalVolume(cut, "G4_Cu", f"{name}_lv", reg)
-        pg.geant4.PhysicalVolume(
-            [0, 0, 0], [0, HOLES.get(name, (90.0,))[0], 0], lv, name, world, reg
-        )
-    reg.setWorld(world.name)
-    path = tmp_path_factory.mktemp("subfaces") / "holes.gdml"
-    writer = pg.gdml.Writer()
-    writer.addDetector(reg)
-    writer.write(str(path))
-    return path
+    def holes(s, reg) -> dict:
+        at = [0.0, 0.0, 10.0]
+        made = {
+            "cone": s.Cons("cone_b", 0, 2, 0, 3, 10, 0, 2 * np.pi, reg),
+            "undercut": s.Cons("undercut_b", 0, 3, 0, 2, 10, 0, 2 * np.pi, reg),
+            "pcone": s.Polycone(
+                "pcone_b", 0, 2 * np.pi, [-5, -2, -2, 5], [0, 0, 0, 0], [2, 2.5, 4, 4.5], reg
+            ),
+            "trd": s.Trd("trd_b", 4, 6, 3, 5, 10, reg),
+            "hedra": s.Polyhedra("hedra_b", 0, 2 * np.pi, 6, 2, [-5, 5], [0, 0], [2, 3], reg),
+            "trap": s.Trap("trap_b", 10, 0, 0, 3, 4, 4, 0, 5, 6, 6, 0, reg),  # refused
+        }
+        return {k: (v, at, HOLES.get(k, (90.0,))[0]) for k, v in made.items()}
+
+    return write_box_holes(tmp_path_factory.mktemp("subfaces") / "holes.gdml", holes, HALF)
 
 
 def config(gdml: Path, holes: dict | None = None) -> dict:
@@ -211,15 +200,12 @@ def test_geantino_paths_and_volumes_through_grown_holes(gdml, tmp_path, sides):
     boolean rebuilt around the grown solid) equals the analytic path in the box less the grown
     hole plus the path in the patch bodies, 1e-9 mm; Geant4's volume of each cut boolean (a
     Monte Carlo estimate from 10^6 points) is the analytic one to 2e-4."""
-    from score4.source.build import make_source
-
-    from helpers.geantinos import geantino_run
-    from helpers.ray_trace import patches_path, polycone_path
+    from helpers.geantinos import assert_box_paths
+    from helpers.ray_trace import polycone_path
 
     holes = SIDES if sides else HOLES
     data = config(gdml, holes)
-    cfg = parse_config(data)
-    scene = build_scene(cfg)
+    scene = build_scene(parse_config(data))
     rng = np.random.default_rng(5)
     per = 6
     starts, directions, owners = [], [], []
@@ -239,27 +225,18 @@ def test_geantino_paths_and_volumes_through_grown_holes(gdml, tmp_path, sides):
         starts.append(local + np.array([0.0, y, 0.0]))
         directions.append(d)
         owners += [name] * per
-    start, direction = np.concatenate(starts), np.concatenate(directions)
-    primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, len(start))
-    res = geantino_run(data, primaries, start, direction, tmp_path)
-    crossed = 0
-    for k, name in enumerate(owners):
-        y = holes[name][0]
-        layers = scene.layers_of(name)  # a polyhedra's sides: a layer per plane
-        t = layers[0].thickness
-        o = start[k] - np.array([0.0, y, 0.0])
-        in_patches = sum(patches_path(start[k], direction[k], layer) for layer in layers)
-        crossed += in_patches > 0
-        expected = polycone_path(o, direction[k], _Solid(name, t, sides)) + in_patches
-        got = np.asarray(res.scores["track_length"][name])[k]
-        assert got == pytest.approx(expected, abs=1e-9, rel=0), (name, k)
-    assert crossed >= len(owners) // 2
     t = scene.layers[0].thickness
-    for vol in res.run["volumes"]:
-        name = vol["name"]
-        own = vol["volume_mm3"] - vol["layer_volume_mm3"]
-        hole = hole_volume(name, t, sides)
-        assert own == pytest.approx((2 * HALF) ** 3 - hole, rel=2e-4), name
+    crossed = assert_box_paths(
+        data,
+        scene,
+        np.concatenate(starts),
+        np.concatenate(directions),
+        owners,
+        lambda name, o, d: polycone_path(o, d, _Solid(name, t, sides)),
+        lambda name: (2 * HALF) ** 3 - hole_volume(name, t, sides),
+        tmp_path,
+    )
+    assert crossed >= len(owners) // 2
 
 
 @pytest.mark.deep

@@ -32,26 +32,16 @@ HOLES = {
 
 @pytest.fixture(scope="module")
 def gdml(tmp_path_factory) -> Path:
-    import pyg4ometry as pg
+    from helpers.boolean_worlds import write_box_holes
 
-    reg = pg.geant4.Registry()
-    s = pg.geant4.solid
-    world = pg.geant4.LogicalVolume(s.Box("world_s", 200, 200, 100, reg), "G4_Galactic", "W", reg)
-    for name, (y, at, _into) in HOLES.items():
-        if name == "cavity":
-            hole = s.Sphere(f"{name}_b", 0, RADIUS, 0, 2 * np.pi, 0, np.pi, reg)
-        else:
-            hole = s.Orb(f"{name}_b", RADIUS, reg)
-        box = s.Box(f"{name}_a", 2 * HALF, 2 * HALF, 2 * HALF, reg)
-        cut = s.Subtraction(f"{name}_s", box, hole, [[0, 0, 0], list(at)], reg)
-        lv = pg.geant4.LogicalVolume(cut, "G4_Cu", f"{name}_lv", reg)
-        pg.geant4.PhysicalVolume([0, 0, 0], [0, y, 0], lv, name, world, reg)
-    reg.setWorld(world.name)
-    path = tmp_path_factory.mktemp("subspheres") / "spheres.gdml"
-    writer = pg.gdml.Writer()
-    writer.addDetector(reg)
-    writer.write(str(path))
-    return path
+    def holes(s, reg) -> dict:
+        cavity = s.Sphere("cavity_b", 0, RADIUS, 0, 2 * np.pi, 0, np.pi, reg)
+        return {
+            name: (cavity if name == "cavity" else s.Orb(f"{name}_b", RADIUS, reg), at, y)
+            for name, (y, at, _into) in HOLES.items()
+        }
+
+    return write_box_holes(tmp_path_factory.mktemp("subspheres") / "spheres.gdml", holes, HALF)
 
 
 def config(gdml: Path) -> dict:
@@ -96,14 +86,10 @@ def test_sphere_faces_of_subtracted_solids(gdml, tmp_path):
     length in the box equals the analytic path in the box less the (grown) ball plus the path
     in the bent patch bodies near the ray, 1e-9 mm; Geant4's volume of each box (a Monte Carlo
     estimate from 10^6 points) is the box less the (grown) ball to 2e-4."""
-    from score4.source.build import make_source
-
-    from helpers.geantinos import geantino_run
-    from helpers.ray_trace import patches_path
+    from helpers.geantinos import assert_box_paths
 
     data = config(gdml)
-    cfg = parse_config(data)
-    scene = build_scene(cfg)
+    scene = build_scene(parse_config(data))
     radii = {}
     for name, (_y, at, into) in HOLES.items():
         layer = scene.layer(name, "second.outer")
@@ -131,25 +117,19 @@ def test_sphere_faces_of_subtracted_solids(gdml, tmp_path):
         starts.append(np.tile(local + np.array([0.0, y, 0.0]), (per, 1)))
         directions.append(u)
         owners += [name] * per
-    start, direction = np.concatenate(starts), np.concatenate(directions)
-    primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, len(start))
-    res = geantino_run(data, primaries, start, direction, tmp_path)
-    crossed = 0
-    for k, name in enumerate(owners):
-        y, at, _into = HOLES[name]
-        layer = scene.layer(name, "second.outer")
-        o = start[k] - np.array([0.0, y, 0.0])
-        in_patches = patches_path(start[k], direction[k], layer)
-        crossed += in_patches > 0
-        expected = _box_less_ball(o, direction[k], np.asarray(at), radii[name]) + in_patches
-        got = np.asarray(res.scores["track_length"][name])[k]
-        assert got == pytest.approx(expected, abs=1e-9, rel=0), (name, k)
+    crossed = assert_box_paths(
+        data,
+        scene,
+        np.concatenate(starts),
+        np.concatenate(directions),
+        owners,
+        lambda name, o, d: _box_less_ball(o, d, np.asarray(HOLES[name][1]), radii[name]),
+        lambda name: (
+            (2 * HALF) ** 3 - 4 / 3 * math.pi * radii[name] ** 3 / (1 if name == "cavity" else 2)
+        ),
+        tmp_path,
+    )
     assert crossed >= len(owners) * 2 // 3
-    for vol in res.run["volumes"]:
-        name = vol["name"]
-        ball = 4 / 3 * math.pi * radii[name] ** 3 / (2 if name != "cavity" else 1)
-        own = vol["volume_mm3"] - vol["layer_volume_mm3"]
-        assert own == pytest.approx((2 * HALF) ** 3 - ball, rel=2e-4), name
 
 
 def _cell_uv(layer) -> tuple[np.ndarray, np.ndarray]:
