@@ -19,7 +19,9 @@ The wall of a subtracted G4Tubs or G4Cons (a bore) faces the other way than the 
 layer is laid out as on the opposite wall of a solid beside it (:func:`turned_wall`: the bore is
 the ``inner`` wall of a tube or cone whose inner radii are the subtracted solid's), cut along the
 axis to where the boolean can be, so the layer lies in the bore and its shell ends where the
-solid does. A sphere face of a G4Sphere or G4Orb leaf takes the sphere's cells (a cell's points
+solid does; the sphere face of a subtracted G4Orb or G4Sphere (a spherical dimple or cavity)
+is the inner face of a shell around it (or the outer face of a ball inside a subtracted shell).
+A sphere face of a G4Sphere or G4Orb leaf takes the sphere's cells (a cell's points
 lie within its half-height plus the sphere radius times its half-angle of its centre).
 
 A flat face partly covered by another part of a union (the layer's envelope would run into
@@ -33,13 +35,14 @@ layer per plane (:func:`_on_boolean`; a plane without a kept cell gets none); th
 their flat rest as one (:class:`score4.source.build.PlanesRemainderSampler`).
 
 Refused, in one line each (:mod:`score4.world.boolean_modes` says why): ``into: true`` on the
-faces of a subtracted solid other than a G4Box's faces, a G4Tubs' end faces and the walls of a
-G4Tubs or G4Cons (bores), on phi faces, and on two faces of one constituent not subtracted that
-share an edge,
+faces of a subtracted solid other than its flat faces (a G4Box, G4Tubs, G4Cons, polycone, G4Trd
+or G4Polyhedra), the walls of a G4Tubs or G4Cons (bores) and the sphere faces of a G4Orb or
+G4Sphere, on phi faces, and on two faces of one constituent not subtracted that share an edge,
 ``tiling: portal``, ``native_layout: replicas`` where a cell holds no patch (and on a layer whose
 envelope is the prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs or
-G4Cons wall (spheres); a curved layer whose envelope runs into the solid itself (a wall partly
-covered by another part of a union), a flat one that keeps no cell clear of the other parts.
+G4Cons wall or a sphere face (a G4Sphere's theta cones, a polycone's walls); a curved layer
+whose envelope runs into the solid itself (a wall partly covered by another part of a union), a
+flat one that keeps no cell clear of the other parts.
 Steps and activeness measure these layers through the boolean's constituents
 (:mod:`score4.world.boolean_distance`).
 """
@@ -53,23 +56,25 @@ import numpy as np
 
 from score4.errors import ConfigError
 from score4.inputs.config import RoughFace
-from score4.shapes import BooleanShape, G4Box, G4Cons, G4Tubs, Shape, Transform
+from score4.shapes import BooleanShape, G4Box, G4Cons, G4Orb, G4Sphere, G4Tubs, Shape, Transform
 from score4.shapes.base import INSIDE
 from score4.shapes.boolean import FaceClip
-from score4.shapes.faces import PlaneFace, SphereFace
+from score4.shapes.faces import AnnulusFace, SphereFace
 from score4.surface.rough import Surface
 
-from .boolean_modes import check_modes, check_replicas, cut_face, into_depth
-from .facets import ccw, face_triangles, plane_face, plane_groups
+from .boolean_modes import check_modes, check_replicas, cut_face, flat_face, into_depth
+from .facets import ccw, cells_inside, face_triangles, plane_face, plane_groups
 from .scene import (
     BooleanFace,
     CurvedRoughLayer,
     FaceFrame,
     PolygonRoughLayer,
+    RingRoughLayer,
     RoughLayer,
     TargetVolume,
     make_layer,
     make_polygon_layer,
+    ring_cells,
 )
 
 #: Halvings of a cell when its centre's margin does not prove it whole (a cell cut by the
@@ -145,7 +150,7 @@ def _leaf(
     if not area > 0:
         raise ConfigError(f"{where}: {what} lies nowhere on the solid's surface (area 0)")
     leaf, face, placed = clip.leaf, clip.face, clip.transform
-    if clip.flipped and not isinstance(leaf.face(face), PlaneFace):
+    if clip.flipped and not flat_face(leaf, face):
         lo, hi = shape.bounding_box()
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                             for z in (lo[2], hi[2])])  # fmt: skip
@@ -154,7 +159,8 @@ def _leaf(
         if turned is None:
             raise ConfigError(
                 f"{where}: {what} is the curved face {face} of a subtracted {leaf.kind}; rough "
-                "curved faces of a subtracted solid are the walls of a G4Tubs or G4Cons"
+                "curved faces of a subtracted solid are the walls of a G4Tubs or G4Cons and the "
+                "sphere faces (outer, inner) of a G4Orb or G4Sphere"
             )
         leaf, face, shift = turned
         placed = clip.transform @ Transform(np.eye(3), shift)
@@ -192,6 +198,8 @@ def _on_boolean(
             on = cut_face(base, into_depth(layer, clip.flipped))
             cut = on.clip
         kept = kept_cells(layer, cut, on, placed)
+        if rough.into and clip.flipped and not isinstance(layer, CurvedRoughLayer):
+            kept &= _in_grown_slab(layer, clip, on, target.transform)
         layer.mask = kept
         if not kept.any():
             if len(layers) > 1:
@@ -218,19 +226,59 @@ def _on_boolean(
     return out
 
 
+def _in_grown_slab(
+    layer: RoughLayer, clip: FaceClip, on: BooleanFace, to_world: Transform
+) -> np.ndarray:
+    """The cells of a flat ``into`` layer on a face of a subtracted solid (grown by the layer's
+    thickness along the face's normal, ``on``) whose whole column, from the grown face up to the
+    old one, lies in the grown solid: the cells on both faces. The solid's other faces next to
+    the slab are planes or cones (a Trd's sides, a cone's wall), so a cell on the slab's two
+    faces is on every section between them. A ring narrows its envelope to the radii both faces
+    cover (a cone's floor shrinks as it grows down)."""
+    size = layer.patch_size
+    centres = layer.cell_centres()
+    if isinstance(layer, RingRoughLayer):
+        old, grown = clip.leaf.face(clip.face), on.clip.leaf.face(clip.face)
+        assert isinstance(old, AnnulusFace)
+        assert isinstance(grown, AnnulusFace)
+        lo, hi = max(old.rmin, grown.rmin, layer.rmin), min(old.rmax, grown.rmax, layer.rmax)
+        layer.rmin, layer.rmax = lo, max(lo, hi)
+        return ring_cells(centres, size, lo, hi)
+    out = np.ones(centres.shape[:-1], dtype=bool) if layer.mask is None else layer.mask.copy()
+    for solid in (clip.leaf, on.clip.leaf):
+        to = to_world @ (clip.transform if solid is clip.leaf else on.clip.transform)
+        world = to.apply(face_triangles(solid, clip.face).reshape(-1, 3))
+        local = layer.frame.to_local(world).reshape(-1, 3, 3)
+        height = layer.thickness if solid is clip.leaf else 0.0
+        plane = np.abs(local[..., 2] - height) <= 1e-9 * max(float(np.abs(local).max()), 1.0)
+        tri2d = ccw(local[plane.all(axis=1)][..., :2])
+        scale = max(float(np.abs(tri2d).max()), 1.0) if len(tri2d) else 1.0
+        out &= cells_inside(tri2d, centres, size, 1e-9 * scale)
+    return out
+
+
 def turned_wall(
     leaf: Shape, face: str, extent: tuple[float, float]
 ) -> tuple[Shape, str, np.ndarray] | None:
-    """The wall ``face`` of a subtracted G4Tubs or G4Cons as the opposite wall of a solid beside
-    it, whose outward normal is the boolean's (the bore a subtracted cylinder or cone leaves is
-    the ``inner`` wall of a tube or cone whose inner radii are the subtracted solid's outer
-    radii; a subtracted solid's ``inner`` wall is the ``outer`` wall of a full one), cut to
+    """The wall ``face`` of a subtracted G4Tubs, G4Cons, G4Orb or G4Sphere as the opposite wall
+    of a solid beside it, whose outward normal is the boolean's (the bore a subtracted cylinder
+    or cone leaves is the ``inner`` wall of a tube or cone whose inner radii are the subtracted
+    solid's outer radii, a spherical cavity the ``inner`` face of a shell, not cut; a subtracted
+    solid's ``inner`` wall is the ``outer`` wall of a full one), tubes and cones cut to
     ``extent`` (z range, leaf frame: where the boolean can be, so the layer's shell ends where
     the solid does), and the shift of its origin in the leaf's frame; None for other solids and
     faces."""
     if face not in ("outer", "inner"):
         return None
     turned: Shape
+    if isinstance(leaf, G4Orb):  # a spherical cavity's wall: the inner face of a shell
+        return G4Sphere(leaf.r, 2 * leaf.r), "inner", np.zeros(3)
+    if isinstance(leaf, G4Sphere):
+        if face == "outer":
+            return replace(leaf, rmin=leaf.rmax, rmax=2 * leaf.rmax), "inner", np.zeros(3)
+        if leaf.rmin > 0:
+            return replace(leaf, rmin=0.0, rmax=leaf.rmin), "outer", np.zeros(3)
+        return None
     if isinstance(leaf, G4Tubs):
         if face == "outer":
             turned, name = replace(leaf, rmin=leaf.rmax, rmax=2 * leaf.rmax), "inner"
