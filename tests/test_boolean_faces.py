@@ -25,6 +25,7 @@ from score4.world.scene import CurvedRoughLayer
 
 from helpers.boolean_worlds import (
     CONEBORE_POSITION,
+    CROSS_POSITION,
     HEX_CUT,
     HEXCUT_POSITION,
     ORB_CUT,
@@ -490,6 +491,30 @@ def test_a_rods_wall_through_a_box_in_geant4(gdml, tmp_path):
         crossed += in_patches > 0
         assert got[k] == pytest.approx(expected + in_patches, abs=1e-9, rel=0), k
     assert crossed >= n // 2  # most rays cross a patch body
+
+
+@pytest.mark.deep
+def test_a_rods_wall_in_two_pieces_exports_with_the_same_paths(gdml, tmp_path, monkeypatch):
+    """The rod's wall through the box (two envelope pieces) and the box's face around it,
+    written by `score4 geometry export`: Geant4 reads the file back with the same geantino
+    paths (1e-9 mm), and so it reads the file pyg4ometry reads and writes again; the rays
+    cross both pieces."""
+    cfg = tmp_path / "cross.yaml"
+    cfg.write_text(yaml.safe_dump(config(gdml, CROSS_ROUGH, FINE)))
+    out = tmp_path / "cross_rough.gdml"
+    assert main(["geometry", "export", str(cfg), "--gdml", str(out)]) == 0
+    rng = np.random.default_rng(3)
+    centre = np.array(CROSS_POSITION)
+    rays = []
+    for k in range(8):  # from outside the rod's wall, above and below the box, into the solid
+        phi, z = rng.uniform(0, 2 * np.pi), rng.uniform(11, 19) * (1 if k % 2 else -1)
+        start = centre + np.array([5.1 * np.cos(phi), 5.1 * np.sin(phi), z])
+        aim = centre + np.array([*rng.uniform(-3, 3, 2), z - np.sign(z) * rng.uniform(0, 8)])
+        rays.append((start, aim - start))
+    ours, back, relay = three_paths(cfg, out, rays, monkeypatch)
+    walls = [any(v and v.startswith("cross_roughsecond_outer") for v, _ in p) for p in ours]
+    assert any(walls[0::2]) and any(walls[1::2])  # below the box and above: both pieces
+    assert_same_paths(ours, back, relay)
 
 
 @pytest.mark.deep
