@@ -423,7 +423,7 @@ def test_a_rods_wall_through_a_box_takes_a_layer_on_both_sides(gdml):
     the rod to the box's face (touching it, no more), with every kept cell in one; no point of
     the envelope lies inside the solid. (Before, the whole shell ran through the box and the
     layer was refused.)"""
-    scene = build_scene(parse_config(config(gdml, CROSS_ROUGH, FINE)))
+    scene = build_scene(parse_config(config(gdml, {"cross": ["second.outer"]}, FINE)))
     wall = scene.layer("cross", "second.outer")
     assert isinstance(wall, CurvedRoughLayer)
     assert wall.pieces is not None
@@ -439,7 +439,6 @@ def test_a_rods_wall_through_a_box_takes_a_layer_on_both_sides(gdml):
     on = wall.on_boolean
     codes = on.shape.inside(on.transform.inverse_apply(wall.shell_points(n_v=41)))
     assert not (codes == INSIDE).any()
-    assert scene.layer("cross", "first.+z").mask.sum() > 0
 
 
 def test_a_curved_layer_whose_envelope_meets_the_solid_is_one_line(gdml, monkeypatch):

@@ -657,7 +657,8 @@ def _meets_own_solid(layer: RoughLayer, on: BooleanFace) -> bool:
 def _pieces_in_solid(layer: CurvedRoughLayer, clip: FaceClip, on: BooleanFace) -> np.ndarray | None:
     """A world point of a curved layer's envelope pieces inside the boolean solid and inside a
     solid that cuts the face from outside (another part of a union), or None: an exact search
-    (:func:`~score4.world.clearance.shell_search`) down to a tenth of the layer's thickness. The
+    (:func:`~score4.world.clearance.shell_search`) down to half the layer's thickness, as
+    between two layers (a piece ending on another part's face touches it all round). The
     search stays where the envelope meets such a part: the face itself lies on the solid's
     surface, where a search against the whole solid would not end."""
     from .clearance import shell_search
@@ -671,7 +672,7 @@ def _pieces_in_solid(layer: CurvedRoughLayer, clip: FaceClip, on: BooleanFace) -
         in_cut = np.max([-s.signed_distance(t.inverse_apply(q)) for s, t in cutters], axis=0)
         return np.asarray(np.minimum(-on.shape.signed_distance(q), in_cut))
 
-    return shell_search(layer, depth, layer.thickness / 10, "the solid's other parts")
+    return shell_search(layer, depth, layer.thickness / 2, "the solid's other parts")
 
 
 def _clear_of_the_solid(
