@@ -15,6 +15,7 @@ import yaml
 
 from score4.cli.main import main
 from score4.errors import ConfigError
+from score4.geometry.check import curved_cells_tile
 from score4.inputs.config import parse_config
 from score4.shapes.base import INSIDE
 from score4.source.build import layer_sampler, make_source, source_geometry
@@ -427,7 +428,7 @@ def test_a_rods_wall_through_a_box_takes_a_layer_on_both_sides(gdml):
     wall = scene.layer("cross", "second.outer")
     assert isinstance(wall, CurvedRoughLayer)
     assert wall.pieces is not None
-    (_a0, da, va0, va1), (_b0, db, vb0, vb1) = sorted(wall.pieces, key=lambda p: p[2])
+    (a0, da, va0, va1), (b0, db, vb0, vb1) = sorted(wall.pieces, key=lambda p: p[2])
     assert da == db == pytest.approx(2 * np.pi, abs=1e-12)
     assert (va0, vb1) == (-20.0, 20.0)
     assert va1 == pytest.approx(-10.0, abs=1e-9)
@@ -439,6 +440,9 @@ def test_a_rods_wall_through_a_box_takes_a_layer_on_both_sides(gdml):
     on = wall.on_boolean
     codes = on.shape.inside(on.transform.inverse_apply(wall.shell_points(n_v=41)))
     assert not (codes == INSIDE).any()
+    assert not curved_cells_tile(wall)[1]  # geometry check's exact tiling: cells in pieces
+    wall.pieces = [(a0, da, va0, va1 - py), (b0, db, vb0, vb1)]  # a ring left out of its piece
+    assert any("outside the pieces" in p for p in curved_cells_tile(wall)[1])
 
 
 def test_a_curved_layer_whose_envelope_meets_the_solid_is_one_line(gdml, monkeypatch):
