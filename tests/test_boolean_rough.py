@@ -54,6 +54,8 @@ ROUGH = {"cutbox": ["first.+z", "first.+x"], "stack": ["second.outer"]}
 #: the cut face and the p+ contact of P00664B; the side wall with the p+ contact
 PPC_ROUGH = {"ppc": ["second.-x", "pplus"]}
 PPC_WALL_ROUGH = {"ppc": ["pplus", "first.seg_2"]}
+#: all three: the wall's envelope holds its kept cells' azimuths, out of the cut face's way
+PPC_ALL_ROUGH = {"ppc": ["second.-x", "pplus", "first.seg_2"]}
 
 
 @pytest.fixture(scope="module")
@@ -96,10 +98,10 @@ def test_kept_cells_lie_wholly_on_the_boolean_surface(scene):
 @pytest.mark.deep
 def test_kept_cells_on_the_cut_detector_lie_on_its_surface(gdml):
     """As above on P00664B: the box's face that cuts the crystal and the p+ contact; the side
-    wall less the cut and the p+ contact."""
-    for rough in (PPC_ROUGH, PPC_WALL_ROUGH):
+    wall less the cut and the p+ contact; all three together."""
+    for rough in (PPC_ROUGH, PPC_WALL_ROUGH, PPC_ALL_ROUGH):
         scene = build_scene(parse_config(config(gdml, rough)))
-        assert len(scene.layers) == 2
+        assert len(scene.layers) == len(rough["ppc"])
         _check_kept_cells(scene)
 
 
@@ -440,15 +442,15 @@ def test_hpge_groups_resolve_on_a_detector_with_a_cut(gdml):
 
 @pytest.mark.deep
 def test_a_rough_pplus_and_cut_face_run_in_geant4(gdml, tmp_path):
-    """Po-210 alphas on the rough cut face and p+ contact of P00664B: Geant4 builds the
-    layers and every event deposits energy in the detector."""
+    """Po-210 alphas on the rough cut face and side wall of P00664B, its p+ contact rough too:
+    Geant4 builds the layers, and over 30 % of the events deposit energy in the detector."""
     data = config(
         gdml,
-        PPC_ROUGH,
+        PPC_ALL_ROUGH,
         source={
             "particle": "alpha",
             "energy": "5.3 MeV",
-            "surface": {"volume": "ppc", "face": ["second.-x"]},
+            "surface": {"volume": "ppc", "face": ["second.-x", "first.seg_2"]},
         },
     )
     data["run"] = {"events": 30, "seed": 5}
