@@ -182,6 +182,14 @@ def test_the_cut_face_and_the_side_wall_in_geant4(gdml, tmp_path):
     assert crossed >= n // 2  # most rays cross a patch body
 
 
+def test_a_taper_and_the_cut_face_are_still_refused_together(gdml):
+    """A cone's envelope pieces span its whole length over the azimuths any ring keeps, so
+    one of P00664B's tapers (seg_1) reaches past the cut at its wide end, where the cut face's
+    layer stands: one line names both (docs/geometry.md)."""
+    with pytest.raises(ConfigError, match=r"second.-x .* runs into the rough layer ppc_roughfirst"):
+        build_scene(parse_config(config(gdml, {"ppc": ["second.-x", "first.seg_1"]})))
+
+
 def _check_kept_cells(scene) -> None:
     for layer in scene.layers:
         on = layer.on_boolean
