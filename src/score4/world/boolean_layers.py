@@ -28,7 +28,10 @@ A flat face partly covered by another part of a union (the layer's envelope woul
 the solid): only the cells whose whole column (the cell up to the layer's thickness) is proven
 clear of the cutting solids keep their patch, and the envelope becomes the prism of those cells
 (:func:`_clear_of_the_solid`); :func:`fit_cells` then keeps them clear of the volume's other
-layers too (a wall's layer rising from the face).
+layers too (a wall's layer rising from the face). A cylinder or cone wall whose kept cells
+leave azimuths or (on a cylinder) rings flat takes an envelope in pieces over its kept cells
+(:func:`envelope_pieces`): P00664B's side wall leaves out the cut, where the cut face's layer
+stands; a rod's wall running through a box is two pieces, one each side of the box.
 
 A face of a leaf made of flat facets in several planes (the sides of a G4Polyhedra) takes one
 layer per plane (:func:`_on_boolean`; a plane without a kept cell gets none); the source draws
@@ -41,8 +44,8 @@ G4Sphere, on phi faces, and on two faces of one constituent not subtracted that 
 ``tiling: portal``, ``native_layout: replicas`` where a cell holds no patch (and on a layer whose
 envelope is the prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs or
 G4Cons wall or a sphere face (a G4Sphere's theta cones, a polycone's walls); a curved layer
-whose envelope runs into the solid itself (a wall partly covered by another part of a union), a
-flat one that keeps no cell clear of the other parts.
+whose envelope, even in pieces, runs into the solid itself (another part of a union), a flat one
+that keeps no cell clear of the other parts.
 Steps and activeness measure these layers through the boolean's constituents
 (:mod:`score4.world.boolean_distance`).
 """
@@ -59,7 +62,7 @@ from score4.inputs.config import RoughFace
 from score4.shapes import BooleanShape, G4Box, G4Cons, G4Orb, G4Sphere, G4Tubs, Shape, Transform
 from score4.shapes.base import INSIDE
 from score4.shapes.boolean import FaceClip
-from score4.shapes.faces import AnnulusFace, SphereFace
+from score4.shapes.faces import AnnulusFace, RevolvedFace, SphereFace
 from score4.surface.rough import Surface
 
 from .boolean_modes import check_modes, check_replicas, cut_face, flat_face, into_depth
@@ -212,7 +215,13 @@ def _on_boolean(
         layer.config = rough
         layer.face_area = float(on.shape.face_areas[name])
         layer.on_boolean = on
-        if _meets_own_solid(layer, on):
+        if isinstance(layer, CurvedRoughLayer):
+            layer.pieces = envelope_pieces(layer)
+        if _meets_own_solid(layer, on) or (
+            isinstance(layer, CurvedRoughLayer)
+            and layer.pieces is not None
+            and _pieces_in_solid(layer, cut, on) is not None
+        ):
             _clear_of_the_solid(layer, cut, on, placed, where, what)
         check_replicas(layer, where, what)
         out.append(layer)
@@ -255,6 +264,87 @@ def _in_grown_slab(
         scale = max(float(np.abs(tri2d).max()), 1.0) if len(tri2d) else 1.0
         out &= cells_inside(tri2d, centres, size, 1e-9 * scale)
     return out
+
+
+def envelope_pieces(layer: CurvedRoughLayer) -> list[tuple[float, float, float, float]] | None:
+    """The pieces ``(phi0, dphi, v0, v1)`` of the envelope of a cylinder or cone wall whose kept
+    cells leave part of the face flat (:attr:`CurvedRoughLayer.pieces`), or None where the
+    face's whole shell is needed (every azimuth and every ring holds a kept cell, or a sphere).
+
+    Azimuths: the union over the rings of the kept cells' azimuth ranges; a run of cells that
+    starts (ends) at a ring's first (last) cell reaches the face's phi edge (the flat rest of
+    less than a cell that the rings leave there), so a fully kept ring covers the whole face
+    (and, on a full circle, runs join across the seam). Along the generator, on a cylinder
+    only: rings without a kept cell split the envelope, each piece ending on its outer rings'
+    edges (or the face's end beyond its first or last ring); a cone's cells reach beyond their
+    ring's band (:func:`~score4.world.curved.cone_cell`), so its pieces span the whole face."""
+    lay = layer.ring_layout
+    face = lay.face
+    if not isinstance(face, RevolvedFace):
+        return None
+    kept = layer.cell_variants >= 0
+    nrings = len(lay.v)
+    full = face.dphi >= 2 * np.pi - 1e-9
+    has = np.asarray(kept.any(axis=1), dtype=bool)
+    if abs(float(face.nrz[1])) <= 1e-12:  # a cylinder: rings without a kept cell split it
+        runs, j = [], 0
+        while j < nrings:
+            if not has[j]:
+                j += 1
+                continue
+            k = j
+            while k + 1 < nrings and has[k + 1]:
+                k += 1
+            runs.append((j, k))
+            j = k + 1
+    else:
+        runs = [(0, nrings - 1)] if has.any() else []
+    (_, _), (fv0, fv1) = face.extent
+    half = 0.5 * (lay.patch_size[1] + lay.row_gap)
+    pieces: list[tuple[float, float, float, float]] = []
+    for j0, j1 in runs:
+        # the first and last runs reach the face's ends
+        v0 = fv0 if not has[:j0].any() else float(lay.v[j0]) - half
+        v1 = fv1 if not has[j1 + 1 :].any() else float(lay.v[j1]) + half
+        spans: list[tuple[float, float]] = []  # azimuth ranges from phi0, in [0, dphi]
+        for j in range(j0, j1 + 1):
+            n = int(lay.count[j])
+            cols = np.flatnonzero(kept[j, :n])
+            if not len(cols):
+                continue
+            phi = lay.cell_phi(j)
+            step = float(lay.step[j])
+            breaks = np.flatnonzero(np.diff(cols) > 1)
+            for a, b in zip(
+                np.concatenate([[0], breaks + 1]),
+                np.concatenate([breaks, [len(cols) - 1]]),
+                strict=True,
+            ):
+                lo = 0.0 if cols[a] == 0 else float(phi[cols[a]]) - step / 2 - face.phi0
+                hi = face.dphi if cols[b] == n - 1 else float(phi[cols[b]]) + step / 2 - face.phi0
+                spans.append((lo, hi))
+        spans.sort()
+        merged: list[list[float]] = []
+        for lo, hi in spans:
+            if merged and lo <= merged[-1][1] + 1e-12:
+                merged[-1][1] = max(merged[-1][1], hi)
+            else:
+                merged.append([lo, hi])
+        if (
+            full
+            and len(merged) > 1
+            and merged[0][0] <= 1e-12
+            and merged[-1][1] >= face.dphi - 1e-12
+        ):
+            last = merged.pop()  # joined across the seam
+            merged[0] = [last[0] - face.dphi, merged[0][1]]
+        for lo, hi in merged:
+            pieces.append((face.phi0 + lo, min(hi - lo, 2 * np.pi), v0, v1))
+    if len(pieces) == 1:
+        _phi0, dphi, v0, v1 = pieces[0]
+        if dphi >= face.dphi - 1e-12 and v0 == fv0 and v1 == fv1:
+            return None
+    return pieces or None
 
 
 def turned_wall(
@@ -614,6 +704,27 @@ def _meets_own_solid(layer: RoughLayer, on: BooleanFace) -> bool:
     return bool((codes == INSIDE).any())
 
 
+def _pieces_in_solid(layer: CurvedRoughLayer, clip: FaceClip, on: BooleanFace) -> np.ndarray | None:
+    """A world point of a curved layer's envelope pieces inside the boolean solid and inside a
+    solid that cuts the face from outside (another part of a union), or None: an exact search
+    (:func:`~score4.world.clearance.shell_search`) down to half the layer's thickness, as
+    between two layers (a piece ending on another part's face touches it all round). The
+    search stays where the envelope meets such a part: the face itself lies on the solid's
+    surface, where a search against the whole solid would not end."""
+    from .clearance import shell_search
+
+    cutters = [(shape, transform) for shape, transform, inside in clip.clips if not inside]
+    if not cutters:
+        return None
+
+    def depth(world: np.ndarray) -> np.ndarray:
+        q = on.transform.inverse_apply(world)
+        in_cut = np.max([-s.signed_distance(t.inverse_apply(q)) for s, t in cutters], axis=0)
+        return np.asarray(np.minimum(-on.shape.signed_distance(q), in_cut))
+
+    return shell_search(layer, depth, layer.thickness / 2, "the solid's other parts")
+
+
 def _clear_of_the_solid(
     layer: RoughLayer,
     clip: FaceClip,
@@ -626,15 +737,16 @@ def _clear_of_the_solid(
     a union): only the cells whose whole column (the cell times the layer's thickness) is proven
     clear of the solids cutting the face keep their patch (:func:`kept_cells` with the
     thickness), and the envelope becomes the prism of those cells (``cells_envelope``); the
-    cells the other part covers or meets stay flat (``rough_shares``). Curved layers are
-    refused: their envelope is the face's whole shell."""
+    cells the other part covers or meets stay flat (``rough_shares``). A curved layer's
+    envelope already holds only its kept cells' azimuth ranges and, on a cylinder, runs of
+    rings (:func:`envelope_pieces`); it is refused when that still runs into the solid."""
     thick = f"{layer.thickness * 1e3:.4g} um thick"
     if isinstance(layer, CurvedRoughLayer):
         raise ConfigError(
             f"{where}: the rough layer on {what} ({thick}) runs into the solid itself (another "
-            "part of the boolean covers or meets that face); a rough curved face of a boolean "
-            "must lie wholly outside its other parts (partly covered faces take a layer when "
-            "flat)"
+            "part of the boolean covers or meets that face); its envelope holds the kept "
+            "cells' azimuth ranges and, on a cylinder, their rings, and these must lie wholly "
+            "outside the solid's other parts (on a cone, the whole length of the face)"
         )
     assert layer.mask is not None
     if layer.config.native_layout == "replicas":
