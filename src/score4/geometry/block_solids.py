@@ -12,19 +12,19 @@ from score4.surface.triangle_mesh import TriangleMesh
 
 from ..surface.rough import Surface
 
-#: Voxels of a small cap (``G4TessellatedSolid::SetMaxVoxels`` before closing; 0: Geant4's
-#: default). Every step inside a cap asks for its exact safety, which Geant4 finds by sorting the
-#: solid's voxel boxes by distance and measuring the facets of each box in turn; a 2 x 2-pixel
-#: cap has 22 facets, all within ~1 um of any point in it, so its default 5-20 voxels (12 boxes
-#: on the self-affine map) prune nothing and the sort and box distances were ~37 % of the
-#: safety's cost. With at most 4 voxels the safety is the same number (the same facets, the same
-#: minimum) for less work, and ``Inside`` and the distance along a ray stay voxelised.
-#: Measured (bench_instructions.py, instructions per alpha event on the 1.5 mm face, self-affine
-#: map): default 5.095 M, 10 voxels 4.978 M, 4 voxels 4.948 M. The cost: a distance along a ray
-#: meets other facets first, so Geant4's facet tolerance shows on other rays (3 of 2760 geantino
-#: paths on a self-affine map moved, by up to 0.6 um; benchmarks/README.md, session 11).
-#: 0 restores Geant4's voxels.
-CAP_MAX_VOXELS = 4
+#: Voxels of a small cap of a height map (``G4TessellatedSolid::SetMaxVoxels`` before closing;
+#: 0, the default: Geant4's own). Every step inside a cap asks for its exact safety, which Geant4
+#: finds by sorting the solid's voxel boxes by distance and measuring the facets of each box; a
+#: 2 x 2-pixel cap has 22 facets, all within ~1 um of any point in it, so its 5-12 boxes prune
+#: nothing and the sort and box distances are ~37 % of the safety's cost. 4 voxels give the same
+#: safety for less work: bench_instructions.py, self-affine map, 1.5 mm face, 5.095 -> 4.948 M
+#: instructions per alpha event (Gaussian 4.638 -> 4.467, measured 4.559 -> 4.442). Not the
+#: default: CPU per event did not follow (bench_surfaces.py at 3 cm, 3 interleaved rounds, load
+#: 2.9: 0.802 against 0.745 ms), and a distance along a ray then meets other facets first, so
+#: Geant4's facet tolerance shows on other rays (3 of 2760 geantino paths on a self-affine map
+#: moved, by up to 0.6 um). benchmarks/README.md, session 11; set it with bench_instructions.py
+#: ``--set score4.geometry.block_solids.CAP_MAX_VOXELS=4``.
+CAP_MAX_VOXELS = 0
 #: ... for the caps of height maps with at most this many facets (the 2 x 2 and 3 x 3-pixel
 #: blocks of exact maps); larger caps (simplified maps' blocks of up to 64 top facets) and spike
 #: grids' blocks keep Geant4's default: on blocks of bumps with a height spread (tests/
