@@ -12,11 +12,17 @@ from score4.surface.triangle_mesh import TriangleMesh
 
 from ..surface.rough import Surface
 
+#: Voxels Geant4 may give each cap of a simplified map (``G4TessellatedSolid::SetMaxVoxels``;
+#: -1: Geant4's own choice, about one per facet candidate).
+SIMPLIFIED_CAP_VOXELS = -1
 
-def fast_tessellated(g4, mesh: TriangleMesh, name: str):
+
+def fast_tessellated(g4, mesh: TriangleMesh, name: str, max_voxels: int = -1):
     """A closed G4TessellatedSolid of ``mesh``; one G4ThreeVector per vertex, shared by its
-    faces."""
+    faces. ``max_voxels`` >= 0 bounds the solid's voxels (-1: Geant4's default)."""
     solid = g4.G4TessellatedSolid(name)
+    if max_voxels >= 0:
+        solid.SetMaxVoxels(max_voxels)
     vec, facet, absolute = g4.G4ThreeVector, g4.G4TriangularFacet, g4.ABSOLUTE
     points = [vec(*p) for p in mesh.vertices.tolist()]
     add = solid.AddFacet
@@ -46,8 +52,9 @@ def place_blocks(
     vec = g4.G4ThreeVector
     where = vec(0.0, 0.0, z)
     keep.append(where)
+    voxels = -1 if surface.quad_cells is None else SIMPLIFIED_CAP_VOXELS
     for b, (body, floor) in enumerate(floored_blocks(surface, base_thickness, block_cells)):
-        solid = fast_tessellated(g4, body, f"{name}_b{b}")
+        solid = fast_tessellated(g4, body, f"{name}_b{b}", voxels)
         lv = g4.G4LogicalVolume(solid, material, f"{name}_b{b}")
         pv = g4.G4PVPlacement(None, where, lv, f"{name}_b{b}", mother_lv, False, b, False)
         lvs.append(lv)
