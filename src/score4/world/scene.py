@@ -21,6 +21,7 @@ layer's thickness (the volume is cut by it), so the layer's top is where the fac
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
@@ -408,8 +409,21 @@ class RoughLayer:
             inside[r] = q[r, 2] <= self.base_thickness + h + BOUNDARY_TOLERANCE
         return inside
 
+    def cut_from_boolean(self, points: np.ndarray) -> np.ndarray:
+        """With ``into`` on a boolean's face: True for world points outside the boolean cut for
+        this layer alone (``on_boolean``; in the uncut target these are the points the cut
+        took: a constituent's other parts and faces stay whole, so a point in the disk under a
+        post whose wall is cut is not one)."""
+        on = self.on_boolean
+        assert on is not None
+        local = on.transform.inverse_apply(np.asarray(points, float).reshape(-1, 3))
+        return np.asarray(on.shape.signed_distance(local) > BOUNDARY_TOLERANCE)
+
     def in_cut(self, points: np.ndarray) -> np.ndarray:
-        """With ``into``: True for world points in the slab cut from the target for the layer."""
+        """With ``into``: True for world points in the slab cut from the target for the layer
+        (on a boolean's face: outside the boolean cut for this layer, :meth:`cut_from_boolean`)."""
+        if self.on_boolean is not None:
+            return self.cut_from_boolean(points)
         q = self.frame.to_local(points)
         lu, lv = self.frame.size
         return (
@@ -504,6 +518,47 @@ class CurvedRoughLayer(RoughLayer):
     #: with ``into`` on a wall swept around z: the target's shape cut for this layer alone and
     #: its centre's shift in the target's frame (:meth:`Shape.trimmed`)
     cut_shape: tuple[Shape, np.ndarray] | None = None
+    #: with ``into``: how far the solid is cut behind the face along its normal (mm; the
+    #: radius of a sphere moves by it)
+    into_cut: float = 0.0
+    #: on a face of a boolean partly covered or cut by its other parts: the envelope's pieces
+    #: ``(phi0, dphi, v0, v1)`` (azimuth range and generator range of the face) holding the kept
+    #: cells, each a G4Cons (G4Tubs) segment; None: the face's whole shell
+    #: (:func:`score4.world.boolean_layers.envelope_pieces`)
+    pieces: list[tuple[float, float, float, float]] | None = None
+
+    def envelope_views(self) -> list[CurvedRoughLayer]:
+        """The layer's envelope as layers on sub-faces (one per piece, :attr:`pieces`; the layer
+        itself when its envelope is the face's whole shell), for the clearance checks and the
+        Geant4 envelopes: each view's face is the face cut to the piece's azimuth and generator
+        ranges, so its shell (:meth:`shell_points`, :func:`wall_envelope`) is the piece's."""
+        if self.pieces is None:
+            return [self]
+        face = self.ring_layout.face
+        assert isinstance(face, RevolvedFace)
+        out = []
+        for phi0, dphi, v0, v1 in self.pieces:
+            (r1, z1), (r2, z2) = face.point(0.0, np.array([v0, v1]))[:, [0, 2]]
+            sub = replace(face, rz1=(float(r1), float(z1)), rz2=(float(r2), float(z2)),
+                          phi0=phi0, dphi=dphi)  # fmt: skip
+            view = copy.copy(self)
+            view.__dict__.pop("_cache", None)
+            view.layout = replace(self.ring_layout, face=sub)
+            view.pieces = None
+            out.append(view)
+        return out
+
+    def piece_of(self, j: int, phi: float) -> int:
+        """The piece (index into :meth:`envelope_views`) holding the cell of ring ``j`` at
+        azimuth ``phi``."""
+        if self.pieces is None:
+            return 0
+        v = float(self.ring_layout.v[j])
+        for n, (phi0, dphi, v0, v1) in enumerate(self.pieces):
+            a = np.mod(phi - phi0, 2 * np.pi)
+            if a <= dphi + 1e-9 and v0 - 1e-9 <= v <= v1 + 1e-9:
+                return n
+        raise AssertionError(f"{self.name}: cell at ring {j}, phi {phi} in no envelope piece")
 
     def solid_kind(self, k: int) -> str:
         """``frustums`` for a spike grid on a cylinder, a cone or a sphere (``solid: auto`` or
@@ -656,6 +711,8 @@ class CurvedRoughLayer(RoughLayer):
         the solid cut for this layer, :attr:`cut_shape`)."""
         if not self.config.into:
             return np.zeros(len(points), dtype=bool)
+        if self.on_boolean is not None:
+            return self.cut_from_boolean(points)
         if self.cut_shape is not None:  # a wall: outside the solid cut for this layer alone
             shape, shift = self.cut_shape
             local = self.target.to_local(np.asarray(points, float).reshape(-1, 3)) - shift
@@ -667,7 +724,10 @@ class CurvedRoughLayer(RoughLayer):
     def shell_points(self, n_phi: int = 72, n_v: int = 9, n_h: int = 3) -> np.ndarray:
         """World points on and in the layer's shell (the face extruded by the thickness along
         its normal; on a cone, the envelope Geant4 gets: the same between the z planes of the
-        face's ends, :func:`wall_envelope`), for the clearance checks."""
+        face's ends, :func:`wall_envelope`), for the clearance checks (of each piece of the
+        envelope, :attr:`pieces`)."""
+        if self.pieces is not None:
+            return np.concatenate([v.shell_points(n_phi, n_v, n_h) for v in self.envelope_views()])
         face = self.ring_layout.face
         if self._cone_envelope:
             a1, b1, a2, b2, dz, zc = wall_envelope(self)
@@ -699,6 +759,8 @@ class CurvedRoughLayer(RoughLayer):
     def in_shell(self, points: np.ndarray) -> np.ndarray:
         """True for world points strictly inside the layer's envelope (touching does not
         count)."""
+        if self.pieces is not None:
+            return np.logical_or.reduce([v.in_shell(points) for v in self.envelope_views()])
         face = self.ring_layout.face
         q = self.target.to_local(np.asarray(points, float).reshape(-1, 3))
         u, v, h = face.locate(q)
@@ -740,6 +802,13 @@ class CurvedRoughLayer(RoughLayer):
         if face.dphi >= 2 * np.pi - 1e-9:  # the circle's extremes between the grid's points
             r = float(np.hypot(local[:, 0], local[:, 1]).max())
             lo[:2], hi[:2] = -r, r
+        elif self.pieces is not None:  # the pieces' extremes along x and y between the points
+            r = float(np.hypot(local[:, 0], local[:, 1]).max())
+            for phi0, dphi, _, _ in self.pieces:
+                for k in range(4):
+                    if np.mod(k * np.pi / 2 - phi0, 2 * np.pi) <= dphi:
+                        ex = r * np.array([np.cos(k * np.pi / 2), np.sin(k * np.pi / 2)])
+                        lo[:2], hi[:2] = np.minimum(lo[:2], ex), np.maximum(hi[:2], ex)
         return OrientedBox(self.target.to_world((lo + hi) / 2), self.target.rotation, (hi - lo) / 2)
 
 
@@ -1636,6 +1705,7 @@ def _into_sphere(
         if layer.thickness <= cut:
             layer.top_margin += cut - layer.thickness  # the top where the face was
             layer.config = rough
+            layer.into_cut = cut
             return layer
         cut = layer.thickness * (1 + 1e-9)
     raise ConfigError(f"{where}: into: the layer on {face.name} does not settle on a cut")
@@ -1678,6 +1748,7 @@ def _into_revolved(
             layer.top_margin += cut - layer.thickness  # the top where the face was
             layer.config = rough
             layer.cut_shape = trimmed
+            layer.into_cut = cut
             return layer
         cut = layer.thickness * (1 + 1e-9)
     raise ConfigError(f"{where}: into: the layer on {name} does not settle on a cut")
@@ -1793,7 +1864,8 @@ def check_into_edges(scene: Scene, target: TargetVolume, where: str | None = Non
     """Lay out the ``into`` layers of a solid swept around z on their joint cut
     (:func:`_into_joint_cut`): faces that share an edge (a circle of the contour's corner) each
     end where the other's cut begins. With a phi segment ``into`` on two faces that share an
-    edge is refused. Errors start with ``where`` (default ``targets.{entry}.rough``)."""
+    edge is refused (on a boolean: :func:`score4.world.boolean_modes.check_shared_edges`).
+    Errors start with ``where`` (default ``targets.{entry}.rough``)."""
     where = where or f"targets.{target.entry}.rough"
     shape = target.shape
     layers = {r.config.face_name: r for r in scene.layers_of(target.name) if r.config.into}
