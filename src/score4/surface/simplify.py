@@ -250,6 +250,7 @@ def simplified_blocks(
     mesh = simplified_mesh(hm, tolerance, MAX_QUAD, n_faces)
     per_block = np.sqrt(cells / SIMPLIFIED_MAX_BLOCKS)
     if mesh is None:  # more than cells triangles: BLOCK_FACETS' side is below 2 ** 2
+        assert n_faces is not None  # given up on only against a bound
         want = max(np.sqrt(BLOCK_FACETS * cells / (n_faces + 1)), per_block)
     else:
         want = max(np.sqrt(BLOCK_FACETS * cells / mesh.n_faces), per_block)
