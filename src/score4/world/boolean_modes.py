@@ -21,6 +21,10 @@
   subtracted G4Box or an end face of a subtracted G4Tubs (a blind hole's floor) that solid
   grows by the layer's thickness along the face's own normal (into the kept volume: against the
   boolean's outward normal there), and the layer lies in the slab, on the grown solid's face.
+  A part of a union that stands on a cut flat face grows down by the cut, so the slab under it
+  stays in the volume (:func:`standing_cuts`: a G4Box or G4Tubs along the face's normal, its
+  foot within the face; other parts that meet the slab are refused, and so is such a part cut
+  for a layer of its own, :func:`check_shared_edges`).
   Refused elsewhere: the flat faces of other subtracted solids (a G4Cons' end faces), the phi
   faces of a segment (moved off the axis they would make the constituent a boolean of its own),
   the other curved faces of subtracted solids, and two faces that share an edge of one
@@ -105,7 +109,9 @@ def check_shared_edges(layers: list[RoughLayer], target: TargetVolume, where: st
     would meet at the edge (the joint cut that plain solids get,
     :func:`score4.world.scene.check_into_edges`, is not made for a boolean's constituents). The
     layers on a subtracted solid's faces grow apart from their concave edge (the square
-    between their slabs belongs to neither), so they are not refused."""
+    between their slabs belongs to neither), so they are not refused. Also refused: ``into`` on
+    a flat face and on a face of a part of the union standing on it (:func:`standing_cuts`
+    grows that part down into the face's cut, as the part was before its own cut)."""
     shape, name = target.shape, target.name
     if not isinstance(shape, BooleanShape):
         return
