@@ -26,7 +26,12 @@ from helpers.ray_trace import mesh_path
 #: 0.5 mm patches of 5 x 5 pyramids, 20 um high
 PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
 #: where the solids stand
-AT = {"stack": (0.0, -40.0, 0.0), "cone": (40.0, 0.0, 0.0), "wide": (0.0, 40.0, 0.0)}
+AT = {
+    "stack": (0.0, -40.0, 0.0),
+    "cone": (40.0, 0.0, 0.0),
+    "wide": (0.0, 40.0, 0.0),
+    "holed": (-40.0, 0.0, 0.0),
+}
 
 
 @pytest.fixture(scope="module")
@@ -34,7 +39,8 @@ def gdml(tmp_path_factory) -> Path:
     """``stack``: a disk (r 10 mm, 10 mm high) with a post (r 7 mm, 10 mm high) on it;
     ``cone``: a 20 mm box with a cone (r 8 mm at its foot, 5 mm at its top, 10 mm high) on its
     +z face; ``wide``: the disk with the post moved 6 mm off its axis (it overhangs the disk's
-    rim). Written as GDML text."""
+    rim); ``holed``: the stack with a hole (r 2 mm) through the disk under the post. Written as
+    GDML text."""
     full = 'startphi="0" deltaphi="360" aunit="deg" lunit="mm"'
     solids = f"""
 <box name="world_s" x="200" y="200" z="200" lunit="mm"/>
@@ -49,7 +55,13 @@ def gdml(tmp_path_factory) -> Path:
 <tube name="wide_a" rmin="0" rmax="10" z="10" {full}/>
 <tube name="wide_b" rmin="0" rmax="7" z="10" {full}/>
 <union name="wide_s"><first ref="wide_a"/><second ref="wide_b"/>
-  <position name="wide_p" x="6" y="0" z="10" unit="mm"/></union>"""
+  <position name="wide_p" x="6" y="0" z="10" unit="mm"/></union>
+<tube name="holed_a" rmin="0" rmax="10" z="10" {full}/>
+<tube name="holed_h" rmin="0" rmax="2" z="20" {full}/>
+<subtraction name="holed_d"><first ref="holed_a"/><second ref="holed_h"/></subtraction>
+<tube name="holed_b" rmin="0" rmax="7" z="10" {full}/>
+<union name="holed_s"><first ref="holed_d"/><second ref="holed_b"/>
+  <position name="holed_p" x="0" y="0" z="10" unit="mm"/></union>"""
     volumes = "".join(
         f'<volume name="{v}_lv"><materialref ref="G4_Cu"/><solidref ref="{v}_s"/></volume>'
         for v in AT
@@ -117,17 +129,22 @@ def test_into_under_a_post_keeps_the_slab_under_it(gdml):
 
 
 @pytest.mark.parametrize(
-    ("volume", "part"),
-    [("cone", "the G4Cons second"), ("wide", "the G4Tubs second")],
+    ("volume", "face", "part"),
+    [
+        ("cone", "first.+z", "the G4Cons second"),
+        ("wide", "first.+z", "the G4Tubs second"),
+        ("holed", "first.first.+z", "the G4Tubs second"),
+    ],
 )
-def test_into_under_a_part_that_cannot_grow_down_says_why_not(gdml, volume, part):
-    """A cone standing on the box (its wall is not along the face's normal) and a post
-    overhanging the disk's rim: growing them down would not fill the slab exactly, so into: true is
-    refused in one line naming the face, the part and the rule."""
+def test_into_under_a_part_that_cannot_grow_down_says_why_not(gdml, volume, face, part):
+    """A cone standing on the box (its wall is not along the face's normal), a post
+    overhanging the disk's rim, and a post over a hole through the disk (grown down, it would
+    fill the hole's top): growing them down would not give the cut solid exactly, so into: true
+    is refused in one line naming the face, the part and the rule."""
     with pytest.raises(ConfigError) as err:
-        build_scene(parse_config(config(gdml, volume, "first.+z")))
+        build_scene(parse_config(config(gdml, volume, face)))
     msg = str(err.value)
-    assert msg.startswith(f"targets.0.rough.0: into: true on face first.+z of {volume!r} (a ")
+    assert msg.startswith(f"targets.0.rough.0: into: true on face {face} of {volume!r} (a ")
     assert f"another part of the union ({part}) stands on this face" in msg
     assert "\n" not in msg
 

@@ -212,12 +212,15 @@ def cut_boolean(shape: BooleanShape, cuts: dict[str, float]) -> BooleanShape:
     return out
 
 
-def _union_siblings(shape: BooleanShape, path: str) -> list[tuple[Shape, Transform, str]]:
+def _union_siblings(shape: BooleanShape, path: str) -> list[tuple[Shape, Transform, str, bool]]:
     """The other parts of every union on the way from ``shape`` to the leaf at ``path``: each
-    ``(part, its frame in the boolean's, its path)``."""
+    ``(part, its frame in the boolean's, its path, whether only unions lie between that union
+    and the leaf)`` (else a subtraction or intersection below it may have taken some of the
+    leaf under the part)."""
     node: Shape = shape
     at = Transform()
-    out = []
+    found: list[tuple[Shape, Transform, str, int]] = []
+    ops: list[str] = []
     done = ""
     for token in path.split(".")[:-1]:
         while isinstance(node, PlacedShape):
@@ -227,10 +230,11 @@ def _union_siblings(shape: BooleanShape, path: str) -> list[tuple[Shape, Transfo
         (nxt, nxt_at), (other, other_at) = (first, second) if token == "first" else (second, first)
         if node.operation == "union":
             other_name = "second." if token == "first" else "first."
-            out.append((other, other_at, done + other_name))
+            found.append((other, other_at, done + other_name, len(ops)))
+        ops.append(node.operation)
         done += token + "."
         node, at = nxt, nxt_at
-    return out
+    return [(p, a, n, all(op == "union" for op in ops[k + 1 :])) for p, a, n, k in found]
 
 
 def _inside_face(leaf: Shape, face: str, placed: Transform, points: np.ndarray, r: float) -> bool:
@@ -292,7 +296,8 @@ def standing_cuts(shape: BooleanShape, face: str, depth: float, what: str) -> di
     subtracted) cut ``depth`` behind it for ``into``, grown down by ``depth`` (boolean face ->
     depth < 0, as :func:`cut_boolean` takes them) so the slab under them stays in the volume:
     a G4Box or G4Tubs along the face's normal whose foot lies on the face's plane, within the
-    face (a box's face or a full tube's end face without a bore). A part already through the
+    face (a box's face or a full tube's end face without a bore), joined to the face's
+    constituent by unions only (no subtraction between them). A part already through the
     slab needs nothing; any other part that meets the slab (a cone, a sphere, a boolean, a foot
     reaching beyond the face, a part ending in the slab) is refused in one line (``what``: its
     start)."""
@@ -309,7 +314,7 @@ def standing_cuts(shape: BooleanShape, face: str, depth: float, what: str) -> di
     slab_lo, slab_hi = rim.min(axis=0) - 1e-9, rim.max(axis=0) + 1e-9
     path = face[: len(face) - len(clip.face)]
     out = {}
-    for part, at, name in _union_siblings(shape, path):
+    for part, at, name, clean in _union_siblings(shape, path):
         lo, hi = PlacedShape(part, at).bounding_box()
         if (hi < slab_lo).any() or (lo > slab_hi).any():
             continue  # away from the slab
@@ -317,6 +322,8 @@ def standing_cuts(shape: BooleanShape, face: str, depth: float, what: str) -> di
         while isinstance(leaf, PlacedShape):
             placed, leaf = placed @ leaf.transform, leaf.shape
         grow = _grow_down(leaf, placed, clip, n, origin, depth, name)
+        if grow and not clean:  # it could grow into what a subtraction took from the face's
+            grow = None  # constituent under it
         if grow is None:
             raise ConfigError(
                 f"{what}: another part of the union (the {leaf.kind} {name.rstrip('.')}) stands "
