@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -439,6 +440,9 @@ def _depth(layer: RoughLayer, points: np.ndarray) -> np.ndarray:
     cylinders of a ring, the edges of a polygon)."""
     p = np.asarray(points, float).reshape(-1, 3)
     t = layer.thickness
+    if isinstance(layer, CurvedRoughLayer) and layer.pieces is not None:
+        # the envelope's pieces lie apart: inside it, a point is inside one of them
+        return np.asarray(np.max([_depth(v, p) for v in layer.envelope_views()], axis=0))
     if isinstance(layer, CurvedRoughLayer):
         face = layer.ring_layout.face
         q = layer.target.to_local(p)
@@ -525,11 +529,33 @@ def shells_meet(
     than ``d + R``: such cells are dropped, a centre deeper than
     ``tol`` is the answer, and the other cells are halved along their longest side until they
     are smaller than the resolution. Points are never missed between samples, however thin
-    the layers (the grid of :meth:`CurvedRoughLayer.shell_points` can miss a 20 um layer)."""
+    the layers (the grid of :meth:`CurvedRoughLayer.shell_points` can miss a 20 um layer).
+    An envelope in pieces (:attr:`CurvedRoughLayer.pieces`) is searched piece by piece."""
+    resolution = max(min(layer.thickness, other.thickness) / 2, 1e-7)
+    return shell_search(layer, lambda world: _depth(other, world), resolution, other.name, tol)
+
+
+def shell_search(
+    layer: CurvedRoughLayer,
+    depth: Callable[[np.ndarray], np.ndarray],
+    resolution: float,
+    label: str,
+    tol: float = BOUNDARY_TOLERANCE,
+) -> np.ndarray | None:
+    """A world point of a curved layer's envelope where ``depth`` (of world points: 1-Lipschitz,
+    positive inside what the envelope must not meet) exceeds ``tol``, or None when there is
+    none deeper than ``tol + resolution`` (the search of :func:`shells_meet`; ``label`` names
+    what is searched in errors). An envelope in pieces (:attr:`CurvedRoughLayer.pieces`) is
+    searched piece by piece."""
+    if layer.pieces is not None:
+        for view in layer.envelope_views():
+            found = shell_search(view, depth, resolution, label, tol)
+            if found is not None:
+                return found
+        return None
     face = layer.ring_layout.face
     t = layer.thickness
     (u0, u1), (v0, v1) = face.extent
-    resolution = max(min(t, other.thickness) / 2, 1e-7)
     cone = layer._cone_envelope
     if cone:  # cells of (azimuth, z, across) in the G4Cons between the face's z planes
         a1, b1, a2, b2, dz, zc = wall_envelope(layer)
@@ -566,21 +592,21 @@ def shells_meet(
     while len(lo):
         mid = 0.5 * (lo + hi)
         world = position(mid)
-        depth = _depth(other, world)
-        deep = np.flatnonzero(depth > tol)
+        deep_by = depth(world)
+        deep = np.flatnonzero(deep_by > tol)
         if len(deep):
-            return np.asarray(world[deep[np.argmax(depth[deep])]])
+            return np.asarray(world[deep[np.argmax(deep_by[deep])]])
         size = (hi - lo) * scale
         # the azimuth's direction is orthogonal to the other two, each stretched by at most
         # ``scale``: no point of a cell is further from its centre (on a shell of normals the
         # other two are orthogonal as well; in a G4Cons they are added)
         inplane = np.hypot(size[:, 1], size[:, 2]) if not cone else size[:, 1] + size[:, 2]
         reach = 0.5 * np.hypot(size[:, 0], inplane)
-        open_ = (depth + reach > tol) & (reach > resolution)
+        open_ = (deep_by + reach > tol) & (reach > resolution)
         lo, hi, size = lo[open_], hi[open_], size[open_]
         if len(lo) > MAX_CELLS // 2:
             raise ConfigError(
-                f"{layer.name}: the clearance check against {other.name} needs more than "
+                f"{layer.name}: the clearance check against {label} needs more than "
                 f"{MAX_CELLS} cells (the two envelopes touch over a large area); move them apart "
                 "by a micrometre"
             )
