@@ -157,3 +157,45 @@ def test_the_depth_agrees_with_a_boolean_faces_cells_envelope(tmp_path):
     assert (depth[inside] > 0).all()
     assert (depth[~inside] <= 1e-9).all()
     assert clearance.shells_meet(wall, top) is None
+
+
+# -- sisters against a curved layer: the certified search on the sister's signed distance ------
+
+
+def wall_config(gdml) -> dict:
+    """Only the cylinder's wall rough (an 11.001 um layer); the plate is a bare sister."""
+    data = config(gdml)
+    data["targets"] = data["targets"][:1]
+    return data
+
+
+def _gap_um(text: str) -> float:
+    return float(text.split("free gap there: ")[1].split(" um")[0])
+
+
+@pytest.mark.parametrize("gap_um", [8.0, 9.5, 10.5])  # pokes 3, 1.5, 0.5 um into the layer
+def test_a_sister_between_the_grid_points_is_refused(tmp_path, gap_um):
+    """A copper plate (a bare sister, no layer) whose flat face comes ``gap_um`` from the wall
+    pokes ``11 - gap_um`` um into the wall's 11 um layer, over a strip less than 4 degrees wide
+    that lies between two of the grid's 72 azimuths. The grid alone lets it pass; the certified
+    search on the plate's signed distance finds it (0.5 um is below its 1.1 um resolution, and
+    found all the same: the middle of each cell's outer side is tried too), and the error names
+    the sister and the free gap, that of the closest approach (the plate's distance, 1e-5 mm)."""
+    scene_data = parse_config(wall_config(write_world(tmp_path / "w.gdml", gap_um)))
+    with pytest.MonkeyPatch.context() as m:  # the check as it was: the grid of points only
+        m.setattr(clearance, "certified_meet", lambda *a, **k: None)
+        assert len(build_scene(scene_data).layers) == 1
+    with pytest.raises(ConfigError) as err:
+        build_scene(scene_data)
+    text = str(err.value)
+    assert "\n" not in text
+    assert text.startswith("cyl_roughouter: the rough layer on face outer of 'cyl'")
+    assert "runs into sister volume 'plate'" in text
+    assert _gap_um(text) == pytest.approx(gap_um, abs=0.01)
+
+
+@pytest.mark.parametrize("gap_um", [11.2, 12.0])
+def test_a_sister_just_clear_of_the_layer_passes(tmp_path, gap_um):
+    """The plate 0.2 um and 1 um beyond the 11.001 um layer: accepted."""
+    scene = build_scene(parse_config(wall_config(write_world(tmp_path / "w.gdml", gap_um))))
+    assert len(scene.layers) == 1

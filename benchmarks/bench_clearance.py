@@ -1,0 +1,96 @@
+"""CPU time of the clearance check of a LEGEND BEGe's whole surface rough (examples/rough_hpge/
+po210_whole_rough.yaml: every face, 10 um pyramids; its layers against each other and the world).
+
+    .venv/bin/python benchmarks/bench_clearance.py [--rounds 5] [--baseline OLD/src]
+        [--share 0.5,0.1]
+
+The scene is built once per child process without its check (examples/bege/write_bege.py
+--metadata writes the GDML), then ``check_clearance`` runs ``--rounds`` times; the figure is the
+median CPU time (``time.process_time``) of the rounds. ``--share``: the resolution of the
+certified search as shares of the thinner layer (``RESOLUTION_SHARE``; 0.1 is the default
+since session 11, 0.5 before). ``--baseline``: the same with another source tree first on the
+path (``git archive OLD src``), interleaved with this tree's rounds.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import runpy
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import yaml
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def child(share: float | None, rounds: int) -> None:
+    """Build the scene without its check, then time the check (prints JSON)."""
+    import score4.world.clearance as clearance
+    from score4.inputs.config import parse_config
+    from score4.world import resolve
+
+    work = Path(tempfile.mkdtemp())
+    gdml = work / "bege.gdml"
+    runpy.run_path(str(ROOT / "examples" / "bege" / "write_bege.py"), run_name="write")["main"](
+        str(gdml), metadata=True
+    )
+    data = yaml.safe_load((ROOT / "examples" / "rough_hpge" / "po210_whole_rough.yaml").read_text())
+    data["world"]["gdml"] = str(gdml)
+    resolve.check_clearance = lambda scene: None  # built without its check
+    scene = resolve.build_scene(parse_config(data))
+    if share is not None:
+        clearance.RESOLUTION_SHARE = share
+    times = []
+    for _ in range(rounds):
+        t0 = time.process_time()
+        clearance.check_clearance(scene)
+        times.append(time.process_time() - t0)
+    print(json.dumps({"times": times, "layers": len(scene.layers)}))
+
+
+def run(src: Path, share: float | None, rounds: int) -> dict:
+    env = dict(os.environ, PYTHONPATH=str(src))
+    args = [sys.executable, __file__, "--child", "--rounds", str(rounds)]
+    if share is not None:
+        args += ["--share", str(share)]
+    done = subprocess.run(args, env=env, capture_output=True, text=True, check=True)
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--share", default="")
+    ap.add_argument("--baseline", type=Path)
+    ap.add_argument("--child", action="store_true")
+    args = ap.parse_args()
+    if args.child:
+        child(float(args.share) if args.share else None, args.rounds)
+        return
+    cases: list[tuple[str, Path, float | None]] = []
+    if args.baseline is not None:
+        cases.append(("baseline", args.baseline.resolve(), None))
+    shares: list[float | None] = [float(s) for s in args.share.split(",") if s] or [None]
+    cases += [(f"this tree, share {s}" if s else "this tree", ROOT / "src", s) for s in shares]
+    print(f"load {os.getloadavg()[0]:.1f} at the start")
+    times: dict[str, list[float]] = {name: [] for name, _, _ in cases}
+    for _ in range(args.rounds):  # interleaved: one check per case and child
+        for name, src, share in cases:
+            times[name] += run(src, share, 1)["times"]
+    for name, t in times.items():
+        print(
+            f"{name}: clearance check {statistics.median(t):.3f} s CPU (median of {len(t)}, "
+            f"{min(t):.3f}-{max(t):.3f})"
+        )
+    print(f"load {os.getloadavg()[0]:.1f} at the end")
+
+
+if __name__ == "__main__":
+    main()
