@@ -199,3 +199,116 @@ def test_a_sister_just_clear_of_the_layer_passes(tmp_path, gap_um):
     """The plate 0.2 um and 1 um beyond the 11.001 um layer: accepted."""
     scene = build_scene(parse_config(wall_config(write_world(tmp_path / "w.gdml", gap_um))))
     assert len(scene.layers) == 1
+
+
+def _shapes():
+    from score4.shapes.boolean import BooleanShape
+    from score4.shapes.csg import G4Box, G4Cons, G4Orb, G4Sphere, G4Trap, G4Trd, G4Tubs
+    from score4.shapes.mesh_shape import MeshShape
+    from score4.shapes.revolved import G4Polycone, G4Polyhedra
+    from score4.shapes.transform import Transform
+
+    tet = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    tris = tet[[[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]]
+    return {
+        "box": G4Box(1.0, 0.5, 0.7),
+        "trd": G4Trd(1.0, 0.5, 0.8, 0.3, 0.6),
+        "trap": G4Trap(0.6, 0.2, 0.3, 0.5, 0.4, 0.6, 0.1, 0.5, 0.4, 0.6, 0.1),
+        "tube segment": G4Tubs(0.3, 1.0, 0.5, 0.4, 4.0),
+        "cone": G4Cons(0.2, 0.6, 0.1, 1.0, 0.6),
+        "sphere shell": G4Sphere(0.4, 1.0, 0.0, 5.0, 0.3, 2.0),
+        "orb": G4Orb(0.8),
+        "polycone": G4Polycone(0.0, 2 * math.pi, (-0.6, 0.0, 0.6), (0.0, 0.3, 0.1), (1, 0.8, 1)),
+        "polyhedra": G4Polyhedra(0.0, 2 * math.pi, 6, (-0.5, 0.5), (0.2, 0.2), (1.0, 0.8)),
+        "tessellated": MeshShape(tris),
+        "box less a tube": BooleanShape(
+            "subtraction",
+            G4Box(1.0, 1.0, 0.5),
+            G4Tubs(0.0, 0.5, 1.0),
+            Transform(translation=np.array([0.3, 0, 0])),
+        ),
+    }
+
+
+@pytest.mark.parametrize("kind", list(_shapes()))
+def test_the_signed_distance_of_a_sister_changes_no_faster_than_a_point_moves(kind):
+    """What the certified search rests on: a shape's signed distance changes by no more than
+    the distance a point moves (points scattered about the solid, steps of 0.1 mm)."""
+    shape = _shapes()[kind]
+    rng = np.random.default_rng(7)
+    pts = rng.uniform(-1.3, 1.3, size=(20000, 3))
+    step = rng.normal(scale=0.1, size=pts.shape)
+    d0, d1 = shape.signed_distance(pts), shape.signed_distance(pts + step)
+    assert (d0 < 0).any() and (d0 > 0).any()
+    assert (np.abs(d1 - d0) <= np.linalg.norm(step, axis=1) + 1e-12).all()
+
+
+def write_sister_world(path, solid: str, **place):
+    """The silicon cylinder (radius 5 mm, 4 mm long) and one copper sister: ``sleeve`` a tube
+    about the same axis from radius ``rmin`` (mm) out, ``ball`` a 0.1 mm orb centred at
+    ``centre``."""
+    import pyg4ometry as pg
+
+    reg = pg.geant4.Registry()
+    world = pg.geant4.LogicalVolume(
+        pg.geant4.solid.Box("world_s", 200, 200, 200, reg), "G4_Galactic", "World", reg
+    )
+    cyl = pg.geant4.LogicalVolume(
+        pg.geant4.solid.Tubs("cyl_s", 0, R, 4.0, 0, 2 * math.pi, reg), "G4_Si", "Cyl", reg
+    )
+    pg.geant4.PhysicalVolume([0, 0, 0], [0, 0, 0], cyl, "cyl", world, reg)
+    if solid == "sleeve":
+        s = pg.geant4.solid.Tubs("sister_s", place["rmin"], R + 1.0, 2.0, 0, 2 * math.pi, reg)
+        centre = [0.0, 0.0, 0.0]
+    else:
+        s = pg.geant4.solid.Orb("sister_s", 0.1, reg)
+        centre = list(place["centre"])
+    sister = pg.geant4.LogicalVolume(s, "G4_Cu", "Sister", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], centre, sister, "sister", world, reg)
+    reg.setWorld(world.name)
+    writer = pg.gdml.Writer()
+    writer.addDetector(reg)
+    writer.write(str(path))
+    return path
+
+
+LAYER_UM = 11.0035  # the wall's layer (um): 1 um base + 10 um pyramids bent on the wall
+
+
+@pytest.mark.parametrize(("gap_um", "refused"), [(LAYER_UM, False), (LAYER_UM - 0.5, True)])
+def test_a_coaxial_sleeve(tmp_path, gap_um, refused):
+    """A copper sleeve about the wall from the layer's top out touches the whole layer and is
+    accepted (the search runs on one half-plane of the shell: the sleeve is round about the
+    same axis); 0.5 um further in it is refused with the gap."""
+    gdml = write_sister_world(tmp_path / "s.gdml", "sleeve", rmin=R + gap_um * 1e-3)
+    data = parse_config(wall_config(gdml))
+    if not refused:
+        (layer,) = build_scene(data).layers
+        assert layer.thickness * 1e3 == pytest.approx(LAYER_UM, abs=1e-6)  # touching
+        return
+    with pytest.raises(ConfigError, match="runs into sister volume 'sister'") as err:
+        build_scene(data)
+    assert _gap_um(str(err.value)) == pytest.approx(gap_um, abs=0.01)
+
+
+@pytest.mark.parametrize(("poke_um", "refused"), [(2.0, True), (-0.5, False)])
+def test_a_ball_between_the_grid_points(tmp_path, poke_um, refused):
+    """A copper ball of radius 0.1 mm at azimuth 2.5 degrees and z = 0.25 mm (between the grid's
+    azimuths and generator points) reaching ``poke_um`` into the 11 um layer: its cap in the
+    layer is 40 um across, which the grid misses and the search (on the ball's distance, no
+    planes to help) finds; 0.5 um short of the layer it passes."""
+    phi = math.radians(2.5)
+    r = R + (LAYER_UM - poke_um) * 1e-3 + 0.1
+    gdml = write_sister_world(
+        tmp_path / "b.gdml", "ball", centre=(r * math.cos(phi), r * math.sin(phi), 0.25)
+    )
+    data = parse_config(wall_config(gdml))
+    if not refused:
+        assert len(build_scene(data).layers) == 1
+        return
+    with pytest.MonkeyPatch.context() as m:  # the grid of points alone
+        m.setattr(clearance, "certified_meet", lambda *a, **k: None)
+        assert len(build_scene(data).layers) == 1
+    with pytest.raises(ConfigError, match="runs into sister volume 'sister'") as err:
+        build_scene(data)
+    assert _gap_um(str(err.value)) == pytest.approx(LAYER_UM - poke_um, abs=0.01)
