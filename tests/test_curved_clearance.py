@@ -239,7 +239,8 @@ def test_the_signed_distance_of_a_sister_changes_no_faster_than_a_point_moves(ki
     pts = rng.uniform(-1.3, 1.3, size=(20000, 3))
     step = rng.normal(scale=0.1, size=pts.shape)
     d0, d1 = shape.signed_distance(pts), shape.signed_distance(pts + step)
-    assert (d0 < 0).any() and (d0 > 0).any()
+    assert (d0 < 0).any()
+    assert (d0 > 0).any()
     assert (np.abs(d1 - d0) <= np.linalg.norm(step, axis=1) + 1e-12).all()
 
 
