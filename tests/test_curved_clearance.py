@@ -313,3 +313,23 @@ def test_a_ball_between_the_grid_points(tmp_path, poke_um, refused):
     with pytest.raises(ConfigError, match="runs into sister volume 'sister'") as err:
         build_scene(data)
     assert _gap_um(str(err.value)) == pytest.approx(LAYER_UM - poke_um, abs=0.01)
+
+
+@pytest.mark.parametrize(
+    ("gap_um", "meets"), [(8.0, True), pytest.param(12.0, False, marks=pytest.mark.deep)]
+)
+def test_geant4_agrees_on_a_sister(tmp_path, gap_um, meets):
+    """Geant4's own overlap check (20 000 points on the wall layer's envelope, in a world
+    built without score4's check) finds the plate 3 um into the layer and nothing when it is
+    1 um clear (deep: a second Geant4 process), as score4's check does."""
+    from helpers import g4_geometry_check
+    from helpers.spawn import run_in_spawned_process
+
+    data = wall_config(write_world(tmp_path / "w.gdml", gap_um))
+    found = run_in_spawned_process(g4_geometry_check.envelope_overlaps, data)
+    assert bool(found) is meets
+    if meets:
+        with pytest.raises(ConfigError, match="runs into sister volume 'plate'"):
+            build_scene(parse_config(data))
+    else:
+        assert len(build_scene(parse_config(data)).layers) == 1
