@@ -79,7 +79,10 @@ def main() -> None:
         cases.append(("baseline", args.baseline.resolve(), None))
     shares: list[float | None] = [float(s) for s in args.share.split(",") if s] or [None]
     cases += [(f"this tree, share {s}" if s else "this tree", ROOT / "src", s) for s in shares]
-    print(f"load {os.getloadavg()[0]:.1f} at the start")
+    sys.path.insert(0, str(Path(__file__).parent))
+    from stamp import stamp  # this folder
+
+    print(stamp())
     times: dict[str, list[float]] = {name: [] for name, _, _ in cases}
     for _ in range(args.rounds):  # interleaved: one check per case and child
         for name, src, share in cases:

@@ -4,10 +4,12 @@
   extruded by the layer thickness) must not run into another target or layer.
 * A GDML world: a rough layer must not meet any other daughter of its volume's mother (the
   volume's sisters, boxes of the configuration, other layers) and must stay inside the mother;
-  boxes of the configuration likewise. Boxes are tested exactly (oriented boxes, separating
-  axes), the other solids score4.shapes describes (booleans: a frame is a box less a box) by a
-  grid of points of the envelope, the rest by their bounding box. Errors
-  name what the layer meets and the free gap along the face normal.
+  boxes of the configuration likewise. Against a flat layer, boxes are tested exactly
+  (oriented boxes, separating axes), the other solids score4.shapes describes (booleans: a frame
+  is a box less a box) by a grid of points of the envelope, the rest by their bounding box. A
+  curved layer is tested against everything by a certified search of its shell
+  (:func:`certified_meet`) down to a tenth of the layer. Errors name what the layer meets and
+  the free gap along the face normal.
 """
 
 from __future__ import annotations
@@ -188,6 +190,26 @@ def _planes_in(body: _Body, target: TargetVolume) -> tuple[np.ndarray, np.ndarra
     return -(normals @ m_q), offsets - normals @ k
 
 
+def _layer_planes(other: RoughLayer, target: TargetVolume) -> tuple[np.ndarray, np.ndarray] | None:
+    """Planes ``(m, c)`` (as :func:`_planes_in`, in ``target``'s frame) whose least bounds a flat
+    layer's depth (:func:`_depth`) from above: its box's six for a box envelope, the two of its
+    slab (the face and its offset) for a prism or a ring; None for a curved layer."""
+    if isinstance(other, CurvedRoughLayer):
+        return None
+    rt, tt = _affine(target.to_world)
+    if _shaped(other):  # depth <= the height above the face, and below its offset
+        a, b = _affine(other.frame.to_local)
+        normals, offsets = np.array([[0.0, 0.0, -1.0], [0.0, 0.0, 1.0]]), np.array([0.0, 1.0])
+        offsets[1] = other.thickness
+    else:
+        box = other.envelope_box()
+        a, b = _affine(box.transform.inverse_apply)
+        normals = np.concatenate([np.eye(3), -np.eye(3)])
+        offsets = np.concatenate([box.half, box.half])
+    m_q, k = a @ rt, a @ tt + b
+    return -(normals @ m_q), offsets - normals @ k
+
+
 def _round_shape(shape: Shape | None) -> bool:
     """The shape is round about its z axis: a full tube, cone or polycone, a sphere over the
     full circle, an orb."""
@@ -217,8 +239,9 @@ def check_gdml_clearance(scene: Scene) -> None:
 
     A layer on a face (outside the volume) must not meet any other daughter of the volume's
     mother (other GDML volumes, boxes of the configuration, other layers) and must stay inside
-    the mother. Boxes are tested exactly (oriented boxes), the other solids score4.shapes
-    describes by a grid of points of the layer's envelope, other solids by their bounding box.
+    the mother. For a flat layer, boxes are tested exactly (oriented boxes), the other solids
+    score4.shapes describes by a grid of points of the layer's envelope, other solids by their
+    bounding box; a curved layer by :func:`_check_curved`.
     """
     model = scene.model
     assert model is not None
@@ -684,6 +707,7 @@ def shells_meet(
         f"the rough layer {other.name}",
         tol,
         coaxial,
+        _layer_planes(other, layer.target),
     )
 
 
