@@ -333,3 +333,16 @@ def test_geant4_agrees_on_a_sister(tmp_path, gap_um, meets):
             build_scene(parse_config(data))
     else:
         assert len(build_scene(parse_config(data)).layers) == 1
+
+
+def test_the_plates_planes_keep_the_search_small(tmp_path, monkeypatch):
+    """The plate beside the wall 0.2 um clear of the layer: its flat face runs along the
+    layer's outer side over a strip, where a bound by distance alone must halve the cells down
+    to the resolution. Its planes bound its depth over whole cells: with a budget of 20 000
+    cells the check passes; without the planes it needs more."""
+    data = parse_config(wall_config(write_world(tmp_path / "w.gdml", 11.2)))
+    monkeypatch.setattr(clearance, "MAX_CELLS", 20_000)
+    assert len(build_scene(data).layers) == 1
+    monkeypatch.setattr(clearance, "_planes_in", lambda body, target: None)
+    with pytest.raises(ConfigError, match="needs more than 20000 cells"):
+        build_scene(data)
