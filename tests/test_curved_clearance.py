@@ -279,13 +279,20 @@ LAYER_UM = 11.0035  # the wall's layer (um): 1 um base + 10 um pyramids bent on 
 @pytest.mark.parametrize(("gap_um", "refused"), [(LAYER_UM, False), (LAYER_UM - 0.5, True)])
 def test_a_coaxial_sleeve(tmp_path, gap_um, refused):
     """A copper sleeve about the wall from the layer's top out touches the whole layer and is
-    accepted (the search runs on one half-plane of the shell: the sleeve is round about the
-    same axis); 0.5 um further in it is refused with the gap."""
+    accepted (the search runs on one half-plane of the shell, since the sleeve is round about
+    the same axis: within 20 000 cells, where a search over azimuth too needs more); 0.5 um
+    further in it is refused with the gap."""
     gdml = write_sister_world(tmp_path / "s.gdml", "sleeve", rmin=R + gap_um * 1e-3)
     data = parse_config(wall_config(gdml))
     if not refused:
-        (layer,) = build_scene(data).layers
-        assert layer.thickness * 1e3 == pytest.approx(LAYER_UM, abs=1e-6)  # touching
+        with pytest.MonkeyPatch.context() as m:
+            m.setattr(clearance, "MAX_CELLS", 20_000)
+            (layer,) = build_scene(data).layers
+            assert layer.thickness * 1e3 == pytest.approx(LAYER_UM, abs=1e-6)  # touching
+            # over azimuth too, the whole touching area must be halved down to the resolution
+            m.setattr(clearance, "_round_shape", lambda shape: False)
+            with pytest.raises(ConfigError, match="needs more than 20000 cells"):
+                build_scene(data)
         return
     with pytest.raises(ConfigError, match="runs into sister volume 'sister'") as err:
         build_scene(data)
