@@ -832,10 +832,10 @@ def certified_meet(
         # other two are orthogonal as well; in a G4Cons they are added)
         inplane = np.hypot(size[:, 1], size[:, 2]) if not cone else size[:, 1] + size[:, 2]
         reach = 0.5 * np.hypot(size[:, 0], inplane)
-        most = d + reach
-        if use_planes:
-            most = np.minimum(most, plane_bound(lo, hi))
-        open_ = (most > tol) & (reach > resolution)
+        open_ = (d + reach > tol) & (reach > resolution)
+        if use_planes and open_.any():  # (only where the distance alone keeps a cell)
+            keep = np.flatnonzero(open_)
+            open_[keep[plane_bound(lo[keep], hi[keep]) <= tol]] = False
         lo, hi, size = lo[open_], hi[open_], size[open_]
         if len(lo) > MAX_CELLS // 2:
             raise ConfigError(
