@@ -32,8 +32,10 @@ A face of a leaf made of flat facets in several planes (the sides of a G4Polyhed
 layer per plane (:func:`_on_boolean`; a plane without a kept cell gets none); the source draws
 their flat rest as one (:class:`score4.source.build.PlanesRemainderSampler`).
 
-Refused, in one line each (:mod:`score4.world.boolean_modes` says why): ``into: true`` other
-than on flat faces of a G4Box or G4Tubs constituent (subtracted or not) and on bores,
+Refused, in one line each (:mod:`score4.world.boolean_modes` says why): ``into: true`` on the
+faces of a subtracted solid other than a G4Box's faces, a G4Tubs' end faces and the walls of a
+G4Tubs or G4Cons (bores), on phi faces, and on two faces of one constituent not subtracted that
+share an edge,
 ``tiling: portal``, ``native_layout: replicas`` where a cell holds no patch (and on a layer whose
 envelope is the prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs or
 G4Cons wall (spheres); a curved layer whose envelope runs into the solid itself (a wall partly
@@ -187,7 +189,7 @@ def _on_boolean(
                 layer.frame = layer.frame.shifted(-layer.thickness)
         on, cut = base, clip
         if rough.into:  # the face cut behind by the layer's thickness (boolean_modes)
-            on = cut_face(base, into_depth(layer))
+            on = cut_face(base, into_depth(layer, clip.flipped))
             cut = on.clip
         kept = kept_cells(layer, cut, on, placed)
         layer.mask = kept

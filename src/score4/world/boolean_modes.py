@@ -10,17 +10,22 @@
   where every cell of a flat face holds its patch (a face the other solids do not cut, such as
   the side of a box less a tube along its axis), and is refused, with the count of cells off the
   surface, where they do not.
-* ``into: true`` on a flat face of a constituent G4Box or the end face of a constituent G4Tubs
-  (not a subtracted one): the constituent is made thinner behind the face
+* ``into: true`` on a face of a constituent that is not subtracted (a flat face of a G4Box;
+  a wall or end face of a G4Tubs, G4Cons or polycone; the sphere face of a G4Sphere or G4Orb):
+  the constituent is made thinner behind the face
   (:func:`cut_boolean`; in Geant4 the boolean is rebuilt with it,
-  :mod:`score4.geometry.boolean_cut`), and the layer lies in the slab, on the cut face
-  (:func:`cut_face`); on the wall of a subtracted G4Tubs (a bore) the subtracted tube grows by
-  the layer's cut and the layer lies in the shell around the old bore; on a face of a
+  :mod:`score4.geometry.boolean_cut`), and the layer lies in the slab (on a curved face the
+  shell, laid out as on a plain solid's wall cut for ``into``), on the cut face
+  (:func:`cut_face`); on the wall of a subtracted G4Tubs or G4Cons (a bore) the subtracted solid
+  grows by the layer's cut and the layer lies in the shell around the old bore; on a face of a
   subtracted G4Box or an end face of a subtracted G4Tubs (a blind hole's floor) that solid
   grows by the layer's thickness along the face's own normal (into the kept volume: against the
   boolean's outward normal there), and the layer lies in the slab, on the grown solid's face.
-  Refused elsewhere: the flat faces of other subtracted solids (a G4Cons' end faces, a tube's
-  phi cut faces) and the other curved faces.
+  Refused elsewhere: the flat faces of other subtracted solids (a G4Cons' end faces), the phi
+  faces of a segment (moved off the axis they would make the constituent a boolean of its own),
+  the other curved faces of subtracted solids, and two faces that share an edge of one
+  constituent swept around z that is not subtracted (:func:`check_shared_edges`; plain solids
+  get a joint cut there).
 """
 
 from __future__ import annotations
@@ -31,11 +36,19 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import ConfigError
-from ..shapes import BooleanShape, G4Box, G4Tubs, Shape, Transform
+from ..shapes import BooleanShape, G4Box, G4Cons, G4Tubs, Shape, Transform
 from ..shapes.faces import PlaneFace
 from ..shapes.placed import PlacedShape
+from ..shapes.revolved import RevolvedShape
 from .boolean_distance import leaf_path
-from .scene import BooleanFace, CurvedRoughLayer, PolygonRoughLayer, RingRoughLayer, RoughLayer
+from .scene import (
+    BooleanFace,
+    CurvedRoughLayer,
+    PolygonRoughLayer,
+    RingRoughLayer,
+    RoughLayer,
+    TargetVolume,
+)
 
 if TYPE_CHECKING:  # a worker imports this module and never the configuration's models
     from ..inputs.config import RoughFace
@@ -48,7 +61,7 @@ def check_modes(
     (face ``face`` of its constituent ``leaf``; ``flipped``: of a subtracted solid)."""
     if rough.into:
         flat = isinstance(leaf.face(face), PlaneFace)
-        bore = isinstance(leaf, G4Tubs) and face in ("outer", "inner")
+        bore = isinstance(leaf, G4Tubs | G4Cons) and face in ("outer", "inner")
         grows = (
             flat and isinstance(leaf, G4Box | G4Tubs) and leaf.trimmed({face: -1e-6}) is not None
         )
@@ -59,11 +72,20 @@ def check_modes(
                 "its end faces and the faces of a subtracted G4Box only; put the layer outside "
                 "the volume (into: false)"
             )
-        if not flipped and (not flat or leaf.trimmed({face: 1e-6}) is None):
+        if not flipped and face in ("phi_start", "phi_end"):
             raise ConfigError(
-                f"{where}: into: true on {what} (face {face} of a {leaf.kind}) is supported on "
-                "the flat faces of a G4Box, the end faces of a G4Tubs and the walls of a "
-                "subtracted G4Tubs of a boolean; put the layer outside the volume (into: false)"
+                f"{where}: into: true on {what} (face {face} of a {leaf.kind} with a phi "
+                "segment): the cut would move that plane off the axis, which no "
+                f"{leaf.kind} can be (the constituent would become a boolean of its own), and "
+                "the wall's cells along the phi edge would have to be laid out again; put the "
+                "layer outside the volume (into: false)"
+            )
+        if not flipped and leaf.trimmed({face: 1e-6}) is None:
+            raise ConfigError(
+                f"{where}: into: true on {what} (face {face} of a {leaf.kind}) needs a "
+                "constituent score4 can make thinner behind that face (the faces of a G4Box; "
+                "the walls and end faces of a G4Tubs, G4Cons or polycone; the sphere faces of "
+                "a G4Sphere or G4Orb); put the layer outside the volume (into: false)"
             )
     if rough.tiling == "portal":
         raise ConfigError(
@@ -73,6 +95,40 @@ def check_modes(
             "cell, while a boolean's face keeps patches only where it lies on the solid's "
             "surface; take tiling: native"
         )
+
+
+def check_shared_edges(layers: list[RoughLayer], target: TargetVolume, where: str) -> None:
+    """One-line error for ``into`` on two faces of one constituent of a boolean target swept
+    around z (not a subtracted one) that share an edge (``layers``: the target's layers;
+    ``where``: the error's start): each layer is laid out on its own cut, and their slabs
+    would meet at the edge (the joint cut that plain solids get,
+    :func:`score4.world.scene.check_into_edges`, is not made for a boolean's constituents). The
+    layers on a subtracted solid's faces grow apart from their concave edge (the square
+    between their slabs belongs to neither), so they are not refused."""
+    shape, name = target.shape, target.name
+    if not isinstance(shape, BooleanShape):
+        return
+    faces = [r.config.face_name for r in layers if r.config.into]
+    by_leaf: dict[str, list[str]] = {}
+    for face in faces:
+        path, leaf_face = leaf_path(shape, face)
+        by_leaf.setdefault(path, []).append(leaf_face)
+    for path, own in by_leaf.items():
+        clip = shape.face_clip(path + own[0])
+        leaf = clip.leaf
+        if len(own) < 2 or not isinstance(leaf, RevolvedShape) or clip.flipped:
+            continue  # a subtracted solid's edges are concave: its layers grow apart
+        poly, names = leaf.contour()
+        for k, a in enumerate(names):
+            b = names[(k + 1) % len(names)]
+            if a in own and b in own:
+                r, z = poly[(k + 1) % len(poly)]
+                raise ConfigError(
+                    f"{where}: into: true on faces {path}{a} and {path}{b} of {name!r}, faces of "
+                    f"one {leaf.kind} of the boolean that share an edge (the circle r = {r:.4g} "
+                    f"mm at z = {z:.4g} mm in its frame): score4 cuts such faces together on "
+                    "plain solids only; put one of them outside the volume (into: false)"
+                )
 
 
 def check_replicas(layer: RoughLayer, where: str, what: str) -> None:
@@ -135,10 +191,15 @@ def cut_boolean(shape: BooleanShape, cuts: dict[str, float]) -> BooleanShape:
     return out
 
 
-def into_depth(layer: RoughLayer) -> float:
+def into_depth(layer: RoughLayer, flipped: bool) -> float:
     """How far an ``into`` layer moves its boolean face inward (mm): the layer's thickness on a
-    flat face; on a bore (a subtracted tube's wall, laid out as the inner wall of a tube beside
-    it) the cut of that tube's inner radius."""
+    flat face; on a bore (``flipped``: a subtracted tube's wall, laid out as the inner wall of a
+    tube beside it) the cut of that tube's inner radius; on a curved face of a constituent that
+    is not subtracted, the cut of that constituent behind the face (``into_cut``)."""
+    if isinstance(layer, CurvedRoughLayer) and not (
+        flipped and isinstance(layer.target.shape, G4Tubs)
+    ):
+        return float(layer.into_cut)
     if isinstance(layer, CurvedRoughLayer):
         turned = layer.target.shape
         assert layer.cut_shape is not None  # into on a wall: the tube cut for it
@@ -166,6 +227,6 @@ def boolean_cuts(layers: list[RoughLayer]) -> dict[str, float]:
     for layer in layers:
         on = layer.on_boolean
         assert on is not None
-        depth = into_depth(layer)
+        depth = into_depth(layer, on.clip.flipped)
         out[layer.config.face_name] = -depth if on.clip.flipped else depth
     return out

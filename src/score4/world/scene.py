@@ -408,8 +408,21 @@ class RoughLayer:
             inside[r] = q[r, 2] <= self.base_thickness + h + BOUNDARY_TOLERANCE
         return inside
 
+    def cut_from_boolean(self, points: np.ndarray) -> np.ndarray:
+        """With ``into`` on a boolean's face: True for world points outside the boolean cut for
+        this layer alone (``on_boolean``; in the uncut target these are the points the cut
+        took: a constituent's other parts and faces stay whole, so a point in the disk under a
+        post whose wall is cut is not one)."""
+        on = self.on_boolean
+        assert on is not None
+        local = on.transform.inverse_apply(np.asarray(points, float).reshape(-1, 3))
+        return np.asarray(on.shape.signed_distance(local) > BOUNDARY_TOLERANCE)
+
     def in_cut(self, points: np.ndarray) -> np.ndarray:
-        """With ``into``: True for world points in the slab cut from the target for the layer."""
+        """With ``into``: True for world points in the slab cut from the target for the layer
+        (on a boolean's face: outside the boolean cut for this layer, :meth:`cut_from_boolean`)."""
+        if self.on_boolean is not None:
+            return self.cut_from_boolean(points)
         q = self.frame.to_local(points)
         lu, lv = self.frame.size
         return (
@@ -504,6 +517,9 @@ class CurvedRoughLayer(RoughLayer):
     #: with ``into`` on a wall swept around z: the target's shape cut for this layer alone and
     #: its centre's shift in the target's frame (:meth:`Shape.trimmed`)
     cut_shape: tuple[Shape, np.ndarray] | None = None
+    #: with ``into``: how far the solid is cut behind the face along its normal (mm; the
+    #: radius of a sphere moves by it)
+    into_cut: float = 0.0
 
     def solid_kind(self, k: int) -> str:
         """``frustums`` for a spike grid on a cylinder, a cone or a sphere (``solid: auto`` or
@@ -656,6 +672,8 @@ class CurvedRoughLayer(RoughLayer):
         the solid cut for this layer, :attr:`cut_shape`)."""
         if not self.config.into:
             return np.zeros(len(points), dtype=bool)
+        if self.on_boolean is not None:
+            return self.cut_from_boolean(points)
         if self.cut_shape is not None:  # a wall: outside the solid cut for this layer alone
             shape, shift = self.cut_shape
             local = self.target.to_local(np.asarray(points, float).reshape(-1, 3)) - shift
@@ -1636,6 +1654,7 @@ def _into_sphere(
         if layer.thickness <= cut:
             layer.top_margin += cut - layer.thickness  # the top where the face was
             layer.config = rough
+            layer.into_cut = cut
             return layer
         cut = layer.thickness * (1 + 1e-9)
     raise ConfigError(f"{where}: into: the layer on {face.name} does not settle on a cut")
@@ -1678,6 +1697,7 @@ def _into_revolved(
             layer.top_margin += cut - layer.thickness  # the top where the face was
             layer.config = rough
             layer.cut_shape = trimmed
+            layer.into_cut = cut
             return layer
         cut = layer.thickness * (1 + 1e-9)
     raise ConfigError(f"{where}: into: the layer on {name} does not settle on a cut")
@@ -1793,7 +1813,8 @@ def check_into_edges(scene: Scene, target: TargetVolume, where: str | None = Non
     """Lay out the ``into`` layers of a solid swept around z on their joint cut
     (:func:`_into_joint_cut`): faces that share an edge (a circle of the contour's corner) each
     end where the other's cut begins. With a phi segment ``into`` on two faces that share an
-    edge is refused. Errors start with ``where`` (default ``targets.{entry}.rough``)."""
+    edge is refused (on a boolean: :func:`score4.world.boolean_modes.check_shared_edges`).
+    Errors start with ``where`` (default ``targets.{entry}.rough``)."""
     where = where or f"targets.{target.entry}.rough"
     shape = target.shape
     layers = {r.config.face_name: r for r in scene.layers_of(target.name) if r.config.into}
