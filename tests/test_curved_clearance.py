@@ -244,19 +244,24 @@ def test_the_signed_distance_of_a_sister_changes_no_faster_than_a_point_moves(ki
     assert (np.abs(d1 - d0) <= np.linalg.norm(step, axis=1) + 1e-12).all()
 
 
-def write_sister_world(path, solid: str, **place):
-    """The silicon cylinder (radius 5 mm, 4 mm long) and one copper sister: ``sleeve`` a tube
-    about the same axis from radius ``rmin`` (mm) out, ``ball`` a 0.1 mm orb centred at
-    ``centre``."""
+def write_sister_world(path, solid: str, crystal: str = "tube", **place):
+    """A silicon crystal (``tube``: the cylinder of radius 5 mm, 4 mm long; ``cone``: radius 5
+    mm at z = -2 to 4 mm at z = 2; ``orb``: a ball of radius 5 mm) and one copper sister:
+    ``sleeve`` a tube about the same axis from radius ``rmin`` (mm) out, ``ball`` a 0.1 mm orb
+    centred at ``centre``."""
     import pyg4ometry as pg
 
     reg = pg.geant4.Registry()
     world = pg.geant4.LogicalVolume(
         pg.geant4.solid.Box("world_s", 200, 200, 200, reg), "G4_Galactic", "World", reg
     )
-    cyl = pg.geant4.LogicalVolume(
-        pg.geant4.solid.Tubs("cyl_s", 0, R, 4.0, 0, 2 * math.pi, reg), "G4_Si", "Cyl", reg
-    )
+    if crystal == "cone":
+        body = pg.geant4.solid.Cons("cyl_s", 0, R, 0, R - 1, 4.0, 0, 2 * math.pi, reg)
+    elif crystal == "orb":
+        body = pg.geant4.solid.Orb("cyl_s", R, reg)
+    else:
+        body = pg.geant4.solid.Tubs("cyl_s", 0, R, 4.0, 0, 2 * math.pi, reg)
+    cyl = pg.geant4.LogicalVolume(body, "G4_Si", "Cyl", reg)
     pg.geant4.PhysicalVolume([0, 0, 0], [0, 0, 0], cyl, "cyl", world, reg)
     if solid == "sleeve":
         s = pg.geant4.solid.Tubs("sister_s", place["rmin"], R + 1.0, 2.0, 0, 2 * math.pi, reg)
@@ -353,3 +358,35 @@ def test_the_plates_planes_keep_the_search_small(tmp_path, monkeypatch):
     monkeypatch.setattr(clearance, "_planes_in", lambda body, target: None)
     with pytest.raises(ConfigError, match="needs more than 20000 cells"):
         build_scene(data)
+
+
+@pytest.mark.parametrize("crystal", ["cone", "orb"])
+def test_a_ball_poking_into_a_cone_wall_or_a_sphere(tmp_path, crystal):
+    """The same 0.1 mm ball 2 um into the layer of a cone's wall (a G4Cons envelope between
+    the wall's z planes) and of a ball's face, at azimuth 2.5 degrees and z = 0.25 mm: the grid
+    misses it, the search finds it; 0.5 um short of the layer it passes."""
+    phi = math.radians(2.5)
+    if crystal == "cone":  # the wall: r = 4.5 - z / 4, outward normal (1, 1/4) / |.|
+        foot, normal = np.array([4.5 - 0.25 / 4, 0.25]), np.array([1.0, 0.25]) / math.hypot(1, 0.25)
+    else:
+        theta = math.acos(0.25 / R)
+        foot = R * np.array([math.sin(theta), math.cos(theta)])
+        normal = foot / R
+
+    def world(poke_um: float, name: str):
+        rz = foot + ((LAYER_UM - poke_um) * 1e-3 + 0.1) * normal
+        centre = (rz[0] * math.cos(phi), rz[0] * math.sin(phi), rz[1])
+        gdml = write_sister_world(tmp_path / name, "ball", crystal, centre=centre)
+        data = wall_config(gdml)
+        data["targets"][0]["rough"][0]["face"] = "outer"
+        data["source"]["surface"]["face"] = "outer"
+        return parse_config(data)
+
+    data = world(2.0, "in.gdml")
+    with pytest.MonkeyPatch.context() as m:  # the grid of points alone
+        m.setattr(clearance, "certified_meet", lambda *a, **k: None)
+        (layer,) = build_scene(data).layers
+    with pytest.raises(ConfigError, match="runs into sister volume 'sister'") as err:
+        build_scene(data)
+    assert _gap_um(str(err.value)) == pytest.approx(layer.thickness * 1e3 - 2.0, abs=0.01)
+    assert len(build_scene(world(-0.5, "out.gdml")).layers) == 1
