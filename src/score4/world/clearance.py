@@ -384,7 +384,7 @@ def _check_curved(
     """A bent layer against the sisters of its volume, boxes and layers in the same mother, and
     its mother: first by a grid of points of its shell, then by the certified search
     (:func:`certified_meet`) on the signed distance of each solid; the gap is the height above
-    the face, under the point found, where the solid begins."""
+    the face where the solid begins, least near the point found (:func:`_least_gap`)."""
     mother = layer.target.mother
     assert mother is not None
     points = layer.shell_points()
