@@ -44,7 +44,9 @@ test-deep: $(STAMP)
 	$(BIN)/python -m pytest -n 2 --dist loadgroup -m deep $(PYTEST_ARGS)
 
 # Lint and types: the same checks as the pre-commit hooks' ruff and mypy, and the import
-# contracts of pyproject.toml ([tool.importlinter]: the process boundary, no cycles).
+# contracts of pyproject.toml ([tool.importlinter]: the process boundary, no cycles). ruff and
+# mypy (strict, [tool.mypy] files) check src/, benchmarks/ and tools/: a benchmark that calls a
+# moved or renamed function fails here, not when someone next measures with it.
 lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
@@ -55,8 +57,11 @@ lint: $(STAMP)
 # (docs/checks.yaml); fails on any difference and on a transcript or figure no check covers
 # (conventions at the top of docs/checks.yaml). After a change that moves the numbers:
 #   .venv/bin/python tools/docs_check.py --update   (then read the diff)
+# --smoke: the slow checks too, each with the small arguments of its `smoke:` entry, their
+# output compared by shape only (exit status, lines, table rows, values), so a benchmark that
+# stops working is seen here.
 docs-check: $(STAMP)
-	$(BIN)/python tools/docs_check.py
+	$(BIN)/python tools/docs_check.py --smoke
 
 # The same plus the slow checks (benchmarks of minutes; timings compared by shape only;
 # `tools/docs_check.py --all --update --remeasure` on a quiet machine takes new figures).

@@ -23,9 +23,10 @@ import json
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
-SETUPS = {
+SETUPS: dict[str, dict[str, Any]] = {
     "score4 default": {},
     "loss fluctuations off": {"params": {"SetLossFluctuations": [False]}},
     "Geant4's step function (0.2, 0.1 mm)": {"params": {"SetStepFunctionLightIons": [0.2, 0.1]}},
@@ -42,7 +43,7 @@ def measure(spec: dict) -> dict:
     from score4.sim.runtime import import_geant4, resolve_physics
 
     choice = resolve_physics("lite")
-    g4 = import_geant4(choice)
+    g4: Any = import_geant4(choice)
 
     class Block(g4.G4VUserDetectorConstruction):
         def Construct(self):

@@ -61,7 +61,7 @@ BOX_Z = 0.1  # mm
 
 
 def config_data(surface: dict, solid: str, cells: int | None) -> dict:
-    rough = {"face": "+z", "surface": "s", "solid": solid}
+    rough: dict[str, str | int] = {"face": "+z", "surface": "s", "solid": solid}
     if cells:
         rough["block_cells"] = cells
     return {

@@ -8,7 +8,11 @@ A copper box (20 mm) less a tube (r 5 mm) along z, written by pyg4ometry in a te
 the copper and the patches within 20 um of that face. Per interleaved round, the CPU time of the
 face's rough surface distance alone (:class:`score4.world.rough_distance.RoughSurfaceDistance`)
 and of the whole distance the steps get (``TargetDistance.to_surface``: the rough box combined
-with the tube, the box's other faces, the test of the patches); medians.
+with the tube, the box's other faces, the test of the patches); medians. Then activeness on the
+rough face and the bore's wall (``to_faces``): the wall as it is on the boolean
+(:class:`score4.world.kept_face_distance.KeptFaceDistance`: its nearest point's test, and the
+rim where that point is cut away) against the wall whole (the lower bound used before), for the
+same points and for points drawn in the whole copper; and the rim's one-off build.
 """
 
 from __future__ import annotations
@@ -92,6 +96,41 @@ def main() -> None:
     print(f"{len(p)} points within 20 um of the rough face, {args.rounds} rounds (CPU medians)")
     print(f"rough surface alone: {a / len(p) * 1e6:.2f} us per point")
     print(f"boolean to_surface: {w / len(p) * 1e6:.2f} us per point, x{w / a:.2f}")
+    faces_rows(distance, rough, target, p, rng, args.rounds)
+
+
+def faces_rows(distance, rough, target, near, rng, rounds: int) -> None:
+    """to_faces(first.+z rough, second.outer smooth): the wall kept against the wall whole."""
+    from score4.world.boolean_distance import leaf_face_distance
+
+    boolean = distance.boolean
+    faces = ("first.+z", "second.outer")
+    c0 = time.process_time()
+    boolean.kept_faces(("second.outer",)).rim()
+    print(f"rim of second.outer built once: {time.process_time() - c0:.3f} s CPU")
+
+    def whole_faces(world: np.ndarray) -> np.ndarray:  # the lower bound before
+        local = target.to_local(world)
+        d = np.minimum(leaf_face_distance(boolean.shape, ("second.outer",), local), rough(world))
+        s = boolean.to_surface(world)
+        return np.where(s > 0, np.maximum(s, d), 0.0)
+
+    local = rng.uniform(-10, 10, (len(near), 3))
+    bulk = target.to_world(local[np.hypot(local[:, 0], local[:, 1]) > 5.0])
+    for label, p in (("near the rough face", near), ("in the whole copper", bulk)):
+        kept, old = [], []
+        for _ in range(rounds):
+            c0 = time.process_time()
+            distance.to_faces(faces, p)
+            kept.append(time.process_time() - c0)
+            c0 = time.process_time()
+            whole_faces(p)
+            old.append(time.process_time() - c0)
+        k, o = statistics.median(kept), statistics.median(old)
+        print(
+            f"to_faces {label}: wall kept {k / len(p) * 1e6:.2f} us per point, "
+            f"wall whole {o / len(p) * 1e6:.2f} us, x{k / o:.2f}"
+        )
 
 
 if __name__ == "__main__":

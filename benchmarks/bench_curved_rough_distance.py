@@ -26,9 +26,10 @@ def main() -> None:
     from bench_curved import write_cylinder  # this folder is on sys.path when run as a script
 
     from score4.inputs.config import parse_config
-    from score4.world.activeness import face_distance
+    from score4.world.face_distance import face_distance
     from score4.world.resolve import build_scene
     from score4.world.rough_distance import CurvedRoughSurfaceDistance
+    from score4.world.scene import CurvedRoughLayer
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--points", type=int, default=20000)
@@ -52,6 +53,7 @@ def main() -> None:
             "run": {"events": 100, "seed": 3},
         }
         (layer,) = build_scene(parse_config(config)).layers
+    assert isinstance(layer, CurvedRoughLayer)
     lay = layer.ring_layout
     rng = np.random.default_rng(2)
     n = args.points

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import Any
 
 import numpy as np
 
@@ -108,7 +109,10 @@ def run(args, niel: float) -> None:
         def EndOfEventAction(self, event):
             state["event"] += 1
 
-    actions = [Detector(), Physics()]  # Geant4 wants these set before any user action exists
+    actions: list[Any] = [
+        Detector(),
+        Physics(),
+    ]  # Geant4 wants these set before any user action exists
     rm.SetUserInitialization(actions[0])
     rm.SetUserInitialization(actions[1])
     ui.ApplyCommand(f"/run/setCut {args.cut * 1e3:g} um")

@@ -35,7 +35,7 @@ from pathlib import Path
 
 
 def write_world(path: str, modules: int, per_module: int) -> None:
-    from score4.sim.runtime import import_geant4, resolve_physics
+    from score4.sim.runtime import import_geant4, redirect_native_output, resolve_physics
 
     g4 = import_geant4(resolve_physics("lite"))
     nist = g4.G4NistManager.Instance()
@@ -64,7 +64,8 @@ def write_world(path: str, modules: int, per_module: int) -> None:
                 g4.G4PVPlacement(None, vec(cx, cy, 0), crystal, "crystal", module, False, k)
             )
     parser = g4.G4GDMLParser()
-    parser.Write(path, world_pv, True)
+    with redirect_native_output(Path(os.devnull)):  # the writer's progress lines: not the table's
+        parser.Write(path, world_pv, True)
 
 
 def main() -> None:

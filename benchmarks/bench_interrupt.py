@@ -63,6 +63,7 @@ def main() -> None:
             t = time.monotonic()
             os.kill(proc.pid, signal.SIGINT)
             code = proc.wait(timeout=120)
+            assert proc.stderr is not None
             said = proc.stderr.read().strip().splitlines()
             print(
                 f"SIGINT after {args.wait:g} s: exit {code} after {time.monotonic() - t:.2f} s "

@@ -272,7 +272,8 @@ def main() -> None:
     parser.add_argument("--one-recoils", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one:
-        print("RESULT " + json.dumps(batches(*args.one, args.events, args.batches)))
+        face, ions = args.one
+        print("RESULT " + json.dumps(batches(face, ions, args.events, args.batches)))
         return
     if args.one_recoils:
         print("RESULT " + json.dumps(recoil_replays(args.one_recoils, args.events, args.batches)))

@@ -52,7 +52,7 @@ def main() -> None:
     from score4.runner.seeds import event_geant4_seeds
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
-    from score4.world.activeness import face_distance
+    from score4.world.face_distance import face_distance
 
     ap = argparse.ArgumentParser()
     ap.add_argument("--events", type=int, default=1000)
@@ -85,7 +85,7 @@ def main() -> None:
         flat_t.append(time.process_time() - c0)
     n = statistics.median(n_steps)
     run, ro, fl = (statistics.median(x) for x in (run_t, rough_t, flat_t))
-    inside = float(np.mean(distance.rough["+z"].contains(points)))  # type: ignore[attr-defined]
+    inside = float(np.mean(distance.rough["+z"].contains(points)))
     print(f"{args.events} events x {args.rounds} interleaved rounds, {n / args.events:.0f} steps")
     print(f"with deposit per event, {100 * inside:.0f} % of them inside the pyramids (CPU medians)")
     print(f"tracking with steps: {run / args.events * 1e6:.0f} us per event")

@@ -444,7 +444,7 @@ FACE_LABELS = {
 }
 
 
-def _markdown_faces(cases: list, events: int) -> None:
+def _markdown_faces(cases: list, events: int, scale: float = 1.0) -> None:
     from stamp import stamp  # this folder is on sys.path when run as a script
 
     print(stamp())
@@ -455,7 +455,7 @@ def _markdown_faces(cases: list, events: int) -> None:
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for case in cases:
         side, layout, variants = case
-        r = in_subprocess(["--face", str(side), layout, variants, "--events", str(events)])
+        r = in_subprocess(["--face", str(side * scale), layout, variants, "--events", str(events)])
         print(
             f"| {' | '.join(FACE_LABELS[case])} | {r['build_s']:.2f} | {r['init_s']:.2f} "
             f"| {r['beamon_ms']:.1f} | {r['per_event_ms']:.3f} | {r['rss_mb']:.0f} |",
@@ -535,7 +535,7 @@ def part_portal(events: int, rounds: int = 1, baseline: str | None = None) -> No
             f"{name}: portal / native per event: median {statistics.median(ratios):.2f} "
             f"(rounds: {', '.join(f'{x:.2f}' for x in ratios)})"
         )
-    res = {tiling: res[("this", tiling)] for tiling in ("native", "portal")}
+    this = {tiling: res[("this", tiling)] for tiling in ("native", "portal")}
     # where the difference goes: the portal's Python, timed in a third run (timers add cost)
     r = in_subprocess(["--portal", "portal-timed", "--events", str(events)])
     python_ms = 0.0
@@ -547,7 +547,7 @@ def part_portal(events: int, rounds: int = 1, baseline: str | None = None) -> No
             python_ms += n * us / 1e3
     print(
         f"  portal Python per event: {python_ms:.3f} ms of the "
-        f"{res['portal']['per_event_ms'] - res['native']['per_event_ms']:.3f} ms difference"
+        f"{this['portal']['per_event_ms'] - this['native']['per_event_ms']:.3f} ms difference"
     )
 
 
@@ -620,6 +620,13 @@ def main() -> None:
     )
     parser.add_argument("--flat-1m", action="store_true", help="also the 1 m face, flat placements")
     parser.add_argument("--markdown", action="store_true", help="the faces as docs' table")
+    parser.add_argument(
+        "--face-scale",
+        type=float,
+        default=1.0,
+        help="--markdown: the faces' sides times this (a quick check of the script: 0.05; the "
+        "rows keep their labels)",
+    )
     parser.add_argument("--face", nargs=3, help=argparse.SUPPRESS)
     parser.add_argument("--portal", help=argparse.SUPPRESS)
     parser.add_argument("--python-share", action="store_true", help=argparse.SUPPRESS)
@@ -636,7 +643,7 @@ def main() -> None:
         return
     parts = args.parts.split(",")
     if args.markdown:
-        _markdown_faces(FACE_CASES, args.events)
+        _markdown_faces(FACE_CASES, args.events, args.face_scale)
         return
     print(f"load average at start: {os.getloadavg()}")
     if "plans" in parts:

@@ -30,14 +30,14 @@ def main() -> None:
     args = parser.parse_args()
     n, corr, seeds = args.n, args.corr_px, args.seeds
     expected = SAL_PER_CORR_LENGTH["gaussian"] * corr
-    rows = []
+    cases: list[list[float]] = []
     for seed in range(seeds):
         period = gaussian_random_surface(
             n, n, 1.0, sq=1.0, corr_length_x=corr, seed=seed, periodic=True
         )
         closed = close_periodic(period)
         raw = HeightMap(closed.heights, closed.pitch_x, closed.pitch_y)  # edge counted twice
-        rows.append(
+        cases.append(
             [
                 areal_parameters(closed)["Sal"] / expected,
                 areal_parameters(raw)["Sal"] / expected,
@@ -45,7 +45,7 @@ def main() -> None:
                 np.nanmean(_decay_lengths(autocorrelation(closed), 1.0, 1.0, 0.2)) / expected,
             ]
         )
-    rows = np.array(rows)
+    rows = np.array(cases)
     print(f"{n} x {n} periodic Gaussian maps, corr_length {corr} px, {seeds} seeds")
     print("Sal / (sqrt(ln 5) l):   one period   closed tile  not levelled  direction mean")
     for seed, r in enumerate(rows):

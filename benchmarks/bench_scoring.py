@@ -17,6 +17,8 @@ import json
 import subprocess
 import sys
 import time
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -45,14 +47,13 @@ def measure(method: str, n: int) -> dict:
     from score4.sim import scoring
     from score4.sim.runtime import resolve_physics
     from score4.sim.simulation import Simulation
-    from score4.source.build import config_primaries
 
     config = parse_config(CONFIG)
     if method != "mfd":  # replace the C++ scorer by a Python one
         sums: dict = {}
 
         def attach(self):
-            g4 = self.g4
+            g4: Any = self.g4
             if method == "sd":
 
                 class SD(g4.G4VSensitiveDetector):
@@ -69,12 +70,13 @@ def measure(method: str, n: int) -> dict:
         def read(self, event, out, row):
             out["edep"][row][0] = sums.pop("crystal", 0.0)
 
-        scoring.VolumeScorer.attach = attach
-        scoring.VolumeScorer.resolve_ids = lambda self: None
-        scoring.VolumeScorer.read = read
+        # the scorer's methods replaced on the class (this process runs one method only)
+        setattr(scoring.VolumeScorer, "attach", attach)  # noqa: B010
+        setattr(scoring.VolumeScorer, "resolve_ids", lambda self: None)  # noqa: B010
+        setattr(scoring.VolumeScorer, "read", read)  # noqa: B010
     sim = Simulation(plan_run(config, physics=resolve_physics("lite")), log_path=None)
     if method == "stepping":
-        g4 = sim.g4
+        g4: Any = sim.g4
         crystal = sim.geometry.scoring["crystal"][0]
 
         class Stepping(g4.G4UserSteppingAction):
@@ -82,9 +84,9 @@ def measure(method: str, n: int) -> dict:
                 if step.GetPreStepPoint().GetTouchable().GetVolume().GetLogicalVolume() == crystal:
                     sums["crystal"] = sums.get("crystal", 0.0) + step.GetTotalEnergyDeposit()
 
-        sim._stepping = Stepping()
-        sim.run_manager.SetUserAction(sim._stepping)
-    primaries = config_primaries(config, np.random.default_rng(1), n)
+        stepping = Stepping()  # kept alive: Geant4 holds a pointer only
+        sim.run_manager.SetUserAction(stepping)
+    primaries = sim.source.primaries(np.random.default_rng(1), 0, n)
     sim.run(primaries, 1, batch=n)  # warm-up (physics tables)
     t0 = time.perf_counter()
     scores = sim.run(primaries, 2, batch=n)
@@ -106,7 +108,7 @@ def main() -> None:
 
         from score4.sim.runtime import redirect_native_output
 
-        with redirect_native_output(os.devnull):
+        with redirect_native_output(Path(os.devnull)):
             result = measure(args.method, args.events)
         print(json.dumps(result))
         return

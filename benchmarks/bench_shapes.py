@@ -38,8 +38,8 @@ from score4.source.depth import VertexSampler
 from score4.source.profiles import ExponentialProfile
 from score4.source.shape_sampling import ShapeSurfaceSampler
 
-ICPC_R = [0, 7, 7, 10, 10, 38, 40, 40, 35, 5, 5, 0]
-ICPC_Z = [0, 0, 2, 2, 0, 0, 2, 75, 80, 80, 30, 30]
+ICPC_R = (0, 7, 7, 10, 10, 38, 40, 40, 35, 5, 5, 0)
+ICPC_Z = (0, 0, 2, 2, 0, 0, 2, 75, 80, 80, 30, 30)
 
 
 def solids() -> dict[str, Shape]:
@@ -51,11 +51,11 @@ def solids() -> dict[str, Shape]:
         "G4Sphere (all ranges)": G4Sphere(5, 10, 0.2, 2.0, 0.3, 1.0),
         "G4Orb": G4Orb(12),
         "G4Polycone (5 planes)": G4Polycone(
-            0, 2 * math.pi, [0, 10, 10, 20, 30], [0, 0, 3, 5, 5], [10, 20, 15, 20, 20]
+            0, 2 * math.pi, (0, 10, 10, 20, 30), (0, 0, 3, 5, 5), (10, 20, 15, 20, 20)
         ),
         "G4GenericPolycone (ICPC)": G4GenericPolycone(0, 2 * math.pi, ICPC_R, ICPC_Z),
         "G4Polyhedra (6 sides)": G4Polyhedra(
-            0, 2 * math.pi, 6, [0, 10, 20], [0, 2, 2], [10, 12, 12]
+            0, 2 * math.pi, 6, (0, 10, 20), (0, 2, 2), (10, 12, 12)
         ),
         "box minus tube (boolean)": BooleanShape(
             "subtraction", G4Box(10, 10, 10), G4Tubs(0, 4, 20)
@@ -89,7 +89,9 @@ def main() -> None:
         lo, hi = shape.bounding_box()
         pts = lo + rng.random((n, 3)) * (hi - lo)
         ins = rate(lambda: shape.inside(pts), n)  # noqa: B023
-        vs = VertexSampler(ShapeSurfaceSampler(shape, "all"), ExponentialProfile(20e-6))
+        # a ShapeSurfaceSampler plugs in by its hook (as in score4.source.build)
+        surface = ShapeSurfaceSampler(shape, "all")
+        vs = VertexSampler(surface, ExponentialProfile(20e-6))  # type: ignore[arg-type]
         vtx = rate(lambda: vs.sample(rng, n), n)  # noqa: B023
         print(f"{name:28s} {surf:8.2f} {vol:8.2f} {ins:8.2f} {vtx:9.2f}")
 

@@ -32,6 +32,8 @@ import resource
 import subprocess
 import sys
 import time
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -76,6 +78,12 @@ class _G4WithTimedSolid:
         self._g4, self._cls, self._method, self._max_voxels = g4, cls, method, max_voxels
         self.proxy: _Timed | None = None
 
+    @property
+    def timed(self) -> _Timed:
+        """The proxy of the solid built through this module."""
+        assert self.proxy is not None, f"no {self._cls} was built"
+        return self.proxy
+
     def __getattr__(self, name):
         if name != self._cls:
             return getattr(self._g4, name)
@@ -101,7 +109,11 @@ def measure(
 
     g4 = import_geant4(resolve_physics("lite"))
     rss_import = _rss_mb()
-    out = {"solid": solid_kind, "n_spikes": n_side * n_side, "rss_import_mb": rss_import}
+    out: dict[str, Any] = {
+        "solid": solid_kind,
+        "n_spikes": n_side * n_side,
+        "rss_import_mb": rss_import,
+    }
 
     t0 = time.perf_counter()
     grid = SpikeGrid(nx=n_side, ny=n_side, width_x=WIDTH, width_y=WIDTH, mean_height=HEIGHT)
@@ -116,16 +128,16 @@ def measure(
     if solid_kind == "tessellated":
         wrapped = _G4WithTimedSolid(g4, "G4TessellatedSolid", "SetSolidClosed", max_voxels)
         tessellated_solid(wrapped, description, "rough")
-        solid, keep = wrapped.proxy._solid, ()
+        solid, keep = wrapped.timed._solid, ()
     elif solid_kind == "multiunion":
         wrapped = _G4WithTimedSolid(g4, "G4MultiUnion", "Voxelize")
         _, keep = multiunion_solid(wrapped, grid, THICKNESS, "rough")
-        solid = wrapped.proxy._solid
+        solid = wrapped.timed._solid
     else:
         wrapped, keep = None, ()
         solid = g4.G4Box("rough", grid.size_x / 2, grid.size_y / 2, THICKNESS / 2)
     total = time.perf_counter() - t0
-    out["voxelise_s"] = wrapped.proxy.seconds if wrapped else 0.0
+    out["voxelise_s"] = wrapped.timed.seconds if wrapped else 0.0
     out["build_s"] = total - out["voxelise_s"]
     out["rss_built_mb"] = _rss_mb()
 
@@ -276,7 +288,7 @@ def main() -> None:
         kind, n_side = args.case.split(":")
         from score4.sim.runtime import redirect_native_output
 
-        with redirect_native_output(os.devnull):
+        with redirect_native_output(Path(os.devnull)):
             result = measure(kind, int(n_side), args.events, args.tess_max_voxels, args.repeats)
         print(json.dumps(result))
         return

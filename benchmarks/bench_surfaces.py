@@ -1,7 +1,7 @@
 """CPU per alpha event on rough faces, one tessellated solid per patch vs blocks, and build cost.
 
     .venv/bin/python benchmarks/bench_surfaces.py [--events 10000] [--slow-events 2000]
-        [--cases a,b] [--sizes 256,512] [--warm] [--markdown]
+        [--cases a,b] [--sizes 256,512] [--warm] [--markdown] [--rounds 3]
 
 ``--markdown`` prints the tables of docs/tiling.md (with ``--warm``: the CPU per event; with
 ``--cases ""``: the build cost), checked by ``make docs-check-all``. ``--warm --faces
@@ -10,6 +10,9 @@ patches), with ratios to the pyramid face of the same size, the build CPU and th
 ``--warm --baseline OLD/src`` also runs every case with another score4 checkout's sources
 first on the path, interleaved in each round (before/after; each version's ratios are to its
 own pyramid face, and the mean deposits of the pyramid and flat faces must agree).
+``--rounds N`` (or ``--repeat N``) runs N rounds, each over all cases (and faces, versions) in
+turn, and prints each row's median; ``--warmup`` sets the events each ``--warm`` process runs
+before the timed ones (200).
 
 First table: each case is a whole ``score4 run`` in its own process (``--jobs 1``, lite physics,
 5.3 MeV alphas, isotropic, exponential depth 20 nm below the local surface, the +z face of a
@@ -169,8 +172,8 @@ def run_case(case: str, events: int, tmp: Path) -> tuple[float, float]:
     return cpu, float(read_results(out).scores["edep"]["crystal"].mean())
 
 
-def warm_case(case: str, events: int, face: float = 1.5) -> None:
-    """Child process: build ``case`` once, run 200 warm-up events, then time ``events`` events
+def warm_case(case: str, events: int, face: float = 1.5, warmup: int = 200) -> None:
+    """Child process: build ``case`` once, run ``warmup`` events, then time ``events`` events
     (CPU of this process) in one BeamOn; print ms per event, the mean deposit, the CPU seconds
     of building and the peak RSS (MB)."""
 
@@ -182,10 +185,10 @@ def warm_case(case: str, events: int, face: float = 1.5) -> None:
     config_ = parse_config(config(case, events, face))
     sim = Simulation(plan_run(config_, physics=resolve_physics("lite")))
     build = time.process_time() - b0
-    primaries = sim.source.primaries(np.random.default_rng(5), 0, 200 + events)
-    sim.run(primaries.select_events(0, 200), 1)
+    primaries = sim.source.primaries(np.random.default_rng(5), 0, warmup + events)
+    sim.run(primaries.select_events(0, warmup), 1)
     c0 = time.process_time()
-    scores = sim.run(primaries.select_events(200, 200 + events), 2)
+    scores = sim.run(primaries.select_events(warmup, warmup + events), 2)
     per = (time.process_time() - c0) / events
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     mean = float(scores["edep"][:, 0].mean())
@@ -221,6 +224,7 @@ def warm_table(
     markdown: bool = False,
     faces: tuple[float, ...] = (1.5,),
     baseline: str | None = None,
+    warmup: int = 200,
 ) -> None:
     """CPU per event with building and start-up left out: one process per case, face, version
     and round; the rounds interleave all cases, faces and versions (this checkout's sources and
@@ -236,6 +240,7 @@ def warm_table(
 
     versions = {"this": None} if baseline is None else {"this": None, "baseline": baseline}
     runs: dict[tuple[str, float, str], list[tuple[float, ...]]] = {}
+    failures: list[str] = []
     for _ in range(repeat):
         for face in faces:
             for case in cases:
@@ -243,9 +248,11 @@ def warm_table(
                     n = slow_events if case.endswith("_tess") else events
                     env = [] if src is None else ["env", f"PYTHONPATH={os.path.abspath(src)}"]
                     cmd = [*env, sys.executable, __file__, "--warm-child", case, "--events", str(n)]
+                    cmd += ["--warmup", str(warmup)]
                     figures = child_figures([*cmd, "--faces", str(face)], "WARM")
                     if isinstance(figures, str):
-                        print(f"{case} {face} mm {version}: {figures}")
+                        failures.append(f"{case} {face} mm {version}: {figures}")
+                        print(failures[-1])
                         continue
                     runs.setdefault((case, face, version), []).append(figures)
 
@@ -263,6 +270,7 @@ def warm_table(
             per, ref = med((case, face, version)), med(("pyramids", face, version))
             where = "" if one_face else f" {face:g} |"
             print(f"| {' | '.join(label(case))} |{where} {per:.3f} | {per / ref:.2f} |")
+        _fail_on(failures)
         return
     print(f"load average at end: {os.getloadavg()}")
     if baseline is not None:
@@ -279,6 +287,13 @@ def warm_table(
             f"{case:18s} {face:7g} {version:>8s} {per:9.3f} {per / ref:6.2f} {med(key, 2):7.2f} "
             f"{med(key, 3):6.0f} {med(key, 1):8.4f}  {every}"
         )
+    _fail_on(failures)
+
+
+def _fail_on(failures: list[str]) -> None:
+    """Exit with status 1 if a case failed (its row is missing: the table is not the docs')."""
+    if failures:
+        raise SystemExit(f"{len(failures)} case run(s) failed: {'; '.join(failures)}")
 
 
 def _resident() -> int:
@@ -437,12 +452,19 @@ def main() -> None:
     p.add_argument("--cases", default=",".join(CASES))
     p.add_argument("--sizes", default="256,512,1024,2048")
     p.add_argument(
-        "--repeat", type=int, default=1, help="rounds over the cases; each row is the median"
+        "--repeat",
+        "--rounds",
+        type=int,
+        default=1,
+        help="interleaved rounds over the cases; each row is the median",
     )
     p.add_argument(
         "--warm",
         action="store_true",
-        help="instead: one process per case, 200 warm-up events, then --events timed",
+        help="instead: one process per case, --warmup events, then --events timed",
+    )
+    p.add_argument(
+        "--warmup", type=int, default=200, help="--warm: events run before the timed ones"
     )
     p.add_argument("--markdown", action="store_true", help="docs/tiling.md's tables")
     p.add_argument(
@@ -478,12 +500,14 @@ def main() -> None:
         )
         return
     if a.warm_child:
-        warm_case(a.warm_child, a.events, float(a.faces))
+        warm_case(a.warm_child, a.events, float(a.faces), a.warmup)
         return
     if a.warm:
         cases = [c for c in a.cases.split(",") if c]
         faces = tuple(float(f) for f in a.faces.split(",") if f)
-        warm_table(cases, a.events, a.repeat, a.slow_events, a.markdown, faces, a.baseline)
+        warm_table(
+            cases, a.events, a.repeat, a.slow_events, a.markdown, faces, a.baseline, a.warmup
+        )
         return
     cases = [c for c in a.cases.split(",") if c]
     if a.markdown and not cases:

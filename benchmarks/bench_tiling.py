@@ -37,6 +37,7 @@ import resource
 import subprocess
 import sys
 import time
+from typing import Any
 
 import numpy as np
 
@@ -70,7 +71,7 @@ def run_config(tiling: str, face_cm: float = FACE_CM) -> dict:
         }
         for k, s in enumerate(SPREADS_UM)
     }
-    target = {
+    target: dict[str, Any] = {
         "name": "crystal",
         "material": "G4_Si",
         "size": [f"{face_cm} cm", f"{face_cm} cm", "1 mm"],
@@ -111,7 +112,7 @@ def timed_simulation(data: dict):
     from score4.sim.runtime import resolve_physics
 
     timed = {}
-    build_world = simulation.build_world
+    build_world = simulation.build_world  # type: ignore[attr-defined]  # patched where it is used
 
     def timed_build(*args):
         t0 = time.perf_counter()
@@ -119,7 +120,7 @@ def timed_simulation(data: dict):
         timed["build_s"] = time.perf_counter() - t0
         return out
 
-    simulation.build_world = timed_build
+    simulation.build_world = timed_build  # type: ignore[attr-defined]
     config = parse_config(data)
     t0 = time.perf_counter()
     sim = simulation.Simulation(plan_run(config, physics=resolve_physics("lite")))
@@ -189,8 +190,9 @@ def _peak_rss_mb(pid: int) -> float:
     return float("nan")
 
 
-def in_subprocess(args: list[str], limit: float) -> dict | None:
-    """Run this script with ``args`` in a fresh process; None if it exceeded ``limit`` seconds."""
+def in_subprocess(args: list[str], limit: float) -> dict:
+    """Run this script with ``args`` in a fresh process: its figures, or ``{"timeout": True,
+    ...}`` if it exceeded ``limit`` seconds."""
     cmd = [sys.executable, os.path.abspath(__file__), *args]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     t0, peak = time.perf_counter(), 0.0
@@ -202,6 +204,7 @@ def in_subprocess(args: list[str], limit: float) -> dict | None:
             proc.wait()
             return {"timeout": True, "seconds": time.perf_counter() - t0, "peak_rss_mb": peak}
         time.sleep(0.5)
+    assert proc.stdout is not None
     lines = [line for line in proc.stdout.read().splitlines() if line.startswith(MARK)]
     if proc.returncode != 0 or not lines:
         raise RuntimeError(f"{' '.join(args)}: failed (exit code {proc.returncode})")

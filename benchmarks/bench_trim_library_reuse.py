@@ -15,6 +15,7 @@ import argparse
 import os
 import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -32,7 +33,7 @@ def main() -> None:
     from score4.inputs.config import parse_config
     from score4.ions.trim_library import cache_dir
     from score4.runner.seeds import event_geant4_seeds
-    from score4.sim.runtime import resolve_physics
+    from score4.sim.runtime import redirect_native_output, resolve_physics
     from score4.sim.simulation import Simulation
 
     data = {
@@ -53,7 +54,9 @@ def main() -> None:
         },
         "run": {"events": args.events, "seed": 1},
     }
-    sim = Simulation(plan_run(parse_config(data), physics=resolve_physics("lite")))
+    # Geant4's banner and messages to /dev/null: the output is the docs' transcript
+    with redirect_native_output(Path(os.devnull)):
+        sim = Simulation(plan_run(parse_config(data), physics=resolve_physics("lite")))
     transport = sim.heavy_ions
     assert transport is not None
     primaries = sim.source.events(1, 0, args.events)

@@ -23,8 +23,9 @@ from score4.world.scene import CurvedRoughLayer
 
 from helpers.boolean_worlds import CUTBOX_POSITION, STACK_POSITION, write_world
 from helpers.export_paths import assert_same_paths, base_name, three_paths
+from helpers.g4_geometry_check import assert_no_overlaps
 from helpers.geantinos import geantino_run
-from helpers.ray_trace import mesh_path, wall_patches_near
+from helpers.ray_trace import mesh_path, patches_path, polycone_path, wall_patches_near
 
 #: 0.5 mm patches of 5 x 5 pyramids, 20 um high
 PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
@@ -53,6 +54,8 @@ ROUGH = {"cutbox": ["first.+z", "first.+x"], "stack": ["second.outer"]}
 #: the cut face and the p+ contact of P00664B; the side wall with the p+ contact
 PPC_ROUGH = {"ppc": ["second.-x", "pplus"]}
 PPC_WALL_ROUGH = {"ppc": ["pplus", "first.seg_2"]}
+#: all three: the wall's envelope holds its kept cells' azimuths, out of the cut face's way
+PPC_ALL_ROUGH = {"ppc": ["second.-x", "pplus", "first.seg_2"]}
 
 
 @pytest.fixture(scope="module")
@@ -95,19 +98,96 @@ def test_kept_cells_lie_wholly_on_the_boolean_surface(scene):
 @pytest.mark.deep
 def test_kept_cells_on_the_cut_detector_lie_on_its_surface(gdml):
     """As above on P00664B: the box's face that cuts the crystal and the p+ contact; the side
-    wall less the cut and the p+ contact."""
-    for rough in (PPC_ROUGH, PPC_WALL_ROUGH):
+    wall less the cut and the p+ contact; all three together (the wall's cells and those of
+    the cut face the same as without the other)."""
+    masks = []
+    for rough in (PPC_ROUGH, PPC_WALL_ROUGH, PPC_ALL_ROUGH):
         scene = build_scene(parse_config(config(gdml, rough)))
-        assert len(scene.layers) == 2
+        assert len(scene.layers) == len(rough["ppc"])
         _check_kept_cells(scene)
+        masks.append({layer.config.face_name: layer.mask for layer in scene.layers})
+    for face in ("second.-x", "first.seg_2"):
+        alone = masks[0] if face in masks[0] else masks[1]
+        assert (masks[2][face] == alone[face]).all(), face
 
 
-def test_the_cut_face_and_the_side_wall_it_cuts_are_refused_together(gdml):
-    """The side wall's layer is a whole shell around the crystal (partly covered curved faces
-    keep it whole), so it passes through the cut, where the cut face's layer stands: Geant4's
-    own overlap check finds the two envelopes overlapping by ~10 um. One line names both."""
+#: the cut face of P00664B and the side wall it cuts
+PPC_CUT_AND_WALL = {"ppc": ["second.-x", "first.seg_2"]}
+
+
+def test_the_cut_face_and_the_side_wall_it_cuts_build_together(gdml):
+    """The side wall's envelope holds only the azimuths of its kept cells (one G4Tubs segment),
+    so it stays out of the cut (x > 30 mm), where the cut face's layer stands, and both layers
+    build (before, the whole shell ran through the cut: Geant4 found the envelopes
+    overlapping by ~10 um). Every kept cell lies in the piece; the cells and shares are those
+    of the wall alone (the deep test above)."""
+    scene = build_scene(parse_config(config(gdml, PPC_CUT_AND_WALL)))
+    wall = scene.layer("ppc", "first.seg_2")
+    assert isinstance(wall, CurvedRoughLayer)
+    assert wall.pieces is not None
+    assert len(wall.pieces) == 1
+    ((phi0, dphi, v0, v1),) = wall.pieces
+    (_, _), (fv0, fv1) = wall.ring_layout.face.extent
+    assert (v0, v1) == (fv0, fv1)  # a cone or cylinder piece spans the face's length
+    crystal = scene.target("ppc")
+    shell = crystal.to_local(wall.shell_points(n_phi=720))
+    assert shell[:, 0].max() < 30.0  # out of the cut
+    for j, _i, _k, phi in wall.cells():  # every kept cell wholly in the piece's azimuths
+        step = wall.ring_layout.step[j]
+        a = np.mod(phi - step / 2 - phi0, 2 * np.pi)
+        assert a + step <= dphi + 1e-12
+    assert scene.layer("ppc", "second.-x").mask.sum() > 0
+
+
+@pytest.mark.deep
+def test_the_cut_face_and_the_side_wall_in_geant4(gdml, tmp_path):
+    """P00664B with its cut face and side wall rough: Geant4's own overlap check finds no
+    overlap, and geantinos through both layers into the crystal (from beyond the cut and from
+    outside the wall, near the cut's edge too) travel in it the analytic path in the polycone
+    less the box plus the path in the patch bodies near the ray, to 1e-9 mm."""
+    data = config(gdml, PPC_CUT_AND_WALL, output={"track_length": True})
+    (tmp_path / "ppc.yaml").write_text(yaml.safe_dump(data))
+    assert_no_overlaps(tmp_path / "ppc.yaml")
+    cfg = parse_config(data)
+    scene = build_scene(cfg)
+    crystal = scene.target("ppc")
+    cut, wall = scene.layer("ppc", "second.-x"), scene.layer("ppc", "first.seg_2")
+    assert isinstance(wall, CurvedRoughLayer)
+    rng = np.random.default_rng(11)
+    starts, directions = [], []
+    phi0, dphi, _, _ = wall.pieces[0]
+    for k in range(16):
+        if k < 6:  # from beyond the cut face, through its layer
+            o = np.array([30.05, rng.uniform(-15, 15), rng.uniform(6, 24)])
+        else:  # from outside the wall (the last ones at the piece's edges, near the cut)
+            phi = phi0 + (rng.uniform(0, 0.05) if k % 2 else dphi - rng.uniform(0, 0.05))
+            phi = phi if k >= 10 else rng.uniform(phi0, phi0 + dphi)
+            o = np.array([35.06 * np.cos(phi), 35.06 * np.sin(phi), rng.uniform(6, 24)])
+        aim = crystal.shape.sample_volume(rng, 1)[0]
+        starts.append(crystal.to_world(o[None])[0])
+        d = (aim - o) / np.linalg.norm(aim - o)
+        directions.append(crystal.rotation @ d)
+    n = len(starts)
+    primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n)
+    r = geantino_run(data, primaries, np.array(starts), np.array(directions), tmp_path)
+    got = np.asarray(r.scores["track_length"]["ppc"])
+    crossed = 0
+    for k in range(n):
+        o, d = starts[k], directions[k]
+        expected = polycone_path(crystal.to_local(o[None])[0], crystal.rotation.T @ d,
+                                 crystal.shape, length=80.0)  # fmt: skip
+        in_patches = patches_path(o, d, cut, 80.0) + patches_path(o, d, wall, 80.0)
+        crossed += in_patches > 0
+        assert got[k] == pytest.approx(expected + in_patches, abs=1e-9, rel=0), k
+    assert crossed >= n // 2  # most rays cross a patch body
+
+
+def test_a_taper_and_the_cut_face_are_still_refused_together(gdml):
+    """A cone's envelope pieces span its whole length over the azimuths any ring keeps, so
+    one of P00664B's tapers (seg_1) reaches past the cut at its wide end, where the cut face's
+    layer stands: one line names both (docs/geometry.md)."""
     with pytest.raises(ConfigError, match=r"second.-x .* runs into the rough layer ppc_roughfirst"):
-        build_scene(parse_config(config(gdml, {"ppc": ["second.-x", "first.seg_2"]})))
+        build_scene(parse_config(config(gdml, {"ppc": ["second.-x", "first.seg_1"]})))
 
 
 def _check_kept_cells(scene) -> None:
@@ -374,15 +454,15 @@ def test_hpge_groups_resolve_on_a_detector_with_a_cut(gdml):
 
 @pytest.mark.deep
 def test_a_rough_pplus_and_cut_face_run_in_geant4(gdml, tmp_path):
-    """Po-210 alphas on the rough cut face and p+ contact of P00664B: Geant4 builds the
-    layers and every event deposits energy in the detector."""
+    """Po-210 alphas on the rough cut face and side wall of P00664B, its p+ contact rough too:
+    Geant4 builds the layers, and over 30 % of the events deposit energy in the detector."""
     data = config(
         gdml,
-        PPC_ROUGH,
+        PPC_ALL_ROUGH,
         source={
             "particle": "alpha",
             "energy": "5.3 MeV",
-            "surface": {"volume": "ppc", "face": ["second.-x"]},
+            "surface": {"volume": "ppc", "face": ["second.-x", "first.seg_2"]},
         },
     )
     data["run"] = {"events": 30, "seed": 5}

@@ -164,6 +164,7 @@ checks:
     mask: ["\\\\| [\\\\d.]+ \\\\|$"]
   bench:
     slow: true
+    smoke: ""
     commands:
       - "echo 'build 12 s'"
       - "echo 'TRIM 4 ms per ion, 1000 ions'"
@@ -249,6 +250,110 @@ def test_a_masked_value_is_compared_by_shape_only_unless_remeasured(
     assert docs_check.check_document(doc, checks, None, update=True, run_all=True) == 4
     assert "-->4<!--" in doc.read_text()
     assert "| flat | 31.65 % | 2.8 |" in doc.read_text()
+
+
+# --- --smoke: the slow checks run small, their output compared by shape ---------------------
+
+FAKE_BENCH = """\
+import argparse, sys
+p = argparse.ArgumentParser()
+p.add_argument("--cases", default="a,b,c")
+p.add_argument("--rounds", type=int, default=3)
+p.add_argument("--header", default="case")
+p.add_argument("--fail", action="store_true")
+a = p.parse_args()
+print("measured 2026-11-27, load 0.5 at the start")
+print(f"| {a.header} | ms per event | ratio |")
+print("| --- | --- | --- |")
+for k, case in enumerate(a.cases.split(",")):
+    print(f"| {case} {k + 1} um | {10.5 * (k + 1):.3f} | {k + 1:.2f} |")
+print("rounds: " + ", ".join(f"{r + 0.5:.2f}" for r in range(a.rounds)))
+sys.exit(1 if a.fail else 0)
+"""
+
+SMOKE_DOC = """\
+Measured at load <!-- value: fake.load -->0.3<!-- /value -->.
+
+<!-- check: fake -->
+| case | ms per event | ratio |
+| --- | --- | --- |
+| a 1 um | 9.100 | 1.00 |
+| b 2 um | 18.200 | 2.00 |
+| c 3 um | 27.300 | 3.00 |
+
+<!-- check: fake -->
+```text
+$ python BENCH --rounds 5
+measured 2026-11-20, load 2.0 at the start
+...
+rounds: 0.40, 1.40, 2.40, 3.40, 4.40
+```
+"""
+
+
+@pytest.fixture
+def smoke_page(tmp_path, monkeypatch):
+    bench = tmp_path / "benchmarks" / "fake.py"
+    bench.parent.mkdir()
+    bench.write_text(FAKE_BENCH)
+    monkeypatch.setattr(docs_check, "CHECKS", tmp_path / "checks.yaml")
+    monkeypatch.setattr(docs_check, "ROOT", tmp_path)
+    monkeypatch.setattr(docs_check, "LINKED", ())
+    doc = tmp_path / "DOC.md"
+    doc.write_text(SMOKE_DOC.replace("BENCH", str(bench)))
+    monkeypatch.setattr(docs_check, "DOCS", [doc])
+
+    def write(smoke: str) -> None:
+        (tmp_path / "checks.yaml").write_text(
+            "checks:\n  fake:\n    slow: true\n"
+            f"    smoke: {smoke}\n"
+            f"    commands: ['python {bench} --rounds 5']\n"
+            "    values: {load: 'load ([\\d.]+) at'}\n"
+        )
+
+    return write
+
+
+def test_smoke_runs_a_slow_check_small_and_compares_the_shape_only(smoke_page, capsys):
+    # fewer cases and rounds: other numbers, fewer table rows, a shorter list: the same shape
+    smoke_page("'--cases a,c --rounds 1'")
+    assert docs_check.main(["--smoke"]) == 0
+    assert "1 slow checks run small (--smoke)" in capsys.readouterr().out
+    assert docs_check.main([]) == 0  # without --smoke: skipped, as before
+    assert "skipped (slow, run with --all): fake" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("smoke", "status", "message"),
+    [
+        ("'--header name'", 1, "no table with the header '| case | ms per event | ratio |'"),
+        ("'--cases a,d'", 1, "the table's rows do not pair with the quoted rows"),
+        ("'--cases c,a'", 1, "the table's rows do not pair with the quoted rows"),  # order
+        ("'--fail'", 2, "exited 1"),
+        ("'--rounds 0'", 1, "does not pair with the quoted lines by shape"),  # no number
+        ("{'--rounds 5': '--rounds 2'}", 0, "run small"),
+        ("{'--round 9': '--rounds 2'}", 2, "smoke replaces '--round 9': in no command"),
+    ],
+)
+def test_smoke_finds_a_changed_shape_a_failed_run_and_a_stale_smoke(
+    smoke_page, capsys, smoke, status, message
+):
+    smoke_page(smoke)
+    assert docs_check.main(["--smoke"]) == status
+    assert message in capsys.readouterr().out
+
+
+def test_a_slow_check_needs_smoke_arguments_and_they_go_before_a_pipe(smoke_page):
+    smoke_page("''")
+    text = docs_check.CHECKS.read_text()
+    docs_check.CHECKS.write_text(text.replace("    smoke: ''\n", ""))
+    with pytest.raises(docs_check.CheckError, match="a slow check needs `smoke:`"):
+        docs_check.load_checks()
+    check = docs_check.Check("x", ["python benchmarks/b.py --n 9 --md > t.md && cat t.md"])
+    check.smoke = "--n 1"
+    assert docs_check.smoked(check).commands == [
+        "python benchmarks/b.py --n 9 --md --n 1 > t.md && cat t.md"
+    ]
 
 
 # --- the coverage rule ---------------------------------------------------------------------

@@ -54,7 +54,8 @@ FAST = dict(
 HANG = 120
 #: Memory a fuzzed surface or run may plan (refused above: the memory checks are fuzzed too).
 FUZZ_MEMORY = 256 * 2**20
-# Commands that start Geant4 in the calling process, or install data from the internet.
+# Commands that start Geant4 (in the calling process or a spawned one), or install data from the
+# internet.
 GEANT4_COMMANDS = {"run", "range", "geometry check"}
 OFFLINE_SKIP = {"data install"}
 

@@ -85,8 +85,22 @@ def test_exact_cell_check_finds_a_patch_wider_than_its_cell():
     ]
 
 
-def test_cli_geometry_check(tmp_path, capsys):
+def test_cli_geometry_check_twice_in_one_process(tmp_path, capsys):
+    """Two checks of different worlds in one process (a program calling main() twice): each
+    builds its world in a process of its own. Built in the calling process, the second check's
+    GDML world took the first world's volumes from Geant4's stores by name, and Geant4 reported
+    the bore's layer overlapping the first world's crystal (exit status 1)."""
+    from test_curved_rough import cylinder_config, write_cylinder
+
     cfg = tmp_path / "c.yaml"
     cfg.write_text(yaml.safe_dump(ROUGH))
-    assert main(["geometry", "check", str(cfg), "--points", "200", "--max-placements", "5"]) == 0
-    assert "no overlaps" in capsys.readouterr().out
+    gdml = write_cylinder(tmp_path / "bore.gdml", radius=1.0, half_z=0.4, rmin=0.6)
+    bore = tmp_path / "bore.yaml"
+    bore.write_text(yaml.safe_dump(cylinder_config(gdml, face="inner")))
+    for path, placements in ((cfg, "3 of 99"), (bore, "56 of 157")):
+        assert (
+            main(["geometry", "check", str(path), "--points", "200", "--max-placements", "5"]) == 0
+        )
+        out = capsys.readouterr().out
+        assert f"Geant4 checked {placements} placements" in out
+        assert "no overlaps" in out

@@ -26,6 +26,10 @@ are written for authors at the top of ``docs/checks.yaml``; in short:
   of the check takes the first group of the first output line the regex matches.
 * Machine-dependent figures: a check's ``mask`` patterns mark the parts of a line compared by
   shape only; ``slow: true`` checks (benchmarks of minutes) run only with ``--all``.
+* ``--smoke`` (``make docs-check``) also runs each slow check with the small arguments of its
+  ``smoke:`` entry (every slow check needs one) and compares only the shape of its output:
+  exit status 0, the quoted lines and table rows by smoke_shape() (numbers, and runs of them,
+  as ``#``; rows a subset, in order), each value's pattern matching a line.
 * **Coverage**: every fenced block needs a check marker, an input language (``yaml``,
   ``python``, ``bash``, ...: code the reader types, with no ``$`` prompt lines) or
   ``<!-- not-output: WHAT IT IS -->`` above it; every table holding a figure needs a check
@@ -42,7 +46,8 @@ only, running nothing (a second). Exit status 0: everything matches and is cover
 lines or values differ, or are not covered (each printed as file:line); 2: a check or marker is
 broken.
 
-Usage: python tools/docs_check.py [--update [--remeasure]] [--all] [--only NAME] [--coverage]
+Usage: python tools/docs_check.py [--update [--remeasure]] [--all | --smoke] [--only NAME]
+       [--coverage]
 """
 
 from __future__ import annotations
@@ -56,6 +61,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from functools import cache
@@ -125,6 +131,9 @@ class Check:
     mask: list[re.Pattern] = field(default_factory=list)
     slow: bool = False
     values: dict[str, re.Pattern] = field(default_factory=dict)
+    smoke: str | dict[str, str] | None = None  # a slow check's small arguments (see smoked())
+    smoked: bool = False  # runs the smoke commands: its output is compared by shape only
+    original: list[str] = field(default_factory=list)  # smoked: the check's own commands
     outputs: list[list[str]] | None = None  # per command
     seconds: float = 0.0
 
@@ -150,8 +159,63 @@ def load_checks() -> dict[str, Check]:
             mask=[re.compile(p) for p in spec.get("mask", [])],
             slow=bool(spec.get("slow", False)),
             values={k: re.compile(v) for k, v in spec.get("values", {}).items()},
+            smoke=spec.get("smoke"),
         )
+        check = checks[name]
+        if check.slow and not isinstance(check.smoke, (str, dict)):
+            raise CheckError(
+                f"check {name}: a slow check needs `smoke:` (the small arguments that "
+                "`--smoke` runs it with: a string appended to its benchmark commands, or "
+                "{OLD: NEW} text replacements; '' runs the commands as they are)"
+            )
+        if check.smoke is not None and not check.slow:
+            raise CheckError(f"check {name}: `smoke:` is for slow checks only")
     return checks
+
+
+BENCHMARK = re.compile(r"\bbenchmarks/\w+\.py\b")
+
+
+def smoked(check: Check) -> Check:
+    """The slow check as ``--smoke`` runs it: its commands with the small arguments of its
+    ``smoke:`` entry (a string: appended to every command that runs a ``benchmarks/`` script,
+    where argparse takes an option's last value; a mapping: each OLD text replaced by NEW, and
+    each must occur), its output compared by shape only (shape_document())."""
+    commands = list(check.commands)
+    if isinstance(check.smoke, str) and check.smoke.strip():
+        hit = False
+        for i, command in enumerate(commands):
+            script = BENCHMARK.search(command)
+            if script is None:
+                continue
+            hit = True
+            # the arguments go before a trailing redirection or pipe, if any
+            rest = re.search(r"\s(?:[|>]|&&)", command[script.end() :])
+            cut = len(command) if rest is None else script.end() + rest.start()
+            commands[i] = f"{command[:cut]} {check.smoke.strip()}{command[cut:]}"
+        if not hit:
+            raise CheckError(f"check {check.name}: smoke arguments, but no benchmarks/ command")
+    elif isinstance(check.smoke, dict):
+        for old, new in check.smoke.items():
+            if not any(old in c for c in commands):
+                raise CheckError(f"check {check.name}: smoke replaces {old!r}: in no command")
+            commands = [c.replace(old, str(new)) for c in commands]
+    shown = {
+        new: check.shown.get(old, display(old))
+        for old, new in zip(check.commands, commands, strict=True)
+    }
+    return Check(
+        name=check.name,
+        commands=commands,
+        shown=shown,
+        ignore=check.ignore,
+        mask=check.mask,
+        slow=True,
+        values=check.values,
+        smoke=check.smoke,
+        smoked=True,
+        original=check.commands,
+    )
 
 
 def doc_block(doc: str, lang: str, n: int) -> str:
@@ -261,15 +325,24 @@ def _items(lines: list[str], first: int, table: bool = False) -> list[Item]:
     return items
 
 
-def _pattern(text: str) -> re.Pattern:
+def smoke_shape(line: str) -> str:
+    """The shape of a line, a run of numbers (``1, 2, 3``, table cells ``| 1 | 2 |``) as one
+    ``#``: a smoke run's lists (rounds, sizes) are shorter than a full run's."""
+    return re.sub(r"#(?:[\s,|]+#)+", "#", shape(line))
+
+
+def _pattern(text: str, shaper: Callable[[str], str] = shape) -> re.Pattern:
     """The quoted line's shape; ``...`` inside it stands for any text."""
-    return re.compile(".*".join(re.escape(shape(p)) for p in text.split("...")))
+    return re.compile(".*".join(re.escape(shaper(p)) for p in text.split("...")))
 
 
-def align(items: list[Item], output: list[str]) -> list[tuple[int, int]] | None:
-    """Pair items with output lines: (start, end) per item, or None if they do not pair."""
-    patterns = [None if it.omit or it.rule else _pattern(it.text) for it in items]
-    shapes = [shape(line) for line in output]
+def align(
+    items: list[Item], output: list[str], shaper: Callable[[str], str] = shape
+) -> list[tuple[int, int]] | None:
+    """Pair items with output lines: (start, end) per item, or None if they do not pair (lines
+    compared as ``shaper`` gives them)."""
+    patterns = [None if it.omit or it.rule else _pattern(it.text, shaper) for it in items]
+    shapes = [shaper(line) for line in output]
 
     @cache
     def go(i: int, j: int) -> tuple[tuple[int, int], ...] | None:
@@ -341,7 +414,7 @@ def _output_of(check: Check, command: str) -> list[str]:
     """The output of one of the check's commands, named as in checks.yaml or after ``$``."""
     assert check.outputs is not None
     for i, c in enumerate(check.commands):
-        if command in (c, check.shown.get(c, display(c))):
+        if command in (c, check.shown.get(c, display(c)), *check.original[i : i + 1]):
             return check.outputs[i]
     raise CheckError(f"{command!r} is not a command of check {check.name}")
 
@@ -433,11 +506,72 @@ def value_of(check: Check, key: str) -> tuple[str, bool]:
     raise CheckError(f"check {check.name}: value {key!r} matched no output line")
 
 
+def _general(pattern: re.Pattern) -> re.Pattern:
+    """A value's pattern with its literal numbers as any number (a smoke run's sizes differ)."""
+    return re.compile(
+        re.sub(r"(?<![\\{,\d])\d+(?:\\?\.\d+)?(?![\d},])", r"[\\d.]+", pattern.pattern)
+    )
+
+
+def _rows_in_order(items: list[Item], table: list[str]) -> bool:
+    """Whether the output table has the quoted header and rule, and rows that each pair with a
+    quoted row (by smoke_shape(), in the quoted order; a row of ``...`` cells: any row as wide
+    as the header), at least one. A smoke run may leave cases out: their rows are not printed."""
+    if len(table) < 3 or len(items) < 2 or not items[1].rule:
+        return False
+    if smoke_shape(table[0]) != smoke_shape(items[0].text) or not TABLE_RULE.match(table[1]):
+        return False
+    width = items[0].text.count("|")
+    k = 2
+    for row in table[2:]:
+        while k < len(items):
+            it = items[k]
+            k += 1
+            if it.omit and row.count("|") == width:
+                k -= 1  # an omission stands for any number of rows
+                break
+            if not it.omit and _pattern(it.text, smoke_shape).fullmatch(smoke_shape(row)):
+                break
+        else:
+            return False
+    return True
+
+
+def shape_problems(check: Check, part: Part, lines: list[str]) -> list[str]:
+    """Why the smoke output of a slow check does not have the shape of the part quoting it
+    (empty: it does). A transcript: its lines pair with the quoted lines as align() pairs them,
+    each line as its smoke_shape(); a table: see _rows_in_order()."""
+    block = lines[part.first : part.end]
+    if part.kind == "table":
+        items = _items(block, part.first, table=True)
+        output = check.output if part.command is None else _output_of(check, part.command)
+        tables = _tables(output or [])
+        if any(_rows_in_order(items, t) for t in tables):
+            return []
+        same = [t for t in tables if shape(t[0]) == shape(block[0])]
+        if not same:
+            return [f"no table with the header {block[0].strip()!r} in the output"]
+        diff = difflib.unified_diff(
+            [smoke_shape(b) for b in block], [smoke_shape(r) for r in same[0]], "q", "smoke", n=0
+        )
+        return ["the table's rows do not pair with the quoted rows:\n  " + "\n  ".join(diff)]
+    problems = []
+    for items, output in _segments(check, block, part.first, part.command):
+        if align(items, output, smoke_shape) is None:
+            quoted = [smoke_shape(it.text) for it in items]
+            diff = difflib.unified_diff(quoted, [smoke_shape(o) for o in output], "q", "smoke", n=0)
+            problems.append(
+                "the output does not pair with the quoted lines by shape:\n  "
+                + "\n  ".join(d.rstrip("\n") for d in list(diff)[:30])
+            )
+    return problems
+
+
 def runs(check: Check, only: str | None, run_all: bool) -> bool:
     """Whether this invocation runs the check (slow ones only with --all or --only)."""
     if only is not None:
         return check.name == only
-    return run_all or not check.slow
+    return run_all or not check.slow or check.smoked
 
 
 # ---------------------------------------------------------------------------------------------
@@ -560,7 +694,7 @@ def coverage(path: Path, lines: list[str] | None = None) -> list[str]:
     rel = _rel(path)
     lines = path.read_text().splitlines() if lines is None else lines
     problems = []
-    covered = set()
+    covered: set[int] = set()
     for part in parts(lines, rel):
         covered.update(range(part.first - (part.kind == "block"), part.after))
         if part.kind == "paragraph":
@@ -634,6 +768,12 @@ def check_document(
         if not runs(check, only, run_all):
             continue
         block = lines[part.first : part.end]
+        if check.smoked:
+            run_check(check)
+            for problem in shape_problems(check, part, lines):
+                differences += 1
+                print(f"{rel}:{part.first + 1}: [{check.name}, smoke run] {problem}")
+            continue
         try:
             results = compare_block(check, block, part.first, part.kind == "table", part.command)
         except CheckError as err:
@@ -670,6 +810,15 @@ def check_document(
             raise CheckError(f"{rel}:{line}: unknown check {name!r}")
         if not runs(checks[name], only, run_all):
             return match.group(0)
+        if checks[name].smoked:
+            pattern = checks[name].values.get(key)
+            out = run_check(checks[name])
+            if pattern is None or not any(_general(pattern).search(o) for o in out):
+                differences += 1
+                print(
+                    f"{rel}:{line}: [{name}.{key}, smoke run] the value's pattern matches no line"
+                )
+            return match.group(0)
         actual, by_shape = value_of(checks[name], key)
         if actual == quoted or (by_shape and not REMEASURE and shape(actual) == shape(quoted)):
             return match.group(0)
@@ -704,7 +853,8 @@ def run_ahead(checks: list[Check], only: str | None, run_all: bool) -> None:
     """Run the checks side by side, one per core (each check's commands are processes)."""
     todo = [c for c in checks if runs(c, only, run_all)]
     # the longest first, so that the last one to finish is a short one
-    order = ("ion-setups", "heavy-ions", "alpha-ranges", "demo", "vertices-replay")
+    order: tuple[str, ...] = ("ion-setups", "heavy-ions", "alpha-ranges", "demo", "vertices-replay")
+    order += ("solid-speed", "bege-whole-speed", "face-size-speed")  # the longest smoke runs
     todo.sort(key=lambda c: order.index(c.name) if c.name in order else len(order))
     with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
         for future in [pool.submit(run_check, c) for c in todo]:
@@ -722,7 +872,17 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="with --update: also take the masked figures (timings, dates, loads) from the run",
     )
+    parser.add_argument(
+        "--smoke",
+        action="store_true",
+        help="also run the slow checks, with the small arguments of their `smoke:` entry, and "
+        "check only their output's shape (exit status, tables, lines, values); not with --update",
+    )
     args = parser.parse_args(argv)
+    if args.smoke and (args.update or args.all):
+        parser.error(
+            "--smoke runs the slow checks small and compares shapes only: no --update/--all"
+        )
     global REMEASURE
     REMEASURE = args.remeasure
     try:
@@ -746,6 +906,10 @@ def main(argv: list[str] | None = None) -> int:
         checks = load_checks()
         if args.only and args.only not in checks:
             raise CheckError(f"--only: unknown check {args.only!r}")
+        if args.smoke:
+            for name, check in checks.items():
+                if check.slow and args.only in (None, name):
+                    checks[name] = smoked(check)
         run_ahead([checks[n] for n in quoted_names() if n in checks], args.only, args.all)
         differences = sum(check_document(p, checks, args.only, args.update, args.all) for p in DOCS)
         unused = [
@@ -768,6 +932,9 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     skipped = [c.name for c in checks.values() if c.slow and c.outputs is None and not args.only]
     note = f"; skipped (slow, run with --all): {', '.join(skipped)}" if skipped else ""
+    smoke = [c.name for c in ran if c.smoked]
+    if smoke:
+        note += f"; {len(smoke)} slow checks run small (--smoke), their output's shape matches"
     print(f"docs-check: {len(ran)} checks, every quoted line and value matches ({timing}){note}")
     return 0
 

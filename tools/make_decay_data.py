@@ -344,14 +344,14 @@ def build(root: Path) -> dict:
         name = _name(parent, level)
         if name in nuclides:
             continue
-        group = sets.get((parent, round(level, 2)))
-        if not group:
+        found = sets.get((parent, round(level, 2)))
+        if not found:
             raise SystemExit(f"no ENSDF decay data set for {name}")
-        pd = group[0]["parentDecay"][0]
+        pd = found[0]["parentDecay"][0]
         hl = pd["halfLife"][0]
         record: dict = {
-            "z": group[0]["parentAtomicNumber"],
-            "a": group[0]["parentAtomicMass"],
+            "z": found[0]["parentAtomicNumber"],
+            "a": found[0]["parentAtomicMass"],
             "level_keV": level,
             "half_life_s": hl["halfLifeConverted"],
             "half_life": f"{hl['halfLifeBest']} {hl['unitHalfLifeBest']}",
@@ -359,14 +359,16 @@ def build(root: Path) -> dict:
             "modes": [],
         }
         total_br = 0.0
-        for d in group:
+        for d in found:
             br = _br(d)
             total_br += br
             if br < MIN_BRANCH:
                 continue
             mode = MODES[d["decayMode"]]
             daughter = d["daughterID"]
-            elements.add(re.match(r"[A-Z][a-z]?", daughter).group(0))
+            symbol = re.match(r"[A-Z][a-z]?", daughter)
+            assert symbol is not None, daughter
+            elements.add(symbol.group(0))
             iso = isomer_levels.get(daughter, set())
             levels, transitions, stops = _levels(d, iso)
             feeds = {"A": _alpha_feeds, "B-": _beta_feeds, "EC": _ec_feeds}[mode](d)

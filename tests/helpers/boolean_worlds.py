@@ -121,3 +121,24 @@ def write_more_world(path: Path) -> Path:
     w.addDetector(reg)
     w.write(str(path))
     return path
+
+
+def write_box_holes(path: Path, holes, half: float = 10.0) -> Path:
+    """A GDML world (pyg4ometry) of copper boxes (half width ``half``, mm), each less a hole:
+    ``holes(s, reg)`` gives, per volume name, ``(the hole's pyg4ometry solid, its position in
+    the box, the box's y in the world)`` (``s``: ``pyg4ometry.geant4.solid``)."""
+    import pyg4ometry as pg
+
+    reg = pg.geant4.Registry()
+    s = pg.geant4.solid
+    world = pg.geant4.LogicalVolume(s.Box("world_s", 200, 200, 100, reg), "G4_Galactic", "W", reg)
+    for name, (hole, at, y) in holes(s, reg).items():
+        box = s.Box(f"{name}_a", 2 * half, 2 * half, 2 * half, reg)
+        cut = s.Subtraction(f"{name}_s", box, hole, [[0, 0, 0], list(at)], reg)
+        lv = pg.geant4.LogicalVolume(cut, "G4_Cu", f"{name}_lv", reg)
+        pg.geant4.PhysicalVolume([0, 0, 0], [0, y, 0], lv, name, world, reg)
+    reg.setWorld(world.name)
+    writer = pg.gdml.Writer()
+    writer.addDetector(reg)
+    writer.write(str(path))
+    return path

@@ -23,3 +23,43 @@ def geantino_run(data: dict, primaries, start: np.ndarray, direction: np.ndarray
     n = len(primaries.position)
     replay = parse_config({**data, "source": {"vertices": str(vfile)}, "run": {"events": n}})
     return read_results(run(replay, folder / "g.h5", progress=False, echo=lambda m: None))
+
+
+def assert_box_paths(
+    data: dict,
+    scene,
+    start: np.ndarray,
+    direction: np.ndarray,
+    owners: list[str],
+    traced,
+    volume_of,
+    folder: Path,
+) -> int:
+    """Geantinos along the rays ``start`` + s ``direction`` (world), ray k aimed at the volume
+    ``owners[k]`` (unrotated): Geant4's track length in it equals ``traced(name, o, d)`` (the
+    analytic path, ``o`` in the volume's frame) plus the path in the patch bodies of its layers
+    (helpers.ray_trace.patches_path), 1e-9 mm; Geant4's volume of each scored volume less its
+    layers equals ``volume_of(name)`` to 2e-4 (Geant4 estimates a boolean's volume from 10^6
+    points). Returns how many rays crossed a patch."""
+    import pytest
+
+    from score4.source.build import make_source
+
+    from helpers.ray_trace import patches_path
+
+    config = parse_config(data)
+    primaries = make_source(config, scene).primaries(np.random.default_rng(1), 0, len(start))
+    res = geantino_run(data, primaries, start, direction, folder)
+    crossed = 0
+    for k, name in enumerate(owners):
+        o = scene.target(name).to_local(start[k][None])[0]
+        layers = scene.layers_of(name)  # a polyhedra's sides: a layer per plane
+        in_patches = sum(patches_path(start[k], direction[k], layer) for layer in layers)
+        crossed += in_patches > 0
+        expected = traced(name, o, direction[k]) + in_patches
+        got = np.asarray(res.scores["track_length"][name])[k]
+        assert got == pytest.approx(expected, abs=1e-9, rel=0), (name, k)
+    for vol in res.run["volumes"]:
+        own = vol["volume_mm3"] - vol["layer_volume_mm3"]
+        assert own == pytest.approx(volume_of(vol["name"]), rel=2e-4), vol["name"]
+    return crossed

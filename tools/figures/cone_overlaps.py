@@ -28,6 +28,7 @@ import yaml
 from score4.inputs.config import load_config
 from score4.shapes.mesh_shape import _tri_distance
 from score4.world.resolve import build_scene
+from score4.world.scene import CurvedRoughLayer
 
 REPORT = re.compile(
     r"volume (\S+):(\d+) \(G4TessellatedSolid\) with \S+:(\d+) \(G4TessellatedSolid\)\s+"
@@ -91,6 +92,7 @@ def main() -> None:
         reports = REPORT.findall(check.stdout + check.stderr)
         scene = build_scene(load_config(cfg))
     layer = scene.layers[0]
+    assert isinstance(layer, CurvedRoughLayer)
     cells = layer.cells()
     lay = layer.ring_layout
     print(f"Geant4 reports {len(reports)} overlap(s) among {len(cells)} bent patches")

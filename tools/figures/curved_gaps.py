@@ -62,7 +62,7 @@ FACES: list[tuple[str, Shape, str]] = [
     ("G4Cons r 30-40 mm", G4Cons(0.0, 30.0, 0.0, 40.0, 20.0), "outer"),
     (
         "G4GenericPolycone taper",
-        G4GenericPolycone(0.0, 2 * np.pi, [0, 38, 38, 30, 0], [0, 0, 60, 80, 80]),
+        G4GenericPolycone(0.0, 2 * np.pi, (0, 38, 38, 30, 0), (0, 0, 60, 80, 80)),
         "seg_2",
     ),
     ("G4Orb r 10 mm", G4Orb(10.0), "outer"),
@@ -112,7 +112,7 @@ def main() -> None:
     for label, shape, face in FACES:
         for name, surface in surfaces.items():
             t = target(shape, face)
-            rough = t.config.rough[0]  # type: ignore[union-attr]
+            rough = t.config.rough[0]
             layer = make_layer({"s": surface}, t, 0, rough)
             r = layer.ring_layout.min_radius  # type: ignore[attr-defined]
             limit = gap_limit(surface.max_height)
@@ -126,7 +126,7 @@ def facet_table(surfaces: dict) -> None:
     for label, shape, face in FACETS:
         for name, surface in surfaces.items():
             t = target(shape, face)
-            layers = target_layers({"s": surface}, t, 0, t.config.rough[0])  # type: ignore[union-attr]
+            layers = target_layers({"s": surface}, t, 0, t.config.rough[0])
             gap, rough, area = 0.0, 0.0, 0.0
             for layer in layers:
                 px, py = layer.patch_size

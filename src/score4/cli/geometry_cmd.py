@@ -49,9 +49,8 @@ def check(config_file: Path, points: int, max_placements: int, tolerance: str, l
 
     from ..errors import naming_file
     from ..files import check_outputs
-    from ..geometry.check import check_placements
-    from ..geometry.world import build_world
-    from ..sim.runtime import import_geant4, redirect_native_output, resolve_physics
+    from ..sim.geometry_check import check_geometry
+    from ..sim.runtime import resolve_physics
 
     config = allowing_overlaps(load_config(config_file))  # the check reports them itself
     tol = quantity(tolerance, "length", "--tolerance", non_negative=True)
@@ -62,20 +61,11 @@ def check(config_file: Path, points: int, max_placements: int, tolerance: str, l
     lite = resolve_physics("lite")  # geometry needs no physics data
     with naming_file(config_file):
         plan = plan_run(config, physics=lite, source=False)
-    scene = plan.scene
-    g4 = import_geant4(lite)
     with tempfile.TemporaryDirectory() as tmp:
         log = log_path or Path(tmp) / "geant4.log"
-        with redirect_native_output(log) as console, naming_file(config_file):
-            built = build_world(g4, plan)
-
-            def progress(line: str) -> None:
-                console.write(f"  {line}\n")
-                console.flush()
-
-            report = check_placements(
-                built.world, points, tol, max_placements, layers=scene.layers, progress=progress
-            )
+        # Geant4 in a process of its own: each check has its own stores (sim.geometry_check)
+        with naming_file(config_file):
+            report = check_geometry(plan, points, tol, max_placements, log)
         click.echo(
             f"Geant4 checked {report.checked} of {report.total} placements with {points} points "
             "each"

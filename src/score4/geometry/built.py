@@ -20,8 +20,10 @@ from ..shapes import BooleanShape, Shape
 from ..shapes import G4Box as G4BoxShape
 from ..shapes import G4Cons as G4ConsShape
 from ..shapes import G4GenericPolycone as G4GenericPolyconeShape
+from ..shapes import G4GenericPolyhedra as G4GenericPolyhedraShape
 from ..shapes import G4Orb as G4OrbShape
 from ..shapes import G4Sphere as G4SphereShape
+from ..shapes import G4Trd as G4TrdShape
 from ..shapes import G4Tubs as G4TubsShape
 from .boolean_cut import cut_boolean_solid
 from .gdml import read_gdml
@@ -69,7 +71,11 @@ def g4_solid(g4, shape: Shape, name: str):
             shape.sphi,
             shape.dphi,
         )
+    if isinstance(shape, G4TrdShape):
+        return g4.G4Trd(name, shape.dx1, shape.dx2, shape.dy1, shape.dy2, shape.dz)
     if isinstance(shape, G4GenericPolyconeShape):
+        return _generic_polycone(g4, shape, name)
+    if isinstance(shape, G4GenericPolyhedraShape):
         return _generic_polycone(g4, shape, name)
     raise ConfigError(f"{name}: score4 builds no Geant4 solid of a {shape.kind}")
 
@@ -77,19 +83,23 @@ def g4_solid(g4, shape: Shape, name: str):
 _GDML_SOLIDS: list = []  # the parsers and worlds of the solids read from GDML (kept alive)
 
 
-def _generic_polycone(g4, shape: G4GenericPolyconeShape, name: str):
-    """A G4GenericPolycone of ``shape``: geant4_pybind binds its constructor's ``r`` and ``z``
-    arrays as single numbers, so the solid is read by Geant4's GDML parser from a small file
-    of its own (unique volume names: Geant4's stores are global)."""
+def _generic_polycone(g4, shape: G4GenericPolyconeShape | G4GenericPolyhedraShape, name: str):
+    """A G4GenericPolycone (or, with sides, a G4Polyhedra of (r, z) corners) of ``shape``:
+    geant4_pybind binds its constructor's ``r`` and ``z`` arrays as single numbers, so the solid
+    is read by Geant4's GDML parser from a small file of its own (unique volume names: Geant4's
+    stores are global)."""
     tag = f"score4_pc{len(_GDML_SOLIDS)}"
     points = "".join(
         f'<rzpoint r="{r!r}" z="{z!r}"/>' for r, z in zip(shape.r, shape.z, strict=True)
     )
     world = 2 * max(max(abs(v) for v in shape.r + shape.z), 1.0) + 1.0
+    kind, sides = "genericPolycone", ""
+    if isinstance(shape, G4GenericPolyhedraShape):
+        kind, sides = "genericPolyhedra", f' numsides="{shape.nsides}"'
     text = (
         '<?xml version="1.0" encoding="UTF-8"?><gdml><define/><materials/><solids>'
-        f'<genericPolycone name="{tag}" startphi="{shape.sphi!r}" deltaphi="{shape.dphi!r}" '
-        f'aunit="rad" lunit="mm">{points}</genericPolycone>'
+        f'<{kind} name="{tag}" startphi="{shape.sphi!r}" deltaphi="{shape.dphi!r}"{sides} '
+        f'aunit="rad" lunit="mm">{points}</{kind}>'
         f'<box name="{tag}_w" x="{world!r}" y="{world!r}" z="{world!r}" lunit="mm"/></solids>'
         f'<structure><volume name="{tag}_lv"><materialref ref="G4_Galactic"/>'
         f'<solidref ref="{tag}"/></volume><volume name="{tag}_wl">'

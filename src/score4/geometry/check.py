@@ -305,6 +305,31 @@ def _meet(p: tuple, q: tuple) -> tuple[float, float]:
     return float(r), float(z)
 
 
+def _cells_in_pieces(layer, cells: list, tol: float) -> list[str]:
+    """The cells of a curved layer whose envelope is in pieces (a face a boolean's other parts
+    cut, :attr:`~score4.world.scene.CurvedRoughLayer.pieces`) that do not lie wholly in one
+    piece's azimuth and generator ranges (a cylinder's cell spans its ring's band; a cone's
+    pieces span the face)."""
+    if layer.pieces is None:
+        return []
+    lay = layer.ring_layout
+    py = lay.patch_size[1]
+    out = 0
+    for j, _, _, phi in cells:
+        step, r = float(lay.step[j]), float(lay.radius[j]) + layer.thickness
+        lo_v, hi_v = float(lay.v[j]) - py / 2, float(lay.v[j]) + py / 2
+        fits = False
+        for p0, dp, v0, v1 in layer.pieces:
+            a = np.mod(phi - step / 2 - p0 + tol / r, 2 * np.pi) - tol / r
+            if a + step <= dp + tol / r and lo_v >= v0 - tol and hi_v <= v1 + tol:
+                fits = True
+                break
+        out += not fits
+    if not out:
+        return []
+    return [f"{layer.name}: {out} cell(s) lie outside the pieces of the layer's envelope"]
+
+
 def curved_cells_tile(layer, tolerance: float = 1e-9) -> tuple[int, list[str]]:
     """Exact check (numpy) that the cells of a curved layer tile its envelope: neighbouring rings
     share their bounding cones (or polar-angle cones), neighbouring cells of a ring their
@@ -353,6 +378,7 @@ def curved_cells_tile(layer, tolerance: float = 1e-9) -> tuple[int, list[str]]:
                     f"between them {('at the face', 'at the layer top')[level]}"
                 )
     cells = layer.cells()
+    problems += _cells_in_pieces(layer, cells, tol)
     by_ring: dict[int, list[tuple[int, float]]] = {}
     for j, _, k, phi in cells:
         by_ring.setdefault(j, []).append((k, phi))

@@ -4,6 +4,9 @@ bent patch bodies placed around the axis.
 The envelope is a ``G4Cons`` of the mother's material over the face's phi range, between the
 z planes of the face's ends: the face's cone (or cylinder) and the same moved out by the layer
 thickness along the face's normal (it touches the target's face and nothing of the target).
+On a face of a boolean solid whose other parts cut or cover it, the envelope is one such G4Cons
+segment per piece (:attr:`~score4.world.scene.CurvedRoughLayer.pieces`: the kept cells'
+azimuth ranges and, on a cylinder, runs of rings), each cell placed in its piece.
 The rings keep clear of the envelope's ends (:meth:`score4.world.curved.RingLayout.make`). Each
 variant bent onto a ring radius is one ``G4TessellatedSolid`` and one logical volume (all rings of a
 cylinder share it), placed once per cell: turned about z to the cell's azimuth and moved along z to
@@ -45,22 +48,37 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
         t0, t1 = face.theta
         env_solid = g4.G4Sphere(name, lo, hi, face.phi0, face.dphi, t0, t1 - t0)
         zc = 0.0
+        env_solids = [env_solid]
+        zcs = [0.0]
     else:
-        rmin1, rmax1, rmin2, rmax2, dz, zc = wall_envelope(layer)
-        env_solid = g4.G4Cons(name, rmin1, rmax1, rmin2, rmax2, dz, face.phi0, face.dphi)
-    env_lv = g4.G4LogicalVolume(env_solid, mother_material, name)
+        # one G4Cons per piece of the envelope (the face's whole shell, or the azimuth and
+        # generator ranges holding the kept cells of a face a boolean's other parts cut)
+        env_solids, zcs = [], []
+        for n, view in enumerate(layer.envelope_views()):
+            rmin1, rmax1, rmin2, rmax2, dz, zc = wall_envelope(view)
+            vf = view.ring_layout.face
+            tag = name if n == 0 else f"{name}_env{n}"
+            env_solids.append(g4.G4Cons(tag, rmin1, rmax1, rmin2, rmax2, dz, vf.phi0, vf.dphi))
+            zcs.append(zc)
     rot = _rotation(g4, placement.rotation)
-    centre = placement.apply(np.array([0.0, 0.0, zc]))
-    env_pv = g4.G4PVPlacement(
-        g4.G4Transform3D(rot, g4.G4ThreeVector(*centre)),
-        env_lv,
-        name,
-        mother_lv,
-        False,
-        0,
-        False,
-    )
-    keep: list = [env_solid, env_lv, rot, env_pv]
+    keep: list = [rot]
+    env_lvs = []
+    for n, (env_solid, zc) in enumerate(zip(env_solids, zcs, strict=True)):
+        tag = name if n == 0 else f"{name}_env{n}"
+        env_lv = g4.G4LogicalVolume(env_solid, mother_material, tag)
+        centre = placement.apply(np.array([0.0, 0.0, zc]))
+        env_pv = g4.G4PVPlacement(
+            g4.G4Transform3D(rot, g4.G4ThreeVector(*centre)),
+            env_lv,
+            tag,
+            mother_lv,
+            False,
+            n,
+            False,
+        )
+        keep.extend([env_solid, env_lv, env_pv])
+        env_lvs.append(env_lv)
+    env_lv, zc = env_lvs[0], zcs[0]
     lay = layer.ring_layout
     ring_key = [layer.ring_solid_key(j) for j in range(len(lay.v))]
     lvs: dict[tuple[int, float], object] = {}
@@ -192,7 +210,8 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
         for copy_no, (j, _, k, phi) in enumerate(cells):
             lv = patch_lv(k, j)
             z_cell = shifts.get((k, ring_key[j]), 0.0)
-            place(lv, phi, ring_z[j] - zc + z_cell, env_lv, copy_no)
+            n = layer.piece_of(j, phi)
+            place(lv, phi, ring_z[j] - zcs[n] + z_cell, env_lvs[n], copy_no)
         levels = [column_lvs, cell_lvs] if column_lvs else [cell_lvs]
         keep += level_regions(g4, levels, name) if cell_lvs else []
         return patch_lvs, keep
@@ -201,21 +220,23 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
     # the whole wall.
     py = layer.patch_size[1]
     rings: dict[tuple, object] = {}
-    by_row: dict[int, list[tuple[int, float]]] = {}
+    by_row: dict[tuple[int, int], list[tuple[int, float]]] = {}  # (ring, piece) -> cells
     for j, _, k, phi in cells:
-        by_row.setdefault(j, []).append((k, phi))
-    for j, row in sorted(by_row.items()):
+        by_row.setdefault((j, layer.piece_of(j, phi)), []).append((k, phi))
+    views = layer.envelope_views()
+    for (j, n), row in sorted(by_row.items()):
         # (the azimuths too: on a boolean's face rings may hold different cells)
-        key = (ring_key[j], tuple((k, round(p, 12)) for k, p in row))
+        key = (ring_key[j], n, tuple((k, round(p, 12)) for k, p in row))
         if key not in rings:
             tag = f"{name}_ring{len(rings)}"
-            ring_solid = g4.G4Tubs(tag, rmin1, rmax1, py / 2, face.phi0, face.dphi)
+            vf = views[n].ring_layout.face
+            ring_solid = g4.G4Tubs(tag, rmin1, rmax1, py / 2, vf.phi0, vf.dphi)
             ring_lv = g4.G4LogicalVolume(ring_solid, mother_material, tag)
             for copy_no, (k, phi) in enumerate(row):
                 place(patch_lv(k, j), phi, 0.0, ring_lv, copy_no)
             rings[key] = ring_lv
             keep.extend([ring_solid, ring_lv])
-        place(rings[key], 0.0, ring_z[j] - zc, env_lv, j)
+        place(rings[key], 0.0, ring_z[j] - zcs[n], env_lvs[n], j)
     # The cells of frustums and the rings regions of their own: the walk down the volume tree
     # before each BeamOn (see level_regions) then visits each cell's ~2500 volumes once, not once
     # per cell of the wall.

@@ -560,7 +560,8 @@ def splice(g4, config, scene, out: Path, fragment_path: Path) -> dict:
                 )
                 keep.append(k)
                 patches.setdefault(t.name, set()).update(str(lv.GetName()) for lv in patch_lvs)
-                jobs.append(("layer", t, layer))
+                # one placement per piece of the envelope (a boolean's face cut by its parts)
+                jobs += [("layer", t, layer)] * len(layer.envelope_views())
                 continue
             frame = _mother_frame(layer.frame, t.mother)
             key = _layer_key(layer, m_lv.GetMaterial(), material)

@@ -250,8 +250,12 @@ def _plane_face(name: str, patches: Sequence[PlaneTriangles]) -> PlaneFace:
     n = normals[0]
     if not np.allclose(normals, n, atol=1e-9):
         raise ConfigError(f"face: face {name!r} is not flat (its facets have several normals)")
-    x = tris[0, 1] - tris[0, 0]
-    x = x - (x @ n) * n
+    edges = tris[:, 1] - tris[:, 0]
+    edges = edges - (edges @ n)[:, None] * n
+    lengths = np.linalg.norm(edges, axis=1)
+    # the first edge of some length (a polyhedra's end face with no hole starts with triangles
+    # shrunk to the axis)
+    x = edges[int(np.argmax(lengths > 1e-12 * max(float(lengths.max()), 1e-300)))]
     x /= max(float(np.linalg.norm(x)), 1e-300)
     rotation = np.column_stack([x, np.cross(n, x), n])
     centre = tris.reshape(-1, 3).mean(axis=0)
@@ -408,6 +412,14 @@ class Shape:
         shift of its origin in this frame (so the other faces stay); None when the shape cannot
         be cut that way."""
         return None
+
+    def moved(self, cuts: dict[str, float]) -> tuple[Shape, np.ndarray] | None:
+        """The solid with each named flat face moved inward by ``cuts[face]`` mm (outward for a
+        depth below 0: a subtracted solid grows for an ``into`` layer on its face), and the
+        shift of its origin in this frame; None when the shape cannot be moved that way. Where
+        :meth:`trimmed` cuts the solid this is the same; a G4Trd and a G4Polyhedra move here
+        only (as a constituent of a boolean: alone, ``into`` clips them by planes)."""
+        return self.trimmed(cuts)
 
     def face_sampler(self, faces: str | Sequence[str] = "all") -> FaceSampler:
         """A reusable sampler on the selected faces (see :class:`FaceSampler`)."""

@@ -245,6 +245,44 @@ class G4Trd(_Hexahedron):
         normals = np.array([nx, nx * [-1, 1, 1], ny, ny * [1, -1, 1], [0, 0, 1.0], [0, 0, -1.0]])
         return normals, np.array([hx, hx, hy, hy, dz, dz])
 
+    def moved(self, cuts: dict[str, float]) -> tuple[Shape, np.ndarray] | None:
+        """The G4Trd with its faces moved inward by ``cuts`` (< 0: outward): an end face along
+        z (the half widths there follow the sides' planes), a side along its normal (its planes'
+        x or y at every z move by the depth over the normal's x or y component; the half widths
+        at both ends change by half that, the centre moves by the other half); the shift of the
+        centre. ConfigError when a half width would fall below 0."""
+        if set(cuts) - set(_QUADS):
+            return None
+        dz = self.dz
+        lo, hi = -dz + cuts.get("-z", 0.0), dz - cuts.get("+z", 0.0)
+        if not hi > lo:
+            raise ConfigError(
+                f"G4Trd: moving its end faces leaves no solid ({2 * dz:.4g} mm long); the cut "
+                "must be thinner than the solid"
+            )
+        out, centre = [], [0.0, 0.0, (lo + hi) / 2]
+        for axis, (w1, w2) in enumerate(((self.dx1, self.dx2), (self.dy1, self.dy2))):
+            name = "xy"[axis]
+            plane = np.zeros(3)
+            plane[axis], plane[2] = 2 * dz, w1 - w2  # the + side's outward normal, not unit
+            along = float(np.linalg.norm(plane) / plane[axis])  # shift per depth along the axis
+            sp, sm = cuts.get(f"+{name}", 0.0) * along, cuts.get(f"-{name}", 0.0) * along
+
+            def width(z: float, w1: float = w1, w2: float = w2) -> float:
+                return w1 + (w2 - w1) * (z + dz) / (2 * dz)
+
+            ends = [width(lo) - (sp + sm) / 2, width(hi) - (sp + sm) / 2]
+            if min(ends) < -1e-12 * max(w1, w2, dz) or max(ends) <= 0:
+                moved = ", ".join(f"{k} by {v * 1e3:.4g} um" for k, v in cuts.items())
+                raise ConfigError(
+                    f"G4Trd: moving face {moved} leaves a half width of {min(ends):.4g} mm in "
+                    f"{name}; the cut must be thinner than the solid"
+                )
+            out.append([max(e, 0.0) for e in ends])
+            centre[axis] = (sm - sp) / 2
+        (dx1, dx2), (dy1, dy2) = out
+        return G4Trd(dx1, dx2, dy1, dy2, (hi - lo) / 2), np.array(centre)
+
     @property
     def volume(self) -> float:
         a1, a2 = 4 * self.dx1 * self.dy1, 4 * self.dx2 * self.dy2

@@ -481,6 +481,18 @@ class _PolyhedraBase(_ContourShape):
                 patches.append(PlaneTriangles(len(faces) - 1, t3, sign * np.array([ss, -cc, 0.0])))
         return tuple(faces), groups, patches
 
+    def moved(self, cuts: dict[str, float]) -> tuple[Shape, np.ndarray] | None:
+        """A G4GenericPolyhedra of the apothem contour with the faces ``cuts`` names moved
+        inward (< 0: outward; :meth:`cut_contour`: moving an edge of the apothem contour moves
+        each of the face's planes along its normal by the same depth); None for a phi cut."""
+        cut = self.cut_contour(cuts)
+        if cut is None:
+            return None
+        poly = cut[0]
+        corner = poly[:, 0] / math.cos(self._half_angle)
+        r, z = _as_tuple(corner), _as_tuple(poly[:, 1])
+        return G4GenericPolyhedra(self.sphi, self.dphi, self.nsides, r, z), np.zeros(3)
+
     def _side_coordinates(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Apothem coordinate (projection on the centre direction of the point's side) and the
         side index of points."""

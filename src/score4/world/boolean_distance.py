@@ -17,10 +17,16 @@ Like the smooth boolean's, the result is a lower bound of the true distance to t
 exact where the nearest point of the nearest constituent's surface lies on the boolean's
 surface (everywhere inside a box less a tube along an axis, or a cylinder with a cut).
 
-The distance to some faces of a boolean (activeness ``faces``) is the larger of two lower bounds:
-the distance to the whole surface, and the distance to the listed constituent faces whole
-(:func:`leaf_face_distance`, their rough surface where they are rough). It is exact where the
-nearest point of the listed constituent faces lies on the boolean's surface.
+The distance to some faces of a boolean (activeness ``faces``) is the larger of the distance to
+the whole surface and the distance to the listed faces: a smooth face as it is on the boolean
+(the part the other constituents keep, :class:`score4.world.kept_face_distance.KeptFaceDistance`:
+exact to its ``TOLERANCE``), a rough face by its whole layer's rough surface (a lower bound where
+the layer's flat cells reach off the boolean's surface).
+
+With ``into`` a rough face's layer lies on the cut face, so its rough surface is measured there;
+the leaves and the other faces stay the uncut solid's, as on a plain solid with ``into``
+(:class:`score4.world.activeness.TargetDistance`): the faces beside the cut reach into the slab
+the layer lies in.
 """
 
 from __future__ import annotations
@@ -35,6 +41,7 @@ from ..errors import ConfigError
 from ..shapes import BooleanShape, Shape
 from ..shapes.placed import PlacedShape
 from .face_distance import face_distance
+from .kept_face_distance import KeptFaceDistance
 
 if TYPE_CHECKING:
     from .scene import RoughLayer, TargetVolume
@@ -129,6 +136,7 @@ class BooleanDistance:
         shape = target.shape
         assert isinstance(shape, BooleanShape)
         self.target, self.shape = target, shape
+        self._kept: dict[tuple[str, ...], KeptFaceDistance] = {}
         self.leaves: dict[str, RoughLeaf] = {}
         for face, layer in layers.items():
             path, leaf_face = leaf_path(shape, face)
@@ -154,18 +162,26 @@ class BooleanDistance:
         self, faces: tuple[str, ...], world: np.ndarray, rough: Callable[[str], Measure]
     ) -> np.ndarray:
         """Distance (mm) of world points to the listed faces (0 outside): the larger of the
-        distance to the whole surface and that to the listed constituent faces whole."""
+        distance to the whole surface and that to the listed faces (smooth ones as they are on
+        the boolean, rough ones by their rough surface)."""
         world = np.asarray(world, float).reshape(-1, 3)
         whole = self.to_surface(world)
         if set(faces) >= set(self.shape.faces):
             return whole
         local = self.target.to_local(world)
         smooth = tuple(f for f in faces if f not in self._rough_faces)
-        d = leaf_face_distance(self.shape, smooth, local) if smooth else np.full(len(world), np.inf)
+        d = self.kept_faces(smooth)(local) if smooth else np.full(len(world), np.inf)
         for f in faces:
             if f in self._rough_faces:
                 d = np.minimum(d, rough(f)(world))
         return np.where(whole > 0, np.maximum(whole, d), 0.0)
+
+    def kept_faces(self, faces: tuple[str, ...]) -> KeptFaceDistance:
+        """The exact distance to the smooth ``faces`` as they are on the boolean (built once per
+        face list: their rims)."""
+        if faces not in self._kept:
+            self._kept[faces] = KeptFaceDistance(self.shape, faces)
+        return self._kept[faces]
 
     @property
     def _rough_faces(self) -> set[str]:

@@ -19,27 +19,33 @@ The wall of a subtracted G4Tubs or G4Cons (a bore) faces the other way than the 
 layer is laid out as on the opposite wall of a solid beside it (:func:`turned_wall`: the bore is
 the ``inner`` wall of a tube or cone whose inner radii are the subtracted solid's), cut along the
 axis to where the boolean can be, so the layer lies in the bore and its shell ends where the
-solid does. A sphere face of a G4Sphere or G4Orb leaf takes the sphere's cells (a cell's points
+solid does; the sphere face of a subtracted G4Orb or G4Sphere (a spherical dimple or cavity)
+is the inner face of a shell around it (or the outer face of a ball inside a subtracted shell).
+A sphere face of a G4Sphere or G4Orb leaf takes the sphere's cells (a cell's points
 lie within its half-height plus the sphere radius times its half-angle of its centre).
 
 A flat face partly covered by another part of a union (the layer's envelope would run into
 the solid): only the cells whose whole column (the cell up to the layer's thickness) is proven
 clear of the cutting solids keep their patch, and the envelope becomes the prism of those cells
 (:func:`_clear_of_the_solid`); :func:`fit_cells` then keeps them clear of the volume's other
-layers too (a wall's layer rising from the face).
+layers too (a wall's layer rising from the face). A cylinder or cone wall whose kept cells
+leave azimuths or (on a cylinder) rings flat takes an envelope in pieces over its kept cells
+(:func:`envelope_pieces`): P00664B's side wall leaves out the cut, where the cut face's layer
+stands; a rod's wall running through a box is two pieces, one each side of the box.
 
 A face of a leaf made of flat facets in several planes (the sides of a G4Polyhedra) takes one
 layer per plane (:func:`_on_boolean`; a plane without a kept cell gets none); the source draws
 their flat rest as one (:class:`score4.source.build.PlanesRemainderSampler`).
 
 Refused, in one line each (:mod:`score4.world.boolean_modes` says why): ``into: true`` on the
-faces of a subtracted solid other than a G4Box's faces, a G4Tubs' end faces and the walls of a
-G4Tubs or G4Cons (bores), on phi faces, and on two faces of one constituent not subtracted that
-share an edge,
+faces of a subtracted solid other than its flat faces (a G4Box, G4Tubs, G4Cons, polycone, G4Trd
+or G4Polyhedra), the walls of a G4Tubs or G4Cons (bores) and the sphere faces of a G4Orb or
+G4Sphere, on phi faces, and on two faces of one constituent not subtracted that share an edge,
 ``tiling: portal``, ``native_layout: replicas`` where a cell holds no patch (and on a layer whose
 envelope is the prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs or
-G4Cons wall (spheres); a curved layer whose envelope runs into the solid itself (a wall partly
-covered by another part of a union), a flat one that keeps no cell clear of the other parts.
+G4Cons wall or a sphere face (a G4Sphere's theta cones, a polycone's walls); a curved layer
+whose envelope, even in pieces, runs into the solid itself (another part of a union), a flat one
+that keeps no cell clear of the other parts.
 Steps and activeness measure these layers through the boolean's constituents
 (:mod:`score4.world.boolean_distance`).
 """
@@ -53,23 +59,25 @@ import numpy as np
 
 from score4.errors import ConfigError
 from score4.inputs.config import RoughFace
-from score4.shapes import BooleanShape, G4Box, G4Cons, G4Tubs, Shape, Transform
+from score4.shapes import BooleanShape, G4Box, G4Cons, G4Orb, G4Sphere, G4Tubs, Shape, Transform
 from score4.shapes.base import INSIDE
 from score4.shapes.boolean import FaceClip
-from score4.shapes.faces import PlaneFace, SphereFace
+from score4.shapes.faces import AnnulusFace, RevolvedFace, SphereFace
 from score4.surface.rough import Surface
 
-from .boolean_modes import check_modes, check_replicas, cut_face, into_depth
-from .facets import ccw, face_triangles, plane_face, plane_groups
+from .boolean_modes import check_modes, check_replicas, cut_face, flat_face, into_depth
+from .facets import ccw, cells_inside, face_triangles, plane_face, plane_groups
 from .scene import (
     BooleanFace,
     CurvedRoughLayer,
     FaceFrame,
     PolygonRoughLayer,
+    RingRoughLayer,
     RoughLayer,
     TargetVolume,
     make_layer,
     make_polygon_layer,
+    ring_cells,
 )
 
 #: Halvings of a cell when its centre's margin does not prove it whole (a cell cut by the
@@ -145,7 +153,7 @@ def _leaf(
     if not area > 0:
         raise ConfigError(f"{where}: {what} lies nowhere on the solid's surface (area 0)")
     leaf, face, placed = clip.leaf, clip.face, clip.transform
-    if clip.flipped and not isinstance(leaf.face(face), PlaneFace):
+    if clip.flipped and not flat_face(leaf, face):
         lo, hi = shape.bounding_box()
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                             for z in (lo[2], hi[2])])  # fmt: skip
@@ -154,7 +162,8 @@ def _leaf(
         if turned is None:
             raise ConfigError(
                 f"{where}: {what} is the curved face {face} of a subtracted {leaf.kind}; rough "
-                "curved faces of a subtracted solid are the walls of a G4Tubs or G4Cons"
+                "curved faces of a subtracted solid are the walls of a G4Tubs or G4Cons and the "
+                "sphere faces (outer, inner) of a G4Orb or G4Sphere"
             )
         leaf, face, shift = turned
         placed = clip.transform @ Transform(np.eye(3), shift)
@@ -192,6 +201,8 @@ def _on_boolean(
             on = cut_face(base, into_depth(layer, clip.flipped))
             cut = on.clip
         kept = kept_cells(layer, cut, on, placed)
+        if rough.into and clip.flipped and not isinstance(layer, CurvedRoughLayer):
+            kept &= _in_grown_slab(layer, clip, on, target.transform)
         layer.mask = kept
         if not kept.any():
             if len(layers) > 1:
@@ -204,7 +215,13 @@ def _on_boolean(
         layer.config = rough
         layer.face_area = float(on.shape.face_areas[name])
         layer.on_boolean = on
-        if _meets_own_solid(layer, on):
+        if isinstance(layer, CurvedRoughLayer):
+            layer.pieces = envelope_pieces(layer)
+        if _meets_own_solid(layer, on) or (
+            isinstance(layer, CurvedRoughLayer)
+            and layer.pieces is not None
+            and _pieces_in_solid(layer, cut, on) is not None
+        ):
             _clear_of_the_solid(layer, cut, on, placed, where, what)
         check_replicas(layer, where, what)
         out.append(layer)
@@ -218,19 +235,140 @@ def _on_boolean(
     return out
 
 
+def _in_grown_slab(
+    layer: RoughLayer, clip: FaceClip, on: BooleanFace, to_world: Transform
+) -> np.ndarray:
+    """The cells of a flat ``into`` layer on a face of a subtracted solid (grown by the layer's
+    thickness along the face's normal, ``on``) whose whole column, from the grown face up to the
+    old one, lies in the grown solid: the cells on both faces. The solid's other faces next to
+    the slab are planes or cones (a Trd's sides, a cone's wall), so a cell on the slab's two
+    faces is on every section between them. A ring narrows its envelope to the radii both faces
+    cover (a cone's floor shrinks as it grows down)."""
+    size = layer.patch_size
+    centres = layer.cell_centres()
+    if isinstance(layer, RingRoughLayer):
+        old, grown = clip.leaf.face(clip.face), on.clip.leaf.face(clip.face)
+        assert isinstance(old, AnnulusFace)
+        assert isinstance(grown, AnnulusFace)
+        lo, hi = max(old.rmin, grown.rmin, layer.rmin), min(old.rmax, grown.rmax, layer.rmax)
+        layer.rmin, layer.rmax = lo, max(lo, hi)
+        return ring_cells(centres, size, lo, hi)
+    out = np.ones(centres.shape[:-1], dtype=bool) if layer.mask is None else layer.mask.copy()
+    for solid in (clip.leaf, on.clip.leaf):
+        to = to_world @ (clip.transform if solid is clip.leaf else on.clip.transform)
+        world = to.apply(face_triangles(solid, clip.face).reshape(-1, 3))
+        local = layer.frame.to_local(world).reshape(-1, 3, 3)
+        height = layer.thickness if solid is clip.leaf else 0.0
+        plane = np.abs(local[..., 2] - height) <= 1e-9 * max(float(np.abs(local).max()), 1.0)
+        tri2d = ccw(local[plane.all(axis=1)][..., :2])
+        scale = max(float(np.abs(tri2d).max()), 1.0) if len(tri2d) else 1.0
+        out &= cells_inside(tri2d, centres, size, 1e-9 * scale)
+    return out
+
+
+def envelope_pieces(layer: CurvedRoughLayer) -> list[tuple[float, float, float, float]] | None:
+    """The pieces ``(phi0, dphi, v0, v1)`` of the envelope of a cylinder or cone wall whose kept
+    cells leave part of the face flat (:attr:`CurvedRoughLayer.pieces`), or None where the
+    face's whole shell is needed (every azimuth and every ring holds a kept cell, or a sphere).
+
+    Azimuths: the union over the rings of the kept cells' azimuth ranges; a run of cells that
+    starts (ends) at a ring's first (last) cell reaches the face's phi edge (the flat rest of
+    less than a cell that the rings leave there), so a fully kept ring covers the whole face
+    (and, on a full circle, runs join across the seam). Along the generator, on a cylinder
+    only: rings without a kept cell split the envelope, each piece ending on its outer rings'
+    edges (or the face's end beyond its first or last ring); a cone's cells reach beyond their
+    ring's band (:func:`~score4.world.curved.cone_cell`), so its pieces span the whole face."""
+    lay = layer.ring_layout
+    face = lay.face
+    if not isinstance(face, RevolvedFace):
+        return None
+    kept = layer.cell_variants >= 0
+    nrings = len(lay.v)
+    full = face.dphi >= 2 * np.pi - 1e-9
+    has = np.asarray(kept.any(axis=1), dtype=bool)
+    if abs(float(face.nrz[1])) <= 1e-12:  # a cylinder: rings without a kept cell split it
+        runs, j = [], 0
+        while j < nrings:
+            if not has[j]:
+                j += 1
+                continue
+            k = j
+            while k + 1 < nrings and has[k + 1]:
+                k += 1
+            runs.append((j, k))
+            j = k + 1
+    else:
+        runs = [(0, nrings - 1)] if has.any() else []
+    (_, _), (fv0, fv1) = face.extent
+    half = 0.5 * (lay.patch_size[1] + lay.row_gap)
+    pieces: list[tuple[float, float, float, float]] = []
+    for j0, j1 in runs:
+        # the first and last runs reach the face's ends
+        v0 = fv0 if not has[:j0].any() else float(lay.v[j0]) - half
+        v1 = fv1 if not has[j1 + 1 :].any() else float(lay.v[j1]) + half
+        spans: list[tuple[float, float]] = []  # azimuth ranges from phi0, in [0, dphi]
+        for j in range(j0, j1 + 1):
+            n = int(lay.count[j])
+            cols = np.flatnonzero(kept[j, :n])
+            if not len(cols):
+                continue
+            phi = lay.cell_phi(j)
+            step = float(lay.step[j])
+            breaks = np.flatnonzero(np.diff(cols) > 1)
+            for a, b in zip(
+                np.concatenate([[0], breaks + 1]),
+                np.concatenate([breaks, [len(cols) - 1]]),
+                strict=True,
+            ):
+                lo = 0.0 if cols[a] == 0 else float(phi[cols[a]]) - step / 2 - face.phi0
+                hi = face.dphi if cols[b] == n - 1 else float(phi[cols[b]]) + step / 2 - face.phi0
+                spans.append((lo, hi))
+        spans.sort()
+        merged: list[list[float]] = []
+        for lo, hi in spans:
+            if merged and lo <= merged[-1][1] + 1e-12:
+                merged[-1][1] = max(merged[-1][1], hi)
+            else:
+                merged.append([lo, hi])
+        if (
+            full
+            and len(merged) > 1
+            and merged[0][0] <= 1e-12
+            and merged[-1][1] >= face.dphi - 1e-12
+        ):
+            last = merged.pop()  # joined across the seam
+            merged[0] = [last[0] - face.dphi, merged[0][1]]
+        for lo, hi in merged:
+            pieces.append((face.phi0 + lo, min(hi - lo, 2 * np.pi), v0, v1))
+    if len(pieces) == 1:
+        _phi0, dphi, v0, v1 = pieces[0]
+        if dphi >= face.dphi - 1e-12 and v0 == fv0 and v1 == fv1:
+            return None
+    return pieces or None
+
+
 def turned_wall(
     leaf: Shape, face: str, extent: tuple[float, float]
 ) -> tuple[Shape, str, np.ndarray] | None:
-    """The wall ``face`` of a subtracted G4Tubs or G4Cons as the opposite wall of a solid beside
-    it, whose outward normal is the boolean's (the bore a subtracted cylinder or cone leaves is
-    the ``inner`` wall of a tube or cone whose inner radii are the subtracted solid's outer
-    radii; a subtracted solid's ``inner`` wall is the ``outer`` wall of a full one), cut to
+    """The wall ``face`` of a subtracted G4Tubs, G4Cons, G4Orb or G4Sphere as the opposite wall
+    of a solid beside it, whose outward normal is the boolean's (the bore a subtracted cylinder
+    or cone leaves is the ``inner`` wall of a tube or cone whose inner radii are the subtracted
+    solid's outer radii, a spherical cavity the ``inner`` face of a shell, not cut; a subtracted
+    solid's ``inner`` wall is the ``outer`` wall of a full one), tubes and cones cut to
     ``extent`` (z range, leaf frame: where the boolean can be, so the layer's shell ends where
     the solid does), and the shift of its origin in the leaf's frame; None for other solids and
     faces."""
     if face not in ("outer", "inner"):
         return None
     turned: Shape
+    if isinstance(leaf, G4Orb):  # a spherical cavity's wall: the inner face of a shell
+        return G4Sphere(leaf.r, 2 * leaf.r), "inner", np.zeros(3)
+    if isinstance(leaf, G4Sphere):
+        if face == "outer":
+            return replace(leaf, rmin=leaf.rmax, rmax=2 * leaf.rmax), "inner", np.zeros(3)
+        if leaf.rmin > 0:
+            return replace(leaf, rmin=0.0, rmax=leaf.rmin), "outer", np.zeros(3)
+        return None
     if isinstance(leaf, G4Tubs):
         if face == "outer":
             turned, name = replace(leaf, rmin=leaf.rmax, rmax=2 * leaf.rmax), "inner"
@@ -566,6 +704,27 @@ def _meets_own_solid(layer: RoughLayer, on: BooleanFace) -> bool:
     return bool((codes == INSIDE).any())
 
 
+def _pieces_in_solid(layer: CurvedRoughLayer, clip: FaceClip, on: BooleanFace) -> np.ndarray | None:
+    """A world point of a curved layer's envelope pieces inside the boolean solid and inside a
+    solid that cuts the face from outside (another part of a union), or None: an exact search
+    (:func:`~score4.world.clearance.shell_search`) down to half the layer's thickness, as
+    between two layers (a piece ending on another part's face touches it all round). The
+    search stays where the envelope meets such a part: the face itself lies on the solid's
+    surface, where a search against the whole solid would not end."""
+    from .clearance import shell_search
+
+    cutters = [(shape, transform) for shape, transform, inside in clip.clips if not inside]
+    if not cutters:
+        return None
+
+    def depth(world: np.ndarray) -> np.ndarray:
+        q = on.transform.inverse_apply(world)
+        in_cut = np.max([-s.signed_distance(t.inverse_apply(q)) for s, t in cutters], axis=0)
+        return np.asarray(np.minimum(-on.shape.signed_distance(q), in_cut))
+
+    return shell_search(layer, depth, layer.thickness / 2, "the solid's other parts")
+
+
 def _clear_of_the_solid(
     layer: RoughLayer,
     clip: FaceClip,
@@ -578,15 +737,16 @@ def _clear_of_the_solid(
     a union): only the cells whose whole column (the cell times the layer's thickness) is proven
     clear of the solids cutting the face keep their patch (:func:`kept_cells` with the
     thickness), and the envelope becomes the prism of those cells (``cells_envelope``); the
-    cells the other part covers or meets stay flat (``rough_shares``). Curved layers are
-    refused: their envelope is the face's whole shell."""
+    cells the other part covers or meets stay flat (``rough_shares``). A curved layer's
+    envelope already holds only its kept cells' azimuth ranges and, on a cylinder, runs of
+    rings (:func:`envelope_pieces`); it is refused when that still runs into the solid."""
     thick = f"{layer.thickness * 1e3:.4g} um thick"
     if isinstance(layer, CurvedRoughLayer):
         raise ConfigError(
             f"{where}: the rough layer on {what} ({thick}) runs into the solid itself (another "
-            "part of the boolean covers or meets that face); a rough curved face of a boolean "
-            "must lie wholly outside its other parts (partly covered faces take a layer when "
-            "flat)"
+            "part of the boolean covers or meets that face); its envelope holds the kept "
+            "cells' azimuth ranges and, on a cylinder, their rings, and these must lie wholly "
+            "outside the solid's other parts (on a cone, the whole length of the face)"
         )
     assert layer.mask is not None
     if layer.config.native_layout == "replicas":

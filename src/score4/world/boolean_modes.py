@@ -21,11 +21,18 @@
   subtracted G4Box or an end face of a subtracted G4Tubs (a blind hole's floor) that solid
   grows by the layer's thickness along the face's own normal (into the kept volume: against the
   boolean's outward normal there), and the layer lies in the slab, on the grown solid's face.
-  Refused elsewhere: the flat faces of other subtracted solids (a G4Cons' end faces), the phi
-  faces of a segment (moved off the axis they would make the constituent a boolean of its own),
-  the other curved faces of subtracted solids, and two faces that share an edge of one
-  constituent swept around z that is not subtracted (:func:`check_shared_edges`; plain solids
-  get a joint cut there).
+  The same holds for the flat faces of a subtracted G4Cons, G4Polycone or G4GenericPolycone
+  (their (r, z) contour's edge moved, the neighbours' lines kept), G4Trd (a G4Trd again) and
+  G4Polyhedra (the apothem contour's edge moved: a G4GenericPolyhedra); the layer's cells are
+  those the grown solid fills over the whole slab (on the old face and on the grown one: a
+  hole narrowing to its floor loses its outer ring of cells). On the sphere face of a
+  subtracted G4Orb or G4Sphere (a spherical dimple or cavity, laid out as the inner face of a
+  shell beside it) the subtracted solid grows by the layer's cut, as a bore does. Refused
+  elsewhere: the phi faces of a subtracted solid, the faces of a subtracted G4Trap, tessellated
+  or extruded solid, the other curved faces of subtracted solids, the phi faces of a segment
+  (moved off the axis they would make the constituent a boolean of its own), and two faces that
+  share an edge of one constituent swept around z that is not subtracted
+  (:func:`check_shared_edges`; plain solids get a joint cut there).
 """
 
 from __future__ import annotations
@@ -36,7 +43,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import ConfigError
-from ..shapes import BooleanShape, G4Box, G4Cons, G4Tubs, Shape, Transform
+from ..shapes import BooleanShape, G4Cons, G4Orb, G4Sphere, G4Tubs, Shape, Transform
+from ..shapes.base import PlaneTriangles
 from ..shapes.faces import PlaneFace
 from ..shapes.placed import PlacedShape
 from ..shapes.revolved import RevolvedShape
@@ -60,17 +68,17 @@ def check_modes(
     """One-line errors for ``into: true`` and ``tiling: portal`` on a boolean's face ``what``
     (face ``face`` of its constituent ``leaf``; ``flipped``: of a subtracted solid)."""
     if rough.into:
-        flat = isinstance(leaf.face(face), PlaneFace)
-        bore = isinstance(leaf, G4Tubs | G4Cons) and face in ("outer", "inner")
-        grows = (
-            flat and isinstance(leaf, G4Box | G4Tubs) and leaf.trimmed({face: -1e-6}) is not None
-        )
+        flat = flat_face(leaf, face)
+        bore = isinstance(leaf, G4Tubs | G4Cons | G4Sphere | G4Orb) and face in ("outer", "inner")
+        grows = flat and leaf.moved({face: -1e-6}) is not None
         if flipped and not (bore or grows):
             raise ConfigError(
                 f"{where}: into: true on {what}, a face of the subtracted {leaf.kind}, would "
-                "widen the cut, which score4 does for the walls of a subtracted G4Tubs (a bore), "
-                "its end faces and the faces of a subtracted G4Box only; put the layer outside "
-                "the volume (into: false)"
+                "widen the cut, which score4 does for the walls of a subtracted G4Tubs or "
+                "G4Cons (a bore), the sphere faces of a subtracted G4Orb or G4Sphere and the "
+                "flat faces of a subtracted G4Box, G4Tubs, G4Cons, G4Polycone, "
+                "G4GenericPolycone, G4Trd or G4Polyhedra (not phi faces) only; put the layer "
+                "outside the volume (into: false)"
             )
         if not flipped and face in ("phi_start", "phi_end"):
             raise ConfigError(
@@ -95,6 +103,17 @@ def check_modes(
             "cell, while a boolean's face keeps patches only where it lies on the solid's "
             "surface; take tiling: native"
         )
+
+
+def flat_face(leaf: Shape, face: str) -> bool:
+    """True for a face of flat facets: one plane, or several (the sides of a G4Polyhedra)."""
+    try:
+        return isinstance(leaf.face(face), PlaneFace)
+    except ConfigError:  # not one plane
+        pass
+    k = leaf.faces.index(face)
+    patches = [p for p in leaf.patches if p.face == k]
+    return bool(patches) and all(isinstance(p, PlaneTriangles) for p in patches)
 
 
 def check_shared_edges(layers: list[RoughLayer], target: TargetVolume, where: str) -> None:
@@ -161,7 +180,7 @@ def leaf_cuts(shape: BooleanShape, cuts: dict[str, float]) -> dict[str, tuple[Sh
     out = {}
     for path, faces in by_path.items():
         leaf = shape.face_clip(path + next(iter(faces))).leaf
-        trimmed = leaf.trimmed(faces)
+        trimmed = leaf.moved(faces)
         if trimmed is None:  # refused by check_modes before
             raise ConfigError(f"into: a {leaf.kind} cannot be cut behind {', '.join(faces)}")
         out[path] = trimmed

@@ -581,6 +581,9 @@ def _depth(layer: RoughLayer, points: np.ndarray) -> np.ndarray:
     cylinders of a ring, the edges of a polygon)."""
     p = np.asarray(points, float).reshape(-1, 3)
     t = layer.thickness
+    if isinstance(layer, CurvedRoughLayer) and layer.pieces is not None:
+        # the envelope's pieces lie apart: inside it, a point is inside one of them
+        return np.asarray(np.max([_depth(v, p) for v in layer.envelope_views()], axis=0))
     if isinstance(layer, CurvedRoughLayer):
         face = layer.ring_layout.face
         q = layer.target.to_local(p)
@@ -682,6 +685,8 @@ def _round_layer(layer: RoughLayer) -> bool:
     curved layer over the full circle, a ring whose envelope is the ring."""
     if layer.cells_envelope:
         return False
+    if isinstance(layer, CurvedRoughLayer) and layer.pieces is not None:
+        return False  # an envelope in pieces of azimuth
     if isinstance(layer, CurvedRoughLayer):
         return bool(layer.ring_layout.face.dphi >= 2 * np.pi - 1e-9)
     if isinstance(layer, RingRoughLayer):
@@ -711,6 +716,19 @@ def shells_meet(
     )
 
 
+def shell_search(
+    layer: CurvedRoughLayer,
+    depth: Depth,
+    resolution: float,
+    label: str,
+    tol: float = BOUNDARY_TOLERANCE,
+) -> np.ndarray | None:
+    """A world point of a curved layer's envelope where ``depth`` exceeds ``tol``, or None when
+    there is none deeper than ``tol + resolution`` (:func:`certified_meet`; ``label`` names
+    what is searched in errors)."""
+    return certified_meet(layer, depth, resolution, label, tol)
+
+
 def certified_meet(
     layer: CurvedRoughLayer,
     depth: Depth,
@@ -738,7 +756,14 @@ def certified_meet(
     generator is straight (a cylinder, a cone) each is bounded over a cell exactly from the
     cell's ranges of azimuth, radius and z, which drops the cells along a plane the layer
     touches (a box beside a wall, under its end) without halving them down to the
-    resolution."""
+    resolution. An envelope in pieces (:attr:`CurvedRoughLayer.pieces`) is searched piece by
+    piece."""
+    if layer.pieces is not None:
+        for view in layer.envelope_views():
+            found = certified_meet(view, depth, resolution, what, tol, coaxial, planes)
+            if found is not None:
+                return found
+        return None
     face = layer.ring_layout.face
     t = layer.thickness
     (u0, u1), (v0, v1) = face.extent

@@ -21,6 +21,7 @@ layer's thickness (the volume is cut by it), so the layer's top is where the fac
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
@@ -520,6 +521,44 @@ class CurvedRoughLayer(RoughLayer):
     #: with ``into``: how far the solid is cut behind the face along its normal (mm; the
     #: radius of a sphere moves by it)
     into_cut: float = 0.0
+    #: on a face of a boolean partly covered or cut by its other parts: the envelope's pieces
+    #: ``(phi0, dphi, v0, v1)`` (azimuth range and generator range of the face) holding the kept
+    #: cells, each a G4Cons (G4Tubs) segment; None: the face's whole shell
+    #: (:func:`score4.world.boolean_layers.envelope_pieces`)
+    pieces: list[tuple[float, float, float, float]] | None = None
+
+    def envelope_views(self) -> list[CurvedRoughLayer]:
+        """The layer's envelope as layers on sub-faces (one per piece, :attr:`pieces`; the layer
+        itself when its envelope is the face's whole shell), for the clearance checks and the
+        Geant4 envelopes: each view's face is the face cut to the piece's azimuth and generator
+        ranges, so its shell (:meth:`shell_points`, :func:`wall_envelope`) is the piece's."""
+        if self.pieces is None:
+            return [self]
+        face = self.ring_layout.face
+        assert isinstance(face, RevolvedFace)
+        out = []
+        for phi0, dphi, v0, v1 in self.pieces:
+            (r1, z1), (r2, z2) = face.point(0.0, np.array([v0, v1]))[:, [0, 2]]
+            sub = replace(face, rz1=(float(r1), float(z1)), rz2=(float(r2), float(z2)),
+                          phi0=phi0, dphi=dphi)  # fmt: skip
+            view = copy.copy(self)
+            view.__dict__.pop("_cache", None)
+            view.layout = replace(self.ring_layout, face=sub)
+            view.pieces = None
+            out.append(view)
+        return out
+
+    def piece_of(self, j: int, phi: float) -> int:
+        """The piece (index into :meth:`envelope_views`) holding the cell of ring ``j`` at
+        azimuth ``phi``."""
+        if self.pieces is None:
+            return 0
+        v = float(self.ring_layout.v[j])
+        for n, (phi0, dphi, v0, v1) in enumerate(self.pieces):
+            a = np.mod(phi - phi0, 2 * np.pi)
+            if a <= dphi + 1e-9 and v0 - 1e-9 <= v <= v1 + 1e-9:
+                return n
+        raise AssertionError(f"{self.name}: cell at ring {j}, phi {phi} in no envelope piece")
 
     def solid_kind(self, k: int) -> str:
         """``frustums`` for a spike grid on a cylinder, a cone or a sphere (``solid: auto`` or
@@ -685,7 +724,10 @@ class CurvedRoughLayer(RoughLayer):
     def shell_points(self, n_phi: int = 72, n_v: int = 9, n_h: int = 3) -> np.ndarray:
         """World points on and in the layer's shell (the face extruded by the thickness along
         its normal; on a cone, the envelope Geant4 gets: the same between the z planes of the
-        face's ends, :func:`wall_envelope`), for the clearance checks."""
+        face's ends, :func:`wall_envelope`), for the clearance checks (of each piece of the
+        envelope, :attr:`pieces`)."""
+        if self.pieces is not None:
+            return np.concatenate([v.shell_points(n_phi, n_v, n_h) for v in self.envelope_views()])
         face = self.ring_layout.face
         if self._cone_envelope:
             a1, b1, a2, b2, dz, zc = wall_envelope(self)
@@ -717,6 +759,8 @@ class CurvedRoughLayer(RoughLayer):
     def in_shell(self, points: np.ndarray) -> np.ndarray:
         """True for world points strictly inside the layer's envelope (touching does not
         count)."""
+        if self.pieces is not None:
+            return np.logical_or.reduce([v.in_shell(points) for v in self.envelope_views()])
         face = self.ring_layout.face
         q = self.target.to_local(np.asarray(points, float).reshape(-1, 3))
         u, v, h = face.locate(q)
@@ -758,6 +802,13 @@ class CurvedRoughLayer(RoughLayer):
         if face.dphi >= 2 * np.pi - 1e-9:  # the circle's extremes between the grid's points
             r = float(np.hypot(local[:, 0], local[:, 1]).max())
             lo[:2], hi[:2] = -r, r
+        elif self.pieces is not None:  # the pieces' extremes along x and y between the points
+            r = float(np.hypot(local[:, 0], local[:, 1]).max())
+            for phi0, dphi, _, _ in self.pieces:
+                for k in range(4):
+                    if np.mod(k * np.pi / 2 - phi0, 2 * np.pi) <= dphi:
+                        ex = r * np.array([np.cos(k * np.pi / 2), np.sin(k * np.pi / 2)])
+                        lo[:2], hi[:2] = np.minimum(lo[:2], ex), np.maximum(hi[:2], ex)
         return OrientedBox(self.target.to_world((lo + hi) / 2), self.target.rotation, (hi - lo) / 2)
 
 
