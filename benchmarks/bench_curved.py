@@ -183,7 +183,7 @@ def configs(folder: Path, radius: float, half_length: float, bege: bool = True) 
             "world": {"gdml": "boolean.gdml"},
             "surfaces": {"p": PYRAMIDS},
             "targets": [{"volume": "ppc", "rough": [{"face": f, "surface": "p"} for f in faces]}],
-            "source": {**SOURCE, "surface": {"volume": "ppc", "face": "first.seg_2"}},
+            "source": SOURCE | {"surface": {"volume": "ppc", "face": "first.seg_2"}},
         }
     out["whole"] = {
         "physics": "lite",
