@@ -24,6 +24,9 @@ geometry building cancel. ``ratio`` is that figure over the equal-height pyramid
 multi-union, score4's fastest rough face) from the same invocation; ``mean MeV`` is the mean
 deposit as a check.
 
+``--stages N [--map gauss] [--tolerance auto]`` builds one such patch stage by stage and prints
+the CPU, resident memory and peak after each stage.
+
 Second table (``--sizes``): build cost of one patch of a Gaussian random map of n x n pixels
 (0.5 um pitch) as ``solid: blocks`` in a fresh process: numpy (cutting the mesh into closed
 blocks), Geant4 (solids and placements), the growth of resident memory while Geant4 builds per
@@ -350,6 +353,44 @@ def build_case(n: int, tolerance: str = "0", kind: str = "gauss") -> None:
     del keep
 
 
+def stages_case(n: int, tolerance: str = "auto", kind: str = "gauss") -> None:
+    """Child process: build_case's patch stage by stage, printing each stage's CPU seconds, the
+    resident memory after it and the peak so far (MB): importing Geant4, the height map, its
+    (simplified) mesh, the cut into blocks, and ``place_blocks`` (cutting each block again,
+    handing it to Geant4, placing it). Where the build's memory goes (issue 25 item 2)."""
+    last = [time.process_time()]
+
+    def stage(name: str) -> None:
+        now = time.process_time()
+        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+        print(f"| {name} | {now - last[0]:.2f} | {_resident() / 2**20:.0f} | {peak:.0f} |")
+        last[0] = now
+
+    print("| stage | CPU s | RSS after, MB | peak so far, MB |")
+    print("| --- | --- | --- | --- |")
+    stage("Python, numpy, score4's imports")
+    from score4.sim.runtime import import_geant4, resolve_physics
+
+    g4 = import_geant4(resolve_physics("lite"))
+    stage("import Geant4")
+    from score4.geometry.block_solids import place_blocks
+    from score4.surface.block_cut import block_rects
+    from score4.surface.spec import build_surface
+
+    surface = build_surface(map_spec(n, tolerance, kind))
+    _ = surface.placed_map
+    stage(f"height map {n} x {n} ({kind})")
+    mesh = surface.top_mesh
+    stage(f"mesh: {mesh.n_faces} top facets (tolerance {surface.mesh_tolerance * 1e3:.3g} um)")
+    rects = block_rects(surface, None)[1]
+    stage(f"cut into {len(rects)} blocks (block_rects; place_blocks cuts again)")
+    mat = g4.G4NistManager.Instance().FindOrBuildMaterial("G4_Si")
+    mother = g4.G4LogicalVolume(g4.G4Box("m", 1.0, 1.0, 1.0), mat, "m")
+    keep = place_blocks(g4, surface, 1e-3, None, mat, mother, 0.0, "p")
+    stage("place_blocks: bodies cut, Geant4 solids, volumes, placements")
+    del keep
+
+
 def map_spec(n: int, tolerance: str, kind: str) -> dict:
     """The n x n-pixel map of build_case (a surface description)."""
     if kind == "measured":
@@ -490,7 +531,17 @@ def main() -> None:
         "(--sizes' first) built in its own process, --repeat interleaved rounds, medians",
     )
     p.add_argument("--warm-child", help=argparse.SUPPRESS)
+    p.add_argument(
+        "--stages",
+        type=int,
+        metavar="N",
+        help="instead: one N x N patch (--map, --tolerance) built stage by stage in this process: "
+        "CPU, resident memory and peak after each stage",
+    )
     a = p.parse_args()
+    if a.stages:
+        stages_case(a.stages, a.tolerance, a.map)
+        return
     if a.build_child:
         build_case(a.build_child, a.tolerance, a.map)
         return

@@ -101,3 +101,28 @@ def assert_no_overlaps(config_path) -> None:
     )
     assert done.returncode == 0, done.stderr[-2000:]
     assert "no overlaps" in done.stdout
+
+
+def envelope_overlaps(config_data: dict, points: int = 20000) -> list[str]:
+    """Geant4's ``CheckOverlaps(points)`` on the envelope of a world's one rough layer, the world
+    built without score4's clearance check (the overlaps Geant4 reports, one line each)."""
+    import score4.world.resolve as resolve
+    from score4.geometry.world import build_world
+    from score4.inputs.config import parse_config
+    from score4.sim.runtime import import_geant4, redirect_native_output, resolve_physics
+
+    resolve.check_clearance = lambda scene: None  # type: ignore[attr-defined]
+    config = parse_config(config_data)
+    g4 = import_geant4(resolve_physics("lite"))
+    with redirect_native_output(None):
+        plan = plan_run(config, physics=resolve_physics("lite"), source=False)
+        (layer,) = plan.scene.layers
+        built = build_world(g4, plan)
+        world_lv = built.world.GetLogicalVolume()
+        env = next(
+            world_lv.GetDaughter(i)
+            for i in range(world_lv.GetNoDaughters())
+            if str(world_lv.GetDaughter(i).GetName()) == layer.name
+        )
+        met = env.CheckOverlaps(points, 0.0, False, 1)
+    return [f"{layer.name} meets a sister"] if met else []

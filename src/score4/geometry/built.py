@@ -134,7 +134,7 @@ def cut_for_layers(g4, scene: Scene, target: TargetVolume, solid, name: str):
         return solid, np.zeros(3), []
     cuts: dict[str, float] = {layer.config.face_name: layer.thickness for layer in layers}
     if isinstance(target.shape, BooleanShape):  # constituents cut, the boolean rebuilt
-        cuts = boolean_cuts(layers)  # a bore's cut widens it
+        cuts = boolean_cuts(layers, target.shape)  # a bore's cut widens it
         return cut_boolean_solid(g4, solid, target.shape, cuts, name, g4_solid)
     trimmed = None if target.shape is None else target.shape.trimmed(cuts)
     if trimmed is None:

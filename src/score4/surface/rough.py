@@ -132,14 +132,19 @@ class Surface:
         if self.heightmap is None or t == 0:
             return 0.0, exact
         if t != "auto":
-            return float(t), simplified_blocks(self.placed_map, float(t))
+            simplified = simplified_blocks(self.placed_map, float(t))
+            assert simplified is not None  # no bound on its triangles
+            return float(t), simplified
         ny, nx = self.placed_map.shape
         exact_faces = 2 * (nx - 1) * (ny - 1)
         if exact_faces <= AUTO_EXACT_FACETS:
             return 0.0, exact
         tolerance = max(AUTO_HEIGHT_SHARE * self.max_height, AUTO_MIN_TOLERANCE)
-        simplified = simplified_blocks(self.placed_map, tolerance)
-        if simplified[0].n_faces > AUTO_MIN_SAVING * exact_faces:
+        # None: more than AUTO_MIN_SAVING of the exact triangles (given up early, a noise-like map)
+        simplified = simplified_blocks(
+            self.placed_map, tolerance, int(AUTO_MIN_SAVING * exact_faces)
+        )
+        if simplified is None:
             return 0.0, exact
         return tolerance, simplified
 

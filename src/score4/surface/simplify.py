@@ -193,10 +193,15 @@ def sample_errors(
     return err
 
 
-def simplified_mesh(hm: HeightMap, tolerance: float, max_quad: int = MAX_QUAD) -> TriangleMesh:
+def simplified_mesh(
+    hm: HeightMap, tolerance: float, max_quad: int = MAX_QUAD, max_faces: int | None = None
+) -> TriangleMesh | None:
     """The mesh of ``hm`` with every sample within ``tolerance`` (mm) of it (module docstring).
 
     ``tolerance`` 0 gives the exact mesh (:func:`from_heightmap`). ``max_quad`` is a power of two.
+    ``max_faces``: None instead as soon as the mesh is sure to have more triangles (splitting a
+    quad never lowers the count: its children have at least its fan's triangles), so a map that
+    does not simplify is given up after its first triangulation.
     """
     if not tolerance > 0:
         return from_heightmap(hm)
@@ -209,6 +214,8 @@ def simplified_mesh(hm: HeightMap, tolerance: float, max_quad: int = MAX_QUAD) -
     quads = np.concatenate(_initial_quads(z, tolerance, max_quad))
     while True:
         faces, owner = _triangles(quads, z.shape)
+        if max_faces is not None and len(faces) > max_faces:
+            return None
         bad = (sample_errors(z, faces, owner, quads) > tolerance) & (quads[:, 2] > 1)
         if not bad.any():
             break
@@ -227,14 +234,29 @@ def simplified_mesh(hm: HeightMap, tolerance: float, max_quad: int = MAX_QUAD) -
     return TriangleMesh(vertices, local.reshape(-1, 3)[order], facet=cell[order])
 
 
-def simplified_blocks(hm: HeightMap, tolerance: float) -> tuple[TriangleMesh, int]:
+def simplified_blocks(
+    hm: HeightMap, tolerance: float, max_faces: int | None = None
+) -> tuple[TriangleMesh, int] | None:
     """The simplified mesh and its block side (pixels, a power of two): blocks of about
     :data:`BLOCK_FACETS` triangles, as for an exact mesh, but at most about
-    :data:`SIMPLIFIED_MAX_BLOCKS` of them and no larger than :data:`MAX_QUAD`."""
-    mesh = simplified_mesh(hm, tolerance, MAX_QUAD)
+    :data:`SIMPLIFIED_MAX_BLOCKS` of them and no larger than :data:`MAX_QUAD`.
+
+    None if the mesh would have more than ``max_faces`` triangles, found out as early as
+    :func:`simplified_mesh` can. ``max_faces`` should be at least the number of pixels and the map
+    at least 8192 pixels (``tolerance: auto``'s maps): the block side is then that of the bound
+    on blocks, whatever the count of a first mesh given up on."""
     cells = (hm.shape[0] - 1) * (hm.shape[1] - 1)
-    want = max(np.sqrt(BLOCK_FACETS * cells / mesh.n_faces), np.sqrt(cells / SIMPLIFIED_MAX_BLOCKS))
+    n_faces = None if max_faces is None else max(max_faces, cells)
+    mesh = simplified_mesh(hm, tolerance, MAX_QUAD, n_faces)
+    per_block = np.sqrt(cells / SIMPLIFIED_MAX_BLOCKS)
+    if mesh is None:  # more than cells triangles: BLOCK_FACETS' side is below 2 ** 2
+        assert n_faces is not None  # given up on only against a bound
+        want = max(np.sqrt(BLOCK_FACETS * cells / (n_faces + 1)), per_block)
+    else:
+        want = max(np.sqrt(BLOCK_FACETS * cells / mesh.n_faces), per_block)
     quad = int(min(MAX_QUAD, 2 ** max(0, int(np.ceil(np.log2(want))))))
-    if quad < MAX_QUAD:  # smaller quads: the mesh again, with quads no larger than the blocks
-        mesh = simplified_mesh(hm, tolerance, quad)
+    if mesh is None or quad < MAX_QUAD:  # smaller quads: again, no larger than the blocks
+        mesh = simplified_mesh(hm, tolerance, quad, max_faces)
+    if mesh is None or (max_faces is not None and mesh.n_faces > max_faces):
+        return None
     return mesh, quad

@@ -198,7 +198,7 @@ def _on_boolean(
                 layer.frame = layer.frame.shifted(-layer.thickness)
         on, cut = base, clip
         if rough.into:  # the face cut behind by the layer's thickness (boolean_modes)
-            on = cut_face(base, into_depth(layer, clip.flipped))
+            on = cut_face(base, into_depth(layer, clip.flipped), f"{where}: into: true on {what}")
             cut = on.clip
         kept = kept_cells(layer, cut, on, placed)
         if rough.into and clip.flipped and not isinstance(layer, CurvedRoughLayer):

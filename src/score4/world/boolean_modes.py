@@ -33,6 +33,10 @@
   (moved off the axis they would make the constituent a boolean of its own), and two faces that
   share an edge of one constituent swept around z that is not subtracted
   (:func:`check_shared_edges`; plain solids get a joint cut there).
+  A part of a union that stands on a cut flat face grows down by the cut, so the slab under it
+  stays in the volume (:func:`standing_cuts`: a G4Box or G4Tubs along the face's normal, its
+  foot within the face; other parts that meet the slab are refused, and so is such a part cut
+  for a layer of its own, :func:`check_shared_edges`).
 """
 
 from __future__ import annotations
@@ -43,8 +47,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import ConfigError
-from ..shapes import BooleanShape, G4Cons, G4Orb, G4Sphere, G4Tubs, Shape, Transform
+from ..shapes import BooleanShape, G4Box, G4Cons, G4Orb, G4Sphere, G4Tubs, Shape, Transform
 from ..shapes.base import PlaneTriangles
+from ..shapes.boolean import FaceClip
 from ..shapes.faces import PlaneFace
 from ..shapes.placed import PlacedShape
 from ..shapes.revolved import RevolvedShape
@@ -123,7 +128,9 @@ def check_shared_edges(layers: list[RoughLayer], target: TargetVolume, where: st
     would meet at the edge (the joint cut that plain solids get,
     :func:`score4.world.scene.check_into_edges`, is not made for a boolean's constituents). The
     layers on a subtracted solid's faces grow apart from their concave edge (the square
-    between their slabs belongs to neither), so they are not refused."""
+    between their slabs belongs to neither), so they are not refused. Also refused: ``into`` on
+    a flat face and on a face of a part of the union standing on it (:func:`standing_cuts`
+    grows that part down into the face's cut, as the part was before its own cut)."""
     shape, name = target.shape, target.name
     if not isinstance(shape, BooleanShape):
         return
@@ -132,6 +139,20 @@ def check_shared_edges(layers: list[RoughLayer], target: TargetVolume, where: st
     for face in faces:
         path, leaf_face = leaf_path(shape, face)
         by_leaf.setdefault(path, []).append(leaf_face)
+    for r in layers:  # a part grown down into a cut face's slab (standing_cuts), cut itself
+        if not r.config.into:
+            continue
+        face = r.config.face_name
+        for grown in standing_cuts(shape, face, r.thickness, where):
+            part = leaf_path(shape, grown)[0]
+            if part in by_leaf:
+                raise ConfigError(
+                    f"{where}: into: true on faces {face} and {part}{by_leaf[part][0]} of "
+                    f"{name!r}: the part {part.rstrip('.')} of the union stands on face {face} "
+                    "and grows down into its cut, and score4 grows such a part only where it "
+                    "is not cut for a layer of its own (the two cuts would leave a gap at their "
+                    "edge); put one of them outside the volume (into: false)"
+                )
     for path, own in by_leaf.items():
         clip = shape.face_clip(path + own[0])
         leaf = clip.leaf
@@ -210,6 +231,131 @@ def cut_boolean(shape: BooleanShape, cuts: dict[str, float]) -> BooleanShape:
     return out
 
 
+def _union_siblings(shape: BooleanShape, path: str) -> list[tuple[Shape, Transform, str, bool]]:
+    """The other parts of every union on the way from ``shape`` to the leaf at ``path``: each
+    ``(part, its frame in the boolean's, its path, whether only unions lie between that union
+    and the leaf)`` (else a subtraction or intersection below it may have taken some of the
+    leaf under the part)."""
+    node: Shape = shape
+    at = Transform()
+    found: list[tuple[Shape, Transform, str, int]] = []
+    ops: list[str] = []
+    done = ""
+    for token in path.split(".")[:-1]:
+        while isinstance(node, PlacedShape):
+            at, node = at @ node.transform, node.shape
+        assert isinstance(node, BooleanShape)
+        first, second = (node.first, at), (node.second, at @ node.transform)
+        (nxt, nxt_at), (other, other_at) = (first, second) if token == "first" else (second, first)
+        if node.operation == "union":
+            other_name = "second." if token == "first" else "first."
+            found.append((other, other_at, done + other_name, len(ops)))
+        ops.append(node.operation)
+        done += token + "."
+        node, at = nxt, nxt_at
+    return [(p, a, n, all(op == "union" for op in ops[k + 1 :])) for p, a, n, k in found]
+
+
+def _inside_face(leaf: Shape, face: str, placed: Transform, points: np.ndarray, r: float) -> bool:
+    """Whether the disks of radius ``r`` around ``points`` (boolean frame, on the plane of the
+    flat face ``face`` of ``leaf`` placed by ``placed``) lie within the face: exact for a box's
+    face (a rectangle) and the end face of a full G4Tubs without a bore (a disk)."""
+    q = placed.inverse_apply(points)
+    if isinstance(leaf, G4Box):
+        axis = "xyz".index(face[1])
+        half = np.delete(np.array([leaf.dx, leaf.dy, leaf.dz]), axis)
+        return bool((np.abs(np.delete(q, axis, axis=1)) + r <= half + 1e-12).all())
+    if isinstance(leaf, G4Tubs) and leaf.rmin == 0 and leaf.dphi >= 2 * np.pi:
+        return bool((np.hypot(q[:, 0], q[:, 1]) + r <= leaf.rmax + 1e-12).all())
+    return False
+
+
+def _grow_down(
+    leaf: Shape,
+    placed: Transform,
+    clip: FaceClip,
+    n: np.ndarray,
+    origin: np.ndarray,
+    depth: float,
+    name: str,
+) -> dict[str, float] | None:
+    """For a part ``leaf`` of a union (placed by ``placed`` in the boolean's frame, at ``name``)
+    that meets the slab ``depth`` behind the face of ``clip`` (normal ``n`` through ``origin``):
+    the cut that grows it down to fill the slab under it (``{}``: it goes through the slab
+    already), or None where no such cut is exact (:func:`standing_cuts`)."""
+    if not isinstance(leaf, G4Box | G4Tubs):
+        return None
+    if isinstance(leaf, G4Box):
+        half, axes = np.array([leaf.dx, leaf.dy, leaf.dz]), [0, 1, 2]
+    else:
+        half, axes = np.array([0.0, 0.0, leaf.dz]), [2]
+    for k in axes:
+        c = float(placed.rotation[:, k] @ n)
+        if abs(abs(c) - 1.0) > 1e-12:
+            continue
+        h = float((placed.translation - origin) @ n)
+        foot, top = h - half[k], h + half[k]
+        if (foot <= -depth + 1e-9 and top >= -1e-9) or foot > 1e-9 or top < -depth - 1e-9:
+            return {}  # through the slab (it fills its column already), or off it
+        if abs(foot) > 1e-9:
+            return None  # it ends in the slab
+        centre = placed.translation - h * n
+        if isinstance(leaf, G4Box):
+            e = [placed.rotation[:, j] * half[j] for j in range(3) if j != k]
+            feet = np.array([centre + a * e[0] + b * e[1] for a in (-1, 1) for b in (-1, 1)])
+            ok = _inside_face(clip.leaf, clip.face, clip.transform, feet, 0.0)
+        else:
+            ok = _inside_face(clip.leaf, clip.face, clip.transform, centre[None], leaf.rmax)
+        return {name + ("-" if c > 0 else "+") + "xyz"[k]: -depth} if ok else None
+    return None
+
+
+def standing_cuts(shape: BooleanShape, face: str, depth: float, what: str) -> dict[str, float]:
+    """The other parts of a union that stand on the flat face ``face`` (of a constituent not
+    subtracted) cut ``depth`` behind it for ``into``, grown down by ``depth`` (boolean face ->
+    depth < 0, as :func:`cut_boolean` takes them) so the slab under them stays in the volume:
+    a G4Box or G4Tubs along the face's normal whose foot lies on the face's plane, within the
+    face (a box's face or a full tube's end face without a bore), joined to the face's
+    constituent by unions only (no subtraction between them). A part already through the
+    slab needs nothing; any other part that meets the slab (a cone, a sphere, a boolean, a foot
+    reaching beyond the face, a part ending in the slab) is refused in one line (``what``: its
+    start)."""
+    clip = shape.face_clip(face)
+    plane = clip.leaf.face(clip.face)
+    if clip.flipped or not isinstance(plane, PlaneFace):
+        return {}
+    frame = clip.transform @ plane.frame
+    n, origin = frame.rotation[:, 2], frame.translation
+    (u0, u1), (v0, v1) = plane.extent
+    rim = frame.apply(
+        np.array([[u, v, h] for u in (u0, u1) for v in (v0, v1) for h in (-depth, 0)])
+    )
+    slab_lo, slab_hi = rim.min(axis=0) - 1e-9, rim.max(axis=0) + 1e-9
+    path = face[: len(face) - len(clip.face)]
+    out = {}
+    for part, at, name, clean in _union_siblings(shape, path):
+        lo, hi = PlacedShape(part, at).bounding_box()
+        if (hi < slab_lo).any() or (lo > slab_hi).any():
+            continue  # away from the slab
+        leaf, placed = part, at
+        while isinstance(leaf, PlacedShape):
+            placed, leaf = placed @ leaf.transform, leaf.shape
+        grow = _grow_down(leaf, placed, clip, n, origin, depth, name)
+        if grow and not clean:  # it could grow into what a subtraction took from the face's
+            grow = None  # constituent under it
+        if grow is None:
+            raise ConfigError(
+                f"{what}: another part of the union (the {leaf.kind} {name.rstrip('.')}) stands "
+                f"on this face; the cut {depth * 1e3:.4g} um behind it would leave a gap under "
+                "that part, and score4 grows such a part down into the cut only when it is a "
+                "G4Box or G4Tubs along the face's normal whose foot lies on the face's plane, "
+                "within the face (a box's face or the end face of a full tube); put the layer "
+                "outside the volume (into: false)"
+            )
+        out.update(grow)
+    return out
+
+
 def into_depth(layer: RoughLayer, flipped: bool) -> float:
     """How far an ``into`` layer moves its boolean face inward (mm): the layer's thickness on a
     flat face; on a bore (``flipped``: a subtracted tube's wall, laid out as the inner wall of a
@@ -229,23 +375,28 @@ def into_depth(layer: RoughLayer, flipped: bool) -> float:
     return float(layer.thickness)
 
 
-def cut_face(on: BooleanFace, depth: float) -> BooleanFace:
+def cut_face(on: BooleanFace, depth: float, what: str = "into") -> BooleanFace:
     """Where an ``into`` layer's face lies: the face ``on`` of the boolean cut ``depth`` behind
-    it (:func:`cut_boolean`; a subtracted solid grows by ``depth``)."""
+    it (:func:`cut_boolean`; a subtracted solid grows by ``depth``; the parts of a union that
+    stand on the face grow down by it, :func:`standing_cuts`, whose errors start with
+    ``what``)."""
     shape = on.shape
     assert isinstance(shape, BooleanShape)
-    cut = cut_boolean(shape, {on.face: -depth if on.clip.flipped else depth})
+    grow = standing_cuts(shape, on.face, depth, what)
+    cut = cut_boolean(shape, {on.face: -depth if on.clip.flipped else depth, **grow})
     return BooleanFace(cut, on.face, cut.face_clip(on.face), on.transform)
 
 
-def boolean_cuts(layers: list[RoughLayer]) -> dict[str, float]:
-    """The cuts of a boolean's ``into`` layers (boolean face -> depth, mm, < 0: a subtracted
-    solid grows), as :func:`cut_boolean` and :func:`score4.geometry.boolean_cut.cut_boolean_solid`
-    take them."""
+def boolean_cuts(layers: list[RoughLayer], shape: BooleanShape) -> dict[str, float]:
+    """The cuts of the ``into`` layers of the boolean ``shape`` (boolean face -> depth, mm,
+    < 0: a subtracted solid grows, and so does a part of a union standing on a cut face,
+    :func:`standing_cuts`), as :func:`cut_boolean` and
+    :func:`score4.geometry.boolean_cut.cut_boolean_solid` take them."""
     out = {}
     for layer in layers:
         on = layer.on_boolean
         assert on is not None
         depth = into_depth(layer, on.clip.flipped)
         out[layer.config.face_name] = -depth if on.clip.flipped else depth
+        out.update(standing_cuts(shape, layer.config.face_name, depth, "into"))
     return out

@@ -4,10 +4,12 @@
   extruded by the layer thickness) must not run into another target or layer.
 * A GDML world: a rough layer must not meet any other daughter of its volume's mother (the
   volume's sisters, boxes of the configuration, other layers) and must stay inside the mother;
-  boxes of the configuration likewise. Boxes are tested exactly (oriented boxes, separating
-  axes), the other solids score4.shapes describes (booleans: a frame is a box less a box) by a
-  grid of points of the envelope, the rest by their bounding box. Errors
-  name what the layer meets and the free gap along the face normal.
+  boxes of the configuration likewise. Against a flat layer, boxes are tested exactly
+  (oriented boxes, separating axes), the other solids score4.shapes describes (booleans: a frame
+  is a box less a box) by a grid of points of the envelope, the rest by their bounding box. A
+  curved layer is tested against everything by a certified search of its shell
+  (:func:`certified_meet`) down to a tenth of the layer. Errors name what the layer meets and
+  the free gap along the face normal.
 """
 
 from __future__ import annotations
@@ -21,7 +23,9 @@ import numpy as np
 
 from score4.errors import ConfigError
 from score4.shapes import Shape, shape_from_dict
+from score4.shapes.csg import G4Orb, G4Sphere, _Hexahedron
 from score4.shapes.faces import SphereFace
+from score4.shapes.revolved import RevolvedShape, _PolyhedraBase
 
 from .facets import boundary_edges, point_in_triangles
 from .gdml_model import GeometryModel, Instance
@@ -101,6 +105,9 @@ class _Body:
     lo: np.ndarray
     hi: np.ndarray
     shape: Shape | None = None  # the solid as score4.shapes describes it (None: not described)
+    axis: tuple[np.ndarray, np.ndarray] | None = (
+        None  # its z axis in the world (a point, a direction)
+    )
 
     @property
     def box_like(self) -> bool:
@@ -121,6 +128,20 @@ class _Body:
         points on the surface of a shape do not count (a layer may touch a sister)."""
         return shape_contains(self.shape, self.lo, self.hi, q, touching)
 
+    def signed(self, world: np.ndarray) -> np.ndarray:
+        """Signed distance of world points to the solid (negative inside): the shape's
+        (:meth:`score4.shapes.Shape.signed_distance`, which changes by no more than the distance
+        a point moves), else the bounding box's."""
+        local = self.to_local(np.asarray(world, float).reshape(-1, 3))  # type: ignore[operator]
+        q = np.asarray(local, dtype=np.float64)
+        if self.shape is not None:
+            return np.asarray(self.shape.signed_distance(q))
+        return np.asarray(np.maximum(self.lo - q, q - self.hi).max(axis=1))
+
+    def round_about(self, axis: tuple[np.ndarray, np.ndarray]) -> bool:
+        """The solid is round about ``axis`` (a full solid of revolution, a sphere, on it)."""
+        return self.axis is not None and _round_shape(self.shape) and _same_axis(self.axis, axis)
+
     def probe_points(self, box: OrientedBox) -> np.ndarray:
         """Points of ``box`` whose containment in this solid tells whether the whole box is
         in it: the corners for a box, a grid otherwise."""
@@ -139,7 +160,64 @@ def _instance_body(model: GeometryModel, inst: Instance, label: str | None = Non
         lo,
         hi,
         _shape(data) if data else None,
+        _axis(inst),
     )
+
+
+def _affine(f: Callable[[np.ndarray], np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """``(A, b)`` of an affine map of points: ``f(p) = p @ A.T + b``."""
+    b = np.asarray(f(np.zeros((1, 3))), float)[0]
+    a = np.asarray(f(np.eye(3)), float) - b
+    return a.T, b
+
+
+def _planes_in(body: _Body, target: TargetVolume) -> tuple[np.ndarray, np.ndarray] | None:
+    """The body's depth (minus its signed distance) as the least of affine functions
+    ``c + m . p`` of points ``p`` in ``target``'s frame, ``(m, c)``: for a solid of planes (a
+    box, a trapezoid; an undescribed solid's bounding box), else None."""
+    if body.shape is None:
+        lo, hi = body.lo, body.hi
+        normals = np.concatenate([np.eye(3), -np.eye(3)])
+        offsets = np.concatenate([hi, -lo])
+    elif isinstance(body.shape, _Hexahedron):
+        normals, offsets = body.shape._planes()  # n . q <= h inside (unit normals)
+    else:
+        return None
+    # q = M p + k: the target's frame to the body's
+    (rt, tt), (ab, bb) = _affine(target.to_world), _affine(body.to_local)  # type: ignore[arg-type]
+    m_q, k = ab @ rt, ab @ tt + bb
+    # depth = min (h - n . q) = min (h - n . k - (n M) . p)
+    return -(normals @ m_q), offsets - normals @ k
+
+
+def _layer_planes(other: RoughLayer, target: TargetVolume) -> tuple[np.ndarray, np.ndarray] | None:
+    """Planes ``(m, c)`` (as :func:`_planes_in`, in ``target``'s frame) whose least bounds a flat
+    layer's depth (:func:`_depth`) from above: its box's six for a box envelope, the two of its
+    slab (the face and its offset) for a prism or a ring; None for a curved layer."""
+    if isinstance(other, CurvedRoughLayer):
+        return None
+    rt, tt = _affine(target.to_world)
+    if _shaped(other):  # depth <= the height above the face, and below its offset
+        a, b = _affine(other.frame.to_local)
+        normals, offsets = np.array([[0.0, 0.0, -1.0], [0.0, 0.0, 1.0]]), np.array([0.0, 1.0])
+        offsets[1] = other.thickness
+    else:
+        box = other.envelope_box()
+        a, b = _affine(box.transform.inverse_apply)
+        normals = np.concatenate([np.eye(3), -np.eye(3)])
+        offsets = np.concatenate([box.half, box.half])
+    m_q, k = a @ rt, a @ tt + b
+    return -(normals @ m_q), offsets - normals @ k
+
+
+def _round_shape(shape: Shape | None) -> bool:
+    """The shape is round about its z axis: a full tube, cone or polycone, a sphere over the
+    full circle, an orb."""
+    if isinstance(shape, RevolvedShape) and not isinstance(shape, _PolyhedraBase):
+        return shape.full_phi
+    if isinstance(shape, G4Sphere):
+        return bool(shape.dphi >= 2 * np.pi)
+    return isinstance(shape, G4Orb)
 
 
 @lru_cache(maxsize=256)
@@ -153,7 +231,7 @@ def _shape(data: dict) -> Shape:
 
 
 def _target_body(t: TargetVolume) -> _Body:
-    return _Body(f"target {t.name!r}", target_obb(t), t.to_local, t.lo, t.hi, t.shape)
+    return _Body(f"target {t.name!r}", target_obb(t), t.to_local, t.lo, t.hi, t.shape, _axis(t))
 
 
 def check_gdml_clearance(scene: Scene) -> None:
@@ -161,8 +239,9 @@ def check_gdml_clearance(scene: Scene) -> None:
 
     A layer on a face (outside the volume) must not meet any other daughter of the volume's
     mother (other GDML volumes, boxes of the configuration, other layers) and must stay inside
-    the mother. Boxes are tested exactly (oriented boxes), the other solids score4.shapes
-    describes by a grid of points of the layer's envelope, other solids by their bounding box.
+    the mother. For a flat layer, boxes are tested exactly (oriented boxes), the other solids
+    score4.shapes describes by a grid of points of the layer's envelope, other solids by their
+    bounding box; a curved layer by :func:`_check_curved`.
     """
     model = scene.model
     assert model is not None
@@ -303,8 +382,9 @@ def _check_curved(
     model: GeometryModel, scene: Scene, layer: CurvedRoughLayer, others: list[RoughLayer]
 ) -> None:
     """A bent layer against the sisters of its volume, boxes and layers in the same mother, and
-    its mother, by points of its shell; the gap is the least height above the face of a shell
-    point inside what it meets."""
+    its mother: first by a grid of points of its shell, then by the certified search
+    (:func:`certified_meet`) on the signed distance of each solid; the gap is the height above
+    the face where the solid begins, least near the point found (:func:`_least_gap`)."""
     mother = layer.target.mother
     assert mother is not None
     points = layer.shell_points()
@@ -320,12 +400,28 @@ def _check_curved(
         for t in scene.targets
         if t is not layer.target and t.instance is None and t.mother == mother
     ]
+    axis = _axis(layer.target)
+    resolution = RESOLUTION_SHARE * layer.thickness
+    envelope = layer.envelope_box()
     for body in bodies:
+        what = body.label if body.label.startswith("target") else f"sister {body.label}"
         hit = body.contains(body.to_local(points), touching=False)  # type: ignore[operator]
         if hit.any():
-            what = body.label if body.label.startswith("target") else f"sister {body.label}"
             k = np.flatnonzero(hit)[np.argmin(height[hit])]
-            raise ConfigError(_meets(layer, what, _curved_gap(layer, body, points[k])))
+            found: np.ndarray | None = points[k]
+        elif body.obb.overlaps(envelope):  # between the grid's points
+            found = certified_meet(
+                layer,
+                lambda world, body=body: -body.signed(world),  # type: ignore[misc]
+                resolution,
+                what,
+                coaxial=body.round_about(axis),
+                planes=_planes_in(body, layer.target),
+            )
+        else:
+            found = None
+        if found is not None:
+            raise ConfigError(_meets(layer, what, _curved_gap(layer, body, found)))
     for other in others:
         if other.target.mother != mother:
             continue
@@ -350,7 +446,17 @@ def _check_curved(
                 )
             )
     body = _instance_body(model, mother)
-    if not body.contains(mother.to_local(points)).all():
+    out = not body.contains(mother.to_local(points)).all() or (
+        certified_meet(
+            layer,
+            body.signed,
+            resolution,
+            f"its mother {model.label(mother)!r}",
+            coaxial=body.round_about(axis),
+        )
+        is not None
+    )
+    if out:
         raise ConfigError(
             f"{layer.name}: the rough layer on face {layer.config.face_name} of "
             f"{layer.target.name!r} "
@@ -360,20 +466,55 @@ def _check_curved(
 
 
 def _curved_gap(layer: CurvedRoughLayer, body: _Body, point: np.ndarray) -> float:
-    """Height above the face, bisected along the face normal under ``point``, where ``body``
-    begins."""
+    """The free gap under a point of a curved layer's shell inside ``body``
+    (:func:`_least_gap`)."""
+    return _least_gap(layer, lambda world: -body.signed(world), point)
+
+
+def _least_gap(
+    layer: CurvedRoughLayer, depth: Depth, point: np.ndarray, tol: float = BOUNDARY_TOLERANCE
+) -> float:
+    """Height above a curved layer's face, along its normal, where ``depth`` (of what the
+    layer meets) turns above ``tol``: bisected under ``point`` (a point of the shell inside),
+    then made least about it by a pattern search over the face (steps along azimuth and
+    generator, halved down to a nanometre), so the free gap is that of the closest approach
+    near the point found (mm)."""
     face = layer.ring_layout.face
-    u, v, hi = (float(x[0]) for x in face.locate(layer.target.to_local(point[None, :])))
-    lo = 0.0
-    base, normal = face.point(u, v), face.normal(u, v)
-    for _ in range(40):
-        mid = 0.5 * (lo + hi)
-        p = layer.target.to_world((base + mid * normal)[None, :])
-        if body.contains(body.to_local(p), touching=False)[0]:  # type: ignore[operator]
-            hi = mid
+    (u0, u1), (v0, v1) = face.extent
+    u, v, h_in = (float(x[0]) for x in face.locate(layer.target.to_local(point[None, :])))
+    h_in = min(max(h_in, 0.0), layer.thickness * 2)
+
+    def gaps(uv: np.ndarray) -> np.ndarray:
+        """Gaps under face points (u, v) (inf where the point at h_in is not inside)."""
+        uv = np.column_stack([np.clip(uv[:, 0], u0, u1), np.clip(uv[:, 1], v0, v1)])
+        base, normal = face.point(uv[:, 0], uv[:, 1]), face.normal(uv[:, 0], uv[:, 1])
+
+        def inside(h: np.ndarray) -> np.ndarray:
+            return depth(layer.target.to_world(base + h[:, None] * normal)) > tol
+
+        lo, hi = np.zeros(len(uv)), np.full(len(uv), h_in)
+        ok = inside(hi)
+        for _ in range(36):
+            mid = 0.5 * (lo + hi)
+            got = inside(mid)
+            hi, lo = np.where(got, mid, hi), np.where(got, lo, mid)
+        return np.where(ok, np.where(inside(np.zeros(len(uv))), 0.0, hi), np.inf)
+
+    best = float(gaps(np.array([[u, v]]))[0])
+    if not np.isfinite(best):
+        return h_in
+    rho = max(float(np.hypot(*face.point(np.array([u]), np.array([v]))[0, :2])), 1e-9)
+    step = 10 * layer.thickness
+    while step > 1e-6 and best > 0:
+        moves = np.array([[step / rho, 0.0], [-step / rho, 0.0], [0.0, step], [0.0, -step]])
+        trial = np.array([u, v]) + moves
+        g = gaps(trial)
+        k = int(np.argmin(g))
+        if g[k] < best:
+            best, (u, v) = float(g[k]), (float(trial[k, 0]), float(trial[k, 1]))
         else:
-            lo = mid
-    return hi
+            step /= 2
+    return best
 
 
 def _gap(layer: RoughLayer, body: _Body) -> float:
@@ -515,47 +656,118 @@ def _depth(layer: RoughLayer, points: np.ndarray) -> np.ndarray:
 #: Most cells the exact search of :func:`shells_meet` keeps at once (a bound on its memory).
 MAX_CELLS = 2_000_000
 
+#: Resolution of the certified search (:func:`certified_meet`), as a share of the thinner of
+#: the two layers (of the curved layer against a solid): an overlap deeper than this (plus
+#: the boundary tolerance) is always found. It was a half until session 11.
+RESOLUTION_SHARE = 0.1
+
+Depth = Callable[[np.ndarray], np.ndarray]
+
+
+def _axis(target: TargetVolume | Instance) -> tuple[np.ndarray, np.ndarray]:
+    """A volume's z axis in the world: a point on it and its direction."""
+    return (
+        np.asarray(target.to_world(np.zeros((1, 3))), float)[0],
+        np.asarray(target.rotation, float)[:, 2],
+    )
+
+
+def _same_axis(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> bool:
+    """Two axes are one line (to 1e-9)."""
+    (pa, da), (pb, db) = a, b
+    return bool(
+        np.linalg.norm(np.cross(da, db)) < 1e-9 and np.linalg.norm(np.cross(pb - pa, da)) < 1e-9
+    )
+
+
+def _round_layer(layer: RoughLayer) -> bool:
+    """The layer's envelope (as :func:`_depth` sees it) is round about its target's z axis: a
+    curved layer over the full circle, a ring whose envelope is the ring."""
+    if layer.cells_envelope:
+        return False
+    if isinstance(layer, CurvedRoughLayer) and layer.pieces is not None:
+        return False  # an envelope in pieces of azimuth
+    if isinstance(layer, CurvedRoughLayer):
+        return bool(layer.ring_layout.face.dphi >= 2 * np.pi - 1e-9)
+    if isinstance(layer, RingRoughLayer):
+        # the ring's frame: centred on the axis, its normal along it
+        axis = _axis(layer.target)
+        frame = (np.asarray(layer.frame.centre, float), np.asarray(layer.frame.normal, float))
+        return _same_axis(axis, frame)
+    return False
+
 
 def shells_meet(
     layer: CurvedRoughLayer, other: RoughLayer, tol: float = BOUNDARY_TOLERANCE
 ) -> np.ndarray | None:
     """A world point strictly inside both a curved layer's envelope and ``other``'s (by more
     than ``tol``), or None when there is none deeper than ``tol + resolution``, resolution
-    being half the thinner layer (5.5 um for two 11 um layers).
-
-    The shell is cut into cells of its (azimuth, generator, height) box; a cell whose centre is
-    at depth ``d`` in ``other`` (:func:`_depth`) and whose points are all within ``R`` of its
-    centre (half its diagonal, the three directions being orthogonal) holds no point deeper
-    than ``d + R``: such cells are dropped, a centre deeper than
-    ``tol`` is the answer, and the other cells are halved along their longest side until they
-    are smaller than the resolution. Points are never missed between samples, however thin
-    the layers (the grid of :meth:`CurvedRoughLayer.shell_points` can miss a 20 um layer).
-    An envelope in pieces (:attr:`CurvedRoughLayer.pieces`) is searched piece by piece."""
-    resolution = max(min(layer.thickness, other.thickness) / 2, 1e-7)
-    return shell_search(layer, lambda world: _depth(other, world), resolution, other.name, tol)
+    being :data:`RESOLUTION_SHARE` of the thinner layer (1.1 um for two 11 um layers); see
+    :func:`certified_meet`."""
+    coaxial = _round_layer(other) and _same_axis(_axis(layer.target), _axis(other.target))
+    return certified_meet(
+        layer,
+        lambda world: _depth(other, world),
+        RESOLUTION_SHARE * min(layer.thickness, other.thickness),
+        f"the rough layer {other.name}",
+        tol,
+        coaxial,
+        _layer_planes(other, layer.target),
+    )
 
 
 def shell_search(
     layer: CurvedRoughLayer,
-    depth: Callable[[np.ndarray], np.ndarray],
+    depth: Depth,
     resolution: float,
     label: str,
     tol: float = BOUNDARY_TOLERANCE,
 ) -> np.ndarray | None:
-    """A world point of a curved layer's envelope where ``depth`` (of world points: 1-Lipschitz,
-    positive inside what the envelope must not meet) exceeds ``tol``, or None when there is
-    none deeper than ``tol + resolution`` (the search of :func:`shells_meet`; ``label`` names
-    what is searched in errors). An envelope in pieces (:attr:`CurvedRoughLayer.pieces`) is
-    searched piece by piece."""
+    """A world point of a curved layer's envelope where ``depth`` exceeds ``tol``, or None when
+    there is none deeper than ``tol + resolution`` (:func:`certified_meet`; ``label`` names
+    what is searched in errors)."""
+    return certified_meet(layer, depth, resolution, label, tol)
+
+
+def certified_meet(
+    layer: CurvedRoughLayer,
+    depth: Depth,
+    resolution: float,
+    what: str,
+    tol: float = BOUNDARY_TOLERANCE,
+    coaxial: bool = False,
+    planes: tuple[np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray | None:
+    """A world point of a curved layer's envelope where ``depth`` (how deep world points lie in
+    something else: positive inside, changing by no more than the distance a point moves)
+    exceeds ``tol``, or None when there is none deeper than ``tol + resolution``.
+
+    The shell is cut into cells of its (azimuth, generator, height) box; a cell whose centre is
+    at depth ``d`` and whose points are all within ``R`` of its centre (half its diagonal, the
+    three directions being orthogonal) holds no point deeper than ``d + R``: such cells are
+    dropped, a centre deeper than ``tol`` is the answer, and the other cells are halved along
+    their longest side until they are smaller than the resolution. Points are never missed
+    between samples, however thin the layers (the grid of
+    :meth:`CurvedRoughLayer.shell_points` can miss a 20 um layer). ``coaxial``: ``depth`` is
+    the same at every azimuth about the layer's axis (a round thing on the same axis), so the
+    search runs on one half-plane of the shell, in (generator, height) only. ``planes``:
+    ``depth`` is the least of affine functions ``c + m . p`` of points ``p`` in the layer's
+    target frame (a box or another solid of planes, :func:`_planes_in`): on a face whose
+    generator is straight (a cylinder, a cone) each is bounded over a cell exactly from the
+    cell's ranges of azimuth, radius and z, which drops the cells along a plane the layer
+    touches (a box beside a wall, under its end) without halving them down to the
+    resolution. An envelope in pieces (:attr:`CurvedRoughLayer.pieces`) is searched piece by
+    piece."""
     if layer.pieces is not None:
         for view in layer.envelope_views():
-            found = shell_search(view, depth, resolution, label, tol)
+            found = certified_meet(view, depth, resolution, what, tol, coaxial, planes)
             if found is not None:
                 return found
         return None
     face = layer.ring_layout.face
     t = layer.thickness
     (u0, u1), (v0, v1) = face.extent
+    resolution = max(resolution, 1e-7)
     cone = layer._cone_envelope
     if cone:  # cells of (azimuth, z, across) in the G4Cons between the face's z planes
         a1, b1, a2, b2, dz, zc = wall_envelope(layer)
@@ -572,42 +784,88 @@ def shell_search(
         rho_max = float(np.max(face.radius(np.array([v0, v1])))) + t
         v_scale, h_scale = 1.0, 1.0
 
-    def position(m: np.ndarray) -> np.ndarray:
-        """World points of cell centres (azimuth, v, h)."""
+    def local_point(m: np.ndarray) -> np.ndarray:
+        """Points (azimuth, v, h) in the target's frame."""
         if cone:
             f, s = m[:, 1] / (2 * dz), m[:, 2] / t
             r = (a1 + f * (a2 - a1)) + s * ((b1 + f * (b2 - b1)) - (a1 + f * (a2 - a1)))
-            local = np.column_stack([r * np.cos(m[:, 0]), r * np.sin(m[:, 0]), zc - dz + m[:, 1]])
-        else:
-            local = face.point(m[:, 0], m[:, 1]) + m[:, 2, None] * face.normal(m[:, 0], m[:, 1])
-        return np.asarray(layer.target.to_world(local))
+            return np.column_stack([r * np.cos(m[:, 0]), r * np.sin(m[:, 0]), zc - dz + m[:, 1]])
+        return np.asarray(
+            face.point(m[:, 0], m[:, 1]) + m[:, 2, None] * face.normal(m[:, 0], m[:, 1])
+        )
 
-    n_u = int(np.clip(np.ceil(rho_max * (u1 - u0) / max(v1 - v0, t)), 1, 4096))
-    n_v = int(np.clip(np.ceil((v1 - v0) / max(rho_max * (u1 - u0) / n_u, t)), 1, 4096))
+    def position(m: np.ndarray) -> np.ndarray:
+        """World points of cell centres (azimuth, v, h)."""
+        return np.asarray(layer.target.to_world(local_point(m)))
+
+    def plane_bound(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """The most ``depth`` reaches in each cell, by its planes: radius and z are affine
+        (bilinear in a G4Cons envelope) in (v, h), so their ranges are those of the corners."""
+        assert planes is not None
+        m, c = planes
+        corners = [
+            local_point(np.column_stack([np.zeros(len(lo)), a[:, 1], b[:, 2]]))
+            for a in (lo, hi)
+            for b in (lo, hi)
+        ]
+        rho = np.stack([np.hypot(q[:, 0], q[:, 1]) for q in corners])
+        z = np.stack([q[:, 2] for q in corners])
+        r_lo, r_hi, z_lo, z_hi = rho.min(0), rho.max(0), z.min(0), z.max(0)
+        width = np.hypot(m[:, 0], m[:, 1])[None, :]  # (cells, planes) below
+        alpha = np.arctan2(m[:, 1], m[:, 0])[None, :]
+        ul, uh = lo[:, 0, None], hi[:, 0, None]
+        facing = np.mod(alpha - ul, 2 * np.pi) <= uh - ul
+        cos = np.where(facing, 1.0, np.maximum(np.cos(ul - alpha), np.cos(uh - alpha)))
+        radial = width * np.where(cos > 0, r_hi[:, None], r_lo[:, None]) * cos
+        along = np.maximum(m[None, :, 2] * z_lo[:, None], m[None, :, 2] * z_hi[:, None])
+        return np.asarray((c[None, :] + radial + along).min(axis=1))
+
+    use_planes = planes is not None and not coaxial and not isinstance(face, SphereFace)
+
+    if coaxial:  # one azimuth: the cells do not span any
+        n_u, u_scale = 1, 0.0
+        u0 = u1 = 0.5 * (u0 + u1)
+        n_v = int(np.clip(np.ceil((v1 - v0) / t), 1, 4096))
+    else:
+        n_u, u_scale = (
+            int(np.clip(np.ceil(rho_max * (u1 - u0) / max(v1 - v0, t)), 1, 4096)),
+            rho_max,
+        )
+        n_v = int(np.clip(np.ceil((v1 - v0) / max(rho_max * (u1 - u0) / n_u, t)), 1, 4096))
     eu, ev = np.linspace(u0, u1, n_u + 1), np.linspace(v0, v1, n_v + 1)
     ui, vi = np.meshgrid(np.arange(n_u), np.arange(n_v), indexing="ij")
     lo = np.column_stack([eu[ui.ravel()], ev[vi.ravel()], np.zeros(ui.size)])
     hi = np.column_stack([eu[ui.ravel() + 1], ev[vi.ravel() + 1], np.full(ui.size, t)])
-    scale = np.array([rho_max, v_scale, h_scale])  # mm per unit of each parameter, at most
+    scale = np.array([u_scale, v_scale, h_scale])  # mm per unit of each parameter, at most
     while len(lo):
         mid = 0.5 * (lo + hi)
         world = position(mid)
-        deep_by = depth(world)
-        deep = np.flatnonzero(deep_by > tol)
+        d = depth(world)
+        # the middle of each cell's outer side too: a solid beside the layer reaches in there
+        # first (an overlap shallower than the cells is found there)
+        top = mid.copy()
+        top[:, 2] = hi[:, 2] - 0.01 * (hi[:, 2] - lo[:, 2])  # (inside: a witness is strictly in)
+        world_top = position(top)
+        d_top = depth(world_top)
+        deep = np.flatnonzero(np.maximum(d, d_top) > tol)
         if len(deep):
-            return np.asarray(world[deep[np.argmax(deep_by[deep])]])
+            k = deep[np.argmax(np.maximum(d, d_top)[deep])]
+            return np.asarray(world[k] if d[k] >= d_top[k] else world_top[k])
         size = (hi - lo) * scale
         # the azimuth's direction is orthogonal to the other two, each stretched by at most
         # ``scale``: no point of a cell is further from its centre (on a shell of normals the
         # other two are orthogonal as well; in a G4Cons they are added)
         inplane = np.hypot(size[:, 1], size[:, 2]) if not cone else size[:, 1] + size[:, 2]
         reach = 0.5 * np.hypot(size[:, 0], inplane)
-        open_ = (deep_by + reach > tol) & (reach > resolution)
+        open_ = (d + reach > tol) & (reach > resolution)
+        if use_planes and open_.any():  # (only where the distance alone keeps a cell)
+            keep = np.flatnonzero(open_)
+            open_[keep[plane_bound(lo[keep], hi[keep]) <= tol]] = False
         lo, hi, size = lo[open_], hi[open_], size[open_]
         if len(lo) > MAX_CELLS // 2:
             raise ConfigError(
-                f"{layer.name}: the clearance check against {label} needs more than "
-                f"{MAX_CELLS} cells (the two envelopes touch over a large area); move them apart "
+                f"{layer.name}: the clearance check against {what} needs more than "
+                f"{MAX_CELLS} cells (the two touch over a large area); move them apart "
                 "by a micrometre"
             )
         axis = np.argmax(size, axis=1)
@@ -620,18 +878,6 @@ def shell_search(
 
 
 def _gap_under(layer: CurvedRoughLayer, other: RoughLayer, point: np.ndarray) -> float:
-    """Height above a curved layer's face, bisected along the face normal under ``point`` (in
-    both envelopes), where ``other``'s envelope begins (mm)."""
-    face = layer.ring_layout.face
-    u, v, hi = (float(x[0]) for x in face.locate(layer.target.to_local(point[None, :])))
-    base, normal = face.point(u, v), face.normal(u, v)
-    lo = 0.0
-    if _depth(other, layer.target.to_world(base[None, :]))[0] > 0:
-        return 0.0
-    for _ in range(50):
-        mid = 0.5 * (lo + hi)
-        if _depth(other, layer.target.to_world((base + mid * normal)[None, :]))[0] > 0:
-            hi = mid
-        else:
-            lo = mid
-    return hi
+    """The free gap under a point inside both a curved layer's envelope and ``other``'s
+    (:func:`_least_gap`; mm)."""
+    return _least_gap(layer, lambda world: _depth(other, world), point, 0.0)
