@@ -21,6 +21,23 @@ from ..surface.rough import Surface
 #: pyramid face), 27 voxels 346 MB, 8 voxels 308 MB and 4.425 M (1.077x), none 250 MB and
 #: 5.205 M (1.267x: every safety then measures every facet). Exact maps keep Geant4's choice.
 SIMPLIFIED_CAP_VOXELS = 8
+#: The same for the caps of an exact height map with at most :data:`SMALL_CAP_FACETS` facets (the
+#: 2 x 2 and 3 x 3-pixel blocks); -1, the default: Geant4's own. Each step inside a cap asks for
+#: its exact safety, which Geant4 finds by sorting the solid's voxel boxes by distance and
+#: measuring the facets of each box; a 2 x 2-pixel cap has 22 facets, all within ~1 um of any
+#: point in it, so its 5-12 boxes prune nothing and the sort and box distances are ~37 % of the
+#: safety's cost. 4 voxels give the same safety for less work: bench_instructions.py, 1.5 mm
+#: face, self-affine map 5.095 -> 4.948 M instructions per alpha event (Gaussian 4.638 -> 4.467,
+#: measured 4.559 -> 4.442). Not the default: CPU per event did not follow (bench_surfaces.py at
+#: 3 cm, 3 interleaved rounds, load 2.9: 0.802 against 0.745 ms), and a distance along a ray
+#: then meets other facets first, so Geant4's facet tolerance shows on other rays (3 of 2760
+#: geantino paths on a self-affine map moved, by up to 0.6 um; on blocks of bumps with a height
+#: spread 1.7 % of straight-down geantinos ended > 1e-9 mm off, so spike grids are left out).
+#: benchmarks/README.md, session 11; try it with bench_instructions.py
+#: ``--set score4.geometry.block_solids.CAP_MAX_VOXELS=4``.
+CAP_MAX_VOXELS = -1
+#: Facets of the largest cap :data:`CAP_MAX_VOXELS` applies to.
+SMALL_CAP_FACETS = 40
 
 
 def fast_tessellated(g4, mesh: TriangleMesh, name: str, max_voxels: int = -1):
@@ -59,8 +76,10 @@ def place_blocks(
     where = vec(0.0, 0.0, z)
     keep.append(where)
     voxels = -1 if surface.quad_cells is None else SIMPLIFIED_CAP_VOXELS
+    exact_map = surface.quad_cells is None and surface.spikes is None
     for b, (body, floor) in enumerate(floored_blocks(surface, base_thickness, block_cells)):
-        solid = fast_tessellated(g4, body, f"{name}_b{b}", voxels)
+        small = exact_map and body.n_faces <= SMALL_CAP_FACETS
+        solid = fast_tessellated(g4, body, f"{name}_b{b}", CAP_MAX_VOXELS if small else voxels)
         lv = g4.G4LogicalVolume(solid, material, f"{name}_b{b}")
         pv = g4.G4PVPlacement(None, where, lv, f"{name}_b{b}", mother_lv, False, b, False)
         lvs.append(lv)
