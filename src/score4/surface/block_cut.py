@@ -342,6 +342,34 @@ def _upright(
     return True
 
 
+#: Geant4's surface tolerance kCarTolerance, mm. G4TriangularFacet refuses a facet ("Facet is too
+#: small or too narrow") with an edge of at most this length or a lowest altitude (twice its area
+#: over its longest edge) of at most this; the G4TessellatedSolid it was meant for then has a
+#: hole ("there are holes in the surface!").
+G4_FACET_TOLERANCE = 1e-9  # mm
+#: A block's walls and bottom with a facet whose lowest altitude is below this (10x Geant4's
+#: limit, for rounding) are replaced by :func:`closed_body`'s (a quad per top edge over a bottom
+#: vertex under each outline vertex). Measured: a fan triangle of a long side from a bottom
+#: corner to two top vertices nearly in line with it, 8.4e-15 mm^2 (altitude 3e-12 mm), in one
+#: block of the exact 1024 x 1024 noise-like map (bench_surfaces.py --map noise).
+MIN_FACET_ALTITUDE = 10 * G4_FACET_TOLERANCE  # mm
+
+
+def narrow_faces(
+    vertices: np.ndarray, faces: np.ndarray, limit: float = G4_FACET_TOLERANCE
+) -> np.ndarray:
+    """Indices of the ``faces`` (vertex ids into ``vertices``) with an edge or a lowest altitude
+    of at most ``limit`` (mm): with the default, the facets Geant4's G4TriangularFacet refuses
+    (the same rule, in numpy)."""
+    tri = np.asarray(vertices)[np.asarray(faces)]
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    lengths = np.linalg.norm(np.stack([e1, tri[:, 2] - tri[:, 1], e2], axis=1), axis=2)
+    twice_area = np.linalg.norm(np.cross(e1, e2), axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        narrow = ~(twice_area / lengths.max(axis=1) > limit)
+    return np.flatnonzero((lengths.min(axis=1) <= limit) | narrow)
+
+
 def _terrain_wall(
     v: np.ndarray, thickness: float, chain: list[int], low_a: int, low_b: int
 ) -> list[tuple[int, int, int]] | None:
@@ -445,10 +473,14 @@ def block_body(top: TriangleMesh, thickness: float) -> TriangleMesh:
             walls += long_wall
     c0, c1, c2, c3 = (low[c] for c in ends)
     floor = [(c1, c0, c3), (c3, c2, c1)]
-    faces = np.vstack([top.faces, np.array(walls + floor, dtype=top.faces.dtype)])
+    extra = np.array(walls + floor, dtype=top.faces.dtype)
+    vertices = np.vstack([v, bottom])
+    if len(narrow_faces(vertices, extra, MIN_FACET_ALTITUDE)):
+        return _closed_body(top, thickness)  # a sliver Geant4 would drop, leaving a hole
+    faces = np.vstack([top.faces, extra])
     n_extra = len(walls) + len(floor)
     return TriangleMesh(
-        np.vstack([v, bottom]),
+        vertices,
         faces,
         top=np.concatenate([top.top, np.zeros(n_extra, bool)]),
         patch=None if top.patch is None else np.concatenate([top.patch, np.full(n_extra, -1)]),
