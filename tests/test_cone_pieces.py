@@ -105,12 +105,16 @@ def test_a_cones_wall_through_a_box_in_geant4(gdml, tmp_path):
     primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n)
     r = geantino_run(data, primaries, np.array(starts), np.array(directions), tmp_path)
     got = np.asarray(r.scores["track_length"]["conecross"])
-    crossed = 0
+    crossed, pieces = 0, set()
     for k in range(n):
         o, d = starts[k], directions[k]
         expected = polycone_path(target.to_local(o[None])[0], target.rotation.T @ d,
                                  target.shape, length=60.0)  # fmt: skip
-        in_patches = patches_path(o, d, face, 60.0) + patches_path(o, d, wall, 60.0)
+        in_wall = patches_path(o, d, wall, 60.0)
+        in_patches = patches_path(o, d, face, 60.0) + in_wall
         crossed += in_patches > 0
+        if k >= 4 and in_wall > 0:
+            pieces.add(k % 2)  # above the box (odd) or below it (even)
         assert got[k] == pytest.approx(expected + in_patches, abs=1e-9, rel=0), k
     assert crossed >= n // 2  # most rays cross a patch body
+    assert pieces == {0, 1}  # through both pieces of the wall's envelope
