@@ -189,8 +189,9 @@ def test_the_cut_face_and_the_side_wall_in_geant4(gdml, tmp_path):
 
 
 def test_a_taper_and_the_cut_face_are_still_refused_together(gdml):
-    """A cone's envelope pieces span its whole length over the azimuths any ring keeps, so
-    one of P00664B's tapers (seg_1) reaches past the cut at its wide end, where the cut face's
+    """Every ring of P00664B's taper (seg_1) keeps cells, over azimuths narrowing towards its
+    wide end; a cone's neighbouring rings' cells overlap in z, so its envelope is one piece over
+    the narrow end's azimuths and reaches past the cut at its wide end, where the cut face's
     layer stands: one line names both (docs/geometry.md)."""
     with pytest.raises(ConfigError, match=r"second.-x .* runs into the rough layer ppc_roughfirst"):
         build_scene(parse_config(config(gdml, {"ppc": ["second.-x", "first.seg_1"]})))

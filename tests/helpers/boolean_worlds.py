@@ -162,3 +162,23 @@ def copper_world_text(solids: str, at: dict[str, tuple[float, float, float]]) ->
         f'<volume name="W"><materialref ref="G4_Galactic"/><solidref ref="world_s"/>{placed}'
         '</volume></structure><setup name="Default" version="1.0"><world ref="W"/></setup></gdml>'
     )
+
+
+def write_cone_cross(path: Path) -> Path:
+    """``conecross``: a copper box (20 mm) with a cone (r 4 mm at z = -20 to 6 mm at z = +20)
+    through it along z, a union (the cone's wall is kept beyond the box's faces only)."""
+    import pyg4ometry as pg
+
+    reg = pg.geant4.Registry()
+    s = pg.geant4.solid
+    world = pg.geant4.LogicalVolume(s.Box("world_s", 300, 300, 300, reg), "G4_Galactic", "W", reg)
+    box = s.Box("conecross_a", 20, 20, 20, reg)
+    cone = s.Cons("conecross_b", 0, 4, 0, 6, 40, 0, 2 * math.pi, reg)
+    union = s.Union("conecross_s", box, cone, [[0, 0, 0], [0, 0, 0]], reg)
+    lv = pg.geant4.LogicalVolume(union, "G4_Cu", "conecross_lv", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], [5.0, -3.0, 2.0], lv, "conecross", world, reg)
+    reg.setWorld(world.name)
+    w = pg.gdml.Writer()
+    w.addDetector(reg)
+    w.write(str(path))
+    return path
