@@ -39,7 +39,13 @@ from helpers.boolean_worlds import (
 from helpers.export_paths import assert_same_paths, base_name, three_paths
 from helpers.g4_geometry_check import assert_no_overlaps
 from helpers.geantinos import geantino_run
-from helpers.ray_trace import mesh_path, patches_path, polycone_path, wall_patches_near
+from helpers.ray_trace import (
+    flat_patches_path,
+    mesh_path,
+    patches_path,
+    polycone_path,
+    wall_patches_near,
+)
 
 #: 0.5 mm patches of 5 x 5 pyramids, 20 um high
 PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
@@ -188,24 +194,6 @@ def _tube_path(o: np.ndarray, d: np.ndarray, centre, r: float, z0: float, z1: fl
     return max(t1 - t0, 0.0)
 
 
-def _flat_patch_path(layer, o: np.ndarray, d: np.ndarray) -> float:
-    """Path of a ray in the patch bodies of a flat layer's kept cells near it."""
-    body = layer.variants[0].body(layer.base_thickness)
-    px, py = layer.patch_size
-    cc = layer.cell_centres()
-    lo, dl = layer.frame.to_local(o[None])[0], d @ layer.frame.rotation
-    ts = np.linspace(-lo[2] / dl[2], (layer.thickness - lo[2]) / dl[2], 40)
-    path = lo[None, :2] + ts[:, None] * dl[None, :2]
-    near = np.zeros(layer.cell_variants.shape, dtype=bool)
-    for q in path:
-        near |= (np.abs(cc[..., 0] - q[0]) < px) & (np.abs(cc[..., 1] - q[1]) < py)
-    out = 0.0
-    for j, i in zip(*np.nonzero(near & (layer.cell_variants >= 0)), strict=True):
-        v = body.vertices + np.array([*cc[j, i], layer.base_thickness])
-        out += mesh_path(o, d, layer.frame.to_world(v)[body.faces], edge=1e-12, merge=1e-10)
-    return out
-
-
 def test_geantino_paths_through_a_partly_covered_union_face(gdml, tmp_path):
     """Geantinos from just above kept cells of the box's +z face (half of them beside the
     post), aimed at points of the box or the post: Geant4's track length in the target equals
@@ -246,7 +234,7 @@ def test_geantino_paths_through_a_partly_covered_union_face(gdml, tmp_path):
         t0, t1 = _box_path(lo_, dl, (-10, -10, -10), (10, 10, 10))
         post = _tube_path(lo_, dl, POST_AT[:2], 3.0, 10.0, 20.0)
         into_post += post > 0
-        expected = (t1 - t0) + post + _flat_patch_path(layer, o, d)
+        expected = (t1 - t0) + post + flat_patches_path(layer, o, d)
         assert got[k] == pytest.approx(expected, abs=1e-9, rel=0), k
     assert into_post >= 3
 
@@ -744,7 +732,7 @@ def test_a_face_of_six_planes_on_a_boolean_takes_a_layer_per_plane(gdml, tmp_pat
     got = np.asarray(r.scores["track_length"]["hexcut"])
     crossed = 0
     for k, (o, d) in enumerate(zip(starts, directions, strict=True)):
-        in_patches = sum(_flat_patch_path(la, o, d) for la in layers)
+        in_patches = sum(flat_patches_path(la, o, d) for la in layers)
         crossed += in_patches > 0
         expected = _hex_less_box_path(target.to_local(o[None])[0], d @ target.rotation)
         assert got[k] == pytest.approx(expected + in_patches, abs=1e-9, rel=0), k

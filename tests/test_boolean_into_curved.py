@@ -25,6 +25,7 @@ from score4.source.build import make_source
 from score4.world.resolve import build_scene
 from score4.world.scene import CurvedRoughLayer
 
+from helpers.boolean_worlds import copper_world_text
 from helpers.g4_geometry_check import assert_no_overlaps
 from helpers.geantinos import geantino_run
 from helpers.ray_trace import mesh_path, revolved_path, wall_patches_near
@@ -94,21 +95,7 @@ def gdml(tmp_path_factory) -> Path:
 <box name="pie_b" x="24" y="24" z="4" lunit="mm"/>
 <union name="pie_s"><first ref="pie_a"/><second ref="pie_b"/>
   <position name="pie_p" x="0" y="0" z="-7" unit="mm"/></union>"""
-    volumes = "".join(
-        f'<volume name="{v}_lv"><materialref ref="G4_Cu"/><solidref ref="{v}_s"/></volume>'
-        for v in AT
-    )
-    placed = "".join(
-        f'<physvol name="{v}"><volumeref ref="{v}_lv"/>'
-        f'<position name="{v}_at" x="{x}" y="{y}" z="{z}" unit="mm"/></physvol>'
-        for v, (x, y, z) in AT.items()
-    )
-    text = (
-        '<?xml version="1.0" encoding="UTF-8"?>\n<gdml><define/><materials/>'
-        f"<solids>{solids}</solids><structure>{volumes}"
-        f'<volume name="W"><materialref ref="G4_Galactic"/><solidref ref="world_s"/>{placed}'
-        '</volume></structure><setup name="Default" version="1.0"><world ref="W"/></setup></gdml>'
-    )
+    text = copper_world_text(solids, AT)
     path = tmp_path_factory.mktemp("into_curved") / "into_curved.gdml"
     path.write_text(text)
     return path

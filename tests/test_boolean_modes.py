@@ -357,7 +357,7 @@ def test_geantino_paths_through_a_boolean_face_with_into(into_top, tmp_path):
     from score4.source.build import make_source
 
     from helpers.geantinos import geantino_run
-    from helpers.ray_trace import mesh_path
+    from helpers.ray_trace import flat_patches_path
 
     cfg = parse_config(into_top)
     scene = build_scene(cfg)
@@ -376,25 +376,11 @@ def test_geantino_paths_through_a_boolean_face_with_into(into_top, tmp_path):
     n = len(starts)
     primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n)
     r = geantino_run(into_top, primaries, np.array(starts), np.array(directions), tmp_path)
-    body = layer.variants[0].body(layer.base_thickness)
-    px, py = layer.patch_size
-    cc = layer.cell_centres()
     crossed = 0
     for k in range(n):
         o, d = starts[k], directions[k]
         expected = _box_minus_bore(target.to_local(o[None])[0], d @ target.rotation, HALF - t)
-        lo, dl = layer.frame.to_local(o[None])[0], d @ layer.frame.rotation
-        ts = np.linspace(-lo[2] / dl[2], (t - lo[2]) / dl[2], 40)
-        path = lo[None, :2] + ts[:, None] * dl[None, :2]
-        near = np.zeros(layer.mask.shape, dtype=bool)
-        for q in path:
-            near |= (np.abs(cc[..., 0] - q[0]) < px) & (np.abs(cc[..., 1] - q[1]) < py)
-        in_patches = 0.0
-        for j, i in zip(*np.nonzero(near & layer.mask), strict=True):
-            v = body.vertices + np.array([*cc[j, i], layer.base_thickness])
-            in_patches += mesh_path(
-                o, d, layer.frame.to_world(v)[body.faces], edge=1e-12, merge=1e-10
-            )
+        in_patches = flat_patches_path(layer, o, d)
         crossed += in_patches > 0
         got = r.scores["track_length"]["cutbox"][k]
         assert got == pytest.approx(expected + in_patches, abs=1e-9, rel=0), k

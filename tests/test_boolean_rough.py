@@ -25,7 +25,13 @@ from helpers.boolean_worlds import CUTBOX_POSITION, STACK_POSITION, write_world
 from helpers.export_paths import assert_same_paths, base_name, three_paths
 from helpers.g4_geometry_check import assert_no_overlaps
 from helpers.geantinos import geantino_run
-from helpers.ray_trace import mesh_path, patches_path, polycone_path, wall_patches_near
+from helpers.ray_trace import (
+    flat_patches_path,
+    mesh_path,
+    patches_path,
+    polycone_path,
+    wall_patches_near,
+)
 
 #: 0.5 mm patches of 5 x 5 pyramids, 20 um high
 PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
@@ -183,8 +189,9 @@ def test_the_cut_face_and_the_side_wall_in_geant4(gdml, tmp_path):
 
 
 def test_a_taper_and_the_cut_face_are_still_refused_together(gdml):
-    """A cone's envelope pieces span its whole length over the azimuths any ring keeps, so
-    one of P00664B's tapers (seg_1) reaches past the cut at its wide end, where the cut face's
+    """Every ring of P00664B's taper (seg_1) keeps cells, over azimuths narrowing towards its
+    wide end; a cone's neighbouring rings' cells overlap in z, so its envelope is one piece over
+    the narrow end's azimuths and reaches past the cut at its wide end, where the cut face's
     layer stands: one line names both (docs/geometry.md)."""
     with pytest.raises(ConfigError, match=r"second.-x .* runs into the rough layer ppc_roughfirst"):
         build_scene(parse_config(config(gdml, {"ppc": ["second.-x", "first.seg_1"]})))
@@ -306,23 +313,10 @@ def test_geantino_paths_agree_with_an_independent_ray_trace(gdml, scene, tmp_pat
     n = len(starts)
     primaries = make_source(cfg, one).primaries(np.random.default_rng(1), 0, n)
     r = geantino_run(data, primaries, np.array(starts), np.array(directions), tmp_path)
-    body = layer.variants[0].body(layer.base_thickness)
-    px, py = layer.patch_size
-    cc = layer.cell_centres()
     for k in range(n):
         o, d = starts[k], directions[k]
         expected = _box_less_tube_path(target.to_local(o[None])[0], d @ target.rotation)
-        lo, dl = layer.frame.to_local(o[None])[0], d @ layer.frame.rotation
-        ts = np.linspace(-lo[2] / dl[2], (layer.thickness - lo[2]) / dl[2], 40)
-        path = lo[None, :2] + ts[:, None] * dl[None, :2]
-        near = np.zeros(layer.mask.shape, dtype=bool)
-        for q in path:
-            near |= (np.abs(cc[..., 0] - q[0]) < px) & (np.abs(cc[..., 1] - q[1]) < py)
-        for j, i in zip(*np.nonzero(near & layer.mask), strict=True):
-            v = body.vertices + np.array([*cc[j, i], layer.base_thickness])
-            expected += mesh_path(
-                o, d, layer.frame.to_world(v)[body.faces], edge=1e-12, merge=1e-10
-            )
+        expected += flat_patches_path(layer, o, d)
         got = r.scores["track_length"]["cutbox"][k]
         assert got == pytest.approx(expected, abs=1e-9, rel=0), k
 

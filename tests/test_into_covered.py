@@ -19,9 +19,10 @@ from score4.inputs.config import parse_config
 from score4.source.build import make_source
 from score4.world.resolve import build_scene
 
+from helpers.boolean_worlds import copper_world_text
 from helpers.g4_geometry_check import assert_no_overlaps
 from helpers.geantinos import geantino_run
-from helpers.ray_trace import mesh_path
+from helpers.ray_trace import flat_patches_path
 
 #: 0.5 mm patches of 5 x 5 pyramids, 20 um high
 PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
@@ -62,21 +63,7 @@ def gdml(tmp_path_factory) -> Path:
 <tube name="holed_b" rmin="0" rmax="7" z="10" {full}/>
 <union name="holed_s"><first ref="holed_d"/><second ref="holed_b"/>
   <position name="holed_p" x="0" y="0" z="10" unit="mm"/></union>"""
-    volumes = "".join(
-        f'<volume name="{v}_lv"><materialref ref="G4_Cu"/><solidref ref="{v}_s"/></volume>'
-        for v in AT
-    )
-    placed = "".join(
-        f'<physvol name="{v}"><volumeref ref="{v}_lv"/>'
-        f'<position name="{v}_at" x="{x}" y="{y}" z="{z}" unit="mm"/></physvol>'
-        for v, (x, y, z) in AT.items()
-    )
-    text = (
-        '<?xml version="1.0" encoding="UTF-8"?>\n<gdml><define/><materials/>'
-        f"<solids>{solids}</solids><structure>{volumes}"
-        f'<volume name="W"><materialref ref="G4_Galactic"/><solidref ref="world_s"/>{placed}'
-        '</volume></structure><setup name="Default" version="1.0"><world ref="W"/></setup></gdml>'
-    )
+    text = copper_world_text(solids, AT)
     path = tmp_path_factory.mktemp("into_covered") / "into_covered.gdml"
     path.write_text(text)
     return path
@@ -197,25 +184,11 @@ def test_geantino_paths_under_a_post_with_into(gdml, tmp_path):
     primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n)
     r_ = geantino_run(data, primaries, starts, directions, tmp_path)
     got = np.asarray(r_.scores["track_length"]["stack"])
-    body = layer.variants[0].body(layer.base_thickness)
-    cc = layer.cell_centres()
-    px, py = layer.patch_size
     crossed = 0
     for k in range(n):
         o, d = starts[k], directions[k]
         expected = _stack_path(local[k], ways[k], t)
-        lo, dl = layer.frame.to_local(o[None])[0], d @ layer.frame.rotation
-        ss = np.linspace(-lo[2] / dl[2], (t - lo[2]) / dl[2], 400)
-        path = lo[None, :2] + ss[:, None] * dl[None, :2]
-        near = np.zeros(layer.mask.shape, dtype=bool)
-        for q in path:
-            near |= (np.abs(cc[..., 0] - q[0]) < px) & (np.abs(cc[..., 1] - q[1]) < py)
-        in_patches = 0.0
-        for j, i in zip(*np.nonzero(near & layer.mask), strict=True):
-            v = body.vertices + np.array([*cc[j, i], layer.base_thickness])
-            in_patches += mesh_path(
-                o, d, layer.frame.to_world(v)[body.faces], edge=1e-12, merge=1e-10
-            )
+        in_patches = flat_patches_path(layer, o, d, samples=400)
         crossed += in_patches > 0
         assert expected > 1.0
         assert got[k] == pytest.approx(expected + in_patches, abs=1e-9, rel=0), k

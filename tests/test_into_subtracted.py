@@ -14,6 +14,8 @@ import pytest
 from score4.inputs.config import parse_config
 from score4.world.resolve import build_scene
 
+from helpers.ray_trace import flat_patches_path
+
 PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
 HALF = 10.0  # the box's half width, mm
 #: the pocket: a subtracted box of half widths (3, 3, 5) mm at (0, 0, 10): 6 x 6 mm, 5 mm deep
@@ -117,28 +119,6 @@ def test_into_the_pocket_floor_grows_the_pocket(gdml):
     assert inside[0] == layer.contains(slab[:1])[0]
 
 
-def _patch_path(layer, o: np.ndarray, d: np.ndarray) -> float:
-    """Path of the ray o + s d in the patch bodies of the layer's kept cells near it (where it
-    crosses the layer's slab)."""
-    from helpers.ray_trace import mesh_path
-
-    t = layer.thickness
-    body = layer.variants[0].body(layer.base_thickness)
-    px, py = layer.patch_size
-    cc = layer.cell_centres()
-    q, dq = layer.frame.to_local(o[None])[0], d @ layer.frame.rotation
-    ts = np.linspace(-q[2] / dq[2], (t - q[2]) / dq[2], 40)
-    path = q[None, :2] + ts[:, None] * dq[None, :2]
-    near = np.zeros(layer.mask.shape, dtype=bool)
-    for p in path:
-        near |= (np.abs(cc[..., 0] - p[0]) < px) & (np.abs(cc[..., 1] - p[1]) < py)
-    out = 0.0
-    for j, i in zip(*np.nonzero(near & layer.mask), strict=True):
-        v = body.vertices + np.array([*cc[j, i], layer.base_thickness])
-        out += mesh_path(o, d, layer.frame.to_world(v)[body.faces], edge=1e-12, merge=1e-10)
-    return out
-
-
 @pytest.mark.parametrize(
     "faces",
     [
@@ -193,7 +173,7 @@ def test_geantino_paths_through_a_grown_pocket(gdml, faces, tmp_path):
     crossed = np.zeros(len(layers), dtype=int)
     for k in range(n):
         o, d = starts[k], directions[k]  # the target sits at the origin, unrotated
-        in_patches = [_patch_path(layer, o, d) for layer in layers]
+        in_patches = [flat_patches_path(layer, o, d) for layer in layers]
         crossed += np.array(in_patches) > 0
         expected = _box_less_pocket(o, d, lo, hi) + sum(in_patches)
         assert got[k] == pytest.approx(expected, abs=1e-9, rel=0), k
@@ -302,7 +282,7 @@ def test_geantino_paths_through_a_deeper_blind_hole(gdml, tmp_path):
         root = np.sqrt(b * b - 4 * a * (o[0] ** 2 + o[1] ** 2 - 9.0))  # starts in the hole
         z0, z1 = sorted([(5.0 - t - o[2]) / dk[2], (15.0 - o[2]) / dk[2]])
         c0, c1 = max((-b - root) / (2 * a), z0), min((-b + root) / (2 * a), z1)
-        in_patches = _patch_path(layer, starts[k], directions[k])
+        in_patches = flat_patches_path(layer, starts[k], directions[k])
         crossed += in_patches > 0
         expected = (s1 - s0) - max(0.0, min(s1, c1) - max(s0, c0)) + in_patches
         assert got[k] == pytest.approx(expected, abs=1e-9, rel=0), k

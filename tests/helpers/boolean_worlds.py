@@ -142,3 +142,43 @@ def write_box_holes(path: Path, holes, half: float = 10.0) -> Path:
     writer.addDetector(reg)
     writer.write(str(path))
     return path
+
+
+def copper_world_text(solids: str, at: dict[str, tuple[float, float, float]]) -> str:
+    """A GDML world written as text: ``solids`` (GDML solids, a ``world_s`` among them, and a
+    ``<name>_s`` per volume) and one copper volume ``<name>`` placed at ``at[name]`` (mm)."""
+    volumes = "".join(
+        f'<volume name="{v}_lv"><materialref ref="G4_Cu"/><solidref ref="{v}_s"/></volume>'
+        for v in at
+    )
+    placed = "".join(
+        f'<physvol name="{v}"><volumeref ref="{v}_lv"/>'
+        f'<position name="{v}_at" x="{x}" y="{y}" z="{z}" unit="mm"/></physvol>'
+        for v, (x, y, z) in at.items()
+    )
+    return (
+        '<?xml version="1.0" encoding="UTF-8"?>\n<gdml><define/><materials/>'
+        f"<solids>{solids}</solids><structure>{volumes}"
+        f'<volume name="W"><materialref ref="G4_Galactic"/><solidref ref="world_s"/>{placed}'
+        '</volume></structure><setup name="Default" version="1.0"><world ref="W"/></setup></gdml>'
+    )
+
+
+def write_cone_cross(path: Path) -> Path:
+    """``conecross``: a copper box (20 mm) with a cone (r 4 mm at z = -20 to 6 mm at z = +20)
+    through it along z, a union (the cone's wall is kept beyond the box's faces only)."""
+    import pyg4ometry as pg
+
+    reg = pg.geant4.Registry()
+    s = pg.geant4.solid
+    world = pg.geant4.LogicalVolume(s.Box("world_s", 300, 300, 300, reg), "G4_Galactic", "W", reg)
+    box = s.Box("conecross_a", 20, 20, 20, reg)
+    cone = s.Cons("conecross_b", 0, 4, 0, 6, 40, 0, 2 * math.pi, reg)
+    union = s.Union("conecross_s", box, cone, [[0, 0, 0], [0, 0, 0]], reg)
+    lv = pg.geant4.LogicalVolume(union, "G4_Cu", "conecross_lv", reg)
+    pg.geant4.PhysicalVolume([0, 0, 0], [5.0, -3.0, 2.0], lv, "conecross", world, reg)
+    reg.setWorld(world.name)
+    w = pg.gdml.Writer()
+    w.addDetector(reg)
+    w.write(str(path))
+    return path

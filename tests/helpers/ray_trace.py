@@ -146,3 +146,22 @@ def wall_patches_near(layer, frame, at: np.ndarray, max_dphi: float) -> np.ndarr
         w = layer.target.to_world(w + np.array([0.0, 0.0, lay.ring_z(j)]))
         tri.append(frame.to_local(w)[body.faces.ravel()].reshape(-1, 3, 3))
     return np.concatenate(tri)
+
+
+def flat_patches_path(layer, o: np.ndarray, d: np.ndarray, samples: int = 40) -> float:
+    """Path of the ray o + s d in the patch bodies of a flat layer's kept cells near it: the
+    cells within a patch of ``samples`` points where the ray crosses the layer's slab."""
+    body = layer.variants[0].body(layer.base_thickness)
+    px, py = layer.patch_size
+    cc = layer.cell_centres()
+    lo, dl = layer.frame.to_local(o[None])[0], d @ layer.frame.rotation
+    ts = np.linspace(-lo[2] / dl[2], (layer.thickness - lo[2]) / dl[2], samples)
+    path = lo[None, :2] + ts[:, None] * dl[None, :2]
+    near = np.zeros(layer.cell_variants.shape, dtype=bool)
+    for q in path:
+        near |= (np.abs(cc[..., 0] - q[0]) < px) & (np.abs(cc[..., 1] - q[1]) < py)
+    out = 0.0
+    for j, i in zip(*np.nonzero(near & (layer.cell_variants >= 0)), strict=True):
+        v = body.vertices + np.array([*cc[j, i], layer.base_thickness])
+        out += mesh_path(o, d, layer.frame.to_world(v)[body.faces], edge=1e-12, merge=1e-10)
+    return out

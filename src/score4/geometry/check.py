@@ -124,6 +124,13 @@ def check_placements(
 
     report = OverlapReport()
     by_name = {layer.name: layer for layer in layers}
+    # a curved layer's further envelope pieces (:func:`score4.geometry.curved.place_curved`):
+    # their cells were tiled with the first piece's; Geant4 samples their volumes as its
+    pieces = {
+        f"{layer.name}_env{n}": layer
+        for layer in layers
+        for n in range(1, len(getattr(layer, "pieces", None) or ()))
+    }
     seen: dict[int, object] = {}  # logical volumes visited (a shared one once)
     scratch: list = []  # the sampled copies (kept alive until the checks are done)
 
@@ -213,7 +220,22 @@ def check_placements(
             child = pv.GetLogicalVolume()
             inner = _daughters(child)
             layer = by_name.get(str(pv.GetName()))
-            if layer is not None and hasattr(layer, "ring_layout"):
+            if str(pv.GetName()) in pieces:
+                before, sampled = report.checked, report.sampled
+                if id(child) not in seen:
+                    seen[id(child)] = child
+                    visit_curved(child, {})
+                if progress is not None:
+                    progress(
+                        f"{pv.GetName()}: a further piece of {pieces[str(pv.GetName())].name}'s "
+                        f"envelope; Geant4 checked {report.checked - before} placements"
+                        + (
+                            f" ({report.sampled - sampled} of them in sampled neighbourhoods)"
+                            if report.sampled > sampled
+                            else ""
+                        )
+                    )
+            elif layer is not None and hasattr(layer, "ring_layout"):
                 # a curved layer: its cells exactly in numpy, its volumes by Geant4 (sampled)
                 n_cells, problems = curved_cells_tile(layer, tolerance)
                 report.curved += n_cells
@@ -309,15 +331,19 @@ def _cells_in_pieces(layer, cells: list, tol: float) -> list[str]:
     """The cells of a curved layer whose envelope is in pieces (a face a boolean's other parts
     cut, :attr:`~score4.world.scene.CurvedRoughLayer.pieces`) that do not lie wholly in one
     piece's azimuth and generator ranges (a cylinder's cell spans its ring's band; a cone's
-    pieces span the face)."""
+    cell the generator range whose z planes hold its corners, :func:`_cell_corners`)."""
     if layer.pieces is None:
         return []
     lay = layer.ring_layout
     py = lay.patch_size[1]
+    cone = not layer.is_cylinder
     out = 0
     for j, _, _, phi in cells:
         step, r = float(lay.step[j]), float(lay.radius[j]) + layer.thickness
         lo_v, hi_v = float(lay.v[j]) - py / 2, float(lay.v[j]) + py / 2
+        if cone:  # the corners' z as generator arc length of the face
+            v = (_cell_corners(layer, j)[:, 2] - lay.face._mid[1]) / lay.face._tangent[1]
+            lo_v, hi_v = float(v.min()), float(v.max())
         fits = False
         for p0, dp, v0, v1 in layer.pieces:
             a = np.mod(phi - step / 2 - p0 + tol / r, 2 * np.pi) - tol / r

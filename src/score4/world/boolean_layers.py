@@ -29,9 +29,10 @@ the solid): only the cells whose whole column (the cell up to the layer's thickn
 clear of the cutting solids keep their patch, and the envelope becomes the prism of those cells
 (:func:`_clear_of_the_solid`); :func:`fit_cells` then keeps them clear of the volume's other
 layers too (a wall's layer rising from the face). A cylinder or cone wall whose kept cells
-leave azimuths or (on a cylinder) rings flat takes an envelope in pieces over its kept cells
+leave azimuths or rings flat takes an envelope in pieces over its kept cells
 (:func:`envelope_pieces`): P00664B's side wall leaves out the cut, where the cut face's layer
-stands; a rod's wall running through a box is two pieces, one each side of the box.
+stands; a rod's (or a cone's) wall running through a box is two pieces, one each side of the
+box.
 
 A face of a leaf made of flat facets in several planes (the sides of a G4Polyhedra) takes one
 layer per plane (:func:`_on_boolean`; a plane without a kept cell gets none); the source draws
@@ -66,6 +67,7 @@ from score4.shapes.faces import AnnulusFace, RevolvedFace, SphereFace
 from score4.surface.rough import Surface
 
 from .boolean_modes import check_modes, check_replicas, cut_face, flat_face, into_depth
+from .curved import RingLayout, cone_cell
 from .facets import ccw, cells_inside, face_triangles, plane_face, plane_groups
 from .scene import (
     BooleanFace,
@@ -276,8 +278,12 @@ def envelope_pieces(layer: CurvedRoughLayer) -> list[tuple[float, float, float, 
     less than a cell that the rings leave there), so a fully kept ring covers the whole face
     (and, on a full circle, runs join across the seam). Along the generator, on a cylinder
     only: rings without a kept cell split the envelope, each piece ending on its outer rings'
-    edges (or the face's end beyond its first or last ring); a cone's cells reach beyond their
-    ring's band (:func:`~score4.world.curved.cone_cell`), so its pieces span the whole face."""
+    edges (or the face's end beyond its first or last ring). On a cone a ring's cells reach
+    beyond its band (:func:`~score4.world.curved.cone_cell`: the corners moved out along the
+    slanted normal), so each kept ring is bounded along the generator by its cells' own z range
+    (:func:`cone_ring_span`); kept rings whose spans do not meet split the envelope, and a piece
+    ends where its outer rings' cells end (at the face's end where that ring is its first or
+    last)."""
     lay = layer.ring_layout
     face = lay.face
     if not isinstance(face, RevolvedFace):
@@ -297,15 +303,26 @@ def envelope_pieces(layer: CurvedRoughLayer) -> list[tuple[float, float, float, 
                 k += 1
             runs.append((j, k))
             j = k + 1
-    else:
-        runs = [(0, nrings - 1)] if has.any() else []
+        span = None
+    else:  # a cone: runs of kept rings whose cells' spans along the generator meet
+        span = np.full((nrings, 2), np.nan)
+        runs = []
+        for i in np.flatnonzero(has).tolist():
+            span[i] = cone_ring_span(lay, i, layer.thickness)
+            if runs and span[i, 0] <= np.nanmax(span[runs[-1][0] : runs[-1][1] + 1, 1]):
+                runs[-1] = (runs[-1][0], i)
+            else:
+                runs.append((i, i))
     (_, _), (fv0, fv1) = face.extent
     half = 0.5 * (lay.patch_size[1] + lay.row_gap)
     pieces: list[tuple[float, float, float, float]] = []
     for j0, j1 in runs:
-        # the first and last runs reach the face's ends
-        v0 = fv0 if not has[:j0].any() else float(lay.v[j0]) - half
-        v1 = fv1 if not has[j1 + 1 :].any() else float(lay.v[j1]) + half
+        if span is None:  # the first and last runs reach the face's ends
+            v0 = fv0 if not has[:j0].any() else float(lay.v[j0]) - half
+            v1 = fv1 if not has[j1 + 1 :].any() else float(lay.v[j1]) + half
+        else:  # the outer rings' cells' ends (the face's ends beyond the first and last ring)
+            v0 = fv0 if j0 == 0 else float(np.nanmin(span[j0 : j1 + 1, 0]))
+            v1 = fv1 if j1 == nrings - 1 else float(np.nanmax(span[j0 : j1 + 1, 1]))
         spans: list[tuple[float, float]] = []  # azimuth ranges from phi0, in [0, dphi]
         for j in range(j0, j1 + 1):
             n = int(lay.count[j])
@@ -345,6 +362,19 @@ def envelope_pieces(layer: CurvedRoughLayer) -> list[tuple[float, float, float, 
         if dphi >= face.dphi - 1e-12 and v0 == fv0 and v1 == fv1:
             return None
     return pieces or None
+
+
+def cone_ring_span(lay: RingLayout, j: int, t: float) -> tuple[float, float]:
+    """The range of generator arc length ``v`` of the face whose z range is that of the cells of
+    ring ``j`` of a cone (:func:`~score4.world.curved.cone_cell` with the layer's thickness
+    ``t``): the envelope cut to it between the end planes holds them exactly (the cell's shell
+    lies between the face and the face moved out by ``t``, as the envelope's)."""
+    face = lay.face
+    assert isinstance(face, RevolvedFace)
+    a, _, zc = cone_cell(lay, j, t)
+    z = lay.ring_z(j) + zc + np.array([-a[4], a[4]])
+    v = (z - float(face._mid[1])) / float(face._tangent[1])
+    return float(v.min()), float(v.max())
 
 
 def turned_wall(
@@ -738,15 +768,15 @@ def _clear_of_the_solid(
     clear of the solids cutting the face keep their patch (:func:`kept_cells` with the
     thickness), and the envelope becomes the prism of those cells (``cells_envelope``); the
     cells the other part covers or meets stay flat (``rough_shares``). A curved layer's
-    envelope already holds only its kept cells' azimuth ranges and, on a cylinder, runs of
-    rings (:func:`envelope_pieces`); it is refused when that still runs into the solid."""
+    envelope already holds only its kept cells' azimuth ranges and runs of rings
+    (:func:`envelope_pieces`); it is refused when that still runs into the solid."""
     thick = f"{layer.thickness * 1e3:.4g} um thick"
     if isinstance(layer, CurvedRoughLayer):
         raise ConfigError(
             f"{where}: the rough layer on {what} ({thick}) runs into the solid itself (another "
             "part of the boolean covers or meets that face); its envelope holds the kept "
-            "cells' azimuth ranges and, on a cylinder, their rings, and these must lie wholly "
-            "outside the solid's other parts (on a cone, the whole length of the face)"
+            "cells' azimuth ranges and runs of rings, and these must lie wholly outside the "
+            "solid's other parts"
         )
     assert layer.mask is not None
     if layer.config.native_layout == "replicas":
