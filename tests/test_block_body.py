@@ -4,11 +4,17 @@ and a bottom fan; still the same closed body, walls in the cut planes, nothing f
 
 from __future__ import annotations
 
+import subprocess
+import sys
+import warnings
+
 import numpy as np
 import pytest
 from test_frustums import _data, _rays
 
+from score4.errors import Score4Warning
 from score4.inputs.config import parse_config
+from score4.runner import engine
 from score4.surface import block_cut as blk
 from score4.surface.spec import build_surface
 from score4.surface.triangle_mesh import TriangleMesh, is_watertight, signed_volume
@@ -199,3 +205,95 @@ def test_floored_blocks_are_the_blocks_cut_at_a_plane(cells):
     assert signed_volume(cap) == pytest.approx(
         full - np.prod(np.ptp(top.vertices[:, :2], axis=0)) * (z + BASE)
     )
+
+
+def _sliver_top() -> TriangleMesh:
+    """A 4 x 4-cell block whose first side (y = 0) rises so that its last two top vertices lie
+    1e-13 mm below the line from the side's first bottom corner (1 mm below z = 0): the wall's
+    stack triangulation then has a fan triangle of 1.5e-16 mm^2 there, as one block of the exact
+    1024 x 1024 noise-like map had (8.4e-15 mm^2, bench_surfaces.py --map noise)."""
+    h = np.full((5, 5), 1e-4)
+    h[0, 3], h[0, 4] = 0.5e-3, 1e-3 - 1e-13
+    return _grid_top(h)
+
+
+def test_a_wall_sliver_geant4_would_refuse_gets_closed_body_walls(monkeypatch):
+    """Without the altitude check the block has one wall facet Geant4 refuses (edge or altitude
+    <= kCarTolerance, checked in numpy by the same rule); with it the block gets closed_body's
+    walls: no such facet, watertight, top faces unchanged, closed_body's volume."""
+    top = _sliver_top()
+    monkeypatch.setattr(blk, "MIN_FACET_ALTITUDE", 0.0)
+    old = blk.block_body(top, 1e-3)
+    assert len(blk.narrow_faces(old.vertices, old.faces)) == 1
+    monkeypatch.undo()
+    body = blk.block_body(top, 1e-3)
+    assert len(blk.narrow_faces(body.vertices, body.faces)) == 0
+    assert body.n_faces == blk.closed_body(top, 1e-3).n_faces == 80
+    assert is_watertight(body)
+    np.testing.assert_array_equal(body.faces[body.top], top.faces)
+    assert signed_volume(body) == pytest.approx(signed_volume(blk.closed_body(top, 1e-3)))
+
+
+@pytest.mark.parametrize(
+    ("pitch", "corr", "cells"),
+    [("0.5 um", "1 um", 4), ("0.5 um", "1 um", 8), ("2.5 um", "5 um", 8)],
+)
+def test_every_block_facet_passes_geant4s_facet_check(pitch, corr, cells):
+    """Every facet of every cap and of every whole block of a noise-like map (the 1024 x 1024
+    bench map's pitch and correlation length, 64 x 64 pixels) and a smoother one has edges and
+    a lowest altitude above kCarTolerance (G4TriangularFacet's rule, numpy)."""
+    spec = {**RANDOM, "nx": 64, "ny": 64, "pitch": pitch, "corr_length": corr, "seed": 7}
+    surface = build_surface({**spec, "sq": "0.3 um"})
+    caps = [cap for cap, _ in blk.floored_blocks(surface, BASE, cells)]
+    for body in caps + list(blk.block_bodies(surface, BASE, cells)):
+        assert len(blk.narrow_faces(body.vertices, body.faces)) == 0
+
+
+_BUILD = """
+import sys
+import warnings
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+from score4 import api
+from score4.geometry.block_solids import fast_tessellated
+from score4.surface.triangle_mesh import TriangleMesh
+g4 = api.import_geant4("lite")
+for name in sys.argv[1:]:
+    d = np.load(name)
+    fast_tessellated(g4, TriangleMesh(d["v"], d["f"]), "p_" + name[-9:-4])
+    print("built", name, flush=True)
+"""
+
+
+def test_geant4_builds_the_sliver_block_without_a_hole(tmp_path, monkeypatch):
+    """Geant4 itself (a spawned process): the block as cut before the check prints "Facet is too
+    small or too narrow" and "there are holes in the surface!"; the block as cut now, neither."""
+    top = _sliver_top()
+    files = []
+    for name, limit in (("old", 0.0), ("new", blk.MIN_FACET_ALTITUDE)):
+        monkeypatch.setattr(blk, "MIN_FACET_ALTITUDE", limit)
+        body = blk.block_body(top, 1e-3)
+        files.append(tmp_path / f"blk_{name}.npz")
+        np.savez(files[-1], v=body.vertices, f=body.faces)
+    out = subprocess.run(
+        [sys.executable, "-c", _BUILD, *map(str, files)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        timeout=120,
+        check=True,
+    )
+    old, new = out.stdout.split(f"built {files[0]}")
+    assert "Facet is too small or too narrow" in old
+    assert "there are holes in the surface!" in old
+    assert "G4Exception" not in new
+    assert f"built {files[1]}" in new
+    # a run whose worker logs hold such a solid warns loudly (score4.runner.engine)
+    with pytest.warns(Score4Warning, match="tessellated solid with a hole"):
+        engine._warn_broken_solids(engine._exceptions_in(old))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        engine._warn_broken_solids(engine._exceptions_in(new))

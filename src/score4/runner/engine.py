@@ -402,6 +402,7 @@ def run_record(plan: RunPlan, job: Execution) -> RunRecord:
     files = [chunk_path(job.parts, c.index) for c in job.chunks]
     balance = _energy_balance(files, choice.decay)
     exceptions = _geant4_exceptions(job.parts)
+    _warn_broken_solids(exceptions)
     return RunRecord(
         config=config_to_dict(config),
         patch_maps={layer.name: layer.patch_map.to_dict() for layer in scene.layers},
@@ -937,6 +938,22 @@ def _geant4_warnings(exceptions: list[tuple[str, str, str]]) -> list[str]:
 #: whole event (GeomNav0003). Rays lying exactly in the shared walls of neighbouring volumes
 #: (block cut planes and corners, patch cell walls) do this: docs/tiling.md#rays-on-block-walls.
 STUCK_PUSHED, STUCK_ABORTED = "GeomNav1002", "GeomNav0003"
+
+
+def _warn_broken_solids(exceptions: list[tuple[str, str, str]]) -> None:
+    """Warn when Geant4 refused a facet or found a tessellated solid open: that solid has a hole
+    and tracks leak through it (Geant4 only prints a warning and builds it anyway)."""
+    broken = sorted(
+        {msg for _, issuer, msg in exceptions if "too narrow" in msg or "holes in the" in msg}
+    )
+    if broken:
+        warnings.warn(
+            f"Geant4 built a tessellated solid with a hole ({'; '.join(broken[:3])}): tracks "
+            "may leak through it and the results are not exact; the run record's "
+            "geant4_warnings lists each (please report it with the input)",
+            errors.Score4Warning,
+            stacklevel=4,
+        )
 
 
 def _stuck_tracks(exceptions: list[tuple[str, str, str]]) -> dict:

@@ -22,6 +22,7 @@ moves no vertex either; cap and floor share the plane and the block's side plane
 from __future__ import annotations
 
 import itertools
+import math
 import numbers
 from collections.abc import Iterator
 
@@ -321,12 +322,35 @@ def _closed_body(top: TriangleMesh, thickness: float) -> TriangleMesh:
     return TriangleMesh(v, body.faces, top=body.top, patch=body.patch, facet=body.facet)
 
 
+#: Geant4's surface tolerance kCarTolerance, mm. G4TriangularFacet refuses a facet ("Facet is too
+#: small or too narrow") with an edge of at most this length or a lowest altitude (twice its area
+#: over its longest edge) of at most this; the G4TessellatedSolid it was meant for then has a
+#: hole ("there are holes in the surface!").
+G4_FACET_TOLERANCE = 1e-9  # mm
+#: A block whose few-facet walls (:func:`block_body`) would have a triangle with its lowest
+#: altitude at most this (10x Geant4's limit, for rounding) gets :func:`closed_body`'s walls
+#: instead (a quad per top edge over a bottom vertex under each outline vertex, a bottom fan).
+#: Measured: a fan triangle of a long side from a bottom corner to two top vertices nearly in
+#: line with it, 8.4e-15 mm^2 (altitude 3e-12 mm), in one cap of the exact 1024 x 1024
+#: noise-like map (bench_surfaces.py --map noise); 5 of its 16384 caps get closed_body's walls.
+MIN_FACET_ALTITUDE = 10 * G4_FACET_TOLERANCE  # mm
+
+
+def _sliver(p: tuple, q: tuple, r: tuple, turn: float) -> bool:
+    """True if the wall triangle of points ``p``, ``q``, ``r`` (distance along the side, z) with
+    ``turn`` (twice its area) has a lowest altitude (``turn`` over its longest edge) below
+    :data:`MIN_FACET_ALTITUDE`."""
+    longest = max(math.dist(p, q), math.dist(q, r), math.dist(r, p))
+    return turn <= MIN_FACET_ALTITUDE * longest
+
+
 def _upright(
     v: np.ndarray, thickness: float, a: int, b: int, low_a: int, tris: list[tuple]
 ) -> bool:
     """True if the wall triangles ``tris`` (vertex ids; ids >= len(v) are bottom corners:
     ``low_a`` under ``a``, another under ``b``) all turn the same way as the wall from ``a`` to
-    ``b`` (anticlockwise in (distance along the side, z)): none folds over the polygon."""
+    ``b`` (anticlockwise in (distance along the side, z)): none folds over the polygon, and none
+    is a sliver (:func:`_sliver`)."""
     d = v[b, :2] - v[a, :2]
     d = d / np.hypot(*d)
 
@@ -336,10 +360,26 @@ def _upright(
         return (0.0 if i == low_a else float((v[b, :2] - v[a, :2]) @ d)), -float(thickness)
 
     for p, q, r in tris:
-        (ps, pz), (qs, qz), (rs, rz) = sz(p), sz(q), sz(r)
-        if (qs - ps) * (rz - pz) - (qz - pz) * (rs - ps) <= 0:
+        (ps, pz), (qs, qz), (rs, rz) = pt = sz(p), sz(q), sz(r)
+        turn = (qs - ps) * (rz - pz) - (qz - pz) * (rs - ps)
+        if turn <= 0 or _sliver(*pt, turn):
             return False
     return True
+
+
+def narrow_faces(
+    vertices: np.ndarray, faces: np.ndarray, limit: float = G4_FACET_TOLERANCE
+) -> np.ndarray:
+    """Indices of the ``faces`` (vertex ids into ``vertices``) with an edge or a lowest altitude
+    of at most ``limit`` (mm): with the default, the facets Geant4's G4TriangularFacet refuses
+    (the same rule, in numpy)."""
+    tri = np.asarray(vertices)[np.asarray(faces)]
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    lengths = np.linalg.norm(np.stack([e1, tri[:, 2] - tri[:, 1], e2], axis=1), axis=2)
+    twice_area = np.linalg.norm(np.cross(e1, e2), axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        narrow = ~(twice_area / lengths.max(axis=1) > limit)
+    return np.flatnonzero((lengths.min(axis=1) <= limit) | narrow)
 
 
 def _terrain_wall(
@@ -352,7 +392,8 @@ def _terrain_wall(
     monotone along the side and lies above the bottom edge, so the stack triangulation of a
     monotone polygon (sweep along the side; the bottom corner first, the other last) cuts it
     without folds. Each triangle turns anticlockwise, as :func:`_upright` asks. ``None`` if a
-    triangle would have no area (three points on a line): the caller keeps closed_body's walls.
+    triangle would have no area (three points on a line) or be a sliver (:func:`_sliver`): the
+    caller keeps closed_body's walls.
     """
     a, b = chain[0], chain[-1]
     d = v[b, :2] - v[a, :2]
@@ -376,6 +417,14 @@ def _terrain_wall(
     tris += [(p, low_b, q) for p, q in itertools.pairwise(stack)]
     if len(tris) != len(chain) or min(turn(*t) for t in tris) <= 0:
         return None
+    # a sliver: its turn is at most MIN_FACET_ALTITUDE x its longest edge, which is at most the
+    # wall's diagonal; only such triangles are measured
+    height = max(sz[i][1] for i in chain) + thickness
+    bound = math.hypot(sz[low_b][0], height) * MIN_FACET_ALTITUDE
+    for t in tris:
+        bent = turn(*t)
+        if bent <= bound and _sliver(sz[t[0]], sz[t[1]], sz[t[2]], bent):
+            return None
     return tris
 
 
@@ -434,10 +483,13 @@ def block_body(top: TriangleMesh, thickness: float) -> TriangleMesh:
         elif len(chain) == 4:  # the quad m1, A, B, m2 between the end triangles: a valid diagonal
             m1, m2 = chain[1], chain[2]
             walls += [(m1, a, la), (b, m2, lb)]
-            if _upright(v, thickness, a, b, la, [(m1, la, m2), (la, lb, m2)]):
-                walls += [(m1, la, m2), (la, lb, m2)]
+            first, other = [(m1, la, m2), (la, lb, m2)], [(m1, la, lb), (m1, lb, m2)]
+            if _upright(v, thickness, a, b, la, first):
+                walls += first
+            elif _upright(v, thickness, a, b, la, other):
+                walls += other
             else:
-                walls += [(m1, la, lb), (m1, lb, m2)]
+                return _closed_body(top, thickness)  # a sliver either way
         else:
             long_wall = _terrain_wall(v, thickness, chain, la, lb)
             if long_wall is None:
