@@ -321,8 +321,13 @@ def standing_cuts(shape: BooleanShape, face: str, depth: float, what: str) -> di
     reaching beyond the face, a part ending in the slab) is refused in one line (``what``: its
     start)."""
     clip = shape.face_clip(face)
-    plane = clip.leaf.face(clip.face)
-    if clip.flipped or not isinstance(plane, PlaneFace):
+    if clip.flipped:  # a subtracted solid's face: no part of the union stands on it
+        return {}
+    try:
+        plane = clip.leaf.face(clip.face)
+    except ConfigError:  # a face of several planes (a G4Polyhedra's sides): not checked
+        return {}
+    if not isinstance(plane, PlaneFace):
         return {}
     frame = clip.transform @ plane.frame
     n, origin = frame.rotation[:, 2], frame.translation
