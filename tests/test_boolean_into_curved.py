@@ -30,6 +30,9 @@ from helpers.g4_geometry_check import assert_no_overlaps
 from helpers.geantinos import geantino_run
 from helpers.ray_trace import mesh_path, revolved_path, wall_patches_near
 
+# one worker per module: its boolean solids' face areas are estimated once (cold: ~10-30 s)
+pytestmark = pytest.mark.xdist_group("into-curved")
+
 #: 0.5 mm patches of 5 x 5 pyramids, 20 um high (the post, r 7 mm)
 PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
 #: 0.4 mm patches, fine enough to bend onto the cone (r 5 to 8 mm)

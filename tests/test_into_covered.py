@@ -24,6 +24,9 @@ from helpers.g4_geometry_check import assert_no_overlaps
 from helpers.geantinos import geantino_run
 from helpers.ray_trace import flat_patches_path
 
+# one worker per module: its boolean solids' face areas are estimated once (cold: ~10-30 s)
+pytestmark = pytest.mark.xdist_group("into-covered")
+
 #: 0.5 mm patches of 5 x 5 pyramids, 20 um high
 PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
 #: where the solids stand
@@ -120,7 +123,10 @@ def test_into_under_a_post_keeps_the_slab_under_it(gdml):
     [
         ("cone", "first.+z", "the G4Cons second"),
         ("wide", "first.+z", "the G4Tubs second"),
-        ("holed", "first.first.+z", "the G4Tubs second"),
+        # deep: the holed union's face areas (random draws) cost ~11 s CPU with a cold cache
+        pytest.param(
+            "holed", "first.first.+z", "the G4Tubs second", marks=pytest.mark.deep, id="holed"
+        ),
     ],
 )
 def test_into_under_a_part_that_cannot_grow_down_says_why_not(gdml, volume, face, part):

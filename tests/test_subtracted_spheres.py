@@ -19,6 +19,9 @@ import pytest
 from score4.inputs.config import parse_config
 from score4.world.resolve import build_scene
 
+# one worker per module: its boolean solids' face areas are estimated once (cold: ~10-30 s)
+pytestmark = pytest.mark.xdist_group("subtracted-spheres")
+
 #: 0.1 mm patches of 10 x 10 pyramids 10 um high (a sphere of r 2 mm takes them)
 SMALL = {"kind": "spikes", "nx": 10, "ny": 10, "width": "10 um", "height": "10 um"}
 HALF, RADIUS = 10.0, 2.0
