@@ -213,6 +213,19 @@ def check_placements(
             visited[depth] = visited.get(depth, 0) + 1
             visit_curved(child, visited, depth + 1)
 
+    def sample_envelope(child) -> str:
+        """Geant4's sampled check of a curved layer's envelope (or a further piece of it), once
+        per logical volume; what it checked, for the progress line."""
+        before, sampled = report.checked, report.sampled
+        if id(child) not in seen:
+            seen[id(child)] = child
+            visit_curved(child, {})
+        return f"Geant4 checked {report.checked - before} placements" + (
+            f" ({report.sampled - sampled} of them in sampled neighbourhoods)"
+            if report.sampled > sampled
+            else ""
+        )
+
     def visit(lv) -> None:
         for pv in _daughters(lv):
             report.total += 1
@@ -221,39 +234,23 @@ def check_placements(
             inner = _daughters(child)
             layer = by_name.get(str(pv.GetName()))
             if str(pv.GetName()) in pieces:
-                before, sampled = report.checked, report.sampled
-                if id(child) not in seen:
-                    seen[id(child)] = child
-                    visit_curved(child, {})
+                checked = sample_envelope(child)
                 if progress is not None:
                     progress(
                         f"{pv.GetName()}: a further piece of {pieces[str(pv.GetName())].name}'s "
-                        f"envelope; Geant4 checked {report.checked - before} placements"
-                        + (
-                            f" ({report.sampled - sampled} of them in sampled neighbourhoods)"
-                            if report.sampled > sampled
-                            else ""
-                        )
+                        f"envelope; {checked}"
                     )
             elif layer is not None and hasattr(layer, "ring_layout"):
                 # a curved layer: its cells exactly in numpy, its volumes by Geant4 (sampled)
                 n_cells, problems = curved_cells_tile(layer, tolerance)
                 report.curved += n_cells
                 report.overlaps += problems
-                before, sampled = report.checked, report.sampled
-                if id(child) not in seen:
-                    seen[id(child)] = child
-                    visit_curved(child, {})
+                checked = sample_envelope(child)
                 if progress is not None:
                     progress(
                         f"{layer.name}: {n_cells} cells tile the envelope exactly"
                         + ("" if not problems else f" except {len(problems)} problem(s)")
-                        + f"; Geant4 checked {report.checked - before} placements"
-                        + (
-                            f" ({report.sampled - sampled} of them in sampled neighbourhoods)"
-                            if report.sampled > sampled
-                            else ""
-                        )
+                        + f"; {checked}"
                     )
             elif layer is not None:  # the patches inside their cell boxes: exact, any grid size
                 report.total += len(inner)
