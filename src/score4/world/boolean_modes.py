@@ -61,6 +61,7 @@ from .scene import (
     RingRoughLayer,
     RoughLayer,
     TargetVolume,
+    shared_edge,
 )
 
 if TYPE_CHECKING:  # a worker imports this module and never the configuration's models
@@ -158,17 +159,15 @@ def check_shared_edges(layers: list[RoughLayer], target: TargetVolume, where: st
         leaf = clip.leaf
         if len(own) < 2 or not isinstance(leaf, RevolvedShape) or clip.flipped:
             continue  # a subtracted solid's edges are concave: its layers grow apart
-        poly, names = leaf.contour()
-        for k, a in enumerate(names):
-            b = names[(k + 1) % len(names)]
-            if a in own and b in own:
-                r, z = poly[(k + 1) % len(poly)]
-                raise ConfigError(
-                    f"{where}: into: true on faces {path}{a} and {path}{b} of {name!r}, faces of "
-                    f"one {leaf.kind} of the boolean that share an edge (the circle r = {r:.4g} "
-                    f"mm at z = {z:.4g} mm in its frame): score4 cuts such faces together on "
-                    "plain solids only; put one of them outside the volume (into: false)"
-                )
+        edge = shared_edge(leaf, own)
+        if edge is not None:
+            a, b, edge_r, edge_z = edge
+            raise ConfigError(
+                f"{where}: into: true on faces {path}{a} and {path}{b} of {name!r}, faces of "
+                f"one {leaf.kind} of the boolean that share an edge (the circle r = {edge_r:.4g} "
+                f"mm at z = {edge_z:.4g} mm in its frame): score4 cuts such faces together on "
+                "plain solids only; put one of them outside the volume (into: false)"
+            )
 
 
 def check_replicas(layer: RoughLayer, where: str, what: str) -> None:

@@ -22,7 +22,7 @@ layer's thickness (the volume is cut by it), so the layer's top is where the fac
 from __future__ import annotations
 
 import copy
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import TYPE_CHECKING
@@ -1874,17 +1874,29 @@ def check_into_edges(scene: Scene, target: TargetVolume, where: str | None = Non
     if shape.full_phi:
         _into_joint_cut(scene, target, layers, where)
         return
+    edge = shared_edge(shape, layers)
+    if edge is not None:
+        name, other, r, z = edge
+        raise ConfigError(
+            f"{where}: into: true on faces {name} and {other} of {target.name!r}, which share "
+            f"an edge (the circle r = {r:.4g} mm at z = {z:.4g} mm), on a {shape.kind} with "
+            "a phi segment: score4 cuts such faces together on a full circle only; put one "
+            "of them outside the volume (into: false)"
+        )
+
+
+def shared_edge(
+    shape: RevolvedShape, faces: Collection[str]
+) -> tuple[str, str, float, float] | None:
+    """The first two of ``faces`` that meet along the contour of ``shape`` (a solid swept around
+    z), with the edge's circle (r, z in mm, the solid's frame); None if no two of them meet."""
     poly, names = shape.contour()
     for k, name in enumerate(names):
         other = names[(k + 1) % len(names)]
-        if name in layers and other in layers:
+        if name in faces and other in faces:
             r, z = poly[(k + 1) % len(poly)]
-            raise ConfigError(
-                f"{where}: into: true on faces {name} and {other} of {target.name!r}, which share "
-                f"an edge (the circle r = {r:.4g} mm at z = {z:.4g} mm), on a {shape.kind} with "
-                "a phi segment: score4 cuts such faces together on a full circle only; put one "
-                "of them outside the volume (into: false)"
-            )
+            return name, other, float(r), float(z)
+    return None
 
 
 def _into_joint_cut(
