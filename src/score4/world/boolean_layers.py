@@ -39,9 +39,10 @@ layer per plane (:func:`_on_boolean`; a plane without a kept cell gets none); th
 their flat rest as one (:class:`score4.source.build.PlanesRemainderSampler`).
 
 Refused, in one line each (:mod:`score4.world.boolean_modes` says why): ``into: true`` on the
-faces of a subtracted solid other than its flat faces (a G4Box, G4Tubs, G4Cons, polycone, G4Trd
-or G4Polyhedra), the walls of a G4Tubs or G4Cons (bores) and the sphere faces of a G4Orb or
-G4Sphere, on phi faces, and on two faces of one constituent not subtracted that share an edge,
+faces of a subtracted solid other than its flat faces (a G4Box, G4Tubs, G4Cons, polycone, G4Trd,
+G4Trap or G4Polyhedra; a face in one plane of an extruded or tessellated solid, where moving it
+leaves a valid solid), the walls of a G4Tubs or G4Cons (bores) and the sphere faces of a G4Orb
+or G4Sphere, on phi faces, and on two faces of one constituent not subtracted that share an edge,
 ``tiling: portal``, ``native_layout: replicas`` where a cell holds no patch (and on a layer whose
 envelope is the prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs or
 G4Cons wall or a sphere face (a G4Sphere's theta cones, a polycone's walls); a curved layer
@@ -200,7 +201,13 @@ def _on_boolean(
                 layer.frame = layer.frame.shifted(-layer.thickness)
         on, cut = base, clip
         if rough.into:  # the face cut behind by the layer's thickness (boolean_modes)
-            on = cut_face(base, into_depth(layer, clip.flipped), f"{where}: into: true on {what}")
+            start = f"{where}: into: true on {what}"
+            try:
+                on = cut_face(base, into_depth(layer, clip.flipped), start)
+            except ConfigError as err:  # a solid that cannot be moved so (Shape.moved)
+                if str(err).startswith(start):
+                    raise
+                raise ConfigError(f"{start}: {err}") from None
             cut = on.clip
         kept = kept_cells(layer, cut, on, placed)
         if rough.into and clip.flipped and not isinstance(layer, CurvedRoughLayer):
