@@ -401,3 +401,17 @@ def test_into_on_a_subtracted_phi_face_is_refused(gdml):
     )
     assert message.endswith("put the layer outside the volume (into: false)")
     assert "\n" not in message
+
+
+@pytest.mark.deep
+def test_grown_mesh_holes_pass_the_overlap_check(gdml, tmp_path):
+    """Geant4's overlap check (``score4 geometry check``, in its own process) finds no overlap
+    between the layers' patches and their boxes rebuilt around the grown trap, extruded and
+    tessellated holes."""
+    import yaml
+
+    from helpers.g4_geometry_check import assert_no_overlaps
+
+    path = tmp_path / "holes.yaml"
+    path.write_text(yaml.safe_dump(config(gdml, {k: f for k, (_y, f) in HOLES.items()})))
+    assert_no_overlaps(path)
