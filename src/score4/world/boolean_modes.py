@@ -82,7 +82,12 @@ def check_modes(
         flat = flat_face(leaf, face)
         bore = isinstance(leaf, G4Tubs | G4Cons | G4Sphere | G4Orb) and face in ("outer", "inner")
         phi = face in ("phi_start", "phi_end")
-        grows = flat and not phi and leaf.moved({face: -1e-6}) is not None
+        grows = False
+        if flipped and flat and not phi:
+            try:
+                grows = leaf.moved({face: -1e-6}) is not None
+            except ConfigError as err:  # a mesh whose face cannot move at all (Shape.moved)
+                raise ConfigError(f"{where}: into: true on {what}: {err}") from None
         if flipped and phi:
             raise ConfigError(
                 f"{where}: into: true on {what} (face {face} of the subtracted {leaf.kind} with "
