@@ -38,7 +38,7 @@ from helpers.boolean_worlds import (
 )
 from helpers.export_paths import assert_same_paths, base_name, three_paths
 from helpers.g4_geometry_check import assert_no_overlaps
-from helpers.geantinos import geantino_run
+from helpers.geantinos import geantino_config, geantino_run, rough_targets
 from helpers.ray_trace import (
     flat_patches_path,
     mesh_path,
@@ -55,22 +55,7 @@ FINE = {**PYRAMIDS, "width": "80 um"}
 
 def config(gdml: Path, rough: dict[str, list], surface=PYRAMIDS, **extra) -> dict:
     volume, faces = next(iter(rough.items()))
-    return {
-        "physics": "lite",
-        "world": {"gdml": str(gdml)},
-        "surfaces": {"p": surface},
-        "targets": [
-            {"volume": v, "rough": [{"face": f, "surface": "p"} for f in fs]}
-            for v, fs in rough.items()
-        ],
-        "source": {
-            "particle": "geantino",
-            "energy": "1 MeV",
-            "surface": {"volume": volume, "face": faces[0]},
-        },
-        "run": {"events": 10, "seed": 3},
-        **extra,
-    }
+    return geantino_config(gdml, {"p": surface}, rough_targets(rough), (volume, faces[0]), **extra)
 
 
 @pytest.fixture(scope="module")
