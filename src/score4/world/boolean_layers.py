@@ -275,7 +275,7 @@ def into_joint(scene: Scene, target: TargetVolume, where: str) -> None:
         return
     cuts = boolean_cuts(layers, shape)
     made: dict[str, tuple[FaceClip, TargetVolume, Transform, list[RoughLayer]]] = {}
-    for face in involved:
+    for face in involved:  # the leaf's layers made anew (as target_layers makes them)
         rough = next(r.config for r in layers if r.config.face_name == face)
         clip, leaf_target, leaf_rough, placed = _leaf(target, rough, where)
         fresh = target_layers(scene.surfaces, leaf_target, 0, leaf_rough, where)
@@ -290,13 +290,12 @@ def into_joint(scene: Scene, target: TargetVolume, where: str) -> None:
             m[3][0] = layer
             cuts[f] = into_depth(layer, False)
     cut = cut_boolean(shape, cuts)
-    for face in involved:
+    for face in involved:  # on the boolean's side, their cells kept on the joint cut
         clip, _leaf_target, placed, fresh = made[face]
         old = [
             r for r in scene.layers if r.target.name == target.name and r.config.face_name == face
         ]
-        rough = old[0].config
-        new = _on_boolean(fresh, target, rough, clip, placed, where, cut)
+        new = _on_boolean(fresh, target, old[0].config, clip, placed, where, cut)
         at = scene.layers.index(old[0])
         scene.layers[:] = [r for r in scene.layers if not any(r is o for o in old)]
         scene.layers[at:at] = new
