@@ -631,3 +631,32 @@ def test_walls_sharing_an_edge_on_a_phi_segment_are_refused():
     target = SimpleNamespace(shape=shape, name="bottle")
     joint = joint_leaves(layers, target, "targets.0.rough")
     assert joint == ({"second.": {}}, ["second.seg_1", "second.seg_2"])
+
+
+@pytest.mark.deep
+def test_joint_cuts_export_with_the_same_paths(gdml, tmp_path, monkeypatch):
+    """The post's wall with the disk's top, and the box's top under the lamp's cone (a
+    G4GenericPolycone grown as the prism of its foot), written by `score4 geometry export`:
+    Geant4 reads the file back, and the file pyg4ometry reads and writes again, with the same
+    geantino paths (volumes and points, 1e-9 mm) as the world score4 builds; most rays cross a
+    patch (deep: ~1-2 min)."""
+    from score4.cli.main import main
+
+    from helpers.export_paths import assert_same_paths, three_paths
+
+    cases = ["foot", "lamp"]
+    data = config(gdml, cases)
+    path = tmp_path / "into_joint.yaml"
+    path.write_text(yaml.safe_dump(data))
+    out = tmp_path / "into_joint.gdml"
+    assert main(["geometry", "export", str(path), "--gdml", str(out)]) == 0
+    scene = build_scene(parse_config(data))
+    rays = []
+    for k, case in enumerate(cases):
+        target = scene.target(CASES[case][0])
+        local, ways = _rays(case, 6, np.random.default_rng(30 + k))
+        world, turned = target.to_world(local), ways @ target.rotation.T
+        rays += [(o.tolist(), d.tolist()) for o, d in zip(world, turned, strict=True)]
+    ours, back, relay = three_paths(path, out, rays, monkeypatch)
+    assert_same_paths(ours, back, relay)
+    assert sum(any("_rough" in (v or "") for v, _ in p) for p in ours) >= 6
