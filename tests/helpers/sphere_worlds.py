@@ -5,7 +5,10 @@ takes seconds):
   copper post (2.8 mm square, 10 mm long), a sister standing through the hole;
 * ``dome``: a half sphere (r 10 mm) on a plate (30 x 30 x 4 mm) with a post (r 5 mm) through
   both, a union of unions;
-* ``peg``: a box (20 mm) with a rod (r 5 mm, 20 mm) whose lower 15 mm are in the box.
+* ``peg``: a box (20 mm) with a rod (r 5 mm, 20 mm) whose lower 15 mm are in the box;
+* ``groove``: a rod (r 5 mm, 40 mm) through a box (20 mm), less a half ring (r 5 to 8 mm,
+  z 8 to 16 mm, phi 0 to 180 degrees) around the rod, a groove in the box's +z face and beside
+  the rod above it: ((rod | box) - half ring).
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ AT = {
     "orbpost": (0.0, 0.0, 0.0),
     "dome": (40.0, 0.0, 0.0),
     "peg": (-40.0, 0.0, 0.0),
+    "groove": (0.0, 40.0, 0.0),
 }
 ORB_R, HOLE, POST = 3.0, 1.5, 1.4  # the orb's radius, the hole's and the post's half widths
 DOME_R, DOME_POST = 10.0, 5.0  # the half sphere's radius, the post's
@@ -44,6 +48,12 @@ def write_sphere_world(path: Path) -> Path:
 <box name="peg_a" x="20" y="20" z="20" lunit="mm"/>
 <tube name="peg_b" rmin="0" rmax="5" z="20" {full}/>
 <union name="peg_s"><first ref="peg_a"/><second ref="peg_b"/>
-  <position name="peg_p" x="0" y="0" z="{PEG_Z}" unit="mm"/></union>"""
+  <position name="peg_p" x="0" y="0" z="{PEG_Z}" unit="mm"/></union>
+<tube name="groove_a" rmin="0" rmax="5" z="40" {full}/>
+<box name="groove_b" x="20" y="20" z="20" lunit="mm"/>
+<union name="groove_u"><first ref="groove_a"/><second ref="groove_b"/></union>
+<tube name="groove_c" rmin="5" rmax="8" z="8" startphi="0" deltaphi="180" aunit="deg" lunit="mm"/>
+<subtraction name="groove_s"><first ref="groove_u"/><second ref="groove_c"/>
+  <position name="groove_p" x="0" y="0" z="12" unit="mm"/></subtraction>"""
     path.write_text(copper_world_text(solids, AT))
     return path

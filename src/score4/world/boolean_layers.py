@@ -60,7 +60,17 @@ import numpy as np
 
 from score4.errors import ConfigError
 from score4.inputs.config import RoughFace
-from score4.shapes import BooleanShape, G4Box, G4Cons, G4Orb, G4Sphere, G4Tubs, Shape, Transform
+from score4.shapes import (
+    BooleanShape,
+    G4Box,
+    G4Cons,
+    G4Orb,
+    G4Sphere,
+    G4Tubs,
+    PlacedShape,
+    Shape,
+    Transform,
+)
 from score4.shapes.base import INSIDE
 from score4.shapes.boolean import FaceClip
 from score4.shapes.faces import AnnulusFace, RevolvedFace, SphereFace
@@ -801,15 +811,25 @@ def _meets_own_solid(layer: RoughLayer, on: BooleanFace) -> bool:
 
 
 def _pieces_in_solid(layer: CurvedRoughLayer, clip: FaceClip, on: BooleanFace) -> np.ndarray | None:
-    """A world point of a curved layer's envelope pieces inside the boolean solid and inside a
-    solid that cuts the face from outside (another part of a union), or None: an exact search
+    """A world point of a curved layer's envelope pieces inside the boolean solid and inside
+    another part of a union the face is in, or None: an exact search
     (:func:`~score4.world.clearance.shell_search`) down to half the layer's thickness, as
     between two layers (a piece ending on another part's face touches it all round). The
     search stays where the envelope meets such a part: the face itself lies on the solid's
-    surface, where a search against the whole solid would not end."""
+    surface, where a search against the whole solid would not end. A piece lies outside the
+    face's own constituent, so it is in the solid only inside such a part; a solid subtracted
+    beside the face (:func:`_clip_operations`) is not searched: where its wall is the face (a
+    groove cut around a rod) the search could not drop the cells along it and gave up."""
     from .clearance import shell_search
 
-    cutters = [(shape, transform) for shape, transform, inside in clip.clips if not inside]
+    ops = _clip_operations(on.shape, on.face)
+    if len(ops) != len(clip.clips):  # (a face clip of another make: every part from outside)
+        ops = ["union"] * len(clip.clips)
+    cutters = [
+        (shape, transform)
+        for (shape, transform, inside), op in zip(clip.clips, ops, strict=True)
+        if not inside and op == "union"
+    ]
     if not cutters:
         return None
 
@@ -819,6 +839,20 @@ def _pieces_in_solid(layer: CurvedRoughLayer, clip: FaceClip, on: BooleanFace) -
         return np.asarray(np.minimum(-on.shape.signed_distance(q), in_cut))
 
     return shell_search(layer, depth, layer.thickness / 2, "the solid's other parts")
+
+
+def _clip_operations(shape: Shape, name: str) -> list[str]:
+    """The operation of each boolean on the way to face ``name``, in the order of its clips
+    (:meth:`BooleanShape.face_clip`: the innermost first): a clip from outside is another part
+    of a union (``union``: material) or a solid subtracted from the face's side
+    (``subtraction``: a hole)."""
+    while isinstance(shape, PlacedShape):
+        shape = shape.shape
+    if not isinstance(shape, BooleanShape):
+        return []
+    part, rest = name.split(".", 1)
+    inner = _clip_operations(shape.first if part == "first" else shape.second, rest)
+    return [*inner, shape.operation]
 
 
 def _clear_of_the_solid(
