@@ -7,10 +7,13 @@ cylinder wall whose end rings hold no cells:
 * a half sphere on a plate with a post through both (a union of unions): the envelope stops
   at the last ring the post leaves whole (the whole zone ran into the post);
 * a rod whose lower end stands in a box: its wall's one piece starts at the first kept ring,
-  not at the rod's end inside the box (it reached into the box and was refused).
+  not at the rod's end inside the box (it reached into the box and was refused);
+* ((rod | box) - half ring), a groove cut beside the rod's wall: the piece passing through it
+  is no longer searched there for the solid's other parts (it was refused after 2e6 cells).
 
 Geant4's overlap check, geantino paths to 1e-9 mm against the solids' signed distances plus
-the patch bodies, and the export read back with the same paths run under ``deep``."""
+the patch bodies, and the export read back with the same paths run under ``deep``, as do the
+cases whose boolean face areas cost seconds with a cold cache (the dome, the groove)."""
 
 from __future__ import annotations
 
@@ -24,6 +27,7 @@ from score4.cli.main import main
 from score4.errors import ConfigError
 from score4.geometry.check import curved_cells_tile
 from score4.inputs.config import parse_config
+from score4.shapes import BooleanShape, G4Box, G4Tubs, PlacedShape, Transform
 from score4.shapes.base import INSIDE
 from score4.shapes.faces import SphereFace
 from score4.source.build import make_source
@@ -163,12 +167,13 @@ def test_a_sphere_less_a_hole_keeps_clear_of_the_post_standing_in_it(gdml, monke
     assert "\n" not in str(err.value)
 
 
+@pytest.mark.deep
 def test_a_dome_with_a_post_through_it_stops_at_the_post(gdml, monkeypatch):
     """The half sphere's face (r 10 mm) with a post (r 5 mm) through its top: the rings the
     post covers keep no cell, and the envelope is one G4Sphere zone over the full circle from
     the band of the first ring (at the plate) to that of the last ring clear of the post; no
     point of it is inside the solid. With the whole zone (as before) it runs into the post and
-    is refused in one line."""
+    is refused in one line (deep: ~5 s CPU with a cold cache, the union's face areas)."""
     layer = _layer(gdml, "dome")
     lay = layer.ring_layout
     assert layer.pieces is not None
@@ -214,6 +219,40 @@ def test_a_rods_wall_starts_at_its_first_kept_ring(gdml):
     assert _pieces_in_solid(layer, layer.on_boolean.clip, layer.on_boolean) is not None
 
 
+def test_the_parts_searched_for_a_piece_are_the_unions_other_parts():
+    """Each clip from outside of a face of a nested boolean is told apart by the operation
+    that made it, in face_clip's order: in ((rod | box) - ring) the rod's wall is cut by the box
+    (a union's other part: searched) and the ring (subtracted: not searched); in
+    ((rod - ring) | box) the same two in the other order; in (rod & box) the box is a clip from
+    inside; a placed constituent is looked through."""
+    rod, box = G4Tubs(0.0, 5.0, 20.0), G4Box(10.0, 10.0, 10.0)
+    ring = G4Tubs(5.0, 8.0, 4.0, 0.0, np.pi)
+    up = Transform(np.eye(3), np.array([0.0, 0.0, 12.0]))
+    cases = [
+        (
+            BooleanShape("subtraction", BooleanShape("union", rod, box), ring, up),
+            "first.first.outer",
+            ["union", "subtraction"],
+        ),
+        (
+            BooleanShape("union", BooleanShape("subtraction", rod, ring, up), box),
+            "first.first.outer",
+            ["subtraction", "union"],
+        ),
+        (
+            BooleanShape("union", box, PlacedShape(BooleanShape("intersection", rod, box), up)),
+            "second.first.outer",
+            ["intersection", "union"],
+        ),
+    ]
+    for shape, face, ops in cases:
+        clip = shape.face_clip(face)
+        assert boolean_layers._clip_operations(shape, face) == ops
+        # the clips of an intersection are from inside, the others from outside
+        assert [inside for _, _, inside in clip.clips] == [op == "intersection" for op in ops]
+
+
+@pytest.mark.deep
 def test_a_piece_over_a_groove_cut_beside_the_wall_is_not_searched_there(gdml):
     """((rod | box) - half ring): the rod's wall above the box keeps no cell where the groove
     (r 5 to 8 mm, phi 0 to 180 degrees, up to z = 16 mm) runs beside it, but the rings keep
@@ -223,7 +262,8 @@ def test_a_piece_over_a_groove_cut_beside_the_wall_is_not_searched_there(gdml):
     outside the rod, so it can be in the solid only there. Before, it searched inside the
     groove too, whose wall is the rod's face, and gave up (more than 2e6 cells for an 11 um
     layer: 'move them apart by a micrometre'; deep test below). No point of the envelope is
-    inside the solid; some are in the groove."""
+    inside the solid; some are in the groove (deep: ~21 s CPU with a cold cache, the nested
+    boolean's face areas)."""
     layer = _layer(gdml, "groove")
     assert layer.pieces is not None
     on = layer.on_boolean
