@@ -140,7 +140,7 @@ def test_a_sphere_less_a_hole_keeps_clear_of_the_post_standing_in_it(gdml, monke
     partial = [j for j in range(len(lay.v)) if kept[j].any() and not kept[j, : lay.count[j]].all()]
     assert len(partial) >= 4  # rings the hole's corners cut
     half = 0.5 * (lay.patch_size[1] + lay.row_gap)
-    for (phi0, dphi, v0, v1), view in zip(layer.pieces, views, strict=True):
+    for (phi0, dphi, v0, v1, *_), view in zip(layer.pieces, views, strict=True):
         face = view.ring_layout.face
         assert isinstance(face, SphereFace)
         assert face.theta[1] - face.theta[0] == pytest.approx((v1 - v0) / ORB_R, abs=1e-12)
@@ -157,8 +157,8 @@ def test_a_sphere_less_a_hole_keeps_clear_of_the_post_standing_in_it(gdml, monke
     shell = layer.target.to_local(layer.shell_points(n_v=5))
     over_hole = (np.abs(shell[:, 0]) < HOLE) & (np.abs(shell[:, 1]) < HOLE)
     assert not over_hole.any()
-    phi0, dphi, v0, v1 = layer.pieces[0]
-    layer.pieces[0] = (phi0, dphi, v0 + 1e-6, v1)  # a ring's cells cut short by 1 nm
+    phi0, dphi, v0, v1, *rest = layer.pieces[0]
+    layer.pieces[0] = (phi0, dphi, v0 + 1e-6, v1, *rest)  # a ring's cells cut short by 1 nm
     assert any("outside the pieces" in p for p in curved_cells_tile(layer)[1])
     monkeypatch.setattr(boolean_layers, "envelope_pieces", lambda layer: None)
     with pytest.raises(ConfigError) as err:
@@ -177,7 +177,7 @@ def test_a_dome_with_a_post_through_it_stops_at_the_post(gdml, monkeypatch):
     layer = _layer(gdml, "dome")
     lay = layer.ring_layout
     assert layer.pieces is not None
-    ((_phi0, dphi, v0, v1),) = layer.pieces
+    ((_phi0, dphi, v0, v1, *_),) = layer.pieces
     assert dphi == pytest.approx(2 * np.pi, abs=1e-12)
     kept = np.flatnonzero((layer.cell_variants >= 0).any(axis=1))
     half = 0.5 * (lay.patch_size[1] + lay.row_gap)
@@ -206,7 +206,7 @@ def test_a_rods_wall_starts_at_its_first_kept_ring(gdml):
     layer = _layer(gdml, "peg")
     lay = layer.ring_layout
     assert layer.pieces is not None
-    ((phi0, dphi, v0, v1),) = layer.pieces
+    ((phi0, dphi, v0, v1, *rest),) = layer.pieces
     (_, _), (fv0, fv1) = lay.face.extent
     kept = np.flatnonzero((layer.cell_variants >= 0).any(axis=1))
     assert kept[-1] == len(lay.v) - 1
@@ -215,7 +215,7 @@ def test_a_rods_wall_starts_at_its_first_kept_ring(gdml):
     assert 5.0 <= v0 < 5.0 + lay.patch_size[1]  # the box's face, in the rod's frame
     assert not curved_cells_tile(layer)[1]
     assert _pieces_in_solid(layer, layer.on_boolean.clip, layer.on_boolean) is None
-    layer.pieces = [(phi0, dphi, fv0, v1)]  # to the rod's end, as before
+    layer.pieces = [(phi0, dphi, fv0, v1, *rest)]  # to the rod's end, as before
     assert _pieces_in_solid(layer, layer.on_boolean.clip, layer.on_boolean) is not None
 
 
