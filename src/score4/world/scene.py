@@ -522,8 +522,9 @@ class CurvedRoughLayer(RoughLayer):
     #: radius of a sphere moves by it)
     into_cut: float = 0.0
     #: on a face of a boolean partly covered or cut by its other parts: the envelope's pieces
-    #: ``(phi0, dphi, v0, v1)`` (azimuth range and generator range of the face) holding the kept
-    #: cells, each a G4Cons (G4Tubs) segment; None: the face's whole shell
+    #: ``(phi0, dphi, v0, v1)`` (azimuth range and generator range of the face; on a sphere the
+    #: meridian's arc length) holding the kept cells, each a G4Cons (G4Tubs) segment, on a
+    #: sphere a G4Sphere segment; None: the face's whole shell
     #: (:func:`score4.world.boolean_layers.envelope_pieces`)
     pieces: list[tuple[float, float, float, float]] | None = None
 
@@ -535,12 +536,16 @@ class CurvedRoughLayer(RoughLayer):
         if self.pieces is None:
             return [self]
         face = self.ring_layout.face
-        assert isinstance(face, RevolvedFace)
         out = []
         for phi0, dphi, v0, v1 in self.pieces:
-            (r1, z1), (r2, z2) = face.point(0.0, np.array([v0, v1]))[:, [0, 2]]
-            sub = replace(face, rz1=(float(r1), float(z1)), rz2=(float(r2), float(z2)),
-                          phi0=phi0, dphi=dphi)  # fmt: skip
+            sub: RevolvedFace | SphereFace
+            if isinstance(face, SphereFace):  # a G4Sphere segment: the polar angles of v0, v1
+                a, b = sorted(float(x) for x in face.polar(np.array([v0, v1])))
+                sub = replace(face, theta=(a, b), phi0=phi0, dphi=dphi)
+            else:
+                (r1, z1), (r2, z2) = face.point(0.0, np.array([v0, v1]))[:, [0, 2]]
+                sub = replace(face, rz1=(float(r1), float(z1)), rz2=(float(r2), float(z2)),
+                              phi0=phi0, dphi=dphi)  # fmt: skip
             view = copy.copy(self)
             view.__dict__.pop("_cache", None)
             view.layout = replace(self.ring_layout, face=sub)
@@ -799,11 +804,15 @@ class CurvedRoughLayer(RoughLayer):
         local = self.target.to_local(self.shell_points())
         lo, hi = local.min(axis=0), local.max(axis=0)
         face = self.ring_layout.face
+        r = float(np.hypot(local[:, 0], local[:, 1]).max())
+        if isinstance(face, SphereFace):  # the widest circle, at the equator if a piece has it
+            outer = face.sphere_radius + (self.thickness if face.sign > 0 else 0.0)
+            for view in self.envelope_views():
+                t0, t1 = view.ring_layout.face.theta  # type: ignore[union-attr]
+                r = max(r, outer * (1.0 if t0 <= np.pi / 2 <= t1 else max(np.sin([t0, t1]))))
         if face.dphi >= 2 * np.pi - 1e-9:  # the circle's extremes between the grid's points
-            r = float(np.hypot(local[:, 0], local[:, 1]).max())
             lo[:2], hi[:2] = -r, r
         elif self.pieces is not None:  # the pieces' extremes along x and y between the points
-            r = float(np.hypot(local[:, 0], local[:, 1]).max())
             for phi0, dphi, _, _ in self.pieces:
                 for k in range(4):
                     if np.mod(k * np.pi / 2 - phi0, 2 * np.pi) <= dphi:
