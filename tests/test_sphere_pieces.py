@@ -38,7 +38,7 @@ from score4.world.scene import CurvedRoughLayer
 
 from helpers.export_paths import assert_same_paths, three_paths
 from helpers.g4_geometry_check import assert_no_overlaps
-from helpers.geantinos import geantino_run
+from helpers.geantinos import geantino_config, geantino_run
 from helpers.ray_trace import patches_path, polycone_path
 from helpers.sphere_worlds import DOME_POST, DOME_R, HOLE, ORB_R, write_sphere_world
 
@@ -68,20 +68,9 @@ def gdml(tmp_path_factory) -> Path:
 
 
 def config(gdml: Path, volumes: list[str], **extra) -> dict:
-    first = ALL[volumes[0]][0]
-    return {
-        "physics": "lite",
-        "world": {"gdml": str(gdml)},
-        "surfaces": {v: ALL[v][1] for v in volumes},
-        "targets": [{"volume": v, "rough": [{"face": ALL[v][0], "surface": v}]} for v in volumes],
-        "source": {
-            "particle": "geantino",
-            "energy": "1 MeV",
-            "surface": {"volume": volumes[0], "face": first},
-        },
-        "run": {"events": 10, "seed": 3},
-        **extra,
-    }
+    surfaces = {v: ALL[v][1] for v in volumes}
+    targets = [{"volume": v, "rough": [{"face": ALL[v][0], "surface": v}]} for v in volumes]
+    return geantino_config(gdml, surfaces, targets, (volumes[0], ALL[volumes[0]][0]), **extra)
 
 
 def _layer(gdml: Path, volume: str) -> CurvedRoughLayer:

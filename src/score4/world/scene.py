@@ -1890,11 +1890,12 @@ def check_into_edges(scene: Scene, target: TargetVolume, where: str | None = Non
     edge = shared_edge(shape, layers)
     if edge is not None:
         name, other, r, z = edge
-        raise ConfigError(
-            f"{where}: into: true on faces {name} and {other} of {target.name!r}, which share "
-            f"an edge (the circle r = {r:.4g} mm at z = {z:.4g} mm), on a {shape.kind} with "
-            "a phi segment: score4 cuts such faces together on a full circle only; put one "
-            "of them outside the volume (into: false)"
+        raise shared_edge_error(
+            where,
+            (name, other),
+            target.name,
+            f"which share an edge ({edge_circle(r, z)}), on a {shape.kind} with a phi segment",
+            "on a full circle only",
         )
 
 
@@ -1910,6 +1911,24 @@ def shared_edge(
             r, z = poly[(k + 1) % len(poly)]
             return name, other, float(r), float(z)
     return None
+
+
+def edge_circle(r: float, z: float) -> str:
+    """An edge of a solid swept around z, in words: the circle of radius ``r`` at ``z`` (mm)."""
+    return f"the circle r = {r:.4g} mm at z = {z:.4g} mm"
+
+
+def shared_edge_error(
+    where: str, faces: tuple[str, str], volume: str, shared: str, only: str
+) -> ConfigError:
+    """The one-line refusal of ``into`` on two ``faces`` of ``volume`` that share an edge:
+    ``shared`` says how they share it, ``only`` on which solids score4 cuts such faces together
+    (:func:`check_into_edges`, :func:`score4.world.boolean_modes.joint_leaves`)."""
+    a, b = faces
+    return ConfigError(
+        f"{where}: into: true on faces {a} and {b} of {volume!r}, {shared}: score4 cuts such "
+        f"faces together {only}; put one of them outside the volume (into: false)"
+    )
 
 
 def joint_layout(
