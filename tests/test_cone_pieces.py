@@ -23,7 +23,7 @@ from helpers.g4_geometry_check import assert_no_overlaps
 from helpers.geantinos import geantino_run
 from helpers.ray_trace import patches_path, polycone_path
 
-# one worker per module: its boolean solids' face areas are estimated once (cold: ~10-30 s)
+# one worker per module: its world is written and its boolean face areas estimated once
 pytestmark = pytest.mark.xdist_group("cone-pieces")
 
 #: the cone's wall where it runs through the box, and the box's faces around it
