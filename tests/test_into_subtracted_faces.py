@@ -20,7 +20,7 @@ from score4.world.resolve import build_scene
 
 from helpers.geantinos import geantino_config, rough_targets
 
-# one worker per module: its boolean solids' face areas are estimated once (cold: ~10-30 s)
+# one worker per module: its world is written and its boolean face areas estimated once
 pytestmark = pytest.mark.xdist_group("subtracted-faces")
 
 PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
@@ -33,14 +33,6 @@ HOLES = {
     "trd": (30.0, ["second.-z"]),
     "hedra": (60.0, ["second.seg_0"]),
 }
-#: the default suite's holes; the polycone's and the Trd's (their boolean face areas, estimated by
-#: random draws, cost ~28 s CPU with a cold cache) are checked by the deep tests
-QUICK = {k: HOLES[k] for k in ("cone", "undercut", "hedra")}
-SLOW = {k: v for k, v in HOLES.items() if k not in QUICK}
-HOLE_SETS = [
-    pytest.param(QUICK, id="cone-undercut-hedra"),
-    pytest.param(SLOW, id="pcone-trd", marks=pytest.mark.deep),
-]
 HEX = np.radians(30.0 + 60.0 * np.arange(6))  # the hexagon's side directions
 
 
@@ -159,13 +151,12 @@ def hole_volume(name: str, t: float, sides: bool = False) -> float:
     return 2 * math.sqrt(3) * (5 + t) / 3 * (a1 * a1 + a1 * a2 + a2 * a2)
 
 
-@pytest.mark.parametrize("holes", HOLE_SETS)
-def test_into_subtracted_faces_lie_in_the_grown_slab(gdml, holes):
+def test_into_subtracted_faces_lie_in_the_grown_slab(gdml):
     """Every layer's base lies t below its old face facing up (into the hole), and each kept
     cell's column lies in the grown hole: cells on the old face and on the grown one (a cone
     or Trd narrowing to its floor loses its outer cells; an undercut keeps the old face's)."""
-    scene = build_scene(parse_config(config(gdml, holes)))
-    for name, (_y, faces) in holes.items():
+    scene = build_scene(parse_config(config(gdml)))
+    for name, (_y, faces) in HOLES.items():
         target = scene.target(name)
         for face in faces:
             layer = scene.layer(name, face)
@@ -184,23 +175,16 @@ def test_into_subtracted_faces_lie_in_the_grown_slab(gdml, holes):
                 local = np.column_stack([corners, np.full(len(corners), h)])
                 q = target.to_local(layer.frame.to_world(local))
                 assert in_hole(name, q, t).all(), (name, face, h)
-    if "cone" in holes:
-        assert scene.layer("cone", "second.-z").rmax == pytest.approx(2.0 - 0.1 * t, abs=1e-12)
-        assert scene.layer("undercut", "second.-z").rmax == pytest.approx(3.0, abs=1e-12)
-    else:
-        ledge = scene.layer("pcone", "second.seg_2")
-        assert (ledge.rmin, ledge.rmax) == pytest.approx((2.5, 4.0 - t / 14), abs=1e-12)
+    assert scene.layer("cone", "second.-z").rmax == pytest.approx(2.0 - 0.1 * t, abs=1e-12)
+    assert scene.layer("undercut", "second.-z").rmax == pytest.approx(3.0, abs=1e-12)
+    ledge = scene.layer("pcone", "second.seg_2")
+    assert (ledge.rmin, ledge.rmax) == pytest.approx((2.5, 4.0 - t / 14), abs=1e-12)
 
 
 @pytest.mark.parametrize(
-    ("holes", "sides"),
-    [
-        pytest.param(QUICK, False, id="floors"),
-        pytest.param(SLOW, False, id="floors-pcone-trd", marks=pytest.mark.deep),
-        pytest.param(SIDES, True, id="sides", marks=pytest.mark.deep),
-    ],
+    "sides", [False, pytest.param(True, marks=pytest.mark.deep)], ids=["floors", "sides"]
 )
-def test_geantino_paths_and_volumes_through_grown_holes(gdml, tmp_path, holes, sides):
+def test_geantino_paths_and_volumes_through_grown_holes(gdml, tmp_path, sides):
     """Geantinos from inside each hole, down through its floor and ledge (or, deep, out through
     the Trd's +x side and the polyhedra's six sides): Geant4's track length in each box (the
     boolean rebuilt around the grown solid) equals the analytic path in the box less the grown
@@ -209,6 +193,7 @@ def test_geantino_paths_and_volumes_through_grown_holes(gdml, tmp_path, holes, s
     from helpers.geantinos import assert_box_paths
     from helpers.ray_trace import polycone_path
 
+    holes = SIDES if sides else HOLES
     data = config(gdml, holes)
     scene = build_scene(parse_config(data))
     rng = np.random.default_rng(5)
