@@ -334,10 +334,9 @@ class _Solid:
 @pytest.mark.parametrize(
     "names",
     [
-        # deep: the trap's costs ~28 s CPU with a cold cache (its boolean face areas, estimated
-        # by random draws for every face, and Geant4's volumes); the extruded and tessellated
-        # holes' face areas (through the meshes' winding numbers) cost minutes
-        pytest.param(("trap",), id="trap", marks=pytest.mark.deep),
+        # the extruded and tessellated holes' boolean face areas (random draws tested against
+        # the meshes by winding numbers) cost ~50 s CPU with a cold cache: deep
+        pytest.param(("trap",), id="trap"),
         pytest.param(("xt", "tess"), id="xt-tess", marks=pytest.mark.deep),
     ],
 )
