@@ -92,13 +92,14 @@ def config(gdml: Path, holes: dict | None = None) -> dict:
 SIDES = {"trd": (30.0, ["second.+x"]), "hedra": (60.0, ["second.seg_1"])}
 
 
-def in_hole(name: str, q: np.ndarray, t: float, sides: bool = False) -> np.ndarray:
+def in_hole(name: str, q: np.ndarray, t: float, sides: bool | str = False) -> np.ndarray:
     """True for points ``q`` (n, 3; box frame) in the hole ``name`` grown by ``t`` behind its
     into faces (its floor and ledge; with ``sides``, its sides of :data:`SIDES` instead, each
-    plane moved by t along its normal: t sqrt(1.01) across at every z), written out from the
-    solids' parameters (hole frame: z less 10 mm)."""
+    plane moved by t along its normal: t sqrt(1.01) across at every z; with ``sides="floor"``,
+    both its floor and those sides), written out from the solids' parameters (hole frame: z
+    less 10 mm)."""
     if sides:
-        return _in_grown_sides(name, q, t * math.sqrt(1.01))
+        return _in_grown_sides(name, q, t * math.sqrt(1.01), t if sides == "floor" else 0.0)
     x, y, z = q[:, 0], q[:, 1], q[:, 2] - 10.0
     rho = np.hypot(x, y)
     top = z <= 5.0
@@ -118,10 +119,10 @@ def in_hole(name: str, q: np.ndarray, t: float, sides: bool = False) -> np.ndarr
     return (z >= -5.0 - t) & top & (apothem <= 2.0 + 0.1 * (z + 5.0))
 
 
-def _in_grown_sides(name: str, q: np.ndarray, across: float) -> np.ndarray:
+def _in_grown_sides(name: str, q: np.ndarray, across: float, floor: float) -> np.ndarray:
     x, y, z = q[:, 0], q[:, 1], q[:, 2] - 10.0
-    w = 0.1 * (z + 5.0)
-    inside = (z >= -5.0) & (z <= 5.0)
+    w = 0.1 * (z + 5.0)  # below the old floor (floor > 0): the sides' planes extended
+    inside = (z >= -5.0 - floor) & (z <= 5.0)
     if name == "trd":
         return inside & (x <= 2.0 + w + across) & (x >= -2.0 - w) & (np.abs(y) <= 1.5 + w)
     apothem = np.max(np.outer(x, np.cos(HEX)) + np.outer(y, np.sin(HEX)), axis=1)
@@ -131,7 +132,7 @@ def _in_grown_sides(name: str, q: np.ndarray, across: float) -> np.ndarray:
 class _Solid:
     """The box less a grown hole, for helpers.ray_trace.polycone_path (its sign only)."""
 
-    def __init__(self, name: str, t: float, sides: bool) -> None:
+    def __init__(self, name: str, t: float, sides: bool | str) -> None:
         self.name, self.t, self.sides = name, t, sides
 
     def signed_distance(self, q: np.ndarray) -> np.ndarray:
@@ -139,10 +140,11 @@ class _Solid:
         return np.where(inside, -1.0, 1.0)
 
 
-def hole_volume(name: str, t: float, sides: bool = False) -> float:
+def hole_volume(name: str, t: float, sides: bool | str = False) -> float:
     """The volume of the grown hole inside the box (z from the floor to the box's top), mm3."""
     if sides:  # the sections' areas are quadratic in z: Simpson
         s = t * math.sqrt(1.01)
+        lo = -5 - (t if sides == "floor" else 0.0)
 
         def section(z: float) -> float:
             w = 0.1 * (z + 5)
@@ -150,7 +152,7 @@ def hole_volume(name: str, t: float, sides: bool = False) -> float:
                 return (4 + 2 * w + s) * (3 + 2 * w)
             return 2 * math.sqrt(3) * (2 + w + s) ** 2
 
-        return 5 / 6 * (section(-5) + 4 * section(-2.5) + section(0))
+        return -lo / 6 * (section(lo) + 4 * section(lo / 2) + section(0))
 
     def frustum(h: float, r1: float, r2: float) -> float:
         return math.pi * h / 3 * (r1 * r1 + r1 * r2 + r2 * r2)
@@ -282,3 +284,72 @@ def test_into_on_a_subtracted_trap_is_refused(gdml):
     assert "a face of the subtracted G4Trap, would widen the cut" in message
     assert "G4Trd or G4Polyhedra (not phi faces)" in message
     assert "\n" not in message
+
+
+#: into on two adjacent faces of one subtracted solid: the floor and a side that meets it
+FLOOR_AND_SIDE = {
+    "hedra": (60.0, ["second.seg_0", "second.seg_1"]),
+    "trd": (30.0, ["second.-z", "second.+x"]),
+}
+
+
+@pytest.mark.parametrize(
+    "name",
+    [pytest.param("hedra", id="hedra"), pytest.param("trd", id="trd", marks=pytest.mark.deep)],
+)
+def test_geantino_paths_through_a_grown_floor_and_side(gdml, tmp_path, name):
+    """``into`` on a hole's floor and a side that meets it (the polyhedra's floor and its six
+    sides; deep: the Trd's floor and its +x side): the solid grows behind both, and geantinos
+    from the hole's axis aimed at the floor up to 0.8 mm from the edge where floor and side meet,
+    and at the side up to 0.6 mm above it, cross the floor's layer or the sides' and go on
+    through the corner between them into the copper. Geant4's track length in
+    the box equals the analytic path in the box less the hole grown behind both faces plus the
+    path in the patch bodies of all its layers, 1e-9 mm; Geant4's volume to 2e-4."""
+    from helpers.geantinos import assert_box_paths
+    from helpers.ray_trace import patches_path, polycone_path
+
+    holes = {name: FLOOR_AND_SIDE[name]}
+    data = config(gdml, holes)
+    scene = build_scene(parse_config(data))
+    assert len(scene.layers_of(name)) >= 2
+    y = holes[name][0]
+    rng = np.random.default_rng(9)
+    n = 16
+    # half the rays aimed at the floor (box z = 5) 0.1 .. 0.8 mm in from the edge, half at the
+    # side 0 .. 0.6 mm above the floor; the edge: x = 2 (Trd), apothem 2 (hexagon)
+    inward = np.where(np.arange(n) < n // 2, rng.uniform(0.1, 0.8, n), -0.05)
+    up = np.where(np.arange(n) < n // 2, 0.0, rng.uniform(0.0, 0.6, n))
+    if name == "trd":
+        w = 2.0 + 0.1 * up - inward
+        edge = np.column_stack([w, rng.uniform(-1.2, 1.2, n), 5.0 + up])
+    else:
+        a = HEX[rng.integers(0, 6, n)]
+        along = rng.uniform(-0.9, 0.9, n)  # a hexagon of apothem 2 has sides 2.31 mm long
+        w = 2.0 + 0.1 * up - inward
+        edge = np.column_stack(
+            [w * np.cos(a) - along * np.sin(a), w * np.sin(a) + along * np.cos(a), 5.0 + up]
+        )
+    aim = edge
+    start = np.column_stack([np.zeros((n, 2)), rng.uniform(6.0, 9.0, n)])
+    d = (aim - start) / np.linalg.norm(aim - start, axis=1, keepdims=True)
+    start = start + np.array([0.0, y, 0.0])
+    layers = scene.layers_of(name)
+    t = layers[0].thickness
+    assert_box_paths(
+        data,
+        scene,
+        start,
+        d,
+        [name] * n,
+        lambda v, o, dd: polycone_path(o, dd, _Solid(v, t, "floor")),
+        lambda v: (2 * HALF) ** 3 - hole_volume(v, t, "floor"),
+        tmp_path,
+    )
+    floor, sides = holes[name][1]
+    for face in (floor, sides):  # rays through the floor's patches and through the sides'
+        on = [layer for layer in layers if layer.config.face_name == face]
+        hits = sum(
+            sum(patches_path(o, dd, layer) for layer in on) > 0
+            for o, dd in zip(start, d, strict=True)
+        )
+        assert hits >= 3, face
