@@ -1,0 +1,125 @@
+"""Steps and activeness on a layer that grows a subtracted solid (``into: true`` on the floor of
+a conical blind hole, score4.world.boolean_modes): a small Geant4 run on a copper box less a
+G4Cons whose ``dist_to_surf`` and ``active_edep`` match a brute force over the patch tops of
+the floor's cells (tests.test_boolean_into_distance.brute_rough), the box's faces and the
+hole's wall (1e-9)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from score4.inputs.config import parse_config
+from score4.runner.engine import run
+from score4.runner.output import read_results
+from score4.world.activeness import weight
+from score4.world.resolve import build_scene
+
+HALF = 10.0  # the box's half width, mm
+PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
+
+
+@pytest.fixture(scope="module")
+def gdml(tmp_path_factory) -> Path:
+    """A 20 mm copper box less a cone (r 2 mm at its floor, 5 mm below the box's top, widening
+    to 3 mm 5 mm above it) along z."""
+    from helpers.boolean_worlds import write_box_holes
+
+    def holes(s, reg) -> dict:
+        cone = s.Cons("cone_b", 0, 2, 0, 3, 10, 0, 2 * np.pi, reg)
+        return {"cone": (cone, [0.0, 0.0, HALF], 0.0)}
+
+    return write_box_holes(tmp_path_factory.mktemp("grown_distance") / "cone.gdml", holes, HALF)
+
+
+def wall_distance(p: np.ndarray, top: float = 15.0) -> np.ndarray:
+    """Distance of points (box frame) to the cone's wall, r = 2 mm at z = 5 mm widening by
+    0.1 mm per mm up to z = ``top`` (the whole wall ends at 15 mm; the uncut wall: the layer
+    grows the cone only under its floor)."""
+    rho, z = np.hypot(p[:, 0], p[:, 1]), p[:, 2]
+    a, b = np.array([2.0, 5.0]), np.array([2.0 + 0.1 * (top - 5.0), top])
+    d = b - a
+    s = np.clip(((rho - a[0]) * d[0] + (z - a[1]) * d[1]) / (d @ d), 0.0, 1.0)
+    return np.hypot(rho - a[0] - s * d[0], z - a[1] - s * d[1])
+
+
+def test_steps_and_activeness_on_a_grown_cone_floor(gdml, tmp_path):
+    """Alphas from the pyramids on the hole's floor (into: true: the cone grown 21 um down),
+    30 events, seed 13, a 3 um transition layer under the floor and a 1 mm one along the wall:
+    each step's dist_to_surf is the nearest of the brute-force rough surface, the box's faces
+    and the wall, to 1e-9 mm; steps in the slab under the old floor are in patches; active_edep
+    weights each step by the brute-force distances (1e-9 MeV)."""
+    import lh5
+    from test_boolean_into_distance import brute_rough
+
+    data = {
+        "physics": "lite",
+        "world": {"gdml": str(gdml)},
+        "surfaces": {"p": PYRAMIDS},
+        "targets": [
+            {
+                "volume": "cone",
+                "rough": [
+                    {"face": "second.-z", "surface": "p", "base_thickness": "1 um", "into": True}
+                ],
+                "activeness": [
+                    {"fccd": "3 um", "dlf": 0.5, "faces": ["second.-z"]},
+                    {"fccd": "1 mm", "dlf": 0.2, "faces": ["second.outer"]},
+                ],
+            }
+        ],
+        "source": {
+            "particle": "alpha",
+            "energy": "5.3 MeV",
+            "direction": "isotropic",
+            "surface": {"volume": "cone", "face": "second.-z"},
+        },
+        "run": {"events": 30, "seed": 13},
+        "output": {"steps": True},
+    }
+    cfg = parse_config(data)
+    out = tmp_path / "steps.h5"
+    run(cfg, out, progress=False, echo=lambda m: None)
+    res = read_results(out)
+    table = lh5.read("stp/cone", str(out))
+    evtid = np.asarray(table["evtid"].nda)
+    edep = np.asarray(table["edep"].nda) / 1e3  # keV -> MeV
+    with h5py.File(out, "r") as f:
+        g = f["stp/cone"]
+        world = np.column_stack([g[c][()] * 1e3 for c in ("xloc", "yloc", "zloc")])
+        dist = g["dist_to_surf"][()] * 1e3
+    scene = build_scene(cfg)
+    layer = scene.layer("cone", "second.-z")
+    t = layer.thickness
+    target = scene.target("cone")
+    p = target.to_local(world)
+    assert target.to_local(layer.frame.centre[None])[0, 2] == pytest.approx(5.0 - t, abs=1e-12)
+    in_patch = layer.contains(world)
+    rho = np.hypot(p[:, 0], p[:, 1])
+    slab = (p[:, 2] > 5.0 - t) & (p[:, 2] < 5.0) & (rho < 2.0 - 0.1 * t)
+    assert slab.sum() > 20
+    assert in_patch[slab].all()  # the grown cone under the old floor: vacuum but for patches
+    rough = brute_rough(layer, world)
+    box = np.min(HALF - np.abs(p), axis=1)
+    wall = wall_distance(p)
+    # the 3 x 3 cells hold every point of the rough surface nearer than a cell's width; steps
+    # farther (on the wall, alphas cross the hole) are nearer to the wall or the box
+    far = rough >= min(layer.patch_size)
+    assert (np.minimum(box, wall)[far] < min(layer.patch_size)).all()
+    assert (~far).sum() > 100
+    np.testing.assert_allclose(dist, np.minimum(np.minimum(rough, box), wall), rtol=0, atol=1e-9)
+    under = ~in_patch & (rough < np.minimum(box, wall))
+    assert under.sum() > 10  # in the copper under the floor
+    near_wall = wall_distance(p, top=HALF)  # the wall as it is on the box: z = 5 .. 10 mm
+    assert (near_wall < 1.0).sum() > 5  # steps the wall's entry weights
+    surface = np.minimum(np.minimum(rough, box), wall)
+    w = np.minimum(
+        weight(np.maximum(surface, rough), 3e-3, 0.5),
+        weight(np.maximum(surface, near_wall), 1.0, 0.2),
+    )
+    again = np.bincount(evtid, weights=edep * w, minlength=res.n_events)
+    np.testing.assert_allclose(again, res.scores["active_edep"]["cone"], atol=1e-9, rtol=0)
+    assert 0 < again.sum() < res.edep["cone"].sum()
