@@ -10,6 +10,7 @@ bodies (1e-9 mm), Geant4's volumes against the analytic ones, Geant4's overlap c
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -293,6 +294,27 @@ FLOOR_AND_SIDE = {
 }
 
 
+def edge_rays(name: str, n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Rays (box frame) from the hole's axis, half aimed at its floor near the edge where floor
+    and side meet, half at the side just above that edge."""
+    # the floor at box z = 5 mm (0.1 .. 0.8 mm in from the edge), the side 0 .. 0.6 mm above
+    # it; the edge: x = 2 mm (Trd), apothem 2 mm (hexagon)
+    inward = np.where(np.arange(n) < n // 2, rng.uniform(0.1, 0.8, n), -0.05)
+    up = np.where(np.arange(n) < n // 2, 0.0, rng.uniform(0.0, 0.6, n))
+    if name == "trd":
+        w = 2.0 + 0.1 * up - inward
+        edge = np.column_stack([w, rng.uniform(-1.2, 1.2, n), 5.0 + up])
+    else:
+        a = HEX[rng.integers(0, 6, n)]
+        along = rng.uniform(-0.9, 0.9, n)  # a hexagon of apothem 2 has sides 2.31 mm long
+        w = 2.0 + 0.1 * up - inward
+        edge = np.column_stack(
+            [w * np.cos(a) - along * np.sin(a), w * np.sin(a) + along * np.cos(a), 5.0 + up]
+        )
+    start = np.column_stack([np.zeros((n, 2)), rng.uniform(6.0, 9.0, n)])
+    return start, (edge - start) / np.linalg.norm(edge - start, axis=1, keepdims=True)
+
+
 @pytest.mark.parametrize(
     "name",
     [pytest.param("hedra", id="hedra"), pytest.param("trd", id="trd", marks=pytest.mark.deep)],
@@ -313,25 +335,8 @@ def test_geantino_paths_through_a_grown_floor_and_side(gdml, tmp_path, name):
     scene = build_scene(parse_config(data))
     assert len(scene.layers_of(name)) >= 2
     y = holes[name][0]
-    rng = np.random.default_rng(9)
-    n = 16
-    # half the rays aimed at the floor (box z = 5) 0.1 .. 0.8 mm in from the edge, half at the
-    # side 0 .. 0.6 mm above the floor; the edge: x = 2 (Trd), apothem 2 (hexagon)
-    inward = np.where(np.arange(n) < n // 2, rng.uniform(0.1, 0.8, n), -0.05)
-    up = np.where(np.arange(n) < n // 2, 0.0, rng.uniform(0.0, 0.6, n))
-    if name == "trd":
-        w = 2.0 + 0.1 * up - inward
-        edge = np.column_stack([w, rng.uniform(-1.2, 1.2, n), 5.0 + up])
-    else:
-        a = HEX[rng.integers(0, 6, n)]
-        along = rng.uniform(-0.9, 0.9, n)  # a hexagon of apothem 2 has sides 2.31 mm long
-        w = 2.0 + 0.1 * up - inward
-        edge = np.column_stack(
-            [w * np.cos(a) - along * np.sin(a), w * np.sin(a) + along * np.cos(a), 5.0 + up]
-        )
-    aim = edge
-    start = np.column_stack([np.zeros((n, 2)), rng.uniform(6.0, 9.0, n)])
-    d = (aim - start) / np.linalg.norm(aim - start, axis=1, keepdims=True)
+    start, d = edge_rays(name, 16, np.random.default_rng(9))
+    n = len(start)
     start = start + np.array([0.0, y, 0.0])
     layers = scene.layers_of(name)
     t = layers[0].thickness
@@ -353,3 +358,34 @@ def test_geantino_paths_through_a_grown_floor_and_side(gdml, tmp_path, name):
             for o, dd in zip(start, d, strict=True)
         )
         assert hits >= 3, face
+
+
+@pytest.mark.deep
+def test_grown_floors_and_sides_export_with_the_same_paths(gdml, tmp_path, monkeypatch):
+    """The Trd's floor and +x side and the polyhedra's floor and six sides with ``into``, in one
+    world written by `score4 geometry export`: Geant4 reads the file back, and the file
+    pyg4ometry reads and writes again, with the same geantino paths (volumes and points,
+    1e-9 mm) as the world score4 builds (the grown G4Trd and G4GenericPolyhedra in the
+    booleans); most rays cross a patch."""
+    import yaml
+
+    from score4.cli.main import main
+
+    from helpers.export_paths import assert_same_paths, three_paths
+
+    data = config(gdml, FLOOR_AND_SIDE)
+    path = tmp_path / "grown.yaml"
+    path.write_text(yaml.safe_dump(data))
+    out = tmp_path / "grown.gdml"
+    assert main(["geometry", "export", str(path), "--gdml", str(out)]) == 0
+    rays = []
+    for k, (name, (y, _faces)) in enumerate(FLOOR_AND_SIDE.items()):
+        start, d = edge_rays(name, 8, np.random.default_rng(30 + k))
+        start[:, 1] += y
+        rays += [(o.tolist(), w.tolist()) for o, w in zip(start, d, strict=True)]
+    ours, back, relay = three_paths(path, out, rays, monkeypatch)
+    assert_same_paths(ours, back, relay)
+    assert sum(any("_rough" in (v or "") for v, _ in p) for p in ours) >= len(rays) // 2
+    text = out.read_text()
+    assert re.search(r'<trd [^>]*name="trd_lv_cut_', text)  # the grown solids, in the booleans
+    assert re.search(r'<genericPolyhedra [^>]*name="hedra_lv_cut_', text)
