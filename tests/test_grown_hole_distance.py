@@ -19,18 +19,21 @@ from score4.world.activeness import weight
 from score4.world.resolve import build_scene
 
 HALF = 10.0  # the box's half width, mm
+HEX = np.radians(30.0 + 60.0 * np.arange(6))  # the hexagon's side directions
 PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
 
 
 @pytest.fixture(scope="module")
 def gdml(tmp_path_factory) -> Path:
-    """A 20 mm copper box less a cone (r 2 mm at its floor, 5 mm below the box's top, widening
-    to 3 mm 5 mm above it) along z."""
+    """20 mm copper boxes less a cone (``cone``: r 2 mm at its floor, 5 mm below the box's top,
+    widening to 3 mm 5 mm above it) and less a hexagonal G4Polyhedra (``hedra``: apothem 2 mm
+    at its floor widening to 3 mm, at y = 30 mm) along z."""
     from helpers.boolean_worlds import write_box_holes
 
     def holes(s, reg) -> dict:
         cone = s.Cons("cone_b", 0, 2, 0, 3, 10, 0, 2 * np.pi, reg)
-        return {"cone": (cone, [0.0, 0.0, HALF], 0.0)}
+        hedra = s.Polyhedra("hedra_b", 0, 2 * np.pi, 6, 2, [-5, 5], [0, 0], [2, 3], reg)
+        return {"cone": (cone, [0.0, 0.0, HALF], 0.0), "hedra": (hedra, [0.0, 0.0, HALF], 30.0)}
 
     return write_box_holes(tmp_path_factory.mktemp("grown_distance") / "cone.gdml", holes, HALF)
 
@@ -123,3 +126,56 @@ def test_steps_and_activeness_on_a_grown_cone_floor(gdml, tmp_path):
     again = np.bincount(evtid, weights=edep * w, minlength=res.n_events)
     np.testing.assert_allclose(again, res.scores["active_edep"]["cone"], atol=1e-9, rtol=0)
     assert 0 < again.sum() < res.edep["cone"].sum()
+
+
+def test_distances_to_the_six_grown_sides_of_a_polyhedra(gdml):
+    """``into`` on the six sides of a subtracted G4Polyhedra (one face, a layer per plane):
+    the distance of points in the copper behind each side, 30 um to 0.4 mm deep, is the nearest
+    of the six layers' rough surfaces (brute force over each layer's patch tops), the hole's
+    floor (a hexagon of triangles, some of them of no area at its centre) and the box's faces,
+    1e-9 mm; the activeness distance to the sides alone is the same. (Before, the last plane's
+    layer alone was measured, and the floor's triangles of no area were at distance 0 from
+    every point.)"""
+    from test_boolean_into_distance import brute_rough
+
+    from score4.world.activeness import target_distances
+
+    data = {
+        "physics": "lite",
+        "world": {"gdml": str(gdml)},
+        "surfaces": {"p": PYRAMIDS},
+        "targets": [
+            {
+                "volume": "hedra",
+                "rough": [{"face": "second.seg_1", "surface": "p", "into": True}],
+                "activeness": [{"fccd": "1 mm", "dlf": 0.5, "faces": ["second.seg_1"]}],
+            }
+        ],
+        "source": {"particle": "geantino", "energy": "1 MeV", "volume": "hedra"},
+        "run": {"events": 1, "seed": 1},
+        "output": {"steps": True},
+    }
+    scene = build_scene(parse_config(data))
+    layers = scene.layers_of("hedra")
+    assert len(layers) == 6
+    (distance,) = [d for d in target_distances(scene) if d is not None]
+    rng = np.random.default_rng(4)
+    n = 120
+    a = np.radians(30.0 + 60.0 * rng.integers(0, 6, n))  # the sides' directions
+    z = rng.uniform(5.5, 9.5, n)  # box frame: the hole from z = 5 mm up through the top
+    apothem = (
+        2.0 + 0.1 * (z - 5.0) + layers[0].thickness * np.sqrt(1.01) + rng.uniform(0.03, 0.4, n)
+    )
+    along = rng.uniform(-0.8, 0.8, n)
+    local = np.column_stack(
+        [apothem * np.cos(a) - along * np.sin(a), apothem * np.sin(a) + along * np.cos(a), z]
+    )
+    world = scene.target("hedra").to_world(local)
+    rough = np.min([brute_rough(layer, world) for layer in layers], axis=0)
+    assert rough.max() < min(layers[0].patch_size)  # the 3 x 3 cells hold the nearest points
+    rho = np.max(np.outer(local[:, 0], np.cos(HEX)) + np.outer(local[:, 1], np.sin(HEX)), axis=1)
+    floor = np.hypot(np.maximum(rho - 2.0, 0.0), z - 5.0)  # the floor: apothem <= 2 mm, z = 5
+    box = np.min(HALF - np.abs(local), axis=1)
+    expected = np.minimum(np.minimum(rough, floor), box)
+    np.testing.assert_allclose(distance.to_surface(world), expected, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(distance.to_faces(("second.seg_1",), world), rough, atol=1e-9)

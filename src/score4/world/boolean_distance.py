@@ -125,12 +125,13 @@ def leaf_face_distance(
 
 class BooleanDistance:
     """Distances of world points to the surface of a ``target`` whose solid is a boolean, with
-    its rough ``layers`` (boolean face name -> layer) measured by ``measure(face)``."""
+    its rough ``layers`` (boolean face name -> its layers: one per plane of a face of several)
+    measured by ``measure(face)``."""
 
     def __init__(
         self,
         target: TargetVolume,
-        layers: dict[str, RoughLayer],
+        layers: dict[str, list[RoughLayer]],
         measure: Callable[[str], Measure],
     ) -> None:
         shape = target.shape
@@ -138,13 +139,13 @@ class BooleanDistance:
         self.target, self.shape = target, shape
         self._kept: dict[tuple[str, ...], KeptFaceDistance] = {}
         self.leaves: dict[str, RoughLeaf] = {}
-        for face, layer in layers.items():
+        for face, on_face in layers.items():
             path, leaf_face = leaf_path(shape, face)
             clip = shape.face_clip(face)
             leaf = self.leaves.setdefault(path, RoughLeaf(clip.leaf, [], [], [], clip.flipped))
             leaf.faces.append(leaf_face)
             leaf.measures.append(_lazy(measure, face))
-            leaf.layers.append(layer)
+            leaf.layers.extend(on_face)
 
     def signed(self, world: np.ndarray) -> np.ndarray:
         """Signed distance (mm, < 0 inside the volume or its patches) of world points."""
