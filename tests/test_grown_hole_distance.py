@@ -49,12 +49,21 @@ def wall_distance(p: np.ndarray, top: float = 15.0) -> np.ndarray:
     return np.hypot(rho - a[0] - s * d[0], z - a[1] - s * d[1])
 
 
+def floor_distance(p: np.ndarray, t: float) -> np.ndarray:
+    """Distance of points (box frame) below the grown floor's level (z = 5 mm - t) to its disk
+    (r 2 mm - 0.1 t); 0 above that level (no bound there)."""
+    rho = np.hypot(p[:, 0], p[:, 1])
+    d = np.hypot(np.maximum(rho - (2.0 - 0.1 * t), 0.0), 5.0 - t - p[:, 2])
+    return np.where(p[:, 2] <= 5.0 - t, d, 0.0)
+
+
 def test_steps_and_activeness_on_a_grown_cone_floor(gdml, tmp_path):
     """Alphas from the pyramids on the hole's floor (into: true: the cone grown 21 um down),
     30 events, seed 13, a 3 um transition layer under the floor and a 1 mm one along the wall:
     each step's dist_to_surf is the nearest of the brute-force rough surface, the box's faces
     and the wall, to 1e-9 mm; steps in the slab under the old floor are in patches; active_edep
-    weights each step by the brute-force distances (1e-9 MeV)."""
+    weights each step by the brute-force distances, the floor's at least the distance to the
+    floor's disk below its level (1e-9 MeV)."""
     import lh5
     from test_boolean_into_distance import brute_rough
 
@@ -119,8 +128,9 @@ def test_steps_and_activeness_on_a_grown_cone_floor(gdml, tmp_path):
     near_wall = wall_distance(p, top=HALF)  # the wall as it is on the box: z = 5 .. 10 mm
     assert (near_wall < 1.0).sum() > 5  # steps the wall's entry weights
     surface = np.minimum(np.minimum(rough, box), wall)
+    floor = np.maximum(rough, floor_distance(p, t))  # the floor's layer lies over its disk
     w = np.minimum(
-        weight(np.maximum(surface, rough), 3e-3, 0.5),
+        weight(np.maximum(surface, floor), 3e-3, 0.5),
         weight(np.maximum(surface, near_wall), 1.0, 0.2),
     )
     again = np.bincount(evtid, weights=edep * w, minlength=res.n_events)
@@ -179,3 +189,46 @@ def test_distances_to_the_six_grown_sides_of_a_polyhedra(gdml):
     expected = np.minimum(np.minimum(rough, floor), box)
     np.testing.assert_allclose(distance.to_surface(world), expected, rtol=0, atol=1e-9)
     np.testing.assert_allclose(distance.to_faces(("second.seg_1",), world), rough, atol=1e-9)
+
+
+def test_activeness_distance_beside_a_grown_floor(gdml):
+    """The activeness distance to the grown cone floor (its layer a square grid over the disk,
+    the cells off the disk flat squares in the copper): beside the floor's column and below its
+    level, the distance to the disk's rim (closed form, 1e-6 mm, the rim's chords), not to the
+    flat squares (up to 0.8 mm nearer); over the disk, the brute-force rough surface."""
+    from test_boolean_into_distance import brute_rough
+
+    from score4.world.activeness import target_distances
+
+    data = {
+        "physics": "lite",
+        "world": {"gdml": str(gdml)},
+        "surfaces": {"p": PYRAMIDS},
+        "targets": [
+            {
+                "volume": "cone",
+                "rough": [{"face": "second.-z", "surface": "p", "into": True}],
+                "activeness": [{"fccd": "1 mm", "dlf": 0.5, "faces": ["second.-z"]}],
+            }
+        ],
+        "source": {"particle": "geantino", "energy": "1 MeV", "volume": "cone"},
+        "run": {"events": 1, "seed": 1},
+    }
+    scene = build_scene(parse_config(data))
+    (distance,) = [d for d in target_distances(scene) if d is not None]
+    layer = scene.layer("cone", "second.-z")
+    t = layer.thickness
+    rng = np.random.default_rng(2)
+    n = 400
+    rho = rng.uniform(0.2, 3.5, n)
+    phi = rng.uniform(0, 2 * np.pi, n)
+    local = np.column_stack(
+        [rho * np.cos(phi), rho * np.sin(phi), 5.0 - t - rng.uniform(0, 0.4, n)]
+    )
+    world = scene.target("cone").to_world(local)
+    got = distance.to_faces(("second.-z",), world)
+    beside = rho > 2.0 - 0.1 * t
+    assert beside.sum() > 100
+    np.testing.assert_allclose(got[beside], floor_distance(local, t)[beside], rtol=0, atol=1e-6)
+    np.testing.assert_allclose(got[~beside], brute_rough(layer, world[~beside]), atol=1e-9)
+    assert (brute_rough(layer, world[beside]) < got[beside] - 0.1).sum() > 20  # the old bound

@@ -20,7 +20,9 @@ surface (everywhere inside a box less a tube along an axis, or a cylinder with a
 The distance to some faces of a boolean (activeness ``faces``) is the larger of the distance to
 the whole surface and the distance to the listed faces: a smooth face as it is on the boolean
 (the part the other constituents keep, :class:`score4.world.kept_face_distance.KeptFaceDistance`:
-exact to its ``TOLERANCE``), a rough face by its whole layer's rough surface (a lower bound where
+exact to its ``TOLERANCE``), a rough face by its whole layer's rough surface, raised below the
+layer's level to the distance to the face as it is on the boolean there (:meth:`_beside`: a
+lower bound, exact beside the face's column, off by at most the patches' height over it where
 the layer's flat cells reach off the boolean's surface).
 
 With ``into`` a rough face's layer lies on the cut face, so its rough surface is measured there;
@@ -138,6 +140,8 @@ class BooleanDistance:
         assert isinstance(shape, BooleanShape)
         self.target, self.shape = target, shape
         self._kept: dict[tuple[str, ...], KeptFaceDistance] = {}
+        self._layers = layers
+        self._level: dict[str, KeptFaceDistance] = {}
         self.leaves: dict[str, RoughLeaf] = {}
         for face, on_face in layers.items():
             path, leaf_face = leaf_path(shape, face)
@@ -174,8 +178,32 @@ class BooleanDistance:
         d = self.kept_faces(smooth)(local) if smooth else np.full(len(world), np.inf)
         for f in faces:
             if f in self._rough_faces:
-                d = np.minimum(d, rough(f)(world))
+                d = np.minimum(d, self._beside(f, world, local, rough(f)(world)))
         return np.where(whole > 0, np.maximum(whole, d), 0.0)
+
+    def _beside(self, face: str, world: np.ndarray, local: np.ndarray, d: np.ndarray) -> np.ndarray:
+        """The distance ``d`` to the rough ``face`` (its whole layer's rough surface, the flat
+        cells off the boolean included) raised, at points below the layer's level, to the
+        distance to the face as it is on the boolean at that level (the cut face with ``into``):
+        the layer's patches and flat rest lie over that face, at or above its level, so no point
+        of the rough surface is nearer. Exact beside the face's column; over it, off by at most
+        the patches' height where a flat cell off the boolean is nearer than a patch. A face of
+        several planes or a curved one keeps ``d``."""
+        layers = self._layers[face]
+        layer = layers[0]
+        if len(layers) != 1 or layer.curved:
+            return d
+        below = layer.frame.to_local(world)[:, 2] <= 0
+        if not below.any():
+            return d
+        if face not in self._level:  # the layer's boolean: cut behind the face for into
+            on = layer.on_boolean
+            assert on is not None
+            assert isinstance(on.shape, BooleanShape)
+            self._level[face] = KeptFaceDistance(on.shape, (face,))
+        out = d.copy()
+        out[below] = np.maximum(d[below], self._level[face](local[below]))
+        return out
 
     def kept_faces(self, faces: tuple[str, ...]) -> KeptFaceDistance:
         """The exact distance to the smooth ``faces`` as they are on the boolean (built once per
