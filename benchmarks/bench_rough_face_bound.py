@@ -64,6 +64,8 @@ def main() -> None:
         (distance,) = [d for d in target_distances(scene) if d is not None]
         layer = scene.layer("cone", "second.-z")
         target = scene.target("cone")
+        assert layer is not None
+        assert target.shape is not None
         t = layer.thickness
         rng = np.random.default_rng(1)
         n = args.points

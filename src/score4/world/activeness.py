@@ -82,7 +82,7 @@ class TargetDistance:
         """The distance to the rough surface of ``face`` (a face with a rough layer; of several
         planes, each with its layer: the nearest of them)."""
         if face not in self._measures:
-            measures = [
+            measures: list[Measure] = [
                 CurvedRoughSurfaceDistance(layer)  # type: ignore[arg-type]
                 if layer.curved
                 else RoughSurfaceDistance(layer)
