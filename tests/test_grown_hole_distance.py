@@ -61,9 +61,9 @@ def test_steps_and_activeness_on_a_grown_cone_floor(gdml, tmp_path):
     """Alphas from the pyramids on the hole's floor (into: true: the cone grown 21 um down),
     30 events, seed 13, a 3 um transition layer under the floor and a 1 mm one along the wall:
     each step's dist_to_surf is the nearest of the brute-force rough surface, the box's faces
-    and the wall, to 1e-9 mm; steps in the slab under the old floor are in patches; active_edep
-    weights each step by the brute-force distances, the floor's at least the distance to the
-    floor's disk below its level (1e-9 MeV)."""
+    and the wall, to 1e-9 mm (the rough surface below the floor's level at least as far as the
+    floor's disk); steps in the slab under the old floor are in patches; active_edep weights
+    each step by the brute-force distances (1e-9 MeV)."""
     import lh5
     from test_boolean_into_distance import brute_rough
 
@@ -114,7 +114,9 @@ def test_steps_and_activeness_on_a_grown_cone_floor(gdml, tmp_path):
     slab = (p[:, 2] > 5.0 - t) & (p[:, 2] < 5.0) & (rho < 2.0 - 0.1 * t)
     assert slab.sum() > 20
     assert in_patch[slab].all()  # the grown cone under the old floor: vacuum but for patches
-    rough = brute_rough(layer, world)
+    # the floor's layer lies over its disk: below its level no nearer than the disk (its flat
+    # cells beside the disk's column are not surface)
+    rough = np.maximum(brute_rough(layer, world), floor_distance(p, t))
     box = np.min(HALF - np.abs(p), axis=1)
     wall = wall_distance(p)
     # the 3 x 3 cells hold every point of the rough surface nearer than a cell's width; steps
@@ -128,9 +130,8 @@ def test_steps_and_activeness_on_a_grown_cone_floor(gdml, tmp_path):
     near_wall = wall_distance(p, top=HALF)  # the wall as it is on the box: z = 5 .. 10 mm
     assert (near_wall < 1.0).sum() > 5  # steps the wall's entry weights
     surface = np.minimum(np.minimum(rough, box), wall)
-    floor = np.maximum(rough, floor_distance(p, t))  # the floor's layer lies over its disk
     w = np.minimum(
-        weight(np.maximum(surface, floor), 3e-3, 0.5),
+        weight(np.maximum(surface, rough), 3e-3, 0.5),
         weight(np.maximum(surface, near_wall), 1.0, 0.2),
     )
     again = np.bincount(evtid, weights=edep * w, minlength=res.n_events)
@@ -192,10 +193,11 @@ def test_distances_to_the_six_grown_sides_of_a_polyhedra(gdml):
 
 
 def test_activeness_distance_beside_a_grown_floor(gdml):
-    """The activeness distance to the grown cone floor (its layer a square grid over the disk,
-    the cells off the disk flat squares in the copper): beside the floor's column and below its
-    level, the distance to the disk's rim (closed form, 1e-6 mm, the rim's chords), not to the
-    flat squares (up to 0.8 mm nearer); over the disk, the brute-force rough surface."""
+    """The activeness distance to the grown cone floor and the whole surface's (its layer a
+    square grid over the disk, the cells off the disk flat squares in the copper): beside the
+    floor's column and below its level, the distance to the disk's rim (closed form, 1e-6 mm,
+    the rim's chords), not to the flat squares (up to 0.8 mm nearer), or to the wall or box
+    if nearer; over the disk, the brute-force rough surface."""
     from test_boolean_into_distance import brute_rough
 
     from score4.world.activeness import target_distances
@@ -231,4 +233,9 @@ def test_activeness_distance_beside_a_grown_floor(gdml):
     assert beside.sum() > 100
     np.testing.assert_allclose(got[beside], floor_distance(local, t)[beside], rtol=0, atol=1e-6)
     np.testing.assert_allclose(got[~beside], brute_rough(layer, world[~beside]), atol=1e-9)
+    others = np.minimum(np.min(HALF - np.abs(local), axis=1), wall_distance(local))
+    expected = np.minimum(floor_distance(local, t), others)
+    np.testing.assert_allclose(
+        distance.to_surface(world)[beside], expected[beside], rtol=0, atol=1e-6
+    )
     assert (brute_rough(layer, world[beside]) < got[beside] - 0.1).sum() > 20  # the old bound

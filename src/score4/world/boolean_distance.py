@@ -11,7 +11,10 @@ that leaf: its distance becomes the smaller of the exact distance to its other f
 wall or a bore), and a point in a patch is in the leaf (outside it for a subtracted leaf, whose
 patches lie in the hole). The boolean combines the leaves as before (:func:`rough_signed`). The
 cells that are not kept count as the leaf's flat face, so the boolean's own cut decides, as for
-a smooth face, where that face is part of the surface.
+a smooth face, where that face is part of the surface. Where a face's one flat layer reaches
+past the face (a square grid over a round floor), its flat cells there are not the leaf's face:
+below the layer's level the rough surface's distance is raised to the face's own
+(:func:`below_level`), exact beside the face's column.
 
 Like the smooth boolean's, the result is a lower bound of the true distance to the surface,
 exact where the nearest point of the nearest constituent's surface lies on the boolean's
@@ -34,7 +37,7 @@ the layer lies in.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -64,6 +67,8 @@ class RoughLeaf:
     measures: list[Measure]
     layers: list[RoughLayer]
     flipped: bool
+    #: per rough face, its one flat layer (None: several, or curved), for :func:`below_level`
+    levels: list[RoughLayer | None] = field(default_factory=list)
 
     def signed(self, local: np.ndarray, world: np.ndarray) -> np.ndarray:
         """The rough leaf's signed distance at points ``local`` (leaf frame; ``world``: the same
@@ -71,14 +76,32 @@ class RoughLeaf:
 
         others = tuple(f for f in self.leaf.faces if f not in self.faces)
         d = face_distance(self.leaf, others, local) if others else np.full(len(local), np.inf)
-        for measure in self.measures:
-            d = np.minimum(d, measure(world))
+        for measure, level in zip(self.measures, self.levels, strict=True):
+            m = measure(world)
+            if level is not None:
+                below = level.frame.to_local(world)[:, 2] <= 0
+                if below.any():
+                    m[below] = np.maximum(m[below], below_level(level, world[below]))
+            d = np.minimum(d, m)
         inside = self.leaf.signed_distance(local) <= 0
         in_patch = np.zeros(len(world), dtype=bool)
         for layer in self.layers:
             in_patch |= layer.contains(world)
         inside = inside & ~in_patch if self.flipped else inside | in_patch
         return np.where(inside, -d, d)
+
+
+def below_level(layer: RoughLayer, world: np.ndarray) -> np.ndarray:
+    """Distance of world points to the face of the leaf the flat ``layer`` lies on, at the
+    layer's level (the leaf cut behind it with ``into``), whole: at points below that level no
+    point of the layer's rough surface on the leaf is nearer (its patches and flat rest lie over
+    that face, at or above the level), so the rough surface's distance is raised to it there;
+    exact beside the face's column, where the layer's flat cells reach past the face."""
+    on = layer.on_boolean
+    assert on is not None
+    clip = on.clip
+    local = clip.transform.inverse_apply(on.transform.inverse_apply(world))
+    return face_distance(clip.leaf, (clip.face,), local)
 
 
 def leaf_path(shape: BooleanShape, face: str) -> tuple[str, str]:
@@ -150,6 +173,8 @@ class BooleanDistance:
             leaf.faces.append(leaf_face)
             leaf.measures.append(_lazy(measure, face))
             leaf.layers.extend(on_face)
+            flat = len(on_face) == 1 and not on_face[0].curved
+            leaf.levels.append(on_face[0] if flat else None)
 
     def signed(self, world: np.ndarray) -> np.ndarray:
         """Signed distance (mm, < 0 inside the volume or its patches) of world points."""
