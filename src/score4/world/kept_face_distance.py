@@ -37,6 +37,9 @@ whose margins do not prove it).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from functools import partial
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -75,10 +78,10 @@ def segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def kept(
-    shape: BooleanShape, clip: FaceClip, x: np.ndarray, normal: np.ndarray
+    shape: BooleanShape, clip: FaceClip, x: np.ndarray, normal: Callable[[np.ndarray], np.ndarray]
 ) -> tuple[np.ndarray, np.ndarray]:
     """The margins of points ``x`` (boolean frame) on the leaf's face, whose outward normals
-    there are ``normal`` (leaf frame), and whether they are on the boolean's surface: the
+    there are ``normal(rows)`` (leaf frame), and whether they are on the boolean's surface: the
     margin says so where it is not zero; where it is (the point lies on another constituent's
     surface) a hair along the boolean's outward normal must be outside the boolean and a hair
     against it inside."""
@@ -86,8 +89,7 @@ def kept(
     out = margin > ON_SURFACE
     on = np.flatnonzero(np.abs(margin) <= ON_SURFACE)
     if len(on):
-        n = np.broadcast_to(normal, x.shape)[on]
-        n = clip.transform.apply_vectors(n) * (-1.0 if clip.flipped else 1.0)
+        n = clip.transform.apply_vectors(normal(on)) * (-1.0 if clip.flipped else 1.0)
         p = x[on]
         out[on] = (shape.inside(p + PROBE * n) == OUTSIDE) & (shape.inside(p - PROBE * n) == INSIDE)
     return margin, out
@@ -289,7 +291,7 @@ class _Rim:
     def _state(self, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The margins at parameters ``uv`` and whether those points are kept."""
         x = _apply(self.clip.transform, self.map.point(uv))
-        return kept(self.shape, self.clip, x, self.map.normal(uv))
+        return kept(self.shape, self.clip, x, lambda rows: self.map.normal(uv[rows]))
 
     def _kept(self, uv: np.ndarray) -> np.ndarray:
         return self._state(uv)[1]
@@ -406,6 +408,10 @@ def arc_distance(p: np.ndarray, rho: float, z: float, phi: float, dphi: float) -
     return np.where(on, np.hypot(r - rho, p[:, 2] - z), np.minimum(*ends))
 
 
+def _rows(f: Callable[[np.ndarray], np.ndarray], x: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    return f(x[rows])
+
+
 def _apply(t: Transform, x: np.ndarray) -> np.ndarray:
     """``t.apply(x)``, without the product for a shift (most constituents)."""
     if np.array_equal(t.rotation, np.eye(3)):
@@ -484,7 +490,8 @@ class KeptFaceDistance:
         lost = np.zeros(len(p), dtype=bool)  # a patch's nearest point is cut away
         for clip, m in self.patches:
             d, q = m.nearest(clip.transform.inverse_apply(p))
-            on = kept(self.shape, clip, _apply(clip.transform, q), m.normal_at(q))[1]
+            normal = partial(_rows, m.normal_at, q)
+            on = kept(self.shape, clip, _apply(clip.transform, q), normal)[1]
             best = np.where(on, np.minimum(best, d), best)
             lost |= ~on
         rows = np.flatnonzero(lost)
