@@ -206,8 +206,10 @@ def test_dense_blocks_of_a_large_simplified_map_are_cut_in_two(monkeypatch):
             mid = (j0 + j1) // 2
             crossing = (fj[rows].min(1) < mid) & (fj[rows].max(1) > mid)
         assert crossing.any() or max(i1 - i0, j1 - j0) < 2
-    assert (fi.min(1) >= rects[block, 0]).all() and (fi.max(1) <= rects[block, 1]).all()
-    assert (fj.min(1) >= rects[block, 2]).all() and (fj.max(1) <= rects[block, 3]).all()
+    assert (fi.min(1) >= rects[block, 0]).all()
+    assert (fi.max(1) <= rects[block, 1]).all()
+    assert (fj.min(1) >= rects[block, 2]).all()
+    assert (fj.max(1) <= rects[block, 3]).all()
     bodies = blk.block_bodies(surface, 1e-3)
     assert len(bodies) == len(rects)
     assert all(is_watertight(b) for b in bodies)
