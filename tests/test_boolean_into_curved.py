@@ -27,10 +27,10 @@ from score4.world.scene import CurvedRoughLayer
 
 from helpers.boolean_worlds import copper_world_text
 from helpers.g4_geometry_check import assert_no_overlaps
-from helpers.geantinos import geantino_run
+from helpers.geantinos import geantino_config, geantino_run
 from helpers.ray_trace import mesh_path, revolved_path, wall_patches_near
 
-# one worker per module: its boolean solids' face areas are estimated once (cold: ~10-30 s)
+# one worker per module: its world is written and its boolean face areas estimated once
 pytestmark = pytest.mark.xdist_group("into-curved")
 
 #: 0.5 mm patches of 5 x 5 pyramids, 20 um high (the post, r 7 mm)
@@ -115,22 +115,14 @@ CASES = {
 
 
 def config(gdml: Path, rough: dict[str, list[str]], **extra) -> dict:
-    return {
-        "physics": "lite",
-        "world": {"gdml": str(gdml)},
-        "surfaces": {v: CASES[v][1] for v in rough},
-        "targets": [
-            {"volume": v, "rough": [{"face": f, "surface": v, "into": True} for f in faces]}
-            for v, faces in rough.items()
-        ],
-        "source": {
-            "particle": "geantino",
-            "energy": "1 MeV",
-            "surface": {"volume": next(iter(rough)), "face": next(iter(rough.values()))[0]},
-        },
-        "run": {"events": 10, "seed": 3},
-        **extra,
-    }
+    volume, faces = next(iter(rough.items()))
+    targets = [
+        {"volume": v, "rough": [{"face": f, "surface": v, "into": True} for f in fs]}
+        for v, fs in rough.items()
+    ]
+    return geantino_config(
+        gdml, {v: CASES[v][1] for v in rough}, targets, (volume, faces[0]), **extra
+    )
 
 
 def _one(gdml: Path, volume: str, **extra) -> dict:
@@ -446,19 +438,23 @@ def test_into_curved_faces_of_booleans_pass_the_overlap_check(gdml, tmp_path):
             "targets.0.rough.1: into: true on face first.phi_end of 'pie'",
         ),
         (
-            "stack",
-            ["second.outer", "second.+z"],
+            "pie",
+            ["first.outer", "second.+z"],
             (
-                "targets.0.rough: into: true on faces second.outer and second.+z of 'stack', "
-                "faces of one G4Tubs of the boolean that share an edge (the circle r = 7 mm at "
-                "z = 5 mm"
+                "targets.0.rough: into: true on faces second.+z and first.outer of 'pie': the "
+                "part first of the union stands on face second.+z and grows down into its cut, "
+                "and score4 cuts a face of such a part that meets its foot only on a G4Tubs, "
+                "G4Cons or polycone with a full circle"
             ),
         ),
     ],
 )
 def test_into_where_a_boolean_still_refuses_it(gdml, volume, faces, message):
-    """A tube's phi face (alone or with its wall) and two faces of one constituent that share
-    an edge: one line naming the faces and the rule, before anything is built."""
+    """A tube's phi face (alone or with its wall), and the wall of a tube with a phi segment
+    with the plate's top it stands on (the wall's cut and the tube's growth down into the
+    plate's cut meet at its foot, which score4 cuts together on a full circle only,
+    tests/test_boolean_into_joint.py): one line naming the faces and the rule, before anything
+    is built."""
     with pytest.raises(ConfigError) as err:
         build_scene(parse_config(config(gdml, {volume: faces})))
     assert str(err.value).startswith(message)

@@ -328,16 +328,22 @@ def _cells_in_pieces(layer, cells: list, tol: float) -> list[str]:
     """The cells of a curved layer whose envelope is in pieces (a face a boolean's other parts
     cut, :attr:`~score4.world.scene.CurvedRoughLayer.pieces`) that do not lie wholly in one
     piece's azimuth and generator ranges (a cylinder's cell spans its ring's band; a cone's
-    cell the generator range whose z planes hold its corners, :func:`_cell_corners`)."""
+    cell the generator range whose z planes hold its corners, :func:`_cell_corners`; a sphere's
+    cell its ring's band and half the rows' gap beyond)."""
     if layer.pieces is None:
         return []
+    from score4.shapes.faces import SphereFace
+
     lay = layer.ring_layout
     py = lay.patch_size[1]
-    cone = not layer.is_cylinder
+    sphere = isinstance(lay.face, SphereFace)
+    cone = not layer.is_cylinder and not sphere
     out = 0
     for j, _, _, phi in cells:
         step, r = float(lay.step[j]), float(lay.radius[j]) + layer.thickness
         lo_v, hi_v = float(lay.v[j]) - py / 2, float(lay.v[j]) + py / 2
+        if sphere:  # the G4Sphere cell's polar-angle cones, half the rows' gap beyond the patch
+            lo_v, hi_v = lo_v - lay.row_gap / 2, hi_v + lay.row_gap / 2
         if cone:  # the corners' z as generator arc length of the face
             v = (_cell_corners(layer, j)[:, 2] - lay.face._mid[1]) / lay.face._tangent[1]
             lo_v, hi_v = float(v.min()), float(v.max())

@@ -52,12 +52,14 @@ def _tri_distance(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
     """(n, m) exact distances of points (n, 3) to triangles (m, 3, 3)."""
     a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
     n = np.cross(b - a, c - a)
-    n2 = np.maximum(np.einsum("ij,ij->i", n, n), 1e-300)
+    n2 = np.einsum("ij,ij->i", n, n)
+    has_area = n2 > 0  # a triangle of no area (two corners alike): measured by its edges only
+    n2 = np.maximum(n2, 1e-300)
     w = p[:, None, :] - a[None]
     h = np.einsum("nmk,mk->nm", w, n) / np.sqrt(n2)
     # barycentric test of the projection
     q = p[:, None, :] - h[..., None] * (n / np.sqrt(n2)[:, None])[None]
-    inside = np.ones(h.shape, dtype=bool)
+    inside = np.broadcast_to(has_area, h.shape).copy()
     for u, v in ((a, b), (b, c), (c, a)):
         inside &= np.einsum("nmk,mk->nm", np.cross(v - u, q - u[None]), n) >= 0
     best = np.where(inside, np.abs(h), np.inf)

@@ -41,9 +41,11 @@ their flat rest as one (:class:`score4.source.build.PlanesRemainderSampler`).
 Refused, in one line each (:mod:`score4.world.boolean_modes` says why): ``into: true`` on the
 faces of a subtracted solid other than its flat faces (a G4Box, G4Tubs, G4Cons, polycone, G4Trd
 or G4Polyhedra), the walls of a G4Tubs or G4Cons (bores) and the sphere faces of a G4Orb or
-G4Sphere, on phi faces, and on two faces of one constituent not subtracted that share an edge,
-``tiling: portal``, ``native_layout: replicas`` where a cell holds no patch (and on a layer whose
-envelope is the prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs or
+G4Sphere, on phi faces, and on two faces that share an edge of one constituent with a phi
+segment or of a part grown down under another layer that is not swept straight up from its foot
+(where they can be, they are cut together: :func:`into_joint`), ``tiling: portal``,
+``native_layout: replicas`` where a cell holds no patch (and on a layer whose envelope is the
+prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs or
 G4Cons wall or a sphere face (a G4Sphere's theta cones, a polycone's walls); a curved layer
 whose envelope, even in pieces, runs into the solid itself (another part of a union), a flat one
 that keeps no cell clear of the other parts.
@@ -60,13 +62,33 @@ import numpy as np
 
 from score4.errors import ConfigError
 from score4.inputs.config import RoughFace
-from score4.shapes import BooleanShape, G4Box, G4Cons, G4Orb, G4Sphere, G4Tubs, Shape, Transform
+from score4.shapes import (
+    BooleanShape,
+    G4Box,
+    G4Cons,
+    G4Orb,
+    G4Sphere,
+    G4Tubs,
+    PlacedShape,
+    Shape,
+    Transform,
+)
 from score4.shapes.base import INSIDE
 from score4.shapes.boolean import FaceClip
 from score4.shapes.faces import AnnulusFace, RevolvedFace, SphereFace
 from score4.surface.rough import Surface
 
-from .boolean_modes import check_modes, check_replicas, cut_face, flat_face, into_depth
+from .boolean_distance import leaf_path
+from .boolean_modes import (
+    boolean_cuts,
+    check_modes,
+    check_replicas,
+    cut_boolean,
+    cut_face,
+    flat_face,
+    into_depth,
+    joint_leaves,
+)
 from .curved import RingLayout, cone_cell
 from .facets import ccw, cells_inside, face_triangles, plane_face, plane_groups
 from .scene import (
@@ -76,7 +98,9 @@ from .scene import (
     PolygonRoughLayer,
     RingRoughLayer,
     RoughLayer,
+    Scene,
     TargetVolume,
+    joint_layout,
     make_layer,
     make_polygon_layer,
     ring_cells,
@@ -183,11 +207,14 @@ def _on_boolean(
     clip: FaceClip,
     placed: Transform,
     where: str,
+    joint: BooleanShape | None = None,
 ) -> list[RoughLayer]:
     """The layers laid out on the leaf's face (``layers``: one, or one per plane of a face of
     several planes), turned to the boolean's side, with only the cells proven on the boolean's
     surface kept (:func:`kept_cells`); a plane of a face of several planes with no such cell is
-    left out (flat). Each layer's rough share is its cells' area over the boolean face's."""
+    left out (flat). Each layer's rough share is its cells' area over the boolean face's.
+    With ``into`` the boolean is cut for this layer alone (:func:`cut_face`), or given cut for
+    all its layers (``joint``, :func:`into_joint`)."""
     shape = target.shape
     assert isinstance(shape, BooleanShape)
     name, what = rough.face_name, _what(target, rough)
@@ -199,7 +226,10 @@ def _on_boolean(
             if rough.into:  # the subtracted solid grows: the base lies beyond its old face
                 layer.frame = layer.frame.shifted(-layer.thickness)
         on, cut = base, clip
-        if rough.into:  # the face cut behind by the layer's thickness (boolean_modes)
+        if rough.into and joint is not None:
+            on = BooleanFace(joint, name, joint.face_clip(name), target.transform)
+            cut = on.clip
+        elif rough.into:  # the face cut behind by the layer's thickness (boolean_modes)
             on = cut_face(base, into_depth(layer, clip.flipped), f"{where}: into: true on {what}")
             cut = on.clip
         kept = kept_cells(layer, cut, on, placed)
@@ -237,6 +267,50 @@ def _on_boolean(
     return out
 
 
+def into_joint(scene: Scene, target: TargetVolume, where: str) -> None:
+    """``into`` layers on faces of one constituent of a boolean ``target`` that share an edge
+    (:func:`~score4.world.boolean_modes.joint_leaves`: a post's wall and top, or its wall and
+    the disk's top it stands on), laid out again on their joint cut: on each such constituent
+    as on a plain solid (:func:`~score4.world.scene.joint_layout`: a wall's layer ends where its
+    neighbours' cuts meet it, down to the foot grown into the cut under it; a ring's cells and
+    flat rest within the joint cut's face), and every layer on or under such a constituent on
+    the boolean cut for all the target's layers (the solid Geant4 gets,
+    :func:`~score4.world.boolean_modes.boolean_cuts`). Errors start with ``where``."""
+    shape = target.shape
+    if not isinstance(shape, BooleanShape):
+        return
+    layers = [r for r in scene.layers_of(target.name) if r.config.into]
+    joint, involved = joint_leaves(layers, target, where)
+    if not joint:
+        return
+    cuts = boolean_cuts(layers, shape)
+    made: dict[str, tuple[FaceClip, TargetVolume, Transform, list[RoughLayer]]] = {}
+    for face in involved:  # the leaf's layers made anew (as target_layers makes them)
+        rough = next(r.config for r in layers if r.config.face_name == face)
+        clip, leaf_target, leaf_rough, placed = _leaf(target, rough, where)
+        fresh = target_layers(scene.surfaces, leaf_target, 0, leaf_rough, where)
+        made[face] = (clip, leaf_target, placed, fresh)
+    for path, feet in joint.items():
+        own = {f: made[f] for f in involved if leaf_path(shape, f)[0] == path}
+        leaf_target = next(iter(own.values()))[1]
+        by_face = {f[len(path) :]: m[3][0] for f, m in own.items()}
+        laid = joint_layout(leaf_target, by_face, where, feet)
+        for f, m in own.items():
+            layer = laid[f[len(path) :]]
+            m[3][0] = layer
+            cuts[f] = into_depth(layer, False)
+    cut = cut_boolean(shape, cuts)
+    for face in involved:  # on the boolean's side, their cells kept on the joint cut
+        clip, _leaf_target, placed, fresh = made[face]
+        old = [
+            r for r in scene.layers if r.target.name == target.name and r.config.face_name == face
+        ]
+        new = _on_boolean(fresh, target, old[0].config, clip, placed, where, cut)
+        at = scene.layers.index(old[0])
+        scene.layers[:] = [r for r in scene.layers if not any(r is o for o in old)]
+        scene.layers[at:at] = new
+
+
 def _in_grown_slab(
     layer: RoughLayer, clip: FaceClip, on: BooleanFace, to_world: Transform
 ) -> np.ndarray:
@@ -269,29 +343,95 @@ def _in_grown_slab(
 
 
 def envelope_pieces(layer: CurvedRoughLayer) -> list[tuple[float, float, float, float]] | None:
-    """The pieces ``(phi0, dphi, v0, v1)`` of the envelope of a cylinder or cone wall whose kept
-    cells leave part of the face flat (:attr:`CurvedRoughLayer.pieces`), or None where the
-    face's whole shell is needed (every azimuth and every ring holds a kept cell, or a sphere).
+    """The pieces ``(phi0, dphi, v0, v1)`` of the envelope of a cylinder, cone or sphere face
+    whose kept cells leave part of the face flat (:attr:`CurvedRoughLayer.pieces`), or None
+    where the face's whole shell is needed (every azimuth and every ring holds a kept cell; on
+    a sphere, every cell is kept).
 
     Azimuths: the union over the rings of the kept cells' azimuth ranges; a run of cells that
     starts (ends) at a ring's first (last) cell reaches the face's phi edge (the flat rest of
     less than a cell that the rings leave there), so a fully kept ring covers the whole face
-    (and, on a full circle, runs join across the seam). Along the generator, on a cylinder
-    only: rings without a kept cell split the envelope, each piece ending on its outer rings'
-    edges (or the face's end beyond its first or last ring). On a cone a ring's cells reach
-    beyond its band (:func:`~score4.world.curved.cone_cell`: the corners moved out along the
-    slanted normal), so each kept ring is bounded along the generator by its cells' own z range
-    (:func:`cone_ring_span`); kept rings whose spans do not meet split the envelope, and a piece
-    ends where its outer rings' cells end (at the face's end where that ring is its first or
-    last)."""
+    (and, on a full circle, runs join across the seam). Along the generator: rings without a
+    kept cell split the envelope. A piece ends on its outer rings' edges, or at the face's end
+    where that ring is the face's first or last ring (on a sphere never). On a cylinder a
+    ring's cells fill its band (half the rows' gap beyond the patch on each side). On a cone a
+    ring's cells reach beyond its band (:func:`~score4.world.curved.cone_cell`: the corners
+    moved out along the slanted normal), so each kept ring is bounded along the generator by
+    its cells' own z range (:func:`cone_ring_span`); kept rings whose spans do not meet split
+    the envelope, and a piece ends where its outer rings' cells end.
+
+    On a sphere (:func:`sphere_pieces`) a piece is a G4Sphere segment: neighbouring rings'
+    cells have their own azimuth grids (their steps differ), so a piece holds either a run of
+    rings whose kept cells cover the same azimuths (whole rings, or runs reaching the face's
+    phi edges) or one ring's run of kept cells, exactly: no piece covers a cell that is not
+    kept (a sister standing where the face is cut away, another part of a union beside it)."""
     lay = layer.ring_layout
     face = lay.face
-    if not isinstance(face, RevolvedFace):
-        return None
-    kept = layer.cell_variants >= 0
+    has = np.asarray((layer.cell_variants >= 0).any(axis=1), dtype=bool)
+    if isinstance(face, SphereFace):
+        held = np.flatnonzero(lay.count > 0)  # (the rings at the poles hold none)
+        if all((layer.cell_variants[j, : lay.count[j]] >= 0).all() for j in held):
+            return None  # nothing of the face is cut: its whole zone
+        return sphere_pieces(layer, has) or None
+    pieces = _wall_pieces(layer, has)
+    (_, _), (fv0, fv1) = face.extent
+    if len(pieces) == 1:
+        _phi0, dphi, v0, v1 = pieces[0]
+        if dphi >= face.dphi - 1e-12 and v0 == fv0 and v1 == fv1:
+            return None
+    return pieces or None
+
+
+def _ring_spans(layer: CurvedRoughLayer, j: int) -> list[tuple[float, float]]:
+    """Azimuth ranges (from the face's phi0, in [0, dphi]) of ring ``j``'s runs of kept cells;
+    a run starting (ending) at the ring's first (last) cell reaches the face's phi edge."""
+    lay = layer.ring_layout
+    face = lay.face
+    n = int(lay.count[j])
+    cols = np.flatnonzero(layer.cell_variants[j, :n] >= 0)
+    if not len(cols):
+        return []
+    phi = lay.cell_phi(j)
+    step = float(lay.step[j])
+    breaks = np.flatnonzero(np.diff(cols) > 1)
+    spans = []
+    for a, b in zip(
+        np.concatenate([[0], breaks + 1]), np.concatenate([breaks, [len(cols) - 1]]), strict=True
+    ):
+        lo = 0.0 if cols[a] == 0 else float(phi[cols[a]]) - step / 2 - face.phi0
+        hi = face.dphi if cols[b] == n - 1 else float(phi[cols[b]]) + step / 2 - face.phi0
+        spans.append((lo, hi))
+    return spans
+
+
+def _merged(face, spans: list[tuple[float, float]]) -> list[list[float]]:
+    """Azimuth ranges (from the face's phi0) merged where they meet; on a full circle, the
+    ranges at both phi edges joined across the seam."""
+    merged: list[list[float]] = []
+    for lo, hi in sorted(spans):
+        if merged and lo <= merged[-1][1] + 1e-12:
+            merged[-1][1] = max(merged[-1][1], hi)
+        else:
+            merged.append([lo, hi])
+    if (
+        face.dphi >= 2 * np.pi - 1e-9
+        and len(merged) > 1
+        and merged[0][0] <= 1e-12
+        and merged[-1][1] >= face.dphi - 1e-12
+    ):
+        last = merged.pop()  # joined across the seam
+        merged[0] = [last[0] - face.dphi, merged[0][1]]
+    return merged
+
+
+def _wall_pieces(
+    layer: CurvedRoughLayer, has: np.ndarray
+) -> list[tuple[float, float, float, float]]:
+    """:func:`envelope_pieces` of a cylinder or cone wall."""
+    lay = layer.ring_layout
+    face = lay.face
+    assert isinstance(face, RevolvedFace)
     nrings = len(lay.v)
-    full = face.dphi >= 2 * np.pi - 1e-9
-    has = np.asarray(kept.any(axis=1), dtype=bool)
     if abs(float(face.nrz[1])) <= 1e-12:  # a cylinder: rings without a kept cell split it
         runs, j = [], 0
         while j < nrings:
@@ -317,51 +457,51 @@ def envelope_pieces(layer: CurvedRoughLayer) -> list[tuple[float, float, float, 
     half = 0.5 * (lay.patch_size[1] + lay.row_gap)
     pieces: list[tuple[float, float, float, float]] = []
     for j0, j1 in runs:
-        if span is None:  # the first and last runs reach the face's ends
-            v0 = fv0 if not has[:j0].any() else float(lay.v[j0]) - half
-            v1 = fv1 if not has[j1 + 1 :].any() else float(lay.v[j1]) + half
+        if span is None:  # the outer rings' bands (the face's ends beyond its end rings)
+            v0 = fv0 if j0 == 0 else float(lay.v[j0]) - half
+            v1 = fv1 if j1 == nrings - 1 else float(lay.v[j1]) + half
         else:  # the outer rings' cells' ends (the face's ends beyond the first and last ring)
             v0 = fv0 if j0 == 0 else float(np.nanmin(span[j0 : j1 + 1, 0]))
             v1 = fv1 if j1 == nrings - 1 else float(np.nanmax(span[j0 : j1 + 1, 1]))
-        spans: list[tuple[float, float]] = []  # azimuth ranges from phi0, in [0, dphi]
-        for j in range(j0, j1 + 1):
-            n = int(lay.count[j])
-            cols = np.flatnonzero(kept[j, :n])
-            if not len(cols):
-                continue
-            phi = lay.cell_phi(j)
-            step = float(lay.step[j])
-            breaks = np.flatnonzero(np.diff(cols) > 1)
-            for a, b in zip(
-                np.concatenate([[0], breaks + 1]),
-                np.concatenate([breaks, [len(cols) - 1]]),
-                strict=True,
-            ):
-                lo = 0.0 if cols[a] == 0 else float(phi[cols[a]]) - step / 2 - face.phi0
-                hi = face.dphi if cols[b] == n - 1 else float(phi[cols[b]]) + step / 2 - face.phi0
-                spans.append((lo, hi))
-        spans.sort()
-        merged: list[list[float]] = []
-        for lo, hi in spans:
-            if merged and lo <= merged[-1][1] + 1e-12:
-                merged[-1][1] = max(merged[-1][1], hi)
-            else:
-                merged.append([lo, hi])
-        if (
-            full
-            and len(merged) > 1
-            and merged[0][0] <= 1e-12
-            and merged[-1][1] >= face.dphi - 1e-12
-        ):
-            last = merged.pop()  # joined across the seam
-            merged[0] = [last[0] - face.dphi, merged[0][1]]
-        for lo, hi in merged:
+        spans = [s for j in range(j0, j1 + 1) for s in _ring_spans(layer, j)]
+        for lo, hi in _merged(face, spans):
             pieces.append((face.phi0 + lo, min(hi - lo, 2 * np.pi), v0, v1))
-    if len(pieces) == 1:
-        _phi0, dphi, v0, v1 = pieces[0]
-        if dphi >= face.dphi - 1e-12 and v0 == fv0 and v1 == fv1:
-            return None
-    return pieces or None
+    return pieces
+
+
+def sphere_pieces(
+    layer: CurvedRoughLayer, has: np.ndarray
+) -> list[tuple[float, float, float, float]]:
+    """:func:`envelope_pieces` of a sphere face: consecutive rings whose kept cells cover the
+    same azimuth ranges (to 1e-12 rad: whole rings, runs reaching the face's phi edges) make
+    one piece per range; a ring whose ranges differ from its neighbours' makes its own. A piece
+    spans its rings' bands along the meridian (each ring's cells are G4Sphere segments between
+    the polar-angle cones half the rows' gap beyond the patch, :func:`sphere_cell`, which meet
+    the neighbouring rings'), and no further: the zone beyond the first and last kept rings
+    (the rings at the poles hold no cells) may be cut away, where a sister may stand."""
+    lay = layer.ring_layout
+    face = lay.face
+    half = 0.5 * (lay.patch_size[1] + lay.row_gap)
+    groups: list[tuple[int, int, list[list[float]]]] = []  # (first ring, last ring, ranges)
+    for j in np.flatnonzero(has).tolist():
+        ranges = _merged(face, _ring_spans(layer, j))
+        if groups and groups[-1][1] == j - 1 and _same_ranges(groups[-1][2], ranges):
+            groups[-1] = (groups[-1][0], j, groups[-1][2])
+        else:
+            groups.append((j, j, ranges))
+    pieces: list[tuple[float, float, float, float]] = []
+    for j0, j1, ranges in groups:
+        v0, v1 = float(lay.v[j0]) - half, float(lay.v[j1]) + half
+        for lo, hi in ranges:
+            pieces.append((face.phi0 + lo, min(hi - lo, 2 * np.pi), v0, v1))
+    return pieces
+
+
+def _same_ranges(a: list[list[float]], b: list[list[float]]) -> bool:
+    """Two lists of azimuth ranges are the same to 1e-12 rad."""
+    return len(a) == len(b) and all(
+        abs(x[0] - y[0]) <= 1e-12 and abs(x[1] - y[1]) <= 1e-12 for x, y in zip(a, b, strict=True)
+    )
 
 
 def cone_ring_span(lay: RingLayout, j: int, t: float) -> tuple[float, float]:
@@ -735,15 +875,25 @@ def _meets_own_solid(layer: RoughLayer, on: BooleanFace) -> bool:
 
 
 def _pieces_in_solid(layer: CurvedRoughLayer, clip: FaceClip, on: BooleanFace) -> np.ndarray | None:
-    """A world point of a curved layer's envelope pieces inside the boolean solid and inside a
-    solid that cuts the face from outside (another part of a union), or None: an exact search
+    """A world point of a curved layer's envelope pieces inside the boolean solid and inside
+    another part of a union the face is in, or None: an exact search
     (:func:`~score4.world.clearance.shell_search`) down to half the layer's thickness, as
     between two layers (a piece ending on another part's face touches it all round). The
     search stays where the envelope meets such a part: the face itself lies on the solid's
-    surface, where a search against the whole solid would not end."""
+    surface, where a search against the whole solid would not end. A piece lies outside the
+    face's own constituent, so it is in the solid only inside such a part; a solid subtracted
+    beside the face (:func:`_clip_operations`) is not searched: where its wall is the face (a
+    groove cut around a rod) the search could not drop the cells along it and gave up."""
     from .clearance import shell_search
 
-    cutters = [(shape, transform) for shape, transform, inside in clip.clips if not inside]
+    ops = _clip_operations(on.shape, on.face)
+    if len(ops) != len(clip.clips):  # (a face clip of another make: every part from outside)
+        ops = ["union"] * len(clip.clips)
+    cutters = [
+        (shape, transform)
+        for (shape, transform, inside), op in zip(clip.clips, ops, strict=True)
+        if not inside and op == "union"
+    ]
     if not cutters:
         return None
 
@@ -753,6 +903,20 @@ def _pieces_in_solid(layer: CurvedRoughLayer, clip: FaceClip, on: BooleanFace) -
         return np.asarray(np.minimum(-on.shape.signed_distance(q), in_cut))
 
     return shell_search(layer, depth, layer.thickness / 2, "the solid's other parts")
+
+
+def _clip_operations(shape: Shape, name: str) -> list[str]:
+    """The operation of each boolean on the way to face ``name``, in the order of its clips
+    (:meth:`BooleanShape.face_clip`: the innermost first): a clip from outside is another part
+    of a union (``union``: material) or a solid subtracted from the face's side
+    (``subtraction``: a hole)."""
+    while isinstance(shape, PlacedShape):
+        shape = shape.shape
+    if not isinstance(shape, BooleanShape):
+        return []
+    part, rest = name.split(".", 1)
+    inner = _clip_operations(shape.first if part == "first" else shape.second, rest)
+    return [*inner, shape.operation]
 
 
 def _clear_of_the_solid(

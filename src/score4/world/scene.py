@@ -522,8 +522,9 @@ class CurvedRoughLayer(RoughLayer):
     #: radius of a sphere moves by it)
     into_cut: float = 0.0
     #: on a face of a boolean partly covered or cut by its other parts: the envelope's pieces
-    #: ``(phi0, dphi, v0, v1)`` (azimuth range and generator range of the face) holding the kept
-    #: cells, each a G4Cons (G4Tubs) segment; None: the face's whole shell
+    #: ``(phi0, dphi, v0, v1)`` (azimuth range and generator range of the face; on a sphere the
+    #: meridian's arc length) holding the kept cells, each a G4Cons (G4Tubs) segment, on a
+    #: sphere a G4Sphere segment; None: the face's whole shell
     #: (:func:`score4.world.boolean_layers.envelope_pieces`)
     pieces: list[tuple[float, float, float, float]] | None = None
 
@@ -535,12 +536,16 @@ class CurvedRoughLayer(RoughLayer):
         if self.pieces is None:
             return [self]
         face = self.ring_layout.face
-        assert isinstance(face, RevolvedFace)
         out = []
         for phi0, dphi, v0, v1 in self.pieces:
-            (r1, z1), (r2, z2) = face.point(0.0, np.array([v0, v1]))[:, [0, 2]]
-            sub = replace(face, rz1=(float(r1), float(z1)), rz2=(float(r2), float(z2)),
-                          phi0=phi0, dphi=dphi)  # fmt: skip
+            sub: RevolvedFace | SphereFace
+            if isinstance(face, SphereFace):  # a G4Sphere segment: the polar angles of v0, v1
+                a, b = sorted(float(x) for x in face.polar(np.array([v0, v1])))
+                sub = replace(face, theta=(a, b), phi0=phi0, dphi=dphi)
+            else:
+                (r1, z1), (r2, z2) = face.point(0.0, np.array([v0, v1]))[:, [0, 2]]
+                sub = replace(face, rz1=(float(r1), float(z1)), rz2=(float(r2), float(z2)),
+                              phi0=phi0, dphi=dphi)  # fmt: skip
             view = copy.copy(self)
             view.__dict__.pop("_cache", None)
             view.layout = replace(self.ring_layout, face=sub)
@@ -799,11 +804,15 @@ class CurvedRoughLayer(RoughLayer):
         local = self.target.to_local(self.shell_points())
         lo, hi = local.min(axis=0), local.max(axis=0)
         face = self.ring_layout.face
+        r = float(np.hypot(local[:, 0], local[:, 1]).max())
+        if isinstance(face, SphereFace):  # the widest circle, at the equator if a piece has it
+            outer = face.sphere_radius + (self.thickness if face.sign > 0 else 0.0)
+            for view in self.envelope_views():
+                t0, t1 = view.ring_layout.face.theta  # type: ignore[union-attr]
+                r = max(r, outer * (1.0 if t0 <= np.pi / 2 <= t1 else max(np.sin([t0, t1]))))
         if face.dphi >= 2 * np.pi - 1e-9:  # the circle's extremes between the grid's points
-            r = float(np.hypot(local[:, 0], local[:, 1]).max())
             lo[:2], hi[:2] = -r, r
         elif self.pieces is not None:  # the pieces' extremes along x and y between the points
-            r = float(np.hypot(local[:, 0], local[:, 1]).max())
             for phi0, dphi, _, _ in self.pieces:
                 for k in range(4):
                     if np.mod(k * np.pi / 2 - phi0, 2 * np.pi) <= dphi:
@@ -1862,9 +1871,10 @@ SWEPT_INTO = ("G4Tubs", "G4Cons", "G4Polycone", "G4GenericPolycone")
 
 def check_into_edges(scene: Scene, target: TargetVolume, where: str | None = None) -> None:
     """Lay out the ``into`` layers of a solid swept around z on their joint cut
-    (:func:`_into_joint_cut`): faces that share an edge (a circle of the contour's corner) each
+    (:func:`joint_layout`): faces that share an edge (a circle of the contour's corner) each
     end where the other's cut begins. With a phi segment ``into`` on two faces that share an
-    edge is refused (on a boolean: :func:`score4.world.boolean_modes.check_shared_edges`).
+    edge is refused (on a boolean's constituents:
+    :func:`score4.world.boolean_layers.into_joint`).
     Errors start with ``where`` (default ``targets.{entry}.rough``)."""
     where = where or f"targets.{target.entry}.rough"
     shape = target.shape
@@ -1872,16 +1882,20 @@ def check_into_edges(scene: Scene, target: TargetVolume, where: str | None = Non
     if not layers or not isinstance(shape, RevolvedShape) or shape.kind not in SWEPT_INTO:
         return
     if shape.full_phi:
-        _into_joint_cut(scene, target, layers, where)
+        new = joint_layout(target, layers, where)
+        for name, old in layers.items():
+            if new[name] is not old:
+                scene.layers[scene.layers.index(old)] = new[name]
         return
     edge = shared_edge(shape, layers)
     if edge is not None:
         name, other, r, z = edge
-        raise ConfigError(
-            f"{where}: into: true on faces {name} and {other} of {target.name!r}, which share "
-            f"an edge (the circle r = {r:.4g} mm at z = {z:.4g} mm), on a {shape.kind} with "
-            "a phi segment: score4 cuts such faces together on a full circle only; put one "
-            "of them outside the volume (into: false)"
+        raise shared_edge_error(
+            where,
+            (name, other),
+            target.name,
+            f"which share an edge ({edge_circle(r, z)}), on a {shape.kind} with a phi segment",
+            "on a full circle only",
         )
 
 
@@ -1899,12 +1913,37 @@ def shared_edge(
     return None
 
 
-def _into_joint_cut(
-    scene: Scene, target: TargetVolume, layers: dict[str, RoughLayer], where: str
-) -> None:
-    """``into`` layers of a full solid swept around z laid out on the joint cut (every into face
-    moved inward by its layer's thickness, :func:`~score4.shapes.revolved.offset_contour`; the
-    solid Geant4 gets, :func:`score4.geometry.built.cut_for_layers`).
+def edge_circle(r: float, z: float) -> str:
+    """An edge of a solid swept around z, in words: the circle of radius ``r`` at ``z`` (mm)."""
+    return f"the circle r = {r:.4g} mm at z = {z:.4g} mm"
+
+
+def shared_edge_error(
+    where: str, faces: tuple[str, str], volume: str, shared: str, only: str
+) -> ConfigError:
+    """The one-line refusal of ``into`` on two ``faces`` of ``volume`` that share an edge:
+    ``shared`` says how they share it, ``only`` on which solids score4 cuts such faces together
+    (:func:`check_into_edges`, :func:`score4.world.boolean_modes.joint_leaves`)."""
+    a, b = faces
+    return ConfigError(
+        f"{where}: into: true on faces {a} and {b} of {volume!r}, {shared}: score4 cuts such "
+        f"faces together {only}; put one of them outside the volume (into: false)"
+    )
+
+
+def joint_layout(
+    target: TargetVolume,
+    layers: dict[str, RoughLayer],
+    where: str,
+    fixed: dict[str, float] | None = None,
+) -> dict[str, RoughLayer]:
+    """``into`` layers of a full solid swept around z (by face name) laid out on the joint cut
+    (every into face moved inward by its layer's thickness,
+    :func:`~score4.shapes.revolved.offset_contour`; the solid Geant4 gets,
+    :func:`score4.geometry.built.cut_for_layers`); ``fixed``: further faces of the solid moved
+    by given depths (< 0: outward; a constituent of a union grown down into another part's cut,
+    :func:`score4.world.boolean_modes.standing_cuts`), which the layers' faces end on. Returns
+    the layers by face name: a wall's layer laid out again, a ring's narrowed in place.
 
     A wall's layer is laid out again on its face of the joint cut, which ends where its
     neighbours' moved lines meet it (until the walls' thicknesses settle). A flat ring's layer
@@ -1915,9 +1954,10 @@ def _into_joint_cut(
     the other's) belongs to neither: it is cut away, like the space between the patches' tips."""
     shape = target.shape
     assert isinstance(shape, RevolvedShape)
-    cuts = {name: layer.thickness for name, layer in layers.items()}
+    layers = dict(layers)
+    cuts = {**(fixed or {}), **{name: layer.thickness for name, layer in layers.items()}}
     walls = [n for n, layer in layers.items() if isinstance(layer, CurvedRoughLayer)]
-    if len(layers) > 1 and walls:
+    if len(cuts) > 1 and walls:
         for _ in range(4):
             settled = True
             for name in walls:
@@ -1929,7 +1969,6 @@ def _into_joint_cut(
                 new = _into_revolved(
                     target, old.config, face, old.names, old.variants, old.patch_size, where, others
                 )
-                scene.layers[scene.layers.index(old)] = new
                 layers[name] = new
                 if abs(new.thickness - cuts[name]) > 1e-12:
                     settled = False
@@ -1968,6 +2007,7 @@ def _into_joint_cut(
                 f"{where}: into: no whole patch fits on face {name} of {target.name!r} within "
                 f"the ring r = {lo:.4g} .. {hi:.4g} mm its cut and its neighbours' leave"
             )
+    return layers
 
 
 def _trimmable(target: TargetVolume, face: str) -> bool:
