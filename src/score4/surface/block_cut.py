@@ -79,7 +79,8 @@ SIMPLIFIED_BLOCK_FACETS = 64
 #: fewer of them, and each block costs Geant4 memory and time to build whatever its facets (a
 #: cap's walls, bottom and voxels, a floor, two volumes: ~9 kB). Smaller patches (every example)
 #: keep the cut in four. Measured on the 1024 x 1024 Gaussian map at 0.1 um (430 k top
-#: facets; benchmarks/README.md, session 12): in four 15 559 blocks, in two ~9800.
+#: facets; benchmarks/README.md, session 12): in four 15 559 blocks, 539 MB peak, 1.077x the
+#: pyramid face's instructions per alpha event; in two 9775 blocks, 484 MB, 1.198x.
 SPLIT_IN_TWO_FACETS = 2**18
 
 #: Top facets of one patch variant above which building is refused (a 1024 x 1024 map has 2.1e6).
