@@ -16,7 +16,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from score4.errors import ConfigError
 from score4.inputs.config import parse_config
 from score4.world.resolve import build_scene
 
@@ -54,7 +53,6 @@ def gdml(tmp_path_factory) -> Path:
             ),
             "trd": s.Trd("trd_b", 4, 6, 3, 5, 10, reg),
             "hedra": s.Polyhedra("hedra_b", 0, 2 * np.pi, 6, 2, [-5, 5], [0, 0], [2, 3], reg),
-            "trap": s.Trap("trap_b", 10, 0, 0, 3, 4, 4, 0, 5, 6, 6, 0, reg),  # refused
         }
         return {k: (v, at, HOLES.get(k, (90.0,))[0]) for k, v in made.items()}
 
@@ -247,18 +245,6 @@ def test_grown_holes_pass_the_overlap_check(gdml, tmp_path):
     path = tmp_path / "holes.yaml"
     path.write_text(yaml.safe_dump(config(gdml, holes)))
     assert_no_overlaps(path)
-
-
-def test_into_on_a_subtracted_trap_is_refused(gdml):
-    """The floor of a hole cut by a G4Trap stays refused, in one line that names the solids
-    score4 grows."""
-    with pytest.raises(ConfigError) as err:
-        build_scene(parse_config(config(gdml, {"trap": (90.0, ["second.-z"])})))
-    message = str(err.value)
-    assert message.startswith("targets.0.rough.0: into: true on face second.-z of 'trap'")
-    assert "a face of the subtracted G4Trap, would widen the cut" in message
-    assert "G4Trd or G4Polyhedra (not phi faces)" in message
-    assert "\n" not in message
 
 
 #: into on two adjacent faces of one subtracted solid: the floor and a side that meets it
