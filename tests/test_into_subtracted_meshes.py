@@ -374,8 +374,8 @@ class _Solid:
 @pytest.mark.parametrize(
     "names",
     [
-        # the extruded and tessellated holes' boolean face areas (random draws tested against
-        # the meshes by winding numbers) cost ~50 s CPU with a cold cache: deep
+        # the extruded and tessellated holes cost ~16 s CPU with a cold cache (~59 s before
+        # MeshShape measured only the nearest facets; bench_boolean_area.py --mesh): deep
         pytest.param(("trap",), id="trap"),
         pytest.param(("xt", "tess"), id="xt-tess", marks=pytest.mark.deep),
     ],
