@@ -328,7 +328,8 @@ def _cells_in_pieces(layer, cells: list, tol: float) -> list[str]:
     """The cells of a curved layer whose envelope is in pieces (a face a boolean's other parts
     cut, :attr:`~score4.world.scene.CurvedRoughLayer.pieces`) that do not lie wholly in one
     piece's azimuth and generator ranges (a cylinder's cell spans its ring's band; a cone's
-    cell the generator range whose z planes hold its corners, :func:`_cell_corners`)."""
+    cell the generator range whose z planes hold its corners, :func:`_cell_corners`, or in a
+    piece ending on cones of normals, the range of its corners' feet on the face)."""
     if layer.pieces is None:
         return []
     lay = layer.ring_layout
@@ -338,13 +339,18 @@ def _cells_in_pieces(layer, cells: list, tol: float) -> list[str]:
     for j, _, _, phi in cells:
         step, r = float(lay.step[j]), float(lay.radius[j]) + layer.thickness
         lo_v, hi_v = float(lay.v[j]) - py / 2, float(lay.v[j]) + py / 2
-        if cone:  # the corners' z as generator arc length of the face
-            v = (_cell_corners(layer, j)[:, 2] - lay.face._mid[1]) / lay.face._tangent[1]
+        feet = (lo_v, hi_v)
+        if cone:  # the corners' z as generator arc length of the face, and their feet on it
+            corners = _cell_corners(layer, j)
+            v = (corners[:, 2] - lay.face._mid[1]) / lay.face._tangent[1]
             lo_v, hi_v = float(v.min()), float(v.max())
+            foot = lay.face.locate(corners)[1]
+            feet = (float(foot.min()), float(foot.max()))
         fits = False
-        for p0, dp, v0, v1 in layer.pieces:
+        for p0, dp, v0, v1, normal_ends in layer.pieces:
+            lo, hi = feet if normal_ends else (lo_v, hi_v)
             a = np.mod(phi - step / 2 - p0 + tol / r, 2 * np.pi) - tol / r
-            if a + step <= dp + tol / r and lo_v >= v0 - tol and hi_v <= v1 + tol:
+            if a + step <= dp + tol / r and lo >= v0 - tol and hi <= v1 + tol:
                 fits = True
                 break
         out += not fits

@@ -72,6 +72,7 @@ from .facets import ccw, cells_inside, face_triangles, plane_face, plane_groups
 from .scene import (
     BooleanFace,
     CurvedRoughLayer,
+    EnvelopePiece,
     FaceFrame,
     PolygonRoughLayer,
     RingRoughLayer,
@@ -268,10 +269,11 @@ def _in_grown_slab(
     return out
 
 
-def envelope_pieces(layer: CurvedRoughLayer) -> list[tuple[float, float, float, float]] | None:
-    """The pieces ``(phi0, dphi, v0, v1)`` of the envelope of a cylinder or cone wall whose kept
-    cells leave part of the face flat (:attr:`CurvedRoughLayer.pieces`), or None where the
-    face's whole shell is needed (every azimuth and every ring holds a kept cell, or a sphere).
+def envelope_pieces(layer: CurvedRoughLayer) -> list[EnvelopePiece] | None:
+    """The pieces (:class:`~score4.world.scene.EnvelopePiece`) of the envelope of a cylinder or
+    cone wall whose kept cells leave part of the face flat (:attr:`CurvedRoughLayer.pieces`),
+    or None where the face's whole shell is needed (every azimuth and every ring holds a kept
+    cell, or a sphere).
 
     Azimuths: the union over the rings of the kept cells' azimuth ranges; a run of cells that
     starts (ends) at a ring's first (last) cell reaches the face's phi edge (the flat rest of
@@ -283,7 +285,16 @@ def envelope_pieces(layer: CurvedRoughLayer) -> list[tuple[float, float, float, 
     slanted normal), so each kept ring is bounded along the generator by its cells' own z range
     (:func:`cone_ring_span`); kept rings whose spans do not meet split the envelope, and a piece
     ends where its outer rings' cells end (at the face's end where that ring is its first or
-    last)."""
+    last).
+
+    On a cone whose rings in such a run keep different azimuths (each ring has its own grid of
+    azimuths, so a plane cutting the cone obliquely, as P00664B's cut does its tapers, leaves
+    each ring a different range), the run's one piece would hold every ring's azimuths over its
+    whole length, beyond the cells of the rings keeping fewer; there the pieces end on the
+    rings' band cones instead (``normal_ends``: the cones of the face's normals between
+    neighbouring rings, which their cells share, :func:`~score4.world.curved.cone_cell`), one
+    per group of neighbouring rings keeping the same azimuths, each holding only its rings'
+    cells (a part of the run's piece)."""
     lay = layer.ring_layout
     face = lay.face
     if not isinstance(face, RevolvedFace):
@@ -315,7 +326,41 @@ def envelope_pieces(layer: CurvedRoughLayer) -> list[tuple[float, float, float, 
                 runs.append((i, i))
     (_, _), (fv0, fv1) = face.extent
     half = 0.5 * (lay.patch_size[1] + lay.row_gap)
-    pieces: list[tuple[float, float, float, float]] = []
+
+    def ring_spans(j: int) -> list[tuple[float, float]]:
+        """The azimuth ranges (from phi0, in [0, dphi]) of ring ``j``'s runs of kept cells."""
+        n = int(lay.count[j])
+        cols = np.flatnonzero(kept[j, :n])
+        if not len(cols):
+            return []
+        phi = lay.cell_phi(j)
+        step = float(lay.step[j])
+        breaks = np.flatnonzero(np.diff(cols) > 1)
+        out = []
+        for a, b in zip(
+            np.concatenate([[0], breaks + 1]),
+            np.concatenate([breaks, [len(cols) - 1]]),
+            strict=True,
+        ):
+            lo = 0.0 if cols[a] == 0 else float(phi[cols[a]]) - step / 2 - face.phi0
+            hi = face.dphi if cols[b] == n - 1 else float(phi[cols[b]]) + step / 2 - face.phi0
+            out.append((lo, hi))
+        return out
+
+    def merged(spans: list[tuple[float, float]]) -> list[list[float]]:
+        """The union of azimuth ranges (joined across the seam on a full circle)."""
+        out: list[list[float]] = []
+        for lo, hi in sorted(spans):
+            if out and lo <= out[-1][1] + 1e-12:
+                out[-1][1] = max(out[-1][1], hi)
+            else:
+                out.append([lo, hi])
+        if full and len(out) > 1 and out[0][0] <= 1e-12 and out[-1][1] >= face.dphi - 1e-12:
+            last = out.pop()  # joined across the seam
+            out[0] = [last[0] - face.dphi, out[0][1]]
+        return out
+
+    pieces: list[EnvelopePiece] = []
     for j0, j1 in runs:
         if span is None:  # the first and last runs reach the face's ends
             v0 = fv0 if not has[:j0].any() else float(lay.v[j0]) - half
@@ -323,45 +368,34 @@ def envelope_pieces(layer: CurvedRoughLayer) -> list[tuple[float, float, float, 
         else:  # the outer rings' cells' ends (the face's ends beyond the first and last ring)
             v0 = fv0 if j0 == 0 else float(np.nanmin(span[j0 : j1 + 1, 0]))
             v1 = fv1 if j1 == nrings - 1 else float(np.nanmax(span[j0 : j1 + 1, 1]))
-        spans: list[tuple[float, float]] = []  # azimuth ranges from phi0, in [0, dphi]
-        for j in range(j0, j1 + 1):
-            n = int(lay.count[j])
-            cols = np.flatnonzero(kept[j, :n])
-            if not len(cols):
-                continue
-            phi = lay.cell_phi(j)
-            step = float(lay.step[j])
-            breaks = np.flatnonzero(np.diff(cols) > 1)
-            for a, b in zip(
-                np.concatenate([[0], breaks + 1]),
-                np.concatenate([breaks, [len(cols) - 1]]),
-                strict=True,
-            ):
-                lo = 0.0 if cols[a] == 0 else float(phi[cols[a]]) - step / 2 - face.phi0
-                hi = face.dphi if cols[b] == n - 1 else float(phi[cols[b]]) + step / 2 - face.phi0
-                spans.append((lo, hi))
-        spans.sort()
-        merged: list[list[float]] = []
-        for lo, hi in spans:
-            if merged and lo <= merged[-1][1] + 1e-12:
-                merged[-1][1] = max(merged[-1][1], hi)
-            else:
-                merged.append([lo, hi])
-        if (
-            full
-            and len(merged) > 1
-            and merged[0][0] <= 1e-12
-            and merged[-1][1] >= face.dphi - 1e-12
-        ):
-            last = merged.pop()  # joined across the seam
-            merged[0] = [last[0] - face.dphi, merged[0][1]]
-        for lo, hi in merged:
-            pieces.append((face.phi0 + lo, min(hi - lo, 2 * np.pi), v0, v1))
+        rings = {j: merged(ring_spans(j)) for j in range(j0, j1 + 1) if has[j]}
+        groups = [[j0, j1]]
+        if span is not None and not all(_same_spans(m, rings[j0]) for m in rings.values()):
+            groups = []  # rings keeping other azimuths than their neighbour: a piece each
+            for j in sorted(rings):
+                if groups and _same_spans(rings[j], rings[groups[-1][1]]):
+                    groups[-1][1] = j
+                else:
+                    groups.append([j, j])
+        for g0, g1 in groups:
+            if len(groups) == 1:
+                spans = [s for j in range(j0, j1 + 1) for s in ring_spans(j)]
+                ends, a, b = False, v0, v1
+            else:  # between the cones of normals through the group's outer rings' bands
+                spans = [s for j in range(g0, g1 + 1) for s in ring_spans(j)]
+                ends, a, b = True, float(lay.v[g0]) - half, float(lay.v[g1]) + half
+            for lo, hi in merged(spans):
+                pieces.append(EnvelopePiece(face.phi0 + lo, min(hi - lo, 2 * np.pi), a, b, ends))
     if len(pieces) == 1:
-        _phi0, dphi, v0, v1 = pieces[0]
+        _phi0, dphi, v0, v1, _ = pieces[0]
         if dphi >= face.dphi - 1e-12 and v0 == fv0 and v1 == fv1:
             return None
     return pieces or None
+
+
+def _same_spans(a: list[list[float]], b: list[list[float]]) -> bool:
+    """Two rings' azimuth ranges are the same (to 1e-12 rad)."""
+    return len(a) == len(b) and bool(np.allclose(a, b, rtol=0.0, atol=1e-12))
 
 
 def cone_ring_span(lay: RingLayout, j: int, t: float) -> tuple[float, float]:
