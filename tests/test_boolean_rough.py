@@ -198,17 +198,19 @@ def test_the_cut_face_and_the_side_wall_in_geant4(gdml, tmp_path):
 PPC_CUT_AND_TAPER = {"ppc": ["second.-x", "first.seg_1"]}
 
 
-def test_the_cut_face_and_a_taper_build_together(gdml):
-    """Every ring of P00664B's taper (seg_1) keeps cells, over azimuths narrowing towards its
-    wide end (each ring has its own grid of azimuths), and neighbouring rings' cells overlap in
-    z, so no piece ending on z planes can leave the cut (x > 30 mm) at the wide end. The
-    pieces end on the rings' band cones instead (``normal_ends``), one per ring here, each over
-    its own ring's kept azimuths: the envelope stays out of the cut, where the cut face's layer
-    stands, and both build (refused before, with the gap). Neighbouring pieces share their band
-    cone exactly; each piece holds its ring's cells (exact tiling), and a piece cut short by
-    1e-6 mm along the generator is flagged."""
-    scene = build_scene(parse_config(config(gdml, PPC_CUT_AND_TAPER)))
-    taper = scene.layer("ppc", "first.seg_1")
+@pytest.mark.parametrize("taper_face", ["first.seg_1", "first.seg_3"])
+def test_the_cut_face_and_a_taper_build_together(gdml, taper_face):
+    """Every ring of P00664B's taper (seg_1 at the bottom, seg_3 at the top) keeps cells, over
+    azimuths narrowing towards its wide end (each ring has its own grid of azimuths), and
+    neighbouring rings' cells overlap in z, so no piece ending on z planes can leave the cut
+    (x > 30 mm) at the wide end. The pieces end on the rings' band cones instead
+    (``normal_ends``), one per ring here, each over its own ring's kept azimuths: the envelope
+    stays out of the cut, where the cut face's layer stands, and both build (refused before,
+    with the gap). Neighbouring pieces share their band cone exactly; each piece holds its
+    ring's cells (exact tiling), and (seg_1) a piece cut short by 1e-6 mm along the generator
+    is flagged."""
+    scene = build_scene(parse_config(config(gdml, {"ppc": ["second.-x", taper_face]})))
+    taper = scene.layer("ppc", taper_face)
     assert isinstance(taper, CurvedRoughLayer)
     lay = taper.ring_layout
     kept = taper.cell_variants >= 0
@@ -232,6 +234,8 @@ def test_the_cut_face_and_a_taper_build_together(gdml):
     assert not (codes == INSIDE).any()
     assert scene.layer("ppc", "second.-x").mask.sum() > 0
     assert not curved_cells_tile(taper)[1]
+    if taper_face != "first.seg_1":
+        return
     a = ends[2]
     taper.pieces = [*ends[:2], a._replace(v1=a.v1 - 1e-6), *ends[3:]]  # a ring's band cut short
     assert any("outside the pieces" in p for p in curved_cells_tile(taper)[1])
