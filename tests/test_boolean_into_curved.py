@@ -446,19 +446,23 @@ def test_into_curved_faces_of_booleans_pass_the_overlap_check(gdml, tmp_path):
             "targets.0.rough.1: into: true on face first.phi_end of 'pie'",
         ),
         (
-            "stack",
-            ["second.outer", "second.+z"],
+            "pie",
+            ["first.outer", "second.+z"],
             (
-                "targets.0.rough: into: true on faces second.outer and second.+z of 'stack', "
-                "faces of one G4Tubs of the boolean that share an edge (the circle r = 7 mm at "
-                "z = 5 mm"
+                "targets.0.rough: into: true on faces second.+z and first.outer of 'pie': the "
+                "part first of the union stands on face second.+z and grows down into its cut, "
+                "and score4 cuts a face of such a part that meets its foot only on a G4Tubs, "
+                "G4Cons or polycone with a full circle"
             ),
         ),
     ],
 )
 def test_into_where_a_boolean_still_refuses_it(gdml, volume, faces, message):
-    """A tube's phi face (alone or with its wall) and two faces of one constituent that share
-    an edge: one line naming the faces and the rule, before anything is built."""
+    """A tube's phi face (alone or with its wall), and the wall of a tube with a phi segment
+    with the plate's top it stands on (the wall's cut and the tube's growth down into the
+    plate's cut meet at its foot, which score4 cuts together on a full circle only,
+    tests/test_boolean_into_joint.py): one line naming the faces and the rule, before anything
+    is built."""
     with pytest.raises(ConfigError) as err:
         build_scene(parse_config(config(gdml, {volume: faces})))
     assert str(err.value).startswith(message)

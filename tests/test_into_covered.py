@@ -32,7 +32,6 @@ PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20
 #: where the solids stand
 AT = {
     "stack": (0.0, -40.0, 0.0),
-    "cone": (40.0, 0.0, 0.0),
     "wide": (0.0, 40.0, 0.0),
     "holed": (-40.0, 0.0, 0.0),
 }
@@ -41,8 +40,7 @@ AT = {
 @pytest.fixture(scope="module")
 def gdml(tmp_path_factory) -> Path:
     """``stack``: a disk (r 10 mm, 10 mm high) with a post (r 7 mm, 10 mm high) on it;
-    ``cone``: a 20 mm box with a cone (r 8 mm at its foot, 5 mm at its top, 10 mm high) on its
-    +z face; ``wide``: the disk with the post moved 6 mm off its axis (it overhangs the disk's
+    ``wide``: the disk with the post moved 6 mm off its axis (it overhangs the disk's
     rim); ``holed``: the stack with a hole (r 2 mm) through the disk under the post. Written as
     GDML text."""
     full = 'startphi="0" deltaphi="360" aunit="deg" lunit="mm"'
@@ -52,10 +50,6 @@ def gdml(tmp_path_factory) -> Path:
 <tube name="stack_b" rmin="0" rmax="7" z="10" {full}/>
 <union name="stack_s"><first ref="stack_a"/><second ref="stack_b"/>
   <position name="stack_p" x="0" y="0" z="10" unit="mm"/></union>
-<box name="cone_a" x="20" y="20" z="20" lunit="mm"/>
-<cone name="cone_b" rmin1="0" rmax1="8" rmin2="0" rmax2="5" z="10" {full}/>
-<union name="cone_s"><first ref="cone_a"/><second ref="cone_b"/>
-  <position name="cone_p" x="0" y="0" z="15" unit="mm"/></union>
 <tube name="wide_a" rmin="0" rmax="10" z="10" {full}/>
 <tube name="wide_b" rmin="0" rmax="7" z="10" {full}/>
 <union name="wide_s"><first ref="wide_a"/><second ref="wide_b"/>
@@ -121,7 +115,6 @@ def test_into_under_a_post_keeps_the_slab_under_it(gdml):
 @pytest.mark.parametrize(
     ("volume", "face", "part"),
     [
-        ("cone", "first.+z", "the G4Cons second"),
         ("wide", "first.+z", "the G4Tubs second"),
         # deep: the holed union's face areas (random draws) cost ~11 s CPU with a cold cache
         pytest.param(
@@ -130,10 +123,10 @@ def test_into_under_a_post_keeps_the_slab_under_it(gdml):
     ],
 )
 def test_into_under_a_part_that_cannot_grow_down_says_why_not(gdml, volume, face, part):
-    """A cone standing on the box (its wall is not along the face's normal), a post
-    overhanging the disk's rim, and a post over a hole through the disk (grown down, it would
-    fill the hole's top): growing them down would not give the cut solid exactly, so into: true
-    is refused in one line naming the face, the part and the rule."""
+    """A post overhanging the disk's rim, and a post over a hole through the disk (grown down,
+    it would fill the hole's top): growing them down would not give the cut solid exactly, so
+    into: true is refused in one line naming the face, the part and the rule (a cone grows as
+    the prism of its foot: tests/test_boolean_into_joint.py)."""
     with pytest.raises(ConfigError) as err:
         build_scene(parse_config(config(gdml, volume, face)))
     msg = str(err.value)
@@ -213,19 +206,3 @@ def test_into_under_a_post_passes_the_overlap_check(gdml, tmp_path):
     path = tmp_path / "into_covered.yaml"
     path.write_text(yaml.safe_dump(config(gdml, "stack", "first.+z")))
     assert_no_overlaps(path)
-
-
-def test_into_under_a_post_cut_for_its_own_layer_says_why_not(gdml):
-    """into: true on the disk's top and on the post's wall together: the post would grow down
-    into the disk's cut thinner than the disk's hole under it (a ring of vacuum at their edge),
-    so the pair is refused in one line naming both faces."""
-    data = config(gdml, "stack", "first.+z")
-    data["targets"][0]["rough"].append({"face": "second.outer", "surface": "p", "into": True})
-    with pytest.raises(ConfigError) as err:
-        build_scene(parse_config(data))
-    msg = str(err.value)
-    assert msg.startswith(
-        "targets.0.rough: into: true on faces first.+z and second.outer of 'stack': the part "
-        "second of the union stands on face first.+z"
-    )
-    assert "\n" not in msg

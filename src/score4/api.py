@@ -48,8 +48,7 @@ from score4.common.schema import describe_validation_error
 from score4.common.units import parse_quantity
 from score4.inputs.config import GdmlVolume, PhysicsConfig, RoughFace, SourceConfig
 from score4.runner.run_plan import RunPlan, plan_run
-from score4.world.boolean_layers import fit_cells, target_layers
-from score4.world.boolean_modes import check_shared_edges
+from score4.world.boolean_layers import fit_cells, into_joint, target_layers
 from score4.world.clearance import check_clearance
 from score4.world.gdml_model import GeometryModel, Instance
 from score4.world.scene import (
@@ -414,7 +413,7 @@ class World:
                     self.scene.layers += target_layers(self.scene.surfaces, t, j, one, where=where)
             for t in targets:
                 check_into_edges(self.scene, t, where)
-                check_shared_edges(self.scene.layers_of(t.name), t, where)
+                into_joint(self.scene, t, where)
                 fit_rings(self.scene.layers_of(t.name), placed, where)
                 fit_cells(self.scene.layers_of(t.name))
             for state in saved:

@@ -213,6 +213,47 @@ class RevolvedShape(Shape):
         normal = _edges(poly)[2][k]
         return Revolved(0, new[e], new[(e + 1) % len(new)], self.sphi, self.dphi, normal)
 
+    def footed(
+        self, cuts: dict[str, float], feet: dict[str, float]
+    ) -> tuple[Shape, np.ndarray] | None:
+        """The solid cut by ``cuts`` (:meth:`cut_contour`; may be empty) with each flat end face
+        named in ``feet`` (an edge of the contour along r) extruded by its depth (mm, > 0) along
+        its outward normal: straight along the axis from its rim, whatever the slope of the
+        walls that meet it (a part of a union grown down into the cut of the face it stands
+        on); a G4GenericPolycone, and no shift. None for a phi cut or a face of ``feet`` that
+        is not a flat end face."""
+        poly, names = self.contour()
+        cut = self.cut_contour(cuts)
+        if cut is None or set(feet) - set(names):
+            return None
+        new, edge_of = cut
+        a, b, normal = _edges(poly)
+        steps: dict[int, np.ndarray] = {}
+        for face, depth in feet.items():
+            k = names.index(face)
+            if a[k, 1] != b[k, 1] or a[k, 0] == b[k, 0] or not depth > 0:
+                return None
+            steps[edge_of[k]] = normal[k] * depth
+        m = len(new)
+        out: list[np.ndarray] = []
+        for i in range(m):
+            out.append(new[i])
+            if i in steps:  # the foot's rim, then the foot moved out
+                out += [new[i] + steps[i], new[(i + 1) % m] + steps[i]]
+        pts = np.array(out)
+        tol = 1e-12 * max(float(np.abs(pts).max()), 1.0)
+        r = pts[:, 0]
+        straight = (np.abs(np.roll(r, 1) - r) <= tol) & (np.abs(np.roll(r, -1) - r) <= tol)
+        pts = pts[~straight]  # a rim corner on a wall along the axis (or on the axis)
+        if _plane._self_crossing(pts):
+            raise ConfigError(
+                f"{self.kind}: its foot extruded by {max(feet.values()) * 1e3:.4g} um makes the "
+                "(r, z) contour cross itself"
+            )
+        return G4GenericPolycone(
+            self.sphi, self.dphi, _as_tuple(pts[:, 0]), _as_tuple(pts[:, 1])
+        ), (np.zeros(3))
+
     def _build(self):
         poly, names = self.contour()
         a, b, normal = _edges(poly)

@@ -41,9 +41,11 @@ their flat rest as one (:class:`score4.source.build.PlanesRemainderSampler`).
 Refused, in one line each (:mod:`score4.world.boolean_modes` says why): ``into: true`` on the
 faces of a subtracted solid other than its flat faces (a G4Box, G4Tubs, G4Cons, polycone, G4Trd
 or G4Polyhedra), the walls of a G4Tubs or G4Cons (bores) and the sphere faces of a G4Orb or
-G4Sphere, on phi faces, and on two faces of one constituent not subtracted that share an edge,
-``tiling: portal``, ``native_layout: replicas`` where a cell holds no patch (and on a layer whose
-envelope is the prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs or
+G4Sphere, on phi faces, and on two faces that share an edge of one constituent with a phi
+segment or of a part grown down under another layer that is not swept straight up from its foot
+(where they can be, they are cut together: :func:`into_joint`), ``tiling: portal``,
+``native_layout: replicas`` where a cell holds no patch (and on a layer whose envelope is the
+prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs or
 G4Cons wall or a sphere face (a G4Sphere's theta cones, a polycone's walls); a curved layer
 whose envelope, even in pieces, runs into the solid itself (another part of a union), a flat one
 that keeps no cell clear of the other parts.
@@ -66,7 +68,17 @@ from score4.shapes.boolean import FaceClip
 from score4.shapes.faces import AnnulusFace, RevolvedFace, SphereFace
 from score4.surface.rough import Surface
 
-from .boolean_modes import check_modes, check_replicas, cut_face, flat_face, into_depth
+from .boolean_distance import leaf_path
+from .boolean_modes import (
+    boolean_cuts,
+    check_modes,
+    check_replicas,
+    cut_boolean,
+    cut_face,
+    flat_face,
+    into_depth,
+    joint_leaves,
+)
 from .curved import RingLayout, cone_cell
 from .facets import ccw, cells_inside, face_triangles, plane_face, plane_groups
 from .scene import (
@@ -77,7 +89,9 @@ from .scene import (
     PolygonRoughLayer,
     RingRoughLayer,
     RoughLayer,
+    Scene,
     TargetVolume,
+    joint_layout,
     make_layer,
     make_polygon_layer,
     ring_cells,
@@ -184,11 +198,14 @@ def _on_boolean(
     clip: FaceClip,
     placed: Transform,
     where: str,
+    joint: BooleanShape | None = None,
 ) -> list[RoughLayer]:
     """The layers laid out on the leaf's face (``layers``: one, or one per plane of a face of
     several planes), turned to the boolean's side, with only the cells proven on the boolean's
     surface kept (:func:`kept_cells`); a plane of a face of several planes with no such cell is
-    left out (flat). Each layer's rough share is its cells' area over the boolean face's."""
+    left out (flat). Each layer's rough share is its cells' area over the boolean face's.
+    With ``into`` the boolean is cut for this layer alone (:func:`cut_face`), or given cut for
+    all its layers (``joint``, :func:`into_joint`)."""
     shape = target.shape
     assert isinstance(shape, BooleanShape)
     name, what = rough.face_name, _what(target, rough)
@@ -200,7 +217,10 @@ def _on_boolean(
             if rough.into:  # the subtracted solid grows: the base lies beyond its old face
                 layer.frame = layer.frame.shifted(-layer.thickness)
         on, cut = base, clip
-        if rough.into:  # the face cut behind by the layer's thickness (boolean_modes)
+        if rough.into and joint is not None:
+            on = BooleanFace(joint, name, joint.face_clip(name), target.transform)
+            cut = on.clip
+        elif rough.into:  # the face cut behind by the layer's thickness (boolean_modes)
             on = cut_face(base, into_depth(layer, clip.flipped), f"{where}: into: true on {what}")
             cut = on.clip
         kept = kept_cells(layer, cut, on, placed)
@@ -236,6 +256,50 @@ def _on_boolean(
             "on the solid's surface"
         )
     return out
+
+
+def into_joint(scene: Scene, target: TargetVolume, where: str) -> None:
+    """``into`` layers on faces of one constituent of a boolean ``target`` that share an edge
+    (:func:`~score4.world.boolean_modes.joint_leaves`: a post's wall and top, or its wall and
+    the disk's top it stands on), laid out again on their joint cut: on each such constituent
+    as on a plain solid (:func:`~score4.world.scene.joint_layout`: a wall's layer ends where its
+    neighbours' cuts meet it, down to the foot grown into the cut under it; a ring's cells and
+    flat rest within the joint cut's face), and every layer on or under such a constituent on
+    the boolean cut for all the target's layers (the solid Geant4 gets,
+    :func:`~score4.world.boolean_modes.boolean_cuts`). Errors start with ``where``."""
+    shape = target.shape
+    if not isinstance(shape, BooleanShape):
+        return
+    layers = [r for r in scene.layers_of(target.name) if r.config.into]
+    joint, involved = joint_leaves(layers, target, where)
+    if not joint:
+        return
+    cuts = boolean_cuts(layers, shape)
+    made: dict[str, tuple[FaceClip, TargetVolume, Transform, list[RoughLayer]]] = {}
+    for face in involved:  # the leaf's layers made anew (as target_layers makes them)
+        rough = next(r.config for r in layers if r.config.face_name == face)
+        clip, leaf_target, leaf_rough, placed = _leaf(target, rough, where)
+        fresh = target_layers(scene.surfaces, leaf_target, 0, leaf_rough, where)
+        made[face] = (clip, leaf_target, placed, fresh)
+    for path, feet in joint.items():
+        own = {f: made[f] for f in involved if leaf_path(shape, f)[0] == path}
+        leaf_target = next(iter(own.values()))[1]
+        by_face = {f[len(path) :]: m[3][0] for f, m in own.items()}
+        laid = joint_layout(leaf_target, by_face, where, feet)
+        for f, m in own.items():
+            layer = laid[f[len(path) :]]
+            m[3][0] = layer
+            cuts[f] = into_depth(layer, False)
+    cut = cut_boolean(shape, cuts)
+    for face in involved:  # on the boolean's side, their cells kept on the joint cut
+        clip, _leaf_target, placed, fresh = made[face]
+        old = [
+            r for r in scene.layers if r.target.name == target.name and r.config.face_name == face
+        ]
+        new = _on_boolean(fresh, target, old[0].config, clip, placed, where, cut)
+        at = scene.layers.index(old[0])
+        scene.layers[:] = [r for r in scene.layers if not any(r is o for o in old)]
+        scene.layers[at:at] = new
 
 
 def _in_grown_slab(

@@ -30,17 +30,20 @@
   shell beside it) the subtracted solid grows by the layer's cut, as a bore does. Refused
   elsewhere: the phi faces of a subtracted solid, the faces of a subtracted G4Trap, tessellated
   or extruded solid, the other curved faces of subtracted solids, the phi faces of a segment
-  (moved off the axis they would make the constituent a boolean of its own), and two faces that
-  share an edge of one constituent swept around z that is not subtracted
-  (:func:`check_shared_edges`; plain solids get a joint cut there).
+  (moved off the axis they would make the constituent a boolean of its own).
   A part of a union that stands on a cut flat face grows down by the cut, so the slab under it
-  stays in the volume (:func:`standing_cuts`: a G4Box or G4Tubs along the face's normal, its
-  foot within the face; other parts that meet the slab are refused, and so is such a part cut
-  for a layer of its own, :func:`check_shared_edges`).
+  stays in the volume (:func:`standing_cuts`: a G4Box, or a G4Tubs, G4Cons or polycone, along
+  the face's normal, its foot within the face; a swept part grows as the prism of its foot,
+  :func:`leaf_cuts`; other parts that meet the slab are refused). Two ``into`` faces of one
+  constituent not subtracted that share an edge, or one and the foot it grows down by, are cut
+  together as on a plain solid (:func:`joint_leaves`,
+  :func:`score4.world.boolean_layers.into_joint`); refused on a constituent with a phi segment
+  and on a part grown down whose walls do not rise from its foot along its axis.
 """
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
@@ -54,7 +57,9 @@ from ..shapes.faces import PlaneFace
 from ..shapes.placed import PlacedShape
 from ..shapes.revolved import RevolvedShape
 from .boolean_distance import leaf_path
+from .facets import face_triangles, plane_face, plane_groups
 from .scene import (
+    SWEPT_INTO,
     BooleanFace,
     CurvedRoughLayer,
     PolygonRoughLayer,
@@ -122,52 +127,79 @@ def flat_face(leaf: Shape, face: str) -> bool:
     return bool(patches) and all(isinstance(p, PlaneTriangles) for p in patches)
 
 
-def check_shared_edges(layers: list[RoughLayer], target: TargetVolume, where: str) -> None:
-    """One-line error for ``into`` on two faces of one constituent of a boolean target swept
-    around z (not a subtracted one) that share an edge (``layers``: the target's layers;
-    ``where``: the error's start): each layer is laid out on its own cut, and their slabs
-    would meet at the edge (the joint cut that plain solids get,
-    :func:`score4.world.scene.check_into_edges`, is not made for a boolean's constituents). The
-    layers on a subtracted solid's faces grow apart from their concave edge (the square
-    between their slabs belongs to neither), so they are not refused. Also refused: ``into`` on
-    a flat face and on a face of a part of the union standing on it (:func:`standing_cuts`
-    grows that part down into the face's cut, as the part was before its own cut)."""
+def joint_leaves(
+    layers: list[RoughLayer], target: TargetVolume, where: str
+) -> tuple[dict[str, dict[str, float]], list[str]]:
+    """The constituents of a boolean target (``layers``: its layers; ``where``: the errors'
+    start) cut behind faces that share an edge, each to be cut for them together as a plain
+    solid is (their joint cut, :func:`score4.world.scene.joint_layout`): two ``into`` faces of
+    its own (a post's wall and top), or one and the foot it grows down by under another part's
+    ``into`` face (:func:`standing_cuts`: a post's wall and the disk's top it stands on).
+    Returns the leaf path of each such constituent with the feet it grows by (its face ->
+    depth < 0), and the boolean faces whose layers lie on such a constituent or under it, to be
+    laid out again on the joint cut. A subtracted solid's faces grow apart from their concave
+    edges (the square between their slabs belongs to neither) and need none.
+
+    One-line errors where score4 makes no joint cut: on a constituent with a phi segment; on a
+    part grown down whose foot meets a face cut for a layer of its own, unless the part is a
+    full G4Tubs, G4Cons or polycone whose walls rise from the foot along its axis (a cone
+    leaning over its foot grows as the prism of its foot, and its wall's cut would run on
+    along its slope). A box's side meeting its foot is refused before (the face the box
+    stands on meets the side's slab, :func:`standing_cuts`)."""
     shape, name = target.shape, target.name
     if not isinstance(shape, BooleanShape):
-        return
-    faces = [r.config.face_name for r in layers if r.config.into]
-    by_leaf: dict[str, list[str]] = {}
-    for face in faces:
-        path, leaf_face = leaf_path(shape, face)
-        by_leaf.setdefault(path, []).append(leaf_face)
-    for r in layers:  # a part grown down into a cut face's slab (standing_cuts), cut itself
-        if not r.config.into:
-            continue
+        return {}, []
+    into = [r for r in layers if r.config.into]
+    own: dict[str, list[str]] = {}
+    for r in into:
+        path, leaf_face = leaf_path(shape, r.config.face_name)
+        if leaf_face not in own.setdefault(path, []):
+            own[path].append(leaf_face)
+    feet: dict[str, dict[str, float]] = {}
+    under: dict[str, list[str]] = {}  # a grown part's path -> the faces it stands on
+    for r in into:
         face = r.config.face_name
-        for grown in standing_cuts(shape, face, r.thickness, where):
-            part = leaf_path(shape, grown)[0]
-            if part in by_leaf:
-                raise ConfigError(
-                    f"{where}: into: true on faces {face} and {part}{by_leaf[part][0]} of "
-                    f"{name!r}: the part {part.rstrip('.')} of the union stands on face {face} "
-                    "and grows down into its cut, and score4 grows such a part only where it "
-                    "is not cut for a layer of its own (the two cuts would leave a gap at their "
-                    "edge); put one of them outside the volume (into: false)"
-                )
-    for path, own in by_leaf.items():
-        clip = shape.face_clip(path + own[0])
-        leaf = clip.leaf
-        if len(own) < 2 or not isinstance(leaf, RevolvedShape) or clip.flipped:
+        for grown, depth in standing_cuts(shape, face, r.thickness, where).items():
+            path, foot = leaf_path(shape, grown)
+            feet.setdefault(path, {})[foot] = depth
+            under.setdefault(path, []).append(face)
+    joint: dict[str, dict[str, float]] = {}
+    involved: list[str] = []
+    for path, faces in own.items():
+        clip = shape.face_clip(path + faces[0])
+        leaf, grown_by = clip.leaf, feet.get(path, {})
+        if clip.flipped:
             continue  # a subtracted solid's edges are concave: its layers grow apart
-        edge = shared_edge(leaf, own)
-        if edge is not None:
-            a, b, edge_r, edge_z = edge
+        if not isinstance(leaf, RevolvedShape):
+            continue  # a box's side meets the face its foot stands on: refused by standing_cuts
+        edge = shared_edge(leaf, [*faces, *grown_by])
+        if edge is None:
+            continue
+        a, b, edge_r, edge_z = edge
+        swept = leaf.kind in SWEPT_INTO and leaf.full_phi
+        if (a in grown_by or b in grown_by) and not (swept and straight_feet(leaf, grown_by)):
+            mine = a if b in grown_by else b
+            raise ConfigError(
+                f"{where}: into: true on faces {under[path][0]} and {path}{mine} of {name!r}: "
+                f"the part {path.rstrip('.')} of the union stands on face {under[path][0]} and "
+                f"grows down into its cut, and score4 cuts a face of such a part that meets its "
+                "foot only on a G4Tubs, G4Cons or polycone with a full circle whose walls rise "
+                "from the foot along its axis (the two cuts would leave a gap at their edge); "
+                "put one of them outside the volume (into: false)"
+            )
+        if not swept:
             raise ConfigError(
                 f"{where}: into: true on faces {path}{a} and {path}{b} of {name!r}, faces of "
                 f"one {leaf.kind} of the boolean that share an edge (the circle r = {edge_r:.4g} "
-                f"mm at z = {edge_z:.4g} mm in its frame): score4 cuts such faces together on "
-                "plain solids only; put one of them outside the volume (into: false)"
+                f"mm at z = {edge_z:.4g} mm in its frame): score4 cuts such faces together on a "
+                "G4Tubs, G4Cons or polycone with a full circle only; put one of them outside the "
+                "volume (into: false)"
             )
+        joint[path] = grown_by
+        for face in [path + f for f in faces] + under.get(path, []):
+            if face not in involved:
+                involved.append(face)
+    return joint, involved
 
 
 def check_replicas(layer: RoughLayer, where: str, what: str) -> None:
@@ -199,12 +231,32 @@ def leaf_cuts(shape: BooleanShape, cuts: dict[str, float]) -> dict[str, tuple[Sh
         by_path.setdefault(path, {})[face] = depth
     out = {}
     for path, faces in by_path.items():
-        leaf = shape.face_clip(path + next(iter(faces))).leaf
-        trimmed = leaf.moved(faces)
+        clip = shape.face_clip(path + next(iter(faces)))
+        leaf = clip.leaf
+        feet = {} if clip.flipped else {f: -d for f, d in faces.items() if d < 0}
+        if feet and isinstance(leaf, RevolvedShape) and not straight_feet(leaf, feet):
+            cuts_ = {f: d for f, d in faces.items() if d >= 0}
+            trimmed = leaf.footed(cuts_, feet)  # a part grown down as the prism of its foot
+        else:
+            trimmed = leaf.moved(faces)
         if trimmed is None:  # refused by check_modes before
             raise ConfigError(f"into: a {leaf.kind} cannot be cut behind {', '.join(faces)}")
         out[path] = trimmed
     return out
+
+
+def straight_feet(leaf: RevolvedShape, feet: Collection[str]) -> bool:
+    """Whether the walls that meet the flat end faces ``feet`` of ``leaf`` run along its axis
+    (or lie on it): the foot moved outward with its neighbours' lines kept (:meth:`Shape.moved`)
+    is then the prism of the foot (:meth:`RevolvedShape.footed`)."""
+    poly, names = leaf.contour()
+    n = len(poly)
+    for face in feet:
+        k = names.index(face)
+        for j in ((k - 1) % n, (k + 1) % n):
+            if poly[j, 0] != poly[(j + 1) % n, 0]:
+                return False
+    return True
 
 
 def cut_boolean(shape: BooleanShape, cuts: dict[str, float]) -> BooleanShape:
@@ -282,13 +334,53 @@ def _grow_down(
     that meets the slab ``depth`` behind the face of ``clip`` (normal ``n`` through ``origin``):
     the cut that grows it down to fill the slab under it (``{}``: it goes through the slab
     already), or None where no such cut is exact (:func:`standing_cuts`)."""
-    if not isinstance(leaf, G4Box | G4Tubs):
-        return None
     if isinstance(leaf, G4Box):
-        half, axes = np.array([leaf.dx, leaf.dy, leaf.dz]), [0, 1, 2]
-    else:
-        half, axes = np.array([0.0, 0.0, leaf.dz]), [2]
-    for k in axes:
+        return _grow_box(leaf, placed, clip, n, origin, depth, name)
+    if not isinstance(leaf, RevolvedShape) or leaf.kind not in SWEPT_INTO:
+        return None
+    c = float(placed.rotation[:, 2] @ n)
+    if abs(abs(c) - 1.0) > 1e-12:
+        return None  # its axis is not along the normal
+    h = float((placed.translation - origin) @ n)
+    poly, names = leaf.contour()
+    height = h + c * poly[:, 1]  # of the contour's corners above the face's plane
+    if height.min() > 1e-9 or height.max() < -depth - 1e-9:
+        return {}  # off the slab
+    m, feet = len(poly), []
+    for i in range(m):
+        if not (poly[(i + 1) % m, 0] - poly[i, 0]) * c > 0:
+            continue  # the edge's face does not look down the normal
+        lo, hi = sorted((float(height[i]), float(height[(i + 1) % m])))
+        if max(abs(lo), abs(hi)) <= 1e-9 and height.min() >= -1e-9:
+            feet.append(i)  # its foot, on the face's plane
+            continue
+        if hi <= -depth + 1e-9 or lo >= -1e-9:
+            continue  # under the slab (the part goes through it) or above the face
+        return None  # a face looking down in the slab: the cut would leave a gap under it
+    if not feet:
+        return {}
+    if len(feet) > 1:
+        return None
+    k = feet[0]
+    rim = float(max(poly[k, 0], poly[(k + 1) % m, 0]))
+    centre = placed.translation - h * n
+    if not _inside_face(clip.leaf, clip.face, clip.transform, centre[None], rim):
+        return None
+    return {name + names[k]: -depth}
+
+
+def _grow_box(
+    leaf: G4Box,
+    placed: Transform,
+    clip: FaceClip,
+    n: np.ndarray,
+    origin: np.ndarray,
+    depth: float,
+    name: str,
+) -> dict[str, float] | None:
+    """:func:`_grow_down` for a G4Box: one of its axes along the normal."""
+    half = np.array([leaf.dx, leaf.dy, leaf.dz])
+    for k in range(3):
         c = float(placed.rotation[:, k] @ n)
         if abs(abs(c) - 1.0) > 1e-12:
             continue
@@ -299,13 +391,11 @@ def _grow_down(
         if abs(foot) > 1e-9:
             return None  # it ends in the slab
         centre = placed.translation - h * n
-        if isinstance(leaf, G4Box):
-            e = [placed.rotation[:, j] * half[j] for j in range(3) if j != k]
-            feet = np.array([centre + a * e[0] + b * e[1] for a in (-1, 1) for b in (-1, 1)])
-            ok = _inside_face(clip.leaf, clip.face, clip.transform, feet, 0.0)
-        else:
-            ok = _inside_face(clip.leaf, clip.face, clip.transform, centre[None], leaf.rmax)
-        return {name + ("-" if c > 0 else "+") + "xyz"[k]: -depth} if ok else None
+        e = [placed.rotation[:, j] * half[j] for j in range(3) if j != k]
+        feet = np.array([centre + a * e[0] + b * e[1] for a in (-1, 1) for b in (-1, 1)])
+        if not _inside_face(clip.leaf, clip.face, clip.transform, feet, 0.0):
+            return None
+        return {name + ("-" if c > 0 else "+") + "xyz"[k]: -depth}
     return None
 
 
@@ -313,50 +403,64 @@ def standing_cuts(shape: BooleanShape, face: str, depth: float, what: str) -> di
     """The other parts of a union that stand on the flat face ``face`` (of a constituent not
     subtracted) cut ``depth`` behind it for ``into``, grown down by ``depth`` (boolean face ->
     depth < 0, as :func:`cut_boolean` takes them) so the slab under them stays in the volume:
-    a G4Box or G4Tubs along the face's normal whose foot lies on the face's plane, within the
-    face (a box's face or a full tube's end face without a bore), joined to the face's
-    constituent by unions only (no subtraction between them). A part already through the
-    slab needs nothing; any other part that meets the slab (a cone, a sphere, a boolean, a foot
+    a G4Box, or a G4Tubs, G4Cons, G4Polycone or G4GenericPolycone, along the face's normal
+    whose foot lies on the face's plane, within the face (a box's face or a full tube's end
+    face without a bore), with no face looking down into the slab but its foot, joined to the
+    face's constituent by unions only (no subtraction between them); a swept part grows as the
+    prism of its foot (:func:`leaf_cuts`). A part already through the slab needs nothing; any
+    other part that meets the slab (a sphere, a boolean, a part leaning over the face, a foot
     reaching beyond the face, a part ending in the slab) is refused in one line (``what``: its
-    start)."""
+    start), and so is any part that meets the slab behind a face of several planes (a
+    G4Polyhedra's sides)."""
     clip = shape.face_clip(face)
     if clip.flipped:  # a subtracted solid's face: no part of the union stands on it
         return {}
     try:
-        plane = clip.leaf.face(clip.face)
-    except ConfigError:  # a face of several planes (a G4Polyhedra's sides): not checked
+        planes = [clip.leaf.face(clip.face)]
+    except ConfigError:  # a face of several planes (a G4Polyhedra's sides): each plane's slab
+        if not flat_face(clip.leaf, clip.face):
+            return {}
+        groups = plane_groups(face_triangles(clip.leaf, clip.face))
+        planes = [plane_face(clip.face, tris) for tris in groups]
+    if not isinstance(planes[0], PlaneFace):
         return {}
-    if not isinstance(plane, PlaneFace):
-        return {}
-    frame = clip.transform @ plane.frame
-    n, origin = frame.rotation[:, 2], frame.translation
-    (u0, u1), (v0, v1) = plane.extent
-    rim = frame.apply(
-        np.array([[u, v, h] for u in (u0, u1) for v in (v0, v1) for h in (-depth, 0)])
-    )
-    slab_lo, slab_hi = rim.min(axis=0) - 1e-9, rim.max(axis=0) + 1e-9
     path = face[: len(face) - len(clip.face)]
     out = {}
     for part, at, name, clean in _union_siblings(shape, path):
         lo, hi = PlacedShape(part, at).bounding_box()
-        if (hi < slab_lo).any() or (lo > slab_hi).any():
-            continue  # away from the slab
         leaf, placed = part, at
         while isinstance(leaf, PlacedShape):
             placed, leaf = placed @ leaf.transform, leaf.shape
-        grow = _grow_down(leaf, placed, clip, n, origin, depth, name)
-        if grow and not clean:  # it could grow into what a subtraction took from the face's
-            grow = None  # constituent under it
-        if grow is None:
-            raise ConfigError(
-                f"{what}: another part of the union (the {leaf.kind} {name.rstrip('.')}) stands "
-                f"on this face; the cut {depth * 1e3:.4g} um behind it would leave a gap under "
-                "that part, and score4 grows such a part down into the cut only when it is a "
-                "G4Box or G4Tubs along the face's normal whose foot lies on the face's plane, "
-                "within the face (a box's face or the end face of a full tube); put the layer "
-                "outside the volume (into: false)"
+        for plane in planes:
+            assert isinstance(plane, PlaneFace)
+            frame = clip.transform @ plane.frame
+            n, origin = frame.rotation[:, 2], frame.translation
+            (u0, u1), (v0, v1) = plane.extent
+            rim = frame.apply(
+                np.array([[u, v, h] for u in (u0, u1) for v in (v0, v1) for h in (-depth, 0)])
             )
-        out.update(grow)
+            if (hi < rim.min(axis=0) - 1e-9).any() or (lo > rim.max(axis=0) + 1e-9).any():
+                continue  # away from the slab
+            grow = _grow_down(leaf, placed, clip, n, origin, depth, name)
+            if grow and (not clean or len(planes) > 1):  # it could grow into what a
+                grow = None  # subtraction took from the face's constituent under it
+            if grow is None:
+                several = (
+                    f" (a face of {len(planes)} planes, and score4 grows a part down into the "
+                    "cut of a face of one plane only)"
+                    if len(planes) > 1
+                    else ""
+                )
+                raise ConfigError(
+                    f"{what}: another part of the union (the {leaf.kind} {name.rstrip('.')}) "
+                    f"stands on this face{several}; the cut {depth * 1e3:.4g} um behind it would "
+                    "leave a gap under that part, and score4 grows such a part down into the cut "
+                    "only when it is a G4Box, or a G4Tubs, G4Cons or polycone, along the face's "
+                    "normal whose foot lies on the face's plane, within the face (a box's face "
+                    "or the end face of a full tube), with no other face looking down into the "
+                    "cut; put the layer outside the volume (into: false)"
+                )
+            out.update(grow)
     return out
 
 

@@ -624,13 +624,13 @@ def _depth(layer: RoughLayer, points: np.ndarray) -> np.ndarray:
         return np.asarray(depth)
     if layer.cells_envelope or isinstance(layer, PolygonRoughLayer):
         # a prism: of the kept cells of a boolean's face (a ring's too), or of the face's polygon
-        outline = (
-            layer.outline
-            if isinstance(layer, PolygonRoughLayer) and not layer.cells_envelope
-            else layer.cells_outline()
-        )
         q = layer.frame.to_local(p)
-        edges = boundary_edges(outline)
+        if layer.cells_envelope:  # the kept cells' outline, read off the grid
+            edges, inside = _cells_boundary(layer), _in_kept_cell(layer, q)
+        else:
+            assert isinstance(layer, PolygonRoughLayer)
+            edges = boundary_edges(layer.outline)
+            inside = point_in_triangles(q[:, :2], layer.outline, 0.0)
         a, b = edges[:, 0], edges[:, 1]
         d = b - a
         dd = np.maximum((d * d).sum(axis=1), 1e-300)
@@ -640,7 +640,7 @@ def _depth(layer: RoughLayer, points: np.ndarray) -> np.ndarray:
             w = q[k : k + block, None, :2] - a[None]
             s = np.clip(np.einsum("nmc,mc->nm", w, d) / dd, 0, 1)
             gap[k : k + block] = np.linalg.norm(w - s[..., None] * d[None], axis=2).min(axis=1)
-        flat = np.where(point_in_triangles(q[:, :2], outline, 0.0), gap, -gap)
+        flat = np.where(inside, gap, -gap)
         return np.asarray(np.minimum.reduce([q[:, 2], t - q[:, 2], flat]))
     if isinstance(layer, RingRoughLayer):
         q = layer.frame.to_local(p)
@@ -651,6 +651,28 @@ def _depth(layer: RoughLayer, points: np.ndarray) -> np.ndarray:
     box = layer.envelope_box()
     q = box.transform.inverse_apply(p)
     return np.asarray((box.half - np.abs(q)).min(axis=1))
+
+
+def _cells_boundary(layer: RoughLayer) -> np.ndarray:
+    """The outline (m, 2, 2) of a layer's kept cells in its frame: the cell edges between a kept
+    cell and one that is not (or the grid's rim), the edges of :meth:`RoughLayer.cells_outline`
+    that belong to one triangle only (:func:`~score4.world.facets.boundary_edges`), read off
+    the grid."""
+    x, y = layer.cell_edges()
+    kept = np.pad(layer.cell_variants >= 0, 1)
+    j, i = np.nonzero(kept[1:, 1:-1] != kept[:-1, 1:-1])  # between rows j - 1 and j
+    along = np.stack([np.stack([x[i], y[j]], -1), np.stack([x[i + 1], y[j]], -1)], 1)
+    j, i = np.nonzero(kept[1:-1, 1:] != kept[1:-1, :-1])  # between columns i - 1 and i
+    across = np.stack([np.stack([x[i], y[j]], -1), np.stack([x[i], y[j + 1]], -1)], 1)
+    return np.concatenate([along, across])
+
+
+def _in_kept_cell(layer: RoughLayer, q: np.ndarray) -> np.ndarray:
+    """True for points (the layer's frame) over a kept cell."""
+    i, j = layer.patch_map.cell_of(q[:, :2])
+    inside = i >= 0
+    inside[inside] = layer.cell_variants[j[inside], i[inside]] >= 0
+    return inside
 
 
 #: Most cells the exact search of :func:`shells_meet` keeps at once (a bound on its memory).

@@ -13,8 +13,7 @@ from score4.shapes.faces import SphereFace
 from score4.surface.spec import Surface, build_surface
 from score4.surface.store import load_surface
 
-from .boolean_layers import fit_cells, target_layers
-from .boolean_modes import check_shared_edges
+from .boolean_layers import fit_cells, into_joint, target_layers
 from .clearance import check_clearance
 from .gdml_model import GeometryModel
 from .scene import (
@@ -81,7 +80,7 @@ def build_scene(config: RunConfig, model: GeometryModel | None = None) -> Scene:
                 one = rough if rough.face == face else rough.model_copy(update={"face": face})
                 scene.layers += target_layers(surfaces, target, j, one)
         check_into_edges(scene, target)  # walls re-laid on a joint cut, before rings fit
-        check_shared_edges(scene.layers_of(target.name), target, f"targets.{target.entry}.rough")
+        into_joint(scene, target, f"targets.{target.entry}.rough")  # a boolean's constituents
         fit_rings(scene.layers_of(target.name))
         fit_cells(scene.layers_of(target.name))
     check_clearance(scene)

@@ -1904,9 +1904,10 @@ SWEPT_INTO = ("G4Tubs", "G4Cons", "G4Polycone", "G4GenericPolycone")
 
 def check_into_edges(scene: Scene, target: TargetVolume, where: str | None = None) -> None:
     """Lay out the ``into`` layers of a solid swept around z on their joint cut
-    (:func:`_into_joint_cut`): faces that share an edge (a circle of the contour's corner) each
+    (:func:`joint_layout`): faces that share an edge (a circle of the contour's corner) each
     end where the other's cut begins. With a phi segment ``into`` on two faces that share an
-    edge is refused (on a boolean: :func:`score4.world.boolean_modes.check_shared_edges`).
+    edge is refused (on a boolean's constituents:
+    :func:`score4.world.boolean_layers.into_joint`).
     Errors start with ``where`` (default ``targets.{entry}.rough``)."""
     where = where or f"targets.{target.entry}.rough"
     shape = target.shape
@@ -1914,7 +1915,10 @@ def check_into_edges(scene: Scene, target: TargetVolume, where: str | None = Non
     if not layers or not isinstance(shape, RevolvedShape) or shape.kind not in SWEPT_INTO:
         return
     if shape.full_phi:
-        _into_joint_cut(scene, target, layers, where)
+        new = joint_layout(target, layers, where)
+        for name, old in layers.items():
+            if new[name] is not old:
+                scene.layers[scene.layers.index(old)] = new[name]
         return
     edge = shared_edge(shape, layers)
     if edge is not None:
@@ -1941,12 +1945,19 @@ def shared_edge(
     return None
 
 
-def _into_joint_cut(
-    scene: Scene, target: TargetVolume, layers: dict[str, RoughLayer], where: str
-) -> None:
-    """``into`` layers of a full solid swept around z laid out on the joint cut (every into face
-    moved inward by its layer's thickness, :func:`~score4.shapes.revolved.offset_contour`; the
-    solid Geant4 gets, :func:`score4.geometry.built.cut_for_layers`).
+def joint_layout(
+    target: TargetVolume,
+    layers: dict[str, RoughLayer],
+    where: str,
+    fixed: dict[str, float] | None = None,
+) -> dict[str, RoughLayer]:
+    """``into`` layers of a full solid swept around z (by face name) laid out on the joint cut
+    (every into face moved inward by its layer's thickness,
+    :func:`~score4.shapes.revolved.offset_contour`; the solid Geant4 gets,
+    :func:`score4.geometry.built.cut_for_layers`); ``fixed``: further faces of the solid moved
+    by given depths (< 0: outward; a constituent of a union grown down into another part's cut,
+    :func:`score4.world.boolean_modes.standing_cuts`), which the layers' faces end on. Returns
+    the layers by face name: a wall's layer laid out again, a ring's narrowed in place.
 
     A wall's layer is laid out again on its face of the joint cut, which ends where its
     neighbours' moved lines meet it (until the walls' thicknesses settle). A flat ring's layer
@@ -1957,9 +1968,10 @@ def _into_joint_cut(
     the other's) belongs to neither: it is cut away, like the space between the patches' tips."""
     shape = target.shape
     assert isinstance(shape, RevolvedShape)
-    cuts = {name: layer.thickness for name, layer in layers.items()}
+    layers = dict(layers)
+    cuts = {**(fixed or {}), **{name: layer.thickness for name, layer in layers.items()}}
     walls = [n for n, layer in layers.items() if isinstance(layer, CurvedRoughLayer)]
-    if len(layers) > 1 and walls:
+    if len(cuts) > 1 and walls:
         for _ in range(4):
             settled = True
             for name in walls:
@@ -1971,7 +1983,6 @@ def _into_joint_cut(
                 new = _into_revolved(
                     target, old.config, face, old.names, old.variants, old.patch_size, where, others
                 )
-                scene.layers[scene.layers.index(old)] = new
                 layers[name] = new
                 if abs(new.thickness - cuts[name]) > 1e-12:
                     settled = False
@@ -2010,6 +2021,7 @@ def _into_joint_cut(
                 f"{where}: into: no whole patch fits on face {name} of {target.name!r} within "
                 f"the ring r = {lo:.4g} .. {hi:.4g} mm its cut and its neighbours' leave"
             )
+    return layers
 
 
 def _trimmable(target: TargetVolume, face: str) -> bool:
