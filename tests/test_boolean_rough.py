@@ -239,6 +239,10 @@ def test_the_cut_face_and_a_taper_build_together(gdml, taper_face):
     a = ends[2]
     taper.pieces = [*ends[:2], a._replace(v1=a.v1 - 1e-6), *ends[3:]]  # a ring's band cut short
     assert any("outside the pieces" in p for p in curved_cells_tile(taper)[1])
+    taper.pieces = [*ends[:2], a._replace(v1=a.v1 + 1e-6), *ends[3:]]  # into the next piece
+    assert curved_cells_tile(taper)[1] == [
+        f"{taper.name}: pieces 2 and 3 of the envelope overlap by 0.001 um along the face"
+    ]
 
 
 @pytest.mark.deep

@@ -359,6 +359,44 @@ def _cells_in_pieces(layer, cells: list, tol: float) -> list[str]:
     return [f"{layer.name}: {out} cell(s) lie outside the pieces of the layer's envelope"]
 
 
+def _pieces_apart(layer, tol: float) -> list[str]:
+    """Pairs of pieces of a curved layer's envelope that overlap (exact): their azimuth ranges
+    share more than ``tol`` at the layer's top, and so do their generator ranges (pieces ending
+    both on z planes or both on cones of normals), or the z ranges of their corners (one of
+    each kind)."""
+    pieces = layer.pieces
+    if pieces is None or len(pieces) < 2:
+        return []
+    face = layer.ring_layout.face
+    t = layer.thickness
+    (_, _), (fv0, fv1) = face.extent
+    r = float(np.max(face.radius(np.array([fv0, fv1])))) + t
+
+    def z_range(p) -> tuple[float, float]:
+        v = np.array([p.v0, p.v1])
+        z = face.point(np.zeros(2), v)[:, 2]
+        if p.normal_ends:
+            z = np.concatenate([z, z + t * float(face.nrz[1])])
+        return float(z.min()), float(z.max())
+
+    out = []
+    for (m, a), (n, b) in itertools.combinations(enumerate(pieces), 2):
+        if np.mod(b.phi0 - a.phi0, 2 * np.pi) >= a.dphi - tol / r and (
+            np.mod(a.phi0 - b.phi0, 2 * np.pi) >= b.dphi - tol / r
+        ):
+            continue  # apart in azimuth (touching at most)
+        (a0, a1), (b0, b1) = (
+            ((a.v0, a.v1), (b.v0, b.v1)) if a.normal_ends == b.normal_ends else
+            (z_range(a), z_range(b))
+        )  # fmt: skip
+        if min(a1, b1) - max(a0, b0) > tol:
+            out.append(
+                f"{layer.name}: pieces {m} and {n} of the envelope overlap by "
+                f"{(min(a1, b1) - max(a0, b0)) * 1e3:.4g} um along the face"
+            )
+    return out
+
+
 def curved_cells_tile(layer, tolerance: float = 1e-9) -> tuple[int, list[str]]:
     """Exact check (numpy) that the cells of a curved layer tile its envelope: neighbouring rings
     share their bounding cones (or polar-angle cones), neighbouring cells of a ring their
@@ -407,7 +445,7 @@ def curved_cells_tile(layer, tolerance: float = 1e-9) -> tuple[int, list[str]]:
                     f"between them {('at the face', 'at the layer top')[level]}"
                 )
     cells = layer.cells()
-    problems += _cells_in_pieces(layer, cells, tol)
+    problems += _cells_in_pieces(layer, cells, tol) + _pieces_apart(layer, tol)
     by_ring: dict[int, list[tuple[int, float]]] = {}
     for j, _, k, phi in cells:
         by_ring.setdefault(j, []).append((k, phi))
