@@ -208,7 +208,7 @@ def test_the_cut_face_and_a_taper_build_together(gdml, taper_face):
     stays out of the cut, where the cut face's layer stands, and both build (refused before,
     with the gap). Neighbouring pieces share their band cone exactly; each piece holds its
     ring's cells (exact tiling), and (seg_1) a piece cut short by 1e-6 mm along the generator
-    is flagged."""
+    is flagged, as is one reaching 1e-6 mm into the next."""
     scene = build_scene(parse_config(config(gdml, {"ppc": ["second.-x", taper_face]})))
     taper = scene.layer("ppc", taper_face)
     assert isinstance(taper, CurvedRoughLayer)
