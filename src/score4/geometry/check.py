@@ -336,16 +336,20 @@ def _cells_in_pieces(layer, cells: list, tol: float) -> list[str]:
     py = lay.patch_size[1]
     cone = not layer.is_cylinder
     out = 0
+    ranges: dict[int, tuple[float, float, tuple[float, float]]] = {}  # per ring (its cells')
     for j, _, _, phi in cells:
         step, r = float(lay.step[j]), float(lay.radius[j]) + layer.thickness
-        lo_v, hi_v = float(lay.v[j]) - py / 2, float(lay.v[j]) + py / 2
-        feet = (lo_v, hi_v)
-        if cone:  # the corners' z as generator arc length of the face, and their feet on it
-            corners = _cell_corners(layer, j)
-            v = (corners[:, 2] - lay.face._mid[1]) / lay.face._tangent[1]
-            lo_v, hi_v = float(v.min()), float(v.max())
-            foot = lay.face.locate(corners)[1]
-            feet = (float(foot.min()), float(foot.max()))
+        if j not in ranges:
+            lo_v, hi_v = float(lay.v[j]) - py / 2, float(lay.v[j]) + py / 2
+            feet = (lo_v, hi_v)
+            if cone:  # the corners' z as generator arc length of the face, and their feet on it
+                corners = _cell_corners(layer, j)
+                v = (corners[:, 2] - lay.face._mid[1]) / lay.face._tangent[1]
+                lo_v, hi_v = float(v.min()), float(v.max())
+                foot = lay.face.locate(corners)[1]
+                feet = (float(foot.min()), float(foot.max()))
+            ranges[j] = (lo_v, hi_v, feet)
+        lo_v, hi_v, feet = ranges[j]
         fits = False
         for p0, dp, v0, v1, normal_ends in layer.pieces:
             lo, hi = feet if normal_ends else (lo_v, hi_v)
