@@ -34,11 +34,12 @@ from helpers.boolean_worlds import (
     POST_AT,
     POSTBOX_POSITION,
     STACK_POSITION,
+    write_cone_cross,
     write_more_world,
 )
 from helpers.export_paths import assert_same_paths, base_name, three_paths
 from helpers.g4_geometry_check import assert_no_overlaps
-from helpers.geantinos import geantino_run
+from helpers.geantinos import geantino_config, geantino_run, rough_targets
 from helpers.ray_trace import (
     flat_patches_path,
     mesh_path,
@@ -55,22 +56,7 @@ FINE = {**PYRAMIDS, "width": "80 um"}
 
 def config(gdml: Path, rough: dict[str, list], surface=PYRAMIDS, **extra) -> dict:
     volume, faces = next(iter(rough.items()))
-    return {
-        "physics": "lite",
-        "world": {"gdml": str(gdml)},
-        "surfaces": {"p": surface},
-        "targets": [
-            {"volume": v, "rough": [{"face": f, "surface": "p"} for f in fs]}
-            for v, fs in rough.items()
-        ],
-        "source": {
-            "particle": "geantino",
-            "energy": "1 MeV",
-            "surface": {"volume": volume, "face": faces[0]},
-        },
-        "run": {"events": 10, "seed": 3},
-        **extra,
-    }
+    return geantino_config(gdml, {"p": surface}, rough_targets(rough), (volume, faces[0]), **extra)
 
 
 @pytest.fixture(scope="module")
@@ -404,6 +390,9 @@ def test_new_boolean_faces_export_with_the_same_paths(gdml, tmp_path, monkeypatc
 
 #: the rod's wall where it runs through the box, and the box's face around it
 CROSS_ROUGH = {"cross": ["second.outer", "first.+z"]}
+#: the cone's wall where it runs through the box, and the box's faces around it
+#: (tests/test_cone_pieces.py)
+CONE_CROSS_ROUGH = {"conecross": ["second.outer", "first.+z"]}
 
 
 def test_a_rods_wall_through_a_box_takes_a_layer_on_both_sides(gdml):
@@ -445,44 +434,62 @@ def test_a_curved_layer_whose_envelope_meets_the_solid_is_one_line(gdml, monkeyp
     assert "\n" not in str(err.value)
 
 
+#: a wall through a box (a union): the rod's (r 5 mm) and the cone's (r 4 to 6 mm over 40 mm,
+#: tests/test_cone_pieces.py), each with the box's face around it. Per wall: the target, its rough
+#: faces, the world's GDML writer, the rays' seed, the least distance from the axis of the rays
+#: onto the box's face, and the wall's radius at z.
+WALLS_THROUGH_A_BOX = {
+    "rod": ("cross", CROSS_ROUGH, write_more_world, 5, 5.5, lambda z: 5.0),
+    "cone": ("conecross", CONE_CROSS_ROUGH, write_cone_cross, 7, 6.0, lambda z: 5.0 + z / 20),
+}
+
+
 @pytest.mark.deep
-def test_a_rods_wall_through_a_box_in_geant4(gdml, tmp_path):
-    """The rod's wall and the box's face around it: Geant4's overlap check finds no overlap, and
-    geantinos through the wall's layer (both pieces) and the face's layer into the solid travel
-    in it the path in the box and rod (their signed distance, bisected) plus the path in the
-    patch bodies near the ray, to 1e-9 mm."""
-    data = config(gdml, CROSS_ROUGH, FINE, output={"track_length": True})
-    (tmp_path / "cross.yaml").write_text(yaml.safe_dump(data))
-    assert_no_overlaps(tmp_path / "cross.yaml")
+@pytest.mark.parametrize("wall_kind", list(WALLS_THROUGH_A_BOX))
+def test_a_wall_through_a_box_in_geant4(wall_kind, tmp_path):
+    """The rod's or the cone's wall (two envelope pieces) and the box's +z face around it:
+    Geant4's overlap check finds no overlap, and geantinos through the wall's layer (both pieces)
+    and the face's layer into the solid travel in it the path in the box and the rod or cone
+    (their signed distance, bisected) plus the path in the patch bodies near the ray, to 1e-9 mm."""
+    volume, rough, write_world, seed, r_face, wall_radius = WALLS_THROUGH_A_BOX[wall_kind]
+    gdml = write_world(tmp_path / f"{volume}.gdml")
+    data = config(gdml, rough, FINE, output={"track_length": True})
+    (tmp_path / f"{volume}.yaml").write_text(yaml.safe_dump(data))
+    assert_no_overlaps(tmp_path / f"{volume}.yaml")
     cfg = parse_config(data)
     scene = build_scene(cfg)
-    target = scene.target("cross")
-    face, wall = scene.layer("cross", "first.+z"), scene.layer("cross", "second.outer")
-    rng = np.random.default_rng(5)
+    target = scene.target(volume)
+    face, wall = scene.layer(volume, "first.+z"), scene.layer(volume, "second.outer")
+    rng = np.random.default_rng(seed)
     starts, directions = [], []
     for k in range(12):
-        if k < 4:  # from above the box's face, beside the rod
-            phi, r = rng.uniform(0, 2 * np.pi), rng.uniform(5.5, 9)
+        if k < 4:  # from above the box's face, beside the rod or cone
+            phi, r = rng.uniform(0, 2 * np.pi), rng.uniform(r_face, 9)
             o = np.array([r * np.cos(phi), r * np.sin(phi), 10.05])
-        else:  # from outside the rod's wall, above and below the box
+        else:  # from just outside the wall, above and below the box
             phi, z = rng.uniform(0, 2 * np.pi), rng.uniform(10.5, 19) * (1 if k % 2 else -1)
-            o = np.array([5.06 * np.cos(phi), 5.06 * np.sin(phi), z])
+            r = wall_radius(z) + 0.06
+            o = np.array([r * np.cos(phi), r * np.sin(phi), z])
         aim = target.shape.sample_volume(rng, 1)[0]
         starts.append(target.to_world(o[None])[0])
         directions.append(target.rotation @ ((aim - o) / np.linalg.norm(aim - o)))
     n = len(starts)
     primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n)
     r = geantino_run(data, primaries, np.array(starts), np.array(directions), tmp_path)
-    got = np.asarray(r.scores["track_length"]["cross"])
-    crossed = 0
+    got = np.asarray(r.scores["track_length"][volume])
+    crossed, pieces = 0, set()
     for k in range(n):
         o, d = starts[k], directions[k]
         expected = polycone_path(target.to_local(o[None])[0], target.rotation.T @ d,
                                  target.shape, length=60.0)  # fmt: skip
-        in_patches = patches_path(o, d, face, 60.0) + patches_path(o, d, wall, 60.0)
+        in_wall = patches_path(o, d, wall, 60.0)
+        in_patches = patches_path(o, d, face, 60.0) + in_wall
         crossed += in_patches > 0
+        if k >= 4 and in_wall > 0:
+            pieces.add(k % 2)  # above the box (odd) or below it (even)
         assert got[k] == pytest.approx(expected + in_patches, abs=1e-9, rel=0), k
     assert crossed >= n // 2  # most rays cross a patch body
+    assert pieces == {0, 1}  # through both pieces of the wall's envelope
 
 
 @pytest.mark.deep

@@ -27,7 +27,7 @@ from score4.world.scene import CurvedRoughLayer
 
 from helpers.boolean_worlds import copper_world_text
 from helpers.g4_geometry_check import assert_no_overlaps
-from helpers.geantinos import geantino_run
+from helpers.geantinos import geantino_config, geantino_run
 from helpers.ray_trace import mesh_path, revolved_path, wall_patches_near
 
 # one worker per module: its boolean solids' face areas are estimated once (cold: ~10-30 s)
@@ -115,22 +115,14 @@ CASES = {
 
 
 def config(gdml: Path, rough: dict[str, list[str]], **extra) -> dict:
-    return {
-        "physics": "lite",
-        "world": {"gdml": str(gdml)},
-        "surfaces": {v: CASES[v][1] for v in rough},
-        "targets": [
-            {"volume": v, "rough": [{"face": f, "surface": v, "into": True} for f in faces]}
-            for v, faces in rough.items()
-        ],
-        "source": {
-            "particle": "geantino",
-            "energy": "1 MeV",
-            "surface": {"volume": next(iter(rough)), "face": next(iter(rough.values()))[0]},
-        },
-        "run": {"events": 10, "seed": 3},
-        **extra,
-    }
+    volume, faces = next(iter(rough.items()))
+    targets = [
+        {"volume": v, "rough": [{"face": f, "surface": v, "into": True} for f in fs]}
+        for v, fs in rough.items()
+    ]
+    return geantino_config(
+        gdml, {v: CASES[v][1] for v in rough}, targets, (volume, faces[0]), **extra
+    )
 
 
 def _one(gdml: Path, volume: str, **extra) -> dict:

@@ -36,7 +36,7 @@ from score4.world.resolve import build_scene
 
 from helpers.boolean_worlds import copper_world_text
 from helpers.g4_geometry_check import assert_no_overlaps
-from helpers.geantinos import geantino_run
+from helpers.geantinos import geantino_config, geantino_run, rough_targets
 from helpers.ray_trace import patches_path, revolved_path
 
 # one worker per module: its boolean solids' face areas are estimated once (cold: ~2 s each)
@@ -115,26 +115,9 @@ def gdml(tmp_path_factory) -> Path:
 def config(gdml: Path, cases: list[str], **extra) -> dict:
     """One target per case, its faces rough with ``into``; the source on the first case's
     faces."""
-    first = CASES[cases[0]]
-    return {
-        "physics": "lite",
-        "world": {"gdml": str(gdml)},
-        "surfaces": {"p": PYRAMIDS, "f": FINE},
-        "targets": [
-            {
-                "volume": CASES[c][0],
-                "rough": [{"face": f, "surface": "p", "into": True} for f in CASES[c][1]],
-            }
-            for c in cases
-        ],
-        "source": {
-            "particle": "geantino",
-            "energy": "1 MeV",
-            "surface": {"volume": first[0], "face": first[1]},
-        },
-        "run": {"events": 10, "seed": 3},
-        **extra,
-    }
+    volume, faces = CASES[cases[0]][:2]
+    targets = [rough_targets({CASES[c][0]: CASES[c][1]}, into=True)[0] for c in cases]
+    return geantino_config(gdml, {"p": PYRAMIDS, "f": FINE}, targets, (volume, faces), **extra)
 
 
 def _depths(scene, case: str) -> dict[str, float]:

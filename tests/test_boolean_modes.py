@@ -19,6 +19,8 @@ from score4.world.activeness import target_distances, volume_activeness, weight
 from score4.world.resolve import build_scene
 from score4.world.rough_distance import CurvedRoughSurfaceDistance, RoughSurfaceDistance
 
+from helpers.geantinos import geantino_config
+
 #: 0.5 mm patches of 5 x 5 pyramids, 20 um high (0.4 mm for the 5 mm bore)
 PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
 FINE = {**PYRAMIDS, "width": "80 um"}
@@ -55,19 +57,9 @@ def gdml(tmp_path_factory) -> Path:
 
 
 def config(gdml: Path, rough: list[dict], **extra) -> dict:
-    return {
-        "physics": "lite",
-        "world": {"gdml": str(gdml)},
-        "surfaces": {"p": PYRAMIDS, "fine": FINE},
-        "targets": [{"volume": "cutbox", "rough": rough}],
-        "source": {
-            "particle": "geantino",
-            "energy": "1 MeV",
-            "surface": {"volume": "cutbox", "face": "first.+z"},
-        },
-        "run": {"events": 10, "seed": 3},
-        **extra,
-    }
+    targets = [{"volume": "cutbox", "rough": rough}]
+    surfaces = {"p": PYRAMIDS, "fine": FINE}
+    return geantino_config(gdml, surfaces, targets, ("cutbox", "first.+z"), **extra)
 
 
 def _rect(p: np.ndarray, lo, hi) -> np.ndarray:

@@ -28,7 +28,7 @@ from helpers import g4_geometry_check
 from helpers.boolean_worlds import CUTBOX_POSITION, STACK_POSITION, write_world
 from helpers.export_paths import assert_same_paths, base_name, three_paths
 from helpers.g4_geometry_check import assert_no_overlaps
-from helpers.geantinos import geantino_run
+from helpers.geantinos import geantino_config, geantino_run, rough_targets
 from helpers.ray_trace import (
     flat_patches_path,
     mesh_path,
@@ -43,22 +43,9 @@ PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20
 
 
 def config(gdml: Path, rough: dict[str, list], **extra) -> dict:
-    return {
-        "physics": "lite",
-        "world": {"gdml": str(gdml)},
-        "surfaces": {"p": PYRAMIDS},
-        "targets": [
-            {"volume": v, "rough": [{"face": f, "surface": "p"} for f in faces]}
-            for v, faces in rough.items()
-        ],
-        "source": {
-            "particle": "geantino",
-            "energy": "1 MeV",
-            "surface": {"volume": "cutbox", "face": "first.+z"},
-        },
-        "run": {"events": 10, "seed": 3},
-        **extra,
-    }
+    return geantino_config(
+        gdml, {"p": PYRAMIDS}, rough_targets(rough), ("cutbox", "first.+z"), **extra
+    )
 
 
 ROUGH = {"cutbox": ["first.+z", "first.+x"], "stack": ["second.outer"]}

@@ -1,6 +1,7 @@
 """Envelope pieces of a cone's wall cut by a boolean's other part (issue 24): a cone through a
 box (a union) takes two pieces, each ending exactly where its outer ring's cells end along the
-generator; Geant4's overlap check and geantino paths through both pieces (deep)."""
+generator. Geant4's overlap check and geantino paths through both pieces are deep, in one test with
+the rod's wall: test_boolean_faces.py::test_a_wall_through_a_box_in_geant4."""
 
 from __future__ import annotations
 
@@ -8,26 +9,18 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
-from test_boolean_faces import FINE, config
+from test_boolean_faces import CONE_CROSS_ROUGH, FINE, config
 
 from score4.geometry.check import _cell_corners, curved_cells_tile
 from score4.inputs.config import parse_config
 from score4.shapes.base import INSIDE
-from score4.source.build import make_source
 from score4.world.resolve import build_scene
 from score4.world.scene import CurvedRoughLayer
 
 from helpers.boolean_worlds import write_cone_cross
-from helpers.g4_geometry_check import assert_no_overlaps
-from helpers.geantinos import geantino_run
-from helpers.ray_trace import patches_path, polycone_path
 
 # one worker per module: its boolean solids' face areas are estimated once (cold: ~10-30 s)
 pytestmark = pytest.mark.xdist_group("cone-pieces")
-
-#: the cone's wall where it runs through the box, and the box's faces around it
-CONE_CROSS_ROUGH = {"conecross": ["second.outer", "first.+z"]}
 
 
 @pytest.fixture(scope="module")
@@ -79,47 +72,3 @@ def test_a_cones_wall_through_a_box_takes_two_pieces(gdml):
     assert not curved_cells_tile(wall)[1]
     wall.pieces = [a._replace(v1=va1 - 1e-6), b]  # a cell's reach cut off
     assert any("outside the pieces" in p for p in curved_cells_tile(wall)[1])
-
-
-@pytest.mark.deep
-def test_a_cones_wall_through_a_box_in_geant4(gdml, tmp_path):
-    """The cone's wall (two pieces) and the box's +z face: Geant4's overlap check finds no
-    overlap, and geantinos through both pieces and the face's layer into the solid travel in it
-    the path in the box and cone plus the path in the patch bodies near the ray, to 1e-9 mm."""
-    data = config(gdml, CONE_CROSS_ROUGH, FINE, output={"track_length": True})
-    (tmp_path / "conecross.yaml").write_text(yaml.safe_dump(data))
-    assert_no_overlaps(tmp_path / "conecross.yaml")
-    cfg = parse_config(data)
-    scene = build_scene(cfg)
-    target = scene.target("conecross")
-    face, wall = scene.layer("conecross", "first.+z"), scene.layer("conecross", "second.outer")
-    rng = np.random.default_rng(7)
-    starts, directions = [], []
-    for k in range(12):
-        if k < 4:  # from above the box's face, beside the cone
-            phi, r = rng.uniform(0, 2 * np.pi), rng.uniform(6, 9)
-            o = np.array([r * np.cos(phi), r * np.sin(phi), 10.05])
-        else:  # from just outside the cone's wall, above and below the box
-            phi, z = rng.uniform(0, 2 * np.pi), rng.uniform(10.5, 19) * (1 if k % 2 else -1)
-            r = 5.0 + z / 20 + 0.06
-            o = np.array([r * np.cos(phi), r * np.sin(phi), z])
-        aim = target.shape.sample_volume(rng, 1)[0]
-        starts.append(target.to_world(o[None])[0])
-        directions.append(target.rotation @ ((aim - o) / np.linalg.norm(aim - o)))
-    n = len(starts)
-    primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n)
-    r = geantino_run(data, primaries, np.array(starts), np.array(directions), tmp_path)
-    got = np.asarray(r.scores["track_length"]["conecross"])
-    crossed, pieces = 0, set()
-    for k in range(n):
-        o, d = starts[k], directions[k]
-        expected = polycone_path(target.to_local(o[None])[0], target.rotation.T @ d,
-                                 target.shape, length=60.0)  # fmt: skip
-        in_wall = patches_path(o, d, wall, 60.0)
-        in_patches = patches_path(o, d, face, 60.0) + in_wall
-        crossed += in_patches > 0
-        if k >= 4 and in_wall > 0:
-            pieces.add(k % 2)  # above the box (odd) or below it (even)
-        assert got[k] == pytest.approx(expected + in_patches, abs=1e-9, rel=0), k
-    assert crossed >= n // 2  # most rays cross a patch body
-    assert pieces == {0, 1}  # through both pieces of the wall's envelope

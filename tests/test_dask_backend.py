@@ -262,6 +262,15 @@ def test_a_cancelled_chunk_stops_on_its_worker_and_the_worker_runs_on(tmp_path):
         # the worker's Geant4 application gives the same events as before the cancelled run
         again = list(DaskExecutor(client, 1, echo=quiet).execute(spec, [Chunk(2, 0, 100)]))
         assert ("done", 2) in again
+
+        # the worker got the plan resolved (run_plan.worker_pickle), as a local worker does: it
+        # rebuilt no scene and imported no configuration models (a nested function: Dask sends
+        # it by value, so the worker does not import this test module to run it)
+        def parent_side_modules() -> list[str]:
+            names = ("pydantic", "score4.inputs.config", "score4.world.resolve")
+            return [m for m in names if m in sys.modules]
+
+        assert list(client.run(parent_side_modules).values()) == [[]]
     written = sorted(p.name for p in tmp_path.glob("chunk-*"))
     assert written == ["chunk-000000.h5", "chunk-000002.h5"]  # nothing of chunk 1, no .partial
     with h5py.File(chunk_path(tmp_path, 0), "r") as a, h5py.File(chunk_path(tmp_path, 2)) as b:

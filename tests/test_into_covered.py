@@ -21,7 +21,7 @@ from score4.world.resolve import build_scene
 
 from helpers.boolean_worlds import copper_world_text
 from helpers.g4_geometry_check import assert_no_overlaps
-from helpers.geantinos import geantino_run
+from helpers.geantinos import geantino_config, geantino_run, rough_targets
 from helpers.ray_trace import flat_patches_path
 
 # one worker per module: its boolean solids' face areas are estimated once (cold: ~10-30 s)
@@ -67,19 +67,8 @@ def gdml(tmp_path_factory) -> Path:
 
 
 def config(gdml: Path, volume: str, face: str, **extra) -> dict:
-    return {
-        "physics": "lite",
-        "world": {"gdml": str(gdml)},
-        "surfaces": {"p": PYRAMIDS},
-        "targets": [{"volume": volume, "rough": [{"face": face, "surface": "p", "into": True}]}],
-        "source": {
-            "particle": "geantino",
-            "energy": "1 MeV",
-            "surface": {"volume": volume, "face": face},
-        },
-        "run": {"events": 10, "seed": 3},
-        **extra,
-    }
+    targets = rough_targets({volume: [face]}, into=True)
+    return geantino_config(gdml, {"p": PYRAMIDS}, targets, (volume, face), **extra)
 
 
 def test_into_under_a_post_keeps_the_slab_under_it(gdml):

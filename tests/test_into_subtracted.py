@@ -14,6 +14,7 @@ import pytest
 from score4.inputs.config import parse_config
 from score4.world.resolve import build_scene
 
+from helpers.geantinos import geantino_config, rough_targets
 from helpers.ray_trace import flat_patches_path
 
 PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
@@ -51,19 +52,10 @@ def gdml(tmp_path_factory) -> Path:
 
 
 def config(gdml: Path, face: str, volume: str = "pocket") -> dict:
-    return {
-        "physics": "lite",
-        "world": {"gdml": str(gdml)},
-        "surfaces": {"p": PYRAMIDS},
-        "targets": [{"volume": volume, "rough": [{"face": face, "surface": "p", "into": True}]}],
-        "source": {
-            "particle": "geantino",
-            "energy": "1 MeV",
-            "surface": {"volume": volume, "face": "first.-z"},
-        },
-        "run": {"events": 10, "seed": 3},
-        "output": {"track_length": True},
-    }
+    targets = rough_targets({volume: [face]}, into=True)
+    return geantino_config(
+        gdml, {"p": PYRAMIDS}, targets, (volume, "first.-z"), output={"track_length": True}
+    )
 
 
 def _grown(face: str, t: float) -> tuple[np.ndarray, np.ndarray]:

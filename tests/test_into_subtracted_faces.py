@@ -19,6 +19,8 @@ from score4.errors import ConfigError
 from score4.inputs.config import parse_config
 from score4.world.resolve import build_scene
 
+from helpers.geantinos import geantino_config, rough_targets
+
 # one worker per module: its boolean solids' face areas are estimated once (cold: ~10-30 s)
 pytestmark = pytest.mark.xdist_group("subtracted-faces")
 
@@ -68,24 +70,11 @@ def gdml(tmp_path_factory) -> Path:
 
 def config(gdml: Path, holes: dict | None = None) -> dict:
     holes = HOLES if holes is None else holes
-    targets = [
-        {"volume": v, "rough": [{"face": f, "surface": "p", "into": True} for f in faces]}
-        for v, (_y, faces) in holes.items()
-    ]
+    targets = rough_targets({v: faces for v, (_y, faces) in holes.items()}, into=True)
     first = next(iter(holes))
-    return {
-        "physics": "lite",
-        "world": {"gdml": str(gdml)},
-        "surfaces": {"p": PYRAMIDS},
-        "targets": targets,
-        "source": {
-            "particle": "geantino",
-            "energy": "1 MeV",
-            "surface": {"volume": first, "face": "first.-z"},
-        },
-        "run": {"events": 10, "seed": 3},
-        "output": {"track_length": True},
-    }
+    return geantino_config(
+        gdml, {"p": PYRAMIDS}, targets, (first, "first.-z"), output={"track_length": True}
+    )
 
 
 #: into on the sides: the Trd's +x face, the polyhedra's six sides (a deep test)

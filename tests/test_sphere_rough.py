@@ -20,7 +20,7 @@ from score4.world.curved import MAX_SQUEEZE, gap_limit
 from score4.world.resolve import build_scene
 from score4.world.scene import CurvedRoughLayer
 
-from helpers.geantinos import geantino_run
+from helpers.geantinos import geantino_config, geantino_run, rough_targets
 from helpers.ray_trace import mesh_path
 from helpers.spawn import run_in_spawned_process
 
@@ -51,22 +51,8 @@ def write_spheres(path: Path, orb_r: float = ORB_R) -> Path:
 
 def config(gdml: Path, rough: dict | None = None, **extra) -> dict:
     rough = rough or {"orb": ["outer"], "sph": ["outer", "inner"]}
-    return {
-        "physics": "lite",
-        "world": {"gdml": str(gdml)},
-        "surfaces": {"p": PYRAMIDS},
-        "targets": [
-            {"volume": v, "rough": [{"face": f, "surface": "p"} for f in faces]}
-            for v, faces in rough.items()
-        ],
-        "source": {
-            "particle": "geantino",
-            "energy": "1 MeV",
-            "surface": {"volume": "sph", "face": ["outer", "inner"]},
-        },
-        "run": {"events": 10, "seed": 3},
-        **extra,
-    }
+    faces = ["outer", "inner"]
+    return geantino_config(gdml, {"p": PYRAMIDS}, rough_targets(rough), ("sph", faces), **extra)
 
 
 @pytest.fixture(scope="module")

@@ -19,6 +19,8 @@ import pytest
 from score4.inputs.config import parse_config
 from score4.world.resolve import build_scene
 
+from helpers.geantinos import geantino_config
+
 # one worker per module: its boolean solids' face areas are estimated once (cold: ~10-30 s)
 pytestmark = pytest.mark.xdist_group("subtracted-spheres")
 
@@ -48,22 +50,13 @@ def gdml(tmp_path_factory) -> Path:
 
 
 def config(gdml: Path) -> dict:
-    return {
-        "physics": "lite",
-        "world": {"gdml": str(gdml)},
-        "surfaces": {"s": SMALL},
-        "targets": [
-            {"volume": v, "rough": [{"face": "second.outer", "surface": "s", "into": into}]}
-            for v, (_y, _at, into) in HOLES.items()
-        ],
-        "source": {
-            "particle": "geantino",
-            "energy": "1 MeV",
-            "surface": {"volume": "dimple", "face": "first.-z"},
-        },
-        "run": {"events": 10, "seed": 3},
-        "output": {"track_length": True},
-    }
+    targets = [
+        {"volume": v, "rough": [{"face": "second.outer", "surface": "s", "into": into}]}
+        for v, (_y, _at, into) in HOLES.items()
+    ]
+    return geantino_config(
+        gdml, {"s": SMALL}, targets, ("dimple", "first.-z"), output={"track_length": True}
+    )
 
 
 def _box_less_ball(o: np.ndarray, d: np.ndarray, centre: np.ndarray, r: float) -> float:

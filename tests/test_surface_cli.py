@@ -314,11 +314,11 @@ def test_export_ply_keeps_the_exact_body(tmp_path, capsys):
     assert vertices[:, 2].min() == pytest.approx(-1 * UM)
 
 
-def _export_gdml(surface_file, gdml_path, extra_args, points):
+def _classify(gdml_path, points):
     sys.path.insert(0, str(Path(__file__).parent))
-    from helpers.g4_surface_cli import export_and_classify
+    from helpers.g4_surface_cli import classify
 
-    return export_and_classify(surface_file, gdml_path, extra_args, points)
+    return classify(gdml_path, points)
 
 
 def test_export_gdml_tessellated_and_multiunion(tmp_path, capsys):
@@ -353,14 +353,16 @@ def test_export_gdml_tessellated_and_multiunion(tmp_path, capsys):
         ),
         "random": (random_file, tmp_path / "random.gdml", [], [[0.0, 0.0, -0.5 * UM]]),
     }
-    # One fresh process per file: Geant4 keeps volumes in global stores, and reading a second
-    # GDML file with the same volume names in one process returned the first file's world.
-    results = {
-        k: run_in_spawned_process(
-            _export_gdml, *(str(a) if isinstance(a, Path) else a for a in job)
+    # the exports here (each writes from a process of its own); the reading in one fresh process
+    # per file: Geant4 keeps volumes in global stores, and reading a second GDML file with the
+    # same volume names in one process returned the first file's world
+    results = {}
+    for k, (surface_file, gdml_path, extra_args, job_points) in jobs.items():
+        code, _, err = run(
+            capsys, "surface", "export", surface_file, "--gdml", gdml_path, *extra_args
         )
-        for k, job in jobs.items()
-    }
+        assert code == 0, err  # before the reading
+        results[k] = (code, *run_in_spawned_process(_classify, str(gdml_path), job_points))
     for name in ("tess", "union"):
         status, kind, _material, blo, bhi, codes = results[name]
         assert status == 0
@@ -381,6 +383,41 @@ def test_export_gdml_tessellated_and_multiunion(tmp_path, capsys):
     assert blo == pytest.approx([-rough.size_x / 2, -rough.size_y / 2, -1 * UM], abs=1e-9)
     assert bhi == pytest.approx([rough.size_x / 2, rough.size_y / 2, rough.max_height], abs=1e-9)
     assert not [p for p in tmp_path.iterdir() if "partial" in p.name]
+
+
+def _exports_in_one_process(jobs: list[list[str]]) -> bool:
+    """``score4 surface export`` once per argument list, all in this process; whether Geant4
+    was imported into it."""
+    from score4.cli.main import main
+
+    for args in jobs:
+        assert main(["surface", "export", *args]) == 0
+    return "geant4_pybind" in sys.modules
+
+
+def test_two_gdml_exports_in_one_process_give_the_files_each_gives_alone(tmp_path, capsys):
+    """A program that exports two surfaces to GDML (main() twice in one process) gets the files
+    each export writes alone: each solid is built and written in a process of its own
+    (sim.export_surface), and the calling process never imports Geant4."""
+    spikes_file = generate(tmp_path, capsys, "spikes", SPIKES)
+    random_file = generate(tmp_path, capsys, "rough", SMALL_RANDOM)
+    jobs = {
+        "union": [spikes_file, "--solid", "multiunion", "--material", "G4_Cu"],
+        "tess": [random_file, "--base-thickness", "2 um"],
+    }
+
+    def args(name: str, prefix: str) -> list[str]:
+        surface, *rest = jobs[name]
+        return [str(surface), "--gdml", str(tmp_path / f"{prefix}_{name}.gdml"), *rest]
+
+    imported = run_in_spawned_process(_exports_in_one_process, [args(n, "both") for n in jobs])
+    assert not imported  # Geant4 ran in processes of their own
+    for name in jobs:
+        code, _, err = run(capsys, "surface", "export", *args(name, "alone"))
+        assert code == 0, err
+        alone = (tmp_path / f"alone_{name}.gdml").read_bytes()
+        assert (tmp_path / f"both_{name}.gdml").read_bytes() == alone, name
+    assert "geant4_pybind" not in sys.modules
 
 
 # --- errors ---------------------------------------------------------------------------------

@@ -13,6 +13,38 @@ from score4.runner.output import read_results
 from score4.source.vertex_file import write_vertex_file
 
 
+def geantino_config(
+    gdml: Path, surfaces: dict, targets: list[dict], source: tuple[str, str | list[str]], **extra
+) -> dict:
+    """The configuration of a geantino-path test: the GDML world ``gdml`` in lite physics, the
+    ``surfaces`` and ``targets`` sections given, 1 MeV geantinos drawn on ``source`` (volume,
+    face or faces), 10 events of seed 3, then the ``extra`` sections."""
+    volume, face = source
+    return {
+        "physics": "lite",
+        "world": {"gdml": str(gdml)},
+        "surfaces": surfaces,
+        "targets": targets,
+        "source": {
+            "particle": "geantino",
+            "energy": "1 MeV",
+            "surface": {"volume": volume, "face": face},
+        },
+        "run": {"events": 10, "seed": 3},
+        **extra,
+    }
+
+
+def rough_targets(rough: dict[str, list[str]], surface: str = "p", into: bool = False) -> list:
+    """``targets`` with a layer of ``surface`` on each face that ``rough`` names per volume
+    (``into: true`` on each if ``into``)."""
+    more = {"into": True} if into else {}
+    return [
+        {"volume": v, "rough": [{"face": f, "surface": surface, **more} for f in faces]}
+        for v, faces in rough.items()
+    ]
+
+
 def geantino_run(data: dict, primaries, start: np.ndarray, direction: np.ndarray, folder: Path):
     """Results of ``data``'s world with ``primaries`` (drawn from its source, one per ray)
     moved onto the rays ``start`` + s ``direction``: written as a vertex file in ``folder``

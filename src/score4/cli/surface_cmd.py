@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 import math
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +21,7 @@ import click
 from score4.common.schema import input_paths, quantity
 from score4.common.units import um
 
-from ..errors import ConfigError, Score4Error
+from ..errors import ConfigError
 from ..files import check_output_file, check_outputs
 
 __all__ = ["load_any", "stats_document", "surface"]
@@ -247,33 +246,6 @@ def show_cmd(file: Path, png: Path, dpi: int, overwrite: bool) -> None:
     click.echo(f"wrote {png}")
 
 
-def _write_gdml(built, body, out: Path, solid_kind: str, thickness: float, material: str) -> None:
-    """Build the Geant4 solid and write it with G4GDMLParser; Geant4's console goes to a log."""
-    from ..geometry.gdml import write_solid_gdml
-    from ..geometry.solids import multiunion_solid, tessellated_solid
-    from ..sim.runtime import import_geant4, redirect_native_output, resolve_physics
-
-    # Geometry and NIST materials need no data sets: lite mode's stand-ins let Geant4 start.
-    g4 = import_geant4(resolve_physics("lite"))
-    with tempfile.TemporaryDirectory(prefix="score4-gdml-") as tmp:
-        log = Path(tmp) / "geant4.log"
-        try:
-            with redirect_native_output(log):
-                if solid_kind == "multiunion":
-                    solid, parts = multiunion_solid(g4, built.spikes, thickness, "rough_surface")
-                else:
-                    solid, parts = tessellated_solid(g4, body, "rough_surface"), ()
-                write_solid_gdml(g4, solid, out, material=material)
-                del parts  # the node solids must outlive the write
-        except Score4Error as err:
-            tail = (
-                " | ".join(log.read_text(errors="replace").strip().splitlines()[-3:])
-                if log.exists()
-                else ""
-            )
-            raise Score4Error(f"{err}{'; Geant4 said: ' + tail if tail else ''}") from err
-
-
 @surface.command("export")
 @click.argument("file", metavar="FILE", type=click.Path(path_type=Path))
 @click.option(
@@ -346,7 +318,10 @@ def export_cmd(
         assert body is not None  # multiunion applies to --gdml only (checked above)
         (write_stl if fmt == "stl" else write_ply)(body, out)
     else:
-        _write_gdml(built, body, out, solid_kind, thickness, material)
+        from ..sim.export_surface import export_surface_gdml
+
+        spikes = built.spikes if solid_kind == "multiunion" else None
+        export_surface_gdml(spikes, body, out, thickness, material)
     facets = (
         f"{body.n_faces} facets"
         if body is not None

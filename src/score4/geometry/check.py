@@ -329,18 +329,24 @@ def _cells_in_pieces(layer, cells: list, tol: float) -> list[str]:
     cut, :attr:`~score4.world.scene.CurvedRoughLayer.pieces`) that do not lie wholly in one
     piece's azimuth and generator ranges (a cylinder's cell spans its ring's band; a cone's
     cell the generator range whose z planes hold its corners, :func:`_cell_corners`, or in a
-    piece ending on cones of normals, the range of its corners' feet on the face)."""
+    piece ending on cones of normals, the range of its corners' feet on the face; a sphere's
+    cell its ring's band and half the rows' gap beyond)."""
     if layer.pieces is None:
         return []
+    from score4.shapes.faces import SphereFace
+
     lay = layer.ring_layout
     py = lay.patch_size[1]
-    cone = not layer.is_cylinder
+    sphere = isinstance(lay.face, SphereFace)
+    cone = not layer.is_cylinder and not sphere
     out = 0
     ranges: dict[int, tuple[float, float, tuple[float, float]]] = {}  # per ring (its cells')
     for j, _, _, phi in cells:
         step, r = float(lay.step[j]), float(lay.radius[j]) + layer.thickness
         if j not in ranges:
             lo_v, hi_v = float(lay.v[j]) - py / 2, float(lay.v[j]) + py / 2
+            if sphere:  # the G4Sphere cell's polar-angle cones, half the rows' gap beyond the patch
+                lo_v, hi_v = lo_v - lay.row_gap / 2, hi_v + lay.row_gap / 2
             feet = (lo_v, hi_v)
             if cone:  # the corners' z as generator arc length of the face, and their feet on it
                 corners = _cell_corners(layer, j)
@@ -368,13 +374,20 @@ def _pieces_apart(layer, tol: float) -> list[str]:
     share more than ``tol`` at the layer's top, and so do their generator ranges (pieces ending
     both on z planes or both on cones of normals), or the z ranges of their corners (one of
     each kind)."""
-    pieces = layer.pieces
-    if pieces is None or len(pieces) < 2:
+    if layer.pieces is None or len(layer.pieces) < 2:
         return []
+    from score4.shapes.faces import SphereFace
+    from score4.world.scene import EnvelopePiece
+
+    pieces = [EnvelopePiece(*p) for p in layer.pieces]
+
     face = layer.ring_layout.face
     t = layer.thickness
     (_, _), (fv0, fv1) = face.extent
-    r = float(np.max(face.radius(np.array([fv0, fv1])))) + t
+    if isinstance(face, SphereFace):
+        r = face.sphere_radius + t
+    else:
+        r = float(np.max(face.radius(np.array([fv0, fv1])))) + t
 
     def z_range(p) -> tuple[float, float]:
         v = np.array([p.v0, p.v1])

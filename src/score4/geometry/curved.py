@@ -6,9 +6,9 @@ z planes of the face's ends: the face's cone (or cylinder) and the same moved ou
 thickness along the face's normal (it touches the target's face and nothing of the target).
 On a face of a boolean solid whose other parts cut or cover it, the envelope is one such G4Cons
 segment per piece (:attr:`~score4.world.scene.CurvedRoughLayer.pieces`: the kept cells'
-azimuth ranges and runs of rings), each cell placed in its piece; a piece of a cone whose
-rings keep different azimuths ends on the rings' band cones instead of z planes, a
-``G4GenericPolycone`` segment of its meridian rectangle
+azimuth ranges and runs of rings; on a sphere G4Sphere segments), each cell placed in its
+piece; a piece of a cone whose rings keep different azimuths ends on the rings' band cones
+instead of z planes, a ``G4GenericPolycone`` segment of its meridian rectangle
 (:func:`~score4.world.scene.normal_envelope`).
 The rings keep clear of the envelope's ends (:meth:`score4.world.curved.RingLayout.make`). Each
 variant bent onto a ring radius is one ``G4TessellatedSolid`` and one logical volume (all rings of a
@@ -47,14 +47,18 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
 
     face = layer.ring_layout.face
     name = layer.name
-    if isinstance(face, SphereFace):  # a spherical shell over the zone
+    if isinstance(face, SphereFace):
+        # a spherical shell over the zone, or one G4Sphere segment per piece of the envelope
         r = face.sphere_radius
         lo, hi = (r, r + layer.thickness) if face.sign > 0 else (r - layer.thickness, r)
-        t0, t1 = face.theta
-        env_solid = g4.G4Sphere(name, lo, hi, face.phi0, face.dphi, t0, t1 - t0)
-        zc = 0.0
-        env_solids = [env_solid]
-        zcs = [0.0]
+        env_solids, zcs = [], []
+        for n, view in enumerate(layer.envelope_views()):
+            vf = view.ring_layout.face
+            assert isinstance(vf, SphereFace)
+            t0, t1 = vf.theta
+            tag = name if n == 0 else f"{name}_env{n}"
+            env_solids.append(g4.G4Sphere(tag, lo, hi, vf.phi0, vf.dphi, t0, t1 - t0))
+            zcs.append(0.0)
     else:
         # one G4Cons per piece of the envelope (the face's whole shell, or the azimuth and
         # generator ranges holding the kept cells of a face a boolean's other parts cut)
@@ -198,23 +202,25 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
     if isinstance(face, SphereFace) and any(
         layer.solid_kind(k) == "frustums" for k in range(len(layer.variants))
     ):
-        # a sphere's cells of bent frustums: one band (a G4Sphere zone over the face's phi range)
-        # per ring, its cells placed in it by rotation about z (each ring's cell is one logical
-        # volume); the bands in the envelope
-        rings_of: dict[int, list[tuple[int, float]]] = {}
+        # a sphere's cells of bent frustums: one band (a G4Sphere zone over the phi range of the
+        # face, or of the envelope's piece) per ring and piece, its cells placed in it by rotation
+        # about z (each ring's cell is one logical volume); the bands in the envelope's pieces
+        rings_of: dict[tuple[int, int], list[tuple[int, float]]] = {}
         for j, _, k, phi in cells:
-            rings_of.setdefault(j, []).append((k, phi))
-        for j, row in sorted(rings_of.items()):
+            rings_of.setdefault((j, layer.piece_of(j, phi)), []).append((k, phi))
+        views = layer.envelope_views()
+        for (j, n), row in sorted(rings_of.items()):
             rlo, rhi, th0, dth, _ = sphere_cell(lay, j, layer.thickness)
-            tag = f"{name}_ring{j}"
-            band = g4.G4Sphere(tag, rlo, rhi, face.phi0, face.dphi, th0, dth)
+            tag = f"{name}_ring{j}" if n == 0 else f"{name}_ring{j}_{n}"
+            vf = views[n].ring_layout.face
+            band = g4.G4Sphere(tag, rlo, rhi, vf.phi0, vf.dphi, th0, dth)
             band_lv = g4.G4LogicalVolume(band, mother_material, tag)
             keep.extend([band, band_lv])
             for copy_no, (k, phi) in enumerate(row):
                 lv = patch_lv(k, j)
                 z_cell = shifts.get((k, ring_key[j]), 0.0)
                 place(lv, phi, ring_z[j] + z_cell, band_lv, copy_no)
-            place(band_lv, 0.0, 0.0, env_lv, j)
+            place(band_lv, 0.0, 0.0, env_lvs[n], j)
         levels = [column_lvs, cell_lvs] if column_lvs else [cell_lvs]
         keep += level_regions(g4, levels, name)
         return patch_lvs, keep

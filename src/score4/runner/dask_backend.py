@@ -8,6 +8,10 @@ How it works (see docs/cluster.md):
 
 - The chunks, their seeds and their files are the same as with local processes, so a run gives
   identical results on either backend, and ``--resume`` works the same way.
+- The plan goes to the workers resolved, as to local worker processes
+  (:func:`score4.runner.run_plan.worker_pickle`): pickled once, scattered once to every worker,
+  and unpickled once per worker process and run; the chunk tasks name it. So a worker rebuilds
+  no scene and imports neither pydantic nor the configuration's models.
 - Each Dask worker *process* builds the Geant4 application once and keeps it for the next
   chunks (a module-level cache keyed by the configuration, :func:`setup_key`). Geant4 allows one
   run manager per process and must be driven from the thread that built it, so all Geant4 work
@@ -36,6 +40,7 @@ How it works (see docs/cluster.md):
 from __future__ import annotations
 
 import contextlib
+import gc
 import hashlib
 import json
 import logging
@@ -55,7 +60,6 @@ from typing import Any
 
 import numpy as np
 
-from score4.inputs.config import config_to_dict
 from score4.sim.worker import Chunk, WorkerSpec, chunk_path, ready_info, simulate_chunk
 
 from ..errors import ConfigError, Score4Error, Score4Warning
@@ -143,7 +147,14 @@ class DaskExecutor:
             if client is None:
                 client, cluster = self._connect()
                 own_client = True
-            self._free_workers(client, setup_key(spec))
+            setup = setup_key(spec)
+            self._free_workers(client, setup)
+            # the plan resolved, pickled once and sent once to every worker (as to a local
+            # worker: run_plan.worker_pickle), not pickled again with every task; under a key of
+            # its own per run (hash=False), not shared with an earlier run of the same plan
+            from .run_plan import worker_pickle
+
+            plan = client.scatter(worker_pickle(spec), broadcast=True, hash=False)
             run_id = uuid.uuid4().hex[:8]
             by_key = {}
             # submitted a window at a time: a huge run lists no chunks up front
@@ -155,7 +166,9 @@ class DaskExecutor:
                     return
                 fut = client.submit(
                     run_chunk_task,
-                    spec,
+                    setup,
+                    plan.key,
+                    plan,
                     c,
                     key=f"score4-chunk-{c.index:06d}-{run_id}",
                     priority=-c.index,
@@ -275,7 +288,10 @@ _g4_executor: ThreadPoolExecutor | None = None
 
 
 def setup_key(spec: WorkerSpec) -> str:
-    """Identifies the Geant4 set-up a chunk needs (configuration and physics; not the seed)."""
+    """Identifies the Geant4 set-up a chunk needs (configuration and physics; not the seed).
+    Computed by the client (a worker never imports the configuration's models)."""
+    from score4.inputs.config import config_to_dict
+
     text = json.dumps(
         {"config": config_to_dict(spec.plan.config), "physics": asdict(spec.plan.physics)},
         sort_keys=True,
@@ -288,8 +304,12 @@ def held_setup_key() -> str | None:
     return _held.get("key")
 
 
-def run_chunk_task(spec: WorkerSpec, chunk: Chunk) -> ChunkOutput:
+def run_chunk_task(setup: str, plan_key: str, blob: bytes, chunk: Chunk) -> ChunkOutput:
     """The Dask task: run one chunk in this worker process, on its Geant4 thread.
+
+    ``blob`` is the run's :class:`WorkerSpec` as :func:`~score4.runner.run_plan.worker_pickle`
+    wrote it (scattered to the workers under the key ``plan_key``), ``setup`` its
+    :func:`setup_key`.
 
     While the chunk runs, this (Dask's) thread looks every :data:`CANCEL_POLL_S` whether the
     scheduler has cancelled the task, and then stops the Geant4 run after its current event.
@@ -300,7 +320,7 @@ def run_chunk_task(spec: WorkerSpec, chunk: Chunk) -> ChunkOutput:
             _g4_executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="score4-geant4")
     stop = threading.Event()
     cancelled = _cancel_watch()
-    running = _g4_executor.submit(_run_chunk_here, spec, chunk, stop)
+    running = _g4_executor.submit(_run_chunk_here, setup, plan_key, blob, chunk, stop)
     while True:
         try:
             return running.result(timeout=CANCEL_POLL_S)
@@ -326,8 +346,10 @@ def _cancel_watch():
     return cancelled
 
 
-def _run_chunk_here(spec: WorkerSpec, chunk: Chunk, stop: threading.Event) -> ChunkOutput:
-    sim = _simulation(spec)
+def _run_chunk_here(
+    setup: str, plan_key: str, blob: bytes, chunk: Chunk, stop: threading.Event
+) -> ChunkOutput:
+    spec, sim = _simulation(setup, plan_key, blob)
     primaries, scores = simulate_chunk(sim, spec, chunk, stop=stop)
     return ChunkOutput(
         chunk.index,
@@ -344,20 +366,40 @@ def _run_chunk_here(spec: WorkerSpec, chunk: Chunk, stop: threading.Event) -> Ch
     )
 
 
-def _simulation(spec: WorkerSpec):
-    key = setup_key(spec)
-    if not _held:
+def _spec(plan_key: str, blob: bytes) -> WorkerSpec:
+    """The run's spec, unpickled once per worker process and run (the last one is kept)."""
+    if _held.get("plan_key") != plan_key:
+        import pickle
+
+        spec = pickle.loads(blob)
+        assert isinstance(spec, WorkerSpec)
+        _held.update(plan_key=plan_key, spec=spec)
+    spec = _held["spec"]
+    assert isinstance(spec, WorkerSpec)
+    return spec
+
+
+def _simulation(setup: str, plan_key: str, blob: bytes) -> tuple[WorkerSpec, Any]:
+    """The run's spec and this worker process's Geant4 application (built on the first chunk)."""
+    key = setup
+    if "key" not in _held:
         from score4.sim.simulation import Simulation
 
         log = Path(tempfile.gettempdir()) / f"score4-geant4-{os.getpid()}.log"
         _held.update(key=key, log=log)
+        # no garbage collection while the plan is unpickled and Geant4 set up, as in a local
+        # worker (sim.worker.worker_main): the collector's passes over those objects find nothing
+        gc.disable()
         try:
+            spec = _spec(plan_key, blob)
             with warnings.catch_warnings():  # the client has shown them already
                 warnings.simplefilter("ignore", Score4Warning)
                 _held["sim"] = Simulation(spec.plan, log_path=log)
         except BaseException as err:
             _held["error"] = err
             raise
+        finally:
+            gc.enable()
     if _held["key"] != key:
         raise Score4Error(
             "--cluster: this Dask worker process already holds the Geant4 set-up of another run "
@@ -374,7 +416,7 @@ def _simulation(spec: WorkerSpec):
                 f"{prior}"
             )
         )
-    return _held["sim"]
+    return _spec(plan_key, blob), _held["sim"]
 
 
 def _new_log_text() -> str:

@@ -8,12 +8,13 @@ plan: the engine's checks before the run (:func:`score4.runner.engine.run`), the
 application (:class:`score4.sim.simulation.Simulation`), the world builders
 (:func:`score4.geometry.world.build_world`).
 
-A plan travels to a local worker process resolved (:func:`worker_pickle`): the scene and the
-source as the parent built them, with every validated model of the configuration in them
+A plan travels to a worker process resolved (:func:`worker_pickle`; to a local worker through
+its pipe, to the workers of a Dask cluster scattered once): the scene and the source as the
+parent built them, with every validated model of the configuration in them
 replaced by a :class:`~score4.common.records.Record` of its values. So the worker rebuilds
 nothing and never imports pydantic or :mod:`score4.inputs.config` (0.13-0.16 s of a worker's
 0.7-1 s start-up, ``benchmarks/bench_runloop.py --parts startup``). ``pickle.dumps(plan)``
-writes the plan's *recipe* instead (a Dask task pickles its arguments with every task): the
+writes the plan's *recipe* instead (what a program that pickles a plan itself gets): the
 configuration, the seed, the physics choice, the fingerprint and the GDML volume model;
 unpickling it rebuilds the scene and the source, deterministically (same seeds, same patch
 maps) and without the checks the parent made before the run: no configuration file is read
@@ -65,8 +66,8 @@ class RunPlan:
     """One run configuration, resolved: what every later step of a run reads.
 
     Two plans are equal when their fingerprints, seeds and physics choices are. A plan pickles
-    as its recipe and is rebuilt from it on unpickling (a Dask task); :func:`worker_pickle` sends
-    it resolved, to a local worker (:mod:`score4.runner.run_plan`).
+    as its recipe and is rebuilt from it on unpickling; :func:`worker_pickle` sends it resolved,
+    to the workers of a run (:mod:`score4.runner.run_plan`).
 
     Attributes
     ----------
@@ -179,7 +180,7 @@ def _rebuild(
 ) -> RunPlan:
     """A plan from its recipe (on unpickling, in a worker): the same scene and source, built
     from the configuration already validated and the GDML model already read. Built once per
-    process: a Dask worker unpickles the plan with every chunk task and gets the same object."""
+    process: unpickling the same recipe again gives the same object."""
     key = (fingerprint, seed, physics, source)
     held = _REBUILT.get("plan")
     if held is not None and (*_identity(held), held.source is not None) == key:

@@ -15,9 +15,7 @@ pyg4ometry refuses on them (:func:`score4.geometry.gdml.drop_nist_state`).
 
 from __future__ import annotations
 
-import multiprocessing as mp
 import tempfile
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from score4.inputs.config import RunConfig
@@ -140,5 +138,6 @@ def export_world(config: RunConfig, out: Path) -> dict:
             f"{portal[0]}: tiling portal teleports particles and cannot be written to GDML; "
             "export tiling: native (the same surface in other tools)"
         )
-    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-        return pool.submit(_write, config, str(out)).result()
+    from .runtime import in_own_process
+
+    return in_own_process(_write, config, str(out))

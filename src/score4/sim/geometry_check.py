@@ -4,17 +4,16 @@ Geant4 keeps every solid, logical and physical volume it builds in process-wide 
 nothing removes a world from them. A second world built in the same process meets the first:
 Geant4's GDML reader looks volumes up by name in those stores, so a second GDML world took the
 first world's ``crystal`` and Geant4 then reported overlaps with a box of the earlier world. So
-each check builds its world in a spawned process, as a run's workers do (the plan is sent as to
-a worker: :func:`score4.runner.run_plan.worker_pickle`), and the calling process never imports
-Geant4: a program may call :func:`check_geometry` (or ``score4.cli.main.main``) any number of
-times, each check with its own stores.
+each check builds its world in a spawned process (:func:`score4.sim.runtime.in_own_process`),
+as a run's workers do (the plan is sent as to a worker:
+:func:`score4.runner.run_plan.worker_pickle`), and the calling process never imports Geant4:
+a program may call :func:`check_geometry` (or ``score4.cli.main.main``) any number of times,
+each check with its own stores.
 """
 
 from __future__ import annotations
 
-import multiprocessing as mp
 import pickle
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -56,6 +55,7 @@ def check_geometry(
     (:func:`score4.geometry.check.check_placements`); Geant4's output is appended to ``log``."""
     from score4.runner.run_plan import worker_pickle
 
+    from .runtime import in_own_process
+
     blob = worker_pickle(plan)
-    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
-        return pool.submit(_check, blob, points, tolerance, max_placements, str(log)).result()
+    return in_own_process(_check, blob, points, tolerance, max_placements, str(log))

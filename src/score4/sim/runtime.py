@@ -13,7 +13,9 @@ import contextlib
 import ctypes
 import os
 import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any, TypeVar
 
 from score4.runner.physics_choice import (
     LITE_LACKS,
@@ -23,11 +25,14 @@ from score4.runner.physics_choice import (
     resolve_physics,
 )
 
+T = TypeVar("T")
+
 __all__ = [
     "LITE_LACKS",
     "PhysicsChoice",
     "geant4_version",
     "import_geant4",
+    "in_own_process",
     "lite_stub_dir",
     "prepare_environment",
     "redirect_native_output",
@@ -41,6 +46,19 @@ def import_geant4(choice: PhysicsChoice):
     import geant4_pybind
 
     return geant4_pybind
+
+
+def in_own_process(fn: Callable[..., T], *args: Any) -> T:
+    """``fn(*args)`` in a spawned process of its own, for a command that builds Geant4 volumes
+    (the overlap check, the world and surface exports): Geant4 keeps every volume it builds in
+    process-wide stores that nothing empties, and its GDML reader looks volumes up there by name,
+    so two such builds in one process meet. The calling process never imports Geant4; ``fn``
+    (a module-level function) and ``args`` are pickled, and its exception is raised here."""
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(1, mp_context=mp.get_context("spawn")) as pool:
+        return pool.submit(fn, *args).result()
 
 
 @contextlib.contextmanager

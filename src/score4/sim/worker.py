@@ -57,7 +57,7 @@ class Chunk:
 @dataclass(frozen=True)
 class WorkerSpec:
     """Everything a worker needs to build the application and run chunks of one run: the run
-    plan (resolved, to a local worker; as its recipe, to a Dask task: :mod:`score4.runner.run_plan`)
+    plan (resolved, to a local and to a Dask worker: :func:`score4.runner.run_plan.worker_pickle`)
     and where chunk files go."""
 
     plan: RunPlan

@@ -62,7 +62,17 @@ import numpy as np
 
 from score4.errors import ConfigError
 from score4.inputs.config import RoughFace
-from score4.shapes import BooleanShape, G4Box, G4Cons, G4Orb, G4Sphere, G4Tubs, Shape, Transform
+from score4.shapes import (
+    BooleanShape,
+    G4Box,
+    G4Cons,
+    G4Orb,
+    G4Sphere,
+    G4Tubs,
+    PlacedShape,
+    Shape,
+    Transform,
+)
 from score4.shapes.base import INSIDE
 from score4.shapes.boolean import FaceClip
 from score4.shapes.faces import AnnulusFace, RevolvedFace, SphereFace
@@ -334,24 +344,93 @@ def _in_grown_slab(
 
 
 def envelope_pieces(layer: CurvedRoughLayer) -> list[EnvelopePiece] | None:
-    """The pieces (:class:`~score4.world.scene.EnvelopePiece`) of the envelope of a cylinder or
-    cone wall whose kept cells leave part of the face flat (:attr:`CurvedRoughLayer.pieces`),
-    or None where the face's whole shell is needed (every azimuth and every ring holds a kept
-    cell, or a sphere).
+    """The pieces (:class:`~score4.world.scene.EnvelopePiece`: ``(phi0, dphi, v0, v1,
+    normal_ends)``) of the envelope of a cylinder, cone or sphere face whose kept cells leave
+    part of the face flat (:attr:`CurvedRoughLayer.pieces`), or None where the face's whole
+    shell is needed (every azimuth and every ring holds a kept cell; on a sphere, every cell is
+    kept).
 
     Azimuths: the union over the rings of the kept cells' azimuth ranges; a run of cells that
     starts (ends) at a ring's first (last) cell reaches the face's phi edge (the flat rest of
     less than a cell that the rings leave there), so a fully kept ring covers the whole face
-    (and, on a full circle, runs join across the seam). Along the generator, on a cylinder
-    only: rings without a kept cell split the envelope, each piece ending on its outer rings'
-    edges (or the face's end beyond its first or last ring). On a cone a ring's cells reach
-    beyond its band (:func:`~score4.world.curved.cone_cell`: the corners moved out along the
-    slanted normal), so each kept ring is bounded along the generator by its cells' own z range
-    (:func:`cone_ring_span`); kept rings whose spans do not meet split the envelope, and a piece
-    ends where its outer rings' cells end (at the face's end where that ring is its first or
-    last).
+    (and, on a full circle, runs join across the seam). Along the generator: rings without a
+    kept cell split the envelope. A piece ends on its outer rings' edges, or at the face's end
+    where that ring is the face's first or last ring (on a sphere never). On a cylinder a
+    ring's cells fill its band (half the rows' gap beyond the patch on each side). On a cone a
+    ring's cells reach beyond its band (:func:`~score4.world.curved.cone_cell`: the corners
+    moved out along the slanted normal), so each kept ring is bounded along the generator by
+    its cells' own z range (:func:`cone_ring_span`); kept rings whose spans do not meet split
+    the envelope, and a piece ends where its outer rings' cells end; where the rings of such a
+    run keep different azimuths, the pieces end on the rings' band cones (:func:`_wall_pieces`).
 
-    On a cone whose rings in such a run keep different azimuths (each ring has its own grid of
+    On a sphere (:func:`sphere_pieces`) a piece is a G4Sphere segment: neighbouring rings'
+    cells have their own azimuth grids (their steps differ), so a piece holds either a run of
+    rings whose kept cells cover the same azimuths (whole rings, or runs reaching the face's
+    phi edges) or one ring's run of kept cells, exactly: no piece covers a cell that is not
+    kept (a sister standing where the face is cut away, another part of a union beside it)."""
+    lay = layer.ring_layout
+    face = lay.face
+    has = np.asarray((layer.cell_variants >= 0).any(axis=1), dtype=bool)
+    if isinstance(face, SphereFace):
+        held = np.flatnonzero(lay.count > 0)  # (the rings at the poles hold none)
+        if all((layer.cell_variants[j, : lay.count[j]] >= 0).all() for j in held):
+            return None  # nothing of the face is cut: its whole zone
+        return sphere_pieces(layer, has) or None
+    pieces = _wall_pieces(layer, has)
+    (_, _), (fv0, fv1) = face.extent
+    if len(pieces) == 1:
+        _phi0, dphi, v0, v1, _ = pieces[0]
+        if dphi >= face.dphi - 1e-12 and v0 == fv0 and v1 == fv1:
+            return None
+    return pieces or None
+
+
+def _ring_spans(layer: CurvedRoughLayer, j: int) -> list[tuple[float, float]]:
+    """Azimuth ranges (from the face's phi0, in [0, dphi]) of ring ``j``'s runs of kept cells;
+    a run starting (ending) at the ring's first (last) cell reaches the face's phi edge."""
+    lay = layer.ring_layout
+    face = lay.face
+    n = int(lay.count[j])
+    cols = np.flatnonzero(layer.cell_variants[j, :n] >= 0)
+    if not len(cols):
+        return []
+    phi = lay.cell_phi(j)
+    step = float(lay.step[j])
+    breaks = np.flatnonzero(np.diff(cols) > 1)
+    spans = []
+    for a, b in zip(
+        np.concatenate([[0], breaks + 1]), np.concatenate([breaks, [len(cols) - 1]]), strict=True
+    ):
+        lo = 0.0 if cols[a] == 0 else float(phi[cols[a]]) - step / 2 - face.phi0
+        hi = face.dphi if cols[b] == n - 1 else float(phi[cols[b]]) + step / 2 - face.phi0
+        spans.append((lo, hi))
+    return spans
+
+
+def _merged(face, spans: list[tuple[float, float]]) -> list[list[float]]:
+    """Azimuth ranges (from the face's phi0) merged where they meet; on a full circle, the
+    ranges at both phi edges joined across the seam."""
+    merged: list[list[float]] = []
+    for lo, hi in sorted(spans):
+        if merged and lo <= merged[-1][1] + 1e-12:
+            merged[-1][1] = max(merged[-1][1], hi)
+        else:
+            merged.append([lo, hi])
+    if (
+        face.dphi >= 2 * np.pi - 1e-9
+        and len(merged) > 1
+        and merged[0][0] <= 1e-12
+        and merged[-1][1] >= face.dphi - 1e-12
+    ):
+        last = merged.pop()  # joined across the seam
+        merged[0] = [last[0] - face.dphi, merged[0][1]]
+    return merged
+
+
+def _wall_pieces(layer: CurvedRoughLayer, has: np.ndarray) -> list[EnvelopePiece]:
+    """:func:`envelope_pieces` of a cylinder or cone wall.
+
+    On a cone whose rings in a run keep different azimuths (each ring has its own grid of
     azimuths, so a plane cutting the cone obliquely, as P00664B's cut does its tapers, leaves
     each ring a different range), the run's one piece would hold every ring's azimuths over its
     whole length, beyond the cells of the rings keeping fewer; there the pieces end on the
@@ -361,12 +440,8 @@ def envelope_pieces(layer: CurvedRoughLayer) -> list[EnvelopePiece] | None:
     cells (a part of the run's piece)."""
     lay = layer.ring_layout
     face = lay.face
-    if not isinstance(face, RevolvedFace):
-        return None
-    kept = layer.cell_variants >= 0
+    assert isinstance(face, RevolvedFace)
     nrings = len(lay.v)
-    full = face.dphi >= 2 * np.pi - 1e-9
-    has = np.asarray(kept.any(axis=1), dtype=bool)
     if abs(float(face.nrz[1])) <= 1e-12:  # a cylinder: rings without a kept cell split it
         runs, j = [], 0
         while j < nrings:
@@ -390,76 +465,66 @@ def envelope_pieces(layer: CurvedRoughLayer) -> list[EnvelopePiece] | None:
                 runs.append((i, i))
     (_, _), (fv0, fv1) = face.extent
     half = 0.5 * (lay.patch_size[1] + lay.row_gap)
-
-    def ring_spans(j: int) -> list[tuple[float, float]]:
-        """The azimuth ranges (from phi0, in [0, dphi]) of ring ``j``'s runs of kept cells."""
-        n = int(lay.count[j])
-        cols = np.flatnonzero(kept[j, :n])
-        if not len(cols):
-            return []
-        phi = lay.cell_phi(j)
-        step = float(lay.step[j])
-        breaks = np.flatnonzero(np.diff(cols) > 1)
-        out = []
-        for a, b in zip(
-            np.concatenate([[0], breaks + 1]),
-            np.concatenate([breaks, [len(cols) - 1]]),
-            strict=True,
-        ):
-            lo = 0.0 if cols[a] == 0 else float(phi[cols[a]]) - step / 2 - face.phi0
-            hi = face.dphi if cols[b] == n - 1 else float(phi[cols[b]]) + step / 2 - face.phi0
-            out.append((lo, hi))
-        return out
-
-    def merged(spans: list[tuple[float, float]]) -> list[list[float]]:
-        """The union of azimuth ranges (joined across the seam on a full circle)."""
-        out: list[list[float]] = []
-        for lo, hi in sorted(spans):
-            if out and lo <= out[-1][1] + 1e-12:
-                out[-1][1] = max(out[-1][1], hi)
-            else:
-                out.append([lo, hi])
-        if full and len(out) > 1 and out[0][0] <= 1e-12 and out[-1][1] >= face.dphi - 1e-12:
-            last = out.pop()  # joined across the seam
-            out[0] = [last[0] - face.dphi, out[0][1]]
-        return out
-
     pieces: list[EnvelopePiece] = []
     for j0, j1 in runs:
-        if span is None:  # the first and last runs reach the face's ends
-            v0 = fv0 if not has[:j0].any() else float(lay.v[j0]) - half
-            v1 = fv1 if not has[j1 + 1 :].any() else float(lay.v[j1]) + half
+        if span is None:  # the outer rings' bands (the face's ends beyond its end rings)
+            v0 = fv0 if j0 == 0 else float(lay.v[j0]) - half
+            v1 = fv1 if j1 == nrings - 1 else float(lay.v[j1]) + half
         else:  # the outer rings' cells' ends (the face's ends beyond the first and last ring)
             v0 = fv0 if j0 == 0 else float(np.nanmin(span[j0 : j1 + 1, 0]))
             v1 = fv1 if j1 == nrings - 1 else float(np.nanmax(span[j0 : j1 + 1, 1]))
-        rings = {j: merged(ring_spans(j)) for j in range(j0, j1 + 1) if has[j]}
+        rings = {j: _merged(face, _ring_spans(layer, j)) for j in range(j0, j1 + 1) if has[j]}
         groups = [[j0, j1]]
-        if span is not None and not all(_same_spans(m, rings[j0]) for m in rings.values()):
+        if span is not None and not all(_same_ranges(m, rings[j0]) for m in rings.values()):
             groups = []  # rings keeping other azimuths than their neighbour: a piece each
             for j in sorted(rings):
-                if groups and _same_spans(rings[j], rings[groups[-1][1]]):
+                if groups and _same_ranges(rings[j], rings[groups[-1][1]]):
                     groups[-1][1] = j
                 else:
                     groups.append([j, j])
         for g0, g1 in groups:
             if len(groups) == 1:
-                spans = [s for j in range(j0, j1 + 1) for s in ring_spans(j)]
+                spans = [s for j in range(j0, j1 + 1) for s in _ring_spans(layer, j)]
                 ends, a, b = False, v0, v1
             else:  # between the cones of normals through the group's outer rings' bands
-                spans = [s for j in range(g0, g1 + 1) for s in ring_spans(j)]
+                spans = [s for j in range(g0, g1 + 1) for s in _ring_spans(layer, j)]
                 ends, a, b = True, float(lay.v[g0]) - half, float(lay.v[g1]) + half
-            for lo, hi in merged(spans):
+            for lo, hi in _merged(face, spans):
                 pieces.append(EnvelopePiece(face.phi0 + lo, min(hi - lo, 2 * np.pi), a, b, ends))
-    if len(pieces) == 1:
-        _phi0, dphi, v0, v1, _ = pieces[0]
-        if dphi >= face.dphi - 1e-12 and v0 == fv0 and v1 == fv1:
-            return None
-    return pieces or None
+    return pieces
 
 
-def _same_spans(a: list[list[float]], b: list[list[float]]) -> bool:
-    """Two rings' azimuth ranges are the same (to 1e-12 rad)."""
-    return len(a) == len(b) and bool(np.allclose(a, b, rtol=0.0, atol=1e-12))
+def sphere_pieces(layer: CurvedRoughLayer, has: np.ndarray) -> list[EnvelopePiece]:
+    """:func:`envelope_pieces` of a sphere face: consecutive rings whose kept cells cover the
+    same azimuth ranges (to 1e-12 rad: whole rings, runs reaching the face's phi edges) make
+    one piece per range; a ring whose ranges differ from its neighbours' makes its own. A piece
+    spans its rings' bands along the meridian (each ring's cells are G4Sphere segments between
+    the polar-angle cones half the rows' gap beyond the patch, :func:`sphere_cell`, which meet
+    the neighbouring rings'), and no further: the zone beyond the first and last kept rings
+    (the rings at the poles hold no cells) may be cut away, where a sister may stand."""
+    lay = layer.ring_layout
+    face = lay.face
+    half = 0.5 * (lay.patch_size[1] + lay.row_gap)
+    groups: list[tuple[int, int, list[list[float]]]] = []  # (first ring, last ring, ranges)
+    for j in np.flatnonzero(has).tolist():
+        ranges = _merged(face, _ring_spans(layer, j))
+        if groups and groups[-1][1] == j - 1 and _same_ranges(groups[-1][2], ranges):
+            groups[-1] = (groups[-1][0], j, groups[-1][2])
+        else:
+            groups.append((j, j, ranges))
+    pieces: list[EnvelopePiece] = []
+    for j0, j1, ranges in groups:
+        v0, v1 = float(lay.v[j0]) - half, float(lay.v[j1]) + half
+        for lo, hi in ranges:
+            pieces.append(EnvelopePiece(face.phi0 + lo, min(hi - lo, 2 * np.pi), v0, v1))
+    return pieces
+
+
+def _same_ranges(a: list[list[float]], b: list[list[float]]) -> bool:
+    """Two lists of azimuth ranges are the same to 1e-12 rad."""
+    return len(a) == len(b) and all(
+        abs(x[0] - y[0]) <= 1e-12 and abs(x[1] - y[1]) <= 1e-12 for x, y in zip(a, b, strict=True)
+    )
 
 
 def cone_ring_span(lay: RingLayout, j: int, t: float) -> tuple[float, float]:
@@ -833,15 +898,25 @@ def _meets_own_solid(layer: RoughLayer, on: BooleanFace) -> bool:
 
 
 def _pieces_in_solid(layer: CurvedRoughLayer, clip: FaceClip, on: BooleanFace) -> np.ndarray | None:
-    """A world point of a curved layer's envelope pieces inside the boolean solid and inside a
-    solid that cuts the face from outside (another part of a union), or None: an exact search
+    """A world point of a curved layer's envelope pieces inside the boolean solid and inside
+    another part of a union the face is in, or None: an exact search
     (:func:`~score4.world.clearance.shell_search`) down to half the layer's thickness, as
     between two layers (a piece ending on another part's face touches it all round). The
     search stays where the envelope meets such a part: the face itself lies on the solid's
-    surface, where a search against the whole solid would not end."""
+    surface, where a search against the whole solid would not end. A piece lies outside the
+    face's own constituent, so it is in the solid only inside such a part; a solid subtracted
+    beside the face (:func:`_clip_operations`) is not searched: where its wall is the face (a
+    groove cut around a rod) the search could not drop the cells along it and gave up."""
     from .clearance import shell_search
 
-    cutters = [(shape, transform) for shape, transform, inside in clip.clips if not inside]
+    ops = _clip_operations(on.shape, on.face)
+    if len(ops) != len(clip.clips):  # (a face clip of another make: every part from outside)
+        ops = ["union"] * len(clip.clips)
+    cutters = [
+        (shape, transform)
+        for (shape, transform, inside), op in zip(clip.clips, ops, strict=True)
+        if not inside and op == "union"
+    ]
     if not cutters:
         return None
 
@@ -851,6 +926,20 @@ def _pieces_in_solid(layer: CurvedRoughLayer, clip: FaceClip, on: BooleanFace) -
         return np.asarray(np.minimum(-on.shape.signed_distance(q), in_cut))
 
     return shell_search(layer, depth, layer.thickness / 2, "the solid's other parts")
+
+
+def _clip_operations(shape: Shape, name: str) -> list[str]:
+    """The operation of each boolean on the way to face ``name``, in the order of its clips
+    (:meth:`BooleanShape.face_clip`: the innermost first): a clip from outside is another part
+    of a union (``union``: material) or a solid subtracted from the face's side
+    (``subtraction``: a hole)."""
+    while isinstance(shape, PlacedShape):
+        shape = shape.shape
+    if not isinstance(shape, BooleanShape):
+        return []
+    part, rest = name.split(".", 1)
+    inner = _clip_operations(shape.first if part == "first" else shape.second, rest)
+    return [*inner, shape.operation]
 
 
 def _clear_of_the_solid(

@@ -66,7 +66,9 @@ from .scene import (
     RingRoughLayer,
     RoughLayer,
     TargetVolume,
+    edge_circle,
     shared_edge,
+    shared_edge_error,
 )
 
 if TYPE_CHECKING:  # a worker imports this module and never the configuration's models
@@ -188,12 +190,13 @@ def joint_leaves(
                 "put one of them outside the volume (into: false)"
             )
         if not swept:
-            raise ConfigError(
-                f"{where}: into: true on faces {path}{a} and {path}{b} of {name!r}, faces of "
-                f"one {leaf.kind} of the boolean that share an edge (the circle r = {edge_r:.4g} "
-                f"mm at z = {edge_z:.4g} mm in its frame): score4 cuts such faces together on a "
-                "G4Tubs, G4Cons or polycone with a full circle only; put one of them outside the "
-                "volume (into: false)"
+            raise shared_edge_error(
+                where,
+                (path + a, path + b),
+                name,
+                f"faces of one {leaf.kind} of the boolean that share an edge "
+                f"({edge_circle(edge_r, edge_z)} in its frame)",
+                "on a G4Tubs, G4Cons or polycone with a full circle only",
             )
         joint[path] = grown_by
         for face in [path + f for f in faces] + under.get(path, []):

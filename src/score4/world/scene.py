@@ -538,8 +538,10 @@ class CurvedRoughLayer(RoughLayer):
     #: radius of a sphere moves by it)
     into_cut: float = 0.0
     #: on a face of a boolean partly covered or cut by its other parts: the envelope's pieces
-    #: (:class:`EnvelopePiece`: azimuth range and generator range of the face) holding the kept
-    #: cells; None: the face's whole shell
+    #: (:class:`EnvelopePiece`: azimuth range and generator range of the face; on a sphere the
+    #: meridian's arc length) holding the kept cells, each a G4Cons (G4Tubs) segment, a
+    #: G4GenericPolycone between band cones on a cone (``normal_ends``), on a sphere a G4Sphere
+    #: segment; None: the face's whole shell
     #: (:func:`score4.world.boolean_layers.envelope_pieces`)
     pieces: list[EnvelopePiece] | None = None
     #: the envelope (a piece of it, :meth:`envelope_views`) ends on the cones of the face's
@@ -556,12 +558,16 @@ class CurvedRoughLayer(RoughLayer):
         if self.pieces is None:
             return [self]
         face = self.ring_layout.face
-        assert isinstance(face, RevolvedFace)
         out = []
         for phi0, dphi, v0, v1, normal_ends in self.pieces:
-            (r1, z1), (r2, z2) = face.point(0.0, np.array([v0, v1]))[:, [0, 2]]
-            sub = replace(face, rz1=(float(r1), float(z1)), rz2=(float(r2), float(z2)),
-                          phi0=phi0, dphi=dphi)  # fmt: skip
+            sub: RevolvedFace | SphereFace
+            if isinstance(face, SphereFace):  # a G4Sphere segment: the polar angles of v0, v1
+                a, b = sorted(float(x) for x in face.polar(np.array([v0, v1])))
+                sub = replace(face, theta=(a, b), phi0=phi0, dphi=dphi)
+            else:
+                (r1, z1), (r2, z2) = face.point(0.0, np.array([v0, v1]))[:, [0, 2]]
+                sub = replace(face, rz1=(float(r1), float(z1)), rz2=(float(r2), float(z2)),
+                              phi0=phi0, dphi=dphi)  # fmt: skip
             view = copy.copy(self)
             view.__dict__.pop("_cache", None)
             view.layout = replace(self.ring_layout, face=sub)
@@ -826,11 +832,15 @@ class CurvedRoughLayer(RoughLayer):
         local = self.target.to_local(self.shell_points())
         lo, hi = local.min(axis=0), local.max(axis=0)
         face = self.ring_layout.face
+        r = float(np.hypot(local[:, 0], local[:, 1]).max())
+        if isinstance(face, SphereFace):  # the widest circle, at the equator if a piece has it
+            outer = face.sphere_radius + (self.thickness if face.sign > 0 else 0.0)
+            for view in self.envelope_views():
+                t0, t1 = view.ring_layout.face.theta  # type: ignore[union-attr]
+                r = max(r, outer * (1.0 if t0 <= np.pi / 2 <= t1 else max(np.sin([t0, t1]))))
         if face.dphi >= 2 * np.pi - 1e-9:  # the circle's extremes between the grid's points
-            r = float(np.hypot(local[:, 0], local[:, 1]).max())
             lo[:2], hi[:2] = -r, r
         elif self.pieces is not None:  # the pieces' extremes along x and y between the points
-            r = float(np.hypot(local[:, 0], local[:, 1]).max())
             for phi0, dphi, *_ in self.pieces:
                 for k in range(4):
                     if np.mod(k * np.pi / 2 - phi0, 2 * np.pi) <= dphi:
@@ -1923,11 +1933,12 @@ def check_into_edges(scene: Scene, target: TargetVolume, where: str | None = Non
     edge = shared_edge(shape, layers)
     if edge is not None:
         name, other, r, z = edge
-        raise ConfigError(
-            f"{where}: into: true on faces {name} and {other} of {target.name!r}, which share "
-            f"an edge (the circle r = {r:.4g} mm at z = {z:.4g} mm), on a {shape.kind} with "
-            "a phi segment: score4 cuts such faces together on a full circle only; put one "
-            "of them outside the volume (into: false)"
+        raise shared_edge_error(
+            where,
+            (name, other),
+            target.name,
+            f"which share an edge ({edge_circle(r, z)}), on a {shape.kind} with a phi segment",
+            "on a full circle only",
         )
 
 
@@ -1943,6 +1954,24 @@ def shared_edge(
             r, z = poly[(k + 1) % len(poly)]
             return name, other, float(r), float(z)
     return None
+
+
+def edge_circle(r: float, z: float) -> str:
+    """An edge of a solid swept around z, in words: the circle of radius ``r`` at ``z`` (mm)."""
+    return f"the circle r = {r:.4g} mm at z = {z:.4g} mm"
+
+
+def shared_edge_error(
+    where: str, faces: tuple[str, str], volume: str, shared: str, only: str
+) -> ConfigError:
+    """The one-line refusal of ``into`` on two ``faces`` of ``volume`` that share an edge:
+    ``shared`` says how they share it, ``only`` on which solids score4 cuts such faces together
+    (:func:`check_into_edges`, :func:`score4.world.boolean_modes.joint_leaves`)."""
+    a, b = faces
+    return ConfigError(
+        f"{where}: into: true on faces {a} and {b} of {volume!r}, {shared}: score4 cuts such "
+        f"faces together {only}; put one of them outside the volume (into: false)"
+    )
 
 
 def joint_layout(
