@@ -85,7 +85,7 @@ def main() -> None:
         flat_t.append(time.process_time() - c0)
     n = statistics.median(n_steps)
     run, ro, fl = (statistics.median(x) for x in (run_t, rough_t, flat_t))
-    inside = float(np.mean(distance.rough["+z"].contains(points)))
+    inside = float(np.mean(distance.rough["+z"][0].contains(points)))
     print(f"{args.events} events x {args.rounds} interleaved rounds, {n / args.events:.0f} steps")
     print(f"with deposit per event, {100 * inside:.0f} % of them inside the pyramids (CPU medians)")
     print(f"tracking with steps: {run / args.events * 1e6:.0f} us per event")

@@ -207,6 +207,53 @@ def test_floored_blocks_are_the_blocks_cut_at_a_plane(cells):
     )
 
 
+@pytest.mark.parametrize(
+    ("spec", "cells", "altitude"),
+    [
+        (RANDOM, None, None),
+        (RANDOM, 1, None),
+        (RANDOM, 4, None),
+        (RANDOM, 4, 1e-4),  # many blocks get closed_body's walls
+        ({**RANDOM, "nx": 64, "ny": 64, "pitch": "0.5 um", "tolerance": "0.05 um"}, None, None),
+        (
+            {
+                "kind": "spikes",
+                "nx": 12,
+                "ny": 10,
+                "width": "10 um",
+                "height": "10 um",
+                "height_sigma": "2 um",
+                "seed": 3,
+            },
+            None,
+            None,
+        ),
+    ],
+)
+def test_block_caps_are_floored_blocks_bitwise(monkeypatch, spec, cells, altitude):
+    """place_blocks' fast cut (block_caps: the pieces of many blocks sorted at once, no mesh
+    object per block) hands Geant4 exactly floored_blocks' caps and floors: the same vertex
+    arrays, faces in the same order, the same floor corners."""
+    if altitude is not None:
+        monkeypatch.setattr(blk, "MIN_FACET_ALTITUDE", altitude)
+    monkeypatch.setattr(blk, "PIECE_FACES", 200)  # several batches of blocks
+    surface = build_surface(spec)
+    old = list(blk.floored_blocks(surface, BASE, cells))
+    new = list(blk.block_caps(surface, BASE, cells))
+    assert len(new) == len(old) > 1
+    fallbacks = 0
+    for (cap, floor), (vertices, faces, new_floor) in zip(old, new, strict=True):
+        assert vertices.dtype == cap.vertices.dtype
+        np.testing.assert_array_equal(vertices, cap.vertices)
+        assert [list(f) for f in faces] == cap.faces.tolist()
+        assert (floor is None) == (new_floor is None)
+        if floor is not None:
+            np.testing.assert_array_equal(new_floor, floor)
+        fallbacks += len(vertices) > len(np.unique(cap.faces[cap.top])) + 4  # closed_body's
+    if altitude is not None:
+        assert fallbacks > 0
+
+
 def _sliver_top() -> TriangleMesh:
     """A 4 x 4-cell block whose first side (y = 0) rises so that its last two top vertices lie
     1e-13 mm below the line from the side's first bottom corner (1 mm below z = 0): the wall's

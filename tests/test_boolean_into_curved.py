@@ -30,7 +30,7 @@ from helpers.g4_geometry_check import assert_no_overlaps
 from helpers.geantinos import geantino_config, geantino_run
 from helpers.ray_trace import mesh_path, revolved_path, wall_patches_near
 
-# one worker per module: its boolean solids' face areas are estimated once (cold: ~10-30 s)
+# one worker per module: its world is written and its boolean face areas estimated once
 pytestmark = pytest.mark.xdist_group("into-curved")
 
 #: 0.5 mm patches of 5 x 5 pyramids, 20 um high (the post, r 7 mm)

@@ -19,7 +19,7 @@ from score4.world.scene import CurvedRoughLayer
 
 from helpers.boolean_worlds import write_cone_cross
 
-# one worker per module: its boolean solids' face areas are estimated once (cold: ~10-30 s)
+# one worker per module: its world is written and its boolean face areas estimated once
 pytestmark = pytest.mark.xdist_group("cone-pieces")
 
 

@@ -307,7 +307,9 @@ def test_install_server_dies_mid_download(tmp_path: Path, home: Path, fake_list)
 def test_install_server_stalls_mid_download(tmp_path: Path, home: Path, fake_list) -> None:
     target = tmp_path / "data"
     with (
-        serve({f"/datasets/{FAKE.tarball}": Route(FAKE_TAR, stall=1.0)}) as server,
+        # the server stalls until the test ends: the client's 0.3 s timeout ends the download
+        # however loaded the machine (a short stall could end first and close the connection)
+        serve({f"/datasets/{FAKE.tarball}": Route(FAKE_TAR, stall=600.0)}) as server,
         pytest.raises(DataError, match=r"download of .* failed: timed out; fetch the data"),
     ):
         datasets.install(target, base_url=server.base_url, progress=False, timeout=0.3)

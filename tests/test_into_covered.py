@@ -24,7 +24,7 @@ from helpers.g4_geometry_check import assert_no_overlaps
 from helpers.geantinos import geantino_config, geantino_run, rough_targets
 from helpers.ray_trace import flat_patches_path
 
-# one worker per module: its boolean solids' face areas are estimated once (cold: ~10-30 s)
+# one worker per module: its world is written and its boolean face areas estimated once
 pytestmark = pytest.mark.xdist_group("into-covered")
 
 #: 0.5 mm patches of 5 x 5 pyramids, 20 um high
@@ -105,10 +105,7 @@ def test_into_under_a_post_keeps_the_slab_under_it(gdml):
     ("volume", "face", "part"),
     [
         ("wide", "first.+z", "the G4Tubs second"),
-        # deep: the holed union's face areas (random draws) cost ~11 s CPU with a cold cache
-        pytest.param(
-            "holed", "first.first.+z", "the G4Tubs second", marks=pytest.mark.deep, id="holed"
-        ),
+        ("holed", "first.first.+z", "the G4Tubs second"),
     ],
 )
 def test_into_under_a_part_that_cannot_grow_down_says_why_not(gdml, volume, face, part):

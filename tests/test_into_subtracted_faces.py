@@ -10,18 +10,18 @@ bodies (1e-9 mm), Geant4's volumes against the analytic ones, Geant4's overlap c
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from score4.errors import ConfigError
 from score4.inputs.config import parse_config
 from score4.world.resolve import build_scene
 
 from helpers.geantinos import geantino_config, rough_targets
 
-# one worker per module: its boolean solids' face areas are estimated once (cold: ~10-30 s)
+# one worker per module: its world is written and its boolean face areas estimated once
 pytestmark = pytest.mark.xdist_group("subtracted-faces")
 
 PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
@@ -34,14 +34,6 @@ HOLES = {
     "trd": (30.0, ["second.-z"]),
     "hedra": (60.0, ["second.seg_0"]),
 }
-#: the default suite's holes; the polycone's and the Trd's (their boolean face areas, estimated by
-#: random draws, cost ~28 s CPU with a cold cache) are checked by the deep tests
-QUICK = {k: HOLES[k] for k in ("cone", "undercut", "hedra")}
-SLOW = {k: v for k, v in HOLES.items() if k not in QUICK}
-HOLE_SETS = [
-    pytest.param(QUICK, id="cone-undercut-hedra"),
-    pytest.param(SLOW, id="pcone-trd", marks=pytest.mark.deep),
-]
 HEX = np.radians(30.0 + 60.0 * np.arange(6))  # the hexagon's side directions
 
 
@@ -61,7 +53,6 @@ def gdml(tmp_path_factory) -> Path:
             ),
             "trd": s.Trd("trd_b", 4, 6, 3, 5, 10, reg),
             "hedra": s.Polyhedra("hedra_b", 0, 2 * np.pi, 6, 2, [-5, 5], [0, 0], [2, 3], reg),
-            "trap": s.Trap("trap_b", 10, 0, 0, 3, 4, 4, 0, 5, 6, 6, 0, reg),  # refused
         }
         return {k: (v, at, HOLES.get(k, (90.0,))[0]) for k, v in made.items()}
 
@@ -81,13 +72,14 @@ def config(gdml: Path, holes: dict | None = None) -> dict:
 SIDES = {"trd": (30.0, ["second.+x"]), "hedra": (60.0, ["second.seg_1"])}
 
 
-def in_hole(name: str, q: np.ndarray, t: float, sides: bool = False) -> np.ndarray:
+def in_hole(name: str, q: np.ndarray, t: float, sides: bool | str = False) -> np.ndarray:
     """True for points ``q`` (n, 3; box frame) in the hole ``name`` grown by ``t`` behind its
     into faces (its floor and ledge; with ``sides``, its sides of :data:`SIDES` instead, each
-    plane moved by t along its normal: t sqrt(1.01) across at every z), written out from the
-    solids' parameters (hole frame: z less 10 mm)."""
+    plane moved by t along its normal: t sqrt(1.01) across at every z; with ``sides="floor"``,
+    both its floor and those sides), written out from the solids' parameters (hole frame: z
+    less 10 mm)."""
     if sides:
-        return _in_grown_sides(name, q, t * math.sqrt(1.01))
+        return _in_grown_sides(name, q, t * math.sqrt(1.01), t if sides == "floor" else 0.0)
     x, y, z = q[:, 0], q[:, 1], q[:, 2] - 10.0
     rho = np.hypot(x, y)
     top = z <= 5.0
@@ -107,10 +99,10 @@ def in_hole(name: str, q: np.ndarray, t: float, sides: bool = False) -> np.ndarr
     return (z >= -5.0 - t) & top & (apothem <= 2.0 + 0.1 * (z + 5.0))
 
 
-def _in_grown_sides(name: str, q: np.ndarray, across: float) -> np.ndarray:
+def _in_grown_sides(name: str, q: np.ndarray, across: float, floor: float) -> np.ndarray:
     x, y, z = q[:, 0], q[:, 1], q[:, 2] - 10.0
-    w = 0.1 * (z + 5.0)
-    inside = (z >= -5.0) & (z <= 5.0)
+    w = 0.1 * (z + 5.0)  # below the old floor (floor > 0): the sides' planes extended
+    inside = (z >= -5.0 - floor) & (z <= 5.0)
     if name == "trd":
         return inside & (x <= 2.0 + w + across) & (x >= -2.0 - w) & (np.abs(y) <= 1.5 + w)
     apothem = np.max(np.outer(x, np.cos(HEX)) + np.outer(y, np.sin(HEX)), axis=1)
@@ -120,7 +112,7 @@ def _in_grown_sides(name: str, q: np.ndarray, across: float) -> np.ndarray:
 class _Solid:
     """The box less a grown hole, for helpers.ray_trace.polycone_path (its sign only)."""
 
-    def __init__(self, name: str, t: float, sides: bool) -> None:
+    def __init__(self, name: str, t: float, sides: bool | str) -> None:
         self.name, self.t, self.sides = name, t, sides
 
     def signed_distance(self, q: np.ndarray) -> np.ndarray:
@@ -128,10 +120,11 @@ class _Solid:
         return np.where(inside, -1.0, 1.0)
 
 
-def hole_volume(name: str, t: float, sides: bool = False) -> float:
+def hole_volume(name: str, t: float, sides: bool | str = False) -> float:
     """The volume of the grown hole inside the box (z from the floor to the box's top), mm3."""
     if sides:  # the sections' areas are quadratic in z: Simpson
         s = t * math.sqrt(1.01)
+        lo = -5 - (t if sides == "floor" else 0.0)
 
         def section(z: float) -> float:
             w = 0.1 * (z + 5)
@@ -139,7 +132,7 @@ def hole_volume(name: str, t: float, sides: bool = False) -> float:
                 return (4 + 2 * w + s) * (3 + 2 * w)
             return 2 * math.sqrt(3) * (2 + w + s) ** 2
 
-        return 5 / 6 * (section(-5) + 4 * section(-2.5) + section(0))
+        return -lo / 6 * (section(lo) + 4 * section(lo / 2) + section(0))
 
     def frustum(h: float, r1: float, r2: float) -> float:
         return math.pi * h / 3 * (r1 * r1 + r1 * r2 + r2 * r2)
@@ -161,13 +154,12 @@ def hole_volume(name: str, t: float, sides: bool = False) -> float:
     return 2 * math.sqrt(3) * (5 + t) / 3 * (a1 * a1 + a1 * a2 + a2 * a2)
 
 
-@pytest.mark.parametrize("holes", HOLE_SETS)
-def test_into_subtracted_faces_lie_in_the_grown_slab(gdml, holes):
+def test_into_subtracted_faces_lie_in_the_grown_slab(gdml):
     """Every layer's base lies t below its old face facing up (into the hole), and each kept
     cell's column lies in the grown hole: cells on the old face and on the grown one (a cone
     or Trd narrowing to its floor loses its outer cells; an undercut keeps the old face's)."""
-    scene = build_scene(parse_config(config(gdml, holes)))
-    for name, (_y, faces) in holes.items():
+    scene = build_scene(parse_config(config(gdml)))
+    for name, (_y, faces) in HOLES.items():
         target = scene.target(name)
         for face in faces:
             layer = scene.layer(name, face)
@@ -186,23 +178,16 @@ def test_into_subtracted_faces_lie_in_the_grown_slab(gdml, holes):
                 local = np.column_stack([corners, np.full(len(corners), h)])
                 q = target.to_local(layer.frame.to_world(local))
                 assert in_hole(name, q, t).all(), (name, face, h)
-    if "cone" in holes:
-        assert scene.layer("cone", "second.-z").rmax == pytest.approx(2.0 - 0.1 * t, abs=1e-12)
-        assert scene.layer("undercut", "second.-z").rmax == pytest.approx(3.0, abs=1e-12)
-    else:
-        ledge = scene.layer("pcone", "second.seg_2")
-        assert (ledge.rmin, ledge.rmax) == pytest.approx((2.5, 4.0 - t / 14), abs=1e-12)
+    assert scene.layer("cone", "second.-z").rmax == pytest.approx(2.0 - 0.1 * t, abs=1e-12)
+    assert scene.layer("undercut", "second.-z").rmax == pytest.approx(3.0, abs=1e-12)
+    ledge = scene.layer("pcone", "second.seg_2")
+    assert (ledge.rmin, ledge.rmax) == pytest.approx((2.5, 4.0 - t / 14), abs=1e-12)
 
 
 @pytest.mark.parametrize(
-    ("holes", "sides"),
-    [
-        pytest.param(QUICK, False, id="floors"),
-        pytest.param(SLOW, False, id="floors-pcone-trd", marks=pytest.mark.deep),
-        pytest.param(SIDES, True, id="sides", marks=pytest.mark.deep),
-    ],
+    "sides", [False, pytest.param(True, marks=pytest.mark.deep)], ids=["floors", "sides"]
 )
-def test_geantino_paths_and_volumes_through_grown_holes(gdml, tmp_path, holes, sides):
+def test_geantino_paths_and_volumes_through_grown_holes(gdml, tmp_path, sides):
     """Geantinos from inside each hole, down through its floor and ledge (or, deep, out through
     the Trd's +x side and the polyhedra's six sides): Geant4's track length in each box (the
     boolean rebuilt around the grown solid) equals the analytic path in the box less the grown
@@ -211,6 +196,7 @@ def test_geantino_paths_and_volumes_through_grown_holes(gdml, tmp_path, holes, s
     from helpers.geantinos import assert_box_paths
     from helpers.ray_trace import polycone_path
 
+    holes = SIDES if sides else HOLES
     data = config(gdml, holes)
     scene = build_scene(parse_config(data))
     rng = np.random.default_rng(5)
@@ -261,13 +247,105 @@ def test_grown_holes_pass_the_overlap_check(gdml, tmp_path):
     assert_no_overlaps(path)
 
 
-def test_into_on_a_subtracted_trap_is_refused(gdml):
-    """The floor of a hole cut by a G4Trap stays refused, in one line that names the solids
-    score4 grows."""
-    with pytest.raises(ConfigError) as err:
-        build_scene(parse_config(config(gdml, {"trap": (90.0, ["second.-z"])})))
-    message = str(err.value)
-    assert message.startswith("targets.0.rough.0: into: true on face second.-z of 'trap'")
-    assert "a face of the subtracted G4Trap, would widen the cut" in message
-    assert "G4Trd or G4Polyhedra (not phi faces)" in message
-    assert "\n" not in message
+#: into on two adjacent faces of one subtracted solid: the floor and a side that meets it
+FLOOR_AND_SIDE = {
+    "hedra": (60.0, ["second.seg_0", "second.seg_1"]),
+    "trd": (30.0, ["second.-z", "second.+x"]),
+}
+
+
+def edge_rays(name: str, n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Rays (box frame) from the hole's axis, half aimed at its floor near the edge where floor
+    and side meet, half at the side just above that edge."""
+    # the floor at box z = 5 mm (0.1 .. 0.8 mm in from the edge), the side 0 .. 0.6 mm above
+    # it; the edge: x = 2 mm (Trd), apothem 2 mm (hexagon)
+    inward = np.where(np.arange(n) < n // 2, rng.uniform(0.1, 0.8, n), -0.05)
+    up = np.where(np.arange(n) < n // 2, 0.0, rng.uniform(0.0, 0.6, n))
+    if name == "trd":
+        w = 2.0 + 0.1 * up - inward
+        edge = np.column_stack([w, rng.uniform(-1.2, 1.2, n), 5.0 + up])
+    else:
+        a = HEX[rng.integers(0, 6, n)]
+        along = rng.uniform(-0.9, 0.9, n)  # a hexagon of apothem 2 has sides 2.31 mm long
+        w = 2.0 + 0.1 * up - inward
+        edge = np.column_stack(
+            [w * np.cos(a) - along * np.sin(a), w * np.sin(a) + along * np.cos(a), 5.0 + up]
+        )
+    start = np.column_stack([np.zeros((n, 2)), rng.uniform(6.0, 9.0, n)])
+    return start, (edge - start) / np.linalg.norm(edge - start, axis=1, keepdims=True)
+
+
+@pytest.mark.parametrize(
+    "name",
+    [pytest.param("hedra", id="hedra"), pytest.param("trd", id="trd", marks=pytest.mark.deep)],
+)
+def test_geantino_paths_through_a_grown_floor_and_side(gdml, tmp_path, name):
+    """``into`` on a hole's floor and a side that meets it (the polyhedra's floor and its six
+    sides; deep: the Trd's floor and its +x side): the solid grows behind both, and geantinos
+    from the hole's axis aimed at the floor up to 0.8 mm from the edge where floor and side meet,
+    and at the side up to 0.6 mm above it, cross the floor's layer or the sides' and go on
+    through the corner between them into the copper. Geant4's track length in
+    the box equals the analytic path in the box less the hole grown behind both faces plus the
+    path in the patch bodies of all its layers, 1e-9 mm; Geant4's volume to 2e-4."""
+    from helpers.geantinos import assert_box_paths
+    from helpers.ray_trace import patches_path, polycone_path
+
+    holes = {name: FLOOR_AND_SIDE[name]}
+    data = config(gdml, holes)
+    scene = build_scene(parse_config(data))
+    assert len(scene.layers_of(name)) >= 2
+    y = holes[name][0]
+    start, d = edge_rays(name, 16, np.random.default_rng(9))
+    n = len(start)
+    start = start + np.array([0.0, y, 0.0])
+    layers = scene.layers_of(name)
+    t = layers[0].thickness
+    assert_box_paths(
+        data,
+        scene,
+        start,
+        d,
+        [name] * n,
+        lambda v, o, dd: polycone_path(o, dd, _Solid(v, t, "floor")),
+        lambda v: (2 * HALF) ** 3 - hole_volume(v, t, "floor"),
+        tmp_path,
+    )
+    floor, sides = holes[name][1]
+    for face in (floor, sides):  # rays through the floor's patches and through the sides'
+        on = [layer for layer in layers if layer.config.face_name == face]
+        hits = sum(
+            sum(patches_path(o, dd, layer) for layer in on) > 0
+            for o, dd in zip(start, d, strict=True)
+        )
+        assert hits >= 3, face
+
+
+@pytest.mark.deep
+def test_grown_floors_and_sides_export_with_the_same_paths(gdml, tmp_path, monkeypatch):
+    """The Trd's floor and +x side and the polyhedra's floor and six sides with ``into``, in one
+    world written by `score4 geometry export`: Geant4 reads the file back, and the file
+    pyg4ometry reads and writes again, with the same geantino paths (volumes and points,
+    1e-9 mm) as the world score4 builds (the grown G4Trd and G4GenericPolyhedra in the
+    booleans); most rays cross a patch."""
+    import yaml
+
+    from score4.cli.main import main
+
+    from helpers.export_paths import assert_same_paths, three_paths
+
+    data = config(gdml, FLOOR_AND_SIDE)
+    path = tmp_path / "grown.yaml"
+    path.write_text(yaml.safe_dump(data))
+    out = tmp_path / "grown.gdml"
+    assert main(["geometry", "export", str(path), "--gdml", str(out)]) == 0
+    rays = []
+    for k, (name, (y, _faces)) in enumerate(FLOOR_AND_SIDE.items()):
+        start, d = edge_rays(name, 8, np.random.default_rng(30 + k))
+        start[:, 1] += y
+        rays += [(o.tolist(), w.tolist()) for o, w in zip(start, d, strict=True)]
+    ours, back, relay = three_paths(path, out, rays, monkeypatch)
+    assert_same_paths(ours, back, relay)
+    assert sum(any("_rough" in (v or "") for v, _ in p) for p in ours) >= len(rays) // 2
+    text = out.read_text()
+    assert re.search(r'<trd [^>]*name="trd_lv_cut_', text)  # the grown solids, in the booleans
+    assert re.search(r'<genericPolyhedra [^>]*name="hedra_lv_cut_', text)

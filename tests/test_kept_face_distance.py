@@ -182,3 +182,31 @@ def test_a_face_the_other_part_covers_whole_is_nowhere(shapes):
     stack = shapes["stack"]
     p = inside_points(stack, 500, seed=7)
     assert np.isinf(KeptFaceDistance(stack, ("second.-z",))(p)).all()
+
+
+def test_flush_outer_faces_of_a_union_are_both_kept():
+    """A box (half width 10 mm) with a smaller box (half width 5 mm) overlapping its +x edge,
+    their +z and -y faces flush (z = 10 mm, y = -10 mm): where the two lie on each other both
+    are the union's surface, so the big box's top is kept whole (its distance the rectangle's,
+    closed form), and so is the small box's; the grid brute force (the face sampler's probe
+    test) agrees. A face lying on another part from inside (the small box's -x face in the big
+    box) stays off the surface there."""
+    flush = BooleanShape(
+        "union", G4Box(10.0, 10.0, 10.0), G4Box(5.0, 5.0, 5.0), Transform(np.eye(3), [10, -5, 5])
+    )
+    p = inside_points(flush, 3000, seed=8)
+    x = np.clip(p[:, 0], -10.0, 10.0) - p[:, 0]
+    y = np.clip(p[:, 1], -10.0, 10.0) - p[:, 1]
+    got = KeptFaceDistance(flush, ("first.+z",))(p)
+    np.testing.assert_allclose(got, np.sqrt(x * x + y * y + (10 - p[:, 2]) ** 2), atol=1e-9)
+    x = np.clip(p[:, 0], 5.0, 15.0) - p[:, 0]
+    y = np.clip(p[:, 1], -10.0, 0.0) - p[:, 1]
+    got = KeptFaceDistance(flush, ("second.+z", "second.-y"))(p)
+    expected = np.minimum(
+        np.sqrt(x * x + y * y + (10 - p[:, 2]) ** 2),
+        np.sqrt(x * x + (p[:, 1] + 10) ** 2 + (np.clip(p[:, 2], 0.0, 10.0) - p[:, 2]) ** 2),
+    )
+    np.testing.assert_allclose(got, expected, atol=1e-9)
+    for faces in [("first.+z", "first.-y"), ("second.+z", "second.-y")]:
+        check_against_grid(flush, faces, 0.2, False)
+    assert np.isinf(KeptFaceDistance(flush, ("second.-x",))(p)).all()

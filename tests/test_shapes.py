@@ -4,6 +4,7 @@ inside, serialisation and bad input (issue 17, item 4). Geant4's view: test_shap
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import replace
 
@@ -268,43 +269,72 @@ def test_boolean_subtraction_areas_within_their_errors():
     assert abs(cut.volume - (8000 - math.pi * 16 * 20)) < 4 * cut.volume_error
 
 
-def test_boolean_area_estimate_is_kept_per_solid_description(tmp_path, monkeypatch):
-    """The estimate is made once per solid description: a new shape of the same parameters
-    takes it from memory, another process from the folder (the file read back gives the same
-    numbers); another placement of the cut is another solid, estimated anew."""
+def test_boolean_area_estimate_is_per_face_on_demand_and_kept(tmp_path, monkeypatch):
+    """A face's area is estimated when it is read, alone, with its own seed: the same number
+    whichever faces were read before it and in which order. The estimate is made once per face
+    and solid description: a new shape of the same parameters takes it from memory, another
+    process from the folder (one file per face, read back with the same numbers); another
+    placement of the cut is another solid, estimated anew; a damaged file or one of another
+    format is estimated anew."""
     from score4.shapes import boolean
 
     def cut(dx: float = 0.0) -> BooleanShape:
         at = Transform(np.eye(3), [dx, 0, 0])
         return BooleanShape("subtraction", G4Box(10, 10, 10), G4Tubs(0, 4, 20), at, n_area=4000)
 
-    made = []
-    real = BooleanShape._estimate_areas
+    made: list[tuple[str, str]] = []
+    real = BooleanShape._estimate_area
 
-    def counted(self):
-        made.append(self.area_key)
-        return real(self)
+    def counted(self, name):
+        made.append((self.area_key, name))
+        return real(self, name)
 
-    monkeypatch.setattr(BooleanShape, "_estimate_areas", counted)
+    monkeypatch.setattr(BooleanShape, "_estimate_area", counted)
     monkeypatch.setattr(boolean, "_AREAS", {})
     first = replace(cut(), area_cache=tmp_path)
+    assert "first.+z" in first.face_areas
+    assert len(first.face_areas) == len(first.faces)
+    assert made == []  # names and length without estimating
+    bore = first.face_areas["second.outer"]
+    assert made == [(first.area_key, "second.outer")]
+    assert len(list(tmp_path.glob("*.json"))) == 1
     areas = dict(first.face_areas)
-    assert len(made) == 1
-    assert (tmp_path / f"{first.area_key}.json").is_file()
-    assert cut().face_areas == areas
-    assert len(made) == 1
-    monkeypatch.setattr(boolean, "_AREAS", {})  # as in a new process: from the file
+    assert areas["second.outer"] == bore
+    assert len(made) == len(first.faces) == len(list(tmp_path.glob("*.json")))
+    assert cut().face_areas == areas  # from memory
+    assert len(made) == len(first.faces)
+
+    monkeypatch.setattr(boolean, "_AREAS", {})  # a new process, no folder: the same numbers,
+    other = cut()  # in the reverse order
+    assert {f: other.face_areas[f] for f in reversed(other.faces)} == areas
+    made.clear()
+    monkeypatch.setattr(boolean, "_AREAS", {})  # as in a new process: from the files
     again = replace(cut(), area_cache=tmp_path)
     assert again.face_areas == areas
     assert again.face_area_errors == first.face_area_errors
-    assert len(made) == 1
+    assert made == []
+
     moved = replace(cut(1.0), area_cache=tmp_path)
     assert moved.area_key != first.area_key
-    assert moved.face_areas != areas
-    assert len(made) == 2
-    (tmp_path / f"{moved.area_key}.json").write_text("{not json")  # a damaged file: estimated
+    assert moved.face_seed("first.+z") != first.face_seed("first.+z")
+    assert moved.face_areas["first.+z"] != areas["first.+z"]
+    assert len(made) == 1
+    files = {p.read_text(): p for p in tmp_path.glob("*.json")}
+    path = next(p for t, p in files.items() if moved.area_key in t)
+    path.write_text("{not json")  # a damaged file: estimated
     monkeypatch.setattr(boolean, "_AREAS", {})
-    assert replace(cut(1.0), area_cache=tmp_path).face_areas == moved.face_areas
+    assert (
+        replace(cut(1.0), area_cache=tmp_path).face_areas["first.+z"]
+        == moved.face_areas["first.+z"]
+    )
+    assert len(made) == 2
+    stale = json.loads(path.read_text())
+    path.write_text(json.dumps({**stale, "format": boolean.AREA_FORMAT - 1, "area": 1.0}))
+    monkeypatch.setattr(boolean, "_AREAS", {})  # another format's file: estimated
+    assert (
+        replace(cut(1.0), area_cache=tmp_path).face_areas["first.+z"]
+        == moved.face_areas["first.+z"]
+    )
     assert len(made) == 3
 
 

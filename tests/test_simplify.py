@@ -181,6 +181,42 @@ def test_dense_blocks_of_a_simplified_map_are_cut_down_to_their_quads(monkeypatc
     assert sum(signed_volume(b) for b in bodies) == pytest.approx(whole, rel=1e-12)
 
 
+def test_dense_blocks_of_a_large_simplified_map_are_cut_in_two(monkeypatch):
+    """Above SPLIT_IN_TWO_FACETS top facets a dense block is cut in two across its longer side
+    instead of in four: fewer blocks, each of at most SIMPLIFIED_BLOCK_FACETS top faces unless
+    a face would cross the cut, and the blocks still tile the map and make its body."""
+    surface = build_surface({**GAUSS, "tolerance": "0.1 um"})
+    limit = 16
+    monkeypatch.setattr(blk, "SIMPLIFIED_BLOCK_FACETS", limit)
+    _, fours = blk.block_rects(surface, None)
+    monkeypatch.setattr(blk, "SPLIT_IN_TWO_FACETS", surface.top_mesh.n_faces - 1)
+    block, rects = blk.block_rects(surface, None)
+    assert len(rects) < len(fours)
+    mesh, hm = surface.top_mesh, surface.placed_map
+    fi = np.searchsorted(hm.x, mesh.vertices[:, 0])[mesh.faces]
+    fj = np.searchsorted(hm.y, mesh.vertices[:, 1])[mesh.faces]
+    per_block = np.bincount(block, minlength=len(rects))
+    for b in np.flatnonzero(per_block > limit):  # each could not be cut: a face crosses the cut
+        i0, i1, j0, j1 = rects[b]
+        rows = block == b
+        if i1 - i0 >= j1 - j0:
+            mid = (i0 + i1) // 2
+            crossing = (fi[rows].min(1) < mid) & (fi[rows].max(1) > mid)
+        else:
+            mid = (j0 + j1) // 2
+            crossing = (fj[rows].min(1) < mid) & (fj[rows].max(1) > mid)
+        assert crossing.any() or max(i1 - i0, j1 - j0) < 2
+    assert (fi.min(1) >= rects[block, 0]).all()
+    assert (fi.max(1) <= rects[block, 1]).all()
+    assert (fj.min(1) >= rects[block, 2]).all()
+    assert (fj.max(1) <= rects[block, 3]).all()
+    bodies = blk.block_bodies(surface, 1e-3)
+    assert len(bodies) == len(rects)
+    assert all(is_watertight(b) for b in bodies)
+    whole = signed_volume(closed_body(surface.top_mesh, 1e-3))
+    assert sum(signed_volume(b) for b in bodies) == pytest.approx(whole, rel=1e-12)
+
+
 def test_tolerance_input_is_checked():
     assert build_surface({**GAUSS, "tolerance": "50 nm"}).mesh_tolerance == pytest.approx(5e-5)
     for bad in ("-1 um", "fine", "3"):

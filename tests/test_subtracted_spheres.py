@@ -21,7 +21,7 @@ from score4.world.resolve import build_scene
 
 from helpers.geantinos import geantino_config
 
-# one worker per module: its boolean solids' face areas are estimated once (cold: ~10-30 s)
+# one worker per module: its world is written and its boolean face areas estimated once
 pytestmark = pytest.mark.xdist_group("subtracted-spheres")
 
 #: 0.1 mm patches of 10 x 10 pyramids 10 um high (a sphere of r 2 mm takes them)

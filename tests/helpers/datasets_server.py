@@ -7,7 +7,6 @@ import io
 import socket
 import tarfile
 import threading
-import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -41,7 +40,8 @@ class Route:
 
     body: bytes
     truncate: bool = False  # announce the full length, send half, close
-    stall: float = 0.0  # after sending half, wait this long (seconds) before closing
+    # after sending half, wait this long (seconds; or until the server stops) before closing
+    stall: float = 0.0
 
 
 @dataclass
@@ -49,6 +49,7 @@ class Server:
     base_url: str
     routes: dict[str, Route]
     requests: list[str] = field(default_factory=list)
+    stopped: threading.Event = field(default_factory=threading.Event)
 
 
 def _handler(server_state: Server) -> type[BaseHTTPRequestHandler]:
@@ -67,7 +68,7 @@ def _handler(server_state: Server) -> type[BaseHTTPRequestHandler]:
             cut = route.truncate or route.stall > 0
             self.wfile.write(route.body[: len(route.body) // 2] if cut else route.body)
             self.wfile.flush()
-            time.sleep(route.stall)
+            server_state.stopped.wait(route.stall)
             self.close_connection = True
 
         def log_message(self, format: str, *args: object) -> None:  # http.server API
@@ -87,6 +88,7 @@ def serve(routes: dict[str, Route]) -> Iterator[Server]:
     try:
         yield state
     finally:
+        state.stopped.set()  # a stalled answer ends with the test
         httpd.shutdown()
         httpd.server_close()
         thread.join()

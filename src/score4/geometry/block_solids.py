@@ -7,7 +7,9 @@ blocks into volumes placed side by side in the patch's mother volume: each block
 
 from __future__ import annotations
 
-from score4.surface.block_cut import floored_blocks
+import numpy as np
+
+from score4.surface.block_cut import block_caps
 from score4.surface.triangle_mesh import TriangleMesh
 
 from ..surface.rough import Surface
@@ -43,13 +45,18 @@ SMALL_CAP_FACETS = 40
 def fast_tessellated(g4, mesh: TriangleMesh, name: str, max_voxels: int = -1):
     """A closed G4TessellatedSolid of ``mesh``; one G4ThreeVector per vertex, shared by its
     faces. ``max_voxels`` >= 0 bounds the solid's voxels (-1: Geant4's default)."""
+    return tessellated(g4, mesh.vertices, mesh.faces.tolist(), name, max_voxels)
+
+
+def tessellated(g4, vertices: np.ndarray, faces: list, name: str, max_voxels: int = -1):
+    """:func:`fast_tessellated` of a vertex array and a list of vertex-id triples."""
     solid = g4.G4TessellatedSolid(name)
     if max_voxels >= 0:
         solid.SetMaxVoxels(max_voxels)
     vec, facet, absolute = g4.G4ThreeVector, g4.G4TriangularFacet, g4.ABSOLUTE
-    points = [vec(*p) for p in mesh.vertices.tolist()]
+    points = [vec(*p) for p in vertices.tolist()]
     add = solid.AddFacet
-    for a, b, c in mesh.faces.tolist():
+    for a, b, c in faces:
         add(facet(points[a], points[b], points[c], absolute))
     solid.SetSolidClosed(True)
     return solid
@@ -67,7 +74,8 @@ def place_blocks(
 ) -> tuple[list, list]:
     """Place the patch's blocks in ``mother_lv``, base plane at height ``z`` of the mother.
 
-    Each block is its tessellated cap on a box, its floor (:func:`floored_blocks`).
+    Each block is its tessellated cap on a box, its floor (``block_cut.floored_blocks``, as
+    :func:`~score4.surface.block_cut.block_caps` gives them).
     Returns ``(logical volumes of the blocks, objects to keep alive)``; all logical volumes
     are of ``material`` and belong to the patch's scoring group.
     """
@@ -77,9 +85,10 @@ def place_blocks(
     keep.append(where)
     voxels = -1 if surface.quad_cells is None else SIMPLIFIED_CAP_VOXELS
     exact_map = surface.quad_cells is None and surface.spikes is None
-    for b, (body, floor) in enumerate(floored_blocks(surface, base_thickness, block_cells)):
-        small = exact_map and body.n_faces <= SMALL_CAP_FACETS
-        solid = fast_tessellated(g4, body, f"{name}_b{b}", CAP_MAX_VOXELS if small else voxels)
+    for b, (vertices, faces, floor) in enumerate(block_caps(surface, base_thickness, block_cells)):
+        small = exact_map and len(faces) <= SMALL_CAP_FACETS
+        cap_voxels = CAP_MAX_VOXELS if small else voxels
+        solid = tessellated(g4, vertices, faces, f"{name}_b{b}", cap_voxels)
         lv = g4.G4LogicalVolume(solid, material, f"{name}_b{b}")
         pv = g4.G4PVPlacement(None, where, lv, f"{name}_b{b}", mother_lv, False, b, False)
         lvs.append(lv)

@@ -16,13 +16,14 @@ from score4.world.facets import clip_convex, is_convex, mesh_of, solid_triangles
 from score4.world.scene import Scene, TargetVolume
 
 from ..errors import ConfigError
-from ..shapes import BooleanShape, Shape
+from ..shapes import BooleanShape, MeshShape, Shape
 from ..shapes import G4Box as G4BoxShape
 from ..shapes import G4Cons as G4ConsShape
 from ..shapes import G4GenericPolycone as G4GenericPolyconeShape
 from ..shapes import G4GenericPolyhedra as G4GenericPolyhedraShape
 from ..shapes import G4Orb as G4OrbShape
 from ..shapes import G4Sphere as G4SphereShape
+from ..shapes import G4Trap as G4TrapShape
 from ..shapes import G4Trd as G4TrdShape
 from ..shapes import G4Tubs as G4TubsShape
 from .boolean_cut import cut_boolean_solid
@@ -47,9 +48,9 @@ class BuiltGeometry:
 
 
 def g4_solid(g4, shape: Shape, name: str):
-    """The Geant4 solid of a :mod:`score4.shapes` box, tube, cone, sphere, orb or generic
-    polycone (the shapes score4 makes itself: boxes of the configuration and volumes cut for
-    ``into`` layers)."""
+    """The Geant4 solid of a :mod:`score4.shapes` box, tube, cone, sphere, orb, G4Trd, G4Trap,
+    generic polycone or polyhedra, or mesh (a G4TessellatedSolid) (the shapes score4 makes
+    itself: boxes of the configuration and volumes cut for ``into`` layers)."""
     if isinstance(shape, G4BoxShape):
         return g4.G4Box(name, shape.dx, shape.dy, shape.dz)
     if isinstance(shape, G4TubsShape):
@@ -73,6 +74,28 @@ def g4_solid(g4, shape: Shape, name: str):
         )
     if isinstance(shape, G4TrdShape):
         return g4.G4Trd(name, shape.dx1, shape.dx2, shape.dy1, shape.dy2, shape.dz)
+    if isinstance(shape, G4TrapShape):
+        return g4.G4Trap(
+            name,
+            shape.dz,
+            shape.theta,
+            shape.phi,
+            shape.dy1,
+            shape.dx1,
+            shape.dx2,
+            shape.alpha1,
+            shape.dy2,
+            shape.dx3,
+            shape.dx4,
+            shape.alpha2,
+        )
+    if isinstance(shape, MeshShape):  # a tessellated or extruded solid with a face moved
+        solid = g4.G4TessellatedSolid(name)
+        vec = g4.G4ThreeVector
+        for a, b, c in shape.triangles:
+            solid.AddFacet(g4.G4TriangularFacet(vec(*a), vec(*b), vec(*c), g4.ABSOLUTE))
+        solid.SetSolidClosed(True)
+        return solid
     if isinstance(shape, G4GenericPolyconeShape):
         return _generic_polycone(g4, shape, name)
     if isinstance(shape, G4GenericPolyhedraShape):

@@ -11,7 +11,7 @@ half of kCarTolerance = 1e-9 mm of the surface), 2 (kInside).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 from functools import cached_property
 from typing import Any, ClassVar
@@ -339,7 +339,7 @@ class Shape:
         return self._structure[2]
 
     @cached_property
-    def face_areas(self) -> dict[str, float]:
+    def face_areas(self) -> Mapping[str, float]:
         """Exact area of every face, mm^2."""
         total = np.zeros(len(self.faces))
         for p in self.patches:

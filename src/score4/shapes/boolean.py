@@ -4,14 +4,17 @@ The surface of ``A op B`` is made of pieces of the surfaces of A and B. A point 
 per area on a face of A or B is kept when it is on the boolean's surface: a step of
 ``PROBE`` (1e-7 mm) along its outward normal leaves the solid and a step against it enters it
 (B's normals are flipped in a subtraction; a point on both A and B counts for A only). Kept
-points are uniform per area on the true surface. The areas of the pieces are estimated from
-the kept fraction of fixed-seed draws per face, in rounds of ``n_area`` until the standard error
-is 0.1 % of the face's area (:data:`AREA_PRECISION`; of the solid's area for a sliver, at most
-:data:`MAX_AREA_ROUNDS` rounds): :attr:`BooleanShape.face_area_errors` gives the errors. An
-estimate is kept per solid description (:attr:`BooleanShape.area_key`: the solid's parameters,
-face names and the estimate's settings) in memory and, when the shape names a folder
-(``area_cache``; the world gives score4's cache folder), in a small JSON file there, so a solid is
-estimated once, not at every scene build.
+points are uniform per area on the true surface. The area of a piece is estimated from the kept
+fraction of draws on its constituent face, in rounds of ``n_area`` until the standard error is
+0.1 % of the face's area (:data:`AREA_PRECISION`; of the constituents' whole area for a sliver,
+at most :data:`MAX_AREA_ROUNDS` rounds): :attr:`BooleanShape.face_area_errors` gives the errors.
+Each face is estimated only when something asks for its area (a rough layer, a source on it;
+sampling the whole surface asks for all), with its own seed drawn from the solid's description
+and the face's name, so its estimate does not depend on which other faces were asked for, or in
+which order. An estimate is kept per face and solid description (:attr:`BooleanShape.area_key`:
+the solid's parameters, face names and the estimate's settings) in memory and, when the shape
+names a folder (``area_cache``; the world gives score4's cache folder), in a small JSON file
+there, so a face is estimated once, not at every scene build.
 
 Faces are named ``first.<face of A>`` and ``second.<face of B>``; groups ``first``/``second``
 (and ``first.<group of A>``, ...) select all faces of one constituent; ``aliases`` names groups
@@ -30,7 +33,7 @@ import hashlib
 import json
 import os
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -50,11 +53,13 @@ PROBE = 1e-7  # mm: far above Geant4's tolerance, far below any feature of a det
 AREA_PRECISION = 1e-3
 #: Most rounds of ``n_area`` draws per face for the area estimate.
 MAX_AREA_ROUNDS = 40
-#: Version of the area estimate's method and file (a new one leaves older cached estimates unused).
-AREA_FORMAT = 1
+#: Version of the area estimate's method and file (a new one leaves older cached estimates unused;
+#: 2: one estimate per face, on demand, with the face's own seed).
+AREA_FORMAT = 2
 _EYE = np.eye(3)
-#: Area estimates made in this process, by :attr:`BooleanShape.area_key`.
-_AREAS: dict[str, tuple[dict[str, float], dict[str, float]]] = {}
+#: Area estimates (area, standard error) made in this process, by (:attr:`BooleanShape.area_key`,
+#: face name).
+_AREAS: dict[tuple[str, str], tuple[float, float]] = {}
 
 
 @dataclass(frozen=True, eq=False)
@@ -183,57 +188,59 @@ class BooleanShape(Shape):
         )
         return hashlib.sha256(text.encode()).hexdigest()[:32]
 
-    @cached_property
-    def _area_estimate(self) -> tuple[dict[str, float], dict[str, float]]:
-        """:meth:`_estimate_areas`, once per :attr:`area_key` (in memory, and in
-        ``area_cache`` when given)."""
-        key = self.area_key
+    def _face_estimate(self, name: str) -> tuple[float, float]:
+        """(area, standard error) of face ``name``: :meth:`_estimate_area`, once per
+        :attr:`area_key` and face (in memory, and in ``area_cache`` when given)."""
+        key = (self.area_key, name)
         if key in _AREAS:
             return _AREAS[key]
-        path = None if self.area_cache is None else Path(self.area_cache) / f"{key}.json"
-        found = _read_areas(path, self.faces) if path is not None else None
+        path = None
+        if self.area_cache is not None:
+            path = Path(self.area_cache) / f"{_digest(self.area_key, name)}.json"
+        found = _read_area(path, self.area_key, name) if path is not None else None
         if found is None:
-            found = self._estimate_areas()
+            found = self._estimate_area(name)
             if path is not None:
-                _write_areas(path, found)
+                _write_area(path, self.area_key, name, found)
         _AREAS[key] = found
         return found
 
-    def _estimate_areas(self) -> tuple[dict[str, float], dict[str, float]]:
-        """Per face: draws in rounds of ``n_area`` until the standard error is at most
-        :data:`AREA_PRECISION` of the face's area (or of the solid's area, for a sliver), at
-        most :data:`MAX_AREA_ROUNDS` rounds."""
-        rng = np.random.default_rng(20261)
-        faces = [
-            (part, shape, face)
-            for part, shape in (("first", self.first), ("second", self.second))
-            for face in shape.faces
-        ]
-        whole = sum(shape.face_areas[face] for _, shape, face in faces)
-        areas, errors = {}, {}
-        for part, shape, face in faces:
-            full = shape.face_areas[face]
-            name = f"{part}.{face}"
-            kept, drawn = 0, 0
-            p = err = 0.0
-            for _ in range(MAX_AREA_ROUNDS if full > 0 else 0):
-                kept += int(self._candidates(rng, self.n_area, part, (face,))[1].sum())
-                drawn += self.n_area
-                p = kept / drawn
-                err = full * float(np.sqrt(p * (1 - p) / drawn))
-                if err <= AREA_PRECISION * max(full * p, AREA_PRECISION * whole):
-                    break
-            areas[name], errors[name] = float(full * p), err
-        return areas, errors
+    def face_seed(self, name: str) -> int:
+        """Seed of face ``name``'s area estimate: from the solid's description and the face's
+        name only (not the estimate's settings, not the other faces)."""
+        text = json.dumps(self.to_dict(), sort_keys=True, default=str)
+        return int(_digest(text, name)[:16], 16)
 
-    @property
-    def face_areas(self) -> dict[str, float]:  # estimated, not cached
-        return self._area_estimate[0]
+    def _estimate_area(self, name: str) -> tuple[float, float]:
+        """Draws on face ``name``'s constituent face in rounds of ``n_area`` until the standard
+        error is at most :data:`AREA_PRECISION` of the face's area (or of the constituents' whole
+        area, :func:`gross_area`, for a sliver), at most :data:`MAX_AREA_ROUNDS` rounds."""
+        part, face = name.split(".", 1)
+        shape = self.first if part == "first" else self.second
+        full = shape.face_areas[face]
+        rng = np.random.default_rng(self.face_seed(name))
+        whole = gross_area(self)
+        kept, drawn = 0, 0
+        p = err = 0.0
+        for _ in range(MAX_AREA_ROUNDS if full > 0 else 0):
+            kept += int(self._candidates(rng, self.n_area, part, (face,))[1].sum())
+            drawn += self.n_area
+            p = kept / drawn
+            err = full * float(np.sqrt(p * (1 - p) / drawn))
+            if err <= AREA_PRECISION * max(full * p, AREA_PRECISION * whole):
+                break
+        return float(full * p), err
 
-    @property
-    def face_area_errors(self) -> dict[str, float]:
-        """Standard errors of :attr:`face_areas` (binomial, from the kept fraction)."""
-        return self._area_estimate[1]
+    @cached_property
+    def face_areas(self) -> Mapping[str, float]:
+        """Estimated area of every face, mm^2; a face is estimated when first read."""
+        return FaceAreas(self, 0)
+
+    @cached_property
+    def face_area_errors(self) -> Mapping[str, float]:
+        """Standard errors of :attr:`face_areas` (binomial, from the kept fraction); a face is
+        estimated when first read."""
+        return FaceAreas(self, 1)
 
     def face_sampler(self, faces: str | Sequence[str] = "all") -> BooleanFaceSampler:  # type: ignore[override]
         return BooleanFaceSampler(self, self.resolve_faces(faces))
@@ -286,6 +293,43 @@ class BooleanShape(Shape):
             "second": self.second.to_dict(),
             "transform": self.transform.to_dict(),
         }
+
+
+class FaceAreas(Mapping[str, float]):
+    """A boolean's face areas (``which`` 0) or their standard errors (1), by face name; each
+    face is estimated when it is first read (:meth:`BooleanShape._face_estimate`), so reading
+    one face costs one face's estimate and reading them all (``values()``, ``dict(...)``) costs
+    all."""
+
+    def __init__(self, shape: BooleanShape, which: int) -> None:
+        self._shape, self._which = shape, which
+
+    def __getitem__(self, name: str) -> float:
+        if name not in self._shape.faces:
+            raise KeyError(name)
+        return self._shape._face_estimate(name)[self._which]
+
+    def __contains__(self, name: object) -> bool:  # without estimating
+        return name in self._shape.faces
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._shape.faces)
+
+    def __len__(self) -> int:
+        return len(self._shape.faces)
+
+    def __repr__(self) -> str:
+        return repr(dict(self))
+
+
+def gross_area(shape: Shape) -> float:
+    """Total area of the faces of the leaf solids of ``shape`` (a boolean's surface is at most
+    this), exact and without estimating any boolean face."""
+    while isinstance(shape, PlacedShape):
+        shape = shape.shape
+    if isinstance(shape, BooleanShape):
+        return gross_area(shape.first) + gross_area(shape.second)
+    return shape.area
 
 
 @dataclass(frozen=True, eq=False)
@@ -361,26 +405,27 @@ class BooleanFaceSampler:
         return ShapeSample(out.position[order], out.normal[order], out.face[order])
 
 
-def _read_areas(
-    path: Path, faces: Sequence[str]
-) -> tuple[dict[str, float], dict[str, float]] | None:
-    """An area estimate kept by :func:`_write_areas` (None if absent, unreadable or not for
-    these faces)."""
+def _digest(*parts: str) -> str:
+    return hashlib.sha256("\0".join(parts).encode()).hexdigest()[:32]
+
+
+def _read_area(path: Path, key: str, name: str) -> tuple[float, float] | None:
+    """The estimate of face ``name`` of the solid ``key`` kept by :func:`_write_area` (None if
+    absent, unreadable or not for this solid, face and format)."""
     try:
         data = json.loads(path.read_text())
-        areas = {str(k): float(v) for k, v in data["areas"].items()}
-        errors = {str(k): float(v) for k, v in data["errors"].items()}
+        found = (float(data["area"]), float(data["error"]))
+        same = (data["format"], data["key"], data["face"]) == (AREA_FORMAT, key, name)
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
-    if data.get("format") != AREA_FORMAT or set(areas) != set(faces) or set(errors) != set(faces):
-        return None
-    return areas, errors
+    return found if same else None
 
 
-def _write_areas(path: Path, found: tuple[dict[str, float], dict[str, float]]) -> None:
-    """Keep an area estimate in ``path`` (written whole or not at all; a folder that cannot be
-    written leaves the estimate in memory only)."""
-    text = json.dumps({"format": AREA_FORMAT, "areas": found[0], "errors": found[1]})
+def _write_area(path: Path, key: str, name: str, found: tuple[float, float]) -> None:
+    """Keep one face's estimate in ``path`` (written whole or not at all; a folder that cannot
+    be written leaves the estimate in memory only)."""
+    data = {"format": AREA_FORMAT, "key": key, "face": name, "area": found[0], "error": found[1]}
+    text = json.dumps(data)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".partial", dir=path.parent)

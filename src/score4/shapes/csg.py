@@ -109,6 +109,37 @@ class _Hexahedron(Shape):
         c = self.corners()
         return c.min(axis=0), c.max(axis=0)
 
+    def moved_corners(self, cuts: dict[str, float]) -> np.ndarray | None:
+        """The eight corners (indexed as :meth:`corners`) once each named face's plane moves
+        inward by ``cuts[face]`` mm (< 0: outward), every corner where its three planes meet;
+        None for a name that is not one of the six faces. ConfigError when a moved face turns
+        over (the cut is wider than the solid there)."""
+        if set(cuts) - set(_QUADS):
+            return None
+        n, h = self._planes()
+        names = list(_QUADS)
+        h = h - np.array([cuts.get(f, 0.0) for f in names])
+        out = np.empty((8, 3))
+        for k in range(8):
+            rows = [
+                names.index(("+" if k & bit else "-") + a)
+                for bit, a in ((1, "x"), (2, "y"), (4, "z"))
+            ]
+            out[k] = np.linalg.solve(n[rows], h[rows])
+        c = self.corners()
+        scale = max(float(np.abs(c).max()), 1.0)
+        for face, quad in _QUADS.items():  # each face keeps its orientation and some area
+            q, old = out[list(quad)], c[list(quad)]
+            m = np.cross(q[2] - q[0], q[3] - q[1])
+            m0 = np.cross(old[2] - old[0], old[3] - old[1])
+            if not m @ m0 > 1e-18 * scale**4:
+                moved = ", ".join(f"{k} by {v * 1e3:.4g} um" for k, v in cuts.items())
+                raise ConfigError(
+                    f"{self.kind}: moving face {moved} turns its face {face} over (the solid is "
+                    "narrower there than the cut); the cut must be thinner than the solid"
+                )
+        return out
+
     @property
     def volume(self) -> float:  # divergence theorem over the (exact) triangles
         return float(
@@ -324,6 +355,36 @@ class G4Trap(_Hexahedron):
             off = float(np.abs((q - q[0]) @ n).max())
             if off > 1e-9 * max(float(np.abs(c).max()), 1.0):
                 raise ConfigError(f"G4Trap: a side face is not planar (off by {off:.3g} mm)")
+
+    @classmethod
+    def from_corners(cls, c: np.ndarray) -> tuple[G4Trap, np.ndarray]:
+        """The G4Trap with the eight corners ``c`` (indexed as :meth:`corners`; the -z face's
+        four at one z, the +z face's at another, each face's -y and +y edges along x), and the
+        shift of its origin (the corners are the trap's moved by it)."""
+        c = np.asarray(c, float)
+        z1, z2 = float(c[:4, 2].mean()), float(c[4:, 2].mean())
+        dz, mid_z = (z2 - z1) / 2, (z1 + z2) / 2
+        c = c.tolist()  # plain floats
+        ends = []
+        for q in (c[:4], c[4:]):
+            dy = (q[2][1] - q[0][1]) / 2
+            xm, xp = (q[0][0] + q[1][0]) / 2, (q[2][0] + q[3][0]) / 2
+            centre = np.array([(xm + xp) / 2, (q[0][1] + q[2][1]) / 2])
+            dxm, dxp = (q[1][0] - q[0][0]) / 2, (q[3][0] - q[2][0]) / 2
+            ends.append((centre, dy, dxm, dxp, math.atan((xp - xm) / (2 * dy))))
+        (c1, dy1, dx1, dx2, al1), (c2, dy2, dx3, dx4, al2) = ends
+        shift = np.array([*((c1 + c2) / 2), mid_z])
+        tx, ty = ((c2 - c1) / (2 * dz)).tolist()
+        theta, phi = math.atan(math.hypot(tx, ty)), math.atan2(ty, tx)
+        return cls(dz, theta, phi, dy1, dx1, dx2, al1, dy2, dx3, dx4, al2), shift
+
+    def moved(self, cuts: dict[str, float]) -> tuple[Shape, np.ndarray] | None:
+        """The G4Trap with each named face's plane moved inward by ``cuts`` (< 0: outward; the
+        other planes stay): its corners where their planes meet (:meth:`moved_corners`), a
+        G4Trap again (its end faces stay along z, its y faces hold the x direction), and the
+        shift of its origin."""
+        c = self.moved_corners(cuts)
+        return None if c is None else G4Trap.from_corners(c)
 
     def corners(self) -> np.ndarray:
         """The eight corners, indexed by bits (x: 1, y: 2, z: 4) as G4Trap numbers them."""

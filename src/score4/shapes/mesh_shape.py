@@ -11,7 +11,7 @@ than :data:`MAX_NAMED_PLANES` planes (a curved surface cut into facets) stays on
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -52,12 +52,14 @@ def _tri_distance(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
     """(n, m) exact distances of points (n, 3) to triangles (m, 3, 3)."""
     a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
     n = np.cross(b - a, c - a)
-    n2 = np.maximum(np.einsum("ij,ij->i", n, n), 1e-300)
+    n2 = np.einsum("ij,ij->i", n, n)
+    has_area = n2 > 0  # a triangle of no area (two corners alike): measured by its edges only
+    n2 = np.maximum(n2, 1e-300)
     w = p[:, None, :] - a[None]
     h = np.einsum("nmk,mk->nm", w, n) / np.sqrt(n2)
     # barycentric test of the projection
     q = p[:, None, :] - h[..., None] * (n / np.sqrt(n2)[:, None])[None]
-    inside = np.ones(h.shape, dtype=bool)
+    inside = np.broadcast_to(has_area, h.shape).copy()
     for u, v in ((a, b), (b, c), (c, a)):
         inside &= np.einsum("nmk,mk->nm", np.cross(v - u, q - u[None]), n) >= 0
     best = np.where(inside, np.abs(h), np.inf)
@@ -72,6 +74,45 @@ def _tri_distance(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
         e = p[:, None, :] - (u[None] + t[..., None] * d[None])
         best = np.minimum(best, np.sqrt(np.einsum("nmk,nmk->nm", e, e)))
     return best
+
+
+def _crossing(
+    tri: np.ndarray, index: np.ndarray, changed: np.ndarray, eps: float
+) -> tuple[int, int] | None:
+    """The first pair ``(a, b)`` of facets of a mesh (``tri`` (m, 3, 3), vertex ``index``
+    (m, 3)), ``a`` among ``changed``, that share no vertex and where an edge of one crosses the
+    other (further than ``eps`` mm from its ends and edges); None if there is none."""
+    edges = [(0, 1), (1, 2), (2, 0)]
+    for a in changed:
+        others = np.flatnonzero(~np.isin(index, index[a]).any(axis=1))
+        if len(others) == 0:
+            continue
+        for first, second in ((tri[a][None], tri[others]), (tri[others], tri[a][None])):
+            for i, j in edges:
+                o, d = first[:, i], first[:, j] - first[:, i]
+                hits = _segment_hits(o, d, second, eps)  # one row per other facet
+                if hits.any():
+                    return int(a), int(others[int(np.argmax(hits))])
+    return None
+
+
+def _segment_hits(o: np.ndarray, d: np.ndarray, tri: np.ndarray, eps: float) -> np.ndarray:
+    """Whether the segments o + s d (0 < s < 1) cross the triangles ``tri`` inside, both more
+    than ``eps`` mm from their ends and edges (broadcast over rows)."""
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    p = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, p)
+    ok = np.abs(det) > 1e-300
+    inv = np.divide(1.0, det, out=np.zeros_like(det), where=ok)
+    w = o - tri[:, 0]
+    u = np.einsum("ij,ij->i", w, p) * inv
+    q = np.cross(w, e1)
+    v = np.einsum("ij,ij->i", d, q) * inv
+    s = np.einsum("ij,ij->i", e2, q) * inv
+    size = np.maximum(np.linalg.norm(e1, axis=1) + np.linalg.norm(e2, axis=1), 1e-300)
+    along = eps / np.maximum(np.linalg.norm(d, axis=1), 1e-300)
+    rel = eps / size
+    return ok & (u > rel) & (v > rel) & (u + v < 1 - rel) & (s > along) & (s < 1 - along)
 
 
 def _winding(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
@@ -177,6 +218,77 @@ class MeshShape(Shape):
             if len(rows):
                 patches.append(PlaneTriangles(k, tri[rows], normal[rows]))
         return self.face_names, dict(self.face_groups), patches
+
+    def moved(self, cuts: dict[str, float]) -> tuple[Shape, np.ndarray] | None:
+        """The mesh with each named face (one plane) moved inward by ``cuts[face]`` mm (< 0:
+        outward), its other planes kept: each vertex of a moved face goes where its planes
+        meet again (the least move that does it: along the normal inside the face, along the
+        neighbour's plane on an edge), the same shift (0) of the origin. None for a face of
+        several planes. ConfigError, naming the face and why, where the moved mesh would not
+        be a valid solid: a corner of the face on more other planes than meet the moved plane
+        in one point, a facet turned over or shrunk to a sliver, or a moved facet crossing
+        another part of the mesh."""
+        if not cuts or set(cuts) - set(self.face_names):
+            return None
+        tri = self.triangles
+        plane = plane_index(tri)
+        assert self.facet_faces is not None
+        moving: dict[int, float] = {}
+        for name, depth in cuts.items():
+            found = set(plane[self.facet_faces == self.face_names.index(name)].tolist())
+            if len(found) != 1 or -1 in found:
+                return None
+            moving[found.pop()] = float(depth)
+        count = int(plane.max()) + 1
+        normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+        verts, index = np.unique(tri.reshape(-1, 3), axis=0, return_inverse=True)
+        index = index.reshape(-1, 3)
+        unit = np.zeros((count, 3))
+        for p in range(count):
+            unit[p] = normal[np.argmax(plane == p)]
+        scale = max(float(np.abs(verts).max()), 1.0)
+        what = ", ".join(f"{k} by {-v * 1e3:.4g} um" for k, v in cuts.items())
+        what = f"{self.kind}: face {what} outward" if len(cuts) == 1 else f"{self.kind}: {what}"
+        new = verts.copy()
+        touched = np.unique(index[np.isin(plane, list(moving))])
+        for v in touched:
+            planes = np.unique(plane[(index == v).any(axis=1) & (plane >= 0)])
+            a = unit[planes]
+            b = np.array([-moving.get(int(p), 0.0) for p in planes])
+            step = np.linalg.lstsq(a, b, rcond=None)[0]
+            if np.abs(a @ step - b).max() > 1e-9 * scale:
+                raise ConfigError(
+                    f"{what}: its corner ({', '.join(f'{x:.6g}' for x in verts[v])}) mm joins "
+                    f"{len(planes) - 1} other planes, which the moved plane does not meet in one "
+                    "point; score4 moves a mesh face only where each corner lies on at most two "
+                    "other planes (or on planes through one line)"
+                )
+            new[v] = verts[v] + step
+        out = new[index]
+        changed = np.isin(index, touched).any(axis=1)
+        m = np.cross(out[:, 1] - out[:, 0], out[:, 2] - out[:, 0])
+        area = np.linalg.norm(m, axis=1)
+        longest = np.max(
+            [np.linalg.norm(out[:, (k + 1) % 3] - out[:, k], axis=1) for k in range(3)], axis=0
+        )
+        flat = ~(np.einsum("ij,ij->i", m, normal) > 0) | (area / np.maximum(longest, 1e-300) < 1e-8)
+        if (flat & changed).any():
+            k = int(np.flatnonzero(flat & changed)[0])
+            raise ConfigError(
+                f"{what}: facet {k} (of face {self.face_names[self.facet_faces[k]]}) would turn "
+                "over or shrink to a sliver (the face's neighbour is narrower than the move); "
+                "the move must be thinner than the solid there"
+            )
+        hit = _crossing(out, index, np.flatnonzero(changed), 1e-9 * scale)
+        if hit is not None:
+            k = hit[1]
+            raise ConfigError(
+                f"{what}: the moved facets would cross facet {k} (of face "
+                f"{self.face_names[self.facet_faces[k]]}) of the same solid, which lies closer "
+                "to the face than the move; the move must be thinner than the gap"
+            )
+        return replace(self, triangles=out), np.zeros(3)
 
     def signed_distance(self, points: ArrayLike) -> np.ndarray:
         p = as_points(points)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -30,7 +30,7 @@ class PlacedShape(Shape):
         return self.shape.groups
 
     @property
-    def face_areas(self) -> dict[str, float]:
+    def face_areas(self) -> Mapping[str, float]:
         return self.shape.face_areas
 
     def face_sampler(self, faces: str | Sequence[str] = "all") -> PlacedFaceSampler:  # type: ignore[override]

@@ -25,6 +25,7 @@ import itertools
 import math
 import numbers
 from collections.abc import Iterator
+from typing import NamedTuple
 
 import numpy as np
 
@@ -72,6 +73,15 @@ MIN_FLOOR = 10e-6  # mm
 #: and volumes to build: 64 builds that map in 9.9 s and 600 MB against 5.3 s and 440 MB uncut
 #: (128: 7.4 s, 504 MB; 32: 14.9 s, 736 MB; under load).
 SIMPLIFIED_BLOCK_FACETS = 64
+#: A simplified patch with more top facets than this has its dense blocks cut in two, across
+#: the longer side, instead of in four: its blocks then hold SIMPLIFIED_BLOCK_FACETS / 2 to
+#: SIMPLIFIED_BLOCK_FACETS top facets instead of a quarter of that to all of it, so there are
+#: fewer of them, and each block costs Geant4 memory and time to build whatever its facets (a
+#: cap's walls, bottom and voxels, a floor, two volumes: ~9 kB). Smaller patches (every example)
+#: keep the cut in four. Measured on the 1024 x 1024 Gaussian map at 0.1 um (430 k top
+#: facets; benchmarks/README.md, session 12): in four 15 559 blocks, 539 MB peak, 1.077x the
+#: pyramid face's instructions per alpha event; in two 9775 blocks, 484 MB, 1.198x.
+SPLIT_IN_TWO_FACETS = 2**18
 
 #: Top facets of one patch variant above which building is refused (a 1024 x 1024 map has 2.1e6).
 MAX_PATCH_FACETS = 4_000_000
@@ -184,9 +194,28 @@ def _split_dense(
     starts = np.searchsorted(block[order], np.arange(len(rects) + 1))
     todo = [(rects[b], order[starts[b] : starts[b + 1]]) for b in range(len(rects))]
     out_rects, out_faces = [], []
+    halves = mesh.n_faces > SPLIT_IN_TWO_FACETS
     while todo:
         (i0, i1, j0, j1), rows = todo.pop()
         im, jm = (i0 + i1) // 2, (j0 + j1) // 2
+        if halves:  # across the longer side only (x first where they are equal)
+            along_x = i1 - i0 >= j1 - j0
+            cut = len(rows) > SIMPLIFIED_BLOCK_FACETS and (i1 - i0 if along_x else j1 - j0) >= 2
+            if cut:
+                lo, hi, mid = (lo_i, hi_i, im) if along_x else (lo_j, hi_j, jm)
+                cut = not ((lo[rows] < mid) & (hi[rows] > mid)).any()
+            if cut:
+                upper = (lo_i if along_x else lo_j)[rows] >= (im if along_x else jm)
+                low_rect, high_rect = (
+                    ((i0, im, j0, j1), (im, i1, j0, j1))
+                    if along_x
+                    else ((i0, i1, j0, jm), (i0, i1, jm, j1))
+                )
+                todo += [(low_rect, rows[~upper]), (high_rect, rows[upper])]
+                continue
+            out_rects.append((i0, i1, j0, j1))
+            out_faces.append(rows)
+            continue
         cut = len(rows) > SIMPLIFIED_BLOCK_FACETS and i1 - i0 >= 2 and j1 - j0 >= 2
         if cut:
             cross_i = (lo_i[rows] < im) & (hi_i[rows] > im)
@@ -252,18 +281,80 @@ def split_top(surface: Surface, block_cells: int | None = None) -> list[Triangle
 
 def iter_split_top(surface: Surface, block_cells: int | None = None) -> Iterator[TriangleMesh]:
     """:func:`split_top` one block at a time (the patch is checked before the first)."""
+    cell = surface.top_mesh.facet
+    assert cell is not None  # surface meshes carry the cell of each face
+    for piece in _iter_pieces(surface, block_cells):
+        yield TriangleMesh(piece.vertices, piece.faces, facet=cell[piece.rows])
+
+
+class _Piece(NamedTuple):
+    """One block's share of the top mesh, as :func:`iter_split_top`'s mesh holds it: the rows
+    of its faces in the top mesh, its vertices (ascending ids of the top mesh), its faces
+    (local ids) and its boundary half-edges as :func:`boundary_half_edges` orders them."""
+
+    rows: np.ndarray
+    vertices: np.ndarray
+    faces: np.ndarray
+    edges: np.ndarray
+
+
+def _iter_pieces(surface: Surface, block_cells: int | None) -> Iterator[_Piece]:
+    """The blocks' pieces of the top mesh, row by row, computed for many blocks at once (a few
+    sorts per :data:`PIECE_FACES` faces instead of a few small numpy calls per block: a
+    1024 x 1024 map has 10^4 blocks); the same arrays as a per-block ``np.unique`` and
+    :func:`boundary_half_edges`."""
     check_patch(surface, "blocks", block_cells)
     mesh = surface.top_mesh
-    cell = mesh.facet
-    assert cell is not None  # surface meshes carry the cell of each face
     block, rects = block_rects(surface, block_cells)
     order = np.argsort(block, kind="stable")
     starts = np.searchsorted(block[order], np.arange(len(rects) + 1))
-    for b in range(len(starts) - 1):
-        rows = order[starts[b] : starts[b + 1]]
-        faces = mesh.faces[rows]
-        used, local = np.unique(faces, return_inverse=True)
-        yield TriangleMesh(mesh.vertices[used], local.reshape(-1, 3), facet=cell[rows])
+    del block
+    b0 = 0
+    while b0 < len(rects):  # blocks b0 .. b1 - 1 together, about PIECE_FACES faces
+        b1 = max(b0 + 1, int(np.searchsorted(starts, starts[b0] + PIECE_FACES, side="right")) - 1)
+        b1 = min(b1, len(rects))
+        yield from _pieces(mesh, order, starts[b0 : b1 + 1])
+        b0 = b1
+
+
+#: Faces of the top mesh :func:`_iter_pieces` cuts into blocks at a time (its arrays stay small).
+PIECE_FACES = 1 << 15
+
+
+def _pieces(mesh: TriangleMesh, order: np.ndarray, starts: np.ndarray) -> Iterator[_Piece]:
+    """:func:`_iter_pieces` of the consecutive blocks whose rows of ``order`` start at
+    ``starts`` (the next block's start appended)."""
+    n_blocks = len(starts) - 1
+    rows = order[starts[0] : starts[-1]]
+    of_face = np.repeat(np.arange(n_blocks, dtype=np.int64), np.diff(starts))
+    n = np.int64(mesh.n_vertices)
+    key = of_face[:, None] * n + mesh.faces[rows]  # (block, vertex) of each corner
+    used, inverse = np.unique(key, return_inverse=True)
+    first = np.searchsorted(used, np.arange(n_blocks + 1, dtype=np.int64) * n)
+    local = inverse.reshape(-1, 3) - first[of_face][:, None]  # ids within the block, ascending
+    vertex = used - np.repeat(np.arange(n_blocks, dtype=np.int64) * n, np.diff(first))
+    # boundary half-edges: undirected edges of one face only, ordered by (block, low, high)
+    he = local[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    wide = np.int64(max(1, int(np.diff(first).max())))
+    ekey = (np.repeat(of_face, 3) * wide + he.min(axis=1)) * wide + he.max(axis=1)
+    eorder = np.argsort(ekey, kind="stable")
+    k = ekey[eorder]
+    if (k[2:] == k[:-2]).any():
+        raise ConfigError("top_mesh: some edges are shared by more than two faces (not a surface)")
+    differs = k[1:] != k[:-1]
+    single = np.concatenate([[True], differs]) & np.concatenate([differs, [True]])
+    kept = eorder[single]
+    edges, edge_block = he[kept], np.repeat(of_face, 3)[kept]
+    edge_starts = np.searchsorted(edge_block, np.arange(n_blocks + 1))
+    face_starts = starts - starts[0]
+    for b in range(n_blocks):
+        s0, s1 = face_starts[b], face_starts[b + 1]
+        yield _Piece(
+            rows[s0:s1],
+            mesh.vertices[vertex[first[b] : first[b + 1]]],
+            local[s0:s1],
+            edges[edge_starts[b] : edge_starts[b + 1]],
+        )
 
 
 def block_bodies(
@@ -445,33 +536,57 @@ def block_body(top: TriangleMesh, thickness: float) -> TriangleMesh:
     ``thickness`` may be negative: the bottom plane ``z = -thickness`` above the base plane, for
     a cap on a floor (:func:`floored_blocks`).
     """
-    v = top.vertices
-    lo, hi = v[:, :2].min(axis=0), v[:, :2].max(axis=0)
-    edges = boundary_half_edges(top)
-    nxt = dict(zip(edges[:, 0].tolist(), edges[:, 1].tolist(), strict=True))
-    xy = v[:, :2]
-    corner = [a for a in nxt if all(xy[a, k] in (lo[k], hi[k]) for k in (0, 1))]
-    if len(corner) != 4 or len(nxt) != len(edges):
+    extra = _few_walls(top.vertices, boundary_half_edges(top), thickness)
+    if extra is None:
         return _closed_body(top, thickness)
+    bottom, walls = extra
+    faces = np.vstack([top.faces, np.array(walls, dtype=top.faces.dtype)])
+    n_extra = len(walls)
+    return TriangleMesh(
+        np.vstack([top.vertices, bottom]),
+        faces,
+        top=np.concatenate([top.top, np.zeros(n_extra, bool)]),
+        patch=None if top.patch is None else np.concatenate([top.patch, np.full(n_extra, -1)]),
+        facet=None if top.facet is None else np.concatenate([top.facet, np.full(n_extra, -1)]),
+    )
+
+
+def _few_walls(
+    v: np.ndarray, edges: np.ndarray, thickness: float
+) -> tuple[np.ndarray, list[tuple[int, int, int]]] | None:
+    """:func:`block_body`'s additions to a top of vertices ``v`` and boundary half-edges
+    ``edges`` (:func:`boundary_half_edges`): the four bottom corners (appended after ``v``) and
+    the wall and bottom faces; None where closed_body's walls are needed."""
+    lo, hi = v[:, :2].min(axis=0), v[:, :2].max(axis=0)
+    starts = edges[:, 0]
+    nxt = dict(zip(starts.tolist(), edges[:, 1].tolist(), strict=True))
+    xy = v[starts, :2]
+    at_corner = ((xy[:, 0] == lo[0]) | (xy[:, 0] == hi[0])) & (
+        (xy[:, 1] == lo[1]) | (xy[:, 1] == hi[1])
+    )
+    corner = starts[at_corner].tolist()
+    if len(corner) != 4 or len(nxt) != len(edges):
+        return None
     # the outline (anticlockwise) cut at the corners into the four sides' chains
+    corners = set(corner)
     chains, start = [], corner[0]
     for _ in range(4):
         chain = [start]
         while True:
             chain.append(nxt[chain[-1]])
-            if chain[-1] in corner:
+            if chain[-1] in corners:
                 break
             if len(chain) > len(nxt):
-                return _closed_body(top, thickness)  # not a loop through the corners
+                return None  # not a loop through the corners
         chains.append(chain)
         start = chain[-1]
     if start != corner[0]:
-        return _closed_body(top, thickness)
+        return None
     n_top = len(v)
     ends = [c[0] for c in chains]  # the corners, in loop order
     low = {c: n_top + k for k, c in enumerate(ends)}
     bottom = np.column_stack([v[ends, :2], np.full(4, -float(thickness))])
-    walls = []
+    walls: list[tuple[int, int, int]] = []
     for chain in chains:  # orientation as in closed_body: each top edge reversed on its wall
         a, b = chain[0], chain[-1]
         la, lb = low[a], low[b]
@@ -489,20 +604,39 @@ def block_body(top: TriangleMesh, thickness: float) -> TriangleMesh:
             elif _upright(v, thickness, a, b, la, other):
                 walls += other
             else:
-                return _closed_body(top, thickness)  # a sliver either way
+                return None  # a sliver either way
         else:
             long_wall = _terrain_wall(v, thickness, chain, la, lb)
             if long_wall is None:
-                return _closed_body(top, thickness)
+                return None
             walls += long_wall
     c0, c1, c2, c3 = (low[c] for c in ends)
-    floor = [(c1, c0, c3), (c3, c2, c1)]
-    faces = np.vstack([top.faces, np.array(walls + floor, dtype=top.faces.dtype)])
-    n_extra = len(walls) + len(floor)
-    return TriangleMesh(
-        np.vstack([v, bottom]),
-        faces,
-        top=np.concatenate([top.top, np.zeros(n_extra, bool)]),
-        patch=None if top.patch is None else np.concatenate([top.patch, np.full(n_extra, -1)]),
-        facet=None if top.facet is None else np.concatenate([top.facet, np.full(n_extra, -1)]),
-    )
+    walls += [(c1, c0, c3), (c3, c2, c1)]  # the bottom
+    return bottom, walls
+
+
+def block_caps(
+    surface: Surface, base_thickness: float, block_cells: int | None = None
+) -> Iterator[tuple[np.ndarray, list, np.ndarray | None]]:
+    """:func:`floored_blocks` as Geant4 gets it, faster: ``(vertices, faces, floor)`` per block,
+    the cap's vertex array and its faces as a list of vertex-id triples, the same values in the
+    same order as ``floored_blocks``' caps (no mesh object and its checks per block)."""
+    cell = surface.top_mesh.facet
+    for piece in _iter_pieces(surface, block_cells):
+        v = piece.vertices
+        z = float(v[:, 2].min()) - FLOOR_GAP
+        floor = None
+        thickness = base_thickness
+        if z + base_thickness >= MIN_FLOOR:
+            lo, hi = v[:, :2].min(axis=0), v[:, :2].max(axis=0)
+            floor = np.array([[lo[0], lo[1], -base_thickness], [hi[0], hi[1], z]])
+            thickness = -z
+        extra = _few_walls(v, piece.edges, thickness)
+        if extra is None:
+            assert cell is not None
+            top = TriangleMesh(v, piece.faces, facet=cell[piece.rows])
+            body = _closed_body(top, thickness)
+            yield body.vertices, body.faces.tolist(), floor
+            continue
+        bottom, walls = extra
+        yield np.vstack([v, bottom]), piece.faces.tolist() + walls, floor

@@ -30,7 +30,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..shapes.base import Shape
 from ..shapes.boolean import BooleanShape
-from .boolean_distance import BooleanDistance, leaf_face_distance
+from .boolean_distance import BooleanDistance, Measure, leaf_face_distance
 from .face_distance import face_distance
 from .rough_distance import CurvedRoughSurfaceDistance, RoughSurfaceDistance
 
@@ -59,12 +59,13 @@ class TargetDistance:
         assert target.shape is not None  # target_distances gives None for such a volume
         self.shape: Shape = target.shape
         self.layers = list(layers)
-        #: face name -> its rough layer (distances built on first use)
-        self.rough: dict[str, RoughLayer] = {}
+        #: face name -> its rough layers (distances built on first use): one, or one per plane
+        #: of a face of several planes (a subtracted G4Polyhedra's sides)
+        self.rough: dict[str, list[RoughLayer]] = {}
         for layer in self.layers:
             (face,) = self.shape.resolve_faces([layer.config.face_name])
-            self.rough[face] = layer
-        self._measures: dict[str, RoughSurfaceDistance | CurvedRoughSurfaceDistance] = {}
+            self.rough.setdefault(face, []).append(layer)
+        self._measures: dict[str, Measure] = {}
         try:  # every face measurable by face_distance (else the whole surface: signed distance)
             face_distance(self.shape, tuple(self.shape.faces), np.zeros((1, 3)))
             self.exact_faces = True
@@ -77,15 +78,17 @@ class TargetDistance:
             else None
         )
 
-    def rough_distance(self, face: str) -> RoughSurfaceDistance | CurvedRoughSurfaceDistance:
-        """The distance to the rough surface of ``face`` (a face with a rough layer)."""
+    def rough_distance(self, face: str) -> Measure:
+        """The distance to the rough surface of ``face`` (a face with a rough layer; of several
+        planes, each with its layer: the nearest of them)."""
         if face not in self._measures:
-            layer = self.rough[face]
-            self._measures[face] = (
+            measures: list[Measure] = [
                 CurvedRoughSurfaceDistance(layer)  # type: ignore[arg-type]
                 if layer.curved
                 else RoughSurfaceDistance(layer)
-            )
+                for layer in self.rough[face]
+            ]
+            self._measures[face] = measures[0] if len(measures) == 1 else _nearest(measures)
         return self._measures[face]
 
     def _outside(self, world: np.ndarray, local: np.ndarray) -> np.ndarray:
@@ -121,6 +124,11 @@ class TargetDistance:
         if not self.rough or not self.exact_faces:
             return np.maximum(-self.shape.signed_distance(self.target.to_local(world)), 0.0)
         return self.to_faces(tuple(self.shape.faces), world)
+
+
+def _nearest(measures: list[Measure]) -> Measure:
+    """The smallest of several distances (the layers on the planes of one face)."""
+    return lambda world: np.min([m(world) for m in measures], axis=0)
 
 
 @dataclass

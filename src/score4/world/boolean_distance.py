@@ -11,7 +11,10 @@ that leaf: its distance becomes the smaller of the exact distance to its other f
 wall or a bore), and a point in a patch is in the leaf (outside it for a subtracted leaf, whose
 patches lie in the hole). The boolean combines the leaves as before (:func:`rough_signed`). The
 cells that are not kept count as the leaf's flat face, so the boolean's own cut decides, as for
-a smooth face, where that face is part of the surface.
+a smooth face, where that face is part of the surface. Where a face's one flat layer reaches
+past the face (a square grid over a round floor), its flat cells there are not the leaf's face:
+below the layer's level the rough surface's distance is raised to the face's own
+(:func:`below_level`), exact beside the face's column.
 
 Like the smooth boolean's, the result is a lower bound of the true distance to the surface,
 exact where the nearest point of the nearest constituent's surface lies on the boolean's
@@ -20,7 +23,9 @@ surface (everywhere inside a box less a tube along an axis, or a cylinder with a
 The distance to some faces of a boolean (activeness ``faces``) is the larger of the distance to
 the whole surface and the distance to the listed faces: a smooth face as it is on the boolean
 (the part the other constituents keep, :class:`score4.world.kept_face_distance.KeptFaceDistance`:
-exact to its ``TOLERANCE``), a rough face by its whole layer's rough surface (a lower bound where
+exact to its ``TOLERANCE``), a rough face by its whole layer's rough surface, raised below the
+layer's level to the distance to the face as it is on the boolean there (:meth:`_beside`: a
+lower bound, exact beside the face's column, off by at most the patches' height over it where
 the layer's flat cells reach off the boolean's surface).
 
 With ``into`` a rough face's layer lies on the cut face, so its rough surface is measured there;
@@ -32,7 +37,7 @@ the layer lies in.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -62,6 +67,8 @@ class RoughLeaf:
     measures: list[Measure]
     layers: list[RoughLayer]
     flipped: bool
+    #: per rough face, its one flat layer (None: several, or curved), for :func:`below_level`
+    levels: list[RoughLayer | None] = field(default_factory=list)
 
     def signed(self, local: np.ndarray, world: np.ndarray) -> np.ndarray:
         """The rough leaf's signed distance at points ``local`` (leaf frame; ``world``: the same
@@ -69,14 +76,32 @@ class RoughLeaf:
 
         others = tuple(f for f in self.leaf.faces if f not in self.faces)
         d = face_distance(self.leaf, others, local) if others else np.full(len(local), np.inf)
-        for measure in self.measures:
-            d = np.minimum(d, measure(world))
+        for measure, level in zip(self.measures, self.levels, strict=True):
+            m = measure(world)
+            if level is not None:
+                below = level.frame.to_local(world)[:, 2] <= 0
+                if below.any():
+                    m[below] = np.maximum(m[below], below_level(level, world[below]))
+            d = np.minimum(d, m)
         inside = self.leaf.signed_distance(local) <= 0
         in_patch = np.zeros(len(world), dtype=bool)
         for layer in self.layers:
             in_patch |= layer.contains(world)
         inside = inside & ~in_patch if self.flipped else inside | in_patch
         return np.where(inside, -d, d)
+
+
+def below_level(layer: RoughLayer, world: np.ndarray) -> np.ndarray:
+    """Distance of world points to the face of the leaf the flat ``layer`` lies on, at the
+    layer's level (the leaf cut behind it with ``into``), whole: at points below that level no
+    point of the layer's rough surface on the leaf is nearer (its patches and flat rest lie over
+    that face, at or above the level), so the rough surface's distance is raised to it there;
+    exact beside the face's column, where the layer's flat cells reach past the face."""
+    on = layer.on_boolean
+    assert on is not None
+    clip = on.clip
+    local = clip.transform.inverse_apply(on.transform.inverse_apply(world))
+    return face_distance(clip.leaf, (clip.face,), local)
 
 
 def leaf_path(shape: BooleanShape, face: str) -> tuple[str, str]:
@@ -125,26 +150,31 @@ def leaf_face_distance(
 
 class BooleanDistance:
     """Distances of world points to the surface of a ``target`` whose solid is a boolean, with
-    its rough ``layers`` (boolean face name -> layer) measured by ``measure(face)``."""
+    its rough ``layers`` (boolean face name -> its layers: one per plane of a face of several)
+    measured by ``measure(face)``."""
 
     def __init__(
         self,
         target: TargetVolume,
-        layers: dict[str, RoughLayer],
+        layers: dict[str, list[RoughLayer]],
         measure: Callable[[str], Measure],
     ) -> None:
         shape = target.shape
         assert isinstance(shape, BooleanShape)
         self.target, self.shape = target, shape
         self._kept: dict[tuple[str, ...], KeptFaceDistance] = {}
+        self._layers = layers
+        self._level: dict[str, KeptFaceDistance] = {}
         self.leaves: dict[str, RoughLeaf] = {}
-        for face, layer in layers.items():
+        for face, on_face in layers.items():
             path, leaf_face = leaf_path(shape, face)
             clip = shape.face_clip(face)
             leaf = self.leaves.setdefault(path, RoughLeaf(clip.leaf, [], [], [], clip.flipped))
             leaf.faces.append(leaf_face)
             leaf.measures.append(_lazy(measure, face))
-            leaf.layers.append(layer)
+            leaf.layers.extend(on_face)
+            flat = len(on_face) == 1 and not on_face[0].curved
+            leaf.levels.append(on_face[0] if flat else None)
 
     def signed(self, world: np.ndarray) -> np.ndarray:
         """Signed distance (mm, < 0 inside the volume or its patches) of world points."""
@@ -173,8 +203,32 @@ class BooleanDistance:
         d = self.kept_faces(smooth)(local) if smooth else np.full(len(world), np.inf)
         for f in faces:
             if f in self._rough_faces:
-                d = np.minimum(d, rough(f)(world))
+                d = np.minimum(d, self._beside(f, world, local, rough(f)(world)))
         return np.where(whole > 0, np.maximum(whole, d), 0.0)
+
+    def _beside(self, face: str, world: np.ndarray, local: np.ndarray, d: np.ndarray) -> np.ndarray:
+        """The distance ``d`` to the rough ``face`` (its whole layer's rough surface, the flat
+        cells off the boolean included) raised, at points below the layer's level, to the
+        distance to the face as it is on the boolean at that level (the cut face with ``into``):
+        the layer's patches and flat rest lie over that face, at or above its level, so no point
+        of the rough surface is nearer. Exact beside the face's column; over it, off by at most
+        the patches' height where a flat cell off the boolean is nearer than a patch. A face of
+        several planes or a curved one keeps ``d``."""
+        layers = self._layers[face]
+        layer = layers[0]
+        if len(layers) != 1 or layer.curved:
+            return d
+        below = layer.frame.to_local(world)[:, 2] <= 0
+        if not below.any():
+            return d
+        if face not in self._level:  # the layer's boolean: cut behind the face for into
+            on = layer.on_boolean
+            assert on is not None
+            assert isinstance(on.shape, BooleanShape)
+            self._level[face] = KeptFaceDistance(on.shape, (face,))
+        out = d.copy()
+        out[below] = np.maximum(d[below], self._level[face](local[below]))
+        return out
 
     def kept_faces(self, faces: tuple[str, ...]) -> KeptFaceDistance:
         """The exact distance to the smooth ``faces`` as they are on the boolean (built once per

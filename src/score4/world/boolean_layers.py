@@ -39,9 +39,10 @@ layer per plane (:func:`_on_boolean`; a plane without a kept cell gets none); th
 their flat rest as one (:class:`score4.source.build.PlanesRemainderSampler`).
 
 Refused, in one line each (:mod:`score4.world.boolean_modes` says why): ``into: true`` on the
-faces of a subtracted solid other than its flat faces (a G4Box, G4Tubs, G4Cons, polycone, G4Trd
-or G4Polyhedra), the walls of a G4Tubs or G4Cons (bores) and the sphere faces of a G4Orb or
-G4Sphere, on phi faces, and on two faces that share an edge of one constituent with a phi
+faces of a subtracted solid other than its flat faces (a G4Box, G4Tubs, G4Cons, polycone, G4Trd,
+G4Trap or G4Polyhedra; a face in one plane of an extruded or tessellated solid, where moving it
+leaves a valid solid), the walls of a G4Tubs or G4Cons (bores) and the sphere faces of a G4Orb
+or G4Sphere, on phi faces, and on two faces that share an edge of one constituent with a phi
 segment or of a part grown down under another layer that is not swept straight up from its foot
 (where they can be, they are cut together: :func:`into_joint`), ``tiling: portal``,
 ``native_layout: replicas`` where a cell holds no patch (and on a layer whose envelope is the
@@ -231,7 +232,13 @@ def _on_boolean(
             on = BooleanFace(joint, name, joint.face_clip(name), target.transform)
             cut = on.clip
         elif rough.into:  # the face cut behind by the layer's thickness (boolean_modes)
-            on = cut_face(base, into_depth(layer, clip.flipped), f"{where}: into: true on {what}")
+            start = f"{where}: into: true on {what}"
+            try:
+                on = cut_face(base, into_depth(layer, clip.flipped), start)
+            except ConfigError as err:  # a solid that cannot be moved so (Shape.moved)
+                if str(err).startswith(start):
+                    raise
+                raise ConfigError(f"{start}: {err}") from None
             cut = on.clip
         kept = kept_cells(layer, cut, on, placed)
         if rough.into and clip.flipped and not isinstance(layer, CurvedRoughLayer):

@@ -27,10 +27,15 @@
   those the grown solid fills over the whole slab (on the old face and on the grown one: a
   hole narrowing to its floor loses its outer ring of cells). On the sphere face of a
   subtracted G4Orb or G4Sphere (a spherical dimple or cavity, laid out as the inner face of a
-  shell beside it) the subtracted solid grows by the layer's cut, as a bore does. Refused
-  elsewhere: the phi faces of a subtracted solid, the faces of a subtracted G4Trap, tessellated
-  or extruded solid, the other curved faces of subtracted solids, the phi faces of a segment
-  (moved off the axis they would make the constituent a boolean of its own).
+  shell beside it) the subtracted solid grows by the layer's cut, as a bore does. A flat face
+  of a subtracted G4Trap moves its plane (a G4Trap again, rebuilt from its eight corners); a
+  face (one plane) of a subtracted G4ExtrudedSolid or G4TessellatedSolid moves its vertices to
+  where their planes meet again (:meth:`score4.shapes.MeshShape.moved`, a G4TessellatedSolid in
+  Geant4), refused in one line where that leaves no valid solid (a corner on more planes than
+  meet the moved one in a point, a facet turned over, a facet crossing another). Refused
+  elsewhere: the phi faces of any constituent, subtracted or not (moved off the axis, parallel
+  to itself, the plane would make the constituent a boolean of its own: no Geant4 solid with
+  phi faces has them off its axis), and the other curved faces of subtracted solids.
   A part of a union that stands on a cut flat face grows down by the cut, so the slab under it
   stays in the volume (:func:`standing_cuts`: a G4Box, or a G4Tubs, G4Cons or polycone, along
   the face's normal, its foot within the face; a swept part grows as the prism of its foot,
@@ -83,23 +88,41 @@ def check_modes(
     if rough.into:
         flat = flat_face(leaf, face)
         bore = isinstance(leaf, G4Tubs | G4Cons | G4Sphere | G4Orb) and face in ("outer", "inner")
-        grows = flat and leaf.moved({face: -1e-6}) is not None
+        phi = face in ("phi_start", "phi_end")
+        grows = False
+        if flipped and flat and not phi:
+            try:
+                grows = leaf.moved({face: -1e-6}) is not None
+            except ConfigError as err:  # a mesh whose face cannot move at all (Shape.moved)
+                raise ConfigError(f"{where}: into: true on {what}: {err}") from None
+        if flipped and phi:
+            raise ConfigError(
+                f"{where}: into: true on {what} (face {face} of the subtracted {leaf.kind} with "
+                "a phi segment): growing that solid by the layer's thickness would move the "
+                f"plane off the axis, parallel to itself, and every {leaf.kind}'s phi faces pass "
+                f"through its axis: the grown solid would be the {leaf.kind} joined to a slab "
+                "along the face, a boolean of its own, which score4 does not build inside the "
+                "cut (the cells along the phi edge would also have to be laid out again); put "
+                "the layer outside the volume (into: false)"
+            )
         if flipped and not (bore or grows):
             raise ConfigError(
                 f"{where}: into: true on {what}, a face of the subtracted {leaf.kind}, would "
                 "widen the cut, which score4 does for the walls of a subtracted G4Tubs or "
                 "G4Cons (a bore), the sphere faces of a subtracted G4Orb or G4Sphere and the "
                 "flat faces of a subtracted G4Box, G4Tubs, G4Cons, G4Polycone, "
-                "G4GenericPolycone, G4Trd or G4Polyhedra (not phi faces) only; put the layer "
-                "outside the volume (into: false)"
+                "G4GenericPolycone, G4Trd, G4Trap, G4Polyhedra, extruded or tessellated solid "
+                "(a face in one plane) only; put the layer outside the volume (into: false)"
             )
-        if not flipped and face in ("phi_start", "phi_end"):
+        if not flipped and phi:
             raise ConfigError(
                 f"{where}: into: true on {what} (face {face} of a {leaf.kind} with a phi "
-                "segment): the cut would move that plane off the axis, which no "
-                f"{leaf.kind} can be (the constituent would become a boolean of its own), and "
-                "the wall's cells along the phi edge would have to be laid out again; put the "
-                "layer outside the volume (into: false)"
+                "segment): the cut would move that plane off the axis, parallel to itself, and "
+                f"every {leaf.kind}'s phi faces pass through its axis: the cut constituent "
+                f"would be the {leaf.kind} less a slab along the face, a boolean of its own, "
+                "which score4 does not build inside the cut (the wall's cells along the phi "
+                "edge would also have to be laid out again); put the layer outside the volume "
+                "(into: false)"
             )
         if not flipped and leaf.trimmed({face: 1e-6}) is None:
             raise ConfigError(

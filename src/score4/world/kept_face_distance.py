@@ -24,22 +24,29 @@ rim at its midpoint (its sagitta): distances are exact to that. The chords go in
 their midpoints, searched with a bound for the chords not visited. The kept parts of a swept
 patch's end circles are joined into arcs and measured in closed form.
 
+Where the face lies on another constituent's surface (the margin is zero over an area: two
+constituents' faces flush on the outside, a part standing on the face), whether it is kept is
+decided as the boolean's face sampler decides (:meth:`BooleanShape._candidates`): a hair along
+the boolean's outward normal is outside the boolean and a hair against it inside. So two flush
+outer faces of a union are both kept there, a post's foot on a disk is not.
+
 Not resolved: a rim feature that no vertex of the finest pieces sees (a sliver cut narrower than
 :data:`FINEST`, or than :data:`SAME_SIDE` inside a piece whose vertices all lie on one side and
-whose margins do not prove it); and faces that coincide with another constituent's surface
-count as cut away there (the margin is zero), also where two constituents' faces lie flush on
-the outside.
+whose margins do not prove it).
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
+from functools import partial
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from ..errors import ConfigError
 from ..shapes import BooleanShape
-from ..shapes.base import PlaneTriangles, Revolved
-from ..shapes.boolean import FaceClip
+from ..shapes.base import INSIDE, OUTSIDE, PlaneTriangles, Revolved
+from ..shapes.boolean import PROBE, FaceClip
 from ..shapes.transform import Transform
 
 #: mm: largest gap between a rim chord's midpoint and the rim (the rim is exact to this).
@@ -49,7 +56,8 @@ FINEST = 0.05
 #: mm: a piece whose vertices are all on one side is not cut smaller than this (where the
 #: margin stays small over an area, as where a face touches a cutting solid's face).
 SAME_SIDE = 4 * FINEST
-#: a margin this close to zero is on another constituent's surface: not kept.
+#: a margin this close to zero is on another constituent's surface: kept where the boolean's
+#: probe test says so (:func:`kept`).
 ON_SURFACE = 1e-12
 #: bisection steps for a rim crossing (2^-44: 6e-14 of the parameter interval).
 BISECT = 44
@@ -69,16 +77,42 @@ def segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.sqrt(_dot(e, e))
 
 
-class _TriangleMap:
-    """A plane triangle ``(a, b, c)`` over barycentric ``(u, v)``."""
+def kept(
+    shape: BooleanShape, clip: FaceClip, x: np.ndarray, normal: Callable[[np.ndarray], np.ndarray]
+) -> tuple[np.ndarray, np.ndarray]:
+    """The margins of points ``x`` (boolean frame) on the leaf's face, whose outward normals
+    there are ``normal(rows)`` (leaf frame), and whether they are on the boolean's surface: the
+    margin says so where it is not zero; where it is (the point lies on another constituent's
+    surface) a hair along the boolean's outward normal must be outside the boolean and a hair
+    against it inside."""
+    margin = clip.margin(x)
+    out = margin > ON_SURFACE
+    on = np.flatnonzero(np.abs(margin) <= ON_SURFACE)
+    if len(on):
+        n = clip.transform.apply_vectors(normal(on)) * (-1.0 if clip.flipped else 1.0)
+        p = x[on]
+        out[on] = (shape.inside(p + PROBE * n) == OUTSIDE) & (shape.inside(p - PROBE * n) == INSIDE)
+    return margin, out
 
-    def __init__(self, tri: np.ndarray) -> None:
+
+class _TriangleMap:
+    """A plane triangle ``(a, b, c)`` over barycentric ``(u, v)``, outward normal ``n``."""
+
+    def __init__(self, tri: np.ndarray, n: np.ndarray) -> None:
         self.a, self.b, self.c = (np.asarray(v, float) for v in tri)
+        self.n = np.asarray(n, float)
         self.roots = np.array([[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]])
         self.edges = np.ones((1, 3), dtype=bool)
 
     def point(self, uv: np.ndarray) -> np.ndarray:
         return self.a + uv[..., :1] * (self.b - self.a) + uv[..., 1:] * (self.c - self.a)
+
+    def normal(self, uv: np.ndarray) -> np.ndarray:
+        return np.broadcast_to(self.n, (*uv.shape[:-1], 3))
+
+    def normal_at(self, x: np.ndarray) -> np.ndarray:
+        """The outward normal at points ``x`` (n, 3) of the triangle."""
+        return np.broadcast_to(self.n, x.shape)
 
     def size(self, uv: np.ndarray) -> np.ndarray:
         x = self.point(uv)
@@ -147,6 +181,17 @@ class _SweptMap:
         phi = p.phi0 + s * p.dphi
         return np.stack([rho * np.cos(phi), rho * np.sin(phi), p.z1 + t * (p.z2 - p.z1)], -1)
 
+    def normal(self, ts: np.ndarray) -> np.ndarray:
+        return self._normal(self.p.phi0 + ts[..., 1] * self.p.dphi)
+
+    def normal_at(self, x: np.ndarray) -> np.ndarray:
+        """The outward normal at points ``x`` (n, 3) of the swept segment."""
+        return self._normal(np.arctan2(x[:, 1], x[:, 0]))
+
+    def _normal(self, phi: np.ndarray) -> np.ndarray:
+        nr = self.p.nr
+        return np.stack([nr * np.cos(phi), nr * np.sin(phi), np.full(phi.shape, self.p.nz)], -1)
+
     def size(self, ts: np.ndarray) -> np.ndarray:
         dt = np.ptp(ts[..., 0], axis=1)
         ds = np.ptp(ts[..., 1], axis=1)
@@ -188,7 +233,9 @@ def _maps(clip: FaceClip) -> list[_TriangleMap | _SweptMap]:
         if patch.face != index:
             continue
         if isinstance(patch, PlaneTriangles):
-            out.extend(_TriangleMap(t) for t in patch.triangles)
+            out.extend(
+                _TriangleMap(t, n) for t, n in zip(patch.triangles, patch.normals, strict=True)
+            )
         elif isinstance(patch, Revolved):
             out.append(_SweptMap(patch))
         else:
@@ -202,21 +249,22 @@ def _maps(clip: FaceClip) -> list[_TriangleMap | _SweptMap]:
 class _Rim:
     """The rim of one patch's kept part (boolean frame): chords ``a``-``b``."""
 
-    def __init__(self, clip: FaceClip, m: _TriangleMap | _SweptMap) -> None:
-        self.clip, self.map = clip, m
+    def __init__(self, shape: BooleanShape, clip: FaceClip, m: _TriangleMap | _SweptMap) -> None:
+        self.shape, self.clip, self.map = shape, clip, m
         chords: list[np.ndarray] = []  # (k, 2, 2) parameter endpoints, each on the rim
         kinds: list[np.ndarray] = []  # True: a cut curve; False: the patch's own edge
         tri, edges = m.roots, m.edges
         for _ in range(40):
             if not len(tri):
                 break
-            margin = self.margin(tri.reshape(-1, 2)).reshape(-1, 3)
+            margin, kept = self._state(tri.reshape(-1, 2))
+            margin, kept = margin.reshape(-1, 3), kept.reshape(-1, 3)
             size = m.size(tri)
-            kept = margin > ON_SURFACE
-            whole = kept.all(axis=1) & (margin.max(axis=1) >= size)
-            gone = ~kept.any(axis=1) & (
-                (-margin.min(axis=1) >= size) | (margin.min(axis=1) >= -ON_SURFACE)
-            )  # proven cut away, or on another constituent's surface
+            # a piece whose vertices all lie on another constituent's surface (a flush face, a
+            # part's foot) is taken whole or cut away whole by their probe test, at any size
+            flush = (np.abs(margin) <= ON_SURFACE).all(axis=1)
+            whole = kept.all(axis=1) & ((margin.max(axis=1) >= size) | flush)
+            gone = ~kept.any(axis=1) & ((-margin.min(axis=1) >= size) | flush)
             for c in self._own_edges(tri[whole], edges[whole], kept[whole]):
                 chords.append(c)
                 kinds.append(np.zeros(len(c), dtype=bool))
@@ -240,11 +288,13 @@ class _Rim:
         a, b = m.point(ends[:, 0]), m.point(ends[:, 1])
         self.a, self.b = _split(clip.transform.apply(a), clip.transform.apply(b))
 
-    def margin(self, uv: np.ndarray) -> np.ndarray:
-        return self.clip.margin(_apply(self.clip.transform, self.map.point(uv)))
+    def _state(self, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The margins at parameters ``uv`` and whether those points are kept."""
+        x = _apply(self.clip.transform, self.map.point(uv))
+        return kept(self.shape, self.clip, x, lambda rows: self.map.normal(uv[rows]))
 
     def _kept(self, uv: np.ndarray) -> np.ndarray:
-        return self.margin(uv) > ON_SURFACE
+        return self._state(uv)[1]
 
     def _crossing(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Points where [u, v] (parameters, u kept, v not) crosses the rim, by bisection."""
@@ -358,6 +408,10 @@ def arc_distance(p: np.ndarray, rho: float, z: float, phi: float, dphi: float) -
     return np.where(on, np.hypot(r - rho, p[:, 2] - z), np.minimum(*ends))
 
 
+def _rows(f: Callable[[np.ndarray], np.ndarray], x: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    return f(x[rows])
+
+
 def _apply(t: Transform, x: np.ndarray) -> np.ndarray:
     """``t.apply(x)``, without the product for a shift (most constituents)."""
     if np.array_equal(t.rotation, np.eye(3)):
@@ -395,6 +449,7 @@ class KeptFaceDistance:
     of ``shape`` as they are on the boolean (smooth faces; see the module's text)."""
 
     def __init__(self, shape: BooleanShape, faces: tuple[str, ...]) -> None:
+        self.shape = shape
         self.patches: list[tuple[FaceClip, _TriangleMap | _SweptMap]] = []
         for name in faces:
             clip = shape.face_clip(name)
@@ -404,7 +459,7 @@ class KeptFaceDistance:
     def rim(self) -> tuple[np.ndarray, np.ndarray]:
         """The rim chords (ends ``a``, ``b``: (k, 3) each), built on first use."""
         if self._rim is None:
-            rims = [_Rim(clip, m) for clip, m in self.patches]
+            rims = [_Rim(self.shape, clip, m) for clip, m in self.patches]
             self.unrefined = sum(r.unrefined for r in rims)
             self._arcs = []
             for r in rims:
@@ -435,9 +490,10 @@ class KeptFaceDistance:
         lost = np.zeros(len(p), dtype=bool)  # a patch's nearest point is cut away
         for clip, m in self.patches:
             d, q = m.nearest(clip.transform.inverse_apply(p))
-            kept = clip.margin(_apply(clip.transform, q)) > ON_SURFACE
-            best = np.where(kept, np.minimum(best, d), best)
-            lost |= ~kept
+            normal = partial(_rows, m.normal_at, q)
+            on = kept(self.shape, clip, _apply(clip.transform, q), normal)[1]
+            best = np.where(on, np.minimum(best, d), best)
+            lost |= ~on
         rows = np.flatnonzero(lost)
         if len(rows):
             best[rows] = np.minimum(best[rows], self.to_rim(p[rows]))

@@ -1,0 +1,241 @@
+"""Steps and activeness on a layer that grows a subtracted solid (``into: true`` on the floor of
+a conical blind hole, score4.world.boolean_modes): a small Geant4 run on a copper box less a
+G4Cons whose ``dist_to_surf`` and ``active_edep`` match a brute force over the patch tops of
+the floor's cells (tests.test_boolean_into_distance.brute_rough), the box's faces and the
+hole's wall (1e-9)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from score4.inputs.config import parse_config
+from score4.runner.engine import run
+from score4.runner.output import read_results
+from score4.world.activeness import weight
+from score4.world.resolve import build_scene
+
+HALF = 10.0  # the box's half width, mm
+HEX = np.radians(30.0 + 60.0 * np.arange(6))  # the hexagon's side directions
+PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
+
+
+@pytest.fixture(scope="module")
+def gdml(tmp_path_factory) -> Path:
+    """20 mm copper boxes less a cone (``cone``: r 2 mm at its floor, 5 mm below the box's top,
+    widening to 3 mm 5 mm above it) and less a hexagonal G4Polyhedra (``hedra``: apothem 2 mm
+    at its floor widening to 3 mm, at y = 30 mm) along z."""
+    from helpers.boolean_worlds import write_box_holes
+
+    def holes(s, reg) -> dict:
+        cone = s.Cons("cone_b", 0, 2, 0, 3, 10, 0, 2 * np.pi, reg)
+        hedra = s.Polyhedra("hedra_b", 0, 2 * np.pi, 6, 2, [-5, 5], [0, 0], [2, 3], reg)
+        return {"cone": (cone, [0.0, 0.0, HALF], 0.0), "hedra": (hedra, [0.0, 0.0, HALF], 30.0)}
+
+    return write_box_holes(tmp_path_factory.mktemp("grown_distance") / "cone.gdml", holes, HALF)
+
+
+def wall_distance(p: np.ndarray, top: float = 15.0) -> np.ndarray:
+    """Distance of points (box frame) to the cone's wall, r = 2 mm at z = 5 mm widening by
+    0.1 mm per mm up to z = ``top`` (the whole wall ends at 15 mm; the uncut wall: the layer
+    grows the cone only under its floor)."""
+    rho, z = np.hypot(p[:, 0], p[:, 1]), p[:, 2]
+    a, b = np.array([2.0, 5.0]), np.array([2.0 + 0.1 * (top - 5.0), top])
+    d = b - a
+    s = np.clip(((rho - a[0]) * d[0] + (z - a[1]) * d[1]) / (d @ d), 0.0, 1.0)
+    return np.hypot(rho - a[0] - s * d[0], z - a[1] - s * d[1])
+
+
+def floor_distance(p: np.ndarray, t: float) -> np.ndarray:
+    """Distance of points (box frame) below the grown floor's level (z = 5 mm - t) to its disk
+    (r 2 mm - 0.1 t); 0 above that level (no bound there)."""
+    rho = np.hypot(p[:, 0], p[:, 1])
+    d = np.hypot(np.maximum(rho - (2.0 - 0.1 * t), 0.0), 5.0 - t - p[:, 2])
+    return np.where(p[:, 2] <= 5.0 - t, d, 0.0)
+
+
+def test_steps_and_activeness_on_a_grown_cone_floor(gdml, tmp_path):
+    """Alphas from the pyramids on the hole's floor (into: true: the cone grown 21 um down),
+    30 events, seed 13, a 3 um transition layer under the floor and a 1 mm one along the wall:
+    each step's dist_to_surf is the nearest of the brute-force rough surface, the box's faces
+    and the wall, to 1e-9 mm (the rough surface below the floor's level at least as far as the
+    floor's disk); steps in the slab under the old floor are in patches; active_edep weights
+    each step by the brute-force distances (1e-9 MeV)."""
+    import lh5
+    from test_boolean_into_distance import brute_rough
+
+    data = {
+        "physics": "lite",
+        "world": {"gdml": str(gdml)},
+        "surfaces": {"p": PYRAMIDS},
+        "targets": [
+            {
+                "volume": "cone",
+                "rough": [
+                    {"face": "second.-z", "surface": "p", "base_thickness": "1 um", "into": True}
+                ],
+                "activeness": [
+                    {"fccd": "3 um", "dlf": 0.5, "faces": ["second.-z"]},
+                    {"fccd": "1 mm", "dlf": 0.2, "faces": ["second.outer"]},
+                ],
+            }
+        ],
+        "source": {
+            "particle": "alpha",
+            "energy": "5.3 MeV",
+            "direction": "isotropic",
+            "surface": {"volume": "cone", "face": "second.-z"},
+        },
+        "run": {"events": 30, "seed": 13},
+        "output": {"steps": True},
+    }
+    cfg = parse_config(data)
+    out = tmp_path / "steps.h5"
+    run(cfg, out, progress=False, echo=lambda m: None)
+    res = read_results(out)
+    table = lh5.read("stp/cone", str(out))
+    evtid = np.asarray(table["evtid"].nda)
+    edep = np.asarray(table["edep"].nda) / 1e3  # keV -> MeV
+    with h5py.File(out, "r") as f:
+        g = f["stp/cone"]
+        world = np.column_stack([g[c][()] * 1e3 for c in ("xloc", "yloc", "zloc")])
+        dist = g["dist_to_surf"][()] * 1e3
+    scene = build_scene(cfg)
+    layer = scene.layer("cone", "second.-z")
+    t = layer.thickness
+    target = scene.target("cone")
+    p = target.to_local(world)
+    assert target.to_local(layer.frame.centre[None])[0, 2] == pytest.approx(5.0 - t, abs=1e-12)
+    in_patch = layer.contains(world)
+    rho = np.hypot(p[:, 0], p[:, 1])
+    slab = (p[:, 2] > 5.0 - t) & (p[:, 2] < 5.0) & (rho < 2.0 - 0.1 * t)
+    assert slab.sum() > 20
+    assert in_patch[slab].all()  # the grown cone under the old floor: vacuum but for patches
+    # the floor's layer lies over its disk: below its level no nearer than the disk (its flat
+    # cells beside the disk's column are not surface)
+    rough = np.maximum(brute_rough(layer, world), floor_distance(p, t))
+    box = np.min(HALF - np.abs(p), axis=1)
+    wall = wall_distance(p)
+    # the 3 x 3 cells hold every point of the rough surface nearer than a cell's width; steps
+    # farther (on the wall, alphas cross the hole) are nearer to the wall or the box
+    far = rough >= min(layer.patch_size)
+    assert (np.minimum(box, wall)[far] < min(layer.patch_size)).all()
+    assert (~far).sum() > 100
+    np.testing.assert_allclose(dist, np.minimum(np.minimum(rough, box), wall), rtol=0, atol=1e-9)
+    under = ~in_patch & (rough < np.minimum(box, wall))
+    assert under.sum() > 10  # in the copper under the floor
+    near_wall = wall_distance(p, top=HALF)  # the wall as it is on the box: z = 5 .. 10 mm
+    assert (near_wall < 1.0).sum() > 5  # steps the wall's entry weights
+    surface = np.minimum(np.minimum(rough, box), wall)
+    w = np.minimum(
+        weight(np.maximum(surface, rough), 3e-3, 0.5),
+        weight(np.maximum(surface, near_wall), 1.0, 0.2),
+    )
+    again = np.bincount(evtid, weights=edep * w, minlength=res.n_events)
+    np.testing.assert_allclose(again, res.scores["active_edep"]["cone"], atol=1e-9, rtol=0)
+    assert 0 < again.sum() < res.edep["cone"].sum()
+
+
+def test_distances_to_the_six_grown_sides_of_a_polyhedra(gdml):
+    """``into`` on the six sides of a subtracted G4Polyhedra (one face, a layer per plane):
+    the distance of points in the copper behind each side, 30 um to 0.4 mm deep, is the nearest
+    of the six layers' rough surfaces (brute force over each layer's patch tops), the hole's
+    floor (a hexagon of triangles, some of them of no area at its centre) and the box's faces,
+    1e-9 mm; the activeness distance to the sides alone is the same. (Before, the last plane's
+    layer alone was measured, and the floor's triangles of no area were at distance 0 from
+    every point.)"""
+    from test_boolean_into_distance import brute_rough
+
+    from score4.world.activeness import target_distances
+
+    data = {
+        "physics": "lite",
+        "world": {"gdml": str(gdml)},
+        "surfaces": {"p": PYRAMIDS},
+        "targets": [
+            {
+                "volume": "hedra",
+                "rough": [{"face": "second.seg_1", "surface": "p", "into": True}],
+                "activeness": [{"fccd": "1 mm", "dlf": 0.5, "faces": ["second.seg_1"]}],
+            }
+        ],
+        "source": {"particle": "geantino", "energy": "1 MeV", "volume": "hedra"},
+        "run": {"events": 1, "seed": 1},
+        "output": {"steps": True},
+    }
+    scene = build_scene(parse_config(data))
+    layers = scene.layers_of("hedra")
+    assert len(layers) == 6
+    (distance,) = [d for d in target_distances(scene) if d is not None]
+    rng = np.random.default_rng(4)
+    n = 120
+    a = np.radians(30.0 + 60.0 * rng.integers(0, 6, n))  # the sides' directions
+    z = rng.uniform(5.5, 9.5, n)  # box frame: the hole from z = 5 mm up through the top
+    apothem = (
+        2.0 + 0.1 * (z - 5.0) + layers[0].thickness * np.sqrt(1.01) + rng.uniform(0.03, 0.4, n)
+    )
+    along = rng.uniform(-0.8, 0.8, n)
+    local = np.column_stack(
+        [apothem * np.cos(a) - along * np.sin(a), apothem * np.sin(a) + along * np.cos(a), z]
+    )
+    world = scene.target("hedra").to_world(local)
+    rough = np.min([brute_rough(layer, world) for layer in layers], axis=0)
+    assert rough.max() < min(layers[0].patch_size)  # the 3 x 3 cells hold the nearest points
+    rho = np.max(np.outer(local[:, 0], np.cos(HEX)) + np.outer(local[:, 1], np.sin(HEX)), axis=1)
+    floor = np.hypot(np.maximum(rho - 2.0, 0.0), z - 5.0)  # the floor: apothem <= 2 mm, z = 5
+    box = np.min(HALF - np.abs(local), axis=1)
+    expected = np.minimum(np.minimum(rough, floor), box)
+    np.testing.assert_allclose(distance.to_surface(world), expected, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(distance.to_faces(("second.seg_1",), world), rough, atol=1e-9)
+
+
+def test_activeness_distance_beside_a_grown_floor(gdml):
+    """The activeness distance to the grown cone floor and the whole surface's (its layer a
+    square grid over the disk, the cells off the disk flat squares in the copper): beside the
+    floor's column and below its level, the distance to the disk's rim (closed form, 1e-6 mm,
+    the rim's chords), not to the flat squares (up to 0.8 mm nearer), or to the wall or box
+    if nearer; over the disk, the brute-force rough surface."""
+    from test_boolean_into_distance import brute_rough
+
+    from score4.world.activeness import target_distances
+
+    data = {
+        "physics": "lite",
+        "world": {"gdml": str(gdml)},
+        "surfaces": {"p": PYRAMIDS},
+        "targets": [
+            {
+                "volume": "cone",
+                "rough": [{"face": "second.-z", "surface": "p", "into": True}],
+                "activeness": [{"fccd": "1 mm", "dlf": 0.5, "faces": ["second.-z"]}],
+            }
+        ],
+        "source": {"particle": "geantino", "energy": "1 MeV", "volume": "cone"},
+        "run": {"events": 1, "seed": 1},
+    }
+    scene = build_scene(parse_config(data))
+    (distance,) = [d for d in target_distances(scene) if d is not None]
+    layer = scene.layer("cone", "second.-z")
+    t = layer.thickness
+    rng = np.random.default_rng(2)
+    n = 400
+    rho = rng.uniform(0.2, 3.5, n)
+    phi = rng.uniform(0, 2 * np.pi, n)
+    local = np.column_stack(
+        [rho * np.cos(phi), rho * np.sin(phi), 5.0 - t - rng.uniform(0, 0.4, n)]
+    )
+    world = scene.target("cone").to_world(local)
+    got = distance.to_faces(("second.-z",), world)
+    beside = rho > 2.0 - 0.1 * t
+    assert beside.sum() > 100
+    np.testing.assert_allclose(got[beside], floor_distance(local, t)[beside], rtol=0, atol=1e-6)
+    np.testing.assert_allclose(got[~beside], brute_rough(layer, world[~beside]), atol=1e-9)
+    others = np.minimum(np.min(HALF - np.abs(local), axis=1), wall_distance(local))
+    expected = np.minimum(floor_distance(local, t), others)
+    np.testing.assert_allclose(
+        distance.to_surface(world)[beside], expected[beside], rtol=0, atol=1e-6
+    )
+    assert (brute_rough(layer, world[beside]) < got[beside] - 0.1).sum() > 20  # the old bound
