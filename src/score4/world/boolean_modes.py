@@ -125,7 +125,8 @@ def check_modes(
             raise ConfigError(
                 f"{where}: into: true on {what}, a face of the subtracted {leaf.kind}, would "
                 "widen the cut, which score4 does for the walls of a subtracted G4Tubs, "
-                "G4Cons (a bore) or polycone (its cylinder and cone walls), the sphere faces of a subtracted G4Orb or G4Sphere and the "
+                "G4Cons (a bore) or polycone (its cylinder and cone walls), the sphere "
+                "faces of a subtracted G4Orb or G4Sphere and the "
                 "flat faces of a subtracted G4Box, G4Tubs, G4Cons, G4Polycone, "
                 "G4GenericPolycone, G4Trd, G4Trap, G4Polyhedra, extruded or tessellated solid "
                 "(a face in one plane) only; put the layer outside the volume (into: false)"
