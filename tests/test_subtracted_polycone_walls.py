@@ -11,6 +11,7 @@ overlap check."""
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -246,3 +247,33 @@ def test_a_subtracted_spheres_theta_cone_is_refused_saying_why(gdml):
     assert "\n" not in line
     assert "theta cone theta_end of a subtracted G4Sphere" in line
     assert "meets the sphere faces at right angles" in line
+
+
+@pytest.mark.deep
+def test_grown_polycone_bores_export_with_the_same_paths(gdml, tmp_path, monkeypatch):
+    """The tapered and stepped bores' walls with ``into``, in one world written by `score4
+    geometry export`: Geant4 reads the file back, and the file pyg4ometry reads and writes
+    again, with the same geantino paths (volumes and points, 1e-9 mm) as the world score4
+    builds (the grown G4GenericPolycone in the booleans); most rays cross a patch."""
+    import yaml
+
+    from score4.cli.main import main
+
+    from helpers.export_paths import assert_same_paths, three_paths
+
+    bores = {k: v for k, v in BORES.items() if k != "groove"}
+    path = tmp_path / "grown.yaml"
+    path.write_text(yaml.safe_dump(config(gdml, True, bores)))
+    out = tmp_path / "grown.gdml"
+    assert main(["geometry", "export", str(path), "--gdml", str(out)]) == 0
+    out_rays = []
+    for k, (name, (y, _faces)) in enumerate(bores.items()):
+        start, d = rays(name, 8, np.random.default_rng(40 + k))
+        start[:, 1] += y
+        out_rays += [(o.tolist(), w.tolist()) for o, w in zip(start, d, strict=True)]
+    ours, back, relay = three_paths(path, out, out_rays, monkeypatch)
+    assert_same_paths(ours, back, relay)
+    assert sum(any("_rough" in (v or "") for v, _ in p) for p in ours) >= len(out_rays) // 2
+    text = out.read_text()
+    for name in bores:  # the grown polycones, in the booleans
+        assert re.search(rf'<genericPolycone [^>]*name="{name}_lv_cut_', text), name
