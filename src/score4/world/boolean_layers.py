@@ -104,6 +104,7 @@ from .facets import ccw, cells_inside, face_triangles, plane_face, plane_groups
 from .scene import (
     BooleanFace,
     CurvedRoughLayer,
+    EnvelopePiece,
     FaceFrame,
     PolygonRoughLayer,
     RingRoughLayer,
@@ -367,11 +368,12 @@ def _in_grown_slab(
     return out
 
 
-def envelope_pieces(layer: CurvedRoughLayer) -> list[tuple[float, float, float, float]] | None:
-    """The pieces ``(phi0, dphi, v0, v1)`` of the envelope of a cylinder, cone or sphere face
-    whose kept cells leave part of the face flat (:attr:`CurvedRoughLayer.pieces`), or None
-    where the face's whole shell is needed (every azimuth and every ring holds a kept cell; on
-    a sphere, every cell is kept).
+def envelope_pieces(layer: CurvedRoughLayer) -> list[EnvelopePiece] | None:
+    """The pieces (:class:`~score4.world.scene.EnvelopePiece`: ``(phi0, dphi, v0, v1,
+    normal_ends)``) of the envelope of a cylinder, cone or sphere face whose kept cells leave
+    part of the face flat (:attr:`CurvedRoughLayer.pieces`), or None where the face's whole
+    shell is needed (every azimuth and every ring holds a kept cell; on a sphere, every cell is
+    kept).
 
     Azimuths: the union over the rings of the kept cells' azimuth ranges; a run of cells that
     starts (ends) at a ring's first (last) cell reaches the face's phi edge (the flat rest of
@@ -383,7 +385,8 @@ def envelope_pieces(layer: CurvedRoughLayer) -> list[tuple[float, float, float, 
     ring's cells reach beyond its band (:func:`~score4.world.curved.cone_cell`: the corners
     moved out along the slanted normal), so each kept ring is bounded along the generator by
     its cells' own z range (:func:`cone_ring_span`); kept rings whose spans do not meet split
-    the envelope, and a piece ends where its outer rings' cells end.
+    the envelope, and a piece ends where its outer rings' cells end; where the rings of such a
+    run keep different azimuths, the pieces end on the rings' band cones (:func:`_wall_pieces`).
 
     On a sphere (:func:`sphere_pieces`) a piece is a G4Sphere segment: neighbouring rings'
     cells have their own azimuth grids (their steps differ), so a piece holds either a run of
@@ -401,7 +404,7 @@ def envelope_pieces(layer: CurvedRoughLayer) -> list[tuple[float, float, float, 
     pieces = _wall_pieces(layer, has)
     (_, _), (fv0, fv1) = face.extent
     if len(pieces) == 1:
-        _phi0, dphi, v0, v1 = pieces[0]
+        _phi0, dphi, v0, v1, _ = pieces[0]
         if dphi >= face.dphi - 1e-12 and v0 == fv0 and v1 == fv1:
             return None
     return pieces or None
@@ -449,10 +452,17 @@ def _merged(face, spans: list[tuple[float, float]]) -> list[list[float]]:
     return merged
 
 
-def _wall_pieces(
-    layer: CurvedRoughLayer, has: np.ndarray
-) -> list[tuple[float, float, float, float]]:
-    """:func:`envelope_pieces` of a cylinder or cone wall."""
+def _wall_pieces(layer: CurvedRoughLayer, has: np.ndarray) -> list[EnvelopePiece]:
+    """:func:`envelope_pieces` of a cylinder or cone wall.
+
+    On a cone whose rings in a run keep different azimuths (each ring has its own grid of
+    azimuths, so a plane cutting the cone obliquely, as P00664B's cut does its tapers, leaves
+    each ring a different range), the run's one piece would hold every ring's azimuths over its
+    whole length, beyond the cells of the rings keeping fewer; there the pieces end on the
+    rings' band cones instead (``normal_ends``: the cones of the face's normals between
+    neighbouring rings, which their cells share, :func:`~score4.world.curved.cone_cell`), one
+    per group of neighbouring rings keeping the same azimuths, each holding only its rings'
+    cells (a part of the run's piece)."""
     lay = layer.ring_layout
     face = lay.face
     assert isinstance(face, RevolvedFace)
@@ -480,7 +490,7 @@ def _wall_pieces(
                 runs.append((i, i))
     (_, _), (fv0, fv1) = face.extent
     half = 0.5 * (lay.patch_size[1] + lay.row_gap)
-    pieces: list[tuple[float, float, float, float]] = []
+    pieces: list[EnvelopePiece] = []
     for j0, j1 in runs:
         if span is None:  # the outer rings' bands (the face's ends beyond its end rings)
             v0 = fv0 if j0 == 0 else float(lay.v[j0]) - half
@@ -488,15 +498,28 @@ def _wall_pieces(
         else:  # the outer rings' cells' ends (the face's ends beyond the first and last ring)
             v0 = fv0 if j0 == 0 else float(np.nanmin(span[j0 : j1 + 1, 0]))
             v1 = fv1 if j1 == nrings - 1 else float(np.nanmax(span[j0 : j1 + 1, 1]))
-        spans = [s for j in range(j0, j1 + 1) for s in _ring_spans(layer, j)]
-        for lo, hi in _merged(face, spans):
-            pieces.append((face.phi0 + lo, min(hi - lo, 2 * np.pi), v0, v1))
+        rings = {j: _merged(face, _ring_spans(layer, j)) for j in range(j0, j1 + 1) if has[j]}
+        groups = [[j0, j1]]
+        if span is not None and not all(_same_ranges(m, rings[j0]) for m in rings.values()):
+            groups = []  # rings keeping other azimuths than their neighbour: a piece each
+            for j in sorted(rings):
+                if groups and _same_ranges(rings[j], rings[groups[-1][1]]):
+                    groups[-1][1] = j
+                else:
+                    groups.append([j, j])
+        for g0, g1 in groups:
+            if len(groups) == 1:
+                spans = [s for j in range(j0, j1 + 1) for s in _ring_spans(layer, j)]
+                ends, a, b = False, v0, v1
+            else:  # between the cones of normals through the group's outer rings' bands
+                spans = [s for j in range(g0, g1 + 1) for s in _ring_spans(layer, j)]
+                ends, a, b = True, float(lay.v[g0]) - half, float(lay.v[g1]) + half
+            for lo, hi in _merged(face, spans):
+                pieces.append(EnvelopePiece(face.phi0 + lo, min(hi - lo, 2 * np.pi), a, b, ends))
     return pieces
 
 
-def sphere_pieces(
-    layer: CurvedRoughLayer, has: np.ndarray
-) -> list[tuple[float, float, float, float]]:
+def sphere_pieces(layer: CurvedRoughLayer, has: np.ndarray) -> list[EnvelopePiece]:
     """:func:`envelope_pieces` of a sphere face: consecutive rings whose kept cells cover the
     same azimuth ranges (to 1e-12 rad: whole rings, runs reaching the face's phi edges) make
     one piece per range; a ring whose ranges differ from its neighbours' makes its own. A piece
@@ -514,11 +537,11 @@ def sphere_pieces(
             groups[-1] = (groups[-1][0], j, groups[-1][2])
         else:
             groups.append((j, j, ranges))
-    pieces: list[tuple[float, float, float, float]] = []
+    pieces: list[EnvelopePiece] = []
     for j0, j1, ranges in groups:
         v0, v1 = float(lay.v[j0]) - half, float(lay.v[j1]) + half
         for lo, hi in ranges:
-            pieces.append((face.phi0 + lo, min(hi - lo, 2 * np.pi), v0, v1))
+            pieces.append(EnvelopePiece(face.phi0 + lo, min(hi - lo, 2 * np.pi), v0, v1))
     return pieces
 
 
