@@ -19,10 +19,13 @@ The wall of a subtracted G4Tubs or G4Cons (a bore) faces the other way than the 
 layer is laid out as on the opposite wall of a solid beside it (:func:`turned_wall`: the bore is
 the ``inner`` wall of a tube or cone whose inner radii are the subtracted solid's), cut along the
 axis to where the boolean can be, so the layer lies in the bore and its shell ends where the
-solid does; the sphere face of a subtracted G4Orb or G4Sphere (a spherical dimple or cavity)
-is the inner face of a shell around it (or the outer face of a ball inside a subtracted shell).
-A sphere face of a G4Sphere or G4Orb leaf takes the sphere's cells (a cell's points
-lie within its half-height plus the sphere radius times its half-angle of its centre).
+solid does; a cylinder or cone wall of a subtracted polycone (a stepped or tapered bore, or the
+post an annular polycone leaves) is turned so over its segment's z range
+(:func:`~score4.world.boolean_modes.polycone_wall`); the sphere face of a subtracted G4Orb or
+G4Sphere (a spherical dimple or cavity) is the inner face of a shell around it (or the outer
+face of a ball inside a subtracted shell). A sphere face of a G4Sphere or G4Orb leaf takes the
+sphere's cells (a cell's points lie within its half-height plus the sphere radius times its
+half-angle of its centre).
 
 A flat face partly covered by another part of a union (the layer's envelope would run into
 the solid): only the cells whose whole column (the cell up to the layer's thickness) is proven
@@ -41,13 +44,16 @@ their flat rest as one (:class:`score4.source.build.PlanesRemainderSampler`).
 Refused, in one line each (:mod:`score4.world.boolean_modes` says why): ``into: true`` on the
 faces of a subtracted solid other than its flat faces (a G4Box, G4Tubs, G4Cons, polycone, G4Trd,
 G4Trap or G4Polyhedra; a face in one plane of an extruded or tessellated solid, where moving it
-leaves a valid solid), the walls of a G4Tubs or G4Cons (bores) and the sphere faces of a G4Orb
-or G4Sphere, on phi faces, and on two faces that share an edge of one constituent with a phi
-segment or of a part grown down under another layer that is not swept straight up from its foot
-(where they can be, they are cut together: :func:`into_joint`), ``tiling: portal``,
+leaves a valid solid), the walls of a G4Tubs or G4Cons (bores), the cylinder and cone walls of
+a polycone and the sphere faces of a G4Orb or G4Sphere, on phi faces, and on two faces that
+share an edge of one constituent with a phi segment or of a part grown down under another
+layer that is not swept straight up from its foot (where they can be, they are cut together:
+:func:`into_joint`), ``tiling: portal``,
 ``native_layout: replicas`` where a cell holds no patch (and on a layer whose envelope is the
-prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs or
-G4Cons wall or a sphere face (a G4Sphere's theta cones, a polycone's walls); a curved layer
+prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs, G4Cons
+or polycone wall or a sphere face (a G4Sphere's theta cones, which meet its sphere faces at
+right angles, where an envelope ending on planes across the axis would enter the solid); a
+curved layer
 whose envelope, even in pieces, runs into the solid itself (another part of a union), a flat one
 that keeps no cell clear of the other parts.
 Steps and activeness measure these layers through the boolean's constituents
@@ -67,7 +73,9 @@ from score4.shapes import (
     BooleanShape,
     G4Box,
     G4Cons,
+    G4GenericPolycone,
     G4Orb,
+    G4Polycone,
     G4Sphere,
     G4Tubs,
     PlacedShape,
@@ -89,6 +97,7 @@ from .boolean_modes import (
     flat_face,
     into_depth,
     joint_leaves,
+    polycone_wall,
 )
 from .curved import RingLayout, cone_cell
 from .facets import ccw, cells_inside, face_triangles, plane_face, plane_groups
@@ -187,10 +196,19 @@ def _leaf(
                             for z in (lo[2], hi[2])])  # fmt: skip
         z = clip.transform.inverse_apply(corners)[:, 2]
         turned = turned_wall(leaf, face, (float(z.min()), float(z.max())))
+        if turned is None and face in ("theta_start", "theta_end"):
+            raise ConfigError(
+                f"{where}: {what} is the theta cone {face} of a subtracted {leaf.kind}: it "
+                "meets the sphere faces at right angles, while a curved layer's envelope ends "
+                "on planes across the axis, so the layer would run into the solid at the "
+                "cone's rims; rough curved faces of a subtracted G4Sphere are its sphere faces "
+                "(outer, inner)"
+            )
         if turned is None:
             raise ConfigError(
                 f"{where}: {what} is the curved face {face} of a subtracted {leaf.kind}; rough "
-                "curved faces of a subtracted solid are the walls of a G4Tubs or G4Cons and the "
+                "curved faces of a subtracted solid are the walls of a G4Tubs or G4Cons, the "
+                "cylinder and cone walls (seg_<i>) of a G4Polycone or G4GenericPolycone and the "
                 "sphere faces (outer, inner) of a G4Orb or G4Sphere"
             )
         leaf, face, shift = turned
@@ -558,6 +576,18 @@ def turned_wall(
     ``extent`` (z range, leaf frame: where the boolean can be, so the layer's shell ends where
     the solid does), and the shift of its origin in the leaf's frame; None for other solids and
     faces."""
+    if isinstance(leaf, G4Polycone | G4GenericPolycone):
+        wall = polycone_wall(leaf, face)
+        if wall is None:
+            return None
+        leaf, face, centre = wall
+        assert isinstance(leaf, G4Tubs | G4Cons)
+        lo, hi = max(extent[0] - centre, -leaf.dz), min(extent[1] - centre, leaf.dz)
+        if not hi > lo:
+            return None
+        seg = leaf.trimmed({"-z": lo + leaf.dz, "+z": leaf.dz - hi})
+        assert seg is not None  # a G4Tubs or G4Cons is cut along z
+        return seg[0], face, seg[1] + np.array([0.0, 0.0, centre])
     if face not in ("outer", "inner"):
         return None
     turned: Shape
