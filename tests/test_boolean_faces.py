@@ -405,7 +405,8 @@ def test_a_rods_wall_through_a_box_takes_a_layer_on_both_sides(gdml):
     wall = scene.layer("cross", "second.outer")
     assert isinstance(wall, CurvedRoughLayer)
     assert wall.pieces is not None
-    (a0, da, va0, va1), (b0, db, vb0, vb1) = sorted(wall.pieces, key=lambda p: p[2])
+    a, b = sorted(wall.pieces, key=lambda p: p.v0)
+    (_, da, va0, va1, _), (_, db, vb0, vb1, _) = a, b
     assert da == db == pytest.approx(2 * np.pi, abs=1e-12)
     assert (va0, vb1) == (-20.0, 20.0)
     assert va1 == pytest.approx(-10.0, abs=1e-9)
@@ -418,7 +419,7 @@ def test_a_rods_wall_through_a_box_takes_a_layer_on_both_sides(gdml):
     codes = on.shape.inside(on.transform.inverse_apply(wall.shell_points(n_v=41)))
     assert not (codes == INSIDE).any()
     assert not curved_cells_tile(wall)[1]  # geometry check's exact tiling: cells in pieces
-    wall.pieces = [(a0, da, va0, va1 - py), (b0, db, vb0, vb1)]  # a ring left out of its piece
+    wall.pieces = [a._replace(v1=va1 - py), b]  # a ring left out of its piece
     assert any("outside the pieces" in p for p in curved_cells_tile(wall)[1])
 
 

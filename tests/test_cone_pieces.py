@@ -39,7 +39,9 @@ def test_a_cones_wall_through_a_box_takes_two_pieces(gdml):
     wall = scene.layer("conecross", "second.outer")
     assert isinstance(wall, CurvedRoughLayer)
     assert wall.pieces is not None
-    (a0, da, va0, va1), (b0, db, vb0, vb1) = sorted(wall.pieces, key=lambda p: p[2])
+    a, b = sorted(wall.pieces, key=lambda p: p.v0)
+    (_, da, va0, va1, a_normal), (_, db, vb0, vb1, b_normal) = a, b
+    assert (a_normal, b_normal) == (False, False)  # full rings: the pieces end on z planes
     assert da == db == pytest.approx(2 * np.pi, abs=1e-12)
     lay = wall.ring_layout
     face = lay.face
@@ -68,5 +70,5 @@ def test_a_cones_wall_through_a_box_takes_two_pieces(gdml):
     codes = on.shape.inside(on.transform.inverse_apply(wall.shell_points(n_v=41)))
     assert not (codes == INSIDE).any()
     assert not curved_cells_tile(wall)[1]
-    wall.pieces = [(a0, da, va0, va1 - 1e-6), (b0, db, vb0, vb1)]  # a cell's reach cut off
+    wall.pieces = [a._replace(v1=va1 - 1e-6), b]  # a cell's reach cut off
     assert any("outside the pieces" in p for p in curved_cells_tile(wall)[1])

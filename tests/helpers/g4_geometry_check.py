@@ -126,3 +126,35 @@ def envelope_overlaps(config_data: dict, points: int = 20000) -> list[str]:
         )
         met = env.CheckOverlaps(points, 0.0, False, 1)
     return [f"{layer.name} meets a sister"] if met else []
+
+
+def check_moved_piece(config_data: dict, face: str, index: int, dv: float) -> list[str]:
+    """The overlaps ``check_placements`` reports in a world whose curved layer on ``face`` has
+    the end of its envelope's piece ``index`` (by generator position) moved by ``dv`` mm along
+    the generator (into the next piece for dv > 0), built without score4's clearance check."""
+    import score4.world.boolean_layers as boolean_layers
+    import score4.world.resolve as resolve
+    from score4.geometry.check import check_placements
+    from score4.geometry.world import build_world
+    from score4.inputs.config import parse_config
+    from score4.sim.runtime import import_geant4, redirect_native_output, resolve_physics
+
+    pieces_of = boolean_layers.envelope_pieces
+
+    def moved(layer):
+        pieces = pieces_of(layer)
+        if pieces is None or layer.config.face_name != face:
+            return pieces
+        pieces = sorted(pieces, key=lambda p: p.v0)
+        pieces[index] = pieces[index]._replace(v1=pieces[index].v1 + dv)
+        return pieces
+
+    boolean_layers.envelope_pieces = moved  # type: ignore[assignment]
+    resolve.check_clearance = lambda scene: None  # type: ignore[attr-defined]
+    config = parse_config(config_data)
+    g4 = import_geant4(resolve_physics("lite"))
+    with redirect_native_output(None):
+        plan = plan_run(config, physics=resolve_physics("lite"), source=False)
+        built = build_world(g4, plan)
+        report = check_placements(built.world, max_placements=20, layers=plan.scene.layers)
+    return report.overlaps

@@ -14,11 +14,17 @@ from score4.source.vertex_file import write_vertex_file
 
 
 def geantino_config(
-    gdml: Path, surfaces: dict, targets: list[dict], source: tuple[str, str | list[str]], **extra
+    gdml: Path,
+    surfaces: dict,
+    targets: list[dict],
+    source: tuple[str, str | list[str]],
+    /,
+    **extra,
 ) -> dict:
     """The configuration of a geantino-path test: the GDML world ``gdml`` in lite physics, the
     ``surfaces`` and ``targets`` sections given, 1 MeV geantinos drawn on ``source`` (volume,
-    face or faces), 10 events of seed 3, then the ``extra`` sections."""
+    face or faces), 10 events of seed 3, then the ``extra`` sections, which replace any of
+    these (a test's own ``source`` section included)."""
     volume, face = source
     return {
         "physics": "lite",

@@ -328,7 +328,8 @@ def _cells_in_pieces(layer, cells: list, tol: float) -> list[str]:
     """The cells of a curved layer whose envelope is in pieces (a face a boolean's other parts
     cut, :attr:`~score4.world.scene.CurvedRoughLayer.pieces`) that do not lie wholly in one
     piece's azimuth and generator ranges (a cylinder's cell spans its ring's band; a cone's
-    cell the generator range whose z planes hold its corners, :func:`_cell_corners`; a sphere's
+    cell the generator range whose z planes hold its corners, :func:`_cell_corners`, or in a
+    piece ending on cones of normals, the range of its corners' feet on the face; a sphere's
     cell its ring's band and half the rows' gap beyond)."""
     if layer.pieces is None:
         return []
@@ -339,24 +340,78 @@ def _cells_in_pieces(layer, cells: list, tol: float) -> list[str]:
     sphere = isinstance(lay.face, SphereFace)
     cone = not layer.is_cylinder and not sphere
     out = 0
+    ranges: dict[int, tuple[float, float, tuple[float, float]]] = {}  # per ring (its cells')
     for j, _, _, phi in cells:
         step, r = float(lay.step[j]), float(lay.radius[j]) + layer.thickness
-        lo_v, hi_v = float(lay.v[j]) - py / 2, float(lay.v[j]) + py / 2
-        if sphere:  # the G4Sphere cell's polar-angle cones, half the rows' gap beyond the patch
-            lo_v, hi_v = lo_v - lay.row_gap / 2, hi_v + lay.row_gap / 2
-        if cone:  # the corners' z as generator arc length of the face
-            v = (_cell_corners(layer, j)[:, 2] - lay.face._mid[1]) / lay.face._tangent[1]
-            lo_v, hi_v = float(v.min()), float(v.max())
+        if j not in ranges:
+            lo_v, hi_v = float(lay.v[j]) - py / 2, float(lay.v[j]) + py / 2
+            if sphere:  # the G4Sphere cell's polar-angle cones, half the rows' gap beyond the patch
+                lo_v, hi_v = lo_v - lay.row_gap / 2, hi_v + lay.row_gap / 2
+            feet = (lo_v, hi_v)
+            if cone:  # the corners' z as generator arc length of the face, and their feet on it
+                corners = _cell_corners(layer, j)
+                v = (corners[:, 2] - lay.face._mid[1]) / lay.face._tangent[1]
+                lo_v, hi_v = float(v.min()), float(v.max())
+                foot = lay.face.locate(corners)[1]
+                feet = (float(foot.min()), float(foot.max()))
+            ranges[j] = (lo_v, hi_v, feet)
+        lo_v, hi_v, feet = ranges[j]
         fits = False
-        for p0, dp, v0, v1 in layer.pieces:
+        for p0, dp, v0, v1, normal_ends in layer.pieces:
+            lo, hi = feet if normal_ends else (lo_v, hi_v)
             a = np.mod(phi - step / 2 - p0 + tol / r, 2 * np.pi) - tol / r
-            if a + step <= dp + tol / r and lo_v >= v0 - tol and hi_v <= v1 + tol:
+            if a + step <= dp + tol / r and lo >= v0 - tol and hi <= v1 + tol:
                 fits = True
                 break
         out += not fits
     if not out:
         return []
     return [f"{layer.name}: {out} cell(s) lie outside the pieces of the layer's envelope"]
+
+
+def _pieces_apart(layer, tol: float) -> list[str]:
+    """Pairs of pieces of a curved layer's envelope that overlap (exact): their azimuth ranges
+    share more than ``tol`` at the layer's top, and so do their generator ranges (pieces ending
+    both on z planes or both on cones of normals), or the z ranges of their corners (one of
+    each kind)."""
+    if layer.pieces is None or len(layer.pieces) < 2:
+        return []
+    from score4.shapes.faces import SphereFace
+    from score4.world.scene import EnvelopePiece
+
+    pieces = [EnvelopePiece(*p) for p in layer.pieces]
+
+    face = layer.ring_layout.face
+    t = layer.thickness
+    (_, _), (fv0, fv1) = face.extent
+    if isinstance(face, SphereFace):
+        r = face.sphere_radius + t
+    else:
+        r = float(np.max(face.radius(np.array([fv0, fv1])))) + t
+
+    def z_range(p) -> tuple[float, float]:
+        v = np.array([p.v0, p.v1])
+        z = face.point(np.zeros(2), v)[:, 2]
+        if p.normal_ends:
+            z = np.concatenate([z, z + t * float(face.nrz[1])])
+        return float(z.min()), float(z.max())
+
+    out = []
+    for (m, a), (n, b) in itertools.combinations(enumerate(pieces), 2):
+        if np.mod(b.phi0 - a.phi0, 2 * np.pi) >= a.dphi - tol / r and (
+            np.mod(a.phi0 - b.phi0, 2 * np.pi) >= b.dphi - tol / r
+        ):
+            continue  # apart in azimuth (touching at most)
+        (a0, a1), (b0, b1) = (
+            ((a.v0, a.v1), (b.v0, b.v1)) if a.normal_ends == b.normal_ends else
+            (z_range(a), z_range(b))
+        )  # fmt: skip
+        if min(a1, b1) - max(a0, b0) > tol:
+            out.append(
+                f"{layer.name}: pieces {m} and {n} of the envelope overlap by "
+                f"{(min(a1, b1) - max(a0, b0)) * 1e3:.4g} um along the face"
+            )
+    return out
 
 
 def curved_cells_tile(layer, tolerance: float = 1e-9) -> tuple[int, list[str]]:
@@ -407,7 +462,7 @@ def curved_cells_tile(layer, tolerance: float = 1e-9) -> tuple[int, list[str]]:
                     f"between them {('at the face', 'at the layer top')[level]}"
                 )
     cells = layer.cells()
-    problems += _cells_in_pieces(layer, cells, tol)
+    problems += _cells_in_pieces(layer, cells, tol) + _pieces_apart(layer, tol)
     by_ring: dict[int, list[tuple[int, float]]] = {}
     for j, _, k, phi in cells:
         by_ring.setdefault(j, []).append((k, phi))

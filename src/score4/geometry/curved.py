@@ -7,7 +7,9 @@ thickness along the face's normal (it touches the target's face and nothing of t
 On a face of a boolean solid whose other parts cut or cover it, the envelope is one such G4Cons
 segment per piece (:attr:`~score4.world.scene.CurvedRoughLayer.pieces`: the kept cells'
 azimuth ranges and runs of rings; on a sphere G4Sphere segments), each cell placed in its
-piece.
+piece; a piece of a cone whose rings keep different azimuths ends on the rings' band cones
+instead of z planes, a ``G4GenericPolycone`` segment of its meridian rectangle
+(:func:`~score4.world.scene.normal_envelope`).
 The rings keep clear of the envelope's ends (:meth:`score4.world.curved.RingLayout.make`). Each
 variant bent onto a ring radius is one ``G4TessellatedSolid`` and one logical volume (all rings of a
 cylinder share it), placed once per cell: turned about z to the cell's azimuth and moved along z to
@@ -27,9 +29,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from score4.shapes import G4GenericPolycone as G4GenericPolyconeShape
 from score4.shapes.faces import SphereFace
 from score4.world.curved import cone_cell, sphere_cell
-from score4.world.scene import CurvedRoughLayer, wall_envelope
+from score4.world.scene import CurvedRoughLayer, normal_envelope, wall_envelope
 
 from ..surface.triangle_mesh import TriangleMesh
 from .solids import tessellated_solid
@@ -39,6 +42,7 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
     """Place the layer's envelope in ``mother_lv`` with ``placement`` (the target's transform
     in the mother, a :class:`~score4.shapes.Transform`) and its patches in it. Returns
     ``(patch logical volumes, objects to keep alive)``."""
+    from .built import g4_solid
     from .tiling import _rotation, level_regions
 
     face = layer.ring_layout.face
@@ -60,9 +64,16 @@ def place_curved(g4, layer: CurvedRoughLayer, mother_lv, mother_material, materi
         # generator ranges holding the kept cells of a face a boolean's other parts cut)
         env_solids, zcs = [], []
         for n, view in enumerate(layer.envelope_views()):
-            rmin1, rmax1, rmin2, rmax2, dz, zc = wall_envelope(view)
             vf = view.ring_layout.face
             tag = name if n == 0 else f"{name}_env{n}"
+            if view.normal_ends and not view.is_cylinder:  # ends on the rings' band cones
+                rs, zs = normal_envelope(view)
+                zc = 0.5 * (min(zs) + max(zs))
+                contour = G4GenericPolyconeShape(vf.phi0, vf.dphi, rs, tuple(z - zc for z in zs))
+                env_solids.append(g4_solid(g4, contour, tag))
+                zcs.append(zc)
+                continue
+            rmin1, rmax1, rmin2, rmax2, dz, zc = wall_envelope(view)
             env_solids.append(g4.G4Cons(tag, rmin1, rmax1, rmin2, rmax2, dz, vf.phi0, vf.dphi))
             zcs.append(zc)
     rot = _rotation(g4, placement.rotation)

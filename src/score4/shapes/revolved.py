@@ -149,9 +149,10 @@ def offset_contour(
         s, e = out[last[k]], out[first[(k + 1) % n]]
         d_old, d_new = b[k] - a[k], e - s
         if names[k] and (d_new @ d_old <= 1e-9 * scale * float(np.hypot(*d_old))):
-            moved = [names[m] for m in ((k - 1) % n, (k + 1) % n, k) if depth[m] > 0]
+            moved = [names[m] for m in ((k - 1) % n, (k + 1) % n, k) if depth[m] != 0]
             raise ConfigError(
-                f"{what}: a cut of {max(depth) * 1e3:.4g} um behind face {moved[0]} leaves no "
+                f"{what}: a cut of {max(np.abs(depth)) * 1e3:.4g} um "
+                f"{'behind' if depth.max() > 0 else 'in front of'} face {moved[0]} leaves no "
                 f"face {names[k]} ({float(np.hypot(*d_old)):.4g} mm long); a face next to an "
                 "into face must be longer than the cut moves its end"
             )

@@ -19,10 +19,13 @@ The wall of a subtracted G4Tubs or G4Cons (a bore) faces the other way than the 
 layer is laid out as on the opposite wall of a solid beside it (:func:`turned_wall`: the bore is
 the ``inner`` wall of a tube or cone whose inner radii are the subtracted solid's), cut along the
 axis to where the boolean can be, so the layer lies in the bore and its shell ends where the
-solid does; the sphere face of a subtracted G4Orb or G4Sphere (a spherical dimple or cavity)
-is the inner face of a shell around it (or the outer face of a ball inside a subtracted shell).
-A sphere face of a G4Sphere or G4Orb leaf takes the sphere's cells (a cell's points
-lie within its half-height plus the sphere radius times its half-angle of its centre).
+solid does; a cylinder or cone wall of a subtracted polycone (a stepped or tapered bore, or the
+post an annular polycone leaves) is turned so over its segment's z range
+(:func:`~score4.world.boolean_modes.polycone_wall`); the sphere face of a subtracted G4Orb or
+G4Sphere (a spherical dimple or cavity) is the inner face of a shell around it (or the outer
+face of a ball inside a subtracted shell). A sphere face of a G4Sphere or G4Orb leaf takes the
+sphere's cells (a cell's points lie within its half-height plus the sphere radius times its
+half-angle of its centre).
 
 A flat face partly covered by another part of a union (the layer's envelope would run into
 the solid): only the cells whose whole column (the cell up to the layer's thickness) is proven
@@ -41,13 +44,16 @@ their flat rest as one (:class:`score4.source.build.PlanesRemainderSampler`).
 Refused, in one line each (:mod:`score4.world.boolean_modes` says why): ``into: true`` on the
 faces of a subtracted solid other than its flat faces (a G4Box, G4Tubs, G4Cons, polycone, G4Trd,
 G4Trap or G4Polyhedra; a face in one plane of an extruded or tessellated solid, where moving it
-leaves a valid solid), the walls of a G4Tubs or G4Cons (bores) and the sphere faces of a G4Orb
-or G4Sphere, on phi faces, and on two faces that share an edge of one constituent with a phi
-segment or of a part grown down under another layer that is not swept straight up from its foot
-(where they can be, they are cut together: :func:`into_joint`), ``tiling: portal``,
+leaves a valid solid), the walls of a G4Tubs or G4Cons (bores), the cylinder and cone walls of
+a polycone and the sphere faces of a G4Orb or G4Sphere, on phi faces, and on two faces that
+share an edge of one constituent with a phi segment or of a part grown down under another
+layer that is not swept straight up from its foot (where they can be, they are cut together:
+:func:`into_joint`), ``tiling: portal``,
 ``native_layout: replicas`` where a cell holds no patch (and on a layer whose envelope is the
-prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs or
-G4Cons wall or a sphere face (a G4Sphere's theta cones, a polycone's walls); a curved layer
+prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs, G4Cons
+or polycone wall or a sphere face (a G4Sphere's theta cones, which meet its sphere faces at
+right angles, where an envelope ending on planes across the axis would enter the solid); a
+curved layer
 whose envelope, even in pieces, runs into the solid itself (another part of a union), a flat one
 that keeps no cell clear of the other parts.
 Steps and activeness measure these layers through the boolean's constituents
@@ -67,7 +73,9 @@ from score4.shapes import (
     BooleanShape,
     G4Box,
     G4Cons,
+    G4GenericPolycone,
     G4Orb,
+    G4Polycone,
     G4Sphere,
     G4Tubs,
     PlacedShape,
@@ -89,12 +97,14 @@ from .boolean_modes import (
     flat_face,
     into_depth,
     joint_leaves,
+    polycone_wall,
 )
 from .curved import RingLayout, cone_cell
 from .facets import ccw, cells_inside, face_triangles, plane_face, plane_groups
 from .scene import (
     BooleanFace,
     CurvedRoughLayer,
+    EnvelopePiece,
     FaceFrame,
     PolygonRoughLayer,
     RingRoughLayer,
@@ -186,10 +196,19 @@ def _leaf(
                             for z in (lo[2], hi[2])])  # fmt: skip
         z = clip.transform.inverse_apply(corners)[:, 2]
         turned = turned_wall(leaf, face, (float(z.min()), float(z.max())))
+        if turned is None and face in ("theta_start", "theta_end"):
+            raise ConfigError(
+                f"{where}: {what} is the theta cone {face} of a subtracted {leaf.kind}: it "
+                "meets the sphere faces at right angles, while a curved layer's envelope ends "
+                "on planes across the axis, so the layer would run into the solid at the "
+                "cone's rims; rough curved faces of a subtracted G4Sphere are its sphere faces "
+                "(outer, inner)"
+            )
         if turned is None:
             raise ConfigError(
                 f"{where}: {what} is the curved face {face} of a subtracted {leaf.kind}; rough "
-                "curved faces of a subtracted solid are the walls of a G4Tubs or G4Cons and the "
+                "curved faces of a subtracted solid are the walls of a G4Tubs or G4Cons, the "
+                "cylinder and cone walls (seg_<i>) of a G4Polycone or G4GenericPolycone and the "
                 "sphere faces (outer, inner) of a G4Orb or G4Sphere"
             )
         leaf, face, shift = turned
@@ -349,11 +368,12 @@ def _in_grown_slab(
     return out
 
 
-def envelope_pieces(layer: CurvedRoughLayer) -> list[tuple[float, float, float, float]] | None:
-    """The pieces ``(phi0, dphi, v0, v1)`` of the envelope of a cylinder, cone or sphere face
-    whose kept cells leave part of the face flat (:attr:`CurvedRoughLayer.pieces`), or None
-    where the face's whole shell is needed (every azimuth and every ring holds a kept cell; on
-    a sphere, every cell is kept).
+def envelope_pieces(layer: CurvedRoughLayer) -> list[EnvelopePiece] | None:
+    """The pieces (:class:`~score4.world.scene.EnvelopePiece`: ``(phi0, dphi, v0, v1,
+    normal_ends)``) of the envelope of a cylinder, cone or sphere face whose kept cells leave
+    part of the face flat (:attr:`CurvedRoughLayer.pieces`), or None where the face's whole
+    shell is needed (every azimuth and every ring holds a kept cell; on a sphere, every cell is
+    kept).
 
     Azimuths: the union over the rings of the kept cells' azimuth ranges; a run of cells that
     starts (ends) at a ring's first (last) cell reaches the face's phi edge (the flat rest of
@@ -365,7 +385,8 @@ def envelope_pieces(layer: CurvedRoughLayer) -> list[tuple[float, float, float, 
     ring's cells reach beyond its band (:func:`~score4.world.curved.cone_cell`: the corners
     moved out along the slanted normal), so each kept ring is bounded along the generator by
     its cells' own z range (:func:`cone_ring_span`); kept rings whose spans do not meet split
-    the envelope, and a piece ends where its outer rings' cells end.
+    the envelope, and a piece ends where its outer rings' cells end; where the rings of such a
+    run keep different azimuths, the pieces end on the rings' band cones (:func:`_wall_pieces`).
 
     On a sphere (:func:`sphere_pieces`) a piece is a G4Sphere segment: neighbouring rings'
     cells have their own azimuth grids (their steps differ), so a piece holds either a run of
@@ -383,7 +404,7 @@ def envelope_pieces(layer: CurvedRoughLayer) -> list[tuple[float, float, float, 
     pieces = _wall_pieces(layer, has)
     (_, _), (fv0, fv1) = face.extent
     if len(pieces) == 1:
-        _phi0, dphi, v0, v1 = pieces[0]
+        _phi0, dphi, v0, v1, _ = pieces[0]
         if dphi >= face.dphi - 1e-12 and v0 == fv0 and v1 == fv1:
             return None
     return pieces or None
@@ -431,10 +452,17 @@ def _merged(face, spans: list[tuple[float, float]]) -> list[list[float]]:
     return merged
 
 
-def _wall_pieces(
-    layer: CurvedRoughLayer, has: np.ndarray
-) -> list[tuple[float, float, float, float]]:
-    """:func:`envelope_pieces` of a cylinder or cone wall."""
+def _wall_pieces(layer: CurvedRoughLayer, has: np.ndarray) -> list[EnvelopePiece]:
+    """:func:`envelope_pieces` of a cylinder or cone wall.
+
+    On a cone whose rings in a run keep different azimuths (each ring has its own grid of
+    azimuths, so a plane cutting the cone obliquely, as P00664B's cut does its tapers, leaves
+    each ring a different range), the run's one piece would hold every ring's azimuths over its
+    whole length, beyond the cells of the rings keeping fewer; there the pieces end on the
+    rings' band cones instead (``normal_ends``: the cones of the face's normals between
+    neighbouring rings, which their cells share, :func:`~score4.world.curved.cone_cell`), one
+    per group of neighbouring rings keeping the same azimuths, each holding only its rings'
+    cells (a part of the run's piece)."""
     lay = layer.ring_layout
     face = lay.face
     assert isinstance(face, RevolvedFace)
@@ -462,7 +490,7 @@ def _wall_pieces(
                 runs.append((i, i))
     (_, _), (fv0, fv1) = face.extent
     half = 0.5 * (lay.patch_size[1] + lay.row_gap)
-    pieces: list[tuple[float, float, float, float]] = []
+    pieces: list[EnvelopePiece] = []
     for j0, j1 in runs:
         if span is None:  # the outer rings' bands (the face's ends beyond its end rings)
             v0 = fv0 if j0 == 0 else float(lay.v[j0]) - half
@@ -470,15 +498,28 @@ def _wall_pieces(
         else:  # the outer rings' cells' ends (the face's ends beyond the first and last ring)
             v0 = fv0 if j0 == 0 else float(np.nanmin(span[j0 : j1 + 1, 0]))
             v1 = fv1 if j1 == nrings - 1 else float(np.nanmax(span[j0 : j1 + 1, 1]))
-        spans = [s for j in range(j0, j1 + 1) for s in _ring_spans(layer, j)]
-        for lo, hi in _merged(face, spans):
-            pieces.append((face.phi0 + lo, min(hi - lo, 2 * np.pi), v0, v1))
+        rings = {j: _merged(face, _ring_spans(layer, j)) for j in range(j0, j1 + 1) if has[j]}
+        groups = [[j0, j1]]
+        if span is not None and not all(_same_ranges(m, rings[j0]) for m in rings.values()):
+            groups = []  # rings keeping other azimuths than their neighbour: a piece each
+            for j in sorted(rings):
+                if groups and _same_ranges(rings[j], rings[groups[-1][1]]):
+                    groups[-1][1] = j
+                else:
+                    groups.append([j, j])
+        for g0, g1 in groups:
+            if len(groups) == 1:
+                spans = [s for j in range(j0, j1 + 1) for s in _ring_spans(layer, j)]
+                ends, a, b = False, v0, v1
+            else:  # between the cones of normals through the group's outer rings' bands
+                spans = [s for j in range(g0, g1 + 1) for s in _ring_spans(layer, j)]
+                ends, a, b = True, float(lay.v[g0]) - half, float(lay.v[g1]) + half
+            for lo, hi in _merged(face, spans):
+                pieces.append(EnvelopePiece(face.phi0 + lo, min(hi - lo, 2 * np.pi), a, b, ends))
     return pieces
 
 
-def sphere_pieces(
-    layer: CurvedRoughLayer, has: np.ndarray
-) -> list[tuple[float, float, float, float]]:
+def sphere_pieces(layer: CurvedRoughLayer, has: np.ndarray) -> list[EnvelopePiece]:
     """:func:`envelope_pieces` of a sphere face: consecutive rings whose kept cells cover the
     same azimuth ranges (to 1e-12 rad: whole rings, runs reaching the face's phi edges) make
     one piece per range; a ring whose ranges differ from its neighbours' makes its own. A piece
@@ -496,11 +537,11 @@ def sphere_pieces(
             groups[-1] = (groups[-1][0], j, groups[-1][2])
         else:
             groups.append((j, j, ranges))
-    pieces: list[tuple[float, float, float, float]] = []
+    pieces: list[EnvelopePiece] = []
     for j0, j1, ranges in groups:
         v0, v1 = float(lay.v[j0]) - half, float(lay.v[j1]) + half
         for lo, hi in ranges:
-            pieces.append((face.phi0 + lo, min(hi - lo, 2 * np.pi), v0, v1))
+            pieces.append(EnvelopePiece(face.phi0 + lo, min(hi - lo, 2 * np.pi), v0, v1))
     return pieces
 
 
@@ -535,6 +576,18 @@ def turned_wall(
     ``extent`` (z range, leaf frame: where the boolean can be, so the layer's shell ends where
     the solid does), and the shift of its origin in the leaf's frame; None for other solids and
     faces."""
+    if isinstance(leaf, G4Polycone | G4GenericPolycone):
+        wall = polycone_wall(leaf, face)
+        if wall is None:
+            return None
+        leaf, face, centre = wall
+        assert isinstance(leaf, G4Tubs | G4Cons)
+        lo, hi = max(extent[0] - centre, -leaf.dz), min(extent[1] - centre, leaf.dz)
+        if not hi > lo:
+            return None
+        seg = leaf.trimmed({"-z": lo + leaf.dz, "+z": leaf.dz - hi})
+        assert seg is not None  # a G4Tubs or G4Cons is cut along z
+        return seg[0], face, seg[1] + np.array([0.0, 0.0, centre])
     if face not in ("outer", "inner"):
         return None
     turned: Shape

@@ -17,7 +17,10 @@
   :mod:`score4.geometry.boolean_cut`), and the layer lies in the slab (on a curved face the
   shell, laid out as on a plain solid's wall cut for ``into``), on the cut face
   (:func:`cut_face`); on the wall of a subtracted G4Tubs or G4Cons (a bore) the subtracted solid
-  grows by the layer's cut and the layer lies in the shell around the old bore; on a face of a
+  grows by the layer's cut and the layer lies in the shell around the old bore, and so on a
+  cylinder or cone wall of a subtracted polycone (:func:`polycone_wall`: its (r, z) contour's
+  edge moved out along its normal, the neighbours' lines kept, so a ledge next to it gets
+  shorter; refused in one line where a neighbour would vanish); on a face of a
   subtracted G4Box or an end face of a subtracted G4Tubs (a blind hole's floor) that solid
   grows by the layer's thickness along the face's own normal (into the kept volume: against the
   boolean's outward normal there), and the layer lies in the slab, on the grown solid's face.
@@ -35,7 +38,8 @@
   meet the moved one in a point, a facet turned over, a facet crossing another). Refused
   elsewhere: the phi faces of any constituent, subtracted or not (moved off the axis, parallel
   to itself, the plane would make the constituent a boolean of its own: no Geant4 solid with
-  phi faces has them off its axis), and the other curved faces of subtracted solids.
+  phi faces has them off its axis), and the other curved faces of subtracted solids (a
+  G4Sphere's theta cones).
   A part of a union that stands on a cut flat face grows down by the cut, so the slab under it
   stays in the volume (:func:`standing_cuts`: a G4Box, or a G4Tubs, G4Cons or polycone, along
   the face's normal, its foot within the face; a swept part grows as the prism of its foot,
@@ -55,7 +59,18 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import ConfigError
-from ..shapes import BooleanShape, G4Box, G4Cons, G4Orb, G4Sphere, G4Tubs, Shape, Transform
+from ..shapes import (
+    BooleanShape,
+    G4Box,
+    G4Cons,
+    G4GenericPolycone,
+    G4Orb,
+    G4Polycone,
+    G4Sphere,
+    G4Tubs,
+    Shape,
+    Transform,
+)
 from ..shapes.base import PlaneTriangles
 from ..shapes.boolean import FaceClip
 from ..shapes.faces import PlaneFace
@@ -88,6 +103,7 @@ def check_modes(
     if rough.into:
         flat = flat_face(leaf, face)
         bore = isinstance(leaf, G4Tubs | G4Cons | G4Sphere | G4Orb) and face in ("outer", "inner")
+        bore = bore or polycone_wall(leaf, face) is not None
         phi = face in ("phi_start", "phi_end")
         grows = False
         if flipped and flat and not phi:
@@ -108,8 +124,9 @@ def check_modes(
         if flipped and not (bore or grows):
             raise ConfigError(
                 f"{where}: into: true on {what}, a face of the subtracted {leaf.kind}, would "
-                "widen the cut, which score4 does for the walls of a subtracted G4Tubs or "
-                "G4Cons (a bore), the sphere faces of a subtracted G4Orb or G4Sphere and the "
+                "widen the cut, which score4 does for the walls of a subtracted G4Tubs, "
+                "G4Cons (a bore) or polycone (its cylinder and cone walls), the sphere "
+                "faces of a subtracted G4Orb or G4Sphere and the "
                 "flat faces of a subtracted G4Box, G4Tubs, G4Cons, G4Polycone, "
                 "G4GenericPolycone, G4Trd, G4Trap, G4Polyhedra, extruded or tessellated solid "
                 "(a face in one plane) only; put the layer outside the volume (into: false)"
@@ -139,6 +156,39 @@ def check_modes(
             "cell, while a boolean's face keeps patches only where it lies on the solid's "
             "surface; take tiling: native"
         )
+
+
+def polycone_wall(leaf: Shape, face: str) -> tuple[Shape, str, float] | None:
+    """The face ``face`` of a polycone that is a cylinder or cone wall (a segment of the
+    contour between two z planes) turned as :func:`turned_wall` turns a G4Tubs's or G4Cons's
+    wall: the ``inner`` wall of a G4Tubs or G4Cons whose inner radii are the segment's (a
+    segment facing away from the axis: the bore the subtracted polycone leaves) or the
+    ``outer`` wall of a full one with the segment's radii (a segment facing the axis), over the
+    segment's z range, and the z of its centre in the polycone's frame; None for other faces
+    (flat rings, phi faces, group names)."""
+    if not isinstance(leaf, G4Polycone | G4GenericPolycone):
+        return None
+    poly, names = leaf.contour()
+    if face not in names:
+        return None
+    k = names.index(face)
+    (ra, za), (rb, zb) = poly[k], poly[(k + 1) % len(poly)]
+    if za == zb:
+        return None  # a flat ring
+    (r1, z1), (r2, z2) = [
+        (float(r), float(z)) for r, z in sorted([(ra, za), (rb, zb)], key=lambda p: p[1])
+    ]
+    dz, phi = (z2 - z1) / 2, (leaf.sphi, leaf.dphi)
+    away = zb > za  # counter-clockwise: an edge going up faces away from the axis
+    turned: Shape
+    if r1 == r2:
+        turned = G4Tubs(r1, 2 * r1, dz, *phi) if away else G4Tubs(0.0, r1, dz, *phi)
+    elif away:
+        w = max(r1, r2)
+        turned = G4Cons(r1, r1 + w, r2, r2 + w, dz, *phi)
+    else:
+        turned = G4Cons(0.0, r1, 0.0, r2, dz, *phi)
+    return turned, "inner" if away else "outer", (z1 + z2) / 2
 
 
 def flat_face(leaf: Shape, face: str) -> bool:
@@ -504,8 +554,8 @@ def into_depth(layer: RoughLayer, flipped: bool) -> float:
         assert layer.cut_shape is not None  # into on a wall: the tube cut for it
         cut = layer.cut_shape[0]
         assert isinstance(turned, G4Tubs)
-        assert isinstance(cut, G4Tubs)
-        return float(cut.rmin - turned.rmin)
+        assert isinstance(cut, G4Tubs)  # its inner wall moved out or its outer wall in
+        return float(cut.rmin - turned.rmin + turned.rmax - cut.rmax)
     return float(layer.thickness)
 
 

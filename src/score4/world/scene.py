@@ -25,7 +25,7 @@ import copy
 from collections.abc import Collection, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -281,6 +281,22 @@ def box_target(box: BoxVolume, entry: int, mother: Instance | None = None) -> Ta
     )
 
 
+class EnvelopePiece(NamedTuple):
+    """A piece of the envelope of a curved layer whose face a boolean's other parts cut
+    (:attr:`CurvedRoughLayer.pieces`): azimuths ``phi0`` .. ``phi0 + dphi`` and the face's
+    generator from ``v0`` to ``v1``. Its ends are the z planes through the face at ``v0`` and
+    ``v1`` (a ``G4Cons`` or ``G4Tubs`` segment), or with ``normal_ends`` the cones of the face's
+    normals there (on a cone: the rings' band cones, which the rings' cells share; a
+    ``G4GenericPolycone`` of the four corners), so that rings side by side can hold different
+    azimuths (:func:`score4.world.boolean_layers.envelope_pieces`)."""
+
+    phi0: float
+    dphi: float
+    v0: float
+    v1: float
+    normal_ends: bool = False
+
+
 @dataclass(frozen=True, eq=False)
 class BooleanFace:
     """Where a rough layer's face lies on a boolean solid: ``shape`` (the target's solid),
@@ -522,22 +538,28 @@ class CurvedRoughLayer(RoughLayer):
     #: radius of a sphere moves by it)
     into_cut: float = 0.0
     #: on a face of a boolean partly covered or cut by its other parts: the envelope's pieces
-    #: ``(phi0, dphi, v0, v1)`` (azimuth range and generator range of the face; on a sphere the
-    #: meridian's arc length) holding the kept cells, each a G4Cons (G4Tubs) segment, on a
-    #: sphere a G4Sphere segment; None: the face's whole shell
+    #: (:class:`EnvelopePiece`: azimuth range and generator range of the face; on a sphere the
+    #: meridian's arc length) holding the kept cells, each a G4Cons (G4Tubs) segment, a
+    #: G4GenericPolycone between band cones on a cone (``normal_ends``), on a sphere a G4Sphere
+    #: segment; None: the face's whole shell
     #: (:func:`score4.world.boolean_layers.envelope_pieces`)
-    pieces: list[tuple[float, float, float, float]] | None = None
+    pieces: list[EnvelopePiece] | None = None
+    #: the envelope (a piece of it, :meth:`envelope_views`) ends on the cones of the face's
+    #: normals through its ends, not on their z planes (:attr:`EnvelopePiece.normal_ends`)
+    normal_ends: bool = False
 
     def envelope_views(self) -> list[CurvedRoughLayer]:
         """The layer's envelope as layers on sub-faces (one per piece, :attr:`pieces`; the layer
         itself when its envelope is the face's whole shell), for the clearance checks and the
         Geant4 envelopes: each view's face is the face cut to the piece's azimuth and generator
-        ranges, so its shell (:meth:`shell_points`, :func:`wall_envelope`) is the piece's."""
+        ranges, so its shell (:meth:`shell_points`, :func:`wall_envelope`) is the piece's
+        (with :attr:`EnvelopePiece.normal_ends`, the shell between the cones of normals through
+        its ends: :attr:`normal_ends`)."""
         if self.pieces is None:
             return [self]
         face = self.ring_layout.face
         out = []
-        for phi0, dphi, v0, v1 in self.pieces:
+        for phi0, dphi, v0, v1, normal_ends in self.pieces:
             sub: RevolvedFace | SphereFace
             if isinstance(face, SphereFace):  # a G4Sphere segment: the polar angles of v0, v1
                 a, b = sorted(float(x) for x in face.polar(np.array([v0, v1])))
@@ -550,6 +572,7 @@ class CurvedRoughLayer(RoughLayer):
             view.__dict__.pop("_cache", None)
             view.layout = replace(self.ring_layout, face=sub)
             view.pieces = None
+            view.normal_ends = normal_ends
             out.append(view)
         return out
 
@@ -559,7 +582,7 @@ class CurvedRoughLayer(RoughLayer):
         if self.pieces is None:
             return 0
         v = float(self.ring_layout.v[j])
-        for n, (phi0, dphi, v0, v1) in enumerate(self.pieces):
+        for n, (phi0, dphi, v0, v1, _) in enumerate(self.pieces):
             a = np.mod(phi - phi0, 2 * np.pi)
             if a <= dphi + 1e-9 and v0 - 1e-9 <= v <= v1 + 1e-9:
                 return n
@@ -795,9 +818,14 @@ class CurvedRoughLayer(RoughLayer):
     @property
     def _cone_envelope(self) -> bool:
         """The layer's envelope is a G4Cons between the z planes of its face's ends (a cone's
-        side; a cylinder's is the same as its shell)."""
+        side; a cylinder's is the same as its shell; a piece of a cone's envelope ending on
+        cones of normals, :attr:`normal_ends`, is its shell)."""
         face = self.ring_layout.face
-        return isinstance(face, RevolvedFace) and abs(float(face.nrz[1])) > 1e-12
+        return (
+            isinstance(face, RevolvedFace)
+            and abs(float(face.nrz[1])) > 1e-12
+            and not self.normal_ends
+        )
 
     def envelope_box(self) -> OrientedBox:
         """An oriented box (the target's axes) holding the layer's shell."""
@@ -813,7 +841,7 @@ class CurvedRoughLayer(RoughLayer):
         if face.dphi >= 2 * np.pi - 1e-9:  # the circle's extremes between the grid's points
             lo[:2], hi[:2] = -r, r
         elif self.pieces is not None:  # the pieces' extremes along x and y between the points
-            for phi0, dphi, _, _ in self.pieces:
+            for phi0, dphi, *_ in self.pieces:
                 for k in range(4):
                     if np.mod(k * np.pi / 2 - phi0, 2 * np.pi) <= dphi:
                         ex = r * np.array([np.cos(k * np.pi / 2), np.sin(k * np.pi / 2)])
@@ -1020,6 +1048,21 @@ def wall_envelope(layer: CurvedRoughLayer) -> tuple[float, float, float, float, 
     a1, b1 = sorted((r1, r1 + shift))
     a2, b2 = sorted((r2, r2 + shift))
     return float(a1), float(b1), float(a2), float(b2), 0.5 * (z2 - z1), 0.5 * (z1 + z2)
+
+
+def normal_envelope(layer: CurvedRoughLayer) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """``(r, z)``: the corners (the shape's frame, a meridian section) of the envelope of a
+    curved layer on a cylinder or cone that ends on the cones of its face's normals through its
+    ends (:attr:`CurvedRoughLayer.normal_ends`): the face's ends and the same moved out by the
+    layer thickness along the normal, a rectangle (the ``G4GenericPolycone`` of
+    :mod:`score4.geometry.curved`)."""
+    face = layer.ring_layout.face
+    assert isinstance(face, RevolvedFace)
+    (_, _), (v0, v1) = face.extent
+    t = layer.thickness
+    v = np.array([v0, v0, v1, v1])
+    p = face.point(np.zeros(4), v) + np.array([0.0, t, t, 0.0])[:, None] * face.normal(0.0, v)
+    return tuple(float(x) for x in p[:, 0]), tuple(float(x) for x in p[:, 2])
 
 
 @dataclass
