@@ -12,6 +12,7 @@ than :data:`MAX_NAMED_PLANES` planes (a curved surface cut into facets) stays on
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -74,6 +75,67 @@ def _tri_distance(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
         e = p[:, None, :] - (u[None] + t[..., None] * d[None])
         best = np.minimum(best, np.sqrt(np.einsum("nmk,nmk->nm", e, e)))
     return best
+
+
+#: A vector of arrays by components: a tuple of three, or rows of a (3, k) array.
+_Vec = tuple[np.ndarray, ...] | np.ndarray
+
+
+def _dot(u: _Vec, v: _Vec) -> np.ndarray:
+    """Dot products of vectors given by components, summed in the order numpy's ``einsum``
+    sums three terms (first and last, then the middle one): :func:`_tri_distance`'s numbers."""
+    return (u[0] * v[0] + u[2] * v[2]) + u[1] * v[1]
+
+
+def _cross3(u: _Vec, v: _Vec) -> tuple[np.ndarray, ...]:
+    return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
+
+
+def _facet_terms(tri: np.ndarray) -> np.ndarray:
+    """(20, m) per facet what :func:`_pair_distance` reads: its corners, normal, unit normal,
+    the length of its normal and its squared edge lengths, in :func:`_tri_distance`'s
+    arithmetic."""
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    n = np.cross(b - a, c - a)
+    n2 = np.einsum("ij,ij->i", n, n)
+    area = (n2 > 0).astype(float)
+    root = np.sqrt(np.maximum(n2, 1e-300))
+    unit = n / root[:, None]
+    lengths = [
+        np.maximum(np.einsum("ij,ij->i", v - u, v - u), 1e-300) for u, v in ((a, b), (b, c), (c, a))
+    ]
+    return np.vstack([a.T, b.T, c.T, n.T, unit.T, root, area, *lengths])
+
+
+def _pair_distance(p: np.ndarray, terms: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Exact distances of points (k, 3) to facets (k columns of :func:`_facet_terms`), pair by
+    pair, in the same arithmetic as :func:`_tri_distance` (the same numbers, component by
+    component); the signed distance of each point from its facet's plane (> 0 on the side its
+    normal points to); and whether the pair's nearest point is inside the facet, clear of its
+    edges (the plane's distance the least, by far more than rounding)."""
+    t = terms
+    a, b, c, n, unit = t[0:3], t[3:6], t[6:9], t[9:12], t[12:15]
+    root, has_area, lengths = t[15], t[16] > 0, t[17:20]
+    px, py, pz = p[:, 0], p[:, 1], p[:, 2]
+    pv = (px, py, pz)
+    h = _dot((px - a[0], py - a[1], pz - a[2]), n) / root
+    q = (px - h * unit[0], py - h * unit[1], pz - h * unit[2])
+    inside = has_area.copy()
+    for u, v in ((a, b), (b, c), (c, a)):
+        edge = (v[0] - u[0], v[1] - u[1], v[2] - u[2])
+        inside &= _dot(_cross3(edge, (q[0] - u[0], q[1] - u[1], q[2] - u[2])), n) >= 0
+    face = np.where(inside, np.abs(h), np.inf)
+    near = np.full(len(p), np.inf)
+    for (u, v), length in zip(((a, b), (b, c), (c, a)), lengths, strict=True):
+        d = (v[0] - u[0], v[1] - u[1], v[2] - u[2])
+        s = np.clip(_dot((px - u[0], py - u[1], pz - u[2]), d) / length, 0, 1)
+        e = tuple(pv[k] - (u[k] + s * d[k]) for k in range(3))
+        near = np.minimum(near, np.sqrt(_dot(e, e)))
+    best = np.minimum(face, near)
+    # clear of the edges: the nearest point of an edge is further than the plane's by a margin
+    # far above rounding (then the point's side of the plane is its side of the mesh)
+    clear = inside & (near - face > 1e-9 * (1.0 + near))
+    return best, h, clear
 
 
 def _crossing(
@@ -290,16 +352,99 @@ class MeshShape(Shape):
             )
         return replace(self, triangles=out), np.zeros(3)
 
+    @cached_property
+    def _search(self) -> tuple[np.ndarray, ...] | None:
+        """What :meth:`signed_distance` prunes with: the facets' boxes (lo, hi), unit normals
+        and plane offsets, the mesh's box, its size and orientation (+1 outward, -1 inward);
+        None for a mesh that is not closed (an edge not met once each way by two facets) or has
+        a facet of no area: those are measured against every facet. (A closed mesh is taken
+        not to cross itself, as the surface of a solid.)"""
+        tri = self.triangles
+        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        norm = np.linalg.norm(n, axis=1)
+        verts, index = np.unique(tri.reshape(-1, 3), axis=0, return_inverse=True)
+        index = index.reshape(-1, 3)
+        edges = np.concatenate([index[:, [0, 1]], index[:, [1, 2]], index[:, [2, 0]]])
+        code = edges[:, 0] * len(verts) + edges[:, 1]
+        back = edges[:, 1] * len(verts) + edges[:, 0]
+        closed = (
+            (norm > 0).all()
+            and (edges[:, 0] != edges[:, 1]).all()
+            and len(np.unique(code)) == len(code)
+            and np.isin(back, code).all()
+        )
+        if not closed or self.volume == 0:
+            return None
+        unit = n / norm[:, None]
+        offset = np.einsum("ij,ij->i", unit, tri[:, 0])
+        scale = np.array([max(float(np.abs(tri).max()), 1.0), 1.0 if self.volume > 0 else -1.0])
+        lo, hi = self.bounding_box()
+        return (
+            tri.min(axis=1).T,
+            tri.max(axis=1).T,
+            unit.T,
+            offset,
+            lo,
+            hi,
+            scale,
+            _facet_terms(tri),
+        )
+
     def signed_distance(self, points: ArrayLike) -> np.ndarray:
+        """The distance to the nearest facet (exact), negative where the winding number of the
+        mesh around the point is above 1/2 in size. For a closed mesh only the facets that can
+        be nearest are measured (their boxes and planes against the distance to the likeliest
+        one), and the side is read from the nearest facet's plane where the nearest point lies
+        inside it, clear of its edges, or where the point is outside the mesh's box; the
+        winding number is summed only for the other points (near an edge or corner, or within
+        1e-10 of the mesh's size of it). The same numbers as measuring every facet."""
         p = as_points(points)
+        search = self._search
         out = np.empty(len(p))
         step = max(1, self._chunk // len(self.triangles))
+        if search is not None:
+            step = min(step, 4096)  # pairs a few times that: arrays that stay in the cache
         for s in range(0, len(p), step):
             q = p[s : s + step]
-            dist = _tri_distance(q, self.triangles).min(axis=1)
-            inside = np.abs(_winding(q, self.triangles)) > 0.5
+            if search is None:
+                dist = _tri_distance(q, self.triangles).min(axis=1)
+                inside = np.abs(_winding(q, self.triangles)) > 0.5
+            else:
+                dist, inside = self._nearest(q, search)
             out[s : s + step] = np.where(inside, -dist, dist)
         return out
+
+    def _nearest(self, q: np.ndarray, search: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
+        """(distance, inside) of points ``q`` (n, 3) of :meth:`signed_distance`, closed mesh."""
+        tlo, thi, unit, offset, lo, hi, (scale, orient), terms = search
+        tri = self.triangles
+        slack = 1e-9 * scale
+        # a lower bound of each point's distance to each facet (squared): to its box, to its plane
+        gap = np.zeros((len(q), len(tri)))
+        for k in range(3):
+            x = q[:, k : k + 1]
+            g = np.maximum(np.maximum(tlo[k] - x, x - thi[k]), 0.0)
+            gap += g * g
+        plane = q @ unit - offset
+        bound = np.maximum(gap, plane * plane)
+        first = np.argmin(bound, axis=1)
+        reach = _pair_distance(q, terms[:, first])[0] + slack
+        near = bound <= (reach * reach)[:, None]
+        near[np.arange(len(q)), first] = True
+        rows, cols = np.nonzero(near)
+        best, h, clear = _pair_distance(q[rows], terms[:, cols])
+        starts = np.flatnonzero(np.r_[True, rows[1:] != rows[:-1]])
+        dist = np.minimum.reduceat(best, starts)
+        # per point, its nearest pair (the first of equals)
+        at = np.flatnonzero(best == dist[rows])
+        pick = at[np.r_[True, rows[at][1:] != rows[at][:-1]]]
+        far = ((q < lo - slack) | (q > hi + slack)).any(axis=1)
+        known = far | (clear[pick] & (dist > 1e-10 * scale))
+        inside = ~far & (orient * h[pick] < 0)
+        rest = np.flatnonzero(~known)
+        if len(rest):
+            inside[rest] = np.abs(_winding(q[rest], tri)) > 0.5
+        return dist, inside
 
     @property
     def volume(self) -> float:
