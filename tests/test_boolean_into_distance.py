@@ -9,19 +9,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import h5py
 import numpy as np
 import pytest
 
-from score4.inputs.config import parse_config
-from score4.runner.engine import run
-from score4.runner.output import read_results
-from score4.shapes.mesh_shape import _tri_distance
 from score4.world.activeness import weight
 from score4.world.resolve import build_scene
 
+from helpers.into_steps import brute_rough, into_steps_run
+
 HALF, BORE = 10.0, 5.0  # the box's half width and the bore's radius, mm
-PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
 
 
 @pytest.fixture(scope="module")
@@ -45,39 +41,6 @@ def gdml(tmp_path_factory) -> Path:
     return path
 
 
-def brute_rough(layer, world: np.ndarray) -> np.ndarray:
-    """Distance of world points to the layer's rough surface over the 3 x 3 cells around each
-    point's cell: every top facet of a kept cell (its variant's top mesh lifted by the base),
-    the flat square of any other cell. Exact where below one cell width (farther cells are)."""
-    q = layer.frame.to_local(world)
-    px, py = layer.patch_size
-    cells = np.asarray(layer.cell_variants)
-    ny, nx = cells.shape
-    centres = layer.cell_centres()
-    i0 = np.floor((q[:, 0] + nx * px / 2) / px).astype(int)
-    j0 = np.floor((q[:, 1] + ny * py / 2) / py).astype(int)
-    out = np.full(len(q), np.inf)
-    tops = [
-        np.asarray(v.top_mesh.vertices, float)[np.asarray(v.top_mesh.faces)]
-        + np.array([0.0, 0.0, layer.base_thickness])
-        for v in layer.variants
-    ]
-    for n in range(len(q)):
-        for j in range(j0[n] - 1, j0[n] + 2):
-            for i in range(i0[n] - 1, i0[n] + 2):
-                if not (0 <= i < nx and 0 <= j < ny):
-                    continue
-                c = np.array([*centres[j, i], 0.0])
-                k = cells[j, i]
-                if k >= 0:
-                    d = _tri_distance(q[n : n + 1] - c, tops[k]).min()
-                else:
-                    e = np.maximum(np.abs(q[n, :2] - c[:2]) - np.array([px, py]) / 2, 0.0)
-                    d = float(np.hypot(np.hypot(*e), q[n, 2]))
-                out[n] = min(out[n], d)
-    return out
-
-
 def test_steps_and_activeness_with_into_on_a_boolean_face(gdml, tmp_path):
     """Alphas from the pyramids cut into the box's +z face (into: true), steps and a 3 um
     transition layer under that face, 30 events, seed 11: each step's dist_to_surf is the
@@ -86,44 +49,9 @@ def test_steps_and_activeness_with_into_on_a_boolean_face(gdml, tmp_path):
     layer was cut from are all in patches; active_edep weights each step by the brute-force
     distance to the rough face and (a 2 mm transition layer) by the distance to the bore's
     wall, kept between the box's faces (1e-9 MeV)."""
-    import lh5
-
-    data = {
-        "physics": "lite",
-        "world": {"gdml": str(gdml)},
-        "surfaces": {"p": PYRAMIDS},
-        "targets": [
-            {
-                "volume": "cutbox",
-                "rough": [
-                    {"face": "first.+z", "surface": "p", "base_thickness": "1 um", "into": True}
-                ],
-                "activeness": [
-                    {"fccd": "3 um", "dlf": 0.5, "faces": ["first.+z"]},
-                    {"fccd": "2 mm", "dlf": 0.2, "faces": ["second.outer"]},
-                ],
-            }
-        ],
-        "source": {
-            "particle": "alpha",
-            "energy": "5.3 MeV",
-            "direction": "isotropic",
-            "surface": {"volume": "cutbox", "face": "first.+z"},
-        },
-        "run": {"events": 30, "seed": 11},
-        "output": {"steps": True},
-    }
-    cfg = parse_config(data)
-    out = tmp_path / "steps.h5"
-    run(cfg, out, progress=False, echo=lambda m: None)
-    res = read_results(out)
-    table = lh5.read("stp/cutbox", str(out))
-    evtid = np.asarray(table["evtid"].nda)
-    edep = np.asarray(table["edep"].nda) / 1e3  # keV -> MeV
-    with h5py.File(out, "r") as f:
-        g = f["stp/cutbox"]
-        world = np.column_stack([g[c][()] * 1e3 for c in ("xloc", "yloc", "zloc")])
-        dist = g["dist_to_surf"][()] * 1e3
+    cfg, res, evtid, edep, world, dist = into_steps_run(
+        gdml, "cutbox", "first.+z", ("second.outer", "2 mm"), 11, tmp_path
+    )
     scene = build_scene(cfg)
     layer = scene.layer("cutbox", "first.+z")
     t = layer.thickness

@@ -1,26 +1,24 @@
 """Steps and activeness on a layer that grows a subtracted solid (``into: true`` on the floor of
 a conical blind hole, score4.world.boolean_modes): a small Geant4 run on a copper box less a
 G4Cons whose ``dist_to_surf`` and ``active_edep`` match a brute force over the patch tops of
-the floor's cells (tests.test_boolean_into_distance.brute_rough), the box's faces and the
+the floor's cells (helpers.into_steps.brute_rough), the box's faces and the
 hole's wall (1e-9)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import h5py
 import numpy as np
 import pytest
 
 from score4.inputs.config import parse_config
-from score4.runner.engine import run
-from score4.runner.output import read_results
 from score4.world.activeness import weight
 from score4.world.resolve import build_scene
 
+from helpers.into_steps import PYRAMIDS, brute_rough, into_steps_run
+
 HALF = 10.0  # the box's half width, mm
 HEX = np.radians(30.0 + 60.0 * np.arange(6))  # the hexagon's side directions
-PYRAMIDS = {"kind": "spikes", "nx": 5, "ny": 5, "width": "100 um", "height": "20 um"}
 
 
 @pytest.fixture(scope="module")
@@ -64,45 +62,9 @@ def test_steps_and_activeness_on_a_grown_cone_floor(gdml, tmp_path):
     and the wall, to 1e-9 mm (the rough surface below the floor's level at least as far as the
     floor's disk); steps in the slab under the old floor are in patches; active_edep weights
     each step by the brute-force distances (1e-9 MeV)."""
-    import lh5
-    from test_boolean_into_distance import brute_rough
-
-    data = {
-        "physics": "lite",
-        "world": {"gdml": str(gdml)},
-        "surfaces": {"p": PYRAMIDS},
-        "targets": [
-            {
-                "volume": "cone",
-                "rough": [
-                    {"face": "second.-z", "surface": "p", "base_thickness": "1 um", "into": True}
-                ],
-                "activeness": [
-                    {"fccd": "3 um", "dlf": 0.5, "faces": ["second.-z"]},
-                    {"fccd": "1 mm", "dlf": 0.2, "faces": ["second.outer"]},
-                ],
-            }
-        ],
-        "source": {
-            "particle": "alpha",
-            "energy": "5.3 MeV",
-            "direction": "isotropic",
-            "surface": {"volume": "cone", "face": "second.-z"},
-        },
-        "run": {"events": 30, "seed": 13},
-        "output": {"steps": True},
-    }
-    cfg = parse_config(data)
-    out = tmp_path / "steps.h5"
-    run(cfg, out, progress=False, echo=lambda m: None)
-    res = read_results(out)
-    table = lh5.read("stp/cone", str(out))
-    evtid = np.asarray(table["evtid"].nda)
-    edep = np.asarray(table["edep"].nda) / 1e3  # keV -> MeV
-    with h5py.File(out, "r") as f:
-        g = f["stp/cone"]
-        world = np.column_stack([g[c][()] * 1e3 for c in ("xloc", "yloc", "zloc")])
-        dist = g["dist_to_surf"][()] * 1e3
+    cfg, res, evtid, edep, world, dist = into_steps_run(
+        gdml, "cone", "second.-z", ("second.outer", "1 mm"), 13, tmp_path
+    )
     scene = build_scene(cfg)
     layer = scene.layer("cone", "second.-z")
     t = layer.thickness
@@ -147,7 +109,6 @@ def test_distances_to_the_six_grown_sides_of_a_polyhedra(gdml):
     1e-9 mm; the activeness distance to the sides alone is the same. (Before, the last plane's
     layer alone was measured, and the floor's triangles of no area were at distance 0 from
     every point.)"""
-    from test_boolean_into_distance import brute_rough
 
     from score4.world.activeness import target_distances
 
@@ -198,7 +159,6 @@ def test_activeness_distance_beside_a_grown_floor(gdml):
     floor's column and below its level, the distance to the disk's rim (closed form, 1e-6 mm,
     the rim's chords), not to the flat squares (up to 0.8 mm nearer), or to the wall or box
     if nearer; over the disk, the brute-force rough surface."""
-    from test_boolean_into_distance import brute_rough
 
     from score4.world.activeness import target_distances
 
