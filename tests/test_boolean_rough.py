@@ -56,6 +56,26 @@ PPC_WALL_ROUGH = {"ppc": ["pplus", "first.seg_2"]}
 PPC_ALL_ROUGH = {"ppc": ["second.-x", "pplus", "first.seg_2"]}
 
 
+def assert_ppc_paths(data, cfg, scene, starts, directions, layers, tmp_path) -> None:
+    """Geantinos from ``starts`` along ``directions`` through P00664B (``ppc``): each track
+    length in Geant4 is the polycone's analytic path plus the paths in the patch bodies of
+    ``layers``, to 1e-9 mm; most rays cross a patch body."""
+    crystal = scene.target("ppc")
+    n = len(starts)
+    primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n)
+    r = geantino_run(data, primaries, np.array(starts), np.array(directions), tmp_path)
+    got = np.asarray(r.scores["track_length"]["ppc"])
+    crossed = 0
+    for k in range(n):
+        o, d = starts[k], directions[k]
+        expected = polycone_path(crystal.to_local(o[None])[0], crystal.rotation.T @ d,
+                                 crystal.shape, length=80.0)  # fmt: skip
+        in_patches = sum(patches_path(o, d, layer, 80.0) for layer in layers)
+        crossed += in_patches > 0
+        assert got[k] == pytest.approx(expected + in_patches, abs=1e-9, rel=0), k
+    assert crossed >= n // 2  # most rays cross a patch body
+
+
 @pytest.fixture(scope="module")
 def gdml(tmp_path_factory) -> Path:
     return write_world(tmp_path_factory.mktemp("boolean") / "boolean.gdml")
@@ -166,19 +186,7 @@ def test_the_cut_face_and_the_side_wall_in_geant4(gdml, tmp_path):
         starts.append(crystal.to_world(o[None])[0])
         d = (aim - o) / np.linalg.norm(aim - o)
         directions.append(crystal.rotation @ d)
-    n = len(starts)
-    primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n)
-    r = geantino_run(data, primaries, np.array(starts), np.array(directions), tmp_path)
-    got = np.asarray(r.scores["track_length"]["ppc"])
-    crossed = 0
-    for k in range(n):
-        o, d = starts[k], directions[k]
-        expected = polycone_path(crystal.to_local(o[None])[0], crystal.rotation.T @ d,
-                                 crystal.shape, length=80.0)  # fmt: skip
-        in_patches = patches_path(o, d, cut, 80.0) + patches_path(o, d, wall, 80.0)
-        crossed += in_patches > 0
-        assert got[k] == pytest.approx(expected + in_patches, abs=1e-9, rel=0), k
-    assert crossed >= n // 2  # most rays cross a patch body
+    assert_ppc_paths(data, cfg, scene, starts, directions, [cut, wall], tmp_path)
 
 
 #: the cut face of P00664B and its lower taper (a cone, r 33 -> 35 mm over z 0 -> 2 mm)
@@ -273,19 +281,7 @@ def test_the_cut_face_and_a_taper_in_geant4(gdml, tmp_path, monkeypatch):
         starts.append(crystal.to_world(o[None])[0])
         d = (aim - o) / np.linalg.norm(aim - o)
         directions.append(crystal.rotation @ d)
-    n = len(starts)
-    primaries = make_source(cfg, scene).primaries(np.random.default_rng(1), 0, n)
-    r = geantino_run(data, primaries, np.array(starts), np.array(directions), tmp_path)
-    got = np.asarray(r.scores["track_length"]["ppc"])
-    crossed = 0
-    for k in range(n):
-        o, d = starts[k], directions[k]
-        expected = polycone_path(crystal.to_local(o[None])[0], crystal.rotation.T @ d,
-                                 crystal.shape, length=80.0)  # fmt: skip
-        in_patches = patches_path(o, d, cut, 80.0) + patches_path(o, d, taper, 80.0)
-        crossed += in_patches > 0
-        assert got[k] == pytest.approx(expected + in_patches, abs=1e-9, rel=0), k
-    assert crossed >= n // 2  # most rays cross a patch body
+    assert_ppc_paths(data, cfg, scene, starts, directions, [cut, taper], tmp_path)
     out = tmp_path / "ppc_rough.gdml"
     assert main(["geometry", "export", str(tmp_path / "ppc.yaml"), "--gdml", str(out)]) == 0
     rays = [(o.tolist(), d.tolist()) for o, d in zip(starts, directions, strict=True)]
