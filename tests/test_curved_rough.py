@@ -497,3 +497,14 @@ def test_geant4_finds_no_overlap_in_a_rough_bore(tmp_path):
     data = cylinder_config(gdml, face="inner")
     (tmp_path / "bore.yaml").write_text(yaml.safe_dump(data))
     assert_no_overlaps(tmp_path / "bore.yaml")
+
+
+def test_the_envelope_box_of_a_wall_with_a_phi_segment_holds_its_widest_point(tmp_path):
+    """The bounding box of a half cylinder's wall layer (phi 0 .. pi) reaches y = r + t at
+    phi = pi/2, which lies between the shell's sampled azimuths (the clearance checks use the
+    box to pass over sisters far from the layer; before, it stopped ~1 um short here)."""
+    gdml = write_cylinder(tmp_path / "half.gdml", dphi=math.pi)
+    scene = build_scene(parse_config(cylinder_config(gdml)))
+    (layer,) = scene.layers
+    widest = np.array([[0.0, RADIUS + layer.thickness - 1e-6, 0.0]])
+    assert layer.envelope_box().contains(scene.target("cyl").to_world(widest), tol=0.0)[0]

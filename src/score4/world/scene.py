@@ -840,8 +840,9 @@ class CurvedRoughLayer(RoughLayer):
                 r = max(r, outer * (1.0 if t0 <= np.pi / 2 <= t1 else max(np.sin([t0, t1]))))
         if face.dphi >= 2 * np.pi - 1e-9:  # the circle's extremes between the grid's points
             lo[:2], hi[:2] = -r, r
-        elif self.pieces is not None:  # the pieces' extremes along x and y between the points
-            for phi0, dphi, *_ in self.pieces:
+        else:  # the extremes along x and y between the points, of each piece or of the face
+            spans = [(face.phi0, face.dphi)] if self.pieces is None else self.pieces
+            for phi0, dphi, *_ in spans:
                 for k in range(4):
                     if np.mod(k * np.pi / 2 - phi0, 2 * np.pi) <= dphi:
                         ex = r * np.array([np.cos(k * np.pi / 2), np.sin(k * np.pi / 2)])
