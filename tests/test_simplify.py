@@ -170,6 +170,12 @@ def test_dense_blocks_of_a_simplified_map_are_cut_down_to_their_quads(monkeypatc
         crossing = (fi[rows].min(1) < im) & (fi[rows].max(1) > im)
         crossing |= (fj[rows].min(1) < jm) & (fj[rows].max(1) > jm)
         assert crossing.any() or min(i1 - i0, j1 - j0) < 2
+    _assert_blocks_hold_their_faces(surface, fi, fj, block, rects)
+
+
+def _assert_blocks_hold_their_faces(surface, fi, fj, block, rects) -> None:
+    """Every top face (pixel columns ``fi``, rows ``fj`` of its corners) lies in its block's
+    rectangle, and the blocks' bodies are watertight and make the map's body (volume 1e-12)."""
     assert (fi.min(1) >= rects[block, 0]).all()
     assert (fi.max(1) <= rects[block, 1]).all()
     assert (fj.min(1) >= rects[block, 2]).all()
@@ -206,15 +212,7 @@ def test_dense_blocks_of_a_large_simplified_map_are_cut_in_two(monkeypatch):
             mid = (j0 + j1) // 2
             crossing = (fj[rows].min(1) < mid) & (fj[rows].max(1) > mid)
         assert crossing.any() or max(i1 - i0, j1 - j0) < 2
-    assert (fi.min(1) >= rects[block, 0]).all()
-    assert (fi.max(1) <= rects[block, 1]).all()
-    assert (fj.min(1) >= rects[block, 2]).all()
-    assert (fj.max(1) <= rects[block, 3]).all()
-    bodies = blk.block_bodies(surface, 1e-3)
-    assert len(bodies) == len(rects)
-    assert all(is_watertight(b) for b in bodies)
-    whole = signed_volume(closed_body(surface.top_mesh, 1e-3))
-    assert sum(signed_volume(b) for b in bodies) == pytest.approx(whole, rel=1e-12)
+    _assert_blocks_hold_their_faces(surface, fi, fj, block, rects)
 
 
 def test_tolerance_input_is_checked():
