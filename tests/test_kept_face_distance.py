@@ -16,10 +16,10 @@ from scipy.spatial import cKDTree
 
 from score4.inputs.config import parse_config
 from score4.shapes import BooleanShape, G4Box, G4Tubs, Transform
-from score4.shapes.base import INSIDE, OUTSIDE, PlaneTriangles, Revolved
+from score4.shapes.base import INSIDE, OUTSIDE, SURFACE, PlaneTriangles, Revolved
 from score4.shapes.boolean import PROBE
 from score4.world.boolean_distance import leaf_face_distance
-from score4.world.kept_face_distance import TOLERANCE, KeptFaceDistance
+from score4.world.kept_face_distance import TOLERANCE, KeptFaceDistance, beyond
 from score4.world.resolve import build_scene
 
 from helpers.boolean_worlds import write_world
@@ -210,3 +210,34 @@ def test_flush_outer_faces_of_a_union_are_both_kept():
     for faces in [("first.+z", "first.-y"), ("second.+z", "second.-y")]:
         check_against_grid(flush, faces, 0.2, False)
     assert np.isinf(KeptFaceDistance(flush, ("second.-x",))(p)).all()
+
+
+def test_the_lazy_probe_test_is_the_boolean_inside_test():
+    """kept_face_distance.beyond (a boolean's second constituent measured only where its first
+    leaves the answer open) says exactly what ``shape.inside`` says, INSIDE and OUTSIDE, for
+    points on and within Geant4's tolerance of the surfaces of nested unions, subtractions and
+    intersections with turned and shifted constituents (the rim build's probe test)."""
+    c, s = math.cos(0.3), math.sin(0.3)
+    turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    inner = BooleanShape(
+        "intersection", G4Box(10.0, 10.0, 10.0), G4Tubs(0.0, 12.0, 8.0), Transform(turn, [1, -2, 3])
+    )
+    holed = BooleanShape("subtraction", inner, G4Tubs(0.0, 4.0, 20.0), Transform(turn.T, [2, 0, 0]))
+    shape = BooleanShape("union", holed, G4Box(3.0, 3.0, 3.0), Transform(np.eye(3), [0, 0, 9.0]))
+    rng = np.random.default_rng(11)
+    parts = []  # points on every constituent's faces, in the union's frame
+    for leaf, at in (
+        (G4Box(10.0, 10.0, 10.0), Transform()),
+        (G4Tubs(0.0, 12.0, 8.0), inner.transform),
+        (G4Tubs(0.0, 4.0, 20.0), holed.transform),
+        (G4Box(3.0, 3.0, 3.0), shape.transform),
+    ):
+        parts.append(at.apply(leaf.sample_surface(rng, 3000).position))
+    p = np.concatenate(parts)
+    p = np.concatenate([p, p + rng.normal(0.0, 1e-9, p.shape), p + rng.normal(0.0, 1e-7, p.shape)])
+    code = shape.inside(p)
+    assert (code == SURFACE).sum() > 1000
+    assert (code == INSIDE).sum() > 1000
+    assert (code == OUTSIDE).sum() > 1000
+    np.testing.assert_array_equal(beyond(shape, p, inside=True), code == INSIDE)
+    np.testing.assert_array_equal(beyond(shape, p, inside=False), code == OUTSIDE)

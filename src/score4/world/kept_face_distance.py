@@ -45,8 +45,10 @@ from scipy.spatial import cKDTree
 
 from ..errors import ConfigError
 from ..shapes import BooleanShape
-from ..shapes.base import INSIDE, OUTSIDE, PlaneTriangles, Revolved
+from ..shapes._plane import TOLERANCE as TOLERANCE_G4
+from ..shapes.base import PlaneTriangles, Revolved, Shape
 from ..shapes.boolean import PROBE, FaceClip
+from ..shapes.placed import PlacedShape
 from ..shapes.transform import Transform
 
 #: mm: largest gap between a rim chord's midpoint and the rim (the rim is exact to this).
@@ -91,8 +93,36 @@ def kept(
     if len(on):
         n = clip.transform.apply_vectors(normal(on)) * (-1.0 if clip.flipped else 1.0)
         p = x[on]
-        out[on] = (shape.inside(p + PROBE * n) == OUTSIDE) & (shape.inside(p - PROBE * n) == INSIDE)
+        hit = beyond(shape, p - PROBE * n, inside=True)
+        rows = np.flatnonzero(hit)  # the hair along the normal: only where the other holds
+        if len(rows):
+            hit[rows] = beyond(shape, p[rows] + PROBE * n[rows], inside=False)
+        out[on] = hit
     return margin, out
+
+
+def beyond(shape: Shape, p: np.ndarray, inside: bool) -> np.ndarray:
+    """``shape.inside(p) == INSIDE`` (``inside``) or ``== OUTSIDE``, row by row, with a
+    boolean's second constituent measured only at the rows its first leaves open: a boolean's
+    signed distance is the min or max of its constituents' (exact), so the answer is the same
+    (the probe test of :func:`kept`, where the rim build spends most of its time)."""
+    while isinstance(shape, PlacedShape):
+        p, shape = shape.transform.inverse_apply(p), shape.shape
+    if not isinstance(shape, BooleanShape):
+        half = 0.5 * TOLERANCE_G4
+        s = shape.signed_distance(p)
+        return np.asarray(s < -half if inside else s > half)
+    op = shape.operation
+    # the boolean's test as its first constituent's test, then the second's (subtracted: the
+    # opposite test) joined by "or" (any) or "and" (all)
+    flip = op == "subtraction"
+    any_ = inside if op == "union" else not inside
+    out = beyond(shape.first, p, inside)
+    rows = np.flatnonzero(~out if any_ else out)
+    if len(rows):
+        second = shape.transform.inverse_apply(p[rows])
+        out[rows] = beyond(shape.second, second, inside != flip)
+    return out
 
 
 class _TriangleMap:
@@ -330,14 +360,16 @@ class _Rim:
         if not mixed.any():
             return
         tri, kept = tri[mixed], kept[mixed]
+        # each mixed piece: two of its edges change side; the chord joins their crossings
+        changes = [kept[:, k] != kept[:, (k + 1) % 3] for k in range(3)]
         cross = []
         for e in range(3):
             u, v = tri[:, e], tri[:, (e + 1) % 3]
             ku = kept[:, e]
             a, b = np.where(ku[:, None], u, v), np.where(ku[:, None], v, u)
-            cross.append(self._crossing(a, b))
-        # each mixed piece: two of its edges change side; the chord joins their crossings
-        changes = [kept[:, k] != kept[:, (k + 1) % 3] for k in range(3)]
+            c = a.copy()  # only the edges that change side cross the rim (rows are independent)
+            c[changes[e]] = self._crossing(a[changes[e]], b[changes[e]])
+            cross.append(c)
         first = np.where(changes[0][:, None], cross[0], cross[1])
         second = np.where(changes[2][:, None], cross[2], cross[1])
         c = np.stack([first, second], axis=1)
@@ -446,14 +478,20 @@ def _split(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 class KeptFaceDistance:
     """Exact distance (to :data:`TOLERANCE`) of points in a boolean's frame to the listed faces
-    of ``shape`` as they are on the boolean (smooth faces; see the module's text)."""
+    of ``shape`` as they are on the boolean (smooth faces; see the module's text); ``keep``
+    (clip, patch map) selects some of the faces' patches (one plane of a face of several)."""
 
-    def __init__(self, shape: BooleanShape, faces: tuple[str, ...]) -> None:
+    def __init__(
+        self,
+        shape: BooleanShape,
+        faces: tuple[str, ...],
+        keep: Callable[[FaceClip, _TriangleMap | _SweptMap], bool] | None = None,
+    ) -> None:
         self.shape = shape
         self.patches: list[tuple[FaceClip, _TriangleMap | _SweptMap]] = []
         for name in faces:
             clip = shape.face_clip(name)
-            self.patches.extend((clip, m) for m in _maps(clip))
+            self.patches.extend((clip, m) for m in _maps(clip) if keep is None or keep(clip, m))
         self._rim: tuple[np.ndarray, np.ndarray] | None = None
 
     def rim(self) -> tuple[np.ndarray, np.ndarray]:
