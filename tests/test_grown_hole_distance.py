@@ -199,3 +199,91 @@ def test_activeness_distance_beside_a_grown_floor(gdml):
         distance.to_surface(world)[beside], expected[beside], rtol=0, atol=1e-6
     )
     assert (brute_rough(layer, world[beside]) < got[beside] - 0.1).sum() > 20  # the old bound
+
+
+def _into_rest(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, centre, r: float) -> np.ndarray:
+    """Nearest points (2D) of the convex set square [lo, hi] ∩ disk(centre, r) to points ``q``
+    (n, 2), by Dykstra's alternating projections (an independent method)."""
+    x, p, s = q.copy(), np.zeros_like(q), np.zeros_like(q)
+    for _ in range(400):
+        y = np.clip(x + p, lo, hi)
+        p = x + p - y
+        v = y + s - centre
+        norm = np.linalg.norm(v, axis=1)
+        z = centre + v * np.minimum(1.0, r / np.maximum(norm, 1e-300))[:, None]
+        s = y + s - z
+        x = z
+    return x
+
+
+def test_activeness_distance_over_a_grown_floor_is_exact(gdml):
+    """The activeness distance to the grown cone floor (its layer a square grid over the disk,
+    cells off the disk flat squares in the copper) at points in the volume from 0.1 mm below
+    the floor's level up through its patches and beside them, rho 0.2 .. 2.6 mm: the nearest of
+    every patch top facet and of the flat rest (the disk r 2 mm - 0.1 t less the patch cells:
+    per flat cell, its square cut by the disk, a convex set, projected onto by Dykstra's
+    method), to 1e-6 mm (the disk rim's chords). The whole-layer bound (flat cells off the disk
+    counted) raised to the level's distance below it (before) is more than 2 um too near at
+    some points."""
+    from score4.shapes.mesh_shape import _tri_distance
+    from score4.world.activeness import target_distances
+
+    data = {
+        "physics": "lite",
+        "world": {"gdml": str(gdml)},
+        "surfaces": {"p": PYRAMIDS},
+        "targets": [
+            {
+                "volume": "cone",
+                "rough": [{"face": "second.-z", "surface": "p", "into": True}],
+                "activeness": [{"fccd": "1 mm", "dlf": 0.5, "faces": ["second.-z"]}],
+            }
+        ],
+        "source": {"particle": "geantino", "energy": "1 MeV", "volume": "cone"},
+        "run": {"events": 1, "seed": 1},
+    }
+    scene = build_scene(parse_config(data))
+    (distance,) = [d for d in target_distances(scene) if d is not None]
+    layer = scene.layer("cone", "second.-z")
+    target = scene.target("cone")
+    t = layer.thickness
+    rng = np.random.default_rng(21)
+    m = 1200
+    rho, phi = rng.uniform(0.2, 2.6, m), rng.uniform(0, 2 * np.pi, m)
+    z = 5.0 - t + rng.uniform(-0.1, t, m)
+    world = target.to_world(np.column_stack([rho * np.cos(phi), rho * np.sin(phi), z]))
+    world = world[distance.to_surface(world) > 0][:400]  # in the copper or a patch
+    got = distance.to_faces(("second.-z",), world)
+    # brute force in the layer's frame (z = 0: the grown floor's level)
+    q = layer.frame.to_local(world)
+    cells = np.asarray(layer.cell_variants)
+    centres = layer.cell_centres()
+    half = np.array(layer.patch_size) / 2
+    tops = np.concatenate(
+        [
+            np.asarray(layer.variants[k].top_mesh.vertices, float)[
+                np.asarray(layer.variants[k].top_mesh.faces)
+            ]
+            + np.array([*centres[j, i], layer.base_thickness])
+            for j, i in zip(*np.nonzero(cells >= 0), strict=True)
+            for k in [cells[j, i]]
+        ]
+    )
+    patch = _tri_distance(q, tops).min(axis=1)
+    axis = layer.frame.to_local(target.to_world(np.array([[0.0, 0.0, 5.0 - t]])))[0]
+    assert abs(axis[2]) < 1e-12
+    r = 2.0 - 0.1 * t
+    rest = np.full(len(q), np.inf)
+    for j, i in zip(*np.nonzero(cells < 0), strict=True):
+        lo, hi = centres[j, i] - half, centres[j, i] + half
+        if np.linalg.norm(np.clip(axis[:2], lo, hi) - axis[:2]) >= r:
+            continue  # the cell is off the disk
+        x = _into_rest(q[:, :2], lo, hi, axis[:2], r)
+        assert np.abs(np.clip(x, lo, hi) - x).max() < 1e-9  # converged onto the square too
+        rest = np.minimum(rest, np.hypot(np.linalg.norm(q[:, :2] - x, axis=1), q[:, 2]))
+    expected = np.minimum(patch, rest)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-6)
+    old = distance.boolean._beside(
+        "second.-z", world, target.to_local(world), distance.rough_distance("second.-z")(world)
+    )
+    assert (expected - old > 2e-3).sum() > 10  # the bound before: flat cells off the disk
