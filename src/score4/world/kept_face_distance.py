@@ -28,11 +28,14 @@ Where the face lies on another constituent's surface (the margin is zero over an
 constituents' faces flush on the outside, a part standing on the face), whether it is kept is
 decided as the boolean's face sampler decides (:meth:`BooleanShape._candidates`): a hair along
 the boolean's outward normal is outside the boolean and a hair against it inside. So two flush
-outer faces of a union are both kept there, a post's foot on a disk is not.
+outer faces of a union are both kept there, a post's foot on a disk is not. Margins prove
+nothing there, so a piece whose vertices all lie on another surface is decided by their probe
+tests only once it is no larger than :data:`FLUSH` (before, at any size: a hole in a flush
+region, or the notch of a flush region that is not convex, was missed).
 
 Not resolved: a rim feature that no vertex of the finest pieces sees (a sliver cut narrower than
 :data:`FINEST`, or than :data:`SAME_SIDE` inside a piece whose vertices all lie on one side and
-whose margins do not prove it).
+whose margins do not prove it, or than :data:`FLUSH` inside a flush region).
 """
 
 from __future__ import annotations
@@ -61,6 +64,11 @@ SAME_SIDE = 4 * FINEST
 #: a margin this close to zero is on another constituent's surface: kept where the boolean's
 #: probe test says so (:func:`kept`).
 ON_SURFACE = 1e-12
+#: mm: a piece whose vertices all lie on another constituent's surface is decided whole by
+#: their probe test only once it is no larger than this (a flush region's holes and notches
+#: narrower than this may be missed; at SAME_SIDE a post's foot of r 7 mm on a disk made its
+#: rim build ~3.5x slower).
+FLUSH = 1.0
 #: bisection steps for a rim crossing (2^-44: 6e-14 of the parameter interval).
 BISECT = 44
 #: straight rim pieces are cut to at most this length (mm) so that the search bound stays tight.
@@ -291,8 +299,10 @@ class _Rim:
             margin, kept = margin.reshape(-1, 3), kept.reshape(-1, 3)
             size = m.size(tri)
             # a piece whose vertices all lie on another constituent's surface (a flush face, a
-            # part's foot) is taken whole or cut away whole by their probe test, at any size
-            flush = (np.abs(margin) <= ON_SURFACE).all(axis=1)
+            # part's foot) proves nothing by its margins: it is taken whole or cut away whole
+            # by their probe test once no larger than FLUSH (a hole in a flush region, or a
+            # flush region that is not convex, is seen by the vertices of those pieces)
+            flush = (np.abs(margin) <= ON_SURFACE).all(axis=1) & (size <= FLUSH)
             whole = kept.all(axis=1) & ((margin.max(axis=1) >= size) | flush)
             gone = ~kept.any(axis=1) & ((-margin.min(axis=1) >= size) | flush)
             for c in self._own_edges(tri[whole], edges[whole], kept[whole]):
