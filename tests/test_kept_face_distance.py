@@ -245,18 +245,18 @@ def test_the_lazy_probe_test_is_the_boolean_inside_test():
 
 def test_a_flush_face_with_a_hole_keeps_the_hole_rim():
     """A box (half width 10 mm) inside a wider box of the same height (their +z faces flush at
-    z = 10 mm), less a tube (r 1 mm) through the top at x = 3 mm: the small box's top is kept
-    where it lies on the wide box's (the probe test) but not over the hole (1 mm deep). Its pieces' corners
-    all lie on the wide box's top; the hole's rim is found all the same (before, a piece whose
-    corners were all flush was taken whole at any size: points under the hole measured to the
-    square's edges, 7 mm). Closed form: the square less the disk, 1e-6 mm (TOLERANCE)."""
+    z = 10 mm), less a tube (r 1 mm, 1 mm deep) through the top at x = 3 mm: the small box's
+    top is kept where it lies on the wide box's (the probe test) but not over the hole. Its
+    pieces' corners all lie on the wide box's top; the hole's rim is found all the same
+    (before, a piece whose corners were all flush was taken whole at any size: points under
+    the hole measured to the square's edges). Closed form: the square less the disk, 1e-6 mm."""
     union = BooleanShape("union", G4Box(10.0, 10.0, 10.0), G4Box(12.0, 12.0, 10.0), Transform())
     holed = BooleanShape(
         "subtraction", union, G4Tubs(0.0, 1.0, 1.0), Transform(np.eye(3), [3.0, 0.0, 10.0])
     )
     rng = np.random.default_rng(12)
     p = np.column_stack([rng.uniform(-11.5, 11.5, (3000, 2)), rng.uniform(7.0, 8.9, 3000)])
-    p[:400, :2] = [3.0, 0.0] + rng.uniform(-1.0, 1.0, (400, 2))  # under the hole
+    p[:400, :2] = np.array([3.0, 0.0]) + rng.uniform(-1.0, 1.0, (400, 2))  # under the hole
     p = p[holed.inside(p) == INSIDE]
     dx, dy = np.clip(p[:, 0], -10, 10) - p[:, 0], np.clip(p[:, 1], -10, 10) - p[:, 1]
     r = np.hypot(p[:, 0] - 3.0, p[:, 1])
