@@ -38,8 +38,9 @@
   meet the moved one in a point, a facet turned over, a facet crossing another). Refused
   elsewhere: the phi faces of any constituent, subtracted or not (moved off the axis, parallel
   to itself, the plane would make the constituent a boolean of its own: no Geant4 solid with
-  phi faces has them off its axis), and the other curved faces of subtracted solids (a
-  G4Sphere's theta cones).
+  phi faces has them off its axis), and the theta cones of a subtracted G4Sphere (a cone moved
+  parallel to itself no longer has its apex at the sphere's centre, as a G4Sphere's theta
+  cones do).
   A part of a union that stands on a cut flat face grows down by the cut, so the slab under it
   stays in the volume (:func:`standing_cuts`: a G4Box, or a G4Tubs, G4Cons or polycone, along
   the face's normal, its foot within the face; a swept part grows as the prism of its foot,
@@ -120,6 +121,15 @@ def check_modes(
                 "along the face, a boolean of its own, which score4 does not build inside the "
                 "cut (the cells along the phi edge would also have to be laid out again); put "
                 "the layer outside the volume (into: false)"
+            )
+        if flipped and isinstance(leaf, G4Sphere) and face in ("theta_start", "theta_end"):
+            raise ConfigError(
+                f"{where}: into: true on {what} (the theta cone {face} of the subtracted "
+                "G4Sphere): growing the sphere by the layer's thickness along that cone would "
+                "add a slab whose face is the cone moved parallel to itself, off the sphere's "
+                "centre, and every G4Sphere's theta cones have their apex at its centre: the "
+                "grown solid would be a boolean of its own, which score4 does not build inside "
+                "the cut; put the layer outside the volume (into: false)"
             )
         if flipped and not (bore or grows):
             raise ConfigError(
