@@ -25,9 +25,9 @@ post an annular polycone leaves) is turned so over its segment's z range
 G4Sphere (a spherical dimple or cavity) is the inner face of a shell around it (or the outer
 face of a ball inside a subtracted shell); a theta cone of a subtracted G4Sphere is the wall of
 a G4Cons over the cone's z range (:func:`theta_wall`), whose envelope ends on the rings' band
-cones, as the sphere faces meet the cone at right angles (:func:`theta_rims`). A sphere face of a G4Sphere or G4Orb leaf takes the
-sphere's cells (a cell's points lie within its half-height plus the sphere radius times its
-half-angle of its centre).
+cones, as the sphere faces meet the cone at right angles (:func:`theta_rims`). A sphere face
+of a G4Sphere or G4Orb leaf takes the sphere's cells (a cell's points lie within its
+half-height plus the sphere radius times its half-angle of its centre).
 
 A flat face partly covered by another part of a union (the layer's envelope would run into
 the solid): only the cells whose whole column (the cell up to the layer's thickness) is proven
