@@ -283,7 +283,7 @@ def _on_boolean(
         layer.face_area = float(on.shape.face_areas[name])
         layer.on_boolean = on
         if isinstance(layer, CurvedRoughLayer):
-            layer.pieces = envelope_pieces(layer, normal=theta)
+            layer.pieces = envelope_pieces(layer, True) if theta else envelope_pieces(layer)
         if _meets_own_solid(layer, on) or (
             isinstance(layer, CurvedRoughLayer)
             and layer.pieces is not None
