@@ -145,6 +145,10 @@ def target_layers(
         clip, leaf_target, leaf_rough, placed = _leaf(target, rough, where)
         try:
             layers = target_layers(surfaces, leaf_target, j, leaf_rough, where)
+            narrow = _grown_wall_extent(clip, layers[0]) if rough.into else None
+            if narrow is not None:  # laid out again on the part of the wall that is kept
+                clip, leaf_target, leaf_rough, placed = _leaf(target, rough, where, narrow)
+                layers = target_layers(surfaces, leaf_target, j, leaf_rough, where)
         except ConfigError as err:
             seen = "" if leaf_rough.face == clip.face else ", turned: the wall of a solid beside it"
             raise ConfigError(
@@ -173,12 +177,45 @@ def _what(target: TargetVolume, rough: RoughFace) -> str:
     return f"face {rough.face_name} of {target.name!r} (a {target.solid})"
 
 
+def _grown_wall_extent(clip: FaceClip, layer: RoughLayer) -> tuple[float, float] | None:
+    """For an ``into`` layer on a cylinder or cone wall of a subtracted polycone
+    (:func:`~score4.world.boolean_modes.polycone_wall`), the z range (the polycone's frame) of
+    the wall once the polycone has grown by the layer's cut where that is shorter than the old
+    wall's (a neighbouring cone's line, kept, meets the moved wall further along it, as a
+    drill-tip cone does the bore above it); else None. The layer is then laid out on that part
+    only: its shell (between the old wall and the grown one) ends on z planes within the
+    grown wall's range, all in the grown hole."""
+    if not clip.flipped or not isinstance(layer, CurvedRoughLayer):
+        return None
+    old = polycone_wall(clip.leaf, clip.face)
+    if old is None:
+        return None
+    moved = clip.leaf.moved({clip.face: -into_depth(layer, True)})
+    if moved is None:
+        return None  # (refused where the boolean is cut: boolean_modes.cut_face)
+    grown = polycone_wall(moved[0], clip.face)
+    if grown is None:
+        return None
+    (was, _, c0), (now, _, c1) = old, grown
+    assert isinstance(was, G4Tubs | G4Cons)
+    assert isinstance(now, G4Tubs | G4Cons)
+    c1 += float(moved[1][2])
+    lo, hi = max(c0 - was.dz, c1 - now.dz), min(c0 + was.dz, c1 + now.dz)
+    if lo <= c0 - was.dz + 1e-12 and hi >= c0 + was.dz - 1e-12:
+        return None  # as long as before, or longer: the old wall's range
+    return lo, hi
+
+
 def _leaf(
-    target: TargetVolume, rough: RoughFace, where: str
+    target: TargetVolume,
+    rough: RoughFace,
+    where: str,
+    narrow: tuple[float, float] | None = None,
 ) -> tuple[FaceClip, TargetVolume, RoughFace, Transform]:
     """Where the layer on a boolean's face goes: the face's clip, the leaf solid as a target
     (a subtracted tube's wall turned: :func:`turned_wall`), the entry on the leaf's face, and the
-    leaf's frame in the boolean's; one-line errors for what boolean layers refuse."""
+    leaf's frame in the boolean's; one-line errors for what boolean layers refuse. ``narrow``:
+    a z range (leaf frame) a turned wall is cut to as well (:func:`_grown_wall_extent`)."""
     shape = target.shape
     assert isinstance(shape, BooleanShape)
     name = rough.face_name
@@ -197,7 +234,10 @@ def _leaf(
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                             for z in (lo[2], hi[2])])  # fmt: skip
         z = clip.transform.inverse_apply(corners)[:, 2]
-        turned = turned_wall(leaf, face, (float(z.min()), float(z.max())))
+        extent = (float(z.min()), float(z.max()))
+        if narrow is not None:
+            extent = (max(extent[0], narrow[0]), min(extent[1], narrow[1]))
+        turned = turned_wall(leaf, face, extent)
         if turned is None and face in THETA:
             raise ConfigError(
                 f"{where}: {what} is the theta cone {face} of a subtracted {leaf.kind} that "

@@ -20,7 +20,9 @@
   grows by the layer's cut and the layer lies in the shell around the old bore, and so on a
   cylinder or cone wall of a subtracted polycone (:func:`polycone_wall`: its (r, z) contour's
   edge moved out along its normal, the neighbours' lines kept, so a ledge next to it gets
-  shorter; refused in one line where a neighbour would vanish); on a face of a
+  shorter; refused in one line where a neighbour would vanish; where a cone neighbour makes
+  the grown wall shorter, the layer is laid out on the part kept,
+  :func:`score4.world.boolean_layers._grown_wall_extent`); on a face of a
   subtracted G4Box or an end face of a subtracted G4Tubs (a blind hole's floor) that solid
   grows by the layer's thickness along the face's own normal (into the kept volume: against the
   boolean's outward normal there), and the layer lies in the slab, on the grown solid's face.
