@@ -75,6 +75,16 @@ def test_the_disk_beside_the_side_slab_is_left_as_it_is():
     assert standing_cuts(beside, "second.+x", 0.02, "into") == {}
 
 
+def rays(n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Rays (the block's frame, the world's) from beyond the post's +x side in through it, half
+    within 0.4 mm of its foot, some on into the disk."""
+    z = np.where(np.arange(n) % 2 == 0, rng.uniform(5.0, 5.4, n), rng.uniform(5.4, 14.6, n))
+    start = np.column_stack([np.full(n, 4.0), rng.uniform(-2.5, 2.5, n), z])
+    aim = np.column_stack([np.full(n, -4.0), rng.uniform(-2.5, 2.5, n), z - rng.uniform(0, 1, n)])
+    d = aim - start
+    return start, d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
 def test_geantino_paths_through_a_box_posts_rough_side(gdml, tmp_path):
     """Geantinos from beyond the post's +x side in through it, half near its foot: Geant4's
     track length in the union equals the path in the disk plus the path in the post cut behind
@@ -92,12 +102,7 @@ def test_geantino_paths_through_a_box_posts_rough_side(gdml, tmp_path):
     assert layer.mask is None or layer.mask.all()
     t = layer.thickness
     n = 12
-    rng = np.random.default_rng(3)
-    z = np.where(np.arange(n) % 2 == 0, rng.uniform(5.0, 5.4, n), rng.uniform(5.4, 14.6, n))
-    start = np.column_stack([np.full(n, 4.0), rng.uniform(-2.5, 2.5, n), z])
-    aim = np.column_stack([np.full(n, -4.0), rng.uniform(-2.5, 2.5, n), z - rng.uniform(0, 1, n)])
-    d = aim - start
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    start, d = rays(n, np.random.default_rng(3))
     primaries = make_source(parse_config(data), scene).primaries(np.random.default_rng(1), 0, n)
     got = geantino_run(data, primaries, start, d, tmp_path)
     length = np.asarray(got.scores["track_length"]["block"])
@@ -140,3 +145,25 @@ def test_a_box_posts_rough_side_passes_the_overlap_check(gdml, tmp_path):
     path = tmp_path / "post.yaml"
     path.write_text(yaml.safe_dump(config(gdml, ["second.+x"])))
     assert_no_overlaps(path)
+
+
+@pytest.mark.deep
+def test_a_box_posts_rough_side_exports_with_the_same_paths(gdml, tmp_path, monkeypatch):
+    """The side's layer in a world written by `score4 geometry export`: Geant4 reads the file
+    back, and the file pyg4ometry reads and writes again, with the same geantino paths (volumes
+    and points, 1e-9 mm) as the world score4 builds (the cut post in the union)."""
+    import yaml
+
+    from score4.cli.main import main
+
+    from helpers.export_paths import assert_same_paths, three_paths
+
+    path = tmp_path / "post.yaml"
+    path.write_text(yaml.safe_dump(config(gdml, ["second.+x"])))
+    out = tmp_path / "post.gdml"
+    assert main(["geometry", "export", str(path), "--gdml", str(out)]) == 0
+    start, d = rays(12, np.random.default_rng(41))
+    out_rays = [(o.tolist(), w.tolist()) for o, w in zip(start, d, strict=True)]
+    ours, back, relay = three_paths(path, out, out_rays, monkeypatch)
+    assert_same_paths(ours, back, relay)
+    assert sum(any("_rough" in (v or "") for v, _ in p) for p in ours) >= len(out_rays) // 2

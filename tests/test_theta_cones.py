@@ -199,3 +199,29 @@ def test_rough_theta_cones_pass_the_overlap_check(gdml, tmp_path):
     path = tmp_path / "theta.yaml"
     path.write_text(yaml.safe_dump(config(gdml)))
     assert_no_overlaps(path)
+
+
+@pytest.mark.deep
+def test_rough_theta_cones_export_with_the_same_paths(gdml, tmp_path, monkeypatch):
+    """The cup's and the belt's theta cone layers in one world written by `score4 geometry
+    export`: Geant4 reads the file back, and the file pyg4ometry reads and writes again, with
+    the same geantino paths (volumes and points, 1e-9 mm) as the world score4 builds (the
+    envelope pieces, G4GenericPolycones between band cones); most rays cross a patch."""
+    import yaml
+
+    from score4.cli.main import main
+
+    from helpers.export_paths import assert_same_paths, three_paths
+
+    path = tmp_path / "theta.yaml"
+    path.write_text(yaml.safe_dump(config(gdml)))
+    out = tmp_path / "theta.gdml"
+    assert main(["geometry", "export", str(path), "--gdml", str(out)]) == 0
+    out_rays = []
+    for k, (name, (y, _t, _faces)) in enumerate(SPHERES.items()):
+        start, d = rays(name, 8, np.random.default_rng(40 + k))
+        start[:, 1] += y
+        out_rays += [(o.tolist(), w.tolist()) for o, w in zip(start, d, strict=True)]
+    ours, back, relay = three_paths(path, out, out_rays, monkeypatch)
+    assert_same_paths(ours, back, relay)
+    assert sum(any("_rough" in (v or "") for v, _ in p) for p in ours) >= len(out_rays) // 2
