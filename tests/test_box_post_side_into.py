@@ -17,6 +17,7 @@ from test_boolean_faces import _box_path, _tube_path
 from score4.errors import ConfigError
 from score4.inputs.config import parse_config
 from score4.shapes import BooleanShape, G4Box, G4Tubs, Transform
+from score4.shapes.base import INSIDE, OUTSIDE
 from score4.world.boolean_modes import standing_cuts
 from score4.world.resolve import build_scene
 
@@ -85,6 +86,23 @@ def rays(n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     return start, d / np.linalg.norm(d, axis=1, keepdims=True)
 
 
+def test_the_post_is_cut_behind_its_side_alone(gdml):
+    """The side's layer keeps every cell; the boolean it lies on is the disk with the post cut
+    behind its +x side by the layer's thickness (the disk as it was)."""
+    scene = build_scene(parse_config(config(gdml, ["second.+x"])))
+    (layer,) = scene.layers_of("block")
+    assert layer.mask is None or layer.mask.all()
+    on = layer.on_boolean
+    inside = on.shape.inside  # points just inside and outside the cut side and the disk
+    t = layer.thickness
+    q = np.array(
+        [[POST - t - 1e-6, 0.0, 10.0], [POST - t + 1e-6, 0.0, 10.0], [POST - 1e-6, 0.0, 5.0 + 1e-6],
+         [POST - 1e-6, 0.0, 5.0 - 1e-6], [DISK_R - 1e-6, 0.0, 0.0]]
+    )  # fmt: skip
+    assert (inside(q) == np.array([INSIDE, OUTSIDE, OUTSIDE, INSIDE, INSIDE])).all()
+
+
+@pytest.mark.deep  # ~5 s
 def test_geantino_paths_through_a_box_posts_rough_side(gdml, tmp_path):
     """Geantinos from beyond the post's +x side in through it, half near its foot: Geant4's
     track length in the union equals the path in the disk plus the path in the post cut behind

@@ -31,15 +31,21 @@ TIP = -5.0  # the drill tip's z (hole frame); the cone reaches r 3 at z -2
 
 @pytest.fixture(scope="module")
 def gdml(tmp_path_factory) -> Path:
-    from helpers.boolean_worlds import write_box_holes
+    """The copper box less the hole, written as GDML text."""
+    from helpers.boolean_worlds import copper_world_text
 
-    def holes(s, reg) -> dict:
-        drill = s.GenericPolycone(
-            "drill_b", 0, 2 * np.pi, [0, R, R, 0], [TIP, TIP + R, 15, 15], reg
-        )
-        return {"drill": (drill, [0, 0, AT], 0.0)}
-
-    return write_box_holes(tmp_path_factory.mktemp("drill") / "drill.gdml", holes, HALF)
+    corners = [(0, TIP), (R, TIP + R), (R, 15), (0, 15)]
+    points = "".join(f'<rzpoint r="{r}" z="{z}"/>' for r, z in corners)
+    solids = f"""
+<box name="world_s" x="100" y="100" z="100" lunit="mm"/>
+<box name="drill_a" x="{2 * HALF}" y="{2 * HALF}" z="{2 * HALF}" lunit="mm"/>
+<genericPolycone name="drill_b" startphi="0" deltaphi="360" aunit="deg" lunit="mm">{points}
+</genericPolycone>
+<subtraction name="drill_s"><first ref="drill_a"/><second ref="drill_b"/>
+  <position name="drill_p" x="0" y="0" z="{AT}" unit="mm"/></subtraction>"""
+    path = tmp_path_factory.mktemp("drill") / "drill.gdml"
+    path.write_text(copper_world_text(solids, {"drill": (0.0, 0.0, 0.0)}))
+    return path
 
 
 def config(gdml: Path, into: bool) -> dict:
@@ -75,27 +81,42 @@ def rays(n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     return start, d / np.linalg.norm(d, axis=1, keepdims=True)
 
 
-@pytest.mark.parametrize(
-    "into", [pytest.param(False, marks=pytest.mark.deep), True], ids=["outside", "into"]
-)
+def _wall_ends(scene) -> tuple[float, float, float]:
+    """The z range (box frame) of the wall's layer's face and the hole's growth."""
+    (layer,) = scene.layers_of("drill")
+    g = into_depth(layer, True) if layer.config.into else 0.0
+    lo = scene.target("drill").to_local(layer.target.to_world(np.zeros((1, 3))))[0, 2]
+    face = layer.ring_layout.face
+    a, b = sorted(z + lo for z in (face.rz1[1], face.rz2[1]))
+    return a, b, g
+
+
+def test_the_wall_starts_where_the_grown_cylinder_meets_the_cone(gdml):
+    """With ``into`` the wall's layer is laid out from where the grown cylinder meets the kept
+    cone line (its cut above the old foot) up to the box's top; without, from the old foot;
+    every ring holds cells."""
+    for into in (False, True):
+        scene = build_scene(parse_config(config(gdml, into)))
+        a, b, g = _wall_ends(scene)
+        assert a == pytest.approx(AT + TIP + R + g, abs=1e-9)  # the (grown) wall's foot
+        assert b == pytest.approx(HALF, abs=1e-9)  # the box's top
+        assert (g > 0.02) == into
+        (layer,) = scene.layers_of("drill")
+        assert (layer.cell_variants >= 0).any(axis=1).all()
+
+
+@pytest.mark.deep  # ~5 s each
+@pytest.mark.parametrize("into", [False, True], ids=["outside", "into"])
 def test_geantino_paths_through_a_drilled_holes_rough_wall(gdml, tmp_path, into):
-    """With ``into`` the wall's layer starts where the grown cylinder meets the cone (its cut
-    above the old end) and no ring lies below; geantinos from the hole's axis out through the
-    wall, a third of them near its lower end: Geant4's track length in the box equals the
-    analytic path in the box less the (grown) hole plus the patch bodies, 1e-9 mm; Geant4's
-    volume to 2e-4."""
+    """Geantinos from the hole's axis out through the wall, a third of them near its lower
+    end: Geant4's track length in the box equals the analytic path in the box less the (grown)
+    hole plus the patch bodies, 1e-9 mm; Geant4's volume to 2e-4."""
     from helpers.geantinos import assert_box_paths
     from helpers.ray_trace import polycone_path
 
     data = config(gdml, into)
     scene = build_scene(parse_config(data))
-    (layer,) = scene.layers_of("drill")
-    g = into_depth(layer, True) if into else 0.0
-    lo = scene.target("drill").to_local(layer.target.to_world(np.zeros((1, 3))))[0, 2]
-    face = layer.ring_layout.face
-    ends = sorted(z + lo for z in (face.rz1[1], face.rz2[1]))
-    assert ends[0] == pytest.approx(AT + TIP + R + g, abs=1e-9)  # the grown wall's foot
-    assert ends[1] == pytest.approx(HALF, abs=1e-9)  # the box's top
+    g = _wall_ends(scene)[2]
     n = 12
     start, d = rays(n, np.random.default_rng(5))
     hole = math.pi * (R + g) ** 2 * (HALF - AT - TIP - R - g) + math.pi / 3 * (R + g) ** 3

@@ -36,18 +36,25 @@ RMIN, RMAX = 2.0, 5.0
 
 @pytest.fixture(scope="module")
 def gdml(tmp_path_factory) -> Path:
-    from helpers.boolean_worlds import write_box_holes
+    """A copper box (20 mm) less each sphere sector (and ``apex``: a sector without an inner
+    radius, theta 0 .. 60 deg), written as GDML text."""
+    from helpers.boolean_worlds import copper_world_text
 
-    def holes(s, reg) -> dict:
-        out = {}
-        for name, (y, (t0, t1), _faces) in SPHERES.items():
-            a, b = math.radians(t0), math.radians(t1 - t0)
-            out[name] = (s.Sphere(f"{name}_b", RMIN, RMAX, 0, 2 * np.pi, a, b, reg), [0, 0, 0], y)
-        # a cone reaching the sphere's centre (rmin 0): refused
-        out["apex"] = (s.Sphere("apex_b", 0, 5, 0, 2 * np.pi, 0, np.pi / 3, reg), [0, 0, 0], 60.0)
-        return out
-
-    return write_box_holes(tmp_path_factory.mktemp("theta") / "theta.gdml", holes, HALF)
+    holes = {name: t for name, (_y, t, _f) in SPHERES.items()}
+    holes["apex"] = (0.0, 60.0)
+    at = {name: (0.0, y, 0.0) for name, (y, _t, _f) in SPHERES.items()}
+    at["apex"] = (0.0, 60.0, 0.0)
+    solids = '<box name="world_s" x="200" y="200" z="100" lunit="mm"/>'
+    for name, (t0, t1) in holes.items():
+        rmin = 0.0 if name == "apex" else RMIN
+        solids += f"""
+<box name="{name}_a" x="{2 * HALF}" y="{2 * HALF}" z="{2 * HALF}" lunit="mm"/>
+<sphere name="{name}_b" rmin="{rmin}" rmax="{RMAX}" startphi="0" deltaphi="360"
+  starttheta="{t0}" deltatheta="{t1 - t0}" aunit="deg" lunit="mm"/>
+<subtraction name="{name}_s"><first ref="{name}_a"/><second ref="{name}_b"/></subtraction>"""
+    path = tmp_path_factory.mktemp("theta") / "theta.gdml"
+    path.write_text(copper_world_text(solids, at))
+    return path
 
 
 def config(gdml: Path, into: bool = False, spheres: dict | None = None) -> dict:
