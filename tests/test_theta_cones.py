@@ -116,6 +116,23 @@ def test_theta_cone_layers_keep_only_rings_in_the_shell(gdml):
             assert piece_v[-1][1] == pytest.approx(float(lay.v[rings[-1]]) + half, abs=1e-12)
 
 
+def test_an_envelope_ending_on_z_planes_runs_into_the_solid(gdml, monkeypatch):
+    """The cup's layer with its envelope as a cone wall's elsewhere (the face's whole shell
+    between z planes where nothing is cut): the planes across the axis leave the sphere's shell
+    into the box at a rim, and the layer is refused in one line."""
+    from score4.errors import ConfigError
+    from score4.world import boolean_layers
+
+    pieces = boolean_layers.envelope_pieces
+    monkeypatch.setattr(
+        boolean_layers, "envelope_pieces", lambda layer, normal=False: pieces(layer)
+    )
+    with pytest.raises(ConfigError) as err:
+        build_scene(parse_config(config(gdml, False, {"cup": SPHERES["cup"]})))
+    assert "runs into the solid itself" in str(err.value)
+    assert "\n" not in str(err.value)
+
+
 def rays(name: str, per: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     """Rays (box frame) from inside the sphere sector through its theta cones: from theta 25
     deg (the cup) or 90 deg (the belt), at r 3.5 mm, to points 0.3 mm beyond a cone at r 2.4 ..

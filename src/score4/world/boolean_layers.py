@@ -190,9 +190,12 @@ def _grown_wall_extent(clip: FaceClip, layer: RoughLayer) -> tuple[float, float]
     old = polycone_wall(clip.leaf, clip.face)
     if old is None:
         return None
-    moved = clip.leaf.moved({clip.face: -into_depth(layer, True)})
+    try:
+        moved = clip.leaf.moved({clip.face: -into_depth(layer, True)})
+    except ConfigError:  # (refused where the boolean is cut, in one line: cut_face)
+        return None
     if moved is None:
-        return None  # (refused where the boolean is cut: boolean_modes.cut_face)
+        return None
     grown = polycone_wall(moved[0], clip.face)
     if grown is None:
         return None
