@@ -32,6 +32,9 @@ SPHERES = {
     "belt": (20.0, (50.0, 130.0), ["second.theta_start", "second.theta_end"]),
 }
 RMIN, RMAX = 2.0, 5.0
+#: a sector of three quarters of a circle reaching out of its box (r 5 .. 14 mm, theta 20 ..
+#: 60 deg): (rmin, rmax, phi range in deg, theta range in deg)
+WIDE = (5.0, 14.0, 270, (20.0, 60.0))
 
 
 @pytest.fixture(scope="module")
@@ -40,16 +43,16 @@ def gdml(tmp_path_factory) -> Path:
     radius, theta 0 .. 60 deg), written as GDML text."""
     from helpers.boolean_worlds import copper_world_text
 
-    holes = {name: t for name, (_y, t, _f) in SPHERES.items()}
-    holes["apex"] = (0.0, 60.0)
+    holes = {name: (RMIN, RMAX, 360, t) for name, (_y, t, _f) in SPHERES.items()}
+    holes["apex"] = (0.0, RMAX, 360, (0.0, 60.0))
+    holes["wide"] = WIDE
     at = {name: (0.0, y, 0.0) for name, (y, _t, _f) in SPHERES.items()}
-    at["apex"] = (0.0, 60.0, 0.0)
+    at["apex"], at["wide"] = (0.0, 60.0, 0.0), (0.0, -60.0, 0.0)
     solids = '<box name="world_s" x="200" y="200" z="100" lunit="mm"/>'
-    for name, (t0, t1) in holes.items():
-        rmin = 0.0 if name == "apex" else RMIN
+    for name, (rmin, rmax, dphi, (t0, t1)) in holes.items():
         solids += f"""
 <box name="{name}_a" x="{2 * HALF}" y="{2 * HALF}" z="{2 * HALF}" lunit="mm"/>
-<sphere name="{name}_b" rmin="{rmin}" rmax="{RMAX}" startphi="0" deltaphi="360"
+<sphere name="{name}_b" rmin="{rmin}" rmax="{rmax}" startphi="0" deltaphi="{dphi}"
   starttheta="{t0}" deltatheta="{t1 - t0}" aunit="deg" lunit="mm"/>
 <subtraction name="{name}_s"><first ref="{name}_a"/><second ref="{name}_b"/></subtraction>"""
     path = tmp_path_factory.mktemp("theta") / "theta.gdml"
@@ -249,3 +252,27 @@ def test_rough_theta_cones_export_with_the_same_paths(gdml, tmp_path, monkeypatc
     ours, back, relay = three_paths(path, out, out_rays, monkeypatch)
     assert_same_paths(ours, back, relay)
     assert sum(any("_rough" in (v or "") for v, _ in p) for p in ours) >= len(out_rays) // 2
+
+
+@pytest.mark.deep
+def test_a_sector_with_a_phi_segment_cut_by_its_box_passes_the_overlap_check(gdml, tmp_path):
+    """Both theta cones of a sector of three quarters of a circle that reaches out through its
+    box's faces: the cones' cells outside the box are left flat, the envelope is in pieces over
+    the kept cells' azimuths and rings (every piece ending on band cones), and Geant4's overlap
+    check finds no overlap."""
+    import yaml
+
+    from helpers.g4_geometry_check import assert_no_overlaps
+
+    wide = {"wide": (-60.0, WIDE[3], ["second.theta_start", "second.theta_end"])}
+    data = config(gdml, False, wide)
+    scene = build_scene(parse_config(data))
+    start, end = (scene.layer("wide", f) for f in wide["wide"][2])
+    assert start.pieces is not None
+    assert end.pieces is not None
+    assert start.pieces[0].dphi == pytest.approx(1.5 * np.pi, abs=1e-12)
+    assert len(end.pieces) > 1  # the box's faces cut the cone at theta 60 deg (r up to 14)
+    assert all(p.normal_ends for p in [*start.pieces, *end.pieces])
+    path = tmp_path / "wide.yaml"
+    path.write_text(yaml.safe_dump(data))
+    assert_no_overlaps(path)
