@@ -40,6 +40,10 @@ SIMPLIFIED_CAP_VOXELS = 8
 CAP_MAX_VOXELS = -1
 #: Facets of the largest cap :data:`CAP_MAX_VOXELS` applies to.
 SMALL_CAP_FACETS = 40
+#: Voxels of the larger caps of an exact height map (more than :data:`SMALL_CAP_FACETS` facets:
+#: maps of more than 256 x 256 pixels, whose automatic blocks are larger than 2 x 2 pixels);
+#: -1: Geant4's own choice.
+LARGE_CAP_VOXELS = -1
 
 
 def fast_tessellated(g4, mesh: TriangleMesh, name: str, max_voxels: int = -1):
@@ -86,8 +90,8 @@ def place_blocks(
     voxels = -1 if surface.quad_cells is None else SIMPLIFIED_CAP_VOXELS
     exact_map = surface.quad_cells is None and surface.spikes is None
     for b, (vertices, faces, floor) in enumerate(block_caps(surface, base_thickness, block_cells)):
-        small = exact_map and len(faces) <= SMALL_CAP_FACETS
-        cap_voxels = CAP_MAX_VOXELS if small else voxels
+        small = len(faces) <= SMALL_CAP_FACETS
+        cap_voxels = (CAP_MAX_VOXELS if small else LARGE_CAP_VOXELS) if exact_map else voxels
         solid = tessellated(g4, vertices, faces, f"{name}_b{b}", cap_voxels)
         lv = g4.G4LogicalVolume(solid, material, f"{name}_b{b}")
         pv = g4.G4PVPlacement(None, where, lv, f"{name}_b{b}", mother_lv, False, b, False)
