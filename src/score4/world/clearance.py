@@ -281,14 +281,16 @@ def check_gdml_clearance(scene: Scene) -> None:
             if inst == own:
                 continue
             body = _instance_body(model, model.instances[inst], None)
-            if _layer_meets(body, layer, box):
-                raise ConfigError(_meets(layer, f"sister {body.label}", _gap(layer, body)))
+            gap = _sister_meets(body, layer, box)
+            if gap is not None:
+                raise ConfigError(_meets(layer, f"sister {body.label}", gap))
         for t in scene.targets:
             if t is layer.target or t.instance is not None or t.mother != mother:
                 continue
             body = _target_body(t)
-            if _layer_meets(body, layer, box):
-                raise ConfigError(_meets(layer, body.label, _gap(layer, body)))
+            gap = _sister_meets(body, layer, box)
+            if gap is not None:
+                raise ConfigError(_meets(layer, body.label, gap))
         for other, other_box in layers[n + 1 :]:
             if other.target.mother != mother:
                 continue
@@ -376,6 +378,153 @@ def _layer_meets(body: _Body, layer: RoughLayer, box: OrientedBox) -> bool:
         return False
     q = body.to_local(layer.envelope_points())  # type: ignore[operator]
     return bool(body.contains(q, touching=False).any())
+
+
+def _world_planes(body: _Body) -> tuple[np.ndarray, np.ndarray]:
+    """Planes ``(m, c)`` on world points ``p`` whose least ``c + m . p`` bounds ``body``'s depth
+    (minus its signed distance) from above: a solid of planes' own (a box, a trapezoid), else
+    the faces of its bounding box (every solid lies in it, so its depth is no more than the
+    box's)."""
+    if isinstance(body.shape, _Hexahedron):
+        normals, offsets = body.shape._planes()  # n . q <= h inside (unit normals)
+    else:
+        normals = np.concatenate([np.eye(3), -np.eye(3)])
+        offsets = np.concatenate([body.hi, -body.lo])
+    a, b = _affine(body.to_local)  # type: ignore[arg-type]
+    return -(normals @ a), offsets - normals @ b
+
+
+def flat_meet(
+    layer: RoughLayer,
+    depth: Depth,
+    resolution: float,
+    what: str,
+    tol: float = BOUNDARY_TOLERANCE,
+    planes: tuple[np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray | None:
+    """A world point of a flat layer's envelope where ``depth`` (how deep world points lie in
+    something else: positive inside, changing by no more than the distance a point moves)
+    exceeds ``tol``, or None when there is none deeper than ``tol + resolution``: the search of
+    :func:`certified_meet` on the cells of the envelope's box (its own frame: three orthogonal
+    sides, so no point of a cell is further from its centre than half its diagonal). A prism
+    or a ring envelope is searched in its box on the least of ``depth`` and the envelope's own
+    (:func:`_depth`). ``planes`` (``(m, c)`` on world points, :func:`_world_planes`): ``depth``
+    is no more than the least of ``c + m . p``, bounded exactly over each cell (at a corner),
+    which drops the cells along a plane the envelope touches (a solid standing on the layer)."""
+    box = layer.envelope_box()
+    shaped = _shaped(layer)
+    half, to_world = box.half, box.transform
+
+    def full(world: np.ndarray) -> np.ndarray:
+        d = depth(world)
+        return np.minimum(d, _depth(layer, world)) if shaped else np.asarray(d)
+
+    if planes is not None:  # in the box's frame: p = R q + centre
+        m_world, c_world = planes
+        m_box = m_world @ to_world.rotation
+        c_box = c_world + m_world @ to_world.translation
+    resolution = max(resolution, 1e-7)
+    side = max(float(half.max()) / 32, float(half[2]) * 2, 1e-7)  # at most 64 cells a side
+    n = np.clip(np.ceil(2 * half / side), 1, 64).astype(int)
+    edges = [np.linspace(-h, h, k + 1) for h, k in zip(half, n, strict=True)]
+    idx = [g.ravel() for g in np.meshgrid(*(np.arange(k) for k in n), indexing="ij")]
+    lo = np.column_stack([e[i] for e, i in zip(edges, idx, strict=True)])
+    hi = np.column_stack([e[i + 1] for e, i in zip(edges, idx, strict=True)])
+    while len(lo):
+        mid = 0.5 * (lo + hi)
+        world = to_world.apply(mid)
+        d = full(world)
+        deep = np.flatnonzero(d > tol)
+        if len(deep):
+            return np.asarray(world[deep[np.argmax(d[deep])]])
+        size = hi - lo
+        reach = 0.5 * np.linalg.norm(size, axis=1)
+        open_ = (d + reach > tol) & (reach > resolution)
+        if planes is not None and open_.any():
+            keep = np.flatnonzero(open_)
+            bound = c_box[None, :] + mid[keep] @ m_box.T + (0.5 * size[keep]) @ np.abs(m_box).T
+            open_[keep[bound.min(axis=1) <= tol]] = False
+        lo, hi, size = lo[open_], hi[open_], size[open_]
+        if len(lo) > MAX_CELLS // 2:
+            raise ConfigError(
+                f"{layer.name}: the clearance check against {what} needs more than "
+                f"{MAX_CELLS} cells (the two touch over a large area); move them apart "
+                "by a micrometre"
+            )
+        rows = np.arange(len(lo))
+        axis = np.argmax(size, axis=1)
+        cut = 0.5 * (lo[rows, axis] + hi[rows, axis])
+        lo2, hi2 = lo.copy(), hi.copy()
+        hi[rows, axis] = cut
+        lo2[rows, axis] = cut
+        lo, hi = np.concatenate([lo, lo2]), np.concatenate([hi, hi2])
+    return None
+
+
+#: The pattern search's moves over a flat face: along its axes and its diagonals (a solid of
+#: planes' tip has square level sets, on whose diagonal no move along an axis gets lower).
+_MOVES = np.array([[1.0, 0], [-1, 0], [0, 1], [0, -1], [1, 1], [1, -1], [-1, 1], [-1, -1]])
+
+
+def _flat_gap(layer: RoughLayer, depth: Depth, point: np.ndarray) -> float:
+    """Height above a flat layer's face, along its normal, where ``depth`` (of what the layer
+    meets) turns above the boundary tolerance: bisected under ``point`` (a point of the envelope
+    inside), then made least about it by a pattern search over the face (steps along its axes
+    and diagonals, halved down to a nanometre), as :func:`_least_gap` on a curved face (mm)."""
+    frame = layer.frame
+    x, y, h_in = (float(c) for c in frame.to_local(point[None, :])[0])
+    h_in = min(max(h_in, 0.0), layer.thickness)
+    tol = BOUNDARY_TOLERANCE
+
+    def gaps(xy: np.ndarray) -> np.ndarray:
+        def inside(h: np.ndarray) -> np.ndarray:
+            return depth(frame.to_world(np.column_stack([xy, h]))) > tol
+
+        lo, hi = np.zeros(len(xy)), np.full(len(xy), h_in)
+        ok = inside(hi)
+        for _ in range(36):
+            mid = 0.5 * (lo + hi)
+            got = inside(mid)
+            hi, lo = np.where(got, mid, hi), np.where(got, lo, mid)
+        return np.where(ok, np.where(inside(np.zeros(len(xy))), 0.0, hi), np.inf)
+
+    best = float(gaps(np.array([[x, y]]))[0])
+    if not np.isfinite(best):
+        return h_in
+    step = 10 * layer.thickness
+    while step > 1e-6 and best > 0:
+        trial = np.array([x, y]) + step * _MOVES
+        g = gaps(trial)
+        k = int(np.argmin(g))
+        if g[k] < best:
+            best, (x, y) = float(g[k]), (float(trial[k, 0]), float(trial[k, 1]))
+        else:
+            step /= 2
+    return best
+
+
+def _sister_meets(body: _Body, layer: RoughLayer, box: OrientedBox) -> float | None:
+    """The free gap (mm) when a flat layer's envelope meets ``body``, else None: by the grid
+    of points (:func:`_layer_meets`, the gap by :func:`_gap`), then, for a solid that is not
+    its bounding box or an envelope that is not a box, by the certified search
+    (:func:`flat_meet`) on the solid's signed distance, bounded by its planes (the gap under
+    the point found, :func:`_flat_gap`)."""
+    if _layer_meets(body, layer, box):
+        return _gap(layer, body)
+    if not body.obb.overlaps(box) or (body.box_like and not _shaped(layer)):
+        return None  # (two boxes: the separating axes are exact)
+
+    def depth(world: np.ndarray) -> np.ndarray:
+        return -body.signed(world)
+
+    found = flat_meet(
+        layer,
+        depth,
+        RESOLUTION_SHARE * layer.thickness,
+        body.label,
+        planes=_world_planes(body),
+    )
+    return None if found is None else _flat_gap(layer, depth, found)
 
 
 def _check_curved(
