@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 
 import numpy as np
@@ -527,6 +527,82 @@ def _sister_meets(body: _Body, layer: RoughLayer, box: OrientedBox) -> float | N
     return None if found is None else _flat_gap(layer, depth, found)
 
 
+def _round_cover(shape: Shape | None, axis: tuple[np.ndarray, np.ndarray]) -> Depth | None:
+    """An upper bound of how deep points (the shape's frame) lie in ``shape`` that is the same
+    at every azimuth about ``axis`` (a point and a direction in that frame), or None: the depth
+    of a round solid about it that holds the shape (the shape itself; a tube, cone, polycone or
+    sphere over part of the circle: the same over the full circle), or for a boolean the least
+    of its parts' (a subtraction: of the first part and of the outside of a round second part;
+    an intersection: of either part). A solid round about the axis of a curved layer that it
+    holds is searched on one half-plane (:func:`certified_meet` with ``coaxial``): when that
+    finds nothing, the solid cannot meet the layer either."""
+    from score4.shapes.boolean import BooleanShape
+    from score4.shapes.placed import PlacedShape
+
+    if shape is None:
+        return None
+    if isinstance(shape, PlacedShape):
+        inner = shape.transform
+        bound = _round_cover(shape.shape, _axis_through(inner, axis))
+        return None if bound is None else (lambda q: bound(inner.inverse_apply(q)))
+    if isinstance(shape, BooleanShape):
+        first = _round_cover(shape.first, axis)
+        moved = shape.transform
+        second_axis = _axis_through(moved, axis)
+        parts: list[Depth] = [] if first is None else [first]
+        if shape.operation == "subtraction":
+            if _round_shape(shape.second) and _same_axis(second_axis, _Z_AXIS):
+                second = shape.second
+                parts.append(lambda q: np.asarray(second.signed_distance(moved.inverse_apply(q))))
+        elif shape.operation == "intersection":
+            other = _round_cover(shape.second, second_axis)
+            if other is not None:
+                parts.append(lambda q: other(moved.inverse_apply(q)))
+        else:
+            return None  # (a union: deeper than either part)
+        if not parts:
+            return None
+        return lambda q: np.asarray(np.minimum.reduce([f(q) for f in parts]))
+    if not _same_axis(axis, _Z_AXIS):
+        return None
+    if _round_shape(shape):
+        return lambda q: -np.asarray(shape.signed_distance(q))
+    if (isinstance(shape, RevolvedShape) and not isinstance(shape, _PolyhedraBase)) or isinstance(
+        shape, G4Sphere
+    ):
+        full = replace(shape, sphi=0.0, dphi=2 * np.pi)  # type: ignore[type-var]
+        return lambda q: -np.asarray(full.signed_distance(q))
+    return None
+
+
+#: A solid's own z axis (a point, a direction) in its frame.
+_Z_AXIS = (np.zeros(3), np.array([0.0, 0.0, 1.0]))
+
+
+def _axis_through(t: object, axis: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """``axis`` in the frame of a part placed by transform ``t`` (its frame to the outer one)."""
+    point = t.inverse_apply(axis[0][None, :])[0]  # type: ignore[attr-defined]
+    return point, np.asarray(axis[1] @ t.rotation, float)  # type: ignore[attr-defined]
+
+
+def _round_clear(layer: CurvedRoughLayer, body: _Body, resolution: float, what: str) -> bool:
+    """True when a round solid about the layer's axis that holds ``body``'s
+    (:func:`_round_cover`) is proven clear of the layer by the half-plane search: then so is
+    the body (no point of it deeper than the boundary tolerance and the resolution)."""
+    axis = _axis(layer.target)
+    if body.shape is None or body.round_about(axis):
+        return False  # (a round solid: searched on the half-plane as it is)
+    a, b = _affine(body.to_local)  # type: ignore[arg-type]
+    bound = _round_cover(body.shape, (a @ axis[0] + b, a @ axis[1]))
+    if bound is None:
+        return False
+
+    def depth(world: np.ndarray) -> np.ndarray:
+        return np.asarray(bound(body.to_local(world)))  # type: ignore[operator]
+
+    return certified_meet(layer, depth, resolution, what, coaxial=True) is None
+
+
 def _check_curved(
     model: GeometryModel, scene: Scene, layer: CurvedRoughLayer, others: list[RoughLayer]
 ) -> None:
@@ -558,8 +634,8 @@ def _check_curved(
         if hit.any():
             k = np.flatnonzero(hit)[np.argmin(height[hit])]
             found: np.ndarray | None = points[k]
-        elif body.obb.overlaps(envelope):  # between the grid's points
-            found = certified_meet(
+        elif body.obb.overlaps(envelope) and not _round_clear(layer, body, resolution, what):
+            found = certified_meet(  # between the grid's points
                 layer,
                 lambda world, body=body: -body.signed(world),  # type: ignore[misc]
                 resolution,
