@@ -5,11 +5,11 @@
 * A GDML world: a rough layer must not meet any other daughter of its volume's mother (the
   volume's sisters, boxes of the configuration, other layers) and must stay inside the mother;
   boxes of the configuration likewise. Against a flat layer, boxes are tested exactly
-  (oriented boxes, separating axes), the other solids score4.shapes describes (booleans: a frame
-  is a box less a box) by a grid of points of the envelope, the rest by their bounding box. A
-  curved layer is tested against everything by a certified search of its shell
-  (:func:`certified_meet`) down to a tenth of the layer. Errors name what the layer meets and
-  the free gap along the face normal.
+  (oriented boxes, separating axes), other solids (their bounding box where score4.shapes does
+  not describe them) by a grid of points of the envelope, then by a certified search of its
+  box (:func:`flat_meet`). A curved layer is tested against everything by a certified search
+  of its shell (:func:`certified_meet`). Both go down to a tenth of the layer. Errors name what
+  the layer meets and the free gap along the face normal.
 """
 
 from __future__ import annotations
@@ -239,9 +239,8 @@ def check_gdml_clearance(scene: Scene) -> None:
 
     A layer on a face (outside the volume) must not meet any other daughter of the volume's
     mother (other GDML volumes, boxes of the configuration, other layers) and must stay inside
-    the mother. For a flat layer, boxes are tested exactly (oriented boxes), the other solids
-    score4.shapes describes by a grid of points of the layer's envelope, other solids by their
-    bounding box; a curved layer by :func:`_check_curved`.
+    the mother. For a flat layer, boxes are tested exactly (oriented boxes), other solids by
+    :func:`_sister_meets`; a curved layer by :func:`_check_curved`.
     """
     model = scene.model
     assert model is not None
