@@ -564,12 +564,12 @@ def _round_cover(shape: Shape | None, axis: tuple[np.ndarray, np.ndarray]) -> De
         return lambda q: np.asarray(np.minimum.reduce([f(q) for f in parts]))
     if not _same_axis(axis, _Z_AXIS):
         return None
-    if _round_shape(shape):
-        return lambda q: -np.asarray(shape.signed_distance(q))
+    full = shape
     if (isinstance(shape, RevolvedShape) and not isinstance(shape, _PolyhedraBase)) or isinstance(
         shape, G4Sphere
     ):
         full = replace(shape, sphi=0.0, dphi=2 * np.pi)  # type: ignore[type-var]
+    if _round_shape(full):
         return lambda q: -np.asarray(full.signed_distance(q))
     return None
 
