@@ -95,13 +95,7 @@ DEEP = pytest.mark.deep  # (each world is read by Geant4 once: ~1.7 s)
 
 @pytest.mark.parametrize(
     "solid",
-    [
-        "cone",
-        "sphere",
-        "trd",
-        pytest.param("ball", marks=DEEP),
-        pytest.param("polycone", marks=DEEP),
-    ],
+    ["cone", "trd"] + [pytest.param(s, marks=DEEP) for s in ("sphere", "ball", "polycone")],
 )
 def test_a_sister_poking_in_between_the_grid_points_is_refused(tmp_path, solid):
     """The sister 2 um into the layer, between the grid's points: the grid alone (the check as

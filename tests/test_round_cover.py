@@ -65,7 +65,7 @@ def config(gdml):
     )
 
 
-@pytest.mark.parametrize("solid", ["segment", "holed"])
+@pytest.mark.parametrize("solid", ["segment", pytest.param("holed", marks=pytest.mark.deep)])
 def test_a_sister_hugging_the_layer(tmp_path, solid):
     """The sister from the layer's top out touches it over an area: with a budget of 20 000
     cells the check passes (the round solid holding it is searched on a half-plane); without
