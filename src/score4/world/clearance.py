@@ -409,35 +409,40 @@ def flat_meet(
     or a ring envelope is searched in its box on the least of ``depth`` and the envelope's own
     (:func:`_depth`). ``planes`` (``(m, c)`` on world points, :func:`_world_planes`): ``depth``
     is no more than the least of ``c + m . p``, bounded exactly over each cell (at a corner),
-    which drops the cells along a plane the envelope touches (a solid standing on the layer)."""
+    which drops the cells along a plane the envelope touches (a solid standing on the layer).
+    The prism of a layer's kept cells is searched in those cells' columns
+    (:func:`_kept_runs`)."""
     box = layer.envelope_box()
     shaped = _shaped(layer)
     half, to_world = box.half, box.transform
-
-    def full(world: np.ndarray) -> np.ndarray:
-        d = depth(world)
-        return np.minimum(d, _depth(layer, world)) if shaped else np.asarray(d)
 
     if planes is not None:  # in the box's frame: p = R q + centre
         m_world, c_world = planes
         m_box = m_world @ to_world.rotation
         c_box = c_world + m_world @ to_world.translation
     resolution = max(resolution, 1e-7)
-    side = max(float(half.max()) / 32, float(half[2]) * 2, 1e-7)  # at most 64 cells a side
-    n = np.clip(np.ceil(2 * half / side), 1, 64).astype(int)
-    edges = [np.linspace(-h, h, k + 1) for h, k in zip(half, n, strict=True)]
-    idx = [g.ravel() for g in np.meshgrid(*(np.arange(k) for k in n), indexing="ij")]
-    lo = np.column_stack([e[i] for e, i in zip(edges, idx, strict=True)])
-    hi = np.column_stack([e[i + 1] for e, i in zip(edges, idx, strict=True)])
+    if layer.cells_envelope:  # the kept cells' columns, a run of them along a row at a time
+        lo, hi = _kept_runs(layer, float(half[2]))
+        shaped = False  # (the cells are the envelope: no point outside it is searched)
+    else:
+        side = max(float(half.max()) / 32, float(half[2]) * 2, 1e-7)  # at most 64 a side
+        n = np.clip(np.ceil(2 * half / side), 1, 64).astype(int)
+        edges = [np.linspace(-h, h, k + 1) for h, k in zip(half, n, strict=True)]
+        idx = [g.ravel() for g in np.meshgrid(*(np.arange(k) for k in n), indexing="ij")]
+        lo = np.column_stack([e[i] for e, i in zip(edges, idx, strict=True)])
+        hi = np.column_stack([e[i + 1] for e, i in zip(edges, idx, strict=True)])
     while len(lo):
         mid = 0.5 * (lo + hi)
         world = to_world.apply(mid)
-        d = full(world)
+        d = np.array(depth(world), dtype=float)
+        size = hi - lo
+        reach = 0.5 * np.linalg.norm(size, axis=1)
+        if shaped:  # (the envelope's own depth only where the other's keeps the cell)
+            near = np.flatnonzero(d + reach > tol)
+            d[near] = np.minimum(d[near], _depth(layer, world[near]))
         deep = np.flatnonzero(d > tol)
         if len(deep):
             return np.asarray(world[deep[np.argmax(d[deep])]])
-        size = hi - lo
-        reach = 0.5 * np.linalg.norm(size, axis=1)
         open_ = (d + reach > tol) & (reach > resolution)
         if planes is not None and open_.any():
             keep = np.flatnonzero(open_)
@@ -458,6 +463,20 @@ def flat_meet(
         lo2[rows, axis] = cut
         lo, hi = np.concatenate([lo, lo2]), np.concatenate([hi, hi2])
     return None
+
+
+def _kept_runs(layer: RoughLayer, half_height: float) -> tuple[np.ndarray, np.ndarray]:
+    """The prism of a layer's kept cells (``cells_envelope``) as boxes ``(lo, hi)`` in its
+    envelope box's frame (the layer's frame, centred on its height): one per run of kept cells
+    along a row of the grid, the layer's thickness high."""
+    x, y = layer.cell_edges()
+    step = np.diff(np.pad(layer.cell_variants >= 0, ((0, 0), (1, 1))).astype(np.int8), axis=1)
+    rows, first = np.nonzero(step == 1)  # (row-major: the ends pair with the starts in order)
+    _, end = np.nonzero(step == -1)
+    h = np.full(len(rows), half_height)
+    lo = np.column_stack([x[first], y[rows], -h])
+    hi = np.column_stack([x[end], y[rows + 1], h])
+    return lo, hi
 
 
 #: The pattern search's moves over a flat face: along its axes and its diagonals (a solid of
