@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_curved_rough import PYRAMIDS, cylinder_config, write_cone, write_cylinder
 
 from score4.inputs.config import parse_config
 from score4.shapes.mesh_shape import _tri_distance
@@ -13,7 +14,6 @@ from score4.world.curved import _n_floor, intersect_tolerance, longest_edge_last
 from score4.world.resolve import build_scene
 
 from helpers.spawn import run_in_spawned_process
-from test_curved_rough import PYRAMIDS, cylinder_config, write_cone, write_cylinder
 
 #: Largest distance (mm) beyond a facet's edge that Geant4's Intersect may accept on a bent
 #: body: 2 kCarTolerance over the smallest altitude of a facet, the walls' 1 um slab (the
