@@ -1035,27 +1035,36 @@ def _column_cells(
 
 def _meets_own_solid(layer: RoughLayer, on: BooleanFace) -> bool:
     """True when points of the layer's envelope lie inside the boolean solid (a face partly
-    covered by another part of a union puts them there)."""
+    covered by another part of a union puts them there): a grid of its points first, then a
+    certified search where the envelope meets another part of a union the face is in
+    (:func:`_in_union_parts`): :func:`~score4.world.clearance.flat_meet` on a flat layer's
+    envelope down to :data:`~score4.world.clearance.RESOLUTION_SHARE` of the layer's
+    thickness, :func:`_pieces_in_solid` on a curved layer's shell (whose caller searches an
+    envelope in pieces so)."""
+    from . import clearance
+
     if isinstance(layer, CurvedRoughLayer):
         points = layer.shell_points()
     else:
         points = layer.envelope_points()
     codes = on.shape.inside(on.transform.inverse_apply(points))
-    return bool((codes == INSIDE).any())
+    if (codes == INSIDE).any():
+        return True
+    if isinstance(layer, CurvedRoughLayer):  # (an envelope in pieces: searched by the caller)
+        return layer.pieces is None and _pieces_in_solid(layer, on.clip, on) is not None
+    depth = _in_union_parts(on.clip, on)
+    if depth is None:
+        return False
+    resolution = clearance.RESOLUTION_SHARE * layer.thickness
+    return clearance.flat_meet(layer, depth, resolution, "the solid's other parts") is not None
 
 
-def _pieces_in_solid(layer: CurvedRoughLayer, clip: FaceClip, on: BooleanFace) -> np.ndarray | None:
-    """A world point of a curved layer's envelope pieces inside the boolean solid and inside
-    another part of a union the face is in, or None: an exact search
-    (:func:`~score4.world.clearance.shell_search`) down to half the layer's thickness, as
-    between two layers (a piece ending on another part's face touches it all round). The
-    search stays where the envelope meets such a part: the face itself lies on the solid's
-    surface, where a search against the whole solid would not end. A piece lies outside the
-    face's own constituent, so it is in the solid only inside such a part; a solid subtracted
-    beside the face (:func:`_clip_operations`) is not searched: where its wall is the face (a
-    groove cut around a rod) the search could not drop the cells along it and gave up."""
-    from .clearance import shell_search
-
+def _in_union_parts(clip: FaceClip, on: BooleanFace) -> Callable[[np.ndarray], np.ndarray] | None:
+    """How deep world points lie in the boolean solid and in another part of a union the face
+    is in (positive inside, changing by no more than the distance a point moves), or None
+    when the face is in no union. A layer's envelope lies outside the face's own constituent,
+    so it is in the solid only inside such a part; a solid subtracted beside the face
+    (:func:`_clip_operations`) is a hole, never material."""
     ops = _clip_operations(on.shape, on.face)
     if len(ops) != len(clip.clips):  # (a face clip of another make: every part from outside)
         ops = ["union"] * len(clip.clips)
@@ -1072,6 +1081,23 @@ def _pieces_in_solid(layer: CurvedRoughLayer, clip: FaceClip, on: BooleanFace) -
         in_cut = np.max([-s.signed_distance(t.inverse_apply(q)) for s, t in cutters], axis=0)
         return np.asarray(np.minimum(-on.shape.signed_distance(q), in_cut))
 
+    return depth
+
+
+def _pieces_in_solid(layer: CurvedRoughLayer, clip: FaceClip, on: BooleanFace) -> np.ndarray | None:
+    """A world point of a curved layer's envelope pieces inside the boolean solid and inside
+    another part of a union the face is in (:func:`_in_union_parts`), or None: an exact search
+    (:func:`~score4.world.clearance.shell_search`) down to half the layer's thickness, as
+    between two layers (a piece ending on another part's face touches it all round). The
+    search stays where the envelope meets such a part: the face itself lies on the solid's
+    surface, where a search against the whole solid would not end. A solid subtracted beside
+    the face is not searched: where its wall is the face (a groove cut around a rod) the
+    search could not drop the cells along it and gave up."""
+    from .clearance import shell_search
+
+    depth = _in_union_parts(clip, on)
+    if depth is None:
+        return None
     return shell_search(layer, depth, layer.thickness / 2, "the solid's other parts")
 
 
