@@ -86,7 +86,9 @@ def rays(n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     return start, d / np.linalg.norm(d, axis=1, keepdims=True)
 
 
-@pytest.mark.parametrize("into", [False, True], ids=["outside", "into"])
+@pytest.mark.parametrize(
+    "into", [pytest.param(False, marks=pytest.mark.deep), True], ids=["outside", "into"]
+)
 def test_geantino_paths_through_a_half_polycone_bore_wall(gdml, tmp_path, into):
     """Geantinos from inside the half bore out through its walls: Geant4's track length in
     the box equals the analytic path in the box less the half bore (its lower cone grown by the
