@@ -209,7 +209,7 @@ def test_steps_and_activeness_on_a_grown_polycone_wall(gdml, tmp_path):
     assert 0 < again.sum() < res.edep["taper"].sum()
 
 
-@pytest.mark.deep  # ~5 s CPU: the union's face areas, a Geant4 run, ~700 steps by brute force
+@pytest.mark.deep  # ~6 s CPU: the union's face areas, a Geant4 run, ~700 steps by brute force
 def test_steps_and_activeness_on_a_post_wall_and_disk_top_cut_together(gdml, tmp_path):
     """Alphas from the pyramids on the disk's top around the post (into on the disk's top and
     on the post's wall, cut together: the post thinner and grown down into the disk's cut),
