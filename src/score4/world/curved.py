@@ -166,6 +166,8 @@ class RingLayout:
     phi_mid: float
 
     row_gap: float = 0.0
+    #: rings narrower than this hold no patch (:meth:`make`), mm
+    least: float = 0.0
 
     @classmethod
     def make(
@@ -174,11 +176,15 @@ class RingLayout:
         patch_size: tuple[float, float],
         reserve: float = 0.0,
         row_gap: float = 0.0,
+        least: float = 0.0,
     ) -> RingLayout:
         """Rings on ``face``; on a cone, the rows keep ``reserve`` (at least the layer's
         thickness) clear of the z planes of the face's ends, so the patches stay between
         them, and ``row_gap`` (mm) apart: neighbouring rings bend their facets with different
-        radii, so their walls (chords of the circle) do not coincide exactly."""
+        radii, so their walls (chords of the circle) do not coincide exactly. ``least``: rings
+        whose smallest radius is below it hold no patch (a cone narrowing to a point: near its
+        tip a bent patch cannot follow the surface; ``make_curved_layer`` in
+        :mod:`score4.world.scene` finds that radius)."""
         px, py = patch_size
         if isinstance(face, SphereFace):
             # its ends are cones through the centre (or poles): the end rows' outer walls are
@@ -198,8 +204,10 @@ class RingLayout:
         if isinstance(face, SphereFace):
             squeezed = inner < (1 - MAX_SQUEEZE) * radius
             count[squeezed] = 0
+        count[inner < least] = 0
         step = px / np.maximum(radius, 1e-300)
-        return cls(face, patch_size, v, radius, count, step, face.phi0 + 0.5 * face.dphi, row_gap)
+        mid = face.phi0 + 0.5 * face.dphi
+        return cls(face, patch_size, v, radius, count, step, mid, row_gap, least)
 
     @property
     def n_cells(self) -> int:
