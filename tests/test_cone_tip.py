@@ -66,14 +66,21 @@ def test_a_cone_narrow_everywhere_is_still_refused(tmp_path):
         build_scene(parse_config(cylinder_config(gdml)))
 
 
-def test_geantino_paths_through_a_drill_tip(tip, tmp_path):
+@pytest.mark.parametrize(
+    "into",
+    [pytest.param(False, id="outside"), pytest.param(True, id="into", marks=pytest.mark.deep)],
+)
+def test_geantino_paths_through_a_drill_tip(tip, tmp_path, into):
     """Horizontal geantinos through the cone's rough part and through its flat tip: Geant4's
     track length in the cone (its patches count) equals the ray trace of the analytic cone plus
-    the bent patch mesh, to 1e-9 mm."""
+    the bent patch mesh, to 1e-9 mm; with ``into`` (deep) the same through the cone cut by the
+    layer's thickness along its normal (its tip moved up the axis)."""
     data = cylinder_config(tip, output={"track_length": True})
+    data["targets"][0]["rough"][0]["into"] = into
     config = parse_config(data)
     scene = build_scene(config)
     (layer,) = scene.layers
+    assert (layer.ring_layout.count == 0).any()
     rng = np.random.default_rng(11)
     n = 24
     primaries = make_source(config, scene).primaries(np.random.default_rng(1), 0, n)
@@ -85,7 +92,9 @@ def test_geantino_paths_through_a_drill_tip(tip, tmp_path):
     direction = aim - start
     direction /= np.linalg.norm(direction, axis=1)[:, None]
     res = geantino_run(data, primaries, start, direction, tmp_path)
-    expected = ray_path(start, direction, layer, R2 / 2, HALF_Z, slope=R2 / (2 * HALF_Z))
+    slope = R2 / (2 * HALF_Z)
+    r0 = R2 / 2 - (layer.into_cut * math.sqrt(1 + slope**2) if into else 0.0)
+    expected = ray_path(start, direction, layer, r0, HALF_Z, slope=slope)
     assert (expected > 0).all()
     np.testing.assert_allclose(res.scores["track_length"]["cyl"], expected, rtol=0, atol=1e-9)
 
