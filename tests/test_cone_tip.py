@@ -58,6 +58,28 @@ def test_rings_near_the_tip_stay_flat(tip):
     assert lay.v[first - 1] < v0 < lay.v[first] - py / 2  # (cells reach beyond the band)
 
 
+@pytest.mark.parametrize(
+    "faces", [pytest.param(["outer"], id="into-wall"), pytest.param(["outer", "+z"], id="joint")]
+)
+def test_cells_of_a_tip_cut_for_into_tile_the_envelope(tip, faces):
+    """With ``into`` on the cone's wall (and on its wide end face, cut together with it) the
+    narrow rings stay flat too, and every cell lies in the envelope's piece, which ends at the
+    held rings' cells (:func:`score4.geometry.check.curved_cells_tile`, exact; the piece is
+    taken again once the layer's top is padded to the old face: before, one ring's 9 cells
+    lay outside it in the joint cut)."""
+    from score4.geometry.check import curved_cells_tile
+
+    data = cylinder_config(tip)
+    data["targets"][0]["rough"] = [{"face": f, "surface": "p", "into": True} for f in faces]
+    wall = build_scene(parse_config(data)).layers[0]
+    assert isinstance(wall, CurvedRoughLayer)
+    assert wall.ring_layout.least > 0
+    assert wall.pieces is not None
+    checked, problems = curved_cells_tile(wall)
+    assert checked == wall.ring_layout.count.sum()
+    assert not problems
+
+
 def test_a_cone_narrow_everywhere_is_still_refused(tmp_path):
     """A cone from a point to 0.1 mm: no ring is wide enough, one line with the radius it
     needs."""
@@ -81,6 +103,7 @@ def test_geantino_paths_through_a_drill_tip(tip, tmp_path, into):
     scene = build_scene(config)
     (layer,) = scene.layers
     assert (layer.ring_layout.count == 0).any()
+    assert layer.pieces is not None
     rng = np.random.default_rng(11)
     n = 24
     primaries = make_source(config, scene).primaries(np.random.default_rng(1), 0, n)

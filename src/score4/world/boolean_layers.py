@@ -164,10 +164,7 @@ def target_layers(
                     make_polygon_layer(target, rough, face, names, variants, size, where, tris, k)
                 )
             return out
-    layer = make_layer(surfaces, target, j, rough, where)
-    if isinstance(layer, CurvedRoughLayer) and layer.ring_layout.least > 0:
-        layer.pieces = envelope_pieces(layer)  # a cone's tip left flat: the envelope ends short
-    return [layer]
+    return [make_layer(surfaces, target, j, rough, where)]
 
 
 def _what(target: TargetVolume, rough: RoughFace) -> str:

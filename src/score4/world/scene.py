@@ -1685,6 +1685,7 @@ def make_curved_layer(
             least = float(np.sort(_inner_radii(lay)[held])[1])
     layout = layer.ring_layout
     check_radius(layout, layer.gap, limit, where, target.name, rough.face_name)
+    _tip_pieces(layer)
     if rough.solid == "frustums" and not layer.frustum_cells:
         raise ConfigError(
             f"{where}: solid frustums on {what}: the cone is too close to a cylinder for cells "
@@ -1692,6 +1693,17 @@ def make_curved_layer(
             "use solid: auto or tessellated"
         )
     return layer
+
+
+def _tip_pieces(layer: CurvedRoughLayer) -> None:
+    """A cone whose narrowest rings stay flat (:attr:`RingLayout.least`): its envelope ends at
+    the held rings' cells, short of the flat tip (where a G4Cons of radius 0 at one end would
+    also have its inner radius moved off 0 by Geant4); again whenever the layer's thickness
+    changes (the cells reach beyond their band by it)."""
+    if layer.ring_layout.least > 0:
+        from .boolean_layers import envelope_pieces  # (it imports this module)
+
+        layer.pieces = envelope_pieces(layer)
 
 
 def _inner_radii(lay: RingLayout) -> np.ndarray:
@@ -1874,6 +1886,7 @@ def _into_revolved(
             layer.config = rough
             layer.cut_shape = trimmed
             layer.into_cut = cut
+            _tip_pieces(layer)
             return layer
         cut = layer.thickness * (1 + 1e-9)
     raise ConfigError(f"{where}: into: the layer on {name} does not settle on a cut")
