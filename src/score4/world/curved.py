@@ -309,6 +309,19 @@ def cone_cell(
     return (*shell, -step / 2, step), band, (z0 + z1) / 2
 
 
+def cone_ring_span(lay: RingLayout, j: int, t: float) -> tuple[float, float]:
+    """The range of generator arc length ``v`` of the face whose z range is that of the cells of
+    ring ``j`` of a cone (:func:`~score4.world.curved.cone_cell` with the layer's thickness
+    ``t``): the envelope cut to it between the end planes holds them exactly (the cell's shell
+    lies between the face and the face moved out by ``t``, as the envelope's)."""
+    face = lay.face
+    assert isinstance(face, RevolvedFace)
+    a, _, zc = cone_cell(lay, j, t)
+    z = lay.ring_z(j) + zc + np.array([-a[4], a[4]])
+    v = (z - float(face._mid[1])) / float(face._tangent[1])
+    return float(v.min()), float(v.max())
+
+
 def sphere_cell(lay: RingLayout, j: int, t: float) -> tuple[float, float, float, float, float]:
     """The cell of a patch on ring ``j`` of a sphere, exactly: the G4Sphere segment over the
     patch's azimuths (centred on phi = 0) between the face and the face moved out (in, on an

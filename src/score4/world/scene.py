@@ -50,6 +50,7 @@ from .curved import (
     RingLayout,
     check_radius,
     cone_cell,
+    cone_ring_span,
     flat_body,
     gap_limit,
     measure_floor,
@@ -1700,10 +1701,17 @@ def _tip_pieces(layer: CurvedRoughLayer) -> None:
     the held rings' cells, short of the flat tip (where a G4Cons of radius 0 at one end would
     also have its inner radius moved off 0 by Geant4); again whenever the layer's thickness
     changes (the cells reach beyond their band by it)."""
-    if layer.ring_layout.least > 0:
-        from .boolean_layers import envelope_pieces  # (it imports this module)
-
-        layer.pieces = envelope_pieces(layer)
+    lay = layer.ring_layout
+    if lay.least <= 0:
+        return
+    face = lay.face
+    assert isinstance(face, RevolvedFace)
+    held = np.flatnonzero(lay.count > 0)
+    span = np.array([cone_ring_span(lay, int(j), layer.thickness) for j in held])
+    (_, _), (fv0, fv1) = face.extent
+    v0 = fv0 if held[0] == 0 else float(span[:, 0].min())
+    v1 = fv1 if held[-1] == len(lay.v) - 1 else float(span[:, 1].max())
+    layer.pieces = [EnvelopePiece(face.phi0, face.dphi, v0, v1, False)]
 
 
 def _inner_radii(lay: RingLayout) -> np.ndarray:
