@@ -43,8 +43,8 @@ their flat rest as one (:class:`score4.source.build.PlanesRemainderSampler`).
 
 Refused, in one line each (:mod:`score4.world.boolean_modes` says why): ``into: true`` on the
 faces of a subtracted solid other than its flat faces (a G4Box, G4Tubs, G4Cons, polycone, G4Trd,
-G4Trap or G4Polyhedra; a face in one plane of an extruded or tessellated solid, where moving it
-leaves a valid solid), the walls of a G4Tubs or G4Cons (bores), the cylinder and cone walls of
+G4Trap or G4Polyhedra; a face of an extruded or tessellated solid, where moving it leaves a
+valid solid), the walls of a G4Tubs or G4Cons (bores), the cylinder and cone walls of
 a polycone and the sphere faces of a G4Orb or G4Sphere, on phi faces, and on two faces that
 share an edge of one constituent with a phi segment or of a part grown down under another
 layer that is not swept straight up from its foot (where they can be, they are cut together:
