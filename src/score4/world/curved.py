@@ -148,6 +148,126 @@ def flat_body(
     return v, np.vstack([keep, floor]), n_top
 
 
+#: Geant4's kCarTolerance (mm), for :func:`intersect_tolerance`.
+KCAR_TOLERANCE = 1e-9
+
+
+def intersect_tolerance(tri: np.ndarray) -> np.ndarray:
+    """For each triangle ``tri`` (n, 3, 3), in the vertex order Geant4 gets: the largest distance
+    (mm) beyond one of its edges at which ``G4TriangularFacet::Intersect`` (Geant4 11) still
+    counts a ray's crossing as a hit, so that ``G4TessellatedSolid::Inside`` can class a point
+    that far outside the solid as inside. Its tests of the barycentric coordinates carry
+    ``kCarTolerance`` times sums of products of the edge vectors (``a = |E1|^2``, ``b = E1.E2``,
+    ``c = |E2|^2`` and the point's ``d``, ``e``, largest at the edge's far corner); over the
+    facet's doubled area and the edge's length these are distances: about ``2 kCar / w`` beyond
+    an edge at the corner opposite the longest edge (``w`` the smaller altitude there), but
+    ``4 kCar L / w^2`` beyond a short edge ``w`` opposite ``P0`` in a facet of length ``L``
+    (kCarTolerance is 1e-9 in mm units; Geant4's tolerances are not scaled as lengths)."""
+    p0, p1, p2 = tri[:, 0], tri[:, 1], tri[:, 2]
+    e1, e2 = p1 - p0, p2 - p0
+    a, c = np.einsum("nc,nc->n", e1, e1), np.einsum("nc,nc->n", e2, e2)
+    b = np.abs(np.einsum("nc,nc->n", e1, e2))
+    two_area = np.linalg.norm(np.cross(e1, e2), axis=1)
+    beyond_e2 = 2 * (b + c) / (two_area * np.sqrt(c))  # the edge P0 P2 (s < 0)
+    beyond_e1 = 2 * (a + b) / (two_area * np.sqrt(a))  # the edge P0 P1 (t < 0)
+    beyond_e3 = (a + c + 2 * b) / (two_area * np.linalg.norm(p2 - p1, axis=1))  # s + t > 1
+    return KCAR_TOLERANCE * np.maximum(np.maximum(beyond_e1, beyond_e2), beyond_e3)
+
+
+def longest_edge_last(v: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``faces`` with each triangle's corners turned (cyclically, so its normal is kept) until
+    the first corner faces the longest edge: Geant4's ``P0`` then lies opposite it, and
+    ``G4TriangularFacet::Intersect`` accepts crossings at most about ``2 kCarTolerance / w``
+    beyond any edge (:func:`intersect_tolerance`), not ``4 kCarTolerance L / w^2``."""
+    tri = v[faces]
+    length = np.stack(
+        [np.linalg.norm(tri[:, (k + 2) % 3] - tri[:, (k + 1) % 3], axis=1) for k in range(3)],
+        axis=1,
+    )
+    first = length.argmax(axis=1)
+    turn = (first[:, None] + np.arange(3)[None, :]) % 3
+    return np.take_along_axis(faces, turn, axis=1)
+
+
+def _floor_grid(
+    v: np.ndarray, ring: np.ndarray, px: float, py: float, base: float
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """The floor of :func:`_floor_strip` cut into the rectangles of a grid through its boundary
+    vertices (two triangles each): columns at the x of the bottom and top edges' vertices, rows
+    at the y of the two short sides' vertices (a spike grid's cells, squares of the spike
+    width). Returns (new interior vertices, triangles facing down), or None when the bottom
+    and top edges (or the two sides) do not hold vertices at the same positions. Bent onto a
+    surface swept around z, every point of a column (one azimuth) lies on the straight line
+    its two end vertices bend to, and each column's two lines on one plane (through the
+    cone's apex, or parallel), so the grid is the strip's surface cut in smaller facets."""
+    p = v[ring, :2]
+    tol = 1e-9 * max(px, py)
+    low, high = np.abs(p[:, 1] + py / 2) <= tol, np.abs(p[:, 1] - py / 2) <= tol
+    left, right = np.abs(p[:, 0] + px / 2) <= tol, np.abs(p[:, 0] - px / 2) <= tol
+    xs_lo, xs_hi = np.sort(p[low, 0]), np.sort(p[high, 0])
+    ys_l, ys_r = np.sort(p[left, 1]), np.sort(p[right, 1])
+    if (
+        len(xs_lo) != len(xs_hi)
+        or len(ys_l) != len(ys_r)
+        or np.abs(xs_lo - xs_hi).max() > tol
+        or np.abs(ys_l - ys_r).max() > tol
+    ):
+        return None
+    xs, ys = xs_lo, ys_l
+    scale = max(px, py)
+
+    def key(x: float, y: float) -> tuple[int, int]:
+        return (round(x / scale * 1e9), round(y / scale * 1e9))
+
+    known = {key(*v[i, :2]): int(i) for i in ring}
+    index = np.empty((len(ys), len(xs)), np.int64)
+    extra: list[tuple[float, float, float]] = []
+    for k, y in enumerate(ys):
+        for i, x in enumerate(xs):
+            at = known.get(key(x, y))
+            if at is None:
+                if k in (0, len(ys) - 1) or i in (0, len(xs) - 1):
+                    return None  # a boundary point that is no boundary vertex
+                at = len(v) + len(extra)
+                extra.append((float(x), float(y), -base))
+            index[k, i] = at
+    a, b = index[:-1, :-1].ravel(), index[:-1, 1:].ravel()
+    d, e = index[1:, 1:].ravel(), index[1:, :-1].ravel()
+    # facing down (-z): (a, d, b) and (a, e, d) with a, b, d, e counter-clockwise from above
+    floor = np.vstack([np.column_stack([a, d, b]), np.column_stack([a, e, d])])
+    return np.array(extra, float).reshape(-1, 3), floor
+
+
+def solid_body(
+    flat: tuple[np.ndarray, np.ndarray, int],
+    surface: Surface,
+    base_thickness: float,
+    cut_floor: bool = True,
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """The body Geant4 gets for a variant's ``flat`` body (:func:`flat_body` with the strip
+    floor): the same surface with the floor cut into the rectangles of :func:`_floor_grid`
+    (where its boundary is such a grid; not with ``cut_floor`` False: a sphere's floor is a
+    grid already, :func:`flat_body`) and every facet but the top's turned by
+    :func:`longest_edge_last`. The strip's long facets (a patch's length by a spike's width)
+    and the fans' slivers at its short sides let ``G4TessellatedSolid::Inside`` class points
+    up to ~1 um outside the body as inside (:func:`intersect_tolerance`); the top keeps its
+    triangles and their order (sources drawn on it are the same)."""
+    v, faces, n_top = flat
+    n_floor = _n_floor(v, faces, base_thickness)
+    keep = faces[: len(faces) - n_floor]
+    ring = np.unique(faces[len(faces) - n_floor :].ravel())
+    ring = ring[np.isin(ring, keep[n_top:].ravel())]  # the floor's boundary (the walls' feet)
+    grid = (
+        _floor_grid(v, ring, surface.size_x, surface.size_y, base_thickness) if cut_floor else None
+    )
+    if grid is not None:
+        extra, floor = grid
+        v = np.vstack([v, extra])
+        faces = np.vstack([keep, floor])
+    rest = longest_edge_last(v, faces[n_top:])
+    return v, np.vstack([faces[:n_top], rest]), n_top
+
+
 @dataclass
 class RingLayout:
     """Rows (rings) of patches on a surface of revolution (see the module docstring).

@@ -54,6 +54,7 @@ from .curved import (
     flat_body,
     gap_limit,
     measure_floor,
+    solid_body,
     top_sagitta,
 )
 from .facets import (
@@ -677,11 +678,23 @@ class CurvedRoughLayer(RoughLayer):
             return np.round(lay.v, 12) + 1e6  # apart from any radius
         return np.round(lay.radius, 12)
 
+    def _solid(self, k: int) -> tuple[np.ndarray, np.ndarray, int]:
+        """Variant ``k``'s flat body as Geant4 gets it (:func:`~score4.world.curved.solid_body`:
+        the floor strip in a grid's rectangles, on a sphere the floor as it is; no facet whose
+        ``Intersect`` tolerance reaches far beyond an edge). Its surface is :meth:`_flat`'s,
+        which the floor's heights (``lift``) and :meth:`contains` are measured on."""
+        key = ("solid", k)
+        if key not in self._cache:
+            sphere = isinstance(self.ring_layout.face, SphereFace)
+            variant = self.variants[k]
+            self._cache[key] = solid_body(self._flat(k), variant, self.base_thickness, not sphere)
+        return self._cache[key]
+
     def bent(self, k: int, j: int) -> BentVariant:
-        """Variant ``k`` bent onto ring ``j`` (cached per ring radius)."""
+        """Variant ``k`` bent onto ring ``j`` (cached per ring radius): the body Geant4 gets."""
         key = ("bent", k, self.ring_solid_key(j))
         if key not in self._cache:
-            v, faces, n_top = self._flat(k)
+            v, faces, n_top = self._solid(k)
             bent = self.ring_layout.bend(v, j, self.base_thickness + self.lift)
             self._cache[key] = BentVariant(bent, faces, n_top)
         return self._cache[key]
