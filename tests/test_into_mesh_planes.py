@@ -76,16 +76,10 @@ def test_a_corner_whose_moved_planes_miss_each_other_is_one_line():
     assert "\n" not in str(err.value)
 
 
-@pytest.mark.deep
-def test_geantino_paths_through_a_grown_faceted_hole(tmp_path):
-    """A box less a blind prism hole of 101 sides from its top (z = 5 .. 10 mm of the box) with
-    ``into`` on the hole's one face ``mesh``: a layer per plane (the floor and the sides), the
-    prism grown by the layers' thickness t on every plane. Geantinos from the hole's axis aimed
-    at its sides and floor: Geant4's track length in the box equals the analytic path in the
-    box less the grown prism (its planes, the slab method) plus the path in the patch bodies,
-    1e-9 mm, and Geant4's volume the analytic one to 2e-4."""
+def faceted_config(folder) -> dict:
+    """The world (written in ``folder``) and configuration of the deep tests: a copper box
+    less the prism hole from its top, ``into`` on the hole's face ``mesh``."""
     from helpers.boolean_worlds import write_box_holes
-    from helpers.geantinos import assert_box_paths
 
     tri = prism()
     verts, index = np.unique(tri.reshape(-1, 3), axis=0, return_inverse=True)
@@ -94,8 +88,8 @@ def test_geantino_paths_through_a_grown_faceted_hole(tmp_path):
         mesh = [verts.tolist(), index.reshape(-1, 3).tolist()]
         return {"faceted": (s.TessellatedSolid("faceted_h", mesh, reg), [0, 0, HALF], 0.0)}
 
-    gdml = write_box_holes(tmp_path / "faceted.gdml", holes, HALF)
-    data = {
+    gdml = write_box_holes(folder / "faceted.gdml", holes, HALF)
+    return {
         "physics": "lite",
         "world": {"gdml": str(gdml)},
         "surfaces": {"p": PYRAMIDS},
@@ -110,6 +104,19 @@ def test_geantino_paths_through_a_grown_faceted_hole(tmp_path):
         "run": {"events": 10, "seed": 3},
         "output": {"track_length": True},
     }
+
+
+@pytest.mark.deep
+def test_geantino_paths_through_a_grown_faceted_hole(tmp_path):
+    """A box less a blind prism hole of 101 sides from its top (z = 5 .. 10 mm of the box) with
+    ``into`` on the hole's one face ``mesh``: a layer per plane (the floor and the sides), the
+    prism grown by the layers' thickness t on every plane. Geantinos from the hole's axis aimed
+    at its sides and floor: Geant4's track length in the box equals the analytic path in the
+    box less the grown prism (its planes, the slab method) plus the path in the patch bodies,
+    1e-9 mm, and Geant4's volume the analytic one to 2e-4."""
+    from helpers.geantinos import assert_box_paths
+
+    data = faceted_config(tmp_path)
     scene = build_scene(parse_config(data))
     layers = scene.layers_of("faceted")
     assert len(layers) == SIDES + 1  # the floor and every side (the top lies above the box)
@@ -159,3 +166,14 @@ def test_geantino_paths_through_a_grown_faceted_hole(tmp_path):
         tmp_path,
     )
     assert crossed >= 8
+
+
+@pytest.mark.deep
+def test_geant4_finds_no_overlap_in_a_grown_faceted_hole(tmp_path):
+    """``score4 geometry check`` on the box less the grown prism with its 102 layers."""
+    import yaml
+
+    from helpers.g4_geometry_check import assert_no_overlaps
+
+    (tmp_path / "faceted.yaml").write_text(yaml.safe_dump(faceted_config(tmp_path)))
+    assert_no_overlaps(tmp_path / "faceted.yaml")
