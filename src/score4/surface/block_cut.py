@@ -31,7 +31,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from .rough import Surface
-from .triangle_mesh import TriangleMesh, boundary_half_edges, closed_body
+from .triangle_mesh import TriangleMesh, boundary_half_edges, closed_body, longest_edge_last
 
 #: Top facets per block that ``block_cells: auto`` aims at. Measured (bench_surfaces.py, alphas,
 #: ratio to the equal-height pyramid multi-union, shared machine): measured map 2 x 2 pixels
@@ -508,6 +508,11 @@ def _terrain_wall(
     tris += [(p, low_b, q) for p, q in itertools.pairwise(stack)]
     if len(tris) != len(chain) or min(turn(*t) for t in tris) <= 0:
         return None
+    if min(_altitude(sz[p], sz[q], sz[r]) for p, q, r in tris) < WALL_MIN_ALTITUDE:
+        # some wall triangle is long and thin: the polygon's fattest triangulation instead
+        fat = _fattest([low_a, low_b, *chain[::-1]], sz)
+        if fat is not None:
+            tris = fat
     # a sliver: its turn is at most MIN_FACET_ALTITUDE x its longest edge, which is at most the
     # wall's diagonal; only such triangles are measured
     height = max(sz[i][1] for i in chain) + thickness
@@ -517,6 +522,86 @@ def _terrain_wall(
         if bent <= bound and _sliver(sz[t[0]], sz[t[1]], sz[t[2]], bent):
             return None
     return tris
+
+
+#: A wall of :func:`_terrain_wall` with a triangle of a lowest altitude below this (mm) is cut
+#: by :func:`_fattest` instead: Geant4 accepts a ray's crossing up to ~2 kCarTolerance / w beyond
+#: a facet's edges even with its corners turned (triangle_mesh.intersect_tolerance), and 8 x
+#: 8-pixel blocks' sweep triangulation gave walls with w down to 2 nm (~1 um too far;
+#: benchmarks/README.md, session 13).
+WALL_MIN_ALTITUDE = 1e-4  # mm
+
+
+def _altitude(p: tuple, q: tuple, r: tuple) -> float:
+    """The lowest altitude of the triangle of 2-d points ``p``, ``q``, ``r``: twice its area over
+    its longest edge."""
+    twice = abs((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0]))
+    return twice / max(math.dist(p, q), math.dist(q, r), math.dist(r, p))
+
+
+def _crosses(a: tuple, b: tuple, c: tuple, d: tuple) -> bool:
+    """True if the segments ``a b`` and ``c d`` (2-d) cross at a point inside both."""
+
+    def side(p: tuple, q: tuple, r: tuple) -> float:
+        return (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
+
+    return side(a, b, c) * side(a, b, d) < 0 and side(c, d, a) * side(c, d, b) < 0
+
+
+def _fattest(
+    polygon: list[int], sz: dict[int, tuple[float, float]]
+) -> list[tuple[int, int, int]] | None:
+    """The triangulation of the simple ``polygon`` (vertex ids, anticlockwise in the points
+    ``sz``) whose thinnest triangle (:func:`_altitude`) is the fattest, by dynamic programming
+    over its sub-polygons; each triangle anticlockwise. None if none is found. Only for the few
+    walls that need it: cubic in the number of vertices, in Python."""
+    m = len(polygon)
+    pts = [sz[i] for i in polygon]
+    edges = [(pts[k], pts[(k + 1) % m]) for k in range(m)]
+
+    def ok(i: int, j: int) -> bool:  # a side of the polygon or a chord crossing none of them
+        if j - i == 1 or (i, j) == (0, m - 1):
+            return True
+        return not any(_crosses(pts[i], pts[j], e0, e1) for e0, e1 in edges)
+
+    def ccw(i: int, j: int, k: int) -> bool:
+        (ps, pz), (qs, qz), (rs, rz) = pts[i], pts[j], pts[k]
+        return (qs - ps) * (rz - pz) - (qz - pz) * (rs - ps) > 0
+
+    def empty(i: int, j: int, k: int) -> bool:  # no other vertex in or on the triangle
+        a, b, c = pts[i], pts[j], pts[k]
+        for n, p in enumerate(pts):
+            if n in (i, j, k):
+                continue
+            if all(
+                (v[0] - u[0]) * (p[1] - u[1]) - (v[1] - u[1]) * (p[0] - u[0]) >= 0
+                for u, v in ((a, b), (b, c), (c, a))
+            ):
+                return False
+        return True
+
+    chord = {(i, j): ok(i, j) for i in range(m) for j in range(i + 1, m)}
+    best: dict[tuple[int, int], tuple[float, list[tuple[int, int, int]]]] = {
+        (i, i + 1): (math.inf, []) for i in range(m - 1)
+    }
+    for span in range(2, m):
+        for i in range(m - span):
+            k = i + span
+            found: tuple[float, list[tuple[int, int, int]]] | None = None
+            for j in range(i + 1, k):
+                if (i, j) not in best or (j, k) not in best:
+                    continue
+                if not (chord[i, j] and chord[j, k] and chord[i, k] and ccw(i, j, k)):
+                    continue
+                if not empty(i, j, k):
+                    continue
+                worst = min(best[i, j][0], best[j, k][0], _altitude(pts[i], pts[j], pts[k]))
+                if found is None or worst > found[0]:
+                    tri = (polygon[i], polygon[j], polygon[k])
+                    found = (worst, best[i, j][1] + best[j, k][1] + [tri])
+            if found is not None:
+                best[i, k] = found
+    return best[0, m - 1][1] if (0, m - 1) in best else None
 
 
 def block_body(top: TriangleMesh, thickness: float) -> TriangleMesh:
@@ -612,7 +697,11 @@ def _few_walls(
             walls += long_wall
     c0, c1, c2, c3 = (low[c] for c in ends)
     walls += [(c1, c0, c3), (c3, c2, c1)]  # the bottom
-    return bottom, walls
+    # each corner turned to face its triangle's longest edge: Geant4 then accepts crossings at
+    # most ~2 kCarTolerance / w beyond a long thin wall triangle's edges, not 4 kCarTolerance L /
+    # w^2 (intersect_tolerance; benchmarks/README.md, session 13: 8 x 8-pixel blocks)
+    turned = longest_edge_last(np.vstack([v, bottom]), np.array(walls, dtype=np.int64))
+    return bottom, [(int(p), int(q), int(r)) for p, q, r in turned.tolist()]
 
 
 def block_caps(
