@@ -539,68 +539,73 @@ def _altitude(p: tuple, q: tuple, r: tuple) -> float:
     return twice / max(math.dist(p, q), math.dist(q, r), math.dist(r, p))
 
 
-def _crosses(a: tuple, b: tuple, c: tuple, d: tuple) -> bool:
-    """True if the segments ``a b`` and ``c d`` (2-d) cross at a point inside both."""
-
-    def side(p: tuple, q: tuple, r: tuple) -> float:
-        return (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
-
-    return side(a, b, c) * side(a, b, d) < 0 and side(c, d, a) * side(c, d, b) < 0
-
-
 def _fattest(
     polygon: list[int], sz: dict[int, tuple[float, float]]
 ) -> list[tuple[int, int, int]] | None:
-    """The triangulation of the simple ``polygon`` (vertex ids, anticlockwise in the points
-    ``sz``) whose thinnest triangle (:func:`_altitude`) is the fattest, by dynamic programming
-    over its sub-polygons; each triangle anticlockwise. None if none is found. Only for the few
-    walls that need it: cubic in the number of vertices, in Python."""
+    """The triangulation of a wall polygon (vertex ids: the two bottom corners, then the top
+    chain back to the first corner; anticlockwise in the points ``sz``, the chain monotone along
+    the side) whose thinnest triangle (:func:`_altitude`) is the fattest, by dynamic programming
+    over its sub-polygons; each triangle anticlockwise. None if none is found. A triangle whose
+    sides are sides of the polygon or chords inside it (crossing no side, touching no other
+    vertex) is a face of a triangulation; the chords are tested in numpy."""
     m = len(polygon)
-    pts = [sz[i] for i in polygon]
-    edges = [(pts[k], pts[(k + 1) % m]) for k in range(m)]
+    pts = np.array([sz[i] for i in polygon])
+    i, j = np.triu_indices(m, 1)
+    p, q = pts[i], pts[j]  # the chords from p to q
+    d = q - p
+    e0, e1 = pts, np.roll(pts, -1, axis=0)  # the sides from e0 to e1
 
-    def ok(i: int, j: int) -> bool:  # a side of the polygon or a chord crossing none of them
-        if j - i == 1 or (i, j) == (0, m - 1):
-            return True
-        return not any(_crosses(pts[i], pts[j], e0, e1) for e0, e1 in edges)
+    def cross(o: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """(u - o) x (v - o), broadcast: exactly 0 where v or u is o."""
+        return (u[..., 0] - o[..., 0]) * (v[..., 1] - o[..., 1]) - (u[..., 1] - o[..., 1]) * (
+            v[..., 0] - o[..., 0]
+        )
 
-    def ccw(i: int, j: int, k: int) -> bool:
-        (ps, pz), (qs, qz), (rs, rz) = pts[i], pts[j], pts[k]
-        return (qs - ps) * (rz - pz) - (qz - pz) * (rs - ps) > 0
-
-    def empty(i: int, j: int, k: int) -> bool:  # no other vertex in or on the triangle
-        a, b, c = pts[i], pts[j], pts[k]
-        for n, p in enumerate(pts):
-            if n in (i, j, k):
-                continue
-            if all(
-                (v[0] - u[0]) * (p[1] - u[1]) - (v[1] - u[1]) * (p[0] - u[0]) >= 0
-                for u, v in ((a, b), (b, c), (c, a))
-            ):
-                return False
-        return True
-
-    chord = {(i, j): ok(i, j) for i in range(m) for j in range(i + 1, m)}
+    # a side meets a chord at a point inside both, or a vertex lies on the open chord
+    side0 = cross(p[:, None], q[:, None], e0[None, :])
+    side1 = cross(p[:, None], q[:, None], e1[None, :])
+    other0 = cross(e0[None, :], e1[None, :], p[:, None])
+    other1 = cross(e0[None, :], e1[None, :], q[:, None])
+    meets = (side0 * side1 < 0) & (other0 * other1 < 0)
+    rel = e0[None, :] - p[:, None]
+    t = np.einsum("pnc,pc->pn", rel, d) / np.einsum("pc,pc->p", d, d)[:, None]
+    on = (side0 == 0) & (t > 0) & (t < 1)
+    mid = p + d / 2  # inside: above the bottom, below the top chain
+    chain = pts[:1:-1]
+    below = mid[:, 1] < np.interp(mid[:, 0], chain[:, 0], chain[:, 1])
+    inside = below & (mid[:, 1] > pts[0, 1]) & (mid[:, 0] > pts[0, 0]) & (mid[:, 0] < pts[1, 0])
+    good = ~(meets.any(axis=1) | on.any(axis=1)) & inside
+    good |= (j - i == 1) | ((i == 0) & (j == m - 1))  # the polygon's sides
+    chord = dict(zip(zip(i.tolist(), j.tolist(), strict=True), good.tolist(), strict=True))
+    # every triple's twice signed area (> 0: anticlockwise) and lowest altitude
+    u = pts[None, :, None] - pts[:, None, None]
+    v = pts[None, None, :] - pts[:, None, None]
+    twice = u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+    edge = np.sqrt(((pts[:, None] - pts[None, :]) ** 2).sum(axis=2))
+    longest = np.maximum(np.maximum(edge[:, :, None], edge[None, :, :]), edge[:, None, :])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fat = np.where(twice > 0, twice / longest, -1.0).tolist()
     best: dict[tuple[int, int], tuple[float, list[tuple[int, int, int]]]] = {
-        (i, i + 1): (math.inf, []) for i in range(m - 1)
+        (k, k + 1): (math.inf, []) for k in range(m - 1)
     }
     for span in range(2, m):
-        for i in range(m - span):
-            k = i + span
+        for lo in range(m - span):
+            hi = lo + span
+            if not chord[lo, hi]:
+                continue
             found: tuple[float, list[tuple[int, int, int]]] | None = None
-            for j in range(i + 1, k):
-                if (i, j) not in best or (j, k) not in best:
+            for mid_k in range(lo + 1, hi):
+                if (lo, mid_k) not in best or (mid_k, hi) not in best:
                     continue
-                if not (chord[i, j] and chord[j, k] and chord[i, k] and ccw(i, j, k)):
+                alt = fat[lo][mid_k][hi]
+                if alt < 0:  # clockwise or flat
                     continue
-                if not empty(i, j, k):
-                    continue
-                worst = min(best[i, j][0], best[j, k][0], _altitude(pts[i], pts[j], pts[k]))
+                worst = min(best[lo, mid_k][0], best[mid_k, hi][0], alt)
                 if found is None or worst > found[0]:
-                    tri = (polygon[i], polygon[j], polygon[k])
-                    found = (worst, best[i, j][1] + best[j, k][1] + [tri])
+                    tri = (polygon[lo], polygon[mid_k], polygon[hi])
+                    found = (worst, best[lo, mid_k][1] + best[mid_k, hi][1] + [tri])
             if found is not None:
-                best[i, k] = found
+                best[lo, hi] = found
     return best[0, m - 1][1] if (0, m - 1) in best else None
 
 
