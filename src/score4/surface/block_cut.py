@@ -482,7 +482,9 @@ def _terrain_wall(
     In (distance along the side, z) the polygon is a terrain over a segment: the top chain is
     monotone along the side and lies above the bottom edge, so the stack triangulation of a
     monotone polygon (sweep along the side; the bottom corner first, the other last) cuts it
-    without folds. Each triangle turns anticlockwise, as :func:`_upright` asks. ``None`` if a
+    without folds; where that gives a triangle thinner than :data:`WALL_MIN_ALTITUDE` (Geant4
+    accepts hits far beyond its edges), the fattest triangulation (:func:`_fattest`) instead.
+    Each triangle turns anticlockwise, as :func:`_upright` asks. ``None`` if a
     triangle would have no area (three points on a line) or be a sliver (:func:`_sliver`): the
     caller keeps closed_body's walls.
     """
