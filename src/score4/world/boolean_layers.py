@@ -45,8 +45,8 @@ their flat rest as one (:class:`score4.source.build.PlanesRemainderSampler`).
 
 Refused, in one line each (:mod:`score4.world.boolean_modes` says why): ``into: true`` on the
 faces of a subtracted solid other than its flat faces (a G4Box, G4Tubs, G4Cons, polycone, G4Trd,
-G4Trap or G4Polyhedra; a face in one plane of an extruded or tessellated solid, where moving it
-leaves a valid solid), the walls of a G4Tubs or G4Cons (bores), the cylinder and cone walls of
+G4Trap or G4Polyhedra; a face of an extruded or tessellated solid, where moving it leaves a
+valid solid), the walls of a G4Tubs or G4Cons (bores), the cylinder and cone walls of
 a polycone and the sphere faces of a G4Orb or G4Sphere (a G4Sphere's theta cones among them),
 on phi faces, and on two faces that
 share an edge of one constituent with a phi segment or of a part grown down under another
@@ -101,7 +101,7 @@ from .boolean_modes import (
     joint_leaves,
     polycone_wall,
 )
-from .curved import RingLayout, cone_cell
+from .curved import cone_ring_span
 from .facets import ccw, cells_inside, face_triangles, plane_face, plane_groups
 from .scene import (
     BooleanFace,
@@ -437,9 +437,10 @@ def envelope_pieces(layer: CurvedRoughLayer, normal: bool = False) -> list[Envel
     ring's cells fill its band (half the rows' gap beyond the patch on each side). On a cone a
     ring's cells reach beyond its band (:func:`~score4.world.curved.cone_cell`: the corners
     moved out along the slanted normal), so each kept ring is bounded along the generator by
-    its cells' own z range (:func:`cone_ring_span`); kept rings whose spans do not meet split
-    the envelope, and a piece ends where its outer rings' cells end; where the rings of such a
-    run keep different azimuths, the pieces end on the rings' band cones (:func:`_wall_pieces`).
+    its cells' own z range (:func:`~score4.world.curved.cone_ring_span`); kept rings whose
+    spans do not meet split the envelope, and a piece ends where its outer rings' cells end;
+    where the rings of such a run keep different azimuths, the pieces end on the rings' band
+    cones (:func:`_wall_pieces`).
 
     On a sphere (:func:`sphere_pieces`) a piece is a G4Sphere segment: neighbouring rings'
     cells have their own azimuth grids (their steps differ), so a piece holds either a run of
@@ -609,19 +610,6 @@ def _same_ranges(a: list[list[float]], b: list[list[float]]) -> bool:
     return len(a) == len(b) and all(
         abs(x[0] - y[0]) <= 1e-12 and abs(x[1] - y[1]) <= 1e-12 for x, y in zip(a, b, strict=True)
     )
-
-
-def cone_ring_span(lay: RingLayout, j: int, t: float) -> tuple[float, float]:
-    """The range of generator arc length ``v`` of the face whose z range is that of the cells of
-    ring ``j`` of a cone (:func:`~score4.world.curved.cone_cell` with the layer's thickness
-    ``t``): the envelope cut to it between the end planes holds them exactly (the cell's shell
-    lies between the face and the face moved out by ``t``, as the envelope's)."""
-    face = lay.face
-    assert isinstance(face, RevolvedFace)
-    a, _, zc = cone_cell(lay, j, t)
-    z = lay.ring_z(j) + zc + np.array([-a[4], a[4]])
-    v = (z - float(face._mid[1])) / float(face._tangent[1])
-    return float(v.min()), float(v.max())
 
 
 def turned_wall(

@@ -34,7 +34,8 @@
   subtracted G4Orb or G4Sphere (a spherical dimple or cavity, laid out as the inner face of a
   shell beside it) the subtracted solid grows by the layer's cut, as a bore does. A flat face
   of a subtracted G4Trap moves its plane (a G4Trap again, rebuilt from its eight corners); a
-  face (one plane) of a subtracted G4ExtrudedSolid or G4TessellatedSolid moves its vertices to
+  face (one plane, or every plane of a face of several) of a subtracted G4ExtrudedSolid or
+  G4TessellatedSolid moves its vertices to
   where their planes meet again (:meth:`score4.shapes.MeshShape.moved`, a G4TessellatedSolid in
   Geant4), refused in one line where that leaves no valid solid (a corner on more planes than
   meet the moved one in a point, a facet turned over, a facet crossing another). Refused
@@ -141,7 +142,8 @@ def check_modes(
                 "faces of a subtracted G4Orb or G4Sphere and the "
                 "flat faces of a subtracted G4Box, G4Tubs, G4Cons, G4Polycone, "
                 "G4GenericPolycone, G4Trd, G4Trap, G4Polyhedra, extruded or tessellated solid "
-                "(a face in one plane) only; put the layer outside the volume (into: false)"
+                "(a face with no facet of zero area) only; put the layer outside the volume "
+                "(into: false)"
             )
         if not flipped and phi:
             raise ConfigError(

@@ -246,6 +246,8 @@ class RingLayout:
     phi_mid: float
 
     row_gap: float = 0.0
+    #: rings narrower than this hold no patch (:meth:`make`), mm
+    least: float = 0.0
 
     @classmethod
     def make(
@@ -254,11 +256,15 @@ class RingLayout:
         patch_size: tuple[float, float],
         reserve: float = 0.0,
         row_gap: float = 0.0,
+        least: float = 0.0,
     ) -> RingLayout:
         """Rings on ``face``; on a cone, the rows keep ``reserve`` (at least the layer's
         thickness) clear of the z planes of the face's ends, so the patches stay between
         them, and ``row_gap`` (mm) apart: neighbouring rings bend their facets with different
-        radii, so their walls (chords of the circle) do not coincide exactly."""
+        radii, so their walls (chords of the circle) do not coincide exactly. ``least``: rings
+        whose smallest radius is below it hold no patch (a cone narrowing to a point: near its
+        tip a bent patch cannot follow the surface; ``make_curved_layer`` in
+        :mod:`score4.world.scene` finds that radius)."""
         px, py = patch_size
         if isinstance(face, SphereFace):
             # its ends are cones through the centre (or poles): the end rows' outer walls are
@@ -278,8 +284,10 @@ class RingLayout:
         if isinstance(face, SphereFace):
             squeezed = inner < (1 - MAX_SQUEEZE) * radius
             count[squeezed] = 0
+        count[inner < least] = 0
         step = px / np.maximum(radius, 1e-300)
-        return cls(face, patch_size, v, radius, count, step, face.phi0 + 0.5 * face.dphi, row_gap)
+        mid = face.phi0 + 0.5 * face.dphi
+        return cls(face, patch_size, v, radius, count, step, mid, row_gap, least)
 
     @property
     def n_cells(self) -> int:
@@ -379,6 +387,19 @@ def cone_cell(
     shell = (*cons((corners[0, 0], corners[1, 0]), (corners[0, 1], corners[1, 1])), dz)
     band = (*cons((corners[0, 0], corners[0, 1]), (corners[1, 0], corners[1, 1])), dz)
     return (*shell, -step / 2, step), band, (z0 + z1) / 2
+
+
+def cone_ring_span(lay: RingLayout, j: int, t: float) -> tuple[float, float]:
+    """The range of generator arc length ``v`` of the face whose z range is that of the cells of
+    ring ``j`` of a cone (:func:`~score4.world.curved.cone_cell` with the layer's thickness
+    ``t``): the envelope cut to it between the end planes holds them exactly (the cell's shell
+    lies between the face and the face moved out by ``t``, as the envelope's)."""
+    face = lay.face
+    assert isinstance(face, RevolvedFace)
+    a, _, zc = cone_cell(lay, j, t)
+    z = lay.ring_z(j) + zc + np.array([-a[4], a[4]])
+    v = (z - float(face._mid[1])) / float(face._tangent[1])
+    return float(v.min()), float(v.max())
 
 
 def sphere_cell(lay: RingLayout, j: int, t: float) -> tuple[float, float, float, float, float]:
