@@ -7,13 +7,13 @@ Two cones with ``solid: tessellated`` cells of spike grids (10 um pyramids): r 2
 0.1 mm patches. For ring 1's body of each, three meshes of one surface:
   strip       the floor as a strip between its long edges, fans at its short sides (before)
   reordered   the same facets, each wall and floor facet's corners turned so Geant4's P0 faces
-              its longest edge (score4.world.curved.longest_edge_last)
+              its longest edge (score4.surface.triangle_mesh.longest_edge_last)
   grid        the body Geant4 gets (score4.world.curved.solid_body: the floor in spike-width
               squares, and turned as above)
 and for each:
   facets      number of triangles
   tol nm      the largest distance beyond a facet's edge that G4TriangularFacet::Intersect
-              still accepts (score4.world.curved.intersect_tolerance)
+              still accepts (score4.surface.triangle_mesh.intersect_tolerance)
   false in    of --points probe points 3-30 nm outside the walls and floor (exactly: the
               winding number of score4.shapes.MeshShape, more than 2 nm outside), those that
               G4TessellatedSolid::Inside calls kInside (the same points for all three meshes)
@@ -110,8 +110,8 @@ def main() -> None:
 
     from score4.geometry.solids import tessellated_solid
     from score4.sim.runtime import import_geant4, resolve_physics
-    from score4.surface.triangle_mesh import TriangleMesh
-    from score4.world.curved import intersect_tolerance, longest_edge_last, solid_body
+    from score4.surface.triangle_mesh import TriangleMesh, intersect_tolerance, longest_edge_last
+    from score4.world.curved import solid_body
 
     g4 = import_geant4(resolve_physics("lite"))
     with open("/proc/loadavg") as fh:

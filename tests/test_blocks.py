@@ -246,18 +246,6 @@ def _data(surface: dict, solid: str, source: dict | None = None, **rough) -> dic
     return config_dict(surfaces={"s": surface}, targets=[target], source=source)
 
 
-# 8 x 8-pixel blocks (the automatic size of a 1024 x 1024 exact map) fail the rule on rays
-# that differ: grazing and horizontal rays get up to 16 um too much path where a wall side of
-# 4+ top edges is block_cut._terrain_wall's long thin triangles (Geant4's facet tolerance;
-# with closed_body's walls they pass, and a simplified map's blocks fail the same way:
-# benchmarks/README.md, session 13). Known, not fixed: a strict xfail, to drop with the fix.
-TERRAIN_WALL_BUG = pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="long thin terrain-wall triangles of 8 x 8-pixel blocks (issue 25)",
-)
-
-
 # The random map's case (~25 s) under deep: test_block_body.py compares blocks of a random map
 # with one tessellated solid in make test.
 @pytest.mark.parametrize(
@@ -265,7 +253,7 @@ TERRAIN_WALL_BUG = pytest.mark.xfail(
     [
         pytest.param(RANDOM, None, marks=pytest.mark.deep),
         (SPREAD, 1),
-        pytest.param(RANDOM, 8, marks=[pytest.mark.deep, TERRAIN_WALL_BUG]),
+        pytest.param(RANDOM, 8, marks=pytest.mark.deep),  # walls of 4+ top edges (_fattest)
     ],
 )
 def test_geantino_paths_through_blocks_match_one_tessellated_solid(tmp_path, surface, cells):

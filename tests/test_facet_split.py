@@ -9,8 +9,13 @@ from test_curved_rough import PYRAMIDS, cylinder_config, write_cone, write_cylin
 
 from score4.inputs.config import parse_config
 from score4.shapes.mesh_shape import _tri_distance
-from score4.surface.triangle_mesh import TriangleMesh, is_watertight
-from score4.world.curved import _n_floor, intersect_tolerance, longest_edge_last
+from score4.surface.triangle_mesh import (
+    TriangleMesh,
+    intersect_tolerance,
+    is_watertight,
+    longest_edge_last,
+)
+from score4.world.curved import _n_floor
 from score4.world.resolve import build_scene
 
 from helpers.spawn import run_in_spawned_process

@@ -62,8 +62,7 @@ def main() -> None:
     from score4.geometry.solids import tessellated_solid
     from score4.shapes.mesh_shape import MeshShape
     from score4.sim.runtime import import_geant4, resolve_physics
-    from score4.surface.triangle_mesh import TriangleMesh
-    from score4.world.curved import intersect_tolerance
+    from score4.surface.triangle_mesh import TriangleMesh, intersect_tolerance
 
     with tempfile.TemporaryDirectory() as tmp:
         cfg = write_cone(Path(tmp))
