@@ -105,7 +105,7 @@ class TargetDistance:
         """Distance (mm) of world points to the union of ``faces`` (0 where :meth:`_outside`)."""
         world = np.asarray(world, float).reshape(-1, 3)
         if self.boolean is not None:
-            return self.boolean.to_faces(faces, world, self.rough_distance)
+            return self.boolean.to_faces(faces, world)
         local = self.target.to_local(world)
         flat = tuple(f for f in faces if f not in self.rough)
         d = face_distance(self.shape, flat, local) if flat else np.full(len(world), np.inf)

@@ -23,12 +23,12 @@ surface (everywhere inside a box less a tube along an axis, or a cylinder with a
 The distance to some faces of a boolean (activeness ``faces``) is the larger of the distance to
 the whole surface and the distance to the listed faces: a smooth face as it is on the boolean
 (the part the other constituents keep, :class:`score4.world.kept_face_distance.KeptFaceDistance`:
-exact to its ``TOLERANCE``), a rough face laid as flat layers by its patch tops and its flat
-rest on the boolean's face (:class:`score4.world.rough_face_distance.FlatRoughFaceDistance`:
-exact to the same ``TOLERANCE``), a curved rough face by its whole layer's rough surface, raised
-below the layer's level to the distance to the face as it is on the boolean there
-(:meth:`BooleanDistance._beside`: a lower bound, exact beside the face's column, off by at most
-the patches' height over it where the layer's flat cells reach off the boolean's surface).
+exact to its ``TOLERANCE``), a rough face (flat or curved layers) by its patch tops and its
+flat rest on the boolean's face (:class:`score4.world.rough_face_distance.RoughFaceDistance`:
+exact to the same ``TOLERANCE``). Before, the whole layer's rough surface was used (its cells
+without a patch off the boolean's surface included), raised below a flat layer's level to the
+distance to the face as it is on the boolean there (:meth:`BooleanDistance._beside`, kept for
+benchmarks/bench_rough_face_bound.py: a lower bound).
 
 With ``into`` a rough face's layer lies on the cut face, so its rough surface is measured there;
 the leaves and the other faces stay the uncut solid's, as on a plain solid with ``into``
@@ -49,7 +49,7 @@ from ..shapes import BooleanShape, Shape
 from ..shapes.placed import PlacedShape
 from .face_distance import face_distance
 from .kept_face_distance import KeptFaceDistance
-from .rough_face_distance import FlatRoughFaceDistance
+from .rough_face_distance import RoughFaceDistance
 
 if TYPE_CHECKING:
     from .scene import RoughLayer, TargetVolume
@@ -168,7 +168,7 @@ class BooleanDistance:
         self._kept: dict[tuple[str, ...], KeptFaceDistance] = {}
         self._layers = layers
         self._level: dict[str, KeptFaceDistance] = {}
-        self._flat: dict[str, FlatRoughFaceDistance] = {}
+        self._rest: dict[str, RoughFaceDistance] = {}
         self.leaves: dict[str, RoughLeaf] = {}
         for face, on_face in layers.items():
             path, leaf_face = leaf_path(shape, face)
@@ -192,12 +192,10 @@ class BooleanDistance:
         """Distance (mm) of world points to the whole surface (0 outside)."""
         return np.maximum(-self.signed(world), 0.0)
 
-    def to_faces(
-        self, faces: tuple[str, ...], world: np.ndarray, rough: Callable[[str], Measure]
-    ) -> np.ndarray:
+    def to_faces(self, faces: tuple[str, ...], world: np.ndarray) -> np.ndarray:
         """Distance (mm) of world points to the listed faces (0 outside): the larger of the
         distance to the whole surface and that to the listed faces (smooth ones as they are on
-        the boolean, rough ones by their rough surface)."""
+        the boolean, rough ones by their patch tops and flat rest, :meth:`rough_face`)."""
         world = np.asarray(world, float).reshape(-1, 3)
         whole = self.to_surface(world)
         if set(faces) >= set(self.shape.faces):
@@ -207,22 +205,16 @@ class BooleanDistance:
         d = self.kept_faces(smooth)(local) if smooth else np.full(len(world), np.inf)
         for f in faces:
             if f in self._rough_faces:
-                d = np.minimum(d, self.rough_face(f, world, local, rough))
+                d = np.minimum(d, self.rough_face(f, world))
         return np.where(whole > 0, np.maximum(whole, d), 0.0)
 
-    def rough_face(
-        self, face: str, world: np.ndarray, local: np.ndarray, rough: Callable[[str], Measure]
-    ) -> np.ndarray:
-        """Distance of world points (``local``: the target's frame) to the rough ``face`` as it
-        is on the boolean: exact for flat layers (one, or one per plane: patch tops and the flat
-        rest on the face, :class:`FlatRoughFaceDistance`); for a curved layer the whole layer's
-        rough surface raised as :meth:`_beside` says (a lower bound)."""
-        layers = self._layers[face]
-        if not any(layer.curved for layer in layers):
-            if face not in self._flat:
-                self._flat[face] = FlatRoughFaceDistance(layers)
-            return self._flat[face](world)
-        return self._beside(face, world, local, rough(face)(world))
+    def rough_face(self, face: str, world: np.ndarray) -> np.ndarray:
+        """Distance of world points to the rough ``face`` as it is on the boolean: the patch
+        tops and the flat rest on the face of each of its layers, flat or curved
+        (:class:`RoughFaceDistance`: exact to the rim's tolerance, see its module)."""
+        if face not in self._rest:
+            self._rest[face] = RoughFaceDistance(self._layers[face])
+        return self._rest[face](world)
 
     def _beside(self, face: str, world: np.ndarray, local: np.ndarray, d: np.ndarray) -> np.ndarray:
         """The distance ``d`` to the rough ``face`` (its whole layer's rough surface, the flat

@@ -374,10 +374,12 @@ class CurvedRoughSurfaceDistance:
     centroids' facets give an upper bound, then every facet whose centroid lies within it plus
     the facet's radius is measured exactly. Points more than :attr:`exact_depth` under the
     lowest level of the tops take the smooth face's distance plus that level (a lower bound,
-    off by less than :meth:`far_error`)."""
+    off by less than :meth:`far_error`). With ``flat`` False: to the patch tops alone (for a
+    layer on a boolean's face, :mod:`score4.world.rough_face_distance`)."""
 
-    def __init__(self, layer: CurvedRoughLayer) -> None:
+    def __init__(self, layer: CurvedRoughLayer, flat: bool = True) -> None:
         self.layer = layer
+        self.flat = flat
         lay = layer.ring_layout
         self.lay = lay
         self.cells = np.asarray(layer.cell_variants)  # (rings, columns), -1: flat
@@ -516,7 +518,7 @@ class CurvedRoughSurfaceDistance:
     def _measure(self, q, rows, j, i, best, ball: bool) -> None:
         k = self.cells[j, i]
         flat = k < 0
-        if flat.any():  # an empty cell: the smooth face's piece there
+        if flat.any() and self.flat:  # an empty cell: the smooth face's piece there
             lay, face = self.lay, self.lay.face
             assert isinstance(face, RevolvedFace)
             for a, b in {(int(a), int(b)) for a, b in zip(j[flat], i[flat], strict=True)}:
