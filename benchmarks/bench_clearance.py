@@ -2,7 +2,7 @@
 po210_whole_rough.yaml: every face, 10 um pyramids; its layers against each other and the world).
 
     .venv/bin/python benchmarks/bench_clearance.py [--rounds 5] [--baseline OLD/src]
-        [--share 0.5,0.1] [--no-axis]
+        [--share 0.5,0.1] [--no-axis] [--case bege|module]
 
 The scene is built once per child process without its check (examples/bege/write_bege.py
 --metadata writes the GDML), then ``check_clearance`` runs ``--rounds`` times; the figure is the
@@ -11,6 +11,9 @@ certified search as shares of the thinner layer (``RESOLUTION_SHARE``; 0.1 is th
 since session 11, 0.5 before). ``--baseline``: the same with another source tree first on the
 path (``git archive OLD src``), interleaved with this tree's rounds. ``--no-axis``: this tree's
 cases also with every pair searched over azimuth (no half-plane search of coaxial round pairs).
+``--case module``: the detector module instead (examples/detector_module/po210_1um.yaml: a flat
+layer on the crystal's +x face against its sisters, a frame that is a box less a box, eight
+clamps and a housing, searched by the flat layer's certified search since session 13).
 """
 
 from __future__ import annotations
@@ -31,18 +34,26 @@ import yaml
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def child(share: float | None, rounds: int, no_axis: bool = False) -> None:
+def child(share: float | None, rounds: int, no_axis: bool = False, case: str = "bege") -> None:
     """Build the scene without its check, then time the check (prints JSON)."""
     import score4.world.clearance as clearance
     from score4.inputs.config import parse_config
     from score4.world import resolve
 
     work = Path(tempfile.mkdtemp())
-    gdml = work / "bege.gdml"
-    runpy.run_path(str(ROOT / "examples" / "bege" / "write_bege.py"), run_name="write")["main"](
-        str(gdml), metadata=True
-    )
-    data = yaml.safe_load((ROOT / "examples" / "rough_hpge" / "po210_whole_rough.yaml").read_text())
+    if case == "module":
+        gdml = work / "module.gdml"
+        runpy.run_path(str(ROOT / "examples" / "detector_module" / "write_module.py"))["module"](
+            gdml
+        )
+        config = ROOT / "examples" / "detector_module" / "po210_1um.yaml"
+    else:
+        gdml = work / "bege.gdml"
+        runpy.run_path(str(ROOT / "examples" / "bege" / "write_bege.py"), run_name="write")["main"](
+            str(gdml), metadata=True
+        )
+        config = ROOT / "examples" / "rough_hpge" / "po210_whole_rough.yaml"
+    data = yaml.safe_load(config.read_text())
     data["world"]["gdml"] = str(gdml)
     resolve.__dict__["check_clearance"] = lambda scene: None  # built without its check
     scene = resolve.build_scene(parse_config(data))
@@ -58,9 +69,9 @@ def child(share: float | None, rounds: int, no_axis: bool = False) -> None:
     print(json.dumps({"times": times, "layers": len(scene.layers)}))
 
 
-def run(src: Path, share: float | None, rounds: int, no_axis: bool = False) -> dict:
+def run(src: Path, share: float | None, rounds: int, no_axis: bool = False, case: str = "") -> dict:
     env = dict(os.environ, PYTHONPATH=str(src))
-    args = [sys.executable, __file__, "--child", "--rounds", str(rounds)]
+    args = [sys.executable, __file__, "--child", "--rounds", str(rounds), "--case", case]
     if no_axis:
         args.append("--no-axis")
     if share is not None:
@@ -75,6 +86,7 @@ def main() -> None:
     ap.add_argument("--share", default="")
     ap.add_argument("--baseline", type=Path)
     ap.add_argument("--child", action="store_true")
+    ap.add_argument("--case", default="bege", choices=["bege", "module"])
     ap.add_argument(
         "--no-axis",
         action="store_true",
@@ -82,7 +94,7 @@ def main() -> None:
     )
     args = ap.parse_args()
     if args.child:
-        child(float(args.share) if args.share else None, args.rounds, args.no_axis)
+        child(float(args.share) if args.share else None, args.rounds, args.no_axis, args.case)
         return
     cases: list[tuple[str, Path, float | None, bool]] = []
     if args.baseline is not None:
@@ -104,10 +116,11 @@ def main() -> None:
     from stamp import stamp  # this folder
 
     print(stamp())
+    print(f"case: {args.case}")
     times: dict[str, list[float]] = {name: [] for name, _, _, _ in cases}
     for _ in range(args.rounds):  # interleaved: one check per case and child
         for name, src, share, no_axis in cases:
-            times[name] += run(src, share, 1, no_axis)["times"]
+            times[name] += run(src, share, 1, no_axis, args.case)["times"]
     for name, t in times.items():
         print(
             f"{name}: clearance check {statistics.median(t):.3f} s CPU (median of {len(t)}, "

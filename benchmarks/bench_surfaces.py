@@ -25,7 +25,8 @@ multi-union, score4's fastest rough face) from the same invocation; ``mean MeV``
 deposit as a check.
 
 ``--stages N [--map gauss] [--tolerance auto]`` builds one such patch stage by stage and prints
-the CPU, resident memory and peak after each stage.
+the CPU, resident memory and peak after each stage; ``--set MODULE.NAME=VALUE`` sets a module
+constant first (as in bench_instructions.py).
 
 Second table (``--sizes``): build cost of one patch of a Gaussian random map of n x n pixels
 (0.5 um pitch) as ``solid: blocks`` in a fresh process: numpy (cutting the mesh into closed
@@ -44,6 +45,7 @@ date and load) is in benchmarks/README.md, section bench_surfaces.py.
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import resource
 import subprocess
@@ -357,17 +359,24 @@ def stages_case(n: int, tolerance: str = "auto", kind: str = "gauss") -> None:
     """Child process: build_case's patch stage by stage, printing each stage's CPU seconds, the
     resident memory after it and the peak so far (MB): importing Geant4, the height map, its
     (simplified) mesh, the cut into blocks, and ``place_blocks`` (cutting each block again,
-    handing it to Geant4, placing it). Where the build's memory goes (issue 25 item 2)."""
+    handing it to Geant4, placing it). Where the build's memory goes (issue 25 item 2): the C
+    heap in use (glibc ``mallinfo2``: numpy's arrays and Geant4's objects alive, without the
+    freed memory the process keeps) against the resident memory."""
+    from g4_facet_memory import heap_in_use  # this folder is on sys.path when run as a script
+
     last = [time.process_time()]
 
     def stage(name: str) -> None:
         now = time.process_time()
         peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-        print(f"| {name} | {now - last[0]:.2f} | {_resident() / 2**20:.0f} | {peak:.0f} |")
+        print(
+            f"| {name} | {now - last[0]:.2f} | {_resident() / 2**20:.0f} | {peak:.0f} "
+            f"| {heap_in_use() / 2**20:.0f} |"
+        )
         last[0] = now
 
-    print("| stage | CPU s | RSS after, MB | peak so far, MB |")
-    print("| --- | --- | --- | --- |")
+    print("| stage | CPU s | RSS after, MB | peak so far, MB | C heap in use, MB |")
+    print("| --- | --- | --- | --- | --- |")
     stage("Python, numpy, score4's imports")
     from score4.sim.runtime import import_geant4, resolve_physics
 
@@ -532,6 +541,14 @@ def main() -> None:
     )
     p.add_argument("--warm-child", help=argparse.SUPPRESS)
     p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        dest="sets",
+        metavar="MODULE.NAME=VALUE",
+        help="--stages, --build-child: set a module constant first (as bench_instructions.py)",
+    )
+    p.add_argument(
         "--stages",
         type=int,
         metavar="N",
@@ -539,6 +556,11 @@ def main() -> None:
         "CPU, resident memory and peak after each stage",
     )
     a = p.parse_args()
+    for item in a.sets:
+        target, _, value = item.partition("=")
+        module, _, name = target.rpartition(".")
+        mod = importlib.import_module(module)
+        setattr(mod, name, type(getattr(mod, name))(float(value)))
     if a.stages:
         stages_case(a.stages, a.tolerance, a.map)
         return

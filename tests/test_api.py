@@ -237,3 +237,89 @@ def test_roughen_never_changes_placed_layers(tmp_path):
     assert together["end_rest"] == scene.layer("rod", "+z").rest_radii
     assert together["wall_top"] == pytest.approx(1.0 - together["end_thickness"], abs=1e-12)
     assert together["scored"]["rod"] > 2  # the cut rod and the patches of both layers
+
+
+#: a copper disk (r 10 mm, 10 mm high) with a post (r 7 mm, 10 mm high) on it, a union, placed
+#: off the origin (GDML by hand)
+STACK_GDML = """<?xml version="1.0" encoding="UTF-8"?>
+<gdml><define/><materials/><solids>
+<box name="WorldBox" x="100" y="100" z="100" lunit="mm"/>
+<tube name="Disk" rmin="0" rmax="10" z="10" deltaphi="360" aunit="deg" lunit="mm"/>
+<tube name="Post" rmin="0" rmax="7" z="10" deltaphi="360" aunit="deg" lunit="mm"/>
+<union name="Stack"><first ref="Disk"/><second ref="Post"/>
+  <position name="pp" z="10" unit="mm"/></union>
+</solids><structure>
+<volume name="StackLV"><materialref ref="G4_Cu"/><solidref ref="Stack"/></volume>
+<volume name="WorldLV"><materialref ref="G4_Galactic"/><solidref ref="WorldBox"/>
+  <physvol name="stack"><volumeref ref="StackLV"/>
+    <position name="sp" x="3" y="-2" z="-5" unit="mm"/></physvol></volume>
+</structure><setup name="Default" version="1.0"><world ref="WorldLV"/></setup></gdml>
+"""
+
+
+def _foot_rays(n: int) -> list:
+    """Rays (world) from 0.5 mm outside the post's foot (r 7 mm, z 5 mm in the stack's frame),
+    in through it to within 50 um of it and on across the post: half through the disk's slab
+    under the foot."""
+    rng = np.random.default_rng(12)
+    phi = rng.uniform(0.0, 2 * np.pi, n)
+    start = np.array([7.0, 5.0]) + 0.5 * rng.uniform(0.8, 1.2, (n, 2))
+    aim = np.array([7.0, 5.0]) + rng.uniform(-0.05, 0.05, (n, 2))
+    aim[::2, 1] = 5.0 - 0.005
+    aim[:, 0] -= 3.0
+    at = np.array([3.0, -2.0, -5.0])
+    o = np.column_stack([start[:, 0] * np.cos(phi), start[:, 0] * np.sin(phi), start[:, 1]])
+    a = np.column_stack([aim[:, 0] * np.cos(phi), aim[:, 0] * np.sin(phi), aim[:, 1]])
+    d = (a - o) / np.linalg.norm(a - o, axis=1, keepdims=True)
+    return [(p.tolist(), w.tolist()) for p, w in zip(o + at, d, strict=True)]
+
+
+@pytest.mark.deep  # three Geant4 processes, each with the union's face areas (~20 s CPU)
+def test_roughen_cuts_a_booleans_shared_edge_in_one_call(tmp_path):
+    """into on the disk's top and the post's wall of a union (faces of two constituents that
+    share the post's foot, cut together): one roughen call with both faces gives the world
+    score4 run builds from the configuration (the same volumes crossed at the same points,
+    1e-9 mm, by 12 rays through the foot; the same layer thicknesses); one face after the
+    other is refused in one line that says to give both in one call, the placed layer kept
+    as it was."""
+    from helpers.export_paths import _call as export_call
+    from helpers.export_paths import assert_same_paths
+
+    gdml = tmp_path / "stack.gdml"
+    gdml.write_text(STACK_GDML)
+    faces = ["first.+z", "second.outer"]
+    rays = _foot_rays(12)
+    apart = spawned("api_joint", str(gdml), "stack", faces, rays, False)
+    message = apart["refused"]
+    assert message.startswith(
+        "roughen('stack', 'second.outer'): the layer on face first.+z of 'stack' is placed "
+        "already and would change (into on faces that share an edge: both layers are laid out "
+        "on their joint cut); give these faces in one call (a list of faces)"
+    ), message
+    assert "\n" not in message
+    assert apart["kept"]
+    together = spawned("api_joint", str(gdml), "stack", faces, rays, True)
+    assert together["layers"] == faces
+    assert together["scored"]["stack"] > 2  # the cut union and the patches of both layers
+    config = {
+        "physics": "lite",
+        "world": {"gdml": str(gdml)},
+        "surfaces": {"pyr": W.PYRAMIDS},
+        "targets": [
+            {"volume": "stack", "rough": [{"face": faces, "surface": "pyr", "into": True}]}
+        ],
+        "source": {"surface": {"volume": "stack", "face": "first.+z"}, "particle": "geantino"},
+    }
+    config["source"]["energy"] = "1 MeV"
+    path = tmp_path / "stack.yaml"
+    path.write_text(yaml.safe_dump(config))
+    scene = build_scene(parse_config(config))
+    assert together["thickness"] == [scene.layer("stack", f).thickness for f in faces]
+    ours = run_in_spawned_process(export_call, "trace_built", str(path), rays)
+    assert_same_paths(ours, together["paths"])
+    rough = sum(any("_rough" in (v or "") for v, _ in p) for p in ours)
+    assert rough >= len(rays) // 2
+    # the world the refused call left: the disk's layer alone, other paths
+    assert any(
+        [v for v, _ in a] != [v for v, _ in b] for a, b in zip(ours, apart["paths"], strict=True)
+    )

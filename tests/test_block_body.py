@@ -17,7 +17,12 @@ from score4.inputs.config import parse_config
 from score4.runner import engine
 from score4.surface import block_cut as blk
 from score4.surface.spec import build_surface
-from score4.surface.triangle_mesh import TriangleMesh, is_watertight, signed_volume
+from score4.surface.triangle_mesh import (
+    TriangleMesh,
+    intersect_tolerance,
+    is_watertight,
+    signed_volume,
+)
 
 from conftest import crystal_track_lengths, straight_down_paths
 
@@ -236,6 +241,7 @@ def test_block_caps_are_floored_blocks_bitwise(monkeypatch, spec, cells, altitud
     arrays, faces in the same order, the same floor corners."""
     if altitude is not None:
         monkeypatch.setattr(blk, "MIN_FACET_ALTITUDE", altitude)
+        monkeypatch.setattr(blk, "WALL_MIN_ALTITUDE", 0.0)  # keep the sweep's thin triangles
     monkeypatch.setattr(blk, "PIECE_FACES", 200)  # several batches of blocks
     surface = build_surface(spec)
     old = list(blk.floored_blocks(surface, BASE, cells))
@@ -265,20 +271,28 @@ def _sliver_top() -> TriangleMesh:
 
 
 def test_a_wall_sliver_geant4_would_refuse_gets_closed_body_walls(monkeypatch):
-    """Without the altitude check the block has one wall facet Geant4 refuses (edge or altitude
-    <= kCarTolerance, checked in numpy by the same rule); with it the block gets closed_body's
-    walls: no such facet, watertight, top faces unchanged, closed_body's volume."""
+    """Without the altitude check (and the fattest cut of thin walls) the block has one wall
+    facet Geant4 refuses (edge or altitude <= kCarTolerance, checked in numpy by the same rule);
+    with the check alone the block gets closed_body's walls; with both (the default) the side is
+    cut into its fattest triangles (_fattest): no such facet, the few walls' count. Each time
+    watertight, top faces unchanged, closed_body's volume."""
     top = _sliver_top()
+    monkeypatch.setattr(blk, "WALL_MIN_ALTITUDE", 0.0)
     monkeypatch.setattr(blk, "MIN_FACET_ALTITUDE", 0.0)
     old = blk.block_body(top, 1e-3)
     assert len(blk.narrow_faces(old.vertices, old.faces)) == 1
     monkeypatch.undo()
+    monkeypatch.setattr(blk, "WALL_MIN_ALTITUDE", 0.0)
+    closed = blk.block_body(top, 1e-3)
+    assert closed.n_faces == blk.closed_body(top, 1e-3).n_faces == 80
+    monkeypatch.undo()
     body = blk.block_body(top, 1e-3)
-    assert len(blk.narrow_faces(body.vertices, body.faces)) == 0
-    assert body.n_faces == blk.closed_body(top, 1e-3).n_faces == 80
-    assert is_watertight(body)
-    np.testing.assert_array_equal(body.faces[body.top], top.faces)
-    assert signed_volume(body) == pytest.approx(signed_volume(blk.closed_body(top, 1e-3)))
+    assert body.n_faces == old.n_faces == 32 + 4 * 5 + 2
+    for b in (closed, body):
+        assert len(blk.narrow_faces(b.vertices, b.faces)) == 0
+        assert is_watertight(b)
+        np.testing.assert_array_equal(b.faces[b.top], top.faces)
+        assert signed_volume(b) == pytest.approx(signed_volume(blk.closed_body(top, 1e-3)))
 
 
 @pytest.mark.parametrize(
@@ -320,9 +334,12 @@ def test_geant4_builds_the_sliver_block_without_a_hole(tmp_path, monkeypatch):
     small or too narrow" and "there are holes in the surface!"; the block as cut now, neither."""
     top = _sliver_top()
     files = []
-    for name, limit in (("old", 0.0), ("new", blk.MIN_FACET_ALTITUDE)):
-        monkeypatch.setattr(blk, "MIN_FACET_ALTITUDE", limit)
+    for name, limit in (("old", 0.0), ("new", None)):
+        if limit is not None:  # neither the altitude check nor the fattest cut of thin walls
+            monkeypatch.setattr(blk, "MIN_FACET_ALTITUDE", limit)
+            monkeypatch.setattr(blk, "WALL_MIN_ALTITUDE", limit)
         body = blk.block_body(top, 1e-3)
+        monkeypatch.undo()
         files.append(tmp_path / f"blk_{name}.npz")
         np.savez(files[-1], v=body.vertices, f=body.faces)
     out = subprocess.run(
@@ -344,3 +361,38 @@ def test_geant4_builds_the_sliver_block_without_a_hole(tmp_path, monkeypatch):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         engine._warn_broken_solids(engine._exceptions_in(new))
+
+
+# measured (caps, whole bodies): 8 x 8-pixel blocks 18.4, 18.0 nm; simplified 19.8, 18.0 nm.
+# Main before the fix (bodies): 2440 and 2921 nm; the corners turned alone: 1083 and 4096 nm
+# (caps); test_blocks.py's 2 x 2-pixel blocks 2.3 nm
+INTERSECT_TOLERANCE_BOUND = 30e-6  # mm
+#: test_blocks.py's random map (its geantino test)
+GEANTINO_MAP = {**RANDOM, "nx": 40, "ny": 40, "corr_length": "8 um", "seed": 2}
+
+
+@pytest.mark.parametrize(
+    ("spec", "cells"),
+    [
+        (GEANTINO_MAP, 8),
+        ({**GEANTINO_MAP, "tolerance": "0.05 um"}, None),
+    ],
+)
+def test_block_facets_let_geant4_accept_hits_only_nm_beyond_them(monkeypatch, spec, cells):
+    """Every facet of the caps and whole bodies of 8 x 8-pixel blocks (the automatic size of
+    maps above 256 x 256 pixels) and of a simplified map's blocks: the largest distance beyond
+    its edges at which G4TriangularFacet::Intersect still counts a hit (intersect_tolerance, in
+    the corner order Geant4 gets) stays under INTERSECT_TOLERANCE_BOUND. The long thin wall
+    triangles of sides of 4 or more top edges gave up to ~3 um, and geantinos up to 16 um too
+    much path (test_blocks.py's deep 8 x 8 case); walls are cut into their fattest triangles
+    and each facet's first corner faces its longest edge."""
+    surface = build_surface(spec)
+
+    def worst() -> float:
+        caps = [(v, np.array(f)) for v, f, _ in blk.block_caps(surface, BASE, cells)]
+        bodies = [(b.vertices, b.faces) for b in blk.block_bodies(surface, BASE, cells)]
+        return max(float(intersect_tolerance(v[f]).max()) for v, f in caps + bodies)
+
+    assert worst() < INTERSECT_TOLERANCE_BOUND
+    monkeypatch.setattr(blk, "WALL_MIN_ALTITUDE", 0.0)  # the sweep's walls, corners turned
+    assert worst() > 10 * INTERSECT_TOLERANCE_BOUND

@@ -249,7 +249,12 @@ def _data(surface: dict, solid: str, source: dict | None = None, **rough) -> dic
 # The random map's case (~25 s) under deep: test_block_body.py compares blocks of a random map
 # with one tessellated solid in make test.
 @pytest.mark.parametrize(
-    ("surface", "cells"), [pytest.param(RANDOM, None, marks=pytest.mark.deep), (SPREAD, 1)]
+    ("surface", "cells"),
+    [
+        pytest.param(RANDOM, None, marks=pytest.mark.deep),
+        (SPREAD, 1),
+        pytest.param(RANDOM, 8, marks=pytest.mark.deep),  # walls of 4+ top edges (_fattest)
+    ],
 )
 def test_geantino_paths_through_blocks_match_one_tessellated_solid(tmp_path, surface, cells):
     """The same ~2000 geantinos through the patches as one G4TessellatedSolid each and as blocks

@@ -470,8 +470,9 @@ def test_the_overlap_check_fails_on_a_shallow_cut(gdml):
             "block",
             ["first.+z", "second.+x"],
             (
-                "targets.0.rough.1: into: true on face second.+x of 'block' (a G4UnionSolid): "
-                "another part of the union (the G4Tubs first) stands on this face"
+                "targets.0.rough: into: true on faces first.+z and second.+x of 'block': the box "
+                "second of the union stands on face first.+z and grows down into its cut (its "
+                "face -z), and its side +x meets that foot"
             ),
         ),
     ],
@@ -479,7 +480,7 @@ def test_the_overlap_check_fails_on_a_shallow_cut(gdml):
 def test_joint_cuts_score4_does_not_make_say_why(gdml, volume, faces, message):
     """A cone's wall and the box's top it stands on (grown down as the prism of its foot, its
     wall's cut would run on along its slope: one line naming both faces and the rule), a box
-    post's side (the disk it stands on meets the side's slab: refused as before)."""
+    post's side and the disk's top it grows down into (a vacuum notch along the foot)."""
     data = {
         **config(gdml, ["lamp"]),
         "targets": [

@@ -190,8 +190,8 @@ def ray_path(origins, directions, layer, radius, half_z, window=4, slope=0.0):
                     v = body.vertices @ np.array([[c_, s_, 0], [-s_, c_, 0], [0, 0, 1]])
                     v = v + np.array([0.0, 0.0, lay.ring_z(j)])
                     tri_all.append(v[body.faces])
-            tri = np.concatenate(tri_all)
-            out[n] += mesh_path(o, d, tri)  # a ray through an edge hits twice
+            if tri_all:  # none where the rings stay flat (a cone's tip)
+                out[n] += mesh_path(o, d, np.concatenate(tri_all))  # an edge is hit twice
     return out
 
 

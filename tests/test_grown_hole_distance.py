@@ -199,3 +199,203 @@ def test_activeness_distance_beside_a_grown_floor(gdml):
         distance.to_surface(world)[beside], expected[beside], rtol=0, atol=1e-6
     )
     assert (brute_rough(layer, world[beside]) < got[beside] - 0.1).sum() > 20  # the old bound
+
+
+def _into_rest(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, centre, r: float) -> np.ndarray:
+    """Nearest points (2D) of the convex set square [lo, hi] ∩ disk(centre, r) to points ``q``
+    (n, 2), by Dykstra's alternating projections (an independent method)."""
+    x, p, s = q.copy(), np.zeros_like(q), np.zeros_like(q)
+    for _ in range(400):
+        y = np.clip(x + p, lo, hi)
+        p = x + p - y
+        v = y + s - centre
+        norm = np.linalg.norm(v, axis=1)
+        z = centre + v * np.minimum(1.0, r / np.maximum(norm, 1e-300))[:, None]
+        s = y + s - z
+        x = z
+    return x
+
+
+def test_activeness_distance_over_a_grown_floor_is_exact(gdml):
+    """The activeness distance to the grown cone floor (its layer a square grid over the disk,
+    cells off the disk flat squares in the copper) at points in the volume from 0.1 mm below
+    the floor's level up through its patches and beside them, rho 0.2 .. 2.6 mm: the nearest of
+    every patch top facet and of the flat rest (the disk r 2 mm - 0.1 t less the patch cells:
+    per flat cell, its square cut by the disk, a convex set, projected onto by Dykstra's
+    method), to 1e-6 mm (the disk rim's chords). The whole-layer bound (flat cells off the disk
+    counted) raised to the level's distance below it (before) is more than 2 um too near at
+    some points."""
+    from score4.shapes.mesh_shape import _tri_distance
+    from score4.world.activeness import target_distances
+
+    data = {
+        "physics": "lite",
+        "world": {"gdml": str(gdml)},
+        "surfaces": {"p": PYRAMIDS},
+        "targets": [
+            {
+                "volume": "cone",
+                "rough": [{"face": "second.-z", "surface": "p", "into": True}],
+                "activeness": [{"fccd": "1 mm", "dlf": 0.5, "faces": ["second.-z"]}],
+            }
+        ],
+        "source": {"particle": "geantino", "energy": "1 MeV", "volume": "cone"},
+        "run": {"events": 1, "seed": 1},
+    }
+    scene = build_scene(parse_config(data))
+    (distance,) = [d for d in target_distances(scene) if d is not None]
+    layer = scene.layer("cone", "second.-z")
+    target = scene.target("cone")
+    t = layer.thickness
+    rng = np.random.default_rng(21)
+    m = 1200
+    rho, phi = rng.uniform(0.2, 2.6, m), rng.uniform(0, 2 * np.pi, m)
+    z = 5.0 - t + rng.uniform(-0.1, t, m)
+    world = target.to_world(np.column_stack([rho * np.cos(phi), rho * np.sin(phi), z]))
+    world = world[distance.to_surface(world) > 0][:400]  # in the copper or a patch
+    got = distance.to_faces(("second.-z",), world)
+    # brute force in the layer's frame (z = 0: the grown floor's level)
+    q = layer.frame.to_local(world)
+    cells = np.asarray(layer.cell_variants)
+    centres = layer.cell_centres()
+    half = np.array(layer.patch_size) / 2
+    tops = np.concatenate(
+        [
+            np.asarray(layer.variants[k].top_mesh.vertices, float)[
+                np.asarray(layer.variants[k].top_mesh.faces)
+            ]
+            + np.array([*centres[j, i], layer.base_thickness])
+            for j, i in zip(*np.nonzero(cells >= 0), strict=True)
+            for k in [cells[j, i]]
+        ]
+    )
+    patch = _tri_distance(q, tops).min(axis=1)
+    axis = layer.frame.to_local(target.to_world(np.array([[0.0, 0.0, 5.0 - t]])))[0]
+    assert abs(axis[2]) < 1e-12
+    r = 2.0 - 0.1 * t
+    rest = np.full(len(q), np.inf)
+    for j, i in zip(*np.nonzero(cells < 0), strict=True):
+        lo, hi = centres[j, i] - half, centres[j, i] + half
+        if np.linalg.norm(np.clip(axis[:2], lo, hi) - axis[:2]) >= r:
+            continue  # the cell is off the disk
+        x = _into_rest(q[:, :2], lo, hi, axis[:2], r)
+        assert np.abs(np.clip(x, lo, hi) - x).max() < 1e-9  # converged onto the square too
+        rest = np.minimum(rest, np.hypot(np.linalg.norm(q[:, :2] - x, axis=1), q[:, 2]))
+    expected = np.minimum(patch, rest)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-6)
+    old = distance.boolean._beside(
+        "second.-z", world, target.to_local(world), distance.rough_distance("second.-z")(world)
+    )
+    assert (expected - old > 2e-3).sum() > 10  # the bound before: flat cells off the disk
+
+
+def _nearest_in(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, planes: np.ndarray) -> np.ndarray:
+    """Nearest points (2D) to ``q`` (n, 2) of the squares [lo, hi] (n, 2) cut by the half-planes
+    ``planes`` (k, 3: n . x <= d), row by row, by Dykstra's cyclic projections."""
+    x = q.copy()
+    parts = [np.zeros_like(x) for _ in range(len(planes) + 1)]
+    for _ in range(600):
+        y = x + parts[0]
+        z = np.clip(y, lo, hi)
+        parts[0], x = y - z, z
+        for k, (nx, ny, d) in enumerate(planes, start=1):
+            y = x + parts[k]
+            over = np.maximum(y[:, 0] * nx + y[:, 1] * ny - d, 0.0) / (nx * nx + ny * ny)
+            z = y - over[:, None] * np.array([nx, ny])
+            parts[k], x = y - z, z
+    return x
+
+
+def test_activeness_distance_to_the_six_grown_sides_is_exact(gdml):
+    """The activeness distance to the six grown sides of the subtracted G4Polyhedra (a layer
+    per plane, each a square grid whose flat cells reach past its side, beside the hexagon's
+    corners and over the box's top) at points in the copper behind the sides, along them up to
+    and past the corners: the nearest over the six layers of every patch top facet and of the
+    flat rest (per flat cell, its square cut by the side as it is on the box at the grown level,
+    a convex polygon: Dykstra's projections), to 1e-6 mm. The whole layers (before) are more
+    than 2 um too near at some of them."""
+    from scipy.spatial import ConvexHull
+
+    from score4.shapes.mesh_shape import _tri_distance
+    from score4.world.activeness import target_distances
+    from score4.world.facets import face_triangles
+
+    data = {
+        "physics": "lite",
+        "world": {"gdml": str(gdml)},
+        "surfaces": {"p": PYRAMIDS},
+        "targets": [
+            {
+                "volume": "hedra",
+                "rough": [{"face": "second.seg_1", "surface": "p", "into": True}],
+                "activeness": [{"fccd": "1 mm", "dlf": 0.5, "faces": ["second.seg_1"]}],
+            }
+        ],
+        "source": {"particle": "geantino", "energy": "1 MeV", "volume": "hedra"},
+        "run": {"events": 1, "seed": 1},
+    }
+    scene = build_scene(parse_config(data))
+    layers = scene.layers_of("hedra")
+    target = scene.target("hedra")
+    (distance,) = [d for d in target_distances(scene) if d is not None]
+    rng = np.random.default_rng(22)
+    m = 600
+    a = np.radians(30.0 + 60.0 * rng.integers(0, 6, m))
+    z = rng.uniform(5.2, 9.9, m)
+    apothem = 2.0 + 0.1 * (z - 5.0) + layers[0].thickness * 1.01 + rng.uniform(0.0, 0.15, m)
+    along = rng.uniform(-2.0, 2.0, m)
+    local = np.column_stack(
+        [apothem * np.cos(a) - along * np.sin(a), apothem * np.sin(a) + along * np.cos(a), z]
+    )
+    world = target.to_world(local)
+    world = world[distance.to_surface(world) > 0][:150]
+    got = distance.to_faces(("second.seg_1",), world)
+    best = np.full(len(world), np.inf)
+    for layer in layers:  # the patch tops
+        q = layer.frame.to_local(world)
+        cells = np.asarray(layer.cell_variants)
+        centres = layer.cell_centres()
+        tops = [
+            np.asarray(layer.variants[k].top_mesh.vertices, float)[
+                np.asarray(layer.variants[k].top_mesh.faces)
+            ]
+            + np.array([*centres[j, i], layer.base_thickness])
+            for j, i in zip(*np.nonzero(cells >= 0), strict=True)
+            for k in [cells[j, i]]
+        ]
+        if tops:
+            best = np.minimum(best, _tri_distance(q, np.concatenate(tops)).min(axis=1))
+    for layer in layers:  # the flat rest: each flat cell cut by the side at the grown level
+        on = layer.on_boolean
+        q = layer.frame.to_local(world)
+        cells = np.asarray(layer.cell_variants)
+        centres = layer.cell_centres()
+        half = np.array(layer.patch_size) / 2
+        # the side in this layer's plane, as it is on the box (z <= 10 mm)
+        tri = face_triangles(on.clip.leaf, on.clip.face).reshape(-1, 3)
+        v = layer.frame.to_local(on.transform.apply(on.clip.transform.apply(tri)))
+        v = v[np.abs(v[:, 2]) < 1e-9][:, :2]
+        planes = [(e[0], e[1], -e[2]) for e in ConvexHull(v).equations]
+        at = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+        h = target.to_local(layer.frame.to_world(at))[:, 2]  # box z over the plane: linear
+        planes.append((h[1] - h[0], h[2] - h[0], HALF - h[0]))
+        flat = np.argwhere(cells < 0)
+        lo = centres[flat[:, 0], flat[:, 1]] - half
+        hi = centres[flat[:, 0], flat[:, 1]] + half
+        # the pairs (point, cell) whose square alone is nearer than the best so far
+        e = np.maximum(np.maximum(lo[None] - q[:, None, :2], q[:, None, :2] - hi[None]), 0.0)
+        row, col = np.nonzero(np.hypot(np.linalg.norm(e, axis=2), q[:, None, 2]) < best[:, None])
+        x = _nearest_in(q[row, :2], lo[col], hi[col], np.array(planes))
+        inside = (np.abs(np.clip(x, lo[col], hi[col]) - x) < 1e-9).all(axis=1)
+        for nx, ny, d in planes:  # cells the side does not reach: empty
+            inside &= x[:, 0] * nx + x[:, 1] * ny <= d + 1e-9
+        d = np.hypot(np.linalg.norm(x - q[row, :2], axis=1), q[row, 2])
+        np.minimum.at(best, row[inside], d[inside])
+    np.testing.assert_allclose(got, best, rtol=0, atol=1e-6)
+    old = distance.boolean._beside(
+        "second.seg_1",
+        world,
+        target.to_local(world),
+        distance.rough_distance("second.seg_1")(world),
+    )
+    assert (best - old > 2e-3).sum() > 5  # the whole layers: flat cells off the side

@@ -453,3 +453,44 @@ def test_grown_mesh_holes_pass_the_overlap_check(gdml, tmp_path):
     path = tmp_path / "holes.yaml"
     path.write_text(yaml.safe_dump(config(gdml, {k: f for k, (_y, f) in HOLES.items()})))
     assert_no_overlaps(path)
+
+
+@pytest.mark.deep
+def test_grown_trap_and_mesh_holes_export_with_the_same_paths(gdml, tmp_path, monkeypatch):
+    """The boxes less the grown trap, extruded pocket and tessellated frustum, in one world
+    written by `score4 geometry export`: Geant4 reads the file back, and the file pyg4ometry
+    reads and writes again, with the same geantino paths (volumes and points, 1e-9 mm) as the
+    world score4 builds; the grown holes are in the file as a G4Trap and G4TessellatedSolids;
+    most rays cross a patch (deep: ~1-2 min)."""
+    import re
+
+    import yaml
+
+    from score4.cli.main import main
+
+    from helpers.export_paths import assert_same_paths, three_paths
+
+    path = tmp_path / "holes.yaml"
+    path.write_text(yaml.safe_dump(config(gdml, {k: f for k, (_y, f) in HOLES.items()})))
+    out = tmp_path / "holes.gdml"
+    assert main(["geometry", "export", str(path), "--gdml", str(out)]) == 0
+    rng = np.random.default_rng(21)
+    rays = []
+    for name, (y, _face) in HOLES.items():
+        for _ in range(5):
+            if name == "xt":  # out through side_2, as in the paths test
+                o = [rng.uniform(0.6, 1.6), rng.uniform(-1.5, -0.5), rng.uniform(6, 9)]
+                aim = [o[0] + rng.uniform(-0.3, 0.3), 1.5, o[2] + rng.uniform(-0.5, 0.2)]
+            else:  # down through the floor
+                phi, rho = rng.uniform(0, 2 * np.pi), rng.uniform(0.0, 1.2)
+                o = [rho * math.cos(phi), rho * math.sin(phi), 9.5]
+                aim = [o[0] + rng.uniform(-1.5, 1.5), o[1] + rng.uniform(-1.5, 1.5), 1.5]
+            d = np.subtract(aim, o)
+            rays.append(([o[0], o[1] + y, o[2]], (d / np.linalg.norm(d)).tolist()))
+    ours, back, relay = three_paths(path, out, rays, monkeypatch)
+    assert_same_paths(ours, back, relay)
+    assert sum(any("_rough" in (v or "") for v, _ in p) for p in ours) >= len(rays) // 2
+    text = out.read_text()
+    assert re.search(r'<trap [^>]*name="trap_lv_cut_', text)
+    for name in ("xt", "tess"):
+        assert re.search(rf'<tessellated [^>]*name="{name}_lv_cut_', text), name

@@ -16,10 +16,10 @@ from scipy.spatial import cKDTree
 
 from score4.inputs.config import parse_config
 from score4.shapes import BooleanShape, G4Box, G4Tubs, Transform
-from score4.shapes.base import INSIDE, OUTSIDE, PlaneTriangles, Revolved
+from score4.shapes.base import INSIDE, OUTSIDE, SURFACE, PlaneTriangles, Revolved
 from score4.shapes.boolean import PROBE
 from score4.world.boolean_distance import leaf_face_distance
-from score4.world.kept_face_distance import TOLERANCE, KeptFaceDistance
+from score4.world.kept_face_distance import TOLERANCE, KeptFaceDistance, beyond
 from score4.world.resolve import build_scene
 
 from helpers.boolean_worlds import write_world
@@ -210,3 +210,59 @@ def test_flush_outer_faces_of_a_union_are_both_kept():
     for faces in [("first.+z", "first.-y"), ("second.+z", "second.-y")]:
         check_against_grid(flush, faces, 0.2, False)
     assert np.isinf(KeptFaceDistance(flush, ("second.-x",))(p)).all()
+
+
+def test_the_lazy_probe_test_is_the_boolean_inside_test():
+    """kept_face_distance.beyond (a boolean's second constituent measured only where its first
+    leaves the answer open) says exactly what ``shape.inside`` says, INSIDE and OUTSIDE, for
+    points on and within Geant4's tolerance of the surfaces of nested unions, subtractions and
+    intersections with turned and shifted constituents (the rim build's probe test)."""
+    c, s = math.cos(0.3), math.sin(0.3)
+    turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    inner = BooleanShape(
+        "intersection", G4Box(10.0, 10.0, 10.0), G4Tubs(0.0, 12.0, 8.0), Transform(turn, [1, -2, 3])
+    )
+    holed = BooleanShape("subtraction", inner, G4Tubs(0.0, 4.0, 20.0), Transform(turn.T, [2, 0, 0]))
+    shape = BooleanShape("union", holed, G4Box(3.0, 3.0, 3.0), Transform(np.eye(3), [0, 0, 9.0]))
+    rng = np.random.default_rng(11)
+    parts = []  # points on every constituent's faces, in the union's frame
+    for leaf, at in (
+        (G4Box(10.0, 10.0, 10.0), Transform()),
+        (G4Tubs(0.0, 12.0, 8.0), inner.transform),
+        (G4Tubs(0.0, 4.0, 20.0), holed.transform),
+        (G4Box(3.0, 3.0, 3.0), shape.transform),
+    ):
+        parts.append(at.apply(leaf.sample_surface(rng, 3000).position))
+    p = np.concatenate(parts)
+    p = np.concatenate([p, p + rng.normal(0.0, 1e-9, p.shape), p + rng.normal(0.0, 1e-7, p.shape)])
+    code = shape.inside(p)
+    assert (code == SURFACE).sum() > 1000
+    assert (code == INSIDE).sum() > 1000
+    assert (code == OUTSIDE).sum() > 1000
+    np.testing.assert_array_equal(beyond(shape, p, inside=True), code == INSIDE)
+    np.testing.assert_array_equal(beyond(shape, p, inside=False), code == OUTSIDE)
+
+
+def test_a_flush_face_with_a_hole_keeps_the_hole_rim():
+    """A box (half width 10 mm) inside a wider box of the same height (their +z faces flush at
+    z = 10 mm), less a tube (r 1 mm, 1 mm deep) through the top at x = 3 mm: the small box's
+    top is kept where it lies on the wide box's (the probe test) but not over the hole. Its
+    pieces' corners all lie on the wide box's top; the hole's rim is found all the same
+    (before, a piece whose corners were all flush was taken whole at any size: points under
+    the hole measured to the square's edges). Closed form: the square less the disk, 1e-6 mm."""
+    union = BooleanShape("union", G4Box(10.0, 10.0, 10.0), G4Box(12.0, 12.0, 10.0), Transform())
+    holed = BooleanShape(
+        "subtraction", union, G4Tubs(0.0, 1.0, 1.0), Transform(np.eye(3), [3.0, 0.0, 10.0])
+    )
+    rng = np.random.default_rng(12)
+    p = np.column_stack([rng.uniform(-11.5, 11.5, (3000, 2)), rng.uniform(7.0, 8.9, 3000)])
+    p[:400, :2] = np.array([3.0, 0.0]) + rng.uniform(-1.0, 1.0, (400, 2))  # under the hole
+    p = p[holed.inside(p) == INSIDE]
+    dx, dy = np.clip(p[:, 0], -10, 10) - p[:, 0], np.clip(p[:, 1], -10, 10) - p[:, 1]
+    r = np.hypot(p[:, 0] - 3.0, p[:, 1])
+    dz = 10.0 - p[:, 2]
+    expected = np.where(r < 1.0, np.hypot(1.0 - r, dz), np.sqrt(dx * dx + dy * dy + dz * dz))
+    under = r < 1.0
+    assert under.sum() > 20
+    got = KeptFaceDistance(holed, ("first.first.+z",))(p)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=TOLERANCE)

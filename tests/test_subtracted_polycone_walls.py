@@ -236,19 +236,6 @@ def test_rough_polycone_bore_walls_pass_the_overlap_check(gdml, tmp_path):
         assert_no_overlaps(path)
 
 
-def test_a_subtracted_spheres_theta_cone_is_refused_saying_why(gdml):
-    """A rough layer on the theta cone of a subtracted G4Sphere (a shell sector cut from the
-    box) is refused in one line that names the face and why."""
-    from score4.errors import ConfigError
-
-    with pytest.raises(ConfigError) as err:
-        build_scene(parse_config(config(gdml, False, {"cup": (-80.0, ["second.theta_end"])})))
-    line = str(err.value)
-    assert "\n" not in line
-    assert "theta cone theta_end of a subtracted G4Sphere" in line
-    assert "meets the sphere faces at right angles" in line
-
-
 @pytest.mark.deep
 def test_grown_polycone_bores_export_with_the_same_paths(gdml, tmp_path, monkeypatch):
     """The tapered and stepped bores' walls with ``into``, in one world written by `score4

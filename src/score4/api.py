@@ -358,8 +358,10 @@ class World:
         takes (docs/config.md; a G4Box's ``+x`` ... ``-z`` in the box's own frame). Layers
         placed by an earlier call do not change: a flat ring gives way to the layer of a wall
         rising from it (a groove, a shoulder) only when the wall comes first or in the same
-        call, and ``into`` on faces that share an edge (a tube's wall and end face) needs them
-        in one call; otherwise the call is refused and nothing changes. Call it before your run
+        call, and ``into`` on faces that share an edge (a tube's wall and end face; a post's wall
+        and the top of the disk it stands on, constituents of a boolean) needs them in one
+        call, which cuts them as a configuration does; otherwise the call is refused and
+        nothing changes. Call it before your run
         manager's ``Initialize()``.
 
         Parameters

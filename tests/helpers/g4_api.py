@@ -353,3 +353,43 @@ def api_ring_together(gdml: str) -> dict:
         "wall_top": float(wall.ring_layout.face.rz2[1]),
         "end_thickness": end.thickness,
     }
+
+
+def api_joint(gdml: str, volume: str, faces: list[str], rays: list, together: bool) -> dict:
+    """``into`` on two faces of a boolean's constituents that share an edge (``faces``, cut
+    together), roughened through score4.api on the world of ``gdml``: in one call
+    (``together``), or first one face and then the other (the second call is refused: what it
+    says, and whether the placed layer stayed as it was). The layers, the volumes scored and
+    the geantino paths of ``rays`` through the world the API leaves."""
+    from score4 import api
+    from score4.errors import ConfigError
+
+    from helpers.g4_gdml_world import _trace
+
+    g4 = api.import_geant4("lite")
+    parser = g4.G4GDMLParser()
+    parser.Read(gdml, False)
+    world_pv = parser.GetWorldVolume()
+    world = api.World(g4, world_pv)
+    out: dict = {}
+    if together:
+        rough = world.roughen(volume, faces, PYRAMIDS, into=True)
+        out["layers"] = [r.config.face_name for r in rough.layers]
+        out["thickness"] = [r.thickness for r in rough.layers]
+        out["scored"] = {k: len(v) for k, v in rough.volumes.items()}
+    else:
+        world.roughen(volume, faces[0], PYRAMIDS, into=True)
+        (first,) = world.scene.layers_of(volume)
+        mask = None if first.mask is None else first.mask.copy()
+        try:
+            world.roughen(volume, faces[1], PYRAMIDS, into=True)
+            out["refused"] = "no error"
+        except ConfigError as err:
+            out["refused"] = str(err)
+        (kept,) = world.scene.layers_of(volume)
+        same = mask is None if kept.mask is None else np.array_equal(kept.mask, mask)
+        out["kept"] = kept is first and same
+    nav = g4.G4Navigator()
+    nav.SetWorldVolume(world_pv)
+    out["paths"] = [_trace(g4, nav, o, d) for o, d in rays]
+    return out

@@ -87,6 +87,15 @@ def check(config_file: Path, points: int, max_placements: int, tolerance: str, l
                 f"cells; the exact tiling covers them): {', '.join(report.no_points[:4])}"
                 + (" ..." if len(report.no_points) > 4 else "")
             )
+        if report.false_reports:
+            click.echo(
+                f"{len(report.false_reports)} Geant4 report(s) between tessellated bodies are "
+                "not overlaps (re-tested exactly):"
+            )
+            for line in report.false_reports[:10]:
+                click.echo(f"  {line}")
+            if len(report.false_reports) > 10:
+                click.echo("  ...")
         if report.ok:
             click.echo("no overlaps")
             return

@@ -40,6 +40,18 @@ SIMPLIFIED_CAP_VOXELS = 8
 CAP_MAX_VOXELS = -1
 #: Facets of the largest cap :data:`CAP_MAX_VOXELS` applies to.
 SMALL_CAP_FACETS = 40
+#: Voxels of the larger caps of an exact height map (more than :data:`SMALL_CAP_FACETS` facets:
+#: maps of more than 256 x 256 pixels, whose automatic blocks are larger than 2 x 2 pixels, or
+#: an explicit ``block_cells`` of 4 or more); -1, the default: Geant4's own choice. Measured
+#: (benchmarks/README.md, session 13): the exact 1024 x 1024 noise-like map, 2.72 M facets in
+#: 16 384 caps of 166 (bench_surfaces.py --stages 1024 --map noise --tolerance auto --set ...):
+#: Geant4's voxels peak 1692 MB, 25.8 s; 8 voxels 1406 MB, 23.2 s; none 1178 MB, 21.1 s.
+#: Instructions per alpha event on 8 x 8-pixel caps of the self-affine example
+#: (bench_instructions.py --cases selfaff_blocks_b8): Geant4's voxels 9.600 M, 8 voxels 9.538 M,
+#: none 14.387 M. Not the default: on test_blocks.py's geantino rays through 8 x 8-pixel blocks
+#: of its random map, 8 voxels put 21 of 2040 rays more than 2e-5 mm farther from the exact
+#: mesh than one tessellated solid, Geant4's voxels 17 (both fail that test's rule).
+LARGE_CAP_VOXELS = -1
 
 
 def fast_tessellated(g4, mesh: TriangleMesh, name: str, max_voxels: int = -1):
@@ -86,8 +98,8 @@ def place_blocks(
     voxels = -1 if surface.quad_cells is None else SIMPLIFIED_CAP_VOXELS
     exact_map = surface.quad_cells is None and surface.spikes is None
     for b, (vertices, faces, floor) in enumerate(block_caps(surface, base_thickness, block_cells)):
-        small = exact_map and len(faces) <= SMALL_CAP_FACETS
-        cap_voxels = CAP_MAX_VOXELS if small else voxels
+        small = len(faces) <= SMALL_CAP_FACETS
+        cap_voxels = (CAP_MAX_VOXELS if small else LARGE_CAP_VOXELS) if exact_map else voxels
         solid = tessellated(g4, vertices, faces, f"{name}_b{b}", cap_voxels)
         lv = g4.G4LogicalVolume(solid, material, f"{name}_b{b}")
         pv = g4.G4PVPlacement(None, where, lv, f"{name}_b{b}", mother_lv, False, b, False)

@@ -17,6 +17,7 @@ the details of each overlap to its log.
 from __future__ import annotations
 
 import itertools
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -32,6 +33,9 @@ class OverlapReport:
     sampled: int = 0  # of the placements Geant4 checked, those in sampled neighbourhoods
     # solids Geant4 cannot put points on (thin boolean cells), left to the exact tiling check
     no_points: list[str] = field(default_factory=list)
+    # Geant4's reports between two G4TessellatedSolids that the exact re-test finds false
+    # (:func:`retest_report`): not overlaps, listed as such
+    false_reports: list[str] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -106,6 +110,7 @@ def check_placements(
     max_placements: int = 500,
     layers=(),
     progress=None,
+    read_log=None,
 ) -> OverlapReport:
     """``CheckOverlaps(points, tolerance)`` on every placement of the world's tree.
 
@@ -118,7 +123,11 @@ def check_placements(
     copy of that volume holding only them (Geant4 tests every point against every sister: the
     full volume's 80 000 cells would make it quadratic). All cells of a ring are the same
     logical volume turned about the axis, so a neighbourhood stands for the ring.
-    ``progress``: called with a line of text per curved layer.
+    ``progress``: called with a line of text per curved layer. ``read_log``: returns Geant4's
+    output since its last call; with it, a placement of a G4TessellatedSolid is checked against
+    every sister (not only up to its first report), and each report of a point of it inside a
+    sister G4TessellatedSolid is re-tested exactly (:func:`retest_report`): reports that are
+    false go to ``false_reports``, and the placement overlaps only if another report stands.
     """
     import geant4_pybind as g4
 
@@ -136,8 +145,20 @@ def check_placements(
 
     def check(pv) -> None:
         report.checked += 1
-        if pv.CheckOverlaps(points, tolerance, False, 1):
-            report.overlaps.append(f"{pv.GetName()} (copy {pv.GetCopyNo()})")
+        solid = pv.GetLogicalVolume().GetSolid()
+        retest = read_log is not None and str(solid.GetEntityType()) == TESSELLATED
+        if retest:
+            read_log()  # what Geant4 wrote before this check
+        if not pv.CheckOverlaps(points, tolerance, False, ALL_REPORTS if retest else 1):
+            return
+        if retest:
+            stands, false = retest_reports(pv, read_log(), tolerance, facets)
+            report.false_reports.extend(false)
+            if not stands:
+                return
+        report.overlaps.append(f"{pv.GetName()} (copy {pv.GetCopyNo()})")
+
+    facets: dict[str, np.ndarray] = {}  # each tessellated solid's triangles, by name
 
     pointable: dict[str, bool] = {}
 
@@ -272,6 +293,237 @@ def check_placements(
 
     visit(world_pv.GetLogicalVolume())
     return report
+
+
+#: Geant4's type name of the tessellated solids whose overlap reports are re-tested.
+TESSELLATED = "G4TessellatedSolid"
+
+#: ``maxErr`` of ``CheckOverlaps`` for a tessellated placement: every sister reported, so a real
+#: overlap is not hidden behind a false report on an earlier sister.
+ALL_REPORTS = 1_000_000
+
+_SISTER = re.compile(
+    r"Overlap is detected for volume (\S+):(-?\d+) \((\w+)\) with (\S+):(-?\d+) \((\w+)\)\s*\n"
+    r"\s*overlap at local point \(([^)]*)\) by ([-+\d.eE]+) (\w+)"
+)
+_HELD = re.compile(
+    r"Overlap is detected for volume (\S+):(-?\d+) \((\w+)\)\s*\n"
+    r"\s*apparently fully encapsulating volume (\S+):(-?\d+) \((\w+)\)"
+)
+_MOTHER = "Overlap with mother volume"
+
+
+def retest_reports(pv, text: str, tolerance: float, facets: dict) -> tuple[bool, list[str]]:
+    """Geant4's reports for placement ``pv`` in ``text`` (its output of one ``CheckOverlaps``):
+    (whether a report stands, the false ones as lines). A report of a point inside a sister
+    G4TessellatedSolid, or of holding one whole, when both solids are tessellated, is re-tested
+    exactly (:func:`retest_report`, :func:`retest_encapsulation`); every other report (the
+    mother, a sister of another type) stands, and so does the check when no report is read."""
+    sisters = list(_SISTER.finditer(text))
+    held = list(_HELD.finditer(text))
+    stands = _MOTHER in text or not (sisters or held)
+    false: list[str] = []
+    mother = pv.GetMotherLogical()
+    daughters = {
+        (str(d.GetName()), d.GetCopyNo()): d
+        for d in (mother.GetDaughter(i) for i in range(mother.GetNoDaughters()))
+    }
+    this = f"{pv.GetName()} (copy {pv.GetCopyNo()})"
+    for m in sisters:
+        name, copy, kind = m.group(4), int(m.group(5)), m.group(6)
+        sister = daughters.get((name, copy))
+        if kind != TESSELLATED or m.group(3) != TESSELLATED or sister is None:
+            stands = True
+            continue
+        point = np.array([float(x) for x in m.group(7).split(",")])
+        found_out = retest_report(pv, sister, point, tolerance, facets)
+        if found_out is None:
+            stands = True
+            continue
+        outside, rounding = found_out
+        where = (
+            f"point lies {outside * 1e6:.3g} nm outside (+-{rounding * 1e6:.2g} nm, the printed "
+            "point's rounding)"
+            if outside > rounding
+            else f"no point of its surface within {rounding * 1e6:.2g} nm of the printed point "
+            "(its rounding) lies inside"
+        )
+        false.append(
+            f"{this} with {name} (copy {copy}), reported by {m.group(8)} {m.group(9)}: Geant4's "
+            f"tessellated Inside is not exact here: {where}"
+        )
+    for m in held:
+        name, copy, kind = m.group(4), int(m.group(5)), m.group(6)
+        sister = daughters.get((name, copy))
+        out = None
+        if kind == TESSELLATED and m.group(3) == TESSELLATED and sister is not None:
+            out = retest_encapsulation(pv, sister, facets)
+        if out is None:
+            stands = True
+            continue
+        false.append(
+            f"{this} said to hold {name} (copy {copy}) whole: Geant4's tessellated Inside is "
+            f"not exact here: a corner of it lies {out * 1e6:.3g} nm outside"
+        )
+    return stands, false
+
+
+def _triangles(solid, facets: dict) -> np.ndarray:
+    """(n, 3, 3) corners of a G4TessellatedSolid's facets, as Geant4 holds them (cached)."""
+    key = str(solid.GetName())
+    if key not in facets:
+        out = np.empty((solid.GetNumberOfFacets(), 3, 3))
+        for i in range(len(out)):
+            facet = solid.GetFacet(i)
+            for k in range(3):
+                c = facet.GetVertex(k)
+                out[i, k] = (c.x, c.y, c.z)
+        facets[key] = out
+    return facets[key]
+
+
+def _frame(pv) -> tuple[np.ndarray, np.ndarray]:
+    """(rotation, translation) taking ``pv``'s local points to its mother's frame."""
+    r = pv.GetObjectRotationValue()
+    rot = np.array([[r.xx, r.xy, r.xz], [r.yx, r.yy, r.yz], [r.zx, r.zy, r.zz]])
+    t = pv.GetObjectTranslation()
+    return rot, np.array([t.x, t.y, t.z])
+
+
+#: Directions of the exact ray-parity test (:func:`parity_inside`): fixed, not along any axis.
+_RAYS = np.random.default_rng(2024).normal(size=(7, 3))
+_RAYS /= np.linalg.norm(_RAYS, axis=1)[:, None]
+
+
+def parity_inside(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """Inside a closed triangle mesh: the parity of each point's crossings along seven fixed
+    rays, each ray that passes within 1e-9 (relative) of a facet's edge or plane left out,
+    the majority of the others (True where more rays say inside)."""
+    a = tri[:, 0]
+    e1, e2 = tri[:, 1] - a, tri[:, 2] - a
+    votes = np.zeros(len(points), int)
+    counted = np.zeros(len(points), int)
+    for d in _RAYS:
+        pv = np.cross(d, e2)
+        det = np.einsum("nc,nc->n", pv, e1)
+        ok = np.abs(det) > 1e-300
+        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+        for n, p in enumerate(points):
+            tv = p - a
+            u = np.einsum("nc,nc->n", tv, pv) * inv
+            qv = np.cross(tv, e1)
+            w = (qv @ d) * inv
+            t = np.einsum("nc,nc->n", qv, e2) * inv
+            eps = 1e-9
+            near = ok & (u > -eps) & (w > -eps) & (u + w < 1 + eps) & (t > -eps)
+            clear = (u > eps) & (w > eps) & (u + w < 1 - eps) & (t > eps)
+            if (near & ~clear).any():
+                continue  # through an edge, a corner or from the surface: no vote
+            counted[n] += 1
+            votes[n] += int((near & clear).sum() % 2)
+    return votes * 2 > counted
+
+
+def retest_report(
+    pv, sister, point: np.ndarray, tolerance: float, facets: dict, samples: int = 500
+) -> tuple[float, float] | None:
+    """Re-test exactly Geant4's report of a point of ``pv``'s surface inside ``sister`` (both
+    G4TessellatedSolids) at ``point``: the sister's frame, printed with six significant digits,
+    so the true point lies within ``reach`` (half the last digit of each coordinate) of it.
+    A printed point outside the sister by more than ``reach`` (the distance to its facets,
+    exact; outside by the parity of seven rays, :func:`parity_inside`, and the winding number)
+    puts the true point outside. Nearer, points of ``pv``'s surface within ``reach`` of it
+    (``samples`` per facet there, :func:`_near_points`) are tested the same way. Returns (the
+    printed point's distance outside, mm; ``reach``, mm) when the report is false; None when a
+    point lies inside the sister by more than ``tolerance`` (1e-9 mm at least: a real overlap)
+    or no point of ``pv`` lies that near."""
+    from score4.shapes.mesh_shape import MeshShape, _tri_distance
+
+    other = _triangles(sister.GetLogicalVolume().GetSolid(), facets)
+    mesh = MeshShape(other)
+    digit = 10.0 ** (np.floor(np.log10(np.maximum(np.abs(point), 1e-300))) - 5)
+    reach = float(np.linalg.norm(0.5 * digit)) * (1 + 1e-6) + 1e-12
+    printed = float(mesh.signed_distance(point[None])[0])
+    if printed > reach and not parity_inside(point[None], other)[0]:
+        return printed, reach
+    own = _triangles(pv.GetLogicalVolume().GetSolid(), facets)
+    rot_a, t_a = _frame(pv)
+    rot_b, t_b = _frame(sister)
+    here = rot_a.T @ (rot_b @ point + t_b - t_a)  # the point in pv's frame
+    near = own[_tri_distance(here[None], own)[0] <= reach]
+    if not len(near):
+        return None
+    q = _near_points(here, near, reach, samples)
+    if not len(q):
+        return None
+    in_sister = (q @ rot_a.T + t_a - t_b) @ rot_b  # pv's frame -> mother -> sister's frame
+    signed = mesh.signed_distance(in_sister)
+    deepest = np.argsort(signed)[:20]
+    inside = signed < 0
+    inside[deepest] |= parity_inside(in_sister[deepest], other)
+    if (inside & (np.abs(signed) > max(tolerance, 1e-9))).any():
+        return None  # a point of pv's surface inside the sister: a real overlap
+    return printed, reach
+
+
+def _near_points(here: np.ndarray, tri: np.ndarray, reach: float, n: int) -> np.ndarray:
+    """Points of the triangles ``tri`` within ``reach`` of ``here``: each triangle's nearest
+    point to it and ``n`` points drawn uniformly in the disc of radius ``reach`` about its foot
+    in the triangle's plane, those inside the triangle and within ``reach``."""
+    rng = np.random.default_rng(0)
+    out = []
+    for t in tri:
+        e1, e2 = t[1] - t[0], t[2] - t[0]
+        normal = np.cross(e1, e2)
+        normal /= np.linalg.norm(normal)
+        u = e1 / np.linalg.norm(e1)
+        w = np.cross(normal, u)
+        foot = here - np.dot(here - t[0], normal) * normal
+        r = reach * np.sqrt(rng.random(n))
+        a = rng.random(n) * 2 * np.pi
+        p = foot + (r * np.cos(a))[:, None] * u + (r * np.sin(a))[:, None] * w
+        # barycentric (s, t) of p in the triangle: p - t0 = s e1 + t e2
+        m = np.array([[e1 @ e1, e1 @ e2], [e1 @ e2, e2 @ e2]])
+        st = np.linalg.solve(m, np.stack([(p - t[0]) @ e1, (p - t[0]) @ e2]))
+        keep = (st[0] >= 0) & (st[1] >= 0) & (st.sum(axis=0) <= 1)
+        keep &= np.linalg.norm(p - here, axis=1) <= reach
+        out.append(p[keep])
+        out.append(_nearest_on(here, t)[None])
+    points = np.concatenate(out)
+    return points[np.linalg.norm(points - here, axis=1) <= reach * (1 + 1e-9)]
+
+
+def _nearest_on(p: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """The point of triangle ``t`` nearest to ``p``: its foot when inside, else the nearest
+    point of its edges."""
+    e1, e2 = t[1] - t[0], t[2] - t[0]
+    m = np.array([[e1 @ e1, e1 @ e2], [e1 @ e2, e2 @ e2]])
+    s, w = np.linalg.solve(m, np.array([(p - t[0]) @ e1, (p - t[0]) @ e2]))
+    if s >= 0 and w >= 0 and s + w <= 1:
+        return t[0] + s * e1 + w * e2
+    best = t[0]
+    for a, b in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0])):
+        d = b - a
+        c = a + np.clip((p - a) @ d / (d @ d), 0.0, 1.0) * d
+        if np.linalg.norm(p - c) < np.linalg.norm(p - best):
+            best = c
+    return best
+
+
+def retest_encapsulation(pv, sister, facets: dict) -> float | None:
+    """Geant4's report that ``pv`` fully holds ``sister`` (both G4TessellatedSolids): the
+    largest exact distance (mm) by which a vertex of the sister lies outside ``pv`` when one
+    does by more than 1e-9 mm (the report is false), else None."""
+    from score4.shapes.mesh_shape import MeshShape
+
+    own = _triangles(pv.GetLogicalVolume().GetSolid(), facets)
+    other = _triangles(sister.GetLogicalVolume().GetSolid(), facets)
+    rot_a, t_a = _frame(pv)
+    rot_b, t_b = _frame(sister)
+    corners = np.unique(other.reshape(-1, 3), axis=0)
+    in_pv = (corners @ rot_b.T + t_b - t_a) @ rot_a
+    out = float(MeshShape(own).signed_distance(in_pv).max())
+    return out if out > 1e-9 else None
 
 
 def _cell_corners(layer, j: int) -> np.ndarray:

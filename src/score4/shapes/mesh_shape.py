@@ -282,25 +282,38 @@ class MeshShape(Shape):
         return self.face_names, dict(self.face_groups), patches
 
     def moved(self, cuts: dict[str, float]) -> tuple[Shape, np.ndarray] | None:
-        """The mesh with each named face (one plane) moved inward by ``cuts[face]`` mm (< 0:
-        outward), its other planes kept: each vertex of a moved face goes where its planes
-        meet again (the least move that does it: along the normal inside the face, along the
-        neighbour's plane on an edge), the same shift (0) of the origin. None for a face of
-        several planes. ConfigError, naming the face and why, where the moved mesh would not
-        be a valid solid: a corner of the face on more other planes than meet the moved plane
-        in one point, a facet turned over or shrunk to a sliver, or a moved facet crossing
-        another part of the mesh."""
+        """The mesh with each named face moved inward by ``cuts[face]`` mm (< 0: outward; a
+        face of several planes, each of its planes), its other planes kept: each vertex of a
+        moved face goes where its planes meet again (the least move that does it: along the
+        normal inside the face, along the neighbour's plane on an edge), the same shift (0) of
+        the origin (kept per ``cuts``: a face of several planes takes a layer per plane, each
+        asking for the same move). None for a face with a facet of no area. ConfigError,
+        naming the face and why, where the moved mesh would not be a valid solid: a corner of
+        the face on more other planes than meet the moved plane in one point, a facet turned
+        over or shrunk to a sliver, or a moved facet crossing another part of the mesh."""
         if not cuts or set(cuts) - set(self.face_names):
             return None
+        key = tuple(sorted(cuts.items()))
+        if key not in self._moved:
+            self._moved[key] = self._move(cuts)
+        return self._moved[key]
+
+    @cached_property
+    def _moved(self) -> dict[tuple[tuple[str, float], ...], tuple[Shape, np.ndarray] | None]:
+        return {}
+
+    def _move(self, cuts: dict[str, float]) -> tuple[Shape, np.ndarray] | None:
+        """:meth:`moved`, not kept."""
         tri = self.triangles
         plane = plane_index(tri)
         assert self.facet_faces is not None
         moving: dict[int, float] = {}
         for name, depth in cuts.items():
             found = set(plane[self.facet_faces == self.face_names.index(name)].tolist())
-            if len(found) != 1 or -1 in found:
+            if not found or -1 in found:
                 return None
-            moving[found.pop()] = float(depth)
+            for p in found:  # a face of several planes (a curved surface cut into facets,
+                moving[p] = float(depth)  # one face ``mesh``): every plane moves by it
         count = int(plane.max()) + 1
         normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)

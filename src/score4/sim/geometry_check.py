@@ -13,7 +13,9 @@ each check with its own stores.
 
 from __future__ import annotations
 
+import ctypes
 import pickle
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -45,7 +47,27 @@ def _check(blob: bytes, points: int, tolerance: float, max_placements: int, log:
             max_placements,
             layers=plan.scene.layers,
             progress=progress,
+            read_log=log_reader(Path(log)),
         )
+
+
+def log_reader(log: Path) -> Callable[[], str]:
+    """A function returning what was written to ``log`` (Geant4's output, redirected there by
+    :func:`~score4.sim.runtime.redirect_native_output`) since its last call, C buffers flushed
+    first: the overlap reports of one ``CheckOverlaps`` (re-tested by
+    :func:`score4.geometry.check.retest_reports`)."""
+    libc = ctypes.CDLL(None)
+    read = [log.stat().st_size if log.exists() else 0]
+
+    def read_log() -> str:
+        libc.fflush(None)
+        with open(log, "rb") as fh:
+            fh.seek(read[0])
+            text = fh.read()
+        read[0] += len(text)
+        return text.decode(errors="replace")
+
+    return read_log
 
 
 def check_geometry(

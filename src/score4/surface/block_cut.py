@@ -31,7 +31,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from .rough import Surface
-from .triangle_mesh import TriangleMesh, boundary_half_edges, closed_body
+from .triangle_mesh import TriangleMesh, boundary_half_edges, closed_body, longest_edge_last
 
 #: Top facets per block that ``block_cells: auto`` aims at. Measured (bench_surfaces.py, alphas,
 #: ratio to the equal-height pyramid multi-union, shared machine): measured map 2 x 2 pixels
@@ -482,7 +482,9 @@ def _terrain_wall(
     In (distance along the side, z) the polygon is a terrain over a segment: the top chain is
     monotone along the side and lies above the bottom edge, so the stack triangulation of a
     monotone polygon (sweep along the side; the bottom corner first, the other last) cuts it
-    without folds. Each triangle turns anticlockwise, as :func:`_upright` asks. ``None`` if a
+    without folds; where that gives a triangle thinner than :data:`WALL_MIN_ALTITUDE` (Geant4
+    accepts hits far beyond its edges), the fattest triangulation (:func:`_fattest`) instead.
+    Each triangle turns anticlockwise, as :func:`_upright` asks. ``None`` if a
     triangle would have no area (three points on a line) or be a sliver (:func:`_sliver`): the
     caller keeps closed_body's walls.
     """
@@ -508,6 +510,11 @@ def _terrain_wall(
     tris += [(p, low_b, q) for p, q in itertools.pairwise(stack)]
     if len(tris) != len(chain) or min(turn(*t) for t in tris) <= 0:
         return None
+    if min(_altitude(sz[p], sz[q], sz[r]) for p, q, r in tris) < WALL_MIN_ALTITUDE:
+        # some wall triangle is long and thin: the polygon's fattest triangulation instead
+        fat = _fattest([low_a, low_b, *chain[::-1]], sz)
+        if fat is not None:
+            tris = fat
     # a sliver: its turn is at most MIN_FACET_ALTITUDE x its longest edge, which is at most the
     # wall's diagonal; only such triangles are measured
     height = max(sz[i][1] for i in chain) + thickness
@@ -517,6 +524,91 @@ def _terrain_wall(
         if bent <= bound and _sliver(sz[t[0]], sz[t[1]], sz[t[2]], bent):
             return None
     return tris
+
+
+#: A wall of :func:`_terrain_wall` with a triangle of a lowest altitude below this (mm) is cut
+#: by :func:`_fattest` instead: Geant4 accepts a ray's crossing up to ~2 kCarTolerance / w beyond
+#: a facet's edges even with its corners turned (triangle_mesh.intersect_tolerance), and 8 x
+#: 8-pixel blocks' sweep triangulation gave walls with w down to 2 nm (~1 um too far;
+#: benchmarks/README.md, session 13).
+WALL_MIN_ALTITUDE = 1e-4  # mm
+
+
+def _altitude(p: tuple, q: tuple, r: tuple) -> float:
+    """The lowest altitude of the triangle of 2-d points ``p``, ``q``, ``r``: twice its area over
+    its longest edge."""
+    twice = abs((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0]))
+    return twice / max(math.dist(p, q), math.dist(q, r), math.dist(r, p))
+
+
+def _fattest(
+    polygon: list[int], sz: dict[int, tuple[float, float]]
+) -> list[tuple[int, int, int]] | None:
+    """The triangulation of a wall polygon (vertex ids: the two bottom corners, then the top
+    chain back to the first corner; anticlockwise in the points ``sz``, the chain monotone along
+    the side) whose thinnest triangle (:func:`_altitude`) is the fattest, by dynamic programming
+    over its sub-polygons; each triangle anticlockwise. None if none is found. A triangle whose
+    sides are sides of the polygon or chords inside it (crossing no side, touching no other
+    vertex) is a face of a triangulation; the chords are tested in numpy."""
+    m = len(polygon)
+    pts = np.array([sz[i] for i in polygon])
+    i, j = np.triu_indices(m, 1)
+    p, q = pts[i], pts[j]  # the chords from p to q
+    d = q - p
+    e0, e1 = pts, np.roll(pts, -1, axis=0)  # the sides from e0 to e1
+
+    def cross(o: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """(u - o) x (v - o), broadcast: exactly 0 where v or u is o."""
+        return (u[..., 0] - o[..., 0]) * (v[..., 1] - o[..., 1]) - (u[..., 1] - o[..., 1]) * (
+            v[..., 0] - o[..., 0]
+        )
+
+    # a side meets a chord at a point inside both, or a vertex lies on the open chord
+    side0 = cross(p[:, None], q[:, None], e0[None, :])
+    side1 = cross(p[:, None], q[:, None], e1[None, :])
+    other0 = cross(e0[None, :], e1[None, :], p[:, None])
+    other1 = cross(e0[None, :], e1[None, :], q[:, None])
+    meets = (side0 * side1 < 0) & (other0 * other1 < 0)
+    rel = e0[None, :] - p[:, None]
+    t = np.einsum("pnc,pc->pn", rel, d) / np.einsum("pc,pc->p", d, d)[:, None]
+    on = (side0 == 0) & (t > 0) & (t < 1)
+    mid = p + d / 2  # inside: above the bottom, below the top chain
+    chain = pts[:1:-1]
+    below = mid[:, 1] < np.interp(mid[:, 0], chain[:, 0], chain[:, 1])
+    inside = below & (mid[:, 1] > pts[0, 1]) & (mid[:, 0] > pts[0, 0]) & (mid[:, 0] < pts[1, 0])
+    good = ~(meets.any(axis=1) | on.any(axis=1)) & inside
+    good |= (j - i == 1) | ((i == 0) & (j == m - 1))  # the polygon's sides
+    chord = dict(zip(zip(i.tolist(), j.tolist(), strict=True), good.tolist(), strict=True))
+    # every triple's twice signed area (> 0: anticlockwise) and lowest altitude
+    u = pts[None, :, None] - pts[:, None, None]
+    v = pts[None, None, :] - pts[:, None, None]
+    twice = u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+    edge = np.sqrt(((pts[:, None] - pts[None, :]) ** 2).sum(axis=2))
+    longest = np.maximum(np.maximum(edge[:, :, None], edge[None, :, :]), edge[:, None, :])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fat = np.where(twice > 0, twice / longest, -1.0).tolist()
+    best: dict[tuple[int, int], tuple[float, list[tuple[int, int, int]]]] = {
+        (k, k + 1): (math.inf, []) for k in range(m - 1)
+    }
+    for span in range(2, m):
+        for lo in range(m - span):
+            hi = lo + span
+            if not chord[lo, hi]:
+                continue
+            found: tuple[float, list[tuple[int, int, int]]] | None = None
+            for mid_k in range(lo + 1, hi):
+                if (lo, mid_k) not in best or (mid_k, hi) not in best:
+                    continue
+                alt = fat[lo][mid_k][hi]
+                if alt < 0:  # clockwise or flat
+                    continue
+                worst = min(best[lo, mid_k][0], best[mid_k, hi][0], alt)
+                if found is None or worst > found[0]:
+                    tri = (polygon[lo], polygon[mid_k], polygon[hi])
+                    found = (worst, best[lo, mid_k][1] + best[mid_k, hi][1] + [tri])
+            if found is not None:
+                best[lo, hi] = found
+    return best[0, m - 1][1] if (0, m - 1) in best else None
 
 
 def block_body(top: TriangleMesh, thickness: float) -> TriangleMesh:
@@ -612,7 +704,11 @@ def _few_walls(
             walls += long_wall
     c0, c1, c2, c3 = (low[c] for c in ends)
     walls += [(c1, c0, c3), (c3, c2, c1)]  # the bottom
-    return bottom, walls
+    # each corner turned to face its triangle's longest edge: Geant4 then accepts crossings at
+    # most ~2 kCarTolerance / w beyond a long thin wall triangle's edges, not 4 kCarTolerance L /
+    # w^2 (intersect_tolerance; benchmarks/README.md, session 13: 8 x 8-pixel blocks)
+    turned = longest_edge_last(np.vstack([v, bottom]), np.array(walls, dtype=np.int64))
+    return bottom, [(int(p), int(q), int(r)) for p, q, r in turned.tolist()]
 
 
 def block_caps(

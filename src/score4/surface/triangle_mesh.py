@@ -335,6 +335,47 @@ def degenerate_faces(mesh: TriangleMesh, rel_tol: float = DEGENERATE_REL_TOL) ->
 # --- export -------------------------------------------------------------------------------
 
 
+#: Geant4's kCarTolerance (mm), for :func:`intersect_tolerance`.
+KCAR_TOLERANCE = 1e-9
+
+
+def intersect_tolerance(tri: np.ndarray) -> np.ndarray:
+    """For each triangle ``tri`` (n, 3, 3), in the vertex order Geant4 gets: the largest distance
+    (mm) beyond one of its edges at which ``G4TriangularFacet::Intersect`` (Geant4 11) still
+    counts a ray's crossing as a hit, so that ``G4TessellatedSolid::Inside`` can class a point
+    that far outside the solid as inside. Its tests of the barycentric coordinates carry
+    ``kCarTolerance`` times sums of products of the edge vectors (``a = |E1|^2``, ``b = E1.E2``,
+    ``c = |E2|^2`` and the point's ``d``, ``e``, largest at the edge's far corner); over the
+    facet's doubled area and the edge's length these are distances: about ``2 kCar / w`` beyond
+    an edge at the corner opposite the longest edge (``w`` the smaller altitude there), but
+    ``4 kCar L / w^2`` beyond a short edge ``w`` opposite ``P0`` in a facet of length ``L``
+    (kCarTolerance is 1e-9 in mm units; Geant4's tolerances are not scaled as lengths)."""
+    p0, p1, p2 = tri[:, 0], tri[:, 1], tri[:, 2]
+    e1, e2 = p1 - p0, p2 - p0
+    a, c = np.einsum("nc,nc->n", e1, e1), np.einsum("nc,nc->n", e2, e2)
+    b = np.abs(np.einsum("nc,nc->n", e1, e2))
+    two_area = np.linalg.norm(np.cross(e1, e2), axis=1)
+    beyond_e2 = 2 * (b + c) / (two_area * np.sqrt(c))  # the edge P0 P2 (s < 0)
+    beyond_e1 = 2 * (a + b) / (two_area * np.sqrt(a))  # the edge P0 P1 (t < 0)
+    beyond_e3 = (a + c + 2 * b) / (two_area * np.linalg.norm(p2 - p1, axis=1))  # s + t > 1
+    return KCAR_TOLERANCE * np.maximum(np.maximum(beyond_e1, beyond_e2), beyond_e3)
+
+
+def longest_edge_last(v: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``faces`` with each triangle's corners turned (cyclically, so its normal is kept) until
+    the first corner faces the longest edge: Geant4's ``P0`` then lies opposite it, and
+    ``G4TriangularFacet::Intersect`` accepts crossings at most about ``2 kCarTolerance / w``
+    beyond any edge (:func:`intersect_tolerance`), not ``4 kCarTolerance L / w^2``."""
+    tri = v[faces]
+    length = np.stack(
+        [np.linalg.norm(tri[:, (k + 2) % 3] - tri[:, (k + 1) % 3], axis=1) for k in range(3)],
+        axis=1,
+    )
+    first = length.argmax(axis=1)
+    turn = (first[:, None] + np.arange(3)[None, :]) % 3
+    return np.take_along_axis(faces, turn, axis=1)
+
+
 def _atomic_write(path: str | os.PathLike, chunks: list[bytes]) -> None:
     """Write bytes to a temporary file beside ``path``, then rename it over ``path``."""
     with atomic_output(path) as tmp, open(tmp, "wb") as fh:

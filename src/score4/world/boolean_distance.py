@@ -23,10 +23,12 @@ surface (everywhere inside a box less a tube along an axis, or a cylinder with a
 The distance to some faces of a boolean (activeness ``faces``) is the larger of the distance to
 the whole surface and the distance to the listed faces: a smooth face as it is on the boolean
 (the part the other constituents keep, :class:`score4.world.kept_face_distance.KeptFaceDistance`:
-exact to its ``TOLERANCE``), a rough face by its whole layer's rough surface, raised below the
-layer's level to the distance to the face as it is on the boolean there (:meth:`_beside`: a
-lower bound, exact beside the face's column, off by at most the patches' height over it where
-the layer's flat cells reach off the boolean's surface).
+exact to its ``TOLERANCE``), a rough face laid as flat layers by its patch tops and its flat
+rest on the boolean's face (:class:`score4.world.rough_face_distance.FlatRoughFaceDistance`:
+exact to the same ``TOLERANCE``), a curved rough face by its whole layer's rough surface, raised
+below the layer's level to the distance to the face as it is on the boolean there
+(:meth:`BooleanDistance._beside`: a lower bound, exact beside the face's column, off by at most
+the patches' height over it where the layer's flat cells reach off the boolean's surface).
 
 With ``into`` a rough face's layer lies on the cut face, so its rough surface is measured there;
 the leaves and the other faces stay the uncut solid's, as on a plain solid with ``into``
@@ -47,6 +49,7 @@ from ..shapes import BooleanShape, Shape
 from ..shapes.placed import PlacedShape
 from .face_distance import face_distance
 from .kept_face_distance import KeptFaceDistance
+from .rough_face_distance import FlatRoughFaceDistance
 
 if TYPE_CHECKING:
     from .scene import RoughLayer, TargetVolume
@@ -165,6 +168,7 @@ class BooleanDistance:
         self._kept: dict[tuple[str, ...], KeptFaceDistance] = {}
         self._layers = layers
         self._level: dict[str, KeptFaceDistance] = {}
+        self._flat: dict[str, FlatRoughFaceDistance] = {}
         self.leaves: dict[str, RoughLeaf] = {}
         for face, on_face in layers.items():
             path, leaf_face = leaf_path(shape, face)
@@ -203,8 +207,22 @@ class BooleanDistance:
         d = self.kept_faces(smooth)(local) if smooth else np.full(len(world), np.inf)
         for f in faces:
             if f in self._rough_faces:
-                d = np.minimum(d, self._beside(f, world, local, rough(f)(world)))
+                d = np.minimum(d, self.rough_face(f, world, local, rough))
         return np.where(whole > 0, np.maximum(whole, d), 0.0)
+
+    def rough_face(
+        self, face: str, world: np.ndarray, local: np.ndarray, rough: Callable[[str], Measure]
+    ) -> np.ndarray:
+        """Distance of world points (``local``: the target's frame) to the rough ``face`` as it
+        is on the boolean: exact for flat layers (one, or one per plane: patch tops and the flat
+        rest on the face, :class:`FlatRoughFaceDistance`); for a curved layer the whole layer's
+        rough surface raised as :meth:`_beside` says (a lower bound)."""
+        layers = self._layers[face]
+        if not any(layer.curved for layer in layers):
+            if face not in self._flat:
+                self._flat[face] = FlatRoughFaceDistance(layers)
+            return self._flat[face](world)
+        return self._beside(face, world, local, rough(face)(world))
 
     def _beside(self, face: str, world: np.ndarray, local: np.ndarray, d: np.ndarray) -> np.ndarray:
         """The distance ``d`` to the rough ``face`` (its whole layer's rough surface, the flat

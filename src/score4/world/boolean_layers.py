@@ -23,9 +23,11 @@ solid does; a cylinder or cone wall of a subtracted polycone (a stepped or taper
 post an annular polycone leaves) is turned so over its segment's z range
 (:func:`~score4.world.boolean_modes.polycone_wall`); the sphere face of a subtracted G4Orb or
 G4Sphere (a spherical dimple or cavity) is the inner face of a shell around it (or the outer
-face of a ball inside a subtracted shell). A sphere face of a G4Sphere or G4Orb leaf takes the
-sphere's cells (a cell's points lie within its half-height plus the sphere radius times its
-half-angle of its centre).
+face of a ball inside a subtracted shell); a theta cone of a subtracted G4Sphere is the wall of
+a G4Cons over the cone's z range (:func:`theta_wall`), whose envelope ends on the rings' band
+cones, as the sphere faces meet the cone at right angles (:func:`theta_rims`). A sphere face
+of a G4Sphere or G4Orb leaf takes the sphere's cells (a cell's points lie within its
+half-height plus the sphere radius times its half-angle of its centre).
 
 A flat face partly covered by another part of a union (the layer's envelope would run into
 the solid): only the cells whose whole column (the cell up to the layer's thickness) is proven
@@ -43,17 +45,17 @@ their flat rest as one (:class:`score4.source.build.PlanesRemainderSampler`).
 
 Refused, in one line each (:mod:`score4.world.boolean_modes` says why): ``into: true`` on the
 faces of a subtracted solid other than its flat faces (a G4Box, G4Tubs, G4Cons, polycone, G4Trd,
-G4Trap or G4Polyhedra; a face in one plane of an extruded or tessellated solid, where moving it
-leaves a valid solid), the walls of a G4Tubs or G4Cons (bores), the cylinder and cone walls of
-a polycone and the sphere faces of a G4Orb or G4Sphere, on phi faces, and on two faces that
+G4Trap or G4Polyhedra; a face of an extruded or tessellated solid, where moving it leaves a
+valid solid), the walls of a G4Tubs or G4Cons (bores), the cylinder and cone walls of
+a polycone and the sphere faces of a G4Orb or G4Sphere (a G4Sphere's theta cones among them),
+on phi faces, and on two faces that
 share an edge of one constituent with a phi segment or of a part grown down under another
 layer that is not swept straight up from its foot (where they can be, they are cut together:
 :func:`into_joint`), ``tiling: portal``,
 ``native_layout: replicas`` where a cell holds no patch (and on a layer whose envelope is the
 prism of its kept cells); a curved face of a subtracted solid other than a G4Tubs, G4Cons
-or polycone wall or a sphere face (a G4Sphere's theta cones, which meet its sphere faces at
-right angles, where an envelope ending on planes across the axis would enter the solid); a
-curved layer
+or polycone wall, a sphere face or a G4Sphere's theta cone (one at right angles to the axis, or
+reaching the centre); a curved layer
 whose envelope, even in pieces, runs into the solid itself (another part of a union), a flat one
 that keeps no cell clear of the other parts.
 Steps and activeness measure these layers through the boolean's constituents
@@ -99,7 +101,7 @@ from .boolean_modes import (
     joint_leaves,
     polycone_wall,
 )
-from .curved import RingLayout, cone_cell
+from .curved import cone_ring_span
 from .facets import ccw, cells_inside, face_triangles, plane_face, plane_groups
 from .scene import (
     BooleanFace,
@@ -143,6 +145,10 @@ def target_layers(
         clip, leaf_target, leaf_rough, placed = _leaf(target, rough, where)
         try:
             layers = target_layers(surfaces, leaf_target, j, leaf_rough, where)
+            narrow = _grown_wall_extent(clip, layers[0]) if rough.into else None
+            if narrow is not None:  # laid out again on the part of the wall that is kept
+                clip, leaf_target, leaf_rough, placed = _leaf(target, rough, where, narrow)
+                layers = target_layers(surfaces, leaf_target, j, leaf_rough, where)
         except ConfigError as err:
             seen = "" if leaf_rough.face == clip.face else ", turned: the wall of a solid beside it"
             raise ConfigError(
@@ -171,12 +177,48 @@ def _what(target: TargetVolume, rough: RoughFace) -> str:
     return f"face {rough.face_name} of {target.name!r} (a {target.solid})"
 
 
+def _grown_wall_extent(clip: FaceClip, layer: RoughLayer) -> tuple[float, float] | None:
+    """For an ``into`` layer on a cylinder or cone wall of a subtracted polycone
+    (:func:`~score4.world.boolean_modes.polycone_wall`), the z range (the polycone's frame) of
+    the wall once the polycone has grown by the layer's cut where that is shorter than the old
+    wall's (a neighbouring cone's line, kept, meets the moved wall further along it, as a
+    drill-tip cone does the bore above it); else None. The layer is then laid out on that part
+    only: its shell (between the old wall and the grown one) ends on z planes within the
+    grown wall's range, all in the grown hole."""
+    if not clip.flipped or not isinstance(layer, CurvedRoughLayer):
+        return None
+    old = polycone_wall(clip.leaf, clip.face)
+    if old is None:
+        return None
+    try:
+        moved = clip.leaf.moved({clip.face: -into_depth(layer, True)})
+    except ConfigError:  # (refused where the boolean is cut, in one line: cut_face)
+        return None
+    if moved is None:
+        return None
+    grown = polycone_wall(moved[0], clip.face)
+    if grown is None:
+        return None
+    (was, _, c0), (now, _, c1) = old, grown
+    assert isinstance(was, G4Tubs | G4Cons)
+    assert isinstance(now, G4Tubs | G4Cons)
+    c1 += float(moved[1][2])
+    lo, hi = max(c0 - was.dz, c1 - now.dz), min(c0 + was.dz, c1 + now.dz)
+    if lo <= c0 - was.dz + 1e-12 and hi >= c0 + was.dz - 1e-12:
+        return None  # as long as before, or longer: the old wall's range
+    return lo, hi
+
+
 def _leaf(
-    target: TargetVolume, rough: RoughFace, where: str
+    target: TargetVolume,
+    rough: RoughFace,
+    where: str,
+    narrow: tuple[float, float] | None = None,
 ) -> tuple[FaceClip, TargetVolume, RoughFace, Transform]:
     """Where the layer on a boolean's face goes: the face's clip, the leaf solid as a target
     (a subtracted tube's wall turned: :func:`turned_wall`), the entry on the leaf's face, and the
-    leaf's frame in the boolean's; one-line errors for what boolean layers refuse."""
+    leaf's frame in the boolean's; one-line errors for what boolean layers refuse. ``narrow``:
+    a z range (leaf frame) a turned wall is cut to as well (:func:`_grown_wall_extent`)."""
     shape = target.shape
     assert isinstance(shape, BooleanShape)
     name = rough.face_name
@@ -195,13 +237,16 @@ def _leaf(
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                             for z in (lo[2], hi[2])])  # fmt: skip
         z = clip.transform.inverse_apply(corners)[:, 2]
-        turned = turned_wall(leaf, face, (float(z.min()), float(z.max())))
-        if turned is None and face in ("theta_start", "theta_end"):
+        extent = (float(z.min()), float(z.max()))
+        if narrow is not None:
+            extent = (max(extent[0], narrow[0]), min(extent[1], narrow[1]))
+        turned = turned_wall(leaf, face, extent)
+        if turned is None and face in THETA:
             raise ConfigError(
-                f"{where}: {what} is the theta cone {face} of a subtracted {leaf.kind}: it "
-                "meets the sphere faces at right angles, while a curved layer's envelope ends "
-                "on planes across the axis, so the layer would run into the solid at the "
-                "cone's rims; rough curved faces of a subtracted G4Sphere are its sphere faces "
+                f"{where}: {what} is the theta cone {face} of a subtracted {leaf.kind} that "
+                "is flat (at 90 degrees to the axis) or reaches the sphere's centre (rmin 0); "
+                "score4 lays a layer on a theta cone as on a G4Cons's wall, which needs a cone "
+                "of a non-zero radius at both ends; rough faces there are the sphere faces "
                 "(outer, inner)"
             )
         if turned is None:
@@ -262,6 +307,13 @@ def _on_boolean(
         if rough.into and clip.flipped and not isinstance(layer, CurvedRoughLayer):
             kept &= _in_grown_slab(layer, clip, on, target.transform)
         layer.mask = kept
+        theta = clip.flipped and clip.face in THETA and isinstance(layer, CurvedRoughLayer)
+        if theta:  # the sphere's faces meet the cone at right angles: rings in the shell only
+            assert isinstance(layer, CurvedRoughLayer)
+            assert isinstance(clip.leaf, G4Sphere)
+            shift = clip.transform.inverse_apply(placed.translation[None])[0]
+            theta_rims(layer, clip.leaf, shift)
+            kept = layer.mask
         if not kept.any():
             if len(layers) > 1:
                 continue
@@ -274,7 +326,7 @@ def _on_boolean(
         layer.face_area = float(on.shape.face_areas[name])
         layer.on_boolean = on
         if isinstance(layer, CurvedRoughLayer):
-            layer.pieces = envelope_pieces(layer)
+            layer.pieces = envelope_pieces(layer, True) if theta else envelope_pieces(layer)
         if _meets_own_solid(layer, on) or (
             isinstance(layer, CurvedRoughLayer)
             and layer.pieces is not None
@@ -368,12 +420,13 @@ def _in_grown_slab(
     return out
 
 
-def envelope_pieces(layer: CurvedRoughLayer) -> list[EnvelopePiece] | None:
+def envelope_pieces(layer: CurvedRoughLayer, normal: bool = False) -> list[EnvelopePiece] | None:
     """The pieces (:class:`~score4.world.scene.EnvelopePiece`: ``(phi0, dphi, v0, v1,
     normal_ends)``) of the envelope of a cylinder, cone or sphere face whose kept cells leave
     part of the face flat (:attr:`CurvedRoughLayer.pieces`), or None where the face's whole
     shell is needed (every azimuth and every ring holds a kept cell; on a sphere, every cell is
-    kept).
+    kept). With ``normal`` (a subtracted G4Sphere's theta cone, :func:`theta_rims`) every piece
+    of a cone ends on its outer rings' band cones.
 
     Azimuths: the union over the rings of the kept cells' azimuth ranges; a run of cells that
     starts (ends) at a ring's first (last) cell reaches the face's phi edge (the flat rest of
@@ -384,9 +437,10 @@ def envelope_pieces(layer: CurvedRoughLayer) -> list[EnvelopePiece] | None:
     ring's cells fill its band (half the rows' gap beyond the patch on each side). On a cone a
     ring's cells reach beyond its band (:func:`~score4.world.curved.cone_cell`: the corners
     moved out along the slanted normal), so each kept ring is bounded along the generator by
-    its cells' own z range (:func:`cone_ring_span`); kept rings whose spans do not meet split
-    the envelope, and a piece ends where its outer rings' cells end; where the rings of such a
-    run keep different azimuths, the pieces end on the rings' band cones (:func:`_wall_pieces`).
+    its cells' own z range (:func:`~score4.world.curved.cone_ring_span`); kept rings whose
+    spans do not meet split the envelope, and a piece ends where its outer rings' cells end;
+    where the rings of such a run keep different azimuths, the pieces end on the rings' band
+    cones (:func:`_wall_pieces`).
 
     On a sphere (:func:`sphere_pieces`) a piece is a G4Sphere segment: neighbouring rings'
     cells have their own azimuth grids (their steps differ), so a piece holds either a run of
@@ -401,7 +455,9 @@ def envelope_pieces(layer: CurvedRoughLayer) -> list[EnvelopePiece] | None:
         if all((layer.cell_variants[j, : lay.count[j]] >= 0).all() for j in held):
             return None  # nothing of the face is cut: its whole zone
         return sphere_pieces(layer, has) or None
-    pieces = _wall_pieces(layer, has)
+    pieces = _wall_pieces(layer, has, normal and abs(float(face.nrz[1])) > 1e-12)
+    if normal:
+        return pieces
     (_, _), (fv0, fv1) = face.extent
     if len(pieces) == 1:
         _phi0, dphi, v0, v1, _ = pieces[0]
@@ -452,7 +508,9 @@ def _merged(face, spans: list[tuple[float, float]]) -> list[list[float]]:
     return merged
 
 
-def _wall_pieces(layer: CurvedRoughLayer, has: np.ndarray) -> list[EnvelopePiece]:
+def _wall_pieces(
+    layer: CurvedRoughLayer, has: np.ndarray, normal: bool = False
+) -> list[EnvelopePiece]:
     """:func:`envelope_pieces` of a cylinder or cone wall.
 
     On a cone whose rings in a run keep different azimuths (each ring has its own grid of
@@ -462,7 +520,7 @@ def _wall_pieces(layer: CurvedRoughLayer, has: np.ndarray) -> list[EnvelopePiece
     rings' band cones instead (``normal_ends``: the cones of the face's normals between
     neighbouring rings, which their cells share, :func:`~score4.world.curved.cone_cell`), one
     per group of neighbouring rings keeping the same azimuths, each holding only its rings'
-    cells (a part of the run's piece)."""
+    cells (a part of the run's piece); with ``normal`` (a cone) always so."""
     lay = layer.ring_layout
     face = lay.face
     assert isinstance(face, RevolvedFace)
@@ -500,7 +558,9 @@ def _wall_pieces(layer: CurvedRoughLayer, has: np.ndarray) -> list[EnvelopePiece
             v1 = fv1 if j1 == nrings - 1 else float(np.nanmax(span[j0 : j1 + 1, 1]))
         rings = {j: _merged(face, _ring_spans(layer, j)) for j in range(j0, j1 + 1) if has[j]}
         groups = [[j0, j1]]
-        if span is not None and not all(_same_ranges(m, rings[j0]) for m in rings.values()):
+        if normal or (
+            span is not None and not all(_same_ranges(m, rings[j0]) for m in rings.values())
+        ):
             groups = []  # rings keeping other azimuths than their neighbour: a piece each
             for j in sorted(rings):
                 if groups and _same_ranges(rings[j], rings[groups[-1][1]]):
@@ -508,7 +568,7 @@ def _wall_pieces(layer: CurvedRoughLayer, has: np.ndarray) -> list[EnvelopePiece
                 else:
                     groups.append([j, j])
         for g0, g1 in groups:
-            if len(groups) == 1:
+            if len(groups) == 1 and not normal:
                 spans = [s for j in range(j0, j1 + 1) for s in _ring_spans(layer, j)]
                 ends, a, b = False, v0, v1
             else:  # between the cones of normals through the group's outer rings' bands
@@ -552,19 +612,6 @@ def _same_ranges(a: list[list[float]], b: list[list[float]]) -> bool:
     )
 
 
-def cone_ring_span(lay: RingLayout, j: int, t: float) -> tuple[float, float]:
-    """The range of generator arc length ``v`` of the face whose z range is that of the cells of
-    ring ``j`` of a cone (:func:`~score4.world.curved.cone_cell` with the layer's thickness
-    ``t``): the envelope cut to it between the end planes holds them exactly (the cell's shell
-    lies between the face and the face moved out by ``t``, as the envelope's)."""
-    face = lay.face
-    assert isinstance(face, RevolvedFace)
-    a, _, zc = cone_cell(lay, j, t)
-    z = lay.ring_z(j) + zc + np.array([-a[4], a[4]])
-    v = (z - float(face._mid[1])) / float(face._tangent[1])
-    return float(v.min()), float(v.max())
-
-
 def turned_wall(
     leaf: Shape, face: str, extent: tuple[float, float]
 ) -> tuple[Shape, str, np.ndarray] | None:
@@ -576,8 +623,8 @@ def turned_wall(
     ``extent`` (z range, leaf frame: where the boolean can be, so the layer's shell ends where
     the solid does), and the shift of its origin in the leaf's frame; None for other solids and
     faces."""
-    if isinstance(leaf, G4Polycone | G4GenericPolycone):
-        wall = polycone_wall(leaf, face)
+    if isinstance(leaf, G4Polycone | G4GenericPolycone) or face in ("theta_start", "theta_end"):
+        wall = polycone_wall(leaf, face) if face not in THETA else theta_wall(leaf, face)
         if wall is None:
             return None
         leaf, face, centre = wall
@@ -626,6 +673,57 @@ def turned_wall(
     cut = turned.trimmed({"-z": lo + leaf.dz, "+z": leaf.dz - hi})
     assert cut is not None  # a G4Tubs or G4Cons is cut along z
     return cut[0], name, cut[1]
+
+
+THETA = ("theta_start", "theta_end")
+
+
+def theta_wall(leaf: Shape, face: str) -> tuple[Shape, str, float] | None:
+    """The theta cone ``face`` of a G4Sphere turned as :func:`polycone_wall` turns a polycone's
+    cone wall: the wall of a G4Cons over the cone's z range (from ``rmin`` to ``rmax`` along
+    its generator) on the side away from the sphere, the ``inner`` wall of a hollow G4Cons
+    whose inner radii are the cone's where the sphere lies towards the axis, else the
+    ``outer`` wall of a full one, and the z of its centre in the sphere's frame; None for other
+    faces, for a cone at a right angle to the axis (a flat ring) and for a cone reaching the
+    sphere's centre (it closes to a point)."""
+    if not isinstance(leaf, G4Sphere) or face not in THETA:
+        return None
+    theta = leaf.stheta if face == "theta_start" else leaf.stheta + leaf.dtheta
+    s, c = float(np.sin(theta)), float(np.cos(theta))
+    if abs(c) <= 1e-12 or leaf.rmin <= 0:
+        return None
+    (r1, z1), (r2, z2) = sorted([(leaf.rmin * s, leaf.rmin * c), (leaf.rmax * s, leaf.rmax * c)],
+                                key=lambda p: p[1])  # fmt: skip
+    dz, phi = (z2 - z1) / 2, (leaf.sphi, leaf.dphi)
+    # the sphere's outward normal's radial part: > 0 where the sphere lies towards the axis
+    n_r = c if face == "theta_end" else -c
+    if n_r > 0:
+        w = max(r1, r2)
+        return G4Cons(r1, r1 + w, r2, r2 + w, dz, *phi), "inner", (z1 + z2) / 2
+    return G4Cons(0.0, r1, 0.0, r2, dz, *phi), "outer", (z1 + z2) / 2
+
+
+def theta_rims(layer: CurvedRoughLayer, leaf: G4Sphere, shift: np.ndarray) -> None:
+    """On the turned theta cone of a subtracted G4Sphere (:func:`theta_wall`) the layer lies in
+    the sphere's shell next to the cone, whose sphere faces meet the cone at right angles; an
+    envelope ending on z planes would leave the shell there. Its pieces end on the rings' band
+    cones (the cones of the face's normals, :attr:`EnvelopePiece.normal_ends`), and only rings
+    whose band lies in the shell keep their cells: the band's normal line at distance ``s``
+    from the centre along the generator reaches ``sqrt(s^2 + h^2)`` at height ``h`` above the
+    face, so a band from ``s0`` to ``s1`` lies in the shell when ``s0 >= rmin`` and
+    ``s1^2 + t^2 <= rmax^2`` (``t``: the layer's thickness). ``shift``: the turned cone's centre
+    in the sphere's frame."""
+    lay = layer.ring_layout
+    face = lay.face
+    assert isinstance(face, RevolvedFace)
+    half = 0.5 * (lay.patch_size[1] + lay.row_gap)
+    t = layer.thickness
+    ends = [face.point(np.zeros(len(lay.v)), lay.v + d) for d in (-half, half)]
+    s0, s1 = (np.linalg.norm(e + shift, axis=1) for e in ends)
+    lo, hi = np.minimum(s0, s1), np.maximum(s0, s1)
+    fits = (lo >= leaf.rmin - 1e-12) & (hi * hi + t * t <= leaf.rmax * leaf.rmax)
+    assert layer.mask is not None
+    layer.mask = layer.mask & fits[:, None]
 
 
 def _flip(layer: RoughLayer) -> None:
@@ -925,27 +1023,36 @@ def _column_cells(
 
 def _meets_own_solid(layer: RoughLayer, on: BooleanFace) -> bool:
     """True when points of the layer's envelope lie inside the boolean solid (a face partly
-    covered by another part of a union puts them there)."""
+    covered by another part of a union puts them there): a grid of its points first, then a
+    certified search where the envelope meets another part of a union the face is in
+    (:func:`_in_union_parts`): :func:`~score4.world.clearance.flat_meet` on a flat layer's
+    envelope down to :data:`~score4.world.clearance.RESOLUTION_SHARE` of the layer's
+    thickness, :func:`_pieces_in_solid` on a curved layer's shell (whose caller searches an
+    envelope in pieces so)."""
+    from . import clearance
+
     if isinstance(layer, CurvedRoughLayer):
         points = layer.shell_points()
     else:
         points = layer.envelope_points()
     codes = on.shape.inside(on.transform.inverse_apply(points))
-    return bool((codes == INSIDE).any())
+    if (codes == INSIDE).any():
+        return True
+    if isinstance(layer, CurvedRoughLayer):  # (an envelope in pieces: searched by the caller)
+        return layer.pieces is None and _pieces_in_solid(layer, on.clip, on) is not None
+    depth = _in_union_parts(on.clip, on)
+    if depth is None:
+        return False
+    resolution = clearance.RESOLUTION_SHARE * layer.thickness
+    return clearance.flat_meet(layer, depth, resolution, "the solid's other parts") is not None
 
 
-def _pieces_in_solid(layer: CurvedRoughLayer, clip: FaceClip, on: BooleanFace) -> np.ndarray | None:
-    """A world point of a curved layer's envelope pieces inside the boolean solid and inside
-    another part of a union the face is in, or None: an exact search
-    (:func:`~score4.world.clearance.shell_search`) down to half the layer's thickness, as
-    between two layers (a piece ending on another part's face touches it all round). The
-    search stays where the envelope meets such a part: the face itself lies on the solid's
-    surface, where a search against the whole solid would not end. A piece lies outside the
-    face's own constituent, so it is in the solid only inside such a part; a solid subtracted
-    beside the face (:func:`_clip_operations`) is not searched: where its wall is the face (a
-    groove cut around a rod) the search could not drop the cells along it and gave up."""
-    from .clearance import shell_search
-
+def _in_union_parts(clip: FaceClip, on: BooleanFace) -> Callable[[np.ndarray], np.ndarray] | None:
+    """How deep world points lie in the boolean solid and in another part of a union the face
+    is in (positive inside, changing by no more than the distance a point moves), or None
+    when the face is in no union. A layer's envelope lies outside the face's own constituent,
+    so it is in the solid only inside such a part; a solid subtracted beside the face
+    (:func:`_clip_operations`) is a hole, never material."""
     ops = _clip_operations(on.shape, on.face)
     if len(ops) != len(clip.clips):  # (a face clip of another make: every part from outside)
         ops = ["union"] * len(clip.clips)
@@ -962,6 +1069,23 @@ def _pieces_in_solid(layer: CurvedRoughLayer, clip: FaceClip, on: BooleanFace) -
         in_cut = np.max([-s.signed_distance(t.inverse_apply(q)) for s, t in cutters], axis=0)
         return np.asarray(np.minimum(-on.shape.signed_distance(q), in_cut))
 
+    return depth
+
+
+def _pieces_in_solid(layer: CurvedRoughLayer, clip: FaceClip, on: BooleanFace) -> np.ndarray | None:
+    """A world point of a curved layer's envelope pieces inside the boolean solid and inside
+    another part of a union the face is in (:func:`_in_union_parts`), or None: an exact search
+    (:func:`~score4.world.clearance.shell_search`) down to half the layer's thickness, as
+    between two layers (a piece ending on another part's face touches it all round). The
+    search stays where the envelope meets such a part: the face itself lies on the solid's
+    surface, where a search against the whole solid would not end. A solid subtracted beside
+    the face is not searched: where its wall is the face (a groove cut around a rod) the
+    search could not drop the cells along it and gave up."""
+    from .clearance import shell_search
+
+    depth = _in_union_parts(clip, on)
+    if depth is None:
+        return None
     return shell_search(layer, depth, layer.thickness / 2, "the solid's other parts")
 
 

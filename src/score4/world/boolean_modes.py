@@ -20,7 +20,9 @@
   grows by the layer's cut and the layer lies in the shell around the old bore, and so on a
   cylinder or cone wall of a subtracted polycone (:func:`polycone_wall`: its (r, z) contour's
   edge moved out along its normal, the neighbours' lines kept, so a ledge next to it gets
-  shorter; refused in one line where a neighbour would vanish); on a face of a
+  shorter; refused in one line where a neighbour would vanish; where a cone neighbour makes
+  the grown wall shorter, the layer is laid out on the part kept,
+  :func:`score4.world.boolean_layers._grown_wall_extent`); on a face of a
   subtracted G4Box or an end face of a subtracted G4Tubs (a blind hole's floor) that solid
   grows by the layer's thickness along the face's own normal (into the kept volume: against the
   boolean's outward normal there), and the layer lies in the slab, on the grown solid's face.
@@ -32,14 +34,16 @@
   subtracted G4Orb or G4Sphere (a spherical dimple or cavity, laid out as the inner face of a
   shell beside it) the subtracted solid grows by the layer's cut, as a bore does. A flat face
   of a subtracted G4Trap moves its plane (a G4Trap again, rebuilt from its eight corners); a
-  face (one plane) of a subtracted G4ExtrudedSolid or G4TessellatedSolid moves its vertices to
+  face (one plane, or every plane of a face of several) of a subtracted G4ExtrudedSolid or
+  G4TessellatedSolid moves its vertices to
   where their planes meet again (:meth:`score4.shapes.MeshShape.moved`, a G4TessellatedSolid in
   Geant4), refused in one line where that leaves no valid solid (a corner on more planes than
   meet the moved one in a point, a facet turned over, a facet crossing another). Refused
   elsewhere: the phi faces of any constituent, subtracted or not (moved off the axis, parallel
   to itself, the plane would make the constituent a boolean of its own: no Geant4 solid with
-  phi faces has them off its axis), and the other curved faces of subtracted solids (a
-  G4Sphere's theta cones).
+  phi faces has them off its axis), and the theta cones of a subtracted G4Sphere (a cone moved
+  parallel to itself no longer has its apex at the sphere's centre, as a G4Sphere's theta
+  cones do).
   A part of a union that stands on a cut flat face grows down by the cut, so the slab under it
   stays in the volume (:func:`standing_cuts`: a G4Box, or a G4Tubs, G4Cons or polycone, along
   the face's normal, its foot within the face; a swept part grows as the prism of its foot,
@@ -121,6 +125,15 @@ def check_modes(
                 "cut (the cells along the phi edge would also have to be laid out again); put "
                 "the layer outside the volume (into: false)"
             )
+        if flipped and isinstance(leaf, G4Sphere) and face in ("theta_start", "theta_end"):
+            raise ConfigError(
+                f"{where}: into: true on {what} (the theta cone {face} of the subtracted "
+                "G4Sphere): growing the sphere by the layer's thickness along that cone would "
+                "add a slab whose face is the cone moved parallel to itself, off the sphere's "
+                "centre, and every G4Sphere's theta cones have their apex at its centre: the "
+                "grown solid would be a boolean of its own, which score4 does not build inside "
+                "the cut; put the layer outside the volume (into: false)"
+            )
         if flipped and not (bore or grows):
             raise ConfigError(
                 f"{where}: into: true on {what}, a face of the subtracted {leaf.kind}, would "
@@ -129,7 +142,8 @@ def check_modes(
                 "faces of a subtracted G4Orb or G4Sphere and the "
                 "flat faces of a subtracted G4Box, G4Tubs, G4Cons, G4Polycone, "
                 "G4GenericPolycone, G4Trd, G4Trap, G4Polyhedra, extruded or tessellated solid "
-                "(a face in one plane) only; put the layer outside the volume (into: false)"
+                "(a face with no facet of zero area) only; put the layer outside the volume "
+                "(into: false)"
             )
         if not flipped and phi:
             raise ConfigError(
@@ -219,8 +233,8 @@ def joint_leaves(
     part grown down whose foot meets a face cut for a layer of its own, unless the part is a
     full G4Tubs, G4Cons or polycone whose walls rise from the foot along its axis (a cone
     leaning over its foot grows as the prism of its foot, and its wall's cut would run on
-    along its slope). A box's side meeting its foot is refused before (the face the box
-    stands on meets the side's slab, :func:`standing_cuts`)."""
+    along its slope), and on a box post whose side meets its foot grown down (the two cuts
+    would leave a vacuum notch along the foot)."""
     shape, name = target.shape, target.name
     if not isinstance(shape, BooleanShape):
         return {}, []
@@ -245,8 +259,21 @@ def joint_leaves(
         leaf, grown_by = clip.leaf, feet.get(path, {})
         if clip.flipped:
             continue  # a subtracted solid's edges are concave: its layers grow apart
+        if isinstance(leaf, G4Box) and grown_by:
+            side = next((f for f in faces if f[1] not in "".join(grown_by)), None)
+            if side is not None:  # a side of a box post meets its foot, grown down
+                foot = next(iter(grown_by))
+                raise ConfigError(
+                    f"{where}: into: true on faces {under[path][0]} and {path}{side} of "
+                    f"{name!r}: the box {path.rstrip('.')} of the union stands on face "
+                    f"{under[path][0]} and grows down into its cut (its face {foot}), and its "
+                    f"side {side} meets that foot; score4 cuts a side and the foot of a part "
+                    "together only on a G4Tubs, G4Cons or polycone with a full circle (the two "
+                    "cuts would leave a vacuum notch along the foot); put one of them outside "
+                    "the volume (into: false)"
+                )
         if not isinstance(leaf, RevolvedShape):
-            continue  # a box's side meets the face its foot stands on: refused by standing_cuts
+            continue  # a box's faces sharing an edge: refused by the clearance check
         edge = shared_edge(leaf, [*faces, *grown_by])
         if edge is None:
             continue
@@ -475,6 +502,30 @@ def _grow_box(
     return None
 
 
+def _beside_slab(
+    frame: Transform, plane: PlaneFace, lo: np.ndarray, hi: np.ndarray, depth: float
+) -> bool:
+    """Whether a part whose bounding box is ``lo`` .. ``hi`` (the boolean's frame) shares no
+    inner point with the slab ``depth`` behind the flat face ``plane`` of a G4Box (placed by
+    ``frame``: the slab is the face's rectangle times ``depth``, exactly) and does not stand on
+    the face: its box, in the face's frame, lies beyond one of the rectangle's edges (it may
+    touch the slab's side: a disk under a box post's side, whose foot stands on it) or behind
+    the slab. A part touching the face itself within the rectangle stands on it."""
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                        for z in (lo[2], hi[2])])  # fmt: skip
+    q = frame.inverse_apply(corners)
+    qlo, qhi = q.min(axis=0), q.max(axis=0)
+    (u0, u1), (v0, v1) = plane.extent
+    eps = 1e-9
+    return bool(
+        qhi[0] <= u0 + eps
+        or qlo[0] >= u1 - eps
+        or qhi[1] <= v0 + eps
+        or qlo[1] >= v1 - eps
+        or qhi[2] <= -depth + eps
+    )
+
+
 def standing_cuts(shape: BooleanShape, face: str, depth: float, what: str) -> dict[str, float]:
     """The other parts of a union that stand on the flat face ``face`` (of a constituent not
     subtracted) cut ``depth`` behind it for ``into``, grown down by ``depth`` (boolean face ->
@@ -483,8 +534,10 @@ def standing_cuts(shape: BooleanShape, face: str, depth: float, what: str) -> di
     whose foot lies on the face's plane, within the face (a box's face or a full tube's end
     face without a bore), with no face looking down into the slab but its foot, joined to the
     face's constituent by unions only (no subtraction between them); a swept part grows as the
-    prism of its foot (:func:`leaf_cuts`). A part already through the slab needs nothing; any
-    other part that meets the slab (a sphere, a boolean, a part leaning over the face, a foot
+    prism of its foot (:func:`leaf_cuts`). A part already through the slab needs nothing, nor
+    does one that touches the slab of a G4Box's face only beside it or behind it
+    (:func:`_beside_slab`: the disk under a box post's side); any other part that meets the
+    slab (a sphere, a boolean, a part leaning over the face, a foot
     reaching beyond the face, a part ending in the slab) is refused in one line (``what``: its
     start), and so is any part that meets the slab behind a face of several planes (a
     G4Polyhedra's sides)."""
@@ -517,6 +570,8 @@ def standing_cuts(shape: BooleanShape, face: str, depth: float, what: str) -> di
             )
             if (hi < rim.min(axis=0) - 1e-9).any() or (lo > rim.max(axis=0) + 1e-9).any():
                 continue  # away from the slab
+            if isinstance(clip.leaf, G4Box) and _beside_slab(frame, plane, lo, hi, depth):
+                continue  # it touches the slab at most on its sides or back: it stands elsewhere
             grow = _grow_down(leaf, placed, clip, n, origin, depth, name)
             if grow and (not clean or len(planes) > 1):  # it could grow into what a
                 grow = None  # subtraction took from the face's constituent under it

@@ -5,18 +5,18 @@
 * A GDML world: a rough layer must not meet any other daughter of its volume's mother (the
   volume's sisters, boxes of the configuration, other layers) and must stay inside the mother;
   boxes of the configuration likewise. Against a flat layer, boxes are tested exactly
-  (oriented boxes, separating axes), the other solids score4.shapes describes (booleans: a frame
-  is a box less a box) by a grid of points of the envelope, the rest by their bounding box. A
-  curved layer is tested against everything by a certified search of its shell
-  (:func:`certified_meet`) down to a tenth of the layer. Errors name what the layer meets and
-  the free gap along the face normal.
+  (oriented boxes, separating axes), other solids (their bounding box where score4.shapes does
+  not describe them) by a grid of points of the envelope, then by a certified search of its
+  box (:func:`flat_meet`). A curved layer is tested against everything by a certified search
+  of its shell (:func:`certified_meet`). Both go down to a tenth of the layer. Errors name what
+  the layer meets and the free gap along the face normal.
 """
 
 from __future__ import annotations
 
 import json
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 
 import numpy as np
@@ -239,9 +239,8 @@ def check_gdml_clearance(scene: Scene) -> None:
 
     A layer on a face (outside the volume) must not meet any other daughter of the volume's
     mother (other GDML volumes, boxes of the configuration, other layers) and must stay inside
-    the mother. For a flat layer, boxes are tested exactly (oriented boxes), the other solids
-    score4.shapes describes by a grid of points of the layer's envelope, other solids by their
-    bounding box; a curved layer by :func:`_check_curved`.
+    the mother. For a flat layer, boxes are tested exactly (oriented boxes), other solids by
+    :func:`_sister_meets`; a curved layer by :func:`_check_curved`.
     """
     model = scene.model
     assert model is not None
@@ -281,14 +280,16 @@ def check_gdml_clearance(scene: Scene) -> None:
             if inst == own:
                 continue
             body = _instance_body(model, model.instances[inst], None)
-            if _layer_meets(body, layer, box):
-                raise ConfigError(_meets(layer, f"sister {body.label}", _gap(layer, body)))
+            gap = _sister_meets(body, layer, box)
+            if gap is not None:
+                raise ConfigError(_meets(layer, f"sister {body.label}", gap))
         for t in scene.targets:
             if t is layer.target or t.instance is not None or t.mother != mother:
                 continue
             body = _target_body(t)
-            if _layer_meets(body, layer, box):
-                raise ConfigError(_meets(layer, body.label, _gap(layer, body)))
+            gap = _sister_meets(body, layer, box)
+            if gap is not None:
+                raise ConfigError(_meets(layer, body.label, gap))
         for other, other_box in layers[n + 1 :]:
             if other.target.mother != mother:
                 continue
@@ -378,6 +379,248 @@ def _layer_meets(body: _Body, layer: RoughLayer, box: OrientedBox) -> bool:
     return bool(body.contains(q, touching=False).any())
 
 
+def _world_planes(body: _Body) -> tuple[np.ndarray, np.ndarray]:
+    """Planes ``(m, c)`` on world points ``p`` whose least ``c + m . p`` bounds ``body``'s depth
+    (minus its signed distance) from above: a solid of planes' own (a box, a trapezoid), else
+    the faces of its bounding box (every solid lies in it, so its depth is no more than the
+    box's)."""
+    if isinstance(body.shape, _Hexahedron):
+        normals, offsets = body.shape._planes()  # n . q <= h inside (unit normals)
+    else:
+        normals = np.concatenate([np.eye(3), -np.eye(3)])
+        offsets = np.concatenate([body.hi, -body.lo])
+    a, b = _affine(body.to_local)  # type: ignore[arg-type]
+    return -(normals @ a), offsets - normals @ b
+
+
+def flat_meet(
+    layer: RoughLayer,
+    depth: Depth,
+    resolution: float,
+    what: str,
+    tol: float = BOUNDARY_TOLERANCE,
+    planes: tuple[np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray | None:
+    """A world point of a flat layer's envelope where ``depth`` (how deep world points lie in
+    something else: positive inside, changing by no more than the distance a point moves)
+    exceeds ``tol``, or None when there is none deeper than ``tol + resolution``: the search of
+    :func:`certified_meet` on the cells of the envelope's box (its own frame: three orthogonal
+    sides, so no point of a cell is further from its centre than half its diagonal). A prism
+    or a ring envelope is searched in its box on the least of ``depth`` and the envelope's own
+    (:func:`_depth`). ``planes`` (``(m, c)`` on world points, :func:`_world_planes`): ``depth``
+    is no more than the least of ``c + m . p``, bounded exactly over each cell (at a corner),
+    which drops the cells along a plane the envelope touches (a solid standing on the layer).
+    The prism of a layer's kept cells is searched in those cells' columns
+    (:func:`_kept_runs`)."""
+    box = layer.envelope_box()
+    shaped = _shaped(layer)
+    half, to_world = box.half, box.transform
+
+    if planes is not None:  # in the box's frame: p = R q + centre
+        m_world, c_world = planes
+        m_box = m_world @ to_world.rotation
+        c_box = c_world + m_world @ to_world.translation
+    resolution = max(resolution, 1e-7)
+    if layer.cells_envelope:  # the kept cells' columns, a run of them along a row at a time
+        lo, hi = _kept_runs(layer, float(half[2]))
+        shaped = False  # (the cells are the envelope: no point outside it is searched)
+    else:
+        side = max(float(half.max()) / 32, float(half[2]) * 2, 1e-7)  # at most 64 a side
+        n = np.clip(np.ceil(2 * half / side), 1, 64).astype(int)
+        edges = [np.linspace(-h, h, k + 1) for h, k in zip(half, n, strict=True)]
+        idx = [g.ravel() for g in np.meshgrid(*(np.arange(k) for k in n), indexing="ij")]
+        lo = np.column_stack([e[i] for e, i in zip(edges, idx, strict=True)])
+        hi = np.column_stack([e[i + 1] for e, i in zip(edges, idx, strict=True)])
+    while len(lo):
+        mid = 0.5 * (lo + hi)
+        world = to_world.apply(mid)
+        d = np.array(depth(world), dtype=float)
+        size = hi - lo
+        reach = 0.5 * np.linalg.norm(size, axis=1)
+        if shaped:  # (the envelope's own depth only where the other's keeps the cell)
+            near = np.flatnonzero(d + reach > tol)
+            d[near] = np.minimum(d[near], _depth(layer, world[near]))
+        deep = np.flatnonzero(d > tol)
+        if len(deep):
+            return np.asarray(world[deep[np.argmax(d[deep])]])
+        open_ = (d + reach > tol) & (reach > resolution)
+        if planes is not None and open_.any():
+            keep = np.flatnonzero(open_)
+            bound = c_box[None, :] + mid[keep] @ m_box.T + (0.5 * size[keep]) @ np.abs(m_box).T
+            open_[keep[bound.min(axis=1) <= tol]] = False
+        lo, hi, size = lo[open_], hi[open_], size[open_]
+        if len(lo) > MAX_CELLS // 2:
+            raise ConfigError(
+                f"{layer.name}: the clearance check against {what} needs more than "
+                f"{MAX_CELLS} cells (the two touch over a large area); move them apart "
+                "by a micrometre"
+            )
+        rows = np.arange(len(lo))
+        axis = np.argmax(size, axis=1)
+        cut = 0.5 * (lo[rows, axis] + hi[rows, axis])
+        lo2, hi2 = lo.copy(), hi.copy()
+        hi[rows, axis] = cut
+        lo2[rows, axis] = cut
+        lo, hi = np.concatenate([lo, lo2]), np.concatenate([hi, hi2])
+    return None
+
+
+def _kept_runs(layer: RoughLayer, half_height: float) -> tuple[np.ndarray, np.ndarray]:
+    """The prism of a layer's kept cells (``cells_envelope``) as boxes ``(lo, hi)`` in its
+    envelope box's frame (the layer's frame, centred on its height): one per run of kept cells
+    along a row of the grid, the layer's thickness high."""
+    x, y = layer.cell_edges()
+    step = np.diff(np.pad(layer.cell_variants >= 0, ((0, 0), (1, 1))).astype(np.int8), axis=1)
+    rows, first = np.nonzero(step == 1)  # (row-major: the ends pair with the starts in order)
+    _, end = np.nonzero(step == -1)
+    h = np.full(len(rows), half_height)
+    lo = np.column_stack([x[first], y[rows], -h])
+    hi = np.column_stack([x[end], y[rows + 1], h])
+    return lo, hi
+
+
+#: The pattern search's moves over a flat face: along its axes and its diagonals (a solid of
+#: planes' tip has square level sets, on whose diagonal no move along an axis gets lower).
+_MOVES = np.array([[1.0, 0], [-1, 0], [0, 1], [0, -1], [1, 1], [1, -1], [-1, 1], [-1, -1]])
+
+
+def _flat_gap(layer: RoughLayer, depth: Depth, point: np.ndarray) -> float:
+    """Height above a flat layer's face, along its normal, where ``depth`` (of what the layer
+    meets) turns above the boundary tolerance: bisected under ``point`` (a point of the envelope
+    inside), then made least about it by a pattern search over the face (steps along its axes
+    and diagonals, halved down to a nanometre), as :func:`_least_gap` on a curved face (mm)."""
+    frame = layer.frame
+    x, y, h_in = (float(c) for c in frame.to_local(point[None, :])[0])
+    h_in = min(max(h_in, 0.0), layer.thickness)
+    tol = BOUNDARY_TOLERANCE
+
+    def gaps(xy: np.ndarray) -> np.ndarray:
+        def inside(h: np.ndarray) -> np.ndarray:
+            return depth(frame.to_world(np.column_stack([xy, h]))) > tol
+
+        lo, hi = np.zeros(len(xy)), np.full(len(xy), h_in)
+        ok = inside(hi)
+        for _ in range(36):
+            mid = 0.5 * (lo + hi)
+            got = inside(mid)
+            hi, lo = np.where(got, mid, hi), np.where(got, lo, mid)
+        return np.where(ok, np.where(inside(np.zeros(len(xy))), 0.0, hi), np.inf)
+
+    best = float(gaps(np.array([[x, y]]))[0])
+    if not np.isfinite(best):
+        return h_in
+    step = 10 * layer.thickness
+    while step > 1e-6 and best > 0:
+        trial = np.array([x, y]) + step * _MOVES
+        g = gaps(trial)
+        k = int(np.argmin(g))
+        if g[k] < best:
+            best, (x, y) = float(g[k]), (float(trial[k, 0]), float(trial[k, 1]))
+        else:
+            step /= 2
+    return best
+
+
+def _sister_meets(body: _Body, layer: RoughLayer, box: OrientedBox) -> float | None:
+    """The free gap (mm) when a flat layer's envelope meets ``body``, else None: by the grid
+    of points (:func:`_layer_meets`, the gap by :func:`_gap`), then, for a solid that is not
+    its bounding box or an envelope that is not a box, by the certified search
+    (:func:`flat_meet`) on the solid's signed distance, bounded by its planes (the gap under
+    the point found, :func:`_flat_gap`)."""
+    if _layer_meets(body, layer, box):
+        return _gap(layer, body)
+    if not body.obb.overlaps(box) or (body.box_like and not _shaped(layer)):
+        return None  # (two boxes: the separating axes are exact)
+
+    def depth(world: np.ndarray) -> np.ndarray:
+        return -body.signed(world)
+
+    found = flat_meet(
+        layer,
+        depth,
+        RESOLUTION_SHARE * layer.thickness,
+        body.label,
+        planes=_world_planes(body),
+    )
+    return None if found is None else _flat_gap(layer, depth, found)
+
+
+def _round_cover(shape: Shape | None, axis: tuple[np.ndarray, np.ndarray]) -> Depth | None:
+    """An upper bound of how deep points (the shape's frame) lie in ``shape`` that is the same
+    at every azimuth about ``axis`` (a point and a direction in that frame), or None: the depth
+    of a round solid about it that holds the shape (the shape itself; a tube, cone, polycone or
+    sphere over part of the circle: the same over the full circle), or for a boolean the least
+    of its parts' (a subtraction: of the first part and of the outside of a round second part;
+    an intersection: of either part). A solid round about the axis of a curved layer that it
+    holds is searched on one half-plane (:func:`certified_meet` with ``coaxial``): when that
+    finds nothing, the solid cannot meet the layer either."""
+    from score4.shapes.boolean import BooleanShape
+    from score4.shapes.placed import PlacedShape
+
+    if shape is None:
+        return None
+    if isinstance(shape, PlacedShape):
+        inner = shape.transform
+        bound = _round_cover(shape.shape, _axis_through(inner, axis))
+        return None if bound is None else (lambda q: bound(inner.inverse_apply(q)))
+    if isinstance(shape, BooleanShape):
+        first = _round_cover(shape.first, axis)
+        moved = shape.transform
+        second_axis = _axis_through(moved, axis)
+        parts: list[Depth] = [] if first is None else [first]
+        if shape.operation == "subtraction":
+            if _round_shape(shape.second) and _same_axis(second_axis, _Z_AXIS):
+                second = shape.second
+                parts.append(lambda q: np.asarray(second.signed_distance(moved.inverse_apply(q))))
+        elif shape.operation == "intersection":
+            other = _round_cover(shape.second, second_axis)
+            if other is not None:
+                parts.append(lambda q: other(moved.inverse_apply(q)))
+        else:
+            return None  # (a union: deeper than either part)
+        if not parts:
+            return None
+        return lambda q: np.asarray(np.minimum.reduce([f(q) for f in parts]))
+    if not _same_axis(axis, _Z_AXIS):
+        return None
+    full = shape
+    if (isinstance(shape, RevolvedShape) and not isinstance(shape, _PolyhedraBase)) or isinstance(
+        shape, G4Sphere
+    ):
+        full = replace(shape, sphi=0.0, dphi=2 * np.pi)  # type: ignore[type-var]
+    if _round_shape(full):
+        return lambda q: -np.asarray(full.signed_distance(q))
+    return None
+
+
+#: A solid's own z axis (a point, a direction) in its frame.
+_Z_AXIS = (np.zeros(3), np.array([0.0, 0.0, 1.0]))
+
+
+def _axis_through(t: object, axis: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """``axis`` in the frame of a part placed by transform ``t`` (its frame to the outer one)."""
+    point = t.inverse_apply(axis[0][None, :])[0]  # type: ignore[attr-defined]
+    return point, np.asarray(axis[1] @ t.rotation, float)  # type: ignore[attr-defined]
+
+
+def _round_clear(layer: CurvedRoughLayer, body: _Body, resolution: float, what: str) -> bool:
+    """True when a round solid about the layer's axis that holds ``body``'s
+    (:func:`_round_cover`) is proven clear of the layer by the half-plane search: then so is
+    the body (no point of it deeper than the boundary tolerance and the resolution)."""
+    axis = _axis(layer.target)
+    if body.shape is None or body.round_about(axis):
+        return False  # (a round solid: searched on the half-plane as it is)
+    a, b = _affine(body.to_local)  # type: ignore[arg-type]
+    bound = _round_cover(body.shape, (a @ axis[0] + b, a @ axis[1]))
+    if bound is None:
+        return False
+
+    def depth(world: np.ndarray) -> np.ndarray:
+        return np.asarray(bound(body.to_local(world)))  # type: ignore[operator]
+
+    return certified_meet(layer, depth, resolution, what, coaxial=True) is None
+
+
 def _check_curved(
     model: GeometryModel, scene: Scene, layer: CurvedRoughLayer, others: list[RoughLayer]
 ) -> None:
@@ -409,8 +652,8 @@ def _check_curved(
         if hit.any():
             k = np.flatnonzero(hit)[np.argmin(height[hit])]
             found: np.ndarray | None = points[k]
-        elif body.obb.overlaps(envelope):  # between the grid's points
-            found = certified_meet(
+        elif body.obb.overlaps(envelope) and not _round_clear(layer, body, resolution, what):
+            found = certified_meet(  # between the grid's points
                 layer,
                 lambda world, body=body: -body.signed(world),  # type: ignore[misc]
                 resolution,

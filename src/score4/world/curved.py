@@ -31,7 +31,7 @@ import numpy as np
 from score4.errors import ConfigError
 from score4.shapes.faces import RevolvedFace, SphereFace
 from score4.surface.rough import Surface
-from score4.surface.triangle_mesh import TriangleMesh
+from score4.surface.triangle_mesh import TriangleMesh, longest_edge_last
 
 #: The base of a bent layer must follow the true surface this closely: the larger of this share
 #: of the roughness height and GAP_FLOOR (mm).
@@ -148,6 +148,86 @@ def flat_body(
     return v, np.vstack([keep, floor]), n_top
 
 
+def _floor_grid(
+    v: np.ndarray, ring: np.ndarray, px: float, py: float, base: float
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """The floor of :func:`_floor_strip` cut into the rectangles of a grid through its boundary
+    vertices (two triangles each): columns at the x of the bottom and top edges' vertices, rows
+    at the y of the two short sides' vertices (a spike grid's cells, squares of the spike
+    width). Returns (new interior vertices, triangles facing down), or None when the bottom
+    and top edges (or the two sides) do not hold vertices at the same positions. Bent onto a
+    surface swept around z, every point of a column (one azimuth) lies on the straight line
+    its two end vertices bend to, and each column's two lines on one plane (through the
+    cone's apex, or parallel), so the grid is the strip's surface cut in smaller facets."""
+    p = v[ring, :2]
+    tol = 1e-9 * max(px, py)
+    low, high = np.abs(p[:, 1] + py / 2) <= tol, np.abs(p[:, 1] - py / 2) <= tol
+    left, right = np.abs(p[:, 0] + px / 2) <= tol, np.abs(p[:, 0] - px / 2) <= tol
+    xs_lo, xs_hi = np.sort(p[low, 0]), np.sort(p[high, 0])
+    ys_l, ys_r = np.sort(p[left, 1]), np.sort(p[right, 1])
+    if (
+        len(xs_lo) != len(xs_hi)
+        or len(ys_l) != len(ys_r)
+        or np.abs(xs_lo - xs_hi).max() > tol
+        or np.abs(ys_l - ys_r).max() > tol
+    ):
+        return None
+    xs, ys = xs_lo, ys_l
+    scale = max(px, py)
+
+    def key(x: float, y: float) -> tuple[int, int]:
+        return (round(x / scale * 1e9), round(y / scale * 1e9))
+
+    known = {key(*v[i, :2]): int(i) for i in ring}
+    index = np.empty((len(ys), len(xs)), np.int64)
+    extra: list[tuple[float, float, float]] = []
+    for k, y in enumerate(ys):
+        for i, x in enumerate(xs):
+            at = known.get(key(x, y))
+            if at is None:
+                if k in (0, len(ys) - 1) or i in (0, len(xs) - 1):
+                    return None  # a boundary point that is no boundary vertex
+                at = len(v) + len(extra)
+                extra.append((float(x), float(y), -base))
+            index[k, i] = at
+    a, b = index[:-1, :-1].ravel(), index[:-1, 1:].ravel()
+    d, e = index[1:, 1:].ravel(), index[1:, :-1].ravel()
+    # facing down (-z): (a, d, b) and (a, e, d) with a, b, d, e counter-clockwise from above
+    floor = np.vstack([np.column_stack([a, d, b]), np.column_stack([a, e, d])])
+    return np.array(extra, float).reshape(-1, 3), floor
+
+
+def solid_body(
+    flat: tuple[np.ndarray, np.ndarray, int],
+    surface: Surface,
+    base_thickness: float,
+    cut_floor: bool = True,
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """The body Geant4 gets for a variant's ``flat`` body (:func:`flat_body` with the strip
+    floor): the same surface with the floor cut into the rectangles of :func:`_floor_grid`
+    (where its boundary is such a grid; not with ``cut_floor`` False: a sphere's floor is a
+    grid already, :func:`flat_body`) and every facet but the top's turned by
+    :func:`longest_edge_last`. The strip's long facets (a patch's length by a spike's width)
+    and the fans' slivers at its short sides let ``G4TessellatedSolid::Inside`` class points
+    up to ~1 um outside the body as inside
+    (:func:`~score4.surface.triangle_mesh.intersect_tolerance`); the top keeps its triangles
+    and their order (sources drawn on it are the same)."""
+    v, faces, n_top = flat
+    n_floor = _n_floor(v, faces, base_thickness)
+    keep = faces[: len(faces) - n_floor]
+    ring = np.unique(faces[len(faces) - n_floor :].ravel())
+    ring = ring[np.isin(ring, keep[n_top:].ravel())]  # the floor's boundary (the walls' feet)
+    grid = (
+        _floor_grid(v, ring, surface.size_x, surface.size_y, base_thickness) if cut_floor else None
+    )
+    if grid is not None:
+        extra, floor = grid
+        v = np.vstack([v, extra])
+        faces = np.vstack([keep, floor])
+    rest = longest_edge_last(v, faces[n_top:])
+    return v, np.vstack([faces[:n_top], rest]), n_top
+
+
 @dataclass
 class RingLayout:
     """Rows (rings) of patches on a surface of revolution (see the module docstring).
@@ -166,6 +246,8 @@ class RingLayout:
     phi_mid: float
 
     row_gap: float = 0.0
+    #: rings narrower than this hold no patch (:meth:`make`), mm
+    least: float = 0.0
 
     @classmethod
     def make(
@@ -174,11 +256,15 @@ class RingLayout:
         patch_size: tuple[float, float],
         reserve: float = 0.0,
         row_gap: float = 0.0,
+        least: float = 0.0,
     ) -> RingLayout:
         """Rings on ``face``; on a cone, the rows keep ``reserve`` (at least the layer's
         thickness) clear of the z planes of the face's ends, so the patches stay between
         them, and ``row_gap`` (mm) apart: neighbouring rings bend their facets with different
-        radii, so their walls (chords of the circle) do not coincide exactly."""
+        radii, so their walls (chords of the circle) do not coincide exactly. ``least``: rings
+        whose smallest radius is below it hold no patch (a cone narrowing to a point: near its
+        tip a bent patch cannot follow the surface; ``make_curved_layer`` in
+        :mod:`score4.world.scene` finds that radius)."""
         px, py = patch_size
         if isinstance(face, SphereFace):
             # its ends are cones through the centre (or poles): the end rows' outer walls are
@@ -198,8 +284,10 @@ class RingLayout:
         if isinstance(face, SphereFace):
             squeezed = inner < (1 - MAX_SQUEEZE) * radius
             count[squeezed] = 0
+        count[inner < least] = 0
         step = px / np.maximum(radius, 1e-300)
-        return cls(face, patch_size, v, radius, count, step, face.phi0 + 0.5 * face.dphi, row_gap)
+        mid = face.phi0 + 0.5 * face.dphi
+        return cls(face, patch_size, v, radius, count, step, mid, row_gap, least)
 
     @property
     def n_cells(self) -> int:
@@ -299,6 +387,19 @@ def cone_cell(
     shell = (*cons((corners[0, 0], corners[1, 0]), (corners[0, 1], corners[1, 1])), dz)
     band = (*cons((corners[0, 0], corners[0, 1]), (corners[1, 0], corners[1, 1])), dz)
     return (*shell, -step / 2, step), band, (z0 + z1) / 2
+
+
+def cone_ring_span(lay: RingLayout, j: int, t: float) -> tuple[float, float]:
+    """The range of generator arc length ``v`` of the face whose z range is that of the cells of
+    ring ``j`` of a cone (:func:`~score4.world.curved.cone_cell` with the layer's thickness
+    ``t``): the envelope cut to it between the end planes holds them exactly (the cell's shell
+    lies between the face and the face moved out by ``t``, as the envelope's)."""
+    face = lay.face
+    assert isinstance(face, RevolvedFace)
+    a, _, zc = cone_cell(lay, j, t)
+    z = lay.ring_z(j) + zc + np.array([-a[4], a[4]])
+    v = (z - float(face._mid[1])) / float(face._tangent[1])
+    return float(v.min()), float(v.max())
 
 
 def sphere_cell(lay: RingLayout, j: int, t: float) -> tuple[float, float, float, float, float]:

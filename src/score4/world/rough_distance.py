@@ -196,9 +196,12 @@ def _ball(variant: _Variant, p: np.ndarray, r: np.ndarray, best: np.ndarray) -> 
 
 
 class RoughSurfaceDistance:
-    """Distances of world points to the rough surface of a flat ``layer`` (mm)."""
+    """Distances of world points to the rough surface of a flat ``layer`` (mm); with ``flat``
+    False to its patch tops alone (the cells without a patch left out: for a layer whose flat
+    cells reach off a boolean's face, :mod:`score4.world.rough_face_distance`)."""
 
-    def __init__(self, layer: RoughLayer) -> None:
+    def __init__(self, layer: RoughLayer, flat: bool = True) -> None:
+        self.flat = flat
         self.frame = layer.frame
         base = layer.base_thickness
         self.variants = [
@@ -306,7 +309,7 @@ class RoughSurfaceDistance:
             return
         k = self.cells[j, i]
         flat = k < 0
-        if flat.any():  # an empty cell: the flat face, z = 0
+        if flat.any() and self.flat:  # an empty cell: the flat face, z = 0
             r = rows[flat]
             lo = np.column_stack([self.cx[i[flat]] - self.px / 2, self.cy[j[flat]] - self.py / 2])
             hi = lo + np.array([self.px, self.py])

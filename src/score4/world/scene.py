@@ -50,9 +50,11 @@ from .curved import (
     RingLayout,
     check_radius,
     cone_cell,
+    cone_ring_span,
     flat_body,
     gap_limit,
     measure_floor,
+    solid_body,
     top_sagitta,
 )
 from .facets import (
@@ -676,11 +678,23 @@ class CurvedRoughLayer(RoughLayer):
             return np.round(lay.v, 12) + 1e6  # apart from any radius
         return np.round(lay.radius, 12)
 
+    def _solid(self, k: int) -> tuple[np.ndarray, np.ndarray, int]:
+        """Variant ``k``'s flat body as Geant4 gets it (:func:`~score4.world.curved.solid_body`:
+        the floor strip in a grid's rectangles, on a sphere the floor as it is; no facet whose
+        ``Intersect`` tolerance reaches far beyond an edge). Its surface is :meth:`_flat`'s,
+        which the floor's heights (``lift``) and :meth:`contains` are measured on."""
+        key = ("solid", k)
+        if key not in self._cache:
+            sphere = isinstance(self.ring_layout.face, SphereFace)
+            variant = self.variants[k]
+            self._cache[key] = solid_body(self._flat(k), variant, self.base_thickness, not sphere)
+        return self._cache[key]
+
     def bent(self, k: int, j: int) -> BentVariant:
-        """Variant ``k`` bent onto ring ``j`` (cached per ring radius)."""
+        """Variant ``k`` bent onto ring ``j`` (cached per ring radius): the body Geant4 gets."""
         key = ("bent", k, self.ring_solid_key(j))
         if key not in self._cache:
-            v, faces, n_top = self._flat(k)
+            v, faces, n_top = self._solid(k)
             bent = self.ring_layout.bend(v, j, self.base_thickness + self.lift)
             self._cache[key] = BentVariant(bent, faces, n_top)
         return self._cache[key]
@@ -1032,6 +1046,11 @@ def _ring_fit(
 #: How far (mm) a bent patch's floor may dip below the true surface (a tenth of Geant4's
 #: surface tolerance, 1e-9 mm).
 FLOOR_ROUNDING = 1e-10
+#: A cone narrowing to a point: rounds of leaving its narrowest rings flat until the bent base
+#: keeps within the gap limit, and the factor on the radius where the gap (falling as
+#: 1 / radius) meets it (the lift of the rings kept changes it a little).
+TIP_ROUNDS = 4
+TIP_MARGIN = 1.02
 
 
 def wall_envelope(layer: CurvedRoughLayer) -> tuple[float, float, float, float, float, float]:
@@ -1660,15 +1679,106 @@ def make_curved_layer(
             f"{where}: solid frustums on a curved face ({what}) needs spike-grid surfaces; "
             "use solid: auto or tessellated"
         )
+    limit = gap_limit(max(s.max_height for s in variants))
+    layer = _bent_layer(target, rough, face, names, variants, size, where, 0.0)
+    if layer.gap > limit and not isinstance(face, SphereFace) and abs(face.nrz[1]) > 1e-12:
+        # a cone: the gap grows as 1 / radius towards its narrow end (a drill tip closing to a
+        # point); the rings narrower than where it meets the limit stay flat
+        # (``rough_shares``), as a sphere's rings near its poles do
+        least = _tip_radius(layer, limit / TIP_MARGIN)
+        for _ in range(TIP_ROUNDS if least is not None else 0):
+            assert least is not None
+            layer = _bent_layer(target, rough, face, names, variants, size, where, least)
+            if layer.gap <= limit:
+                break
+            # the rows moved a little (their gap depends on the narrowest ring): one ring more
+            lay = layer.ring_layout
+            held = np.flatnonzero(lay.count > 0)
+            if len(held) < 2:
+                break
+            least = float(np.sort(_inner_radii(lay)[held])[1])
+    layout = layer.ring_layout
+    check_radius(layout, layer.gap, limit, where, target.name, rough.face_name)
+    _tip_pieces(layer)
+    if rough.solid == "frustums" and not layer.frustum_cells:
+        raise ConfigError(
+            f"{where}: solid frustums on {what}: the cone is too close to a cylinder for cells "
+            "of bent frustums (the cones of its normals through a patch's ends meet the axis); "
+            "use solid: auto or tessellated"
+        )
+    return layer
+
+
+def _tip_pieces(layer: CurvedRoughLayer) -> None:
+    """A cone whose narrowest rings stay flat (:attr:`RingLayout.least`): its envelope ends at
+    the held rings' cells, short of the flat tip (where a G4Cons of radius 0 at one end would
+    also have its inner radius moved off 0 by Geant4); again whenever the layer's thickness
+    changes (the cells reach beyond their band by it)."""
+    lay = layer.ring_layout
+    if lay.least <= 0:
+        return
+    face = lay.face
+    assert isinstance(face, RevolvedFace)
+    held = np.flatnonzero(lay.count > 0)
+    span = np.array([cone_ring_span(lay, int(j), layer.thickness) for j in held])
+    (_, _), (fv0, fv1) = face.extent
+    v0 = fv0 if held[0] == 0 else float(span[:, 0].min())
+    v1 = fv1 if held[-1] == len(lay.v) - 1 else float(span[:, 1].max())
+    layer.pieces = [EnvelopePiece(face.phi0, face.dphi, v0, v1, False)]
+
+
+def _inner_radii(lay: RingLayout) -> np.ndarray:
+    """The smallest radius each ring reaches (the radius :meth:`RingLayout.make` compares with
+    ``least``)."""
+    py = lay.patch_size[1]
+    return np.minimum(lay.face.radius(lay.v - py / 2), lay.face.radius(lay.v + py / 2))
+
+
+def _tip_radius(layer: CurvedRoughLayer, limit: float) -> float | None:
+    """The least ring radius of a cone's layer whose bent base keeps within ``limit`` of the
+    true surface when only the rings at least that wide hold patches: each ring's floor is
+    measured unlifted (:func:`measure_floor`); the rings kept, widest first, need the lift of
+    the deepest and leave the gap of the highest; None where not even the widest ring fits."""
+    lay = layer.ring_layout
+    held = np.flatnonzero(lay.count > 0)
+    inner = _inner_radii(lay)
+    order = held[np.argsort(-inner[held], kind="stable")]
+    lows, highs = np.full(len(order), np.inf), np.full(len(order), -np.inf)
+    for k in range(len(layer.variants)):
+        flat = layer._flat(k)
+        for n, j in enumerate(order):
+            lo, hi = measure_floor(lay, flat, layer.base_thickness, int(j))
+            lows[n], highs[n] = min(lows[n], lo), max(highs[n], hi)
+    gap = np.maximum.accumulate(highs) + np.maximum(-np.minimum.accumulate(lows), 0.0)
+    fits = np.flatnonzero(gap <= limit)
+    if not len(fits) or fits[0] != 0:
+        return None
+    last = int(np.flatnonzero(gap > limit)[0]) - 1 if (gap > limit).any() else len(order) - 1
+    return float(inner[order[last]])
+
+
+def _bent_layer(
+    target: TargetVolume,
+    rough: RoughFace,
+    face: RevolvedFace | SphereFace,
+    names: list[str],
+    variants: list[Surface],
+    size: tuple[float, float],
+    where: str,
+    least: float,
+) -> CurvedRoughLayer:
+    """The bent layer of :func:`make_curved_layer` with its rings below radius ``least`` flat
+    (:meth:`RingLayout.make`), its lift and gap measured on the rings that hold patches."""
+    what = f"face {rough.face_name} of {target.name!r}"
     reserve = 1.05 * (rough.base_thickness + max(s.max_height for s in variants)) + 1e-4
     row_gap = 0.0
     if isinstance(face, SphereFace) or abs(face.nrz[1]) > 1e-12:  # rings apart by twice the
         # walls' chord sagitta (a cone, a sphere: neighbouring rings bend with other radii)
-        probe = RingLayout.make(face, size, reserve)
+        probe = RingLayout.make(face, size, reserve, least=least)
         if len(probe.v):
             sag = max(top_sagitta(probe, flat_body(v, rough.base_thickness)) for v in variants)
             row_gap = 2 * sag + 1e-7
-    layout = RingLayout.make(face, size, reserve, row_gap)
+    layout = RingLayout.make(face, size, reserve, row_gap, least)
     if layout.n_cells == 0:
         raise ConfigError(
             f"{where}: no whole patch of {size[0] * 1e3:g} x {size[1] * 1e3:g} um fits on {what} "
@@ -1683,6 +1793,9 @@ def make_curved_layer(
         target, rough, frame, names, variants, patch_map, mask, float(face.area), layout
     )
     rows = {0, ny - 1}
+    if least > 0:  # the held rings' ends (the narrowest held ring bends its patches most)
+        held = np.flatnonzero(layout.count > 0)
+        rows = {int(held[0]), int(held[-1])}
     if isinstance(face, SphereFace):  # the rings' shapes differ all along the meridian
         rows = {int(j) for j in np.flatnonzero(layout.count > 0)}
 
@@ -1712,14 +1825,6 @@ def make_curved_layer(
             layer.lift -= low
             layer.gap = high - low
     layer.top_margin = 0.0 if convex else max(tops)
-    limit = gap_limit(max(s.max_height for s in variants))
-    check_radius(layout, layer.gap, limit, where, target.name, rough.face_name)
-    if rough.solid == "frustums" and not layer.frustum_cells:
-        raise ConfigError(
-            f"{where}: solid frustums on {what}: the cone is too close to a cylinder for cells "
-            "of bent frustums (the cones of its normals through a patch's ends meet the axis); "
-            "use solid: auto or tessellated"
-        )
     return layer
 
 
@@ -1802,6 +1907,7 @@ def _into_revolved(
             layer.config = rough
             layer.cut_shape = trimmed
             layer.into_cut = cut
+            _tip_pieces(layer)
             return layer
         cut = layer.thickness * (1 + 1e-9)
     raise ConfigError(f"{where}: into: the layer on {name} does not settle on a cut")
