@@ -231,10 +231,10 @@ def pytest_runtest_protocol(item, nextitem):
     """With ``SCORE4_TEST_CPU=<file>``, append one line per test to that file: the CPU seconds
     of its set-up, call and tear-down (a shared fixture counts with the first test that uses
     it), a tab, its id, then (tab-separated) the xdist worker and the wall-clock start and end
-    (Unix seconds) to read the schedule. Measures only (no test depends on it): where the suite's CPU goes, e.g.
+    (Unix seconds) to read the schedule. Measures only (no test depends on it): where the
+    suite's CPU goes, e.g.
     ``SCORE4_TEST_CPU=/tmp/cpu.tsv make test; sort -rn /tmp/cpu.tsv | head -20``."""
     import os
-
     import time
 
     path = os.environ.get("SCORE4_TEST_CPU")

@@ -33,7 +33,6 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..shapes import BooleanShape
 from .kept_face_distance import KeptFaceDistance, segment_distance
@@ -74,6 +73,8 @@ class _FlatLayerFace:
         self.px, self.py = layer.patch_size
         a, b = self._sides()
         self.a, self.b = a, b
+        from scipy.spatial import cKDTree  # lazily: see rough_distance._Variant
+
         self.tree = cKDTree(0.5 * (a + b)) if len(a) else None
         self.half = 0.5 * max(self.px, self.py)
 
