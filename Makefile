@@ -8,11 +8,12 @@ PYTEST_ARGS ?=
 .PHONY: demo detector-module test test-deep lint docs docs-check docs-check-all clean
 
 # score4 (editable) with the test extra, plus the pinned linters of the `lint` dependency group
-# (pip >= 25.1 reads dependency groups; the step upgrades pip first).
+# (pip >= 25.1 reads dependency groups; the step upgrades pip first). Not quiet: from a fresh
+# clone this step takes minutes, and pip's lines show it is under way.
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test]' --group lint
+	$(BIN)/python -m pip install -e '.[test]' --group lint
 	touch $(STAMP)
 
 # The paper's application, small: 5.3 MeV alphas on a flat and on a pyramid-covered silicon face.

@@ -230,13 +230,21 @@ def _cpu_seconds() -> float:
 def pytest_runtest_protocol(item, nextitem):
     """With ``SCORE4_TEST_CPU=<file>``, append one line per test to that file: the CPU seconds
     of its set-up, call and tear-down (a shared fixture counts with the first test that uses
-    it), a tab, its id. Measures only (no test depends on it): where the suite's CPU goes, e.g.
+    it), a tab, its id, then (tab-separated) the xdist worker and the wall-clock start and end
+    (Unix seconds) to read the schedule. Measures only (no test depends on it): where the
+    suite's CPU goes, e.g.
     ``SCORE4_TEST_CPU=/tmp/cpu.tsv make test; sort -rn /tmp/cpu.tsv | head -20``."""
     import os
+    import time
 
     path = os.environ.get("SCORE4_TEST_CPU")
     before = _cpu_seconds() if path else 0.0
+    start = time.time()
     yield
     if path:
+        worker = os.environ.get("PYTEST_XDIST_WORKER", "-")
         with open(path, "a") as out:  # one short append per line: xdist workers share the file
-            out.write(f"{_cpu_seconds() - before:.2f}\t{item.nodeid}\n")
+            out.write(
+                f"{_cpu_seconds() - before:.2f}\t{item.nodeid}\t{worker}"
+                f"\t{start:.2f}\t{time.time():.2f}\n"
+            )

@@ -25,7 +25,8 @@ from helpers.worker_modules import run_worker
 
 ROOT = Path(__file__).resolve().parent.parent
 #: Modules of the parent's side that a worker has no use for: the configuration's models and
-#: their validation library, the surface descriptions' models, the command line.
+#: their validation library, the surface descriptions' models, the command line; and scipy's
+#: k-d trees, which this run (no distances measured) does not build.
 NOT_IN_A_WORKER = (
     "pydantic",
     "pydantic_core",
@@ -36,6 +37,7 @@ NOT_IN_A_WORKER = (
     "score4.world.resolve",
     "score4.cli",
     "click",
+    "scipy.spatial",
 )
 
 

@@ -44,7 +44,6 @@ from collections.abc import Callable
 from functools import partial
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..errors import ConfigError
 from ..shapes import BooleanShape
@@ -528,6 +527,8 @@ class KeptFaceDistance:
             for lo, hi in ((0.0, 0.01 * PIECE), (0.01 * PIECE, 0.1 * PIECE), (0.1 * PIECE, np.inf)):
                 sel = np.flatnonzero((half > lo) & (half <= hi) | ((lo == 0.0) & (half == 0.0)))
                 if len(sel):
+                    from scipy.spatial import cKDTree  # lazily: see rough_distance
+
                     mid = 0.5 * (a[sel] + b[sel])
                     self._groups.append((cKDTree(mid), sel, float(half[sel].max())))
         return self._rim

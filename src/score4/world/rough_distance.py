@@ -30,7 +30,6 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..shapes.base import Revolved
 from ..shapes.faces import RevolvedFace
@@ -122,6 +121,10 @@ class _Variant:
     in-plane normals of the edges."""
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, lift: float) -> None:
+        # scipy.spatial here, not at the top: ~0.3 s CPU to import, which every Geant4 worker
+        # process paid (it imports this module through geometry.built) though few measure distances
+        from scipy.spatial import cKDTree
+
         v = np.asarray(vertices, float) + np.array([0.0, 0.0, lift])
         self.tri = v[np.asarray(faces)]
         centroid = self.tri.mean(axis=1)

@@ -43,7 +43,6 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..shapes import BooleanShape
 from ..shapes.faces import RevolvedFace
@@ -85,6 +84,8 @@ class _FlatLayerFace:
         self.px, self.py = layer.patch_size
         a, b = self._sides()
         self.a, self.b = a, b
+        from scipy.spatial import cKDTree  # lazily: see rough_distance._Variant
+
         self.tree = cKDTree(0.5 * (a + b)) if len(a) else None
         self.half = 0.5 * max(self.px, self.py)
 
