@@ -228,6 +228,8 @@ class _CurvedLayerFace:
                     others = np.column_stack([near - wn, near + wn])
                     for s0, s1 in _less(phi[i] - w, phi[i] + w, others):
                         arcs.append((rz[0], rz[2], 0.5 * (s0 + s1), 0.5 * (s1 - s0)))
+        from scipy.spatial import cKDTree  # lazily: see rough_distance._Variant
+
         self.a = np.array(a).reshape(-1, 3)
         self.b = np.array(b).reshape(-1, 3)
         self.arc = np.array(arcs).reshape(-1, 4)
