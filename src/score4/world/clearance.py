@@ -498,13 +498,7 @@ def _flat_gap(layer: RoughLayer, depth: Depth, point: np.ndarray) -> float:
         def inside(h: np.ndarray) -> np.ndarray:
             return depth(frame.to_world(np.column_stack([xy, h]))) > tol
 
-        lo, hi = np.zeros(len(xy)), np.full(len(xy), h_in)
-        ok = inside(hi)
-        for _ in range(36):
-            mid = 0.5 * (lo + hi)
-            got = inside(mid)
-            hi, lo = np.where(got, mid, hi), np.where(got, lo, mid)
-        return np.where(ok, np.where(inside(np.zeros(len(xy))), 0.0, hi), np.inf)
+        return _entry_height(inside, len(xy), h_in)
 
     best = float(gaps(np.array([[x, y]]))[0])
     if not np.isfinite(best):
@@ -735,13 +729,7 @@ def _least_gap(
         def inside(h: np.ndarray) -> np.ndarray:
             return depth(layer.target.to_world(base + h[:, None] * normal)) > tol
 
-        lo, hi = np.zeros(len(uv)), np.full(len(uv), h_in)
-        ok = inside(hi)
-        for _ in range(36):
-            mid = 0.5 * (lo + hi)
-            got = inside(mid)
-            hi, lo = np.where(got, mid, hi), np.where(got, lo, mid)
-        return np.where(ok, np.where(inside(np.zeros(len(uv))), 0.0, hi), np.inf)
+        return _entry_height(inside, len(uv), h_in)
 
     best = float(gaps(np.array([[u, v]]))[0])
     if not np.isfinite(best):
@@ -1146,3 +1134,15 @@ def _gap_under(layer: CurvedRoughLayer, other: RoughLayer, point: np.ndarray) ->
     """The free gap under a point inside both a curved layer's envelope and ``other``'s
     (:func:`_least_gap`; mm)."""
     return _least_gap(layer, lambda world: _depth(other, world), point, 0.0)
+
+
+def _entry_height(inside: Callable[[np.ndarray], np.ndarray], n: int, h_in: float) -> np.ndarray:
+    """Per column, the least height in [0, h_in] at which ``inside(h)`` holds (36 halvings):
+    0 where it holds at the foot already, inf where it does not hold even at ``h_in``."""
+    lo, hi = np.zeros(n), np.full(n, h_in)
+    ok = inside(hi)
+    for _ in range(36):
+        mid = 0.5 * (lo + hi)
+        got = inside(mid)
+        hi, lo = np.where(got, mid, hi), np.where(got, lo, mid)
+    return np.where(ok, np.where(inside(np.zeros(n)), 0.0, hi), np.inf)

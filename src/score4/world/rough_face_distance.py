@@ -128,14 +128,7 @@ class _FlatLayerFace:
         i, j = self.layer.patch_map.cell_of(q[:, :2])
         in_patch = i >= 0
         in_patch[in_patch] = self.cells[j[in_patch], i[in_patch]] >= 0
-        rest = np.empty(len(q))
-        off = ~in_patch
-        if off.any():
-            rest[off] = self.level(local[off])
-        if in_patch.any():
-            rows = np.flatnonzero(in_patch)
-            rest[rows] = np.minimum(self.level.to_rim(local[rows]), self._to_sides(q[rows]))
-        return np.minimum(self.tops(world), rest)
+        return _tops_or_rest(self, world, q, local, in_patch)
 
 
 def _wrap(a: np.ndarray) -> np.ndarray:
@@ -271,14 +264,7 @@ class _CurvedLayerFace:
         in_patch = j >= 0
         in_patch[in_patch] = self.cells[j[in_patch], i[in_patch]] >= 0
         in_patch &= np.abs(xy[:, 0]) <= self.px / 2
-        rest = np.empty(len(q))
-        off = ~in_patch
-        if off.any():
-            rest[off] = self.level(local[off])
-        if in_patch.any():
-            rows = np.flatnonzero(in_patch)
-            rest[rows] = np.minimum(self.level.to_rim(local[rows]), self._to_sides(q[rows]))
-        return np.minimum(self.tops(world), rest)
+        return _tops_or_rest(self, world, q, local, in_patch)
 
 
 def _less(lo: float, hi: float, others: np.ndarray) -> list[tuple[float, float]]:
@@ -319,3 +305,23 @@ class RoughFaceDistance:
         for part in self.parts:
             best = np.minimum(best, part(world))
         return best
+
+
+def _tops_or_rest(
+    face: _FlatLayerFace | _CurvedLayerFace,
+    world: np.ndarray,
+    q: np.ndarray,
+    local: np.ndarray,
+    in_patch: np.ndarray,
+) -> np.ndarray:
+    """The nearer of ``face``'s patch tops and its flat rest: the face at the layer's level where
+    a point's foot is in no patch cell, else the nearer of that face's rim and the patch-cell
+    sides that face no patch (``q`` in the layer's frame, ``local`` in the solid's)."""
+    rest = np.empty(len(q))
+    off = ~in_patch
+    if off.any():
+        rest[off] = face.level(local[off])
+    if in_patch.any():
+        rows = np.flatnonzero(in_patch)
+        rest[rows] = np.minimum(face.level.to_rim(local[rows]), face._to_sides(q[rows]))
+    return np.minimum(face.tops(world), rest)
