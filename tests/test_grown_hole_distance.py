@@ -55,6 +55,48 @@ def floor_distance(p: np.ndarray, t: float) -> np.ndarray:
     return np.where(p[:, 2] <= 5.0 - t, d, 0.0)
 
 
+def _activeness_scene(gdml: Path, volume: str, face: str, **sections):
+    """The scene of ``volume`` with ``into`` pyramids on ``face`` and an activeness entry
+    listing that face (plus the configuration ``sections`` given), and the volume's activeness
+    distances."""
+    from score4.world.activeness import target_distances
+
+    data = {
+        "physics": "lite",
+        "world": {"gdml": str(gdml)},
+        "surfaces": {"p": PYRAMIDS},
+        "targets": [
+            {
+                "volume": volume,
+                "rough": [{"face": face, "surface": "p", "into": True}],
+                "activeness": [{"fccd": "1 mm", "dlf": 0.5, "faces": [face]}],
+            }
+        ],
+        "source": {"particle": "geantino", "energy": "1 MeV", "volume": volume},
+        "run": {"events": 1, "seed": 1},
+        **sections,
+    }
+    scene = build_scene(parse_config(data))
+    (distance,) = [d for d in target_distances(scene) if d is not None]
+    return scene, distance
+
+
+def _patch_tops(layer) -> np.ndarray:
+    """Every top facet (n, 3, 3) of the layer's kept cells, in the layer's frame (each variant's
+    top mesh moved to its cell and lifted by the base)."""
+    cells = np.asarray(layer.cell_variants)
+    centres = layer.cell_centres()
+    tops = [
+        np.asarray(layer.variants[k].top_mesh.vertices, float)[
+            np.asarray(layer.variants[k].top_mesh.faces)
+        ]
+        + np.array([*centres[j, i], layer.base_thickness])
+        for j, i in zip(*np.nonzero(cells >= 0), strict=True)
+        for k in [cells[j, i]]
+    ]
+    return np.concatenate(tops) if tops else np.empty((0, 3, 3))
+
+
 def test_steps_and_activeness_on_a_grown_cone_floor(gdml, tmp_path):
     """Alphas from the pyramids on the hole's floor (into: true: the cone grown 21 um down),
     30 events, seed 13, a 3 um transition layer under the floor and a 1 mm one along the wall:
@@ -110,27 +152,9 @@ def test_distances_to_the_six_grown_sides_of_a_polyhedra(gdml):
     layer alone was measured, and the floor's triangles of no area were at distance 0 from
     every point.)"""
 
-    from score4.world.activeness import target_distances
-
-    data = {
-        "physics": "lite",
-        "world": {"gdml": str(gdml)},
-        "surfaces": {"p": PYRAMIDS},
-        "targets": [
-            {
-                "volume": "hedra",
-                "rough": [{"face": "second.seg_1", "surface": "p", "into": True}],
-                "activeness": [{"fccd": "1 mm", "dlf": 0.5, "faces": ["second.seg_1"]}],
-            }
-        ],
-        "source": {"particle": "geantino", "energy": "1 MeV", "volume": "hedra"},
-        "run": {"events": 1, "seed": 1},
-        "output": {"steps": True},
-    }
-    scene = build_scene(parse_config(data))
+    scene, distance = _activeness_scene(gdml, "hedra", "second.seg_1", output={"steps": True})
     layers = scene.layers_of("hedra")
     assert len(layers) == 6
-    (distance,) = [d for d in target_distances(scene) if d is not None]
     rng = np.random.default_rng(4)
     n = 120
     a = np.radians(30.0 + 60.0 * rng.integers(0, 6, n))  # the sides' directions
@@ -160,24 +184,7 @@ def test_activeness_distance_beside_a_grown_floor(gdml):
     the rim's chords), not to the flat squares (up to 0.8 mm nearer), or to the wall or box
     if nearer; over the disk, the brute-force rough surface."""
 
-    from score4.world.activeness import target_distances
-
-    data = {
-        "physics": "lite",
-        "world": {"gdml": str(gdml)},
-        "surfaces": {"p": PYRAMIDS},
-        "targets": [
-            {
-                "volume": "cone",
-                "rough": [{"face": "second.-z", "surface": "p", "into": True}],
-                "activeness": [{"fccd": "1 mm", "dlf": 0.5, "faces": ["second.-z"]}],
-            }
-        ],
-        "source": {"particle": "geantino", "energy": "1 MeV", "volume": "cone"},
-        "run": {"events": 1, "seed": 1},
-    }
-    scene = build_scene(parse_config(data))
-    (distance,) = [d for d in target_distances(scene) if d is not None]
+    scene, distance = _activeness_scene(gdml, "cone", "second.-z")
     layer = scene.layer("cone", "second.-z")
     t = layer.thickness
     rng = np.random.default_rng(2)
@@ -226,24 +233,8 @@ def test_activeness_distance_over_a_grown_floor_is_exact(gdml):
     counted) raised to the level's distance below it (before) is more than 2 um too near at
     some points."""
     from score4.shapes.mesh_shape import _tri_distance
-    from score4.world.activeness import target_distances
 
-    data = {
-        "physics": "lite",
-        "world": {"gdml": str(gdml)},
-        "surfaces": {"p": PYRAMIDS},
-        "targets": [
-            {
-                "volume": "cone",
-                "rough": [{"face": "second.-z", "surface": "p", "into": True}],
-                "activeness": [{"fccd": "1 mm", "dlf": 0.5, "faces": ["second.-z"]}],
-            }
-        ],
-        "source": {"particle": "geantino", "energy": "1 MeV", "volume": "cone"},
-        "run": {"events": 1, "seed": 1},
-    }
-    scene = build_scene(parse_config(data))
-    (distance,) = [d for d in target_distances(scene) if d is not None]
+    scene, distance = _activeness_scene(gdml, "cone", "second.-z")
     layer = scene.layer("cone", "second.-z")
     target = scene.target("cone")
     t = layer.thickness
@@ -259,17 +250,7 @@ def test_activeness_distance_over_a_grown_floor_is_exact(gdml):
     cells = np.asarray(layer.cell_variants)
     centres = layer.cell_centres()
     half = np.array(layer.patch_size) / 2
-    tops = np.concatenate(
-        [
-            np.asarray(layer.variants[k].top_mesh.vertices, float)[
-                np.asarray(layer.variants[k].top_mesh.faces)
-            ]
-            + np.array([*centres[j, i], layer.base_thickness])
-            for j, i in zip(*np.nonzero(cells >= 0), strict=True)
-            for k in [cells[j, i]]
-        ]
-    )
-    patch = _tri_distance(q, tops).min(axis=1)
+    patch = _tri_distance(q, _patch_tops(layer)).min(axis=1)
     axis = layer.frame.to_local(target.to_world(np.array([[0.0, 0.0, 5.0 - t]])))[0]
     assert abs(axis[2]) < 1e-12
     r = 2.0 - 0.1 * t
@@ -317,27 +298,11 @@ def test_activeness_distance_to_the_six_grown_sides_is_exact(gdml):
     from scipy.spatial import ConvexHull
 
     from score4.shapes.mesh_shape import _tri_distance
-    from score4.world.activeness import target_distances
     from score4.world.facets import face_triangles
 
-    data = {
-        "physics": "lite",
-        "world": {"gdml": str(gdml)},
-        "surfaces": {"p": PYRAMIDS},
-        "targets": [
-            {
-                "volume": "hedra",
-                "rough": [{"face": "second.seg_1", "surface": "p", "into": True}],
-                "activeness": [{"fccd": "1 mm", "dlf": 0.5, "faces": ["second.seg_1"]}],
-            }
-        ],
-        "source": {"particle": "geantino", "energy": "1 MeV", "volume": "hedra"},
-        "run": {"events": 1, "seed": 1},
-    }
-    scene = build_scene(parse_config(data))
+    scene, distance = _activeness_scene(gdml, "hedra", "second.seg_1")
     layers = scene.layers_of("hedra")
     target = scene.target("hedra")
-    (distance,) = [d for d in target_distances(scene) if d is not None]
     rng = np.random.default_rng(22)
     m = 600
     a = np.radians(30.0 + 60.0 * rng.integers(0, 6, m))
@@ -352,19 +317,9 @@ def test_activeness_distance_to_the_six_grown_sides_is_exact(gdml):
     got = distance.to_faces(("second.seg_1",), world)
     best = np.full(len(world), np.inf)
     for layer in layers:  # the patch tops
-        q = layer.frame.to_local(world)
-        cells = np.asarray(layer.cell_variants)
-        centres = layer.cell_centres()
-        tops = [
-            np.asarray(layer.variants[k].top_mesh.vertices, float)[
-                np.asarray(layer.variants[k].top_mesh.faces)
-            ]
-            + np.array([*centres[j, i], layer.base_thickness])
-            for j, i in zip(*np.nonzero(cells >= 0), strict=True)
-            for k in [cells[j, i]]
-        ]
-        if tops:
-            best = np.minimum(best, _tri_distance(q, np.concatenate(tops)).min(axis=1))
+        tops = _patch_tops(layer)
+        if len(tops):
+            best = np.minimum(best, _tri_distance(layer.frame.to_local(world), tops).min(axis=1))
     for layer in layers:  # the flat rest: each flat cell cut by the side at the grown level
         on = layer.on_boolean
         q = layer.frame.to_local(world)
