@@ -503,16 +503,7 @@ def _flat_gap(layer: RoughLayer, depth: Depth, point: np.ndarray) -> float:
     best = float(gaps(np.array([[x, y]]))[0])
     if not np.isfinite(best):
         return h_in
-    step = 10 * layer.thickness
-    while step > 1e-6 and best > 0:
-        trial = np.array([x, y]) + step * _MOVES
-        g = gaps(trial)
-        k = int(np.argmin(g))
-        if g[k] < best:
-            best, (x, y) = float(g[k]), (float(trial[k, 0]), float(trial[k, 1]))
-        else:
-            step /= 2
-    return best
+    return _descend(gaps, np.array([x, y]), best, 10 * layer.thickness, lambda step: step * _MOVES)
 
 
 def _sister_meets(body: _Body, layer: RoughLayer, box: OrientedBox) -> float | None:
@@ -735,17 +726,11 @@ def _least_gap(
     if not np.isfinite(best):
         return h_in
     rho = max(float(np.hypot(*face.point(np.array([u]), np.array([v]))[0, :2])), 1e-9)
-    step = 10 * layer.thickness
-    while step > 1e-6 and best > 0:
-        moves = np.array([[step / rho, 0.0], [-step / rho, 0.0], [0.0, step], [0.0, -step]])
-        trial = np.array([u, v]) + moves
-        g = gaps(trial)
-        k = int(np.argmin(g))
-        if g[k] < best:
-            best, (u, v) = float(g[k]), (float(trial[k, 0]), float(trial[k, 1]))
-        else:
-            step /= 2
-    return best
+
+    def moves(step: float) -> np.ndarray:  # u is an angle: a step of arc length ``step``
+        return np.array([[step / rho, 0.0], [-step / rho, 0.0], [0.0, step], [0.0, -step]])
+
+    return _descend(gaps, np.array([u, v]), best, 10 * layer.thickness, moves)
 
 
 def _gap(layer: RoughLayer, body: _Body) -> float:
@@ -1146,3 +1131,24 @@ def _entry_height(inside: Callable[[np.ndarray], np.ndarray], n: int, h_in: floa
         got = inside(mid)
         hi, lo = np.where(got, mid, hi), np.where(got, lo, mid)
     return np.where(ok, np.where(inside(np.zeros(n)), 0.0, hi), np.inf)
+
+
+def _descend(
+    gaps: Callable[[np.ndarray], np.ndarray],
+    at: np.ndarray,
+    best: float,
+    step: float,
+    moves: Callable[[float], np.ndarray],
+) -> float:
+    """The least gap found from ``at`` (its gap ``best``) by moving to the neighbour of least
+    gap (``at + moves(step)``) while that lowers it, halving the step otherwise, down to 1 nm
+    or a gap of 0."""
+    while step > 1e-6 and best > 0:
+        trial = at + moves(step)
+        g = gaps(trial)
+        k = int(np.argmin(g))
+        if g[k] < best:
+            best, at = float(g[k]), trial[k]
+        else:
+            step /= 2
+    return best
